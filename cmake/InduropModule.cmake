@@ -1,0 +1,16 @@
+# indurop_add_module(<name> SOURCES <src>... [OUTPUT_DIRECTORY <dir>] [LIBRARIES <lib>...])
+# Builds a thread module: a shared object named exactly <name>.so (no "lib" prefix), linked to
+# libindurop, as module.xml's <filename> expects it.
+function(indurop_add_module name)
+  cmake_parse_arguments(ARG "" "OUTPUT_DIRECTORY" "SOURCES;LIBRARIES" ${ARGN})
+  add_library(${name} MODULE ${ARG_SOURCES})
+  set_target_properties(${name} PROPERTIES PREFIX "" SUFFIX ".so")
+  if(ARG_OUTPUT_DIRECTORY)
+    set_target_properties(${name} PROPERTIES LIBRARY_OUTPUT_DIRECTORY ${ARG_OUTPUT_DIRECTORY})
+  endif()
+  if(TARGET indurop::indurop)
+    target_link_libraries(${name} PRIVATE indurop::indurop ${ARG_LIBRARIES})
+  else()
+    target_link_libraries(${name} PRIVATE indurop ${ARG_LIBRARIES})
+  endif()
+endfunction()

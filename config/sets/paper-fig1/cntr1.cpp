@@ -1,0 +1,25 @@
+// cntr1.cpp -- Figure 1's cntr1 (500 us, priority 3), written in the plain style of Figure 12:
+// extern "C" initialize(irp::Property const&) reads the set's property, run() counts.
+#include <indurop/indurop.h>
+
+#include <cstdint>
+#include <iostream>
+
+namespace {
+int64_t counter = 0;
+uint64_t runs = 0;
+}
+
+extern "C" void initialize(irp::Property const &property) {
+    counter = property.get<int64_t>("intialize_value", 0);  // the paper's spelling
+    std::cout << "[cntr1] initialize: counter starts at " << counter << std::endl;
+}
+
+void start() { std::cout << "[cntr1] start" << std::endl; }
+
+void run() {
+    ++counter;
+    ++runs;
+}
+
+void stop() { std::cout << "[cntr1] stop after " << runs << " runs, counter = " << counter << std::endl; }

@@ -1,0 +1,27 @@
+// runtime.hpp -- the host side of libindurop: what irpd uses to feed modules their cycle and to
+// drain the lines modules wrote with irp::printf.  Not installed for modules.
+#pragma once
+
+#include <indurop/indurop.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <string_view>
+
+namespace irp::runtime {
+
+// Sets what irp::cycle() returns on the calling thread (the dispatcher, before each slot).
+void setCycle(const Cycle &cycle) noexcept;
+
+// Capacity and line size of the irp::printf ring.
+inline constexpr std::size_t kLogLines = 1024;
+inline constexpr std::size_t kLogLineBytes = 240;
+
+// Hands every queued line to sink, oldest first; returns how many.  Call from one thread only.
+std::size_t drainLog(const std::function<void(std::string_view)> &sink);
+
+// Lines irp::printf dropped because the ring was full, since the process started.
+uint64_t droppedLogLines() noexcept;
+
+} // namespace irp::runtime

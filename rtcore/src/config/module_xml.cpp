@@ -1,0 +1,449 @@
+// module_xml.cpp -- reads module.xml with pugixml and validates every field into a SetSpec.
+//
+// The document is parsed without entity expansion: pugixml has no DTD support, DOCTYPE is refused
+// outright, and escapes are decoded here so that anything but the five predefined entities and
+// numeric character references is reported instead of passed through.
+#include "config/module_xml.hpp"
+
+#include <pugixml.hpp>
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+namespace irp::config {
+
+const char *toString(ModuleType type) { return type == ModuleType::Thread ? "thread" : "process"; }
+
+const char *toString(OperationType type) {
+    switch (type) {
+    case OperationType::Periodic: return "periodic";
+    case OperationType::Sporadic: return "sporadic";
+    case OperationType::NonReal: return "non-real";
+    }
+    return "?";
+}
+
+namespace {
+
+// Thrown inside the parser only, turned into an Error at its door.
+struct ParseFailure {
+    std::string message;
+};
+
+class Parser {
+public:
+    Parser(std::string_view text, std::filesystem::path xml_path)
+        : text_(text), shown_(xml_path.string()) {
+        std::error_code ec;
+        auto absolute = std::filesystem::absolute(xml_path, ec);
+        path_ = ec ? xml_path : absolute.lexically_normal();
+    }
+
+    SetSpec run() {
+        pugi::xml_document doc;
+        const unsigned options = (pugi::parse_default | pugi::parse_doctype | pugi::parse_declaration) &
+                                 ~pugi::parse_escapes;
+        pugi::xml_parse_result parsed = doc.load_buffer(text_.data(), text_.size(), options, pugi::encoding_utf8);
+        if (!parsed) fail(static_cast<std::ptrdiff_t>(parsed.offset), std::string("malformed XML: ") + parsed.description());
+
+        pugi::xml_node root;
+        for (pugi::xml_node node : doc.children()) {
+            switch (node.type()) {
+            case pugi::node_doctype:
+                fail(node, "a DOCTYPE is not allowed in module.xml (no DTDs, so no entity definitions)");
+            case pugi::node_element:
+                if (root) fail(node, "a second top-level element <" + std::string(node.name()) + ">; module.xml has one <root>");
+                root = node;
+                break;
+            case pugi::node_pi:
+                fail(node, "processing instruction <?" + std::string(node.name()) + "?> is not allowed");
+            default:
+                break;  // declaration, comments
+            }
+        }
+        if (!root) fail(0, "no <root> element");
+        if (std::string_view(root.name()) != "root")
+            fail(root, "the top-level element is <" + std::string(root.name()) + ">, expected <root>");
+        noAttributes(root);
+
+        SetSpec set;
+        set.xml_path = path_;
+        for (pugi::xml_node node : root.children()) {
+            if (skippable(node)) continue;
+            std::string_view tag = node.name();
+            if (tag == "module") {
+                if (set.modules.size() >= kMaxModules)
+                    fail(node, "more than " + std::to_string(kMaxModules) + " modules in one set");
+                set.modules.push_back(module(node, static_cast<int>(set.modules.size())));
+            } else if (tag == "executor") {
+                set.executors.push_back(executor(node));
+            } else {
+                fail(node, "unknown tag <" + std::string(tag) + "> in <root>; expected <module> or <executor>");
+            }
+        }
+        crossCheck(set);
+        return set;
+    }
+
+private:
+    // ---- messages ---------------------------------------------------------------------------
+    int lineAt(std::ptrdiff_t offset) const {
+        if (offset < 0) return 0;
+        auto end = text_.begin() + std::min<std::ptrdiff_t>(offset, static_cast<std::ptrdiff_t>(text_.size()));
+        return 1 + static_cast<int>(std::count(text_.begin(), end, '\n'));
+    }
+    int lineOf(pugi::xml_node node) const { return lineAt(node.offset_debug()); }
+
+    [[noreturn]] void fail(std::ptrdiff_t offset, const std::string &what) const {
+        throw ParseFailure{shown_ + ":" + std::to_string(lineAt(offset)) + ": " + what};
+    }
+    [[noreturn]] void fail(pugi::xml_node node, const std::string &what) const {
+        throw ParseFailure{shown_ + ":" + std::to_string(lineOf(node)) + ": " + what};
+    }
+    // For a field of a module: "file:line: module 'cntr1': <period>: what"
+    [[noreturn]] void failField(pugi::xml_node node, const std::string &module, const std::string &field,
+                                const std::string &what) const {
+        fail(node, (module.empty() ? std::string() : "module '" + module + "': ") + "<" + field + ">: " + what);
+    }
+
+    // ---- node helpers -----------------------------------------------------------------------
+    bool skippable(pugi::xml_node node) const {
+        if (node.type() == pugi::node_comment) return true;
+        if (node.type() == pugi::node_pcdata || node.type() == pugi::node_cdata) {
+            std::string_view v = node.value();
+            if (v.find_first_not_of(" \t\r\n") == std::string_view::npos) return true;
+            fail(node, "unexpected text '" + std::string(trim(v)) + "' between elements");
+        }
+        if (node.type() == pugi::node_pi) fail(node, "processing instruction <?" + std::string(node.name()) + "?> is not allowed");
+        return false;
+    }
+
+    void noAttributes(pugi::xml_node node) const {
+        if (pugi::xml_attribute a = node.first_attribute())
+            fail(node, "unknown attribute '" + std::string(a.name()) + "' on <" + node.name() + ">");
+    }
+
+    static std::string_view trim(std::string_view v) {
+        auto b = v.find_first_not_of(" \t\r\n");
+        if (b == std::string_view::npos) return {};
+        auto e = v.find_last_not_of(" \t\r\n");
+        return v.substr(b, e - b + 1);
+    }
+
+    // Decodes &lt; &gt; &amp; &apos; &quot; &#N; &#xN;; anything else is an error.
+    std::string unescape(pugi::xml_node at, std::string_view raw) const {
+        std::string out;
+        out.reserve(raw.size());
+        for (std::size_t i = 0; i < raw.size(); ++i) {
+            if (raw[i] != '&') {
+                out += raw[i];
+                continue;
+            }
+            auto semi = raw.find(';', i);
+            if (semi == std::string_view::npos || semi - i > 12)
+                fail(at, "a bare '&' in text; write it as &amp;");
+            std::string_view name = raw.substr(i + 1, semi - i - 1);
+            if (name == "lt") out += '<';
+            else if (name == "gt") out += '>';
+            else if (name == "amp") out += '&';
+            else if (name == "apos") out += '\'';
+            else if (name == "quot") out += '"';
+            else if (name.size() > 1 && name[0] == '#') {
+                bool hex = name[1] == 'x';
+                std::string_view digits = name.substr(hex ? 2 : 1);
+                unsigned long code = 0;
+                auto [p, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), code, hex ? 16 : 10);
+                if (ec != std::errc() || p != digits.data() + digits.size() || code == 0 || code > 0x10FFFF)
+                    fail(at, "bad character reference '&" + std::string(name) + ";'");
+                appendUtf8(out, static_cast<uint32_t>(code));
+            } else {
+                fail(at, "entity reference '&" + std::string(name) +
+                             ";' is not allowed: module.xml has no DTD; only &lt; &gt; &amp; &apos; &quot; and &#N; work");
+            }
+            i = semi;
+        }
+        return out;
+    }
+
+    static void appendUtf8(std::string &out, uint32_t c) {
+        if (c < 0x80) {
+            out += static_cast<char>(c);
+        } else if (c < 0x800) {
+            out += static_cast<char>(0xC0 | (c >> 6));
+            out += static_cast<char>(0x80 | (c & 0x3F));
+        } else if (c < 0x10000) {
+            out += static_cast<char>(0xE0 | (c >> 12));
+            out += static_cast<char>(0x80 | ((c >> 6) & 0x3F));
+            out += static_cast<char>(0x80 | (c & 0x3F));
+        } else {
+            out += static_cast<char>(0xF0 | (c >> 18));
+            out += static_cast<char>(0x80 | ((c >> 12) & 0x3F));
+            out += static_cast<char>(0x80 | ((c >> 6) & 0x3F));
+            out += static_cast<char>(0x80 | (c & 0x3F));
+        }
+    }
+
+    // The text of a leaf element such as <period>100000</period>, unescaped and trimmed.
+    std::string leafText(pugi::xml_node node, const std::string &module) const {
+        noAttributes(node);
+        std::string raw;
+        for (pugi::xml_node child : node.children()) {
+            if (child.type() == pugi::node_comment) continue;
+            if (child.type() == pugi::node_pcdata || child.type() == pugi::node_cdata) {
+                raw += child.type() == pugi::node_cdata ? std::string(child.value()) : unescape(child, child.value());
+                continue;
+            }
+            failField(node, module, node.name(), "expected plain text, found <" + std::string(child.name()) + ">");
+        }
+        return std::string(trim(raw));
+    }
+
+    int64_t integer(pugi::xml_node node, const std::string &module, const std::string &text, int64_t min,
+                    const char *unit) const {
+        int64_t value = 0;
+        auto [p, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+        if (text.empty()) failField(node, module, node.name(), std::string("is empty; expected an integer") + unit);
+        if (ec == std::errc::result_out_of_range)
+            failField(node, module, node.name(), "'" + text + "' is too large");
+        if (ec != std::errc() || p != text.data() + text.size())
+            failField(node, module, node.name(), "'" + text + "' is not an integer; expected an integer" + unit);
+        if (value < min)
+            failField(node, module, node.name(),
+                      "'" + text + "' must be " + (min == 1 ? "greater than 0" : "at least " + std::to_string(min)));
+        return value;
+    }
+
+    // ---- <module> ---------------------------------------------------------------------------
+    ModuleSpec module(pugi::xml_node node, int index) {
+        noAttributes(node);
+        ModuleSpec m;
+        m.index = index;
+        m.line = lineOf(node);
+        m.where = shown_ + ":" + std::to_string(m.line);
+
+        std::map<std::string, pugi::xml_node> fields;
+        for (pugi::xml_node child : node.children()) {
+            if (skippable(child)) continue;
+            std::string tag = child.name();
+            static const std::set<std::string> known = {"filename", "moduletype", "operationtype", "period",
+                                                        "deadline", "priority",   "property",      "name",
+                                                        "budget",   "executor"};
+            if (!known.count(tag))
+                fail(child, "unknown tag <" + tag + "> in <module>; expected one of filename, moduletype, "
+                            "operationtype, period, deadline, priority, property, name, budget, executor");
+            if (fields.count(tag)) fail(child, "<" + tag + "> appears twice in one <module>");
+            fields[tag] = child;
+        }
+
+        auto field = [&](const char *tag) -> pugi::xml_node {
+            auto it = fields.find(tag);
+            return it == fields.end() ? pugi::xml_node() : it->second;
+        };
+
+        // The name first, so that every later message can say which module it is about.
+        if (pugi::xml_node f = field("filename")) m.filename = leafText(f, "");
+        if (pugi::xml_node f = field("name")) {
+            m.name = leafText(f, "");
+            if (m.name.empty()) failField(f, "", "name", "is empty");
+        } else if (!m.filename.empty()) {
+            m.name = std::filesystem::path(m.filename).stem().string();
+        }
+        if (!field("filename")) fail(node, "<module> without <filename>");
+        if (m.filename.empty()) failField(field("filename"), m.name, "filename", "is empty");
+        if (m.filename.find('\0') != std::string::npos) failField(field("filename"), m.name, "filename", "contains a NUL");
+        checkName(field("name") ? field("name") : field("filename"), m.name);
+        std::filesystem::path file(m.filename);
+        m.path = file.is_absolute() ? file.lexically_normal() : (path_.parent_path() / file).lexically_normal();
+
+        pugi::xml_node type = field("moduletype");
+        if (!type) fail(node, "module '" + m.name + "': <moduletype> is missing; expected thread or process");
+        std::string t = leafText(type, m.name);
+        if (t == "thread") m.type = ModuleType::Thread;
+        else if (t == "process") m.type = ModuleType::Process;
+        else failField(type, m.name, "moduletype", "unknown value '" + t + "'; expected thread or process");
+
+        pugi::xml_node op = field("operationtype");
+        if (!op) fail(node, "module '" + m.name + "': <operationtype> is missing; expected periodic, sporadic or non-real");
+        std::string o = leafText(op, m.name);
+        if (o == "periodic") m.operation = OperationType::Periodic;
+        else if (o == "sporadic") m.operation = OperationType::Sporadic;
+        else if (o == "non-real") m.operation = OperationType::NonReal;
+        else failField(op, m.name, "operationtype", "unknown value '" + o + "'; expected periodic, sporadic or non-real");
+
+        const char *ns = " number of nanoseconds";
+        pugi::xml_node period = field("period");
+        pugi::xml_node deadline = field("deadline");
+        pugi::xml_node priority = field("priority");
+        switch (m.operation) {
+        case OperationType::Periodic:
+            if (!period) fail(node, "module '" + m.name + "': <period> is missing; a periodic module needs one (in ns)");
+            m.period_ns = integer(period, m.name, leafText(period, m.name), 1, ns);
+            break;
+        case OperationType::Sporadic:
+            if (period) failField(period, m.name, "period", "a sporadic module has a <deadline>, not a <period>");
+            if (!deadline) fail(node, "module '" + m.name + "': <deadline> is missing; a sporadic module needs one (in ns)");
+            break;
+        case OperationType::NonReal:
+            if (period) failField(period, m.name, "period", "a non-real module runs in left-over time and has no <period>");
+            if (deadline) failField(deadline, m.name, "deadline", "a non-real module has no <deadline>");
+            break;
+        }
+        if (deadline) {
+            m.deadline_ns = integer(deadline, m.name, leafText(deadline, m.name), 1, ns);
+            if (m.period_ns && m.deadline_ns > m.period_ns)
+                failField(deadline, m.name, "deadline", std::to_string(m.deadline_ns) + " is longer than the period " +
+                                                            std::to_string(m.period_ns));
+        }
+        if (priority) {
+            int64_t p = integer(priority, m.name, leafText(priority, m.name), 0, " (0 = highest priority)");
+            if (p > 1'000'000) failField(priority, m.name, "priority", "'" + std::to_string(p) + "' is above 1000000");
+            m.priority = static_cast<int>(p);
+        } else if (m.operation != OperationType::NonReal) {
+            fail(node, "module '" + m.name + "': <priority> is missing; the lowest value is the highest priority");
+        }
+
+        if (pugi::xml_node budget = field("budget")) {
+            m.budget_ns = integer(budget, m.name, leafText(budget, m.name), 1, ns);
+            if (m.operation != OperationType::Periodic)
+                failField(budget, m.name, "budget", "only periodic modules have an execution budget");
+            if (m.budget_ns > m.period_ns)
+                failField(budget, m.name, "budget", "longer than the period " + std::to_string(m.period_ns));
+        }
+        if (pugi::xml_node executor = field("executor")) {
+            m.executor = leafText(executor, m.name);
+            if (m.executor.empty()) failField(executor, m.name, "executor", "is empty");
+            executor_refs_.emplace_back(m.executor, executor);
+            executor_ref_module_.push_back(m.name);
+        }
+        if (pugi::xml_node props = field("property")) properties(props, m);
+        return m;
+    }
+
+    void properties(pugi::xml_node props, ModuleSpec &m) {
+        noAttributes(props);
+        std::set<std::string> seen;
+        for (pugi::xml_node v : props.children()) {
+            if (skippable(v)) continue;
+            if (std::string_view(v.name()) != "value")
+                fail(v, "module '" + m.name + "': unknown tag <" + std::string(v.name()) +
+                            "> in <property>; expected <value name=\"...\">");
+            std::string name;
+            bool has_name = false;
+            for (pugi::xml_attribute a : v.attributes()) {
+                if (std::string_view(a.name()) != "name")
+                    fail(v, "module '" + m.name + "': unknown attribute '" + a.name() + "' on <value>; expected name=\"...\"");
+                name = unescape(v, a.value());
+                has_name = true;
+            }
+            if (!has_name || name.empty()) fail(v, "module '" + m.name + "': <value> without a name=\"...\"");
+            if (!seen.insert(name).second)
+                fail(v, "module '" + m.name + "': property '" + name + "' is set twice");
+            std::string raw;
+            for (pugi::xml_node child : v.children()) {
+                if (child.type() == pugi::node_comment) continue;
+                if (child.type() == pugi::node_pcdata) raw += unescape(child, child.value());
+                else if (child.type() == pugi::node_cdata) raw += child.value();
+                else fail(child, "module '" + m.name + "': property '" + name + "' must be plain text");
+            }
+            if (raw.find('\0') != std::string::npos) fail(v, "module '" + m.name + "': property '" + name + "' contains a NUL");
+            m.properties.emplace_back(std::move(name), std::string(trim(raw)));
+        }
+    }
+
+    void checkName(pugi::xml_node at, const std::string &name) const {
+        if (name.empty()) fail(at, "module name is empty");
+        if (name.size() > kMaxNameLength)
+            fail(at, "module name '" + name + "' is longer than " + std::to_string(kMaxNameLength) + " characters");
+        for (char c : name)
+            if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.'))
+                fail(at, "module name '" + name + "' may only hold letters, digits, '_', '-' and '.'; set <name> to choose one");
+    }
+
+    // ---- <executor> -------------------------------------------------------------------------
+    ExecutorSpec executor(pugi::xml_node node) {
+        noAttributes(node);
+        ExecutorSpec e;
+        e.line = lineOf(node);
+        std::set<std::string> seen;
+        for (pugi::xml_node child : node.children()) {
+            if (skippable(child)) continue;
+            std::string tag = child.name();
+            if (!seen.insert(tag).second) fail(child, "<" + tag + "> appears twice in one <executor>");
+            if (tag == "name") e.name = leafText(child, "");
+            else if (tag == "rtpriority") {
+                e.rt_priority = static_cast<int>(integer(child, "", leafText(child, ""), 1, " from 1 to 99"));
+                if (e.rt_priority > 99) failField(child, "", "rtpriority", "must be from 1 to 99");
+            } else if (tag == "cpu") {
+                e.cpu = static_cast<int>(integer(child, "", leafText(child, ""), 0, " (a CPU number)"));
+                if (e.cpu > 4095) failField(child, "", "cpu", "must be a CPU number below 4096");
+            } else fail(child, "unknown tag <" + tag + "> in <executor>; expected name, rtpriority or cpu");
+        }
+        if (e.name.empty()) fail(node, "<executor> without a <name>");
+        checkName(node, e.name);
+        if (e.name == kMainExecutor) fail(node, "executor name 'main' is reserved for the default dispatcher");
+        return e;
+    }
+
+    // ---- whole-set checks -------------------------------------------------------------------
+    void crossCheck(const SetSpec &set) const {
+        std::map<std::string, const ModuleSpec *> by_name;
+        for (const ModuleSpec &m : set.modules) {
+            auto [it, fresh] = by_name.emplace(m.name, &m);
+            if (!fresh)
+                throw ParseFailure{shown_ + ":" + std::to_string(m.line) + ": module '" + m.name +
+                                   "': duplicate name (also the module at line " + std::to_string(it->second->line) +
+                                   "); set <name> on one of them"};
+        }
+        std::set<std::string> executors;
+        for (const ExecutorSpec &e : set.executors)
+            if (!executors.insert(e.name).second)
+                throw ParseFailure{shown_ + ":" + std::to_string(e.line) + ": executor '" + e.name + "' is defined twice"};
+        for (std::size_t i = 0; i < executor_refs_.size(); ++i) {
+            const auto &[name, node] = executor_refs_[i];
+            if (name != kMainExecutor && !executors.count(name))
+                failField(node, executor_ref_module_[i], "executor",
+                          "no <executor> named '" + name + "' is defined at the root");
+        }
+    }
+
+    std::string_view text_;
+    std::string shown_;           // the path as the user gave it, for messages
+    std::filesystem::path path_;  // absolute, anchors relative filenames
+    std::vector<std::pair<std::string, pugi::xml_node>> executor_refs_;
+    std::vector<std::string> executor_ref_module_;
+};
+
+} // namespace
+
+Result<SetSpec> parseModuleXmlText(std::string_view text, const std::filesystem::path &xml_path) {
+    if (text.size() > kMaxXmlBytes)
+        return Error{xml_path.string() + ": larger than " + std::to_string(kMaxXmlBytes >> 20) + " MiB; not a module.xml"};
+    try {
+        return Parser(text, xml_path).run();
+    } catch (const ParseFailure &f) {
+        return Error{f.message};
+    }
+}
+
+Result<SetSpec> parseModuleXml(const std::filesystem::path &xml_path) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(xml_path, ec))
+        return Error{xml_path.string() + ": no such file (the set's module.xml)"};
+    auto size = std::filesystem::file_size(xml_path, ec);
+    if (ec) return Error{xml_path.string() + ": " + ec.message()};
+    if (size > kMaxXmlBytes)
+        return Error{xml_path.string() + ": larger than " + std::to_string(kMaxXmlBytes >> 20) + " MiB; not a module.xml"};
+    std::ifstream in(xml_path, std::ios::binary);
+    if (!in) return Error{xml_path.string() + ": cannot be read"};
+    std::ostringstream buffer;
+    buffer << in.rdbuf();
+    std::string text = buffer.str();
+    return parseModuleXmlText(text, xml_path);
+}
+
+} // namespace irp::config

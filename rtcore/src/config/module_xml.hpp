@@ -1,0 +1,70 @@
+// module_xml.hpp -- module.xml, the paper's set description (Figures 1 and 9), parsed and validated.
+//
+// parseModuleXml() turns the file into a SetSpec or one Error naming file:line, the module and the
+// field.  It checks everything that can be checked without touching the modules' files; loading
+// them (and so "missing file") is the hosts' job.  The format and its extensions are in
+// docs/module-xml.md.
+#pragma once
+
+#include "common/result.hpp"
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace irp::config {
+
+enum class ModuleType { Thread, Process };
+enum class OperationType { Periodic, Sporadic, NonReal };
+
+const char *toString(ModuleType type);
+const char *toString(OperationType type);
+
+// The executor every module runs on unless it names another one.
+inline constexpr const char *kMainExecutor = "main";
+
+struct ModuleSpec {
+    std::string name;               // <name>, or the stem of <filename>
+    std::string filename;           // as written in the XML
+    std::filesystem::path path;     // resolved against the XML file's folder
+    ModuleType type = ModuleType::Thread;
+    OperationType operation = OperationType::Periodic;
+    int64_t period_ns = 0;          // periodic only
+    int64_t deadline_ns = 0;        // sporadic: required; periodic: optional (0 = the period)
+    int priority = 0;               // lowest value = highest priority
+    int64_t budget_ns = 0;          // optional execution budget; 0 = none
+    std::string executor = kMainExecutor;
+    std::vector<std::pair<std::string, std::string>> properties;  // <property><value name=..>
+    int index = 0;                  // position in the file (ties in priority go to the earlier one)
+    int line = 0;                   // line of <module>
+    std::string where;              // "path/module.xml:12", for messages
+};
+
+// An extra dispatcher thread (<executor> at the root): its own RT priority and CPU.
+struct ExecutorSpec {
+    std::string name;
+    int rt_priority = 0;            // 0 = the main executor's priority minus one
+    int cpu = -1;                   // -1 = the main executor's CPU
+    int line = 0;
+};
+
+struct SetSpec {
+    std::filesystem::path xml_path;
+    std::vector<ModuleSpec> modules;
+    std::vector<ExecutorSpec> executors;  // not including "main"
+};
+
+// Limits on what a module.xml may hold.
+inline constexpr std::size_t kMaxXmlBytes = 4u << 20;
+inline constexpr std::size_t kMaxModules = 1024;
+inline constexpr std::size_t kMaxNameLength = 63;
+
+Result<SetSpec> parseModuleXml(const std::filesystem::path &xml_path);
+
+// Same, from text already in memory; xml_path names the file in messages and anchors relative
+// filenames.
+Result<SetSpec> parseModuleXmlText(std::string_view text, const std::filesystem::path &xml_path);
+
+} // namespace irp::config

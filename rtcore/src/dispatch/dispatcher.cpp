@@ -1,0 +1,151 @@
+// dispatcher.cpp -- executor plans, RT threads and their common start time.
+#include "dispatch/dispatcher.hpp"
+
+#include "osal/rt.hpp"
+
+#include <algorithm>
+#include <latch>
+#include <map>
+#include <numeric>
+
+namespace irp::dispatch {
+
+// Holds the executor threads until all are set up, then releases them on one T0.
+struct Dispatcher::StartGate {
+    explicit StartGate(std::ptrdiff_t parties) : ready(parties) {}
+    std::latch ready;
+    std::latch go{1};
+    std::atomic<int64_t> t0{0};
+};
+
+struct Dispatcher::Plan {
+    ExecutorOptions options;
+    int64_t basic_ns = 0;
+    std::vector<std::vector<Task *>> slots;
+    std::vector<Task *> tasks;
+    stats::TimingRecord *record = nullptr;
+    std::unique_ptr<Executor> executor;
+};
+
+Dispatcher::Dispatcher(const config::SetSpec &set, const schedule::Schedule &schedule,
+                       std::vector<ModuleBinding> bindings, stats::StatsSegment &segment, DispatcherOptions options,
+                       osal::Clock &clock)
+    : segment_(segment), options_(options), clock_(clock) {
+    if (options_.cpu < 0) options_.cpu = osal::lastAllowedCpu();
+
+    // One plan per executor: main first, then those of the set in file order.
+    std::map<std::string, Plan *> by_name;
+    auto add = [&](const std::string &name, int priority, int cpu) {
+        auto plan = std::make_unique<Plan>();
+        plan->options = {name, priority, cpu, options_.policy, options_.max_catchup_ns};
+        by_name[name] = plan.get();
+        plans_.push_back(std::move(plan));
+    };
+    add(config::kMainExecutor, options_.rt_priority, options_.cpu);
+    for (const config::ExecutorSpec &e : set.executors)
+        add(e.name, e.rt_priority ? e.rt_priority : std::max(1, options_.rt_priority - 1), e.cpu >= 0 ? e.cpu : options_.cpu);
+
+    // Tasks of runnable periodic modules, grouped by executor.
+    std::vector<Task *> task_of(set.modules.size(), nullptr);
+    for (const config::ModuleSpec &m : set.modules) {
+        const ModuleBinding &b = bindings[static_cast<std::size_t>(m.index)];
+        if (m.operation != config::OperationType::Periodic || !b.run) continue;
+        auto task = std::make_unique<Task>();
+        task->run = b.run;
+        task->stats = b.stats;
+        task->period_ns = m.period_ns;
+        task->budget_ns = m.budget_ns;
+        task_of[static_cast<std::size_t>(m.index)] = task.get();
+        by_name.at(m.executor)->tasks.push_back(task.get());
+        tasks_.push_back(std::move(task));
+    }
+
+    // Each executor's basic period: the set's for main (the event handler runs every basic period),
+    // the GCD of its own modules' periods for the others.  Its slots follow the set's table order.
+    for (std::size_t p = 0; p < plans_.size(); ++p) {
+        Plan &plan = *plans_[p];
+        plan.basic_ns = schedule.basic_ns;
+        if (p > 0 && !plan.tasks.empty()) {
+            plan.basic_ns = plan.tasks.front()->period_ns;
+            for (Task *t : plan.tasks) plan.basic_ns = std::gcd(plan.basic_ns, t->period_ns);
+        }
+        const auto ratio = static_cast<std::size_t>(plan.basic_ns / schedule.basic_ns);
+        const std::size_t count = plan.tasks.empty() ? 1 : schedule.slots.size() / ratio;
+        plan.slots.resize(count);
+        for (std::size_t i = 0; i < count; ++i) {
+            for (int index : schedule.slots[i * ratio].modules) {
+                Task *t = task_of[static_cast<std::size_t>(index)];
+                if (t && set.modules[static_cast<std::size_t>(index)].executor == plan.options.name)
+                    plan.slots[i].push_back(t);
+            }
+        }
+        for (Task *t : plan.tasks) t->period_slots = t->period_ns / plan.basic_ns;
+        plan.record = &segment_.describe(p, stats::RecordKind::Dispatcher,
+                                         p == 0 ? std::string("dispatcher") : "dispatcher@" + plan.options.name,
+                                         plan.options.name, plan.basic_ns, plan.options.rt_priority, 0);
+        plan.executor = std::make_unique<Executor>(clock_, plan.basic_ns, plan.slots, plan.tasks, plan.record, plan.options);
+    }
+}
+
+Dispatcher::~Dispatcher() {
+    requestStop();
+    join();
+}
+
+Status Dispatcher::start(int64_t duration_ns) {
+    for (const auto &plan : plans_) {
+        if (!osal::cpuAllowed(plan->options.cpu))
+            return Error{"executor '" + plan->options.name + "': CPU " + std::to_string(plan->options.cpu) +
+                         " is not available to irpd (see --cpu, <cpu>)"};
+        if (plan->options.rt_priority < 1 || plan->options.rt_priority > 99)
+            return Error{"executor '" + plan->options.name + "': RT priority " + std::to_string(plan->options.rt_priority) +
+                         " is outside 1..99"};
+    }
+    reports_.resize(plans_.size());
+    gate_ = std::make_unique<StartGate>(static_cast<std::ptrdiff_t>(plans_.size()) + 1);
+    for (std::size_t p = 0; p < plans_.size(); ++p) {
+        threads_.emplace_back([this, p, duration_ns, gate = gate_.get()] {
+            Plan &plan = *plans_[p];
+            ExecutorReport &report = reports_[p];
+            report.name = plan.options.name;
+            report.cpu = plan.options.cpu;
+            report.rt_priority = plan.options.rt_priority;
+            if (options_.realtime) {
+                osal::RtStatus rt = osal::makeCurrentThreadRealtime(plan.options.rt_priority, plan.options.cpu);
+                report.realtime = rt.realtime;
+                report.detail = rt.detail;
+            } else {
+                osal::makeCurrentThreadRealtime(0, plan.options.cpu);  // pin only; priority 0 is refused
+                report.detail = "SCHED_OTHER by request (--no-rt), pinned to CPU " + std::to_string(plan.options.cpu);
+            }
+            osal::prefaultStack();
+            gate->ready.count_down();
+            gate->go.wait();
+            uint64_t limit = duration_ns > 0 ? static_cast<uint64_t>(duration_ns / plan.basic_ns) : 0;
+            plan.executor->loop(gate->t0.load(), limit, stop_, p == 0 ? &segment_.header()->cycles : nullptr);
+            finished_threads_.fetch_add(1, std::memory_order_release);
+        });
+    }
+    gate_->ready.arrive_and_wait();
+    // Slot 0 of every executor: a little after now, so that all threads are asleep on it.
+    const int64_t t0 = clock_.now() + 2'000'000;
+    gate_->t0.store(t0);
+    segment_.header()->started_ns.store(t0, std::memory_order_relaxed);
+    segment_.header()->realtime.store(realtime() ? 1 : 0, std::memory_order_relaxed);
+    segment_.header()->running.store(1, std::memory_order_relaxed);
+    gate_->go.count_down();
+    return Ok{};
+}
+
+void Dispatcher::join() {
+    for (std::thread &t : threads_)
+        if (t.joinable()) t.join();
+    segment_.header()->running.store(0, std::memory_order_relaxed);
+}
+
+bool Dispatcher::realtime() const {
+    return !reports_.empty() &&
+           std::all_of(reports_.begin(), reports_.end(), [](const ExecutorReport &r) { return r.realtime; });
+}
+
+} // namespace irp::dispatch

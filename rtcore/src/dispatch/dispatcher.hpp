@@ -1,0 +1,79 @@
+// dispatcher.hpp -- turns a loaded set into running executors: builds each executor's slot table
+// from the schedule, starts one RT thread per executor, aligns them on one T0, stops them.
+#pragma once
+
+#include "common/result.hpp"
+#include "config/module_xml.hpp"
+#include "dispatch/executor.hpp"
+#include "schedule/schedule.hpp"
+#include "stats/stats_segment.hpp"
+
+#include <atomic>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace irp::dispatch {
+
+struct DispatcherOptions {
+    int rt_priority = 80;  // the main executor; other executors default to one below
+    int cpu = -1;          // -1: the last CPU this process may use
+    bool realtime = true;  // false: do not even try SCHED_FIFO (development only)
+    OverrunPolicy policy = OverrunPolicy::CatchUp;
+    int64_t max_catchup_ns = 100'000'000;
+};
+
+// A module of the set as the dispatcher runs it: its run function (null = not runnable here,
+// listed in the stats as skipped) and its stats record.
+struct ModuleBinding {
+    void (*run)() = nullptr;
+    stats::TimingRecord *stats = nullptr;
+};
+
+struct ExecutorReport {
+    std::string name;
+    int cpu = -1;
+    int rt_priority = 0;
+    bool realtime = false;
+    std::string detail;
+};
+
+class Dispatcher {
+public:
+    // bindings[i] belongs to set.modules[i].  Records for the executors are taken from `segment`
+    // at indices 0..executors-1 (see recordsNeeded).
+    Dispatcher(const config::SetSpec &set, const schedule::Schedule &schedule, std::vector<ModuleBinding> bindings,
+               stats::StatsSegment &segment, DispatcherOptions options, osal::Clock &clock);
+    ~Dispatcher();
+
+    // Executors a set needs: "main" plus each <executor> of the set.
+    static std::size_t executorCount(const config::SetSpec &set) { return 1 + set.executors.size(); }
+
+    // Checks CPUs and priorities; starts the threads; returns once every thread runs (or failed
+    // before its first slot).  duration_ns > 0 stops each executor after exactly that much of the
+    // time grid (duration / its basic period slots).
+    Status start(int64_t duration_ns);
+    void requestStop() { stop_.store(true, std::memory_order_relaxed); }
+    bool finished() const { return finished_threads_.load(std::memory_order_acquire) == threads_.size(); }
+    void join();
+
+    const std::vector<ExecutorReport> &reports() const { return reports_; }
+    bool realtime() const;
+
+private:
+    struct Plan;
+    struct StartGate;
+    std::vector<std::unique_ptr<Plan>> plans_;
+    std::unique_ptr<StartGate> gate_;
+    std::vector<std::unique_ptr<Task>> tasks_;
+    std::vector<std::thread> threads_;
+    std::vector<ExecutorReport> reports_;
+    std::atomic<bool> stop_{false};
+    std::atomic<std::size_t> finished_threads_{0};
+    stats::StatsSegment &segment_;
+    DispatcherOptions options_;
+    osal::Clock &clock_;
+};
+
+} // namespace irp::dispatch

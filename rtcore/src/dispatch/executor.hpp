@@ -1,0 +1,78 @@
+// executor.hpp -- one dispatcher thread's loop: a slot table walked once per basic period.
+//
+// The main executor runs the set's slot table (Table 3).  A module may name another executor
+// (<executor> in module.xml): that executor is its own SCHED_FIFO thread, at its own priority and
+// CPU, with a slot table of its own modules only, on the same time grid (same T0).  A slow module
+// there can overrun without delaying the fast ones on the main executor.
+#pragma once
+
+#include "osal/clock.hpp"
+#include "stats/stats_block.hpp"
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace irp::dispatch {
+
+// What the dispatcher does when it wakes up a whole basic period late (or more), e.g. after the
+// previous slot overran or the machine stalled.  Either way the time grid never drifts: slot n is
+// always due at T0 + n * basic.
+enum class OverrunPolicy {
+    // Run the late slots back to back until caught up, so every module gets every run (a
+    // trajectory interpolator keeps its time base); beyond max_catchup_ns of backlog, skip.
+    CatchUp,
+    // Drop the late slots and continue with the slot due now (a PLC task's behaviour).
+    Skip,
+};
+
+const char *toString(OverrunPolicy policy);
+
+// One module's place in an executor.  Runtime fields are written by the executor thread only.
+struct Task {
+    void (*run)() = nullptr;
+    stats::TimingRecord *stats = nullptr;
+    int64_t period_ns = 0;
+    int64_t period_slots = 1;  // period / the executor's basic period
+    int64_t budget_ns = 0;     // 0 = none
+    // set by the loop
+    int64_t t0 = 0;            // first start (T0 of Eq. (1))
+    uint64_t first_cycle = 0;
+    bool started = false;
+    bool disabled = false;
+};
+
+struct ExecutorOptions {
+    std::string name = "main";
+    int rt_priority = 80;
+    int cpu = -1;  // -1: do not pin
+    OverrunPolicy policy = OverrunPolicy::CatchUp;
+    int64_t max_catchup_ns = 100'000'000;
+};
+
+class Executor {
+public:
+    // slots[i]: the tasks of slot i in run order.  self: this dispatcher's own record.
+    Executor(osal::Clock &clock, int64_t basic_ns, std::vector<std::vector<Task *>> slots, std::vector<Task *> tasks,
+             stats::TimingRecord *self, ExecutorOptions options);
+
+    // The RT loop.  Slot n is due at t0 + n * basic.  Returns when `stop` is set (checked every
+    // slot) or after cycle_limit slots (0 = no limit).  `cycles`, if given, counts slots done.
+    void loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &stop, stats::Counter *cycles);
+
+    const ExecutorOptions &options() const { return options_; }
+    int64_t basicNs() const { return basic_ns_; }
+
+private:
+    void skip(uint64_t from_cycle, uint64_t count);
+
+    osal::Clock &clock_;
+    int64_t basic_ns_;
+    std::vector<std::vector<Task *>> slots_;
+    std::vector<Task *> tasks_;
+    stats::TimingRecord *self_;
+    ExecutorOptions options_;
+};
+
+} // namespace irp::dispatch

@@ -1,0 +1,121 @@
+// thread_module.cpp -- dlopen-based loading and the lifecycle of thread modules.
+#include "hosts/thread_module.hpp"
+
+#include <indurop/property.h>
+
+#include <dlfcn.h>
+
+#include <exception>
+#include <system_error>
+
+namespace irp::hosts {
+namespace {
+
+std::string who(const config::ModuleSpec &spec) { return "module '" + spec.name + "'"; }
+
+std::string lastDlError() {
+    const char *e = dlerror();
+    return e ? e : "unknown loader error";
+}
+
+} // namespace
+
+Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpec &spec) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(spec.path, ec))
+        return Error{spec.where + ": " + who(spec) +
+                     ": <filename> " + spec.filename + " -> " + spec.path.string() + " does not exist"};
+
+    std::unique_ptr<ThreadModule> module(new ThreadModule(spec));
+    dlerror();
+    module->handle_ = dlopen(spec.path.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (!module->handle_) return Error{who(spec) + ": cannot load " + spec.path.string() + ": " + lastDlError()};
+
+    if (void *sym = dlsym(module->handle_, INDUROP_MODULE_DESCRIPTOR_SYMBOL)) {
+        auto descriptor = reinterpret_cast<indurop_module_descriptor_fn>(sym);
+        const indurop_module_v1 *table = descriptor();
+        if (!table || table->abi_version != INDUROP_MODULE_ABI_VERSION || table->struct_size < sizeof(indurop_module_v1))
+            return Error{who(spec) + ": " + spec.path.string() + " was built for module ABI version " +
+                         std::to_string(table ? table->abi_version : 0) + "; this irpd runs version " +
+                         std::to_string(INDUROP_MODULE_ABI_VERSION) + ": rebuild it against this SDK"};
+        module->table_ = *table;
+        module->descriptor_ = true;
+        if (!module->table_.run)
+            return Error{who(spec) + ": INDUROP_MODULE(...) in " + spec.path.string() +
+                         " sets no run; write INDUROP_MODULE(run = &::yourFunction)"};
+    } else {
+        dlerror();
+        module->table_.abi_version = INDUROP_MODULE_ABI_VERSION;
+        module->table_.struct_size = sizeof(indurop_module_v1);
+        module->table_.run = reinterpret_cast<void (*)()>(dlsym(module->handle_, "run"));
+        if (!module->table_.run)
+            return Error{who(spec) + ": " + spec.path.string() +
+                         " has neither INDUROP_MODULE(...) nor an extern \"C\" run() (" + lastDlError() + ")"};
+        module->table_.stop = reinterpret_cast<void (*)()>(dlsym(module->handle_, "stop"));
+        module->table_.condition = reinterpret_cast<int (*)()>(dlsym(module->handle_, "condition"));
+        module->plain_initialize_ = dlsym(module->handle_, "initialize");
+        module->plain_start_ = dlsym(module->handle_, "start");
+        dlerror();
+    }
+    for (const auto &[name, value] : module->spec_.properties)
+        module->property_entries_.push_back({name.c_str(), value.c_str()});
+    return module;
+}
+
+ThreadModule::~ThreadModule() {
+    if (handle_) dlclose(handle_);
+}
+
+Status ThreadModule::initialize() {
+    indurop_property_list list{property_entries_.data(), property_entries_.size()};
+    if (descriptor_) {
+        if (!table_.initialize) return Ok{};
+        char err[512] = "";
+        if (table_.initialize(&list, err, sizeof err) != 0) return Error{who(spec_) + ": initialize() failed: " + err};
+        return Ok{};
+    }
+    if (!plain_initialize_) return Ok{};
+    try {
+        reinterpret_cast<void (*)(irp::Property const &)>(plain_initialize_)(irp::Property(&list));
+    } catch (const std::exception &e) {
+        return Error{who(spec_) + ": initialize() failed: " + e.what()};
+    } catch (...) {
+        return Error{who(spec_) + ": initialize() threw a non-standard exception"};
+    }
+    return Ok{};
+}
+
+Status ThreadModule::start() {
+    if (descriptor_) {
+        if (table_.start) {
+            char err[512] = "";
+            if (table_.start(err, sizeof err) != 0) return Error{who(spec_) + ": start() failed: " + err};
+        }
+    } else if (plain_start_) {
+        try {
+            reinterpret_cast<void (*)()>(plain_start_)();
+        } catch (const std::exception &e) {
+            return Error{who(spec_) + ": start() failed: " + e.what()};
+        } catch (...) {
+            return Error{who(spec_) + ": start() threw a non-standard exception"};
+        }
+    }
+    started_ = true;
+    return Ok{};
+}
+
+Status ThreadModule::stop() {
+    if (!started_) return Ok{};
+    started_ = false;
+    if (!table_.stop) return Ok{};
+    try {
+        table_.stop();
+    } catch (const std::exception &e) {
+        return Error{who(spec_) + ": stop() threw: " + e.what()};
+    } catch (...) {
+        return Error{who(spec_) + ": stop() threw a non-standard exception"};
+    }
+    return Ok{};
+}
+
+} // namespace irp::hosts

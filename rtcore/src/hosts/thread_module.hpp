@@ -1,0 +1,61 @@
+// thread_module.hpp -- the host of one thread module: dlopen, the lifecycle calls, dlclose.
+//
+// A module is either a descriptor module (INDUROP_MODULE, the symbol indurop_module_v1_descriptor)
+// or a plain one (extern "C" initialize/start/run/stop/condition); both end up as one
+// indurop_module_v1 table here, so the dispatcher calls run() through one pointer either way.
+#pragma once
+
+#include "common/result.hpp"
+#include "config/module_xml.hpp"
+
+#include <indurop/module_abi.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace irp::hosts {
+
+class ThreadModule {
+public:
+    // dlopen(RTLD_NOW) the module's file and resolve its entry points.  Refuses a missing file,
+    // a library the loader rejects (unresolved symbol, wrong architecture...), a module without
+    // run, and a descriptor of an unknown ABI version.
+    static Result<std::unique_ptr<ThreadModule>> load(const config::ModuleSpec &spec);
+
+    ~ThreadModule();  // dlclose
+    ThreadModule(const ThreadModule &) = delete;
+    ThreadModule &operator=(const ThreadModule &) = delete;
+
+    // initialize(properties) then start(): non-RT, before dispatching.  The Error names the module.
+    Status initialize();
+    Status start();
+    // stop(): non-RT, after the last run().  Calls the module's stop() once, and only after a
+    // successful start(); a throw from it comes back as the Error.
+    Status stop();
+
+    void (*runFunction() const)() { return table_.run; }
+    bool hasCondition() const { return table_.condition != nullptr; }
+    int condition() const { return table_.condition(); }
+
+    const std::string &name() const { return spec_.name; }
+    const config::ModuleSpec &spec() const { return spec_; }
+    const indurop_module_v1 &table() const { return table_; }
+    bool usesDescriptor() const { return descriptor_; }
+    bool started() const { return started_; }
+
+private:
+    explicit ThreadModule(const config::ModuleSpec &spec) : spec_(spec) {}
+
+    config::ModuleSpec spec_;
+    void *handle_ = nullptr;
+    bool descriptor_ = false;
+    bool started_ = false;
+    indurop_module_v1 table_{};
+    // Plain modules: their C++-typed hooks, called by the host inside try/catch.
+    void *plain_initialize_ = nullptr;
+    void *plain_start_ = nullptr;
+    std::vector<indurop_property_entry> property_entries_;
+};
+
+} // namespace irp::hosts

@@ -1,0 +1,178 @@
+// daemon.cpp -- what irpd does, in order:
+//   1. parse module.xml and build the slot table (--print-schedule stops here);
+//   2. create the stats block in shared memory; load, initialize and start the modules;
+//   3. lock memory and start the dispatcher threads (SCHED_FIFO, pinned);
+//   4. the main thread becomes the non-RT side: it drains module output (irp::printf) and waits
+//      for SIGINT/SIGTERM or the end of --duration;
+//   5. stop the dispatchers, stop() every module, write --stats-json, unload, remove the shm.
+#include "irpd/daemon.hpp"
+
+#include "config/module_xml.hpp"
+#include "dispatch/dispatcher.hpp"
+#include "hosts/module_set.hpp"
+#include "osal/clock.hpp"
+#include "osal/rt.hpp"
+#include "schedule/schedule.hpp"
+#include "sdk/runtime.hpp"
+#include "stats/stats_segment.hpp"
+#include "stats/summary.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <signal.h>
+
+#include <cstdio>
+#include <ctime>
+#include <fstream>
+#include <iostream>
+
+namespace irp::daemon {
+namespace {
+
+void say(const std::string &line) { std::cerr << "irpd: " << line << std::endl; }
+
+int refuse(const std::string &message) {
+    std::cerr << "irpd: error: " << message << std::endl;
+    return kExitRefused;
+}
+
+void drainModuleOutput() {
+    runtime::drainLog([](std::string_view line) {
+        std::fwrite(line.data(), 1, line.size(), stdout);
+        if (line.empty() || line.back() != '\n') std::fputc('\n', stdout);
+    });
+    std::fflush(stdout);
+}
+
+bool writeStats(const std::string &path, const config::SetSpec &set, const schedule::Schedule &schedule,
+                const stats::StatsSegment &segment, const dispatch::Dispatcher &dispatcher, const Options &options,
+                int64_t elapsed_ns) {
+    using json = nlohmann::ordered_json;
+    json executors = json::array(), modules = json::array();
+    for (std::size_t i = 0; i < segment.recordCount(); ++i) {
+        const stats::TimingRecord &r = segment.record(i);
+        (r.kind == stats::RecordKind::Dispatcher ? executors : modules).push_back(stats::toJson(r));
+    }
+    json doc = {{"set", set.xml_path.string()},
+                {"realtime", dispatcher.realtime()},
+                {"overrun_policy", dispatch::toString(options.dispatcher.policy)},
+                {"basic_period_ns", schedule.basic_ns},
+                {"macro_period_ns", schedule.macro_ns},
+                {"elapsed_ns", elapsed_ns},
+                {"cycles", segment.header()->cycles.load()},
+                {"log_lines_dropped", runtime::droppedLogLines()},
+                {"dispatcher", executors.at(0)},
+                {"executors", executors},
+                {"modules", modules}};
+    std::ofstream out(path);
+    out << doc.dump(2) << "\n";
+    return static_cast<bool>(out);
+}
+
+} // namespace
+
+int run(const Options &options) {
+    // 1. the set and its schedule
+    auto set = config::parseModuleXml(options.config);
+    if (!set) return refuse(set.error().message);
+    auto schedule = schedule::build(*set, options.limits);
+    if (!schedule) return refuse(schedule.error().message);
+    if (options.print_schedule) {
+        if (options.json) std::cout << schedule::toJson(*schedule, *set).dump(2) << std::endl;
+        else std::cout << schedule::formatText(*schedule, *set);
+        return kExitOk;
+    }
+
+    // 2. stats block, modules
+    const std::size_t executors = dispatch::Dispatcher::executorCount(*set);
+    auto segment = stats::StatsSegment::create(options.instance, executors + set->modules.size());
+    if (!segment) return std::cerr << "irpd: error: " << segment.error().message << std::endl, kExitFailure;
+    stats::Header *header = segment->header();
+    header->basic_ns = schedule->basic_ns;
+    header->macro_ns = schedule->macro_ns;
+    std::snprintf(header->set_path, sizeof header->set_path, "%s", set->xml_path.c_str());
+
+    auto modules = hosts::ModuleSet::load(*set);
+    if (!modules) return refuse(modules.error().message);
+    std::vector<dispatch::ModuleBinding> bindings;
+    for (const config::ModuleSpec &m : set->modules) {
+        const auto i = static_cast<std::size_t>(m.index);
+        stats::TimingRecord &record = segment->describe(executors + i, stats::RecordKind::Module, m.name, m.executor,
+                                                        m.period_ns, m.priority, m.budget_ns);
+        hosts::ThreadModule *module = (*modules)->module(i);
+        record.state.store(static_cast<uint32_t>(module ? stats::ModuleState::Loaded : stats::ModuleState::Skipped));
+        if (!module) say("skipping module '" + m.name + "': " + (*modules)->skipReason(i) + "; it stays in the schedule");
+        bindings.push_back({module ? module->runFunction() : nullptr, &record});
+    }
+    if (Status s = (*modules)->initializeAll(); !s) return refuse(s.error().message);
+    if (Status s = (*modules)->startAll(); !s) return refuse(s.error().message);
+    drainModuleOutput();
+
+    // 3. dispatchers
+    if (options.dispatcher.realtime) {
+        if (Status s = osal::lockMemory(); !s) say("WARNING: " + s.error().message + "; page faults may add latency");
+    }
+    dispatch::Dispatcher dispatcher(*set, *schedule, std::move(bindings), *segment, options.dispatcher,
+                                    osal::monotonicClock());
+    const int64_t duration_ns = static_cast<int64_t>(options.duration_s * 1e9);
+    if (Status s = dispatcher.start(duration_ns); !s) {
+        for (const std::string &e : (*modules)->stopAll()) say(e);
+        return refuse(s.error().message);
+    }
+    for (std::size_t i = 0; i < set->modules.size(); ++i)
+        if ((*modules)->module(i))
+            segment->record(executors + i).state.store(static_cast<uint32_t>(stats::ModuleState::Running));
+    for (const dispatch::ExecutorReport &r : dispatcher.reports())
+        say("executor '" + r.name + "': " + r.detail);
+    if (!dispatcher.realtime()) {
+        say("WARNING: ************************************************************");
+        say("WARNING: NOT REAL-TIME: the dispatcher runs SCHED_OTHER; periods are not guaranteed");
+        say("WARNING: and every figure in the stats is marked \"realtime\": false.");
+        say("WARNING: ************************************************************");
+    }
+    say("running " + set->xml_path.string() + ": basic period " + schedule::humanDuration(schedule->basic_ns) +
+        ", macro period " + schedule::humanDuration(schedule->macro_ns) + ", " + std::to_string(schedule->slots.size()) +
+        " slots, stats in /dev/shm" + segment->name());
+
+    // 4. the non-RT side
+    sigset_t stop_signals;
+    sigemptyset(&stop_signals);
+    sigaddset(&stop_signals, SIGINT);
+    sigaddset(&stop_signals, SIGTERM);
+    const timespec tick{0, 20'000'000};
+    while (!dispatcher.finished()) {
+        int sig = sigtimedwait(&stop_signals, nullptr, &tick);
+        drainModuleOutput();
+        if (sig == SIGINT || sig == SIGTERM) {
+            say(std::string("received ") + (sig == SIGINT ? "SIGINT" : "SIGTERM") + ", stopping");
+            break;
+        }
+    }
+
+    // 5. clean stop
+    dispatcher.requestStop();
+    dispatcher.join();
+    const int64_t elapsed = osal::monotonicNow() - header->started_ns.load();
+    int status = kExitOk;
+    for (const std::string &e : (*modules)->stopAll()) {
+        say(e);
+        status = kExitFailure;
+    }
+    for (std::size_t i = 0; i < set->modules.size(); ++i)
+        if ((*modules)->module(i))
+            segment->record(executors + i).state.store(static_cast<uint32_t>(stats::ModuleState::Stopped));
+    drainModuleOutput();
+    if (!options.stats_json.empty() &&
+        !writeStats(options.stats_json, *set, *schedule, *segment, dispatcher, options, elapsed)) {
+        say("error: cannot write " + options.stats_json);
+        status = kExitFailure;
+    }
+    const stats::TimingRecord &main = segment->record(0);
+    say("stopped after " + std::to_string(main.runs.load()) + " basic periods: " +
+        std::to_string(main.overruns.load()) + " overruns, " + std::to_string(main.missed.load()) + " missed, " +
+        std::to_string(main.skipped.load()) + " skipped");
+    modules->reset();  // unload
+    return status;
+}
+
+} // namespace irp::daemon

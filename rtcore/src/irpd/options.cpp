@@ -1,0 +1,147 @@
+// options.cpp -- getopt_long parsing of irpd's options, with checked numbers.
+#include "irpd/options.hpp"
+
+#include <getopt.h>
+
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+
+namespace irp::daemon {
+namespace {
+
+enum Flag {
+    kConfig = 1000, kPrintSchedule, kJson, kDuration, kStatsJson, kInstance, kMinBasic, kCpu, kRtPriority, kNoRt,
+    kPolicy, kMaxCatchup, kHelp, kVersion,
+};
+
+const option kOptions[] = {
+    {"config", required_argument, nullptr, kConfig},
+    {"print-schedule", no_argument, nullptr, kPrintSchedule},
+    {"json", no_argument, nullptr, kJson},
+    {"duration", required_argument, nullptr, kDuration},
+    {"stats-json", required_argument, nullptr, kStatsJson},
+    {"instance", required_argument, nullptr, kInstance},
+    {"min-basic-period", required_argument, nullptr, kMinBasic},
+    {"cpu", required_argument, nullptr, kCpu},
+    {"rt-priority", required_argument, nullptr, kRtPriority},
+    {"no-rt", no_argument, nullptr, kNoRt},
+    {"overrun-policy", required_argument, nullptr, kPolicy},
+    {"max-catchup", required_argument, nullptr, kMaxCatchup},
+    {"help", no_argument, nullptr, kHelp},
+    {"version", no_argument, nullptr, kVersion},
+    {nullptr, 0, nullptr, 0},
+};
+
+Result<int64_t> integer(const char *option, const char *text, int64_t min, int64_t max) {
+    int64_t v = 0;
+    const char *end = text + std::strlen(text);
+    auto [p, ec] = std::from_chars(text, end, v);
+    if (ec != std::errc() || p != end || v < min || v > max)
+        return Error{std::string("--") + option + ": '" + text + "' is not an integer from " + std::to_string(min) +
+                     " to " + std::to_string(max)};
+    return v;
+}
+
+} // namespace
+
+std::string usage() {
+    return R"(usage: irpd --config FILE.xml [options]
+
+Runs the module set described by FILE.xml (the paper's module.xml) on a strict period.
+
+  --config FILE.xml        the set to run
+  --print-schedule         print the slot table (basic/macro period, modules per slot) and exit
+  --json                   with --print-schedule: print it as JSON
+  --duration S             run S seconds of the time grid, then stop (default: until SIGINT/SIGTERM)
+  --stats-json FILE        on exit, write per-module and dispatcher timing figures to FILE
+  --instance NAME          names the shared memory (/indurop.NAME.stats); default "default"
+  --min-basic-period NS    refuse sets whose basic period is shorter (default 50000)
+  --cpu N                  CPU of the main dispatcher thread (default: the last one)
+  --rt-priority N          SCHED_FIFO priority of the main dispatcher, 1..99 (default 80)
+  --no-rt                  do not ask for SCHED_FIFO or lock memory (development only)
+  --overrun-policy P       catch-up (default) or skip: what to do with slots that are due
+                           a whole basic period late
+  --max-catchup NS         catch-up: largest backlog run back to back before skipping
+                           (default 100000000)
+  --help, --version
+
+Exit status: 0 after a clean stop, 2 when the set is refused (the message names file:line
+and the field), 1 on other failures.
+)";
+}
+
+Result<Options> parseOptions(int argc, char **argv) {
+    Options o;
+    optind = 1;
+    opterr = 0;
+    for (;;) {
+        int index = 0;
+        int c = getopt_long(argc, argv, ":", kOptions, &index);
+        if (c == -1) break;
+        const char *name = c >= kConfig && c <= kVersion ? kOptions[c - kConfig].name : "";
+        switch (c) {
+        case kConfig: o.config = optarg; break;
+        case kPrintSchedule: o.print_schedule = true; break;
+        case kJson: o.json = true; break;
+        case kDuration: {
+            char *end = nullptr;
+            double v = std::strtod(optarg, &end);
+            if (!end || *end || !std::isfinite(v) || v <= 0 || v > 1e7)
+                return Error{std::string("--duration: '") + optarg + "' is not a positive number of seconds"};
+            o.duration_s = v;
+            break;
+        }
+        case kStatsJson: o.stats_json = optarg; break;
+        case kInstance: {
+            o.instance = optarg;
+            bool ok = !o.instance.empty() && o.instance.size() <= 64;
+            for (char ch : o.instance) ok = ok && (std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-');
+            if (!ok) return Error{"--instance: '" + o.instance + "' must be 1-64 letters, digits, '_' or '-'"};
+            break;
+        }
+        case kMinBasic: {
+            auto v = integer(name, optarg, 1000, 1'000'000'000);
+            if (!v) return v.error();
+            o.limits.min_basic_ns = *v;
+            break;
+        }
+        case kCpu: {
+            auto v = integer(name, optarg, 0, 4095);
+            if (!v) return v.error();
+            o.dispatcher.cpu = static_cast<int>(*v);
+            break;
+        }
+        case kRtPriority: {
+            auto v = integer(name, optarg, 1, 99);
+            if (!v) return v.error();
+            o.dispatcher.rt_priority = static_cast<int>(*v);
+            break;
+        }
+        case kNoRt: o.dispatcher.realtime = false; break;
+        case kPolicy:
+            if (std::strcmp(optarg, "catch-up") == 0) o.dispatcher.policy = dispatch::OverrunPolicy::CatchUp;
+            else if (std::strcmp(optarg, "skip") == 0) o.dispatcher.policy = dispatch::OverrunPolicy::Skip;
+            else return Error{std::string("--overrun-policy: '") + optarg + "'; expected catch-up or skip"};
+            break;
+        case kMaxCatchup: {
+            auto v = integer(name, optarg, 0, 60'000'000'000);
+            if (!v) return v.error();
+            o.dispatcher.max_catchup_ns = *v;
+            break;
+        }
+        case kHelp: o.help = true; break;
+        case kVersion: o.version = true; break;
+        case ':': return Error{std::string("option ") + argv[optind - 1] + " needs a value"};
+        default: return Error{std::string("unknown option ") + argv[optind - 1]};
+        }
+    }
+    if (optind < argc) return Error{std::string("unexpected argument '") + argv[optind] + "'"};
+    if (o.help || o.version) return o;
+    if (o.config.empty()) return Error{"--config FILE.xml is required"};
+    if (o.json && !o.print_schedule) return Error{"--json goes with --print-schedule"};
+    return o;
+}
+
+} // namespace irp::daemon

@@ -1,0 +1,30 @@
+// options.hpp -- irpd's command line.
+#pragma once
+
+#include "common/result.hpp"
+#include "dispatch/dispatcher.hpp"
+#include "schedule/schedule.hpp"
+
+#include <string>
+
+namespace irp::daemon {
+
+struct Options {
+    std::string config;            // --config FILE.xml
+    bool print_schedule = false;   // --print-schedule
+    bool json = false;             // --json (with --print-schedule)
+    double duration_s = 0;         // --duration S (0 = until SIGINT/SIGTERM)
+    std::string stats_json;        // --stats-json FILE
+    std::string instance = "default";  // --instance NAME: names the shared memory
+    schedule::Limits limits;       // --min-basic-period NS
+    dispatch::DispatcherOptions dispatcher;  // --cpu, --rt-priority, --no-rt, --overrun-policy, --max-catchup
+    bool help = false;
+    bool version = false;
+};
+
+// Parses argv; the Error says which option is wrong and how.
+Result<Options> parseOptions(int argc, char **argv);
+
+std::string usage();
+
+} // namespace irp::daemon

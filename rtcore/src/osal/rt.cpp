@@ -1,0 +1,67 @@
+// rt.cpp -- POSIX/Linux calls behind rt.hpp.
+#include "osal/rt.hpp"
+
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+#include <sys/prctl.h>
+
+#include <cerrno>
+#include <cstring>
+
+namespace irp::osal {
+
+Status lockMemory() {
+    if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
+        return Error{std::string("mlockall failed: ") + std::strerror(errno) +
+                     " (needs CAP_IPC_LOCK or a higher RLIMIT_MEMLOCK)"};
+    return Ok{};
+}
+
+RtStatus makeCurrentThreadRealtime(int priority, int cpu) {
+    RtStatus status;
+    std::string notes;
+    if (cpu >= 0) {
+        cpu_set_t set;
+        CPU_ZERO(&set);
+        CPU_SET(cpu, &set);
+        int rc = pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+        notes += rc == 0 ? "pinned to CPU " + std::to_string(cpu) : "could not pin to CPU " + std::to_string(cpu) + ": " + std::strerror(rc);
+    }
+    prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);  // 1 ns: the smallest slack the kernel accepts
+    sched_param param{};
+    param.sched_priority = priority;
+    int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param);
+    if (rc == 0) {
+        status.realtime = true;
+        status.detail = "SCHED_FIFO priority " + std::to_string(priority) + ", " + notes;
+    } else {
+        status.detail = std::string("SCHED_FIFO refused (") + std::strerror(rc) +
+                        "; needs CAP_SYS_NICE or RLIMIT_RTPRIO), running SCHED_OTHER, " + notes;
+    }
+    return status;
+}
+
+void prefaultStack(std::size_t bytes) {
+    auto *buffer = static_cast<volatile unsigned char *>(__builtin_alloca(bytes));
+    for (std::size_t i = 0; i < bytes; i += 4096) buffer[i] = 0;
+}
+
+int lastAllowedCpu() {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    if (sched_getaffinity(0, sizeof set, &set) != 0) return 0;
+    for (int cpu = CPU_SETSIZE - 1; cpu >= 0; --cpu)
+        if (CPU_ISSET(cpu, &set)) return cpu;
+    return 0;
+}
+
+bool cpuAllowed(int cpu) {
+    if (cpu < 0 || cpu >= CPU_SETSIZE) return false;
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    if (sched_getaffinity(0, sizeof set, &set) != 0) return false;
+    return CPU_ISSET(cpu, &set);
+}
+
+} // namespace irp::osal

@@ -1,0 +1,29 @@
+// rt.hpp -- making a thread real-time: memory locking, SCHED_FIFO, CPU pinning, timer slack.
+#pragma once
+
+#include "common/result.hpp"
+
+#include <string>
+
+namespace irp::osal {
+
+struct RtStatus {
+    bool realtime = false;  // SCHED_FIFO obtained
+    std::string detail;     // what was done, or why not
+};
+
+// mlockall(MCL_CURRENT | MCL_FUTURE): no page faults on the RT path later.
+Status lockMemory();
+
+// For the calling thread: pin to cpu (-1 = leave as is), minimum timer slack, and SCHED_FIFO at
+// priority (1..99).  Pinning and slack are applied even when SCHED_FIFO is refused.
+RtStatus makeCurrentThreadRealtime(int priority, int cpu);
+
+// Touches `bytes` of stack so the RT loop never faults a stack page in.
+void prefaultStack(std::size_t bytes = 256 * 1024);
+
+// The highest CPU number this process may run on (the default RT CPU), and whether cpu is usable.
+int lastAllowedCpu();
+bool cpuAllowed(int cpu);
+
+} // namespace irp::osal

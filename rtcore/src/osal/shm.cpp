@@ -1,0 +1,85 @@
+// shm.cpp -- shm_open/mmap behind SharedMemory.
+#include "osal/shm.hpp"
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <utility>
+
+namespace irp::osal {
+
+SharedMemory::SharedMemory(SharedMemory &&other) noexcept { *this = std::move(other); }
+
+SharedMemory &SharedMemory::operator=(SharedMemory &&other) noexcept {
+    if (this != &other) {
+        reset();
+        name_ = std::move(other.name_);
+        data_ = std::exchange(other.data_, nullptr);
+        size_ = std::exchange(other.size_, 0);
+        owner_ = std::exchange(other.owner_, false);
+    }
+    return *this;
+}
+
+SharedMemory::~SharedMemory() { reset(); }
+
+void SharedMemory::reset() noexcept {
+    if (data_) munmap(data_, size_);
+    if (owner_) shm_unlink(name_.c_str());
+    data_ = nullptr;
+    size_ = 0;
+    owner_ = false;
+}
+
+Result<SharedMemory> SharedMemory::create(const std::string &name, std::size_t size, unsigned mode) {
+    int fd = shm_open(name.c_str(), O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, mode);
+    if (fd < 0) return Error{"shared memory " + name + ": " + std::strerror(errno)};
+    fchmod(fd, mode);  // shm_open's mode is filtered by the umask
+    if (ftruncate(fd, static_cast<off_t>(size)) != 0) {
+        int e = errno;
+        close(fd);
+        shm_unlink(name.c_str());
+        return Error{"shared memory " + name + ": cannot size to " + std::to_string(size) + " bytes: " + std::strerror(e)};
+    }
+    void *p = mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+    int e = errno;
+    close(fd);
+    if (p == MAP_FAILED) {
+        shm_unlink(name.c_str());
+        return Error{"shared memory " + name + ": mmap: " + std::strerror(e)};
+    }
+    SharedMemory shm;
+    shm.name_ = name;
+    shm.data_ = p;
+    shm.size_ = size;
+    shm.owner_ = true;
+    return shm;
+}
+
+Result<SharedMemory> SharedMemory::open(const std::string &name, bool writable) {
+    int fd = shm_open(name.c_str(), (writable ? O_RDWR : O_RDONLY) | O_CLOEXEC, 0);
+    if (fd < 0) return Error{"shared memory " + name + ": " + std::strerror(errno)};
+    struct stat st{};
+    if (fstat(fd, &st) != 0 || st.st_size <= 0) {
+        close(fd);
+        return Error{"shared memory " + name + ": empty or unreadable"};
+    }
+    void *p = mmap(nullptr, static_cast<std::size_t>(st.st_size), writable ? PROT_READ | PROT_WRITE : PROT_READ,
+                   MAP_SHARED, fd, 0);
+    int e = errno;
+    close(fd);
+    if (p == MAP_FAILED) return Error{"shared memory " + name + ": mmap: " + std::strerror(e)};
+    SharedMemory shm;
+    shm.name_ = name;
+    shm.data_ = p;
+    shm.size_ = static_cast<std::size_t>(st.st_size);
+    return shm;
+}
+
+bool SharedMemory::unlink(const std::string &name) { return shm_unlink(name.c_str()) == 0; }
+
+} // namespace irp::osal

@@ -1,0 +1,61 @@
+// stats_segment.cpp -- shm creation, stale-segment recovery and record set-up.
+#include "stats/stats_segment.hpp"
+
+#include <signal.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <new>
+
+namespace irp::stats {
+
+std::string StatsSegment::shmName(const std::string &instance) { return "/indurop." + instance + ".stats"; }
+
+Result<StatsSegment> StatsSegment::create(const std::string &instance, std::size_t count) {
+    const std::string name = shmName(instance);
+    auto shm = osal::SharedMemory::create(name, blockSize(count), 0660);
+    if (!shm) {
+        // Left over from an irpd that died?  Its header names the owner.
+        if (auto old = osal::SharedMemory::open(name, false)) {
+            const auto *h = static_cast<const Header *>(old->data());
+            if (old->size() >= sizeof(Header) && h->magic == kMagic && h->pid > 0 &&
+                (kill(static_cast<pid_t>(h->pid), 0) == 0 || errno == EPERM) && h->pid != getpid())
+                return Error{"instance '" + instance + "' is in use by irpd pid " + std::to_string(h->pid) +
+                             " (shared memory " + name + "); stop it or choose another --instance"};
+        }
+        osal::SharedMemory::unlink(name);
+        shm = osal::SharedMemory::create(name, blockSize(count), 0660);
+        if (!shm) return shm.error();
+    }
+    StatsSegment segment;
+    segment.shm_ = std::move(*shm);
+    auto *h = new (segment.shm_.data()) Header();
+    h->magic = kMagic;
+    h->version = kVersion;
+    h->header_size = sizeof(Header);
+    h->record_size = sizeof(TimingRecord);
+    h->record_count = static_cast<uint32_t>(count);
+    h->pid = getpid();
+    for (std::size_t i = 0; i < count; ++i) new (&records(h)[i]) TimingRecord();
+    return segment;
+}
+
+TimingRecord &StatsSegment::describe(std::size_t i, RecordKind kind, const std::string &name,
+                                     const std::string &executor, int64_t period_ns, int32_t priority,
+                                     int64_t budget_ns) {
+    TimingRecord &r = record(i);
+    std::snprintf(r.name, sizeof r.name, "%s", name.c_str());
+    std::snprintf(r.executor, sizeof r.executor, "%s", executor.c_str());
+    r.kind = kind;
+    r.priority = priority;
+    r.period_ns = period_ns;
+    r.budget_ns = budget_ns;
+    for (Counter *c : {&r.runs, &r.overruns, &r.missed, &r.skipped, &r.errors}) c->store(0, std::memory_order_relaxed);
+    r.jitter.reset();
+    r.latency.reset();
+    r.exec.reset();
+    return r;
+}
+
+} // namespace irp::stats

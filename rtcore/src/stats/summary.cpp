@@ -1,0 +1,132 @@
+// summary.cpp -- reads histograms into figures (min, max, mean, p50, p99, p99.9).
+#include "stats/summary.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace irp::stats {
+namespace {
+
+constexpr auto relaxed = std::memory_order_relaxed;
+
+double mid(std::size_t i) {
+    return static_cast<double>(bucketLow(i)) + static_cast<double>(bucketWidth(i) - 1) / 2.0;
+}
+
+uint64_t rankOf(uint64_t count, double q) {
+    auto r = static_cast<uint64_t>(std::ceil(q * static_cast<double>(count)));
+    return std::clamp<uint64_t>(r, 1, count);
+}
+
+uint64_t bucketSum(const Histogram &h) {
+    uint64_t n = 0;
+    for (const Counter &b : h.buckets) n += b.load(relaxed);
+    return n;
+}
+
+} // namespace
+
+double quantile(const Histogram &h, double q) {
+    uint64_t total = bucketSum(h);  // the buckets themselves, so a live reader stays consistent
+    if (total == 0) return 0;
+    uint64_t rank = rankOf(total, q), seen = 0;
+    double lo = static_cast<double>(h.min.load(relaxed)), hi = static_cast<double>(h.max.load(relaxed));
+    for (std::size_t i = 0; i < kBuckets; ++i) {
+        seen += h.buckets[i].load(relaxed);
+        if (seen >= rank) return std::clamp(mid(i), std::min(lo, hi), hi);
+    }
+    return hi;
+}
+
+double quantile(const SignedHistogram &h, double q) {
+    uint64_t neg = bucketSum(h.negative), pos = bucketSum(h.positive);
+    if (neg + pos == 0) return 0;
+    uint64_t rank = rankOf(neg + pos, q);
+    if (rank <= neg) {
+        // The negative half, most negative first: walk its magnitudes from the top.
+        uint64_t seen = 0;
+        double lo = static_cast<double>(h.negative.min.load(relaxed)), hi = static_cast<double>(h.negative.max.load(relaxed));
+        for (std::size_t i = kBuckets; i-- > 0;) {
+            seen += h.negative.buckets[i].load(relaxed);
+            if (seen >= rank) return -std::clamp(mid(i), std::min(lo, hi), hi);
+        }
+        return -lo;
+    }
+    Histogram const &p = h.positive;
+    uint64_t seen = neg;
+    double lo = static_cast<double>(p.min.load(relaxed)), hi = static_cast<double>(p.max.load(relaxed));
+    for (std::size_t i = 0; i < kBuckets; ++i) {
+        seen += p.buckets[i].load(relaxed);
+        if (seen >= rank) return std::clamp(mid(i), std::min(lo, hi), hi);
+    }
+    return hi;
+}
+
+Summary summarize(const Histogram &h) {
+    Summary s;
+    s.count = h.count.load(relaxed);
+    if (s.count == 0) return s;
+    s.min = static_cast<double>(h.min.load(relaxed));
+    s.max = static_cast<double>(h.max.load(relaxed));
+    s.mean = static_cast<double>(h.sum.load(relaxed)) / static_cast<double>(s.count);
+    s.p50 = quantile(h, 0.50);
+    s.p99 = quantile(h, 0.99);
+    s.p999 = quantile(h, 0.999);
+    return s;
+}
+
+Summary summarize(const SignedHistogram &h) {
+    Summary s;
+    uint64_t neg = h.negative.count.load(relaxed), pos = h.positive.count.load(relaxed);
+    s.count = neg + pos;
+    if (s.count == 0) return s;
+    s.min = neg ? -static_cast<double>(h.negative.max.load(relaxed)) : static_cast<double>(h.positive.min.load(relaxed));
+    s.max = pos ? static_cast<double>(h.positive.max.load(relaxed)) : -static_cast<double>(h.negative.min.load(relaxed));
+    s.mean = (static_cast<double>(h.positive.sum.load(relaxed)) - static_cast<double>(h.negative.sum.load(relaxed))) /
+             static_cast<double>(s.count);
+    s.p50 = quantile(h, 0.50);
+    s.p99 = quantile(h, 0.99);
+    s.p999 = quantile(h, 0.999);
+    return s;
+}
+
+nlohmann::ordered_json toJson(const Summary &s) {
+    return {{"count", s.count}, {"min", s.min},   {"max", s.max},  {"mean", s.mean},
+            {"p50", s.p50},     {"p99", s.p99},   {"p999", s.p999}};
+}
+
+const char *toString(ModuleState state) {
+    switch (state) {
+    case ModuleState::Loaded: return "loaded";
+    case ModuleState::Running: return "running";
+    case ModuleState::Disabled: return "disabled";
+    case ModuleState::Skipped: return "skipped";
+    case ModuleState::Stopped: return "stopped";
+    }
+    return "unknown";
+}
+
+nlohmann::ordered_json toJson(const TimingRecord &r) {
+    nlohmann::ordered_json j = {{"name", r.name},
+                        {"executor", r.executor},
+                        {"kind", r.kind == RecordKind::Dispatcher ? "dispatcher" : "module"},
+                        {"period_ns", r.period_ns},
+                        {"runs", r.runs.load(relaxed)},
+                        {"jitter_ns", toJson(summarize(r.jitter))},
+                        {"latency_ns", toJson(summarize(r.latency))},
+                        {"exec_ns", toJson(summarize(r.exec))},
+                        {"overruns", r.overruns.load(relaxed)},
+                        {"missed", r.missed.load(relaxed)},
+                        {"skipped", r.skipped.load(relaxed)},
+                        {"errors", r.errors.load(relaxed)}};
+    if (r.kind == RecordKind::Module) {
+        j["state"] = toString(static_cast<ModuleState>(r.state.load(relaxed)));
+        j["priority"] = r.priority;
+        j["budget_ns"] = r.budget_ns;
+    }
+    return j;
+}
+
+} // namespace irp::stats

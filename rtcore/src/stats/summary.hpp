@@ -1,0 +1,30 @@
+// summary.hpp -- percentiles and JSON from the histograms of a stats block.
+#pragma once
+
+#include "stats/stats_block.hpp"
+
+#include <nlohmann/json_fwd.hpp>
+
+namespace irp::stats {
+
+struct Summary {
+    uint64_t count = 0;
+    double min = 0, max = 0, mean = 0, p50 = 0, p99 = 0, p999 = 0;
+};
+
+Summary summarize(const Histogram &h);
+Summary summarize(const SignedHistogram &h);
+
+// Value at quantile q (0..1): the middle of the bucket holding it, clamped to [min, max].
+double quantile(const Histogram &h, double q);
+double quantile(const SignedHistogram &h, double q);
+
+// {min, max, mean, p50, p99, p999, count}
+nlohmann::ordered_json toJson(const Summary &s);
+
+// {name, executor, kind, state, period_ns, runs, jitter_ns, latency_ns, exec_ns, overruns, missed, skipped, errors}
+nlohmann::ordered_json toJson(const TimingRecord &r);
+
+const char *toString(ModuleState state);
+
+} // namespace irp::stats
