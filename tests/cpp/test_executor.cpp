@@ -1,2 +1,363 @@
+// test_executor.cpp -- the RT loop stepped with a fake clock (order, run counts, Eq. (1), overrun
+// policies, budgets, faults), then the real dispatcher with real modules on the real clock.
+#include "dispatch/dispatcher.hpp"
+#include "dispatch/executor.hpp"
+#include "hosts/module_set.hpp"
+#include "journal.hpp"
+
+#include <indurop/indurop.h>
+#include "stats/summary.hpp"
+
 #include <gtest/gtest.h>
-TEST(Placeholder, Builds) { SUCCEED(); }
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+using namespace irp;
+using dispatch::Executor;
+using dispatch::ExecutorOptions;
+using dispatch::OverrunPolicy;
+using dispatch::Task;
+
+namespace {
+
+constexpr int64_t kBasic = 100'000;
+
+// Time moves only when the loop sleeps or a module "works".
+class FakeClock final : public osal::Clock {
+public:
+    int64_t t = 0;
+    std::function<int64_t(int64_t due)> wake_latency = [](int64_t) { return 0; };
+    int64_t now() noexcept override { return t; }
+    void sleepUntil(int64_t due) noexcept override {
+        if (t < due) t = due;
+        t += wake_latency(due);
+    }
+};
+
+FakeClock *g_clock = nullptr;
+std::map<std::string, int64_t> g_work;  // ns a fake module "runs"
+std::string g_throw_in;                 // module that throws on its next run
+
+// Fake modules: journal the call with the cycle and the planned time, then advance the clock.
+template <int N>
+void fakeModule() {
+    static const std::string name = "m" + std::to_string(N);
+    journal::add(name.c_str(), "run", irp::cycle().count);
+    g_clock->t += g_work[name];
+    if (g_throw_in == name) {
+        g_throw_in.clear();
+        throw std::runtime_error("fault injected");
+    }
+}
+
+struct Records {
+    std::unique_ptr<stats::TimingRecord[]> r;
+    explicit Records(std::size_t n) : r(new stats::TimingRecord[n]()) {
+        for (std::size_t i = 0; i < n; ++i) stats::resetFigures(r[i]);
+    }
+    stats::TimingRecord &operator[](std::size_t i) { return r[i]; }
+};
+
+// A Figure-1-like table: m1 (1 slot, prio 1), m2 (1 slot, prio 2), m3 (5 slots, prio 3).
+struct Fig1Like : ::testing::Test {
+    FakeClock clock;
+    Records records{4};  // 0 = dispatcher, 1..3 = m1..m3
+    Task m1, m2, m3;
+    std::atomic<bool> stop{false};
+
+    void SetUp() override {
+        g_clock = &clock;
+        g_work.clear();
+        g_throw_in.clear();
+        journal::clear();
+        setTask(m1, &fakeModule<1>, 1, 1);
+        setTask(m2, &fakeModule<2>, 2, 1);
+        setTask(m3, &fakeModule<3>, 3, 5);
+    }
+    void setTask(Task &t, void (*fn)(), int record, int64_t slots) {
+        t.run = fn;
+        t.stats = &records[static_cast<std::size_t>(record)];
+        t.period_slots = slots;
+        t.period_ns = slots * kBasic;
+    }
+    Executor make(OverrunPolicy policy = OverrunPolicy::CatchUp, int64_t max_catchup_ns = 100'000'000) {
+        std::vector<std::vector<Task *>> slots(5, std::vector<Task *>{&m1, &m2});
+        slots[0].push_back(&m3);
+        ExecutorOptions o;
+        o.policy = policy;
+        o.max_catchup_ns = max_catchup_ns;
+        return Executor(clock, kBasic, slots, {&m1, &m2, &m3}, &records[0], o);
+    }
+    std::vector<std::string> runsOf(uint64_t cycle) {
+        std::vector<std::string> who;
+        for (const auto &e : journal::entries())
+            if (e.what == "run" && e.cycle == cycle) who.push_back(e.who);
+        return who;
+    }
+    uint64_t count(const stats::Counter &c) { return c.load(); }
+};
+
+} // namespace
+
+TEST_F(Fig1Like, RunsEverySlotInPriorityOrder) {
+    Executor e = make();
+    e.loop(1'000'000, 10, stop, nullptr);
+    EXPECT_EQ(runsOf(0), (std::vector<std::string>{"m1", "m2", "m3"}));
+    for (uint64_t c = 1; c < 5; ++c) EXPECT_EQ(runsOf(c), (std::vector<std::string>{"m1", "m2"})) << c;
+    EXPECT_EQ(runsOf(5), (std::vector<std::string>{"m1", "m2", "m3"}));
+}
+
+TEST_F(Fig1Like, RunCountsAreCyclesOverPeriod) {
+    Executor e = make();
+    stats::Counter cycles{0};
+    e.loop(0, 1000, stop, &cycles);
+    EXPECT_EQ(count(cycles), 1000u);
+    EXPECT_EQ(count(records[0].runs), 1000u);
+    EXPECT_EQ(count(records[1].runs), 1000u);
+    EXPECT_EQ(count(records[2].runs), 1000u);
+    EXPECT_EQ(count(records[3].runs), 200u);
+    EXPECT_EQ(count(records[0].missed), 0u);
+    EXPECT_EQ(count(records[0].overruns), 0u);
+}
+
+TEST_F(Fig1Like, WakesOnTheAbsoluteGridWithoutDrift) {
+    g_work["m1"] = 30'000;  // 30 us of work must not shift the next wake-up
+    Executor e = make();
+    e.loop(5'000'000, 100, stop, nullptr);
+    // Last slot (99) due at t0 + 99 * basic, started there, then 30 us of m1.
+    EXPECT_EQ(clock.t, 5'000'000 + 99 * kBasic + 30'000);
+    EXPECT_EQ(records[0].latency.max.load(), 0u);
+}
+
+TEST_F(Fig1Like, Equation1JitterIsZeroOnAConstantLatency) {
+    clock.wake_latency = [](int64_t) { return 7'000; };  // every wake 7 us late
+    Executor e = make();
+    e.loop(0, 500, stop, nullptr);
+    stats::Summary j = stats::summarize(records[0].jitter);
+    EXPECT_EQ(j.min, 0);
+    EXPECT_EQ(j.max, 0);
+    stats::Summary l = stats::summarize(records[0].latency);
+    EXPECT_EQ(l.min, 7000);
+    EXPECT_EQ(l.max, 7000);
+}
+
+TEST_F(Fig1Like, Equation1JitterSeesOneLateWake) {
+    clock.wake_latency = [](int64_t due) { return due == 10 * kBasic ? 40'000 : 0; };
+    Executor e = make();
+    e.loop(0, 100, stop, nullptr);
+    // J_n = T0 + n*period - T_n: -40 us for the late one, 0 for the others.
+    stats::Summary j = stats::summarize(records[0].jitter);
+    EXPECT_EQ(j.min, -40'000);
+    EXPECT_EQ(j.max, 0);
+    EXPECT_EQ(records[0].jitter.negative.count.load(), 1u);
+    // m3 (every 5th slot) was due at slot 10 too: its own Eq. (1) sees the same 40 us.
+    EXPECT_EQ(stats::summarize(records[3].jitter).min, -40'000);
+    EXPECT_EQ(count(records[0].missed), 0u);  // late, but less than a whole period
+}
+
+TEST_F(Fig1Like, CatchUpRunsTheLateSlotsBackToBack) {
+    // Slot 10 wakes 350 us late: slots 10..13 are all past due when the loop gets the CPU.
+    clock.wake_latency = [](int64_t due) { return due == 10 * kBasic ? 350'000 : 0; };
+    Executor e = make(OverrunPolicy::CatchUp);
+    e.loop(0, 100, stop, nullptr);
+    EXPECT_EQ(count(records[1].runs), 100u);
+    EXPECT_EQ(count(records[3].runs), 20u);
+    EXPECT_EQ(count(records[0].skipped), 0u);
+    EXPECT_EQ(count(records[0].missed), 3u);  // slots 10, 11, 12 started a whole period late; 13 only 50 us
+    EXPECT_EQ(count(records[2].missed), 3u);
+    EXPECT_EQ(count(records[3].missed), 0u);  // m3's period is 500 us: 350 us late is not a miss
+}
+
+TEST_F(Fig1Like, SkipPolicyDropsTheLateSlots) {
+    clock.wake_latency = [](int64_t due) { return due == 10 * kBasic ? 350'000 : 0; };
+    Executor e = make(OverrunPolicy::Skip);
+    e.loop(0, 100, stop, nullptr);
+    // Woke at 1.35 ms: slots 10, 11, 12 are dropped, slot 13 runs (50 us late).
+    EXPECT_EQ(count(records[0].skipped), 3u);
+    EXPECT_EQ(count(records[0].runs), 97u);
+    EXPECT_EQ(count(records[1].runs), 97u);
+    EXPECT_EQ(count(records[1].skipped), 3u);
+    EXPECT_EQ(count(records[3].runs), 19u);  // slot 10 of m3 dropped
+    EXPECT_EQ(count(records[3].skipped), 1u);
+    EXPECT_EQ(count(records[0].missed), 0u);  // what ran was less than a period late
+    EXPECT_EQ(runsOf(13), (std::vector<std::string>{"m1", "m2"}));
+    EXPECT_TRUE(runsOf(11).empty());
+}
+
+TEST_F(Fig1Like, CatchUpSkipsBeyondItsLimit) {
+    clock.wake_latency = [](int64_t due) { return due == 10 * kBasic ? 2'050'000 : 0; };
+    Executor e = make(OverrunPolicy::CatchUp, 1'000'000);  // at most 10 slots of backlog
+    e.loop(0, 100, stop, nullptr);
+    EXPECT_EQ(count(records[0].skipped), 20u);
+    EXPECT_EQ(count(records[1].runs) + count(records[1].skipped), 100u);
+    EXPECT_EQ(count(records[3].runs) + count(records[3].skipped), 20u);
+}
+
+TEST_F(Fig1Like, SlotWorkBeyondTheBasicPeriodIsAnOverrun) {
+    g_work["m3"] = 120'000;  // slot 0 (and every 5th) takes 120 us of a 100 us period
+    Executor e = make();
+    e.loop(0, 50, stop, nullptr);
+    EXPECT_EQ(count(records[0].overruns), 10u);
+    EXPECT_EQ(count(records[0].runs), 50u);
+    // The grid holds: the slot after an overrun starts late, and it is still slot n at t0 + n*basic.
+    EXPECT_GE(stats::summarize(records[0].latency).max, 20'000);
+    EXPECT_EQ(clock.t, 49 * kBasic);
+}
+
+TEST_F(Fig1Like, ModuleBudgetOverrunsAreCountedPerModule) {
+    m2.budget_ns = 20'000;
+    g_work["m2"] = 30'000;
+    Executor e = make();
+    e.loop(0, 10, stop, nullptr);
+    EXPECT_EQ(count(records[2].overruns), 10u);
+    EXPECT_EQ(count(records[1].overruns), 0u);
+    EXPECT_EQ(count(records[0].overruns), 0u);
+    EXPECT_EQ(stats::summarize(records[2].exec).max, 30'000);
+}
+
+TEST_F(Fig1Like, AThrowingModuleIsDisabledAndTheOthersGoOn) {
+    g_throw_in = "m2";
+    Executor e = make();
+    e.loop(0, 20, stop, nullptr);
+    EXPECT_EQ(count(records[2].errors), 1u);
+    EXPECT_EQ(count(records[2].runs), 1u);
+    EXPECT_EQ(records[2].state.load(), static_cast<uint32_t>(stats::ModuleState::Disabled));
+    EXPECT_EQ(count(records[1].runs), 20u);
+    EXPECT_EQ(count(records[3].runs), 4u);
+}
+
+TEST_F(Fig1Like, StopFlagEndsTheLoop) {
+    stop = true;
+    Executor e = make();
+    e.loop(0, 0, stop, nullptr);
+    EXPECT_EQ(count(records[0].runs), 0u);
+}
+
+// ---- the real dispatcher, real modules, real clock --------------------------------------------
+
+namespace {
+
+config::SetSpec recorderSet(const std::string &extra_module_xml = "") {
+    std::string xml = R"(<root>
+  <module><filename>rec_a.so</filename><moduletype>thread</moduletype><operationtype>periodic</operationtype>
+          <period>500000</period><priority>3</priority></module>
+  <module><filename>rec_b.so</filename><moduletype>thread</moduletype><operationtype>periodic</operationtype>
+          <period>100000</period><priority>2</priority></module>
+  <module><filename>rec_c.so</filename><moduletype>thread</moduletype><operationtype>periodic</operationtype>
+          <period>100000</period><priority>1</priority></module>
+  <module><filename>desc_a.so</filename><moduletype>thread</moduletype><operationtype>periodic</operationtype>
+          <period>500000</period><priority>3</priority></module>
+)" + extra_module_xml + "</root>";
+    auto set = config::parseModuleXmlText(xml, std::string(FIXTURE_MODULES) + "/module.xml");
+    EXPECT_TRUE(set.ok()) << set.error().message;
+    return *set;
+}
+
+struct RealRun {
+    std::unique_ptr<hosts::ModuleSet> modules;
+    std::unique_ptr<stats::StatsSegment> segment;
+    std::unique_ptr<dispatch::Dispatcher> dispatcher;
+};
+
+RealRun runFor(const config::SetSpec &set, int64_t duration_ns) {
+    RealRun run;
+    auto schedule = schedule::build(set, {});
+    EXPECT_TRUE(schedule.ok());
+    auto modules = hosts::ModuleSet::load(set);
+    EXPECT_TRUE(modules.ok()) << modules.error().message;
+    run.modules = std::move(*modules);
+    auto segment = stats::StatsSegment::create("test-executor-" + std::to_string(getpid()),
+                                               dispatch::Dispatcher::executorCount(set) + set.modules.size());
+    EXPECT_TRUE(segment.ok()) << segment.error().message;
+    run.segment = std::make_unique<stats::StatsSegment>(std::move(*segment));
+    std::vector<dispatch::ModuleBinding> bindings;
+    const std::size_t first = dispatch::Dispatcher::executorCount(set);
+    for (std::size_t i = 0; i < set.modules.size(); ++i) {
+        const auto &m = set.modules[i];
+        auto &r = run.segment->describe(first + i, stats::RecordKind::Module, m.name, m.executor, m.period_ns,
+                                        m.priority, m.budget_ns);
+        bindings.push_back({run.modules->module(i) ? run.modules->module(i)->runFunction() : nullptr, &r});
+    }
+    EXPECT_TRUE(run.modules->initializeAll().ok());
+    EXPECT_TRUE(run.modules->startAll().ok());
+    dispatch::DispatcherOptions options;
+    run.dispatcher = std::make_unique<dispatch::Dispatcher>(set, *schedule, bindings, *run.segment, options,
+                                                            osal::monotonicClock());
+    EXPECT_TRUE(run.dispatcher->start(duration_ns).ok());
+    run.dispatcher->join();
+    EXPECT_TRUE(run.modules->stopAll().empty());
+    return run;
+}
+
+} // namespace
+
+TEST(RealDispatcher, RunsTheFigure1ShapeForOneSecondInOrder) {
+    journal::clear();
+    config::SetSpec set = recorderSet();
+    RealRun run = runFor(set, 1'200'000'000);
+    const stats::TimingRecord &dispatcher = run.segment->record(0);
+    // Exactly duration / period, counting slots the overrun policy may have dropped on a stall.
+    EXPECT_EQ(dispatcher.runs.load() + dispatcher.skipped.load(), 12000u);
+    const uint64_t expected[] = {2400, 12000, 12000, 2400};
+    for (std::size_t i = 0; i < 4; ++i) {
+        const stats::TimingRecord &r = run.segment->record(1 + i);
+        EXPECT_EQ(r.runs.load() + r.skipped.load(), expected[i]) << r.name;
+    }
+
+    // In every cycle: rec_c (1) > rec_b (2) > rec_a (3) > desc_a (3, later in the file), lifecycle around.
+    auto entries = journal::entries();
+    std::map<uint64_t, std::vector<std::string>> by_cycle;
+    std::map<std::string, std::vector<std::string>> lifecycle;
+    for (const auto &e : entries) {
+        if (e.what == "run") by_cycle[e.cycle].push_back(e.who);
+        else lifecycle[e.who].push_back(e.what);
+    }
+    ASSERT_GT(by_cycle.size(), 11000u);
+    for (const auto &[cycle, who] : by_cycle) {
+        if (cycle % 5 == 0)
+            ASSERT_EQ(who, (std::vector<std::string>{"rec_c", "rec_b", "rec_a", "desc_a"})) << "cycle " << cycle;
+        else
+            ASSERT_EQ(who, (std::vector<std::string>{"rec_c", "rec_b"})) << "cycle " << cycle;
+    }
+    for (const char *m : {"rec_a", "rec_b", "rec_c", "desc_a"})
+        EXPECT_EQ(lifecycle[m], (std::vector<std::string>{"initialize", "start", "stop"})) << m;
+    // Lifecycle order across the set: all initialize, then all start, then the runs, then all stop.
+    std::vector<std::string> phases;
+    for (const auto &e : entries)
+        if (phases.empty() || phases.back() != e.what) phases.push_back(e.what);
+    EXPECT_EQ(phases, (std::vector<std::string>{"initialize", "start", "run", "stop"}));
+}
+
+TEST(RealDispatcher, ASlowModuleOnItsOwnExecutorDoesNotDelayTheFastOnes) {
+    journal::clear();
+    // rec_d spins 3 ms every 10 ms on executor "slow"; the 100 us modules stay on "main".
+    config::SetSpec set = recorderSet(R"(
+  <executor><name>slow</name><rtpriority>70</rtpriority></executor>
+  <module><filename>rec_d.so</filename><moduletype>thread</moduletype><operationtype>periodic</operationtype>
+          <period>10000000</period><priority>9</priority><executor>slow</executor>
+          <property><value name="busy_ns">3000000</value></property></module>
+)");
+    RealRun run = runFor(set, 500'000'000);
+    const stats::TimingRecord &main = run.segment->record(0);
+    const stats::TimingRecord &slow = run.segment->record(1);
+    EXPECT_STREQ(slow.name, "dispatcher@slow");
+    EXPECT_EQ(slow.period_ns, 10'000'000);  // its own basic period: the GCD of its modules
+    EXPECT_EQ(main.runs.load() + main.skipped.load(), 5000u);
+    EXPECT_EQ(slow.runs.load() + slow.skipped.load(), 50u);
+    const stats::TimingRecord &rec_d = run.segment->record(2 + 4);
+    EXPECT_STREQ(rec_d.name, "rec_d");
+    EXPECT_EQ(rec_d.runs.load() + rec_d.skipped.load(), 50u);
+    // The slow module's work never ran inside a main slot: no main slot took 3 ms.
+    EXPECT_LT(main.exec.max.load(), 3'000'000u);
+    // On its own executor, rec_d's cycle counts that executor's 10 ms periods.
+    std::vector<uint64_t> cycles;
+    for (const auto &e : journal::entries())
+        if (e.who == "rec_d" && e.what == "run") cycles.push_back(e.cycle);
+    ASSERT_FALSE(cycles.empty());
+    EXPECT_EQ(cycles.front(), 0u);
+    EXPECT_LT(cycles.back(), 50u);
+}

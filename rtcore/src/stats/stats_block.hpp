@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <type_traits>
+#include <initializer_list>
 
 namespace irp::stats {
 
@@ -71,6 +72,14 @@ static_assert(std::is_standard_layout_v<TimingRecord>, "TimingRecord is read by 
 static_assert(std::is_standard_layout_v<Header>, "Header is read by other processes");
 static_assert(sizeof(Header) % 64 == 0, "records start on a cache line");
 static_assert(sizeof(TimingRecord) % 64 == 0, "records do not share cache lines");
+
+// Zeroes the counters and empties the histograms of a record.
+inline void resetFigures(TimingRecord &r) noexcept {
+    for (Counter *c : {&r.runs, &r.overruns, &r.missed, &r.skipped, &r.errors}) c->store(0, std::memory_order_relaxed);
+    r.jitter.reset();
+    r.latency.reset();
+    r.exec.reset();
+}
 
 inline std::size_t blockSize(std::size_t records) { return sizeof(Header) + records * sizeof(TimingRecord); }
 

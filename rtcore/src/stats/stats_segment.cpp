@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <new>
 
@@ -51,10 +52,7 @@ TimingRecord &StatsSegment::describe(std::size_t i, RecordKind kind, const std::
     r.priority = priority;
     r.period_ns = period_ns;
     r.budget_ns = budget_ns;
-    for (Counter *c : {&r.runs, &r.overruns, &r.missed, &r.skipped, &r.errors}) c->store(0, std::memory_order_relaxed);
-    r.jitter.reset();
-    r.latency.reset();
-    r.exec.reset();
+    resetFigures(r);
     return r;
 }
 
