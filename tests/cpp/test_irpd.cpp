@@ -1,2 +1,264 @@
+// test_irpd.cpp -- the irpd binary from outside: --print-schedule, refusals (exit 2, nothing
+// started), timed runs with --stats-json, clean stop on SIGTERM/SIGINT, the non-RT fallback.
+#include "support/subprocess.hpp"
+
+#include <nlohmann/json.hpp>
+
 #include <gtest/gtest.h>
-TEST(Placeholder, Builds) { SUCCEED(); }
+
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+
+using nlohmann::json;
+using testing_support::Process;
+using testing_support::readFile;
+using testing_support::TempDir;
+
+namespace {
+
+const std::string kIrpd = IRPD_PATH;
+const std::string kFig1 = std::string(BUILD_ROOT) + "/sets/paper-fig1/module.xml";
+
+std::string uniqueInstance() {
+    static std::atomic<int> n{0};
+    return "test-" + std::to_string(getpid()) + "-" + std::to_string(n++);
+}
+
+bool shmExists(const std::string &instance) { return std::filesystem::exists("/dev/shm/indurop." + instance + ".stats"); }
+
+void writeFile(const std::filesystem::path &p, const std::string &text) {
+    std::ofstream(p) << text;
+}
+
+std::string module(const std::string &file, int64_t period, int priority, const std::string &extra = "") {
+    return "  <module>\n    <filename>" + file +
+           "</filename>\n    <moduletype>thread</moduletype>\n    <operationtype>periodic</operationtype>\n"
+           "    <period>" + std::to_string(period) + "</period>\n    <priority>" + std::to_string(priority) +
+           "</priority>\n" + extra + "  </module>\n";
+}
+
+struct Outcome {
+    int status;
+    std::string out, err;
+};
+
+Outcome irpd(std::vector<std::string> args, const TempDir &dir, std::chrono::seconds limit = std::chrono::seconds(60)) {
+    args.insert(args.begin(), kIrpd);
+    Process p(args, dir.path);
+    int status = p.wait(limit);
+    return {status, p.out(), p.err()};
+}
+
+} // namespace
+
+TEST(IrpdPrintSchedule, Figure1IsTable3) {
+    TempDir dir;
+    Outcome r = irpd({"--config", kFig1, "--print-schedule"}, dir);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(r.out,
+              "basic period 100000 ns (100 us), macro period 500000 ns (500 us), 5 slots\n"
+              "slot  offset_ns    modules (in priority order)\n"
+              "0     0            cntr3 > cntr2 > cntr1 > cntr4\n"
+              "1     100000       cntr3 > cntr2\n"
+              "2     200000       cntr3 > cntr2\n"
+              "3     300000       cntr3 > cntr2\n"
+              "4     400000       cntr3 > cntr2\n"
+              "outside the slot table:\n"
+              "  event1 (sporadic thread, deadline 1000000 ns, priority 1, checked every basic period)\n"
+              "  visionEvt (sporadic process, deadline 100000000 ns, priority 2, checked every basic period)\n"
+              "  nonReaTime (non-real process, runs in the time left over)\n");
+}
+
+TEST(IrpdPrintSchedule, Figure1AsJson) {
+    TempDir dir;
+    Outcome r = irpd({"--config", kFig1, "--print-schedule", "--json"}, dir);
+    ASSERT_EQ(r.status, 0) << r.err;
+    json j = json::parse(r.out);
+    EXPECT_EQ(j["basic_period_ns"], 100000);
+    EXPECT_EQ(j["macro_period_ns"], 500000);
+    ASSERT_EQ(j["slots"].size(), 5u);
+    EXPECT_EQ(j["slots"][0], json::parse(R"({"index":0,"offset_ns":0,"modules":["cntr3","cntr2","cntr1","cntr4"]})"));
+    for (int i = 1; i < 5; ++i)
+        EXPECT_EQ(j["slots"][i], (json{{"index", i}, {"offset_ns", i * 100000}, {"modules", {"cntr3", "cntr2"}}}));
+    // The key order of the issue: basic, macro, slots.
+    EXPECT_LT(r.out.find("basic_period_ns"), r.out.find("macro_period_ns"));
+    EXPECT_LT(r.out.find("macro_period_ns"), r.out.find("\"slots\""));
+}
+
+TEST(IrpdPrintSchedule, BasicPeriodBelowTheConfiguredMinimumIsRefused) {
+    TempDir dir;
+    Outcome r = irpd({"--config", kFig1, "--print-schedule", "--min-basic-period", "200000"}, dir);
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("the basic period (GCD of the periods) is 100000 ns, below the minimum basic period of 200000 ns"),
+              std::string::npos) << r.err;
+}
+
+TEST(IrpdRefuses, MalformedXmlWithFileLineAndNothingStarted) {
+    TempDir dir;
+    const std::string instance = uniqueInstance();
+    writeFile(dir.path / "module.xml", "<root>\n" + module("./a.so", 100000, 1) + "  <module>\n    <filename>./b.so\n</root>\n");
+    Outcome r = irpd({"--config", (dir.path / "module.xml").string(), "--instance", instance}, dir);
+    EXPECT_EQ(r.status, 2);
+    EXPECT_TRUE(std::regex_search(r.err, std::regex("module\\.xml:[0-9]+: malformed XML"))) << r.err;
+    EXPECT_EQ(r.err.find("running"), std::string::npos);
+    EXPECT_FALSE(shmExists(instance));
+}
+
+TEST(IrpdRefuses, BadPeriodNamesLineModuleAndField) {
+    TempDir dir;
+    writeFile(dir.path / "module.xml", "<root>\n" + module("./a.so", 100000, 1) +
+                                           "  <module>\n    <filename>./b.so</filename>\n    <moduletype>thread</moduletype>\n"
+                                           "    <operationtype>periodic</operationtype>\n    <period>-5</period>\n"
+                                           "    <priority>2</priority>\n  </module>\n</root>\n");
+    Outcome r = irpd({"--config", (dir.path / "module.xml").string()}, dir);
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("module.xml:13: module 'b': <period>: '-5' must be greater than 0"), std::string::npos) << r.err;
+}
+
+TEST(IrpdRefuses, MissingModuleFileAndNothingStarted) {
+    TempDir dir;
+    const std::string instance = uniqueInstance();
+    std::filesystem::copy_file(std::string(BUILD_ROOT) + "/sets/paper-fig1/cntr1.so", dir.path / "cntr1.so");
+    writeFile(dir.path / "module.xml", "<root>\n" + module("./cntr1.so", 100000, 1) + module("./gone.so", 100000, 2) + "</root>\n");
+    Outcome r = irpd({"--config", (dir.path / "module.xml").string(), "--instance", instance}, dir);
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("module.xml:9: module 'gone': <filename> ./gone.so"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("does not exist"), std::string::npos) << r.err;
+    EXPECT_EQ(r.out.find("[cntr1]"), std::string::npos) << r.out;  // not even initialized
+    EXPECT_FALSE(shmExists(instance));
+}
+
+TEST(IrpdRefuses, InitializeFailureStartsNothing) {
+    TempDir dir;
+    std::filesystem::copy_file(std::string(BUILD_ROOT) + "/sets/paper-fig1/cntr1.so", dir.path / "cntr1.so");
+    writeFile(dir.path / "module.xml", "<root>\n" + module("./cntr1.so", 100000, 1) +
+                                           module(std::string(FIXTURE_MODULES) + "/init_throws.so", 100000, 2) + "</root>\n");
+    Outcome r = irpd({"--config", (dir.path / "module.xml").string()}, dir);
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("module 'init_throws': initialize() failed: calibration table missing"), std::string::npos) << r.err;
+    EXPECT_NE(r.out.find("[cntr1] initialize"), std::string::npos);
+    EXPECT_EQ(r.out.find("[cntr1] start"), std::string::npos);
+}
+
+TEST(IrpdOptions, HelpAndBadOptions) {
+    TempDir dir;
+    Outcome help = irpd({"--help"}, dir);
+    EXPECT_EQ(help.status, 0);
+    EXPECT_NE(help.out.find("--print-schedule"), std::string::npos);
+    struct Case { std::vector<std::string> args; std::string message; };
+    for (const Case &c : {Case{{"--bogus"}, "unknown option --bogus"},
+                          Case{{}, "--config FILE.xml is required"},
+                          Case{{"--config", kFig1, "--json"}, "--json goes with --print-schedule"},
+                          Case{{"--config", kFig1, "--rt-priority", "200"}, "--rt-priority: '200' is not an integer from 1 to 99"},
+                          Case{{"--config", kFig1, "--duration", "-1"}, "--duration: '-1' is not a positive number"},
+                          Case{{"--config", kFig1, "--overrun-policy", "later"}, "expected catch-up or skip"},
+                          Case{{"--config", kFig1, "--instance", "../x"}, "--instance: '../x'"},
+                          Case{{"--config", kFig1, "--cpu"}, "needs a value"}}) {
+        Outcome r = irpd(c.args, dir);
+        EXPECT_EQ(r.status, 2) << c.message;
+        EXPECT_NE(r.err.find(c.message), std::string::npos) << r.err;
+    }
+}
+
+TEST(IrpdRun, Figure1ForADurationGivesExactRunCountsAndStats) {
+    TempDir dir;
+    const std::string instance = uniqueInstance();
+    const auto stats_path = dir.path / "stats.json";
+    Outcome r = irpd({"--config", kFig1, "--duration", "1.2", "--stats-json", stats_path.string(), "--instance", instance}, dir);
+    ASSERT_EQ(r.status, 0) << r.err;
+    json s = json::parse(readFile(stats_path));
+    EXPECT_EQ(s["basic_period_ns"], 100000);
+    EXPECT_EQ(s["macro_period_ns"], 500000);
+    const json &d = s["dispatcher"];
+    EXPECT_EQ(d["name"], "dispatcher");
+    EXPECT_EQ(d["runs"].get<uint64_t>() + d["skipped"].get<uint64_t>(), 12000u);
+    for (const char *key : {"jitter_ns", "exec_ns", "latency_ns"})
+        for (const char *f : {"min", "max", "mean", "p50", "p99", "p999"}) EXPECT_TRUE(d[key].contains(f)) << key << f;
+
+    std::map<std::string, json> by_name;
+    for (const json &m : s["modules"]) by_name[m["name"]] = m;
+    const std::map<std::string, uint64_t> expected = {{"cntr1", 2400}, {"cntr2", 12000}, {"cntr3", 12000}};
+    for (const auto &[name, runs] : expected) {
+        const json &m = by_name.at(name);
+        EXPECT_EQ(m["state"], "stopped");
+        EXPECT_EQ(m["runs"].get<uint64_t>() + m["skipped"].get<uint64_t>(), runs) << name;
+        EXPECT_EQ(m["jitter_ns"]["count"], m["runs"]);
+        // What the module itself counted (printed by its stop()) is what the dispatcher counted.
+        EXPECT_NE(r.out.find("[" + name + "] stop after " + std::to_string(m["runs"].get<uint64_t>()) + " runs"),
+                  std::string::npos) << r.out;
+    }
+    for (const char *name : {"cntr4", "event1", "visionEvt", "nonReaTime"}) {
+        EXPECT_EQ(by_name.at(name)["state"], "skipped") << name;
+        EXPECT_EQ(by_name.at(name)["runs"], 0) << name;
+        EXPECT_NE(r.err.find(std::string("skipping module '") + name + "'"), std::string::npos);
+    }
+    EXPECT_NE(r.out.find("[cntr1] initialize: counter starts at 5"), std::string::npos);  // the XML's property
+    EXPECT_FALSE(shmExists(instance));
+}
+
+namespace {
+
+void stopsCleanlyOn(int signal) {
+    TempDir dir;
+    const std::string instance = uniqueInstance();
+    const auto stats_path = dir.path / "stats.json";
+    Process p({kIrpd, "--config", kFig1, "--stats-json", stats_path.string(), "--instance", instance}, dir.path);
+    ASSERT_TRUE(p.waitForErr("irpd: running")) << p.err();
+    EXPECT_TRUE(shmExists(instance));
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    kill(p.pid(), signal);
+    ASSERT_EQ(p.wait(std::chrono::seconds(10)), 0) << p.err();
+    for (const char *line : {"[cntr1] stop after", "[cntr2] stop after", "[cntr3] stop after"})
+        EXPECT_NE(p.out().find(line), std::string::npos) << p.out();
+    EXPECT_NE(p.err().find(signal == SIGINT ? "received SIGINT" : "received SIGTERM"), std::string::npos);
+    json s = json::parse(readFile(stats_path));
+    EXPECT_GT(s["dispatcher"]["runs"].get<uint64_t>(), 1000u);
+    EXPECT_FALSE(shmExists(instance));
+}
+
+} // namespace
+
+TEST(IrpdRun, SigtermStopsEveryModuleAndUnloads) { stopsCleanlyOn(SIGTERM); }
+TEST(IrpdRun, SigintStopsEveryModuleAndUnloads) { stopsCleanlyOn(SIGINT); }
+
+TEST(IrpdRun, SecondIrpdOnTheSameInstanceIsRefused) {
+    TempDir dir, dir2;
+    const std::string instance = uniqueInstance();
+    Process first({kIrpd, "--config", kFig1, "--instance", instance}, dir.path);
+    ASSERT_TRUE(first.waitForErr("irpd: running")) << first.err();
+    Outcome second = irpd({"--config", kFig1, "--instance", instance}, dir2);
+    EXPECT_EQ(second.status, 1);
+    EXPECT_NE(second.err.find("instance '" + instance + "' is in use by irpd pid " + std::to_string(first.pid())),
+              std::string::npos) << second.err;
+    kill(first.pid(), SIGTERM);
+    EXPECT_EQ(first.wait(std::chrono::seconds(10)), 0);
+}
+
+TEST(IrpdRun, WithoutRtPrivilegesItRunsSchedOtherAndSaysSo) {
+    if (access("/usr/bin/setpriv", X_OK) != 0) GTEST_SKIP() << "setpriv (util-linux) is needed to drop capabilities";
+    TempDir dir;
+    const auto stats_path = dir.path / "stats.json";
+    // No capabilities at all (so no CAP_SYS_NICE) and RLIMIT_RTPRIO 0: SCHED_FIFO is refused.
+    Process p({"/usr/bin/setpriv", "--inh-caps=-all", "--bounding-set=-all", "--", "/usr/bin/prlimit", "--rtprio=0", kIrpd,
+               "--config", kFig1, "--duration", "0.5", "--stats-json", stats_path.string(), "--instance", uniqueInstance()},
+              dir.path);
+    ASSERT_EQ(p.wait(), 0) << p.err();
+    EXPECT_NE(p.err().find("SCHED_FIFO refused"), std::string::npos) << p.err();
+    EXPECT_NE(p.err().find("NOT REAL-TIME"), std::string::npos) << p.err();
+    json s = json::parse(readFile(stats_path));
+    EXPECT_EQ(s["realtime"], false);
+    EXPECT_EQ(s["dispatcher"]["runs"].get<uint64_t>() + s["dispatcher"]["skipped"].get<uint64_t>(), 5000u);
+}
+
+TEST(IrpdRun, RealTimeStatsSayRealtimeWhenPrivileged) {
+    if (geteuid() != 0) GTEST_SKIP() << "needs root or CAP_SYS_NICE";
+    TempDir dir;
+    const auto stats_path = dir.path / "stats.json";
+    Outcome r = irpd({"--config", kFig1, "--duration", "0.2", "--stats-json", stats_path.string(), "--instance", uniqueInstance()}, dir);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(json::parse(readFile(stats_path))["realtime"], true);
+    EXPECT_NE(r.err.find("SCHED_FIFO priority 80"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("NOT REAL-TIME"), std::string::npos);
+}

@@ -3,7 +3,10 @@
 
 #include "osal/rt.hpp"
 
+#include <pthread.h>
+
 #include <algorithm>
+#include <cstring>
 #include <latch>
 #include <map>
 #include <numeric>
@@ -104,7 +107,7 @@ Status Dispatcher::start(int64_t duration_ns) {
     reports_.resize(plans_.size());
     gate_ = std::make_unique<StartGate>(static_cast<std::ptrdiff_t>(plans_.size()) + 1);
     for (std::size_t p = 0; p < plans_.size(); ++p) {
-        threads_.emplace_back([this, p, duration_ns, gate = gate_.get()] {
+        auto body = [this, p, duration_ns, gate = gate_.get()] {
             Plan &plan = *plans_[p];
             ExecutorReport &report = reports_[p];
             report.name = plan.options.name;
@@ -124,7 +127,15 @@ Status Dispatcher::start(int64_t duration_ns) {
             uint64_t limit = duration_ns > 0 ? static_cast<uint64_t>(duration_ns / plan.basic_ns) : 0;
             plan.executor->loop(gate->t0.load(), limit, stop_, p == 0 ? &segment_.header()->cycles : nullptr);
             finished_threads_.fetch_add(1, std::memory_order_release);
-        });
+        };
+        if (Status s = spawn(std::move(body)); !s) {
+            // Release the threads already waiting; with stop_ set they leave at once.
+            requestStop();
+            for (std::size_t q = p; q < plans_.size(); ++q) gate_->ready.count_down();
+            gate_->go.count_down();
+            join();
+            return Error{"executor '" + plans_[p]->options.name + "': " + s.error().message};
+        }
     }
     gate_->ready.arrive_and_wait();
     // Slot 0 of every executor: a little after now, so that all threads are asleep on it.
@@ -137,10 +148,30 @@ Status Dispatcher::start(int64_t duration_ns) {
     return Ok{};
 }
 
+Status Dispatcher::spawn(std::function<void()> body) {
+    pthread_attr_t attr;
+    pthread_attr_init(&attr);
+    pthread_attr_setstacksize(&attr, kThreadStackBytes);  // locked and prefaulted: keep it small
+    auto *heap = new std::function<void()>(std::move(body));
+    pthread_t thread;
+    int rc = pthread_create(&thread, &attr, [](void *arg) -> void * {
+        std::unique_ptr<std::function<void()>> fn(static_cast<std::function<void()> *>(arg));
+        (*fn)();
+        return nullptr;
+    }, heap);
+    pthread_attr_destroy(&attr);
+    if (rc != 0) {
+        delete heap;
+        return Error{std::string("cannot start its thread: ") + std::strerror(rc)};
+    }
+    threads_.push_back(thread);
+    return Ok{};
+}
+
 void Dispatcher::join() {
-    for (std::thread &t : threads_)
-        if (t.joinable()) t.join();
-    segment_.header()->running.store(0, std::memory_order_relaxed);
+    for (pthread_t t : threads_) pthread_join(t, nullptr);
+    threads_.clear();
+    if (segment_.header()) segment_.header()->running.store(0, std::memory_order_relaxed);
 }
 
 bool Dispatcher::realtime() const {

@@ -11,7 +11,8 @@
 #include <atomic>
 #include <memory>
 #include <string>
-#include <thread>
+#include <functional>
+#include <pthread.h>
 #include <vector>
 
 namespace irp::dispatch {
@@ -56,6 +57,7 @@ public:
     Status start(int64_t duration_ns);
     void requestStop() { stop_.store(true, std::memory_order_relaxed); }
     bool finished() const { return finished_threads_.load(std::memory_order_acquire) == threads_.size(); }
+    // Waits for every executor thread (call requestStop() first unless a duration was given).
     void join();
 
     const std::vector<ExecutorReport> &reports() const { return reports_; }
@@ -67,7 +69,10 @@ private:
     std::vector<std::unique_ptr<Plan>> plans_;
     std::unique_ptr<StartGate> gate_;
     std::vector<std::unique_ptr<Task>> tasks_;
-    std::vector<std::thread> threads_;
+    Status spawn(std::function<void()> body);
+    static constexpr std::size_t kThreadStackBytes = 1u << 20;
+
+    std::vector<pthread_t> threads_;
     std::vector<ExecutorReport> reports_;
     std::atomic<bool> stop_{false};
     std::atomic<std::size_t> finished_threads_{0};

@@ -5,16 +5,42 @@
 #include <sched.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 
 namespace irp::osal {
 
+namespace {
+
+// CAP_IPC_LOCK in the effective set, read from /proc (no libcap needed for one bit).
+bool hasIpcLock() {
+    FILE *f = std::fopen("/proc/self/status", "r");
+    if (!f) return false;
+    char line[256];
+    unsigned long long caps = 0;
+    while (std::fgets(line, sizeof line, f))
+        if (std::sscanf(line, "CapEff: %llx", &caps) == 1) break;
+    std::fclose(f);
+    return caps & (1ull << 14);  // CAP_IPC_LOCK
+}
+
+} // namespace
+
 Status lockMemory() {
-    if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
+    // MCL_FUTURE under a finite RLIMIT_MEMLOCK makes every later mapping (a thread stack, a
+    // buffer) fail once the limit is reached; without the privilege, lock what exists only.
+    rlimit limit{};
+    getrlimit(RLIMIT_MEMLOCK, &limit);
+    const bool unlimited = limit.rlim_cur == RLIM_INFINITY || hasIpcLock();
+    if (mlockall(unlimited ? MCL_CURRENT | MCL_FUTURE : MCL_CURRENT) != 0)
         return Error{std::string("mlockall failed: ") + std::strerror(errno) +
                      " (needs CAP_IPC_LOCK or a higher RLIMIT_MEMLOCK)"};
+    if (!unlimited)
+        return Error{"memory locked as it is now, but not what is mapped later (MCL_FUTURE needs CAP_IPC_LOCK or "
+                     "an unlimited RLIMIT_MEMLOCK)"};
     return Ok{};
 }
 
