@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# deps.sh -- installs the Debian 12 packages indurop builds, runs and tests with.
+# Safe to run again: only what is missing is installed.  Needs root (or sudo).
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config   # toolchain
+  libpugixml-dev nlohmann-json3-dev              # module.xml, JSON output
+  googletest libgtest-dev                        # C++ tests
+  rt-tests                                       # cyclictest: the benchmark's reference
+  util-linux                                     # setpriv, prlimit: the non-RT fallback test
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+[ ${#missing[@]} -eq 0 ] && exit 0
+
+sudo=""
+[ "$(id -u)" -eq 0 ] || sudo="sudo"
+echo "deps: installing ${missing[*]}"
+$sudo apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
