@@ -1,5 +1,8 @@
 // test_irpd.cpp -- the irpd binary from outside: --print-schedule, refusals (exit 2, nothing
 // started), timed runs with --stats-json, clean stop on SIGTERM/SIGINT, the non-RT fallback.
+#include "osal/shm.hpp"
+#include "stats/stats_block.hpp"
+#include "stats/summary.hpp"
 #include "support/subprocess.hpp"
 
 #include <nlohmann/json.hpp>
@@ -261,4 +264,32 @@ TEST(IrpdRun, RealTimeStatsSayRealtimeWhenPrivileged) {
     EXPECT_EQ(json::parse(readFile(stats_path))["realtime"], true);
     EXPECT_NE(r.err.find("SCHED_FIFO priority 80"), std::string::npos) << r.err;
     EXPECT_EQ(r.err.find("NOT REAL-TIME"), std::string::npos);
+}
+
+TEST(IrpdRun, StatsAreReadableLiveFromAnotherProcess) {
+    TempDir dir;
+    const std::string instance = uniqueInstance();
+    Process p({kIrpd, "--config", kFig1, "--instance", instance}, dir.path);
+    ASSERT_TRUE(p.waitForErr("irpd: running")) << p.err();
+    auto shm = irp::osal::SharedMemory::open("/indurop." + instance + ".stats", false);
+    ASSERT_TRUE(shm.ok()) << shm.error().message;
+    const auto *h = static_cast<const irp::stats::Header *>(shm->data());
+    ASSERT_EQ(h->magic, irp::stats::kMagic);
+    ASSERT_EQ(h->version, irp::stats::kVersion);
+    ASSERT_EQ(h->record_size, sizeof(irp::stats::TimingRecord));
+    EXPECT_EQ(h->pid, p.pid());
+    EXPECT_EQ(h->basic_ns, 100000);
+    EXPECT_EQ(h->record_count, 1u + 7u);  // the main dispatcher + the 7 modules of Figure 1
+    const irp::stats::TimingRecord *r = irp::stats::records(h);
+    EXPECT_STREQ(r[0].name, "dispatcher");
+    EXPECT_STREQ(r[1].name, "cntr1");
+    EXPECT_EQ(r[1].state.load(), static_cast<uint32_t>(irp::stats::ModuleState::Running));
+    EXPECT_EQ(r[4].state.load(), static_cast<uint32_t>(irp::stats::ModuleState::Skipped));  // cntr4
+    const uint64_t before = h->cycles.load();
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    const uint64_t after = h->cycles.load();
+    EXPECT_GT(after, before + 100);  // the RT thread keeps going while it is being read
+    EXPECT_GT(irp::stats::summarize(r[3].exec).count, 0u);  // cntr3's histogram, read live
+    kill(p.pid(), SIGTERM);
+    EXPECT_EQ(p.wait(std::chrono::seconds(10)), 0);
 }

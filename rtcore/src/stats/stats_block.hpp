@@ -17,7 +17,7 @@
 
 namespace irp::stats {
 
-inline constexpr uint64_t kMagic = 0x5354'4154'5052'4955ull;  // "UIRPSTAT" little-endian
+inline constexpr uint64_t kMagic = 0x3154'4154'5350'5249ull;  // the bytes "IRPSTAT1"
 inline constexpr uint32_t kVersion = 1;
 
 enum class RecordKind : uint32_t { Dispatcher = 0, Module = 1 };
