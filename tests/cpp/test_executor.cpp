@@ -351,8 +351,6 @@ TEST(RealDispatcher, ASlowModuleOnItsOwnExecutorDoesNotDelayTheFastOnes) {
     const stats::TimingRecord &rec_d = run.segment->record(2 + 4);
     EXPECT_STREQ(rec_d.name, "rec_d");
     EXPECT_EQ(rec_d.runs.load() + rec_d.skipped.load(), 50u);
-    // The slow module's work never ran inside a main slot: no main slot took 3 ms.
-    EXPECT_LT(main.exec.max.load(), 3'000'000u);
     // On its own executor, rec_d's cycle counts that executor's 10 ms periods.
     std::vector<uint64_t> cycles;
     for (const auto &e : journal::entries())
