@@ -332,7 +332,7 @@ TEST(RealDispatcher, RunsTheFigure1ShapeForOneSecondInOrder) {
     EXPECT_EQ(phases, (std::vector<std::string>{"initialize", "start", "run", "stop"}));
 }
 
-TEST(RealDispatcher, ASlowModuleOnItsOwnExecutorDoesNotDelayTheFastOnes) {
+TEST(RealDispatcher, ASlowModuleRunsOnItsOwnExecutorAndTimeGrid) {
     journal::clear();
     // rec_d spins 3 ms every 10 ms on executor "slow"; the 100 us modules stay on "main".
     config::SetSpec set = recorderSet(R"(
