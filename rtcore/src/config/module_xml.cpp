@@ -105,6 +105,13 @@ private:
     [[noreturn]] void fail(pugi::xml_node node, const std::string &what) const {
         throw ParseFailure{shown_ + ":" + std::to_string(lineOf(node)) + ": " + what};
     }
+    // For position i of the text (value) of node: text nodes start right after the previous tag,
+    // so the line of the offending character is the node's line plus the newlines before it.
+    [[noreturn]] void failInText(pugi::xml_node node, std::string_view text, std::size_t i,
+                                 const std::string &what) const {
+        int line = lineOf(node) + static_cast<int>(std::count(text.begin(), text.begin() + std::min(i, text.size()), '\n'));
+        throw ParseFailure{shown_ + ":" + std::to_string(line) + ": " + what};
+    }
     // For a field of a module: "file:line: module 'cntr1': <period>: what"
     [[noreturn]] void failField(pugi::xml_node node, const std::string &module, const std::string &field,
                                 const std::string &what) const {
@@ -116,8 +123,9 @@ private:
         if (node.type() == pugi::node_comment) return true;
         if (node.type() == pugi::node_pcdata || node.type() == pugi::node_cdata) {
             std::string_view v = node.value();
-            if (v.find_first_not_of(" \t\r\n") == std::string_view::npos) return true;
-            fail(node, "unexpected text '" + std::string(trim(v)) + "' between elements");
+            auto first = v.find_first_not_of(" \t\r\n");
+            if (first == std::string_view::npos) return true;
+            failInText(node, v, first, "unexpected text '" + std::string(trim(v)) + "' between elements");
         }
         if (node.type() == pugi::node_pi) fail(node, "processing instruction <?" + std::string(node.name()) + "?> is not allowed");
         return false;
@@ -146,7 +154,7 @@ private:
             }
             auto semi = raw.find(';', i);
             if (semi == std::string_view::npos || semi - i > 12)
-                fail(at, "a bare '&' in text; write it as &amp;");
+                failInText(at, raw, i, "a bare '&' in text; write it as &amp;");
             std::string_view name = raw.substr(i + 1, semi - i - 1);
             if (name == "lt") out += '<';
             else if (name == "gt") out += '>';
@@ -158,11 +166,12 @@ private:
                 std::string_view digits = name.substr(hex ? 2 : 1);
                 unsigned long code = 0;
                 auto [p, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), code, hex ? 16 : 10);
-                if (ec != std::errc() || p != digits.data() + digits.size() || code == 0 || code > 0x10FFFF)
-                    fail(at, "bad character reference '&" + std::string(name) + ";'");
+                if (ec != std::errc() || p != digits.data() + digits.size() || code == 0 || code > 0x10FFFF ||
+                    (code >= 0xD800 && code <= 0xDFFF))
+                    failInText(at, raw, i, "bad character reference '&" + std::string(name) + ";'");
                 appendUtf8(out, static_cast<uint32_t>(code));
             } else {
-                fail(at, "entity reference '&" + std::string(name) +
+                failInText(at, raw, i, "entity reference '&" + std::string(name) +
                              ";' is not allowed: module.xml has no DTD; only &lt; &gt; &amp; &apos; &quot; and &#N; work");
             }
             i = semi;
@@ -337,6 +346,7 @@ private:
             for (pugi::xml_attribute a : v.attributes()) {
                 if (std::string_view(a.name()) != "name")
                     fail(v, "module '" + m.name + "': unknown attribute '" + a.name() + "' on <value>; expected name=\"...\"");
+                if (has_name) fail(v, "module '" + m.name + "': name=\"...\" appears twice on one <value>");
                 name = unescape(v, a.value());
                 has_name = true;
             }
