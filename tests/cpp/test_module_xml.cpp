@@ -366,7 +366,17 @@ TEST(ModuleXml, CarriageReturnLineEndingsCountLinesTheSame) {
 TEST(ModuleXmlBad, UnknownTagInModule) {
     const std::string text = document(periodic().line("<perod>100000</perod>"));
     EXPECT_TRUE(refusedAt(text, lineOf(text, "<perod>"),
-                          {"unknown tag <perod> in <module>", "expected one of filename, moduletype"}));
+                          {"module 'cntr1': unknown tag <perod> in <module>", "expected one of filename, moduletype"}));
+}
+
+TEST(ModuleXmlBad, TextAfterRootIsRefused) {
+    const std::string text = document(periodic()) + "stray words\n";
+    EXPECT_TRUE(refusedAt(text, lineOf(text, "stray words"), {"unexpected text 'stray words'"}));
+}
+
+TEST(ModuleXmlBad, ProcessingInstructionIsRefused) {
+    const std::string text = document(periodic(), "  <?php echo 1; ?>\n");
+    EXPECT_TRUE(refusedAt(text, lineOf(text, "<?php"), {"processing instruction <?php?> is not allowed"}));
 }
 
 TEST(ModuleXmlBad, UnknownTagInRoot) {
@@ -598,7 +608,7 @@ TEST(ModuleXmlBad, MalformedAttributeWithoutQuotes) {
 }
 
 TEST(ModuleXmlBad, EmptyDocument) {
-    EXPECT_TRUE(refusedAt("", 1, {"malformed XML"}));
+    EXPECT_TRUE(refusedAt("", 1, {"no <root> element"}));
 }
 
 TEST(ModuleXmlBad, DoctypeWithEntitiesIsRefused) {
@@ -778,12 +788,12 @@ TEST(ModuleXmlBad, ExecutorDefinedTwice) {
 
 TEST(ModuleXmlBad, ExecutorRtPriorityZero) {
     const std::string text = document("  <executor><name>io</name>\n<rtpriority>0</rtpriority></executor>\n", periodic());
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<rtpriority>"), {"<rtpriority>", "greater than 0"}));
+    EXPECT_TRUE(refusedAt(text, lineOf(text, "<rtpriority>"), {"executor 'io': <rtpriority>", "greater than 0"}));
 }
 
 TEST(ModuleXmlBad, ExecutorRtPriorityAbove99) {
     const std::string text = document("  <executor><name>io</name>\n<rtpriority>100</rtpriority></executor>\n", periodic());
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<rtpriority>"), {"<rtpriority>", "from 1 to 99"}));
+    EXPECT_TRUE(refusedAt(text, lineOf(text, "<rtpriority>"), {"executor 'io': <rtpriority>: '100' must be from 1 to 99"}));
 }
 
 TEST(ModuleXmlBad, ExecutorCpuNegative) {

@@ -46,7 +46,10 @@ public:
 
     SetSpec run() {
         pugi::xml_document doc;
-        const unsigned options = (pugi::parse_default | pugi::parse_doctype | pugi::parse_declaration) &
+        // parse_fragment keeps text outside <root> so that it can be refused; parse_pi keeps
+        // processing instructions for the same reason.
+        const unsigned options = (pugi::parse_default | pugi::parse_doctype | pugi::parse_declaration | pugi::parse_pi |
+                                  pugi::parse_fragment) &
                                  ~pugi::parse_escapes;
         pugi::xml_parse_result parsed = doc.load_buffer(text_.data(), text_.size(), options, pugi::encoding_utf8);
         if (!parsed) fail(static_cast<std::ptrdiff_t>(parsed.offset), std::string("malformed XML: ") + parsed.description());
@@ -60,10 +63,14 @@ public:
                 if (root) fail(node, "a second top-level element <" + std::string(node.name()) + ">; module.xml has one <root>");
                 root = node;
                 break;
+            case pugi::node_pcdata:
+            case pugi::node_cdata:
+                skippable(node);  // whitespace passes, text is refused
+                break;
             case pugi::node_pi:
                 fail(node, "processing instruction <?" + std::string(node.name()) + "?> is not allowed");
             default:
-                break;  // declaration, comments
+                break;  // declaration
             }
         }
         if (!root) fail(0, "no <root> element");
@@ -115,7 +122,7 @@ private:
     // For a field of a module: "file:line: module 'cntr1': <period>: what"
     [[noreturn]] void failField(pugi::xml_node node, const std::string &module, const std::string &field,
                                 const std::string &what) const {
-        fail(node, (module.empty() ? std::string() : "module '" + module + "': ") + "<" + field + ">: " + what);
+        fail(node, (module.empty() ? std::string() : owner_kind_ + " '" + module + "': ") + "<" + field + ">: " + what);
     }
 
     // ---- node helpers -----------------------------------------------------------------------
@@ -218,7 +225,7 @@ private:
         auto [p, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
         if (text.empty()) failField(node, module, node.name(), std::string("is empty; expected an integer") + unit);
         if (ec == std::errc::result_out_of_range)
-            failField(node, module, node.name(), "'" + text + "' is too large");
+            failField(node, module, node.name(), "'" + text + "' is too large; expected an integer" + unit + " below 2^63");
         if (ec != std::errc() || p != text.data() + text.size())
             failField(node, module, node.name(), "'" + text + "' is not an integer; expected an integer" + unit);
         if (value < min)
@@ -229,12 +236,19 @@ private:
 
     // ---- <module> ---------------------------------------------------------------------------
     ModuleSpec module(pugi::xml_node node, int index) {
-        noAttributes(node);
         ModuleSpec m;
         m.index = index;
         m.line = lineOf(node);
         m.where = shown_ + ":" + std::to_string(m.line);
 
+        // Structural problems are reported after the name is known, so that they can name it.
+        pugi::xml_node problem;
+        std::string problem_text;
+        auto defer = [&](pugi::xml_node at, std::string what) {
+            if (!problem) problem = at, problem_text = std::move(what);
+        };
+        if (pugi::xml_attribute a = node.first_attribute())
+            defer(node, "unknown attribute '" + std::string(a.name()) + "' on <module>");
         std::map<std::string, pugi::xml_node> fields;
         for (pugi::xml_node child : node.children()) {
             if (skippable(child)) continue;
@@ -243,10 +257,12 @@ private:
                                                         "deadline", "priority",   "property",      "name",
                                                         "budget",   "executor"};
             if (!known.count(tag))
-                fail(child, "unknown tag <" + tag + "> in <module>; expected one of filename, moduletype, "
-                            "operationtype, period, deadline, priority, property, name, budget, executor");
-            if (fields.count(tag)) fail(child, "<" + tag + "> appears twice in one <module>");
-            fields[tag] = child;
+                defer(child, "unknown tag <" + tag + "> in <module>; expected one of filename, moduletype, "
+                             "operationtype, period, deadline, priority, property, name, budget, executor");
+            else if (fields.count(tag))
+                defer(child, "<" + tag + "> appears twice in one <module>");
+            else
+                fields[tag] = child;
         }
 
         auto field = [&](const char *tag) -> pugi::xml_node {
@@ -262,6 +278,7 @@ private:
         } else if (!m.filename.empty()) {
             m.name = std::filesystem::path(m.filename).stem().string();
         }
+        if (problem) fail(problem, (m.name.empty() ? std::string() : "module '" + m.name + "': ") + problem_text);
         if (!field("filename")) fail(node, "<module> without <filename>");
         if (m.filename.empty()) failField(field("filename"), m.name, "filename", "is empty");
         if (m.filename.find('\0') != std::string::npos) failField(field("filename"), m.name, "filename", "contains a NUL");
@@ -365,13 +382,14 @@ private:
         }
     }
 
-    void checkName(pugi::xml_node at, const std::string &name) const {
-        if (name.empty()) fail(at, "module name is empty");
+    void checkName(pugi::xml_node at, const std::string &name, const char *what = "module") const {
+        if (name.empty()) fail(at, std::string(what) + " name is empty");
         if (name.size() > kMaxNameLength)
-            fail(at, "module name '" + name + "' is longer than " + std::to_string(kMaxNameLength) + " characters");
+            fail(at, std::string(what) + " name '" + name + "' is longer than " + std::to_string(kMaxNameLength) + " characters");
         for (char c : name)
             if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.'))
-                fail(at, "module name '" + name + "' may only hold letters, digits, '_', '-' and '.'; set <name> to choose one");
+                fail(at, std::string(what) + " name '" + name + "' may only hold letters, digits, '_', '-' and '.'" +
+                             (std::string_view(what) == "module" ? "; set <name> to choose one" : ""));
     }
 
     // ---- <executor> -------------------------------------------------------------------------
@@ -379,6 +397,8 @@ private:
         noAttributes(node);
         ExecutorSpec e;
         e.line = lineOf(node);
+        owner_kind_ = "executor";
+        const std::string label = std::string(trim(node.child("name").child_value()));
         std::set<std::string> seen;
         for (pugi::xml_node child : node.children()) {
             if (skippable(child)) continue;
@@ -386,15 +406,18 @@ private:
             if (!seen.insert(tag).second) fail(child, "<" + tag + "> appears twice in one <executor>");
             if (tag == "name") e.name = leafText(child, "");
             else if (tag == "rtpriority") {
-                e.rt_priority = static_cast<int>(integer(child, "", leafText(child, ""), 1, " from 1 to 99"));
-                if (e.rt_priority > 99) failField(child, "", "rtpriority", "must be from 1 to 99");
+                std::string text = leafText(child, label);
+                e.rt_priority = static_cast<int>(integer(child, label, text, 1, " from 1 to 99"));
+                if (e.rt_priority > 99) failField(child, label, "rtpriority", "'" + text + "' must be from 1 to 99");
             } else if (tag == "cpu") {
-                e.cpu = static_cast<int>(integer(child, "", leafText(child, ""), 0, " (a CPU number)"));
-                if (e.cpu > 4095) failField(child, "", "cpu", "must be a CPU number below 4096");
+                std::string text = leafText(child, label);
+                e.cpu = static_cast<int>(integer(child, label, text, 0, " (a CPU number)"));
+                if (e.cpu > 4095) failField(child, label, "cpu", "'" + text + "' must be a CPU number below 4096");
             } else fail(child, "unknown tag <" + tag + "> in <executor>; expected name, rtpriority or cpu");
         }
+        owner_kind_ = "module";
         if (e.name.empty()) fail(node, "<executor> without a <name>");
-        checkName(node, e.name);
+        checkName(node, e.name, "executor");
         if (e.name == kMainExecutor) fail(node, "executor name 'main' is reserved for the default dispatcher");
         return e;
     }
@@ -422,6 +445,7 @@ private:
     }
 
     std::string_view text_;
+    std::string owner_kind_ = "module";  // what failField names: a module or an executor
     std::string shown_;           // the path as the user gave it, for messages
     std::filesystem::path path_;  // absolute, anchors relative filenames
     std::vector<std::pair<std::string, pugi::xml_node>> executor_refs_;
