@@ -28,8 +28,8 @@ void Executor::skip(uint64_t from, uint64_t count) {
 /*
  * One iteration = one basic period:
  *   1. sleep until the slot's absolute due time T0 + n * basic (clock_nanosleep TIMER_ABSTIME);
- *   2. account the wake-up: latency (woke - due), Eq. (1) jitter, a miss if a whole period late;
- *      if the backlog passed what the overrun policy allows, skip slots to the current one;
+ *   2. account the wake-up: latency (woke - due), a miss if a whole period late; if the backlog
+ *      passed what the overrun policy allows, skip slots to the current one; Eq. (1) jitter;
  *   3. run the slot's modules in priority order; for each: Eq. (1) jitter against its own T0 and
  *      period, start latency, execution time, budget overrun; a throw disables the module;
  *   4. account the slot's work; work past the next slot's due time is a dispatcher overrun, and the
@@ -51,19 +51,18 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         int64_t late = woke - due;
         if (cycle == 0) first_wake = woke;
 
+        // The wake-up's own latency, against the slot it slept for, whatever the policy does next.
+        self_->latency.record(static_cast<uint64_t>(late > 0 ? late : 0));
         if (late >= basic) {
+            stats::bump(self_->missed);
             auto behind = static_cast<uint64_t>(late / basic);  // whole slots already past due
-            bool drop = options_.policy == OverrunPolicy::Skip || behind > max_backlog;
-            if (drop) {
+            if (options_.policy == OverrunPolicy::Skip || behind > max_backlog) {
                 if (cycle_limit && cycle + behind >= cycle_limit) behind = cycle_limit - cycle - 1;
                 skip(cycle, behind);
                 cycle += behind;
                 due += static_cast<int64_t>(behind) * basic;
-                late = woke - due;
             }
-            if (late >= basic) stats::bump(self_->missed);
         }
-        self_->latency.record(static_cast<uint64_t>(late > 0 ? late : 0));
         self_->jitter.record(first_wake + static_cast<int64_t>(cycle) * basic - woke);
 
         const uint64_t slot_index = cycle % nslots;
