@@ -125,7 +125,8 @@ Status Dispatcher::start(int64_t duration_ns) {
             gate->ready.count_down();
             gate->go.wait();
             uint64_t limit = duration_ns > 0 ? static_cast<uint64_t>(duration_ns / plan.basic_ns) : 0;
-            plan.executor->loop(gate->t0.load(), limit, stop_, p == 0 ? &segment_.header()->cycles : nullptr);
+            plan.executor->loop(gate->t0.load(), limit, stop_, p == 0 ? &segment_.header()->cycles : nullptr,
+                                p == 0 ? &segment_.header()->finished_ns : nullptr);
             finished_threads_.fetch_add(1, std::memory_order_release);
         };
         if (Status s = spawn(std::move(body)); !s) {

@@ -27,7 +27,8 @@ void Executor::skip(uint64_t from, uint64_t count) {
 
 /*
  * One iteration = one basic period:
- *   1. sleep until the slot's absolute due time T0 + n * basic (clock_nanosleep TIMER_ABSTIME);
+ *   1. sleep until the slot's absolute due time T0 + n * basic (clock_nanosleep TIMER_ABSTIME),
+ *      unless the previous slot ended past it (then start at once: a caught-up slot);
  *   2. account the wake-up: latency (woke - due), a miss if a whole period late; if the backlog
  *      passed what the overrun policy allows, skip slots to the current one; Eq. (1) jitter;
  *   3. run the slot's modules in priority order; for each: Eq. (1) jitter against its own T0 and
@@ -36,25 +37,35 @@ void Executor::skip(uint64_t from, uint64_t count) {
  *      next slot then starts at once (no sleep) - the grid itself never moves.
  * (Sporadic modules' condition() and the event handler come after step 3 in a later version.)
  */
-void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &stop, stats::Counter *cycles) {
+void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &stop, stats::Counter *cycles,
+                    std::atomic<int64_t> *finished_ns) {
     const auto nslots = static_cast<uint64_t>(slots_.size());
     const int64_t basic = basic_ns_;
     const auto max_backlog = static_cast<uint64_t>(options_.max_catchup_ns / basic);
     int64_t first_wake = 0;
+    int64_t previous_end = INT64_MIN;  // when the last slot's work ended
     uint64_t cycle = 0;
     self_->state.store(1, std::memory_order_relaxed);
 
     while ((cycle_limit == 0 || cycle < cycle_limit) && !stop.load(std::memory_order_relaxed)) {
         int64_t due = t0 + static_cast<int64_t>(cycle) * basic;
-        clock_.sleepUntil(due);
-        int64_t woke = clock_.now();
-        int64_t late = woke - due;
+        int64_t woke;
+        if (previous_end < due) {
+            // A real wake-up: its latency against the slot it slept for, a miss if a whole period late.
+            clock_.sleepUntil(due);
+            woke = clock_.now();
+            const int64_t late = woke - due;
+            self_->latency.record(static_cast<uint64_t>(late > 0 ? late : 0));
+            if (late >= basic) stats::bump(self_->missed);
+        } else {
+            // Already past due when the previous slot ended: started at once, without sleeping.
+            woke = previous_end;
+            stats::bump(self_->caught_up);
+        }
         if (cycle == 0) first_wake = woke;
 
-        // The wake-up's own latency, against the slot it slept for, whatever the policy does next.
-        self_->latency.record(static_cast<uint64_t>(late > 0 ? late : 0));
+        const int64_t late = woke - due;
         if (late >= basic) {
-            stats::bump(self_->missed);
             auto behind = static_cast<uint64_t>(late / basic);  // whole slots already past due
             if (options_.policy == OverrunPolicy::Skip || behind > max_backlog) {
                 if (cycle_limit && cycle + behind >= cycle_limit) behind = cycle_limit - cycle - 1;
@@ -100,6 +111,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             if (task->budget_ns && exec > task->budget_ns) stats::bump(r.overruns);
             stats::bump(r.runs);
         }
+        previous_end = t;
         self_->exec.record(static_cast<uint64_t>(t - woke));
         if (t - woke > basic) stats::bump(self_->overruns);  // the work itself outgrew the period
         stats::bump(self_->runs);
@@ -107,6 +119,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         ++cycle;
     }
     runtime::setCycle({});
+    if (finished_ns) finished_ns->store(previous_end == INT64_MIN ? clock_.now() : previous_end, std::memory_order_relaxed);
     self_->state.store(0, std::memory_order_relaxed);
 }
 

@@ -58,8 +58,10 @@ public:
              stats::TimingRecord *self, ExecutorOptions options);
 
     // The RT loop.  Slot n is due at t0 + n * basic.  Returns when `stop` is set (checked every
-    // slot) or after cycle_limit slots (0 = no limit).  `cycles`, if given, counts slots done.
-    void loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &stop, stats::Counter *cycles);
+    // slot) or after cycle_limit slots (0 = no limit).  `cycles`, if given, counts slots done;
+    // `finished_ns`, if given, receives the time the last slot's work ended.
+    void loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &stop, stats::Counter *cycles,
+              std::atomic<int64_t> *finished_ns = nullptr);
 
     const ExecutorOptions &options() const { return options_; }
     int64_t basicNs() const { return basic_ns_; }

@@ -20,6 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include <signal.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <ctime>
@@ -109,8 +110,11 @@ int run(const Options &options) {
     drainModuleOutput();
 
     // 3. dispatchers
+    int dma_latency_fd = -1;  // held open while dispatching
     if (options.dispatcher.realtime) {
         if (Status s = osal::lockMemory(); !s) say("WARNING: " + s.error().message + "; page faults may add latency");
+        dma_latency_fd = osal::holdCpuDmaLatencyZero();
+        if (dma_latency_fd < 0) say("note: /dev/cpu_dma_latency not held at 0; CPU idle states may add wake-up latency");
     }
     dispatch::Dispatcher dispatcher(*set, *schedule, std::move(bindings), *segment, options.dispatcher,
                                     osal::monotonicClock());
@@ -152,7 +156,8 @@ int run(const Options &options) {
     // 5. clean stop
     dispatcher.requestStop();
     dispatcher.join();
-    const int64_t elapsed = osal::monotonicNow() - header->started_ns.load();
+    // From slot 0's due time to the end of the main dispatcher's last slot.
+    const int64_t elapsed = header->finished_ns.load() - header->started_ns.load();
     int status = kExitOk;
     for (const std::string &e : (*modules)->stopAll()) {
         say(e);
@@ -172,6 +177,7 @@ int run(const Options &options) {
         std::to_string(main.overruns.load()) + " overruns, " + std::to_string(main.missed.load()) + " missed, " +
         std::to_string(main.skipped.load()) + " skipped");
     modules->reset();  // unload
+    if (dma_latency_fd >= 0) close(dma_latency_fd);
     return status;
 }
 

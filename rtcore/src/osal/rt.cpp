@@ -1,7 +1,9 @@
 // rt.cpp -- POSIX/Linux calls behind rt.hpp.
 #include "osal/rt.hpp"
 
+#include <fcntl.h>
 #include <pthread.h>
+#include <unistd.h>
 #include <sched.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
@@ -66,6 +68,17 @@ RtStatus makeCurrentThreadRealtime(int priority, int cpu) {
                         "; needs CAP_SYS_NICE or RLIMIT_RTPRIO), running SCHED_OTHER, " + notes;
     }
     return status;
+}
+
+int holdCpuDmaLatencyZero() {
+    int fd = open("/dev/cpu_dma_latency", O_WRONLY | O_CLOEXEC);
+    if (fd < 0) return -1;
+    const int32_t zero = 0;
+    if (write(fd, &zero, sizeof zero) != sizeof zero) {
+        close(fd);
+        return -1;
+    }
+    return fd;
 }
 
 void prefaultStack(std::size_t bytes) {

@@ -19,6 +19,10 @@ Status lockMemory();
 // priority (1..99).  Pinning and slack are applied even when SCHED_FIFO is refused.
 RtStatus makeCurrentThreadRealtime(int priority, int cpu);
 
+// Asks the kernel for the lowest CPU wake-up latency (no deep idle states) for as long as the
+// returned descriptor stays open, as cyclictest does (/dev/cpu_dma_latency = 0).  -1 on failure.
+int holdCpuDmaLatencyZero();
+
 // Touches `bytes` of stack so the RT loop never faults a stack page in.
 void prefaultStack(std::size_t bytes = 256 * 1024);
 

@@ -46,6 +46,8 @@ struct alignas(64) TimingRecord {
     Counter missed;         // started a whole period (module's, or basic) or more after it was due
     Counter skipped;        // runs / slots dropped by the overrun policy
     Counter errors;         // exceptions thrown out of run()
+    Counter caught_up;      // dispatchers: slots started at once, without sleeping, because the
+                            // previous slot ended past their due time (catch-up after a late wake-up or an overrun)
 
     SignedHistogram jitter; // Eq. (1): J_n = T0 + n * period - T_n, in ns
     Histogram latency;      // start (wake-up for a dispatcher) minus its planned time, in ns
@@ -64,6 +66,7 @@ struct alignas(64) Header {
     std::atomic<uint32_t> realtime;   // 1 = every dispatcher thread got SCHED_FIFO
     std::atomic<uint32_t> running;    // 1 while the dispatchers run
     std::atomic<int64_t> started_ns;  // CLOCK_MONOTONIC time of slot 0 (T0 of the dispatcher)
+    std::atomic<int64_t> finished_ns; // when the main dispatcher's last slot ended (0 while running)
     Counter cycles;                   // basic periods completed by the main dispatcher
     char set_path[512];               // module.xml of the running set
 };
@@ -75,7 +78,8 @@ static_assert(sizeof(TimingRecord) % 64 == 0, "records do not share cache lines"
 
 // Zeroes the counters and empties the histograms of a record.
 inline void resetFigures(TimingRecord &r) noexcept {
-    for (Counter *c : {&r.runs, &r.overruns, &r.missed, &r.skipped, &r.errors}) c->store(0, std::memory_order_relaxed);
+    for (Counter *c : {&r.runs, &r.overruns, &r.missed, &r.skipped, &r.errors, &r.caught_up})
+        c->store(0, std::memory_order_relaxed);
     r.jitter.reset();
     r.latency.reset();
     r.exec.reset();

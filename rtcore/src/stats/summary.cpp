@@ -121,6 +121,7 @@ nlohmann::ordered_json toJson(const TimingRecord &r) {
                         {"missed", r.missed.load(relaxed)},
                         {"skipped", r.skipped.load(relaxed)},
                         {"errors", r.errors.load(relaxed)}};
+    if (r.kind == RecordKind::Dispatcher) j["caught_up"] = r.caught_up.load(relaxed);
     if (r.kind == RecordKind::Module) {
         j["state"] = toString(static_cast<ModuleState>(r.state.load(relaxed)));
         j["priority"] = r.priority;
