@@ -50,8 +50,8 @@ LONG_RUN_TARGET_S = 60
 CT_HIST_NS = 1_000_000  # cyclictest caps its histogram at 1,000,000 entries: 1 ms in ns mode
 
 # Layout of the stats segment's header (docs/scheduler.md §4, rtcore/src/stats/stats_block.hpp, version 1).
-STATS_MAGIC = 0x3154_4154_5350_5249  # the bytes "IRPSTAT1"
-OFF_VERSION, OFF_BASIC, OFF_RUNNING, OFF_STARTED, OFF_CYCLES = 8, 32, 52, 56, 64
+# The stats block's offsets come from irpd itself (`irpd --print-stats-layout`): see load_stats_layout().
+STATS = {}
 
 
 # CPUs this script may use; children get them all back (the script itself keeps off the measured CPU).
@@ -244,8 +244,22 @@ def summarize_cyclictest(raw: dict, period_ns: int) -> dict:
 # irpd's log-linear histogram (rtcore/src/stats/histogram.hpp), read back from its stats block
 K_SUB_BITS, K_SUB, K_MAX_EXP = 5, 32, 36
 K_BUCKETS = K_SUB + (K_MAX_EXP - K_SUB_BITS + 1) * K_SUB
-HIST_BYTES = (4 + K_BUCKETS) * 8              # count, sum, min, max, buckets[]
-REC_LATENCY = 64 + 64 + 4 * 4 + 2 * 8 + 5 * 8 + 2 * HIST_BYTES  # after the signed jitter histogram
+
+
+def load_stats_layout(irpd: Path) -> None:
+    """Takes the stats block's offsets and histogram shape from the irpd binary under test."""
+    global K_SUB_BITS, K_SUB, K_MAX_EXP, K_BUCKETS
+    layout = json.loads(subprocess.run([str(irpd), "--print-stats-layout"], check=True, capture_output=True,
+                                       text=True).stdout)
+    STATS.clear()
+    STATS.update(layout)
+    h = layout["histogram"]
+    K_SUB_BITS, K_MAX_EXP, K_BUCKETS = h["sub_bucket_bits"], h["max_exponent"], h["bucket_count"]
+    K_SUB = 1 << K_SUB_BITS
+
+
+def header_offset(name: str) -> int:
+    return STATS["header"][name]["offset"]
 
 
 def bucket_low(i: int) -> int:
@@ -362,8 +376,8 @@ class ShmObserver:
                 with open(self.path, "rb") as f:
                     if os.fstat(f.fileno()).st_size >= 128:
                         self.mm = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
-                        if struct.unpack_from("<Q", self.mm, 0)[0] == STATS_MAGIC and \
-                                struct.unpack_from("<I", self.mm, OFF_VERSION)[0] == 1:
+                        if struct.unpack_from("<Q", self.mm, 0)[0] == STATS["magic"] and \
+                                struct.unpack_from("<I", self.mm, header_offset("version"))[0] == STATS["version"]:
                             return True
                         self.mm.close()
                         self.mm = None
@@ -373,23 +387,27 @@ class ShmObserver:
         return False
 
     def started(self) -> tuple[int, int]:
-        return struct.unpack_from("<q", self.mm, OFF_STARTED)[0], struct.unpack_from("<I", self.mm, OFF_RUNNING)[0]
+        return (struct.unpack_from("<q", self.mm, header_offset("started_ns"))[0],
+                struct.unpack_from("<I", self.mm, header_offset("running"))[0])
 
     def basic(self) -> int:
-        return struct.unpack_from("<q", self.mm, OFF_BASIC)[0]
+        return struct.unpack_from("<q", self.mm, header_offset("basic_ns"))[0]
 
     def cycles(self) -> int:
-        return struct.unpack_from("<Q", self.mm, OFF_CYCLES)[0]
+        return struct.unpack_from("<Q", self.mm, header_offset("cycles"))[0]
 
     def latency_hist(self, record: int = 0) -> dict:
         """The latency histogram of a record (0 = the main dispatcher).  The mapping outlives irpd's
         unlinking of the segment, so this reads the final figures after irpd has exited."""
-        header_size, record_size = struct.unpack_from("<II", self.mm, 12)
-        if record_size < REC_LATENCY + HIST_BYTES:
-            raise BenchError(f"irpd's stats records are {record_size} bytes; this script knows another layout")
-        base = header_size + record * record_size + REC_LATENCY
-        count, total, lo, hi = struct.unpack_from("<4Q", self.mm, base)
-        buckets = list(struct.unpack_from(f"<{K_BUCKETS}Q", self.mm, base + 32))
+        header_size = struct.unpack_from("<I", self.mm, header_offset("header_size"))[0]
+        record_size = struct.unpack_from("<I", self.mm, header_offset("record_size"))[0]
+        if record_size != STATS["record_size"]:
+            raise BenchError(f"irpd's stats records are {record_size} bytes, its layout says {STATS['record_size']}")
+        base = header_size + record * record_size + STATS["record"]["latency"]["offset"]
+        h = STATS["histogram"]
+        count, total, lo, hi = (struct.unpack_from("<Q", self.mm, base + h[f]["offset"])[0]
+                                for f in ("count", "sum", "min", "max"))
+        buckets = list(struct.unpack_from(f"<{K_BUCKETS}Q", self.mm, base + h["buckets"]["offset"]))
         return {"count": count, "sum": total, "min": lo, "max": hi, "buckets": buckets}
 
 
@@ -651,7 +669,7 @@ def render(a, info: dict, ct: dict, skip: dict, catch: dict, over: dict, relativ
         w(f"| **{name}** | {lb}{us(ct[key])} | {us(ls[key])} | **{fmt_ratio(res['ratios'][key])}** | {us(lc[key])} |")
     stall_share = ct["late_ge_period"] / ct["count"] if ct["count"] else 0.0
     w(f"| wake-ups ≥ 1 period late (stalls) | {ct['late_ge_period']} ({100 * stall_share:.2f} %) | "
-      f"{skip['dispatcher']['missed']} | | {catch['dispatcher']['missed']} slots ≥ 1 period late |")
+      f"{skip['dispatcher']['missed']} | | {catch['dispatcher']['missed']} |")
     w(f"| periods not served | {a.duration * 1_000_000_000 // a.period_ns - ct['count']} | "
       f"{skip['dispatcher']['skipped']} skipped | | {catch['dispatcher']['skipped']} skipped |")
     w("")
@@ -672,9 +690,9 @@ def render(a, info: dict, ct: dict, skip: dict, catch: dict, over: dict, relativ
     w("- irpd runs with `--overrun-policy skip` for this comparison because cyclictest behaves that way: each "
       "wake-up is one sample, its lateness against the period it slept for, and after a stall both resume with "
       "the period due now. irpd's default policy, catch-up (last column), runs the missed slots back to back "
-      "after a stall; each of them is recorded as a sample too, late by the remaining backlog, although none of "
-      "them slept, so a single stall of d ms adds about d / period late samples there and inflates its mean, "
-      "p99.9 and `missed` on a machine that stalls.")
+      "after a stall; those slots did not sleep, so they are not wake-up samples: irpd counts them apart, as "
+      "`caught_up` (" + str(catch['dispatcher'].get('caught_up', 0)) + " in the catch-up run), and the wake-up "
+      "figures of both irpd columns measure the same thing as cyclictest's.")
     w("")
     w("## Relative sleep, for contrast")
     w("")
@@ -698,9 +716,8 @@ def render(a, info: dict, ct: dict, skip: dict, catch: dict, over: dict, relativ
       "— (does not accumulate) |")
     w("")
     w(f"irpd's own `elapsed_ns` in `--stats-json` for the catch-up run is {catch['elapsed_ns']} ns "
-      f"(= {catch['elapsed_ns'] // a.period_ns} periods for {catch['dispatcher']['runs']} runs): irpd's non-RT main "
-      "thread measures it after it notices the end of the grid, which it polls every 20 ms, so it overstates the "
-      "grid by up to that much. The end of the grid above is the observer's, bracketed to a few µs.")
+      f"(= {catch['elapsed_ns'] / a.period_ns:.4f} periods for {catch['dispatcher']['runs']} runs): from slot 0's "
+      "due time to the end of the last slot's work, as the RT thread itself records it.")
     w("")
     w("Every iteration of the relative loop is longer than the period by its wake-up latency, its work and the "
       "re-arming of the timer; nothing ever pays that back, so it loses periods and drifts without bound. irpd "
@@ -868,6 +885,7 @@ def main(argv: list[str]) -> int:
         if not a.no_build:
             build(a.build_dir, commands)
         irpd = a.build_dir / "bin" / "irpd"
+        load_stats_layout(irpd)
         bench = a.build_dir / "bench"
         for f in (irpd, bench / "empty.so", bench / "relative_sleep"):
             if not f.exists():

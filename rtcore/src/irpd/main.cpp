@@ -1,6 +1,9 @@
 // main.cpp -- irpd, the indurop real-time core daemon: options, signals, then daemon::run.
 #include "irpd/daemon.hpp"
 #include "irpd/options.hpp"
+#include "stats/layout_json.hpp"
+
+#include <nlohmann/json.hpp>
 
 #include <signal.h>
 
@@ -26,6 +29,10 @@ int main(int argc, char **argv) {
     }
     if (options->help) {
         std::cout << irp::daemon::usage();
+        return irp::daemon::kExitOk;
+    }
+    if (options->print_stats_layout) {
+        std::cout << irp::stats::layoutJson().dump(2) << std::endl;
         return irp::daemon::kExitOk;
     }
     if (options->version) {

@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
+#include <cctype>
 #include <cstring>
 
 namespace irp::daemon {
@@ -13,7 +14,7 @@ namespace {
 
 enum Flag {
     kConfig = 1000, kPrintSchedule, kJson, kDuration, kStatsJson, kInstance, kMinBasic, kCpu, kRtPriority, kNoRt,
-    kPolicy, kMaxCatchup, kHelp, kVersion,
+    kPolicy, kMaxCatchup, kHelp, kVersion, kStatsLayout,
 };
 
 const option kOptions[] = {
@@ -31,6 +32,7 @@ const option kOptions[] = {
     {"max-catchup", required_argument, nullptr, kMaxCatchup},
     {"help", no_argument, nullptr, kHelp},
     {"version", no_argument, nullptr, kVersion},
+    {"print-stats-layout", no_argument, nullptr, kStatsLayout},
     {nullptr, 0, nullptr, 0},
 };
 
@@ -65,6 +67,7 @@ Runs the module set described by FILE.xml (the paper's module.xml) on a strict p
                            a whole basic period late
   --max-catchup NS         catch-up: largest backlog run back to back before skipping
                            (default 100000000)
+  --print-stats-layout     print the offsets of the shared-memory stats block as JSON and exit
   --help, --version
 
 Exit status: 0 after a clean stop, 2 when the set is refused (the message names file:line
@@ -80,7 +83,7 @@ Result<Options> parseOptions(int argc, char **argv) {
         int index = 0;
         int c = getopt_long(argc, argv, ":", kOptions, &index);
         if (c == -1) break;
-        const char *name = c >= kConfig && c <= kVersion ? kOptions[c - kConfig].name : "";
+        const char *name = c >= kConfig && c <= kStatsLayout ? kOptions[c - kConfig].name : "";
         switch (c) {
         case kConfig: o.config = optarg; break;
         case kPrintSchedule: o.print_schedule = true; break;
@@ -133,12 +136,13 @@ Result<Options> parseOptions(int argc, char **argv) {
         }
         case kHelp: o.help = true; break;
         case kVersion: o.version = true; break;
+        case kStatsLayout: o.print_stats_layout = true; break;
         case ':': return Error{std::string("option ") + argv[optind - 1] + " needs a value"};
         default: return Error{std::string("unknown option ") + argv[optind - 1]};
         }
     }
     if (optind < argc) return Error{std::string("unexpected argument '") + argv[optind] + "'"};
-    if (o.help || o.version) return o;
+    if (o.help || o.version || o.print_stats_layout) return o;
     if (o.config.empty()) return Error{"--config FILE.xml is required"};
     if (o.json && !o.print_schedule) return Error{"--json goes with --print-schedule"};
     return o;

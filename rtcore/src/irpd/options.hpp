@@ -13,6 +13,7 @@ struct Options {
     std::string config;            // --config FILE.xml
     bool print_schedule = false;   // --print-schedule
     bool json = false;             // --json (with --print-schedule)
+    bool print_stats_layout = false;  // --print-stats-layout
     double duration_s = 0;         // --duration S (0 = until SIGINT/SIGTERM)
     std::string stats_json;        // --stats-json FILE
     std::string instance = "default";  // --instance NAME: names the shared memory
