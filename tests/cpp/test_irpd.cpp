@@ -293,3 +293,18 @@ TEST(IrpdRun, StatsAreReadableLiveFromAnotherProcess) {
     kill(p.pid(), SIGTERM);
     EXPECT_EQ(p.wait(std::chrono::seconds(10)), 0);
 }
+
+TEST(IrpdOptions, PrintStatsLayoutGivesTheOffsetsOfTheBlock) {
+    TempDir dir;
+    Outcome r = irpd({"--print-stats-layout"}, dir);
+    ASSERT_EQ(r.status, 0) << r.err;
+    json j = json::parse(r.out);
+    EXPECT_EQ(j["magic"].get<uint64_t>(), irp::stats::kMagic);
+    EXPECT_EQ(j["header_size"], sizeof(irp::stats::Header));
+    EXPECT_EQ(j["record_size"], sizeof(irp::stats::TimingRecord));
+    EXPECT_EQ(j["header"]["cycles"]["offset"], offsetof(irp::stats::Header, cycles));
+    EXPECT_EQ(j["record"]["latency"]["offset"], offsetof(irp::stats::TimingRecord, latency));
+    EXPECT_EQ(j["record"]["caught_up"]["offset"], offsetof(irp::stats::TimingRecord, caught_up));
+    EXPECT_EQ(j["histogram"]["bucket_count"], irp::stats::kBuckets);
+    EXPECT_EQ(j["histogram"]["buckets"]["offset"], offsetof(irp::stats::Histogram, buckets));
+}
