@@ -1,16 +1,85 @@
-# indurop_add_module(<name> SOURCES <src>... [OUTPUT_DIRECTORY <dir>] [LIBRARIES <lib>...])
-# Builds a thread module: a shared object named exactly <name>.so (no "lib" prefix), linked to
-# libindurop, as module.xml's <filename> expects it.
+# Building modules and shared-variable bindings for indurop, in this tree or after
+# find_package(indurop):
+#
+#   indurop_add_glb(<name> GLB <a.glb>... [OUTPUT_DIRECTORY <dir>])
+#       Runs glbc at build time: <dir>/indurop/generated.h and <dir>/layout.json (default <dir>:
+#       ${CMAKE_CURRENT_BINARY_DIR}/<name>).  <name> is an INTERFACE target carrying the include
+#       directory; its property INDUROP_LAYOUT is the layout.json path (for module.xml's <layout>).
+#
+#   indurop_add_module(<name> SOURCES <src>... [GLB <glb target>] [OUTPUT_DIRECTORY <dir>] [LIBRARIES <lib>...])
+#       A thread module: a shared object named exactly <name>.so (no "lib" prefix), linked to
+#       libindurop, as module.xml's <filename> expects it.
+#
+#   indurop_add_process(<name> SOURCES <src>... [GLB <glb target>] [OUTPUT_DIRECTORY <dir>] [LIBRARIES <lib>...])
+#       A process module: an executable <name>.exe linked to libindurop (symbols exported so that
+#       libindurop can check the layout it was built against).
+
+if(NOT DEFINED INDUROP_GLBC)
+  if(EXISTS "${CMAKE_CURRENT_LIST_DIR}/../glb/glbc")
+    set(INDUROP_GLBC "${CMAKE_CURRENT_LIST_DIR}/../glb/glbc")                # source tree
+  else()
+    find_program(INDUROP_GLBC glbc REQUIRED)                                  # installed package
+  endif()
+endif()
+find_package(Python3 3.11 REQUIRED COMPONENTS Interpreter)
+
+function(indurop_add_glb name)
+  cmake_parse_arguments(ARG "" "OUTPUT_DIRECTORY" "GLB" ${ARGN})
+  if(NOT ARG_GLB)
+    message(FATAL_ERROR "indurop_add_glb(${name}): GLB <file.glb>... is required")
+  endif()
+  set(dir ${ARG_OUTPUT_DIRECTORY})
+  if(NOT dir)
+    set(dir ${CMAKE_CURRENT_BINARY_DIR}/${name})
+  endif()
+  set(inputs)
+  foreach(f ${ARG_GLB})
+    get_filename_component(abs ${f} ABSOLUTE)
+    list(APPEND inputs ${abs})
+  endforeach()
+  get_filename_component(glbc_dir ${INDUROP_GLBC} DIRECTORY)
+  file(GLOB_RECURSE glbc_sources ${glbc_dir}/*.py)
+  add_custom_command(
+    OUTPUT ${dir}/indurop/generated.h ${dir}/layout.json
+    COMMAND ${Python3_EXECUTABLE} ${INDUROP_GLBC} ${inputs} -o ${dir}
+    DEPENDS ${inputs} ${INDUROP_GLBC} ${glbc_sources}
+    COMMENT "glbc ${ARG_GLB} -> ${dir}"
+    VERBATIM)
+  add_custom_target(${name}_glbc DEPENDS ${dir}/indurop/generated.h ${dir}/layout.json)
+  add_library(${name} INTERFACE)
+  target_include_directories(${name} INTERFACE ${dir})
+  add_dependencies(${name} ${name}_glbc)
+  set_target_properties(${name} PROPERTIES INDUROP_LAYOUT ${dir}/layout.json)
+endfunction()
+
+function(_indurop_link target)
+  cmake_parse_arguments(ARG "" "GLB" "LIBRARIES" ${ARGN})
+  if(TARGET indurop::indurop)
+    target_link_libraries(${target} PRIVATE indurop::indurop ${ARG_LIBRARIES})
+  else()
+    target_link_libraries(${target} PRIVATE indurop ${ARG_LIBRARIES})
+  endif()
+  if(ARG_GLB)
+    target_link_libraries(${target} PRIVATE ${ARG_GLB})
+  endif()
+endfunction()
+
 function(indurop_add_module name)
-  cmake_parse_arguments(ARG "" "OUTPUT_DIRECTORY" "SOURCES;LIBRARIES" ${ARGN})
+  cmake_parse_arguments(ARG "" "OUTPUT_DIRECTORY;GLB" "SOURCES;LIBRARIES" ${ARGN})
   add_library(${name} MODULE ${ARG_SOURCES})
   set_target_properties(${name} PROPERTIES PREFIX "" SUFFIX ".so")
   if(ARG_OUTPUT_DIRECTORY)
     set_target_properties(${name} PROPERTIES LIBRARY_OUTPUT_DIRECTORY ${ARG_OUTPUT_DIRECTORY})
   endif()
-  if(TARGET indurop::indurop)
-    target_link_libraries(${name} PRIVATE indurop::indurop ${ARG_LIBRARIES})
-  else()
-    target_link_libraries(${name} PRIVATE indurop ${ARG_LIBRARIES})
+  _indurop_link(${name} GLB ${ARG_GLB} LIBRARIES ${ARG_LIBRARIES})
+endfunction()
+
+function(indurop_add_process name)
+  cmake_parse_arguments(ARG "" "OUTPUT_DIRECTORY;GLB" "SOURCES;LIBRARIES" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  set_target_properties(${name} PROPERTIES SUFFIX ".exe" ENABLE_EXPORTS ON)
+  if(ARG_OUTPUT_DIRECTORY)
+    set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${ARG_OUTPUT_DIRECTORY})
   endif()
+  _indurop_link(${name} GLB ${ARG_GLB} LIBRARIES ${ARG_LIBRARIES})
 endfunction()

@@ -5,6 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config   # toolchain
+  python3 python3-venv                           # glbc, the Python tests
   libpugixml-dev nlohmann-json3-dev              # module.xml, JSON output
   googletest libgtest-dev                        # C++ tests
   rt-tests                                       # cyclictest: the benchmark's reference

@@ -25,3 +25,10 @@ std::size_t drainLog(const std::function<void(std::string_view)> &sink);
 uint64_t droppedLogLines() noexcept;
 
 } // namespace irp::runtime
+
+struct indurop_segment_header;
+namespace irp::shared {
+// irpd: the segment it created is this process's segment (null: none any more).
+void adopt(const indurop_segment_header *header) noexcept;
+const indurop_segment_header *segmentHeader() noexcept;
+} // namespace irp::shared

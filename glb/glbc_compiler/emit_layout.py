@@ -1,0 +1,107 @@
+# emit_layout.py -- Layout -> layout.json: every variable and every scalar leaf with its full
+# path, type, offset and size, the struct types, and the layout hash that binds header to segment.
+#
+# The hash is sha256 over json.dumps({"types": ..., "variables": ...}, sort_keys=True,
+# separators=(",", ":"), ensure_ascii=True) with the variables' `source` fields left out, so
+# that the same declarations give the same hash whatever the files are called.
+
+from __future__ import annotations
+
+import hashlib
+import json
+from typing import Any, Iterator
+
+from .layout import Layout, StructType, Type, Variable
+
+FORMAT = "indurop-layout"
+VERSION = 1
+
+
+def _type_name(t: Type) -> str:
+    return t.qualname if isinstance(t, StructType) else t.name
+
+
+def _types(layout: Layout) -> dict[str, Any]:
+    return {
+        st.qualname: {
+            "size": st.size,
+            "align": st.align,
+            "fields": [{"name": f.name, "type": _type_name(f.type), "offset": f.offset, "size": f.size,
+                        "dims": list(f.dims)} for f in st.fields],
+        }
+        for st in layout.types
+    }
+
+
+def _variable(v: Variable) -> dict[str, Any]:
+    return {"path": v.path, "namespace": v.namespace, "name": v.name, "type": _type_name(v.type),
+            "offset": v.offset, "size": v.size, "align": v.align, "dims": list(v.dims), "lock": v.lock}
+
+
+def layout_hash(types: dict[str, Any], variables: list[dict[str, Any]]) -> str:
+    canonical = json.dumps({"types": types, "variables": [{k: x for k, x in v.items() if k != "source"}
+                                                          for v in variables]},
+                           sort_keys=True, separators=(",", ":"), ensure_ascii=True)
+    return hashlib.sha256(canonical.encode("ascii")).hexdigest()
+
+
+def _leaves(path: str, t: Type, dims: list[int], offset: int, lock: int) -> Iterator[dict[str, Any]]:
+    if dims:
+        stride = t.size
+        for d in dims[1:]:
+            stride *= d
+        for i in range(dims[0]):
+            yield from _leaves(f"{path}[{i}]", t, dims[1:], offset + i * stride, lock)
+    elif isinstance(t, StructType):
+        for f in t.fields:
+            yield from _leaves(f"{path}.{f.name}", f.type, f.dims, offset + f.offset, lock)
+    else:
+        yield {"path": path, "type": t.name, "offset": offset, "size": t.size, "lock": lock}
+
+
+def document(layout: Layout) -> dict[str, Any]:
+    """The layout.json document, as a dict (in the order it is written)."""
+    types = _types(layout)
+    variables = [_variable(v) | {"source": v.loc.short()} for v in layout.variables]
+    used = {t.name: t for t in [v.type for v in layout.variables] + [f.type for st in layout.types for f in st.fields]
+            if not isinstance(t, StructType)}
+    scalars = {name: {"size": s.size, "align": s.align, "kind": s.kind} for name, s in sorted(used.items())}
+    return {
+        "format": FORMAT,
+        "version": VERSION,
+        "hash": layout_hash(types, variables),
+        "data_size": layout.data_size,
+        "lock_count": layout.lock_count,
+        "sources": list(layout.sources),
+        "namespaces": list(layout.namespaces),
+        "defines": {f"{d.namespace}.{d.name}": d.value for d in layout.defines},
+        "scalars": scalars,
+        "types": types,
+        "variables": variables,
+        "leaves": [leaf for v in layout.variables for leaf in _leaves(v.path, v.type, v.dims, v.offset, v.lock)],
+    }
+
+
+def _dump(value: Any, indent: int, in_list: bool) -> str:
+    """Pretty JSON with one line per variable, field, leaf and scalar type (an object of plain values
+    inside a list or below the second level)."""
+    pad = "  " * indent
+    flat = lambda x: not isinstance(x, (dict, list)) or (isinstance(x, list) and all(  # noqa: E731
+        not isinstance(y, (dict, list)) for y in x))
+    if isinstance(value, dict):
+        if not value:
+            return "{}"
+        if (in_list or indent >= 2) and all(flat(x) for x in value.values()):
+            return json.dumps(value, ensure_ascii=False)
+        items = [f'{pad}  {json.dumps(k, ensure_ascii=False)}: {_dump(x, indent + 1, False)}' for k, x in value.items()]
+        return "{\n" + ",\n".join(items) + f"\n{pad}}}"
+    if isinstance(value, list):
+        if flat(value):
+            return json.dumps(value, ensure_ascii=False)
+        items = [f"{pad}  {_dump(x, indent + 1, True)}" for x in value]
+        return "[\n" + ",\n".join(items) + f"\n{pad}]"
+    return json.dumps(value, ensure_ascii=False)
+
+
+def render(layout: Layout) -> str:
+    return _dump(document(layout), 0, False) + "\n"

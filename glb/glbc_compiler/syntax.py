@@ -1,0 +1,58 @@
+# syntax.py -- what the parser makes of one .glb file: its namespace line, #defines and
+# declarations in file order, with the position of every name for later error messages.
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Union
+
+from .errors import Loc, Source
+
+
+@dataclass
+class NamespaceStmt:
+    name: str  # dotted: knu.Robot
+    loc: Loc  # the first part
+
+
+@dataclass
+class DefineStmt:
+    name: str
+    value: int
+    loc: Loc  # the name
+
+
+@dataclass
+class Dim:
+    """One array dimension: an integer literal (value) or a #define name (define, resolved later)."""
+
+    loc: Loc
+    value: int | None = None
+    define: str | None = None
+
+
+@dataclass
+class ScalarSpec:
+    cname: str  # the C++ spelling: `unsigned long`
+    loc: Loc
+
+
+@dataclass
+class StructSpec:
+    members: list[Union["Decl", DefineStmt]]
+    loc: Loc  # the `struct` keyword
+
+
+@dataclass
+class Decl:
+    type: ScalarSpec | StructSpec
+    name: str
+    loc: Loc  # the name
+    dims: list[Dim] = field(default_factory=list)
+
+
+@dataclass
+class FileSyntax:
+    source: Source
+    namespace: NamespaceStmt | None
+    items: list[DefineStmt | Decl]  # in file order
