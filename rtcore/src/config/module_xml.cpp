@@ -89,8 +89,16 @@ public:
                 set.modules.push_back(module(node, static_cast<int>(set.modules.size())));
             } else if (tag == "executor") {
                 set.executors.push_back(executor(node));
+            } else if (tag == "layout") {
+                if (!set.layout.empty()) fail(node, "<layout> appears twice in <root>");
+                std::string file = leafText(node, "");
+                if (file.empty()) fail(node, "<layout> is empty; expected the set's layout.json (written by glbc)");
+                if (file.find('\0') != std::string::npos) fail(node, "<layout> contains a NUL");
+                std::filesystem::path p(file);
+                set.layout = p.is_absolute() ? p.lexically_normal() : (path_.parent_path() / p).lexically_normal();
+                set.layout_line = lineOf(node);
             } else {
-                fail(node, "unknown tag <" + std::string(tag) + "> in <root>; expected <module> or <executor>");
+                fail(node, "unknown tag <" + std::string(tag) + "> in <root>; expected <module>, <executor> or <layout>");
             }
         }
         crossCheck(set);

@@ -52,6 +52,8 @@ struct ExecutorSpec {
 
 struct SetSpec {
     std::filesystem::path xml_path;
+    std::filesystem::path layout;         // <layout> at the root: the set's layout.json (empty: none)
+    int layout_line = 0;
     std::vector<ModuleSpec> modules;
     std::vector<ExecutorSpec> executors;  // not including "main"
 };

@@ -13,7 +13,7 @@ std::string unsupportedReason(const config::ModuleSpec &spec) {
     return "";
 }
 
-Result<std::unique_ptr<ModuleSet>> ModuleSet::load(const config::SetSpec &set) {
+Result<std::unique_ptr<ModuleSet>> ModuleSet::load(const config::SetSpec &set, const char *layout_hash) {
     auto loaded = std::make_unique<ModuleSet>();
     for (const config::ModuleSpec &spec : set.modules) {
         std::string reason = unsupportedReason(spec);
@@ -22,7 +22,7 @@ Result<std::unique_ptr<ModuleSet>> ModuleSet::load(const config::SetSpec &set) {
             loaded->skip_reasons_.push_back(std::move(reason));
             continue;
         }
-        auto module = ThreadModule::load(spec);
+        auto module = ThreadModule::load(spec, layout_hash);
         if (!module) return module.error();
         loaded->modules_.push_back(std::move(*module));
         loaded->skip_reasons_.emplace_back();

@@ -19,7 +19,7 @@ namespace irp::hosts {
 class ModuleSet {
 public:
     // Loads every runnable module of the set; the first failure is returned and nothing stays loaded.
-    static Result<std::unique_ptr<ModuleSet>> load(const config::SetSpec &set);
+    static Result<std::unique_ptr<ModuleSet>> load(const config::SetSpec &set, const char *layout_hash = nullptr);
 
     Status initializeAll();
     Status startAll();

@@ -5,6 +5,7 @@
 
 #include <dlfcn.h>
 
+#include <cstring>
 #include <exception>
 #include <system_error>
 
@@ -20,7 +21,7 @@ std::string lastDlError() {
 
 } // namespace
 
-Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpec &spec) {
+Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpec &spec, const char *layout_hash) {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(spec.path, ec))
         return Error{spec.where + ": " + who(spec) +
@@ -30,6 +31,17 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
     dlerror();
     module->handle_ = dlopen(spec.path.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (!module->handle_) return Error{who(spec) + ": cannot load " + spec.path.string() + ": " + lastDlError()};
+
+    // Built with <indurop/generated.h>: the layout it was compiled against must be the running one.
+    if (const auto *built = static_cast<const char *>(dlsym(module->handle_, "indurop_layout_hash"))) {
+        if (!layout_hash)
+            return Error{who(spec) + ": " + spec.path.string() + " uses shared variables (layout " + built +
+                         ") but the set declares no <layout>"};
+        if (std::strcmp(built, layout_hash) != 0)
+            return Error{who(spec) + ": " + spec.path.string() + " was built against shared-variable layout " + built +
+                         ", but the running segment has layout " + layout_hash + ": rebuild it against the set's .glb files"};
+    }
+    dlerror();
 
     if (void *sym = dlsym(module->handle_, INDUROP_MODULE_DESCRIPTOR_SYMBOL)) {
         auto descriptor = reinterpret_cast<indurop_module_descriptor_fn>(sym);

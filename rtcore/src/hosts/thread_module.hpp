@@ -20,8 +20,9 @@ class ThreadModule {
 public:
     // dlopen(RTLD_NOW) the module's file and resolve its entry points.  Refuses a missing file,
     // a library the loader rejects (unresolved symbol, wrong architecture...), a module without
-    // run, and a descriptor of an unknown ABI version.
-    static Result<std::unique_ptr<ThreadModule>> load(const config::ModuleSpec &spec);
+    // run, a descriptor of an unknown ABI version, and a module built against another layout of
+    // shared variables than `layout_hash` (the running segment's; null = the set has none).
+    static Result<std::unique_ptr<ThreadModule>> load(const config::ModuleSpec &spec, const char *layout_hash = nullptr);
 
     ~ThreadModule();  // dlclose
     ThreadModule(const ThreadModule &) = delete;

@@ -16,6 +16,8 @@
 #include "sdk/runtime.hpp"
 #include "stats/stats_segment.hpp"
 #include "stats/summary.hpp"
+#include "variables/layout.hpp"
+#include "variables/variable_segment.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -26,6 +28,7 @@
 #include <ctime>
 #include <fstream>
 #include <iostream>
+#include <optional>
 
 namespace irp::daemon {
 namespace {
@@ -93,7 +96,20 @@ int run(const Options &options) {
     header->macro_ns = schedule->macro_ns;
     std::snprintf(header->set_path, sizeof header->set_path, "%s", set->xml_path.c_str());
 
-    auto modules = hosts::ModuleSet::load(*set);
+    // Shared variables: the segment exists before any module is loaded.
+    std::optional<variables::VariableSegment> vars;
+    if (!options.layout.empty()) set->layout = options.layout;
+    if (!set->layout.empty()) {
+        auto layout = variables::readLayout(set->layout);
+        if (!layout) return refuse(layout.error().message);
+        auto segment = variables::VariableSegment::create(options.instance, *layout);
+        if (!segment) return std::cerr << "irpd: error: " << segment.error().message << std::endl, kExitFailure;
+        vars = std::move(*segment);
+        say("shared variables: " + std::to_string(layout->variables) + " variables, " +
+            std::to_string(layout->data_size) + " bytes, layout " + vars->hash() + ", in /dev/shm" + vars->name());
+    }
+
+    auto modules = hosts::ModuleSet::load(*set, vars ? vars->hash() : nullptr);
     if (!modules) return refuse(modules.error().message);
     std::vector<dispatch::ModuleBinding> bindings;
     for (const config::ModuleSpec &m : set->modules) {

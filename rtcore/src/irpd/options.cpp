@@ -14,7 +14,7 @@ namespace {
 
 enum Flag {
     kConfig = 1000, kPrintSchedule, kJson, kDuration, kStatsJson, kInstance, kMinBasic, kCpu, kRtPriority, kNoRt,
-    kPolicy, kMaxCatchup, kHelp, kVersion, kStatsLayout,
+    kPolicy, kMaxCatchup, kHelp, kVersion, kStatsLayout, kLayout,
 };
 
 const option kOptions[] = {
@@ -33,6 +33,7 @@ const option kOptions[] = {
     {"help", no_argument, nullptr, kHelp},
     {"version", no_argument, nullptr, kVersion},
     {"print-stats-layout", no_argument, nullptr, kStatsLayout},
+    {"layout", required_argument, nullptr, kLayout},
     {nullptr, 0, nullptr, 0},
 };
 
@@ -58,7 +59,10 @@ Runs the module set described by FILE.xml (the paper's module.xml) on a strict p
   --json                   with --print-schedule: print it as JSON
   --duration S             run S seconds of the time grid, then stop (default: until SIGINT/SIGTERM)
   --stats-json FILE        on exit, write per-module and dispatcher timing figures to FILE
-  --instance NAME          names the shared memory (/indurop.NAME.stats); default "default"
+  --instance NAME          names the shared memory (/indurop.NAME.stats, /indurop.NAME.vars);
+                           default "default"
+  --layout FILE.json       the set's shared-variable layout (glbc's layout.json), instead of the
+                           <layout> of module.xml
   --min-basic-period NS    refuse sets whose basic period is shorter (default 50000)
   --cpu N                  CPU of the main dispatcher thread (default: the last one)
   --rt-priority N          SCHED_FIFO priority of the main dispatcher, 1..99 (default 80)
@@ -83,7 +87,7 @@ Result<Options> parseOptions(int argc, char **argv) {
         int index = 0;
         int c = getopt_long(argc, argv, ":", kOptions, &index);
         if (c == -1) break;
-        const char *name = c >= kConfig && c <= kStatsLayout ? kOptions[c - kConfig].name : "";
+        const char *name = c >= kConfig && c <= kLayout ? kOptions[c - kConfig].name : "";
         switch (c) {
         case kConfig: o.config = optarg; break;
         case kPrintSchedule: o.print_schedule = true; break;
@@ -137,6 +141,7 @@ Result<Options> parseOptions(int argc, char **argv) {
         case kHelp: o.help = true; break;
         case kVersion: o.version = true; break;
         case kStatsLayout: o.print_stats_layout = true; break;
+        case kLayout: o.layout = optarg; break;
         case ':': return Error{std::string("option ") + argv[optind - 1] + " needs a value"};
         default: return Error{std::string("unknown option ") + argv[optind - 1]};
         }
