@@ -81,7 +81,8 @@ def _variable(v: Variable) -> list[str]:
 
 def _block(b: Block) -> list[str]:
     ns = _cpp_namespace(b.namespace)
-    out = [f"// ---- {_comment_safe(b.source)}", f"namespace {ns} {{", ""]
+    out = [f"// ---- {_comment_safe(b.source)}" + ("" if ns else " (global namespace)")]
+    out += [f"namespace {ns} {{", ""] if ns else [""]
     if b.defines:
         out += [f"inline constexpr long {d.name} = {d.value};  // #define ({d.loc.short()})" for d in b.defines]
         out.append("")
@@ -91,7 +92,8 @@ def _block(b: Block) -> list[str]:
     for v in b.variables:
         out += _variable(v)
         out.append("")
-    out.append(f"}} // namespace {ns}")
+    if ns:
+        out.append(f"}} // namespace {ns}")
     return out
 
 

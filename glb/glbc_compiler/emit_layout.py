@@ -11,7 +11,7 @@ import hashlib
 import json
 from typing import Any, Iterator
 
-from .layout import Layout, StructType, Type, Variable
+from .layout import Layout, StructType, Type, Variable, qualify
 
 FORMAT = "indurop-layout"
 VERSION = 1
@@ -74,7 +74,7 @@ def document(layout: Layout) -> dict[str, Any]:
         "lock_count": layout.lock_count,
         "sources": list(layout.sources),
         "namespaces": list(layout.namespaces),
-        "defines": {f"{d.namespace}.{d.name}": d.value for d in layout.defines},
+        "defines": {qualify(d.namespace, d.name): d.value for d in layout.defines},
         "scalars": scalars,
         "types": types,
         "variables": variables,

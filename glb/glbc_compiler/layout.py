@@ -17,6 +17,18 @@ MAX_LEAVES = 200_000  # scalars listed in layout.json's `leaves`
 DEFAULT_MAX_SIZE = 16 * 1024 * 1024
 
 
+GLOBAL = ""  # the namespace of declarations in a file without a namespace line
+
+
+def describe_namespace(namespace: str) -> str:
+    return f"namespace {namespace}" if namespace else "the global namespace"
+
+
+def qualify(namespace: str, name: str) -> str:
+    """`knu.Robot` + `joints` -> `knu.Robot.joints`; in the global namespace just `joints`."""
+    return f"{namespace}.{name}" if namespace else name
+
+
 @dataclass
 class StructType:
     namespace: str
@@ -30,7 +42,7 @@ class StructType:
 
     @property
     def qualname(self) -> str:
-        return f"{self.namespace}.{self.cname}"
+        return qualify(self.namespace, self.cname)
 
     @property
     def ref_name(self) -> str:
@@ -64,7 +76,7 @@ class Variable:
 
     @property
     def path(self) -> str:
-        return f"{self.namespace}.{self.name}"
+        return qualify(self.namespace, self.name)
 
     @property
     def align(self) -> int:
@@ -143,7 +155,7 @@ class _Builder:
             return
         note = [Note(old.loc, f"{old.describe(name)} is declared here")]
         if sym.kind != "type" and old.kind != "type":
-            raise GlbError(f"duplicate name '{name}' in namespace {ns}: first declared at {old.loc}", sym.loc, notes=note)
+            raise GlbError(f"duplicate name '{name}' in {describe_namespace(ns)}: first declared at {old.loc}", sym.loc, notes=note)
         raise GlbError(f"{sym.describe(name)} clashes with {old.describe(name)} at {old.loc}; rename one of them",
                        sym.loc, notes=note)
 
@@ -162,7 +174,7 @@ class _Builder:
                 continue
             found = self.defines.get(ns, {}).get(d.define)
             if found is None:
-                raise GlbError(f"'{d.define}' is not a #define of namespace {ns} declared before this line: "
+                raise GlbError(f"'{d.define}' is not a #define of {describe_namespace(ns)} declared before this line: "
                                f"an array size is an integer or a #define name", d.loc)
             check_dim(found.value, d.loc, via=f" (#define {d.define})")
             out.append(found.value)
@@ -206,10 +218,11 @@ class _Builder:
     # -- files ----------------------------------------------------------------------------------
 
     def file(self, fs: FileSyntax) -> None:
-        if fs.namespace is None:
+        if fs.namespace is None and not fs.items:
             return  # nothing but comments and blank lines
-        ns = fs.namespace.name
-        self.namespace_locs.setdefault(ns, fs.namespace.loc)
+        ns = fs.namespace.name if fs.namespace else GLOBAL
+        if fs.namespace:
+            self.namespace_locs.setdefault(ns, fs.namespace.loc)
         self.symbols.setdefault(ns, {})
         block = Block(fs.source.name, ns)
         self.blocks.append(block)

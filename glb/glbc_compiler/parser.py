@@ -51,6 +51,7 @@ class Parser:
         self.tokens = tokenize(src)
         self.pos = 0
         self.namespace: NamespaceStmt | None = None
+        self.items_before_namespace = None  # where the first global declaration is, if any
         self.items: list[DefineStmt | Decl] = []
         self.depth = 0  # structs open around the current position
 
@@ -100,14 +101,12 @@ class Parser:
                 self.items.append(define)
             elif tok.is_word("namespace"):
                 self.parse_namespace()
-            elif self.namespace is None:
-                raise GlbError(f"expected 'namespace NAME;' before the first declaration, found {tok.describe()} "
-                               f"(a .glb file starts with its namespace, e.g. `namespace knu.Robot;`)", tok.loc)
             else:
+                # Before any namespace line: the global namespace (C++ `::name`, path `name`), as the
+                # variable `joint` of the paper's Figures 7 and 8 is used.
+                if self.namespace is None and self.items_before_namespace is None:
+                    self.items_before_namespace = tok.loc
                 self.items.append(self.parse_declaration(in_struct=False))
-        if self.namespace is None and first_define is not None:
-            raise GlbError(f"#define {first_define.name} outside a namespace: this file has no 'namespace NAME;' line",
-                           first_define.loc)
         return FileSyntax(self.src, self.namespace, self.items)
 
     def end_of_statement(self, what: str, in_struct: bool) -> None:
@@ -143,6 +142,11 @@ class Parser:
             parts.append(self.name("a namespace name part").text)
         dotted = ".".join(parts)
         self.end_of_statement(f"'namespace {dotted}'", in_struct=False)
+        if self.items_before_namespace is not None:
+            raise GlbError(
+                f"'namespace' after global declarations: a file's declarations are either all global or all in "
+                f"its one namespace, declared before them", keyword.loc,
+                notes=[Note(self.items_before_namespace, "the first global declaration")])
         if self.namespace is not None:
             raise GlbError(
                 f"a second namespace line: this file already declared namespace {self.namespace.name}; "

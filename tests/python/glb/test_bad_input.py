@@ -258,17 +258,11 @@ def test_missing_name_after_brace_at_end_of_line(glb):
           "a.glb:4:2: error: expected the variable's name after '}' (on the same line), found end of line")
 
 
-def test_declaration_before_namespace(glb):
-    lines = check(glb({"a.glb": "// no namespace yet\nuint32_t tick;\nnamespace a;\n"}),
-                  "a.glb:2:1: error: expected 'namespace NAME;' before the first declaration, found 'uint32_t' "
-                  "(a .glb file starts with its namespace, e.g. `namespace knu.Robot;`)")
-    check_caret(lines, "uint32_t tick;", 1)
-
-
-def test_define_in_a_file_without_namespace(glb):
-    check(glb({"a.glb": "#define N 3\n"}),
-          "a.glb:1:9: error: #define N outside a namespace: this file has no 'namespace NAME;' line")
-
+def test_namespace_after_global_declarations(glb):
+    lines = check(glb({"a.glb": "// global first\nuint32_t tick;\nnamespace a;\n"}),
+                  "a.glb:3:1: error: 'namespace' after global declarations: a file's declarations are either all "
+                  "global or all in its one namespace, declared before them")
+    check_caret(lines, "namespace a;", 1)
 
 def test_second_namespace_line(glb):
     lines = check(glb({"a.glb": NS + "int x;\nnamespace b;\n"}),

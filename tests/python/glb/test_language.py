@@ -135,3 +135,19 @@ def test_header_shapes(glb):
     assert "          f(offset + 0, lock, true)," in h and "          g(offset + 16, lock, true) {}" in h
     assert 'static_assert(sizeof(v_t[5]) == 120 && alignof(v_t) == 8, "glbc layout of k.r.v");' in h
     assert h.index("struct v_t_f_t {") < h.index("struct v_t {")  # nested types first
+
+
+def test_a_file_without_namespace_declares_global_variables(glb):
+    # The paper's Figures 7 and 8 use `joint[0].x` and the path "joint[1].y" without a namespace.
+    doc = ok(glb, {"joint.glb": "// joint.glb\n#define N 4\nstruct { double x; double y; double z; } joint[N]\n"})
+    assert variables(doc) == [("joint", "joint_t", [4])]
+    assert doc["defines"] == {"N": 4}
+    assert any(leaf["path"] == "joint[1].y" for leaf in doc["leaves"])
+    text = header(glb)
+    assert "(global namespace)" in text and "inline constexpr ::irp::shared::ArrayRef<joint_t_ref, 4> joint{" in text
+
+
+def test_global_and_namespaced_files_together(glb):
+    doc = ok(glb, {"a.glb": "namespace knu.Robot;\nuint32_t tick;\n", "b.glb": "uint32_t tick;\n"},
+             order=["a.glb", "b.glb"])
+    assert [v[0] for v in variables(doc)] == ["knu.Robot.tick", "tick"]
