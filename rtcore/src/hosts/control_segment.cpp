@@ -1,0 +1,74 @@
+// control_segment.cpp -- control segment creation and the futex calls.
+#include "hosts/control_segment.hpp"
+
+#include <linux/futex.h>
+#include <signal.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <ctime>
+#include <new>
+
+namespace irp::hosts {
+
+std::string ControlSegment::shmName(const std::string &instance) { return "/indurop." + instance + ".ctl"; }
+
+Result<ControlSegment> ControlSegment::create(const std::string &instance, uint32_t slot_count) {
+    const std::string name = shmName(instance);
+    const std::size_t size = sizeof(indurop_control_header) + std::size_t{slot_count} * sizeof(indurop_process_slot);
+    auto shm = osal::SharedMemory::create(name, size, 0660);
+    if (!shm) {
+        if (auto old = osal::SharedMemory::open(name, false)) {
+            const auto *h = static_cast<const indurop_control_header *>(old->data());
+            if (old->size() >= sizeof *h && h->magic == INDUROP_CONTROL_MAGIC && h->owner_pid > 0 &&
+                h->owner_pid != getpid() && (kill(static_cast<pid_t>(h->owner_pid), 0) == 0 || errno == EPERM))
+                return Error{"instance '" + instance + "' is in use by irpd pid " + std::to_string(h->owner_pid) +
+                             " (shared memory " + name + ")"};
+        }
+        osal::SharedMemory::unlink(name);
+        shm = osal::SharedMemory::create(name, size, 0660);
+        if (!shm) return shm.error();
+    }
+    ControlSegment segment;
+    segment.shm_ = std::move(*shm);
+    auto *h = new (segment.shm_.data()) indurop_control_header{};
+    h->magic = INDUROP_CONTROL_MAGIC;
+    h->version = INDUROP_CONTROL_VERSION;
+    h->header_size = sizeof(indurop_control_header);
+    h->slot_size = sizeof(indurop_process_slot);
+    h->slot_count = slot_count;
+    h->owner_pid = getpid();
+    for (uint32_t i = 0; i < slot_count; ++i) new (&segment.slot(i)) indurop_process_slot{};
+    return segment;
+}
+
+namespace futex {
+
+void wakeAll(uint32_t *word) noexcept { syscall(SYS_futex, word, FUTEX_WAKE, INT32_MAX, nullptr, nullptr, 0); }
+
+bool waitWhileEqual(uint32_t *word, uint32_t expected, int64_t timeout_ns) noexcept {
+    // FUTEX_WAIT's timeout is relative; recompute it from an absolute deadline after each wake-up.
+    timespec now{};
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    const int64_t deadline = timeout_ns > 0 ? now.tv_sec * 1'000'000'000LL + now.tv_nsec + timeout_ns : 0;
+    std::atomic_ref<uint32_t> value(*word);
+    while (value.load(std::memory_order_acquire) == expected) {
+        timespec rel{}, *timeout = nullptr;
+        if (deadline) {
+            clock_gettime(CLOCK_MONOTONIC, &now);
+            int64_t left = deadline - (now.tv_sec * 1'000'000'000LL + now.tv_nsec);
+            if (left <= 0) return false;
+            rel = {static_cast<time_t>(left / 1'000'000'000), static_cast<long>(left % 1'000'000'000)};
+            timeout = &rel;
+        }
+        long rc = syscall(SYS_futex, word, FUTEX_WAIT, expected, timeout, nullptr, 0);
+        if (rc == -1 && errno == ETIMEDOUT) return value.load(std::memory_order_acquire) != expected;
+    }
+    return true;
+}
+
+} // namespace futex
+} // namespace irp::hosts
