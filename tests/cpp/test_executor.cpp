@@ -288,7 +288,13 @@ RealRun runFor(const config::SetSpec &set, int64_t duration_ns) {
         const auto &m = set.modules[i];
         auto &r = run.segment->describe(first + i, stats::RecordKind::Module, m.name, m.executor, m.period_ns,
                                         m.priority, m.budget_ns);
-        bindings.push_back({run.modules->module(i) ? run.modules->module(i)->runFunction() : nullptr, &r});
+        dispatch::ModuleBinding b;
+        b.stats = &r;
+        if (auto *module = run.modules->module(i)) {
+            b.run = module->runFunction();
+            b.condition = module->table().condition;
+        }
+        bindings.push_back(b);
     }
     EXPECT_TRUE(run.modules->initializeAll().ok());
     EXPECT_TRUE(run.modules->startAll().ok());

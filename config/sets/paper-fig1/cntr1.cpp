@@ -1,6 +1,8 @@
-// cntr1.cpp -- Figure 1's cntr1 (500 us, priority 3), written in the plain style of Figure 12:
-// extern "C" initialize(irp::Property const&) reads the set's property, run() counts.
+// cntr1.cpp -- Figure 1's cntr1 (500 us, priority 3), in the plain style of Figure 12:
+// extern "C" initialize(irp::Property const&) reads the set's property; run() counts in the
+// shared variable knu.Robot.joints[1] (Figure 3).
 #include <indurop/indurop.h>
+#include <indurop/generated.h>
 
 #include <cstdint>
 #include <iostream>
@@ -20,6 +22,7 @@ void start() { std::cout << "[cntr1] start" << std::endl; }
 void run() {
     ++counter;
     ++runs;
+    knu::Robot::joints[1].x = static_cast<double>(counter);
 }
 
 void stop() { std::cout << "[cntr1] stop after " << runs << " runs, counter = " << counter << std::endl; }

@@ -25,7 +25,8 @@ struct Dispatcher::Plan {
     ExecutorOptions options;
     int64_t basic_ns = 0;
     std::vector<std::vector<Task *>> slots;
-    std::vector<Task *> tasks;
+    std::vector<Task *> tasks;   // periodic
+    std::vector<Task *> events;  // sporadic, in priority order
     stats::TimingRecord *record = nullptr;
     std::unique_ptr<Executor> executor;
 };
@@ -48,18 +49,28 @@ Dispatcher::Dispatcher(const config::SetSpec &set, const schedule::Schedule &sch
     for (const config::ExecutorSpec &e : set.executors)
         add(e.name, e.rt_priority ? e.rt_priority : std::max(1, options_.rt_priority - 1), e.cpu >= 0 ? e.cpu : options_.cpu);
 
-    // Tasks of runnable periodic modules, grouped by executor.
+    // Tasks of the dispatched modules, grouped by executor: periodic ones go into the slot table,
+    // sporadic ones into the event handler's list (priority order, ties to the earlier in the file).
     std::vector<Task *> task_of(set.modules.size(), nullptr);
-    for (const config::ModuleSpec &m : set.modules) {
-        const ModuleBinding &b = bindings[static_cast<std::size_t>(m.index)];
-        if (m.operation != config::OperationType::Periodic || !b.run) continue;
+    std::vector<const config::ModuleSpec *> by_priority;
+    for (const config::ModuleSpec &m : set.modules) by_priority.push_back(&m);
+    std::stable_sort(by_priority.begin(), by_priority.end(), [](const auto *a, const auto *b) { return a->priority < b->priority; });
+    for (const config::ModuleSpec *m : by_priority) {
+        const ModuleBinding &b = bindings[static_cast<std::size_t>(m->index)];
+        if (m->operation == config::OperationType::NonReal || (!b.run && !b.process)) continue;
         auto task = std::make_unique<Task>();
+        task->kind = b.process ? Task::Kind::Process : Task::Kind::Thread;
+        task->sporadic = m->operation == config::OperationType::Sporadic;
         task->run = b.run;
+        task->condition = b.condition;
+        task->process = b.process;
         task->stats = b.stats;
-        task->period_ns = m.period_ns;
-        task->budget_ns = m.budget_ns;
-        task_of[static_cast<std::size_t>(m.index)] = task.get();
-        by_name.at(m.executor)->tasks.push_back(task.get());
+        task->period_ns = m->period_ns;
+        task->budget_ns = m->budget_ns;
+        task->deadline_ns = m->deadline_ns;
+        task_of[static_cast<std::size_t>(m->index)] = task.get();
+        Plan &plan = *by_name.at(m->executor);
+        (task->sporadic ? plan.events : plan.tasks).push_back(task.get());
         tasks_.push_back(std::move(task));
     }
 
@@ -86,7 +97,8 @@ Dispatcher::Dispatcher(const config::SetSpec &set, const schedule::Schedule &sch
         plan.record = &segment_.describe(p, stats::RecordKind::Dispatcher,
                                          p == 0 ? std::string("dispatcher") : "dispatcher@" + plan.options.name,
                                          plan.options.name, plan.basic_ns, plan.options.rt_priority, 0);
-        plan.executor = std::make_unique<Executor>(clock_, plan.basic_ns, plan.slots, plan.tasks, plan.record, plan.options);
+        plan.executor = std::make_unique<Executor>(clock_, plan.basic_ns, plan.slots, plan.tasks, plan.record,
+                                                   plan.options, plan.events);
     }
 }
 

@@ -25,10 +25,13 @@ struct DispatcherOptions {
     int64_t max_catchup_ns = 100'000'000;
 };
 
-// A module of the set as the dispatcher runs it: its run function (null = not runnable here,
-// listed in the stats as skipped) and its stats record.
+// A module of the set as the dispatcher runs it, and its stats record.  A thread module has its
+// run function (and condition, if sporadic); a process module its control slot; a module with
+// neither is not dispatched (non-real processes run beside the dispatcher, supervised).
 struct ModuleBinding {
     void (*run)() = nullptr;
+    int (*condition)() = nullptr;
+    indurop_process_slot *process = nullptr;
     stats::TimingRecord *stats = nullptr;
 };
 

@@ -2,6 +2,7 @@
 // no allocation, no locks, no syscalls but clock_gettime (vDSO) and clock_nanosleep.
 #include "dispatch/executor.hpp"
 
+#include "hosts/control_segment.hpp"
 #include "sdk/runtime.hpp"
 
 #include <exception>
@@ -11,9 +12,100 @@ namespace irp::dispatch {
 const char *toString(OverrunPolicy policy) { return policy == OverrunPolicy::CatchUp ? "catch-up" : "skip"; }
 
 Executor::Executor(osal::Clock &clock, int64_t basic_ns, std::vector<std::vector<Task *>> slots,
-                   std::vector<Task *> tasks, stats::TimingRecord *self, ExecutorOptions options)
-    : clock_(clock), basic_ns_(basic_ns), slots_(std::move(slots)), tasks_(std::move(tasks)), self_(self),
-      options_(std::move(options)) {}
+                   std::vector<Task *> tasks, stats::TimingRecord *self, ExecutorOptions options,
+                   std::vector<Task *> events)
+    : clock_(clock), basic_ns_(basic_ns), slots_(std::move(slots)), tasks_(std::move(tasks)),
+      events_(std::move(events)), self_(self), options_(std::move(options)) {}
+
+void Executor::disable(Task &task, stats::TimingRecord &r, const char *what, const char *detail) {
+    task.disabled = true;
+    stats::bump(r.errors);
+    r.state.store(static_cast<uint32_t>(stats::ModuleState::Disabled), std::memory_order_relaxed);
+    irp::printf("irpd: module '%s' threw %s from %s; disabled\n", r.name, detail, what);
+}
+
+void Executor::runThread(Task &task, stats::TimingRecord &r) {
+    try {
+        task.run();
+    } catch (const std::exception &e) {
+        disable(task, r, "run()", e.what());
+    } catch (...) {
+        disable(task, r, "run()", "a non-standard exception");
+    }
+}
+
+bool Executor::runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start, int64_t wait_until) {
+    indurop_process_slot &slot = *task.process;
+    std::atomic_ref<uint32_t> state(slot.state), release(slot.release_seq), done(slot.done_seq);
+    const uint32_t served = release.load(std::memory_order_relaxed);
+    // Ready means waiting in irp::waitPeriod() with the last release finished.
+    if (state.load(std::memory_order_acquire) != INDUROP_PROCESS_READY || done.load(std::memory_order_acquire) != served)
+        return false;
+    slot.cycle = cycle;
+    slot.planned_ns = due;
+    slot.basic_ns = basic_ns_;
+    slot.release_ns = start;
+    release.store(served + 1, std::memory_order_release);
+    hosts::futex::wakeAll(&slot.release_seq);
+    if (task.sporadic) return true;  // the event handler checks completion later
+    const int64_t left = wait_until - clock_.now();
+    if (left <= 0 || !hosts::futex::waitWhileEqual(&slot.done_seq, served, left)) stats::bump(task.stats->overruns);
+    return true;
+}
+
+int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
+    for (Task *task : events_) {
+        if (task->disabled) continue;
+        stats::TimingRecord &r = *task->stats;
+        if (task->kind == Task::Kind::Thread) {
+            int fired = 0;
+            try {
+                fired = task->condition();
+            } catch (...) {
+                disable(*task, r, "condition()", "an exception");
+                continue;
+            }
+            const int64_t checked = t;
+            t = clock_.now();
+            if (!fired) continue;
+            const int64_t start = t;
+            r.latency.record(static_cast<uint64_t>(start - checked));
+            runThread(*task, r);
+            t = clock_.now();
+            r.exec.record(static_cast<uint64_t>(t - start));
+            if (t - checked > task->deadline_ns) stats::bump(r.missed);  // condition true -> done
+            stats::bump(r.runs);
+            continue;
+        }
+        // A sporadic process: released every basic period to check its own condition (Figure 8);
+        // the dispatcher does not wait, it checks completion against the deadline afterwards.
+        indurop_process_slot &slot = *task->process;
+        if (task->in_flight) {
+            std::atomic_ref<uint32_t> done(slot.done_seq);
+            if (done.load(std::memory_order_acquire) == task->released_seq) {
+                task->in_flight = false;
+                const int64_t took = slot.done_ns - task->released_at;
+                r.exec.record(static_cast<uint64_t>(took > 0 ? took : 0));
+                if (took > task->deadline_ns && !task->deadline_missed) stats::bump(r.missed);
+                stats::bump(r.runs);
+            } else {
+                if (!task->deadline_missed && t - task->released_at > task->deadline_ns) {
+                    task->deadline_missed = true;
+                    stats::bump(r.missed);
+                }
+                continue;  // still working on the last release
+            }
+        }
+        if (runProcess(*task, cycle, due, t, 0)) {
+            task->in_flight = true;
+            task->deadline_missed = false;
+            task->released_seq = std::atomic_ref<uint32_t>(slot.release_seq).load(std::memory_order_relaxed);
+            task->released_at = t;
+            r.latency.record(static_cast<uint64_t>(t - due > 0 ? t - due : 0));
+        }
+    }
+    return t;
+}
 
 // Counts the runs that skipping slots [from, from + count) takes from each task.
 void Executor::skip(uint64_t from, uint64_t count) {
@@ -82,35 +174,33 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         for (Task *task : slots_[slot_index]) {
             if (task->disabled) continue;
             const int64_t start = t;
+            stats::TimingRecord &r = *task->stats;
+            if (task->kind == Task::Kind::Process) {
+                // Released and awaited in its place, so R6's order holds across threads and processes.
+                const int64_t wait_until = task->budget_ns ? start + task->budget_ns : due + basic;
+                if (!runProcess(*task, cycle, due, start, wait_until)) {
+                    stats::bump(r.missed);  // not ready: starting, restarting, or still in its last period
+                    t = clock_.now();
+                    continue;
+                }
+            }
             if (!task->started) {
                 task->started = true;
                 task->t0 = start;
                 task->first_cycle = cycle;
             }
             const auto n = static_cast<int64_t>((cycle - task->first_cycle) / static_cast<uint64_t>(task->period_slots));
-            stats::TimingRecord &r = *task->stats;
             r.jitter.record(task->t0 + n * task->period_ns - start);
             r.latency.record(static_cast<uint64_t>(start - due > 0 ? start - due : 0));
             if (start - due >= task->period_ns) stats::bump(r.missed);
-            try {
-                task->run();
-            } catch (const std::exception &e) {
-                task->disabled = true;
-                stats::bump(r.errors);
-                r.state.store(static_cast<uint32_t>(stats::ModuleState::Disabled), std::memory_order_relaxed);
-                irp::printf("irpd: module '%s' threw from run(): %s; disabled\n", r.name, e.what());
-            } catch (...) {
-                task->disabled = true;
-                stats::bump(r.errors);
-                r.state.store(static_cast<uint32_t>(stats::ModuleState::Disabled), std::memory_order_relaxed);
-                irp::printf("irpd: module '%s' threw a non-standard exception from run(); disabled\n", r.name);
-            }
+            if (task->kind == Task::Kind::Thread) runThread(*task, r);
             t = clock_.now();
             const int64_t exec = t - start;
             r.exec.record(static_cast<uint64_t>(exec));
-            if (task->budget_ns && exec > task->budget_ns) stats::bump(r.overruns);
+            if (task->kind == Task::Kind::Thread && task->budget_ns && exec > task->budget_ns) stats::bump(r.overruns);
             stats::bump(r.runs);
         }
+        if (!events_.empty()) t = handleEvents(cycle, due, t);
         previous_end = t;
         self_->exec.record(static_cast<uint64_t>(t - woke));
         if (t - woke > basic) stats::bump(self_->overruns);  // the work itself outgrew the period

@@ -9,6 +9,8 @@
 #include "osal/clock.hpp"
 #include "stats/stats_block.hpp"
 
+#include <indurop/control.h>
+
 #include <atomic>
 #include <cstdint>
 #include <string>
@@ -31,7 +33,13 @@ const char *toString(OverrunPolicy policy);
 
 // One module's place in an executor.  Runtime fields are written by the executor thread only.
 struct Task {
-    void (*run)() = nullptr;
+    enum class Kind : uint8_t { Thread, Process };
+    Kind kind = Kind::Thread;
+    bool sporadic = false;     // run by the event handler, not from the slot table
+    void (*run)() = nullptr;   // thread modules
+    int (*condition)() = nullptr;            // sporadic thread modules
+    indurop_process_slot *process = nullptr; // process modules: their control slot
+    int64_t deadline_ns = 0;   // sporadic: from condition true / release to completion
     stats::TimingRecord *stats = nullptr;
     int64_t period_ns = 0;
     int64_t period_slots = 1;  // period / the executor's basic period
@@ -41,6 +49,11 @@ struct Task {
     uint64_t first_cycle = 0;
     bool started = false;
     bool disabled = false;
+    // a sporadic process's release in flight
+    bool in_flight = false;
+    bool deadline_missed = false;
+    uint32_t released_seq = 0;
+    int64_t released_at = 0;
 };
 
 struct ExecutorOptions {
@@ -53,9 +66,10 @@ struct ExecutorOptions {
 
 class Executor {
 public:
-    // slots[i]: the tasks of slot i in run order.  self: this dispatcher's own record.
+    // slots[i]: the tasks of slot i in run order; tasks: every periodic task; events: the sporadic
+    // tasks in priority order (the event handler's list).  self: this dispatcher's own record.
     Executor(osal::Clock &clock, int64_t basic_ns, std::vector<std::vector<Task *>> slots, std::vector<Task *> tasks,
-             stats::TimingRecord *self, ExecutorOptions options);
+             stats::TimingRecord *self, ExecutorOptions options, std::vector<Task *> events = {});
 
     // The RT loop.  Slot n is due at t0 + n * basic.  Returns when `stop` is set (checked every
     // slot) or after cycle_limit slots (0 = no limit).  `cycles`, if given, counts slots done;
@@ -68,11 +82,19 @@ public:
 
 private:
     void skip(uint64_t from_cycle, uint64_t count);
+    void runThread(Task &task, stats::TimingRecord &r);
+    // Releases a periodic process and waits (futex) until it reports the period done, at most
+    // until `wait_until`.  False if it was not ready to be released.
+    bool runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start, int64_t wait_until);
+    // The event handler (Figure 6): conditions of sporadic threads, then releases of sporadic processes.
+    int64_t handleEvents(uint64_t cycle, int64_t due, int64_t t);
+    void disable(Task &task, stats::TimingRecord &r, const char *what, const char *detail);
 
     osal::Clock &clock_;
     int64_t basic_ns_;
     std::vector<std::vector<Task *>> slots_;
     std::vector<Task *> tasks_;
+    std::vector<Task *> events_;
     stats::TimingRecord *self_;
     ExecutorOptions options_;
 };

@@ -4,12 +4,8 @@
 namespace irp::hosts {
 
 std::string unsupportedReason(const config::ModuleSpec &spec) {
-    using config::ModuleType;
-    using config::OperationType;
-    if (spec.type == ModuleType::Process)
+    if (spec.type == config::ModuleType::Process)
         return std::string(config::toString(spec.operation)) + " process modules are not run by this version of irpd";
-    if (spec.operation == OperationType::Sporadic) return "sporadic thread modules are not run by this version of irpd";
-    if (spec.operation == OperationType::NonReal) return "non-real thread modules are not run by this version of irpd";
     return "";
 }
 
@@ -22,8 +18,15 @@ Result<std::unique_ptr<ModuleSet>> ModuleSet::load(const config::SetSpec &set, c
             loaded->skip_reasons_.push_back(std::move(reason));
             continue;
         }
+        if (spec.operation == config::OperationType::NonReal)
+            return Error{spec.where + ": module '" + spec.name +
+                         "': a non-real module runs in the time left over as a process: set <moduletype>process</moduletype>"};
         auto module = ThreadModule::load(spec, layout_hash);
         if (!module) return module.error();
+        if (spec.operation == config::OperationType::Sporadic && !(*module)->hasCondition())
+            return Error{spec.where + ": module '" + spec.name + "': a sporadic thread module needs condition() " +
+                         "(extern \"C\" int condition(), or INDUROP_MODULE(condition = ...)), which the event handler calls " +
+                         "every basic period"};
         loaded->modules_.push_back(std::move(*module));
         loaded->skip_reasons_.emplace_back();
     }

@@ -99,6 +99,9 @@ int run(const Options &options) {
     // Shared variables: the segment exists before any module is loaded.
     std::optional<variables::VariableSegment> vars;
     if (!options.layout.empty()) set->layout = options.layout;
+    // Without <layout>, a layout.json beside module.xml is the set's (the build puts it there).
+    const auto beside = set->xml_path.parent_path() / "layout.json";
+    if (set->layout.empty() && std::filesystem::is_regular_file(beside)) set->layout = beside;
     if (!set->layout.empty()) {
         auto layout = variables::readLayout(set->layout);
         if (!layout) return refuse(layout.error().message);
@@ -119,7 +122,13 @@ int run(const Options &options) {
         hosts::ThreadModule *module = (*modules)->module(i);
         record.state.store(static_cast<uint32_t>(module ? stats::ModuleState::Loaded : stats::ModuleState::Skipped));
         if (!module) say("skipping module '" + m.name + "': " + (*modules)->skipReason(i) + "; it stays in the schedule");
-        bindings.push_back({module ? module->runFunction() : nullptr, &record});
+        dispatch::ModuleBinding binding;
+        binding.stats = &record;
+        if (module) {
+            binding.run = module->runFunction();
+            binding.condition = module->table().condition;
+        }
+        bindings.push_back(binding);
     }
     if (Status s = (*modules)->initializeAll(); !s) return refuse(s.error().message);
     if (Status s = (*modules)->startAll(); !s) return refuse(s.error().message);
