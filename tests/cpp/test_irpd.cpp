@@ -42,6 +42,13 @@ std::string module(const std::string &file, int64_t period, int priority, const 
            "</priority>\n" + extra + "  </module>\n";
 }
 
+// A module of the paper-fig1 set, with the set's layout.json beside it (the modules use its variables).
+void copyFig1Module(const std::string &file, const TempDir &dir) {
+    const std::string set = std::string(BUILD_ROOT) + "/sets/paper-fig1/";
+    std::filesystem::copy_file(set + file, dir.path / file);
+    if (!std::filesystem::exists(dir.path / "layout.json")) std::filesystem::copy_file(set + "layout.json", dir.path / "layout.json");
+}
+
 struct Outcome {
     int status;
     std::string out, err;
@@ -123,7 +130,7 @@ TEST(IrpdRefuses, BadPeriodNamesLineModuleAndField) {
 TEST(IrpdRefuses, MissingModuleFileAndNothingStarted) {
     TempDir dir;
     const std::string instance = uniqueInstance();
-    std::filesystem::copy_file(std::string(BUILD_ROOT) + "/sets/paper-fig1/cntr1.so", dir.path / "cntr1.so");
+    copyFig1Module("cntr1.so", dir);
     writeFile(dir.path / "module.xml", "<root>\n" + module("./cntr1.so", 100000, 1) + module("./gone.so", 100000, 2) + "</root>\n");
     Outcome r = irpd({"--config", (dir.path / "module.xml").string(), "--instance", instance}, dir);
     EXPECT_EQ(r.status, 2);
@@ -135,7 +142,7 @@ TEST(IrpdRefuses, MissingModuleFileAndNothingStarted) {
 
 TEST(IrpdRefuses, InitializeFailureStartsNothing) {
     TempDir dir;
-    std::filesystem::copy_file(std::string(BUILD_ROOT) + "/sets/paper-fig1/cntr1.so", dir.path / "cntr1.so");
+    copyFig1Module("cntr1.so", dir);
     writeFile(dir.path / "module.xml", "<root>\n" + module("./cntr1.so", 100000, 1) +
                                            module(std::string(FIXTURE_MODULES) + "/init_throws.so", 100000, 2) + "</root>\n");
     Outcome r = irpd({"--config", (dir.path / "module.xml").string()}, dir);
@@ -311,4 +318,41 @@ TEST(IrpdOptions, PrintStatsLayoutGivesTheOffsetsOfTheBlock) {
     EXPECT_EQ(j["record"]["caught_up"]["offset"], offsetof(irp::stats::TimingRecord, caught_up));
     EXPECT_EQ(j["histogram"]["bucket_count"], irp::stats::kBuckets);
     EXPECT_EQ(j["histogram"]["buckets"]["offset"], offsetof(irp::stats::Histogram, buckets));
+}
+
+TEST(IrpdRefuses, AModuleBuiltAgainstAnotherLayoutWithBothHashes) {
+    TempDir dir;
+    copyFig1Module("cntr1.so", dir);
+    // The same layout under another hash stands for a .glb that changed since cntr1 was built.
+    std::string layout = readFile(dir.path / "layout.json");
+    const std::string built = json::parse(layout)["hash"];
+    const std::string other(64, 'a');
+    layout.replace(layout.find(built), built.size(), other);
+    writeFile(dir.path / "layout.json", layout);
+    writeFile(dir.path / "module.xml", "<root>\n" + module("./cntr1.so", 100000, 1) + "</root>\n");
+    Outcome r = irpd({"--config", (dir.path / "module.xml").string()}, dir);
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("module 'cntr1': "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("built against shared-variable layout " + built), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("the running segment has layout " + other), std::string::npos) << r.err;
+    EXPECT_EQ(r.out.find("[cntr1] initialize"), std::string::npos);
+}
+
+TEST(IrpdRefuses, AModuleUsingVariablesInASetWithoutLayout) {
+    TempDir dir;
+    std::filesystem::copy_file(std::string(BUILD_ROOT) + "/sets/paper-fig1/cntr1.so", dir.path / "cntr1.so");
+    writeFile(dir.path / "module.xml", "<root>\n" + module("./cntr1.so", 100000, 1) + "</root>\n");
+    Outcome r = irpd({"--config", (dir.path / "module.xml").string()}, dir);
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("uses shared variables (layout "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("but the set declares no <layout>"), std::string::npos) << r.err;
+}
+
+TEST(IrpdRefuses, AMalformedLayout) {
+    TempDir dir;
+    writeFile(dir.path / "layout.json", "{\"format\": \"indurop-layout\", \"version\": 7}");
+    writeFile(dir.path / "module.xml", "<root>\n" + module(std::string(FIXTURE_MODULES) + "/rec_a.so", 100000, 1) + "</root>\n");
+    Outcome r = irpd({"--config", (dir.path / "module.xml").string()}, dir);
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("layout.json: layout version 7; this irpd reads version 1"), std::string::npos) << r.err;
 }
