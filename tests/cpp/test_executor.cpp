@@ -373,3 +373,27 @@ TEST(RealDispatcher, ASlowModuleRunsOnItsOwnExecutorAndTimeGrid) {
     EXPECT_EQ(cycles.front(), 0u);
     EXPECT_LT(cycles.back(), 50u);
 }
+
+TEST(RealDispatcher, ASporadicModuleFiresInTheBasicPeriodItsConditionTurnsTrue) {
+    journal::clear();
+    std::string xml = R"(<root>
+  <module><filename>event_source.so</filename><moduletype>thread</moduletype><operationtype>periodic</operationtype>
+          <period>100000</period><priority>1</priority>
+          <property><value name="at">7 300 301 2999</value></property></module>
+  <module><filename>event_handler.so</filename><moduletype>thread</moduletype><operationtype>sporadic</operationtype>
+          <deadline>100000</deadline><priority>1</priority></module>
+</root>)";
+    auto set = config::parseModuleXmlText(xml, std::string(FIXTURE_MODULES) + "/module.xml");
+    ASSERT_TRUE(set.ok()) << set.error().message;
+    RealRun run = runFor(*set, 300'000'000);
+    std::vector<std::pair<std::string, uint64_t>> events;
+    for (const auto &e : journal::entries()) events.emplace_back(e.who + ":" + e.what, e.cycle);
+    // The event handler runs after the periodic modules of the same basic period.
+    using E = std::pair<std::string, uint64_t>;
+    EXPECT_EQ(events, (std::vector<E>{{"source:raise", 7}, {"handler:run", 7}, {"source:raise", 300}, {"handler:run", 300},
+                                      {"source:raise", 301}, {"handler:run", 301}, {"source:raise", 2999},
+                                      {"handler:run", 2999}}));
+    const stats::TimingRecord &handler = run.segment->record(1 + 1);
+    EXPECT_STREQ(handler.name, "event_handler");
+    EXPECT_EQ(handler.runs.load(), 4u);
+}

@@ -186,3 +186,26 @@ TEST(ModuleSet, KindsNotRunYetAreSkippedWithAReason) {
     EXPECT_EQ((*loaded)->module(1), nullptr);
     EXPECT_NE((*loaded)->skipReason(1).find("process modules are not run"), std::string::npos);
 }
+
+TEST(ModuleSet, ASporadicThreadModuleNeedsCondition) {
+    config::SetSpec set;
+    set.modules = {fixture("rec_a.so")};
+    set.modules[0].operation = config::OperationType::Sporadic;
+    set.modules[0].deadline_ns = 100'000;
+    auto loaded = hosts::ModuleSet::load(set);
+    ASSERT_FALSE(loaded.ok());
+    EXPECT_NE(loaded.error().message.find("sets/test/module.xml:7: module 'rec_a': a sporadic thread module needs condition()"),
+              std::string::npos) << loaded.error().message;
+    set.modules = {fixture("event_handler.so")};
+    set.modules[0].operation = config::OperationType::Sporadic;
+    EXPECT_TRUE(hosts::ModuleSet::load(set).ok());
+}
+
+TEST(ModuleSet, ANonRealThreadModuleIsRefusedWithTheFix) {
+    config::SetSpec set;
+    set.modules = {fixture("rec_a.so")};
+    set.modules[0].operation = config::OperationType::NonReal;
+    auto loaded = hosts::ModuleSet::load(set);
+    ASSERT_FALSE(loaded.ok());
+    EXPECT_NE(loaded.error().message.find("set <moduletype>process</moduletype>"), std::string::npos);
+}

@@ -16,6 +16,7 @@ struct Raw {
 constexpr std::size_t kCapacity = 1 << 20;
 Raw g_entries[kCapacity];
 std::atomic<std::size_t> g_count{0};
+std::atomic<int> g_flag{0};
 
 } // namespace
 
@@ -26,6 +27,9 @@ void add(const char *who, const char *what, uint64_t cycle) noexcept {
     std::strncpy(g_entries[i].what, what, sizeof g_entries[i].what - 1);
     g_entries[i].cycle = cycle;
 }
+
+void setFlag(int value) noexcept { g_flag.store(value); }
+int flag() noexcept { return g_flag.load(); }
 
 std::vector<Entry> entries() {
     std::size_t n = std::min(g_count.load(), kCapacity);
@@ -38,6 +42,7 @@ std::vector<Entry> entries() {
 void clear() {
     std::memset(g_entries, 0, sizeof(Raw) * std::min(g_count.load(), kCapacity));
     g_count = 0;
+    g_flag = 0;
 }
 
 } // namespace journal

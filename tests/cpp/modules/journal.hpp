@@ -16,6 +16,9 @@ struct Entry {
 };
 
 void add(const char *who, const char *what, uint64_t cycle = 0) noexcept;
+// A flag shared by the fixture modules of one process (an event source and its handler).
+void setFlag(int value) noexcept;
+int flag() noexcept;
 std::vector<Entry> entries();
 void clear();
 
