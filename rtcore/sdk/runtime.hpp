@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <string>
 #include <string_view>
 
 namespace irp::runtime {
@@ -23,6 +24,12 @@ std::size_t drainLog(const std::function<void(std::string_view)> &sink);
 
 // Lines irp::printf dropped because the ring was full, since the process started.
 uint64_t droppedLogLines() noexcept;
+
+// Shared functions: the module whose initialize()/start() runs now on this thread (so that its
+// exports are recorded as its own), and dropping a module's exports when it is unloaded.
+void setCurrentModule(const std::string &name);
+void dropFunctionsOf(const std::string &module);
+std::size_t exportedFunctions();
 
 } // namespace irp::runtime
 

@@ -4,6 +4,8 @@
 #include "hosts/thread_module.hpp"
 #include "journal.hpp"
 
+#include <indurop/functions.h>
+
 #include <gtest/gtest.h>
 
 #include <string>
@@ -208,4 +210,64 @@ TEST(ModuleSet, ANonRealThreadModuleIsRefusedWithTheFix) {
     auto loaded = hosts::ModuleSet::load(set);
     ASSERT_FALSE(loaded.ok());
     EXPECT_NE(loaded.error().message.find("set <moduletype>process</moduletype>"), std::string::npos);
+}
+
+namespace {
+config::SetSpec setOf(std::initializer_list<const char *> files) {
+    config::SetSpec set;
+    int i = 0;
+    for (const char *f : files) {
+        set.modules.push_back(fixture(f));
+        set.modules.back().index = i++;
+    }
+    return set;
+}
+} // namespace
+
+TEST(SharedFunctions, AThreadModuleCallsAnotherModulesFunctionDirectly) {
+    journal::clear();
+    auto loaded = hosts::ModuleSet::load(setOf({"fn_import.so", "fn_export.so"}));  // the user first in the file
+    ASSERT_TRUE(loaded.ok()) << loaded.error().message;
+    ASSERT_TRUE((*loaded)->initializeAll().ok());
+    Status started = (*loaded)->startAll();
+    ASSERT_TRUE(started.ok()) << started.error().message;
+    (*loaded)->module(0)->runFunction()();
+    ASSERT_EQ(journal::entries().size(), 1u);
+    EXPECT_EQ(journal::entries()[0].what, "10");  // scale(4.0) = 10
+    (*loaded)->stopAll();
+}
+
+TEST(SharedFunctions, AnotherSignatureRefusesTheSetNamingBoth) {
+    auto loaded = hosts::ModuleSet::load(setOf({"fn_export.so", "fn_wrong_sig.so"}));
+    ASSERT_TRUE(loaded.ok());
+    ASSERT_TRUE((*loaded)->initializeAll().ok());
+    Status started = (*loaded)->startAll();
+    ASSERT_FALSE(started.ok());
+    EXPECT_NE(started.error().message.find("module 'fn_wrong_sig': start() failed: shared function 'math.scale' of "
+                                           "module 'fn_export' is double (double), not int (int)"),
+              std::string::npos) << started.error().message;
+}
+
+TEST(SharedFunctions, AnUnknownNameRefusesTheSet) {
+    auto loaded = hosts::ModuleSet::load(setOf({"fn_missing.so"}));
+    ASSERT_TRUE(loaded.ok());
+    ASSERT_TRUE((*loaded)->initializeAll().ok());
+    Status started = (*loaded)->startAll();
+    ASSERT_FALSE(started.ok());
+    EXPECT_NE(started.error().message.find("no module exports a shared function 'nobody.exports.this'"), std::string::npos);
+}
+
+TEST(SharedFunctions, ExportsGoWithTheirModule) {
+    {
+        auto loaded = hosts::ModuleSet::load(setOf({"fn_export.so"}));
+        ASSERT_TRUE(loaded.ok());
+        ASSERT_TRUE((*loaded)->initializeAll().ok());
+        EXPECT_NO_THROW(irp::findFunction<double(double)>("math.scale"));
+        // exporting the same name again (a second set loaded beside) is refused
+        auto again = hosts::ModuleSet::load(setOf({"fn_export.so"}));
+        ASSERT_TRUE(again.ok());
+        Status second = (*again)->initializeAll();
+        EXPECT_FALSE(second.ok());
+    }
+    EXPECT_THROW(irp::findFunction<double(double)>("math.scale"), irp::FunctionError);  // unloaded: gone
 }

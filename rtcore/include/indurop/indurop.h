@@ -38,6 +38,7 @@
 #pragma once
 
 #include <indurop/module_abi.h>
+#include <indurop/functions.h>
 #include <indurop/property.h>
 
 #include <cstdint>

@@ -3,6 +3,8 @@
 
 #include <indurop/property.h>
 
+#include "sdk/runtime.hpp"
+
 #include <dlfcn.h>
 
 #include <cstring>
@@ -75,10 +77,20 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
 }
 
 ThreadModule::~ThreadModule() {
+    runtime::dropFunctionsOf(spec_.name);  // its exports point into the code about to go
     if (handle_) dlclose(handle_);
 }
 
+namespace {
+// Marks whose initialize()/start() runs, so that its shared-function exports are its own.
+struct CurrentModule {
+    explicit CurrentModule(const std::string &name) { runtime::setCurrentModule(name); }
+    ~CurrentModule() { runtime::setCurrentModule(""); }
+};
+} // namespace
+
 Status ThreadModule::initialize() {
+    CurrentModule current(spec_.name);
     indurop_property_list list{property_entries_.data(), property_entries_.size()};
     if (descriptor_) {
         if (!table_.initialize) return Ok{};
@@ -98,6 +110,7 @@ Status ThreadModule::initialize() {
 }
 
 Status ThreadModule::start() {
+    CurrentModule current(spec_.name);
     if (descriptor_) {
         if (table_.start) {
             char err[512] = "";
