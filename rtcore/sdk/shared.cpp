@@ -28,7 +28,13 @@ const indurop_segment_header *g_header = nullptr;
 void *g_mapping = nullptr;  // our own mmap (not irpd's adopted one)
 std::size_t g_mapping_size = 0;
 std::atomic<uint64_t> g_repaired{0};
-std::string g_attach_error;
+
+// A function-local static: the attach below runs from a load-time constructor, possibly before
+// this file's namespace-scope objects are constructed.
+std::string &attachErrorText() {
+    static std::string text;
+    return text;
+}
 
 void publish(const indurop_segment_header *h) {
     g_header = h;
@@ -42,7 +48,7 @@ void publish(const indurop_segment_header *h) {
 __attribute__((constructor)) void attachFromEnvironment() {
     const char *name = std::getenv("INDUROP_SHM");
     if (!name || !*name) return;
-    g_attach_error = attach(name);
+    attachErrorText() = attach(name);
 }
 
 } // namespace
@@ -115,7 +121,7 @@ std::string_view layoutText() noexcept {
     return std::string_view(base + g_header->layout_offset, g_header->layout_size);
 }
 
-const std::string &attachError() noexcept { return g_attach_error; }
+const std::string &attachError() noexcept { return attachErrorText(); }
 
 uint64_t repairedLocks() noexcept { return g_repaired.load(std::memory_order_relaxed); }
 

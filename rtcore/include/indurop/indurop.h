@@ -225,3 +225,5 @@ int condition(void);
             });                                                                                    \
         return &table;                                                                             \
     }
+
+#include <indurop/process.h>

@@ -3,19 +3,11 @@
 
 namespace irp::hosts {
 
-std::string unsupportedReason(const config::ModuleSpec &spec) {
-    if (spec.type == config::ModuleType::Process)
-        return std::string(config::toString(spec.operation)) + " process modules are not run by this version of irpd";
-    return "";
-}
-
 Result<std::unique_ptr<ModuleSet>> ModuleSet::load(const config::SetSpec &set, const char *layout_hash) {
     auto loaded = std::make_unique<ModuleSet>();
     for (const config::ModuleSpec &spec : set.modules) {
-        std::string reason = unsupportedReason(spec);
-        if (!reason.empty()) {
+        if (spec.type == config::ModuleType::Process) {  // the process supervisor's
             loaded->modules_.push_back(nullptr);
-            loaded->skip_reasons_.push_back(std::move(reason));
             continue;
         }
         if (spec.operation == config::OperationType::NonReal)
@@ -28,7 +20,6 @@ Result<std::unique_ptr<ModuleSet>> ModuleSet::load(const config::SetSpec &set, c
                          "(extern \"C\" int condition(), or INDUROP_MODULE(condition = ...)), which the event handler calls " +
                          "every basic period"};
         loaded->modules_.push_back(std::move(*module));
-        loaded->skip_reasons_.emplace_back();
     }
     return loaded;
 }

@@ -9,7 +9,9 @@
 
 #include "config/module_xml.hpp"
 #include "dispatch/dispatcher.hpp"
+#include "hosts/control_segment.hpp"
 #include "hosts/module_set.hpp"
+#include "hosts/process_supervisor.hpp"
 #include "osal/clock.hpp"
 #include "osal/rt.hpp"
 #include "schedule/schedule.hpp"
@@ -73,6 +75,35 @@ bool writeStats(const std::string &path, const config::SetSpec &set, const sched
     return static_cast<bool>(out);
 }
 
+// Spawns every process module: periodic and sporadic ones at SCHED_FIFO one below their
+// executor's dispatcher, on its CPU; non-real ones at SCHED_OTHER, unpinned.  Then waits until
+// the RT ones called irp::initPeriodExe(), so that the first release is not missed.
+Status startProcesses(hosts::ProcessSupervisor &supervisor, const std::vector<const config::ModuleSpec *> &processes,
+                      hosts::ControlSegment *control, const std::string &variables_shm, const config::SetSpec &set,
+                      const Options &options) {
+    if (processes.empty()) return Ok{};
+    for (std::size_t s = 0; s < processes.size(); ++s) {
+        const config::ModuleSpec &m = *processes[s];
+        hosts::ProcessLaunch launch;
+        launch.spec = m;
+        launch.slot = static_cast<uint32_t>(s);
+        launch.control_shm = control->name();
+        launch.variables_shm = variables_shm;
+        if (m.operation != config::OperationType::NonReal) {
+            int priority = options.dispatcher.rt_priority, cpu = options.dispatcher.cpu;
+            for (const config::ExecutorSpec &e : set.executors)
+                if (e.name == m.executor) {
+                    priority = e.rt_priority ? e.rt_priority : priority - 1;
+                    if (e.cpu >= 0) cpu = e.cpu;
+                }
+            launch.rt_priority = options.dispatcher.realtime ? std::max(1, priority - 1) : 0;
+            launch.cpu = cpu >= 0 ? cpu : osal::lastAllowedCpu();
+        }
+        if (Status st = supervisor.start(launch); !st) return st;
+    }
+    return supervisor.waitReady(5'000'000'000);
+}
+
 } // namespace
 
 int run(const Options &options) {
@@ -120,8 +151,7 @@ int run(const Options &options) {
         stats::TimingRecord &record = segment->describe(executors + i, stats::RecordKind::Module, m.name, m.executor,
                                                         m.period_ns, m.priority, m.budget_ns);
         hosts::ThreadModule *module = (*modules)->module(i);
-        record.state.store(static_cast<uint32_t>(module ? stats::ModuleState::Loaded : stats::ModuleState::Skipped));
-        if (!module) say("skipping module '" + m.name + "': " + (*modules)->skipReason(i) + "; it stays in the schedule");
+        record.state.store(static_cast<uint32_t>(stats::ModuleState::Loaded));
         dispatch::ModuleBinding binding;
         binding.stats = &record;
         if (module) {
@@ -130,8 +160,33 @@ int run(const Options &options) {
         }
         bindings.push_back(binding);
     }
+    // Process modules: a control slot each, spawned and watched by the supervisor.
+    std::optional<hosts::ControlSegment> control;
+    hosts::ProcessSupervisor supervisor([](std::string_view line) {
+        std::fwrite(line.data(), 1, line.size(), stdout);
+        std::fputc('\n', stdout);
+    });
+    std::vector<const config::ModuleSpec *> processes;
+    for (const config::ModuleSpec &m : set->modules)
+        if (m.type == config::ModuleType::Process) processes.push_back(&m);
+    if (!processes.empty()) {
+        auto created = hosts::ControlSegment::create(options.instance, static_cast<uint32_t>(processes.size()));
+        if (!created) return std::cerr << "irpd: error: " << created.error().message << std::endl, kExitFailure;
+        control = std::move(*created);
+        for (std::size_t s = 0; s < processes.size(); ++s)
+            if (processes[s]->operation != config::OperationType::NonReal)
+                bindings[static_cast<std::size_t>(processes[s]->index)].process = &control->slot(static_cast<uint32_t>(s));
+    }
+
     if (Status s = (*modules)->initializeAll(); !s) return refuse(s.error().message);
     if (Status s = (*modules)->startAll(); !s) return refuse(s.error().message);
+    if (Status s = startProcesses(supervisor, processes, control ? &*control : nullptr, vars ? vars->name() : "", *set,
+                                  options);
+        !s) {
+        supervisor.stopAll(1'000'000'000);
+        for (const std::string &e : (*modules)->stopAll()) say(e);
+        return refuse(s.error().message);
+    }
     drainModuleOutput();
 
     // 3. dispatchers
@@ -149,8 +204,7 @@ int run(const Options &options) {
         return refuse(s.error().message);
     }
     for (std::size_t i = 0; i < set->modules.size(); ++i)
-        if ((*modules)->module(i))
-            segment->record(executors + i).state.store(static_cast<uint32_t>(stats::ModuleState::Running));
+        segment->record(executors + i).state.store(static_cast<uint32_t>(stats::ModuleState::Running));
     for (const dispatch::ExecutorReport &r : dispatcher.reports())
         say("executor '" + r.name + "': " + r.detail);
     if (!dispatcher.realtime()) {
@@ -172,6 +226,11 @@ int run(const Options &options) {
     while (!dispatcher.finished()) {
         int sig = sigtimedwait(&stop_signals, nullptr, &tick);
         drainModuleOutput();
+        supervisor.poll();
+        for (const hosts::ProcessInfo &p : supervisor.processes())
+            segment->record(executors + static_cast<std::size_t>(processes[p.slot]->index))
+                .state.store(static_cast<uint32_t>(p.running || p.restart_pending ? stats::ModuleState::Running
+                                                                                  : stats::ModuleState::Exited));
         if (sig == SIGINT || sig == SIGTERM) {
             say(std::string("received ") + (sig == SIGINT ? "SIGINT" : "SIGTERM") + ", stopping");
             break;
@@ -181,6 +240,7 @@ int run(const Options &options) {
     // 5. clean stop
     dispatcher.requestStop();
     dispatcher.join();
+    supervisor.stopAll(2'000'000'000);  // stop_requested, then SIGTERM, then SIGKILL
     // From slot 0's due time to the end of the main dispatcher's last slot.
     const int64_t elapsed = header->finished_ns.load() - header->started_ns.load();
     int status = kExitOk;
@@ -189,8 +249,7 @@ int run(const Options &options) {
         status = kExitFailure;
     }
     for (std::size_t i = 0; i < set->modules.size(); ++i)
-        if ((*modules)->module(i))
-            segment->record(executors + i).state.store(static_cast<uint32_t>(stats::ModuleState::Stopped));
+        segment->record(executors + i).state.store(static_cast<uint32_t>(stats::ModuleState::Stopped));
     drainModuleOutput();
     if (!options.stats_json.empty() &&
         !writeStats(options.stats_json, *set, *schedule, *segment, dispatcher, options, elapsed)) {

@@ -71,7 +71,7 @@ json layoutJson() {
             {"header_size", sizeof(Header)},
             {"record_size", sizeof(TimingRecord)},
             {"record_kinds", {{"dispatcher", 0}, {"module", 1}}},
-            {"module_states", {"loaded", "running", "disabled", "skipped", "stopped"}},
+            {"module_states", {"loaded", "running", "disabled", "skipped", "stopped", "exited"}},
             {"header", header},
             {"record", record},
             {"histogram", histogram}};

@@ -29,6 +29,7 @@ enum class ModuleState : uint32_t {
     Disabled = 2,  // taken out of the slot table after a fault (see last_error)
     Skipped = 3,   // a kind of module this irpd cannot run yet; listed, never called
     Stopped = 4,
+    Exited = 5,    // a process module that is not running (crashed or ended, no restart pending)
 };
 
 struct alignas(64) TimingRecord {

@@ -104,6 +104,7 @@ const char *toString(ModuleState state) {
     case ModuleState::Disabled: return "disabled";
     case ModuleState::Skipped: return "skipped";
     case ModuleState::Stopped: return "stopped";
+    case ModuleState::Exited: return "exited";
     }
     return "unknown";
 }
