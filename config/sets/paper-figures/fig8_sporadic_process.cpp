@@ -1,5 +1,5 @@
 //sporadic-process1
-// visionEvt.cpp -- Figure 1's visionEvt.exe (sporadic process, deadline 100 ms): the paper's Figure 8,
+// fig8_sporadic_process.cpp -- the paper's Figure 8 (also Figure 1's visionEvt.exe, config/sets/paper-fig1),
 // with only its slips fixed (condition's parameter type, the loop condition, read_ret's declaration,
 // processEvent declared before use) and the elided channel connection filled in.
 #include <indurop/indurop.h>
@@ -34,5 +34,5 @@ void processEvent(double event)
 {
     // process event
     static unsigned long events = 0;
-    if (++events % 1000 == 1) std::printf("visionEvt: event %lu, joint[1].y = %.1f\n", events, event), std::fflush(stdout);
+    if (++events % 1000 == 1) std::printf("Figure 8: event %lu, joint[1].y = %.1f\n", events, event), std::fflush(stdout);
 }
