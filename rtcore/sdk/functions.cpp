@@ -1,6 +1,6 @@
 // functions.cpp -- the registry of shared functions (see <indurop/functions.h>): name -> function
-// pointer, its signature and the module that exported it.  Used only at start-up and unload,
-// never on the RT path, so a mutex and a map are fine here.
+// pointer, its signature, the module that exported it and, for calls from processes, its thunk.
+// Used only at start-up and unload, never on the RT path, so a mutex and a map are fine here.
 #include <indurop/functions.h>
 
 #include "runtime.hpp"
@@ -20,6 +20,7 @@ struct Export {
     detail::AnyFunction fn;
     std::string signature;
     std::string owner;
+    detail::CallShape shape;  // no thunk: not callable from processes
 };
 
 std::mutex g_mutex;
@@ -37,10 +38,14 @@ std::string readable(const std::string &mangled) {
 namespace detail {
 
 void exportFunction(const char *name, AnyFunction fn, const char *signature) {
+    exportFunction(name, fn, signature, CallShape{});  // a module built before calls from processes
+}
+
+void exportFunction(const char *name, AnyFunction fn, const char *signature, const CallShape &shape) {
     if (!name || !*name) throw FunctionError("exportFunction: the name is empty");
     if (!fn) throw FunctionError(std::string("exportFunction(\"") + name + "\"): the function is null");
     std::lock_guard lock(g_mutex);
-    auto [it, fresh] = g_exports.emplace(name, Export{fn, signature, g_current_module});
+    auto [it, fresh] = g_exports.emplace(name, Export{fn, signature, g_current_module, shape});
     if (!fresh)
         throw FunctionError(std::string("shared function '") + name + "' is exported twice (first by module '" +
                             it->second.owner + "')");
@@ -73,6 +78,14 @@ void dropFunctionsOf(const std::string &module) {
 std::size_t exportedFunctions() {
     std::lock_guard lock(g_mutex);
     return g_exports.size();
+}
+
+std::vector<FunctionExport> functionExports() {
+    std::lock_guard lock(g_mutex);
+    std::vector<FunctionExport> list;
+    list.reserve(g_exports.size());
+    for (const auto &[name, e] : g_exports) list.push_back({name, e.signature, e.owner, e.fn, e.shape});
+    return list;
 }
 
 } // namespace runtime

@@ -5,6 +5,7 @@
 #include <indurop/segment.h>
 #include <indurop/shared.h>
 
+#include "control_map.hpp"
 #include "runtime.hpp"
 
 #include <nlohmann/json.hpp>
@@ -78,35 +79,45 @@ int refuse(const char *format, ...) {
     return -1;
 }
 
-// Maps the control segment and returns slot `index`, or null after saying why on stderr.
-indurop_process_slot *mapSlot(const char *name, const char *slot_text) {
+std::string format(const char *format, ...) __attribute__((format(printf, 1, 2)));
+std::string format(const char *format, ...) {
+    char text[512];
+    va_list args;
+    va_start(args, format);
+    std::vsnprintf(text, sizeof text, format, args);
+    va_end(args);
+    return text;
+}
+
+// Maps the control segment `name` and finds slot `slot_text` in it; an empty `why` on success.
+sdk::ControlMap mapSegment(const char *name, const char *slot_text, std::string &why) {
     char *end = nullptr;
     errno = 0;
     const unsigned long index = std::strtoul(slot_text ? slot_text : "", &end, 10);
     if (!slot_text || !*slot_text || *end || errno || index > UINT32_MAX || slot_text[0] == '-') {
-        refuse("INDUROP_SLOT is '%s', not a slot number", slot_text ? slot_text : "(unset)");
-        return nullptr;
+        why = format("INDUROP_SLOT is '%s', not a slot number", slot_text ? slot_text : "(unset)");
+        return {};
     }
     int fd = shm_open(name, O_RDWR, 0);
     if (fd < 0) {
-        refuse("control segment %s: %s", name, std::strerror(errno));
-        return nullptr;
+        why = format("control segment %s: %s", name, std::strerror(errno));
+        return {};
     }
     struct stat st{};
     if (fstat(fd, &st) != 0 || static_cast<std::size_t>(st.st_size) < sizeof(indurop_control_header)) {
         close(fd);
-        refuse("control segment %s: too small to be one", name);
-        return nullptr;
+        why = format("control segment %s: too small to be one", name);
+        return {};
     }
     const auto size = static_cast<std::size_t>(st.st_size);
     void *p = mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
     const int e = errno;
     close(fd);
     if (p == MAP_FAILED) {
-        refuse("control segment %s: mmap: %s", name, std::strerror(e));
-        return nullptr;
+        why = format("control segment %s: mmap: %s", name, std::strerror(e));
+        return {};
     }
-    const auto *h = static_cast<const indurop_control_header *>(p);
+    auto *h = static_cast<indurop_control_header *>(p);
     const char *problem = nullptr;
     if (h->magic != INDUROP_CONTROL_MAGIC) problem = "not an indurop control segment (bad magic)";
     else if (h->version != INDUROP_CONTROL_VERSION) problem = "control segment version differs from this libindurop's";
@@ -114,26 +125,54 @@ indurop_process_slot *mapSlot(const char *name, const char *slot_text) {
     else if (h->header_size < sizeof(indurop_control_header) ||
              h->header_size + uint64_t{h->slot_count} * h->slot_size > size)
         problem = "segment shorter than its header says";
+    else if (h->function_count &&
+             (h->function_size != sizeof(indurop_function_entry) || h->function_offset > size ||
+              uint64_t{h->function_count} * h->function_size > size - h->function_offset))
+        problem = "function table outside the segment, or of another entry size";
     if (problem) {
         const bool ours = h->magic == INDUROP_CONTROL_MAGIC;
         const uint32_t version = h->version, slot_size = h->slot_size;
         munmap(p, size);
-        if (!ours) refuse("control segment %s: %s", name, problem);
+        if (!ours) why = format("control segment %s: %s", name, problem);
         else
-            refuse("control segment %s: %s (version %u, slot size %u; this libindurop: version %u, slot size %zu)", name,
-                   problem, version, slot_size, INDUROP_CONTROL_VERSION, sizeof(indurop_process_slot));
-        return nullptr;
+            why = format("control segment %s: %s (version %u, slot size %u; this libindurop: version %u, slot size %zu)", name,
+                         problem, version, slot_size, INDUROP_CONTROL_VERSION, sizeof(indurop_process_slot));
+        return {};
     }
     if (index >= h->slot_count) {
         const uint32_t count = h->slot_count;
         munmap(p, size);
-        refuse("INDUROP_SLOT %lu is out of range: control segment %s has %u slots", index, name, count);
-        return nullptr;
+        why = format("INDUROP_SLOT %lu is out of range: control segment %s has %u slots", index, name, count);
+        return {};
     }
-    return reinterpret_cast<indurop_process_slot *>(static_cast<char *>(p) + h->header_size) + index;
+    auto *slot = reinterpret_cast<indurop_process_slot *>(static_cast<char *>(p) + h->header_size) + index;
+    return {h, size, slot};
 }
 
 } // namespace
+
+namespace sdk {
+
+const ControlMap *mapControl(std::string &why) {
+    static std::atomic<const ControlMap *> mapped{nullptr};
+    static std::mutex mutex;
+    static ControlMap map;
+    if (const ControlMap *m = mapped.load(std::memory_order_acquire)) return m;
+    std::lock_guard<std::mutex> lock(mutex);
+    if (const ControlMap *m = mapped.load(std::memory_order_acquire)) return m;
+    const char *control = std::getenv("INDUROP_CTL");
+    if (!control || !*control) {
+        why = "not started by irpd (INDUROP_CTL is not set)";
+        return nullptr;
+    }
+    ControlMap m = mapSegment(control, std::getenv("INDUROP_SLOT"), why);
+    if (!m.header) return nullptr;
+    map = m;
+    mapped.store(&map, std::memory_order_release);
+    return &map;
+}
+
+} // namespace sdk
 
 int initPeriodExe() {
     if (g_period.slot) return 0;
@@ -144,8 +183,10 @@ int initPeriodExe() {
         std::fflush(stderr);
         return -1;
     }
-    indurop_process_slot *slot = mapSlot(control, std::getenv("INDUROP_SLOT"));
-    if (!slot) return -1;
+    std::string why;
+    const sdk::ControlMap *map = sdk::mapControl(why);
+    if (!map) return refuse("%s", why.c_str());
+    indurop_process_slot *slot = map->slot;
     if (!shared::attachError().empty()) return refuse("%s", shared::attachError().c_str());
 
     // A process built against another layout must never run: its generated globals would address

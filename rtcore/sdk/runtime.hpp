@@ -9,6 +9,7 @@
 #include <functional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace irp::runtime {
 
@@ -30,6 +31,18 @@ uint64_t droppedLogLines() noexcept;
 void setCurrentModule(const std::string &name);
 void dropFunctionsOf(const std::string &module);
 std::size_t exportedFunctions();
+
+// Every export, sorted by name: what irpd publishes as the function table for process modules.
+struct FunctionExport {
+    std::string name;
+    std::string signature;  // typeid(R(A...)).name()
+    std::string owner;      // the module whose initialize()/start() exported it ("" if none)
+    detail::AnyFunction fn = nullptr;
+    detail::CallShape shape;
+};
+std::vector<FunctionExport> functionExports();
+// FNV-1a 64 of a typeid name: how a call request names its signature (<indurop/control.h>).
+uint64_t signatureHash(const char *signature) noexcept;
 
 } // namespace irp::runtime
 

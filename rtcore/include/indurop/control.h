@@ -1,7 +1,7 @@
 /* control.h -- the control segment through which irpd releases process modules every period and
  * learns when they are done ("/indurop.<instance>.ctl").
  *
- *   [indurop_control_header][indurop_process_slot x slot_count]
+ *   [indurop_control_header][indurop_process_slot x slot_count][indurop_function_entry x function_count]
  *
  * One slot per process module of the set (periodic, sporadic or non-real), in module.xml order.
  * irpd starts each process with these environment variables:
@@ -19,6 +19,19 @@
  *            budget, else by what is left of the basic period); a sporadic one is not awaited,
  *            its completion is checked against its deadline at the following basic periods.
  * stop_requested = 1 tells the process to leave (irp::waitPeriod() then returns non-zero).
+ *
+ * Shared functions called from processes (<indurop/functions.h>, docs/shared-variables.md):
+ * the function table lists every function the thread modules exported (sorted by name); irpd
+ * writes it once, after every module's start() and before any process starts, and never changes
+ * it while it runs.  Each slot has one call area: a process has at most one call in flight.
+ * Its futex word `word` is (tag << 2) | phase, tag = the request's number:
+ *   process: IDLE -> writes function, signature_hash, sizes, args -> PENDING (tag + 1)
+ *   irpd:    right after the owning module's run(), in its slot: PENDING -> SERVING (CAS from
+ *            the exact word, so a request cancelled and replaced is never taken for the old one)
+ *            -> status, result -> ANSWERED, FUTEX_WAKE
+ *   process: FUTEX_WAIT on word until ANSWERED (bounded by its timeout); reads status and result
+ *            -> IDLE.  On timeout it cancels with the CAS PENDING -> IDLE; a request already
+ *            SERVING is left to finish and its answer is dropped by the next call.
  */
 #ifndef INDUROP_CONTROL_H
 #define INDUROP_CONTROL_H
@@ -30,7 +43,7 @@ extern "C" {
 #endif
 
 #define INDUROP_CONTROL_MAGIC 0x314C544350524955ull /* the bytes "UIRPCTL1" */
-#define INDUROP_CONTROL_VERSION 1u
+#define INDUROP_CONTROL_VERSION 2u /* 2: call areas and the function table */
 
 enum indurop_process_state {
     INDUROP_PROCESS_EMPTY = 0,    /* not started, or exited and not restarted */
@@ -39,6 +52,74 @@ enum indurop_process_state {
     INDUROP_PROCESS_RUNNING = 3,  /* released, working on its period */
     INDUROP_PROCESS_EXITED = 4,
 };
+
+/* Shared-function calls ------------------------------------------------------------------- */
+
+#define INDUROP_CALL_BYTES 256u              /* packed arguments, and the result, at most */
+#define INDUROP_FUNCTION_NAME_CHARS 96u      /* names of 96 characters or more are not listed */
+#define INDUROP_FUNCTION_SIGNATURE_CHARS 160u
+
+enum indurop_call_phase {
+    INDUROP_CALL_IDLE = 0,
+    INDUROP_CALL_PENDING = 1,   /* written by the process, not taken yet */
+    INDUROP_CALL_SERVING = 2,   /* irpd is calling the function */
+    INDUROP_CALL_ANSWERED = 3,  /* status (and result) written */
+};
+#define INDUROP_CALL_PHASE(word) ((word) & 3u)
+#define INDUROP_CALL_TAG(word) ((word) >> 2)
+
+/* What a call came to (irp::lastCallStatus()).  irpd answers OK, SIGNATURE_MISMATCH,
+ * BAD_REQUEST, OWNER_DISABLED, NOT_TRANSFERABLE or THREW; the others are found by the process. */
+enum indurop_call_status {
+    INDUROP_CALL_OK = 0,
+    INDUROP_CALL_UNKNOWN_FUNCTION = 1,   /* no function of that name in the table */
+    INDUROP_CALL_SIGNATURE_MISMATCH = 2, /* the caller's R(A...) is not the export's */
+    INDUROP_CALL_TOO_LARGE = 3,          /* arguments or result over INDUROP_CALL_BYTES */
+    INDUROP_CALL_TIMEOUT = 4,            /* no answer within the caller's timeout */
+    INDUROP_CALL_OWNER_DISABLED = 5,     /* the owner threw from run() and is disabled */
+    INDUROP_CALL_NOT_SERVED = 6,         /* the owner is not a periodic thread module */
+    INDUROP_CALL_NOT_TRANSFERABLE = 7,   /* the export takes or returns pointers, references or
+                                            non-trivially-copyable types */
+    INDUROP_CALL_THREW = 8,              /* the function threw; result holds what() */
+    INDUROP_CALL_NO_IRPD = 9,            /* not started by irpd, or its control segment unusable */
+    INDUROP_CALL_STOPPED = 10,           /* irpd stopped serving calls (it is stopping) */
+    INDUROP_CALL_BAD_REQUEST = 11,       /* irpd: index or sizes do not match the export */
+    INDUROP_CALL_INVALID = 12,           /* bad arguments to the call itself (timeout <= 0, no name) */
+};
+
+/* enum values of indurop_control_header.calls */
+enum indurop_calls_state {
+    INDUROP_CALLS_NONE = 0,     /* no table yet */
+    INDUROP_CALLS_SERVING = 1,  /* the table is published; requests are served */
+    INDUROP_CALLS_STOPPED = 2,  /* the dispatcher stopped: nothing will be served any more */
+};
+
+typedef struct indurop_call_area {
+    uint32_t word;            /* futex: (tag << 2) | enum indurop_call_phase */
+    uint32_t function;        /* request: index in the function table */
+    uint64_t signature_hash;  /* request: FNV-1a 64 of the caller's typeid(R(A...)).name() */
+    uint32_t args_size;       /* request: packed argument bytes */
+    uint32_t result_size;     /* request: result bytes expected */
+    int32_t status;           /* answer: enum indurop_call_status */
+    uint32_t reserved0;
+    uint64_t served_cycle;    /* answer: the owner executor's basic-period count when served */
+    uint8_t args[INDUROP_CALL_BYTES];   /* the arguments, back to back in order, no padding */
+    uint8_t result[INDUROP_CALL_BYTES]; /* the result's bytes; THREW: the message, 0-terminated */
+} indurop_call_area;
+
+typedef struct indurop_function_entry {
+    char name[INDUROP_FUNCTION_NAME_CHARS];
+    char signature[INDUROP_FUNCTION_SIGNATURE_CHARS]; /* typeid name, cut if longer (the hash is of all of it) */
+    char owner[64];           /* the exporting module ("" if exported outside a lifecycle call) */
+    uint64_t signature_hash;  /* FNV-1a 64 of the whole typeid name */
+    int64_t owner_period_ns;  /* 0 when the owner has no period (sporadic) */
+    uint32_t owner_index;     /* the owner's index in module.xml, UINT32_MAX: none */
+    uint32_t refusal;         /* 0: callable from processes; else the enum indurop_call_status why not */
+    uint32_t args_size;       /* packed argument bytes */
+    uint32_t result_size;
+} indurop_function_entry;
+
+/* Process slots ------------------------------------------------------------------------------ */
 
 typedef struct indurop_process_slot {
     /* futex words, accessed atomically */
@@ -57,6 +138,7 @@ typedef struct indurop_process_slot {
     uint64_t generation;     /* +1 each time irpd (re)starts the process */
     char name[64];
     uint8_t reserved[32];
+    indurop_call_area call;  /* this process's calls of shared functions */
 } indurop_process_slot;
 
 typedef struct indurop_control_header {
@@ -66,7 +148,12 @@ typedef struct indurop_control_header {
     uint32_t slot_size;      /* sizeof(indurop_process_slot) */
     uint32_t slot_count;
     int64_t owner_pid;
-    uint64_t reserved[4];
+    uint64_t function_offset; /* of the function table, from the segment's start */
+    uint32_t function_count;
+    uint32_t function_size;   /* sizeof(indurop_function_entry) */
+    uint32_t calls;           /* enum indurop_calls_state */
+    uint32_t call_bytes;      /* INDUROP_CALL_BYTES */
+    uint64_t reserved[2];
 } indurop_control_header;
 
 #ifdef __cplusplus

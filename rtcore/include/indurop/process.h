@@ -36,6 +36,10 @@
 // The period handshake goes through the control slot with futexes (<indurop/control.h>); no
 // signal is used, so these calls never interrupt the program.
 //
+// Functions exported by thread modules are called through irpd with irp::SharedFunction or
+// irp::callFunction (<indurop/functions.h>, docs/shared-variables.md "Shared functions"): served
+// right after the owner's run(), in its slot, with a timeout; from any process module.
+//
 // Real-time safety (for a process at SCHED_FIFO):
 //   - initPeriodExe() and channel::connect() allocate and may block: call them before the loop;
 //   - waitPeriod() is RT-safe (a futex wait and a few stores);

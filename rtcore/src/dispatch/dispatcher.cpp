@@ -68,6 +68,8 @@ Dispatcher::Dispatcher(const config::SetSpec &set, const schedule::Schedule &sch
         task->period_ns = m->period_ns;
         task->budget_ns = m->budget_ns;
         task->deadline_ns = m->deadline_ns;
+        task->calls = b.calls;
+        task->module = m->index;
         task_of[static_cast<std::size_t>(m->index)] = task.get();
         Plan &plan = *by_name.at(m->executor);
         (task->sporadic ? plan.events : plan.tasks).push_back(task.get());

@@ -33,6 +33,9 @@ struct ModuleBinding {
     int (*condition)() = nullptr;
     indurop_process_slot *process = nullptr;
     stats::TimingRecord *stats = nullptr;
+    // A periodic thread module whose exported functions processes may call: the set's call
+    // server (dispatch/function_calls.hpp), which its executor serves right after its run().
+    CallServer *calls = nullptr;
 };
 
 struct ExecutorReport {

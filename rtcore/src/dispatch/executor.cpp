@@ -2,6 +2,7 @@
 // no allocation, no locks, no syscalls but clock_gettime (vDSO) and clock_nanosleep.
 #include "dispatch/executor.hpp"
 
+#include "dispatch/function_calls.hpp"
 #include "hosts/control_segment.hpp"
 #include "sdk/runtime.hpp"
 
@@ -32,6 +33,10 @@ void Executor::runThread(Task &task, stats::TimingRecord &r) {
     } catch (...) {
         disable(task, r, "run()", "a non-standard exception");
     }
+}
+
+void Executor::serveCalls(Task &task, uint64_t cycle) {
+    if (task.calls) task.calls->serve(task.module, cycle, task.disabled);
 }
 
 bool Executor::runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start, int64_t wait_until) {
@@ -124,7 +129,10 @@ void Executor::skip(uint64_t from, uint64_t count) {
  *   2. account the wake-up: latency (woke - due), a miss if a whole period late; if the backlog
  *      passed what the overrun policy allows, skip slots to the current one; Eq. (1) jitter;
  *   3. run the slot's modules in priority order; for each: Eq. (1) jitter against its own T0 and
- *      period, start latency, execution time, budget overrun; a throw disables the module;
+ *      period, start latency, execution time, budget overrun; a throw disables the module; right
+ *      after a thread module's run(), the calls that process modules made to its exported
+ *      functions are served (at most irp::kCallsServedPerPeriod, included in its exec time; a
+ *      disabled module answers them with an error);
  *   4. account the slot's work; work past the next slot's due time is a dispatcher overrun, and the
  *      next slot then starts at once (no sleep) - the grid itself never moves.
  * (Sporadic modules' condition() and the event handler come after step 3 in a later version.)
@@ -172,7 +180,10 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         runtime::setCycle({cycle, static_cast<uint32_t>(slot_index), due, basic});
         int64_t t = woke;
         for (Task *task : slots_[slot_index]) {
-            if (task->disabled) continue;
+            if (task->disabled) {
+                serveCalls(*task, cycle);  // answers "owner disabled" to processes calling its functions
+                continue;
+            }
             const int64_t start = t;
             stats::TimingRecord &r = *task->stats;
             if (task->kind == Task::Kind::Process) {
@@ -194,6 +205,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             r.latency.record(static_cast<uint64_t>(start - due > 0 ? start - due : 0));
             if (start - due >= task->period_ns) stats::bump(r.missed);
             if (task->kind == Task::Kind::Thread) runThread(*task, r);
+            serveCalls(*task, cycle);  // within the owner's period, counted in its exec time
             t = clock_.now();
             const int64_t exec = t - start;
             r.exec.record(static_cast<uint64_t>(exec));

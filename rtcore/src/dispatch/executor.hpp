@@ -31,6 +31,8 @@ enum class OverrunPolicy {
 
 const char *toString(OverrunPolicy policy);
 
+class CallServer;  // dispatch/function_calls.hpp
+
 // One module's place in an executor.  Runtime fields are written by the executor thread only.
 struct Task {
     enum class Kind : uint8_t { Thread, Process };
@@ -44,6 +46,9 @@ struct Task {
     int64_t period_ns = 0;
     int64_t period_slots = 1;  // period / the executor's basic period
     int64_t budget_ns = 0;     // 0 = none
+    // a thread module whose exported functions process modules call: served after its run()
+    CallServer *calls = nullptr;
+    int module = -1;           // its index in the set (the owner in the call server's table)
     // set by the loop
     int64_t t0 = 0;            // first start (T0 of Eq. (1))
     uint64_t first_cycle = 0;
@@ -83,6 +88,8 @@ public:
 private:
     void skip(uint64_t from_cycle, uint64_t count);
     void runThread(Task &task, stats::TimingRecord &r);
+    // Serves the calls from process modules waiting for task's functions (none without a call server).
+    void serveCalls(Task &task, uint64_t cycle);
     // Releases a periodic process and waits (futex) until it reports the period done, at most
     // until `wait_until`.  False if it was not ready to be released.
     bool runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start, int64_t wait_until);

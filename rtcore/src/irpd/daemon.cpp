@@ -1,6 +1,8 @@
 // daemon.cpp -- what irpd does, in order:
 //   1. parse module.xml and build the slot table (--print-schedule stops here);
-//   2. create the stats block in shared memory; load, initialize and start the modules;
+//   2. create the stats block in shared memory; load, initialize and start the modules; create
+//      the control segment of the process modules with the table of shared functions they may
+//      call; start the processes;
 //   3. lock memory and start the dispatcher threads (SCHED_FIFO, pinned);
 //   4. the main thread becomes the non-RT side: it drains module output (irp::printf) and waits
 //      for SIGINT/SIGTERM or the end of --duration;
@@ -9,6 +11,7 @@
 
 #include "config/module_xml.hpp"
 #include "dispatch/dispatcher.hpp"
+#include "dispatch/function_calls.hpp"
 #include "hosts/control_segment.hpp"
 #include "hosts/module_set.hpp"
 #include "hosts/process_supervisor.hpp"
@@ -30,6 +33,7 @@
 #include <ctime>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <optional>
 
 namespace irp::daemon {
@@ -160,8 +164,14 @@ int run(const Options &options) {
         }
         bindings.push_back(binding);
     }
-    // Process modules: a control slot each, spawned and watched by the supervisor.
+    if (Status s = (*modules)->initializeAll(); !s) return refuse(s.error().message);
+    if (Status s = (*modules)->startAll(); !s) return refuse(s.error().message);
+
+    // Process modules: a control slot each, spawned and watched by the supervisor; the control
+    // segment also carries the table of shared functions they may call (every export is known
+    // once every module started), served by the owners' executors (dispatch/function_calls.hpp).
     std::optional<hosts::ControlSegment> control;
+    std::unique_ptr<dispatch::CallServer> calls;  // outlives the dispatcher (declared before it)
     hosts::ProcessSupervisor supervisor([](std::string_view line) {
         std::fwrite(line.data(), 1, line.size(), stdout);
         std::fputc('\n', stdout);
@@ -170,16 +180,23 @@ int run(const Options &options) {
     for (const config::ModuleSpec &m : set->modules)
         if (m.type == config::ModuleType::Process) processes.push_back(&m);
     if (!processes.empty()) {
-        auto created = hosts::ControlSegment::create(options.instance, static_cast<uint32_t>(processes.size()));
-        if (!created) return std::cerr << "irpd: error: " << created.error().message << std::endl, kExitFailure;
+        const std::vector<runtime::FunctionExport> exports = runtime::functionExports();
+        auto created = hosts::ControlSegment::create(options.instance, static_cast<uint32_t>(processes.size()),
+                                                     static_cast<uint32_t>(exports.size()));
+        if (!created) {
+            for (const std::string &e : (*modules)->stopAll()) say(e);
+            return std::cerr << "irpd: error: " << created.error().message << std::endl, kExitFailure;
+        }
         control = std::move(*created);
         for (std::size_t s = 0; s < processes.size(); ++s)
             if (processes[s]->operation != config::OperationType::NonReal)
                 bindings[static_cast<std::size_t>(processes[s]->index)].process = &control->slot(static_cast<uint32_t>(s));
+        std::vector<std::string> notes;
+        calls = dispatch::CallServer::publish(*control, *set, exports, notes);
+        for (const std::string &n : notes) say("note: " + n);
+        for (const config::ModuleSpec &m : set->modules)
+            if (calls->serves(m.index)) bindings[static_cast<std::size_t>(m.index)].calls = calls.get();
     }
-
-    if (Status s = (*modules)->initializeAll(); !s) return refuse(s.error().message);
-    if (Status s = (*modules)->startAll(); !s) return refuse(s.error().message);
     if (Status s = startProcesses(supervisor, processes, control ? &*control : nullptr, vars ? vars->name() : "", *set,
                                   options);
         !s) {
@@ -240,6 +257,7 @@ int run(const Options &options) {
     // 5. clean stop
     dispatcher.requestStop();
     dispatcher.join();
+    if (calls) calls->stop();  // callers still waiting return at once ("irpd is stopping")
     supervisor.stopAll(2'000'000'000);  // stop_requested, then SIGTERM, then SIGKILL
     // From slot 0's due time to the end of the main dispatcher's last slot.
     const int64_t elapsed = header->finished_ns.load() - header->started_ns.load();
