@@ -129,13 +129,18 @@ void Executor::skip(uint64_t from, uint64_t count) {
  *   2. account the wake-up: latency (woke - due), a miss if a whole period late; if the backlog
  *      passed what the overrun policy allows, skip slots to the current one; Eq. (1) jitter;
  *   3. run the slot's modules in priority order; for each: Eq. (1) jitter against its own T0 and
- *      period, start latency, execution time, budget overrun; a throw disables the module; right
- *      after a thread module's run(), the calls that process modules made to its exported
- *      functions are served (at most irp::kCallsServedPerPeriod, included in its exec time; a
- *      disabled module answers them with an error);
- *   4. account the slot's work; work past the next slot's due time is a dispatcher overrun, and the
- *      next slot then starts at once (no sleep) - the grid itself never moves.
- * (Sporadic modules' condition() and the event handler come after step 3 in a later version.)
+ *      period, start latency, execution time, budget overrun; a throw disables the module.  A
+ *      process module is released (futex) and awaited in its place, bounded by its budget or by
+ *      the end of the basic period (an overrun if it does not finish by then).  Right after a
+ *      thread module's run(), the calls that process modules made to its exported functions are
+ *      served (at most irp::kCallsServedPerPeriod, included in its exec time; a disabled module
+ *      answers them with an error);
+ *   4. the event handler (Figure 6): condition() of each sporadic thread module in priority
+ *      order, run() where it returned true; then each sporadic process that finished its last
+ *      release is released to check its own condition (not awaited; its completion is checked
+ *      against its deadline in the following basic periods);
+ *   5. account the slot's work; work longer than the basic period is a dispatcher overrun, and
+ *      the next slot then starts at once (no sleep) - the grid itself never moves.
  */
 void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &stop, stats::Counter *cycles,
                     std::atomic<int64_t> *finished_ns) {
