@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <filesystem>
 #include <fstream>
@@ -54,7 +55,12 @@ struct Outcome {
     std::string out, err;
 };
 
+// Runs irpd to its end.  A run that may create shared memory gets an instance of its own, so that
+// tests never meet each other (or a demo) on the default one.
 Outcome irpd(std::vector<std::string> args, const TempDir &dir, std::chrono::seconds limit = std::chrono::seconds(60)) {
+    const bool has_config = std::find(args.begin(), args.end(), "--config") != args.end();
+    const bool has_instance = std::find(args.begin(), args.end(), "--instance") != args.end();
+    if (has_config && !has_instance) args.insert(args.begin(), {"--instance", uniqueInstance()});
     args.insert(args.begin(), kIrpd);
     Process p(args, dir.path);
     int status = p.wait(limit);
