@@ -3,6 +3,7 @@
 
     python3 tests/bench/run_bench.py [--duration S] [--period-ns N] [--cpu N] [--rt-priority P]
                                      [--out docs/benchmark.md] [--build-dir DIR] [--no-build]
+                                     [--proc-duration S] [--proc-rounds R] [--sporadic-duration S]
 
 Runs, one after the other, pinned to the same CPU at the same SCHED_FIFO priority and period:
 
@@ -16,7 +17,17 @@ Runs, one after the other, pinned to the same CPU at the same SCHED_FIFO priorit
      cycle counter from shared memory during the run and times the completion of the last slot;
   4. relative_sleep: the same loop written with a RELATIVE sleep, for contrast (periods lost, drift);
   5. irpd, a set of 100 empty thread modules (one .so listed 100 times) at a longer period: the
-     dispatch overhead per module = dispatcher slot work (exec_ns) mean / 100.
+     dispatch overhead per module = dispatcher slot work (exec_ns) mean / 100;
+  6. shared_vars: shared-variable access costs against plain memory;
+  7. the process-module wake-up, in rotating rounds of four programs at the same period: irpd with
+     one empty thread module (its start latency), irpd with one periodic process module
+     (processes/wake_process.cpp measures its own wake-up: waitPeriod() return - the slot's due
+     time), and signal_wakeup.cpp, the paper's signal-based design (a dispatcher process sigqueue()s
+     a worker process waiting in sigwaitinfo), with and without a time bound on its wait for "done";
+  8. the sporadic reaction time: a periodic thread module raises an event in shared variables
+     (shared/sporadic.glb), a sporadic thread module (modules/reactor.cpp), then a sporadic process
+     module (processes/reactor_proc.cpp) record when they start working minus the raise time.
+  The programs of 7 and 8 print histograms of irpd's shape as text (common/bench_hist.hpp).
 
 Prints the distributions, the ratios irpd/cyclictest (p50, p99, p99.9, max) and each target's
 verdict, and writes them with the machine's description to --out (docs/benchmark.md).  Targets are
@@ -44,8 +55,13 @@ REPO = Path(__file__).resolve().parents[2]
 
 # Targets of the issue (item 8).
 P99_RATIO_TARGET = 1.3
+PROC_P99_RATIO_TARGET = 2.0  # a process module's wake-up p99 against a thread module's, same run
 OVERHEAD_TARGET_NS = 200.0
 LONG_RUN_TARGET_S = 60
+
+# What the script runs (tests/bench/CMakeLists.txt: the `bench` target builds the same).
+BUILD_TARGETS = ["irpd", "empty", "relative_sleep", "shared_vars", "wake_process", "signal_wakeup", "raiser",
+                 "reactor", "reactor_proc"]
 
 CT_HIST_NS = 1_000_000  # cyclictest caps its histogram at 1,000,000 entries: 1 ms in ns mode
 
@@ -150,9 +166,9 @@ def build(build_dir: Path, commands: list[str]) -> None:
         log("configuring " + str(build_dir))
         if subprocess.run(cmd, stdout=subprocess.DEVNULL).returncode != 0:
             raise BenchError("cmake configure failed: " + quote(cmd))
-    cmd = ["cmake", "--build", str(build_dir), "--target", "irpd", "empty", "relative_sleep", "shared_vars"]
+    cmd = ["cmake", "--build", str(build_dir), "--target", *BUILD_TARGETS]
     commands.append(quote(cmd))
-    log("building irpd, empty.so, relative_sleep")
+    log("building " + ", ".join(BUILD_TARGETS))
     if subprocess.run(cmd, stdout=subprocess.DEVNULL).returncode != 0:
         raise BenchError("build failed: " + quote(cmd))
 
@@ -399,11 +415,15 @@ class ShmObserver:
     def latency_hist(self, record: int = 0) -> dict:
         """The latency histogram of a record (0 = the main dispatcher).  The mapping outlives irpd's
         unlinking of the segment, so this reads the final figures after irpd has exited."""
+        return self.record_hist(record, "latency")
+
+    def record_hist(self, record: int, field: str) -> dict:
+        """One histogram ("latency" or "exec") of a record: dispatchers first, then the modules."""
         header_size = struct.unpack_from("<I", self.mm, header_offset("header_size"))[0]
         record_size = struct.unpack_from("<I", self.mm, header_offset("record_size"))[0]
         if record_size != STATS["record_size"]:
             raise BenchError(f"irpd's stats records are {record_size} bytes, its layout says {STATS['record_size']}")
-        base = header_size + record * record_size + STATS["record"]["latency"]["offset"]
+        base = header_size + record * record_size + STATS["record"][field]["offset"]
         h = STATS["histogram"]
         count, total, lo, hi = (struct.unpack_from("<Q", self.mm, base + h[f]["offset"])[0]
                                 for f in ("count", "sum", "min", "max"))
@@ -412,7 +432,12 @@ class ShmObserver:
 
 
 def run_irpd(a, irpd: Path, xml: Path, duration: int, policy: str | None, tag: str, work: Path,
-             commands: list[str], observe: bool = False, histogram: bool = False) -> dict:
+             commands: list[str], observe: bool = False, histogram: bool = False,
+             hists: tuple[tuple[str, str], ...] = ()) -> dict:
+    """Runs irpd on a set; returns its --stats-json, plus "_stdout" (module output arrives there as
+    "[name] ..." lines), and with histogram=True the main dispatcher's latency histogram read from
+    shared memory ("_latency_hist"); hists = ((record name, "latency" | "exec"), ...) reads those
+    histograms too, into "_hists"["name.field"] (a record name: "dispatcher" or a module's name)."""
     out = work / f"irpd-{tag}.json"
     instance = f"bench-{os.getpid()}-{tag}"
     cmd = [str(irpd), "--config", str(xml), "--duration", str(duration), "--stats-json", str(out),
@@ -430,7 +455,7 @@ def run_irpd(a, irpd: Path, xml: Path, duration: int, policy: str | None, tag: s
     try:
         if observe:
             observation = observe_grid(proc, instance, duration)
-        elif histogram:
+        elif histogram or hists:
             reader = ShmObserver(instance)
             if not reader.attach(proc):
                 reader = None
@@ -448,7 +473,28 @@ def run_irpd(a, irpd: Path, xml: Path, duration: int, policy: str | None, tag: s
     if not doc.get("realtime"):
         log(f"WARNING: irpd ({tag}) did not run SCHED_FIFO (not root?); its figures are not real-time")
     doc["_stderr"] = stderr.strip()
+    doc["_stdout"] = stdout
     doc["_observation"] = observation
+    if hists:
+        if reader is None:
+            raise BenchError(f"irpd ({tag}): could not map its stats block to read its histograms")
+        doc["_hists"] = {}
+        for name, field in hists:
+            if name == "dispatcher":
+                index, summary = 0, doc["dispatcher"]
+            else:
+                names = [m["name"] for m in doc["modules"]]
+                if name not in names:
+                    raise BenchError(f"irpd ({tag}): no module '{name}' in its stats ({names})")
+                index = len(doc["executors"]) + names.index(name)
+                summary = doc["modules"][names.index(name)]
+            h = reader.record_hist(index, field)
+            mine, its = summarize_irpd_hist(h), summary[f"{field}_ns"]
+            if mine["count"] != its["count"] or (its["count"] and any(abs(mine[k] - its[k]) > 1 for k in
+                                                                      ("p50", "p99", "p999", "max"))):
+                raise BenchError(f"irpd ({tag}): the {name} {field} histogram read from shared memory ({mine}) does "
+                                 f"not match --stats-json ({its}); has the stats layout changed?")
+            doc["_hists"][f"{name}.{field}"] = h
     if histogram:
         if reader is None:
             raise BenchError(f"irpd ({tag}): could not map its stats block to read the latency histogram")
@@ -854,6 +900,388 @@ def render(a, info: dict, ct: dict, skip: dict, catch: dict, over: dict, relativ
 
 
 # --------------------------------------------------------------------------------------------
+# process modules: wake-up latency against a thread module's and a signal-based wake-up;
+# sporadic modules: reaction time from "condition true" to the start of their work
+
+
+def parse_bench_output(text: str, what: str) -> tuple[dict, dict]:
+    """The histograms and counters a benchmark program printed (tests/bench/common/bench_hist.hpp):
+    '@hist', '@buckets', '@info', '@end' lines, anywhere in a line (irpd prefixes "[name] ")."""
+    hists: dict[str, dict] = {}
+    info: dict[str, dict] = {}
+    ended: set[str] = set()
+    for line in text.splitlines():
+        at = line.find("@")
+        if at < 0:
+            continue
+        words = line[at:].split()
+        if len(words) < 2 or words[0] not in ("@hist", "@buckets", "@info", "@end"):
+            continue
+        kind, label, rest = words[0], words[1], words[2:]
+        if kind == "@hist":
+            f = dict(w.split("=", 1) for w in rest)
+            shape = (int(f["sub_bucket_bits"]), int(f["max_exponent"]), int(f["bucket_count"]))
+            if shape != (K_SUB_BITS, K_MAX_EXP, K_BUCKETS):
+                raise BenchError(f"{what}: histogram '{label}' has shape {shape}, irpd's is "
+                                 f"{(K_SUB_BITS, K_MAX_EXP, K_BUCKETS)}: update tests/bench/common/bench_hist.hpp")
+            hists[label] = {"buckets": [0] * K_BUCKETS, "sum": int(f["sum"]), "min": int(f["min"]),
+                            "max": int(f["max"]), "count": int(f["count"])}
+        elif kind == "@buckets":
+            for w in rest:
+                i, c = w.split(":")
+                hists[label]["buckets"][int(i)] += int(c)
+        elif kind == "@info":
+            info[label] = {k: (int(v) if v.lstrip("-").isdigit() else v) for k, v in
+                           (w.split("=", 1) for w in rest if "=" in w)}
+        else:
+            ended.add(label)
+    for label, h in hists.items():
+        if label not in ended or sum(h["buckets"]) != h["count"]:
+            raise BenchError(f"{what}: histogram '{label}' arrived incomplete ({sum(h['buckets'])} of {h['count']} "
+                             "samples; was its output cut or rate-limited?)")
+    return hists, info
+
+
+def bench_hist(hists: dict, label: str, what: str) -> dict:
+    if label not in hists:
+        raise BenchError(f"{what} printed no histogram '{label}'")
+    return hists[label]
+
+
+def process_set_xml(period_ns: int) -> str:
+    return ("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+            f"<!-- generated by tests/bench/run_bench.py: one periodic process module, period {period_ns} ns -->\n"
+            "<root>\n"
+            "  <module><filename>./wake_process.exe</filename><moduletype>process</moduletype>"
+            f"<operationtype>periodic</operationtype><period>{period_ns}</period><priority>1</priority>"
+            "<name>p001</name></module>\n"
+            "</root>\n")
+
+
+def sporadic_set_xml(period_ns: int, every: int, process: bool) -> str:
+    reactor = ("<filename>./reactor_proc.exe</filename><moduletype>process</moduletype>" if process else
+               "<filename>./reactor.so</filename><moduletype>thread</moduletype>")
+    name = "reactor_proc" if process else "reactor"
+    return ("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+            f"<!-- generated by tests/bench/run_bench.py: sporadic {'process' if process else 'thread'} reaction -->\n"
+            "<root>\n"
+            "  <module><filename>./raiser.so</filename><moduletype>thread</moduletype>"
+            f"<operationtype>periodic</operationtype><period>{period_ns}</period><priority>1</priority>"
+            f"<name>raiser</name><property><value name=\"every\">{every}</value></property></module>\n"
+            f"  <module>{reactor}<operationtype>sporadic</operationtype><deadline>{period_ns}</deadline>"
+            f"<priority>1</priority><name>{name}</name></module>\n"
+            "</root>\n")
+
+
+PROGRAMS = ("thread", "process", "signal", "signal_unbounded")
+PROGRAM_TITLES = {"thread": "thread module (irpd)", "process": "process module (irpd)",
+                  "signal": "signal-based", "signal_unbounded": "signal-based, unbounded wait"}
+
+
+def run_wakeup_comparison(a, irpd: Path, bench: Path, one: Path, work: Path, commands: list[str]) -> dict:
+    """Thread module, process module and the signal-based worker (its dispatcher waiting for "done"
+    with a time bound as irpd does, then without), same period, CPU and priority, in alternating
+    rounds whose order rotates; the histograms of the rounds are merged exactly."""
+    proc_xml = bench / f"bench-proc-1x{a.period_ns}ns.xml"
+    proc_xml.write_text(process_set_xml(a.period_ns))
+    seconds = a.proc_duration // a.proc_rounds
+    acc = {p: {} for p in PROGRAMS}  # program -> figure -> list of per-round histograms or counters
+    rounds = []
+
+    def add(program: str, key: str, value) -> None:
+        acc[program].setdefault(key, []).append(value)
+
+    for r in range(1, a.proc_rounds + 1):
+        k = (r - 1) % len(PROGRAMS)
+        order = PROGRAMS[k:] + PROGRAMS[:k]
+        this = {"round": r, "order": order}
+        for program in order:
+            if program == "thread":
+                d = run_irpd(a, irpd, one, seconds, "skip", f"wake-thread-r{r}", work, commands,
+                             hists=(("dispatcher", "latency"), ("m001", "latency")))
+                add("thread", "wake", d["_hists"]["m001.latency"])
+                add("thread", "dispatcher", d["_hists"]["dispatcher.latency"])
+                for c in ("runs", "missed", "skipped"):
+                    add("thread", "module_" + c, d["modules"][0][c])
+                add("thread", "realtime", d["realtime"])
+            elif program == "process":
+                d = run_irpd(a, irpd, proc_xml, seconds, "skip", f"wake-process-r{r}", work, commands,
+                             hists=(("dispatcher", "latency"), ("p001", "latency"), ("p001", "exec")))
+                hs, info = parse_bench_output(d["_stdout"], f"wake_process.exe (round {r})")
+                add("process", "wake", bench_hist(hs, "process_wake", "wake_process.exe"))
+                add("process", "dispatcher", d["_hists"]["dispatcher.latency"])
+                add("process", "release", d["_hists"]["p001.latency"])
+                add("process", "exec", d["_hists"]["p001.exec"])
+                m = d["modules"][0]
+                for c in ("runs", "overruns", "missed", "skipped"):
+                    add("process", "module_" + c, m[c])
+                pi = info.get("process_wake", {})
+                add("process", "gaps", pi.get("gaps", 0))
+                add("process", "mlockall", pi.get("mlockall", 0))
+                add("process", "realtime", d["realtime"])
+            else:
+                cmd = [str(bench / "signal_wakeup"), "--period-ns", str(a.period_ns), "--duration", str(seconds),
+                       "--cpu", str(a.cpu), "--rt-priority", str(a.rt_priority)]
+                if program == "signal_unbounded":
+                    cmd.append("--unbounded")
+                commands.append(quote(cmd))
+                p = run_checked(cmd, f"signal_wakeup (round {r}, {seconds} s)", seconds + 60)
+                hs, info = parse_bench_output(p.stdout, f"signal_wakeup (round {r})")
+                add(program, "wake", bench_hist(hs, "signal_wake", "signal_wakeup"))
+                add(program, "dispatcher", bench_hist(hs, "signal_dispatcher", "signal_wakeup"))
+                add(program, "exec", bench_hist(hs, "signal_exec", "signal_wakeup"))
+                di = info.get("signal_dispatcher", {})
+                for c in ("releases", "missed", "skipped", "overruns", "not_ready", "grid"):
+                    add(program, c, di.get(c, 0))
+                add(program, "realtime", bool(di.get("realtime")) and bool(info.get("signal_wake", {}).get("realtime")))
+            this[program] = summarize_irpd_hist(acc[program]["wake"][-1])
+        rounds.append(this)
+
+    out = {"seconds_per_round": seconds, "rounds": rounds, "process_xml": proc_xml}
+    for program, figures in acc.items():
+        out[program] = {}
+        for key, values in figures.items():
+            if isinstance(values[0], dict):
+                out[program][key] = summarize_irpd_hist(merge_irpd_hists(values))
+            elif isinstance(values[0], bool):
+                out[program][key] = all(values)
+            else:
+                out[program][key] = sum(values)
+    t99, p99 = out["thread"]["wake"].get("p99"), out["process"]["wake"].get("p99")
+    out["ratio_p99"] = ratio(p99, t99)
+    out["target"] = out["ratio_p99"] is not None and out["ratio_p99"] <= PROC_P99_RATIO_TARGET
+    return out
+
+
+def run_sporadic(a, irpd: Path, bench: Path, work: Path, commands: list[str]) -> dict:
+    """A periodic thread module raises an event every `every`-th basic period; a sporadic thread
+    module, then (in a second run) a sporadic process module reacts to it."""
+    folder = bench / "sporadic"
+    out = {"every": a.sporadic_every, "seconds": a.sporadic_duration}
+    for kind, label, name in (("thread", "sporadic_thread", "reactor"), ("process", "sporadic_process", "reactor_proc")):
+        xml = folder / f"bench-sporadic-{kind}-{a.period_ns}ns.xml"
+        xml.write_text(sporadic_set_xml(a.period_ns, a.sporadic_every, kind == "process"))
+        d = run_irpd(a, irpd, xml, a.sporadic_duration, None, f"sporadic-{kind}", work, commands)
+        what = "reactor.so" if kind == "thread" else "reactor_proc.exe"
+        hs, info = parse_bench_output(d["_stdout"], what)
+        names = [m["name"] for m in d["modules"]]
+        out[kind] = {"xml": xml, "reaction": summarize_irpd_hist(bench_hist(hs, label, what)),
+                     "info": info.get(label, {}), "irpd": d["modules"][names.index(name)],
+                     "raiser": d["modules"][names.index("raiser")], "dispatcher": d["dispatcher"],
+                     "realtime": d["realtime"], "policy": d.get("overrun_policy")}
+    ti = out["thread"]["info"]
+    out["target"] = (ti.get("same_period", 0) > 0 and ti.get("next_period", 1) == 0 and ti.get("later", 1) == 0
+                     and ti.get("lost", 1) == 0)
+    return out
+
+
+def render_wakeup(a, w: dict) -> str:
+    t, p, s, u = (w[k] for k in PROGRAMS)
+    tw, pw = t["wake"], p["wake"]
+    per_us = a.period_ns / 1000
+    L: list[str] = []
+    add = L.append
+
+    def q(h: dict) -> str:
+        return " / ".join(us(h.get(k)) for k in ("p50", "p99", "p999", "max")) if h.get("count") else "—"
+
+    add("## Process module wake-up: against a thread module and a signal-based wake-up")
+    add("")
+    add(f"Period {a.period_ns} ns ({per_us:g} µs), CPU {a.cpu}, the dispatcher at SCHED_FIFO {a.rt_priority}, the "
+        f"processes at {a.rt_priority - 1}; {len(PROGRAMS)} programs, {w['seconds_per_round']} s each per round, in "
+        f"{a.proc_rounds} rounds whose order rotates; the samples of the rounds are merged. irpd runs with "
+        "`--overrun-policy skip`, as in the cyclictest comparison, so that every sample is a real wake-up.")
+    add("")
+    add(f"Target: process p99 ≤ {PROC_P99_RATIO_TARGET:g}× thread p99: {us(pw.get('p99'))} µs / "
+        f"{us(tw.get('p99'))} µs = {fmt_ratio(w['ratio_p99'])}: **{verdict(w['target'])}**.")
+    per_round = [ratio(r["process"].get("p99"), r["thread"].get("p99")) for r in w["rounds"]]
+    per_round = [x for x in per_round if x is not None]
+    if per_round:
+        add("")
+        add(f"Round by round the same ratio goes from {min(per_round):.2f}× to {max(per_round):.2f}× (last table): "
+            "a merged p99 leans on the program's noisiest round, and the noisiest rounds of the thread and of the "
+            "process need not be the same ones. The p50s are the steadier comparison: the process's p50 is its "
+            f"dispatcher's plus {us(pw.get('p50', 0) - p['dispatcher'].get('p50', 0))} µs of hand-over (second "
+            "table).")
+    add("")
+    add("Wake-up latency = when the module's code starts running − the basic period's due time, in µs (the "
+        "ratios are against the thread module):")
+    add("")
+    add("| figure | " + " | ".join(PROGRAM_TITLES[k] for k in PROGRAMS) + " | process/thread | signal/thread | "
+        "signal, unbounded/thread |")
+    add("| --- |" + " ---: |" * (len(PROGRAMS) + 3))
+    add("| samples | " + " | ".join(str(w[k]["wake"].get("count", 0)) for k in PROGRAMS) + " | | | |")
+    for key, name in (("min", "min"), ("mean", "mean"), ("p50", "**p50**"), ("p99", "**p99**"),
+                      ("p999", "p99.9"), ("max", "max")):
+        vals = [w[k]["wake"].get(key) for k in PROGRAMS]
+        add(f"| {name} | " + " | ".join(us(v) for v in vals) + " | " +
+            " | ".join(fmt_ratio(ratio(v, vals[0])) for v in vals[1:]) + " |")
+    add("")
+    add("The same runs, what each dispatcher saw (µs; p50 / p99 / p99.9 / max):")
+    add("")
+    add("| | " + " | ".join(PROGRAM_TITLES[k] for k in PROGRAMS) + " |")
+    add("| --- |" + " ---: |" * len(PROGRAMS))
+    add("| dispatcher's own wake-up latency (woke − due) | " + " | ".join(q(w[k]["dispatcher"]) for k in PROGRAMS) + " |")
+    add(f"| irpd's record for the module, `latency_ns` | {q(tw)} (start − due) | {q(p['release'])} (release − due) "
+        "| — | — |")
+    add(f"| release → done (irpd: the process's `exec_ns`; signal: `sigqueue` → \"done\" received) | — | "
+        f"{q(p['exec'])} | {q(s['exec'])} | {q(u['exec'])} |")
+    add("| hand-over: p50 of the module's wake-up − p50 of its dispatcher's | " +
+        " | ".join(us(w[k]["wake"].get("p50", 0) - w[k]["dispatcher"].get("p50", 0)) for k in PROGRAMS) + " |")
+    add(f"| wake-up samples | {t['module_runs']} runs | {p['module_runs']} runs; the process counted "
+        f"{pw.get('count', 0)} | {s['releases']} releases | {u['releases']} releases |")
+    add(f"| slots skipped (a whole period late) / releases missed (not ready) / not done within the period | "
+        f"{t['module_skipped']} / — / — | {p['module_skipped']} / {p['module_missed']} / {p['module_overruns']} | "
+        f"{s['skipped']} / {s['not_ready']} / {s['overruns']} | {u['skipped']} / {u['not_ready']} / {u['overruns']} |")
+    add("")
+    add("Round by round (the module's wake-up p50 / p99 / max in µs; the ratio is the process's p99 over the "
+        "thread's):")
+    add("")
+    add("| round | first | " + " | ".join(PROGRAM_TITLES[k] for k in PROGRAMS) + " | p99 process/thread |")
+    add("| --- | --- |" + " ---: |" * (len(PROGRAMS) + 1))
+    for r in w["rounds"]:
+        cells = [" / ".join(us(r[k].get(x)) for x in ("p50", "p99", "max")) for k in PROGRAMS]
+        add(f"| {r['round']} | {r['order'][0]} | " + " | ".join(cells) + " | "
+            f"{fmt_ratio(ratio(r['process'].get('p99'), r['thread'].get('p99')))} |")
+    add("")
+    add(f"- **thread module**: `{rel(a.one_set)}`, one empty thread module (`empty.so`); its wake-up is its record's "
+        "`latency_ns` in `--stats-json` (its `run()` start − the slot's due time), the histogram read from irpd's "
+        "stats block. It starts right after the dispatcher's own wake-up, so the two are nearly equal. With the "
+        "skip policy a slot woken a whole period late or more is dropped and the module runs in the slot due now, "
+        "its latency counted against that slot: its max stays below one period, and the stalls show as skipped "
+        "slots (last table row).")
+    add(f"- **process module**: `{rel(w['process_xml'])}`, one periodic process module, "
+        "`tests/bench/processes/wake_process.cpp`: `mlockall`, `irp::initPeriodExe()`, then "
+        "`while (irp::waitPeriod() == 0)` recording (return of `waitPeriod()`) − `irp::cycle().planned_ns` (the "
+        "due time of the slot that released it) into a histogram of irpd's shape, printed when `waitPeriod()` "
+        "returns −1 and read from irpd's stdout (`[p001] @hist …`). irpd releases it through the control segment "
+        "(release_seq + 1, FUTEX_WAKE) and waits for its done word (FUTEX_WAIT with a timeout: the end of the "
+        "basic period); the process, one priority below and on the same CPU, gets the CPU when the dispatcher "
+        "blocks. Its wake-up therefore includes the dispatcher's own wake-up, the release, the start of the "
+        "bounded wait and a switch to another address space.")
+    add("- **signal-based**: `tests/bench/signal_wakeup.cpp`, the paper's original design (Figures 6 and 8: the "
+        "event handler \"sends signal to each process\", `waitPeriod()` \"waits signal\"): a dispatcher process "
+        f"at SCHED_FIFO {a.rt_priority} sleeps on the same absolute grid, sends `sigqueue(worker, SIGRTMIN, due)` "
+        f"and waits in `sigtimedwait`, bounded by the end of the period as irpd's wait is, for the worker's "
+        f"\"done\" (SIGRTMIN+1); the worker, SCHED_FIFO {a.rt_priority - 1} on the same CPU, blocks in "
+        "`sigwaitinfo` and records (its return) − the due time the signal carries. Same histogram, same skip rule, "
+        "same \"not released while not done\" rule as irpd.")
+    add("- **signal-based, unbounded wait**: the same program with `--unbounded`: its dispatcher waits for \"done\" "
+        "in `sigwaitinfo`, without a time bound, so no timer is armed between the release and the switch to the "
+        "worker. The difference between the two signal columns (hand-over "
+        f"{us(s['wake'].get('p50', 0) - s['dispatcher'].get('p50', 0))} µs against "
+        f"{us(u['wake'].get('p50', 0) - u['dispatcher'].get('p50', 0))} µs at p50; release → done "
+        f"{us(s['exec'].get('p50'))} µs against {us(u['exec'].get('p50'))} µs) is what arming and cancelling that "
+        "timer costs on this machine; irpd's release of a process pays it too (its wait for done is a FUTEX_WAIT "
+        "with a timeout, `rtcore/src/hosts/control_segment.cpp`, called from `Executor::runProcess`).")
+    add(f"- **Period.** {per_us:g} µs is sustainable for a process module here: {p['module_overruns']} of "
+        f"{p['module_runs']} releases were not done within their basic period "
+        f"({100 * p['module_overruns'] / max(1, p['module_runs']):.3f} %), {p['module_missed']} releases were not "
+        f"made because the process was not ready, and the whole release → done takes "
+        f"{us(p['exec'].get('p50'))} µs at p50, {us(p['exec'].get('p99'))} µs at p99.")
+    if not all(w[k]["realtime"] for k in PROGRAMS):
+        add("- **WARNING**: some run did not get SCHED_FIFO (not root?); these figures are not real-time.")
+    if not p.get("mlockall"):
+        add("- **WARNING**: the process module could not mlockall (page faults may add latency).")
+    add("")
+    return "\n".join(L)
+
+
+def render_sporadic(a, sp: dict) -> str:
+    per_us = a.period_ns / 1000
+    L: list[str] = []
+    add = L.append
+    add(f"## Sporadic reaction time")
+    add("")
+    add(f"A periodic thread module (`tests/bench/modules/raiser.cpp`, period {per_us:g} µs) raises an event every "
+        f"{sp['every']}th basic period: it reads CLOCK_MONOTONIC, stores that time and the basic period's count in "
+        "shared variables (`tests/bench/shared/sporadic.glb`), then bumps `sporadic::seq`; from that store on, the "
+        "sporadic module's condition (\"seq moved\") is true. Reaction time = when the sporadic module's work "
+        "starts − that raise time. One irpd run per variant, "
+        f"{sp['seconds']} s each, default overrun policy ({sp['thread']['policy']}), same CPU and priority.")
+    add("")
+    th, pr = sp["thread"], sp["process"]
+    add(f"Expected (by design, docs/process-modules.md): a sporadic thread reacts in the basic period that raised "
+        f"the event, as the event handler runs right after the periodic modules: "
+        f"{th['info'].get('same_period', 0)} of {th['reaction'].get('count', 0)} reactions in that basic period: "
+        f"**{verdict(sp['target'])}**.")
+    add("")
+    add("| reaction time, µs | sporadic thread (`run()` start) | sporadic process (`waitPeriod()` return) |")
+    add("| --- | ---: | ---: |")
+    tr, prr = th["reaction"], pr["reaction"]
+    add(f"| events handled | {tr.get('count', 0)} | {prr.get('count', 0)} |")
+    for key, name in (("min", "min"), ("mean", "mean"), ("p50", "**p50**"), ("p99", "**p99**"), ("p999", "p99.9"),
+                      ("max", "**max**")):
+        add(f"| {name} | {us(tr.get(key))} | {us(prr.get(key))} |")
+    ti, pi = th["info"], pr["info"]
+    add(f"| handled in the basic period that raised it / the next / later | {ti.get('same_period')} / "
+        f"{ti.get('next_period')} / {ti.get('later')} | {pi.get('same_period')} / {pi.get('next_period')} / "
+        f"{pi.get('later')} |")
+    add(f"| events lost (raised again before being handled) | {ti.get('lost')} | {pi.get('lost')} |")
+    it, ip = th["irpd"], pr["irpd"]
+    add(f"| irpd's record `latency_ns` p50 / p99 / max | {us(it['latency_ns'].get('p50'))} / "
+        f"{us(it['latency_ns'].get('p99'))} / {us(it['latency_ns'].get('max'))} (condition checked → `run()`) | "
+        f"{us(ip['latency_ns'].get('p50'))} / {us(ip['latency_ns'].get('p99'))} / {us(ip['latency_ns'].get('max'))} "
+        "(release − due, every basic period) |")
+    add(f"| irpd's record `exec_ns` p50 / p99 / max | {us(it['exec_ns'].get('p50'))} / {us(it['exec_ns'].get('p99'))} / "
+        f"{us(it['exec_ns'].get('max'))} (`run()`) | {us(ip['exec_ns'].get('p50'))} / {us(ip['exec_ns'].get('p99'))} / "
+        f"{us(ip['exec_ns'].get('max'))} (release → done) |")
+    add(f"| irpd's record: runs / deadline misses (deadline {per_us:g} µs) | {it['runs']} / {it['missed']} | "
+        f"{ip['runs']} releases completed / {ip['missed']} |")
+    add("")
+    add(f"- The sporadic **thread** (`tests/bench/modules/reactor.cpp`, `{rel(th['xml'])}`) runs on the dispatcher "
+        "thread: after the raiser's `run()` returns, irpd finishes the raiser's bookkeeping, the event handler calls "
+        "`condition()` and then `run()`, whose first act is to read the clock. `irp::cycle().count` in `run()` "
+        "against the raiser's count gives the basic period of the reaction.")
+    add(f"- The sporadic **process** (`tests/bench/processes/reactor_proc.cpp`, `{rel(pr['xml'])}`, Figure 8's "
+        "shape) is released by the event handler every basic period and not awaited: it runs when the dispatcher "
+        "goes back to sleep (after arming the timer of its next wake-up: see the unbounded-wait column above for "
+        "what arming a timer costs on this machine), checks the event itself after `waitPeriod()` returns, and "
+        "records that return − the raise time. It is released in the basic period that raised the event when it finished its previous "
+        "release; otherwise (the machine stalled it) in a later one.")
+    add("")
+    return "\n".join(L)
+
+
+def add_targets_and_runs(a, report: str, wake: dict, sporadic: dict) -> str:
+    """Adds this run's process and sporadic targets to the report's target table, and says in its
+    opening paragraph what ran after the 100-module set."""
+    lines = report.split("\n")
+    for i, line in enumerate(lines):
+        if line.startswith("| dispatch overhead ≤"):
+            pw, tw = wake["process"]["wake"], wake["thread"]["wake"]
+            ti = sporadic["thread"]["info"]
+            lines[i + 1:i + 1] = [
+                f"| process module wake-up p99 ≤ {PROC_P99_RATIO_TARGET:g}× thread module's, same run, "
+                f"{a.period_ns / 1000:g} µs | {us(pw.get('p99'))} µs / {us(tw.get('p99'))} µs = "
+                f"{fmt_ratio(wake['ratio_p99'])} (signal-based wake-up: {us(wake['signal']['wake'].get('p99'))} µs) | "
+                f"{verdict(wake['target'])} |",
+                f"| sporadic thread reacts in the basic period its condition turned true (by design) | "
+                f"{ti.get('same_period', 0)} of {sporadic['thread']['reaction'].get('count', 0)}; reaction p99 "
+                f"{us(sporadic['thread']['reaction'].get('p99'))} µs (process: "
+                f"{us(sporadic['process']['reaction'].get('p99'))} µs) | {verdict(sporadic['target'])} |"]
+            break
+    for i, line in enumerate(lines):
+        if line.startswith(f"Period {a.period_ns} ns (") and line.endswith(" s."):
+            lines[i] = (line + f" Then the shared-variable costs; the thread module, the process module and the "
+                        f"signal-based wake-up (with a bounded and an unbounded wait), {a.proc_duration} s each in "
+                        f"{a.proc_rounds} rotating rounds; the sporadic thread and the sporadic process, "
+                        f"{a.sporadic_duration} s each.")
+            break
+    for i, line in enumerate(lines):
+        if line.startswith(f"`{rel(a.one_set)}` (the 1-module set) is "):
+            proc = process_set_xml(a.period_ns).splitlines()[3].strip()
+            spt = sporadic_set_xml(a.period_ns, a.sporadic_every, False).splitlines()[3:5]
+            spp = sporadic_set_xml(a.period_ns, a.sporadic_every, True).splitlines()[4].strip()
+            lines[i + 1:i + 1] = [
+                "",
+                f"`{rel(wake['process_xml'])}` (the process set) is `{proc}`. The sporadic sets, in "
+                f"`{rel(sporadic['thread']['xml'].parent)}/` beside their `layout.json`, are "
+                f"`{spt[0].strip()}` followed by `{spt[1].strip()}` (thread) or `{spp}` (process)."]
+            break
+    return "\n".join(lines)
+
+# --------------------------------------------------------------------------------------------
 
 
 def main(argv: list[str]) -> int:
@@ -874,6 +1302,15 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--overhead-period-ns", type=int, default=1_000_000,
                     help="period of the 100-module set (default 1000000)")
     ap.add_argument("--modules", type=int, default=100, help="modules in the overhead set (default 100)")
+    ap.add_argument("--proc-duration", type=int, default=20,
+                    help="seconds of each program of the thread/process/signal wake-up comparison, split in "
+                         "--proc-rounds (default 20)")
+    ap.add_argument("--proc-rounds", type=int, default=4,
+                    help="rounds of that comparison; the order of its four programs rotates (default 4)")
+    ap.add_argument("--sporadic-duration", type=int, default=8,
+                    help="seconds of each sporadic-reaction run, thread and process (default 8)")
+    ap.add_argument("--sporadic-every", type=int, default=4,
+                    help="the sporadic event is raised every this many basic periods (default 4)")
     ap.add_argument("--cpu", type=int, default=None, help="CPU of every run (default: the last one allowed)")
     ap.add_argument("--rt-priority", type=int, default=80, help="SCHED_FIFO priority (default 80)")
     ap.add_argument("--work-ns", type=int, default=1000, help="relative loop's work per iteration (default 1000)")
@@ -896,13 +1333,16 @@ def main(argv: list[str]) -> int:
         ap.error(f"--cpu {a.cpu}: not among the CPUs allowed here ({allowed})")
     if a.period_ns % 1000 or a.period_ns < 10_000:
         ap.error("--period-ns must be a whole number of microseconds (cyclictest's -i), at least 10000")
-    for name in ("duration", "long_duration", "overhead_duration", "modules", "rounds"):
+    for name in ("duration", "long_duration", "overhead_duration", "modules", "rounds", "proc_duration",
+                 "proc_rounds", "sporadic_duration", "sporadic_every"):
         if getattr(a, name) < 1:
             ap.error(f"--{name.replace('_', '-')} must be at least 1")
     if a.duration % a.rounds:
         ap.error(f"--duration {a.duration} must be a multiple of --rounds {a.rounds} (cyclictest takes whole seconds)")
-    if not 1 <= a.rt_priority <= 99:
-        ap.error("--rt-priority must be 1..99")
+    if a.proc_duration % a.proc_rounds:
+        ap.error(f"--proc-duration {a.proc_duration} must be a multiple of --proc-rounds {a.proc_rounds}")
+    if not 2 <= a.rt_priority <= 99:
+        ap.error("--rt-priority must be 2..99 (process modules run one below it)")
 
     if not shutil.which("cyclictest"):
         print("run_bench: cyclictest not found. It is in Debian's rt-tests package: apt-get install rt-tests",
@@ -920,7 +1360,10 @@ def main(argv: list[str]) -> int:
         irpd = a.build_dir / "bin" / "irpd"
         load_stats_layout(irpd)
         bench = a.build_dir / "bench"
-        for f in (irpd, bench / "empty.so", bench / "relative_sleep"):
+        for f in (irpd, bench / "empty.so", bench / "relative_sleep", bench / "shared_vars",
+                  bench / "wake_process.exe", bench / "signal_wakeup", bench / "sporadic" / "raiser.so",
+                  bench / "sporadic" / "reactor.so", bench / "sporadic" / "reactor_proc.exe",
+                  bench / "sporadic" / "layout.json"):
             if not f.exists():
                 raise BenchError(f"{f} is missing: build first (or drop --no-build)")
         # this script and its observer stay off the measured CPU
@@ -933,6 +1376,7 @@ def main(argv: list[str]) -> int:
         one = bench / f"bench-1x{a.period_ns}ns.xml"
         many = bench / f"bench-{a.modules}x{a.overhead_period_ns}ns.xml"
         one.write_text(module_xml(1, a.period_ns))
+        a.one_set = one
         many.write_text(module_xml(a.modules, a.overhead_period_ns))
         sets = {"one": one, "many": many,
                 "one_desc": module_xml(1, a.period_ns).splitlines()[3].strip()}
@@ -970,6 +1414,8 @@ def main(argv: list[str]) -> int:
             relative = run_relative(a, bench / "relative_sleep", work, commands)
             over = run_irpd(a, irpd, many, a.overhead_duration, None, "overhead", work, commands)
             shared = run_shared_vars(a, bench, commands)
+            wake = run_wakeup_comparison(a, irpd, bench, one, work, commands)
+            sporadic = run_sporadic(a, irpd, bench, work, commands)
             pm_qos_held = qos.held
         res = analyse(a, ct, skip, catch, over, relative)
     except BenchError as e:
@@ -979,7 +1425,9 @@ def main(argv: list[str]) -> int:
     took = time.monotonic() - t_start
     info["loadavg_end"] = read_text("/proc/loadavg")
     report = render(a, info, ct, skip, catch, over, relative, res, commands, sets, pm_qos_held, started_wall, took)
-    report = report.replace("\n## Machine\n", render_shared(shared) + "\n## Machine\n", 1)
+    report = report.replace("\n## Machine\n", "\n" + render_shared(shared) + "\n" + render_wakeup(a, wake) + "\n" +
+                            render_sporadic(a, sporadic) + "\n## Machine\n", 1)
+    report = add_targets_and_runs(a, report, wake, sporadic)
     print(report)
     if a.out != "-":
         out = Path(a.out)
@@ -987,10 +1435,11 @@ def main(argv: list[str]) -> int:
         out.write_text(report)
         log(f"wrote {out}")
     if a.json:
-        strip = lambda d: {k: v for k, v in d.items() if k not in ("_stderr", "_latency_hist")}
+        strip = lambda d: {k: v for k, v in d.items() if k not in ("_stderr", "_stdout", "_latency_hist", "_hists")}
         a.json.write_text(json.dumps({"machine": info, "cyclictest": ct, "irpd_skip": strip(skip),
                                       "irpd_catchup": strip(catch), "irpd_overhead": strip(over),
-                                      "relative_sleep": relative, "analysis": res,
+                                      "relative_sleep": relative, "analysis": res, "shared_vars": shared,
+                                      "process_wakeup": wake, "sporadic": sporadic,
                                       "commands": commands}, indent=1, default=str) + "\n")
         log(f"wrote {a.json}")
     return 0
