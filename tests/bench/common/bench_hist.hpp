@@ -1,4 +1,4 @@
-// bench_hist.hpp -- the benchmark programs' latency histogram: the same log-linear shape as irpd's
+// bench_hist.hpp -- the benchmark programs' latency histogram: irpd's log-linear buckets
 // (rtcore/src/stats/histogram.hpp: 0..31 ns exactly, then 32 buckets per power of two up to 2^36 ns),
 // so that run_bench.py summarizes and merges them with the code it uses for irpd's own, and a
 // text form that survives irpd's "[name] " output forwarding (lines of at most ~1 KiB).
@@ -9,6 +9,8 @@
 //   @end <label>
 #pragma once
 
+#include "stats/histogram.hpp"
+
 #include <sys/mman.h>
 
 #include <cstddef>
@@ -18,19 +20,11 @@
 
 namespace bench {
 
-inline constexpr int kSubBucketBits = 5;
-inline constexpr uint64_t kSubBuckets = 1u << kSubBucketBits;
-inline constexpr int kMaxExponent = 36;
-inline constexpr std::size_t kBuckets = kSubBuckets + (kMaxExponent - kSubBucketBits + 1) * kSubBuckets;
-
-constexpr std::size_t bucketOf(uint64_t v) noexcept {
-    if (v < kSubBuckets) return static_cast<std::size_t>(v);
-    int e = 63 - __builtin_clzll(v);
-    if (e > kMaxExponent) return kBuckets - 1;
-    return static_cast<std::size_t>(kSubBuckets + static_cast<uint64_t>(e - kSubBucketBits) * kSubBuckets +
-                                    ((v >> (e - kSubBucketBits)) & (kSubBuckets - 1)));
-}
-static_assert(bucketOf(31) == 31 && bucketOf(32) == 32 && bucketOf(100'000) < kBuckets);
+// irpd's own bucket arithmetic, so both sides always agree.
+using irp::stats::bucketOf;
+using irp::stats::kBuckets;
+using irp::stats::kMaxExponent;
+using irp::stats::kSubBucketBits;
 
 inline int64_t nowNs() noexcept {
     timespec ts{};
