@@ -48,16 +48,8 @@ int succeed() noexcept {
     return 0;
 }
 
-template <class T>
-std::atomic_ref<T> atomic(T &word) noexcept {
-    return std::atomic_ref<T>(word);
-}
-
-int64_t monotonicNs() noexcept {
-    timespec ts{};
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1'000'000'000LL + ts.tv_nsec;
-}
+using sdk::atomic;
+using sdk::monotonicNs;
 
 // FUTEX_WAIT while *word == expected, at most left_ns; EAGAIN, EINTR, ETIMEDOUT: the caller re-checks.
 void futexWait(uint32_t *word, uint32_t expected, int64_t left_ns) noexcept {

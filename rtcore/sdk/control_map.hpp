@@ -5,7 +5,10 @@
 
 #include <indurop/control.h>
 
+#include <atomic>
 #include <cstddef>
+#include <cstdint>
+#include <ctime>
 #include <string>
 
 namespace irp::sdk {
@@ -21,5 +24,17 @@ struct ControlMap {
 // started by irpd (INDUROP_CTL is not set)"; the next call tries again.  The first call allocates
 // and makes syscalls; later ones are one atomic load.
 const ControlMap *mapControl(std::string &why);
+
+// The slot's words are shared with irpd: every access is atomic.
+template <class T>
+std::atomic_ref<T> atomic(T &word) noexcept {
+    return std::atomic_ref<T>(word);
+}
+
+inline int64_t monotonicNs() noexcept {
+    timespec ts{};
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1'000'000'000LL + ts.tv_nsec;
+}
 
 } // namespace irp::sdk

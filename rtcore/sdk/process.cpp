@@ -45,16 +45,8 @@ struct PeriodState {
 };
 PeriodState g_period;
 
-template <class T>
-std::atomic_ref<T> atomic(T &word) noexcept {
-    return std::atomic_ref<T>(word);
-}
-
-int64_t monotonicNs() noexcept {
-    timespec ts{};
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1'000'000'000LL + ts.tv_nsec;
-}
+using sdk::atomic;
+using sdk::monotonicNs;
 
 // Process-shared futex calls (no FUTEX_PRIVATE_FLAG: irpd waits and wakes on the same words).
 void futexWake(uint32_t *word) noexcept { syscall(SYS_futex, word, FUTEX_WAKE, INT32_MAX, nullptr, nullptr, 0); }
