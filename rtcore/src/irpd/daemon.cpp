@@ -10,6 +10,7 @@
 #include "irpd/daemon.hpp"
 
 #include "config/module_xml.hpp"
+#include "control/control_server.hpp"
 #include "dispatch/dispatcher.hpp"
 #include "dispatch/function_calls.hpp"
 #include "hosts/control_segment.hpp"
@@ -108,6 +109,59 @@ Status startProcesses(hosts::ProcessSupervisor &supervisor, const std::vector<co
     return supervisor.waitReady(5'000'000'000);
 }
 
+// The control protocol's commands (docs/control-protocol.md).  Runs on the control thread: it
+// reads the set and schedule (never changed while running) and the shared-memory stats block.
+control::Handler controlHandler(const config::SetSpec &set, const schedule::Schedule &schedule,
+                                const stats::StatsSegment &segment, std::size_t executors) {
+    using json = nlohmann::ordered_json;
+    return [&set, &schedule, &segment, executors](const std::string &cmd, const nlohmann::json &) -> Result<json> {
+        const stats::Header *h = segment.header();
+        if (cmd == "status") {
+            const stats::TimingRecord &d = segment.record(0);
+            const int64_t started = h->started_ns.load(), now = osal::monotonicNow();
+            return json{{"set", set.xml_path.string()},
+                        {"running", h->running.load() == 1},
+                        {"realtime", h->realtime.load() == 1},
+                        {"pid", h->pid},
+                        {"basic_period_ns", schedule.basic_ns},
+                        {"macro_period_ns", schedule.macro_ns},
+                        {"uptime_ns", started && now > started ? now - started : 0},
+                        {"cycles", h->cycles.load()},
+                        {"modules", set.modules.size()},
+                        {"overruns", d.overruns.load()},
+                        {"missed", d.missed.load()},
+                        {"skipped", d.skipped.load()},
+                        {"caught_up", d.caught_up.load()}};
+        }
+        if (cmd == "schedule") return schedule::toJson(schedule, set);
+        if (cmd == "modules") {
+            json list = json::array();
+            for (const config::ModuleSpec &m : set.modules) {
+                json entry = stats::toJson(segment.record(executors + static_cast<std::size_t>(m.index)));
+                entry["moduletype"] = config::toString(m.type);
+                entry["operationtype"] = config::toString(m.operation);
+                entry["deadline_ns"] = m.deadline_ns;
+                entry["file"] = m.path.string();
+                list.push_back(std::move(entry));
+            }
+            return list;
+        }
+        if (cmd == "stats") {
+            json executors_json = json::array(), modules = json::array();
+            for (std::size_t i = 0; i < segment.recordCount(); ++i) {
+                const stats::TimingRecord &r = segment.record(i);
+                (r.kind == stats::RecordKind::Dispatcher ? executors_json : modules).push_back(stats::toJson(r));
+            }
+            return json{{"cycles", h->cycles.load()}, {"executors", executors_json}, {"modules", modules}};
+        }
+        for (const char *later : {"load", "set_period", "set_priority", "enable", "disable", "trace"})
+            if (cmd == later)
+                return Error{"command '" + cmd + "' is not available in protocol version " +
+                             std::to_string(control::kProtocolVersion) + " of this irpd"};
+        return Error{"unknown command '" + cmd + "'; the commands are status, schedule, modules, stats"};
+    };
+}
+
 } // namespace
 
 int run(const Options &options) {
@@ -130,6 +184,16 @@ int run(const Options &options) {
     header->basic_ns = schedule->basic_ns;
     header->macro_ns = schedule->macro_ns;
     std::snprintf(header->set_path, sizeof header->set_path, "%s", set->xml_path.c_str());
+
+    // The control socket, before anything starts: a path that cannot be served refuses the run.
+    std::unique_ptr<control::ControlServer> control_server;
+    if (!options.control_socket.empty()) {
+        auto opened = control::ControlServer::open(options.control_socket,
+                                                   controlHandler(*set, *schedule, *segment, executors));
+        if (!opened) return std::cerr << "irpd: error: " << opened.error().message << std::endl, kExitFailure;
+        control_server = std::move(*opened);
+        say("control socket " + control_server->path());
+    }
 
     // Shared variables: the segment exists before any module is loaded.
     std::optional<variables::VariableSegment> vars;
@@ -255,6 +319,7 @@ int run(const Options &options) {
     }
 
     // 5. clean stop
+    control_server.reset();  // no client reads a set that is going away
     dispatcher.requestStop();
     dispatcher.join();
     if (calls) calls->stop();  // callers still waiting return at once ("irpd is stopping")

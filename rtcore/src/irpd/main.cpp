@@ -21,6 +21,7 @@ int main(int argc, char **argv) {
     sigaddset(&stop_signals, SIGINT);
     sigaddset(&stop_signals, SIGTERM);
     pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+    signal(SIGPIPE, SIG_IGN);  // a control client or a pipe that goes away is an error value, not a death
 
     auto options = irp::daemon::parseOptions(argc, argv);
     if (!options) {

@@ -14,7 +14,7 @@ namespace {
 
 enum Flag {
     kConfig = 1000, kPrintSchedule, kJson, kDuration, kStatsJson, kInstance, kMinBasic, kCpu, kRtPriority, kNoRt,
-    kPolicy, kMaxCatchup, kHelp, kVersion, kStatsLayout, kLayout,
+    kPolicy, kMaxCatchup, kHelp, kVersion, kStatsLayout, kLayout, kControlSocket,
 };
 
 const option kOptions[] = {
@@ -34,6 +34,7 @@ const option kOptions[] = {
     {"version", no_argument, nullptr, kVersion},
     {"print-stats-layout", no_argument, nullptr, kStatsLayout},
     {"layout", required_argument, nullptr, kLayout},
+    {"control-socket", required_argument, nullptr, kControlSocket},
     {nullptr, 0, nullptr, 0},
 };
 
@@ -71,6 +72,8 @@ Runs the module set described by FILE.xml (the paper's module.xml) on a strict p
                            a whole basic period late
   --max-catchup NS         catch-up: largest backlog run back to back before skipping
                            (default 100000000)
+  --control-socket PATH    serve the control protocol (docs/control-protocol.md) on this Unix
+                           socket (mode 0660)
   --print-stats-layout     print the offsets of the shared-memory stats block as JSON and exit
   --help, --version
 
@@ -87,7 +90,7 @@ Result<Options> parseOptions(int argc, char **argv) {
         int index = 0;
         int c = getopt_long(argc, argv, ":", kOptions, &index);
         if (c == -1) break;
-        const char *name = c >= kConfig && c <= kLayout ? kOptions[c - kConfig].name : "";
+        const char *name = c >= kConfig && c <= kControlSocket ? kOptions[c - kConfig].name : "";
         switch (c) {
         case kConfig: o.config = optarg; break;
         case kPrintSchedule: o.print_schedule = true; break;
@@ -142,6 +145,7 @@ Result<Options> parseOptions(int argc, char **argv) {
         case kVersion: o.version = true; break;
         case kStatsLayout: o.print_stats_layout = true; break;
         case kLayout: o.layout = optarg; break;
+        case kControlSocket: o.control_socket = optarg; break;
         case ':': return Error{std::string("option ") + argv[optind - 1] + " needs a value"};
         default: return Error{std::string("unknown option ") + argv[optind - 1]};
         }

@@ -16,6 +16,7 @@ struct Options {
     bool print_stats_layout = false;  // --print-stats-layout
     double duration_s = 0;         // --duration S (0 = until SIGINT/SIGTERM)
     std::string stats_json;        // --stats-json FILE
+    std::string control_socket;    // --control-socket PATH ("" = none)
     std::string layout;            // --layout FILE: the set's layout.json, instead of its <layout>
     std::string instance = "default";  // --instance NAME: names the shared memory
     schedule::Limits limits;       // --min-basic-period NS
