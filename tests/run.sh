@@ -6,11 +6,14 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 bash "$root/packaging/deps.sh"
 bash "$root/packaging/build.sh"
 
-# Python tests (glbc) in the project's own venv, made once.
+# Python tests (glbc, the agent) in the project's own venv, made once and updated when the
+# requirements change.
 venv="$root/.venv"
-if [ ! -x "$venv/bin/pytest" ]; then
-  python3 -m venv "$venv"
-  "$venv/bin/pip" install -q --disable-pip-version-check -r "$root/tests/python/requirements.txt"
+req="$root/tests/python/requirements.txt"
+[ -x "$venv/bin/python" ] || python3 -m venv "$venv"
+if ! sha256sum --status -c "$venv/.requirements.sha256" 2>/dev/null; then
+  "$venv/bin/pip" install -q --disable-pip-version-check -r "$req"
+  sha256sum "$req" > "$venv/.requirements.sha256"
 fi
 
 status=0

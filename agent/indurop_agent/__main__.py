@@ -1,0 +1,24 @@
+"""indurop-agent's entry: python -m indurop_agent --host H --port P --data-dir D --irpd-socket PATH."""
+from __future__ import annotations
+
+import sys
+
+import uvicorn
+
+from . import config
+from .app import create_app
+
+
+def main(argv: list[str] | None = None) -> int:
+    settings = config.parse(argv)
+    app = create_app(settings)
+    created = app.state.tokens.ensure_admin()
+    if created:
+        print(f"indurop-agent: the admin token is in {created} (mode 0600); keep it safe", flush=True)
+    print(f"indurop-agent: http://{settings.host}:{settings.port}/api/v1/docs  (irpd: {settings.irpd_socket})", flush=True)
+    uvicorn.run(app, host=settings.host, port=settings.port, log_level="warning")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,86 @@
+"""irpd_client.py -- the agent's side of irpd's control socket (docs/control-protocol.md).
+
+One connection, re-opened when irpd restarts; every call has a timeout, so a stopped irpd makes
+requests fail fast (the API answers 503) instead of hanging.
+"""
+from __future__ import annotations
+
+import json
+import socket
+import threading
+from typing import Any
+
+PROTOCOL = "indurop-control"
+PROTOCOL_VERSION = 1
+
+
+class IrpdUnavailable(Exception):
+    """irpd does not answer on its control socket (not running, or restarting)."""
+
+
+class IrpdRefused(Exception):
+    """irpd answered the request with an error."""
+
+    def __init__(self, code: str, message: str):
+        super().__init__(message)
+        self.code = code
+
+
+class IrpdClient:
+    def __init__(self, path: str, timeout_s: float = 2.0):
+        self.path = path
+        self.timeout_s = timeout_s
+        self._lock = threading.Lock()
+        self._sock: socket.socket | None = None
+        self._file = None
+        self._next_id = 0
+        self.hello: dict[str, Any] | None = None
+
+    def _connect(self) -> None:
+        sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        sock.settimeout(self.timeout_s)
+        try:
+            sock.connect(self.path)
+            file = sock.makefile("rw", encoding="utf-8", newline="\n")
+            hello = json.loads(file.readline() or "null")
+        except (OSError, ValueError) as e:
+            sock.close()
+            raise IrpdUnavailable(f"irpd is not reachable on {self.path}: {e}") from e
+        if not isinstance(hello, dict) or hello.get("protocol") != PROTOCOL or hello.get("version") != PROTOCOL_VERSION:
+            sock.close()
+            raise IrpdUnavailable(f"{self.path} does not speak {PROTOCOL} version {PROTOCOL_VERSION}: {hello!r}")
+        self._sock, self._file, self.hello = sock, file, hello
+
+    def close(self) -> None:
+        with self._lock:
+            self._drop()
+
+    def _drop(self) -> None:
+        if self._sock is not None:
+            self._sock.close()
+        self._sock = self._file = None
+
+    def request(self, cmd: str, **arguments: Any) -> Any:
+        """Sends one command and returns its result; raises IrpdUnavailable or IrpdRefused."""
+        with self._lock:
+            for attempt in (1, 2):  # a connection that irpd's restart broke is re-opened once
+                if self._sock is None:
+                    self._connect()
+                self._next_id += 1
+                try:
+                    self._file.write(json.dumps({"id": self._next_id, "cmd": cmd, **arguments}) + "\n")
+                    self._file.flush()
+                    line = self._file.readline()
+                    if not line:
+                        raise OSError("connection closed")
+                    answer = json.loads(line)
+                except (OSError, ValueError) as e:
+                    self._drop()
+                    if attempt == 2:
+                        raise IrpdUnavailable(f"irpd stopped answering on {self.path}: {e}") from e
+                    continue
+                if answer.get("ok"):
+                    return answer.get("result")
+                error = answer.get("error") or {}
+                raise IrpdRefused(error.get("code", "refused"), error.get("message", "irpd refused the request"))
+        raise IrpdUnavailable(f"irpd is not reachable on {self.path}")
