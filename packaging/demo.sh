@@ -1,10 +1,31 @@
 #!/usr/bin/env bash
 # demo.sh -- installs what is missing, builds, and starts the default demo: irpd running the
-# paper's Figure 1 set (config/sets/paper-fig1) until Ctrl-C.  Extra arguments go to irpd,
-# e.g. `bash packaging/demo.sh --duration 10 --stats-json /tmp/stats.json`.
+# paper's Figure 1 set (config/sets/paper-fig1: every module kind) with its control socket, and
+# indurop-agent on http://127.0.0.1:8080/api/v1 beside it.  Ctrl-C stops both.  Extra arguments
+# go to irpd, e.g. `bash packaging/demo.sh --duration 10 --stats-json /tmp/stats.json` (the
+# agent stops when irpd does).  INDUROP_PORT and INDUROP_DATA change the port and data folder.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 bash "$root/packaging/deps.sh"
 bash "$root/packaging/build.sh"
-echo "demo: irpd --config build/sets/paper-fig1/module.xml $*  (Ctrl-C stops it)"
-exec "$root/build/bin/irpd" --config "$root/build/sets/paper-fig1/module.xml" "$@"
+venv=$(bash "$root/packaging/venv.sh")
+
+data=${INDUROP_DATA:-$root/build/demo-data}
+port=${INDUROP_PORT:-8080}
+mkdir -p "$data"
+sock="$data/irpd.sock"
+
+"$root/build/bin/irpd" --config "$root/build/sets/paper-fig1/module.xml" --control-socket "$sock" "$@" &
+irpd_pid=$!
+for _ in $(seq 100); do [ -S "$sock" ] && break; kill -0 $irpd_pid 2>/dev/null || break; sleep 0.05; done
+(cd "$root/agent" && exec "$venv/bin/python" -m indurop_agent --host 127.0.0.1 --port "$port" \
+    --data-dir "$data" --irpd-socket "$sock") &
+agent_pid=$!
+echo "demo: irpd (pid $irpd_pid) on config/sets/paper-fig1; agent (pid $agent_pid) on http://127.0.0.1:$port/api/v1/docs"
+echo "demo: the admin token is in $data/admin-token"
+
+stop() { kill -TERM $irpd_pid $agent_pid 2>/dev/null || true; wait 2>/dev/null || true; }
+trap stop INT TERM
+# Whichever ends first (irpd after --duration, or the agent) ends the demo.
+wait -n $irpd_pid $agent_pid || true
+stop

@@ -6,15 +6,8 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 bash "$root/packaging/deps.sh"
 bash "$root/packaging/build.sh"
 
-# Python tests (glbc, the agent) in the project's own venv, made once and updated when the
-# requirements change.
-venv="$root/.venv"
-req="$root/tests/python/requirements.txt"
-[ -x "$venv/bin/python" ] || python3 -m venv "$venv"
-if ! sha256sum --status -c "$venv/.requirements.sha256" 2>/dev/null; then
-  "$venv/bin/pip" install -q --disable-pip-version-check -r "$req"
-  sha256sum "$req" > "$venv/.requirements.sha256"
-fi
+# Python tests (glbc, the agent) in the project's own venv.
+venv=$(bash "$root/packaging/venv.sh")
 
 status=0
 (cd "$root/build" && ctest --output-on-failure --timeout 300) || status=1
