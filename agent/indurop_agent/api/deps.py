@@ -37,6 +37,8 @@ def require(role: str):
 
 
 ViewerDep = Annotated[str, Depends(require("viewer"))]
+OperatorDep = Annotated[str, Depends(require("operator"))]
+AdminDep = Annotated[str, Depends(require("admin"))]
 
 
 def ask(client: IrpdClient, cmd: str, **arguments):

@@ -92,7 +92,7 @@ def test_the_first_start_writes_an_admin_token_readable_only_by_its_owner(cell):
     assert token not in (data / "tokens.json").read_text()  # stored hashed
 
 
-@pytest.mark.parametrize("path", ["/status", "/schedule", "/modules"])
+@pytest.mark.parametrize("path", ["/status", "/schedule", "/modules", "/jitter"])
 def test_every_route_but_health_needs_a_valid_token(cell, path):
     url, *_ = cell
     assert httpx.get(f"{url}{path}").status_code == 401
@@ -128,3 +128,46 @@ def test_openapi_is_served_under_api_v1(cell):
     url, *_ = cell
     spec = httpx.get(f"{url}/openapi.json").json()
     assert {"/api/v1/health", "/api/v1/status", "/api/v1/schedule", "/api/v1/modules"} <= set(spec["paths"])
+
+
+# The role each route needs (reads: viewer; token management: admin).
+ROUTES = [("GET", "/status", "viewer"), ("GET", "/schedule", "viewer"), ("GET", "/modules", "viewer"),
+          ("GET", "/jitter", "viewer"), ("POST", "/tokens", "admin")]
+ROLES = ["viewer", "operator", "admin"]
+
+
+def test_the_role_matrix_over_every_route(cell):
+    url, admin, *_ = cell
+    tokens = {"admin": admin}
+    for role in ("viewer", "operator"):
+        r = httpx.post(f"{url}/tokens", json={"name": f"t-{role}", "role": role},
+                       headers={"Authorization": f"Bearer {admin}"})
+        assert r.status_code == 201, r.text
+        assert r.json()["role"] == role
+        tokens[role] = r.json()["token"]
+    for method, path, needed in ROUTES:
+        body = {"name": "x", "role": "viewer"} if method == "POST" else None
+        assert httpx.request(method, f"{url}{path}", json=body).status_code == 401, path
+        for role in ROLES:
+            r = httpx.request(method, f"{url}{path}", json=body, headers={"Authorization": f"Bearer {tokens[role]}"})
+            allowed = ROLES.index(role) >= ROLES.index(needed)
+            assert r.status_code == (201 if method == "POST" else 200) if allowed else r.status_code == 403, \
+                (method, path, role, r.status_code, r.text)
+            if not allowed:
+                assert f"needs the {needed} role" in r.json()["detail"]
+
+
+def test_a_bad_token_request_gets_a_422_that_says_what_to_fix(cell):
+    url, admin, *_ = cell
+    h = {"Authorization": f"Bearer {admin}"}
+    r = httpx.post(f"{url}/tokens", json={"name": "../evil", "role": "root"}, headers=h)
+    assert r.status_code == 422
+    fields = {tuple(e["loc"]) for e in r.json()["detail"]}
+    assert ("body", "name") in fields and ("body", "role") in fields
+
+
+def test_jitter_gives_every_record_with_its_percentiles(cell):
+    url, admin, *_ = cell
+    j = httpx.get(f"{url}/jitter", headers={"Authorization": f"Bearer {admin}"}).json()
+    assert j["executors"][0]["name"] == "dispatcher"
+    assert {"p50", "p99", "p999", "max"} <= set(j["modules"][0]["jitter_ns"])
