@@ -42,6 +42,14 @@ typedef struct indurop_segment_header {
 
 #ifdef __cplusplus
 } /* extern "C" */
+
+// Readers in other languages (the agent) use these offsets; they are part of the format.
+#include <cstddef>
+static_assert(offsetof(indurop_segment_header, layout_hash) == 16, "segment header layout");
+static_assert(offsetof(indurop_segment_header, locks_offset) == 96, "segment header layout");
+static_assert(offsetof(indurop_segment_header, lock_size) == 108, "segment header layout");
+static_assert(offsetof(indurop_segment_header, layout_offset) == 112, "segment header layout");
+static_assert(offsetof(indurop_segment_header, data_offset) == 128, "segment header layout");
 #endif
 
 #endif /* INDUROP_SEGMENT_H */

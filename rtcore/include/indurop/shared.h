@@ -45,6 +45,9 @@ extern indurop_var_lock *indurop_shared_locks;
 
 } // extern "C"
 
+// The sequence's place in a lock entry is part of the segment format (read by the agent).
+static_assert(offsetof(indurop_var_lock, seq) == 40 && sizeof(indurop_var_lock) == 64, "lock table entry layout");
+
 namespace irp::shared {
 
 using VarLock = indurop_var_lock;

@@ -112,9 +112,9 @@ Status startProcesses(hosts::ProcessSupervisor &supervisor, const std::vector<co
 // The control protocol's commands (docs/control-protocol.md).  Runs on the control thread: it
 // reads the set and schedule (never changed while running) and the shared-memory stats block.
 control::Handler controlHandler(const config::SetSpec &set, const schedule::Schedule &schedule,
-                                const stats::StatsSegment &segment, std::size_t executors) {
+                                const stats::StatsSegment &segment, std::size_t executors, const Options &options) {
     using json = nlohmann::ordered_json;
-    return [&set, &schedule, &segment, executors](const std::string &cmd, const nlohmann::json &) -> Result<json> {
+    return [&set, &schedule, &segment, executors, &options](const std::string &cmd, const nlohmann::json &) -> Result<json> {
         const stats::Header *h = segment.header();
         if (cmd == "status") {
             const stats::TimingRecord &d = segment.record(0);
@@ -131,7 +131,11 @@ control::Handler controlHandler(const config::SetSpec &set, const schedule::Sche
                         {"overruns", d.overruns.load()},
                         {"missed", d.missed.load()},
                         {"skipped", d.skipped.load()},
-                        {"caught_up", d.caught_up.load()}};
+                        {"caught_up", d.caught_up.load()},
+                        {"shared_memory",
+                         {{"stats", segment.name()},
+                          {"variables", set.layout.empty() ? json(nullptr)
+                                                           : json(variables::VariableSegment::shmName(options.instance))}}}};
         }
         if (cmd == "schedule") return schedule::toJson(schedule, set);
         if (cmd == "modules") {
@@ -176,6 +180,12 @@ int run(const Options &options) {
         return kExitOk;
     }
 
+    // The set's shared-variable layout: --layout, else <layout>, else a layout.json beside
+    // module.xml (the build puts it there).  Decided before any thread can read the set.
+    if (!options.layout.empty()) set->layout = options.layout;
+    const auto beside = set->xml_path.parent_path() / "layout.json";
+    if (set->layout.empty() && std::filesystem::is_regular_file(beside)) set->layout = beside;
+
     // 2. stats block, modules
     const std::size_t executors = dispatch::Dispatcher::executorCount(*set);
     auto segment = stats::StatsSegment::create(options.instance, executors + set->modules.size());
@@ -189,7 +199,7 @@ int run(const Options &options) {
     std::unique_ptr<control::ControlServer> control_server;
     if (!options.control_socket.empty()) {
         auto opened = control::ControlServer::open(options.control_socket,
-                                                   controlHandler(*set, *schedule, *segment, executors));
+                                                   controlHandler(*set, *schedule, *segment, executors, options));
         if (!opened) return std::cerr << "irpd: error: " << opened.error().message << std::endl, kExitFailure;
         control_server = std::move(*opened);
         say("control socket " + control_server->path());
@@ -197,10 +207,6 @@ int run(const Options &options) {
 
     // Shared variables: the segment exists before any module is loaded.
     std::optional<variables::VariableSegment> vars;
-    if (!options.layout.empty()) set->layout = options.layout;
-    // Without <layout>, a layout.json beside module.xml is the set's (the build puts it there).
-    const auto beside = set->xml_path.parent_path() / "layout.json";
-    if (set->layout.empty() && std::filesystem::is_regular_file(beside)) set->layout = beside;
     if (!set->layout.empty()) {
         auto layout = variables::readLayout(set->layout);
         if (!layout) return refuse(layout.error().message);

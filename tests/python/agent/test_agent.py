@@ -132,7 +132,8 @@ def test_openapi_is_served_under_api_v1(cell):
 
 # The role each route needs (reads: viewer; token management: admin).
 ROUTES = [("GET", "/status", "viewer"), ("GET", "/schedule", "viewer"), ("GET", "/modules", "viewer"),
-          ("GET", "/jitter", "viewer"), ("POST", "/tokens", "admin")]
+          ("GET", "/jitter", "viewer"), ("GET", "/variables", "viewer"), ("GET", "/variables/knu.Robot.tick", "viewer"),
+          ("POST", "/tokens", "admin")]
 ROLES = ["viewer", "operator", "admin"]
 
 
@@ -171,3 +172,19 @@ def test_jitter_gives_every_record_with_its_percentiles(cell):
     j = httpx.get(f"{url}/jitter", headers={"Authorization": f"Bearer {admin}"}).json()
     assert j["executors"][0]["name"] == "dispatcher"
     assert {"p50", "p99", "p999", "max"} <= set(j["modules"][0]["jitter_ns"])
+
+
+def test_variables_are_listed_and_read_live_from_shared_memory(cell):
+    url, admin, *_ = cell
+    h = {"Authorization": f"Bearer {admin}"}
+    listing = httpx.get(f"{url}/variables", headers=h).json()
+    paths = [v["path"] for v in listing["variables"]]
+    assert "knu.Robot.tick" in paths and "joint[1].y" in paths and "knu.Robot.joints[9].z" in paths
+    first = httpx.get(f"{url}/variables/knu.Robot.tick", headers=h).json()["value"]
+    time.sleep(0.2)
+    second = httpx.get(f"{url}/variables/knu.Robot.tick", headers=h).json()["value"]
+    assert second > first and second % 10 == 0  # cntr2 adds 10 every 100 us
+    x = httpx.get(f"{url}/variables/joint[0].x", headers=h).json()["value"]
+    assert 0 <= x <= 181
+    r = httpx.get(f"{url}/variables/knu.Robot.nothing", headers=h)
+    assert r.status_code == 404 and "no variable 'knu.Robot.nothing'" in r.json()["detail"]
