@@ -1,5 +1,6 @@
 // test_control.cpp -- irpd's control socket from a client's side: the hello, the commands, bad
 // requests answered and survived, a hostile client that cannot stall irpd, the socket's life.
+#include "support/irpd.hpp"
 #include "support/subprocess.hpp"
 
 #include <nlohmann/json.hpp>
@@ -15,18 +16,14 @@
 #include <fstream>
 
 using nlohmann::json;
+using testing_support::kFig1;
+using testing_support::kIrpd;
 using testing_support::Process;
+using testing_support::uniqueInstance;
 using testing_support::TempDir;
 
 namespace {
 
-const std::string kIrpd = IRPD_PATH;
-const std::string kFig1 = std::string(BUILD_ROOT) + "/sets/paper-fig1/module.xml";
-
-std::string uniqueInstance() {
-    static std::atomic<int> n{0};
-    return "test-control-" + std::to_string(getpid()) + "-" + std::to_string(n++);
-}
 
 // A line-oriented client of the control socket.
 class Client {

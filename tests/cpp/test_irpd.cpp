@@ -3,6 +3,7 @@
 #include "osal/shm.hpp"
 #include "stats/stats_block.hpp"
 #include "stats/summary.hpp"
+#include "support/irpd.hpp"
 #include "support/subprocess.hpp"
 
 #include <nlohmann/json.hpp>
@@ -16,19 +17,15 @@
 #include <regex>
 
 using nlohmann::json;
+using testing_support::kFig1;
+using testing_support::kIrpd;
 using testing_support::Process;
+using testing_support::uniqueInstance;
 using testing_support::readFile;
 using testing_support::TempDir;
 
 namespace {
 
-const std::string kIrpd = IRPD_PATH;
-const std::string kFig1 = std::string(BUILD_ROOT) + "/sets/paper-fig1/module.xml";
-
-std::string uniqueInstance() {
-    static std::atomic<int> n{0};
-    return "test-" + std::to_string(getpid()) + "-" + std::to_string(n++);
-}
 
 bool shmExists(const std::string &instance) { return std::filesystem::exists("/dev/shm/indurop." + instance + ".stats"); }
 
