@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from glb_helpers import FIXTURES, RTCORE_INCLUDE, arrayref_nesting_works, compile_case, load_layout
+from glb_helpers import RTCORE_INCLUDE, arrayref_nesting_works, compile_case, fixture, load_layout
 
 FLAGS = ["-std=c++20", "-Wall", "-Wextra", "-Werror"]
 
@@ -43,7 +43,7 @@ def test_stress_header_compiles(cxx, shared_include, tmp_path):
 @pytest.mark.parametrize("program", ["fig4-output.cpp", "fig5-modify.cpp"])
 def test_paper_programs_compile_as_printed(program, cxx, tmp_path):
     out = compile_case("fig3", tmp_path)
-    shutil.copyfile(FIXTURES / program, tmp_path / program)
+    shutil.copyfile(fixture(program), tmp_path / program)
     result = syntax_check(cxx, tmp_path / program, out, RTCORE_INCLUDE)
     assert result.returncode == 0, result.stderr
 

@@ -8,7 +8,7 @@ import difflib
 
 import pytest
 
-from glb_helpers import FIXTURES, GOLDEN, GOLDEN_CASES, REGENERATE, compile_case
+from glb_helpers import FIXTURES, GOLDEN, GOLDEN_CASES, REGENERATE, compile_case, fixture
 
 FIGURES = FIXTURES.parents[4] / "shared" / "reference" / "figures"
 
@@ -31,4 +31,4 @@ def test_fixtures_are_the_figures_as_printed(name):
     original = FIGURES / name
     if not original.exists():
         pytest.skip(f"{original} is not on this machine")
-    assert (FIXTURES / name).read_bytes() == original.read_bytes()
+    assert fixture(name).read_bytes() == original.read_bytes()
