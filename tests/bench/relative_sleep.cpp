@@ -16,6 +16,8 @@
 //   actual_period_ns {mean, min, p50, p99, p999, max}  (time between consecutive wake-ups),
 //   overshoot_ns {…}  (actual period minus the requested period: the per-iteration error),
 //   grid_lateness_ns {…}  (wake-up minus the grid time; grows without bound: that is the drift).
+#include "common/cli.hpp"
+
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
@@ -49,15 +51,7 @@ int64_t now() {
 }
 
 int64_t number(const char *option, const char *text, int64_t min, int64_t max) {
-    char *end = nullptr;
-    errno = 0;
-    long long v = std::strtoll(text, &end, 10);
-    if (errno || !end || *end || v < min || v > max) {
-        std::fprintf(stderr, "relative_sleep: %s: '%s' is not an integer from %" PRId64 " to %" PRId64 "\n", option,
-                     text, min, max);
-        std::exit(2);
-    }
-    return v;
+    return bench::number("relative_sleep", option, text, min, max);
 }
 
 struct Figures {

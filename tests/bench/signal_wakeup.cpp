@@ -22,6 +22,7 @@
 //   signal_exec        release (just before sigqueue) -> "done" received, as irpd's exec of a process
 // and @info lines with the counters.
 #include "common/bench_hist.hpp"
+#include "common/cli.hpp"
 
 #include <sched.h>
 #include <signal.h>
@@ -49,15 +50,7 @@ bench::Histogram g_wake, g_dispatcher, g_exec;
 }
 
 int64_t number(const char *option, const char *text, int64_t min, int64_t max) {
-    char *end = nullptr;
-    errno = 0;
-    long long v = std::strtoll(text, &end, 10);
-    if (errno || !end || *end || v < min || v > max) {
-        std::fprintf(stderr, "signal_wakeup: %s: '%s' is not an integer from %" PRId64 " to %" PRId64 "\n", option,
-                     text, min, max);
-        std::exit(2);
-    }
-    return v;
+    return bench::number("signal_wakeup", option, text, min, max);
 }
 
 timespec toTimespec(int64_t ns) {
