@@ -7,6 +7,7 @@ packages=(
   build-essential cmake ninja-build pkg-config   # toolchain
   python3 python3-venv                           # glbc, the Python tests
   libpugixml-dev nlohmann-json3-dev              # module.xml, JSON output
+  libssl-dev                                     # SHA-256 of module files (hot reload)
   googletest libgtest-dev                        # C++ tests
   rt-tests                                       # cyclictest: the benchmark's reference
   util-linux                                     # setpriv, prlimit: the non-RT fallback test

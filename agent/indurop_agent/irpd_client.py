@@ -11,7 +11,7 @@ import threading
 from typing import Any
 
 PROTOCOL = "indurop-control"
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSIONS = (1, 2)
 
 
 class IrpdUnavailable(Exception):
@@ -46,9 +46,9 @@ class IrpdClient:
         except (OSError, ValueError) as e:
             sock.close()
             raise IrpdUnavailable(f"irpd is not reachable on {self.path}: {e}") from e
-        if not isinstance(hello, dict) or hello.get("protocol") != PROTOCOL or hello.get("version") != PROTOCOL_VERSION:
+        if not isinstance(hello, dict) or hello.get("protocol") != PROTOCOL or hello.get("version") not in PROTOCOL_VERSIONS:
             sock.close()
-            raise IrpdUnavailable(f"{self.path} does not speak {PROTOCOL} version {PROTOCOL_VERSION}: {hello!r}")
+            raise IrpdUnavailable(f"{self.path} does not speak {PROTOCOL} version {PROTOCOL_VERSIONS}: {hello!r}")
         self._sock, self._file, self.hello = sock, file, hello
 
     def close(self) -> None:

@@ -20,12 +20,14 @@ struct Export {
     detail::AnyFunction fn;
     std::string signature;
     std::string owner;
+    uint64_t instance = 0;    // the owner's load (see runtime::setCurrentModule)
     detail::CallShape shape;  // no thunk: not callable from processes
 };
 
 std::mutex g_mutex;
 std::map<std::string, Export> g_exports;
 thread_local std::string g_current_module;  // the module whose initialize()/start() is running
+thread_local uint64_t g_current_instance = 0;
 
 std::string readable(const std::string &mangled) {
     int status = 0;
@@ -45,7 +47,7 @@ void exportFunction(const char *name, AnyFunction fn, const char *signature, con
     if (!name || !*name) throw FunctionError("exportFunction: the name is empty");
     if (!fn) throw FunctionError(std::string("exportFunction(\"") + name + "\"): the function is null");
     std::lock_guard lock(g_mutex);
-    auto [it, fresh] = g_exports.emplace(name, Export{fn, signature, g_current_module, shape});
+    auto [it, fresh] = g_exports.emplace(name, Export{fn, signature, g_current_module, g_current_instance, shape});
     if (!fresh)
         throw FunctionError(std::string("shared function '") + name + "' is exported twice (first by module '" +
                             it->second.owner + "')");
@@ -67,12 +69,15 @@ AnyFunction findFunction(const char *name, const char *signature) {
 
 namespace runtime {
 
-void setCurrentModule(const std::string &name) { g_current_module = name; }
+void setCurrentModule(const std::string &name, uint64_t instance) {
+    g_current_module = name;
+    g_current_instance = instance;
+}
 
-void dropFunctionsOf(const std::string &module) {
+void dropFunctionsOf(uint64_t instance) {
     std::lock_guard lock(g_mutex);
     for (auto it = g_exports.begin(); it != g_exports.end();)
-        it = it->second.owner == module ? g_exports.erase(it) : std::next(it);
+        it = it->second.instance == instance ? g_exports.erase(it) : std::next(it);
 }
 
 std::size_t exportedFunctions() {

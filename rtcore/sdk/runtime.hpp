@@ -27,9 +27,10 @@ std::size_t drainLog(const std::function<void(std::string_view)> &sink);
 uint64_t droppedLogLines() noexcept;
 
 // Shared functions: the module whose initialize()/start() runs now on this thread (so that its
-// exports are recorded as its own), and dropping a module's exports when it is unloaded.
-void setCurrentModule(const std::string &name);
-void dropFunctionsOf(const std::string &module);
+// exports are recorded as its own), and dropping a module's exports when it is unloaded.  The
+// instance tells two loads of a module of the same name apart (a hot reload's old and new one).
+void setCurrentModule(const std::string &name, uint64_t instance = 0);
+void dropFunctionsOf(uint64_t instance);
 std::size_t exportedFunctions();
 
 // Every export, sorted by name: what irpd publishes as the function table for process modules.

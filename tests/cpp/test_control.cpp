@@ -1,5 +1,6 @@
 // test_control.cpp -- irpd's control socket from a client's side: the hello, the commands, bad
 // requests answered and survived, a hostile client that cannot stall irpd, the socket's life.
+#include "support/control_client.hpp"
 #include "support/irpd.hpp"
 #include "support/subprocess.hpp"
 
@@ -16,6 +17,7 @@
 #include <fstream>
 
 using nlohmann::json;
+using testing_support::Client;
 using testing_support::kFig1;
 using testing_support::kIrpd;
 using testing_support::Process;
@@ -24,47 +26,6 @@ using testing_support::TempDir;
 
 namespace {
 
-
-// A line-oriented client of the control socket.
-class Client {
-public:
-    explicit Client(const std::string &path) {
-        fd_ = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-        sockaddr_un addr{};
-        addr.sun_family = AF_UNIX;
-        std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", path.c_str());
-        connected_ = connect(fd_, reinterpret_cast<sockaddr *>(&addr), sizeof addr) == 0;
-        timeval tv{5, 0};
-        setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-    }
-    ~Client() { close(fd_); }
-    bool connected() const { return connected_; }
-    void sendRaw(const std::string &bytes) { ASSERT_EQ(::write(fd_, bytes.data(), bytes.size()), static_cast<ssize_t>(bytes.size())); }
-    // The next line, or "" at end of stream / timeout.
-    std::string readLine() {
-        for (;;) {
-            auto eol = buffer_.find('\n');
-            if (eol != std::string::npos) {
-                std::string line = buffer_.substr(0, eol);
-                buffer_.erase(0, eol + 1);
-                return line;
-            }
-            char chunk[65536];
-            ssize_t n = ::read(fd_, chunk, sizeof chunk);
-            if (n <= 0) return "";
-            buffer_.append(chunk, static_cast<std::size_t>(n));
-        }
-    }
-    json request(const json &req) {
-        sendRaw(req.dump() + "\n");
-        return json::parse(readLine());
-    }
-
-private:
-    int fd_ = -1;
-    bool connected_ = false;
-    std::string buffer_;
-};
 
 struct Running {
     TempDir dir;
@@ -88,7 +49,7 @@ TEST(ControlSocket, HelloThenStatusScheduleModulesStats) {
     Running r;
     Client c(r.socket);
     ASSERT_TRUE(c.connected());
-    EXPECT_EQ(json::parse(c.readLine()), json::parse(R"({"protocol":"indurop-control","version":1,"irpd":"0.1.0"})"));
+    EXPECT_EQ(json::parse(c.readLine()), json::parse(R"({"protocol":"indurop-control","version":2,"irpd":"0.1.0"})"));
 
     json status = c.request({{"id", 1}, {"cmd", "status"}});
     EXPECT_EQ(status["id"], 1);
@@ -124,7 +85,7 @@ TEST(ControlSocket, BadRequestsGetAnErrorAndTheConnectionGoesOn) {
                           Case{"[1,2]", "bad_request", "a request is a JSON object with a string \"cmd\""},
                           Case{R"({"id":7})", "bad_request", "with a string \"cmd\""},
                           Case{R"({"id":8,"cmd":"reboot"})", "refused", "unknown command 'reboot'"},
-                          Case{R"({"id":9,"cmd":"load"})", "refused", "not available in protocol version 1"}}) {
+                          Case{R"({"id":9,"cmd":"load"})", "refused", "'config' is required"}}) {
         c.sendRaw(k.line + "\n");
         json answer = json::parse(c.readLine());
         EXPECT_EQ(answer["ok"], false) << k.line;

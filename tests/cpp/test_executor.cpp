@@ -268,6 +268,7 @@ config::SetSpec recorderSet(const std::string &extra_module_xml = "") {
 struct RealRun {
     std::unique_ptr<hosts::ModuleSet> modules;
     std::unique_ptr<stats::StatsSegment> segment;
+    std::unique_ptr<dispatch::Tables> tables;
     std::unique_ptr<dispatch::Dispatcher> dispatcher;
 };
 
@@ -299,8 +300,8 @@ RealRun runFor(const config::SetSpec &set, int64_t duration_ns) {
     EXPECT_TRUE(run.modules->initializeAll().ok());
     EXPECT_TRUE(run.modules->startAll().ok());
     dispatch::DispatcherOptions options;
-    run.dispatcher = std::make_unique<dispatch::Dispatcher>(set, *schedule, bindings, *run.segment, options,
-                                                            osal::monotonicClock());
+    run.tables = dispatch::buildTables(set, *schedule, bindings);
+    run.dispatcher = std::make_unique<dispatch::Dispatcher>(set, *run.tables, *run.segment, options, osal::monotonicClock());
     EXPECT_TRUE(run.dispatcher->start(duration_ns).ok());
     run.dispatcher->join();
     EXPECT_TRUE(run.modules->stopAll().empty());

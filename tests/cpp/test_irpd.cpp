@@ -302,7 +302,7 @@ TEST(IrpdRun, StatsAreReadableLiveFromAnotherProcess) {
     ASSERT_EQ(h->record_size, sizeof(irp::stats::TimingRecord));
     EXPECT_EQ(h->pid, p.pid());
     EXPECT_EQ(h->basic_ns, 100000);
-    EXPECT_EQ(h->record_count, 1u + 7u);  // the main dispatcher + the 7 modules of Figure 1
+    EXPECT_GE(h->record_count, 1u + 7u);  // the main dispatcher + the 7 modules of Figure 1 (+ room for hot reloads)
     const irp::stats::TimingRecord *r = irp::stats::records(h);
     EXPECT_STREQ(r[0].name, "dispatcher");
     EXPECT_STREQ(r[1].name, "cntr1");

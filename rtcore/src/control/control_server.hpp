@@ -16,7 +16,7 @@
 
 namespace irp::control {
 
-inline constexpr int kProtocolVersion = 1;
+inline constexpr int kProtocolVersion = 2;
 inline constexpr std::size_t kMaxRequestBytes = 64 * 1024;    // one line
 inline constexpr std::size_t kMaxPendingOutput = 4u << 20;    // per client, then it is dropped
 inline constexpr int kMaxClients = 32;

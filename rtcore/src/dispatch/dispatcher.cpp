@@ -23,35 +23,22 @@ struct Dispatcher::StartGate {
 
 struct Dispatcher::Plan {
     ExecutorOptions options;
-    int64_t basic_ns = 0;
-    std::vector<std::vector<Task *>> slots;
-    std::vector<Task *> tasks;   // periodic
-    std::vector<Task *> events;  // sporadic, in priority order
     stats::TimingRecord *record = nullptr;
     std::unique_ptr<Executor> executor;
 };
 
-Dispatcher::Dispatcher(const config::SetSpec &set, const schedule::Schedule &schedule,
-                       std::vector<ModuleBinding> bindings, stats::StatsSegment &segment, DispatcherOptions options,
-                       osal::Clock &clock)
-    : segment_(segment), options_(options), clock_(clock) {
-    if (options_.cpu < 0) options_.cpu = osal::lastAllowedCpu();
-
-    // One plan per executor: main first, then those of the set in file order.
-    std::map<std::string, Plan *> by_name;
-    auto add = [&](const std::string &name, int priority, int cpu) {
-        auto plan = std::make_unique<Plan>();
-        plan->options = {name, priority, cpu, options_.policy, options_.max_catchup_ns};
-        by_name[name] = plan.get();
-        plans_.push_back(std::move(plan));
-    };
-    add(config::kMainExecutor, options_.rt_priority, options_.cpu);
-    for (const config::ExecutorSpec &e : set.executors)
-        add(e.name, e.rt_priority ? e.rt_priority : std::max(1, options_.rt_priority - 1), e.cpu >= 0 ? e.cpu : options_.cpu);
+std::unique_ptr<Tables> buildTables(const config::SetSpec &set, const schedule::Schedule &schedule,
+                                    const std::vector<ModuleBinding> &bindings) {
+    auto tables = std::make_unique<Tables>();
+    tables->macro_ns = schedule.macro_ns;
+    std::map<std::string, Table *> by_name;
+    tables->executors.resize(Dispatcher::executorCount(set));
+    by_name[config::kMainExecutor] = &tables->executors[0];
+    for (std::size_t e = 0; e < set.executors.size(); ++e) by_name[set.executors[e].name] = &tables->executors[e + 1];
 
     // Tasks of the dispatched modules, grouped by executor: periodic ones go into the slot table,
     // sporadic ones into the event handler's list (priority order, ties to the earlier in the file).
-    std::vector<Task *> task_of(set.modules.size(), nullptr);
+    tables->by_module.assign(set.modules.size(), nullptr);
     std::vector<const config::ModuleSpec *> by_priority;
     for (const config::ModuleSpec &m : set.modules) by_priority.push_back(&m);
     std::stable_sort(by_priority.begin(), by_priority.end(), [](const auto *a, const auto *b) { return a->priority < b->priority; });
@@ -69,39 +56,93 @@ Dispatcher::Dispatcher(const config::SetSpec &set, const schedule::Schedule &sch
         task->budget_ns = m->budget_ns;
         task->deadline_ns = m->deadline_ns;
         task->calls = b.calls;
-        task->module = m->index;
-        task_of[static_cast<std::size_t>(m->index)] = task.get();
-        Plan &plan = *by_name.at(m->executor);
-        (task->sporadic ? plan.events : plan.tasks).push_back(task.get());
-        tasks_.push_back(std::move(task));
+        task->module = b.owner;
+        task->disabled = b.disabled;
+        tables->by_module[static_cast<std::size_t>(m->index)] = task.get();
+        Table &table = *by_name.at(m->executor);
+        (task->sporadic ? table.events : table.tasks).push_back(task.get());
+        tables->tasks.push_back(std::move(task));
     }
 
     // Each executor's basic period: the set's for main (the event handler runs every basic period),
     // the GCD of its own modules' periods for the others.  Its slots follow the set's table order.
-    for (std::size_t p = 0; p < plans_.size(); ++p) {
-        Plan &plan = *plans_[p];
-        plan.basic_ns = schedule.basic_ns;
-        if (p > 0 && !plan.tasks.empty()) {
-            plan.basic_ns = plan.tasks.front()->period_ns;
-            for (Task *t : plan.tasks) plan.basic_ns = std::gcd(plan.basic_ns, t->period_ns);
+    for (std::size_t p = 0; p < tables->executors.size(); ++p) {
+        Table &table = tables->executors[p];
+        const std::string &name = p == 0 ? std::string(config::kMainExecutor) : set.executors[p - 1].name;
+        table.basic_ns = schedule.basic_ns;
+        if (p > 0 && !table.tasks.empty()) {
+            table.basic_ns = table.tasks.front()->period_ns;
+            for (Task *t : table.tasks) table.basic_ns = std::gcd(table.basic_ns, t->period_ns);
         }
-        const auto ratio = static_cast<std::size_t>(plan.basic_ns / schedule.basic_ns);
-        const std::size_t count = plan.tasks.empty() ? 1 : schedule.slots.size() / ratio;
-        plan.slots.resize(count);
+        const auto ratio = static_cast<std::size_t>(table.basic_ns / schedule.basic_ns);
+        const std::size_t count = table.tasks.empty() ? 1 : schedule.slots.size() / ratio;
+        table.slots.resize(count);
         for (std::size_t i = 0; i < count; ++i) {
             for (int index : schedule.slots[i * ratio].modules) {
-                Task *t = task_of[static_cast<std::size_t>(index)];
-                if (t && set.modules[static_cast<std::size_t>(index)].executor == plan.options.name)
-                    plan.slots[i].push_back(t);
+                Task *t = tables->by_module[static_cast<std::size_t>(index)];
+                if (t && set.modules[static_cast<std::size_t>(index)].executor == name) table.slots[i].push_back(t);
             }
         }
-        for (Task *t : plan.tasks) t->period_slots = t->period_ns / plan.basic_ns;
-        plan.record = &segment_.describe(p, stats::RecordKind::Dispatcher,
-                                         p == 0 ? std::string("dispatcher") : "dispatcher@" + plan.options.name,
-                                         plan.options.name, plan.basic_ns, plan.options.rt_priority, 0);
-        plan.executor = std::make_unique<Executor>(clock_, plan.basic_ns, plan.slots, plan.tasks, plan.record,
-                                                   plan.options, plan.events);
+        for (Task *t : table.tasks) t->period_slots = t->period_ns / table.basic_ns;
     }
+    return tables;
+}
+
+Dispatcher::Dispatcher(const config::SetSpec &set, const Tables &tables, stats::StatsSegment &segment,
+                       DispatcherOptions options, osal::Clock &clock)
+    : segment_(segment), options_(options), clock_(clock) {
+    if (options_.cpu < 0) options_.cpu = osal::lastAllowedCpu();
+    std::vector<ExecutorOptions> executors;
+    executors.push_back({config::kMainExecutor, options_.rt_priority, options_.cpu, options_.policy, options_.max_catchup_ns});
+    for (const config::ExecutorSpec &e : set.executors)
+        executors.push_back({e.name, e.rt_priority ? e.rt_priority : std::max(1, options_.rt_priority - 1),
+                             e.cpu >= 0 ? e.cpu : options_.cpu, options_.policy, options_.max_catchup_ns});
+    for (std::size_t p = 0; p < executors.size(); ++p) {
+        auto plan = std::make_unique<Plan>();
+        plan->options = executors[p];
+        const Table &table = tables.executors[p];
+        plan->record = &segment_.describe(p, stats::RecordKind::Dispatcher,
+                                          p == 0 ? std::string("dispatcher") : "dispatcher@" + plan->options.name,
+                                          plan->options.name, table.basic_ns, plan->options.rt_priority, 0);
+        plan->executor = std::make_unique<Executor>(clock_, &table, plan->record, plan->options);
+        plans_.push_back(std::move(plan));
+    }
+    macro_ns_ = tables.macro_ns;
+}
+
+int64_t Dispatcher::boundaryAfter(int64_t t) const {
+    if (t <= epoch_ns_) return epoch_ns_;
+    const int64_t n = (t - epoch_ns_ + macro_ns_ - 1) / macro_ns_;
+    return epoch_ns_ + n * macro_ns_;
+}
+
+void Dispatcher::offer(const Tables &next, int64_t at) {
+    offered_ = &next;
+    offered_at_ = at;
+    for (std::size_t p = 0; p < plans_.size(); ++p) plans_[p]->executor->offer(&next.executors[p], at);
+}
+
+std::optional<std::vector<Switch>> Dispatcher::switched() {
+    std::vector<Switch> all;
+    for (const auto &plan : plans_) {
+        auto s = plan->executor->switched();
+        if (!s) return std::nullopt;
+        all.push_back(*s);
+    }
+    if (offered_) {
+        epoch_ns_ = offered_at_;
+        macro_ns_ = offered_->macro_ns;
+        for (std::size_t p = 0; p < plans_.size(); ++p) plans_[p]->record->period_ns = offered_->executors[p].basic_ns;
+        offered_ = nullptr;
+    }
+    return all;
+}
+
+bool Dispatcher::withdraw() {
+    bool all = true;
+    for (const auto &plan : plans_) all = plan->executor->withdraw() && all;
+    if (all) offered_ = nullptr;
+    return all;
 }
 
 Dispatcher::~Dispatcher() {
@@ -138,7 +179,7 @@ Status Dispatcher::start(int64_t duration_ns) {
             osal::prefaultStack();
             gate->ready.count_down();
             gate->go.wait();
-            uint64_t limit = duration_ns > 0 ? static_cast<uint64_t>(duration_ns / plan.basic_ns) : 0;
+            uint64_t limit = duration_ns > 0 ? static_cast<uint64_t>(duration_ns / plan.executor->basicNs()) : 0;
             plan.executor->loop(gate->t0.load(), limit, stop_, p == 0 ? &segment_.header()->cycles : nullptr,
                                 p == 0 ? &segment_.header()->finished_ns : nullptr);
             finished_threads_.fetch_add(1, std::memory_order_release);
@@ -155,6 +196,7 @@ Status Dispatcher::start(int64_t duration_ns) {
     gate_->ready.arrive_and_wait();
     // Slot 0 of every executor: a little after now, so that all threads are asleep on it.
     const int64_t t0 = clock_.now() + 2'000'000;
+    epoch_ns_ = t0;
     gate_->t0.store(t0);
     segment_.header()->started_ns.store(t0, std::memory_order_relaxed);
     segment_.header()->realtime.store(realtime() ? 1 : 0, std::memory_order_relaxed);

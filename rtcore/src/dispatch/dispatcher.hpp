@@ -12,6 +12,7 @@
 #include <memory>
 #include <string>
 #include <functional>
+#include <optional>
 #include <pthread.h>
 #include <vector>
 
@@ -36,7 +37,23 @@ struct ModuleBinding {
     // A periodic thread module whose exported functions processes may call: the set's call
     // server (dispatch/function_calls.hpp), which its executor serves right after its run().
     CallServer *calls = nullptr;
+    int owner = -1;         // the module's owner id in `calls`
+    bool disabled = false;  // taken out of dispatch by request (enable/disable)
 };
+
+// The tables of every executor for one generation of a set, and the tasks they point to.
+struct Tables {
+    std::vector<std::unique_ptr<Task>> tasks;
+    std::vector<Table> executors;  // [0] main, then the set's <executor>s in file order
+    std::vector<Task *> by_module; // per set index: its task, or null (non-real, not dispatched)
+    int64_t macro_ns = 0;          // the set's macro period: every executor's grid meets at its multiples
+};
+
+// Builds the tables of `set`: periodic tasks into each executor's slot table (the schedule's
+// order), sporadic ones into its event list (priority order, ties to the earlier in the file).
+// bindings[i] belongs to set.modules[i].
+std::unique_ptr<Tables> buildTables(const config::SetSpec &set, const schedule::Schedule &schedule,
+                                    const std::vector<ModuleBinding> &bindings);
 
 struct ExecutorReport {
     std::string name;
@@ -48,10 +65,11 @@ struct ExecutorReport {
 
 class Dispatcher {
 public:
-    // bindings[i] belongs to set.modules[i].  Records for the executors are taken from `segment`
-    // at indices 0..executors-1 (see recordsNeeded).
-    Dispatcher(const config::SetSpec &set, const schedule::Schedule &schedule, std::vector<ModuleBinding> bindings,
-               stats::StatsSegment &segment, DispatcherOptions options, osal::Clock &clock);
+    // One executor per table of `tables` (main, then set.executors), each starting on its table
+    // (not owned: keep it alive while it runs).  Records for the executors are taken from
+    // `segment` at indices 0..executors-1.
+    Dispatcher(const config::SetSpec &set, const Tables &tables, stats::StatsSegment &segment, DispatcherOptions options,
+               osal::Clock &clock);
     ~Dispatcher();
 
     // Executors a set needs: "main" plus each <executor> of the set.
@@ -69,12 +87,25 @@ public:
     const std::vector<ExecutorReport> &reports() const { return reports_; }
     bool realtime() const;
 
+    // Hot reload (non-RT side).  The first macro-period boundary of the running tables at or after
+    // `t` (they all share the main table's macro period and T0).
+    int64_t boundaryAfter(int64_t t) const;
+    // Offers every executor its table of `next` from the boundary `at` on (see Executor::offer).
+    void offer(const Tables &next, int64_t at);
+    // Each executor's switch, once all of them switched; then `next` is the running tables.
+    std::optional<std::vector<Switch>> switched();
+    // Takes back the offers not yet taken; false if some executor already switched (then wait).
+    bool withdraw();
+
 private:
     struct Plan;
     struct StartGate;
     std::vector<std::unique_ptr<Plan>> plans_;
     std::unique_ptr<StartGate> gate_;
-    std::vector<std::unique_ptr<Task>> tasks_;
+    int64_t epoch_ns_ = 0;  // T0 of the running tables (the first slot, or the last swap)
+    int64_t macro_ns_ = 0;  // their macro period
+    const Tables *offered_ = nullptr;
+    int64_t offered_at_ = 0;
     Status spawn(std::function<void()> body);
     static constexpr std::size_t kThreadStackBytes = 1u << 20;
 

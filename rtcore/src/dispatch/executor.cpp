@@ -12,11 +12,53 @@ namespace irp::dispatch {
 
 const char *toString(OverrunPolicy policy) { return policy == OverrunPolicy::CatchUp ? "catch-up" : "skip"; }
 
+Executor::Executor(osal::Clock &clock, const Table *table, stats::TimingRecord *self, ExecutorOptions options)
+    : clock_(clock), table_(table), self_(self), options_(std::move(options)) {}
+
 Executor::Executor(osal::Clock &clock, int64_t basic_ns, std::vector<std::vector<Task *>> slots,
                    std::vector<Task *> tasks, stats::TimingRecord *self, ExecutorOptions options,
                    std::vector<Task *> events)
-    : clock_(clock), basic_ns_(basic_ns), slots_(std::move(slots)), tasks_(std::move(tasks)),
-      events_(std::move(events)), self_(self), options_(std::move(options)) {}
+    : clock_(clock), own_(new Table{basic_ns, std::move(slots), std::move(tasks), std::move(events)}),
+      table_(own_.get()), self_(self), options_(std::move(options)) {}
+
+Executor::Executor(Executor &&other) noexcept
+    : clock_(other.clock_), own_(std::move(other.own_)), table_(other.table_), self_(other.self_),
+      options_(std::move(other.options_)) {}
+
+void Executor::offer(const Table *next, int64_t at) {
+    switched_.store(false, std::memory_order_relaxed);
+    next_at_.store(at, std::memory_order_relaxed);
+    next_.store(next, std::memory_order_release);
+}
+
+std::optional<Switch> Executor::switched() const {
+    if (!switched_.load(std::memory_order_acquire)) return std::nullopt;
+    return Switch{switched_cycle_.load(std::memory_order_relaxed), switched_due_.load(std::memory_order_relaxed)};
+}
+
+bool Executor::withdraw() {
+    const Table *offered = next_.load(std::memory_order_relaxed);
+    return offered && next_.compare_exchange_strong(offered, nullptr, std::memory_order_acq_rel);
+}
+
+void Executor::takeOver(const Table *next) {
+    for (const auto *list : {&next->tasks, &next->events})
+        for (Task *task : *list) {
+            const Task *p = task->predecessor;
+            if (!p) continue;
+            if (p->period_ns == task->period_ns) {
+                task->started = p->started;
+                task->t0 = p->t0;
+                task->first_due = p->first_due;
+            }
+            task->disabled = task->disabled || (p->disabled && !task->clear_fault);
+            task->in_flight = p->in_flight;
+            task->deadline_missed = p->deadline_missed;
+            task->released_seq = p->released_seq;
+            task->released_at = p->released_at;
+        }
+    table_ = next;
+}
 
 void Executor::disable(Task &task, stats::TimingRecord &r, const char *what, const char *detail) {
     task.disabled = true;
@@ -48,7 +90,7 @@ bool Executor::runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start
         return false;
     slot.cycle = cycle;
     slot.planned_ns = due;
-    slot.basic_ns = basic_ns_;
+    slot.basic_ns = table_->basic_ns;
     slot.release_ns = start;
     release.store(served + 1, std::memory_order_release);
     hosts::futex::wakeAll(&slot.release_seq);
@@ -59,7 +101,7 @@ bool Executor::runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start
 }
 
 int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
-    for (Task *task : events_) {
+    for (Task *task : table_->events) {
         if (task->disabled) continue;
         stats::TimingRecord &r = *task->stats;
         if (task->kind == Task::Kind::Thread) {
@@ -115,7 +157,7 @@ int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
 // Counts the runs that skipping slots [from, from + count) takes from each task.
 void Executor::skip(uint64_t from, uint64_t count) {
     stats::bump(self_->skipped, count);
-    for (Task *t : tasks_) {
+    for (Task *t : table_->tasks) {
         auto ps = static_cast<uint64_t>(t->period_slots);
         uint64_t due = (from + count + ps - 1) / ps - (from + ps - 1) / ps;  // multiples of ps in the range
         if (due) stats::bump(t->stats->skipped, due);
@@ -141,19 +183,43 @@ void Executor::skip(uint64_t from, uint64_t count) {
  *      against its deadline in the following basic periods);
  *   5. account the slot's work; work longer than the basic period is a dispatcher overrun, and
  *      the next slot then starts at once (no sleep) - the grid itself never moves.
+ * Before step 1, a table offered by a hot reload (reload/) takes over if this slot is due at or
+ * after the offered switch time: a pointer exchange and the kept tasks' state carried over.
  */
 void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &stop, stats::Counter *cycles,
                     std::atomic<int64_t> *finished_ns) {
-    const auto nslots = static_cast<uint64_t>(slots_.size());
-    const int64_t basic = basic_ns_;
-    const auto max_backlog = static_cast<uint64_t>(options_.max_catchup_ns / basic);
-    int64_t first_wake = 0;
+    // The grid: slot `cycle` is due at epoch_t0 + (cycle - epoch_cycle) * basic.  A hot reload
+    // re-anchors it at the swap (the new table's basic period may differ); cycle keeps counting.
+    int64_t epoch_t0 = t0;
+    uint64_t epoch_cycle = 0;
+    int64_t basic = table_->basic_ns;
+    uint64_t nslots = table_->slots.size();
+    int64_t wake_offset = 0;           // the first wake-up's lateness: the dispatcher's Eq. (1) T0
     int64_t previous_end = INT64_MIN;  // when the last slot's work ended
     uint64_t cycle = 0;
     self_->state.store(1, std::memory_order_relaxed);
 
     while ((cycle_limit == 0 || cycle < cycle_limit) && !stop.load(std::memory_order_relaxed)) {
-        int64_t due = t0 + static_cast<int64_t>(cycle) * basic;
+        int64_t due = epoch_t0 + static_cast<int64_t>(cycle - epoch_cycle) * basic;
+        if (const Table *next = next_.load(std::memory_order_acquire)) {
+            const int64_t at = next_at_.load(std::memory_order_relaxed);
+            if (due >= at && next_.compare_exchange_strong(next, nullptr, std::memory_order_acq_rel)) {
+                // Hot reload at a macro-period boundary: the new table's slot 0 is due at `at`.
+                // If late slots were skipped past it, continue with the new table's slot due now.
+                const int64_t behind = due - at;
+                const auto k = static_cast<uint64_t>((behind + next->basic_ns - 1) / next->basic_ns);
+                takeOver(next);
+                epoch_t0 = at;
+                epoch_cycle = cycle - k;
+                basic = next->basic_ns;
+                nslots = next->slots.size();
+                due = epoch_t0 + static_cast<int64_t>(k) * basic;
+                switched_cycle_.store(cycle, std::memory_order_relaxed);
+                switched_due_.store(due, std::memory_order_relaxed);
+                switched_.store(true, std::memory_order_release);
+            }
+        }
+        const auto max_backlog = static_cast<uint64_t>(options_.max_catchup_ns / basic);
         int64_t woke;
         if (previous_end < due) {
             // A real wake-up: its latency against the slot it slept for, a miss if a whole period late.
@@ -167,24 +233,24 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             woke = previous_end;
             stats::bump(self_->caught_up);
         }
-        if (cycle == 0) first_wake = woke;
+        if (cycle == 0) wake_offset = woke - due;
 
         const int64_t late = woke - due;
         if (late >= basic) {
             auto behind = static_cast<uint64_t>(late / basic);  // whole slots already past due
             if (options_.policy == OverrunPolicy::Skip || behind > max_backlog) {
                 if (cycle_limit && cycle + behind >= cycle_limit) behind = cycle_limit - cycle - 1;
-                skip(cycle, behind);
+                skip(cycle - epoch_cycle, behind);
                 cycle += behind;
                 due += static_cast<int64_t>(behind) * basic;
             }
         }
-        self_->jitter.record(first_wake + static_cast<int64_t>(cycle) * basic - woke);
+        self_->jitter.record(due + wake_offset - woke);
 
-        const uint64_t slot_index = cycle % nslots;
+        const uint64_t slot_index = (cycle - epoch_cycle) % nslots;
         runtime::setCycle({cycle, static_cast<uint32_t>(slot_index), due, basic});
         int64_t t = woke;
-        for (Task *task : slots_[slot_index]) {
+        for (Task *task : table_->slots[slot_index]) {
             if (task->disabled) {
                 serveCalls(*task, cycle);  // answers "owner disabled" to processes calling its functions
                 continue;
@@ -203,9 +269,9 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             if (!task->started) {
                 task->started = true;
                 task->t0 = start;
-                task->first_cycle = cycle;
+                task->first_due = due;
             }
-            const auto n = static_cast<int64_t>((cycle - task->first_cycle) / static_cast<uint64_t>(task->period_slots));
+            const int64_t n = (due - task->first_due) / task->period_ns;
             r.jitter.record(task->t0 + n * task->period_ns - start);
             r.latency.record(static_cast<uint64_t>(start - due > 0 ? start - due : 0));
             if (start - due >= task->period_ns) stats::bump(r.missed);
@@ -217,7 +283,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             if (task->kind == Task::Kind::Thread && task->budget_ns && exec > task->budget_ns) stats::bump(r.overruns);
             stats::bump(r.runs);
         }
-        if (!events_.empty()) t = handleEvents(cycle, due, t);
+        if (!table_->events.empty()) t = handleEvents(cycle, due, t);
         previous_end = t;
         self_->exec.record(static_cast<uint64_t>(t - woke));
         if (t - woke > basic) stats::bump(self_->overruns);  // the work itself outgrew the period

@@ -13,6 +13,8 @@
 
 #include <atomic>
 #include <cstdint>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -48,10 +50,15 @@ struct Task {
     int64_t budget_ns = 0;     // 0 = none
     // a thread module whose exported functions process modules call: served after its run()
     CallServer *calls = nullptr;
-    int module = -1;           // its index in the set (the owner in the call server's table)
+    int module = -1;           // its owner id in the call server's table
+    // Hot reload: the same module's task in the table this one replaces (kept modules).  At the
+    // swap the loop carries its run-time state over (Eq. (1)'s T0 when the period is unchanged,
+    // a fault's disable unless clear_fault, a sporadic process's release in flight).
+    const Task *predecessor = nullptr;
+    bool clear_fault = false;
     // set by the loop
     int64_t t0 = 0;            // first start (T0 of Eq. (1))
-    uint64_t first_cycle = 0;
+    int64_t first_due = 0;     // the due time of the slot of its first start: run n is due first_due + n * period
     bool started = false;
     bool disabled = false;
     // a sporadic process's release in flight
@@ -59,6 +66,24 @@ struct Task {
     bool deadline_missed = false;
     uint32_t released_seq = 0;
     int64_t released_at = 0;
+};
+
+// One executor's work for one generation of the set: its basic period, the slot table (tasks in
+// run order per slot), the periodic tasks, and the sporadic ones in priority order.  Immutable
+// once handed to an executor, except for the tasks' run-time fields, which only that executor's
+// thread writes.
+struct Table {
+    int64_t basic_ns = 0;
+    std::vector<std::vector<Task *>> slots;
+    std::vector<Task *> tasks;
+    std::vector<Task *> events;
+    int64_t macroNs() const { return basic_ns * static_cast<int64_t>(slots.size()); }
+};
+
+// Where and when an executor took over an offered table.
+struct Switch {
+    uint64_t cycle = 0;  // its slot count at the switch: the first slot run from the new table
+    int64_t due_ns = 0;  // that slot's due time
 };
 
 struct ExecutorOptions {
@@ -71,10 +96,16 @@ struct ExecutorOptions {
 
 class Executor {
 public:
-    // slots[i]: the tasks of slot i in run order; tasks: every periodic task; events: the sporadic
-    // tasks in priority order (the event handler's list).  self: this dispatcher's own record.
+    // Runs `table` (not owned: it must outlive the loop or its replacement).  self: this
+    // dispatcher's own record.
+    Executor(osal::Clock &clock, const Table *table, stats::TimingRecord *self, ExecutorOptions options);
+    // The same with a table of its own: slots[i] the tasks of slot i in run order; tasks every
+    // periodic task; events the sporadic tasks in priority order (the event handler's list).
     Executor(osal::Clock &clock, int64_t basic_ns, std::vector<std::vector<Task *>> slots, std::vector<Task *> tasks,
              stats::TimingRecord *self, ExecutorOptions options, std::vector<Task *> events = {});
+    Executor(const Executor &) = delete;
+    Executor &operator=(const Executor &) = delete;
+    Executor(Executor &&other) noexcept;
 
     // The RT loop.  Slot n is due at t0 + n * basic.  Returns when `stop` is set (checked every
     // slot) or after cycle_limit slots (0 = no limit).  `cycles`, if given, counts slots done;
@@ -83,7 +114,17 @@ public:
               std::atomic<int64_t> *finished_ns = nullptr);
 
     const ExecutorOptions &options() const { return options_; }
-    int64_t basicNs() const { return basic_ns_; }
+    int64_t basicNs() const { return table_->basic_ns; }
+
+    // Hot reload, from a non-RT thread.  offer(): the loop switches to `next` at the first slot due
+    // at or after `at` (a macro-period boundary of the running table, on the common time grid),
+    // before running anything of that slot; the grid is re-anchored there (the new basic period
+    // may differ).  One offer at a time.  switched(): the switch once it happened, after which
+    // the old table is no longer touched by the loop.  withdraw(): takes an offer back that was
+    // not taken yet (false: too late, it was taken).
+    void offer(const Table *next, int64_t at);
+    std::optional<Switch> switched() const;
+    bool withdraw();
 
 private:
     void skip(uint64_t from_cycle, uint64_t count);
@@ -96,14 +137,20 @@ private:
     // The event handler (Figure 6): conditions of sporadic threads, then releases of sporadic processes.
     int64_t handleEvents(uint64_t cycle, int64_t due, int64_t t);
     void disable(Task &task, stats::TimingRecord &r, const char *what, const char *detail);
+    // The switch to an offered table, on the RT thread (no allocation: carries the kept tasks' state).
+    void takeOver(const Table *next);
 
     osal::Clock &clock_;
-    int64_t basic_ns_;
-    std::vector<std::vector<Task *>> slots_;
-    std::vector<Task *> tasks_;
-    std::vector<Task *> events_;
+    std::unique_ptr<Table> own_;     // the table of the second constructor
+    const Table *table_;
     stats::TimingRecord *self_;
     ExecutorOptions options_;
+    // the offer: at_ is written before next_ (release); the loop reads next_ (acquire) then at_
+    std::atomic<const Table *> next_{nullptr};
+    std::atomic<int64_t> next_at_{0};
+    std::atomic<uint64_t> switched_cycle_{0};
+    std::atomic<int64_t> switched_due_{0};
+    std::atomic<bool> switched_{false};
 };
 
 } // namespace irp::dispatch

@@ -65,6 +65,7 @@ std::unique_ptr<CallServer> CallServer::publish(hosts::ControlSegment &control, 
     for (uint32_t s = 0; s < control.slotCount(); ++s) server->slots_.push_back(&control.slot(s));
     server->cursor_.assign(set.modules.size(), 0);
     server->serves_.assign(set.modules.size(), 0);
+    for (const config::ModuleSpec &m : set.modules) server->owners_.push_back(m.name);
     const uint32_t count = std::min<uint32_t>(control.functionCount(), static_cast<uint32_t>(exports.size()));
     for (uint32_t i = 0; i < count; ++i) {
         const runtime::FunctionExport &x = exports[i];
@@ -99,6 +100,12 @@ std::unique_ptr<CallServer> CallServer::publish(hosts::ControlSegment &control, 
     }
     atomic(server->header_->calls).store(INDUROP_CALLS_SERVING, std::memory_order_release);
     return server;
+}
+
+int CallServer::ownerId(const std::string &name) const {
+    for (std::size_t i = 0; i < owners_.size(); ++i)
+        if (owners_[i] == name) return static_cast<int>(i);
+    return -1;
 }
 
 bool CallServer::serves(int module) const {

@@ -28,8 +28,11 @@ public:
                                                const std::vector<runtime::FunctionExport> &exports,
                                                std::vector<std::string> &notes);
 
-    // Whether module (its index in the set) owns a function processes may call: its task serves.
+    // Whether module (its owner id) owns a function processes may call: its task serves.
     bool serves(int module) const;
+    // A module's owner id: its index in the set the table was published for (the set irpd
+    // started with; the table is not republished by hot reloads), or -1.
+    int ownerId(const std::string &name) const;
 
     // The RT part, called by the owner's executor right after its run(): takes up to
     // irp::kCallsServedPerPeriod pending requests for module's functions (scanning the call areas
@@ -60,6 +63,7 @@ private:
     std::vector<Function> functions_;            // in table order
     std::vector<uint32_t> cursor_;               // per module: the slot its next scan starts at
     std::vector<char> serves_;                   // per module
+    std::vector<std::string> owners_;            // per module: its name
 };
 
 } // namespace irp::dispatch

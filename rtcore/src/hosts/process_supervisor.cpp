@@ -721,9 +721,18 @@ Status ProcessSupervisor::waitReady(int64_t timeout_ns) {
     }
 }
 
-void ProcessSupervisor::stopAll(int64_t grace_ns) {
+void ProcessSupervisor::stopAll(int64_t grace_ns) { stopWhere([](const Child &) { return true; }, grace_ns); }
+
+void ProcessSupervisor::stop(const std::vector<uint32_t> &slots, int64_t grace_ns) {
+    auto chosen = [&slots](const Child &c) { return std::find(slots.begin(), slots.end(), c.launch.slot) != slots.end(); };
+    stopWhere(chosen, grace_ns);
+    std::erase_if(children_, [&](const std::unique_ptr<Child> &c) { return chosen(*c); });
+}
+
+void ProcessSupervisor::stopWhere(const std::function<bool(const Child &)> &chosen, int64_t grace_ns) {
     bool any = false;
     for (auto &c : children_) {
+        if (!chosen(*c)) continue;
         c->info.restart_pending = false;
         if (!c->info.running) continue;
         any = true;
@@ -740,7 +749,7 @@ void ProcessSupervisor::stopAll(int64_t grace_ns) {
         bool alive = false;
         for (auto &c : children_) {
             Child &child = *c;
-            if (!child.info.running) continue;
+            if (!child.info.running || !chosen(child)) continue;
             const pid_t pid = child.info.pid;
             try {
                 readOutput(child, false);
@@ -773,7 +782,7 @@ void ProcessSupervisor::stopAll(int64_t grace_ns) {
         if (t >= kill_at + 5 * kSecond) {
             // Unkillable (stuck in the kernel): stop waiting, never hold irpd's exit on it.
             for (auto &c : children_)
-                if (c->info.running) {
+                if (c->info.running && chosen(*c)) {
                     emit("irpd: " + c->who() + " (pid " + std::to_string(c->info.pid) + ") survives SIGKILL; left behind");
                     closeStreams(*c);
                     c->info.running = false;

@@ -121,6 +121,9 @@ public:
     // Ends every child: stop_requested and a wake of its release word, SIGTERM after half the
     // grace, SIGKILL to its process group at the end of it; reaps them all.  No restart follows.
     void stopAll(int64_t grace_ns);
+    // The same for the processes in these control slots only, which are then forgotten (a hot
+    // reload removed or replaced them).
+    void stop(const std::vector<uint32_t> &slots, int64_t grace_ns);
 
     std::vector<ProcessInfo> processes() const;
     std::optional<ProcessInfo> process(const std::string &name) const;
@@ -137,6 +140,7 @@ private:
     void flushDropReport(Child &child, bool force);
     void handleExit(Child &child, int status);
     void closeStreams(Child &child);
+    void stopWhere(const std::function<bool(const Child &)> &chosen, int64_t grace_ns);
     indurop_process_slot *slotOf(const Child &child) const;
     Result<osal::SharedMemory *> controlSegment(const std::string &name);
 

@@ -7,6 +7,7 @@
 
 #include <dlfcn.h>
 
+#include <atomic>
 #include <cstring>
 #include <exception>
 #include <system_error>
@@ -23,7 +24,13 @@ std::string lastDlError() {
 
 } // namespace
 
-Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpec &spec, const char *layout_hash) {
+ThreadModule::ThreadModule(const config::ModuleSpec &spec) : spec_(spec) {
+    static std::atomic<uint64_t> loads{0};
+    instance_ = ++loads;
+}
+
+Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpec &spec, const char *layout_hash,
+                                                         const std::filesystem::path &image) {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(spec.path, ec))
         return Error{spec.where + ": " + who(spec) +
@@ -31,7 +38,8 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
 
     std::unique_ptr<ThreadModule> module(new ThreadModule(spec));
     dlerror();
-    module->handle_ = dlopen(spec.path.c_str(), RTLD_NOW | RTLD_LOCAL);
+    const std::filesystem::path &file = image.empty() ? spec.path : image;
+    module->handle_ = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (!module->handle_) return Error{who(spec) + ": cannot load " + spec.path.string() + ": " + lastDlError()};
 
     // Built with <indurop/generated.h>: the layout it was compiled against must be the running one.
@@ -77,20 +85,20 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
 }
 
 ThreadModule::~ThreadModule() {
-    runtime::dropFunctionsOf(spec_.name);  // its exports point into the code about to go
+    runtime::dropFunctionsOf(instance_);  // its exports point into the code about to go
     if (handle_) dlclose(handle_);
 }
 
 namespace {
 // Marks whose initialize()/start() runs, so that its shared-function exports are its own.
 struct CurrentModule {
-    explicit CurrentModule(const std::string &name) { runtime::setCurrentModule(name); }
+    CurrentModule(const std::string &name, uint64_t instance) { runtime::setCurrentModule(name, instance); }
     ~CurrentModule() { runtime::setCurrentModule(""); }
 };
 } // namespace
 
 Status ThreadModule::initialize() {
-    CurrentModule current(spec_.name);
+    CurrentModule current(spec_.name, instance_);
     indurop_property_list list{property_entries_.data(), property_entries_.size()};
     if (descriptor_) {
         if (!table_.initialize) return Ok{};
@@ -110,7 +118,7 @@ Status ThreadModule::initialize() {
 }
 
 Status ThreadModule::start() {
-    CurrentModule current(spec_.name);
+    CurrentModule current(spec_.name, instance_);
     if (descriptor_) {
         if (table_.start) {
             char err[512] = "";

@@ -10,6 +10,7 @@
 
 #include <indurop/module_abi.h>
 
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -22,7 +23,11 @@ public:
     // a library the loader rejects (unresolved symbol, wrong architecture...), a module without
     // run, a descriptor of an unknown ABI version, and a module built against another layout of
     // shared variables than `layout_hash` (the running segment's; null = the set has none).
-    static Result<std::unique_ptr<ThreadModule>> load(const config::ModuleSpec &spec, const char *layout_hash = nullptr);
+    // `image`, if given, is the file actually loaded: a content-addressed copy of spec.path
+    // (hosts/module_cache.hpp), so that a changed module is really its new code; messages name
+    // spec.path.
+    static Result<std::unique_ptr<ThreadModule>> load(const config::ModuleSpec &spec, const char *layout_hash = nullptr,
+                                                      const std::filesystem::path &image = {});
 
     ~ThreadModule();  // dlclose
     ThreadModule(const ThreadModule &) = delete;
@@ -46,9 +51,10 @@ public:
     bool started() const { return started_; }
 
 private:
-    explicit ThreadModule(const config::ModuleSpec &spec) : spec_(spec) {}
+    explicit ThreadModule(const config::ModuleSpec &spec);
 
     config::ModuleSpec spec_;
+    uint64_t instance_;  // unique per load: owns the shared functions its initialize()/start() export
     void *handle_ = nullptr;
     bool descriptor_ = false;
     bool started_ = false;

@@ -1,11 +1,13 @@
 // daemon.cpp -- what irpd does, in order:
 //   1. parse module.xml and build the slot table (--print-schedule stops here);
-//   2. create the stats block in shared memory; load, initialize and start the modules; create
-//      the control segment of the process modules with the table of shared functions they may
-//      call; start the processes;
+//   2. create the stats block, the shared-variable segment and the control socket; prepare the
+//      first generation of the set (reload/reloader.hpp): load, initialize and start the thread
+//      modules, create the control segment with the table of shared functions, start the
+//      processes;
 //   3. lock memory and start the dispatcher threads (SCHED_FIFO, pinned);
-//   4. the main thread becomes the non-RT side: it drains module output (irp::printf) and waits
-//      for SIGINT/SIGTERM or the end of --duration;
+//   4. the main thread becomes the non-RT side: every 20 ms it drains module output
+//      (irp::printf), watches the processes, turns new faults and misses into events, and runs
+//      the hot reloads the control thread hands it; until SIGINT/SIGTERM or the end of --duration;
 //   5. stop the dispatchers, stop() every module, write --stats-json, unload, remove the shm.
 #include "irpd/daemon.hpp"
 
@@ -13,11 +15,15 @@
 #include "control/control_server.hpp"
 #include "dispatch/dispatcher.hpp"
 #include "dispatch/function_calls.hpp"
+#include "events/event_log.hpp"
 #include "hosts/control_segment.hpp"
-#include "hosts/module_set.hpp"
+#include "hosts/module_cache.hpp"
 #include "hosts/process_supervisor.hpp"
+#include "irpd/commands.hpp"
+#include "irpd/main_queue.hpp"
 #include "osal/clock.hpp"
 #include "osal/rt.hpp"
+#include "reload/reloader.hpp"
 #include "schedule/schedule.hpp"
 #include "sdk/runtime.hpp"
 #include "stats/stats_segment.hpp"
@@ -28,12 +34,14 @@
 #include <nlohmann/json.hpp>
 
 #include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cstdio>
 #include <ctime>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <optional>
 
@@ -55,20 +63,19 @@ void drainModuleOutput() {
     std::fflush(stdout);
 }
 
-bool writeStats(const std::string &path, const config::SetSpec &set, const schedule::Schedule &schedule,
-                const stats::StatsSegment &segment, const dispatch::Dispatcher &dispatcher, const Options &options,
-                int64_t elapsed_ns) {
+bool writeStats(const std::string &path, const reload::Generation &g, const stats::StatsSegment &segment,
+                const dispatch::Dispatcher &dispatcher, const Options &options, int64_t elapsed_ns) {
     using json = nlohmann::ordered_json;
     json executors = json::array(), modules = json::array();
-    for (std::size_t i = 0; i < segment.recordCount(); ++i) {
-        const stats::TimingRecord &r = segment.record(i);
-        (r.kind == stats::RecordKind::Dispatcher ? executors : modules).push_back(stats::toJson(r));
-    }
-    json doc = {{"set", set.xml_path.string()},
+    for (std::size_t i = 0; i < 1 + g.set.executors.size(); ++i) executors.push_back(stats::toJson(segment.record(i)));
+    for (const config::ModuleSpec &m : g.set.modules)
+        modules.push_back(stats::toJson(segment.record(g.members[static_cast<std::size_t>(m.index)].record)));
+    json doc = {{"set", g.set.xml_path.string()},
                 {"realtime", dispatcher.realtime()},
                 {"overrun_policy", dispatch::toString(options.dispatcher.policy)},
-                {"basic_period_ns", schedule.basic_ns},
-                {"macro_period_ns", schedule.macro_ns},
+                {"basic_period_ns", g.schedule.basic_ns},
+                {"macro_period_ns", g.schedule.macro_ns},
+                {"generation", g.number},
                 {"elapsed_ns", elapsed_ns},
                 {"cycles", segment.header()->cycles.load()},
                 {"log_lines_dropped", runtime::droppedLogLines()},
@@ -80,91 +87,68 @@ bool writeStats(const std::string &path, const config::SetSpec &set, const sched
     return static_cast<bool>(out);
 }
 
-// Spawns every process module: periodic and sporadic ones at SCHED_FIFO one below their
-// executor's dispatcher, on its CPU; non-real ones at SCHED_OTHER, unpinned.  Then waits until
-// the RT ones called irp::initPeriodExe(), so that the first release is not missed.
-Status startProcesses(hosts::ProcessSupervisor &supervisor, const std::vector<const config::ModuleSpec *> &processes,
-                      hosts::ControlSegment *control, const std::string &variables_shm, const config::SetSpec &set,
-                      const Options &options) {
-    if (processes.empty()) return Ok{};
-    for (std::size_t s = 0; s < processes.size(); ++s) {
-        const config::ModuleSpec &m = *processes[s];
-        hosts::ProcessLaunch launch;
-        launch.spec = m;
-        launch.slot = static_cast<uint32_t>(s);
-        launch.control_shm = control->name();
-        launch.variables_shm = variables_shm;
-        if (m.operation != config::OperationType::NonReal) {
-            int priority = options.dispatcher.rt_priority, cpu = options.dispatcher.cpu;
-            for (const config::ExecutorSpec &e : set.executors)
-                if (e.name == m.executor) {
-                    priority = e.rt_priority ? e.rt_priority : priority - 1;
-                    if (e.cpu >= 0) cpu = e.cpu;
-                }
-            launch.rt_priority = options.dispatcher.realtime ? std::max(1, priority - 1) : 0;
-            launch.cpu = cpu >= 0 ? cpu : osal::lastAllowedCpu();
-        }
-        if (Status st = supervisor.start(launch); !st) return st;
-    }
-    return supervisor.waitReady(5'000'000'000);
+// The module cache's folder: --module-cache, else one of this user's own under /tmp.  An
+// existing folder must be a real directory owned by irpd's user (not a link another user planted).
+Result<hosts::ModuleCache> openModuleCache(const Options &options) {
+    std::filesystem::path dir = options.module_cache;
+    if (dir.empty())
+        dir = "/tmp/indurop-" + std::to_string(getuid()) + "-" + options.instance + "-modules";
+    struct stat st{};
+    if (lstat(dir.c_str(), &st) == 0 && (!S_ISDIR(st.st_mode) || st.st_uid != getuid()))
+        return Error{"module cache " + dir.string() + " is not a directory owned by uid " + std::to_string(getuid()) +
+                     ": remove it or choose --module-cache"};
+    return hosts::ModuleCache::open(dir);
 }
 
-// The control protocol's commands (docs/control-protocol.md).  Runs on the control thread: it
-// reads the set and schedule (never changed while running) and the shared-memory stats block.
-control::Handler controlHandler(const config::SetSpec &set, const schedule::Schedule &schedule,
-                                const stats::StatsSegment &segment, std::size_t executors, const Options &options) {
-    using json = nlohmann::ordered_json;
-    return [&set, &schedule, &segment, executors, &options](const std::string &cmd, const nlohmann::json &) -> Result<json> {
-        const stats::Header *h = segment.header();
-        if (cmd == "status") {
-            const stats::TimingRecord &d = segment.record(0);
-            const int64_t started = h->started_ns.load(), now = osal::monotonicNow();
-            return json{{"set", set.xml_path.string()},
-                        {"running", h->running.load() == 1},
-                        {"realtime", h->realtime.load() == 1},
-                        {"pid", h->pid},
-                        {"basic_period_ns", schedule.basic_ns},
-                        {"macro_period_ns", schedule.macro_ns},
-                        {"uptime_ns", started && now > started ? now - started : 0},
-                        {"cycles", h->cycles.load()},
-                        {"modules", set.modules.size()},
-                        {"overruns", d.overruns.load()},
-                        {"missed", d.missed.load()},
-                        {"skipped", d.skipped.load()},
-                        {"caught_up", d.caught_up.load()},
-                        {"shared_memory",
-                         {{"stats", segment.name()},
-                          {"variables", set.layout.empty() ? json(nullptr)
-                                                           : json(variables::VariableSegment::shmName(options.instance))}}}};
-        }
-        if (cmd == "schedule") return schedule::toJson(schedule, set);
-        if (cmd == "modules") {
-            json list = json::array();
-            for (const config::ModuleSpec &m : set.modules) {
-                json entry = stats::toJson(segment.record(executors + static_cast<std::size_t>(m.index)));
-                entry["moduletype"] = config::toString(m.type);
-                entry["operationtype"] = config::toString(m.operation);
-                entry["deadline_ns"] = m.deadline_ns;
-                entry["file"] = m.path.string();
-                list.push_back(std::move(entry));
+// Turns what the RT threads and the supervisor counted since the last look into events: a module
+// disabled by a fault, deadline misses and overruns (at most one event per module per second),
+// process exits and restarts.
+class EventWatch {
+public:
+    EventWatch(events::EventLog &log, const stats::StatsSegment &stats) : log_(log), stats_(stats) {}
+
+    void look(const reload::Generation &g, const hosts::ProcessSupervisor &supervisor, bool figures) {
+        for (const config::ModuleSpec &m : g.set.modules) {
+            const stats::TimingRecord &r = stats_.record(g.members[static_cast<std::size_t>(m.index)].record);
+            Seen &seen = seen_[m.name];
+            const uint64_t errors = r.errors.load(), missed = r.missed.load(), overruns = r.overruns.load();
+            if (errors > seen.errors && !seen.first)
+                log_.add("fault", m.name, "threw from run() or condition(); disabled (enable it to run it again)");
+            if (figures || seen.first) {
+                if (missed > seen.missed && !seen.first)
+                    log_.add("deadline", m.name, std::to_string(missed - seen.missed) + " deadline misses (" +
+                                                     std::to_string(missed) + " in all)");
+                if (overruns > seen.overruns && !seen.first)
+                    log_.add("overrun", m.name, std::to_string(overruns - seen.overruns) + " budget overruns (" +
+                                                    std::to_string(overruns) + " in all)");
+                seen.missed = missed;
+                seen.overruns = overruns;
             }
-            return list;
+            seen.errors = errors;
+            seen.first = false;
         }
-        if (cmd == "stats") {
-            json executors_json = json::array(), modules = json::array();
-            for (std::size_t i = 0; i < segment.recordCount(); ++i) {
-                const stats::TimingRecord &r = segment.record(i);
-                (r.kind == stats::RecordKind::Dispatcher ? executors_json : modules).push_back(stats::toJson(r));
-            }
-            return json{{"cycles", h->cycles.load()}, {"executors", executors_json}, {"modules", modules}};
+        for (const hosts::ProcessInfo &p : supervisor.processes()) {
+            Seen &seen = seen_["process:" + p.name + ":" + std::to_string(p.slot)];
+            if (p.exits > seen.exits) log_.add("process_exit", p.name, p.last_exit);
+            if (p.restarts > seen.restarts) log_.add("process_restart", p.name, "restarted (" + std::to_string(p.restarts) + " restarts)");
+            seen.exits = p.exits;
+            seen.restarts = p.restarts;
         }
-        for (const char *later : {"load", "set_period", "set_priority", "enable", "disable", "trace"})
-            if (cmd == later)
-                return Error{"command '" + cmd + "' is not available in protocol version " +
-                             std::to_string(control::kProtocolVersion) + " of this irpd"};
-        return Error{"unknown command '" + cmd + "'; the commands are status, schedule, modules, stats"};
+    }
+
+private:
+    struct Seen {
+        bool first = true;
+        uint64_t errors = 0, missed = 0, overruns = 0, exits = 0, restarts = 0;
     };
-}
+    events::EventLog &log_;
+    const stats::StatsSegment &stats_;
+    std::map<std::string, Seen> seen_;
+};
+
+// Room in the stats block and the control segment for what hot reloads may add.
+constexpr std::size_t kMinModuleRecords = 256;
+constexpr uint32_t kMinProcessSlots = 16;
 
 } // namespace
 
@@ -179,102 +163,98 @@ int run(const Options &options) {
         else std::cout << schedule::formatText(*schedule, *set);
         return kExitOk;
     }
-
     // The set's shared-variable layout: --layout, else <layout>, else a layout.json beside
-    // module.xml (the build puts it there).  Decided before any thread can read the set.
-    if (!options.layout.empty()) set->layout = options.layout;
-    const auto beside = set->xml_path.parent_path() / "layout.json";
-    if (set->layout.empty() && std::filesystem::is_regular_file(beside)) set->layout = beside;
+    // module.xml (the build puts it there).
+    reload::resolveLayout(*set, options.layout);
 
-    // 2. stats block, modules
+    // 2. stats block (room for a hot reload to hold the old and the new modules at once)
     const std::size_t executors = dispatch::Dispatcher::executorCount(*set);
-    auto segment = stats::StatsSegment::create(options.instance, executors + set->modules.size());
+    auto segment = stats::StatsSegment::create(options.instance,
+                                               executors + std::max(kMinModuleRecords, 2 * set->modules.size()));
     if (!segment) return std::cerr << "irpd: error: " << segment.error().message << std::endl, kExitFailure;
     stats::Header *header = segment->header();
     header->basic_ns = schedule->basic_ns;
     header->macro_ns = schedule->macro_ns;
     std::snprintf(header->set_path, sizeof header->set_path, "%s", set->xml_path.c_str());
 
-    // The control socket, before anything starts: a path that cannot be served refuses the run.
-    std::unique_ptr<control::ControlServer> control_server;
-    if (!options.control_socket.empty()) {
-        auto opened = control::ControlServer::open(options.control_socket,
-                                                   controlHandler(*set, *schedule, *segment, executors, options));
-        if (!opened) return std::cerr << "irpd: error: " << opened.error().message << std::endl, kExitFailure;
-        control_server = std::move(*opened);
-        say("control socket " + control_server->path());
-    }
-
     // Shared variables: the segment exists before any module is loaded.
     std::optional<variables::VariableSegment> vars;
+    std::string layout_text;
     if (!set->layout.empty()) {
         auto layout = variables::readLayout(set->layout);
         if (!layout) return refuse(layout.error().message);
-        auto segment = variables::VariableSegment::create(options.instance, *layout);
-        if (!segment) return std::cerr << "irpd: error: " << segment.error().message << std::endl, kExitFailure;
-        vars = std::move(*segment);
+        auto created = variables::VariableSegment::create(options.instance, *layout);
+        if (!created) return std::cerr << "irpd: error: " << created.error().message << std::endl, kExitFailure;
+        vars = std::move(*created);
+        layout_text = layout->text;
         say("shared variables: " + std::to_string(layout->variables) + " variables, " +
             std::to_string(layout->data_size) + " bytes, layout " + vars->hash() + ", in /dev/shm" + vars->name());
     }
+    auto cache = openModuleCache(options);
+    if (!cache) return std::cerr << "irpd: error: " << cache.error().message << std::endl, kExitFailure;
 
-    auto modules = hosts::ModuleSet::load(*set, vars ? vars->hash() : nullptr);
-    if (!modules) return refuse(modules.error().message);
-    std::vector<dispatch::ModuleBinding> bindings;
-    for (const config::ModuleSpec &m : set->modules) {
-        const auto i = static_cast<std::size_t>(m.index);
-        stats::TimingRecord &record = segment->describe(executors + i, stats::RecordKind::Module, m.name, m.executor,
-                                                        m.period_ns, m.priority, m.budget_ns);
-        hosts::ThreadModule *module = (*modules)->module(i);
-        record.state.store(static_cast<uint32_t>(stats::ModuleState::Loaded));
-        dispatch::ModuleBinding binding;
-        binding.stats = &record;
-        if (module) {
-            binding.run = module->runFunction();
-            binding.condition = module->table().condition;
-        }
-        bindings.push_back(binding);
-    }
-    if (Status s = (*modules)->initializeAll(); !s) return refuse(s.error().message);
-    if (Status s = (*modules)->startAll(); !s) return refuse(s.error().message);
-
-    // Process modules: a control slot each, spawned and watched by the supervisor; the control
-    // segment also carries the table of shared functions they may call (every export is known
-    // once every module started), served by the owners' executors (dispatch/function_calls.hpp).
-    std::optional<hosts::ControlSegment> control;
-    std::unique_ptr<dispatch::CallServer> calls;  // outlives the dispatcher (declared before it)
+    events::EventLog events;
+    MainQueue queue;
     hosts::ProcessSupervisor supervisor([](std::string_view line) {
         std::fwrite(line.data(), 1, line.size(), stdout);
         std::fputc('\n', stdout);
     });
-    std::vector<const config::ModuleSpec *> processes;
-    for (const config::ModuleSpec &m : set->modules)
-        if (m.type == config::ModuleType::Process) processes.push_back(&m);
-    if (!processes.empty()) {
+    reload::Services services;
+    services.stats = &*segment;
+    services.executors = executors;
+    services.vars = vars ? &*vars : nullptr;
+    services.supervisor = &supervisor;
+    services.cache = &*cache;
+    services.events = &events;
+    services.limits = options.limits;
+    services.dispatcher = options.dispatcher;
+    if (services.dispatcher.cpu < 0) services.dispatcher.cpu = osal::lastAllowedCpu();
+    reload::Reloader reloader(services);
+
+    // The first generation.  Once its thread modules started (every export is known), the
+    // control segment is created: a slot per process module (with room for more) and the table
+    // of shared functions they may call, served by the owners' executors.
+    std::optional<hosts::ControlSegment> control;
+    std::unique_ptr<dispatch::CallServer> calls;  // outlives the dispatcher (declared before it)
+    std::size_t processes = 0;
+    for (const config::ModuleSpec &m : set->modules) processes += m.type == config::ModuleType::Process;
+    auto first = reloader.prepare(*set, nullptr, {}, "", [&](reload::Generation &g) {
         const std::vector<runtime::FunctionExport> exports = runtime::functionExports();
-        auto created = hosts::ControlSegment::create(options.instance, static_cast<uint32_t>(processes.size()),
-                                                     static_cast<uint32_t>(exports.size()));
-        if (!created) {
-            for (const std::string &e : (*modules)->stopAll()) say(e);
-            return std::cerr << "irpd: error: " << created.error().message << std::endl, kExitFailure;
-        }
+        auto created = hosts::ControlSegment::create(
+            options.instance, std::max<uint32_t>(kMinProcessSlots, static_cast<uint32_t>(processes)),
+            static_cast<uint32_t>(exports.size()));
+        if (!created) return Status{created.error()};
         control = std::move(*created);
-        for (std::size_t s = 0; s < processes.size(); ++s)
-            if (processes[s]->operation != config::OperationType::NonReal)
-                bindings[static_cast<std::size_t>(processes[s]->index)].process = &control->slot(static_cast<uint32_t>(s));
         std::vector<std::string> notes;
-        calls = dispatch::CallServer::publish(*control, *set, exports, notes);
+        calls = dispatch::CallServer::publish(*control, g.set, exports, notes);
         for (const std::string &n : notes) say("note: " + n);
-        for (const config::ModuleSpec &m : set->modules)
-            if (calls->serves(m.index)) bindings[static_cast<std::size_t>(m.index)].calls = calls.get();
-    }
-    if (Status s = startProcesses(supervisor, processes, control ? &*control : nullptr, vars ? vars->name() : "", *set,
-                                  options);
-        !s) {
-        supervisor.stopAll(1'000'000'000);
-        for (const std::string &e : (*modules)->stopAll()) say(e);
-        return refuse(s.error().message);
-    }
+        reloader.setControl(&*control);
+        reloader.setCallServer(calls.get());
+        return Status{Ok{}};
+    });
+    if (!first) return refuse(first.error().message);
     drainModuleOutput();
+
+    // The control socket: commands read the running generation; hot reloads run on this thread.
+    std::unique_ptr<control::ControlServer> control_server;
+    if (!options.control_socket.empty()) {
+        CommandContext context;
+        context.reloader = &reloader;
+        context.stats = &*segment;
+        context.events = &events;
+        context.queue = &queue;
+        context.options = &options;
+        context.variables_shm = vars ? vars->name() : "";
+        context.layout_text = layout_text;
+        auto opened = control::ControlServer::open(options.control_socket, commandHandler(context));
+        if (!opened) {
+            supervisor.stopAll(1'000'000'000);
+            for (const auto &m : (*first)->members)
+                if (m.thread) (void)m.thread->stop();
+            return std::cerr << "irpd: error: " << opened.error().message << std::endl, kExitFailure;
+        }
+        control_server = std::move(*opened);
+    }
 
     // 3. dispatchers
     int dma_latency_fd = -1;  // held open while dispatching
@@ -283,15 +263,16 @@ int run(const Options &options) {
         dma_latency_fd = osal::holdCpuDmaLatencyZero();
         if (dma_latency_fd < 0) say("note: /dev/cpu_dma_latency not held at 0; CPU idle states may add wake-up latency");
     }
-    dispatch::Dispatcher dispatcher(*set, *schedule, std::move(bindings), *segment, options.dispatcher,
-                                    osal::monotonicClock());
+    dispatch::Dispatcher dispatcher(*set, *(*first)->tables, *segment, options.dispatcher, osal::monotonicClock());
     const int64_t duration_ns = static_cast<int64_t>(options.duration_s * 1e9);
     if (Status s = dispatcher.start(duration_ns); !s) {
-        for (const std::string &e : (*modules)->stopAll()) say(e);
+        control_server.reset();
+        supervisor.stopAll(1'000'000'000);
+        for (const auto &m : (*first)->members)
+            if (m.thread) (void)m.thread->stop();
         return refuse(s.error().message);
     }
-    for (std::size_t i = 0; i < set->modules.size(); ++i)
-        segment->record(executors + i).state.store(static_cast<uint32_t>(stats::ModuleState::Running));
+    reloader.adopt(std::move(*first), dispatcher);
     for (const dispatch::ExecutorReport &r : dispatcher.reports())
         say("executor '" + r.name + "': " + r.detail);
     if (!dispatcher.realtime()) {
@@ -300,9 +281,12 @@ int run(const Options &options) {
         say("WARNING: and every figure in the stats is marked \"realtime\": false.");
         say("WARNING: ************************************************************");
     }
+    if (control_server) say("control socket " + control_server->path());
     say("running " + set->xml_path.string() + ": basic period " + schedule::humanDuration(schedule->basic_ns) +
         ", macro period " + schedule::humanDuration(schedule->macro_ns) + ", " + std::to_string(schedule->slots.size()) +
         " slots, stats in /dev/shm" + segment->name());
+    events.add("start", "", "irpd " INDUROP_VERSION " started " + set->xml_path.string() +
+                                (dispatcher.realtime() ? " (real-time)" : " (NOT real-time)"));
 
     // 4. the non-RT side
     sigset_t stop_signals;
@@ -310,14 +294,26 @@ int run(const Options &options) {
     sigaddset(&stop_signals, SIGINT);
     sigaddset(&stop_signals, SIGTERM);
     const timespec tick{0, 20'000'000};
+    EventWatch watch(events, *segment);
+    int64_t last_figures = 0;
     while (!dispatcher.finished()) {
         int sig = sigtimedwait(&stop_signals, nullptr, &tick);
         drainModuleOutput();
         supervisor.poll();
+        queue.runPending();
+        const auto g = reloader.current();
         for (const hosts::ProcessInfo &p : supervisor.processes())
-            segment->record(executors + static_cast<std::size_t>(processes[p.slot]->index))
-                .state.store(static_cast<uint32_t>(p.running || p.restart_pending ? stats::ModuleState::Running
-                                                                                  : stats::ModuleState::Exited));
+            for (const config::ModuleSpec &m : g->set.modules) {
+                const reload::Member &member = g->members[static_cast<std::size_t>(m.index)];
+                if (member.slot == static_cast<int>(p.slot) && !g->disabled.count(m.name))
+                    segment->record(member.record)
+                        .state.store(static_cast<uint32_t>(p.running || p.restart_pending ? stats::ModuleState::Running
+                                                                                          : stats::ModuleState::Exited));
+            }
+        const int64_t now = osal::monotonicNow();
+        const bool figures = now - last_figures >= 1'000'000'000;
+        if (figures) last_figures = now;
+        watch.look(*g, supervisor, figures);
         if (sig == SIGINT || sig == SIGTERM) {
             say(std::string("received ") + (sig == SIGINT ? "SIGINT" : "SIGTERM") + ", stopping");
             break;
@@ -325,6 +321,7 @@ int run(const Options &options) {
     }
 
     // 5. clean stop
+    queue.close();
     control_server.reset();  // no client reads a set that is going away
     dispatcher.requestStop();
     dispatcher.join();
@@ -333,15 +330,13 @@ int run(const Options &options) {
     // From slot 0's due time to the end of the main dispatcher's last slot.
     const int64_t elapsed = header->finished_ns.load() - header->started_ns.load();
     int status = kExitOk;
-    for (const std::string &e : (*modules)->stopAll()) {
+    for (const std::string &e : reloader.stopAll()) {
         say(e);
         status = kExitFailure;
     }
-    for (std::size_t i = 0; i < set->modules.size(); ++i)
-        segment->record(executors + i).state.store(static_cast<uint32_t>(stats::ModuleState::Stopped));
     drainModuleOutput();
-    if (!options.stats_json.empty() &&
-        !writeStats(options.stats_json, *set, *schedule, *segment, dispatcher, options, elapsed)) {
+    const auto last = reloader.current();
+    if (!options.stats_json.empty() && !writeStats(options.stats_json, *last, *segment, dispatcher, options, elapsed)) {
         say("error: cannot write " + options.stats_json);
         status = kExitFailure;
     }
@@ -349,7 +344,6 @@ int run(const Options &options) {
     say("stopped after " + std::to_string(main.runs.load()) + " basic periods: " +
         std::to_string(main.overruns.load()) + " overruns, " + std::to_string(main.missed.load()) + " missed, " +
         std::to_string(main.skipped.load()) + " skipped");
-    modules->reset();  // unload
     if (dma_latency_fd >= 0) close(dma_latency_fd);
     return status;
 }

@@ -14,7 +14,7 @@ namespace {
 
 enum Flag {
     kConfig = 1000, kPrintSchedule, kJson, kDuration, kStatsJson, kInstance, kMinBasic, kCpu, kRtPriority, kNoRt,
-    kPolicy, kMaxCatchup, kHelp, kVersion, kStatsLayout, kLayout, kControlSocket,
+    kPolicy, kMaxCatchup, kHelp, kVersion, kStatsLayout, kLayout, kControlSocket, kModuleCache,
 };
 
 const option kOptions[] = {
@@ -35,6 +35,7 @@ const option kOptions[] = {
     {"print-stats-layout", no_argument, nullptr, kStatsLayout},
     {"layout", required_argument, nullptr, kLayout},
     {"control-socket", required_argument, nullptr, kControlSocket},
+    {"module-cache", required_argument, nullptr, kModuleCache},
     {nullptr, 0, nullptr, 0},
 };
 
@@ -64,6 +65,9 @@ Runs the module set described by FILE.xml (the paper's module.xml) on a strict p
                            default "default"
   --layout FILE.json       the set's shared-variable layout (glbc's layout.json), instead of the
                            <layout> of module.xml
+  --module-cache DIR       where thread modules are loaded from: copies named after their content's
+                           SHA-256, so a hot reload runs a changed file's new code (default
+                           /tmp/indurop-<uid>-<instance>-modules, mode 0700)
   --min-basic-period NS    refuse sets whose basic period is shorter (default 50000)
   --cpu N                  CPU of the main dispatcher thread (default: the last one)
   --rt-priority N          SCHED_FIFO priority of the main dispatcher, 1..99 (default 80)
@@ -145,6 +149,7 @@ Result<Options> parseOptions(int argc, char **argv) {
         case kVersion: o.version = true; break;
         case kStatsLayout: o.print_stats_layout = true; break;
         case kLayout: o.layout = optarg; break;
+        case kModuleCache: o.module_cache = optarg; break;
         case kControlSocket: o.control_socket = optarg; break;
         case ':': return Error{std::string("option ") + argv[optind - 1] + " needs a value"};
         default: return Error{std::string("unknown option ") + argv[optind - 1]};

@@ -19,6 +19,7 @@ struct Options {
     std::string control_socket;    // --control-socket PATH ("" = none)
     std::string layout;            // --layout FILE: the set's layout.json, instead of its <layout>
     std::string instance = "default";  // --instance NAME: names the shared memory
+    std::string module_cache;      // --module-cache DIR ("" = /tmp/indurop-<uid>-<instance>-modules)
     schedule::Limits limits;       // --min-basic-period NS
     dispatch::DispatcherOptions dispatcher;  // --cpu, --rt-priority, --no-rt, --overrun-policy, --max-catchup
     bool help = false;

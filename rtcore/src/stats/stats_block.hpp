@@ -20,7 +20,8 @@ namespace irp::stats {
 inline constexpr uint64_t kMagic = 0x3154'4154'5350'5249ull;  // the bytes "IRPSTAT1"
 inline constexpr uint32_t kVersion = 1;
 
-enum class RecordKind : uint32_t { Dispatcher = 0, Module = 1 };
+// Unused: a free record (room for the modules a hot reload adds); readers skip it.
+enum class RecordKind : uint32_t { Dispatcher = 0, Module = 1, Unused = 2 };
 
 // What a module is doing, as the dispatcher sees it.
 enum class ModuleState : uint32_t {
@@ -60,7 +61,7 @@ struct alignas(64) Header {
     uint32_t version;
     uint32_t header_size;   // sizeof(Header)
     uint32_t record_size;   // sizeof(TimingRecord)
-    uint32_t record_count;  // dispatchers first, then modules
+    uint32_t record_count;  // dispatchers first, then modules and unused records, in any order
     int64_t pid;            // the irpd that owns the segment
     int64_t basic_ns;
     int64_t macro_ns;

@@ -39,6 +39,7 @@ Result<StatsSegment> StatsSegment::create(const std::string &instance, std::size
     h->record_count = static_cast<uint32_t>(count);
     h->pid = getpid();
     for (std::size_t i = 0; i < count; ++i) new (&records(h)[i]) TimingRecord();
+    for (std::size_t i = 0; i < count; ++i) records(h)[i].kind = RecordKind::Unused;
     return segment;
 }
 
@@ -54,6 +55,19 @@ TimingRecord &StatsSegment::describe(std::size_t i, RecordKind kind, const std::
     r.budget_ns = budget_ns;
     resetFigures(r);
     return r;
+}
+
+void StatsSegment::release(std::size_t i) {
+    TimingRecord &r = record(i);
+    r.kind = RecordKind::Unused;
+    r.name[0] = '\0';
+    r.state.store(static_cast<uint32_t>(ModuleState::Stopped), std::memory_order_relaxed);
+}
+
+std::optional<std::size_t> StatsSegment::findUnused(std::size_t from) const {
+    for (std::size_t i = from; i < recordCount(); ++i)
+        if (record(i).kind == RecordKind::Unused) return i;
+    return std::nullopt;
 }
 
 } // namespace irp::stats

@@ -5,6 +5,7 @@
 #include "osal/shm.hpp"
 #include "stats/stats_block.hpp"
 
+#include <optional>
 #include <string>
 
 namespace irp::stats {
@@ -26,6 +27,11 @@ public:
     // Sets name, executor, kind, period and clears the figures of record i.
     TimingRecord &describe(std::size_t i, RecordKind kind, const std::string &name, const std::string &executor,
                            int64_t period_ns, int32_t priority, int64_t budget_ns);
+
+    // Marks record i unused (a module that a hot reload removed); readers skip it.
+    void release(std::size_t i);
+    // The first unused record at or after `from`.
+    std::optional<std::size_t> findUnused(std::size_t from) const;
 
 private:
     osal::SharedMemory shm_;

@@ -65,12 +65,14 @@ public:
 
     // Exit status, or -1 if still running at the deadline (-2 if killed by a signal).
     int wait(std::chrono::milliseconds limit = std::chrono::seconds(30)) {
+        if (exited_) return status_;
         auto end = std::chrono::steady_clock::now() + limit;
         while (std::chrono::steady_clock::now() < end) {
             int status = 0;
             if (waitpid(pid_, &status, WNOHANG) == pid_) {
                 exited_ = true;
-                return WIFEXITED(status) ? WEXITSTATUS(status) : -2;
+                status_ = WIFEXITED(status) ? WEXITSTATUS(status) : -2;
+                return status_;
             }
             std::this_thread::sleep_for(std::chrono::milliseconds(10));
         }
@@ -90,6 +92,7 @@ public:
 private:
     pid_t pid_ = -1;
     bool exited_ = false;
+    int status_ = -1;
     std::filesystem::path out_, err_;
 };
 

@@ -1,0 +1,155 @@
+// commands.cpp -- what each control command does.
+#include "irpd/commands.hpp"
+
+#include "osal/clock.hpp"
+#include "stats/summary.hpp"
+#include "variables/variable_write.hpp"
+
+#include <chrono>
+
+namespace irp::daemon {
+namespace {
+
+using json = nlohmann::ordered_json;
+
+// A string argument, or an Error naming it.
+Result<std::string> text(const nlohmann::json &request, const char *name) {
+    auto it = request.find(name);
+    if (it == request.end() || !it->is_string() || it->get<std::string>().empty())
+        return Error{std::string("'") + name + "' is required: a non-empty string"};
+    return it->get<std::string>();
+}
+
+Result<int64_t> integer(const nlohmann::json &request, const char *name) {
+    auto it = request.find(name);
+    if (it == request.end() || !it->is_number_integer())
+        return Error{std::string("'") + name + "' is required: an integer"};
+    return it->get<int64_t>();
+}
+
+json moduleEntry(const reload::Generation &g, const config::ModuleSpec &m, const stats::StatsSegment &stats) {
+    const reload::Member &member = g.members[static_cast<std::size_t>(m.index)];
+    json entry = stats::toJson(stats.record(member.record));
+    entry["moduletype"] = config::toString(m.type);
+    entry["operationtype"] = config::toString(m.operation);
+    entry["priority"] = m.priority;
+    entry["deadline_ns"] = m.deadline_ns;
+    entry["budget_ns"] = m.budget_ns;
+    entry["enabled"] = g.disabled.count(m.name) == 0;
+    entry["file"] = m.path.string();
+    entry["sha256"] = member.sha256;
+    json properties = json::object();
+    for (const auto &[k, v] : m.properties) properties[k] = v;
+    entry["properties"] = properties;
+    return entry;
+}
+
+} // namespace
+
+control::Handler commandHandler(const CommandContext &c) {
+    return [c](const std::string &cmd, const nlohmann::json &request) -> Result<json> {
+        const auto g = c.reloader->current();
+        const stats::Header *h = c.stats->header();
+        const std::size_t executors = 1 + g->set.executors.size();
+        if (cmd == "status") {
+            const stats::TimingRecord &d = c.stats->record(0);
+            const int64_t started = h->started_ns.load(), now = osal::monotonicNow();
+            return json{{"set", g->set.xml_path.string()},
+                        {"set_id", g->set_id.empty() ? json(nullptr) : json(g->set_id)},
+                        {"generation", g->number},
+                        {"running", h->running.load() == 1},
+                        {"realtime", h->realtime.load() == 1},
+                        {"pid", h->pid},
+                        {"basic_period_ns", g->schedule.basic_ns},
+                        {"macro_period_ns", g->schedule.macro_ns},
+                        {"uptime_ns", started && now > started ? now - started : 0},
+                        {"cycles", h->cycles.load()},
+                        {"modules", g->set.modules.size()},
+                        {"overruns", d.overruns.load()},
+                        {"missed", d.missed.load()},
+                        {"skipped", d.skipped.load()},
+                        {"caught_up", d.caught_up.load()},
+                        {"events", c.events->last()},
+                        {"shared_memory",
+                         {{"stats", c.stats->name()},
+                          {"variables", c.variables_shm.empty() ? json(nullptr) : json(c.variables_shm)}}}};
+        }
+        if (cmd == "schedule") return schedule::toJson(g->schedule, g->set);
+        if (cmd == "modules") {
+            json list = json::array();
+            for (const config::ModuleSpec &m : g->set.modules) list.push_back(moduleEntry(*g, m, *c.stats));
+            return list;
+        }
+        if (cmd == "stats") {
+            json executors_json = json::array(), modules = json::array();
+            for (std::size_t i = 0; i < executors; ++i) executors_json.push_back(stats::toJson(c.stats->record(i)));
+            for (const config::ModuleSpec &m : g->set.modules)
+                modules.push_back(stats::toJson(c.stats->record(g->members[static_cast<std::size_t>(m.index)].record)));
+            return json{{"cycles", h->cycles.load()}, {"executors", executors_json}, {"modules", modules}};
+        }
+        if (cmd == "events") {
+            uint64_t since = 0;
+            std::size_t limit = 500;
+            if (request.contains("since")) {
+                if (!request["since"].is_number_unsigned()) return Error{"'since' must be a non-negative integer"};
+                since = request["since"].get<uint64_t>();
+            }
+            if (request.contains("limit")) {
+                if (!request["limit"].is_number_unsigned() || request["limit"].get<uint64_t>() == 0)
+                    return Error{"'limit' must be a positive integer"};
+                limit = std::min<std::size_t>(request["limit"].get<uint64_t>(), events::EventLog::kCapacity);
+            }
+            return c.events->since(since, limit);
+        }
+        if (cmd == "check") {
+            auto config = text(request, "config");
+            if (!config) return config.error();
+            return c.reloader->check(*config);
+        }
+        if (cmd == "write") {
+            auto path = text(request, "path");
+            if (!path) return path.error();
+            if (c.variables_shm.empty()) return Error{"the running set has no shared variables"};
+            if (!request.contains("value")) return Error{"'value' is required: a number or a boolean"};
+            return variables::writeByPath(c.layout_text, *path, request["value"]);
+        }
+        auto onMain = [&c](std::function<MainQueue::Answer()> job) {
+            return c.queue->call(std::move(job), std::chrono::milliseconds(60'000));
+        };
+        if (cmd == "load") {
+            auto config = text(request, "config");
+            if (!config) return config.error();
+            std::string set_id;
+            if (request.contains("set_id")) {
+                if (!request["set_id"].is_string()) return Error{"'set_id' must be a string"};
+                set_id = request["set_id"].get<std::string>();
+            }
+            return onMain([r = c.reloader, path = *config, set_id] { return r->load(path, set_id); });
+        }
+        if (cmd == "set_period" || cmd == "set_priority" || cmd == "enable" || cmd == "disable") {
+            auto module = text(request, "module");
+            if (!module) return module.error();
+            reload::Change change;
+            change.module = *module;
+            if (cmd == "set_period") {
+                auto period = integer(request, "period_ns");
+                if (!period) return period.error();
+                change.period_ns = *period;
+            } else if (cmd == "set_priority") {
+                auto priority = integer(request, "priority");
+                if (!priority) return priority.error();
+                if (*priority < -1'000'000 || *priority > 1'000'000) return Error{"'priority' must be within ±1000000"};
+                change.priority = static_cast<int>(*priority);
+            } else {
+                change.enabled = cmd == "enable";
+            }
+            return onMain([r = c.reloader, change] { return r->change(change); });
+        }
+        if (cmd == "trace") return Error{"command 'trace' is not available in this irpd yet"};
+        return Error{"unknown command '" + cmd +
+                     "'; the commands are status, schedule, modules, stats, events, check, load, set_period, "
+                     "set_priority, enable, disable, write, trace"};
+    };
+}
+
+} // namespace irp::daemon

@@ -1,0 +1,31 @@
+// commands.hpp -- the control protocol's commands (docs/control-protocol.md), on the control
+// thread.  Reads (status, schedule, modules, stats, events, check) answer from the running
+// generation and the shared-memory stats block; changes (load, set_period, set_priority,
+// enable, disable) run on the main thread through the MainQueue; write goes through libindurop's
+// locked path access; trace configures the trace rings.
+#pragma once
+
+#include "control/control_server.hpp"
+#include "events/event_log.hpp"
+#include "irpd/main_queue.hpp"
+#include "irpd/options.hpp"
+#include "reload/reloader.hpp"
+#include "stats/stats_segment.hpp"
+
+#include <string>
+
+namespace irp::daemon {
+
+struct CommandContext {
+    reload::Reloader *reloader = nullptr;
+    const stats::StatsSegment *stats = nullptr;
+    events::EventLog *events = nullptr;
+    MainQueue *queue = nullptr;
+    const Options *options = nullptr;
+    std::string variables_shm;  // "" = none
+    std::string layout_text;    // the running layout.json, for write's type checks
+};
+
+control::Handler commandHandler(const CommandContext &context);
+
+} // namespace irp::daemon

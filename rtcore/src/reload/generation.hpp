@@ -1,0 +1,47 @@
+// generation.hpp -- one generation of the running set: what irpd runs between two hot reloads.
+//
+// A generation is the set (module.xml as parsed, with the periods and priorities changed since),
+// its schedule, one Member per module (the loaded library or the process's control slot, its
+// stats record) and the executors' tables.  A module kept by a reload is shared between two
+// generations: the same ThreadModule, the same process, the same record.
+#pragma once
+
+#include "config/module_xml.hpp"
+#include "dispatch/dispatcher.hpp"
+#include "hosts/thread_module.hpp"
+#include "schedule/schedule.hpp"
+
+#include <cstdint>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace irp::reload {
+
+struct Member {
+    std::shared_ptr<hosts::ThreadModule> thread;  // thread modules
+    std::string sha256;                           // its file's content
+    std::size_t record = 0;                       // its stats record
+    int slot = -1;                                // process modules: their control slot
+    bool kept = false;                            // the same instance as in the previous generation
+};
+
+struct Generation {
+    uint64_t number = 0;  // 1 for the set irpd started with, +1 per swap
+    std::string set_id;   // the caller's name for the set (the agent's set store id), may be empty
+    config::SetSpec set;
+    schedule::Schedule schedule;
+    std::vector<Member> members;      // per set index
+    std::set<std::string> disabled;   // modules taken out of dispatch by request
+    std::unique_ptr<dispatch::Tables> tables;
+
+    // The index of module `name` in the set, or -1.
+    int find(const std::string &name) const {
+        for (const config::ModuleSpec &m : set.modules)
+            if (m.name == name) return m.index;
+        return -1;
+    }
+};
+
+} // namespace irp::reload

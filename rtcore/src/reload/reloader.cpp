@@ -1,0 +1,525 @@
+// reloader.cpp -- prepare, swap, retire (see reloader.hpp).
+#include "reload/reloader.hpp"
+
+#include "osal/clock.hpp"
+#include "osal/rt.hpp"
+#include "sdk/runtime.hpp"
+#include "stats/summary.hpp"
+#include "variables/layout.hpp"
+
+#include <algorithm>
+#include <map>
+#include <sstream>
+#include <thread>
+
+namespace irp::reload {
+namespace {
+
+using json = nlohmann::ordered_json;
+
+std::string who(const config::ModuleSpec &m) { return m.where + ": module '" + m.name + "'"; }
+
+bool sameExecutors(const config::SetSpec &a, const config::SetSpec &b) {
+    if (a.executors.size() != b.executors.size()) return false;
+    for (std::size_t i = 0; i < a.executors.size(); ++i) {
+        const auto &x = a.executors[i], &y = b.executors[i];
+        if (x.name != y.name || x.rt_priority != y.rt_priority || x.cpu != y.cpu) return false;
+    }
+    return true;
+}
+
+// A module of the new set that can stay the running instance: same file content, same kind, same
+// properties (they go to initialize()); a process also the same executor (its RT priority and CPU).
+bool keepable(const config::ModuleSpec &next, const std::string &next_sha, const config::ModuleSpec &old,
+              const Member &old_member) {
+    if (next.type != old.type || next.operation != old.operation || next_sha != old_member.sha256 ||
+        next.properties != old.properties)
+        return false;
+    return next.type == config::ModuleType::Thread || next.executor == old.executor;
+}
+
+json names(const std::vector<std::string> &list) { return json(list); }
+
+int64_t now() { return osal::monotonicNow(); }
+
+} // namespace
+
+void resolveLayout(config::SetSpec &set, const std::filesystem::path &override_path) {
+    if (!override_path.empty()) set.layout = override_path;
+    const auto beside = set.xml_path.parent_path() / "layout.json";
+    std::error_code ec;
+    if (set.layout.empty() && std::filesystem::is_regular_file(beside, ec)) set.layout = beside;
+}
+
+std::string Reloader::layoutHashOf(const config::SetSpec &set) const {
+    if (set.layout.empty()) return {};
+    auto layout = variables::readLayout(set.layout);
+    return layout ? layout->hash : std::string{};
+}
+
+// What can be checked before loading anything: the schedule, the layout against the running
+// segment, the executors, and which running modules would have to go.
+Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *running,
+                              std::vector<std::string> &warnings) const {
+    if (!set.layout.empty()) {
+        auto layout = variables::readLayout(set.layout);
+        if (!layout) return layout.error();
+        if (!s_.vars)
+            return Error{"the set declares shared variables (" + set.layout.string() +
+                         ") but irpd runs without a variable segment: restart irpd with this set"};
+        if (layout->hash != s_.vars->hash())
+            return Error{"the set's shared-variable layout " + layout->hash + " (" + set.layout.string() +
+                         ") differs from the running segment's " + s_.vars->hash() +
+                         ": a changed .glb needs an irpd restart (the segment cannot change under running modules)"};
+    }
+    for (const config::ModuleSpec &m : set.modules) {
+        std::error_code ec;
+        if (!std::filesystem::is_regular_file(m.path, ec))
+            return Error{who(m) + ": <filename> " + m.filename + " -> " + m.path.string() + " does not exist"};
+        if (m.type == config::ModuleType::Thread && m.operation == config::OperationType::NonReal)
+            return Error{who(m) + ": a non-real module runs in the time left over as a process: set <moduletype>process</moduletype>"};
+    }
+    if (running && !sameExecutors(set, running->set))
+        return Error{"the set's <executor>s differ from the running set's: changing executors needs an irpd restart"};
+    std::size_t processes = 0;
+    for (const config::ModuleSpec &m : set.modules) processes += m.type == config::ModuleType::Process;
+    if (running && s_.control && processes > s_.control->slotCount())
+        return Error{"the set has " + std::to_string(processes) + " process modules; this irpd has room for " +
+                     std::to_string(s_.control->slotCount())};
+    (void)warnings;
+    return Ok{};
+}
+
+json Reloader::check(const std::filesystem::path &xml) const {
+    json errors = json::array(), warnings_json = json::array(), schedule_json = nullptr;
+    auto set = config::parseModuleXml(xml);
+    if (!set) {
+        errors.push_back(set.error().message);
+    } else {
+        resolveLayout(*set);
+        auto schedule = schedule::build(*set, s_.limits);
+        if (!schedule) errors.push_back(schedule.error().message);
+        else schedule_json = schedule::toJson(*schedule, *set);
+        std::vector<std::string> warnings;
+        const auto running = current();
+        if (Status st = checkAgainst(*set, running.get(), warnings); !st) errors.push_back(st.error().message);
+        for (const std::string &w : warnings) warnings_json.push_back(w);
+    }
+    return json{{"valid", errors.empty()}, {"errors", errors}, {"warnings", warnings_json}, {"schedule", schedule_json}};
+}
+
+Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const Generation *running,
+                                                      std::set<std::string> disabled, std::string set_id,
+                                                      const std::function<Status(Generation &)> &before_processes) {
+    auto schedule = schedule::build(set, s_.limits);
+    if (!schedule) return schedule.error();
+    std::vector<std::string> warnings;
+    if (Status st = checkAgainst(set, running, warnings); !st) return st.error();
+    for (const std::string &name : disabled)
+        if (std::none_of(set.modules.begin(), set.modules.end(), [&](const auto &m) { return m.name == name; }))
+            disabled.erase(name);
+
+    auto next = std::make_unique<Generation>();
+    next->number = running ? running->number + 1 : 1;
+    next->set_id = std::move(set_id);
+    next->set = std::move(set);
+    next->schedule = std::move(*schedule);
+    next->disabled = std::move(disabled);
+    next->members.resize(next->set.modules.size());
+    const config::SetSpec &spec = next->set;
+
+    // Which modules stay.  A running module that goes away must not own shared functions: kept
+    // modules may hold pointers into its code (found in their start()).
+    std::vector<bool> old_kept(running ? running->members.size() : 0, false);
+    for (const config::ModuleSpec &m : spec.modules) {
+        Member &member = next->members[static_cast<std::size_t>(m.index)];
+        auto sha = hosts::sha256File(m.path);
+        if (!sha) return Error{who(m) + ": " + sha.error().message};
+        member.sha256 = *sha;
+        if (!running) continue;
+        const int old = running->find(m.name);
+        if (old < 0) continue;
+        const auto o = static_cast<std::size_t>(old);
+        if (!keepable(m, member.sha256, running->set.modules[o], running->members[o])) continue;
+        member.thread = running->members[o].thread;
+        member.record = running->members[o].record;
+        member.slot = running->members[o].slot;
+        member.kept = true;
+        old_kept[o] = true;
+    }
+    if (running) {
+        std::map<std::string, std::vector<std::string>> exports_of;
+        for (const runtime::FunctionExport &e : runtime::functionExports()) exports_of[e.owner].push_back(e.name);
+        for (std::size_t o = 0; o < old_kept.size(); ++o) {
+            const config::ModuleSpec &m = running->set.modules[o];
+            if (old_kept[o] || !exports_of.count(m.name)) continue;
+            std::string list;
+            for (const std::string &f : exports_of[m.name]) list += (list.empty() ? "" : ", ") + f;
+            return Error{"module '" + m.name + "' exports shared functions (" + list + "): replacing or removing it " +
+                         "needs an irpd restart, since the modules that keep running may hold pointers to them"};
+        }
+    }
+
+    // Stats records for the new modules.
+    std::size_t from = s_.executors;
+    std::vector<std::size_t> taken;
+    for (const config::ModuleSpec &m : spec.modules) {
+        Member &member = next->members[static_cast<std::size_t>(m.index)];
+        if (member.kept) continue;
+        auto free = s_.stats->findUnused(from);
+        if (!free) {
+            for (std::size_t r : taken) s_.stats->release(r);
+            return Error{"no room for module '" + m.name + "' in irpd's stats block (" +
+                         std::to_string(s_.stats->recordCount()) + " records): restart irpd with this set"};
+        }
+        member.record = *free;
+        from = *free + 1;
+        taken.push_back(*free);
+        s_.stats->describe(*free, stats::RecordKind::Module, m.name, m.executor, m.period_ns, m.priority, m.budget_ns)
+            .state.store(static_cast<uint32_t>(stats::ModuleState::Loaded));
+    }
+
+    // New thread modules: loaded from their content-addressed copies, initialized, started.
+    const char *layout_hash = s_.vars ? s_.vars->hash() : nullptr;
+    for (const config::ModuleSpec &m : spec.modules) {
+        Member &member = next->members[static_cast<std::size_t>(m.index)];
+        if (member.kept || m.type != config::ModuleType::Thread) continue;
+        auto image = s_.cache->put(m.path);
+        if (!image) {
+            undo(*next, running);
+            return Error{who(m) + ": " + image.error().message};
+        }
+        auto loaded = hosts::ThreadModule::load(m, layout_hash, image->image);
+        if (!loaded) {
+            undo(*next, running);
+            return loaded.error();
+        }
+        if (m.operation == config::OperationType::Sporadic && !(*loaded)->hasCondition()) {
+            undo(*next, running);
+            return Error{who(m) + ": a sporadic thread module needs condition() (extern \"C\" int condition(), or " +
+                         "INDUROP_MODULE(condition = ...)), which the event handler calls every basic period"};
+        }
+        member.thread = std::move(*loaded);
+    }
+    for (auto phase : {&hosts::ThreadModule::initialize, &hosts::ThreadModule::start})
+        for (Member &member : next->members)
+            if (!member.kept && member.thread)
+                if (Status st = ((*member.thread).*phase)(); !st) {
+                    undo(*next, running);
+                    return st.error();
+                }
+    if (before_processes)
+        if (Status st = before_processes(*next); !st) {
+            undo(*next, running);
+            return st.error();
+        }
+
+    // New process modules: a free control slot each, spawned and awaited until ready.
+    std::vector<bool> slot_used(s_.control ? s_.control->slotCount() : 0, false);
+    if (running)
+        for (const Member &member : running->members)
+            if (member.slot >= 0) slot_used[static_cast<std::size_t>(member.slot)] = true;
+    bool any_new_process = false;
+    for (const config::ModuleSpec &m : spec.modules) {
+        Member &member = next->members[static_cast<std::size_t>(m.index)];
+        if (member.kept || m.type != config::ModuleType::Process) continue;
+        auto free = std::find(slot_used.begin(), slot_used.end(), false);
+        if (free == slot_used.end()) {
+            undo(*next, running);
+            return Error{who(m) + ": no free control slot (irpd has " + std::to_string(slot_used.size()) +
+                         "; the running set's processes keep theirs until the swap)"};
+        }
+        *free = true;
+        member.slot = static_cast<int>(free - slot_used.begin());
+        hosts::ProcessLaunch launch;
+        launch.spec = m;
+        launch.slot = static_cast<uint32_t>(member.slot);
+        launch.control_shm = s_.control->name();
+        launch.variables_shm = s_.vars ? s_.vars->name() : "";
+        if (m.operation != config::OperationType::NonReal) {
+            int priority = s_.dispatcher.rt_priority, cpu = s_.dispatcher.cpu;
+            for (const config::ExecutorSpec &e : spec.executors)
+                if (e.name == m.executor) {
+                    priority = e.rt_priority ? e.rt_priority : priority - 1;
+                    if (e.cpu >= 0) cpu = e.cpu;
+                }
+            launch.rt_priority = s_.dispatcher.realtime ? std::max(1, priority - 1) : 0;
+            launch.cpu = cpu >= 0 ? cpu : osal::lastAllowedCpu();
+        }
+        if (Status st = s_.supervisor->start(launch); !st) {
+            member.slot = -1;
+            undo(*next, running);
+            return st.error();
+        }
+        any_new_process = true;
+    }
+    if (any_new_process)
+        if (Status st = s_.supervisor->waitReady(s_.ready_timeout_ns); !st) {
+            undo(*next, running);
+            return st.error();
+        }
+
+    // The executors' tables; kept modules' tasks carry their predecessors' state at the swap.
+    std::vector<dispatch::ModuleBinding> bindings;
+    for (const config::ModuleSpec &m : spec.modules) {
+        Member &member = next->members[static_cast<std::size_t>(m.index)];
+        dispatch::ModuleBinding b;
+        b.stats = &s_.stats->record(member.record);
+        if (member.thread) {
+            b.run = member.thread->runFunction();
+            b.condition = member.thread->table().condition;
+        }
+        if (member.slot >= 0 && m.operation != config::OperationType::NonReal)
+            b.process = &s_.control->slot(static_cast<uint32_t>(member.slot));
+        if (s_.calls) {
+            b.owner = s_.calls->ownerId(m.name);
+            if (s_.calls->serves(b.owner)) b.calls = s_.calls;
+        }
+        b.disabled = next->disabled.count(m.name) > 0;
+        bindings.push_back(b);
+    }
+    next->tables = dispatch::buildTables(spec, next->schedule, bindings);
+    if (running)
+        for (const config::ModuleSpec &m : spec.modules) {
+            dispatch::Task *task = next->tables->by_module[static_cast<std::size_t>(m.index)];
+            const int old = running->find(m.name);
+            if (!task || old < 0 || !next->members[static_cast<std::size_t>(m.index)].kept) continue;
+            const dispatch::Task *before = running->tables->by_module[static_cast<std::size_t>(old)];
+            // Carried only on the same executor: another executor's thread still writes it until the swap.
+            if (before && m.executor == running->set.modules[static_cast<std::size_t>(old)].executor) task->predecessor = before;
+            task->clear_fault = !task->disabled && running->disabled.count(m.name) > 0;
+        }
+
+    // Estimated utilization per executor: measured exec p99 of kept modules, budget of new ones.
+    std::map<std::string, double> load;
+    std::map<std::string, std::string> detail;
+    for (const config::ModuleSpec &m : spec.modules) {
+        if (m.operation != config::OperationType::Periodic || next->disabled.count(m.name)) continue;
+        const Member &member = next->members[static_cast<std::size_t>(m.index)];
+        double exec = static_cast<double>(m.budget_ns);
+        if (member.kept) exec = std::max(exec, stats::quantile(s_.stats->record(member.record).exec, 0.99));
+        if (exec <= 0) continue;
+        const double share = exec / static_cast<double>(m.period_ns);
+        load[m.executor] += share;
+        std::ostringstream part;
+        part.precision(3);
+        part << m.name << " " << share * 100 << " %";
+        detail[m.executor] += (detail[m.executor].empty() ? "" : ", ") + part.str();
+    }
+    for (const auto &[executor, share] : load)
+        if (share > 1.0) {
+            undo(*next, running);
+            std::ostringstream text;
+            text.precision(3);
+            text << "executor '" << executor << "' would be " << share * 100
+                 << " % busy (execution time p99 of running modules, <budget> of new ones, over their periods: "
+                 << detail[executor] << "): lengthen a period or move a module to another executor";
+            return Error{text.str()};
+        }
+    return next;
+}
+
+// Undoes a prepare that failed: the new modules and processes go, their records are freed.
+void Reloader::undo(Generation &partial, const Generation *running) {
+    (void)running;
+    std::vector<uint32_t> slots;
+    for (Member &member : partial.members) {
+        if (member.kept) continue;
+        if (member.slot >= 0) slots.push_back(static_cast<uint32_t>(member.slot));
+        if (member.thread) {
+            (void)member.thread->stop();
+            member.thread.reset();
+        }
+        if (member.record >= s_.executors && s_.stats->record(member.record).kind == stats::RecordKind::Module)
+            s_.stats->release(member.record);
+        member.record = 0;
+    }
+    if (!slots.empty()) s_.supervisor->stop(slots, 2'000'000'000);
+}
+
+void Reloader::adopt(std::unique_ptr<Generation> first, dispatch::Dispatcher &dispatcher) {
+    dispatcher_ = &dispatcher;
+    for (const config::ModuleSpec &m : first->set.modules)
+        s_.stats->record(first->members[static_cast<std::size_t>(m.index)].record)
+            .state.store(static_cast<uint32_t>(first->disabled.count(m.name) ? stats::ModuleState::Disabled
+                                                                            : stats::ModuleState::Running));
+    std::lock_guard lock(mutex_);
+    current_ = std::shared_ptr<Generation>(std::move(first));
+}
+
+std::shared_ptr<const Generation> Reloader::current() const {
+    std::lock_guard lock(mutex_);
+    return current_;
+}
+
+Result<json> Reloader::load(const std::filesystem::path &xml, const std::string &set_id) {
+    const int64_t requested = now();
+    auto set = config::parseModuleXml(xml);
+    if (!set) {
+        s_.events->add("swap_failed", "", set.error().message);
+        return set.error();
+    }
+    resolveLayout(*set);
+    const auto running = current();
+    auto next = prepare(std::move(*set), running.get(), running->disabled, set_id);
+    if (!next) {
+        s_.events->add("swap_failed", "", next.error().message);
+        return next.error();
+    }
+    return swap(std::move(*next), requested);
+}
+
+Result<json> Reloader::change(const Change &change) {
+    const int64_t requested = now();
+    const auto running = current();
+    config::SetSpec set = running->set;
+    const int index = running->find(change.module);
+    if (index < 0) {
+        std::string known;
+        for (const auto &m : set.modules) known += (known.empty() ? "" : ", ") + m.name;
+        return Error{"no module '" + change.module + "' in the running set (its modules: " + known + ")"};
+    }
+    config::ModuleSpec &m = set.modules[static_cast<std::size_t>(index)];
+    std::set<std::string> disabled = running->disabled;
+    if (change.period_ns) {
+        if (m.operation != config::OperationType::Periodic)
+            return Error{"module '" + m.name + "' is " + config::toString(m.operation) + ": only periodic modules have a period"};
+        if (*change.period_ns <= 0) return Error{"period_ns must be a positive number of nanoseconds"};
+        if (m.deadline_ns == m.period_ns) m.deadline_ns = *change.period_ns;
+        m.period_ns = *change.period_ns;
+    }
+    if (change.priority) m.priority = *change.priority;
+    if (change.enabled) {
+        if (*change.enabled) disabled.erase(m.name);
+        else disabled.insert(m.name);
+    }
+    auto next = prepare(std::move(set), running.get(), std::move(disabled), running->set_id);
+    if (!next) {
+        s_.events->add("swap_failed", change.module, next.error().message);
+        return next.error();
+    }
+    // A fault-disabled module comes back with enable: its new task does not inherit the disable.
+    if (change.enabled && *change.enabled)
+        if (dispatch::Task *task = (*next)->tables->by_module[static_cast<std::size_t>(index)]) task->clear_fault = true;
+    return swap(std::move(*next), requested);
+}
+
+Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_ns) {
+    const auto running = current();
+    // Record metadata of kept modules (their period or priority may have changed).
+    for (const config::ModuleSpec &m : next->set.modules) {
+        stats::TimingRecord &r = s_.stats->record(next->members[static_cast<std::size_t>(m.index)].record);
+        r.period_ns = m.period_ns;
+        r.priority = m.priority;
+        r.budget_ns = m.budget_ns;
+    }
+    auto lost = [this] {
+        uint64_t n = 0;
+        for (std::size_t e = 0; e < s_.executors; ++e)
+            n += s_.stats->record(e).missed.load() + s_.stats->record(e).skipped.load();
+        return n;
+    };
+    const uint64_t lost_before = lost();
+    const int64_t lead = std::max<int64_t>(2'000'000, 2 * running->schedule.basic_ns);
+    const int64_t at = dispatcher_->boundaryAfter(now() + lead);
+    dispatcher_->offer(*next->tables, at);
+    std::optional<std::vector<dispatch::Switch>> switched;
+    const int64_t give_up = now() + s_.swap_timeout_ns + (at - now());
+    while (!(switched = dispatcher_->switched())) {
+        if (now() > give_up && dispatcher_->withdraw()) {
+            undo(*next, running.get());
+            const std::string message = "the executors did not reach the swap slot within " +
+                                        std::to_string(s_.swap_timeout_ns / 1'000'000) +
+                                        " ms (a module stuck in run()?); the running set is unchanged";
+            s_.events->add("swap_failed", "", message);
+            return Error{message};
+        }
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    const int64_t swapped_ns = now();
+    // One new macro period (at most 2 s) to see whether the new table's first slots were on time.
+    const uint64_t cycles_then = s_.stats->header()->cycles.load();
+    const uint64_t settle = static_cast<uint64_t>(next->schedule.macro_ns / next->schedule.basic_ns) + 1;
+    const int64_t settle_until = now() + 2'000'000'000;
+    while (s_.stats->header()->cycles.load() < cycles_then + settle && now() < settle_until && s_.stats->header()->running.load())
+        std::this_thread::sleep_for(std::chrono::microseconds(500));
+    const uint64_t missed = lost() - lost_before;
+
+    std::vector<std::string> kept, started, stopped;
+    for (const config::ModuleSpec &m : next->set.modules)
+        (next->members[static_cast<std::size_t>(m.index)].kept ? kept : started).push_back(m.name);
+    for (const config::ModuleSpec &m : running->set.modules) {
+        const int n = next->find(m.name);
+        if (n < 0 || !next->members[static_cast<std::size_t>(n)].kept) stopped.push_back(m.name);
+    }
+    retire(*running, *next);
+    for (const config::ModuleSpec &m : next->set.modules)
+        s_.stats->record(next->members[static_cast<std::size_t>(m.index)].record)
+            .state.store(static_cast<uint32_t>(next->disabled.count(m.name) ? stats::ModuleState::Disabled
+                                                                            : stats::ModuleState::Running));
+    std::snprintf(s_.stats->header()->set_path, sizeof s_.stats->header()->set_path, "%s", next->set.xml_path.c_str());
+    s_.stats->header()->basic_ns = next->schedule.basic_ns;
+    s_.stats->header()->macro_ns = next->schedule.macro_ns;
+
+    json report{{"set", next->set.xml_path.string()},
+                {"set_id", next->set_id.empty() ? json(nullptr) : json(next->set_id)},
+                {"generation", next->number},
+                {"swap_cycle", switched->front().cycle},
+                {"swap_at_ns", at},
+                {"basic_period_ns", next->schedule.basic_ns},
+                {"macro_period_ns", next->schedule.macro_ns},
+                {"kept", names(kept)},
+                {"started", names(started)},
+                {"stopped", names(stopped)},
+                {"missed_periods", missed},
+                {"request_to_swap_ns", swapped_ns - requested_ns},
+                {"total_ns", now() - requested_ns}};
+    std::ostringstream text;
+    text << "generation " << next->number << " (" << next->set.xml_path.string() << ") took over in slot "
+         << switched->front().cycle << ": " << kept.size() << " kept, " << started.size() << " started, "
+         << stopped.size() << " stopped, " << missed << " periods missed";
+    s_.events->add("swap", "", text.str());
+    {
+        std::lock_guard lock(mutex_);
+        current_ = std::shared_ptr<Generation>(std::move(next));
+    }
+    return report;
+}
+
+// After the swap: what the new generation does not run any more is stopped and unloaded.
+void Reloader::retire(const Generation &old, const Generation &next) {
+    std::vector<uint32_t> slots;
+    std::vector<std::filesystem::path> images;
+    for (std::size_t i = old.members.size(); i-- > 0;) {  // reverse file order
+        const config::ModuleSpec &m = old.set.modules[i];
+        const Member &member = old.members[i];
+        const int n = next.find(m.name);
+        if (n >= 0 && next.members[static_cast<std::size_t>(n)].kept) continue;
+        if (member.thread)
+            if (Status st = member.thread->stop(); !st) s_.events->add("fault", m.name, st.error().message);
+        if (member.slot >= 0) slots.push_back(static_cast<uint32_t>(member.slot));
+        s_.stats->release(member.record);
+    }
+    if (!slots.empty()) s_.supervisor->stop(slots, 2'000'000'000);
+    // The libraries are unloaded when the old generation's last reference goes (after this call).
+    for (const config::ModuleSpec &m : next.set.modules) {
+        const Member &member = next.members[static_cast<std::size_t>(m.index)];
+        if (member.thread) images.push_back(member.sha256 + "-" + m.path.filename().string());
+    }
+    s_.cache->prune(images);
+}
+
+std::vector<std::string> Reloader::stopAll() {
+    std::vector<std::string> errors;
+    const auto running = current();
+    if (!running) return errors;
+    for (const Member &member : running->members)
+        if (member.thread)
+            if (Status st = member.thread->stop(); !st) errors.push_back(st.error().message);
+    for (const config::ModuleSpec &m : running->set.modules)
+        s_.stats->record(running->members[static_cast<std::size_t>(m.index)].record)
+            .state.store(static_cast<uint32_t>(stats::ModuleState::Stopped));
+    return errors;
+}
+
+} // namespace irp::reload

@@ -1,0 +1,113 @@
+// reloader.hpp -- hot reload: a new set (or the running one with a period, priority or enable
+// changed) is prepared off the RT threads and swapped in at a macro-period boundary.
+//
+//   prepare   parse, schedule, check (layout, executors, shared functions, utilization); hash
+//             every module file; keep the modules whose file content, type, operation and
+//             properties are unchanged (same instance, same state, same stats record, same
+//             process); load the others from content-addressed copies (hosts/module_cache.hpp),
+//             initialize and start them, start the new processes and wait until they are ready;
+//             build the executors' tables.  Any failure undoes what it did: the running set is
+//             untouched and the Error says why.
+//   swap      each executor takes its new table at the first slot due at or after the boundary
+//             (a pointer exchange on its own thread, Executor::offer), carrying the kept tasks'
+//             state over; the reloader waits until all did.
+//   retire    stops the modules the new set no longer runs (the RT threads let go of them at
+//             the swap), unloads them, stops their processes, frees their records.
+//
+// Every swap returns a report (docs/hot-reload.md) and adds a "swap" event.  One reload at a time,
+// from irpd's main thread (the process supervisor's thread); the control thread reads
+// current() at any time.
+#pragma once
+
+#include "common/result.hpp"
+#include "dispatch/dispatcher.hpp"
+#include "dispatch/function_calls.hpp"
+#include "events/event_log.hpp"
+#include "hosts/control_segment.hpp"
+#include "hosts/module_cache.hpp"
+#include "hosts/process_supervisor.hpp"
+#include "reload/generation.hpp"
+#include "stats/stats_segment.hpp"
+#include "variables/variable_segment.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+
+namespace irp::reload {
+
+// What the reloader works with; all owned by the daemon and alive longer than the reloader.
+struct Services {
+    stats::StatsSegment *stats = nullptr;
+    std::size_t executors = 1;                     // dispatcher records before the modules'
+    variables::VariableSegment *vars = nullptr;    // null: irpd runs without shared variables
+    hosts::ControlSegment *control = nullptr;      // the process modules' slots
+    hosts::ProcessSupervisor *supervisor = nullptr;
+    hosts::ModuleCache *cache = nullptr;
+    events::EventLog *events = nullptr;
+    dispatch::CallServer *calls = nullptr;         // the shared-function table for processes, if any
+    schedule::Limits limits;
+    dispatch::DispatcherOptions dispatcher;        // the RT priority and CPU processes inherit
+    int64_t ready_timeout_ns = 5'000'000'000;     // new processes: until irp::initPeriodExe()
+    int64_t swap_timeout_ns = 10'000'000'000;     // offer -> every executor switched
+};
+
+// One value of one module of the running set changed (a hot reload of the same set).
+struct Change {
+    std::string module;
+    std::optional<int64_t> period_ns;
+    std::optional<int> priority;
+    std::optional<bool> enabled;
+};
+
+class Reloader {
+public:
+    explicit Reloader(Services services) : s_(services) {}
+
+    // Prepares a generation of `set` after `running` (null: the first one).  before_processes
+    // runs after the thread modules started and before any new process starts (the first
+    // generation publishes the shared-function table there).
+    Result<std::unique_ptr<Generation>> prepare(config::SetSpec set, const Generation *running,
+                                                std::set<std::string> disabled, std::string set_id,
+                                                const std::function<Status(Generation &)> &before_processes = {});
+
+    // The first generation runs on `dispatcher` from now on.
+    void adopt(std::unique_ptr<Generation> first, dispatch::Dispatcher &dispatcher);
+    void setCallServer(dispatch::CallServer *calls) { s_.calls = calls; }
+    void setControl(hosts::ControlSegment *control) { s_.control = control; }
+
+    // Hot reloads (main thread).  The result is the swap report.
+    Result<nlohmann::ordered_json> load(const std::filesystem::path &xml, const std::string &set_id);
+    Result<nlohmann::ordered_json> change(const Change &change);
+    // Everything prepare checks before loading anything: {"valid", "errors", "warnings", "schedule"}.
+    nlohmann::ordered_json check(const std::filesystem::path &xml) const;
+
+    // The running generation (any thread).
+    std::shared_ptr<const Generation> current() const;
+
+    // At the end, after the dispatcher stopped: stop() of every started thread module, in file
+    // order; the messages of those that threw.
+    std::vector<std::string> stopAll();
+
+private:
+    Result<nlohmann::ordered_json> swap(std::unique_ptr<Generation> next, int64_t requested_ns);
+    Status checkAgainst(const config::SetSpec &set, const Generation *running, std::vector<std::string> &warnings) const;
+    void retire(const Generation &old, const Generation &next);
+    void undo(Generation &partial, const Generation *running);
+    std::string layoutHashOf(const config::SetSpec &set) const;
+
+    Services s_;
+    dispatch::Dispatcher *dispatcher_ = nullptr;
+    mutable std::mutex mutex_;  // guards current_ (the pointer, not the generation)
+    std::shared_ptr<Generation> current_;
+};
+
+// Resolves the set's layout: `override` (--layout), else its <layout>, else layout.json beside
+// module.xml when there is one.
+void resolveLayout(config::SetSpec &set, const std::filesystem::path &override_path = {});
+
+} // namespace irp::reload
