@@ -579,12 +579,14 @@ TEST(ProcessRefusal, SlotOutOfRange) {
     EXPECT_NE(e.find("module 's': control slot 7 out of range (2 slots"), std::string::npos) << e;
 }
 
-TEST(ProcessRefusal, SameModuleTwice) {
+TEST(ProcessRefusal, SameSlotTwice) {
     Harness h;
-    ASSERT_TRUE(h.supervisor.start(h.launch(processSpec("twice", "proc_periodic.exe"), 0)).ok());
-    Status s = h.supervisor.start(h.launch(processSpec("twice", "proc_periodic.exe"), 1));
+    ASSERT_TRUE(h.supervisor.start(h.launch(processSpec("first", "proc_periodic.exe"), 0)).ok());
+    Status s = h.supervisor.start(h.launch(processSpec("second", "proc_periodic.exe"), 0));
     ASSERT_FALSE(s.ok());
-    EXPECT_NE(s.error().message.find("already started"), std::string::npos);
+    EXPECT_NE(s.error().message.find("already started (as 'first' in slot 0)"), std::string::npos) << s.error().message;
+    // The same module in another slot is a hot reload's replacement: allowed.
+    EXPECT_TRUE(h.supervisor.start(h.launch(processSpec("first", "proc_periodic.exe"), 1)).ok());
 }
 
 // ---- the process side's own checks --------------------------------------------------------------

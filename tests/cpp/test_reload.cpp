@@ -246,3 +246,54 @@ TEST(HotReload, CheckValidatesWithoutLoading) {
     EXPECT_EQ(bad["errors"].size(), 2u) << bad.dump();
     EXPECT_EQ(cell.log("swap"), "start v1\n");
 }
+
+TEST(HotReload, ProcessModulesAreKeptReplacedOrRefusedLikeThreads) {
+    Cell cell;
+    const std::string exe = std::string(FIXTURE_PROCESSES) + "/proc_periodic.exe";
+    auto process = [&](const std::string &args) {
+        return "  <module><name>p</name><filename>" + exe +
+               "</filename><moduletype>process</moduletype><operationtype>periodic</operationtype>"
+               "<period>2000000</period><priority>3</priority><property><value name=\"args\">" + args +
+               "</value></property></module>\n";
+    };
+    const std::string threads = module("keep", "keep.so", 1'000'000, 1, journalOf(cell.dir.path, "keep"));
+    auto load = [&](const std::string &body) {
+        cell.write("p.xml", "<root>\n" + threads + body + "</root>\n");
+        return cell.ask({{"cmd", "load"}, {"config", (cell.dir.path / "p.xml").string()}});
+    };
+    auto starts = [&] {
+        std::size_t n = 0;
+        for (std::size_t at = 0; (at = cell.irpd->out().find("[p] start pid=", at)) != std::string::npos; ++at) ++n;
+        return n;
+    };
+    json a = load(process("--env A"));
+    ASSERT_TRUE(a.value("ok", false)) << a.dump();
+    EXPECT_EQ(a["result"]["started"], json({"p"}));
+    EXPECT_EQ(a["result"]["stopped"], json({"swap"}));
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    EXPECT_GT(count(cell.moduleNamed("p"), "runs"), 0u);
+
+    json same = load(process("--env A"));  // the same process: kept, not restarted
+    ASSERT_TRUE(same.value("ok", false)) << same.dump();
+    EXPECT_EQ(same["result"]["kept"], json({"keep", "p"}));
+    EXPECT_EQ(starts(), 1u) << cell.irpd->out();
+
+    json refused = load(process("--no-init"));  // a new process that never gets ready
+    EXPECT_FALSE(refused.value("ok", true));
+    EXPECT_NE(refused["error"].value("message", "").find("not ready"), std::string::npos) << refused.dump();
+    const uint64_t runs = count(cell.moduleNamed("p"), "runs");
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    EXPECT_GT(count(cell.moduleNamed("p"), "runs"), runs) << "the running process goes on";
+
+    json changed = load(process("--env B"));  // other properties: a new process replaces it
+    ASSERT_TRUE(changed.value("ok", false)) << changed.dump();
+    EXPECT_EQ(changed["result"]["started"], json({"p"}));
+    EXPECT_EQ(changed["result"]["stopped"], json({"p"}));
+    EXPECT_NE(cell.irpd->out().find("[p] stop requested after"), std::string::npos) << "the old process was stopped";
+    EXPECT_EQ(starts(), 3u);  // the first, the refused one, the replacement
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    json p = cell.moduleNamed("p");
+    EXPECT_EQ(p["state"], "running");
+    EXPECT_GT(count(p, "runs"), 0u);
+    EXPECT_EQ(cell.log("keep"), "start v1\n");
+}

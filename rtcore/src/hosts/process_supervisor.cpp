@@ -311,9 +311,9 @@ Status ProcessSupervisor::start(const ProcessLaunch &launch) {
     try {
         if (spec.type != config::ModuleType::Process) return Error{where + "not a process module"};
         for (const auto &c : children_)
-            if ((c->info.running || c->info.restart_pending) &&
-                (c->launch.spec.name == spec.name ||
-                 (!launch.control_shm.empty() && c->launch.control_shm == launch.control_shm && c->launch.slot == launch.slot)))
+            // The same name may run twice for a moment (a hot reload's replacement, in another slot).
+            if ((c->info.running || c->info.restart_pending) && !launch.control_shm.empty() &&
+                c->launch.control_shm == launch.control_shm && c->launch.slot == launch.slot)
                 return Error{where + "already started (as '" + c->launch.spec.name + "' in slot " +
                              std::to_string(c->launch.slot) + ")"};
 
@@ -380,7 +380,9 @@ Status ProcessSupervisor::start(const ProcessLaunch &launch) {
         if (Status s = spawn(*child); !s) return Error{where + s.error().message};
         child->info.starts = 1;
         // A finished earlier instance of the same module gives its place to this one.
-        std::erase_if(children_, [&](const auto &c) { return c->launch.spec.name == spec.name; });
+        std::erase_if(children_, [&](const auto &c) {
+            return c->launch.spec.name == spec.name && !c->info.running && !c->info.restart_pending;
+        });
         children_.push_back(std::move(child));
         return Ok{};
     } catch (const std::exception &e) {
@@ -800,9 +802,10 @@ std::vector<ProcessInfo> ProcessSupervisor::processes() const {
 }
 
 std::optional<ProcessInfo> ProcessSupervisor::process(const std::string &name) const {
+    std::optional<ProcessInfo> found;  // the latest of that name (a replacement comes after the original)
     for (const auto &c : children_)
-        if (c->launch.spec.name == name) return c->info;
-    return std::nullopt;
+        if (c->launch.spec.name == name) found = c->info;
+    return found;
 }
 
 } // namespace irp::hosts
