@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # demo.sh -- installs what is missing, builds, and starts the default demo: irpd running the
-# paper's Figure 1 set (config/sets/paper-fig1: every module kind) with its control socket, and
+# set activated last through the agent, or the paper's Figure 1 set (config/sets/paper-fig1:
+# every module kind) the first time, with its control socket, and
 # indurop-agent on http://127.0.0.1:8080/api/v1 beside it.  Ctrl-C stops both.  Extra arguments
 # go to irpd, e.g. `bash packaging/demo.sh --duration 10 --stats-json /tmp/stats.json` (the
 # agent stops when irpd does).  INDUROP_PORT and INDUROP_DATA change the port and data folder.
@@ -15,13 +16,16 @@ port=${INDUROP_PORT:-8080}
 mkdir -p "$data"
 sock="$data/irpd.sock"
 
-"$root/build/bin/irpd" --config "$root/build/sets/paper-fig1/module.xml" --control-socket "$sock" "$@" &
+# The set activated last through the agent (its set store keeps a link to it), else Figure 1.
+config="$root/build/sets/paper-fig1/module.xml"
+[ -f "$data/active/module.xml" ] && config="$data/active/module.xml"
+"$root/build/bin/irpd" --config "$config" --control-socket "$sock" "$@" &
 irpd_pid=$!
 for _ in $(seq 100); do [ -S "$sock" ] && break; kill -0 $irpd_pid 2>/dev/null || break; sleep 0.05; done
 (cd "$root/agent" && exec "$venv/bin/python" -m indurop_agent --host 127.0.0.1 --port "$port" \
     --data-dir "$data" --irpd-socket "$sock") &
 agent_pid=$!
-echo "demo: irpd (pid $irpd_pid) on config/sets/paper-fig1; agent (pid $agent_pid) on http://127.0.0.1:$port/api/v1/docs"
+echo "demo: irpd (pid $irpd_pid) on $config; agent (pid $agent_pid) on http://127.0.0.1:$port/api/v1/docs"
 echo "demo: the admin token is in $data/admin-token"
 
 stop() { kill -TERM $irpd_pid $agent_pid 2>/dev/null || true; wait 2>/dev/null || true; }
