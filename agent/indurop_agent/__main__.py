@@ -1,4 +1,5 @@
-"""indurop-agent's entry: python -m indurop_agent --host H --port P --data-dir D --irpd-socket PATH."""
+"""indurop-agent's entry: python -m indurop_agent --host H --port P --data-dir D --irpd-socket PATH
+[--tls-cert CERT.pem --tls-key KEY.pem] [--config agent.json]."""
 from __future__ import annotations
 
 import sys
@@ -15,8 +16,11 @@ def main(argv: list[str] | None = None) -> int:
     created = app.state.tokens.ensure_admin()
     if created:
         print(f"indurop-agent: the admin token is in {created} (mode 0600); keep it safe", flush=True)
-    print(f"indurop-agent: http://{settings.host}:{settings.port}/api/v1/docs  (irpd: {settings.irpd_socket})", flush=True)
-    uvicorn.run(app, host=settings.host, port=settings.port, log_level="warning")
+    scheme = "https" if settings.tls_cert else "http"
+    print(f"indurop-agent: {scheme}://{settings.host}:{settings.port}/api/v1/docs  (irpd: {settings.irpd_socket}, "
+          f"data: {settings.data_dir})", flush=True)
+    tls = {"ssl_certfile": str(settings.tls_cert), "ssl_keyfile": str(settings.tls_key)} if settings.tls_cert else {}
+    uvicorn.run(app, host=settings.host, port=settings.port, log_level="warning", **tls)
     return 0
 
 

@@ -1,8 +1,10 @@
-"""auth.py -- bearer tokens and roles.
+"""auth.py -- bearer tokens, their identities and roles.
 
 Tokens are stored hashed (sha256) in <data-dir>/tokens.json; the first start creates an admin
 token, writes it to <data-dir>/admin-token (mode 0600) and says where it is.  There are no
 default credentials.  Roles, each including the one before: viewer < operator < admin.
+A token's id is the first 12 hex digits of its hash: it names the token in the audit log and in
+DELETE /tokens/{id} without revealing it.
 """
 from __future__ import annotations
 
@@ -10,46 +12,98 @@ import hashlib
 import json
 import os
 import secrets
+import threading
+from dataclasses import asdict, dataclass
+from datetime import datetime, timezone
 from pathlib import Path
 
 ROLES = ("viewer", "operator", "admin")
+ID_LENGTH = 12
 
 
 def _hash(token: str) -> str:
     return hashlib.sha256(token.encode()).hexdigest()
 
 
+def now_iso() -> str:
+    """The current UTC time as ISO 8601 with microseconds, e.g. 2025-01-31T12:00:00.123456Z."""
+    return datetime.now(timezone.utc).isoformat(timespec="microseconds").replace("+00:00", "Z")
+
+
+@dataclass(frozen=True)
+class Identity:
+    """Who made a request: the token's id and name, and its role."""
+
+    id: str
+    name: str
+    role: str
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
 class TokenStore:
     def __init__(self, data_dir: Path):
         self.path = data_dir / "tokens.json"
         self.admin_token_path = data_dir / "admin-token"
+        self._lock = threading.Lock()
         self._tokens: dict[str, dict] = {}
         if self.path.exists():
             self._tokens = json.loads(self.path.read_text())
 
     def ensure_admin(self) -> Path | None:
         """Creates the first admin token if there is no token at all; returns where it was written."""
-        if self._tokens:
-            return None
-        token = secrets.token_urlsafe(32)
-        self._tokens[_hash(token)] = {"name": "admin", "role": "admin"}
-        self._save()
+        with self._lock:
+            if self._tokens:
+                return None
+            token = self._add_locked("admin", "admin")
         fd = os.open(self.admin_token_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
         with os.fdopen(fd, "w") as f:
             f.write(token + "\n")
         return self.admin_token_path
 
-    def add(self, name: str, role: str) -> str:
+    def add(self, name: str, role: str) -> tuple[str, Identity]:
+        """A new token for `role`: (the token, shown once; its identity)."""
         if role not in ROLES:
             raise ValueError(f"role must be one of {', '.join(ROLES)}")
+        with self._lock:
+            token = self._add_locked(name, role)
+        return token, self.identify(token)
+
+    def _add_locked(self, name: str, role: str) -> str:
         token = secrets.token_urlsafe(32)
-        self._tokens[_hash(token)] = {"name": name, "role": role}
+        self._tokens[_hash(token)] = {"name": name, "role": role, "created": now_iso()}
         self._save()
         return token
 
+    def identify(self, token: str) -> Identity | None:
+        """The identity of a token, or None for an unknown one."""
+        digest = _hash(token)
+        entry = self._tokens.get(digest)
+        return Identity(digest[:ID_LENGTH], entry["name"], entry["role"]) if entry else None
+
     def role_of(self, token: str) -> str | None:
-        entry = self._tokens.get(_hash(token))
-        return entry["role"] if entry else None
+        who = self.identify(token)
+        return who.role if who else None
+
+    def list(self) -> list[dict]:
+        """Every token as {id, name, role, created}; never the token or its hash."""
+        return [{"id": digest[:ID_LENGTH], "name": e["name"], "role": e["role"], "created": e.get("created")}
+                for digest, e in self._tokens.items()]
+
+    def revoke(self, token_id: str) -> Identity:
+        """Removes the token with this id; KeyError if there is none, ValueError for the last admin."""
+        with self._lock:
+            digest = next((d for d in self._tokens if d[:ID_LENGTH] == token_id), None)
+            if digest is None:
+                raise KeyError(token_id)
+            entry = self._tokens[digest]
+            admins = [d for d, e in self._tokens.items() if e["role"] == "admin"]
+            if entry["role"] == "admin" and admins == [digest]:
+                raise ValueError("this is the last admin token; create another admin token before revoking it")
+            del self._tokens[digest]
+            self._save()
+        return Identity(token_id, entry["name"], entry["role"])
 
     def _save(self) -> None:
         tmp = self.path.with_suffix(".tmp")

@@ -1,10 +1,18 @@
-"""config.py -- the agent's settings: command line first, then an optional JSON config file."""
+"""config.py -- the agent's settings: command line first, then an optional JSON config file.
+
+Every field of Settings is also a key of the config file (same name); the command line has the
+ones that change from one start to the next (address, folders, TLS).
+"""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
+
+MiB = 1 << 20
 
 
 @dataclass
@@ -13,30 +21,103 @@ class Settings:
     port: int = 8080
     data_dir: Path = Path("/var/lib/indurop")
     irpd_socket: str = "/run/indurop/irpd.sock"
+    # TLS: both or neither (PEM files, handed to uvicorn).
+    tls_cert: Path | None = None
+    tls_key: Path | None = None
+    # Set uploads (POST /sets): per file, whole upload (and an archive's unpacked content), files.
+    max_file_bytes: int = 64 * MiB
+    max_upload_bytes: int = 256 * MiB
+    max_files: int = 512
+    # Every other request's body.
+    max_body_bytes: int = 1 * MiB
+    # Brute-force lockout: this many unknown tokens from one client address within the window
+    # lock that address out for the window (429 with Retry-After).
+    lockout_attempts: int = 10
+    lockout_window_s: float = 60.0
+    # How often the agent looks at irpd to notice a (re)connection and restore the active set.
+    irpd_poll_s: float = 1.0
+    # irpd `load`, `set_period`, ... (a swap at a macro-period boundary) may take this long.
+    swap_timeout_s: float = 30.0
+
+
+FIELDS = {f.name: f for f in dataclasses.fields(Settings)}
+PATHS = {"data_dir", "tls_cert", "tls_key"}
+POSITIVE = {"port", "max_file_bytes", "max_upload_bytes", "max_files", "max_body_bytes", "lockout_attempts",
+            "lockout_window_s", "irpd_poll_s", "swap_timeout_s"}
+
+
+def _coerce(key: str, value, where: str) -> object:
+    """A config-file value of the field's type, or ValueError naming the key and what it needs."""
+    if value is None and key in ("tls_cert", "tls_key"):
+        return None
+    if key in PATHS:
+        if not isinstance(value, str) or not value:
+            raise ValueError(f"{where}: '{key}' must be a path (a string)")
+        return Path(value)
+    default = getattr(Settings, key)
+    if isinstance(default, bool) or not isinstance(default, (int, float, str)):
+        raise ValueError(f"{where}: '{key}' cannot be set")
+    if isinstance(default, str):
+        if not isinstance(value, str):
+            raise ValueError(f"{where}: '{key}' must be a string")
+        return value
+    wrong_type = isinstance(value, bool) or not isinstance(value, (int, float))
+    if wrong_type or (isinstance(default, int) and not isinstance(value, int)):
+        raise ValueError(f"{where}: '{key}' must be {'an integer' if isinstance(default, int) else 'a number'}")
+    return value
+
+
+def check(s: Settings) -> list[str]:
+    """What is wrong with a Settings, as messages that say what to fix (empty: nothing)."""
+    problems = []
+    for key in sorted(POSITIVE):
+        if not getattr(s, key) > 0:
+            problems.append(f"{key} must be greater than 0 (it is {getattr(s, key)})")
+    if not 0 < int(s.port) < 65536:
+        problems.append(f"port {s.port} is not a TCP port")
+    if s.max_file_bytes > s.max_upload_bytes:
+        problems.append(f"max_file_bytes ({s.max_file_bytes}) is larger than max_upload_bytes ({s.max_upload_bytes})")
+    if (s.tls_cert is None) != (s.tls_key is None):
+        given, missing = ("--tls-cert", "--tls-key") if s.tls_cert is not None else ("--tls-key", "--tls-cert")
+        problems.append(f"{given} needs {missing} too (TLS takes both the certificate and its key, or neither)")
+    for key in ("tls_cert", "tls_key"):
+        path = getattr(s, key)
+        if path is not None and not os.access(path, os.R_OK):
+            problems.append(f"{key} {path} cannot be read")
+    return problems
 
 
 def parse(argv: list[str] | None = None) -> Settings:
     ap = argparse.ArgumentParser(prog="indurop-agent", description="indurop's REST/WebSocket agent (non-RT)")
-    ap.add_argument("--config", type=Path, help="a JSON file with host, port, data_dir, irpd_socket")
-    ap.add_argument("--host")
+    ap.add_argument("--config", type=Path, help=f"a JSON file with any of: {', '.join(FIELDS)}")
+    ap.add_argument("--host", help="address to listen on (default 127.0.0.1)")
     ap.add_argument("--port", type=int)
-    ap.add_argument("--data-dir", type=Path)
-    ap.add_argument("--irpd-socket")
+    ap.add_argument("--data-dir", type=Path, help="tokens, the set store, the audit log")
+    ap.add_argument("--irpd-socket", help="irpd's control socket")
+    ap.add_argument("--tls-cert", type=Path, help="serve HTTPS with this PEM certificate (needs --tls-key)")
+    ap.add_argument("--tls-key", type=Path, help="the PEM private key of --tls-cert")
     a = ap.parse_args(argv)
     s = Settings()
     if a.config:
+        where = f"--config {a.config}"
         try:
             values = json.loads(a.config.read_text())
         except (OSError, ValueError) as e:
-            ap.error(f"--config {a.config}: {e}")
-        unknown = set(values) - {"host", "port", "data_dir", "irpd_socket"}
+            ap.error(f"{where}: {e}")
+        if not isinstance(values, dict):
+            ap.error(f"{where}: expected a JSON object with any of: {', '.join(FIELDS)}")
+        unknown = set(values) - set(FIELDS)
         if unknown:
-            ap.error(f"--config {a.config}: unknown keys {', '.join(sorted(unknown))}")
+            ap.error(f"{where}: unknown keys {', '.join(sorted(unknown))}; the keys are {', '.join(FIELDS)}")
         for key, value in values.items():
-            setattr(s, key, Path(value) if key == "data_dir" else value)
-    for key in ("host", "port", "data_dir", "irpd_socket"):
+            try:
+                setattr(s, key, _coerce(key, value, where))
+            except ValueError as e:
+                ap.error(str(e))
+    for key in ("host", "port", "data_dir", "irpd_socket", "tls_cert", "tls_key"):
         if getattr(a, key) is not None:
             setattr(s, key, getattr(a, key))
-    if not 0 < int(s.port) < 65536:
-        ap.error(f"port {s.port} is not a TCP port")
+    problems = check(s)
+    if problems:
+        ap.error("; ".join(problems))
     return s

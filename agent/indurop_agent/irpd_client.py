@@ -1,7 +1,9 @@
 """irpd_client.py -- the agent's side of irpd's control socket (docs/control-protocol.md).
 
 One connection, re-opened when irpd restarts; every call has a timeout, so a stopped irpd makes
-requests fail fast (the API answers 503) instead of hanging.
+requests fail fast (the API answers 503) instead of hanging.  Commands that swap the schedule
+(`load`, `set_period`, ...) can take seconds: they pass a longer per-call `timeout`, and the agent
+sends them on a connection of their own so that reads do not wait behind them.
 """
 from __future__ import annotations
 
@@ -11,7 +13,7 @@ import threading
 from typing import Any
 
 PROTOCOL = "indurop-control"
-PROTOCOL_VERSIONS = (1, 2)
+PROTOCOL_VERSIONS = (1, 2)  # the versions of irpd this agent can talk to
 
 
 class IrpdUnavailable(Exception):
@@ -46,9 +48,11 @@ class IrpdClient:
         except (OSError, ValueError) as e:
             sock.close()
             raise IrpdUnavailable(f"irpd is not reachable on {self.path}: {e}") from e
-        if not isinstance(hello, dict) or hello.get("protocol") != PROTOCOL or hello.get("version") not in PROTOCOL_VERSIONS:
+        if (not isinstance(hello, dict) or hello.get("protocol") != PROTOCOL
+                or hello.get("version") not in PROTOCOL_VERSIONS):
             sock.close()
-            raise IrpdUnavailable(f"{self.path} does not speak {PROTOCOL} version {PROTOCOL_VERSIONS}: {hello!r}")
+            versions = " or ".join(map(str, PROTOCOL_VERSIONS))
+            raise IrpdUnavailable(f"{self.path} does not speak {PROTOCOL} version {versions}: {hello!r}")
         self._sock, self._file, self.hello = sock, file, hello
 
     def close(self) -> None:
@@ -60,25 +64,46 @@ class IrpdClient:
             self._sock.close()
         self._sock = self._file = None
 
-    def request(self, cmd: str, **arguments: Any) -> Any:
-        """Sends one command and returns its result; raises IrpdUnavailable or IrpdRefused."""
+    @property
+    def version(self) -> int | None:
+        """The protocol version of the irpd last connected to (None before the first connection)."""
+        return self.hello.get("version") if self.hello else None
+
+    def request(self, cmd: str, *, timeout: float | None = None, **arguments: Any) -> Any:
+        """Sends one command and returns its result; raises IrpdUnavailable or IrpdRefused.
+
+        `timeout` (seconds) replaces the client's default for this call only.  A request that
+        times out is not sent again (irpd may still carry it out); one that met a connection
+        broken by irpd's restart is sent once more on a new connection.
+        """
+        wait = self.timeout_s if timeout is None else timeout
         with self._lock:
-            for attempt in (1, 2):  # a connection that irpd's restart broke is re-opened once
+            for attempt in (1, 2):
                 if self._sock is None:
                     self._connect()
                 self._next_id += 1
                 try:
+                    self._sock.settimeout(wait)
                     self._file.write(json.dumps({"id": self._next_id, "cmd": cmd, **arguments}) + "\n")
                     self._file.flush()
                     line = self._file.readline()
                     if not line:
                         raise OSError("connection closed")
                     answer = json.loads(line)
+                except TimeoutError as e:
+                    self._drop()  # a late answer would be read as the next request's
+                    raise IrpdUnavailable(f"irpd did not answer '{cmd}' within {wait:g} s on {self.path}") from e
                 except (OSError, ValueError) as e:
                     self._drop()
                     if attempt == 2:
                         raise IrpdUnavailable(f"irpd stopped answering on {self.path}: {e}") from e
                     continue
+                finally:
+                    if self._sock is not None:
+                        self._sock.settimeout(self.timeout_s)
+                if not isinstance(answer, dict):
+                    self._drop()
+                    raise IrpdUnavailable(f"irpd sent a non-object answer on {self.path}: {answer!r:.200}")
                 if answer.get("ok"):
                     return answer.get("result")
                 error = answer.get("error") or {}

@@ -2,75 +2,25 @@
 schedule and modules through the control socket, and irpd going away and coming back."""
 from __future__ import annotations
 
-import json
-import os
-import signal
-import socket
 import stat
-import subprocess
-import sys
 import time
-from pathlib import Path
 
 import httpx
 import pytest
 
-ROOT = Path(__file__).resolve().parents[3]
-BUILD = Path(os.environ.get("INDUROP_BUILD", ROOT / "build"))
-IRPD = BUILD / "bin" / "irpd"
-FIG1 = BUILD / "sets" / "paper-fig1" / "module.xml"
+from agent_helpers import IRPD, free_port, start_agent, start_irpd, stop
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def start_irpd(tmp: Path, sock: Path) -> subprocess.Popen:
-    p = subprocess.Popen([str(IRPD), "--config", str(FIG1), "--control-socket", str(sock),
-                          "--instance", f"agent-test-{os.getpid()}"],
-                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 20
-    while not sock.exists():
-        assert p.poll() is None, p.stderr.read()
-        assert time.monotonic() < deadline, "irpd did not open its control socket"
-        time.sleep(0.02)
-    return p
-
-
-def stop(p: subprocess.Popen) -> None:
-    if p.poll() is None:
-        p.send_signal(signal.SIGTERM)  # by pid
-        try:
-            p.wait(10)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            p.wait()
 
 
 @pytest.fixture
 def cell(tmp_path):
     sock = tmp_path / "irpd.sock"
-    irpd = start_irpd(tmp_path, sock)
+    irpd = start_irpd(sock)
     port = free_port()
     data = tmp_path / "data"
-    agent = subprocess.Popen([sys.executable, "-m", "indurop_agent", "--host", "127.0.0.1", "--port", str(port),
-                              "--data-dir", str(data), "--irpd-socket", str(sock)],
-                             cwd=ROOT / "agent", stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    agent = start_agent(port, data, sock)
     url = f"http://127.0.0.1:{port}/api/v1"
-    deadline = time.monotonic() + 20
-    while True:
-        try:
-            if httpx.get(f"{url}/health", timeout=1).status_code == 200:
-                break
-        except httpx.HTTPError:
-            pass
-        assert agent.poll() is None, agent.stdout.read()
-        assert time.monotonic() < deadline, "the agent did not come up"
-        time.sleep(0.05)
     token = (data / "admin-token").read_text().strip()
     state = {"irpd": irpd, "sock": sock, "tmp": tmp_path}
     yield url, token, data, state
@@ -120,7 +70,7 @@ def test_the_agent_survives_irpd_going_away_and_reconnects_by_itself(cell):
     assert httpx.get(f"{url}/health").json()["irpd"] == "unreachable"
     r = httpx.get(f"{url}/status", headers=h)
     assert r.status_code == 503 and "not reachable" in r.json()["detail"]
-    state["irpd"] = start_irpd(state["tmp"], state["sock"])
+    state["irpd"] = start_irpd(state["sock"])
     assert httpx.get(f"{url}/status", headers=h).json()["running"] is True
 
 

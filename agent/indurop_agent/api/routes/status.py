@@ -1,4 +1,4 @@
-"""status.py -- the running set: status, its schedule (Table 3), its modules with live figures."""
+"""status.py -- the running set: its status and its schedule (Table 3).  Modules: modules.py."""
 from fastapi import APIRouter
 
 from ..deps import IrpdDep, ViewerDep, ask
@@ -14,8 +14,3 @@ def status(irpd: IrpdDep, _: ViewerDep) -> dict:
 @router.get("/schedule")
 def schedule(irpd: IrpdDep, _: ViewerDep) -> dict:
     return ask(irpd, "schedule")
-
-
-@router.get("/modules")
-def modules(irpd: IrpdDep, _: ViewerDep) -> list:
-    return ask(irpd, "modules")

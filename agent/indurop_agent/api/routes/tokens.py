@@ -1,10 +1,10 @@
-"""tokens.py -- POST /api/v1/tokens (admin): a new bearer token for a role, shown once."""
+"""tokens.py -- bearer tokens (admin): create one for a role (shown once), list them, revoke one."""
 from typing import Literal
 
-from fastapi import APIRouter, Request
+from fastapi import APIRouter, HTTPException, Request
 from pydantic import BaseModel, Field
 
-from ..deps import AdminDep
+from ..deps import AdminDep, audited
 
 router = APIRouter(tags=["tokens"])
 
@@ -15,12 +15,43 @@ class TokenCreate(BaseModel):
 
 
 class TokenPublic(BaseModel):
+    id: str = Field(description="names the token in the audit log and in DELETE /tokens/{id}")
     name: str
     role: str
     token: str = Field(description="shown only in this answer; stored hashed")
 
 
+class TokenInfo(BaseModel):
+    id: str
+    name: str
+    role: str
+    created: str | None
+
+
 @router.post("/tokens", status_code=201)
-def create_token(body: TokenCreate, request: Request, _: AdminDep) -> TokenPublic:
-    token = request.app.state.tokens.add(body.name, body.role)
-    return TokenPublic(name=body.name, role=body.role, token=token)
+def create_token(body: TokenCreate, request: Request, who: AdminDep) -> TokenPublic:
+    with audited(request, who, "token_create", body.name, role=body.role) as entry:
+        token, identity = request.app.state.tokens.add(body.name, body.role)
+        entry["token_id"] = identity.id
+    request.app.state.events.add("token_create",
+                                 f"token {identity.id} ({body.name}, {body.role}) created by {who.name}")
+    return TokenPublic(id=identity.id, name=body.name, role=body.role, token=token)
+
+
+@router.get("/tokens")
+def list_tokens(request: Request, _: AdminDep) -> list[TokenInfo]:
+    return [TokenInfo(**t) for t in request.app.state.tokens.list()]
+
+
+@router.delete("/tokens/{token_id}", status_code=204, responses={404: {"description": "no such token"},
+                                                                  409: {"description": "the last admin token"}})
+def revoke_token(token_id: str, request: Request, who: AdminDep) -> None:
+    with audited(request, who, "token_revoke", token_id) as entry:
+        try:
+            gone = request.app.state.tokens.revoke(token_id)
+        except KeyError:
+            raise HTTPException(404, f"no token with id {token_id!r}; GET /api/v1/tokens lists them") from None
+        except ValueError as e:
+            raise HTTPException(409, str(e)) from None
+        entry["name"], entry["role"] = gone.name, gone.role
+    request.app.state.events.add("token_revoke", f"token {gone.id} ({gone.name}, {gone.role}) revoked by {who.name}")

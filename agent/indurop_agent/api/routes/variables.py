@@ -1,9 +1,13 @@
-"""variables.py -- GET /api/v1/variables (every shared variable of the running set's layout) and
-GET /api/v1/variables/{path} (one value, read consistently from shared memory)."""
+"""variables.py -- GET /api/v1/variables (every shared variable of the running set's layout),
+GET /api/v1/variables/{path} (one value, read consistently from shared memory) and
+PUT /api/v1/variables/{path} (operator: irpd writes the value, type-checked against the layout)."""
+import math
+
 from fastapi import APIRouter, HTTPException, Request
+from pydantic import BaseModel, ConfigDict, StrictBool, StrictFloat, StrictInt, field_validator
 
 from ...variables import Segment, VariableError
-from ..deps import IrpdDep, ViewerDep, ask
+from ..deps import IrpdDep, OperatorDep, ViewerDep, ask, audited
 
 router = APIRouter(tags=["variables"])
 
@@ -38,3 +42,23 @@ def read_variable(path: str, request: Request, irpd: IrpdDep, _: ViewerDep) -> d
         return {"path": path, "value": seg.read(path), "layout_hash": seg.hash}
     except VariableError as e:
         raise HTTPException(404, str(e)) from e
+
+
+class VariableWrite(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    value: StrictBool | StrictInt | StrictFloat
+
+    @field_validator("value")
+    @classmethod
+    def finite(cls, v):
+        if isinstance(v, float) and not math.isfinite(v):
+            raise ValueError("must be a finite number")
+        return v
+
+
+@router.put("/variables/{path:path}", responses={409: {"description": "irpd refused: unknown path, wrong type, "
+                                                                      "out of range (its message)"}})
+def write_variable(path: str, body: VariableWrite, request: Request, irpd: IrpdDep, who: OperatorDep) -> dict:
+    with audited(request, who, "write_variable", path, value=body.value):
+        result = ask(irpd, "write", path=path, value=body.value)
+    return result if isinstance(result, dict) else {"path": path, "value": body.value}

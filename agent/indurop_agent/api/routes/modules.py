@@ -1,0 +1,72 @@
+"""modules.py -- the running set's modules: every one with live figures, one by name, and PATCH
+of a module's period, priority or enabled state (each a hot swap in irpd)."""
+from __future__ import annotations
+
+from fastapi import APIRouter, HTTPException, Request
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, model_validator
+
+from ..deps import IrpdDep, OperatorDep, SwapIrpdDep, ViewerDep, ask, audited
+from ..models import PatchReport
+
+router = APIRouter(tags=["modules"])
+
+
+class ModulePatch(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    period_ns: StrictInt | None = Field(None, gt=0, description="a periodic module's new period (ns)")
+    priority: StrictInt | None = Field(None, ge=0, le=1_000_000, description="lowest value = highest priority")
+    enabled: StrictBool | None = Field(None, description="false: the module stops running; true: it runs again")
+
+    @model_validator(mode="after")
+    def at_least_one(self):
+        if self.period_ns is None and self.priority is None and self.enabled is None:
+            raise ValueError("give at least one of period_ns, priority, enabled")
+        return self
+
+
+@router.get("/modules")
+def modules(irpd: IrpdDep, _: ViewerDep) -> list:
+    return ask(irpd, "modules")
+
+
+def _find(irpd, name: str) -> dict:
+    for m in ask(irpd, "modules"):
+        if m.get("name") == name:
+            return m
+    raise HTTPException(404, f"no module {name!r} in the running set; GET /api/v1/modules lists them")
+
+
+@router.get("/modules/{name}", responses={404: {"description": "no such module in the running set"}})
+def module(name: str, irpd: IrpdDep, _: ViewerDep) -> dict:
+    return _find(irpd, name)
+
+
+@router.patch("/modules/{name}", responses={404: {"description": "no such module in the running set"},
+                                            409: {"description": "irpd refused a change (its message)"}})
+def patch_module(name: str, body: ModulePatch, request: Request, irpd: IrpdDep, swap: SwapIrpdDep,
+                 who: OperatorDep) -> PatchReport:
+    """Applies period_ns, then priority, then enabled, each as one swap; answers the last swap
+    report with every report in `reports`.  If a later one is refused, the earlier ones stay
+    applied and the 409 says which."""
+    timeout = request.app.state.settings.swap_timeout_s
+    changes = body.model_dump(exclude_none=True)
+    with audited(request, who, "patch_module", name, changes=changes) as entry:
+        _find(irpd, name)
+        steps = []
+        if body.period_ns is not None:
+            steps.append(("period_ns", "set_period", {"period_ns": body.period_ns}))
+        if body.priority is not None:
+            steps.append(("priority", "set_priority", {"priority": body.priority}))
+        if body.enabled is not None:
+            steps.append(("enabled", "enable" if body.enabled else "disable", {}))
+        reports, applied = [], []
+        for field, cmd, args in steps:
+            try:
+                reports.append(ask(swap, cmd, module=name, timeout=timeout, **args) or {})
+            except HTTPException as e:
+                done = f"; already applied: {', '.join(applied)}" if applied else "; nothing was changed"
+                raise HTTPException(e.status_code, f"{field}: {e.detail}{done}") from e
+            applied.append(field)
+        entry["generation"] = reports[-1].get("generation")
+    request.app.state.events.add("patch_module", f"module {name}: {changes} by {who.name}", module=name)
+    return PatchReport(**reports[-1], reports=reports)

@@ -1,0 +1,126 @@
+"""sets.py -- module sets: upload (admin), list and read (viewer), activate and roll back
+(operator).  The store is agent/indurop_agent/store.py; uploads are checked by uploads.py;
+activation is a hot swap in irpd (activation.py)."""
+from __future__ import annotations
+
+from fastapi import APIRouter, HTTPException, Request
+from starlette.concurrency import run_in_threadpool
+
+from ... import uploads
+from ...activation import irpd_validation
+from ...irpd_client import IrpdRefused, IrpdUnavailable
+from ...store import StoreError, remove_tree, set_id_of
+from ..deps import AdminDep, OperatorDep, ViewerDep, audited
+from ..models import ActiveSet, SetPublic, SetSummary, SwapReport
+
+router = APIRouter(tags=["sets"])
+
+NOT_CHECKED_YET = {"valid": None, "errors": [], "warnings": ["not checked yet"], "schedule": None}
+UPLOAD_BODY = {"requestBody": {"required": True, "content": {
+    "multipart/form-data": {"schema": {"type": "object", "properties": {
+        "files": {"type": "array", "items": {"type": "string", "format": "binary"},
+                  "description": "one part per file; its filename is the path in the set (module.xml, lib/cntr1.so)"},
+        "archive": {"type": "string", "format": "binary", "description": "or: the whole set as one .tar.gz"}}}},
+    "application/gzip": {"schema": {"type": "string", "format": "binary", "description": "the set as a .tar.gz"}}}}}
+REFUSALS = {400: {"description": "a bad name, module.xml or file content; the detail says what to fix"},
+            413: {"description": "a file, the upload or the file count is over the limit"},
+            415: {"description": "a kind of file a set does not hold"}}
+
+
+def _public(request: Request, manifest: dict) -> SetPublic:
+    return SetPublic(**manifest, active=manifest["id"] == request.app.state.store.active_id())
+
+
+def _store_error(e: StoreError) -> HTTPException:
+    return HTTPException(e.status, str(e))
+
+
+@router.post("/sets", status_code=201, openapi_extra=UPLOAD_BODY, responses=REFUSALS)
+async def upload_set(request: Request, who: AdminDep) -> SetPublic:
+    """Stores a set (nothing is stored if any file is refused) and has irpd check it.  The same
+    files again give the same id and the stored set."""
+    state = request.app.state
+    staging = state.store.staging_dir()
+    try:
+        with audited(request, who, "upload") as entry:
+            received = await uploads.receive(request, staging, uploads.Limits.of(state.settings))
+            files = await run_in_threadpool(uploads.check_set, received)
+            entry["target"] = set_id_of(files)
+            entry["files"] = {f.path: f.sha256 for f in files}
+            manifest, new = await run_in_threadpool(state.store.commit, files, who.as_dict(), NOT_CHECKED_YET)
+            if new or manifest["validation"]["valid"] is None:  # checked now, or again now irpd may answer
+                module_xml = state.store.module_xml(manifest["id"])
+                validation = await run_in_threadpool(irpd_validation, state.irpd_swap, module_xml,
+                                                     state.settings.swap_timeout_s)
+                manifest = await run_in_threadpool(state.store.save_validation, manifest["id"], validation)
+            entry["new"] = new
+            entry["valid"] = manifest["validation"]["valid"]
+    finally:
+        await run_in_threadpool(remove_tree, staging)
+    state.events.add("upload", f"set {manifest['id']} uploaded by {who.name} ({len(files)} files, "
+                               f"{'new' if new else 'already stored'}, valid: {manifest['validation']['valid']})",
+                     set_id=manifest["id"])
+    return _public(request, manifest)
+
+
+@router.get("/sets")
+def list_sets(request: Request, _: ViewerDep) -> list[SetSummary]:
+    """Every stored set, newest first."""
+    active = request.app.state.store.active_id()
+    return [SetSummary(id=m["id"], created=m["created"], by=m["by"], files=len(m["files"]),
+                       valid=m["validation"]["valid"], active=m["id"] == active)
+            for m in request.app.state.store.list()]
+
+
+@router.get("/sets/active", responses={404: {"description": "no set has been activated through the agent"}})
+def active_set(request: Request, _: ViewerDep) -> ActiveSet:
+    store = request.app.state.store
+    active = store.active()
+    manifest = store.manifest(active["set_id"]) if active else None
+    if manifest is None:
+        raise HTTPException(404, "no set has been activated through the agent yet; POST /api/v1/sets/{id}/activate")
+    return ActiveSet(**manifest, active=True, since=active["since"], action=active["action"],
+                     rollback_to=store.rollback_target())
+
+
+@router.get("/sets/{set_id}", responses={404: {"description": "no such set"}})
+def get_set(set_id: str, request: Request, _: ViewerDep) -> SetPublic:
+    manifest = request.app.state.store.manifest(set_id)
+    if manifest is None:
+        raise HTTPException(404, f"no set {set_id!r}; GET /api/v1/sets lists them")
+    return _public(request, manifest)
+
+
+def _run_swap(call):
+    try:
+        return call()
+    except StoreError as e:
+        raise _store_error(e) from e
+    except IrpdRefused as e:
+        raise HTTPException(409, f"irpd refused the set and kept the running one: {e}") from e
+    except IrpdUnavailable as e:
+        raise HTTPException(503, str(e)) from e
+
+
+@router.post("/sets/rollback", responses={409: {"description": "nothing to roll back to, or irpd refused"}})
+def rollback(request: Request, who: OperatorDep) -> SwapReport:
+    """Activates the set that was active before the current one."""
+    state = request.app.state
+    with audited(request, who, "rollback") as entry:
+        entry["from"] = state.store.active_id()
+        entry["target"] = state.store.rollback_target()
+        target, report = _run_swap(lambda: state.activator.rollback(who.as_dict()))
+        entry["generation"] = (report or {}).get("generation")
+    return SwapReport(**(report or {}))
+
+
+@router.post("/sets/{set_id}/activate", responses={404: {"description": "no such set"},
+                                                    409: {"description": "irpd refused the set (its message)"}})
+def activate(set_id: str, request: Request, who: OperatorDep) -> SwapReport:
+    """Hot-swaps irpd to this set (at a macro-period boundary); on refusal nothing changes."""
+    state = request.app.state
+    with audited(request, who, "activate", set_id) as entry:
+        entry["from"] = state.store.active_id()
+        report = _run_swap(lambda: state.activator.activate(set_id, who.as_dict()))
+        entry["generation"] = (report or {}).get("generation")
+    return SwapReport(**(report or {}))

@@ -1,0 +1,110 @@
+"""security.py -- the agent's guards that are not about roles: the brute-force lockout of client
+addresses that try unknown tokens, and the body-size limit of every request but a set upload."""
+from __future__ import annotations
+
+import json
+import threading
+import time
+from collections import OrderedDict, deque
+
+from starlette.exceptions import HTTPException
+
+
+class Lockout:
+    """`attempts` unknown tokens from one address within `window_s` lock it out for `window_s`.
+
+    While locked, every token from that address is refused, good or bad (a correct guess must not
+    get through).  At most `max_addresses` addresses are remembered, the least recent dropped.
+    """
+
+    def __init__(self, attempts: int = 10, window_s: float = 60.0, max_addresses: int = 10000, clock=time.monotonic):
+        self.attempts, self.window_s, self.max_addresses, self.clock = attempts, window_s, max_addresses, clock
+        self._failures: OrderedDict[str, deque] = OrderedDict()
+        self._locked_until: dict[str, float] = {}
+        self._lock = threading.Lock()
+
+    def retry_after(self, address: str) -> int:
+        """Seconds until `address` may try again (0: it is not locked out)."""
+        with self._lock:
+            until = self._locked_until.get(address)
+            if until is None:
+                return 0
+            left = until - self.clock()
+            if left <= 0:
+                del self._locked_until[address]
+                return 0
+            return max(1, int(left + 0.999))
+
+    def failed(self, address: str) -> bool:
+        """Counts one unknown token from `address`; True when that locks it out (just now)."""
+        now = self.clock()
+        with self._lock:
+            failures = self._failures.pop(address, None) or deque()
+            failures.append(now)
+            while failures and failures[0] <= now - self.window_s:
+                failures.popleft()
+            if len(failures) >= self.attempts:
+                self._locked_until[address] = now + self.window_s
+                failures.clear()
+                return True
+            self._failures[address] = failures  # most recent last
+            while len(self._failures) > self.max_addresses:
+                self._failures.popitem(last=False)
+            return False
+
+
+class BodyTooLarge(HTTPException):
+    """Raised from inside the body read: an HTTPException, so FastAPI answers it as it is (413)."""
+
+    def __init__(self, limit: int):
+        super().__init__(413, too_large_message(limit))
+
+
+def too_large_message(limit: int) -> str:
+    return f"the request body is larger than {limit} bytes; only set uploads (POST /api/v1/sets) may be larger"
+
+
+class BodyLimitMiddleware:
+    """Answers 413 to a request whose body is larger than `limit` bytes, by its Content-Length or,
+    when it streams without one, as soon as more than that has arrived.  Requests for which
+    `exempt(method, path)` is true (set uploads, which check their own limits while streaming to
+    disk) pass untouched."""
+
+    def __init__(self, app, limit: int, exempt=lambda method, path: False):
+        self.app, self.limit, self.exempt = app, limit, exempt
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http" or self.exempt(scope["method"], scope["path"]):
+            return await self.app(scope, receive, send)
+        length = dict(scope["headers"]).get(b"content-length")
+        if length is not None and (not length.isdigit() or int(length) > self.limit):
+            return await self._refuse(send)
+        seen = 0
+        started = False
+
+        async def limited_receive():
+            nonlocal seen
+            message = await receive()
+            if message["type"] == "http.request":
+                seen += len(message.get("body", b""))
+                if seen > self.limit:
+                    raise BodyTooLarge(self.limit)
+            return message
+
+        async def watched_send(message):
+            nonlocal started
+            started = started or message["type"] == "http.response.start"
+            await send(message)
+
+        try:
+            await self.app(scope, limited_receive, watched_send)
+        except BodyTooLarge:
+            if not started:
+                await self._refuse(send)
+
+    async def _refuse(self, send):
+        body = json.dumps({"detail": too_large_message(self.limit)}).encode()
+        await send({"type": "http.response.start", "status": 413,
+                    "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()),
+                                (b"connection", b"close")]})
+        await send({"type": "http.response.body", "body": body})

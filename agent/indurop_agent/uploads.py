@@ -1,0 +1,525 @@
+"""uploads.py -- POST /sets bodies: received into a folder inside the data dir while they stream
+(limits checked as the bytes arrive), names sanitized, archives unpacked by hand, every file's
+kind decided and checked.  Any refusal is an UploadError (an HTTPException: 400 bad name or
+content, 413 too large, 415 a kind of file a set does not hold) whose detail says what to fix.
+
+Bodies: multipart/form-data with `files` parts (the filename is the path in the set, e.g.
+"lib/cntr1.so") or one `archive` part (a .tar.gz); or the .tar.gz itself as the body, with
+Content-Type application/gzip.
+"""
+from __future__ import annotations
+
+import gzip
+import hashlib
+import json
+import posixpath
+import re
+import tarfile
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from defusedxml import DTDForbidden, EntitiesForbidden, ExternalReferenceForbidden
+from defusedxml import ElementTree as SafeET
+from fastapi import HTTPException
+from python_multipart.multipart import MultipartParser, parse_options_header
+from starlette.concurrency import run_in_threadpool
+
+from .elf_check import MissingSymbol, NotLoadable, check_executable, check_shared_object
+from .store import StagedFile
+
+MAX_NAME_BYTES = 255
+MAX_MODULE_XML_BYTES = 4 << 20            # irpd's own limit (rtcore/src/config/module_xml.hpp)
+MAX_TAR_HEADER_BYTES = 64 << 10           # a pax or GNU long-name header larger than this is refused
+GZIP_TYPES = ("application/gzip", "application/x-gzip")
+ACCEPTED = ("module.xml (one, at the root), other .xml configs, .so thread modules and libraries, "
+            "the executables module.xml names, .glb, .urdf, .json, .stl/.dae/.obj meshes, .h, .txt, .md")
+PERCENT_ESCAPE = re.compile(r"%[0-9A-Fa-f]{2}")
+
+
+class UploadError(HTTPException):
+    """A refused upload: status 400, 413 or 415 and a detail that names the file and the fix."""
+
+
+@dataclass
+class Limits:
+    max_file_bytes: int = 64 << 20
+    max_upload_bytes: int = 256 << 20
+    max_files: int = 512
+
+    @classmethod
+    def of(cls, settings) -> "Limits":
+        return cls(settings.max_file_bytes, settings.max_upload_bytes, settings.max_files)
+
+
+@dataclass
+class Received:
+    """One file of the upload as received: its path in the set and where its bytes are."""
+
+    path: str
+    source: Path
+    sha256: str
+    size: int
+
+
+# ---- names ----------------------------------------------------------------------------------
+def clean_name(name: str, what: str = "file name") -> str:
+    """The normalized relative path of an uploaded name ("./lib//a.so" -> "lib/a.so"), or a 400.
+
+    Refused: empty names, NUL and other control characters, backslashes, percent-escapes (%2e%2e,
+    %2f: a name is taken literally, never decoded), absolute paths, '..', names over 255 bytes.
+    """
+    shown = json.dumps(name)  # quoted and escaped: safe to put in a message
+    if not name:
+        raise UploadError(400, f"an empty {what}; every file needs its path in the set, e.g. module.xml")
+    if "\0" in name:
+        raise UploadError(400, f"{what} {shown} contains a NUL character")
+    if any(ord(c) < 0x20 or ord(c) == 0x7F for c in name):
+        raise UploadError(400, f"{what} {shown} contains a control character")
+    if "\\" in name:
+        raise UploadError(400, f"{what} {shown} contains a backslash; separate folders with '/'")
+    if PERCENT_ESCAPE.search(name):
+        raise UploadError(400, f"{what} {shown} contains a percent-escape ('{PERCENT_ESCAPE.search(name).group()}'); "
+                               "send the plain name, it is not decoded")
+    try:
+        length = len(name.encode("utf-8"))
+    except UnicodeEncodeError:
+        raise UploadError(400, f"{what} {shown} is not valid UTF-8") from None
+    if length > MAX_NAME_BYTES:
+        raise UploadError(400, f"{what} {json.dumps(name[:40])}... is {length} bytes long; "
+                               f"the limit is {MAX_NAME_BYTES}")
+    if name.startswith("/"):
+        raise UploadError(400, f"{what} {shown} is absolute; give the path relative to the set's root")
+    parts = [p for p in name.split("/") if p not in ("", ".")]
+    if ".." in parts:
+        raise UploadError(400, f"{what} {shown} contains '..'; every file must stay inside the set")
+    if not parts:
+        raise UploadError(400, f"{what} {shown} names no file")
+    return "/".join(parts)
+
+
+# ---- receiving ------------------------------------------------------------------------------
+class Sink:
+    """One file being written into the staging folder, hashed and counted as it arrives.  A file
+    of the set also counts towards the upload's total; an archive (per="upload") has only its own
+    limit, its unpacked files count."""
+
+    def __init__(self, receiver: "Receiver", path: str, target: Path, limit: int, what: str, per: str = "file"):
+        self.receiver, self.path, self.target = receiver, path, target
+        self.limit, self.what, self.per = limit, what, per
+        self.file = open(target, "xb")
+        self.hash = hashlib.sha256()
+        self.size = 0
+
+    def write(self, data: bytes) -> None:
+        self.size += len(data)
+        if self.size > self.limit:
+            raise UploadError(413, f"{self.what} is larger than {self.limit} bytes (the limit per {self.per})")
+        if self.per == "file":
+            self.receiver.count_bytes(len(data))
+        self.hash.update(data)
+        self.file.write(data)
+
+    def close(self) -> Received:
+        self.file.close()
+        return Received(self.path, self.target, self.hash.hexdigest(), self.size)
+
+
+@dataclass
+class Receiver:
+    """Collects the files of one upload in `staging`, enforcing the limits as bytes arrive."""
+
+    staging: Path
+    limits: Limits
+    files: list[Received] = field(default_factory=list)
+    total: int = 0
+    _names: set[str] = field(default_factory=set)
+    _serial: int = 0
+
+    def count_bytes(self, n: int) -> None:
+        self.total += n
+        if self.total > self.limits.max_upload_bytes:
+            raise UploadError(413, f"the set is larger than {self.limits.max_upload_bytes} bytes "
+                                   "(the limit per upload)")
+
+    def open_file(self, name: str) -> Sink:
+        path = clean_name(name)
+        if path in self._names:
+            raise UploadError(400, f"{json.dumps(path)} is in the upload twice")
+        if len(self._names) >= self.limits.max_files:
+            raise UploadError(413, f"more than {self.limits.max_files} files in one set (the limit per upload)")
+        self._names.add(path)
+        self._serial += 1
+        return Sink(self, path, self.staging / f"f{self._serial:05d}", self.limits.max_file_bytes, json.dumps(path))
+
+    def open_raw(self, what: str) -> Sink:
+        """The archive itself (not a file of the set): counted against the upload limit only."""
+        self._serial += 1
+        target = self.staging / f"archive{self._serial}.tar.gz"
+        return Sink(self, "", target, self.limits.max_upload_bytes, what, "upload")
+
+    def add(self, received: Received) -> None:
+        self.files.append(received)
+
+
+async def receive(request, staging: Path, limits: Limits) -> list[Received]:
+    """Reads the request body into `staging`; returns the files of the set (not yet checked)."""
+    ctype, options = parse_options_header(request.headers.get("content-type", ""))
+    length = request.headers.get("content-length")
+    receiver = Receiver(staging, limits)
+    # Multipart bodies carry part headers and boundaries beside the files' bytes.
+    overhead = 64 * 1024 + 1024 * limits.max_files if ctype == b"multipart/form-data" else 0
+    if length is not None and length.isdigit() and int(length) > limits.max_upload_bytes + overhead:
+        raise UploadError(413, f"the upload is {length} bytes; the limit is {limits.max_upload_bytes}")
+    if ctype == b"multipart/form-data":
+        boundary = options.get(b"boundary")
+        if not boundary:
+            raise UploadError(400, "multipart/form-data without a boundary")
+        await _receive_multipart(request, boundary, receiver)
+    elif ctype.decode("latin-1") in GZIP_TYPES:
+        sink = receiver.open_raw("the .tar.gz body")
+        try:
+            async for chunk in request.stream():
+                await run_in_threadpool(sink.write, chunk)
+        finally:
+            archive = sink.close()
+        await run_in_threadpool(unpack_archive, archive.source, receiver)
+    else:
+        got = json.dumps(ctype.decode("latin-1"))
+        raise UploadError(415, f"POST /sets takes multipart/form-data (`files` parts or one `archive` part) or a "
+                               f".tar.gz body with Content-Type application/gzip; got {got}")
+    if not receiver.files:
+        raise UploadError(400, "the upload holds no files; a set needs at least its module.xml")
+    return receiver.files
+
+
+class _MultipartState:
+    """The callbacks of python-multipart's streaming parser: one Sink per part, opened as soon as
+    the part's headers are complete, so names and limits are checked before its bytes are kept."""
+
+    def __init__(self, receiver: Receiver):
+        self.receiver = receiver
+        self.header_field = b""
+        self.header_value = b""
+        self.headers: dict[bytes, bytes] = {}
+        self.sink: Sink | None = None
+        self.kind: str | None = None  # "files" or "archive"
+        self.archives: list[Received] = []
+        self.saw_files = False
+        self.ended = False
+
+    def callbacks(self) -> dict:
+        return {"on_part_begin": self.part_begin, "on_header_field": self.header_field_data,
+                "on_header_value": self.header_value_data, "on_header_end": self.header_end,
+                "on_headers_finished": self.headers_finished, "on_part_data": self.part_data,
+                "on_part_end": self.part_end, "on_end": self.end}
+
+    def part_begin(self) -> None:
+        self.headers, self.sink, self.kind = {}, None, None
+
+    def header_field_data(self, data: bytes, start: int, end: int) -> None:
+        self.header_field += data[start:end]
+
+    def header_value_data(self, data: bytes, start: int, end: int) -> None:
+        self.header_value += data[start:end]
+
+    def header_end(self) -> None:
+        self.headers[self.header_field.lower()] = self.header_value
+        self.header_field = self.header_value = b""
+
+    def headers_finished(self) -> None:
+        disposition = self.headers.get(b"content-disposition", b"")
+        if b"\\" in disposition:
+            raise UploadError(400, "a part's Content-Disposition contains a backslash; "
+                                   "file names separate folders with '/' and hold no backslash or quote")
+        _, params = parse_options_header(disposition)
+        name = params.get(b"name", b"").decode("latin-1")
+        filename = params.get(b"filename")
+        if name == "files":
+            if filename is None:
+                raise UploadError(400, "a `files` part without a filename; the filename is the file's path in the set")
+            if self.archives:
+                raise UploadError(400, "send either `files` parts or one `archive` part, not both")
+            try:
+                text = filename.decode("utf-8")  # the header's raw bytes: browsers send UTF-8
+            except UnicodeDecodeError:
+                shown = json.dumps(filename.decode("latin-1"))
+                raise UploadError(400, f"file name {shown} is not valid UTF-8") from None
+            self.sink, self.kind, self.saw_files = self.receiver.open_file(text), "files", True
+        elif name == "archive":
+            if self.saw_files or self.archives:
+                raise UploadError(400, "send one `archive` part, or `files` parts, not both")
+            self.sink, self.kind = self.receiver.open_raw("the archive"), "archive"
+        else:
+            raise UploadError(400, f"unknown form field {json.dumps(name)}; POST /sets takes `files` parts "
+                                   "(filename = path in the set) or one `archive` part (.tar.gz)")
+
+    def part_data(self, data: bytes, start: int, end: int) -> None:
+        self.sink.write(data[start:end])
+
+    def part_end(self) -> None:
+        received = self.sink.close()
+        if self.kind == "files":
+            self.receiver.add(received)
+        else:
+            self.archives.append(received)
+        self.sink = None
+
+    def end(self) -> None:
+        self.ended = True
+
+
+async def _receive_multipart(request, boundary: bytes, receiver: Receiver) -> None:
+    state = _MultipartState(receiver)
+    parser = MultipartParser(boundary, state.callbacks())
+    try:
+        async for chunk in request.stream():
+            await run_in_threadpool(parser.write, chunk)
+        parser.finalize()
+    except UploadError:
+        raise
+    except Exception as e:  # python-multipart's parse errors
+        raise UploadError(400, f"the multipart body cannot be read: {e}") from None
+    finally:
+        if state.sink is not None:
+            state.sink.close()
+    if not state.ended:
+        raise UploadError(400, "the multipart body ended before its closing boundary")
+    for archive in state.archives:
+        await run_in_threadpool(unpack_archive, archive.source, receiver)
+
+
+# ---- archives -------------------------------------------------------------------------------
+class _LimitedReader:
+    """The decompressed stream of an archive, refused (413) once it grows past `limit` bytes."""
+
+    def __init__(self, raw, limit: int):
+        self.raw, self.limit, self.seen = raw, limit, 0
+
+    def read(self, n: int = -1) -> bytes:
+        want = self.limit + 1 - self.seen if n is None or n < 0 else min(n, self.limit + 1 - self.seen)
+        data = self.raw.read(max(want, 0))
+        self.seen += len(data)
+        if self.seen > self.limit:
+            raise UploadError(413, f"the archive unpacks to more than {self.limit} bytes")
+        return data
+
+
+class _BoundedTarInfo(tarfile.TarInfo):
+    """tarfile reads pax and GNU long-name headers whole into memory: refuse huge ones first."""
+
+    def _proc_member(self, tf):
+        if self.type in (tarfile.XHDTYPE, tarfile.XGLTYPE, tarfile.SOLARIS_XHDTYPE, tarfile.GNUTYPE_LONGNAME,
+                         tarfile.GNUTYPE_LONGLINK) and self.size > MAX_TAR_HEADER_BYTES:
+            raise UploadError(400, f"the archive has a {self.size}-byte extended header; "
+                                   f"at most {MAX_TAR_HEADER_BYTES} bytes are accepted")
+        return super()._proc_member(tf)
+
+
+def _member_problem(member: tarfile.TarInfo) -> str | None:
+    if member.issym():
+        return f"is a symbolic link (to {json.dumps(member.linkname)}); a set holds regular files only"
+    if member.islnk():
+        return f"is a hard link (to {json.dumps(member.linkname)}); a set holds regular files only"
+    if member.ischr() or member.isblk():
+        return "is a device file; a set holds regular files only"
+    if member.isfifo():
+        return "is a FIFO; a set holds regular files only"
+    if member.issparse():
+        return "is a sparse file; pack it as a regular file"
+    if not (member.isreg() or member.isdir()):
+        return f"has tar type {member.type!r}; a set holds regular files only"
+    return None
+
+
+def unpack_archive(archive: Path, receiver: Receiver) -> None:
+    """Unpacks a .tar.gz into the receiver: regular files only, each name sanitized (and checked by
+    tarfile's "data" filter too), sizes and counts limited as they are read."""
+    limits = receiver.limits
+    stream_limit = limits.max_upload_bytes + 4096 * (2 * limits.max_files + 8)  # contents + headers
+    folders: set[str] = set()
+    try:
+        with open(archive, "rb") as raw, gzip.GzipFile(fileobj=raw, mode="rb") as gz, \
+                tarfile.open(fileobj=_LimitedReader(gz, stream_limit), mode="r|", tarinfo=_BoundedTarInfo) as tar:
+            for member in tar:
+                shown = json.dumps(member.name)
+                problem = _member_problem(member)
+                if problem:
+                    raise UploadError(400, f"archive member {shown} {problem}")
+                if member.isdir() and not [p for p in member.name.split("/") if p not in ("", ".")]:
+                    continue  # "./", the archive's own root
+                path = clean_name(member.name, "archive member")
+                if hasattr(tarfile, "data_filter"):  # Python's own checks, on top of ours
+                    try:
+                        tarfile.data_filter(member, str(receiver.staging))
+                    except tarfile.FilterError as e:
+                        raise UploadError(400, f"archive member {shown}: {e}") from None
+                if member.isdir():
+                    folders.add(path)
+                    continue
+                if member.size > limits.max_file_bytes:
+                    raise UploadError(413, f"archive member {shown} is {member.size} bytes; "
+                                           f"the limit per file is {limits.max_file_bytes}")
+                sink = receiver.open_file(member.name)
+                try:
+                    source = tar.extractfile(member)
+                    while chunk := source.read(1 << 16):
+                        sink.write(chunk)
+                finally:
+                    received = sink.close()
+                receiver.add(received)
+    except UploadError:
+        raise
+    except (tarfile.TarError, gzip.BadGzipFile, zlib.error, EOFError, OSError) as e:
+        raise UploadError(400, f"the archive is not a readable .tar.gz: {e}") from None
+    _strip_single_folder(receiver)
+
+
+def _strip_single_folder(receiver: Receiver) -> None:
+    """`tar czf set.tar.gz myset/` puts everything under myset/: take that folder as the root."""
+    paths = [f.path for f in receiver.files]
+    if not paths or "module.xml" in paths:
+        return
+    top = {p.split("/", 1)[0] for p in paths}
+    if len(top) == 1 and all("/" in p for p in paths) and f"{next(iter(top))}/module.xml" in paths:
+        for f in receiver.files:
+            f.path = f.path.split("/", 1)[1]
+
+
+# ---- what the files are ---------------------------------------------------------------------
+@dataclass
+class ModuleRef:
+    name: str       # the module's name (<name>, or the stem of <filename>)
+    filename: str   # as written
+    path: str       # normalized, relative to the set root
+    type: str       # thread | process
+
+
+def _parse_xml(path: Path, shown: str):
+    """Parses XML without DTDs, entities or external references (defusedxml); 400 otherwise."""
+    try:
+        return SafeET.parse(path, forbid_dtd=True, forbid_entities=True, forbid_external=True)
+    except DTDForbidden:
+        raise UploadError(400, f"{shown}: a DOCTYPE/DTD is not allowed (no entity definitions, no XML bombs)") from None
+    except EntitiesForbidden:
+        raise UploadError(400, f"{shown}: entity declarations are not allowed (no XML bombs)") from None
+    except ExternalReferenceForbidden:
+        raise UploadError(400, f"{shown}: external references are not allowed") from None
+    except SafeET.ParseError as e:
+        raise UploadError(400, f"{shown}: malformed XML: {e}") from None
+
+
+def parse_module_xml(path: Path) -> tuple[list[ModuleRef], str | None]:
+    """The modules module.xml names and its <layout> (normalized paths).  Only what the store
+    needs: irpd's `check` validates the rest."""
+    if path.stat().st_size > MAX_MODULE_XML_BYTES:
+        raise UploadError(400, f"module.xml is larger than {MAX_MODULE_XML_BYTES >> 20} MiB (irpd's limit)")
+    root = _parse_xml(path, "module.xml").getroot()
+    if root.tag != "root":
+        raise UploadError(400, f"module.xml: the top-level element is <{root.tag}>, expected <root>")
+    modules = []
+    for i, node in enumerate(root.findall("module"), 1):
+        filename = (node.findtext("filename") or "").strip()
+        stem = posixpath.splitext(posixpath.basename(filename))[0]
+        name = (node.findtext("name") or "").strip() or stem or f"#{i}"
+        if not filename:
+            raise UploadError(400, f"module.xml: module {json.dumps(name)} has no <filename>")
+        what = f"module.xml: module {json.dumps(name)}: <filename>"
+        if filename.startswith("/"):
+            raise UploadError(400, f"{what} {json.dumps(filename)} is absolute; in an uploaded set, name the file "
+                                   "relative to module.xml")
+        kind = (node.findtext("moduletype") or "").strip()
+        modules.append(ModuleRef(name, filename, clean_name(filename, what),
+                                 kind if kind in ("thread", "process") else
+                                 "thread" if filename.endswith(".so") else "process"))
+    layout = (root.findtext("layout") or "").strip() or None
+    if layout is not None:
+        if layout.startswith("/"):
+            raise UploadError(400, f"module.xml: <layout> {json.dumps(layout)} is absolute; "
+                                   "name it relative to module.xml")
+        layout = clean_name(layout, "module.xml: <layout>")
+    return modules, layout
+
+
+def _kind_by_name(path: str, source: Path) -> str | None:
+    base = path.rsplit("/", 1)[-1].lower()
+    suffix = posixpath.splitext(base)[1]
+    if suffix == ".glb":
+        with open(source, "rb") as f:
+            return "mesh" if f.read(4) == b"glTF" else "glb"  # binary glTF, or the variables source
+    if base == "layout.json":
+        return "layout"
+    return {".so": "library", ".xml": "config", ".urdf": "urdf", ".json": "json", ".stl": "mesh", ".dae": "mesh",
+            ".obj": "mesh", ".h": "header", ".txt": "text", ".md": "text"}.get(suffix)
+
+
+def check_set(files: list[Received]) -> list[StagedFile]:
+    """Decides every file's kind and checks its content; returns the files ready to commit."""
+    by_path = {f.path: f for f in files}
+    paths = set(by_path)
+    for p in sorted(paths):
+        parts = p.split("/")
+        for i in range(1, len(parts)):
+            if "/".join(parts[:i]) in paths:
+                raise UploadError(400, f"{json.dumps('/'.join(parts[:i]))} is both a file and a folder in the upload")
+    if "module.xml" not in by_path:
+        nested = sorted(p for p in paths if p.rsplit("/", 1)[-1] == "module.xml")
+        hint = f"; found {json.dumps(nested[0])}: upload that folder's content" if nested else ""
+        raise UploadError(400, f"no module.xml at the root of the set{hint}")
+    for p in sorted(paths - {"module.xml"}):
+        if p.rsplit("/", 1)[-1] == "module.xml":
+            raise UploadError(400, f"{json.dumps(p)}: a set has one module.xml, at its root")
+
+    modules, layout = parse_module_xml(by_path["module.xml"].source)
+    referenced: dict[str, ModuleRef] = {}
+    for m in modules:
+        if m.path not in by_path:
+            raise UploadError(400, f"module.xml: module {json.dumps(m.name)} names {json.dumps(m.filename)}, "
+                                   f"which is not in the upload (add it as {json.dumps(m.path)})")
+        other = referenced.setdefault(m.path, m)
+        if other.type != m.type:
+            raise UploadError(400, f"module.xml: {json.dumps(m.path)} is both a {other.type} module "
+                                   f"({json.dumps(other.name)}) and a {m.type} module ({json.dumps(m.name)})")
+    if layout is not None and layout not in by_path:
+        raise UploadError(400, f"module.xml: <layout> names {json.dumps(layout)}, which is not in the upload")
+
+    staged = []
+    for path in sorted(by_path):
+        f = by_path[path]
+        shown = json.dumps(path)
+        ref = referenced.get(path)
+        if path == "module.xml":
+            kind = "module_xml"
+        elif ref is not None:
+            kind = "thread_module" if ref.type == "thread" else "executable"
+        elif path == layout:
+            kind = "layout"
+        else:
+            kind = _kind_by_name(path, f.source)
+        if kind is None:
+            raise UploadError(415, f"{shown}: a set does not hold files of this kind; accepted: {ACCEPTED}")
+        _check_content(f, kind, ref, shown)
+        staged.append(StagedFile(path, f.source, f.sha256, f.size, kind))
+    return staged
+
+
+def _check_content(f: Received, kind: str, ref: ModuleRef | None, shown: str) -> None:
+    try:
+        if kind == "thread_module":
+            check_shared_object(f.source, shown, module=ref.name)
+        elif kind == "library":
+            check_shared_object(f.source, shown, module=None)
+        elif kind == "executable":
+            check_executable(f.source, shown, module=ref.name)
+    except NotLoadable as e:
+        raise UploadError(415, str(e)) from None
+    except MissingSymbol as e:
+        raise UploadError(400, str(e)) from None
+    if kind == "config" or kind == "urdf" or (kind == "mesh" and f.path.lower().endswith(".dae")):
+        _parse_xml(f.source, shown)
+    elif kind in ("layout", "json"):
+        try:
+            with open(f.source, "rb") as fh:
+                json.load(fh)
+        except (ValueError, RecursionError) as e:
+            raise UploadError(400, f"{shown} is not valid JSON: {e}") from None
