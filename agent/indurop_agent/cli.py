@@ -1,0 +1,450 @@
+"""cli.py -- irpctl, the command line of the agent's API: status, modules, sets, hot reload,
+variables, the sample stream, events (docs/irpctl.md).
+
+Human output by default (aligned tables, durations as "100 µs"), the API's JSON with --json.
+Exit codes: 0 done, 1 the API refused (4xx, 409), 2 usage, 3 the agent or irpd unreachable.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from .cli_text import (EVENT_HEADERS, Out, audit_text, events_rows, format_value, jitter_text, module_text,
+                       modules_text, parse_duration, parse_value, schedule_text, set_text, sets_text, status_text,
+                       swap_text, table, upload_text)
+from .client import ApiError, Client
+
+DEFAULT_URL = "http://127.0.0.1:8080"
+EXIT_OK, EXIT_REFUSED, EXIT_USAGE, EXIT_UNREACHABLE = 0, 1, 2, 3
+
+
+# -- one function per command: (client, args, out) -> exit code --------------------------------------
+def cmd_status(c: Client, a, out: Out) -> int:
+    out.show(c.status(), status_text)
+    return EXIT_OK
+
+
+def cmd_modules(c: Client, a, out: Out) -> int:
+    out.show(c.modules(), modules_text)
+    return EXIT_OK
+
+
+def cmd_module(c: Client, a, out: Out) -> int:
+    out.show(c.module(a.name), module_text)
+    return EXIT_OK
+
+
+def cmd_schedule(c: Client, a, out: Out) -> int:
+    out.show(c.schedule(), schedule_text)
+    return EXIT_OK
+
+
+def cmd_jitter(c: Client, a, out: Out) -> int:
+    out.show(c.jitter(), jitter_text)
+    return EXIT_OK
+
+
+def _upload(c: Client, a) -> dict:
+    sources = [Path(s) for s in a.sources]
+    return c.upload(sources[0] if len(sources) == 1 else sources, root=getattr(a, "root", None))
+
+
+def cmd_upload(c: Client, a, out: Out) -> int:
+    u = _upload(c, a)
+    if not a.activate:
+        out.show(u, upload_text)
+        return EXIT_OK
+    if (u.get("validation") or {}).get("valid") is False:  # None (not checked): irpd checks it on activation
+        out.show(u, upload_text)
+        print(f"irpctl: set {u.get('id')} is not valid, so it was not activated; fix the errors above "
+              f"and upload again", file=sys.stderr)
+        return EXIT_REFUSED
+    report = c.activate(u["id"])
+    if out.as_json:
+        out.json({"upload": u, "swap": report})
+    else:
+        out.line(upload_text(u))
+        out.line()
+        out.line(swap_text(report))
+    return EXIT_OK
+
+
+def cmd_validate(c: Client, a, out: Out) -> int:
+    """Exit 0 valid, 1 not valid, 3 irpd could not check it."""
+    u = _upload(c, a)
+    out.show(u, upload_text)
+    valid = (u.get("validation") or {}).get("valid")
+    if not out.as_json:
+        out.line({True: f"(stored as set {u.get('id')}; `irpctl activate {u.get('id')}` runs it)",
+                  False: "(stored, but irpd would refuse it: fix the errors above)",
+                  None: "(stored, but not checked: is irpd running? upload again to check it)"}[valid])
+    return {True: EXIT_OK, False: EXIT_REFUSED, None: EXIT_UNREACHABLE}[valid]
+
+
+def cmd_sets(c: Client, a, out: Out) -> int:
+    out.show(c.sets(), sets_text)
+    return EXIT_OK
+
+
+def cmd_set(c: Client, a, out: Out) -> int:
+    out.show(c.set(a.id), set_text)
+    return EXIT_OK
+
+
+def cmd_activate(c: Client, a, out: Out) -> int:
+    out.show(c.activate(a.id), swap_text)
+    return EXIT_OK
+
+
+def cmd_rollback(c: Client, a, out: Out) -> int:
+    out.show(c.rollback(), swap_text)
+    return EXIT_OK
+
+
+def cmd_set_period(c: Client, a, out: Out) -> int:
+    out.show(c.patch_module(a.module, period_ns=a.period), swap_text)
+    return EXIT_OK
+
+
+def cmd_set_priority(c: Client, a, out: Out) -> int:
+    out.show(c.patch_module(a.module, priority=a.priority), swap_text)
+    return EXIT_OK
+
+
+def cmd_enable(c: Client, a, out: Out) -> int:
+    out.show(c.patch_module(a.module, enabled=a.command == "enable"), swap_text)
+    return EXIT_OK
+
+
+def cmd_variables(c: Client, a, out: Out) -> int:
+    out.show(c.variables(), lambda v: f"layout {v.get('layout_hash', '-')[:16]}\n\n" + table(
+        ["PATH", "TYPE", "SIZE"], [[x["path"], x.get("type"), x.get("size")] for x in v["variables"]], "llr"))
+    return EXIT_OK
+
+
+def cmd_read(c: Client, a, out: Out) -> int:
+    answers = [{"path": p, "value": c.read(p)} for p in a.paths]
+    if out.as_json:
+        out.json(answers[0] if len(answers) == 1 else answers)
+    else:
+        out.line(table(["PATH", "VALUE"], [[x["path"], format_value(x["value"])] for x in answers], "lr")
+                 if len(answers) > 1 else f"{answers[0]['path']} = {format_value(answers[0]['value'])}")
+    return EXIT_OK
+
+
+def cmd_write(c: Client, a, out: Out) -> int:
+    value = c.write(a.path, a.value)
+    out.show({"path": a.path, "value": value}, lambda x: f"{x['path']} = {format_value(x['value'])}")
+    return EXIT_OK
+
+
+def cmd_watch(c: Client, a, out: Out) -> int:
+    n = 0
+    first_t = None
+    widths: list[int] = []
+    stream = c.watch(a.paths, decimation=a.decimation, seconds=a.seconds)
+    try:
+        with stream:
+            for seq, t_ns, values in stream:
+                if out.as_json:
+                    out.line(json.dumps({"seq": seq, "t_ns": t_ns, "values": values}))
+                else:
+                    if first_t is None:
+                        first_t = t_ns
+                        headers = ["SEQ", "T (ms)", *values]
+                        widths = [max(len(h), 12) for h in headers]
+                        out.line("  ".join(h.rjust(w) for h, w in zip(headers, widths)))
+                    cells = [str(seq), f"{(t_ns - first_t) / 1e6:.3f}", *(format_value(v) for v in values.values())]
+                    out.line("  ".join(x.rjust(w) for x, w in zip(cells, widths)))
+                n += 1
+                if a.count and n >= a.count:
+                    break
+    except KeyboardInterrupt:
+        pass
+    print(f"irpctl: {n} samples; the server dropped {stream.dropped}", file=sys.stderr)
+    return EXIT_OK
+
+
+def cmd_trace(c: Client, a, out: Out) -> int:
+    rows = 0
+    f = sys.stdout if a.csv == "-" else open(a.csv, "w", newline="")
+    stream = c.watch(a.paths, decimation=a.decimation, seconds=a.seconds)
+    try:
+        writer = csv.writer(f)
+        with stream:
+            for seq, t_ns, values in stream:
+                if not rows:  # the channel names as the server gives them
+                    writer.writerow(["seq", "t_ns", *values])
+                writer.writerow([seq, t_ns, *values.values()])
+                rows += 1
+    except KeyboardInterrupt:
+        pass
+    finally:
+        if not rows:
+            csv.writer(f).writerow(["seq", "t_ns", *a.paths])
+        if f is not sys.stdout:
+            f.close()
+    where = "stdout" if a.csv == "-" else a.csv
+    summary = {"samples": rows, "channels": len(a.paths), "dropped": stream.dropped, "file": where}
+    if out.as_json and a.csv != "-":
+        out.json(summary)
+    else:
+        print(f"irpctl: wrote {rows} samples of {len(a.paths)} channels to {where}; the server dropped "
+              f"{stream.dropped}", file=sys.stderr)
+    return EXIT_OK
+
+
+def cmd_events(c: Client, a, out: Out) -> int:
+    answer = c.events(since=a.since, limit=a.limit)
+    events, cursors = _events_of(answer, (a.since, None))
+    if not a.follow:
+        lost = answer.get("dropped", 0) if isinstance(answer, dict) else 0
+        note = f"\n({lost} older events were overwritten before they were read)" if lost else ""
+        out.show(answer, lambda _: (table(EVENT_HEADERS, events_rows(events), "r") if events else "no events") + note)
+        return EXIT_OK
+    if out.as_json:
+        for e in events:
+            out.line(json.dumps(e, ensure_ascii=False))
+    else:
+        out.line(table(EVENT_HEADERS, events_rows(events), "r") if events else "  ".join(EVENT_HEADERS))
+    try:
+        while True:
+            time.sleep(a.interval)
+            events, cursors = _events_of(c.events(since=cursors[0], agent_since=cursors[1], limit=a.limit), cursors)
+            for e in events:
+                if out.as_json:
+                    out.line(json.dumps(e, ensure_ascii=False))
+                else:
+                    out.line("  ".join(str(x) for x in events_rows([e])[0]))
+    except KeyboardInterrupt:
+        return EXIT_OK
+
+
+def _events_of(answer: Any, cursors: tuple[int, int | None]) -> tuple[list[dict], tuple[int, int | None]]:
+    """(events, the cursors to ask next: irpd's `next`, the agent's `agent_next`) from GET /events."""
+    if not isinstance(answer, dict):  # a bare list: the cursor is past the last seq seen
+        events = answer or []
+        return events, (max([cursors[0] - 1] + [e.get("seq", 0) for e in events]) + 1, None)
+    return answer.get("events") or [], (answer.get("next", cursors[0]), answer.get("agent_next", cursors[1]))
+
+
+def cmd_audit(c: Client, a, out: Out) -> int:
+    out.show(c.audit(limit=a.limit), audit_text)
+    return EXIT_OK
+
+
+# -- the parser ------------------------------------------------------------------------------------
+def _duration_arg(text: str) -> int:
+    try:
+        return parse_duration(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _value_arg(text: str):
+    try:
+        return parse_value(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _positive_int(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"'{text}': give 1 or more")
+    return n
+
+
+def _nonneg_int(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"'{text}': give 0 or more")
+    return n
+
+
+def _int_arg(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
+
+
+def _seconds(text: str) -> float:
+    try:
+        s = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number of seconds") from None
+    if not s > 0:
+        raise argparse.ArgumentTypeError(f"'{text}': give more than 0 seconds")
+    return s
+
+
+def _connection_options(parser: argparse.ArgumentParser, top: bool) -> None:
+    """The global options, accepted before and after the command (after it they override)."""
+    def d(value):
+        return value if top else argparse.SUPPRESS
+
+    g = parser.add_argument_group("connection and output")
+    g.add_argument("--url", default=d(None), metavar="URL",
+                   help=f"the agent, e.g. https://cell7:8443 (default $INDUROP_URL or {DEFAULT_URL})")
+    g.add_argument("--token", default=d(None), help="bearer token (default $INDUROP_TOKEN)")
+    g.add_argument("--token-file", default=d(None), metavar="FILE",
+                   help="read the token from FILE (default $INDUROP_TOKEN_FILE), e.g. <data-dir>/admin-token")
+    g.add_argument("--json", action="store_true", default=d(False), help="print the API's JSON")
+    g.add_argument("--ca", default=d(None), metavar="FILE", help="CA certificate(s) to check an https agent with")
+    g.add_argument("--insecure", action="store_true", default=d(False),
+                   help="accept any https certificate (testing only)")
+    g.add_argument("--timeout", type=_seconds, default=d(10.0), metavar="S", help="per request, seconds (default 10)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="irpctl", description="indurop's command line: the agent's API (/api/v1) from a shell.",
+        epilog="exit codes: 0 done, 1 the API refused, 2 usage, 3 the agent or irpd unreachable. "
+               "docs/irpctl.md has an example of every command.")
+    _connection_options(ap, top=True)
+    sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    def command(name: str, func, help: str, **kw) -> argparse.ArgumentParser:
+        p = sub.add_parser(name, help=help, description=help, **kw)
+        _connection_options(p, top=False)
+        p.set_defaults(func=func)
+        return p
+
+    command("status", cmd_status, "the running set: periods, uptime, cycles, overruns")
+    command("modules", cmd_modules, "every module with its period, state and timing")
+    command("module", cmd_module, "one module in detail").add_argument("name", metavar="MODULE")
+    command("schedule", cmd_schedule, "the slot table (basic/macro period, modules per slot)")
+    command("jitter", cmd_jitter, "timing of every dispatcher and module (percentiles)")
+    for name, func, help in (("upload", cmd_upload, "store a module set: a folder, its files, or a .tar.gz"),
+                             ("validate", cmd_validate, "upload a set and show irpd's validation report "
+                                                        "(exit 1 when not valid)")):
+        p = command(name, func, help)
+        p.add_argument("sources", nargs="+", metavar="DIR|FILE|ARCHIVE",
+                       help="a set folder (holding module.xml), the set's files, or a .tar.gz")
+        p.add_argument("--root", metavar="DIR", help="with FILEs: name them relative to DIR "
+                                                     "(default: their common folder)")
+        if name == "upload":
+            p.add_argument("--activate", action="store_true", help="activate it (hot reload) when valid")
+    command("sets", cmd_sets, "the uploaded sets, newest first")
+    command("set", cmd_set, "one uploaded set: files and validation").add_argument("id", metavar="ID")
+    command("activate", cmd_activate, "hot-reload irpd onto an uploaded set").add_argument("id", metavar="ID")
+    command("rollback", cmd_rollback, "activate the set that was active before the current one")
+    p = command("set-period", cmd_set_period, "change a module's period (hot reload)")
+    p.add_argument("module", metavar="MODULE")
+    p.add_argument("period", type=_duration_arg, metavar="PERIOD", help="1ms, 100us, 2.5ms, 500000ns or plain ns")
+    p = command("set-priority", cmd_set_priority, "change a module's priority (lowest value runs first)")
+    p.add_argument("module", metavar="MODULE")
+    p.add_argument("priority", type=_int_arg, metavar="N")
+    command("enable", cmd_enable, "enable a module (hot reload)").add_argument("module", metavar="MODULE")
+    command("disable", cmd_enable, "disable a module (hot reload)").add_argument("module", metavar="MODULE")
+    command("variables", cmd_variables, "every shared variable of the running layout")
+    command("read", cmd_read, "read shared variables").add_argument("paths", nargs="+", metavar="PATH",
+                                                                     help="e.g. knu.Robot.tick 'joint[1].y'")
+    p = command("write", cmd_write, "write a shared variable")
+    p.add_argument("path", metavar="PATH")
+    p.add_argument("value", type=_value_arg, metavar="VALUE", help="a number or true/false")
+    for name, func, help in (("watch", cmd_watch, "print the samples of variables as they come"),
+                             ("trace", cmd_trace, "record the samples of variables to a CSV file")):
+        p = command(name, func, help)
+        p.add_argument("paths", nargs="+", metavar="PATH")
+        p.add_argument("--decimation", type=_positive_int, default=1, metavar="N",
+                       help="every N-th basic period (default 1: every sample)")
+        if name == "watch":
+            stop = p.add_mutually_exclusive_group()
+            stop.add_argument("--count", type=_positive_int, metavar="N", help="stop after N samples")
+            stop.add_argument("--seconds", type=_seconds, metavar="S", help="stop after S seconds")
+        else:
+            p.add_argument("--seconds", type=_seconds, required=True, metavar="S", help="how long to record")
+            p.add_argument("--csv", required=True, metavar="FILE", help="where to write (- for stdout)")
+    p = command("events", cmd_events, "irpd's and the agent's events (swaps, faults, misses, uploads)")
+    p.add_argument("--since", type=_nonneg_int, default=0, metavar="SEQ", help="events from SEQ on")
+    p.add_argument("--limit", type=_positive_int, metavar="N")
+    p.add_argument("--follow", "-f", action="store_true", help="keep printing new events (Ctrl-C stops)")
+    p.add_argument("--interval", type=_seconds, default=1.0, metavar="S", help="with --follow: poll every S s")
+    command("audit", cmd_audit, "the audit log (admin)").add_argument("--limit", type=_positive_int, metavar="N")
+    return ap
+
+
+def _token(a) -> str | None:
+    """--token, else --token-file, else $INDUROP_TOKEN, else $INDUROP_TOKEN_FILE."""
+    if a.token:
+        return a.token
+    source = a.token_file or (None if os.environ.get("INDUROP_TOKEN") else os.environ.get("INDUROP_TOKEN_FILE"))
+    if source:
+        try:
+            token = Path(source).read_text().strip()
+        except OSError as e:
+            raise ValueError(f"cannot read the token file {source}: {e.strerror}; "
+                             f"give --token-file FILE or --token") from None
+        if not token:
+            raise ValueError(f"the token file {source} is empty; give --token-file FILE or --token")
+        return token
+    return os.environ.get("INDUROP_TOKEN") or None
+
+
+def _hint(e: ApiError, token: str | None) -> str:
+    """What to do about an error, when the server's message alone may not say it."""
+    if e.status == 0 and "CERTIFICATE_VERIFY_FAILED" in e.message:
+        return "give the CA that signed the agent's certificate with --ca FILE (--insecure on a test bench)"
+    if e.status == 0:
+        return "is indurop-agent running there? --url or $INDUROP_URL say where it is"
+    if e.status == 401 and not token:
+        return ("give a token: --token, --token-file FILE, $INDUROP_TOKEN or $INDUROP_TOKEN_FILE "
+                "(the agent's first start wrote an admin token to <data-dir>/admin-token)")
+    if e.status == 401:
+        return "this agent does not know the token given: check --token / --token-file / $INDUROP_TOKEN*"
+    if e.status == 403 and "WebSocket" not in e.message:
+        return "use a token with that role (an admin can make one: POST /api/v1/tokens)"
+    if e.status in (404, 405) and e.message.endswith(("Not Found", "Method Not Allowed")):
+        return "this agent does not offer that route: is it older than irpctl?"
+    if e.status == 503:
+        return "the agent is up but irpd does not answer: is irpd running?"
+    return ""
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = build_parser()
+    try:
+        a = ap.parse_args(argv)
+    except SystemExit as e:  # usage errors (2) and --help (0)
+        return int(e.code or 0)
+    url = a.url or os.environ.get("INDUROP_URL") or DEFAULT_URL
+    try:
+        token = _token(a)
+        client = Client(url, token, ca=a.ca, verify=not a.insecure, timeout=a.timeout)
+    except ValueError as e:
+        print(f"irpctl: {e}", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as e:
+        print(f"irpctl: --ca {a.ca}: {e.strerror or e}; give a PEM file of CA certificates", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        with client:
+            return a.func(client, a, Out(a.json))
+    except ApiError as e:
+        hint = _hint(e, token)
+        where = f"{e.status}: " if e.status else ""
+        print(f"irpctl: {where}{e.message}" + (f"\n  ({hint})" if hint else ""), file=sys.stderr)
+        return EXIT_UNREACHABLE if e.unreachable else EXIT_REFUSED
+    except BrokenPipeError:  # irpctl ... | head
+        return EXIT_OK
+    except (ValueError, OSError) as e:  # a bad source for upload, a --csv file that cannot be written
+        print(f"irpctl: {e}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+if __name__ == "__main__":
+    sys.exit(main())

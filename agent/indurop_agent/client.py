@@ -1,0 +1,477 @@
+"""client.py -- the Python client of the agent's API (/api/v1): REST calls and the sample stream.
+
+    from indurop_agent.client import Client
+    c = Client("http://127.0.0.1:8080", token=open("build/demo-data/admin-token").read().strip())
+    print(c.status()["cycles"], c.read("knu.Robot.tick"))
+    with c.watch(["knu.Robot.tick"], decimation=10) as samples:
+        for seq, t_ns, values in samples: ...
+
+Synchronous (httpx; `websockets` for the stream).  Every failure is an `ApiError(status, message)`
+whose message is the server's `detail`; status 0 means no answer at all (agent unreachable).
+The binary stream frame is decoded by `decode_frame` (format in docs/irpctl.md).
+"""
+from __future__ import annotations
+
+import json
+import os
+import ssl
+import struct
+import sys
+import threading
+import time
+from array import array
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, BinaryIO, Iterable, Iterator
+from urllib.parse import quote, urlencode, urlsplit, urlunsplit
+
+import httpx
+
+API = "/api/v1"
+
+# The stream's binary frame: a little-endian header, then `count` int64 timestamps (ns), then per
+# channel `count` float64 values (columns, channel order of the last {"channels": [...]} message).
+FRAME_MAGIC = b"IRPS"
+FRAME_VERSION = 1
+FRAME_SAMPLES = 1
+_HEADER = struct.Struct("<4sHHQIIQ")  # magic, version, kind, first seq, count, channels, dropped so far
+FRAME_HEADER_SIZE = _HEADER.size  # 32
+
+
+class ApiError(Exception):
+    """The API refused a request (status = the HTTP status, message = the server's `detail`), or
+    could not be reached at all (status 0)."""
+
+    def __init__(self, status: int, message: str):
+        super().__init__(f"{status}: {message}" if status else message)
+        self.status = status
+        self.message = message
+
+    @property
+    def unreachable(self) -> bool:
+        """No answer from the agent, or the agent cannot reach irpd (503)."""
+        return self.status in (0, 503)
+
+
+@dataclass
+class Frame:
+    """One decoded sample frame: sample i has sequence number first_seq + i."""
+
+    first_seq: int
+    t_ns: list[int]
+    columns: list[list[float]]  # one list per channel, each len(t_ns) long
+    dropped: int  # samples the server lost since the stream began
+
+    def samples(self) -> Iterator[tuple[int, int, list[float]]]:
+        for i, t in enumerate(self.t_ns):
+            yield self.first_seq + i, t, [column[i] for column in self.columns]
+
+
+def _little(typecode: str, data: memoryview) -> list:
+    values = array(typecode)
+    values.frombytes(data)
+    if sys.byteorder != "little":
+        values.byteswap()
+    return values.tolist()
+
+
+def decode_frame(data: bytes) -> Frame:
+    """Decodes one binary sample frame; raises ValueError naming what is wrong with it."""
+    view = memoryview(data)
+    if len(view) < FRAME_HEADER_SIZE:
+        raise ValueError(f"stream frame too short: {len(view)} bytes, the header alone is {FRAME_HEADER_SIZE}")
+    magic, version, kind, first_seq, count, channels, dropped = _HEADER.unpack_from(view)
+    if magic != FRAME_MAGIC:
+        raise ValueError(f"not an indurop stream frame: magic {magic!r}, expected {FRAME_MAGIC!r}")
+    if version != FRAME_VERSION:
+        raise ValueError(f"stream frame version {version}; this client reads version {FRAME_VERSION}")
+    if kind != FRAME_SAMPLES:
+        raise ValueError(f"stream frame kind {kind} is not a sample frame (kind {FRAME_SAMPLES})")
+    size = FRAME_HEADER_SIZE + 8 * count * (1 + channels)
+    if len(view) != size:
+        raise ValueError(f"stream frame of {len(view)} bytes; its header ({count} samples x {channels} channels) "
+                         f"announces {size}")
+    at = FRAME_HEADER_SIZE + 8 * count
+    t_ns = _little("q", view[FRAME_HEADER_SIZE:at])
+    columns = [_little("d", view[at + 8 * count * c:at + 8 * count * (c + 1)]) for c in range(channels)]
+    return Frame(first_seq, t_ns, columns, dropped)
+
+
+def encode_frame(first_seq: int, t_ns: list[int], columns: list[list[float]], dropped: int = 0) -> bytes:
+    """The inverse of decode_frame (tests, and servers written in Python)."""
+    head = _HEADER.pack(FRAME_MAGIC, FRAME_VERSION, FRAME_SAMPLES, first_seq, len(t_ns), len(columns), dropped)
+    return head + struct.pack(f"<{len(t_ns)}q", *t_ns) + b"".join(
+        struct.pack(f"<{len(t_ns)}d", *column) for column in columns)
+
+
+_FLOAT_TYPES = {"float", "double", "real", "lreal", "float32", "float64", "f32", "f64"}
+
+
+def _typed(value: float, type_name: str):
+    """Stream values travel as doubles; integers and bools are given back as such."""
+    t = (type_name or "").lower()
+    if t == "bool":
+        return bool(value)
+    if t in _FLOAT_TYPES or not float(value).is_integer():
+        return value
+    return int(value)
+
+
+def _detail(response: httpx.Response) -> str:
+    try:
+        body = response.json()
+    except ValueError:
+        body = None
+    detail = body.get("detail") if isinstance(body, dict) else None
+    if isinstance(detail, list):  # FastAPI's 422: one entry per field
+        return "; ".join(f"{'.'.join(str(p) for p in e.get('loc', []))}: {e.get('msg', e)}" for e in detail)
+    if detail is None:
+        return response.text.strip() or response.reason_phrase
+    return detail if isinstance(detail, str) else json.dumps(detail)
+
+
+def _archive_name(path: Path) -> bool:
+    return path.name.endswith((".tar.gz", ".tgz"))
+
+
+class Client:
+    """The agent's API.  url: "http://host:port" (with or without /api/v1); token: a bearer token;
+    ca: a CA file for https; verify=False accepts any certificate; timeout in seconds; transport:
+    an httpx transport (tests)."""
+
+    def __init__(self, url: str = "http://127.0.0.1:8080", token: str | None = None, *,
+                 ca: str | os.PathLike | None = None, verify: bool = True, timeout: float = 10.0,
+                 transport: httpx.BaseTransport | None = None):
+        url = url.rstrip("/")
+        if not url.endswith(API):
+            url += API
+        parts = urlsplit(url)
+        if parts.scheme not in ("http", "https") or not parts.netloc:
+            raise ValueError(f"{url!r} is not an agent's URL: give http://HOST:PORT or https://HOST:PORT")
+        self.url = url
+        self.token = token
+        self.timeout = timeout
+        if ca is not None:
+            self._ssl: ssl.SSLContext | bool = ssl.create_default_context(cafile=str(ca))
+        elif not verify:
+            self._ssl = False
+        else:
+            self._ssl = True
+        headers = {"Authorization": f"Bearer {token}"} if token else {}
+        self._http = httpx.Client(base_url=url, headers=headers, timeout=timeout, verify=self._ssl, transport=transport)
+
+    def close(self) -> None:
+        self._http.close()
+
+    def __enter__(self) -> "Client":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # -- plumbing ---------------------------------------------------------------------------------
+    def request(self, method: str, path: str, *, timeout: float | None = None, **kwargs) -> Any:
+        """One API call (path under /api/v1); the answer's JSON, or ApiError."""
+        try:
+            r = self._http.request(method, path, timeout=timeout or self.timeout, **kwargs)
+        except httpx.TimeoutException as e:
+            raise ApiError(0, f"the agent at {self.url} did not answer {method} {path} in time ({e})") from e
+        except httpx.HTTPError as e:
+            raise ApiError(0, f"cannot reach the agent at {self.url}: {e}") from e
+        if r.status_code >= 400:
+            raise ApiError(r.status_code, _detail(r))
+        if not r.content:
+            return None
+        try:
+            return r.json()
+        except ValueError as e:
+            raise ApiError(r.status_code, f"{method} {path}: the answer is not JSON") from e
+
+    def get(self, path: str, **params) -> Any:
+        return self.request("GET", path, params={k: v for k, v in params.items() if v is not None} or None)
+
+    # -- the running set --------------------------------------------------------------------------
+    def health(self) -> dict:
+        return self.get("/health")
+
+    def status(self) -> dict:
+        return self.get("/status")
+
+    def schedule(self) -> dict:
+        return self.get("/schedule")
+
+    def modules(self) -> list[dict]:
+        return self.get("/modules")
+
+    def module(self, name: str) -> dict:
+        return self.get(f"/modules/{quote(name, safe='')}")
+
+    def patch_module(self, name: str, period_ns: int | None = None, priority: int | None = None,
+                     enabled: bool | None = None) -> dict:
+        """Changes a module of the running set (hot reload); the swap report."""
+        body = {k: v for k, v in (("period_ns", period_ns), ("priority", priority), ("enabled", enabled))
+                if v is not None}
+        if not body:
+            raise ValueError("patch_module needs at least one of period_ns, priority, enabled")
+        return self.request("PATCH", f"/modules/{quote(name, safe='')}", json=body, timeout=max(self.timeout, 60))
+
+    def jitter(self) -> dict:
+        return self.get("/jitter")
+
+    # -- module sets ------------------------------------------------------------------------------
+    def upload(self, source: str | os.PathLike | Iterable[str | os.PathLike],
+               root: str | os.PathLike | None = None) -> dict:
+        """Uploads a module set: a directory (every file under it but hidden ones), a .tar.gz, or a
+        list of files (named relative to `root`, by default their common folder).  The answer has
+        the set's id, its files and the validation report."""
+        files = [Path(source)] if isinstance(source, (str, os.PathLike)) else [Path(p) for p in source]
+        if not files:
+            raise ValueError("nothing to upload: give a directory, a .tar.gz or files")
+        if len(files) == 1 and files[0].is_file() and _archive_name(files[0]):
+            with open(files[0], "rb") as f:
+                return self.request("POST", "/sets", files=[("archive", (files[0].name, f, "application/gzip"))],
+                                    timeout=max(self.timeout, 120))
+        named = set_files(files, root)
+        opened: list[BinaryIO] = []
+        try:
+            parts = []
+            for name, path in named:
+                f = open(path, "rb")
+                opened.append(f)
+                parts.append(("files", (name, f, "application/octet-stream")))
+            return self.request("POST", "/sets", files=parts, timeout=max(self.timeout, 120))
+        finally:
+            for f in opened:
+                f.close()
+
+    def sets(self) -> list[dict]:
+        return self.get("/sets")
+
+    def set(self, set_id: str) -> dict:
+        return self.get(f"/sets/{quote(set_id, safe='')}")
+
+    def active_set(self) -> dict:
+        return self.get("/sets/active")
+
+    def activate(self, set_id: str) -> dict:
+        """Hot-reloads irpd onto the set; the swap report."""
+        return self.request("POST", f"/sets/{quote(set_id, safe='')}/activate", timeout=max(self.timeout, 60))
+
+    def rollback(self) -> dict:
+        """Activates the set that was active before the current one; the swap report."""
+        return self.request("POST", "/sets/rollback", timeout=max(self.timeout, 60))
+
+    # -- variables, events, audit -----------------------------------------------------------------
+    def variables(self) -> dict:
+        return self.get("/variables")
+
+    def read(self, path: str) -> Any:
+        """The value of a shared variable, e.g. read("joint[1].y")."""
+        return self.get(f"/variables/{quote(path, safe='')}")["value"]
+
+    def write(self, path: str, value: float | int | bool) -> Any:
+        """Writes a shared variable; the value as irpd stored it."""
+        if not isinstance(value, (bool, int, float)):
+            raise ValueError(f"a variable takes a number or a bool, not {type(value).__name__}")
+        return self.request("PUT", f"/variables/{quote(path, safe='')}", json={"value": value})["value"]
+
+    def events(self, since: int = 0, limit: int | None = None, agent_since: int | None = None) -> dict:
+        """irpd's and the agent's events merged by time: {"events": [...], "next", "agent_next",
+        "dropped"}; ask again with since=next, agent_since=agent_next for the newer ones."""
+        return self.get("/events", since=since, agent_since=agent_since, limit=limit)
+
+    def audit(self, limit: int | None = None) -> list[dict]:
+        return self.get("/audit", limit=limit)
+
+    def create_token(self, name: str, role: str) -> str:
+        return self.request("POST", "/tokens", json={"name": name, "role": role})["token"]
+
+    # -- the stream -------------------------------------------------------------------------------
+    def watch(self, paths: Iterable[str], decimation: int = 1, seconds: float | None = None) -> "Stream":
+        """The samples of `paths` (every `decimation`-th basic period) as an iterator of
+        (seq, t_ns, {path: value}), ending after `seconds` if given; `.dropped` counts the
+        samples the server lost."""
+        return Stream(self, list(paths), decimation, seconds)
+
+    stream = watch
+
+    def _stream_url(self) -> str:
+        parts = urlsplit(self.url)
+        scheme = "wss" if parts.scheme == "https" else "ws"
+        query = urlencode({"token": self.token}) if self.token else ""
+        return urlunsplit((scheme, parts.netloc, parts.path + "/stream", query, ""))
+
+    def _stream_ssl(self) -> ssl.SSLContext | None:
+        if not self.url.startswith("https"):
+            return None
+        if isinstance(self._ssl, ssl.SSLContext):
+            return self._ssl
+        ctx = ssl.create_default_context()
+        if self._ssl is False:
+            ctx.check_hostname = False
+            ctx.verify_mode = ssl.CERT_NONE
+        return ctx
+
+
+def set_files(paths: list[Path], root: str | os.PathLike | None = None) -> list[tuple[str, Path]]:
+    """(name relative to the set root, file) for every file to upload: a directory gives every file
+    under it (hidden ones left out), files are named relative to `root` or their common folder."""
+    if len(paths) == 1 and paths[0].is_dir():
+        base = paths[0]
+        found = sorted(p for p in base.rglob("*") if p.is_file()
+                       and not any(part.startswith(".") for part in p.relative_to(base).parts))
+        if not found:
+            raise ValueError(f"{base} has no files to upload")
+        return [(p.relative_to(base).as_posix(), p) for p in found]
+    for p in paths:
+        if not p.is_file():
+            raise ValueError(f"{p}: no such file (give a set folder, a .tar.gz, or the set's files)")
+    absolute = [Path(os.path.abspath(p)) for p in paths]  # symbolic links are sent as the files they point to
+    base = Path(os.path.abspath(root)) if root is not None else Path(os.path.commonpath([p.parent for p in absolute]))
+    named = []
+    for p, a in zip(paths, absolute):
+        try:
+            named.append((a.relative_to(base).as_posix(), p))
+        except ValueError:
+            raise ValueError(f"{p} is not under the set root {base}") from None
+    return named
+
+
+class Stream:
+    """A WebSocket subscription to /api/v1/stream; iterate it for (seq, t_ns, {path: value}).
+    Use it in a `with` block, or call close()."""
+
+    def __init__(self, client: Client, paths: list[str], decimation: int = 1, seconds: float | None = None):
+        if not paths:
+            raise ValueError("watch needs at least one variable path")
+        if int(decimation) < 1:
+            raise ValueError(f"decimation {decimation}: give 1 (every sample) or more")
+        self.client = client
+        self.paths = paths
+        self.decimation = int(decimation)
+        self.channels: list[dict] = []  # the server's {"index", "path", "type"} per channel
+        self.dropped = 0  # samples the server lost since the stream began (its counter)
+        self.seconds = seconds
+        self._until: float | None = None
+        self._ws = None
+
+    def _connect(self):
+        from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidStatus
+        from websockets.sync.client import connect
+
+        url = self.client._stream_url()
+        try:
+            ws = connect(url, ssl=self.client._stream_ssl(), open_timeout=self.client.timeout,
+                         max_size=None, compression=None)
+        except InvalidStatus as e:
+            response = e.response
+            try:
+                message = json.loads(response.body or b"{}").get("detail")
+            except (ValueError, AttributeError):
+                message = (response.body or b"").decode(errors="replace").strip()
+            if not message and response.status_code == 403:  # what a server without the route answers too
+                message = "the agent refused the WebSocket: the token, or an agent without /api/v1/stream"
+            raise ApiError(response.status_code, f"stream: {message or response.reason_phrase}") from e
+        except (OSError, TimeoutError, InvalidHandshake) as e:
+            raise ApiError(0, f"cannot open the stream at {url.split('?')[0]}: {e}") from e
+        try:
+            ws.send(json.dumps({"subscribe": self.paths, "decimation": self.decimation}))
+        except ConnectionClosed as e:  # refused right after the handshake
+            _raise_for_close(e)
+        return ws
+
+    def __enter__(self) -> "Stream":
+        if self._ws is None:
+            self._ws = self._connect()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Closes the WebSocket.  websockets' sync close() waits until every message that came in is
+        read, so the messages still arriving are read (and dropped) while it closes."""
+        from websockets.exceptions import ConnectionClosed
+
+        ws, self._ws = self._ws, None
+        if ws is None:
+            return
+        closer = threading.Thread(target=ws.close, name="irp-stream-close", daemon=True)
+        closer.start()
+        while closer.is_alive():
+            try:
+                ws.recv(timeout=0.05)
+            except TimeoutError:
+                continue
+            except ConnectionClosed:
+                break
+        closer.join()
+
+    def __iter__(self) -> Iterator[tuple[int, int, dict[str, Any]]]:
+        for frame in self.frames():
+            names = [(c.get("path", f"#{i}"), c.get("type", "")) for i, c in enumerate(self.channels)]
+            if len(names) != len(frame.columns):
+                raise ApiError(502, f"stream: a frame has {len(frame.columns)} channels, "
+                                    f"the server announced {len(names)}")
+            for seq, t, values in frame.samples():
+                yield seq, t, {name: _typed(v, kind) for (name, kind), v in zip(names, values)}
+
+    def frames(self) -> Iterator[Frame]:
+        """The decoded sample frames as they come (columns, for plots and bulk export)."""
+        from websockets.exceptions import ConnectionClosed
+
+        if self._ws is None:
+            self._ws = self._connect()
+        if self.seconds is not None and self._until is None:
+            self._until = time.monotonic() + self.seconds
+        while True:
+            left = None if self._until is None else self._until - time.monotonic()
+            if left is not None and left <= 0:
+                return
+            try:
+                message = self._ws.recv(timeout=left)
+            except TimeoutError:
+                return
+            except ConnectionClosed as e:
+                _raise_for_close(e)
+                return
+            if isinstance(message, str):
+                self._control(message)
+                continue
+            if len(message) >= FRAME_HEADER_SIZE and struct.unpack_from("<H", message, 6)[0] != FRAME_SAMPLES:
+                continue  # a frame kind of a newer server: not ours to read
+            try:
+                frame = decode_frame(message)
+            except ValueError as e:
+                raise ApiError(502, f"stream: {e}") from e
+            self.dropped = frame.dropped
+            yield frame
+
+    def _control(self, text: str) -> None:
+        try:
+            message = json.loads(text)
+        except ValueError:
+            return
+        if not isinstance(message, dict):
+            return
+        if "error" in message:
+            raise ApiError(int(message.get("status", 400)), f"stream: {message['error']}")
+        if "channels" in message:
+            self.channels = sorted(message["channels"], key=lambda c: c.get("index", 0))
+        if "dropped" in message:
+            self.dropped = int(message["dropped"])
+
+
+def _raise_for_close(e) -> None:
+    """A normal close ends the stream; a refusal (1008, or 4000 + an HTTP status) is an ApiError."""
+    frame = getattr(e, "rcvd", None)
+    code = frame.code if frame is not None else 1006
+    reason = (frame.reason if frame is not None else "") or "the connection closed"
+    if code in (1000, 1001):
+        return
+    if code == 1008:
+        raise ApiError(403, f"stream: {reason}")
+    if 4400 <= code < 4600:
+        raise ApiError(code - 4000, f"stream: {reason}")
+    raise ApiError(0, f"stream: closed ({code}) {reason}")
+

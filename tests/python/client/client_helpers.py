@@ -1,0 +1,283 @@
+# client_helpers.py -- what the client and irpctl tests run against: a real irpd + agent on loopback
+# (Cell, as in tests/python/agent/test_agent.py), a WebSocket peer speaking the contract's stream
+# protocol (StreamServer), and the contract's v2 routes with canned answers (FakeAgent).
+from __future__ import annotations
+
+import contextlib
+import itertools
+import json
+import shutil
+import os
+import signal
+import socket
+import ssl
+import struct
+import subprocess
+import sys
+import threading
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+import time
+from pathlib import Path
+from urllib.parse import parse_qs, urlsplit
+
+import httpx
+import pytest
+
+ROOT = Path(__file__).resolve().parents[3]
+sys.path.insert(0, str(ROOT / "agent"))  # the package, also when it is not pip-installed
+
+BUILD = Path(os.environ.get("INDUROP_BUILD", ROOT / "build"))
+IRPD = BUILD / "bin" / "irpd"
+FIG1_DIR = BUILD / "sets" / "paper-fig1"
+_instances = itertools.count()
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def stop(p: subprocess.Popen) -> None:
+    """Stops a process this test started, by its pid."""
+    if p.poll() is None:
+        p.send_signal(signal.SIGTERM)
+        try:
+            p.wait(10)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait()
+
+
+class Cell:
+    """irpd on the paper's Figure 1 set and an agent in front of it, both on this machine."""
+
+    def __init__(self, tmp: Path):
+        if not IRPD.exists():
+            pytest.skip(f"irpd is not built ({IRPD}); bash packaging/build.sh")
+        self.tmp = tmp
+        self.sock = tmp / "irpd.sock"
+        self.data = tmp / "data"
+        self.instance = f"client-test-{os.getpid()}-{next(_instances)}"
+        self.irpd = self.start_irpd()
+        port = free_port()
+        self.agent = subprocess.Popen([sys.executable, "-m", "indurop_agent", "--host", "127.0.0.1", "--port",
+                                       str(port), "--data-dir", str(self.data), "--irpd-socket", str(self.sock)],
+                                      cwd=ROOT / "agent", stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        self.url = f"http://127.0.0.1:{port}"
+        deadline = time.monotonic() + 20
+        while True:
+            try:
+                if httpx.get(f"{self.url}/api/v1/health", timeout=1).status_code == 200:
+                    break
+            except httpx.HTTPError:
+                pass
+            if self.agent.poll() is not None:
+                self.close()
+                pytest.fail(f"the agent did not start: {self.agent.stdout.read()}")
+            assert time.monotonic() < deadline, "the agent did not come up"
+            time.sleep(0.05)
+        self.token_file = self.data / "admin-token"
+        self.token = self.token_file.read_text().strip()
+
+    def start_irpd(self) -> subprocess.Popen:
+        p = subprocess.Popen([str(IRPD), "--config", str(FIG1_DIR / "module.xml"), "--control-socket", str(self.sock),
+                              "--instance", self.instance],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 20
+        while not self.sock.exists():
+            assert p.poll() is None, p.stderr.read()
+            assert time.monotonic() < deadline, "irpd did not open its control socket"
+            time.sleep(0.02)
+        return p
+
+    def args(self, *argv: str) -> list[str]:
+        return ["--url", self.url, "--token-file", str(self.token_file), *argv]
+
+    def close(self) -> None:
+        for p in (getattr(self, "agent", None), self.irpd):
+            if p is not None:
+                stop(p)
+
+
+# -- a stream server that speaks the contract (WebSocket /api/v1/stream) ------------------------------
+GOOD_TOKEN = "good-token"
+T0 = 1_000_000_000  # the first sample's time, ns
+CHANNELS = {"knu.Robot.tick": "uint32_t", "joint[1].y": "double", "io.ready": "bool"}
+
+
+def sample_frame(first_seq: int, t_ns: list[int], columns: list[list[float]], dropped: int, kind: int = 1) -> bytes:
+    """A binary frame built independently of the client: header, timestamps, then column by column."""
+    n = len(t_ns)
+    return (struct.pack("<4sHHQIIQ", b"IRPS", 1, kind, first_seq, n, len(columns), dropped)
+            + struct.pack(f"<{n}q", *t_ns) + b"".join(struct.pack(f"<{n}d", *c) for c in columns))
+
+
+class StreamServer:
+    """Answers ?token=good-token; refuses other tokens at the handshake (403) or, for "close-me",
+    with a 1008 close.  After the subscription it sends the channels, three frames of four samples
+    (seq 100..111, t = T0 + (seq - 100) * 100 us * decimation, tick = 10 * seq, joint[1].y = seq / 4,
+    io.ready = seq odd; dropped 0, 3, 9), a frame of an unknown kind, and closes normally; a path
+    it does not know gets {"error": ...}.  Path "idle" gets channels only."""
+
+    def __init__(self, tls: ssl.SSLContext | None = None):
+        from websockets.sync.server import serve
+
+        self.port = free_port()
+        self.subscriptions: list[dict] = []
+        self.server = serve(self.handle, "127.0.0.1", self.port, process_request=self.check, ssl=tls)
+        self.thread = threading.Thread(target=self.server.serve_forever, daemon=True)
+        self.thread.start()
+        self.url = f"{'https' if tls else 'http'}://127.0.0.1:{self.port}"
+
+    @staticmethod
+    def token(path: str) -> str:
+        return parse_qs(urlsplit(path).query).get("token", [""])[0]
+
+    def check(self, connection, request):
+        if urlsplit(request.path).path != "/api/v1/stream":
+            return connection.respond(404, '{"detail": "Not Found"}')
+        if self.token(request.path) not in (GOOD_TOKEN, "close-me"):
+            return connection.respond(403, '{"detail": "unknown token"}')
+        return None
+
+    def handle(self, ws):
+        if self.token(ws.request.path) == "close-me":
+            ws.close(1008, "unknown token")
+            return
+        sub = json.loads(ws.recv())
+        self.subscriptions.append(sub)
+        paths = sub["subscribe"]
+        if paths == ["idle"]:
+            ws.send(json.dumps({"channels": [{"index": 0, "path": "idle", "type": "double"}]}))
+            with contextlib.suppress(Exception):
+                ws.recv()  # until the client goes
+            return
+        unknown = [p for p in paths if p not in CHANNELS]
+        if unknown:
+            ws.send(json.dumps({"error": f"no variable '{unknown[0]}'; GET /api/v1/variables lists them"}))
+            ws.close()
+            return
+        ws.send(json.dumps({"channels": [{"index": i, "path": p, "type": CHANNELS[p]} for i, p in enumerate(paths)]}))
+        step = sub.get("decimation", 1)
+        dropped = 0
+        for f in range(3):
+            seqs = [100 + 4 * f + i for i in range(4)]
+            values = {"knu.Robot.tick": [10.0 * s for s in seqs], "joint[1].y": [s / 4 for s in seqs],
+                      "io.ready": [float(s % 2) for s in seqs]}
+            dropped += 3 * f
+            ws.send(sample_frame(seqs[0], [T0 + 100_000 * step * (s - 100) for s in seqs],
+                                 [values[p] for p in paths], dropped))
+        ws.send(sample_frame(0, [], [], dropped, kind=2))
+        ws.close()
+
+    def close(self):
+        self.server.shutdown()
+        self.thread.join(5)
+
+
+# -- an agent of the contract's v2 routes on an httpx mock transport (canned answers) ------------------
+SWAP = {"set": "/var/lib/indurop/sets/0123456789abcdef/module.xml", "set_id": "0123456789abcdef", "generation": 3,
+        "swap_cycle": 123456, "swap_at_ns": 987654321000, "kept": ["cntr1", "cntr2", "cntr3"], "started": ["cntr4"],
+        "stopped": [], "missed_periods": 0, "request_to_swap_ns": 12_300_000, "total_ns": 45_600_000}
+WHO = {"id": "a1b2c3d4e5f6", "name": "admin", "role": "admin"}
+SCHEDULE = {"basic_period_ns": 100000, "macro_period_ns": 500000, "slots": [{"index": i} for i in range(5)]}
+
+
+class FakeAgent:
+    """Answers the v2 routes as notes/contract-v2 and the agent's models describe them; records
+    every request.  A set whose module.xml holds "<period>12<" is not valid."""
+
+    def __init__(self):
+        self.requests: list[httpx.Request] = []
+
+    def __call__(self, request: httpx.Request) -> httpx.Response:
+        request.read()
+        self.requests.append(request)
+        path, method = request.url.path.removeprefix("/api/v1"), request.method
+        if (method, path) == ("POST", "/sets"):
+            bad = b"<period>12<" in request.content
+            files = [{"path": "module.xml", "sha256": "ab" * 32, "size": 1834, "kind": "module_xml"},
+                     {"path": "lib/cntr1.so", "sha256": "cd" * 32, "size": 16_400, "kind": "thread_module"}]
+            error = "module.xml:13: module 'cntr1': <period>: 12 ns is below the minimum basic period (10000 ns)"
+            validation = ({"valid": False, "errors": [error], "warnings": [], "schedule": None} if bad
+                          else {"valid": True, "errors": [], "warnings": [], "schedule": SCHEDULE})
+            return httpx.Response(201, json={"id": "0123456789abcdef", "created": "2026-11-22T10:00:00Z", "by": WHO,
+                                             "files": files, "validation": validation, "active": False})
+        if (method, path) == ("GET", "/sets"):
+            return httpx.Response(200, json=[
+                {"id": "0123456789abcdef", "created": "2026-11-22T10:00:00Z", "by": WHO, "files": 9, "valid": True,
+                 "active": True},
+                {"id": "fedcba9876543210", "created": "2026-11-21T09:00:00Z", "by": None, "files": 8, "valid": None,
+                 "active": False}])
+        if method == "POST" and path in ("/sets/0123456789abcdef/activate", "/sets/rollback"):
+            return httpx.Response(200, json=SWAP)
+        if method == "POST" and path.endswith("/activate"):
+            return httpx.Response(404, json={"detail": "no set 'nope'; GET /api/v1/sets lists them"})
+        if method == "PATCH" and path.startswith("/modules/"):
+            body = json.loads(request.content)
+            if body.get("period_ns", 10**9) < 10_000:
+                return httpx.Response(409, json={"detail": "period_ns: module 'cntr1': period 10 ns is below the "
+                                                           "minimum basic period (10000 ns); nothing was changed"})
+            return httpx.Response(200, json={**SWAP, "reports": [SWAP]})
+        if method == "PUT" and path.startswith("/variables/"):
+            value = json.loads(request.content)["value"]
+            return httpx.Response(200, json={"path": path.split("/", 2)[2], "value": value})
+        if (method, path) == ("GET", "/events"):
+            return httpx.Response(200, json={"events": [
+                {"source": "irpd", "seq": 4, "time": "2026-11-22T10:00:01Z", "time_ns": 1, "kind": "swap",
+                 "module": None, "message": "generation 3"},
+                {"source": "agent", "seq": 7, "time": "2026-11-22T10:00:02Z", "time_ns": 2, "kind": "upload",
+                 "module": None, "message": "set 0123456789abcdef uploaded by admin"}],
+                "next": 5, "agent_next": 8, "dropped": 0, "irpd": "ok"})
+        if (method, path) == ("GET", "/audit"):
+            return httpx.Response(200, json=[
+                {"time": "2026-11-22T10:00:02Z", "who": WHO, "client": "127.0.0.1", "action": "upload",
+                 "target": "0123456789abcdef", "result": "ok"},
+                {"time": "2026-11-22T10:00:03Z", "who": WHO, "client": "127.0.0.1", "action": "activate",
+                 "target": "nope", "result": "error", "status": 404, "detail": "no set 'nope'"}])
+        return httpx.Response(404, json={"detail": "Not Found"})
+
+
+# -- TLS: a certificate for 127.0.0.1 and an https server with one route --------------------------------
+def tls_context(tmp: Path) -> tuple[ssl.SSLContext, Path]:
+    """A server context with a fresh self-signed certificate for 127.0.0.1, and the certificate's
+    file (the CA a client needs).  Skips without the openssl command."""
+    if not shutil.which("openssl"):
+        pytest.skip("the openssl command is not installed (apt-get install openssl)")
+    cert, key = tmp / "cert.pem", tmp / "key.pem"
+    subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", str(key), "-out", str(cert),
+                    "-days", "1", "-subj", "/CN=127.0.0.1", "-addext", "subjectAltName=IP:127.0.0.1"],
+                   check=True, capture_output=True)
+    ctx = ssl.SSLContext(ssl.PROTOCOL_TLS_SERVER)
+    ctx.load_cert_chain(cert, key)
+    return ctx, cert
+
+
+class HttpsStatus:
+    """GET /api/v1/status over https answers {"running": true}."""
+
+    def __init__(self, tls: ssl.SSLContext):
+        class Handler(BaseHTTPRequestHandler):
+            def do_GET(self):
+                found = self.path == "/api/v1/status"
+                body = json.dumps({"running": True} if found else {"detail": "Not Found"}).encode()
+                self.send_response(200 if found else 404)
+                self.send_header("Content-Type", "application/json")
+                self.send_header("Content-Length", str(len(body)))
+                self.end_headers()
+                self.wfile.write(body)
+
+            def log_message(self, *args):
+                pass
+
+        self.server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+        self.server.socket = tls.wrap_socket(self.server.socket, server_side=True)
+        self.thread = threading.Thread(target=self.server.serve_forever, daemon=True)
+        self.thread.start()
+        self.url = f"https://127.0.0.1:{self.server.server_address[1]}"
+
+    def close(self):
+        self.server.shutdown()
+        self.server.server_close()
+        self.thread.join(5)
