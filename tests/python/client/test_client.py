@@ -817,8 +817,11 @@ def test_set_period_priority_enable_disable(irpctl, fresh_cell):
     report = json_of(irpctl, fresh_cell, "set-priority", "cntr1", "5")
     assert report["generation"] >= 2
     assert [m["priority"] for m in json_of(irpctl, fresh_cell, "schedule")["modules"] if m["name"] == "cntr1"] == [5]
-    assert "cntr4" in json_of(irpctl, fresh_cell, "disable", "cntr4")["stopped"]
-    assert "cntr4" in json_of(irpctl, fresh_cell, "enable", "cntr4")["started"]
+    # disable takes a module out of dispatch without stopping it: the same instance comes back
+    assert "cntr4" in json_of(irpctl, fresh_cell, "disable", "cntr4")["kept"]
+    assert json_of(irpctl, fresh_cell, "module", "cntr4")["enabled"] is False
+    assert "cntr4" in json_of(irpctl, fresh_cell, "enable", "cntr4")["kept"]
+    assert json_of(irpctl, fresh_cell, "module", "cntr4")["enabled"] is True
     code, _, err = irpctl(*fresh_cell.args("set-period", "cntr1", "10ns"))
     assert code == 1 and "409" in err  # irpd refuses a period below the minimum basic period
     code, _, err = irpctl(*fresh_cell.args("set-period", "nobody", "1ms"))
