@@ -1,0 +1,46 @@
+"""test_schemathesis.py -- schemathesis generates requests from the agent's own OpenAPI spec
+(every route, every parameter, valid and invalid bodies) and sends them, with an admin token, to
+a real agent in front of a real irpd: no answer may be a 5xx.  The stream (WebSocket) is not in
+the spec; tests/python/agent/test_stream.py covers it."""
+from __future__ import annotations
+
+import pytest
+import schemathesis
+from hypothesis import HealthCheck, settings
+from schemathesis.checks import not_a_server_error
+
+from agent_helpers import free_port, start_agent, start_irpd, stop
+
+schemathesis.experimental.OPEN_API_3_1.enable()  # FastAPI writes OpenAPI 3.1
+
+# Enough cases per operation to hit its bad inputs, few enough for CI's time.
+EXAMPLES = 50
+
+
+@pytest.fixture(scope="module")
+def live(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("schemathesis")
+    sock = tmp / "irpd.sock"
+    irpd = start_irpd(sock, instance="schemathesis")
+    port = free_port()
+    data = tmp / "data"
+    agent = start_agent(port, data, sock)
+    token = (data / "admin-token").read_text().strip()
+    yield {"url": f"http://127.0.0.1:{port}", "headers": {"Authorization": f"Bearer {token}"}}
+    stop(agent)
+    stop(irpd)
+
+
+@pytest.fixture(scope="module")
+def api_schema(live):
+    return schemathesis.from_uri(f"{live['url']}/api/v1/openapi.json", base_url=live["url"])
+
+
+schema = schemathesis.from_pytest_fixture("api_schema")
+
+
+@schema.parametrize()
+@settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=list(HealthCheck))
+def test_no_generated_request_gets_a_server_error(case, live):
+    response = case.call(headers=live["headers"], timeout=60)
+    case.validate_response(response, checks=(not_a_server_error,))
