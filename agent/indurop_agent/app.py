@@ -4,7 +4,7 @@ from __future__ import annotations
 from fastapi import FastAPI
 
 from . import __version__
-from .api.routes import health, jitter, status, tokens, variables
+from .api.routes import health, jitter, status, stream, tokens, variables
 from .auth import TokenStore
 from .config import Settings
 from .irpd_client import IrpdClient
@@ -19,6 +19,6 @@ def create_app(settings: Settings) -> FastAPI:
     app.state.settings = settings
     app.state.tokens = TokenStore(settings.data_dir)
     app.state.irpd = IrpdClient(settings.irpd_socket)
-    for module in (health, status, jitter, tokens, variables):
+    for module in (health, status, jitter, tokens, variables, stream):
         app.include_router(module.router, prefix=API)
     return app

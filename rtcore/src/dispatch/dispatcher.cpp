@@ -46,6 +46,7 @@ Dispatcher::Dispatcher(const config::SetSpec &set, const schedule::Schedule &sch
         plans_.push_back(std::move(plan));
     };
     add(config::kMainExecutor, options_.rt_priority, options_.cpu);
+    plans_.front()->options.trace = options_.trace;
     for (const config::ExecutorSpec &e : set.executors)
         add(e.name, e.rt_priority ? e.rt_priority : std::max(1, options_.rt_priority - 1), e.cpu >= 0 ? e.cpu : options_.cpu);
 

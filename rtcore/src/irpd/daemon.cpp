@@ -1,8 +1,8 @@
 // daemon.cpp -- what irpd does, in order:
 //   1. parse module.xml and build the slot table (--print-schedule stops here);
-//   2. create the stats block in shared memory; load, initialize and start the modules; create
-//      the control segment of the process modules with the table of shared functions they may
-//      call; start the processes;
+//   2. create the stats block, the shared variables and the trace rings in shared memory; load,
+//      initialize and start the modules; create the control segment of the process modules with
+//      the table of shared functions they may call; start the processes;
 //   3. lock memory and start the dispatcher threads (SCHED_FIFO, pinned);
 //   4. the main thread becomes the non-RT side: it drains module output (irp::printf) and waits
 //      for SIGINT/SIGTERM or the end of --duration;
@@ -22,6 +22,7 @@
 #include "sdk/runtime.hpp"
 #include "stats/stats_segment.hpp"
 #include "stats/summary.hpp"
+#include "trace/trace_rings.hpp"
 #include "variables/layout.hpp"
 #include "variables/variable_segment.hpp"
 
@@ -30,6 +31,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cstdio>
 #include <ctime>
 #include <fstream>
@@ -109,12 +111,21 @@ Status startProcesses(hosts::ProcessSupervisor &supervisor, const std::vector<co
     return supervisor.waitReady(5'000'000'000);
 }
 
+// What the control thread may use once the main thread created it (null before).
+struct Published {
+    std::atomic<const variables::VariableSegment *> vars{nullptr};
+    std::atomic<trace::TraceRings *> trace{nullptr};
+};
+
 // The control protocol's commands (docs/control-protocol.md).  Runs on the control thread: it
-// reads the set and schedule (never changed while running) and the shared-memory stats block.
+// reads the set and schedule (never changed while running) and the shared-memory stats block,
+// and configures the trace rings (docs/trace-and-stream.md).
 control::Handler controlHandler(const config::SetSpec &set, const schedule::Schedule &schedule,
-                                const stats::StatsSegment &segment, std::size_t executors, const Options &options) {
+                                const stats::StatsSegment &segment, std::size_t executors, const Options &options,
+                                const Published &published) {
     using json = nlohmann::ordered_json;
-    return [&set, &schedule, &segment, executors, &options](const std::string &cmd, const nlohmann::json &) -> Result<json> {
+    return [&set, &schedule, &segment, executors, &options, &published](const std::string &cmd,
+                                                                        const nlohmann::json &request) -> Result<json> {
         const stats::Header *h = segment.header();
         if (cmd == "status") {
             const stats::TimingRecord &d = segment.record(0);
@@ -135,7 +146,8 @@ control::Handler controlHandler(const config::SetSpec &set, const schedule::Sche
                         {"shared_memory",
                          {{"stats", segment.name()},
                           {"variables", set.layout.empty() ? json(nullptr)
-                                                           : json(variables::VariableSegment::shmName(options.instance))}}}};
+                                                           : json(variables::VariableSegment::shmName(options.instance))},
+                          {"trace", trace::TraceRings::shmName(options.instance)}}}};
         }
         if (cmd == "schedule") return schedule::toJson(schedule, set);
         if (cmd == "modules") {
@@ -158,11 +170,16 @@ control::Handler controlHandler(const config::SetSpec &set, const schedule::Sche
             }
             return json{{"cycles", h->cycles.load()}, {"executors", executors_json}, {"modules", modules}};
         }
-        for (const char *later : {"load", "set_period", "set_priority", "enable", "disable", "trace"})
+        if (cmd == "trace") {
+            trace::TraceRings *rings = published.trace.load();
+            if (!rings) return Error{"irpd is starting: the trace rings do not exist yet"};
+            return trace::handleTraceCommand(*rings, published.vars.load(), request);
+        }
+        for (const char *later : {"load", "set_period", "set_priority", "enable", "disable"})
             if (cmd == later)
                 return Error{"command '" + cmd + "' is not available in protocol version " +
                              std::to_string(control::kProtocolVersion) + " of this irpd"};
-        return Error{"unknown command '" + cmd + "'; the commands are status, schedule, modules, stats"};
+        return Error{"unknown command '" + cmd + "'; the commands are status, schedule, modules, stats, trace"};
     };
 }
 
@@ -195,18 +212,23 @@ int run(const Options &options) {
     header->macro_ns = schedule->macro_ns;
     std::snprintf(header->set_path, sizeof header->set_path, "%s", set->xml_path.c_str());
 
+    // Created below, published to the control thread once they exist; declared before the
+    // control server, so that they outlive it.
+    std::optional<variables::VariableSegment> vars;
+    std::optional<trace::TraceRings> trace_rings;
+    Published published;
+
     // The control socket, before anything starts: a path that cannot be served refuses the run.
     std::unique_ptr<control::ControlServer> control_server;
     if (!options.control_socket.empty()) {
         auto opened = control::ControlServer::open(options.control_socket,
-                                                   controlHandler(*set, *schedule, *segment, executors, options));
+                                                   controlHandler(*set, *schedule, *segment, executors, options, published));
         if (!opened) return std::cerr << "irpd: error: " << opened.error().message << std::endl, kExitFailure;
         control_server = std::move(*opened);
         say("control socket " + control_server->path());
     }
 
     // Shared variables: the segment exists before any module is loaded.
-    std::optional<variables::VariableSegment> vars;
     if (!set->layout.empty()) {
         auto layout = variables::readLayout(set->layout);
         if (!layout) return refuse(layout.error().message);
@@ -215,6 +237,17 @@ int run(const Options &options) {
         vars = std::move(*segment);
         say("shared variables: " + std::to_string(layout->variables) + " variables, " +
             std::to_string(layout->data_size) + " bytes, layout " + vars->hash() + ", in /dev/shm" + vars->name());
+        published.vars.store(&*vars);
+    }
+
+    // Trace rings: sampled by the main dispatcher after every slot; channels set by `trace`.
+    // Created before memory is locked, every page touched: the RT thread never faults on them.
+    {
+        auto rings = trace::TraceRings::create(options.instance);
+        if (!rings) return std::cerr << "irpd: error: " << rings.error().message << std::endl, kExitFailure;
+        trace_rings.emplace(std::move(*rings));
+        trace_rings->setBasicPeriod(schedule->basic_ns);
+        published.trace.store(&*trace_rings);
     }
 
     auto modules = hosts::ModuleSet::load(*set, vars ? vars->hash() : nullptr);
@@ -283,7 +316,9 @@ int run(const Options &options) {
         dma_latency_fd = osal::holdCpuDmaLatencyZero();
         if (dma_latency_fd < 0) say("note: /dev/cpu_dma_latency not held at 0; CPU idle states may add wake-up latency");
     }
-    dispatch::Dispatcher dispatcher(*set, *schedule, std::move(bindings), *segment, options.dispatcher,
+    dispatch::DispatcherOptions dispatcher_options = options.dispatcher;
+    dispatcher_options.trace = &*trace_rings;
+    dispatch::Dispatcher dispatcher(*set, *schedule, std::move(bindings), *segment, dispatcher_options,
                                     osal::monotonicClock());
     const int64_t duration_ns = static_cast<int64_t>(options.duration_s * 1e9);
     if (Status s = dispatcher.start(duration_ns); !s) {
