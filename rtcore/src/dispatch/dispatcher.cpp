@@ -93,7 +93,8 @@ Dispatcher::Dispatcher(const config::SetSpec &set, const Tables &tables, stats::
     : segment_(segment), options_(options), clock_(clock) {
     if (options_.cpu < 0) options_.cpu = osal::lastAllowedCpu();
     std::vector<ExecutorOptions> executors;
-    executors.push_back({config::kMainExecutor, options_.rt_priority, options_.cpu, options_.policy, options_.max_catchup_ns});
+    executors.push_back({config::kMainExecutor, options_.rt_priority, options_.cpu, options_.policy, options_.max_catchup_ns,
+                         options_.trace});
     for (const config::ExecutorSpec &e : set.executors)
         executors.push_back({e.name, e.rt_priority ? e.rt_priority : std::max(1, options_.rt_priority - 1),
                              e.cpu >= 0 ? e.cpu : options_.cpu, options_.policy, options_.max_catchup_ns});

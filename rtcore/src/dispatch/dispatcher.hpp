@@ -24,6 +24,7 @@ struct DispatcherOptions {
     bool realtime = true;  // false: do not even try SCHED_FIFO (development only)
     OverrunPolicy policy = OverrunPolicy::CatchUp;
     int64_t max_catchup_ns = 100'000'000;
+    trace::TraceRings *trace = nullptr;  // sampled by the main executor after every slot
 };
 
 // A module of the set as the dispatcher runs it, and its stats record.  A thread module has its

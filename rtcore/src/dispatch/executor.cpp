@@ -5,6 +5,7 @@
 #include "dispatch/function_calls.hpp"
 #include "hosts/control_segment.hpp"
 #include "sdk/runtime.hpp"
+#include "trace/trace_rings.hpp"
 
 #include <exception>
 
@@ -181,7 +182,8 @@ void Executor::skip(uint64_t from, uint64_t count) {
  *      order, run() where it returned true; then each sporadic process that finished its last
  *      release is released to check its own condition (not awaited; its completion is checked
  *      against its deadline in the following basic periods);
- *   5. account the slot's work; work longer than the basic period is a dispatcher overrun, and
+ *   5. sample the traced variables into the trace rings (main executor only, trace/);
+ *   6. account the slot's work; work longer than the basic period is a dispatcher overrun, and
  *      the next slot then starts at once (no sleep) - the grid itself never moves.
  * Before step 1, a table offered by a hot reload (reload/) takes over if this slot is due at or
  * after the offered switch time: a pointer exchange and the kept tasks' state carried over.
@@ -284,6 +286,10 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             stats::bump(r.runs);
         }
         if (!table_->events.empty()) t = handleEvents(cycle, due, t);
+        if (options_.trace) {
+            options_.trace->sample(due);  // the traced variables, one row per basic period
+            t = clock_.now();
+        }
         previous_end = t;
         self_->exec.record(static_cast<uint64_t>(t - woke));
         if (t - woke > basic) stats::bump(self_->overruns);  // the work itself outgrew the period

@@ -18,6 +18,10 @@
 #include <string>
 #include <vector>
 
+namespace irp::trace {
+class TraceRings;
+}
+
 namespace irp::dispatch {
 
 // What the dispatcher does when it wakes up a whole basic period late (or more), e.g. after the
@@ -92,6 +96,7 @@ struct ExecutorOptions {
     int cpu = -1;  // -1: do not pin
     OverrunPolicy policy = OverrunPolicy::CatchUp;
     int64_t max_catchup_ns = 100'000'000;
+    trace::TraceRings *trace = nullptr;  // sampled after every slot's work (the main executor's)
 };
 
 class Executor {

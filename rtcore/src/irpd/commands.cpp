@@ -72,7 +72,8 @@ control::Handler commandHandler(const CommandContext &c) {
                         {"events", c.events->last()},
                         {"shared_memory",
                          {{"stats", c.stats->name()},
-                          {"variables", c.variables_shm.empty() ? json(nullptr) : json(c.variables_shm)}}}};
+                          {"variables", c.variables_shm.empty() ? json(nullptr) : json(c.variables_shm)},
+                          {"trace", c.trace->describe().value("shm", "")}}}};
         }
         if (cmd == "schedule") return schedule::toJson(g->schedule, g->set);
         if (cmd == "modules") {
@@ -145,7 +146,7 @@ control::Handler commandHandler(const CommandContext &c) {
             }
             return onMain([r = c.reloader, change] { return r->change(change); });
         }
-        if (cmd == "trace") return Error{"command 'trace' is not available in this irpd yet"};
+        if (cmd == "trace") return trace::handleTraceCommand(*c.trace, c.vars, request);
         return Error{"unknown command '" + cmd +
                      "'; the commands are status, schedule, modules, stats, events, check, load, set_period, "
                      "set_priority, enable, disable, write, trace"};

@@ -2,7 +2,7 @@
 // thread.  Reads (status, schedule, modules, stats, events, check) answer from the running
 // generation and the shared-memory stats block; changes (load, set_period, set_priority,
 // enable, disable) run on the main thread through the MainQueue; write goes through libindurop's
-// locked path access; trace configures the trace rings.
+// locked path access; trace configures the trace rings (docs/trace-and-stream.md).
 #pragma once
 
 #include "control/control_server.hpp"
@@ -11,6 +11,8 @@
 #include "irpd/options.hpp"
 #include "reload/reloader.hpp"
 #include "stats/stats_segment.hpp"
+#include "trace/trace_rings.hpp"
+#include "variables/variable_segment.hpp"
 
 #include <string>
 
@@ -24,6 +26,8 @@ struct CommandContext {
     const Options *options = nullptr;
     std::string variables_shm;  // "" = none
     std::string layout_text;    // the running layout.json, for write's type checks
+    trace::TraceRings *trace = nullptr;
+    const variables::VariableSegment *vars = nullptr;  // null: no shared variables
 };
 
 control::Handler commandHandler(const CommandContext &context);

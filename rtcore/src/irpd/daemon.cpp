@@ -1,6 +1,6 @@
 // daemon.cpp -- what irpd does, in order:
 //   1. parse module.xml and build the slot table (--print-schedule stops here);
-//   2. create the stats block, the shared-variable segment and the control socket; prepare the
+//   2. create the stats block, the shared-variable segment, the trace rings; prepare the
 //      first generation of the set (reload/reloader.hpp): load, initialize and start the thread
 //      modules, create the control segment with the table of shared functions, start the
 //      processes;
@@ -28,6 +28,7 @@
 #include "sdk/runtime.hpp"
 #include "stats/stats_segment.hpp"
 #include "stats/summary.hpp"
+#include "trace/trace_rings.hpp"
 #include "variables/layout.hpp"
 #include "variables/variable_segment.hpp"
 
@@ -190,6 +191,12 @@ int run(const Options &options) {
         say("shared variables: " + std::to_string(layout->variables) + " variables, " +
             std::to_string(layout->data_size) + " bytes, layout " + vars->hash() + ", in /dev/shm" + vars->name());
     }
+    // Trace rings: sampled by the main dispatcher after every slot; channels set by `trace`.
+    // Created before memory is locked, every page touched: the RT thread never faults on them.
+    auto trace_rings = trace::TraceRings::create(options.instance);
+    if (!trace_rings) return std::cerr << "irpd: error: " << trace_rings.error().message << std::endl, kExitFailure;
+    trace_rings->setBasicPeriod(schedule->basic_ns);
+
     auto cache = openModuleCache(options);
     if (!cache) return std::cerr << "irpd: error: " << cache.error().message << std::endl, kExitFailure;
 
@@ -208,6 +215,7 @@ int run(const Options &options) {
     services.events = &events;
     services.limits = options.limits;
     services.dispatcher = options.dispatcher;
+    services.trace = &*trace_rings;
     if (services.dispatcher.cpu < 0) services.dispatcher.cpu = osal::lastAllowedCpu();
     reload::Reloader reloader(services);
 
@@ -246,6 +254,8 @@ int run(const Options &options) {
         context.options = &options;
         context.variables_shm = vars ? vars->name() : "";
         context.layout_text = layout_text;
+        context.trace = &*trace_rings;
+        context.vars = vars ? &*vars : nullptr;
         auto opened = control::ControlServer::open(options.control_socket, commandHandler(context));
         if (!opened) {
             supervisor.stopAll(1'000'000'000);
@@ -263,7 +273,9 @@ int run(const Options &options) {
         dma_latency_fd = osal::holdCpuDmaLatencyZero();
         if (dma_latency_fd < 0) say("note: /dev/cpu_dma_latency not held at 0; CPU idle states may add wake-up latency");
     }
-    dispatch::Dispatcher dispatcher(*set, *(*first)->tables, *segment, options.dispatcher, osal::monotonicClock());
+    dispatch::DispatcherOptions dispatcher_options = options.dispatcher;
+    dispatcher_options.trace = &*trace_rings;
+    dispatch::Dispatcher dispatcher(*set, *(*first)->tables, *segment, dispatcher_options, osal::monotonicClock());
     const int64_t duration_ns = static_cast<int64_t>(options.duration_s * 1e9);
     if (Status s = dispatcher.start(duration_ns); !s) {
         control_server.reset();

@@ -459,6 +459,7 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
                                                                             : stats::ModuleState::Running));
     std::snprintf(s_.stats->header()->set_path, sizeof s_.stats->header()->set_path, "%s", next->set.xml_path.c_str());
     s_.stats->header()->basic_ns = next->schedule.basic_ns;
+    if (s_.trace) s_.trace->setBasicPeriod(next->schedule.basic_ns);
     s_.stats->header()->macro_ns = next->schedule.macro_ns;
 
     json report{{"set", next->set.xml_path.string()},

@@ -28,6 +28,7 @@
 #include "hosts/process_supervisor.hpp"
 #include "reload/generation.hpp"
 #include "stats/stats_segment.hpp"
+#include "trace/trace_rings.hpp"
 #include "variables/variable_segment.hpp"
 
 #include <nlohmann/json.hpp>
@@ -50,6 +51,7 @@ struct Services {
     hosts::ModuleCache *cache = nullptr;
     events::EventLog *events = nullptr;
     dispatch::CallServer *calls = nullptr;         // the shared-function table for processes, if any
+    trace::TraceRings *trace = nullptr;            // told the basic period after a swap that changes it
     schedule::Limits limits;
     dispatch::DispatcherOptions dispatcher;        // the RT priority and CPU processes inherit
     int64_t ready_timeout_ns = 5'000'000'000;     // new processes: until irp::initPeriodExe()
