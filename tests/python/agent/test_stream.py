@@ -19,8 +19,7 @@ import pytest
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_agent import IRPD, ROOT, free_port, start_irpd, stop  # noqa: E402  (one way to start irpd)
+from agent_helpers import IRPD, free_port, start_agent, start_irpd, stop
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
@@ -42,23 +41,11 @@ def decode(frame: bytes) -> dict:
 @pytest.fixture
 def cell(tmp_path):
     sock = tmp_path / "irpd.sock"
-    state = {"irpd": start_irpd(tmp_path, sock), "sock": sock, "tmp": tmp_path}
+    state = {"irpd": start_irpd(sock), "sock": sock, "tmp": tmp_path}
     port = free_port()
     data = tmp_path / "data"
-    agent = subprocess.Popen([sys.executable, "-m", "indurop_agent", "--host", "127.0.0.1", "--port", str(port),
-                              "--data-dir", str(data), "--irpd-socket", str(sock)],
-                             cwd=ROOT / "agent", stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    agent = start_agent(port, data, sock)
     url = f"http://127.0.0.1:{port}/api/v1"
-    deadline = time.monotonic() + 20
-    while True:
-        try:
-            if httpx.get(f"{url}/health", timeout=1).status_code == 200:
-                break
-        except httpx.HTTPError:
-            pass
-        assert agent.poll() is None, agent.stdout.read()
-        assert time.monotonic() < deadline, "the agent did not come up"
-        time.sleep(0.05)
     admin = (data / "admin-token").read_text().strip()
     viewer = httpx.post(f"{url}/tokens", json={"name": "plots", "role": "viewer"},
                         headers={"Authorization": f"Bearer {admin}"}).json()["token"]
@@ -284,7 +271,7 @@ def test_the_stream_comes_back_when_irpd_restarts(cell):
         assert "channels" in subscribe(ws, [TICK])
         assert collect(ws, 0.3)
         stop(cell["irpd"])
-        cell["irpd"] = start_irpd(cell["tmp"], cell["sock"])
+        cell["irpd"] = start_irpd(cell["sock"])
         deadline = time.monotonic() + 15
         while True:
             assert time.monotonic() < deadline, "no restarted channels message"
