@@ -22,7 +22,12 @@ config="$root/build/sets/paper-fig1/module.xml"
 "$root/build/bin/irpd" --config "$config" --control-socket "$sock" "$@" &
 irpd_pid=$!
 for _ in $(seq 100); do [ -S "$sock" ] && break; kill -0 $irpd_pid 2>/dev/null || break; sleep 0.05; done
-(cd "$root/agent" && exec "$venv/bin/python" -m indurop_agent --host 127.0.0.1 --port "$port" \
+# The agent, like irpd's own non-RT threads, stays off the dispatcher's CPU (irpd's default: the
+# last one) when there is another.
+off_rt=()
+n=$(nproc)
+[ "$n" -gt 1 ] && off_rt=(taskset -c "0-$((n - 2))")
+(cd "$root/agent" && exec "${off_rt[@]}" "$venv/bin/python" -m indurop_agent --host 127.0.0.1 --port "$port" \
     --data-dir "$data" --irpd-socket "$sock") &
 agent_pid=$!
 echo "demo: irpd (pid $irpd_pid) on $config; agent (pid $agent_pid) on http://127.0.0.1:$port/api/v1/docs"

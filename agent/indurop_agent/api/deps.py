@@ -32,34 +32,53 @@ def client_address(request: Request) -> str:
     return request.client.host if request.client else "unknown"
 
 
+class AuthFailure(Exception):
+    """A token refused: status 401 (unknown), 403 (role too low) or 429 (address locked out)."""
+
+    def __init__(self, status: int, message: str, retry_after: int = 0):
+        super().__init__(message)
+        self.status, self.message, self.retry_after = status, message, retry_after
+
+
+def check_token(state, address: str, token: str, role: str) -> Identity:
+    """The identity of `token` if it has `role` or above; counts unknown tokens per client address
+    and locks the address out after too many (HTTP routes and the WebSocket stream alike)."""
+    wait = state.lockout.retry_after(address)
+    if wait:
+        raise AuthFailure(429, f"too many unknown tokens from {address}; try again in {wait} s", wait)
+    who = state.tokens.identify(token)
+    if who is None:
+        if state.lockout.failed(address):
+            window = int(state.lockout.window_s)
+            state.audit.write("lockout", who=None, client=address, target=address, result="ok",
+                              detail=f"{state.lockout.attempts} unknown tokens within {window} s")
+            state.events.add("lockout", f"client {address} locked out for {window} s after "
+                                        f"{state.lockout.attempts} unknown tokens")
+            raise AuthFailure(429, f"too many unknown tokens from {address}; try again in {window} s", window)
+        raise AuthFailure(401, "unknown token")
+    if not allows(who.role, role):
+        raise AuthFailure(403, f"this needs the {role} role; the token has {who.role}")
+    return who
+
+
 def require(role: str):
     """A dependency that lets through a token of `role` or above (401 without one or with an
     unknown one, 403 below the role, 429 while the client's address is locked out)."""
 
     def check(request: Request, credentials: HTTPAuthorizationCredentials | None = Depends(_bearer)) -> Identity:
-        state = request.app.state
-        address = client_address(request)
-        wait = state.lockout.retry_after(address)
-        if wait:
-            raise HTTPException(429, f"too many unknown tokens from {address}; try again in {wait} s",
-                                headers={"Retry-After": str(wait)})
         if credentials is None:
+            wait = request.app.state.lockout.retry_after(client_address(request))
+            if wait:
+                raise HTTPException(429, f"too many unknown tokens from {client_address(request)}; try again in {wait} s",
+                                    headers={"Retry-After": str(wait)})
             raise HTTPException(401, "a bearer token is required (Authorization: Bearer <token>)",
                                 headers={"WWW-Authenticate": "Bearer"})
-        who = state.tokens.identify(credentials.credentials)
-        if who is None:
-            if state.lockout.failed(address):
-                window = int(state.lockout.window_s)
-                state.audit.write("lockout", who=None, client=address, target=address, result="ok",
-                                  detail=f"{state.lockout.attempts} unknown tokens within {window} s")
-                state.events.add("lockout", f"client {address} locked out for {window} s after "
-                                            f"{state.lockout.attempts} unknown tokens")
-                raise HTTPException(429, f"too many unknown tokens from {address}; try again in {window} s",
-                                    headers={"Retry-After": str(window)})
-            raise HTTPException(401, "unknown token", headers={"WWW-Authenticate": "Bearer"})
-        if not allows(who.role, role):
-            raise HTTPException(403, f"this needs the {role} role; the token has {who.role}")
-        return who
+        try:
+            return check_token(request.app.state, client_address(request), credentials.credentials, role)
+        except AuthFailure as e:
+            headers = {"Retry-After": str(e.retry_after)} if e.retry_after else (
+                {"WWW-Authenticate": "Bearer"} if e.status == 401 else None)
+            raise HTTPException(e.status, e.message, headers=headers) from e
 
     return check
 

@@ -168,6 +168,13 @@ int run(const Options &options) {
     // module.xml (the build puts it there).
     reload::resolveLayout(*set, options.layout);
 
+    // Everything of irpd that is not a dispatcher (this thread, the control thread, non-real
+    // processes) stays off the dispatchers' CPUs, when there are others.
+    std::vector<int> rt_cpus{options.dispatcher.cpu >= 0 ? options.dispatcher.cpu : osal::lastAllowedCpu()};
+    for (const config::ExecutorSpec &e : set->executors)
+        if (e.cpu >= 0) rt_cpus.push_back(e.cpu);
+    if (const std::string rest = osal::keepOffCpus(rt_cpus); !rest.empty()) say("non-RT work on CPUs " + rest);
+
     // 2. stats block (room for a hot reload to hold the old and the new modules at once)
     const std::size_t executors = dispatch::Dispatcher::executorCount(*set);
     auto segment = stats::StatsSegment::create(options.instance,

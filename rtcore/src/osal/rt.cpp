@@ -86,21 +86,39 @@ void prefaultStack(std::size_t bytes) {
     for (std::size_t i = 0; i < bytes; i += 4096) buffer[i] = 0;
 }
 
+// The CPUs this process could use when first asked: the thread that asks may since have been
+// kept off the RT CPUs (keepOffCpus), the process has not.
+static const cpu_set_t &startupCpus() {
+    static const cpu_set_t set = [] {
+        cpu_set_t s;
+        CPU_ZERO(&s);
+        if (sched_getaffinity(0, sizeof s, &s) != 0) CPU_SET(0, &s);
+        return s;
+    }();
+    return set;
+}
+
 int lastAllowedCpu() {
-    cpu_set_t set;
-    CPU_ZERO(&set);
-    if (sched_getaffinity(0, sizeof set, &set) != 0) return 0;
     for (int cpu = CPU_SETSIZE - 1; cpu >= 0; --cpu)
-        if (CPU_ISSET(cpu, &set)) return cpu;
+        if (CPU_ISSET(cpu, &startupCpus())) return cpu;
     return 0;
 }
 
 bool cpuAllowed(int cpu) {
     if (cpu < 0 || cpu >= CPU_SETSIZE) return false;
-    cpu_set_t set;
-    CPU_ZERO(&set);
-    if (sched_getaffinity(0, sizeof set, &set) != 0) return false;
-    return CPU_ISSET(cpu, &set);
+    return CPU_ISSET(cpu, &startupCpus());
+}
+
+std::string keepOffCpus(const std::vector<int> &rt_cpus) {
+    cpu_set_t rest = startupCpus();
+    for (int cpu : rt_cpus)
+        if (cpu >= 0 && cpu < CPU_SETSIZE) CPU_CLR(cpu, &rest);
+    if (CPU_COUNT(&rest) == 0) return "";
+    if (sched_setaffinity(0, sizeof rest, &rest) != 0) return "";
+    std::string list;
+    for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu)
+        if (CPU_ISSET(cpu, &rest)) list += (list.empty() ? "" : ",") + std::to_string(cpu);
+    return list;
 }
 
 } // namespace irp::osal

@@ -4,6 +4,7 @@
 #include "common/result.hpp"
 
 #include <string>
+#include <vector>
 
 namespace irp::osal {
 
@@ -29,5 +30,11 @@ void prefaultStack(std::size_t bytes = 256 * 1024);
 // The highest CPU number this process may run on (the default RT CPU), and whether cpu is usable.
 int lastAllowedCpu();
 bool cpuAllowed(int cpu);
+
+// Restricts the calling thread (and the threads and processes it creates from now on, unless
+// they pin themselves) to the CPUs irpd may use minus rt_cpus, so that irpd's non-RT work never
+// competes with a dispatcher.  Returns the CPUs left ("0,2"), or "" when none would be left
+// (nothing changed then).  lastAllowedCpu() and cpuAllowed() still answer for the whole process.
+std::string keepOffCpus(const std::vector<int> &rt_cpus);
 
 } // namespace irp::osal

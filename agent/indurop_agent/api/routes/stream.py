@@ -17,7 +17,7 @@ from collections import deque
 from fastapi import APIRouter, WebSocket
 from starlette.websockets import WebSocketDisconnect
 
-from ...auth import allows
+from ..deps import AuthFailure, check_token
 from ...irpd_client import IrpdRefused, IrpdUnavailable
 from ...trace import TraceError, TraceRead, TraceRing
 
@@ -40,7 +40,7 @@ MAX_CLIENTS = 32
 AUTH_TIMEOUT_S = 10.0
 STATS_EVERY_S = 1.0
 RECHECK_EVERY_S = 1.0          # irpd restarted, or the traced channels changed under us
-CLOSE_UNAUTHENTICATED, CLOSE_FORBIDDEN, CLOSE_TOO_SLOW, CLOSE_BUSY = 4401, 4403, 1008, 1013
+CLOSE_UNAUTHENTICATED, CLOSE_FORBIDDEN, CLOSE_LOCKED_OUT, CLOSE_TOO_SLOW, CLOSE_BUSY = 4401, 4403, 4429, 1008, 1013
 
 
 def error(code: str, message: str) -> dict:
@@ -336,12 +336,12 @@ async def authenticate(ws: WebSocket) -> tuple[bool, dict | None]:
         if not isinstance(token, str):
             await ws.close(CLOSE_UNAUTHENTICATED, 'a viewer token is required: ?token=... or a first message {"token": "..."}')
             return False, None
-    role = ws.app.state.tokens.role_of(token)
-    if role is None:
-        await ws.close(CLOSE_UNAUTHENTICATED, "unknown token")
-        return False, None
-    if not allows(role, "viewer"):
-        await ws.close(CLOSE_FORBIDDEN, f"the stream needs the viewer role; the token has {role}")
+    address = ws.client.host if ws.client else "unknown"
+    try:
+        check_token(ws.app.state, address, token, "viewer")
+    except AuthFailure as e:
+        code = {401: CLOSE_UNAUTHENTICATED, 403: CLOSE_FORBIDDEN}.get(e.status, CLOSE_LOCKED_OUT)
+        await ws.close(code, e.message)
         return False, None
     return True, first
 
