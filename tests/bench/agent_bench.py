@@ -358,6 +358,11 @@ def render(a, runs: list[dict], paths: list[str], swaps: dict) -> str:
         ratio = p["p99"] / reference if reference else float("nan")
         lines.append(f"| {p['name']} | {clients} | {p['samples_per_s']:.0f} | {p['dropped']} | {p['requests_per_s']:.0f} | "
                      f"{us(p['p50'])} | {us(p['p99'])} ({', '.join(us(x) for x in p['p99s'])}) | {us(p['max'])} | {ratio:.2f} | {p['missed']} | {p['realtime']} |")
+    idle = next(p for p in phases if p["name"] == "idle")
+    low, high = min(idle["p99s"]), max(idle["p99s"])
+    lines += ["", f"Resolution: the idle phase's own p99 ranged {us(low)}–{us(high)} µs over its rounds "
+              f"({(low / reference - 1) * 100:+.0f} % to {(high / reference - 1) * 100:+.0f} % of its median); a ratio "
+              "inside that range cannot be told from this machine's noise."]
     errors = [e for p in phases for e in p["errors"]]
     if errors:
         lines += ["", "Client errors: " + "; ".join(errors)]
