@@ -27,19 +27,11 @@ Result<ControlSegment> ControlSegment::create(const std::string &instance, uint3
     const std::string name = shmName(instance);
     const std::size_t functions_at = sizeof(indurop_control_header) + std::size_t{slot_count} * sizeof(indurop_process_slot);
     const std::size_t size = functions_at + std::size_t{function_count} * sizeof(indurop_function_entry);
-    auto shm = osal::SharedMemory::create(name, size, 0660);
-    if (!shm) {
-        if (auto old = osal::SharedMemory::open(name, false)) {
-            const auto *h = static_cast<const indurop_control_header *>(old->data());
-            if (old->size() >= sizeof *h && h->magic == INDUROP_CONTROL_MAGIC && h->owner_pid > 0 &&
-                h->owner_pid != getpid() && (kill(static_cast<pid_t>(h->owner_pid), 0) == 0 || errno == EPERM))
-                return Error{"instance '" + instance + "' is in use by irpd pid " + std::to_string(h->owner_pid) +
-                             " (shared memory " + name + ")"};
-        }
-        osal::SharedMemory::unlink(name);
-        shm = osal::SharedMemory::create(name, size, 0660);
-        if (!shm) return shm.error();
-    }
+    auto shm = osal::SharedMemory::createForInstance(name, size, instance, [](const osal::SharedMemory &old) -> int64_t {
+        const auto *h = static_cast<const indurop_control_header *>(old.data());
+        return old.size() >= sizeof *h && h->magic == INDUROP_CONTROL_MAGIC ? h->owner_pid : 0;
+    });
+    if (!shm) return shm.error();
     ControlSegment segment;
     segment.shm_ = std::move(*shm);
     auto *h = new (segment.shm_.data()) indurop_control_header{};

@@ -1,6 +1,8 @@
 // shm.cpp -- shm_open/mmap behind SharedMemory.
 #include "osal/shm.hpp"
 
+#include <signal.h>
+
 #include <fcntl.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
@@ -81,5 +83,20 @@ Result<SharedMemory> SharedMemory::open(const std::string &name, bool writable) 
 }
 
 bool SharedMemory::unlink(const std::string &name) { return shm_unlink(name.c_str()) == 0; }
+
+Result<SharedMemory> SharedMemory::createForInstance(const std::string &name, std::size_t size,
+                                                     const std::string &instance,
+                                                     const std::function<int64_t(const SharedMemory &)> &owner_of) {
+    auto shm = create(name, size, 0660);
+    if (shm) return shm;
+    if (auto old = open(name, false)) {
+        const int64_t pid = owner_of(*old);
+        if (pid > 0 && pid != getpid() && (kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM))
+            return Error{"instance '" + instance + "' is in use by irpd pid " + std::to_string(pid) + " (shared memory " +
+                         name + "); stop it or choose another --instance"};
+    }
+    unlink(name);
+    return create(name, size, 0660);
+}
 
 } // namespace irp::osal

@@ -4,6 +4,8 @@
 #include "common/result.hpp"
 
 #include <cstddef>
+#include <cstdint>
+#include <functional>
 #include <string>
 
 namespace irp::osal {
@@ -20,6 +22,11 @@ public:
     // Creates name ("/indurop.default.stats") with mode, zero-filled, mapped read-write.  Fails if
     // it exists; the owner unlinks it when destroyed.
     static Result<SharedMemory> create(const std::string &name, std::size_t size, unsigned mode);
+    // The same for one irpd instance's segment: if the name exists, owner_of(existing) tells which
+    // irpd made it (0: unknown, not one of ours).  A live irpd other than this process refuses
+    // ("instance 'x' is in use by irpd pid N"); a segment left by a dead one is replaced.
+    static Result<SharedMemory> createForInstance(const std::string &name, std::size_t size, const std::string &instance,
+                                                  const std::function<int64_t(const SharedMemory &existing)> &owner_of);
     // Maps an existing segment; its whole size, read-only unless writable.
     static Result<SharedMemory> open(const std::string &name, bool writable);
     // Removes a name; true if it existed.

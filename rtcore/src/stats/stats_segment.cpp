@@ -15,20 +15,12 @@ std::string StatsSegment::shmName(const std::string &instance) { return "/induro
 
 Result<StatsSegment> StatsSegment::create(const std::string &instance, std::size_t count) {
     const std::string name = shmName(instance);
-    auto shm = osal::SharedMemory::create(name, blockSize(count), 0660);
-    if (!shm) {
-        // Left over from an irpd that died?  Its header names the owner.
-        if (auto old = osal::SharedMemory::open(name, false)) {
-            const auto *h = static_cast<const Header *>(old->data());
-            if (old->size() >= sizeof(Header) && h->magic == kMagic && h->pid > 0 &&
-                (kill(static_cast<pid_t>(h->pid), 0) == 0 || errno == EPERM) && h->pid != getpid())
-                return Error{"instance '" + instance + "' is in use by irpd pid " + std::to_string(h->pid) +
-                             " (shared memory " + name + "); stop it or choose another --instance"};
-        }
-        osal::SharedMemory::unlink(name);
-        shm = osal::SharedMemory::create(name, blockSize(count), 0660);
-        if (!shm) return shm.error();
-    }
+    // A segment left over from an irpd that died is replaced; its header names the owner.
+    auto shm = osal::SharedMemory::createForInstance(name, blockSize(count), instance, [](const osal::SharedMemory &old) -> int64_t {
+        const auto *h = static_cast<const Header *>(old.data());
+        return old.size() >= sizeof(Header) && h->magic == kMagic ? h->pid : 0;
+    });
+    if (!shm) return shm.error();
     StatsSegment segment;
     segment.shm_ = std::move(*shm);
     auto *h = new (segment.shm_.data()) Header();

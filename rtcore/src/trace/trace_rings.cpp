@@ -119,19 +119,11 @@ Result<TraceRings> TraceRings::create(const std::string &instance, uint64_t capa
     const uint64_t total = values_offset + uint64_t{kMaxChannels} * capacity * sizeof(double);
 
     const std::string name = shmName(instance);
-    auto shm = osal::SharedMemory::create(name, total, 0660);
-    if (!shm) {
-        if (auto old = osal::SharedMemory::open(name, false)) {
-            const auto *h = static_cast<const indurop_trace_header *>(old->data());
-            if (old->size() >= sizeof *h && h->magic == INDUROP_TRACE_MAGIC && h->owner_pid > 0 &&
-                h->owner_pid != getpid() && (kill(static_cast<pid_t>(h->owner_pid), 0) == 0 || errno == EPERM))
-                return Error{"instance '" + instance + "' is in use by irpd pid " + std::to_string(h->owner_pid) +
-                             " (shared memory " + name + ")"};
-        }
-        osal::SharedMemory::unlink(name);
-        shm = osal::SharedMemory::create(name, total, 0660);
-        if (!shm) return shm.error();
-    }
+    auto shm = osal::SharedMemory::createForInstance(name, total, instance, [](const osal::SharedMemory &old) -> int64_t {
+        const auto *h = static_cast<const indurop_trace_header *>(old.data());
+        return old.size() >= sizeof *h && h->magic == INDUROP_TRACE_MAGIC ? h->owner_pid : 0;
+    });
+    if (!shm) return shm.error();
     // Touch every page now (and lock them where the limit allows): the RT thread must not fault.
     std::memset(shm->data(), 0, total);
     mlock(shm->data(), total);
