@@ -18,60 +18,8 @@ from pathlib import Path
 import httpx
 from fastapi.testclient import TestClient
 
-ROOT = Path(__file__).resolve().parents[3]
-BUILD = Path(os.environ.get("INDUROP_BUILD", ROOT / "build"))
-IRPD = BUILD / "bin" / "irpd"
-FIG1 = BUILD / "sets" / "paper-fig1" / "module.xml"
-API = "/api/v1"
-
-
-# ---- real processes: irpd and the agent on loopback ---------------------------------------------
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def start_irpd(sock: Path, config: Path = FIG1, instance: str | None = None) -> subprocess.Popen:
-    """irpd running `config` with its control socket at `sock`; returns once the socket is there."""
-    sock.unlink(missing_ok=True)
-    p = subprocess.Popen([str(IRPD), "--config", str(config), "--control-socket", str(sock),
-                          "--instance", instance or f"agent-test-{os.getpid()}"],
-                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 20
-    while not sock.exists():
-        assert p.poll() is None, p.stderr.read()
-        assert time.monotonic() < deadline, "irpd did not open its control socket"
-        time.sleep(0.02)
-    return p
-
-
-def start_agent(port: int, data: Path, sock: Path, *extra: str) -> subprocess.Popen:
-    """`python -m indurop_agent` on 127.0.0.1:port; returns once /health answers."""
-    p = subprocess.Popen([sys.executable, "-m", "indurop_agent", "--host", "127.0.0.1", "--port", str(port),
-                          "--data-dir", str(data), "--irpd-socket", str(sock), *extra],
-                         cwd=ROOT / "agent", stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    deadline = time.monotonic() + 20
-    while True:
-        try:
-            if httpx.get(f"http://127.0.0.1:{port}{API}/health", timeout=1).status_code == 200:
-                return p
-        except httpx.HTTPError:
-            pass
-        assert p.poll() is None, p.stdout.read()
-        assert time.monotonic() < deadline, "the agent did not come up"
-        time.sleep(0.05)
-
-
-def stop(p: subprocess.Popen) -> None:
-    """SIGTERM by pid, SIGKILL if it does not end within 10 s."""
-    if p.poll() is None:
-        p.send_signal(signal.SIGTERM)
-        try:
-            p.wait(10)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            p.wait()
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from live_processes import API, BUILD, FIG1, IRPD, ROOT, free_port, start_agent, start_irpd, stop  # noqa: E402,F401
 
 
 @dataclass

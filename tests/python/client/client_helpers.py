@@ -8,8 +8,6 @@ import itertools
 import json
 import shutil
 import os
-import signal
-import socket
 import ssl
 import struct
 import subprocess
@@ -23,30 +21,13 @@ from urllib.parse import parse_qs, urlsplit
 import httpx
 import pytest
 
-ROOT = Path(__file__).resolve().parents[3]
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from live_processes import FIG1, IRPD, ROOT, free_port, start_agent, start_irpd, stop  # noqa: E402,F401
+
+FIG1_DIR = FIG1.parent
+
 sys.path.insert(0, str(ROOT / "agent"))  # the package, also when it is not pip-installed
-
-BUILD = Path(os.environ.get("INDUROP_BUILD", ROOT / "build"))
-IRPD = BUILD / "bin" / "irpd"
-FIG1_DIR = BUILD / "sets" / "paper-fig1"
 _instances = itertools.count()
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def stop(p: subprocess.Popen) -> None:
-    """Stops a process this test started, by its pid."""
-    if p.poll() is None:
-        p.send_signal(signal.SIGTERM)
-        try:
-            p.wait(10)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            p.wait()
 
 
 class Cell:
@@ -61,35 +42,17 @@ class Cell:
         self.instance = f"client-test-{os.getpid()}-{next(_instances)}"
         self.irpd = self.start_irpd()
         port = free_port()
-        self.agent = subprocess.Popen([sys.executable, "-m", "indurop_agent", "--host", "127.0.0.1", "--port",
-                                       str(port), "--data-dir", str(self.data), "--irpd-socket", str(self.sock)],
-                                      cwd=ROOT / "agent", stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         self.url = f"http://127.0.0.1:{port}"
-        deadline = time.monotonic() + 20
-        while True:
-            try:
-                if httpx.get(f"{self.url}/api/v1/health", timeout=1).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                pass
-            if self.agent.poll() is not None:
-                self.close()
-                pytest.fail(f"the agent did not start: {self.agent.stdout.read()}")
-            assert time.monotonic() < deadline, "the agent did not come up"
-            time.sleep(0.05)
+        try:
+            self.agent = start_agent(port, self.data, self.sock)
+        except AssertionError as e:
+            self.close()
+            pytest.fail(f"the agent did not start: {e}")
         self.token_file = self.data / "admin-token"
         self.token = self.token_file.read_text().strip()
 
     def start_irpd(self) -> subprocess.Popen:
-        p = subprocess.Popen([str(IRPD), "--config", str(FIG1_DIR / "module.xml"), "--control-socket", str(self.sock),
-                              "--instance", self.instance],
-                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-        deadline = time.monotonic() + 20
-        while not self.sock.exists():
-            assert p.poll() is None, p.stderr.read()
-            assert time.monotonic() < deadline, "irpd did not open its control socket"
-            time.sleep(0.02)
-        return p
+        return start_irpd(self.sock, FIG1, self.instance)
 
     def args(self, *argv: str) -> list[str]:
         return ["--url", self.url, "--token-file", str(self.token_file), *argv]
