@@ -8,6 +8,8 @@ packages=(
   python3 python3-venv                           # glbc, the Python tests
   libpugixml-dev nlohmann-json3-dev              # module.xml, JSON output
   libssl-dev                                     # SHA-256 of module files (hot reload)
+  libeigen3-dev liborocos-kdl-dev liburdfdom-dev # robot kinematics (the plc-robot cell)
+  libmodbus-dev                                  # Modbus TCP/RTU (the I/O dispatcher, the drive simulator)
   googletest libgtest-dev                        # C++ tests
   rt-tests                                       # cyclictest: the benchmark's reference
   util-linux                                     # setpriv, prlimit: the non-RT fallback test
