@@ -270,3 +270,14 @@ TEST(SharedFunctions, ExportsGoWithTheirModule) {
     }
     EXPECT_THROW(irp::findFunction<double(double)>("math.scale"), irp::FunctionError);  // unloaded: gone
 }
+
+TEST(Property, PathResolvesRelativeNamesAgainstTheSetFolder) {
+    std::vector<indurop_property_entry> entries = {{"config", "ioconfig.xml"}, {"abs", "/etc/x.xml"},
+                                                   {"indurop.set_dir", "/srv/sets/cell"}};
+    indurop_property_list list{entries.data(), entries.size()};
+    irp::Property p(&list);
+    EXPECT_EQ(p.path("config"), "/srv/sets/cell/ioconfig.xml");
+    EXPECT_EQ(p.path("abs"), "/etc/x.xml");
+    EXPECT_EQ(p.path("missing", "robot.urdf"), "/srv/sets/cell/robot.urdf");
+    EXPECT_EQ(p.path("missing"), "");
+}

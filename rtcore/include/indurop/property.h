@@ -46,6 +46,15 @@ public:
         return std::string(find(name).value_or(fallback));
     }
 
+    // A file named by a property (ioconfig.xml, a URDF...): as written when absolute, else relative
+    // to the folder of the set's module.xml (irpd passes it as the property indurop.set_dir).
+    std::string path(std::string_view name, std::string_view fallback = {}) const {
+        std::string file = get(name, fallback);
+        if (file.empty() || file.front() == '/') return file;
+        auto dir = find("indurop.set_dir");
+        return dir && !dir->empty() ? std::string(*dir) + "/" + file : file;
+    }
+
     // Integers and floating point values; bool accepts true/false/1/0.
     template <class T>
     T get(std::string_view name, T fallback) const {

@@ -293,6 +293,7 @@ private:
         checkName(field("name") ? field("name") : field("filename"), m.name);
         std::filesystem::path file(m.filename);
         m.path = file.is_absolute() ? file.lexically_normal() : (path_.parent_path() / file).lexically_normal();
+        m.set_dir = std::filesystem::absolute(path_.parent_path()).lexically_normal().string();
 
         pugi::xml_node type = field("moduletype");
         if (!type) fail(node, "module '" + m.name + "': <moduletype> is missing; expected thread or process");

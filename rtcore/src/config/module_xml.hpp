@@ -29,6 +29,7 @@ struct ModuleSpec {
     std::string name;               // <name>, or the stem of <filename>
     std::string filename;           // as written in the XML
     std::filesystem::path path;     // resolved against the XML file's folder
+    std::string set_dir;            // that folder, absolute: thread modules get it as property indurop.set_dir
     ModuleType type = ModuleType::Thread;
     OperationType operation = OperationType::Periodic;
     int64_t period_ns = 0;          // periodic only

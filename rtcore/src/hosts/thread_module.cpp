@@ -81,6 +81,9 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
     }
     for (const auto &[name, value] : module->spec_.properties)
         module->property_entries_.push_back({name.c_str(), value.c_str()});
+    // Where the set's other files are (ioconfig.xml, a URDF...): a module is loaded from a copy in
+    // the module cache, so its own location says nothing about them.
+    module->property_entries_.push_back({kSetDirProperty, module->spec_.set_dir.c_str()});
     return module;
 }
 

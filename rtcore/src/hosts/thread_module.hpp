@@ -17,6 +17,10 @@
 
 namespace irp::hosts {
 
+// The property every thread module gets besides its own: the absolute folder of its module.xml,
+// against which it resolves the relative file names of its other properties.
+inline constexpr const char *kSetDirProperty = "indurop.set_dir";
+
 class ThreadModule {
 public:
     // dlopen(RTLD_NOW) the module's file and resolve its entry points.  Refuses a missing file,
