@@ -1,6 +1,8 @@
 // test_thread_module.cpp -- the thread-module loader and lifecycle, with real .so fixtures that
 // behave well and ones that fail on purpose (tests/cpp/modules/).
 #include "hosts/module_set.hpp"
+
+#include <indurop/property.h>
 #include "hosts/thread_module.hpp"
 #include "journal.hpp"
 
