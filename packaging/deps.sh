@@ -10,6 +10,7 @@ packages=(
   libssl-dev                                     # SHA-256 of module files (hot reload)
   libeigen3-dev liborocos-kdl-dev liburdfdom-dev # robot kinematics (the plc-robot cell)
   libmodbus-dev                                  # Modbus TCP/RTU (the I/O dispatcher, the drive simulator)
+  qemu-system-x86 busybox-static file            # SocketCAN on vcan in a small guest (tests/vcan/)
   googletest libgtest-dev                        # C++ tests
   rt-tests                                       # cyclictest: the benchmark's reference
   util-linux                                     # setpriv, prlimit: the non-RT fallback test
