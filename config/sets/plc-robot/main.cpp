@@ -1,0 +1,95 @@
+// main.cpp -- main.so, the PLC of the plc-robot cell in the shape of the paper's Figure 12:
+// initialize() takes the properties, start() calls POU_Initialize(), run() calls POU_PROGRAM()
+// every period (10 ms, after the I/O dispatcher and Robot.so).
+//
+// POU_PROGRAM() is one PLC scan: read the inputs (PLC points and the robot's state) into the
+// process image, run the rungs of the pick-and-place POU (POUS.h) on it, write the outputs and
+// the robot request of this scan back to the shared variables of cell.glb.
+#include <indurop/indurop.h>
+#include <indurop/generated.h>
+
+#include "POUS.h"
+
+#include <iostream>
+#include <optional>
+
+namespace {
+
+pou::Settings settings;
+std::optional<pou::PickAndPlace> program;  // the POU instance: its blocks keep their state between scans
+
+// The process image of the robot's service and state blocks; the motion blocks work on it.
+PLC_ROBOT::ROBOT_MODULE_SERVICE_t service{};
+PLC_ROBOT::ROBOT_MODULE_STATE_t state{};
+plcopen::AxisGroupRef robot = plcopen::bindAxisGroup(service, state);
+
+pou::Inputs inputs;
+pou::Outputs outputs;
+
+void printVector(const char *name, const std::array<double, plcopen::kAxes> &v) {
+    std::cout << "  " << name << " =";
+    for (double x : v) std::cout << ' ' << x;
+    std::cout << '\n';
+}
+
+}  // namespace
+
+void POU_Initialize() {
+    program.emplace(settings);
+    // The panel's defaults, for a fresh (zeroed) segment.
+    if (PLC_ROBOT::PLC_IN.Override == 0.0) PLC_ROBOT::PLC_IN.Override = settings.override_default;
+    if (settings.auto_enable) PLC_ROBOT::PLC_IN.Enable = 1;
+}
+
+void POU_PROGRAM() {
+    // ---- read inputs: one consistent copy of each shared variable the scan reads
+    const PLC_ROBOT::PLC_IN_t panel = PLC_ROBOT::PLC_IN;
+    inputs.I0 = PLC_ROBOT::I0 != 0;
+    inputs.I1 = PLC_ROBOT::I1 != 0;
+    inputs.Start = panel.Start != 0;
+    inputs.Stop = panel.Stop != 0;
+    inputs.Reset = panel.Reset != 0;
+    inputs.Enable = panel.Enable != 0;
+    inputs.CycleMode = panel.CycleMode;
+    inputs.Override = panel.Override;
+    state = PLC_ROBOT::ROBOT_MODULE_STATE;
+    service = PLC_ROBOT::ROBOT_MODULE_SERVICE;
+    const uint32_t requested = service.nSeq;
+
+    // ---- the rungs
+    program->scan(inputs, outputs, robot, plcopen::Time(irp::cycle().planned_ns));
+
+    // ---- write outputs
+    if (service.nSeq != requested) PLC_ROBOT::ROBOT_MODULE_SERVICE = service;  // the request, whole: nSeq with its data
+    PLC_ROBOT::O0 = outputs.O0 ? 1 : 0;
+    PLC_ROBOT::PLC_OUT_t out{};
+    out.Running = outputs.Running;
+    out.Done = outputs.Done;
+    out.Error = outputs.Error;
+    out.Powered = outputs.Powered;
+    out.Step = outputs.Step;
+    out.ErrorID = outputs.ErrorID;
+    out.Cycles = outputs.Cycles;
+    PLC_ROBOT::PLC_OUT = out;
+}
+
+extern "C" void initialize(irp::Property const &property) {
+    settings = pou::Settings::fromProperties(property);  // irp::PropertyError refuses the module
+    std::cout << "[PLC] pick and place: joint_speed " << settings.joint_speed << ", linear_speed "
+              << settings.linear_speed << ", accel " << settings.accel << ", lift " << settings.lift << " m, dwell "
+              << settings.dwell.count() / 1'000'000 << " ms\n";
+    printVector("home", settings.home);
+    printVector("pick_above", settings.pick_above);
+    printVector("pick", settings.pick);
+    printVector("place_above", settings.place_above);
+    printVector("place", settings.place);
+    std::cout << std::flush;
+}
+
+void start() { POU_Initialize(); }
+
+void run() {
+    POU_PROGRAM();  // call the ladder program
+}
+
+void stop() { std::cout << "[PLC] stop after " << (program ? program->cycles : 0) << " cycles" << std::endl; }

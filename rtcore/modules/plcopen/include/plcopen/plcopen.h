@@ -1,0 +1,8 @@
+// plcopen.h -- the PLC function-block library of indurop (static library indurop_plcopen): the
+// IEC 61131-3 basics (iec.h) and the PLCopen-style motion blocks on an axis group (motion.h,
+// axis_group.h).  docs/plc.md describes every block with its timing.
+#pragma once
+
+#include <plcopen/axis_group.h>
+#include <plcopen/iec.h>
+#include <plcopen/motion.h>
