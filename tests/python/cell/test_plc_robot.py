@@ -1,0 +1,160 @@
+"""test_plc_robot.py -- the paper's §4 cell end to end through irpd: the drive simulator on Modbus
+TCP (loopback), irpd running config/sets/plc-robot (libiodispat.so, Robot.so, main.so at 10 ms),
+the PLC's inputs written and its outputs read through irpd's shared variables.  Enable -> the
+drives power up; Start -> the pick-and-place cycle runs every step, the robot really moves (its
+measured joints come back from the simulated drives over Modbus), O0 follows MotionDone and the
+cycle counter counts; Stop halts it; the drives going silent -> comm_lost and the robot in error."""
+from __future__ import annotations
+
+import json
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from live_processes import BUILD, IRPD, ROOT, free_port, stop  # noqa: E402
+
+sys.path.insert(0, str(ROOT / "agent"))
+from indurop_agent.variables import Segment  # noqa: E402
+
+SET = BUILD / "sets" / "plc-robot"
+DRIVESIM = BUILD / "bin" / "indurop-drivesim"
+NS = "PLC_ROBOT."
+
+pytestmark = pytest.mark.skipif(not (SET / "Robot.so").exists() or not DRIVESIM.exists(),
+                                reason=f"the plc-robot cell is not built ({SET})")
+
+
+class Cell:
+    def __init__(self, tmp: Path, extra_drivesim: list[str] | None = None):
+        self.tmp = tmp
+        self.folder = tmp / "plc-robot"
+        shutil.copytree(SET, self.folder)
+        self.port = free_port()
+        ioconfig = self.folder / "ioconfig.xml"
+        ioconfig.write_text(ioconfig.read_text().replace("15020", str(self.port)))
+        self.drivesim = subprocess.Popen([str(DRIVESIM), "--port", str(self.port), "--quiet", *(extra_drivesim or [])],
+                                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 10
+        while True:
+            with socket.socket() as s:
+                if s.connect_ex(("127.0.0.1", self.port)) == 0:
+                    break
+            assert self.drivesim.poll() is None, self.drivesim.stderr.read()
+            assert time.monotonic() < deadline, "the drive simulator did not listen"
+            time.sleep(0.05)
+        self.sock = tmp / "irpd.sock"
+        self.instance = f"cell-test-{id(self)}"
+        self.irpd = subprocess.Popen([str(IRPD), "--config", str(self.folder / "module.xml"), "--control-socket",
+                                      str(self.sock), "--instance", self.instance],
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        deadline = time.monotonic() + 20
+        while not self.sock.exists():
+            assert self.irpd.poll() is None, self.irpd.stdout.read()
+            assert time.monotonic() < deadline, "irpd did not start"
+            time.sleep(0.05)
+        self.control = socket.socket(socket.AF_UNIX)
+        self.control.connect(str(self.sock))
+        self.file = self.control.makefile("rw")
+        self.file.readline()
+        self.vars = Segment(self.ask("status")["shared_memory"]["variables"])
+
+    def ask(self, cmd: str, **args):
+        self.file.write(json.dumps({"cmd": cmd, **args}) + "\n")
+        self.file.flush()
+        answer = json.loads(self.file.readline())
+        assert answer["ok"], answer
+        return answer["result"]
+
+    def write(self, path: str, value) -> None:
+        self.ask("write", path=NS + path, value=value)
+
+    def read(self, path: str):
+        return self.vars.read(NS + path)
+
+    def joints(self, block: str) -> list[float]:
+        return [self.read(f"ROBOT_MODULE_STATE.{block}[{i}]") for i in range(6)]
+
+    def wait(self, what, seconds: float = 20.0, every: float = 0.01):
+        """Polls what() until it is truthy; returns its value."""
+        deadline = time.monotonic() + seconds
+        while True:
+            value = what()
+            if value:
+                return value
+            assert time.monotonic() < deadline, f"timed out waiting for {what.__doc__ or what}"
+            time.sleep(every)
+
+    def close(self) -> None:
+        self.control.close()
+        self.vars.close()
+        stop(self.irpd)
+        stop(self.drivesim)
+
+
+@pytest.fixture
+def cell(tmp_path):
+    c = Cell(tmp_path)
+    yield c
+    c.close()
+
+
+def test_enable_start_runs_the_whole_pick_and_place_cycle_through_modbus(cell):
+    assert cell.read("ROBOT_MODULE_STATE.nAXESGROUP") == 6
+    cell.write("PLC_IN.Enable", 1)
+    cell.wait(lambda: cell.read("ROBOT_MODULE_STATE.Powered") == 1 and cell.read("PLC_OUT.Powered") == 1)
+    cell.write("I0", 1)  # the paper's interlock: input 0 starts the motion sequence
+    steps, lamp, travel = set(), set(), 0.0
+    last = cell.joints("dCurJoint")
+    deadline = time.monotonic() + 60
+    while cell.read("PLC_OUT.Cycles") < 1:
+        assert time.monotonic() < deadline, f"the cycle did not finish; steps seen {sorted(steps)}"
+        steps.add(cell.read("PLC_OUT.Step"))
+        lamp.add(cell.read("O0"))
+        now = cell.joints("dCurJoint")
+        travel += sum(abs(a - b) for a, b in zip(now, last))
+        last = now
+        assert cell.read("PLC_OUT.Error") == 0, cell.read("PLC_OUT.ErrorID")
+        time.sleep(0.005)
+    cell.write("I0", 0)
+    assert len(steps) >= 8, sorted(steps)                # every step of the cycle was visited
+    assert lamp == {0, 1}                                # O0 followed MotionDone through the moves
+    assert cell.read("PLC_OUT.Done") == 1
+    # The robot moved: the joints the drives report over Modbus travelled, and ended where commanded.
+    assert travel > 1.0, travel
+    commanded, measured = cell.joints("dCmdJoint"), cell.joints("dCurJoint")
+    assert max(abs(c - m) for c, m in zip(commanded, measured)) < 0.01
+    io = cell.read("IO_STATUS.cycles")
+    assert io > 100 and cell.read("IO_STATUS.comm_lost[0]") == 0
+
+
+def test_stop_halts_the_cycle_and_the_robot(cell):
+    cell.write("PLC_IN.Enable", 1)
+    cell.wait(lambda: cell.read("PLC_OUT.Powered") == 1)
+    cell.write("PLC_IN.Start", 1)
+    cell.wait(lambda: cell.read("ROBOT_MODULE_STATE.Busy") == 1)
+    time.sleep(0.2)
+    cell.write("PLC_IN.Stop", 1)
+    cell.wait(lambda: cell.read("PLC_OUT.Running") == 0 and cell.read("ROBOT_MODULE_STATE.Busy") == 0)
+    halted = cell.joints("dCmdJoint")
+    time.sleep(0.3)
+    assert cell.joints("dCmdJoint") == halted          # standing still
+    assert cell.read("PLC_OUT.Cycles") == 0
+
+
+def test_silent_drives_raise_comm_lost_and_stop_the_robot(tmp_path):
+    cell = Cell(tmp_path, ["--fail-after", "3"])
+    try:
+        cell.write("PLC_IN.Enable", 1)
+        cell.wait(lambda: cell.read("PLC_OUT.Powered") == 1)
+        cell.wait(lambda: cell.read("IO_STATUS.comm_lost[0]") == 1, seconds=10)
+        cell.wait(lambda: cell.read("ROBOT_MODULE_STATE.Error") == 1)
+        assert cell.read("ROBOT_MODULE_STATE.ErrorID") == 8
+        assert cell.read("PLC_OUT.Error") == 1
+    finally:
+        cell.close()
