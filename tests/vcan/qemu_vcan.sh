@@ -2,11 +2,13 @@
 # qemu_vcan.sh -- runs a static test program inside a small QEMU guest whose kernel has vcan.
 #
 #   tests/vcan/qemu_vcan.sh PROGRAM [ARGS...]
+#   INDUROP_VCAN_FILES=/abs/a:/abs/b tests/vcan/qemu_vcan.sh ...   (files the program reads, copied
+#                                                                   into the guest at the same paths)
 #
 # The machines that build indurop may run a kernel without CAN (no vcan); Debian's stock kernel
 # has it.  This script downloads that kernel's package (apt-get download, cached in
 # build/vcan-guest/), builds an initramfs with busybox, the kernel's can, can-raw and vcan
-# modules and PROGRAM (which must be statically linked), boots it (TCG), creates vcan0 in the guest, runs PROGRAM ARGS there, and exits with its status.
+# modules, PROGRAM and the shared libraries it needs (ldd), boots it (TCG), creates vcan0 in the guest, runs PROGRAM ARGS there, and exits with its status.
 # Exit 77 when the guest cannot be run here (no qemu, no kernel package): the caller skips.
 set -euo pipefail
 program=$1; shift
@@ -37,13 +39,22 @@ guest=$(mktemp -d)
 trap 'rm -rf "$guest"' EXIT
 mkdir -p "$guest"/{bin,proc,sys,dev,tmp,modules}
 cp "$(command -v busybox)" "$guest/bin/busybox"
-for tool in sh mount ip insmod echo poweroff cat; do ln -s busybox "$guest/bin/$tool"; done
+for tool in sh mount ip insmod echo poweroff cat mkdir; do ln -s busybox "$guest/bin/$tool"; done
 cp "$cache"/kernel/*.ko "$guest/modules/"
 cp "$program" "$guest/bin/test"
+# A dynamic program: its libraries and loader, at the paths ldd names.
+ldd "$program" 2>/dev/null | grep -o '/[^ ]*' | while read -r lib; do
+  mkdir -p "$guest$(dirname "$lib")" && cp -L "$lib" "$guest$lib"
+done
+IFS=: read -r -a extra <<< "${INDUROP_VCAN_FILES:-}"
+for f in "${extra[@]}"; do
+  [ -n "$f" ] && mkdir -p "$guest$(dirname "$f")" && cp -L "$f" "$guest$f"
+done
 printf '%s\n' "$@" > "$guest/args"
 cat > "$guest/init" <<'INIT'
 #!/bin/sh
 mount -t proc proc /proc; mount -t sysfs sys /sys; mount -t devtmpfs dev /dev
+mkdir -p /dev/shm /tmp; mount -t tmpfs shm /dev/shm; mount -t tmpfs tmp /tmp
 insmod /modules/can.ko && insmod /modules/can-raw.ko && insmod /modules/can-dev.ko && insmod /modules/vcan.ko
 ip link add dev vcan0 type vcan && ip link set vcan0 up
 set --

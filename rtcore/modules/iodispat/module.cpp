@@ -8,8 +8,7 @@
 //   </module>
 //
 // initialize() reads ioconfig.xml (property `config`; a relative path is looked for in the
-// property `config_dir`, then beside the module.xml irpd was started with, then in irpd's working
-// directory); start() resolves the shared variables and opens the devices; run() is one I/O cycle:
+// property `config_dir` if given, else beside the set's module.xml); start() resolves the shared variables and opens the devices; run() is one I/O cycle:
 // fieldbus I/O inside the RT period by design, as in the paper, bounded by the devices' timeouts
 // and the budget (docs/io.md); stop() closes the devices.
 //
@@ -30,36 +29,19 @@ namespace {
 std::unique_ptr<irp::iodispat::Dispatcher> g_dispatcher;
 bool g_started = false;
 
-// The --config argument of the running irpd (its module.xml), if there is one.
-std::filesystem::path irpdSetFolder() {
-    std::ifstream in("/proc/self/cmdline", std::ios::binary);
-    std::vector<std::string> args;
-    for (std::string a; std::getline(in, a, '\0');) args.push_back(a);
-    for (std::size_t i = 0; i < args.size(); ++i) {
-        if (args[i] == "--config" && i + 1 < args.size()) return std::filesystem::path(args[i + 1]).parent_path();
-        if (args[i].rfind("--config=", 0) == 0) return std::filesystem::path(args[i].substr(9)).parent_path();
-    }
-    return {};
-}
-
 std::string findConfig(const irp::Property &property) {
     const auto value = property.find("config");
     if (!value || value->empty()) throw irp::PropertyError("property 'config' is required: the path of ioconfig.xml");
-    const std::string written(*value);
-    const std::filesystem::path p(written);
-    if (p.is_absolute()) return written;
-    std::vector<std::filesystem::path> tried;
-    if (auto dir = property.find("config_dir")) tried.push_back(std::filesystem::path(std::string(*dir)) / p);
-    if (auto set = irpdSetFolder(); !set.empty()) tried.push_back(set / p);
-    tried.push_back(std::filesystem::current_path() / p);
-    for (const auto &candidate : tried) {
-        std::error_code ec;
-        if (std::filesystem::is_regular_file(candidate, ec)) return std::filesystem::absolute(candidate).lexically_normal().string();
-    }
-    std::string list;
-    for (const auto &candidate : tried) list += (list.empty() ? "" : ", ") + candidate.string();
-    throw irp::PropertyError("property 'config': '" + written + "' not found (looked at " + list +
-                             "); give an absolute path or the property config_dir");
+    const std::filesystem::path written{std::string(*value)};
+    // config_dir if given, else the folder of the set's module.xml (irp::Property::path).
+    const std::filesystem::path file = written.is_relative() && property.find("config_dir")
+                                           ? std::filesystem::path(std::string(*property.find("config_dir"))) / written
+                                           : std::filesystem::path(property.path("config"));
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(file, ec))
+        throw irp::PropertyError("property 'config': " + file.string() + " does not exist (a relative name is looked "
+                                 "for beside module.xml, or in the property config_dir)");
+    return std::filesystem::absolute(file).lexically_normal().string();
 }
 
 } // namespace
