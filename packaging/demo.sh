@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # demo.sh -- installs what is missing, builds, and starts the default demo: irpd running the
-# set activated last through the agent, or the paper's Figure 1 set (config/sets/paper-fig1:
-# every module kind) the first time, with its control socket, and
+# set activated last through the agent, or the PLC + robot cell (config/sets/plc-robot, the paper's
+# §4, its drives simulated on Modbus TCP by indurop-drivesim) the first time, with its control
+# socket, and
 # indurop-agent on http://127.0.0.1:8080/api/v1 beside it.  Ctrl-C stops both.  Extra arguments
 # go to irpd, e.g. `bash packaging/demo.sh --duration 10 --stats-json /tmp/stats.json` (the
 # agent stops when irpd does).  INDUROP_PORT and INDUROP_DATA change the port and data folder.
@@ -16,8 +17,10 @@ port=${INDUROP_PORT:-8080}
 mkdir -p "$data"
 sock="$data/irpd.sock"
 
-# The set activated last through the agent (its set store keeps a link to it), else Figure 1.
-config="$root/build/sets/paper-fig1/module.xml"
+# The set activated last through the agent (its set store keeps a link to it), else the PLC +
+# robot cell of the paper's §4; its drives are simulated on Modbus TCP (127.0.0.1:15020) by
+# indurop-drivesim, a non-real process module of the set that irpd starts and stops.
+config="$root/build/sets/plc-robot/module.xml"
 [ -f "$data/active/module.xml" ] && config="$data/active/module.xml"
 "$root/build/bin/irpd" --config "$config" --control-socket "$sock" "$@" &
 irpd_pid=$!
@@ -30,6 +33,7 @@ n=$(nproc)
 (cd "$root/agent" && exec "${off_rt[@]}" "$venv/bin/python" -m indurop_agent --host 127.0.0.1 --port "$port" \
     --data-dir "$data" --irpd-socket "$sock") &
 agent_pid=$!
+echo "demo: start the cell: irpctl write PLC_ROBOT.PLC_IN.Enable 1; irpctl write PLC_ROBOT.I0 1 (docs/plc-robot-cell.md)"
 echo "demo: irpd (pid $irpd_pid) on $config; agent (pid $agent_pid) on http://127.0.0.1:$port/api/v1/docs"
 echo "demo: the admin token is in $data/admin-token"
 

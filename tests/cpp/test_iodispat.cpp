@@ -106,7 +106,7 @@ std::string demoConfig(int port, const std::string &device_settings = R"(timeout
         if (at != std::string::npos) text.replace(at, from.size(), to);
     };
     replace(R"(port="15020")", "port=\"" + std::to_string(port) + "\"");
-    replace(R"(timeout_ms="2" fail_limit="3" reconnect_ms="500")", device_settings);
+    replace(R"(timeout_ms="4" fail_limit="3" reconnect_ms="500")", device_settings);
     return text;
 }
 
@@ -173,7 +173,7 @@ TEST(IoConfig, ParsesTheDemoConfig) {
     EXPECT_EQ(d.type, DeviceType::ModbusTcp);
     EXPECT_EQ(d.host, "127.0.0.1");
     EXPECT_EQ(d.port, 15020);
-    EXPECT_EQ(d.timeout_ms, 2);
+    EXPECT_EQ(d.timeout_ms, 4);
     EXPECT_EQ(d.fail_limit, 3);
     ASSERT_EQ(d.mappings.size(), 48u);  // 6 axes x (5 inputs + 3 outputs)
     const ModbusMapping &pos = d.mappings[3];

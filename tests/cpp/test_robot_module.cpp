@@ -130,6 +130,7 @@ std::unique_ptr<irp::hosts::ThreadModule> loadRobot(const Properties &props, std
     spec.filename = "./Robot.so";
     spec.path = kSet + "/Robot.so";
     spec.where = kSet + "/module.xml:1";
+    spec.set_dir = kSet;  // as the parser sets it: the folder of module.xml
     spec.period_ns = 10'000'000;
     spec.priority = 2;
     spec.properties = props;

@@ -126,14 +126,6 @@ struct Config {
     std::array<bool, 8> drive_devices{true, true, true, true, true, true, true, true};  // IO_STATUS indices watched
 };
 
-// The folder of this .so: relative paths in the properties are relative to it (the set's folder).
-fs::path moduleFolder() {
-    Dl_info info{};
-    if (dladdr(reinterpret_cast<void *>(&moduleFolder), &info) && info.dli_fname)
-        return fs::absolute(info.dli_fname).parent_path();
-    return fs::current_path();
-}
-
 std::vector<double> numberList(const char *name, std::string_view text) {
     std::vector<double> out;
     size_t at = 0;
@@ -164,8 +156,9 @@ double positive(const irp::Property &p, const char *name, double fallback) {
 
 Config readConfig(const irp::Property &p) {
     Config c;
-    fs::path urdf = p.get("urdf", std::string_view("indurop6.urdf"));
-    c.urdf = (urdf.is_relative() ? moduleFolder() / urdf : urdf).lexically_normal().string();
+    // A relative name is beside the set's module.xml (irp::Property::path): the .so itself is
+    // loaded from irpd's module cache.
+    c.urdf = fs::path(p.path("urdf", "indurop6.urdf")).lexically_normal().string();
     c.base_link = p.get("base_link", std::string_view("base_link"));
     c.tip_link = p.get("tip_link", std::string_view("tool0"));
     c.cart.speed = positive(p, "max_cart_speed", c.cart.speed);

@@ -49,6 +49,8 @@ json moduleEntry(const reload::Generation &g, const config::ModuleSpec &m, const
 control::Handler commandHandler(const CommandContext &c) {
     return [c](const std::string &cmd, const nlohmann::json &request) -> Result<json> {
         const auto g = c.reloader->current();
+        // The socket opens before the dispatchers start: until then there is no running generation.
+        if (!g) return Error{"irpd is starting (the set is not dispatched yet); try again in a moment"};
         const stats::Header *h = c.stats->header();
         const std::size_t executors = 1 + g->set.executors.size();
         if (cmd == "status") {
