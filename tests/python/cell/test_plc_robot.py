@@ -32,7 +32,7 @@ pytestmark = pytest.mark.skipif(not (SET / "Robot.so").exists() or not DRIVESIM.
 
 
 class Cell:
-    def __init__(self, tmp: Path, extra_drivesim: list[str] | None = None):
+    def __init__(self, tmp: Path, extra_drivesim: list[str] | None = None, xml: str = "module.xml"):
         self.tmp = tmp
         self.folder = tmp / "plc-robot"
         shutil.copytree(SET, self.folder)
@@ -40,15 +40,18 @@ class Cell:
         ioconfig = self.folder / "ioconfig.xml"
         # This port, and room for the test machine's stalls (a shared VM pauses for milliseconds): a
         # late answer here must not read as a dead drive.
+        # (about 0.1 s of silence before comm loss, whatever the period).
+        fail_limit = 100 if "1ms" in xml else 10
         ioconfig.write_text(ioconfig.read_text().replace("15020", str(self.port))
-                            .replace('timeout_ms="4" fail_limit="3"', 'timeout_ms="8" fail_limit="10"'))
+                            .replace('timeout_ms="4" fail_limit="3"', f'timeout_ms="8" fail_limit="{fail_limit}"'))
         # irpd starts the simulator itself (a non-real process module of the set): give it this port.
-        xml = self.folder / "module.xml"
+        xml = self.folder / xml
+        self.xml = xml
         xml.write_text(xml.read_text().replace("--port 15020 --quiet",
                                                " ".join(["--port", str(self.port), "--quiet", *(extra_drivesim or [])])))
         self.sock = tmp / "irpd.sock"
         self.instance = f"cell-test-{id(self)}"
-        self.irpd = subprocess.Popen([str(IRPD), "--config", str(self.folder / "module.xml"), "--control-socket",
+        self.irpd = subprocess.Popen([str(IRPD), "--config", str(self.xml), "--control-socket",
                                       str(self.sock), "--instance", self.instance],
                                      stdout=open(tmp / "irpd.log", "w"), stderr=subprocess.STDOUT, text=True)
         deadline = time.monotonic() + 20
@@ -106,6 +109,20 @@ def cell(tmp_path):
     c = Cell(tmp_path)
     yield c
     c.close()
+
+
+def test_the_1ms_variant_runs_the_same_cell_every_millisecond(tmp_path):
+    cell = Cell(tmp_path, xml="module-1ms.xml")
+    try:
+        status = cell.ask("status")
+        assert status["basic_period_ns"] == 1_000_000
+        assert [m["name"] for m in cell.ask("modules")] == ["main", "Robot", "libiodispat", "drivesim"]
+        before = cell.read("IO_STATUS.cycles")
+        time.sleep(0.5)
+        assert cell.read("IO_STATUS.cycles") - before > 250  # every period's I/O round (about 500)
+        assert cell.read("ROBOT_MODULE_STATE.nAXESGROUP") == 6
+    finally:
+        cell.close()
 
 
 def test_enable_start_runs_the_whole_pick_and_place_cycle_through_modbus(cell):
