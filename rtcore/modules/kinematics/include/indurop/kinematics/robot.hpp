@@ -12,6 +12,8 @@
 
 #include <indurop/kinematics/pose.hpp>
 
+#include "common/result.hpp"
+
 #include <array>
 #include <memory>
 #include <string>
@@ -21,26 +23,9 @@
 namespace irp::kin {
 
 // A value or the reason it could not be made (load-time only; the message names the file, the
-// link or joint, and what was expected).
-struct Error {
-    std::string message;
-};
-
-template <class T>
-class [[nodiscard]] Result {
-public:
-    Result(T value) : v_(std::move(value)) {}
-    Result(Error error) : v_(std::move(error)) {}
-    bool ok() const { return v_.index() == 0; }
-    explicit operator bool() const { return ok(); }
-    T &value() & { return std::get<0>(v_); }
-    T &&value() && { return std::get<0>(std::move(v_)); }
-    T *operator->() { return &value(); }
-    const Error &error() const { return std::get<1>(v_); }
-
-private:
-    std::variant<T, Error> v_;
-};
+// link or joint, and what was expected): rtcore's Result.
+using irp::Error;
+using irp::Result;
 
 // The movable joints' limits from the URDF, in chain order.
 struct JointLimits {
