@@ -54,7 +54,7 @@ printf '%s\n' "$@" > "$guest/args"
 cat > "$guest/init" <<'INIT'
 #!/bin/sh
 mount -t proc proc /proc; mount -t sysfs sys /sys; mount -t devtmpfs dev /dev
-mkdir -p /dev/shm /tmp; mount -t tmpfs shm /dev/shm; mount -t tmpfs tmp /tmp
+mkdir -p /dev/shm /tmp; mount -t tmpfs shm /dev/shm   # /tmp stays the initramfs (files may have been put there)
 insmod /modules/can.ko && insmod /modules/can-raw.ko && insmod /modules/can-dev.ko && insmod /modules/vcan.ko
 ip link add dev vcan0 type vcan && ip link set vcan0 up
 set --
