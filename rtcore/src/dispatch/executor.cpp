@@ -22,10 +22,6 @@ Executor::Executor(osal::Clock &clock, int64_t basic_ns, std::vector<std::vector
     : clock_(clock), own_(new Table{basic_ns, std::move(slots), std::move(tasks), std::move(events)}),
       table_(own_.get()), self_(self), options_(std::move(options)) {}
 
-Executor::Executor(Executor &&other) noexcept
-    : clock_(other.clock_), own_(std::move(other.own_)), table_(other.table_), self_(other.self_),
-      options_(std::move(other.options_)) {}
-
 void Executor::offer(const Table *next, int64_t at) {
     switched_.store(false, std::memory_order_relaxed);
     next_at_.store(at, std::memory_order_relaxed);

@@ -110,7 +110,6 @@ public:
              stats::TimingRecord *self, ExecutorOptions options, std::vector<Task *> events = {});
     Executor(const Executor &) = delete;
     Executor &operator=(const Executor &) = delete;
-    Executor(Executor &&other) noexcept;
 
     // The RT loop.  Slot n is due at t0 + n * basic.  Returns when `stop` is set (checked every
     // slot) or after cycle_limit slots (0 = no limit).  `cycles`, if given, counts slots done;

@@ -59,8 +59,7 @@ std::string Reloader::layoutHashOf(const config::SetSpec &set) const {
 
 // What can be checked before loading anything: the schedule, the layout against the running
 // segment, the executors, and which running modules would have to go.
-Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *running,
-                              std::vector<std::string> &warnings) const {
+Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *running) const {
     if (!set.layout.empty()) {
         auto layout = variables::readLayout(set.layout);
         if (!layout) return layout.error();
@@ -86,12 +85,11 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
     if (running && s_.control && processes > s_.control->slotCount())
         return Error{"the set has " + std::to_string(processes) + " process modules; this irpd has room for " +
                      std::to_string(s_.control->slotCount())};
-    (void)warnings;
     return Ok{};
 }
 
 json Reloader::check(const std::filesystem::path &xml) const {
-    json errors = json::array(), warnings_json = json::array(), schedule_json = nullptr;
+    json errors = json::array(), schedule_json = nullptr;
     auto set = config::parseModuleXml(xml);
     if (!set) {
         errors.push_back(set.error().message);
@@ -100,12 +98,9 @@ json Reloader::check(const std::filesystem::path &xml) const {
         auto schedule = schedule::build(*set, s_.limits);
         if (!schedule) errors.push_back(schedule.error().message);
         else schedule_json = schedule::toJson(*schedule, *set);
-        std::vector<std::string> warnings;
-        const auto running = current();
-        if (Status st = checkAgainst(*set, running.get(), warnings); !st) errors.push_back(st.error().message);
-        for (const std::string &w : warnings) warnings_json.push_back(w);
+        if (Status st = checkAgainst(*set, current().get()); !st) errors.push_back(st.error().message);
     }
-    return json{{"valid", errors.empty()}, {"errors", errors}, {"warnings", warnings_json}, {"schedule", schedule_json}};
+    return json{{"valid", errors.empty()}, {"errors", errors}, {"warnings", json::array()}, {"schedule", schedule_json}};
 }
 
 Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const Generation *running,
@@ -113,8 +108,7 @@ Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const
                                                       const std::function<Status(Generation &)> &before_processes) {
     auto schedule = schedule::build(set, s_.limits);
     if (!schedule) return schedule.error();
-    std::vector<std::string> warnings;
-    if (Status st = checkAgainst(set, running, warnings); !st) return st.error();
+    if (Status st = checkAgainst(set, running); !st) return st.error();
     for (const std::string &name : disabled)
         if (std::none_of(set.modules.begin(), set.modules.end(), [&](const auto &m) { return m.name == name; }))
             disabled.erase(name);
@@ -186,16 +180,16 @@ Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const
         if (member.kept || m.type != config::ModuleType::Thread) continue;
         auto image = s_.cache->put(m.path);
         if (!image) {
-            undo(*next, running);
+            undo(*next);
             return Error{who(m) + ": " + image.error().message};
         }
         auto loaded = hosts::ThreadModule::load(m, layout_hash, image->image);
         if (!loaded) {
-            undo(*next, running);
+            undo(*next);
             return loaded.error();
         }
         if (m.operation == config::OperationType::Sporadic && !(*loaded)->hasCondition()) {
-            undo(*next, running);
+            undo(*next);
             return Error{who(m) + ": a sporadic thread module needs condition() (extern \"C\" int condition(), or " +
                          "INDUROP_MODULE(condition = ...)), which the event handler calls every basic period"};
         }
@@ -205,12 +199,12 @@ Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const
         for (Member &member : next->members)
             if (!member.kept && member.thread)
                 if (Status st = ((*member.thread).*phase)(); !st) {
-                    undo(*next, running);
+                    undo(*next);
                     return st.error();
                 }
     if (before_processes)
         if (Status st = before_processes(*next); !st) {
-            undo(*next, running);
+            undo(*next);
             return st.error();
         }
 
@@ -225,7 +219,7 @@ Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const
         if (member.kept || m.type != config::ModuleType::Process) continue;
         auto free = std::find(slot_used.begin(), slot_used.end(), false);
         if (free == slot_used.end()) {
-            undo(*next, running);
+            undo(*next);
             return Error{who(m) + ": no free control slot (irpd has " + std::to_string(slot_used.size()) +
                          "; the running set's processes keep theirs until the swap)"};
         }
@@ -248,14 +242,14 @@ Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const
         }
         if (Status st = s_.supervisor->start(launch); !st) {
             member.slot = -1;
-            undo(*next, running);
+            undo(*next);
             return st.error();
         }
         any_new_process = true;
     }
     if (any_new_process)
         if (Status st = s_.supervisor->waitReady(s_.ready_timeout_ns); !st) {
-            undo(*next, running);
+            undo(*next);
             return st.error();
         }
 
@@ -308,7 +302,7 @@ Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const
     }
     for (const auto &[executor, share] : load)
         if (share > 1.0) {
-            undo(*next, running);
+            undo(*next);
             std::ostringstream text;
             text.precision(3);
             text << "executor '" << executor << "' would be " << share * 100
@@ -320,8 +314,7 @@ Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const
 }
 
 // Undoes a prepare that failed: the new modules and processes go, their records are freed.
-void Reloader::undo(Generation &partial, const Generation *running) {
-    (void)running;
+void Reloader::undo(Generation &partial) {
     std::vector<uint32_t> slots;
     for (Member &member : partial.members) {
         if (member.kept) continue;
@@ -427,7 +420,7 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
     const int64_t give_up = now() + s_.swap_timeout_ns + (at - now());
     while (!(switched = dispatcher_->switched())) {
         if (now() > give_up && dispatcher_->withdraw()) {
-            undo(*next, running.get());
+            undo(*next);
             const std::string message = "the executors did not reach the swap slot within " +
                                         std::to_string(s_.swap_timeout_ns / 1'000'000) +
                                         " ms (a module stuck in run()?); the running set is unchanged";

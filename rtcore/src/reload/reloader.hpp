@@ -97,9 +97,9 @@ public:
 
 private:
     Result<nlohmann::ordered_json> swap(std::unique_ptr<Generation> next, int64_t requested_ns);
-    Status checkAgainst(const config::SetSpec &set, const Generation *running, std::vector<std::string> &warnings) const;
+    Status checkAgainst(const config::SetSpec &set, const Generation *running) const;
     void retire(const Generation &old, const Generation &next);
-    void undo(Generation &partial, const Generation *running);
+    void undo(Generation &partial);
     std::string layoutHashOf(const config::SetSpec &set) const;
 
     Services s_;
