@@ -7,10 +7,7 @@ cycle counter counts; Stop halts it; the drives going silent -> comm_lost and th
 The simulator is the set's own non-real process module: irpd starts and stops it."""
 from __future__ import annotations
 
-import json
 import shutil
-import socket
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -18,9 +15,10 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from live_processes import BUILD, IRPD, ROOT, free_port, stop  # noqa: E402
+from live_processes import BUILD, ROOT, free_port, start_irpd, stop  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "agent"))
+from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
 from indurop_agent.variables import Segment  # noqa: E402
 
 SET = BUILD / "sets" / "plc-robot"
@@ -50,34 +48,21 @@ class Cell:
         xml.write_text(xml.read_text().replace("--port 15020 --quiet",
                                                " ".join(["--port", str(self.port), "--quiet", *(extra_drivesim or [])])))
         self.sock = tmp / "irpd.sock"
-        self.instance = f"cell-test-{id(self)}"
-        self.irpd = subprocess.Popen([str(IRPD), "--config", str(self.xml), "--control-socket",
-                                      str(self.sock), "--instance", self.instance],
-                                     stdout=open(tmp / "irpd.log", "w"), stderr=subprocess.STDOUT, text=True)
-        deadline = time.monotonic() + 20
-        while not self.sock.exists():
-            assert self.irpd.poll() is None, (tmp / "irpd.log").read_text()
-            assert time.monotonic() < deadline, "irpd did not start"
-            time.sleep(0.05)
-        self.control = socket.socket(socket.AF_UNIX)
-        self.control.connect(str(self.sock))
-        self.file = self.control.makefile("rw")
-        self.file.readline()
-        status = self.wait(lambda: self.request("status").get("result"))  # "starting" until dispatched
+        self.irpd = start_irpd(self.sock, self.xml, f"cell-test-{id(self)}")
+        self.control = IrpdClient(str(self.sock), timeout_s=30)
+        status = self.wait(self.status_once_dispatching)
         self.vars = Segment(status["shared_memory"]["variables"])
         self.wait(lambda: self.read("IO_STATUS.comm_lost[0]") == 0 and self.read("IO_STATUS.cycles") > 0)
 
     def ask(self, cmd: str, **args):
-        answer = self.request(cmd, **args)
-        assert answer["ok"], answer
-        return answer["result"]
+        return self.control.request(cmd, **args)
 
-    def request(self, cmd: str, **args) -> dict:
-        self.file.write(json.dumps({"cmd": cmd, **args}) + "\n")
-        self.file.flush()
-        line = self.file.readline()
-        assert line, f"irpd closed the control socket: {(self.tmp / 'irpd.log').read_text()}"
-        return json.loads(line)
+    def status_once_dispatching(self) -> dict | None:
+        """irpd's status, or None while it answers "starting" (before its dispatchers run)."""
+        try:
+            return self.ask("status")
+        except IrpdRefused:
+            return None
 
     def write(self, path: str, value) -> None:
         self.ask("write", path=NS + path, value=value)
