@@ -36,7 +36,7 @@ REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "tests" / "bench"))
 sys.path.insert(0, str(REPO / "agent"))
 
-import run_bench  # noqa: E402  (histogram decoding shared with the core benchmark)
+from indurop_agent.irpd_client import IrpdClient  # noqa: E402  (the control socket, as the agent speaks it)
 
 
 def free_port() -> int:
@@ -47,28 +47,6 @@ def free_port() -> int:
 
 def log(msg: str) -> None:
     print(f"[agent-bench] {msg}", file=sys.stderr, flush=True)
-
-
-class Control:
-    """A client of irpd's control socket (docs/control-protocol.md)."""
-
-    def __init__(self, path: Path, timeout: float = 60):
-        self.sock = socket.socket(socket.AF_UNIX)
-        self.sock.settimeout(timeout)
-        self.sock.connect(str(path))
-        self.file = self.sock.makefile("rw")
-        self.hello = json.loads(self.file.readline())
-
-    def ask(self, cmd: str, **args):
-        self.file.write(json.dumps({"cmd": cmd, **args}) + "\n")
-        self.file.flush()
-        answer = json.loads(self.file.readline())
-        if not answer.get("ok"):
-            raise RuntimeError(f"{cmd}: {answer.get('error')}")
-        return answer["result"]
-
-    def close(self):
-        self.sock.close()
 
 
 def start_irpd(a, xml: Path, sock: Path, stats: Path, instance: str, extra: list[str] | None = None) -> subprocess.Popen:
@@ -127,20 +105,20 @@ def run_swaps(a, work: Path) -> dict:
     xml = swap_set(folder)
     sock, stats = folder / "irpd.sock", folder / "stats.json"
     irpd = start_irpd(a, xml, sock, stats, f"bench-swaps-{os.getpid()}", ["--module-cache", str(folder / "cache")])
-    control = Control(sock)
+    control = IrpdClient(str(sock), timeout_s=60)
     reports = []
     try:
         time.sleep(1)
         # Misses on the same machine without swaps, for comparison: one interval as long as the swaps take.
-        quiet_from = control.ask("status")
+        quiet_from = control.request("status")
         swaps_started = time.monotonic()
         for i in range(a.swaps):
             shutil.copy(modules / ("counter_v2.so" if i % 2 == 0 else "counter_v1.so"), folder / "swap.so")
-            reports.append(control.ask("load", config=str(xml)))
+            reports.append(control.request("load", config=str(xml)))
         swaps_took = time.monotonic() - swaps_started
-        quiet_start = control.ask("status")
+        quiet_start = control.request("status")
         time.sleep(swaps_took)
-        quiet_end = control.ask("status")
+        quiet_end = control.request("status")
     finally:
         control.close()
         stop(irpd)
