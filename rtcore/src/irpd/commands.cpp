@@ -114,7 +114,7 @@ control::Handler commandHandler(const CommandContext &c) {
             if (!path) return path.error();
             if (c.variables_shm.empty()) return Error{"the running set has no shared variables"};
             if (!request.contains("value")) return Error{"'value' is required: a number or a boolean"};
-            return variables::writeByPath(c.layout_text, *path, request["value"]);
+            return variables::writeByPath(c.layout, *path, request["value"]);
         }
         auto onMain = [&c](std::function<MainQueue::Answer()> job) {
             return c.queue->call(std::move(job), std::chrono::milliseconds(60'000));

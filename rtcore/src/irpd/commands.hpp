@@ -25,7 +25,7 @@ struct CommandContext {
     MainQueue *queue = nullptr;
     const Options *options = nullptr;
     std::string variables_shm;  // "" = none
-    std::string layout_text;    // the running layout.json, for write's type checks
+    nlohmann::json layout;      // the running layout.json (parsed), for write's type checks
     trace::TraceRings *trace = nullptr;
     const variables::VariableSegment *vars = nullptr;  // null: no shared variables
 };

@@ -187,14 +187,14 @@ int run(const Options &options) {
 
     // Shared variables: the segment exists before any module is loaded.
     std::optional<variables::VariableSegment> vars;
-    std::string layout_text;
+    nlohmann::json layout_json;  // for the control protocol's write
     if (!set->layout.empty()) {
         auto layout = variables::readLayout(set->layout);
         if (!layout) return refuse(layout.error().message);
         auto created = variables::VariableSegment::create(options.instance, *layout);
         if (!created) return std::cerr << "irpd: error: " << created.error().message << std::endl, kExitFailure;
         vars = std::move(*created);
-        layout_text = layout->text;
+        layout_json = nlohmann::json::parse(layout->text);  // readLayout checked it
         say("shared variables: " + std::to_string(layout->variables) + " variables, " +
             std::to_string(layout->data_size) + " bytes, layout " + vars->hash() + ", in /dev/shm" + vars->name());
     }
@@ -260,7 +260,7 @@ int run(const Options &options) {
         context.queue = &queue;
         context.options = &options;
         context.variables_shm = vars ? vars->name() : "";
-        context.layout_text = layout_text;
+        context.layout = std::move(layout_json);
         context.trace = &*trace_rings;
         context.vars = vars ? &*vars : nullptr;
         auto opened = control::ControlServer::open(options.control_socket, commandHandler(context));

@@ -45,9 +45,8 @@ Result<json> store(const std::string &path, T value) {
 
 } // namespace
 
-Result<json> writeByPath(const std::string &layout_text, const std::string &path, const nlohmann::json &value) {
-    const auto layout = nlohmann::json::parse(layout_text, nullptr, false);
-    if (layout.is_discarded()) return Error{"the running layout cannot be read"};
+Result<json> writeByPath(const nlohmann::json &layout, const std::string &path, const nlohmann::json &value) {
+    if (!layout.contains("leaves") || !layout.contains("scalars")) return Error{"the running layout cannot be read"};
     const nlohmann::json *leaf = nullptr;
     for (const auto &l : layout["leaves"])
         if (l.value("path", "") == path) leaf = &l;

@@ -11,9 +11,9 @@
 
 namespace irp::variables {
 
-// layout_text: the running layout.json.  Returns {"path", "value"} (the value as stored), or an
+// layout: the running layout.json, parsed once.  Returns {"path", "value"} (the value as stored), or an
 // Error naming what to fix: unknown path (with a hint), a value of the wrong type, out of range.
-Result<nlohmann::ordered_json> writeByPath(const std::string &layout_text, const std::string &path,
+Result<nlohmann::ordered_json> writeByPath(const nlohmann::json &layout, const std::string &path,
                                            const nlohmann::json &value);
 
 } // namespace irp::variables
