@@ -109,9 +109,10 @@ Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const
     auto schedule = schedule::build(set, s_.limits);
     if (!schedule) return schedule.error();
     if (Status st = checkAgainst(set, running); !st) return st.error();
-    for (const std::string &name : disabled)
-        if (std::none_of(set.modules.begin(), set.modules.end(), [&](const auto &m) { return m.name == name; }))
-            disabled.erase(name);
+    // A disabled module the new set no longer has is forgotten.
+    std::erase_if(disabled, [&](const std::string &name) {
+        return std::none_of(set.modules.begin(), set.modules.end(), [&](const auto &m) { return m.name == name; });
+    });
 
     auto next = std::make_unique<Generation>();
     next->number = running ? running->number + 1 : 1;
