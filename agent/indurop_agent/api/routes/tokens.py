@@ -1,10 +1,11 @@
-"""tokens.py -- bearer tokens (admin): create one for a role (shown once), list them, revoke one."""
+"""tokens.py -- bearer tokens: who am I (any role); create one for a role (shown once), list them,
+revoke one (admin)."""
 from typing import Literal
 
 from fastapi import APIRouter, HTTPException, Request
 from pydantic import BaseModel, Field
 
-from ..deps import AdminDep, audited
+from ..deps import AdminDep, ViewerDep, audited
 
 router = APIRouter(tags=["tokens"])
 
@@ -21,11 +22,23 @@ class TokenPublic(BaseModel):
     token: str = Field(description="shown only in this answer; stored hashed")
 
 
+class Me(BaseModel):
+    id: str
+    name: str
+    role: Literal["viewer", "operator", "admin"]
+
+
 class TokenInfo(BaseModel):
     id: str
     name: str
     role: str
     created: str | None
+
+
+@router.get("/auth/me")
+def me(who: ViewerDep) -> Me:
+    """Who the token is: its id, name and role (what a UI shows as editable)."""
+    return Me(id=who.id, name=who.name, role=who.role)
 
 
 @router.post("/tokens", status_code=201)

@@ -1,0 +1,30 @@
+// context.ts -- what every page gets: the API client, who is signed in, the sample stream, and
+// the page contract (mount into an element, give back a function that unmounts).
+import type { Api } from "../api/client";
+import type { StreamClient } from "../stream/stream";
+
+export type Role = "viewer" | "operator" | "admin";
+
+export interface Session {
+  token: string;
+  name: string;
+  role: Role;
+}
+
+export interface AppContext {
+  api: Api;
+  session: Session;
+  stream: StreamClient;
+  /** true when the signed-in role is at least `role` (viewer < operator < admin). */
+  can(role: Role): boolean;
+  /** shows a short message in the status bar (errors in red). */
+  notify(message: string, kind?: "info" | "error"): void;
+}
+
+/** A page: draws itself into `root`, keeps itself live, and returns its cleanup. */
+export type Page = (root: HTMLElement, ctx: AppContext) => () => void;
+
+const RANK: Record<Role, number> = { viewer: 0, operator: 1, admin: 2 };
+export function roleAtLeast(have: Role, need: Role): boolean {
+  return RANK[have] >= RANK[need];
+}
