@@ -13,7 +13,7 @@ from fastapi.responses import JSONResponse
 
 from . import __version__
 from .activation import Activator, Restorer
-from .api.routes import audit, events, health, jitter, modules, sets, status, stream, tokens, variables
+from .api.routes import audit, events, health, jitter, modules, robot, sets, status, stream, tokens, variables
 from .audit import AuditLog
 from .auth import TokenStore
 from .config import Settings
@@ -79,6 +79,6 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     state.activator = Activator(state.store, state.irpd_swap, state.events, settings.swap_timeout_s)
     app.add_exception_handler(RequestValidationError, validation_error)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, exempt=is_upload)
-    for module in (health, status, modules, jitter, variables, sets, events, audit, tokens, stream):
+    for module in (health, status, modules, jitter, variables, sets, robot, events, audit, tokens, stream):
         app.include_router(module.router, prefix=API)
     return app

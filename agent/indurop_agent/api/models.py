@@ -89,3 +89,113 @@ class EventsPage(BaseModel):
     agent_next: int = Field(description="the agent's cursor: pass it as ?agent_since= next time")
     dropped: int = Field(description="events lost (pushed out of either ring) before the cursors")
     irpd: str = Field(description="ok, or why irpd's events are missing from this page")
+
+
+# --- what the web UI needs beyond the figures irpd gives (host load, histograms, batch changes,
+# the 3D view); documented in docs/api.md.
+
+class ProcessLoad(BaseModel):
+    pid: int
+    cpu: float = Field(description="CPU time used since the previous sample, as a fraction of one CPU (0..n)")
+    rss_bytes: int
+    threads: int
+
+
+class CpuLoad(BaseModel):
+    cpu: int
+    busy: float = Field(description="fraction of the last sampling interval not idle (0..1)")
+
+
+class HostLoad(BaseModel):
+    cpus: list[CpuLoad]
+    load_avg: list[float] = Field(description="1, 5 and 15 minute load averages")
+    interval_s: float = Field(description="the sampling interval the figures cover")
+    irpd: ProcessLoad | None = Field(description="null when irpd does not answer")
+    agent: ProcessLoad
+    agent_uptime_s: float
+
+
+class Bucket(BaseModel):
+    """One non-empty bucket: values in [low_ns, low_ns + width_ns)."""
+
+    low_ns: float
+    width_ns: float
+    count: int
+
+
+class Histogram(BaseModel):
+    count: int
+    min: float
+    max: float
+    buckets: list[Bucket] = Field(description="the non-empty buckets, ascending; jitter may have negative ones")
+
+
+class HistogramRecord(BaseModel):
+    name: str
+    kind: str = Field(description="dispatcher or module")
+    executor: str
+    runs: int
+    overruns: int
+    missed: int
+    skipped: int
+    errors: int
+    jitter_ns: Histogram
+    latency_ns: Histogram
+    exec_ns: Histogram
+
+
+class Histograms(BaseModel):
+    cycles: int = Field(description="basic periods dispatched so far; the figures are cumulative since start")
+    time_ns: int = Field(description="CLOCK_MONOTONIC when read")
+    records: list[HistogramRecord]
+
+
+class ModuleChange(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    name: str
+    period_ns: int | None = Field(None, gt=0)
+    priority: int | None = Field(None, ge=0, le=1_000_000)
+    enabled: bool | None = None
+
+
+class ModuleChanges(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    changes: list[ModuleChange] = Field(min_length=1, max_length=256)
+    dry_run: bool = Field(False, description="true: check and show the new slot table, change nothing")
+
+
+class ChangesReport(BaseModel):
+    dry_run: bool
+    before: dict = Field(description="the slot table running now, as GET /schedule")
+    after: dict = Field(description="the slot table with the changes, as GET /schedule")
+    utilization: float = Field(description="estimated busy fraction of the busiest executor with the changes "
+                                           "(measured exec p99 of each module over its period)")
+    warnings: list[str] = []
+    report: SwapReport | None = Field(None, description="irpd's swap report (null for a dry run)")
+
+
+class JointMap(BaseModel):
+    joint: str = Field(description="a movable joint of the URDF")
+    variable: str | None = Field(description="the scalar shared variable giving its position; null: held at 0")
+    scale: float = 1.0
+    offset: float = 0.0
+
+
+class RobotJoint(JointMap):
+    type: str = Field(description="revolute, continuous or prismatic")
+    lower: float | None
+    upper: float | None
+
+
+class RobotView(BaseModel):
+    available: bool = Field(description="false: no robot in the running set, or the viewer could not start")
+    detail: str | None = Field(None, description="why not available")
+    viewer: str = Field(description="viser or meshcat (the agent's --viewer)")
+    viewer_url: str | None = Field(description="where the embedded 3D view is served (relative to the agent)")
+    urdf: str | None = Field(description="the URDF file of the running set")
+    joints: list[RobotJoint]
+
+
+class JointMapUpdate(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    joints: list[JointMap] = Field(min_length=1, max_length=64)

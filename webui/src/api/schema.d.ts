@@ -82,6 +82,26 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/host": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Host
+         * @description CPU load per CPU, load averages, and irpd's and the agent's CPU and memory.
+         */
+        get: operations["host_api_v1_host_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/jitter": {
         parameters: {
             query?: never;
@@ -91,6 +111,26 @@ export interface paths {
         };
         /** Jitter */
         get: operations["jitter_api_v1_jitter_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/jitter/histograms": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Histograms
+         * @description The histograms behind GET /jitter (non-empty buckets), of one record by name or of all.
+         */
+        get: operations["histograms_api_v1_jitter_histograms_get"];
         put?: never;
         post?: never;
         delete?: never;
@@ -110,6 +150,27 @@ export interface paths {
         get: operations["modules_api_v1_modules_get"];
         put?: never;
         post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/modules/changes": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Change Modules
+         * @description Several modules' period, priority or enabled changed in one hot swap; with dry_run, the slot
+         *     table before and after and the estimated utilization, nothing changed.
+         */
+        post: operations["change_modules_api_v1_modules_changes_post"];
         delete?: never;
         options?: never;
         head?: never;
@@ -137,6 +198,61 @@ export interface paths {
          *     applied and the 409 says which.
          */
         patch: operations["patch_module_api_v1_modules__name__patch"];
+        trace?: never;
+    };
+    "/api/v1/robot": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Robot */
+        get: operations["robot_api_v1_robot_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/robot/joints": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        /**
+         * Put Joints
+         * @description Stores a new mapping as a new version of the running set (history and rollback as for any
+         *     set) and applies it to the view at once.
+         */
+        put: operations["put_joints_api_v1_robot_joints_put"];
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/robot/urdf": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Robot Urdf */
+        get: operations["robot_urdf_api_v1_robot_urdf_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
         trace?: never;
     };
     "/api/v1/schedule": {
@@ -380,6 +496,59 @@ export interface components {
             since: string;
             validation: components["schemas"]["Validation"];
         };
+        /**
+         * Bucket
+         * @description One non-empty bucket: values in [low_ns, low_ns + width_ns).
+         */
+        Bucket: {
+            /** Count */
+            count: number;
+            /** Low Ns */
+            low_ns: number;
+            /** Width Ns */
+            width_ns: number;
+        };
+        /** ChangesReport */
+        ChangesReport: {
+            /**
+             * After
+             * @description the slot table with the changes, as GET /schedule
+             */
+            after: {
+                [key: string]: unknown;
+            };
+            /**
+             * Before
+             * @description the slot table running now, as GET /schedule
+             */
+            before: {
+                [key: string]: unknown;
+            };
+            /** Dry Run */
+            dry_run: boolean;
+            /** @description irpd's swap report (null for a dry run) */
+            report?: components["schemas"]["SwapReport"] | null;
+            /**
+             * Utilization
+             * @description estimated busy fraction of the busiest executor with the changes (measured exec p99 of each module over its period)
+             */
+            utilization: number;
+            /**
+             * Warnings
+             * @default []
+             */
+            warnings: string[];
+        };
+        /** CpuLoad */
+        CpuLoad: {
+            /**
+             * Busy
+             * @description fraction of the last sampling interval not idle (0..1)
+             */
+            busy: number;
+            /** Cpu */
+            cpu: number;
+        };
         /** Event */
         Event: {
             /** Kind */
@@ -435,6 +604,108 @@ export interface components {
             /** Detail */
             detail?: components["schemas"]["ValidationError"][];
         };
+        /** Histogram */
+        Histogram: {
+            /**
+             * Buckets
+             * @description the non-empty buckets, ascending; jitter may have negative ones
+             */
+            buckets: components["schemas"]["Bucket"][];
+            /** Count */
+            count: number;
+            /** Max */
+            max: number;
+            /** Min */
+            min: number;
+        };
+        /** HistogramRecord */
+        HistogramRecord: {
+            /** Errors */
+            errors: number;
+            exec_ns: components["schemas"]["Histogram"];
+            /** Executor */
+            executor: string;
+            jitter_ns: components["schemas"]["Histogram"];
+            /**
+             * Kind
+             * @description dispatcher or module
+             */
+            kind: string;
+            latency_ns: components["schemas"]["Histogram"];
+            /** Missed */
+            missed: number;
+            /** Name */
+            name: string;
+            /** Overruns */
+            overruns: number;
+            /** Runs */
+            runs: number;
+            /** Skipped */
+            skipped: number;
+        };
+        /** Histograms */
+        Histograms: {
+            /**
+             * Cycles
+             * @description basic periods dispatched so far; the figures are cumulative since start
+             */
+            cycles: number;
+            /** Records */
+            records: components["schemas"]["HistogramRecord"][];
+            /**
+             * Time Ns
+             * @description CLOCK_MONOTONIC when read
+             */
+            time_ns: number;
+        };
+        /** HostLoad */
+        HostLoad: {
+            agent: components["schemas"]["ProcessLoad"];
+            /** Agent Uptime S */
+            agent_uptime_s: number;
+            /** Cpus */
+            cpus: components["schemas"]["CpuLoad"][];
+            /**
+             * Interval S
+             * @description the sampling interval the figures cover
+             */
+            interval_s: number;
+            /** @description null when irpd does not answer */
+            irpd: components["schemas"]["ProcessLoad"] | null;
+            /**
+             * Load Avg
+             * @description 1, 5 and 15 minute load averages
+             */
+            load_avg: number[];
+        };
+        /** JointMap */
+        JointMap: {
+            /**
+             * Joint
+             * @description a movable joint of the URDF
+             */
+            joint: string;
+            /**
+             * Offset
+             * @default 0
+             */
+            offset: number;
+            /**
+             * Scale
+             * @default 1
+             */
+            scale: number;
+            /**
+             * Variable
+             * @description the scalar shared variable giving its position; null: held at 0
+             */
+            variable: string | null;
+        };
+        /** JointMapUpdate */
+        JointMapUpdate: {
+            /** Joints */
+            joints: components["schemas"]["JointMap"][];
+        };
         /** Me */
         Me: {
             /** Id */
@@ -446,6 +717,28 @@ export interface components {
              * @enum {string}
              */
             role: "viewer" | "operator" | "admin";
+        };
+        /** ModuleChange */
+        ModuleChange: {
+            /** Enabled */
+            enabled?: boolean | null;
+            /** Name */
+            name: string;
+            /** Period Ns */
+            period_ns?: number | null;
+            /** Priority */
+            priority?: number | null;
+        };
+        /** ModuleChanges */
+        ModuleChanges: {
+            /** Changes */
+            changes: components["schemas"]["ModuleChange"][];
+            /**
+             * Dry Run
+             * @description true: check and show the new slot table, change nothing
+             * @default false
+             */
+            dry_run: boolean;
         };
         /** ModulePatch */
         ModulePatch: {
@@ -511,6 +804,82 @@ export interface components {
             total_ns?: number | null;
         } & {
             [key: string]: unknown;
+        };
+        /** ProcessLoad */
+        ProcessLoad: {
+            /**
+             * Cpu
+             * @description CPU time used since the previous sample, as a fraction of one CPU (0..n)
+             */
+            cpu: number;
+            /** Pid */
+            pid: number;
+            /** Rss Bytes */
+            rss_bytes: number;
+            /** Threads */
+            threads: number;
+        };
+        /** RobotJoint */
+        RobotJoint: {
+            /**
+             * Joint
+             * @description a movable joint of the URDF
+             */
+            joint: string;
+            /** Lower */
+            lower: number | null;
+            /**
+             * Offset
+             * @default 0
+             */
+            offset: number;
+            /**
+             * Scale
+             * @default 1
+             */
+            scale: number;
+            /**
+             * Type
+             * @description revolute, continuous or prismatic
+             */
+            type: string;
+            /** Upper */
+            upper: number | null;
+            /**
+             * Variable
+             * @description the scalar shared variable giving its position; null: held at 0
+             */
+            variable: string | null;
+        };
+        /** RobotView */
+        RobotView: {
+            /**
+             * Available
+             * @description false: no robot in the running set, or the viewer could not start
+             */
+            available: boolean;
+            /**
+             * Detail
+             * @description why not available
+             */
+            detail?: string | null;
+            /** Joints */
+            joints: components["schemas"]["RobotJoint"][];
+            /**
+             * Urdf
+             * @description the URDF file of the running set
+             */
+            urdf: string | null;
+            /**
+             * Viewer
+             * @description viser or meshcat (the agent's --viewer)
+             */
+            viewer: string;
+            /**
+             * Viewer Url
+             * @description where the embedded 3D view is served (relative to the agent)
+             */
+            viewer_url: string | null;
         };
         /** SetFile */
         SetFile: {
@@ -816,6 +1185,26 @@ export interface operations {
             };
         };
     };
+    host_api_v1_host_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HostLoad"];
+                };
+            };
+        };
+    };
     jitter_api_v1_jitter_get: {
         parameters: {
             query?: never;
@@ -838,6 +1227,37 @@ export interface operations {
             };
         };
     };
+    histograms_api_v1_jitter_histograms_get: {
+        parameters: {
+            query?: {
+                name?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["Histograms"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
     modules_api_v1_modules_get: {
         parameters: {
             query?: never;
@@ -854,6 +1274,53 @@ export interface operations {
                 };
                 content: {
                     "application/json": unknown[];
+                };
+            };
+        };
+    };
+    change_modules_api_v1_modules_changes_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["ModuleChanges"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ChangesReport"];
+                };
+            };
+            /** @description a change names no module, or none */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description irpd refused the changes (its message) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
                 };
             };
         };
@@ -944,6 +1411,86 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["HTTPValidationError"];
                 };
+            };
+        };
+    };
+    robot_api_v1_robot_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["RobotView"];
+                };
+            };
+        };
+    };
+    put_joints_api_v1_robot_joints_put: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["JointMapUpdate"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["RobotView"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    robot_urdf_api_v1_robot_urdf_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/xml": unknown;
+                };
+            };
+            /** @description no robot in the running set */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
         };
     };

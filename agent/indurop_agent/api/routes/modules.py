@@ -6,7 +6,7 @@ from fastapi import APIRouter, HTTPException, Request
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, model_validator
 
 from ..deps import IrpdDep, OperatorDep, SwapIrpdDep, ViewerDep, ask, audited
-from ..models import PatchReport
+from ..models import ChangesReport, ModuleChanges, PatchReport
 
 router = APIRouter(tags=["modules"])
 
@@ -70,3 +70,12 @@ def patch_module(name: str, body: ModulePatch, request: Request, irpd: IrpdDep, 
         entry["generation"] = reports[-1].get("generation")
     request.app.state.events.add("patch_module", f"module {name}: {changes} by {who.name}", module=name)
     return PatchReport(**reports[-1], reports=reports)
+
+
+@router.post("/modules/changes", responses={400: {"description": "a change names no module, or none"},
+                                           409: {"description": "irpd refused the changes (its message)"}})
+def change_modules(body: ModuleChanges, request: Request, irpd: IrpdDep, swap: SwapIrpdDep,
+                   who: OperatorDep) -> ChangesReport:
+    """Several modules' period, priority or enabled changed in one hot swap; with dry_run, the slot
+    table before and after and the estimated utilization, nothing changed."""
+    raise NotImplementedError
