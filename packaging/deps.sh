@@ -14,16 +14,25 @@ packages=(
   googletest libgtest-dev                        # C++ tests
   rt-tests                                       # cyclictest: the benchmark's reference
   util-linux                                     # setpriv, prlimit: the non-RT fallback test
+  chromium fonts-dejavu-core                     # the browser tests (Playwright drives Debian's chromium)
 )
 
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-[ ${#missing[@]} -eq 0 ] && exit 0
+command -v node >/dev/null || missing+=(nodejs npm)   # the web UI's build (Vite) and tests
 
 sudo=""
 [ "$(id -u)" -eq 0 ] || sudo="sudo"
-echo "deps: installing ${missing[*]}"
-$sudo apt-get update -qq
-DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "deps: installing ${missing[*]}"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# Vite needs Node.js 20.19 or later (Debian 12's own nodejs is 18).
+node -e 'const [a, b] = process.versions.node.split(".").map(Number); process.exit(a > 20 || (a === 20 && b >= 19) ? 0 : 1)' || {
+  echo "deps: Node.js $(node --version) is too old for the web UI's build; install Node.js 20.19 or later (e.g. from NodeSource) and run again" >&2
+  exit 1
+}

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# run.sh -- the whole test suite: installs what is missing, builds, runs every test (ctest, pytest).
+# run.sh -- the whole test suite: installs what is missing, builds, runs every test (ctest, pytest,
+# the UI's unit tests with Vitest, the browser tests with Playwright on Debian's chromium).
 # Timing figures are not tested here; tests/bench/ measures them.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -8,8 +9,12 @@ bash "$root/packaging/build.sh"
 
 # Python tests (glbc, the agent) in the project's own venv.
 venv=$(bash "$root/packaging/venv.sh")
+# The browser tests' own packages (Playwright's runner; the browser is Debian's chromium).
+bash "$root/packaging/npm-ci.sh" "$root/tests/browser"
 
 status=0
 (cd "$root/build" && ctest --output-on-failure --timeout 300) || status=1
 "$venv/bin/pytest" -q "$root/tests/python" || status=1
+(cd "$root/webui" && npx vitest run) || status=1
+(cd "$root/tests/browser" && npx playwright test) || status=1
 exit $status

@@ -25,25 +25,37 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def start_irpd(sock: Path, config: Path = FIG1, instance: str | None = None) -> subprocess.Popen:
-    """irpd running `config` with its control socket at `sock`; returns once the socket is there."""
+def _output(log: Path | None):
+    """Where a process's output goes: a file for long runs (a pipe nobody reads would fill)."""
+    return open(log, "w") if log else subprocess.PIPE
+
+
+def _read(p: subprocess.Popen, log: Path | None) -> str:
+    return log.read_text() if log else (p.stdout or p.stderr).read()
+
+
+def start_irpd(sock: Path, config: Path = FIG1, instance: str | None = None, *extra: str,
+               log: Path | None = None) -> subprocess.Popen:
+    """irpd running `config` with its control socket at `sock`; returns once the socket is there.
+    Its stderr goes to `log` when given."""
     sock.unlink(missing_ok=True)
     p = subprocess.Popen([str(IRPD), "--config", str(config), "--control-socket", str(sock),
-                          "--instance", instance or f"agent-test-{os.getpid()}"],
-                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                          "--instance", instance or f"agent-test-{os.getpid()}", *extra],
+                         stdout=subprocess.DEVNULL, stderr=_output(log), text=True)
     deadline = time.monotonic() + 20
     while not sock.exists():
-        assert p.poll() is None, p.stderr.read()
+        assert p.poll() is None, _read(p, log)
         assert time.monotonic() < deadline, "irpd did not open its control socket"
         time.sleep(0.02)
     return p
 
 
-def start_agent(port: int, data: Path, sock: Path, *extra: str) -> subprocess.Popen:
-    """`python -m indurop_agent` on 127.0.0.1:port; returns once /health answers."""
+def start_agent(port: int, data: Path, sock: Path, *extra: str, log: Path | None = None) -> subprocess.Popen:
+    """`python -m indurop_agent` on 127.0.0.1:port; returns once /health answers.  Its output goes
+    to `log` when given."""
     p = subprocess.Popen([sys.executable, "-m", "indurop_agent", "--host", "127.0.0.1", "--port", str(port),
                           "--data-dir", str(data), "--irpd-socket", str(sock), *extra],
-                         cwd=ROOT / "agent", stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                         cwd=ROOT / "agent", stdout=_output(log), stderr=subprocess.STDOUT, text=True)
     deadline = time.monotonic() + 20
     while True:
         try:
@@ -51,7 +63,7 @@ def start_agent(port: int, data: Path, sock: Path, *extra: str) -> subprocess.Po
                 return p
         except httpx.HTTPError:
             pass
-        assert p.poll() is None, p.stdout.read()
+        assert p.poll() is None, _read(p, log)
         assert time.monotonic() < deadline, "the agent did not come up"
         time.sleep(0.05)
 

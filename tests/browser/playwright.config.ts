@@ -1,0 +1,28 @@
+// playwright.config.ts -- the browser tests: Debian's chromium (headless, WebGL by SwiftShader),
+// against a real irpd + agent started by global-setup.ts.  Screenshots and traces land in
+// build/test-artifacts/browser/.
+import { defineConfig } from "@playwright/test";
+import { join } from "node:path";
+
+const artifacts = join(__dirname, "../../build/test-artifacts/browser");
+
+export default defineConfig({
+  testDir: ".",
+  testMatch: /.*\.spec\.ts$/,
+  outputDir: join(artifacts, "results"),
+  globalSetup: "./global-setup.ts",
+  timeout: 120_000,
+  workers: 1,
+  retries: 0,
+  reporter: [["list"], ["html", { outputFolder: join(artifacts, "report"), open: "never" }]],
+  use: {
+    headless: true,
+    viewport: { width: 1440, height: 900 },
+    screenshot: "on",
+    trace: "retain-on-failure",
+    launchOptions: {
+      executablePath: process.env.CHROMIUM ?? "/usr/bin/chromium",
+      args: ["--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"],
+    },
+  },
+});

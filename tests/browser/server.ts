@@ -1,0 +1,47 @@
+// server.ts -- starts serve.py (real irpd + agent, tests/browser/serve.py) and stops it by pid.
+import { spawn } from "node:child_process";
+import { existsSync, mkdtempSync, readFileSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { join, resolve } from "node:path";
+
+export interface Server {
+  url: string;
+  tokens: { admin: string; operator: string; viewer: string };
+  work: string;
+  pids: { irpd: number; agent: number; serve: number };
+}
+
+export const ROOT = resolve(__dirname, "../..");
+const PYTHON = join(ROOT, ".venv/bin/python");
+
+/** Starts irpd + agent (viewer: viser or meshcat; config: a module.xml) and resolves when up. */
+export async function startServer(viewer = "viser", config?: string): Promise<Server> {
+  const out = join(mkdtempSync(join(tmpdir(), "indurop-serve-")), "server.json");
+  const args = [join(__dirname, "serve.py"), out, ...(config ? [config] : [])];
+  const child = spawn(PYTHON, args, { env: { ...process.env, INDUROP_VIEWER: viewer }, stdio: ["ignore", "inherit", "inherit"] });
+  const deadline = Date.now() + 60_000;
+  while (!existsSync(out)) {
+    if (child.exitCode !== null) throw new Error(`serve.py ended with ${child.exitCode}`);
+    if (Date.now() > deadline) throw new Error("irpd + agent did not come up within 60 s");
+    await new Promise((r) => setTimeout(r, 100));
+  }
+  return JSON.parse(readFileSync(out, "utf8")) as Server;
+}
+
+/** SIGTERM to serve.py by pid; it stops the agent and irpd by theirs. */
+export async function stopServer(s: Server): Promise<void> {
+  try {
+    process.kill(s.pids.serve, "SIGTERM");
+  } catch {
+    return;
+  }
+  for (let i = 0; i < 200; i++) {
+    try {
+      process.kill(s.pids.serve, 0);
+    } catch {
+      return;
+    }
+    await new Promise((r) => setTimeout(r, 100));
+  }
+  process.kill(s.pids.serve, "SIGKILL");
+}
