@@ -33,8 +33,17 @@ n=$(nproc)
 (cd "$root/agent" && exec "${off_rt[@]}" "$venv/bin/python" -m indurop_agent --host 127.0.0.1 --port "$port" \
     --data-dir "$data" --irpd-socket "$sock") &
 agent_pid=$!
-echo "demo: start the cell: irpctl write PLC_ROBOT.PLC_IN.Enable 1; irpctl write PLC_ROBOT.I0 1 (docs/plc-robot-cell.md)"
-echo "demo: irpd (pid $irpd_pid) on $config; agent (pid $agent_pid) on http://127.0.0.1:$port/api/v1/docs"
+url=http://127.0.0.1:$port
+for _ in $(seq 200); do curl -sf "$url/api/v1/health" >/dev/null && break; kill -0 $agent_pid 2>/dev/null || break; sleep 0.1; done
+# The first time, the cell becomes the set store's first set (history, rollback, the UI's edits
+# are versions of it): uploaded and activated, a hot reload in which every module is kept.
+if [ ! -e "$data/active" ]; then
+  INDUROP_URL=$url INDUROP_TOKEN_FILE=$data/admin-token "$venv/bin/irpctl" upload "$(dirname "$config")" --activate >/dev/null \
+    || echo "demo: the cell could not be stored in the set store; it runs as started" >&2
+fi
+echo "demo: the web UI: $url/  (sign in with the admin token: $data/admin-token)"
+echo "demo: start the cell from the UI's Variables page (PLC_ROBOT.PLC_IN.Enable = 1, then PLC_ROBOT.I0 = 1) or: irpctl write PLC_ROBOT.PLC_IN.Enable 1; irpctl write PLC_ROBOT.I0 1 (docs/plc-robot-cell.md)"
+echo "demo: irpd (pid $irpd_pid) on $config; agent (pid $agent_pid) on $url/api/v1/docs"
 echo "demo: the admin token is in $data/admin-token"
 
 stop() { kill -TERM $irpd_pid $agent_pid 2>/dev/null || true; wait 2>/dev/null || true; }
