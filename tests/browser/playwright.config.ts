@@ -9,6 +9,7 @@ const artifacts = join(__dirname, "../../build/test-artifacts/browser");
 export default defineConfig({
   testDir: ".",
   testMatch: /.*\.spec\.ts$/,
+  testIgnore: /bench\//,
   outputDir: join(artifacts, "results"),
   globalSetup: "./global-setup.ts",
   timeout: 120_000,

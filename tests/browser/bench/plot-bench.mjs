@@ -1,0 +1,49 @@
+// plot-bench.mjs -- the browser half of tests/bench/plot_bench.py: Debian's chromium (headless, via Playwright)
+// opens the UI at `url`, first a page with no plot (the reference), then the Variables page plotting
+// `paths`, and reports frame intervals and samples as JSON on stdout.
+//   node plot-bench.mjs URL TOKEN SECONDS PATH...
+import { chromium } from "@playwright/test";
+
+const [url, token, seconds, ...paths] = process.argv.slice(2);
+const browser = await chromium.launch({
+  executablePath: process.env.CHROMIUM ?? "/usr/bin/chromium",
+  args: ["--use-gl=angle", "--use-angle=swiftshader", "--no-sandbox"],
+});
+const page = await browser.newPage({ viewport: { width: 1440, height: 900 } });
+
+// Frame intervals as the page sees them: one requestAnimationFrame callback per frame.
+async function frameIntervals(ms) {
+  return page.evaluate(
+    (ms) =>
+      new Promise((resolve) => {
+        const t = [];
+        const end = performance.now() + ms;
+        const tick = (now) => {
+          t.push(now);
+          if (now < end) requestAnimationFrame(tick);
+          else resolve(t.slice(1).map((x, i) => x - t[i]));
+        };
+        requestAnimationFrame(tick);
+      }),
+    ms,
+  );
+}
+
+await page.goto(`${url}/?token=${encodeURIComponent(token)}#/overview`);
+await page.getByTestId("who").waitFor();
+const reference = await frameIntervals(10_000);
+
+await page.goto(`${url}/#/variables?plot=${encodeURIComponent(paths.join(","))}`);
+await page.getByTestId("plot-panel-0").waitFor();
+await page.waitForFunction((n) => (window.__induropPlotStats?.samples ?? 0) > n, 100);
+const before = await page.evaluate(() => ({ ...window.__induropPlotStats, dropped: Number(document.querySelector("[data-testid=drop-counter]")?.textContent?.match(/\d+/)?.[0] ?? -1) }));
+const plot = await frameIntervals(Number(seconds) * 1000);
+const after = await page.evaluate(() => ({ ...window.__induropPlotStats, dropped: Number(document.querySelector("[data-testid=drop-counter]")?.textContent?.match(/\d+/)?.[0] ?? -1) }));
+await page.screenshot({ path: process.env.SHOT ?? "/tmp/plot-bench.png" });
+await browser.close();
+console.log(JSON.stringify({ reference, plot, before: strip(before), after: strip(after) }));
+
+function strip(s) {
+  const { frameTimes, ...rest } = s;
+  return { ...rest, frameTimesRecent: (frameTimes ?? []).slice(-600) };
+}
