@@ -8,17 +8,19 @@ export interface Server {
   url: string;
   tokens: { admin: string; operator: string; viewer: string };
   work: string;
-  pids: { irpd: number; agent: number; serve: number };
+  /** a second agent on the same irpd, with the meshcat 3D view */
+  meshcat: { url: string; tokens: { admin: string; operator: string; viewer: string } };
+  pids: { irpd: number; agent: number; agent_meshcat: number; serve: number };
 }
 
 export const ROOT = resolve(__dirname, "../..");
 const PYTHON = join(ROOT, ".venv/bin/python");
 
-/** Starts irpd + agent (viewer: viser or meshcat; config: a module.xml) and resolves when up. */
-export async function startServer(viewer = "viser", config?: string): Promise<Server> {
+/** Starts irpd (config: a module.xml, default the PLC + robot cell) and its agents; resolves when up. */
+export async function startServer(config?: string): Promise<Server> {
   const out = join(mkdtempSync(join(tmpdir(), "indurop-serve-")), "server.json");
   const args = [join(__dirname, "serve.py"), out, ...(config ? [config] : [])];
-  const child = spawn(PYTHON, args, { env: { ...process.env, INDUROP_VIEWER: viewer }, stdio: ["ignore", "inherit", "inherit"] });
+  const child = spawn(PYTHON, args, { stdio: ["ignore", "inherit", "inherit"] });
   const deadline = Date.now() + 60_000;
   while (!existsSync(out)) {
     if (child.exitCode !== null) throw new Error(`serve.py ended with ${child.exitCode}`);
