@@ -1,0 +1,30 @@
+// swap-report-view.ts -- irpd's report of a hot swap, as people read it: which modules were kept,
+// started, stopped, the cycle the new table took over at, the periods missed, how long it took.
+import { h } from "./dom";
+import type { SwapReport } from "./types";
+import { formatCount, formatNs } from "./units";
+
+export function renderSwapReport(title: string, r: SwapReport, at: Date = new Date()): HTMLElement {
+  const list = (names: string[] | undefined) => (names && names.length ? names.join(", ") : "—");
+  const missed = r.missed_periods ?? null;
+  const row = (label: string, value: string, cls = "", testid?: string) =>
+    h("tr", {}, h("th", {}, label), h("td", { class: cls, "data-testid": testid ?? null }, value));
+  return h(
+    "div",
+    { class: "ops-report" },
+    h("h4", {}, title, h("span", { class: "ops-sub" }, ` at ${at.toLocaleTimeString()}`)),
+    h(
+      "table",
+      { class: "ops-kv" },
+      row("set", `${r.set ?? "–"}${r.set_id ? ` (id ${r.set_id})` : ""}`, "mono wrap"),
+      row("generation", r.generation != null ? String(r.generation) : "–", "num"),
+      row("kept", list(r.kept), "mono", "report-kept"),
+      row("started", list(r.started), "mono", "report-started"),
+      row("stopped", list(r.stopped), "mono", "report-stopped"),
+      row("swap cycle", r.swap_cycle != null ? formatCount(r.swap_cycle) : "–", "num", "report-swap-cycle"),
+      row("missed periods", missed != null ? String(missed) : "–", `num state ${missed === 0 ? "good" : missed ? "bad" : ""}`, "report-missed"),
+      row("request to swap", formatNs(r.request_to_swap_ns ?? null), "num", "report-request-to-swap"),
+      row("total", formatNs(r.total_ns ?? null), "num"),
+    ),
+  );
+}

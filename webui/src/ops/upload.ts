@@ -1,0 +1,163 @@
+// upload.ts -- a set upload from the browser: the files dropped or picked (folders walked with
+// webkitGetAsEntry, keeping relative paths), the set's root found (module.xml at the top), the
+// multipart body (`files` parts named by path, or one `archive`), and the POST with progress.
+import { detailOf } from "../api/client";
+
+export interface UploadFile {
+  /** path inside the set, "/"-separated, e.g. lib/cntr1.so */
+  path: string;
+  file: File;
+}
+
+/** The part of FileSystemEntry / FileSystemDirectoryEntry the walk needs (so tests can fake it). */
+export interface EntryLike {
+  isFile: boolean;
+  isDirectory: boolean;
+  name: string;
+  file?(ok: (f: File) => void, err?: (e: unknown) => void): void;
+  createReader?(): { readEntries(ok: (entries: EntryLike[]) => void, err?: (e: unknown) => void): void };
+}
+
+/** Every file under `entries`, with its path relative to the drop (a dropped folder keeps its name). */
+export async function filesFromEntries(entries: EntryLike[], prefix = ""): Promise<UploadFile[]> {
+  const out: UploadFile[] = [];
+  for (const entry of entries) {
+    const path = prefix + entry.name;
+    if (entry.isFile && entry.file) {
+      const file = await new Promise<File>((ok, err) => entry.file!(ok, err));
+      out.push({ path, file });
+    } else if (entry.isDirectory && entry.createReader) {
+      const reader = entry.createReader();
+      // readEntries answers in batches (100 in Chromium) until an empty one
+      const children: EntryLike[] = [];
+      for (;;) {
+        const batch = await new Promise<EntryLike[]>((ok, err) => reader.readEntries(ok, err));
+        if (!batch.length) break;
+        children.push(...batch);
+      }
+      out.push(...(await filesFromEntries(children, `${path}/`)));
+    }
+  }
+  return out;
+}
+
+/** Files from an <input type=file> (webkitRelativePath when a folder was picked). */
+export function filesFromList(files: ArrayLike<File>): UploadFile[] {
+  return Array.from(files).map((file) => ({ path: file.webkitRelativePath || file.name, file }));
+}
+
+/** The files of a drop: folders walked when the browser gives entries, plain files otherwise. */
+export async function filesFromDrop(dt: DataTransfer): Promise<UploadFile[]> {
+  const entries: EntryLike[] = [];
+  for (const item of Array.from(dt.items ?? [])) {
+    if (item.kind !== "file") continue;
+    const entry = (item as DataTransferItem & { webkitGetAsEntry?: () => EntryLike | null }).webkitGetAsEntry?.();
+    if (entry) entries.push(entry);
+  }
+  return entries.length ? filesFromEntries(entries) : filesFromList(dt.files);
+}
+
+const JUNK = /(^|\/)(\.DS_Store|Thumbs\.db|desktop\.ini|\._[^/]*|\.git(\/.*)?)$/;
+
+export type Plan =
+  | { kind: "archive"; file: File; name: string; bytes: number }
+  | { kind: "files"; files: UploadFile[]; bytes: number; skipped: string[]; root: string }
+  | { kind: "error"; message: string };
+
+function isArchive(name: string): boolean {
+  return /\.(tar\.gz|tgz)$/i.test(name);
+}
+
+/**
+ * What to send: one .tar.gz alone as `archive`; otherwise the files, with the folder they were
+ * dropped in taken off so that module.xml is at the top (a dropped "plc-robot/" folder uploads
+ * as module.xml, Robot.so, ...).  Desktop litter (.DS_Store, ._*, Thumbs.db) is left out.
+ */
+export function planUpload(input: UploadFile[]): Plan {
+  if (!input.length) return { kind: "error", message: "no files" };
+  const archives = input.filter((f) => isArchive(f.path));
+  if (archives.length) {
+    if (input.length > 1)
+      return { kind: "error", message: `send an archive alone: ${archives[0].path} came with ${input.length - 1} other file(s)` };
+    return { kind: "archive", file: archives[0].file, name: archives[0].path.split("/").pop()!, bytes: archives[0].file.size };
+  }
+  const skipped = input.filter((f) => JUNK.test(f.path)).map((f) => f.path);
+  let files = input.filter((f) => !JUNK.test(f.path)).map((f) => ({ ...f, path: f.path.replace(/^\/+/, "") }));
+  let root = "";
+  for (;;) {
+    if (files.some((f) => f.path === "module.xml")) break;
+    const first = files[0].path.split("/")[0];
+    if (!files.every((f) => f.path.startsWith(`${first}/`))) break;
+    root += `${first}/`;
+    files = files.map((f) => ({ ...f, path: f.path.slice(first.length + 1) }));
+  }
+  if (!files.some((f) => f.path === "module.xml"))
+    return { kind: "error", message: "no module.xml at the top of the set: drop the set's folder, its files, or one .tar.gz" };
+  const seen = new Set<string>();
+  for (const f of files) {
+    if (seen.has(f.path)) return { kind: "error", message: `${f.path} appears twice` };
+    seen.add(f.path);
+  }
+  files.sort((a, b) => (a.path === "module.xml" ? -1 : b.path === "module.xml" ? 1 : a.path.localeCompare(b.path)));
+  return { kind: "files", files, bytes: files.reduce((n, f) => n + f.file.size, 0), skipped, root };
+}
+
+/** The multipart body: one `files` part per file, its filename the path in the set; or `archive`. */
+export function buildForm(plan: Exclude<Plan, { kind: "error" }>): FormData {
+  const form = new FormData();
+  if (plan.kind === "archive") form.append("archive", plan.file, plan.name);
+  else for (const f of plan.files) form.append("files", f.file, f.path);
+  return form;
+}
+
+export interface Refusal {
+  status: number;
+  message: string;
+  file?: string;
+  line?: number;
+  column?: number;
+}
+
+/** An upload's refusal from its status and body ({detail, file?, line?, column?}). */
+export function refusal(status: number, body: unknown): Refusal {
+  const b = body && typeof body === "object" ? (body as Record<string, unknown>) : {};
+  const num = (v: unknown) => (typeof v === "number" && Number.isFinite(v) ? v : undefined);
+  let message = body === undefined || body === "" ? `HTTP ${status}` : detailOf(body);
+  if (status === 0) message = body === "aborted" ? "upload cancelled" : "the agent did not answer (network error)";
+  return { status, message, file: typeof b.file === "string" ? b.file : undefined, line: num(b.line), column: num(b.column) };
+}
+
+/** "module.xml:12:5" from a refusal, or "" when it names no file. */
+export function refusalWhere(r: Refusal): string {
+  if (!r.file) return "";
+  return r.file + (r.line !== undefined ? `:${r.line}` : "") + (r.line !== undefined && r.column !== undefined ? `:${r.column}` : "");
+}
+
+export interface UploadHandle {
+  done: Promise<{ status: number; body: unknown }>;
+  abort(): void;
+}
+
+/** POSTs `form` with XMLHttpRequest, to report upload progress (fetch cannot). */
+export function send(url: string, token: string, form: FormData, onProgress: (sent: number, total: number) => void): UploadHandle {
+  const xhr = new XMLHttpRequest();
+  const done = new Promise<{ status: number; body: unknown }>((resolve) => {
+    xhr.open("POST", url);
+    xhr.setRequestHeader("Authorization", `Bearer ${token}`);
+    xhr.upload.onprogress = (e) => onProgress(e.loaded, e.lengthComputable ? e.total : 0);
+    const finish = () => {
+      let body: unknown = xhr.responseText;
+      try {
+        body = JSON.parse(xhr.responseText);
+      } catch {
+        /* not JSON: keep the text */
+      }
+      resolve({ status: xhr.status, body });
+    };
+    xhr.onload = finish;
+    xhr.onerror = finish;
+    xhr.onabort = () => resolve({ status: 0, body: "aborted" });
+    xhr.send(form);
+  });
+  return { done, abort: () => xhr.abort() };
+}
