@@ -1,7 +1,9 @@
 // stream.ts -- one WebSocket to /api/v1/stream for the whole UI.  Pages subscribe to paths; the
 // client asks the agent for the union and hands every listener the columns of its own paths.
-// It reconnects by itself; `dropped` is the agent's exact counter of samples this client lost.
-import { decodeFrame } from "./frame";
+// It reconnects by itself; `dropped` is the agent's exact counter of samples this client lost,
+// `discarded` the samples that arrived but could not be handed on (a frame that does not decode or
+// does not match the channels in force).
+import { decodeFrame, FrameError } from "./frame";
 
 export interface Samples {
   firstSeq: number;
@@ -17,6 +19,8 @@ export interface Samples {
 export interface StreamStatus {
   connected: boolean;
   dropped: number;
+  /** samples received but not handed to any listener (undecodable or mismatched frames) */
+  discarded: number;
   basicPeriodNs: number | null;
   error: string | null;
 }
@@ -29,7 +33,7 @@ export class StreamClient {
   private channels: string[] = [];
   private closed = false;
   private retry: ReturnType<typeof setTimeout> | null = null;
-  status: StreamStatus = { connected: false, dropped: 0, basicPeriodNs: null, error: null };
+  status: StreamStatus = { connected: false, dropped: 0, discarded: 0, basicPeriodNs: null, error: null };
   onStatus: (s: StreamStatus) => void = () => {};
 
   constructor(private readonly url: string, private readonly token: string, private readonly decimation = 1) {}
@@ -59,7 +63,10 @@ export class StreamClient {
 
   private resubscribe(): void {
     if (this.closed) return;
-    if (!this.ws) return this.connect();
+    if (!this.ws) {
+      if (!this.retry) this.connect(); // else the pending retry connects and subscribes
+      return;
+    }
     if (this.ws.readyState === WebSocket.OPEN)
       this.ws.send(JSON.stringify({ subscribe: this.union(), decimation: this.decimation, stats: true }));
   }
@@ -69,14 +76,22 @@ export class StreamClient {
     ws.binaryType = "arraybuffer";
     this.ws = ws;
     ws.onopen = () => {
+      if (this.ws !== ws) return;
       this.setStatus({ connected: true, error: null });
       this.resubscribe();
     };
-    ws.onmessage = (ev) => this.handle(ev.data);
+    ws.onmessage = (ev) => {
+      if (this.ws === ws) this.handle(ev.data);
+    };
     ws.onclose = (ev) => {
+      if (this.ws !== ws) return;
       this.ws = null;
       this.setStatus({ connected: false, error: ev.code >= 4000 ? `stream closed: ${ev.code} ${ev.reason}` : null });
-      if (!this.closed && ev.code !== 4401 && ev.code !== 4403) this.retry = setTimeout(() => this.connect(), 1000);
+      if (!this.closed && ev.code !== 4401 && ev.code !== 4403)
+        this.retry = setTimeout(() => {
+          this.retry = null;
+          if (!this.closed) this.connect();
+        }, 1000);
     };
   }
 
@@ -98,8 +113,20 @@ export class StreamClient {
       return;
     }
     if (!(data instanceof ArrayBuffer)) return;
-    const f = decodeFrame(data);
-    if (f.channels !== this.channels.length) return; // a frame of a subscription being replaced
+    let f;
+    try {
+      f = decodeFrame(data);
+    } catch (e) {
+      if (!(e instanceof FrameError)) throw e;
+      const count = data.byteLength >= 20 ? new DataView(data).getUint32(16, true) : 0;
+      this.setStatus({ discarded: this.status.discarded + count, error: e.message });
+      return;
+    }
+    if (f.channels !== this.channels.length) {
+      // never expected: the agent sends a subscription's channels before its first frame
+      this.setStatus({ discarded: this.status.discarded + f.count });
+      return;
+    }
     if (f.dropped !== this.status.dropped) this.setStatus({ dropped: f.dropped });
     const t = new Float64Array(f.count);
     for (let i = 0; i < f.count; i++) t[i] = f.t[i] / 1e9;
