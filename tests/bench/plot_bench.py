@@ -70,8 +70,9 @@ def report(r: dict, seconds: int) -> str:
     ref, plot = figures(r["reference"]), figures(r["plot"])
     b, a = r["before"], r["after"]
     received = a["samples"] - b["samples"]
-    elapsed_s = (a["lastSeq"] - b["lastSeq"]) / 1000 if "lastSeq" in a else seconds
-    produced = round(elapsed_s * 1000)
+    produced = r["cycles"]  # irpd's basic periods (1 ms) between the two readings: rows it sampled
+    elapsed_s = produced / 1000
+    work = sorted(a.get("workMsRecent", []))
     dropped = a["dropped"] - b["dropped"]
     ui_dropped = a.get("uiDropped", 0) - b.get("uiDropped", 0)
     rows = [("reference (Overview, no plot)", ref), (f"plot: 16 variables at 1 kHz, {seconds} s", plot)]
@@ -98,6 +99,8 @@ def report(r: dict, seconds: int) -> str:
         f"- Samples: {received} rows of 16 values received by the page over {elapsed_s:.1f} s of irpd periods "
         f"({produced} produced); **{dropped} dropped** by the stream (the agent's exact counter), "
         f"{ui_dropped} discarded by the page.  Target: 0 dropped.",
+        f"- The page's own work per frame (JavaScript incl. uPlot's drawing, last {len(work)} frames): "
+        f"p50 {pct(work, 0.5):.2f} ms, p95 {pct(work, 0.95):.2f} ms." if work else "",
         "",
         f"Measured {time.strftime('%Y-%m-%d')} on the 2-CPU development VM (noisy, shared).",
         "",

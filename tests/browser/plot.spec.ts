@@ -7,7 +7,7 @@ test("a live plot's canvas changes over time", async ({ page }) => {
   await startCell();
   const joint = "PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[0]";
   await signIn(page, "operator", `#/variables?plot=${encodeURIComponent(`${joint},PLC_ROBOT.PLC_OUT.Step`)}`);
-  const panel = page.getByTestId("plot-panel-0");
+  const panel = page.getByTestId("plot-panel-1");
   await expect(panel).toBeVisible();
   await expect(page.getByTestId("drop-counter")).toBeVisible();
   const canvas = panel.locator("canvas").first();
@@ -23,10 +23,13 @@ test("the tree finds a variable and an operator writes it", async ({ page }) => 
   await page.getByTestId("var-search").fill("Override");
   const leaf = page.getByTestId("var-PLC_ROBOT.PLC_IN.Override");
   await expect(leaf).toBeVisible();
-  await leaf.locator("input").first().fill("0.5");
-  await leaf.locator("input").first().press("Enter");
+  await page.getByTestId("write-PLC_ROBOT.PLC_IN.Override").fill("0.5");
+  await page.getByTestId("set-PLC_ROBOT.PLC_IN.Override").click();
   await expect.poll(async () => (await (await api("/variables/PLC_ROBOT.PLC_IN.Override")).json()).value).toBe(0.5);
-  await leaf.locator("input").first().fill("1");
-  await leaf.locator("input").first().press("Enter");
+  await page.getByTestId("write-PLC_ROBOT.PLC_IN.Override").fill("1.5e400");
+  await page.getByTestId("set-PLC_ROBOT.PLC_IN.Override").click();
+  await expect(page.getByTestId("result-PLC_ROBOT.PLC_IN.Override")).not.toBeEmpty();
+  await page.getByTestId("write-PLC_ROBOT.PLC_IN.Override").fill("1");
+  await page.getByTestId("set-PLC_ROBOT.PLC_IN.Override").click();
   await expect.poll(async () => (await (await api("/variables/PLC_ROBOT.PLC_IN.Override")).json()).value).toBe(1);
 });

@@ -59,7 +59,7 @@ async function start(root: HTMLElement): Promise<void> {
   };
   let unmount: (() => void) | null = null;
   const route = () => {
-    const id = location.hash.replace(/^#\/?/, "").split("/")[0] || "overview";
+    const id = location.hash.replace(/^#\/?/, "").split(/[/?]/)[0] || "overview";
     const p = PAGES.find((x) => x.id === id) ?? PAGES[0];
     unmount?.();
     main.innerHTML = "";

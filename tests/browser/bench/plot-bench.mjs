@@ -34,16 +34,19 @@ await page.getByTestId("who").waitFor();
 const reference = await frameIntervals(10_000);
 
 await page.goto(`${url}/#/variables?plot=${encodeURIComponent(paths.join(","))}`);
-await page.getByTestId("plot-panel-0").waitFor();
+await page.getByTestId("plot-panel-1").waitFor();
 await page.waitForFunction((n) => (window.__induropPlotStats?.samples ?? 0) > n, 100);
+const cycles = async () => (await (await fetch(`${url}/api/v1/status`, { headers: { Authorization: `Bearer ${token}` } })).json()).cycles;
+const cyclesBefore = await cycles();
 const before = await page.evaluate(() => ({ ...window.__induropPlotStats, dropped: Number(document.querySelector("[data-testid=drop-counter]")?.textContent?.match(/\d+/)?.[0] ?? -1) }));
 const plot = await frameIntervals(Number(seconds) * 1000);
+const cyclesAfter = await cycles();
 const after = await page.evaluate(() => ({ ...window.__induropPlotStats, dropped: Number(document.querySelector("[data-testid=drop-counter]")?.textContent?.match(/\d+/)?.[0] ?? -1) }));
 await page.screenshot({ path: process.env.SHOT ?? "/tmp/plot-bench.png" });
 await browser.close();
-console.log(JSON.stringify({ reference, plot, before: strip(before), after: strip(after) }));
+console.log(JSON.stringify({ reference, plot, before: strip(before), after: strip(after), cycles: cyclesAfter - cyclesBefore }));
 
 function strip(s) {
-  const { frameTimes, ...rest } = s;
-  return { ...rest, frameTimesRecent: (frameTimes ?? []).slice(-600) };
+  const { frameTimes, frameIntervals, ...rest } = s;
+  return { ...rest, workMsRecent: (frameTimes ?? []).slice(-600) };
 }

@@ -9,6 +9,7 @@ import { formatValue, parseValue } from "../plot/vartypes";
 import { VarTree, type LeafRow } from "../plot/vartree";
 import { MAX_VARS, PlotPanel, WINDOWS_S, type PanelConfig, type PanelEnv } from "../plot/panel";
 import { Pacer, plotStats, recordFrame } from "../plot/stats";
+import { panelsFromHash } from "../plot/panel-link";
 
 const REFRESH_MS = 500;
 const MAX_REFRESH = 60; // values read per refresh at most (the rows on screen)
@@ -16,6 +17,8 @@ const PARALLEL = 6;
 const STORE = "indurop.plots";
 
 function loadPanels(): PanelConfig[] {
+  const linked = panelsFromHash(location.hash);
+  if (linked) return linked;
   try {
     const v = JSON.parse(sessionStorage.getItem(STORE) ?? "null");
     if (Array.isArray(v)) return v.filter((c) => c && Array.isArray(c.paths));
