@@ -7,6 +7,7 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -40,10 +41,13 @@ def start_irpd(sock: Path, config: Path = FIG1, instance: str | None = None) -> 
 
 
 def start_agent(port: int, data: Path, sock: Path, *extra: str) -> subprocess.Popen:
-    """`python -m indurop_agent` on 127.0.0.1:port; returns once /health answers."""
+    """`python -m indurop_agent` on 127.0.0.1:port; returns once /health answers.  Its output goes
+    to a temporary file, never a pipe nobody reads (a full pipe would stop the agent): output(p)."""
+    log = tempfile.TemporaryFile("w+")
     p = subprocess.Popen([sys.executable, "-m", "indurop_agent", "--host", "127.0.0.1", "--port", str(port),
                           "--data-dir", str(data), "--irpd-socket", str(sock), *extra],
-                         cwd=ROOT / "agent", stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                         cwd=ROOT / "agent", stdout=log, stderr=subprocess.STDOUT, text=True)
+    p.log = log
     deadline = time.monotonic() + 20
     while True:
         try:
@@ -51,9 +55,15 @@ def start_agent(port: int, data: Path, sock: Path, *extra: str) -> subprocess.Po
                 return p
         except httpx.HTTPError:
             pass
-        assert p.poll() is None, p.stdout.read()
+        assert p.poll() is None, output(p)
         assert time.monotonic() < deadline, "the agent did not come up"
         time.sleep(0.05)
+
+
+def output(p: subprocess.Popen) -> str:
+    """What an agent started by start_agent printed so far."""
+    p.log.seek(0)
+    return p.log.read()
 
 
 def stop(p: subprocess.Popen) -> None:
