@@ -1,5 +1,5 @@
 """indurop-agent's entry: python -m indurop_agent --host H --port P --data-dir D --irpd-socket PATH
-[--tls-cert CERT.pem --tls-key KEY.pem] [--config agent.json]."""
+[--tls-cert CERT.pem --tls-key KEY.pem] [--webui-dir DIR] [--config agent.json]."""
 from __future__ import annotations
 
 import sys
@@ -19,6 +19,11 @@ def main(argv: list[str] | None = None) -> int:
     scheme = "https" if settings.tls_cert else "http"
     print(f"indurop-agent: {scheme}://{settings.host}:{settings.port}/api/v1/docs  (irpd: {settings.irpd_socket}, "
           f"data: {settings.data_dir})", flush=True)
+    if app.state.webui_dir is not None:
+        print(f"indurop-agent: the web UI at {scheme}://{settings.host}:{settings.port}/  ({app.state.webui_dir})",
+              flush=True)
+    else:
+        print("indurop-agent: no web UI built (cd webui && npm ci && npm run build)", flush=True)
     tls = {"ssl_certfile": str(settings.tls_cert), "ssl_keyfile": str(settings.tls_key)} if settings.tls_cert else {}
     uvicorn.run(app, host=settings.host, port=settings.port, log_level="warning", **tls)
     return 0

@@ -10,8 +10,10 @@ operator chose.  It never raises: irpd may be absent for as long as it likes.
 from __future__ import annotations
 
 import threading
+from pathlib import Path
 
 from .audit import AuditLog
+from .errors import problems
 from .events import AgentEvents
 from .irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
 from .store import SetStore, StoreError
@@ -111,14 +113,17 @@ class Restorer(threading.Thread):
 
 
 def irpd_validation(irpd: IrpdClient, module_xml, timeout_s: float = 30.0) -> dict:
-    """irpd's `check` of a stored set, as the manifest's validation report.  irpd unreachable (or
-    too old to check): stored unchecked, valid null, and a warning that says so."""
-    unchecked = {"valid": None, "errors": [], "schedule": None}
+    """irpd's `check` of a stored set, as the manifest's validation report, each error also as a
+    problem saying where it points in the set.  irpd unreachable (or too old to check): stored
+    unchecked, valid null, and a warning that says so."""
+    unchecked = {"valid": None, "errors": [], "problems": [], "schedule": None}
     try:
         result = irpd.request("check", config=str(module_xml), timeout=timeout_s) or {}
     except IrpdUnavailable:
         return {**unchecked, "warnings": ["not checked: irpd unreachable"]}
     except IrpdRefused as e:
         return {**unchecked, "warnings": [f"not checked: irpd cannot check sets ({e})"]}
-    return {"valid": bool(result.get("valid")), "errors": [str(x) for x in result.get("errors") or []],
+    errors = [str(x) for x in result.get("errors") or []]
+    return {"valid": bool(result.get("valid")), "errors": errors,
+            "problems": problems(errors, Path(module_xml).parent),
             "warnings": [str(x) for x in result.get("warnings") or []], "schedule": result.get("schedule")}

@@ -1,23 +1,29 @@
-"""app.py -- the FastAPI application: routers under /api/v1, and in app.state the irpd clients,
-tokens, the lockout, the set store, the activator, the audit log and the agent's events.  While
-the app runs, a watcher restores the active set into a (re)started irpd (activation.py)."""
+"""app.py -- the FastAPI application: routers under /api/v1, the built web UI at /, and in
+app.state the irpd clients, tokens, the lockout, the set store, the activator, the audit log, the
+agent's events and the host-load sampler.  While the app runs, a watcher restores the active set
+into a (re)started irpd (activation.py)."""
 from __future__ import annotations
 
 import math
 from contextlib import asynccontextmanager
 
-from fastapi import FastAPI, Request
+from pathlib import Path
+
+from fastapi import FastAPI, HTTPException, Request
 from fastapi.encoders import jsonable_encoder
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from fastapi.staticfiles import StaticFiles
 
 from . import __version__
 from .activation import Activator, Restorer
 from .api.routes import audit, events, health, jitter, modules, robot, sets, status, stream, tokens, variables
 from .audit import AuditLog
 from .auth import TokenStore
-from .config import Settings
+from .config import Settings, default_webui_dir
+from .errors import LocatedError, located_error
 from .events import AgentEvents
+from .host import Sampler
 from .irpd_client import IrpdClient
 from .security import BodyLimitMiddleware, Lockout
 from .store import SetStore
@@ -44,6 +50,44 @@ def json_safe(value):
 async def validation_error(_: Request, exc: RequestValidationError) -> JSONResponse:
     """FastAPI's 422, made safe for inputs such as {"value": NaN} (its own answer would be a 500)."""
     return JSONResponse(status_code=422, content={"detail": json_safe(jsonable_encoder(exc.errors()))})
+
+
+NO_WEBUI = ("the web UI is not built: cd webui && npm ci && npm run build (or start the agent with "
+            "--webui-dir DIR, a folder holding the built index.html); the API is at /api/v1/docs")
+
+
+class WebUI(StaticFiles):
+    """The built web UI's files (no token: the UI signs in with one).  Paths under /api/ are never
+    files: an unknown API route stays a JSON 404."""
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":  # a WebSocket to an unknown path
+            await send({"type": "websocket.close", "code": 1008})
+            return
+        await super().__call__(scope, receive, send)
+
+    async def get_response(self, path: str, scope):
+        if path == "api" or path.startswith("api/"):
+            raise HTTPException(404, f"no route {scope['path']}; /api/v1/openapi.json lists them")
+        return await super().get_response(path, scope)
+
+
+def webui_dir(settings: Settings) -> Path | None:
+    """The folder of the built UI to serve, or None when there is none (no index.html)."""
+    folder = settings.webui_dir or default_webui_dir()
+    return folder if (folder / "index.html").is_file() else None
+
+
+def serve_webui(app: FastAPI, folder: Path | None) -> None:
+    """Mounts the UI at / after the API routes (they match first); without a build, GET / says how
+    to make one."""
+    if folder is not None:
+        app.mount("/", WebUI(directory=folder, html=True), name="webui")
+        return
+
+    @app.get("/", include_in_schema=False)
+    def no_webui():
+        return JSONResponse(status_code=404, content={"detail": NO_WEBUI})
 
 
 def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
@@ -77,8 +121,12 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     state.audit = AuditLog(settings.data_dir / "audit.jsonl")
     state.store = SetStore(settings.data_dir)
     state.activator = Activator(state.store, state.irpd_swap, state.events, settings.swap_timeout_s)
+    state.host = Sampler()
+    state.webui_dir = webui_dir(settings)
     app.add_exception_handler(RequestValidationError, validation_error)
+    app.add_exception_handler(LocatedError, located_error)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, exempt=is_upload)
     for module in (health, status, modules, jitter, variables, sets, robot, events, audit, tokens, stream):
         app.include_router(module.router, prefix=API)
+    serve_webui(app, state.webui_dir)  # last: the API routes match first
     return app

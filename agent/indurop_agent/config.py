@@ -13,6 +13,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 MiB = 1 << 20
+INSTALLED_WEBUI = Path("/usr/share/indurop/webui")
+
+
+def default_webui_dir() -> Path:
+    """The web UI built in this source tree (webui/dist beside agent/), else the installed one."""
+    built = Path(__file__).resolve().parents[2] / "webui" / "dist"
+    return built if built.is_dir() else INSTALLED_WEBUI
 
 
 @dataclass
@@ -38,17 +45,19 @@ class Settings:
     irpd_poll_s: float = 1.0
     # irpd `load`, `set_period`, ... (a swap at a macro-period boundary) may take this long.
     swap_timeout_s: float = 30.0
+    # The built web UI (index.html and its assets), served at / (None: default_webui_dir()).
+    webui_dir: Path | None = None
 
 
 FIELDS = {f.name: f for f in dataclasses.fields(Settings)}
-PATHS = {"data_dir", "tls_cert", "tls_key"}
+PATHS = {"data_dir", "tls_cert", "tls_key", "webui_dir"}
 POSITIVE = {"port", "max_file_bytes", "max_upload_bytes", "max_files", "max_body_bytes", "lockout_attempts",
             "lockout_window_s", "irpd_poll_s", "swap_timeout_s"}
 
 
 def _coerce(key: str, value, where: str) -> object:
     """A config-file value of the field's type, or ValueError naming the key and what it needs."""
-    if value is None and key in ("tls_cert", "tls_key"):
+    if value is None and key in ("tls_cert", "tls_key", "webui_dir"):
         return None
     if key in PATHS:
         if not isinstance(value, str) or not value:
@@ -96,6 +105,9 @@ def parse(argv: list[str] | None = None) -> Settings:
     ap.add_argument("--irpd-socket", help="irpd's control socket")
     ap.add_argument("--tls-cert", type=Path, help="serve HTTPS with this PEM certificate (needs --tls-key)")
     ap.add_argument("--tls-key", type=Path, help="the PEM private key of --tls-cert")
+    ap.add_argument("--webui-dir", type=Path,
+                    help=f"the built web UI to serve at / (default: webui/dist of this source tree when built, "
+                         f"else {INSTALLED_WEBUI})")
     a = ap.parse_args(argv)
     s = Settings()
     if a.config:
@@ -114,7 +126,7 @@ def parse(argv: list[str] | None = None) -> Settings:
                 setattr(s, key, _coerce(key, value, where))
             except ValueError as e:
                 ap.error(str(e))
-    for key in ("host", "port", "data_dir", "irpd_socket", "tls_cert", "tls_key"):
+    for key in ("host", "port", "data_dir", "irpd_socket", "tls_cert", "tls_key", "webui_dir"):
         if getattr(a, key) is not None:
             setattr(s, key, getattr(a, key))
     problems = check(s)

@@ -1,7 +1,8 @@
 """uploads.py -- POST /sets bodies: received into a folder inside the data dir while they stream
 (limits checked as the bytes arrive), names sanitized, archives unpacked by hand, every file's
 kind decided and checked.  Any refusal is an UploadError (an HTTPException: 400 bad name or
-content, 413 too large, 415 a kind of file a set does not hold) whose detail says what to fix.
+content, 413 too large, 415 a kind of file a set does not hold) whose detail says what to fix, and
+which names the file, line and column it is about where known (errors.LocatedError).
 
 Bodies: multipart/form-data with `files` parts (the filename is the path in the set, e.g.
 "lib/cntr1.so") or one `archive` part (a .tar.gz); or the .tar.gz itself as the body, with
@@ -18,14 +19,15 @@ import tarfile
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
+from xml.parsers import expat
 
 from defusedxml import DTDForbidden, EntitiesForbidden, ExternalReferenceForbidden
 from defusedxml import ElementTree as SafeET
-from fastapi import HTTPException
 from python_multipart.multipart import MultipartParser, parse_options_header
 from starlette.concurrency import run_in_threadpool
 
 from .elf_check import MissingSymbol, NotLoadable, check_executable, check_shared_object
+from .errors import LocatedError
 from .store import StagedFile
 
 MAX_NAME_BYTES = 255
@@ -37,8 +39,9 @@ ACCEPTED = ("module.xml (one, at the root), other .xml configs, .so thread modul
 PERCENT_ESCAPE = re.compile(r"%[0-9A-Fa-f]{2}")
 
 
-class UploadError(HTTPException):
-    """A refused upload: status 400, 413 or 415 and a detail that names the file and the fix."""
+class UploadError(LocatedError):
+    """A refused upload: status 400, 413 or 415, a detail that names the file and the fix, and
+    where known the file's path in the set, the line and the column (from 1)."""
 
 
 @dataclass
@@ -145,7 +148,7 @@ class Receiver:
     def open_file(self, name: str) -> Sink:
         path = clean_name(name)
         if path in self._names:
-            raise UploadError(400, f"{json.dumps(path)} is in the upload twice")
+            raise UploadError(400, f"{json.dumps(path)} is in the upload twice", file=path)
         if len(self._names) >= self.limits.max_files:
             raise UploadError(413, f"more than {self.limits.max_files} files in one set (the limit per upload)")
         self._names.add(path)
@@ -393,52 +396,96 @@ class ModuleRef:
     filename: str   # as written
     path: str       # normalized, relative to the set root
     type: str       # thread | process
+    line: int | None = None    # of its <filename> in module.xml
+    column: int | None = None
 
 
-def _parse_xml(path: Path, shown: str):
-    """Parses XML without DTDs, entities or external references (defusedxml); 400 otherwise."""
+def _parse_xml(path: Path, shown: str, name: str):
+    """Parses XML without DTDs, entities or external references (defusedxml); 400 otherwise.
+    `name` is the file's path in the set, `shown` how messages name it."""
     try:
         return SafeET.parse(path, forbid_dtd=True, forbid_entities=True, forbid_external=True)
     except DTDForbidden:
-        raise UploadError(400, f"{shown}: a DOCTYPE/DTD is not allowed (no entity definitions, no XML bombs)") from None
+        raise UploadError(400, f"{shown}: a DOCTYPE/DTD is not allowed (no entity definitions, no XML bombs)",
+                          file=name) from None
     except EntitiesForbidden:
-        raise UploadError(400, f"{shown}: entity declarations are not allowed (no XML bombs)") from None
+        raise UploadError(400, f"{shown}: entity declarations are not allowed (no XML bombs)", file=name) from None
     except ExternalReferenceForbidden:
-        raise UploadError(400, f"{shown}: external references are not allowed") from None
+        raise UploadError(400, f"{shown}: external references are not allowed", file=name) from None
     except SafeET.ParseError as e:
-        raise UploadError(400, f"{shown}: malformed XML: {e}") from None
+        line, column = e.position  # expat counts columns from 0
+        raise UploadError(400, f"{shown}: malformed XML: {e}", file=name, line=line, column=column + 1) from None
 
 
-def parse_module_xml(path: Path) -> tuple[list[ModuleRef], str | None]:
+def _element_lines(path: Path, root) -> dict[int, tuple[int, int]]:
+    """id(element) -> (line, column from 1) of its start tag, for a tree ElementTree parsed from
+    `path` (already accepted by defusedxml): expat's start tags come in the order of root.iter()."""
+    starts: list[tuple[int, int]] = []
+    parser = expat.ParserCreate()
+    parser.StartElementHandler = lambda *_: starts.append((parser.CurrentLineNumber, parser.CurrentColumnNumber + 1))
+    with open(path, "rb") as f:
+        parser.ParseFile(f)
+    return {id(e): where for e, where in zip(root.iter(), starts)}
+
+
+@dataclass
+class ModuleXml:
+    """What the store needs of module.xml."""
+
+    modules: list[ModuleRef]
+    layout: str | None          # <layout>, normalized
+    layout_at: dict = field(default_factory=dict)  # {"line", "column"} of <layout>
+
+
+def parse_module_xml(path: Path) -> ModuleXml:
     """The modules module.xml names and its <layout> (normalized paths).  Only what the store
     needs: irpd's `check` validates the rest."""
     if path.stat().st_size > MAX_MODULE_XML_BYTES:
-        raise UploadError(400, f"module.xml is larger than {MAX_MODULE_XML_BYTES >> 20} MiB (irpd's limit)")
-    root = _parse_xml(path, "module.xml").getroot()
+        raise UploadError(400, f"module.xml is larger than {MAX_MODULE_XML_BYTES >> 20} MiB (irpd's limit)",
+                          file="module.xml")
+    root = _parse_xml(path, "module.xml", "module.xml").getroot()
+    lines = _element_lines(path, root)
+
+    def at(node) -> dict:
+        line, column = lines.get(id(node), (None, None))
+        return {"file": "module.xml", "line": line, "column": column}
+
     if root.tag != "root":
-        raise UploadError(400, f"module.xml: the top-level element is <{root.tag}>, expected <root>")
+        raise UploadError(400, f"module.xml: the top-level element is <{root.tag}>, expected <root>", **at(root))
     modules = []
     for i, node in enumerate(root.findall("module"), 1):
+        filename_node = node.find("filename")
         filename = (node.findtext("filename") or "").strip()
         stem = posixpath.splitext(posixpath.basename(filename))[0]
         name = (node.findtext("name") or "").strip() or stem or f"#{i}"
         if not filename:
-            raise UploadError(400, f"module.xml: module {json.dumps(name)} has no <filename>")
+            raise UploadError(400, f"module.xml: module {json.dumps(name)} has no <filename>",
+                              **at(node if filename_node is None else filename_node))
         what = f"module.xml: module {json.dumps(name)}: <filename>"
         if filename.startswith("/"):
             raise UploadError(400, f"{what} {json.dumps(filename)} is absolute; in an uploaded set, name the file "
-                                   "relative to module.xml")
+                                   "relative to module.xml", **at(filename_node))
+        try:
+            normalized = clean_name(filename, what)
+        except UploadError as e:
+            raise e.at(**at(filename_node))
         kind = (node.findtext("moduletype") or "").strip()
-        modules.append(ModuleRef(name, filename, clean_name(filename, what),
+        modules.append(ModuleRef(name, filename, normalized,
                                  kind if kind in ("thread", "process") else
-                                 "thread" if filename.endswith(".so") else "process"))
+                                 "thread" if filename.endswith(".so") else "process",
+                                 at(filename_node)["line"], at(filename_node)["column"]))
+    layout_node = root.find("layout")
     layout = (root.findtext("layout") or "").strip() or None
     if layout is not None:
         if layout.startswith("/"):
             raise UploadError(400, f"module.xml: <layout> {json.dumps(layout)} is absolute; "
-                                   "name it relative to module.xml")
-        layout = clean_name(layout, "module.xml: <layout>")
-    return modules, layout
+                                   "name it relative to module.xml", **at(layout_node))
+        try:
+            layout = clean_name(layout, "module.xml: <layout>")
+        except UploadError as e:
+            raise e.at(**at(layout_node))
+    where = at(layout_node) if layout_node is not None else {}
+    return ModuleXml(modules, layout, {k: where[k] for k in ("line", "column") if k in where})
 
 
 def _kind_by_name(path: str, source: Path) -> str | None:
@@ -468,20 +515,24 @@ def check_set(files: list[Received]) -> list[StagedFile]:
         raise UploadError(400, f"no module.xml at the root of the set{hint}")
     for p in sorted(paths - {"module.xml"}):
         if p.rsplit("/", 1)[-1] == "module.xml":
-            raise UploadError(400, f"{json.dumps(p)}: a set has one module.xml, at its root")
+            raise UploadError(400, f"{json.dumps(p)}: a set has one module.xml, at its root", file=p)
 
-    modules, layout = parse_module_xml(by_path["module.xml"].source)
+    xml = parse_module_xml(by_path["module.xml"].source)
+    modules, layout = xml.modules, xml.layout
     referenced: dict[str, ModuleRef] = {}
     for m in modules:
         if m.path not in by_path:
             raise UploadError(400, f"module.xml: module {json.dumps(m.name)} names {json.dumps(m.filename)}, "
-                                   f"which is not in the upload (add it as {json.dumps(m.path)})")
+                                   f"which is not in the upload (add it as {json.dumps(m.path)})",
+                              file="module.xml", line=m.line, column=m.column)
         other = referenced.setdefault(m.path, m)
         if other.type != m.type:
             raise UploadError(400, f"module.xml: {json.dumps(m.path)} is both a {other.type} module "
-                                   f"({json.dumps(other.name)}) and a {m.type} module ({json.dumps(m.name)})")
+                                   f"({json.dumps(other.name)}) and a {m.type} module ({json.dumps(m.name)})",
+                              file="module.xml", line=m.line, column=m.column)
     if layout is not None and layout not in by_path:
-        raise UploadError(400, f"module.xml: <layout> names {json.dumps(layout)}, which is not in the upload")
+        raise UploadError(400, f"module.xml: <layout> names {json.dumps(layout)}, which is not in the upload",
+                          file="module.xml", **xml.layout_at)
 
     staged = []
     for path in sorted(by_path):
@@ -497,7 +548,7 @@ def check_set(files: list[Received]) -> list[StagedFile]:
         else:
             kind = _kind_by_name(path, f.source)
         if kind is None:
-            raise UploadError(415, f"{shown}: a set does not hold files of this kind; accepted: {ACCEPTED}")
+            raise UploadError(415, f"{shown}: a set does not hold files of this kind; accepted: {ACCEPTED}", file=path)
         _check_content(f, kind, ref, shown)
         staged.append(StagedFile(path, f.source, f.sha256, f.size, kind))
     return staged
@@ -512,14 +563,17 @@ def _check_content(f: Received, kind: str, ref: ModuleRef | None, shown: str) ->
         elif kind == "executable":
             check_executable(f.source, shown, module=ref.name)
     except NotLoadable as e:
-        raise UploadError(415, str(e)) from None
+        raise UploadError(415, str(e), file=f.path) from None
     except MissingSymbol as e:
-        raise UploadError(400, str(e)) from None
+        raise UploadError(400, str(e), file=f.path) from None
     if kind == "config" or kind == "urdf" or (kind == "mesh" and f.path.lower().endswith(".dae")):
-        _parse_xml(f.source, shown)
+        _parse_xml(f.source, shown, f.path)
     elif kind in ("layout", "json"):
         try:
             with open(f.source, "rb") as fh:
                 json.load(fh)
+        except json.JSONDecodeError as e:
+            raise UploadError(400, f"{shown} is not valid JSON: {e}", file=f.path, line=e.lineno,
+                              column=e.colno) from None
         except (ValueError, RecursionError) as e:
-            raise UploadError(400, f"{shown} is not valid JSON: {e}") from None
+            raise UploadError(400, f"{shown} is not valid JSON: {e}", file=f.path) from None

@@ -1,11 +1,14 @@
-// test_histogram.cpp -- bucket arithmetic and percentiles of the stats histograms.
+// test_histogram.cpp -- bucket arithmetic, percentiles and the JSON listing of the stats histograms.
 #include "stats/histogram.hpp"
 #include "stats/summary.hpp"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
+#include <limits>
 #include <memory>
 #include <random>
+#include <vector>
 
 using namespace irp::stats;
 
@@ -91,4 +94,40 @@ TEST(SignedHistogram, AllNegative) {
     EXPECT_EQ(s.max, -10);
     EXPECT_EQ(s.mean, -15);
     EXPECT_EQ(s.p999, -10);
+}
+
+// Every recorded value lies in exactly one listed bucket [low, low + width), and the buckets of a
+// signed histogram ascend from its most negative value.
+TEST(HistogramJson, BucketsHoldEveryValueInAscendingOrder) {
+    auto h = std::make_unique<SignedHistogram>();
+    h->reset();
+    const std::vector<int64_t> values = {-70'000, -1'234, -33, -1, 0, 0, 7, 31, 32, 1'000, 123'456};
+    for (int64_t v : values) h->record(v);
+    const nlohmann::ordered_json j = histogramJson(*h);
+    EXPECT_EQ(j["count"], values.size());
+    EXPECT_EQ(j["min"], -70'000);
+    EXPECT_EQ(j["max"], 123'456);
+    int64_t end = std::numeric_limits<int64_t>::min();
+    uint64_t listed = 0;
+    for (const auto &b : j["buckets"]) {
+        const int64_t low = b[0], width = b[1];
+        EXPECT_GE(low, end);
+        end = low + width;
+        uint64_t inside = 0;
+        for (int64_t v : values) inside += v >= low && v < end;
+        EXPECT_EQ(b[2].get<uint64_t>(), inside) << "bucket [" << low << ", " << end << ")";
+        listed += b[2].get<uint64_t>();
+    }
+    EXPECT_EQ(listed, values.size());
+
+    auto u = std::make_unique<Histogram>();
+    u->reset();
+    EXPECT_EQ(histogramJson(*u)["buckets"].size(), 0u);
+    EXPECT_EQ(histogramJson(*u)["count"], 0);
+    for (uint64_t v : {5u, 5u, 40u, 40'000u}) u->record(v);
+    const nlohmann::ordered_json k = histogramJson(*u);
+    EXPECT_EQ(k["buckets"].size(), 3u);
+    EXPECT_EQ(k["buckets"][0], nlohmann::ordered_json::array({5, 1, 2}));
+    EXPECT_EQ(k["min"], 5);
+    EXPECT_EQ(k["max"], 40'000);
 }

@@ -1,7 +1,8 @@
 // test_reload.cpp -- hot reload through irpd's control socket: a kept module keeps its instance
 // and misses no run, a changed .so is really its new code, failed loads leave the running set
-// untouched, periods, priorities and enable/disable are hot reloads too, and every swap is an
-// event.
+// untouched, periods, priorities and enable/disable are hot reloads too (several modules at once
+// as one swap with `change`, or only planned with its dry run), every swap is an event; and the
+// `histograms` command's buckets agree with the figures.
 #include "support/control_client.hpp"
 #include "support/irpd.hpp"
 #include "support/subprocess.hpp"
@@ -10,8 +11,11 @@
 
 #include <signal.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <regex>
 #include <sstream>
 #include <thread>
@@ -312,4 +316,230 @@ TEST(HotReload, ProcessModulesAreKeptReplacedOrRefusedLikeThreads) {
     EXPECT_EQ(p["state"], "running");
     EXPECT_GT(count(p, "runs"), 0u);
     EXPECT_EQ(cell.log("keep"), "start v1\n");
+}
+
+namespace {
+
+// The value at quantile q of a histogram as `histograms` lists it, computed as stats/summary.cpp
+// does: the middle of the bucket holding rank ceil(q * count), clamped to [min, max].
+double quantileOf(const json &h, double q) {
+    const uint64_t count = h["count"].get<uint64_t>();
+    const uint64_t rank = std::clamp<uint64_t>(static_cast<uint64_t>(std::ceil(q * static_cast<double>(count))), 1, count);
+    uint64_t seen = 0;
+    for (const json &b : h["buckets"]) {
+        seen += b[2].get<uint64_t>();
+        if (seen >= rank) {
+            const double mid = b[0].get<double>() + (b[1].get<double>() - 1) / 2;
+            return std::clamp(mid, h["min"].get<double>(), h["max"].get<double>());
+        }
+    }
+    return h["max"].get<double>();
+}
+
+bool hasWarning(const json &answer, const std::string &part) {
+    for (const json &w : answer["warnings"])
+        if (w.get<std::string>().find(part) != std::string::npos) return true;
+    return false;
+}
+
+std::size_t eventsOfKind(Cell &cell, const std::string &kind) {
+    const json events = cell.result({{"cmd", "events"}, {"since", 0}});
+    std::size_t n = 0;
+    for (const json &e : events["events"]) n += e["kind"] == kind;
+    return n;
+}
+
+} // namespace
+
+TEST(HotReload, HistogramsListTheNonEmptyBucketsThatAddUpToTheCounts) {
+    Cell cell;
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    const json all = cell.result({{"cmd", "histograms"}});
+    EXPECT_GT(all["cycles"].get<uint64_t>(), 0u);
+    EXPECT_GT(all["time_ns"].get<int64_t>(), 0);
+    json names = json::array();
+    for (const json &r : all["records"]) names.push_back(r["name"]);
+    EXPECT_EQ(names, json({"dispatcher", "keep", "swap"}));
+    for (const json &r : all["records"])
+        for (const char *which : {"jitter_ns", "latency_ns", "exec_ns"}) {
+            const json &h = r[which];
+            uint64_t sum = 0;
+            int64_t end = std::numeric_limits<int64_t>::min();
+            for (const json &b : h["buckets"]) {
+                ASSERT_EQ(b.size(), 3u);
+                EXPECT_GE(b[0].get<int64_t>(), end) << r["name"] << " " << which << ": buckets ascend, never overlap";
+                EXPECT_GT(b[1].get<int64_t>(), 0);
+                EXPECT_GT(b[2].get<uint64_t>(), 0u) << "only non-empty buckets are listed";
+                end = b[0].get<int64_t>() + b[1].get<int64_t>();
+                sum += b[2].get<uint64_t>();
+            }
+            EXPECT_EQ(sum, h["count"].get<uint64_t>()) << r["name"] << " " << which;
+            EXPECT_GT(sum, 0u) << r["name"] << " " << which;
+            EXPECT_GE(h["min"].get<int64_t>(), h["buckets"].front()[0].get<int64_t>());
+            EXPECT_LT(h["max"].get<int64_t>(), end);
+            if (std::string(which) != "jitter_ns") {
+                EXPECT_GE(h["buckets"].front()[0].get<int64_t>(), 0);
+            }
+        }
+
+    // A disabled module's figures stand still: its histograms and its percentiles agree exactly.
+    cell.result({{"cmd", "disable"}, {"module", "swap"}});
+    const json one = cell.result({{"cmd", "histograms"}, {"name", "swap"}});
+    ASSERT_EQ(one["records"].size(), 1u);
+    const json &h = one["records"][0];
+    const json figures = cell.moduleNamed("swap");
+    EXPECT_EQ(h["runs"], figures["runs"]);
+    for (const char *which : {"jitter_ns", "latency_ns", "exec_ns"}) {
+        EXPECT_EQ(h[which]["count"], figures[which]["count"]) << which;
+        EXPECT_EQ(h[which]["min"].get<double>(), figures[which]["min"].get<double>()) << which;
+        EXPECT_EQ(h[which]["max"].get<double>(), figures[which]["max"].get<double>()) << which;
+        if (std::string(which) != "jitter_ns") {  // the signed one clamps each half to its own bounds
+            EXPECT_EQ(quantileOf(h[which], 0.50), figures[which]["p50"].get<double>()) << which;
+            EXPECT_EQ(quantileOf(h[which], 0.99), figures[which]["p99"].get<double>()) << which;
+        }
+    }
+    json unknown = cell.ask({{"cmd", "histograms"}, {"name", "nope"}});
+    EXPECT_FALSE(unknown.value("ok", true));
+    EXPECT_EQ(unknown["error"]["code"], "not_found");
+    EXPECT_NE(unknown["error"]["message"].get<std::string>().find("'nope'"), std::string::npos) << unknown.dump();
+}
+
+TEST(HotReload, StatusSaysTheMinimumBasicPeriod) {
+    Cell cell;
+    EXPECT_EQ(cell.result({{"cmd", "status"}})["min_basic_period_ns"], 50'000);
+}
+
+TEST(HotReload, ADryRunChangeShowsTheNewTableAndChangesNothing) {
+    Cell cell;
+    const json status = cell.result({{"cmd", "status"}});
+    const json schedule = cell.result({{"cmd", "schedule"}});
+    const json changes = json::array({{{"module", "keep"}, {"period_ns", 2'000'000}},
+                                      {{"module", "swap"}, {"priority", 0}, {"enabled", true}}});
+    const json dry = cell.result({{"cmd", "change"}, {"changes", changes}, {"dry_run", true}});
+    EXPECT_EQ(dry["dry_run"], true);
+    EXPECT_TRUE(dry["report"].is_null());
+    EXPECT_EQ(dry["before"]["slots"], schedule["slots"]);
+    EXPECT_EQ(dry["schedule"]["basic_period_ns"], 2'000'000);
+    EXPECT_EQ(dry["schedule"]["slots"], json::array({{{"index", 0}, {"offset_ns", 0}, {"modules", {"swap", "keep"}}}}));
+    EXPECT_TRUE(hasWarning(dry, "basic period")) << dry.dump();
+    ASSERT_TRUE(dry["utilization"].contains("main"));
+    EXPECT_GE(dry["utilization"]["main"].get<double>(), 0.0);
+    EXPECT_LT(dry["utilization"]["main"].get<double>(), 1.0);
+
+    // Nothing changed: the same generation and table, keep still counts at 1 ms, no event.
+    const uint64_t runs = count(cell.moduleNamed("keep"), "runs");
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    const json keep = cell.moduleNamed("keep");
+    EXPECT_GT(count(keep, "runs"), runs);
+    EXPECT_EQ(keep["period_ns"], 1'000'000);
+    EXPECT_EQ(cell.result({{"cmd", "status"}})["generation"], status["generation"]);
+    EXPECT_EQ(cell.result({{"cmd", "schedule"}}), schedule);
+    EXPECT_EQ(eventsOfKind(cell, "swap"), 0u);
+    EXPECT_EQ(cell.log("keep"), "start v1\n");
+    EXPECT_EQ(cell.log("swap"), "start v1\n");
+}
+
+TEST(HotReload, ABatchChangeIsOneSwapOfEveryModuleItNames) {
+    Cell cell;
+    const json changes = json::array({{{"module", "keep"}, {"period_ns", 2'000'000}},
+                                      {{"module", "swap"}, {"priority", 0}}});
+    const json answer = cell.result({{"cmd", "change"}, {"changes", changes}});
+    EXPECT_EQ(answer["dry_run"], false);
+    EXPECT_EQ(answer["report"]["generation"], 2);
+    EXPECT_EQ(answer["report"]["kept"], json({"keep", "swap"}));
+    EXPECT_EQ(answer["report"]["started"], json::array());
+    EXPECT_EQ(answer["before"]["basic_period_ns"], 1'000'000);
+    EXPECT_EQ(answer["schedule"], cell.result({{"cmd", "schedule"}}));
+    EXPECT_EQ(cell.result({{"cmd", "status"}})["generation"], 2);
+    EXPECT_EQ(cell.moduleNamed("keep")["period_ns"], 2'000'000);
+    EXPECT_EQ(cell.moduleNamed("swap")["priority"], 0);
+    EXPECT_EQ(cell.result({{"cmd", "schedule"}})["slots"][0]["modules"], json({"swap", "keep"}));
+    EXPECT_EQ(eventsOfKind(cell, "swap"), 1u);
+
+    // Disabling one and changing the other's period is one swap too.
+    const json more = cell.result({{"cmd", "change"},
+                                   {"changes", {{{"module", "swap"}, {"enabled", false}},
+                                                {{"module", "keep"}, {"period_ns", 1'000'000}}}}});
+    EXPECT_EQ(more["report"]["generation"], 3);
+    const json swap = cell.moduleNamed("swap");
+    EXPECT_EQ(swap["enabled"], false);
+    bool listed = false;
+    for (const json &m : more["schedule"]["modules"])
+        if (m["name"] == "swap") listed = m["enabled"] == false;
+    EXPECT_TRUE(listed) << more["schedule"].dump();
+    EXPECT_EQ(cell.moduleNamed("keep")["period_ns"], 1'000'000);
+    EXPECT_EQ(cell.log("keep"), "start v1\n");  // one instance all along
+    EXPECT_EQ(cell.log("swap"), "start v1\n");
+}
+
+TEST(HotReload, ChangeRefusalsNameWhatToFixAndLeaveTheSetAsItWas) {
+    Cell cell;
+    // keep 60 % and swap 30 % busy by their budgets: 90 %, a warning; swap at 1 ms would be 120 %.
+    cell.write("budget.xml", "<root>\n" +
+                                 module("keep", "keep.so", 1'000'000, 1,
+                                        journalOf(cell.dir.path, "keep") + "<budget>600000</budget>") +
+                                 module("swap", "swap.so", 2'000'000, 2,
+                                        journalOf(cell.dir.path, "swap") + "<budget>600000</budget>") +
+                                 "</root>\n");
+    const json loaded = cell.result({{"cmd", "load"}, {"config", (cell.dir.path / "budget.xml").string()}});
+    ASSERT_EQ(loaded["kept"], json({"keep", "swap"}));
+    const json before = cell.result({{"cmd", "status"}});
+
+    const json same_priority = cell.result(
+        {{"cmd", "change"}, {"changes", {{{"module", "swap"}, {"priority", 1}}}}, {"dry_run", true}});
+    EXPECT_TRUE(hasWarning(same_priority, "both have priority 1")) << same_priority.dump();
+    EXPECT_TRUE(hasWarning(same_priority, "above 80 %")) << same_priority.dump();
+    EXPECT_GE(same_priority["utilization"]["main"].get<double>(), 0.899);
+
+    struct Case {
+        std::string name;
+        json request;
+        std::string code, expected;
+    };
+    const std::vector<Case> cases = {
+        {"unknown module", {{"changes", {{{"module", "nope"}, {"priority", 1}}}}}, "not_found", "no module 'nope'"},
+        {"over 100 %", {{"changes", {{{"module", "swap"}, {"period_ns", 1'000'000}}}}}, "refused", "% busy"},
+        {"period below the budget", {{"changes", {{{"module", "keep"}, {"period_ns", 500'000}}}}}, "refused", "<budget>"},
+        {"twice", {{"changes", {{{"module", "keep"}, {"priority", 1}}, {{"module", "keep"}, {"period_ns", 2'000'000}}}}},
+         "refused", "changed twice"},
+        {"nothing to change", {{"changes", {{{"module", "keep"}}}}}, "refused", "changes nothing"},
+        {"empty", {{"changes", json::array()}}, "refused", "'changes'"},
+        {"not a list", {{"changes", "keep"}}, "refused", "'changes'"},
+        {"unknown member", {{"changes", {{{"module", "keep"}, {"period", 5}}}}}, "refused", "unknown member 'period'"},
+        {"period not an integer", {{"changes", {{{"module", "keep"}, {"period_ns", "1ms"}}}}}, "refused", "period_ns"},
+        {"negative period", {{"changes", {{{"module", "keep"}, {"period_ns", -1}}}}}, "refused", "positive"},
+        {"enabled not a boolean", {{"changes", {{{"module", "keep"}, {"enabled", 1}}}}}, "refused", "'enabled'"},
+        {"dry_run not a boolean", {{"changes", {{{"module", "keep"}, {"priority", 1}}}}, {"dry_run", "yes"}}, "refused",
+         "'dry_run'"},
+    };
+    for (const bool dry_run : {true, false})
+        for (const Case &c : cases) {
+            json request = c.request;
+            request["cmd"] = "change";
+            if (!request.contains("dry_run")) request["dry_run"] = dry_run;
+            const json answer = cell.ask(request);
+            EXPECT_FALSE(answer.value("ok", true)) << c.name;
+            EXPECT_EQ(answer["error"]["code"], c.code) << c.name << ": " << answer.dump();
+            EXPECT_NE(answer["error"].value("message", "").find(c.expected), std::string::npos)
+                << c.name << ": " << answer.dump();
+        }
+    const json after = cell.result({{"cmd", "status"}});
+    EXPECT_EQ(after["generation"], before["generation"]);
+    EXPECT_EQ(cell.moduleNamed("keep")["period_ns"], 1'000'000);
+    EXPECT_EQ(cell.moduleNamed("swap")["period_ns"], 2'000'000);
+    EXPECT_EQ(cell.log("keep"), "start v1\n");
+}
+
+TEST(HotReload, AChangeBelowTheMinimumBasicPeriodIsRefused) {
+    Cell cell;
+    for (const bool dry_run : {true, false}) {
+        const json answer = cell.ask({{"cmd", "change"},
+                                      {"changes", {{{"module", "keep"}, {"period_ns", 10'000}}}},
+                                      {"dry_run", dry_run}});
+        EXPECT_FALSE(answer.value("ok", true));
+        EXPECT_NE(answer["error"].value("message", "").find("below the minimum basic period of 50000 ns"),
+                  std::string::npos) << answer.dump();
+    }
+    EXPECT_EQ(cell.result({{"cmd", "status"}})["generation"], 1);
+    EXPECT_EQ(eventsOfKind(cell, "swap_failed"), 1u) << "a refused dry run is no failed swap";
 }

@@ -7,6 +7,7 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -25,26 +26,19 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def _output(log: Path | None):
-    """Where a process's output goes: a file for long runs (a pipe nobody reads would fill)."""
-    return open(log, "w") if log else subprocess.PIPE
-
-
-def _read(p: subprocess.Popen, log: Path | None) -> str:
-    return log.read_text() if log else (p.stdout or p.stderr).read()
-
-
 def start_irpd(sock: Path, config: Path = FIG1, instance: str | None = None, *extra: str,
                log: Path | None = None) -> subprocess.Popen:
     """irpd running `config` with its control socket at `sock`; returns once the socket is there.
-    Its stderr goes to `log` when given."""
+    Its stderr goes to `log` when given, else to a temporary file: output(p)."""
     sock.unlink(missing_ok=True)
+    out = open(log, "w+") if log else tempfile.TemporaryFile("w+")
     p = subprocess.Popen([str(IRPD), "--config", str(config), "--control-socket", str(sock),
                           "--instance", instance or f"agent-test-{os.getpid()}", *extra],
-                         stdout=subprocess.DEVNULL, stderr=_output(log), text=True)
+                         stdout=subprocess.DEVNULL, stderr=out, text=True)
+    p.log = out
     deadline = time.monotonic() + 20
     while not sock.exists():
-        assert p.poll() is None, _read(p, log)
+        assert p.poll() is None, output(p)
         assert time.monotonic() < deadline, "irpd did not open its control socket"
         time.sleep(0.02)
     return p
@@ -52,10 +46,13 @@ def start_irpd(sock: Path, config: Path = FIG1, instance: str | None = None, *ex
 
 def start_agent(port: int, data: Path, sock: Path, *extra: str, log: Path | None = None) -> subprocess.Popen:
     """`python -m indurop_agent` on 127.0.0.1:port; returns once /health answers.  Its output goes
-    to `log` when given."""
+    to `log` when given, else to a temporary file, never a pipe nobody reads (a full pipe would stop
+    the agent): output(p)."""
+    out = open(log, "w+") if log else tempfile.TemporaryFile("w+")
     p = subprocess.Popen([sys.executable, "-m", "indurop_agent", "--host", "127.0.0.1", "--port", str(port),
                           "--data-dir", str(data), "--irpd-socket", str(sock), *extra],
-                         cwd=ROOT / "agent", stdout=_output(log), stderr=subprocess.STDOUT, text=True)
+                         cwd=ROOT / "agent", stdout=out, stderr=subprocess.STDOUT, text=True)
+    p.log = out
     deadline = time.monotonic() + 20
     while True:
         try:
@@ -63,9 +60,15 @@ def start_agent(port: int, data: Path, sock: Path, *extra: str, log: Path | None
                 return p
         except httpx.HTTPError:
             pass
-        assert p.poll() is None, _read(p, log)
+        assert p.poll() is None, output(p)
         assert time.monotonic() < deadline, "the agent did not come up"
         time.sleep(0.05)
+
+
+def output(p: subprocess.Popen) -> str:
+    """What irpd (its stderr) or an agent started here printed so far."""
+    p.log.seek(0)
+    return p.log.read()
 
 
 def stop(p: subprocess.Popen) -> None:

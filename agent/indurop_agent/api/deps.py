@@ -89,13 +89,14 @@ AdminDep = Annotated[Identity, Depends(require("admin"))]
 
 
 def ask(client: IrpdClient, cmd: str, *, timeout: float | None = None, **arguments):
-    """A control-socket request, with irpd's failures as HTTP errors (503 unreachable, 409 refused)."""
+    """A control-socket request, with irpd's failures as HTTP errors (503 unreachable, 404 a module
+    or record irpd does not have, 409 refused)."""
     try:
         return client.request(cmd, timeout=timeout, **arguments)
     except IrpdUnavailable as e:
         raise HTTPException(503, str(e)) from e
     except IrpdRefused as e:
-        raise HTTPException(409, str(e)) from e
+        raise HTTPException(404 if e.code == "not_found" else 409, str(e)) from e
 
 
 @contextmanager

@@ -1,9 +1,11 @@
-"""models.py -- the fixed shapes the API answers with (sets, swap reports, events), so that the
-OpenAPI description says what comes back.  Shapes that come straight from irpd and may grow
-(status, modules, stats) stay plain JSON."""
+"""models.py -- the shapes the API answers with, so that the OpenAPI description (and the web UI's
+generated client) says what comes back: the agent's own (sets, events, host load, errors) and
+irpd's answers (status, schedule, modules, stats, histograms, swap reports).  irpd's shapes list
+the fields irpd sends and let any others through (extra="allow"), so a newer irpd's additions
+reach the client."""
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt
 
 
 class Who(BaseModel):
@@ -20,11 +22,63 @@ class SetFile(BaseModel):
                                   "urdf, mesh, header or text")
 
 
+class ErrorBody(BaseModel):
+    """An error answer: what to fix, and for a refused upload or activation where, when known."""
+
+    detail: str
+    file: str | None = Field(None, description="the file of the set it is about, relative to the set's root")
+    line: int | None = Field(None, description="from 1")
+    column: int | None = Field(None, description="from 1")
+
+
+class Problem(BaseModel):
+    """One of irpd's validation errors with where it points (parsed from its `file:line: ` prefix)."""
+
+    message: str
+    file: str | None = Field(None, description="relative to the set's root, e.g. module.xml")
+    line: int | None = None
+    column: int | None = None
+
+
+class IrpdShape(BaseModel):
+    """An answer from irpd: the fields listed are always there; others a newer irpd adds pass through."""
+
+    model_config = ConfigDict(extra="allow")
+
+
+class ScheduleSlot(IrpdShape):
+    index: int
+    offset_ns: int = Field(description="index * basic period")
+    modules: list[str] = Field(description="the modules run in this slot, in run order (priority, then file order)")
+
+
+class ScheduledModule(IrpdShape):
+    name: str
+    moduletype: str = Field(description="thread or process")
+    operationtype: str = Field(description="periodic, sporadic or non-real")
+    period_ns: int = Field(description="0 for sporadic and non-real modules")
+    deadline_ns: int = Field(description="0 = the period")
+    priority: int = Field(description="lowest value = highest priority")
+    executor: str
+    enabled: bool | None = Field(None, description="false: taken out of dispatch (absent in a stored set's check)")
+
+
+class Schedule(IrpdShape):
+    """The slot table (the paper's Table 3): irpd's `schedule`."""
+
+    basic_period_ns: int = Field(description="GCD of the periods")
+    macro_period_ns: int = Field(description="LCM of the periods")
+    slots: list[ScheduleSlot]
+    modules: list[ScheduledModule] = Field(description="every module of the set, in module.xml order")
+
+
 class Validation(BaseModel):
     valid: bool | None = Field(description="irpd's `check` verdict; null when irpd could not check the set")
     errors: list[str] = []
+    problems: list[Problem] = Field([], description="`errors` again, each with the file, line and column it "
+                                                    "names (where it names one)")
     warnings: list[str] = []
-    schedule: dict | None = Field(None, description="the slot table irpd would run, as GET /schedule")
+    schedule: Schedule | None = Field(None, description="the slot table irpd would run, as GET /schedule")
 
 
 class SetPublic(BaseModel):
@@ -60,12 +114,129 @@ class SwapReport(BaseModel):
     generation: int | None = None
     swap_cycle: int | None = Field(None, description="global basic-period count at which the new table took over")
     swap_at_ns: int | None = None
+    basic_period_ns: int | None = None
+    macro_period_ns: int | None = None
     kept: list[str] = []
     started: list[str] = []
     stopped: list[str] = []
     missed_periods: int | None = Field(None, description="dispatcher periods missed around the swap; the goal is 0")
     request_to_swap_ns: int | None = None
     total_ns: int | None = None
+
+
+class SharedMemory(IrpdShape):
+    stats: str = Field(description="the stats block's shm name")
+    variables: str | None = Field(description="the shared variables' shm name; null: the set has none")
+    trace: str | None = Field(None, description="the trace rings' shm name")
+
+
+class Status(IrpdShape):
+    """irpd's `status`."""
+
+    set: str = Field(description="the running module.xml")
+    set_id: str | None = Field(description="the stored set's id given at activation; null otherwise")
+    generation: int = Field(description="1 + hot swaps since irpd started")
+    running: bool
+    realtime: bool = Field(description="false: the dispatchers run SCHED_OTHER; periods are not guaranteed")
+    pid: int = Field(description="irpd's process id")
+    basic_period_ns: int
+    macro_period_ns: int
+    min_basic_period_ns: int | None = Field(None, description="the shortest basic period irpd accepts "
+                                                              "(a set or change below it is refused)")
+    uptime_ns: int
+    cycles: int = Field(description="basic periods dispatched")
+    modules: int = Field(description="how many modules the set has")
+    overruns: int
+    missed: int
+    skipped: int
+    caught_up: int
+    events: int = Field(description="the last event's seq")
+    shared_memory: SharedMemory
+
+
+class Figures(BaseModel):
+    """A distribution summarized (ns): min, max, mean and percentiles, from the histograms."""
+
+    model_config = ConfigDict(extra="allow")
+    count: int
+    min: float
+    max: float
+    mean: float
+    p50: float
+    p99: float
+    p999: float
+
+
+class TimingRecord(IrpdShape):
+    """A dispatcher's or a module's figures (irpd's stats record)."""
+
+    name: str
+    executor: str
+    kind: str = Field(description="dispatcher or module")
+    period_ns: int = Field(description="the module's period, or the basic period for a dispatcher")
+    runs: int
+    jitter_ns: Figures = Field(description="Eq. (1): planned start minus actual start (may be negative)")
+    latency_ns: Figures = Field(description="start (wake-up for a dispatcher) minus its planned time")
+    exec_ns: Figures = Field(description="execution time")
+    overruns: int
+    missed: int
+    skipped: int
+    errors: int
+    caught_up: int | None = Field(None, description="dispatchers only")
+    state: str | None = Field(None, description="modules only: loaded, running, disabled, skipped, stopped, exited")
+    priority: int | None = Field(None, description="modules only")
+    budget_ns: int | None = Field(None, description="modules only; 0 = none")
+
+
+class Stats(IrpdShape):
+    """irpd's `stats`: every dispatcher and module record."""
+
+    cycles: int
+    executors: list[TimingRecord] = Field(description="the dispatchers' records, the main one first")
+    modules: list[TimingRecord]
+
+
+class ModuleInfo(TimingRecord):
+    """One module of the running set: its figures, its module.xml entry and its state."""
+
+    state: str = Field(description="loaded, running, disabled, skipped, stopped or exited")
+    priority: int
+    budget_ns: int
+    moduletype: str
+    operationtype: str
+    deadline_ns: int
+    enabled: bool
+    file: str
+    sha256: str
+    properties: dict[str, str]
+
+
+class Health(BaseModel):
+    agent: str = Field(description="ok")
+    version: str
+    irpd: str = Field(description="ok or unreachable")
+    running: bool | None = Field(None, description="irpd's dispatchers run (when irpd answers)")
+    detail: str | None = Field(None, description="why irpd is unreachable")
+
+
+class VariableInfo(BaseModel):
+    path: str
+    type: str
+    size: int
+
+
+class VariableList(BaseModel):
+    layout_hash: str
+    variables: list[VariableInfo]
+
+
+class VariableWritten(BaseModel):
+    path: str
+    value: StrictBool | StrictInt | float = Field(description="as irpd stored it (checked against the type)")
+
+
+class VariableValue(VariableWritten):
+    layout_hash: str = Field(description="the layout the value was read with")
 
 
 class PatchReport(SwapReport):
@@ -131,6 +302,7 @@ class Histogram(BaseModel):
 
 
 class HistogramRecord(BaseModel):
+    model_config = ConfigDict(extra="allow")
     name: str
     kind: str = Field(description="dispatcher or module")
     executor: str
@@ -145,6 +317,7 @@ class HistogramRecord(BaseModel):
 
 
 class Histograms(BaseModel):
+    model_config = ConfigDict(extra="allow")
     cycles: int = Field(description="basic periods dispatched so far; the figures are cumulative since start")
     time_ns: int = Field(description="CLOCK_MONOTONIC when read")
     records: list[HistogramRecord]
@@ -152,10 +325,10 @@ class Histograms(BaseModel):
 
 class ModuleChange(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    name: str
-    period_ns: int | None = Field(None, gt=0)
-    priority: int | None = Field(None, ge=0, le=1_000_000)
-    enabled: bool | None = None
+    name: str = Field(min_length=1, max_length=63, description="a module of the running set")
+    period_ns: StrictInt | None = Field(None, gt=0, description="a periodic module's new period (ns)")
+    priority: StrictInt | None = Field(None, ge=0, le=1_000_000, description="lowest value = highest priority")
+    enabled: StrictBool | None = Field(None, description="false: the module stops running; true: it runs again")
 
 
 class ModuleChanges(BaseModel):
@@ -166,11 +339,16 @@ class ModuleChanges(BaseModel):
 
 class ChangesReport(BaseModel):
     dry_run: bool
-    before: dict = Field(description="the slot table running now, as GET /schedule")
-    after: dict = Field(description="the slot table with the changes, as GET /schedule")
+    before: Schedule = Field(description="the slot table running before the changes, as GET /schedule")
+    after: Schedule = Field(description="the slot table with the changes, as GET /schedule")
     utilization: float = Field(description="estimated busy fraction of the busiest executor with the changes "
-                                           "(measured exec p99 of each module over its period)")
-    warnings: list[str] = []
+                                           "(measured exec p99 of each module, or its <budget> when larger, "
+                                           "over its period); irpd refuses above 1")
+    executors: dict[str, float] = Field({}, description="the same estimate per executor (main and every "
+                                                         "<executor>)")
+    warnings: list[str] = Field([], description="what may not be meant: a new basic or macro period, modules "
+                                                "sharing a priority on one executor, an executor above 80 %, a "
+                                                "module whose file changed and is loaded anew")
     report: SwapReport | None = Field(None, description="irpd's swap report (null for a dry run)")
 
 

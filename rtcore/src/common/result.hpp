@@ -13,6 +13,9 @@ namespace irp {
 
 struct Error {
     std::string message;
+    // The control protocol's error code (docs/control-protocol.md): "refused", or "not_found" when
+    // the request names a module or record that does not exist.
+    std::string code = "refused";
 };
 
 template <class T>

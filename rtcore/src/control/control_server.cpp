@@ -151,7 +151,7 @@ void ControlServer::serve() {
                         if (parsed.contains("id")) id = parsed["id"];
                         auto result = handler_(parsed["cmd"].get<std::string>(), parsed);
                         answer = result ? json{{"id", id}, {"ok", true}, {"result", std::move(*result)}}
-                                        : failure(id, "refused", result.error().message);
+                                        : failure(id, result.error().code, result.error().message);
                     } catch (const nlohmann::json::exception &e) {
                         answer = failure(id, "bad_request", std::string("not valid JSON: ") + e.what());
                     } catch (const std::exception &e) {

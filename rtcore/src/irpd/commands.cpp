@@ -27,6 +27,52 @@ Result<int64_t> integer(const nlohmann::json &request, const char *name) {
     return it->get<int64_t>();
 }
 
+Result<int> priorityOf(const nlohmann::json &request) {
+    auto priority = integer(request, "priority");
+    if (!priority) return priority.error();
+    if (*priority < -1'000'000 || *priority > 1'000'000) return Error{"'priority' must be within ±1000000"};
+    return static_cast<int>(*priority);
+}
+
+// `change`'s list: [{module, period_ns?, priority?, enabled?}, ...], each with at least one value.
+Result<std::vector<reload::Change>> changesOf(const nlohmann::json &request) {
+    auto list = request.find("changes");
+    if (list == request.end() || !list->is_array() || list->empty())
+        return Error{"'changes' is required: a non-empty list of {module, period_ns?, priority?, enabled?}"};
+    if (list->size() > 1024) return Error{"'changes' holds more than 1024 entries"};
+    std::vector<reload::Change> changes;
+    for (std::size_t i = 0; i < list->size(); ++i) {
+        const nlohmann::json &item = (*list)[i];
+        const std::string at = "changes[" + std::to_string(i) + "]";
+        if (!item.is_object()) return Error{at + " must be an object {module, period_ns?, priority?, enabled?}"};
+        for (const auto &[key, _] : item.items())
+            if (key != "module" && key != "period_ns" && key != "priority" && key != "enabled")
+                return Error{at + ": unknown member '" + key + "'; the members are module, period_ns, priority, enabled"};
+        reload::Change change;
+        auto module = text(item, "module");
+        if (!module) return Error{at + ": " + module.error().message};
+        change.module = *module;
+        if (item.contains("period_ns")) {
+            auto period = integer(item, "period_ns");
+            if (!period) return Error{at + ": " + period.error().message};
+            change.period_ns = *period;
+        }
+        if (item.contains("priority")) {
+            auto priority = priorityOf(item);
+            if (!priority) return Error{at + ": " + priority.error().message};
+            change.priority = *priority;
+        }
+        if (item.contains("enabled")) {
+            if (!item["enabled"].is_boolean()) return Error{at + ": 'enabled' must be true or false"};
+            change.enabled = item["enabled"].get<bool>();
+        }
+        if (!change.period_ns && !change.priority && !change.enabled)
+            return Error{at + " (module '" + change.module + "') changes nothing; give period_ns, priority or enabled"};
+        changes.push_back(std::move(change));
+    }
+    return changes;
+}
+
 json moduleEntry(const reload::Generation &g, const config::ModuleSpec &m, const stats::StatsSegment &stats) {
     const reload::Member &member = g.members[static_cast<std::size_t>(m.index)];
     json entry = stats::toJson(stats.record(member.record));
@@ -64,6 +110,7 @@ control::Handler commandHandler(const CommandContext &c) {
                         {"pid", h->pid},
                         {"basic_period_ns", g->schedule.basic_ns},
                         {"macro_period_ns", g->schedule.macro_ns},
+                        {"min_basic_period_ns", c.reloader->limits().min_basic_ns},
                         {"uptime_ns", started && now > started ? now - started : 0},
                         {"cycles", h->cycles.load()},
                         {"modules", g->set.modules.size()},
@@ -77,7 +124,7 @@ control::Handler commandHandler(const CommandContext &c) {
                           {"variables", c.variables_shm.empty() ? json(nullptr) : json(c.variables_shm)},
                           {"trace", c.trace->describe().value("shm", "")}}}};
         }
-        if (cmd == "schedule") return schedule::toJson(g->schedule, g->set);
+        if (cmd == "schedule") return reload::scheduleJson(*g);
         if (cmd == "modules") {
             json list = json::array();
             for (const config::ModuleSpec &m : g->set.modules) list.push_back(moduleEntry(*g, m, *c.stats));
@@ -89,6 +136,30 @@ control::Handler commandHandler(const CommandContext &c) {
             for (const config::ModuleSpec &m : g->set.modules)
                 modules.push_back(stats::toJson(c.stats->record(g->members[static_cast<std::size_t>(m.index)].record)));
             return json{{"cycles", h->cycles.load()}, {"executors", executors_json}, {"modules", modules}};
+        }
+        if (cmd == "histograms") {
+            // Every dispatcher record, then every module's, or those named `name`.
+            std::string name;
+            if (request.contains("name")) {
+                auto given = text(request, "name");
+                if (!given) return given.error();
+                name = *given;
+            }
+            json records = json::array();
+            auto add = [&](const stats::TimingRecord &r) {
+                if (name.empty() || name == r.name) records.push_back(stats::histogramsJson(r));
+            };
+            for (std::size_t i = 0; i < executors; ++i) add(c.stats->record(i));
+            for (const config::ModuleSpec &m : g->set.modules)
+                add(c.stats->record(g->members[static_cast<std::size_t>(m.index)].record));
+            if (records.empty()) {
+                std::string known;
+                for (std::size_t i = 0; i < executors; ++i) known += (known.empty() ? "" : ", ") + std::string(c.stats->record(i).name);
+                for (const config::ModuleSpec &m : g->set.modules) known += ", " + m.name;
+                return Error{"no dispatcher or module '" + name + "' in the running set (the records: " + known + ")",
+                             "not_found"};
+            }
+            return json{{"cycles", h->cycles.load()}, {"time_ns", osal::monotonicNow()}, {"records", std::move(records)}};
         }
         if (cmd == "events") {
             uint64_t since = 0;
@@ -139,19 +210,28 @@ control::Handler commandHandler(const CommandContext &c) {
                 if (!period) return period.error();
                 change.period_ns = *period;
             } else if (cmd == "set_priority") {
-                auto priority = integer(request, "priority");
+                auto priority = priorityOf(request);
                 if (!priority) return priority.error();
-                if (*priority < -1'000'000 || *priority > 1'000'000) return Error{"'priority' must be within ±1000000"};
-                change.priority = static_cast<int>(*priority);
+                change.priority = *priority;
             } else {
                 change.enabled = cmd == "enable";
             }
             return onMain([r = c.reloader, change] { return r->change(change); });
         }
+        if (cmd == "change") {
+            auto changes = changesOf(request);
+            if (!changes) return changes.error();
+            bool dry_run = false;
+            if (request.contains("dry_run")) {
+                if (!request["dry_run"].is_boolean()) return Error{"'dry_run' must be true or false"};
+                dry_run = request["dry_run"].get<bool>();
+            }
+            return onMain([r = c.reloader, changes = std::move(*changes), dry_run] { return r->change(changes, dry_run); });
+        }
         if (cmd == "trace") return trace::handleTraceCommand(*c.trace, c.vars, request);
         return Error{"unknown command '" + cmd +
-                     "'; the commands are status, schedule, modules, stats, events, check, load, set_period, "
-                     "set_priority, enable, disable, write, trace"};
+                     "'; the commands are status, schedule, modules, stats, histograms, events, check, load, change, "
+                     "set_period, set_priority, enable, disable, write, trace"};
     };
 }
 

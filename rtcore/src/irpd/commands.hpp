@@ -1,7 +1,7 @@
 // commands.hpp -- the control protocol's commands (docs/control-protocol.md), on the control
-// thread.  Reads (status, schedule, modules, stats, events, check) answer from the running
-// generation and the shared-memory stats block; changes (load, set_period, set_priority,
-// enable, disable) run on the main thread through the MainQueue; write goes through libindurop's
+// thread.  Reads (status, schedule, modules, stats, histograms, events, check) answer from the
+// running generation and the shared-memory stats block; changes (load, change, set_period,
+// set_priority, enable, disable) run on the main thread through the MainQueue; write goes through libindurop's
 // locked path access; trace configures the trace rings (docs/trace-and-stream.md).
 #pragma once
 

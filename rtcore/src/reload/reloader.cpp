@@ -51,6 +51,12 @@ void resolveLayout(config::SetSpec &set, const std::filesystem::path &override_p
     if (set.layout.empty() && std::filesystem::is_regular_file(beside, ec)) set.layout = beside;
 }
 
+json scheduleJson(const Generation &g) {
+    json j = schedule::toJson(g.schedule, g.set);
+    for (json &m : j["modules"]) m["enabled"] = g.disabled.count(m["name"].get<std::string>()) == 0;
+    return j;
+}
+
 std::string Reloader::layoutHashOf(const config::SetSpec &set) const {
     if (set.layout.empty()) return {};
     auto layout = variables::readLayout(set.layout);
@@ -106,6 +112,17 @@ json Reloader::check(const std::filesystem::path &xml) const {
 Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const Generation *running,
                                                       std::set<std::string> disabled, std::string set_id,
                                                       const std::function<Status(Generation &)> &before_processes) {
+    auto next = plan(std::move(set), running, std::move(disabled), std::move(set_id));
+    if (!next) return next.error();
+    if (Status st = realize(**next, running, before_processes); !st) return st.error();
+    return next;
+}
+
+// Everything decided before anything is loaded: the schedule, the checks against the running set,
+// which modules are kept, the estimated utilization.  No side effect: nothing to undo.
+Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Generation *running,
+                                                   std::set<std::string> disabled, std::string set_id,
+                                                   Estimate *estimate) const {
     auto schedule = schedule::build(set, s_.limits);
     if (!schedule) return schedule.error();
     if (Status st = checkAgainst(set, running); !st) return st.error();
@@ -154,6 +171,45 @@ Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const
                          "needs an irpd restart, since the modules that keep running may hold pointers to them"};
         }
     }
+
+    // Estimated utilization per executor: measured exec p99 of kept modules, budget of new ones.
+    Estimate own;
+    Estimate &e = estimate ? *estimate : own;
+    e.busy.clear();
+    e.busy[config::kMainExecutor] = 0;
+    for (const config::ExecutorSpec &x : spec.executors) e.busy[x.name] = 0;
+    std::map<std::string, std::string> detail;
+    for (const config::ModuleSpec &m : spec.modules) {
+        if (m.operation != config::OperationType::Periodic || next->disabled.count(m.name)) continue;
+        const Member &member = next->members[static_cast<std::size_t>(m.index)];
+        double exec = static_cast<double>(m.budget_ns);
+        if (member.kept) exec = std::max(exec, stats::quantile(s_.stats->record(member.record).exec, 0.99));
+        if (exec <= 0) continue;
+        const double share = exec / static_cast<double>(m.period_ns);
+        e.busy[m.executor] += share;
+        std::ostringstream part;
+        part.precision(3);
+        part << m.name << " " << share * 100 << " %";
+        detail[m.executor] += (detail[m.executor].empty() ? "" : ", ") + part.str();
+    }
+    for (const auto &[executor, share] : e.busy)
+        if (share > 1.0) {
+            std::ostringstream text;
+            text.precision(3);
+            text << "executor '" << executor << "' would be " << share * 100
+                 << " % busy (execution time p99 of running modules, <budget> of new ones, over their periods: "
+                 << detail[executor] << "): lengthen a period or move a module to another executor";
+            return Error{text.str()};
+        }
+    return next;
+}
+
+// Loads what plan() decided to load: stats records, new thread modules (initialize, start), new
+// processes; builds the executors' tables.  On failure undoes all of it.
+Status Reloader::realize(Generation &generation, const Generation *running,
+                         const std::function<Status(Generation &)> &before_processes) {
+    Generation *next = &generation;
+    const config::SetSpec &spec = next->set;
 
     // Stats records for the new modules.
     std::size_t from = s_.executors;
@@ -284,34 +340,7 @@ Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const
             if (before && m.executor == running->set.modules[static_cast<std::size_t>(old)].executor) task->predecessor = before;
             task->clear_fault = !task->disabled && running->disabled.count(m.name) > 0;
         }
-
-    // Estimated utilization per executor: measured exec p99 of kept modules, budget of new ones.
-    std::map<std::string, double> load;
-    std::map<std::string, std::string> detail;
-    for (const config::ModuleSpec &m : spec.modules) {
-        if (m.operation != config::OperationType::Periodic || next->disabled.count(m.name)) continue;
-        const Member &member = next->members[static_cast<std::size_t>(m.index)];
-        double exec = static_cast<double>(m.budget_ns);
-        if (member.kept) exec = std::max(exec, stats::quantile(s_.stats->record(member.record).exec, 0.99));
-        if (exec <= 0) continue;
-        const double share = exec / static_cast<double>(m.period_ns);
-        load[m.executor] += share;
-        std::ostringstream part;
-        part.precision(3);
-        part << m.name << " " << share * 100 << " %";
-        detail[m.executor] += (detail[m.executor].empty() ? "" : ", ") + part.str();
-    }
-    for (const auto &[executor, share] : load)
-        if (share > 1.0) {
-            undo(*next);
-            std::ostringstream text;
-            text.precision(3);
-            text << "executor '" << executor << "' would be " << share * 100
-                 << " % busy (execution time p99 of running modules, <budget> of new ones, over their periods: "
-                 << detail[executor] << "): lengthen a period or move a module to another executor";
-            return Error{text.str()};
-        }
-    return next;
+    return Ok{};
 }
 
 // Undoes a prepare that failed: the new modules and processes go, their records are freed.
@@ -364,38 +393,129 @@ Result<json> Reloader::load(const std::filesystem::path &xml, const std::string 
 }
 
 Result<json> Reloader::change(const Change &change) {
+    auto answer = this->change(std::vector<Change>{change}, false);
+    if (!answer) return answer.error();
+    return (*answer)["report"];
+}
+
+namespace {
+
+// The changes' warnings: what an operator may not have meant (docs/control-protocol.md, `change`).
+std::vector<std::string> changeWarnings(const Generation &before, const Generation &after, const Estimate &estimate) {
+    std::vector<std::string> warnings;
+    if (after.schedule.basic_ns != before.schedule.basic_ns)
+        warnings.push_back("the basic period (GCD of the periods) changes from " +
+                           schedule::humanDuration(before.schedule.basic_ns) + " to " +
+                           schedule::humanDuration(after.schedule.basic_ns) + ": every slot of the table moves");
+    if (after.schedule.macro_ns != before.schedule.macro_ns)
+        warnings.push_back("the macro period (LCM of the periods) changes from " +
+                           schedule::humanDuration(before.schedule.macro_ns) + " to " +
+                           schedule::humanDuration(after.schedule.macro_ns) + " (" +
+                           std::to_string(after.schedule.slots.size()) + " slots)");
+    // Modules of one executor with one priority run in file order; only pairs the changes made are named.
+    auto sharing = [](const Generation &g) {
+        std::set<std::pair<std::string, std::string>> pairs;
+        for (const config::ModuleSpec &a : g.set.modules)
+            for (const config::ModuleSpec &b : g.set.modules)
+                if (a.index < b.index && a.operation != config::OperationType::NonReal &&
+                    b.operation != config::OperationType::NonReal && a.executor == b.executor &&
+                    a.priority == b.priority && !g.disabled.count(a.name) && !g.disabled.count(b.name))
+                    pairs.emplace(a.name, b.name);
+        return pairs;
+    };
+    const auto had = sharing(before);
+    for (const auto &[a, b] : sharing(after)) {
+        if (had.count({a, b})) continue;
+        const config::ModuleSpec &m = after.set.modules[static_cast<std::size_t>(after.find(a))];
+        warnings.push_back("modules '" + a + "' and '" + b + "' both have priority " + std::to_string(m.priority) +
+                           " on executor '" + m.executor + "': they run in module.xml order");
+    }
+    for (const auto &[executor, busy] : estimate.busy)
+        if (busy > 0.8) {
+            std::ostringstream text;
+            text.precision(3);
+            text << "executor '" << executor << "' would be " << busy * 100
+                 << " % busy (above 80 %): little room is left for jitter and for the non-real modules";
+            warnings.push_back(text.str());
+        }
+    for (const config::ModuleSpec &m : after.set.modules)
+        if (!after.members[static_cast<std::size_t>(m.index)].kept)
+            warnings.push_back("module '" + m.name + "': its file changed since it was loaded (" + m.path.string() +
+                               "), so this loads it anew: initialize() and start() again, its state and figures lost");
+    return warnings;
+}
+
+} // namespace
+
+Result<json> Reloader::change(const std::vector<Change> &changes, bool dry_run) {
     const int64_t requested = now();
     const auto running = current();
     config::SetSpec set = running->set;
-    const int index = running->find(change.module);
-    if (index < 0) {
-        std::string known;
-        for (const auto &m : set.modules) known += (known.empty() ? "" : ", ") + m.name;
-        return Error{"no module '" + change.module + "' in the running set (its modules: " + known + ")"};
+    std::set<std::string> disabled = running->disabled, seen;
+    std::string names;
+    if (changes.empty()) return Error{"'changes' is empty; give at least one {module, period_ns?, priority?, enabled?}"};
+    for (const Change &change : changes) {
+        const int index = running->find(change.module);
+        if (index < 0) {
+            std::string known;
+            for (const auto &m : set.modules) known += (known.empty() ? "" : ", ") + m.name;
+            return Error{"no module '" + change.module + "' in the running set (its modules: " + known + ")",
+                         "not_found"};
+        }
+        if (!seen.insert(change.module).second)
+            return Error{"module '" + change.module + "' is changed twice; give each module once, with all its values"};
+        names += (names.empty() ? "" : ", ") + change.module;
+        config::ModuleSpec &m = set.modules[static_cast<std::size_t>(index)];
+        if (change.period_ns) {
+            if (m.operation != config::OperationType::Periodic)
+                return Error{"module '" + m.name + "' is " + config::toString(m.operation) +
+                             ": only periodic modules have a period"};
+            if (*change.period_ns <= 0) return Error{"period_ns must be a positive number of nanoseconds"};
+            if (m.deadline_ns == m.period_ns) m.deadline_ns = *change.period_ns;
+            m.period_ns = *change.period_ns;
+            if (m.budget_ns > m.period_ns || m.deadline_ns > m.period_ns)
+                return Error{"module '" + m.name + "': the period " + std::to_string(m.period_ns) + " ns is shorter than its " +
+                             (m.budget_ns > m.period_ns ? "<budget> " + std::to_string(m.budget_ns)
+                                                        : "<deadline> " + std::to_string(m.deadline_ns)) + " ns"};
+        }
+        if (change.priority) m.priority = *change.priority;
+        if (change.enabled) {
+            if (*change.enabled) disabled.erase(m.name);
+            else disabled.insert(m.name);
+        }
     }
-    config::ModuleSpec &m = set.modules[static_cast<std::size_t>(index)];
-    std::set<std::string> disabled = running->disabled;
-    if (change.period_ns) {
-        if (m.operation != config::OperationType::Periodic)
-            return Error{"module '" + m.name + "' is " + config::toString(m.operation) + ": only periodic modules have a period"};
-        if (*change.period_ns <= 0) return Error{"period_ns must be a positive number of nanoseconds"};
-        if (m.deadline_ns == m.period_ns) m.deadline_ns = *change.period_ns;
-        m.period_ns = *change.period_ns;
-    }
-    if (change.priority) m.priority = *change.priority;
-    if (change.enabled) {
-        if (*change.enabled) disabled.erase(m.name);
-        else disabled.insert(m.name);
-    }
-    auto next = prepare(std::move(set), running.get(), std::move(disabled), running->set_id);
+    const std::string failed_module = changes.size() == 1 ? names : "";
+    const std::string failed_prefix = changes.size() == 1 ? "" : "modules " + names + ": ";
+
+    Estimate estimate;
+    auto next = plan(std::move(set), running.get(), std::move(disabled), running->set_id, &estimate);
     if (!next) {
-        s_.events->add("swap_failed", change.module, next.error().message);
+        if (!dry_run) s_.events->add("swap_failed", failed_module, failed_prefix + next.error().message);
         return next.error();
     }
+    json utilization = json::object();
+    for (const auto &[executor, busy] : estimate.busy) utilization[executor] = busy;
+    json answer{{"dry_run", dry_run},
+                {"before", scheduleJson(*running)},
+                {"schedule", scheduleJson(**next)},
+                {"utilization", utilization},
+                {"warnings", changeWarnings(*running, **next, estimate)},
+                {"report", nullptr}};
+    if (dry_run) return answer;  // planned only: nothing was loaded, nothing to undo
+
+    if (Status st = realize(**next, running.get()); !st) {
+        s_.events->add("swap_failed", failed_module, failed_prefix + st.error().message);
+        return st.error();
+    }
     // A fault-disabled module comes back with enable: its new task does not inherit the disable.
-    if (change.enabled && *change.enabled)
-        if (dispatch::Task *task = (*next)->tables->by_module[static_cast<std::size_t>(index)]) task->clear_fault = true;
-    return swap(std::move(*next), requested);
+    for (const Change &change : changes)
+        if (change.enabled && *change.enabled)
+            if (dispatch::Task *task = (*next)->tables->by_module[static_cast<std::size_t>(running->find(change.module))])
+                task->clear_fault = true;
+    auto report = swap(std::move(*next), requested);
+    if (!report) return report.error();
+    answer["report"] = std::move(*report);
+    return answer;
 }
 
 Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_ns) {

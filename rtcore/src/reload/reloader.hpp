@@ -1,13 +1,14 @@
 // reloader.hpp -- hot reload: a new set (or the running one with a period, priority or enable
 // changed) is prepared off the RT threads and swapped in at a macro-period boundary.
 //
-//   prepare   parse, schedule, check (layout, executors, shared functions, utilization); hash
-//             every module file; keep the modules whose file content, type, operation and
-//             properties are unchanged (same instance, same state, same stats record, same
-//             process); load the others from content-addressed copies (hosts/module_cache.hpp),
+//   plan      parse, schedule, check (layout, executors, shared functions); hash every module
+//             file; keep the modules whose file content, type, operation and properties are
+//             unchanged (same instance, same state, same stats record, same process); estimate
+//             the utilization (over 100 %: refused).  No side effect: a dry run stops here.
+//   realize   load the other modules from content-addressed copies (hosts/module_cache.hpp),
 //             initialize and start them, start the new processes and wait until they are ready;
 //             build the executors' tables.  Any failure undoes what it did: the running set is
-//             untouched and the Error says why.
+//             untouched and the Error says why.  (prepare = plan + realize.)
 //   swap      each executor takes its new table at the first slot due at or after the boundary
 //             (a pointer exchange on its own thread, Executor::offer), carrying the kept tasks'
 //             state over; the reloader waits until all did.
@@ -34,10 +35,12 @@
 #include <nlohmann/json.hpp>
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace irp::reload {
 
@@ -58,12 +61,18 @@ struct Services {
     int64_t swap_timeout_ns = 10'000'000'000;     // offer -> every executor switched
 };
 
-// One value of one module of the running set changed (a hot reload of the same set).
+// Values of one module of the running set changed (a hot reload of the same set).
 struct Change {
     std::string module;
     std::optional<int64_t> period_ns;
     std::optional<int> priority;
     std::optional<bool> enabled;
+};
+
+// Estimated busy fraction per executor ("main" and every <executor>): execution time p99 measured
+// for the modules kept, <budget> for new ones, over their periods.  Above 1 a reload is refused.
+struct Estimate {
+    std::map<std::string, double> busy;
 };
 
 class Reloader {
@@ -85,8 +94,16 @@ public:
     // Hot reloads (main thread).  The result is the swap report.
     Result<nlohmann::ordered_json> load(const std::filesystem::path &xml, const std::string &set_id);
     Result<nlohmann::ordered_json> change(const Change &change);
+    // Several modules changed as one reload: {"dry_run", "before", "schedule", "utilization",
+    // "warnings", "report"} (docs/control-protocol.md, `change`).  dry_run: planned and checked as
+    // a real change is, answered, and dropped; nothing is loaded, swapped or logged.  An unknown
+    // module is an Error with code "not_found".
+    Result<nlohmann::ordered_json> change(const std::vector<Change> &changes, bool dry_run);
     // Everything prepare checks before loading anything: {"valid", "errors", "warnings", "schedule"}.
     nlohmann::ordered_json check(const std::filesystem::path &xml) const;
+
+    // What a set's schedule must satisfy (the minimum basic period, the slot count).
+    const schedule::Limits &limits() const { return s_.limits; }
 
     // The running generation (any thread).
     std::shared_ptr<const Generation> current() const;
@@ -96,6 +113,12 @@ public:
     std::vector<std::string> stopAll();
 
 private:
+    // prepare = plan (decide and check, no side effect) + realize (load, start, build the tables).
+    Result<std::unique_ptr<Generation>> plan(config::SetSpec set, const Generation *running,
+                                             std::set<std::string> disabled, std::string set_id,
+                                             Estimate *estimate = nullptr) const;
+    Status realize(Generation &next, const Generation *running,
+                   const std::function<Status(Generation &)> &before_processes = {});
     Result<nlohmann::ordered_json> swap(std::unique_ptr<Generation> next, int64_t requested_ns);
     Status checkAgainst(const config::SetSpec &set, const Generation *running) const;
     void retire(const Generation &old, const Generation &next);
@@ -107,6 +130,9 @@ private:
     mutable std::mutex mutex_;  // guards current_ (the pointer, not the generation)
     std::shared_ptr<Generation> current_;
 };
+
+// The slot table of a generation (schedule::toJson), each module with its `enabled` flag.
+nlohmann::ordered_json scheduleJson(const Generation &g);
 
 // Resolves the set's layout: `override` (--layout), else its <layout>, else layout.json beside
 // module.xml when there is one.

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace irp::stats {
 namespace {
@@ -129,6 +130,77 @@ nlohmann::ordered_json toJson(const TimingRecord &r) {
         j["budget_ns"] = r.budget_ns;
     }
     return j;
+}
+
+namespace {
+
+struct Listed {
+    nlohmann::ordered_json buckets = nlohmann::ordered_json::array();
+    uint64_t count = 0;
+    int64_t lowest = 0, highest = 0;  // the smallest and largest value the listed buckets can hold
+};
+
+// Appends bucket i of a histogram of magnitudes, as values of the given sign.
+void list(Listed &out, std::size_t i, uint64_t n, bool negative) {
+    const auto low = static_cast<int64_t>(bucketLow(i)), width = static_cast<int64_t>(bucketWidth(i));
+    // Magnitudes [low, low + width) are the values [-(low + width - 1), -low].
+    const int64_t from = negative ? -(low + width - 1) : low;
+    if (out.count == 0) out.lowest = from;
+    out.highest = from + width - 1;
+    out.buckets.push_back({from, width, n});
+    out.count += n;
+}
+
+// A stored value as int64 (UINT64_MAX, an empty histogram's min, becomes INT64_MAX).
+int64_t signedOf(uint64_t v) {
+    return v > static_cast<uint64_t>(std::numeric_limits<int64_t>::max()) ? std::numeric_limits<int64_t>::max()
+                                                                         : static_cast<int64_t>(v);
+}
+
+} // namespace
+
+// min and max are stored after a sample's bucket, so a live reader may see them lag the buckets by
+// one sample: a min above every listed bucket or a max below them is replaced by the buckets' bound.
+nlohmann::ordered_json histogramJson(const Histogram &h) {
+    Listed l;
+    for (std::size_t i = 0; i < kBuckets; ++i)
+        if (const uint64_t n = h.buckets[i].load(relaxed)) list(l, i, n, false);
+    if (l.count == 0) return {{"count", 0}, {"min", 0}, {"max", 0}, {"buckets", std::move(l.buckets)}};
+    const uint64_t min = h.min.load(relaxed), max = h.max.load(relaxed);
+    return {{"count", l.count},
+            {"min", min > static_cast<uint64_t>(l.highest) ? l.lowest : static_cast<int64_t>(min)},
+            {"max", max < static_cast<uint64_t>(l.lowest) ? l.highest : static_cast<int64_t>(max)},
+            {"buckets", std::move(l.buckets)}};
+}
+
+nlohmann::ordered_json histogramJson(const SignedHistogram &h) {
+    Listed l;
+    for (std::size_t i = kBuckets; i-- > 0;)  // the most negative first
+        if (const uint64_t n = h.negative.buckets[i].load(relaxed)) list(l, i, n, true);
+    const uint64_t negatives = l.count;
+    for (std::size_t i = 0; i < kBuckets; ++i)
+        if (const uint64_t n = h.positive.buckets[i].load(relaxed)) list(l, i, n, false);
+    const uint64_t positives = l.count - negatives;
+    if (l.count == 0) return {{"count", 0}, {"min", 0}, {"max", 0}, {"buckets", std::move(l.buckets)}};
+    int64_t min = negatives ? -signedOf(h.negative.max.load(relaxed)) : signedOf(h.positive.min.load(relaxed));
+    int64_t max = positives ? signedOf(h.positive.max.load(relaxed)) : -signedOf(h.negative.min.load(relaxed));
+    if (min > l.highest) min = l.lowest;
+    if (max < l.lowest) max = l.highest;
+    return {{"count", l.count}, {"min", min}, {"max", max}, {"buckets", std::move(l.buckets)}};
+}
+
+nlohmann::ordered_json histogramsJson(const TimingRecord &r) {
+    return {{"name", r.name},
+            {"kind", r.kind == RecordKind::Dispatcher ? "dispatcher" : "module"},
+            {"executor", r.executor},
+            {"runs", r.runs.load(relaxed)},
+            {"overruns", r.overruns.load(relaxed)},
+            {"missed", r.missed.load(relaxed)},
+            {"skipped", r.skipped.load(relaxed)},
+            {"errors", r.errors.load(relaxed)},
+            {"jitter_ns", histogramJson(r.jitter)},
+            {"latency_ns", histogramJson(r.latency)},
+            {"exec_ns", histogramJson(r.exec)}};
 }
 
 } // namespace irp::stats

@@ -1,4 +1,5 @@
-// summary.hpp -- percentiles and JSON from the histograms of a stats block.
+// summary.hpp -- percentiles and JSON from the histograms of a stats block, and the histograms
+// themselves as JSON (their non-empty buckets).
 #pragma once
 
 #include "stats/stats_block.hpp"
@@ -26,5 +27,15 @@ nlohmann::ordered_json toJson(const Summary &s);
 nlohmann::ordered_json toJson(const TimingRecord &r);
 
 const char *toString(ModuleState state);
+
+// {count, min, max, buckets: [[low, width, count], ...]}: the non-empty buckets in ascending order,
+// each holding the values in [low, low + width).  A signed histogram lists its negative values
+// first (low < 0).  count is the sum of the buckets listed (one consistent read of a live record).
+nlohmann::ordered_json histogramJson(const Histogram &h);
+nlohmann::ordered_json histogramJson(const SignedHistogram &h);
+
+// {name, kind, executor, runs, overruns, missed, skipped, errors, jitter_ns, latency_ns, exec_ns}
+// with the three histograms as histogramJson.
+nlohmann::ordered_json histogramsJson(const TimingRecord &r);
 
 } // namespace irp::stats

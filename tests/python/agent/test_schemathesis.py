@@ -4,6 +4,8 @@ a real agent in front of a real irpd: no answer may be a 5xx.  The stream (WebSo
 the spec; tests/python/agent/test_stream.py covers it."""
 from __future__ import annotations
 
+import os
+
 import pytest
 import schemathesis
 from hypothesis import HealthCheck, settings
@@ -21,7 +23,7 @@ EXAMPLES = 50
 def live(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("schemathesis")
     sock = tmp / "irpd.sock"
-    irpd = start_irpd(sock, instance="schemathesis")
+    irpd = start_irpd(sock, instance=f"schemathesis-{os.getpid()}")  # two runs at once do not collide
     port = free_port()
     data = tmp / "data"
     agent = start_agent(port, data, sock)

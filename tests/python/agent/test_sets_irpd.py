@@ -116,6 +116,26 @@ def test_a_set_irpd_finds_wrong_is_stored_with_irpds_errors(cell):
     assert cell.get(f"/sets/{s['id']}").json()["validation"] == s["validation"]
 
 
+def test_irpds_errors_of_a_stored_set_say_the_file_and_line(cell):
+    s = cell.upload(cntr1_period="abc")  # irpd's parser: "<set>/module.xml:13: module 'cntr1': <period>: ..."
+    line = FIG1.read_text().splitlines().index("    <period>500000</period>") + 1
+    validation = s["validation"]
+    assert validation["valid"] is False
+    assert validation["problems"][0]["message"] == validation["errors"][0]
+    assert (validation["problems"][0]["file"], validation["problems"][0]["line"]) == ("module.xml", line), validation
+    assert cell.get(f"/sets/{s['id']}").json()["validation"]["problems"] == validation["problems"]
+    r = cell.post(f"/sets/{s['id']}/activate")
+    assert r.status_code == 409, r.text
+    assert (r.json()["file"], r.json()["line"]) == ("module.xml", line)
+    assert f"module.xml:{line}: module 'cntr1': <period>" in r.json()["detail"]
+
+
+def test_a_schedule_error_names_module_xml_without_a_line(cell):
+    s = cell.upload(cntr1_period="10000")
+    problem = s["validation"]["problems"][0]
+    assert problem["file"] == "module.xml" and problem["line"] is None and "minimum basic period" in problem["message"]
+
+
 def test_activation_hot_swaps_irpd_to_the_set_and_records_it(cell):
     s = cell.upload()
     report = cell.activate(s["id"])

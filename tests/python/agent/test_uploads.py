@@ -296,6 +296,64 @@ def test_malformed_json_is_refused(agent, elves):
     refused(agent, post_set(agent, *files_body(files)), 400, '"layout.json" is not valid JSON')
 
 
+# ---- where: file, line and column beside the detail ---------------------------------------------
+def located(response, status: int, file: str, line: int | None = None, column: int | None = None) -> dict:
+    """Asserts the refusal's status and where it points; returns the body."""
+    assert response.status_code == status, response.text
+    body = response.json()
+    assert body.get("file") == file, body
+    assert body.get("line") == line, body
+    if column is not None:
+        assert body.get("column") == column, body
+    return body
+
+
+def test_malformed_module_xml_says_the_file_line_and_column(agent, elves):
+    files = {**small_set(elves), "module.xml": b"<root>\n<module>\n</root>\n"}
+    body = located(post_set(agent, *files_body(files)), 400, "module.xml", 3, 3)  # expat: "line 3, column 2"
+    assert body["detail"] == "module.xml: malformed XML: mismatched tag: line 3, column 2"
+
+
+def test_a_module_naming_a_missing_file_points_at_its_filename_line(agent, elves):
+    files = small_set(elves)
+    del files["lib/ctl.so"]
+    body = located(post_set(agent, *files_body(files)), 400, "module.xml", 4, 5)  # <filename> of the first module
+    assert body["detail"].startswith('module.xml: module "ctl" names "./lib/ctl.so"')
+
+
+def test_an_absolute_module_file_points_at_its_filename_line(agent, elves):
+    files = {**small_set(elves), "module.xml": module_xml(("./proc.exe", "process"), ("/opt/ctl.so", "thread"))}
+    located(post_set(agent, *files_body(files)), 400, "module.xml", 11, 5)  # the second <filename>
+
+
+def test_a_missing_layout_points_at_its_line(agent, elves):
+    xml = module_xml(("./lib/ctl.so", "thread"), extra="<layout>vars.json</layout>\n")
+    line = xml.decode().splitlines().index("<layout>vars.json</layout>") + 1
+    located(post_set(agent, *files_body({**small_set(elves), "module.xml": xml})), 400, "module.xml", line, 1)
+
+
+def test_malformed_json_says_the_file_line_and_column(agent, elves):
+    files = {**small_set(elves), "layout.json": b'{\n  "leaves": [,]\n}'}
+    body = located(post_set(agent, *files_body(files)), 400, "layout.json", 2, 14)
+    assert body["detail"].startswith('"layout.json" is not valid JSON: Expecting value: line 2 column 14')
+
+
+def test_a_malformed_config_names_itself(agent, elves):
+    files = {**small_set(elves), "cfg/io.xml": b"<io>\n<a></b>\n</io>\n"}
+    located(post_set(agent, *files_body(files)), 400, "cfg/io.xml", 2, 6)
+
+
+def test_file_refusals_name_the_file_without_a_line(agent, elves):
+    located(post_set(agent, *files_body({**small_set(elves), "lib/ctl.so": b"not an elf"})), 415, "lib/ctl.so")
+    located(post_set(agent, *files_body({**small_set(elves), "install.sh": b"#!/bin/sh\n"})), 415, "install.sh")
+    located(post_set(agent, *files_body({**small_set(elves), "ioconfig.xml": BILLION_LAUGHS})), 400, "ioconfig.xml")
+
+
+def test_refusals_that_are_about_no_file_carry_only_the_detail(agent):
+    r = agent.client.post("/api/v1/sets", content=b"x", headers={**agent.h(), "Content-Type": "text/plain"})
+    assert r.status_code == 415 and set(r.json()) == {"detail"}
+
+
 # ---- kinds and ELF checks -----------------------------------------------------------------------
 @pytest.mark.parametrize("name", ["install.sh", "payload.py", "lib/libfoo.so.1", "Makefile", "set.tar.gz"])
 def test_files_of_other_kinds_are_refused_with_415_naming_them(agent, elves, name):

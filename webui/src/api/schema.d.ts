@@ -91,7 +91,9 @@ export interface paths {
         };
         /**
          * Host
-         * @description CPU load per CPU, load averages, and irpd's and the agent's CPU and memory.
+         * @description CPU load per CPU, load averages, and irpd's and the agent's CPU and memory, over the time
+         *     since the previous GET /host (the first one samples 100 ms).  irpd is null when it does not
+         *     answer or its process cannot be read.
          */
         get: operations["host_api_v1_host_get"];
         put?: never;
@@ -128,7 +130,8 @@ export interface paths {
         };
         /**
          * Histograms
-         * @description The histograms behind GET /jitter (non-empty buckets), of one record by name or of all.
+         * @description The histograms behind GET /jitter (non-empty buckets), of one record by name or of all,
+         *     cumulative since irpd started: difference two answers for the figures of the time between.
          */
         get: operations["histograms_api_v1_jitter_histograms_get"];
         put?: never;
@@ -167,8 +170,10 @@ export interface paths {
         put?: never;
         /**
          * Change Modules
-         * @description Several modules' period, priority or enabled changed in one hot swap; with dry_run, the slot
-         *     table before and after and the estimated utilization, nothing changed.
+         * @description Several modules' period, priority or enabled changed in one hot swap (one new generation);
+         *     with dry_run, the same checks and the slot table before and after with the estimated
+         *     utilization, nothing changed.  `before` is the table running when irpd took the request.
+         *     Real runs are audited (change_modules) and an agent event; dry runs are neither.
          */
         post: operations["change_modules_api_v1_modules_changes_post"];
         delete?: never;
@@ -510,31 +515,30 @@ export interface components {
         };
         /** ChangesReport */
         ChangesReport: {
-            /**
-             * After
-             * @description the slot table with the changes, as GET /schedule
-             */
-            after: {
-                [key: string]: unknown;
-            };
-            /**
-             * Before
-             * @description the slot table running now, as GET /schedule
-             */
-            before: {
-                [key: string]: unknown;
-            };
+            /** @description the slot table with the changes, as GET /schedule */
+            after: components["schemas"]["Schedule"];
+            /** @description the slot table running before the changes, as GET /schedule */
+            before: components["schemas"]["Schedule"];
             /** Dry Run */
             dry_run: boolean;
+            /**
+             * Executors
+             * @description the same estimate per executor (main and every <executor>)
+             * @default {}
+             */
+            executors: {
+                [key: string]: number;
+            };
             /** @description irpd's swap report (null for a dry run) */
             report?: components["schemas"]["SwapReport"] | null;
             /**
              * Utilization
-             * @description estimated busy fraction of the busiest executor with the changes (measured exec p99 of each module over its period)
+             * @description estimated busy fraction of the busiest executor with the changes (measured exec p99 of each module, or its <budget> when larger, over its period); irpd refuses above 1
              */
             utilization: number;
             /**
              * Warnings
+             * @description what may not be meant: a new basic or macro period, modules sharing a priority on one executor, an executor above 80 %, a module whose file changed and is loaded anew
              * @default []
              */
             warnings: string[];
@@ -548,6 +552,29 @@ export interface components {
             busy: number;
             /** Cpu */
             cpu: number;
+        };
+        /**
+         * ErrorBody
+         * @description An error answer: what to fix, and for a refused upload or activation where, when known.
+         */
+        ErrorBody: {
+            /**
+             * Column
+             * @description from 1
+             */
+            column?: number | null;
+            /** Detail */
+            detail: string;
+            /**
+             * File
+             * @description the file of the set it is about, relative to the set's root
+             */
+            file?: string | null;
+            /**
+             * Line
+             * @description from 1
+             */
+            line?: number | null;
         };
         /** Event */
         Event: {
@@ -599,10 +626,57 @@ export interface components {
              */
             next: number;
         };
+        /**
+         * Figures
+         * @description A distribution summarized (ns): min, max, mean and percentiles, from the histograms.
+         */
+        Figures: {
+            /** Count */
+            count: number;
+            /** Max */
+            max: number;
+            /** Mean */
+            mean: number;
+            /** Min */
+            min: number;
+            /** P50 */
+            p50: number;
+            /** P99 */
+            p99: number;
+            /** P999 */
+            p999: number;
+        } & {
+            [key: string]: unknown;
+        };
         /** HTTPValidationError */
         HTTPValidationError: {
             /** Detail */
             detail?: components["schemas"]["ValidationError"][];
+        };
+        /** Health */
+        Health: {
+            /**
+             * Agent
+             * @description ok
+             */
+            agent: string;
+            /**
+             * Detail
+             * @description why irpd is unreachable
+             */
+            detail?: string | null;
+            /**
+             * Irpd
+             * @description ok or unreachable
+             */
+            irpd: string;
+            /**
+             * Running
+             * @description irpd's dispatchers run (when irpd answers)
+             */
+            running?: boolean | null;
+            /** Version */
+            version: string;
         };
         /** Histogram */
         Histogram: {
@@ -642,6 +716,8 @@ export interface components {
             runs: number;
             /** Skipped */
             skipped: number;
+        } & {
+            [key: string]: unknown;
         };
         /** Histograms */
         Histograms: {
@@ -657,6 +733,8 @@ export interface components {
              * @description CLOCK_MONOTONIC when read
              */
             time_ns: number;
+        } & {
+            [key: string]: unknown;
         };
         /** HostLoad */
         HostLoad: {
@@ -720,13 +798,25 @@ export interface components {
         };
         /** ModuleChange */
         ModuleChange: {
-            /** Enabled */
+            /**
+             * Enabled
+             * @description false: the module stops running; true: it runs again
+             */
             enabled?: boolean | null;
-            /** Name */
+            /**
+             * Name
+             * @description a module of the running set
+             */
             name: string;
-            /** Period Ns */
+            /**
+             * Period Ns
+             * @description a periodic module's new period (ns)
+             */
             period_ns?: number | null;
-            /** Priority */
+            /**
+             * Priority
+             * @description lowest value = highest priority
+             */
             priority?: number | null;
         };
         /** ModuleChanges */
@@ -739,6 +829,74 @@ export interface components {
              * @default false
              */
             dry_run: boolean;
+        };
+        /**
+         * ModuleInfo
+         * @description One module of the running set: its figures, its module.xml entry and its state.
+         */
+        ModuleInfo: {
+            /** Budget Ns */
+            budget_ns: number;
+            /**
+             * Caught Up
+             * @description dispatchers only
+             */
+            caught_up?: number | null;
+            /** Deadline Ns */
+            deadline_ns: number;
+            /** Enabled */
+            enabled: boolean;
+            /** Errors */
+            errors: number;
+            /** @description execution time */
+            exec_ns: components["schemas"]["Figures"];
+            /** Executor */
+            executor: string;
+            /** File */
+            file: string;
+            /** @description Eq. (1): planned start minus actual start (may be negative) */
+            jitter_ns: components["schemas"]["Figures"];
+            /**
+             * Kind
+             * @description dispatcher or module
+             */
+            kind: string;
+            /** @description start (wake-up for a dispatcher) minus its planned time */
+            latency_ns: components["schemas"]["Figures"];
+            /** Missed */
+            missed: number;
+            /** Moduletype */
+            moduletype: string;
+            /** Name */
+            name: string;
+            /** Operationtype */
+            operationtype: string;
+            /** Overruns */
+            overruns: number;
+            /**
+             * Period Ns
+             * @description the module's period, or the basic period for a dispatcher
+             */
+            period_ns: number;
+            /** Priority */
+            priority: number;
+            /** Properties */
+            properties: {
+                [key: string]: string;
+            };
+            /** Runs */
+            runs: number;
+            /** Sha256 */
+            sha256: string;
+            /** Skipped */
+            skipped: number;
+            /**
+             * State
+             * @description loaded, running, disabled, skipped, stopped or exited
+             */
+            state: string;
+        } & {
+            [key: string]: unknown;
         };
         /** ModulePatch */
         ModulePatch: {
@@ -760,6 +918,8 @@ export interface components {
         };
         /** PatchReport */
         PatchReport: {
+            /** Basic Period Ns */
+            basic_period_ns?: number | null;
             /** Generation */
             generation?: number | null;
             /**
@@ -767,6 +927,8 @@ export interface components {
              * @default []
              */
             kept: string[];
+            /** Macro Period Ns */
+            macro_period_ns?: number | null;
             /**
              * Missed Periods
              * @description dispatcher periods missed around the swap; the goal is 0
@@ -804,6 +966,23 @@ export interface components {
             total_ns?: number | null;
         } & {
             [key: string]: unknown;
+        };
+        /**
+         * Problem
+         * @description One of irpd's validation errors with where it points (parsed from its `file:line: ` prefix).
+         */
+        Problem: {
+            /** Column */
+            column?: number | null;
+            /**
+             * File
+             * @description relative to the set's root, e.g. module.xml
+             */
+            file?: string | null;
+            /** Line */
+            line?: number | null;
+            /** Message */
+            message: string;
         };
         /** ProcessLoad */
         ProcessLoad: {
@@ -881,6 +1060,87 @@ export interface components {
              */
             viewer_url: string | null;
         };
+        /**
+         * Schedule
+         * @description The slot table (the paper's Table 3): irpd's `schedule`.
+         */
+        Schedule: {
+            /**
+             * Basic Period Ns
+             * @description GCD of the periods
+             */
+            basic_period_ns: number;
+            /**
+             * Macro Period Ns
+             * @description LCM of the periods
+             */
+            macro_period_ns: number;
+            /**
+             * Modules
+             * @description every module of the set, in module.xml order
+             */
+            modules: components["schemas"]["ScheduledModule"][];
+            /** Slots */
+            slots: components["schemas"]["ScheduleSlot"][];
+        } & {
+            [key: string]: unknown;
+        };
+        /** ScheduleSlot */
+        ScheduleSlot: {
+            /** Index */
+            index: number;
+            /**
+             * Modules
+             * @description the modules run in this slot, in run order (priority, then file order)
+             */
+            modules: string[];
+            /**
+             * Offset Ns
+             * @description index * basic period
+             */
+            offset_ns: number;
+        } & {
+            [key: string]: unknown;
+        };
+        /** ScheduledModule */
+        ScheduledModule: {
+            /**
+             * Deadline Ns
+             * @description 0 = the period
+             */
+            deadline_ns: number;
+            /**
+             * Enabled
+             * @description false: taken out of dispatch (absent in a stored set's check)
+             */
+            enabled?: boolean | null;
+            /** Executor */
+            executor: string;
+            /**
+             * Moduletype
+             * @description thread or process
+             */
+            moduletype: string;
+            /** Name */
+            name: string;
+            /**
+             * Operationtype
+             * @description periodic, sporadic or non-real
+             */
+            operationtype: string;
+            /**
+             * Period Ns
+             * @description 0 for sporadic and non-real modules
+             */
+            period_ns: number;
+            /**
+             * Priority
+             * @description lowest value = highest priority
+             */
+            priority: number;
+        } & {
+            [key: string]: unknown;
+        };
         /** SetFile */
         SetFile: {
             /**
@@ -931,11 +1191,120 @@ export interface components {
             /** Valid */
             valid: boolean | null;
         };
+        /** SharedMemory */
+        SharedMemory: {
+            /**
+             * Stats
+             * @description the stats block's shm name
+             */
+            stats: string;
+            /**
+             * Trace
+             * @description the trace rings' shm name
+             */
+            trace?: string | null;
+            /**
+             * Variables
+             * @description the shared variables' shm name; null: the set has none
+             */
+            variables: string | null;
+        } & {
+            [key: string]: unknown;
+        };
+        /**
+         * Stats
+         * @description irpd's `stats`: every dispatcher and module record.
+         */
+        Stats: {
+            /** Cycles */
+            cycles: number;
+            /**
+             * Executors
+             * @description the dispatchers' records, the main one first
+             */
+            executors: components["schemas"]["TimingRecord"][];
+            /** Modules */
+            modules: components["schemas"]["TimingRecord"][];
+        } & {
+            [key: string]: unknown;
+        };
+        /**
+         * Status
+         * @description irpd's `status`.
+         */
+        Status: {
+            /** Basic Period Ns */
+            basic_period_ns: number;
+            /** Caught Up */
+            caught_up: number;
+            /**
+             * Cycles
+             * @description basic periods dispatched
+             */
+            cycles: number;
+            /**
+             * Events
+             * @description the last event's seq
+             */
+            events: number;
+            /**
+             * Generation
+             * @description 1 + hot swaps since irpd started
+             */
+            generation: number;
+            /** Macro Period Ns */
+            macro_period_ns: number;
+            /**
+             * Min Basic Period Ns
+             * @description the shortest basic period irpd accepts (a set or change below it is refused)
+             */
+            min_basic_period_ns?: number | null;
+            /** Missed */
+            missed: number;
+            /**
+             * Modules
+             * @description how many modules the set has
+             */
+            modules: number;
+            /** Overruns */
+            overruns: number;
+            /**
+             * Pid
+             * @description irpd's process id
+             */
+            pid: number;
+            /**
+             * Realtime
+             * @description false: the dispatchers run SCHED_OTHER; periods are not guaranteed
+             */
+            realtime: boolean;
+            /** Running */
+            running: boolean;
+            /**
+             * Set
+             * @description the running module.xml
+             */
+            set: string;
+            /**
+             * Set Id
+             * @description the stored set's id given at activation; null otherwise
+             */
+            set_id: string | null;
+            shared_memory: components["schemas"]["SharedMemory"];
+            /** Skipped */
+            skipped: number;
+            /** Uptime Ns */
+            uptime_ns: number;
+        } & {
+            [key: string]: unknown;
+        };
         /**
          * SwapReport
          * @description irpd's report of a hot swap (control protocol v2).
          */
         SwapReport: {
+            /** Basic Period Ns */
+            basic_period_ns?: number | null;
             /** Generation */
             generation?: number | null;
             /**
@@ -943,6 +1312,8 @@ export interface components {
              * @default []
              */
             kept: string[];
+            /** Macro Period Ns */
+            macro_period_ns?: number | null;
             /**
              * Missed Periods
              * @description dispatcher periods missed around the swap; the goal is 0
@@ -973,6 +1344,64 @@ export interface components {
             swap_cycle?: number | null;
             /** Total Ns */
             total_ns?: number | null;
+        } & {
+            [key: string]: unknown;
+        };
+        /**
+         * TimingRecord
+         * @description A dispatcher's or a module's figures (irpd's stats record).
+         */
+        TimingRecord: {
+            /**
+             * Budget Ns
+             * @description modules only; 0 = none
+             */
+            budget_ns?: number | null;
+            /**
+             * Caught Up
+             * @description dispatchers only
+             */
+            caught_up?: number | null;
+            /** Errors */
+            errors: number;
+            /** @description execution time */
+            exec_ns: components["schemas"]["Figures"];
+            /** Executor */
+            executor: string;
+            /** @description Eq. (1): planned start minus actual start (may be negative) */
+            jitter_ns: components["schemas"]["Figures"];
+            /**
+             * Kind
+             * @description dispatcher or module
+             */
+            kind: string;
+            /** @description start (wake-up for a dispatcher) minus its planned time */
+            latency_ns: components["schemas"]["Figures"];
+            /** Missed */
+            missed: number;
+            /** Name */
+            name: string;
+            /** Overruns */
+            overruns: number;
+            /**
+             * Period Ns
+             * @description the module's period, or the basic period for a dispatcher
+             */
+            period_ns: number;
+            /**
+             * Priority
+             * @description modules only
+             */
+            priority?: number | null;
+            /** Runs */
+            runs: number;
+            /** Skipped */
+            skipped: number;
+            /**
+             * State
+             * @description modules only: loaded, running, disabled, skipped, stopped, exited
+             */
+            state?: string | null;
         } & {
             [key: string]: unknown;
         };
@@ -1022,12 +1451,13 @@ export interface components {
              */
             errors: string[];
             /**
-             * Schedule
-             * @description the slot table irpd would run, as GET /schedule
+             * Problems
+             * @description `errors` again, each with the file, line and column it names (where it names one)
+             * @default []
              */
-            schedule?: {
-                [key: string]: unknown;
-            } | null;
+            problems: components["schemas"]["Problem"][];
+            /** @description the slot table irpd would run, as GET /schedule */
+            schedule?: components["schemas"]["Schedule"] | null;
             /**
              * Valid
              * @description irpd's `check` verdict; null when irpd could not check the set
@@ -1048,9 +1478,50 @@ export interface components {
             /** Error Type */
             type: string;
         };
+        /** VariableInfo */
+        VariableInfo: {
+            /** Path */
+            path: string;
+            /** Size */
+            size: number;
+            /** Type */
+            type: string;
+        };
+        /** VariableList */
+        VariableList: {
+            /** Layout Hash */
+            layout_hash: string;
+            /** Variables */
+            variables: components["schemas"]["VariableInfo"][];
+        };
+        /** VariableValue */
+        VariableValue: {
+            /**
+             * Layout Hash
+             * @description the layout the value was read with
+             */
+            layout_hash: string;
+            /** Path */
+            path: string;
+            /**
+             * Value
+             * @description as irpd stored it (checked against the type)
+             */
+            value: boolean | number;
+        };
         /** VariableWrite */
         VariableWrite: {
             /** Value */
+            value: boolean | number;
+        };
+        /** VariableWritten */
+        VariableWritten: {
+            /** Path */
+            path: string;
+            /**
+             * Value
+             * @description as irpd stored it (checked against the type)
+             */
             value: boolean | number;
         };
         /** Who */
@@ -1178,9 +1649,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": {
-                        [key: string]: unknown;
-                    };
+                    "application/json": components["schemas"]["Health"];
                 };
             };
         };
@@ -1220,9 +1689,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": {
-                        [key: string]: unknown;
-                    };
+                    "application/json": components["schemas"]["Stats"];
                 };
             };
         };
@@ -1230,6 +1697,7 @@ export interface operations {
     histograms_api_v1_jitter_histograms_get: {
         parameters: {
             query?: {
+                /** @description one dispatcher's or module's name; all when absent */
                 name?: string | null;
             };
             header?: never;
@@ -1246,6 +1714,13 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["Histograms"];
                 };
+            };
+            /** @description no dispatcher or module of that name */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
             /** @description Validation Error */
             422: {
@@ -1273,7 +1748,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": unknown[];
+                    "application/json": components["schemas"]["ModuleInfo"][];
                 };
             };
         };
@@ -1300,19 +1775,32 @@ export interface operations {
                     "application/json": components["schemas"]["ChangesReport"];
                 };
             };
-            /** @description a change names no module, or none */
+            /** @description a module twice, or a change that changes nothing */
             400: {
                 headers: {
                     [name: string]: unknown;
                 };
-                content?: never;
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description a module not in the running set */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
             };
             /** @description irpd refused the changes (its message) */
             409: {
                 headers: {
                     [name: string]: unknown;
                 };
-                content?: never;
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
             };
             /** @description Validation Error */
             422: {
@@ -1342,9 +1830,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": {
-                        [key: string]: unknown;
-                    };
+                    "application/json": components["schemas"]["ModuleInfo"];
                 };
             };
             /** @description no such module in the running set */
@@ -1509,9 +1995,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": {
-                        [key: string]: unknown;
-                    };
+                    "application/json": components["schemas"]["Schedule"];
                 };
             };
         };
@@ -1567,26 +2051,32 @@ export interface operations {
                     "application/json": components["schemas"]["SetPublic"];
                 };
             };
-            /** @description a bad name, module.xml or file content; the detail says what to fix */
+            /** @description a bad name, module.xml or file content; the detail says what to fix, file/line/column where */
             400: {
                 headers: {
                     [name: string]: unknown;
                 };
-                content?: never;
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
             };
             /** @description a file, the upload or the file count is over the limit */
             413: {
                 headers: {
                     [name: string]: unknown;
                 };
-                content?: never;
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
             };
             /** @description a kind of file a set does not hold */
             415: {
                 headers: {
                     [name: string]: unknown;
                 };
-                content?: never;
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
             };
         };
     };
@@ -1709,12 +2199,14 @@ export interface operations {
                 };
                 content?: never;
             };
-            /** @description irpd refused the set (its message) */
+            /** @description irpd refused the set (its message; file and line where it names them) */
             409: {
                 headers: {
                     [name: string]: unknown;
                 };
-                content?: never;
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
             };
             /** @description Validation Error */
             422: {
@@ -1742,9 +2234,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": {
-                        [key: string]: unknown;
-                    };
+                    "application/json": components["schemas"]["Status"];
                 };
             };
         };
@@ -1860,9 +2350,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": {
-                        [key: string]: unknown;
-                    };
+                    "application/json": components["schemas"]["VariableList"];
                 };
             };
         };
@@ -1884,9 +2372,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": {
-                        [key: string]: unknown;
-                    };
+                    "application/json": components["schemas"]["VariableValue"];
                 };
             };
             /** @description Validation Error */
@@ -1921,9 +2407,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": {
-                        [key: string]: unknown;
-                    };
+                    "application/json": components["schemas"]["VariableWritten"];
                 };
             };
             /** @description irpd refused: unknown path, wrong type, out of range (its message) */

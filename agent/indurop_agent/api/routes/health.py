@@ -4,12 +4,13 @@ from fastapi import APIRouter
 from ... import __version__
 from ...irpd_client import IrpdRefused, IrpdUnavailable
 from ..deps import IrpdDep
+from ..models import Health
 
 router = APIRouter(tags=["health"])
 
 
 @router.get("/health")
-def health(irpd: IrpdDep) -> dict:
+def health(irpd: IrpdDep) -> Health:
     try:
         status = irpd.request("status")
         return {"agent": "ok", "version": __version__, "irpd": "ok", "running": status.get("running", False)}

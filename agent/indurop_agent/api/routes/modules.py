@@ -1,12 +1,13 @@
-"""modules.py -- the running set's modules: every one with live figures, one by name, and PATCH
-of a module's period, priority or enabled state (each a hot swap in irpd)."""
+"""modules.py -- the running set's modules: every one with live figures, one by name, PATCH of a
+module's period, priority or enabled state (each a hot swap in irpd), and POST /modules/changes:
+several modules changed as one hot swap, or only tried (dry run)."""
 from __future__ import annotations
 
 from fastapi import APIRouter, HTTPException, Request
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, model_validator
 
 from ..deps import IrpdDep, OperatorDep, SwapIrpdDep, ViewerDep, ask, audited
-from ..models import ChangesReport, ModuleChanges, PatchReport
+from ..models import ChangesReport, ErrorBody, ModuleChanges, ModuleInfo, PatchReport
 
 router = APIRouter(tags=["modules"])
 
@@ -25,7 +26,7 @@ class ModulePatch(BaseModel):
 
 
 @router.get("/modules")
-def modules(irpd: IrpdDep, _: ViewerDep) -> list:
+def modules(irpd: IrpdDep, _: ViewerDep) -> list[ModuleInfo]:
     return ask(irpd, "modules")
 
 
@@ -37,7 +38,7 @@ def _find(irpd, name: str) -> dict:
 
 
 @router.get("/modules/{name}", responses={404: {"description": "no such module in the running set"}})
-def module(name: str, irpd: IrpdDep, _: ViewerDep) -> dict:
+def module(name: str, irpd: IrpdDep, _: ViewerDep) -> ModuleInfo:
     return _find(irpd, name)
 
 
@@ -72,10 +73,38 @@ def patch_module(name: str, body: ModulePatch, request: Request, irpd: IrpdDep, 
     return PatchReport(**reports[-1], reports=reports)
 
 
-@router.post("/modules/changes", responses={400: {"description": "a change names no module, or none"},
-                                           409: {"description": "irpd refused the changes (its message)"}})
-def change_modules(body: ModuleChanges, request: Request, irpd: IrpdDep, swap: SwapIrpdDep,
-                   who: OperatorDep) -> ChangesReport:
-    """Several modules' period, priority or enabled changed in one hot swap; with dry_run, the slot
-    table before and after and the estimated utilization, nothing changed."""
-    raise NotImplementedError
+@router.post("/modules/changes", responses={400: {"model": ErrorBody, "description": "a module twice, or a change "
+                                                                                 "that changes nothing"},
+                                           404: {"model": ErrorBody, "description": "a module not in the running set"},
+                                           409: {"model": ErrorBody, "description": "irpd refused the changes "
+                                                                                 "(its message)"}})
+def change_modules(body: ModuleChanges, request: Request, swap: SwapIrpdDep, who: OperatorDep) -> ChangesReport:
+    """Several modules' period, priority or enabled changed in one hot swap (one new generation);
+    with dry_run, the same checks and the slot table before and after with the estimated
+    utilization, nothing changed.  `before` is the table running when irpd took the request.
+    Real runs are audited (change_modules) and an agent event; dry runs are neither."""
+    seen = set()
+    for i, c in enumerate(body.changes):
+        if c.name in seen:
+            raise HTTPException(400, f"changes[{i}]: module {c.name!r} is changed twice; give each module once, "
+                                     "with all its values")
+        seen.add(c.name)
+        if c.period_ns is None and c.priority is None and c.enabled is None:
+            raise HTTPException(400, f"changes[{i}] (module {c.name!r}) changes nothing; "
+                                     "give period_ns, priority or enabled")
+    changes = [{"module": c.name, **c.model_dump(exclude_none=True, exclude={"name"})} for c in body.changes]
+    timeout = request.app.state.settings.swap_timeout_s
+    if body.dry_run:
+        result = ask(swap, "change", changes=changes, dry_run=True, timeout=timeout)
+    else:
+        names = ", ".join(c.name for c in body.changes)
+        with audited(request, who, "change_modules", names, changes=changes) as entry:
+            result = ask(swap, "change", changes=changes, dry_run=False, timeout=timeout)
+            entry["generation"] = (result.get("report") or {}).get("generation")
+        request.app.state.events.add("change_modules", f"modules {names}: {changes} by {who.name} "
+                                                       f"(generation {entry['generation']})",
+                                     module=body.changes[0].name if len(body.changes) == 1 else None)
+    per_executor = {k: float(v) for k, v in (result.get("utilization") or {}).items()}
+    return ChangesReport(dry_run=body.dry_run, before=result["before"], after=result["schedule"],
+                         utilization=max(per_executor.values(), default=0.0), executors=per_executor,
+                         warnings=result.get("warnings") or [], report=result.get("report"))

@@ -8,27 +8,39 @@ from starlette.concurrency import run_in_threadpool
 
 from ... import uploads
 from ...activation import irpd_validation
+from ...errors import LocatedError, locate, problems
 from ...irpd_client import IrpdRefused, IrpdUnavailable
 from ...store import StoreError, remove_tree, set_id_of
 from ..deps import AdminDep, OperatorDep, ViewerDep, audited
-from ..models import ActiveSet, SetPublic, SetSummary, SwapReport
+from ..models import ActiveSet, ErrorBody, SetPublic, SetSummary, SwapReport
 
 router = APIRouter(tags=["sets"])
 
-NOT_CHECKED_YET = {"valid": None, "errors": [], "warnings": ["not checked yet"], "schedule": None}
+NOT_CHECKED_YET = {"valid": None, "errors": [], "problems": [], "warnings": ["not checked yet"], "schedule": None}
 UPLOAD_BODY = {"requestBody": {"required": True, "content": {
     "multipart/form-data": {"schema": {"type": "object", "properties": {
         "files": {"type": "array", "items": {"type": "string", "format": "binary"},
                   "description": "one part per file; its filename is the path in the set (module.xml, lib/cntr1.so)"},
         "archive": {"type": "string", "format": "binary", "description": "or: the whole set as one .tar.gz"}}}},
     "application/gzip": {"schema": {"type": "string", "format": "binary", "description": "the set as a .tar.gz"}}}}}
-REFUSALS = {400: {"description": "a bad name, module.xml or file content; the detail says what to fix"},
-            413: {"description": "a file, the upload or the file count is over the limit"},
-            415: {"description": "a kind of file a set does not hold"}}
+REFUSALS = {400: {"model": ErrorBody, "description": "a bad name, module.xml or file content; the detail says what "
+                                                     "to fix, file/line/column where"},
+            413: {"model": ErrorBody, "description": "a file, the upload or the file count is over the limit"},
+            415: {"model": ErrorBody, "description": "a kind of file a set does not hold"}}
+
+
+def _located(request: Request, manifest: dict) -> dict:
+    """The manifest with its validation's errors also as problems (where each points in the set),
+    for sets stored before the validation kept them."""
+    validation = manifest["validation"]
+    if "problems" in validation:
+        return manifest
+    root = request.app.state.store.files_dir(manifest["id"])
+    return {**manifest, "validation": {**validation, "problems": problems(validation.get("errors") or [], root)}}
 
 
 def _public(request: Request, manifest: dict) -> SetPublic:
-    return SetPublic(**manifest, active=manifest["id"] == request.app.state.store.active_id())
+    return SetPublic(**_located(request, manifest), active=manifest["id"] == request.app.state.store.active_id())
 
 
 def _store_error(e: StoreError) -> HTTPException:
@@ -79,7 +91,7 @@ def active_set(request: Request, _: ViewerDep) -> ActiveSet:
     manifest = store.manifest(active["set_id"]) if active else None
     if manifest is None:
         raise HTTPException(404, "no set has been activated through the agent yet; POST /api/v1/sets/{id}/activate")
-    return ActiveSet(**manifest, active=True, since=active["since"], action=active["action"],
+    return ActiveSet(**_located(request, manifest), active=True, since=active["since"], action=active["action"],
                      rollback_to=store.rollback_target())
 
 
@@ -91,13 +103,15 @@ def get_set(set_id: str, request: Request, _: ViewerDep) -> SetPublic:
     return _public(request, manifest)
 
 
-def _run_swap(call):
+def _run_swap(call, root=None):
+    """`root`: the folder of the set being activated, so that a refusal can say where in it."""
     try:
         return call()
     except StoreError as e:
         raise _store_error(e) from e
     except IrpdRefused as e:
-        raise HTTPException(409, f"irpd refused the set and kept the running one: {e}") from e
+        raise LocatedError(409, f"irpd refused the set and kept the running one: {e}",
+                           **(locate(str(e), root) if root is not None else {})) from e
     except IrpdUnavailable as e:
         raise HTTPException(503, str(e)) from e
 
@@ -109,18 +123,22 @@ def rollback(request: Request, who: OperatorDep) -> SwapReport:
     with audited(request, who, "rollback") as entry:
         entry["from"] = state.store.active_id()
         entry["target"] = state.store.rollback_target()
-        target, report = _run_swap(lambda: state.activator.rollback(who.as_dict()))
+        target = entry["target"]
+        root = state.store.files_dir(target) if target else None
+        target, report = _run_swap(lambda: state.activator.rollback(who.as_dict()), root)
         entry["generation"] = (report or {}).get("generation")
     return SwapReport(**(report or {}))
 
 
 @router.post("/sets/{set_id}/activate", responses={404: {"description": "no such set"},
-                                                    409: {"description": "irpd refused the set (its message)"}})
+                                                    409: {"model": ErrorBody, "description": "irpd refused the set "
+                                                          "(its message; file and line where it names them)"}})
 def activate(set_id: str, request: Request, who: OperatorDep) -> SwapReport:
     """Hot-swaps irpd to this set (at a macro-period boundary); on refusal nothing changes."""
     state = request.app.state
     with audited(request, who, "activate", set_id) as entry:
         entry["from"] = state.store.active_id()
-        report = _run_swap(lambda: state.activator.activate(set_id, who.as_dict()))
+        root = state.store.files_dir(set_id) if state.store.manifest(set_id) is not None else None
+        report = _run_swap(lambda: state.activator.activate(set_id, who.as_dict()), root)
         entry["generation"] = (report or {}).get("generation")
     return SwapReport(**(report or {}))

@@ -8,6 +8,7 @@ from pydantic import BaseModel, ConfigDict, StrictBool, StrictFloat, StrictInt, 
 
 from ...variables import Segment, VariableError
 from ..deps import IrpdDep, OperatorDep, ViewerDep, ask, audited
+from ..models import VariableList, VariableValue, VariableWritten
 
 router = APIRouter(tags=["variables"])
 
@@ -29,14 +30,14 @@ def segment(request: Request, irpd) -> Segment:
 
 
 @router.get("/variables")
-def list_variables(request: Request, irpd: IrpdDep, _: ViewerDep) -> dict:
+def list_variables(request: Request, irpd: IrpdDep, _: ViewerDep) -> VariableList:
     seg = segment(request, irpd)
     return {"layout_hash": seg.hash,
             "variables": [{k: leaf[k] for k in ("path", "type", "size")} for leaf in seg.layout["leaves"]]}
 
 
 @router.get("/variables/{path:path}")
-def read_variable(path: str, request: Request, irpd: IrpdDep, _: ViewerDep) -> dict:
+def read_variable(path: str, request: Request, irpd: IrpdDep, _: ViewerDep) -> VariableValue:
     seg = segment(request, irpd)
     try:
         return {"path": path, "value": seg.read(path), "layout_hash": seg.hash}
@@ -58,7 +59,8 @@ class VariableWrite(BaseModel):
 
 @router.put("/variables/{path:path}", responses={409: {"description": "irpd refused: unknown path, wrong type, "
                                                                       "out of range (its message)"}})
-def write_variable(path: str, body: VariableWrite, request: Request, irpd: IrpdDep, who: OperatorDep) -> dict:
+def write_variable(path: str, body: VariableWrite, request: Request, irpd: IrpdDep,
+                   who: OperatorDep) -> VariableWritten:
     with audited(request, who, "write_variable", path, value=body.value):
         result = ask(irpd, "write", path=path, value=body.value)
     return result if isinstance(result, dict) else {"path": path, "value": body.value}
