@@ -7,7 +7,8 @@ test("the module table shows the running set", async ({ page }) => {
   const running = (await (await api("/modules")).json()) as { name: string }[];
   expect(running.length).toBeGreaterThan(2);
   for (const m of running) await expect(page.getByTestId(`module-row-${m.name}`)).toBeVisible();
-  await expect(page.getByTestId("module-row-Robot")).toContainText("10");
+  await expect(page.getByTestId("edit-period-Robot")).toHaveValue(/^10\s*ms$/);
+  await expect(page.getByTestId("module-row-Robot")).toContainText("running");
   await shot(page, "modules");
 });
 

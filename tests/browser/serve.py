@@ -15,7 +15,7 @@ from pathlib import Path
 import httpx
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "python"))
-from live_processes import API, BUILD, free_port, start_agent, start_irpd, stop  # noqa: E402
+from live_processes import API, BUILD, copy_cell, free_port, start_agent, start_irpd, stop  # noqa: E402
 
 CELL = BUILD / "sets" / "plc-robot" / "module.xml"
 
@@ -33,6 +33,8 @@ def tokens_for(url: str, admin: str) -> dict:
 def main(out: Path, config: Path) -> None:
     work = Path(tempfile.mkdtemp(prefix="indurop-browser-"))
     sock, data = work / "irpd.sock", work / "data"
+    if config == CELL:  # a copy with its drive simulator on a free port
+        config, _ = copy_cell(work / "plc-robot")
     irpd = start_irpd(sock, config, f"browser-{os.getpid()}", log=work / "irpd.log")
     agents, urls, tokens = [], {}, {}
     for viewer in ("viser", "meshcat"):

@@ -3,6 +3,7 @@ on free ports, with their own instance names, and stopped by pid."""
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -18,6 +19,26 @@ BUILD = Path(os.environ.get("INDUROP_BUILD", ROOT / "build"))
 IRPD = BUILD / "bin" / "irpd"
 FIG1 = BUILD / "sets" / "paper-fig1" / "module.xml"
 API = "/api/v1"
+
+
+CELL = BUILD / "sets" / "plc-robot"
+
+
+def copy_cell(folder: Path, xml: str = "module.xml", extra_drivesim: list[str] | None = None) -> tuple[Path, int]:
+    """The PLC + robot cell copied to `folder` with its drive simulator on a free port (irpd starts
+    it; two cells never share one), and room for the test machine's stalls: a shared VM pauses for
+    milliseconds, and a late answer must not read as a dead drive (about 0.1 s of silence before
+    comm loss, whatever the period).  Returns the module.xml to run and the port."""
+    shutil.copytree(CELL, folder)
+    port = free_port()
+    fail_limit = 100 if "1ms" in xml else 10
+    ioconfig = folder / "ioconfig.xml"
+    ioconfig.write_text(ioconfig.read_text().replace("15020", str(port))
+                        .replace('timeout_ms="4" fail_limit="3"', f'timeout_ms="8" fail_limit="{fail_limit}"'))
+    config = folder / xml
+    config.write_text(config.read_text().replace(
+        "--port 15020 --quiet", " ".join(["--port", str(port), "--quiet", *(extra_drivesim or [])])))
+    return config, port
 
 
 def free_port() -> int:

@@ -7,7 +7,6 @@ cycle counter counts; Stop halts it; the drives going silent -> comm_lost and th
 The simulator is the set's own non-real process module: irpd starts and stops it."""
 from __future__ import annotations
 
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -15,7 +14,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from live_processes import BUILD, ROOT, free_port, start_irpd, stop  # noqa: E402
+from live_processes import BUILD, ROOT, copy_cell, start_irpd, stop  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "agent"))
 from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
@@ -33,20 +32,7 @@ class Cell:
     def __init__(self, tmp: Path, extra_drivesim: list[str] | None = None, xml: str = "module.xml"):
         self.tmp = tmp
         self.folder = tmp / "plc-robot"
-        shutil.copytree(SET, self.folder)
-        self.port = free_port()
-        ioconfig = self.folder / "ioconfig.xml"
-        # This port, and room for the test machine's stalls (a shared VM pauses for milliseconds): a
-        # late answer here must not read as a dead drive.
-        # (about 0.1 s of silence before comm loss, whatever the period).
-        fail_limit = 100 if "1ms" in xml else 10
-        ioconfig.write_text(ioconfig.read_text().replace("15020", str(self.port))
-                            .replace('timeout_ms="4" fail_limit="3"', f'timeout_ms="8" fail_limit="{fail_limit}"'))
-        # irpd starts the simulator itself (a non-real process module of the set): give it this port.
-        xml = self.folder / xml
-        self.xml = xml
-        xml.write_text(xml.read_text().replace("--port 15020 --quiet",
-                                               " ".join(["--port", str(self.port), "--quiet", *(extra_drivesim or [])])))
+        self.xml, self.port = copy_cell(self.folder, xml, extra_drivesim)
         self.sock = tmp / "irpd.sock"
         self.irpd = start_irpd(self.sock, self.xml, f"cell-test-{id(self)}")
         self.control = IrpdClient(str(self.sock), timeout_s=30)

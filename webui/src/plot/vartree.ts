@@ -79,6 +79,12 @@ export class VarTree {
   render(): void {
     const q = this.search.value;
     const node = filterTree(this.root, q);
+    // what is typed in a write box and not sent yet survives the redraw (a search typed meanwhile)
+    const typed = new Map<string, string>();
+    for (const [path, r] of this.rows) {
+      const v = r.el.querySelector<HTMLInputElement>(".write input")?.value;
+      if (v) typed.set(path, v);
+    }
     this.observer?.disconnect();
     this.rows.clear();
     this.visible.clear();
@@ -95,6 +101,10 @@ export class VarTree {
       ? `${node.count} of ${this.root.count} variables match` + (budget.rows < 0 ? ` (first ${MAX_ROWS} shown)` : "")
       : `${this.root.count} variables`;
     if (!this.observer) for (const p of this.rows.keys()) this.visible.add(p);
+    for (const [path, v] of typed) {
+      const input = this.rows.get(path)?.el.querySelector<HTMLInputElement>(".write input");
+      if (input) input.value = v;
+    }
   }
 
   private renderNode(n: TreeNode, into: HTMLElement, searching: boolean, budget: { rows: number }): void {
