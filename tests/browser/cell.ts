@@ -7,12 +7,25 @@ async function write(path: string, value: number): Promise<void> {
   expect(r.status, await r.clone().text()).toBe(200);
 }
 
-/** Enables the drives, sets repeat mode, gives a rising edge on I0: the robot keeps moving. */
+async function read(path: string): Promise<number> {
+  return (await (await api(`/variables/${path}`)).json()).value;
+}
+
+/** Enables the drives, sets repeat mode, gives a rising edge on I0 once powered: the robot keeps
+ * moving.  Does nothing when the cycle already runs. */
 export async function startCell(): Promise<void> {
+  if ((await read("PLC_ROBOT.PLC_OUT.Running")) === 1) return;
+  if ((await read("PLC_ROBOT.PLC_OUT.Error")) === 1) {
+    // an earlier stall of the machine looked like lost communication (ErrorID 8): MC_Reset
+    await write("PLC_ROBOT.PLC_IN.Reset", 0);
+    await write("PLC_ROBOT.PLC_IN.Reset", 1);
+    await expect.poll(() => read("PLC_ROBOT.PLC_OUT.Error"), { timeout: 20_000 }).toBe(0);
+    await write("PLC_ROBOT.PLC_IN.Reset", 0);
+  }
   await write("PLC_ROBOT.PLC_IN.CycleMode", 1);
-  await write("PLC_ROBOT.PLC_IN.Enable", 1);
   await write("PLC_ROBOT.I0", 0);
-  await new Promise((r) => setTimeout(r, 300));
+  await write("PLC_ROBOT.PLC_IN.Enable", 1);
+  await expect.poll(() => read("PLC_ROBOT.PLC_OUT.Powered"), { timeout: 20_000 }).toBe(1);
   await write("PLC_ROBOT.I0", 1);
-  await expect.poll(async () => (await (await api("/variables/PLC_ROBOT.PLC_OUT.Running")).json()).value, { timeout: 20_000 }).toBe(1);
+  await expect.poll(() => read("PLC_ROBOT.PLC_OUT.Running"), { timeout: 20_000 }).toBe(1);
 }

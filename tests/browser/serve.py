@@ -10,6 +10,7 @@ import signal
 import sys
 import tempfile
 import threading
+import time
 from pathlib import Path
 
 import httpx
@@ -30,11 +31,27 @@ def tokens_for(url: str, admin: str) -> dict:
     return tokens
 
 
+def wait_for_drives(url: str, token: str) -> None:
+    """Until the I/O dispatcher talks to the drive simulator (irpd started it with the set): a
+    power-on before that fails with ErrorID 8, as it would with a real drive switched off."""
+    def read(path: str):
+        r = httpx.get(f"{url}{API}/variables/PLC_ROBOT.IO_STATUS.{path}", headers={"Authorization": f"Bearer {token}"})
+        return r.json()["value"] if r.status_code == 200 else None
+
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:
+        if read("comm_lost[0]") == 0 and (read("cycles") or 0) > 0:
+            return
+        time.sleep(0.1)
+    raise SystemExit("serve.py: the I/O dispatcher did not reach the drive simulator within 30 s")
+
+
 def main(out: Path, config: Path) -> None:
     work = Path(tempfile.mkdtemp(prefix="indurop-browser-"))
     sock, data = work / "irpd.sock", work / "data"
-    if config == CELL:  # a copy with its drive simulator on a free port
-        config, _ = copy_cell(work / "plc-robot")
+    cell = config == CELL
+    if cell:  # a copy with its drive simulator on a free port, patient with a loaded machine
+        config, _ = copy_cell(work / "plc-robot", fail_limit=100)  # (1 s of silence before comm loss)
     irpd = start_irpd(sock, config, f"browser-{os.getpid()}", log=work / "irpd.log")
     agents, urls, tokens = [], {}, {}
     for viewer in ("viser", "meshcat"):
@@ -43,6 +60,8 @@ def main(out: Path, config: Path) -> None:
         agents.append(start_agent(port, vdata, sock, "--viewer", viewer, log=work / f"agent-{viewer}.log"))
         urls[viewer] = f"http://127.0.0.1:{port}"
         tokens[viewer] = tokens_for(urls[viewer], (vdata / "admin-token").read_text().strip())
+    if cell:
+        wait_for_drives(urls["viser"], tokens["viser"]["viewer"])
     out.write_text(json.dumps({"url": urls["viser"], "tokens": tokens["viser"], "work": str(work),
                                "meshcat": {"url": urls["meshcat"], "tokens": tokens["meshcat"]},
                                "pids": {"irpd": irpd.pid, "agent": agents[0].pid, "agent_meshcat": agents[1].pid,
