@@ -1,6 +1,7 @@
 """app.py -- the FastAPI application: routers under /api/v1, and in app.state the irpd clients,
 tokens, the lockout, the set store, the activator, the audit log and the agent's events.  While
-the app runs, a watcher restores the active set into a (re)started irpd (activation.py)."""
+the app runs, a watcher restores the active set into a (re)started irpd (activation.py), and the
+robot view follows the running set's robot (viewer/live.py)."""
 from __future__ import annotations
 
 import math
@@ -21,6 +22,8 @@ from .events import AgentEvents
 from .irpd_client import IrpdClient
 from .security import BodyLimitMiddleware, Lockout
 from .store import SetStore
+from .viewer.live import RobotLive
+from .viewer.ticket import Tickets
 
 API = "/api/v1"
 
@@ -59,7 +62,9 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
                                 settings.irpd_poll_s)
             restorer.start()
         app.state.restorer = restorer
+        app.state.robot.start()
         yield
+        app.state.robot.stop()
         if restorer is not None:
             restorer.stop()
         app.state.irpd.close()
@@ -77,6 +82,8 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     state.audit = AuditLog(settings.data_dir / "audit.jsonl")
     state.store = SetStore(settings.data_dir)
     state.activator = Activator(state.store, state.irpd_swap, state.events, settings.swap_timeout_s)
+    state.robot = RobotLive(settings.viewer, settings.irpd_socket, state.events, settings.robot_rate_hz)
+    state.tickets = Tickets(state.tokens, settings.viewer_ticket_s, settings.viewer_session_s)
     app.add_exception_handler(RequestValidationError, validation_error)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, exempt=is_upload)
     for module in (health, status, modules, jitter, variables, sets, robot, events, audit, tokens, stream):
