@@ -1,5 +1,5 @@
 """indurop-agent's entry: python -m indurop_agent --host H --port P --data-dir D --irpd-socket PATH
-[--tls-cert CERT.pem --tls-key KEY.pem] [--webui-dir DIR] [--config agent.json]."""
+[--tls-cert CERT.pem --tls-key KEY.pem] [--webui-dir DIR] [--viewer viser|meshcat] [--config agent.json]."""
 from __future__ import annotations
 
 import sys

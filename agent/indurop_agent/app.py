@@ -1,7 +1,8 @@
 """app.py -- the FastAPI application: routers under /api/v1, the built web UI at /, and in
 app.state the irpd clients, tokens, the lockout, the set store, the activator, the audit log, the
 agent's events and the host-load sampler.  While the app runs, a watcher restores the active set
-into a (re)started irpd (activation.py)."""
+into a (re)started irpd (activation.py), and the robot view follows the running set's robot
+(viewer/live.py)."""
 from __future__ import annotations
 
 import math
@@ -27,6 +28,8 @@ from .host import Sampler
 from .irpd_client import IrpdClient
 from .security import BodyLimitMiddleware, Lockout
 from .store import SetStore
+from .viewer.live import RobotLive
+from .viewer.ticket import Tickets
 
 API = "/api/v1"
 
@@ -103,7 +106,9 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
                                 settings.irpd_poll_s)
             restorer.start()
         app.state.restorer = restorer
+        app.state.robot.start()
         yield
+        app.state.robot.stop()
         if restorer is not None:
             restorer.stop()
         app.state.irpd.close()
@@ -123,6 +128,8 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     state.activator = Activator(state.store, state.irpd_swap, state.events, settings.swap_timeout_s)
     state.host = Sampler()
     state.webui_dir = webui_dir(settings)
+    state.robot = RobotLive(settings.viewer, settings.irpd_socket, state.events, settings.robot_rate_hz)
+    state.tickets = Tickets(state.tokens, settings.viewer_ticket_s, settings.viewer_session_s)
     app.add_exception_handler(RequestValidationError, validation_error)
     app.add_exception_handler(LocatedError, located_error)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, exempt=is_upload)

@@ -16,8 +16,8 @@ from pathlib import Path
 
 from .auth import now_iso
 
-ACTIONS = ("upload", "activate", "rollback", "restore", "patch_module", "write_variable", "token_create",
-           "token_revoke", "lockout")
+ACTIONS = ("upload", "activate", "rollback", "restore", "patch_module", "write_variable", "robot_joints",
+           "token_create", "token_revoke", "lockout")
 
 
 class AuditLog:

@@ -47,12 +47,21 @@ class Settings:
     swap_timeout_s: float = 30.0
     # The built web UI (index.html and its assets), served at / (None: default_webui_dir()).
     webui_dir: Path | None = None
+    # The 3D view of the running set's robot (docs/robot-view.md): which viewer serves it, how often
+    # its joints follow the shared variables, how long a viewer ticket (the iframe's URL) and the
+    # cookie it is traded for stay valid.
+    viewer: str = "viser"
+    robot_rate_hz: float = 30.0
+    viewer_ticket_s: float = 600.0
+    viewer_session_s: float = 3600.0
 
 
 FIELDS = {f.name: f for f in dataclasses.fields(Settings)}
 PATHS = {"data_dir", "tls_cert", "tls_key", "webui_dir"}
 POSITIVE = {"port", "max_file_bytes", "max_upload_bytes", "max_files", "max_body_bytes", "lockout_attempts",
-            "lockout_window_s", "irpd_poll_s", "swap_timeout_s"}
+            "lockout_window_s", "irpd_poll_s", "swap_timeout_s", "robot_rate_hz", "viewer_ticket_s",
+            "viewer_session_s"}
+VIEWERS = ("viser", "meshcat")
 
 
 def _coerce(key: str, value, where: str) -> object:
@@ -84,6 +93,8 @@ def check(s: Settings) -> list[str]:
             problems.append(f"{key} must be greater than 0 (it is {getattr(s, key)})")
     if not 0 < int(s.port) < 65536:
         problems.append(f"port {s.port} is not a TCP port")
+    if s.viewer not in VIEWERS:
+        problems.append(f"viewer {s.viewer!r} is not one of {', '.join(VIEWERS)}")
     if s.max_file_bytes > s.max_upload_bytes:
         problems.append(f"max_file_bytes ({s.max_file_bytes}) is larger than max_upload_bytes ({s.max_upload_bytes})")
     if (s.tls_cert is None) != (s.tls_key is None):
@@ -108,6 +119,7 @@ def parse(argv: list[str] | None = None) -> Settings:
     ap.add_argument("--webui-dir", type=Path,
                     help=f"the built web UI to serve at / (default: webui/dist of this source tree when built, "
                          f"else {INSTALLED_WEBUI})")
+    ap.add_argument("--viewer", choices=VIEWERS, help="the 3D robot view's viewer (default viser)")
     a = ap.parse_args(argv)
     s = Settings()
     if a.config:
@@ -126,7 +138,7 @@ def parse(argv: list[str] | None = None) -> Settings:
                 setattr(s, key, _coerce(key, value, where))
             except ValueError as e:
                 ap.error(str(e))
-    for key in ("host", "port", "data_dir", "irpd_socket", "tls_cert", "tls_key", "webui_dir"):
+    for key in ("host", "port", "data_dir", "irpd_socket", "tls_cert", "tls_key", "webui_dir", "viewer"):
         if getattr(a, key) is not None:
             setattr(s, key, getattr(a, key))
     problems = check(s)

@@ -29,13 +29,17 @@ from starlette.concurrency import run_in_threadpool
 from .elf_check import MissingSymbol, NotLoadable, check_executable, check_shared_object
 from .errors import LocatedError
 from .store import StagedFile
+from .viewer.mapping import ROBOT_JSON, MappingError, check_against_urdf, parse_config
+from .viewer.urdf import UrdfError
+from .viewer.urdf import parse as parse_urdf
 
 MAX_NAME_BYTES = 255
 MAX_MODULE_XML_BYTES = 4 << 20            # irpd's own limit (rtcore/src/config/module_xml.hpp)
 MAX_TAR_HEADER_BYTES = 64 << 10           # a pax or GNU long-name header larger than this is refused
 GZIP_TYPES = ("application/gzip", "application/x-gzip")
 ACCEPTED = ("module.xml (one, at the root), other .xml configs, .so thread modules and libraries, "
-            "the executables module.xml names, .glb, .urdf, .json, .stl/.dae/.obj meshes, .h, .txt, .md")
+            "the executables module.xml names, .glb, .urdf, .json (robot.json at the root: the 3D view's joint map), "
+            ".stl/.dae/.obj meshes, .h, .txt, .md")
 PERCENT_ESCAPE = re.compile(r"%[0-9A-Fa-f]{2}")
 
 
@@ -496,6 +500,8 @@ def _kind_by_name(path: str, source: Path) -> str | None:
             return "mesh" if f.read(4) == b"glTF" else "glb"  # binary glTF, or the variables source
     if base == "layout.json":
         return "layout"
+    if path == ROBOT_JSON:
+        return "robot"
     return {".so": "library", ".xml": "config", ".urdf": "urdf", ".json": "json", ".stl": "mesh", ".dae": "mesh",
             ".obj": "mesh", ".h": "header", ".txt": "text", ".md": "text"}.get(suffix)
 
@@ -551,7 +557,22 @@ def check_set(files: list[Received]) -> list[StagedFile]:
             raise UploadError(415, f"{shown}: a set does not hold files of this kind; accepted: {ACCEPTED}", file=path)
         _check_content(f, kind, ref, shown)
         staged.append(StagedFile(path, f.source, f.sha256, f.size, kind))
+    if ROBOT_JSON in by_path:
+        check_robot_json(by_path[ROBOT_JSON].source, {f.path: f for f in staged})
     return staged
+
+
+def check_robot_json(source: Path, staged: dict[str, StagedFile]) -> None:
+    """robot.json names a URDF of the set, and maps movable joints of it (docs/robot-view.md)."""
+    try:
+        config = parse_config(source.read_bytes())
+        urdf = staged.get(config.urdf)
+        if urdf is None or urdf.kind != "urdf":
+            raise MappingError(f'robot.json: "urdf" names {json.dumps(config.urdf)}, which is not a .urdf file '
+                               "of the upload")
+        check_against_urdf(config.joints, parse_urdf(urdf.source, config.urdf), ROBOT_JSON, config.urdf)
+    except (MappingError, UrdfError) as e:
+        raise UploadError(400, str(e)) from None
 
 
 def _check_content(f: Received, kind: str, ref: ModuleRef | None, shown: str) -> None:
@@ -568,7 +589,7 @@ def _check_content(f: Received, kind: str, ref: ModuleRef | None, shown: str) ->
         raise UploadError(400, str(e), file=f.path) from None
     if kind == "config" or kind == "urdf" or (kind == "mesh" and f.path.lower().endswith(".dae")):
         _parse_xml(f.source, shown, f.path)
-    elif kind in ("layout", "json"):
+    elif kind in ("layout", "json", "robot"):
         try:
             with open(f.source, "rb") as fh:
                 json.load(fh)

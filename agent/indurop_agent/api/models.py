@@ -18,8 +18,8 @@ class SetFile(BaseModel):
     path: str = Field(description="relative to the set's root, e.g. lib/cntr1.so")
     sha256: str
     size: int
-    kind: str = Field(description="module_xml, config, thread_module, library, executable, layout, json, glb, "
-                                  "urdf, mesh, header or text")
+    kind: str = Field(description="module_xml, config, thread_module, library, executable, layout, json, robot "
+                                  "(robot.json), glb, urdf, mesh, header or text")
 
 
 class ErrorBody(BaseModel):
@@ -372,6 +372,8 @@ class RobotView(BaseModel):
     viewer_url: str | None = Field(description="where the embedded 3D view is served (relative to the agent)")
     urdf: str | None = Field(description="the URDF file of the running set")
     joints: list[RobotJoint]
+    set_id: str | None = Field(None, description="the running set's id in the store (null: irpd runs a folder the "
+                                                 "store does not hold yet; PUT /robot/joints imports it)")
 
 
 class JointMapUpdate(BaseModel):

@@ -212,7 +212,11 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** Robot */
+        /**
+         * Robot
+         * @description The running set's robot: its joints with their variables and limits, and the viewer's URL
+         *     (with a ticket valid for viewer_ticket_s; load it in an iframe).
+         */
         get: operations["robot_api_v1_robot_get"];
         put?: never;
         post?: never;
@@ -233,7 +237,8 @@ export interface paths {
         /**
          * Put Joints
          * @description Stores a new mapping as a new version of the running set (history and rollback as for any
-         *     set) and applies it to the view at once.
+         *     set), activates it (a hot reload that keeps every module) and applies it to the view at once.
+         *     Joints left out are held at 0.
          */
         put: operations["put_joints_api_v1_robot_joints_put"];
         post?: never;
@@ -1045,6 +1050,11 @@ export interface components {
             /** Joints */
             joints: components["schemas"]["RobotJoint"][];
             /**
+             * Set Id
+             * @description the running set's id in the store (null: irpd runs a folder the store does not hold yet; PUT /robot/joints imports it)
+             */
+            set_id?: string | null;
+            /**
              * Urdf
              * @description the URDF file of the running set
              */
@@ -1145,7 +1155,7 @@ export interface components {
         SetFile: {
             /**
              * Kind
-             * @description module_xml, config, thread_module, library, executable, layout, json, glb, urdf, mesh, header or text
+             * @description module_xml, config, thread_module, library, executable, layout, json, robot (robot.json), glb, urdf, mesh, header or text
              */
             kind: string;
             /**
@@ -1942,6 +1952,20 @@ export interface operations {
                     "application/json": components["schemas"]["RobotView"];
                 };
             };
+            /** @description a joint or a variable that does not exist (named) */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the running set has no robot, or irpd refused the set */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
             /** @description Validation Error */
             422: {
                 headers: {
@@ -1950,6 +1974,13 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["HTTPValidationError"];
                 };
+            };
+            /** @description irpd unreachable */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
         };
     };
