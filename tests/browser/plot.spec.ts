@@ -21,6 +21,7 @@ test("a live plot's canvas changes over time", async ({ page }) => {
 test("the tree finds a variable and an operator writes it", async ({ page }) => {
   await signIn(page, "operator", "#/variables");
   await page.getByTestId("var-search").fill("Override");
+  await expect(page.getByTestId("var-count")).toContainText("1 of");
   const leaf = page.getByTestId("var-PLC_ROBOT.PLC_IN.Override");
   await expect(leaf).toBeVisible();
   await page.getByTestId("write-PLC_ROBOT.PLC_IN.Override").fill("0.5");
