@@ -79,8 +79,9 @@ def report(r: dict, seconds: int) -> str:
     lines = [
         "# Benchmark: the scope in a browser",
         "",
-        "`python3 tests/bench/plot_bench.py` — Debian's chromium (headless, Playwright, SwiftShader",
-        "WebGL), the agent serving the built UI, irpd running `config/sets/signals` (sixteen waveforms",
+        "`python3 tests/bench/plot_bench.py` — Debian's chromium (headless, Playwright, flags "
+        f"`{os.environ.get('CHROMIUM_ARGS', '--disable-gpu --no-sandbox')}`: canvases rasterized by Skia on the CPU, as in a",
+        "browser without a GPU), the agent serving the built UI, irpd running `config/sets/signals` (sixteen waveforms",
         "every 1 ms).  One plot panel of the Variables page draws `SIG.wave[0..15]`, every sample, fed",
         "by the agent's stream (decimation 1).  Frame intervals are measured in the page with",
         "`requestAnimationFrame`; the reference is the same browser on a page without a plot, in the",

@@ -7,7 +7,8 @@ import { chromium } from "@playwright/test";
 const [url, token, seconds, ...paths] = process.argv.slice(2);
 const browser = await chromium.launch({
   executablePath: process.env.CHROMIUM ?? "/usr/bin/chromium",
-  args: ["--use-gl=angle", "--use-angle=swiftshader", "--no-sandbox"],
+  // 2D canvases are drawn by Skia on the CPU (no GPU here); a software GL (SwiftShader) for them is far slower
+  args: (process.env.CHROMIUM_ARGS ?? "--disable-gpu --no-sandbox").split(" ").filter(Boolean),
 });
 const page = await browser.newPage({ viewport: { width: 1440, height: 900 } });
 
