@@ -103,7 +103,9 @@ def report(r: dict, seconds: int) -> str:
         f"- The page's own work per frame (JavaScript incl. uPlot's drawing, last {len(work)} frames): "
         f"p50 {pct(work, 0.5):.2f} ms, p95 {pct(work, 0.95):.2f} ms." if work else "",
         "",
-        f"Measured {time.strftime('%Y-%m-%d')} on the 2-CPU development VM (noisy, shared).",
+        f"Measured {time.strftime('%Y-%m-%d')} on the 2-CPU development VM (noisy, shared).  Rows received and "
+        "produced differ by the time between reading irpd's period count and the page's counters; "
+        "losses are what the drop counters say.",
         "",
     ]
     return "\n".join(lines)
