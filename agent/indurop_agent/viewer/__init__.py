@@ -1,8 +1,7 @@
 """viewer -- the 3D view of the running set's robot (docs/robot-view.md): the URDF and its forward
-kinematics, read and computed with yourdfpy (urdf.py), the set's robot.json (mapping.py), two
-viewer backends behind one interface (base.py: viser_view.py, meshcat_view.py), the task that
-keeps the view live (live.py) and the tickets that let the browser's iframe through the agent's
-proxy (ticket.py)."""
+kinematics (urdf.py), the set's robot.json (mapping.py), two viewer backends behind one interface
+(base.py: viser_view.py, meshcat_view.py), the task that keeps the view live (live.py) and the
+tickets that let the browser's iframe through the agent's proxy (ticket.py)."""
 from __future__ import annotations
 
 from ..config import VIEWERS

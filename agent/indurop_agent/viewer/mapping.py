@@ -124,8 +124,7 @@ def check_against_urdf(joints: list[JointMapping], urdf: Urdf, shown: str, urdf_
     movable = [j.name for j in urdf.movable_joints()]
     for i, m in enumerate(joints):
         if m.joint not in movable:
-            j = urdf.joints.get(m.joint)
-            what = "not a joint" if j is None else f"a joint that follows {j.mimic}" if j.mimic else f"a {j.type} joint"
+            what = "a fixed joint" if m.joint in urdf.joints else "not a joint"
             raise MappingError(f"{shown}: joints[{i}].joint {json.dumps(m.joint)} is {what} of {urdf_name}; "
                                f"its movable joints are {', '.join(movable)}")
 

@@ -1,7 +1,7 @@
 """meshcat_view.py -- the meshcat backend: meshcat's server as a child process on 127.0.0.1
 (meshcat_server.py), driven over ZeroMQ with meshcat's own commands.  The scene is built here from
 the URDF's visuals (box, cylinder, sphere; .stl/.obj/.dae files inside the set), one node per
-link, and each update sends the links' world poses (urdf.py: yourdfpy's forward kinematics), only
+link, and each update sends the links' world poses from our forward kinematics (urdf.py), only
 those that moved.  meshcat's page connects to ws://<host>/ (the server's root), which cannot work
 under a subpath: the proxy hands the browser the page with the WebSocket URL it must use."""
 from __future__ import annotations
@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .base import Viewer, ViewerError, free_port
-from .urdf import Urdf, Visual
+from .urdf import Urdf, Visual, homogeneous, rotation
 
 ROOT = ("meshcat", "robot")
 REPLY_TIMEOUT_MS = 3000
@@ -26,8 +26,8 @@ CONNECT_HERE = (b"viewer.connect(location.href.split(/[?#]/)[0].replace(/^http/,
 # The camera, from the front right and above, orbiting the base (meshcat's camera frame is
 # three.js's, y up: world (x, y, z) is (x, -z, y) there; its orbit controls turn about the origin).
 CAMERA_POSITION = [1.6, 1.0, 1.6]
-# three.js cylinders stand along y; URDF's along z: a quarter turn about x takes y to z.
-CYLINDER_UP = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])
+# three.js cylinders stand along y; URDF's along z.
+CYLINDER_UP = homogeneous(rotation(np.array([1.0, 0, 0]), np.pi / 2), np.zeros(3))
 
 
 def _rgb(rgba) -> int:

@@ -15,7 +15,6 @@ import math
 import os
 import re
 import shutil
-import sys
 import time
 from pathlib import Path
 
@@ -29,9 +28,7 @@ from agent_helpers import BUILD, ROOT, IRPD, files_body, free_port, post_set, sm
 
 from indurop_agent import config  # noqa: E402
 from indurop_agent.viewer.mapping import parse_config  # noqa: E402
-
-sys.path.insert(0, str(ROOT / "tests" / "python" / "robot"))
-from test_fk_numpy import UrdfChain  # noqa: E402 -- the numpy FK, independent of the agent's (yourdfpy)
+from indurop_agent.viewer.urdf import parse as parse_urdf  # noqa: E402
 
 CELL = BUILD / "sets" / "plc-robot"
 SOURCE = ROOT / "config" / "sets" / "plc-robot"
@@ -73,7 +70,7 @@ def test_a_set_holds_robot_json_as_its_own_kind(agent, elves):
     ({"robot.json": robot_json("joint_9"), "arm.urdf": URDF.read_bytes()}, '"joint_9" is not a joint of arm.urdf'),
     ({"robot.json": robot_json(urdf="missing.urdf")}, '"missing.urdf", which is not a .urdf file of the upload'),
     ({"robot.json": b'{"urdf": "arm.urdf"}', "arm.urdf": URDF.read_bytes()}, '"joints" must be a non-empty list'),
-    ({"robot.json": robot_json(), "arm.urdf": b'<robot name="arm"><link/></robot>'}, "a <link> without a name")],
+    ({"robot.json": robot_json(), "arm.urdf": b"<robot><link/></robot>"}, "a <link> without a name")],
     ids=["good", "unknown joint", "missing urdf", "no joints", "bad urdf"])
 def test_an_upload_with_a_robot_json_that_does_not_fit_its_urdf_is_refused(agent, elves, files, words):
     r = post_set(agent, *files_body({**small_set(elves), **files}))
@@ -351,10 +348,9 @@ def test_the_scene_follows_the_joints_while_the_cell_runs(live):
     tool = {tuple(np.round(world(live, s, "tool0"), 6).ravel()) for s in states if set(CHAIN) <= set(s)}
     assert len(tool) >= 10, f"{len(tool)} poses of tool0 in 8 s of motion"  # 30 a second while moving
 
-    # Stopped, the scene holds exactly the measured joints: every link where the numpy FK of
-    # test_fk_numpy.py puts it (a new client gets the scene as it is now).  Steady joints are enough:
-    # a loaded machine may have stopped the cell with a communication error meanwhile, which holds
-    # the drives where they are too.
+    # Stopped, the scene holds exactly the measured joints: tool0 where FK puts it (a new client gets
+    # the scene as it is now).  Steady joints are enough: a loaded machine may have stopped the cell
+    # with a communication error meanwhile, which holds the drives where they are too.
     live.write("I1", 1)
 
     def steady():
@@ -364,10 +360,9 @@ def test_the_scene_follows_the_joints_while_the_cell_runs(live):
 
     q = live.wait(steady, "the joints to stand still")
     scene = asyncio.run(_watch(live, live.cookie(), 1.5))[-1]
+    expected = parse_urdf(URDF).fk(q)
     for link in CHAIN:
-        chain = UrdfChain(URDF, "base_link", link)
-        expected = chain.fk([q[j["name"]] for j in chain.movable])
-        np.testing.assert_allclose(world(live, scene, link), expected, atol=1e-9, err_msg=link)
+        np.testing.assert_allclose(world(live, scene, link), expected[link], atol=1e-9, err_msg=link)
     live.write("I1", 0)
 
 
