@@ -11,6 +11,15 @@ async function read(path: string): Promise<number> {
   return (await (await api(`/variables/${path}`)).json()).value;
 }
 
+/** Whether `path` reads `value` within 10 s (polled every 100 ms). */
+async function reaches(path: string, value: number): Promise<boolean> {
+  for (let i = 0; i < 100; i++) {
+    if ((await read(path)) === value) return true;
+    await new Promise((r) => setTimeout(r, 100));
+  }
+  return (await read(path)) === value;
+}
+
 async function powerOnAndStart(): Promise<boolean> {
   // an earlier stall (a test stops irpd for seconds; a loaded machine starves the simulator) may
   // have left the robot or the PLC in error (lost communication, ErrorID 8): MC_Reset first, as an
@@ -23,11 +32,9 @@ async function powerOnAndStart(): Promise<boolean> {
   await write("PLC_ROBOT.PLC_IN.Reset", 0);
   await write("PLC_ROBOT.PLC_IN.CycleMode", 1);
   await write("PLC_ROBOT.PLC_IN.Enable", 1);
-  for (let i = 0; i < 100 && (await read("PLC_ROBOT.PLC_OUT.Powered")) !== 1; i++) await new Promise((r) => setTimeout(r, 100));
-  if ((await read("PLC_ROBOT.PLC_OUT.Powered")) !== 1) return false;
+  if (!(await reaches("PLC_ROBOT.PLC_OUT.Powered", 1))) return false;
   await write("PLC_ROBOT.I0", 1);
-  for (let i = 0; i < 100 && (await read("PLC_ROBOT.PLC_OUT.Running")) !== 1; i++) await new Promise((r) => setTimeout(r, 100));
-  return (await read("PLC_ROBOT.PLC_OUT.Running")) === 1;
+  return reaches("PLC_ROBOT.PLC_OUT.Running", 1);
 }
 
 /** Resets, enables the drives, sets repeat mode and gives a rising edge on I0 once powered: the

@@ -49,12 +49,17 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
+def _output_file(log: Path | None):
+    """Where a started process writes: `log`, or a temporary file (never a pipe nobody reads)."""
+    return open(log, "w+") if log else tempfile.TemporaryFile("w+")
+
+
 def start_irpd(sock: Path, config: Path = FIG1, instance: str | None = None, *extra: str,
                log: Path | None = None) -> subprocess.Popen:
     """irpd running `config` with its control socket at `sock`; returns once the socket is there.
     Its stderr goes to `log` when given, else to a temporary file: output(p)."""
     sock.unlink(missing_ok=True)
-    out = open(log, "w+") if log else tempfile.TemporaryFile("w+")
+    out = _output_file(log)
     p = subprocess.Popen([str(IRPD), "--config", str(config), "--control-socket", str(sock),
                           "--instance", instance or f"agent-test-{os.getpid()}", *extra],
                          stdout=subprocess.DEVNULL, stderr=out, text=True)
@@ -71,7 +76,7 @@ def start_agent(port: int, data: Path, sock: Path, *extra: str, log: Path | None
     """`python -m indurop_agent` on 127.0.0.1:port; returns once /health answers.  Its output goes
     to `log` when given, else to a temporary file, never a pipe nobody reads (a full pipe would stop
     the agent): output(p)."""
-    out = open(log, "w+") if log else tempfile.TemporaryFile("w+")
+    out = _output_file(log)
     p = subprocess.Popen([sys.executable, "-m", "indurop_agent", "--host", "127.0.0.1", "--port", str(port),
                           "--data-dir", str(data), "--irpd-socket", str(sock), *extra],
                          cwd=ROOT / "agent", stdout=out, stderr=subprocess.STDOUT, text=True)

@@ -2,7 +2,7 @@
 // and the status bar.  Each page lives in src/pages/<name>.ts and gets an AppContext.
 import "uplot/dist/uPlot.min.css";
 import "./styles/app.css";
-import { makeApi, unwrap } from "./api/client";
+import { makeApi } from "./api/client";
 import { roleAtLeast, type AppContext, type Page, type Role, type Session } from "./app/context";
 import { StreamClient } from "./stream/stream";
 import { overviewPage } from "./pages/overview";
@@ -69,7 +69,6 @@ async function start(root: HTMLElement): Promise<void> {
   };
   window.addEventListener("hashchange", route);
   route();
-  void unwrap; // pages use it
 }
 
 void start(document.getElementById("app")!);
