@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import socket
 import threading
+import time
 from typing import Any
 
 PROTOCOL = "indurop-control"
@@ -38,9 +39,9 @@ class IrpdClient:
         self._next_id = 0
         self.hello: dict[str, Any] | None = None
 
-    def _connect(self) -> None:
+    def _connect(self, wait: float) -> None:
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-        sock.settimeout(self.timeout_s)
+        sock.settimeout(wait)
         try:
             sock.connect(self.path)
             file = sock.makefile("rw", encoding="utf-8", newline="\n")
@@ -72,18 +73,25 @@ class IrpdClient:
     def request(self, cmd: str, *, timeout: float | None = None, **arguments: Any) -> Any:
         """Sends one command and returns its result; raises IrpdUnavailable or IrpdRefused.
 
-        `timeout` (seconds) replaces the client's default for this call only.  A request that
-        times out is not sent again (irpd may still carry it out); one that met a connection
-        broken by irpd's restart is sent once more on a new connection.
+        `timeout` (seconds) replaces the client's default for this call only, and bounds the whole
+        call: the wait for requests queued before it on the one connection counts, so a stopped
+        irpd makes every caller fail after its own timeout instead of after everyone else's.  A
+        request that times out is not sent again (irpd may still carry it out); one that met a
+        connection broken by irpd's restart is sent once more on a new connection.
         """
         wait = self.timeout_s if timeout is None else timeout
-        with self._lock:
+        deadline = time.monotonic() + wait
+        if not self._lock.acquire(timeout=wait):
+            raise IrpdUnavailable(f"irpd did not answer '{cmd}' within {wait:g} s on {self.path}: "
+                                  "earlier requests are still waiting for it")
+        try:
             for attempt in (1, 2):
+                left = max(deadline - time.monotonic(), 0.05)
                 if self._sock is None:
-                    self._connect()
+                    self._connect(left)
                 self._next_id += 1
                 try:
-                    self._sock.settimeout(wait)
+                    self._sock.settimeout(left)
                     self._file.write(json.dumps({"id": self._next_id, "cmd": cmd, **arguments}) + "\n")
                     self._file.flush()
                     line = self._file.readline()
@@ -108,4 +116,6 @@ class IrpdClient:
                     return answer.get("result")
                 error = answer.get("error") or {}
                 raise IrpdRefused(error.get("code", "refused"), error.get("message", "irpd refused the request"))
+        finally:
+            self._lock.release()
         raise IrpdUnavailable(f"irpd is not reachable on {self.path}")

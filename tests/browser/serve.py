@@ -51,7 +51,7 @@ def main(out: Path, config: Path) -> None:
     sock, data = work / "irpd.sock", work / "data"
     cell = config == CELL
     if cell:  # a copy with its drive simulator on a free port, patient with a loaded machine
-        config, _ = copy_cell(work / "plc-robot", fail_limit=100)  # (1 s of silence before comm loss)
+        config, _ = copy_cell(work / "plc-robot")
     irpd = start_irpd(sock, config, f"browser-{os.getpid()}", log=work / "irpd.log")
     agents, urls, tokens = [], {}, {}
     for viewer in ("viser", "meshcat"):

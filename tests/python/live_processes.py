@@ -25,15 +25,15 @@ CELL = BUILD / "sets" / "plc-robot"
 
 
 def copy_cell(folder: Path, xml: str = "module.xml", extra_drivesim: list[str] | None = None,
-              fail_limit: int | None = None) -> tuple[Path, int]:
+              fail_limit: int | None = None, port: int | None = None) -> tuple[Path, int]:
     """The PLC + robot cell copied to `folder` with its drive simulator on a free port (irpd starts
-    it; two cells never share one), and room for the test machine's stalls: a shared VM pauses for
-    milliseconds, and a late answer must not read as a dead drive (about 0.1 s of silence before
-    comm loss, whatever the period, unless `fail_limit` says how many failed cycles).  Returns the
-    module.xml to run and the port."""
+    it; two cells never share one), and room for the test machine's stalls: a shared VM starves the
+    simulator for a fraction of a second at times, and a late answer must not read as a dead drive
+    (1 s of silence before comm loss, whatever the period, unless `fail_limit` says how many failed
+    cycles).  Returns the module.xml to run and the port."""
     shutil.copytree(CELL, folder)
-    port = free_port()
-    fail_limit = fail_limit or (100 if "1ms" in xml else 10)
+    port = port or free_port()
+    fail_limit = fail_limit or (1000 if "1ms" in xml else 100)
     ioconfig = folder / "ioconfig.xml"
     ioconfig.write_text(ioconfig.read_text().replace("15020", str(port))
                         .replace('timeout_ms="4" fail_limit="3"', f'timeout_ms="8" fail_limit="{fail_limit}"'))

@@ -19,7 +19,7 @@ import httpx
 from fastapi.testclient import TestClient
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from live_processes import (API, BUILD, FIG1, IRPD, ROOT, free_port, output, start_agent, start_irpd,  # noqa: E402,F401
+from live_processes import (API, BUILD, FIG1, IRPD, ROOT, copy_cell, free_port, output, start_agent, start_irpd,  # noqa: E402,F401
                             stop)
 
 

@@ -99,3 +99,25 @@ def test_a_request_that_timed_out_is_not_sent_again_and_the_next_one_works(peer)
     assert client.request("status") == {"cmd": "status"}  # a new connection; no late answer mixed in
     time.sleep(1.0)
     assert p.received.count("load") == 1
+
+
+def test_a_stopped_irpd_fails_each_caller_after_its_own_timeout_not_after_the_queue(tmp_path):
+    # a stopped irpd (SIGSTOP) still accepts connections into its backlog but never says hello
+    path = str(tmp_path / "stopped.sock")
+    silent = socket.socket(socket.AF_UNIX)
+    silent.bind(path)
+    silent.listen(16)
+    client = IrpdClient(path, timeout_s=2.0)
+    queued = [threading.Thread(target=lambda: pytest.raises(IrpdUnavailable, client.request, "stats"))
+              for _ in range(5)]
+    for t in queued:
+        t.start()
+    time.sleep(0.1)  # the five hold or wait for the one connection: 10 s of waiting one after another
+    start = time.monotonic()
+    with pytest.raises(IrpdUnavailable) as e:
+        client.request("status", timeout=0.5)
+    assert time.monotonic() - start < 1.9, "the call waited behind the queued ones"
+    assert "'status' within 0.5 s" in str(e.value)
+    for t in queued:
+        t.join()
+    silent.close()

@@ -24,7 +24,7 @@ import pytest
 from websockets.asyncio.client import connect
 from websockets.exceptions import InvalidStatus
 
-from agent_helpers import BUILD, ROOT, IRPD, files_body, free_port, post_set, small_set, start_agent, start_irpd, stop
+from agent_helpers import BUILD, ROOT, IRPD, copy_cell, files_body, free_port, post_set, small_set, start_agent, start_irpd, stop
 
 from indurop_agent import config  # noqa: E402
 from indurop_agent.viewer.mapping import parse_config  # noqa: E402
@@ -128,25 +128,20 @@ def test_a_session_cookie_cannot_be_used_as_a_ticket_nor_forged(agent):
 
 
 # ---- live: irpd running the cell, an agent per viewer ----------------------------------------------
-def _cell_folder(tmp: Path, drives_port: int) -> Path:
-    """The built cell on its own Modbus port, with room for a loaded machine's stalls (as
-    tests/python/cell does), and the cell's robot.json (from the source tree if the build predates it)."""
+def _cell_folder(tmp: Path) -> Path:
+    """The built cell on its own Modbus port with room for a loaded machine's stalls (copy_cell),
+    and the cell's robot.json (from the source tree if the build predates it)."""
     folder = tmp / "plc-robot"
-    shutil.copytree(CELL, folder)
+    copy_cell(folder)
     if not (folder / "robot.json").exists():
         shutil.copy(SOURCE / "robot.json", folder / "robot.json")
-    io = folder / "ioconfig.xml"
-    io.write_text(io.read_text().replace("15020", str(drives_port))
-                  .replace('timeout_ms="4" fail_limit="3"', 'timeout_ms="8" fail_limit="10"'))
-    xml = folder / "module.xml"
-    xml.write_text(xml.read_text().replace("--port 15020", f"--port {drives_port}"))
     return folder
 
 
 class Live:
     def __init__(self, tmp: Path, viewer: str):
         self.viewer = viewer
-        self.folder = _cell_folder(tmp, free_port())
+        self.folder = _cell_folder(tmp)
         self.sock, self.data = tmp / "irpd.sock", tmp / "data"
         self.irpd = start_irpd(self.sock, self.folder / "module.xml", f"robot-view-{viewer}-{os.getpid()}")
         self.port = free_port()

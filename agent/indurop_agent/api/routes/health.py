@@ -9,10 +9,15 @@ from ..models import Health
 router = APIRouter(tags=["health"])
 
 
+# shorter than the clients' probe (the web UI gives up after 2.5 s), so a stopped irpd is reported
+# as "irpd unreachable" and not mistaken for an agent that does not answer
+HEALTH_TIMEOUT_S = 1.0
+
+
 @router.get("/health")
 def health(irpd: IrpdDep) -> Health:
     try:
-        status = irpd.request("status")
+        status = irpd.request("status", timeout=HEALTH_TIMEOUT_S)
         return {"agent": "ok", "version": __version__, "irpd": "ok", "running": status.get("running", False)}
     except (IrpdUnavailable, IrpdRefused) as e:
         return {"agent": "ok", "version": __version__, "irpd": "unreachable", "detail": str(e)}
