@@ -49,6 +49,13 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
+# Every process started here, in order: tests/python/conftest.py stops the ones a fixture started
+# before its setup failed (irpd up, the agent not), so they do not hold the next test's instance.
+STARTED: list[subprocess.Popen] = []
+# How long a start may take: a loaded 2-CPU machine has taken more than 20 s to import the agent.
+START_TIMEOUT_S = 60
+
+
 def _output_file(log: Path | None):
     """Where a started process writes: `log`, or a temporary file (never a pipe nobody reads)."""
     return open(log, "w+") if log else tempfile.TemporaryFile("w+")
@@ -63,8 +70,9 @@ def start_irpd(sock: Path, config: Path = FIG1, instance: str | None = None, *ex
     p = subprocess.Popen([str(IRPD), "--config", str(config), "--control-socket", str(sock),
                           "--instance", instance or f"agent-test-{os.getpid()}", *extra],
                          stdout=subprocess.DEVNULL, stderr=out, text=True)
+    STARTED.append(p)
     p.log = out
-    deadline = time.monotonic() + 20
+    deadline = time.monotonic() + START_TIMEOUT_S
     while not sock.exists():
         assert p.poll() is None, output(p)
         assert time.monotonic() < deadline, "irpd did not open its control socket"
@@ -80,8 +88,9 @@ def start_agent(port: int, data: Path, sock: Path, *extra: str, log: Path | None
     p = subprocess.Popen([sys.executable, "-m", "indurop_agent", "--host", "127.0.0.1", "--port", str(port),
                           "--data-dir", str(data), "--irpd-socket", str(sock), *extra],
                          cwd=ROOT / "agent", stdout=out, stderr=subprocess.STDOUT, text=True)
+    STARTED.append(p)
     p.log = out
-    deadline = time.monotonic() + 20
+    deadline = time.monotonic() + START_TIMEOUT_S
     while True:
         try:
             if httpx.get(f"http://127.0.0.1:{port}{API}/health", timeout=1).status_code == 200:

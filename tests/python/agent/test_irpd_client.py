@@ -94,6 +94,7 @@ def test_a_per_call_timeout_replaces_the_default_for_that_call(peer):
 def test_a_request_that_timed_out_is_not_sent_again_and_the_next_one_works(peer):
     p = peer(delay_s={"load": 1.0})
     client = IrpdClient(p.path, timeout_s=2.0)
+    assert client.request("status") == {"cmd": "status"}  # connected: the 0.2 s below is all the load's
     with pytest.raises(IrpdUnavailable):
         client.request("load", timeout=0.2)
     assert client.request("status") == {"cmd": "status"}  # a new connection; no late answer mixed in

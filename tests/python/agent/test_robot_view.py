@@ -163,7 +163,9 @@ class Live:
         assert r.status_code == 200, r.text
 
     def read(self, path: str):
-        return self.get(f"/variables/{NS}{path}").json()["value"]
+        r = self.get(f"/variables/{NS}{path}")
+        assert r.status_code == 200, r.text
+        return r.json()["value"]
 
     @staticmethod
     def wait(what, doing: str, seconds: float = 30.0):
