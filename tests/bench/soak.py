@@ -114,6 +114,7 @@ def cyclictest(cpu: int, priority: int, interval_us: int, seconds: int, work: Pa
         if seen >= 0.9999 * total:
             p9999 = us + 1
             break
+    # p99.99 beyond the histogram (more than 0.01 % of the samples over 20 ms): None, shown as "> 20 ms".
     return {"samples": total, "p99_99_ns": p9999 * 1000 if p9999 is not None else None,
             "max_ns": maximum * 1000 if maximum is not None else None, "overflows": overflows,
             "command": " ".join(cmd[:-1])}
@@ -149,9 +150,12 @@ class Streams:
                 time.sleep(1)
 
     def finish(self) -> None:
+        """Stops counting; a client blocked on a silent stream (irpd stopped) is left to die with the
+        script (daemon threads), after 10 s for all of them together."""
         self.stop.set()
+        deadline = time.monotonic() + 10
         for t in self.threads:
-            t.join(30)
+            t.join(max(0.0, deadline - time.monotonic()))
 
 
 def start_agent(port: int, data: Path, sock: Path, other: set[int], log_path: Path) -> subprocess.Popen:
@@ -371,7 +375,11 @@ def main() -> int:
 
 
 def ms(ns) -> str:
-    return "–" if ns is None else f"{ns / 1e6:.3f} ms"
+    return "> 20 ms (past the histogram)" if ns is None else f"{ns / 1e6:.3f} ms"
+
+
+def ratio(value) -> str:
+    return "–" if value is None else f"{value:.2f}"
 
 
 def per_min(slope) -> str:
@@ -385,9 +393,9 @@ def markdown(r: dict) -> str:
                 f"{r['clients']} stream clients, {'stress-ng on the other CPU' if r['stress'] else 'no stress-ng'}"),
         ("irpd periods run", f"{i['periods']}"),
         ("wake-up latency p99.99: irpd / cyclictest", f"{ms(i['latency_p99_99_ns'])} / {ms(c['p99_99_ns'])} "
-                                                       f"(ratio {r['ratio_latency_p99_99'] or 0:.2f})"),
+                                                       f"(ratio {ratio(r['ratio_latency_p99_99'])})"),
         ("wake-up latency max: irpd / cyclictest", f"{ms(i['latency_max_ns'])} / {ms(c['max_ns'])} "
-                                                   f"(ratio {r['ratio_latency_max'] or 0:.2f})"),
+                                                   f"(ratio {ratio(r['ratio_latency_max'])})"),
         ("jitter, Eq. (1), |p99.99| / max |·|", f"{ms(i['jitter_p99_99_ns'])} / {ms(i['jitter_max_abs_ns'])}"),
         ("cyclictest samples", f"{c['samples']} ({c['overflows']} over 20 ms)"),
         ("dispatcher overruns / missed / skipped", f"{i['overruns']} / {i['missed']} / {i['skipped']}"),
