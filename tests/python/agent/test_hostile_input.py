@@ -68,7 +68,20 @@ class Battery:
 
     def __init__(self, tmp: Path):
         self.tmp, self.sock, self.data = tmp, tmp / "irpd.sock", tmp / "data"
+        self.agent = None
         self.irpd = start_irpd(self.sock, FIG1, f"hostile-{os.getpid()}", log=tmp / "irpd.log")
+        try:
+            self._start(tmp)
+        except BaseException:
+            self.stop()  # what was started, by pid
+            raise
+
+    def stop(self) -> None:
+        if self.agent is not None:
+            stop(self.agent)
+        stop(self.irpd)
+
+    def _start(self, tmp: Path) -> None:
         config = tmp / "agent.json"
         config.write_text(json.dumps(LIMITS))
         self.port = free_port()
@@ -137,8 +150,7 @@ def detail(r: httpx.Response) -> str:
 def battery(tmp_path_factory):
     b = Battery(tmp_path_factory.mktemp("hostile"))
     yield b
-    stop(b.agent)
-    stop(b.irpd)
+    b.stop()
 
 
 # ---- auth -----------------------------------------------------------------------------------------
