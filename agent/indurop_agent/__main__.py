@@ -6,7 +6,7 @@ import sys
 
 import uvicorn
 
-from . import config
+from . import config, server
 from .app import create_app
 
 
@@ -24,8 +24,14 @@ def main(argv: list[str] | None = None) -> int:
               flush=True)
     else:
         print("indurop-agent: no web UI built (cd webui && npm ci && npm run build)", flush=True)
+    max_connections, why = server.connection_cap(settings.max_connections)
+    if why:
+        print(why, flush=True)
     tls = {"ssl_certfile": str(settings.tls_cert), "ssl_keyfile": str(settings.tls_key)} if settings.tls_cert else {}
-    uvicorn.run(app, host=settings.host, port=settings.port, log_level="warning", **tls)
+    uvicorn.run(app, host=settings.host, port=settings.port, log_level="warning",
+                http=server.protocol(settings.header_timeout_s, max_connections),
+                ws_max_size=settings.max_body_bytes, proxy_headers=bool(settings.forwarded_allow_ips),
+                forwarded_allow_ips=settings.forwarded_allow_ips or None, **tls)
     return 0
 
 

@@ -26,7 +26,7 @@ from .errors import LocatedError, located_error
 from .events import AgentEvents
 from .host import Sampler
 from .irpd_client import IrpdClient
-from .security import BodyLimitMiddleware, Lockout
+from .security import BodyLimitMiddleware, BodyTimeoutMiddleware, Lockout
 from .store import SetStore
 from .viewer.live import RobotLive
 from .viewer.ticket import Tickets
@@ -133,6 +133,8 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     app.add_exception_handler(RequestValidationError, validation_error)
     app.add_exception_handler(LocatedError, located_error)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, exempt=is_upload)
+    app.add_middleware(BodyTimeoutMiddleware, idle_s=settings.body_idle_s, total_s=settings.body_timeout_s,
+                       exempt=is_upload)
     for module in (health, status, modules, jitter, variables, sets, robot, events, audit, tokens, stream):
         app.include_router(module.router, prefix=API)
     serve_webui(app, state.webui_dir)  # last: the API routes match first

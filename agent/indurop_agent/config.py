@@ -37,6 +37,19 @@ class Settings:
     max_files: int = 512
     # Every other request's body.
     max_body_bytes: int = 1 * MiB
+    # Slow and numerous clients (server.py): a request's line and headers must arrive within
+    # header_timeout_s of the connection (or of the previous answer); a body may pause at most
+    # body_idle_s between bytes and, but for set uploads, must be complete within body_timeout_s
+    # (408 otherwise).  At most max_connections client connections (HTTP and WebSocket) are held;
+    # one more is answered 503 with Retry-After.  The agent raises its open-file limit to fit.
+    header_timeout_s: float = 10.0
+    body_idle_s: float = 20.0
+    body_timeout_s: float = 60.0
+    max_connections: int = 4096
+    # Reverse proxies whose X-Forwarded-For/-Proto the agent believes (comma-separated addresses, as
+    # uvicorn's --forwarded-allow-ips).  Empty: none; the client address is the socket's, so that no
+    # client can pick the address the lockout counts.  Behind a proxy on this machine: "127.0.0.1".
+    forwarded_allow_ips: str = ""
     # Brute-force lockout: this many unknown tokens from one client address within the window
     # lock that address out for the window (429 with Retry-After).
     lockout_attempts: int = 10
@@ -58,7 +71,8 @@ class Settings:
 
 FIELDS = {f.name: f for f in dataclasses.fields(Settings)}
 PATHS = {"data_dir", "tls_cert", "tls_key", "webui_dir"}
-POSITIVE = {"port", "max_file_bytes", "max_upload_bytes", "max_files", "max_body_bytes", "lockout_attempts",
+POSITIVE = {"port", "max_file_bytes", "max_upload_bytes", "max_files", "max_body_bytes", "header_timeout_s",
+            "body_idle_s", "body_timeout_s", "max_connections", "lockout_attempts",
             "lockout_window_s", "irpd_poll_s", "swap_timeout_s", "robot_rate_hz", "viewer_ticket_s",
             "viewer_session_s"}
 VIEWERS = ("viser", "meshcat")

@@ -1,7 +1,9 @@
 """security.py -- the agent's guards that are not about roles: the brute-force lockout of client
-addresses that try unknown tokens, and the body-size limit of every request but a set upload."""
+addresses that try unknown tokens, and the body-size limit of every request but a set upload, and the
+deadline of request bodies that stall."""
 from __future__ import annotations
 
+import asyncio
 import json
 import threading
 import time
@@ -108,3 +110,58 @@ class BodyLimitMiddleware:
                     "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()),
                                 (b"connection", b"close")]})
         await send({"type": "http.response.body", "body": body})
+
+
+class BodyTimeout(HTTPException):
+    def __init__(self, detail: str):
+        super().__init__(408, detail)
+
+
+class BodyTimeoutMiddleware:
+    """Answers 408 to a request whose body stalls: no byte for `idle_s`, or (all but the requests for
+    which `exempt(method, path)` is true: set uploads, which may be large) not complete within
+    `total_s`.  A client that trickles a body must not hold a connection and a task for ever."""
+
+    def __init__(self, app, idle_s: float, total_s: float, exempt=lambda method, path: False):
+        self.app, self.idle_s, self.total_s, self.exempt = app, idle_s, total_s, exempt
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        loop = asyncio.get_running_loop()
+        deadline = None if self.exempt(scope["method"], scope["path"]) else loop.time() + self.total_s
+        complete = False
+        started = False
+
+        async def timed_receive():
+            nonlocal complete
+            if complete:  # after the body: waiting for the disconnect is not a body read
+                return await receive()
+            wait = self.idle_s if deadline is None else min(self.idle_s, deadline - loop.time())
+            try:
+                message = await asyncio.wait_for(receive(), max(wait, 0.001))
+            except asyncio.TimeoutError:
+                raise BodyTimeout(self._why(deadline is not None and loop.time() >= deadline)) from None
+            if message["type"] != "http.request" or not message.get("more_body", False):
+                complete = True
+            return message
+
+        async def watched_send(message):
+            nonlocal started
+            started = started or message["type"] == "http.response.start"
+            await send(message)
+
+        try:
+            await self.app(scope, timed_receive, watched_send)
+        except BodyTimeout as e:
+            if not started:
+                body = json.dumps({"detail": e.detail}).encode()
+                await send({"type": "http.response.start", "status": 408,
+                            "headers": [(b"content-type", b"application/json"),
+                                        (b"content-length", str(len(body)).encode()), (b"connection", b"close")]})
+                await send({"type": "http.response.body", "body": body})
+
+    def _why(self, total: bool) -> str:
+        if total:
+            return f"the request body did not arrive within {self.total_s:g} s (body_timeout_s); send it at once"
+        return f"the request body stalled: no byte for {self.idle_s:g} s (body_idle_s)"

@@ -25,6 +25,7 @@ from defusedxml import DTDForbidden, EntitiesForbidden, ExternalReferenceForbidd
 from defusedxml import ElementTree as SafeET
 from python_multipart.multipart import MultipartParser, parse_options_header
 from starlette.concurrency import run_in_threadpool
+from starlette.exceptions import HTTPException
 
 from .elf_check import MissingSymbol, NotLoadable, check_executable, check_shared_object
 from .errors import LocatedError
@@ -283,7 +284,7 @@ async def _receive_multipart(request, boundary: bytes, receiver: Receiver) -> No
         async for chunk in request.stream():
             await run_in_threadpool(parser.write, chunk)
         parser.finalize()
-    except UploadError:
+    except (UploadError, HTTPException):  # ours, or the body's deadline (security.BodyTimeout)
         raise
     except Exception as e:  # python-multipart's parse errors
         raise UploadError(400, f"the multipart body cannot be read: {e}") from None
@@ -462,6 +463,11 @@ def parse_module_xml(path: Path) -> ModuleXml:
         filename = (node.findtext("filename") or "").strip()
         stem = posixpath.splitext(posixpath.basename(filename))[0]
         name = (node.findtext("name") or "").strip() or stem or f"#{i}"
+        if any(ord(c) < 0x20 or ord(c) == 0x7F for c in name):  # irpd puts module names in its log lines
+            name_node = node.find("name")
+            raise UploadError(400, f"module.xml: module <name> {json.dumps(name)} contains a control character "
+                                   "(a newline, a tab, an escape); name modules with printable characters",
+                              **at(name_node if name_node is not None else node))
         if not filename:
             raise UploadError(400, f"module.xml: module {json.dumps(name)} has no <filename>",
                               **at(node if filename_node is None else filename_node))

@@ -7,6 +7,7 @@ from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+from starlette.exceptions import HTTPException as AnyHTTPException  # FastAPI's and Starlette's (security.py's)
 
 from ..auth import Identity, allows
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
@@ -109,7 +110,7 @@ def audited(request: Request, who: Identity, action: str, target: str | None = N
     common = {"who": who.as_dict(), "client": client_address(request)}
     try:
         yield entry
-    except HTTPException as e:
+    except AnyHTTPException as e:
         log.write(action, **common, **entry, result="error", status=e.status_code, detail=e.detail)
         raise
     except Exception as e:
