@@ -207,6 +207,9 @@ void Executor::skip(uint64_t from, uint64_t count) {
  *      passed what the overrun policy allows, skip slots to the current one; Eq. (1) jitter;
  *   3. run the slot's modules in priority order; for each: Eq. (1) jitter against its own T0 and
  *      period, start latency, execution time, budget overrun; a throw disables the module.  A
+ *      module with <on_overrun> has its run() marked for the watchdog (dispatch/watchdog.hpp),
+ *      and a run past its <overrun_limit> gets its action: warn, skip (its runs due meanwhile are
+ *      dropped), disable, or stop (no module of any executor runs any more).  A
  *      process module is released (futex) and awaited in its place, bounded by its budget or by
  *      the end of the basic period (an overrun if it does not finish by then).  Right after a
  *      thread module's run(), the calls that process modules made to its exported functions are

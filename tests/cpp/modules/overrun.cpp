@@ -2,7 +2,8 @@
 // Properties: journal (a file), hang_at (the run that overruns, 1-based; default never),
 // hang_ms (how long that run spins; 0 = until safe_outputs() is called, at most 10 s), and
 // stuck_once=0 to overrun in every run from hang_at on.  It writes "start", "run <n> overran
-// <ms> ms", "safe_outputs during run <n>" (or "... while idle"), "stop runs=<n>" to the journal.
+// <ms> ms (spin began at <CLOCK_MONOTONIC ns> ns)", "safe_outputs during run <n>" (or "... while
+// idle"), "stop runs=<n>" to the journal.
 // Its safe_outputs() is the hook irpd calls when a fault stops the set.
 #include <indurop/indurop.h>
 
@@ -27,10 +28,10 @@ void note(const std::string &line) {
     }
 }
 
-long long nowMs() {
+long long nowNs() {
     timespec ts{};
     clock_gettime(CLOCK_MONOTONIC, &ts);
-    return static_cast<long long>(ts.tv_sec) * 1000 + ts.tv_nsec / 1'000'000;
+    return static_cast<long long>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
 }
 } // namespace
 
@@ -45,12 +46,13 @@ void run() {
     const long n = static_cast<long>(++runs);
     if (n != hang_at && (once || hang_at < 0 || n < hang_at)) return;
     running.store(n);
-    const long long begun = nowMs();
-    const long long until = begun + (hang_ms > 0 ? hang_ms : 10'000);
-    while (nowMs() < until && !(hang_ms == 0 && safe.load())) {
+    const long long begun = nowNs();
+    const long long until = begun + (hang_ms > 0 ? hang_ms : 10'000) * 1'000'000;
+    while (nowNs() < until && !(hang_ms == 0 && safe.load())) {
     }
     running.store(0);
-    note("run " + std::to_string(n) + " overran " + std::to_string(nowMs() - begun) + " ms");
+    note("run " + std::to_string(n) + " overran " + std::to_string((nowNs() - begun) / 1'000'000) + " ms (spin began at " +
+         std::to_string(begun) + " ns)");
 }
 extern "C" void safe_outputs() {
     const long during = running.load();
