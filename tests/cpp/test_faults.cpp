@@ -103,7 +103,8 @@ struct Cell {
     // The events of `kind` about `module`.
     std::vector<json> events(const std::string &kind, const std::string &module) {
         std::vector<json> found;
-        for (const json &e : result({{"cmd", "events"}, {"limit", 4096}})["events"])
+        const json all = result({{"cmd", "events"}, {"limit", 4096}});
+        for (const json &e : all["events"])
             if (e["kind"] == kind && e["module"] == module) found.push_back(e);
         return found;
     }
@@ -143,7 +144,7 @@ TEST(OverrunWatchdog, StopDrivesSafeOutputsWhileTheModuleIsStillStuckAndHaltsThe
     const std::string log = cell.log("stuck");
     EXPECT_EQ(log.substr(0, log.find("run 20 overran")), "start\nsafe_outputs during run 20\n") << log;
     const auto seen = cell.events("overrun", "stuck");
-    ASSERT_FALSE(seen.empty());
+    ASSERT_FALSE(seen.empty()) << cell.result({{"cmd", "events"}}).dump();
     EXPECT_TRUE(contains(seen[0]["message"], "still running")) << seen[0].dump();
     EXPECT_TRUE(contains(seen[0]["message"], "on_overrun=stop")) << seen[0].dump();
     const auto stopped = cell.events("stopped", "stuck");
@@ -333,7 +334,8 @@ TEST(DeviceSide, AStopDrivesTheControlwordsToZeroWhileTheFaultyModuleIsStillStuc
     json status = cell.client->request({{"cmd", "status"}});
     EXPECT_TRUE(contains(status["result"].value("stopped_by_fault", ""), "stuck")) << status.dump();
     bool stopped = false;
-    for (const json &e : cell.client->request({{"cmd", "events"}})["result"]["events"])
+    const json events = cell.client->request({{"cmd", "events"}});
+    for (const json &e : events["result"]["events"])
         stopped |= e["kind"] == "stopped" && contains(e["message"], "outputs of 1 module(s) driven to safe values");
     EXPECT_TRUE(stopped);
 }

@@ -268,7 +268,8 @@ TEST(HotReload, ASwapThatFailsHalfwayStopsWhatItStartedAndLeavesTheRunningSetUnt
         EXPECT_EQ(cell.log("keep"), "start v1\n") << c.name;
     }
     std::size_t failed = 0;
-    for (const json &e : cell.result({{"cmd", "events"}})["events"]) failed += e["kind"] == "swap_failed";
+    const json events = cell.result({{"cmd", "events"}});
+    for (const json &e : events["events"]) failed += e["kind"] == "swap_failed";
     EXPECT_EQ(failed, cases.size());
 }
 

@@ -116,7 +116,8 @@ public:
             const stats::TimingRecord &r = stats_.record(g.members[static_cast<std::size_t>(m.index)].record);
             Seen &seen = seen_[m.name];
             const uint64_t errors = r.errors.load(), missed = r.missed.load(), overruns = r.overruns.load();
-            if (errors > seen.errors && !seen.first)
+            // (on the first look too: a module may throw before it, in its first runs)
+            if (errors > seen.errors)
                 log_.add("fault", m.name, "threw from run() or condition(); disabled (enable it to run it again)");
             if (figures || seen.first) {
                 if (missed > seen.missed && !seen.first)
