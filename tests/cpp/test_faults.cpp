@@ -336,8 +336,8 @@ TEST(DeviceSide, AStopDrivesTheControlwordsToZeroWhileTheFaultyModuleIsStillStuc
     bool stopped = false;
     const json events = cell.client->request({{"cmd", "events"}});
     for (const json &e : events["result"]["events"])
-        stopped |= e["kind"] == "stopped" && contains(e["message"], "outputs of 1 module(s) driven to safe values");
-    EXPECT_TRUE(stopped);
+        stopped |= e["kind"] == "stopped" && contains(e["message"], "outputs of 2 module(s) driven to safe values");
+    EXPECT_TRUE(stopped) << events.dump();  // libiodispat and stuck itself have safe_outputs()
 }
 
 TEST(DeviceSide, IrpdKilledLeavesTheDrivesToTheirCommTimeoutWhichQuickStopsThem) {
