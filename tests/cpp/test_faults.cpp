@@ -317,17 +317,17 @@ bool fault(uint16_t sw) { return (sw & 0x4F) == 0x08; }
 TEST(DeviceSide, AStopDrivesTheControlwordsToZeroWhileTheFaultyModuleIsStillStuck) {
     DriveSim sim({"--quiet"});
     ModbusClient probe(sim.port());
-    // `stuck` (priority 0: before the I/O) spins 3 s in its 300th run (3 s in), whatever happens.
+    // `stuck` (priority 0: before the I/O) spins 3 s in its 600th run (6 s in), whatever happens.
     PlcCell cell(sim.port(),
                  "<module><name>stuck</name><filename>./overrun.so</filename><moduletype>thread</moduletype>"
                  "<operationtype>periodic</operationtype><period>10000000</period><priority>0</priority>"
                  "<on_overrun>stop</on_overrun><property>" + value("journal", "@DIR@/stuck.log") +
-                     value("hang_at", "300") + value("hang_ms", "3000") + "</property></module>\n");
+                     value("hang_at", "600") + value("hang_ms", "3000") + "</property></module>\n");
     cell.enableDrives();
     ASSERT_TRUE(eventually([&] { return operationEnabled(statusword(probe, 0)); }, std::chrono::seconds(20)));
     const std::string journal = (cell.dir.path / "stuck.log").string();
     ASSERT_TRUE(eventually([&] { return contains(readFile(journal), "safe_outputs"); }, std::chrono::seconds(20)));
-    // The controlwords the simulator holds are 0 (disable voltage) while run 300 still spins.
+    // The controlwords the simulator holds are 0 (disable voltage) while run 600 still spins.
     for (int axis = 0; axis < kAxes; ++axis) EXPECT_EQ(probe.holding(4 * axis, 1)[0], 0) << axis;
     EXPECT_FALSE(contains(readFile(journal), "overran")) << readFile(journal);
     EXPECT_TRUE(eventually([&] { return !operationEnabled(statusword(probe, 0)); }));
@@ -341,7 +341,8 @@ TEST(DeviceSide, AStopDrivesTheControlwordsToZeroWhileTheFaultyModuleIsStillStuc
 }
 
 TEST(DeviceSide, IrpdKilledLeavesTheDrivesToTheirCommTimeoutWhichQuickStopsThem) {
-    DriveSim sim({"--comm-timeout", "100"});
+    // 500 ms: a loaded test machine may stall irpd's start for a fraction of that
+    DriveSim sim({"--comm-timeout", "500"});
     ModbusClient probe(sim.port());
     PlcCell cell(sim.port(), "");
     cell.enableDrives();
