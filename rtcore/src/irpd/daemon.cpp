@@ -437,7 +437,7 @@ int run(const Options &options) {
         for (const hosts::ProcessInfo &p : supervisor.processes())
             for (const config::ModuleSpec &m : g->set.modules) {
                 const reload::Member &member = g->members[static_cast<std::size_t>(m.index)];
-                if (member.slot == static_cast<int>(p.slot) && !g->disabled.count(m.name))
+                if (member.slot == static_cast<int>(p.slot) && !g->disabled.count(m.name) && !dispatcher.isHalted())
                     segment->record(member.record)
                         .state.store(static_cast<uint32_t>(p.running || p.restart_pending ? stats::ModuleState::Running
                                                                                           : stats::ModuleState::Exited));
