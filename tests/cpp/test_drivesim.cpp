@@ -276,6 +276,50 @@ TEST(DriveSim, FailAfterStopsAnsweringAndFailForResumes) {
     EXPECT_EQ(again.input1(regs::kAxisCount), 6);
 }
 
+// The drive's fieldbus watchdog: the master's writes feed it; silence for --comm-timeout makes
+// every axis quick-stop and fault (0x8130); a fault reset recovers it.
+TEST(DriveSim, CommTimeoutQuickStopsAndFaultsEveryAxisAndFaultResetRecovers) {
+    // 500 ms: room for this test's own stalls between its writes on a loaded machine
+    DriveSim sim({"--comm-timeout", "500"});
+    ModbusClient c(sim.port());
+    enable(c, 0);  // each write feeds the watchdog
+    // The master goes silent (this client only reads from now on): the enabled axis quick-stops
+    // into fault, and so does every other axis.
+    ASSERT_TRUE(eventually([&] { return (c.input1(input(0, regs::kStatusword)) & 0x4F) == 0x08; }));
+    EXPECT_EQ(c.input1(input(0, regs::kErrorCode)), kErrorCommTimeout);
+    EXPECT_EQ(c.input32(input(0, regs::kActualVelocity)), 0);
+    const int32_t stopped_at = c.input32(input(0, regs::kActualPosition));
+    for (int axis = 1; axis < 6; ++axis) {
+        EXPECT_TRUE(eventually([&] { return (c.input1(input(axis, regs::kStatusword)) & 0x4F) == 0x08; })) << axis;
+        EXPECT_EQ(c.input1(input(axis, regs::kErrorCode)), kErrorCommTimeout) << axis;
+    }
+    EXPECT_NE(sim.out().find("comm timeout: no write for"), std::string::npos) << sim.out();
+    // The master writes again: still in fault (a fault is latched) until the fault reset.
+    c.write32(holding(0, regs::kTargetPosition), stopped_at);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_EQ((c.input1(input(0, regs::kStatusword)) & 0x4F), 0x08);
+    c.write(holding(0, regs::kControlword), {0x80});
+    ASSERT_TRUE(eventually([&] { return switchOnDisabled(c.input1(input(0, regs::kStatusword))); }));
+    EXPECT_EQ(c.input1(input(0, regs::kErrorCode)), 0);
+    c.write(holding(0, regs::kControlword), {0x00});
+    enable(c, 0);
+}
+
+TEST(DriveSim, NoCommWatchdogBeforeTheFirstWriteNorWithCommTimeoutZero) {
+    for (const char *timeout : {"50", "0"}) {
+        DriveSim sim({"--comm-timeout", timeout});
+        ModbusClient c(sim.port());
+        if (std::string(timeout) == "0") c.write(holding(0, regs::kControlword), {0x00});  // armed, were it on
+        // Reads only, for six times the timeout: no fault anywhere.
+        const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(300);
+        while (std::chrono::steady_clock::now() < end) {
+            EXPECT_EQ(c.input1(input(0, regs::kStatusword)) & sw::kFault, 0) << timeout;
+            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        }
+        EXPECT_EQ(sim.out().find("comm timeout"), std::string::npos) << sim.out();
+    }
+}
+
 TEST(DriveSim, ExitsCleanlyOnSigterm) {
     DriveSim sim;
     { ModbusClient c(sim.port()); }

@@ -41,6 +41,13 @@ public:
 FakeClock *g_clock = nullptr;
 std::map<std::string, int64_t> g_work;  // ns a fake module "runs"
 std::string g_throw_in;                 // module that throws on its next run
+// One long run: module `who` works `ns` in cycle `cycle`, calling `during` halfway through.
+struct LongRun {
+    std::string who;
+    uint64_t cycle = UINT64_MAX;
+    int64_t ns = 0;
+    std::function<void()> during;
+} g_long;
 
 // Fake modules: journal the call with the cycle and the planned time, then advance the clock.
 template <int N>
@@ -48,6 +55,11 @@ void fakeModule() {
     static const std::string name = "m" + std::to_string(N);
     journal::add(name.c_str(), "run", irp::cycle().count);
     g_clock->t += g_work[name];
+    if (g_long.who == name && g_long.cycle == irp::cycle().count) {
+        g_clock->t += g_long.ns / 2;
+        if (g_long.during) g_long.during();
+        g_clock->t += g_long.ns - g_long.ns / 2;
+    }
     if (g_throw_in == name) {
         g_throw_in.clear();
         throw std::runtime_error("fault injected");
@@ -68,10 +80,12 @@ struct Fig1Like : ::testing::Test {
     Records records{4};  // 0 = dispatcher, 1..3 = m1..m3
     Task m1, m2, m3;
     std::atomic<bool> stop{false};
+    std::atomic<bool> halted{false};
 
     void SetUp() override {
         g_clock = &clock;
         g_work.clear();
+        g_long = {};
         g_throw_in.clear();
         journal::clear();
         setTask(m1, &fakeModule<1>, 1, 1);
@@ -90,6 +104,7 @@ struct Fig1Like : ::testing::Test {
         ExecutorOptions o;
         o.policy = policy;
         o.max_catchup_ns = max_catchup_ns;
+        o.halted = &halted;
         return Executor(clock, kBasic, slots, {&m1, &m2, &m3}, &records[0], o);
     }
     std::vector<std::string> runsOf(uint64_t cycle) {
@@ -243,6 +258,153 @@ TEST_F(Fig1Like, StopFlagEndsTheLoop) {
     Executor e = make();
     e.loop(0, 0, stop, nullptr);
     EXPECT_EQ(count(records[0].runs), 0u);
+}
+
+// ---- the per-module overrun watchdog (<on_overrun>, docs/faults.md) ---------------------------
+
+namespace {
+using config::OverrunAction;
+using dispatch::Fault;
+
+std::vector<Fault> outcomes(Executor &e) {
+    std::vector<Fault> all;
+    Fault f;
+    while (e.marker().take(f)) all.push_back(f);
+    return all;
+}
+} // namespace
+
+TEST_F(Fig1Like, OverrunWarnCountsItAndChangesNothingElse) {
+    m2.on_overrun = OverrunAction::Warn;
+    m2.overrun_limit_ns = 100'000;
+    g_long = {"m2", 10, 350'000, {}};
+    Executor e = make();
+    e.loop(0, 100, stop, nullptr);
+    EXPECT_EQ(count(records[2].overruns), 1u);
+    EXPECT_EQ(count(records[2].runs), 100u);  // caught up: every run made
+    EXPECT_EQ(count(records[2].skipped), 0u);
+    EXPECT_NE(records[2].state.load(), static_cast<uint32_t>(stats::ModuleState::Disabled));
+    EXPECT_FALSE(halted.load());
+    const auto faults = outcomes(e);
+    ASSERT_EQ(faults.size(), 1u);
+    EXPECT_EQ(faults[0].kind, Fault::Kind::Returned);
+    EXPECT_EQ(faults[0].action, OverrunAction::Warn);
+    EXPECT_EQ(faults[0].record, &records[2]);
+    EXPECT_EQ(faults[0].elapsed_ns, 350'000);
+    EXPECT_FALSE(faults[0].seen_running);  // no watchdog looked
+}
+
+TEST_F(Fig1Like, AShortRunIsNoOverrunWhateverTheAction) {
+    m2.on_overrun = OverrunAction::Stop;
+    m2.overrun_limit_ns = 100'000;
+    g_work["m2"] = 60'000;
+    Executor e = make();
+    e.loop(0, 50, stop, nullptr);
+    EXPECT_EQ(count(records[2].overruns), 0u);
+    EXPECT_EQ(count(records[2].runs), 50u);
+    EXPECT_FALSE(halted.load());
+    EXPECT_TRUE(outcomes(e).empty());
+}
+
+TEST_F(Fig1Like, OverrunSkipDropsTheRunsItMissedAndTheOthersCatchUp) {
+    m2.on_overrun = OverrunAction::Skip;
+    m2.overrun_limit_ns = 100'000;
+    g_long = {"m2", 10, 350'000, {}};  // slot 10's m2 ends at 1.35 ms: slots 11, 12, 13 were due
+    Executor e = make();
+    e.loop(0, 100, stop, nullptr);
+    EXPECT_EQ(count(records[2].skipped), 3u);
+    EXPECT_EQ(count(records[2].runs), 97u);
+    EXPECT_EQ(count(records[2].runs) + count(records[2].skipped), 100u);
+    EXPECT_EQ(count(records[1].runs), 100u);  // m1 caught up
+    EXPECT_EQ(count(records[3].runs), 20u);
+    EXPECT_EQ(runsOf(13), (std::vector<std::string>{"m1"}));
+    EXPECT_EQ(runsOf(14), (std::vector<std::string>{"m1", "m2"}));
+    EXPECT_EQ(count(records[2].overruns), 1u);
+}
+
+TEST_F(Fig1Like, OverrunDisableTakesTheModuleOutAndTheRestRunsOn) {
+    m2.on_overrun = OverrunAction::Disable;
+    m2.overrun_limit_ns = 100'000;
+    g_long = {"m2", 10, 350'000, {}};
+    Executor e = make();
+    e.loop(0, 100, stop, nullptr);
+    EXPECT_EQ(count(records[2].runs), 11u);  // cycles 0..10
+    EXPECT_EQ(records[2].state.load(), static_cast<uint32_t>(stats::ModuleState::Disabled));
+    EXPECT_EQ(count(records[1].runs), 100u);
+    EXPECT_EQ(count(records[3].runs), 20u);
+    EXPECT_EQ(count(records[2].errors), 0u);  // not an exception
+    const auto faults = outcomes(e);
+    ASSERT_EQ(faults.size(), 1u);
+    EXPECT_EQ(faults[0].action, OverrunAction::Disable);
+}
+
+TEST_F(Fig1Like, OverrunStopHaltsEveryModuleButTheGridGoesOn) {
+    m2.on_overrun = OverrunAction::Stop;
+    m2.overrun_limit_ns = 100'000;
+    g_long = {"m2", 10, 350'000, {}};
+    Executor e = make();
+    e.loop(0, 100, stop, nullptr);
+    EXPECT_TRUE(halted.load());
+    EXPECT_EQ(count(records[1].runs), 11u);  // m1 ran before m2 in slot 10, then nothing
+    EXPECT_EQ(count(records[2].runs), 11u);
+    EXPECT_EQ(count(records[3].runs), 2u);   // slots 0 and 5; slot 10's m3 came after m2
+    EXPECT_EQ(count(records[0].runs), 100u); // the loop still keeps its time grid
+    EXPECT_EQ(clock.t, 99 * kBasic);
+}
+
+TEST_F(Fig1Like, TheWatchdogSeesARunStillGoingAndStopsTheSetBeforeItReturns) {
+    m2.on_overrun = OverrunAction::Stop;
+    m2.overrun_limit_ns = 100'000;
+    Executor e = make();
+    std::vector<Fault> reported;
+    std::vector<std::string> stops;  // what the stop hook saw, in order
+    dispatch::Watchdog::Hooks hooks;
+    hooks.report = [&](const Fault &f) { reported.push_back(f); };
+    hooks.stop = [&](const Fault &f) { stops.push_back(f.kind == Fault::Kind::Running ? "while running" : "after"); };
+    dispatch::Watchdog watchdog(clock, {&e}, halted, hooks);
+    int64_t next_look = 0;
+    // m2 runs 10 ms in slot 10 (started at 1.0 ms); halfway, the watchdog looks at 6.0 ms: past
+    // the limit (1.1 ms).  A look before the limit reports nothing and comes back at the limit.
+    g_long = {"m2", 10, 10'000'000, [&] {
+                  EXPECT_EQ(watchdog.check(10 * kBasic + 50'000), 10 * kBasic + 100'000 + 1);
+                  EXPECT_TRUE(reported.empty());
+                  next_look = watchdog.check(clock.t);
+                  EXPECT_TRUE(halted.load());  // the other executors stop at once
+                  EXPECT_EQ(watchdog.check(clock.t + 1), next_look + 1);  // reported once per run
+              }};
+    e.loop(0, 200, stop, nullptr);
+    ASSERT_EQ(stops, (std::vector<std::string>{"while running"}));
+    ASSERT_EQ(reported.size(), 1u);
+    EXPECT_EQ(reported[0].kind, Fault::Kind::Running);
+    EXPECT_EQ(reported[0].elapsed_ns, 5'000'000);
+    EXPECT_EQ(reported[0].record, &records[2]);
+    EXPECT_NE(watchdog.stoppedBy().find("on_overrun=stop"), std::string::npos) << watchdog.stoppedBy();
+    // After it returned: the outcome is reported as seen while running, and the stop is not repeated.
+    watchdog.check(clock.t);
+    ASSERT_EQ(reported.size(), 2u);
+    EXPECT_EQ(reported[1].kind, Fault::Kind::Returned);
+    EXPECT_TRUE(reported[1].seen_running);
+    EXPECT_EQ(stops.size(), 1u);
+    EXPECT_EQ(count(records[2].runs), 11u);
+    EXPECT_EQ(count(records[1].runs), 11u);
+}
+
+TEST_F(Fig1Like, AnOverrunStopFoundOnlyAfterTheRunIsStillActedOnByTheWatchdog) {
+    m2.on_overrun = OverrunAction::Stop;
+    m2.overrun_limit_ns = 100'000;
+    g_long = {"m2", 3, 500'000, {}};
+    Executor e = make();
+    int stops = 0;
+    dispatch::Watchdog::Hooks hooks;
+    hooks.stop = [&](const Fault &f) {
+        ++stops;
+        EXPECT_EQ(f.kind, Fault::Kind::Returned);
+    };
+    dispatch::Watchdog watchdog(clock, {&e}, halted, hooks);
+    e.loop(0, 20, stop, nullptr);
+    watchdog.check(clock.t);
+    EXPECT_EQ(stops, 1);
+    EXPECT_FALSE(watchdog.stoppedBy().empty());
 }
 
 // ---- the real dispatcher, real modules, real clock --------------------------------------------

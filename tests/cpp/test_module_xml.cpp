@@ -352,6 +352,25 @@ TEST(ModuleXml, ExecutorsAndBudgets) {
     EXPECT_EQ(set.modules[1].executor, "main");
 }
 
+TEST(ModuleXml, OverrunWatchdogTagsAndTheirDefaults) {
+    Module process = periodic("p");
+    process.set("moduletype", "process").set("filename", "./p.exe").set("on_overrun", "restart");
+    SetSpec set = accepted(document(periodic("a").set("on_overrun", "stop").set("overrun_limit", "300000"),
+                                    periodic("b").set("on_overrun", "skip"),
+                                    periodic("c").set("deadline", "50000").set("on_overrun", "warn"),
+                                    periodic("d").set("on_overrun", "disable"), process, periodic("none")));
+    ASSERT_EQ(set.modules.size(), 6u);
+    EXPECT_EQ(set.modules[0].on_overrun, irp::config::OverrunAction::Stop);
+    EXPECT_EQ(set.modules[0].overrun_limit_ns, 300000);  // may exceed the period
+    EXPECT_EQ(set.modules[1].on_overrun, irp::config::OverrunAction::Skip);
+    EXPECT_EQ(set.modules[1].overrun_limit_ns, 100000);  // default: the period
+    EXPECT_EQ(set.modules[2].overrun_limit_ns, 50000);   // ... or the deadline
+    EXPECT_EQ(set.modules[3].on_overrun, irp::config::OverrunAction::Disable);
+    EXPECT_EQ(set.modules[4].on_overrun, irp::config::OverrunAction::Restart);
+    EXPECT_EQ(set.modules[5].on_overrun, irp::config::OverrunAction::None);  // the paper's files: no watchdog
+    EXPECT_EQ(set.modules[5].overrun_limit_ns, 0);
+}
+
 TEST(ModuleXml, CarriageReturnLineEndingsCountLinesTheSame) {
     std::string text = document(periodic("a"), periodic("b").set("period", "0"));
     const int line = lineOf(text, "<period>0<");
@@ -818,6 +837,39 @@ TEST(ModuleXmlBad, BudgetLongerThanPeriod) {
 TEST(ModuleXmlBad, BudgetOnSporadicModule) {
     const std::string text = document(sporadic().set("budget", "1000"));
     EXPECT_TRUE(refusedAt(text, lineOf(text, "<budget>"), {"module 'event1'", "<budget>", "only periodic"}));
+}
+
+TEST(ModuleXmlBad, OnOverrunUnknownValue) {
+    const std::string text = document(periodic().set("on_overrun", "reboot"));
+    EXPECT_TRUE(refusedAt(text, lineOf(text, "<on_overrun>"),
+                          {"module 'cntr1'", "<on_overrun>", "'reboot'", "warn, skip, disable or stop"}));
+}
+
+TEST(ModuleXmlBad, OnOverrunRestartOnAThread) {
+    const std::string text = document(periodic().set("on_overrun", "restart"));
+    EXPECT_TRUE(refusedAt(text, lineOf(text, "<on_overrun>"), {"'restart'", "for a thread module"}));
+}
+
+TEST(ModuleXmlBad, OnOverrunSkipOnAProcess) {
+    const std::string text = document(periodic().set("moduletype", "process").set("on_overrun", "skip"));
+    EXPECT_TRUE(refusedAt(text, lineOf(text, "<on_overrun>"), {"'skip'", "warn, restart or stop", "process module"}));
+}
+
+TEST(ModuleXmlBad, OnOverrunOnSporadicModule) {
+    const std::string text = document(sporadic().set("on_overrun", "warn"));
+    EXPECT_TRUE(refusedAt(text, lineOf(text, "<on_overrun>"), {"module 'event1'", "only periodic"}));
+}
+
+TEST(ModuleXmlBad, OverrunLimitWithoutOnOverrun) {
+    const std::string text = document(periodic().set("overrun_limit", "100000"));
+    EXPECT_TRUE(refusedAt(text, lineOf(text, "<overrun_limit>"), {"<overrun_limit>", "needs an <on_overrun>"}));
+}
+
+TEST(ModuleXmlBad, OverrunLimitNotAPositiveInteger) {
+    for (const char *bad : {"0", "-5", "1ms"}) {
+        const std::string text = document(periodic().set("on_overrun", "warn").set("overrun_limit", bad));
+        EXPECT_TRUE(refusedAt(text, lineOf(text, "<overrun_limit>"), {"<overrun_limit>", bad})) << bad;
+    }
 }
 
 TEST(ModuleXmlBad, TextBetweenElementsInModule) {

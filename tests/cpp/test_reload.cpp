@@ -213,6 +213,71 @@ TEST(HotReload, AFailedLoadLeavesTheRunningSetUntouched) {
     EXPECT_EQ(failed, cases.size());
 }
 
+// A swap that fails halfway: new modules before the failing one were loaded, initialized and
+// started; they are stopped and unloaded again, the ones after it never start, and the running
+// set goes on untouched (the same generation, keep neither restarted nor stopped).
+TEST(HotReload, ASwapThatFailsHalfwayStopsWhatItStartedAndLeavesTheRunningSetUntouched) {
+    Cell cell;
+    fs::copy_file(kModules / "counter_v2.so", cell.dir.path / "a.so");
+    fs::copy_file(kModules / "counter_v2.so", cell.dir.path / "c.so");
+    fs::copy_file(kModules / "init_throws.so", cell.dir.path / "throws.so");
+    fs::copy_file(kModules / "not_elf.so", cell.dir.path / "notelf.so");
+    fs::copy_file(kModules / "start_throws.so", cell.dir.path / "startthrows.so");
+    const std::string exe = std::string(FIXTURE_PROCESSES) + "/proc_periodic.exe";
+    const std::string keep = module("keep", "keep.so", 1'000'000, 1, journalOf(cell.dir.path, "keep"));
+    auto fresh = [&](const std::string &name) { return module(name, name + ".so", 2'000'000, 2, journalOf(cell.dir.path, name)); };
+    // New thread modules are all loaded, then all initialized, then started in file order;
+    // processes start after them.  a_log, c_log: what a and c (before and after the failing x)
+    // must have journaled: every start() stopped again.
+    const std::string started = "start v2\nstop v2 runs=0\n";
+    struct Case {
+        std::string name, failing, expected, a_log, c_log;
+    };
+    const std::vector<Case> cases = {
+        {"not loadable", module("x", "notelf.so", 2'000'000, 3), "cannot load", "", ""},
+        {"initialize throws", module("x", "throws.so", 2'000'000, 3), "initialize", "", ""},
+        {"start throws", module("x", "startthrows.so", 2'000'000, 3), "drive not ready", started, ""},
+        {"a process that exits before it is ready",
+         "  <module><name>x</name><filename>" + exe +
+             "</filename><moduletype>process</moduletype><operationtype>periodic</operationtype><period>2000000</period>"
+             "<priority>3</priority><property><value name=\"args\">--exit-now 3</value><value name=\"restart\">never</value>"
+             "</property></module>\n",
+         "x", started, started},
+    };
+    for (const Case &c : cases) {
+        fs::remove(cell.dir.path / "a.log");
+        fs::remove(cell.dir.path / "c.log");
+        const json before = cell.result({{"cmd", "status"}});
+        const uint64_t keep_runs = count(cell.moduleNamed("keep"), "runs");
+        cell.write("half.xml", "<root>\n" + keep + fresh("a") + c.failing + fresh("c") + "</root>\n");
+        json answer = cell.ask({{"cmd", "load"}, {"config", (cell.dir.path / "half.xml").string()}});
+        ASSERT_FALSE(answer.value("ok", true)) << c.name;
+        EXPECT_NE(answer["error"].value("message", "").find(c.expected), std::string::npos) << c.name << ": " << answer.dump();
+        // What the attempt started it stopped again; what came after the failure never started.
+        EXPECT_EQ(cell.log("a"), c.a_log) << c.name;
+        EXPECT_EQ(cell.log("c"), c.c_log) << c.name;
+        // The running set: the same generation and modules, keep still running, never restarted.
+        const json after = cell.result({{"cmd", "status"}});
+        EXPECT_EQ(after["generation"], before["generation"]) << c.name;
+        json names = json::array();
+        for (const json &m : cell.result({{"cmd", "modules"}})) names.push_back(m["name"]);
+        EXPECT_EQ(names, json({"keep", "swap"})) << c.name;
+        const uint64_t later = keep_runs;
+        EXPECT_TRUE([&] {
+            for (int i = 0; i < 200; ++i) {
+                if (count(cell.moduleNamed("keep"), "runs") > later + 10) return true;
+                std::this_thread::sleep_for(std::chrono::milliseconds(10));
+            }
+            return false;
+        }()) << c.name;
+        EXPECT_EQ(cell.log("keep"), "start v1\n") << c.name;
+    }
+    std::size_t failed = 0;
+    const json events = cell.result({{"cmd", "events"}});
+    for (const json &e : events["events"]) failed += e["kind"] == "swap_failed";
+    EXPECT_EQ(failed, cases.size()) << events.dump();
+}
+
 TEST(HotReload, PeriodPriorityAndEnableAreHotReloadsOfTheRunningSet) {
     Cell cell;
     json report = cell.result({{"cmd", "set_period"}, {"module", "swap"}, {"period_ns", 4'000'000}});

@@ -10,13 +10,17 @@
 // initialize() reads ioconfig.xml (property `config`; a relative path is looked for in the
 // property `config_dir` if given, else beside the set's module.xml); start() resolves the shared variables and opens the devices; run() is one I/O cycle:
 // fieldbus I/O inside the RT period by design, as in the paper, bounded by the devices' timeouts
-// and the budget (docs/io.md); stop() closes the devices.
+// and the budget (docs/io.md); stop() closes the devices.  safe_outputs() is irpd's hook when a
+// fault stops the set: every Modbus TCP device's safe values over a connection of its own, from
+// irpd's watchdog thread, while run() may be stuck (docs/faults.md).
 //
 // One instance per loaded library: the dispatcher's state is this file's globals.
 #include "dispatcher.hpp"
+#include "safe_outputs.hpp"
 
 #include <indurop/indurop.h>
 
+#include <atomic>
 #include <fstream>
 #include <filesystem>
 #include <memory>
@@ -27,6 +31,9 @@
 namespace {
 
 std::unique_ptr<irp::iodispat::Dispatcher> g_dispatcher;
+// What safe_outputs() reads: the configuration, set before the first run() and only reset by
+// stop(), which irpd calls after its watchdog has ended.
+std::atomic<const irp::iodispat::IoConfig *> g_config{nullptr};
 bool g_started = false;
 
 std::string findConfig(const irp::Property &property) {
@@ -64,6 +71,7 @@ void start() {
         g_dispatcher.reset();
         throw;
     }
+    g_config.store(&g_dispatcher->config());
     g_started = true;
 }
 
@@ -71,7 +79,19 @@ void run() {
     if (g_dispatcher) g_dispatcher->cycle();
 }
 
+extern "C" void safe_outputs() {
+    const irp::iodispat::IoConfig *config = g_config.load();
+    if (!config) return;
+    // A short, fixed timeout: the devices are on a LAN, and this runs while the set is stopped.
+    const std::vector<std::string> failures = irp::iodispat::driveSafeOutputs(*config, 20.0);
+    if (failures.empty()) return;
+    std::string all;
+    for (const std::string &f : failures) all += (all.empty() ? "" : "; ") + f;
+    throw std::runtime_error(all);
+}
+
 void stop() {
+    g_config.store(nullptr);
     if (g_dispatcher) {
         g_dispatcher->stop();
         irp::printf("iodispat: stopped after %llu cycles, the longest %lld us", static_cast<unsigned long long>(g_dispatcher->cycles()),

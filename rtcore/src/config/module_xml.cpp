@@ -28,6 +28,11 @@ const char *toString(OperationType type) {
     return "?";
 }
 
+const char *toString(OverrunAction action) {
+    static const char *const names[] = {"none", "warn", "skip", "disable", "stop", "restart"};
+    return names[static_cast<int>(action)];
+}
+
 namespace {
 
 // Thrown inside the parser only, turned into an Error at its door.
@@ -263,10 +268,10 @@ private:
             std::string tag = child.name();
             static const std::set<std::string> known = {"filename", "moduletype", "operationtype", "period",
                                                         "deadline", "priority",   "property",      "name",
-                                                        "budget",   "executor"};
+                                                        "budget",   "executor",      "on_overrun", "overrun_limit"};
             if (!known.count(tag))
                 defer(child, "unknown tag <" + tag + "> in <module>; expected one of filename, moduletype, "
-                             "operationtype, period, deadline, priority, property, name, budget, executor");
+                             "operationtype, period, deadline, priority, property, name, budget, executor, on_overrun, overrun_limit");
             else if (fields.count(tag))
                 defer(child, "<" + tag + "> appears twice in one <module>");
             else
@@ -355,8 +360,31 @@ private:
             executor_refs_.emplace_back(m.executor, executor);
             executor_ref_module_.push_back(m.name);
         }
+        overrunWatchdog(field("on_overrun"), field("overrun_limit"), m);
         if (pugi::xml_node props = field("property")) properties(props, m);
         return m;
+    }
+
+    // <on_overrun> and <overrun_limit>: the per-module watchdog (docs/faults.md).
+    void overrunWatchdog(pugi::xml_node action, pugi::xml_node limit, ModuleSpec &m) {
+        if (limit && !action) failField(limit, m.name, "overrun_limit", "needs an <on_overrun> saying what to do");
+        if (!action) return;
+        if (m.operation != OperationType::Periodic)
+            failField(action, m.name, "on_overrun", "only periodic modules have an overrun watchdog");
+        const bool thread = m.type == ModuleType::Thread;
+        const std::string a = leafText(action, m.name);
+        static const std::map<std::string, OverrunAction> known = {{"warn", OverrunAction::Warn}, {"skip", OverrunAction::Skip},
+            {"disable", OverrunAction::Disable}, {"stop", OverrunAction::Stop}, {"restart", OverrunAction::Restart}};
+        auto it = known.find(a);
+        const bool allowed = it != known.end() && (thread ? it->second != OverrunAction::Restart
+                                                          : it->second != OverrunAction::Skip && it->second != OverrunAction::Disable);
+        if (!allowed)
+            failField(action, m.name, "on_overrun", "unknown value '" + a + "'; expected " +
+                                                        (thread ? "warn, skip, disable or stop" : "warn, restart or stop") +
+                                                        " for a " + toString(m.type) + " module");
+        m.on_overrun = it->second;
+        m.overrun_limit_ns = m.deadline_ns ? m.deadline_ns : m.period_ns;
+        if (limit) m.overrun_limit_ns = integer(limit, m.name, leafText(limit, m.name), 1, " number of nanoseconds");
     }
 
     void properties(pugi::xml_node props, ModuleSpec &m) {

@@ -18,9 +18,13 @@ namespace irp::config {
 
 enum class ModuleType { Thread, Process };
 enum class OperationType { Periodic, Sporadic, NonReal };
+// <on_overrun>: what the watchdog does with a run longer than <overrun_limit> (docs/faults.md).
+// None = no watchdog (a file without the tag runs as before).
+enum class OverrunAction : uint8_t { None, Warn, Skip, Disable, Stop, Restart };
 
 const char *toString(ModuleType type);
 const char *toString(OperationType type);
+const char *toString(OverrunAction action);
 
 // The executor every module runs on unless it names another one.
 inline constexpr const char *kMainExecutor = "main";
@@ -37,6 +41,8 @@ struct ModuleSpec {
     int priority = 0;               // lowest value = highest priority
     int64_t budget_ns = 0;          // optional execution budget; 0 = none
     std::string executor = kMainExecutor;
+    OverrunAction on_overrun = OverrunAction::None;  // <on_overrun>
+    int64_t overrun_limit_ns = 0;   // <overrun_limit>: the watchdog time; 0 with on_overrun = the deadline
     std::vector<std::pair<std::string, std::string>> properties;  // <property><value name=..>
     int index = 0;                  // position in the file (ties in priority go to the earlier one)
     int line = 0;                   // line of <module>

@@ -54,6 +54,8 @@ std::unique_ptr<Tables> buildTables(const config::SetSpec &set, const schedule::
         task->stats = b.stats;
         task->period_ns = m->period_ns;
         task->budget_ns = m->budget_ns;
+        task->on_overrun = m->on_overrun;
+        task->overrun_limit_ns = m->overrun_limit_ns;
         task->deadline_ns = m->deadline_ns;
         task->calls = b.calls;
         task->module = b.owner;
@@ -94,10 +96,10 @@ Dispatcher::Dispatcher(const config::SetSpec &set, const Tables &tables, stats::
     if (options_.cpu < 0) options_.cpu = osal::lastAllowedCpu();
     std::vector<ExecutorOptions> executors;
     executors.push_back({config::kMainExecutor, options_.rt_priority, options_.cpu, options_.policy, options_.max_catchup_ns,
-                         options_.trace});
+                         options_.trace, &halted_});
     for (const config::ExecutorSpec &e : set.executors)
         executors.push_back({e.name, e.rt_priority ? e.rt_priority : std::max(1, options_.rt_priority - 1),
-                             e.cpu >= 0 ? e.cpu : options_.cpu, options_.policy, options_.max_catchup_ns});
+                             e.cpu >= 0 ? e.cpu : options_.cpu, options_.policy, options_.max_catchup_ns, nullptr, &halted_});
     for (std::size_t p = 0; p < executors.size(); ++p) {
         auto plan = std::make_unique<Plan>();
         plan->options = executors[p];
@@ -230,6 +232,12 @@ void Dispatcher::join() {
     for (pthread_t t : threads_) pthread_join(t, nullptr);
     threads_.clear();
     if (segment_.header()) segment_.header()->running.store(0, std::memory_order_relaxed);
+}
+
+std::vector<Executor *> Dispatcher::executors() const {
+    std::vector<Executor *> all;
+    for (const auto &plan : plans_) all.push_back(plan->executor.get());
+    return all;
 }
 
 bool Dispatcher::realtime() const {

@@ -86,6 +86,11 @@ public:
     void join();
 
     const std::vector<ExecutorReport> &reports() const { return reports_; }
+    // The executors (main first), for the overrun watchdog (dispatch/watchdog.hpp).
+    std::vector<Executor *> executors() const;
+    // Set once a fault stopped the set: every executor then runs no module (docs/faults.md).
+    std::atomic<bool> &halted() { return halted_; }
+    bool isHalted() const { return halted_.load(std::memory_order_relaxed); }
     bool realtime() const;
 
     // Hot reload (non-RT side).  The first macro-period boundary of the running tables at or after
@@ -113,6 +118,7 @@ private:
     std::vector<pthread_t> threads_;
     std::vector<ExecutorReport> reports_;
     std::atomic<bool> stop_{false};
+    std::atomic<bool> halted_{false};
     std::atomic<std::size_t> finished_threads_{0};
     stats::StatsSegment &segment_;
     DispatcherOptions options_;

@@ -14,13 +14,24 @@ namespace irp::dispatch {
 const char *toString(OverrunPolicy policy) { return policy == OverrunPolicy::CatchUp ? "catch-up" : "skip"; }
 
 Executor::Executor(osal::Clock &clock, const Table *table, stats::TimingRecord *self, ExecutorOptions options)
-    : clock_(clock), table_(table), self_(self), options_(std::move(options)) {}
+    : clock_(clock), table_(table), self_(self), options_(std::move(options)) {
+    noteTable(*table_);
+}
 
 Executor::Executor(osal::Clock &clock, int64_t basic_ns, std::vector<std::vector<Task *>> slots,
                    std::vector<Task *> tasks, stats::TimingRecord *self, ExecutorOptions options,
                    std::vector<Task *> events)
     : clock_(clock), own_(new Table{basic_ns, std::move(slots), std::move(tasks), std::move(events)}),
-      table_(own_.get()), self_(self), options_(std::move(options)) {}
+      table_(own_.get()), self_(self), options_(std::move(options)) {
+    noteTable(*table_);
+}
+
+void Executor::noteTable(const Table &table) {
+    bool watched = false;
+    for (const Task *t : table.tasks) watched = watched || (t->kind == Task::Kind::Thread && t->on_overrun != config::OverrunAction::None);
+    watching_.store(watched, std::memory_order_relaxed);
+    basic_ns_.store(table.basic_ns, std::memory_order_relaxed);
+}
 
 void Executor::offer(const Table *next, int64_t at) {
     switched_.store(false, std::memory_order_relaxed);
@@ -49,12 +60,14 @@ void Executor::takeOver(const Table *next) {
                 task->first_due = p->first_due;
             }
             task->disabled = task->disabled || (p->disabled && !task->clear_fault);
+            task->skip_until = p->skip_until;
             task->in_flight = p->in_flight;
             task->deadline_missed = p->deadline_missed;
             task->released_seq = p->released_seq;
             task->released_at = p->released_at;
         }
     table_ = next;
+    noteTable(*next);
 }
 
 void Executor::disable(Task &task, stats::TimingRecord &r, const char *what, const char *detail) {
@@ -62,6 +75,31 @@ void Executor::disable(Task &task, stats::TimingRecord &r, const char *what, con
     stats::bump(r.errors);
     r.state.store(static_cast<uint32_t>(stats::ModuleState::Disabled), std::memory_order_relaxed);
     irp::printf("irpd: module '%s' threw %s from %s; disabled\n", r.name, detail, what);
+}
+
+void Executor::overran(Task &task, stats::TimingRecord &r, uint64_t run, int64_t start, int64_t end) {
+    Fault f;
+    f.kind = Fault::Kind::Returned;
+    f.action = task.on_overrun;
+    f.record = &r;
+    f.executor = options_.name.c_str();
+    f.started_ns = start;
+    f.limit_ns = task.overrun_limit_ns;
+    f.elapsed_ns = end - start;
+    f.seen_ns = end;
+    f.seen_running = marker_.seen(run);
+    switch (task.on_overrun) {
+    case config::OverrunAction::Skip: task.skip_until = end; break;  // its runs due while it ran are dropped
+    case config::OverrunAction::Disable:
+        task.disabled = true;
+        r.state.store(static_cast<uint32_t>(stats::ModuleState::Disabled), std::memory_order_relaxed);
+        break;
+    case config::OverrunAction::Stop:
+        if (options_.halted) options_.halted->store(true, std::memory_order_relaxed);
+        break;
+    default: break;
+    }
+    marker_.post(f);  // the watchdog turns it into an event (and runs the stop action if not done yet)
 }
 
 void Executor::runThread(Task &task, stats::TimingRecord &r) {
@@ -169,6 +207,9 @@ void Executor::skip(uint64_t from, uint64_t count) {
  *      passed what the overrun policy allows, skip slots to the current one; Eq. (1) jitter;
  *   3. run the slot's modules in priority order; for each: Eq. (1) jitter against its own T0 and
  *      period, start latency, execution time, budget overrun; a throw disables the module.  A
+ *      module with <on_overrun> has its run() marked for the watchdog (dispatch/watchdog.hpp),
+ *      and a run past its <overrun_limit> gets its action: warn, skip (its runs due meanwhile are
+ *      dropped), disable, or stop (no module of any executor runs any more).  A
  *      process module is released (futex) and awaited in its place, bounded by its budget or by
  *      the end of the basic period (an overrun if it does not finish by then).  Right after a
  *      thread module's run(), the calls that process modules made to its exported functions are
@@ -249,12 +290,17 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         runtime::setCycle({cycle, static_cast<uint32_t>(slot_index), due, basic});
         int64_t t = woke;
         for (Task *task : table_->slots[slot_index]) {
+            if (halted()) break;  // a fault stopped the set: nothing runs any more
             if (task->disabled) {
                 serveCalls(*task, cycle);  // answers "owner disabled" to processes calling its functions
                 continue;
             }
-            const int64_t start = t;
             stats::TimingRecord &r = *task->stats;
+            if (task->skip_until > due) {  // on_overrun=skip: a run due while its last one overran
+                stats::bump(r.skipped);
+                continue;
+            }
+            const int64_t start = t;
             if (task->kind == Task::Kind::Process) {
                 // Released and awaited in its place, so R6's order holds across threads and processes.
                 const int64_t wait_until = task->budget_ns ? start + task->budget_ns : due + basic;
@@ -273,15 +319,22 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             r.jitter.record(task->t0 + n * task->period_ns - start);
             r.latency.record(static_cast<uint64_t>(start - due > 0 ? start - due : 0));
             if (start - due >= task->period_ns) stats::bump(r.missed);
+            const bool watched = task->kind == Task::Kind::Thread && task->on_overrun != config::OverrunAction::None;
+            uint64_t run = 0;
+            if (watched) run = marker_.begin(&r, task->on_overrun, task->overrun_limit_ns, start);
             if (task->kind == Task::Kind::Thread) runThread(*task, r);
+            if (watched) marker_.end();
             serveCalls(*task, cycle);  // within the owner's period, counted in its exec time
             t = clock_.now();
             const int64_t exec = t - start;
             r.exec.record(static_cast<uint64_t>(exec));
-            if (task->kind == Task::Kind::Thread && task->budget_ns && exec > task->budget_ns) stats::bump(r.overruns);
+            const bool over_limit = watched && exec > task->overrun_limit_ns;
+            if (over_limit || (task->kind == Task::Kind::Thread && task->budget_ns && exec > task->budget_ns))
+                stats::bump(r.overruns);
             stats::bump(r.runs);
+            if (over_limit) overran(*task, r, run, start, t);
         }
-        if (!table_->events.empty()) t = handleEvents(cycle, due, t);
+        if (!table_->events.empty() && !halted()) t = handleEvents(cycle, due, t);
         if (options_.trace) {
             options_.trace->sample(due);  // the traced variables, one row per basic period
             t = clock_.now();

@@ -6,6 +6,8 @@
 // there can overrun without delaying the fast ones on the main executor.
 #pragma once
 
+#include "config/module_xml.hpp"
+#include "dispatch/watchdog.hpp"
 #include "osal/clock.hpp"
 #include "stats/stats_block.hpp"
 
@@ -52,6 +54,10 @@ struct Task {
     int64_t period_ns = 0;
     int64_t period_slots = 1;  // period / the executor's basic period
     int64_t budget_ns = 0;     // 0 = none
+    // <on_overrun> / <overrun_limit>: a run longer than the limit is an overrun handled per action
+    // (thread modules here; process modules by irpd's main thread, docs/faults.md)
+    config::OverrunAction on_overrun = config::OverrunAction::None;
+    int64_t overrun_limit_ns = 0;
     // a thread module whose exported functions process modules call: served after its run()
     CallServer *calls = nullptr;
     int module = -1;           // its owner id in the call server's table
@@ -65,6 +71,7 @@ struct Task {
     int64_t first_due = 0;     // the due time of the slot of its first start: run n is due first_due + n * period
     bool started = false;
     bool disabled = false;
+    int64_t skip_until = INT64_MIN;  // on_overrun=skip: runs due before this are dropped
     // a sporadic process's release in flight
     bool in_flight = false;
     bool deadline_missed = false;
@@ -97,6 +104,9 @@ struct ExecutorOptions {
     OverrunPolicy policy = OverrunPolicy::CatchUp;
     int64_t max_catchup_ns = 100'000'000;
     trace::TraceRings *trace = nullptr;  // sampled after every slot's work (the main executor's)
+    // Set (by a watchdog or an executor) when a fault stopped the set: from then on no executor
+    // runs any module.  Shared by all executors of a dispatcher; null = never halted.
+    std::atomic<bool> *halted = nullptr;
 };
 
 class Executor {
@@ -118,7 +128,11 @@ public:
               std::atomic<int64_t> *finished_ns = nullptr);
 
     const ExecutorOptions &options() const { return options_; }
-    int64_t basicNs() const { return table_->basic_ns; }
+    int64_t basicNs() const { return basic_ns_.load(std::memory_order_relaxed); }
+    // The watchdog's view (dispatch/watchdog.hpp): the watched run in progress and the outcomes;
+    // watching(): the running table has a module with <on_overrun>.
+    RunMarker &marker() { return marker_; }
+    bool watching() const { return watching_.load(std::memory_order_relaxed); }
 
     // Hot reload, from a non-RT thread.  offer(): the loop switches to `next` at the first slot due
     // at or after `at` (a macro-period boundary of the running table, on the common time grid),
@@ -141,6 +155,9 @@ private:
     // The event handler (Figure 6): conditions of sporadic threads, then releases of sporadic processes.
     int64_t handleEvents(uint64_t cycle, int64_t due, int64_t t);
     void disable(Task &task, stats::TimingRecord &r, const char *what, const char *detail);
+    // A watched thread module's run ended past its overrun limit: count it, apply its action.
+    void overran(Task &task, stats::TimingRecord &r, uint64_t run, int64_t start, int64_t end);
+    bool halted() const { return options_.halted && options_.halted->load(std::memory_order_relaxed); }
     // The switch to an offered table, on the RT thread (no allocation: carries the kept tasks' state).
     void takeOver(const Table *next);
 
@@ -155,6 +172,10 @@ private:
     std::atomic<uint64_t> switched_cycle_{0};
     std::atomic<int64_t> switched_due_{0};
     std::atomic<bool> switched_{false};
+    RunMarker marker_;
+    std::atomic<bool> watching_{false};
+    std::atomic<int64_t> basic_ns_{0};
+    void noteTable(const Table &table);
 };
 
 } // namespace irp::dispatch

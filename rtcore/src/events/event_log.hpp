@@ -16,7 +16,8 @@ namespace irp::events {
 struct Event {
     uint64_t seq = 0;
     int64_t time_ns = 0;   // CLOCK_REALTIME
-    std::string kind;      // start, stop, swap, swap_failed, fault, deadline, overrun, process_exit, process_restart
+    std::string kind;      // start, stop, swap, swap_failed, fault, deadline, overrun, stopped, safe_outputs_failed,
+                           // process_exit, process_restart, process_hang, process_output_dropped
     std::string module;    // "" = the set as a whole
     std::string message;
 };

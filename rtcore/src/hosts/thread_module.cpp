@@ -79,6 +79,8 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
         module->plain_start_ = dlsym(module->handle_, "start");
         dlerror();
     }
+    module->safe_outputs_ = reinterpret_cast<void (*)()>(dlsym(module->handle_, "safe_outputs"));
+    dlerror();
     for (const auto &[name, value] : module->spec_.properties)
         module->property_entries_.push_back({name.c_str(), value.c_str()});
     // Where the set's other files are (ioconfig.xml, a URDF...): a module is loaded from a copy in
@@ -137,6 +139,18 @@ Status ThreadModule::start() {
         }
     }
     started_ = true;
+    return Ok{};
+}
+
+Status ThreadModule::safeOutputs() const {
+    if (!safe_outputs_) return Ok{};
+    try {
+        safe_outputs_();
+    } catch (const std::exception &e) {
+        return Error{who(spec_) + ": safe_outputs() threw: " + e.what()};
+    } catch (...) {
+        return Error{who(spec_) + ": safe_outputs() threw a non-standard exception"};
+    }
     return Ok{};
 }
 

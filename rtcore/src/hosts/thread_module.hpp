@@ -45,6 +45,11 @@ public:
     Status stop();
 
     void (*runFunction() const)() { return table_.run; }
+    // The optional extern "C" safe_outputs() (either style): drives the module's outputs to safe
+    // values when a fault stops the set.  Called from a non-RT thread while run() may still be
+    // running on the RT thread (docs/modules.md); an Error if it threw.  No hook: Ok, nothing done.
+    bool hasSafeOutputs() const { return safe_outputs_ != nullptr; }
+    Status safeOutputs() const;
     bool hasCondition() const { return table_.condition != nullptr; }
     int condition() const { return table_.condition(); }
 
@@ -66,6 +71,7 @@ private:
     // Plain modules: their C++-typed hooks, called by the host inside try/catch.
     void *plain_initialize_ = nullptr;
     void *plain_start_ = nullptr;
+    void (*safe_outputs_)() = nullptr;
     std::vector<indurop_property_entry> property_entries_;
 };
 

@@ -101,6 +101,7 @@ control::Handler commandHandler(const CommandContext &c) {
         const std::size_t executors = 1 + g->set.executors.size();
         if (cmd == "status") {
             const stats::TimingRecord &d = c.stats->record(0);
+            const std::string fault = c.stopped_by ? c.stopped_by() : std::string();
             const int64_t started = h->started_ns.load(), now = osal::monotonicNow();
             return json{{"set", g->set.xml_path.string()},
                         {"set_id", g->set_id.empty() ? json(nullptr) : json(g->set_id)},
@@ -119,6 +120,7 @@ control::Handler commandHandler(const CommandContext &c) {
                         {"skipped", d.skipped.load()},
                         {"caught_up", d.caught_up.load()},
                         {"events", c.events->last()},
+                        {"stopped_by_fault", fault.empty() ? json(nullptr) : json(fault)},
                         {"shared_memory",
                          {{"stats", c.stats->name()},
                           {"variables", c.variables_shm.empty() ? json(nullptr) : json(c.variables_shm)},

@@ -14,6 +14,7 @@
 #include "trace/trace_rings.hpp"
 #include "variables/variable_segment.hpp"
 
+#include <functional>
 #include <string>
 
 namespace irp::daemon {
@@ -28,6 +29,7 @@ struct CommandContext {
     nlohmann::json layout;      // the running layout.json (parsed), for write's type checks
     trace::TraceRings *trace = nullptr;
     const variables::VariableSegment *vars = nullptr;  // null: no shared variables
+    std::function<std::string()> stopped_by;            // why a fault stopped the set ("" = it did not)
 };
 
 control::Handler commandHandler(const CommandContext &context);

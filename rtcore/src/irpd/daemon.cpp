@@ -15,6 +15,7 @@
 #include "control/control_server.hpp"
 #include "dispatch/dispatcher.hpp"
 #include "dispatch/function_calls.hpp"
+#include "dispatch/watchdog.hpp"
 #include "events/event_log.hpp"
 #include "hosts/control_segment.hpp"
 #include "hosts/module_cache.hpp"
@@ -38,6 +39,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cstdio>
 #include <ctime>
 #include <fstream>
@@ -103,7 +106,7 @@ Result<hosts::ModuleCache> openModuleCache(const Options &options) {
 
 // Turns what the RT threads and the supervisor counted since the last look into events: a module
 // disabled by a fault, deadline misses and overruns (at most one event per module per second),
-// process exits and restarts.
+// process exits and restarts, output lines a process lost to the rate limit (one a second).
 class EventWatch {
 public:
     EventWatch(events::EventLog &log, const stats::StatsSegment &stats) : log_(log), stats_(stats) {}
@@ -113,13 +116,15 @@ public:
             const stats::TimingRecord &r = stats_.record(g.members[static_cast<std::size_t>(m.index)].record);
             Seen &seen = seen_[m.name];
             const uint64_t errors = r.errors.load(), missed = r.missed.load(), overruns = r.overruns.load();
-            if (errors > seen.errors && !seen.first)
+            // (on the first look too: a module may throw before it, in its first runs)
+            if (errors > seen.errors)
                 log_.add("fault", m.name, "threw from run() or condition(); disabled (enable it to run it again)");
             if (figures || seen.first) {
                 if (missed > seen.missed && !seen.first)
                     log_.add("deadline", m.name, std::to_string(missed - seen.missed) + " deadline misses (" +
                                                      std::to_string(missed) + " in all)");
-                if (overruns > seen.overruns && !seen.first)
+                // (a module with <on_overrun> has each overrun reported by the watchdog instead)
+                if (overruns > seen.overruns && !seen.first && m.on_overrun == config::OverrunAction::None)
                     log_.add("overrun", m.name, std::to_string(overruns - seen.overruns) + " budget overruns (" +
                                                     std::to_string(overruns) + " in all)");
                 seen.missed = missed;
@@ -132,20 +137,114 @@ public:
             Seen &seen = seen_["process:" + p.name + ":" + std::to_string(p.slot)];
             if (p.exits > seen.exits) log_.add("process_exit", p.name, p.last_exit);
             if (p.restarts > seen.restarts) log_.add("process_restart", p.name, "restarted (" + std::to_string(p.restarts) + " restarts)");
+            if (p.dropped_lines > seen.dropped && figures)  // at most one a second
+                log_.add("process_output_dropped", p.name,
+                         std::to_string(p.dropped_lines - seen.dropped) + " output lines dropped by the rate limit (" +
+                             std::to_string(p.dropped_lines) + " in all)");
             seen.exits = p.exits;
             seen.restarts = p.restarts;
+            if (figures) seen.dropped = p.dropped_lines;
         }
     }
 
 private:
     struct Seen {
         bool first = true;
-        uint64_t errors = 0, missed = 0, overruns = 0, exits = 0, restarts = 0;
+        uint64_t errors = 0, missed = 0, overruns = 0, exits = 0, restarts = 0, dropped = 0;
     };
     events::EventLog &log_;
     const stats::StatsSegment &stats_;
     std::map<std::string, Seen> seen_;
 };
+
+// A periodic process module with <on_overrun> whose release has not completed within its
+// <overrun_limit> hangs: warn, kill it (the supervisor restarts it per its `restart` property) or
+// stop the set.  Looked at on the main thread every tick; one action per release.
+class ProcessHangWatch {
+public:
+    void look(const reload::Generation &g, hosts::ControlSegment &control, const hosts::ProcessSupervisor &supervisor,
+              events::EventLog &log, dispatch::Watchdog &watchdog, stats::StatsSegment &stats, int64_t now) {
+        for (const config::ModuleSpec &m : g.set.modules) {
+            const reload::Member &member = g.members[static_cast<std::size_t>(m.index)];
+            if (m.type != config::ModuleType::Process || m.on_overrun == config::OverrunAction::None || member.slot < 0)
+                continue;
+            indurop_process_slot &slot = control.slot(static_cast<uint32_t>(member.slot));
+            const uint32_t released = std::atomic_ref<uint32_t>(slot.release_seq).load(std::memory_order_acquire);
+            if (std::atomic_ref<uint32_t>(slot.done_seq).load(std::memory_order_acquire) == released) continue;
+            const int64_t since = std::atomic_ref<int64_t>(slot.release_ns).load(std::memory_order_relaxed);
+            if (now - since <= m.overrun_limit_ns) continue;
+            const uint64_t generation = std::atomic_ref<uint64_t>(slot.generation).load(std::memory_order_relaxed);
+            Acted &acted = acted_[member.slot];
+            if (acted.generation == generation && acted.release == released) continue;
+            acted = {generation, released};
+            dispatch::Fault f;
+            f.action = m.on_overrun;
+            f.record = &stats.record(member.record);
+            f.executor = "process";
+            f.started_ns = since;
+            f.limit_ns = m.overrun_limit_ns;
+            f.elapsed_ns = now - since;
+            f.seen_ns = now;
+            std::string message = "release not completed after " + std::to_string((now - since) / 1000) +
+                                  " us, past its overrun limit " + std::to_string(m.overrun_limit_ns / 1000) +
+                                  " us (on_overrun=" + config::toString(m.on_overrun) + ")";
+            if (m.on_overrun == config::OverrunAction::Restart) {
+                const auto info = supervisor.process(m.name);
+                if (info && info->running && info->pid > 0) {
+                    ::kill(info->pid, SIGKILL);  // reaped by poll(), restarted per its `restart` property
+                    message += ": killed (pid " + std::to_string(info->pid) + "), restarted per its restart policy";
+                }
+            } else if (m.on_overrun == config::OverrunAction::Stop) {
+                message += ": set stopped, outputs driven to safe values";
+            }
+            log.add("process_hang", m.name, message);
+            say("module '" + m.name + "': " + message);
+            if (m.on_overrun == config::OverrunAction::Stop) watchdog.stopSet(f);
+        }
+    }
+
+private:
+    struct Acted {
+        uint64_t generation = 0;
+        uint32_t release = 0;
+    };
+    std::map<int, Acted> acted_;
+};
+
+// The watchdog's hooks: every overrun is an event; a stop drives every module's outputs to safe
+// values (their safe_outputs(), on the watchdog's thread, at once) and says so.
+dispatch::Watchdog::Hooks watchdogHooks(events::EventLog &events, reload::Reloader &reloader, stats::StatsSegment &stats) {
+    dispatch::Watchdog::Hooks hooks;
+    hooks.report = [&events](const dispatch::Fault &f) {
+        events.add("overrun", f.module(), f.describe());
+        if (f.action == config::OverrunAction::Stop || f.kind == dispatch::Fault::Kind::Running)
+            say("module '" + f.module() + "': " + f.describe());
+    };
+    hooks.stop = [&events, &reloader, &stats](const dispatch::Fault &f) {
+        const int64_t begun = osal::monotonicNow();
+        const auto g = reloader.current();  // keeps the modules loaded while their hooks run
+        std::size_t driven = 0;
+        for (const config::ModuleSpec &m : g->set.modules) {
+            const reload::Member &member = g->members[static_cast<std::size_t>(m.index)];
+            stats.record(member.record).state.store(static_cast<uint32_t>(stats::ModuleState::Stopped));
+            if (!member.thread || !member.thread->hasSafeOutputs()) continue;
+            if (Status s = member.thread->safeOutputs(); !s) {
+                events.add("safe_outputs_failed", m.name, s.error().message);
+                say(s.error().message);
+                continue;
+            }
+            ++driven;
+        }
+        const int64_t took = osal::monotonicNow() - begun;
+        const std::string message = "set stopped by a fault of module '" + f.module() + "': outputs of " +
+                                    std::to_string(driven) + " module(s) driven to safe values in " +
+                                    std::to_string(took / 1000) + " us (" + std::to_string((begun - f.started_ns - f.limit_ns) / 1000) +
+                                    " us after the overrun limit); restart irpd to run the set again";
+        events.add("stopped", f.module(), message);
+        say(message);
+    };
+    return hooks;
+}
 
 // Room in the stats block and the control segment for what hot reloads may add.
 constexpr std::size_t kMinModuleRecords = 256;
@@ -250,6 +349,10 @@ int run(const Options &options) {
     if (!first) return refuse(first.error().message);
     drainModuleOutput();
 
+    // The overrun watchdog (docs/faults.md), made once the dispatcher runs; `status` reads it.
+    std::atomic<const dispatch::Watchdog *> watchdog_now{nullptr};
+    std::unique_ptr<dispatch::Watchdog> watchdog;
+
     // The control socket: commands read the running generation; hot reloads run on this thread.
     std::unique_ptr<control::ControlServer> control_server;
     if (!options.control_socket.empty()) {
@@ -263,6 +366,10 @@ int run(const Options &options) {
         context.layout = std::move(layout_json);
         context.trace = &*trace_rings;
         context.vars = vars ? &*vars : nullptr;
+        context.stopped_by = [&watchdog_now] {
+            const dispatch::Watchdog *w = watchdog_now.load();
+            return w ? w->stoppedBy() : std::string();
+        };
         auto opened = control::ControlServer::open(options.control_socket, commandHandler(context));
         if (!opened) {
             supervisor.stopAll(1'000'000'000);
@@ -292,6 +399,11 @@ int run(const Options &options) {
         return refuse(s.error().message);
     }
     reloader.adopt(std::move(*first), dispatcher);
+    watchdog = std::make_unique<dispatch::Watchdog>(osal::monotonicClock(), dispatcher.executors(), dispatcher.halted(),
+                                                    watchdogHooks(events, reloader, *segment));
+    // Above the dispatchers (it must run while one of them is stuck), on the non-RT CPUs.
+    watchdog->start(dispatcher.realtime() ? std::min(99, options.dispatcher.rt_priority + 1) : 0);
+    watchdog_now.store(watchdog.get());
     for (const dispatch::ExecutorReport &r : dispatcher.reports())
         say("executor '" + r.name + "': " + r.detail);
     if (!dispatcher.realtime()) {
@@ -314,6 +426,7 @@ int run(const Options &options) {
     sigaddset(&stop_signals, SIGTERM);
     const timespec tick{0, 20'000'000};
     EventWatch watch(events, *segment);
+    ProcessHangWatch hangs;
     int64_t last_figures = 0;
     while (!dispatcher.finished()) {
         int sig = sigtimedwait(&stop_signals, nullptr, &tick);
@@ -324,7 +437,7 @@ int run(const Options &options) {
         for (const hosts::ProcessInfo &p : supervisor.processes())
             for (const config::ModuleSpec &m : g->set.modules) {
                 const reload::Member &member = g->members[static_cast<std::size_t>(m.index)];
-                if (member.slot == static_cast<int>(p.slot) && !g->disabled.count(m.name))
+                if (member.slot == static_cast<int>(p.slot) && !g->disabled.count(m.name) && !dispatcher.isHalted())
                     segment->record(member.record)
                         .state.store(static_cast<uint32_t>(p.running || p.restart_pending ? stats::ModuleState::Running
                                                                                           : stats::ModuleState::Exited));
@@ -333,6 +446,7 @@ int run(const Options &options) {
         const bool figures = now - last_figures >= 1'000'000'000;
         if (figures) last_figures = now;
         watch.look(*g, supervisor, figures);
+        if (control) hangs.look(*g, *control, supervisor, events, *watchdog, *segment, now);
         if (sig == SIGINT || sig == SIGTERM) {
             say(std::string("received ") + (sig == SIGINT ? "SIGINT" : "SIGTERM") + ", stopping");
             break;
@@ -344,6 +458,8 @@ int run(const Options &options) {
     control_server.reset();  // no client reads a set that is going away
     dispatcher.requestStop();
     dispatcher.join();
+    watchdog_now.store(nullptr);
+    watchdog->stop();
     if (calls) calls->stop();  // callers still waiting return at once ("irpd is stopping")
     supervisor.stopAll(2'000'000'000);  // stop_requested, then SIGTERM, then SIGKILL
     // From slot 0's due time to the end of the main dispatcher's last slot.

@@ -375,7 +375,16 @@ std::shared_ptr<const Generation> Reloader::current() const {
     return current_;
 }
 
+// A set stopped by a fault (<on_overrun>stop</on_overrun>, docs/faults.md) stays stopped: its
+// outputs were driven to safe values and the faulty module may still be stuck in run().
+static Status refuseWhenHalted(const dispatch::Dispatcher *dispatcher) {
+    if (dispatcher && dispatcher->isHalted())
+        return Error{"the set was stopped by a fault (see the events and `status`): restart irpd to run a set again"};
+    return Ok{};
+}
+
 Result<json> Reloader::load(const std::filesystem::path &xml, const std::string &set_id) {
+    if (Status s = refuseWhenHalted(dispatcher_); !s) return s.error();
     const int64_t requested = now();
     auto set = config::parseModuleXml(xml);
     if (!set) {
@@ -448,6 +457,7 @@ std::vector<std::string> changeWarnings(const Generation &before, const Generati
 } // namespace
 
 Result<json> Reloader::change(const std::vector<Change> &changes, bool dry_run) {
+    if (Status s = refuseWhenHalted(dispatcher_); !s) return s.error();
     const int64_t requested = now();
     const auto running = current();
     config::SetSpec set = running->set;

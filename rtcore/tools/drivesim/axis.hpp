@@ -45,6 +45,7 @@ inline constexpr uint16_t kFollowingError = 0x2000;
 // Error codes (CiA 402 / CiA 301 emergency codes).
 inline constexpr uint16_t kErrorFollowing = 0x8611;  // following error
 inline constexpr uint16_t kErrorInjected = 0xFF00;   // raised through the fault-injection register
+inline constexpr uint16_t kErrorCommTimeout = 0x8130;  // the master went silent (life guard / heartbeat error)
 
 inline constexpr int8_t kModeCsp = 8;
 

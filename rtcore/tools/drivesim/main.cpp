@@ -5,7 +5,9 @@
 // listening socket and every client until the next 1 ms tick of CLOCK_MONOTONIC; a ready client's
 // request is received and answered from one modbus_mapping_t; at each tick every axis steps
 // 1 ms and its feedback is written into the input registers.  The register map is in
-// register_map.hpp and docs/io.md.
+// register_map.hpp and docs/io.md.  Like a real drive's fieldbus watchdog, a master that wrote
+// nothing for --comm-timeout ms (after its first write) makes every axis quick-stop and fault
+// (0x8130); a fault reset (controlword bit 7) recovers it once the master writes again.
 #include "axis.hpp"
 #include "register_map.hpp"
 
@@ -55,6 +57,7 @@ struct Options {
     double following_limit = 0.1;                // rad
     double fail_after = -1;                      // s, < 0: never
     double fail_for = -1;                        // s, < 0: for ever
+    double comm_timeout_ms = 100;                // 0: no comm watchdog
     bool quiet = false;
 };
 
@@ -72,6 +75,8 @@ const char *kUsage =
     "  --following-limit RAD     |target - actual| above this faults the axis, error 0x8611 (default 0.1)\n"
     "  --fail-after S            stop answering after S seconds (comm-loss tests)\n"
     "  --fail-for S              ...and answer again S seconds later (default: never)\n"
+    "  --comm-timeout MS         no write from the master for MS ms: every axis quick-stops and faults,\n"
+    "                            error 0x8130 (a drive's fieldbus watchdog; default 100, 0: none)\n"
     "  --quiet                   print only the listening line and errors\n"
     "Prints \"indurop-drivesim: listening on HOST:PORT\" when ready; SIGTERM or SIGINT end it cleanly.\n";
 
@@ -102,7 +107,7 @@ std::vector<double> numbers(const char *option, const char *text) {
 }
 
 Options parse(int argc, char **argv) {
-    enum { kHost = 1, kPort, kAxes, kCpr, kVmax, kAmax, kInitial, kLag, kFollowing, kFailAfter, kFailFor, kQuiet, kHelp };
+    enum { kHost = 1, kPort, kAxes, kCpr, kVmax, kAmax, kInitial, kLag, kFollowing, kFailAfter, kFailFor, kCommTimeout, kQuiet, kHelp };
     static const option longs[] = {{"host", required_argument, nullptr, kHost},
                                    {"port", required_argument, nullptr, kPort},
                                    {"axes", required_argument, nullptr, kAxes},
@@ -114,6 +119,7 @@ Options parse(int argc, char **argv) {
                                    {"following-limit", required_argument, nullptr, kFollowing},
                                    {"fail-after", required_argument, nullptr, kFailAfter},
                                    {"fail-for", required_argument, nullptr, kFailFor},
+                                   {"comm-timeout", required_argument, nullptr, kCommTimeout},
                                    {"quiet", no_argument, nullptr, kQuiet},
                                    {"help", no_argument, nullptr, kHelp},
                                    {nullptr, 0, nullptr, 0}};
@@ -153,6 +159,10 @@ Options parse(int argc, char **argv) {
             break;
         case kFailAfter: o.fail_after = number("--fail-after", optarg); break;
         case kFailFor: o.fail_for = number("--fail-for", optarg); break;
+        case kCommTimeout:
+            o.comm_timeout_ms = number("--comm-timeout", optarg);
+            if (o.comm_timeout_ms < 0) usage("--comm-timeout: expected 0 (none) or a number of ms");
+            break;
         case kQuiet: o.quiet = true; break;
         case kHelp: std::fputs(kUsage, stdout); std::exit(0);
         default: usage(std::string("unknown option or missing value: ") + name);
@@ -224,6 +234,13 @@ public:
         for (int b = 0; b < regs::kBits; ++b) map_->tab_input_bits[b] = map_->tab_bits[b];
     }
 
+    // The master has been silent too long: each axis quick-stops (brakes at its maximum
+    // deceleration in fault reaction) and ends in fault until a fault reset.
+    void commTimeout(double silent_ms) {
+        for (Axis &a : axes_) a.injectFault(kErrorCommTimeout);
+        std::printf("comm timeout: no write for %.1f ms: every axis quick-stops and faults (error 0x8130)\n", silent_ms);
+    }
+
     void step() {
         for (std::size_t i = 0; i < axes_.size(); ++i) {
             axes_[i].step(0.001);
@@ -242,6 +259,7 @@ private:
     static const char *errorText(uint16_t code) {
         return code == kErrorFollowing ? " (error 0x8611: following error)"
              : code == kErrorInjected  ? " (error 0xFF00: injected fault)"
+             : code == kErrorCommTimeout ? " (error 0x8130: comm timeout)"
                                        : " (error)";
     }
 
@@ -306,6 +324,20 @@ int main(int argc, char **argv) {
     const int64_t start = nowNs();
     int64_t next_tick = start + 1'000'000;
     bool failing = false;
+    // The comm watchdog: armed by a request, fired once by silence, re-armed by the next request.
+    bool armed = false;
+    int64_t last_request = start;
+    const auto comm_timeout = static_cast<int64_t>(o.comm_timeout_ms * 1e6);
+    // Judged after the ready requests were read: a simulator starved of CPU first takes the
+    // writes queued meanwhile, then decides whether the master went silent.
+    auto checkSilence = [&] {
+        const int64_t t = nowNs();
+        if (armed && comm_timeout > 0 && t - last_request > comm_timeout) {
+            armed = false;
+            sim.commTimeout(static_cast<double>(t - last_request) / 1e6);
+        }
+    };
+    const int header = modbus_get_header_length(ctx);
     uint8_t query[MODBUS_TCP_MAX_ADU_LENGTH];
 
     while (!g_stop) {
@@ -320,6 +352,7 @@ int main(int argc, char **argv) {
         const bool fail_now = o.fail_after >= 0 && elapsed >= o.fail_after && !(o.fail_for >= 0 && elapsed >= o.fail_after + o.fail_for);
         if (fail_now != failing) {
             failing = fail_now;
+            armed = false;  // a simulated dead drive has no watchdog running
             if (!o.quiet) std::printf("%s\n", failing ? "fail-after: no longer answering" : "fail-for: answering again");
         }
 
@@ -342,7 +375,10 @@ int main(int argc, char **argv) {
             std::fprintf(stderr, "indurop-drivesim: select: %s\n", std::strerror(errno));
             break;
         }
-        if (rc == 0 || failing) continue;
+        if (rc == 0 || failing) {
+            checkSilence();
+            continue;
+        }
 
         if (FD_ISSET(server, &ready)) {
             sockaddr_in peer{};
@@ -368,6 +404,12 @@ int main(int argc, char **argv) {
             if (n > 0) {
                 modbus_reply(ctx, query, n, map);
                 sim.takeCommands();
+                // The watchdog is fed by the master's writes (its cyclic outputs), not by readers.
+                const uint8_t function = query[header];
+                if (function == 0x05 || function == 0x06 || function == 0x0F || function == 0x10 || function == 0x17) {
+                    armed = true;
+                    last_request = nowNs();
+                }
                 ++k;
             } else if (n == 0) {
                 ++k;  // ignored (not for us)
@@ -377,6 +419,7 @@ int main(int argc, char **argv) {
                 clients.erase(clients.begin() + static_cast<std::ptrdiff_t>(k));
             }
         }
+        checkSilence();
     }
 
     for (int fd : clients) close(fd);

@@ -14,7 +14,7 @@ inline constexpr int kTargetPosition = 2;         // int32 counts, +2 high word,
 // Input registers (function code 4): the drive's feedback.
 inline constexpr int kInputStride = 8;            // axis i at kInputStride * i
 inline constexpr int kStatusword = 0;             // uint16
-inline constexpr int kErrorCode = 1;              // uint16 (0 none, 0x8611 following error, 0xFF00 injected)
+inline constexpr int kErrorCode = 1;              // uint16 (0 none, 0x8611 following error, 0x8130 comm timeout, 0xFF00 injected)
 inline constexpr int kModeDisplay = 2;            // int16
 inline constexpr int kActualPosition = 3;         // int32 counts, +3 high, +4 low
 inline constexpr int kActualVelocity = 5;         // int32 counts/s, +5 high, +6 low

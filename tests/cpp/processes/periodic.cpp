@@ -7,6 +7,7 @@
 //   --crash-at K      raise SIGSEGV in its K-th period
 //   --exit-at K N     exit with status N in its K-th period
 //   --hang-at K       ignore SIGTERM and never finish its K-th period
+//   --flood-at K N    print N lines as fast as it can in its K-th period
 #include <indurop/indurop.h>
 
 #include <dirent.h>
@@ -22,7 +23,7 @@
 
 int main(int argc, char *argv[]) {
     setvbuf(stdout, nullptr, _IOLBF, 0);
-    long crash_at = -1, exit_at = -1, exit_status = 0, hang_at = -1;
+    long crash_at = -1, exit_at = -1, exit_status = 0, hang_at = -1, flood_at = -1, flood_lines = 0;
     bool init = true;
     std::vector<std::string> env;
     std::printf("start pid=%d argc=%d\n", static_cast<int>(getpid()), argc);
@@ -36,6 +37,7 @@ int main(int argc, char *argv[]) {
         else if (a == "--crash-at") crash_at = next();
         else if (a == "--exit-at") exit_at = next(), exit_status = next();
         else if (a == "--hang-at") hang_at = next();
+        else if (a == "--flood-at") flood_at = next(), flood_lines = next();
     }
     for (const std::string &name : env) {
         const char *value = std::getenv(name.c_str());
@@ -83,6 +85,8 @@ int main(int argc, char *argv[]) {
                     static_cast<unsigned long long>(c.count), c.slot, static_cast<long long>(c.planned_ns),
                     static_cast<long long>(c.basic_ns));
         if (n == crash_at) raise(SIGSEGV);
+        if (n == flood_at)
+            for (long i = 0; i < flood_lines; ++i) std::printf("flood line %ld\n", i);
         if (n == exit_at) return static_cast<int>(exit_status);
         if (n == hang_at) {
             signal(SIGTERM, SIG_IGN);

@@ -22,8 +22,10 @@ namespace testing_support {
 class DriveSim {
 public:
     // Starts DRIVESIM_PATH with `args` on `port` (0: any free port) and waits until it listens.
+    // Its comm watchdog is off unless `args` give --comm-timeout: a test that pauses between
+    // writes must not see its axes fault.
     explicit DriveSim(std::vector<std::string> args = {}, int port = 0) {
-        std::vector<std::string> argv{DRIVESIM_PATH, "--port", std::to_string(port)};
+        std::vector<std::string> argv{DRIVESIM_PATH, "--port", std::to_string(port), "--comm-timeout", "0"};
         argv.insert(argv.end(), args.begin(), args.end());
         process_ = std::make_unique<Process>(argv, dir_.path);
         const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(20);

@@ -48,8 +48,9 @@ export function pageFull(page: EventsPage, limit: number): boolean {
   return irpd >= limit || agent >= limit;
 }
 
-const BAD = new Set(["fault", "swap_failed", "process_exit", "irpd_lost", "restore_failed", "lockout"]);
-const WARN = new Set(["deadline", "overrun", "process_restart", "rollback"]);
+const BAD = new Set(["fault", "swap_failed", "process_exit", "irpd_lost", "restore_failed", "lockout",
+                     "stopped", "safe_outputs_failed", "process_hang"]);
+const WARN = new Set(["deadline", "overrun", "process_restart", "process_output_dropped", "rollback"]);
 
 /** The state an event kind stands for: "bad", "warn" or "" (colors are for states only). */
 export function eventLevel(kind: string): "bad" | "warn" | "" {

@@ -1,0 +1,359 @@
+// test_faults.cpp -- faults irpd survives or contains, each injected into a running irpd
+// (docs/faults.md): a thread module that overruns (the watchdog's stop drives safe outputs while
+// it is still stuck, disable takes it out), one that throws, and a periodic process module that
+// segfaults, exits, floods its output or hangs.  Each test checks that irpd still answers, that
+// the rest of the set still runs, and that the event names the module.  The device side, on the
+// plc-robot cell with the drive simulator started apart: a stop drives the drives' controlwords
+// to 0 over Modbus while the faulty module is still stuck, and irpd killed -9 leaves the drives to
+// their own comm timeout, which quick-stops them.  No timing figure is
+// asserted here; tests/bench/faults.py measures them.
+#include "support/control_client.hpp"
+#include "support/drivesim.hpp"
+#include "support/irpd.hpp"
+#include "support/subprocess.hpp"
+
+#include <gtest/gtest.h>
+
+#include <signal.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <regex>
+#include <thread>
+
+using nlohmann::json;
+using testing_support::Client;
+using testing_support::kIrpd;
+using testing_support::Process;
+using testing_support::readFile;
+using testing_support::TempDir;
+using testing_support::uniqueInstance;
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path kModules = FIXTURE_MODULES;
+const std::string kProcess = std::string(FIXTURE_PROCESSES) + "/proc_periodic.exe";
+
+std::string thread(const std::string &name, const std::string &file, int64_t period_ns, int priority,
+                   const std::string &extra = "") {
+    return "  <module><name>" + name + "</name><filename>" + file +
+           "</filename><moduletype>thread</moduletype><operationtype>periodic</operationtype><period>" +
+           std::to_string(period_ns) + "</period><priority>" + std::to_string(priority) + "</priority>" + extra +
+           "</module>\n";
+}
+
+std::string process(const std::string &name, const std::string &properties, const std::string &extra = "") {
+    return "  <module><name>" + name + "</name><filename>" + kProcess +
+           "</filename><moduletype>process</moduletype><operationtype>periodic</operationtype>"
+           "<period>2000000</period><priority>5</priority>" + extra + "<property>" + properties +
+           "</property></module>\n";
+}
+
+std::string value(const std::string &name, const std::string &v) {
+    return "<value name=\"" + name + "\">" + v + "</value>";
+}
+
+// irpd on a set written into a scratch folder, with its control socket.  Every set has `keep`
+// (a counter, 1 ms) beside the module under test: "the rest of the set".  "@DIR@" in the body
+// stands for the scratch folder.
+struct Cell {
+    TempDir dir;
+    std::string socket = (dir.path / "irpd.sock").string();
+    std::unique_ptr<Process> irpd;
+    std::unique_ptr<Client> client;
+
+    explicit Cell(std::string body, const std::string &root_extra = "") {
+        for (std::size_t at; (at = body.find("@DIR@")) != std::string::npos;) body.replace(at, 5, dir.path.string());
+        fs::copy_file(kModules / "counter_v1.so", dir.path / "keep.so");
+        fs::copy_file(kModules / "overrun.so", dir.path / "overrun.so");
+        fs::copy_file(kModules / "throws_in_run.so", dir.path / "throws.so");
+        std::ofstream(dir.path / "module.xml")
+            << "<root>\n" + root_extra +
+                   thread("keep", "keep.so", 1'000'000, 1, "<property>" + value("journal", journal("keep")) + "</property>") +
+                   body + "</root>\n";
+        irpd = std::make_unique<Process>(
+            std::vector<std::string>{kIrpd, "--config", (dir.path / "module.xml").string(), "--control-socket", socket,
+                                     "--instance", uniqueInstance(), "--module-cache", (dir.path / "cache").string()},
+            dir.path);
+        EXPECT_TRUE(irpd->waitForErr("irpd: running")) << irpd->err();
+        client = std::make_unique<Client>(socket, 60);
+        EXPECT_FALSE(client->readLine().empty());  // the hello
+    }
+    ~Cell() {
+        client.reset();
+        kill(irpd->pid(), SIGTERM);
+        EXPECT_EQ(irpd->wait(std::chrono::seconds(10)), 0) << irpd->err();
+    }
+    std::string journal(const std::string &name) const { return (dir.path / (name + ".log")).string(); }
+    std::string log(const std::string &name) const { return readFile(journal(name)); }
+    json result(const json &request) {
+        json answer = client->request(request);
+        EXPECT_TRUE(answer.value("ok", false)) << request.dump() << " -> " << answer.dump();
+        return answer.value("result", json());
+    }
+    json module(const std::string &name) {
+        for (const json &m : result({{"cmd", "modules"}}))
+            if (m["name"] == name) return m;
+        return json();
+    }
+    uint64_t runs(const std::string &name) { return module(name).value("runs", uint64_t{0}); }
+    // The events of `kind` about `module`.
+    std::vector<json> events(const std::string &kind, const std::string &module) {
+        std::vector<json> found;
+        const json all = result({{"cmd", "events"}, {"limit", 4096}});
+        for (const json &e : all["events"])
+            if (e["kind"] == kind && e["module"] == module) found.push_back(e);
+        return found;
+    }
+    // Polls `done` every 20 ms for up to 20 s.
+    bool waitUntil(const std::function<bool()> &done) {
+        const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+        while (std::chrono::steady_clock::now() < end) {
+            if (done()) return true;
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+        return false;
+    }
+    // The rest of the set runs: keep's runs grow.
+    bool keepRuns() {
+        const uint64_t before = runs("keep");
+        return waitUntil([&] { return runs("keep") > before + 20; });
+    }
+};
+
+bool contains(const std::string &text, const std::string &part) { return text.find(part) != std::string::npos; }
+
+} // namespace
+
+// ---- a thread module that overruns ------------------------------------------------------------
+
+std::string overrun(const std::string &action, const std::string &properties, const std::string &executor = "") {
+    return thread("stuck", "overrun.so", 2'000'000, 2,
+                  executor + "<on_overrun>" + action + "</on_overrun><overrun_limit>2000000</overrun_limit><property>" +
+                      value("journal", "@DIR@/stuck.log") + properties + "</property>");
+}
+
+TEST(OverrunWatchdog, StopDrivesSafeOutputsWhileTheModuleIsStillStuckAndHaltsTheSet) {
+    // `stuck` spins in its 20th run until its safe_outputs() is called (at most 10 s).
+    Cell cell(overrun("stop", value("hang_at", "20")));
+    ASSERT_TRUE(cell.waitUntil([&] { return contains(cell.log("stuck"), "overran"); })) << cell.irpd->err();
+    // safe_outputs() came while run 20 was still spinning, and that is what ended the spin.
+    const std::string log = cell.log("stuck");
+    EXPECT_EQ(log.substr(0, log.find("run 20 overran")), "start\nsafe_outputs during run 20\n") << log;
+    const auto seen = cell.events("overrun", "stuck");
+    ASSERT_FALSE(seen.empty()) << cell.result({{"cmd", "events"}}).dump();
+    EXPECT_TRUE(contains(seen[0]["message"], "still running")) << seen[0].dump();
+    EXPECT_TRUE(contains(seen[0]["message"], "on_overrun=stop")) << seen[0].dump();
+    const auto stopped = cell.events("stopped", "stuck");
+    ASSERT_EQ(stopped.size(), 1u);
+    EXPECT_TRUE(contains(stopped[0]["message"], "outputs of 1 module(s) driven to safe values")) << stopped[0].dump();
+    const json status = cell.result({{"cmd", "status"}});
+    ASSERT_TRUE(status["stopped_by_fault"].is_string()) << status.dump();
+    EXPECT_TRUE(contains(status["stopped_by_fault"], "module 'stuck'")) << status.dump();
+    // Halted: keep runs no more, while irpd still answers; a reload is refused until a restart.
+    const uint64_t keep = cell.runs("keep");
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    EXPECT_EQ(cell.runs("keep"), keep);
+    EXPECT_EQ(cell.module("keep").value("state", ""), "stopped");
+    json reload = cell.client->request({{"cmd", "load"}, {"config", (cell.dir.path / "module.xml").string()}});
+    EXPECT_FALSE(reload.value("ok", true));
+    EXPECT_TRUE(contains(reload["error"].value("message", ""), "stopped by a fault")) << reload.dump();
+}
+
+TEST(OverrunWatchdog, DisableTakesTheModuleOutAndTheRestRunsOn) {
+    // On its own executor: keep's executor is never held up by it.
+    Cell cell(overrun("disable", value("hang_at", "10") + value("hang_ms", "30"), "<executor>slow</executor>"),
+              "<executor><name>slow</name></executor>\n");
+    ASSERT_TRUE(cell.waitUntil([&] { return cell.module("stuck").value("state", "") == "disabled"; }));
+    EXPECT_EQ(cell.runs("stuck"), 10u);
+    EXPECT_TRUE(cell.keepRuns());
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    EXPECT_EQ(cell.runs("stuck"), 10u);
+    bool disabled_event = false;
+    for (const json &e : cell.events("overrun", "stuck")) disabled_event |= contains(e["message"], "disabled");
+    EXPECT_TRUE(disabled_event);
+    EXPECT_TRUE(cell.result({{"cmd", "status"}})["stopped_by_fault"].is_null());
+}
+
+TEST(OverrunWatchdog, SkipDropsTheMissedRunsAndTheModuleGoesOn) {
+    Cell cell(overrun("skip", value("hang_at", "10") + value("hang_ms", "30")));
+    ASSERT_TRUE(cell.waitUntil([&] { return cell.runs("stuck") > 30; }));
+    const json stuck = cell.module("stuck");
+    EXPECT_GE(stuck.value("skipped", 0), 14);  // 30 ms of its 2 ms periods, less the one it was in
+    EXPECT_EQ(stuck.value("overruns", 0), 1);
+    EXPECT_TRUE(cell.keepRuns());
+    EXPECT_FALSE(cell.events("overrun", "stuck").empty());
+}
+
+TEST(OverrunWatchdog, WarnOnlyReportsIt) {
+    Cell cell(overrun("warn", value("hang_at", "10") + value("hang_ms", "10")));
+    ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("overrun", "stuck").empty(); }));
+    ASSERT_TRUE(cell.waitUntil([&] { return cell.runs("stuck") > 30; }));
+    EXPECT_EQ(cell.module("stuck").value("skipped", -1), 0);
+    EXPECT_EQ(cell.module("stuck").value("overruns", 0), 1);
+    EXPECT_TRUE(cell.keepRuns());
+}
+
+// ---- a thread module that throws --------------------------------------------------------------
+
+TEST(ThreadFault, AThrowFromRunDisablesThatModuleOnlyAndIsAnEvent) {
+    Cell cell(thread("throws", "throws.so", 2'000'000, 2));
+    ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("fault", "throws").empty(); }));
+    EXPECT_EQ(cell.module("throws").value("state", ""), "disabled");
+    EXPECT_EQ(cell.module("throws").value("errors", 0), 1);
+    EXPECT_EQ(cell.runs("throws"), 3u);
+    EXPECT_TRUE(cell.keepRuns());
+    EXPECT_TRUE(contains(cell.irpd->out() + cell.irpd->err(), "division by zero in the controller"));
+}
+
+// ---- a periodic process module that segfaults, exits, floods or hangs ------------------------
+
+TEST(ProcessFault, ASegfaultIsLoggedAndRestartedWhileTheRestRunsOn) {
+    Cell cell(process("p", value("args", "--crash-at 5") + value("restart_delay_ms", "20")));
+    ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("process_restart", "p").empty(); })) << cell.irpd->out();
+    const auto exits = cell.events("process_exit", "p");
+    ASSERT_FALSE(exits.empty());
+    EXPECT_TRUE(contains(exits[0]["message"], "SIGSEGV")) << exits[0].dump();
+    EXPECT_TRUE(cell.keepRuns());
+    const uint64_t p = cell.runs("p");
+    EXPECT_TRUE(cell.waitUntil([&] { return cell.runs("p") > p; }));  // the restarted process runs
+}
+
+TEST(ProcessFault, AnExitIsLoggedAndRestartedWhileTheRestRunsOn) {
+    Cell cell(process("p", value("args", "--exit-at 5 3") + value("restart_delay_ms", "20")));
+    ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("process_restart", "p").empty(); })) << cell.irpd->out();
+    EXPECT_TRUE(contains(cell.events("process_exit", "p")[0]["message"], "status 3"));
+    EXPECT_TRUE(cell.keepRuns());
+}
+
+TEST(ProcessFault, AFloodOfOutputIsCutAndReportedWhileTheRestRunsOn) {
+    Cell cell(process("p", value("args", "--flood-at 5 200000")));
+    ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("process_output_dropped", "p").empty(); })) << cell.irpd->err();
+    EXPECT_TRUE(cell.keepRuns());
+    const uint64_t p = cell.runs("p");
+    EXPECT_TRUE(cell.waitUntil([&] { return cell.runs("p") > p; }));  // it goes on after its flood
+    EXPECT_TRUE(cell.events("process_exit", "p").empty());
+}
+
+TEST(ProcessFault, AHangIsDetectedKilledAndRestartedWithOnOverrunRestart) {
+    Cell cell(process("p", value("args", "--hang-at 5") + value("restart_delay_ms", "20"),
+                      "<on_overrun>restart</on_overrun><overrun_limit>2000000</overrun_limit>"));
+    ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("process_restart", "p").empty(); })) << cell.irpd->out();
+    const auto hangs = cell.events("process_hang", "p");
+    ASSERT_FALSE(hangs.empty());
+    EXPECT_TRUE(contains(hangs[0]["message"], "killed")) << hangs[0].dump();
+    EXPECT_TRUE(contains(cell.events("process_exit", "p")[0]["message"], "SIGKILL"));
+    EXPECT_TRUE(cell.keepRuns());
+    const uint64_t p = cell.runs("p");
+    EXPECT_TRUE(cell.waitUntil([&] { return cell.runs("p") > p; }));
+}
+
+TEST(ProcessFault, AHangWithOnOverrunWarnIsReportedOnce) {
+    Cell cell(process("p", value("args", "--hang-at 5"), "<on_overrun>warn</on_overrun><overrun_limit>2000000</overrun_limit>"));
+    ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("process_hang", "p").empty(); })) << cell.irpd->out();
+    EXPECT_TRUE(cell.keepRuns());
+    EXPECT_EQ(cell.events("process_hang", "p").size(), 1u);
+    EXPECT_TRUE(cell.events("process_exit", "p").empty());
+}
+
+// ---- the device side: the plc-robot cell and a drive simulator of its own ---------------------
+
+namespace {
+
+using testing_support::DriveSim;
+using testing_support::eventually;
+using testing_support::ModbusClient;
+
+// The plc-robot cell (build/sets/plc-robot) in a scratch folder, without its drive simulator
+// module, talking to `port`; `extra` modules are added to its module.xml.
+struct PlcCell {
+    TempDir dir;
+    std::string socket = (dir.path / "irpd.sock").string();
+    std::unique_ptr<Process> irpd;
+    std::unique_ptr<Client> client;
+
+    PlcCell(int port, std::string extra) {
+        for (std::size_t at; (at = extra.find("@DIR@")) != std::string::npos;) extra.replace(at, 5, dir.path.string());
+        const fs::path set = fs::path(BUILD_ROOT) / "sets" / "plc-robot";
+        for (const char *f : {"main.so", "Robot.so", "libiodispat.so", "indurop6.urdf", "robot.json", "layout.json"})
+            fs::copy_file(set / f, dir.path / f);
+        fs::copy_file(kModules / "overrun.so", dir.path / "overrun.so");
+        std::string xml = readFile(set / "module.xml");
+        xml = std::regex_replace(xml, std::regex("<module>\\s*<name>drivesim</name>[\\s\\S]*?</module>"), "");
+        xml.replace(xml.rfind("</root>"), 7, extra + "</root>\n");
+        std::ofstream(dir.path / "module.xml") << xml;
+        std::string io = readFile(set / "ioconfig.xml");
+        io = std::regex_replace(io, std::regex("port=\"15020\""), "port=\"" + std::to_string(port) + "\"");
+        std::ofstream(dir.path / "ioconfig.xml") << io;
+        irpd = std::make_unique<Process>(
+            std::vector<std::string>{kIrpd, "--config", (dir.path / "module.xml").string(), "--control-socket", socket,
+                                     "--instance", uniqueInstance(), "--module-cache", (dir.path / "cache").string()},
+            dir.path);
+        EXPECT_TRUE(irpd->waitForErr("irpd: running")) << irpd->err();
+        client = std::make_unique<Client>(socket, 60);
+        EXPECT_FALSE(client->readLine().empty());
+    }
+    ~PlcCell() {
+        client.reset();
+        kill(irpd->pid(), SIGKILL);
+        irpd->wait(std::chrono::seconds(10));
+    }
+    void enableDrives() {
+        json answer = client->request({{"cmd", "write"}, {"path", "PLC_ROBOT.PLC_IN.Enable"}, {"value", 1}});
+        ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    }
+};
+
+constexpr int kAxes = 6;
+uint16_t statusword(ModbusClient &c, int axis) { return c.input1(8 * axis); }
+bool operationEnabled(uint16_t sw) { return (sw & 0x6F) == 0x27; }
+bool fault(uint16_t sw) { return (sw & 0x4F) == 0x08; }
+
+} // namespace
+
+TEST(DeviceSide, AStopDrivesTheControlwordsToZeroWhileTheFaultyModuleIsStillStuck) {
+    DriveSim sim({"--quiet"});
+    ModbusClient probe(sim.port());
+    // `stuck` (priority 0: before the I/O) spins 3 s in its 600th run (6 s in), whatever happens.
+    PlcCell cell(sim.port(),
+                 "<module><name>stuck</name><filename>./overrun.so</filename><moduletype>thread</moduletype>"
+                 "<operationtype>periodic</operationtype><period>10000000</period><priority>0</priority>"
+                 "<on_overrun>stop</on_overrun><property>" + value("journal", "@DIR@/stuck.log") +
+                     value("hang_at", "600") + value("hang_ms", "3000") + "</property></module>\n");
+    cell.enableDrives();
+    ASSERT_TRUE(eventually([&] { return operationEnabled(statusword(probe, 0)); }, std::chrono::seconds(20)));
+    const std::string journal = (cell.dir.path / "stuck.log").string();
+    ASSERT_TRUE(eventually([&] { return contains(readFile(journal), "safe_outputs"); }, std::chrono::seconds(20)));
+    // The controlwords the simulator holds are 0 (disable voltage) while run 600 still spins.
+    for (int axis = 0; axis < kAxes; ++axis) EXPECT_EQ(probe.holding(4 * axis, 1)[0], 0) << axis;
+    EXPECT_FALSE(contains(readFile(journal), "overran")) << readFile(journal);
+    EXPECT_TRUE(eventually([&] { return !operationEnabled(statusword(probe, 0)); }));
+    json status = cell.client->request({{"cmd", "status"}});
+    EXPECT_TRUE(contains(status["result"].value("stopped_by_fault", ""), "stuck")) << status.dump();
+    bool stopped = false;
+    const json events = cell.client->request({{"cmd", "events"}});
+    for (const json &e : events["result"]["events"])
+        stopped |= e["kind"] == "stopped" && contains(e["message"], "outputs of 2 module(s) driven to safe values");
+    EXPECT_TRUE(stopped) << events.dump();  // libiodispat and stuck itself have safe_outputs()
+}
+
+TEST(DeviceSide, IrpdKilledLeavesTheDrivesToTheirCommTimeoutWhichQuickStopsThem) {
+    // 500 ms: a loaded test machine may stall irpd's start for a fraction of that
+    DriveSim sim({"--comm-timeout", "500"});
+    ModbusClient probe(sim.port());
+    PlcCell cell(sim.port(), "");
+    cell.enableDrives();
+    for (int axis = 0; axis < kAxes; ++axis)
+        ASSERT_TRUE(eventually([&] { return operationEnabled(statusword(probe, axis)); }, std::chrono::seconds(20))) << axis;
+    kill(cell.irpd->pid(), SIGKILL);
+    ASSERT_EQ(cell.irpd->wait(std::chrono::seconds(10)), -2);
+    for (int axis = 0; axis < kAxes; ++axis) {
+        EXPECT_TRUE(eventually([&] { return fault(statusword(probe, axis)); })) << axis;
+        EXPECT_EQ(probe.input1(8 * axis + 1), 0x8130) << axis;  // error code: comm timeout
+        EXPECT_EQ(probe.input32(8 * axis + 5), 0) << axis;      // standing still
+    }
+    EXPECT_TRUE(contains(sim.out(), "comm timeout: no write for")) << sim.out();
+}
