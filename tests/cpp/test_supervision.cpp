@@ -240,6 +240,7 @@ std::string statusField(pid_t pid, const std::string &field) {
         if (line.rfind(field + ":", 0) == 0) {
             std::string value = line.substr(field.size() + 1);
             value.erase(0, value.find_first_not_of(" \t"));
+            value.erase(value.find_last_not_of(" \t") + 1);
             return value;
         }
     return "";
@@ -289,7 +290,8 @@ TEST(PrivilegeDrop, RunsAsTheUserWithTwoCapabilitiesAndHotReloadsStillGetRealTim
                                            << "</root>\n";
     const std::string socket = (dir.path / "run" / "irpd.sock").string(), instance = uniqueInstance();
     Process irpd({kIrpd, "--config", (dir.path / "module.xml").string(), "--control-socket", socket, "--instance",
-                  instance, "--state-dir", (dir.path / "state").string(), "--user", "nobody"},
+                  instance, "--state-dir", (dir.path / "state").string(), "--module-cache",
+                  (dir.path / "run" / "cache").string(), "--user", "nobody"},
                  dir.path);
     ASSERT_TRUE(irpd.waitForErr("irpd: running")) << irpd.err();
     const std::string ids = std::to_string(nobody->pw_uid), gids = std::to_string(nobody->pw_gid);
@@ -395,12 +397,14 @@ struct CrashCell {
         return client.request(request);
     }
     json moduleNamed(const std::string &name) {
-        for (const json &m : ask({{"cmd", "modules"}})["result"])
+        const json modules = ask({{"cmd", "modules"}});
+        for (const json &m : modules["result"])
             if (m["name"] == name) return m;
         return nullptr;
     }
     bool hasEvent(const std::string &kind, const std::string &module) {
-        for (const json &e : ask({{"cmd", "events"}})["result"]["events"])
+        const json events = ask({{"cmd", "events"}});
+        for (const json &e : events["result"]["events"])
             if (e["kind"] == kind && e["module"] == module) return true;
         return false;
     }

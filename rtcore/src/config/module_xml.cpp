@@ -353,6 +353,7 @@ private:
             const std::string v = leafText(f, m.name);
             if (v == "restart") m.on_crash = CrashPolicy::Restart;
             else if (v != "exclude") failField(f, m.name, "on_crash", "'" + v + "'; expected exclude or restart");
+            if (m.type != ModuleType::Thread) failField(f, m.name, "on_crash", "only thread modules (a process's crash is its own)");
         }
         if (pugi::xml_node executor = field("executor")) {
             m.executor = leafText(executor, m.name);

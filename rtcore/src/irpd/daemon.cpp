@@ -278,7 +278,7 @@ int run(const Options &options) {
     }
     if (identity) {
         if (Status st = supervise::dropPrivileges(*identity); !st) return failure(st.error().message);
-        say("running as " + identity->user + ":" + identity->group + " (" + supervise::describeCredentials() + ")");
+        say("switched to user " + identity->user + ":" + identity->group + " (" + supervise::describeCredentials() + ")");
     }
     if (crash) {
         if (Status st = crash->arm(); !st) return failure("crash handler: " + st.error().message);
