@@ -341,6 +341,19 @@ TEST(PrivilegeDrop, RunsAsTheUserWithTwoCapabilitiesAndHotReloadsStillGetRealTim
     EXPECT_FALSE(fs::exists("/dev/shm/indurop." + instance + ".stats")) << "removed by the user that owns it";
 }
 
+TEST(PrivilegeDrop, AControlSocketFolderTheUserMayNotWriteIsRefusedWithItsName) {
+    if (geteuid() != 0) GTEST_SKIP() << "irpd --user needs the test to run as root";
+    if (!getpwnam("nobody")) GTEST_SKIP() << "no user 'nobody' on this machine";
+    TempDir dir;  // root's, mode 0700
+    Process irpd({kIrpd, "--config", kFig1ForSupervision(), "--instance", uniqueInstance(), "--state-dir",
+                  (dir.path / "state").string(), "--control-socket", (dir.path / "irpd.sock").string(), "--user",
+                  "nobody"},
+                 dir.path);
+    EXPECT_EQ(irpd.wait(std::chrono::seconds(30)), 1);
+    EXPECT_NE(irpd.err().find("--user nobody may not create irpd.sock in " + dir.path.string()), std::string::npos)
+        << irpd.err();
+}
+
 TEST(PrivilegeDrop, AnUnknownUserIsRefusedBeforeAnythingStarts) {
     TempDir dir;
     Process irpd({kIrpd, "--config", kFig1ForSupervision(), "--instance", uniqueInstance(), "--state-dir",

@@ -187,7 +187,8 @@ void Executor::skip(uint64_t from, uint64_t count) {
  *      the end of the basic period (an overrun if it does not finish by then).  Right after a
  *      thread module's run(), the calls that process modules made to its exported functions are
  *      served (at most irp::kCallsServedPerPeriod, included in its exec time; a disabled module
- *      answers them with an error);
+ *      answers them with an error).  Before a thread module's run() the running marker names it
+ *      (one relaxed store, dispatch/running_marker.hpp: the crash handler reads it);
  *   4. the event handler (Figure 6): condition() of each sporadic thread module in priority
  *      order, run() where it returned true; then each sporadic process that finished its last
  *      release is released to check its own condition (not awaited; its completion is checked

@@ -277,6 +277,9 @@ int run(const Options &options) {
         say("WARNING: " + state_ready.error().message + "; a crash will leave no record");
     }
     if (identity) {
+        if (!options.control_socket.empty())
+            if (Status st = supervise::prepareFolderFor(options.control_socket, *identity); !st)
+                return failure(st.error().message);
         if (Status st = supervise::dropPrivileges(*identity); !st) return failure(st.error().message);
         say("switched to user " + identity->user + ":" + identity->group + " (" + supervise::describeCredentials() + ")");
     }

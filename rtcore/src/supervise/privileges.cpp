@@ -6,6 +6,7 @@
 #include <pwd.h>
 #include <sys/capability.h>
 #include <sys/prctl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -60,6 +61,24 @@ Status handOver(const std::filesystem::path &dir, const Identity &who) {
     std::filesystem::create_directories(dir, ec);
     if (ec) return Error{dir.string() + ": " + ec.message()};
     if (chown(dir.c_str(), who.uid, who.gid) != 0) return Error{lastError("chown " + dir.string())};
+    return Ok{};
+}
+
+Status prepareFolderFor(const std::filesystem::path &file, const Identity &who) {
+    const std::filesystem::path dir = std::filesystem::absolute(file).parent_path();
+    struct stat st{};
+    if (stat(dir.c_str(), &st) != 0) {
+        if (Status st = handOver(dir, who); !st) return st;
+        chmod(dir.c_str(), 0750);
+        return Ok{};
+    }
+    const bool writable = (st.st_uid == who.uid && (st.st_mode & S_IWUSR) && (st.st_mode & S_IXUSR)) ||
+                          (st.st_gid == who.gid && (st.st_mode & S_IWGRP) && (st.st_mode & S_IXGRP)) ||
+                          ((st.st_mode & S_IWOTH) && (st.st_mode & S_IXOTH));
+    if (!writable)
+        return Error{"--user " + who.user + " may not create " + file.filename().string() + " in " + dir.string() +
+                     ": give the folder to " + who.user + " (or its group, writable), or name a folder that does " +
+                     "not exist yet (irpd then creates it for " + who.user + ")"};
     return Ok{};
 }
 

@@ -27,6 +27,11 @@ Result<Identity> resolveIdentity(const std::string &user, const std::string &gro
 // Makes `dir` (created if missing) belong to `who`, for the files irpd writes after the switch.
 Status handOver(const std::filesystem::path &dir, const Identity &who);
 
+// The folder of a file `who` will create after the switch (the control socket): created for `who`
+// (mode 0750, its group may enter) when missing; an Error naming the folder when it exists and
+// `who` may not create files in it.
+Status prepareFolderFor(const std::filesystem::path &file, const Identity &who);
+
 // Becomes `who` with exactly CAP_SYS_NICE and CAP_IPC_LOCK (permitted, effective; the bounding
 // set the same; inheritable and ambient empty) and no_new_privs.  Must be called while the
 // process has one thread (capabilities are per thread); refused otherwise.
