@@ -9,8 +9,9 @@ This script plays systemd (an AF_UNIX datagram socket as NOTIFY_SOCKET, WATCHDOG
   1. watchdog detection: irpd runs a set whose module on executor "side" blocks for good once a
      file exists; after READY=1 and a random wait (so the stall falls at any phase of the ping
      cycle) the file is created.  systemd would kill irpd WatchdogSec after the last ping it got:
-     detection = last ping + WatchdogSec - stall.  Bound: (WatchdogSec/2 - 20 ms, WatchdogSec].
-     Also checked: no ping at all after the stall.
+     detection = last ping + WatchdogSec - stall.  Bound: (WatchdogSec/2 - 20 ms, WatchdogSec +
+     the window], the window being 2 basic periods + 40 ms (44 ms here).  Also counted: pings later
+     than the window after the stall (expected: none).
   2. crash -> record: a module on executor "side" dereferences null once a file exists; from
      creating the file to irpd's death by SIGSEGV with <instance>.crash written in --state-dir.
   3. restart -> running: irpd started on the plc-robot cell (build/sets/plc-robot, its drive
@@ -38,6 +39,8 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
+# The stalled executor's window: 2 basic periods (2 ms) + 2 of the main thread's 20 ms ticks.
+WINDOW_S = 0.044
 
 
 class FakeSystemd:
@@ -146,11 +149,11 @@ def watchdog_trials(irpd: Path, fixtures: Path, trials: int, watchdog_s: float) 
                 time.sleep(watchdog_s * 2 + 0.5)
                 pings = systemd.times("WATCHDOG=1")
                 before = [t for t in pings if t <= stalled]
-                # a ping may still come if the side dispatcher completed a slot after the file
-                # appeared and before it next ran the module: the last ping is what counts
+                # a ping may still come within the window (progress seen just before the stall):
+                # the last ping is what counts
                 after = [t for t in pings if t > stalled]
                 last = max(before + after)
-                pings_after += sum(1 for t in after if t > stalled + 0.01)
+                pings_after += sum(1 for t in after if t > stalled + WINDOW_S)
                 detections.append(last + watchdog_s - stalled)
             finally:
                 stop(p)
@@ -236,7 +239,7 @@ def main() -> int:
     crashes = crash_trials(irpd, fixtures, args.trials)
     restarts = restart_trials(irpd, build, args.trials)
 
-    inside = sum(1 for d in detections if watchdog_s / 2 - 0.02 <= d <= watchdog_s + 0.001)
+    inside = sum(1 for d in detections if watchdog_s / 2 - 0.02 <= d <= watchdog_s + WINDOW_S)
     lines = [
         f"Measured {time.strftime('%Y-%m-%d')} on {platform.node()} ({os.cpu_count()} CPUs, "
         f"Linux {platform.release()}), {args.trials} trials each, by `python3 tests/bench/supervision_bench.py "
@@ -245,8 +248,8 @@ def main() -> int:
         "| what | figure |",
         "| --- | --- |",
         f"| watchdog detection, WatchdogSec = {args.watchdog_ms} ms: stall → systemd's kill deadline | "
-        f"{describe(detections)}; {inside} of {len(detections)} within (WatchdogSec/2 − 20 ms, WatchdogSec]; "
-        f"pings after the stall: {pings_after} |",
+        f"{describe(detections)}; {inside} of {len(detections)} within (WatchdogSec/2 − 20 ms, WatchdogSec + "
+        f"{WINDOW_S * 1000:.0f} ms]; pings later than that after the stall: {pings_after} |",
         f"| crash → record written and irpd dead of SIGSEGV | {describe(crashes)} |",
         f"| restart → READY=1, plc-robot cell (3 thread modules, drive simulator process) | {describe(restarts)} |",
         "",

@@ -212,6 +212,15 @@ void takeInCrash(supervise::CrashState &crash, const config::SetSpec &starting, 
     say("the previous run ended by a crash: " + fresh->describe() + consequence);
 }
 
+// How long each dispatcher may go without completing a slot and still count as moving for the
+// watchdog: two of its basic periods plus two of the main thread's ticks (it looks once per tick).
+std::vector<int64_t> progressWindows(const reload::Generation &g, const timespec &tick) {
+    std::vector<int64_t> windows;
+    for (const dispatch::Table &table : g.tables->executors)
+        windows.push_back(2 * table.basic_ns + 2 * (tick.tv_sec * 1'000'000'000 + tick.tv_nsec));
+    return windows;
+}
+
 std::string statusLine(const reload::Generation &g, bool realtime) {
     return "running " + g.set.xml_path.string() + " (generation " + std::to_string(g.number) + ", " +
            std::to_string(g.set.modules.size() - g.disabled.size()) + " of " + std::to_string(g.set.modules.size()) +
@@ -430,13 +439,14 @@ int run(const Options &options) {
     events.add("start", "", "irpd " INDUROP_VERSION " started " + set->xml_path.string() +
                                 (dispatcher.realtime() ? " (real-time)" : " (NOT real-time)"));
 
+    const timespec tick{0, 20'000'000};  // the main thread's period
     // systemd (Type=notify): ready once every dispatcher ran a slot; the watchdog from then on.
     supervise::SystemdNotify notify = supervise::SystemdNotify::fromEnvironment();
     if (notify.active()) {
         if (!awaitFirstSlots(*segment, executors, 2'000'000'000))
             say("WARNING: a dispatcher has not completed its first slot within 2 s; telling systemd READY=1 anyway");
         notify.ready(statusLine(*reloader.current(), dispatcher.realtime()), dispatcherProgress(*segment, executors),
-                     osal::monotonicNow());
+                     progressWindows(*reloader.current(), tick), osal::monotonicNow());
         if (notify.watchdogNs()) {
             say("systemd watchdog: " + schedule::humanDuration(notify.watchdogNs()) +
                 "; pinged while every dispatcher makes progress");
@@ -454,7 +464,6 @@ int run(const Options &options) {
     sigemptyset(&stop_signals);
     sigaddset(&stop_signals, SIGINT);
     sigaddset(&stop_signals, SIGTERM);
-    const timespec tick{0, 20'000'000};
     EventWatch watch(events, *segment);
     int64_t last_figures = 0;
     uint64_t generation_told = reloader.current()->number;
@@ -472,6 +481,7 @@ int run(const Options &options) {
             generation_told = g->number;
             if (crash) crash->setContext(canonicalSet(g->set.xml_path), g->set_id, g->number);
             notify.status(statusLine(*g, dispatcher.realtime()));
+            notify.setWindows(progressWindows(*g, tick));
         }
         for (const hosts::ProcessInfo &p : supervisor.processes())
             for (const config::ModuleSpec &m : g->set.modules) {

@@ -25,19 +25,36 @@ bool SystemdNotify::send(const std::string &message) {
     return false;
 }
 
-bool SystemdNotify::progressed(const std::vector<uint64_t> &progress) const {
-    if (progress.size() != at_last_ping_.size()) return false;
+void SystemdNotify::observe(const std::vector<uint64_t> &progress, int64_t now_ns) {
+    if (progress.size() != seen_.size()) return;
     for (std::size_t i = 0; i < progress.size(); ++i)
-        if (progress[i] <= at_last_ping_[i]) return false;
-    return true;
+        if (progress[i] != seen_[i]) {
+            seen_[i] = progress[i];
+            changed_ns_[i] = now_ns;
+        }
 }
 
-void SystemdNotify::ready(const std::string &status, const std::vector<uint64_t> &progress, int64_t now_ns) {
+bool SystemdNotify::allRecent(int64_t now_ns) const {
+    for (std::size_t i = 0; i < changed_ns_.size(); ++i)
+        if (now_ns - changed_ns_[i] > windows_ns_[i]) return false;
+    return !changed_ns_.empty();
+}
+
+void SystemdNotify::ping(const std::string &extra, int64_t now_ns) {
+    send("WATCHDOG=1" + extra);
+    next_ping_ns_ = now_ns + watchdog_ns_ / 2;
+}
+
+void SystemdNotify::ready(const std::string &status, const std::vector<uint64_t> &progress,
+                          std::vector<int64_t> windows_ns, int64_t now_ns) {
     if (!active_) return;
+    seen_ = progress;
+    changed_ns_.assign(progress.size(), now_ns);
+    windows_ns_ = std::move(windows_ns);
+    windows_ns_.resize(progress.size(), 0);
     std::string message = "READY=1\nSTATUS=" + status;
     if (watchdog_ns_) message += "\nWATCHDOG=1";
     send(message);
-    at_last_ping_ = progress;
     next_ping_ns_ = now_ns + watchdog_ns_ / 2;
 }
 
@@ -46,10 +63,10 @@ void SystemdNotify::status(const std::string &status) { send("STATUS=" + status)
 void SystemdNotify::stopping(const std::string &status) { send("STOPPING=1\nSTATUS=" + status); }
 
 bool SystemdNotify::tick(const std::vector<uint64_t> &progress, int64_t now_ns) {
-    if (!active_ || !watchdog_ns_ || now_ns < next_ping_ns_ || !progressed(progress)) return false;
-    send("WATCHDOG=1");
-    at_last_ping_ = progress;
-    next_ping_ns_ = now_ns + watchdog_ns_ / 2;
+    if (!active_ || !watchdog_ns_) return false;
+    observe(progress, now_ns);
+    if (now_ns < next_ping_ns_ || !allRecent(now_ns)) return false;
+    ping("", now_ns);
     return true;
 }
 
@@ -60,14 +77,12 @@ void SystemdNotify::beginLongWork(int64_t allowance_ns) {
 
 void SystemdNotify::endLongWork(const std::vector<uint64_t> &progress, int64_t now_ns) {
     if (!active_ || !watchdog_ns_) return;
-    // systemd measures the restored interval from the last ping: ping first, when earned.
-    std::string message = "WATCHDOG_USEC=" + std::to_string(watchdog_ns_ / 1000);
-    if (progressed(progress)) {
-        message = "WATCHDOG=1\n" + message;
-        at_last_ping_ = progress;
-        next_ping_ns_ = now_ns + watchdog_ns_ / 2;
-    }
-    send(message);
+    // systemd measures the restored interval from the last ping: ping first, when earned (every
+    // dispatcher moved on during the long work, or within its window).
+    observe(progress, now_ns);
+    const std::string restore = "WATCHDOG_USEC=" + std::to_string(watchdog_ns_ / 1000);
+    if (allRecent(now_ns)) ping("\n" + restore, now_ns);
+    else send(restore);
 }
 
 } // namespace irp::supervise

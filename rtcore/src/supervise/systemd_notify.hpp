@@ -20,16 +20,24 @@ public:
     // The watchdog interval systemd expects pings within (WatchdogSec=), 0 = no watchdog.
     int64_t watchdogNs() const { return watchdog_ns_; }
 
-    // READY=1 with a STATUS= line.  `progress`: each dispatcher's completed-slot count now (the
-    // base the first watchdog ping is measured against); the ready message is a ping too.
-    void ready(const std::string &status, const std::vector<uint64_t> &progress, int64_t now_ns);
+    // READY=1 with a STATUS= line.  `progress`: each dispatcher's completed-slot count now;
+    // `windows_ns`: for each, how long it may go without completing a slot and still count as
+    // making progress (a little more than its basic period plus the main thread's tick).
+    void ready(const std::string &status, const std::vector<uint64_t> &progress, std::vector<int64_t> windows_ns,
+               int64_t now_ns);
+    // The windows again, after a hot swap changed executors' basic periods.
+    void setWindows(std::vector<int64_t> windows_ns) {
+        windows_ns.resize(windows_ns_.size(), 0);
+        windows_ns_ = std::move(windows_ns);
+    }
     void status(const std::string &status);
     void stopping(const std::string &status);
 
-    // The main thread's tick.  From half the watchdog interval after the last ping on, pings
-    // (WATCHDOG=1) as soon as every dispatcher's completed-slot count has grown since that
-    // ping; a dispatcher that stopped making progress therefore stops the pings, and systemd
-    // kills irpd one interval after the last one.  True when it pinged.
+    // The main thread's tick: notes which dispatchers completed slots since the last tick, and
+    // from half the watchdog interval after the last ping on, pings (WATCHDOG=1) when every
+    // dispatcher completed a slot within its window.  A dispatcher that stops making progress
+    // stops the pings within its window; systemd kills irpd one interval after the last one.
+    // True when it pinged.
     bool tick(const std::vector<uint64_t> &progress, int64_t now_ns);
 
     // Long work on the main thread (a hot reload: loading, starting processes, the swap) must
@@ -43,12 +51,16 @@ public:
 
 private:
     bool send(const std::string &message);
-    bool progressed(const std::vector<uint64_t> &progress) const;
+    void observe(const std::vector<uint64_t> &progress, int64_t now_ns);
+    bool allRecent(int64_t now_ns) const;
+    void ping(const std::string &extra, int64_t now_ns);
 
     bool active_ = false;
     int64_t watchdog_ns_ = 0;
     int64_t next_ping_ns_ = 0;
-    std::vector<uint64_t> at_last_ping_;
+    std::vector<uint64_t> seen_;       // each dispatcher's count at the last tick
+    std::vector<int64_t> changed_ns_;  // when it was last seen to change
+    std::vector<int64_t> windows_ns_;
     uint64_t failures_ = 0;
 };
 
