@@ -474,7 +474,7 @@ int run(const Options &options) {
         if (queue.pending()) {
             notify.beginLongWork(kReloadWatchdogAllowanceNs);
             queue.runPending();
-            notify.endLongWork(dispatcherProgress(*segment, executors), osal::monotonicNow());
+            notify.endLongWork([&] { return dispatcherProgress(*segment, executors); }, osal::monotonicNow);
         }
         const auto g = reloader.current();
         if (g->number != generation_told) {

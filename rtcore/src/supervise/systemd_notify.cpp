@@ -4,7 +4,9 @@
 
 #include <systemd/sd-daemon.h>
 
+#include <algorithm>
 #include <cstdlib>
+#include <ctime>
 
 namespace irp::supervise {
 
@@ -25,13 +27,17 @@ bool SystemdNotify::send(const std::string &message) {
     return false;
 }
 
+// A count that changed since the last tick changed at some time after that tick: credited to
+// that tick's time, the earliest it may have, so that a late tick (the main thread delayed)
+// never vouches for progress older than the window.
 void SystemdNotify::observe(const std::vector<uint64_t> &progress, int64_t now_ns) {
     if (progress.size() != seen_.size()) return;
     for (std::size_t i = 0; i < progress.size(); ++i)
         if (progress[i] != seen_[i]) {
             seen_[i] = progress[i];
-            changed_ns_[i] = now_ns;
+            changed_ns_[i] = observed_ns_;
         }
+    observed_ns_ = now_ns;
 }
 
 bool SystemdNotify::allRecent(int64_t now_ns) const {
@@ -50,6 +56,7 @@ void SystemdNotify::ready(const std::string &status, const std::vector<uint64_t>
     if (!active_) return;
     seen_ = progress;
     changed_ns_.assign(progress.size(), now_ns);
+    observed_ns_ = now_ns;
     windows_ns_ = std::move(windows_ns);
     windows_ns_.resize(progress.size(), 0);
     std::string message = "READY=1\nSTATUS=" + status;
@@ -75,14 +82,26 @@ void SystemdNotify::beginLongWork(int64_t allowance_ns) {
     send("WATCHDOG_USEC=" + std::to_string((watchdog_ns_ + allowance_ns) / 1000));
 }
 
-void SystemdNotify::endLongWork(const std::vector<uint64_t> &progress, int64_t now_ns) {
+void SystemdNotify::endLongWork(const std::function<std::vector<uint64_t>()> &progress,
+                                const std::function<int64_t()> &now) {
     if (!active_ || !watchdog_ns_) return;
-    // systemd measures the restored interval from the last ping: ping first, when earned (every
-    // dispatcher moved on during the long work, or within its window).
-    observe(progress, now_ns);
+    // systemd measures the restored interval from the last ping, maybe long ago: ping with it,
+    // once every dispatcher has been seen to complete a slot after the work (waiting at most
+    // the longest window for that); else restore only, and systemd acts on the stuck one.
+    observe(progress(), now());
+    const int64_t start = observed_ns_;
+    int64_t longest = 0;
+    for (int64_t w : windows_ns_) longest = std::max(longest, w);
     const std::string restore = "WATCHDOG_USEC=" + std::to_string(watchdog_ns_ / 1000);
-    if (allRecent(now_ns)) ping("\n" + restore, now_ns);
-    else send(restore);
+    for (;;) {
+        const timespec pause{0, 1'000'000};
+        nanosleep(&pause, nullptr);
+        observe(progress(), now());
+        bool all = true;
+        for (int64_t changed : changed_ns_) all = all && changed >= start;
+        if (all) return ping("\n" + restore, observed_ns_);
+        if (observed_ns_ - start > longest) return (void)send(restore);
+    }
 }
 
 } // namespace irp::supervise

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -42,9 +43,10 @@ public:
 
     // Long work on the main thread (a hot reload: loading, starting processes, the swap) must
     // not be taken for a hang: the interval is stretched by `allowance_ns` for its duration
-    // (WATCHDOG_USEC=), then restored together with a ping if every dispatcher progressed.
+    // (WATCHDOG_USEC=), then restored together with a ping if every dispatcher completes a slot
+    // within its window after the work (`progress` is asked again for up to that long).
     void beginLongWork(int64_t allowance_ns);
-    void endLongWork(const std::vector<uint64_t> &progress, int64_t now_ns);
+    void endLongWork(const std::function<std::vector<uint64_t>()> &progress, const std::function<int64_t()> &now);
 
     // The messages sent so far that failed (a socket gone; for the log).
     uint64_t failures() const { return failures_; }
@@ -59,7 +61,8 @@ private:
     int64_t watchdog_ns_ = 0;
     int64_t next_ping_ns_ = 0;
     std::vector<uint64_t> seen_;       // each dispatcher's count at the last tick
-    std::vector<int64_t> changed_ns_;  // when it was last seen to change
+    std::vector<int64_t> changed_ns_;  // the tick before it was last seen to change (the earliest it may have)
+    int64_t observed_ns_ = 0;          // the last tick
     std::vector<int64_t> windows_ns_;
     uint64_t failures_ = 0;
 };
