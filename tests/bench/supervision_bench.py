@@ -120,10 +120,13 @@ def start(irpd: Path, config: Path, folder: Path, instance: str, notify: Path, w
                             stderr=open(folder / "irpd.log", "a"))
 
 
-def stop(p: subprocess.Popen, sig=signal.SIGKILL):
+def stop(p: subprocess.Popen, instance: str, sig=signal.SIGKILL):
+    """Stops irpd by its pid; the shared memory a killed one leaves behind goes too."""
     if p.poll() is None:
         p.send_signal(sig)
     p.wait(timeout=30)
+    for leftover in Path("/dev/shm").glob(f"indurop.{instance}.*"):
+        leftover.unlink(missing_ok=True)
 
 
 def describe(values: list[float]) -> str:
@@ -139,7 +142,8 @@ def watchdog_trials(irpd: Path, fixtures: Path, trials: int, watchdog_s: float) 
             folder = Path(tmp)
             systemd = FakeSystemd(folder / "notify")
             xml = trigger_set(folder, fixtures / "stall_on_trigger.so", folder / "stall")
-            p = start(irpd, xml, folder, f"supbench-{os.getpid()}-w{i}", folder / "notify", int(watchdog_s * 1e6))
+            instance = f"supbench-{os.getpid()}-w{i}"
+            p = start(irpd, xml, folder, instance, folder / "notify", int(watchdog_s * 1e6))
             try:
                 if not systemd.wait_for("READY=1") or not systemd.wait_for("WATCHDOG=1", 3, 10):
                     raise RuntimeError(f"irpd did not get ready or ping: {(folder / 'irpd.log').read_text()}")
@@ -156,7 +160,7 @@ def watchdog_trials(irpd: Path, fixtures: Path, trials: int, watchdog_s: float) 
                 pings_after += sum(1 for t in after if t > stalled + WINDOW_S)
                 detections.append(last + watchdog_s - stalled)
             finally:
-                stop(p)
+                stop(p, instance)
                 systemd.close()
     return detections, pings_after
 
@@ -185,9 +189,8 @@ def crash_trials(irpd: Path, fixtures: Path, trials: int) -> list[float]:
                 if p.returncode != -signal.SIGSEGV or "module=bad" not in record.read_text():
                     raise RuntimeError(f"unexpected end {p.returncode}: {record.read_text()}")
             finally:
-                stop(p)
+                stop(p, instance)
                 systemd.close()
-                Path(f"/dev/shm/indurop.{instance}.stats").unlink(missing_ok=True)
     return took
 
 
@@ -219,7 +222,7 @@ def restart_trials(irpd: Path, build: Path, trials: int) -> list[float]:
                     raise RuntimeError((folder / "irpd.log").read_text()[-2000:])
                 took.append(systemd.times("READY=1")[0] - t0)
             finally:
-                stop(p, signal.SIGTERM)
+                stop(p, instance, signal.SIGTERM)
                 systemd.close()
     return took
 

@@ -38,6 +38,13 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 const fs::path kModules = FIXTURE_MODULES;
+
+// The shared memory an irpd killed on purpose leaves behind.
+void removeShm(const std::string &instance) {
+    for (const auto &entry : fs::directory_iterator("/dev/shm"))
+        if (entry.path().filename().string().rfind("indurop." + instance + ".", 0) == 0) fs::remove(entry.path());
+}
+
 std::string kFig1ForSupervision() { return testing_support::kFig1; }
 
 // systemd's side of sd_notify: every datagram irpd sends, with its arrival time.
@@ -124,6 +131,7 @@ struct SupervisedIrpd {
     TempDir dir;
     FakeSystemd systemd{dir.path / "notify"};
     std::string socket = (dir.path / "irpd.sock").string();
+    std::string instance = uniqueInstance();
     std::unique_ptr<Process> irpd;
 
     // watchdog_usec 0: no WATCHDOG_USEC; watchdog_pid: "self" = irpd's own pid, else that text.
@@ -138,7 +146,7 @@ struct SupervisedIrpd {
         const std::string notify = (dir.path / "notify").string();
         irpd = std::make_unique<Process>(
             std::vector<std::string>{kIrpd, "--config", (dir.path / "module.xml").string(), "--control-socket", socket,
-                                     "--instance", uniqueInstance(), "--module-cache", (dir.path / "cache").string()},
+                                     "--instance", instance, "--module-cache", (dir.path / "cache").string()},
             dir.path, [=] {
                 setenv("NOTIFY_SOCKET", notify.c_str(), 1);
                 if (watchdog_usec) setenv("WATCHDOG_USEC", std::to_string(watchdog_usec).c_str(), 1);
@@ -149,6 +157,7 @@ struct SupervisedIrpd {
     ~SupervisedIrpd() {
         kill(irpd->pid(), SIGKILL);  // a dispatcher hung in a module cannot stop cleanly
         irpd->wait(std::chrono::seconds(10));
+        removeShm(instance);
     }
     void stallTheSideDispatcher() { std::ofstream(dir.path / "stall") << "now\n"; }
 };
@@ -429,7 +438,7 @@ struct CrashCell {
         EXPECT_EQ(first->termSignal(), SIGSEGV) << first->err();
     }
     std::string record() { return testing_support::readFile(state / (instance + ".crash")); }
-    ~CrashCell() { fs::remove("/dev/shm/indurop." + instance + ".stats"); }
+    ~CrashCell() { removeShm(instance); }
 };
 
 } // namespace
