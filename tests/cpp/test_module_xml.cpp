@@ -371,6 +371,14 @@ TEST(ModuleXml, OverrunWatchdogTagsAndTheirDefaults) {
     EXPECT_EQ(set.modules[5].overrun_limit_ns, 0);
 }
 
+TEST(ModuleXml, OnCrashDefaultsToExclude) {
+    SetSpec set = accepted(document(periodic("a"), periodic("b").set("on_crash", "restart"),
+                                    periodic("c").set("on_crash", "exclude")));
+    EXPECT_EQ(set.modules[0].on_crash, irp::config::CrashPolicy::Exclude);
+    EXPECT_EQ(set.modules[1].on_crash, irp::config::CrashPolicy::Restart);
+    EXPECT_EQ(set.modules[2].on_crash, irp::config::CrashPolicy::Exclude);
+}
+
 TEST(ModuleXml, CarriageReturnLineEndingsCountLinesTheSame) {
     std::string text = document(periodic("a"), periodic("b").set("period", "0"));
     const int line = lineOf(text, "<period>0<");
@@ -832,6 +840,11 @@ TEST(ModuleXmlBad, ExecutorInvalidName) {
 TEST(ModuleXmlBad, BudgetLongerThanPeriod) {
     const std::string text = document(periodic().set("budget", "100001"));
     EXPECT_TRUE(refusedAt(text, lineOf(text, "<budget>"), {"module 'cntr1'", "<budget>", "longer than the period 100000"}));
+}
+
+TEST(ModuleXmlBad, OnCrashUnknownValue) {
+    const std::string text = document(periodic().set("on_crash", "sometimes"));
+    EXPECT_TRUE(refusedAt(text, lineOf(text, "<on_crash>"), {"module 'cntr1'", "<on_crash>", "'sometimes'; expected exclude or restart"}));
 }
 
 TEST(ModuleXmlBad, BudgetOnSporadicModule) {

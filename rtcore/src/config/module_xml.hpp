@@ -21,6 +21,8 @@ enum class OperationType { Periodic, Sporadic, NonReal };
 // <on_overrun>: what the watchdog does with a run longer than <overrun_limit> (docs/faults.md).
 // None = no watchdog (a file without the tag runs as before).
 enum class OverrunAction : uint8_t { None, Warn, Skip, Disable, Stop, Restart };
+// <on_crash>: after irpd died of a crash in this thread module, does the restart run it again?
+enum class CrashPolicy { Exclude, Restart };
 
 const char *toString(ModuleType type);
 const char *toString(OperationType type);
@@ -43,6 +45,7 @@ struct ModuleSpec {
     std::string executor = kMainExecutor;
     OverrunAction on_overrun = OverrunAction::None;  // <on_overrun>
     int64_t overrun_limit_ns = 0;   // <overrun_limit>: the watchdog time; 0 with on_overrun = the deadline
+    CrashPolicy on_crash = CrashPolicy::Exclude;  // <on_crash>
     std::vector<std::pair<std::string, std::string>> properties;  // <property><value name=..>
     int index = 0;                  // position in the file (ties in priority go to the earlier one)
     int line = 0;                   // line of <module>

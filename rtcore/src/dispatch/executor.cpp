@@ -3,13 +3,26 @@
 #include "dispatch/executor.hpp"
 
 #include "dispatch/function_calls.hpp"
+#include "dispatch/running_marker.hpp"
 #include "hosts/control_segment.hpp"
 #include "sdk/runtime.hpp"
 #include "trace/trace_rings.hpp"
 
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <cstdio>
 #include <exception>
 
 namespace irp::dispatch {
+
+void claimRunningMarker(std::size_t index, const char *executor) {
+    if (index >= kMaxMarkedExecutors) return;
+    RunningMarker &m = g_running_markers[index];
+    std::snprintf(m.executor, sizeof m.executor, "%s", executor);
+    m.module.store(nullptr, std::memory_order_relaxed);
+    m.tid.store(static_cast<int>(syscall(SYS_gettid)), std::memory_order_relaxed);
+}
 
 const char *toString(OverrunPolicy policy) { return policy == OverrunPolicy::CatchUp ? "catch-up" : "skip"; }
 
@@ -141,6 +154,7 @@ int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
         stats::TimingRecord &r = *task->stats;
         if (task->kind == Task::Kind::Thread) {
             int fired = 0;
+            markRunning(crash_marker_, r.name);
             try {
                 fired = task->condition();
             } catch (...) {
@@ -214,7 +228,8 @@ void Executor::skip(uint64_t from, uint64_t count) {
  *      the end of the basic period (an overrun if it does not finish by then).  Right after a
  *      thread module's run(), the calls that process modules made to its exported functions are
  *      served (at most irp::kCallsServedPerPeriod, included in its exec time; a disabled module
- *      answers them with an error);
+ *      answers them with an error).  Before a thread module's run() the running marker names it
+ *      (one relaxed store, dispatch/running_marker.hpp: the crash handler reads it);
  *   4. the event handler (Figure 6): condition() of each sporadic thread module in priority
  *      order, run() where it returned true; then each sporadic process that finished its last
  *      release is released to check its own condition (not awaited; its completion is checked
@@ -237,6 +252,10 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
     int64_t previous_end = INT64_MIN;  // when the last slot's work ended
     uint64_t cycle = 0;
     self_->state.store(1, std::memory_order_relaxed);
+    if (options_.marker >= 0 && static_cast<std::size_t>(options_.marker) < kLifecycleMarker) {
+        crash_marker_ = static_cast<std::size_t>(options_.marker);
+        claimRunningMarker(crash_marker_, options_.name.c_str());
+    }
 
     while ((cycle_limit == 0 || cycle < cycle_limit) && !stop.load(std::memory_order_relaxed)) {
         int64_t due = epoch_t0 + static_cast<int64_t>(cycle - epoch_cycle) * basic;
@@ -322,7 +341,10 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             const bool watched = task->kind == Task::Kind::Thread && task->on_overrun != config::OverrunAction::None;
             uint64_t run = 0;
             if (watched) run = marker_.begin(&r, task->on_overrun, task->overrun_limit_ns, start);
-            if (task->kind == Task::Kind::Thread) runThread(*task, r);
+            if (task->kind == Task::Kind::Thread) {
+                markRunning(crash_marker_, r.name);  // for the crash handler: one relaxed store
+                runThread(*task, r);
+            }
             if (watched) marker_.end();
             serveCalls(*task, cycle);  // within the owner's period, counted in its exec time
             t = clock_.now();
@@ -335,6 +357,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             if (over_limit) overran(*task, r, run, start, t);
         }
         if (!table_->events.empty() && !halted()) t = handleEvents(cycle, due, t);
+        markRunning(crash_marker_, nullptr);
         if (options_.trace) {
             options_.trace->sample(due);  // the traced variables, one row per basic period
             t = clock_.now();
@@ -347,6 +370,8 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         ++cycle;
     }
     runtime::setCycle({});
+    if (crash_marker_ < kMaxMarkedExecutors) g_running_markers[crash_marker_].tid.store(0, std::memory_order_relaxed);
+    crash_marker_ = SIZE_MAX;
     if (finished_ns) finished_ns->store(previous_end == INT64_MIN ? clock_.now() : previous_end, std::memory_order_relaxed);
     self_->state.store(0, std::memory_order_relaxed);
 }

@@ -107,6 +107,7 @@ struct ExecutorOptions {
     // Set (by a watchdog or an executor) when a fault stopped the set: from then on no executor
     // runs any module.  Shared by all executors of a dispatcher; null = never halted.
     std::atomic<bool> *halted = nullptr;
+    int marker = -1;  // its running marker for the crash handler (running_marker.hpp); -1: none
 };
 
 class Executor {
@@ -162,6 +163,7 @@ private:
     void takeOver(const Table *next);
 
     osal::Clock &clock_;
+    std::size_t crash_marker_ = SIZE_MAX;  // options_.marker while the loop runs (markRunning ignores SIZE_MAX)
     std::unique_ptr<Table> own_;     // the table of the second constructor
     const Table *table_;
     stats::TimingRecord *self_;

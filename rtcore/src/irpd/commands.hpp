@@ -11,6 +11,7 @@
 #include "irpd/options.hpp"
 #include "reload/reloader.hpp"
 #include "stats/stats_segment.hpp"
+#include "supervise/crash_record.hpp"
 #include "trace/trace_rings.hpp"
 #include "variables/variable_segment.hpp"
 
@@ -30,6 +31,7 @@ struct CommandContext {
     trace::TraceRings *trace = nullptr;
     const variables::VariableSegment *vars = nullptr;  // null: no shared variables
     std::function<std::string()> stopped_by;            // why a fault stopped the set ("" = it did not)
+    supervise::CrashState *crash = nullptr;             // null: no state folder (no crash records)
 };
 
 control::Handler commandHandler(const CommandContext &context);

@@ -48,7 +48,7 @@ export function pageFull(page: EventsPage, limit: number): boolean {
   return irpd >= limit || agent >= limit;
 }
 
-const BAD = new Set(["fault", "swap_failed", "process_exit", "irpd_lost", "restore_failed", "lockout",
+const BAD = new Set(["fault", "crash", "swap_failed", "process_exit", "irpd_lost", "restore_failed", "lockout",
                      "stopped", "safe_outputs_failed", "process_hang"]);
 const WARN = new Set(["deadline", "overrun", "process_restart", "process_output_dropped", "rollback"]);
 
