@@ -9,6 +9,8 @@ packages=(
   libpugixml-dev nlohmann-json3-dev              # module.xml, JSON output
   libssl-dev                                     # SHA-256 of module files (hot reload)
   libeigen3-dev liborocos-kdl-dev liburdfdom-dev # robot kinematics (the plc-robot cell)
+  libsystemd-dev                                 # sd_notify, the watchdog (irpd as a Type=notify service)
+  libcap-dev                                     # irpd --user: keeps CAP_SYS_NICE and CAP_IPC_LOCK, drops the rest
   libmodbus-dev                                  # Modbus TCP/RTU (the I/O dispatcher, the drive simulator)
   qemu-system-x86 busybox-static file            # SocketCAN on vcan in a small guest (tests/vcan/)
   googletest libgtest-dev                        # C++ tests

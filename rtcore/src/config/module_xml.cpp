@@ -263,10 +263,10 @@ private:
             std::string tag = child.name();
             static const std::set<std::string> known = {"filename", "moduletype", "operationtype", "period",
                                                         "deadline", "priority",   "property",      "name",
-                                                        "budget",   "executor"};
+                                                        "budget",   "executor",      "on_crash"};
             if (!known.count(tag))
                 defer(child, "unknown tag <" + tag + "> in <module>; expected one of filename, moduletype, "
-                             "operationtype, period, deadline, priority, property, name, budget, executor");
+                             "operationtype, period, deadline, priority, property, name, budget, executor, on_crash");
             else if (fields.count(tag))
                 defer(child, "<" + tag + "> appears twice in one <module>");
             else
@@ -348,6 +348,11 @@ private:
                 failField(budget, m.name, "budget", "only periodic modules have an execution budget");
             if (m.budget_ns > m.period_ns)
                 failField(budget, m.name, "budget", "longer than the period " + std::to_string(m.period_ns));
+        }
+        if (pugi::xml_node f = field("on_crash")) {  // docs/supervision.md
+            const std::string v = leafText(f, m.name);
+            if (v == "restart") m.on_crash = CrashPolicy::Restart;
+            else if (v != "exclude") failField(f, m.name, "on_crash", "'" + v + "'; expected exclude or restart");
         }
         if (pugi::xml_node executor = field("executor")) {
             m.executor = leafText(executor, m.name);

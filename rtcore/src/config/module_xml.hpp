@@ -18,6 +18,8 @@ namespace irp::config {
 
 enum class ModuleType { Thread, Process };
 enum class OperationType { Periodic, Sporadic, NonReal };
+// <on_crash>: after irpd died of a crash in this thread module, does the restart run it again?
+enum class CrashPolicy { Exclude, Restart };
 
 const char *toString(ModuleType type);
 const char *toString(OperationType type);
@@ -37,6 +39,7 @@ struct ModuleSpec {
     int priority = 0;               // lowest value = highest priority
     int64_t budget_ns = 0;          // optional execution budget; 0 = none
     std::string executor = kMainExecutor;
+    CrashPolicy on_crash = CrashPolicy::Exclude;  // <on_crash>
     std::vector<std::pair<std::string, std::string>> properties;  // <property><value name=..>
     int index = 0;                  // position in the file (ties in priority go to the earlier one)
     int line = 0;                   // line of <module>

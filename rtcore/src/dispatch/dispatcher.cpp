@@ -101,6 +101,7 @@ Dispatcher::Dispatcher(const config::SetSpec &set, const Tables &tables, stats::
     for (std::size_t p = 0; p < executors.size(); ++p) {
         auto plan = std::make_unique<Plan>();
         plan->options = executors[p];
+        plan->options.marker = static_cast<int>(p);  // the crash handler's marker of this thread
         const Table &table = tables.executors[p];
         plan->record = &segment_.describe(p, stats::RecordKind::Dispatcher,
                                           p == 0 ? std::string("dispatcher") : "dispatcher@" + plan->options.name,
@@ -178,11 +179,13 @@ Status Dispatcher::start(int64_t duration_ns) {
                 report.detail = "SCHED_OTHER by request (--no-rt), pinned to CPU " + std::to_string(plan.options.cpu);
             }
             osal::prefaultStack();
+            void *signal_stack = osal::useAlternateSignalStack();  // the crash handler runs on it
             gate->ready.count_down();
             gate->go.wait();
             uint64_t limit = duration_ns > 0 ? static_cast<uint64_t>(duration_ns / plan.executor->basicNs()) : 0;
             plan.executor->loop(gate->t0.load(), limit, stop_, p == 0 ? &segment_.header()->cycles : nullptr,
                                 p == 0 ? &segment_.header()->finished_ns : nullptr);
+            osal::releaseAlternateSignalStack(signal_stack);
             finished_threads_.fetch_add(1, std::memory_order_release);
         };
         if (Status s = spawn(std::move(body)); !s) {

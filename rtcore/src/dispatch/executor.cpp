@@ -3,13 +3,26 @@
 #include "dispatch/executor.hpp"
 
 #include "dispatch/function_calls.hpp"
+#include "dispatch/running_marker.hpp"
 #include "hosts/control_segment.hpp"
 #include "sdk/runtime.hpp"
 #include "trace/trace_rings.hpp"
 
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <cstdio>
 #include <exception>
 
 namespace irp::dispatch {
+
+void claimRunningMarker(std::size_t index, const char *executor) {
+    if (index >= kMaxMarkedExecutors) return;
+    RunningMarker &m = g_running_markers[index];
+    std::snprintf(m.executor, sizeof m.executor, "%s", executor);
+    m.module.store(nullptr, std::memory_order_relaxed);
+    m.tid.store(static_cast<int>(syscall(SYS_gettid)), std::memory_order_relaxed);
+}
 
 const char *toString(OverrunPolicy policy) { return policy == OverrunPolicy::CatchUp ? "catch-up" : "skip"; }
 
@@ -103,6 +116,7 @@ int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
         stats::TimingRecord &r = *task->stats;
         if (task->kind == Task::Kind::Thread) {
             int fired = 0;
+            markRunning(marker_, r.name);
             try {
                 fired = task->condition();
             } catch (...) {
@@ -196,6 +210,10 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
     int64_t previous_end = INT64_MIN;  // when the last slot's work ended
     uint64_t cycle = 0;
     self_->state.store(1, std::memory_order_relaxed);
+    if (options_.marker >= 0 && static_cast<std::size_t>(options_.marker) < kLifecycleMarker) {
+        marker_ = static_cast<std::size_t>(options_.marker);
+        claimRunningMarker(marker_, options_.name.c_str());
+    }
 
     while ((cycle_limit == 0 || cycle < cycle_limit) && !stop.load(std::memory_order_relaxed)) {
         int64_t due = epoch_t0 + static_cast<int64_t>(cycle - epoch_cycle) * basic;
@@ -273,7 +291,10 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             r.jitter.record(task->t0 + n * task->period_ns - start);
             r.latency.record(static_cast<uint64_t>(start - due > 0 ? start - due : 0));
             if (start - due >= task->period_ns) stats::bump(r.missed);
-            if (task->kind == Task::Kind::Thread) runThread(*task, r);
+            if (task->kind == Task::Kind::Thread) {
+                markRunning(marker_, r.name);  // for the crash handler: one relaxed store
+                runThread(*task, r);
+            }
             serveCalls(*task, cycle);  // within the owner's period, counted in its exec time
             t = clock_.now();
             const int64_t exec = t - start;
@@ -282,6 +303,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             stats::bump(r.runs);
         }
         if (!table_->events.empty()) t = handleEvents(cycle, due, t);
+        markRunning(marker_, nullptr);
         if (options_.trace) {
             options_.trace->sample(due);  // the traced variables, one row per basic period
             t = clock_.now();
@@ -294,6 +316,8 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         ++cycle;
     }
     runtime::setCycle({});
+    if (marker_ < kMaxMarkedExecutors) g_running_markers[marker_].tid.store(0, std::memory_order_relaxed);
+    marker_ = SIZE_MAX;
     if (finished_ns) finished_ns->store(previous_end == INT64_MIN ? clock_.now() : previous_end, std::memory_order_relaxed);
     self_->state.store(0, std::memory_order_relaxed);
 }

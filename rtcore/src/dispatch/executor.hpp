@@ -97,6 +97,7 @@ struct ExecutorOptions {
     OverrunPolicy policy = OverrunPolicy::CatchUp;
     int64_t max_catchup_ns = 100'000'000;
     trace::TraceRings *trace = nullptr;  // sampled after every slot's work (the main executor's)
+    int marker = -1;  // its running marker for the crash handler (running_marker.hpp); -1: none
 };
 
 class Executor {
@@ -145,6 +146,7 @@ private:
     void takeOver(const Table *next);
 
     osal::Clock &clock_;
+    std::size_t marker_ = SIZE_MAX;  // options_.marker while the loop runs (markRunning ignores SIZE_MAX)
     std::unique_ptr<Table> own_;     // the table of the second constructor
     const Table *table_;
     stats::TimingRecord *self_;

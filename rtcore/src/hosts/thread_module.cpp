@@ -3,11 +3,15 @@
 
 #include <indurop/property.h>
 
+#include "dispatch/running_marker.hpp"
 #include "sdk/runtime.hpp"
 
 #include <dlfcn.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 #include <atomic>
+#include <cstdio>
 #include <cstring>
 #include <exception>
 #include <system_error>
@@ -93,10 +97,23 @@ ThreadModule::~ThreadModule() {
 }
 
 namespace {
+// Marks whose lifecycle function the main thread is in, so that a crash in it is recorded
+// against it (dispatch/running_marker.hpp).
+struct LifecycleMark {
+    explicit LifecycleMark(const std::string &name) {
+        dispatch::RunningMarker &m = dispatch::g_running_markers[dispatch::kLifecycleMarker];
+        std::snprintf(m.executor, sizeof m.executor, "%s", "lifecycle");
+        m.tid.store(static_cast<int>(syscall(SYS_gettid)), std::memory_order_relaxed);
+        m.module.store(name.c_str(), std::memory_order_relaxed);
+    }
+    ~LifecycleMark() { dispatch::g_running_markers[dispatch::kLifecycleMarker].module.store(nullptr, std::memory_order_relaxed); }
+};
+
 // Marks whose initialize()/start() runs, so that its shared-function exports are its own.
 struct CurrentModule {
-    CurrentModule(const std::string &name, uint64_t instance) { runtime::setCurrentModule(name, instance); }
+    CurrentModule(const std::string &name, uint64_t instance) : mark(name) { runtime::setCurrentModule(name, instance); }
     ~CurrentModule() { runtime::setCurrentModule(""); }
+    LifecycleMark mark;
 };
 } // namespace
 
@@ -144,6 +161,7 @@ Status ThreadModule::stop() {
     if (!started_) return Ok{};
     started_ = false;
     if (!table_.stop) return Ok{};
+    LifecycleMark mark(spec_.name);
     try {
         table_.stop();
     } catch (const std::exception &e) {

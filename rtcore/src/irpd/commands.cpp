@@ -73,6 +73,20 @@ Result<std::vector<reload::Change>> changesOf(const nlohmann::json &request) {
     return changes;
 }
 
+// status: the last crash irpd recorded, and the modules left out after one (supervise/crash_record.hpp).
+json lastCrash(const CommandContext &c) {
+    if (!c.crash) return nullptr;
+    const auto last = c.crash->last();
+    return last ? last->toJson() : json(nullptr);
+}
+
+json leftOut(const CommandContext &c) {
+    json list = json::array();
+    if (c.crash)
+        for (const auto &[module, set] : c.crash->allExcluded()) list.push_back({{"module", module}, {"set", set}});
+    return list;
+}
+
 json moduleEntry(const reload::Generation &g, const config::ModuleSpec &m, const stats::StatsSegment &stats) {
     const reload::Member &member = g.members[static_cast<std::size_t>(m.index)];
     json entry = stats::toJson(stats.record(member.record));
@@ -119,10 +133,19 @@ control::Handler commandHandler(const CommandContext &c) {
                         {"skipped", d.skipped.load()},
                         {"caught_up", d.caught_up.load()},
                         {"events", c.events->last()},
+                        {"last_crash", lastCrash(c)},
+                        {"left_out_after_crash", leftOut(c)},
                         {"shared_memory",
                          {{"stats", c.stats->name()},
                           {"variables", c.variables_shm.empty() ? json(nullptr) : json(c.variables_shm)},
                           {"trace", c.trace->describe().value("shm", "")}}}};
+        }
+        if (cmd == "clear_crash") {
+            if (!c.crash) return Error{"irpd keeps no crash records (no state folder; see --state-dir)"};
+            json cleared = c.crash->clear();
+            c.events->add("crash_cleared", "", "crash record and left-out modules cleared; a module left out runs "
+                                                "again when enabled, or at the next start or load of its set");
+            return cleared;
         }
         if (cmd == "schedule") return reload::scheduleJson(*g);
         if (cmd == "modules") {
@@ -231,7 +254,7 @@ control::Handler commandHandler(const CommandContext &c) {
         if (cmd == "trace") return trace::handleTraceCommand(*c.trace, c.vars, request);
         return Error{"unknown command '" + cmd +
                      "'; the commands are status, schedule, modules, stats, histograms, events, check, load, change, "
-                     "set_period, set_priority, enable, disable, write, trace"};
+                     "set_period, set_priority, enable, disable, write, trace, clear_crash"};
     };
 }
 

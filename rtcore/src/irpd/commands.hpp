@@ -11,6 +11,7 @@
 #include "irpd/options.hpp"
 #include "reload/reloader.hpp"
 #include "stats/stats_segment.hpp"
+#include "supervise/crash_record.hpp"
 #include "trace/trace_rings.hpp"
 #include "variables/variable_segment.hpp"
 
@@ -28,6 +29,7 @@ struct CommandContext {
     nlohmann::json layout;      // the running layout.json (parsed), for write's type checks
     trace::TraceRings *trace = nullptr;
     const variables::VariableSegment *vars = nullptr;  // null: no shared variables
+    supervise::CrashState *crash = nullptr;             // null: no state folder (no crash records)
 };
 
 control::Handler commandHandler(const CommandContext &context);

@@ -5,9 +5,11 @@
 //      modules, create the control segment with the table of shared functions, start the
 //      processes;
 //   3. lock memory and start the dispatcher threads (SCHED_FIFO, pinned);
-//   4. the main thread becomes the non-RT side: every 20 ms it drains module output
-//      (irp::printf), watches the processes, turns new faults and misses into events, and runs
-//      the hot reloads the control thread hands it; until SIGINT/SIGTERM or the end of --duration;
+//   4. the main thread becomes the non-RT side: tells systemd READY=1 (when started by it), then
+//      every 20 ms it drains module output (irp::printf), watches the processes, turns new faults
+//      and misses into events, runs the hot reloads the control thread hands it, and pings
+//      systemd's watchdog while every dispatcher makes progress; until SIGINT/SIGTERM or the end
+//      of --duration;
 //   5. stop the dispatchers, stop() every module, write --stats-json, unload, remove the shm.
 #include "irpd/daemon.hpp"
 
@@ -28,6 +30,9 @@
 #include "sdk/runtime.hpp"
 #include "stats/stats_segment.hpp"
 #include "stats/summary.hpp"
+#include "supervise/crash_record.hpp"
+#include "supervise/privileges.hpp"
+#include "supervise/systemd_notify.hpp"
 #include "trace/trace_rings.hpp"
 #include "variables/layout.hpp"
 #include "variables/variable_segment.hpp"
@@ -38,6 +43,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <ctime>
 #include <fstream>
@@ -147,6 +153,75 @@ private:
     std::map<std::string, Seen> seen_;
 };
 
+// Each dispatcher's completed slots: what a watchdog ping vouches for.
+std::vector<uint64_t> dispatcherProgress(const stats::StatsSegment &segment, std::size_t executors) {
+    std::vector<uint64_t> progress(executors);
+    for (std::size_t p = 0; p < executors; ++p) progress[p] = segment.record(p).runs.load(std::memory_order_relaxed);
+    return progress;
+}
+
+// Waits (at most limit_ns) until every dispatcher completed a slot: READY=1 means dispatching.
+bool awaitFirstSlots(const stats::StatsSegment &segment, std::size_t executors, int64_t limit_ns) {
+    const int64_t end = osal::monotonicNow() + limit_ns;
+    for (;;) {
+        const std::vector<uint64_t> progress = dispatcherProgress(segment, executors);
+        if (std::all_of(progress.begin(), progress.end(), [](uint64_t runs) { return runs > 0; })) return true;
+        if (osal::monotonicNow() > end) return false;
+        const timespec pause{0, 1'000'000};
+        nanosleep(&pause, nullptr);
+    }
+}
+
+// A set as crash records name it: its module.xml's canonical path.
+std::string canonicalSet(const std::filesystem::path &xml) {
+    std::error_code ec;
+    std::filesystem::path p = std::filesystem::weakly_canonical(xml, ec);
+    return (ec ? std::filesystem::absolute(xml) : p).string();
+}
+
+// The crash that ended the previous run: an event, and its module left out of its set from now on
+// when its <on_crash> says exclude (the set's module.xml is read again for that if it is not the
+// one starting now).
+void takeInCrash(supervise::CrashState &crash, const config::SetSpec &starting, events::EventLog &events) {
+    const auto &fresh = crash.fresh();
+    if (!fresh) return;
+    std::string consequence;
+    if (fresh->module.empty()) {
+        consequence = "; no module's code was running, so none is left out";
+    } else {
+        std::optional<config::SetSpec> other;
+        const config::SetSpec *set = &starting;
+        if (fresh->set != canonicalSet(starting.xml_path)) {
+            if (auto parsed = config::parseModuleXml(fresh->set)) other = std::move(*parsed);
+            set = other ? &*other : nullptr;
+        }
+        const config::ModuleSpec *culprit = nullptr;
+        if (set)
+            for (const config::ModuleSpec &m : set->modules)
+                if (m.name == fresh->module) culprit = &m;
+        if (culprit && culprit->on_crash == config::CrashPolicy::Restart) {
+            consequence = "; it runs again (<on_crash>restart</on_crash>)";
+        } else if (Status st = crash.exclude(fresh->set, fresh->module); !st) {
+            consequence = "; could not record that it is left out: " + st.error().message;
+        } else {
+            consequence = "; left out of that set (<on_crash>exclude</on_crash>) until it is enabled again or the "
+                          "record is cleared (clear_crash)";
+        }
+    }
+    events.add("crash", fresh->module, fresh->describe() + consequence);
+    say("the previous run ended by a crash: " + fresh->describe() + consequence);
+}
+
+std::string statusLine(const reload::Generation &g, bool realtime) {
+    return "running " + g.set.xml_path.string() + " (generation " + std::to_string(g.number) + ", " +
+           std::to_string(g.set.modules.size() - g.disabled.size()) + " of " + std::to_string(g.set.modules.size()) +
+           " modules enabled, " + (realtime ? "real-time" : "NOT real-time") + ")";
+}
+
+// How much longer than WatchdogSec the main thread may take for a hot reload (loading modules,
+// waiting up to 5 s for new processes, up to 10 s for the swap) before systemd takes it for a hang.
+constexpr int64_t kReloadWatchdogAllowanceNs = 30'000'000'000;
+
 // Room in the stats block and the control segment for what hot reloads may add.
 constexpr std::size_t kMinModuleRecords = 256;
 constexpr uint32_t kMinProcessSlots = 16;
@@ -174,6 +249,41 @@ int run(const Options &options) {
     for (const config::ExecutorSpec &e : set->executors)
         if (e.cpu >= 0) rt_cpus.push_back(e.cpu);
     if (const std::string rest = osal::keepOffCpus(rt_cpus); !rest.empty()) say("non-RT work on CPUs " + rest);
+
+    // Root's work first, while irpd has one thread: hold /dev/cpu_dma_latency, open the state
+    // folder; then, with --user, become that user with CAP_SYS_NICE and CAP_IPC_LOCK only.
+    auto failure = [](const std::string &message) {
+        std::cerr << "irpd: error: " << message << std::endl;
+        return kExitFailure;
+    };
+    int dma_latency_fd = -1;  // held open while dispatching
+    if (options.dispatcher.realtime) dma_latency_fd = osal::holdCpuDmaLatencyZero();
+    std::optional<supervise::Identity> identity;
+    if (!options.user.empty()) {
+        auto who = supervise::resolveIdentity(options.user, options.group);
+        if (!who) return failure(who.error().message);
+        identity = *who;
+    }
+    const std::filesystem::path state_dir = options.state_dir.empty() ? kDefaultStateDir : options.state_dir;
+    std::unique_ptr<supervise::CrashState> crash;
+    Status state_ready = identity ? supervise::handOver(state_dir, *identity) : Status{Ok{}};
+    if (state_ready) {
+        auto opened = supervise::CrashState::open(state_dir, options.instance);
+        if (opened) crash = std::move(*opened);
+        else state_ready = opened.error();
+    }
+    if (!state_ready) {
+        if (!options.state_dir.empty()) return failure(state_ready.error().message);
+        say("WARNING: " + state_ready.error().message + "; a crash will leave no record");
+    }
+    if (identity) {
+        if (Status st = supervise::dropPrivileges(*identity); !st) return failure(st.error().message);
+        say("running as " + identity->user + ":" + identity->group + " (" + supervise::describeCredentials() + ")");
+    }
+    if (crash) {
+        if (Status st = crash->arm(); !st) return failure("crash handler: " + st.error().message);
+        crash->setContext(canonicalSet(set->xml_path), "", 1);
+    }
 
     // 2. stats block (room for a hot reload to hold the old and the new modules at once)
     const std::size_t executors = dispatch::Dispatcher::executorCount(*set);
@@ -223,6 +333,17 @@ int run(const Options &options) {
     services.limits = options.limits;
     services.dispatcher = options.dispatcher;
     services.trace = &*trace_rings;
+    std::set<std::string> left_out;  // modules of this set left out after a crash
+    if (crash) {
+        takeInCrash(*crash, *set, events);
+        left_out = crash->excluded(canonicalSet(set->xml_path));
+        for (const std::string &name : left_out)
+            say("module '" + name + "' is left out after it crashed irpd (enable it, or clear_crash, to run it again)");
+        services.left_out = [c = crash.get()](const config::SetSpec &s) { return c->excluded(canonicalSet(s.xml_path)); };
+        services.forgive = [c = crash.get(), &events](const std::string &module) {
+            if (c->forgive(module)) events.add("crash_cleared", module, "enabled again: no longer left out after its crash");
+        };
+    }
     if (services.dispatcher.cpu < 0) services.dispatcher.cpu = osal::lastAllowedCpu();
     reload::Reloader reloader(services);
 
@@ -233,7 +354,7 @@ int run(const Options &options) {
     std::unique_ptr<dispatch::CallServer> calls;  // outlives the dispatcher (declared before it)
     std::size_t processes = 0;
     for (const config::ModuleSpec &m : set->modules) processes += m.type == config::ModuleType::Process;
-    auto first = reloader.prepare(*set, nullptr, {}, "", [&](reload::Generation &g) {
+    auto first = reloader.prepare(*set, nullptr, left_out, "", [&](reload::Generation &g) {
         const std::vector<runtime::FunctionExport> exports = runtime::functionExports();
         auto created = hosts::ControlSegment::create(
             options.instance, std::max<uint32_t>(kMinProcessSlots, static_cast<uint32_t>(processes)),
@@ -263,6 +384,7 @@ int run(const Options &options) {
         context.layout = std::move(layout_json);
         context.trace = &*trace_rings;
         context.vars = vars ? &*vars : nullptr;
+        context.crash = crash.get();
         auto opened = control::ControlServer::open(options.control_socket, commandHandler(context));
         if (!opened) {
             supervisor.stopAll(1'000'000'000);
@@ -274,10 +396,8 @@ int run(const Options &options) {
     }
 
     // 3. dispatchers
-    int dma_latency_fd = -1;  // held open while dispatching
     if (options.dispatcher.realtime) {
         if (Status s = osal::lockMemory(); !s) say("WARNING: " + s.error().message + "; page faults may add latency");
-        dma_latency_fd = osal::holdCpuDmaLatencyZero();
         if (dma_latency_fd < 0) say("note: /dev/cpu_dma_latency not held at 0; CPU idle states may add wake-up latency");
     }
     dispatch::DispatcherOptions dispatcher_options = options.dispatcher;
@@ -307,6 +427,25 @@ int run(const Options &options) {
     events.add("start", "", "irpd " INDUROP_VERSION " started " + set->xml_path.string() +
                                 (dispatcher.realtime() ? " (real-time)" : " (NOT real-time)"));
 
+    // systemd (Type=notify): ready once every dispatcher ran a slot; the watchdog from then on.
+    supervise::SystemdNotify notify = supervise::SystemdNotify::fromEnvironment();
+    if (notify.active()) {
+        if (!awaitFirstSlots(*segment, executors, 2'000'000'000))
+            say("WARNING: a dispatcher has not completed its first slot within 2 s; telling systemd READY=1 anyway");
+        notify.ready(statusLine(*reloader.current(), dispatcher.realtime()), dispatcherProgress(*segment, executors),
+                     osal::monotonicNow());
+        if (notify.watchdogNs()) {
+            say("systemd watchdog: " + schedule::humanDuration(notify.watchdogNs()) +
+                "; pinged while every dispatcher makes progress");
+            int64_t longest = 0;
+            for (const auto &table : reloader.current()->tables->executors) longest = std::max(longest, table.basic_ns);
+            if (longest * 2 > notify.watchdogNs() / 2)
+                say("WARNING: WatchdogSec " + schedule::humanDuration(notify.watchdogNs()) +
+                    " is less than 4 basic periods of the slowest dispatcher (" + schedule::humanDuration(longest) +
+                    "): pings may be missed; lengthen WatchdogSec");
+        }
+    }
+
     // 4. the non-RT side
     sigset_t stop_signals;
     sigemptyset(&stop_signals);
@@ -315,12 +454,22 @@ int run(const Options &options) {
     const timespec tick{0, 20'000'000};
     EventWatch watch(events, *segment);
     int64_t last_figures = 0;
+    uint64_t generation_told = reloader.current()->number;
     while (!dispatcher.finished()) {
         int sig = sigtimedwait(&stop_signals, nullptr, &tick);
         drainModuleOutput();
         supervisor.poll();
-        queue.runPending();
+        if (queue.pending()) {
+            notify.beginLongWork(kReloadWatchdogAllowanceNs);
+            queue.runPending();
+            notify.endLongWork(dispatcherProgress(*segment, executors), osal::monotonicNow());
+        }
         const auto g = reloader.current();
+        if (g->number != generation_told) {
+            generation_told = g->number;
+            if (crash) crash->setContext(canonicalSet(g->set.xml_path), g->set_id, g->number);
+            notify.status(statusLine(*g, dispatcher.realtime()));
+        }
         for (const hosts::ProcessInfo &p : supervisor.processes())
             for (const config::ModuleSpec &m : g->set.modules) {
                 const reload::Member &member = g->members[static_cast<std::size_t>(m.index)];
@@ -333,6 +482,7 @@ int run(const Options &options) {
         const bool figures = now - last_figures >= 1'000'000'000;
         if (figures) last_figures = now;
         watch.look(*g, supervisor, figures);
+        notify.tick(dispatcherProgress(*segment, executors), now);
         if (sig == SIGINT || sig == SIGTERM) {
             say(std::string("received ") + (sig == SIGINT ? "SIGINT" : "SIGTERM") + ", stopping");
             break;
@@ -340,6 +490,7 @@ int run(const Options &options) {
     }
 
     // 5. clean stop
+    notify.stopping("stopping");
     queue.close();
     control_server.reset();  // no client reads a set that is going away
     dispatcher.requestStop();
@@ -364,6 +515,7 @@ int run(const Options &options) {
         std::to_string(main.overruns.load()) + " overruns, " + std::to_string(main.missed.load()) + " missed, " +
         std::to_string(main.skipped.load()) + " skipped");
     if (dma_latency_fd >= 0) close(dma_latency_fd);
+    if (crash) crash->disarm();
     return status;
 }
 

@@ -42,6 +42,12 @@ public:
         }
     }
 
+    // True when a job waits (the main thread then stretches the watchdog before running it).
+    bool pending() {
+        std::lock_guard lock(mutex_);
+        return !jobs_.empty();
+    }
+
     // From the main thread: runs every posted job.
     void runPending() {
         for (;;) {

@@ -15,6 +15,7 @@ namespace {
 enum Flag {
     kConfig = 1000, kPrintSchedule, kJson, kDuration, kStatsJson, kInstance, kMinBasic, kCpu, kRtPriority, kNoRt,
     kPolicy, kMaxCatchup, kHelp, kVersion, kStatsLayout, kLayout, kControlSocket, kModuleCache,
+    kStateDir, kUser, kGroup,
 };
 
 const option kOptions[] = {
@@ -36,6 +37,9 @@ const option kOptions[] = {
     {"layout", required_argument, nullptr, kLayout},
     {"control-socket", required_argument, nullptr, kControlSocket},
     {"module-cache", required_argument, nullptr, kModuleCache},
+    {"state-dir", required_argument, nullptr, kStateDir},
+    {"user", required_argument, nullptr, kUser},
+    {"group", required_argument, nullptr, kGroup},
     {nullptr, 0, nullptr, 0},
 };
 
@@ -78,6 +82,12 @@ Runs the module set described by FILE.xml (the paper's module.xml) on a strict p
                            (default 100000000)
   --control-socket PATH    serve the control protocol (docs/control-protocol.md) on this Unix
                            socket (mode 0660)
+  --state-dir DIR          where a crash record is left for the next start (mode 0750; default
+                           /var/lib/indurop/irpd; see docs/supervision.md)
+  --user USER              after start, run as USER keeping only CAP_SYS_NICE and CAP_IPC_LOCK
+                           (irpd must start as root); shared memory and the control socket
+                           belong to USER and its group, mode 0660
+  --group GROUP            with --user: the group instead of USER's primary group
   --print-stats-layout     print the offsets of the shared-memory stats block as JSON and exit
   --help, --version
 
@@ -151,6 +161,18 @@ Result<Options> parseOptions(int argc, char **argv) {
         case kLayout: o.layout = optarg; break;
         case kModuleCache: o.module_cache = optarg; break;
         case kControlSocket: o.control_socket = optarg; break;
+        case kStateDir:
+            if (!*optarg) return Error{"--state-dir: the folder is empty"};
+            o.state_dir = optarg;
+            break;
+        case kUser:
+            if (!*optarg) return Error{"--user: the user name is empty"};
+            o.user = optarg;
+            break;
+        case kGroup:
+            if (!*optarg) return Error{"--group: the group name is empty"};
+            o.group = optarg;
+            break;
         case ':': return Error{std::string("option ") + argv[optind - 1] + " needs a value"};
         default: return Error{std::string("unknown option ") + argv[optind - 1]};
         }
@@ -159,6 +181,7 @@ Result<Options> parseOptions(int argc, char **argv) {
     if (o.help || o.version || o.print_stats_layout) return o;
     if (o.config.empty()) return Error{"--config FILE.xml is required"};
     if (o.json && !o.print_schedule) return Error{"--json goes with --print-schedule"};
+    if (!o.group.empty() && o.user.empty()) return Error{"--group goes with --user"};
     return o;
 }
 

@@ -20,11 +20,16 @@ struct Options {
     std::string layout;            // --layout FILE: the set's layout.json, instead of its <layout>
     std::string instance = "default";  // --instance NAME: names the shared memory
     std::string module_cache;      // --module-cache DIR ("" = /tmp/indurop-<uid>-<instance>-modules)
+    std::string state_dir;         // --state-dir DIR ("" = /var/lib/indurop/irpd, see kDefaultStateDir)
+    std::string user, group;       // --user, --group: switch to them after start (supervise/privileges.hpp)
     schedule::Limits limits;       // --min-basic-period NS
     dispatch::DispatcherOptions dispatcher;  // --cpu, --rt-priority, --no-rt, --overrun-policy, --max-catchup
     bool help = false;
     bool version = false;
 };
+
+// Where crash records live unless --state-dir says otherwise.
+inline constexpr const char *kDefaultStateDir = "/var/lib/indurop/irpd";
 
 // Parses argv; the Error says which option is wrong and how.
 Result<Options> parseOptions(int argc, char **argv);

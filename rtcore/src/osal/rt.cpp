@@ -5,6 +5,7 @@
 #include <pthread.h>
 #include <unistd.h>
 #include <sched.h>
+#include <signal.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
@@ -119,6 +120,32 @@ std::string keepOffCpus(const std::vector<int> &rt_cpus) {
     for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu)
         if (CPU_ISSET(cpu, &rest)) list += (list.empty() ? "" : ",") + std::to_string(cpu);
     return list;
+}
+
+namespace {
+constexpr std::size_t kSignalStackBytes = 64 * 1024;
+}
+
+void *useAlternateSignalStack() {
+    void *stack = mmap(nullptr, kSignalStackBytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (stack == MAP_FAILED) return nullptr;
+    std::memset(stack, 0, kSignalStackBytes);  // faulted in now (and locked, after mlockall)
+    stack_t ss{};
+    ss.ss_sp = stack;
+    ss.ss_size = kSignalStackBytes;
+    if (sigaltstack(&ss, nullptr) != 0) {
+        munmap(stack, kSignalStackBytes);
+        return nullptr;
+    }
+    return stack;
+}
+
+void releaseAlternateSignalStack(void *stack) {
+    if (!stack) return;
+    stack_t off{};
+    off.ss_flags = SS_DISABLE;
+    sigaltstack(&off, nullptr);
+    munmap(stack, kSignalStackBytes);
 }
 
 } // namespace irp::osal

@@ -27,6 +27,12 @@ int holdCpuDmaLatencyZero();
 // Touches `bytes` of stack so the RT loop never faults a stack page in.
 void prefaultStack(std::size_t bytes = 256 * 1024);
 
+// Gives the calling thread an alternate signal stack (sigaltstack) of its own, so that a crash
+// handler still runs when the thread's stack is what broke.  Returns it for release at the
+// thread's end (null if it could not be set up).
+void *useAlternateSignalStack();
+void releaseAlternateSignalStack(void *stack);
+
 // The highest CPU number this process may run on (the default RT CPU), and whether cpu is usable.
 int lastAllowedCpu();
 bool cpuAllowed(int cpu);

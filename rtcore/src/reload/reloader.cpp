@@ -384,7 +384,9 @@ Result<json> Reloader::load(const std::filesystem::path &xml, const std::string 
     }
     resolveLayout(*set);
     const auto running = current();
-    auto next = prepare(std::move(*set), running.get(), running->disabled, set_id);
+    std::set<std::string> disabled = running->disabled;
+    if (s_.left_out) disabled.merge(s_.left_out(*set));
+    auto next = prepare(std::move(*set), running.get(), std::move(disabled), set_id);
     if (!next) {
         s_.events->add("swap_failed", "", next.error().message);
         return next.error();
@@ -515,6 +517,9 @@ Result<json> Reloader::change(const std::vector<Change> &changes, bool dry_run) 
     auto report = swap(std::move(*next), requested);
     if (!report) return report.error();
     answer["report"] = std::move(*report);
+    if (s_.forgive)
+        for (const Change &change : changes)
+            if (change.enabled && *change.enabled) s_.forgive(change.module);
     return answer;
 }
 

@@ -57,6 +57,10 @@ struct Services {
     trace::TraceRings *trace = nullptr;            // told the basic period after a swap that changes it
     schedule::Limits limits;
     dispatch::DispatcherOptions dispatcher;        // the RT priority and CPU processes inherit
+    // Modules left out of a set after they crashed irpd (supervise/crash_record.hpp): a `load`
+    // of that set starts them disabled; an `enable` of one calls forgive.  Empty: none.
+    std::function<std::set<std::string>(const config::SetSpec &)> left_out;
+    std::function<void(const std::string &module)> forgive;
     int64_t ready_timeout_ns = 5'000'000'000;     // new processes: until irp::initPeriodExe()
     int64_t swap_timeout_ns = 10'000'000'000;     // offer -> every executor switched
 };

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -35,7 +36,9 @@ struct TempDir {
 
 class Process {
 public:
-    Process(std::vector<std::string> argv, const std::filesystem::path &dir) : out_(dir / "stdout"), err_(dir / "stderr") {
+    // in_child runs in the child before exec (e.g. setenv with the child's own pid).
+    Process(std::vector<std::string> argv, const std::filesystem::path &dir, std::function<void()> in_child = {})
+        : out_(dir / "stdout"), err_(dir / "stderr") {
         pid_ = fork();
         if (pid_ == 0) {
             FILE *o = std::fopen(out_.c_str(), "w");
@@ -45,6 +48,7 @@ public:
             sigset_t none;
             sigemptyset(&none);
             sigprocmask(SIG_SETMASK, &none, nullptr);
+            if (in_child) in_child();
             std::vector<char *> args;
             for (auto &a : argv) args.push_back(a.data());
             args.push_back(nullptr);
@@ -63,6 +67,9 @@ public:
     std::string out() const { return readFile(out_); }
     std::string err() const { return readFile(err_); }
 
+    // The signal that ended it (after wait() saw it end by one), else 0.
+    int termSignal() const { return term_signal_; }
+
     // Exit status, or -1 if still running at the deadline (-2 if killed by a signal).
     int wait(std::chrono::milliseconds limit = std::chrono::seconds(30)) {
         if (exited_) return status_;
@@ -72,6 +79,7 @@ public:
             if (waitpid(pid_, &status, WNOHANG) == pid_) {
                 exited_ = true;
                 status_ = WIFEXITED(status) ? WEXITSTATUS(status) : -2;
+                term_signal_ = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
                 return status_;
             }
             std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -93,6 +101,7 @@ private:
     pid_t pid_ = -1;
     bool exited_ = false;
     int status_ = -1;
+    int term_signal_ = 0;
     std::filesystem::path out_, err_;
 };
 

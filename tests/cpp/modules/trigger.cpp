@@ -1,0 +1,28 @@
+// trigger.cpp -- modules that misbehave on purpose once a file exists (property "trigger": its
+// path), so that a test decides exactly when: TRIGGER_STALL blocks in run() for good (a hung
+// module: the systemd watchdog's case), TRIGGER_CRASH dereferences a null pointer in run() (a
+// thread module's segfault: the crash record's case).  Until then they count their runs.
+#include <indurop/indurop.h>
+
+#include <unistd.h>
+
+#include <string>
+
+namespace {
+std::string trigger;
+bool fired() { return !trigger.empty() && access(trigger.c_str(), F_OK) == 0; }
+} // namespace
+
+extern "C" void initialize(irp::Property const &p) { trigger = p.get("trigger"); }
+
+void run() {
+    if (!fired()) return;
+#if defined(TRIGGER_STALL)
+    for (;;) sleep(1000);
+#elif defined(TRIGGER_CRASH)
+    volatile int *nowhere = nullptr;
+    *nowhere = 1;
+#else
+#error "trigger.cpp needs TRIGGER_STALL or TRIGGER_CRASH"
+#endif
+}
