@@ -104,12 +104,12 @@ in_chroot glbc --version >/dev/null || fail "glbc --version"
 out=$(in_chroot irpd --config /usr/share/indurop/sets/signals/module.xml --duration 1 --no-rt --instance pkg-chroot 2>&1) \
   || { echo "$out"; fail "irpd on the signals set"; }
 
-# irpd as irpd.service starts it (root, group indurop), the agent as the user indurop.
+# irpd as irpd.service starts it (root, group indurop, then --user indurop), the agent as the user indurop.
 port=$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
 start_irpd() {
-  install -d -o root -g indurop -m 0750 "$chr/run/indurop"
+  install -d -o root -g indurop -m 0770 "$chr/run/indurop"
   chroot "$chr" /usr/bin/env -i PATH=/usr/bin:/bin IRPD_ARGS=--no-rt \
-    setpriv --regid indurop --clear-groups sh -c 'umask 0007; exec /usr/lib/indurop/irpd-start' >>"$cache/irpd.log" 2>&1 &
+    setpriv --regid indurop --clear-groups sh -c 'umask 0007; exec /usr/lib/indurop/irpd-start --user indurop --group indurop --state-dir /var/lib/indurop/irpd' >>"$cache/irpd.log" 2>&1 &
   irpd_pid=$!
   for _ in $(seq 100); do [ -S "$chr/run/indurop/irpd.sock" ] && return 0; sleep 0.1; done
   cat "$cache/irpd.log"; fail "irpd did not open its control socket"
@@ -117,6 +117,7 @@ start_irpd() {
 : > "$cache/irpd.log"
 start_irpd
 grep -q "no set activated yet" "$cache/irpd.log" || fail "irpd-start did not fall back to the default set"
+[ "$(stat -c %U "$chr/run/indurop/irpd.sock")" = indurop ] || fail "irpd did not switch to the user indurop (socket: $(stat -c %U "$chr/run/indurop/irpd.sock"))"
 in_chroot runuser -u indurop -- /usr/bin/indurop-agent --host 127.0.0.1 --port "$port" \
   --data-dir /var/lib/indurop --irpd-socket /run/indurop/irpd.sock >"$cache/agent.log" 2>&1 &
 agent_pid=$!
