@@ -91,6 +91,9 @@ in_chroot id indurop >/dev/null || fail "no user indurop"
 for f in "$chr"/etc/systemd/system/{irpd,indurop-agent}.service.d/50-cpus.conf; do
   grep -q '^CPUAffinity=' "$f" || fail "$f has no CPUAffinity"
 done
+for unit in irpd indurop-agent; do   # enabled for the next boot (deb-systemd-helper)
+  [ -L "$chr/etc/systemd/system/multi-user.target.wants/$unit.service" ] || fail "$unit.service is not enabled"
+done
 # Every ELF file's libraries are found: the Depends are complete.
 missing=$(in_chroot sh -c 'dpkg -L indurop | while read -r f; do
   [ -f "$f" ] && head -c4 "$f" | grep -q ELF && ldd "$f" 2>/dev/null | grep "not found" | sed "s#^#$f: #"; done' || true)
