@@ -37,11 +37,22 @@ if [ ! -f "$tarball" ]; then
 fi
 
 chr=$(mktemp -d "$cache/root-XXXXXX")
-agent_pid= irpd_pid=
+irpd_pid=
+# The processes this test started in the chroot (irpd, runuser and the agent under it): by pid,
+# found by their root folder.
+stop_chroot_processes() {
+  local p pids=()
+  for p in /proc/[0-9]*; do
+    [ "$(readlink "$p/root" 2>/dev/null)" = "$chr" ] && pids+=("${p#/proc/}")
+  done
+  [ ${#pids[@]} -eq 0 ] && return 0
+  kill "${pids[@]}" 2>/dev/null || true
+  for _ in $(seq 50); do kill -0 "${pids[@]}" 2>/dev/null || break; sleep 0.1; done
+  kill -9 "${pids[@]}" 2>/dev/null || true
+  wait 2>/dev/null || true
+}
 cleanup() {
-  [ -n "$agent_pid" ] && kill "$agent_pid" 2>/dev/null
-  [ -n "$irpd_pid" ] && kill "$irpd_pid" 2>/dev/null
-  wait 2>/dev/null
+  stop_chroot_processes
   for m in var/lib/apt/lists var/cache/apt/archives dev/shm dev proc; do
     mountpoint -q "$chr/$m" && umount -l "$chr/$m"
   done
@@ -86,17 +97,35 @@ done
 ls "$chr"/usr/lib/libindurop.so.* >/dev/null || fail "libindurop is not installed"
 # The user, the data folder, the token.
 in_chroot id indurop >/dev/null || fail "no user indurop"
-[ "$(stat -c '%U:%G %a' "$chr/var/lib/indurop")" = "indurop:indurop 750" ] || fail "/var/lib/indurop: $(stat -c '%U:%G %a' "$chr/var/lib/indurop")"
-[ "$(stat -c '%U %a' "$chr/var/lib/indurop/admin-token")" = "indurop 600" ] || fail "the admin token is not indurop's, 0600"
+# (stat in the chroot: the names are the chroot's users)
+[ "$(in_chroot stat -c '%U:%G %a' /var/lib/indurop)" = "indurop:indurop 750" ] || fail "/var/lib/indurop: $(in_chroot stat -c '%U:%G %a' /var/lib/indurop)"
+[ "$(in_chroot stat -c '%U %a' /var/lib/indurop/admin-token)" = "indurop 600" ] || fail "the admin token is not indurop's, 0600"
 for f in "$chr"/etc/systemd/system/{irpd,indurop-agent}.service.d/50-cpus.conf; do
   grep -q '^CPUAffinity=' "$f" || fail "$f has no CPUAffinity"
 done
 for unit in irpd indurop-agent; do   # enabled for the next boot (deb-systemd-helper)
   [ -L "$chr/etc/systemd/system/multi-user.target.wants/$unit.service" ] || fail "$unit.service is not enabled"
 done
-# Every ELF file's libraries are found: the Depends are complete.
-missing=$(in_chroot sh -c 'dpkg -L indurop | while read -r f; do
-  [ -f "$f" ] && head -c4 "$f" | grep -q ELF && ldd "$f" 2>/dev/null | grep "not found" | sed "s#^#$f: #"; done' || true)
+# Every ELF file's libraries are found: the Depends are complete.  (A library a wheel bundles
+# beside another in its .libs folder is found there at run time, when the extension module that
+# needs them has loaded the first.)
+missing=$(in_chroot python3 - <<'PY'
+import os, subprocess
+files = subprocess.run(["dpkg", "-L", "indurop"], capture_output=True, text=True).stdout.split("\n")
+for f in files:
+    if not os.path.isfile(f) or os.path.islink(f):
+        continue
+    with open(f, "rb") as fh:
+        if fh.read(4) != b"\x7fELF":
+            continue
+    out = subprocess.run(["ldd", f], capture_output=True, text=True).stdout
+    for line in out.splitlines():
+        if "not found" in line:
+            lib = line.split()[0]
+            if not os.path.exists(os.path.join(os.path.dirname(f), lib)):
+                print(f"{f}: {lib} not found")
+PY
+)
 [ -z "$missing" ] || { echo "$missing" | head -20; fail "libraries not found (Depends incomplete)"; }
 
 # The commands.
@@ -110,7 +139,7 @@ out=$(in_chroot irpd --config /usr/share/indurop/sets/signals/module.xml --durat
 # irpd as irpd.service starts it (root, group indurop, then --user indurop), the agent as the user indurop.
 port=$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
 start_irpd() {
-  install -d -o root -g indurop -m 0770 "$chr/run/indurop"
+  in_chroot install -d -o root -g indurop -m 0770 /run/indurop
   chroot "$chr" /usr/bin/env -i PATH=/usr/bin:/bin IRPD_ARGS=--no-rt \
     setpriv --regid indurop --clear-groups sh -c 'umask 0007; exec /usr/lib/indurop/irpd-start --user indurop --group indurop --state-dir /var/lib/indurop/irpd' >>"$cache/irpd.log" 2>&1 &
   irpd_pid=$!
@@ -120,10 +149,9 @@ start_irpd() {
 : > "$cache/irpd.log"
 start_irpd
 grep -q "no set activated yet" "$cache/irpd.log" || fail "irpd-start did not fall back to the default set"
-[ "$(stat -c %U "$chr/run/indurop/irpd.sock")" = indurop ] || fail "irpd did not switch to the user indurop (socket: $(stat -c %U "$chr/run/indurop/irpd.sock"))"
+[ "$(in_chroot stat -c %U /run/indurop/irpd.sock)" = indurop ] || fail "irpd did not switch to the user indurop (socket: $(in_chroot stat -c %U /run/indurop/irpd.sock))"
 in_chroot runuser -u indurop -- /usr/bin/indurop-agent --host 127.0.0.1 --port "$port" \
   --data-dir /var/lib/indurop --irpd-socket /run/indurop/irpd.sock >"$cache/agent.log" 2>&1 &
-agent_pid=$!
 health=
 for _ in $(seq 300); do health=$(curl -sf "http://127.0.0.1:$port/api/v1/health" || true); [ -n "$health" ] && break; sleep 0.1; done
 [ -n "$health" ] || { cat "$cache/agent.log"; fail "the agent did not answer /api/v1/health"; }
@@ -140,13 +168,13 @@ status=$(curl -sf -H "Authorization: Bearer $(cat "$chr/var/lib/indurop/admin-to
 for _ in $(seq 50); do echo "$status" | grep -q "$(readlink "$chr/var/lib/indurop/active" | cut -d/ -f2)" && break
   sleep 0.2; status=$(curl -sf -H "Authorization: Bearer $(cat "$chr/var/lib/indurop/admin-token")" "http://127.0.0.1:$port/api/v1/status" || true); done
 echo "$status" | grep -q "$(readlink "$chr/var/lib/indurop/active" | cut -d/ -f2)" || { echo "$status"; fail "irpd does not run the active set after its restart"; }
-kill "$agent_pid" "$irpd_pid"; wait "$agent_pid" "$irpd_pid" 2>/dev/null || true
-agent_pid= irpd_pid=
+stop_chroot_processes
 
 # remove: the programs go, the data stays.
 in_chroot env DEBIAN_FRONTEND=noninteractive apt-get remove -y -q indurop >"$cache/remove.log" 2>&1 \
   || { tail -20 "$cache/remove.log" >&2; fail "apt-get remove"; }
-[ ! -e "$chr/usr/bin/irpd" ] && [ ! -e "$chr/usr/lib/indurop" ] && [ ! -e "$chr/usr/share/indurop" ] || fail "files left after remove"
+left=$(cd "$chr" && find usr/bin/irpd usr/lib/indurop usr/share/indurop 2>/dev/null | head -20 || true)
+[ -z "$left" ] || { echo "$left"; fail "files left after remove"; }
 [ -f "$chr/var/lib/indurop/admin-token" ] && in_chroot id indurop >/dev/null || fail "remove took the data or the user"
 # purge (with the dependencies it brought): nothing of it is left.
 in_chroot env DEBIAN_FRONTEND=noninteractive apt-get purge -y -q --autoremove indurop >"$cache/purge.log" 2>&1 \
