@@ -17,6 +17,7 @@ packages=(
   rt-tests                                       # cyclictest: the benchmark's reference
   util-linux                                     # setpriv, prlimit: the non-RT fallback test
   chromium fonts-dejavu-core                     # the browser tests (Playwright drives Debian's chromium)
+  debootstrap curl                               # the .deb's install test in a Debian 12 chroot (tests/package/)
 )
 
 missing=()
