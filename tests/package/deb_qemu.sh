@@ -10,8 +10,9 @@
 #
 # The guest's base (bookworm minbase + systemd, the kernel, curl) is made once from
 # deb_chroot.sh's debootstrap tarball and kept in build/package-guest/; each run unpacks it, installs
-# the .deb with apt, packs the tree into an ext4 image (mke2fs -d) and boots it (KVM when /dev/kvm
-# can be used, else TCG: slower).  Needs root.  Exit 77 (skip) without qemu, debootstrap or mirror.
+# the .deb with apt, packs the tree into an ext4 image (mke2fs -d) and boots it (TCG: nested KVM
+# inside a VM, as on the machines here, may hang before the kernel prints; INDUROP_GUEST_KVM=1
+# tries KVM).  Needs root.  Exit 77 (skip) without qemu, debootstrap or mirror.
 set -euo pipefail
 deb=$(realpath "$1")
 root=$(cd "$(dirname "$0")/../.." && pwd)
@@ -89,7 +90,7 @@ size_mb=$(( $(du -sm "$tree" | cut -f1) + 1024 ))
 mke2fs -q -F -t ext4 -d "$tree" "$cache/guest.img" "${size_mb}M"
 
 accel=(-machine accel=tcg)
-[ -w /dev/kvm ] && [ "${INDUROP_GUEST_KVM:-1}" = 1 ] && accel=(-enable-kvm -cpu host)
+[ -w /dev/kvm ] && [ "${INDUROP_GUEST_KVM:-0}" = 1 ] && accel=(-enable-kvm -cpu host)
 : > "$cache/console.log"; : > "$cache/results.log"
 echo "deb_qemu: booting the guest (${accel[*]}), console in $cache/console.log"
 t0=$(date +%s)
