@@ -18,6 +18,7 @@ packages=(
   stress-ng                                      # the soak's load on the other CPU (tests/bench/soak.py)
   util-linux                                     # setpriv, prlimit: the non-RT fallback test
   chromium fonts-dejavu-core                     # the browser tests (Playwright drives Debian's chromium)
+  debootstrap curl                               # the .deb's install test in a Debian 12 chroot (tests/package/)
 )
 
 missing=()

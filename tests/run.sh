@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # run.sh -- the whole test suite: installs what is missing, builds, runs every test (ctest, pytest,
-# the UI's unit tests with Vitest, the browser tests with Playwright on Debian's chromium).
+# the UI's unit tests with Vitest, the browser tests with Playwright on Debian's chromium, the
+# Debian package in a chroot).
 # Timing figures are not tested here; tests/bench/ measures them.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -17,4 +18,7 @@ status=0
 "$venv/bin/pytest" -q "$root/tests/python" || status=1
 (cd "$root/webui" && npx vitest run) || status=1
 (cd "$root/tests/browser" && npx playwright test) || status=1
+# The Debian package: built (packaging/deb.sh), its units verified, installed, run, removed and
+# purged in a Debian 12 chroot (tests/package/deb_test.sh; skipped where it cannot run).
+bash "$root/tests/package/deb_test.sh" || status=1
 exit $status

@@ -1,0 +1,188 @@
+#!/usr/bin/env bash
+# deb_chroot.sh DEB -- installs the .deb into a clean Debian 12 (bookworm) minbase chroot with apt
+# (real dependency resolution), checks what it installed and that it runs, then removes and purges
+# it and checks that nothing of it is left.  Needs root (debootstrap, chroot, mounts).
+#
+#   bash tests/package/deb_chroot.sh build/indurop_0.1.0_amd64.deb
+#
+# The chroot is made once by debootstrap (a few minutes, most of it downloading) and kept as a
+# tarball in build/package-chroot/; later runs unpack a fresh copy of it (seconds).  The packages
+# apt downloads are kept there too.  Exit 77 (skip) when debootstrap is not installed or the
+# Debian mirror cannot be reached.
+#
+# In the chroot (no systemd running there): the package's files, the user and group indurop, the
+# data folder and first admin token, every ELF file's libraries resolved, irpd --version,
+# indurop-agent --help, irpd running a shipped set for a second, irpd started the way irpd.service
+# starts it (irpd-start, without SCHED_FIFO: --no-rt) with the agent beside it as the user
+# indurop answering /api/v1/health on 127.0.0.1, the default set stored and activated
+# (activate-default-set), irpd restarted on the active set; then `apt-get remove` (data kept),
+# `apt-get purge --autoremove` (the file system's names as before the install).
+set -euo pipefail
+deb=$(realpath "$1")
+root=$(cd "$(dirname "$0")/../.." && pwd)
+cache=${INDUROP_CHROOT_CACHE:-$root/build/package-chroot}
+mirror=${INDUROP_DEBIAN_MIRROR:-http://deb.debian.org/debian}
+tarball=$cache/bookworm-minbase.tar.gz
+[ "$(id -u)" -eq 0 ] || { echo "deb_chroot: needs root (debootstrap, chroot)" >&2; exit 77; }
+command -v debootstrap >/dev/null || { echo "deb_chroot: debootstrap is not installed" >&2; exit 77; }
+mkdir -p "$cache/archives/partial" "$cache/lists/partial"
+
+if [ ! -f "$tarball" ]; then
+  echo "deb_chroot: debootstrap bookworm minbase into $cache (once; kept as $(basename "$tarball"))"
+  rm -rf "$cache/seed"
+  debootstrap --variant=minbase bookworm "$cache/seed" "$mirror" >"$cache/debootstrap.log" 2>&1 \
+    || { tail -5 "$cache/debootstrap.log" >&2; echo "deb_chroot: debootstrap failed (no mirror?)" >&2; exit 77; }
+  tar -C "$cache/seed" -czf "$tarball.part" . && mv "$tarball.part" "$tarball"
+  rm -rf "$cache/seed"
+fi
+
+chr=$(mktemp -d "$cache/root-XXXXXX")
+irpd_pid=
+# The processes this test started in the chroot (irpd, runuser and the agent under it): by pid,
+# found by their root folder.
+stop_chroot_processes() {
+  local p pids=()
+  for p in /proc/[0-9]*; do
+    [ "$(readlink "$p/root" 2>/dev/null)" = "$chr" ] && pids+=("${p#/proc/}")
+  done
+  [ ${#pids[@]} -eq 0 ] && return 0
+  kill "${pids[@]}" 2>/dev/null || true
+  for _ in $(seq 50); do kill -0 "${pids[@]}" 2>/dev/null || break; sleep 0.1; done
+  kill -9 "${pids[@]}" 2>/dev/null || true
+  wait 2>/dev/null || true
+}
+cleanup() {
+  stop_chroot_processes
+  for m in var/lib/apt/lists var/cache/apt/archives dev/shm dev proc; do
+    mountpoint -q "$chr/$m" && umount -l "$chr/$m"
+  done
+  rm -rf --one-file-system "$chr"
+}
+trap cleanup EXIT
+tar -C "$chr" -xzf "$tarball"
+mount -t proc proc "$chr/proc"
+mount -t tmpfs -o mode=0755 dev "$chr/dev"
+for d in null zero random urandom tty; do touch "$chr/dev/$d"; mount --bind "/dev/$d" "$chr/dev/$d"; done
+mkdir -p "$chr/dev/shm" && mount -t tmpfs -o mode=1777 shm "$chr/dev/shm"
+mount --bind "$cache/archives" "$chr/var/cache/apt/archives"
+mount --bind "$cache/lists" "$chr/var/lib/apt/lists"
+in_chroot() { chroot "$chr" /usr/bin/env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin LANG=C.UTF-8 "$@"; }
+fail() { echo "FAILED: $*" >&2; exit 1; }
+
+# What the system has before: the names of its files, outside what apt and dpkg keep for themselves.
+snapshot() {
+  (cd "$chr" && find . -xdev \( -path ./proc -o -path ./dev -o -path ./tmp -o -path ./var/cache -o -path ./var/lib/apt \
+      -o -path ./var/lib/dpkg -o -path ./var/log -o -path ./run \) -prune -o -print | sort)
+}
+snapshot > "$cache/before.txt"
+
+echo "deb_chroot: apt-get install ./$(basename "$deb")"
+cp "$deb" "$chr/tmp/"
+in_chroot apt-get update -qq >/dev/null 2>"$cache/apt.log" || { cat "$cache/apt.log" >&2; echo "deb_chroot: apt-get update failed (no mirror?)" >&2; exit 77; }
+t0=$(date +%s)
+in_chroot env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "/tmp/$(basename "$deb")" \
+  >"$cache/install.log" 2>&1 || { tail -30 "$cache/install.log" >&2; fail "apt-get install of the .deb"; }
+echo "deb_chroot: installed in $(( $(date +%s) - t0 )) s: $(grep -c '^Unpacking' "$cache/install.log") packages unpacked"
+grep "admin token" "$cache/install.log" || fail "postinst did not say where the first admin token is"
+
+# Files.
+for f in /usr/bin/irpd /usr/bin/glbc /usr/bin/indurop-agent /usr/bin/irpctl /usr/include/indurop/indurop.h \
+         /usr/lib/cmake/indurop/induropConfig.cmake /usr/lib/pkgconfig/indurop.pc \
+         /usr/share/indurop/webui/index.html /usr/share/indurop/sets/signals/module.xml \
+         /usr/share/indurop/sets/plc-robot/module.xml /usr/lib/systemd/system/irpd.service \
+         /usr/lib/systemd/system/indurop-agent.service /usr/lib/sysusers.d/indurop.conf \
+         /usr/lib/tmpfiles.d/indurop.conf /usr/lib/indurop/venv/bin/python; do
+  [ -e "$chr$f" ] || fail "$f is not installed"
+done
+ls "$chr"/usr/lib/libindurop.so.* >/dev/null || fail "libindurop is not installed"
+# The user, the data folder, the token.
+in_chroot id indurop >/dev/null || fail "no user indurop"
+# (stat in the chroot: the names are the chroot's users)
+[ "$(in_chroot stat -c '%U:%G %a' /var/lib/indurop)" = "indurop:indurop 750" ] || fail "/var/lib/indurop: $(in_chroot stat -c '%U:%G %a' /var/lib/indurop)"
+[ "$(in_chroot stat -c '%U %a' /var/lib/indurop/admin-token)" = "indurop 600" ] || fail "the admin token is not indurop's, 0600"
+for f in "$chr"/etc/systemd/system/{irpd,indurop-agent}.service.d/50-cpus.conf; do
+  grep -q '^CPUAffinity=' "$f" || fail "$f has no CPUAffinity"
+done
+for unit in irpd indurop-agent; do   # enabled for the next boot (deb-systemd-helper)
+  [ -L "$chr/etc/systemd/system/multi-user.target.wants/$unit.service" ] || fail "$unit.service is not enabled"
+done
+# Every ELF file's libraries are found: the Depends are complete.  (A library a wheel bundles
+# beside another in its .libs folder is found there at run time, when the extension module that
+# needs them has loaded the first.)
+missing=$(in_chroot python3 - <<'PY'
+import os, subprocess
+files = subprocess.run(["dpkg", "-L", "indurop"], capture_output=True, text=True).stdout.split("\n")
+for f in files:
+    if not os.path.isfile(f) or os.path.islink(f):
+        continue
+    with open(f, "rb") as fh:
+        if fh.read(4) != b"\x7fELF":
+            continue
+    out = subprocess.run(["ldd", f], capture_output=True, text=True).stdout
+    for line in out.splitlines():
+        if "not found" in line:
+            lib = line.split()[0]
+            if not os.path.exists(os.path.join(os.path.dirname(f), lib)):
+                print(f"{f}: {lib} not found")
+PY
+)
+[ -z "$missing" ] || { echo "$missing" | head -20; fail "libraries not found (Depends incomplete)"; }
+
+# The commands.
+in_chroot irpd --version | grep -q . || fail "irpd --version"
+in_chroot indurop-agent --help >/dev/null || fail "indurop-agent --help"
+in_chroot irpctl --help >/dev/null || fail "irpctl --help"
+in_chroot glbc --version >/dev/null || fail "glbc --version"
+out=$(in_chroot irpd --config /usr/share/indurop/sets/signals/module.xml --duration 1 --no-rt --instance pkg-chroot 2>&1) \
+  || { echo "$out"; fail "irpd on the signals set"; }
+
+# irpd as irpd.service starts it (root, group indurop, then --user indurop), the agent as the user indurop.
+port=$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+start_irpd() {
+  in_chroot install -d -o root -g indurop -m 0770 /run/indurop
+  chroot "$chr" /usr/bin/env -i PATH=/usr/bin:/bin IRPD_ARGS=--no-rt \
+    setpriv --regid indurop --clear-groups sh -c 'umask 0007; exec /usr/lib/indurop/irpd-start --user indurop --group indurop --state-dir /var/lib/indurop/irpd' >>"$cache/irpd.log" 2>&1 &
+  irpd_pid=$!
+  for _ in $(seq 100); do [ -S "$chr/run/indurop/irpd.sock" ] && return 0; sleep 0.1; done
+  cat "$cache/irpd.log"; fail "irpd did not open its control socket"
+}
+: > "$cache/irpd.log"
+start_irpd
+grep -q "no set activated yet" "$cache/irpd.log" || fail "irpd-start did not fall back to the default set"
+[ "$(in_chroot stat -c %U /run/indurop/irpd.sock)" = indurop ] || fail "irpd did not switch to the user indurop (socket: $(in_chroot stat -c %U /run/indurop/irpd.sock))"
+in_chroot runuser -u indurop -- /usr/bin/indurop-agent --host 127.0.0.1 --port "$port" \
+  --data-dir /var/lib/indurop --irpd-socket /run/indurop/irpd.sock >"$cache/agent.log" 2>&1 &
+health=
+for _ in $(seq 300); do health=$(curl -sf "http://127.0.0.1:$port/api/v1/health" || true); [ -n "$health" ] && break; sleep 0.1; done
+[ -n "$health" ] || { cat "$cache/agent.log"; fail "the agent did not answer /api/v1/health"; }
+echo "deb_chroot: /api/v1/health: $health"
+in_chroot runuser -u indurop -- env INDUROP_URL="http://127.0.0.1:$port" /usr/lib/indurop/activate-default-set \
+  || { cat "$cache/agent.log"; fail "activate-default-set"; }
+[ -L "$chr/var/lib/indurop/active" ] && [ -f "$chr/var/lib/indurop/active/module.xml" ] || fail "no active set after activate-default-set"
+# irpd killed: started again, it runs the active set (the store's link), not the default one.
+kill -9 "$irpd_pid"; wait "$irpd_pid" 2>/dev/null || true
+: > "$cache/irpd.log"
+start_irpd
+! grep -q "no set activated yet" "$cache/irpd.log" || fail "irpd-start did not start the active set"
+status=$(curl -sf -H "Authorization: Bearer $(cat "$chr/var/lib/indurop/admin-token")" "http://127.0.0.1:$port/api/v1/status" || true)
+for _ in $(seq 50); do echo "$status" | grep -q "$(readlink "$chr/var/lib/indurop/active" | cut -d/ -f2)" && break
+  sleep 0.2; status=$(curl -sf -H "Authorization: Bearer $(cat "$chr/var/lib/indurop/admin-token")" "http://127.0.0.1:$port/api/v1/status" || true); done
+echo "$status" | grep -q "$(readlink "$chr/var/lib/indurop/active" | cut -d/ -f2)" || { echo "$status"; fail "irpd does not run the active set after its restart"; }
+stop_chroot_processes
+
+# remove: the programs go, the data stays.
+in_chroot env DEBIAN_FRONTEND=noninteractive apt-get remove -y -q indurop >"$cache/remove.log" 2>&1 \
+  || { tail -20 "$cache/remove.log" >&2; fail "apt-get remove"; }
+left=$(cd "$chr" && find usr/bin/irpd usr/lib/indurop usr/share/indurop 2>/dev/null | head -20 || true)
+[ -z "$left" ] || { echo "$left"; fail "files left after remove"; }
+[ -f "$chr/var/lib/indurop/admin-token" ] && in_chroot id indurop >/dev/null || fail "remove took the data or the user"
+# purge (with the dependencies it brought): nothing of it is left.
+in_chroot env DEBIAN_FRONTEND=noninteractive apt-get purge -y -q --autoremove indurop >"$cache/purge.log" 2>&1 \
+  || { tail -20 "$cache/purge.log" >&2; fail "apt-get purge"; }
+! in_chroot id indurop >/dev/null 2>&1 || fail "the user indurop is left after purge"
+! in_chroot getent group indurop >/dev/null || fail "the group indurop is left after purge"
+snapshot > "$cache/after.txt"
+# Backups that useradd and userdel keep of the account files (/etc/passwd- ...) are not ours.
+left=$(comm -13 "$cache/before.txt" "$cache/after.txt" | grep -v -E '^\./etc/(passwd|group|shadow|gshadow)-$' || true)
+[ -z "$left" ] || { echo "$left" | head -30; fail "left after purge (not there before the install)"; }
+echo "deb_chroot: installed, ran (irpd, the agent on 127.0.0.1:$port, the default set activated, irpd restarted on it), removed, purged: nothing left"

@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# deb_test.sh -- the package's tests as tests/run.sh runs them: builds the .deb (packaging/deb.sh),
+# checks its units with systemd-analyze (verify_units.sh), installs, runs, removes and purges it in
+# a clean Debian 12 chroot (deb_chroot.sh).  A test that cannot run here (exit 77: no root, no
+# debootstrap, no mirror) is reported as skipped.  The QEMU guest (deb_qemu.sh) is not run here: it
+# takes minutes more and nested KVM is not everywhere; run it by hand (docs/operations.md).
+set -uo pipefail
+root=$(cd "$(dirname "$0")/../.." && pwd)
+here=$root/tests/package
+t0=$(date +%s)
+deb=$(bash "$root/packaging/deb.sh") || { echo "FAILED: packaging/deb.sh"; exit 1; }
+echo "deb_test: $deb ($(du -h "$deb" | cut -f1)) built in $(( $(date +%s) - t0 )) s"
+status=0
+for t in verify_units deb_chroot; do
+  t1=$(date +%s)
+  bash "$here/$t.sh" "$deb"
+  rc=$?
+  case $rc in
+    0) echo "deb_test: $t passed ($(( $(date +%s) - t1 )) s)" ;;
+    77) echo "deb_test: $t skipped (see above)" ;;
+    *) echo "deb_test: $t FAILED"; status=1 ;;
+  esac
+done
+exit $status

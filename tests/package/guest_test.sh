@@ -1,0 +1,72 @@
+#!/bin/bash
+# guest_test.sh OUT -- runs inside deb_qemu.sh's guest (systemd, the .deb installed), as a oneshot
+# unit after indurop-agent.service; writes its findings to OUT (the second serial port):
+#   RESULT key=value ...   what was found or measured (times in ms, from this guest's clock)
+#   FAIL what              a check that did not hold
+#   LOG ...                journal lines, for the record
+#   RESULT done            the last line
+# The checks: both units active; the default set stored and activated on first boot; irpd's user,
+# capabilities and SCHED_FIFO threads; irpd killed (SIGKILL) -> restarted by systemd, running the
+# active set again; irpd stopped (SIGSTOP) -> killed by the watchdog ("Watchdog timeout" in the
+# journal) and restarted; the agent answering with irpd's status after each.
+exec >"${1:-/dev/stdout}" 2>&1
+api=http://127.0.0.1:8080/api/v1
+data=/var/lib/indurop
+now_ms() { date +%s%3N; }
+fail() { echo "FAIL $*"; }
+# wait_until SECONDS COMMAND...: runs COMMAND every 20 ms until it succeeds; 1 when it never did.
+wait_until() {
+  local end=$(( $(date +%s) + $1 )); shift
+  until "$@" >/dev/null 2>&1; do [ "$(date +%s)" -lt $end ] || return 1; sleep 0.02; done
+}
+main_pid() { systemctl show -p MainPID --value irpd.service; }
+active_set() { readlink "$data/active" | sed -n 's#^sets/\([0-9a-f]*\)/files$#\1#p'; }
+irpd_set() { curl -sf -m 2 -H "Authorization: Bearer $(cat $data/admin-token)" "$api/status" | grep -o '"set_id": *"[0-9a-f]*"' | grep -o '[0-9a-f]\{16\}'; }
+irpd_back() {   # a new main pid, the unit active (READY=1 received)
+  local pid; pid=$(main_pid)
+  [ "$pid" != "$1" ] && [ "$pid" != 0 ] && [ "$(systemctl show -p ActiveState --value irpd.service)" = active ]
+}
+runs_active_set() { [ -n "$(active_set)" ] && [ "$(irpd_set)" = "$(active_set)" ]; }
+
+wait_until 180 curl -sf -m 2 "$api/health" || fail "the agent did not answer $api/health within 180 s of its start"
+wait_until 90 test -e "$data/active.json" || fail "the default set was not activated (no $data/active.json)"
+wait_until 30 runs_active_set || fail "irpd does not run the active set"
+echo "RESULT irpd=$(systemctl is-active irpd.service) agent=$(systemctl is-active indurop-agent.service) enabled=$(systemctl is-enabled irpd.service),$(systemctl is-enabled indurop-agent.service)"
+echo "RESULT active_set=$(active_set) irpd_set=$(irpd_set) default=$(grep -o '"action": *"[a-z]*"' $data/active.json | head -1)"
+pid=$(main_pid)
+echo "RESULT irpd_uid=$(awk '/^Uid:/ {print $2}' /proc/$pid/status) irpd_gid=$(awk '/^Gid:/ {print $2}' /proc/$pid/status) indurop_uid=$(id -u indurop) cap_eff=$(awk '/^CapEff:/ {print $2}' /proc/$pid/status)"
+[ "$(awk '/^Uid:/ {print $2}' /proc/$pid/status)" = "$(id -u indurop)" ] || fail "irpd did not switch to the user indurop"
+[ "$(awk '/^CapEff:/ {print $2}' /proc/$pid/status)" = 0000000000804000 ] || fail "irpd's capabilities are not CAP_SYS_NICE and CAP_IPC_LOCK alone"
+echo "RESULT irpd_fifo_threads=$(ps -L -o cls= -p "$pid" | grep -c FF) socket=$(stat -c '%U:%G:%a' /run/indurop/irpd.sock) agent_user=$(ps -o user= -p "$(systemctl show -p MainPID --value indurop-agent.service)")"
+echo "RESULT cpus irpd=$(taskset -pc "$pid" | sed 's/.*: //') agent=$(taskset -pc "$(systemctl show -p MainPID --value indurop-agent.service)" | sed 's/.*: //')"
+
+# SIGKILL: systemd restarts irpd (Restart=on-failure, RestartSec), irpd-start runs the active set.
+pid=$(main_pid); t0=$(now_ms)
+kill -KILL "$pid"
+if wait_until 60 irpd_back "$pid"; then
+  t1=$(now_ms)
+  wait_until 30 runs_active_set || fail "after SIGKILL irpd does not run the active set"
+  t2=$(now_ms)
+  echo "RESULT sigkill_restart_ms=$((t1 - t0)) sigkill_active_set_via_agent_ms=$((t2 - t0)) set=$(irpd_set)"
+else
+  fail "irpd was not restarted within 60 s of SIGKILL"
+fi
+
+# SIGSTOP: the RT loop makes no progress, no WATCHDOG=1; systemd kills it after WatchdogSec.
+sleep 3
+pid=$(main_pid); t0=$(now_ms); since=$(date +%s)
+kill -STOP "$pid"
+if wait_until 60 irpd_back "$pid"; then
+  t1=$(now_ms)
+  wait_until 90 runs_active_set || fail "after the watchdog irpd does not run the active set"
+  t2=$(now_ms)
+  line=$(journalctl -u irpd.service -o short-unix --since "@$since" --no-pager | grep -m1 "Watchdog timeout")
+  [ -n "$line" ] || fail "no 'Watchdog timeout' journal line"
+  wd=$(echo "$line" | awk '{split($1, t, "."); print t[1] substr(t[2] "000", 1, 3)}')   # ms, no float
+  echo "RESULT sigstop_watchdog_detect_ms=$((wd - t0)) sigstop_restart_ms=$((t1 - t0)) sigstop_active_set_via_agent_ms=$((t2 - t0)) set=$(irpd_set)"
+else
+  fail "irpd was not restarted within 60 s of SIGSTOP (watchdog)"
+fi
+echo "RESULT nrestarts=$(systemctl show -p NRestarts --value irpd.service) agent_pid_unchanged_state=$(systemctl is-active indurop-agent.service)"
+journalctl -u irpd.service -u indurop-agent.service --no-pager -o short-monotonic | tail -40 | sed 's/^/LOG /'
+echo "RESULT done"
