@@ -7,6 +7,7 @@ test("the overview shows the running set", async ({ page }) => {
   await expect(page.getByTestId("basic-period")).toContainText("10");
   await expect(page.getByTestId("macro-period")).toContainText("10");
   await expect(page.getByTestId("irpd-health")).toContainText(/ok|running/i);
+  await expect(page.getByTestId("faults")).toHaveText("none");
   await expect(page.getByTestId("event-tail")).toContainText(/start|swap|connected/i);
   await shot(page, "overview");
 });

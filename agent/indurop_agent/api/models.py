@@ -5,6 +5,8 @@ the fields irpd sends and let any others through (extra="allow"), so a newer irp
 reach the client."""
 from __future__ import annotations
 
+from typing import Any
+
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt
 
 
@@ -151,6 +153,12 @@ class Status(IrpdShape):
     skipped: int
     caught_up: int
     events: int = Field(description="the last event's seq")
+    stopped_by_fault: str | None = Field(None, description="null, or why a fault stopped the set (an overrun with "
+                                                           "on_overrun=stop): docs/faults.md")
+    last_crash: dict[str, Any] | None = Field(None, description="the crash record irpd took in at start (signal, "
+                                                                "module, executor, set, time...), or null: "
+                                                                "docs/supervision.md")
+    left_out_after_crash: list[dict[str, Any]] = Field([], description="modules a crash left out ({module, set})")
     shared_memory: SharedMemory
 
 

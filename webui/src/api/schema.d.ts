@@ -1262,6 +1262,21 @@ export interface components {
              * @description 1 + hot swaps since irpd started
              */
             generation: number;
+            /**
+             * Last Crash
+             * @description the crash record irpd took in at start (signal, module, executor, set, time...), or null: docs/supervision.md
+             */
+            last_crash?: {
+                [key: string]: unknown;
+            } | null;
+            /**
+             * Left Out After Crash
+             * @description modules a crash left out ({module, set})
+             * @default []
+             */
+            left_out_after_crash: {
+                [key: string]: unknown;
+            }[];
             /** Macro Period Ns */
             macro_period_ns: number;
             /**
@@ -1303,6 +1318,11 @@ export interface components {
             shared_memory: components["schemas"]["SharedMemory"];
             /** Skipped */
             skipped: number;
+            /**
+             * Stopped By Fault
+             * @description null, or why a fault stopped the set (an overrun with on_overrun=stop): docs/faults.md
+             */
+            stopped_by_fault?: string | null;
             /** Uptime Ns */
             uptime_ns: number;
         } & {

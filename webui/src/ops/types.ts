@@ -43,6 +43,12 @@ export interface Status {
   events: number;
   /** the minimum basic period irpd accepts (added by the agent) */
   min_basic_period_ns?: number;
+  /** why a fault stopped the set (docs/faults.md), or null */
+  stopped_by_fault?: string | null;
+  /** the crash record irpd took in at start (docs/supervision.md), or null */
+  last_crash?: { signal?: string; module?: string; executor?: string; time?: string } | null;
+  /** modules a crash left out of their set */
+  left_out_after_crash?: { module: string; set: string }[];
   shared_memory?: Record<string, string>;
 }
 

@@ -7,6 +7,7 @@ import type { Page } from "../app/context";
 import { CounterWindow } from "../ops/counters";
 import { errorText, h, poll, setClass, setPath, setText } from "../ops/dom";
 import { emptyTail, eventLevel, mergeEvents, pageFull, resetCursors, type Tail } from "../ops/events";
+import { faultSummary } from "../ops/faults";
 import { bannerText, classifyHealth, nextWatch, probeHealth, type HealthWatch } from "../ops/health";
 import type { HostLoad, Status } from "../ops/types";
 import { formatBytes, formatCount, formatNs, formatPercent, formatTime, formatUptime } from "../ops/units";
@@ -25,6 +26,7 @@ export const overviewPage: Page = (root, ctx) => {
     setId: v("set-id", "mono"),
     generation: v("generation"),
     rt: v("rt-mode", ""),
+    faults: v("faults", ""),
     pid: v("irpd-pid"),
     uptime: v("uptime"),
     cycles: v("cycles"),
@@ -54,6 +56,7 @@ export const overviewPage: Page = (root, ctx) => {
       row("set id", cells.setId),
       row("generation", cells.generation),
       row("mode", cells.rt),
+      row("faults", cells.faults),
       row("irpd pid", cells.pid),
       row("uptime", cells.uptime),
       row("basic periods run", cells.cycles),
@@ -197,6 +200,9 @@ export const overviewPage: Page = (root, ctx) => {
       setText(cells.generation, String(st.generation));
       setText(cells.rt, st.realtime ? "real-time (SCHED_FIFO)" : "NOT real-time (SCHED_OTHER)");
       setClass(cells.rt, st.realtime ? "state good" : "state warn");
+      const fault = faultSummary(st);
+      setText(cells.faults, fault.text);
+      setClass(cells.faults, `state ${fault.level}`);
       setText(cells.pid, String(st.pid));
       setText(cells.uptime, formatUptime(st.uptime_ns / 1e9));
       setText(cells.cycles, formatCount(st.cycles));

@@ -1,0 +1,24 @@
+// faults.ts -- the overview's "faults" line from irpd's status: a set stopped by a fault (an
+// overrun with on_overrun=stop, docs/faults.md), modules a crash left out (docs/supervision.md),
+// the crash irpd came back from.
+import type { Status } from "./types";
+
+export interface FaultSummary {
+  level: "good" | "warn" | "bad";
+  text: string;
+}
+
+export function faultSummary(st: Pick<Status, "stopped_by_fault" | "last_crash" | "left_out_after_crash">): FaultSummary {
+  if (st.stopped_by_fault) return { level: "bad", text: `set stopped: ${st.stopped_by_fault}` };
+  const out = st.left_out_after_crash ?? [];
+  if (out.length > 0) {
+    const names = out.map((m) => m.module).join(", ");
+    return { level: "warn", text: `left out after a crash: ${names} (enable, or clear_crash, to run again)` };
+  }
+  const c = st.last_crash;
+  if (c) {
+    const where = c.module ? ` in ${c.module}` : "";
+    return { level: "warn", text: `restarted after ${c.signal ?? "a crash"}${where}${c.time ? ` at ${c.time}` : ""}` };
+  }
+  return { level: "good", text: "none" };
+}
