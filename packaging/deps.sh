@@ -13,6 +13,7 @@ packages=(
   qemu-system-x86 busybox-static file            # SocketCAN on vcan in a small guest (tests/vcan/)
   googletest libgtest-dev                        # C++ tests
   rt-tests                                       # cyclictest: the benchmark's reference
+  clang libclang-rt-14-dev llvm                  # the fuzz targets: libFuzzer, ASan + UBSan, llvm-symbolizer, llvm-cov (tests/fuzz/)
   util-linux                                     # setpriv, prlimit: the non-RT fallback test
   chromium fonts-dejavu-core                     # the browser tests (Playwright drives Debian's chromium)
 )

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # run.sh -- the whole test suite: installs what is missing, builds, runs every test (ctest, pytest,
-# the UI's unit tests with Vitest, the browser tests with Playwright on Debian's chromium).
+# the UI's unit tests with Vitest, the browser tests with Playwright on Debian's chromium), then a
+# short run of every fuzz target (tests/fuzz/run.sh: its own clang build in build-fuzz/).
 # Timing figures are not tested here; tests/bench/ measures them.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -17,4 +18,5 @@ status=0
 "$venv/bin/pytest" -q "$root/tests/python" || status=1
 (cd "$root/webui" && npx vitest run) || status=1
 (cd "$root/tests/browser" && npx playwright test) || status=1
+bash "$root/tests/fuzz/run.sh" "${INDUROP_FUZZ_SECONDS:-20}" || status=1
 exit $status

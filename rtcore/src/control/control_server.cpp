@@ -38,6 +38,25 @@ json failure(const json &id, const std::string &code, const std::string &message
 
 } // namespace
 
+std::string answerRequest(const std::string &request, const Handler &handler) {
+    json answer;
+    json id = nullptr;
+    try {
+        json parsed = json::parse(request);
+        if (!parsed.is_object() || !parsed.contains("cmd") || !parsed["cmd"].is_string())
+            throw std::invalid_argument("a request is a JSON object with a string \"cmd\"");
+        if (parsed.contains("id")) id = parsed["id"];
+        auto result = handler(parsed["cmd"].get<std::string>(), parsed);
+        answer = result ? json{{"id", id}, {"ok", true}, {"result", std::move(*result)}}
+                        : failure(id, result.error().code, result.error().message);
+    } catch (const nlohmann::json::exception &e) {
+        answer = failure(id, "bad_request", std::string("not valid JSON: ") + e.what());
+    } catch (const std::exception &e) {
+        answer = failure(id, "bad_request", e.what());
+    }
+    return line(answer);
+}
+
 Result<std::unique_ptr<ControlServer>> ControlServer::open(const std::string &path, Handler handler) {
     sockaddr_un addr{};
     if (path.empty() || path.size() >= sizeof addr.sun_path)
@@ -142,22 +161,7 @@ void ControlServer::serve() {
                 while (!c.closing && (eol = c.in.find('\n')) != std::string::npos) {
                     std::string request = c.in.substr(0, eol);
                     c.in.erase(0, eol + 1);
-                    json answer;
-                    json id = nullptr;
-                    try {
-                        json parsed = json::parse(request);
-                        if (!parsed.is_object() || !parsed.contains("cmd") || !parsed["cmd"].is_string())
-                            throw std::invalid_argument("a request is a JSON object with a string \"cmd\"");
-                        if (parsed.contains("id")) id = parsed["id"];
-                        auto result = handler_(parsed["cmd"].get<std::string>(), parsed);
-                        answer = result ? json{{"id", id}, {"ok", true}, {"result", std::move(*result)}}
-                                        : failure(id, result.error().code, result.error().message);
-                    } catch (const nlohmann::json::exception &e) {
-                        answer = failure(id, "bad_request", std::string("not valid JSON: ") + e.what());
-                    } catch (const std::exception &e) {
-                        answer = failure(id, "bad_request", e.what());
-                    }
-                    c.out += line(answer);
+                    c.out += answerRequest(request, handler_);
                 }
                 if (c.in.size() > kMaxRequestBytes) {
                     c.out += line(failure(nullptr, "too_large", "a request line is at most " +

@@ -24,6 +24,12 @@ inline constexpr int kMaxClients = 32;
 // Answers one request: the command's result, or an Error (the client gets it as {"ok": false}).
 using Handler = std::function<Result<nlohmann::ordered_json>(const std::string &command, const nlohmann::json &request)>;
 
+// One request line (without its '\n') -> the answer line (with its '\n'): the JSON is parsed and
+// checked for a string "cmd", the handler answers, and anything wrong becomes a bad_request
+// answer.  Never throws.  The control thread calls it for every line; the fuzz target
+// tests/fuzz/fuzz_control.cpp calls it directly.
+std::string answerRequest(const std::string &request, const Handler &handler);
+
 class ControlServer {
 public:
     // Binds `path` (mode 0660).  A socket file nobody listens on any more is replaced; one in use
