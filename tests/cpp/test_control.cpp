@@ -95,6 +95,27 @@ TEST(ControlSocket, BadRequestsGetAnErrorAndTheConnectionGoesOn) {
     EXPECT_EQ(c.request({{"cmd", "status"}})["ok"], true);  // still served
 }
 
+// tests/fuzz/fuzz_control: the id is echoed, and nlohmann::json copies and prints a value by
+// recursion, so a 64 KiB line nested ~32000 deep could overflow the control thread's stack.
+// (Seed: tests/fuzz/corpus/fuzz_control/nested-32000-deep.)
+TEST(ControlSocket, ARequestNestedThousandsDeepIsRefusedNotACrash) {
+    Running r;
+    Client c(r.socket);
+    c.readLine();
+    const std::string deep = R"({"cmd":"status","id":)" + std::string(32000, '[') + std::string(32000, ']') + "}\n";
+    ASSERT_LT(deep.size(), 64u * 1024);
+    c.sendRaw(deep);
+    json answer = json::parse(c.readLine());
+    EXPECT_EQ(answer["ok"], false);
+    EXPECT_EQ(answer["error"]["code"], "bad_request");
+    EXPECT_NE(answer["error"]["message"].get<std::string>().find("deeper than 64 levels"), std::string::npos) << answer;
+    // 64 levels, counting the request object, are still a request.
+    c.sendRaw(R"({"cmd":"status","id":)" + std::string(63, '[') + std::string(63, ']') + "}\n");
+    EXPECT_EQ(json::parse(c.readLine())["ok"], true);
+    c.sendRaw(R"({"cmd":"status","id":"[[[[ in a string is no nesting"})" "\n");
+    EXPECT_EQ(json::parse(c.readLine())["ok"], true);
+}
+
 TEST(ControlSocket, AnOversizedRequestClosesOnlyThatClient) {
     Running r;
     Client big(r.socket), other(r.socket);

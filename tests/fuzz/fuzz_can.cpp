@@ -32,7 +32,7 @@ std::unique_ptr<IoConfig> config;
 
 std::string ioconfigText(int fd) {
     return R"(<ioconfig status="PLC_ROBOT.IO_STATUS">
-  <device name="fuzz" type="socketcan" fd=")" + std::to_string(fd) + R"(" timeout_ms="3600000" fail_limit="2" sync="true">
+  <device name="fuzz" type="socketcan" fd=")" + std::to_string(fd) + R"(" timeout_ms="60000" fail_limit="2" sync="true">
     <frame id="0x123" direction="in">
       <signal start="0" length="1" path="PLC_ROBOT.PLC_OUT.Running"/>
       <signal start="4" length="12" path="PLC_ROBOT.PLC_IN.Override" scale="0.001" default="0.5"/>

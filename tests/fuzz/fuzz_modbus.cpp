@@ -41,7 +41,7 @@ std::unique_ptr<IoConfig> config;
 std::string ioconfigText(int port) {
     return R"(<ioconfig status="PLC_ROBOT.IO_STATUS">
   <device name="fuzz" type="modbus-tcp" host="127.0.0.1" port=")" + std::to_string(port) + R"(" unit="1"
-          timeout_ms="1000" fail_limit="2" reconnect_ms="3600000">
+          timeout_ms="1000" fail_limit="2" reconnect_ms="600000">
     <input  table="input"    address="0" type="u16" path="PLC_ROBOT.AXIS_IN[0].statusword"/>
     <input  table="input"    address="1" type="s16" path="PLC_ROBOT.AXIS_IN[0].mode" default="-1"/>
     <input  table="input"    address="2" type="s32" words="low-first" path="PLC_ROBOT.AXIS_IN[0].position" scale="1e-5"/>

@@ -32,7 +32,7 @@ for t in "${targets[@]}"; do
   log="$build/logs/$t.log"
   dict=()
   [ -f "$here/dict/$t.dict" ] && dict=(-dict="$here/dict/$t.dict")
-  options=(-max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=4096 -print_final_stats=1
+  options=(-max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1
            -artifact_prefix="$build/artifacts/$t/" "${dict[@]}")
   if [ "$t" = fuzz_glb ]; then
     venv=$(bash "$root/packaging/venv.sh")
