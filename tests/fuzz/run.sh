@@ -42,7 +42,7 @@ for t in "${targets[@]}"; do
   fi
   start=$(date +%s)
   if "${cmd[@]}" "${options[@]}" "$build/corpus/$t" "$here/corpus/$t" >"$log" 2>&1; then
-    summary=$(grep -E '^#[0-9]+ +DONE' "$log" | tail -1 | sed -E 's/^#([0-9]+) +DONE +/\1 runs, /')
+    summary=$(grep -E '^#[0-9]+[[:space:]]+DONE' "$log" | tail -1 | sed -E 's/^#([0-9]+)[[:space:]]+DONE[[:space:]]+/\1 runs, /' || true)
     echo "fuzz: $t: ok in $(( $(date +%s) - start )) s: ${summary:-see $log}"
   else
     echo "fuzz: $t: FAILED (log $log, input in $build/artifacts/$t/):" >&2
