@@ -85,7 +85,10 @@ TEST(ControlSocket, BadRequestsGetAnErrorAndTheConnectionGoesOn) {
                           Case{"[1,2]", "bad_request", "a request is a JSON object with a string \"cmd\""},
                           Case{R"({"id":7})", "bad_request", "with a string \"cmd\""},
                           Case{R"({"id":8,"cmd":"reboot"})", "refused", "unknown command 'reboot'"},
-                          Case{R"({"id":9,"cmd":"load"})", "refused", "'config' is required"}}) {
+                          Case{R"({"id":9,"cmd":"load"})", "refused", "'config' is required"},
+                          // Above 2^63 - 1: not read as a negative period.
+                          Case{R"({"cmd":"set_period","module":"cntr1","period_ns":18446744073709551615})", "refused",
+                               "'period_ns' is out of range"}}) {
         c.sendRaw(k.line + "\n");
         json answer = json::parse(c.readLine());
         EXPECT_EQ(answer["ok"], false) << k.line;

@@ -6,6 +6,7 @@
 #include "variables/variable_write.hpp"
 
 #include <chrono>
+#include <limits>
 
 namespace irp::daemon {
 namespace {
@@ -24,6 +25,9 @@ Result<int64_t> integer(const nlohmann::json &request, const char *name) {
     auto it = request.find(name);
     if (it == request.end() || !it->is_number_integer())
         return Error{std::string("'") + name + "' is required: an integer"};
+    // nlohmann keeps integers above 2^63 - 1 as unsigned; as int64_t they would come out negative.
+    if (it->is_number_unsigned() && it->get<uint64_t>() > static_cast<uint64_t>(std::numeric_limits<int64_t>::max()))
+        return Error{std::string("'") + name + "' is out of range: at most 9223372036854775807"};
     return it->get<int64_t>();
 }
 
