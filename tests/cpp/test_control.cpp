@@ -88,7 +88,9 @@ TEST(ControlSocket, BadRequestsGetAnErrorAndTheConnectionGoesOn) {
                           Case{R"({"id":9,"cmd":"load"})", "refused", "'config' is required"},
                           // Above 2^63 - 1: not read as a negative period.
                           Case{R"({"cmd":"set_period","module":"cntr1","period_ns":18446744073709551615})", "refused",
-                               "'period_ns' is out of range"}}) {
+                               "'period_ns' is out of range"},
+                          Case{R"({"cmd":"set_priority","module":"cntr1","priority":18446744073709551615})", "refused",
+                               "'priority' is out of range"}}) {
         c.sendRaw(k.line + "\n");
         json answer = json::parse(c.readLine());
         EXPECT_EQ(answer["ok"], false) << k.line;
