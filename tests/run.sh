@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # run.sh -- the whole test suite: installs what is missing, builds, runs every test (ctest, pytest,
-# the UI's unit tests with Vitest, the browser tests with Playwright on Debian's chromium, the
-# Debian package in a chroot).
+# the UI's unit tests with Vitest, the browser tests with Playwright on Debian's chromium), a short
+# run of every fuzz target (tests/fuzz/run.sh: its own clang build in build-fuzz/), and the Debian
+# package in a chroot.
 # Timing figures are not tested here; tests/bench/ measures them.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -21,4 +22,5 @@ status=0
 # The Debian package: built (packaging/deb.sh), its units verified, installed, run, removed and
 # purged in a Debian 12 chroot (tests/package/deb_test.sh; skipped where it cannot run).
 bash "$root/tests/package/deb_test.sh" || status=1
+bash "$root/tests/fuzz/run.sh" "${INDUROP_FUZZ_SECONDS:-20}" || status=1
 exit $status

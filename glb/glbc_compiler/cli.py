@@ -48,6 +48,11 @@ def _read(name: str) -> Source:
             data = f.read()
     except OSError as e:
         raise GlbError(f"cannot read file: {e.strerror or e}", file=name) from None
+    return source(name, data)
+
+
+def source(name: str, data: bytes) -> Source:
+    """A file's bytes as a Source; GlbError pointing at the first byte that is not UTF-8."""
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as e:

@@ -85,7 +85,12 @@ TEST(ControlSocket, BadRequestsGetAnErrorAndTheConnectionGoesOn) {
                           Case{"[1,2]", "bad_request", "a request is a JSON object with a string \"cmd\""},
                           Case{R"({"id":7})", "bad_request", "with a string \"cmd\""},
                           Case{R"({"id":8,"cmd":"reboot"})", "refused", "unknown command 'reboot'"},
-                          Case{R"({"id":9,"cmd":"load"})", "refused", "'config' is required"}}) {
+                          Case{R"({"id":9,"cmd":"load"})", "refused", "'config' is required"},
+                          // Above 2^63 - 1: not read as a negative period.
+                          Case{R"({"cmd":"set_period","module":"cntr1","period_ns":18446744073709551615})", "refused",
+                               "'period_ns' is out of range"},
+                          Case{R"({"cmd":"set_priority","module":"cntr1","priority":18446744073709551615})", "refused",
+                               "'priority' is out of range"}}) {
         c.sendRaw(k.line + "\n");
         json answer = json::parse(c.readLine());
         EXPECT_EQ(answer["ok"], false) << k.line;
@@ -93,6 +98,27 @@ TEST(ControlSocket, BadRequestsGetAnErrorAndTheConnectionGoesOn) {
         EXPECT_NE(answer["error"]["message"].get<std::string>().find(k.message), std::string::npos) << answer;
     }
     EXPECT_EQ(c.request({{"cmd", "status"}})["ok"], true);  // still served
+}
+
+// tests/fuzz/fuzz_control: the id is echoed, and nlohmann::json copies and prints a value by
+// recursion, so a 64 KiB line nested ~32000 deep could overflow the control thread's stack.
+// (Seed: tests/fuzz/corpus/fuzz_control/nested-32000-deep.)
+TEST(ControlSocket, ARequestNestedThousandsDeepIsRefusedNotACrash) {
+    Running r;
+    Client c(r.socket);
+    c.readLine();
+    const std::string deep = R"({"cmd":"status","id":)" + std::string(32000, '[') + std::string(32000, ']') + "}\n";
+    ASSERT_LT(deep.size(), 64u * 1024);
+    c.sendRaw(deep);
+    json answer = json::parse(c.readLine());
+    EXPECT_EQ(answer["ok"], false);
+    EXPECT_EQ(answer["error"]["code"], "bad_request");
+    EXPECT_NE(answer["error"]["message"].get<std::string>().find("deeper than 64 levels"), std::string::npos) << answer;
+    // 64 levels, counting the request object, are still a request.
+    c.sendRaw(R"({"cmd":"status","id":)" + std::string(63, '[') + std::string(63, ']') + "}\n");
+    EXPECT_EQ(json::parse(c.readLine())["ok"], true);
+    c.sendRaw(R"({"cmd":"status","id":"[[[[ in a string is no nesting"})" "\n");
+    EXPECT_EQ(json::parse(c.readLine())["ok"], true);
 }
 
 TEST(ControlSocket, AnOversizedRequestClosesOnlyThatClient) {

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <algorithm>
 #include <cstring>
 #include <vector>
 
@@ -36,7 +37,50 @@ json failure(const json &id, const std::string &code, const std::string &message
     return {{"id", id}, {"ok", false}, {"error", {{"code", code}, {"message", message}}}};
 }
 
+// How deep arrays and objects nest in a JSON text (strings skipped), without parsing it: a
+// request nested thousands deep would be copied and printed by recursion (the id is echoed).
+int nestingDepth(const std::string &text) {
+    int depth = 0, deepest = 0;
+    bool in_string = false;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        const char c = text[i];
+        if (in_string) {
+            if (c == '\\') ++i;
+            else if (c == '"') in_string = false;
+        } else if (c == '"') {
+            in_string = true;
+        } else if (c == '[' || c == '{') {
+            deepest = std::max(deepest, ++depth);
+        } else if (c == ']' || c == '}') {
+            --depth;
+        }
+    }
+    return deepest;
+}
+
 } // namespace
+
+std::string answerRequest(const std::string &request, const Handler &handler) {
+    json answer;
+    json id = nullptr;
+    if (nestingDepth(request) > kMaxRequestDepth)
+        return line(failure(id, "bad_request", "the request nests arrays and objects deeper than " +
+                                                   std::to_string(kMaxRequestDepth) + " levels"));
+    try {
+        json parsed = json::parse(request);
+        if (!parsed.is_object() || !parsed.contains("cmd") || !parsed["cmd"].is_string())
+            throw std::invalid_argument("a request is a JSON object with a string \"cmd\"");
+        if (parsed.contains("id")) id = parsed["id"];
+        auto result = handler(parsed["cmd"].get<std::string>(), parsed);
+        answer = result ? json{{"id", id}, {"ok", true}, {"result", std::move(*result)}}
+                        : failure(id, result.error().code, result.error().message);
+    } catch (const nlohmann::json::exception &e) {
+        answer = failure(id, "bad_request", std::string("not valid JSON: ") + e.what());
+    } catch (const std::exception &e) {
+        answer = failure(id, "bad_request", e.what());
+    }
+    return line(answer);
+}
 
 Result<std::unique_ptr<ControlServer>> ControlServer::open(const std::string &path, Handler handler) {
     sockaddr_un addr{};
@@ -142,22 +186,7 @@ void ControlServer::serve() {
                 while (!c.closing && (eol = c.in.find('\n')) != std::string::npos) {
                     std::string request = c.in.substr(0, eol);
                     c.in.erase(0, eol + 1);
-                    json answer;
-                    json id = nullptr;
-                    try {
-                        json parsed = json::parse(request);
-                        if (!parsed.is_object() || !parsed.contains("cmd") || !parsed["cmd"].is_string())
-                            throw std::invalid_argument("a request is a JSON object with a string \"cmd\"");
-                        if (parsed.contains("id")) id = parsed["id"];
-                        auto result = handler_(parsed["cmd"].get<std::string>(), parsed);
-                        answer = result ? json{{"id", id}, {"ok", true}, {"result", std::move(*result)}}
-                                        : failure(id, result.error().code, result.error().message);
-                    } catch (const nlohmann::json::exception &e) {
-                        answer = failure(id, "bad_request", std::string("not valid JSON: ") + e.what());
-                    } catch (const std::exception &e) {
-                        answer = failure(id, "bad_request", e.what());
-                    }
-                    c.out += line(answer);
+                    c.out += answerRequest(request, handler_);
                 }
                 if (c.in.size() > kMaxRequestBytes) {
                     c.out += line(failure(nullptr, "too_large", "a request line is at most " +

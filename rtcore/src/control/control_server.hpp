@@ -20,9 +20,16 @@ inline constexpr int kProtocolVersion = 2;
 inline constexpr std::size_t kMaxRequestBytes = 64 * 1024;    // one line
 inline constexpr std::size_t kMaxPendingOutput = 4u << 20;    // per client, then it is dropped
 inline constexpr int kMaxClients = 32;
+inline constexpr int kMaxRequestDepth = 64;                  // arrays and objects inside each other
 
 // Answers one request: the command's result, or an Error (the client gets it as {"ok": false}).
 using Handler = std::function<Result<nlohmann::ordered_json>(const std::string &command, const nlohmann::json &request)>;
+
+// One request line (without its '\n') -> the answer line (with its '\n'): the JSON is parsed and
+// checked for a string "cmd", the handler answers, and anything wrong becomes a bad_request
+// answer.  Never throws.  The control thread calls it for every line; the fuzz target
+// tests/fuzz/fuzz_control.cpp calls it directly.
+std::string answerRequest(const std::string &request, const Handler &handler);
 
 class ControlServer {
 public:

@@ -6,6 +6,7 @@
 #include "variables/variable_write.hpp"
 
 #include <chrono>
+#include <limits>
 
 namespace irp::daemon {
 namespace {
@@ -24,6 +25,9 @@ Result<int64_t> integer(const nlohmann::json &request, const char *name) {
     auto it = request.find(name);
     if (it == request.end() || !it->is_number_integer())
         return Error{std::string("'") + name + "' is required: an integer"};
+    // nlohmann keeps integers above 2^63 - 1 as unsigned; as int64_t they would come out negative.
+    if (it->is_number_unsigned() && it->get<uint64_t>() > static_cast<uint64_t>(std::numeric_limits<int64_t>::max()))
+        return Error{std::string("'") + name + "' is out of range: at most 9223372036854775807"};
     return it->get<int64_t>();
 }
 
@@ -106,14 +110,101 @@ json moduleEntry(const reload::Generation &g, const config::ModuleSpec &m, const
 
 } // namespace
 
+Result<Command> decodeCommand(const std::string &cmd, const nlohmann::json &request) {
+    Command command;
+    using Kind = Command::Kind;
+    if (cmd == "status") command.kind = Kind::Status;
+    else if (cmd == "schedule") command.kind = Kind::Schedule;
+    else if (cmd == "modules") command.kind = Kind::Modules;
+    else if (cmd == "stats") command.kind = Kind::Stats;
+    else if (cmd == "histograms") {
+        command.kind = Kind::Histograms;
+        if (request.contains("name")) {
+            auto given = text(request, "name");
+            if (!given) return given.error();
+            command.name = *given;
+        }
+    } else if (cmd == "events") {
+        command.kind = Kind::Events;
+        if (request.contains("since")) {
+            if (!request["since"].is_number_unsigned()) return Error{"'since' must be a non-negative integer"};
+            command.since = request["since"].get<uint64_t>();
+        }
+        if (request.contains("limit")) {
+            if (!request["limit"].is_number_unsigned() || request["limit"].get<uint64_t>() == 0)
+                return Error{"'limit' must be a positive integer"};
+            command.limit = std::min<std::size_t>(request["limit"].get<uint64_t>(), events::EventLog::kCapacity);
+        }
+    } else if (cmd == "check" || cmd == "load") {
+        command.kind = cmd == "check" ? Kind::Check : Kind::Load;
+        auto config = text(request, "config");
+        if (!config) return config.error();
+        command.config = *config;
+        if (command.kind == Kind::Load && request.contains("set_id")) {
+            if (!request["set_id"].is_string()) return Error{"'set_id' must be a string"};
+            command.set_id = request["set_id"].get<std::string>();
+        }
+    } else if (cmd == "write") {
+        command.kind = Kind::Write;
+        auto path = text(request, "path");
+        if (!path) return path.error();
+        command.path = *path;
+        if (!request.contains("value")) return Error{"'value' is required: a number or a boolean"};
+        command.value = request["value"];
+    } else if (cmd == "set_period" || cmd == "set_priority" || cmd == "enable" || cmd == "disable") {
+        command.kind = Kind::Change;
+        auto module = text(request, "module");
+        if (!module) return module.error();
+        reload::Change change;
+        change.module = *module;
+        if (cmd == "set_period") {
+            auto period = integer(request, "period_ns");
+            if (!period) return period.error();
+            change.period_ns = *period;
+        } else if (cmd == "set_priority") {
+            auto priority = priorityOf(request);
+            if (!priority) return priority.error();
+            change.priority = *priority;
+        } else {
+            change.enabled = cmd == "enable";
+        }
+        command.changes.push_back(std::move(change));
+    } else if (cmd == "change") {
+        command.kind = Kind::Change;
+        auto changes = changesOf(request);
+        if (!changes) return changes.error();
+        command.changes = std::move(*changes);
+        if (request.contains("dry_run")) {
+            if (!request["dry_run"].is_boolean()) return Error{"'dry_run' must be true or false"};
+            command.dry_run = request["dry_run"].get<bool>();
+        }
+    } else if (cmd == "trace") {
+        command.kind = Kind::Trace;
+    } else if (cmd == "clear_crash") {
+        command.kind = Kind::ClearCrash;
+    } else {
+        return Error{"unknown command '" + cmd +
+                     "'; the commands are status, schedule, modules, stats, histograms, events, check, load, change, "
+                     "set_period, set_priority, enable, disable, write, trace, clear_crash"};
+    }
+    return command;
+}
+
 control::Handler commandHandler(const CommandContext &c) {
     return [c](const std::string &cmd, const nlohmann::json &request) -> Result<json> {
         const auto g = c.reloader->current();
         // The socket opens before the dispatchers start: until then there is no running generation.
         if (!g) return Error{"irpd is starting (the set is not dispatched yet); try again in a moment"};
+        auto decoded = decodeCommand(cmd, request);
+        if (!decoded) return decoded.error();
+        const Command &command = *decoded;
         const stats::Header *h = c.stats->header();
         const std::size_t executors = 1 + g->set.executors.size();
-        if (cmd == "status") {
+        auto onMain = [&c](std::function<MainQueue::Answer()> job) {
+            return c.queue->call(std::move(job), std::chrono::milliseconds(60'000));
+        };
+        switch (command.kind) {
+        case Command::Kind::Status: {
             const stats::TimingRecord &d = c.stats->record(0);
             const std::string fault = c.stopped_by ? c.stopped_by() : std::string();
             const int64_t started = h->started_ns.load(), now = osal::monotonicNow();
@@ -142,34 +233,22 @@ control::Handler commandHandler(const CommandContext &c) {
                           {"variables", c.variables_shm.empty() ? json(nullptr) : json(c.variables_shm)},
                           {"trace", c.trace->describe().value("shm", "")}}}};
         }
-        if (cmd == "clear_crash") {
-            if (!c.crash) return Error{"irpd keeps no crash records (no state folder; see --state-dir)"};
-            json cleared = c.crash->clear();
-            c.events->add("crash_cleared", "", "crash record and left-out modules cleared; a module left out runs "
-                                                "again when enabled, or at the next start or load of its set");
-            return cleared;
-        }
-        if (cmd == "schedule") return reload::scheduleJson(*g);
-        if (cmd == "modules") {
+        case Command::Kind::Schedule: return reload::scheduleJson(*g);
+        case Command::Kind::Modules: {
             json list = json::array();
             for (const config::ModuleSpec &m : g->set.modules) list.push_back(moduleEntry(*g, m, *c.stats));
             return list;
         }
-        if (cmd == "stats") {
+        case Command::Kind::Stats: {
             json executors_json = json::array(), modules = json::array();
             for (std::size_t i = 0; i < executors; ++i) executors_json.push_back(stats::toJson(c.stats->record(i)));
             for (const config::ModuleSpec &m : g->set.modules)
                 modules.push_back(stats::toJson(c.stats->record(g->members[static_cast<std::size_t>(m.index)].record)));
             return json{{"cycles", h->cycles.load()}, {"executors", executors_json}, {"modules", modules}};
         }
-        if (cmd == "histograms") {
+        case Command::Kind::Histograms: {
             // Every dispatcher record, then every module's, or those named `name`.
-            std::string name;
-            if (request.contains("name")) {
-                auto given = text(request, "name");
-                if (!given) return given.error();
-                name = *given;
-            }
+            const std::string &name = command.name;
             json records = json::array();
             auto add = [&](const stats::TimingRecord &r) {
                 if (name.empty() || name == r.name) records.push_back(stats::histogramsJson(r));
@@ -186,77 +265,28 @@ control::Handler commandHandler(const CommandContext &c) {
             }
             return json{{"cycles", h->cycles.load()}, {"time_ns", osal::monotonicNow()}, {"records", std::move(records)}};
         }
-        if (cmd == "events") {
-            uint64_t since = 0;
-            std::size_t limit = 500;
-            if (request.contains("since")) {
-                if (!request["since"].is_number_unsigned()) return Error{"'since' must be a non-negative integer"};
-                since = request["since"].get<uint64_t>();
-            }
-            if (request.contains("limit")) {
-                if (!request["limit"].is_number_unsigned() || request["limit"].get<uint64_t>() == 0)
-                    return Error{"'limit' must be a positive integer"};
-                limit = std::min<std::size_t>(request["limit"].get<uint64_t>(), events::EventLog::kCapacity);
-            }
-            return c.events->since(since, limit);
-        }
-        if (cmd == "check") {
-            auto config = text(request, "config");
-            if (!config) return config.error();
-            return c.reloader->check(*config);
-        }
-        if (cmd == "write") {
-            auto path = text(request, "path");
-            if (!path) return path.error();
+        case Command::Kind::Events: return c.events->since(command.since, command.limit);
+        case Command::Kind::Check: return c.reloader->check(command.config);
+        case Command::Kind::Write:
             if (c.variables_shm.empty()) return Error{"the running set has no shared variables"};
-            if (!request.contains("value")) return Error{"'value' is required: a number or a boolean"};
-            return variables::writeByPath(c.layout, *path, request["value"]);
+            return variables::writeByPath(c.layout, command.path, command.value);
+        case Command::Kind::Load:
+            return onMain([r = c.reloader, path = command.config, set_id = command.set_id] { return r->load(path, set_id); });
+        case Command::Kind::Change:
+            // set_period, set_priority, enable and disable are one change that answers its swap report.
+            if (cmd != "change")
+                return onMain([r = c.reloader, change = command.changes.front()] { return r->change(change); });
+            return onMain([r = c.reloader, changes = command.changes, dry_run = command.dry_run] { return r->change(changes, dry_run); });
+        case Command::Kind::Trace: return trace::handleTraceCommand(*c.trace, c.vars, request);
+        case Command::Kind::ClearCrash: {
+            if (!c.crash) return Error{"irpd keeps no crash records (no state folder; see --state-dir)"};
+            json cleared = c.crash->clear();
+            c.events->add("crash_cleared", "", "crash record and left-out modules cleared; a module left out runs "
+                                                "again when enabled, or at the next start or load of its set");
+            return cleared;
         }
-        auto onMain = [&c](std::function<MainQueue::Answer()> job) {
-            return c.queue->call(std::move(job), std::chrono::milliseconds(60'000));
-        };
-        if (cmd == "load") {
-            auto config = text(request, "config");
-            if (!config) return config.error();
-            std::string set_id;
-            if (request.contains("set_id")) {
-                if (!request["set_id"].is_string()) return Error{"'set_id' must be a string"};
-                set_id = request["set_id"].get<std::string>();
-            }
-            return onMain([r = c.reloader, path = *config, set_id] { return r->load(path, set_id); });
         }
-        if (cmd == "set_period" || cmd == "set_priority" || cmd == "enable" || cmd == "disable") {
-            auto module = text(request, "module");
-            if (!module) return module.error();
-            reload::Change change;
-            change.module = *module;
-            if (cmd == "set_period") {
-                auto period = integer(request, "period_ns");
-                if (!period) return period.error();
-                change.period_ns = *period;
-            } else if (cmd == "set_priority") {
-                auto priority = priorityOf(request);
-                if (!priority) return priority.error();
-                change.priority = *priority;
-            } else {
-                change.enabled = cmd == "enable";
-            }
-            return onMain([r = c.reloader, change] { return r->change(change); });
-        }
-        if (cmd == "change") {
-            auto changes = changesOf(request);
-            if (!changes) return changes.error();
-            bool dry_run = false;
-            if (request.contains("dry_run")) {
-                if (!request["dry_run"].is_boolean()) return Error{"'dry_run' must be true or false"};
-                dry_run = request["dry_run"].get<bool>();
-            }
-            return onMain([r = c.reloader, changes = std::move(*changes), dry_run] { return r->change(changes, dry_run); });
-        }
-        if (cmd == "trace") return trace::handleTraceCommand(*c.trace, c.vars, request);
-        return Error{"unknown command '" + cmd +
-                     "'; the commands are status, schedule, modules, stats, histograms, events, check, load, change, "
-                     "set_period, set_priority, enable, disable, write, trace, clear_crash"};
+        return Error{"unknown command '" + cmd + "'"};
     };
 }
 

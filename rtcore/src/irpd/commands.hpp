@@ -15,10 +15,32 @@
 #include "trace/trace_rings.hpp"
 #include "variables/variable_segment.hpp"
 
+#include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace irp::daemon {
+
+// A request's command and arguments, checked (decodeCommand) before anything runs.
+struct Command {
+    enum class Kind { Status, Schedule, Modules, Stats, Histograms, Events, Check, Write, Load, Change, Trace, ClearCrash };
+    Kind kind = Kind::Status;
+    std::string name;                   // histograms: one record ("" = all)
+    uint64_t since = 0;                 // events
+    std::size_t limit = 500;            // events
+    std::string config;                 // check, load: a module.xml path
+    std::string set_id;                 // load
+    std::string path;                   // write: the variable
+    nlohmann::json value;               // write: its new value (checked against the layout when run)
+    std::vector<reload::Change> changes;  // change, set_period, set_priority, enable, disable
+    bool dry_run = false;               // change
+};
+
+// The command `cmd` with the arguments of `request`, or an Error naming the argument to fix.
+// Touches nothing (no generation, no shared memory): tests/fuzz/fuzz_control.cpp runs it on
+// arbitrary requests.  `trace`'s channels are checked when it runs (trace::handleTraceCommand).
+Result<Command> decodeCommand(const std::string &cmd, const nlohmann::json &request);
 
 struct CommandContext {
     reload::Reloader *reloader = nullptr;
