@@ -56,7 +56,8 @@ void run() {
 }
 extern "C" void safe_outputs() {
     const long during = running.load();
-    safe.store(true);
+    // journaled before the spin is released, so the journal's order is the order things happened
     note(during ? "safe_outputs during run " + std::to_string(during) : std::string("safe_outputs while idle"));
+    safe.store(true);
 }
 void stop() { note("stop runs=" + std::to_string(runs)); }
