@@ -7,6 +7,8 @@
 # install rules; packaging/CMakeLists.txt) strips and writes the .deb.  Prints the .deb's path.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
+# stdout carries the .deb's path only (callers take it with $(...)): the steps' output goes to stderr
+exec 3>&1 1>&2
 bash "$root/packaging/deps.sh"
 # build.sh's configuration; the install does not build everything first (cpack would build the
 # tests too otherwise).
@@ -27,4 +29,4 @@ INDUROP_AGENT_VENV=$venv INDUROP_DEB_SHLIBDEPS=$shlibdeps cpack -G DEB -B "$root
   || { cat "$root/build/deb/cpack.log" >&2; echo "deb: cpack failed" >&2; exit 1; }
 deb=$(ls "$root"/build/deb/cpack/indurop_*.deb)
 mv "$deb" "$root/build/"
-echo "$root/build/$(basename "$deb")"
+echo "$root/build/$(basename "$deb")" >&3
