@@ -10,6 +10,7 @@ operator chose.  It never raises: irpd may be absent for as long as it likes.
 from __future__ import annotations
 
 import threading
+import time
 from pathlib import Path
 
 from .audit import AuditLog
@@ -55,7 +56,11 @@ class Activator:
 
 
 class Restorer(threading.Thread):
-    """The watcher: polls irpd's status every `poll_s` on a connection of its own."""
+    """The watcher: polls irpd's status every `poll_s` on a connection of its own; when irpd is
+    new (restarted) and runs another set than the store's active one, loads the active one."""
+
+    RETRY_FIRST_S = 2.0
+    RETRY_MAX_S = 60.0
 
     def __init__(self, activator: Activator, socket_path: str, events: AgentEvents, audit: AuditLog,
                  poll_s: float = 1.0):
@@ -65,6 +70,10 @@ class Restorer(threading.Thread):
         self._stop_event = threading.Event()
         self.reachable: bool | None = None
         self.irpd_pid = None
+        # A restore that failed (irpd still starting, a swap that timed out on a loaded machine) is
+        # tried again while irpd runs another set: after RETRY_FIRST_S, doubling up to RETRY_MAX_S.
+        self.retry_at: float | None = None
+        self.retry_s = self.RETRY_FIRST_S
 
     def stop(self) -> None:
         self._stop_event.set()
@@ -90,6 +99,8 @@ class Restorer(threading.Thread):
             return
         pid = status.get("pid")
         if self.reachable and pid == self.irpd_pid:
+            if self.retry_at is not None and time.monotonic() >= self.retry_at:
+                self.restore(status)
             return
         came_back = self.reachable is False or self.irpd_pid is not None
         self.reachable, self.irpd_pid = True, pid
@@ -100,13 +111,18 @@ class Restorer(threading.Thread):
     def restore(self, status: dict) -> None:
         active = self.activator.store.active_id()
         if active is None or status.get("set_id") == active:
+            self.retry_at, self.retry_s = None, self.RETRY_FIRST_S
             return
         try:
             report = self.activator.activate(active, AGENT, "restore")
         except (StoreError, IrpdRefused, IrpdUnavailable) as e:
-            self.events.add("restore_failed", f"could not restore set {active}: {e}", set_id=active)
+            self.events.add("restore_failed", f"could not restore set {active}: {e}; trying again in "
+                                              f"{self.retry_s:g} s", set_id=active)
             self.audit.write("restore", who=AGENT, client=None, target=active, result="error", detail=str(e))
+            self.retry_at = time.monotonic() + self.retry_s
+            self.retry_s = min(2 * self.retry_s, self.RETRY_MAX_S)
             return
+        self.retry_at, self.retry_s = None, self.RETRY_FIRST_S
         self.audit.write("restore", who=AGENT, client=None, target=active, result="ok",
                          generation=(report or {}).get("generation"),
                          replaced=status.get("set_id"))

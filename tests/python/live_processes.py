@@ -31,9 +31,10 @@ def copy_cell(folder: Path, xml: str = "module.xml", extra_drivesim: list[str] |
     simulator for a fraction of a second at times, and a late answer must not read as a dead drive
     (1 s of silence before comm loss, whatever the period, unless `fail_limit` says how many failed
     cycles; the drives' own comm watchdog gets the same 1 s).  A starved simulator also sees the
-    commanded position jump by what the trajectory moved during the stall, so its following-error
-    limit is 2 rad instead of 0.1 (real drives are not starved).  Returns the module.xml to run and
-    the port."""
+    commanded position jump by what the trajectory moved during the stall, and the robot module
+    sees the measured joints lag the commanded ones: the simulator's following-error limit and the
+    robot's are 2 rad instead of 0.1 and 0.35 (real drives are not starved).  Returns the
+    module.xml to run and the port."""
     shutil.copytree(CELL, folder)
     port = port or free_port()
     fail_limit = fail_limit or (1000 if "1ms" in xml else 100)
@@ -42,6 +43,8 @@ def copy_cell(folder: Path, xml: str = "module.xml", extra_drivesim: list[str] |
                         .replace('timeout_ms="4" fail_limit="3"', f'timeout_ms="8" fail_limit="{fail_limit}"'))
     config = folder / xml
     config.write_text(config.read_text().replace(
+        '<value name="urdf">indurop6.urdf</value>',
+        '<value name="urdf">indurop6.urdf</value><value name="following_error">2</value>').replace(
         "--port 15020 --quiet", " ".join(["--port", str(port), "--quiet", "--comm-timeout", "1000", "--following-limit", "2",
                                           *(extra_drivesim or [])])))
     return config, port
