@@ -105,11 +105,17 @@ class BodyLimitMiddleware:
                 await self._refuse(send)
 
     async def _refuse(self, send):
-        body = json.dumps({"detail": too_large_message(self.limit)}).encode()
-        await send({"type": "http.response.start", "status": 413,
-                    "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()),
-                                (b"connection", b"close")]})
-        await send({"type": "http.response.body", "body": body})
+        await send_refusal(send, 413, too_large_message(self.limit))
+
+
+async def send_refusal(send, status: int, detail: str) -> None:
+    """An ASGI response {"detail": ...} with `status` that closes the connection (the body that
+    caused it was not read to its end)."""
+    body = json.dumps({"detail": detail}).encode()
+    await send({"type": "http.response.start", "status": status,
+                "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()),
+                            (b"connection", b"close")]})
+    await send({"type": "http.response.body", "body": body})
 
 
 class BodyTimeout(HTTPException):
@@ -155,11 +161,7 @@ class BodyTimeoutMiddleware:
             await self.app(scope, timed_receive, watched_send)
         except BodyTimeout as e:
             if not started:
-                body = json.dumps({"detail": e.detail}).encode()
-                await send({"type": "http.response.start", "status": 408,
-                            "headers": [(b"content-type", b"application/json"),
-                                        (b"content-length", str(len(body)).encode()), (b"connection", b"close")]})
-                await send({"type": "http.response.body", "body": body})
+                await send_refusal(send, 408, e.detail)
 
     def _why(self, total: bool) -> str:
         if total:
