@@ -22,6 +22,8 @@
 #include <functional>
 #include <regex>
 #include <thread>
+#include <tuple>
+#include <utility>
 
 using nlohmann::json;
 using testing_support::Client;
@@ -56,6 +58,19 @@ std::string value(const std::string &name, const std::string &v) {
     return "<value name=\"" + name + "\">" + v + "</value>";
 }
 
+// irpd on `folder`/module.xml with its control socket and module cache there; returns it running
+// and a client past the hello.
+std::pair<std::unique_ptr<Process>, std::unique_ptr<Client>> startIrpd(const fs::path &folder, const std::string &socket) {
+    auto irpd = std::make_unique<Process>(
+        std::vector<std::string>{kIrpd, "--config", (folder / "module.xml").string(), "--control-socket", socket,
+                                 "--instance", uniqueInstance(), "--module-cache", (folder / "cache").string()},
+        folder);
+    EXPECT_TRUE(irpd->waitForErr("irpd: running")) << irpd->err();
+    auto client = std::make_unique<Client>(socket, 60);
+    EXPECT_FALSE(client->readLine().empty());  // the hello
+    return {std::move(irpd), std::move(client)};
+}
+
 // irpd on a set written into a scratch folder, with its control socket.  Every set has `keep`
 // (a counter, 1 ms) beside the module under test: "the rest of the set".  "@DIR@" in the body
 // stands for the scratch folder.
@@ -74,13 +89,7 @@ struct Cell {
             << "<root>\n" + root_extra +
                    thread("keep", "keep.so", 1'000'000, 1, "<property>" + value("journal", journal("keep")) + "</property>") +
                    body + "</root>\n";
-        irpd = std::make_unique<Process>(
-            std::vector<std::string>{kIrpd, "--config", (dir.path / "module.xml").string(), "--control-socket", socket,
-                                     "--instance", uniqueInstance(), "--module-cache", (dir.path / "cache").string()},
-            dir.path);
-        EXPECT_TRUE(irpd->waitForErr("irpd: running")) << irpd->err();
-        client = std::make_unique<Client>(socket, 60);
-        EXPECT_FALSE(client->readLine().empty());  // the hello
+        std::tie(irpd, client) = startIrpd(dir.path, socket);
     }
     ~Cell() {
         client.reset();
@@ -288,13 +297,7 @@ struct PlcCell {
         std::string io = readFile(set / "ioconfig.xml");
         io = std::regex_replace(io, std::regex("port=\"15020\""), "port=\"" + std::to_string(port) + "\"");
         std::ofstream(dir.path / "ioconfig.xml") << io;
-        irpd = std::make_unique<Process>(
-            std::vector<std::string>{kIrpd, "--config", (dir.path / "module.xml").string(), "--control-socket", socket,
-                                     "--instance", uniqueInstance(), "--module-cache", (dir.path / "cache").string()},
-            dir.path);
-        EXPECT_TRUE(irpd->waitForErr("irpd: running")) << irpd->err();
-        client = std::make_unique<Client>(socket, 60);
-        EXPECT_FALSE(client->readLine().empty());
+        std::tie(irpd, client) = startIrpd(dir.path, socket);
     }
     ~PlcCell() {
         client.reset();
