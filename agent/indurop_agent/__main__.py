@@ -2,11 +2,12 @@
 [--tls-cert CERT.pem --tls-key KEY.pem] [--webui-dir DIR] [--viewer viser|meshcat] [--config agent.json]."""
 from __future__ import annotations
 
+import os
 import sys
 
 import uvicorn
 
-from . import config, server
+from . import config, memtrace, server
 from .app import create_app
 
 
@@ -24,6 +25,10 @@ def main(argv: list[str] | None = None) -> int:
               flush=True)
     else:
         print("indurop-agent: no web UI built (cd webui && npm ci && npm run build)", flush=True)
+    snapshots = memtrace.install(settings.data_dir)
+    if snapshots is not None:
+        print(f"indurop-agent: tracing memory (PYTHONTRACEMALLOC); kill -USR2 {os.getpid()} writes a snapshot to "
+              f"{snapshots}", flush=True)
     max_connections, why = server.connection_cap(settings.max_connections)
     if why:
         print(why, flush=True)

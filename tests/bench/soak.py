@@ -158,12 +158,15 @@ class Streams:
             t.join(max(0.0, deadline - time.monotonic()))
 
 
-def start_agent(port: int, data: Path, sock: Path, other: set[int], log_path: Path) -> subprocess.Popen:
-    """The agent on the non-RT CPUs (taskset), as a deployment runs it; returns once /health answers."""
+def start_agent(port: int, data: Path, sock: Path, other: set[int], log_path: Path,
+                tracemalloc_frames: int = 0) -> subprocess.Popen:
+    """The agent on the non-RT CPUs (taskset), as a deployment runs it; returns once /health answers.
+    With tracemalloc_frames, Python's tracer runs in it (memtrace.py: SIGUSR2 writes a snapshot)."""
     out = open(log_path, "w")
     cmd = ["taskset", "-c", ",".join(map(str, sorted(other))), sys.executable, "-m", "indurop_agent",
            "--host", "127.0.0.1", "--port", str(port), "--data-dir", str(data), "--irpd-socket", str(sock)]
-    p = subprocess.Popen(cmd, cwd=REPO / "agent", stdout=out, stderr=subprocess.STDOUT)
+    env = dict(os.environ, **({"PYTHONTRACEMALLOC": str(tracemalloc_frames)} if tracemalloc_frames else {}))
+    p = subprocess.Popen(cmd, cwd=REPO / "agent", stdout=out, stderr=subprocess.STDOUT, env=env)
     deadline = time.monotonic() + 30
     while True:
         try:
@@ -192,6 +195,10 @@ def main() -> int:
     ap.add_argument("--stress-nice", type=int, default=19,
                     help="stress-ng's nice value: at 19 it takes every cycle the agent, its clients and the drive "
                          "simulator (which stands for drives on the network) leave")
+    ap.add_argument("--tracemalloc", type=int, default=0, metavar="FRAMES",
+                    help="trace the agent's Python allocations (slows it): a snapshot at --snapshot-min and one at "
+                         "the end, and the call sites that grew between them in the report")
+    ap.add_argument("--snapshot-min", type=float, default=2.0)
     ap.add_argument("--out-json", type=Path)
     ap.add_argument("--out-md", type=Path)
     a = ap.parse_args()
@@ -222,7 +229,7 @@ def main() -> int:
         procs.append(irpd)
         os.sched_setaffinity(0, other)  # this script, its threads and what it starts next stay off irpd's CPU
         port = live_processes.free_port()
-        agent = start_agent(port, work / "data", sock, other, work / "agent.log")
+        agent = start_agent(port, work / "data", sock, other, work / "agent.log", a.tracemalloc)
         procs.append(agent)
         url = f"http://127.0.0.1:{port}/api/v1"
         token = (work / "data" / "admin-token").read_text().strip()
@@ -280,6 +287,7 @@ def main() -> int:
         next_reload = started + a.reload_s
         next_rss = started
         flip = 0
+        snapshot_at = started + 60 * a.snapshot_min if a.tracemalloc else None
         log(f"soaking for {a.minutes:g} min: {a.clients} stream clients, a hot reload every {a.reload_s:g} s"
             f"{'' if a.no_stress else ', stress-ng on the other CPU(s)'}")
         while (now := time.monotonic()) < started + seconds:
@@ -303,10 +311,17 @@ def main() -> int:
                 else:
                     swap_errors.append(f"{r.status_code}: {r.text[:200]}")
                 next_reload += a.reload_s
+            if snapshot_at is not None and now >= snapshot_at:
+                agent.send_signal(signal.SIGUSR2)
+                snapshot_at = None
             if irpd.poll() is not None or agent.poll() is not None:
                 raise RuntimeError("irpd or the agent stopped during the soak")
             time.sleep(0.2)
 
+        memory = None
+        if a.tracemalloc:
+            agent.send_signal(signal.SIGUSR2)
+            memory = agent_memory_growth(work / "data" / "memtrace", rss["agent"], a.snapshot_min)
         after = api.get("/jitter").json()
         hist = api.get("/jitter/histograms", params={"name": "dispatcher"}).json()["records"][0]
         cycles = api.get("/variables/PLC_ROBOT.PLC_OUT.Cycles").json()["value"]
@@ -352,6 +367,7 @@ def main() -> int:
                                "samples": pts}
                         for name, pts in rss.items()},
             "plc": {"cycles": cycles, "error_id": plc_error},
+            "agent_memory_trace": memory,
             "irpd_events": sorted({e["kind"] for e in events.get("events", [])}),
         }
         ok = True
@@ -372,6 +388,21 @@ def main() -> int:
     if a.out_md:
         a.out_md.write_text(table)
     return 0
+
+
+def agent_memory_growth(folder: Path, rss: list[tuple[float, int]], from_min: float) -> dict:
+    """The two snapshots' comparison (memtrace.growth) beside the RSS growth over the same span."""
+    from indurop_agent import memtrace
+
+    deadline = time.monotonic() + 120  # a snapshot of a big heap takes a while
+    while len(snaps := sorted(folder.glob("*.snap"), key=lambda p: int(p.stem.rsplit("-", 1)[1]))) < 2:
+        if time.monotonic() > deadline:
+            return {"error": f"{len(snaps)} snapshots in {folder} after 120 s"}
+        time.sleep(0.5)
+    g = memtrace.growth(snaps[0], snaps[-1], top=10)
+    span = [kib for t, kib in rss if t >= from_min * 60]
+    g["rss_kib_over_the_same_span"] = {"first": span[0], "last": span[-1]} if span else None
+    return g
 
 
 def ms(ns) -> str:
@@ -412,6 +443,14 @@ def markdown(r: dict) -> str:
          f"{per_min(r['rss_kib']['agent']['slope_kib_per_min_after_1min'])}"),
         ("PLC cycles completed, ErrorID", f"{r['plc']['cycles']}, {r['plc']['error_id']}"),
     ]
+    m = r.get("agent_memory_trace")
+    if m and "error" not in m:
+        rows.append(("agent: Python-traced memory, snapshot → end",
+                     f"{m['traced_kib']['old']} → {m['traced_kib']['new']} KiB (RSS {m['rss_kib_over_the_same_span']})"))
+        rows += [(f"grew: {d['where'][-1]}", f"{d['size_diff_kib']:+.1f} KiB, {d['count_diff']:+d} blocks")
+                 for d in m["top"][:5]]
+    elif m:
+        rows.append(("agent memory trace", m["error"]))
     return "| figure | value |\n| --- | --- |\n" + "".join(f"| {k} | {v} |\n" for k, v in rows)
 
 
