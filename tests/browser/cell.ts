@@ -26,10 +26,14 @@ async function powerOnAndStart(): Promise<boolean> {
   // operator would
   await write("PLC_ROBOT.PLC_IN.Enable", 0);
   await write("PLC_ROBOT.I0", 0);
+  // The browser's software rendering can starve the simulator again right after the reset (a drive
+  // fault or lost communication once more, seen in CI): the next attempt gives a new rising edge, as
+  // an operator presses Reset again.
   await write("PLC_ROBOT.PLC_IN.Reset", 0);
   await write("PLC_ROBOT.PLC_IN.Reset", 1);
-  await expect.poll(() => read("PLC_ROBOT.PLC_OUT.Error"), { timeout: 20_000 }).toBe(0);
+  const cleared = await reaches("PLC_ROBOT.PLC_OUT.Error", 0);
   await write("PLC_ROBOT.PLC_IN.Reset", 0);
+  if (!cleared) return false;
   await write("PLC_ROBOT.PLC_IN.CycleMode", 1);
   await write("PLC_ROBOT.PLC_IN.Enable", 1);
   if (!(await reaches("PLC_ROBOT.PLC_OUT.Powered", 1))) return false;
@@ -44,6 +48,7 @@ export async function startCell(): Promise<void> {
     if ((await read("PLC_ROBOT.PLC_OUT.Running")) === 1) return;
     if (await powerOnAndStart()) return;
   }
-  throw new Error(`the cell did not start: ErrorID ${await read("PLC_ROBOT.PLC_OUT.ErrorID")}, ` +
-    `comm_lost ${await read("PLC_ROBOT.IO_STATUS.comm_lost[0]")}`);
+  const state = await Promise.all(["PLC_OUT.Error", "PLC_OUT.ErrorID", "ROBOT_MODULE_STATE.ErrorID",
+    "ROBOT_MODULE_STATE.eState", "PLC_OUT.Powered", "IO_STATUS.comm_lost[0]"].map(async (v) => `${v} ${await read(`PLC_ROBOT.${v}`)}`));
+  throw new Error(`the cell did not start after 3 attempts: ${state.join(", ")}`);
 }
