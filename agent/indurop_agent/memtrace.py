@@ -12,6 +12,7 @@ thread stacks) is not in a snapshot: compare the snapshots' total with the RSS t
 from __future__ import annotations
 
 import argparse
+import gc
 import itertools
 import os
 import signal
@@ -34,6 +35,7 @@ def install(data_dir: Path) -> Path | None:
     def dump(_signum, _frame) -> None:
         path = folder / f"{os.getpid()}-{next(counter)}.snap"
         partial = path.with_suffix(".part")  # a reader never sees half a snapshot
+        gc.collect()  # live memory only: cyclic garbage waits for a full collection in a large heap
         tracemalloc.take_snapshot().dump(str(partial))
         partial.rename(path)
         print(f"indurop-agent: memory snapshot {path} ({tracemalloc.get_traced_memory()[0] // 1024} KiB traced)",

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """agent_bench.py -- what the agent and hot reload cost the RT core, measured in one run.
 
-    python3 tests/bench/agent_bench.py [--seconds 20] [--swaps 100] [--out docs/benchmark-agent.md]
+    .venv/bin/python tests/bench/agent_bench.py [--seconds 20] [--swaps 100] [--out docs/benchmark-agent.md]
 
 Phases, each on a fresh irpd running the paper's Figure 1 set at 100 µs (pinned, SCHED_FIFO),
 with the agent beside it on 127.0.0.1:
@@ -313,7 +313,7 @@ def render(a, runs: list[dict], paths: list[str], swaps: dict) -> str:
     lines = [
         "# Benchmark: the agent and hot reload against the RT core",
         "",
-        f"Measured by `python3 tests/bench/agent_bench.py --seconds {a.seconds} --rounds {a.rounds} --swaps {a.swaps}` on "
+        f"Measured by `.venv/bin/python tests/bench/agent_bench.py --seconds {a.seconds} --rounds {a.rounds} --swaps {a.swaps}` on "
         f"{time.strftime('%Y-%m-%d')} ({os.cpu_count()} CPUs, `{os.uname().release}`; irpd on CPU "
         f"{rt_cpu(a)}, SCHED_FIFO {a.rt_priority}, Figure 1's set at 100 µs; irpd's non-RT threads, the agent "
         "and its clients on the other CPUs). A shared, noisy VM: wake-up latency spikes of milliseconds happen; "

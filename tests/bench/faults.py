@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """faults.py -- what each fault costs: detection time, time to safe outputs, restart time.
 
-    python3 tests/bench/faults.py [--rounds N] [--build-dir DIR] [--write docs/faults.md]
+    .venv/bin/python tests/bench/faults.py [--rounds N] [--build-dir DIR] [--write docs/faults.md]
 
 Each scenario runs irpd (and for the device side the drive simulator, started apart) N times
 and reports min / median / max over the rounds:
@@ -318,7 +318,7 @@ def main() -> int:
         "<on_overrun>restart</on_overrun><overrun_limit>5000000</overrun_limit>")
 
     uname = os.uname()
-    lines = [f"Measured with `python3 tests/bench/faults.py --rounds {a.rounds}` on {uname.nodename} "
+    lines = [f"Measured with `.venv/bin/python tests/bench/faults.py --rounds {a.rounds}` on {uname.nodename} "
              f"({os.cpu_count()} CPUs, {uname.release}), {time.strftime('%Y-%m-%d')}; min / median / max in ms "
              f"over {a.rounds} rounds.", "", "| fault | figure (ms) |", "| --- | --- |"]
     lines += [f"| {k} | {summary(v)} |" for k, v in rows.items()]

@@ -2,7 +2,7 @@
 """plot_bench.py -- the scope in a browser: 16 variables streamed at 1 kHz into the Variables
 page's live plot, in Debian's chromium, for 60 s.
 
-    python3 tests/bench/plot_bench.py [--seconds 60] [--out docs/benchmark-webui.md]
+    .venv/bin/python tests/bench/plot_bench.py [--seconds 60] [--out docs/benchmark-webui.md]
 
 irpd runs config/sets/signals (sixteen waveforms every 1 ms) with the agent serving the built UI
 (tests/browser/serve.py); tests/browser/bench/plot-bench.mjs measures in the page:
@@ -79,7 +79,7 @@ def report(r: dict, seconds: int) -> str:
     lines = [
         "# Benchmark: the scope in a browser",
         "",
-        "`python3 tests/bench/plot_bench.py` — Debian's chromium (headless, Playwright, flags "
+        "`.venv/bin/python tests/bench/plot_bench.py` — Debian's chromium (headless, Playwright, flags "
         f"`{os.environ.get('CHROMIUM_ARGS', '--disable-gpu --no-sandbox')}`: canvases rasterized by Skia on the CPU, as in a",
         "browser without a GPU), the agent serving the built UI, irpd running `config/sets/signals` (sixteen waveforms",
         "every 1 ms).  One plot panel of the Variables page draws `SIG.wave[0..15]`, every sample, fed",

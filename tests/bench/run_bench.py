@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """run_bench.py -- irpd's wake-up latency against cyclictest's, on the same CPU, in one command.
 
-    python3 tests/bench/run_bench.py [--duration S] [--period-ns N] [--cpu N] [--rt-priority P]
+    .venv/bin/python tests/bench/run_bench.py [--duration S] [--period-ns N] [--cpu N] [--rt-priority P]
                                      [--out docs/benchmark.md] [--build-dir DIR] [--no-build]
                                      [--proc-duration S] [--proc-rounds R] [--sporadic-duration S]
 
@@ -700,7 +700,7 @@ def render(a, info: dict, ct: dict, skip: dict, catch: dict, over: dict, relativ
     w = L.append
     w("# Benchmark: irpd against cyclictest")
     w("")
-    w(f"Latest result of `python3 tests/bench/run_bench.py{(' ' + ' '.join(a.shown_args)) if a.shown_args else ''}`, "
+    w(f"Latest result of `.venv/bin/python tests/bench/run_bench.py{(' ' + ' '.join(a.shown_args)) if a.shown_args else ''}`, "
       f"run {started} (took {took_s / 60:.1f} min). This file is written by that command; "
       "do not edit the figures by hand, run it again.")
     w("")

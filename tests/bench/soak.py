@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """soak.py -- the plc-robot cell run for a long time under load, as an appliance runs for months.
 
-    python3 tests/bench/soak.py [--minutes 10] [--cell module.xml] [--out-json F] [--out-md F]
+    .venv/bin/python tests/bench/soak.py [--minutes 10] [--cell module.xml] [--out-json F] [--out-md F]
 
 One run, in this order, on a machine with at least two CPUs:
   1. irpd runs build/sets/plc-robot (pinned to --cpu, SCHED_FIFO) with its drive simulator, the
@@ -167,7 +167,7 @@ def start_agent(port: int, data: Path, sock: Path, other: set[int], log_path: Pa
            "--host", "127.0.0.1", "--port", str(port), "--data-dir", str(data), "--irpd-socket", str(sock)]
     env = dict(os.environ, **({"PYTHONTRACEMALLOC": str(tracemalloc_frames)} if tracemalloc_frames else {}))
     p = subprocess.Popen(cmd, cwd=REPO / "agent", stdout=out, stderr=subprocess.STDOUT, env=env)
-    deadline = time.monotonic() + 30
+    deadline = time.monotonic() + live_processes.START_TIMEOUT_S * (3 if tracemalloc_frames else 1)  # tracing imports slowly
     while True:
         try:
             if httpx.get(f"http://127.0.0.1:{port}/api/v1/health", timeout=1).status_code == 200:

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """supervision_bench.py -- how fast irpd's supervision reacts, measured on this machine.
 
-    python3 tests/bench/supervision_bench.py [--build-dir build] [--trials N] [--watchdog-ms W]
+    .venv/bin/python tests/bench/supervision_bench.py [--build-dir build] [--trials N] [--watchdog-ms W]
                                              [--out docs/supervision.md]
 
 This script plays systemd (an AF_UNIX datagram socket as NOTIFY_SOCKET, WATCHDOG_USEC) and measures three things (docs/supervision.md):
@@ -245,7 +245,7 @@ def main() -> int:
     inside = sum(1 for d in detections if watchdog_s / 2 - 0.02 <= d <= watchdog_s + WINDOW_S)
     lines = [
         f"Measured {time.strftime('%Y-%m-%d')} on {platform.node()} ({os.cpu_count()} CPUs, "
-        f"Linux {platform.release()}), {args.trials} trials each, by `python3 tests/bench/supervision_bench.py "
+        f"Linux {platform.release()}), {args.trials} trials each, by `.venv/bin/python tests/bench/supervision_bench.py "
         f"--trials {args.trials} --watchdog-ms {args.watchdog_ms}` (the machine shared with other work):",
         "",
         "| what | figure |",

@@ -10,6 +10,7 @@ sets the joints: position = value · scale + offset.  It never raises: irpd may 
 """
 from __future__ import annotations
 
+import hashlib
 import threading
 import time
 from dataclasses import dataclass, field
@@ -26,6 +27,23 @@ from .urdf import Urdf, UrdfError, parse
 
 STATUS_EVERY_S = 0.5
 ERROR_EVENT_EVERY_S = 60.0
+
+
+def robot_identity(robot_json: Path, urdf: Urdf) -> str:
+    """What the viewer shows, by content: robot.json, the URDF and the mesh files it names (a set
+    stored again under another id with the same robot is the same robot)."""
+    h = hashlib.sha256()
+    files = [robot_json]
+    if urdf.path is not None:
+        files += [urdf.path] + sorted({urdf.path.parent / v.filename for v in urdf.visuals if v.filename})
+    for f in files:
+        h.update(str(f.relative_to(robot_json.parent) if f.is_relative_to(robot_json.parent) else f).encode() + b"\0")
+        try:
+            h.update(f.read_bytes())
+        except OSError as e:
+            h.update(f"unreadable: {e.strerror}".encode())
+        h.update(b"\0")
+    return h.hexdigest()
 
 
 @dataclass
@@ -50,6 +68,7 @@ class RobotLive(threading.Thread):
         self.viewer: Viewer | None = None
         self.view = View()
         self._key: tuple | None = None
+        self._robot: str | None = None  # robot_identity() of what the viewer shows
         self._checked = -1e9
         self._segment: Segment | None = None
         self._segment_key: tuple | None = None
@@ -118,6 +137,7 @@ class RobotLive(threading.Thread):
             self._key = key
 
     def _unavailable(self, detail: str, folder: Path | None, set_id: str | None) -> None:
+        self._robot = None
         if self.viewer is not None:
             try:
                 self.viewer.clear()
@@ -143,24 +163,31 @@ class RobotLive(threading.Thread):
             return self._unavailable(str(e), folder, set_id)
         joints = complete(config.joints, urdf)
         problems = self._check_variables(status, joints)
-        try:
-            if self.viewer is None or not self.viewer.alive():
+        robot = robot_identity(robot_json, urdf)
+        # A hot reload that leaves the robot as it was (most do: a period, a priority, a module)
+        # keeps the scene: no flicker for the viewers, and no scene rebuilt every reload.
+        keep = robot == self._robot and self.viewer is not None and self.viewer.alive()
+        if not keep:
+            try:
+                if self.viewer is None or not self.viewer.alive():
+                    self._drop_viewer()
+                    viewer = make_viewer(self.viewer_kind)
+                    try:
+                        viewer.start()
+                    except ViewerError:
+                        viewer.close()
+                        raise
+                    self.viewer = viewer
+                self.viewer.load(urdf)
+            except ViewerError as e:
                 self._drop_viewer()
-                viewer = make_viewer(self.viewer_kind)
-                try:
-                    viewer.start()
-                except ViewerError:
-                    viewer.close()
-                    raise
-                self.viewer = viewer
-            self.viewer.load(urdf)
-        except ViewerError as e:
-            self._drop_viewer()
-            return self._unavailable(f"the {self.viewer_kind} viewer: {e}", folder, set_id)
+                return self._unavailable(f"the {self.viewer_kind} viewer: {e}", folder, set_id)
+            self._robot = robot
         detail = "; ".join(f"{j}: {p} (held at 0)" for j, p in problems.items()) or None
         self.view = View(True, detail, folder, set_id, config, urdf, joints, problems)
-        self.events.add("robot_view", f"the 3D view ({self.viewer_kind}) shows {config.urdf} of "
-                                      f"{'set ' + set_id if set_id else folder}", set_id=set_id)
+        if not keep:
+            self.events.add("robot_view", f"the 3D view ({self.viewer_kind}) shows {config.urdf} of "
+                                          f"{'set ' + set_id if set_id else folder}", set_id=set_id)
         self._move()
 
     def _check_variables(self, status: dict, joints: list[JointMapping]) -> dict[str, str]:

@@ -498,3 +498,36 @@ def test_a_set_without_robot_json_makes_the_view_unavailable_and_rollback_brings
     view = live.wait(lambda: (v := live.get("/robot").json())["available"] and v, "the view to come back")
     assert view["set_id"] == active["id"] and view["joints"][0]["scale"] == 2.0
 
+
+
+def test_a_hot_reload_that_keeps_the_robot_keeps_the_scene(live):
+    """A period or priority change swaps the set, not the robot: the viewer keeps its scene (no
+    flicker, no scene rebuilt every reload); a new robot.json loads the robot again."""
+    def robot_views() -> int:
+        events = live.get("/events?since=0&agent_since=0&limit=1000").json()["events"]
+        return sum(e["kind"] == "robot_view" for e in events)
+
+    def view_follows(set_id):
+        return live.wait(lambda: (v := live.get("/robot").json())["set_id"] == set_id and v["available"] and v,
+                         f"the view to follow set {set_id}")
+
+    view_follows(live.get("/status").json()["set_id"])
+    shown = robot_views()
+    main = live.get("/modules/main").json()
+    r = httpx.patch(f"{live.base}/api/v1/modules/main", headers=live.h, json={"priority": main["priority"] + 1},
+                    timeout=60)
+    assert r.status_code == 200, r.text
+    swapped = live.get("/status").json()
+    view_follows(swapped["set_id"])
+    time.sleep(1.0)  # two of the view's status checks
+    assert robot_views() == shown
+    tool = world(live, asyncio.run(_watch(live, live.cookie(), 1.0))[-1], "tool0")
+    assert np.isfinite(tool).all()  # the kept scene still answers a new client with the robot
+
+    view = live.get("/robot").json()
+    body = {"joints": [{"joint": j["joint"], "variable": j["variable"], "scale": j["scale"] * 1.5, "offset": j["offset"]}
+                       for j in view["joints"][:1]]}
+    r = live.put("/robot/joints", body)
+    assert r.status_code == 200, r.text
+    view_follows(r.json()["set_id"])
+    assert robot_views() == shown + 1
