@@ -175,6 +175,7 @@ def start_agent(port: int, data: Path, sock: Path, other: set[int], log_path: Pa
         except httpx.HTTPError:
             pass
         if p.poll() is not None or time.monotonic() > deadline:
+            live_processes.stop(p)  # not left running (and loading the machine) after the soak gives up
             raise RuntimeError(f"the agent did not come up: {log_path.read_text()}")
         time.sleep(0.1)
 
