@@ -192,6 +192,10 @@ def main() -> int:
     ap.add_argument("--rt-priority", type=int, default=80)
     ap.add_argument("--comm-timeout-s", type=float, default=10.0,
                     help="silence of the simulated drives before comm loss (a shared VM starves them at times)")
+    ap.add_argument("--drives-priority", type=int, default=10,
+                    help="SCHED_FIFO priority of the drive simulator (0: a normal process).  Real drives run on "
+                         "their own CPUs; on the shared CPU the agent's load would starve the simulator and the "
+                         "robot stop with a following error or lost communication")
     ap.add_argument("--no-stress", action="store_true", help="without stress-ng (to compare)")
     ap.add_argument("--stress-nice", type=int, default=19,
                     help="stress-ng's nice value: at 19 it takes every cycle the agent, its clients and the drive "
@@ -229,6 +233,7 @@ def main() -> int:
                                          str(a.rt_priority), log=work / "irpd.log")
         procs.append(irpd)
         os.sched_setaffinity(0, other)  # this script, its threads and what it starts next stay off irpd's CPU
+        drives = drive_simulator_realtime(irpd.pid, a.drives_priority)
         port = live_processes.free_port()
         agent = start_agent(port, work / "data", sock, other, work / "agent.log", a.tracemalloc)
         procs.append(agent)
@@ -368,6 +373,7 @@ def main() -> int:
                                "samples": pts}
                         for name, pts in rss.items()},
             "plc": {"cycles": cycles, "error_id": plc_error},
+            "drive_simulator": drives,
             "agent_memory_trace": memory,
             "irpd_events": sorted({e["kind"] for e in events.get("events", [])}),
         }
@@ -389,6 +395,25 @@ def main() -> int:
     if a.out_md:
         a.out_md.write_text(table)
     return 0
+
+
+def drive_simulator_realtime(irpd_pid: int, priority: int) -> str:
+    """Gives the drive simulator (irpd's process module, its child) SCHED_FIFO `priority` on the
+    CPUs it runs on; returns what was done, for the report."""
+    if priority <= 0:
+        return "a normal process"
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:
+        children = [c for t in Path(f"/proc/{irpd_pid}/task").glob("*/children") for c in t.read_text().split()]
+        for child in children:
+            try:
+                if b"drivesim" in Path(f"/proc/{child}/cmdline").read_bytes().split(b"\0")[0]:
+                    os.sched_setscheduler(int(child), os.SCHED_FIFO, os.sched_param(priority))
+                    return f"SCHED_FIFO {priority}, CPUs {sorted(os.sched_getaffinity(int(child)))}"
+            except OSError:
+                pass
+        time.sleep(0.1)
+    raise RuntimeError("the drive simulator (irpd's child indurop-drivesim) did not start within 10 s")
 
 
 def agent_memory_growth(folder: Path, rss: list[tuple[float, int]], from_min: float) -> dict:
@@ -443,6 +468,7 @@ def markdown(r: dict) -> str:
          f"{r['rss_kib']['agent']['first']} → {r['rss_kib']['agent']['last']} KiB, "
          f"{per_min(r['rss_kib']['agent']['slope_kib_per_min_after_1min'])}"),
         ("PLC cycles completed, ErrorID", f"{r['plc']['cycles']}, {r['plc']['error_id']}"),
+        ("drive simulator", r.get("drive_simulator", "a normal process")),
     ]
     m = r.get("agent_memory_trace")
     if m and "error" not in m:
