@@ -196,6 +196,9 @@ def main() -> int:
                     help="SCHED_FIFO priority of the drive simulator (0: a normal process).  Real drives run on "
                          "their own CPUs; on the shared CPU the agent's load would starve the simulator and the "
                          "robot stop with a following error or lost communication")
+    ap.add_argument("--no-restart", dest="restart_cell", action="store_false",
+                    help="leave the cell stopped when the PLC reports an error (by default the soak resets and "
+                         "starts it again, as an operator would, and counts it)")
     ap.add_argument("--no-stress", action="store_true", help="without stress-ng (to compare)")
     ap.add_argument("--stress-nice", type=int, default=19,
                     help="stress-ng's nice value: at 19 it takes every cycle the agent, its clients and the drive "
@@ -230,7 +233,7 @@ def main() -> int:
                                              fail_limit=min(1000, max(1, int(a.comm_timeout_s * 1000 / period_ms))))
         sock = work / "irpd.sock"
         irpd = live_processes.start_irpd(sock, config, f"soak-{os.getpid()}", "--cpu", str(a.cpu), "--rt-priority",
-                                         str(a.rt_priority), log=work / "irpd.log")
+                                         str(a.rt_priority), log=work / "irpd.log", module_output=True)
         procs.append(irpd)
         os.sched_setaffinity(0, other)  # this script, its threads and what it starts next stay off irpd's CPU
         drives = drive_simulator_realtime(irpd.pid, a.drives_priority)
@@ -275,6 +278,23 @@ def main() -> int:
             time.sleep(0.1)
         write("PLC_ROBOT.I0", 1)
 
+        def restart_cell() -> bool:
+            """What an operator does when the cell stopped on an error: Reset, power on, Start."""
+            for path, value in (("PLC_IN.Enable", 0), ("I0", 0), ("PLC_IN.Reset", 1)):
+                write(f"PLC_ROBOT.{path}", value)
+            until = time.monotonic() + 5
+            while read("PLC_OUT.Error") and time.monotonic() < until:
+                time.sleep(0.1)
+            write("PLC_ROBOT.PLC_IN.Reset", 0)
+            write("PLC_ROBOT.PLC_IN.Enable", 1)
+            until = time.monotonic() + 10
+            while read("PLC_OUT.Powered") != 1 and time.monotonic() < until:
+                time.sleep(0.1)
+            write("PLC_ROBOT.I0", 1)
+            return read("PLC_OUT.Powered") == 1 and not read("PLC_OUT.Error")
+
+        io_before = {"cycles": read("IO_STATUS.cycles"), "errors": read("IO_STATUS.errors[0]")}
+        plc_faults = []
         stress = None
         if not a.no_stress:
             stress = subprocess.Popen(["nice", "-n", str(a.stress_nice), "stress-ng", "--cpu", str(len(other)), "--vm", "1", "--vm-bytes", "128M",
@@ -303,6 +323,12 @@ def main() -> int:
                     if kib is not None:
                         rss[name].append((round(now - started, 1), kib))
                 next_rss += a.rss_every_s
+                if a.restart_cell and read("PLC_OUT.Error"):
+                    fault = {"at_s": round(now - started, 1), "error_id": read("PLC_OUT.ErrorID"),
+                             "robot_error_id": read("ROBOT_MODULE_STATE.ErrorID"),
+                             "io_errors_so_far": read("IO_STATUS.errors[0]") - io_before["errors"]}
+                    fault["restarted"] = restart_cell()
+                    plc_faults.append(fault)
             if now >= next_reload:
                 flip ^= 1
                 name, low, high = RELOADED
@@ -331,6 +357,8 @@ def main() -> int:
         after = api.get("/jitter").json()
         hist = api.get("/jitter/histograms", params={"name": "dispatcher"}).json()["records"][0]
         cycles = api.get("/variables/PLC_ROBOT.PLC_OUT.Cycles").json()["value"]
+        io = {"cycles": read("IO_STATUS.cycles") - io_before["cycles"],
+              "failed_transactions_device_0": read("IO_STATUS.errors[0]") - io_before["errors"]}
         plc_error = api.get("/variables/PLC_ROBOT.PLC_OUT.ErrorID").json()["value"]
         events = api.get("/events", params={"limit": 1000}).json()
         live_processes.stop(irpd)
@@ -372,7 +400,8 @@ def main() -> int:
                                "slope_kib_per_min_after_1min": slope_per_min([p for p in pts if p[0] >= 60]),
                                "samples": pts}
                         for name, pts in rss.items()},
-            "plc": {"cycles": cycles, "error_id": plc_error},
+            "plc": {"cycles": cycles, "error_id": plc_error, "faults": plc_faults},
+            "io": io,
             "drive_simulator": drives,
             "agent_memory_trace": memory,
             "irpd_events": sorted({e["kind"] for e in events.get("events", [])}),
@@ -467,7 +496,12 @@ def markdown(r: dict) -> str:
         ("RSS agent: first → last, slope after 1 min",
          f"{r['rss_kib']['agent']['first']} → {r['rss_kib']['agent']['last']} KiB, "
          f"{per_min(r['rss_kib']['agent']['slope_kib_per_min_after_1min'])}"),
-        ("PLC cycles completed, ErrorID", f"{r['plc']['cycles']}, {r['plc']['error_id']}"),
+        ("PLC cycles completed, ErrorID at the end", f"{r['plc']['cycles']}, {r['plc']['error_id']}"),
+        ("PLC stopped on an error, restarted", f"{len(r['plc'].get('faults', []))} times (ErrorIDs "
+         f"{sorted({f['error_id'] for f in r['plc'].get('faults', [])})}), "
+         f"{sum(f['restarted'] for f in r['plc'].get('faults', []))} restarts succeeded"),
+        ("I/O cycles, failed Modbus transactions (drives)", f"{r['io']['cycles']}, "
+         f"{r['io']['failed_transactions_device_0']}" if r.get("io") else "–"),
         ("drive simulator", r.get("drive_simulator", "a normal process")),
     ]
     m = r.get("agent_memory_trace")

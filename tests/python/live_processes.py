@@ -69,14 +69,15 @@ def _output_file(log: Path | None):
 
 
 def start_irpd(sock: Path, config: Path = FIG1, instance: str | None = None, *extra: str,
-               log: Path | None = None) -> subprocess.Popen:
+               log: Path | None = None, module_output: bool = False) -> subprocess.Popen:
     """irpd running `config` with its control socket at `sock`; returns once the socket is there.
-    Its stderr goes to `log` when given, else to a temporary file: output(p)."""
+    Its stderr goes to `log` when given, else to a temporary file: output(p); its stdout (the
+    modules' irp::printf lines) too with module_output, else nowhere."""
     sock.unlink(missing_ok=True)
     out = _output_file(log)
     p = subprocess.Popen([str(IRPD), "--config", str(config), "--control-socket", str(sock),
                           "--instance", instance or f"agent-test-{os.getpid()}", *extra],
-                         stdout=subprocess.DEVNULL, stderr=out, text=True)
+                         stdout=out if module_output else subprocess.DEVNULL, stderr=out, text=True)
     STARTED.append(p)
     p.log = out
     deadline = time.monotonic() + START_TIMEOUT_S
