@@ -58,7 +58,12 @@ pid=$(main_pid); t0=$(now_ms); since=$(date +%s)
 kill -STOP "$pid"
 if wait_until 60 irpd_back "$pid"; then
   t1=$(now_ms)
-  wait_until 90 runs_active_set || fail "after the watchdog irpd does not run the active set"
+  if ! wait_until 90 runs_active_set; then
+    fail "after the watchdog irpd does not run the active set"
+    # the agent's side of it: its events (restores, irpd lost and connected) and audit, for the record
+    curl -s -m 10 -H "Authorization: Bearer $(cat $data/admin-token)" "$api/events?since=0&agent_since=0&limit=60" | sed 's/^/LOG events /'
+    tail -n 20 "$data/audit.jsonl" | sed 's/^/LOG audit /'
+  fi
   t2=$(now_ms)
   line=$(journalctl -u irpd.service -o short-unix --since "@$since" --no-pager | grep -m1 "Watchdog timeout")
   [ -n "$line" ] || fail "no 'Watchdog timeout' journal line"
