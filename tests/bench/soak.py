@@ -52,6 +52,16 @@ def log(msg: str) -> None:
     print(f"[soak] {msg}", file=sys.stderr, flush=True)
 
 
+def within(seconds: float, condition) -> bool:
+    """Whether `condition()` holds within `seconds` (asked every 100 ms)."""
+    deadline = time.monotonic() + seconds
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.1)
+    return True
+
+
 def rss_kib(pid: int) -> int | None:
     try:
         for line in Path(f"/proc/{pid}/status").read_text().splitlines():
@@ -258,38 +268,28 @@ def main() -> int:
         def read(path: str):
             return api.get(f"/variables/PLC_ROBOT.{path}").json().get("value")
 
-        deadline = time.monotonic() + 30
-        while read("IO_STATUS.comm_lost[0]") != 0 or not read("IO_STATUS.cycles"):
-            if time.monotonic() > deadline:
-                raise RuntimeError("the drive simulator did not answer within 30 s")
-            time.sleep(0.1)
+        if not within(30, lambda: read("IO_STATUS.comm_lost[0]") == 0 and read("IO_STATUS.cycles")):
+            raise RuntimeError("the drive simulator did not answer within 30 s")
         if read("ROBOT_MODULE_STATE.ErrorID"):  # the drives answered late at start: clear the latched error
             write("PLC_ROBOT.PLC_IN.Reset", 1)
             time.sleep(0.5)
             write("PLC_ROBOT.PLC_IN.Reset", 0)
         write("PLC_ROBOT.PLC_IN.Enable", 1)
         write("PLC_ROBOT.PLC_IN.CycleMode", 1)
-        deadline = time.monotonic() + 30
-        while read("PLC_OUT.Powered") != 1:
-            if time.monotonic() > deadline:
-                seen = {v: api.get(f"/variables/PLC_ROBOT.{v}").json().get("value") for v in (
-                    "ROBOT_MODULE_STATE.Powered", "ROBOT_MODULE_STATE.ErrorID", "PLC_OUT.ErrorID", "IO_STATUS.comm_lost[0]")}
-                raise RuntimeError(f"the drives did not power up within 30 s: {seen}")
-            time.sleep(0.1)
+        if not within(30, lambda: read("PLC_OUT.Powered") == 1):
+            seen = {v: read(v) for v in (
+                "ROBOT_MODULE_STATE.Powered", "ROBOT_MODULE_STATE.ErrorID", "PLC_OUT.ErrorID", "IO_STATUS.comm_lost[0]")}
+            raise RuntimeError(f"the drives did not power up within 30 s: {seen}")
         write("PLC_ROBOT.I0", 1)
 
         def restart_cell() -> bool:
             """What an operator does when the cell stopped on an error: Reset, power on, Start."""
             for path, value in (("PLC_IN.Enable", 0), ("I0", 0), ("PLC_IN.Reset", 1)):
                 write(f"PLC_ROBOT.{path}", value)
-            until = time.monotonic() + 5
-            while read("PLC_OUT.Error") and time.monotonic() < until:
-                time.sleep(0.1)
+            within(5, lambda: not read("PLC_OUT.Error"))
             write("PLC_ROBOT.PLC_IN.Reset", 0)
             write("PLC_ROBOT.PLC_IN.Enable", 1)
-            until = time.monotonic() + 10
-            while read("PLC_OUT.Powered") != 1 and time.monotonic() < until:
-                time.sleep(0.1)
+            within(10, lambda: read("PLC_OUT.Powered") == 1)
             write("PLC_ROBOT.I0", 1)
             return read("PLC_OUT.Powered") == 1 and not read("PLC_OUT.Error")
 
