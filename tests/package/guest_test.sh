@@ -21,7 +21,26 @@ wait_until() {
 }
 main_pid() { systemctl show -p MainPID --value irpd.service; }
 active_set() { readlink "$data/active" | sed -n 's#^sets/\([0-9a-f]*\)/files$#\1#p'; }
-irpd_set() { curl -sf -m 2 -H "Authorization: Bearer $(cat $data/admin-token)" "$api/status" | grep -o '"set_id": *"[0-9a-f]*"' | grep -o '[0-9a-f]\{16\}'; }
+# irpd_set: the set id in the agent's GET /status (2 s limit); each answer is logged to $probes
+# (time ms, HTTP status or 000 for none, seconds taken, set id) for the failure report.
+probes=/tmp/guest-status-probes
+irpd_set() {
+  local out status set
+  out=$(curl -s -m 2 -w '\n%{http_code} %{time_total}' -H "Authorization: Bearer $(cat $data/admin-token)" "$api/status")
+  status=${out##*$'\n'}
+  # the top level's set_id: after a crash, status.last_crash has one too (the crashed run's)
+  set=$(printf '%s' "${out%$'\n'*}" | python3 -S -c 'import json, sys; print(json.load(sys.stdin).get("set_id") or "")' 2>/dev/null)
+  echo "$(now_ms) $status ${set:--}" >> $probes
+  [ "${status%% *}" = 200 ] && [ -n "$set" ] && echo "$set"
+}
+# probe_report T0: the probes since T0 (ms), runs of the same answer collapsed: "from+ms to+ms
+# count status set max-seconds".
+probe_report() {
+  awk -v t0="$1" '$1 >= t0 { key = $2 " " $4
+    if (key != last) { if (n) print "LOG probes +" a - t0 " +" b - t0 " " n " " last " max " m; a = $1; n = 0; m = 0; last = key }
+    b = $1; n++; if ($3 > m) m = $3 }
+    END { if (n) print "LOG probes +" a - t0 " +" b - t0 " " n " " last " max " m }' $probes
+}
 irpd_back() {   # a new main pid, the unit active (READY=1 received)
   local pid; pid=$(main_pid)
   [ "$pid" != "$1" ] && [ "$pid" != 0 ] && [ "$(systemctl show -p ActiveState --value irpd.service)" = active ]
@@ -63,12 +82,19 @@ if wait_until 60 irpd_back "$pid"; then
     # the agent's side of it: its events (restores, irpd lost and connected) and audit, for the record
     curl -s -m 10 -H "Authorization: Bearer $(cat $data/admin-token)" "$api/events?since=0&agent_since=0&limit=60" | sed 's/^/LOG events /'
     tail -n 20 "$data/audit.jsonl" | sed 's/^/LOG audit /'
+    ps -eo pid,pcpu,cls,rtprio,nlwp,etimes,comm --sort=-pcpu | head -12 | sed 's/^/LOG ps /'
   fi
   t2=$(now_ms)
+  probe_report "$t0"
   line=$(journalctl -u irpd.service -o short-unix --since "@$since" --no-pager | grep -m1 "Watchdog timeout")
   [ -n "$line" ] || fail "no 'Watchdog timeout' journal line"
   wd=$(echo "$line" | awk '{split($1, t, "."); print t[1] substr(t[2] "000", 1, 3)}')   # ms, no float
   echo "RESULT sigstop_watchdog_detect_ms=$((wd - t0)) sigstop_restart_ms=$((t1 - t0)) sigstop_active_set_via_agent_ms=$((t2 - t0)) set=$(irpd_set)"
+  # irpd's crash record names systemd's watchdog (SIGABRT from pid 1), not a crash of its own
+  cause=$(curl -s -m 10 -H "Authorization: Bearer $(cat $data/admin-token)" "$api/status" |
+    python3 -S -c 'import json, sys; c = json.load(sys.stdin).get("last_crash") or {}; print(c.get("cause"), c.get("sender_pid"))')
+  echo "RESULT sigstop_last_crash_cause_sender=${cause// /,}"
+  [ "$cause" = "watchdog 1" ] || fail "irpd's last crash does not name systemd's watchdog: $cause"
 else
   fail "irpd was not restarted within 60 s of SIGSTOP (watchdog)"
 fi
