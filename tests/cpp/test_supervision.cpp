@@ -395,14 +395,17 @@ struct CrashCell {
                       trigger(dir.path / "crash") + "<executor>side</executor>" + policy)
             << "</root>\n";
     }
-    std::unique_ptr<Process> start() {
+    // irpd, or `wrapper` followed by irpd's command line.
+    std::unique_ptr<Process> start(std::vector<std::string> wrapper = {}) {
         const fs::path out = dir.path / ("run" + std::to_string(++runs));
         fs::create_directory(out);
+        for (const std::string &arg : {kIrpd, std::string("--config"), (dir.path / "module.xml").string(),
+                                       std::string("--control-socket"), socket, std::string("--instance"), instance,
+                                       std::string("--state-dir"), state.string(), std::string("--module-cache"),
+                                       (dir.path / "cache").string()})
+            wrapper.push_back(arg);
         auto p = std::make_unique<Process>(
-            std::vector<std::string>{kIrpd, "--config", (dir.path / "module.xml").string(), "--control-socket", socket,
-                                     "--instance", instance, "--state-dir", state.string(), "--module-cache",
-                                     (dir.path / "cache").string()},
-            out, [] {
+            wrapper, out, [] {
                 rlimit none{0, 0};
                 setrlimit(RLIMIT_CORE, &none);  // no core file for the crash this test causes
             });
@@ -453,6 +456,54 @@ TEST(CrashRecord, ASegfaultInAThreadModuleIsRecordedWithModuleExecutorAndSignal)
     EXPECT_NE(record.find("\nset=" + fs::weakly_canonical(cell.dir.path / "module.xml").string() + "\n"),
               std::string::npos) << record;
     EXPECT_NE(record.find("\ngeneration=1\n"), std::string::npos) << record;
+}
+
+TEST(CrashRecord, AFaultHasNoSenderAndCauseFault) {
+    CrashCell cell("");
+    cell.crashOnce();
+    EXPECT_EQ(cell.record().find("\nsender_pid="), std::string::npos) << cell.record();
+    cell.pull(false);
+    auto second = cell.start();
+    json crash = cell.ask({{"cmd", "status"}})["result"]["last_crash"];
+    EXPECT_EQ(crash["cause"], "fault") << crash.dump();
+    EXPECT_TRUE(crash["sender_pid"].is_null()) << crash.dump();
+}
+
+TEST(CrashRecord, ASignalSentToIrpdNamesItsSender) {
+    CrashCell cell("");
+    auto first = cell.start();
+    kill(first->pid(), SIGABRT);
+    EXPECT_EQ(first->wait(std::chrono::seconds(30)), -2) << first->err();
+    EXPECT_EQ(first->termSignal(), SIGABRT);
+    EXPECT_NE(cell.record().find("\nsender_pid=" + std::to_string(getpid()) + "\n"), std::string::npos)
+        << cell.record();
+    auto second = cell.start();
+    json crash = cell.ask({{"cmd", "status"}})["result"]["last_crash"];
+    EXPECT_EQ(crash["cause"], "signal") << crash.dump();
+    EXPECT_EQ(crash["sender_pid"], getpid()) << crash.dump();
+    EXPECT_TRUE(crash["module"].is_null()) << "no module is blamed for a kill: " << crash.dump();
+    EXPECT_NE(second->err().find("died of SIGABRT from pid " + std::to_string(getpid())), std::string::npos)
+        << second->err();
+}
+
+// systemd's watchdog sends SIGABRT from pid 1: irpd started as the child of pid 1 of a new PID
+// namespace (unshare, root only), and that pid 1 sends it.
+TEST(CrashRecord, SigabrtFromPid1IsTheWatchdog) {
+    if (geteuid() != 0 || std::system("unshare --pid --fork true 2>/dev/null") != 0)
+        GTEST_SKIP() << "needs root and unshare --pid";
+    CrashCell cell("");
+    const fs::path go = cell.dir.path / "go";
+    const std::string kill_it = "\"$@\" & p=$!; until [ -e '" + go.string() + "' ]; do sleep 0.02; done; "
+                                "kill -ABRT $p; wait $p";
+    auto first = cell.start({"unshare", "--pid", "--fork", "sh", "-c", kill_it, "sh"});
+    std::ofstream(go) << "now\n";  // irpd runs (start() waited for it)
+    first->wait(std::chrono::seconds(30));
+    EXPECT_NE(cell.record().find("\nsender_pid=1\n"), std::string::npos) << cell.record() << first->err();
+    auto second = cell.start();
+    json crash = cell.ask({{"cmd", "status"}})["result"]["last_crash"];
+    EXPECT_EQ(crash["cause"], "watchdog") << crash.dump();
+    EXPECT_NE(second->err().find("died of SIGABRT from systemd's watchdog (pid 1)"), std::string::npos)
+        << second->err();
 }
 
 TEST(CrashRecord, ByDefaultTheRestartLeavesTheCrashedModuleOutUntilItIsEnabled) {

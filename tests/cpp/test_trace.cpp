@@ -316,6 +316,39 @@ TEST_F(Trace, AnInstanceOfALiveIrpdIsRefusedAndADeadOnesReplaced) {
     close(ready[1]);
 }
 
+// After a crash, the dead irpd's pid can go to another program: its segment is stale all the same.
+TEST_F(Trace, AnInstanceWhoseOwnerPidNowRunsAnotherProgramIsReplaced) {
+    const std::string instance = uniqueInstance();
+    int ready[2];
+    ASSERT_EQ(pipe(ready), 0);
+    pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+        auto r = TraceRings::create(instance, 16);
+        char c = r.ok() ? 'y' : 'n';
+        (void)!write(ready[1], &c, 1);
+        execlp("sleep", "sleep", "30", static_cast<char *>(nullptr));  // same pid, another program
+        _exit(1);
+    }
+    char c = 0;
+    ASSERT_EQ(read(ready[0], &c, 1), 1);
+    ASSERT_EQ(c, 'y');
+    auto comm = [&] {
+        std::string name;
+        std::getline(std::ifstream("/proc/" + std::to_string(child) + "/comm"), name);
+        return name;
+    };
+    for (int i = 0; i < 500 && comm() != "sleep"; ++i) usleep(10'000);
+    ASSERT_EQ(comm(), "sleep");
+    auto replaced = TraceRings::create(instance, 16);
+    ASSERT_TRUE(replaced.ok()) << replaced.error().message;
+    EXPECT_EQ(replaced->header()->owner_pid, getpid());
+    kill(child, SIGKILL);
+    waitpid(child, nullptr, 0);
+    close(ready[0]);
+    close(ready[1]);
+}
+
 TEST_F(Trace, ConfigureNamesEveryChannelWithItsType) {
     TraceRings r = rings();
     auto answer = r.configure({"t.u32", "t.f64", "t.s.y", "t.arr[2]", "t.b"}, *vars_);

@@ -156,7 +156,8 @@ class Status(IrpdShape):
     stopped_by_fault: str | None = Field(None, description="null, or why a fault stopped the set (an overrun with "
                                                            "on_overrun=stop): docs/faults.md")
     last_crash: dict[str, Any] | None = Field(None, description="the crash record irpd took in at start (signal, "
-                                                                "module, executor, set, time...), or null: "
+                                                                "module, executor, set, time, cause: fault, abort, "
+                                                                "watchdog or signal, sender_pid...), or null: "
                                                                 "docs/supervision.md")
     left_out_after_crash: list[dict[str, Any]] = Field([], description="modules a crash left out ({module, set})")
     shared_memory: SharedMemory

@@ -10,6 +10,8 @@
 
 #include <cerrno>
 #include <cstring>
+#include <fstream>
+#include <string>
 #include <utility>
 
 namespace irp::osal {
@@ -84,6 +86,26 @@ Result<SharedMemory> SharedMemory::open(const std::string &name, bool writable) 
 
 bool SharedMemory::unlink(const std::string &name) { return shm_unlink(name.c_str()) == 0; }
 
+namespace {
+
+std::string commOf(const std::string &proc_dir) {
+    std::ifstream in(proc_dir + "/comm");
+    std::string comm;
+    std::getline(in, comm);
+    return comm;
+}
+
+// Whether `pid` is alive and runs this program (its command name is ours): after a crash its pid
+// may have gone to another process, which must not keep the instance from starting again.  A
+// process whose name cannot be read (hidepid) counts as this program.
+bool runsThisProgram(int64_t pid) {
+    if (kill(static_cast<pid_t>(pid), 0) != 0 && errno != EPERM) return false;
+    const std::string theirs = commOf("/proc/" + std::to_string(pid));
+    return theirs.empty() || theirs == commOf("/proc/self");
+}
+
+} // namespace
+
 Result<SharedMemory> SharedMemory::createForInstance(const std::string &name, std::size_t size,
                                                      const std::string &instance,
                                                      const std::function<int64_t(const SharedMemory &)> &owner_of) {
@@ -91,7 +113,7 @@ Result<SharedMemory> SharedMemory::createForInstance(const std::string &name, st
     if (shm) return shm;
     if (auto old = open(name, false)) {
         const int64_t pid = owner_of(*old);
-        if (pid > 0 && pid != getpid() && (kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM))
+        if (pid > 0 && pid != getpid() && runsThisProgram(pid))
             return Error{"instance '" + instance + "' is in use by irpd pid " + std::to_string(pid) + " (shared memory " +
                          name + "); stop it or choose another --instance"};
     }

@@ -24,7 +24,8 @@ public:
     static Result<SharedMemory> create(const std::string &name, std::size_t size, unsigned mode);
     // The same for one irpd instance's segment: if the name exists, owner_of(existing) tells which
     // irpd made it (0: unknown, not one of ours).  A live irpd other than this process refuses
-    // ("instance 'x' is in use by irpd pid N"); a segment left by a dead one is replaced.
+    // ("instance 'x' is in use by irpd pid N"); a segment left by a dead one, or by a pid that
+    // now runs another program, is replaced.
     static Result<SharedMemory> createForInstance(const std::string &name, std::size_t size, const std::string &instance,
                                                   const std::function<int64_t(const SharedMemory &existing)> &owner_of);
     // Maps an existing segment; its whole size, read-only unless writable.

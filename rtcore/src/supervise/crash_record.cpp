@@ -112,6 +112,9 @@ void onCrash(int sig, siginfo_t *info, void *) {
     w.field("set_id", c.set_id);
     w.field("generation", c.generation);
     w.text("fault_address="), w.hex(reinterpret_cast<uintptr_t>(info ? info->si_addr : nullptr)), w.text("\n");
+    // Sent (kill, tgkill, sigqueue: si_code <= 0) rather than raised by the kernel for a fault:
+    // the sender's pid -- irpd's own for abort(), 1 for systemd's watchdog.
+    if (info && info->si_code <= 0) w.field("sender_pid", static_cast<uint64_t>(info->si_pid));
     if (g_handler.dir_fd >= 0) {
         int fd = openat(g_handler.dir_fd, g_handler.tmp_name, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
         if (fd >= 0) {
@@ -187,6 +190,7 @@ std::optional<CrashRecord> parseCrashRecord(const std::string &text) {
         else if (key == "set_id") r.set_id = value;
         else if (key == "generation") r.generation = static_cast<uint64_t>(number());
         else if (key == "fault_address") r.fault_address = value;
+        else if (key == "sender_pid") r.sender_pid = number();
     }
     if (!r.signal) return std::nullopt;
     return r;
@@ -203,7 +207,16 @@ nlohmann::ordered_json CrashRecord::toJson() const {
             {"generation", generation},
             {"pid", pid},
             {"thread", tid},
-            {"fault_address", fault_address}};
+            {"fault_address", fault_address},
+            {"sender_pid", sender_pid < 0 ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(sender_pid)},
+            {"cause", cause()}};
+}
+
+const char *CrashRecord::cause() const {
+    if (sender_pid < 0) return "fault";
+    if (sender_pid == pid) return "abort";
+    if (sender_pid == 1 && signal == SIGABRT) return "watchdog";
+    return "signal";
 }
 
 std::string CrashRecord::describe() const {
@@ -211,8 +224,13 @@ std::string CrashRecord::describe() const {
                                        : "in module '" + module + "'" +
                                              (executor == "lifecycle" ? " (initialize/start/stop, on the main thread)"
                                                                       : " on executor '" + executor + "'");
-    return "irpd pid " + std::to_string(pid) + " died of " + signal_name + " " + where + " at " + events::isoTime(time_ns) +
-           " (set " + set + ", generation " + std::to_string(generation) + ")";
+    const std::string why = cause();
+    const std::string how = why == "abort"      ? " raised by irpd itself (abort)"
+                            : why == "watchdog" ? " from systemd's watchdog (pid 1)"
+                            : why == "signal"   ? " from pid " + std::to_string(sender_pid)
+                                                : "";
+    return "irpd pid " + std::to_string(pid) + " died of " + signal_name + how + " " + where + " at " +
+           events::isoTime(time_ns) + " (set " + set + ", generation " + std::to_string(generation) + ")";
 }
 
 Result<std::unique_ptr<CrashState>> CrashState::open(const std::filesystem::path &dir, const std::string &instance) {

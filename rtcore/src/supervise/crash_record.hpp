@@ -34,6 +34,11 @@ struct CrashRecord {
     std::string set_id;
     uint64_t generation = 0;
     std::string fault_address; // si_addr, "0x..."
+    int64_t sender_pid = -1;   // who sent the signal (kill, abort, systemd), -1: the kernel, for a fault
+
+    // "fault" (the kernel, for the crashed thread's own instruction), "abort" (irpd raised it
+    // itself), "watchdog" (SIGABRT from pid 1: systemd's WatchdogSec), "signal" (another sender).
+    const char *cause() const;
 
     nlohmann::ordered_json toJson() const;
     std::string describe() const;  // one line for the log and the event

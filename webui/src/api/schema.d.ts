@@ -1264,7 +1264,7 @@ export interface components {
             generation: number;
             /**
              * Last Crash
-             * @description the crash record irpd took in at start (signal, module, executor, set, time...), or null: docs/supervision.md
+             * @description the crash record irpd took in at start (signal, module, executor, set, time, cause: fault, abort, watchdog or signal, sender_pid...), or null: docs/supervision.md
              */
             last_crash?: {
                 [key: string]: unknown;

@@ -1,6 +1,6 @@
 // faults.ts -- the overview's "faults" line from irpd's status: a set stopped by a fault (an
 // overrun with on_overrun=stop, docs/faults.md), modules a crash left out (docs/supervision.md),
-// the crash irpd came back from.
+// the crash irpd came back from (and who sent its signal: systemd's watchdog, a kill, irpd's abort).
 import type { Status } from "./types";
 
 export interface FaultSummary {
@@ -18,7 +18,15 @@ export function faultSummary(st: Pick<Status, "stopped_by_fault" | "last_crash" 
   const c = st.last_crash;
   if (c) {
     const where = c.module ? ` in ${c.module}` : "";
-    return { level: "warn", text: `restarted after ${c.signal ?? "a crash"}${where}${c.time ? ` at ${c.time}` : ""}` };
+    const from =
+      c.cause === "watchdog"
+        ? " from systemd's watchdog"
+        : c.cause === "signal"
+          ? ` from pid ${c.sender_pid}`
+          : c.cause === "abort"
+            ? " (irpd's own abort)"
+            : "";
+    return { level: "warn", text: `restarted after ${c.signal ?? "a crash"}${from}${where}${c.time ? ` at ${c.time}` : ""}` };
   }
   return { level: "good", text: "none" };
 }

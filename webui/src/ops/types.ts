@@ -46,7 +46,14 @@ export interface Status {
   /** why a fault stopped the set (docs/faults.md), or null */
   stopped_by_fault?: string | null;
   /** the crash record irpd took in at start (docs/supervision.md), or null */
-  last_crash?: { signal?: string; module?: string; executor?: string; time?: string } | null;
+  last_crash?: {
+    signal?: string;
+    module?: string;
+    executor?: string;
+    time?: string;
+    cause?: "fault" | "abort" | "watchdog" | "signal";
+    sender_pid?: number | null;
+  } | null;
   /** modules a crash left out of their set */
   left_out_after_crash?: { module: string; set: string }[];
   shared_memory?: Record<string, string>;

@@ -19,4 +19,16 @@ describe("faultSummary", () => {
     const s = faultSummary({ last_crash: { signal: "SIGSEGV", module: "Robot", time: "2026-11-22T09:00:00Z" } });
     expect(s).toEqual({ level: "warn", text: "restarted after SIGSEGV in Robot at 2026-11-22T09:00:00Z" });
   });
+  it("names who sent the signal: systemd's watchdog, another process, irpd's own abort", () => {
+    const at = { signal: "SIGABRT", time: "2026-11-22T09:00:00Z" };
+    expect(faultSummary({ last_crash: { ...at, cause: "watchdog", sender_pid: 1 } }).text).toBe(
+      "restarted after SIGABRT from systemd's watchdog at 2026-11-22T09:00:00Z",
+    );
+    expect(faultSummary({ last_crash: { ...at, cause: "signal", sender_pid: 4242 } }).text).toBe(
+      "restarted after SIGABRT from pid 4242 at 2026-11-22T09:00:00Z",
+    );
+    expect(faultSummary({ last_crash: { ...at, cause: "abort", sender_pid: 7 } }).text).toBe(
+      "restarted after SIGABRT (irpd's own abort) at 2026-11-22T09:00:00Z",
+    );
+  });
 });
