@@ -168,28 +168,6 @@ class Streams:
             t.join(max(0.0, deadline - time.monotonic()))
 
 
-def start_agent(port: int, data: Path, sock: Path, other: set[int], log_path: Path,
-                tracemalloc_frames: int = 0) -> subprocess.Popen:
-    """The agent on the non-RT CPUs (taskset), as a deployment runs it; returns once /health answers.
-    With tracemalloc_frames, Python's tracer runs in it (memtrace.py: SIGUSR2 writes a snapshot)."""
-    out = open(log_path, "w")
-    cmd = ["taskset", "-c", ",".join(map(str, sorted(other))), sys.executable, "-m", "indurop_agent",
-           "--host", "127.0.0.1", "--port", str(port), "--data-dir", str(data), "--irpd-socket", str(sock)]
-    env = dict(os.environ, **({"PYTHONTRACEMALLOC": str(tracemalloc_frames)} if tracemalloc_frames else {}))
-    p = subprocess.Popen(cmd, cwd=REPO / "agent", stdout=out, stderr=subprocess.STDOUT, env=env)
-    deadline = time.monotonic() + live_processes.START_TIMEOUT_S * (3 if tracemalloc_frames else 1)  # tracing imports slowly
-    while True:
-        try:
-            if httpx.get(f"http://127.0.0.1:{port}/api/v1/health", timeout=1).status_code == 200:
-                return p
-        except httpx.HTTPError:
-            pass
-        if p.poll() is not None or time.monotonic() > deadline:
-            live_processes.stop(p)  # not left running (and loading the machine) after the soak gives up
-            raise RuntimeError(f"the agent did not come up: {log_path.read_text()}")
-        time.sleep(0.1)
-
-
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--minutes", type=float, default=10.0)
@@ -248,7 +226,11 @@ def main() -> int:
         os.sched_setaffinity(0, other)  # this script, its threads and what it starts next stay off irpd's CPU
         drives = drive_simulator_realtime(irpd.pid, a.drives_priority)
         port = live_processes.free_port()
-        agent = start_agent(port, work / "data", sock, other, work / "agent.log", a.tracemalloc)
+        # on the other CPUs (this script's affinity, inherited), as a deployment runs it; with
+        # --tracemalloc, Python's tracer runs in it (memtrace.py: SIGUSR2 writes a snapshot)
+        tracing = {"PYTHONTRACEMALLOC": str(a.tracemalloc)} if a.tracemalloc else {}
+        agent = live_processes.start_agent(port, work / "data", sock, log=work / "agent.log", env=tracing,
+                                           timeout_s=live_processes.START_TIMEOUT_S * (3 if tracing else 1))  # tracing imports slowly
         procs.append(agent)
         url = f"http://127.0.0.1:{port}/api/v1"
         token = (work / "data" / "admin-token").read_text().strip()

@@ -88,25 +88,32 @@ def start_irpd(sock: Path, config: Path = FIG1, instance: str | None = None, *ex
     return p
 
 
-def start_agent(port: int, data: Path, sock: Path, *extra: str, log: Path | None = None) -> subprocess.Popen:
+def start_agent(port: int, data: Path, sock: Path, *extra: str, log: Path | None = None,
+                env: dict[str, str] | None = None, timeout_s: float = START_TIMEOUT_S) -> subprocess.Popen:
     """`python -m indurop_agent` on 127.0.0.1:port; returns once /health answers.  Its output goes
     to `log` when given, else to a temporary file, never a pipe nobody reads (a full pipe would stop
-    the agent): output(p)."""
+    the agent): output(p).  `env` is added to this process's environment.  An agent that exits or
+    does not answer within `timeout_s` is stopped (not left loading the machine) and the start
+    fails with its output."""
     out = _output_file(log)
     p = subprocess.Popen([sys.executable, "-m", "indurop_agent", "--host", "127.0.0.1", "--port", str(port),
                           "--data-dir", str(data), "--irpd-socket", str(sock), *extra],
-                         cwd=ROOT / "agent", stdout=out, stderr=subprocess.STDOUT, text=True)
+                         cwd=ROOT / "agent", stdout=out, stderr=subprocess.STDOUT, text=True,
+                         env={**os.environ, **(env or {})})
     STARTED.append(p)
     p.log = out
-    deadline = time.monotonic() + START_TIMEOUT_S
+    deadline = time.monotonic() + timeout_s
     while True:
         try:
             if httpx.get(f"http://127.0.0.1:{port}{API}/health", timeout=1).status_code == 200:
                 return p
         except httpx.HTTPError:
             pass
-        assert p.poll() is None, output(p)
-        assert time.monotonic() < deadline, "the agent did not come up"
+        if p.poll() is not None or time.monotonic() > deadline:
+            exited = p.poll() is not None
+            stop(p)
+            raise AssertionError(f"the agent {'exited' if exited else f'did not answer within {timeout_s:g} s'}: "
+                                 f"{output(p)}")
         time.sleep(0.05)
 
 

@@ -166,10 +166,11 @@ class RobotLive(threading.Thread):
         robot = robot_identity(robot_json, urdf)
         # A hot reload that leaves the robot as it was (most do: a period, a priority, a module)
         # keeps the scene: no flicker for the viewers, and no scene rebuilt every reload.
-        keep = robot == self._robot and self.viewer is not None and self.viewer.alive()
+        alive = self.viewer is not None and self.viewer.alive()
+        keep = robot == self._robot and alive
         if not keep:
             try:
-                if self.viewer is None or not self.viewer.alive():
+                if not alive:
                     self._drop_viewer()
                     viewer = make_viewer(self.viewer_kind)
                     try:
