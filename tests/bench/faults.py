@@ -33,7 +33,6 @@ import json
 import os
 import re
 import shutil
-import signal
 import socket
 import statistics
 import struct
@@ -44,6 +43,8 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(REPO / "tests" / "python"))
+from live_processes import module_entry as module, stop  # noqa: E402
 
 
 class Control:
@@ -114,16 +115,6 @@ def start(argv: list[str], folder: Path, name: str) -> subprocess.Popen:
     return p
 
 
-def stop(p: subprocess.Popen) -> None:
-    if p.poll() is None:
-        p.send_signal(signal.SIGTERM)
-        try:
-            p.wait(10)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            p.wait()
-
-
 def wait_for(what, seconds: float = 20.0, every: float = 0.005):
     deadline = time.monotonic() + seconds
     while True:
@@ -145,12 +136,6 @@ def irpd(build: Path, xml: Path, folder: Path, name: str) -> tuple[subprocess.Po
 
 def value(name: str, v: str) -> str:
     return f'<value name="{name}">{v}</value>'
-
-
-def module(name: str, file: str, period_ns: int, priority: int, extra: str = "", kind: str = "thread") -> str:
-    return (f"<module><name>{name}</name><filename>{file}</filename><moduletype>{kind}</moduletype>"
-            f"<operationtype>periodic</operationtype><period>{period_ns}</period><priority>{priority}</priority>"
-            f"{extra}</module>\n")
 
 
 # ---- scenarios --------------------------------------------------------------------------------

@@ -39,6 +39,8 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "tests" / "python"))
+from live_processes import module_entry as module  # noqa: E402
 # The stalled executor's window: 2 basic periods (2 ms) + 2 of the main thread's 20 ms ticks.
 WINDOW_S = 0.044
 
@@ -82,12 +84,6 @@ class FakeSystemd:
         self.stop = True
         self.thread.join()
         self.sock.close()
-
-
-def module(name: str, file: str, period_ns: int, priority: int, extra: str = "") -> str:
-    return (f"  <module><name>{name}</name><filename>{file}</filename><moduletype>thread</moduletype>"
-            f"<operationtype>periodic</operationtype><period>{period_ns}</period><priority>{priority}</priority>"
-            f"{extra}</module>\n")
 
 
 def trigger_set(folder: Path, fixture: Path, trigger: Path) -> Path:

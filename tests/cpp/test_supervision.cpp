@@ -506,6 +506,74 @@ TEST(CrashRecord, SigabrtFromPid1IsTheWatchdog) {
         << second->err();
 }
 
+// A thread module stuck in run() for good stops the pings; systemd's watchdog kills irpd.  The
+// record names the module the stalled dispatcher is stuck in, and the restart leaves it out (its
+// <on_crash> default) instead of hanging on it again and again.  The test plays systemd: the
+// notify socket, then SIGABRT from pid 1 of a PID namespace once the pings stopped.
+TEST(CrashRecord, TheWatchdogsKillNamesTheModuleAStalledDispatcherIsStuckIn) {
+    if (geteuid() != 0 || std::system("unshare --pid --fork true 2>/dev/null") != 0)
+        GTEST_SKIP() << "needs root and unshare --pid";
+    TempDir dir;
+    FakeSystemd systemd{dir.path / "notify"};
+    ASSERT_TRUE(systemd.bound());
+    const std::string instance = uniqueInstance(), socket = (dir.path / "irpd.sock").string();
+    const fs::path state = dir.path / "state", go = dir.path / "go";
+    fs::copy_file(kModules / "stall_on_trigger.so", dir.path / "stall.so");
+    fs::copy_file(kModules / "crash_on_trigger.so", dir.path / "healthy.so");
+    std::ofstream(dir.path / "module.xml")
+        << "<root>\n  <executor><name>side</name></executor>\n"
+        << module("healthy", "healthy.so", 1'000'000, 1, trigger(dir.path / "never"))
+        << module("stall", "stall.so", 2'000'000, 2, trigger(dir.path / "stall") + "<executor>side</executor>")
+        << "</root>\n";
+    const std::vector<std::string> irpd = {kIrpd, "--config", (dir.path / "module.xml").string(), "--control-socket",
+                                           socket, "--instance", instance, "--state-dir", state.string(),
+                                           "--module-cache", (dir.path / "cache").string()};
+    std::vector<std::string> wrapped = {"unshare", "--pid", "--fork", "sh", "-c",
+                                        "\"$@\" & p=$!; until [ -e '" + go.string() + "' ]; do sleep 0.02; done; "
+                                        "kill -ABRT $p; wait $p", "sh"};
+    wrapped.insert(wrapped.end(), irpd.begin(), irpd.end());
+    const std::string notify = (dir.path / "notify").string();
+    auto first = std::make_unique<Process>(wrapped, dir.path, [=] {
+        setenv("NOTIFY_SOCKET", notify.c_str(), 1);
+        setenv("WATCHDOG_USEC", "300000", 1);
+        unsetenv("WATCHDOG_PID");  // irpd's pid in its namespace is not known here
+        rlimit none{0, 0};
+        setrlimit(RLIMIT_CORE, &none);
+    });
+    ASSERT_TRUE(systemd.waitFor("WATCHDOG=1", 3, std::chrono::seconds(30))) << first->err() << systemd.all();
+    std::ofstream(dir.path / "stall") << "now\n";
+    const auto end = Clock::now() + std::chrono::seconds(20);
+    while (Clock::now() - systemd.with("WATCHDOG=1").back().at < std::chrono::seconds(1) && Clock::now() < end)
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    std::ofstream(go) << "now\n";  // systemd's watchdog fires
+    first->wait(std::chrono::seconds(30));
+    const std::string record = testing_support::readFile(state / (instance + ".crash"));
+    EXPECT_NE(record.find("\nmodule=stall\n"), std::string::npos) << record;
+    EXPECT_NE(record.find("\nexecutor=side\n"), std::string::npos) << record;
+    EXPECT_NE(record.find("\nstuck=1\n"), std::string::npos) << record;
+
+    // The restart (the trigger still there): the rest of the set runs, the stuck module is out.
+    const fs::path out = dir.path / "second";
+    fs::create_directory(out);
+    Process second(irpd, out);
+    ASSERT_TRUE(second.waitForErr("irpd: running")) << second.err();
+    EXPECT_NE(second.err().find("died of SIGABRT from systemd's watchdog (pid 1) in module 'stall' on executor "
+                                "'side', stuck there"), std::string::npos) << second.err();
+    Client client(socket, 60);
+    ASSERT_FALSE(client.readLine().empty());
+    json status = client.request({{"cmd", "status"}})["result"];
+    EXPECT_EQ(status["last_crash"]["cause"], "watchdog") << status.dump();
+    EXPECT_EQ(status["last_crash"]["stuck"], true) << status.dump();
+    ASSERT_EQ(status["left_out_after_crash"].size(), 1u) << status.dump();
+    EXPECT_EQ(status["left_out_after_crash"][0]["module"], "stall") << status.dump();
+    const uint64_t cycles = status["cycles"].get<uint64_t>();
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    EXPECT_GT(client.request({{"cmd", "status"}})["result"]["cycles"].get<uint64_t>(), cycles) << "the set runs";
+    kill(second.pid(), SIGTERM);
+    EXPECT_EQ(second.wait(std::chrono::seconds(20)), 0) << second.err();
+    removeShm(instance);
+}
+
 TEST(CrashRecord, ByDefaultTheRestartLeavesTheCrashedModuleOutUntilItIsEnabled) {
     CrashCell cell("");
     cell.crashOnce();

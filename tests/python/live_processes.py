@@ -50,6 +50,15 @@ def copy_cell(folder: Path, xml: str = "module.xml", extra_drivesim: list[str] |
     return config, port
 
 
+def module_entry(name: str, file: str, period_ns: int, priority: int, extra: str = "",
+                 kind: str = "thread") -> str:
+    """One periodic <module> of a module.xml; `extra` is added inside it (properties, <executor>,
+    <on_overrun>...)."""
+    return (f"  <module><name>{name}</name><filename>{file}</filename><moduletype>{kind}</moduletype>"
+            f"<operationtype>periodic</operationtype><period>{period_ns}</period><priority>{priority}</priority>"
+            f"{extra}</module>\n")
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

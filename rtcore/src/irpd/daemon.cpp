@@ -609,6 +609,7 @@ int run(const Options &options) {
         watch.look(*g, supervisor, figures);
         if (control) hangs.look(*g, *control, supervisor, events, *watchdog, *segment, now);
         notify.tick(dispatcherProgress(*segment, executors), now);
+        supervise::CrashState::noteStalled(notify.stalled());
         if (sig == SIGINT || sig == SIGTERM) {
             say(std::string("received ") + (sig == SIGINT ? "SIGINT" : "SIGTERM") + ", stopping");
             break;

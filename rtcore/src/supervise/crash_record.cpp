@@ -36,6 +36,7 @@ struct HandlerState {
     } context[2];
     std::atomic<int> current{0};
     std::atomic<bool> handling{false};
+    std::atomic<int> stalled{-1};  // the dispatcher holding the watchdog's pings back
     char buffer[8192] = {};
 };
 HandlerState g_handler;
@@ -97,16 +98,36 @@ void onCrash(int sig, siginfo_t *info, void *) {
     w.field("time_ns", static_cast<uint64_t>(now.tv_sec) * 1'000'000'000ull + static_cast<uint64_t>(now.tv_nsec));
     w.field("pid", static_cast<uint64_t>(getpid()));
     w.field("tid", static_cast<uint64_t>(tid));
-    // Whose code: the marker of this thread (an executor, or the main thread in a lifecycle call).
+    // Whose code.  A fault, or irpd's own abort(): the marker of the thread it hit (an executor,
+    // or the main thread in a lifecycle call).  A signal sent to the process reaches whichever
+    // thread the kernel picks, so that thread's module says nothing and is not blamed -- except
+    // for systemd's watchdog (SIGABRT from pid 1), which fires because a dispatcher stopped making
+    // progress: the module that dispatcher's marker shows is the one stuck, or failing that a
+    // module's initialize/start/stop that kept the main thread past the reload's allowance.
+    const bool sent = info && info->si_code <= 0;
     const char *module = nullptr, *executor = nullptr;
-    for (dispatch::RunningMarker &m : dispatch::g_running_markers)
-        if (m.tid.load(std::memory_order_relaxed) == tid) {
-            module = m.module.load(std::memory_order_relaxed);
-            executor = m.executor;
-            if (module) break;
+    bool stuck = false;
+    if (!sent || info->si_pid == getpid()) {
+        for (dispatch::RunningMarker &m : dispatch::g_running_markers)
+            if (m.tid.load(std::memory_order_relaxed) == tid) {
+                module = m.module.load(std::memory_order_relaxed);
+                executor = m.executor;
+                if (module) break;
+            }
+    } else if (sig == SIGABRT && info->si_pid == 1) {
+        const int stalled = g_handler.stalled.load(std::memory_order_relaxed);
+        for (int index : {stalled, static_cast<int>(dispatch::kLifecycleMarker)}) {
+            if (index < 0 || index >= static_cast<int>(dispatch::kMaxMarkedExecutors)) continue;
+            dispatch::RunningMarker &m = dispatch::g_running_markers[index];
+            if (const char *name = m.module.load(std::memory_order_relaxed)) {
+                module = name, executor = m.executor, stuck = true;
+                break;
+            }
         }
+    }
     w.field("executor", executor && module ? executor : "");
     w.field("module", module ? module : "");
+    if (stuck) w.field("stuck", 1);
     const HandlerState::Context &c = g_handler.context[g_handler.current.load(std::memory_order_acquire)];
     w.field("set", c.set);
     w.field("set_id", c.set_id);
@@ -114,7 +135,7 @@ void onCrash(int sig, siginfo_t *info, void *) {
     w.text("fault_address="), w.hex(reinterpret_cast<uintptr_t>(info ? info->si_addr : nullptr)), w.text("\n");
     // Sent (kill, tgkill, sigqueue: si_code <= 0) rather than raised by the kernel for a fault:
     // the sender's pid -- irpd's own for abort(), 1 for systemd's watchdog.
-    if (info && info->si_code <= 0) w.field("sender_pid", static_cast<uint64_t>(info->si_pid));
+    if (sent) w.field("sender_pid", static_cast<uint64_t>(info->si_pid));
     if (g_handler.dir_fd >= 0) {
         int fd = openat(g_handler.dir_fd, g_handler.tmp_name, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
         if (fd >= 0) {
@@ -191,6 +212,7 @@ std::optional<CrashRecord> parseCrashRecord(const std::string &text) {
         else if (key == "generation") r.generation = static_cast<uint64_t>(number());
         else if (key == "fault_address") r.fault_address = value;
         else if (key == "sender_pid") r.sender_pid = number();
+        else if (key == "stuck") r.stuck = number() != 0;
     }
     if (!r.signal) return std::nullopt;
     return r;
@@ -209,7 +231,8 @@ nlohmann::ordered_json CrashRecord::toJson() const {
             {"thread", tid},
             {"fault_address", fault_address},
             {"sender_pid", sender_pid < 0 ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(sender_pid)},
-            {"cause", cause()}};
+            {"cause", cause()},
+            {"stuck", stuck}};
 }
 
 const char *CrashRecord::cause() const {
@@ -224,6 +247,7 @@ std::string CrashRecord::describe() const {
                                        : "in module '" + module + "'" +
                                              (executor == "lifecycle" ? " (initialize/start/stop, on the main thread)"
                                                                       : " on executor '" + executor + "'");
+    if (stuck) where += ", stuck there (its dispatcher made no progress)";
     const std::string why = cause();
     const std::string how = why == "abort"      ? " raised by irpd itself (abort)"
                             : why == "watchdog" ? " from systemd's watchdog (pid 1)"
@@ -346,6 +370,8 @@ Status CrashState::arm() {
     }
     return Ok{};
 }
+
+void CrashState::noteStalled(int dispatcher) { g_handler.stalled.store(dispatcher, std::memory_order_relaxed); }
 
 void CrashState::setContext(const std::string &set, const std::string &set_id, uint64_t generation) {
     const int next = 1 - g_handler.current.load(std::memory_order_relaxed);

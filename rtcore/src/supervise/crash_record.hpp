@@ -35,6 +35,7 @@ struct CrashRecord {
     uint64_t generation = 0;
     std::string fault_address; // si_addr, "0x..."
     int64_t sender_pid = -1;   // who sent the signal (kill, abort, systemd), -1: the kernel, for a fault
+    bool stuck = false;        // the watchdog's kill, and `module` is where a stalled dispatcher was stuck
 
     // "fault" (the kernel, for the crashed thread's own instruction), "abort" (irpd raised it
     // itself), "watchdog" (SIGABRT from pid 1: systemd's WatchdogSec), "signal" (another sender).
@@ -72,6 +73,10 @@ public:
     // Installs the handler for SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT (process-wide, before any
     // thread exists); from then on a crash writes <instance>.crash.
     Status arm();
+    // The dispatcher (executor index) that holds systemd's watchdog pings back, -1: none
+    // (SystemdNotify::stalled(), after each tick).  When systemd's watchdog kills irpd, the
+    // module that dispatcher is stuck in is named in the record, as a crash in it would be.
+    static void noteStalled(int dispatcher);
     // What the record names as the running set; called after every swap (non-RT).
     void setContext(const std::string &set, const std::string &set_id, uint64_t generation);
     // A clean stop: handlers back to the default.

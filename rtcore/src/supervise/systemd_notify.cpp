@@ -72,6 +72,9 @@ void SystemdNotify::stopping(const std::string &status) { send("STOPPING=1\nSTAT
 bool SystemdNotify::tick(const std::vector<uint64_t> &progress, int64_t now_ns) {
     if (!active_ || !watchdog_ns_) return false;
     observe(progress, now_ns);
+    stalled_ = -1;
+    for (std::size_t i = 0; i < changed_ns_.size() && stalled_ < 0; ++i)
+        if (now_ns - changed_ns_[i] > windows_ns_[i]) stalled_ = static_cast<int>(i);
     if (now_ns < next_ping_ns_ || !allRecent(now_ns)) return false;
     ping("", now_ns);
     return true;

@@ -48,6 +48,10 @@ public:
     void beginLongWork(int64_t allowance_ns);
     void endLongWork(const std::function<std::vector<uint64_t>()> &progress, const std::function<int64_t()> &now);
 
+    // The first dispatcher that completed no slot within its window as of the last tick (the
+    // one holding the pings back), -1 when every one did or there is no watchdog.
+    int stalled() const { return stalled_; }
+
     // The messages sent so far that failed (a socket gone; for the log).
     uint64_t failures() const { return failures_; }
 
@@ -65,6 +69,7 @@ private:
     int64_t observed_ns_ = 0;          // the last tick
     std::vector<int64_t> windows_ns_;
     uint64_t failures_ = 0;
+    int stalled_ = -1;
 };
 
 } // namespace irp::supervise
