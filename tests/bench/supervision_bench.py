@@ -254,7 +254,8 @@ def main() -> int:
         "",
         "Total time from a thread module's crash to the cell running again under systemd: the crash "
         "figure + systemd's `RestartSec=` + the restart figure.  From a hang: the detection figure + "
-        "systemd's stop (`SIGABRT`, then `SIGKILL` after `TimeoutAbortSec=`) + `RestartSec=` + the restart figure.",
+        "systemd's stop (`SIGABRT`, then `SIGKILL` after `TimeoutAbortSec=`) + `RestartSec=` + the restart figure; "
+        "the restart leaves the stuck module out (the watchdog's kill names it), so it happens once.",
     ]
     text = "\n".join(lines)
     print(text)
