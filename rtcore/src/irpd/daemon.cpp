@@ -285,7 +285,10 @@ void takeInCrash(supervise::CrashState &crash, const config::SetSpec &starting, 
     if (!fresh) return;
     std::string consequence;
     if (fresh->module.empty()) {
-        consequence = "; no module's code was running, so none is left out";
+        const std::string why = fresh->cause();
+        consequence = why == "watchdog" ? "; no dispatcher was stuck in a module, so none is left out"
+                      : why == "signal" ? "; a signal sent to the process blames no module, so none is left out"
+                                        : "; no module's code was running, so none is left out";
     } else {
         std::optional<config::SetSpec> other;
         const config::SetSpec *set = &starting;
