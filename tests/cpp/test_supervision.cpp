@@ -125,8 +125,19 @@ std::string trigger(const fs::path &file) {
     return "<property><value name=\"trigger\">" + file.string() + "</value></property>";
 }
 
-// A set of two dispatchers: "healthy" on main (1 ms), "stall" on executor "side" (2 ms), which
-// blocks in run() for good once the file `stall` exists in the folder.
+// A set of two dispatchers in `folder`/module.xml: "healthy" on main (1 ms), "stall" on executor
+// "side" (2 ms), which blocks in run() for good once the file `stall` exists in the folder.
+void writeStallSet(const fs::path &folder) {
+    fs::copy_file(kModules / "stall_on_trigger.so", folder / "stall.so");
+    fs::copy_file(kModules / "crash_on_trigger.so", folder / "healthy.so");
+    std::ofstream(folder / "module.xml")
+        << "<root>\n  <executor><name>side</name></executor>\n"
+        << module("healthy", "healthy.so", 1'000'000, 1, trigger(folder / "never"))
+        << module("stall", "stall.so", 2'000'000, 2, trigger(folder / "stall") + "<executor>side</executor>")
+        << "</root>\n";
+}
+
+// irpd on the stall set, as systemd would start it.
 struct SupervisedIrpd {
     TempDir dir;
     FakeSystemd systemd{dir.path / "notify"};
@@ -136,13 +147,7 @@ struct SupervisedIrpd {
 
     // watchdog_usec 0: no WATCHDOG_USEC; watchdog_pid: "self" = irpd's own pid, else that text.
     explicit SupervisedIrpd(int64_t watchdog_usec, const std::string &watchdog_pid = "self") {
-        fs::copy_file(kModules / "stall_on_trigger.so", dir.path / "stall.so");
-        fs::copy_file(kModules / "crash_on_trigger.so", dir.path / "healthy.so");
-        std::ofstream(dir.path / "module.xml")
-            << "<root>\n  <executor><name>side</name></executor>\n"
-            << module("healthy", "healthy.so", 1'000'000, 1, trigger(dir.path / "never"))
-            << module("stall", "stall.so", 2'000'000, 2, trigger(dir.path / "stall") + "<executor>side</executor>")
-            << "</root>\n";
+        writeStallSet(dir.path);
         const std::string notify = (dir.path / "notify").string();
         irpd = std::make_unique<Process>(
             std::vector<std::string>{kIrpd, "--config", (dir.path / "module.xml").string(), "--control-socket", socket,
@@ -518,13 +523,7 @@ TEST(CrashRecord, TheWatchdogsKillNamesTheModuleAStalledDispatcherIsStuckIn) {
     ASSERT_TRUE(systemd.bound());
     const std::string instance = uniqueInstance(), socket = (dir.path / "irpd.sock").string();
     const fs::path state = dir.path / "state", go = dir.path / "go";
-    fs::copy_file(kModules / "stall_on_trigger.so", dir.path / "stall.so");
-    fs::copy_file(kModules / "crash_on_trigger.so", dir.path / "healthy.so");
-    std::ofstream(dir.path / "module.xml")
-        << "<root>\n  <executor><name>side</name></executor>\n"
-        << module("healthy", "healthy.so", 1'000'000, 1, trigger(dir.path / "never"))
-        << module("stall", "stall.so", 2'000'000, 2, trigger(dir.path / "stall") + "<executor>side</executor>")
-        << "</root>\n";
+    writeStallSet(dir.path);
     const std::vector<std::string> irpd = {kIrpd, "--config", (dir.path / "module.xml").string(), "--control-socket",
                                            socket, "--instance", instance, "--state-dir", state.string(),
                                            "--module-cache", (dir.path / "cache").string()};

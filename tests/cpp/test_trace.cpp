@@ -287,22 +287,31 @@ TEST_F(Trace, CapacitiesThatAreNotPowersOfTwoAreRefused) {
     }
 }
 
-TEST_F(Trace, AnInstanceOfALiveIrpdIsRefusedAndADeadOnesReplaced) {
-    const std::string instance = uniqueInstance();
+// A child process that creates `instance`'s trace rings, then pauses -- or, with exec_sleep, runs
+// sleep (the same pid, another program).  Its pid once the rings exist, -1 if they could not be made.
+pid_t childOwningRings(const std::string &instance, bool exec_sleep) {
     int ready[2];
-    ASSERT_EQ(pipe(ready), 0);
+    if (pipe(ready) != 0) return -1;
     pid_t child = fork();
-    ASSERT_GE(child, 0);
     if (child == 0) {
         auto r = TraceRings::create(instance, 16);
         char c = r.ok() ? 'y' : 'n';
         (void)!write(ready[1], &c, 1);
+        if (exec_sleep) execlp("sleep", "sleep", "30", static_cast<char *>(nullptr));
         pause();
         _exit(0);
     }
     char c = 0;
-    ASSERT_EQ(read(ready[0], &c, 1), 1);
-    ASSERT_EQ(c, 'y');
+    const bool made = child > 0 && read(ready[0], &c, 1) == 1 && c == 'y';
+    close(ready[0]);
+    close(ready[1]);
+    return made ? child : -1;
+}
+
+TEST_F(Trace, AnInstanceOfALiveIrpdIsRefusedAndADeadOnesReplaced) {
+    const std::string instance = uniqueInstance();
+    const pid_t child = childOwningRings(instance, false);
+    ASSERT_GT(child, 0);
     auto refused = TraceRings::create(instance, 16);
     ASSERT_FALSE(refused.ok());
     EXPECT_NE(refused.error().message.find("in use by irpd pid " + std::to_string(child)), std::string::npos)
@@ -312,27 +321,13 @@ TEST_F(Trace, AnInstanceOfALiveIrpdIsRefusedAndADeadOnesReplaced) {
     auto replaced = TraceRings::create(instance, 16);
     ASSERT_TRUE(replaced.ok()) << replaced.error().message;
     EXPECT_EQ(replaced->header()->owner_pid, getpid());
-    close(ready[0]);
-    close(ready[1]);
 }
 
 // After a crash, the dead irpd's pid can go to another program: its segment is stale all the same.
 TEST_F(Trace, AnInstanceWhoseOwnerPidNowRunsAnotherProgramIsReplaced) {
     const std::string instance = uniqueInstance();
-    int ready[2];
-    ASSERT_EQ(pipe(ready), 0);
-    pid_t child = fork();
-    ASSERT_GE(child, 0);
-    if (child == 0) {
-        auto r = TraceRings::create(instance, 16);
-        char c = r.ok() ? 'y' : 'n';
-        (void)!write(ready[1], &c, 1);
-        execlp("sleep", "sleep", "30", static_cast<char *>(nullptr));  // same pid, another program
-        _exit(1);
-    }
-    char c = 0;
-    ASSERT_EQ(read(ready[0], &c, 1), 1);
-    ASSERT_EQ(c, 'y');
+    const pid_t child = childOwningRings(instance, true);
+    ASSERT_GT(child, 0);
     auto comm = [&] {
         std::string name;
         std::getline(std::ifstream("/proc/" + std::to_string(child) + "/comm"), name);
@@ -345,8 +340,6 @@ TEST_F(Trace, AnInstanceWhoseOwnerPidNowRunsAnotherProgramIsReplaced) {
     EXPECT_EQ(replaced->header()->owner_pid, getpid());
     kill(child, SIGKILL);
     waitpid(child, nullptr, 0);
-    close(ready[0]);
-    close(ready[1]);
 }
 
 TEST_F(Trace, ConfigureNamesEveryChannelWithItsType) {
