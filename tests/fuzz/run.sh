@@ -12,7 +12,7 @@ root=$(cd "$(dirname "$0")/../.." && pwd)
 seconds=${1:-20}
 build="$root/build-fuzz"
 here="$root/tests/fuzz"
-all=(fuzz_module_xml fuzz_control fuzz_modbus fuzz_can fuzz_glb)
+all=(fuzz_module_xml fuzz_control fuzz_modbus fuzz_can fuzz_ioconfig fuzz_glb)
 read -r -a targets <<< "${FUZZ_TARGETS:-${all[*]}}"
 
 t0=$(date +%s)
