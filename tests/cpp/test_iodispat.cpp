@@ -720,6 +720,16 @@ TEST(IoDispatModbus, StartRefusesAnUnknownPathNamingTheLine) {
     EXPECT_REFUSED(e, "module 'libiodispat'", "start() failed", "io.xml:3", "AXIS_IN[9].position");
 }
 
+TEST(IoDispatModbus, IrpdRefusesTheFdTestHookNamingTheLine) {
+    TempDir dir;
+    const std::string text = "<ioconfig>\n  <device name=\"bus\" type=\"socketcan\" fd=\"3\">\n"
+                             "    <frame id=\"0x181\" direction=\"in\"><signal start=\"0\" length=\"16\" path=\"PLC_ROBOT.I0\"/></frame>\n"
+                             "  </device>\n</ioconfig>\n";
+    LoadedModule io;
+    const std::string e = io.load(writeFile(dir, "io.xml", text));
+    EXPECT_REFUSED(e, "initialize() failed", "io.xml:2", "device 'bus'", "fd=\"3\" is a test hook", "interface=");
+}
+
 TEST(IoDispatModbus, InitializeRefusesAMissingConfigSayingWhereItLooked) {
     LoadedModule io;
     const std::string e = io.load("no-such-ioconfig.xml", {{"config_dir", "/nonexistent"}});

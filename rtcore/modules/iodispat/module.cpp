@@ -59,7 +59,16 @@ extern "C" void initialize(irp::Property const &property) {
                                  "or restart irpd, to change its configuration");
     g_dispatcher.reset();
     const std::string file = findConfig(property);
-    g_dispatcher = std::make_unique<irp::iodispat::Dispatcher>(irp::iodispat::parseIoConfig(file));
+    irp::iodispat::IoConfig config = irp::iodispat::parseIoConfig(file);
+    // fd= hands a device a descriptor already open in this process: the unit tests' and fuzz
+    // targets' way to a CAN port without a CAN interface.  In irpd the number would name one of
+    // irpd's own descriptors (its control socket, a shared-memory segment, the journal).
+    for (const irp::iodispat::DeviceConfig &d : config.devices)
+        if (d.fd >= 0)
+            throw irp::PropertyError(d.file + ":" + std::to_string(d.line) + ": device '" + d.name + "': fd=\"" +
+                                     std::to_string(d.fd) + "\" is a test hook that irpd does not accept; name the "
+                                     "SocketCAN interface instead (interface=\"can0\")");
+    g_dispatcher = std::make_unique<irp::iodispat::Dispatcher>(std::move(config));
     irp::printf("iodispat: %s: %zu device(s)", file.c_str(), g_dispatcher->deviceCount());
 }
 
