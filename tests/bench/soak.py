@@ -224,7 +224,7 @@ def main() -> int:
                                          str(a.rt_priority), log=work / "irpd.log", module_output=True)
         procs.append(irpd)
         os.sched_setaffinity(0, other)  # this script, its threads and what it starts next stay off irpd's CPU
-        drives = drive_simulator_realtime(irpd.pid, a.drives_priority)
+        drives = live_processes.drive_simulator_realtime(irpd.pid, a.drives_priority)
         port = live_processes.free_port()
         # on the other CPUs (this script's affinity, inherited), as a deployment runs it; with
         # --tracemalloc, Python's tracer runs in it (memtrace.py: SIGUSR2 writes a snapshot)
@@ -406,25 +406,6 @@ def main() -> int:
     if a.out_md:
         a.out_md.write_text(table)
     return 0
-
-
-def drive_simulator_realtime(irpd_pid: int, priority: int) -> str:
-    """Gives the drive simulator (irpd's process module, its child) SCHED_FIFO `priority` on the
-    CPUs it runs on; returns what was done, for the report."""
-    if priority <= 0:
-        return "a normal process"
-    deadline = time.monotonic() + 10
-    while time.monotonic() < deadline:
-        children = [c for t in Path(f"/proc/{irpd_pid}/task").glob("*/children") for c in t.read_text().split()]
-        for child in children:
-            try:
-                if b"drivesim" in Path(f"/proc/{child}/cmdline").read_bytes().split(b"\0")[0]:
-                    os.sched_setscheduler(int(child), os.SCHED_FIFO, os.sched_param(priority))
-                    return f"SCHED_FIFO {priority}, CPUs {sorted(os.sched_getaffinity(int(child)))}"
-            except OSError:
-                pass
-        time.sleep(0.1)
-    raise RuntimeError("the drive simulator (irpd's child indurop-drivesim) did not start within 10 s")
 
 
 def agent_memory_growth(folder: Path, rss: list[tuple[float, int]], from_min: float) -> dict:

@@ -126,6 +126,29 @@ def start_agent(port: int, data: Path, sock: Path, *extra: str, log: Path | None
         time.sleep(0.05)
 
 
+def drive_simulator_realtime(irpd_pid: int, priority: int) -> str:
+    """Gives the drive simulator (irpd's process module, its child) SCHED_FIFO `priority` on the
+    CPUs it runs on, so that a loaded machine does not starve it (real drives have CPUs of their
+    own); returns what was done, for a report.  RuntimeError when it cannot (not found within
+    10 s, or not permitted)."""
+    if priority <= 0:
+        return "a normal process"
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:
+        children = [c for t in Path(f"/proc/{irpd_pid}/task").glob("*/children") for c in t.read_text().split()]
+        for child in children:
+            try:
+                if b"drivesim" in Path(f"/proc/{child}/cmdline").read_bytes().split(b"\0")[0]:
+                    os.sched_setscheduler(int(child), os.SCHED_FIFO, os.sched_param(priority))
+                    return f"SCHED_FIFO {priority}, CPUs {sorted(os.sched_getaffinity(int(child)))}"
+            except PermissionError as e:
+                raise RuntimeError(f"the drive simulator cannot run at SCHED_FIFO {priority}: {e}") from e
+            except OSError:
+                pass
+        time.sleep(0.1)
+    raise RuntimeError("the drive simulator (irpd's child indurop-drivesim) did not start within 10 s")
+
+
 def output(p: subprocess.Popen) -> str:
     """What irpd (its stderr) or an agent started here printed so far."""
     p.log.seek(0)
