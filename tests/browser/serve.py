@@ -16,8 +16,7 @@ from pathlib import Path
 import httpx
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "python"))
-from live_processes import (API, BUILD, copy_cell, drive_simulator_realtime, free_port, start_agent,  # noqa: E402
-                            start_irpd, stop)
+from live_processes import API, BUILD, copy_cell, free_port, start_agent, start_irpd, stop  # noqa: E402
 
 CELL = BUILD / "sets" / "plc-robot" / "module.xml"
 
@@ -53,12 +52,8 @@ def main(out: Path, config: Path) -> None:
     cell = config == CELL
     if cell:  # a copy with its drive simulator on a free port, patient with a loaded machine
         config, _ = copy_cell(work / "plc-robot")
-    irpd = start_irpd(sock, config, f"browser-{os.getpid()}", log=work / "irpd.log")
-    if cell:  # chromium's load must not starve the simulated drives into a fault mid-test
-        try:
-            drive_simulator_realtime(irpd.pid, 10)
-        except RuntimeError as e:
-            print(f"serve.py: {e}; the drive simulator runs as a normal process", file=sys.stderr)
+    # chromium's load must not starve the simulated drives into a fault mid-test
+    irpd = start_irpd(sock, config, f"browser-{os.getpid()}", log=work / "irpd.log", drives_priority=10 if cell else 0)
     agents, urls, tokens = [], {}, {}
     for viewer in ("viser", "meshcat"):
         port, vdata = free_port(), data / viewer

@@ -78,10 +78,12 @@ def _output_file(log: Path | None):
 
 
 def start_irpd(sock: Path, config: Path = FIG1, instance: str | None = None, *extra: str,
-               log: Path | None = None, module_output: bool = False) -> subprocess.Popen:
+               log: Path | None = None, module_output: bool = False, drives_priority: int = 0) -> subprocess.Popen:
     """irpd running `config` with its control socket at `sock`; returns once the socket is there.
     Its stderr goes to `log` when given, else to a temporary file: output(p); its stdout (the
-    modules' irp::printf lines) too with module_output, else nowhere."""
+    modules' irp::printf lines) too with module_output, else nowhere.  With drives_priority, the
+    cell's drive simulator runs at that SCHED_FIFO priority (drive_simulator_realtime; where that
+    is not permitted, a warning on stderr and a normal process)."""
     sock.unlink(missing_ok=True)
     out = _output_file(log)
     p = subprocess.Popen([str(IRPD), "--config", str(config), "--control-socket", str(sock),
@@ -94,6 +96,11 @@ def start_irpd(sock: Path, config: Path = FIG1, instance: str | None = None, *ex
         assert p.poll() is None, output(p)
         assert time.monotonic() < deadline, "irpd did not open its control socket"
         time.sleep(0.02)
+    if drives_priority:
+        try:
+            drive_simulator_realtime(p.pid, drives_priority)
+        except RuntimeError as e:
+            print(f"live_processes: {e}; the drive simulator runs as a normal process", file=sys.stderr)
     return p
 
 

@@ -143,7 +143,9 @@ class Live:
         self.viewer = viewer
         self.folder = _cell_folder(tmp)
         self.sock, self.data = tmp / "irpd.sock", tmp / "data"
-        self.irpd = start_irpd(self.sock, self.folder / "module.xml", f"robot-view-{viewer}-{os.getpid()}")
+        # the drive simulator at SCHED_FIFO: a loaded machine must not fault the drives mid-motion
+        self.irpd = start_irpd(self.sock, self.folder / "module.xml", f"robot-view-{viewer}-{os.getpid()}",
+                               drives_priority=10)
         self.port = free_port()
         cfg = tmp / "agent.json"
         cfg.write_text(json.dumps({"irpd_poll_s": 0.2}))
