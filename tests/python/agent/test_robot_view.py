@@ -342,10 +342,18 @@ def world(live: Live, scene: dict[str, np.ndarray], link: str) -> np.ndarray:
 
 
 def test_the_scene_follows_the_joints_while_the_cell_runs(live):
-    states = asyncio.run(_watch(live, live.cookie(), 8.0, on_open=live.run_cycle))
-    assert states, "no scene from the viewer"
-    tool = {tuple(np.round(world(live, s, "tool0"), 6).ravel()) for s in states if set(CHAIN) <= set(s)}
-    assert len(tool) >= 10, f"{len(tool)} poses of tool0 in 8 s of motion"  # 30 a second while moving
+    # 30 poses a second while moving.  A loaded machine may fault the cell mid-motion (lost
+    # communication with the simulated drives): a window in which the cell stopped on an error
+    # proves nothing either way and is watched again, after run_cycle's reset; a scene that did
+    # not follow a cell that kept running fails at once.
+    for attempt in range(3):
+        states = asyncio.run(_watch(live, live.cookie(), 8.0, on_open=live.run_cycle))
+        assert states, "no scene from the viewer"
+        tool = {tuple(np.round(world(live, s, "tool0"), 6).ravel()) for s in states if set(CHAIN) <= set(s)}
+        faulted = live.read("PLC_OUT.Error") or live.read("ROBOT_MODULE_STATE.Error")
+        if len(tool) >= 10 or not faulted:
+            break
+    assert len(tool) >= 10, f"{len(tool)} poses of tool0 in 8 s of motion ({live.state()}, attempt {attempt + 1})"
 
     # Stopped, the scene holds the measured joints: tool0 where FK puts it (a new client gets the
     # scene as it is now).  Steady joints are enough: a loaded machine may have stopped the cell with
