@@ -381,6 +381,15 @@ TEST(PrivilegeDrop, AnUnknownUserIsRefusedBeforeAnythingStarts) {
 
 namespace {
 
+// systemd's watchdog sends SIGABRT from pid 1.  A command line to put before irpd's: irpd as the
+// child of pid 1 of a new PID namespace (unshare, root only), which sends it SIGABRT once the
+// file `go` exists and waits for it to die.
+bool canBePid1() { return geteuid() == 0 && std::system("unshare --pid --fork true 2>/dev/null") == 0; }
+std::vector<std::string> asPid1SendingSigabrt(const fs::path &go) {
+    return {"unshare", "--pid", "--fork", "sh", "-c",
+            "\"$@\" & p=$!; until [ -e '" + go.string() + "' ]; do sleep 0.02; done; kill -ABRT $p; wait $p", "sh"};
+}
+
 // irpd on a set with "healthy" on main and "crashy" on executor "side", which dereferences null
 // once the file `crash` exists; the state folder and instance outlive one run.
 struct CrashCell {
@@ -491,16 +500,12 @@ TEST(CrashRecord, ASignalSentToIrpdNamesItsSender) {
         << second->err();
 }
 
-// systemd's watchdog sends SIGABRT from pid 1: irpd started as the child of pid 1 of a new PID
-// namespace (unshare, root only), and that pid 1 sends it.
+// systemd's watchdog sends SIGABRT from pid 1 (asPid1SendingSigabrt plays it).
 TEST(CrashRecord, SigabrtFromPid1IsTheWatchdog) {
-    if (geteuid() != 0 || std::system("unshare --pid --fork true 2>/dev/null") != 0)
-        GTEST_SKIP() << "needs root and unshare --pid";
+    if (!canBePid1()) GTEST_SKIP() << "needs root and unshare --pid";
     CrashCell cell("");
     const fs::path go = cell.dir.path / "go";
-    const std::string kill_it = "\"$@\" & p=$!; until [ -e '" + go.string() + "' ]; do sleep 0.02; done; "
-                                "kill -ABRT $p; wait $p";
-    auto first = cell.start({"unshare", "--pid", "--fork", "sh", "-c", kill_it, "sh"});
+    auto first = cell.start(asPid1SendingSigabrt(go));
     std::ofstream(go) << "now\n";  // irpd runs (start() waited for it)
     first->wait(std::chrono::seconds(30));
     EXPECT_NE(cell.record().find("\nsender_pid=1\n"), std::string::npos) << cell.record() << first->err();
@@ -516,8 +521,7 @@ TEST(CrashRecord, SigabrtFromPid1IsTheWatchdog) {
 // <on_crash> default) instead of hanging on it again and again.  The test plays systemd: the
 // notify socket, then SIGABRT from pid 1 of a PID namespace once the pings stopped.
 TEST(CrashRecord, TheWatchdogsKillNamesTheModuleAStalledDispatcherIsStuckIn) {
-    if (geteuid() != 0 || std::system("unshare --pid --fork true 2>/dev/null") != 0)
-        GTEST_SKIP() << "needs root and unshare --pid";
+    if (!canBePid1()) GTEST_SKIP() << "needs root and unshare --pid";
     TempDir dir;
     FakeSystemd systemd{dir.path / "notify"};
     ASSERT_TRUE(systemd.bound());
@@ -527,9 +531,7 @@ TEST(CrashRecord, TheWatchdogsKillNamesTheModuleAStalledDispatcherIsStuckIn) {
     const std::vector<std::string> irpd = {kIrpd, "--config", (dir.path / "module.xml").string(), "--control-socket",
                                            socket, "--instance", instance, "--state-dir", state.string(),
                                            "--module-cache", (dir.path / "cache").string()};
-    std::vector<std::string> wrapped = {"unshare", "--pid", "--fork", "sh", "-c",
-                                        "\"$@\" & p=$!; until [ -e '" + go.string() + "' ]; do sleep 0.02; done; "
-                                        "kill -ABRT $p; wait $p", "sh"};
+    std::vector<std::string> wrapped = asPid1SendingSigabrt(go);
     wrapped.insert(wrapped.end(), irpd.begin(), irpd.end());
     const std::string notify = (dir.path / "notify").string();
     auto first = std::make_unique<Process>(wrapped, dir.path, [=] {

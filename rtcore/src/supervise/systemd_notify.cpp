@@ -40,10 +40,10 @@ void SystemdNotify::observe(const std::vector<uint64_t> &progress, int64_t now_n
     observed_ns_ = now_ns;
 }
 
-bool SystemdNotify::allRecent(int64_t now_ns) const {
+int SystemdNotify::firstStalled(int64_t now_ns) const {
     for (std::size_t i = 0; i < changed_ns_.size(); ++i)
-        if (now_ns - changed_ns_[i] > windows_ns_[i]) return false;
-    return !changed_ns_.empty();
+        if (now_ns - changed_ns_[i] > windows_ns_[i]) return static_cast<int>(i);
+    return -1;
 }
 
 void SystemdNotify::ping(const std::string &extra, int64_t now_ns) {
@@ -72,10 +72,8 @@ void SystemdNotify::stopping(const std::string &status) { send("STOPPING=1\nSTAT
 bool SystemdNotify::tick(const std::vector<uint64_t> &progress, int64_t now_ns) {
     if (!active_ || !watchdog_ns_) return false;
     observe(progress, now_ns);
-    stalled_ = -1;
-    for (std::size_t i = 0; i < changed_ns_.size() && stalled_ < 0; ++i)
-        if (now_ns - changed_ns_[i] > windows_ns_[i]) stalled_ = static_cast<int>(i);
-    if (now_ns < next_ping_ns_ || !allRecent(now_ns)) return false;
+    stalled_ = firstStalled(now_ns);
+    if (now_ns < next_ping_ns_ || stalled_ >= 0 || changed_ns_.empty()) return false;
     ping("", now_ns);
     return true;
 }

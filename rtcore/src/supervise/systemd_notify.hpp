@@ -58,7 +58,8 @@ public:
 private:
     bool send(const std::string &message);
     void observe(const std::vector<uint64_t> &progress, int64_t now_ns);
-    bool allRecent(int64_t now_ns) const;
+    // The first dispatcher without a completed slot within its window, -1 when none.
+    int firstStalled(int64_t now_ns) const;
     void ping(const std::string &extra, int64_t now_ns);
 
     bool active_ = false;
