@@ -21,12 +21,14 @@ wait_until() {
 }
 main_pid() { systemctl show -p MainPID --value irpd.service; }
 active_set() { readlink "$data/active" | sed -n 's#^sets/\([0-9a-f]*\)/files$#\1#p'; }
+# api_get SECONDS PATH [CURL OPTIONS...]: the agent's answer to GET $api/PATH as the admin.
+api_get() { local limit=$1 path=$2; shift 2; curl -s -m "$limit" "$@" -H "Authorization: Bearer $(cat $data/admin-token)" "$api/$path"; }
 # irpd_set: the set id in the agent's GET /status (2 s limit); each answer is logged to $probes
 # (time ms, HTTP status or 000 for none, seconds taken, set id) for the failure report.
 probes=/tmp/guest-status-probes
 irpd_set() {
   local out status set
-  out=$(curl -s -m 2 -w '\n%{http_code} %{time_total}' -H "Authorization: Bearer $(cat $data/admin-token)" "$api/status")
+  out=$(api_get 2 status -w '\n%{http_code} %{time_total}')
   status=${out##*$'\n'}
   # the top level's set_id: after a crash, status.last_crash has one too (the crashed run's)
   set=$(printf '%s' "${out%$'\n'*}" | python3 -S -c 'import json, sys; print(json.load(sys.stdin).get("set_id") or "")' 2>/dev/null)
@@ -80,7 +82,7 @@ if wait_until 60 irpd_back "$pid"; then
   if ! wait_until 90 runs_active_set; then
     fail "after the watchdog irpd does not run the active set"
     # the agent's side of it: its events (restores, irpd lost and connected) and audit, for the record
-    curl -s -m 10 -H "Authorization: Bearer $(cat $data/admin-token)" "$api/events?since=0&agent_since=0&limit=60" | sed 's/^/LOG events /'
+    api_get 10 "events?since=0&agent_since=0&limit=60" | sed 's/^/LOG events /'
     tail -n 20 "$data/audit.jsonl" | sed 's/^/LOG audit /'
     ps -eo pid,pcpu,cls,rtprio,nlwp,etimes,comm --sort=-pcpu | head -12 | sed 's/^/LOG ps /'
   fi
@@ -92,7 +94,7 @@ if wait_until 60 irpd_back "$pid"; then
   echo "RESULT sigstop_watchdog_detect_ms=$((wd - t0)) sigstop_restart_ms=$((t1 - t0)) sigstop_active_set_via_agent_ms=$((t2 - t0)) set=$(irpd_set)"
   # irpd's crash record names systemd's watchdog (SIGABRT from pid 1), not a crash of its own,
   # and blames no module: no dispatcher was stalled, the whole process was stopped
-  cause=$(curl -s -m 10 -H "Authorization: Bearer $(cat $data/admin-token)" "$api/status" |
+  cause=$(api_get 10 status |
     python3 -S -c 'import json, sys; c = json.load(sys.stdin).get("last_crash") or {}; print(c.get("cause"), c.get("sender_pid"), c.get("module"))')
   echo "RESULT sigstop_last_crash_cause_sender_module=${cause// /,}"
   [ "$cause" = "watchdog 1 None" ] || fail "irpd's last crash does not name systemd's watchdog alone: $cause"
