@@ -8,6 +8,7 @@ packages=(
   python3 python3-venv                           # glbc, the Python tests
   libpugixml-dev nlohmann-json3-dev              # module.xml, JSON output
   libssl-dev                                     # SHA-256 of module files (hot reload)
+  libelf-dev                                     # a module's identity: its loadable sections (online change)
   libeigen3-dev liborocos-kdl-dev liburdfdom-dev # robot kinematics (the plc-robot cell)
   libsystemd-dev                                 # sd_notify, the watchdog (irpd as a Type=notify service)
   libcap-dev                                     # irpd --user: keeps CAP_SYS_NICE and CAP_IPC_LOCK, drops the rest

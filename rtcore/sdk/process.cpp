@@ -6,6 +6,7 @@
 #include <indurop/shared.h>
 
 #include "control_map.hpp"
+#include "layouts.hpp"
 #include "runtime.hpp"
 
 #include <nlohmann/json.hpp>
@@ -184,13 +185,22 @@ int initPeriodExe() {
     // A process built against another layout must never run: its generated globals would address
     // the wrong bytes.  (indurop_layout_hash is exported by <indurop/generated.h>; process
     // modules are linked with exported symbols.)
+    // Built against another layout, it may still run when that layout is one the running one was
+    // laid out against and every variable it knows is where it was (layouts::compatible, the same
+    // rule irpd applies to thread modules).
     if (const auto *built = static_cast<const char *>(dlsym(RTLD_DEFAULT, "indurop_layout_hash"))) {
-        const char *running = shared::layoutHash();
-        if (!running || std::strcmp(built, running) != 0) {
-            std::fprintf(stderr,
-                         "indurop: module '%s': built against shared-variable layout %s, but irpd runs layout %s: "
-                         "rebuild it against the set's .glb files (exit 78)\n",
-                         moduleName(), built, running ? running : "(none: the set declares no <layout>)");
+        std::string running, text, why;
+        shared::layoutCopy(running, text);
+        if (running.empty()) {
+            why = std::string("it was built against shared-variable layout ") + built +
+                  ", but irpd runs no shared variables (the set declares no <layout>)";
+        } else if (running != built) {
+            std::string problem;
+            if (auto model = layouts::parse(text, problem)) why = layouts::compatible(built, *model);
+            else why = "the running segment's layout cannot be read: " + problem;
+        }
+        if (!why.empty()) {
+            std::fprintf(stderr, "indurop: module '%s': %s (exit 78)\n", moduleName(), why.c_str());
             std::fflush(stdout);
             std::fflush(stderr);
             _exit(78);
@@ -294,10 +304,12 @@ void checkDims(const std::vector<uint64_t> &dims, uint64_t size, const std::stri
 std::shared_ptr<const LayoutIndex> parseLayout(const indurop_segment_header *segment) {
     auto index = std::make_shared<LayoutIndex>();
     index->segment = segment;
-    std::memcpy(index->hash, segment->layout_hash, INDUROP_LAYOUT_HASH_CHARS);
-    index->data_size = segment->data_size;
+    std::string hash, text;
+    irp::shared::layoutCopy(hash, text);  // hash and text of one publication (online change)
+    std::memcpy(index->hash, hash.data(), std::min<std::size_t>(hash.size(), INDUROP_LAYOUT_HASH_CHARS));
     try {
-        const auto doc = nlohmann::json::parse(irp::shared::layoutText());
+        const auto doc = nlohmann::json::parse(text);
+        index->data_size = doc.at("data_size").get<uint64_t>();
         for (const auto &[name, t] : doc.at("types").items()) {
             Type type;
             type.size = t.at("size").get<uint64_t>();

@@ -113,12 +113,18 @@ void detach() noexcept {
 
 const indurop_segment_header *segmentHeader() noexcept { return g_header; }
 
-const char *layoutHash() noexcept { return g_header ? g_header->layout_hash : nullptr; }
+void layoutCopy(std::string &hash, std::string &text) { segment::copyLayout(g_header, hash, text); }
 
-std::string_view layoutText() noexcept {
-    if (!g_header) return {};
-    auto *base = reinterpret_cast<const char *>(g_header);
-    return std::string_view(base + g_header->layout_offset, g_header->layout_size);
+std::string layoutHash() {
+    std::string hash, text;
+    layoutCopy(hash, text);
+    return hash;
+}
+
+std::string layoutText() {
+    std::string hash, text;
+    layoutCopy(hash, text);
+    return text;
 }
 
 const std::string &attachError() noexcept { return attachErrorText(); }

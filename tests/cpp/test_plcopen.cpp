@@ -1306,7 +1306,7 @@ protected:
 std::unique_ptr<irp::variables::VariableSegment> CellSegment::segment_;
 
 TEST_F(CellSegment, MainRefusesAMalformedWaypoint) {
-    auto m = irp::hosts::ThreadModule::load(spec({{"home", "0 -0.5 1.0"}}), irp::shared::layoutHash());
+    auto m = irp::hosts::ThreadModule::load(spec({{"home", "0 -0.5 1.0"}}), irp::shared::layoutHash().c_str());
     ASSERT_TRUE(m.ok()) << m.error().message;
     auto status = (*m)->initialize();
     ASSERT_FALSE(status.ok());
@@ -1316,7 +1316,7 @@ TEST_F(CellSegment, MainRefusesAMalformedWaypoint) {
 
 TEST_F(CellSegment, MainRunsTheCycleOnTheSharedVariables) {
     auto m = irp::hosts::ThreadModule::load(spec({{"dwell_ms", "0"}, {"auto_enable", "1"}, {"joint_speed", "1"}}),
-                                            irp::shared::layoutHash());
+                                            irp::shared::layoutHash().c_str());
     ASSERT_TRUE(m.ok()) << m.error().message;
     ASSERT_TRUE((*m)->initialize().ok());
     ASSERT_TRUE((*m)->start().ok());

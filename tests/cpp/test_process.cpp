@@ -635,7 +635,7 @@ TEST(ProcessInit, LayoutMismatchExits78WithBothHashes) {
     ASSERT_FALSE(ready.ok());
     EXPECT_NE(ready.error().message.find("'stale' exited with status 78 before it was ready"), std::string::npos)
         << ready.error().message;
-    EXPECT_TRUE(h.has("built against shared-variable layout " + other->hash + ", but irpd runs layout " +
+    EXPECT_TRUE(h.has("built against shared-variable layout " + other->hash + ", which is neither the layout " +
                       std::string(vars.segment->hash())))
         << h.all();
     EXPECT_FALSE(h.has("initPeriodExe returned")) << h.all();
@@ -648,7 +648,7 @@ TEST(ProcessInit, LayoutUsedButNoSegmentExits78) {
     ASSERT_TRUE(h.supervisor.start(h.launch(processSpec("novars", "proc_other_layout.exe"), 0)).ok());
     ASSERT_FALSE(h.supervisor.waitReady(kLong).ok());
     EXPECT_EQ(h.info("novars").last_exit, "exited with status 78");
-    EXPECT_TRUE(h.has("but irpd runs layout (none: the set declares no <layout>)")) << h.all();
+    EXPECT_TRUE(h.has("but irpd runs no shared variables (the set declares no <layout>)")) << h.all();
 }
 
 // ---- shared variables by path, in this process --------------------------------------------------

@@ -179,7 +179,7 @@ TEST(SharedVariables, AWriterThatDiedHoldingTheLockIsRepaired) {
 }
 
 TEST(SharedVariables, TheSegmentCarriesItsLayout) {
-    EXPECT_STREQ(shared::layoutHash(), Segment::layout_["hash"].get<std::string>().c_str());
+    EXPECT_EQ(shared::layoutHash(), Segment::layout_["hash"].get<std::string>().c_str());
     EXPECT_EQ(nlohmann::json::parse(shared::layoutText())["hash"], Segment::layout_["hash"]);
-    EXPECT_STREQ(shared::layoutHash(), INDUROP_LAYOUT_HASH);  // the header this test was built with
+    EXPECT_EQ(shared::layoutHash(), std::string(INDUROP_LAYOUT_HASH));  // the header this test was built with
 }

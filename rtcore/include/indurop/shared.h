@@ -65,9 +65,13 @@ void unlockVariable(uint32_t lock) noexcept;
 // (irpd passes the name in INDUROP_SHM); attachError() then says whether that worked.
 std::string attach(const std::string &name, bool writable = true);
 void detach() noexcept;
-// The layout hash of the attached segment (null when none), its layout.json text.
-const char *layoutHash() noexcept;
-std::string_view layoutText() noexcept;
+// The attached segment's layout as published last, copied consistently (an online change may
+// publish another at any time, docs/shared-variables.md): its hash and its layout.json text;
+// both empty when no segment is attached.  They allocate: not for run().
+std::string layoutHash();
+std::string layoutText();
+// Both from one publication.
+void layoutCopy(std::string &hash, std::string &text);
 const std::string &attachError() noexcept;
 // Locks taken over from a writer that died while holding them, since this process started.
 uint64_t repairedLocks() noexcept;

@@ -13,7 +13,7 @@
 namespace irp::iodispat {
 
 VarTable::VarTable() {
-    const std::string_view text = irp::shared::layoutText();
+    const std::string text = irp::shared::layoutText();
     if (text.empty())
         throw std::runtime_error("no shared-variable segment: the set needs a <layout> (the .glb with the variables ioconfig.xml names)");
     const auto doc = nlohmann::json::parse(text);

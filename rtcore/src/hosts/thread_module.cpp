@@ -35,6 +35,14 @@ ThreadModule::ThreadModule(const config::ModuleSpec &spec) : spec_(spec) {
 
 Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpec &spec, const char *layout_hash,
                                                          const std::filesystem::path &image) {
+    if (!layout_hash) return load(spec, static_cast<const layouts::Model *>(nullptr), image);
+    layouts::Model exact;  // no lineage: only this very layout
+    exact.self.hash = layout_hash;
+    return load(spec, &exact, image);
+}
+
+Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpec &spec, const layouts::Model *layout,
+                                                         const std::filesystem::path &image) {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(spec.path, ec))
         return Error{spec.where + ": " + who(spec) +
@@ -46,14 +54,15 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
     module->handle_ = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (!module->handle_) return Error{who(spec) + ": cannot load " + spec.path.string() + ": " + lastDlError()};
 
-    // Built with <indurop/generated.h>: the layout it was compiled against must be the running one.
+    // Built with <indurop/generated.h>: the layout it was compiled against must be the one it will
+    // run on, or one that layout was laid out against with its variables in place (layouts.hpp).
     if (const auto *built = static_cast<const char *>(dlsym(module->handle_, "indurop_layout_hash"))) {
-        if (!layout_hash)
+        if (!layout)
             return Error{who(spec) + ": " + spec.path.string() + " uses shared variables (layout " + built +
                          ") but the set declares no <layout>"};
-        if (std::strcmp(built, layout_hash) != 0)
-            return Error{who(spec) + ": " + spec.path.string() + " was built against shared-variable layout " + built +
-                         ", but the running segment has layout " + layout_hash + ": rebuild it against the set's .glb files"};
+        if (std::string why = layouts::compatible(built, *layout); !why.empty())
+            return Error{who(spec) + ": " + spec.path.string() + ": " + why};
+        module->built_layout_ = built;
     }
     dlerror();
 

@@ -7,6 +7,7 @@
 
 #include "common/result.hpp"
 #include "config/module_xml.hpp"
+#include "sdk/layouts.hpp"
 
 #include <indurop/module_abi.h>
 
@@ -32,6 +33,12 @@ public:
     // spec.path.
     static Result<std::unique_ptr<ThreadModule>> load(const config::ModuleSpec &spec, const char *layout_hash = nullptr,
                                                       const std::filesystem::path &image = {});
+    // The same against a layout model: a module built against a layout of its lineage whose
+    // variables are all in place is accepted too (layouts::compatible).  Null: no shared variables.
+    static Result<std::unique_ptr<ThreadModule>> load(const config::ModuleSpec &spec, const layouts::Model *layout,
+                                                      const std::filesystem::path &image = {});
+    // The layout hash stamped into the module ("" when it uses no shared variables).
+    const std::string &builtLayout() const { return built_layout_; }
 
     ~ThreadModule();  // dlclose
     ThreadModule(const ThreadModule &) = delete;
@@ -67,6 +74,7 @@ private:
     void *handle_ = nullptr;
     bool descriptor_ = false;
     bool started_ = false;
+    std::string built_layout_;
     indurop_module_v1 table_{};
     // Plain modules: their C++-typed hooks, called by the host inside try/catch.
     void *plain_initialize_ = nullptr;

@@ -190,8 +190,28 @@ Result<Command> decodeCommand(const std::string &cmd, const nlohmann::json &requ
     return command;
 }
 
+// The running layout.json, parsed again only when an online change published another one.
+// Used by the control thread alone.
+class LayoutCache {
+public:
+    const nlohmann::json &of(const variables::VariableSegment &vars) {
+        std::string hash, text;
+        segment::copyLayout(vars.header(), hash, text);
+        if (hash != hash_) {
+            doc_ = nlohmann::json::parse(text, nullptr, false);
+            hash_ = hash;
+        }
+        return doc_;
+    }
+
+private:
+    std::string hash_;
+    nlohmann::json doc_;
+};
+
 control::Handler commandHandler(const CommandContext &c) {
-    return [c](const std::string &cmd, const nlohmann::json &request) -> Result<json> {
+    auto layouts = std::make_shared<LayoutCache>();
+    return [c, layouts](const std::string &cmd, const nlohmann::json &request) -> Result<json> {
         const auto g = c.reloader->current();
         // The socket opens before the dispatchers start: until then there is no running generation.
         if (!g) return Error{"irpd is starting (the set is not dispatched yet); try again in a moment"};
@@ -268,8 +288,8 @@ control::Handler commandHandler(const CommandContext &c) {
         case Command::Kind::Events: return c.events->since(command.since, command.limit);
         case Command::Kind::Check: return c.reloader->check(command.config);
         case Command::Kind::Write:
-            if (c.variables_shm.empty()) return Error{"the running set has no shared variables"};
-            return variables::writeByPath(c.layout, command.path, command.value);
+            if (c.variables_shm.empty() || !c.vars) return Error{"the running set has no shared variables"};
+            return variables::writeByPath(layouts->of(*c.vars), command.path, command.value);
         case Command::Kind::Load:
             return onMain([r = c.reloader, path = command.config, set_id = command.set_id] { return r->load(path, set_id); });
         case Command::Kind::Change:

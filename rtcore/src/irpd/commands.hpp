@@ -49,7 +49,6 @@ struct CommandContext {
     MainQueue *queue = nullptr;
     const Options *options = nullptr;
     std::string variables_shm;  // "" = none
-    nlohmann::json layout;      // the running layout.json (parsed), for write's type checks
     trace::TraceRings *trace = nullptr;
     const variables::VariableSegment *vars = nullptr;  // null: no shared variables
     std::function<std::string()> stopped_by;            // why a fault stopped the set ("" = it did not)

@@ -410,16 +410,15 @@ int run(const Options &options) {
 
     // Shared variables: the segment exists before any module is loaded.
     std::optional<variables::VariableSegment> vars;
-    nlohmann::json layout_json;  // for the control protocol's write
     if (!set->layout.empty()) {
         auto layout = variables::readLayout(set->layout);
         if (!layout) return refuse(layout.error().message);
-        auto created = variables::VariableSegment::create(options.instance, *layout);
+        auto created = variables::VariableSegment::create(options.instance, *layout, variables::Room{options.var_headroom});
         if (!created) return std::cerr << "irpd: error: " << created.error().message << std::endl, kExitFailure;
         vars = std::move(*created);
-        layout_json = nlohmann::json::parse(layout->text);  // readLayout checked it
         say("shared variables: " + std::to_string(layout->variables) + " variables, " +
-            std::to_string(layout->data_size) + " bytes, layout " + vars->hash() + ", in /dev/shm" + vars->name());
+            std::to_string(layout->data_size) + " bytes (room for " + std::to_string(vars->header()->data_capacity) +
+            "), layout " + vars->hash() + ", in /dev/shm" + vars->name());
     }
     // Trace rings: sampled by the main dispatcher after every slot; channels set by `trace`.
     // Created before memory is locked, every page touched: the RT thread never faults on them.
@@ -498,7 +497,6 @@ int run(const Options &options) {
         context.queue = &queue;
         context.options = &options;
         context.variables_shm = vars ? vars->name() : "";
-        context.layout = std::move(layout_json);
         context.trace = &*trace_rings;
         context.vars = vars ? &*vars : nullptr;
         context.stopped_by = [&watchdog_now] {

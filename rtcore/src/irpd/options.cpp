@@ -15,7 +15,7 @@ namespace {
 enum Flag {
     kConfig = 1000, kPrintSchedule, kJson, kDuration, kStatsJson, kInstance, kMinBasic, kCpu, kRtPriority, kNoRt,
     kPolicy, kMaxCatchup, kHelp, kVersion, kStatsLayout, kLayout, kControlSocket, kModuleCache,
-    kStateDir, kUser, kGroup,
+    kStateDir, kUser, kGroup, kVarHeadroom,
 };
 
 const option kOptions[] = {
@@ -40,6 +40,7 @@ const option kOptions[] = {
     {"state-dir", required_argument, nullptr, kStateDir},
     {"user", required_argument, nullptr, kUser},
     {"group", required_argument, nullptr, kGroup},
+    {"var-headroom", required_argument, nullptr, kVarHeadroom},
     {nullptr, 0, nullptr, 0},
 };
 
@@ -69,6 +70,9 @@ Runs the module set described by FILE.xml (the paper's module.xml) on a strict p
                            default "default"
   --layout FILE.json       the set's shared-variable layout (glbc's layout.json), instead of the
                            <layout> of module.xml
+  --var-headroom SIZE      room in the shared-variable segment for variables added by online
+                           changes: bytes of data (K, M, G suffixes; default 1M); the locks
+                           (one per 256 bytes, at least 256) and the layout text grow with it
   --module-cache DIR       where thread modules are loaded from: copies named after their content's
                            SHA-256, so a hot reload runs a changed file's new code (default
                            /tmp/indurop-<uid>-<instance>-modules, mode 0700)
@@ -118,6 +122,18 @@ Result<Options> parseOptions(int argc, char **argv) {
             break;
         }
         case kStatsJson: o.stats_json = optarg; break;
+        case kVarHeadroom: {
+            char *end = nullptr;
+            const unsigned long long v = std::strtoull(optarg, &end, 10);
+            uint64_t unit = 1;
+            if (end && (*end == 'K' || *end == 'k')) unit = 1ull << 10, ++end;
+            else if (end && (*end == 'M' || *end == 'm')) unit = 1ull << 20, ++end;
+            else if (end && (*end == 'G' || *end == 'g')) unit = 1ull << 30, ++end;
+            if (!end || *end || end == optarg || !std::isdigit(static_cast<unsigned char>(optarg[0])) || v * unit > (1ull << 30))
+                return Error{std::string("--var-headroom: '") + optarg + "' is not a size from 0 to 1G (bytes, or with K, M or G)"};
+            o.var_headroom = v * unit;
+            break;
+        }
         case kInstance: {
             o.instance = optarg;
             bool ok = !o.instance.empty() && o.instance.size() <= 64;

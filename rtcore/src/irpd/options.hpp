@@ -18,6 +18,7 @@ struct Options {
     std::string stats_json;        // --stats-json FILE
     std::string control_socket;    // --control-socket PATH ("" = none)
     std::string layout;            // --layout FILE: the set's layout.json, instead of its <layout>
+    uint64_t var_headroom = 1u << 20;  // --var-headroom: data bytes for variables added online
     std::string instance = "default";  // --instance NAME: names the shared memory
     std::string module_cache;      // --module-cache DIR ("" = /tmp/indurop-<uid>-<instance>-modules)
     std::string state_dir;         // --state-dir DIR ("" = /var/lib/indurop/irpd, see kDefaultStateDir)

@@ -10,6 +10,7 @@
 #include "dispatch/dispatcher.hpp"
 #include "hosts/thread_module.hpp"
 #include "schedule/schedule.hpp"
+#include "variables/layout.hpp"
 
 #include <cstdint>
 #include <memory>
@@ -21,7 +22,9 @@ namespace irp::reload {
 
 struct Member {
     std::shared_ptr<hosts::ThreadModule> thread;  // thread modules
-    std::string sha256;                           // its file's content
+    std::string sha256;                           // the content of the file it was loaded from
+    std::string identity;                         // its loadable code (hosts/module_identity.hpp)
+    std::string layout;                           // the layout hash it was built against ("": none)
     std::size_t record = 0;                       // its stats record
     int slot = -1;                                // process modules: their control slot
     bool kept = false;                            // the same instance as in the previous generation
@@ -35,6 +38,13 @@ struct Generation {
     std::vector<Member> members;      // per set index
     std::set<std::string> disabled;   // modules taken out of dispatch by request
     std::unique_ptr<dispatch::Tables> tables;
+    // The shared-variable layout it runs on (null: none) and what changed from the generation
+    // before; published into the segment before its modules load (docs/hot-reload.md).
+    std::shared_ptr<const variables::Layout> layout;
+    layouts::Diff variables;
+    std::vector<std::string> replaced_for_layout;  // running modules the new layout leaves no place for
+    bool published = false;                        // this generation published its layout
+    std::shared_ptr<const variables::Layout> previous_layout;  // what undo publishes again
 
     // The index of module `name` in the set, or -1.
     int find(const std::string &name) const {

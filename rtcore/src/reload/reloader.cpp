@@ -1,6 +1,7 @@
 // reloader.cpp -- prepare, swap, retire (see reloader.hpp).
 #include "reload/reloader.hpp"
 
+#include "hosts/module_identity.hpp"
 #include "osal/clock.hpp"
 #include "osal/rt.hpp"
 #include "sdk/runtime.hpp"
@@ -28,17 +29,28 @@ bool sameExecutors(const config::SetSpec &a, const config::SetSpec &b) {
     return true;
 }
 
-// A module of the new set that can stay the running instance: same file content, same kind, same
-// properties (they go to initialize()); a process also the same executor (its RT priority and CPU).
-bool keepable(const config::ModuleSpec &next, const std::string &next_sha, const config::ModuleSpec &old,
+// A module of the new set that can stay the running instance: the same code (its loadable sections,
+// hosts/module_identity.hpp), kind and properties (they go to initialize()); a process also the same
+// executor (its RT priority and CPU).
+bool keepable(const config::ModuleSpec &next, const std::string &next_identity, const config::ModuleSpec &old,
               const Member &old_member) {
-    if (next.type != old.type || next.operation != old.operation || next_sha != old_member.sha256 ||
+    if (next.type != old.type || next.operation != old.operation || next_identity != old_member.identity ||
         next.properties != old.properties)
         return false;
     return next.type == config::ModuleType::Thread || next.executor == old.executor;
 }
 
 json names(const std::vector<std::string> &list) { return json(list); }
+
+json variablesJson(const Generation &g) {
+    json moved = json::array();
+    for (const layouts::Moved &m : g.variables.moved) moved.push_back({{"path", m.path}, {"from", m.from}, {"to", m.to}});
+    return json{{"layout", g.layout ? json(g.layout->hash) : json(nullptr)},
+                {"added", g.variables.added},
+                {"removed", g.variables.removed},
+                {"moved", moved},
+                {"replaced", g.replaced_for_layout}};
+}
 
 int64_t now() { return osal::monotonicNow(); }
 
@@ -57,25 +69,26 @@ json scheduleJson(const Generation &g) {
     return j;
 }
 
-std::string Reloader::layoutHashOf(const config::SetSpec &set) const {
-    if (set.layout.empty()) return {};
-    auto layout = variables::readLayout(set.layout);
-    return layout ? layout->hash : std::string{};
-}
-
 // What can be checked before loading anything: the schedule, the layout against the running
 // segment, the executors, and which running modules would have to go.
-Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *running) const {
+Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *running, Generation *out) const {
     if (!set.layout.empty()) {
         auto layout = variables::readLayout(set.layout);
         if (!layout) return layout.error();
         if (!s_.vars)
             return Error{"the set declares shared variables (" + set.layout.string() +
-                         ") but irpd runs without a variable segment: restart irpd with this set"};
-        if (layout->hash != s_.vars->hash())
-            return Error{"the set's shared-variable layout " + layout->hash + " (" + set.layout.string() +
-                         ") differs from the running segment's " + s_.vars->hash() +
-                         ": a changed .glb needs an irpd restart (the segment cannot change under running modules)"};
+                             ") but irpd runs without a variable segment: a restart onto this set makes one",
+                         kRestartRequired};
+        layouts::Diff d = layouts::diff(s_.vars->layout().model, layout->model);
+        if (!d.online_impossible.empty())
+            return Error{"the set's shared-variable layout " + layout->hash.substr(0, 12) + "… (" + set.layout.string() +
+                             ") cannot replace the running one online: " + d.online_impossible,
+                         kRestartRequired};
+        if (std::string why = s_.vars->fits(*layout); !why.empty()) return Error{why, kRestartRequired};
+        if (out) {
+            out->layout = std::make_shared<const variables::Layout>(std::move(*layout));
+            out->variables = std::move(d);
+        }
     }
     for (const config::ModuleSpec &m : set.modules) {
         std::error_code ec;
@@ -85,17 +98,20 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
             return Error{who(m) + ": a non-real module runs in the time left over as a process: set <moduletype>process</moduletype>"};
     }
     if (running && !sameExecutors(set, running->set))
-        return Error{"the set's <executor>s differ from the running set's: changing executors needs an irpd restart"};
+        return Error{"the set's <executor>s differ from the running set's: changing executors needs an irpd restart",
+                     kRestartRequired};
     std::size_t processes = 0;
     for (const config::ModuleSpec &m : set.modules) processes += m.type == config::ModuleType::Process;
     if (running && s_.control && processes > s_.control->slotCount())
         return Error{"the set has " + std::to_string(processes) + " process modules; this irpd has room for " +
-                     std::to_string(s_.control->slotCount())};
+                         std::to_string(s_.control->slotCount()) + " (sized by the set it started with): a restart onto "
+                         "this set makes room",
+                     kRestartRequired};
     return Ok{};
 }
 
 json Reloader::check(const std::filesystem::path &xml) const {
-    json errors = json::array(), schedule_json = nullptr;
+    json errors = json::array(), schedule_json = nullptr, variables = nullptr, restart = nullptr;
     auto set = config::parseModuleXml(xml);
     if (!set) {
         errors.push_back(set.error().message);
@@ -104,9 +120,17 @@ json Reloader::check(const std::filesystem::path &xml) const {
         auto schedule = schedule::build(*set, s_.limits);
         if (!schedule) errors.push_back(schedule.error().message);
         else schedule_json = schedule::toJson(*schedule, *set);
-        if (Status st = checkAgainst(*set, current().get()); !st) errors.push_back(st.error().message);
+        Generation probe;
+        if (Status st = checkAgainst(*set, current().get(), &probe); !st) {
+            if (st.error().code == kRestartRequired) restart = json{{"reason", st.error().message}};
+            else errors.push_back(st.error().message);
+        } else if (probe.layout) {
+            variables = variablesJson(probe);
+        }
     }
-    return json{{"valid", errors.empty()}, {"errors", errors}, {"warnings", json::array()}, {"schedule", schedule_json}};
+    // A set that only a restart can run is valid: activation offers the restart (docs/hot-reload.md).
+    return json{{"valid", errors.empty()}, {"errors", errors}, {"warnings", json::array()}, {"schedule", schedule_json},
+                {"online", errors.empty() && restart.is_null()}, {"restart", restart}, {"variables", variables}};
 }
 
 Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const Generation *running,
@@ -125,7 +149,8 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
                                                    Estimate *estimate) const {
     auto schedule = schedule::build(set, s_.limits);
     if (!schedule) return schedule.error();
-    if (Status st = checkAgainst(set, running); !st) return st.error();
+    Generation checked;
+    if (Status st = checkAgainst(set, running, &checked); !st) return st.error();
     // A disabled module the new set no longer has is forgotten.
     std::erase_if(disabled, [&](const std::string &name) {
         return std::none_of(set.modules.begin(), set.modules.end(), [&](const auto &m) { return m.name == name; });
@@ -138,7 +163,13 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
     next->schedule = std::move(*schedule);
     next->disabled = std::move(disabled);
     next->members.resize(next->set.modules.size());
+    next->layout = std::move(checked.layout);
+    next->variables = std::move(checked.variables);
+    if (!next->layout && running && next->set.layout.empty()) next->layout = running->layout;
     const config::SetSpec &spec = next->set;
+    // What the set's modules are checked against: its layout, else the segment's (a set without
+    // <layout> on an irpd that has one).
+    const layouts::Model *model = next->layout ? &next->layout->model : s_.vars ? &s_.vars->layout().model : nullptr;
 
     // Which modules stay.  A running module that goes away must not own shared functions: kept
     // modules may hold pointers into its code (found in their start()).
@@ -147,18 +178,35 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
         Member &member = next->members[static_cast<std::size_t>(m.index)];
         auto sha = hosts::sha256File(m.path);
         if (!sha) return Error{who(m) + ": " + sha.error().message};
+        auto identity = hosts::identify(m.path);
+        if (!identity) return Error{who(m) + ": " + identity.error().message};
         member.sha256 = *sha;
+        member.identity = identity->code;
+        member.layout = identity->layout;
         if (!running) continue;
         const int old = running->find(m.name);
         if (old < 0) continue;
         const auto o = static_cast<std::size_t>(old);
-        if (!keepable(m, member.sha256, running->set.modules[o], running->members[o])) continue;
+        if (!keepable(m, member.identity, running->set.modules[o], running->members[o])) continue;
+        // The same code built against the new layout (or against one whose variables all stay):
+        // the running instance addresses every variable where the new layout has it.
+        if (!member.layout.empty() && model)
+            if (std::string why = layouts::compatible(member.layout, *model); !why.empty())
+                return Error{who(m) + ": " + m.path.string() + ": " + why};
         member.thread = running->members[o].thread;
         member.record = running->members[o].record;
         member.slot = running->members[o].slot;
+        member.sha256 = running->members[o].sha256;  // the image it runs from (the module cache's copy)
         member.kept = true;
         old_kept[o] = true;
     }
+    // Running modules that the new layout leaves no place for: they are replaced, not kept.
+    if (running && next->layout && running->layout && next->layout->hash != running->layout->hash)
+        for (std::size_t o = 0; o < old_kept.size(); ++o) {
+            const Member &was = running->members[o];
+            if (!old_kept[o] && !was.layout.empty() && !layouts::compatible(was.layout, next->layout->model).empty())
+                next->replaced_for_layout.push_back(running->set.modules[o].name);
+        }
     if (running) {
         std::map<std::string, std::vector<std::string>> exports_of;
         for (const runtime::FunctionExport &e : runtime::functionExports()) exports_of[e.owner].push_back(e.name);
@@ -230,8 +278,21 @@ Status Reloader::realize(Generation &generation, const Generation *running,
             .state.store(static_cast<uint32_t>(stats::ModuleState::Loaded));
     }
 
+    // A changed layout is published before anything new loads: the new variables are zeroed and
+    // visible, the old ones stay where they are for the modules that keep running.
+    if (next->layout && s_.vars && next->layout->hash != s_.vars->hash()) {
+        std::vector<std::string> fresh = next->variables.added;
+        for (const layouts::Moved &m : next->variables.moved) fresh.push_back(m.path);
+        next->previous_layout = std::make_shared<const variables::Layout>(s_.vars->layout());
+        if (Status st = s_.vars->publish(*next->layout, fresh); !st) {
+            undo(*next);
+            return st.error();
+        }
+        next->published = true;
+    }
+
     // New thread modules: loaded from their content-addressed copies, initialized, started.
-    const char *layout_hash = s_.vars ? s_.vars->hash() : nullptr;
+    const layouts::Model *model = next->layout ? &next->layout->model : s_.vars ? &s_.vars->layout().model : nullptr;
     for (const config::ModuleSpec &m : spec.modules) {
         Member &member = next->members[static_cast<std::size_t>(m.index)];
         if (member.kept || m.type != config::ModuleType::Thread) continue;
@@ -240,7 +301,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
             undo(*next);
             return Error{who(m) + ": " + image.error().message};
         }
-        auto loaded = hosts::ThreadModule::load(m, layout_hash, image->image);
+        auto loaded = hosts::ThreadModule::load(m, model, image->image);
         if (!loaded) {
             undo(*next);
             return loaded.error();
@@ -250,6 +311,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
             return Error{who(m) + ": a sporadic thread module needs condition() (extern \"C\" int condition(), or " +
                          "INDUROP_MODULE(condition = ...)), which the event handler calls every basic period"};
         }
+        member.layout = (*loaded)->builtLayout();
         member.thread = std::move(*loaded);
     }
     for (auto phase : {&hosts::ThreadModule::initialize, &hosts::ThreadModule::start})
@@ -358,6 +420,10 @@ void Reloader::undo(Generation &partial) {
         member.record = 0;
     }
     if (!slots.empty()) s_.supervisor->stop(slots, 2'000'000'000);
+    if (partial.published && partial.previous_layout) {
+        (void)s_.vars->publish(*partial.previous_layout);  // it fitted before
+        partial.published = false;
+    }
 }
 
 void Reloader::adopt(std::unique_ptr<Generation> first, dispatch::Dispatcher &dispatcher) {
@@ -602,12 +668,16 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
                 {"started", names(started)},
                 {"stopped", names(stopped)},
                 {"missed_periods", missed},
+                {"variables", variablesJson(*next)},
                 {"request_to_swap_ns", swapped_ns - requested_ns},
                 {"total_ns", now() - requested_ns}};
     std::ostringstream text;
     text << "generation " << next->number << " (" << next->set.xml_path.string() << ") took over in slot "
          << switched->front().cycle << ": " << kept.size() << " kept, " << started.size() << " started, "
          << stopped.size() << " stopped, " << missed << " periods missed";
+    if (next->published)
+        text << "; shared variables " << next->variables.added.size() << " added, " << next->variables.removed.size()
+             << " removed, " << next->variables.moved.size() << " moved (layout " << next->layout->hash.substr(0, 12) << "…)";
     s_.events->add("swap", "", text.str());
     {
         std::lock_guard lock(mutex_);

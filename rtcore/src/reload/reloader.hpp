@@ -44,6 +44,10 @@
 
 namespace irp::reload {
 
+// The Error code of a set that irpd cannot take online but can run after a restart
+// (docs/hot-reload.md, "What needs a restart").
+inline constexpr const char *kRestartRequired = "restart_required";
+
 // What the reloader works with; all owned by the daemon and alive longer than the reloader.
 struct Services {
     stats::StatsSegment *stats = nullptr;
@@ -124,10 +128,10 @@ private:
     Status realize(Generation &next, const Generation *running,
                    const std::function<Status(Generation &)> &before_processes = {});
     Result<nlohmann::ordered_json> swap(std::unique_ptr<Generation> next, int64_t requested_ns);
-    Status checkAgainst(const config::SetSpec &set, const Generation *running) const;
+    // out (optional) gets the set's layout and its diff against the segment's.
+    Status checkAgainst(const config::SetSpec &set, const Generation *running, Generation *out = nullptr) const;
     void retire(const Generation &old, const Generation &next);
     void undo(Generation &partial);
-    std::string layoutHashOf(const config::SetSpec &set) const;
 
     Services s_;
     dispatch::Dispatcher *dispatcher_ = nullptr;

@@ -181,13 +181,16 @@ Result<json> TraceRings::configure(const std::vector<std::string> &paths, const 
     std::unique_lock lock(control_->mutex);
     Control &c = *control_;
 
-    // The layout, parsed once per segment (it is copied into the segment by irpd).
-    if (c.layout_hash != vh->layout_hash) {
+    // The layout, parsed once per publication (irpd copies it into the segment; an online change
+    // publishes another).
+    std::string hash, text;
+    irp::segment::copyLayout(vh, hash, text);
+    if (c.layout_hash != hash) {
         c.leaves.clear();
         c.scalars.clear();
         c.leaf_order.clear();
         try {
-            auto layout = nlohmann::json::parse(std::string_view(base + vh->layout_offset, vh->layout_size));
+            auto layout = nlohmann::json::parse(text);
             for (const auto &[type, s] : layout.at("scalars").items())
                 c.scalars[type] = {s.at("kind").get<std::string>(), s.at("size").get<uint64_t>()};
             for (const auto &leaf : layout.at("leaves")) {
@@ -200,7 +203,7 @@ Result<json> TraceRings::configure(const std::vector<std::string> &paths, const 
             c.leaves.clear();
             return Error{"trace: the layout in " + vars.name() + " cannot be read: " + e.what()};
         }
-        c.layout_hash = vh->layout_hash;
+        c.layout_hash = hash;
     }
 
     std::vector<Resolved> channels;
@@ -215,8 +218,7 @@ Result<json> TraceRings::configure(const std::vector<std::string> &paths, const 
                     (leaf[path.size()] == '.' || leaf[path.size()] == '['))
                     return Error{"'" + path + "' is not a scalar (it holds '" + leaf +
                                  "', ...): trace its scalar members or elements one by one"};
-            return Error{"no variable '" + path + "' in the shared-variable layout " +
-                         std::string(vh->layout_hash).substr(0, 12) + "…"};
+            return Error{"no variable '" + path + "' in the shared-variable layout " + hash.substr(0, 12) + "…"};
         }
         const Control::Leaf &leaf = found->second;
         auto scalar = c.scalars.find(leaf.type);

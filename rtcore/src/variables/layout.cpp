@@ -3,6 +3,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <set>
+
 #include <fstream>
 #include <sstream>
 
@@ -39,8 +41,11 @@ Result<Layout> readLayout(const std::filesystem::path &path) {
             return Error{where + "\"data_size\" " + std::to_string(layout.data_size) + " is not a multiple of 64 up to 1 GiB"};
         layout.lock_count = j.at("lock_count").get<uint32_t>();
         const auto &variables = j.at("variables");
-        if (!variables.is_array() || variables.size() != layout.lock_count)
-            return Error{where + "\"lock_count\" does not match the number of variables"};
+        // lock_count may exceed the variables: a layout laid out against a running one (glbc
+        // --previous) keeps the locks of removed variables as holes.
+        if (!variables.is_array() || variables.size() > layout.lock_count)
+            return Error{where + "\"lock_count\" is smaller than the number of variables"};
+        std::set<uint64_t> locks;
         for (const auto &v : variables) {
             const auto path_name = v.at("path").get<std::string>();
             const auto offset = v.at("offset").get<uint64_t>(), size = v.at("size").get<uint64_t>();
@@ -48,11 +53,17 @@ Result<Layout> readLayout(const std::filesystem::path &path) {
             if (offset + size > layout.data_size || offset + size < offset)
                 return Error{where + "variable " + path_name + " lies outside the data area"};
             if (lock >= layout.lock_count) return Error{where + "variable " + path_name + " names lock " + std::to_string(lock)};
+            if (!locks.insert(lock).second)
+                return Error{where + "variable " + path_name + " shares lock " + std::to_string(lock) + " with another variable"};
         }
         layout.variables = variables.size();
     } catch (const nlohmann::json::exception &e) {
         return Error{where + "malformed layout: " + e.what()};
     }
+    std::string problem;
+    auto model = layouts::parse(layout.text, problem);
+    if (!model) return Error{where + problem};
+    layout.model = std::move(*model);
     return layout;
 }
 

@@ -2,6 +2,7 @@
 #pragma once
 
 #include "common/result.hpp"
+#include "sdk/layouts.hpp"
 
 #include <cstdint>
 #include <filesystem>
@@ -14,8 +15,9 @@ struct Layout {
     std::string text;        // the file as written: copied into the segment for path lookups
     std::string hash;        // 64 hex digits
     uint64_t data_size = 0;  // bytes, a multiple of 64
-    uint32_t lock_count = 0; // one per top-level variable
+    uint32_t lock_count = 0; // one per top-level variable, and the holes' (glbc --previous)
     std::size_t variables = 0;
+    layouts::Model model;    // the variables' places and the lineage, for online change
 };
 
 inline constexpr uint64_t kMaxDataSize = 1ull << 30;

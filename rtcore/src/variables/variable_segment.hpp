@@ -4,6 +4,9 @@
 // priority-inheritance mutexes), the layout text, then the zero-filled data area (see
 // <indurop/segment.h>).  Creating it also makes it this process's segment in libindurop, so the
 // thread modules loaded afterwards see it.
+//
+// It is made with room to grow (Room): an online change publishes a layout that adds variables
+// (docs/shared-variables.md, "Layouts that evolve") without remapping anything.
 #pragma once
 
 #include "common/result.hpp"
@@ -13,15 +16,33 @@
 #include <indurop/segment.h>
 
 #include <string>
+#include <vector>
 
 namespace irp::variables {
+
+// The room beyond the first layout: bytes of data and locks for variables added online, and the
+// text area for their layouts.  irpd's --var-headroom sets data_bytes (docs/shared-variables.md).
+struct Room {
+    static constexpr uint64_t kDefaultDataBytes = 1u << 20;  // 1 MiB
+    uint64_t data_bytes = kDefaultDataBytes;
+};
 
 class VariableSegment {
 public:
     static std::string shmName(const std::string &instance);
 
     // Refuses when a live irpd owns the name; replaces a segment left by a dead one.
-    static Result<VariableSegment> create(const std::string &instance, const Layout &layout);
+    static Result<VariableSegment> create(const std::string &instance, const Layout &layout, Room room = {});
+
+    // Whether `next` fits the room: "" or the limit it exceeds and the option that raises it.
+    std::string fits(const Layout &next) const;
+    // Publishes `next` as the segment's layout (the control thread and the agent see it at once):
+    // zeroes the bytes of `fresh` variables (new or moved: not used by the running layout), writes
+    // the text into the idle half, then switches the header's layout fields under layout_seq.
+    // Checks fits() first; never touches the bytes of variables that stay.
+    Status publish(const Layout &next, const std::vector<std::string> &fresh = {});
+    // The layout published last (a copy of what was given to create() or publish()).
+    const Layout &layout() const { return layout_; }
 
     VariableSegment() = default;
     VariableSegment(VariableSegment &&) noexcept = default;
@@ -34,6 +55,7 @@ public:
 
 private:
     osal::SharedMemory shm_;
+    Layout layout_;
 };
 
 } // namespace irp::variables
