@@ -1,10 +1,13 @@
 # Building modules and shared-variable bindings for indurop, in this tree or after
 # find_package(indurop):
 #
-#   indurop_add_glb(<name> GLB <a.glb>... [OUTPUT_DIRECTORY <dir>])
+#   indurop_add_glb(<name> GLB <a.glb>... [OUTPUT_DIRECTORY <dir>] [PREVIOUS <layout.json>])
 #       Runs glbc at build time: <dir>/indurop/generated.h and <dir>/layout.json (default <dir>:
 #       ${CMAKE_CURRENT_BINARY_DIR}/<name>).  <name> is an INTERFACE target carrying the include
 #       directory; its property INDUROP_LAYOUT is the layout.json path (for module.xml's <layout>).
+#       PREVIOUS: the layout.json that runs now (irpctl layout -o layout.json), passed as
+#       `glbc --previous`: its variables keep their offsets and locks, so the set can be loaded
+#       into the running controller (docs/glbc.md).  A change of that file reruns glbc.
 #
 #   indurop_add_module(<name> SOURCES <src>... [GLB <glb target>] [OUTPUT_DIRECTORY <dir>] [LIBRARIES <lib>...])
 #       A thread module: a shared object named exactly <name>.so (no "lib" prefix), linked to
@@ -24,13 +27,23 @@ endif()
 find_package(Python3 3.11 REQUIRED COMPONENTS Interpreter)
 
 function(indurop_add_glb name)
-  cmake_parse_arguments(ARG "" "OUTPUT_DIRECTORY" "GLB" ${ARGN})
+  cmake_parse_arguments(ARG "" "OUTPUT_DIRECTORY;PREVIOUS" "GLB" ${ARGN})
   if(NOT ARG_GLB)
     message(FATAL_ERROR "indurop_add_glb(${name}): GLB <file.glb>... is required")
   endif()
   set(dir ${ARG_OUTPUT_DIRECTORY})
   if(NOT dir)
     set(dir ${CMAKE_CURRENT_BINARY_DIR}/${name})
+  endif()
+  set(previous "")
+  set(previous_option "")
+  if(ARG_PREVIOUS)
+    get_filename_component(abs ${ARG_PREVIOUS} ABSOLUTE)
+    set(previous_option --previous ${abs})
+    get_filename_component(own ${dir}/layout.json ABSOLUTE)
+    if(NOT abs STREQUAL own)     # glbc reads its own output before writing it, but it cannot depend on it
+      set(previous ${abs})
+    endif()
   endif()
   set(inputs)
   foreach(f ${ARG_GLB})
@@ -41,8 +54,8 @@ function(indurop_add_glb name)
   file(GLOB_RECURSE glbc_sources ${glbc_dir}/*.py)
   add_custom_command(
     OUTPUT ${dir}/indurop/generated.h ${dir}/layout.json
-    COMMAND ${Python3_EXECUTABLE} ${INDUROP_GLBC} ${inputs} -o ${dir}
-    DEPENDS ${inputs} ${INDUROP_GLBC} ${glbc_sources}
+    COMMAND ${Python3_EXECUTABLE} ${INDUROP_GLBC} ${inputs} -o ${dir} ${previous_option}
+    DEPENDS ${inputs} ${previous} ${INDUROP_GLBC} ${glbc_sources}
     COMMENT "glbc ${ARG_GLB} -> ${dir}"
     VERBATIM)
   add_custom_target(${name}_glbc DEPENDS ${dir}/indurop/generated.h ${dir}/layout.json)

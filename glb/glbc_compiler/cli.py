@@ -1,4 +1,5 @@
-# cli.py -- the glbc command line: read the .glb files, lay them out, write
+# cli.py -- the glbc command line: read the .glb files, lay them out (against the running layout
+# with --previous, evolve.py), write
 # DIR/indurop/generated.h and DIR/layout.json.  Exit 0 on success, 1 on an input error
 # (file:line:col diagnostic on stderr), 2 on a usage error.
 
@@ -14,6 +15,7 @@ from . import __version__
 from .emit_header import render as render_header
 from .emit_layout import document, render as render_layout
 from .errors import GlbError, Loc, Source
+from .evolve import place, read_previous, summary
 from .layout import DEFAULT_MAX_SIZE, build
 from .parser import parse_file
 
@@ -38,6 +40,9 @@ def _arguments() -> argparse.ArgumentParser:
     p.add_argument("-o", dest="out", required=True, metavar="DIR", help="output folder (created if missing)")
     p.add_argument("--max-size", type=_size, default=DEFAULT_MAX_SIZE, metavar="BYTES",
                    help=f"limit of the segment's data area (default {DEFAULT_MAX_SIZE}, 16 MiB; K/M/G suffixes allowed)")
+    p.add_argument("--previous", metavar="FILE",
+                   help="the layout.json that runs now: its variables keep their offsets and locks, new and changed "
+                        "ones go where no earlier layout had a variable (docs/glbc.md)")
     p.add_argument("--version", action="version", version=f"glbc {__version__}")
     return p
 
@@ -86,9 +91,14 @@ def _write(path: str, text: str) -> None:
         raise
 
 
-def compile_files(files: list[str], out: str, max_size: int, argv: list[str]) -> dict:
-    """Compiles and writes both outputs; returns the layout.json document.  Raises GlbError."""
+def compile_files(files: list[str], out: str, max_size: int, argv: list[str], previous: str | None = None) -> dict:
+    """Compiles and writes both outputs; returns the layout.json document.  Raises GlbError.  With
+    `previous` (a layout.json, read before anything is written: it may be DIR/layout.json itself) the
+    layout is laid out against it."""
+    prev = read_previous(previous) if previous is not None else None
     layout = build([parse_file(_read(name)) for name in files], max_size)
+    if prev is not None:
+        place(layout, prev, max_size)
     doc = document(layout)
     header = render_header(layout, doc["hash"], argv)
     try:
@@ -111,8 +121,10 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"'{name}' is given twice (as '{seen[key]}' before)")
         seen[key] = name
     try:
-        compile_files(args.files, args.out, args.max_size, argv)
+        doc = compile_files(args.files, args.out, args.max_size, argv, args.previous)
     except GlbError as e:
         print(e.format(), file=sys.stderr)
         return INPUT_ERROR
+    if doc.get("changes") is not None:
+        print(summary(doc["changes"]), file=sys.stderr)
     return 0

@@ -112,7 +112,10 @@ def render(layout: Layout, layout_hash: str, argv: list[str]) -> str:
         f"#define INDUROP_LAYOUT_DATA_SIZE {layout.data_size}u",
         f"#define INDUROP_LAYOUT_LOCK_COUNT {layout.lock_count}u",
         "// The layout this code was built against; irpd compares it with the running segment's.",
-        'extern "C" __attribute__((weak, visibility("default"))) const char indurop_layout_hash[] = INDUROP_LAYOUT_HASH;',
+        "// Its own section: irpd tells modules apart by their other loadable sections, so a module rebuilt "
+        "against a layout that only gained variables counts as unchanged.",
+        'extern "C" __attribute__((weak, visibility("default"), section(".indurop_layout"))) '
+        "const char indurop_layout_hash[] = INDUROP_LAYOUT_HASH;",
     ]
     for b in layout.blocks:
         out.append("")

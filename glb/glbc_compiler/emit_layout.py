@@ -3,7 +3,9 @@
 #
 # The hash is sha256 over json.dumps({"types": ..., "variables": ...}, sort_keys=True,
 # separators=(",", ":"), ensure_ascii=True) with the variables' `source` fields left out, so
-# that the same declarations give the same hash whatever the files are called.
+# that the same declarations give the same hash whatever the files are called.  A variable's
+# type_id is the first 16 hex digits of sha256 over the same kind of JSON of its full type
+# (scalars by C++ name, structs by their fields, recursively; no generated struct names).
 
 from __future__ import annotations
 
@@ -33,16 +35,32 @@ def _types(layout: Layout) -> dict[str, Any]:
     }
 
 
+def _canonical(value: Any) -> bytes:
+    return json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=True).encode("ascii")
+
+
+def _describe(t: Type) -> Any:
+    """What a value of t means, byte by byte: a scalar's C++ name, or a struct's fields."""
+    if isinstance(t, StructType):
+        return {"fields": [{"name": f.name, "type": _describe(f.type), "offset": f.offset, "size": f.size,
+                            "dims": list(f.dims)} for f in t.fields]}
+    return t.name
+
+
+def type_id(v: Variable) -> str:
+    """Equal for two variables exactly when their bytes mean the same thing (glbc --previous)."""
+    described = {"type": _describe(v.type), "dims": list(v.dims), "size": v.size}
+    return hashlib.sha256(_canonical(described)).hexdigest()[:16]
+
+
 def _variable(v: Variable) -> dict[str, Any]:
-    return {"path": v.path, "namespace": v.namespace, "name": v.name, "type": _type_name(v.type),
+    return {"path": v.path, "namespace": v.namespace, "name": v.name, "type": _type_name(v.type), "type_id": type_id(v),
             "offset": v.offset, "size": v.size, "align": v.align, "dims": list(v.dims), "lock": v.lock}
 
 
 def layout_hash(types: dict[str, Any], variables: list[dict[str, Any]]) -> str:
-    canonical = json.dumps({"types": types, "variables": [{k: x for k, x in v.items() if k != "source"}
-                                                          for v in variables]},
-                           sort_keys=True, separators=(",", ":"), ensure_ascii=True)
-    return hashlib.sha256(canonical.encode("ascii")).hexdigest()
+    return hashlib.sha256(_canonical({"types": types, "variables": [{k: x for k, x in v.items() if k != "source"}
+                                                                 for v in variables]})).hexdigest()
 
 
 def _leaves(path: str, t: Type, dims: list[int], offset: int, lock: int) -> Iterator[dict[str, Any]]:
@@ -66,12 +84,21 @@ def document(layout: Layout) -> dict[str, Any]:
     used = {t.name: t for t in [v.type for v in layout.variables] + [f.type for st in layout.types for f in st.fields]
             if not isinstance(t, StructType)}
     scalars = {name: {"size": s.size, "align": s.align, "kind": s.kind} for name, s in sorted(used.items())}
+    own = layout_hash(types, variables)
+    # A layout is not its own ancestor, and each ancestor is listed once: recompiling an unchanged
+    # .glb against its own layout must not push older layouts (and the holes they keep) out.
+    lineage, seen = [], {own}
+    for entry in layout.lineage:
+        if entry["hash"] not in seen:
+            seen.add(entry["hash"])
+            lineage.append(entry)
     return {
         "format": FORMAT,
         "version": VERSION,
-        "hash": layout_hash(types, variables),
+        "hash": own,
         "data_size": layout.data_size,
         "lock_count": layout.lock_count,
+        **({"changes": layout.changes} if layout.changes is not None else {}),  # glbc --previous only
         "sources": list(layout.sources),
         "namespaces": list(layout.namespaces),
         "defines": {qualify(d.namespace, d.name): d.value for d in layout.defines},
@@ -79,6 +106,7 @@ def document(layout: Layout) -> dict[str, Any]:
         "types": types,
         "variables": variables,
         "leaves": [leaf for v in layout.variables for leaf in _leaves(v.path, v.type, v.dims, v.offset, v.lock)],
+        "lineage": lineage,
     }
 
 

@@ -111,10 +111,11 @@ class Layout:
     variables: list[Variable]
     blocks: list[Block]
     data_size: int = 0
-
-    @property
-    def lock_count(self) -> int:
-        return len(self.variables)
+    lock_count: int = 0
+    # Set by evolve.place (glbc --previous): the earlier layouts whose space is kept, and what
+    # changed against the previous one.
+    lineage: list[dict] = field(default_factory=list)
+    changes: dict | None = None
 
 
 @dataclass
@@ -129,7 +130,7 @@ class _Symbol:
         return f"{'#define' if self.kind == 'define' else 'variable'} '{name}'"
 
 
-def _round_up(n: int, to: int) -> int:
+def round_up(n: int, to: int) -> int:
     return (n + to - 1) // to * to
 
 
@@ -204,12 +205,12 @@ class _Builder:
             else:
                 t = SCALARS[m.type.cname]
             count = math.prod(dims)
-            offset = _round_up(offset, t.align)
+            offset = round_up(offset, t.align)
             st.fields.append(Field(m.name, t, dims, offset, t.size * count, m.loc))
             offset += t.size * count
             st.align = max(st.align, t.align)
             st.leaves += _leaves(t) * count
-        st.size = _round_up(offset, st.align)
+        st.size = round_up(offset, st.align)
         self.types.append(st)
         introduced.append(st)
         block.types.append(st)
@@ -243,9 +244,9 @@ class _Builder:
             t = SCALARS[decl.type.cname]
         count = math.prod(dims)
         var = Variable(ns, decl.name, t, dims, t.size * count, decl.loc, introduced)
-        var.offset = _round_up(self.variables[-1].offset + self.variables[-1].size, CACHE_LINE) if self.variables else 0
+        var.offset = round_up(self.variables[-1].offset + self.variables[-1].size, CACHE_LINE) if self.variables else 0
         var.lock = len(self.variables)
-        end = _round_up(var.offset + var.size, CACHE_LINE)
+        end = round_up(var.offset + var.size, CACHE_LINE)
         if end > self.max_size:
             raise GlbError(f"segment over its limit: variable '{decl.name}' ({var.size} bytes at offset {var.offset}) "
                            f"ends at byte {end}, over --max-size {self.max_size}", decl.loc)
@@ -291,6 +292,6 @@ def build(files: list[FileSyntax], max_size: int = DEFAULT_MAX_SIZE) -> Layout:
         b.file(fs)
     b.check_namespace_parts()
     b.check_field_names()
-    data_size = _round_up(b.variables[-1].offset + b.variables[-1].size, CACHE_LINE) if b.variables else 0
+    data_size = round_up(b.variables[-1].offset + b.variables[-1].size, CACHE_LINE) if b.variables else 0
     return Layout([fs.source.name for fs in files], list(b.namespace_locs), b.all_defines, b.types, b.variables,
-                  b.blocks, data_size)
+                  b.blocks, data_size, len(b.variables))

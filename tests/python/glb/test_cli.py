@@ -32,6 +32,7 @@ def test_runs_with_python3(tmp_path):
 def test_help(tmp_path):
     result = run_glbc(["--help"], tmp_path)
     assert result.returncode == 0 and "usage: glbc" in result.stdout and "--max-size" in result.stdout
+    assert "--previous FILE" in result.stdout
 
 
 def test_version(tmp_path):

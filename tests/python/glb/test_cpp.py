@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from glb_helpers import RTCORE_INCLUDE, arrayref_nesting_works, compile_case, fixture, load_layout
+from glb_helpers import RTCORE_INCLUDE, arrayref_nesting_works, compile_case, fixture, load_layout, run_glbc
 
 FLAGS = ["-std=c++20", "-Wall", "-Wextra", "-Werror"]
 
@@ -102,7 +102,7 @@ def test_shared_h_sizes_nested_arrays(cxx, tmp_path):
 def leaf_program(layout: dict) -> str:
     """A program that writes a distinct value through the reference of every leaf, checks that it
     lands at the leaf's offset, then checks that no later write overwrote it."""
-    variables = layout["variables"]
+    variables = {v["lock"]: v for v in layout["variables"]}  # with --previous, lock i need not be variable i
     lines = [
         "#include <indurop/generated.h>",
         "#include <cstdio>",
@@ -164,6 +164,24 @@ def test_leaves_are_where_the_references_point(case, cxx, shared_include, tmp_pa
                            capture_output=True, text=True, timeout=300)
     assert build.returncode == 0, build.stderr
     run = subprocess.run([str(exe)], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0 and run.stdout == "ok\n", run.stdout + run.stderr
+
+
+def test_leaves_of_a_layout_laid_out_against_a_previous_one(cxx, tmp_path):
+    """glbc --previous: kept, moved and new variables out of declaration order, locks with gaps."""
+    out = compile_case("fig3_fig11", tmp_path)
+    (tmp_path / "b.glb").write_text("namespace knu.Robot;\nstruct { double x; double y; } joints[10]\nint added[3];\n"
+                                    "uint32_t tick;\n")
+    result = run_glbc(["fig11-plcRobot.glb", "b.glb", "-o", "next", "--previous", str(out / "layout.json")], tmp_path)
+    assert result.returncode == 0, result.stderr
+    layout = load_layout(tmp_path / "next")
+    assert layout["changes"]["moved"] and layout["changes"]["added"] and layout["changes"]["removed"] == []
+    src = tmp_path / "leaves.cpp"
+    src.write_text(leaf_program(layout))
+    build = subprocess.run([cxx, *FLAGS, "-O0", f"-I{tmp_path / 'next'}", f"-I{RTCORE_INCLUDE}", str(src), "-o",
+                            str(tmp_path / "leaves")], capture_output=True, text=True, timeout=300)
+    assert build.returncode == 0, build.stderr
+    run = subprocess.run([str(tmp_path / "leaves")], capture_output=True, text=True, timeout=60)
     assert run.returncode == 0 and run.stdout == "ok\n", run.stdout + run.stderr
 
 

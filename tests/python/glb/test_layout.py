@@ -1,5 +1,5 @@
 # test_layout.py -- what layout.json says for the paper's figures and the stress file: offsets and
-# sizes as g++ lays them out, cache-line placement, locks, leaves, and the layout hash.
+# sizes as g++ lays them out, cache-line placement, locks, leaves, the layout hash and type_ids.
 
 from __future__ import annotations
 
@@ -25,10 +25,17 @@ def by_path(items):
     return {x["path"]: x for x in items}
 
 
+def type_id(description) -> str:
+    """docs/glbc.md: the first 16 hex digits of sha256 over the canonical JSON of the full type."""
+    canonical = json.dumps(description, sort_keys=True, separators=(",", ":"), ensure_ascii=True)
+    return hashlib.sha256(canonical.encode()).hexdigest()[:16]
+
+
 def test_figure3_variables(fig3):
     v = by_path(fig3["variables"])
     assert v["knu.Robot.tick"] == {"path": "knu.Robot.tick", "namespace": "knu.Robot", "name": "tick",
-                                   "type": "uint32_t", "offset": 0, "size": 4, "align": 4, "dims": [], "lock": 0,
+                                   "type": "uint32_t", "type_id": type_id({"type": "uint32_t", "dims": [], "size": 4}),
+                                   "offset": 0, "size": 4, "align": 4, "dims": [], "lock": 0,
                                    "source": "fig3-knuRobot.glb:3"}
     joints = v["knu.Robot.joints"]
     assert (joints["type"], joints["offset"], joints["size"], joints["dims"], joints["lock"]) == \
@@ -178,3 +185,19 @@ def test_layout_json_is_deterministic_utf8_json(tmp_path):
     assert list(doc)[:4] == ["format", "version", "hash", "data_size"]
     assert (doc["format"], doc["version"]) == ("indurop-layout", 1)
     assert raw.endswith(b"\n") and b"\r" not in raw
+
+
+def test_type_id_is_sha256_of_the_documented_canonical_form(fig3):
+    xyz = [{"name": n, "type": "double", "offset": o, "size": 8, "dims": []} for n, o in (("x", 0), ("y", 8), ("z", 16))]
+    joints = by_path(fig3["variables"])["knu.Robot.joints"]
+    assert joints["type_id"] == type_id({"type": {"fields": xyz}, "dims": [10], "size": 240})
+
+
+def test_type_id_is_equal_exactly_when_the_bytes_mean_the_same(glb):
+    doc = layout_of(glb, "namespace a;\nstruct { double x; int n[2]; } p;\nstruct { double x; int n[2]; } q;\n"
+                         "struct { double x; int m[2]; } r;\nstruct { double x; unsigned n[2]; } s;\n"
+                         "int t[2]; int u[3]; long v; long long w; int64_t y;\n"
+                         "struct { struct { char c; } in; } z1;\nstruct { struct { char d; } in; } z2;\n")
+    ids = {v["name"]: v["type_id"] for v in doc["variables"]}
+    assert ids["p"] == ids["q"]  # the struct's generated name (p_t, q_t) does not enter it
+    assert len({ids[n] for n in "prstuvwy"} | {ids["z1"], ids["z2"]}) == 10

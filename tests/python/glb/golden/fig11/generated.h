@@ -5,11 +5,12 @@
 #include <cstddef>
 #include <cstdint>
 
-#define INDUROP_LAYOUT_HASH "a965e221f3c25be132035ba07711c057e264c611e4f28d0688ba137c762564e1"
+#define INDUROP_LAYOUT_HASH "af210fad2a38abee2f5882ea2a820dc27e5151845b6b24231ed603de1b45b5dc"
 #define INDUROP_LAYOUT_DATA_SIZE 768u
 #define INDUROP_LAYOUT_LOCK_COUNT 6u
 // The layout this code was built against; irpd compares it with the running segment's.
-extern "C" __attribute__((weak, visibility("default"))) const char indurop_layout_hash[] = INDUROP_LAYOUT_HASH;
+// Its own section: irpd tells modules apart by their other loadable sections, so a module rebuilt against a layout that only gained variables counts as unchanged.
+extern "C" __attribute__((weak, visibility("default"), section(".indurop_layout"))) const char indurop_layout_hash[] = INDUROP_LAYOUT_HASH;
 
 // ---- fig11-plcRobot.glb
 namespace PLC_ROBOT {
