@@ -94,15 +94,18 @@ Diff diff(const Model &running, const Model &next) {
     for (const Table &t : running.lineage)
         for (const Variable &v : t.variables) in_use.push_back(&v);
 
+    // A variable that keeps its type must keep its place: the most telling reason, so it comes first.
     for (const Variable &v : next.self.variables) {
         const Variable *old = running.self.find(v.path);
-        if (old && sameType(*old, v)) {
-            if ((old->offset != v.offset || old->lock != v.lock) && d.online_impossible.empty())
-                d.online_impossible = "variable '" + v.path + "' keeps its type but moves from " + place(*old) +
-                                      " to " + place(v) + ": the new layout was not laid out against the running one "
-                                      "(glbc --previous)";
-            continue;
+        if (old && sameType(*old, v) && (old->offset != v.offset || old->lock != v.lock)) {
+            d.online_impossible = "variable '" + v.path + "' keeps its type but moves from " + place(*old) + " to " +
+                                  place(v) + ": the new layout was not laid out against the running one (glbc --previous)";
+            break;
         }
+    }
+    for (const Variable &v : next.self.variables) {
+        const Variable *old = running.self.find(v.path);
+        if (old && sameType(*old, v)) continue;
         if (old) d.moved.push_back(Moved{v.path, old->offset, v.offset});
         else d.added.push_back(v.path);
         if (!d.online_impossible.empty()) continue;

@@ -1,0 +1,240 @@
+// test_online_change.cpp -- a changed shared-variable layout swapped in while irpd runs, through
+// its control socket (docs/hot-reload.md, docs/shared-variables.md "Layouts that evolve"): a kept
+// counter module misses no period and its variable keeps counting while a variable is added,
+// one removed and one retyped; a process built against the old layout is accepted; a module
+// built against an incompatible layout, a layout laid out afresh and one over the room are
+// refused with what to change, and the running set is left as it was.
+#include "support/control_client.hpp"
+#include "support/irpd.hpp"
+#include "support/subprocess.hpp"
+
+#include <indurop/process.h>
+#include <indurop/shared.h>
+
+#include <gtest/gtest.h>
+
+#include <signal.h>
+
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <thread>
+
+using nlohmann::json;
+using testing_support::Client;
+using testing_support::kIrpd;
+using testing_support::Process;
+using testing_support::readFile;
+using testing_support::TempDir;
+using testing_support::uniqueInstance;
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path kOnline = ONLINE_DIR;
+
+std::string layoutOf(const std::string &name) { return (kOnline / ("oc_" + name) / "layout.json").string(); }
+
+std::string thread(const std::string &name, const std::string &file, const fs::path &dir, int priority = 1) {
+    return "  <module><name>" + name + "</name><filename>" + (kOnline / "modules" / file).string() +
+           "</filename><moduletype>thread</moduletype><operationtype>periodic</operationtype>"
+           "<period>1000000</period><priority>" + std::to_string(priority) +
+           "</priority><property><value name=\"journal\">" + (dir / (name + ".log")).string() +
+           "</value></property></module>\n";
+}
+
+std::string process(const std::string &name, const std::string &file) {
+    return "  <module><name>" + name + "</name><filename>" + (kOnline / "modules" / file).string() +
+           "</filename><moduletype>process</moduletype><operationtype>periodic</operationtype>"
+           "<period>2000000</period><priority>5</priority></module>\n";
+}
+
+// irpd on the v1 layout with the counter module, its control socket, and the segment mapped here.
+struct Cell {
+    TempDir dir;
+    std::string socket = (dir.path / "irpd.sock").string();
+    std::string instance = uniqueInstance();
+    std::unique_ptr<Process> irpd;
+    std::unique_ptr<Client> client;
+    channel::Handle vars;
+
+    explicit Cell(const std::string &modules = "", std::vector<std::string> extra = {}) {
+        writeSet("start.xml", "v1", thread("counter", "oc_counter_v1.so", dir.path) + modules);
+        std::vector<std::string> args{kIrpd, "--config", (dir.path / "start.xml").string(), "--control-socket", socket,
+                                      "--instance", instance, "--module-cache", (dir.path / "cache").string(),
+                                      "--stats-json", (dir.path / "stats.json").string()};
+        args.insert(args.end(), extra.begin(), extra.end());
+        irpd = std::make_unique<Process>(args, dir.path);
+        EXPECT_TRUE(irpd->waitForErr("irpd: running")) << irpd->err();
+        client = std::make_unique<Client>(socket, 60);
+        EXPECT_FALSE(client->readLine().empty());  // the hello
+        EXPECT_EQ(irp::shared::attach("/indurop." + instance + ".vars", false), "");
+    }
+    ~Cell() {
+        irp::shared::detach();
+        client.reset();
+        kill(irpd->pid(), SIGTERM);
+        irpd->wait(std::chrono::seconds(10));
+    }
+    // A module.xml naming `layout` (a folder of kOnline) and the modules.
+    std::string writeSet(const std::string &file, const std::string &layout, const std::string &modules) {
+        std::ofstream(dir.path / file) << "<root>\n  <layout>" << layoutOf(layout) << "</layout>\n" << modules << "</root>\n";
+        return (dir.path / file).string();
+    }
+    json ask(const json &request) { return client->request(request); }
+    json load(const std::string &xml) { return ask({{"cmd", "load"}, {"config", xml}}); }
+    uint64_t u64(const char *path) {
+        uint64_t v = 0;
+        EXPECT_EQ(read(vars, path, sizeof v, &v), static_cast<int>(sizeof v)) << path;
+        return v;
+    }
+    double f64(const char *path) {
+        double v = 0;
+        EXPECT_EQ(read(vars, path, sizeof v, &v), static_cast<int>(sizeof v)) << path;
+        return v;
+    }
+    std::string log(const std::string &name) { return readFile(dir.path / (name + ".log")); }
+    json generation() { return ask({{"cmd", "status"}})["result"]["generation"]; }
+
+    // At the end: the counter module was one instance whose runs + skipped cover every period.
+    void expectCounterMissedNoPeriod() {
+        kill(irpd->pid(), SIGTERM);
+        ASSERT_EQ(irpd->wait(std::chrono::seconds(10)), 0) << irpd->err();
+        std::smatch m;
+        const std::string journal = log("counter");
+        ASSERT_TRUE(std::regex_match(journal, m, std::regex("start\nstop runs=([0-9]+)\n"))) << journal;
+        const json stats = json::parse(readFile(dir.path / "stats.json"));
+        const json &counter = stats["modules"][0];
+        ASSERT_EQ(counter["name"], "counter");
+        EXPECT_EQ(std::stoull(m[1]), counter["runs"].get<uint64_t>());
+        const json &dispatcher = stats["dispatcher"];
+        EXPECT_EQ(counter["runs"].get<uint64_t>() + counter["skipped"].get<uint64_t>(),
+                  dispatcher["runs"].get<uint64_t>() + dispatcher["skipped"].get<uint64_t>());
+    }
+};
+
+void settle() { std::this_thread::sleep_for(std::chrono::milliseconds(200)); }
+
+} // namespace
+
+TEST(OnlineChange, AVariableIsAddedWhileTheCounterKeepsCounting) {
+    Cell cell;
+    settle();
+    const uint64_t before = cell.u64("oc.counter");
+    EXPECT_GT(before, 0u);
+    // The counter module rebuilt against v2 is the same code: kept.  The adder is new.
+    json answer = cell.load(cell.writeSet("v2.xml", "v2", thread("counter", "oc_counter_v2.so", cell.dir.path) +
+                                                              thread("adder", "oc_adder_v2.so", cell.dir.path, 2)));
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    const json &report = answer["result"];
+    EXPECT_EQ(report["kept"], json({"counter"}));
+    EXPECT_EQ(report["started"], json({"adder"}));
+    EXPECT_EQ(report["variables"]["added"], json({"oc.added"}));
+    EXPECT_EQ(report["variables"]["removed"], json::array());
+    EXPECT_EQ(report["missed_periods"], 0);
+    settle();
+    const uint64_t after = cell.u64("oc.counter");
+    EXPECT_GT(after, before) << "the counter's value was kept and it went on counting";
+    const double added = cell.f64("oc.added");
+    EXPECT_GT(added, static_cast<double>(before)) << "the new variable is written by the new module";
+    cell.expectCounterMissedNoPeriod();
+}
+
+TEST(OnlineChange, AVariableIsRemovedAndItsRoomStaysAHole) {
+    Cell cell;
+    ASSERT_TRUE(cell.load(cell.writeSet("v2.xml", "v2", thread("counter", "oc_counter_v1.so", cell.dir.path)))["ok"]);
+    // v1's counter module still uses the v1 layout, which had `gone`: accepted, `gone` is a hole.
+    json answer = cell.load(cell.writeSet("v3.xml", "v3", thread("counter", "oc_counter_v1.so", cell.dir.path)));
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    EXPECT_EQ(answer["result"]["kept"], json({"counter"}));
+    EXPECT_EQ(answer["result"]["variables"]["removed"], json({"oc.gone"}));
+    int32_t gone = 0;
+    EXPECT_EQ(read(cell.vars, "oc.gone", sizeof gone, &gone), -1) << "a removed variable has no path";
+    settle();
+    cell.expectCounterMissedNoPeriod();
+}
+
+TEST(OnlineChange, ARetypedVariableMovesAndItsUsersAreRebuiltOrRefused) {
+    Cell cell;
+    ASSERT_TRUE(cell.load(cell.writeSet("v3.xml", "v3", thread("counter", "oc_counter_v1.so", cell.dir.path) +
+                                                            thread("retyped", "oc_retyped_v3.so", cell.dir.path, 2)))["ok"]);
+    settle();
+    EXPECT_GT(cell.f64("oc.retyped"), 0.0);
+    const json generation = cell.generation();
+    // v4 makes oc.retyped a float: the module built against v3 has no place in it.
+    json refused = cell.load(cell.writeSet("v4-old.xml", "v4", thread("counter", "oc_counter_v1.so", cell.dir.path) +
+                                                                   thread("retyped", "oc_retyped_v3.so", cell.dir.path, 2)));
+    ASSERT_FALSE(refused.value("ok", true)) << refused.dump();
+    const std::string message = refused["error"]["message"];
+    EXPECT_NE(message.find("'oc.retyped'"), std::string::npos) << message;
+    EXPECT_NE(message.find("rebuild it against the set's .glb files"), std::string::npos) << message;
+    EXPECT_EQ(cell.generation(), generation) << "the running set is left as it was";
+    double still = 0;
+    EXPECT_EQ(read(cell.vars, "oc.retyped", sizeof still, &still), static_cast<int>(sizeof still))
+        << "the old layout is published again: oc.retyped is the double it was";
+
+    // Built against v1, the counter module knows oc.retyped as a double where v4 no longer has it, so
+    // it is rebuilt too: the same code (it does not use oc.retyped), so the running instance is kept.
+    json answer = cell.load(cell.writeSet("v4.xml", "v4", thread("counter", "oc_counter_v4.so", cell.dir.path) +
+                                                              thread("retyped", "oc_retyped_v4.so", cell.dir.path, 2)));
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    EXPECT_EQ(answer["result"]["kept"], json({"counter"}));
+    EXPECT_EQ(answer["result"]["started"], json({"retyped"}));
+    ASSERT_EQ(answer["result"]["variables"]["moved"].size(), 1u);
+    EXPECT_EQ(answer["result"]["variables"]["moved"][0]["path"], "oc.retyped");
+    EXPECT_EQ(answer["result"]["variables"]["replaced"], json({"retyped"}));
+    settle();
+    float f = 0;
+    ASSERT_EQ(read(cell.vars, "oc.retyped", sizeof f, &f), static_cast<int>(sizeof f));
+    EXPECT_GT(f, 0.0f) << "the moved variable started at zero and the new module counts in it";
+    cell.expectCounterMissedNoPeriod();
+}
+
+TEST(OnlineChange, AProcessBuiltAgainstTheOldLayoutRunsOnTheNewOne) {
+    Cell cell;
+    json answer = cell.load(cell.writeSet("v2.xml", "v2", thread("counter", "oc_counter_v1.so", cell.dir.path) +
+                                                              process("proc", "oc_proc_v1.exe")));
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump() << cell.irpd->err();
+    EXPECT_EQ(answer["result"]["started"], json({"proc"}));
+    settle();
+    EXPECT_GT(cell.u64("oc.proc_runs"), 0u) << cell.irpd->err();
+    cell.expectCounterMissedNoPeriod();
+}
+
+TEST(OnlineChange, ALayoutNotLaidOutAgainstTheRunningOneNeedsARestart) {
+    Cell cell;
+    const json generation = cell.generation();
+    const std::string xml =
+        cell.writeSet("reordered.xml", "reordered", thread("counter", "oc_counter_reordered.so", cell.dir.path));
+    json check = cell.ask({{"cmd", "check"}, {"config", xml}});
+    ASSERT_TRUE(check.value("ok", false)) << check.dump();
+    EXPECT_EQ(check["result"]["valid"], true);
+    EXPECT_EQ(check["result"]["online"], false);
+    const std::string reason = check["result"]["restart"]["reason"];
+    EXPECT_NE(reason.find("keeps its type but moves"), std::string::npos) << check.dump();
+    EXPECT_NE(reason.find("glbc --previous"), std::string::npos) << reason;
+    json refused = cell.load(xml);
+    ASSERT_FALSE(refused.value("ok", true));
+    EXPECT_EQ(refused["error"]["code"], "restart_required") << refused.dump();
+    EXPECT_EQ(cell.generation(), generation);
+    settle();
+    cell.expectCounterMissedNoPeriod();
+}
+
+TEST(OnlineChange, ALayoutOverTheRoomNamesTheOptionThatMakesMore) {
+    Cell cell;
+    json refused = cell.load(cell.writeSet("big.xml", "big", thread("counter", "oc_counter_v1.so", cell.dir.path)));
+    ASSERT_FALSE(refused.value("ok", true));
+    EXPECT_EQ(refused["error"]["code"], "restart_required") << refused.dump();
+    const std::string message = refused["error"]["message"];
+    EXPECT_NE(message.find("--var-headroom"), std::string::npos) << message;
+    cell.expectCounterMissedNoPeriod();
+}
+
+TEST(OnlineChange, MoreRoomTakesTheBigLayoutOnline) {
+    Cell cell("", {"--var-headroom", "8M"});
+    json answer = cell.load(cell.writeSet("big.xml", "big", thread("counter", "oc_counter_v1.so", cell.dir.path)));
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    EXPECT_EQ(answer["result"]["variables"]["added"], json({"oc.huge"}));
+    cell.expectCounterMissedNoPeriod();
+}
