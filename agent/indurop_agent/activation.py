@@ -142,4 +142,5 @@ def irpd_validation(irpd: IrpdClient, module_xml, timeout_s: float = 30.0) -> di
     errors = [str(x) for x in result.get("errors") or []]
     return {"valid": bool(result.get("valid")), "errors": errors,
             "problems": problems(errors, Path(module_xml).parent),
-            "warnings": [str(x) for x in result.get("warnings") or []], "schedule": result.get("schedule")}
+            "warnings": [str(x) for x in result.get("warnings") or []], "schedule": result.get("schedule"),
+            "online": result.get("online"), "restart": result.get("restart"), "variables": result.get("variables")}

@@ -128,6 +128,17 @@ def cmd_variables(c: Client, a, out: Out) -> int:
     return EXIT_OK
 
 
+def cmd_layout(c: Client, a, out: Out) -> int:
+    text = c.layout()
+    if a.output in (None, "-"):
+        sys.stdout.write(text)
+    else:
+        Path(a.output).write_text(text, encoding="utf-8")
+        print(f"wrote {a.output} (layout {json.loads(text).get('hash', '?')[:16]}): lay a changed .glb out against it "
+              f"with glbc --previous {a.output}")
+    return EXIT_OK
+
+
 def cmd_read(c: Client, a, out: Out) -> int:
     answers = [{"path": p, "value": c.read(p)} for p in a.paths]
     if out.as_json:
@@ -351,6 +362,8 @@ def build_parser() -> argparse.ArgumentParser:
     command("enable", cmd_enable, "enable a module (hot reload)").add_argument("module", metavar="MODULE")
     command("disable", cmd_enable, "disable a module (hot reload)").add_argument("module", metavar="MODULE")
     command("variables", cmd_variables, "every shared variable of the running layout")
+    command("layout", cmd_layout, "the running layout.json, for glbc --previous").add_argument(
+        "-o", "--output", metavar="FILE", help="write it to FILE (default: standard output)")
     command("read", cmd_read, "read shared variables").add_argument("paths", nargs="+", metavar="PATH",
                                                                      help="e.g. knu.Robot.tick 'joint[1].y'")
     p = command("write", cmd_write, "write a shared variable")

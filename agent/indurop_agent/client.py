@@ -170,8 +170,8 @@ class Client:
         self.close()
 
     # -- plumbing ---------------------------------------------------------------------------------
-    def request(self, method: str, path: str, *, timeout: float | None = None, **kwargs) -> Any:
-        """One API call (path under /api/v1); the answer's JSON, or ApiError."""
+    def _send(self, method: str, path: str, *, timeout: float | None = None, **kwargs) -> httpx.Response:
+        """One API call (path under /api/v1); the response, or ApiError."""
         try:
             r = self._http.request(method, path, timeout=timeout or self.timeout, **kwargs)
         except httpx.TimeoutException as e:
@@ -180,6 +180,11 @@ class Client:
             raise ApiError(0, f"cannot reach the agent at {self.url}: {e}") from e
         if r.status_code >= 400:
             raise ApiError(r.status_code, _detail(r))
+        return r
+
+    def request(self, method: str, path: str, *, timeout: float | None = None, **kwargs) -> Any:
+        """One API call (path under /api/v1); the answer's JSON, or ApiError."""
+        r = self._send(method, path, timeout=timeout, **kwargs)
         if not r.content:
             return None
         try:
@@ -264,6 +269,10 @@ class Client:
     # -- variables, events, audit -----------------------------------------------------------------
     def variables(self) -> dict:
         return self.get("/variables")
+
+    def layout(self) -> str:
+        """The running layout.json as irpd published it (for glbc --previous)."""
+        return self._send("GET", "/layout").text
 
     def read(self, path: str) -> Any:
         """The value of a shared variable, e.g. read("joint[1].y")."""

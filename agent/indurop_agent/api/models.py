@@ -74,6 +74,32 @@ class Schedule(IrpdShape):
     modules: list[ScheduledModule] = Field(description="every module of the set, in module.xml order")
 
 
+class MovedVariable(BaseModel):
+    model_config = ConfigDict(populate_by_name=True)
+    path: str
+    from_: int = Field(alias="from", description="its offset in the running layout")
+    to: int = Field(description="its offset in the new one (its type changed)")
+
+
+class VariableChanges(BaseModel):
+    """What a set's layout changes in the running shared variables (docs/hot-reload.md)."""
+
+    layout: str | None = Field(None, description="the new layout's hash")
+    added: list[str] = Field([], description="variables the running layout does not have (zeroed before the swap)")
+    removed: list[str] = Field([], description="variables the new layout does not have (their room stays a hole "
+                                               "until irpd restarts)")
+    moved: list[MovedVariable] = Field([], description="variables whose type changed: a new place, zeroed")
+    replaced: list[str] = Field([], description="running modules built against a layout that has a changed "
+                                                "variable elsewhere: they are loaded anew, not kept")
+
+
+class RestartNeed(BaseModel):
+    model_config = ConfigDict(extra="allow")
+    reason: str = Field(description="why irpd cannot take the set online")
+    expected_downtime_ns: int | None = Field(None, description="what the restart is expected to cost: from the last "
+                                                               "period of the running set to the first of the new one")
+
+
 class Validation(BaseModel):
     valid: bool | None = Field(description="irpd's `check` verdict; null when irpd could not check the set")
     errors: list[str] = []
@@ -81,6 +107,10 @@ class Validation(BaseModel):
                                                     "names (where it names one)")
     warnings: list[str] = []
     schedule: Schedule | None = Field(None, description="the slot table irpd would run, as GET /schedule")
+    online: bool | None = Field(None, description="whether irpd can take the set by a hot swap (checked against what "
+                                                  "ran when it was checked); false: only a restart can run it")
+    restart: RestartNeed | None = Field(None, description="when online is false: why, and the expected downtime")
+    variables: VariableChanges | None = Field(None, description="the shared variables it adds, removes and moves")
 
 
 class SetPublic(BaseModel):
@@ -122,6 +152,7 @@ class SwapReport(BaseModel):
     started: list[str] = []
     stopped: list[str] = []
     missed_periods: int | None = Field(None, description="dispatcher periods missed around the swap; the goal is 0")
+    variables: VariableChanges | None = Field(None, description="the shared variables the swap added, removed, moved")
     request_to_swap_ns: int | None = None
     total_ns: int | None = None
 

@@ -103,6 +103,20 @@ def get_set(set_id: str, request: Request, _: ViewerDep) -> SetPublic:
     return _public(request, manifest)
 
 
+@router.post("/sets/{set_id}/check", responses={404: {"description": "no such set"}})
+async def check_set(set_id: str, request: Request, _: OperatorDep) -> SetPublic:
+    """Has irpd check the stored set again against what runs now (the dry run before an activation):
+    its slot table, whether it can be taken online, the shared variables it adds, removes and moves,
+    and, where only a restart can run it, why and the expected downtime.  Kept as its validation."""
+    state = request.app.state
+    if state.store.manifest(set_id) is None:
+        raise HTTPException(404, f"no set {set_id!r}; GET /api/v1/sets lists them")
+    validation = await run_in_threadpool(irpd_validation, state.irpd_swap, state.store.module_xml(set_id),
+                                         state.settings.swap_timeout_s)
+    manifest = await run_in_threadpool(state.store.save_validation, set_id, validation)
+    return _public(request, manifest)
+
+
 def _run_swap(call, root=None):
     """`root`: the folder of the set being activated, so that a refusal can say where in it."""
     try:

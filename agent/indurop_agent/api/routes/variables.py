@@ -1,9 +1,10 @@
 """variables.py -- GET /api/v1/variables (every shared variable of the running set's layout),
-GET /api/v1/variables/{path} (one value, read consistently from shared memory) and
-PUT /api/v1/variables/{path} (operator: irpd writes the value, type-checked against the layout)."""
+GET /api/v1/variables/{path} (one value, read consistently from shared memory),
+PUT /api/v1/variables/{path} (operator: irpd writes the value, type-checked against the layout) and
+GET /api/v1/layout (the running layout.json, to lay a changed .glb out against: glbc --previous)."""
 import math
 
-from fastapi import APIRouter, HTTPException, Request
+from fastapi import APIRouter, HTTPException, Request, Response
 from pydantic import BaseModel, ConfigDict, StrictBool, StrictFloat, StrictInt, field_validator
 
 from ...variables import Segment, VariableError
@@ -18,7 +19,8 @@ def segment(request: Request, irpd) -> Segment:
     if not name:
         raise HTTPException(404, "the running set has no shared variables (no layout)")
     cached = getattr(request.app.state, "segment", None)
-    if cached is not None and cached.name == name:
+    if cached is not None and cached.name == name and not cached.replaced():
+        cached.refresh()  # an online change may have published another layout
         return cached
     try:
         seg = Segment(name)
@@ -34,6 +36,16 @@ def list_variables(request: Request, irpd: IrpdDep, _: ViewerDep) -> VariableLis
     seg = segment(request, irpd)
     return {"layout_hash": seg.hash,
             "variables": [{k: leaf[k] for k in ("path", "type", "size")} for leaf in seg.layout["leaves"]]}
+
+
+@router.get("/layout", response_class=Response, responses={200: {"content": {"application/json": {}},
+                                                                  "description": "the layout.json text"}})
+def running_layout(request: Request, irpd: IrpdDep, _: ViewerDep) -> Response:
+    """The running shared-variable layout (glbc's layout.json, as published last in the segment): the
+    file to give glbc --previous, or indurop_add_glb(... PREVIOUS), when a .glb changes."""
+    seg = segment(request, irpd)
+    return Response(seg.text, media_type="application/json",
+                    headers={"Content-Disposition": 'attachment; filename="layout.json"', "ETag": f'"{seg.hash}"'})
 
 
 @router.get("/variables/{path:path}")
