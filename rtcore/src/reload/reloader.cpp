@@ -111,7 +111,7 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
 }
 
 json Reloader::check(const std::filesystem::path &xml) const {
-    json errors = json::array(), schedule_json = nullptr, variables = nullptr, restart = nullptr;
+    json errors = json::array(), schedule_json = nullptr, variables = nullptr, restart = nullptr, modules = nullptr;
     auto set = config::parseModuleXml(xml);
     if (!set) {
         errors.push_back(set.error().message);
@@ -120,17 +120,34 @@ json Reloader::check(const std::filesystem::path &xml) const {
         auto schedule = schedule::build(*set, s_.limits);
         if (!schedule) errors.push_back(schedule.error().message);
         else schedule_json = schedule::toJson(*schedule, *set);
-        Generation probe;
-        if (Status st = checkAgainst(*set, current().get(), &probe); !st) {
-            if (st.error().code == kRestartRequired) restart = json{{"reason", st.error().message}};
-            else errors.push_back(st.error().message);
-        } else if (probe.layout) {
-            variables = variablesJson(probe);
+        // The plan of a load, without loading: which modules stay, what the layout changes.
+        const auto running = current();
+        auto planned = schedule ? plan(*set, running.get(), running ? running->disabled : std::set<std::string>{}, "")
+                                : Result<std::unique_ptr<Generation>>(Error{""});
+        if (!schedule) {  // still say what else is wrong
+            if (Status st = checkAgainst(*set, running.get()); !st && st.error().code != kRestartRequired)
+                errors.push_back(st.error().message);
+        } else if (!planned) {
+            if (planned.error().code == kRestartRequired) restart = json{{"reason", planned.error().message}};
+            else errors.push_back(planned.error().message);
+        } else {
+            const Generation &next = **planned;
+            if (next.layout) variables = variablesJson(next);
+            std::vector<std::string> kept, started, stopped;
+            for (const config::ModuleSpec &m : next.set.modules)
+                (next.members[static_cast<std::size_t>(m.index)].kept ? kept : started).push_back(m.name);
+            if (running)
+                for (const config::ModuleSpec &m : running->set.modules) {
+                    const int n = next.find(m.name);
+                    if (n < 0 || !next.members[static_cast<std::size_t>(n)].kept) stopped.push_back(m.name);
+                }
+            modules = json{{"kept", kept}, {"started", started}, {"stopped", stopped}};
         }
     }
     // A set that only a restart can run is valid: activation offers the restart (docs/hot-reload.md).
     return json{{"valid", errors.empty()}, {"errors", errors}, {"warnings", json::array()}, {"schedule", schedule_json},
-                {"online", errors.empty() && restart.is_null()}, {"restart", restart}, {"variables", variables}};
+                {"online", errors.empty() && restart.is_null()}, {"restart", restart}, {"variables", variables},
+                {"modules", modules}};
 }
 
 Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const Generation *running,
@@ -216,7 +233,8 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
             std::string list;
             for (const std::string &f : exports_of[m.name]) list += (list.empty() ? "" : ", ") + f;
             return Error{"module '" + m.name + "' exports shared functions (" + list + "): replacing or removing it " +
-                         "needs an irpd restart, since the modules that keep running may hold pointers to them"};
+                             "needs an irpd restart, since the modules that keep running may hold pointers to them",
+                         kRestartRequired};
         }
     }
 
