@@ -1,0 +1,110 @@
+"""test_online_layout.py -- online change of the shared-variable layout through the agent, against a
+real irpd: GET /layout gives the running layout.json; an uploaded set whose layout adds a variable is
+checked online with its variable changes, activated by a hot swap that keeps the counter module, and
+the new variable is listed and read at once; a set laid out afresh is valid but needs a restart, and
+activating it online is refused with the reason.  The fixtures are built by tests/cpp/online/."""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import httpx
+import pytest
+
+from agent_helpers import BUILD, IRPD, free_port, start_agent, start_irpd, stop
+
+ONLINE = BUILD / "tests" / "cpp" / "online"
+pytestmark = pytest.mark.skipif(not (ONLINE / "modules" / "oc_adder_v2.so").exists(),
+                                reason=f"the online-change fixtures are not built ({ONLINE})")
+
+
+def module(name: str, file: str) -> str:
+    return (f"  <module><name>{name}</name><filename>{file}</filename><moduletype>thread</moduletype>"
+            "<operationtype>periodic</operationtype><period>1000000</period><priority>1</priority></module>\n")
+
+
+def set_files(layout: str, *modules: tuple[str, str]) -> list[tuple[str, tuple[str, bytes]]]:
+    """A set: module.xml, its modules (name, fixture file) and the layout of tests/cpp/online/oc_<layout>."""
+    xml = "<root>\n  <layout>layout.json</layout>\n" + "".join(module(n, f) for n, f in modules) + "</root>\n"
+    files = [("files", ("module.xml", xml.encode())),
+             ("files", ("layout.json", (ONLINE / f"oc_{layout}" / "layout.json").read_bytes()))]
+    files += [("files", (f, (ONLINE / "modules" / f).read_bytes())) for _, f in modules]
+    return files
+
+
+class Cell:
+    """irpd on the v1 layout with the counter module, and an agent."""
+
+    def __init__(self, tmp: Path):
+        folder = tmp / "start"
+        folder.mkdir()
+        (folder / "module.xml").write_text("<root>\n  <layout>" + str(ONLINE / "oc_v1" / "layout.json") +
+                                           "</layout>\n" + module("counter", str(ONLINE / "modules" / "oc_counter_v1.so"))
+                                           + "</root>\n")
+        self.sock, data = tmp / "irpd.sock", tmp / "data"
+        self.irpd = start_irpd(self.sock, folder / "module.xml", f"online-{free_port()}")
+        config = tmp / "agent.json"
+        config.write_text(json.dumps({"irpd_poll_s": 0.2}))
+        port = free_port()
+        self.agent = start_agent(port, data, self.sock, "--config", str(config))
+        self.url = f"http://127.0.0.1:{port}/api/v1"
+        self.h = {"Authorization": f"Bearer {(data / 'admin-token').read_text().strip()}"}
+
+    def call(self, method: str, path: str, **kw) -> httpx.Response:
+        return httpx.request(method, f"{self.url}{path}", headers=self.h, timeout=40, **kw)
+
+    def upload(self, files) -> dict:
+        r = self.call("POST", "/sets", files=files)
+        assert r.status_code == 201, r.text
+        return r.json()
+
+    def close(self):
+        stop(self.agent)
+        stop(self.irpd)
+
+
+@pytest.fixture
+def cell(tmp_path):
+    c = Cell(tmp_path)
+    yield c
+    c.close()
+
+
+def test_a_variable_added_online_is_planned_activated_and_read_at_once(cell):
+    running = cell.call("GET", "/layout")
+    assert running.status_code == 200, running.text
+    assert json.loads(running.text)["hash"] == json.loads((ONLINE / "oc_v1" / "layout.json").read_text())["hash"]
+
+    stored = cell.upload(set_files("v2", ("counter", "oc_counter_v2.so"), ("adder", "oc_adder_v2.so")))
+    validation = stored["validation"]
+    assert validation["valid"] is True and validation["online"] is True, validation
+    assert validation["restart"] is None
+    assert validation["variables"]["added"] == ["oc.added"] and validation["variables"]["removed"] == []
+    planned = cell.call("POST", f"/sets/{stored['id']}/check")
+    assert planned.status_code == 200, planned.text
+    assert planned.json()["validation"]["variables"]["added"] == ["oc.added"]
+
+    r = cell.call("POST", f"/sets/{stored['id']}/activate")
+    assert r.status_code == 200, r.text
+    report = r.json()
+    assert report["kept"] == ["counter"] and report["started"] == ["adder"], report
+    assert report["variables"]["added"] == ["oc.added"] and report["missed_periods"] == 0
+
+    assert "oc.added" in [v["path"] for v in cell.call("GET", "/variables").json()["variables"]]
+    deadline = time.monotonic() + 5
+    while cell.call("GET", "/variables/oc.added").json()["value"] == 0:
+        assert time.monotonic() < deadline, "oc.added stayed 0: the adder does not run, or the agent reads the old layout"
+        time.sleep(0.05)
+    assert json.loads(cell.call("GET", "/layout").text)["hash"] == report["variables"]["layout"]
+
+
+def test_a_layout_laid_out_afresh_is_valid_but_needs_a_restart(cell):
+    stored = cell.upload(set_files("reordered", ("counter", "oc_counter_reordered.so")))
+    validation = stored["validation"]
+    assert validation["valid"] is True and validation["online"] is False, validation
+    assert "keeps its type but moves" in validation["restart"]["reason"]
+    r = cell.call("POST", f"/sets/{stored['id']}/activate")
+    assert r.status_code == 409, r.text
+    assert "keeps its type but moves" in r.json()["detail"]
+    assert cell.call("GET", "/status").json()["generation"] == 1
