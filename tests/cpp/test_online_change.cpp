@@ -238,3 +238,20 @@ TEST(OnlineChange, MoreRoomTakesTheBigLayoutOnline) {
     EXPECT_EQ(answer["result"]["variables"]["added"], json({"oc.huge"}));
     cell.expectCounterMissedNoPeriod();
 }
+
+TEST(OnlineChange, TheFixedRoomIsNamedWithTheOptionThatRaisesIt) {
+    Cell cell("", {"--module-records", "1", "--process-slots", "1"});
+    // One module record, taken by the counter: a new module has none left.
+    json refused = cell.load(cell.writeSet("v2.xml", "v2", thread("counter", "oc_counter_v2.so", cell.dir.path) +
+                                                               thread("adder", "oc_adder_v2.so", cell.dir.path, 2)));
+    ASSERT_FALSE(refused.value("ok", true));
+    EXPECT_EQ(refused["error"]["code"], "restart_required") << refused.dump();
+    EXPECT_NE(refused["error"]["message"].get<std::string>().find("--module-records"), std::string::npos) << refused.dump();
+    // One process slot: a set with two processes cannot be taken online.
+    refused = cell.load(cell.writeSet("procs.xml", "v1", thread("counter", "oc_counter_v1.so", cell.dir.path) +
+                                                             process("p1", "oc_proc_v1.exe") + process("p2", "oc_proc_v1.exe")));
+    ASSERT_FALSE(refused.value("ok", true));
+    EXPECT_EQ(refused["error"]["code"], "restart_required") << refused.dump();
+    EXPECT_NE(refused["error"]["message"].get<std::string>().find("--process-slots"), std::string::npos) << refused.dump();
+    cell.expectCounterMissedNoPeriod();
+}

@@ -400,8 +400,9 @@ int run(const Options &options) {
 
     // 2. stats block (room for a hot reload to hold the old and the new modules at once)
     const std::size_t executors = dispatch::Dispatcher::executorCount(*set);
-    auto segment = stats::StatsSegment::create(options.instance,
-                                               executors + std::max(kMinModuleRecords, 2 * set->modules.size()));
+    const std::size_t module_records =
+        options.module_records ? options.module_records : std::max(kMinModuleRecords, 2 * set->modules.size());
+    auto segment = stats::StatsSegment::create(options.instance, executors + module_records);
     if (!segment) return std::cerr << "irpd: error: " << segment.error().message << std::endl, kExitFailure;
     stats::Header *header = segment->header();
     header->basic_ns = schedule->basic_ns;
@@ -469,7 +470,9 @@ int run(const Options &options) {
     auto first = reloader.prepare(*set, nullptr, left_out, "", [&](reload::Generation &g) {
         const std::vector<runtime::FunctionExport> exports = runtime::functionExports();
         auto created = hosts::ControlSegment::create(
-            options.instance, std::max<uint32_t>(kMinProcessSlots, static_cast<uint32_t>(processes)),
+            options.instance,
+            options.process_slots ? std::max(options.process_slots, static_cast<uint32_t>(processes))
+                                  : std::max<uint32_t>(kMinProcessSlots, static_cast<uint32_t>(processes)),
             static_cast<uint32_t>(exports.size()));
         if (!created) return Status{created.error()};
         control = std::move(*created);

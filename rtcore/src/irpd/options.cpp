@@ -15,7 +15,7 @@ namespace {
 enum Flag {
     kConfig = 1000, kPrintSchedule, kJson, kDuration, kStatsJson, kInstance, kMinBasic, kCpu, kRtPriority, kNoRt,
     kPolicy, kMaxCatchup, kHelp, kVersion, kStatsLayout, kLayout, kControlSocket, kModuleCache,
-    kStateDir, kUser, kGroup, kVarHeadroom,
+    kStateDir, kUser, kGroup, kVarHeadroom, kModuleRecords, kProcessSlots,
 };
 
 const option kOptions[] = {
@@ -41,6 +41,8 @@ const option kOptions[] = {
     {"user", required_argument, nullptr, kUser},
     {"group", required_argument, nullptr, kGroup},
     {"var-headroom", required_argument, nullptr, kVarHeadroom},
+    {"module-records", required_argument, nullptr, kModuleRecords},
+    {"process-slots", required_argument, nullptr, kProcessSlots},
     {nullptr, 0, nullptr, 0},
 };
 
@@ -73,6 +75,10 @@ Runs the module set described by FILE.xml (the paper's module.xml) on a strict p
   --var-headroom SIZE      room in the shared-variable segment for variables added by online
                            changes: bytes of data (K, M, G suffixes; default 1M); the locks
                            (one per 256 bytes, at least 256) and the layout text grow with it
+  --module-records N       stats records for modules, old and new at once during a hot reload
+                           (default: the larger of 256 and twice the first set's modules)
+  --process-slots N        control slots for process modules (default: the larger of 16 and the
+                           first set's process modules)
   --module-cache DIR       where thread modules are loaded from: copies named after their content's
                            SHA-256, so a hot reload runs a changed file's new code (default
                            /tmp/indurop-<uid>-<instance>-modules, mode 0700)
@@ -122,6 +128,18 @@ Result<Options> parseOptions(int argc, char **argv) {
             break;
         }
         case kStatsJson: o.stats_json = optarg; break;
+        case kModuleRecords: {
+            auto v = integer("module-records", optarg, 1, 100'000);
+            if (!v) return v.error();
+            o.module_records = static_cast<std::size_t>(*v);
+            break;
+        }
+        case kProcessSlots: {
+            auto v = integer("process-slots", optarg, 1, 4096);
+            if (!v) return v.error();
+            o.process_slots = static_cast<uint32_t>(*v);
+            break;
+        }
         case kVarHeadroom: {
             char *end = nullptr;
             const unsigned long long v = std::strtoull(optarg, &end, 10);

@@ -19,6 +19,8 @@ struct Options {
     std::string control_socket;    // --control-socket PATH ("" = none)
     std::string layout;            // --layout FILE: the set's layout.json, instead of its <layout>
     uint64_t var_headroom = 1u << 20;  // --var-headroom: data bytes for variables added online
+    std::size_t module_records = 0;    // --module-records (0: max(256, 2 x the first set's modules))
+    uint32_t process_slots = 0;        // --process-slots (0: max(16, the first set's processes))
     std::string instance = "default";  // --instance NAME: names the shared memory
     std::string module_cache;      // --module-cache DIR ("" = /tmp/indurop-<uid>-<instance>-modules)
     std::string state_dir;         // --state-dir DIR ("" = /var/lib/indurop/irpd, see kDefaultStateDir)

@@ -104,8 +104,8 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
     for (const config::ModuleSpec &m : set.modules) processes += m.type == config::ModuleType::Process;
     if (running && s_.control && processes > s_.control->slotCount())
         return Error{"the set has " + std::to_string(processes) + " process modules; this irpd has room for " +
-                         std::to_string(s_.control->slotCount()) + " (sized by the set it started with): a restart onto "
-                         "this set makes room",
+                         std::to_string(s_.control->slotCount()) + " (irpd's --process-slots, by default the larger of "
+                         "16 and the first set's): a restart onto this set makes room",
                      kRestartRequired};
     return Ok{};
 }
@@ -287,7 +287,9 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         if (!free) {
             for (std::size_t r : taken) s_.stats->release(r);
             return Error{"no room for module '" + m.name + "' in irpd's stats block (" +
-                         std::to_string(s_.stats->recordCount()) + " records): restart irpd with this set"};
+                         std::to_string(s_.stats->recordCount() - s_.executors) + " module records, irpd's "
+                         "--module-records): restart irpd onto this set, or with a larger --module-records",
+                         kRestartRequired};
         }
         member.record = *free;
         from = *free + 1;
