@@ -89,6 +89,7 @@ ROUTES = [("GET", "/status", "viewer", None, 200), ("GET", "/schedule", "viewer"
           ("GET", "/jitter", "viewer", None, 200), ("GET", "/jitter/histograms", "viewer", None, 200),
           ("GET", "/host", "viewer", None, 200), ("GET", "/variables", "viewer", None, 200),
           ("GET", "/variables/knu.Robot.tick", "viewer", None, 200), ("GET", "/events", "viewer", None, 200),
+          ("GET", "/layout", "viewer", None, 200),
           ("GET", "/sets", "viewer", None, 200), ("GET", "/auth/me", "viewer", None, 200),
           ("POST", "/modules/changes", "operator", DRY_RUN, 200), ("GET", "/audit", "admin", None, 200),
           ("GET", "/tokens", "admin", None, 200), ("POST", "/tokens", "admin", {"name": "x", "role": "viewer"}, 201)]
@@ -123,6 +124,7 @@ def test_every_route_of_the_api_is_in_the_role_matrix(cell):
     covered_elsewhere = {("GET", "/health"), ("PATCH", "/modules/{name}"), ("PUT", "/variables/{path}"),
                          ("POST", "/sets"), ("GET", "/sets/active"), ("GET", "/sets/{set_id}"),
                          ("POST", "/sets/{set_id}/activate"), ("POST", "/sets/rollback"),
+                         ("POST", "/sets/{set_id}/check"),  # test_online_layout.py
                          ("DELETE", "/tokens/{token_id}"), ("GET", "/robot"), ("GET", "/robot/urdf"),
                          ("PUT", "/robot/joints")}
     templates = {("GET", "/modules/cntr1"): ("GET", "/modules/{name}"),

@@ -83,6 +83,10 @@ def test_a_variable_added_online_is_planned_activated_and_read_at_once(cell):
     assert validation["variables"]["added"] == ["oc.added"] and validation["variables"]["removed"] == []
     planned = cell.call("POST", f"/sets/{stored['id']}/check")
     assert planned.status_code == 200, planned.text
+    viewer = cell.call("POST", "/tokens", json={"name": "v", "role": "viewer"}).json()["token"]
+    r = httpx.post(f"{cell.url}/sets/{stored['id']}/check", headers={"Authorization": f"Bearer {viewer}"})
+    assert r.status_code == 403 and "needs the operator role" in r.json()["detail"]
+    assert cell.call("POST", "/sets/0123456789abcdef/check").status_code == 404
     assert planned.json()["validation"]["variables"]["added"] == ["oc.added"]
 
     r = cell.call("POST", f"/sets/{stored['id']}/activate")
