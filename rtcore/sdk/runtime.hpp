@@ -9,6 +9,7 @@
 #include <functional>
 #include <string>
 #include <string_view>
+#include <set>
 #include <vector>
 
 namespace irp::runtime {
@@ -41,7 +42,11 @@ struct FunctionExport {
     detail::AnyFunction fn = nullptr;
     detail::CallShape shape;
 };
-std::vector<FunctionExport> functionExports();
+std::vector<FunctionExport> functionExports();  // the newest export of each name
+// The names a module instance exports, and the instances that found one of them (findFunction in
+// their initialize() or start(): they may hold its pointer).
+std::vector<std::string> exportsOf(uint64_t instance);
+std::set<uint64_t> importersOf(uint64_t instance);
 // FNV-1a 64 of a typeid name: how a call request names its signature (<indurop/control.h>).
 uint64_t signatureHash(const char *signature) noexcept;
 

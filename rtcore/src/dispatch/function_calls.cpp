@@ -97,8 +97,43 @@ std::unique_ptr<CallServer> CallServer::publish(hosts::ControlSegment &control, 
         f.owner = owner ? owner->index : -1;
         if (f.refusal == INDUROP_CALL_OK && f.owner >= 0) server->serves_[static_cast<std::size_t>(f.owner)] = 1;
         server->functions_.push_back(f);
+        server->names_.push_back(x.name);
     }
     atomic(server->header_->calls).store(INDUROP_CALLS_SERVING, std::memory_order_release);
+    return server;
+}
+
+Result<std::unique_ptr<CallServer>> CallServer::rebind(const config::SetSpec &set,
+                                                       const std::vector<runtime::FunctionExport> &exports) const {
+    auto server = std::make_unique<CallServer>();
+    server->header_ = header_;
+    server->slots_ = slots_;
+    server->names_ = names_;
+    server->cursor_.assign(set.modules.size(), 0);
+    server->serves_.assign(set.modules.size(), 0);
+    for (const config::ModuleSpec &m : set.modules) server->owners_.push_back(m.name);
+    for (std::size_t i = 0; i < functions_.size(); ++i) {
+        const Function &was = functions_[i];
+        const runtime::FunctionExport *x = nullptr;
+        for (const runtime::FunctionExport &e : exports)
+            if (e.name == names_[i]) x = &e;
+        const std::string why = "process modules may call shared function '" + names_[i] + "' (the function table "
+                                "irpd published at start): ";
+        if (!x) return Error{why + "no module of the set exports it any more; a restart publishes the table anew"};
+        if (runtime::signatureHash(x->signature.c_str()) != was.signature_hash || x->shape.args_size != was.args_size ||
+            x->shape.result_size != was.result_size)
+            return Error{why + "its signature changes; a restart publishes the table anew"};
+        const config::ModuleSpec *owner = nullptr;
+        for (const config::ModuleSpec &m : set.modules)
+            if (!x->owner.empty() && m.name == x->owner) owner = &m;
+        Function f = was;
+        f.fn = x->fn;
+        f.refusal = refusalOf(*x, owner);
+        f.thunk = f.refusal == INDUROP_CALL_OK ? x->shape.thunk : nullptr;
+        f.owner = owner ? owner->index : -1;
+        if (f.refusal == INDUROP_CALL_OK && f.owner >= 0) server->serves_[static_cast<std::size_t>(f.owner)] = 1;
+        server->functions_.push_back(f);
+    }
     return server;
 }
 

@@ -4,6 +4,7 @@
 // side: rtcore/sdk/calls.cpp; the contract: docs/shared-variables.md, "Shared functions").
 #pragma once
 
+#include "common/result.hpp"
 #include "config/module_xml.hpp"
 #include "hosts/control_segment.hpp"
 #include "sdk/runtime.hpp"
@@ -27,6 +28,15 @@ public:
     static std::unique_ptr<CallServer> publish(hosts::ControlSegment &control, const config::SetSpec &set,
                                                const std::vector<runtime::FunctionExport> &exports,
                                                std::vector<std::string> &notes);
+
+    // The server of a hot reload's new generation: the same table (processes resolved its
+    // functions by index), each function bound to the newest export of its name (a replaced
+    // exporter's new code) and to its owner's index in `set`.  An Error when a function of the
+    // table is no longer exported, or with another signature or size: processes would call what
+    // is not there (a restart republishes the table).  Functions new since the table was published
+    // stay invisible to processes.
+    Result<std::unique_ptr<CallServer>> rebind(const config::SetSpec &set,
+                                               const std::vector<runtime::FunctionExport> &exports) const;
 
     // Whether module (its owner id) owns a function processes may call: its task serves.
     bool serves(int module) const;
@@ -61,6 +71,7 @@ private:
     indurop_control_header *header_ = nullptr;
     std::vector<indurop_process_slot *> slots_;  // every process's call area
     std::vector<Function> functions_;            // in table order
+    std::vector<std::string> names_;             // in table order
     std::vector<uint32_t> cursor_;               // per module: the slot its next scan starts at
     std::vector<char> serves_;                   // per module
     std::vector<std::string> owners_;            // per module: its name

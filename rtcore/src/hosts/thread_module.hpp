@@ -37,6 +37,8 @@ public:
     // variables are all in place is accepted too (layouts::compatible).  Null: no shared variables.
     static Result<std::unique_ptr<ThreadModule>> load(const config::ModuleSpec &spec, const layouts::Model *layout,
                                                       const std::filesystem::path &image = {});
+    // This load of the module (its exports and the finds of its initialize()/start() are recorded under it).
+    uint64_t instance() const { return instance_; }
     // The layout hash stamped into the module ("" when it uses no shared variables).
     const std::string &builtLayout() const { return built_layout_; }
 

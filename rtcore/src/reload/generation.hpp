@@ -8,6 +8,7 @@
 
 #include "config/module_xml.hpp"
 #include "dispatch/dispatcher.hpp"
+#include "dispatch/function_calls.hpp"
 #include "hosts/thread_module.hpp"
 #include "schedule/schedule.hpp"
 #include "variables/layout.hpp"
@@ -45,6 +46,8 @@ struct Generation {
     std::vector<std::string> replaced_for_layout;  // running modules the new layout leaves no place for
     bool published = false;                        // this generation published its layout
     std::shared_ptr<const variables::Layout> previous_layout;  // what undo publishes again
+    // The server of calls from processes bound to this generation's exports (null: none).
+    std::shared_ptr<dispatch::CallServer> calls;
 
     // The index of module `name` in the set, or -1.
     int find(const std::string &name) const {

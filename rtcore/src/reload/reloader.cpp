@@ -224,19 +224,27 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
             if (!old_kept[o] && !was.layout.empty() && !layouts::compatible(was.layout, next->layout->model).empty())
                 next->replaced_for_layout.push_back(running->set.modules[o].name);
         }
-    if (running) {
-        std::map<std::string, std::vector<std::string>> exports_of;
-        for (const runtime::FunctionExport &e : runtime::functionExports()) exports_of[e.owner].push_back(e.name);
+    // A running exporter that goes away: the modules that keep running must not hold pointers into
+    // its code (found by findFunction in their initialize() or start()).
+    if (running)
         for (std::size_t o = 0; o < old_kept.size(); ++o) {
-            const config::ModuleSpec &m = running->set.modules[o];
-            if (old_kept[o] || !exports_of.count(m.name)) continue;
-            std::string list;
-            for (const std::string &f : exports_of[m.name]) list += (list.empty() ? "" : ", ") + f;
-            return Error{"module '" + m.name + "' exports shared functions (" + list + "): replacing or removing it " +
-                             "needs an irpd restart, since the modules that keep running may hold pointers to them",
-                         kRestartRequired};
+            const Member &was = running->members[o];
+            if (old_kept[o] || !was.thread) continue;
+            const std::vector<std::string> exported = runtime::exportsOf(was.thread->instance());
+            if (exported.empty()) continue;
+            const std::set<uint64_t> importers = runtime::importersOf(was.thread->instance());
+            for (const config::ModuleSpec &m : spec.modules) {
+                const Member &member = next->members[static_cast<std::size_t>(m.index)];
+                if (!member.kept || !member.thread || !importers.count(member.thread->instance())) continue;
+                std::string list;
+                for (const std::string &f : exported) list += (list.empty() ? "" : ", ") + f;
+                return Error{"module '" + m.name + "' keeps running and calls shared functions of module '" +
+                                 running->set.modules[o].name + "' (" + list + ") through pointers it found at its "
+                                 "start: replacing or removing '" + running->set.modules[o].name + "' online needs '" +
+                                 m.name + "' replaced too; a restart does both",
+                             kRestartRequired};
+            }
         }
-    }
 
     // Estimated utilization per executor: measured exec p99 of kept modules, budget of new ones.
     Estimate own;
@@ -346,6 +354,16 @@ Status Reloader::realize(Generation &generation, const Generation *running,
             undo(*next);
             return st.error();
         }
+    // Calls from processes go to this generation's exports (a replaced exporter's new code).
+    if (running && s_.calls) {
+        auto rebound = s_.calls->rebind(spec, runtime::functionExports());
+        if (!rebound) {
+            undo(*next);
+            return Error{rebound.error().message, kRestartRequired};
+        }
+        next->calls = std::move(*rebound);
+    }
+    dispatch::CallServer *calls = next->calls ? next->calls.get() : s_.calls;
 
     // New process modules: a free control slot each, spawned and awaited until ready.
     std::vector<bool> slot_used(s_.control ? s_.control->slotCount() : 0, false);
@@ -404,9 +422,9 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         }
         if (member.slot >= 0 && m.operation != config::OperationType::NonReal)
             b.process = &s_.control->slot(static_cast<uint32_t>(member.slot));
-        if (s_.calls) {
-            b.owner = s_.calls->ownerId(m.name);
-            if (s_.calls->serves(b.owner)) b.calls = s_.calls;
+        if (calls) {
+            b.owner = calls->ownerId(m.name);
+            if (calls->serves(b.owner)) b.calls = calls;
         }
         b.disabled = next->disabled.count(m.name) > 0;
         bindings.push_back(b);
@@ -699,6 +717,7 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
         text << "; shared variables " << next->variables.added.size() << " added, " << next->variables.removed.size()
              << " removed, " << next->variables.moved.size() << " moved (layout " << next->layout->hash.substr(0, 12) << "…)";
     s_.events->add("swap", "", text.str());
+    if (next->calls) s_.calls = next->calls.get();
     {
         std::lock_guard lock(mutex_);
         current_ = std::shared_ptr<Generation>(std::move(next));
