@@ -142,6 +142,27 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/layout": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Running Layout
+         * @description The running shared-variable layout (glbc's layout.json, as published last in the segment): the
+         *     file to give glbc --previous, or indurop_add_glb(... PREVIOUS), when a .glb changes.
+         */
+        get: operations["running_layout_api_v1_layout_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/modules": {
         parameters: {
             query?: never;
@@ -375,6 +396,28 @@ export interface paths {
          * @description Hot-swaps irpd to this set (at a macro-period boundary); on refusal nothing changes.
          */
         post: operations["activate_api_v1_sets__set_id__activate_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/sets/{set_id}/check": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Check Set
+         * @description Has irpd check the stored set again against what runs now (the dry run before an activation):
+         *     its slot table, whether it can be taken online, the shared variables it adds, removes and moves,
+         *     and, where only a restart can run it, why and the expected downtime.  Kept as its validation.
+         */
+        post: operations["check_set_api_v1_sets__set_id__check_post"];
         delete?: never;
         options?: never;
         head?: never;
@@ -921,6 +964,21 @@ export interface components {
              */
             priority?: number | null;
         };
+        /** MovedVariable */
+        MovedVariable: {
+            /**
+             * From
+             * @description its offset in the running layout
+             */
+            from: number;
+            /** Path */
+            path: string;
+            /**
+             * To
+             * @description its offset in the new one (its type changed)
+             */
+            to: number;
+        };
         /** PatchReport */
         PatchReport: {
             /** Basic Period Ns */
@@ -969,6 +1027,8 @@ export interface components {
             swap_cycle?: number | null;
             /** Total Ns */
             total_ns?: number | null;
+            /** @description the shared variables the swap added, removed, moved */
+            variables?: components["schemas"]["VariableChanges"] | null;
         } & {
             [key: string]: unknown;
         };
@@ -1002,6 +1062,21 @@ export interface components {
             rss_bytes: number;
             /** Threads */
             threads: number;
+        };
+        /** RestartNeed */
+        RestartNeed: {
+            /**
+             * Expected Downtime Ns
+             * @description what the restart is expected to cost: from the last period of the running set to the first of the new one
+             */
+            expected_downtime_ns?: number | null;
+            /**
+             * Reason
+             * @description why irpd cannot take the set online
+             */
+            reason: string;
+        } & {
+            [key: string]: unknown;
         };
         /** RobotJoint */
         RobotJoint: {
@@ -1374,6 +1449,8 @@ export interface components {
             swap_cycle?: number | null;
             /** Total Ns */
             total_ns?: number | null;
+            /** @description the shared variables the swap added, removed, moved */
+            variables?: components["schemas"]["VariableChanges"] | null;
         } & {
             [key: string]: unknown;
         };
@@ -1481,11 +1558,18 @@ export interface components {
              */
             errors: string[];
             /**
+             * Online
+             * @description whether irpd can take the set by a hot swap (checked against what ran when it was checked); false: only a restart can run it
+             */
+            online?: boolean | null;
+            /**
              * Problems
              * @description `errors` again, each with the file, line and column it names (where it names one)
              * @default []
              */
             problems: components["schemas"]["Problem"][];
+            /** @description when online is false: why, and the expected downtime */
+            restart?: components["schemas"]["RestartNeed"] | null;
             /** @description the slot table irpd would run, as GET /schedule */
             schedule?: components["schemas"]["Schedule"] | null;
             /**
@@ -1493,6 +1577,8 @@ export interface components {
              * @description irpd's `check` verdict; null when irpd could not check the set
              */
             valid: boolean | null;
+            /** @description the shared variables it adds, removes and moves */
+            variables?: components["schemas"]["VariableChanges"] | null;
             /**
              * Warnings
              * @default []
@@ -1507,6 +1593,41 @@ export interface components {
             msg: string;
             /** Error Type */
             type: string;
+        };
+        /**
+         * VariableChanges
+         * @description What a set's layout changes in the running shared variables (docs/hot-reload.md).
+         */
+        VariableChanges: {
+            /**
+             * Added
+             * @description variables the running layout does not have (zeroed before the swap)
+             * @default []
+             */
+            added: string[];
+            /**
+             * Layout
+             * @description the new layout's hash
+             */
+            layout?: string | null;
+            /**
+             * Moved
+             * @description variables whose type changed: a new place, zeroed
+             * @default []
+             */
+            moved: components["schemas"]["MovedVariable"][];
+            /**
+             * Removed
+             * @description variables the new layout does not have (their room stays a hole until irpd restarts)
+             * @default []
+             */
+            removed: string[];
+            /**
+             * Replaced
+             * @description running modules built against a layout that has a changed variable elsewhere: they are loaded anew, not kept
+             * @default []
+             */
+            replaced: string[];
         };
         /** VariableInfo */
         VariableInfo: {
@@ -1759,6 +1880,26 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    running_layout_api_v1_layout_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description the layout.json text */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": unknown;
                 };
             };
         };
@@ -2258,6 +2399,44 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["ErrorBody"];
                 };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    check_set_api_v1_sets__set_id__check_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                set_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SetPublic"];
+                };
+            };
+            /** @description no such set */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
             /** @description Validation Error */
             422: {
