@@ -192,8 +192,8 @@ export class ActivationReview {
         return;
       }
       setText(button, req.mode === "restart" ? "Restarting irpd…" : "Swapping…");
-      const post = this.ctx.api.POST as unknown as ActivatePost;
-      const report = unwrap(await post("/api/v1/sets/{set_id}/activate", { params: { path: { set_id: this.setId } }, body: { mode: req.mode } }));
+      const api = this.ctx.api as unknown as { POST: ActivatePost };
+      const report = unwrap(await api.POST("/api/v1/sets/{set_id}/activate", { params: { path: { set_id: this.setId } }, body: { mode: req.mode } }));
       this.busy = false;
       this.close();
       this.onReport(`Set ${this.setId} ${req.mode === "restart" ? "activated by a restart of irpd" : "activated"}`, report);
