@@ -90,6 +90,13 @@ test("an upload that adds a shared variable shows the variable diff, then activa
     await restart.getByTestId("plan-restart-confirm").check();
     await expect(go).toBeEnabled();
     await shot(page, "upload-restart-needed");
+
+    // the same review from the set history (checked again there)
+    const id = (await page.getByTestId("upload-set-id").textContent()) ?? "";
+    await page.getByTestId(`activate-${id}`).click();
+    const fromHistory = page.getByTestId("set-review").getByTestId("plan");
+    await expect(fromHistory.getByTestId("plan-restart")).toContainText("start at zero");
+    await expect(fromHistory.getByTestId("plan-activate")).toBeDisabled();
   } finally {
     await stopServer(s);
   }
