@@ -1,7 +1,9 @@
 // set-history.ts -- the stored sets (GET /sets, newest first) with activate and roll back
-// (operator), each asked for once more before it hot swaps irpd, answered with the swap report.
+// (operator): activate opens the activation review (irpd's check against what runs now, then one
+// button), roll back is asked for once more; both are answered with the swap report.
 import { unwrap } from "../api/client";
 import type { AppContext } from "../app/context";
+import { ActivationReview } from "./activation-review";
 import { errorText, h, setText } from "./dom";
 import type { SetSummary, SwapReport } from "./types";
 import { formatTime } from "./units";
@@ -13,6 +15,8 @@ export class SetHistory {
   private error = h("div", { class: "ops-error", "data-testid": "set-history-error", hidden: true });
   private actionError = h("div", { class: "ops-error", "data-testid": "set-action-error", hidden: true, role: "alert" });
   private confirmBar = h("div", { class: "ops-confirm", "data-testid": "set-confirm", hidden: true });
+  private reviewArea = h("div", { "data-testid": "set-review", hidden: true });
+  private review: ActivationReview | null = null;
   private sets: SetSummary[] = [];
   private busy = false;
   private lastKey = "";
@@ -34,6 +38,7 @@ export class SetHistory {
       h("h3", {}, "Set history", this.info),
       canAct ? h("div", { class: "ops-actions" }, rollback) : null,
       this.confirmBar,
+      this.reviewArea,
       this.actionError,
       this.error,
       h(
@@ -98,14 +103,42 @@ export class SetHistory {
     );
   }
 
+  /** The activation review of set `id` (for the upload result), or null for a viewer; `onClose` when it is done or cancelled. */
+  reviewOf(id: string, onClose: () => void = () => {}): HTMLElement | null {
+    if (!this.ctx.can("operator")) return null;
+    return new ActivationReview(this.ctx, id, (title, r) => this.reported(title, r), onClose).element;
+  }
+
+  /** Opens the activation review of set `id` above the history (one at a time). */
   activate(id: string): void {
-    this.ask(`Activate set ${id}? irpd hot swaps to it at the next macro-period boundary.`, `activate ${id}`, async () =>
-      unwrap(await this.ctx.api.POST("/api/v1/sets/{set_id}/activate", { params: { path: { set_id: id } } })),
-    );
+    if (this.busy) return;
+    this.review?.close();
+    this.confirmBar.hidden = true;
+    this.actionError.hidden = true;
+    const review = new ActivationReview(this.ctx, id, (title, r) => this.reported(title, r), () => {
+      if (this.review !== review) return;
+      this.review = null;
+      this.reviewArea.hidden = true;
+      this.reviewArea.replaceChildren();
+    });
+    this.review = review;
+    this.reviewArea.replaceChildren(review.element);
+    this.reviewArea.hidden = false;
+    this.reviewArea.scrollIntoView?.({ block: "nearest" });
+  }
+
+  private reported(title: string, r: SwapReport): void {
+    this.onReport(title, r);
+    this.lastKey = "";
+    void this.refresh();
   }
 
   private ask(question: string, what: string, act: () => Promise<SwapReport>): void {
     if (this.busy) return;
+    this.review?.close();
+    this.review = null;
+    this.reviewArea.hidden = true;
+    this.reviewArea.replaceChildren();
     const yes = h("button", { class: "primary danger", "data-testid": "set-confirm-yes" }, "Confirm");
     const no = h("button", { "data-testid": "set-confirm-no" }, "Cancel");
     this.confirmBar.hidden = false;
@@ -124,7 +157,7 @@ export class SetHistory {
         const report = await act();
         this.confirmBar.hidden = true;
         this.actionError.hidden = true;
-        this.onReport(what === "rollback" ? "Rolled back" : `Set ${what.replace(/^activate /, "")} activated`, report);
+        this.onReport("Rolled back", report);
         this.ctx.notify(`${what}: done`);
       } catch (e) {
         this.confirmBar.hidden = true;

@@ -13,6 +13,7 @@ export type SwapReport = S["SwapReport"];
 export type SetSummary = S["SetSummary"];
 export type SetPublic = S["SetPublic"];
 export type Validation = S["Validation"];
+export type VariableChanges = S["VariableChanges"];
 
 /** GET /health (no token). */
 export interface Health {

@@ -1,6 +1,6 @@
 // upload-panel.ts -- uploading a set (admin): drop its folder, its files or one .tar.gz (or pick
 // them), watch the upload's progress, read irpd's validation of the stored set or the refusal
-// with its file and line.
+// with its file and line; then the activation review (what activating it would change, one button).
 import type { AppContext } from "../app/context";
 import { h, setText } from "./dom";
 import { renderSlotTable } from "./slot-table-view";
@@ -22,7 +22,7 @@ export class UploadPanel {
   constructor(
     private readonly ctx: AppContext,
     private readonly onStored: (set: SetPublic) => void,
-    private readonly renderActivate: (id: string) => HTMLElement | null,
+    private readonly renderActivate: (id: string, onClose: () => void) => HTMLElement | null,
   ) {
     const pickFiles = h("input", { type: "file", multiple: true, hidden: true, "data-testid": "upload-files" });
     const pickFolder = h("input", { type: "file", hidden: true, "data-testid": "upload-folder" });
@@ -134,9 +134,11 @@ export class UploadPanel {
 
   private showResult(set: SetPublic): void {
     const v = set.validation;
-    const verdict = v.valid === true ? "valid" : v.valid === false ? "NOT valid: irpd will refuse to activate it" : "not checked (irpd did not answer)";
+    const verdict = v.valid === true ? (v.online === false ? "valid; only a restart of irpd can run it" : "valid") : v.valid === false ? "NOT valid: irpd will refuse to activate it" : "not checked (irpd did not answer)";
     const cls = v.valid === true ? "good" : v.valid === false ? "bad" : "warn";
     const schedule = v.schedule ? (v.schedule as unknown as Schedule) : null;
+    // the review shows the slot table now and after beside the variable diff; without one, the set's own table
+    const review: HTMLElement | null = !set.active && v.valid !== false ? this.renderActivate(set.id, () => review?.remove()) : null;
     this.result.hidden = false;
     // h() leaves out the parts that are null
     this.result.replaceChildren(
@@ -147,7 +149,7 @@ export class UploadPanel {
         h("div", { class: `state ${cls}`, "data-testid": "upload-valid" }, `validation: ${verdict}`),
         v.errors.length ? h("ul", { class: "ops-issues" }, ...v.errors.map((e) => h("li", { class: "bad mono" }, e))) : null,
         v.warnings.length ? h("ul", { class: "ops-issues" }, ...v.warnings.map((w) => h("li", { class: "warn" }, w))) : null,
-        schedule && schedule.slots ? renderSlotTable(buildSlotTable(schedule), { testid: "upload-schedule" }) : null,
+        !review && schedule && schedule.slots ? renderSlotTable(buildSlotTable(schedule), { testid: "upload-schedule" }) : null,
         h(
           "details",
           {},
@@ -165,7 +167,7 @@ export class UploadPanel {
             ),
           ),
         ),
-        !set.active && v.valid !== false ? this.renderActivate(set.id) : null,
+        review,
       ),
     );
   }

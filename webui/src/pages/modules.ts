@@ -1,7 +1,8 @@
 // modules.ts -- the modules page: every module of the running set with its live figures (every
 // second); for operators, inline edits of period, priority and enabled, checked as typed and by a
 // dry run, applied in one hot swap after a preview; for admins, set uploads; the set history
-// with activate and roll back.
+// with activate (after irpd's check against what runs now: slot tables, shared variables, restart)
+// and roll back.
 import "../ops/ops.css";
 import { unwrap } from "../api/client";
 import type { Page } from "../app/context";
@@ -31,7 +32,7 @@ export const modulesPage: Page = (root, ctx) => {
 
   if (editable) panel = new ChangePanel(ctx, table, showReport);
   const sets = new SetHistory(ctx, showReport);
-  const upload = ctx.can("admin") ? new UploadPanel(ctx, () => void sets.refresh(), (id) => sets.activateButton(id)) : null;
+  const upload = ctx.can("admin") ? new UploadPanel(ctx, () => void sets.refresh(), (id, onClose) => sets.reviewOf(id, onClose)) : null;
 
   const info = h("span", { class: "ops-sub", "data-testid": "modules-info" });
   const error = h("div", { class: "ops-error", "data-testid": "modules-error", hidden: true });

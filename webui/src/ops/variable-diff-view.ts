@@ -1,0 +1,49 @@
+// variable-diff-view.ts -- the shared variables a set's layout changes against the running one
+// (a check's or a swap report's `variables`): added, removed, moved with their byte offsets from
+// -> to, and the modules irpd loads anew because of the layout; one line when nothing changes.
+import type { VariableDiff } from "./activation";
+import { h } from "./dom";
+
+/** The shared-variable diff: added, removed, moved (byte offsets from → to), and the modules replaced. */
+export function renderVariableDiff(d: VariableDiff, testid = "plan-variables"): HTMLElement {
+  const sign = { added: "+ added", removed: "− removed", moved: "~ moved" } as const;
+  const notes = [
+    d.rows.some((r) => r.kind !== "removed") ? "added and moved variables start at zero" : "",
+    d.rows.some((r) => r.kind === "removed") ? "a removed variable's room stays empty until irpd restarts" : "",
+  ].filter(Boolean);
+  return h(
+    "div",
+    { class: "ops-vardiff", "data-testid": testid },
+    h("div", { class: d.unchanged ? "ops-sub" : "", "data-testid": `${testid}-summary` }, d.summary),
+    d.rows.length
+      ? h(
+          "table",
+          { class: "ops-grid ops-dense" },
+          h("thead", {}, h("tr", {}, h("th", {}, "change"), h("th", {}, "variable"), h("th", { class: "num" }, "byte offset"))),
+          h(
+            "tbody",
+            {},
+            ...d.rows.map((r) =>
+              h(
+                "tr",
+                { class: `vardiff-${r.kind}`, "data-variable": r.path },
+                h("td", {}, sign[r.kind]),
+                h("td", { class: "mono" }, r.path),
+                h("td", { class: "num mono" }, r.kind === "moved" ? `${r.from} → ${r.to}` : ""),
+              ),
+            ),
+          ),
+        )
+      : null,
+    notes.length ? h("div", { class: "ops-sub" }, notes.join("; ")) : null,
+    d.replaced.length
+      ? h(
+          "div",
+          { "data-testid": `${testid}-replaced` },
+          "replaced because of the layout (loaded anew, not kept): ",
+          h("span", { class: "mono" }, d.replaced.join(", ")),
+        )
+      : null,
+    d.layout && !d.unchanged ? h("div", { class: "ops-sub mono", title: d.layout }, `layout ${d.layout.slice(0, 12)}…`) : null,
+  );
+}
