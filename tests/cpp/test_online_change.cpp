@@ -255,3 +255,61 @@ TEST(OnlineChange, TheFixedRoomIsNamedWithTheOptionThatRaisesIt) {
     EXPECT_NE(refused["error"]["message"].get<std::string>().find("--process-slots"), std::string::npos) << refused.dump();
     cell.expectCounterMissedNoPeriod();
 }
+
+// ---- exporters of shared functions replaced online -----------------------------------------------
+
+namespace {
+
+std::string fixture(const std::string &name, const std::string &file, int64_t period_ns, int priority,
+                    const std::string &type = "thread", const std::string &extra = "") {
+    return "  <module><name>" + name + "</name><filename>" + std::string(FIXTURE_MODULES) + "/../" +
+           (type == "thread" ? "modules/" : "processes/bin/") + file + "</filename><moduletype>" + type +
+           "</moduletype><operationtype>" + (period_ns ? "periodic" : "non-real") + "</operationtype>" +
+           (period_ns ? "<period>" + std::to_string(period_ns) + "</period><priority>" + std::to_string(priority) +
+                            "</priority>"
+                      : "") +
+           extra + "</module>\n";
+}
+
+} // namespace
+
+TEST(OnlineChange, AnExporterAKeptModuleCallsIntoNeedsThatModuleReplacedToo) {
+    Cell cell(fixture("math", "fn_export.so", 1'000'000, 2) + fixture("user", "fn_import.so", 1'000'000, 3));
+    const json generation = cell.generation();
+    json refused = cell.load(cell.writeSet("v1-math2.xml", "v1", thread("counter", "oc_counter_v1.so", cell.dir.path) +
+                                                                     fixture("math", "fn_export_v2.so", 1'000'000, 2) +
+                                                                     fixture("user", "fn_import.so", 1'000'000, 3)));
+    ASSERT_FALSE(refused.value("ok", true));
+    EXPECT_EQ(refused["error"]["code"], "restart_required") << refused.dump();
+    const std::string message = refused["error"]["message"];
+    EXPECT_NE(message.find("module 'user' keeps running and calls shared functions of module 'math' (math.scale)"),
+              std::string::npos) << message;
+    EXPECT_EQ(cell.generation(), generation);
+    // With its user replaced too, the new exporter goes in online; so does removing both.
+    json answer = cell.load(cell.writeSet("v1-both.xml", "v1", thread("counter", "oc_counter_v1.so", cell.dir.path) +
+                                                                   fixture("math", "fn_export_v2.so", 1'000'000, 2) +
+                                                                   fixture("user", "fn_import_v2.so", 1'000'000, 3)));
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    EXPECT_EQ(answer["result"]["started"], json({"math", "user"}));
+    answer = cell.load(cell.writeSet("v1-none.xml", "v1", thread("counter", "oc_counter_v1.so", cell.dir.path)));
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    EXPECT_EQ(answer["result"]["stopped"], json({"math", "user"}));
+    cell.expectCounterMissedNoPeriod();
+}
+
+TEST(OnlineChange, ProcessesCallTheNewCodeOfAnExporterReplacedOnline) {
+    Cell cell(fixture("owner", "fn_owner.so", 1'000'000, 2) +
+              fixture("caller", "fn_caller.exe", 0, 0, "process", "<property><value name=\"args\">--loop</value></property>"));
+    ASSERT_TRUE(cell.irpd->waitForOut("scale=10")) << cell.irpd->out() << cell.irpd->err();
+    json answer = cell.load(cell.writeSet("owner2.xml", "v1",
+                                          thread("counter", "oc_counter_v1.so", cell.dir.path) +
+                                              fixture("owner", "fn_owner_v2.so", 1'000'000, 2) +
+                                              fixture("caller", "fn_caller.exe", 0, 0, "process",
+                                                      "<property><value name=\"args\">--loop</value></property>")));
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    EXPECT_EQ(answer["result"]["started"], json({"owner"}));
+    EXPECT_EQ(answer["result"]["kept"], json({"counter", "caller"}));
+    EXPECT_TRUE(cell.irpd->waitForOut("scale=14")) << cell.irpd->out() << cell.irpd->err();
+    EXPECT_EQ(cell.irpd->out().find("scale failed"), std::string::npos) << cell.irpd->out();
+    cell.expectCounterMissedNoPeriod();
+}

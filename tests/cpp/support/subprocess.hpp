@@ -87,17 +87,24 @@ public:
         return -1;
     }
 
-    // Waits until stderr holds `text`.
+    // Waits until stderr (stdout) holds `text`.
     bool waitForErr(const std::string &text, std::chrono::milliseconds limit = std::chrono::seconds(20)) {
+        return waitFor(err_, text, limit);
+    }
+    bool waitForOut(const std::string &text, std::chrono::milliseconds limit = std::chrono::seconds(20)) {
+        return waitFor(out_, text, limit);
+    }
+
+private:
+    static bool waitFor(const std::filesystem::path &file, const std::string &text, std::chrono::milliseconds limit) {
         auto end = std::chrono::steady_clock::now() + limit;
         while (std::chrono::steady_clock::now() < end) {
-            if (err().find(text) != std::string::npos) return true;
+            if (readFile(file).find(text) != std::string::npos) return true;
             std::this_thread::sleep_for(std::chrono::milliseconds(10));
         }
         return false;
     }
 
-private:
     pid_t pid_ = -1;
     bool exited_ = false;
     int status_ = -1;
