@@ -335,7 +335,7 @@ export interface paths {
         put?: never;
         /**
          * Rollback
-         * @description Activates the set that was active before the current one.
+         * @description Activates the set that was active before the current one (mode as for activate).
          */
         post: operations["rollback_api_v1_sets_rollback_post"];
         delete?: never;
@@ -372,7 +372,10 @@ export interface paths {
         put?: never;
         /**
          * Activate
-         * @description Hot-swaps irpd to this set (at a macro-period boundary); on refusal nothing changes.
+         * @description Puts this set into irpd: mode online (the default) hot-swaps it at a macro-period boundary and
+         *     refuses (409) a set that needs a restart, naming why; mode restart restarts irpd (same pid) onto
+         *     it; auto restarts only when needed.  On refusal, or when a restarted irpd came back on its old
+         *     set (409), nothing changes.
          */
         post: operations["activate_api_v1_sets__set_id__activate_post"];
         delete?: never;
@@ -472,6 +475,19 @@ export interface paths {
 export type webhooks = Record<string, never>;
 export interface components {
     schemas: {
+        /**
+         * ActivateRequest
+         * @description How to put a set into irpd (docs/set-store.md, activation modes).
+         */
+        ActivateRequest: {
+            /**
+             * Mode
+             * @description online: a hot swap, refused (409) for a set irpd can run only after a restart; restart: irpd stops and starts again (same pid) on the set; auto: restart only when irpd cannot take the set online
+             * @default online
+             * @enum {string}
+             */
+            mode: "online" | "restart" | "auto";
+        };
         /** ActiveSet */
         ActiveSet: {
             /**
@@ -925,6 +941,11 @@ export interface components {
         PatchReport: {
             /** Basic Period Ns */
             basic_period_ns?: number | null;
+            /**
+             * Downtime Ns
+             * @description restart: from the old set's last period to the new one's first, as irpd measured it; null for a hot swap
+             */
+            downtime_ns?: number | null;
             /** Generation */
             generation?: number | null;
             /**
@@ -939,6 +960,13 @@ export interface components {
              * @description dispatcher periods missed around the swap; the goal is 0
              */
             missed_periods?: number | null;
+            /**
+             * Mode
+             * @description how the set went in: a hot swap or a restart
+             * @default online
+             * @enum {string}
+             */
+            mode: "online" | "restart";
             /**
              * Reports
              * @description one per field applied, in the order period_ns, priority, enabled
@@ -1270,6 +1298,13 @@ export interface components {
                 [key: string]: unknown;
             } | null;
             /**
+             * Last Restart
+             * @description the managed restart this irpd came from ({from_set_id, set_id, downtime_ns, requested_ns, fell_back, error}), or null
+             */
+            last_restart?: {
+                [key: string]: unknown;
+            } | null;
+            /**
              * Left Out After Crash
              * @description modules a crash left out ({module, set})
              * @default []
@@ -1330,11 +1365,16 @@ export interface components {
         };
         /**
          * SwapReport
-         * @description irpd's report of a hot swap (control protocol v2).
+         * @description irpd's report of a hot swap (control protocol v2), or of a managed restart (mode restart).
          */
         SwapReport: {
             /** Basic Period Ns */
             basic_period_ns?: number | null;
+            /**
+             * Downtime Ns
+             * @description restart: from the old set's last period to the new one's first, as irpd measured it; null for a hot swap
+             */
+            downtime_ns?: number | null;
             /** Generation */
             generation?: number | null;
             /**
@@ -1349,6 +1389,13 @@ export interface components {
              * @description dispatcher periods missed around the swap; the goal is 0
              */
             missed_periods?: number | null;
+            /**
+             * Mode
+             * @description how the set went in: a hot swap or a restart
+             * @default online
+             * @enum {string}
+             */
+            mode: "online" | "restart";
             /** Request To Swap Ns */
             request_to_swap_ns?: number | null;
             /** Set */
@@ -2165,7 +2212,11 @@ export interface operations {
             path?: never;
             cookie?: never;
         };
-        requestBody?: never;
+        requestBody?: {
+            content: {
+                "application/json": components["schemas"]["ActivateRequest"] | null;
+            };
+        };
         responses: {
             /** @description Successful Response */
             200: {
@@ -2182,6 +2233,15 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
             };
         };
     };
@@ -2232,7 +2292,11 @@ export interface operations {
             };
             cookie?: never;
         };
-        requestBody?: never;
+        requestBody?: {
+            content: {
+                "application/json": components["schemas"]["ActivateRequest"] | null;
+            };
+        };
         responses: {
             /** @description Successful Response */
             200: {
@@ -2250,7 +2314,7 @@ export interface operations {
                 };
                 content?: never;
             };
-            /** @description irpd refused the set (its message; file and line where it names them) */
+            /** @description irpd refused the set (its message; file and line where it names them), a set that needs a restart in mode online, or a restart after which irpd came back on its old set */
             409: {
                 headers: {
                     [name: string]: unknown;
