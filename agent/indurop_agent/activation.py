@@ -90,6 +90,7 @@ class Activator:
             mode = "restart" if checked.get("valid") and checked.get("online") is False else "online"
         if mode == "restart":
             report = self._restart(config, set_id)
+            action = "restart" if action == "activate" else action  # a rollback stays one (the stack pops)
         else:
             report = {**(self._load(config, set_id) or {}), "mode": "online"}
         self.store.record_activation(set_id, action, who, report)

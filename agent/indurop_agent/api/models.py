@@ -103,7 +103,7 @@ class SetSummary(BaseModel):
 
 class ActiveSet(SetPublic):
     since: str = Field(description="when it became active")
-    action: str = Field(description="how: activate, rollback or restore")
+    action: str = Field(description="how: activate, restart (activated by a restart of irpd), rollback or restore")
     rollback_to: str | None = Field(description="the set POST /sets/rollback would activate")
 
 

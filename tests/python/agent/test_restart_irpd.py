@@ -80,9 +80,11 @@ def test_mode_restart_restarts_irpd_onto_the_set_with_the_same_pid(cell):
     assert status["set_id"] == side["id"] and status["pid"] == pid and cell.irpd.poll() is None
     assert status["last_restart"]["downtime_ns"] == report["downtime_ns"]
     history = [json.loads(line) for line in (cell.data / "history.jsonl").read_text().splitlines()]
-    assert [(h["action"], h["set_id"]) for h in history] == [("activate", base["id"]), ("activate", side["id"])]
-    assert cell.get("/sets/active").json()["id"] == side["id"]
-    audit = [e for e in cell.get("/audit").json() if e["action"] == "activate"][-1]
+    assert [(h["action"], h["set_id"]) for h in history] == [("activate", base["id"]), ("restart", side["id"])]
+    assert history[-1]["mode"] == "restart" and history[-1]["downtime_ns"] == report["downtime_ns"]
+    active = cell.get("/sets/active").json()
+    assert active["id"] == side["id"] and active["action"] == "restart" and active["rollback_to"] == base["id"]
+    audit = [e for e in cell.get("/audit").json() if e["action"] == "activate"][-1]  # the route's action
     assert audit["result"] == "ok" and audit["mode"] == "restart" and audit["downtime_ns"] == report["downtime_ns"]
     kinds = [e["kind"] for e in cell.get("/events").json()["events"]]
     assert "restart" in kinds  # irpd's

@@ -492,7 +492,7 @@ export interface components {
         ActiveSet: {
             /**
              * Action
-             * @description how: activate, rollback or restore
+             * @description how: activate, restart (activated by a restart of irpd), rollback or restore
              */
             action: string;
             /**
