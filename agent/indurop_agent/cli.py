@@ -65,7 +65,7 @@ def cmd_upload(c: Client, a, out: Out) -> int:
         print(f"irpctl: set {u.get('id')} is not valid, so it was not activated; fix the errors above "
               f"and upload again", file=sys.stderr)
         return EXIT_REFUSED
-    report = c.activate(u["id"])
+    report = c.activate(u["id"], a.mode)
     if out.as_json:
         out.json({"upload": u, "swap": report})
     else:
@@ -98,12 +98,12 @@ def cmd_set(c: Client, a, out: Out) -> int:
 
 
 def cmd_activate(c: Client, a, out: Out) -> int:
-    out.show(c.activate(a.id), swap_text)
+    out.show(c.activate(a.id, a.mode), swap_text)
     return EXIT_OK
 
 
 def cmd_rollback(c: Client, a, out: Out) -> int:
-    out.show(c.rollback(), swap_text)
+    out.show(c.rollback(a.mode), swap_text)
     return EXIT_OK
 
 
@@ -251,6 +251,13 @@ def cmd_audit(c: Client, a, out: Out) -> int:
 
 
 # -- the parser ------------------------------------------------------------------------------------
+def _mode_arg(p) -> None:
+    p.add_argument("--mode", choices=("online", "restart", "auto"), default="online",
+                   help="online (default): hot reload, refused for a set that needs a restart; restart: irpd "
+                        "restarts onto the set (same pid, outputs to safe values, downtime reported); auto: a "
+                        "restart only when needed")
+
+
 def _duration_arg(text: str) -> int:
     try:
         return parse_duration(text)
@@ -349,10 +356,13 @@ def build_parser() -> argparse.ArgumentParser:
                                                      "(default: their common folder)")
         if name == "upload":
             p.add_argument("--activate", action="store_true", help="activate it (hot reload) when valid")
+            _mode_arg(p)
     command("sets", cmd_sets, "the uploaded sets, newest first")
     command("set", cmd_set, "one uploaded set: files and validation").add_argument("id", metavar="ID")
-    command("activate", cmd_activate, "hot-reload irpd onto an uploaded set").add_argument("id", metavar="ID")
-    command("rollback", cmd_rollback, "activate the set that was active before the current one")
+    p = command("activate", cmd_activate, "hot-reload (or restart) irpd onto an uploaded set")
+    p.add_argument("id", metavar="ID")
+    _mode_arg(p)
+    _mode_arg(command("rollback", cmd_rollback, "activate the set that was active before the current one"))
     p = command("set-period", cmd_set_period, "change a module's period (hot reload)")
     p.add_argument("module", metavar="MODULE")
     p.add_argument("period", type=_duration_arg, metavar="PERIOD", help="1ms, 100us, 2.5ms, 500000ns or plain ns")

@@ -220,6 +220,12 @@ def swap_text(r: dict) -> str:
         name = rep.get("set", "-")
         if rep.get("set_id"):
             name += f" (set {rep['set_id']})"
+        if rep.get("mode") == "restart":
+            blocks.append(pairs([
+                ("restarted onto", f"{name}, same pid {rep.get('pid', '-')}"),
+                ("downtime", format_duration(rep.get("downtime_ns"))),
+                ("expected", format_duration(rep.get("expected_downtime_ns")))]))
+            continue
         blocks.append(pairs([
             ("swapped to", f"{name}, generation {rep.get('generation', '-')}"),
             ("at cycle", rep.get("swap_cycle", "-")),

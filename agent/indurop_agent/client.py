@@ -258,13 +258,15 @@ class Client:
     def active_set(self) -> dict:
         return self.get("/sets/active")
 
-    def activate(self, set_id: str) -> dict:
-        """Hot-reloads irpd onto the set; the swap report."""
-        return self.request("POST", f"/sets/{quote(set_id, safe='')}/activate", timeout=max(self.timeout, 60))
+    def activate(self, set_id: str, mode: str = "online") -> dict:
+        """Puts the set into irpd: mode online (hot reload), restart (irpd restarts onto it) or auto
+        (a restart only when irpd cannot take it online); the swap report (mode, downtime_ns)."""
+        return self.request("POST", f"/sets/{quote(set_id, safe='')}/activate", json={"mode": mode},
+                            timeout=max(self.timeout, 90))
 
-    def rollback(self) -> dict:
+    def rollback(self, mode: str = "online") -> dict:
         """Activates the set that was active before the current one; the swap report."""
-        return self.request("POST", "/sets/rollback", timeout=max(self.timeout, 60))
+        return self.request("POST", "/sets/rollback", json={"mode": mode}, timeout=max(self.timeout, 90))
 
     # -- variables, events, audit -----------------------------------------------------------------
     def variables(self) -> dict:

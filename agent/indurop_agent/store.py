@@ -235,12 +235,15 @@ class SetStore:
 
     def record_activation(self, set_id: str, action: str, who: dict | None, report: dict | None) -> dict:
         """After irpd took the set: appends to history.jsonl, then replaces active.json and the
-        `active` link.  action: activate | rollback | restore."""
+        `active` link.  action: activate | restart (an activation by a restart of irpd) | rollback |
+        restore; `mode` and a restart's `downtime_ns` come from the report when it has them."""
         with self._lock:
             if self.manifest(set_id) is None:
                 raise StoreError(f"no set {set_id}")
             entry = {"time": now_iso(), "action": action, "set_id": set_id, "previous": self.active_id(),
                      "by": who, "generation": (report or {}).get("generation")}
+            if (report or {}).get("mode") == "restart":
+                entry.update(mode="restart", downtime_ns=report.get("downtime_ns"))
             fd = os.open(self.history_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
             try:
                 os.write(fd, (json.dumps(entry) + "\n").encode())

@@ -243,6 +243,31 @@ TEST(Supervision, ReloadsAreAnsweredAndPingsGoOnAfterThem) {
     EXPECT_TRUE(s.systemd.waitFor("WATCHDOG=1", pings + 3, std::chrono::seconds(20))) << s.systemd.all();
 }
 
+// A managed restart is a reload to systemd: RELOADING=1 with the watchdog stretched, then the new
+// image's READY=1 restoring the interval, and pings from the same pid go on.
+TEST(Supervision, AManagedRestartIsAReloadAndPingsGoOnAfterIt) {
+    SupervisedIrpd s(300'000);
+    ASSERT_TRUE(s.systemd.waitFor("READY=1", 1, std::chrono::seconds(30))) << s.irpd->err();
+    json asked;
+    {
+        Client client(s.socket, 60);
+        ASSERT_FALSE(client.readLine().empty());
+        asked = client.request({{"cmd", "restart"}, {"config", (s.dir.path / "module.xml").string()}, {"set_id", "again"}});
+    }
+    ASSERT_TRUE(asked.value("ok", false)) << asked.dump();
+    ASSERT_TRUE(s.systemd.waitFor("READY=1", 2, std::chrono::seconds(30))) << s.irpd->err() << s.systemd.all();
+    const auto reloading = s.systemd.with("RELOADING=1");
+    ASSERT_EQ(reloading.size(), 1u) << s.systemd.all();
+    EXPECT_NE(reloading[0].text.find("WATCHDOG_USEC=60300000"), std::string::npos) << reloading[0].text;
+    EXPECT_NE(reloading[0].text.find("MONOTONIC_USEC="), std::string::npos) << reloading[0].text;
+    const auto ready = s.systemd.with("READY=1").back();
+    EXPECT_NE(ready.text.find("WATCHDOG_USEC=300000"), std::string::npos) << ready.text;
+    EXPECT_TRUE(s.systemd.with("STOPPING=1").empty()) << "a restart is no stop: " << s.systemd.all();
+    const std::size_t pings = s.systemd.with("WATCHDOG=1").size();
+    EXPECT_TRUE(s.systemd.waitFor("WATCHDOG=1", pings + 3, std::chrono::seconds(20))) << s.systemd.all();
+    EXPECT_EQ(s.irpd->wait(std::chrono::milliseconds(1)), -1) << "the same process: " << s.irpd->err();
+}
+
 // ---- privilege drop (--user) ----------------------------------------------------------------
 
 namespace {
@@ -316,8 +341,9 @@ TEST(PrivilegeDrop, RunsAsTheUserWithTwoCapabilitiesAndHotReloadsStillGetRealTim
     EXPECT_EQ(statusField(irpd.pid(), "CapEff"), kept);
     EXPECT_EQ(statusField(irpd.pid(), "CapPrm"), kept);
     EXPECT_EQ(statusField(irpd.pid(), "CapBnd"), kept);
-    EXPECT_EQ(statusField(irpd.pid(), "CapInh"), "0000000000000000");
-    EXPECT_EQ(statusField(irpd.pid(), "CapAmb"), "0000000000000000");
+    // Inheritable and ambient too, so that irpd's exec of itself (a managed restart) keeps them.
+    EXPECT_EQ(statusField(irpd.pid(), "CapInh"), kept);
+    EXPECT_EQ(statusField(irpd.pid(), "CapAmb"), kept);
     EXPECT_EQ(statusField(irpd.pid(), "NoNewPrivs"), "1");
     EXPECT_GE(fifoThreads(irpd.pid()), 1) << "the dispatcher started after the switch is SCHED_FIFO";
 
@@ -346,10 +372,33 @@ TEST(PrivilegeDrop, RunsAsTheUserWithTwoCapabilitiesAndHotReloadsStillGetRealTim
     const std::vector<pid_t> children = childrenOf(irpd.pid());
     ASSERT_EQ(children.size(), 1u);
     EXPECT_EQ(sched_getscheduler(children[0]), SCHED_FIFO) << irpd.err();
+    EXPECT_EQ(statusField(children[0], "CapEff"), "0000000000000000") << "a process module runs with no capability";
+    EXPECT_EQ(statusField(children[0], "CapAmb"), "0000000000000000");
     json period = client.request({{"cmd", "set_period"}, {"module", "healthy"}, {"period_ns", 2'000'000}});
     EXPECT_TRUE(period.value("ok", false)) << period.dump();
     json status = client.request({{"cmd", "status"}});
     EXPECT_EQ(status["result"]["realtime"], true) << status.dump();
+
+    // A managed restart: the same process, still the user, with the two capabilities, real-time.
+    json asked = client.request({{"cmd", "restart"}, {"config", (dir.path / "more.xml").string()}, {"set_id", "more"}});
+    ASSERT_TRUE(asked.value("ok", false)) << asked.dump();
+    json after;
+    for (int i = 0; i < 1500 && !(after.is_object() && after["last_restart"].is_object()); ++i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        Client again(socket, 10);
+        if (again.connected() && !again.readLine().empty()) after = again.request({{"cmd", "status"}})["result"];
+    }
+    ASSERT_TRUE(after.is_object() && after["last_restart"].is_object()) << irpd.err();
+    EXPECT_EQ(after["last_restart"]["fell_back"], false) << after.dump() << irpd.err();
+    EXPECT_EQ(after["pid"], irpd.pid());
+    EXPECT_EQ(after["realtime"], true) << irpd.err();
+    EXPECT_EQ(statusField(irpd.pid(), "Uid"), ids + "\t" + ids + "\t" + ids + "\t" + ids);
+    EXPECT_EQ(statusField(irpd.pid(), "CapEff"), kept);
+    EXPECT_EQ(statusField(irpd.pid(), "CapAmb"), kept);
+    EXPECT_EQ(statusField(irpd.pid(), "NoNewPrivs"), "1");
+    EXPECT_GE(fifoThreads(irpd.pid()), 1) << "the new image's dispatcher is SCHED_FIFO";
+    if (fs::exists("/dev/cpu_dma_latency"))  // held open across the exec: the user could not open it
+        EXPECT_EQ(irpd.err().find("cpu_dma_latency not held"), std::string::npos) << irpd.err();
     kill(irpd.pid(), SIGTERM);
     EXPECT_EQ(irpd.wait(std::chrono::seconds(20)), 0) << irpd.err();
     EXPECT_FALSE(fs::exists("/dev/shm/indurop." + instance + ".stats")) << "removed by the user that owns it";

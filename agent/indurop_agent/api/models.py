@@ -5,7 +5,7 @@ the fields irpd sends and let any others through (extra="allow"), so a newer irp
 reach the client."""
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt
 
@@ -133,14 +133,27 @@ class SetSummary(BaseModel):
 
 class ActiveSet(SetPublic):
     since: str = Field(description="when it became active")
-    action: str = Field(description="how: activate, rollback or restore")
+    action: str = Field(description="how: activate, restart (activated by a restart of irpd), rollback or restore")
     rollback_to: str | None = Field(description="the set POST /sets/rollback would activate")
 
 
+class ActivateRequest(BaseModel):
+    """How to put a set into irpd (docs/set-store.md, activation modes)."""
+
+    model_config = ConfigDict(extra="forbid")
+    mode: Literal["online", "restart", "auto"] = Field(
+        "online", description="online: a hot swap, refused (409) for a set irpd can run only after a restart; "
+                              "restart: irpd stops and starts again (same pid) on the set; auto: restart only when "
+                              "irpd cannot take the set online")
+
+
 class SwapReport(BaseModel):
-    """irpd's report of a hot swap (control protocol v2)."""
+    """irpd's report of a hot swap (control protocol v2), or of a managed restart (mode restart)."""
 
     model_config = ConfigDict(extra="allow")
+    mode: Literal["online", "restart"] = Field("online", description="how the set went in: a hot swap or a restart")
+    downtime_ns: int | None = Field(None, description="restart: from the old set's last period to the new one's "
+                                                      "first, as irpd measured it; null for a hot swap")
     set: str | None = None
     set_id: str | None = None
     generation: int | None = None
@@ -191,6 +204,9 @@ class Status(IrpdShape):
                                                                 "watchdog or signal, sender_pid...), or null: "
                                                                 "docs/supervision.md")
     left_out_after_crash: list[dict[str, Any]] = Field([], description="modules a crash left out ({module, set})")
+    last_restart: dict[str, Any] | None = Field(None, description="the managed restart this irpd came from "
+                                                "({from_set_id, set_id, downtime_ns, requested_ns, fell_back, error}), "
+                                                "or null")
     shared_memory: SharedMemory
 
 

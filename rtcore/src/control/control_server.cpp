@@ -208,7 +208,12 @@ void ControlServer::serve() {
                 clients.erase(clients.begin() + static_cast<std::ptrdiff_t>(i));
             }
     }
-    for (Client &c : clients) close(c.fd);
+    // Stopping (irpd stops or restarts): what is still owed goes out if the socket takes it at once
+    // (a `restart`'s answer written just before), then every client is closed.
+    for (Client &c : clients) {
+        if (!c.out.empty()) (void)!send(c.fd, c.out.data(), c.out.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+        close(c.fd);
+    }
 }
 
 } // namespace irp::control

@@ -135,6 +135,9 @@ int childMain(void *arg) {
     } else {
         sched_setscheduler(0, SCHED_OTHER, &param);  // never inherit the spawning thread's policy
     }
+    // irpd's ambient capabilities (--user keeps CAP_SYS_NICE and CAP_IPC_LOCK ambient for its own
+    // restart) must not reach the process: it runs with none.
+    prctl(PR_CAP_AMBIENT, PR_CAP_AMBIENT_CLEAR_ALL, 0, 0, 0);
     sigset_t none;
     sigemptyset(&none);
     sigprocmask(SIG_SETMASK, &none, nullptr);

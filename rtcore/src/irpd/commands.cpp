@@ -5,7 +5,10 @@
 #include "stats/summary.hpp"
 #include "variables/variable_write.hpp"
 
+#include <unistd.h>
+
 #include <chrono>
+#include <filesystem>
 #include <limits>
 
 namespace irp::daemon {
@@ -91,6 +94,47 @@ json leftOut(const CommandContext &c) {
     return list;
 }
 
+// What a clean stop of this generation is expected to take, for a restart's expected downtime
+// (nothing measures a stop before it happens): the dispatchers end the slot they are in (at most
+// two of the longest basic period); a periodic or sporadic process answers its stop request within
+// a period (20 ms allowed); a non-real process usually does not look at it and ends at the SIGTERM
+// sent 1 s later (half the stop's 2 s grace).  The processes stop together: the longest counts.
+int64_t stopEstimateNs(const reload::Generation &g) {
+    int64_t longest = g.schedule.basic_ns;
+    for (const auto &table : g.tables->executors) longest = std::max(longest, table.basic_ns);
+    int64_t processes = 0;
+    for (const config::ModuleSpec &m : g.set.modules)
+        if (m.type == config::ModuleType::Process)
+            processes = std::max<int64_t>(processes, m.operation == config::OperationType::NonReal ? 1'000'000'000 : 20'000'000);
+    return 2 * longest + processes;
+}
+
+// `restart`: the set checked as `check` does (a refusal other than restart_required refuses it now,
+// with that error, and nothing stops), then handed to the main thread, which stops and executes
+// irpd again at its next tick.  Answered at once.
+Result<json> askRestart(const CommandContext &c, const reload::Generation &g, const Command &command) {
+    if (!c.restarts) return Error{"this irpd cannot restart itself"};
+    const json checked = c.reloader->check(command.config);
+    if (!checked.value("valid", false)) {
+        std::string errors;
+        for (const auto &e : checked["errors"]) errors += (errors.empty() ? "" : "; ") + e.get<std::string>();
+        return Error{errors};
+    }
+    RestartPlan plan;
+    plan.target = {std::filesystem::absolute(command.config).string(), command.set_id, ""};
+    plan.origin = {std::filesystem::absolute(g.set.xml_path).string(), g.set_id, c.options->layout};
+    plan.requested_ns = osal::monotonicNow();
+    plan.expected_downtime_ns = c.restarts->expectedDowntimeNs(stopEstimateNs(g));
+    if (Status st = c.restarts->request(plan); !st) return st.error();
+    auto id = [](const std::string &s) { return s.empty() ? json(nullptr) : json(s); };
+    return json{{"restarting", true},
+                {"pid", getpid()},
+                {"from_set_id", id(plan.origin.set_id)},
+                {"set_id", id(plan.target.set_id)},
+                {"expected_downtime_ns", plan.expected_downtime_ns},
+                {"requested_ns", plan.requested_ns}};
+}
+
 json moduleEntry(const reload::Generation &g, const config::ModuleSpec &m, const stats::StatsSegment &stats) {
     const reload::Member &member = g.members[static_cast<std::size_t>(m.index)];
     json entry = stats::toJson(stats.record(member.record));
@@ -135,12 +179,12 @@ Result<Command> decodeCommand(const std::string &cmd, const nlohmann::json &requ
                 return Error{"'limit' must be a positive integer"};
             command.limit = std::min<std::size_t>(request["limit"].get<uint64_t>(), events::EventLog::kCapacity);
         }
-    } else if (cmd == "check" || cmd == "load") {
-        command.kind = cmd == "check" ? Kind::Check : Kind::Load;
+    } else if (cmd == "check" || cmd == "load" || cmd == "restart") {
+        command.kind = cmd == "check" ? Kind::Check : cmd == "load" ? Kind::Load : Kind::Restart;
         auto config = text(request, "config");
         if (!config) return config.error();
         command.config = *config;
-        if (command.kind == Kind::Load && request.contains("set_id")) {
+        if (command.kind != Kind::Check && request.contains("set_id")) {
             if (!request["set_id"].is_string()) return Error{"'set_id' must be a string"};
             command.set_id = request["set_id"].get<std::string>();
         }
@@ -185,7 +229,7 @@ Result<Command> decodeCommand(const std::string &cmd, const nlohmann::json &requ
     } else {
         return Error{"unknown command '" + cmd +
                      "'; the commands are status, schedule, modules, stats, histograms, events, check, load, change, "
-                     "set_period, set_priority, enable, disable, write, trace, clear_crash"};
+                     "set_period, set_priority, enable, disable, write, trace, clear_crash, restart"};
     }
     return command;
 }
@@ -248,6 +292,7 @@ control::Handler commandHandler(const CommandContext &c) {
                         {"stopped_by_fault", fault.empty() ? json(nullptr) : json(fault)},
                         {"last_crash", lastCrash(c)},
                         {"left_out_after_crash", leftOut(c)},
+                        {"last_restart", c.restarts ? c.restarts->lastRestart() : json(nullptr)},
                         {"shared_memory",
                          {{"stats", c.stats->name()},
                           {"variables", c.variables_shm.empty() ? json(nullptr) : json(c.variables_shm)},
@@ -286,7 +331,13 @@ control::Handler commandHandler(const CommandContext &c) {
             return json{{"cycles", h->cycles.load()}, {"time_ns", osal::monotonicNow()}, {"records", std::move(records)}};
         }
         case Command::Kind::Events: return c.events->since(command.since, command.limit);
-        case Command::Kind::Check: return c.reloader->check(command.config);
+        case Command::Kind::Check: {
+            json checked = c.reloader->check(command.config);
+            if (checked["restart"].is_object() && c.restarts)
+                checked["restart"]["expected_downtime_ns"] = c.restarts->expectedDowntimeNs(stopEstimateNs(*g));
+            return checked;
+        }
+        case Command::Kind::Restart: return askRestart(c, *g, command);
         case Command::Kind::Write:
             if (c.variables_shm.empty() || !c.vars) return Error{"the running set has no shared variables"};
             return variables::writeByPath(layouts->of(*c.vars), command.path, command.value);

@@ -2,13 +2,15 @@
 // thread.  Reads (status, schedule, modules, stats, histograms, events, check) answer from the
 // running generation and the shared-memory stats block; changes (load, change, set_period,
 // set_priority, enable, disable) run on the main thread through the MainQueue; write goes through libindurop's
-// locked path access; trace configures the trace rings (docs/trace-and-stream.md).
+// locked path access; trace configures the trace rings (docs/trace-and-stream.md); restart checks
+// the set and hands a managed restart to the main thread (irpd/restart.hpp).
 #pragma once
 
 #include "control/control_server.hpp"
 #include "events/event_log.hpp"
 #include "irpd/main_queue.hpp"
 #include "irpd/options.hpp"
+#include "irpd/restart.hpp"
 #include "reload/reloader.hpp"
 #include "stats/stats_segment.hpp"
 #include "supervise/crash_record.hpp"
@@ -24,13 +26,13 @@ namespace irp::daemon {
 
 // A request's command and arguments, checked (decodeCommand) before anything runs.
 struct Command {
-    enum class Kind { Status, Schedule, Modules, Stats, Histograms, Events, Check, Write, Load, Change, Trace, ClearCrash };
+    enum class Kind { Status, Schedule, Modules, Stats, Histograms, Events, Check, Write, Load, Change, Trace, ClearCrash, Restart };
     Kind kind = Kind::Status;
     std::string name;                   // histograms: one record ("" = all)
     uint64_t since = 0;                 // events
     std::size_t limit = 500;            // events
-    std::string config;                 // check, load: a module.xml path
-    std::string set_id;                 // load
+    std::string config;                 // check, load, restart: a module.xml path
+    std::string set_id;                 // load, restart
     std::string path;                   // write: the variable
     nlohmann::json value;               // write: its new value (checked against the layout when run)
     std::vector<reload::Change> changes;  // change, set_period, set_priority, enable, disable
@@ -53,6 +55,7 @@ struct CommandContext {
     const variables::VariableSegment *vars = nullptr;  // null: no shared variables
     std::function<std::string()> stopped_by;            // why a fault stopped the set ("" = it did not)
     supervise::CrashState *crash = nullptr;             // null: no state folder (no crash records)
+    RestartDesk *restarts = nullptr;                    // null: `restart` is refused
 };
 
 control::Handler commandHandler(const CommandContext &context);

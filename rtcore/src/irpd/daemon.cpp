@@ -10,7 +10,9 @@
 //      and misses into events, runs the hot reloads the control thread hands it, and pings
 //      systemd's watchdog while every dispatcher makes progress; until SIGINT/SIGTERM or the end
 //      of --duration;
-//   5. stop the dispatchers, stop() every module, write --stats-json, unload, remove the shm.
+//   5. stop the dispatchers, stop() every module, write --stats-json, unload, remove the shm; after
+//      a `restart` request the same stop, outputs driven to safe values first, and main()
+//      executes irpd again on the new set (irpd/restart.hpp).
 #include "irpd/daemon.hpp"
 
 #include "config/module_xml.hpp"
@@ -40,6 +42,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -58,11 +61,6 @@ namespace irp::daemon {
 namespace {
 
 void say(const std::string &line) { std::cerr << "irpd: " << line << std::endl; }
-
-int refuse(const std::string &message) {
-    std::cerr << "irpd: error: " << message << std::endl;
-    return kExitRefused;
-}
 
 void drainModuleOutput() {
     runtime::drainLog([](std::string_view line) {
@@ -216,6 +214,26 @@ private:
     std::map<int, Acted> acted_;
 };
 
+// Every module of the running set marked stopped and, for those that have one, its
+// safe_outputs() called (on the calling thread): the fault stop's and the managed restart's first
+// step.  How many drove their outputs; a failure is an event.
+std::size_t driveSafeOutputs(reload::Reloader &reloader, stats::StatsSegment &stats, events::EventLog &events) {
+    const auto g = reloader.current();  // keeps the modules loaded while their hooks run
+    std::size_t driven = 0;
+    for (const config::ModuleSpec &m : g->set.modules) {
+        const reload::Member &member = g->members[static_cast<std::size_t>(m.index)];
+        stats.record(member.record).state.store(static_cast<uint32_t>(stats::ModuleState::Stopped));
+        if (!member.thread || !member.thread->hasSafeOutputs()) continue;
+        if (Status s = member.thread->safeOutputs(); !s) {
+            events.add("safe_outputs_failed", m.name, s.error().message);
+            say(s.error().message);
+            continue;
+        }
+        ++driven;
+    }
+    return driven;
+}
+
 // The watchdog's hooks: every overrun is an event; a stop drives every module's outputs to safe
 // values (their safe_outputs(), on the watchdog's thread, at once) and says so.
 dispatch::Watchdog::Hooks watchdogHooks(events::EventLog &events, reload::Reloader &reloader, stats::StatsSegment &stats) {
@@ -227,19 +245,7 @@ dispatch::Watchdog::Hooks watchdogHooks(events::EventLog &events, reload::Reload
     };
     hooks.stop = [&events, &reloader, &stats](const dispatch::Fault &f) {
         const int64_t begun = osal::monotonicNow();
-        const auto g = reloader.current();  // keeps the modules loaded while their hooks run
-        std::size_t driven = 0;
-        for (const config::ModuleSpec &m : g->set.modules) {
-            const reload::Member &member = g->members[static_cast<std::size_t>(m.index)];
-            stats.record(member.record).state.store(static_cast<uint32_t>(stats::ModuleState::Stopped));
-            if (!member.thread || !member.thread->hasSafeOutputs()) continue;
-            if (Status s = member.thread->safeOutputs(); !s) {
-                events.add("safe_outputs_failed", m.name, s.error().message);
-                say(s.error().message);
-                continue;
-            }
-            ++driven;
-        }
+        const std::size_t driven = driveSafeOutputs(reloader, stats, events);
         const int64_t took = osal::monotonicNow() - begun;
         const std::string message = "set stopped by a fault of module '" + f.module() + "': outputs of " +
                                     std::to_string(driven) + " module(s) driven to safe values in " +
@@ -313,6 +319,50 @@ void takeInCrash(supervise::CrashState &crash, const config::SetSpec &starting, 
     say("the previous run ended by a crash: " + fresh->describe() + consequence);
 }
 
+// /dev/cpu_dma_latency held at 0: the descriptor the previous image of a managed restart kept open
+// for this one (which may no longer be root enough to open it), else opened now.
+int holdDmaLatency(const Session &session) {
+    if (session.arrived && session.arrived->dma_latency_fd >= 0) {
+        const int fd = session.arrived->dma_latency_fd;
+        std::error_code ec;
+        if (std::filesystem::read_symlink("/proc/self/fd/" + std::to_string(fd), ec) == "/dev/cpu_dma_latency") {
+            fcntl(fd, F_SETFD, FD_CLOEXEC);
+            return fd;
+        }
+    }
+    return osal::holdCpuDmaLatencyZero();
+}
+
+// The restart this image came from, once its first period ran: status.last_restart and an event.
+void reportRestart(const RestartPlan &plan, int64_t first_period_ns, int64_t startup_ns, RestartDesk &desk,
+                   events::EventLog &events) {
+    const int64_t downtime = first_period_ns - plan.last_period_ns;
+    const std::string ms = std::to_string(downtime / 1'000'000) + "." + std::to_string(downtime / 100'000 % 10) + " ms";
+    nlohmann::ordered_json last = {{"from_set_id", plan.origin.set_id.empty() ? nlohmann::ordered_json(nullptr)
+                                                                              : nlohmann::ordered_json(plan.origin.set_id)},
+                                   {"set_id", plan.target.set_id.empty() ? nlohmann::ordered_json(nullptr)
+                                                                         : nlohmann::ordered_json(plan.target.set_id)},
+                                   {"downtime_ns", downtime},
+                                   {"requested_ns", plan.requested_ns},
+                                   {"fell_back", plan.fallback},
+                                   {"error", plan.fallback ? nlohmann::ordered_json(plan.error) : nlohmann::ordered_json(nullptr)},
+                                   {"stop_ns", plan.stop_ns},
+                                   {"startup_ns", startup_ns}};
+    desk.started(startup_ns, std::move(last));
+    const std::string target = describeSet(plan.target), origin = describeSet(plan.origin);
+    if (plan.fallback) {
+        const std::string message = "could not start set " + target + " (" + plan.error + "); came back on set " + origin +
+                                    ": downtime " + ms + ", from the last period of set " + origin + " to its first again";
+        events.add("restart_failed", "", message);
+        say(message);
+    } else {
+        const std::string message = "restarted onto set " + target + ": downtime " + ms + ", from the last period of set " +
+                                    origin + " to the first of set " + target;
+        events.add("restart", "", message);
+        say(message);
+    }
+}
+
 // How long each dispatcher may go without completing a slot and still count as moving for the
 // watchdog: two of its basic periods plus two of the main thread's ticks (it looks once per tick).
 std::vector<int64_t> progressWindows(const reload::Generation &g, const timespec &tick) {
@@ -332,18 +382,28 @@ std::string statusLine(const reload::Generation &g, bool realtime) {
 // waiting up to 5 s for new processes, up to 10 s for the swap) before systemd takes it for a hang.
 constexpr int64_t kReloadWatchdogAllowanceNs = 30'000'000'000;
 
+// How much longer than WatchdogSec a managed restart may take (the clean stop, the exec, the new
+// set's start, and maybe the fallback's) before systemd takes it for a hang.
+constexpr int64_t kRestartWatchdogAllowanceNs = 60'000'000'000;
+
 // Room in the stats block and the control segment for what hot reloads may add.
 constexpr std::size_t kMinModuleRecords = 256;
 constexpr uint32_t kMinProcessSlots = 16;
 
 } // namespace
 
-int run(const Options &options) {
+int run(const Options &options, Session &session) {
+    // Every failure to start: said, kept for a restart's fallback (main.cpp), and the exit status.
+    auto fail = [&session](int status, const std::string &message) {
+        std::cerr << "irpd: error: " << message << std::endl;
+        session.error = message;
+        return status;
+    };
     // 1. the set and its schedule
     auto set = config::parseModuleXml(options.config);
-    if (!set) return refuse(set.error().message);
+    if (!set) return fail(kExitRefused, set.error().message);
     auto schedule = schedule::build(*set, options.limits);
-    if (!schedule) return refuse(schedule.error().message);
+    if (!schedule) return fail(kExitRefused, schedule.error().message);
     if (options.print_schedule) {
         if (options.json) std::cout << schedule::toJson(*schedule, *set).dump(2) << std::endl;
         else std::cout << schedule::formatText(*schedule, *set);
@@ -362,16 +422,12 @@ int run(const Options &options) {
 
     // Root's work first, while irpd has one thread: hold /dev/cpu_dma_latency, open the state
     // folder; then, with --user, become that user with CAP_SYS_NICE and CAP_IPC_LOCK only.
-    auto failure = [](const std::string &message) {
-        std::cerr << "irpd: error: " << message << std::endl;
-        return kExitFailure;
-    };
     int dma_latency_fd = -1;  // held open while dispatching
-    if (options.dispatcher.realtime) dma_latency_fd = osal::holdCpuDmaLatencyZero();
+    if (options.dispatcher.realtime) dma_latency_fd = holdDmaLatency(session);
     std::optional<supervise::Identity> identity;
     if (!options.user.empty()) {
         auto who = supervise::resolveIdentity(options.user, options.group);
-        if (!who) return failure(who.error().message);
+        if (!who) return fail(kExitFailure, who.error().message);
         identity = *who;
     }
     const std::filesystem::path state_dir = options.state_dir.empty() ? kDefaultStateDir : options.state_dir;
@@ -383,18 +439,18 @@ int run(const Options &options) {
         else state_ready = opened.error();
     }
     if (!state_ready) {
-        if (!options.state_dir.empty()) return failure(state_ready.error().message);
+        if (!options.state_dir.empty()) return fail(kExitFailure, state_ready.error().message);
         say("WARNING: " + state_ready.error().message + "; a crash will leave no record");
     }
     if (identity) {
         if (!options.control_socket.empty())
             if (Status st = supervise::prepareFolderFor(options.control_socket, *identity); !st)
-                return failure(st.error().message);
-        if (Status st = supervise::dropPrivileges(*identity); !st) return failure(st.error().message);
+                return fail(kExitFailure, st.error().message);
+        if (Status st = supervise::dropPrivileges(*identity); !st) return fail(kExitFailure, st.error().message);
         say("switched to user " + identity->user + ":" + identity->group + " (" + supervise::describeCredentials() + ")");
     }
     if (crash) {
-        if (Status st = crash->arm(); !st) return failure("crash handler: " + st.error().message);
+        if (Status st = crash->arm(); !st) return fail(kExitFailure, "crash handler: " + st.error().message);
         crash->setContext(canonicalSet(set->xml_path), "", 1);
     }
 
@@ -403,7 +459,7 @@ int run(const Options &options) {
     const std::size_t module_records =
         options.module_records ? options.module_records : std::max(kMinModuleRecords, 2 * set->modules.size());
     auto segment = stats::StatsSegment::create(options.instance, executors + module_records);
-    if (!segment) return std::cerr << "irpd: error: " << segment.error().message << std::endl, kExitFailure;
+    if (!segment) return fail(kExitFailure, segment.error().message);
     stats::Header *header = segment->header();
     header->basic_ns = schedule->basic_ns;
     header->macro_ns = schedule->macro_ns;
@@ -413,9 +469,9 @@ int run(const Options &options) {
     std::optional<variables::VariableSegment> vars;
     if (!set->layout.empty()) {
         auto layout = variables::readLayout(set->layout);
-        if (!layout) return refuse(layout.error().message);
+        if (!layout) return fail(kExitRefused, layout.error().message);
         auto created = variables::VariableSegment::create(options.instance, *layout, variables::Room{options.var_headroom});
-        if (!created) return std::cerr << "irpd: error: " << created.error().message << std::endl, kExitFailure;
+        if (!created) return fail(kExitFailure, created.error().message);
         vars = std::move(*created);
         say("shared variables: " + std::to_string(layout->variables) + " variables, " +
             std::to_string(layout->data_size) + " bytes (room for " + std::to_string(vars->header()->data_capacity) +
@@ -424,11 +480,11 @@ int run(const Options &options) {
     // Trace rings: sampled by the main dispatcher after every slot; channels set by `trace`.
     // Created before memory is locked, every page touched: the RT thread never faults on them.
     auto trace_rings = trace::TraceRings::create(options.instance);
-    if (!trace_rings) return std::cerr << "irpd: error: " << trace_rings.error().message << std::endl, kExitFailure;
+    if (!trace_rings) return fail(kExitFailure, trace_rings.error().message);
     trace_rings->setBasicPeriod(schedule->basic_ns);
 
     auto cache = openModuleCache(options);
-    if (!cache) return std::cerr << "irpd: error: " << cache.error().message << std::endl, kExitFailure;
+    if (!cache) return fail(kExitFailure, cache.error().message);
 
     events::EventLog events;
     MainQueue queue;
@@ -467,7 +523,8 @@ int run(const Options &options) {
     std::unique_ptr<dispatch::CallServer> calls;  // outlives the dispatcher (declared before it)
     std::size_t processes = 0;
     for (const config::ModuleSpec &m : set->modules) processes += m.type == config::ModuleType::Process;
-    auto first = reloader.prepare(*set, nullptr, left_out, "", [&](reload::Generation &g) {
+    const std::string first_set_id = session.arrived ? session.arrived->starting().set_id : "";
+    auto first = reloader.prepare(*set, nullptr, left_out, first_set_id, [&](reload::Generation &g) {
         const std::vector<runtime::FunctionExport> exports = runtime::functionExports();
         auto created = hosts::ControlSegment::create(
             options.instance,
@@ -483,7 +540,7 @@ int run(const Options &options) {
         reloader.setCallServer(calls.get());
         return Status{Ok{}};
     });
-    if (!first) return refuse(first.error().message);
+    if (!first) return fail(kExitRefused, first.error().message);
     drainModuleOutput();
 
     // The overrun watchdog (docs/faults.md), made once the dispatcher runs; `status` reads it.
@@ -492,6 +549,7 @@ int run(const Options &options) {
 
     // The control socket: commands read the running generation; hot reloads run on this thread.
     std::unique_ptr<control::ControlServer> control_server;
+    RestartDesk restarts;  // `restart` asks here; the main loop takes it (irpd/restart.hpp)
     if (!options.control_socket.empty()) {
         CommandContext context;
         context.reloader = &reloader;
@@ -507,12 +565,13 @@ int run(const Options &options) {
             return w ? w->stoppedBy() : std::string();
         };
         context.crash = crash.get();
+        context.restarts = &restarts;
         auto opened = control::ControlServer::open(options.control_socket, commandHandler(context));
         if (!opened) {
             supervisor.stopAll(1'000'000'000);
             for (const auto &m : (*first)->members)
                 if (m.thread) (void)m.thread->stop();
-            return std::cerr << "irpd: error: " << opened.error().message << std::endl, kExitFailure;
+            return fail(kExitFailure, opened.error().message);
         }
         control_server = std::move(*opened);
     }
@@ -531,8 +590,9 @@ int run(const Options &options) {
         supervisor.stopAll(1'000'000'000);
         for (const auto &m : (*first)->members)
             if (m.thread) (void)m.thread->stop();
-        return refuse(s.error().message);
+        return fail(kExitRefused, s.error().message);
     }
+    session.dispatched = true;
     reloader.adopt(std::move(*first), dispatcher);
     watchdog = std::make_unique<dispatch::Watchdog>(osal::monotonicClock(), dispatcher.executors(), dispatcher.halted(),
                                                     watchdogHooks(events, reloader, *segment));
@@ -553,10 +613,20 @@ int run(const Options &options) {
         " slots, stats in /dev/shm" + segment->name());
     events.add("start", "", "irpd " INDUROP_VERSION " started " + set->xml_path.string() +
                                 (dispatcher.realtime() ? " (real-time)" : " (NOT real-time)"));
+    // Start-up: main() to the first period's due time; a restart's downtime once that period ran.
+    const int64_t startup_ns = header->started_ns.load() - session.began_ns;
+    if (session.arrived) {
+        if (!awaitFirstSlots(*segment, executors, 2'000'000'000))
+            say("WARNING: a dispatcher has not completed its first slot within 2 s after the restart");
+        reportRestart(*session.arrived, header->started_ns.load(), startup_ns, restarts, events);
+    } else {
+        restarts.started(startup_ns, nullptr);
+    }
 
     const timespec tick{0, 20'000'000};  // the main thread's period
     // systemd (Type=notify): ready once every dispatcher ran a slot; the watchdog from then on.
     supervise::SystemdNotify notify = supervise::SystemdNotify::fromEnvironment();
+    if (session.arrived) notify.restoreIntervalAtReady();  // the old image stretched it for the restart
     if (notify.active()) {
         if (!awaitFirstSlots(*segment, executors, 2'000'000'000))
             say("WARNING: a dispatcher has not completed its first slot within 2 s; telling systemd READY=1 anyway");
@@ -583,6 +653,7 @@ int run(const Options &options) {
     ProcessHangWatch hangs;
     int64_t last_figures = 0;
     uint64_t generation_told = reloader.current()->number;
+    std::optional<RestartPlan> restart;  // a managed restart asked through `restart`
     while (!dispatcher.finished()) {
         int sig = sigtimedwait(&stop_signals, nullptr, &tick);
         drainModuleOutput();
@@ -618,14 +689,29 @@ int run(const Options &options) {
             say(std::string("received ") + (sig == SIGINT ? "SIGINT" : "SIGTERM") + ", stopping");
             break;
         }
+        if ((restart = restarts.take())) {
+            say("restart onto set " + describeSet(restart->target) + " asked; stopping set " +
+                describeSet(restart->origin) + " (outputs to safe values once the dispatchers stopped)");
+            break;
+        }
     }
 
-    // 5. clean stop
-    notify.stopping("stopping");
+    // 5. clean stop -- a managed restart's too: systemd is told it reloads, the dispatchers end
+    // their slot, then every module's safe_outputs() runs (nothing dispatches them any more), then
+    // the same stop as always; main() executes the next image.
+    const int64_t stop_began = osal::monotonicNow();
+    if (restart)
+        notify.restarting("restarting onto set " + describeSet(restart->target), kRestartWatchdogAllowanceNs);
+    else
+        notify.stopping("stopping");
     queue.close();
     control_server.reset();  // no client reads a set that is going away
     dispatcher.requestStop();
     dispatcher.join();
+    if (restart) {
+        const std::size_t driven = driveSafeOutputs(reloader, *segment, events);
+        say("outputs of " + std::to_string(driven) + " module(s) driven to safe values for the restart");
+    }
     watchdog_now.store(nullptr);
     watchdog->stop();
     if (calls) calls->stop();  // callers still waiting return at once ("irpd is stopping")
@@ -647,8 +733,15 @@ int run(const Options &options) {
     say("stopped after " + std::to_string(main.runs.load()) + " basic periods: " +
         std::to_string(main.overruns.load()) + " overruns, " + std::to_string(main.missed.load()) + " missed, " +
         std::to_string(main.skipped.load()) + " skipped");
-    if (dma_latency_fd >= 0) close(dma_latency_fd);
     if (crash) crash->disarm();
+    if (restart) {  // the descriptor goes to the next image (it may not be allowed to open it again)
+        restart->last_period_ns = header->finished_ns.load();
+        restart->dma_latency_fd = dma_latency_fd;
+        restart->stop_ns = osal::monotonicNow() - stop_began;
+        session.restart = std::move(restart);
+        return status;
+    }
+    if (dma_latency_fd >= 0) close(dma_latency_fd);
     return status;
 }
 

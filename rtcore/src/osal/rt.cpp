@@ -122,6 +122,8 @@ std::string keepOffCpus(const std::vector<int> &rt_cpus) {
     return list;
 }
 
+void restoreStartupCpus() { sched_setaffinity(0, sizeof(cpu_set_t), &startupCpus()); }
+
 namespace {
 constexpr std::size_t kSignalStackBytes = 64 * 1024;
 }

@@ -42,5 +42,8 @@ bool cpuAllowed(int cpu);
 // competes with a dispatcher.  Returns the CPUs left ("0,2"), or "" when none would be left
 // (nothing changed then).  lastAllowedCpu() and cpuAllowed() still answer for the whole process.
 std::string keepOffCpus(const std::vector<int> &rt_cpus);
+// The calling thread back on every CPU the process started with (undoes keepOffCpus; before irpd
+// executes itself again, so that the next image finds the same CPUs).
+void restoreStartupCpus();
 
 } // namespace irp::osal

@@ -1,5 +1,7 @@
 // privileges.cpp -- the switch to --user with libcap: bounding set first (needs CAP_SETPCAP, so
-// while still root), then groups and uid keeping the permitted set, then the kept set only.
+// while still root), then groups and uid keeping the permitted set, then the kept set only, also
+// ambient (so that a managed restart's exec keeps it); or, already that user after such an exec,
+// the check that the kept set came along.
 #include "supervise/privileges.hpp"
 
 #include <grp.h>
@@ -82,7 +84,33 @@ Status prepareFolderFor(const std::filesystem::path &file, const Identity &who) 
     return Ok{};
 }
 
+namespace {
+
+// After a managed restart irpd is `who` already: what it kept must have come along (ambient).
+Status checkKept(const Identity &who) {
+    if (getuid() != who.uid || geteuid() != who.uid || getgid() != who.gid || getegid() != who.gid)
+        return Error{"irpd runs as uid " + std::to_string(geteuid()) + " gid " + std::to_string(getegid()) +
+                     ", not --user " + who.user + ":" + who.group + "; start it as root or as that user and group"};
+    cap_t caps = cap_get_proc();
+    if (!caps) return Error{lastError("cap_get_proc")};
+    std::string missing;
+    for (cap_value_t c : kKept) {
+        cap_flag_value_t on = CAP_CLEAR;
+        cap_get_flag(caps, c, CAP_EFFECTIVE, &on);
+        if (on != CAP_SET) missing += (missing.empty() ? "" : " and ") + std::string(cap_to_name(c));
+    }
+    cap_free(caps);
+    if (!missing.empty())
+        return Error{"irpd runs as --user " + who.user + " already but without " + missing +
+                     " (kept across a restart only as ambient capabilities): start it as root"};
+    if (prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) != 0) return Error{lastError("PR_SET_NO_NEW_PRIVS")};
+    return Ok{};
+}
+
+} // namespace
+
 Status dropPrivileges(const Identity &who) {
+    if (geteuid() != 0 && getuid() == who.uid) return checkKept(who);
     if (const int n = threadCount(); n != 1)
         return Error{"cannot switch to --user " + who.user + ": irpd has " + std::to_string(n) +
                      " threads already (capabilities are per thread)"};
@@ -97,15 +125,20 @@ Status dropPrivileges(const Identity &who) {
     const gid_t gid = who.gid;
     if (cap_setgroups(gid, 1, &gid) != 0) return Error{lastError("setting group " + who.group)};
     if (cap_setuid(who.uid) != 0) return Error{lastError("setting user " + who.user)};
-    // 3. Only the kept capabilities, permitted and effective; nothing inheritable or ambient.
+    // 3. Only the kept capabilities: permitted, effective, inheritable and ambient (the last two so
+    //    that they survive irpd's exec of itself in a managed restart; process modules drop the
+    //    ambient set before their exec, hosts/process_supervisor.cpp).
     cap_t caps = cap_init();
     if (!caps) return Error{lastError("cap_init")};
     cap_set_flag(caps, CAP_PERMITTED, 2, kKept, CAP_SET);
     cap_set_flag(caps, CAP_EFFECTIVE, 2, kKept, CAP_SET);
+    cap_set_flag(caps, CAP_INHERITABLE, 2, kKept, CAP_SET);
     const int rc = cap_set_proc(caps);
     cap_free(caps);
     if (rc != 0) return Error{lastError("cap_set_proc")};
     if (cap_reset_ambient() != 0 && errno != EINVAL) return Error{lastError("cap_reset_ambient")};
+    for (cap_value_t c : kKept)
+        if (cap_set_ambient(c, CAP_SET) != 0) return Error{lastError("raising " + std::string(cap_to_name(c)) + " as ambient")};
     if (prctl(PR_SET_KEEPCAPS, 0, 0, 0, 0) != 0) return Error{lastError("PR_SET_KEEPCAPS")};
     if (prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) != 0) return Error{lastError("PR_SET_NO_NEW_PRIVS")};
     // The switch is complete or irpd does not go on: check what the kernel says now.

@@ -32,9 +32,11 @@ Status handOver(const std::filesystem::path &dir, const Identity &who);
 // `who` may not create files in it.
 Status prepareFolderFor(const std::filesystem::path &file, const Identity &who);
 
-// Becomes `who` with exactly CAP_SYS_NICE and CAP_IPC_LOCK (permitted, effective; the bounding
-// set the same; inheritable and ambient empty) and no_new_privs.  Must be called while the
-// process has one thread (capabilities are per thread); refused otherwise.
+// Becomes `who` with exactly CAP_SYS_NICE and CAP_IPC_LOCK (permitted, effective, inheritable and
+// ambient -- ambient so that they survive irpd's exec of itself in a managed restart; the bounding
+// set the same) and no_new_privs.  Must be called while the process has one thread (capabilities
+// are per thread); refused otherwise.  A process that is `who` already (the image a restart
+// started) is accepted when it has the two capabilities effective, refused naming the missing one.
 Status dropPrivileges(const Identity &who);
 
 // "uid 65534 gid 65534, cap_ipc_lock,cap_sys_nice=ep", for the log.

@@ -61,6 +61,7 @@ void SystemdNotify::ready(const std::string &status, const std::vector<uint64_t>
     windows_ns_.resize(progress.size(), 0);
     std::string message = "READY=1\nSTATUS=" + status;
     if (watchdog_ns_) message += "\nWATCHDOG=1";
+    if (watchdog_ns_ && restore_at_ready_) message += "\nWATCHDOG_USEC=" + std::to_string(watchdog_ns_ / 1000);
     send(message);
     next_ping_ns_ = now_ns + watchdog_ns_ / 2;
 }
@@ -68,6 +69,17 @@ void SystemdNotify::ready(const std::string &status, const std::vector<uint64_t>
 void SystemdNotify::status(const std::string &status) { send("STATUS=" + status); }
 
 void SystemdNotify::stopping(const std::string &status) { send("STOPPING=1\nSTATUS=" + status); }
+
+void SystemdNotify::restarting(const std::string &status, int64_t allowance_ns) {
+    if (!active_) return;
+    timespec now{};
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    const int64_t usec = static_cast<int64_t>(now.tv_sec) * 1'000'000 + now.tv_nsec / 1000;
+    std::string message = "RELOADING=1\nMONOTONIC_USEC=" + std::to_string(usec) + "\nSTATUS=" + status +
+                          "\nEXTEND_TIMEOUT_USEC=" + std::to_string(allowance_ns / 1000);
+    if (watchdog_ns_) message += "\nWATCHDOG=1\nWATCHDOG_USEC=" + std::to_string((watchdog_ns_ + allowance_ns) / 1000);
+    send(message);
+}
 
 bool SystemdNotify::tick(const std::vector<uint64_t> &progress, int64_t now_ns) {
     if (!active_ || !watchdog_ns_) return false;

@@ -33,6 +33,13 @@ public:
     }
     void status(const std::string &status);
     void stopping(const std::string &status);
+    // A managed restart: the same process executes itself again.  RELOADING=1 (with
+    // MONOTONIC_USEC), the STATUS= line, EXTEND_TIMEOUT_USEC= and the watchdog interval stretched
+    // by `allowance_ns` with a last ping, so that neither the reload's timeout nor the watchdog
+    // ends the restart; the next image's READY=1 ends the reload.
+    void restarting(const std::string &status, int64_t allowance_ns);
+    // In the image a restart started: READY=1 also restores the configured interval.
+    void restoreIntervalAtReady() { restore_at_ready_ = true; }
 
     // The main thread's tick: notes which dispatchers completed slots since the last tick, and
     // from half the watchdog interval after the last ping on, pings (WATCHDOG=1) when every
@@ -71,6 +78,7 @@ private:
     std::vector<int64_t> windows_ns_;
     uint64_t failures_ = 0;
     int stalled_ = -1;
+    bool restore_at_ready_ = false;
 };
 
 } // namespace irp::supervise

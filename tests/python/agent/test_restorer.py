@@ -1,7 +1,7 @@
 """test_restorer.py -- the agent's restore watcher on its own (fakes for irpd, the store and the
 activator): a restarted irpd gets the store's active set back, and a restore that failed (irpd
 still busy, a swap that timed out) is tried again with a growing delay instead of waiting for
-irpd's next restart."""
+irpd's next restart; while an activation runs (a managed restart of irpd) the watcher stays out."""
 from __future__ import annotations
 
 from indurop_agent.activation import Restorer
@@ -21,16 +21,21 @@ class Activator:
     def __init__(self, irpd: Irpd, failures: int):
         self.irpd, self.failures, self.calls = irpd, failures, 0
         self.store = self
+        self.activating = False
 
     def active_id(self):
         return "B"
 
-    def activate(self, set_id, who, action):
+    def busy(self):
+        return self.activating
+
+    def restore(self):
         self.calls += 1
         if self.calls <= self.failures:
             raise IrpdUnavailable("irpd did not answer 'load' within 30 s")
-        self.irpd.status["set_id"] = set_id
-        return {"generation": 2}
+        before = self.irpd.status["set_id"]
+        self.irpd.status["set_id"] = "B"
+        return before, "B", {"generation": 2}
 
 
 class Log:
@@ -85,3 +90,15 @@ def test_a_restarted_irpd_is_restored_at_once():
     irpd.status = {"pid": 11, "set_id": None}  # restarted by systemd on its --config
     r.poll_once()
     assert activator.calls == 2 and irpd.status["set_id"] == "B"
+
+
+def test_the_watcher_stays_out_while_an_activation_runs():
+    r, irpd, activator, log = watcher(failures=0, clock=None)
+    r.poll_once()
+    assert activator.calls == 1
+    activator.activating = True               # e.g. a managed restart: irpd away, then on set C
+    irpd.status = {"pid": 10, "set_id": "C"}
+    for _ in range(3):
+        r.poll_once()
+    assert activator.calls == 1 and irpd.status["set_id"] == "C"
+    assert not any(k in ("irpd_lost", "restore_failed") for k, _ in log.lines)

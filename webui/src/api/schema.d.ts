@@ -356,7 +356,7 @@ export interface paths {
         put?: never;
         /**
          * Rollback
-         * @description Activates the set that was active before the current one.
+         * @description Activates the set that was active before the current one (mode as for activate).
          */
         post: operations["rollback_api_v1_sets_rollback_post"];
         delete?: never;
@@ -393,7 +393,10 @@ export interface paths {
         put?: never;
         /**
          * Activate
-         * @description Hot-swaps irpd to this set (at a macro-period boundary); on refusal nothing changes.
+         * @description Puts this set into irpd: mode online (the default) hot-swaps it at a macro-period boundary and
+         *     refuses (409) a set that needs a restart, naming why; mode restart restarts irpd (same pid) onto
+         *     it; auto restarts only when needed.  On refusal, or when a restarted irpd came back on its old
+         *     set (409), nothing changes.
          */
         post: operations["activate_api_v1_sets__set_id__activate_post"];
         delete?: never;
@@ -515,11 +518,24 @@ export interface paths {
 export type webhooks = Record<string, never>;
 export interface components {
     schemas: {
+        /**
+         * ActivateRequest
+         * @description How to put a set into irpd (docs/set-store.md, activation modes).
+         */
+        ActivateRequest: {
+            /**
+             * Mode
+             * @description online: a hot swap, refused (409) for a set irpd can run only after a restart; restart: irpd stops and starts again (same pid) on the set; auto: restart only when irpd cannot take the set online
+             * @default online
+             * @enum {string}
+             */
+            mode: "online" | "restart" | "auto";
+        };
         /** ActiveSet */
         ActiveSet: {
             /**
              * Action
-             * @description how: activate, rollback or restore
+             * @description how: activate, restart (activated by a restart of irpd), rollback or restore
              */
             action: string;
             /**
@@ -983,6 +999,11 @@ export interface components {
         PatchReport: {
             /** Basic Period Ns */
             basic_period_ns?: number | null;
+            /**
+             * Downtime Ns
+             * @description restart: from the old set's last period to the new one's first, as irpd measured it; null for a hot swap
+             */
+            downtime_ns?: number | null;
             /** Generation */
             generation?: number | null;
             /**
@@ -997,6 +1018,13 @@ export interface components {
              * @description dispatcher periods missed around the swap; the goal is 0
              */
             missed_periods?: number | null;
+            /**
+             * Mode
+             * @description how the set went in: a hot swap or a restart
+             * @default online
+             * @enum {string}
+             */
+            mode: "online" | "restart";
             /**
              * Reports
              * @description one per field applied, in the order period_ns, priority, enabled
@@ -1345,6 +1373,13 @@ export interface components {
                 [key: string]: unknown;
             } | null;
             /**
+             * Last Restart
+             * @description the managed restart this irpd came from ({from_set_id, set_id, downtime_ns, requested_ns, fell_back, error}), or null
+             */
+            last_restart?: {
+                [key: string]: unknown;
+            } | null;
+            /**
              * Left Out After Crash
              * @description modules a crash left out ({module, set})
              * @default []
@@ -1405,11 +1440,16 @@ export interface components {
         };
         /**
          * SwapReport
-         * @description irpd's report of a hot swap (control protocol v2).
+         * @description irpd's report of a hot swap (control protocol v2), or of a managed restart (mode restart).
          */
         SwapReport: {
             /** Basic Period Ns */
             basic_period_ns?: number | null;
+            /**
+             * Downtime Ns
+             * @description restart: from the old set's last period to the new one's first, as irpd measured it; null for a hot swap
+             */
+            downtime_ns?: number | null;
             /** Generation */
             generation?: number | null;
             /**
@@ -1424,6 +1464,13 @@ export interface components {
              * @description dispatcher periods missed around the swap; the goal is 0
              */
             missed_periods?: number | null;
+            /**
+             * Mode
+             * @description how the set went in: a hot swap or a restart
+             * @default online
+             * @enum {string}
+             */
+            mode: "online" | "restart";
             /** Request To Swap Ns */
             request_to_swap_ns?: number | null;
             /** Set */
@@ -2306,7 +2353,11 @@ export interface operations {
             path?: never;
             cookie?: never;
         };
-        requestBody?: never;
+        requestBody?: {
+            content: {
+                "application/json": components["schemas"]["ActivateRequest"] | null;
+            };
+        };
         responses: {
             /** @description Successful Response */
             200: {
@@ -2323,6 +2374,15 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
             };
         };
     };
@@ -2373,7 +2433,11 @@ export interface operations {
             };
             cookie?: never;
         };
-        requestBody?: never;
+        requestBody?: {
+            content: {
+                "application/json": components["schemas"]["ActivateRequest"] | null;
+            };
+        };
         responses: {
             /** @description Successful Response */
             200: {
@@ -2391,7 +2455,7 @@ export interface operations {
                 };
                 content?: never;
             };
-            /** @description irpd refused the set (its message; file and line where it names them) */
+            /** @description irpd refused the set (its message; file and line where it names them), a set that needs a restart in mode online, or a restart after which irpd came back on its old set */
             409: {
                 headers: {
                     [name: string]: unknown;

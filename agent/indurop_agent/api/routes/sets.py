@@ -7,12 +7,12 @@ from fastapi import APIRouter, HTTPException, Request
 from starlette.concurrency import run_in_threadpool
 
 from ... import uploads
-from ...activation import irpd_validation
+from ...activation import RestartFellBack, irpd_validation
 from ...errors import LocatedError, locate, problems
 from ...irpd_client import IrpdRefused, IrpdUnavailable
 from ...store import StoreError, remove_tree, set_id_of
 from ..deps import AdminDep, OperatorDep, ViewerDep, audited
-from ..models import ActiveSet, ErrorBody, SetPublic, SetSummary, SwapReport
+from ..models import ActivateRequest, ActiveSet, ErrorBody, SetPublic, SetSummary, SwapReport
 
 router = APIRouter(tags=["sets"])
 
@@ -123,6 +123,8 @@ def _run_swap(call, root=None):
         return call()
     except StoreError as e:
         raise _store_error(e) from e
+    except RestartFellBack as e:  # irpd restarted, and runs its old set again
+        raise LocatedError(409, str(e), **(locate(str(e), root) if root is not None else {})) from e
     except IrpdRefused as e:
         raise LocatedError(409, f"irpd refused the set and kept the running one: {e}",
                            **(locate(str(e), root) if root is not None else {})) from e
@@ -130,29 +132,44 @@ def _run_swap(call, root=None):
         raise HTTPException(503, str(e)) from e
 
 
+def _note(entry: dict, report: dict | None) -> None:
+    """The audit line's outcome of an activation: generation, mode, and a restart's downtime."""
+    entry["generation"] = (report or {}).get("generation")
+    entry["mode"] = (report or {}).get("mode", entry.get("mode"))
+    if entry["mode"] == "restart":
+        entry["downtime_ns"] = (report or {}).get("downtime_ns")
+
+
 @router.post("/sets/rollback", responses={409: {"description": "nothing to roll back to, or irpd refused"}})
-def rollback(request: Request, who: OperatorDep) -> SwapReport:
-    """Activates the set that was active before the current one."""
+def rollback(request: Request, who: OperatorDep, body: ActivateRequest | None = None) -> SwapReport:
+    """Activates the set that was active before the current one (mode as for activate)."""
     state = request.app.state
-    with audited(request, who, "rollback") as entry:
+    mode = (body or ActivateRequest()).mode
+    with audited(request, who, "rollback", mode=mode) as entry:
         entry["from"] = state.store.active_id()
         entry["target"] = state.store.rollback_target()
         target = entry["target"]
         root = state.store.files_dir(target) if target else None
-        target, report = _run_swap(lambda: state.activator.rollback(who.as_dict()), root)
-        entry["generation"] = (report or {}).get("generation")
+        target, report = _run_swap(lambda: state.activator.rollback(who.as_dict(), mode), root)
+        _note(entry, report)
     return SwapReport(**(report or {}))
 
 
 @router.post("/sets/{set_id}/activate", responses={404: {"description": "no such set"},
                                                     409: {"model": ErrorBody, "description": "irpd refused the set "
-                                                          "(its message; file and line where it names them)"}})
-def activate(set_id: str, request: Request, who: OperatorDep) -> SwapReport:
-    """Hot-swaps irpd to this set (at a macro-period boundary); on refusal nothing changes."""
+                                                          "(its message; file and line where it names them), a set "
+                                                          "that needs a restart in mode online, or a restart after "
+                                                          "which irpd came back on its old set"}})
+def activate(set_id: str, request: Request, who: OperatorDep, body: ActivateRequest | None = None) -> SwapReport:
+    """Puts this set into irpd: mode online (the default) hot-swaps it at a macro-period boundary and
+    refuses (409) a set that needs a restart, naming why; mode restart restarts irpd (same pid) onto
+    it; auto restarts only when needed.  On refusal, or when a restarted irpd came back on its old
+    set (409), nothing changes."""
     state = request.app.state
-    with audited(request, who, "activate", set_id) as entry:
+    mode = (body or ActivateRequest()).mode
+    with audited(request, who, "activate", set_id, mode=mode) as entry:
         entry["from"] = state.store.active_id()
         root = state.store.files_dir(set_id) if state.store.manifest(set_id) is not None else None
-        report = _run_swap(lambda: state.activator.activate(set_id, who.as_dict()), root)
-        entry["generation"] = (report or {}).get("generation")
+        report = _run_swap(lambda: state.activator.activate(set_id, who.as_dict(), mode=mode), root)
+        _note(entry, report)
     return SwapReport(**(report or {}))
