@@ -112,3 +112,13 @@ def test_a_layout_laid_out_afresh_is_valid_but_needs_a_restart(cell):
     assert r.status_code == 409, r.text
     assert "keeps its type but moves" in r.json()["detail"]
     assert cell.call("GET", "/status").json()["generation"] == 1
+    # The managed restart runs it: the same irpd process, the new layout, the downtime measured.
+    pid = cell.call("GET", "/status").json()["pid"]
+    r = cell.call("POST", f"/sets/{stored['id']}/activate", json={"mode": "auto"})
+    assert r.status_code == 200, r.text
+    report = r.json()
+    assert report["mode"] == "restart" and report["downtime_ns"] > 0, report
+    status = cell.call("GET", "/status").json()
+    assert status["pid"] == pid and status["set_id"] == stored["id"], status
+    reordered = json.loads((ONLINE / "oc_reordered" / "layout.json").read_text())["hash"]
+    assert json.loads(cell.call("GET", "/layout").text)["hash"] == reordered
