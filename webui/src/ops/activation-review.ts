@@ -6,20 +6,13 @@
 // if what runs changed meanwhile, the new plan is shown instead and asked for again.
 import { unwrap } from "../api/client";
 import type { AppContext } from "../app/context";
-import { activationPlan, activationRequest, planKey, variableDiff, type ActivationMode, type ActivationPlan } from "./activation";
+import { activationPlan, activationRequest, planKey, variableDiff, type ActivationPlan } from "./activation";
 import { errorText, h, setText } from "./dom";
 import { renderSlotTable } from "./slot-table-view";
 import { renderVariableDiff } from "./variable-diff-view";
 import { buildSlotTable, changedSlots } from "./timeline";
 import type { Schedule, SetPublic, SwapReport, Validation } from "./types";
 import { formatTime } from "./units";
-
-// The generated schema has no body for activate yet (the agent's `mode` is being merged); this is
-// the one call that sends it.  Once schema.d.ts has the body, call ctx.api.POST directly.
-type ActivatePost = (
-  path: "/api/v1/sets/{set_id}/activate",
-  init: { params: { path: { set_id: string } }; body: { mode: ActivationMode } },
-) => Promise<{ data?: SwapReport; error?: unknown; response: Response }>;
 
 export class ActivationReview {
   readonly element: HTMLElement;
@@ -192,8 +185,9 @@ export class ActivationReview {
         return;
       }
       setText(button, req.mode === "restart" ? "Restarting irpd…" : "Swapping…");
-      const api = this.ctx.api as unknown as { POST: ActivatePost };
-      const report = unwrap(await api.POST("/api/v1/sets/{set_id}/activate", { params: { path: { set_id: this.setId } }, body: { mode: req.mode } }));
+      const report = unwrap(
+        await this.ctx.api.POST("/api/v1/sets/{set_id}/activate", { params: { path: { set_id: this.setId } }, body: { mode: req.mode } }),
+      );
       this.busy = false;
       this.close();
       this.onReport(`Set ${this.setId} ${req.mode === "restart" ? "activated by a restart of irpd" : "activated"}`, report);

@@ -96,17 +96,9 @@ export function planKey(v: Validation): string {
   return JSON.stringify([v.valid, v.online ?? null, v.restart ?? null, v.variables ?? null, v.schedule ?? null, v.errors]);
 }
 
-// The swap report's `mode` and `downtime_ns` come with the agent's activate modes (being merged);
-// until schema.d.ts has them they are read through this narrow type.
-interface RestartReportFields {
-  mode?: unknown;
-  downtime_ns?: unknown;
-}
-
 /** How a swap report's set went in, and the measured downtime of a restart (null: none or not measured). */
 export function reportMode(r: SwapReport): { mode: ActivationMode | null; downtimeNs: number | null } {
-  const x = r as RestartReportFields;
-  const mode = x.mode === "online" || x.mode === "restart" ? x.mode : null;
-  const downtimeNs = typeof x.downtime_ns === "number" && Number.isFinite(x.downtime_ns) ? x.downtime_ns : null;
+  const mode = r.mode === "online" || r.mode === "restart" ? r.mode : null;
+  const downtimeNs = typeof r.downtime_ns === "number" && Number.isFinite(r.downtime_ns) ? r.downtime_ns : null;
   return { mode, downtimeNs };
 }

