@@ -726,7 +726,9 @@ Status ProcessSupervisor::waitReady(int64_t timeout_ns) {
     }
 }
 
-void ProcessSupervisor::stopAll(int64_t grace_ns) { stopWhere([](const Child &) { return true; }, grace_ns); }
+void ProcessSupervisor::stopAll(int64_t grace_ns, bool term_non_real) {
+    stopWhere([](const Child &) { return true; }, grace_ns, term_non_real);
+}
 
 void ProcessSupervisor::stop(const std::vector<uint32_t> &slots, int64_t grace_ns) {
     auto chosen = [&slots](const Child &c) { return std::find(slots.begin(), slots.end(), c.launch.slot) != slots.end(); };
@@ -734,7 +736,7 @@ void ProcessSupervisor::stop(const std::vector<uint32_t> &slots, int64_t grace_n
     std::erase_if(children_, [&](const std::unique_ptr<Child> &c) { return chosen(*c); });
 }
 
-void ProcessSupervisor::stopWhere(const std::function<bool(const Child &)> &chosen, int64_t grace_ns) {
+void ProcessSupervisor::stopWhere(const std::function<bool(const Child &)> &chosen, int64_t grace_ns, bool term_non_real) {
     bool any = false;
     for (auto &c : children_) {
         if (!chosen(*c)) continue;
@@ -742,7 +744,12 @@ void ProcessSupervisor::stopWhere(const std::function<bool(const Child &)> &chos
         if (!c->info.running) continue;
         any = true;
         c->stopping = true;
-        if (indurop_process_slot *s = slotOf(*c)) {
+        if (term_non_real && c->launch.spec.operation == config::OperationType::NonReal) {
+            // Never released, it never reads the stop flag: SIGTERM is how it learns, at once
+            // (waiting half the grace for a flag it does not read cost a restart a second).
+            c->term_sent = true;
+            if (kill(-c->info.pid, SIGTERM) != 0) kill(c->info.pid, SIGTERM);
+        } else if (indurop_process_slot *s = slotOf(*c)) {
             atomic(s->stop_requested).store(1, std::memory_order_release);
             wakeAll(&s->release_seq);
         }

@@ -120,7 +120,9 @@ public:
 
     // Ends every child: stop_requested and a wake of its release word, SIGTERM after half the
     // grace, SIGKILL to its process group at the end of it; reaps them all.  No restart follows.
-    void stopAll(int64_t grace_ns);
+    // term_non_real: SIGTERM the non-real processes at once instead of half the grace later (they
+    // never read the stop flag; a managed restart should not wait for them).
+    void stopAll(int64_t grace_ns, bool term_non_real = false);
     // The same for the processes in these control slots only, which are then forgotten (a hot
     // reload removed or replaced them).
     void stop(const std::vector<uint32_t> &slots, int64_t grace_ns);
@@ -140,7 +142,7 @@ private:
     void flushDropReport(Child &child, bool force);
     void handleExit(Child &child, int status);
     void closeStreams(Child &child);
-    void stopWhere(const std::function<bool(const Child &)> &chosen, int64_t grace_ns);
+    void stopWhere(const std::function<bool(const Child &)> &chosen, int64_t grace_ns, bool term_non_real = false);
     indurop_process_slot *slotOf(const Child &child) const;
     Result<osal::SharedMemory *> controlSegment(const std::string &name);
 

@@ -715,7 +715,7 @@ int run(const Options &options, Session &session) {
     watchdog_now.store(nullptr);
     watchdog->stop();
     if (calls) calls->stop();  // callers still waiting return at once ("irpd is stopping")
-    supervisor.stopAll(2'000'000'000);  // stop_requested, then SIGTERM, then SIGKILL
+    supervisor.stopAll(2'000'000'000, restart.has_value());  // stop_requested, then SIGTERM, then SIGKILL
     // From slot 0's due time to the end of the main dispatcher's last slot.
     const int64_t elapsed = header->finished_ns.load() - header->started_ns.load();
     int status = kExitOk;
