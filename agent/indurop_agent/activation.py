@@ -232,7 +232,8 @@ def irpd_validation(irpd: IrpdClient, module_xml, timeout_s: float = 30.0) -> di
     """irpd's `check` of a stored set, as the manifest's validation report, each error also as a
     problem saying where it points in the set.  irpd unreachable (or too old to check): stored
     unchecked, valid null, and a warning that says so."""
-    unchecked = {"valid": None, "errors": [], "problems": [], "schedule": None}
+    unchecked = {"valid": None, "errors": [], "problems": [], "schedule": None, "online": None, "restart": None,
+                 "variables": None}
     try:
         result = irpd.request("check", config=str(module_xml), timeout=timeout_s) or {}
     except IrpdUnavailable:

@@ -57,6 +57,7 @@ NEEDS = {("GET", "/health"): None, ("GET", "/status"): "viewer", ("GET", "/sched
          ("GET", "/sets"): "viewer", ("POST", "/sets"): "admin", ("GET", "/sets/active"): "viewer",
          ("GET", "/sets/{set_id}"): "viewer", ("POST", "/sets/rollback"): "operator",
          ("POST", "/sets/{set_id}/activate"): "operator", ("GET", "/robot"): "viewer",
+         ("POST", "/sets/{set_id}/check"): "operator", ("GET", "/layout"): "viewer",
          ("GET", "/robot/urdf"): "viewer", ("PUT", "/robot/joints"): "admin", ("GET", "/events"): "viewer",
          ("GET", "/audit"): "admin", ("GET", "/auth/me"): "viewer", ("GET", "/tokens"): "admin",
          ("POST", "/tokens"): "admin", ("DELETE", "/tokens/{token_id}"): "admin"}

@@ -29,7 +29,8 @@ def upload(agent, elves, **extra) -> dict:
 def test_an_upload_is_stored_unchecked_when_irpd_is_unreachable(agent, elves):
     s = upload(agent, elves)
     assert s["validation"] == {"valid": None, "errors": [], "problems": [],
-                               "warnings": ["not checked: irpd unreachable"], "schedule": None}
+                               "warnings": ["not checked: irpd unreachable"], "schedule": None,
+                               "online": None, "restart": None, "variables": None}
     assert s["by"]["name"] == "admin" and s["by"]["role"] == "admin" and len(s["by"]["id"]) == 12
     assert s["active"] is False
     assert {f["path"]: f["kind"] for f in s["files"]} == {
