@@ -55,7 +55,7 @@ function uploadOf(layout: string, modules: Record<string, string>) {
   ];
 }
 
-test("an upload that adds a shared variable shows the variable diff, then activates online", async ({ page }) => {
+test("an upload that adds a shared variable shows the variable diff and activates online; one laid out afresh runs after a confirmed restart", async ({ page }) => {
   const work = mkdtempSync(join(tmpdir(), "indurop-online-"));
   const s = await startServer(counterSet(work, join(ONLINE, "oc_v1/layout.json"), { counter: join(ONLINE, "modules/oc_counter_v1.so") }));
   try {
@@ -97,6 +97,17 @@ test("an upload that adds a shared variable shows the variable diff, then activa
     const fromHistory = page.getByTestId("set-review").getByTestId("plan");
     await expect(fromHistory.getByTestId("plan-restart")).toContainText("start at zero");
     await expect(fromHistory.getByTestId("plan-activate")).toBeDisabled();
+
+    // confirmed: irpd restarts onto it (the same process), and the report gives the measured downtime
+    const before = await (await page.request.get(`${s.url}/api/v1/status`, { headers: { Authorization: `Bearer ${s.tokens.admin}` } })).json();
+    await fromHistory.getByTestId("plan-restart-confirm").check();
+    await fromHistory.getByTestId("plan-activate").click();
+    const restarted = page.getByTestId("swap-report").last();
+    await expect(restarted.getByTestId("report-downtime")).toHaveText(/^[0-9.]+ (ms|s)$/, { timeout: 30_000 });
+    const after = await (await page.request.get(`${s.url}/api/v1/status`, { headers: { Authorization: `Bearer ${s.tokens.admin}` } })).json();
+    expect(after.set_id).toBe(id);
+    expect(after.pid).toBe(before.pid);
+    expect(after.last_restart.downtime_ns).toBeGreaterThan(0);
   } finally {
     await stopServer(s);
   }
