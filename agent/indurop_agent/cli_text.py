@@ -257,6 +257,21 @@ def validation_text(v: dict | None) -> str:
     if s:
         lines.append(f"schedule: basic period {_period(s.get('basic_period_ns'))}, "
                      f"macro period {_period(s.get('macro_period_ns'))}, {len(s.get('slots', []))} slots")
+    if v.get("online") is False and v.get("restart"):
+        r = v["restart"]
+        expected = r.get("expected_downtime_ns")
+        lines.append(f"online: no, only a restart of irpd can run it (--mode restart or auto"
+                     f"{', expected downtime ' + _period(expected) if expected else ''}): {r.get('reason')}")
+    elif v.get("online"):
+        lines.append("online: yes (a hot swap)")
+    changes = v.get("variables")
+    if changes and (changes.get("added") or changes.get("removed") or changes.get("moved")):
+        moved = [m.get("path") for m in changes.get("moved") or []]
+        lines.append("variables: " + "; ".join(part for part in (
+            f"added {', '.join(changes['added'])}" if changes.get("added") else "",
+            f"removed {', '.join(changes['removed'])}" if changes.get("removed") else "",
+            f"moved {', '.join(moved)}" if moved else "",
+            f"modules replaced for it {', '.join(changes['replaced'])}" if changes.get("replaced") else "") if part))
     return "\n".join(lines)
 
 

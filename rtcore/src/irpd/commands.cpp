@@ -94,19 +94,15 @@ json leftOut(const CommandContext &c) {
     return list;
 }
 
-// What a clean stop of this generation is expected to take, for a restart's expected downtime
-// (nothing measures a stop before it happens): the dispatchers end the slot they are in (at most
-// two of the longest basic period); a periodic or sporadic process answers its stop request within
-// a period (20 ms allowed); a non-real process usually does not look at it and ends at the SIGTERM
-// sent 1 s later (half the stop's 2 s grace).  The processes stop together: the longest counts.
+// The stop's share of a restart's downtime: the dispatchers end their slot (two of the longest basic
+// period) and the processes end: a periodic or sporadic one at its next waitPeriod() (20 ms
+// allowed); a non-real one gets SIGTERM at once in a restart (20 ms allowed as well).
 int64_t stopEstimateNs(const reload::Generation &g) {
     int64_t longest = g.schedule.basic_ns;
     for (const auto &table : g.tables->executors) longest = std::max(longest, table.basic_ns);
-    int64_t processes = 0;
-    for (const config::ModuleSpec &m : g.set.modules)
-        if (m.type == config::ModuleType::Process)
-            processes = std::max<int64_t>(processes, m.operation == config::OperationType::NonReal ? 1'000'000'000 : 20'000'000);
-    return 2 * longest + processes;
+    bool processes = false;
+    for (const config::ModuleSpec &m : g.set.modules) processes |= m.type == config::ModuleType::Process;
+    return 2 * longest + (processes ? 20'000'000 : 0);
 }
 
 // `restart`: the set checked as `check` does (a refusal other than restart_required refuses it now,
