@@ -29,6 +29,10 @@ Result<std::string> sha256File(const std::filesystem::path &file) {
     unsigned char digest[EVP_MAX_MD_SIZE];
     unsigned int size = 0;
     EVP_DigestFinal_ex(ctx.get(), digest, &size);
+    return hexDigest(digest, size);
+}
+
+std::string hexDigest(const unsigned char *digest, unsigned size) {
     std::string hex;
     char two[3];
     for (unsigned i = 0; i < size; ++i) {

@@ -17,6 +17,8 @@ namespace irp::hosts {
 
 // The SHA-256 of a file's content, as 64 lowercase hex digits.
 Result<std::string> sha256File(const std::filesystem::path &file);
+// A digest as lowercase hex digits.
+std::string hexDigest(const unsigned char *digest, unsigned size);
 
 class ModuleCache {
 public:

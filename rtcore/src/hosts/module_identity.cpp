@@ -19,16 +19,6 @@ namespace {
 constexpr const char *kStampSection = ".indurop_layout";
 constexpr const char *kBuildId = ".note.gnu.build-id";
 
-std::string hex(const unsigned char *digest, unsigned size) {
-    std::string out;
-    char two[3];
-    for (unsigned i = 0; i < size; ++i) {
-        std::snprintf(two, sizeof two, "%02x", digest[i]);
-        out += two;
-    }
-    return out;
-}
-
 struct Fd {
     int fd;
     ~Fd() {
@@ -75,7 +65,7 @@ Result<ModuleIdentity> identify(const std::filesystem::path &file) {
     unsigned char digest[EVP_MAX_MD_SIZE];
     unsigned int size = 0;
     EVP_DigestFinal_ex(ctx.get(), digest, &size);
-    id.code = hex(digest, size);
+    id.code = hexDigest(digest, size);
     return id;
 }
 
