@@ -79,7 +79,7 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
             return Error{"the set declares shared variables (" + set.layout.string() +
                              ") but irpd runs without a variable segment: a restart onto this set makes one",
                          kRestartRequired};
-        layouts::Diff d = layouts::diff(s_.vars->layout().model, layout->model);
+        layouts::Diff d = layouts::diff(s_.vars->layout()->model, layout->model);
         if (!d.online_impossible.empty())
             return Error{"the set's shared-variable layout " + layout->hash.substr(0, 12) + "… (" + set.layout.string() +
                              ") cannot replace the running one online: " + d.online_impossible,
@@ -186,7 +186,8 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
     const config::SetSpec &spec = next->set;
     // What the set's modules are checked against: its layout, else the segment's (a set without
     // <layout> on an irpd that has one).
-    const layouts::Model *model = next->layout ? &next->layout->model : s_.vars ? &s_.vars->layout().model : nullptr;
+    const std::shared_ptr<const variables::Layout> segment_layout = s_.vars ? s_.vars->layout() : nullptr;
+    const layouts::Model *model = next->layout ? &next->layout->model : segment_layout ? &segment_layout->model : nullptr;
 
     // Which modules stay.  A running module that goes away must not own shared functions: kept
     // modules may hold pointers into its code (found in their start()).
@@ -311,7 +312,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
     if (next->layout && s_.vars && next->layout->hash != s_.vars->hash()) {
         std::vector<std::string> fresh = next->variables.added;
         for (const layouts::Moved &m : next->variables.moved) fresh.push_back(m.path);
-        next->previous_layout = std::make_shared<const variables::Layout>(s_.vars->layout());
+        next->previous_layout = s_.vars->layout();
         if (Status st = s_.vars->publish(*next->layout, fresh); !st) {
             undo(*next);
             return st.error();
@@ -320,7 +321,8 @@ Status Reloader::realize(Generation &generation, const Generation *running,
     }
 
     // New thread modules: loaded from their content-addressed copies, initialized, started.
-    const layouts::Model *model = next->layout ? &next->layout->model : s_.vars ? &s_.vars->layout().model : nullptr;
+    const std::shared_ptr<const variables::Layout> segment_layout = s_.vars ? s_.vars->layout() : nullptr;
+    const layouts::Model *model = next->layout ? &next->layout->model : segment_layout ? &segment_layout->model : nullptr;
     for (const config::ModuleSpec &m : spec.modules) {
         Member &member = next->members[static_cast<std::size_t>(m.index)];
         if (member.kept || m.type != config::ModuleType::Thread) continue;

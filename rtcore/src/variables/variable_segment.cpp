@@ -78,7 +78,7 @@ Result<VariableSegment> VariableSegment::create(const std::string &instance, con
 
     VariableSegment segment;
     segment.shm_ = std::move(*shm);
-    segment.layout_ = layout;
+    segment.layout_ = std::make_shared<const Layout>(layout);
     shared::adopt(segment.header());
     return segment;
 }
@@ -117,7 +117,9 @@ Status VariableSegment::publish(const Layout &next, const std::vector<std::strin
     h->lock_count = next.lock_count;
     h->data_size = next.data_size;
     seq.store(s + 2, std::memory_order_release);
-    layout_ = next;
+    auto published = std::make_shared<const Layout>(next);
+    std::lock_guard lock(*layout_mutex_);
+    layout_ = std::move(published);
     return Ok{};
 }
 

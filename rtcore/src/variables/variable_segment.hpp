@@ -15,6 +15,8 @@
 
 #include <indurop/segment.h>
 
+#include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -41,8 +43,12 @@ public:
     // the text into the idle half, then switches the header's layout fields under layout_seq.
     // Checks fits() first; never touches the bytes of variables that stay.
     Status publish(const Layout &next, const std::vector<std::string> &fresh = {});
-    // The layout published last (a copy of what was given to create() or publish()).
-    const Layout &layout() const { return layout_; }
+    // The layout published last (what was given to create() or publish()).  Any thread: the
+    // control thread's check reads it while the main thread may publish.
+    std::shared_ptr<const Layout> layout() const {
+        std::lock_guard lock(*layout_mutex_);
+        return layout_;
+    }
 
     VariableSegment() = default;
     VariableSegment(VariableSegment &&) noexcept = default;
@@ -55,7 +61,8 @@ public:
 
 private:
     osal::SharedMemory shm_;
-    Layout layout_;
+    std::unique_ptr<std::mutex> layout_mutex_ = std::make_unique<std::mutex>();  // movable segment
+    std::shared_ptr<const Layout> layout_;
 };
 
 } // namespace irp::variables
