@@ -8,7 +8,8 @@
 # The checks: both units active; the default set stored and activated on first boot; irpd's user,
 # capabilities and SCHED_FIFO threads; irpd killed (SIGKILL) -> restarted by systemd, running the
 # active set again; irpd stopped (SIGSTOP) -> killed by the watchdog ("Watchdog timeout" in the
-# journal) and restarted; the agent answering with irpd's status after each.
+# journal) and restarted; the agent answering with irpd's status after each; a managed restart
+# through the agent (same main pid, no systemd restart, the user and capabilities kept).
 exec >"${1:-/dev/stdout}" 2>&1
 api=http://127.0.0.1:8080/api/v1
 data=/var/lib/indurop
@@ -101,6 +102,20 @@ if wait_until 60 irpd_back "$pid"; then
 else
   fail "irpd was not restarted within 60 s of SIGSTOP (watchdog)"
 fi
+# A managed restart through the agent (activate with mode restart): irpd executes itself again under
+# systemd, the same main pid, no restart counted by systemd, still the user indurop with its two
+# capabilities (ambient across the exec), and the downtime reported.
+pid=$(main_pid); restarts=$(systemctl show -p NRestarts --value irpd.service)
+answer=$(curl -s -m 60 -X POST -H "Authorization: Bearer $(cat $data/admin-token)" -H 'Content-Type: application/json' \
+  -d '{"mode": "restart"}' "$api/sets/$(active_set)/activate")
+downtime=$(printf '%s' "$answer" | python3 -S -c 'import json, sys; print(json.load(sys.stdin).get("downtime_ns"))' 2>/dev/null)
+wait_until 30 runs_active_set || fail "irpd does not run the active set after a managed restart"
+echo "RESULT managed_restart_downtime_ns=$downtime pid_same=$([ "$(main_pid)" = "$pid" ] && echo yes || echo no) nrestarts_same=$([ "$(systemctl show -p NRestarts --value irpd.service)" = "$restarts" ] && echo yes || echo no) cap_eff=$(awk '/^CapEff:/ {print $2}' /proc/$pid/status) state=$(systemctl is-active irpd.service)"
+[ "$(main_pid)" = "$pid" ] || fail "a managed restart changed irpd's main pid ($pid -> $(main_pid)): $answer"
+[ "$(systemctl show -p NRestarts --value irpd.service)" = "$restarts" ] || fail "systemd counted the managed restart as a restart"
+[ "$(awk '/^CapEff:/ {print $2}' /proc/$pid/status)" = 0000000000804000 ] || fail "after a managed restart irpd's capabilities are not CAP_SYS_NICE and CAP_IPC_LOCK"
+[ "$(awk '/^Uid:/ {print $2}' /proc/$pid/status)" = "$(id -u indurop)" ] || fail "after a managed restart irpd is not the user indurop"
+case "$downtime" in ''|None|0) fail "the managed restart reported no downtime: $answer" ;; esac
 echo "RESULT nrestarts=$(systemctl show -p NRestarts --value irpd.service) agent_pid_unchanged_state=$(systemctl is-active indurop-agent.service)"
 journalctl -u irpd.service -u indurop-agent.service --no-pager -o short-monotonic | tail -40 | sed 's/^/LOG /'
 echo "RESULT done"
