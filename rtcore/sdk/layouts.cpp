@@ -43,7 +43,15 @@ const Variable *Table::find(std::string_view path) const {
 
 std::optional<Model> parse(std::string_view text, std::string &error) {
     try {
-        const auto doc = nlohmann::json::parse(text);
+        return fromJson(nlohmann::json::parse(text), error);
+    } catch (const nlohmann::json::exception &e) {
+        error = std::string("malformed layout: ") + e.what();
+        return std::nullopt;
+    }
+}
+
+std::optional<Model> fromJson(const nlohmann::json &doc, std::string &error) {
+    try {
         Model m;
         m.self = tableOf(doc.at("hash"), doc.at("variables"));
         m.data_size = doc.at("data_size").get<uint64_t>();

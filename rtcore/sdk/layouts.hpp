@@ -13,6 +13,8 @@
 // that both accept exactly the same modules.
 #pragma once
 
+#include <nlohmann/json_fwd.hpp>
+
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -40,8 +42,10 @@ struct Model {
     uint32_t lock_count = 0;
 };
 
-// Parses a layout.json text; nullopt with `error` set when it is not one.
+// Parses a layout.json text (or takes an already parsed one); nullopt with `error` set when it is
+// not one.
 std::optional<Model> parse(std::string_view text, std::string &error);
+std::optional<Model> fromJson(const nlohmann::json &doc, std::string &error);
 
 // "" when code built against layout `built` may run on `model`, else why not (naming the variable).
 std::string compatible(std::string_view built, const Model &model);

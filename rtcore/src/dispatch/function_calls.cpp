@@ -31,6 +31,14 @@ int32_t refusalOf(const runtime::FunctionExport &e, const config::ModuleSpec *ow
     return INDUROP_CALL_OK;
 }
 
+// The module of `set` that exported x, or null.
+const config::ModuleSpec *ownerOf(const runtime::FunctionExport &x, const config::SetSpec &set) {
+    const config::ModuleSpec *owner = nullptr;
+    for (const config::ModuleSpec &m : set.modules)
+        if (!x.owner.empty() && m.name == x.owner) owner = &m;
+    return owner;
+}
+
 // The answer to one request taken by the owner (the area is SERVING: the process leaves it alone).
 void answer(indurop_call_area &a, const CallServer::Function &f, uint64_t cycle, bool disabled) noexcept {
     int32_t status = INDUROP_CALL_OK;
@@ -63,15 +71,11 @@ std::unique_ptr<CallServer> CallServer::publish(hosts::ControlSegment &control, 
     auto server = std::make_unique<CallServer>();
     server->header_ = control.header();
     for (uint32_t s = 0; s < control.slotCount(); ++s) server->slots_.push_back(&control.slot(s));
-    server->cursor_.assign(set.modules.size(), 0);
-    server->serves_.assign(set.modules.size(), 0);
-    for (const config::ModuleSpec &m : set.modules) server->owners_.push_back(m.name);
+    server->forModulesOf(set);
     const uint32_t count = std::min<uint32_t>(control.functionCount(), static_cast<uint32_t>(exports.size()));
     for (uint32_t i = 0; i < count; ++i) {
         const runtime::FunctionExport &x = exports[i];
-        const config::ModuleSpec *owner = nullptr;
-        for (const config::ModuleSpec &m : set.modules)
-            if (!x.owner.empty() && m.name == x.owner) owner = &m;
+        const config::ModuleSpec *owner = ownerOf(x, set);
         indurop_function_entry &e = control.function(i);
         e = indurop_function_entry{};
         if (x.name.size() < sizeof e.name) copyText(e.name, x.name);  // a longer name stays unlisted: "" never matches
@@ -84,18 +88,14 @@ std::unique_ptr<CallServer> CallServer::publish(hosts::ControlSegment &control, 
         e.owner_index = owner ? static_cast<uint32_t>(owner->index) : UINT32_MAX;
         e.args_size = x.shape.args_size;
         e.result_size = x.shape.result_size;
-        e.refusal = static_cast<uint32_t>(refusalOf(x, owner));
-        e.owner_period_ns = owner && e.refusal != INDUROP_CALL_NOT_SERVED ? owner->period_ns : 0;
 
         Function f;
-        f.fn = x.fn;
-        f.refusal = static_cast<int32_t>(e.refusal);
-        f.thunk = f.refusal == INDUROP_CALL_OK ? x.shape.thunk : nullptr;
         f.signature_hash = e.signature_hash;
         f.args_size = e.args_size;
         f.result_size = e.result_size;
-        f.owner = owner ? owner->index : -1;
-        if (f.refusal == INDUROP_CALL_OK && f.owner >= 0) server->serves_[static_cast<std::size_t>(f.owner)] = 1;
+        server->bind(f, x, owner);
+        e.refusal = static_cast<uint32_t>(f.refusal);
+        e.owner_period_ns = owner && e.refusal != INDUROP_CALL_NOT_SERVED ? owner->period_ns : 0;
         server->functions_.push_back(f);
         server->names_.push_back(x.name);
     }
@@ -109,9 +109,7 @@ Result<std::unique_ptr<CallServer>> CallServer::rebind(const config::SetSpec &se
     server->header_ = header_;
     server->slots_ = slots_;
     server->names_ = names_;
-    server->cursor_.assign(set.modules.size(), 0);
-    server->serves_.assign(set.modules.size(), 0);
-    for (const config::ModuleSpec &m : set.modules) server->owners_.push_back(m.name);
+    server->forModulesOf(set);
     for (std::size_t i = 0; i < functions_.size(); ++i) {
         const Function &was = functions_[i];
         const runtime::FunctionExport *x = nullptr;
@@ -123,18 +121,26 @@ Result<std::unique_ptr<CallServer>> CallServer::rebind(const config::SetSpec &se
         if (runtime::signatureHash(x->signature.c_str()) != was.signature_hash || x->shape.args_size != was.args_size ||
             x->shape.result_size != was.result_size)
             return Error{why + "its signature changes; a restart publishes the table anew"};
-        const config::ModuleSpec *owner = nullptr;
-        for (const config::ModuleSpec &m : set.modules)
-            if (!x->owner.empty() && m.name == x->owner) owner = &m;
         Function f = was;
-        f.fn = x->fn;
-        f.refusal = refusalOf(*x, owner);
-        f.thunk = f.refusal == INDUROP_CALL_OK ? x->shape.thunk : nullptr;
-        f.owner = owner ? owner->index : -1;
-        if (f.refusal == INDUROP_CALL_OK && f.owner >= 0) server->serves_[static_cast<std::size_t>(f.owner)] = 1;
+        server->bind(f, *x, ownerOf(*x, set));
         server->functions_.push_back(f);
     }
     return server;
+}
+
+void CallServer::forModulesOf(const config::SetSpec &set) {
+    cursor_.assign(set.modules.size(), 0);
+    serves_.assign(set.modules.size(), 0);
+    owners_.clear();
+    for (const config::ModuleSpec &m : set.modules) owners_.push_back(m.name);
+}
+
+void CallServer::bind(Function &f, const runtime::FunctionExport &x, const config::ModuleSpec *owner) {
+    f.fn = x.fn;
+    f.refusal = refusalOf(x, owner);
+    f.thunk = f.refusal == INDUROP_CALL_OK ? x.shape.thunk : nullptr;
+    f.owner = owner ? owner->index : -1;
+    if (f.refusal == INDUROP_CALL_OK && f.owner >= 0) serves_[static_cast<std::size_t>(f.owner)] = 1;
 }
 
 int CallServer::ownerId(const std::string &name) const {

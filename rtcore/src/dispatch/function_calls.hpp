@@ -68,6 +68,11 @@ public:
     };
 
 private:
+    // Per-module state for `set`: an owner id is a module's index in it.
+    void forModulesOf(const config::SetSpec &set);
+    // f calls export x of `owner` (null: none in the set); marks the owner as serving when callable.
+    void bind(Function &f, const runtime::FunctionExport &x, const config::ModuleSpec *owner);
+
     indurop_control_header *header_ = nullptr;
     std::vector<indurop_process_slot *> slots_;  // every process's call area
     std::vector<Function> functions_;            // in table order

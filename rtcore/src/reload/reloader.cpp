@@ -54,6 +54,22 @@ json variablesJson(const Generation &g) {
 
 int64_t now() { return osal::monotonicNow(); }
 
+// What a generation does to the modules of the one running: kept, started, stopped.
+struct Fates {
+    std::vector<std::string> kept, started, stopped;
+};
+Fates fatesOf(const Generation &next, const Generation *running) {
+    Fates f;
+    for (const config::ModuleSpec &m : next.set.modules)
+        (next.members[static_cast<std::size_t>(m.index)].kept ? f.kept : f.started).push_back(m.name);
+    if (running)
+        for (const config::ModuleSpec &m : running->set.modules) {
+            const int n = next.find(m.name);
+            if (n < 0 || !next.members[static_cast<std::size_t>(n)].kept) f.stopped.push_back(m.name);
+        }
+    return f;
+}
+
 } // namespace
 
 void resolveLayout(config::SetSpec &set, const std::filesystem::path &override_path) {
@@ -122,26 +138,17 @@ json Reloader::check(const std::filesystem::path &xml) const {
         else schedule_json = schedule::toJson(*schedule, *set);
         // The plan of a load, without loading: which modules stay, what the layout changes.
         const auto running = current();
-        auto planned = schedule ? plan(*set, running.get(), running ? running->disabled : std::set<std::string>{}, "")
-                                : Result<std::unique_ptr<Generation>>(Error{""});
         if (!schedule) {  // still say what else is wrong
             if (Status st = checkAgainst(*set, running.get()); !st && st.error().code != kRestartRequired)
                 errors.push_back(st.error().message);
-        } else if (!planned) {
+        } else if (auto planned = plan(*set, running.get(), running ? running->disabled : std::set<std::string>{}, "");
+                   !planned) {
             if (planned.error().code == kRestartRequired) restart = json{{"reason", planned.error().message}};
             else errors.push_back(planned.error().message);
         } else {
-            const Generation &next = **planned;
-            if (next.layout) variables = variablesJson(next);
-            std::vector<std::string> kept, started, stopped;
-            for (const config::ModuleSpec &m : next.set.modules)
-                (next.members[static_cast<std::size_t>(m.index)].kept ? kept : started).push_back(m.name);
-            if (running)
-                for (const config::ModuleSpec &m : running->set.modules) {
-                    const int n = next.find(m.name);
-                    if (n < 0 || !next.members[static_cast<std::size_t>(n)].kept) stopped.push_back(m.name);
-                }
-            modules = json{{"kept", kept}, {"started", started}, {"stopped", stopped}};
+            if ((*planned)->layout) variables = variablesJson(**planned);
+            const Fates f = fatesOf(**planned, running.get());
+            modules = json{{"kept", f.kept}, {"started", f.started}, {"stopped", f.stopped}};
         }
     }
     // A set that only a restart can run is valid: activation offers the restart (docs/hot-reload.md).
@@ -194,11 +201,8 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
     std::vector<bool> old_kept(running ? running->members.size() : 0, false);
     for (const config::ModuleSpec &m : spec.modules) {
         Member &member = next->members[static_cast<std::size_t>(m.index)];
-        auto sha = hosts::sha256File(m.path);
-        if (!sha) return Error{who(m) + ": " + sha.error().message};
         auto identity = hosts::identify(m.path);
         if (!identity) return Error{who(m) + ": " + identity.error().message};
-        member.sha256 = *sha;
         member.identity = identity->code;
         member.layout = identity->layout;
         if (!running) continue;
@@ -214,7 +218,7 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
         member.thread = running->members[o].thread;
         member.record = running->members[o].record;
         member.slot = running->members[o].slot;
-        member.sha256 = running->members[o].sha256;  // the image it runs from (the module cache's copy)
+        member.sha256 = running->members[o].sha256;  // the file it was loaded from (its module-cache copy)
         member.kept = true;
         old_kept[o] = true;
     }
@@ -331,6 +335,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
             undo(*next);
             return Error{who(m) + ": " + image.error().message};
         }
+        member.sha256 = image->sha256;
         auto loaded = hosts::ThreadModule::load(m, model, image->image);
         if (!loaded) {
             undo(*next);
@@ -382,6 +387,12 @@ Status Reloader::realize(Generation &generation, const Generation *running,
             return Error{who(m) + ": no free control slot (irpd has " + std::to_string(slot_used.size()) +
                          "; the running set's processes keep theirs until the swap)"};
         }
+        auto sha = hosts::sha256File(m.path);
+        if (!sha) {
+            undo(*next);
+            return Error{who(m) + ": " + sha.error().message};
+        }
+        member.sha256 = *sha;
         *free = true;
         member.slot = static_cast<int>(free - slot_used.begin());
         hosts::ProcessLaunch launch;
@@ -680,13 +691,7 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
         std::this_thread::sleep_for(std::chrono::microseconds(500));
     const uint64_t missed = lost() - lost_before;
 
-    std::vector<std::string> kept, started, stopped;
-    for (const config::ModuleSpec &m : next->set.modules)
-        (next->members[static_cast<std::size_t>(m.index)].kept ? kept : started).push_back(m.name);
-    for (const config::ModuleSpec &m : running->set.modules) {
-        const int n = next->find(m.name);
-        if (n < 0 || !next->members[static_cast<std::size_t>(n)].kept) stopped.push_back(m.name);
-    }
+    const auto [kept, started, stopped] = fatesOf(*next, running.get());
     retire(*running, *next);
     for (const config::ModuleSpec &m : next->set.modules)
         s_.stats->record(next->members[static_cast<std::size_t>(m.index)].record)

@@ -61,7 +61,7 @@ Result<Layout> readLayout(const std::filesystem::path &path) {
         return Error{where + "malformed layout: " + e.what()};
     }
     std::string problem;
-    auto model = layouts::parse(layout.text, problem);
+    auto model = layouts::fromJson(j, problem);
     if (!model) return Error{where + problem};
     layout.model = std::move(*model);
     return layout;
