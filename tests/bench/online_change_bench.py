@@ -4,11 +4,14 @@ before, glbc --previous), while a counter module runs every 100 us and is kept t
 as a user's build does, the counter module is rebuilt against every new layout (the same code, so
 irpd keeps the running instance).
 
+With --executors, every other swap also adds an <executor> (its own SCHED_FIFO thread, started
+and parked before the swap) and the next one takes it away again (its thread stopped after it).
+
 Reports per swap the periods missed (target 0) and the time from the request to the swap (p50,
 p99, max), and at the end checks that the counter module was one instance whose runs + skipped are
 every period the dispatcher went through.  Writes a JSON summary (--json) for docs/benchmark-online.md.
 
-    .venv/bin/python tests/bench/online_change_bench.py [--swaps 100] [--period-us 100] [--json FILE]
+    .venv/bin/python tests/bench/online_change_bench.py [--swaps 100] [--period-us 100] [--executors] [--json FILE]
 """
 from __future__ import annotations
 
@@ -64,9 +67,10 @@ def layouts(folder: Path, count: int) -> list[tuple[Path, Path]]:
     return out
 
 
-def module_xml(folder: Path, name: str, layout: Path, counter: Path, period_ns: int) -> Path:
+def module_xml(folder: Path, name: str, layout: Path, counter: Path, period_ns: int, side: bool = False) -> Path:
     path = folder / f"{name}.xml"
-    path.write_text(f"<root>\n  <layout>{layout}</layout>\n  <module><name>counter</name><filename>"
+    executor = "  <executor><name>side</name></executor>\n" if side else ""
+    path.write_text(f"<root>\n  <layout>{layout}</layout>\n{executor}  <module><name>counter</name><filename>"
                     f"{counter}</filename><moduletype>thread</moduletype>"
                     f"<operationtype>periodic</operationtype><period>{period_ns}</period><priority>1</priority>"
                     f"<property><value name=\"journal\">{folder / 'counter.log'}</value></property></module>\n</root>\n")
@@ -77,6 +81,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--swaps", type=int, default=100)
     ap.add_argument("--period-us", type=int, default=100)
+    ap.add_argument("--executors", action="store_true", help="add an <executor> at every other swap, take it away at the next")
     ap.add_argument("--json", type=Path)
     a = ap.parse_args()
     period_ns = a.period_us * 1000
@@ -99,7 +104,8 @@ def main() -> int:
             time.sleep(0.5)
             t_swaps, lost_before = time.monotonic(), lost()
             for k, (layout, counter) in enumerate(chain[1:]):
-                report = control.request("load", config=str(module_xml(folder, f"s{k}", layout, counter, period_ns)),
+                side = a.executors and k % 2 == 0
+                report = control.request("load", config=str(module_xml(folder, f"s{k}", layout, counter, period_ns, side)),
                                          set_id=f"grown-{k}")
                 assert report["kept"] == ["counter"], report
                 assert report["variables"]["added"] == [f"oc.grown_{k}"], report["variables"]
@@ -120,7 +126,8 @@ def main() -> int:
         one_instance = re.fullmatch(r"start\nstop runs=(\d+)\n", journal) is not None
         every_period = counter["runs"] + counter["skipped"] == dispatcher["runs"] + dispatcher["skipped"]
     result = {
-        "swaps": a.swaps, "period_us": a.period_us, "glbc_and_build_s": round(build_s, 1),
+        "swaps": a.swaps, "period_us": a.period_us, "executors_added_and_removed": a.executors,
+        "glbc_and_build_s": round(build_s, 1),
         "missed_periods_total": sum(missed), "swaps_with_missed_periods": sum(1 for m in missed if m),
         "dispatcher_lost_during_the_swaps": lost_swapping, "dispatcher_lost_in_as_long_without_swaps": lost_idle,
         "swaps_s": round(swaps_s, 1),

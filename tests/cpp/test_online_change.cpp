@@ -3,7 +3,9 @@
 // counter module misses no period and its variable keeps counting while a variable is added,
 // one removed and one retyped; a process built against the old layout is accepted; a module
 // built against an incompatible layout, a layout laid out afresh and one over the room are
-// refused with what to change, and the running set is left as it was.
+// refused with what to change, and the running set is left as it was.  Executors added, removed
+// and changed at a swap: their threads start before it and stop after it, the counter on main
+// missing no period.
 #include "support/control_client.hpp"
 #include "support/irpd.hpp"
 #include "support/subprocess.hpp"
@@ -17,6 +19,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <sstream>
 #include <regex>
 #include <thread>
 
@@ -35,12 +39,13 @@ const fs::path kOnline = ONLINE_DIR;
 
 std::string layoutOf(const std::string &name) { return (kOnline / ("oc_" + name) / "layout.json").string(); }
 
-std::string thread(const std::string &name, const std::string &file, const fs::path &dir, int priority = 1) {
+std::string thread(const std::string &name, const std::string &file, const fs::path &dir, int priority = 1,
+                   const std::string &extra = "") {
     return "  <module><name>" + name + "</name><filename>" + (kOnline / "modules" / file).string() +
            "</filename><moduletype>thread</moduletype><operationtype>periodic</operationtype>"
            "<period>1000000</period><priority>" + std::to_string(priority) +
            "</priority><property><value name=\"journal\">" + (dir / (name + ".log")).string() +
-           "</value></property></module>\n";
+           "</value></property>" + extra + "</module>\n";
 }
 
 std::string process(const std::string &name, const std::string &file) {
@@ -311,5 +316,153 @@ TEST(OnlineChange, ProcessesCallTheNewCodeOfAnExporterReplacedOnline) {
     EXPECT_EQ(answer["result"]["kept"], json({"counter", "caller"}));
     EXPECT_TRUE(cell.irpd->waitForOut("scale=14")) << cell.irpd->out() << cell.irpd->err();
     EXPECT_EQ(cell.irpd->out().find("scale failed"), std::string::npos) << cell.irpd->out();
+    cell.expectCounterMissedNoPeriod();
+}
+
+// ---- executors added, removed and changed online -------------------------------------------------
+
+namespace {
+
+// An <executor> of the set's root.
+std::string executor(const std::string &name, int rt_priority = 0, int cpu = -1) {
+    return "  <executor><name>" + name + "</name>" +
+           (rt_priority ? "<rtpriority>" + std::to_string(rt_priority) + "</rtpriority>" : "") +
+           (cpu >= 0 ? "<cpu>" + std::to_string(cpu) + "</cpu>" : "") + "</executor>\n";
+}
+
+// irpd's executor threads ("irp@<name>", /proc/<pid>/task/*/comm) and the RT priority of each.
+std::map<std::string, int> executorThreads(pid_t pid) {
+    std::map<std::string, int> threads;
+    for (const auto &task : fs::directory_iterator("/proc/" + std::to_string(pid) + "/task")) {
+        std::string comm = readFile(task.path() / "comm");
+        if (!comm.empty() && comm.back() == '\n') comm.pop_back();
+        if (comm.rfind("irp@", 0) != 0) continue;
+        // field 40 of stat is rt_priority; the name in field 2 may hold spaces, so count after ')'
+        std::istringstream stat(readFile(task.path() / "stat").substr(readFile(task.path() / "stat").rfind(')') + 2));
+        std::string field;
+        for (int i = 3; i <= 40 && stat >> field; ++i) {}
+        threads[comm.substr(4)] = std::stoi(field);
+    }
+    return threads;
+}
+
+// The stats of the running generation's dispatchers, by executor name.
+std::map<std::string, json> dispatchers(Cell &cell) {
+    std::map<std::string, json> by_name;
+    const json stats = cell.ask({{"cmd", "stats"}});
+    for (const json &d : stats["result"]["executors"]) by_name[d["executor"].get<std::string>()] = d;
+    return by_name;
+}
+
+json moduleStats(Cell &cell, const std::string &name) {
+    const json stats = cell.ask({{"cmd", "stats"}});
+    for (const json &m : stats["result"]["modules"])
+        if (m["name"] == name) return m;
+    return nullptr;
+}
+
+// The v2 set: counter on main (kept from v1), adder on executor `side` (its priority and CPU).
+std::string withSide(Cell &cell, int rt_priority = 0, int cpu = -1) {
+    return cell.writeSet("side.xml", "v2",
+                         executor("side", rt_priority, cpu) + thread("counter", "oc_counter_v2.so", cell.dir.path) +
+                             thread("adder", "oc_adder_v2.so", cell.dir.path, 2, "<executor>side</executor>"));
+}
+
+} // namespace
+
+TEST(OnlineChange, AnExecutorIsAddedItsThreadStartsBeforeTheSwapAndRunsTheNewModule) {
+    Cell cell;
+    settle();
+    EXPECT_EQ(executorThreads(cell.irpd->pid()).count("side"), 0u);
+    const json checked = cell.ask({{"cmd", "check"}, {"config", withSide(cell)}})["result"];
+    EXPECT_EQ(checked["online"], true) << checked.dump();
+    EXPECT_EQ(checked["warnings"], json::array()) << "on main's CPU, which non-RT work was kept off";
+    if (cell.irpd->err().find("non-RT work on CPUs 0") != std::string::npos) {
+        // CPU 0 is where irpd put its non-RT threads: an executor there shares it until a restart.
+        const json warned = cell.ask({{"cmd", "check"}, {"config", withSide(cell, 0, 0)}})["result"];
+        ASSERT_EQ(warned["warnings"].size(), 1u) << warned.dump();
+        EXPECT_NE(warned["warnings"][0].get<std::string>().find("executor 'side' runs on CPU 0"), std::string::npos);
+    }
+    json answer = cell.load(withSide(cell));
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    EXPECT_EQ(answer["result"]["kept"], json({"counter"}));
+    EXPECT_EQ(answer["result"]["started"], json({"adder"}));
+    EXPECT_EQ(answer["result"]["missed_periods"], 0) << answer.dump();
+    settle();
+    EXPECT_EQ(executorThreads(cell.irpd->pid()).count("side"), 1u) << "one thread for executor side";
+    const auto by_name = dispatchers(cell);
+    ASSERT_EQ(by_name.count("side"), 1u);
+    EXPECT_EQ(by_name.at("side")["name"], "dispatcher@side");
+    EXPECT_GT(by_name.at("side")["runs"].get<uint64_t>(), 50u);
+    const json adder = moduleStats(cell, "adder");
+    EXPECT_EQ(adder["executor"], "side");
+    EXPECT_GT(adder["runs"].get<uint64_t>(), 50u);
+    EXPECT_GT(cell.f64("oc.added"), 0.0) << "the module on the new executor writes its variable";
+    cell.expectCounterMissedNoPeriod();
+}
+
+TEST(OnlineChange, AnExecutorIsRemovedItsModuleMovesToMainAndItsThreadEnds) {
+    Cell cell;
+    ASSERT_TRUE(cell.load(withSide(cell))["ok"]);
+    settle();
+    const uint64_t added = moduleStats(cell, "adder")["runs"];
+    json answer = cell.load(cell.writeSet("main.xml", "v2", thread("counter", "oc_counter_v2.so", cell.dir.path) +
+                                                                thread("adder", "oc_adder_v2.so", cell.dir.path, 2)));
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    EXPECT_EQ(answer["result"]["kept"], json({"counter", "adder"})) << "a thread module moved to another executor is kept";
+    EXPECT_EQ(answer["result"]["missed_periods"], 0) << answer.dump();
+    EXPECT_EQ(executorThreads(cell.irpd->pid()).count("side"), 0u) << "the thread was stopped and joined by the swap";
+    EXPECT_EQ(dispatchers(cell).count("side"), 0u);
+    settle();
+    const json adder = moduleStats(cell, "adder");
+    EXPECT_EQ(adder["executor"], "main");
+    EXPECT_GT(adder["runs"].get<uint64_t>(), added + 50) << "the same instance goes on on main";
+    cell.expectCounterMissedNoPeriod();
+}
+
+TEST(OnlineChange, AnExecutorWhosePriorityChangesGetsANewThread) {
+    Cell cell;
+    ASSERT_TRUE(cell.load(withSide(cell, 10))["ok"]);
+    settle();
+    auto threads = executorThreads(cell.irpd->pid());
+    const bool realtime = threads["main"] > 0;  // SCHED_FIFO where irpd may use it
+    if (realtime) EXPECT_EQ(threads["side"], 10);
+    json answer = cell.load(withSide(cell, 20));
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    EXPECT_EQ(answer["result"]["kept"], json({"counter", "adder"}));
+    EXPECT_EQ(answer["result"]["missed_periods"], 0) << answer.dump();
+    threads = executorThreads(cell.irpd->pid());
+    EXPECT_EQ(threads.count("side"), 1u) << "the old thread is gone";
+    if (realtime) EXPECT_EQ(threads["side"], 20);
+    settle();
+    cell.expectCounterMissedNoPeriod();
+}
+
+TEST(OnlineChange, AnExecutorOnACpuIrpdMayNotUseIsRefusedAndNothingChanges) {
+    Cell cell;
+    const json generation = cell.generation();
+    const std::string xml = withSide(cell, 0, 999);
+    const json checked = cell.ask({{"cmd", "check"}, {"config", xml}})["result"];
+    EXPECT_EQ(checked["valid"], false) << checked.dump();
+    json refused = cell.load(xml);
+    ASSERT_FALSE(refused.value("ok", true));
+    const std::string message = refused["error"]["message"];
+    EXPECT_NE(message.find("executor 'side': CPU 999 is not available"), std::string::npos) << message;
+    EXPECT_EQ(cell.generation(), generation);
+    EXPECT_EQ(executorThreads(cell.irpd->pid()).count("side"), 0u);
+    settle();
+    cell.expectCounterMissedNoPeriod();
+}
+
+TEST(OnlineChange, ANewExecutorWithoutAStatsRecordNamesTheOption) {
+    Cell cell("", {"--module-records", "1"});
+    json refused = cell.load(cell.writeSet("side.xml", "v1", executor("side") +
+                                                                 thread("counter", "oc_counter_v1.so", cell.dir.path)));
+    ASSERT_FALSE(refused.value("ok", true));
+    EXPECT_EQ(refused["error"]["code"], "restart_required") << refused.dump();
+    const std::string message = refused["error"]["message"];
+    EXPECT_NE(message.find("executor 'side'"), std::string::npos) << message;
+    EXPECT_NE(message.find("--module-records"), std::string::npos) << message;
+    EXPECT_EQ(executorThreads(cell.irpd->pid()).count("side"), 0u);
     cell.expectCounterMissedNoPeriod();
 }

@@ -41,8 +41,12 @@ void removeShm(const std::string &instance) {
         if (entry.path().filename().string().rfind("indurop." + instance + ".", 0) == 0) fs::remove(entry.path());
 }
 
+// A set with shared variables: irpd started on a set without any has no segment to put them in,
+// so only a restart can run it.
+std::string variables() { return "  <layout>" + (fs::path(ONLINE_DIR) / "oc_v1" / "layout.json").string() + "</layout>\n"; }
+
 // irpd on one.xml: module "a" (counter v1, 1 ms) journaling to a.log.  two.xml: module "b"
-// (counter v2) on an <executor> of its own, which only a restart can bring in.
+// (counter v2) on an <executor> of its own, with shared variables, which only a restart can bring in.
 struct Cell {
     TempDir dir;
     std::string socket = (dir.path / "irpd.sock").string();
@@ -54,7 +58,7 @@ struct Cell {
         fs::copy_file(kModules / "counter_v2.so", dir.path / "b.so");
         fs::copy_file(kModules / "init_throws.so", dir.path / "throws.so");
         write("one.xml", "<root>\n" + module("a", "a.so", 1'000'000, journal("a")) + "</root>\n");
-        write("two.xml", "<root>\n  <executor><name>side</name></executor>\n" +
+        write("two.xml", "<root>\n" + variables() + "  <executor><name>side</name></executor>\n" +
                              module("b", "b.so", 2'000'000, journal("b") + "<executor>side</executor>") + "</root>\n");
         irpd = std::make_unique<Process>(
             std::vector<std::string>{kIrpd, "--config", (dir.path / "one.xml").string(), "--control-socket", socket,
@@ -122,7 +126,7 @@ struct Cell {
 
 } // namespace
 
-// A set that only a restart can run (another <executor>): refused online, run after the restart by
+// A set that only a restart can run (shared variables on an irpd without them): refused online, run after the restart by
 // the same process, with the downtime measured from the old set's last period to the new one's first.
 TEST(ManagedRestart, TheSamePidRunsTheNewSetAndSaysItsDowntime) {
     Cell cell;
@@ -171,7 +175,10 @@ TEST(ManagedRestart, TheSamePidRunsTheNewSetAndSaysItsDowntime) {
     EXPECT_NE(restarts[0]["message"].get<std::string>().find("restarted onto set two: downtime "), std::string::npos)
         << restarts[0].dump();
     // The measured downtime is what the next restart expects.
-    const json again = cell.result({{"cmd", "check"}, {"config", cell.path("one.xml")}});
+    // (a layout laid out afresh: only a restart can replace oc_v1 with it)
+    cell.write("three.xml", "<root>\n  <layout>" + (fs::path(ONLINE_DIR) / "oc_reordered" / "layout.json").string() +
+                                "</layout>\n" + module("a", "a.so", 1'000'000) + "</root>\n");
+    const json again = cell.result({{"cmd", "check"}, {"config", cell.path("three.xml")}});
     ASSERT_TRUE(again["restart"].is_object()) << again.dump();
     EXPECT_EQ(again["restart"]["expected_downtime_ns"], last["downtime_ns"]);
 
@@ -186,7 +193,7 @@ TEST(ManagedRestart, ASetThatDoesNotStartBringsBackTheSetThatRan) {
     Cell cell;
     const pid_t pid = cell.irpd->pid();
     cell.result({{"cmd", "load"}, {"config", cell.path("one.xml")}, {"set_id", "one"}});  // gives it its id
-    cell.write("bad.xml", "<root>\n  <executor><name>side</name></executor>\n" +
+    cell.write("bad.xml", "<root>\n" + variables() + "  <executor><name>side</name></executor>\n" +
                               module("x", "throws.so", 1'000'000, "<executor>side</executor>") + "</root>\n");
     const json asked = cell.result({{"cmd", "restart"}, {"config", cell.path("bad.xml")}, {"set_id", "bad"}});
     EXPECT_EQ(asked["from_set_id"], "one");

@@ -1,6 +1,7 @@
 // dispatcher.cpp -- executor plans, RT threads and their common start time.
 #include "dispatch/dispatcher.hpp"
 
+#include "dispatch/running_marker.hpp"
 #include "osal/rt.hpp"
 
 #include <pthread.h>
@@ -13,7 +14,7 @@
 
 namespace irp::dispatch {
 
-// Holds the executor threads until all are set up, then releases them on one T0.
+// Holds executor threads until all are set up, then releases them on one T0.
 struct Dispatcher::StartGate {
     explicit StartGate(std::ptrdiff_t parties) : ready(parties) {}
     std::latch ready;
@@ -21,11 +22,41 @@ struct Dispatcher::StartGate {
     std::atomic<int64_t> t0{0};
 };
 
+// One executor thread: how it is set up, its stats record, its loop and its own stop flag.
 struct Dispatcher::Plan {
     ExecutorOptions options;
+    std::size_t record_index = 0;
     stats::TimingRecord *record = nullptr;
-    std::unique_ptr<Executor> executor;
+    std::shared_ptr<Executor> executor;
+    // No tasks: the table it runs while parked before the swap that adds it, and after the one
+    // that takes it away until it is stopped.
+    Table idle;
+    std::atomic<bool> stop{false};
+    std::atomic<bool> finished{false};
+    std::optional<pthread_t> thread;
+    ExecutorReport report;  // written by its thread before it is released
 };
+
+std::vector<ExecutorOptions> executorsOf(const config::SetSpec &set, const DispatcherOptions &options) {
+    const int cpu = options.cpu >= 0 ? options.cpu : osal::lastAllowedCpu();
+    std::vector<ExecutorOptions> all;
+    all.push_back({config::kMainExecutor, options.rt_priority, cpu, options.policy, options.max_catchup_ns, options.trace});
+    for (const config::ExecutorSpec &e : set.executors)
+        all.push_back({e.name, e.rt_priority ? e.rt_priority : std::max(1, options.rt_priority - 1), e.cpu >= 0 ? e.cpu : cpu,
+                       options.policy, options.max_catchup_ns, nullptr});
+    return all;
+}
+
+Status checkExecutors(const std::vector<ExecutorOptions> &executors) {
+    for (const ExecutorOptions &e : executors) {
+        if (!osal::cpuAllowed(e.cpu))
+            return Error{"executor '" + e.name + "': CPU " + std::to_string(e.cpu) +
+                         " is not available to irpd (see --cpu, <cpu>)"};
+        if (e.rt_priority < 1 || e.rt_priority > 99)
+            return Error{"executor '" + e.name + "': RT priority " + std::to_string(e.rt_priority) + " is outside 1..99"};
+    }
+    return Ok{};
+}
 
 std::unique_ptr<Tables> buildTables(const config::SetSpec &set, const schedule::Schedule &schedule,
                                     const std::vector<ModuleBinding> &bindings) {
@@ -90,28 +121,99 @@ std::unique_ptr<Tables> buildTables(const config::SetSpec &set, const schedule::
     return tables;
 }
 
-Dispatcher::Dispatcher(const config::SetSpec &set, const Tables &tables, stats::StatsSegment &segment,
+Dispatcher::Dispatcher(const config::SetSpec &set, Tables &tables, stats::StatsSegment &segment,
                        DispatcherOptions options, osal::Clock &clock)
-    : segment_(segment), options_(options), clock_(clock) {
+    : marker_used_(kLifecycleMarker, false), segment_(segment), options_(options), clock_(clock) {
     if (options_.cpu < 0) options_.cpu = osal::lastAllowedCpu();
-    std::vector<ExecutorOptions> executors;
-    executors.push_back({config::kMainExecutor, options_.rt_priority, options_.cpu, options_.policy, options_.max_catchup_ns,
-                         options_.trace, &halted_});
-    for (const config::ExecutorSpec &e : set.executors)
-        executors.push_back({e.name, e.rt_priority ? e.rt_priority : std::max(1, options_.rt_priority - 1),
-                             e.cpu >= 0 ? e.cpu : options_.cpu, options_.policy, options_.max_catchup_ns, nullptr, &halted_});
+    const std::vector<ExecutorOptions> executors = executorsOf(set, options_);
+    tables.records.clear();
+    tables.markers.clear();
     for (std::size_t p = 0; p < executors.size(); ++p) {
-        auto plan = std::make_unique<Plan>();
-        plan->options = executors[p];
-        plan->options.marker = static_cast<int>(p);  // the crash handler's marker of this thread
-        const Table &table = tables.executors[p];
-        plan->record = &segment_.describe(p, stats::RecordKind::Dispatcher,
-                                          p == 0 ? std::string("dispatcher") : "dispatcher@" + plan->options.name,
-                                          plan->options.name, table.basic_ns, plan->options.rt_priority, 0);
-        plan->executor = std::make_unique<Executor>(clock_, &table, plan->record, plan->options);
-        plans_.push_back(std::move(plan));
+        plans_.push_back(makePlan(executors[p], p, &tables.executors[p]));
+        tables.records.push_back(p);
+        tables.markers.push_back(plans_.back()->options.marker);
     }
     macro_ns_ = tables.macro_ns;
+}
+
+std::unique_ptr<Dispatcher::Plan> Dispatcher::makePlan(const ExecutorOptions &options, std::size_t record, const Table *table) {
+    auto plan = std::make_unique<Plan>();
+    plan->options = options;
+    plan->options.halted = &halted_;
+    // the crash handler's marker of this thread: the first free one
+    auto free = std::find(marker_used_.begin(), marker_used_.end(), false);
+    plan->options.marker = free == marker_used_.end() ? -1 : static_cast<int>(free - marker_used_.begin());
+    if (free != marker_used_.end()) *free = true;
+    plan->idle.basic_ns = table ? table->basic_ns : plans_.front()->executor->basicNs();
+    plan->idle.slots.resize(1);
+    plan->record_index = record;
+    plan->record = &segment_.describe(record, stats::RecordKind::Dispatcher,
+                                      plans_.empty() ? std::string("dispatcher") : "dispatcher@" + options.name, options.name,
+                                      (table ? *table : plan->idle).basic_ns, options.rt_priority, 0);
+    plan->executor = std::make_shared<Executor>(clock_, table ? table : &plan->idle, plan->record, plan->options);
+    return plan;
+}
+
+void Dispatcher::release(Plan &plan) {
+    segment_.release(plan.record_index);
+    if (plan.options.marker >= 0) marker_used_[static_cast<std::size_t>(plan.options.marker)] = false;
+}
+
+Status Dispatcher::prepare(const config::SetSpec &set, Tables &next) {
+    const std::vector<ExecutorOptions> wanted = executorsOf(set, options_);
+    if (Status s = checkExecutors(wanted); !s) return s;
+    next_.clear();
+    std::vector<std::shared_ptr<Plan>> fresh;
+    auto undo = [&] {
+        for (const auto &plan : fresh) release(*plan);
+        next_.clear();
+    };
+    for (const ExecutorOptions &w : wanted) {
+        auto same = std::find_if(plans_.begin(), plans_.end(), [&](const auto &p) {
+            return p->options.name == w.name && p->options.rt_priority == w.rt_priority && p->options.cpu == w.cpu;
+        });
+        if (same != plans_.end()) {
+            next_.push_back(same->get());
+            continue;
+        }
+        auto record = segment_.findUnused(1);
+        if (!record) {
+            undo();
+            return Error{"no room for executor '" + w.name + "' in irpd's stats block (" +
+                         std::to_string(segment_.recordCount()) + " records for dispatchers and modules; irpd's "
+                         "--module-records raises it): restart irpd onto this set, or with a larger --module-records"};
+        }
+        fresh.push_back(makePlan(w, *record, nullptr));
+        next_.push_back(fresh.back().get());
+    }
+    if (!fresh.empty()) {
+        auto gate = std::make_shared<StartGate>(static_cast<std::ptrdiff_t>(fresh.size()) + 1);
+        for (std::size_t i = 0; i < fresh.size(); ++i)
+            if (Status s = launch(*fresh[i], gate, 0, false); !s) {
+                for (std::size_t j = 0; j < fresh.size(); ++j) fresh[j]->stop.store(true, std::memory_order_relaxed);
+                for (std::size_t j = i; j < fresh.size(); ++j) gate->ready.count_down();
+                gate->go.count_down();
+                for (const auto &plan : fresh) joinPlan(*plan);
+                undo();
+                return Error{"executor '" + fresh[i]->options.name + "': " + s.error().message};
+            }
+        gate->ready.arrive_and_wait();
+        // Parked on the running grid (the main table's basic period from its T0): the offered
+        // boundary is one of its slots.
+        const int64_t basic = plans_.front()->executor->basicNs();
+        const int64_t soon = clock_.now() + 1'000'000;
+        gate->t0.store(epoch_ns_ + (soon - epoch_ns_ + basic - 1) / basic * basic);
+        gate->go.count_down();
+        std::lock_guard lock(plans_mutex_);
+        arriving_ = std::move(fresh);
+    }
+    next.records.clear();
+    next.markers.clear();
+    for (std::size_t i = 0; i < next_.size(); ++i) {
+        next.records.push_back(next_[i]->record_index);
+        next.markers.push_back(next_[i]->options.marker);
+    }
+    return Ok{};
 }
 
 int64_t Dispatcher::boundaryAfter(int64_t t) const {
@@ -123,30 +225,76 @@ int64_t Dispatcher::boundaryAfter(int64_t t) const {
 void Dispatcher::offer(const Tables &next, int64_t at) {
     offered_ = &next;
     offered_at_ = at;
-    for (std::size_t p = 0; p < plans_.size(); ++p) plans_[p]->executor->offer(&next.executors[p], at);
+    for (std::size_t i = 0; i < next_.size(); ++i) next_[i]->executor->offer(&next.executors[i], at);
+    for (const auto &plan : plans_)
+        if (std::find(next_.begin(), next_.end(), plan.get()) == next_.end()) {
+            plan->idle.basic_ns = next.executors.front().basic_ns;  // not run now: it runs its own table
+            plan->executor->offer(&plan->idle, at);
+        }
 }
 
 std::optional<std::vector<Switch>> Dispatcher::switched() {
     std::vector<Switch> all;
-    for (const auto &plan : plans_) {
+    if (!offered_) {
+        for (const auto &plan : plans_) {
+            auto s = plan->executor->switched();
+            if (!s) return std::nullopt;
+            all.push_back(*s);
+        }
+        return all;
+    }
+    for (Plan *plan : next_) {
         auto s = plan->executor->switched();
         if (!s) return std::nullopt;
         all.push_back(*s);
     }
-    if (offered_) {
-        epoch_ns_ = offered_at_;
-        macro_ns_ = offered_->macro_ns;
-        for (std::size_t p = 0; p < plans_.size(); ++p) plans_[p]->record->period_ns = offered_->executors[p].basic_ns;
-        offered_ = nullptr;
+    for (const auto &plan : plans_)
+        if (!plan->executor->switched()) return std::nullopt;  // also those going to their empty table
+    epoch_ns_ = offered_at_;
+    macro_ns_ = offered_->macro_ns;
+    for (std::size_t i = 0; i < next_.size(); ++i) next_[i]->record->period_ns = offered_->executors[i].basic_ns;
+    std::vector<std::shared_ptr<Plan>> running;
+    for (Plan *plan : next_) {
+        for (auto *list : {&plans_, &arriving_})
+            for (auto &p : *list)
+                if (p.get() == plan) running.push_back(p);
     }
+    {
+        std::lock_guard lock(plans_mutex_);
+        for (auto &p : plans_)
+            if (std::find(next_.begin(), next_.end(), p.get()) == next_.end()) leaving_.push_back(p);
+        plans_ = std::move(running);
+        arriving_.clear();
+    }
+    next_.clear();
+    offered_ = nullptr;
     return all;
 }
 
 bool Dispatcher::withdraw() {
     bool all = true;
-    for (const auto &plan : plans_) all = plan->executor->withdraw() && all;
+    for (Plan *plan : next_) all = plan->executor->withdraw() && all;
+    for (const auto &plan : plans_)
+        if (std::find(next_.begin(), next_.end(), plan.get()) == next_.end()) all = plan->executor->withdraw() && all;
     if (all) offered_ = nullptr;
     return all;
+}
+
+void Dispatcher::retire() {
+    std::vector<std::shared_ptr<Plan>> going;
+    {
+        std::lock_guard lock(plans_mutex_);
+        going = std::move(leaving_);
+        going.insert(going.end(), arriving_.begin(), arriving_.end());
+        leaving_.clear();
+        arriving_.clear();
+    }
+    next_.clear();
+    for (const auto &plan : going) plan->stop.store(true, std::memory_order_relaxed);
+    for (const auto &plan : going) {
+        joinPlan(*plan);
+        release(*plan);
+    }
 }
 
 Dispatcher::~Dispatcher() {
@@ -154,64 +302,69 @@ Dispatcher::~Dispatcher() {
     join();
 }
 
+void Dispatcher::requestStop() {
+    std::lock_guard lock(plans_mutex_);
+    for (const auto *list : {&plans_, &arriving_, &leaving_})
+        for (const auto &plan : *list) plan->stop.store(true, std::memory_order_relaxed);
+}
+
+bool Dispatcher::finished() const {
+    std::lock_guard lock(plans_mutex_);
+    return std::all_of(plans_.begin(), plans_.end(), [](const auto &p) { return p->finished.load(std::memory_order_acquire); });
+}
+
 Status Dispatcher::start(int64_t duration_ns) {
-    for (const auto &plan : plans_) {
-        if (!osal::cpuAllowed(plan->options.cpu))
-            return Error{"executor '" + plan->options.name + "': CPU " + std::to_string(plan->options.cpu) +
-                         " is not available to irpd (see --cpu, <cpu>)"};
-        if (plan->options.rt_priority < 1 || plan->options.rt_priority > 99)
-            return Error{"executor '" + plan->options.name + "': RT priority " + std::to_string(plan->options.rt_priority) +
-                         " is outside 1..99"};
-    }
-    reports_.resize(plans_.size());
-    gate_ = std::make_unique<StartGate>(static_cast<std::ptrdiff_t>(plans_.size()) + 1);
-    for (std::size_t p = 0; p < plans_.size(); ++p) {
-        auto body = [this, p, duration_ns, gate = gate_.get()] {
-            Plan &plan = *plans_[p];
-            ExecutorReport &report = reports_[p];
-            report.name = plan.options.name;
-            report.cpu = plan.options.cpu;
-            report.rt_priority = plan.options.rt_priority;
-            if (options_.realtime) {
-                osal::RtStatus rt = osal::makeCurrentThreadRealtime(plan.options.rt_priority, plan.options.cpu);
-                report.realtime = rt.realtime;
-                report.detail = rt.detail;
-            } else {
-                osal::makeCurrentThreadRealtime(0, plan.options.cpu);  // pin only; priority 0 is refused
-                report.detail = "SCHED_OTHER by request (--no-rt), pinned to CPU " + std::to_string(plan.options.cpu);
-            }
-            osal::prefaultStack();
-            void *signal_stack = osal::useAlternateSignalStack();  // the crash handler runs on it
-            gate->ready.count_down();
-            gate->go.wait();
-            uint64_t limit = duration_ns > 0 ? static_cast<uint64_t>(duration_ns / plan.executor->basicNs()) : 0;
-            plan.executor->loop(gate->t0.load(), limit, stop_, p == 0 ? &segment_.header()->cycles : nullptr,
-                                p == 0 ? &segment_.header()->finished_ns : nullptr);
-            osal::releaseAlternateSignalStack(signal_stack);
-            finished_threads_.fetch_add(1, std::memory_order_release);
-        };
-        if (Status s = spawn(std::move(body)); !s) {
-            // Release the threads already waiting; with stop_ set they leave at once.
+    std::vector<ExecutorOptions> all;
+    for (const auto &plan : plans_) all.push_back(plan->options);
+    if (Status s = checkExecutors(all); !s) return s;
+    auto gate = std::make_shared<StartGate>(static_cast<std::ptrdiff_t>(plans_.size()) + 1);
+    for (std::size_t p = 0; p < plans_.size(); ++p)
+        if (Status s = launch(*plans_[p], gate, duration_ns, p == 0); !s) {
+            // Release the threads already waiting; with their stop set they leave at once.
             requestStop();
-            for (std::size_t q = p; q < plans_.size(); ++q) gate_->ready.count_down();
-            gate_->go.count_down();
+            for (std::size_t q = p; q < plans_.size(); ++q) gate->ready.count_down();
+            gate->go.count_down();
             join();
             return Error{"executor '" + plans_[p]->options.name + "': " + s.error().message};
         }
-    }
-    gate_->ready.arrive_and_wait();
+    gate->ready.arrive_and_wait();
     // Slot 0 of every executor: a little after now, so that all threads are asleep on it.
     const int64_t t0 = clock_.now() + 2'000'000;
     epoch_ns_ = t0;
-    gate_->t0.store(t0);
+    gate->t0.store(t0);
     segment_.header()->started_ns.store(t0, std::memory_order_relaxed);
     segment_.header()->realtime.store(realtime() ? 1 : 0, std::memory_order_relaxed);
     segment_.header()->running.store(1, std::memory_order_relaxed);
-    gate_->go.count_down();
+    gate->go.count_down();
     return Ok{};
 }
 
-Status Dispatcher::spawn(std::function<void()> body) {
+Status Dispatcher::launch(Plan &plan, const std::shared_ptr<StartGate> &gate, int64_t duration_ns, bool main) {
+    auto body = [this, &plan, gate, duration_ns, main] {
+        // "irp@" and the executor's name, as `ps -L` and /proc/<pid>/task/*/comm show it (15 bytes)
+        pthread_setname_np(pthread_self(), ("irp@" + plan.options.name).substr(0, 15).c_str());
+        ExecutorReport &report = plan.report;
+        report.name = plan.options.name;
+        report.cpu = plan.options.cpu;
+        report.rt_priority = plan.options.rt_priority;
+        if (options_.realtime) {
+            osal::RtStatus rt = osal::makeCurrentThreadRealtime(plan.options.rt_priority, plan.options.cpu);
+            report.realtime = rt.realtime;
+            report.detail = rt.detail;
+        } else {
+            osal::makeCurrentThreadRealtime(0, plan.options.cpu);  // pin only; priority 0 is refused
+            report.detail = "SCHED_OTHER by request (--no-rt), pinned to CPU " + std::to_string(plan.options.cpu);
+        }
+        osal::prefaultStack();
+        void *signal_stack = osal::useAlternateSignalStack();  // the crash handler runs on it
+        gate->ready.count_down();
+        gate->go.wait();
+        uint64_t limit = duration_ns > 0 ? static_cast<uint64_t>(duration_ns / plan.executor->basicNs()) : 0;
+        plan.executor->loop(gate->t0.load(), limit, plan.stop, main ? &segment_.header()->cycles : nullptr,
+                            main ? &segment_.header()->finished_ns : nullptr);
+        osal::releaseAlternateSignalStack(signal_stack);
+        plan.finished.store(true, std::memory_order_release);
+    };
     pthread_attr_t attr;
     pthread_attr_init(&attr);
     pthread_attr_setstacksize(&attr, kThreadStackBytes);  // locked and prefaulted: keep it small
@@ -227,25 +380,43 @@ Status Dispatcher::spawn(std::function<void()> body) {
         delete heap;
         return Error{std::string("cannot start its thread: ") + std::strerror(rc)};
     }
-    threads_.push_back(thread);
+    plan.thread = thread;
     return Ok{};
 }
 
+void Dispatcher::joinPlan(Plan &plan) {
+    if (plan.thread) pthread_join(*plan.thread, nullptr);
+    plan.thread.reset();
+}
+
 void Dispatcher::join() {
-    for (pthread_t t : threads_) pthread_join(t, nullptr);
-    threads_.clear();
+    std::vector<std::shared_ptr<Plan>> all;
+    {
+        std::lock_guard lock(plans_mutex_);
+        for (const auto *list : {&plans_, &arriving_, &leaving_}) all.insert(all.end(), list->begin(), list->end());
+    }
+    for (const auto &plan : all) joinPlan(*plan);
     if (segment_.header()) segment_.header()->running.store(0, std::memory_order_relaxed);
 }
 
-std::vector<Executor *> Dispatcher::executors() const {
-    std::vector<Executor *> all;
-    for (const auto &plan : plans_) all.push_back(plan->executor.get());
+std::vector<std::shared_ptr<Executor>> Dispatcher::executors() const {
+    std::lock_guard lock(plans_mutex_);
+    std::vector<std::shared_ptr<Executor>> all;
+    for (const auto *list : {&plans_, &arriving_, &leaving_})
+        for (const auto &plan : *list) all.push_back(plan->executor);
+    return all;
+}
+
+std::vector<ExecutorReport> Dispatcher::reports() const {
+    std::lock_guard lock(plans_mutex_);
+    std::vector<ExecutorReport> all;
+    for (const auto &plan : plans_) all.push_back(plan->report);
     return all;
 }
 
 bool Dispatcher::realtime() const {
-    return !reports_.empty() &&
-           std::all_of(reports_.begin(), reports_.end(), [](const ExecutorReport &r) { return r.realtime; });
+    std::lock_guard lock(plans_mutex_);
+    return !plans_.empty() && std::all_of(plans_.begin(), plans_.end(), [](const auto &p) { return p->report.realtime; });
 }
 
 } // namespace irp::dispatch

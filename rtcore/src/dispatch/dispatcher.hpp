@@ -1,5 +1,7 @@
 // dispatcher.hpp -- turns a loaded set into running executors: builds each executor's slot table
-// from the schedule, starts one RT thread per executor, aligns them on one T0, stops them.
+// from the schedule, starts one RT thread per executor, aligns them on one T0, stops them.  A hot
+// reload may add, remove or change executors: their threads are started (parked on an empty table,
+// on the running time grid) before the swap and stopped after it (docs/hot-reload.md).
 #pragma once
 
 #include "common/result.hpp"
@@ -12,6 +14,7 @@
 #include <memory>
 #include <string>
 #include <functional>
+#include <mutex>
 #include <optional>
 #include <pthread.h>
 #include <vector>
@@ -48,7 +51,19 @@ struct Tables {
     std::vector<Table> executors;  // [0] main, then the set's <executor>s in file order
     std::vector<Task *> by_module; // per set index: its task, or null (non-real, not dispatched)
     int64_t macro_ns = 0;          // the set's macro period: every executor's grid meets at its multiples
+    // Set by the dispatcher that runs them (its constructor, or prepare() before a swap): per
+    // table of `executors`, the stats record of its thread and its crash-handler marker (-1: none).
+    std::vector<std::size_t> records;
+    std::vector<int> markers;
 };
+
+// The executor threads a set asks for: "main" (irpd's --rt-priority and --cpu, the CPU resolved to
+// the last one irpd may use when not given), then each <executor> in file order (its priority or
+// main's minus one, its CPU or main's).  Two generations share a thread for equal name, priority
+// and CPU.
+std::vector<ExecutorOptions> executorsOf(const config::SetSpec &set, const DispatcherOptions &options);
+// CPUs irpd may use and priorities within 1..99; the error names the executor.
+Status checkExecutors(const std::vector<ExecutorOptions> &executors);
 
 // Builds the tables of `set`: periodic tasks into each executor's slot table (the schedule's
 // order), sporadic ones into its event list (priority order, ties to the earlier in the file).
@@ -68,8 +83,8 @@ class Dispatcher {
 public:
     // One executor per table of `tables` (main, then set.executors), each starting on its table
     // (not owned: keep it alive while it runs).  Records for the executors are taken from
-    // `segment` at indices 0..executors-1.
-    Dispatcher(const config::SetSpec &set, const Tables &tables, stats::StatsSegment &segment, DispatcherOptions options,
+    // `segment` at indices 0..executors-1 (noted in tables.records).
+    Dispatcher(const config::SetSpec &set, Tables &tables, stats::StatsSegment &segment, DispatcherOptions options,
                osal::Clock &clock);
     ~Dispatcher();
 
@@ -80,46 +95,69 @@ public:
     // before its first slot).  duration_ns > 0 stops each executor after exactly that much of the
     // time grid (duration / its basic period slots).
     Status start(int64_t duration_ns);
-    void requestStop() { stop_.store(true, std::memory_order_relaxed); }
-    bool finished() const { return finished_threads_.load(std::memory_order_acquire) == threads_.size(); }
+    void requestStop();
+    // Every executor of the running tables ended its loop (a duration given to start()).
+    bool finished() const;
     // Waits for every executor thread (call requestStop() first unless a duration was given).
     void join();
 
-    const std::vector<ExecutorReport> &reports() const { return reports_; }
-    // The executors (main first), for the overrun watchdog (dispatch/watchdog.hpp).
-    std::vector<Executor *> executors() const;
+    // The running tables' executors, main first: how each thread was set up.
+    std::vector<ExecutorReport> reports() const;
+    // Every executor thread there is now (main first; during a hot reload also those arriving
+    // and leaving), for the overrun watchdog (dispatch/watchdog.hpp); each lives as long as a
+    // copy of its pointer.
+    std::vector<std::shared_ptr<Executor>> executors() const;
     // Set once a fault stopped the set: every executor then runs no module (docs/faults.md).
     std::atomic<bool> &halted() { return halted_; }
     bool isHalted() const { return halted_.load(std::memory_order_relaxed); }
     bool realtime() const;
 
-    // Hot reload (non-RT side).  The first macro-period boundary of the running tables at or after
-    // `t` (they all share the main table's macro period and T0).
+    // Hot reload (non-RT side, one at a time).  prepare(): the threads `set` needs that do not run
+    // yet (a new <executor>, or one whose priority or CPU changed) are started and parked: they
+    // run an empty table on the running time grid, so that they take their table at the swap as
+    // the running ones do.  Fills next.records and next.markers.  An Error names the executor (a
+    // CPU irpd may not use, a priority outside 1..99, no free stats record: the pool of
+    // --module-records).  Nothing changes for the running tables.
+    Status prepare(const config::SetSpec &set, Tables &next);
+    // The first macro-period boundary of the running tables at or after `t` (they all share the
+    // main table's macro period and T0).
     int64_t boundaryAfter(int64_t t) const;
-    // Offers every executor its table of `next` from the boundary `at` on (see Executor::offer).
+    // Offers every executor its table of `next` (prepared) from the boundary `at` on (see
+    // Executor::offer); executors `next` has no table for are offered an empty one.
     void offer(const Tables &next, int64_t at);
-    // Each executor's switch, once all of them switched; then `next` is the running tables.
+    // Each executor's switch (next's order), once all of them switched; then `next` is the
+    // running tables.
     std::optional<std::vector<Switch>> switched();
     // Takes back the offers not yet taken; false if some executor already switched (then wait).
     bool withdraw();
+    // After a swap: the threads of executors the new tables no longer have are stopped and
+    // joined; their records and markers are freed.  Also after a reload that failed after
+    // prepare() (then the parked threads go).
+    void retire();
 
 private:
     struct Plan;
     struct StartGate;
-    std::vector<std::unique_ptr<Plan>> plans_;
-    std::unique_ptr<StartGate> gate_;
+    // Starts plan's thread: set up (RT, CPU, stack), wait at `gate`, then loop from its T0.
+    Status launch(Plan &plan, const std::shared_ptr<StartGate> &gate, int64_t duration_ns, bool main);
+    std::unique_ptr<Plan> makePlan(const ExecutorOptions &options, std::size_t record, const Table *table);
+    void release(Plan &plan);  // frees its record and marker (its thread joined)
+    static void joinPlan(Plan &plan);
+
+    // plans_: the running tables' executors, in their order.  arriving_: started by prepare(),
+    // parked.  next_: per table of the prepared tables, its plan (of plans_ or arriving_).
+    // leaving_: after the switch, the executors without a table in the running ones.
+    std::vector<std::shared_ptr<Plan>> plans_, arriving_, leaving_;
+    std::vector<Plan *> next_;
+    mutable std::mutex plans_mutex_;  // the lists above, against executors() and reports()
+    std::vector<bool> marker_used_;
     int64_t epoch_ns_ = 0;  // T0 of the running tables (the first slot, or the last swap)
     int64_t macro_ns_ = 0;  // their macro period
     const Tables *offered_ = nullptr;
     int64_t offered_at_ = 0;
-    Status spawn(std::function<void()> body);
     static constexpr std::size_t kThreadStackBytes = 1u << 20;
 
-    std::vector<pthread_t> threads_;
-    std::vector<ExecutorReport> reports_;
-    std::atomic<bool> stop_{false};
     std::atomic<bool> halted_{false};
-    std::atomic<std::size_t> finished_threads_{0};
     stats::StatsSegment &segment_;
     DispatcherOptions options_;
     osal::Clock &clock_;

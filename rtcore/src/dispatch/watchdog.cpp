@@ -81,16 +81,27 @@ bool RunMarker::take(Fault &out) noexcept {
     return true;
 }
 
+Watchdog::Watchdog(osal::Clock &clock, Executors executors, std::atomic<bool> &halted, Hooks hooks)
+    : clock_(clock), executors_(std::move(executors)), halted_(halted), hooks_(std::move(hooks)) {}
+
 Watchdog::Watchdog(osal::Clock &clock, std::vector<Executor *> executors, std::atomic<bool> &halted, Hooks hooks)
-    : clock_(clock), executors_(std::move(executors)), halted_(halted), hooks_(std::move(hooks)),
-      reported_(executors_.size(), 0) {}
+    : Watchdog(clock, Executors([executors] {
+                   std::vector<std::shared_ptr<Executor>> all;
+                   for (Executor *e : executors) all.emplace_back(e, [](Executor *) {});  // not owned
+                   return all;
+               }),
+               halted, std::move(hooks)) {}
 
 Watchdog::~Watchdog() { stop(); }
 
 int64_t Watchdog::check(int64_t now) {
     int64_t next = now + kIdleNs;
-    for (std::size_t i = 0; i < executors_.size(); ++i) {
-        Executor &e = *executors_[i];
+    const std::vector<std::shared_ptr<Executor>> executors = executors_();
+    std::erase_if(reported_, [&](const auto &entry) {  // executors a hot reload took away
+        return std::none_of(executors.begin(), executors.end(), [&](const auto &e) { return e.get() == entry.first; });
+    });
+    for (const std::shared_ptr<Executor> &watched : executors) {
+        Executor &e = *watched;
         RunMarker &marker = e.marker();
         if (e.watching()) next = std::min(next, now + std::clamp<int64_t>(e.basicNs(), kMinIntervalNs, kIdleNs));
         RunMarker::Running r;
@@ -98,8 +109,8 @@ int64_t Watchdog::check(int64_t now) {
             const int64_t deadline = r.started_ns + r.limit_ns;
             if (now <= deadline) {
                 next = std::min(next, deadline + 1);
-            } else if (reported_[i] != r.run) {
-                reported_[i] = r.run;
+            } else if (reported_[&e] != r.run) {
+                reported_[&e] = r.run;
                 marker.markSeen(r.run);
                 Fault f;
                 f.kind = Fault::Kind::Running;

@@ -18,6 +18,8 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <map>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -96,7 +98,13 @@ public:
         std::function<void(const Fault &)> stop;
     };
 
-    // Watches `executors`' markers; `halted` is the flag every executor checks (the dispatcher's).
+    // The executors to watch, asked at every look (a hot reload adds and removes them); each
+    // pointer keeps its executor alive while the look holds it.
+    using Executors = std::function<std::vector<std::shared_ptr<Executor>>()>;
+
+    // Watches the markers of `executors`; `halted` is the flag every executor checks (the dispatcher's).
+    Watchdog(osal::Clock &clock, Executors executors, std::atomic<bool> &halted, Hooks hooks);
+    // The same for a fixed list (not owned: they outlive the watchdog).
     Watchdog(osal::Clock &clock, std::vector<Executor *> executors, std::atomic<bool> &halted, Hooks hooks);
     ~Watchdog();
     Watchdog(const Watchdog &) = delete;
@@ -120,14 +128,14 @@ public:
 
 private:
     osal::Clock &clock_;
-    std::vector<Executor *> executors_;
+    Executors executors_;
     std::atomic<bool> &halted_;
     Hooks hooks_;
     mutable std::mutex mutex_;
     std::atomic<bool> quit_{false};
     std::string stopped_by_;
     bool stopped_ = false;
-    std::vector<uint64_t> reported_;  // per executor: the last run reported as running
+    std::map<const Executor *, uint64_t> reported_;  // per executor: the last run reported as running
     std::thread thread_;
 };
 

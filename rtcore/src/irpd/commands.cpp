@@ -259,7 +259,7 @@ control::Handler commandHandler(const CommandContext &c) {
         if (!decoded) return decoded.error();
         const Command &command = *decoded;
         const stats::Header *h = c.stats->header();
-        const std::size_t executors = 1 + g->set.executors.size();
+        const std::vector<std::size_t> &executors = g->tables->records;  // the dispatchers' records, main first
         auto onMain = [&c](std::function<MainQueue::Answer()> job) {
             return c.queue->call(std::move(job), std::chrono::milliseconds(60'000));
         };
@@ -302,7 +302,7 @@ control::Handler commandHandler(const CommandContext &c) {
         }
         case Command::Kind::Stats: {
             json executors_json = json::array(), modules = json::array();
-            for (std::size_t i = 0; i < executors; ++i) executors_json.push_back(stats::toJson(c.stats->record(i)));
+            for (std::size_t i : executors) executors_json.push_back(stats::toJson(c.stats->record(i)));
             for (const config::ModuleSpec &m : g->set.modules)
                 modules.push_back(stats::toJson(c.stats->record(g->members[static_cast<std::size_t>(m.index)].record)));
             return json{{"cycles", h->cycles.load()}, {"executors", executors_json}, {"modules", modules}};
@@ -314,12 +314,12 @@ control::Handler commandHandler(const CommandContext &c) {
             auto add = [&](const stats::TimingRecord &r) {
                 if (name.empty() || name == r.name) records.push_back(stats::histogramsJson(r));
             };
-            for (std::size_t i = 0; i < executors; ++i) add(c.stats->record(i));
+            for (std::size_t i : executors) add(c.stats->record(i));
             for (const config::ModuleSpec &m : g->set.modules)
                 add(c.stats->record(g->members[static_cast<std::size_t>(m.index)].record));
             if (records.empty()) {
                 std::string known;
-                for (std::size_t i = 0; i < executors; ++i) known += (known.empty() ? "" : ", ") + std::string(c.stats->record(i).name);
+                for (std::size_t i : executors) known += (known.empty() ? "" : ", ") + std::string(c.stats->record(i).name);
                 for (const config::ModuleSpec &m : g->set.modules) known += ", " + m.name;
                 return Error{"no dispatcher or module '" + name + "' in the running set (the records: " + known + ")",
                              "not_found"};

@@ -74,7 +74,7 @@ bool writeStats(const std::string &path, const reload::Generation &g, const stat
                 const dispatch::Dispatcher &dispatcher, const Options &options, int64_t elapsed_ns) {
     using json = nlohmann::ordered_json;
     json executors = json::array(), modules = json::array();
-    for (std::size_t i = 0; i < 1 + g.set.executors.size(); ++i) executors.push_back(stats::toJson(segment.record(i)));
+    for (std::size_t i : g.tables->records) executors.push_back(stats::toJson(segment.record(i)));
     for (const config::ModuleSpec &m : g.set.modules)
         modules.push_back(stats::toJson(segment.record(g.members[static_cast<std::size_t>(m.index)].record)));
     json doc = {{"set", g.set.xml_path.string()},
@@ -257,18 +257,19 @@ dispatch::Watchdog::Hooks watchdogHooks(events::EventLog &events, reload::Reload
     return hooks;
 }
 
-// Each dispatcher's completed slots: what a watchdog ping vouches for.
-std::vector<uint64_t> dispatcherProgress(const stats::StatsSegment &segment, std::size_t executors) {
-    std::vector<uint64_t> progress(executors);
-    for (std::size_t p = 0; p < executors; ++p) progress[p] = segment.record(p).runs.load(std::memory_order_relaxed);
+// Each dispatcher's completed slots (of the generation's executors, by their records): what a
+// watchdog ping vouches for.
+std::vector<uint64_t> dispatcherProgress(const stats::StatsSegment &segment, const reload::Generation &g) {
+    std::vector<uint64_t> progress;
+    for (std::size_t r : g.tables->records) progress.push_back(segment.record(r).runs.load(std::memory_order_relaxed));
     return progress;
 }
 
 // Waits (at most limit_ns) until every dispatcher completed a slot: READY=1 means dispatching.
-bool awaitFirstSlots(const stats::StatsSegment &segment, std::size_t executors, int64_t limit_ns) {
+bool awaitFirstSlots(const stats::StatsSegment &segment, const reload::Generation &g, int64_t limit_ns) {
     const int64_t end = osal::monotonicNow() + limit_ns;
     for (;;) {
-        const std::vector<uint64_t> progress = dispatcherProgress(segment, executors);
+        const std::vector<uint64_t> progress = dispatcherProgress(segment, g);
         if (std::all_of(progress.begin(), progress.end(), [](uint64_t runs) { return runs > 0; })) return true;
         if (osal::monotonicNow() > end) return false;
         const timespec pause{0, 1'000'000};
@@ -418,7 +419,11 @@ int run(const Options &options, Session &session) {
     std::vector<int> rt_cpus{options.dispatcher.cpu >= 0 ? options.dispatcher.cpu : osal::lastAllowedCpu()};
     for (const config::ExecutorSpec &e : set->executors)
         if (e.cpu >= 0) rt_cpus.push_back(e.cpu);
-    if (const std::string rest = osal::keepOffCpus(rt_cpus); !rest.empty()) say("non-RT work on CPUs " + rest);
+    std::set<int> kept_off;  // told to the reloader: an executor added online elsewhere is warned about
+    if (const std::string rest = osal::keepOffCpus(rt_cpus); !rest.empty()) {
+        say("non-RT work on CPUs " + rest);
+        kept_off.insert(rt_cpus.begin(), rt_cpus.end());
+    }
 
     // Root's work first, while irpd has one thread: hold /dev/cpu_dma_latency, open the state
     // folder; then, with --user, become that user with CAP_SYS_NICE and CAP_IPC_LOCK only.
@@ -501,6 +506,7 @@ int run(const Options &options, Session &session) {
     services.events = &events;
     services.limits = options.limits;
     services.dispatcher = options.dispatcher;
+    services.kept_off = kept_off;
     services.trace = &*trace_rings;
     std::set<std::string> left_out;  // modules of this set left out after a crash
     if (crash) {
@@ -594,7 +600,8 @@ int run(const Options &options, Session &session) {
     }
     session.dispatched = true;
     reloader.adopt(std::move(*first), dispatcher);
-    watchdog = std::make_unique<dispatch::Watchdog>(osal::monotonicClock(), dispatcher.executors(), dispatcher.halted(),
+    watchdog = std::make_unique<dispatch::Watchdog>(osal::monotonicClock(),
+                                                    [&dispatcher] { return dispatcher.executors(); }, dispatcher.halted(),
                                                     watchdogHooks(events, reloader, *segment));
     // Above the dispatchers (it must run while one of them is stuck), on the non-RT CPUs.
     watchdog->start(dispatcher.realtime() ? std::min(99, options.dispatcher.rt_priority + 1) : 0);
@@ -616,7 +623,7 @@ int run(const Options &options, Session &session) {
     // Start-up: main() to the first period's due time; a restart's downtime once that period ran.
     const int64_t startup_ns = header->started_ns.load() - session.began_ns;
     if (session.arrived) {
-        if (!awaitFirstSlots(*segment, executors, 2'000'000'000))
+        if (!awaitFirstSlots(*segment, *reloader.current(), 2'000'000'000))
             say("WARNING: a dispatcher has not completed its first slot within 2 s after the restart");
         reportRestart(*session.arrived, header->started_ns.load(), startup_ns, restarts, events);
     } else {
@@ -628,9 +635,9 @@ int run(const Options &options, Session &session) {
     supervise::SystemdNotify notify = supervise::SystemdNotify::fromEnvironment();
     if (session.arrived) notify.restoreIntervalAtReady();  // the old image stretched it for the restart
     if (notify.active()) {
-        if (!awaitFirstSlots(*segment, executors, 2'000'000'000))
+        if (!awaitFirstSlots(*segment, *reloader.current(), 2'000'000'000))
             say("WARNING: a dispatcher has not completed its first slot within 2 s; telling systemd READY=1 anyway");
-        notify.ready(statusLine(*reloader.current(), dispatcher.realtime()), dispatcherProgress(*segment, executors),
+        notify.ready(statusLine(*reloader.current(), dispatcher.realtime()), dispatcherProgress(*segment, *reloader.current()),
                      progressWindows(*reloader.current(), tick), osal::monotonicNow());
         if (notify.watchdogNs()) {
             say("systemd watchdog: " + schedule::humanDuration(notify.watchdogNs()) +
@@ -661,14 +668,14 @@ int run(const Options &options, Session &session) {
         if (queue.pending()) {
             notify.beginLongWork(kReloadWatchdogAllowanceNs);
             queue.runPending();
-            notify.endLongWork([&] { return dispatcherProgress(*segment, executors); }, osal::monotonicNow);
+            notify.endLongWork([&] { return dispatcherProgress(*segment, *reloader.current()); }, osal::monotonicNow);
         }
         const auto g = reloader.current();
         if (g->number != generation_told) {
             generation_told = g->number;
             if (crash) crash->setContext(canonicalSet(g->set.xml_path), g->set_id, g->number);
             notify.status(statusLine(*g, dispatcher.realtime()));
-            notify.setWindows(progressWindows(*g, tick));
+            notify.setDispatchers(dispatcherProgress(*segment, *g), progressWindows(*g, tick), osal::monotonicNow());
         }
         for (const hosts::ProcessInfo &p : supervisor.processes())
             for (const config::ModuleSpec &m : g->set.modules) {
@@ -683,8 +690,12 @@ int run(const Options &options, Session &session) {
         if (figures) last_figures = now;
         watch.look(*g, supervisor, figures);
         if (control) hangs.look(*g, *control, supervisor, events, *watchdog, *segment, now);
-        notify.tick(dispatcherProgress(*segment, executors), now);
-        supervise::CrashState::noteStalled(notify.stalled());
+        notify.tick(dispatcherProgress(*segment, *g), now);
+        // the crash handler names the stalled dispatcher's module by its marker
+        const int stalled = notify.stalled();
+        supervise::CrashState::noteStalled(stalled >= 0 && static_cast<std::size_t>(stalled) < g->tables->markers.size()
+                                               ? g->tables->markers[static_cast<std::size_t>(stalled)]
+                                               : -1);
         if (sig == SIGINT || sig == SIGTERM) {
             say(std::string("received ") + (sig == SIGINT ? "SIGINT" : "SIGTERM") + ", stopping");
             break;

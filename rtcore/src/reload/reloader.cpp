@@ -20,24 +20,25 @@ using json = nlohmann::ordered_json;
 
 std::string who(const config::ModuleSpec &m) { return m.where + ": module '" + m.name + "'"; }
 
-bool sameExecutors(const config::SetSpec &a, const config::SetSpec &b) {
-    if (a.executors.size() != b.executors.size()) return false;
-    for (std::size_t i = 0; i < a.executors.size(); ++i) {
-        const auto &x = a.executors[i], &y = b.executors[i];
-        if (x.name != y.name || x.rt_priority != y.rt_priority || x.cpu != y.cpu) return false;
-    }
-    return true;
+// Whether executor `name` is the same thread in both sets: the same priority and CPU.
+bool sameThread(const std::vector<dispatch::ExecutorOptions> &a, const std::vector<dispatch::ExecutorOptions> &b,
+                const std::string &name) {
+    auto named = [&](const std::vector<dispatch::ExecutorOptions> &list) {
+        return std::find_if(list.begin(), list.end(), [&](const auto &e) { return e.name == name; });
+    };
+    auto x = named(a), y = named(b);
+    return x != a.end() && y != b.end() && x->rt_priority == y->rt_priority && x->cpu == y->cpu;
 }
 
 // A module of the new set that can stay the running instance: the same code (its loadable sections,
 // hosts/module_identity.hpp), kind and properties (they go to initialize()); a process also the same
-// executor (its RT priority and CPU).
+// executor thread (it runs at that executor's RT priority minus one, on its CPU): same_thread.
 bool keepable(const config::ModuleSpec &next, const std::string &next_identity, const config::ModuleSpec &old,
-              const Member &old_member) {
+              const Member &old_member, bool same_thread) {
     if (next.type != old.type || next.operation != old.operation || next_identity != old_member.identity ||
         next.properties != old.properties)
         return false;
-    return next.type == config::ModuleType::Thread || next.executor == old.executor;
+    return next.type == config::ModuleType::Thread || (next.executor == old.executor && same_thread);
 }
 
 json names(const std::vector<std::string> &list) { return json(list); }
@@ -113,9 +114,7 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
         if (m.type == config::ModuleType::Thread && m.operation == config::OperationType::NonReal)
             return Error{who(m) + ": a non-real module runs in the time left over as a process: set <moduletype>process</moduletype>"};
     }
-    if (running && !sameExecutors(set, running->set))
-        return Error{"the set's <executor>s differ from the running set's: changing executors needs an irpd restart",
-                     kRestartRequired};
+    if (Status st = dispatch::checkExecutors(dispatch::executorsOf(set, s_.dispatcher)); !st) return st.error();
     std::size_t processes = 0;
     for (const config::ModuleSpec &m : set.modules) processes += m.type == config::ModuleType::Process;
     if (running && s_.control && processes > s_.control->slotCount())
@@ -127,11 +126,19 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
 }
 
 json Reloader::check(const std::filesystem::path &xml) const {
-    json errors = json::array(), schedule_json = nullptr, variables = nullptr, restart = nullptr, modules = nullptr;
+    json errors = json::array(), warnings = json::array(), schedule_json = nullptr, variables = nullptr,
+         restart = nullptr, modules = nullptr;
     auto set = config::parseModuleXml(xml);
     if (!set) {
         errors.push_back(set.error().message);
     } else {
+        // An executor on a CPU that irpd's non-RT threads were not kept off at start shares it with them.
+        if (!s_.kept_off.empty())
+            for (const dispatch::ExecutorOptions &e : dispatch::executorsOf(*set, s_.dispatcher))
+                if (!s_.kept_off.count(e.cpu))
+                    warnings.push_back("executor '" + e.name + "' runs on CPU " + std::to_string(e.cpu) +
+                                       ", which irpd's non-RT threads were not kept off when it started: "
+                                       "they share it until irpd restarts onto this set");
         resolveLayout(*set);
         auto schedule = schedule::build(*set, s_.limits);
         if (!schedule) errors.push_back(schedule.error().message);
@@ -152,7 +159,7 @@ json Reloader::check(const std::filesystem::path &xml) const {
         }
     }
     // A set that only a restart can run is valid: activation offers the restart (docs/hot-reload.md).
-    return json{{"valid", errors.empty()}, {"errors", errors}, {"warnings", json::array()}, {"schedule", schedule_json},
+    return json{{"valid", errors.empty()}, {"errors", errors}, {"warnings", warnings}, {"schedule", schedule_json},
                 {"online", errors.empty() && restart.is_null()}, {"restart", restart}, {"variables", variables},
                 {"modules", modules}};
 }
@@ -199,6 +206,9 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
     // Which modules stay.  A running module that goes away must not own shared functions: kept
     // modules may hold pointers into its code (found in their start()).
     std::vector<bool> old_kept(running ? running->members.size() : 0, false);
+    const std::vector<dispatch::ExecutorOptions> threads = dispatch::executorsOf(spec, s_.dispatcher);
+    const std::vector<dispatch::ExecutorOptions> running_threads =
+        running ? dispatch::executorsOf(running->set, s_.dispatcher) : std::vector<dispatch::ExecutorOptions>{};
     for (const config::ModuleSpec &m : spec.modules) {
         Member &member = next->members[static_cast<std::size_t>(m.index)];
         auto identity = hosts::identify(m.path);
@@ -209,7 +219,9 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
         const int old = running->find(m.name);
         if (old < 0) continue;
         const auto o = static_cast<std::size_t>(old);
-        if (!keepable(m, member.identity, running->set.modules[o], running->members[o])) continue;
+        if (!keepable(m, member.identity, running->set.modules[o], running->members[o],
+                      sameThread(threads, running_threads, m.executor)))
+            continue;
         // The same code built against the new layout (or against one whose variables all stay):
         // the running instance addresses every variable where the new layout has it.
         if (!member.layout.empty() && model)
@@ -400,16 +412,12 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         launch.slot = static_cast<uint32_t>(member.slot);
         launch.control_shm = s_.control->name();
         launch.variables_shm = s_.vars ? s_.vars->name() : "";
-        if (m.operation != config::OperationType::NonReal) {
-            int priority = s_.dispatcher.rt_priority, cpu = s_.dispatcher.cpu;
-            for (const config::ExecutorSpec &e : spec.executors)
-                if (e.name == m.executor) {
-                    priority = e.rt_priority ? e.rt_priority : priority - 1;
-                    if (e.cpu >= 0) cpu = e.cpu;
+        if (m.operation != config::OperationType::NonReal)
+            for (const dispatch::ExecutorOptions &e : dispatch::executorsOf(spec, s_.dispatcher))
+                if (e.name == m.executor) {  // one below its executor, on its CPU
+                    launch.rt_priority = s_.dispatcher.realtime ? std::max(1, e.rt_priority - 1) : 0;
+                    launch.cpu = e.cpu;
                 }
-            launch.rt_priority = s_.dispatcher.realtime ? std::max(1, priority - 1) : 0;
-            launch.cpu = cpu >= 0 ? cpu : osal::lastAllowedCpu();
-        }
         if (Status st = s_.supervisor->start(launch); !st) {
             member.slot = -1;
             undo(*next);
@@ -453,6 +461,14 @@ Status Reloader::realize(Generation &generation, const Generation *running,
             if (before && m.executor == running->set.modules[static_cast<std::size_t>(old)].executor) task->predecessor = before;
             task->clear_fault = !task->disabled && running->disabled.count(m.name) > 0;
         }
+    // Threads for executors the set adds or changes: started and parked until the swap.
+    if (dispatcher_)
+        if (Status st = dispatcher_->prepare(spec, *next->tables); !st) {
+            undo(*next);
+            return st.error().message.find("--module-records") != std::string::npos
+                       ? Error{st.error().message, kRestartRequired}
+                       : st.error();
+        }
     return Ok{};
 }
 
@@ -475,6 +491,7 @@ void Reloader::undo(Generation &partial) {
         (void)s_.vars->publish(*partial.previous_layout);  // it fitted before
         partial.published = false;
     }
+    if (dispatcher_) dispatcher_->retire();  // executor threads started for it
 }
 
 void Reloader::adopt(std::unique_ptr<Generation> first, dispatch::Dispatcher &dispatcher) {
@@ -658,11 +675,14 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
         r.period_ns = m.period_ns;
         r.priority = m.priority;
         r.budget_ns = m.budget_ns;
+        std::snprintf(r.executor, sizeof r.executor, "%s", m.executor.c_str());  // a kept module may move
     }
-    auto lost = [this] {
+    // Periods lost by the dispatchers of both generations (arriving and leaving executors too).
+    std::set<std::size_t> dispatchers(running->tables->records.begin(), running->tables->records.end());
+    dispatchers.insert(next->tables->records.begin(), next->tables->records.end());
+    auto lost = [&] {
         uint64_t n = 0;
-        for (std::size_t e = 0; e < s_.executors; ++e)
-            n += s_.stats->record(e).missed.load() + s_.stats->record(e).skipped.load();
+        for (std::size_t e : dispatchers) n += s_.stats->record(e).missed.load() + s_.stats->record(e).skipped.load();
         return n;
     };
     const uint64_t lost_before = lost();
@@ -690,6 +710,7 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
     while (s_.stats->header()->cycles.load() < cycles_then + settle && now() < settle_until && s_.stats->header()->running.load())
         std::this_thread::sleep_for(std::chrono::microseconds(500));
     const uint64_t missed = lost() - lost_before;
+    dispatcher_->retire();  // the threads of executors the new set does not have
 
     const auto [kept, started, stopped] = fatesOf(*next, running.get());
     retire(*running, *next);

@@ -61,6 +61,7 @@ struct Services {
     trace::TraceRings *trace = nullptr;            // told the basic period after a swap that changes it
     schedule::Limits limits;
     dispatch::DispatcherOptions dispatcher;        // the RT priority and CPU processes inherit
+    std::set<int> kept_off;                        // CPUs irpd's non-RT threads were kept off at start (empty: none)
     // Modules left out of a set after they crashed irpd (supervise/crash_record.hpp): a `load`
     // of that set starts them disabled; an `enable` of one calls forgive.  Empty: none.
     std::function<std::set<std::string>(const config::SetSpec &)> left_out;

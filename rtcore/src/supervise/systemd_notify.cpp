@@ -66,6 +66,15 @@ void SystemdNotify::ready(const std::string &status, const std::vector<uint64_t>
     next_ping_ns_ = now_ns + watchdog_ns_ / 2;
 }
 
+void SystemdNotify::setDispatchers(const std::vector<uint64_t> &progress, std::vector<int64_t> windows_ns,
+                                   int64_t now_ns) {
+    if (!active_) return;
+    seen_ = progress;
+    changed_ns_.assign(progress.size(), now_ns);
+    windows_ns_ = std::move(windows_ns);
+    windows_ns_.resize(progress.size(), 0);
+}
+
 void SystemdNotify::status(const std::string &status) { send("STATUS=" + status); }
 
 void SystemdNotify::stopping(const std::string &status) { send("STOPPING=1\nSTATUS=" + status); }

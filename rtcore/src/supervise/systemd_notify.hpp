@@ -26,11 +26,10 @@ public:
     // making progress (a little more than its basic period plus the main thread's tick).
     void ready(const std::string &status, const std::vector<uint64_t> &progress, std::vector<int64_t> windows_ns,
                int64_t now_ns);
-    // The windows again, after a hot swap changed executors' basic periods.
-    void setWindows(std::vector<int64_t> windows_ns) {
-        windows_ns.resize(windows_ns_.size(), 0);
-        windows_ns_ = std::move(windows_ns);
-    }
+    // After a hot swap: the dispatchers of the new generation (a swap may add or remove
+    // executors and change their basic periods), their progress now and their windows.  Each
+    // counts as having moved now: every one of them took its table at the swap.
+    void setDispatchers(const std::vector<uint64_t> &progress, std::vector<int64_t> windows_ns, int64_t now_ns);
     void status(const std::string &status);
     void stopping(const std::string &status);
     // A managed restart: the same process executes itself again.  RELOADING=1 (with

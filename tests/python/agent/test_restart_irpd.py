@@ -1,5 +1,6 @@
 """test_restart_irpd.py -- activation modes against a REAL irpd and a real agent on loopback
-(docs/set-store.md): a set irpd cannot take online (Figure 1 with an <executor> added) is refused
+(docs/set-store.md): a set irpd cannot take online (Figure 1 with a fourth process module, on an irpd
+started with room for three) is refused
 in mode online, naming why and what mode restart would do; mode restart (and auto) restarts irpd
 onto it -- the same pid -- and records it like any activation; a restart whose set does not start
 brings irpd back on its old set and changes nothing in the store."""
@@ -15,20 +16,22 @@ from agent_helpers import BUILD, IRPD
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
-SIDE = b"<root>\n  <executor><name>side</name></executor>"
+# One process module more than the three of Figure 1 (cntr4.exe once more, under another name).
+FOURTH = (b"  <module><name>cntr5</name><filename>./cntr4.exe</filename><moduletype>process</moduletype>"
+          b"<operationtype>periodic</operationtype><period>1000000</period><priority>5</priority></module>\n</root>")
 INIT_THROWS = BUILD / "tests" / "cpp" / "modules" / "init_throws.so"  # a real module whose initialize() throws
 
 
-def fig1_files(executor: bool = False, broken_module: bool = False) -> list[tuple[str, tuple[str, bytes]]]:
-    """The built Figure 1 set as `files` parts; with an <executor> (a change only a restart can
-    take), and with cntr1's file replaced by a module whose initialize() throws (irpd's check passes
+def fig1_files(fourth: bool = False, broken_module: bool = False) -> list[tuple[str, tuple[str, bytes]]]:
+    """The built Figure 1 set as `files` parts; with a fourth process module (on an irpd with
+    three control slots a change only a restart can take), and with cntr1's file replaced by a module whose initialize() throws (irpd's check passes
     it -- the file is there -- but the set cannot start)."""
     out = []
     for p in sorted(FIG1_DIR.rglob("*")):
         if p.is_file():
             content = p.read_bytes()
-            if p.name == "module.xml" and executor:
-                content = content.replace(b"<root>", SIDE, 1)
+            if p.name == "module.xml" and fourth:
+                content = content.replace(b"</root>", FOURTH, 1)
             if broken_module and p.name == "cntr1.so":
                 content = INIT_THROWS.read_bytes()
             out.append(("files", (str(p.relative_to(FIG1_DIR)), content)))
@@ -37,7 +40,7 @@ def fig1_files(executor: bool = False, broken_module: bool = False) -> list[tupl
 
 @pytest.fixture
 def cell(tmp_path):
-    c = Cell(tmp_path)
+    c = Cell(tmp_path, "--process-slots", "3")
     yield c
     c.close()
 
@@ -51,12 +54,12 @@ def upload(cell, **variant) -> dict:
 def test_online_refuses_a_set_that_needs_a_restart_and_says_why(cell):
     base = upload(cell)
     cell.activate(base["id"])
-    side = upload(cell, executor=True)
+    side = upload(cell, fourth=True)
     assert side["validation"]["valid"] is True, side["validation"]
     r = cell.post(f"/sets/{side['id']}/activate")                      # no body: mode online
     assert r.status_code == 409, r.text
     detail = r.json()["detail"]
-    assert "executor" in detail and "mode restart" in detail and "expected downtime" in detail, detail
+    assert "process modules" in detail and "mode restart" in detail and "expected downtime" in detail, detail
     r = cell.post(f"/sets/{side['id']}/activate", json={"mode": "online"})
     assert r.status_code == 409, r.text
     assert cell.get("/status").json()["set_id"] == base["id"]
@@ -68,7 +71,7 @@ def test_mode_restart_restarts_irpd_onto_the_set_with_the_same_pid(cell):
     cell.activate(base["id"])
     pid = cell.get("/status").json()["pid"]
     assert pid == cell.irpd.pid
-    side = upload(cell, executor=True)
+    side = upload(cell, fourth=True)
     r = cell.post(f"/sets/{side['id']}/activate", json={"mode": "restart"})
     assert r.status_code == 200, r.text
     report = r.json()
@@ -90,9 +93,9 @@ def test_mode_restart_restarts_irpd_onto_the_set_with_the_same_pid(cell):
     assert "restart" in kinds  # irpd's
     # The watcher left it alone: still the new set, no restore.
     assert not [e for e in cell.get("/audit").json() if e["action"] == "restore"]
-    # Back with auto: irpd cannot take the old set online either (its executors differ), so it restarts.
+    # Back with auto: the restart made room for four processes, so the old set goes online.
     r = cell.post("/sets/rollback", json={"mode": "auto"})
-    assert r.status_code == 200 and r.json()["mode"] == "restart" and r.json()["set_id"] == base["id"], r.text
+    assert r.status_code == 200 and r.json()["mode"] == "online" and r.json()["set_id"] == base["id"], r.text
     assert cell.get("/status").json()["pid"] == pid
 
 

@@ -42,9 +42,9 @@ def fig1_files(cntr1_period: str = "500000") -> list[tuple[str, tuple[str, bytes
 class Cell:
     """irpd (Figure 1) and an agent that polls it every 0.2 s, with the admin token."""
 
-    def __init__(self, tmp: Path):
+    def __init__(self, tmp: Path, *irpd_args: str):
         self.tmp, self.sock, self.data = tmp, tmp / "irpd.sock", tmp / "data"
-        self.irpd = start_irpd(self.sock)
+        self.irpd = start_irpd(self.sock, FIG1, None, *irpd_args)
         self.config = tmp / "agent.json"
         self.config.write_text(json.dumps({"irpd_poll_s": 0.2}))
         self.port = free_port()
