@@ -9,11 +9,13 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import math
 import os
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from .cli_text import (EVENT_HEADERS, Out, audit_text, events_rows, format_value, jitter_text, module_text,
                        modules_text, parse_duration, parse_value, schedule_text, set_text, sets_text, status_text,
@@ -24,30 +26,18 @@ DEFAULT_URL = "http://127.0.0.1:8080"
 EXIT_OK, EXIT_REFUSED, EXIT_USAGE, EXIT_UNREACHABLE = 0, 1, 2, 3
 
 
-# -- one function per command: (client, args, out) -> exit code --------------------------------------
-def cmd_status(c: Client, a, out: Out) -> int:
-    out.show(c.status(), status_text)
-    return EXIT_OK
+# -- the commands: (client, args, out) -> exit code ----------------------------------------------------
+def _show(fetch: Callable[[Client, argparse.Namespace], Any], render: Callable[[Any], str]):
+    """A command that asks the API one thing and shows it (as a table, or its JSON with --json)."""
+    def run(c: Client, a: argparse.Namespace, out: Out) -> int:
+        out.show(fetch(c, a), render)
+        return EXIT_OK
+    return run
 
 
-def cmd_modules(c: Client, a, out: Out) -> int:
-    out.show(c.modules(), modules_text)
-    return EXIT_OK
-
-
-def cmd_module(c: Client, a, out: Out) -> int:
-    out.show(c.module(a.name), module_text)
-    return EXIT_OK
-
-
-def cmd_schedule(c: Client, a, out: Out) -> int:
-    out.show(c.schedule(), schedule_text)
-    return EXIT_OK
-
-
-def cmd_jitter(c: Client, a, out: Out) -> int:
-    out.show(c.jitter(), jitter_text)
-    return EXIT_OK
+def _variables_text(v: dict) -> str:
+    return f"layout {v.get('layout_hash', '-')[:16]}\n\n" + table(
+        ["PATH", "TYPE", "SIZE"], [[x["path"], x.get("type"), x.get("size")] for x in v["variables"]], "llr")
 
 
 def _upload(c: Client, a) -> dict:
@@ -85,47 +75,6 @@ def cmd_validate(c: Client, a, out: Out) -> int:
                   False: "(stored, but irpd would refuse it: fix the errors above)",
                   None: "(stored, but not checked: is irpd running? upload again to check it)"}[valid])
     return {True: EXIT_OK, False: EXIT_REFUSED, None: EXIT_UNREACHABLE}[valid]
-
-
-def cmd_sets(c: Client, a, out: Out) -> int:
-    out.show(c.sets(), sets_text)
-    return EXIT_OK
-
-
-def cmd_set(c: Client, a, out: Out) -> int:
-    out.show(c.set(a.id), set_text)
-    return EXIT_OK
-
-
-def cmd_activate(c: Client, a, out: Out) -> int:
-    out.show(c.activate(a.id, a.mode), swap_text)
-    return EXIT_OK
-
-
-def cmd_rollback(c: Client, a, out: Out) -> int:
-    out.show(c.rollback(a.mode), swap_text)
-    return EXIT_OK
-
-
-def cmd_set_period(c: Client, a, out: Out) -> int:
-    out.show(c.patch_module(a.module, period_ns=a.period), swap_text)
-    return EXIT_OK
-
-
-def cmd_set_priority(c: Client, a, out: Out) -> int:
-    out.show(c.patch_module(a.module, priority=a.priority), swap_text)
-    return EXIT_OK
-
-
-def cmd_enable(c: Client, a, out: Out) -> int:
-    out.show(c.patch_module(a.module, enabled=a.command == "enable"), swap_text)
-    return EXIT_OK
-
-
-def cmd_variables(c: Client, a, out: Out) -> int:
-    out.show(c.variables(), lambda v: f"layout {v.get('layout_hash', '-')[:16]}\n\n" + table(
-        ["PATH", "TYPE", "SIZE"], [[x["path"], x.get("type"), x.get("size")] for x in v["variables"]], "llr"))
-    return EXIT_OK
 
 
 def cmd_layout(c: Client, a, out: Out) -> int:
@@ -245,68 +194,27 @@ def _events_of(answer: Any, cursors: tuple[int, int | None]) -> tuple[list[dict]
     return answer.get("events") or [], (answer.get("next", cursors[0]), answer.get("agent_next", cursors[1]))
 
 
-def cmd_audit(c: Client, a, out: Out) -> int:
-    out.show(c.audit(limit=a.limit), audit_text)
-    return EXIT_OK
+# -- argument types ----------------------------------------------------------------------------------
+def _argument(convert: Callable[[str], Any], what: str | None, minimum: float | None = None, at_least: str = ""):
+    """An argparse type: `convert` the text (a ValueError's message, or "'text' is not <what>", is
+    the usage error), then check it is at least `minimum` ("'text': <at_least>" otherwise)."""
+    def parse(text: str):
+        try:
+            value = convert(text)
+        except ValueError as e:
+            raise argparse.ArgumentTypeError(str(e) if what is None else f"'{text}' is not {what}") from None
+        if minimum is not None and not value >= minimum:
+            raise argparse.ArgumentTypeError(f"'{text}': {at_least}")
+        return value
+    return parse
 
 
-# -- the parser ------------------------------------------------------------------------------------
-def _mode_arg(p) -> None:
-    p.add_argument("--mode", choices=("online", "restart", "auto"), default="online",
-                   help="online (default): hot reload, refused for a set that needs a restart; restart: irpd "
-                        "restarts onto the set (same pid, outputs to safe values, downtime reported); auto: a "
-                        "restart only when needed")
-
-
-def _duration_arg(text: str) -> int:
-    try:
-        return parse_duration(text)
-    except ValueError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
-
-
-def _value_arg(text: str):
-    try:
-        return parse_value(text)
-    except ValueError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
-
-
-def _positive_int(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"'{text}': give 1 or more")
-    return n
-
-
-def _nonneg_int(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"'{text}': give 0 or more")
-    return n
-
-
-def _int_arg(text: str) -> int:
-    try:
-        return int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
-
-
-def _seconds(text: str) -> float:
-    try:
-        s = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a number of seconds") from None
-    if not s > 0:
-        raise argparse.ArgumentTypeError(f"'{text}': give more than 0 seconds")
-    return s
+_duration_arg = _argument(parse_duration, None)
+_value_arg = _argument(parse_value, None)
+_int_arg = _argument(int, "a whole number")
+_positive_int = _argument(int, "a whole number", 1, "give 1 or more")
+_nonneg_int = _argument(int, "a whole number", 0, "give 0 or more")
+_seconds = _argument(float, "a number of seconds", math.nextafter(0.0, 1.0), "give more than 0 seconds")
 
 
 def _connection_options(parser: argparse.ArgumentParser, top: bool) -> None:
@@ -327,6 +235,84 @@ def _connection_options(parser: argparse.ArgumentParser, top: bool) -> None:
     g.add_argument("--timeout", type=_seconds, default=d(10.0), metavar="S", help="per request, seconds (default 10)")
 
 
+# -- the command table -------------------------------------------------------------------------------
+def arg(*flags: str, **kw) -> tuple[tuple[str, ...], dict]:
+    """One argument of a command, as argparse's add_argument takes it."""
+    return flags, kw
+
+
+MODE = arg("--mode", choices=("online", "restart", "auto"), default="online",
+           help="online (default): hot reload, refused for a set that needs a restart; restart: irpd restarts "
+                "onto the set (same pid, outputs to safe values, downtime reported); auto: a restart only when needed")
+SOURCES = (arg("sources", nargs="+", metavar="DIR|FILE|ARCHIVE",
+               help="a set folder (holding module.xml), the set's files, or a .tar.gz"),
+           arg("--root", metavar="DIR", help="with FILEs: name them relative to DIR (default: their common folder)"))
+MODULE = arg("module", metavar="MODULE")
+STREAM = (arg("paths", nargs="+", metavar="PATH"),
+          arg("--decimation", type=_positive_int, default=1, metavar="N",
+              help="every N-th basic period (default 1: every sample)"))
+
+
+@dataclass(frozen=True)
+class Command:
+    name: str
+    help: str
+    run: Callable[[Client, argparse.Namespace, Out], int]
+    args: tuple[tuple[tuple[str, ...], dict], ...] = ()
+    exclusive: tuple[tuple[tuple[str, ...], dict], ...] = ()  # at most one of these
+
+
+COMMANDS: tuple[Command, ...] = (
+    Command("status", "the running set: periods, uptime, cycles, overruns", _show(lambda c, a: c.status(), status_text)),
+    Command("modules", "every module with its period, state and timing", _show(lambda c, a: c.modules(), modules_text)),
+    Command("module", "one module in detail", _show(lambda c, a: c.module(a.name), module_text),
+            (arg("name", metavar="MODULE"),)),
+    Command("schedule", "the slot table (basic/macro period, modules per slot)",
+            _show(lambda c, a: c.schedule(), schedule_text)),
+    Command("jitter", "timing of every dispatcher and module (percentiles)", _show(lambda c, a: c.jitter(), jitter_text)),
+    Command("upload", "store a module set: a folder, its files, or a .tar.gz", cmd_upload,
+            (*SOURCES, arg("--activate", action="store_true", help="activate it (hot reload) when valid"), MODE)),
+    Command("validate", "upload a set and show irpd's validation report (exit 1 when not valid)", cmd_validate, SOURCES),
+    Command("sets", "the uploaded sets, newest first", _show(lambda c, a: c.sets(), sets_text)),
+    Command("set", "one uploaded set: files and validation", _show(lambda c, a: c.set(a.id), set_text),
+            (arg("id", metavar="ID"),)),
+    Command("activate", "hot-reload (or restart) irpd onto an uploaded set",
+            _show(lambda c, a: c.activate(a.id, a.mode), swap_text), (arg("id", metavar="ID"), MODE)),
+    Command("rollback", "activate the set that was active before the current one",
+            _show(lambda c, a: c.rollback(a.mode), swap_text), (MODE,)),
+    Command("set-period", "change a module's period (hot reload)",
+            _show(lambda c, a: c.patch_module(a.module, period_ns=a.period), swap_text),
+            (MODULE, arg("period", type=_duration_arg, metavar="PERIOD", help="1ms, 100us, 2.5ms, 500000ns or plain ns"))),
+    Command("set-priority", "change a module's priority (lowest value runs first)",
+            _show(lambda c, a: c.patch_module(a.module, priority=a.priority), swap_text),
+            (MODULE, arg("priority", type=_int_arg, metavar="N"))),
+    Command("enable", "enable a module (hot reload)", _show(lambda c, a: c.patch_module(a.module, enabled=True), swap_text),
+            (MODULE,)),
+    Command("disable", "disable a module (hot reload)",
+            _show(lambda c, a: c.patch_module(a.module, enabled=False), swap_text), (MODULE,)),
+    Command("variables", "every shared variable of the running layout", _show(lambda c, a: c.variables(), _variables_text)),
+    Command("layout", "the running layout.json, for glbc --previous", cmd_layout,
+            (arg("-o", "--output", metavar="FILE", help="write it to FILE (default: standard output)"),)),
+    Command("read", "read shared variables", cmd_read,
+            (arg("paths", nargs="+", metavar="PATH", help="e.g. knu.Robot.tick 'joint[1].y'"),)),
+    Command("write", "write a shared variable", cmd_write,
+            (arg("path", metavar="PATH"), arg("value", type=_value_arg, metavar="VALUE", help="a number or true/false"))),
+    Command("watch", "print the samples of variables as they come", cmd_watch, STREAM,
+            (arg("--count", type=_positive_int, metavar="N", help="stop after N samples"),
+             arg("--seconds", type=_seconds, metavar="S", help="stop after S seconds"))),
+    Command("trace", "record the samples of variables to a CSV file", cmd_trace,
+            (*STREAM, arg("--seconds", type=_seconds, required=True, metavar="S", help="how long to record"),
+             arg("--csv", required=True, metavar="FILE", help="where to write (- for stdout)"))),
+    Command("events", "irpd's and the agent's events (swaps, faults, misses, uploads)", cmd_events,
+            (arg("--since", type=_nonneg_int, default=0, metavar="SEQ", help="events from SEQ on"),
+             arg("--limit", type=_positive_int, metavar="N"),
+             arg("--follow", "-f", action="store_true", help="keep printing new events (Ctrl-C stops)"),
+             arg("--interval", type=_seconds, default=1.0, metavar="S", help="with --follow: poll every S s"))),
+    Command("audit", "the audit log (admin)", _show(lambda c, a: c.audit(limit=a.limit), audit_text),
+            (arg("--limit", type=_positive_int, metavar="N"),)),
+)
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="irpctl", description="indurop's command line: the agent's API (/api/v1) from a shell.",
@@ -334,70 +320,16 @@ def build_parser() -> argparse.ArgumentParser:
                "docs/irpctl.md has an example of every command.")
     _connection_options(ap, top=True)
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
-
-    def command(name: str, func, help: str, **kw) -> argparse.ArgumentParser:
-        p = sub.add_parser(name, help=help, description=help, **kw)
+    for command in COMMANDS:
+        p = sub.add_parser(command.name, help=command.help, description=command.help)
         _connection_options(p, top=False)
-        p.set_defaults(func=func)
-        return p
-
-    command("status", cmd_status, "the running set: periods, uptime, cycles, overruns")
-    command("modules", cmd_modules, "every module with its period, state and timing")
-    command("module", cmd_module, "one module in detail").add_argument("name", metavar="MODULE")
-    command("schedule", cmd_schedule, "the slot table (basic/macro period, modules per slot)")
-    command("jitter", cmd_jitter, "timing of every dispatcher and module (percentiles)")
-    for name, func, help in (("upload", cmd_upload, "store a module set: a folder, its files, or a .tar.gz"),
-                             ("validate", cmd_validate, "upload a set and show irpd's validation report "
-                                                        "(exit 1 when not valid)")):
-        p = command(name, func, help)
-        p.add_argument("sources", nargs="+", metavar="DIR|FILE|ARCHIVE",
-                       help="a set folder (holding module.xml), the set's files, or a .tar.gz")
-        p.add_argument("--root", metavar="DIR", help="with FILEs: name them relative to DIR "
-                                                     "(default: their common folder)")
-        if name == "upload":
-            p.add_argument("--activate", action="store_true", help="activate it (hot reload) when valid")
-            _mode_arg(p)
-    command("sets", cmd_sets, "the uploaded sets, newest first")
-    command("set", cmd_set, "one uploaded set: files and validation").add_argument("id", metavar="ID")
-    p = command("activate", cmd_activate, "hot-reload (or restart) irpd onto an uploaded set")
-    p.add_argument("id", metavar="ID")
-    _mode_arg(p)
-    _mode_arg(command("rollback", cmd_rollback, "activate the set that was active before the current one"))
-    p = command("set-period", cmd_set_period, "change a module's period (hot reload)")
-    p.add_argument("module", metavar="MODULE")
-    p.add_argument("period", type=_duration_arg, metavar="PERIOD", help="1ms, 100us, 2.5ms, 500000ns or plain ns")
-    p = command("set-priority", cmd_set_priority, "change a module's priority (lowest value runs first)")
-    p.add_argument("module", metavar="MODULE")
-    p.add_argument("priority", type=_int_arg, metavar="N")
-    command("enable", cmd_enable, "enable a module (hot reload)").add_argument("module", metavar="MODULE")
-    command("disable", cmd_enable, "disable a module (hot reload)").add_argument("module", metavar="MODULE")
-    command("variables", cmd_variables, "every shared variable of the running layout")
-    command("layout", cmd_layout, "the running layout.json, for glbc --previous").add_argument(
-        "-o", "--output", metavar="FILE", help="write it to FILE (default: standard output)")
-    command("read", cmd_read, "read shared variables").add_argument("paths", nargs="+", metavar="PATH",
-                                                                     help="e.g. knu.Robot.tick 'joint[1].y'")
-    p = command("write", cmd_write, "write a shared variable")
-    p.add_argument("path", metavar="PATH")
-    p.add_argument("value", type=_value_arg, metavar="VALUE", help="a number or true/false")
-    for name, func, help in (("watch", cmd_watch, "print the samples of variables as they come"),
-                             ("trace", cmd_trace, "record the samples of variables to a CSV file")):
-        p = command(name, func, help)
-        p.add_argument("paths", nargs="+", metavar="PATH")
-        p.add_argument("--decimation", type=_positive_int, default=1, metavar="N",
-                       help="every N-th basic period (default 1: every sample)")
-        if name == "watch":
-            stop = p.add_mutually_exclusive_group()
-            stop.add_argument("--count", type=_positive_int, metavar="N", help="stop after N samples")
-            stop.add_argument("--seconds", type=_seconds, metavar="S", help="stop after S seconds")
-        else:
-            p.add_argument("--seconds", type=_seconds, required=True, metavar="S", help="how long to record")
-            p.add_argument("--csv", required=True, metavar="FILE", help="where to write (- for stdout)")
-    p = command("events", cmd_events, "irpd's and the agent's events (swaps, faults, misses, uploads)")
-    p.add_argument("--since", type=_nonneg_int, default=0, metavar="SEQ", help="events from SEQ on")
-    p.add_argument("--limit", type=_positive_int, metavar="N")
-    p.add_argument("--follow", "-f", action="store_true", help="keep printing new events (Ctrl-C stops)")
-    p.add_argument("--interval", type=_seconds, default=1.0, metavar="S", help="with --follow: poll every S s")
-    command("audit", cmd_audit, "the audit log (admin)").add_argument("--limit", type=_positive_int, metavar="N")
+        p.set_defaults(func=command.run)
+        for flags, kw in command.args:
+            p.add_argument(*flags, **kw)
+        if command.exclusive:
+            group = p.add_mutually_exclusive_group()
+            for flags, kw in command.exclusive:
+                group.add_argument(*flags, **kw)
     return ap
 
 
