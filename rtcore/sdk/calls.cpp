@@ -51,11 +51,6 @@ int succeed() noexcept {
 using sdk::atomic;
 using sdk::monotonicNs;
 
-// FUTEX_WAIT while *word == expected, at most left_ns; EAGAIN, EINTR, ETIMEDOUT: the caller re-checks.
-void futexWait(uint32_t *word, uint32_t expected, int64_t left_ns) noexcept {
-    timespec rel{static_cast<time_t>(left_ns / 1'000'000'000), static_cast<long>(left_ns % 1'000'000'000)};
-    syscall(SYS_futex, word, FUTEX_WAIT, expected, &rel, nullptr, 0);
-}
 
 // "double (double)" for "FddE"; the mangled text when it does not demangle (allocates: errors only).
 std::string readable(const char *mangled) {
@@ -119,7 +114,7 @@ int takeArea(indurop_call_area &area, int64_t deadline, const char *name) {
                             "shared function '%s': the timeout passed while irpd was still serving this process's "
                             "previous call (one call in flight per process)",
                             name);
-            futexWait(&area.word, word, left);
+            futex::wait(&area.word, word, left);
         }
         }
     }
@@ -296,7 +291,7 @@ int callResolved(uint32_t index, const char *signature, const void *args, uint32
                             e.name, humanNs(timeout_ns).text, ownerOf(e).text, humanNs(e.owner_period_ns).text);
             return fail(INDUROP_CALL_TIMEOUT, "shared function '%s': no answer within %s", e.name, humanNs(timeout_ns).text);
         }
-        futexWait(&area.word, word, left);
+        futex::wait(&area.word, word, left);
     }
 }
 

@@ -5,6 +5,8 @@
 
 #include <indurop/control.h>
 
+#include "sync.hpp"
+
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
@@ -31,10 +33,6 @@ std::atomic_ref<T> atomic(T &word) noexcept {
     return std::atomic_ref<T>(word);
 }
 
-inline int64_t monotonicNs() noexcept {
-    timespec ts{};
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1'000'000'000LL + ts.tv_nsec;
-}
+using irp::monotonicNs;  // sync.hpp
 
 } // namespace irp::sdk

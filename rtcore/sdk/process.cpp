@@ -49,11 +49,6 @@ PeriodState g_period;
 using sdk::atomic;
 using sdk::monotonicNs;
 
-// Process-shared futex calls (no FUTEX_PRIVATE_FLAG: irpd waits and wakes on the same words).
-void futexWake(uint32_t *word) noexcept { syscall(SYS_futex, word, FUTEX_WAKE, INT32_MAX, nullptr, nullptr, 0); }
-void futexWait(uint32_t *word, uint32_t expected) noexcept {
-    syscall(SYS_futex, word, FUTEX_WAIT, expected, nullptr, nullptr, 0);  // EAGAIN, EINTR: the caller re-checks
-}
 
 const char *moduleName() noexcept {
     const char *name = std::getenv("INDUROP_MODULE");
@@ -214,7 +209,7 @@ int initPeriodExe() {
     g_period.stop_returned = false;
     g_period.slot = slot;
     atomic(slot->state).store(INDUROP_PROCESS_READY, std::memory_order_release);
-    futexWake(&slot->state);
+    futex::wakeAll(&slot->state);
     return 0;
 }
 
@@ -227,7 +222,7 @@ int waitPeriod() {
         atomic(slot->done_ns).store(monotonicNs(), std::memory_order_relaxed);
         atomic(slot->state).store(INDUROP_PROCESS_READY, std::memory_order_relaxed);
         atomic(slot->done_seq).store(g_period.last_seq, std::memory_order_release);
-        futexWake(&slot->done_seq);
+        futex::wakeAll(&slot->done_seq);
         g_period.in_release = false;
     }
     for (;;) {
@@ -250,7 +245,7 @@ int waitPeriod() {
         }
         // A stop request wakes this word too; irpd repeats the wake while it waits, so a stop
         // that lands between the check above and the wait is not lost.
-        futexWait(&slot->release_seq, seq);
+        futex::wait(&slot->release_seq, seq);
     }
 }
 

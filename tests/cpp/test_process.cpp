@@ -78,7 +78,7 @@ uint32_t release(indurop_process_slot &s, uint64_t cycle) {
     std::atomic_ref<int64_t>(s.basic_ns).store(1'000'000, std::memory_order_relaxed);
     std::atomic_ref<int64_t>(s.release_ns).store(nowNs(), std::memory_order_relaxed);
     const uint32_t seq = std::atomic_ref<uint32_t>(s.release_seq).fetch_add(1, std::memory_order_release) + 1;
-    hosts::futex::wakeAll(&s.release_seq);
+    futex::wakeAll(&s.release_seq);
     return seq;
 }
 
@@ -90,7 +90,7 @@ bool awaitDone(indurop_process_slot &s, uint32_t seq, int64_t timeout_ns) {
         if (done == seq) return true;
         const int64_t left = deadline - nowNs();
         if (left <= 0) return false;
-        hosts::futex::waitWhileEqual(&s.done_seq, done, left);
+        futex::waitWhileEqual(&s.done_seq, done, left);
     }
 }
 

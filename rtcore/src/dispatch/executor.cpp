@@ -141,10 +141,10 @@ bool Executor::runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start
     slot.basic_ns = table_->basic_ns;
     slot.release_ns = start;
     release.store(served + 1, std::memory_order_release);
-    hosts::futex::wakeAll(&slot.release_seq);
+    futex::wakeAll(&slot.release_seq);
     if (task.sporadic) return true;  // the event handler checks completion later
     const int64_t left = wait_until - clock_.now();
-    if (left <= 0 || !hosts::futex::waitWhileEqual(&slot.done_seq, served, left)) stats::bump(task.stats->overruns);
+    if (left <= 0 || !futex::waitWhileEqual(&slot.done_seq, served, left)) stats::bump(task.stats->overruns);
     return true;
 }
 

@@ -173,7 +173,7 @@ unsigned CallServer::serve(int module, uint64_t cycle, bool disabled) noexcept {
             continue;  // withdrawn by its timeout just now
         answer(a, functions_[fn], cycle, disabled);
         atomic(a.word).store((word & ~3u) | INDUROP_CALL_ANSWERED, std::memory_order_release);
-        hosts::futex::wakeAll(&a.word);
+        futex::wakeAll(&a.word);
         ++served;
         next = i + 1 == n ? 0 : i + 1;
     }
@@ -184,7 +184,7 @@ unsigned CallServer::serve(int module, uint64_t cycle, bool disabled) noexcept {
 void CallServer::stop() noexcept {
     if (!header_) return;
     atomic(header_->calls).store(INDUROP_CALLS_STOPPED, std::memory_order_release);
-    for (indurop_process_slot *s : slots_) hosts::futex::wakeAll(&s->call.word);
+    for (indurop_process_slot *s : slots_) futex::wakeAll(&s->call.word);
 }
 
 } // namespace irp::dispatch

@@ -51,30 +51,4 @@ Result<ControlSegment> ControlSegment::create(const std::string &instance, uint3
     return segment;
 }
 
-namespace futex {
-
-void wakeAll(uint32_t *word) noexcept { syscall(SYS_futex, word, FUTEX_WAKE, INT32_MAX, nullptr, nullptr, 0); }
-
-bool waitWhileEqual(uint32_t *word, uint32_t expected, int64_t timeout_ns) noexcept {
-    // FUTEX_WAIT's timeout is relative; recompute it from an absolute deadline after each wake-up.
-    timespec now{};
-    clock_gettime(CLOCK_MONOTONIC, &now);
-    const int64_t deadline = timeout_ns > 0 ? now.tv_sec * 1'000'000'000LL + now.tv_nsec + timeout_ns : 0;
-    std::atomic_ref<uint32_t> value(*word);
-    while (value.load(std::memory_order_acquire) == expected) {
-        timespec rel{}, *timeout = nullptr;
-        if (deadline) {
-            clock_gettime(CLOCK_MONOTONIC, &now);
-            int64_t left = deadline - (now.tv_sec * 1'000'000'000LL + now.tv_nsec);
-            if (left <= 0) return false;
-            rel = {static_cast<time_t>(left / 1'000'000'000), static_cast<long>(left % 1'000'000'000)};
-            timeout = &rel;
-        }
-        long rc = syscall(SYS_futex, word, FUTEX_WAIT, expected, timeout, nullptr, 0);
-        if (rc == -1 && errno == ETIMEDOUT) return value.load(std::memory_order_acquire) != expected;
-    }
-    return true;
-}
-
-} // namespace futex
 } // namespace irp::hosts

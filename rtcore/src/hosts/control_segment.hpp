@@ -5,6 +5,7 @@
 
 #include "common/result.hpp"
 #include "osal/shm.hpp"
+#include "sdk/sync.hpp"
 
 #include <indurop/control.h>
 
@@ -35,12 +36,5 @@ private:
     osal::SharedMemory shm_;
 };
 
-// Futex helpers on the slots' 32-bit words (process-shared: no FUTEX_PRIVATE_FLAG).
-namespace futex {
-// Wakes every waiter on word.
-void wakeAll(uint32_t *word) noexcept;
-// Waits while *word == expected, at most timeout_ns (0: no limit).  Returns false on timeout.
-bool waitWhileEqual(uint32_t *word, uint32_t expected, int64_t timeout_ns) noexcept;
-} // namespace futex
-
+// The futex calls on the slots' words: irp::futex (sdk/sync.hpp), shared with libindurop.
 } // namespace irp::hosts

@@ -4,6 +4,8 @@
 // clock_nanosleep(TIMER_ABSTIME), and tests substitute a clock that steps instantly.
 #pragma once
 
+#include "sdk/sync.hpp"
+
 #include <cstdint>
 #include <ctime>
 
@@ -16,11 +18,7 @@ public:
     virtual void sleepUntil(int64_t deadline) noexcept = 0;  // returns at or after deadline
 };
 
-inline int64_t monotonicNow() noexcept {
-    timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
+inline int64_t monotonicNow() noexcept { return irp::monotonicNs(); }  // sdk/sync.hpp
 
 class MonotonicClock final : public Clock {
 public:

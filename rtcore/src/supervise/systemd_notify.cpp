@@ -2,6 +2,8 @@
 // ties a watchdog ping to the dispatchers' progress.
 #include "supervise/systemd_notify.hpp"
 
+#include "osal/clock.hpp"
+
 #include <systemd/sd-daemon.h>
 
 #include <algorithm>
@@ -81,9 +83,7 @@ void SystemdNotify::stopping(const std::string &status) { send("STOPPING=1\nSTAT
 
 void SystemdNotify::restarting(const std::string &status, int64_t allowance_ns) {
     if (!active_) return;
-    timespec now{};
-    clock_gettime(CLOCK_MONOTONIC, &now);
-    const int64_t usec = static_cast<int64_t>(now.tv_sec) * 1'000'000 + now.tv_nsec / 1000;
+    const int64_t usec = osal::monotonicNow() / 1000;
     std::string message = "RELOADING=1\nMONOTONIC_USEC=" + std::to_string(usec) + "\nSTATUS=" + status +
                           "\nEXTEND_TIMEOUT_USEC=" + std::to_string(allowance_ns / 1000);
     if (watchdog_ns_) message += "\nWATCHDOG=1\nWATCHDOG_USEC=" + std::to_string((watchdog_ns_ + allowance_ns) / 1000);
