@@ -75,6 +75,8 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
                          std::to_string(INDUROP_MODULE_ABI_VERSION) + ": rebuild it against this SDK"};
         module->table_ = *table;
         module->descriptor_ = true;
+        if (table->initialize) module->initialize_ = table->initialize;
+        if (table->start) module->start_ = table->start;
         if (!module->table_.run)
             return Error{who(spec) + ": INDUROP_MODULE(...) in " + spec.path.string() +
                          " sets no run; write INDUROP_MODULE(run = &::yourFunction)"};
@@ -88,8 +90,18 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
                          " has neither INDUROP_MODULE(...) nor an extern \"C\" run() (" + lastDlError() + ")"};
         module->table_.stop = reinterpret_cast<void (*)()>(dlsym(module->handle_, "stop"));
         module->table_.condition = reinterpret_cast<int (*)()>(dlsym(module->handle_, "condition"));
-        module->plain_initialize_ = dlsym(module->handle_, "initialize");
-        module->plain_start_ = dlsym(module->handle_, "start");
+        // extern "C" initialize(irp::Property const &) and start(): their throw is their error.
+        if (void *init = dlsym(module->handle_, "initialize"))
+            module->initialize_ = [f = reinterpret_cast<void (*)(irp::Property const &)>(init)](
+                                      const indurop_property_list *list, char *, std::size_t) {
+                f(irp::Property(list));
+                return 0;
+            };
+        if (void *start = dlsym(module->handle_, "start"))
+            module->start_ = [f = reinterpret_cast<void (*)()>(start)](char *, std::size_t) {
+                f();
+                return 0;
+            };
         dlerror();
     }
     module->safe_outputs_ = reinterpret_cast<void (*)()>(dlsym(module->handle_, "safe_outputs"));
@@ -128,56 +140,41 @@ struct CurrentModule {
 };
 } // namespace
 
+// One lifecycle call of the module on the main thread: the error it reports in `err` (a nonzero
+// return) or a C++ exception it lets out is the Error, "<what> failed: <why>".
+Status ThreadModule::call(const char *what, const std::function<int(char *err, std::size_t size)> &fn) const {
+    char err[512] = "";
+    try {
+        if (fn(err, sizeof err) == 0) return Ok{};
+    } catch (const std::exception &e) {
+        return Error{who(spec_) + ": " + what + " failed: " + e.what()};
+    } catch (...) {
+        return Error{who(spec_) + ": " + what + " threw a non-standard exception"};
+    }
+    return Error{who(spec_) + ": " + what + " failed: " + err};
+}
+
 Status ThreadModule::initialize() {
     CurrentModule current(spec_.name, instance_);
-    indurop_property_list list{property_entries_.data(), property_entries_.size()};
-    if (descriptor_) {
-        if (!table_.initialize) return Ok{};
-        char err[512] = "";
-        if (table_.initialize(&list, err, sizeof err) != 0) return Error{who(spec_) + ": initialize() failed: " + err};
-        return Ok{};
-    }
-    if (!plain_initialize_) return Ok{};
-    try {
-        reinterpret_cast<void (*)(irp::Property const &)>(plain_initialize_)(irp::Property(&list));
-    } catch (const std::exception &e) {
-        return Error{who(spec_) + ": initialize() failed: " + e.what()};
-    } catch (...) {
-        return Error{who(spec_) + ": initialize() threw a non-standard exception"};
-    }
-    return Ok{};
+    if (!initialize_) return Ok{};
+    const indurop_property_list list{property_entries_.data(), property_entries_.size()};
+    return call("initialize()", [&](char *err, std::size_t size) { return initialize_(&list, err, size); });
 }
 
 Status ThreadModule::start() {
     CurrentModule current(spec_.name, instance_);
-    if (descriptor_) {
-        if (table_.start) {
-            char err[512] = "";
-            if (table_.start(err, sizeof err) != 0) return Error{who(spec_) + ": start() failed: " + err};
-        }
-    } else if (plain_start_) {
-        try {
-            reinterpret_cast<void (*)()>(plain_start_)();
-        } catch (const std::exception &e) {
-            return Error{who(spec_) + ": start() failed: " + e.what()};
-        } catch (...) {
-            return Error{who(spec_) + ": start() threw a non-standard exception"};
-        }
-    }
+    if (start_)
+        if (Status st = call("start()", start_); !st) return st;
     started_ = true;
     return Ok{};
 }
 
 Status ThreadModule::safeOutputs() const {
     if (!safe_outputs_) return Ok{};
-    try {
+    return call("safe_outputs()", [this](char *, std::size_t) {
         safe_outputs_();
-    } catch (const std::exception &e) {
-        return Error{who(spec_) + ": safe_outputs() threw: " + e.what()};
-    } catch (...) {
-        return Error{who(spec_) + ": safe_outputs() threw a non-standard exception"};
-    }
-    return Ok{};
+        return 0;
+    });
 }
 
 Status ThreadModule::stop() {
@@ -185,14 +182,10 @@ Status ThreadModule::stop() {
     started_ = false;
     if (!table_.stop) return Ok{};
     LifecycleMark mark(spec_.name);
-    try {
+    return call("stop()", [this](char *, std::size_t) {
         table_.stop();
-    } catch (const std::exception &e) {
-        return Error{who(spec_) + ": stop() threw: " + e.what()};
-    } catch (...) {
-        return Error{who(spec_) + ": stop() threw a non-standard exception"};
-    }
-    return Ok{};
+        return 0;
+    });
 }
 
 } // namespace irp::hosts

@@ -11,7 +11,9 @@
 
 #include <indurop/module_abi.h>
 
+#include <cstddef>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -70,6 +72,7 @@ public:
 
 private:
     explicit ThreadModule(const config::ModuleSpec &spec);
+    Status call(const char *what, const std::function<int(char *err, std::size_t size)> &fn) const;
 
     config::ModuleSpec spec_;
     uint64_t instance_;  // unique per load: owns the shared functions its initialize()/start() export
@@ -78,9 +81,10 @@ private:
     bool started_ = false;
     std::string built_layout_;
     indurop_module_v1 table_{};
-    // Plain modules: their C++-typed hooks, called by the host inside try/catch.
-    void *plain_initialize_ = nullptr;
-    void *plain_start_ = nullptr;
+    // initialize() and start() of either style, as the descriptor's signature: 0 or an error in
+    // `err`.  A plain module's C++ hooks are wrapped so (their throw is the error); empty: none.
+    std::function<int(const indurop_property_list *, char *err, std::size_t)> initialize_;
+    std::function<int(char *err, std::size_t)> start_;
     void (*safe_outputs_)() = nullptr;
     std::vector<indurop_property_entry> property_entries_;
 };
