@@ -48,7 +48,8 @@ def segment_doc(name: str, s: dict) -> list[str]:
             out.append(f"| {f['offset']} | {type_name(f)} | `{field_name}` | {cell(f['meaning'])} |")
             end = f["offset"] + f["size"]
         if end < st["size"]:
-            out.append(f"| {end} | {st['size'] - end} bytes | (padding) | to the struct's {st['align']}-byte alignment |")
+            pad = st["size"] - end
+            out.append(f"| {end} | {pad} bytes | (padding) | to the struct's {st['align']}-byte alignment |")
         out.append("")
     if s["constants"]:
         out += ["| constant | value | meaning |", "| --- | ---: | --- |"]

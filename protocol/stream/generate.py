@@ -30,7 +30,8 @@ TYPESCRIPT = ROOT / "webui" / "src" / "stream" / "frame_spec.ts"
 VECTORS = ROOT / "protocol" / "stream" / "vectors.json"
 DOC = ROOT / "docs" / "trace-and-stream.md"
 COMMAND = "python3 protocol/stream/generate.py"
-DOC_BEGIN = "<!-- stream frame: generated from protocol/stream/frame.json by protocol/stream/generate.py; do not edit -->"
+DOC_BEGIN = ("<!-- stream frame: generated from protocol/stream/frame.json by protocol/stream/generate.py; "
+             "do not edit -->")
 DOC_END = "<!-- end of the generated stream frame -->"
 
 CODES = {"u8": "B", "u16": "H", "u32": "I", "u64": "Q", "i64": "q", "f64": "d"}
@@ -53,7 +54,8 @@ def load(path: Path = SPEC) -> dict:
         elif f["type"] in CODES:
             size, code = SIZES[f["type"]], CODES[f["type"]]
         else:
-            raise SpecError(f"{path}: header field {f['name']} has type {f['type']!r}; known: bytes, {', '.join(CODES)}")
+            raise SpecError(f"{path}: header field {f['name']} has type {f['type']!r}; "
+                            f"known: bytes, {', '.join(CODES)}")
         if f["type"] != "bytes" and at % size:
             raise SpecError(f"{path}: header field {f['name']} at offset {at} is not on a multiple of its size {size}")
         f["offset"], f["size"] = at, size
@@ -77,7 +79,7 @@ def encode(spec: dict, values: dict) -> bytes:
     """A frame from header values and body values by name: the spec's own packer, independent of
     the agent's encoder, used to write the vectors."""
     header = {**values, "magic": values.get("magic", spec["magic"].encode())}
-    out = struct.pack(spec["header_format"], *(header[f["name"]] for f in spec["header"]))
+    out = struct.pack(spec["header_format"], *(header.get(f["name"], 0) for f in spec["header"]))  # others: 0
     for b in spec["body"]:
         n = header[b["count"]]
         parts = values[b["name"]] if b.get("repeat") else [values[b["name"]]]
