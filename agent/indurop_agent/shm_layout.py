@@ -35,6 +35,7 @@ class StructLayout:
         self.name = name
         self.size: int = entry["size"]
         self.fields: dict[str, dict] = entry["fields"]
+        self._read: dict[str, tuple[struct.Struct, int, bool]] = {}  # field -> (format, offset, is an array)
 
     def field(self, name: str) -> dict:
         try:
@@ -55,8 +56,12 @@ class StructLayout:
         return f"<{f['count']}{code}" if "count" in f else f"<{code}"
 
     def read(self, buf, name: str, base: int = 0):
-        """A scalar field of the struct that starts at `base` in `buf`."""
-        return struct.unpack_from(self.format(name), buf, base + self.offset(name))[0]
+        """A scalar field (or an array of scalars, as a tuple) of the struct that starts at `base` in `buf`."""
+        how = self._read.get(name)
+        if how is None:
+            how = self._read[name] = struct.Struct(self.format(name)), self.offset(name), "count" in self.field(name)
+        values = how[0].unpack_from(buf, base + how[1])
+        return values if how[2] else values[0]
 
     def text(self, buf, name: str, base: int = 0) -> str:
         """A char[] field, up to its first NUL."""

@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 from array import array
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from .shm_layout import LayoutError, segment
 

@@ -56,9 +56,10 @@ def test_a_field_the_description_does_not_have_is_named_with_those_it_has():
 
 
 def doctored(tmp_path: Path, change) -> Path:
+    """A copy of the description with `change` made, in a file of its own (descriptions are read once per file)."""
     d = json.loads(shm_layout.DESCRIPTION.read_text())
     change(d)
-    path = tmp_path / "shm_layout.json"
+    path = tmp_path / f"shm_layout-{len(list(tmp_path.glob('shm_layout-*.json')))}.json"
     path.write_text(json.dumps(d))
     return path
 
