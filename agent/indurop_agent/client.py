@@ -8,34 +8,29 @@
 
 Synchronous (httpx; `websockets` for the stream).  Every failure is an `ApiError(status, message)`
 whose message is the server's `detail`; status 0 means no answer at all (agent unreachable).
-The binary stream frame is decoded by `decode_frame` (format in docs/irpctl.md).
+The binary stream frame is decoded by `decode_frame` (stream_frame.py; format in
+docs/trace-and-stream.md §4).
 """
 from __future__ import annotations
 
 import json
 import os
 import ssl
-import struct
-import sys
 import threading
 import time
-from array import array
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, BinaryIO, Iterable, Iterator
 from urllib.parse import quote, urlencode, urlsplit, urlunsplit
 
 import httpx
 
+from .stream_frame import HEADER_SIZE, KIND_SAMPLES, MAGIC, VERSION, Frame, decode, encode, kind
+
 API = "/api/v1"
 
-# The stream's binary frame: a little-endian header, then `count` int64 timestamps (ns), then per
-# channel `count` float64 values (columns, channel order of the last {"channels": [...]} message).
-FRAME_MAGIC = b"IRPS"
-FRAME_VERSION = 1
-FRAME_SAMPLES = 1
-_HEADER = struct.Struct("<4sHHQIIQ")  # magic, version, kind, first seq, count, channels, dropped so far
-FRAME_HEADER_SIZE = _HEADER.size  # 32
+# The stream's binary frame (docs/trace-and-stream.md §4): coded once, in stream_frame.py.
+FRAME_MAGIC, FRAME_VERSION, FRAME_SAMPLES = MAGIC, VERSION, KIND_SAMPLES
+FRAME_HEADER_SIZE = HEADER_SIZE
 
 
 class ApiError(Exception):
@@ -53,55 +48,14 @@ class ApiError(Exception):
         return self.status in (0, 503)
 
 
-@dataclass
-class Frame:
-    """One decoded sample frame: sample i has sequence number first_seq + i."""
-
-    first_seq: int
-    t_ns: list[int]
-    columns: list[list[float]]  # one list per channel, each len(t_ns) long
-    dropped: int  # samples the server lost since the stream began
-
-    def samples(self) -> Iterator[tuple[int, int, list[float]]]:
-        for i, t in enumerate(self.t_ns):
-            yield self.first_seq + i, t, [column[i] for column in self.columns]
-
-
-def _little(typecode: str, data: memoryview) -> list:
-    values = array(typecode)
-    values.frombytes(data)
-    if sys.byteorder != "little":
-        values.byteswap()
-    return values.tolist()
-
-
-def decode_frame(data: bytes) -> Frame:
+def decode_frame(data) -> Frame:
     """Decodes one binary sample frame; raises ValueError naming what is wrong with it."""
-    view = memoryview(data)
-    if len(view) < FRAME_HEADER_SIZE:
-        raise ValueError(f"stream frame too short: {len(view)} bytes, the header alone is {FRAME_HEADER_SIZE}")
-    magic, version, kind, first_seq, count, channels, dropped = _HEADER.unpack_from(view)
-    if magic != FRAME_MAGIC:
-        raise ValueError(f"not an indurop stream frame: magic {magic!r}, expected {FRAME_MAGIC!r}")
-    if version != FRAME_VERSION:
-        raise ValueError(f"stream frame version {version}; this client reads version {FRAME_VERSION}")
-    if kind != FRAME_SAMPLES:
-        raise ValueError(f"stream frame kind {kind} is not a sample frame (kind {FRAME_SAMPLES})")
-    size = FRAME_HEADER_SIZE + 8 * count * (1 + channels)
-    if len(view) != size:
-        raise ValueError(f"stream frame of {len(view)} bytes; its header ({count} samples x {channels} channels) "
-                         f"announces {size}")
-    at = FRAME_HEADER_SIZE + 8 * count
-    t_ns = _little("q", view[FRAME_HEADER_SIZE:at])
-    columns = [_little("d", view[at + 8 * count * c:at + 8 * count * (c + 1)]) for c in range(channels)]
-    return Frame(first_seq, t_ns, columns, dropped)
+    return decode(data)
 
 
 def encode_frame(first_seq: int, t_ns: list[int], columns: list[list[float]], dropped: int = 0) -> bytes:
     """The inverse of decode_frame (tests, and servers written in Python)."""
-    head = _HEADER.pack(FRAME_MAGIC, FRAME_VERSION, FRAME_SAMPLES, first_seq, len(t_ns), len(columns), dropped)
-    return head + struct.pack(f"<{len(t_ns)}q", *t_ns) + b"".join(
-        struct.pack(f"<{len(t_ns)}d", *column) for column in columns)
+    return encode(first_seq, t_ns, columns, dropped)
 
 
 _FLOAT_TYPES = {"float", "double", "real", "lreal", "float32", "float64", "f32", "f64"}
@@ -449,7 +403,7 @@ class Stream:
             if isinstance(message, str):
                 self._control(message)
                 continue
-            if len(message) >= FRAME_HEADER_SIZE and struct.unpack_from("<H", message, 6)[0] != FRAME_SAMPLES:
+            if kind(message) not in (None, FRAME_SAMPLES):
                 continue  # a frame kind of a newer server: not ours to read
             try:
                 frame = decode_frame(message)

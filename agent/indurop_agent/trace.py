@@ -9,25 +9,26 @@ belongs to the latest configuration put in force at or before its seq.
 """
 from __future__ import annotations
 
-import mmap
 import os
-import struct
 from array import array
 from dataclasses import dataclass, field
 from pathlib import Path
 
-MAGIC = 0x3143415254505249  # "IRPTRAC1"
-VERSION = 1
-NO_SEQ = (1 << 64) - 1
-# Header offsets and sizes, pinned by static_asserts in <indurop/trace.h>.
-H_CAPACITY, H_CHANNEL_MAX, H_CHANNEL_SIZE, H_CONFIG_SIZE = 24, 32, 36, 40
-H_CONFIGS, H_SEQ, H_TIME, H_VALUES, H_OWNER_PID, H_BASIC = 48, 56, 64, 72, 80, 88
-H_HEAD, H_CONFIG_GENERATION, H_CONFIG_SEQ, H_ACTIVE, H_TORN = 128, 136, 144, 152, 160
-C_GENERATION, C_FIRST_SEQ, C_COUNT, C_CHANNELS = 0, 8, 16, 64
-CH_PATH_CHARS, CH_TYPE = 232, 240
-# enum indurop_trace_type, by the layout's spelling of the same scalar.
-TYPES = {1: "float", 2: "double", 3: "int8_t", 4: "int16_t", 5: "int32_t", 6: "int64_t", 7: "uint8_t",
-         8: "uint16_t", 9: "uint32_t", 10: "uint64_t", 11: "bool"}
+from .shm_layout import LayoutError, segment
+
+# Every offset, size and constant from irpd's description of the segment (shm_layout.py).
+LAYOUT = segment("trace")
+HEADER = LAYOUT.header
+CONFIG = LAYOUT.struct("indurop_trace_config")
+CHANNEL = LAYOUT.struct("indurop_trace_channel")
+NO_SEQ = LAYOUT.constant("no_seq")
+# enum indurop_trace_type: each value is named as layout.json names the type.
+TYPES = {number: name for name, number in LAYOUT.enum("indurop_trace_type").items() if number}
+# Fields the sampler changes, read as one aligned 8-byte load each (see TraceRing._word).
+H_HEAD, H_TORN = HEADER.offset("head"), HEADER.offset("torn_skips")
+C_GENERATION, C_FIRST_SEQ = CONFIG.offset("generation"), CONFIG.offset("first_seq")
+if any(o % 8 for o in (H_HEAD, H_TORN, C_GENERATION, C_FIRST_SEQ)):
+    raise LayoutError("the trace segment's head, torn_skips, generation and first_seq must be 8-byte aligned")
 
 
 class TraceError(Exception):
@@ -83,23 +84,21 @@ class TraceRing:
         self.name = name
         self.path = Path("/dev/shm") / name.lstrip("/")
         try:
-            with open(self.path, "rb") as f:
-                self.inode = os.fstat(f.fileno()).st_ino
-                self.mm = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
-        except (OSError, ValueError) as e:
-            raise TraceError(f"trace rings {name}: {e}") from e
-        if len(self.mm) < 256 or struct.unpack_from("<Q", self.mm, 0)[0] != MAGIC:
+            self.mm, self.inode = LAYOUT.open(name)
+        except LayoutError as e:
+            raise TraceError(str(e)) from e
+        def read(field: str) -> int:
+            return HEADER.read(self.mm, field)
+
+        self.capacity, self.channel_max = read("capacity"), read("channel_max")
+        self.channel_size, self.config_size = read("channel_size"), read("config_size")
+        self.configs_offset, self.seq_offset = read("configs_offset"), read("seq_offset")
+        self.time_offset, self.values_offset = read("time_offset"), read("values_offset")
+        self.owner_pid = read("owner_pid")
+        if (self.channel_size, self.config_size) != (CHANNEL.size, CONFIG.size):
             self.mm.close()
-            raise TraceError(f"{name} is not an indurop trace segment")
-        version, = struct.unpack_from("<I", self.mm, 8)
-        if version != VERSION:
-            self.mm.close()
-            raise TraceError(f"{name} is trace layout version {version}; this agent reads version {VERSION}")
-        self.capacity, = struct.unpack_from("<Q", self.mm, H_CAPACITY)
-        self.channel_max, self.channel_size, self.config_size = struct.unpack_from("<III", self.mm, H_CHANNEL_MAX)
-        self.configs_offset, self.seq_offset, self.time_offset, self.values_offset = \
-            struct.unpack_from("<QQQQ", self.mm, H_CONFIGS)
-        self.owner_pid, = struct.unpack_from("<q", self.mm, H_OWNER_PID)
+            raise TraceError(f"{name} has {self.config_size}-byte configurations of {self.channel_size}-byte "
+                             f"channels; this agent's description says {CONFIG.size} and {CHANNEL.size}")
         # 8-byte fields that the sampler changes are read as one aligned load each (memoryview
         # item access copies the whole word at once, unlike struct's '<Q', which goes byte by byte).
         self._u64 = memoryview(self.mm).cast("Q")
@@ -117,7 +116,7 @@ class TraceRing:
 
     @property
     def basic_period_ns(self) -> int:
-        return struct.unpack_from("<q", self.mm, H_BASIC)[0]
+        return HEADER.read(self.mm, "basic_period_ns")
 
     @property
     def torn_skips(self) -> int:
@@ -133,13 +132,12 @@ class TraceRing:
     # ---- configurations ---------------------------------------------------------------------
     def _channels_of(self, i: int) -> tuple[Channel, ...]:
         base = self.configs_offset + i * self.config_size
-        count, = struct.unpack_from("<I", self.mm, base + C_COUNT)
+        count = CONFIG.read(self.mm, "channel_count", base)
         channels = []
         for k in range(min(count, self.channel_max)):
-            at = base + C_CHANNELS + k * self.channel_size
-            raw = self.mm[at:at + CH_PATH_CHARS]
-            kind, = struct.unpack_from("<I", self.mm, at + CH_TYPE)
-            channels.append(Channel(k, raw.split(b"\0", 1)[0].decode("utf-8", "replace"), TYPES.get(kind, "?")))
+            at = base + CONFIG.offset("channels") + k * self.channel_size
+            kind = CHANNEL.read(self.mm, "type", at)
+            channels.append(Channel(k, CHANNEL.text(self.mm, "path", at), TYPES.get(kind, "?")))
         return tuple(channels)
 
     def configs(self) -> list[Config]:

@@ -13,16 +13,23 @@ restarted irpd is a new file: `replaced()` tells, and the caller maps the new on
 from __future__ import annotations
 
 import json
-import mmap
 import os
 import struct
 from pathlib import Path
 
-MAGIC = 0x3153524156505249  # "IRPVARS1"
-# Offsets of the header fields, pinned by static_asserts in segment.h and shared.h.
-LAYOUT_HASH, LOCKS_OFFSET, LOCK_SIZE, LAYOUT_OFFSET, LAYOUT_SIZE, DATA_OFFSET = 16, 96, 108, 112, 120, 128
-LAYOUT_SEQ = 152
-SEQ_IN_LOCK = 40
+from .shm_layout import LayoutError, segment
+
+# Every offset from irpd's description of the segment (shm_layout.py).
+LAYOUT = segment("variables")
+HEADER = LAYOUT.header
+LOCK = LAYOUT.struct("indurop_var_lock")
+HASH_CHARS = LAYOUT.constant("layout_hash_chars")
+LAYOUT_HASH = HEADER.offset("layout_hash")
+# (struct format, offset) of the fields read on every refresh and every value read.
+LAYOUT_SEQ = HEADER.format("layout_seq"), HEADER.offset("layout_seq")
+LAYOUT_OFFSET = HEADER.format("layout_offset"), HEADER.offset("layout_offset")
+LAYOUT_SIZE = HEADER.format("layout_size"), HEADER.offset("layout_size")
+LOCK_SEQ = LOCK.format("seq"), LOCK.offset("seq")
 FORMATS = {("float", 4): "<f", ("float", 8): "<d", ("signed", 1): "<b", ("signed", 2): "<h", ("signed", 4): "<i",
            ("signed", 8): "<q", ("unsigned", 1): "<B", ("unsigned", 2): "<H", ("unsigned", 4): "<I",
            ("unsigned", 8): "<Q", ("bool", 1): "<?", ("char", 1): "<b"}
@@ -34,35 +41,30 @@ class VariableError(Exception):
 
 class Segment:
     def __init__(self, name: str):
-        path = Path("/dev/shm") / name.lstrip("/")
-        self.path = path
+        self.path = Path("/dev/shm") / name.lstrip("/")
         try:
-            with open(path, "rb") as f:
-                self.inode = os.fstat(f.fileno()).st_ino
-                self.mm = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
-        except OSError as e:
-            raise VariableError(f"shared variables {name}: {e}") from e
-        if struct.unpack_from("<Q", self.mm, 0)[0] != MAGIC:
-            raise VariableError(f"{name} is not an indurop variable segment")
-        self.locks, = struct.unpack_from("<Q", self.mm, LOCKS_OFFSET)
-        self.lock_size, = struct.unpack_from("<I", self.mm, LOCK_SIZE)
-        self.data, = struct.unpack_from("<Q", self.mm, DATA_OFFSET)
+            self.mm, self.inode = LAYOUT.open(name)
+        except LayoutError as e:
+            raise VariableError(str(e)) from e
+        self.locks = HEADER.read(self.mm, "locks_offset")
+        self.lock_size = HEADER.read(self.mm, "lock_size")
+        self.data = HEADER.read(self.mm, "data_offset")
         self.seq = None
         self.refresh()
 
     def refresh(self) -> bool:
         """Takes the layout published last, if it is not the one held; True when it changed."""
-        seq, = struct.unpack_from("<I", self.mm, LAYOUT_SEQ)
+        seq = self._field(LAYOUT_SEQ)
         if seq == self.seq:
             return False
         for _ in range(100000):
-            seq, = struct.unpack_from("<I", self.mm, LAYOUT_SEQ)
+            seq = self._field(LAYOUT_SEQ)
             if seq & 1:
                 continue
-            layout_offset, layout_size = struct.unpack_from("<QQ", self.mm, LAYOUT_OFFSET)
-            hash_ = self.mm[LAYOUT_HASH:LAYOUT_HASH + 64]
+            layout_offset, layout_size = self._field(LAYOUT_OFFSET), self._field(LAYOUT_SIZE)
+            hash_ = self.mm[LAYOUT_HASH:LAYOUT_HASH + HASH_CHARS]
             text = self.mm[layout_offset:layout_offset + layout_size]
-            if struct.unpack_from("<I", self.mm, LAYOUT_SEQ)[0] == seq:
+            if self._field(LAYOUT_SEQ) == seq:
                 break
         else:
             raise VariableError("the shared-variable layout is being published continuously; try again")
@@ -72,6 +74,9 @@ class Segment:
         self.scalars = self.layout.get("scalars", {})
         self.seq = seq
         return True
+
+    def _field(self, where: tuple[str, int], base: int = 0) -> int:
+        return struct.unpack_from(where[0], self.mm, base + where[1])[0]
 
     def replaced(self) -> bool:
         """Whether /dev/shm holds another segment under this name now (irpd restarted)."""
@@ -93,14 +98,14 @@ class Segment:
         fmt = FORMATS.get((kind, leaf["size"]))
         if fmt is None:
             raise VariableError(f"'{path}' is a {leaf['type']}, which the agent cannot decode")
-        seq_at = self.locks + leaf["lock"] * self.lock_size + SEQ_IN_LOCK
+        lock = self.locks + leaf["lock"] * self.lock_size
         at = self.data + leaf["offset"]
         for _ in range(10000):
-            before, = struct.unpack_from("<I", self.mm, seq_at)
+            before = self._field(LOCK_SEQ, lock)
             if before & 1:
                 continue
             raw = self.mm[at:at + leaf["size"]]
-            after, = struct.unpack_from("<I", self.mm, seq_at)
+            after = self._field(LOCK_SEQ, lock)
             if after == before:
                 return struct.unpack(fmt, raw)[0]
         raise VariableError(f"'{path}' is being written continuously; try again")

@@ -65,8 +65,8 @@ BUILD_TARGETS = ["irpd", "empty", "relative_sleep", "shared_vars", "wake_process
 
 CT_HIST_NS = 1_000_000  # cyclictest caps its histogram at 1,000,000 entries: 1 ms in ns mode
 
-# Layout of the stats segment's header (docs/scheduler.md §4, rtcore/src/stats/stats_block.hpp, version 1).
-# The stats block's offsets come from irpd itself (`irpd --print-stats-layout`): see load_stats_layout().
+# Layout of the stats segment (docs/shared-memory.md): its offsets come from irpd itself
+# (`irpd --print-shm-layout`): see load_stats_layout().
 STATS = {}
 
 
@@ -265,12 +265,15 @@ K_BUCKETS = K_SUB + (K_MAX_EXP - K_SUB_BITS + 1) * K_SUB
 def load_stats_layout(irpd: Path) -> None:
     """Takes the stats block's offsets and histogram shape from the irpd binary under test."""
     global K_SUB_BITS, K_SUB, K_MAX_EXP, K_BUCKETS
-    layout = json.loads(subprocess.run([str(irpd), "--print-stats-layout"], check=True, capture_output=True,
-                                       text=True).stdout)
+    stats = json.loads(subprocess.run([str(irpd), "--print-shm-layout"], check=True, capture_output=True,
+                                      text=True).stdout)["segments"]["stats"]
+    structs = stats["structs"]
     STATS.clear()
-    STATS.update(layout)
-    h = layout["histogram"]
-    K_SUB_BITS, K_MAX_EXP, K_BUCKETS = h["sub_bucket_bits"], h["max_exponent"], h["bucket_count"]
+    STATS.update(magic=stats["magic"], version=stats["version"], record_size=structs["timing_record"]["size"],
+                 header=structs[stats["header"]]["fields"], record=structs["timing_record"]["fields"],
+                 histogram=structs["histogram"]["fields"])
+    constants = {k: c["value"] for k, c in stats["constants"].items()}
+    K_SUB_BITS, K_MAX_EXP, K_BUCKETS = constants["sub_bucket_bits"], constants["max_exponent"], constants["bucket_count"]
     K_SUB = 1 << K_SUB_BITS
 
 

@@ -1,6 +1,7 @@
 // test_irpd.cpp -- the irpd binary from outside: --print-schedule, refusals (exit 2, nothing
 // started), timed runs with --stats-json, clean stop on SIGTERM/SIGINT, the non-RT fallback.
 #include "osal/shm.hpp"
+#include "shm/layout_json.hpp"
 #include "stats/stats_block.hpp"
 #include "stats/summary.hpp"
 #include "support/irpd.hpp"
@@ -317,19 +318,20 @@ TEST(IrpdRun, StatsAreReadableLiveFromAnotherProcess) {
     EXPECT_EQ(p.wait(std::chrono::seconds(10)), 0);
 }
 
-TEST(IrpdOptions, PrintStatsLayoutGivesTheOffsetsOfTheBlock) {
+TEST(IrpdOptions, PrintShmLayoutDescribesEverySegment) {
     TempDir dir;
-    Outcome r = irpd({"--print-stats-layout"}, dir);
+    Outcome r = irpd({"--print-shm-layout"}, dir);
     ASSERT_EQ(r.status, 0) << r.err;
     json j = json::parse(r.out);
-    EXPECT_EQ(j["magic"].get<uint64_t>(), irp::stats::kMagic);
-    EXPECT_EQ(j["header_size"], sizeof(irp::stats::Header));
-    EXPECT_EQ(j["record_size"], sizeof(irp::stats::TimingRecord));
-    EXPECT_EQ(j["header"]["cycles"]["offset"], offsetof(irp::stats::Header, cycles));
-    EXPECT_EQ(j["record"]["latency"]["offset"], offsetof(irp::stats::TimingRecord, latency));
-    EXPECT_EQ(j["record"]["caught_up"]["offset"], offsetof(irp::stats::TimingRecord, caught_up));
-    EXPECT_EQ(j["histogram"]["bucket_count"], irp::stats::kBuckets);
-    EXPECT_EQ(j["histogram"]["buckets"]["offset"], offsetof(irp::stats::Histogram, buckets));
+    EXPECT_EQ(j["format"], irp::shm::kDescriptionFormat);
+    EXPECT_EQ(j["segments"]["stats"]["magic"].get<uint64_t>(), irp::stats::kMagic);
+    EXPECT_EQ(j["segments"]["stats"]["structs"]["stats_header"]["size"], sizeof(irp::stats::Header));
+    EXPECT_EQ(j["segments"]["stats"]["structs"]["stats_header"]["fields"]["cycles"]["offset"],
+              offsetof(irp::stats::Header, cycles));
+    EXPECT_EQ(j["segments"]["stats"]["structs"]["timing_record"]["fields"]["latency"]["offset"],
+              offsetof(irp::stats::TimingRecord, latency));
+    EXPECT_EQ(j["segments"]["stats"]["structs"]["histogram"]["fields"]["buckets"]["count"], irp::stats::kBuckets);
+    for (const char *segment : {"variables", "stats", "trace", "control"}) EXPECT_TRUE(j["segments"].contains(segment));
 }
 
 TEST(IrpdRefuses, AModuleBuiltAgainstAnotherLayoutWithBothHashes) {

@@ -52,18 +52,8 @@ typedef struct indurop_segment_header {
 #ifdef __cplusplus
 } /* extern "C" */
 
-// Readers in other languages (the agent) use these offsets; they are part of the format.
-#include <cstddef>
-static_assert(offsetof(indurop_segment_header, layout_hash) == 16, "segment header layout");
-static_assert(offsetof(indurop_segment_header, locks_offset) == 96, "segment header layout");
-static_assert(offsetof(indurop_segment_header, lock_size) == 108, "segment header layout");
-static_assert(offsetof(indurop_segment_header, layout_offset) == 112, "segment header layout");
-static_assert(offsetof(indurop_segment_header, data_offset) == 128, "segment header layout");
-static_assert(offsetof(indurop_segment_header, layout_seq) == 152, "segment header layout");
-static_assert(offsetof(indurop_segment_header, lock_capacity) == 156, "segment header layout");
-static_assert(offsetof(indurop_segment_header, layout_capacity) == 160, "segment header layout");
-static_assert(offsetof(indurop_segment_header, data_capacity) == 168, "segment header layout");
-static_assert(sizeof(indurop_segment_header) == 216, "segment header layout");
+// Readers in other languages take every offset from irpd's description of this header
+// (`irpd --print-shm-layout`, docs/shared-memory.md), which a test keeps current.
 
 #include <atomic>
 #include <cstring>

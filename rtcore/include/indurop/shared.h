@@ -45,8 +45,9 @@ extern indurop_var_lock *indurop_shared_locks;
 
 } // extern "C"
 
-// The sequence's place in a lock entry is part of the segment format (read by the agent).
-static_assert(offsetof(indurop_var_lock, seq) == 40 && sizeof(indurop_var_lock) == 64, "lock table entry layout");
+// One lock per cache line.  Readers in other languages find `seq` in irpd's description of the
+// segment (`irpd --print-shm-layout`, docs/shared-memory.md).
+static_assert(sizeof(indurop_var_lock) == 64, "a lock-table entry is one cache line");
 
 namespace irp::shared {
 

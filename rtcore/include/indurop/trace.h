@@ -18,7 +18,8 @@
  * in force, then asks for it (pending_config); the sampler takes it at its next period, records
  * the first seq sampled with it in first_seq and config_seq, and publishes config_generation.
  * A config is read like a seqlock: its `generation` is 0 while the control thread rewrites it.
- * docs/trace-and-stream.md describes it field by field, with a reader in Python.
+ * docs/trace-and-stream.md describes the protocol, docs/shared-memory.md every field (from
+ * `irpd --print-shm-layout`).
  */
 #ifndef INDUROP_TRACE_H
 #define INDUROP_TRACE_H
@@ -107,34 +108,14 @@ typedef struct indurop_trace_header {
 #ifdef __cplusplus
 } /* extern "C" */
 
-// Readers in other languages (the agent) use these offsets and sizes; they are part of the format.
+// Readers in other languages take every offset from irpd's description of these structs
+// (`irpd --print-shm-layout`, docs/shared-memory.md), which a test keeps current.
 #include <cstddef>
-static_assert(sizeof(indurop_trace_channel) == 256, "trace channel layout");
-static_assert(offsetof(indurop_trace_channel, offset) == 232, "trace channel layout");
-static_assert(offsetof(indurop_trace_channel, type) == 240, "trace channel layout");
-static_assert(offsetof(indurop_trace_channel, lock) == 244, "trace channel layout");
-static_assert(offsetof(indurop_trace_channel, size) == 248, "trace channel layout");
-static_assert(offsetof(indurop_trace_config, first_seq) == 8, "trace config layout");
-static_assert(offsetof(indurop_trace_config, channel_count) == 16, "trace config layout");
-static_assert(offsetof(indurop_trace_config, channels) == 64, "trace config layout");
-static_assert(sizeof(indurop_trace_config) == 64 + 64 * 256, "trace config layout");
-static_assert(sizeof(indurop_trace_header) == 256, "trace header layout");
-static_assert(offsetof(indurop_trace_header, total_size) == 16, "trace header layout");
-static_assert(offsetof(indurop_trace_header, capacity) == 24, "trace header layout");
-static_assert(offsetof(indurop_trace_header, channel_max) == 32, "trace header layout");
-static_assert(offsetof(indurop_trace_header, configs_offset) == 48, "trace header layout");
-static_assert(offsetof(indurop_trace_header, seq_offset) == 56, "trace header layout");
-static_assert(offsetof(indurop_trace_header, time_offset) == 64, "trace header layout");
-static_assert(offsetof(indurop_trace_header, values_offset) == 72, "trace header layout");
-static_assert(offsetof(indurop_trace_header, owner_pid) == 80, "trace header layout");
-static_assert(offsetof(indurop_trace_header, basic_period_ns) == 88, "trace header layout");
-// The sampler's fields on a cache line of their own, the control thread's on another.
-static_assert(offsetof(indurop_trace_header, head) == 128, "trace header layout");
-static_assert(offsetof(indurop_trace_header, config_generation) == 136, "trace header layout");
-static_assert(offsetof(indurop_trace_header, config_seq) == 144, "trace header layout");
-static_assert(offsetof(indurop_trace_header, active_config) == 152, "trace header layout");
-static_assert(offsetof(indurop_trace_header, torn_skips) == 160, "trace header layout");
-static_assert(offsetof(indurop_trace_header, pending_config) == 192, "trace header layout");
+// The sampler's fields on a cache line of their own, the control thread's on the next (the last).
+static_assert(offsetof(indurop_trace_header, head) % 64 == 0 &&
+                  offsetof(indurop_trace_header, pending_config) == offsetof(indurop_trace_header, head) + 64 &&
+                  sizeof(indurop_trace_header) == offsetof(indurop_trace_header, pending_config) + 64,
+              "trace header: one cache line for the sampler, one for the control thread");
 #endif
 
 #endif /* INDUROP_TRACE_H */

@@ -4,7 +4,7 @@
 #include "irpd/daemon.hpp"
 #include "irpd/options.hpp"
 #include "osal/clock.hpp"
-#include "stats/layout_json.hpp"
+#include "shm/layout_json.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -43,8 +43,8 @@ int main(int argc, char **argv) {
         std::cout << irp::daemon::usage();
         return irp::daemon::kExitOk;
     }
-    if (options->print_stats_layout) {
-        std::cout << irp::stats::layoutJson().dump(2) << std::endl;
+    if (options->print_shm_layout) {
+        std::cout << irp::shm::layoutJson().dump(2) << std::endl;
         return irp::daemon::kExitOk;
     }
     if (options->version) {

@@ -14,7 +14,7 @@ namespace {
 
 enum Flag {
     kConfig = 1000, kPrintSchedule, kJson, kDuration, kStatsJson, kInstance, kMinBasic, kCpu, kRtPriority, kNoRt,
-    kPolicy, kMaxCatchup, kHelp, kVersion, kStatsLayout, kLayout, kControlSocket, kModuleCache,
+    kPolicy, kMaxCatchup, kHelp, kVersion, kShmLayout, kLayout, kControlSocket, kModuleCache,
     kStateDir, kUser, kGroup, kVarHeadroom, kModuleRecords, kProcessSlots,
 };
 
@@ -33,7 +33,7 @@ const option kOptions[] = {
     {"max-catchup", required_argument, nullptr, kMaxCatchup},
     {"help", no_argument, nullptr, kHelp},
     {"version", no_argument, nullptr, kVersion},
-    {"print-stats-layout", no_argument, nullptr, kStatsLayout},
+    {"print-shm-layout", no_argument, nullptr, kShmLayout},
     {"layout", required_argument, nullptr, kLayout},
     {"control-socket", required_argument, nullptr, kControlSocket},
     {"module-cache", required_argument, nullptr, kModuleCache},
@@ -98,7 +98,8 @@ Runs the module set described by FILE.xml (the paper's module.xml) on a strict p
                            (irpd must start as root); shared memory and the control socket
                            belong to USER and its group, mode 0660
   --group GROUP            with --user: the group instead of USER's primary group
-  --print-stats-layout     print the offsets of the shared-memory stats block as JSON and exit
+  --print-shm-layout       print the layout of every shared-memory segment (fields, offsets,
+                           types, meanings) as JSON and exit (docs/shared-memory.md)
   --help, --version
 
 Exit status: 0 after a clean stop, 2 when the set is refused (the message names file:line
@@ -191,7 +192,7 @@ Result<Options> parseOptions(int argc, char **argv) {
         }
         case kHelp: o.help = true; break;
         case kVersion: o.version = true; break;
-        case kStatsLayout: o.print_stats_layout = true; break;
+        case kShmLayout: o.print_shm_layout = true; break;
         case kLayout: o.layout = optarg; break;
         case kModuleCache: o.module_cache = optarg; break;
         case kControlSocket: o.control_socket = optarg; break;
@@ -212,7 +213,7 @@ Result<Options> parseOptions(int argc, char **argv) {
         }
     }
     if (optind < argc) return Error{std::string("unexpected argument '") + argv[optind] + "'"};
-    if (o.help || o.version || o.print_stats_layout) return o;
+    if (o.help || o.version || o.print_shm_layout) return o;
     if (o.config.empty()) return Error{"--config FILE.xml is required"};
     if (o.json && !o.print_schedule) return Error{"--json goes with --print-schedule"};
     if (!o.group.empty() && o.user.empty()) return Error{"--group goes with --user"};

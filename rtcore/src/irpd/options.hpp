@@ -13,7 +13,7 @@ struct Options {
     std::string config;            // --config FILE.xml
     bool print_schedule = false;   // --print-schedule
     bool json = false;             // --json (with --print-schedule)
-    bool print_stats_layout = false;  // --print-stats-layout
+    bool print_shm_layout = false;    // --print-shm-layout
     double duration_s = 0;         // --duration S (0 = until SIGINT/SIGTERM)
     std::string stats_json;        // --stats-json FILE
     std::string control_socket;    // --control-socket PATH ("" = none)

@@ -20,22 +20,20 @@ from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
 from agent_helpers import IRPD, free_port, start_agent, start_irpd, stop
+from indurop_agent import stream_frame
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
-FRAME = struct.Struct("<4sHHQIIQ")
 TICK = "knu.Robot.tick"
 U32 = 1 << 32
 
 
 def decode(frame: bytes) -> dict:
-    """A samples frame (docs/trace-and-stream.md): header, count due times, then each channel's values."""
-    magic, version, kind, first, count, channels, dropped = FRAME.unpack_from(frame)
-    assert (magic, version, kind) == (b"IRPS", 1, 1)
-    assert len(frame) == FRAME.size + 8 * count * (1 + channels)
-    t = struct.unpack_from(f"<{count}q", frame, FRAME.size)
-    columns = [struct.unpack_from(f"<{count}d", frame, FRAME.size + 8 * count * (1 + c)) for c in range(channels)]
-    return {"first": first, "count": count, "dropped": dropped, "t": t, "columns": columns}
+    """A samples frame (docs/trace-and-stream.md §4; the decoder is tested against the spec's vectors
+    in test_stream_frame.py)."""
+    f = stream_frame.decode(frame)
+    return {"first": f.first_seq, "count": len(f.t_ns), "dropped": f.dropped, "t": tuple(f.t_ns),
+            "columns": [tuple(c) for c in f.columns]}
 
 
 @pytest.fixture

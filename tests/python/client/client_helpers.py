@@ -27,6 +27,7 @@ from live_processes import FIG1, IRPD, ROOT, free_port, start_agent, start_irpd,
 FIG1_DIR = FIG1.parent
 
 sys.path.insert(0, str(ROOT / "agent"))  # the package, also when it is not pip-installed
+from indurop_agent import stream_frame_spec as spec  # noqa: E402
 _instances = itertools.count()
 
 
@@ -70,9 +71,12 @@ CHANNELS = {"knu.Robot.tick": "uint32_t", "joint[1].y": "double", "io.ready": "b
 
 
 def sample_frame(first_seq: int, t_ns: list[int], columns: list[list[float]], dropped: int, kind: int = 1) -> bytes:
-    """A binary frame built independently of the client: header, timestamps, then column by column."""
+    """A binary frame built independently of the client's codec, from the spec's generated constants
+    (protocol/stream/frame.json): header, timestamps, then column by column."""
     n = len(t_ns)
-    return (struct.pack("<4sHHQIIQ", b"IRPS", 1, kind, first_seq, n, len(columns), dropped)
+    values = {"magic": spec.MAGIC, "version": spec.VERSION, "kind": kind, "first_seq": first_seq, "count": n,
+              "channels": len(columns), "dropped": dropped}
+    return (struct.pack(spec.HEADER_FORMAT, *(values[f] for f in spec.HEADER_FIELDS))
             + struct.pack(f"<{n}q", *t_ns) + b"".join(struct.pack(f"<{n}d", *c) for c in columns))
 
 

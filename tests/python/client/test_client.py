@@ -40,6 +40,7 @@ import pytest
 
 from client_helpers import FIG1_DIR, GOOD_TOKEN, T0, free_port, sample_frame, stop
 from indurop_agent import cli, cli_text
+from indurop_agent import stream_frame_spec as spec
 from indurop_agent.client import ApiError, Client, decode_frame, encode_frame, set_files
 
 
@@ -83,7 +84,7 @@ def test_a_frame_with_the_wrong_magic_is_refused():
 
 def test_a_frame_of_another_version_is_refused():
     raw = bytearray(sample_frame(1, [10], [[2.0]], 0))
-    struct.pack_into("<H", raw, 4, 2)
+    struct.pack_into("<" + spec.FORMATS["version"], raw, spec.OFFSETS["version"], 2)
     with pytest.raises(ValueError, match="version 2; this client reads version 1"):
         decode_frame(bytes(raw))
 
@@ -105,7 +106,7 @@ def test_a_frame_with_trailing_bytes_is_refused():
 
 def test_a_header_announcing_more_than_it_carries_is_refused():
     raw = bytearray(sample_frame(1, [10], [[2.0]], 0))
-    struct.pack_into("<I", raw, 20, 1000)  # 1000 channels
+    struct.pack_into("<" + spec.FORMATS["channels"], raw, spec.OFFSETS["channels"], 1000)  # 1000 channels
     with pytest.raises(ValueError, match="1 samples x 1000 channels"):
         decode_frame(bytes(raw))
 

@@ -1,7 +1,14 @@
-// frame.ts -- decodes the agent's binary sample frames (docs/trace-and-stream.md §4): columns of
-// due times and one column of doubles per subscribed channel.
-export const FRAME_MAGIC = 0x53505249; // the bytes "IRPS", little-endian
-export const HEADER_BYTES = 32;
+// frame.ts -- decodes the agent's binary sample frames (protocol/stream/frame.json, described in
+// docs/trace-and-stream.md §4): columns of due times and one column of doubles per subscribed
+// channel.  The header's offsets and constants come from frame_spec.ts, generated from the spec;
+// tests/unit/frame.test.ts decodes the spec's vectors (protocol/stream/vectors.json).
+import { BODY, FIELDS, FRAME_KIND_SAMPLES, FRAME_MAGIC, FRAME_MAGIC_TEXT, FRAME_VERSION, HEADER_BYTES } from "./frame_spec";
+
+// The body this decoder reads: a spec that lays it out otherwise stops the build or the import.
+if (BODY.length !== 2 || BODY[0].type !== "i64" || BODY[1].type !== "f64" || BODY[1].repeat !== "channels")
+  throw new Error("protocol/stream/frame.json lays the frame's body out otherwise than frame.ts decodes it");
+
+export { FRAME_MAGIC, HEADER_BYTES };
 
 export interface Frame {
   firstSeq: number;
@@ -16,17 +23,35 @@ export interface Frame {
 
 export class FrameError extends Error {}
 
+type Field = (typeof FIELDS)[keyof typeof FIELDS];
+
+/** A numeric header field, little-endian (u64 as a number: exact up to 2^53). */
+function read(v: DataView, f: Field): number {
+  switch (f.type) {
+    case "u16":
+      return v.getUint16(f.offset, true);
+    case "u32":
+      return v.getUint32(f.offset, true);
+    case "u64":
+      return Number(v.getBigUint64(f.offset, true));
+    case "bytes":
+      return v.getUint32(f.offset, true); // the magic's four bytes, as FRAME_MAGIC spells them
+  }
+}
+
 export function decodeFrame(buf: ArrayBuffer): Frame {
   if (buf.byteLength < HEADER_BYTES) throw new FrameError(`frame of ${buf.byteLength} bytes is shorter than its header`);
   const v = new DataView(buf);
-  if (v.getUint32(0, true) !== FRAME_MAGIC) throw new FrameError("frame does not start with IRPS");
-  const version = v.getUint16(4, true);
-  const kind = v.getUint16(6, true);
-  if (version !== 1 || kind !== 1) throw new FrameError(`frame version ${version} kind ${kind} is not 1/1`);
-  const firstSeq = Number(v.getBigUint64(8, true));
-  const count = v.getUint32(16, true);
-  const channels = v.getUint32(20, true);
-  const dropped = Number(v.getBigUint64(24, true));
+  if (read(v, FIELDS.magic) !== FRAME_MAGIC) throw new FrameError(`frame does not start with ${FRAME_MAGIC_TEXT}`);
+  const version = read(v, FIELDS.version);
+  const kind = read(v, FIELDS.kind);
+  if (version !== FRAME_VERSION || kind !== FRAME_KIND_SAMPLES)
+    throw new FrameError(`frame version ${version} kind ${kind} is not ${FRAME_VERSION}/${FRAME_KIND_SAMPLES}`);
+  const firstSeq = read(v, FIELDS.first_seq);
+  const count = read(v, FIELDS.count);
+  const channels = read(v, FIELDS.channels);
+  const dropped = read(v, FIELDS.dropped);
+  // The body (BODY in frame_spec.ts): count i64 due times, then count f64 per channel.
   const need = HEADER_BYTES + 8 * count * (1 + channels);
   if (buf.byteLength !== need) throw new FrameError(`frame of ${buf.byteLength} bytes, ${need} expected`);
   const t = new Float64Array(count);

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import asyncio
 import json
-import struct
 import time
 from collections import deque
 
@@ -19,16 +18,12 @@ from starlette.websockets import WebSocketDisconnect
 
 from ..deps import AuthFailure, check_token
 from ...irpd_client import IrpdRefused, IrpdUnavailable
+from ... import stream_frame
 from ...trace import TraceError, TraceRead, TraceRing
 
 router = APIRouter(tags=["stream"])
 
-# A samples frame: this header, then count int64 due times (ns), then for each channel count
-# doubles, all little-endian.  Sample k has seq first_seq + k * decimation.
-FRAME = struct.Struct("<4sHHQIIQ")  # magic, version, kind, first seq, count, channels, dropped so far
-FRAME_MAGIC = b"IRPS"
-FRAME_VERSION = 1
-KIND_SAMPLES = 1
+# Samples go out as the binary frame of protocol/stream/frame.json (stream_frame.py).
 
 MAX_CHANNELS = 64              # irpd's limit, for all clients together
 MAX_DECIMATION = 1_000_000
@@ -115,13 +110,10 @@ class Client:
                 self.offer(s0 + c0 * n, t[c0:c1], [col[c0:c1] for col in columns])
 
     def offer(self, first_seq: int, t, columns) -> None:
-        count = len(t)
-        size = FRAME.size + 8 * count * (1 + len(columns))
-        if self.queued_bytes + size > QUEUE_BYTES:
-            self.dropped += count  # the client is slower than the stream
+        if self.queued_bytes + stream_frame.size(len(t), len(columns)) > QUEUE_BYTES:
+            self.dropped += len(t)  # the client is slower than the stream
             return
-        frame = b"".join([FRAME.pack(FRAME_MAGIC, FRAME_VERSION, KIND_SAMPLES, first_seq, count, len(columns),
-                                     self.dropped), t.tobytes(), *(c.tobytes() for c in columns)])
+        frame = stream_frame.encode(first_seq, t, columns, self.dropped)
         self.queue.append(frame)
         self.queued_bytes += len(frame)
         self.wake.set()
@@ -140,7 +132,7 @@ class Client:
                 self.queued_bytes -= len(item)
                 await self.ws.send_bytes(item)
                 self.sent_frames += 1
-                self.sent_samples += FRAME.unpack_from(item)[4]
+                self.sent_samples += stream_frame.count(item)
             else:
                 self.queued_messages -= 1
                 if item is self.pending_stats:
@@ -201,7 +193,7 @@ class Hub:
 
     def channels_message(self, client: Client, restarted: bool = False) -> dict:
         message = {"channels": [{"index": i, "path": p, "type": self.types.get(p)} for i, p in enumerate(client.paths)],
-                   "decimation": client.decimation, "stats": client.stats, "frame_version": FRAME_VERSION,
+                   "decimation": client.decimation, "stats": client.stats, "frame_version": stream_frame.VERSION,
                    "basic_period_ns": self.ring.basic_period_ns if self.ring else None,
                    "capacity": self.ring.capacity if self.ring else None}
         if restarted:
