@@ -5,14 +5,15 @@
 //   set          module.xml parsed, the slot table built (--print-schedule stops here), non-RT
 //                work kept off the dispatchers' CPUs
 //   dma latency  /dev/cpu_dma_latency held at 0 (the previous image's descriptor after a restart)
-//   state folder the crash records' folder opened (and handed to --user), the last crash taken in
+//   state folder the crash records' folder opened (and handed to --user), a crash record read
 //   privileges   with --user: that user, keeping CAP_SYS_NICE and CAP_IPC_LOCK
 //   crash handler armed on the state folder
 //   stats        the stats block (room for a hot reload's old and new modules at once)
-//   variables    the set's layout read, the shared-variable segment made from it
+//   layout, variables  the set's layout read, the shared-variable segment made from it
 //   trace        the trace rings, every page touched before memory is locked
 //   module cache the content-addressed copies thread modules are loaded from
-//   supervision  the process supervisor and the reloader
+//   supervision  the process supervisor and the reloader; the crash record taken in (an event,
+//                its module left out)
 //   first        the first generation: thread modules loaded, initialized, started; the control
 //                segment and the table of shared functions; the processes started and ready
 //   control      the control socket
@@ -157,10 +158,10 @@ public:
     int stop();
 
 private:
+    // One resource built: the member function that builds it, and the exit status its failure means.
     struct Step {
-        const char *what;
-        int exit_status;  // what its failure means
         Status (Daemon::*build)();
+        int exit_status;
     };
     static const Step kSteps[];
     // Runs one step; a failure is said, kept for a restart's fallback (main.cpp), and its status.
@@ -219,22 +220,23 @@ private:
     supervise::SystemdNotify notify_;
 };
 
+// The start-up, in order: each step builds the members of its resource (declared in this order).
 const Daemon::Step Daemon::kSteps[] = {
-    {"set", kExitRefused, &Daemon::readSet},
-    {"dma latency", kExitFailure, &Daemon::holdDmaLatency},
-    {"state folder", kExitFailure, &Daemon::openStateFolder},
-    {"privileges", kExitFailure, &Daemon::dropPrivileges},
-    {"crash handler", kExitFailure, &Daemon::armCrashHandler},
-    {"stats", kExitFailure, &Daemon::createStats},
-    {"layout", kExitRefused, &Daemon::readLayout},
-    {"variables", kExitFailure, &Daemon::createVariables},
-    {"trace", kExitFailure, &Daemon::createTraceRings},
-    {"module cache", kExitFailure, &Daemon::openModuleCache},
-    {"supervision", kExitFailure, &Daemon::startSupervision},
-    {"first generation", kExitRefused, &Daemon::startFirstGeneration},
-    {"control socket", kExitFailure, &Daemon::openControlSocket},
-    {"dispatch", kExitRefused, &Daemon::startDispatchers},
-    {"ready", kExitFailure, &Daemon::announce},
+    {&Daemon::readSet, kExitRefused},
+    {&Daemon::holdDmaLatency, kExitFailure},
+    {&Daemon::openStateFolder, kExitFailure},
+    {&Daemon::dropPrivileges, kExitFailure},
+    {&Daemon::armCrashHandler, kExitFailure},
+    {&Daemon::createStats, kExitFailure},
+    {&Daemon::readLayout, kExitRefused},
+    {&Daemon::createVariables, kExitFailure},
+    {&Daemon::createTraceRings, kExitFailure},
+    {&Daemon::openModuleCache, kExitFailure},
+    {&Daemon::startSupervision, kExitFailure},
+    {&Daemon::startFirstGeneration, kExitRefused},
+    {&Daemon::openControlSocket, kExitFailure},
+    {&Daemon::startDispatchers, kExitRefused},
+    {&Daemon::announce, kExitFailure},
 };
 
 int Daemon::attempt(const Step &step) {
