@@ -257,7 +257,10 @@ int Daemon::printSchedule() {
 
 int Daemon::start() {
     for (const Step &step : kSteps)
-        if (const int status = attempt(step); status != kExitOk) return status;
+        if (const int status = attempt(step); status != kExitOk) {
+            dma_latency_.leaveInheritedOpen();  // a restart's fallback image takes it on (main.cpp)
+            return status;
+        }
     return kExitOk;
 }
 

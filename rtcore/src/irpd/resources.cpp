@@ -17,10 +17,10 @@ DmaLatencyHold DmaLatencyHold::take(const std::optional<RestartPlan> &arrived) {
         std::error_code ec;
         if (std::filesystem::read_symlink("/proc/self/fd/" + std::to_string(fd), ec) == "/dev/cpu_dma_latency") {
             fcntl(fd, F_SETFD, FD_CLOEXEC);
-            return DmaLatencyHold(fd);
+            return DmaLatencyHold(fd, true);
         }
     }
-    return DmaLatencyHold(osal::holdCpuDmaLatencyZero());
+    return DmaLatencyHold(osal::holdCpuDmaLatencyZero(), false);
 }
 
 DmaLatencyHold::~DmaLatencyHold() {
@@ -30,6 +30,7 @@ DmaLatencyHold::~DmaLatencyHold() {
 DmaLatencyHold &DmaLatencyHold::operator=(DmaLatencyHold &&other) noexcept {
     if (this != &other) {
         if (fd_ >= 0) close(fd_);
+        inherited_ = other.inherited_;
         fd_ = other.handOver();
     }
     return *this;

@@ -3,7 +3,8 @@
 // releases them in reverse):
 //
 //   DmaLatencyHold      /dev/cpu_dma_latency held at 0 while irpd dispatches; closed at the end
-//                       unless handed to a managed restart's next image;
+//                       unless handed to a managed restart's next image (or, when this image of a
+//                       restart fails to start, left to the fallback image main() executes);
 //   ArmedCrashHandler   the crash handler armed on the state folder's records; disarmed at the end;
 //   FirstGeneration     the set's first generation from its start until the dispatcher runs it:
 //                       a start-up that fails before stops its processes and its thread modules.
@@ -26,7 +27,7 @@ public:
     // enough to open it), else opened now.  Not held when neither works (a note says so later).
     static DmaLatencyHold take(const std::optional<RestartPlan> &arrived);
     ~DmaLatencyHold();
-    DmaLatencyHold(DmaLatencyHold &&other) noexcept : fd_(other.fd_) { other.fd_ = -1; }
+    DmaLatencyHold(DmaLatencyHold &&other) noexcept : fd_(other.fd_), inherited_(other.inherited_) { other.fd_ = -1; }
     DmaLatencyHold &operator=(DmaLatencyHold &&other) noexcept;
 
     bool held() const { return fd_ >= 0; }
@@ -37,10 +38,16 @@ public:
         fd_ = -1;
         return fd;
     }
+    // A start that failed: the descriptor the previous image handed over stays open for the
+    // fallback image (main.cpp executes it with the same plan); one opened here is closed.
+    void leaveInheritedOpen() {
+        if (inherited_) fd_ = -1;
+    }
 
 private:
-    explicit DmaLatencyHold(int fd) : fd_(fd) {}
+    DmaLatencyHold(int fd, bool inherited) : fd_(fd), inherited_(inherited) {}
     int fd_ = -1;
+    bool inherited_ = false;  // the previous image's descriptor (RestartPlan::dma_latency_fd)
 };
 
 class ArmedCrashHandler {
