@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <functional>
 #include <map>
 #include <memory>
@@ -93,10 +94,10 @@ struct Fig1Like : ::testing::Test {
         setTask(m3, &fakeModule<3>, 3, 5);
     }
     void setTask(Task &t, void (*fn)(), int record, int64_t slots) {
-        t.run = fn;
-        t.stats = &records[static_cast<std::size_t>(record)];
-        t.period_slots = slots;
-        t.period_ns = slots * kBasic;
+        t.config.run = fn;
+        t.config.stats = &records[static_cast<std::size_t>(record)];
+        t.config.period_slots = slots;
+        t.config.period_ns = slots * kBasic;
     }
     Executor make(OverrunPolicy policy = OverrunPolicy::CatchUp, int64_t max_catchup_ns = 100'000'000) {
         std::vector<std::vector<Task *>> slots(5, std::vector<Task *>{&m1, &m2});
@@ -232,7 +233,7 @@ TEST_F(Fig1Like, SlotWorkBeyondTheBasicPeriodIsAnOverrun) {
 }
 
 TEST_F(Fig1Like, ModuleBudgetOverrunsAreCountedPerModule) {
-    m2.budget_ns = 20'000;
+    m2.config.budget_ns = 20'000;
     g_work["m2"] = 30'000;
     Executor e = make();
     e.loop(0, 10, stop, nullptr);
@@ -260,6 +261,103 @@ TEST_F(Fig1Like, StopFlagEndsTheLoop) {
     EXPECT_EQ(count(records[0].runs), 0u);
 }
 
+// ---- the hot-reload carry-over: a kept module's task takes its predecessor's state at the swap --
+
+TEST(TaskState, CarryOverTakesT0OnlyWhenThePeriodIsUnchanged) {
+    dispatch::TaskState before;
+    before.started = true;
+    before.t0 = 123;
+    before.first_due = 100;
+    before.disabled = true;
+    before.skip_until = 500;
+    before.in_flight = true;
+    before.deadline_missed = true;
+    before.released_seq = 7;
+    before.released_at = 90;
+
+    dispatch::TaskState same;
+    same.carryOver(before, /*same_period=*/true, /*clear_fault=*/false);
+    EXPECT_TRUE(same.started);
+    EXPECT_EQ(same.t0, 123);
+    EXPECT_EQ(same.first_due, 100);
+    EXPECT_TRUE(same.disabled);
+    EXPECT_EQ(same.skip_until, 500);
+    EXPECT_TRUE(same.in_flight);
+    EXPECT_TRUE(same.deadline_missed);
+    EXPECT_EQ(same.released_seq, 7u);
+    EXPECT_EQ(same.released_at, 90);
+
+    dispatch::TaskState changed;  // another period, and enabled again
+    changed.carryOver(before, /*same_period=*/false, /*clear_fault=*/true);
+    EXPECT_FALSE(changed.started);
+    EXPECT_EQ(changed.t0, 0);
+    EXPECT_FALSE(changed.disabled);
+    EXPECT_EQ(changed.skip_until, 500);  // the rest goes on as before
+    EXPECT_TRUE(changed.in_flight);
+    EXPECT_EQ(changed.released_seq, 7u);
+
+    dispatch::TaskState by_request;  // disabled by the new generation itself: clear_fault does not enable it
+    by_request.disabled = true;
+    by_request.carryOver(before, true, true);
+    EXPECT_TRUE(by_request.disabled);
+}
+
+namespace {
+// The table a swap offers: k1 (2 slots), k2 and k3 taking over from m1, m2, m3; 10 slots.
+struct Successors {
+    Task k1, k2, k3;
+    dispatch::Table table;
+    Successors(const Task &m1, const Task &m2, const Task &m3) : k1(m1.config), k2(m2.config), k3(m3.config) {
+        for (auto [k, m] : {std::pair{&k1, &m1}, {&k2, &m2}, {&k3, &m3}}) k->config.predecessor = m;
+        k1.config.period_slots = 2;
+        k1.config.period_ns = 2 * kBasic;  // a changed period: its T0 starts again
+        table.basic_ns = kBasic;
+        table.slots.resize(10);
+        for (std::size_t i = 0; i < 10; ++i) {
+            if (i % 2 == 0) table.slots[i].push_back(&k1);
+            table.slots[i].push_back(&k2);
+            if (i % 5 == 0) table.slots[i].push_back(&k3);
+        }
+        table.tasks = {&k1, &k2, &k3};
+    }
+};
+} // namespace
+
+TEST_F(Fig1Like, ASwapCarriesTheKeptTasksStateOver) {
+    g_throw_in = "m2";  // m2 throws in cycle 0: disabled by a fault
+    Executor e = make();
+    Successors next(m1, m2, m3);
+    e.offer(&next.table, 10 * kBasic);
+    e.loop(0, 30, stop, nullptr);
+    ASSERT_TRUE(e.switched().has_value());
+    EXPECT_EQ(e.switched()->cycle, 10u);
+    EXPECT_TRUE(next.k2.state.disabled);  // the fault's disable goes on
+    for (uint64_t c = 10; c < 30; ++c) {
+        const std::vector<std::string> who = runsOf(c);
+        EXPECT_EQ(std::count(who.begin(), who.end(), "m2"), 0) << c;
+    }
+    EXPECT_EQ(next.k3.state.t0, m3.state.t0);  // same period: Eq. (1)'s T0 goes on
+    EXPECT_TRUE(next.k3.state.started);
+    EXPECT_EQ(next.k1.state.t0, 10 * kBasic);  // new period: a new T0, at the swap
+    EXPECT_NE(m1.state.t0, next.k1.state.t0);
+    EXPECT_FALSE(m1.state.disabled);  // the predecessor itself is only read
+}
+
+TEST_F(Fig1Like, ASwapWithClearFaultRunsAFaultDisabledModuleAgain) {
+    g_throw_in = "m2";
+    Executor e = make();
+    Successors next(m1, m2, m3);
+    next.k2.config.clear_fault = true;  // enable: the new task does not inherit the disable
+    e.offer(&next.table, 10 * kBasic);
+    e.loop(0, 30, stop, nullptr);
+    EXPECT_TRUE(m2.state.disabled);
+    EXPECT_FALSE(next.k2.state.disabled);
+    for (uint64_t c = 10; c < 30; ++c) {
+        const std::vector<std::string> who = runsOf(c);
+        EXPECT_EQ(std::count(who.begin(), who.end(), "m2"), 1) << c;
+    }
+}
+
 // ---- the per-module overrun watchdog (<on_overrun>, docs/faults.md) ---------------------------
 
 namespace {
@@ -275,8 +373,8 @@ std::vector<Fault> outcomes(Executor &e) {
 } // namespace
 
 TEST_F(Fig1Like, OverrunWarnCountsItAndChangesNothingElse) {
-    m2.on_overrun = OverrunAction::Warn;
-    m2.overrun_limit_ns = 100'000;
+    m2.config.on_overrun = OverrunAction::Warn;
+    m2.config.overrun_limit_ns = 100'000;
     g_long = {"m2", 10, 350'000, {}};
     Executor e = make();
     e.loop(0, 100, stop, nullptr);
@@ -295,8 +393,8 @@ TEST_F(Fig1Like, OverrunWarnCountsItAndChangesNothingElse) {
 }
 
 TEST_F(Fig1Like, AShortRunIsNoOverrunWhateverTheAction) {
-    m2.on_overrun = OverrunAction::Stop;
-    m2.overrun_limit_ns = 100'000;
+    m2.config.on_overrun = OverrunAction::Stop;
+    m2.config.overrun_limit_ns = 100'000;
     g_work["m2"] = 60'000;
     Executor e = make();
     e.loop(0, 50, stop, nullptr);
@@ -307,8 +405,8 @@ TEST_F(Fig1Like, AShortRunIsNoOverrunWhateverTheAction) {
 }
 
 TEST_F(Fig1Like, OverrunSkipDropsTheRunsItMissedAndTheOthersCatchUp) {
-    m2.on_overrun = OverrunAction::Skip;
-    m2.overrun_limit_ns = 100'000;
+    m2.config.on_overrun = OverrunAction::Skip;
+    m2.config.overrun_limit_ns = 100'000;
     g_long = {"m2", 10, 350'000, {}};  // slot 10's m2 ends at 1.35 ms: slots 11, 12, 13 were due
     Executor e = make();
     e.loop(0, 100, stop, nullptr);
@@ -323,8 +421,8 @@ TEST_F(Fig1Like, OverrunSkipDropsTheRunsItMissedAndTheOthersCatchUp) {
 }
 
 TEST_F(Fig1Like, OverrunDisableTakesTheModuleOutAndTheRestRunsOn) {
-    m2.on_overrun = OverrunAction::Disable;
-    m2.overrun_limit_ns = 100'000;
+    m2.config.on_overrun = OverrunAction::Disable;
+    m2.config.overrun_limit_ns = 100'000;
     g_long = {"m2", 10, 350'000, {}};
     Executor e = make();
     e.loop(0, 100, stop, nullptr);
@@ -339,8 +437,8 @@ TEST_F(Fig1Like, OverrunDisableTakesTheModuleOutAndTheRestRunsOn) {
 }
 
 TEST_F(Fig1Like, OverrunStopHaltsEveryModuleButTheGridGoesOn) {
-    m2.on_overrun = OverrunAction::Stop;
-    m2.overrun_limit_ns = 100'000;
+    m2.config.on_overrun = OverrunAction::Stop;
+    m2.config.overrun_limit_ns = 100'000;
     g_long = {"m2", 10, 350'000, {}};
     Executor e = make();
     e.loop(0, 100, stop, nullptr);
@@ -353,8 +451,8 @@ TEST_F(Fig1Like, OverrunStopHaltsEveryModuleButTheGridGoesOn) {
 }
 
 TEST_F(Fig1Like, TheWatchdogSeesARunStillGoingAndStopsTheSetBeforeItReturns) {
-    m2.on_overrun = OverrunAction::Stop;
-    m2.overrun_limit_ns = 100'000;
+    m2.config.on_overrun = OverrunAction::Stop;
+    m2.config.overrun_limit_ns = 100'000;
     Executor e = make();
     std::vector<Fault> reported;
     std::vector<std::string> stops;  // what the stop hook saw, in order
@@ -390,8 +488,8 @@ TEST_F(Fig1Like, TheWatchdogSeesARunStillGoingAndStopsTheSetBeforeItReturns) {
 }
 
 TEST_F(Fig1Like, AnOverrunStopFoundOnlyAfterTheRunIsStillActedOnByTheWatchdog) {
-    m2.on_overrun = OverrunAction::Stop;
-    m2.overrun_limit_ns = 100'000;
+    m2.config.on_overrun = OverrunAction::Stop;
+    m2.config.overrun_limit_ns = 100'000;
     g_long = {"m2", 3, 500'000, {}};
     Executor e = make();
     int stops = 0;

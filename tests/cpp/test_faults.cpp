@@ -60,10 +60,11 @@ std::string value(const std::string &name, const std::string &v) {
 
 // irpd on `folder`/module.xml with its control socket and module cache there; returns it running
 // and a client past the hello.
-std::pair<std::unique_ptr<Process>, std::unique_ptr<Client>> startIrpd(const fs::path &folder, const std::string &socket) {
+std::pair<std::unique_ptr<Process>, std::unique_ptr<Client>> startIrpd(const fs::path &folder, const std::string &socket,
+                                                                       const std::string &instance = uniqueInstance()) {
     auto irpd = std::make_unique<Process>(
         std::vector<std::string>{kIrpd, "--config", (folder / "module.xml").string(), "--control-socket", socket,
-                                 "--instance", uniqueInstance(), "--module-cache", (folder / "cache").string()},
+                                 "--instance", instance, "--module-cache", (folder / "cache").string()},
         folder);
     EXPECT_TRUE(irpd->waitForErr("irpd: running")) << irpd->err();
     auto client = std::make_unique<Client>(socket, 60);
@@ -281,6 +282,7 @@ using testing_support::ModbusClient;
 struct PlcCell {
     TempDir dir;
     std::string socket = (dir.path / "irpd.sock").string();
+    std::string instance = uniqueInstance();
     std::unique_ptr<Process> irpd;
     std::unique_ptr<Client> client;
 
@@ -297,12 +299,15 @@ struct PlcCell {
         std::string io = readFile(set / "ioconfig.xml");
         io = std::regex_replace(io, std::regex("port=\"15020\""), "port=\"" + std::to_string(port) + "\"");
         std::ofstream(dir.path / "ioconfig.xml") << io;
-        std::tie(irpd, client) = startIrpd(dir.path, socket);
+        std::tie(irpd, client) = startIrpd(dir.path, socket, instance);
     }
     ~PlcCell() {
         client.reset();
         kill(irpd->pid(), SIGKILL);
         irpd->wait(std::chrono::seconds(10));
+        // The shared memory the killed irpd leaves behind.
+        for (const auto &entry : fs::directory_iterator("/dev/shm"))
+            if (entry.path().filename().string().rfind("indurop." + instance + ".", 0) == 0) fs::remove(entry.path());
     }
     void enableDrives() {
         json answer = client->request({{"cmd", "write"}, {"path", "PLC_ROBOT.PLC_IN.Enable"}, {"value", 1}});

@@ -156,6 +156,35 @@ TEST(IrpdRefuses, InitializeFailureStartsNothing) {
     EXPECT_EQ(r.out.find("[cntr1] start"), std::string::npos);
 }
 
+// A step late in the start-up fails (the control socket's folder does not exist): everything built
+// before it is released in reverse order -- the process stopped, then the started thread module's
+// stop() -- no shared memory of the instance is left, and irpd exits 1 naming the cause.
+TEST(IrpdRefuses, ALateStartFailureReleasesWhatWasBuiltInReverse) {
+    TempDir dir;
+    const std::string instance = uniqueInstance();
+    copyFig1Module("cntr1.so", dir);
+    copyFig1Module("cntr4.exe", dir);
+    writeFile(dir.path / "module.xml",
+              "<root>\n" + module("./cntr1.so", 100000, 1) +
+                  "  <module>\n    <filename>./cntr4.exe</filename>\n    <moduletype>process</moduletype>\n"
+                  "    <operationtype>periodic</operationtype>\n    <period>500000</period>\n    <priority>4</priority>\n"
+                  "  </module>\n</root>\n");
+    const std::string socket = (dir.path / "missing" / "irpd.sock").string();
+    Outcome r = irpd({"--config", (dir.path / "module.xml").string(), "--instance", instance, "--control-socket", socket}, dir);
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_NE(r.err.find("irpd: error: control socket " + socket + ": No such file or directory"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("irpd: running"), std::string::npos) << r.err;
+    const std::size_t started = r.out.find("[cntr1] start"), process_stopped = r.out.find("[cntr4] cntr4: stop after 0 periods"),
+                      module_stopped = r.out.find("[cntr1] stop after 0 runs");
+    ASSERT_NE(started, std::string::npos) << r.out;
+    ASSERT_NE(process_stopped, std::string::npos) << r.out;
+    ASSERT_NE(module_stopped, std::string::npos) << r.out;
+    EXPECT_LT(started, process_stopped);
+    EXPECT_LT(process_stopped, module_stopped) << r.out;
+    for (const auto &entry : std::filesystem::directory_iterator("/dev/shm"))
+        EXPECT_NE(entry.path().filename().string().rfind("indurop." + instance + ".", 0), 0u) << entry.path() << " left behind";
+}
+
 TEST(IrpdOptions, HelpAndBadOptions) {
     TempDir dir;
     Outcome help = irpd({"--help"}, dir);

@@ -40,11 +40,7 @@ namespace {
 constexpr int64_t kMs = 1'000'000;
 constexpr int64_t kLong = 20'000 * kMs;  // waits that only end early: never a timing assertion
 
-int64_t nowNs() {
-    timespec ts{};
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1'000'000'000LL + ts.tv_nsec;
-}
+int64_t nowNs() { return irp::monotonicNs(); }
 
 std::string uniqueInstance() {
     static int n = 0;
@@ -66,6 +62,9 @@ config::ModuleSpec processSpec(const std::string &name, const std::string &file,
     m.deadline_ns = operation == config::OperationType::Sporadic ? 10'000'000 : 0;
     m.priority = 1;
     m.properties = std::move(props);
+    auto parsed = config::parseProcessProperties(m.properties);  // as module.xml's parser does
+    if (!parsed) ADD_FAILURE() << parsed.error().message;
+    else m.process = std::move(*parsed);
     m.where = "sets/test/module.xml:9";
     m.line = 9;
     return m;
@@ -543,36 +542,8 @@ TEST(ProcessRefusal, NotExecutable) {
         << e;
 }
 
-TEST(ProcessRefusal, BadRestartValue) {
-    EXPECT_EQ(startError(processSpec("r", "proc_periodic.exe", config::OperationType::Periodic, {{"restart", "sometimes"}})),
-              "sets/test/module.xml:9: module 'r': property restart = 'sometimes': expected never, always or on-failure");
-}
-
-TEST(ProcessRefusal, BadRestartDelay) {
-    const std::string e =
-        startError(processSpec("r", "proc_periodic.exe", config::OperationType::Periodic, {{"restart_delay_ms", "soon"}}));
-    EXPECT_NE(e.find("module 'r': property restart_delay_ms: expected a whole number from 1 to 10000, got 'soon'"),
-              std::string::npos)
-        << e;
-}
-
-TEST(ProcessRefusal, BadMaxRestarts) {
-    const std::string e =
-        startError(processSpec("r", "proc_periodic.exe", config::OperationType::Periodic, {{"max_restarts", "-1"}}));
-    EXPECT_NE(e.find("module 'r': property max_restarts:"), std::string::npos) << e;
-}
-
-TEST(ProcessRefusal, UnterminatedQuoteInArgs) {
-    const std::string e =
-        startError(processSpec("q", "proc_periodic.exe", config::OperationType::Periodic, {{"args", "a \"b c"}}));
-    EXPECT_NE(e.find("module 'q': property args: unterminated \" at character 3"), std::string::npos) << e;
-}
-
-TEST(ProcessRefusal, EnvCannotOverrideIrpdVariables) {
-    const std::string e =
-        startError(processSpec("e", "proc_periodic.exe", config::OperationType::Periodic, {{"env.INDUROP_SLOT", "0"}}));
-    EXPECT_NE(e.find("module 'e': property env.INDUROP_SLOT: INDUROP_SLOT is set by irpd"), std::string::npos) << e;
-}
+// Bad properties (restart=sometimes, ...) never get here: module.xml's parser refuses them
+// (tests/cpp/test_process_properties.cpp).
 
 TEST(ProcessRefusal, SlotOutOfRange) {
     const std::string e = startError(processSpec("s", "proc_periodic.exe"), 7);

@@ -333,6 +333,32 @@ TEST(HotReload, CheckValidatesWithoutLoading) {
     EXPECT_EQ(cell.log("swap"), "start v1\n");
 }
 
+// A bad process property is refused when module.xml is read: `check` (the agent's validation,
+// `irpctl validate`), `load` and `restart` all say so with file:line, the module, the property and
+// the accepted values, before anything starts.
+TEST(HotReload, CheckRefusesABadProcessPropertyWithFileLine) {
+    Cell cell;
+    const std::string exe = std::string(FIXTURE_PROCESSES) + "/proc_periodic.exe";
+    cell.write("bad.xml", "<root>\n" + module("keep", "keep.so", 1'000'000, 1) +
+                              "  <module><name>p</name><filename>" + exe +
+                              "</filename><moduletype>process</moduletype><operationtype>periodic</operationtype>\n"
+                              "    <period>2000000</period><priority>3</priority>\n"
+                              "    <property><value name=\"restart\">sometimes</value></property></module>\n</root>\n");
+    const std::string xml = (cell.dir.path / "bad.xml").string();
+    const std::string expected =
+        xml + ":5: module 'p': property restart = 'sometimes': expected never, always or on-failure";
+    json checked = cell.result({{"cmd", "check"}, {"config", xml}});
+    EXPECT_EQ(checked["valid"], false);
+    EXPECT_EQ(checked["errors"], json({expected})) << checked.dump();
+    for (const char *cmd : {"load", "restart"}) {
+        json refused = cell.ask({{"cmd", cmd}, {"config", xml}});
+        EXPECT_FALSE(refused.value("ok", true)) << cmd << ": " << refused.dump();
+        EXPECT_EQ(refused["error"].value("message", ""), expected) << cmd;
+    }
+    EXPECT_EQ(cell.irpd->out().find("[p] "), std::string::npos) << "nothing of it started";
+    EXPECT_EQ(cell.result({{"cmd", "status"}})["generation"], 1);
+}
+
 TEST(HotReload, ProcessModulesAreKeptReplacedOrRefusedLikeThreads) {
     Cell cell;
     const std::string exe = std::string(FIXTURE_PROCESSES) + "/proc_periodic.exe";

@@ -423,7 +423,12 @@ private:
                 else fail(child, "module '" + m.name + "': property '" + name + "' must be plain text");
             }
             if (raw.find('\0') != std::string::npos) fail(v, "module '" + m.name + "': property '" + name + "' contains a NUL");
-            m.properties.emplace_back(std::move(name), std::string(trim(raw)));
+            std::string value(trim(raw));
+            // A process's own properties are checked now, so that `check` refuses what the start would.
+            if (m.type == ModuleType::Process)
+                if (Status st = applyProcessProperty(m.process, name, value); !st)
+                    fail(v, "module '" + m.name + "': " + st.error().message);
+            m.properties.emplace_back(std::move(name), std::move(value));
         }
     }
 

@@ -7,6 +7,7 @@
 #pragma once
 
 #include "common/result.hpp"
+#include "config/process_properties.hpp"
 
 #include <cstdint>
 #include <filesystem>
@@ -47,6 +48,9 @@ struct ModuleSpec {
     int64_t overrun_limit_ns = 0;   // <overrun_limit>: the watchdog time; 0 with on_overrun = the deadline
     CrashPolicy on_crash = CrashPolicy::Exclude;  // <on_crash>
     std::vector<std::pair<std::string, std::string>> properties;  // <property><value name=..>
+    // A process module's args, env.*, restart, restart_delay_ms and max_restarts, parsed from
+    // `properties` when module.xml is read (a ModuleSpec made in code: parseProcessProperties).
+    ProcessProperties process;
     int index = 0;                  // position in the file (ties in priority go to the earlier one)
     int line = 0;                   // line of <module>
     std::string where;              // "path/module.xml:12", for messages

@@ -76,24 +76,25 @@ std::unique_ptr<Tables> buildTables(const config::SetSpec &set, const schedule::
     for (const config::ModuleSpec *m : by_priority) {
         const ModuleBinding &b = bindings[static_cast<std::size_t>(m->index)];
         if (m->operation == config::OperationType::NonReal || (!b.run && !b.process)) continue;
-        auto task = std::make_unique<Task>();
-        task->kind = b.process ? Task::Kind::Process : Task::Kind::Thread;
-        task->sporadic = m->operation == config::OperationType::Sporadic;
-        task->run = b.run;
-        task->condition = b.condition;
-        task->process = b.process;
-        task->stats = b.stats;
-        task->period_ns = m->period_ns;
-        task->budget_ns = m->budget_ns;
-        task->on_overrun = m->on_overrun;
-        task->overrun_limit_ns = m->overrun_limit_ns;
-        task->deadline_ns = m->deadline_ns;
-        task->calls = b.calls;
-        task->module = b.owner;
-        task->disabled = b.disabled;
+        TaskConfig c;
+        c.kind = b.process ? Task::Kind::Process : Task::Kind::Thread;
+        c.sporadic = m->operation == config::OperationType::Sporadic;
+        c.run = b.run;
+        c.condition = b.condition;
+        c.process = b.process;
+        c.stats = b.stats;
+        c.period_ns = m->period_ns;
+        c.budget_ns = m->budget_ns;
+        c.on_overrun = m->on_overrun;
+        c.overrun_limit_ns = m->overrun_limit_ns;
+        c.deadline_ns = m->deadline_ns;
+        c.calls = b.calls;
+        c.module = b.owner;
+        c.disabled = b.disabled;
+        auto task = std::make_unique<Task>(c);
         tables->by_module[static_cast<std::size_t>(m->index)] = task.get();
         Table &table = *by_name.at(m->executor);
-        (task->sporadic ? table.events : table.tasks).push_back(task.get());
+        (c.sporadic ? table.events : table.tasks).push_back(task.get());
         tables->tasks.push_back(std::move(task));
     }
 
@@ -104,8 +105,8 @@ std::unique_ptr<Tables> buildTables(const config::SetSpec &set, const schedule::
         const std::string &name = p == 0 ? std::string(config::kMainExecutor) : set.executors[p - 1].name;
         table.basic_ns = schedule.basic_ns;
         if (p > 0 && !table.tasks.empty()) {
-            table.basic_ns = table.tasks.front()->period_ns;
-            for (Task *t : table.tasks) table.basic_ns = std::gcd(table.basic_ns, t->period_ns);
+            table.basic_ns = table.tasks.front()->config.period_ns;
+            for (Task *t : table.tasks) table.basic_ns = std::gcd(table.basic_ns, t->config.period_ns);
         }
         const auto ratio = static_cast<std::size_t>(table.basic_ns / schedule.basic_ns);
         const std::size_t count = table.tasks.empty() ? 1 : schedule.slots.size() / ratio;
@@ -116,7 +117,7 @@ std::unique_ptr<Tables> buildTables(const config::SetSpec &set, const schedule::
                 if (t && set.modules[static_cast<std::size_t>(index)].executor == name) table.slots[i].push_back(t);
             }
         }
-        for (Task *t : table.tasks) t->period_slots = t->period_ns / table.basic_ns;
+        for (Task *t : table.tasks) t->config.period_slots = t->config.period_ns / table.basic_ns;
     }
     return tables;
 }

@@ -41,7 +41,7 @@ Executor::Executor(osal::Clock &clock, int64_t basic_ns, std::vector<std::vector
 
 void Executor::noteTable(const Table &table) {
     bool watched = false;
-    for (const Task *t : table.tasks) watched = watched || (t->kind == Task::Kind::Thread && t->on_overrun != config::OverrunAction::None);
+    for (const Task *t : table.tasks) watched = watched || (t->config.kind == Task::Kind::Thread && t->config.on_overrun != config::OverrunAction::None);
     watching_.store(watched, std::memory_order_relaxed);
     basic_ns_.store(table.basic_ns, std::memory_order_relaxed);
 }
@@ -64,27 +64,16 @@ bool Executor::withdraw() {
 
 void Executor::takeOver(const Table *next) {
     for (const auto *list : {&next->tasks, &next->events})
-        for (Task *task : *list) {
-            const Task *p = task->predecessor;
-            if (!p) continue;
-            if (p->period_ns == task->period_ns) {
-                task->started = p->started;
-                task->t0 = p->t0;
-                task->first_due = p->first_due;
-            }
-            task->disabled = task->disabled || (p->disabled && !task->clear_fault);
-            task->skip_until = p->skip_until;
-            task->in_flight = p->in_flight;
-            task->deadline_missed = p->deadline_missed;
-            task->released_seq = p->released_seq;
-            task->released_at = p->released_at;
-        }
+        for (Task *task : *list)
+            if (const Task *before = task->config.predecessor)
+                task->state.carryOver(before->state, before->config.period_ns == task->config.period_ns,
+                                      task->config.clear_fault);
     table_ = next;
     noteTable(*next);
 }
 
 void Executor::disable(Task &task, stats::TimingRecord &r, const char *what, const char *detail) {
-    task.disabled = true;
+    task.state.disabled = true;
     stats::bump(r.errors);
     r.state.store(static_cast<uint32_t>(stats::ModuleState::Disabled), std::memory_order_relaxed);
     irp::printf("irpd: module '%s' threw %s from %s; disabled\n", r.name, detail, what);
@@ -93,18 +82,18 @@ void Executor::disable(Task &task, stats::TimingRecord &r, const char *what, con
 void Executor::overran(Task &task, stats::TimingRecord &r, uint64_t run, int64_t start, int64_t end) {
     Fault f;
     f.kind = Fault::Kind::Returned;
-    f.action = task.on_overrun;
+    f.action = task.config.on_overrun;
     f.record = &r;
     f.executor = options_.name.c_str();
     f.started_ns = start;
-    f.limit_ns = task.overrun_limit_ns;
+    f.limit_ns = task.config.overrun_limit_ns;
     f.elapsed_ns = end - start;
     f.seen_ns = end;
     f.seen_running = marker_.seen(run);
-    switch (task.on_overrun) {
-    case config::OverrunAction::Skip: task.skip_until = end; break;  // its runs due while it ran are dropped
+    switch (task.config.on_overrun) {
+    case config::OverrunAction::Skip: task.state.skip_until = end; break;  // its runs due while it ran are dropped
     case config::OverrunAction::Disable:
-        task.disabled = true;
+        task.state.disabled = true;
         r.state.store(static_cast<uint32_t>(stats::ModuleState::Disabled), std::memory_order_relaxed);
         break;
     case config::OverrunAction::Stop:
@@ -117,7 +106,7 @@ void Executor::overran(Task &task, stats::TimingRecord &r, uint64_t run, int64_t
 
 void Executor::runThread(Task &task, stats::TimingRecord &r) {
     try {
-        task.run();
+        task.config.run();
     } catch (const std::exception &e) {
         disable(task, r, "run()", e.what());
     } catch (...) {
@@ -126,11 +115,11 @@ void Executor::runThread(Task &task, stats::TimingRecord &r) {
 }
 
 void Executor::serveCalls(Task &task, uint64_t cycle) {
-    if (task.calls) task.calls->serve(task.module, cycle, task.disabled);
+    if (task.config.calls) task.config.calls->serve(task.config.module, cycle, task.state.disabled);
 }
 
 bool Executor::runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start, int64_t wait_until) {
-    indurop_process_slot &slot = *task.process;
+    indurop_process_slot &slot = *task.config.process;
     std::atomic_ref<uint32_t> state(slot.state), release(slot.release_seq), done(slot.done_seq);
     const uint32_t served = release.load(std::memory_order_relaxed);
     // Ready means waiting in irp::waitPeriod() with the last release finished.
@@ -142,21 +131,23 @@ bool Executor::runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start
     slot.release_ns = start;
     release.store(served + 1, std::memory_order_release);
     futex::wakeAll(&slot.release_seq);
-    if (task.sporadic) return true;  // the event handler checks completion later
+    if (task.config.sporadic) return true;  // the event handler checks completion later
     const int64_t left = wait_until - clock_.now();
-    if (left <= 0 || !futex::waitWhileEqual(&slot.done_seq, served, left)) stats::bump(task.stats->overruns);
+    if (left <= 0 || !futex::waitWhileEqual(&slot.done_seq, served, left)) stats::bump(task.config.stats->overruns);
     return true;
 }
 
 int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
     for (Task *task : table_->events) {
-        if (task->disabled) continue;
-        stats::TimingRecord &r = *task->stats;
-        if (task->kind == Task::Kind::Thread) {
+        const TaskConfig &c = task->config;
+        TaskState &s = task->state;
+        if (s.disabled) continue;
+        stats::TimingRecord &r = *c.stats;
+        if (c.kind == Task::Kind::Thread) {
             int fired = 0;
             markRunning(crash_marker_, r.name);
             try {
-                fired = task->condition();
+                fired = c.condition();
             } catch (...) {
                 disable(*task, r, "condition()", "an exception");
                 continue;
@@ -169,34 +160,34 @@ int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
             runThread(*task, r);
             t = clock_.now();
             r.exec.record(static_cast<uint64_t>(t - start));
-            if (t - checked > task->deadline_ns) stats::bump(r.missed);  // condition true -> done
+            if (t - checked > c.deadline_ns) stats::bump(r.missed);  // condition true -> done
             stats::bump(r.runs);
             continue;
         }
         // A sporadic process: released every basic period to check its own condition (Figure 8);
         // the dispatcher does not wait, it checks completion against the deadline afterwards.
-        indurop_process_slot &slot = *task->process;
-        if (task->in_flight) {
+        indurop_process_slot &slot = *c.process;
+        if (s.in_flight) {
             std::atomic_ref<uint32_t> done(slot.done_seq);
-            if (done.load(std::memory_order_acquire) == task->released_seq) {
-                task->in_flight = false;
-                const int64_t took = slot.done_ns - task->released_at;
+            if (done.load(std::memory_order_acquire) == s.released_seq) {
+                s.in_flight = false;
+                const int64_t took = slot.done_ns - s.released_at;
                 r.exec.record(static_cast<uint64_t>(took > 0 ? took : 0));
-                if (took > task->deadline_ns && !task->deadline_missed) stats::bump(r.missed);
+                if (took > c.deadline_ns && !s.deadline_missed) stats::bump(r.missed);
                 stats::bump(r.runs);
             } else {
-                if (!task->deadline_missed && t - task->released_at > task->deadline_ns) {
-                    task->deadline_missed = true;
+                if (!s.deadline_missed && t - s.released_at > c.deadline_ns) {
+                    s.deadline_missed = true;
                     stats::bump(r.missed);
                 }
                 continue;  // still working on the last release
             }
         }
         if (runProcess(*task, cycle, due, t, 0)) {
-            task->in_flight = true;
-            task->deadline_missed = false;
-            task->released_seq = std::atomic_ref<uint32_t>(slot.release_seq).load(std::memory_order_relaxed);
-            task->released_at = t;
+            s.in_flight = true;
+            s.deadline_missed = false;
+            s.released_seq = std::atomic_ref<uint32_t>(slot.release_seq).load(std::memory_order_relaxed);
+            s.released_at = t;
             r.latency.record(static_cast<uint64_t>(t - due > 0 ? t - due : 0));
         }
     }
@@ -207,9 +198,9 @@ int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
 void Executor::skip(uint64_t from, uint64_t count) {
     stats::bump(self_->skipped, count);
     for (Task *t : table_->tasks) {
-        auto ps = static_cast<uint64_t>(t->period_slots);
+        auto ps = static_cast<uint64_t>(t->config.period_slots);
         uint64_t due = (from + count + ps - 1) / ps - (from + ps - 1) / ps;  // multiples of ps in the range
-        if (due) stats::bump(t->stats->skipped, due);
+        if (due) stats::bump(t->config.stats->skipped, due);
     }
 }
 
@@ -309,39 +300,41 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         runtime::setCycle({cycle, static_cast<uint32_t>(slot_index), due, basic});
         int64_t t = woke;
         for (Task *task : table_->slots[slot_index]) {
+            const TaskConfig &c = task->config;
+            TaskState &s = task->state;
             if (halted()) break;  // a fault stopped the set: nothing runs any more
-            if (task->disabled) {
+            if (s.disabled) {
                 serveCalls(*task, cycle);  // answers "owner disabled" to processes calling its functions
                 continue;
             }
-            stats::TimingRecord &r = *task->stats;
-            if (task->skip_until > due) {  // on_overrun=skip: a run due while its last one overran
+            stats::TimingRecord &r = *c.stats;
+            if (s.skip_until > due) {  // on_overrun=skip: a run due while its last one overran
                 stats::bump(r.skipped);
                 continue;
             }
             const int64_t start = t;
-            if (task->kind == Task::Kind::Process) {
+            if (c.kind == Task::Kind::Process) {
                 // Released and awaited in its place, so R6's order holds across threads and processes.
-                const int64_t wait_until = task->budget_ns ? start + task->budget_ns : due + basic;
+                const int64_t wait_until = c.budget_ns ? start + c.budget_ns : due + basic;
                 if (!runProcess(*task, cycle, due, start, wait_until)) {
                     stats::bump(r.missed);  // not ready: starting, restarting, or still in its last period
                     t = clock_.now();
                     continue;
                 }
             }
-            if (!task->started) {
-                task->started = true;
-                task->t0 = start;
-                task->first_due = due;
+            if (!s.started) {
+                s.started = true;
+                s.t0 = start;
+                s.first_due = due;
             }
-            const int64_t n = (due - task->first_due) / task->period_ns;
-            r.jitter.record(task->t0 + n * task->period_ns - start);
+            const int64_t n = (due - s.first_due) / c.period_ns;
+            r.jitter.record(s.t0 + n * c.period_ns - start);
             r.latency.record(static_cast<uint64_t>(start - due > 0 ? start - due : 0));
-            if (start - due >= task->period_ns) stats::bump(r.missed);
-            const bool watched = task->kind == Task::Kind::Thread && task->on_overrun != config::OverrunAction::None;
+            if (start - due >= c.period_ns) stats::bump(r.missed);
+            const bool watched = c.kind == Task::Kind::Thread && c.on_overrun != config::OverrunAction::None;
             uint64_t run = 0;
-            if (watched) run = marker_.begin(&r, task->on_overrun, task->overrun_limit_ns, start);
-            if (task->kind == Task::Kind::Thread) {
+            if (watched) run = marker_.begin(&r, c.on_overrun, c.overrun_limit_ns, start);
+            if (c.kind == Task::Kind::Thread) {
                 markRunning(crash_marker_, r.name);  // for the crash handler: one relaxed store
                 runThread(*task, r);
             }
@@ -350,8 +343,8 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             t = clock_.now();
             const int64_t exec = t - start;
             r.exec.record(static_cast<uint64_t>(exec));
-            const bool over_limit = watched && exec > task->overrun_limit_ns;
-            if (over_limit || (task->kind == Task::Kind::Thread && task->budget_ns && exec > task->budget_ns))
+            const bool over_limit = watched && exec > c.overrun_limit_ns;
+            if (over_limit || (c.kind == Task::Kind::Thread && c.budget_ns && exec > c.budget_ns))
                 stats::bump(r.overruns);
             stats::bump(r.runs);
             if (over_limit) overran(*task, r, run, start, t);

@@ -18,6 +18,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 namespace irp::trace {
@@ -41,8 +42,11 @@ const char *toString(OverrunPolicy policy);
 
 class CallServer;  // dispatch/function_calls.hpp
 
-// One module's place in an executor.  Runtime fields are written by the executor thread only.
-struct Task {
+struct Task;
+
+// What a task is: set when the tables are built (dispatch::buildTables, then the reloader's
+// carry-over fields) and never written once the table is offered to an executor.
+struct TaskConfig {
     enum class Kind : uint8_t { Thread, Process };
     Kind kind = Kind::Thread;
     bool sporadic = false;     // run by the event handler, not from the slot table
@@ -61,28 +65,60 @@ struct Task {
     // a thread module whose exported functions process modules call: served after its run()
     CallServer *calls = nullptr;
     int module = -1;           // its owner id in the call server's table
+    bool disabled = false;     // taken out of dispatch by request: its state starts disabled
     // Hot reload: the same module's task in the table this one replaces (kept modules).  At the
-    // swap the loop carries its run-time state over (Eq. (1)'s T0 when the period is unchanged,
-    // a fault's disable unless clear_fault, a sporadic process's release in flight).
+    // swap the loop carries its run-time state over (TaskState::carryOver).
     const Task *predecessor = nullptr;
-    bool clear_fault = false;
-    // set by the loop
+    bool clear_fault = false;  // enabled again: a fault's disable is not carried over
+};
+
+// What the executor thread learns while it runs a task; written by that thread only (and copied
+// from the predecessor's at a swap, on the same thread).  Plain data: a carry-over is a few stores.
+struct TaskState {
     int64_t t0 = 0;            // first start (T0 of Eq. (1))
     int64_t first_due = 0;     // the due time of the slot of its first start: run n is due first_due + n * period
     bool started = false;
-    bool disabled = false;
+    bool disabled = false;     // by request (TaskConfig::disabled), a throw or <on_overrun>disable
     int64_t skip_until = INT64_MIN;  // on_overrun=skip: runs due before this are dropped
     // a sporadic process's release in flight
     bool in_flight = false;
     bool deadline_missed = false;
     uint32_t released_seq = 0;
     int64_t released_at = 0;
+
+    // The hot-reload carry-over from the predecessor's state `before`: Eq. (1)'s T0 when the
+    // period did not change, a fault's disable unless it was cleared, the skip window and a
+    // sporadic process's release in flight.
+    void carryOver(const TaskState &before, bool same_period, bool clear_fault) noexcept {
+        if (same_period) {
+            started = before.started;
+            t0 = before.t0;
+            first_due = before.first_due;
+        }
+        disabled = disabled || (before.disabled && !clear_fault);
+        skip_until = before.skip_until;
+        in_flight = before.in_flight;
+        deadline_missed = before.deadline_missed;
+        released_seq = before.released_seq;
+        released_at = before.released_at;
+    }
+};
+static_assert(std::is_trivially_copyable_v<TaskState>, "carried over at a swap on the RT thread: plain stores only");
+
+// One module's place in an executor: its configuration and its run-time state.
+struct Task {
+    using Kind = TaskConfig::Kind;
+    TaskConfig config;
+    TaskState state;
+
+    Task() = default;
+    explicit Task(const TaskConfig &c) : config(c) { state.disabled = c.disabled; }
 };
 
 // One executor's work for one generation of the set: its basic period, the slot table (tasks in
 // run order per slot), the periodic tasks, and the sporadic ones in priority order.  Immutable
-// once handed to an executor, except for the tasks' run-time fields, which only that executor's
-// thread writes.
+// once handed to an executor, except for the tasks' state, which only that executor's thread
+// writes.
 struct Table {
     int64_t basic_ns = 0;
     std::vector<std::vector<Task *>> slots;

@@ -1,27 +1,25 @@
-// process_supervisor.cpp -- spawning process modules (clone + exec), their output, exits and
-// restarts, and stopping them.  See process_supervisor.hpp for the contract.
+// process_supervisor.cpp -- the process modules' lives: started into their control slots,
+// watched, restarted per policy, stopped.  Spawning, output and the restart policy are their own
+// files (process_spawn, process_output, restart_policy); see process_supervisor.hpp.
 #include "hosts/process_supervisor.hpp"
 
+#include "hosts/process_spawn.hpp"
+#include "hosts/restart_policy.hpp"
+#include "osal/clock.hpp"
+
 #include <fcntl.h>
-#include <linux/futex.h>
 #include <sched.h>
 #include <signal.h>
-#include <sys/mman.h>
-#include <sys/prctl.h>
-#include <sys/stat.h>
-#include <sys/syscall.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
-#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <ctime>
 #include <filesystem>
-#include <set>
 
 extern char **environ;
 
@@ -30,17 +28,8 @@ namespace {
 
 constexpr int64_t kMs = 1'000'000;
 constexpr int64_t kSecond = 1'000'000'000;
-constexpr int64_t kMaxBackoffNs = 10 * kSecond;
-constexpr int64_t kStableRunNs = 10 * kSecond;   // running this long resets the backoff
-constexpr int kExitLayoutRefused = 78;           // libindurop: built against another layout
-constexpr std::size_t kChildStack = 128 * 1024;
-constexpr uint32_t kFinalDrainBytes = 1u << 20;  // what is read after an exit at most
 
-int64_t now() {
-    timespec ts{};
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * kSecond + ts.tv_nsec;
-}
+int64_t now() { return osal::monotonicNow(); }
 
 void sleepNs(int64_t ns) {
     timespec ts{static_cast<time_t>(ns / kSecond), static_cast<long>(ns % kSecond)};
@@ -53,201 +42,22 @@ std::atomic_ref<T> atomic(T &word) {
     return std::atomic_ref<T>(word);
 }
 
-void wakeAll(uint32_t *word) { syscall(SYS_futex, word, FUTEX_WAKE, INT32_MAX, nullptr, nullptr, 0); }
-
-std::string describeStatus(int status) {
-    if (WIFEXITED(status)) return "exited with status " + std::to_string(WEXITSTATUS(status));
-    if (WIFSIGNALED(status)) {
-        const int sig = WTERMSIG(status);
-        const char *abbrev = sigabbrev_np(sig);
-        const char *descr = sigdescr_np(sig);
-        std::string s = "killed by " + (abbrev ? "SIG" + std::string(abbrev) : "signal " + std::to_string(sig));
-        if (descr) s += std::string(" (") + descr + ")";
-        if (WCOREDUMP(status)) s += ", core dumped";
-        return s;
-    }
-    return "ended with wait status " + std::to_string(status);
-}
-
-// ---- the child side of a spawn: runs in clone(CLONE_VM | CLONE_VFORK), so it may only make
-// system calls on data prepared by the parent, and reports failures in the plan it shares.
-struct SpawnPlan {
-    const char *path = nullptr;
-    char *const *argv = nullptr;
-    char *const *envp = nullptr;
-    const char *cwd = nullptr;
-    int in_fd = -1, out_fd = -1, err_fd = -1;
-    int rt_priority = 0;
-    int cpu = -1;
-    pid_t parent = 0;
-    // written by the child
-    const char *failed_step = nullptr;
-    int failed_errno = 0;
-    int sched_errno = 0;
-    int cpu_errno = 0;
-};
-
-int installFd(int from, int to) {
-    if (from == to) return fcntl(to, F_SETFD, 0);  // keep it across exec
-    return dup2(from, to) < 0 ? -1 : 0;
-}
-
-[[noreturn]] void childFail(SpawnPlan *plan, const char *step) {
-    plan->failed_step = step;
-    plan->failed_errno = errno;
-    _exit(127);
-}
-
-int childMain(void *arg) {
-    auto *plan = static_cast<SpawnPlan *>(arg);
-    // Default dispositions (irpd's handlers and SIG_IGN must not leak), the mask is cleared last:
-    // the parent blocked every signal around clone().
-    struct sigaction dfl{};
-    dfl.sa_handler = SIG_DFL;
-    sigemptyset(&dfl.sa_mask);
-    for (int sig = 1; sig < NSIG; ++sig)
-        if (sig != SIGKILL && sig != SIGSTOP) sigaction(sig, &dfl, nullptr);  // EINVAL for glibc's own: fine
-
-    if (setpgid(0, 0) != 0) childFail(plan, "setpgid");
-    if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0) childFail(plan, "prctl(PR_SET_PDEATHSIG)");
-    if (getppid() != plan->parent) _exit(127);  // irpd died before the prctl: never run without it
-
-    if (installFd(plan->in_fd, 0) || installFd(plan->out_fd, 1) || installFd(plan->err_fd, 2)) childFail(plan, "dup2");
-    if (syscall(SYS_close_range, 3u, ~0u, 0u) != 0) {
-        const long max = sysconf(_SC_OPEN_MAX);
-        for (long fd = 3; fd < (max > 0 ? max : 65536); ++fd) close(static_cast<int>(fd));
-    }
-    if (chdir(plan->cwd) != 0) childFail(plan, "chdir");
-    if (plan->cpu >= 0) {
-        cpu_set_t set;
-        CPU_ZERO(&set);
-        CPU_SET(plan->cpu, &set);
-        if (sched_setaffinity(0, sizeof set, &set) != 0) plan->cpu_errno = errno;
-    }
-    sched_param param{};
-    if (plan->rt_priority > 0) {
-        param.sched_priority = plan->rt_priority;
-        if (sched_setscheduler(0, SCHED_FIFO, &param) != 0) {
-            plan->sched_errno = errno;
-            param.sched_priority = 0;
-            sched_setscheduler(0, SCHED_OTHER, &param);
-        }
-    } else {
-        sched_setscheduler(0, SCHED_OTHER, &param);  // never inherit the spawning thread's policy
-    }
-    // irpd's ambient capabilities (--user keeps CAP_SYS_NICE and CAP_IPC_LOCK ambient for its own
-    // restart) must not reach the process: it runs with none.
-    prctl(PR_CAP_AMBIENT, PR_CAP_AMBIENT_CLEAR_ALL, 0, 0, 0);
-    sigset_t none;
-    sigemptyset(&none);
-    sigprocmask(SIG_SETMASK, &none, nullptr);
-    execve(plan->path, plan->argv, plan->envp);
-    childFail(plan, "execve");
-}
-
-// A pipe whose ends are >= 3 (so that installing them as 0, 1, 2 cannot clobber one another),
-// close-on-exec, the read end non-blocking.
-bool makePipe(int &read_end, int &write_end) {
-    int fds[2];
-    if (pipe2(fds, O_CLOEXEC) != 0) return false;
-    for (int &fd : fds)
-        if (fd < 3) {
-            int moved = fcntl(fd, F_DUPFD_CLOEXEC, 3);
-            close(fd);
-            fd = moved;
-        }
-    if (fds[0] < 0 || fds[1] < 0) {
-        if (fds[0] >= 0) close(fds[0]);
-        if (fds[1] >= 0) close(fds[1]);
-        return false;
-    }
-    fcntl(fds[0], F_SETFL, fcntl(fds[0], F_GETFL) | O_NONBLOCK);
-    read_end = fds[0];
-    write_end = fds[1];
-    return true;
-}
-
-// Splits the `args` property: white space separates, "..." groups (\" and \\ inside).
-Result<std::vector<std::string>> splitArgs(const std::string &text) {
-    std::vector<std::string> args;
-    std::size_t i = 0;
-    while (i < text.size()) {
-        while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
-        if (i == text.size()) break;
-        std::string arg;
-        while (i < text.size() && !std::isspace(static_cast<unsigned char>(text[i]))) {
-            if (text[i] != '"') {
-                arg += text[i++];
-                continue;
-            }
-            const std::size_t open = i++;
-            for (;;) {
-                if (i == text.size())
-                    return Error{"unterminated \" at character " + std::to_string(open + 1) + " of '" + text + "'"};
-                if (text[i] == '"') {
-                    ++i;
-                    break;
-                }
-                if (text[i] == '\\' && i + 1 < text.size() && (text[i + 1] == '"' || text[i + 1] == '\\')) ++i;
-                arg += text[i++];
-            }
-        }
-        args.push_back(std::move(arg));
-    }
-    return args;
-}
-
-Result<int64_t> parseCount(const std::string &text, int64_t low, int64_t high) {
-    if (text.empty() || text.size() > 12 || text.find_first_not_of("0123456789") != std::string::npos)
-        return Error{"expected a whole number from " + std::to_string(low) + " to " + std::to_string(high) + ", got '" +
-                     text + "'"};
-    const int64_t v = std::stoll(text);
-    if (v < low || v > high)
-        return Error{"expected a whole number from " + std::to_string(low) + " to " + std::to_string(high) + ", got '" +
-                     text + "'"};
-    return v;
-}
-
-const std::set<std::string> kIrpdVariables = {"INDUROP_CTL", "INDUROP_SLOT", "INDUROP_SHM", "INDUROP_MODULE"};
-
 } // namespace
 
-const char *toString(RestartPolicy policy) {
-    switch (policy) {
-    case RestartPolicy::Never: return "never";
-    case RestartPolicy::Always: return "always";
-    case RestartPolicy::OnFailure: return "on-failure";
-    }
-    return "?";
-}
-
-struct ProcessSupervisor::Stream {
-    int fd = -1;
-    std::string partial;    // an unfinished line, at most max_line_bytes
-    bool skipping = false;  // the current line was cut: skip up to its newline
-};
-
 struct ProcessSupervisor::Child {
+    Child(const ProcessLaunch &l, const OutputLimits &limits, ProcessOutput::Sink sink)
+        : launch(l), restarts(l.spec.process), output(l.spec.name, limits, std::move(sink)) {}
+
     ProcessLaunch launch;
-    RestartPolicy policy = RestartPolicy::OnFailure;
-    int64_t first_delay_ns = 100 * kMs;
-    int64_t max_restarts = -1;  // -1 = unlimited
-    std::vector<std::string> args;
-    std::vector<std::pair<std::string, std::string>> env;
+    RestartPolicy restarts;
+    ProcessOutput output;
     std::string exe, cwd;
 
     bool stopping = false;  // stopAll() is ending it: its exit is expected
     bool term_sent = false;
     int64_t started_ns = 0;
-    int consecutive = 0;    // quick exits in a row (the backoff exponent)
     int64_t restart_due_ns = 0;
     bool sched_reported = false, cpu_reported = false;
-    Stream out, err;
-
-    // output rate window
-    int64_t window_start_ns = 0;
-    uint64_t window_lines = 0, window_bytes = 0;
-    uint64_t window_dropped = 0, window_dropped_bytes = 0;
 
     ProcessInfo info;
 
@@ -275,7 +85,7 @@ ProcessSupervisor::~ProcessSupervisor() {
         stopAll(2 * kSecond);
     } catch (...) {
     }
-    for (auto &c : children_) closeStreams(*c);
+    for (auto &c : children_) c->output.close();
     if (devnull_ >= 0) close(devnull_);
 }
 
@@ -285,6 +95,13 @@ void ProcessSupervisor::emit(std::string_view line) {
     } catch (...) {
         // a sink that throws loses the line, never the supervisor
     }
+}
+
+ProcessInfo ProcessSupervisor::infoOf(const Child &child) const {
+    ProcessInfo info = child.info;
+    info.lines = child.output.lines();
+    info.dropped_lines = child.output.droppedLines();
+    return info;
 }
 
 Result<osal::SharedMemory *> ProcessSupervisor::controlSegment(const std::string &name) {
@@ -320,40 +137,7 @@ Status ProcessSupervisor::start(const ProcessLaunch &launch) {
                 return Error{where + "already started (as '" + c->launch.spec.name + "' in slot " +
                              std::to_string(c->launch.slot) + ")"};
 
-        auto child = std::make_unique<Child>();
-        child->launch = launch;
-        for (const auto &[name, value] : spec.properties) {
-            if (name == "args") {
-                auto args = splitArgs(value);
-                if (!args) return Error{where + "property args: " + args.error().message};
-                child->args = std::move(*args);
-            } else if (name.starts_with("env.")) {
-                const std::string var = name.substr(4);
-                if (var.empty() || var.find('=') != std::string::npos)
-                    return Error{where + "property " + name + ": not an environment variable name"};
-                if (kIrpdVariables.count(var))
-                    return Error{where + "property " + name + ": " + var + " is set by irpd and cannot be overridden"};
-                child->env.emplace_back(var, value);
-            } else if (name == "restart") {
-                if (value == "never") child->policy = RestartPolicy::Never;
-                else if (value == "always") child->policy = RestartPolicy::Always;
-                else if (value == "on-failure") child->policy = RestartPolicy::OnFailure;
-                else return Error{where + "property restart = '" + value + "': expected never, always or on-failure"};
-            } else if (name == "restart_delay_ms") {
-                auto ms = parseCount(value, 1, kMaxBackoffNs / kMs);
-                if (!ms) return Error{where + "property restart_delay_ms: " + ms.error().message};
-                child->first_delay_ns = *ms * kMs;
-            } else if (name == "max_restarts") {
-                if (value == "unlimited") {
-                    child->max_restarts = -1;
-                } else {
-                    auto n = parseCount(value, 0, 1'000'000'000);
-                    if (!n) return Error{where + "property max_restarts: " + n.error().message + " (or 'unlimited')"};
-                    child->max_restarts = *n;
-                }
-            }
-        }
-
+        auto child = std::make_unique<Child>(launch, limits_, [this](std::string_view line) { emit(line); });
         std::error_code ec;
         const std::filesystem::path exe = std::filesystem::absolute(spec.path, ec).lexically_normal();
         const std::string shown = "<filename> " + (spec.filename.empty() ? spec.path.string() : spec.filename) + " -> " +
@@ -364,7 +148,6 @@ Status ProcessSupervisor::start(const ProcessLaunch &launch) {
             return Error{where + shown + " is not executable (" + std::strerror(errno) + "; chmod +x it)"};
         child->exe = exe.string();
         child->cwd = exe.parent_path().string();
-
         if (launch.rt_priority < 0 || launch.rt_priority > 99)
             return Error{where + "RT priority " + std::to_string(launch.rt_priority) + " is outside 0..99"};
         if (launch.cpu >= CPU_SETSIZE || launch.cpu < -1) return Error{where + "CPU " + std::to_string(launch.cpu) + " does not exist"};
@@ -414,250 +197,83 @@ void ProcessSupervisor::resetSlot(Child &child) {
 
 Status ProcessSupervisor::spawn(Child &child) {
     resetSlot(child);
-
-    // Everything the child needs, prepared here: it may not allocate.
-    std::vector<std::string> env;
-    std::set<std::string> replaced(kIrpdVariables);
-    for (const auto &[name, value] : child.env) replaced.insert(name);
-    for (char **e = environ; e && *e; ++e) {
-        const std::string_view entry(*e);
-        if (!replaced.count(std::string(entry.substr(0, entry.find('='))))) env.emplace_back(entry);
-    }
+    std::vector<std::pair<std::string, std::string>> set;
     if (!child.launch.control_shm.empty()) {
-        env.push_back("INDUROP_CTL=" + child.launch.control_shm);
-        env.push_back("INDUROP_SLOT=" + std::to_string(child.launch.slot));
+        set.emplace_back("INDUROP_CTL", child.launch.control_shm);
+        set.emplace_back("INDUROP_SLOT", std::to_string(child.launch.slot));
     }
-    if (!child.launch.variables_shm.empty()) env.push_back("INDUROP_SHM=" + child.launch.variables_shm);
-    env.push_back("INDUROP_MODULE=" + child.launch.spec.name);
-    for (const auto &[name, value] : child.env) env.push_back(name + "=" + value);
-    std::vector<std::string> argv_storage{child.exe};
-    argv_storage.insert(argv_storage.end(), child.args.begin(), child.args.end());
-    std::vector<char *> argv, envp;
-    for (auto &a : argv_storage) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    for (auto &e : env) envp.push_back(e.data());
-    envp.push_back(nullptr);
+    if (!child.launch.variables_shm.empty()) set.emplace_back("INDUROP_SHM", child.launch.variables_shm);
+    set.emplace_back("INDUROP_MODULE", child.launch.spec.name);
+    for (const auto &variable : child.launch.spec.process.env) set.push_back(variable);
 
-    int out_r = -1, out_w = -1, err_r = -1, err_w = -1;
-    if (!makePipe(out_r, out_w)) return Error{std::string("cannot create its stdout pipe: ") + std::strerror(errno)};
-    if (!makePipe(err_r, err_w)) {
-        const int e = errno;
-        close(out_r), close(out_w);
-        return Error{std::string("cannot create its stderr pipe: ") + std::strerror(e)};
-    }
-
-    SpawnPlan plan;
-    plan.path = child.exe.c_str();
-    plan.argv = argv.data();
-    plan.envp = envp.data();
-    plan.cwd = child.cwd.c_str();
-    plan.in_fd = devnull_;
-    plan.out_fd = out_w;
-    plan.err_fd = err_w;
-    plan.rt_priority = child.launch.rt_priority;
-    plan.cpu = child.launch.cpu;
-    plan.parent = getpid();
-
-    void *stack = mmap(nullptr, kChildStack, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_STACK, -1, 0);
-    pid_t pid = -1;
-    int clone_errno = 0;
-    if (stack != MAP_FAILED) {
-        sigset_t all, old;
-        sigfillset(&all);
-        pthread_sigmask(SIG_SETMASK, &all, &old);
-        pid = clone(childMain, static_cast<char *>(stack) + kChildStack, CLONE_VM | CLONE_VFORK | SIGCHLD, &plan);
-        clone_errno = errno;
-        pthread_sigmask(SIG_SETMASK, &old, nullptr);
-        munmap(stack, kChildStack);
-    } else {
-        clone_errno = errno;
-    }
-    close(out_w);
-    close(err_w);
-    std::atomic_signal_fence(std::memory_order_seq_cst);  // the child wrote plan while we were suspended
-
-    if (pid < 0 || plan.failed_step) {
-        close(out_r), close(err_r);
+    SpawnRequest request;
+    request.exe = child.exe;
+    request.cwd = child.cwd;
+    request.args = child.launch.spec.process.args;
+    request.env = childEnvironment(environ, set);
+    request.stdin_fd = devnull_;
+    request.rt_priority = child.launch.rt_priority;
+    request.cpu = child.launch.cpu;
+    auto spawned = spawnChild(request);
+    if (!spawned) {
         if (indurop_process_slot *s = slotOf(child)) atomic(s->state).store(INDUROP_PROCESS_EXITED, std::memory_order_release);
-        if (pid < 0) return Error{std::string("cannot start ") + child.exe + ": clone: " + std::strerror(clone_errno)};
-        int status = 0;
-        while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-        }
-        return Error{"cannot start " + child.exe + ": " + plan.failed_step + ": " + std::strerror(plan.failed_errno)};
+        return spawned.error();
     }
 
-    child.out.fd = out_r;
-    child.err.fd = err_r;
-    child.out.partial.clear();
-    child.err.partial.clear();
-    child.out.skipping = child.err.skipping = false;
+    child.output.attach(spawned->out_fd, spawned->err_fd);
     child.stopping = false;
     child.term_sent = false;
     child.started_ns = now();
-    child.info.pid = pid;
+    child.info.pid = spawned->pid;
     child.info.running = true;
     child.info.restart_pending = false;
-    if (indurop_process_slot *s = slotOf(child)) atomic(s->pid).store(pid, std::memory_order_release);
+    if (indurop_process_slot *s = slotOf(child)) atomic(s->pid).store(spawned->pid, std::memory_order_release);
 
-    if (plan.sched_errno && !child.sched_reported) {
+    if (spawned->sched_errno && !child.sched_reported) {
         child.sched_reported = true;
-        emit("irpd: " + child.who() + ": SCHED_FIFO priority " + std::to_string(plan.rt_priority) + " refused (" +
-             std::strerror(plan.sched_errno) + "); it runs SCHED_OTHER, its periods are not real-time");
+        emit("irpd: " + child.who() + ": SCHED_FIFO priority " + std::to_string(request.rt_priority) + " refused (" +
+             std::strerror(spawned->sched_errno) + "); it runs SCHED_OTHER, its periods are not real-time");
     }
-    if (plan.cpu_errno && !child.cpu_reported) {
+    if (spawned->cpu_errno && !child.cpu_reported) {
         child.cpu_reported = true;
-        emit("irpd: " + child.who() + ": cannot pin it to CPU " + std::to_string(plan.cpu) + " (" +
-             std::strerror(plan.cpu_errno) + "); it runs on any CPU");
+        emit("irpd: " + child.who() + ": cannot pin it to CPU " + std::to_string(request.cpu) + " (" +
+             std::strerror(spawned->cpu_errno) + "); it runs on any CPU");
     }
     return Ok{};
-}
-
-// ---- output ---------------------------------------------------------------------------------
-
-void ProcessSupervisor::flushDropReport(Child &child, bool force) {
-    const int64_t t = now();
-    if (!force && t - child.window_start_ns < kSecond) return;
-    if (child.window_dropped) {
-        emit("irpd: " + child.who() + ": " + std::to_string(child.window_dropped) + " output lines (" +
-             std::to_string(child.window_dropped_bytes) + " bytes) dropped: more than " +
-             std::to_string(limits_.lines_per_second) + " lines or " + std::to_string(limits_.bytes_per_second / 1024) +
-             " KiB per second");
-    }
-    child.window_start_ns = t;
-    child.window_lines = child.window_bytes = 0;
-    child.window_dropped = child.window_dropped_bytes = 0;
-}
-
-void ProcessSupervisor::deliver(Child &child, std::string_view line, bool cut) {
-    if (now() - child.window_start_ns >= kSecond) flushDropReport(child, true);
-    if (child.window_lines >= limits_.lines_per_second || child.window_bytes + line.size() > limits_.bytes_per_second) {
-        ++child.window_dropped;
-        child.window_dropped_bytes += line.size();
-        ++child.info.dropped_lines;
-        return;
-    }
-    ++child.window_lines;
-    child.window_bytes += line.size();
-    ++child.info.lines;
-    std::string text;
-    text.reserve(child.launch.spec.name.size() + line.size() + 32);
-    text.append("[").append(child.launch.spec.name).append("] ").append(line);
-    if (cut) text.append(" [line cut at ").append(std::to_string(limits_.max_line_bytes)).append(" bytes]");
-    emit(text);
-}
-
-void ProcessSupervisor::readStream(Child &child, Stream &stream, bool final_drain) {
-    if (stream.fd < 0) return;
-    char buffer[16384];
-    uint64_t budget = final_drain ? kFinalDrainBytes : limits_.read_bytes_per_poll;
-    const std::size_t max_line = std::max<uint32_t>(limits_.max_line_bytes, 1);
-    while (budget > 0) {
-        const ssize_t n = ::read(stream.fd, buffer, std::min<uint64_t>(sizeof buffer, budget));
-        if (n < 0 && errno == EINTR) continue;
-        if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK)) {  // EOF or a dead pipe
-            close(stream.fd);
-            stream.fd = -1;
-            break;
-        }
-        if (n < 0) break;  // nothing more for now
-        budget -= static_cast<uint64_t>(n);
-        std::string_view data(buffer, static_cast<std::size_t>(n));
-        while (!data.empty()) {
-            const std::size_t nl = data.find('\n');
-            const std::size_t take = nl == std::string_view::npos ? data.size() : nl;
-            if (stream.skipping) {
-                if (nl == std::string_view::npos) break;
-                stream.skipping = false;
-                data.remove_prefix(nl + 1);
-                continue;
-            }
-            const std::size_t room = max_line - stream.partial.size();
-            if (take > room) {
-                stream.partial.append(data.substr(0, room));
-                deliver(child, stream.partial, true);
-                stream.partial.clear();
-                if (nl == std::string_view::npos) {
-                    stream.skipping = true;
-                    break;
-                }
-                data.remove_prefix(nl + 1);
-                continue;
-            }
-            if (nl == std::string_view::npos) {
-                stream.partial.append(data);
-                break;
-            }
-            if (stream.partial.empty()) {
-                deliver(child, data.substr(0, nl), false);
-            } else {
-                stream.partial.append(data.substr(0, nl));
-                deliver(child, stream.partial, false);
-                stream.partial.clear();
-            }
-            data.remove_prefix(nl + 1);
-        }
-    }
-}
-
-void ProcessSupervisor::readOutput(Child &child, bool final_drain) {
-    readStream(child, child.out, final_drain);
-    readStream(child, child.err, final_drain);
-}
-
-void ProcessSupervisor::closeStreams(Child &child) {
-    for (Stream *s : {&child.out, &child.err}) {
-        if (!s->partial.empty()) deliver(child, s->partial, false);  // a last line without newline
-        s->partial.clear();
-        s->skipping = false;
-        if (s->fd >= 0) close(s->fd);
-        s->fd = -1;
-    }
 }
 
 // ---- exits and restarts -----------------------------------------------------------------------
 
 void ProcessSupervisor::handleExit(Child &child, int status) {
     const pid_t pid = child.info.pid;
-    readOutput(child, true);  // its last words come before the news of its end
-    closeStreams(child);
-    flushDropReport(child, true);
+    child.output.read(true);  // its last words come before the news of its end
+    child.output.close();
+    child.output.reportDrops(true);
 
     const bool signaled = status >= 0 && WIFSIGNALED(status);
-    const bool failed = status < 0 || signaled || WEXITSTATUS(status) != 0;
     child.info.running = false;
     child.info.pid = 0;
     ++child.info.exits;
     if (signaled && !child.stopping) ++child.info.crashes;
     if (status >= 0 && WIFEXITED(status) && WEXITSTATUS(status) != 0) ++child.info.failures;
-    child.info.last_exit = status < 0 ? "ended (its exit status was lost: is SIGCHLD ignored?)" : describeStatus(status);
+    child.info.last_exit = status < 0 ? "ended (its exit status was lost: is SIGCHLD ignored?)" : describeWaitStatus(status);
     if (indurop_process_slot *s = slotOf(child)) {
         atomic(s->pid).store(0, std::memory_order_relaxed);
         atomic(s->state).store(INDUROP_PROCESS_EXITED, std::memory_order_release);
-        wakeAll(&s->state);
+        futex::wakeAll(&s->state);
     }
 
-    std::string line = "irpd: " + child.who() + " (pid " + std::to_string(pid) + ") " + child.info.last_exit;
+    const std::string line = "irpd: " + child.who() + " (pid " + std::to_string(pid) + ") " + child.info.last_exit;
     if (child.stopping) {
         emit(line);
         return;
     }
-    const bool wanted = child.policy == RestartPolicy::Always || (child.policy == RestartPolicy::OnFailure && failed);
-    if (status >= 0 && WIFEXITED(status) && WEXITSTATUS(status) == kExitLayoutRefused) {
-        emit(line + "; not restarted: it refused the running shared-variable layout (rebuild it against the set's .glb files)");
-    } else if (!wanted) {
-        emit(line + "; not restarted (restart=" + toString(child.policy) + ")");
-    } else if (child.max_restarts >= 0 && static_cast<int64_t>(child.info.restarts) >= child.max_restarts) {
-        emit(line + "; not restarted: max_restarts " + std::to_string(child.max_restarts) + " reached");
-    } else {
-        if (now() - child.started_ns >= kStableRunNs) child.consecutive = 0;
-        int64_t delay = child.first_delay_ns;
-        for (int i = 0; i < child.consecutive && delay < kMaxBackoffNs; ++i) delay *= 2;
-        delay = std::min(delay, kMaxBackoffNs);
-        ++child.consecutive;
-        child.restart_due_ns = now() + delay;
+    const RestartPolicy::Decision next = child.restarts.afterExit(status, now() - child.started_ns, child.info.restarts);
+    if (next.restart) {
+        child.restart_due_ns = now() + next.delay_ns;
         child.info.restart_pending = true;
-        emit(line + "; restarting in " + std::to_string(delay / kMs) + " ms (restart=" + toString(child.policy) + ")");
     }
+    emit(line + next.why);
 }
 
 void ProcessSupervisor::poll() {
@@ -665,8 +281,8 @@ void ProcessSupervisor::poll() {
         Child &child = *c;
         try {
             if (child.info.running) {
-                readOutput(child, false);
-                if (child.window_dropped) flushDropReport(child, false);
+                child.output.read();
+                if (child.output.dropping()) child.output.reportDrops(false);
                 int status = 0;
                 const pid_t r = waitpid(child.info.pid, &status, WNOHANG);
                 if (r == child.info.pid) handleExit(child, status);
@@ -682,15 +298,10 @@ void ProcessSupervisor::poll() {
                     // Could not even start: count it as a failed run and try again later.
                     ++child.info.restarts;
                     child.info.last_exit = s.error().message;
-                    int64_t delay = child.first_delay_ns;
-                    for (int i = 0; i < child.consecutive && delay < kMaxBackoffNs; ++i) delay *= 2;
-                    delay = std::min(delay, kMaxBackoffNs);
-                    ++child.consecutive;
-                    const bool again = child.max_restarts < 0 || static_cast<int64_t>(child.info.restarts) < child.max_restarts;
-                    child.info.restart_pending = again;
-                    child.restart_due_ns = now() + delay;
-                    emit("irpd: " + child.who() + ": restart failed: " + s.error().message +
-                         (again ? "; next try in " + std::to_string(delay / kMs) + " ms" : "; max_restarts reached"));
+                    const RestartPolicy::Decision next = child.restarts.afterFailedStart(child.info.restarts);
+                    child.info.restart_pending = next.restart;
+                    child.restart_due_ns = now() + next.delay_ns;
+                    emit("irpd: " + child.who() + ": restart failed: " + s.error().message + next.why);
                 }
             }
         } catch (...) {
@@ -751,7 +362,7 @@ void ProcessSupervisor::stopWhere(const std::function<bool(const Child &)> &chos
             if (kill(-c->info.pid, SIGTERM) != 0) kill(c->info.pid, SIGTERM);
         } else if (indurop_process_slot *s = slotOf(*c)) {
             atomic(s->stop_requested).store(1, std::memory_order_release);
-            wakeAll(&s->release_seq);
+            futex::wakeAll(&s->release_seq);
         }
     }
     if (!any) return;
@@ -764,7 +375,7 @@ void ProcessSupervisor::stopWhere(const std::function<bool(const Child &)> &chos
             if (!child.info.running || !chosen(child)) continue;
             const pid_t pid = child.info.pid;
             try {
-                readOutput(child, false);
+                child.output.read();
             } catch (...) {
             }
             int status = 0;
@@ -781,7 +392,7 @@ void ProcessSupervisor::stopWhere(const std::function<bool(const Child &)> &chos
             alive = true;
             // The wake is repeated: a stop that landed between the process's check of
             // stop_requested and its futex wait would otherwise be missed.
-            if (indurop_process_slot *s = slotOf(child)) wakeAll(&s->release_seq);
+            if (indurop_process_slot *s = slotOf(child)) futex::wakeAll(&s->release_seq);
             if (t >= kill_at) {
                 kill(-pid, SIGKILL);
                 kill(pid, SIGKILL);
@@ -796,7 +407,7 @@ void ProcessSupervisor::stopWhere(const std::function<bool(const Child &)> &chos
             for (auto &c : children_)
                 if (c->info.running && chosen(*c)) {
                     emit("irpd: " + c->who() + " (pid " + std::to_string(c->info.pid) + ") survives SIGKILL; left behind");
-                    closeStreams(*c);
+                    c->output.close();
                     c->info.running = false;
                 }
             break;
@@ -807,14 +418,14 @@ void ProcessSupervisor::stopWhere(const std::function<bool(const Child &)> &chos
 
 std::vector<ProcessInfo> ProcessSupervisor::processes() const {
     std::vector<ProcessInfo> all;
-    for (const auto &c : children_) all.push_back(c->info);
+    for (const auto &c : children_) all.push_back(infoOf(*c));
     return all;
 }
 
 std::optional<ProcessInfo> ProcessSupervisor::process(const std::string &name) const {
     std::optional<ProcessInfo> found;  // the latest of that name (a replacement comes after the original)
     for (const auto &c : children_)
-        if (c->launch.spec.name == name) found = c->info;
+        if (c->launch.spec.name == name) found = infoOf(*c);
     return found;
 }
 

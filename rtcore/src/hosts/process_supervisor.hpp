@@ -1,39 +1,23 @@
 // process_supervisor.hpp -- starts the process modules of a set (periodic, sporadic, non-real),
-// forwards their output, restarts them per policy and stops them; irpd's non-RT side.
+// watches them, restarts them per policy and stops them; irpd's non-RT side.  The concerns live
+// apart: spawning (hosts/process_spawn.hpp), output limits (hosts/process_output.hpp), restart
+// policy (hosts/restart_policy.hpp), and the properties, parsed with module.xml
+// (config/process_properties.hpp).  This class ties them to the control slots.
 //
 // One supervisor per irpd, used from one long-lived thread (irpd's main thread): the children
 // die with the thread that started them (PR_SET_PDEATHSIG), so never call start() or poll()
 // from a thread that ends before irpd does.  The RT dispatcher never calls it; it talks to the
 // processes through their control slots only (<indurop/control.h>).
 //
-//   start(launch)      checks the module's properties and file, resets its slot (STARTING,
-//                      generation + 1, done_seq = release_seq) and spawns it;
+//   start(launch)      checks the module's file, priority, CPU and control slot, resets its slot
+//                      (STARTING, generation + 1, done_seq = release_seq) and spawns it;
 //   waitReady(t)       until every started periodic or sporadic process reached READY;
 //   poll()             every ~20 ms: forwards output lines, reaps exits, restarts when due;
 //   stopAll(grace)     stop_requested + wake, SIGTERM, SIGKILL of the process group after grace.
 //
-// Module properties (module.xml <property><value name=...>):
-//   args              command-line arguments: split on white space, "..." quotes one argument
-//                     (\" and \\ inside quotes);
-//   env.NAME          the environment variable NAME (INDUROP_* are irpd's and refused);
-//   restart           never | always | on-failure (default): when an exit is followed by a new
-//                     start.  A failure is a signal or a non-zero status; status 78 (a process
-//                     built against another shared-variable layout) is never restarted;
-//   restart_delay_ms  the first restart's delay, 1..10000 (default 100); doubled for each
-//                     consecutive failure up to 10 s, back to the first after 10 s of running;
-//   max_restarts      how many restarts at most, a number or "unlimited" (default); 0 = none.
-//
-// The child: argv[0] = the module's absolute path, cwd = its folder, environment = irpd's plus
-// INDUROP_CTL, INDUROP_SLOT, INDUROP_SHM (when the set has variables), INDUROP_MODULE and the
-// env.* properties; stdin /dev/null, stdout and stderr pipes to irpd; no other inherited fd; its
-// own process group; signal mask and dispositions reset; SCHED_FIFO at rt_priority (0:
-// SCHED_OTHER) and pinned to cpu when asked.  It is spawned with clone(CLONE_VM | CLONE_VFORK),
-// as posix_spawn does, so that irpd's locked memory is never copied-on-write and its RT thread
-// never takes a page fault because a child started.
-//
-// Output: each line of stdout or stderr becomes "[name] line" through the sink.  Lines longer
-// than 4 KiB are cut; more than 200 lines or 64 KiB per second from one process are dropped and
-// counted, and one line says how many.  Memory per process is bounded (a partial line each).
+// The child gets INDUROP_CTL, INDUROP_SLOT, INDUROP_SHM (when the set has variables),
+// INDUROP_MODULE and its env.* properties besides irpd's environment; argv[0] is the module's
+// absolute path, its folder the working directory.
 //
 // irpd must not set SIGCHLD to SIG_IGN (exits could not be reaped).  Nothing a child does makes
 // the supervisor throw or crash.
@@ -41,6 +25,7 @@
 
 #include "common/result.hpp"
 #include "config/module_xml.hpp"
+#include "hosts/process_output.hpp"
 #include "osal/shm.hpp"
 
 #include <indurop/control.h>
@@ -58,11 +43,8 @@
 
 namespace irp::hosts {
 
-enum class RestartPolicy { Never, Always, OnFailure };
-const char *toString(RestartPolicy policy);
-
 struct ProcessLaunch {
-    config::ModuleSpec spec;    // path, name, properties, where (for messages)
+    config::ModuleSpec spec;    // path, name, its parsed properties (spec.process), where (for messages)
     uint32_t slot = 0;          // its control slot
     int rt_priority = 0;        // SCHED_FIFO priority, 0 = SCHED_OTHER (non-real modules)
     int cpu = -1;               // pin to this CPU, -1 = no pinning
@@ -87,14 +69,6 @@ struct ProcessInfo {
     std::string last_exit;        // "exited with status 3", "killed by SIGSEGV (Segmentation fault)", ...
 };
 
-// Limits on what a child may send to irpd's log.
-struct OutputLimits {
-    uint32_t lines_per_second = 200;
-    uint32_t bytes_per_second = 64 * 1024;
-    uint32_t max_line_bytes = 4096;
-    uint32_t read_bytes_per_poll = 256 * 1024;  // per stream: bounds irpd's work per poll()
-};
-
 class ProcessSupervisor {
 public:
     // Where forwarded output and the supervisor's own lines go (one line, no newline).
@@ -106,8 +80,9 @@ public:
     ProcessSupervisor(const ProcessSupervisor &) = delete;
     ProcessSupervisor &operator=(const ProcessSupervisor &) = delete;
 
-    // Checks the launch (properties, file, control slot) and spawns the process.  An Error names
-    // the module.xml line, the module and what is wrong; nothing is started then.
+    // Checks the launch (file, priority, CPU, control slot) and spawns the process.  An Error
+    // names the module.xml line, the module and what is wrong; nothing is started then.  Its
+    // properties were checked when module.xml was read (spec.process).
     Status start(const ProcessLaunch &launch);
 
     // Waits until every started periodic and sporadic process is READY (it called
@@ -132,19 +107,14 @@ public:
 
 private:
     struct Child;
-    struct Stream;
     void emit(std::string_view line);
     Status spawn(Child &child);
     void resetSlot(Child &child);
-    void readOutput(Child &child, bool final_drain);
-    void readStream(Child &child, Stream &stream, bool final_drain);
-    void deliver(Child &child, std::string_view line, bool cut);
-    void flushDropReport(Child &child, bool force);
     void handleExit(Child &child, int status);
-    void closeStreams(Child &child);
     void stopWhere(const std::function<bool(const Child &)> &chosen, int64_t grace_ns, bool term_non_real = false);
     indurop_process_slot *slotOf(const Child &child) const;
     Result<osal::SharedMemory *> controlSegment(const std::string &name);
+    ProcessInfo infoOf(const Child &child) const;
 
     Sink sink_;
     OutputLimits limits_;

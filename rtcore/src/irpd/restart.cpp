@@ -2,6 +2,8 @@
 // and main threads share (restart.hpp).
 #include "irpd/restart.hpp"
 
+#include "events/event_log.hpp"
+#include "irpd/say.hpp"
 #include "osal/rt.hpp"
 
 #include <fcntl.h>
@@ -172,6 +174,33 @@ int64_t RestartDesk::expectedDowntimeNs(int64_t stop_estimate_ns) const {
     if (last_restart_.is_object() && last_restart_.value("downtime_ns", int64_t{0}) > 0)
         return last_restart_["downtime_ns"].get<int64_t>();
     return startup_ns_ + stop_estimate_ns;
+}
+
+void reportRestart(const RestartPlan &plan, int64_t first_period_ns, int64_t startup_ns, RestartDesk &desk,
+                   events::EventLog &events) {
+    const int64_t downtime = first_period_ns - plan.last_period_ns;
+    const std::string ms = std::to_string(downtime / 1'000'000) + "." + std::to_string(downtime / 100'000 % 10) + " ms";
+    json last = {{"from_set_id", plan.origin.set_id.empty() ? json(nullptr) : json(plan.origin.set_id)},
+                 {"set_id", plan.target.set_id.empty() ? json(nullptr) : json(plan.target.set_id)},
+                 {"downtime_ns", downtime},
+                 {"requested_ns", plan.requested_ns},
+                 {"fell_back", plan.fallback},
+                 {"error", plan.fallback ? json(plan.error) : json(nullptr)},
+                 {"stop_ns", plan.stop_ns},
+                 {"startup_ns", startup_ns}};
+    desk.started(startup_ns, std::move(last));
+    const std::string target = describeSet(plan.target), origin = describeSet(plan.origin);
+    if (plan.fallback) {
+        const std::string message = "could not start set " + target + " (" + plan.error + "); came back on set " + origin +
+                                    ": downtime " + ms + ", from the last period of set " + origin + " to its first again";
+        events.add("restart_failed", "", message);
+        say(message);
+    } else {
+        const std::string message = "restarted onto set " + target + ": downtime " + ms + ", from the last period of set " +
+                                    origin + " to the first of set " + target;
+        events.add("restart", "", message);
+        say(message);
+    }
 }
 
 } // namespace irp::daemon

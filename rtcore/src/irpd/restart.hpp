@@ -23,6 +23,10 @@
 #include <string>
 #include <vector>
 
+namespace irp::events {
+class EventLog;
+}
+
 namespace irp::daemon {
 
 inline constexpr const char *kRestartVariable = "INDUROP_RESTART";
@@ -66,6 +70,14 @@ Result<std::optional<RestartPlan>> takeRestartPlan();
 // Executes irpd again (same pid) on plan.starting(): `argv` as irpd was started, --config replaced,
 // --layout the starting set's.  Returns only when it failed.
 Error reexec(const std::vector<std::string> &argv, const RestartPlan &plan);
+
+class RestartDesk;
+
+// In the image a restart started, once its first period ran (at first_period_ns): the downtime
+// from the plan's last period, `last_restart` on the desk (with this image's start-up), and a
+// `restart` event -- or `restart_failed` when this image is the fallback.
+void reportRestart(const RestartPlan &plan, int64_t first_period_ns, int64_t startup_ns, RestartDesk &desk,
+                   events::EventLog &events);
 
 // What the control thread and the main thread share about restarts.
 class RestartDesk {

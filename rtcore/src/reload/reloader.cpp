@@ -458,8 +458,8 @@ Status Reloader::realize(Generation &generation, const Generation *running,
             if (!task || old < 0 || !next->members[static_cast<std::size_t>(m.index)].kept) continue;
             const dispatch::Task *before = running->tables->by_module[static_cast<std::size_t>(old)];
             // Carried only on the same executor: another executor's thread still writes it until the swap.
-            if (before && m.executor == running->set.modules[static_cast<std::size_t>(old)].executor) task->predecessor = before;
-            task->clear_fault = !task->disabled && running->disabled.count(m.name) > 0;
+            if (before && m.executor == running->set.modules[static_cast<std::size_t>(old)].executor) task->config.predecessor = before;
+            task->config.clear_fault = !task->config.disabled && running->disabled.count(m.name) > 0;
         }
     // Threads for executors the set adds or changes: started and parked until the swap.
     if (dispatcher_)
@@ -657,7 +657,7 @@ Result<json> Reloader::change(const std::vector<Change> &changes, bool dry_run) 
     for (const Change &change : changes)
         if (change.enabled && *change.enabled)
             if (dispatch::Task *task = (*next)->tables->by_module[static_cast<std::size_t>(running->find(change.module))])
-                task->clear_fault = true;
+                task->config.clear_fault = true;
     auto report = swap(std::move(*next), requested);
     if (!report) return report.error();
     answer["report"] = std::move(*report);
