@@ -7,6 +7,7 @@
 #pragma once
 
 #include "common/result.hpp"
+#include "protocol/limits.hpp"
 
 #include <cstdint>
 #include <filesystem>
@@ -71,7 +72,7 @@ struct SetSpec {
 // Limits on what a module.xml may hold.
 inline constexpr std::size_t kMaxXmlBytes = 4u << 20;
 inline constexpr std::size_t kMaxModules = 1024;
-inline constexpr std::size_t kMaxNameLength = 63;
+inline constexpr auto kMaxNameLength = static_cast<std::size_t>(protocol::kMaxNameLength);  // protocol/control.json
 
 Result<SetSpec> parseModuleXml(const std::filesystem::path &xml_path);
 
