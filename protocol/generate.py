@@ -28,6 +28,10 @@ PYTHON = "agent/indurop_agent/protocol.py"
 TYPESCRIPT = "webui/src/api/protocol.ts"
 DOCS = "docs/control-protocol.md"
 INT64_MAX = 2**63 - 1
+# The JSON Schema keywords an argument may use: those irpd's decoder checks, and the words for people.
+ARGUMENT_KEYWORDS = {"type", "minLength", "maxLength", "minimum", "maximum", "minItems", "maxItems", "items",
+                     "properties", "required", "anyOf", "allOf", "unevaluatedProperties", "additionalProperties",
+                     "description", "default", "$ref"}
 
 
 class SpecError(Exception):
@@ -94,6 +98,11 @@ class Arg:
         self.members: list[Arg] = []
         self.one_of: list[str] = []
         self.item: Arg | None = None
+        self.closed = False  # an object: no members but its own
+        unchecked = set(schema) - ARGUMENT_KEYWORDS
+        if unchecked:
+            raise SpecError(f"{where}: {', '.join(sorted(unchecked))}: no language checks that; the keywords are "
+                            f"{', '.join(sorted(ARGUMENT_KEYWORDS))}")
         kind = schema.get("type")
         if kind == "string":
             self.kind, self.min, self.max = "string", schema.get("minLength"), schema.get("maxLength")
@@ -127,8 +136,8 @@ class Arg:
 
     def object_fields(self, spec: dict, schema: dict, where: str) -> None:
         """Members in order (own, then those of allOf), and the anyOf-of-required rule."""
-        required = set(schema.get("required", []))
         parts = [schema] + [ref(spec, p)[1] for p in schema.get("allOf", [])]
+        required = {name for part in parts for name in part.get("required", [])}
         for part in parts:
             for key, sub in part.get("properties", {}).items():
                 self.members.append(Arg(spec, key, sub, key in required, f"{where}/properties/{key}"))

@@ -68,6 +68,7 @@ def command(raw: dict, name: str) -> dict:
     (lambda s: s["types"]["priority"].__setitem__("maximum", {"$limit": "nope"}),
      "no limit 'nope'"),
     (lambda s: command(s, "load")["errors"].append("exploded"), "'exploded' is not in #/errors"),
+    (lambda s: s["types"]["module"].__setitem__("pattern", "^[a-z]+$"), "pattern: no language checks that"),
     (lambda s: command(s, "load")["arguments"]["required"].append("speed"), "speed not among the properties"),
     (lambda s: s["types"]["change_entry"].pop("unevaluatedProperties"), "takes no other members"),
     (lambda s: s["commands"].append(copy.deepcopy(command(s, "status"))), "a command is described twice"),
