@@ -158,3 +158,47 @@ def test_no_error_code_is_written_out_by_hand():
                 if literal.search(line) and in_code_context and not line.lstrip().startswith(("//", "#")):
                     found.append(f"{rel}:{number}: {line.strip()}")
     assert not found, "error codes written out instead of taken from the generated files:\n" + "\n".join(found)
+
+
+# ---- the agent's models of irpd's answers ------------------------------------------------------
+
+def properties_of(schema: dict) -> tuple[set[str], set[str]]:
+    """(every property, the required ones) of a result shape, through $ref and allOf."""
+    if "$ref" in schema:
+        target = SPEC
+        for part in schema["$ref"].lstrip("#/").split("/"):
+            target = target[part]
+        return properties_of(target)
+    names, required = set(schema.get("properties", {})), set(schema.get("required", []))
+    for part in schema.get("allOf", []):
+        more, more_required = properties_of(part)
+        names |= more
+        required |= more_required
+    return names, required
+
+
+def result_of(name: str) -> dict:
+    return next(c for c in SPEC["commands"] if c["name"] == name)["result"]["schema"]
+
+
+@pytest.mark.parametrize("model, shape, agent_only", [
+    ("Status", result_of("status"), set()),
+    ("Schedule", SPEC["shapes"]["schedule"], set()),
+    ("ScheduleSlot", SPEC["shapes"]["schedule"]["properties"]["slots"]["items"], set()),
+    ("ScheduledModule", SPEC["shapes"]["schedule"]["properties"]["modules"]["items"], set()),
+    ("Figures", SPEC["shapes"]["figures"], set()),
+    ("TimingRecord", SPEC["shapes"]["timing_record"], set()),
+    ("ModuleInfo", SPEC["shapes"]["module_info"], set()),
+    ("Stats", result_of("stats"), set()),
+    ("SwapReport", SPEC["shapes"]["swap_report"], {"mode", "downtime_ns"}),
+    ("VariableChanges", SPEC["shapes"]["variable_changes"], set()),
+])
+def test_the_agents_models_of_irpds_answers_follow_the_spec(model, shape, agent_only):
+    """The agent passes irpd's answers on with these models (OpenAPI, the UI's types): a field they
+    name is one irpd sends, and every field irpd always sends is named."""
+    from indurop_agent.api import models
+
+    fields = set(getattr(models, model).model_fields) - agent_only
+    names, required = properties_of(shape)
+    assert fields <= names, f"models.{model} names {sorted(fields - names)}, which protocol/control.json does not"
+    assert required <= fields, f"models.{model} lacks {sorted(required - fields)}, which irpd always sends"

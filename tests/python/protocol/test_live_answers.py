@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import time
 from pathlib import Path
 
 import pytest
@@ -39,6 +40,14 @@ def irpd(tmp_path_factory):
     instance = f"protocol-test-{os.getpid()}"
     process = start_irpd(tmp / "irpd.sock", FIG1, instance, "--state-dir", str(tmp / "state"))
     client = IrpdClient(str(tmp / "irpd.sock"), timeout_s=30)
+    deadline = time.monotonic() + 60
+    while True:  # the socket opens before the set is dispatched
+        try:
+            client.request("status")
+            break
+        except IrpdRefused:
+            assert time.monotonic() < deadline, "irpd did not dispatch its set"
+            time.sleep(0.05)
     yield client
     client.close()
     stop(process)
@@ -46,10 +55,10 @@ def irpd(tmp_path_factory):
         leftover.unlink()
 
 
-def answer_of(irpd, name: str, **arguments):
-    result = irpd.request(name, timeout=60, **arguments)
-    errors = sorted(result_validator(name).iter_errors(result), key=lambda e: list(e.path))
-    assert not errors, f"{name}: " + "; ".join(f"{'/'.join(map(str, e.path))}: {e.message}" for e in errors[:5])
+def answer_of(irpd, command: str, /, **arguments):
+    result = irpd.request(command, timeout=60, **arguments)
+    errors = sorted(result_validator(command).iter_errors(result), key=lambda e: list(e.path))
+    assert not errors, f"{command}: " + "; ".join(f"{'/'.join(map(str, e.path))}: {e.message}" for e in errors[:5])
     return result
 
 
