@@ -383,7 +383,7 @@ def python(spec: dict) -> str:
             # An optional member's description at the top of its schema (not inside anyOf), for OpenAPI.
             default = f" | None = Field(None, description={py_str(m.description)})" if m.description else " | None = None"
             out.append(f"    {m.name}: {field_type}" + ("" if m.required else default))
-        own_one_of = [n for n in a.one_of if not bases]
+        own_one_of = [alternative["required"][0] for alternative in node.get("anyOf", [])]  # bases check theirs
         if own_one_of:
             listed = ", ".join(own_one_of[:-1]) + " or " + own_one_of[-1] if len(own_one_of) > 1 else own_one_of[0]
             out += ["", '    @model_validator(mode="after")', "    def _at_least_one(self):",
