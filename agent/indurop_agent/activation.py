@@ -21,6 +21,7 @@ import threading
 import time
 from pathlib import Path
 
+from . import protocol
 from .audit import AuditLog
 from .errors import problems
 from .events import AgentEvents
@@ -107,7 +108,7 @@ class Activator:
         try:
             return self.irpd.request("load", config=config, set_id=set_id, timeout=self.swap_timeout_s)
         except IrpdRefused as e:
-            if e.code != "restart_required":
+            if e.code != protocol.RESTART_REQUIRED:
                 raise
             expected = ""
             try:

@@ -13,8 +13,10 @@ import threading
 import time
 from typing import Any
 
-PROTOCOL = "indurop-control"
-PROTOCOL_VERSIONS = (1, 2)  # the versions of irpd this agent can talk to
+from . import protocol
+
+PROTOCOL = protocol.PROTOCOL
+PROTOCOL_VERSIONS = tuple(range(1, protocol.VERSION + 1))  # the versions of irpd this agent can talk to
 
 
 class IrpdUnavailable(Exception):
@@ -115,7 +117,7 @@ class IrpdClient:
                 if answer.get("ok"):
                     return answer.get("result")
                 error = answer.get("error") or {}
-                raise IrpdRefused(error.get("code", "refused"), error.get("message", "irpd refused the request"))
+                raise IrpdRefused(error.get("code", protocol.REFUSED), error.get("message", "irpd refused the request"))
         finally:
             self._lock.release()
         raise IrpdUnavailable(f"irpd is not reachable on {self.path}")

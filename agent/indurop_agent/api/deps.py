@@ -9,6 +9,7 @@ from fastapi import Depends, HTTPException, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.exceptions import HTTPException as AnyHTTPException  # FastAPI's and Starlette's (security.py's)
 
+from .. import protocol
 from ..auth import Identity, allows
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
 
@@ -97,7 +98,7 @@ def ask(client: IrpdClient, cmd: str, *, timeout: float | None = None, **argumen
     except IrpdUnavailable as e:
         raise HTTPException(503, str(e)) from e
     except IrpdRefused as e:
-        raise HTTPException(404 if e.code == "not_found" else 409, str(e)) from e
+        raise HTTPException(404 if e.code == protocol.NOT_FOUND else 409, str(e)) from e
 
 
 @contextmanager

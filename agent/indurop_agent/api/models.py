@@ -9,6 +9,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt
 
+from .. import protocol
+
 
 class Who(BaseModel):
     id: str | None = Field(description="the token's id (first 12 hex digits of its hash); null for the agent itself")
@@ -379,17 +381,16 @@ class Histograms(BaseModel):
     records: list[HistogramRecord]
 
 
-class ModuleChange(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    name: str = Field(min_length=1, max_length=63, description="a module of the running set")
-    period_ns: StrictInt | None = Field(None, gt=0, description="a periodic module's new period (ns)")
-    priority: StrictInt | None = Field(None, ge=0, le=1_000_000, description="lowest value = highest priority")
-    enabled: StrictBool | None = Field(None, description="false: the module stops running; true: it runs again")
+class ModuleChange(protocol.ModuleValues):
+    """One module's new values (irpd's `change` entry, with the module as `name`): the types and
+    ranges are protocol/control.json's; irpd checks the rest (a module named twice, one it lacks)."""
+
+    name: protocol.Module
 
 
 class ModuleChanges(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    changes: list[ModuleChange] = Field(min_length=1, max_length=256)
+    changes: list[ModuleChange] = Field(min_length=1, max_length=protocol.MAX_CHANGES)
     dry_run: bool = Field(False, description="true: check and show the new slot table, change nothing")
 
 

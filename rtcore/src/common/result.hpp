@@ -5,6 +5,8 @@
 // which field, what was expected.  Nothing on the RT path returns or throws errors.
 #pragma once
 
+#include "protocol/limits.hpp"
+
 #include <string>
 #include <utility>
 #include <variant>
@@ -13,9 +15,9 @@ namespace irp {
 
 struct Error {
     std::string message;
-    // The control protocol's error code (docs/control-protocol.md): "refused", or "not_found" when
-    // the request names a module or record that does not exist.
-    std::string code = "refused";
+    // The control protocol's error code (protocol/control.json): refused, or not_found when the
+    // request names a module or record that does not exist, or restart_required.
+    std::string code = protocol::kRefused;
 };
 
 template <class T>

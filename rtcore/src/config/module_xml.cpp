@@ -342,8 +342,13 @@ private:
                                                             std::to_string(m.period_ns));
         }
         if (priority) {
-            int64_t p = integer(priority, m.name, leafText(priority, m.name), 0, " (0 = highest priority)");
-            if (p > 1'000'000) failField(priority, m.name, "priority", "'" + std::to_string(p) + "' is above 1000000");
+            // The range is the control protocol's (protocol/control.json), so that `set_priority` and
+            // `change` accept what module.xml does.
+            const std::string highest = " (" + std::to_string(protocol::kPriorityMin) + " = highest priority)";
+            int64_t p = integer(priority, m.name, leafText(priority, m.name), protocol::kPriorityMin, highest.c_str());
+            if (p > protocol::kPriorityMax)
+                failField(priority, m.name, "priority",
+                          "'" + std::to_string(p) + "' is above " + std::to_string(protocol::kPriorityMax));
             m.priority = static_cast<int>(p);
         } else if (m.operation != OperationType::NonReal) {
             fail(node, "module '" + m.name + "': <priority> is missing; the lowest value is the highest priority");

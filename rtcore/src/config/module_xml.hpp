@@ -8,6 +8,7 @@
 
 #include "common/result.hpp"
 #include "config/process_properties.hpp"
+#include "protocol/limits.hpp"
 
 #include <cstdint>
 #include <filesystem>
@@ -75,7 +76,7 @@ struct SetSpec {
 // Limits on what a module.xml may hold.
 inline constexpr std::size_t kMaxXmlBytes = 4u << 20;
 inline constexpr std::size_t kMaxModules = 1024;
-inline constexpr std::size_t kMaxNameLength = 63;
+inline constexpr auto kMaxNameLength = static_cast<std::size_t>(protocol::kMaxNameLength);  // protocol/control.json
 
 Result<SetSpec> parseModuleXml(const std::filesystem::path &xml_path);
 

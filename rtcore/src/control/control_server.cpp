@@ -64,7 +64,7 @@ std::string answerRequest(const std::string &request, const Handler &handler) {
     json answer;
     json id = nullptr;
     if (nestingDepth(request) > kMaxRequestDepth)
-        return line(failure(id, "bad_request", "the request nests arrays and objects deeper than " +
+        return line(failure(id, protocol::kBadRequest, "the request nests arrays and objects deeper than " +
                                                    std::to_string(kMaxRequestDepth) + " levels"));
     try {
         json parsed = json::parse(request);
@@ -75,9 +75,9 @@ std::string answerRequest(const std::string &request, const Handler &handler) {
         answer = result ? json{{"id", id}, {"ok", true}, {"result", std::move(*result)}}
                         : failure(id, result.error().code, result.error().message);
     } catch (const nlohmann::json::exception &e) {
-        answer = failure(id, "bad_request", std::string("not valid JSON: ") + e.what());
+        answer = failure(id, protocol::kBadRequest, std::string("not valid JSON: ") + e.what());
     } catch (const std::exception &e) {
-        answer = failure(id, "bad_request", e.what());
+        answer = failure(id, protocol::kBadRequest, e.what());
     }
     return line(answer);
 }
@@ -161,7 +161,7 @@ void ControlServer::serve() {
                 int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
                 if (fd < 0) break;
                 if (static_cast<int>(clients.size()) >= kMaxClients) {
-                    std::string busy = line(failure(nullptr, "busy", "too many control clients (at most " +
+                    std::string busy = line(failure(nullptr, protocol::kBusy, "too many control clients (at most " +
                                                                            std::to_string(kMaxClients) + ")"));
                     (void)!send(fd, busy.data(), busy.size(), MSG_NOSIGNAL);
                     close(fd);
@@ -169,7 +169,7 @@ void ControlServer::serve() {
                 }
                 Client c;
                 c.fd = fd;
-                c.out = line({{"protocol", "indurop-control"}, {"version", kProtocolVersion}, {"irpd", INDUROP_VERSION}});
+                c.out = line({{"protocol", protocol::kProtocol}, {"version", kProtocolVersion}, {"irpd", INDUROP_VERSION}});
                 clients.push_back(std::move(c));
             }
         }
@@ -189,7 +189,7 @@ void ControlServer::serve() {
                     c.out += answerRequest(request, handler_);
                 }
                 if (c.in.size() > kMaxRequestBytes) {
-                    c.out += line(failure(nullptr, "too_large", "a request line is at most " +
+                    c.out += line(failure(nullptr, protocol::kTooLarge, "a request line is at most " +
                                                                     std::to_string(kMaxRequestBytes) + " bytes"));
                     c.in.clear();
                     c.closing = true;

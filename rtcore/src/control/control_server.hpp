@@ -6,6 +6,7 @@
 #pragma once
 
 #include "common/result.hpp"
+#include "protocol/limits.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -16,11 +17,12 @@
 
 namespace irp::control {
 
-inline constexpr int kProtocolVersion = 2;
-inline constexpr std::size_t kMaxRequestBytes = 64 * 1024;    // one line
-inline constexpr std::size_t kMaxPendingOutput = 4u << 20;    // per client, then it is dropped
-inline constexpr int kMaxClients = 32;
-inline constexpr int kMaxRequestDepth = 64;                  // arrays and objects inside each other
+// The framing's limits, from protocol/control.json (protocol/limits.hpp).
+inline constexpr int kProtocolVersion = protocol::kVersion;
+inline constexpr auto kMaxRequestBytes = static_cast<std::size_t>(protocol::kMaxRequestBytes);    // one line
+inline constexpr auto kMaxPendingOutput = static_cast<std::size_t>(protocol::kMaxPendingOutput);  // per client, then it is dropped
+inline constexpr auto kMaxClients = static_cast<int>(protocol::kMaxClients);
+inline constexpr auto kMaxRequestDepth = static_cast<int>(protocol::kMaxRequestDepth);  // arrays and objects inside each other
 
 // Answers one request: the command's result, or an Error (the client gets it as {"ok": false}).
 using Handler = std::function<Result<nlohmann::ordered_json>(const std::string &command, const nlohmann::json &request)>;

@@ -4,6 +4,8 @@
 // command reads it.  In memory, the last kCapacity events, numbered from 1.
 #pragma once
 
+#include "protocol/limits.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
@@ -24,7 +26,7 @@ struct Event {
 
 class EventLog {
 public:
-    static constexpr std::size_t kCapacity = 4096;
+    static constexpr auto kCapacity = static_cast<std::size_t>(protocol::kEventLogCapacity);  // protocol/control.json
 
     // Adds an event (also written to irpd's log as one line by the caller if it wants).
     uint64_t add(std::string kind, std::string module, std::string message);

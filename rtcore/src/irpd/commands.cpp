@@ -2,6 +2,7 @@
 #include "irpd/commands.hpp"
 
 #include "osal/clock.hpp"
+#include "protocol/arguments.hpp"
 #include "stats/summary.hpp"
 #include "variables/variable_write.hpp"
 
@@ -16,68 +17,19 @@ namespace {
 
 using json = nlohmann::ordered_json;
 
-// A string argument, or an Error naming it.
-Result<std::string> text(const nlohmann::json &request, const char *name) {
+// The arguments decodeCommand takes, after protocol::checkArguments has checked them.
+std::string textOf(const nlohmann::json &request, const char *name) {
     auto it = request.find(name);
-    if (it == request.end() || !it->is_string() || it->get<std::string>().empty())
-        return Error{std::string("'") + name + "' is required: a non-empty string"};
-    return it->get<std::string>();
+    return it == request.end() ? std::string() : it->get<std::string>();
 }
 
-Result<int64_t> integer(const nlohmann::json &request, const char *name) {
-    auto it = request.find(name);
-    if (it == request.end() || !it->is_number_integer())
-        return Error{std::string("'") + name + "' is required: an integer"};
-    // nlohmann keeps integers above 2^63 - 1 as unsigned; as int64_t they would come out negative.
-    if (it->is_number_unsigned() && it->get<uint64_t>() > static_cast<uint64_t>(std::numeric_limits<int64_t>::max()))
-        return Error{std::string("'") + name + "' is out of range: at most 9223372036854775807"};
-    return it->get<int64_t>();
-}
-
-Result<int> priorityOf(const nlohmann::json &request) {
-    auto priority = integer(request, "priority");
-    if (!priority) return priority.error();
-    if (*priority < -1'000'000 || *priority > 1'000'000) return Error{"'priority' must be within ±1000000"};
-    return static_cast<int>(*priority);
-}
-
-// `change`'s list: [{module, period_ns?, priority?, enabled?}, ...], each with at least one value.
-Result<std::vector<reload::Change>> changesOf(const nlohmann::json &request) {
-    auto list = request.find("changes");
-    if (list == request.end() || !list->is_array() || list->empty())
-        return Error{"'changes' is required: a non-empty list of {module, period_ns?, priority?, enabled?}"};
-    if (list->size() > 1024) return Error{"'changes' holds more than 1024 entries"};
-    std::vector<reload::Change> changes;
-    for (std::size_t i = 0; i < list->size(); ++i) {
-        const nlohmann::json &item = (*list)[i];
-        const std::string at = "changes[" + std::to_string(i) + "]";
-        if (!item.is_object()) return Error{at + " must be an object {module, period_ns?, priority?, enabled?}"};
-        for (const auto &[key, _] : item.items())
-            if (key != "module" && key != "period_ns" && key != "priority" && key != "enabled")
-                return Error{at + ": unknown member '" + key + "'; the members are module, period_ns, priority, enabled"};
-        reload::Change change;
-        auto module = text(item, "module");
-        if (!module) return Error{at + ": " + module.error().message};
-        change.module = *module;
-        if (item.contains("period_ns")) {
-            auto period = integer(item, "period_ns");
-            if (!period) return Error{at + ": " + period.error().message};
-            change.period_ns = *period;
-        }
-        if (item.contains("priority")) {
-            auto priority = priorityOf(item);
-            if (!priority) return Error{at + ": " + priority.error().message};
-            change.priority = *priority;
-        }
-        if (item.contains("enabled")) {
-            if (!item["enabled"].is_boolean()) return Error{at + ": 'enabled' must be true or false"};
-            change.enabled = item["enabled"].get<bool>();
-        }
-        if (!change.period_ns && !change.priority && !change.enabled)
-            return Error{at + " (module '" + change.module + "') changes nothing; give period_ns, priority or enabled"};
-        changes.push_back(std::move(change));
-    }
-    return changes;
+reload::Change changeOf(const nlohmann::json &entry) {
+    reload::Change change;
+    change.module = entry.at("module").get<std::string>();
+    if (entry.contains("period_ns")) change.period_ns = entry["period_ns"].get<int64_t>();
+    if (entry.contains("priority")) change.priority = static_cast<int>(entry["priority"].get<int64_t>());
+    if (entry.contains("enabled")) change.enabled = entry["enabled"].get<bool>();
+    return change;
 }
 
 // status: the last crash irpd recorded, and the modules left out after one (supervise/crash_record.hpp).
@@ -151,81 +103,53 @@ json moduleEntry(const reload::Generation &g, const config::ModuleSpec &m, const
 } // namespace
 
 Result<Command> decodeCommand(const std::string &cmd, const nlohmann::json &request) {
+    auto spec = protocol::findCommand(cmd);
+    if (!spec) return spec.error();
+    if (Status checked = protocol::checkArguments(**spec, request); !checked) return checked.error();
     Command command;
     using Kind = Command::Kind;
-    if (cmd == "status") command.kind = Kind::Status;
-    else if (cmd == "schedule") command.kind = Kind::Schedule;
-    else if (cmd == "modules") command.kind = Kind::Modules;
-    else if (cmd == "stats") command.kind = Kind::Stats;
-    else if (cmd == "histograms") {
-        command.kind = Kind::Histograms;
-        if (request.contains("name")) {
-            auto given = text(request, "name");
-            if (!given) return given.error();
-            command.name = *given;
-        }
-    } else if (cmd == "events") {
-        command.kind = Kind::Events;
-        if (request.contains("since")) {
-            if (!request["since"].is_number_unsigned()) return Error{"'since' must be a non-negative integer"};
-            command.since = request["since"].get<uint64_t>();
-        }
-        if (request.contains("limit")) {
-            if (!request["limit"].is_number_unsigned() || request["limit"].get<uint64_t>() == 0)
-                return Error{"'limit' must be a positive integer"};
-            command.limit = std::min<std::size_t>(request["limit"].get<uint64_t>(), events::EventLog::kCapacity);
-        }
-    } else if (cmd == "check" || cmd == "load" || cmd == "restart") {
-        command.kind = cmd == "check" ? Kind::Check : cmd == "load" ? Kind::Load : Kind::Restart;
-        auto config = text(request, "config");
-        if (!config) return config.error();
-        command.config = *config;
-        if (command.kind != Kind::Check && request.contains("set_id")) {
-            if (!request["set_id"].is_string()) return Error{"'set_id' must be a string"};
-            command.set_id = request["set_id"].get<std::string>();
-        }
-    } else if (cmd == "write") {
-        command.kind = Kind::Write;
-        auto path = text(request, "path");
-        if (!path) return path.error();
-        command.path = *path;
-        if (!request.contains("value")) return Error{"'value' is required: a number or a boolean"};
+    command.kind = (*spec)->cmd;
+    switch (command.kind) {
+    case Kind::Histograms: command.name = textOf(request, "name"); break;
+    case Kind::Events:
+        command.since = request.value("since", uint64_t{0});
+        if (request.contains("limit"))
+            command.limit = static_cast<std::size_t>(
+                std::min<int64_t>(request["limit"].get<int64_t>(), protocol::kEventLogCapacity));
+        break;
+    case Kind::Check:
+    case Kind::Load:
+    case Kind::Restart:
+        command.config = textOf(request, "config");
+        command.set_id = textOf(request, "set_id");
+        break;
+    case Kind::Write:
+        command.path = textOf(request, "path");
         command.value = request["value"];
-    } else if (cmd == "set_period" || cmd == "set_priority" || cmd == "enable" || cmd == "disable") {
-        command.kind = Kind::Change;
-        auto module = text(request, "module");
-        if (!module) return module.error();
+        break;
+    case Kind::SetPeriod:
+    case Kind::SetPriority:
+    case Kind::Enable:
+    case Kind::Disable: {
+        // Only the value the command names: other members of the request are not its arguments.
         reload::Change change;
-        change.module = *module;
-        if (cmd == "set_period") {
-            auto period = integer(request, "period_ns");
-            if (!period) return period.error();
-            change.period_ns = *period;
-        } else if (cmd == "set_priority") {
-            auto priority = priorityOf(request);
-            if (!priority) return priority.error();
-            change.priority = *priority;
-        } else {
-            change.enabled = cmd == "enable";
-        }
+        change.module = textOf(request, "module");
+        if (command.kind == Kind::SetPeriod) change.period_ns = request["period_ns"].get<int64_t>();
+        else if (command.kind == Kind::SetPriority) change.priority = static_cast<int>(request["priority"].get<int64_t>());
+        else change.enabled = command.kind == Kind::Enable;
         command.changes.push_back(std::move(change));
-    } else if (cmd == "change") {
-        command.kind = Kind::Change;
-        auto changes = changesOf(request);
-        if (!changes) return changes.error();
-        command.changes = std::move(*changes);
-        if (request.contains("dry_run")) {
-            if (!request["dry_run"].is_boolean()) return Error{"'dry_run' must be true or false"};
-            command.dry_run = request["dry_run"].get<bool>();
-        }
-    } else if (cmd == "trace") {
-        command.kind = Kind::Trace;
-    } else if (cmd == "clear_crash") {
-        command.kind = Kind::ClearCrash;
-    } else {
-        return Error{"unknown command '" + cmd +
-                     "'; the commands are status, schedule, modules, stats, histograms, events, check, load, change, "
-                     "set_period, set_priority, enable, disable, write, trace, clear_crash, restart"};
+        break;
+    }
+    case Kind::Change:
+        for (const nlohmann::json &entry : request["changes"]) command.changes.push_back(changeOf(entry));
+        command.dry_run = request.value("dry_run", false);
+        break;
+    case Kind::Status:
+    case Kind::Schedule:
+    case Kind::Modules:
+    case Kind::Stats:
+    case Kind::ClearCrash:
+    case Kind::Trace: break;
     }
     return command;
 }
@@ -261,7 +185,7 @@ control::Handler commandHandler(const CommandContext &c) {
         const stats::Header *h = c.stats->header();
         const std::vector<std::size_t> &executors = g->tables->records;  // the dispatchers' records, main first
         auto onMain = [&c](std::function<MainQueue::Answer()> job) {
-            return c.queue->call(std::move(job), std::chrono::milliseconds(60'000));
+            return c.queue->call(std::move(job), std::chrono::milliseconds(protocol::kMainThreadWaitMs));
         };
         switch (command.kind) {
         case Command::Kind::Status: {
@@ -322,7 +246,7 @@ control::Handler commandHandler(const CommandContext &c) {
                 for (std::size_t i : executors) known += (known.empty() ? "" : ", ") + std::string(c.stats->record(i).name);
                 for (const config::ModuleSpec &m : g->set.modules) known += ", " + m.name;
                 return Error{"no dispatcher or module '" + name + "' in the running set (the records: " + known + ")",
-                             "not_found"};
+                             protocol::kNotFound};
             }
             return json{{"cycles", h->cycles.load()}, {"time_ns", osal::monotonicNow()}, {"records", std::move(records)}};
         }
@@ -339,10 +263,13 @@ control::Handler commandHandler(const CommandContext &c) {
             return variables::writeByPath(layouts->of(*c.vars), command.path, command.value);
         case Command::Kind::Load:
             return onMain([r = c.reloader, path = command.config, set_id = command.set_id] { return r->load(path, set_id); });
+        case Command::Kind::SetPeriod:
+        case Command::Kind::SetPriority:
+        case Command::Kind::Enable:
+        case Command::Kind::Disable:
+            // One change that answers its swap report.
+            return onMain([r = c.reloader, change = command.changes.front()] { return r->change(change); });
         case Command::Kind::Change:
-            // set_period, set_priority, enable and disable are one change that answers its swap report.
-            if (cmd != "change")
-                return onMain([r = c.reloader, change = command.changes.front()] { return r->change(change); });
             return onMain([r = c.reloader, changes = command.changes, dry_run = command.dry_run] { return r->change(changes, dry_run); });
         case Command::Kind::Trace: return trace::handleTraceCommand(*c.trace, c.vars, request);
         case Command::Kind::ClearCrash: {

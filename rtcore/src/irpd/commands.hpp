@@ -11,6 +11,7 @@
 #include "irpd/main_queue.hpp"
 #include "irpd/options.hpp"
 #include "irpd/restart.hpp"
+#include "protocol/command_table.hpp"
 #include "reload/reloader.hpp"
 #include "stats/stats_segment.hpp"
 #include "supervise/crash_record.hpp"
@@ -26,22 +27,24 @@ namespace irp::daemon {
 
 // A request's command and arguments, checked (decodeCommand) before anything runs.
 struct Command {
-    enum class Kind { Status, Schedule, Modules, Stats, Histograms, Events, Check, Write, Load, Change, Trace, ClearCrash, Restart };
+    using Kind = protocol::Cmd;         // one per command of protocol/control.json
     Kind kind = Kind::Status;
     std::string name;                   // histograms: one record ("" = all)
     uint64_t since = 0;                 // events
-    std::size_t limit = 500;            // events
+    std::size_t limit = protocol::kEventsDefaultLimit;  // events
     std::string config;                 // check, load, restart: a module.xml path
     std::string set_id;                 // load, restart
     std::string path;                   // write: the variable
     nlohmann::json value;               // write: its new value (checked against the layout when run)
-    std::vector<reload::Change> changes;  // change, set_period, set_priority, enable, disable
+    std::vector<reload::Change> changes;  // change; set_period, set_priority, enable, disable: one
     bool dry_run = false;               // change
 };
 
-// The command `cmd` with the arguments of `request`, or an Error naming the argument to fix.
-// Touches nothing (no generation, no shared memory): tests/fuzz/fuzz_control.cpp runs it on
-// arbitrary requests.  `trace`'s channels are checked when it runs (trace::handleTraceCommand).
+// The command `cmd` with the arguments of `request`, or an Error naming the argument to fix: the
+// arguments are checked against protocol/control.json's description (protocol/arguments.hpp),
+// then taken.  Touches nothing (no generation, no shared memory): tests/fuzz/fuzz_control.cpp
+// runs it on arbitrary requests.  `trace`'s channels are looked up when it runs
+// (trace::handleTraceCommand).
 Result<Command> decodeCommand(const std::string &cmd, const nlohmann::json &request);
 
 struct CommandContext {

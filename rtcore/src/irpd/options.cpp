@@ -1,6 +1,8 @@
 // options.cpp -- getopt_long parsing of irpd's options, with checked numbers.
 #include "irpd/options.hpp"
 
+#include "protocol/limits.hpp"
+
 #include <getopt.h>
 
 #include <charconv>
@@ -82,7 +84,8 @@ Runs the module set described by FILE.xml (the paper's module.xml) on a strict p
   --module-cache DIR       where thread modules are loaded from: copies named after their content's
                            SHA-256, so a hot reload runs a changed file's new code (default
                            /tmp/indurop-<uid>-<instance>-modules, mode 0700)
-  --min-basic-period NS    refuse sets whose basic period is shorter (default 50000)
+  --min-basic-period NS    refuse sets whose basic period is shorter (default )" +
+           std::to_string(protocol::kMinBasicPeriodNs) + R"()
   --cpu N                  CPU of the main dispatcher thread (default: the last one)
   --rt-priority N          SCHED_FIFO priority of the main dispatcher, 1..99 (default 80)
   --no-rt                  do not ask for SCHED_FIFO or lock memory (development only)

@@ -95,13 +95,13 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
         if (!s_.vars)
             return Error{"the set declares shared variables (" + set.layout.string() +
                              ") but irpd runs without a variable segment: a restart onto this set makes one",
-                         kRestartRequired};
+                         protocol::kRestartRequired};
         layouts::Diff d = layouts::diff(s_.vars->layout()->model, layout->model);
         if (!d.online_impossible.empty())
             return Error{"the set's shared-variable layout " + layout->hash.substr(0, 12) + "… (" + set.layout.string() +
                              ") cannot replace the running one online: " + d.online_impossible,
-                         kRestartRequired};
-        if (std::string why = s_.vars->fits(*layout); !why.empty()) return Error{why, kRestartRequired};
+                         protocol::kRestartRequired};
+        if (std::string why = s_.vars->fits(*layout); !why.empty()) return Error{why, protocol::kRestartRequired};
         if (out) {
             out->layout = std::make_shared<const variables::Layout>(std::move(*layout));
             out->variables = std::move(d);
@@ -121,7 +121,7 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
         return Error{"the set has " + std::to_string(processes) + " process modules; this irpd has room for " +
                          std::to_string(s_.control->slotCount()) + " (irpd's --process-slots, by default the larger of "
                          "16 and the first set's): a restart onto this set makes room",
-                     kRestartRequired};
+                     protocol::kRestartRequired};
     return Ok{};
 }
 
@@ -146,11 +146,11 @@ json Reloader::check(const std::filesystem::path &xml) const {
         // The plan of a load, without loading: which modules stay, what the layout changes.
         const auto running = current();
         if (!schedule) {  // still say what else is wrong
-            if (Status st = checkAgainst(*set, running.get()); !st && st.error().code != kRestartRequired)
+            if (Status st = checkAgainst(*set, running.get()); !st && st.error().code != protocol::kRestartRequired)
                 errors.push_back(st.error().message);
         } else if (auto planned = plan(*set, running.get(), running ? running->disabled : std::set<std::string>{}, "");
                    !planned) {
-            if (planned.error().code == kRestartRequired) restart = json{{"reason", planned.error().message}};
+            if (planned.error().code == protocol::kRestartRequired) restart = json{{"reason", planned.error().message}};
             else errors.push_back(planned.error().message);
         } else {
             if ((*planned)->layout) variables = variablesJson(**planned);
@@ -259,7 +259,7 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
                                  running->set.modules[o].name + "' (" + list + ") through pointers it found at its "
                                  "start: replacing or removing '" + running->set.modules[o].name + "' online needs '" +
                                  m.name + "' replaced too; a restart does both",
-                             kRestartRequired};
+                             protocol::kRestartRequired};
             }
         }
 
@@ -284,7 +284,7 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
         detail[m.executor] += (detail[m.executor].empty() ? "" : ", ") + part.str();
     }
     for (const auto &[executor, share] : e.busy)
-        if (share > 1.0) {
+        if (share > protocol::kUtilizationError) {
             std::ostringstream text;
             text.precision(3);
             text << "executor '" << executor << "' would be " << share * 100
@@ -314,7 +314,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
             return Error{"no room for module '" + m.name + "' in irpd's stats block (" +
                          std::to_string(s_.stats->recordCount() - s_.executors) + " module records, irpd's "
                          "--module-records): restart irpd onto this set, or with a larger --module-records",
-                         kRestartRequired};
+                         protocol::kRestartRequired};
         }
         member.record = *free;
         from = *free + 1;
@@ -378,7 +378,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         auto rebound = s_.calls->rebind(spec, runtime::functionExports());
         if (!rebound) {
             undo(*next);
-            return Error{rebound.error().message, kRestartRequired};
+            return Error{rebound.error().message, protocol::kRestartRequired};
         }
         next->calls = std::move(*rebound);
     }
@@ -466,7 +466,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         if (Status st = dispatcher_->prepare(spec, *next->tables); !st) {
             undo(*next);
             return st.error().message.find("--module-records") != std::string::npos
-                       ? Error{st.error().message, kRestartRequired}
+                       ? Error{st.error().message, protocol::kRestartRequired}
                        : st.error();
         }
     return Ok{};
@@ -576,11 +576,11 @@ std::vector<std::string> changeWarnings(const Generation &before, const Generati
                            " on executor '" + m.executor + "': they run in module.xml order");
     }
     for (const auto &[executor, busy] : estimate.busy)
-        if (busy > 0.8) {
+        if (busy > protocol::kUtilizationWarning) {
             std::ostringstream text;
             text.precision(3);
-            text << "executor '" << executor << "' would be " << busy * 100
-                 << " % busy (above 80 %): little room is left for jitter and for the non-real modules";
+            text << "executor '" << executor << "' would be " << busy * 100 << " % busy (above "
+                 << protocol::kUtilizationWarning * 100 << " %): little room is left for jitter and for the non-real modules";
             warnings.push_back(text.str());
         }
     for (const config::ModuleSpec &m : after.set.modules)
@@ -606,7 +606,7 @@ Result<json> Reloader::change(const std::vector<Change> &changes, bool dry_run) 
             std::string known;
             for (const auto &m : set.modules) known += (known.empty() ? "" : ", ") + m.name;
             return Error{"no module '" + change.module + "' in the running set (its modules: " + known + ")",
-                         "not_found"};
+                         protocol::kNotFound};
         }
         if (!seen.insert(change.module).second)
             return Error{"module '" + change.module + "' is changed twice; give each module once, with all its values"};

@@ -27,6 +27,7 @@
 #include "hosts/control_segment.hpp"
 #include "hosts/module_cache.hpp"
 #include "hosts/process_supervisor.hpp"
+#include "protocol/limits.hpp"
 #include "reload/generation.hpp"
 #include "stats/stats_segment.hpp"
 #include "trace/trace_rings.hpp"
@@ -43,10 +44,6 @@
 #include <vector>
 
 namespace irp::reload {
-
-// The Error code of a set that irpd cannot take online but can run after a restart
-// (docs/hot-reload.md, "What needs a restart").
-inline constexpr const char *kRestartRequired = "restart_required";
 
 // What the reloader works with; all owned by the daemon and alive longer than the reloader.
 struct Services {

@@ -8,6 +8,7 @@
 
 #include "common/result.hpp"
 #include "config/module_xml.hpp"
+#include "protocol/limits.hpp"
 
 #include <nlohmann/json_fwd.hpp>
 
@@ -17,9 +18,10 @@
 
 namespace irp::schedule {
 
+// The defaults are the control protocol's (protocol/control.json): the web UI's pre-checks read them too.
 struct Limits {
-    int64_t min_basic_ns = 50'000;  // a set whose GCD is below this is refused
-    std::size_t max_slots = 100'000; // macro / basic above this is refused (non-harmonic periods)
+    int64_t min_basic_ns = protocol::kMinBasicPeriodNs;  // a set whose GCD is below this is refused
+    std::size_t max_slots = static_cast<std::size_t>(protocol::kMaxSlots);  // macro / basic above this is refused (non-harmonic periods)
 };
 
 struct Slot {

@@ -860,11 +860,15 @@ export interface components {
              */
             role: "viewer" | "operator" | "admin";
         };
-        /** ModuleChange */
+        /**
+         * ModuleChange
+         * @description One module's new values (irpd's `change` entry, with the module as `name`): the types and
+         *     ranges are protocol/control.json's; irpd checks the rest (a module named twice, one it lacks).
+         */
         ModuleChange: {
             /**
              * Enabled
-             * @description false: the module stops running; true: it runs again
+             * @description false: the module stops running; true: it runs again (also after a fault disabled it, or a crash left it out)
              */
             enabled?: boolean | null;
             /**
@@ -874,7 +878,7 @@ export interface components {
             name: string;
             /**
              * Period Ns
-             * @description a periodic module's new period (ns)
+             * @description a periodic module's new period (ns), not shorter than its `<budget>` or `<deadline>`
              */
             period_ns?: number | null;
             /**
@@ -962,16 +966,19 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
-        /** ModulePatch */
+        /**
+         * ModulePatch
+         * @description A module's new period, priority or enabled state: at least one.
+         */
         ModulePatch: {
             /**
              * Enabled
-             * @description false: the module stops running; true: it runs again
+             * @description false: the module stops running; true: it runs again (also after a fault disabled it, or a crash left it out)
              */
             enabled?: boolean | null;
             /**
              * Period Ns
-             * @description a periodic module's new period (ns)
+             * @description a periodic module's new period (ns), not shorter than its `<budget>` or `<deadline>`
              */
             period_ns?: number | null;
             /**
@@ -1707,9 +1714,15 @@ export interface components {
              */
             value: boolean | number;
         };
-        /** VariableWrite */
+        /**
+         * VariableWrite
+         * @description The new value: irpd checks it against the variable's type and range (409 with its message).
+         */
         VariableWrite: {
-            /** Value */
+            /**
+             * Value
+             * @description checked against the variable's type and range when written
+             */
             value: boolean | number;
         };
         /** VariableWritten */
@@ -1993,15 +2006,6 @@ export interface operations {
                     "application/json": components["schemas"]["ChangesReport"];
                 };
             };
-            /** @description a module twice, or a change that changes nothing */
-            400: {
-                headers: {
-                    [name: string]: unknown;
-                };
-                content: {
-                    "application/json": components["schemas"]["ErrorBody"];
-                };
-            };
             /** @description a module not in the running set */
             404: {
                 headers: {
@@ -2011,7 +2015,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorBody"];
                 };
             };
-            /** @description irpd refused the changes (its message) */
+            /** @description irpd refused the changes (its message: a module twice, a period below the minimum, ...) */
             409: {
                 headers: {
                     [name: string]: unknown;

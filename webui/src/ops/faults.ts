@@ -8,7 +8,8 @@ export interface FaultSummary {
   text: string;
 }
 
-export function faultSummary(st: Pick<Status, "stopped_by_fault" | "last_crash" | "left_out_after_crash">): FaultSummary {
+/** `st`: the status members it reads; an older irpd may lack them. */
+export function faultSummary(st: Partial<Pick<Status, "stopped_by_fault" | "last_crash" | "left_out_after_crash">>): FaultSummary {
   if (st.stopped_by_fault) return { level: "bad", text: `set stopped: ${st.stopped_by_fault}` };
   const out = st.left_out_after_crash ?? [];
   if (out.length > 0) {

@@ -1,7 +1,17 @@
 // validate.ts -- checks pending module edits on the client, as irpd will: periods against the
 // minimum basic period, the new GCD (basic period) and LCM (macro period), the estimated
-// utilization of each executor, duplicate priorities.  The dry run's answer stays authoritative;
-// this only says early what is wrong, while typing.
+// utilization of each executor, duplicate priorities, the priority range and the change-list
+// size.  The limits are irpd's, generated from protocol/control.json (src/api/protocol.ts).  The
+// dry run's answer stays authoritative; this only says early what is wrong, while typing.
+import {
+  MAX_CHANGES,
+  MAX_SLOTS,
+  MIN_BASIC_PERIOD_NS,
+  PRIORITY_MAX,
+  PRIORITY_MIN,
+  UTILIZATION_ERROR,
+  UTILIZATION_WARNING,
+} from "../api/protocol";
 import type { ModuleChange, ModuleInfo } from "./types";
 import { formatNs, formatPercent, parsePeriod } from "./units";
 
@@ -42,7 +52,7 @@ export interface Check {
 }
 
 export interface Limits {
-  /** irpd refuses a basic period below this (status.min_basic_period_ns; irpd's default 50 µs) */
+  /** irpd refuses a basic period below this (status.min_basic_period_ns; irpd's default MIN_BASIC_PERIOD_NS) */
   minBasicNs: number;
   /** irpd refuses a macro period of more basic periods than this */
   maxSlots: number;
@@ -50,9 +60,12 @@ export interface Limits {
   utilizationWarning: number;
 }
 
-export const DEFAULT_LIMITS: Limits = { minBasicNs: 50_000, maxSlots: 100_000, utilizationError: 1, utilizationWarning: 0.8 };
-
-export const MAX_PRIORITY = 1_000_000;
+export const DEFAULT_LIMITS: Limits = {
+  minBasicNs: MIN_BASIC_PERIOD_NS,
+  maxSlots: MAX_SLOTS,
+  utilizationError: UTILIZATION_ERROR,
+  utilizationWarning: UTILIZATION_WARNING,
+};
 
 export function gcd(a: number, b: number): number {
   a = Math.abs(a);
@@ -70,9 +83,11 @@ export function lcm(a: number, b: number): number {
 
 export function parsePriority(text: string): { ok: true; value: number } | { ok: false; error: string } {
   const t = text.trim();
-  if (!/^\d+$/.test(t)) return { ok: false, error: `priority "${t}" must be a whole number from 0 to ${MAX_PRIORITY} (lowest = first)` };
+  if (!/^-?\d+$/.test(t))
+    return { ok: false, error: `priority "${t}" must be a whole number from ${PRIORITY_MIN} to ${PRIORITY_MAX} (lowest = first)` };
   const value = Number(t);
-  if (value > MAX_PRIORITY) return { ok: false, error: `priority ${t} is above ${MAX_PRIORITY}` };
+  if (value < PRIORITY_MIN) return { ok: false, error: `priority ${t} is below ${PRIORITY_MIN}` };
+  if (value > PRIORITY_MAX) return { ok: false, error: `priority ${t} is above ${PRIORITY_MAX}` };
   return { ok: true, value };
 }
 
@@ -188,10 +203,18 @@ export function checkEdits(modules: ModuleInfo[], edits: Map<string, Edit>, limi
   const load = executorLoads(after, limits);
   for (const l of load) {
     if (l.level === "error")
-      issues.push({ level: "error", message: `executor ${l.executor}: estimated utilization ${formatPercent(l.fraction)} is over 100 %` });
+      issues.push({
+        level: "error",
+        message: `executor ${l.executor}: estimated utilization ${formatPercent(l.fraction)} is over ${formatPercent(limits.utilizationError, 0)}`,
+      });
     else if (l.level === "warning")
-      issues.push({ level: "warning", message: `executor ${l.executor}: estimated utilization ${formatPercent(l.fraction)} is over 80 %` });
+      issues.push({
+        level: "warning",
+        message: `executor ${l.executor}: estimated utilization ${formatPercent(l.fraction)} is over ${formatPercent(limits.utilizationWarning, 0)}`,
+      });
   }
+  if (changes.length > MAX_CHANGES)
+    issues.push({ level: "error", message: `${changes.length} modules changed at once; irpd takes at most ${MAX_CHANGES} in one change` });
 
   for (const w of duplicatePriorities(after)) issues.push(w);
   return { changes, issues, complete, basicNs, macroNs, slots, load };

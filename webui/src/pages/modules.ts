@@ -66,7 +66,7 @@ export const modulesPage: Page = (root, ctx) => {
       error.hidden = true;
       tablePanel.classList.remove("stale");
       table.update(mods);
-      panel?.setMinBasic(status.min_basic_period_ns);
+      panel?.setMinBasic(status.min_basic_period_ns ?? undefined);
       setText(
         info,
         ` — ${mods.length} in ${status.set ?? "?"} · basic period ${formatNs(status.basic_period_ns)} · macro period ${formatNs(status.macro_period_ns)}` +

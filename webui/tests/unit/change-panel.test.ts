@@ -10,7 +10,7 @@ const pct = (p99: number) => ({ count: 1, min: 0, max: p99, mean: 0, p50: p99 / 
 const mod = (name: string, period_ns: number, priority: number): ModuleInfo => ({
   name, executor: "main", kind: "module", period_ns, runs: 10, jitter_ns: pct(0), latency_ns: pct(0), exec_ns: pct(1_000),
   overruns: 0, missed: 0, skipped: 0, errors: 0, state: "running", priority, budget_ns: 0, moduletype: "thread",
-  operationtype: "periodic", deadline_ns: 0, enabled: true,
+  operationtype: "periodic", deadline_ns: 0, enabled: true, file: `lib/${name}.so`, sha256: "", properties: {},
 });
 const sched = (macro: number): Schedule => ({
   basic_period_ns: 100_000,

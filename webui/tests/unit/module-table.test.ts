@@ -25,6 +25,9 @@ const mod = (name: string, over: Partial<ModuleInfo> = {}): ModuleInfo => ({
   operationtype: "periodic",
   deadline_ns: 0,
   enabled: true,
+  file: `lib/${name}.so`,
+  sha256: "",
+  properties: {},
   ...over,
 });
 

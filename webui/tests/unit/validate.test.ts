@@ -1,6 +1,15 @@
 // validate.test.ts -- the client's checks of pending module edits: periods, the new GCD and LCM,
 // estimated utilization per executor, duplicate priorities.
 import { describe, expect, it } from "vitest";
+import {
+  MAX_CHANGES,
+  MAX_SLOTS,
+  MIN_BASIC_PERIOD_NS,
+  PRIORITY_MAX,
+  PRIORITY_MIN,
+  UTILIZATION_ERROR,
+  UTILIZATION_WARNING,
+} from "../../src/api/protocol";
 import type { ModuleInfo } from "../../src/ops/types";
 import { checkEdits, DEFAULT_LIMITS, duplicatePriorities, executorLoads, gcd, lcm, parsePriority, type Edit } from "../../src/ops/validate";
 
@@ -27,6 +36,9 @@ function mod(name: string, over: Partial<ModuleInfo> = {}): ModuleInfo {
     operationtype: "periodic",
     deadline_ns: 0,
     enabled: true,
+    file: `lib/${name}.so`,
+    sha256: "",
+    properties: {},
     ...over,
   };
 }
@@ -190,5 +202,56 @@ describe("duplicate priorities", () => {
 
   it("the paper's set has none (event1 and cntr3 share 1, but one is sporadic)", () => {
     expect(duplicatePriorities(FIG1)).toEqual([]);
+  });
+});
+
+// The limits are irpd's (protocol/control.json, generated into src/api/protocol.ts): each is tried
+// at its edge, on the side irpd accepts and on the side it refuses.
+describe("irpd's limits at their edges", () => {
+  const errors = (c: ReturnType<typeof checkEdits>) => messages(c, "error");
+
+  it("priority: from PRIORITY_MIN to PRIORITY_MAX", () => {
+    expect(parsePriority(String(PRIORITY_MIN))).toEqual({ ok: true, value: PRIORITY_MIN });
+    expect(parsePriority(String(PRIORITY_MAX))).toEqual({ ok: true, value: PRIORITY_MAX });
+    expect(parsePriority(String(PRIORITY_MIN - 1))).toMatchObject({ ok: false, error: `priority ${PRIORITY_MIN - 1} is below ${PRIORITY_MIN}` });
+    expect(parsePriority(String(PRIORITY_MAX + 1))).toMatchObject({ ok: false, error: `priority ${PRIORITY_MAX + 1} is above ${PRIORITY_MAX}` });
+  });
+
+  it("a period of exactly the minimum basic period, and one nanosecond less", () => {
+    const one = [mod("a")];
+    expect(errors(checkEdits(one, edits({ a: { period: `${MIN_BASIC_PERIOD_NS}ns` } })))).toEqual([]);
+    const below = checkEdits(one, edits({ a: { period: `${MIN_BASIC_PERIOD_NS - 1}ns` } }));
+    expect(errors(below).some((m) => /below the minimum basic period/.test(m))).toBe(true);
+  });
+
+  it("a macro period of exactly MAX_SLOTS basic periods, and one more", () => {
+    const two = [mod("a", { period_ns: MIN_BASIC_PERIOD_NS }), mod("b", { period_ns: MIN_BASIC_PERIOD_NS, priority: 2 })];
+    const most = checkEdits(two, edits({ b: { period: `${MIN_BASIC_PERIOD_NS * MAX_SLOTS}ns` } }));
+    expect(most.slots).toBe(MAX_SLOTS);
+    expect(errors(most)).toEqual([]);
+    const over = checkEdits(two, edits({ b: { period: `${MIN_BASIC_PERIOD_NS * (MAX_SLOTS + 1)}ns` } }));
+    expect(over.slots).toBe(MAX_SLOTS + 1);
+    expect(errors(over).some((m) => new RegExp(`at most ${MAX_SLOTS}`).test(m))).toBe(true);
+  });
+
+  it("utilization: a warning above UTILIZATION_WARNING, an error above UTILIZATION_ERROR", () => {
+    const busy = (share: number) => [mod("a", { period_ns: 1_000_000, exec_ns: pct(0, share * 1_000_000) })];
+    expect(executorLoads(busy(UTILIZATION_WARNING))[0].level).toBe(null);
+    expect(executorLoads(busy(UTILIZATION_WARNING + 0.001))[0].level).toBe("warning");
+    expect(executorLoads(busy(UTILIZATION_ERROR))[0].level).toBe("warning");
+    expect(executorLoads(busy(UTILIZATION_ERROR + 0.001))[0].level).toBe("error");
+  });
+
+  it("one change holds at most MAX_CHANGES modules", () => {
+    const many = (n: number) => Array.from({ length: n }, (_, i) => mod(`m${i}`, { operationtype: "sporadic", period_ns: 0, priority: i }));
+    const off = (mods: ModuleInfo[]) => new Map(mods.map((m) => [m.name, { enabled: false } as Edit]));
+    const most = many(MAX_CHANGES);
+    const some = [...most, mod("p")];  // a periodic module keeps a basic period
+    expect(checkEdits(some, off(most)).changes.length).toBe(MAX_CHANGES);
+    expect(errors(checkEdits(some, off(most))).some((m) => /at most/.test(m))).toBe(false);
+    const over = many(MAX_CHANGES + 1);
+    expect(errors(checkEdits([...over, mod("p")], off(over))).some((m) => new RegExp(`at most ${MAX_CHANGES} in one change`).test(m))).toBe(
+      true,
+    );
   });
 });

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter, Query, Request
 
+from ... import protocol
 from ...irpd_client import IrpdRefused, IrpdUnavailable
 from ..deps import IrpdDep, ViewerDep
 from ..models import EventsPage
@@ -16,7 +17,7 @@ router = APIRouter(tags=["events"])
 def events(request: Request, irpd: IrpdDep, _: ViewerDep,
            since: int = Query(0, ge=0, description="irpd's cursor (the `next` of the last page)"),
            agent_since: int = Query(0, ge=0, description="the agent's cursor (the `agent_next` of the last page)"),
-           limit: int = Query(500, ge=1, le=5000, description="at most this many from each source")) -> EventsPage:
+           limit: int = Query(protocol.EVENTS_DEFAULT_LIMIT, ge=1, le=5000, description="at most this many from each source")) -> EventsPage:
     """If irpd does not answer, the page has the agent's events and says why in `irpd`."""
     ours = request.app.state.events.since(agent_since, limit)
     try:

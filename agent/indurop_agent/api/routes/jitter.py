@@ -3,6 +3,7 @@ jitter, wake-up/start latency, execution time as p50/p99/p99.9/max, overruns, mi
 GET /api/v1/jitter/histograms: the histograms behind them, bucket by bucket."""
 from fastapi import APIRouter, Query
 
+from ... import protocol
 from ..deps import IrpdDep, ViewerDep, ask
 from ..models import Histograms, Stats
 
@@ -21,7 +22,7 @@ def _histogram(h: dict) -> dict:
 
 @router.get("/jitter/histograms", responses={404: {"description": "no dispatcher or module of that name"}})
 def histograms(irpd: IrpdDep, _: ViewerDep,
-               name: str | None = Query(None, min_length=1, max_length=63,
+               name: str | None = Query(None, min_length=1, max_length=protocol.MAX_NAME_LENGTH,
                                         description="one dispatcher's or module's name; all when absent")) -> Histograms:
     """The histograms behind GET /jitter (non-empty buckets), of one record by name or of all,
     cumulative since irpd started: difference two answers for the figures of the time between."""

@@ -1,28 +1,22 @@
 """modules.py -- the running set's modules: every one with live figures, one by name, PATCH of a
 module's period, priority or enabled state (each a hot swap in irpd), and POST /modules/changes:
-several modules changed as one hot swap, or only tried (dry run)."""
+several modules changed as one hot swap, or only tried (dry run).  The bodies' types and ranges
+are the control protocol's (protocol/control.json); everything else about a change (a module the
+set lacks, one named twice, a period below the minimum) is irpd's to refuse, and its answer is
+passed on."""
 from __future__ import annotations
 
 from fastapi import APIRouter, HTTPException, Request
-from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, model_validator
 
+from ... import protocol
 from ..deps import IrpdDep, OperatorDep, SwapIrpdDep, ViewerDep, ask, audited
 from ..models import ChangesReport, ErrorBody, ModuleChanges, ModuleInfo, PatchReport
 
 router = APIRouter(tags=["modules"])
 
 
-class ModulePatch(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    period_ns: StrictInt | None = Field(None, gt=0, description="a periodic module's new period (ns)")
-    priority: StrictInt | None = Field(None, ge=0, le=1_000_000, description="lowest value = highest priority")
-    enabled: StrictBool | None = Field(None, description="false: the module stops running; true: it runs again")
-
-    @model_validator(mode="after")
-    def at_least_one(self):
-        if self.period_ns is None and self.priority is None and self.enabled is None:
-            raise ValueError("give at least one of period_ns, priority, enabled")
-        return self
+class ModulePatch(protocol.ModuleValues):
+    """A module's new period, priority or enabled state: at least one."""
 
 
 @router.get("/modules")
@@ -44,7 +38,7 @@ def module(name: str, irpd: IrpdDep, _: ViewerDep) -> ModuleInfo:
 
 @router.patch("/modules/{name}", responses={404: {"description": "no such module in the running set"},
                                             409: {"description": "irpd refused a change (its message)"}})
-def patch_module(name: str, body: ModulePatch, request: Request, irpd: IrpdDep, swap: SwapIrpdDep,
+def patch_module(name: str, body: ModulePatch, request: Request, swap: SwapIrpdDep,
                  who: OperatorDep) -> PatchReport:
     """Applies period_ns, then priority, then enabled, each as one swap; answers the last swap
     report with every report in `reports`.  If a later one is refused, the earlier ones stay
@@ -52,7 +46,6 @@ def patch_module(name: str, body: ModulePatch, request: Request, irpd: IrpdDep, 
     timeout = request.app.state.settings.swap_timeout_s
     changes = body.model_dump(exclude_none=True)
     with audited(request, who, "patch_module", name, changes=changes) as entry:
-        _find(irpd, name)
         steps = []
         if body.period_ns is not None:
             steps.append(("period_ns", "set_period", {"period_ns": body.period_ns}))
@@ -73,25 +66,15 @@ def patch_module(name: str, body: ModulePatch, request: Request, irpd: IrpdDep, 
     return PatchReport(**reports[-1], reports=reports)
 
 
-@router.post("/modules/changes", responses={400: {"model": ErrorBody, "description": "a module twice, or a change "
-                                                                                 "that changes nothing"},
-                                           404: {"model": ErrorBody, "description": "a module not in the running set"},
+@router.post("/modules/changes", responses={404: {"model": ErrorBody, "description": "a module not in the running set"},
                                            409: {"model": ErrorBody, "description": "irpd refused the changes "
-                                                                                 "(its message)"}})
+                                                                                 "(its message: a module twice, a "
+                                                                                 "period below the minimum, ...)"}})
 def change_modules(body: ModuleChanges, request: Request, swap: SwapIrpdDep, who: OperatorDep) -> ChangesReport:
     """Several modules' period, priority or enabled changed in one hot swap (one new generation);
     with dry_run, the same checks and the slot table before and after with the estimated
     utilization, nothing changed.  `before` is the table running when irpd took the request.
     Real runs are audited (change_modules) and an agent event; dry runs are neither."""
-    seen = set()
-    for i, c in enumerate(body.changes):
-        if c.name in seen:
-            raise HTTPException(400, f"changes[{i}]: module {c.name!r} is changed twice; give each module once, "
-                                     "with all its values")
-        seen.add(c.name)
-        if c.period_ns is None and c.priority is None and c.enabled is None:
-            raise HTTPException(400, f"changes[{i}] (module {c.name!r}) changes nothing; "
-                                     "give period_ns, priority or enabled")
     changes = [{"module": c.name, **c.model_dump(exclude_none=True, exclude={"name"})} for c in body.changes]
     timeout = request.app.state.settings.swap_timeout_s
     if body.dry_run:

@@ -2,11 +2,10 @@
 GET /api/v1/variables/{path} (one value, read consistently from shared memory),
 PUT /api/v1/variables/{path} (operator: irpd writes the value, type-checked against the layout) and
 GET /api/v1/layout (the running layout.json, to lay a changed .glb out against: glbc --previous)."""
-import math
-
 from fastapi import APIRouter, HTTPException, Request, Response
-from pydantic import BaseModel, ConfigDict, StrictBool, StrictFloat, StrictInt, field_validator
+from pydantic import BaseModel, ConfigDict
 
+from ... import protocol
 from ...variables import Segment, VariableError
 from ..deps import IrpdDep, OperatorDep, ViewerDep, ask, audited
 from ..models import VariableList, VariableValue, VariableWritten
@@ -58,15 +57,10 @@ def read_variable(path: str, request: Request, irpd: IrpdDep, _: ViewerDep) -> V
 
 
 class VariableWrite(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    value: StrictBool | StrictInt | StrictFloat
+    """The new value: irpd checks it against the variable's type and range (409 with its message)."""
 
-    @field_validator("value")
-    @classmethod
-    def finite(cls, v):
-        if isinstance(v, float) and not math.isfinite(v):
-            raise ValueError("must be a finite number")
-        return v
+    model_config = ConfigDict(extra="forbid")
+    value: protocol.VariableValue
 
 
 @router.put("/variables/{path:path}", responses={409: {"description": "irpd refused: unknown path, wrong type, "
