@@ -468,7 +468,7 @@ def docs(spec: dict, current: str) -> str:
         pattern = re.compile(re.escape(begin(name)) + r"\n(?:.*?\n)?" + re.escape(end(name)), re.S)
         if not pattern.search(text):
             raise SpecError(f"{DOCS} has no block {begin(name)} ... {end(name)}: put the markers where it goes")
-        text = pattern.sub(lambda _: f"{begin(name)}\n{block}\n{end(name)}", text)
+        text = pattern.sub(lambda _, name=name, block=block: f"{begin(name)}\n{block}\n{end(name)}", text)
     return text
 
 

@@ -478,7 +478,7 @@ def parse_module_xml(path: Path) -> ModuleXml:
         try:
             normalized = clean_name(filename, what)
         except UploadError as e:
-            raise e.at(**at(filename_node))
+            raise e.at(**at(filename_node)) from None
         kind = (node.findtext("moduletype") or "").strip()
         modules.append(ModuleRef(name, filename, normalized,
                                  kind if kind in ("thread", "process") else
@@ -493,7 +493,7 @@ def parse_module_xml(path: Path) -> ModuleXml:
         try:
             layout = clean_name(layout, "module.xml: <layout>")
         except UploadError as e:
-            raise e.at(**at(layout_node))
+            raise e.at(**at(layout_node)) from None
     where = at(layout_node) if layout_node is not None else {}
     return ModuleXml(modules, layout, {k: where[k] for k in ("line", "column") if k in where})
 

@@ -114,8 +114,9 @@ def _dump(value: Any, indent: int, in_list: bool) -> str:
     """Pretty JSON with one line per variable, field, leaf and scalar type (an object of plain values
     inside a list or below the second level)."""
     pad = "  " * indent
-    flat = lambda x: not isinstance(x, (dict, list)) or (isinstance(x, list) and all(  # noqa: E731
-        not isinstance(y, (dict, list)) for y in x))
+    def flat(x) -> bool:
+        return not isinstance(x, (dict, list)) or (isinstance(x, list) and all(
+            not isinstance(y, (dict, list)) for y in x))
     if isinstance(value, dict):
         if not value:
             return "{}"

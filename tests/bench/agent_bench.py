@@ -268,7 +268,7 @@ def run_agent_phases(a, work: Path) -> list[dict]:
                 break
             except Exception:  # noqa: BLE001 -- not up yet
                 if time.monotonic() > deadline:
-                    raise RuntimeError("the agent did not start")
+                    raise RuntimeError("the agent did not start") from None
                 time.sleep(0.1)
         token = (data / "admin-token").read_text().strip()
         paths = [v["path"] for v in Client(url, token).variables()["variables"]][:8]

@@ -246,7 +246,8 @@ def process_fault(build: Path, folder: Path, args: str, extra: str = "") -> tupl
     p, c = irpd(build, xml, folder, "irpd")
     try:
         wait_for(lambda: c.events("process_restart"))
-        periods = lambda: re.findall(r"\[p\] period n=(\d+) cycle=(\d+)", p.out.read_text())
+        def periods() -> list[tuple[str, str]]:
+            return re.findall(r"\[p\] period n=(\d+) cycle=(\d+)", p.out.read_text())
         wait_for(lambda: [n for n, _ in periods()].count("1") >= 2)
         out = periods()
         faulty = next(int(cy) for n, cy in out if n == "5")

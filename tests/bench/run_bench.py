@@ -1438,7 +1438,8 @@ def main(argv: list[str]) -> int:
         out.write_text(report)
         log(f"wrote {out}")
     if a.json:
-        strip = lambda d: {k: v for k, v in d.items() if k not in ("_stderr", "_stdout", "_latency_hist", "_hists")}
+        def strip(d: dict) -> dict:
+            return {k: v for k, v in d.items() if k not in ("_stderr", "_stdout", "_latency_hist", "_hists")}
         a.json.write_text(json.dumps({"machine": info, "cyclictest": ct, "irpd_skip": strip(skip),
                                       "irpd_catchup": strip(catch), "irpd_overhead": strip(over),
                                       "relative_sleep": relative, "analysis": res, "shared_vars": shared,

@@ -346,7 +346,7 @@ def test_the_scene_follows_the_joints_while_the_cell_runs(live):
     # communication with the simulated drives): a window in which the cell stopped on an error
     # proves nothing either way and is watched again, after run_cycle's reset; a scene that did
     # not follow a cell that kept running fails at once.
-    for attempt in range(3):
+    for attempt in range(3):  # noqa: B007 -- named in the assertion after the loop
         states = asyncio.run(_watch(live, live.cookie(), 8.0, on_open=live.run_cycle))
         assert states, "no scene from the viewer"
         tool = {tuple(np.round(world(live, s, "tool0"), 6).ravel()) for s in states if set(CHAIN) <= set(s)}
