@@ -18,6 +18,7 @@ packages=(
   rt-tests                                       # cyclictest: the benchmark's reference
   stress-ng                                      # the soak's load on the other CPU (tests/bench/soak.py)
   clang libclang-rt-14-dev llvm                  # the fuzz targets: libFuzzer, ASan + UBSan, llvm-symbolizer, llvm-cov (tests/fuzz/)
+  clang-format                                   # the C++ formatting check (tests/lint.sh, .clang-format)
   util-linux                                     # setpriv, prlimit: the non-RT fallback test
   chromium fonts-dejavu-core                     # the browser tests (Playwright drives Debian's chromium)
   debootstrap curl                               # the .deb's install test in a Debian 12 chroot (tests/package/)
