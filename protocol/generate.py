@@ -11,6 +11,7 @@ its "generated" markers).
 Standard library only.  Argument shapes are the JSON Schema subset irpd's decoder understands
 (string, integer, boolean, number-or-boolean, lists of those or of objects); anything else is
 refused here with the place in the spec, so that no language is left to guess."""
+
 from __future__ import annotations
 
 import argparse
@@ -29,9 +30,25 @@ TYPESCRIPT = "webui/src/api/protocol.ts"
 DOCS = "docs/control-protocol.md"
 INT64_MAX = 2**63 - 1
 # The JSON Schema keywords an argument may use: those irpd's decoder checks, and the words for people.
-ARGUMENT_KEYWORDS = {"type", "minLength", "maxLength", "minimum", "maximum", "minItems", "maxItems", "items",
-                     "properties", "required", "anyOf", "allOf", "unevaluatedProperties", "additionalProperties",
-                     "description", "default", "$ref"}
+ARGUMENT_KEYWORDS = {
+    "type",
+    "minLength",
+    "maxLength",
+    "minimum",
+    "maximum",
+    "minItems",
+    "maxItems",
+    "items",
+    "properties",
+    "required",
+    "anyOf",
+    "allOf",
+    "unevaluatedProperties",
+    "additionalProperties",
+    "description",
+    "default",
+    "$ref",
+}
 
 
 class SpecError(Exception):
@@ -39,6 +56,7 @@ class SpecError(Exception):
 
 
 # ---- reading the spec --------------------------------------------------------------------------
+
 
 def load(path: Path = SPEC) -> dict:
     """The spec with every {"$limit": name} replaced by that limit's value, checked."""
@@ -101,8 +119,10 @@ class Arg:
         self.closed = False  # an object: no members but its own
         unchecked = set(schema) - ARGUMENT_KEYWORDS
         if unchecked:
-            raise SpecError(f"{where}: {', '.join(sorted(unchecked))}: no language checks that; the keywords are "
-                            f"{', '.join(sorted(ARGUMENT_KEYWORDS))}")
+            raise SpecError(
+                f"{where}: {', '.join(sorted(unchecked))}: no language checks that; the keywords are "
+                f"{', '.join(sorted(ARGUMENT_KEYWORDS))}"
+            )
         kind = schema.get("type")
         if kind == "string":
             self.kind, self.min, self.max = "string", schema.get("minLength"), schema.get("maxLength")
@@ -120,16 +140,19 @@ class Arg:
             elif item.kind == "object" and item.closed:
                 self.kind, self.item = "object_list", item
             elif item.kind == "object":
-                raise SpecError(f"{where}/items: an entry of a request's list takes no other members: "
-                                "say \"unevaluatedProperties\": false")
+                raise SpecError(
+                    f"{where}/items: an entry of a request's list takes no other members: "
+                    "say \"unevaluatedProperties\": false"
+                )
             else:
                 raise SpecError(f"{where}/items: a list holds strings or objects")
         elif kind == "object":
             self.kind = "object"
             self.object_fields(spec, schema, where)
         else:
-            raise SpecError(f"{where}: type {kind!r} is none of string, integer, boolean, "
-                            "[number, boolean], array, object")
+            raise SpecError(
+                f"{where}: type {kind!r} is none of string, integer, boolean, [number, boolean], array, object"
+            )
         for bound in (self.min, self.max):
             if bound is not None and not (isinstance(bound, int) and -INT64_MAX - 1 <= bound <= INT64_MAX):
                 raise SpecError(f"{where}: the bound {bound!r} is no 64-bit integer")
@@ -160,7 +183,8 @@ class Arg:
             if self.max is not None:
                 return f"an integer of at most {self.max}"
             return {None: "an integer", 0: "a non-negative integer", 1: "a positive integer"}.get(
-                self.min, f"an integer of at least {self.min}")
+                self.min, f"an integer of at least {self.min}"
+            )
         if self.kind == "boolean":
             return "true or false"
         if self.kind == "scalar":
@@ -168,7 +192,7 @@ class Arg:
         if self.kind == "object":
             return "an object {" + ", ".join(m.name + ("" if m.required else "?") for m in self.members) + "}"
         size = "a non-empty list" if self.min == 1 else "a list"
-        items = "strings" if self.kind == "string_list" else self.item.expected()[len("an object "):]
+        items = "strings" if self.kind == "string_list" else self.item.expected()[len("an object ") :]
         return f"{size} of at most {self.max} {items}" if self.max is not None else f"{size} of {items}"
 
 
@@ -198,6 +222,7 @@ def upper(name: str) -> str:
 
 # ---- C++ (irpd) --------------------------------------------------------------------------------
 
+
 def cpp_string(text: str) -> str:
     return json.dumps(text, ensure_ascii=False)
 
@@ -211,18 +236,32 @@ def cpp_number(value) -> str:
 
 
 def cpp_header(name: str, what: str, includes: tuple[str, ...] = ()) -> list[str]:
-    return [f"// {name} -- {what}",
-            "// Generated by protocol/generate.py from protocol/control.json: do not edit; edit the spec and",
-            f"// run `{COMMAND}`.",
-            "#pragma once", "", *(f'#include "{i}"' for i in includes), *([""] if includes else []),
-            "#include <cstddef>", "#include <cstdint>"]
+    return [
+        f"// {name} -- {what}",
+        "// Generated by protocol/generate.py from protocol/control.json: do not edit; edit the spec and",
+        f"// run `{COMMAND}`.",
+        "#pragma once",
+        "",
+        *(f'#include "{i}"' for i in includes),
+        *([""] if includes else []),
+        "#include <cstddef>",
+        "#include <cstdint>",
+    ]
 
 
 def cpp_limits(spec: dict) -> str:
-    out = cpp_header("limits.hpp", "the control protocol's name, version, limits and error codes (docs/control-protocol.md).")
-    out += ["", "namespace irp::protocol {", "",
-            f"inline constexpr const char *kProtocol = {cpp_string(spec['protocol'])};",
-            f"inline constexpr int kVersion = {spec['version']};", "", "// ---- limits"]
+    out = cpp_header(
+        "limits.hpp", "the control protocol's name, version, limits and error codes (docs/control-protocol.md)."
+    )
+    out += [
+        "",
+        "namespace irp::protocol {",
+        "",
+        f"inline constexpr const char *kProtocol = {cpp_string(spec['protocol'])};",
+        f"inline constexpr int kVersion = {spec['version']};",
+        "",
+        "// ---- limits",
+    ]
     for name, entry in spec["limits"].items():
         value = entry["value"]
         kind = "double" if isinstance(value, float) else "int64_t"
@@ -238,41 +277,68 @@ def cpp_limits(spec: dict) -> str:
 
 def cpp_commands(spec: dict) -> str:
     commands = spec["commands"]
-    out = cpp_header("command_table.hpp", "the control protocol's commands and their arguments, as irpd checks "
-                     "them\n// (protocol/arguments.hpp) before a command runs.", ("protocol/limits.hpp",))
-    out += ["", "namespace irp::protocol {", "",
-            "enum class Cmd { " + ", ".join(camel(c["name"]) for c in commands) + " };",
-            f"inline constexpr std::size_t kCommandCount = {len(commands)};",
-            f"inline constexpr const char *kCommandList = {cpp_string(', '.join(c['name'] for c in commands))};", "",
-            "// How an argument is checked: String (min/max: its length), Integer (min/max: the range), Boolean,",
-            "// Scalar (a number or a boolean), StringList and ObjectList (min/max: the entries).",
-            "enum class ArgType { String, Integer, Boolean, Scalar, StringList, ObjectList };", "",
-            "struct Arg {",
-            "    const char *name;",
-            "    ArgType type;",
-            "    bool required;",
-            "    bool has_min, has_max;",
-            "    int64_t min, max;",
-            "    const char *expected;          // what the value must be, for the messages",
-            "    const Arg *members = nullptr;  // ObjectList: each entry's members; StringList: what an entry is",
-            "    std::size_t member_count = 0;",
-            "    bool one_of = false;           // an entry gives at least one of the members marked so",
-            "};", "",
-            "struct Command {",
-            "    Cmd cmd;",
-            "    const char *name;",
-            "    const Arg *args;  // null when it takes none",
-            "    std::size_t arg_count;",
-            "    bool on_main;     // carried out by irpd's main thread (a change), else by the control thread",
-            "};", ""]
+    out = cpp_header(
+        "command_table.hpp",
+        "the control protocol's commands and their arguments, as irpd checks "
+        "them\n// (protocol/arguments.hpp) before a command runs.",
+        ("protocol/limits.hpp",),
+    )
+    out += [
+        "",
+        "namespace irp::protocol {",
+        "",
+        "enum class Cmd { " + ", ".join(camel(c["name"]) for c in commands) + " };",
+        f"inline constexpr std::size_t kCommandCount = {len(commands)};",
+        f"inline constexpr const char *kCommandList = {cpp_string(', '.join(c['name'] for c in commands))};",
+        "",
+        "// How an argument is checked: String (min/max: its length), Integer (min/max: the range), Boolean,",
+        "// Scalar (a number or a boolean), StringList and ObjectList (min/max: the entries).",
+        "enum class ArgType { String, Integer, Boolean, Scalar, StringList, ObjectList };",
+        "",
+        "struct Arg {",
+        "    const char *name;",
+        "    ArgType type;",
+        "    bool required;",
+        "    bool has_min, has_max;",
+        "    int64_t min, max;",
+        "    const char *expected;          // what the value must be, for the messages",
+        "    const Arg *members = nullptr;  // ObjectList: each entry's members; StringList: what an entry is",
+        "    std::size_t member_count = 0;",
+        "    bool one_of = false;           // an entry gives at least one of the members marked so",
+        "};",
+        "",
+        "struct Command {",
+        "    Cmd cmd;",
+        "    const char *name;",
+        "    const Arg *args;  // null when it takes none",
+        "    std::size_t arg_count;",
+        "    bool on_main;     // carried out by irpd's main thread (a change), else by the control thread",
+        "};",
+        "",
+    ]
 
     def arg_line(a: Arg, members: str | None, count: int, one_of: bool) -> str:
-        kind = {"string": "String", "integer": "Integer", "boolean": "Boolean", "scalar": "Scalar",
-                "string_list": "StringList", "object_list": "ObjectList"}[a.kind]
-        fields = [cpp_string(a.name), f"ArgType::{kind}", str(a.required).lower(),
-                  str(a.min is not None).lower(), str(a.max is not None).lower(),
-                  cpp_number(a.min or 0), cpp_number(a.max or 0), cpp_string(a.expected()),
-                  members or "nullptr", str(count), str(one_of).lower()]
+        kind = {
+            "string": "String",
+            "integer": "Integer",
+            "boolean": "Boolean",
+            "scalar": "Scalar",
+            "string_list": "StringList",
+            "object_list": "ObjectList",
+        }[a.kind]
+        fields = [
+            cpp_string(a.name),
+            f"ArgType::{kind}",
+            str(a.required).lower(),
+            str(a.min is not None).lower(),
+            str(a.max is not None).lower(),
+            cpp_number(a.min or 0),
+            cpp_number(a.max or 0),
+            cpp_string(a.expected()),
+            members or "nullptr",
+            str(count),
+            str(one_of).lower(),
+        ]
         return "    {" + ", ".join(fields) + "},"
 
     tables = []
@@ -300,13 +366,16 @@ def cpp_commands(spec: dict) -> str:
     out.append("inline constexpr Command kCommands[kCommandCount] = {")
     for c, table in tables:
         count = f"sizeof {table} / sizeof {table}[0]" if table else "0"
-        out.append(f"    {{Cmd::{camel(c['name'])}, {cpp_string(c['name'])}, {table or 'nullptr'}, {count}, "
-                   f"{str(c['runs_on'] == 'main').lower()}}},")
+        out.append(
+            f"    {{Cmd::{camel(c['name'])}, {cpp_string(c['name'])}, {table or 'nullptr'}, {count}, "
+            f"{str(c['runs_on'] == 'main').lower()}}},"
+        )
     out += ["};", "", "} // namespace irp::protocol", ""]
     return "\n".join(out)
 
 
 # ---- Python (the agent) ------------------------------------------------------------------------
+
 
 def py_str(text: str) -> str:
     return json.dumps(text, ensure_ascii=False)
@@ -339,17 +408,25 @@ def py_field(a: Arg) -> str:
 
 
 def python(spec: dict) -> str:
-    out = ['"""protocol.py -- irpd\'s control protocol for the agent: its limits, error codes, commands and',
-           "the types of their arguments (the request models of the API are made of them, so OpenAPI and the",
-           "web UI's schema.d.ts follow).  irpd checks every request; these say the same, earlier.",
-           "",
-           "Generated by protocol/generate.py from protocol/control.json: do not edit; edit the spec and run",
-           f'`{COMMAND}`, then `cd webui && npm run gen-api`."""',
-           "from __future__ import annotations", "",
-           "from typing import Annotated", "",
-           "from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictFloat, StrictInt, StrictStr, "
-           "model_validator", "",
-           f"PROTOCOL = {py_str(spec['protocol'])}", f"VERSION = {spec['version']}", "", "# ---- limits"]
+    out = [
+        '"""protocol.py -- irpd\'s control protocol for the agent: its limits, error codes, commands and',
+        "the types of their arguments (the request models of the API are made of them, so OpenAPI and the",
+        "web UI's schema.d.ts follow).  irpd checks every request; these say the same, earlier.",
+        "",
+        "Generated by protocol/generate.py from protocol/control.json: do not edit; edit the spec and run",
+        f'`{COMMAND}`, then `cd webui && npm run gen-api`."""',
+        "from __future__ import annotations",
+        "",
+        "from typing import Annotated",
+        "",
+        "from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictFloat, StrictInt, StrictStr, "
+        "model_validator",
+        "",
+        f"PROTOCOL = {py_str(spec['protocol'])}",
+        f"VERSION = {spec['version']}",
+        "",
+        "# ---- limits",
+    ]
     for name, entry in spec["limits"].items():
         value = entry["value"]
         out.append(f"# {entry['description']}")
@@ -359,9 +436,13 @@ def python(spec: dict) -> str:
         out.append(f"# {e['description']}")
         out.append(f"{upper(e['code'])} = {py_str(e['code'])}")
     out.append("ERROR_CODES = (" + ", ".join(upper(e["code"]) for e in spec["errors"]) + ")")
-    out += ["", "COMMANDS = (" + ", ".join(py_str(c["name"]) for c in spec["commands"]) + ")",
-            "EVENT_KINDS = (" + ", ".join(py_str(k["kind"]) for k in spec["event_kinds"]) + ")", "",
-            "# ---- argument types"]
+    out += [
+        "",
+        "COMMANDS = (" + ", ".join(py_str(c["name"]) for c in spec["commands"]) + ")",
+        "EVENT_KINDS = (" + ", ".join(py_str(k["kind"]) for k in spec["event_kinds"]) + ")",
+        "",
+        "# ---- argument types",
+    ]
     objects = []
     for name, node in spec["types"].items():
         a = Arg(spec, name, {"$ref": f"#/types/{name}"}, True, f"#/types/{name}")
@@ -372,8 +453,13 @@ def python(spec: dict) -> str:
     for name, a, node in objects:
         bases = [ref(spec, p)[0] for p in node.get("allOf", [])]
         base_members = {m.name for b in bases for m in Arg(spec, b, {"$ref": f"#/types/{b}"}, True, "").members}
-        out += ["", "", f"class {camel(name)}({', '.join(camel(b) for b in bases) or 'BaseModel'}):",
-                f'    """{a.description[:1].upper() + a.description[1:]}."""', ""]
+        out += [
+            "",
+            "",
+            f"class {camel(name)}({', '.join(camel(b) for b in bases) or 'BaseModel'}):",
+            f'    """{a.description[:1].upper() + a.description[1:]}."""',
+            "",
+        ]
         if not bases:
             out += ['    model_config = ConfigDict(extra="forbid")']
         for m in a.members:
@@ -381,40 +467,60 @@ def python(spec: dict) -> str:
                 continue
             field_type = camel(m.type_name) if m.type_name else py_field(m)
             # An optional member's description at the top of its schema (not inside anyOf), for OpenAPI.
-            default = f" | None = Field(None, description={py_str(m.description)})" if m.description else " | None = None"
+            default = (
+                f" | None = Field(None, description={py_str(m.description)})" if m.description else " | None = None"
+            )
             out.append(f"    {m.name}: {field_type}" + ("" if m.required else default))
         own_one_of = [alternative["required"][0] for alternative in node.get("anyOf", [])]  # bases check theirs
         if own_one_of:
             listed = ", ".join(own_one_of[:-1]) + " or " + own_one_of[-1] if len(own_one_of) > 1 else own_one_of[0]
-            out += ["", '    @model_validator(mode="after")', "    def _at_least_one(self):",
-                    "        if all(getattr(self, name) is None for name in ("
-                    + ", ".join(py_str(n) for n in own_one_of) + ")):",
-                    f'            raise ValueError("give at least one of {listed}")',
-                    "        return self"]
+            out += [
+                "",
+                '    @model_validator(mode="after")',
+                "    def _at_least_one(self):",
+                "        if all(getattr(self, name) is None for name in ("
+                + ", ".join(py_str(n) for n in own_one_of)
+                + ")):",
+                f'            raise ValueError("give at least one of {listed}")',
+                "        return self",
+            ]
     out.append("")
     return "\n".join(out)
 
 
 # ---- TypeScript (the web UI) -------------------------------------------------------------------
 
+
 def typescript(spec: dict) -> str:
-    out = ["// protocol.ts -- irpd's control protocol for the web UI: the limits its pre-checks read, the error",
-           "// codes and the commands.  Generated by protocol/generate.py from protocol/control.json: do not",
-           f"// edit; edit the spec and run `{COMMAND}`.", ""]
+    out = [
+        "// protocol.ts -- irpd's control protocol for the web UI: the limits its pre-checks read, the error",
+        "// codes and the commands.  Generated by protocol/generate.py from protocol/control.json: do not",
+        f"// edit; edit the spec and run `{COMMAND}`.",
+        "",
+    ]
     for name, entry in spec["limits"].items():
         value = entry["value"]
         out.append(f"/** {entry['description']} */")
-        out.append(f"export const {upper(name)} = {value:_};" if isinstance(value, int)
-                   else f"export const {upper(name)} = {value!r};")
-    out += ["", "/** The codes of an answer's error.code. */",
-            "export const ERROR_CODES = [" + ", ".join(json.dumps(e["code"]) for e in spec["errors"]) + "] as const;",
-            "export type ErrorCode = (typeof ERROR_CODES)[number];", "",
-            "export const COMMANDS = [" + ", ".join(json.dumps(c["name"]) for c in spec["commands"]) + "] as const;",
-            "export type CommandName = (typeof COMMANDS)[number];", ""]
+        out.append(
+            f"export const {upper(name)} = {value:_};"
+            if isinstance(value, int)
+            else f"export const {upper(name)} = {value!r};"
+        )
+    out += [
+        "",
+        "/** The codes of an answer's error.code. */",
+        "export const ERROR_CODES = [" + ", ".join(json.dumps(e["code"]) for e in spec["errors"]) + "] as const;",
+        "export type ErrorCode = (typeof ERROR_CODES)[number];",
+        "",
+        "export const COMMANDS = [" + ", ".join(json.dumps(c["name"]) for c in spec["commands"]) + "] as const;",
+        "export type CommandName = (typeof COMMANDS)[number];",
+        "",
+    ]
     return "\n".join(out)
 
 
 # ---- docs/control-protocol.md ------------------------------------------------------------------
+
 
 def md_cell(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
@@ -430,8 +536,9 @@ def md_arg(a: Arg) -> str:
         state = "optional"
     text = f"`{a.name}` ({what}; {state})"
     if a.kind == "object_list":
-        text += ": " + ", ".join(f"`{m.name}` ({m.expected()}{'' if m.required else ', optional'})"
-                                 for m in a.item.members)
+        text += ": " + ", ".join(
+            f"`{m.name}` ({m.expected()}{'' if m.required else ', optional'})" for m in a.item.members
+        )
         if a.item.one_of:
             text += ", at least one of " + ", ".join(f"`{n}`" for n in a.item.one_of)
     if a.description:
@@ -447,11 +554,16 @@ def docs_blocks(spec: dict) -> dict[str, str]:
         commands.append(f"| `{c['name']}` | {md_cell(args)} | {md_cell(c['result']['description'])} | {errors} |")
     errors = [f"- `{e['code']}`: {e['description']}" for e in spec["errors"]]
     limits = ["| limit | value | |", "| --- | --- | --- |"]
-    limits += [f"| `{name}` | {entry['value']:,} | {md_cell(entry['description'])} |"
-               for name, entry in spec["limits"].items()]
+    limits += [
+        f"| `{name}` | {entry['value']:,} | {md_cell(entry['description'])} |" for name, entry in spec["limits"].items()
+    ]
     kinds = [f"- `{k['kind']}`: {k['description']}" for k in spec["event_kinds"]]
-    return {"errors": "\n".join(errors), "limits": "\n".join(limits), "commands": "\n".join(commands),
-            "event-kinds": "\n".join(kinds)}
+    return {
+        "errors": "\n".join(errors),
+        "limits": "\n".join(limits),
+        "commands": "\n".join(commands),
+        "event-kinds": "\n".join(kinds),
+    }
 
 
 def begin(name: str) -> str:
@@ -474,17 +586,22 @@ def docs(spec: dict, current: str) -> str:
 
 # ---- all of it ---------------------------------------------------------------------------------
 
+
 def outputs(spec: dict, root: Path = ROOT) -> dict[str, str]:
     """Every generated file's path (relative to the repository) and its text as the spec makes it."""
-    return {CPP_LIMITS: cpp_limits(spec), CPP_COMMANDS: cpp_commands(spec), PYTHON: python(spec), TYPESCRIPT: typescript(spec),
-            DOCS: docs(spec, (root / DOCS).read_text())}
+    return {
+        CPP_LIMITS: cpp_limits(spec),
+        CPP_COMMANDS: cpp_commands(spec),
+        PYTHON: python(spec),
+        TYPESCRIPT: typescript(spec),
+        DOCS: docs(spec, (root / DOCS).read_text()),
+    }
 
 
 def stale(root: Path = ROOT) -> list[str]:
     """The generated files that differ from what the spec makes now."""
     wanted = outputs(load(root / "protocol" / "control.json"), root)
-    return [path for path, text in wanted.items()
-            if not (root / path).exists() or (root / path).read_text() != text]
+    return [path for path, text in wanted.items() if not (root / path).exists() or (root / path).read_text() != text]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -34,8 +34,8 @@ fi
 biome="$root/webui/node_modules/.bin/biome"
 [ -x "$biome" ] || bash packaging/npm-ci.sh webui
 if [ $fix -eq 1 ]; then
-  "$biome" check --write --reporter=summary . || status=1
+  "$biome" check --write --colors=off --reporter=summary . || status=1
 else
-  "$biome" ci --reporter=summary . || status=1
+  "$biome" ci --colors=off --reporter=summary . || status=1
 fi
 exit $status

@@ -1,5 +1,6 @@
 """indurop-agent's entry: python -m indurop_agent --host H --port P --data-dir D --irpd-socket PATH
 [--tls-cert CERT.pem --tls-key KEY.pem] [--webui-dir DIR] [--viewer viser|meshcat] [--config agent.json]."""
+
 from __future__ import annotations
 
 import os
@@ -18,25 +19,40 @@ def main(argv: list[str] | None = None) -> int:
     if created:
         print(f"indurop-agent: the admin token is in {created} (mode 0600); keep it safe", flush=True)
     scheme = "https" if settings.tls_cert else "http"
-    print(f"indurop-agent: {scheme}://{settings.host}:{settings.port}/api/v1/docs  (irpd: {settings.irpd_socket}, "
-          f"data: {settings.data_dir})", flush=True)
+    print(
+        f"indurop-agent: {scheme}://{settings.host}:{settings.port}/api/v1/docs  (irpd: {settings.irpd_socket}, "
+        f"data: {settings.data_dir})",
+        flush=True,
+    )
     if app.state.webui_dir is not None:
-        print(f"indurop-agent: the web UI at {scheme}://{settings.host}:{settings.port}/  ({app.state.webui_dir})",
-              flush=True)
+        print(
+            f"indurop-agent: the web UI at {scheme}://{settings.host}:{settings.port}/  ({app.state.webui_dir})",
+            flush=True,
+        )
     else:
         print("indurop-agent: no web UI built (cd webui && npm ci && npm run build)", flush=True)
     snapshots = memtrace.install(settings.data_dir)
     if snapshots is not None:
-        print(f"indurop-agent: tracing memory (PYTHONTRACEMALLOC); kill -USR2 {os.getpid()} writes a snapshot to "
-              f"{snapshots}", flush=True)
+        print(
+            f"indurop-agent: tracing memory (PYTHONTRACEMALLOC); kill -USR2 {os.getpid()} writes a snapshot to "
+            f"{snapshots}",
+            flush=True,
+        )
     max_connections, why = server.connection_cap(settings.max_connections)
     if why:
         print(why, flush=True)
     tls = {"ssl_certfile": str(settings.tls_cert), "ssl_keyfile": str(settings.tls_key)} if settings.tls_cert else {}
-    uvicorn.run(app, host=settings.host, port=settings.port, log_level="warning",
-                http=server.protocol(settings.header_timeout_s, max_connections),
-                ws_max_size=settings.max_body_bytes, proxy_headers=bool(settings.forwarded_allow_ips),
-                forwarded_allow_ips=settings.forwarded_allow_ips or None, **tls)
+    uvicorn.run(
+        app,
+        host=settings.host,
+        port=settings.port,
+        log_level="warning",
+        http=server.protocol(settings.header_timeout_s, max_connections),
+        ws_max_size=settings.max_body_bytes,
+        proxy_headers=bool(settings.forwarded_allow_ips),
+        forwarded_allow_ips=settings.forwarded_allow_ips or None,
+        **tls,
+    )
     return 0
 
 

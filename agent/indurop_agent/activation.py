@@ -15,6 +15,7 @@ never raises: irpd may be absent for as long as it likes.  It does not look whil
 runs (a managed restart makes irpd unreachable for a while and then run a set the store records
 only afterwards), and decides a restore under the activation lock, on a fresh status.
 """
+
 from __future__ import annotations
 
 import threading
@@ -63,8 +64,12 @@ class Activator:
             target = self.store.rollback_target()
             if target is None:
                 current = self.store.active_id()
-                raise StoreError(f"no set was active before {current}; nothing to roll back to" if current else
-                                 "no set has been activated yet; nothing to roll back to", status=409)
+                raise StoreError(
+                    f"no set was active before {current}; nothing to roll back to"
+                    if current
+                    else "no set has been activated yet; nothing to roll back to",
+                    status=409,
+                )
             return target, self._activate_locked(target, who, "rollback", mode)
 
     def restore(self) -> tuple[str | None, str, dict] | None:
@@ -97,11 +102,18 @@ class Activator:
         self.store.record_activation(set_id, action, who, report)
         generation = report.get("generation")
         if mode == "restart":
-            self.events.add(action, f"set {set_id} is active after a restart of irpd (pid {report.get('pid')}, "
-                                    f"downtime {report['downtime_ns'] / 1e6:.1f} ms)", set_id=set_id)
+            self.events.add(
+                action,
+                f"set {set_id} is active after a restart of irpd (pid {report.get('pid')}, "
+                f"downtime {report['downtime_ns'] / 1e6:.1f} ms)",
+                set_id=set_id,
+            )
         else:
-            self.events.add(action, f"set {set_id} is active (generation {generation}, "
-                                    f"missed periods {report.get('missed_periods')})", set_id=set_id)
+            self.events.add(
+                action,
+                f"set {set_id} is active (generation {generation}, missed periods {report.get('missed_periods')})",
+                set_id=set_id,
+            )
         return report
 
     def _load(self, config: str, set_id: str) -> dict:
@@ -117,8 +129,11 @@ class Activator:
                     expected = f", expected downtime about {restart['expected_downtime_ns'] / 1e6:.0f} ms"
             except (IrpdRefused, IrpdUnavailable):
                 pass
-            raise RestartRequired(e.code, f"set {set_id} cannot go online: {e}; activating it with mode restart "
-                                          f"(or auto) restarts irpd onto it{expected}") from e
+            raise RestartRequired(
+                e.code,
+                f"set {set_id} cannot go online: {e}; activating it with mode restart "
+                f"(or auto) restarts irpd onto it{expected}",
+            ) from e
 
     def _restart(self, config: str, set_id: str) -> dict:
         """irpd's managed restart onto the set; waits for the new image (the same pid) to say it ran
@@ -134,22 +149,33 @@ class Activator:
                 status = {}
             last = status.get("last_restart") or {}
             if status and status.get("pid") != pid:
-                raise IrpdUnavailable(f"irpd came back as another process (pid {status.get('pid')}, not {pid}) "
-                                      f"during its restart onto set {set_id}; its set is {status.get('set_id')}")
+                raise IrpdUnavailable(
+                    f"irpd came back as another process (pid {status.get('pid')}, not {pid}) "
+                    f"during its restart onto set {set_id}; its set is {status.get('set_id')}"
+                )
             if last.get("requested_ns") == requested and requested is not None:
                 break
             if time.monotonic() > deadline:
-                raise IrpdUnavailable(f"irpd did not come back from its restart onto set {set_id} within "
-                                      f"{limit:.1f} s")
+                raise IrpdUnavailable(f"irpd did not come back from its restart onto set {set_id} within {limit:.1f} s")
             time.sleep(0.05)
         if last.get("fell_back"):
-            raise RestartFellBack("restart_failed", f"irpd could not start set {set_id} (error {last.get('error')}) "
-                                                    f"and came back on set {status.get('set_id')}")
-        return {"mode": "restart", "set": status.get("set"), "set_id": status.get("set_id"),
-                "generation": status.get("generation"), "pid": pid, "downtime_ns": last.get("downtime_ns"),
-                "missed_periods": None, "basic_period_ns": status.get("basic_period_ns"),
-                "macro_period_ns": status.get("macro_period_ns"),
-                "expected_downtime_ns": asked.get("expected_downtime_ns")}
+            raise RestartFellBack(
+                "restart_failed",
+                f"irpd could not start set {set_id} (error {last.get('error')}) "
+                f"and came back on set {status.get('set_id')}",
+            )
+        return {
+            "mode": "restart",
+            "set": status.get("set"),
+            "set_id": status.get("set_id"),
+            "generation": status.get("generation"),
+            "pid": pid,
+            "downtime_ns": last.get("downtime_ns"),
+            "missed_periods": None,
+            "basic_period_ns": status.get("basic_period_ns"),
+            "macro_period_ns": status.get("macro_period_ns"),
+            "expected_downtime_ns": asked.get("expected_downtime_ns"),
+        }
 
 
 class Restorer(threading.Thread):
@@ -159,8 +185,9 @@ class Restorer(threading.Thread):
     RETRY_FIRST_S = 2.0
     RETRY_MAX_S = 60.0
 
-    def __init__(self, activator: Activator, socket_path: str, events: AgentEvents, audit: AuditLog,
-                 poll_s: float = 1.0):
+    def __init__(
+        self, activator: Activator, socket_path: str, events: AgentEvents, audit: AuditLog, poll_s: float = 1.0
+    ):
         super().__init__(name="irpd-restorer", daemon=True)
         self.activator, self.events, self.audit, self.poll_s = activator, events, audit, poll_s
         self.client = IrpdClient(socket_path, timeout_s=2.0)
@@ -203,8 +230,10 @@ class Restorer(threading.Thread):
             return
         came_back = self.reachable is False or self.irpd_pid is not None
         self.reachable, self.irpd_pid = True, pid
-        self.events.add("irpd_connected", f"irpd (pid {pid}) answers{' again' if came_back else ''}; "
-                                          f"running set {status.get('set_id')}")
+        self.events.add(
+            "irpd_connected",
+            f"irpd (pid {pid}) answers{' again' if came_back else ''}; running set {status.get('set_id')}",
+        )
         self.restore(status)
 
     def restore(self, status: dict) -> None:
@@ -215,8 +244,11 @@ class Restorer(threading.Thread):
         try:
             done = self.activator.restore()
         except (StoreError, IrpdRefused, IrpdUnavailable) as e:
-            self.events.add("restore_failed", f"could not restore set {active}: {e}; trying again in "
-                                              f"{self.retry_s:g} s", set_id=active)
+            self.events.add(
+                "restore_failed",
+                f"could not restore set {active}: {e}; trying again in {self.retry_s:g} s",
+                set_id=active,
+            )
             self.audit.write("restore", who=AGENT, client=None, target=active, result="error", detail=str(e))
             self.retry_at = time.monotonic() + self.retry_s
             self.retry_s = min(2 * self.retry_s, self.RETRY_MAX_S)
@@ -225,16 +257,30 @@ class Restorer(threading.Thread):
         if done is None:  # irpd runs the active set after all (an activation just put it there)
             return
         replaced, active, report = done
-        self.audit.write("restore", who=AGENT, client=None, target=active, result="ok",
-                         generation=(report or {}).get("generation"), replaced=replaced)
+        self.audit.write(
+            "restore",
+            who=AGENT,
+            client=None,
+            target=active,
+            result="ok",
+            generation=(report or {}).get("generation"),
+            replaced=replaced,
+        )
 
 
 def irpd_validation(irpd: IrpdClient, module_xml, timeout_s: float = 30.0) -> dict:
     """irpd's `check` of a stored set, as the manifest's validation report, each error also as a
     problem saying where it points in the set.  irpd unreachable (or too old to check): stored
     unchecked, valid null, and a warning that says so."""
-    unchecked = {"valid": None, "errors": [], "problems": [], "schedule": None, "online": None, "restart": None,
-                 "variables": None}
+    unchecked = {
+        "valid": None,
+        "errors": [],
+        "problems": [],
+        "schedule": None,
+        "online": None,
+        "restart": None,
+        "variables": None,
+    }
     try:
         result = irpd.request("check", config=str(module_xml), timeout=timeout_s) or {}
     except IrpdUnavailable:
@@ -242,7 +288,13 @@ def irpd_validation(irpd: IrpdClient, module_xml, timeout_s: float = 30.0) -> di
     except IrpdRefused as e:
         return {**unchecked, "warnings": [f"not checked: irpd cannot check sets ({e})"]}
     errors = [str(x) for x in result.get("errors") or []]
-    return {"valid": bool(result.get("valid")), "errors": errors,
-            "problems": problems(errors, Path(module_xml).parent),
-            "warnings": [str(x) for x in result.get("warnings") or []], "schedule": result.get("schedule"),
-            "online": result.get("online"), "restart": result.get("restart"), "variables": result.get("variables")}
+    return {
+        "valid": bool(result.get("valid")),
+        "errors": errors,
+        "problems": problems(errors, Path(module_xml).parent),
+        "warnings": [str(x) for x in result.get("warnings") or []],
+        "schedule": result.get("schedule"),
+        "online": result.get("online"),
+        "restart": result.get("restart"),
+        "variables": result.get("variables"),
+    }

@@ -3,11 +3,11 @@ app.state the irpd clients, tokens, the lockout, the set store, the activator, t
 agent's events and the host-load sampler.  While the app runs, a watcher restores the active set
 into a (re)started irpd (activation.py), and the robot view follows the running set's robot
 (viewer/live.py)."""
+
 from __future__ import annotations
 
 import math
 from contextlib import asynccontextmanager
-
 from pathlib import Path
 
 from fastapi import FastAPI, HTTPException, Request
@@ -55,8 +55,10 @@ async def validation_error(_: Request, exc: RequestValidationError) -> JSONRespo
     return JSONResponse(status_code=422, content={"detail": json_safe(jsonable_encoder(exc.errors()))})
 
 
-NO_WEBUI = ("the web UI is not built: cd webui && npm ci && npm run build (or start the agent with "
-            "--webui-dir DIR, a folder holding the built index.html); the API is at /api/v1/docs")
+NO_WEBUI = (
+    "the web UI is not built: cd webui && npm ci && npm run build (or start the agent with "
+    "--webui-dir DIR, a folder holding the built index.html); the API is at /api/v1/docs"
+)
 
 
 class WebUI(StaticFiles):
@@ -102,8 +104,9 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     async def lifespan(app: FastAPI):
         restorer = None
         if restore:
-            restorer = Restorer(app.state.activator, settings.irpd_socket, app.state.events, app.state.audit,
-                                settings.irpd_poll_s)
+            restorer = Restorer(
+                app.state.activator, settings.irpd_socket, app.state.events, app.state.audit, settings.irpd_poll_s
+            )
             restorer.start()
         app.state.restorer = restorer
         app.state.robot.start()
@@ -114,8 +117,14 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
         app.state.irpd.close()
         app.state.irpd_swap.close()
 
-    app = FastAPI(title="indurop agent", version=__version__, openapi_url=f"{API}/openapi.json",
-                  docs_url=f"{API}/docs", redoc_url=None, lifespan=lifespan)
+    app = FastAPI(
+        title="indurop agent",
+        version=__version__,
+        openapi_url=f"{API}/openapi.json",
+        docs_url=f"{API}/docs",
+        redoc_url=None,
+        lifespan=lifespan,
+    )
     state = app.state
     state.settings = settings
     state.tokens = TokenStore(settings.data_dir)
@@ -133,8 +142,9 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     app.add_exception_handler(RequestValidationError, validation_error)
     app.add_exception_handler(LocatedError, located_error)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, exempt=is_upload)
-    app.add_middleware(BodyTimeoutMiddleware, idle_s=settings.body_idle_s, total_s=settings.body_timeout_s,
-                       exempt=is_upload)
+    app.add_middleware(
+        BodyTimeoutMiddleware, idle_s=settings.body_idle_s, total_s=settings.body_timeout_s, exempt=is_upload
+    )
     for module in (health, status, modules, jitter, variables, sets, robot, events, audit, tokens, stream):
         app.include_router(module.router, prefix=API)
     serve_webui(app, state.webui_dir)  # last: the API routes match first

@@ -6,6 +6,7 @@ A line: {"time", "who": {"id", "name", "role"}, "client", "action", "target", "r
 "files": {path: sha256} for an upload}.  Everything a client sent is stored as JSON data, never
 put into a format string or a log line unescaped.
 """
+
 from __future__ import annotations
 
 import json
@@ -16,8 +17,18 @@ from pathlib import Path
 
 from .auth import now_iso
 
-ACTIONS = ("upload", "activate", "rollback", "restore", "patch_module", "write_variable", "robot_joints",
-           "token_create", "token_revoke", "lockout")
+ACTIONS = (
+    "upload",
+    "activate",
+    "rollback",
+    "restore",
+    "patch_module",
+    "write_variable",
+    "robot_joints",
+    "token_create",
+    "token_revoke",
+    "lockout",
+)
 
 
 class AuditLog:
@@ -25,11 +36,19 @@ class AuditLog:
         self.path = path
         self._lock = threading.Lock()
 
-    def write(self, action: str, *, who: dict | None, client: str | None, target: str | None, result: str = "ok",
-              **extra) -> dict:
+    def write(
+        self, action: str, *, who: dict | None, client: str | None, target: str | None, result: str = "ok", **extra
+    ) -> dict:
         """Appends one line and returns it.  `extra` holds JSON-able details (status, detail, hashes)."""
-        entry = {"time": now_iso(), "who": who, "client": client, "action": action, "target": target,
-                 "result": result, **extra}
+        entry = {
+            "time": now_iso(),
+            "who": who,
+            "client": client,
+            "action": action,
+            "target": target,
+            "result": result,
+            **extra,
+        }
         line = (json.dumps(entry, ensure_ascii=True, default=str) + "\n").encode()
         with self._lock:
             fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o600)

@@ -6,6 +6,7 @@ default credentials.  Roles, each including the one before: viewer < operator < 
 A token's id is the first 12 hex digits of its hash: it names the token in the audit log and in
 DELETE /tokens/{id} without revealing it.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -14,7 +15,7 @@ import os
 import secrets
 import threading
 from dataclasses import asdict, dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 ROLES = ("viewer", "operator", "admin")
@@ -27,7 +28,7 @@ def _hash(token: str) -> str:
 
 def now_iso() -> str:
     """The current UTC time as ISO 8601 with microseconds, e.g. 2025-01-31T12:00:00.123456Z."""
-    return datetime.now(timezone.utc).isoformat(timespec="microseconds").replace("+00:00", "Z")
+    return datetime.now(UTC).isoformat(timespec="microseconds").replace("+00:00", "Z")
 
 
 @dataclass(frozen=True)
@@ -88,8 +89,10 @@ class TokenStore:
 
     def list(self) -> list[dict]:
         """Every token as {id, name, role, created}; never the token or its hash."""
-        return [{"id": digest[:ID_LENGTH], "name": e["name"], "role": e["role"], "created": e.get("created")}
-                for digest, e in self._tokens.items()]
+        return [
+            {"id": digest[:ID_LENGTH], "name": e["name"], "role": e["role"], "created": e.get("created")}
+            for digest, e in self._tokens.items()
+        ]
 
     def revoke(self, token_id: str) -> Identity:
         """Removes the token with this id; KeyError if there is none, ValueError for the last admin."""

@@ -4,6 +4,7 @@ variables, the sample stream, events (docs/irpctl.md).
 Human output by default (aligned tables, durations as "100 µs"), the API's JSON with --json.
 Exit codes: 0 done, 1 the API refused (4xx, 409), 2 usage, 3 the agent or irpd unreachable.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -13,13 +14,30 @@ import math
 import os
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
-from .cli_text import (EVENT_HEADERS, Out, audit_text, events_rows, format_value, jitter_text, module_text,
-                       modules_text, parse_duration, parse_value, schedule_text, set_text, sets_text, status_text,
-                       swap_text, table, upload_text)
+from .cli_text import (
+    EVENT_HEADERS,
+    Out,
+    audit_text,
+    events_rows,
+    format_value,
+    jitter_text,
+    module_text,
+    modules_text,
+    parse_duration,
+    parse_value,
+    schedule_text,
+    set_text,
+    sets_text,
+    status_text,
+    swap_text,
+    table,
+    upload_text,
+)
 from .client import ApiError, Client
 
 DEFAULT_URL = "http://127.0.0.1:8080"
@@ -29,15 +47,18 @@ EXIT_OK, EXIT_REFUSED, EXIT_USAGE, EXIT_UNREACHABLE = 0, 1, 2, 3
 # -- the commands: (client, args, out) -> exit code ----------------------------------------------------
 def _show(fetch: Callable[[Client, argparse.Namespace], Any], render: Callable[[Any], str]):
     """A command that asks the API one thing and shows it (as a table, or its JSON with --json)."""
+
     def run(c: Client, a: argparse.Namespace, out: Out) -> int:
         out.show(fetch(c, a), render)
         return EXIT_OK
+
     return run
 
 
 def _variables_text(v: dict) -> str:
     return f"layout {v.get('layout_hash', '-')[:16]}\n\n" + table(
-        ["PATH", "TYPE", "SIZE"], [[x["path"], x.get("type"), x.get("size")] for x in v["variables"]], "llr")
+        ["PATH", "TYPE", "SIZE"], [[x["path"], x.get("type"), x.get("size")] for x in v["variables"]], "llr"
+    )
 
 
 def _upload(c: Client, a) -> dict:
@@ -52,8 +73,10 @@ def cmd_upload(c: Client, a, out: Out) -> int:
         return EXIT_OK
     if (u.get("validation") or {}).get("valid") is False:  # None (not checked): irpd checks it on activation
         out.show(u, upload_text)
-        print(f"irpctl: set {u.get('id')} is not valid, so it was not activated; fix the errors above "
-              f"and upload again", file=sys.stderr)
+        print(
+            f"irpctl: set {u.get('id')} is not valid, so it was not activated; fix the errors above and upload again",
+            file=sys.stderr,
+        )
         return EXIT_REFUSED
     report = c.activate(u["id"], a.mode)
     if out.as_json:
@@ -71,9 +94,13 @@ def cmd_validate(c: Client, a, out: Out) -> int:
     out.show(u, upload_text)
     valid = (u.get("validation") or {}).get("valid")
     if not out.as_json:
-        out.line({True: f"(stored as set {u.get('id')}; `irpctl activate {u.get('id')}` runs it)",
-                  False: "(stored, but irpd would refuse it: fix the errors above)",
-                  None: "(stored, but not checked: is irpd running? upload again to check it)"}[valid])
+        out.line(
+            {
+                True: f"(stored as set {u.get('id')}; `irpctl activate {u.get('id')}` runs it)",
+                False: "(stored, but irpd would refuse it: fix the errors above)",
+                None: "(stored, but not checked: is irpd running? upload again to check it)",
+            }[valid]
+        )
     return {True: EXIT_OK, False: EXIT_REFUSED, None: EXIT_UNREACHABLE}[valid]
 
 
@@ -83,8 +110,10 @@ def cmd_layout(c: Client, a, out: Out) -> int:
         sys.stdout.write(text)
     else:
         Path(a.output).write_text(text, encoding="utf-8")
-        print(f"wrote {a.output} (layout {json.loads(text).get('hash', '?')[:16]}): lay a changed .glb out against it "
-              f"with glbc --previous {a.output}")
+        print(
+            f"wrote {a.output} (layout {json.loads(text).get('hash', '?')[:16]}): lay a changed .glb out against it "
+            f"with glbc --previous {a.output}"
+        )
     return EXIT_OK
 
 
@@ -93,8 +122,11 @@ def cmd_read(c: Client, a, out: Out) -> int:
     if out.as_json:
         out.json(answers[0] if len(answers) == 1 else answers)
     else:
-        out.line(table(["PATH", "VALUE"], [[x["path"], format_value(x["value"])] for x in answers], "lr")
-                 if len(answers) > 1 else f"{answers[0]['path']} = {format_value(answers[0]['value'])}")
+        out.line(
+            table(["PATH", "VALUE"], [[x["path"], format_value(x["value"])] for x in answers], "lr")
+            if len(answers) > 1
+            else f"{answers[0]['path']} = {format_value(answers[0]['value'])}"
+        )
     return EXIT_OK
 
 
@@ -155,8 +187,10 @@ def cmd_trace(c: Client, a, out: Out) -> int:
     if out.as_json and a.csv != "-":
         out.json(summary)
     else:
-        print(f"irpctl: wrote {rows} samples of {len(a.paths)} channels to {where}; the server dropped "
-              f"{stream.dropped}", file=sys.stderr)
+        print(
+            f"irpctl: wrote {rows} samples of {len(a.paths)} channels to {where}; the server dropped {stream.dropped}",
+            file=sys.stderr,
+        )
     return EXIT_OK
 
 
@@ -198,6 +232,7 @@ def _events_of(answer: Any, cursors: tuple[int, int | None]) -> tuple[list[dict]
 def _argument(convert: Callable[[str], Any], what: str | None, minimum: float | None = None, at_least: str = ""):
     """An argparse type: `convert` the text (a ValueError's message, or "'text' is not <what>", is
     the usage error), then check it is at least `minimum` ("'text': <at_least>" otherwise)."""
+
     def parse(text: str):
         try:
             value = convert(text)
@@ -206,6 +241,7 @@ def _argument(convert: Callable[[str], Any], what: str | None, minimum: float | 
         if minimum is not None and not value >= minimum:
             raise argparse.ArgumentTypeError(f"'{text}': {at_least}")
         return value
+
     return parse
 
 
@@ -219,19 +255,29 @@ _seconds = _argument(float, "a number of seconds", math.nextafter(0.0, 1.0), "gi
 
 def _connection_options(parser: argparse.ArgumentParser, top: bool) -> None:
     """The global options, accepted before and after the command (after it they override)."""
+
     def d(value):
         return value if top else argparse.SUPPRESS
 
     g = parser.add_argument_group("connection and output")
-    g.add_argument("--url", default=d(None), metavar="URL",
-                   help=f"the agent, e.g. https://cell7:8443 (default $INDUROP_URL or {DEFAULT_URL})")
+    g.add_argument(
+        "--url",
+        default=d(None),
+        metavar="URL",
+        help=f"the agent, e.g. https://cell7:8443 (default $INDUROP_URL or {DEFAULT_URL})",
+    )
     g.add_argument("--token", default=d(None), help="bearer token (default $INDUROP_TOKEN)")
-    g.add_argument("--token-file", default=d(None), metavar="FILE",
-                   help="read the token from FILE (default $INDUROP_TOKEN_FILE), e.g. <data-dir>/admin-token")
+    g.add_argument(
+        "--token-file",
+        default=d(None),
+        metavar="FILE",
+        help="read the token from FILE (default $INDUROP_TOKEN_FILE), e.g. <data-dir>/admin-token",
+    )
     g.add_argument("--json", action="store_true", default=d(False), help="print the API's JSON")
     g.add_argument("--ca", default=d(None), metavar="FILE", help="CA certificate(s) to check an https agent with")
-    g.add_argument("--insecure", action="store_true", default=d(False),
-                   help="accept any https certificate (testing only)")
+    g.add_argument(
+        "--insecure", action="store_true", default=d(False), help="accept any https certificate (testing only)"
+    )
     g.add_argument("--timeout", type=_seconds, default=d(10.0), metavar="S", help="per request, seconds (default 10)")
 
 
@@ -241,16 +287,33 @@ def arg(*flags: str, **kw) -> tuple[tuple[str, ...], dict]:
     return flags, kw
 
 
-MODE = arg("--mode", choices=("online", "restart", "auto"), default="online",
-           help="online (default): hot reload, refused for a set that needs a restart; restart: irpd restarts "
-                "onto the set (same pid, outputs to safe values, downtime reported); auto: a restart only when needed")
-SOURCES = (arg("sources", nargs="+", metavar="DIR|FILE|ARCHIVE",
-               help="a set folder (holding module.xml), the set's files, or a .tar.gz"),
-           arg("--root", metavar="DIR", help="with FILEs: name them relative to DIR (default: their common folder)"))
+MODE = arg(
+    "--mode",
+    choices=("online", "restart", "auto"),
+    default="online",
+    help="online (default): hot reload, refused for a set that needs a restart; restart: irpd restarts "
+    "onto the set (same pid, outputs to safe values, downtime reported); auto: a restart only when needed",
+)
+SOURCES = (
+    arg(
+        "sources",
+        nargs="+",
+        metavar="DIR|FILE|ARCHIVE",
+        help="a set folder (holding module.xml), the set's files, or a .tar.gz",
+    ),
+    arg("--root", metavar="DIR", help="with FILEs: name them relative to DIR (default: their common folder)"),
+)
 MODULE = arg("module", metavar="MODULE")
-STREAM = (arg("paths", nargs="+", metavar="PATH"),
-          arg("--decimation", type=_positive_int, default=1, metavar="N",
-              help="every N-th basic period (default 1: every sample)"))
+STREAM = (
+    arg("paths", nargs="+", metavar="PATH"),
+    arg(
+        "--decimation",
+        type=_positive_int,
+        default=1,
+        metavar="N",
+        help="every N-th basic period (default 1: every sample)",
+    ),
+)
 
 
 @dataclass(frozen=True)
@@ -263,61 +326,144 @@ class Command:
 
 
 COMMANDS: tuple[Command, ...] = (
-    Command("status", "the running set: periods, uptime, cycles, overruns", _show(lambda c, a: c.status(), status_text)),
+    Command(
+        "status", "the running set: periods, uptime, cycles, overruns", _show(lambda c, a: c.status(), status_text)
+    ),
     Command("modules", "every module with its period, state and timing", _show(lambda c, a: c.modules(), modules_text)),
-    Command("module", "one module in detail", _show(lambda c, a: c.module(a.name), module_text),
-            (arg("name", metavar="MODULE"),)),
-    Command("schedule", "the slot table (basic/macro period, modules per slot)",
-            _show(lambda c, a: c.schedule(), schedule_text)),
-    Command("jitter", "timing of every dispatcher and module (percentiles)", _show(lambda c, a: c.jitter(), jitter_text)),
-    Command("upload", "store a module set: a folder, its files, or a .tar.gz", cmd_upload,
-            (*SOURCES, arg("--activate", action="store_true", help="activate it (hot reload) when valid"), MODE)),
-    Command("validate", "upload a set and show irpd's validation report (exit 1 when not valid)", cmd_validate, SOURCES),
+    Command(
+        "module",
+        "one module in detail",
+        _show(lambda c, a: c.module(a.name), module_text),
+        (arg("name", metavar="MODULE"),),
+    ),
+    Command(
+        "schedule",
+        "the slot table (basic/macro period, modules per slot)",
+        _show(lambda c, a: c.schedule(), schedule_text),
+    ),
+    Command(
+        "jitter", "timing of every dispatcher and module (percentiles)", _show(lambda c, a: c.jitter(), jitter_text)
+    ),
+    Command(
+        "upload",
+        "store a module set: a folder, its files, or a .tar.gz",
+        cmd_upload,
+        (*SOURCES, arg("--activate", action="store_true", help="activate it (hot reload) when valid"), MODE),
+    ),
+    Command(
+        "validate", "upload a set and show irpd's validation report (exit 1 when not valid)", cmd_validate, SOURCES
+    ),
     Command("sets", "the uploaded sets, newest first", _show(lambda c, a: c.sets(), sets_text)),
-    Command("set", "one uploaded set: files and validation", _show(lambda c, a: c.set(a.id), set_text),
-            (arg("id", metavar="ID"),)),
-    Command("activate", "hot-reload (or restart) irpd onto an uploaded set",
-            _show(lambda c, a: c.activate(a.id, a.mode), swap_text), (arg("id", metavar="ID"), MODE)),
-    Command("rollback", "activate the set that was active before the current one",
-            _show(lambda c, a: c.rollback(a.mode), swap_text), (MODE,)),
-    Command("set-period", "change a module's period (hot reload)",
-            _show(lambda c, a: c.patch_module(a.module, period_ns=a.period), swap_text),
-            (MODULE, arg("period", type=_duration_arg, metavar="PERIOD", help="1ms, 100us, 2.5ms, 500000ns or plain ns"))),
-    Command("set-priority", "change a module's priority (lowest value runs first)",
-            _show(lambda c, a: c.patch_module(a.module, priority=a.priority), swap_text),
-            (MODULE, arg("priority", type=_int_arg, metavar="N"))),
-    Command("enable", "enable a module (hot reload)", _show(lambda c, a: c.patch_module(a.module, enabled=True), swap_text),
-            (MODULE,)),
-    Command("disable", "disable a module (hot reload)",
-            _show(lambda c, a: c.patch_module(a.module, enabled=False), swap_text), (MODULE,)),
-    Command("variables", "every shared variable of the running layout", _show(lambda c, a: c.variables(), _variables_text)),
-    Command("layout", "the running layout.json, for glbc --previous", cmd_layout,
-            (arg("-o", "--output", metavar="FILE", help="write it to FILE (default: standard output)"),)),
-    Command("read", "read shared variables", cmd_read,
-            (arg("paths", nargs="+", metavar="PATH", help="e.g. knu.Robot.tick 'joint[1].y'"),)),
-    Command("write", "write a shared variable", cmd_write,
-            (arg("path", metavar="PATH"), arg("value", type=_value_arg, metavar="VALUE", help="a number or true/false"))),
-    Command("watch", "print the samples of variables as they come", cmd_watch, STREAM,
-            (arg("--count", type=_positive_int, metavar="N", help="stop after N samples"),
-             arg("--seconds", type=_seconds, metavar="S", help="stop after S seconds"))),
-    Command("trace", "record the samples of variables to a CSV file", cmd_trace,
-            (*STREAM, arg("--seconds", type=_seconds, required=True, metavar="S", help="how long to record"),
-             arg("--csv", required=True, metavar="FILE", help="where to write (- for stdout)"))),
-    Command("events", "irpd's and the agent's events (swaps, faults, misses, uploads)", cmd_events,
-            (arg("--since", type=_nonneg_int, default=0, metavar="SEQ", help="events from SEQ on"),
-             arg("--limit", type=_positive_int, metavar="N"),
-             arg("--follow", "-f", action="store_true", help="keep printing new events (Ctrl-C stops)"),
-             arg("--interval", type=_seconds, default=1.0, metavar="S", help="with --follow: poll every S s"))),
-    Command("audit", "the audit log (admin)", _show(lambda c, a: c.audit(limit=a.limit), audit_text),
-            (arg("--limit", type=_positive_int, metavar="N"),)),
+    Command(
+        "set",
+        "one uploaded set: files and validation",
+        _show(lambda c, a: c.set(a.id), set_text),
+        (arg("id", metavar="ID"),),
+    ),
+    Command(
+        "activate",
+        "hot-reload (or restart) irpd onto an uploaded set",
+        _show(lambda c, a: c.activate(a.id, a.mode), swap_text),
+        (arg("id", metavar="ID"), MODE),
+    ),
+    Command(
+        "rollback",
+        "activate the set that was active before the current one",
+        _show(lambda c, a: c.rollback(a.mode), swap_text),
+        (MODE,),
+    ),
+    Command(
+        "set-period",
+        "change a module's period (hot reload)",
+        _show(lambda c, a: c.patch_module(a.module, period_ns=a.period), swap_text),
+        (MODULE, arg("period", type=_duration_arg, metavar="PERIOD", help="1ms, 100us, 2.5ms, 500000ns or plain ns")),
+    ),
+    Command(
+        "set-priority",
+        "change a module's priority (lowest value runs first)",
+        _show(lambda c, a: c.patch_module(a.module, priority=a.priority), swap_text),
+        (MODULE, arg("priority", type=_int_arg, metavar="N")),
+    ),
+    Command(
+        "enable",
+        "enable a module (hot reload)",
+        _show(lambda c, a: c.patch_module(a.module, enabled=True), swap_text),
+        (MODULE,),
+    ),
+    Command(
+        "disable",
+        "disable a module (hot reload)",
+        _show(lambda c, a: c.patch_module(a.module, enabled=False), swap_text),
+        (MODULE,),
+    ),
+    Command(
+        "variables", "every shared variable of the running layout", _show(lambda c, a: c.variables(), _variables_text)
+    ),
+    Command(
+        "layout",
+        "the running layout.json, for glbc --previous",
+        cmd_layout,
+        (arg("-o", "--output", metavar="FILE", help="write it to FILE (default: standard output)"),),
+    ),
+    Command(
+        "read",
+        "read shared variables",
+        cmd_read,
+        (arg("paths", nargs="+", metavar="PATH", help="e.g. knu.Robot.tick 'joint[1].y'"),),
+    ),
+    Command(
+        "write",
+        "write a shared variable",
+        cmd_write,
+        (arg("path", metavar="PATH"), arg("value", type=_value_arg, metavar="VALUE", help="a number or true/false")),
+    ),
+    Command(
+        "watch",
+        "print the samples of variables as they come",
+        cmd_watch,
+        STREAM,
+        (
+            arg("--count", type=_positive_int, metavar="N", help="stop after N samples"),
+            arg("--seconds", type=_seconds, metavar="S", help="stop after S seconds"),
+        ),
+    ),
+    Command(
+        "trace",
+        "record the samples of variables to a CSV file",
+        cmd_trace,
+        (
+            *STREAM,
+            arg("--seconds", type=_seconds, required=True, metavar="S", help="how long to record"),
+            arg("--csv", required=True, metavar="FILE", help="where to write (- for stdout)"),
+        ),
+    ),
+    Command(
+        "events",
+        "irpd's and the agent's events (swaps, faults, misses, uploads)",
+        cmd_events,
+        (
+            arg("--since", type=_nonneg_int, default=0, metavar="SEQ", help="events from SEQ on"),
+            arg("--limit", type=_positive_int, metavar="N"),
+            arg("--follow", "-f", action="store_true", help="keep printing new events (Ctrl-C stops)"),
+            arg("--interval", type=_seconds, default=1.0, metavar="S", help="with --follow: poll every S s"),
+        ),
+    ),
+    Command(
+        "audit",
+        "the audit log (admin)",
+        _show(lambda c, a: c.audit(limit=a.limit), audit_text),
+        (arg("--limit", type=_positive_int, metavar="N"),),
+    ),
 )
 
 
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
-        prog="irpctl", description="indurop's command line: the agent's API (/api/v1) from a shell.",
+        prog="irpctl",
+        description="indurop's command line: the agent's API (/api/v1) from a shell.",
         epilog="exit codes: 0 done, 1 the API refused, 2 usage, 3 the agent or irpd unreachable. "
-               "docs/irpctl.md has an example of every command.")
+        "docs/irpctl.md has an example of every command.",
+    )
     _connection_options(ap, top=True)
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for command in COMMANDS:
@@ -342,8 +488,9 @@ def _token(a) -> str | None:
         try:
             token = Path(source).read_text().strip()
         except OSError as e:
-            raise ValueError(f"cannot read the token file {source}: {e.strerror}; "
-                             f"give --token-file FILE or --token") from None
+            raise ValueError(
+                f"cannot read the token file {source}: {e.strerror}; give --token-file FILE or --token"
+            ) from None
         if not token:
             raise ValueError(f"the token file {source} is empty; give --token-file FILE or --token")
         return token
@@ -357,8 +504,10 @@ def _hint(e: ApiError, token: str | None) -> str:
     if e.status == 0:
         return "is indurop-agent running there? --url or $INDUROP_URL say where it is"
     if e.status == 401 and not token:
-        return ("give a token: --token, --token-file FILE, $INDUROP_TOKEN or $INDUROP_TOKEN_FILE "
-                "(the agent's first start wrote an admin token to <data-dir>/admin-token)")
+        return (
+            "give a token: --token, --token-file FILE, $INDUROP_TOKEN or $INDUROP_TOKEN_FILE "
+            "(the agent's first start wrote an admin token to <data-dir>/admin-token)"
+        )
     if e.status == 401:
         return "this agent does not know the token given: check --token / --token-file / $INDUROP_TOKEN*"
     if e.status == 403 and "WebSocket" not in e.message:

@@ -1,13 +1,15 @@
 """cli_text.py -- how irpctl prints: durations ("100 µs"), values, aligned tables, and one renderer
 per API answer (status, modules, schedule, jitter, swap reports, uploads, sets, events, audit).
 Parsing of durations and values typed on the command line is here too."""
+
 from __future__ import annotations
 
 import json
 import re
 import sys
+from collections.abc import Callable, Iterable
 from decimal import Decimal, InvalidOperation
-from typing import Any, Callable, Iterable
+from typing import Any
 
 # -- durations -------------------------------------------------------------------------------------
 _UNITS = {"ns": 1, "us": 1_000, "µs": 1_000, "μs": 1_000, "ms": 1_000_000, "s": 1_000_000_000}
@@ -15,7 +17,7 @@ _DURATION = re.compile(r"\s*(\d+(?:\.\d*)?|\.\d+)\s*(ns|us|µs|μs|ms|s)?\s*")
 
 
 def parse_duration(text: str) -> int:
-    """"1ms", "100us", "2.5ms", "500000ns", "500000" (plain ns) -> whole nanoseconds (> 0)."""
+    """ "1ms", "100us", "2.5ms", "500000ns", "500000" (plain ns) -> whole nanoseconds (> 0)."""
     m = _DURATION.fullmatch(text)
     if not m:
         raise ValueError(f"'{text}' is not a duration: give e.g. 1ms, 100us, 2.5ms, 500000ns or plain ns")
@@ -102,7 +104,7 @@ def table(headers: list[str], rows: Iterable[Iterable[Any]], align: str = "") ->
     widths = [max([len(h)] + [len(r[i]) for r in cells]) for i, h in enumerate(headers)]
 
     def line(row: list[str]) -> str:
-        out = [c.rjust(w) if align[i:i + 1] == "r" else c.ljust(w) for i, (c, w) in enumerate(zip(row, widths))]
+        out = [c.rjust(w) if align[i : i + 1] == "r" else c.ljust(w) for i, (c, w) in enumerate(zip(row, widths))]
         return "  ".join(out).rstrip()
 
     return "\n".join([line(headers)] + [line(r) for r in cells])
@@ -152,32 +154,62 @@ def status_text(s: dict) -> str:
         set_line += f"  ({', '.join(extra)})"
     mode = "real-time (SCHED_FIFO)" if s.get("realtime") else "not real-time (no SCHED_FIFO: timing is best effort)"
     shm = s.get("shared_memory") or {}
-    items = [("set", set_line),
-             ("running", ("yes, " if s.get("running") else "no, ") + mode),
-             ("basic period", _period(s.get("basic_period_ns"))),
-             ("macro period", _period(s.get("macro_period_ns"))),
-             ("uptime", _uptime(s.get("uptime_ns", 0))),
-             ("cycles", s.get("cycles", "-")),
-             ("modules", s.get("modules", "-")),
-             ("overruns", s.get("overruns", "-")),
-             ("missed", f"{s.get('missed', '-')}  "
-                        f"(skipped {s.get('skipped', '-')}, caught up {s.get('caught_up', '-')})"),
-             ("shared memory", ", ".join(f"{v} ({k})" for k, v in shm.items() if v) or "-")]
+    items = [
+        ("set", set_line),
+        ("running", ("yes, " if s.get("running") else "no, ") + mode),
+        ("basic period", _period(s.get("basic_period_ns"))),
+        ("macro period", _period(s.get("macro_period_ns"))),
+        ("uptime", _uptime(s.get("uptime_ns", 0))),
+        ("cycles", s.get("cycles", "-")),
+        ("modules", s.get("modules", "-")),
+        ("overruns", s.get("overruns", "-")),
+        ("missed", f"{s.get('missed', '-')}  (skipped {s.get('skipped', '-')}, caught up {s.get('caught_up', '-')})"),
+        ("shared memory", ", ".join(f"{v} ({k})" for k, v in shm.items() if v) or "-"),
+    ]
     return pairs(items)
 
 
 def modules_text(mods: list[dict]) -> str:
-    return table(["NAME", "TYPE", "OPERATION", "PERIOD", "DEADLINE", "PRIO", "STATE", "RUNS",
-                  "JITTER p99", "EXEC p99", "OVERRUNS", "MISSED"],
-                 [[m.get("name"), m.get("moduletype", "-"), m.get("operationtype", "-"), _period(m.get("period_ns")),
-                   _period(m.get("deadline_ns")), m.get("priority", "-"), m.get("state", "-"), m.get("runs", "-"),
-                   _p(m, "jitter_ns", "p99"), _p(m, "exec_ns", "p99"), m.get("overruns", "-"), m.get("missed", "-")]
-                  for m in mods], "lllrrrlrrrrr")
+    return table(
+        [
+            "NAME",
+            "TYPE",
+            "OPERATION",
+            "PERIOD",
+            "DEADLINE",
+            "PRIO",
+            "STATE",
+            "RUNS",
+            "JITTER p99",
+            "EXEC p99",
+            "OVERRUNS",
+            "MISSED",
+        ],
+        [
+            [
+                m.get("name"),
+                m.get("moduletype", "-"),
+                m.get("operationtype", "-"),
+                _period(m.get("period_ns")),
+                _period(m.get("deadline_ns")),
+                m.get("priority", "-"),
+                m.get("state", "-"),
+                m.get("runs", "-"),
+                _p(m, "jitter_ns", "p99"),
+                _p(m, "exec_ns", "p99"),
+                m.get("overruns", "-"),
+                m.get("missed", "-"),
+            ]
+            for m in mods
+        ],
+        "lllrrrlrrrrr",
+    )
 
 
 def module_text(m: dict) -> str:
-    items = [(k, m[k]) for k in ("name", "moduletype", "operationtype", "executor", "state", "priority", "file")
-             if k in m]
+    items = [
+        (k, m[k]) for k in ("name", "moduletype", "operationtype", "executor", "state", "priority", "file") if k in m
+    ]
     items += [("period", _period(m.get("period_ns"))), ("deadline", _period(m.get("deadline_ns")))]
     items += [(k, m[k]) for k in ("enabled", "runs", "overruns", "missed", "skipped", "errors") if k in m]
     for key, label in (("jitter_ns", "jitter"), ("latency_ns", "latency"), ("exec_ns", "exec")):
@@ -188,29 +220,78 @@ def module_text(m: dict) -> str:
 
 def schedule_text(s: dict) -> str:
     slots = s.get("slots", [])
-    head = (f"basic period {_period(s.get('basic_period_ns'))}, macro period {_period(s.get('macro_period_ns'))}, "
-            f"{len(slots)} slots")
-    slot_table = table(["SLOT", "AT", "MODULES (priority order)"],
-                       [[x.get("index"), _period(x.get("offset_ns")) if x.get("offset_ns") else "0",
-                         " ".join(x.get("modules", []))] for x in slots], "rr")
+    head = (
+        f"basic period {_period(s.get('basic_period_ns'))}, macro period {_period(s.get('macro_period_ns'))}, "
+        f"{len(slots)} slots"
+    )
+    slot_table = table(
+        ["SLOT", "AT", "MODULES (priority order)"],
+        [
+            [x.get("index"), _period(x.get("offset_ns")) if x.get("offset_ns") else "0", " ".join(x.get("modules", []))]
+            for x in slots
+        ],
+        "rr",
+    )
     parts = [head, "", slot_table]
     if s.get("modules"):
-        parts += ["", table(["MODULE", "TYPE", "OPERATION", "PERIOD", "DEADLINE", "PRIO", "EXECUTOR"],
-                            [[m.get("name"), m.get("moduletype"), m.get("operationtype"), _period(m.get("period_ns")),
-                              _period(m.get("deadline_ns")), m.get("priority"), m.get("executor", "-")]
-                             for m in s["modules"]], "lllrrrl")]
+        parts += [
+            "",
+            table(
+                ["MODULE", "TYPE", "OPERATION", "PERIOD", "DEADLINE", "PRIO", "EXECUTOR"],
+                [
+                    [
+                        m.get("name"),
+                        m.get("moduletype"),
+                        m.get("operationtype"),
+                        _period(m.get("period_ns")),
+                        _period(m.get("deadline_ns")),
+                        m.get("priority"),
+                        m.get("executor", "-"),
+                    ]
+                    for m in s["modules"]
+                ],
+                "lllrrrl",
+            ),
+        ]
     return "\n".join(parts)
 
 
 def jitter_text(j: dict) -> str:
     records = [*j.get("executors", []), *j.get("modules", [])]
-    rows = [[r.get("name"), r.get("kind", "-"), _period(r.get("period_ns")), r.get("runs", "-"),
-             *(_p(r, "jitter_ns", pct) for pct in ("p50", "p99", "p999", "max")),
-             _p(r, "latency_ns", "p99"), _p(r, "exec_ns", "p99"), _p(r, "exec_ns", "max"),
-             r.get("overruns", "-"), r.get("missed", "-")] for r in records]
-    return (f"cycles {j.get('cycles', '-')}; jitter per Eq. (1), latency = wake-up to start\n\n" +
-            table(["NAME", "KIND", "PERIOD", "RUNS", "JITTER p50", "p99", "p99.9", "max", "LATENCY p99",
-                   "EXEC p99", "EXEC max", "OVERRUNS", "MISSED"], rows, "llrrrrrrrrrrr"))
+    rows = [
+        [
+            r.get("name"),
+            r.get("kind", "-"),
+            _period(r.get("period_ns")),
+            r.get("runs", "-"),
+            *(_p(r, "jitter_ns", pct) for pct in ("p50", "p99", "p999", "max")),
+            _p(r, "latency_ns", "p99"),
+            _p(r, "exec_ns", "p99"),
+            _p(r, "exec_ns", "max"),
+            r.get("overruns", "-"),
+            r.get("missed", "-"),
+        ]
+        for r in records
+    ]
+    return f"cycles {j.get('cycles', '-')}; jitter per Eq. (1), latency = wake-up to start\n\n" + table(
+        [
+            "NAME",
+            "KIND",
+            "PERIOD",
+            "RUNS",
+            "JITTER p50",
+            "p99",
+            "p99.9",
+            "max",
+            "LATENCY p99",
+            "EXEC p99",
+            "EXEC max",
+            "OVERRUNS",
+            "MISSED",
+        ],
+        rows,
+        "llrrrrrrrrrrr",
+    )
 
 
 def swap_text(r: dict) -> str:
@@ -221,20 +302,30 @@ def swap_text(r: dict) -> str:
         if rep.get("set_id"):
             name += f" (set {rep['set_id']})"
         if rep.get("mode") == "restart":
-            blocks.append(pairs([
-                ("restarted onto", f"{name}, same pid {rep.get('pid', '-')}"),
-                ("downtime", format_duration(rep.get("downtime_ns"))),
-                ("expected", format_duration(rep.get("expected_downtime_ns")))]))
+            blocks.append(
+                pairs(
+                    [
+                        ("restarted onto", f"{name}, same pid {rep.get('pid', '-')}"),
+                        ("downtime", format_duration(rep.get("downtime_ns"))),
+                        ("expected", format_duration(rep.get("expected_downtime_ns"))),
+                    ]
+                )
+            )
             continue
-        blocks.append(pairs([
-            ("swapped to", f"{name}, generation {rep.get('generation', '-')}"),
-            ("at cycle", rep.get("swap_cycle", "-")),
-            ("kept", _names(rep.get("kept"))),
-            ("started", _names(rep.get("started"))),
-            ("stopped", _names(rep.get("stopped"))),
-            ("missed periods", rep.get("missed_periods", "-")),
-            ("request to swap", format_duration(rep.get("request_to_swap_ns"))),
-            ("total", format_duration(rep.get("total_ns")))]))
+        blocks.append(
+            pairs(
+                [
+                    ("swapped to", f"{name}, generation {rep.get('generation', '-')}"),
+                    ("at cycle", rep.get("swap_cycle", "-")),
+                    ("kept", _names(rep.get("kept"))),
+                    ("started", _names(rep.get("started"))),
+                    ("stopped", _names(rep.get("stopped"))),
+                    ("missed periods", rep.get("missed_periods", "-")),
+                    ("request to swap", format_duration(rep.get("request_to_swap_ns"))),
+                    ("total", format_duration(rep.get("total_ns"))),
+                ]
+            )
+        )
     return "\n\n".join(blocks)
 
 
@@ -249,29 +340,43 @@ def _verdict(valid: bool | None) -> str:
 def validation_text(v: dict | None) -> str:
     if not v:
         return "validation: -"
-    lines = [f"validation: {_verdict(v.get('valid'))} "
-             f"({_count(len(v.get('errors') or []), 'error')}, {_count(len(v.get('warnings') or []), 'warning')})"]
+    lines = [
+        f"validation: {_verdict(v.get('valid'))} "
+        f"({_count(len(v.get('errors') or []), 'error')}, {_count(len(v.get('warnings') or []), 'warning')})"
+    ]
     lines += [f"  error: {e}" for e in v.get("errors") or []]
     lines += [f"  warning: {w}" for w in v.get("warnings") or []]
     s = v.get("schedule")
     if s:
-        lines.append(f"schedule: basic period {_period(s.get('basic_period_ns'))}, "
-                     f"macro period {_period(s.get('macro_period_ns'))}, {len(s.get('slots', []))} slots")
+        lines.append(
+            f"schedule: basic period {_period(s.get('basic_period_ns'))}, "
+            f"macro period {_period(s.get('macro_period_ns'))}, {len(s.get('slots', []))} slots"
+        )
     if v.get("online") is False and v.get("restart"):
         r = v["restart"]
         expected = r.get("expected_downtime_ns")
-        lines.append(f"online: no, only a restart of irpd can run it (--mode restart or auto"
-                     f"{', expected downtime ' + _period(expected) if expected else ''}): {r.get('reason')}")
+        lines.append(
+            f"online: no, only a restart of irpd can run it (--mode restart or auto"
+            f"{', expected downtime ' + _period(expected) if expected else ''}): {r.get('reason')}"
+        )
     elif v.get("online"):
         lines.append("online: yes (a hot swap)")
     changes = v.get("variables")
     if changes and (changes.get("added") or changes.get("removed") or changes.get("moved")):
         moved = [m.get("path") for m in changes.get("moved") or []]
-        lines.append("variables: " + "; ".join(part for part in (
-            f"added {', '.join(changes['added'])}" if changes.get("added") else "",
-            f"removed {', '.join(changes['removed'])}" if changes.get("removed") else "",
-            f"moved {', '.join(moved)}" if moved else "",
-            f"modules replaced for it {', '.join(changes['replaced'])}" if changes.get("replaced") else "") if part))
+        lines.append(
+            "variables: "
+            + "; ".join(
+                part
+                for part in (
+                    f"added {', '.join(changes['added'])}" if changes.get("added") else "",
+                    f"removed {', '.join(changes['removed'])}" if changes.get("removed") else "",
+                    f"moved {', '.join(moved)}" if moved else "",
+                    f"modules replaced for it {', '.join(changes['replaced'])}" if changes.get("replaced") else "",
+                )
+                if part
+            )
+        )
     return "\n".join(lines)
 
 
@@ -279,20 +384,32 @@ def upload_text(u: dict) -> str:
     files = u.get("files") or []
     by = f" by {_who(u['by'])}" if u.get("by") else ""
     head = f"set {u.get('id')}  ({_count(len(files), 'file')}, created {u.get('created', '-')}{by})"
-    ftable = table(["FILE", "SIZE", "KIND", "SHA256"],
-                   [[f.get("path"), _size(f.get("size")), f.get("kind", "-"), (f.get("sha256") or "")[:16]]
-                    for f in files],
-                   "lrl")
+    ftable = table(
+        ["FILE", "SIZE", "KIND", "SHA256"],
+        [[f.get("path"), _size(f.get("size")), f.get("kind", "-"), (f.get("sha256") or "")[:16]] for f in files],
+        "lrl",
+    )
     return "\n".join([head, ftable, validation_text(u.get("validation"))])
 
 
 def sets_text(sets: list[dict]) -> str:
     if not sets:
         return "no sets uploaded (irpctl upload DIR stores one)"
-    return table(["ID", "CREATED", "BY", "FILES", "VALID", "ACTIVE"],
-                 [[s.get("id"), s.get("created", "-"), _who(s.get("by")), s.get("files", "-"),
-                   {True: "yes", False: "no"}.get(s.get("valid"), "?"), "*" if s.get("active") else ""]
-                  for s in sets], "lllrll")
+    return table(
+        ["ID", "CREATED", "BY", "FILES", "VALID", "ACTIVE"],
+        [
+            [
+                s.get("id"),
+                s.get("created", "-"),
+                _who(s.get("by")),
+                s.get("files", "-"),
+                {True: "yes", False: "no"}.get(s.get("valid"), "?"),
+                "*" if s.get("active") else "",
+            ]
+            for s in sets
+        ],
+        "lllrll",
+    )
 
 
 def _who(who: Any) -> str:
@@ -310,8 +427,17 @@ EVENT_HEADERS = ["SEQ", "TIME", "FROM", "KIND", "MODULE", "MESSAGE"]
 
 
 def events_rows(events: list[dict]) -> list[list[Any]]:
-    return [[e.get("seq", "-"), e.get("time", "-"), e.get("source", "irpd"), e.get("kind", "-"), e.get("module") or "-",
-             e.get("message", "")] for e in events]
+    return [
+        [
+            e.get("seq", "-"),
+            e.get("time", "-"),
+            e.get("source", "irpd"),
+            e.get("kind", "-"),
+            e.get("module") or "-",
+            e.get("message", ""),
+        ]
+        for e in events
+    ]
 
 
 def audit_text(entries: list[dict]) -> str:
@@ -322,6 +448,14 @@ def audit_text(entries: list[dict]) -> str:
         result = e.get("result", "-")
         if e.get("status") or e.get("detail"):
             result += f" ({' '.join(str(x) for x in (e.get('status'), e.get('detail')) if x)})"
-        rows.append([e.get("time", "-"), _who(e.get("who")), e.get("client", "-"), e.get("action", "-"),
-                     e.get("target") or "-", result])
+        rows.append(
+            [
+                e.get("time", "-"),
+                _who(e.get("who")),
+                e.get("client", "-"),
+                e.get("action", "-"),
+                e.get("target") or "-",
+                result,
+            ]
+        )
     return table(["TIME", "WHO", "CLIENT", "ACTION", "TARGET", "RESULT"], rows)

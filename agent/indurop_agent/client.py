@@ -11,6 +11,7 @@ whose message is the server's `detail`; status 0 means no answer at all (agent u
 The binary stream frame is decoded by `decode_frame` (stream_frame.py; format in
 docs/trace-and-stream.md §4).
 """
+
 from __future__ import annotations
 
 import json
@@ -18,8 +19,9 @@ import os
 import ssl
 import threading
 import time
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Any, BinaryIO, Iterable, Iterator
+from typing import Any, BinaryIO
 from urllib.parse import quote, urlencode, urlsplit, urlunsplit
 
 import httpx
@@ -93,9 +95,16 @@ class Client:
     ca: a CA file for https; verify=False accepts any certificate; timeout in seconds; transport:
     an httpx transport (tests)."""
 
-    def __init__(self, url: str = "http://127.0.0.1:8080", token: str | None = None, *,
-                 ca: str | os.PathLike | None = None, verify: bool = True, timeout: float = 10.0,
-                 transport: httpx.BaseTransport | None = None):
+    def __init__(
+        self,
+        url: str = "http://127.0.0.1:8080",
+        token: str | None = None,
+        *,
+        ca: str | os.PathLike | None = None,
+        verify: bool = True,
+        timeout: float = 10.0,
+        transport: httpx.BaseTransport | None = None,
+    ):
         url = url.rstrip("/")
         if not url.endswith(API):
             url += API
@@ -117,7 +126,7 @@ class Client:
     def close(self) -> None:
         self._http.close()
 
-    def __enter__(self) -> "Client":
+    def __enter__(self) -> Client:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -165,11 +174,13 @@ class Client:
     def module(self, name: str) -> dict:
         return self.get(f"/modules/{quote(name, safe='')}")
 
-    def patch_module(self, name: str, period_ns: int | None = None, priority: int | None = None,
-                     enabled: bool | None = None) -> dict:
+    def patch_module(
+        self, name: str, period_ns: int | None = None, priority: int | None = None, enabled: bool | None = None
+    ) -> dict:
         """Changes a module of the running set (hot reload); the swap report."""
-        body = {k: v for k, v in (("period_ns", period_ns), ("priority", priority), ("enabled", enabled))
-                if v is not None}
+        body = {
+            k: v for k, v in (("period_ns", period_ns), ("priority", priority), ("enabled", enabled)) if v is not None
+        }
         if not body:
             raise ValueError("patch_module needs at least one of period_ns, priority, enabled")
         return self.request("PATCH", f"/modules/{quote(name, safe='')}", json=body, timeout=max(self.timeout, 60))
@@ -178,8 +189,9 @@ class Client:
         return self.get("/jitter")
 
     # -- module sets ------------------------------------------------------------------------------
-    def upload(self, source: str | os.PathLike | Iterable[str | os.PathLike],
-               root: str | os.PathLike | None = None) -> dict:
+    def upload(
+        self, source: str | os.PathLike | Iterable[str | os.PathLike], root: str | os.PathLike | None = None
+    ) -> dict:
         """Uploads a module set: a directory (every file under it but hidden ones), a .tar.gz, or a
         list of files (named relative to `root`, by default their common folder).  The answer has
         the set's id, its files and the validation report."""
@@ -188,8 +200,12 @@ class Client:
             raise ValueError("nothing to upload: give a directory, a .tar.gz or files")
         if len(files) == 1 and files[0].is_file() and _archive_name(files[0]):
             with open(files[0], "rb") as f:
-                return self.request("POST", "/sets", files=[("archive", (files[0].name, f, "application/gzip"))],
-                                    timeout=max(self.timeout, 120))
+                return self.request(
+                    "POST",
+                    "/sets",
+                    files=[("archive", (files[0].name, f, "application/gzip"))],
+                    timeout=max(self.timeout, 120),
+                )
         named = set_files(files, root)
         opened: list[BinaryIO] = []
         try:
@@ -215,8 +231,9 @@ class Client:
     def activate(self, set_id: str, mode: str = "online") -> dict:
         """Puts the set into irpd: mode online (hot reload), restart (irpd restarts onto it) or auto
         (a restart only when irpd cannot take it online); the swap report (mode, downtime_ns)."""
-        return self.request("POST", f"/sets/{quote(set_id, safe='')}/activate", json={"mode": mode},
-                            timeout=max(self.timeout, 90))
+        return self.request(
+            "POST", f"/sets/{quote(set_id, safe='')}/activate", json={"mode": mode}, timeout=max(self.timeout, 90)
+        )
 
     def rollback(self, mode: str = "online") -> dict:
         """Activates the set that was active before the current one; the swap report."""
@@ -252,7 +269,7 @@ class Client:
         return self.request("POST", "/tokens", json={"name": name, "role": role})["token"]
 
     # -- the stream -------------------------------------------------------------------------------
-    def watch(self, paths: Iterable[str], decimation: int = 1, seconds: float | None = None) -> "Stream":
+    def watch(self, paths: Iterable[str], decimation: int = 1, seconds: float | None = None) -> Stream:
         """The samples of `paths` (every `decimation`-th basic period) as an iterator of
         (seq, t_ns, {path: value}), ending after `seconds` if given; `.dropped` counts the
         samples the server lost."""
@@ -283,8 +300,11 @@ def set_files(paths: list[Path], root: str | os.PathLike | None = None) -> list[
     under it (hidden ones left out), files are named relative to `root` or their common folder."""
     if len(paths) == 1 and paths[0].is_dir():
         base = paths[0]
-        found = sorted(p for p in base.rglob("*") if p.is_file()
-                       and not any(part.startswith(".") for part in p.relative_to(base).parts))
+        found = sorted(
+            p
+            for p in base.rglob("*")
+            if p.is_file() and not any(part.startswith(".") for part in p.relative_to(base).parts)
+        )
         if not found:
             raise ValueError(f"{base} has no files to upload")
         return [(p.relative_to(base).as_posix(), p) for p in found]
@@ -326,8 +346,9 @@ class Stream:
 
         url = self.client._stream_url()
         try:
-            ws = connect(url, ssl=self.client._stream_ssl(), open_timeout=self.client.timeout,
-                         max_size=None, compression=None)
+            ws = connect(
+                url, ssl=self.client._stream_ssl(), open_timeout=self.client.timeout, max_size=None, compression=None
+            )
         except InvalidStatus as e:
             response = e.response
             try:
@@ -345,7 +366,7 @@ class Stream:
             _raise_for_close(e)
         return ws
 
-    def __enter__(self) -> "Stream":
+    def __enter__(self) -> Stream:
         if self._ws is None:
             self._ws = self._connect()
         return self
@@ -376,8 +397,9 @@ class Stream:
         for frame in self.frames():
             names = [(c.get("path", f"#{i}"), c.get("type", "")) for i, c in enumerate(self.channels)]
             if len(names) != len(frame.columns):
-                raise ApiError(502, f"stream: a frame has {len(frame.columns)} channels, "
-                                    f"the server announced {len(names)}")
+                raise ApiError(
+                    502, f"stream: a frame has {len(frame.columns)} channels, the server announced {len(names)}"
+                )
             for seq, t, values in frame.samples():
                 yield seq, t, {name: _typed(v, kind) for (name, kind), v in zip(names, values)}
 
@@ -439,4 +461,3 @@ def _raise_for_close(e) -> None:
     if 4400 <= code < 4600:
         raise ApiError(code - 4000, f"stream: {reason}")
     raise ApiError(0, f"stream: closed ({code}) {reason}")
-

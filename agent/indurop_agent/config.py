@@ -3,6 +3,7 @@
 Every field of Settings is also a key of the config file (same name); the command line has the
 ones that change from one start to the next (address, folders, TLS).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -71,10 +72,24 @@ class Settings:
 
 FIELDS = {f.name: f for f in dataclasses.fields(Settings)}
 PATHS = {"data_dir", "tls_cert", "tls_key", "webui_dir"}
-POSITIVE = {"port", "max_file_bytes", "max_upload_bytes", "max_files", "max_body_bytes", "header_timeout_s",
-            "body_idle_s", "body_timeout_s", "max_connections", "lockout_attempts",
-            "lockout_window_s", "irpd_poll_s", "swap_timeout_s", "robot_rate_hz", "viewer_ticket_s",
-            "viewer_session_s"}
+POSITIVE = {
+    "port",
+    "max_file_bytes",
+    "max_upload_bytes",
+    "max_files",
+    "max_body_bytes",
+    "header_timeout_s",
+    "body_idle_s",
+    "body_timeout_s",
+    "max_connections",
+    "lockout_attempts",
+    "lockout_window_s",
+    "irpd_poll_s",
+    "swap_timeout_s",
+    "robot_rate_hz",
+    "viewer_ticket_s",
+    "viewer_session_s",
+}
 VIEWERS = ("viser", "meshcat")
 
 
@@ -130,9 +145,12 @@ def parse(argv: list[str] | None = None) -> Settings:
     ap.add_argument("--irpd-socket", help="irpd's control socket")
     ap.add_argument("--tls-cert", type=Path, help="serve HTTPS with this PEM certificate (needs --tls-key)")
     ap.add_argument("--tls-key", type=Path, help="the PEM private key of --tls-cert")
-    ap.add_argument("--webui-dir", type=Path,
-                    help=f"the built web UI to serve at / (default: webui/dist of this source tree when built, "
-                         f"else {INSTALLED_WEBUI})")
+    ap.add_argument(
+        "--webui-dir",
+        type=Path,
+        help=f"the built web UI to serve at / (default: webui/dist of this source tree when built, "
+        f"else {INSTALLED_WEBUI})",
+    )
     ap.add_argument("--viewer", choices=VIEWERS, help="the 3D robot view's viewer (default viser)")
     a = ap.parse_args(argv)
     s = Settings()

@@ -5,6 +5,7 @@ Thread modules: ELF64 x86-64 shared objects (ET_DYN) whose dynamic symbol table 
 with a PT_INTERP, i.e. a PIE).  Other .so files (libraries a module links to): ELF64 x86-64 ET_DYN.
 Each check returns None or a message naming the file and what it is instead.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -75,11 +76,14 @@ def check_shared_object(path: Path, name: str, *, module: str | None) -> None:
     with open(path, "rb") as f:
         elf = _open(f, name)
         if elf["e_type"] != "ET_DYN":
-            raise NotLoadable(f"{name} is an ELF {elf['e_type']}, not a shared object (ET_DYN); "
-                              "build it with -shared -fPIC")
+            raise NotLoadable(
+                f"{name} is an ELF {elf['e_type']}, not a shared object (ET_DYN); build it with -shared -fPIC"
+            )
         if module is not None and not _defined_dynamic_symbols(elf) & set(MODULE_SYMBOLS):
-            raise MissingSymbol(f"{name} (module '{module}') exports neither run nor indurop_module_v1_descriptor; "
-                                "a thread module defines extern \"C\" run() or uses INDUROP_MODULE(...)")
+            raise MissingSymbol(
+                f"{name} (module '{module}') exports neither run nor indurop_module_v1_descriptor; "
+                "a thread module defines extern \"C\" run() or uses INDUROP_MODULE(...)"
+            )
 
 
 @_guarded
@@ -92,5 +96,6 @@ def check_executable(path: Path, name: str, *, module: str) -> None:
         if kind == "ET_EXEC" or (kind == "ET_DYN" and has_interp):
             return
         what = "a shared object, not an executable" if kind == "ET_DYN" else f"an ELF {kind}, not an executable"
-        raise NotLoadable(f"{name} (process module '{module}') is {what}; "
-                          "a process module is a program linked to libindurop")
+        raise NotLoadable(
+            f"{name} (process module '{module}') is {what}; a process module is a program linked to libindurop"
+        )

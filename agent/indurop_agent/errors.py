@@ -1,6 +1,7 @@
 """errors.py -- errors that point into a file of a set: an HTTPException that answers
 {"detail", "file", "line", "column"} (the last three where known), and `locate`, which finds where
 one of irpd's messages points ("<path>/module.xml:12: module 'x': ...")."""
+
 from __future__ import annotations
 
 import re
@@ -18,12 +19,20 @@ class LocatedError(HTTPException):
     """An HTTP error whose detail is about a file of a set: `file` relative to the set's root,
     `line` and `column` counted from 1 (None: not known)."""
 
-    def __init__(self, status_code: int, detail: str, *, file: str | None = None, line: int | None = None,
-                 column: int | None = None, headers: dict | None = None):
+    def __init__(
+        self,
+        status_code: int,
+        detail: str,
+        *,
+        file: str | None = None,
+        line: int | None = None,
+        column: int | None = None,
+        headers: dict | None = None,
+    ):
         super().__init__(status_code, detail, headers=headers)
         self.file, self.line, self.column = file, line, column
 
-    def at(self, file: str | None = None, line: int | None = None, column: int | None = None) -> "LocatedError":
+    def at(self, file: str | None = None, line: int | None = None, column: int | None = None) -> LocatedError:
         """Adds what is known of where (keeps what was already set); returns self, to re-raise."""
         self.file = self.file or file
         self.line = self.line or line
@@ -56,7 +65,7 @@ def locate(message: str, root: Path | str | None = None) -> dict:
         base = str(Path(root)).rstrip("/") + "/"
         if not file.startswith(base):
             return {}
-        file = file[len(base):]
+        file = file[len(base) :]
     elif m.group("line") is None:
         return {}
     where = {"file": file}

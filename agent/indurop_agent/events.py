@@ -1,6 +1,7 @@
 """events.py -- the agent's own events (uploads, activations, restores, token changes, irpd lost or
 back), kept in memory with sequence numbers in the shape of irpd's `events`, so that GET /events
 can merge both streams by time.  The audit log is the durable record; this is the live feed."""
+
 from __future__ import annotations
 
 import threading
@@ -18,8 +19,14 @@ class AgentEvents:
 
     def add(self, kind: str, message: str, *, module: str | None = None, set_id: str | None = None) -> dict:
         with self._lock:
-            event = {"seq": self._next, "time": now_iso(), "time_ns": time.time_ns(), "kind": kind,
-                     "module": module, "message": message}
+            event = {
+                "seq": self._next,
+                "time": now_iso(),
+                "time_ns": time.time_ns(),
+                "kind": kind,
+                "module": module,
+                "message": message,
+            }
             if set_id is not None:
                 event["set_id"] = set_id
             self._next += 1

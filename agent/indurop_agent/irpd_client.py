@@ -5,6 +5,7 @@ requests fail fast (the API answers 503) instead of hanging.  Commands that swap
 (`load`, `set_period`, ...) can take seconds: they pass a longer per-call `timeout`, and the agent
 sends them on a connection of their own so that reads do not wait behind them.
 """
+
 from __future__ import annotations
 
 import json
@@ -51,8 +52,11 @@ class IrpdClient:
         except (OSError, ValueError) as e:
             sock.close()
             raise IrpdUnavailable(f"irpd is not reachable on {self.path}: {e}") from e
-        if (not isinstance(hello, dict) or hello.get("protocol") != PROTOCOL
-                or hello.get("version") not in PROTOCOL_VERSIONS):
+        if (
+            not isinstance(hello, dict)
+            or hello.get("protocol") != PROTOCOL
+            or hello.get("version") not in PROTOCOL_VERSIONS
+        ):
             sock.close()
             versions = " or ".join(map(str, PROTOCOL_VERSIONS))
             raise IrpdUnavailable(f"{self.path} does not speak {PROTOCOL} version {versions}: {hello!r}")
@@ -84,8 +88,10 @@ class IrpdClient:
         wait = self.timeout_s if timeout is None else timeout
         deadline = time.monotonic() + wait
         if not self._lock.acquire(timeout=wait):
-            raise IrpdUnavailable(f"irpd did not answer '{cmd}' within {wait:g} s on {self.path}: "
-                                  "earlier requests are still waiting for it")
+            raise IrpdUnavailable(
+                f"irpd did not answer '{cmd}' within {wait:g} s on {self.path}: "
+                "earlier requests are still waiting for it"
+            )
         try:
             for attempt in (1, 2):
                 left = max(deadline - time.monotonic(), 0.05)

@@ -9,6 +9,7 @@ environment variable nothing is installed and SIGUSR2 keeps its default action.
 Memory that Python's allocator does not see (numpy buffers allocated by C code, glibc arenas,
 thread stacks) is not in a snapshot: compare the snapshots' total with the RSS to tell the two apart.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -38,8 +39,10 @@ def install(data_dir: Path) -> Path | None:
         gc.collect()  # live memory only: cyclic garbage waits for a full collection in a large heap
         tracemalloc.take_snapshot().dump(str(partial))
         partial.rename(path)
-        print(f"indurop-agent: memory snapshot {path} ({tracemalloc.get_traced_memory()[0] // 1024} KiB traced)",
-              flush=True)
+        print(
+            f"indurop-agent: memory snapshot {path} ({tracemalloc.get_traced_memory()[0] // 1024} KiB traced)",
+            flush=True,
+        )
 
     signal.signal(SIGNAL, dump)
     return folder
@@ -49,22 +52,34 @@ def growth(old: Path, new: Path, top: int = 15) -> dict:
     """What grew between two snapshots: the traced totals and the `top` call sites by growth, each
     with its size difference, count difference and the innermost frames of its traceback."""
     a, b = tracemalloc.Snapshot.load(str(old)), tracemalloc.Snapshot.load(str(new))
-    ignore = [tracemalloc.Filter(False, tracemalloc.__file__), tracemalloc.Filter(False, "<frozen importlib._bootstrap>")]
+    ignore = [
+        tracemalloc.Filter(False, tracemalloc.__file__),
+        tracemalloc.Filter(False, "<frozen importlib._bootstrap>"),
+    ]
     a, b = a.filter_traces(ignore), b.filter_traces(ignore)
     diffs = b.compare_to(a, "traceback")
     return {
-        "traced_kib": {"old": sum(s.size for s in a.statistics("filename")) // 1024,
-                       "new": sum(s.size for s in b.statistics("filename")) // 1024},
-        "top": [{"size_diff_kib": round(d.size_diff / 1024, 1), "count_diff": d.count_diff,
-                 "size_kib": round(d.size / 1024, 1),
-                 "where": [f"{f.filename}:{f.lineno}" for f in list(d.traceback)[-6:]]}
-                for d in sorted(diffs, key=lambda d: d.size_diff, reverse=True)[:top]],
+        "traced_kib": {
+            "old": sum(s.size for s in a.statistics("filename")) // 1024,
+            "new": sum(s.size for s in b.statistics("filename")) // 1024,
+        },
+        "top": [
+            {
+                "size_diff_kib": round(d.size_diff / 1024, 1),
+                "count_diff": d.count_diff,
+                "size_kib": round(d.size / 1024, 1),
+                "where": [f"{f.filename}:{f.lineno}" for f in list(d.traceback)[-6:]],
+            }
+            for d in sorted(diffs, key=lambda d: d.size_diff, reverse=True)[:top]
+        ],
     }
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python3 -m indurop_agent.memtrace",
-                                 description="What grew between two of the agent's memory snapshots (SIGUSR2).")
+    ap = argparse.ArgumentParser(
+        prog="python3 -m indurop_agent.memtrace",
+        description="What grew between two of the agent's memory snapshots (SIGUSR2).",
+    )
     ap.add_argument("old", type=Path)
     ap.add_argument("new", type=Path)
     ap.add_argument("--top", type=int, default=15)

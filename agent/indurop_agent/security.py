@@ -1,6 +1,7 @@
 """security.py -- the agent's guards that are not about roles: the brute-force lockout of client
 addresses that try unknown tokens, and the body-size limit of every request but a set upload, and the
 deadline of request bodies that stall."""
+
 from __future__ import annotations
 
 import asyncio
@@ -112,9 +113,17 @@ async def send_refusal(send, status: int, detail: str) -> None:
     """An ASGI response {"detail": ...} with `status` that closes the connection (the body that
     caused it was not read to its end)."""
     body = json.dumps({"detail": detail}).encode()
-    await send({"type": "http.response.start", "status": status,
-                "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()),
-                            (b"connection", b"close")]})
+    await send(
+        {
+            "type": "http.response.start",
+            "status": status,
+            "headers": [
+                (b"content-type", b"application/json"),
+                (b"content-length", str(len(body)).encode()),
+                (b"connection", b"close"),
+            ],
+        }
+    )
     await send({"type": "http.response.body", "body": body})
 
 
@@ -146,7 +155,7 @@ class BodyTimeoutMiddleware:
             wait = self.idle_s if deadline is None else min(self.idle_s, deadline - loop.time())
             try:
                 message = await asyncio.wait_for(receive(), max(wait, 0.001))
-            except asyncio.TimeoutError:
+            except TimeoutError:
                 raise BodyTimeout(self._why(deadline is not None and loop.time() >= deadline)) from None
             if message["type"] != "http.request" or not message.get("more_body", False):
                 complete = True

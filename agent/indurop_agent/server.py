@@ -7,6 +7,7 @@ dribbles its request headers one byte at a time (slowloris) would hold it foreve
 closes such a connection with 408 once `header_timeout_s` passes without complete headers.  Slow
 bodies are the ASGI layer's concern (security.BodyTimeoutMiddleware).
 """
+
 from __future__ import annotations
 
 import json
@@ -23,8 +24,12 @@ FD_RESERVE = 256
 def raw_response(status: int, reason: str, detail: str, extra: dict[str, str] | None = None) -> bytes:
     """A whole HTTP/1.1 response with a JSON {"detail"} body, written before h11 has a request."""
     body = json.dumps({"detail": detail}).encode()
-    headers = {"content-type": "application/json", "content-length": str(len(body)), "connection": "close",
-               **(extra or {})}
+    headers = {
+        "content-type": "application/json",
+        "content-length": str(len(body)),
+        "connection": "close",
+        **(extra or {}),
+    }
     head = f"HTTP/1.1 {status} {reason}\r\n" + "".join(f"{k}: {v}\r\n" for k, v in headers.items()) + "\r\n"
     return head.encode("latin-1") + body
 
@@ -46,8 +51,10 @@ def connection_cap(max_connections: int) -> tuple[int, str | None]:
     if soft >= max_connections + FD_RESERVE:
         return max_connections, None
     cap = max(16, soft - FD_RESERVE)
-    return cap, (f"indurop-agent: the open-file limit is {soft} (hard {hard}): at most {cap} connections instead of "
-                 f"max_connections {max_connections} (raise LimitNOFILE or lower max_connections)")
+    return cap, (
+        f"indurop-agent: the open-file limit is {soft} (hard {hard}): at most {cap} connections instead of "
+        f"max_connections {max_connections} (raise LimitNOFILE or lower max_connections)"
+    )
 
 
 def protocol(header_timeout_s: float, max_connections: int) -> type[H11Protocol]:
@@ -60,10 +67,15 @@ def protocol(header_timeout_s: float, max_connections: int) -> type[H11Protocol]
         def connection_made(self, transport) -> None:
             super().connection_made(transport)
             if len(self.connections) > max_connections:
-                self.transport.write(raw_response(
-                    503, "Service Unavailable",
-                    f"the agent holds {max_connections} connections (its max_connections); close idle ones or try "
-                    "again later", {"retry-after": "5"}))
+                self.transport.write(
+                    raw_response(
+                        503,
+                        "Service Unavailable",
+                        f"the agent holds {max_connections} connections (its max_connections); close idle ones or try "
+                        "again later",
+                        {"retry-after": "5"},
+                    )
+                )
                 self.transport.close()
                 return
             self._arm()
@@ -82,9 +94,13 @@ def protocol(header_timeout_s: float, max_connections: int) -> type[H11Protocol]
             if self.transport.is_closing() or self.conn.their_state is not h11.IDLE:
                 return
             if self._started:  # a request begun and never finished gets a reason; silence just a close
-                self.transport.write(raw_response(
-                    408, "Request Timeout",
-                    f"the request line and headers did not arrive within {header_timeout_s:g} s (header_timeout_s)"))
+                self.transport.write(
+                    raw_response(
+                        408,
+                        "Request Timeout",
+                        f"the request line and headers did not arrive within {header_timeout_s:g} s (header_timeout_s)",
+                    )
+                )
             self.transport.close()
 
         def data_received(self, data: bytes) -> None:

@@ -9,19 +9,30 @@ every offset, size and constant from here and write none down.
 Every segment opens the same way: magic (u64), version (u32), header_size (u32).  `open_segment`
 maps one read-only and checks all three against the description.
 """
+
 from __future__ import annotations
 
 import json
 import mmap
 import os
 import struct
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 DESCRIPTION = Path(__file__).with_name("shm_layout.json")
 FORMAT = 1  # the description's own format that this module reads
-SCALARS = {"u8": "B", "u16": "H", "u32": "I", "u64": "Q", "i8": "b", "i16": "h", "i32": "i", "i64": "q",
-           "f32": "f", "f64": "d"}
+SCALARS = {
+    "u8": "B",
+    "u16": "H",
+    "u32": "I",
+    "u64": "Q",
+    "i8": "b",
+    "i16": "h",
+    "i32": "i",
+    "i64": "q",
+    "f32": "f",
+    "f64": "d",
+}
 
 
 class LayoutError(Exception):
@@ -41,8 +52,9 @@ class StructLayout:
         try:
             return self.fields[name]
         except KeyError:
-            raise LayoutError(f"{self.name} has no field '{name}' in {DESCRIPTION}; "
-                              f"it lists {', '.join(self.fields)}") from None
+            raise LayoutError(
+                f"{self.name} has no field '{name}' in {DESCRIPTION}; it lists {', '.join(self.fields)}"
+            ) from None
 
     def offset(self, name: str) -> int:
         return self.field(name)["offset"]
@@ -67,7 +79,7 @@ class StructLayout:
         """A char[] field, up to its first NUL."""
         f = self.field(name)
         at = base + f["offset"]
-        return bytes(buf[at:at + f["size"]]).split(b"\0", 1)[0].decode("utf-8", "replace")
+        return bytes(buf[at : at + f["size"]]).split(b"\0", 1)[0].decode("utf-8", "replace")
 
 
 class SegmentLayout:
@@ -122,28 +134,34 @@ class SegmentLayout:
             raise LayoutError(f"{name} is not an indurop {self.name} segment (no {self.magic_text} at its start)")
         version = h.read(buf, "version")
         if version != self.version:
-            raise LayoutError(f"{name} is {self.name} segment version {version}; this agent reads version "
-                              f"{self.version}: run the agent that came with this irpd")
+            raise LayoutError(
+                f"{name} is {self.name} segment version {version}; this agent reads version "
+                f"{self.version}: run the agent that came with this irpd"
+            )
         size = h.read(buf, "header_size")
         if size != h.size:
-            raise LayoutError(f"{name} has a {size}-byte {h.name}; this agent's description ({DESCRIPTION.name}) "
-                              f"says {h.size}: run the agent that came with this irpd")
+            raise LayoutError(
+                f"{name} has a {size}-byte {h.name}; this agent's description ({DESCRIPTION.name}) "
+                f"says {h.size}: run the agent that came with this irpd"
+            )
 
 
-@lru_cache(maxsize=None)
+@cache
 def description(path: Path = DESCRIPTION) -> dict:
     try:
         d = json.loads(path.read_text())
     except (OSError, ValueError) as e:
         raise LayoutError(f"the shared-memory description {path}: {e}; `ninja -C build shm-layout` rewrites it") from e
     if d.get("format") != FORMAT or d.get("byte_order") != "little":
-        raise LayoutError(f"{path} is description format {d.get('format')!r} ({d.get('byte_order')}-endian); "
-                          f"this agent reads format {FORMAT}, little-endian")
+        raise LayoutError(
+            f"{path} is description format {d.get('format')!r} ({d.get('byte_order')}-endian); "
+            f"this agent reads format {FORMAT}, little-endian"
+        )
     return d
 
 
 def segment(name: str, path: Path = DESCRIPTION) -> SegmentLayout:
-    """"variables", "stats", "trace" or "control"."""
+    """ "variables", "stats", "trace" or "control"."""
     segments = description(path)["segments"]
     if name not in segments:
         raise LayoutError(f"no segment '{name}' in {path}; it describes {', '.join(segments)}")

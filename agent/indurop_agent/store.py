@@ -15,6 +15,7 @@ the same files give the same id.  Files in a set's tree are hard links to their 
 shared objects (.so), which are copied: the dynamic loader treats two paths of one inode as the
 same library, so two sets (or two files of one set) sharing a blob would share one module instance.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -32,7 +33,7 @@ from .auth import now_iso
 
 SET_ID = re.compile(r"^[0-9a-f]{16}$")
 EXECUTABLE_KINDS = {"executable", "thread_module", "library"}  # blobs with the execute bit
-COPIED_KINDS = {"thread_module", "library"}                     # materialized by copy, not hard link
+COPIED_KINDS = {"thread_module", "library"}  # materialized by copy, not hard link
 
 
 class StoreError(Exception):
@@ -47,8 +48,8 @@ class StoreError(Exception):
 class StagedFile:
     """A received file, checked, waiting in <data>/tmp to be committed."""
 
-    path: str        # relative to the set root, normalized ("lib/cntr1.so")
-    source: Path     # where it was received
+    path: str  # relative to the set root, normalized ("lib/cntr1.so")
+    source: Path  # where it was received
     sha256: str
     size: int
     kind: str
@@ -176,9 +177,13 @@ class SetStore:
                     os.chmod(d, 0o555)
                 os.chmod(tree, 0o555)
                 os.chmod(partial, 0o755)
-                manifest = {"id": set_id, "created": now_iso(), "by": who,
-                            "files": [f.entry() for f in sorted(files, key=lambda f: f.path)],
-                            "validation": validation}
+                manifest = {
+                    "id": set_id,
+                    "created": now_iso(),
+                    "by": who,
+                    "files": [f.entry() for f in sorted(files, key=lambda f: f.path)],
+                    "validation": validation,
+                }
                 _write_atomically(partial / "manifest.json", json.dumps(manifest, indent=1))
                 os.rename(partial, self.sets / set_id)
                 _fsync_dir(self.sets)
@@ -240,8 +245,14 @@ class SetStore:
         with self._lock:
             if self.manifest(set_id) is None:
                 raise StoreError(f"no set {set_id}")
-            entry = {"time": now_iso(), "action": action, "set_id": set_id, "previous": self.active_id(),
-                     "by": who, "generation": (report or {}).get("generation")}
+            entry = {
+                "time": now_iso(),
+                "action": action,
+                "set_id": set_id,
+                "previous": self.active_id(),
+                "by": who,
+                "generation": (report or {}).get("generation"),
+            }
             if (report or {}).get("mode") == "restart":
                 entry.update(mode="restart", downtime_ns=report.get("downtime_ns"))
             fd = os.open(self.history_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
@@ -263,9 +274,20 @@ class SetStore:
 
     def _write_active(self, entry: dict) -> None:
         set_id = entry["set_id"]
-        _write_atomically(self.active_path, json.dumps({
-            "set_id": set_id, "since": entry["time"], "action": entry["action"], "by": entry["by"],
-            "config": str(self.module_xml(set_id)), "rollback_to": self.rollback_target()}, indent=1))
+        _write_atomically(
+            self.active_path,
+            json.dumps(
+                {
+                    "set_id": set_id,
+                    "since": entry["time"],
+                    "action": entry["action"],
+                    "by": entry["by"],
+                    "config": str(self.module_xml(set_id)),
+                    "rollback_to": self.rollback_target(),
+                },
+                indent=1,
+            ),
+        )
         tmp = self.root / ".active.tmp"
         tmp.unlink(missing_ok=True)
         os.symlink(Path("sets") / set_id / "files", tmp)
@@ -277,7 +299,11 @@ class SetStore:
             if isinstance(entry, dict) and isinstance(entry.get("set_id"), str):
                 self._apply(entry)
         active = self.active()
-        if self._stack and (active is None or active.get("set_id") != self._stack[-1]
-                            or not self.active_link.is_symlink()):
-            self._write_active(history[-1] if history[-1].get("set_id") == self._stack[-1]
-                               else {"set_id": self._stack[-1], "time": now_iso(), "action": "activate", "by": None})
+        if self._stack and (
+            active is None or active.get("set_id") != self._stack[-1] or not self.active_link.is_symlink()
+        ):
+            self._write_active(
+                history[-1]
+                if history[-1].get("set_id") == self._stack[-1]
+                else {"set_id": self._stack[-1], "time": now_iso(), "action": "activate", "by": None}
+            )

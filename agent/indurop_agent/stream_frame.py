@@ -7,13 +7,14 @@ re-encoded by tests/python/agent/test_stream_frame.py.  The body is the due time
 column of f64 per channel: a change of the spec's body stops the import here until this file
 follows it.
 """
+
 from __future__ import annotations
 
 import struct
 import sys
 from array import array
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from typing import Iterator, Sequence
 
 from . import stream_frame_spec as spec
 
@@ -23,8 +24,10 @@ MAGIC, VERSION = spec.MAGIC, spec.VERSION
 KIND_SAMPLES = spec.KINDS["samples"]
 _BODY = (("t_ns", "q", "count", None), ("columns", "d", "count", "channels"))
 if spec.BODY != _BODY or HEADER.size != HEADER_SIZE:
-    raise ImportError(f"protocol/stream/frame.json lays the body out as {spec.BODY}; stream_frame.py codes "
-                      f"{_BODY}: update stream_frame.py (and webui/src/stream/frame.ts) to the spec")
+    raise ImportError(
+        f"protocol/stream/frame.json lays the body out as {spec.BODY}; stream_frame.py codes "
+        f"{_BODY}: update stream_frame.py (and webui/src/stream/frame.ts) to the spec"
+    )
 _KIND = struct.Struct("<" + spec.FORMATS["kind"])
 
 
@@ -62,8 +65,15 @@ def size(count: int, channels: int) -> int:
 
 def encode(first_seq: int, t_ns: Sequence[int], columns: Sequence[Sequence[float]], dropped: int = 0) -> bytes:
     """A sample frame; t_ns and each column may be lists or array('q') / array('d') (taken as they are)."""
-    values = {"magic": MAGIC, "version": VERSION, "kind": KIND_SAMPLES, "first_seq": first_seq,
-              "count": len(t_ns), "channels": len(columns), "dropped": dropped}
+    values = {
+        "magic": MAGIC,
+        "version": VERSION,
+        "kind": KIND_SAMPLES,
+        "first_seq": first_seq,
+        "count": len(t_ns),
+        "channels": len(columns),
+        "dropped": dropped,
+    }
     head = HEADER.pack(*(values[name] for name in spec.HEADER_FIELDS))
     return b"".join([head, _little("q", t_ns), *(_little("d", c) for c in columns)])
 
@@ -103,9 +113,10 @@ def decode(data) -> Frame:
     n, channels = h["count"], h["channels"]
     expected = size(n, channels)
     if len(view) != expected:
-        raise FrameError(f"stream frame of {len(view)} bytes; its header ({n} samples x {channels} channels) "
-                         f"announces {expected}")
+        raise FrameError(
+            f"stream frame of {len(view)} bytes; its header ({n} samples x {channels} channels) announces {expected}"
+        )
     at = HEADER_SIZE + 8 * n
     t_ns = _column("q", view[HEADER_SIZE:at])
-    columns = [_column("d", view[at + 8 * n * c:at + 8 * n * (c + 1)]) for c in range(channels)]
+    columns = [_column("d", view[at + 8 * n * c : at + 8 * n * (c + 1)]) for c in range(channels)]
     return Frame(h["first_seq"], t_ns, columns, h["dropped"])

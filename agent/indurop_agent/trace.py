@@ -7,6 +7,7 @@ follows the single-writer protocol without ever writing or waiting: read `head`,
 Which variable a column holds is told by the two channel configurations in the segment; a row
 belongs to the latest configuration put in force at or before its seq.
 """
+
 from __future__ import annotations
 
 import os
@@ -56,9 +57,10 @@ class Config:
 @dataclass
 class Part:
     """Consecutive rows sampled with one configuration: column i holds config.channels[i]."""
+
     config: Config
     first_seq: int
-    t_ns: array          # array('q'), one due time per row
+    t_ns: array  # array('q'), one due time per row
     columns: list[array]  # array('d') per channel
 
     @property
@@ -69,8 +71,8 @@ class Part:
 @dataclass
 class TraceRead:
     since: int
-    next: int                # pass it to the next read_since()
-    lost: int                # rows after `since` overwritten (or of a configuration gone) before they were read
+    next: int  # pass it to the next read_since()
+    lost: int  # rows after `since` overwritten (or of a configuration gone) before they were read
     parts: list[Part] = field(default_factory=list)
 
     @property
@@ -87,6 +89,7 @@ class TraceRing:
             self.mm, self.inode = LAYOUT.open(name)
         except LayoutError as e:
             raise TraceError(str(e)) from e
+
         def read(field: str) -> int:
             return HEADER.read(self.mm, field)
 
@@ -97,8 +100,10 @@ class TraceRing:
         self.owner_pid = read("owner_pid")
         if (self.channel_size, self.config_size) != (CHANNEL.size, CONFIG.size):
             self.mm.close()
-            raise TraceError(f"{name} has {self.config_size}-byte configurations of {self.channel_size}-byte "
-                             f"channels; this agent's description says {CONFIG.size} and {CHANNEL.size}")
+            raise TraceError(
+                f"{name} has {self.config_size}-byte configurations of {self.channel_size}-byte "
+                f"channels; this agent's description says {CONFIG.size} and {CHANNEL.size}"
+            )
         # 8-byte fields that the sampler changes are read as one aligned load each (memoryview
         # item access copies the whole word at once, unlike struct's '<Q', which goes byte by byte).
         self._u64 = memoryview(self.mm).cast("Q")
@@ -165,8 +170,8 @@ class TraceRing:
         cap = self.capacity
         i, j = a % cap, b % cap
         if i <= j:
-            return self.mm[offset + 8 * i:offset + 8 * (j + 1)]
-        return self.mm[offset + 8 * i:offset + 8 * cap] + self.mm[offset:offset + 8 * (j + 1)]
+            return self.mm[offset + 8 * i : offset + 8 * (j + 1)]
+        return self.mm[offset + 8 * i : offset + 8 * cap] + self.mm[offset : offset + 8 * (j + 1)]
 
     def read_since(self, since: int) -> TraceRead:
         """Every row after `since` that is still in the rings, split where the configuration
@@ -176,8 +181,9 @@ class TraceRing:
         h1 = self.head()
         if h1 <= since:
             return TraceRead(since, min(since, h1), 0)
-        configs = sorted((c for c in self.configs() if c.first_seq != NO_SEQ),
-                         key=lambda c: (c.first_seq, c.generation))  # read after h1: they cover rows up to h1
+        configs = sorted(
+            (c for c in self.configs() if c.first_seq != NO_SEQ), key=lambda c: (c.first_seq, c.generation)
+        )  # read after h1: they cover rows up to h1
         start = max(since + 1, h1 + 2 - cap, 1)
         seqs = self._ring(self.seq_offset, start, h1)
         times = self._ring(self.time_offset, start, h1)
@@ -208,11 +214,11 @@ class TraceRing:
             if a2 > b:
                 continue
             skip = a2 - a
-            t = all_times[a2 - start:b - start + 1]
+            t = all_times[a2 - start : b - start + 1]
             columns = []
             for raw in cols:
                 col = array("d")
-                col.frombytes(raw[8 * skip:])
+                col.frombytes(raw[8 * skip :])
                 columns.append(col)
             parts.append(Part(c, a2, t, columns))
         first_kept = parts[0].first_seq if parts else h1 + 1

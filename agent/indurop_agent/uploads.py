@@ -8,6 +8,7 @@ Bodies: multipart/form-data with `files` parts (the filename is the path in the 
 "lib/cntr1.so") or one `archive` part (a .tar.gz); or the .tar.gz itself as the body, with
 Content-Type application/gzip.
 """
+
 from __future__ import annotations
 
 import gzip
@@ -35,12 +36,14 @@ from .viewer.urdf import UrdfError
 from .viewer.urdf import parse as parse_urdf
 
 MAX_NAME_BYTES = 255
-MAX_MODULE_XML_BYTES = 4 << 20            # irpd's own limit (rtcore/src/config/module_xml.hpp)
-MAX_TAR_HEADER_BYTES = 64 << 10           # a pax or GNU long-name header larger than this is refused
+MAX_MODULE_XML_BYTES = 4 << 20  # irpd's own limit (rtcore/src/config/module_xml.hpp)
+MAX_TAR_HEADER_BYTES = 64 << 10  # a pax or GNU long-name header larger than this is refused
 GZIP_TYPES = ("application/gzip", "application/x-gzip")
-ACCEPTED = ("module.xml (one, at the root), other .xml configs, .so thread modules and libraries, "
-            "the executables module.xml names, .glb, .urdf, .json (robot.json at the root: the 3D view's joint map), "
-            ".stl/.dae/.obj meshes, .h, .txt, .md")
+ACCEPTED = (
+    "module.xml (one, at the root), other .xml configs, .so thread modules and libraries, "
+    "the executables module.xml names, .glb, .urdf, .json (robot.json at the root: the 3D view's joint map), "
+    ".stl/.dae/.obj meshes, .h, .txt, .md"
+)
 PERCENT_ESCAPE = re.compile(r"%[0-9A-Fa-f]{2}")
 
 
@@ -56,7 +59,7 @@ class Limits:
     max_files: int = 512
 
     @classmethod
-    def of(cls, settings) -> "Limits":
+    def of(cls, settings) -> Limits:
         return cls(settings.max_file_bytes, settings.max_upload_bytes, settings.max_files)
 
 
@@ -87,15 +90,19 @@ def clean_name(name: str, what: str = "file name") -> str:
     if "\\" in name:
         raise UploadError(400, f"{what} {shown} contains a backslash; separate folders with '/'")
     if PERCENT_ESCAPE.search(name):
-        raise UploadError(400, f"{what} {shown} contains a percent-escape ('{PERCENT_ESCAPE.search(name).group()}'); "
-                               "send the plain name, it is not decoded")
+        raise UploadError(
+            400,
+            f"{what} {shown} contains a percent-escape ('{PERCENT_ESCAPE.search(name).group()}'); "
+            "send the plain name, it is not decoded",
+        )
     try:
         length = len(name.encode("utf-8"))
     except UnicodeEncodeError:
         raise UploadError(400, f"{what} {shown} is not valid UTF-8") from None
     if length > MAX_NAME_BYTES:
-        raise UploadError(400, f"{what} {json.dumps(name[:40])}... is {length} bytes long; "
-                               f"the limit is {MAX_NAME_BYTES}")
+        raise UploadError(
+            400, f"{what} {json.dumps(name[:40])}... is {length} bytes long; the limit is {MAX_NAME_BYTES}"
+        )
     if name.startswith("/"):
         raise UploadError(400, f"{what} {shown} is absolute; give the path relative to the set's root")
     parts = [p for p in name.split("/") if p not in ("", ".")]
@@ -112,7 +119,7 @@ class Sink:
     of the set also counts towards the upload's total; an archive (per="upload") has only its own
     limit, its unpacked files count."""
 
-    def __init__(self, receiver: "Receiver", path: str, target: Path, limit: int, what: str, per: str = "file"):
+    def __init__(self, receiver: Receiver, path: str, target: Path, limit: int, what: str, per: str = "file"):
         self.receiver, self.path, self.target = receiver, path, target
         self.limit, self.what, self.per = limit, what, per
         self.file = open(target, "xb")
@@ -147,8 +154,9 @@ class Receiver:
     def count_bytes(self, n: int) -> None:
         self.total += n
         if self.total > self.limits.max_upload_bytes:
-            raise UploadError(413, f"the set is larger than {self.limits.max_upload_bytes} bytes "
-                                   "(the limit per upload)")
+            raise UploadError(
+                413, f"the set is larger than {self.limits.max_upload_bytes} bytes (the limit per upload)"
+            )
 
     def open_file(self, name: str) -> Sink:
         path = clean_name(name)
@@ -194,8 +202,11 @@ async def receive(request, staging: Path, limits: Limits) -> list[Received]:
         await run_in_threadpool(unpack_archive, archive.source, receiver)
     else:
         got = json.dumps(ctype.decode("latin-1"))
-        raise UploadError(415, f"POST /sets takes multipart/form-data (`files` parts or one `archive` part) or a "
-                               f".tar.gz body with Content-Type application/gzip; got {got}")
+        raise UploadError(
+            415,
+            f"POST /sets takes multipart/form-data (`files` parts or one `archive` part) or a "
+            f".tar.gz body with Content-Type application/gzip; got {got}",
+        )
     if not receiver.files:
         raise UploadError(400, "the upload holds no files; a set needs at least its module.xml")
     return receiver.files
@@ -217,10 +228,16 @@ class _MultipartState:
         self.ended = False
 
     def callbacks(self) -> dict:
-        return {"on_part_begin": self.part_begin, "on_header_field": self.header_field_data,
-                "on_header_value": self.header_value_data, "on_header_end": self.header_end,
-                "on_headers_finished": self.headers_finished, "on_part_data": self.part_data,
-                "on_part_end": self.part_end, "on_end": self.end}
+        return {
+            "on_part_begin": self.part_begin,
+            "on_header_field": self.header_field_data,
+            "on_header_value": self.header_value_data,
+            "on_header_end": self.header_end,
+            "on_headers_finished": self.headers_finished,
+            "on_part_data": self.part_data,
+            "on_part_end": self.part_end,
+            "on_end": self.end,
+        }
 
     def part_begin(self) -> None:
         self.headers, self.sink, self.kind = {}, None, None
@@ -238,8 +255,11 @@ class _MultipartState:
     def headers_finished(self) -> None:
         disposition = self.headers.get(b"content-disposition", b"")
         if b"\\" in disposition:
-            raise UploadError(400, "a part's Content-Disposition contains a backslash; "
-                                   "file names separate folders with '/' and hold no backslash or quote")
+            raise UploadError(
+                400,
+                "a part's Content-Disposition contains a backslash; "
+                "file names separate folders with '/' and hold no backslash or quote",
+            )
         _, params = parse_options_header(disposition)
         name = params.get(b"name", b"").decode("latin-1")
         filename = params.get(b"filename")
@@ -259,8 +279,11 @@ class _MultipartState:
                 raise UploadError(400, "send one `archive` part, or `files` parts, not both")
             self.sink, self.kind = self.receiver.open_raw("the archive"), "archive"
         else:
-            raise UploadError(400, f"unknown form field {json.dumps(name)}; POST /sets takes `files` parts "
-                                   "(filename = path in the set) or one `archive` part (.tar.gz)")
+            raise UploadError(
+                400,
+                f"unknown form field {json.dumps(name)}; POST /sets takes `files` parts "
+                "(filename = path in the set) or one `archive` part (.tar.gz)",
+            )
 
     def part_data(self, data: bytes, start: int, end: int) -> None:
         self.sink.write(data[start:end])
@@ -317,10 +340,22 @@ class _BoundedTarInfo(tarfile.TarInfo):
     """tarfile reads pax and GNU long-name headers whole into memory: refuse huge ones first."""
 
     def _proc_member(self, tf):
-        if self.type in (tarfile.XHDTYPE, tarfile.XGLTYPE, tarfile.SOLARIS_XHDTYPE, tarfile.GNUTYPE_LONGNAME,
-                         tarfile.GNUTYPE_LONGLINK) and self.size > MAX_TAR_HEADER_BYTES:
-            raise UploadError(400, f"the archive has a {self.size}-byte extended header; "
-                                   f"at most {MAX_TAR_HEADER_BYTES} bytes are accepted")
+        if (
+            self.type
+            in (
+                tarfile.XHDTYPE,
+                tarfile.XGLTYPE,
+                tarfile.SOLARIS_XHDTYPE,
+                tarfile.GNUTYPE_LONGNAME,
+                tarfile.GNUTYPE_LONGLINK,
+            )
+            and self.size > MAX_TAR_HEADER_BYTES
+        ):
+            raise UploadError(
+                400,
+                f"the archive has a {self.size}-byte extended header; "
+                f"at most {MAX_TAR_HEADER_BYTES} bytes are accepted",
+            )
         return super()._proc_member(tf)
 
 
@@ -347,8 +382,11 @@ def unpack_archive(archive: Path, receiver: Receiver) -> None:
     stream_limit = limits.max_upload_bytes + 4096 * (2 * limits.max_files + 8)  # contents + headers
     folders: set[str] = set()
     try:
-        with open(archive, "rb") as raw, gzip.GzipFile(fileobj=raw, mode="rb") as gz, \
-                tarfile.open(fileobj=_LimitedReader(gz, stream_limit), mode="r|", tarinfo=_BoundedTarInfo) as tar:
+        with (
+            open(archive, "rb") as raw,
+            gzip.GzipFile(fileobj=raw, mode="rb") as gz,
+            tarfile.open(fileobj=_LimitedReader(gz, stream_limit), mode="r|", tarinfo=_BoundedTarInfo) as tar,
+        ):
             for member in tar:
                 shown = json.dumps(member.name)
                 problem = _member_problem(member)
@@ -366,8 +404,10 @@ def unpack_archive(archive: Path, receiver: Receiver) -> None:
                     folders.add(path)
                     continue
                 if member.size > limits.max_file_bytes:
-                    raise UploadError(413, f"archive member {shown} is {member.size} bytes; "
-                                           f"the limit per file is {limits.max_file_bytes}")
+                    raise UploadError(
+                        413,
+                        f"archive member {shown} is {member.size} bytes; the limit per file is {limits.max_file_bytes}",
+                    )
                 sink = receiver.open_file(member.name)
                 try:
                     source = tar.extractfile(member)
@@ -397,11 +437,11 @@ def _strip_single_folder(receiver: Receiver) -> None:
 # ---- what the files are ---------------------------------------------------------------------
 @dataclass
 class ModuleRef:
-    name: str       # the module's name (<name>, or the stem of <filename>)
-    filename: str   # as written
-    path: str       # normalized, relative to the set root
-    type: str       # thread | process
-    line: int | None = None    # of its <filename> in module.xml
+    name: str  # the module's name (<name>, or the stem of <filename>)
+    filename: str  # as written
+    path: str  # normalized, relative to the set root
+    type: str  # thread | process
+    line: int | None = None  # of its <filename> in module.xml
     column: int | None = None
 
 
@@ -411,8 +451,9 @@ def _parse_xml(path: Path, shown: str, name: str):
     try:
         return SafeET.parse(path, forbid_dtd=True, forbid_entities=True, forbid_external=True)
     except DTDForbidden:
-        raise UploadError(400, f"{shown}: a DOCTYPE/DTD is not allowed (no entity definitions, no XML bombs)",
-                          file=name) from None
+        raise UploadError(
+            400, f"{shown}: a DOCTYPE/DTD is not allowed (no entity definitions, no XML bombs)", file=name
+        ) from None
     except EntitiesForbidden:
         raise UploadError(400, f"{shown}: entity declarations are not allowed (no XML bombs)", file=name) from None
     except ExternalReferenceForbidden:
@@ -438,7 +479,7 @@ class ModuleXml:
     """What the store needs of module.xml."""
 
     modules: list[ModuleRef]
-    layout: str | None          # <layout>, normalized
+    layout: str | None  # <layout>, normalized
     layout_at: dict = field(default_factory=dict)  # {"line", "column"} of <layout>
 
 
@@ -446,8 +487,9 @@ def parse_module_xml(path: Path) -> ModuleXml:
     """The modules module.xml names and its <layout> (normalized paths).  Only what the store
     needs: irpd's `check` validates the rest."""
     if path.stat().st_size > MAX_MODULE_XML_BYTES:
-        raise UploadError(400, f"module.xml is larger than {MAX_MODULE_XML_BYTES >> 20} MiB (irpd's limit)",
-                          file="module.xml")
+        raise UploadError(
+            400, f"module.xml is larger than {MAX_MODULE_XML_BYTES >> 20} MiB (irpd's limit)", file="module.xml"
+        )
     root = _parse_xml(path, "module.xml", "module.xml").getroot()
     lines = _element_lines(path, root)
 
@@ -465,31 +507,49 @@ def parse_module_xml(path: Path) -> ModuleXml:
         name = (node.findtext("name") or "").strip() or stem or f"#{i}"
         if any(ord(c) < 0x20 or ord(c) == 0x7F for c in name):  # irpd puts module names in its log lines
             name_node = node.find("name")
-            raise UploadError(400, f"module.xml: module <name> {json.dumps(name)} contains a control character "
-                                   "(a newline, a tab, an escape); name modules with printable characters",
-                              **at(name_node if name_node is not None else node))
+            raise UploadError(
+                400,
+                f"module.xml: module <name> {json.dumps(name)} contains a control character "
+                "(a newline, a tab, an escape); name modules with printable characters",
+                **at(name_node if name_node is not None else node),
+            )
         if not filename:
-            raise UploadError(400, f"module.xml: module {json.dumps(name)} has no <filename>",
-                              **at(node if filename_node is None else filename_node))
+            raise UploadError(
+                400,
+                f"module.xml: module {json.dumps(name)} has no <filename>",
+                **at(node if filename_node is None else filename_node),
+            )
         what = f"module.xml: module {json.dumps(name)}: <filename>"
         if filename.startswith("/"):
-            raise UploadError(400, f"{what} {json.dumps(filename)} is absolute; in an uploaded set, name the file "
-                                   "relative to module.xml", **at(filename_node))
+            raise UploadError(
+                400,
+                f"{what} {json.dumps(filename)} is absolute; in an uploaded set, name the file relative to module.xml",
+                **at(filename_node),
+            )
         try:
             normalized = clean_name(filename, what)
         except UploadError as e:
             raise e.at(**at(filename_node)) from None
         kind = (node.findtext("moduletype") or "").strip()
-        modules.append(ModuleRef(name, filename, normalized,
-                                 kind if kind in ("thread", "process") else
-                                 "thread" if filename.endswith(".so") else "process",
-                                 at(filename_node)["line"], at(filename_node)["column"]))
+        modules.append(
+            ModuleRef(
+                name,
+                filename,
+                normalized,
+                kind if kind in ("thread", "process") else "thread" if filename.endswith(".so") else "process",
+                at(filename_node)["line"],
+                at(filename_node)["column"],
+            )
+        )
     layout_node = root.find("layout")
     layout = (root.findtext("layout") or "").strip() or None
     if layout is not None:
         if layout.startswith("/"):
-            raise UploadError(400, f"module.xml: <layout> {json.dumps(layout)} is absolute; "
-                                   "name it relative to module.xml", **at(layout_node))
+            raise UploadError(
+                400,
+                f"module.xml: <layout> {json.dumps(layout)} is absolute; name it relative to module.xml",
+                **at(layout_node),
+            )
         try:
             layout = clean_name(layout, "module.xml: <layout>")
         except UploadError as e:
@@ -508,8 +568,18 @@ def _kind_by_name(path: str, source: Path) -> str | None:
         return "layout"
     if path == ROBOT_JSON:
         return "robot"
-    return {".so": "library", ".xml": "config", ".urdf": "urdf", ".json": "json", ".stl": "mesh", ".dae": "mesh",
-            ".obj": "mesh", ".h": "header", ".txt": "text", ".md": "text"}.get(suffix)
+    return {
+        ".so": "library",
+        ".xml": "config",
+        ".urdf": "urdf",
+        ".json": "json",
+        ".stl": "mesh",
+        ".dae": "mesh",
+        ".obj": "mesh",
+        ".h": "header",
+        ".txt": "text",
+        ".md": "text",
+    }.get(suffix)
 
 
 def check_set(files: list[Received]) -> list[StagedFile]:
@@ -534,17 +604,31 @@ def check_set(files: list[Received]) -> list[StagedFile]:
     referenced: dict[str, ModuleRef] = {}
     for m in modules:
         if m.path not in by_path:
-            raise UploadError(400, f"module.xml: module {json.dumps(m.name)} names {json.dumps(m.filename)}, "
-                                   f"which is not in the upload (add it as {json.dumps(m.path)})",
-                              file="module.xml", line=m.line, column=m.column)
+            raise UploadError(
+                400,
+                f"module.xml: module {json.dumps(m.name)} names {json.dumps(m.filename)}, "
+                f"which is not in the upload (add it as {json.dumps(m.path)})",
+                file="module.xml",
+                line=m.line,
+                column=m.column,
+            )
         other = referenced.setdefault(m.path, m)
         if other.type != m.type:
-            raise UploadError(400, f"module.xml: {json.dumps(m.path)} is both a {other.type} module "
-                                   f"({json.dumps(other.name)}) and a {m.type} module ({json.dumps(m.name)})",
-                              file="module.xml", line=m.line, column=m.column)
+            raise UploadError(
+                400,
+                f"module.xml: {json.dumps(m.path)} is both a {other.type} module "
+                f"({json.dumps(other.name)}) and a {m.type} module ({json.dumps(m.name)})",
+                file="module.xml",
+                line=m.line,
+                column=m.column,
+            )
     if layout is not None and layout not in by_path:
-        raise UploadError(400, f"module.xml: <layout> names {json.dumps(layout)}, which is not in the upload",
-                          file="module.xml", **xml.layout_at)
+        raise UploadError(
+            400,
+            f"module.xml: <layout> names {json.dumps(layout)}, which is not in the upload",
+            file="module.xml",
+            **xml.layout_at,
+        )
 
     staged = []
     for path in sorted(by_path):
@@ -574,8 +658,9 @@ def check_robot_json(source: Path, staged: dict[str, StagedFile]) -> None:
         config = parse_config(source.read_bytes())
         urdf = staged.get(config.urdf)
         if urdf is None or urdf.kind != "urdf":
-            raise MappingError(f'robot.json: "urdf" names {json.dumps(config.urdf)}, which is not a .urdf file '
-                               "of the upload")
+            raise MappingError(
+                f'robot.json: "urdf" names {json.dumps(config.urdf)}, which is not a .urdf file of the upload'
+            )
         check_against_urdf(config.joints, parse_urdf(urdf.source, config.urdf), ROBOT_JSON, config.urdf)
     except (MappingError, UrdfError) as e:
         raise UploadError(400, str(e)) from None
@@ -600,7 +685,8 @@ def _check_content(f: Received, kind: str, ref: ModuleRef | None, shown: str) ->
             with open(f.source, "rb") as fh:
                 json.load(fh)
         except json.JSONDecodeError as e:
-            raise UploadError(400, f"{shown} is not valid JSON: {e}", file=f.path, line=e.lineno,
-                              column=e.colno) from None
+            raise UploadError(
+                400, f"{shown} is not valid JSON: {e}", file=f.path, line=e.lineno, column=e.colno
+            ) from None
         except (ValueError, RecursionError) as e:
             raise UploadError(400, f"{shown} is not valid JSON: {e}", file=f.path) from None

@@ -10,6 +10,7 @@ that evolve"): every read first compares the header's layout_seq with the one th
 taken at, and takes the new one (hash, text) consistently when it moved.  A segment replaced by a
 restarted irpd is a new file: `replaced()` tells, and the caller maps the new one.
 """
+
 from __future__ import annotations
 
 import json
@@ -30,9 +31,20 @@ LAYOUT_SEQ = HEADER.format("layout_seq"), HEADER.offset("layout_seq")
 LAYOUT_OFFSET = HEADER.format("layout_offset"), HEADER.offset("layout_offset")
 LAYOUT_SIZE = HEADER.format("layout_size"), HEADER.offset("layout_size")
 LOCK_SEQ = LOCK.format("seq"), LOCK.offset("seq")
-FORMATS = {("float", 4): "<f", ("float", 8): "<d", ("signed", 1): "<b", ("signed", 2): "<h", ("signed", 4): "<i",
-           ("signed", 8): "<q", ("unsigned", 1): "<B", ("unsigned", 2): "<H", ("unsigned", 4): "<I",
-           ("unsigned", 8): "<Q", ("bool", 1): "<?", ("char", 1): "<b"}
+FORMATS = {
+    ("float", 4): "<f",
+    ("float", 8): "<d",
+    ("signed", 1): "<b",
+    ("signed", 2): "<h",
+    ("signed", 4): "<i",
+    ("signed", 8): "<q",
+    ("unsigned", 1): "<B",
+    ("unsigned", 2): "<H",
+    ("unsigned", 4): "<I",
+    ("unsigned", 8): "<Q",
+    ("bool", 1): "<?",
+    ("char", 1): "<b",
+}
 
 
 class VariableError(Exception):
@@ -62,8 +74,8 @@ class Segment:
             if seq & 1:
                 continue
             layout_offset, layout_size = self._field(LAYOUT_OFFSET), self._field(LAYOUT_SIZE)
-            hash_ = self.mm[LAYOUT_HASH:LAYOUT_HASH + HASH_CHARS]
-            text = self.mm[layout_offset:layout_offset + layout_size]
+            hash_ = self.mm[LAYOUT_HASH : LAYOUT_HASH + HASH_CHARS]
+            text = self.mm[layout_offset : layout_offset + layout_size]
             if self._field(LAYOUT_SEQ) == seq:
                 break
         else:
@@ -92,8 +104,7 @@ class Segment:
         self.refresh()
         leaf = self.leaves.get(path)
         if leaf is None:
-            raise VariableError(f"no variable '{path}' in layout {self.hash[:12]}…; "
-                                f"GET /api/v1/variables lists them")
+            raise VariableError(f"no variable '{path}' in layout {self.hash[:12]}…; GET /api/v1/variables lists them")
         kind = self.scalars.get(leaf["type"], {}).get("kind", "unsigned")
         fmt = FORMATS.get((kind, leaf["size"]))
         if fmt is None:
@@ -104,7 +115,7 @@ class Segment:
             before = self._field(LOCK_SEQ, lock)
             if before & 1:
                 continue
-            raw = self.mm[at:at + leaf["size"]]
+            raw = self.mm[at : at + leaf["size"]]
             after = self._field(LOCK_SEQ, lock)
             if after == before:
                 return struct.unpack(fmt, raw)[0]

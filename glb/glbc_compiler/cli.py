@@ -13,7 +13,8 @@ import tempfile
 
 from . import __version__
 from .emit_header import render as render_header
-from .emit_layout import document, render as render_layout
+from .emit_layout import document
+from .emit_layout import render as render_layout
 from .errors import GlbError, Loc, Source
 from .evolve import place, read_previous, summary
 from .layout import DEFAULT_MAX_SIZE, build
@@ -34,15 +35,24 @@ def _arguments() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="glbc",
         description="Compile .glb shared-variable declarations into DIR/indurop/generated.h (C++20, "
-                    "for modules) and DIR/layout.json (for irpd, the agent and the UI).",
-        epilog="Several files make one segment; their namespaces are kept apart.  See docs/glbc.md.")
+        "for modules) and DIR/layout.json (for irpd, the agent and the UI).",
+        epilog="Several files make one segment; their namespaces are kept apart.  See docs/glbc.md.",
+    )
     p.add_argument("files", nargs="+", metavar="FILE.glb", help=".glb files, in the order their variables are laid out")
     p.add_argument("-o", dest="out", required=True, metavar="DIR", help="output folder (created if missing)")
-    p.add_argument("--max-size", type=_size, default=DEFAULT_MAX_SIZE, metavar="BYTES",
-                   help=f"limit of the segment's data area (default {DEFAULT_MAX_SIZE}, 16 MiB; K/M/G suffixes allowed)")
-    p.add_argument("--previous", metavar="FILE",
-                   help="the layout.json that runs now: its variables keep their offsets and locks, new and changed "
-                        "ones go where no earlier layout had a variable (docs/glbc.md)")
+    p.add_argument(
+        "--max-size",
+        type=_size,
+        default=DEFAULT_MAX_SIZE,
+        metavar="BYTES",
+        help=f"limit of the segment's data area (default {DEFAULT_MAX_SIZE}, 16 MiB; K/M/G suffixes allowed)",
+    )
+    p.add_argument(
+        "--previous",
+        metavar="FILE",
+        help="the layout.json that runs now: its variables keep their offsets and locks, new and changed "
+        "ones go where no earlier layout had a variable (docs/glbc.md)",
+    )
     p.add_argument("--version", action="version", version=f"glbc {__version__}")
     return p
 
@@ -66,7 +76,9 @@ def source(name: str, data: bytes) -> Source:
         line = head.count("\n") + 1
         col = len(head) - (head.rfind("\n") + 1) + 1
         src = Source.from_text(name, data.decode("utf-8", errors="replace"))
-        raise GlbError(f"invalid UTF-8 (byte 0x{data[e.start]:02x}): a .glb file is UTF-8 text", Loc(src, line, col)) from None
+        raise GlbError(
+            f"invalid UTF-8 (byte 0x{data[e.start]:02x}): a .glb file is UTF-8 text", Loc(src, line, col)
+        ) from None
     return Source.from_text(name, text)
 
 

@@ -45,8 +45,10 @@ def _struct(st: StructType) -> list[str]:
     out.append("};")
     out.append(f'static_assert(sizeof({name}) == {st.size} && alignof({name}) == {st.align}, "glbc layout of {name}");')
     for f in st.fields:
-        out.append(f"static_assert(offsetof({name}, {f.name}) == {f.offset} && sizeof({name}::{f.name}) == {f.size}, "
-                   f'"glbc layout of {name}.{f.name}");')
+        out.append(
+            f"static_assert(offsetof({name}, {f.name}) == {f.offset} && sizeof({name}::{f.name}) == {f.size}, "
+            f'"glbc layout of {name}.{f.name}");'
+        )
     out.append(f"struct {ref} : {NS}::StructRef<{name}> {{")
     out += [f"    {_ref_type(f.type, f.dims)} {f.name};" for f in st.fields]
     inits = ["StructRef(offset, lock)"] + [f"{f.name}(offset + {f.offset}, lock, true)" for f in st.fields]
@@ -71,11 +73,15 @@ def _variable(v: Variable) -> list[str]:
     ref = _ref_type(v.type, v.dims)
     value = _value_type(v.type)
     out = [where, f"inline constexpr {ref} {v.name}{{{v.offset}, {v.lock}}};"]
-    out.append(f"static_assert(sizeof({value}{_c_dims(v.dims)}) == {v.size} && alignof({value}) == {v.align}, "
-               f'"glbc layout of {v.path}");')
+    out.append(
+        f"static_assert(sizeof({value}{_c_dims(v.dims)}) == {v.size} && alignof({value}) == {v.align}, "
+        f'"glbc layout of {v.path}");'
+    )
     if v.dims:
-        out.append(f"static_assert(sizeof(INDUROP_TYPEDEF({v.name})::array_type) == {v.size}, "
-                   f'"irp::shared::ArrayRef view of {v.path}");')
+        out.append(
+            f"static_assert(sizeof(INDUROP_TYPEDEF({v.name})::array_type) == {v.size}, "
+            f'"irp::shared::ArrayRef view of {v.path}");'
+        )
     return out
 
 

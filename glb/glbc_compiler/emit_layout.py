@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import hashlib
 import json
-from typing import Any, Iterator
+from collections.abc import Iterator
+from typing import Any
 
 from .layout import Layout, StructType, Type, Variable, qualify
 
@@ -28,8 +29,10 @@ def _types(layout: Layout) -> dict[str, Any]:
         st.qualname: {
             "size": st.size,
             "align": st.align,
-            "fields": [{"name": f.name, "type": _type_name(f.type), "offset": f.offset, "size": f.size,
-                        "dims": list(f.dims)} for f in st.fields],
+            "fields": [
+                {"name": f.name, "type": _type_name(f.type), "offset": f.offset, "size": f.size, "dims": list(f.dims)}
+                for f in st.fields
+            ],
         }
         for st in layout.types
     }
@@ -42,8 +45,12 @@ def _canonical(value: Any) -> bytes:
 def _describe(t: Type) -> Any:
     """What a value of t means, byte by byte: a scalar's C++ name, or a struct's fields."""
     if isinstance(t, StructType):
-        return {"fields": [{"name": f.name, "type": _describe(f.type), "offset": f.offset, "size": f.size,
-                            "dims": list(f.dims)} for f in t.fields]}
+        return {
+            "fields": [
+                {"name": f.name, "type": _describe(f.type), "offset": f.offset, "size": f.size, "dims": list(f.dims)}
+                for f in t.fields
+            ]
+        }
     return t.name
 
 
@@ -54,13 +61,24 @@ def type_id(v: Variable) -> str:
 
 
 def _variable(v: Variable) -> dict[str, Any]:
-    return {"path": v.path, "namespace": v.namespace, "name": v.name, "type": _type_name(v.type), "type_id": type_id(v),
-            "offset": v.offset, "size": v.size, "align": v.align, "dims": list(v.dims), "lock": v.lock}
+    return {
+        "path": v.path,
+        "namespace": v.namespace,
+        "name": v.name,
+        "type": _type_name(v.type),
+        "type_id": type_id(v),
+        "offset": v.offset,
+        "size": v.size,
+        "align": v.align,
+        "dims": list(v.dims),
+        "lock": v.lock,
+    }
 
 
 def layout_hash(types: dict[str, Any], variables: list[dict[str, Any]]) -> str:
-    return hashlib.sha256(_canonical({"types": types, "variables": [{k: x for k, x in v.items() if k != "source"}
-                                                                 for v in variables]})).hexdigest()
+    return hashlib.sha256(
+        _canonical({"types": types, "variables": [{k: x for k, x in v.items() if k != "source"} for v in variables]})
+    ).hexdigest()
 
 
 def _leaves(path: str, t: Type, dims: list[int], offset: int, lock: int) -> Iterator[dict[str, Any]]:
@@ -81,8 +99,11 @@ def document(layout: Layout) -> dict[str, Any]:
     """The layout.json document, as a dict (in the order it is written)."""
     types = _types(layout)
     variables = [_variable(v) | {"source": v.loc.short()} for v in layout.variables]
-    used = {t.name: t for t in [v.type for v in layout.variables] + [f.type for st in layout.types for f in st.fields]
-            if not isinstance(t, StructType)}
+    used = {
+        t.name: t
+        for t in [v.type for v in layout.variables] + [f.type for st in layout.types for f in st.fields]
+        if not isinstance(t, StructType)
+    }
     scalars = {name: {"size": s.size, "align": s.align, "kind": s.kind} for name, s in sorted(used.items())}
     own = layout_hash(types, variables)
     # A layout is not its own ancestor, and each ancestor is listed once: recompiling an unchanged
@@ -114,9 +135,12 @@ def _dump(value: Any, indent: int, in_list: bool) -> str:
     """Pretty JSON with one line per variable, field, leaf and scalar type (an object of plain values
     inside a list or below the second level)."""
     pad = "  " * indent
+
     def flat(x) -> bool:
-        return not isinstance(x, (dict, list)) or (isinstance(x, list) and all(
-            not isinstance(y, (dict, list)) for y in x))
+        return not isinstance(x, (dict, list)) or (
+            isinstance(x, list) and all(not isinstance(y, (dict, list)) for y in x)
+        )
+
     if isinstance(value, dict):
         if not value:
             return "{}"

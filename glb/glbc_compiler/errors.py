@@ -15,7 +15,7 @@ class Source:
     lines: tuple[str, ...]
 
     @staticmethod
-    def from_text(name: str, text: str) -> "Source":
+    def from_text(name: str, text: str) -> Source:
         # splitlines() would also split at \f, \v, \x1c.. which the lexer treats as plain
         # characters; split at \n only and drop a \r before it.
         return Source(name, text, tuple(line.rstrip("\r") for line in text.split("\n")))

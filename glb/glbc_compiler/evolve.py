@@ -46,6 +46,7 @@ class Previous:
 
 # -- reading the previous layout --------------------------------------------------------------------
 
+
 def _fail(file: str, message: str) -> GlbError:
     return GlbError(message, file=file)
 
@@ -89,8 +90,11 @@ def read_previous(file: str) -> Previous:
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise _fail(file, f'not an indurop layout ("format" is not "{FORMAT}"); {GIVE}')
     if type(doc.get("version")) is not int or doc["version"] != VERSION:
-        raise _fail(file, f"layout version {json.dumps(doc.get('version'))}; this glbc reads version {VERSION}: "
-                          f"compile the running set's .glb files with the glbc that wrote it")
+        raise _fail(
+            file,
+            f"layout version {json.dumps(doc.get('version'))}; this glbc reads version {VERSION}: "
+            f"compile the running set's .glb files with the glbc that wrote it",
+        )
     layout_hash = _hash(file, doc.get("hash"), "the layout")
     variables = _variables(file, doc.get("variables"), "the layout")
     lineage = doc.get("lineage", [])  # a layout with no variables from an older glbc has none
@@ -107,13 +111,15 @@ def read_previous(file: str) -> Previous:
 
 # -- placing ------------------------------------------------------------------------------------------
 
+
 def _gaps(kept: list[Placed]) -> list[list[int | None]]:
     """The free space between the cache lines that `kept` uses: [start, end) pairs in order, the last
     one open-ended (end None)."""
     gaps: list[list[int | None]] = []
     at = 0
-    for start, end in sorted((p.offset // CACHE_LINE * CACHE_LINE, round_up(p.offset + p.size, CACHE_LINE))
-                             for p in kept):
+    for start, end in sorted(
+        (p.offset // CACHE_LINE * CACHE_LINE, round_up(p.offset + p.size, CACHE_LINE)) for p in kept
+    ):
         if start > at:
             gaps.append([at, start])
         at = max(at, end)
@@ -137,11 +143,17 @@ def _too_large(prev: Previous, placed: list[Variable], kept_end: int, max_size: 
     over = [v for v in placed if round_up(v.offset + v.size, CACHE_LINE) > max_size]
     if over:
         v = over[0]
-        return GlbError(f"segment over its limit: variable '{v.name}' ({v.size} bytes) goes to offset {v.offset}, the "
-                        f"first space the running layout and its lineage leave free, and ends at byte "
-                        f"{round_up(v.offset + v.size, CACHE_LINE)}, over --max-size {max_size}; {RESTART}", v.loc)
-    return _fail(prev.file, f"segment over its limit: the variables and holes this layout keeps end at byte "
-                            f"{kept_end}, over --max-size {max_size}; {RESTART}")
+        return GlbError(
+            f"segment over its limit: variable '{v.name}' ({v.size} bytes) goes to offset {v.offset}, the "
+            f"first space the running layout and its lineage leave free, and ends at byte "
+            f"{round_up(v.offset + v.size, CACHE_LINE)}, over --max-size {max_size}; {RESTART}",
+            v.loc,
+        )
+    return _fail(
+        prev.file,
+        f"segment over its limit: the variables and holes this layout keeps end at byte "
+        f"{kept_end}, over --max-size {max_size}; {RESTART}",
+    )
 
 
 def place(layout: Layout, prev: Previous, max_size: int) -> None:
@@ -174,11 +186,15 @@ def place(layout: Layout, prev: Previous, max_size: int) -> None:
     moved = [{"path": v.path, "from": before[v.path].offset, "to": v.offset} for v in placed if v.path in before]
     removed = [p.path for p in prev.variables if p.path not in now]
     layout.changes = {"previous": prev.hash, "added": added, "removed": removed, "moved": moved}
-    layout.lineage = [{"hash": h, "variables": [p.entry() for p in variables]}
-                      for h, variables in [(prev.hash, prev.variables)] + prev.lineage][:MAX_LINEAGE]
+    layout.lineage = [
+        {"hash": h, "variables": [p.entry() for p in variables]}
+        for h, variables in [(prev.hash, prev.variables)] + prev.lineage
+    ][:MAX_LINEAGE]
 
 
 def summary(changes: dict[str, Any]) -> str:
     """The line glbc prints to stderr: `glbc: against layout 5356ab12cd34…: 1 added, 0 removed, 0 moved`."""
-    return (f"glbc: against layout {changes['previous'][:12]}…: {len(changes['added'])} added, "
-            f"{len(changes['removed'])} removed, {len(changes['moved'])} moved")
+    return (
+        f"glbc: against layout {changes['previous'][:12]}…: {len(changes['added'])} added, "
+        f"{len(changes['removed'])} removed, {len(changes['moved'])} moved"
+    )

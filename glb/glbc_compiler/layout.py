@@ -35,7 +35,7 @@ class StructType:
     cname: str  # the C++ name of the value type: joints_t
     owner: str  # what it is named after, for messages: "variable 'joints'"
     loc: Loc  # the `struct` keyword
-    fields: list["Field"] = field(default_factory=list)
+    fields: list[Field] = field(default_factory=list)
     size: int = 0
     align: int = 1
     leaves: int = 0  # scalars in one value
@@ -156,9 +156,14 @@ class _Builder:
             return
         note = [Note(old.loc, f"{old.describe(name)} is declared here")]
         if sym.kind != "type" and old.kind != "type":
-            raise GlbError(f"duplicate name '{name}' in {describe_namespace(ns)}: first declared at {old.loc}", sym.loc, notes=note)
-        raise GlbError(f"{sym.describe(name)} clashes with {old.describe(name)} at {old.loc}; rename one of them",
-                       sym.loc, notes=note)
+            raise GlbError(
+                f"duplicate name '{name}' in {describe_namespace(ns)}: first declared at {old.loc}", sym.loc, notes=note
+            )
+        raise GlbError(
+            f"{sym.describe(name)} clashes with {old.describe(name)} at {old.loc}; rename one of them",
+            sym.loc,
+            notes=note,
+        )
 
     def define(self, ns: str, stmt: DefineStmt, block: Block) -> None:
         self.declare(ns, stmt.name, _Symbol("define", stmt.loc))
@@ -175,16 +180,27 @@ class _Builder:
                 continue
             found = self.defines.get(ns, {}).get(d.define)
             if found is None:
-                raise GlbError(f"'{d.define}' is not a #define of {describe_namespace(ns)} declared before this line: "
-                               f"an array size is an integer or a #define name", d.loc)
+                raise GlbError(
+                    f"'{d.define}' is not a #define of {describe_namespace(ns)} declared before this line: "
+                    f"an array size is an integer or a #define name",
+                    d.loc,
+                )
             check_dim(found.value, d.loc, via=f" (#define {d.define})")
             out.append(found.value)
         return out
 
     # -- types ----------------------------------------------------------------------------------
 
-    def struct(self, ns: str, spec: StructSpec, cname: str, owner: str, name_loc: Loc, block: Block,
-               introduced: list[StructType]) -> StructType:
+    def struct(
+        self,
+        ns: str,
+        spec: StructSpec,
+        cname: str,
+        owner: str,
+        name_loc: Loc,
+        block: Block,
+        introduced: list[StructType],
+    ) -> StructType:
         st = StructType(ns, cname, owner, spec.loc)
         self.declare(ns, cname, _Symbol("type", name_loc, owner))
         self.declare(ns, st.ref_name, _Symbol("type", name_loc, owner))
@@ -195,13 +211,17 @@ class _Builder:
                 self.define(ns, m, block)
                 continue
             if m.name in seen:
-                raise GlbError(f"duplicate field '{m.name}' in the struct of {owner}: first declared at {seen[m.name]}",
-                               m.loc, notes=[Note(seen[m.name], f"field '{m.name}' is declared here")])
+                raise GlbError(
+                    f"duplicate field '{m.name}' in the struct of {owner}: first declared at {seen[m.name]}",
+                    m.loc,
+                    notes=[Note(seen[m.name], f"field '{m.name}' is declared here")],
+                )
             seen[m.name] = m.loc
             dims = self.dims(ns, m.dims)
             if isinstance(m.type, StructSpec):
-                t: Type = self.struct(ns, m.type, f"{cname}_{m.name}_t", f"field '{m.name}' of {cname}", m.loc, block,
-                                      introduced)
+                t: Type = self.struct(
+                    ns, m.type, f"{cname}_{m.name}_t", f"field '{m.name}' of {cname}", m.loc, block, introduced
+                )
             else:
                 t = SCALARS[m.type.cname]
             count = math.prod(dims)
@@ -238,8 +258,9 @@ class _Builder:
         dims = self.dims(ns, decl.dims)
         introduced: list[StructType] = []
         if isinstance(decl.type, StructSpec):
-            t: Type = self.struct(ns, decl.type, f"{decl.name}_t", f"variable '{decl.name}'", decl.loc, block,
-                                  introduced)
+            t: Type = self.struct(
+                ns, decl.type, f"{decl.name}_t", f"variable '{decl.name}'", decl.loc, block, introduced
+            )
         else:
             t = SCALARS[decl.type.cname]
         count = math.prod(dims)
@@ -248,12 +269,18 @@ class _Builder:
         var.lock = len(self.variables)
         end = round_up(var.offset + var.size, CACHE_LINE)
         if end > self.max_size:
-            raise GlbError(f"segment over its limit: variable '{decl.name}' ({var.size} bytes at offset {var.offset}) "
-                           f"ends at byte {end}, over --max-size {self.max_size}", decl.loc)
+            raise GlbError(
+                f"segment over its limit: variable '{decl.name}' ({var.size} bytes at offset {var.offset}) "
+                f"ends at byte {end}, over --max-size {self.max_size}",
+                decl.loc,
+            )
         self.leaves += _leaves(t) * count
         if self.leaves > MAX_LEAVES:
-            raise GlbError(f"too many scalars: variable '{decl.name}' brings layout.json's leaves to {self.leaves}, "
-                           f"over the limit of {MAX_LEAVES}", decl.loc)
+            raise GlbError(
+                f"too many scalars: variable '{decl.name}' brings layout.json's leaves to {self.leaves}, "
+                f"over the limit of {MAX_LEAVES}",
+                decl.loc,
+            )
         self.variables.append(var)
         block.variables.append(var)
 
@@ -267,9 +294,12 @@ class _Builder:
                 parent, part = ".".join(parts[:k]), parts[k]
                 sym = self.symbols.get(parent, {}).get(part)
                 if sym is not None:
-                    raise GlbError(f"{sym.describe(part)} of namespace {parent} clashes with namespace {ns} "
-                                   f"(declared at {loc}): both would be {'::'.join(parts[:k + 1])} in C++",
-                                   sym.loc, notes=[Note(loc, f"namespace {ns} is declared here")])
+                    raise GlbError(
+                        f"{sym.describe(part)} of namespace {parent} clashes with namespace {ns} "
+                        f"(declared at {loc}): both would be {'::'.join(parts[: k + 1])} in C++",
+                        sym.loc,
+                        notes=[Note(loc, f"namespace {ns} is declared here")],
+                    )
 
     def check_field_names(self) -> None:
         """A field named like a generated type would change that type's meaning inside the struct."""
@@ -278,8 +308,11 @@ class _Builder:
             for f in st.fields:
                 sym = table.get(f.name)
                 if sym is not None and sym.kind == "type":
-                    raise GlbError(f"field '{f.name}' clashes with {sym.describe(f.name)} at {sym.loc}; rename one of them",
-                                   f.loc, notes=[Note(sym.loc, "the type is named after this declaration")])
+                    raise GlbError(
+                        f"field '{f.name}' clashes with {sym.describe(f.name)} at {sym.loc}; rename one of them",
+                        f.loc,
+                        notes=[Note(sym.loc, "the type is named after this declaration")],
+                    )
 
 
 def _leaves(t: Type) -> int:
@@ -293,5 +326,13 @@ def build(files: list[FileSyntax], max_size: int = DEFAULT_MAX_SIZE) -> Layout:
     b.check_namespace_parts()
     b.check_field_names()
     data_size = round_up(b.variables[-1].offset + b.variables[-1].size, CACHE_LINE) if b.variables else 0
-    return Layout([fs.source.name for fs in files], list(b.namespace_locs), b.all_defines, b.types, b.variables,
-                  b.blocks, data_size, len(b.variables))
+    return Layout(
+        [fs.source.name for fs in files],
+        list(b.namespace_locs),
+        b.all_defines,
+        b.types,
+        b.variables,
+        b.blocks,
+        data_size,
+        len(b.variables),
+    )

@@ -102,7 +102,9 @@ def tokenize(src: Source) -> list[Token]:
                     break
             else:
                 shown = c if c.isprintable() else f"U+{ord(c):04X}"
-                raise GlbError(f"unexpected character '{shown}': expected a declaration, a comment or a #define", loc(i))
+                raise GlbError(
+                    f"unexpected character '{shown}': expected a declaration, a comment or a #define", loc(i)
+                )
     # End of file: just after the last visible token (or 1:1 in a file without one), which is
     # where a missing `}` or name is best shown.
     last = next((t for t in reversed(tokens) if t.kind != NEWLINE), None)

@@ -10,7 +10,8 @@ from .scalars import TYPE_WORDS
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
 # C++20 keywords and alternative tokens.
-CPP_KEYWORDS = frozenset("""
+CPP_KEYWORDS = frozenset(
+    """
 alignas alignof and and_eq asm auto bitand bitor bool break case catch char char8_t char16_t
 char32_t class compl concept const consteval constexpr constinit const_cast continue co_await
 co_return co_yield decltype default delete do double dynamic_cast else enum explicit export
@@ -19,13 +20,16 @@ nullptr operator or or_eq private protected public register reinterpret_cast req
 short signed sizeof static static_assert static_cast struct switch template this thread_local
 throw true try typedef typeid typename union unsigned using virtual void volatile wchar_t while
 xor xor_eq
-""".split())
+""".split()
+)
 
 # Names that are macros in the standard headers the generated header includes, or that the
 # generated code itself relies on (`std`, `irp` are namespaces it refers to).
-RESERVED = frozenset("""
+RESERVED = frozenset(
+    """
 std irp assert errno offsetof NULL EOF stdin stdout stderr
-""".split())
+""".split()
+)
 
 # Field names that would break the reference class glbc derives from irp::shared::StructRef,
 # or hide the whole-struct operations (`x.load()`, `x.update(fn)`) that generic code calls.

@@ -29,7 +29,9 @@ _DECIMAL = re.compile(r"(0|[1-9][0-9]*)([uU]?(?:ll|LL|l|L)?|(?:ll|LL|l|L)[uU])\Z
 _HEX = re.compile(r"0[xX]([0-9a-fA-F]+)([uU]?(?:ll|LL|l|L)?|(?:ll|LL|l|L)[uU])\Z")
 _OCTAL = re.compile(r"0[0-9]+[uUlL]*\Z")
 
-_TYPE_HELP = "a scalar type (int8_t … uint64_t, char, short, int, long, unsigned …, float, double, bool, BOOL) or 'struct'"
+_TYPE_HELP = (
+    "a scalar type (int8_t … uint64_t, char, short, int, long, unsigned …, float, double, bool, BOOL) or 'struct'"
+)
 
 
 def parse_integer(tok: Token, what: str) -> int:
@@ -41,7 +43,9 @@ def parse_integer(tok: Token, what: str) -> int:
     if m:
         return int(m.group(1), 16)
     if _OCTAL.match(tok.text):
-        raise GlbError(f"'{tok.text}' would be octal in C, which .glb does not accept: write the {what} in decimal", tok.loc)
+        raise GlbError(
+            f"'{tok.text}' would be octal in C, which .glb does not accept: write the {what} in decimal", tok.loc
+        )
     raise GlbError(f"expected an integer {what}, found '{tok.text}'", tok.loc)
 
 
@@ -144,14 +148,18 @@ class Parser:
         self.end_of_statement(f"'namespace {dotted}'", in_struct=False)
         if self.items_before_namespace is not None:
             raise GlbError(
-                f"'namespace' after global declarations: a file's declarations are either all global or all in "
-                f"its one namespace, declared before them", keyword.loc,
-                notes=[Note(self.items_before_namespace, "the first global declaration")])
+                "'namespace' after global declarations: a file's declarations are either all global or all in "
+                "its one namespace, declared before them",
+                keyword.loc,
+                notes=[Note(self.items_before_namespace, "the first global declaration")],
+            )
         if self.namespace is not None:
             raise GlbError(
                 f"a second namespace line: this file already declared namespace {self.namespace.name}; "
-                f"put each namespace in its own .glb file", keyword.loc,
-                notes=[Note(self.namespace.loc, f"namespace {self.namespace.name} declared here")])
+                f"put each namespace in its own .glb file",
+                keyword.loc,
+                notes=[Note(self.namespace.loc, f"namespace {self.namespace.name} declared here")],
+            )
         self.namespace = NamespaceStmt(dotted, first.loc)
 
     def parse_define(self) -> DefineStmt:
@@ -171,14 +179,19 @@ class Parser:
         if tok.is_punct("-"):
             sign, tok = -1, self.take(skip_newlines=False)
         if tok.kind != NUMBER:
-            raise GlbError(f"expected an integer value for #define {name.text}, found {tok.describe()}", self.where(tok))
+            raise GlbError(
+                f"expected an integer value for #define {name.text}, found {tok.describe()}", self.where(tok)
+            )
         value = sign * parse_integer(tok, f"value for #define {name.text}")
         if not -MAX_DEFINE - 1 <= value <= MAX_DEFINE:
             raise GlbError(f"#define {name.text} {value} does not fit a C++ long", tok.loc)
         end = self.peek(skip_newlines=False)
         if end.kind not in (NEWLINE, EOF):
-            raise GlbError(f"expected end of line after '#define {name.text} {tok.text}' "
-                           f"(a #define takes one integer and no ';'), found {end.describe()}", end.loc)
+            raise GlbError(
+                f"expected end of line after '#define {name.text} {tok.text}' "
+                f"(a #define takes one integer and no ';'), found {end.describe()}",
+                end.loc,
+            )
         return DefineStmt(name.text, value, name.loc)
 
     # -- declarations ---------------------------------------------------------------------------
@@ -189,8 +202,10 @@ class Parser:
             type_ = self.parse_struct()
             after = self.peek(skip_newlines=False)
             if after.kind != IDENT:
-                raise GlbError(f"expected the variable's name after '}}' (on the same line), found {after.describe()}",
-                               self.where(after))
+                raise GlbError(
+                    f"expected the variable's name after '}}' (on the same line), found {after.describe()}",
+                    self.where(after),
+                )
         elif tok.kind == IDENT and (tok.text in SINGLE_WORD or tok.text in COMBINING_WORDS):
             type_ = self.parse_scalar()
         elif tok.kind == IDENT:
@@ -215,8 +230,12 @@ class Parser:
             last = self.take()
             words.append(last.text)
         spelled = " ".join(words)
-        span = Loc(self.src, first.loc.line, first.loc.col,
-                   len(spelled) if last.loc.line == first.loc.line else len(first.text))
+        span = Loc(
+            self.src,
+            first.loc.line,
+            first.loc.col,
+            len(spelled) if last.loc.line == first.loc.line else len(first.text),
+        )
         nxt = self.peek()
         if nxt.kind == IDENT and nxt.text in ("double", "float"):  # long double, unsigned float
             if nxt.loc.line == first.loc.line:
@@ -243,8 +262,11 @@ class Parser:
                 self.take()
                 break
             if tok.kind == EOF:
-                raise GlbError(f"expected '}}' to close the struct opened at line {keyword.loc.line}, found end of file",
-                               self.where(tok), notes=[Note(brace.loc, "the struct opens here")])
+                raise GlbError(
+                    f"expected '}}' to close the struct opened at line {keyword.loc.line}, found end of file",
+                    self.where(tok),
+                    notes=[Note(brace.loc, "the struct opens here")],
+                )
             if tok.is_punct(";"):
                 self.take()
             elif tok.is_punct("#"):

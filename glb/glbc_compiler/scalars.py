@@ -19,17 +19,27 @@ class Scalar:
 
 def _table() -> dict[str, Scalar]:
     rows = [
-        ("int8_t", 1, "signed"), ("uint8_t", 1, "unsigned"),
-        ("int16_t", 2, "signed"), ("uint16_t", 2, "unsigned"),
-        ("int32_t", 4, "signed"), ("uint32_t", 4, "unsigned"),
-        ("int64_t", 8, "signed"), ("uint64_t", 8, "unsigned"),
+        ("int8_t", 1, "signed"),
+        ("uint8_t", 1, "unsigned"),
+        ("int16_t", 2, "signed"),
+        ("uint16_t", 2, "unsigned"),
+        ("int32_t", 4, "signed"),
+        ("uint32_t", 4, "unsigned"),
+        ("int64_t", 8, "signed"),
+        ("uint64_t", 8, "unsigned"),
         ("char", 1, "signed"),  # char is signed on x86-64 Linux
-        ("signed char", 1, "signed"), ("unsigned char", 1, "unsigned"),
-        ("short", 2, "signed"), ("unsigned short", 2, "unsigned"),
-        ("int", 4, "signed"), ("unsigned int", 4, "unsigned"),
-        ("long", 8, "signed"), ("unsigned long", 8, "unsigned"),
-        ("long long", 8, "signed"), ("unsigned long long", 8, "unsigned"),
-        ("float", 4, "float"), ("double", 8, "float"),
+        ("signed char", 1, "signed"),
+        ("unsigned char", 1, "unsigned"),
+        ("short", 2, "signed"),
+        ("unsigned short", 2, "unsigned"),
+        ("int", 4, "signed"),
+        ("unsigned int", 4, "unsigned"),
+        ("long", 8, "signed"),
+        ("unsigned long", 8, "unsigned"),
+        ("long long", 8, "signed"),
+        ("unsigned long long", 8, "unsigned"),
+        ("float", 4, "float"),
+        ("double", 8, "float"),
         ("bool", 1, "bool"),
     ]
     return {name: Scalar(name, size, size, kind) for name, size, kind in rows}
@@ -39,8 +49,22 @@ SCALARS: dict[str, Scalar] = _table()
 
 # Types written as one word.  BOOL is the PLC spelling of bool (Figure 11's I/O points).
 SINGLE_WORD: dict[str, str] = {
-    **{n: n for n in ("int8_t", "uint8_t", "int16_t", "uint16_t", "int32_t", "uint32_t",
-                      "int64_t", "uint64_t", "float", "double", "bool")},
+    **{
+        n: n
+        for n in (
+            "int8_t",
+            "uint8_t",
+            "int16_t",
+            "uint16_t",
+            "int32_t",
+            "uint32_t",
+            "int64_t",
+            "uint64_t",
+            "float",
+            "double",
+            "bool",
+        )
+    },
     "BOOL": "bool",
 }
 

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Union
 
 from .errors import Loc, Source
 
@@ -39,7 +38,7 @@ class ScalarSpec:
 
 @dataclass
 class StructSpec:
-    members: list[Union["Decl", DefineStmt]]
+    members: list[Decl | DefineStmt]
     loc: Loc  # the `struct` keyword
 
 

@@ -12,6 +12,7 @@
 
 Standard library only.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -37,12 +38,24 @@ def cell(text: str) -> str:
 
 
 def segment_doc(name: str, s: dict) -> list[str]:
-    out = [f"### {name}", "",
-           f"`{s['shm']}`: magic `{s['magic_text']}` (`0x{s['magic']:016x}`), version {s['version']}, "
-           f"header `{s['header']}`.", "", cell(s["meaning"]), ""]
+    out = [
+        f"### {name}",
+        "",
+        f"`{s['shm']}`: magic `{s['magic_text']}` (`0x{s['magic']:016x}`), version {s['version']}, "
+        f"header `{s['header']}`.",
+        "",
+        cell(s["meaning"]),
+        "",
+    ]
     for struct_name, st in s["structs"].items():
-        out += [f"#### `{struct_name}` ({st['size']} bytes)", "", cell(st["meaning"]) + ".",
-                "", "| offset | type | field | meaning |", "| ---: | --- | --- | --- |"]
+        out += [
+            f"#### `{struct_name}` ({st['size']} bytes)",
+            "",
+            cell(st["meaning"]) + ".",
+            "",
+            "| offset | type | field | meaning |",
+            "| ---: | --- | --- | --- |",
+        ]
         end = 0
         for field_name, f in st["fields"].items():
             out.append(f"| {f['offset']} | {type_name(f)} | `{field_name}` | {cell(f['meaning'])} |")

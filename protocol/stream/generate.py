@@ -15,6 +15,7 @@ Standard library only.  Offsets are computed here from the order and sizes of th
 no padding; every field must sit on a multiple of its size, and the header on a multiple of 8, so
 that the decoders may view the body as typed arrays.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -30,8 +31,9 @@ TYPESCRIPT = ROOT / "webui" / "src" / "stream" / "frame_spec.ts"
 VECTORS = ROOT / "protocol" / "stream" / "vectors.json"
 DOC = ROOT / "docs" / "trace-and-stream.md"
 COMMAND = "python3 protocol/stream/generate.py"
-DOC_BEGIN = ("<!-- stream frame: generated from protocol/stream/frame.json by protocol/stream/generate.py; "
-             "do not edit -->")
+DOC_BEGIN = (
+    "<!-- stream frame: generated from protocol/stream/frame.json by protocol/stream/generate.py; do not edit -->"
+)
 DOC_END = "<!-- end of the generated stream frame -->"
 
 CODES = {"u8": "B", "u16": "H", "u32": "I", "u64": "Q", "i64": "q", "f64": "d"}
@@ -54,8 +56,9 @@ def load(path: Path = SPEC) -> dict:
         elif f["type"] in CODES:
             size, code = SIZES[f["type"]], CODES[f["type"]]
         else:
-            raise SpecError(f"{path}: header field {f['name']} has type {f['type']!r}; "
-                            f"known: bytes, {', '.join(CODES)}")
+            raise SpecError(
+                f"{path}: header field {f['name']} has type {f['type']!r}; known: bytes, {', '.join(CODES)}"
+            )
         if f["type"] != "bytes" and at % size:
             raise SpecError(f"{path}: header field {f['name']} at offset {at} is not on a multiple of its size {size}")
         f["offset"], f["size"] = at, size
@@ -104,30 +107,34 @@ def python_module(spec: dict) -> str:
     offsets = {f["name"]: f["offset"] for f in spec["header"]}
     formats = {f["name"]: f"{f['size']}s" if f["type"] == "bytes" else CODES[f["type"]] for f in spec["header"]}
     body = tuple((b["name"], CODES[b["type"]], b["count"], b.get("repeat")) for b in spec["body"])
-    return (f'"""stream_frame_spec.py -- the stream frame\'s constants, GENERATED from protocol/stream/frame.json by\n'
-            f'protocol/stream/generate.py: do not edit; change the spec and run `{COMMAND}`.\n'
-            f'The encoder and decoder that use them: stream_frame.py."""\n\n'
-            f"MAGIC = {spec['magic'].encode()!r}\n"
-            f"VERSION = {spec['version']}\n"
-            f"KINDS = {kinds!r}\n"
-            f"HEADER_FORMAT = {spec['header_format']!r}\n"
-            f"HEADER_SIZE = {spec['header_size']}\n"
-            f"HEADER_FIELDS = {fields!r}\n"
-            f"OFFSETS = {offsets!r}\n"
-            f"FORMATS = {formats!r}  # struct code of each header field\n"
-            f"# (name, struct code of each value, header field giving the values' count, header field giving\n"
-            f"# how many such runs follow one another or None), in frame order\n"
-            f"BODY = {body!r}\n")
+    return (
+        f'"""stream_frame_spec.py -- the stream frame\'s constants, GENERATED from protocol/stream/frame.json by\n'
+        f'protocol/stream/generate.py: do not edit; change the spec and run `{COMMAND}`.\n'
+        f'The encoder and decoder that use them: stream_frame.py."""\n\n'
+        f"MAGIC = {spec['magic'].encode()!r}\n"
+        f"VERSION = {spec['version']}\n"
+        f"KINDS = {kinds!r}\n"
+        f"HEADER_FORMAT = {spec['header_format']!r}\n"
+        f"HEADER_SIZE = {spec['header_size']}\n"
+        f"HEADER_FIELDS = {fields!r}\n"
+        f"OFFSETS = {offsets!r}\n"
+        f"FORMATS = {formats!r}  # struct code of each header field\n"
+        f"# (name, struct code of each value, header field giving the values' count, header field giving\n"
+        f"# how many such runs follow one another or None), in frame order\n"
+        f"BODY = {body!r}\n"
+    )
 
 
 def typescript_module(spec: dict) -> str:
     magic = int.from_bytes(spec["magic"].encode(), "little")
-    lines = [f"// frame_spec.ts -- the stream frame's constants, GENERATED from protocol/stream/frame.json by",
-             f"// protocol/stream/generate.py: do not edit; change the spec and run `{COMMAND}`.",
-             f"// The decoder that uses them: frame.ts.",
-             f'export const FRAME_MAGIC_TEXT = "{spec["magic"]}";',
-             f"export const FRAME_MAGIC = 0x{magic:08x}; // those bytes as a little-endian u32",
-             f"export const FRAME_VERSION = {spec['version']};"]
+    lines = [
+        "// frame_spec.ts -- the stream frame's constants, GENERATED from protocol/stream/frame.json by",
+        f"// protocol/stream/generate.py: do not edit; change the spec and run `{COMMAND}`.",
+        "// The decoder that uses them: frame.ts.",
+        f'export const FRAME_MAGIC_TEXT = "{spec["magic"]}";',
+        f"export const FRAME_MAGIC = 0x{magic:08x}; // those bytes as a little-endian u32",
+        f"export const FRAME_VERSION = {spec['version']};",
+    ]
     for k, v in spec["kinds"].items():
         lines.append(f"export const FRAME_KIND_{k.upper()} = {v['value']};")
     lines.append(f"export const HEADER_BYTES = {spec['header_size']};")
@@ -150,22 +157,37 @@ def vectors(spec: dict) -> str:
     samples = spec["kinds"]["samples"]["value"]
     base = {"version": spec["version"], "kind": samples}
     good = [
-        ("three samples of two channels",
-         {"first_seq": 4242, "dropped": 17, "t_ns": [123456789012345, 123456789112345, 123456789212345],
-          "columns": [[1.5, -2.0, 3.0], [0.0, 1e300, -0.0]]}),
+        (
+            "three samples of two channels",
+            {
+                "first_seq": 4242,
+                "dropped": 17,
+                "t_ns": [123456789012345, 123456789112345, 123456789212345],
+                "columns": [[1.5, -2.0, 3.0], [0.0, 1e300, -0.0]],
+            },
+        ),
         ("no samples", {"first_seq": 1, "dropped": 0, "t_ns": [], "columns": []}),
         ("samples without channels", {"first_seq": 9, "dropped": 0, "t_ns": [1, 2], "columns": []}),
-        ("negative times, large seq and drop counter",
-         {"first_seq": 2**52, "dropped": 2**40, "t_ns": [-5, 0, 2**52], "columns": [[0.25, 0.5, 0.75]]}),
+        (
+            "negative times, large seq and drop counter",
+            {"first_seq": 2**52, "dropped": 2**40, "t_ns": [-5, 0, 2**52], "columns": [[0.25, 0.5, 0.75]]},
+        ),
     ]
-    out = {"about": f"GENERATED from protocol/stream/frame.json by protocol/stream/generate.py: do not edit; "
-                    f"run `{COMMAND}`. Every number here is exact in a double.",
-           "decode": [], "refuse": []}
+    out = {
+        "about": f"GENERATED from protocol/stream/frame.json by protocol/stream/generate.py: do not edit; "
+        f"run `{COMMAND}`. Every number here is exact in a double.",
+        "decode": [],
+        "refuse": [],
+    }
     for name, v in good:
         values = {**base, **v, "count": len(v["t_ns"]), "channels": len(v["columns"])}
-        out["decode"].append({"name": name, "hex": encode(spec, values).hex(),
-                              "frame": {k: values[k] for k in ("first_seq", "count", "channels", "dropped",
-                                                                 "t_ns", "columns")}})
+        out["decode"].append(
+            {
+                "name": name,
+                "hex": encode(spec, values).hex(),
+                "frame": {k: values[k] for k in ("first_seq", "count", "channels", "dropped", "t_ns", "columns")},
+            }
+        )
     one = {**base, "first_seq": 1, "dropped": 0, "t_ns": [10, 20], "columns": [[2.0, 3.0]], "count": 2, "channels": 1}
     ok = encode(spec, one)
     refused = [
@@ -194,9 +216,18 @@ def doc_table(spec: dict) -> str:
         size = f"8 × {b['count']}" + (f" × {b['repeat']}" if b.get("repeat") else "")
         at = f"{at} + {size}"
     kinds = ", ".join(f"{v['value']} {k}" for k, v in spec["kinds"].items())
-    return "\n".join([DOC_BEGIN, "",
-                      f"Version {spec['version']}, {spec['byte_order']}-endian, {spec['header_size']}-byte header, "
-                      f"no padding; kinds: {kinds}.", "", *rows, "", DOC_END])
+    return "\n".join(
+        [
+            DOC_BEGIN,
+            "",
+            f"Version {spec['version']}, {spec['byte_order']}-endian, {spec['header_size']}-byte header, "
+            f"no padding; kinds: {kinds}.",
+            "",
+            *rows,
+            "",
+            DOC_END,
+        ]
+    )
 
 
 def document(spec: dict, text: str) -> str:
@@ -208,8 +239,12 @@ def document(spec: dict, text: str) -> str:
 
 
 def outputs(spec: dict) -> dict[Path, str]:
-    return {PYTHON: python_module(spec), TYPESCRIPT: typescript_module(spec), VECTORS: vectors(spec),
-            DOC: document(spec, DOC.read_text())}
+    return {
+        PYTHON: python_module(spec),
+        TYPESCRIPT: typescript_module(spec),
+        VECTORS: vectors(spec),
+        DOC: document(spec, DOC.read_text()),
+    }
 
 
 def main() -> int:

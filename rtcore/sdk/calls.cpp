@@ -51,7 +51,6 @@ int succeed() noexcept {
 using sdk::atomic;
 using sdk::monotonicNs;
 
-
 // "double (double)" for "FddE"; the mangled text when it does not demangle (allocates: errors only).
 std::string readable(const char *mangled) {
     int status = 0;
@@ -65,10 +64,14 @@ struct Human {
 };
 Human humanNs(int64_t ns) noexcept {
     Human h{};
-    if (ns >= 1'000'000'000 && ns % 1'000'000 == 0) std::snprintf(h.text, sizeof h.text, "%g s", static_cast<double>(ns) / 1e9);
-    else if (ns >= 1'000'000) std::snprintf(h.text, sizeof h.text, "%g ms", static_cast<double>(ns) / 1e6);
-    else if (ns >= 1'000) std::snprintf(h.text, sizeof h.text, "%g us", static_cast<double>(ns) / 1e3);
-    else std::snprintf(h.text, sizeof h.text, "%lld ns", static_cast<long long>(ns));
+    if (ns >= 1'000'000'000 && ns % 1'000'000 == 0)
+        std::snprintf(h.text, sizeof h.text, "%g s", static_cast<double>(ns) / 1e9);
+    else if (ns >= 1'000'000)
+        std::snprintf(h.text, sizeof h.text, "%g ms", static_cast<double>(ns) / 1e6);
+    else if (ns >= 1'000)
+        std::snprintf(h.text, sizeof h.text, "%g us", static_cast<double>(ns) / 1e3);
+    else
+        std::snprintf(h.text, sizeof h.text, "%lld ns", static_cast<long long>(ns));
     return h;
 }
 
@@ -90,8 +93,10 @@ struct Owner {
 };
 Owner ownerOf(const indurop_function_entry &e) noexcept {
     Owner o{};
-    if (e.owner[0]) std::snprintf(o.text, sizeof o.text, "module '%.*s'", static_cast<int>(sizeof e.owner), e.owner);
-    else std::snprintf(o.text, sizeof o.text, "no module");
+    if (e.owner[0])
+        std::snprintf(o.text, sizeof o.text, "module '%.*s'", static_cast<int>(sizeof e.owner), e.owner);
+    else
+        std::snprintf(o.text, sizeof o.text, "no module");
     return o;
 }
 
@@ -101,8 +106,7 @@ int takeArea(indurop_call_area &area, int64_t deadline, const char *name) {
     for (;;) {
         uint32_t word = atomic(area.word).load(std::memory_order_acquire);
         switch (INDUROP_CALL_PHASE(word)) {
-        case INDUROP_CALL_IDLE:
-            return 0;
+        case INDUROP_CALL_IDLE: return 0;
         case INDUROP_CALL_ANSWERED:  // a late answer nobody waits for any more
         case INDUROP_CALL_PENDING:   // left by the process that had this slot before (restart)
             atomic(area.word).compare_exchange_strong(word, word & ~3u, std::memory_order_acq_rel);
@@ -123,7 +127,7 @@ int takeArea(indurop_call_area &area, int64_t deadline, const char *name) {
 // This process's calls take turns: one call area per process.
 std::timed_mutex g_area_mutex;
 
-} // namespace
+}  // namespace
 
 const char *lastCallError() noexcept { return g_error; }
 int lastCallStatus() noexcept { return g_status; }
@@ -134,7 +138,7 @@ uint64_t signatureHash(const char *signature) noexcept {
     for (const char *c = signature; c && *c; ++c) h = (h ^ static_cast<unsigned char>(*c)) * 1099511628211ull;
     return h;
 }
-} // namespace runtime
+}  // namespace runtime
 
 namespace detail {
 
@@ -149,8 +153,10 @@ int resolveFunction(const char *name, const char *signature, uint32_t args_size,
         const indurop_control_header &h = *map->header;
         const uint32_t state = atomic(map->header->calls).load(std::memory_order_acquire);
         if (state == INDUROP_CALLS_NONE)
-            return fail(INDUROP_CALL_NO_IRPD, "shared function '%s': irpd has published no function table (it serves calls "
-                                              "only to the process modules of a running set)", name);
+            return fail(INDUROP_CALL_NO_IRPD,
+                        "shared function '%s': irpd has published no function table (it serves calls "
+                        "only to the process modules of a running set)",
+                        name);
         const indurop_function_entry *entries = table(*map);
         const indurop_function_entry *e = nullptr;
         for (uint32_t i = 0; i < h.function_count && !e; ++i)
@@ -165,11 +171,12 @@ int resolveFunction(const char *name, const char *signature, uint32_t args_size,
                     list += ", ...";
                     break;
                 }
-                list += (i ? ", " : "") + std::string(entries[i].name, strnlen(entries[i].name, sizeof entries[i].name));
+                list +=
+                    (i ? ", " : "") + std::string(entries[i].name, strnlen(entries[i].name, sizeof entries[i].name));
             }
             return fail(INDUROP_CALL_UNKNOWN_FUNCTION,
-                        "no module exports a shared function '%s' (the set exports %u: %s; export in initialize())", name,
-                        h.function_count, list.empty() ? "none" : list.c_str());
+                        "no module exports a shared function '%s' (the set exports %u: %s; export in initialize())",
+                        name, h.function_count, list.empty() ? "none" : list.c_str());
         }
         const Owner owned = ownerOf(*e);
         const char *owner = owned.text;
@@ -179,13 +186,13 @@ int resolveFunction(const char *name, const char *signature, uint32_t args_size,
                         readable(theirs.c_str()).c_str(), readable(signature).c_str());
         }
         switch (e->refusal) {
-        case INDUROP_CALL_OK:
-            break;
+        case INDUROP_CALL_OK: break;
         case INDUROP_CALL_TOO_LARGE:
-            return fail(INDUROP_CALL_TOO_LARGE,
-                        "shared function '%s' of %s takes %u bytes of arguments and returns %u bytes: a call from a process "
-                        "carries at most %u each way",
-                        name, owner, e->args_size, e->result_size, INDUROP_CALL_BYTES);
+            return fail(
+                INDUROP_CALL_TOO_LARGE,
+                "shared function '%s' of %s takes %u bytes of arguments and returns %u bytes: a call from a process "
+                "carries at most %u each way",
+                name, owner, e->args_size, e->result_size, INDUROP_CALL_BYTES);
         case INDUROP_CALL_NOT_TRANSFERABLE:
             return fail(INDUROP_CALL_NOT_TRANSFERABLE,
                         "shared function '%s' of %s cannot be called from a process: it takes or returns a pointer, a "
@@ -197,13 +204,15 @@ int resolveFunction(const char *name, const char *signature, uint32_t args_size,
                         "period, and only periodic thread modules have one",
                         name, owner);
         default:
-            return fail(static_cast<int>(e->refusal), "shared function '%s' of %s cannot be called from a process (reason %u)",
-                        name, owner, e->refusal);
+            return fail(static_cast<int>(e->refusal),
+                        "shared function '%s' of %s cannot be called from a process (reason %u)", name, owner,
+                        e->refusal);
         }
         if (e->args_size != args_size || e->result_size != result_size)  // same signature, other ABI
-            return fail(INDUROP_CALL_SIGNATURE_MISMATCH,
-                        "shared function '%s' of %s: %u bytes of arguments and %u of result, this process packs %u and %u",
-                        name, owner, e->args_size, e->result_size, args_size, result_size);
+            return fail(
+                INDUROP_CALL_SIGNATURE_MISMATCH,
+                "shared function '%s' of %s: %u bytes of arguments and %u of result, this process packs %u and %u",
+                name, owner, e->args_size, e->result_size, args_size, result_size);
         return succeed();
     } catch (const std::exception &x) {  // allocation while formatting a message
         return fail(INDUROP_CALL_INVALID, "shared function '%s': %s", name, x.what());
@@ -228,8 +237,9 @@ int callResolved(uint32_t index, const char *signature, const void *args, uint32
 
     std::unique_lock<std::timed_mutex> turn(g_area_mutex, std::defer_lock);
     if (!turn.try_lock_for(std::chrono::nanoseconds(timeout_ns)))
-        return fail(INDUROP_CALL_TIMEOUT, "shared function '%s': no answer within %s (another thread of this process was "
-                                          "calling, one call in flight per process)",
+        return fail(INDUROP_CALL_TIMEOUT,
+                    "shared function '%s': no answer within %s (another thread of this process was "
+                    "calling, one call in flight per process)",
                     e.name, humanNs(timeout_ns).text);
     if (takeArea(area, deadline, e.name) != 0) return -1;
 
@@ -259,19 +269,22 @@ int callResolved(uint32_t index, const char *signature, const void *args, uint32
             const Owner owned = ownerOf(e);
             const char *owner = owned.text;
             switch (status) {
-            case INDUROP_CALL_OK:
-                return succeed();
+            case INDUROP_CALL_OK: return succeed();
             case INDUROP_CALL_OWNER_DISABLED:
-                return fail(status, "shared function '%s': %s is disabled (it threw from run()); irpd answers its calls "
-                                    "with this error", e.name, owner);
+                return fail(status,
+                            "shared function '%s': %s is disabled (it threw from run()); irpd answers its calls "
+                            "with this error",
+                            e.name, owner);
             case INDUROP_CALL_THREW:
                 return fail(status, "shared function '%s' of %s threw: %s", e.name, owner, message);
             case INDUROP_CALL_SIGNATURE_MISMATCH:
-                return fail(status, "shared function '%s' of %s: irpd refused the call, its signature is %s, not %s", e.name,
-                            owner, readable(e.signature).c_str(), readable(signature).c_str());
+                return fail(status, "shared function '%s' of %s: irpd refused the call, its signature is %s, not %s",
+                            e.name, owner, readable(e.signature).c_str(), readable(signature).c_str());
             default:
-                return fail(status, "shared function '%s' of %s: irpd refused the call (status %d: the request does not "
-                                    "match the export)", e.name, owner, static_cast<int>(status));
+                return fail(status,
+                            "shared function '%s' of %s: irpd refused the call (status %d: the request does not "
+                            "match the export)",
+                            e.name, owner, static_cast<int>(status));
             }
         }
         const bool stopping = atomic(h.calls).load(std::memory_order_acquire) == INDUROP_CALLS_STOPPED ||
@@ -280,20 +293,23 @@ int callResolved(uint32_t index, const char *signature, const void *args, uint32
         if (stopping || left <= 0) {
             // Withdraw the request unless irpd took it already (then its answer is dropped by the next call).
             uint32_t expected = pending;
-            const bool withdrawn =
-                atomic(area.word).compare_exchange_strong(expected, (tag << 2) | INDUROP_CALL_IDLE, std::memory_order_acq_rel);
+            const bool withdrawn = atomic(area.word).compare_exchange_strong(expected, (tag << 2) | INDUROP_CALL_IDLE,
+                                                                             std::memory_order_acq_rel);
             if (!withdrawn && expected == ((tag << 2) | INDUROP_CALL_ANSWERED)) continue;  // answered just now: take it
             if (stopping)
-                return fail(INDUROP_CALL_STOPPED, "shared function '%s': irpd is stopping and serves no more calls", e.name);
+                return fail(INDUROP_CALL_STOPPED, "shared function '%s': irpd is stopping and serves no more calls",
+                            e.name);
             if (e.owner_period_ns > 0)
-                return fail(INDUROP_CALL_TIMEOUT,
-                            "shared function '%s': no answer within %s (irpd serves it after each run() of %s, every %s)",
-                            e.name, humanNs(timeout_ns).text, ownerOf(e).text, humanNs(e.owner_period_ns).text);
-            return fail(INDUROP_CALL_TIMEOUT, "shared function '%s': no answer within %s", e.name, humanNs(timeout_ns).text);
+                return fail(
+                    INDUROP_CALL_TIMEOUT,
+                    "shared function '%s': no answer within %s (irpd serves it after each run() of %s, every %s)",
+                    e.name, humanNs(timeout_ns).text, ownerOf(e).text, humanNs(e.owner_period_ns).text);
+            return fail(INDUROP_CALL_TIMEOUT, "shared function '%s': no answer within %s", e.name,
+                        humanNs(timeout_ns).text);
         }
         futex::wait(&area.word, word, left);
     }
 }
 
-} // namespace detail
-} // namespace irp
+}  // namespace detail
+}  // namespace irp

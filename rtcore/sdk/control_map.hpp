@@ -35,4 +35,4 @@ std::atomic_ref<T> atomic(T &word) noexcept {
 
 using irp::monotonicNs;  // sync.hpp
 
-} // namespace irp::sdk
+}  // namespace irp::sdk

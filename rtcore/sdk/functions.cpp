@@ -32,18 +32,19 @@ struct Export {
 };
 
 std::mutex g_mutex;
-std::map<std::string, std::vector<Export>> g_exports;      // per name, oldest first
-std::multimap<uint64_t, uint64_t> g_imports;                // exporter instance -> importer instance
-thread_local std::string g_current_module;  // the module whose initialize()/start() is running
+std::map<std::string, std::vector<Export>> g_exports;  // per name, oldest first
+std::multimap<uint64_t, uint64_t> g_imports;           // exporter instance -> importer instance
+thread_local std::string g_current_module;             // the module whose initialize()/start() is running
 thread_local uint64_t g_current_instance = 0;
 
 std::string readable(const std::string &mangled) {
     int status = 0;
-    std::unique_ptr<char, void (*)(void *)> text(abi::__cxa_demangle(mangled.c_str(), nullptr, nullptr, &status), std::free);
+    std::unique_ptr<char, void (*)(void *)> text(abi::__cxa_demangle(mangled.c_str(), nullptr, nullptr, &status),
+                                                 std::free);
     return status == 0 && text ? text.get() : mangled;
 }
 
-} // namespace
+}  // namespace
 
 namespace detail {
 
@@ -77,7 +78,7 @@ AnyFunction findFunction(const char *name, const char *signature) {
     return e.fn;
 }
 
-} // namespace detail
+}  // namespace detail
 
 namespace runtime {
 
@@ -129,5 +130,5 @@ std::set<uint64_t> importersOf(uint64_t instance) {
     return out;
 }
 
-} // namespace runtime
-} // namespace irp
+}  // namespace runtime
+}  // namespace irp

@@ -38,7 +38,7 @@ LogRing &ring() {
 
 thread_local Cycle current_cycle{};
 
-} // namespace
+}  // namespace
 
 int printf(const char *format, ...) {
     LogRing &r = ring();
@@ -91,5 +91,5 @@ std::size_t drainLog(const std::function<void(std::string_view)> &sink) {
 
 uint64_t droppedLogLines() noexcept { return ring().dropped.load(std::memory_order_relaxed); }
 
-} // namespace runtime
-} // namespace irp
+}  // namespace runtime
+}  // namespace irp

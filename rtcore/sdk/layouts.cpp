@@ -33,7 +33,7 @@ std::string place(const Variable &v) {
     return "offset " + std::to_string(v.offset) + ", lock " + std::to_string(v.lock);
 }
 
-} // namespace
+}  // namespace
 
 const Variable *Table::find(std::string_view path) const {
     for (const Variable &v : variables)
@@ -72,7 +72,8 @@ std::string compatible(std::string_view built, const Model &model) {
         if (t.hash == built) was = &t;
     if (!was)
         return "it was built against shared-variable layout " + std::string(built) + ", which is neither the layout " +
-               model.self.hash + " nor one that layout was laid out against (glbc --previous): rebuild it against "
+               model.self.hash +
+               " nor one that layout was laid out against (glbc --previous): rebuild it against "
                "the set's .glb files";
     for (const Variable &v : was->variables) {
         if (const Variable *now = model.self.find(v.path)) {
@@ -107,15 +108,18 @@ Diff diff(const Model &running, const Model &next) {
         const Variable *old = running.self.find(v.path);
         if (old && sameType(*old, v) && (old->offset != v.offset || old->lock != v.lock)) {
             d.online_impossible = "variable '" + v.path + "' keeps its type but moves from " + place(*old) + " to " +
-                                  place(v) + ": the new layout was not laid out against the running one (glbc --previous)";
+                                  place(v) +
+                                  ": the new layout was not laid out against the running one (glbc --previous)";
             break;
         }
     }
     for (const Variable &v : next.self.variables) {
         const Variable *old = running.self.find(v.path);
         if (old && sameType(*old, v)) continue;
-        if (old) d.moved.push_back(Moved{v.path, old->offset, v.offset});
-        else d.added.push_back(v.path);
+        if (old)
+            d.moved.push_back(Moved{v.path, old->offset, v.offset});
+        else
+            d.added.push_back(v.path);
         if (!d.online_impossible.empty()) continue;
         for (const Variable *u : in_use) {
             const bool same_place = overlaps(*u, v) || u->lock == v.lock;
@@ -125,7 +129,8 @@ Diff diff(const Model &running, const Model &next) {
                                       "): running modules would read the new bytes as the old type";
             else
                 d.online_impossible = "variable '" + v.path + "' (" + place(v) + ") lies where '" + u->path +
-                                      "' of the running layout is (" + place(*u) + "): lay the .glb files out "
+                                      "' of the running layout is (" + place(*u) +
+                                      "): lay the .glb files out "
                                       "against the running layout (glbc --previous)";
             break;
         }
@@ -135,4 +140,4 @@ Diff diff(const Model &running, const Model &next) {
     return d;
 }
 
-} // namespace irp::layouts
+}  // namespace irp::layouts

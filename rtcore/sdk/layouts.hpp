@@ -64,4 +64,4 @@ struct Diff {
 
 Diff diff(const Model &running, const Model &next);
 
-} // namespace irp::layouts
+}  // namespace irp::layouts

@@ -40,15 +40,14 @@ namespace {
 
 struct PeriodState {
     indurop_process_slot *slot = nullptr;
-    uint32_t last_seq = 0;      // the release_seq this process served last (or saw at start)
-    bool in_release = false;    // waitPeriod() returned 0 and was not called again yet
-    bool stop_returned = false; // waitPeriod() returned -1 for a stop
+    uint32_t last_seq = 0;       // the release_seq this process served last (or saw at start)
+    bool in_release = false;     // waitPeriod() returned 0 and was not called again yet
+    bool stop_returned = false;  // waitPeriod() returned -1 for a stop
 };
 PeriodState g_period;
 
 using sdk::atomic;
 using sdk::monotonicNs;
-
 
 const char *moduleName() noexcept {
     const char *name = std::getenv("INDUROP_MODULE");
@@ -91,7 +90,7 @@ sdk::ControlMap mapSegment(const char *name, const char *slot_text, std::string 
         why = format("control segment %s: %s", name, std::strerror(errno));
         return {};
     }
-    struct stat st{};
+    struct stat st {};
     if (fstat(fd, &st) != 0 || static_cast<std::size_t>(st.st_size) < sizeof(indurop_control_header)) {
         close(fd);
         why = format("control segment %s: too small to be one", name);
@@ -107,24 +106,28 @@ sdk::ControlMap mapSegment(const char *name, const char *slot_text, std::string 
     }
     auto *h = static_cast<indurop_control_header *>(p);
     const char *problem = nullptr;
-    if (h->magic != INDUROP_CONTROL_MAGIC) problem = "not an indurop control segment (bad magic)";
-    else if (h->version != INDUROP_CONTROL_VERSION) problem = "control segment version differs from this libindurop's";
-    else if (h->slot_size != sizeof(indurop_process_slot)) problem = "slot size differs from this libindurop's";
+    if (h->magic != INDUROP_CONTROL_MAGIC)
+        problem = "not an indurop control segment (bad magic)";
+    else if (h->version != INDUROP_CONTROL_VERSION)
+        problem = "control segment version differs from this libindurop's";
+    else if (h->slot_size != sizeof(indurop_process_slot))
+        problem = "slot size differs from this libindurop's";
     else if (h->header_size < sizeof(indurop_control_header) ||
              h->header_size + uint64_t{h->slot_count} * h->slot_size > size)
         problem = "segment shorter than its header says";
-    else if (h->function_count &&
-             (h->function_size != sizeof(indurop_function_entry) || h->function_offset > size ||
-              uint64_t{h->function_count} * h->function_size > size - h->function_offset))
+    else if (h->function_count && (h->function_size != sizeof(indurop_function_entry) || h->function_offset > size ||
+                                   uint64_t{h->function_count} * h->function_size > size - h->function_offset))
         problem = "function table outside the segment, or of another entry size";
     if (problem) {
         const bool ours = h->magic == INDUROP_CONTROL_MAGIC;
         const uint32_t version = h->version, slot_size = h->slot_size;
         munmap(p, size);
-        if (!ours) why = format("control segment %s: %s", name, problem);
+        if (!ours)
+            why = format("control segment %s: %s", name, problem);
         else
-            why = format("control segment %s: %s (version %u, slot size %u; this libindurop: version %u, slot size %zu)", name,
-                         problem, version, slot_size, INDUROP_CONTROL_VERSION, sizeof(indurop_process_slot));
+            why =
+                format("control segment %s: %s (version %u, slot size %u; this libindurop: version %u, slot size %zu)",
+                       name, problem, version, slot_size, INDUROP_CONTROL_VERSION, sizeof(indurop_process_slot));
         return {};
     }
     if (index >= h->slot_count) {
@@ -137,7 +140,7 @@ sdk::ControlMap mapSegment(const char *name, const char *slot_text, std::string 
     return {h, size, slot};
 }
 
-} // namespace
+}  // namespace
 
 namespace sdk {
 
@@ -160,7 +163,7 @@ const ControlMap *mapControl(std::string &why) {
     return &map;
 }
 
-} // namespace sdk
+}  // namespace sdk
 
 int initPeriodExe() {
     if (g_period.slot) return 0;
@@ -191,8 +194,10 @@ int initPeriodExe() {
                   ", but irpd runs no shared variables (the set declares no <layout>)";
         } else if (running != built) {
             std::string problem;
-            if (auto model = layouts::parse(text, problem)) why = layouts::compatible(built, *model);
-            else why = "the running segment's layout cannot be read: " + problem;
+            if (auto model = layouts::parse(text, problem))
+                why = layouts::compatible(built, *model);
+            else
+                why = "the running segment's layout cannot be read: " + problem;
         }
         if (!why.empty()) {
             std::fprintf(stderr, "indurop: module '%s': %s (exit 78)\n", moduleName(), why.c_str());
@@ -249,7 +254,7 @@ int waitPeriod() {
     }
 }
 
-} // namespace irp
+}  // namespace irp
 
 // ---- shared variables by path -----------------------------------------------------------------
 namespace channel {
@@ -293,7 +298,8 @@ void checkDims(const std::vector<uint64_t> &dims, uint64_t size, const std::stri
         if (d == 0) throw std::runtime_error(what + " has a zero dimension");
         count *= d;
     }
-    if (size % count) throw std::runtime_error(what + ": size " + std::to_string(size) + " does not divide by its dimensions");
+    if (size % count)
+        throw std::runtime_error(what + ": size " + std::to_string(size) + " does not divide by its dimensions");
 }
 
 std::shared_ptr<const LayoutIndex> parseLayout(const indurop_segment_header *segment) {
@@ -309,8 +315,9 @@ std::shared_ptr<const LayoutIndex> parseLayout(const indurop_segment_header *seg
             Type type;
             type.size = t.at("size").get<uint64_t>();
             for (const auto &f : t.at("fields")) {
-                Field field{f.at("name").get<std::string>(), f.at("type").get<std::string>(), f.at("offset").get<uint64_t>(),
-                            f.at("size").get<uint64_t>(), f.at("dims").get<std::vector<uint64_t>>()};
+                Field field{f.at("name").get<std::string>(), f.at("type").get<std::string>(),
+                            f.at("offset").get<uint64_t>(), f.at("size").get<uint64_t>(),
+                            f.at("dims").get<std::vector<uint64_t>>()};
                 if (field.offset + field.size > type.size)
                     throw std::runtime_error("field " + name + "." + field.name + " lies outside its struct");
                 checkDims(field.dims, field.size, "field " + name + "." + field.name);
@@ -319,9 +326,14 @@ std::shared_ptr<const LayoutIndex> parseLayout(const indurop_segment_header *seg
             index->types.emplace(name, std::move(type));
         }
         for (const auto &v : doc.at("variables")) {
-            Variable var{v.at("path").get<std::string>(), v.value("namespace", std::string{}), v.at("name").get<std::string>(),
-                         v.at("type").get<std::string>(), v.at("offset").get<uint64_t>(), v.at("size").get<uint64_t>(),
-                         v.at("dims").get<std::vector<uint64_t>>(), v.at("lock").get<uint32_t>()};
+            Variable var{v.at("path").get<std::string>(),
+                         v.value("namespace", std::string{}),
+                         v.at("name").get<std::string>(),
+                         v.at("type").get<std::string>(),
+                         v.at("offset").get<uint64_t>(),
+                         v.at("size").get<uint64_t>(),
+                         v.at("dims").get<std::vector<uint64_t>>(),
+                         v.at("lock").get<uint32_t>()};
             if (var.offset + var.size > index->data_size || var.offset + var.size < var.offset)
                 throw std::runtime_error("variable " + var.path + " lies outside the data area");
             if (var.lock >= segment->lock_count)
@@ -396,7 +408,8 @@ std::string resolve(const LayoutIndex &index, std::string_view path, Target &out
             return "path " + quoted + " is ambiguous: " + matches[0]->name + " is in several namespaces (" + where +
                    "); write the namespace";
         }
-        if (matches.empty()) return "no shared variable matches path " + quoted + " (variables: " + listVariables(index) + ")";
+        if (matches.empty())
+            return "no shared variable matches path " + quoted + " (variables: " + listVariables(index) + ")";
         var = matches[0];
         consumed = var->name.size();
     }
@@ -411,7 +424,8 @@ std::string resolve(const LayoutIndex &index, std::string_view path, Target &out
             const std::size_t close = path.find(']', pos);
             if (close == std::string_view::npos) return "path " + quoted + ": '[' without ']'";
             const std::string_view digits = path.substr(pos + 1, close - pos - 1);
-            if (digits.empty() || digits.size() > 12 || !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
+            if (digits.empty() || digits.size() > 12 ||
+                !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
                 return "path " + quoted + ": index '" + std::string(digits) + "' is not a decimal number";
             const uint64_t i = std::stoull(std::string(digits));
             if (dims.empty()) return "path " + quoted + ": " + so_far + " is not an array";
@@ -431,7 +445,8 @@ std::string resolve(const LayoutIndex &index, std::string_view path, Target &out
                 return "path " + quoted + ": " + so_far + " is an array of " + std::to_string(dims[0]) +
                        ": index it before ." + member;
             auto t = index.types.find(type);
-            if (t == index.types.end()) return "path " + quoted + ": " + so_far + " is a " + type + ", it has no member " + member;
+            if (t == index.types.end())
+                return "path " + quoted + ": " + so_far + " is a " + type + ", it has no member " + member;
             const Field *field = nullptr;
             for (const Field &f : t->second.fields)
                 if (f.name == member) field = &f;
@@ -454,7 +469,7 @@ std::string resolve(const LayoutIndex &index, std::string_view path, Target &out
     return "";
 }
 
-} // namespace
+}  // namespace
 
 struct Handle::Impl {
     std::shared_ptr<const LayoutIndex> layout;
@@ -518,7 +533,8 @@ struct Access {
 
     static int checkSize(Handle &h, const char *path, const Target &t, std::size_t size) noexcept {
         if (size == t.size) return 0;
-        return fail(h, "size %zu given for '%s', which is %llu bytes", size, path, static_cast<unsigned long long>(t.size));
+        return fail(h, "size %zu given for '%s', which is %llu bytes", size, path,
+                    static_cast<unsigned long long>(t.size));
     }
 
     static const char *error(const Handle &h) noexcept { return h.error_; }
@@ -543,7 +559,7 @@ int connect(Handle &handle) { return Access::connect(handle); }
 
 const char *lastError(const Handle &handle) noexcept { return Access::error(handle); }
 
-} // namespace channel
+}  // namespace channel
 
 // Scalars of up to 8 bytes go through an aligned buffer, so that the copy is one atomic access
 // whatever the caller's alignment: a top-level scalar is written by generated code with a
@@ -575,7 +591,8 @@ int write(channel::Handle &handle, const char *path, std::size_t size, const voi
     if (size <= 8) {
         alignas(8) unsigned char buffer[8];
         std::memcpy(buffer, in, size);
-        irp::shared::detail::writeExclusive(t->lock, [&] { irp::shared::detail::atomicCopy(destination, buffer, size); });
+        irp::shared::detail::writeExclusive(t->lock,
+                                            [&] { irp::shared::detail::atomicCopy(destination, buffer, size); });
     } else {
         irp::shared::detail::writeExclusive(t->lock, [&] { irp::shared::detail::atomicCopy(destination, in, size); });
     }

@@ -50,11 +50,11 @@ std::set<uint64_t> importersOf(uint64_t instance);
 // FNV-1a 64 of a typeid name: how a call request names its signature (<indurop/control.h>).
 uint64_t signatureHash(const char *signature) noexcept;
 
-} // namespace irp::runtime
+}  // namespace irp::runtime
 
 struct indurop_segment_header;
 namespace irp::shared {
 // irpd: the segment it created is this process's segment (null: none any more).
 void adopt(const indurop_segment_header *header) noexcept;
 const indurop_segment_header *segmentHeader() noexcept;
-} // namespace irp::shared
+}  // namespace irp::shared

@@ -51,7 +51,7 @@ __attribute__((constructor)) void attachFromEnvironment() {
     attachErrorText() = attach(name);
 }
 
-} // namespace
+}  // namespace
 
 void lockVariable(uint32_t lock) noexcept {
     indurop_var_lock &l = indurop_shared_locks[lock];
@@ -73,7 +73,7 @@ std::string attach(const std::string &name, bool writable) {
     if (g_header) return "";  // already attached (or adopted by irpd)
     int fd = shm_open(name.c_str(), writable ? O_RDWR : O_RDONLY, 0);
     if (fd < 0) return "shared variables " + name + ": " + std::strerror(errno);
-    struct stat st{};
+    struct stat st {};
     if (fstat(fd, &st) != 0 || static_cast<std::size_t>(st.st_size) < sizeof(indurop_segment_header)) {
         close(fd);
         return "shared variables " + name + ": not an indurop segment (too small)";
@@ -85,11 +85,13 @@ std::string attach(const std::string &name, bool writable) {
     if (p == MAP_FAILED) return "shared variables " + name + ": mmap: " + std::strerror(e);
     auto *h = static_cast<const indurop_segment_header *>(p);
     std::string problem;
-    if (h->magic != INDUROP_SEGMENT_MAGIC) problem = "not an indurop segment (bad magic)";
+    if (h->magic != INDUROP_SEGMENT_MAGIC)
+        problem = "not an indurop segment (bad magic)";
     else if (h->version != INDUROP_SEGMENT_VERSION)
         problem = "segment version " + std::to_string(h->version) + ", this libindurop reads " +
                   std::to_string(INDUROP_SEGMENT_VERSION);
-    else if (h->lock_size != sizeof(indurop_var_lock)) problem = "lock size differs from this libindurop's";
+    else if (h->lock_size != sizeof(indurop_var_lock))
+        problem = "lock size differs from this libindurop's";
     else if (h->total_size > static_cast<uint64_t>(st.st_size) || h->data_offset + h->data_size > h->total_size)
         problem = "segment shorter than its header says";
     if (!problem.empty()) {
@@ -131,4 +133,4 @@ const std::string &attachError() noexcept { return attachErrorText(); }
 
 uint64_t repairedLocks() noexcept { return g_repaired.load(std::memory_order_relaxed); }
 
-} // namespace irp::shared
+}  // namespace irp::shared

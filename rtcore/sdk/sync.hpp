@@ -49,5 +49,5 @@ inline bool waitWhileEqual(uint32_t *word, uint32_t expected, int64_t timeout_ns
     return true;
 }
 
-} // namespace futex
-} // namespace irp
+}  // namespace futex
+}  // namespace irp

@@ -16,6 +16,7 @@ For each phase: irpd's wake-up latency p50/p99/max from its own histograms (--st
 ratio of its p99 to the idle phase's, samples/s received and dropped.  Timing figures are never
 asserted by tests; this script records them in docs/.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -49,10 +50,27 @@ def log(msg: str) -> None:
     print(f"[agent-bench] {msg}", file=sys.stderr, flush=True)
 
 
-def start_irpd(a, xml: Path, sock: Path, stats: Path, instance: str, extra: list[str] | None = None) -> subprocess.Popen:
+def start_irpd(
+    a, xml: Path, sock: Path, stats: Path, instance: str, extra: list[str] | None = None
+) -> subprocess.Popen:
     sock.unlink(missing_ok=True)
-    cmd = [str(a.irpd), "--config", str(xml), "--control-socket", str(sock), "--instance", instance,
-           "--stats-json", str(stats), "--rt-priority", str(a.rt_priority)] + (["--cpu", str(a.cpu)] if a.cpu is not None else []) + (extra or [])
+    cmd = (
+        [
+            str(a.irpd),
+            "--config",
+            str(xml),
+            "--control-socket",
+            str(sock),
+            "--instance",
+            instance,
+            "--stats-json",
+            str(stats),
+            "--rt-priority",
+            str(a.rt_priority),
+        ]
+        + (["--cpu", str(a.cpu)] if a.cpu is not None else [])
+        + (extra or [])
+    )
     p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 20
     while not sock.exists():
@@ -78,11 +96,21 @@ def dispatcher_figures(stats_path: Path) -> dict:
     doc = json.loads(stats_path.read_text())
     d = doc["dispatcher"]
     lat = d["latency_ns"]
-    return {"runs": d["runs"], "missed": d["missed"], "skipped": d["skipped"], "overruns": d["overruns"],
-            "p50": lat["p50"], "p99": lat["p99"], "max": lat["max"], "realtime": doc["realtime"], "doc": doc}
+    return {
+        "runs": d["runs"],
+        "missed": d["missed"],
+        "skipped": d["skipped"],
+        "overruns": d["overruns"],
+        "p50": lat["p50"],
+        "p99": lat["p99"],
+        "max": lat["max"],
+        "realtime": doc["realtime"],
+        "doc": doc,
+    }
 
 
 # ---- hot reload ------------------------------------------------------------------------------
+
 
 def swap_set(folder: Path) -> Path:
     xml = folder / "module.xml"
@@ -92,7 +120,8 @@ def swap_set(folder: Path) -> Path:
         "<operationtype>periodic</operationtype><period>100000</period><priority>1</priority></module>\n"
         "  <module><name>swap</name><filename>swap.so</filename><moduletype>thread</moduletype>"
         "<operationtype>periodic</operationtype><period>1000000</period><priority>2</priority></module>\n"
-        "</root>\n")
+        "</root>\n"
+    )
     return xml
 
 
@@ -128,22 +157,33 @@ def run_swaps(a, work: Path) -> dict:
     return {
         "swaps": len(reports),
         "all_kept": all(r["kept"] == ["keep"] and r["started"] == ["swap"] for r in reports),
-        "request_to_swap_ms": {"p50": statistics.median(to_swap) / 1e6,
-                               "p99": sorted(to_swap)[max(0, int(len(to_swap) * 0.99) - 1)] / 1e6,
-                               "max": max(to_swap) / 1e6},
+        "request_to_swap_ms": {
+            "p50": statistics.median(to_swap) / 1e6,
+            "p99": sorted(to_swap)[max(0, int(len(to_swap) * 0.99) - 1)] / 1e6,
+            "max": max(to_swap) / 1e6,
+        },
         "total_ms_p50": statistics.median(r["total_ns"] for r in reports) / 1e6,
         "missed_periods": sum(r["missed_periods"] for r in reports),
         "swaps_seconds": swaps_took,
-        "missed_while_swapping": quiet_start["missed"] + quiet_start["skipped"] - quiet_from["missed"] - quiet_from["skipped"],
-        "missed_while_quiet": quiet_end["missed"] + quiet_end["skipped"] - quiet_start["missed"] - quiet_start["skipped"],
+        "missed_while_swapping": quiet_start["missed"]
+        + quiet_start["skipped"]
+        - quiet_from["missed"]
+        - quiet_from["skipped"],
+        "missed_while_quiet": quiet_end["missed"]
+        + quiet_end["skipped"]
+        - quiet_start["missed"]
+        - quiet_start["skipped"],
         "swaps_with_misses": sum(1 for r in reports if r["missed_periods"]),
-        "keep_runs": keep["runs"], "keep_skipped": keep["skipped"], "keep_missed": keep["missed"],
+        "keep_runs": keep["runs"],
+        "keep_skipped": keep["skipped"],
+        "keep_missed": keep["missed"],
         "dispatcher_periods": figures["runs"] + figures["skipped"],
         "realtime": figures["realtime"],
     }
 
 
 # ---- the agent under load ------------------------------------------------------------------------
+
 
 def rt_cpu(a) -> int:
     return a.cpu
@@ -168,6 +208,7 @@ class Clients:
 
     def __init__(self, url: str, token: str, paths: list[str], cpu: int):
         from indurop_agent.client import Client
+
         self.Client, self.url, self.token, self.paths, self.cpu = Client, url, token, paths, cpu
         self.stop = threading.Event()
         self.threads: list[threading.Thread] = []
@@ -222,11 +263,21 @@ class Clients:
             t.join(10)
 
 
-def run_phase(a, work: Path, name: str, agent_url: str, token: str, paths: list[str], sock: Path,
-              streams: int = 0, hammer: bool = False) -> dict:
+def run_phase(
+    a,
+    work: Path,
+    name: str,
+    agent_url: str,
+    token: str,
+    paths: list[str],
+    sock: Path,
+    streams: int = 0,
+    hammer: bool = False,
+) -> dict:
     stats = work / f"{name}.json"
     irpd = start_irpd(a, a.fig1, sock, stats, f"bench-agent-{os.getpid()}", ["--duration", str(a.seconds + 3)])
     from indurop_agent.client import Client
+
     client = Client(agent_url, token)
     deadline = time.monotonic() + 20
     while client.health().get("irpd") != "ok":  # the agent reconnects to the new irpd
@@ -246,21 +297,45 @@ def run_phase(a, work: Path, name: str, agent_url: str, token: str, paths: list[
     irpd.wait(a.seconds + 60)
     figures = dispatcher_figures(stats)
     figures.pop("doc")
-    return {"name": name, "streams": streams, "hammer": hammer, **figures,
-            "samples_per_s": load.samples[0] / elapsed, "dropped": sum(load.dropped),
-            "requests_per_s": load.requests[0] / elapsed, "errors": load.errors[:5]}
+    return {
+        "name": name,
+        "streams": streams,
+        "hammer": hammer,
+        **figures,
+        "samples_per_s": load.samples[0] / elapsed,
+        "dropped": sum(load.dropped),
+        "requests_per_s": load.requests[0] / elapsed,
+        "errors": load.errors[:5],
+    }
 
 
 def run_agent_phases(a, work: Path) -> list[dict]:
     sock, data = work / "irpd.sock", work / "agent-data"
     port = free_port()
     irpd = start_irpd(a, a.fig1, sock, work / "warmup.json", f"bench-agent-{os.getpid()}", ["--duration", "60"])
-    agent = subprocess.Popen(off_rt(a) + [sys.executable, "-m", "indurop_agent", "--host", "127.0.0.1", "--port", str(port),
-                              "--data-dir", str(data), "--irpd-socket", str(sock)], cwd=REPO / "agent",
-                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    agent = subprocess.Popen(
+        off_rt(a)
+        + [
+            sys.executable,
+            "-m",
+            "indurop_agent",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            str(port),
+            "--data-dir",
+            str(data),
+            "--irpd-socket",
+            str(sock),
+        ],
+        cwd=REPO / "agent",
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     url = f"http://127.0.0.1:{port}"
     try:
         from indurop_agent.client import Client
+
         deadline = time.monotonic() + 30
         while True:
             try:
@@ -275,8 +350,12 @@ def run_agent_phases(a, work: Path) -> list[dict]:
         stop(irpd)
         runs = []
         for r in range(a.rounds):  # rounds alternate the phases, so that the VM's slow minutes hit all of them
-            for name, streams, hammer in (("idle", 0, False), ("stream-1", 1, False), ("stream-10", 10, False),
-                                          ("hammer", 0, True)):
+            for name, streams, hammer in (
+                ("idle", 0, False),
+                ("stream-1", 1, False),
+                ("stream-10", 10, False),
+                ("hammer", 0, True),
+            ):
                 log(f"round {r + 1}/{a.rounds}, phase {name}: {a.seconds} s")
                 runs.append(run_phase(a, work, name, url, token, paths, sock, streams, hammer))
         return runs, paths
@@ -287,6 +366,7 @@ def run_agent_phases(a, work: Path) -> list[dict]:
 
 # ---- the report -------------------------------------------------------------------------------------
 
+
 def us(ns: float) -> str:
     return f"{ns / 1000:.2f}"
 
@@ -296,14 +376,23 @@ def combine(runs: list[dict]) -> list[dict]:
     phases = []
     for name in dict.fromkeys(r["name"] for r in runs):
         mine = [r for r in runs if r["name"] == name]
-        phases.append({"name": name, "streams": mine[0]["streams"], "hammer": mine[0]["hammer"],
-                       "p50": statistics.median(r["p50"] for r in mine), "p99": statistics.median(r["p99"] for r in mine),
-                       "p99s": [r["p99"] for r in mine], "max": max(r["max"] for r in mine),
-                       "missed": sum(r["missed"] + r["skipped"] for r in mine),
-                       "samples_per_s": statistics.mean(r["samples_per_s"] for r in mine),
-                       "dropped": sum(r["dropped"] for r in mine),
-                       "requests_per_s": statistics.mean(r["requests_per_s"] for r in mine),
-                       "realtime": all(r["realtime"] for r in mine), "errors": [e for r in mine for e in r["errors"]]})
+        phases.append(
+            {
+                "name": name,
+                "streams": mine[0]["streams"],
+                "hammer": mine[0]["hammer"],
+                "p50": statistics.median(r["p50"] for r in mine),
+                "p99": statistics.median(r["p99"] for r in mine),
+                "p99s": [r["p99"] for r in mine],
+                "max": max(r["max"] for r in mine),
+                "missed": sum(r["missed"] + r["skipped"] for r in mine),
+                "samples_per_s": statistics.mean(r["samples_per_s"] for r in mine),
+                "dropped": sum(r["dropped"] for r in mine),
+                "requests_per_s": statistics.mean(r["requests_per_s"] for r in mine),
+                "realtime": all(r["realtime"] for r in mine),
+                "errors": [e for r in mine for e in r["errors"]],
+            }
+        )
     return phases
 
 
@@ -332,15 +421,24 @@ def render(a, runs: list[dict], paths: list[str], swaps: dict) -> str:
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for p in phases:
-        clients = f"{p['streams']} stream" + ("s" if p["streams"] != 1 else "") if p["streams"] else ("query hammer" if p["hammer"] else "none")
+        clients = (
+            f"{p['streams']} stream" + ("s" if p["streams"] != 1 else "")
+            if p["streams"]
+            else ("query hammer" if p["hammer"] else "none")
+        )
         ratio = p["p99"] / reference if reference else float("nan")
-        lines.append(f"| {p['name']} | {clients} | {p['samples_per_s']:.0f} | {p['dropped']} | {p['requests_per_s']:.0f} | "
-                     f"{us(p['p50'])} | {us(p['p99'])} ({', '.join(us(x) for x in p['p99s'])}) | {us(p['max'])} | {ratio:.2f} | {p['missed']} | {p['realtime']} |")
+        lines.append(
+            f"| {p['name']} | {clients} | {p['samples_per_s']:.0f} | {p['dropped']} | {p['requests_per_s']:.0f} | "
+            f"{us(p['p50'])} | {us(p['p99'])} ({', '.join(us(x) for x in p['p99s'])}) | {us(p['max'])} | {ratio:.2f} | {p['missed']} | {p['realtime']} |"
+        )
     idle = next(p for p in phases if p["name"] == "idle")
     low, high = min(idle["p99s"]), max(idle["p99s"])
-    lines += ["", f"Resolution: the idle phase's own p99 ranged {us(low)}–{us(high)} µs over its rounds "
-              f"({(low / reference - 1) * 100:+.0f} % to {(high / reference - 1) * 100:+.0f} % of its median); a ratio "
-              "inside that range cannot be told from this machine's noise."]
+    lines += [
+        "",
+        f"Resolution: the idle phase's own p99 ranged {us(low)}–{us(high)} µs over its rounds "
+        f"({(low / reference - 1) * 100:+.0f} % to {(high / reference - 1) * 100:+.0f} % of its median); a ratio "
+        "inside that range cannot be told from this machine's noise.",
+    ]
     errors = [e for p in phases for e in p["errors"]]
     if errors:
         lines += ["", "Client errors: " + "; ".join(errors)]
@@ -382,8 +480,7 @@ def main(argv: list[str]) -> int:
     a = ap.parse_args(argv)
     a.irpd = a.build / "bin" / "irpd"
     a.fig1 = a.build / "sets" / "paper-fig1" / "module.xml"
-    subprocess.run(["cmake", "--build", str(a.build)],
-                   check=False, stdout=subprocess.DEVNULL)
+    subprocess.run(["cmake", "--build", str(a.build)], check=False, stdout=subprocess.DEVNULL)
     for needed in (a.irpd, a.fig1, a.build / "tests" / "cpp" / "modules" / "counter_v1.so"):
         if not needed.exists():
             print(f"agent_bench: {needed} is missing: run `bash packaging/build.sh` first", file=sys.stderr)

@@ -26,6 +26,7 @@ and reports min / median / max over the rounds:
 Timing figures are measured here, never asserted in tests.  Standard library only; run as root
 (SCHED_FIFO) after `bash packaging/build.sh`.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -44,7 +45,8 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "tests" / "python"))
-from live_processes import module_entry as module, stop  # noqa: E402
+from live_processes import module_entry as module  # noqa: E402
+from live_processes import stop
 
 
 class Control:
@@ -128,9 +130,21 @@ def wait_for(what, seconds: float = 20.0, every: float = 0.005):
 
 def irpd(build: Path, xml: Path, folder: Path, name: str) -> tuple[subprocess.Popen, Control]:
     sock = folder / f"{name}.sock"
-    p = start([str(build / "bin" / "irpd"), "--config", str(xml), "--control-socket", str(sock),
-               "--instance", f"faults-bench-{os.getpid()}-{name}", "--module-cache", str(folder / "cache")],
-              folder, name)
+    p = start(
+        [
+            str(build / "bin" / "irpd"),
+            "--config",
+            str(xml),
+            "--control-socket",
+            str(sock),
+            "--instance",
+            f"faults-bench-{os.getpid()}-{name}",
+            "--module-cache",
+            str(folder / "cache"),
+        ],
+        folder,
+        name,
+    )
     return p, Control(sock)
 
 
@@ -140,16 +154,28 @@ def value(name: str, v: str) -> str:
 
 # ---- scenarios --------------------------------------------------------------------------------
 
+
 def overrun_detection(build: Path, folder: Path) -> float:
     """ms past the limit at which the watchdog saw the run still going."""
     shutil.copy(build / "tests/cpp/modules/counter_v1.so", folder / "keep.so")
     shutil.copy(build / "tests/cpp/modules/overrun.so", folder / "overrun.so")
     xml = folder / "module.xml"
-    xml.write_text("<root>\n" + module("keep", "keep.so", 1_000_000, 1) + module(
-        "stuck", "overrun.so", 2_000_000, 2,
-        "<on_overrun>warn</on_overrun><overrun_limit>2000000</overrun_limit><property>"
-        + value("journal", str(folder / "stuck.log")) + value("hang_at", "100") + value("hang_ms", "20")
-        + "</property>") + "</root>\n")
+    xml.write_text(
+        "<root>\n"
+        + module("keep", "keep.so", 1_000_000, 1)
+        + module(
+            "stuck",
+            "overrun.so",
+            2_000_000,
+            2,
+            "<on_overrun>warn</on_overrun><overrun_limit>2000000</overrun_limit><property>"
+            + value("journal", str(folder / "stuck.log"))
+            + value("hang_at", "100")
+            + value("hang_ms", "20")
+            + "</property>",
+        )
+        + "</root>\n"
+    )
     p, c = irpd(build, xml, folder, "irpd")
     try:
         seen = wait_for(lambda: [e for e in c.events("overrun") if "still running" in e["message"]])
@@ -186,10 +212,22 @@ def time_to_safe_outputs(build: Path, folder: Path) -> tuple[float, float]:
     # (the drives' own comm timeout is not what is measured here: 1 s, as in the cell's tests)
     sim_p, port = drivesim(build, folder, "--quiet", "--comm-timeout", "1000")
     shutil.copy(build / "tests/cpp/modules/overrun.so", folder / "overrun.so")
-    xml = plc_cell(build, folder, port, module(
-        "stuck", "./overrun.so", 10_000_000, 0,
-        "<on_overrun>stop</on_overrun><property>" + value("journal", str(folder / "stuck.log"))
-        + value("hang_at", "500") + value("hang_ms", "3000") + "</property>"))
+    xml = plc_cell(
+        build,
+        folder,
+        port,
+        module(
+            "stuck",
+            "./overrun.so",
+            10_000_000,
+            0,
+            "<on_overrun>stop</on_overrun><property>"
+            + value("journal", str(folder / "stuck.log"))
+            + value("hang_at", "500")
+            + value("hang_ms", "3000")
+            + "</property>",
+        ),
+    )
     sim = Modbus(port)
     p, c = irpd(build, xml, folder, "irpd")
     try:
@@ -200,8 +238,12 @@ def time_to_safe_outputs(build: Path, folder: Path) -> tuple[float, float]:
             if all(regs[4 * a] == 0 for a in range(6)):
                 arrived = time.monotonic_ns()
                 break
-        log = wait_for(lambda: re.search(r"spin began at (\d+) ns", (folder / "stuck.log").read_text()
-                                         if (folder / "stuck.log").exists() else ""), seconds=10)
+        log = wait_for(
+            lambda: re.search(
+                r"spin began at (\d+) ns", (folder / "stuck.log").read_text() if (folder / "stuck.log").exists() else ""
+            ),
+            seconds=10,
+        )
         deadline = int(log.group(1)) + 10_000_000  # the limit: the period
         assert arrived > deadline - 10_000_000, "the controlwords were 0 before the module got stuck"
         stopped = c.events("stopped")[0]["message"]
@@ -240,22 +282,35 @@ def process_fault(build: Path, folder: Path, args: str, extra: str = "") -> tupl
     shutil.copy(build / "tests/cpp/modules/counter_v1.so", folder / "keep.so")
     exe = build / "tests/cpp/processes/bin/proc_periodic.exe"
     xml = folder / "module.xml"
-    xml.write_text("<root>\n" + module("keep", "keep.so", 1_000_000, 1) + module(
-        "p", str(exe), 1_000_000, 2, extra + "<property>" + value("args", args) + value("restart_delay_ms", "1")
-        + "</property>", kind="process") + "</root>\n")
+    xml.write_text(
+        "<root>\n"
+        + module("keep", "keep.so", 1_000_000, 1)
+        + module(
+            "p",
+            str(exe),
+            1_000_000,
+            2,
+            extra + "<property>" + value("args", args) + value("restart_delay_ms", "1") + "</property>",
+            kind="process",
+        )
+        + "</root>\n"
+    )
     p, c = irpd(build, xml, folder, "irpd")
     try:
         wait_for(lambda: c.events("process_restart"))
+
         def periods() -> list[tuple[str, str]]:
             return re.findall(r"\[p\] period n=(\d+) cycle=(\d+)", p.out.read_text())
+
         wait_for(lambda: [n for n, _ in periods()].count("1") >= 2)
         out = periods()
         faulty = next(int(cy) for n, cy in out if n == "5")
         first_again = [int(cy) for n, cy in out if n == "1"][1]
         hang = None
         if "hang" in args:
-            m = re.search(r"not completed after (\d+) us, past its overrun limit (\d+) us",
-                          c.events("process_hang")[0]["message"])
+            m = re.search(
+                r"not completed after (\d+) us, past its overrun limit (\d+) us", c.events("process_hang")[0]["message"]
+            )
             hang = (int(m.group(1)) - int(m.group(2))) / 1e3
         return float(first_again - faulty), hang  # basic period 1 ms: cycles are ms
     finally:
@@ -295,18 +350,29 @@ def main() -> int:
             print(f"{label} round {r + 1}: {result}", flush=True)
 
     run("thread overrun (warn): detection past the limit", overrun_detection)
-    run("stop: overrun deadline -> safe outputs at the drive simulator|stop: safe_outputs() hooks (irpd's own time)",
-        time_to_safe_outputs)
+    run(
+        "stop: overrun deadline -> safe outputs at the drive simulator|stop: safe_outputs() hooks (irpd's own time)",
+        time_to_safe_outputs,
+    )
     run("irpd killed -9: kill -> every drive in fault (comm timeout 100 ms)", irpd_killed)
     run("process SIGSEGV: faulty release -> first release after the restart", process_fault, "--crash-at 5")
-    run("process hang (on_overrun=restart, limit 5 ms): faulty release -> first release after the restart"
-        "|process hang: detection past the limit", process_fault, "--hang-at 5",
-        "<on_overrun>restart</on_overrun><overrun_limit>5000000</overrun_limit>")
+    run(
+        "process hang (on_overrun=restart, limit 5 ms): faulty release -> first release after the restart"
+        "|process hang: detection past the limit",
+        process_fault,
+        "--hang-at 5",
+        "<on_overrun>restart</on_overrun><overrun_limit>5000000</overrun_limit>",
+    )
 
     uname = os.uname()
-    lines = [f"Measured with `.venv/bin/python tests/bench/faults.py --rounds {a.rounds}` on {uname.nodename} "
-             f"({os.cpu_count()} CPUs, {uname.release}), {time.strftime('%Y-%m-%d')}; min / median / max in ms "
-             f"over {a.rounds} rounds.", "", "| fault | figure (ms) |", "| --- | --- |"]
+    lines = [
+        f"Measured with `.venv/bin/python tests/bench/faults.py --rounds {a.rounds}` on {uname.nodename} "
+        f"({os.cpu_count()} CPUs, {uname.release}), {time.strftime('%Y-%m-%d')}; min / median / max in ms "
+        f"over {a.rounds} rounds.",
+        "",
+        "| fault | figure (ms) |",
+        "| --- | --- |",
+    ]
     lines += [f"| {k} | {summary(v)} |" for k, v in rows.items()]
     text = "\n".join(lines)
     print("\n" + text)

@@ -13,6 +13,7 @@ Reports frame time p50/p95/p99/max, fps, samples received against the samples ir
 that time, and dropped samples.  Timing figures are never asserted by tests; they are recorded
 in docs/.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -37,9 +38,14 @@ def pct(xs: list[float], q: float) -> float:
 
 
 def figures(intervals: list[float]) -> dict:
-    return {"frames": len(intervals), "p50_ms": pct(intervals, 0.5), "p95_ms": pct(intervals, 0.95),
-            "p99_ms": pct(intervals, 0.99), "max_ms": max(intervals),
-            "fps": 1000 * len(intervals) / sum(intervals)}
+    return {
+        "frames": len(intervals),
+        "p50_ms": pct(intervals, 0.5),
+        "p95_ms": pct(intervals, 0.95),
+        "p99_ms": pct(intervals, 0.99),
+        "max_ms": max(intervals),
+        "fps": 1000 * len(intervals) / sum(intervals),
+    }
 
 
 def run(seconds: int) -> dict:
@@ -54,10 +60,20 @@ def run(seconds: int) -> dict:
         server = json.loads(out.read_text())
         shot = REPO / "build" / "test-artifacts" / "plot-bench.png"
         shot.parent.mkdir(parents=True, exist_ok=True)
-        browser = subprocess.run(["node", str(REPO / "tests" / "browser" / "bench" / "plot-bench.mjs"), server["url"],
-                                  server["tokens"]["viewer"], str(seconds), *PATHS],
-                                 cwd=REPO / "tests" / "browser", capture_output=True, text=True,
-                                 env={**os.environ, "SHOT": str(shot)})
+        browser = subprocess.run(
+            [
+                "node",
+                str(REPO / "tests" / "browser" / "bench" / "plot-bench.mjs"),
+                server["url"],
+                server["tokens"]["viewer"],
+                str(seconds),
+                *PATHS,
+            ],
+            cwd=REPO / "tests" / "browser",
+            capture_output=True,
+            text=True,
+            env={**os.environ, "SHOT": str(shot)},
+        )
         if browser.returncode != 0:
             raise SystemExit(f"plot_bench: the browser run failed:\n{browser.stderr}")
         return json.loads(browser.stdout.strip().splitlines()[-1])
@@ -91,8 +107,10 @@ def report(r: dict, seconds: int) -> str:
         "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     for name, f in rows:
-        lines.append(f"| {name} | {f['frames']} | {f['fps']:.1f} | {f['p50_ms']:.2f} | {f['p95_ms']:.2f} | "
-                     f"{f['p99_ms']:.2f} | {f['max_ms']:.1f} |")
+        lines.append(
+            f"| {name} | {f['frames']} | {f['fps']:.1f} | {f['p50_ms']:.2f} | {f['p95_ms']:.2f} | "
+            f"{f['p99_ms']:.2f} | {f['max_ms']:.1f} |"
+        )
     lines += [
         "",
         f"- Frame time p95 with the plot: **{plot['p95_ms']:.2f} ms** ({1000 / plot['p95_ms']:.1f} fps at p95; "
@@ -101,7 +119,9 @@ def report(r: dict, seconds: int) -> str:
         f"({produced} produced); **{dropped} dropped** by the stream (the agent's exact counter), "
         f"{ui_dropped} discarded by the page.  Target: 0 dropped.",
         f"- The page's own work per frame (JavaScript incl. uPlot's drawing, last {len(work)} frames): "
-        f"p50 {pct(work, 0.5):.2f} ms, p95 {pct(work, 0.95):.2f} ms." if work else "",
+        f"p50 {pct(work, 0.5):.2f} ms, p95 {pct(work, 0.95):.2f} ms."
+        if work
+        else "",
         "",
         f"Measured {time.strftime('%Y-%m-%d')} on the 2-CPU development VM (noisy, shared).  Rows received and "
         "produced differ by the time between reading irpd's period count and the page's counters; "

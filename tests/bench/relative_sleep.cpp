@@ -82,13 +82,13 @@ Figures figures(std::vector<int64_t> &v) {
 std::string json(const Figures &f) {
     char buf[256];
     std::snprintf(buf, sizeof buf,
-                  "{\"mean\": %.1f, \"min\": %" PRId64 ", \"p50\": %" PRId64 ", \"p99\": %" PRId64 ", \"p999\": %" PRId64
-                  ", \"max\": %" PRId64 "}",
+                  "{\"mean\": %.1f, \"min\": %" PRId64 ", \"p50\": %" PRId64 ", \"p99\": %" PRId64
+                  ", \"p999\": %" PRId64 ", \"max\": %" PRId64 "}",
                   f.mean, f.min, f.p50, f.p99, f.p999, f.max);
     return buf;
 }
 
-} // namespace
+}  // namespace
 
 int main(int argc, char **argv) {
     int64_t period = 0, work = 1000;
@@ -99,15 +99,20 @@ int main(int argc, char **argv) {
         if (a == "--help" || a == "-h") usage(nullptr);
         if (i + 1 >= argc) usage(("option " + a + " needs a value").c_str());
         const char *v = argv[++i];
-        if (a == "--period-ns") period = number("--period-ns", v, 1000, 1'000'000'000);
-        else if (a == "--work-ns") work = number("--work-ns", v, 0, 1'000'000'000);
-        else if (a == "--cpu") cpu = static_cast<int>(number("--cpu", v, 0, CPU_SETSIZE - 1));
-        else if (a == "--rt-priority") priority = static_cast<int>(number("--rt-priority", v, 1, 99));
+        if (a == "--period-ns")
+            period = number("--period-ns", v, 1000, 1'000'000'000);
+        else if (a == "--work-ns")
+            work = number("--work-ns", v, 0, 1'000'000'000);
+        else if (a == "--cpu")
+            cpu = static_cast<int>(number("--cpu", v, 0, CPU_SETSIZE - 1));
+        else if (a == "--rt-priority")
+            priority = static_cast<int>(number("--rt-priority", v, 1, 99));
         else if (a == "--duration") {
             char *end = nullptr;
             duration = std::strtod(v, &end);
             if (!end || *end || !(duration > 0) || duration > 1e6) usage("--duration: expected positive seconds");
-        } else usage(("unknown option " + a).c_str());
+        } else
+            usage(("unknown option " + a).c_str());
     }
     if (period == 0 || duration == 0) usage("--period-ns and --duration are required");
     if (work >= period) usage("--work-ns must be shorter than the period");
@@ -176,13 +181,14 @@ int main(int argc, char **argv) {
     const int64_t drift = kept ? lateness.back() : 0;
     const Figures fa = figures(actual), fo = figures(overshoot), fl = figures(lateness);
 
-    std::printf("{\"program\": \"relative_sleep\", \"realtime\": %s, \"notes\": \"%s\", \"cpu\": %d, \"rt_priority\": %d,\n"
-                " \"period_ns\": %" PRId64 ", \"work_ns\": %" PRId64 ", \"elapsed_ns\": %" PRId64 ",\n"
-                " \"iterations\": %zu, \"expected_iterations\": %" PRId64 ", \"periods_lost\": %" PRId64 ",\n"
-                " \"drift_ns\": %" PRId64 ", \"drift_ns_per_s\": %.1f,\n"
-                " \"actual_period_ns\": %s,\n \"overshoot_ns\": %s,\n \"grid_lateness_ns\": %s}\n",
-                realtime ? "true" : "false", notes.c_str(), cpu, priority, period, work, elapsed, n, expected,
-                expected - static_cast<int64_t>(n), drift, static_cast<double>(drift) / (static_cast<double>(elapsed) / 1e9),
-                json(fa).c_str(), json(fo).c_str(), json(fl).c_str());
+    std::printf(
+        "{\"program\": \"relative_sleep\", \"realtime\": %s, \"notes\": \"%s\", \"cpu\": %d, \"rt_priority\": %d,\n"
+        " \"period_ns\": %" PRId64 ", \"work_ns\": %" PRId64 ", \"elapsed_ns\": %" PRId64 ",\n"
+        " \"iterations\": %zu, \"expected_iterations\": %" PRId64 ", \"periods_lost\": %" PRId64 ",\n"
+        " \"drift_ns\": %" PRId64 ", \"drift_ns_per_s\": %.1f,\n"
+        " \"actual_period_ns\": %s,\n \"overshoot_ns\": %s,\n \"grid_lateness_ns\": %s}\n",
+        realtime ? "true" : "false", notes.c_str(), cpu, priority, period, work, elapsed, n, expected,
+        expected - static_cast<int64_t>(n), drift, static_cast<double>(drift) / (static_cast<double>(elapsed) / 1e9),
+        json(fa).c_str(), json(fo).c_str(), json(fl).c_str());
     return 0;
 }

@@ -7,6 +7,7 @@ downtime next to them.  Results go to docs/benchmark-online.md.
 
     .venv/bin/python tests/bench/restart_bench.py [--restarts 20] [--json FILE]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -77,11 +78,18 @@ def main() -> int:
             control.close()
             irpd.send_signal(signal.SIGTERM)
             irpd.wait(timeout=20)
-    result = {"restarts": a.restarts, "fell_back": len(failed), "errors": failed[:3],
-              "downtime_ms": {"p50": round(percentile(downtimes, 0.5), 1), "p99": round(percentile(downtimes, 0.99), 1),
-                              "max": round(max(downtimes), 1), "min": round(min(downtimes), 1)},
-              "expected_downtime_ms": {"p50": round(percentile(expected, 0.5), 1),
-                                       "max": round(max(expected), 1)}}
+    result = {
+        "restarts": a.restarts,
+        "fell_back": len(failed),
+        "errors": failed[:3],
+        "downtime_ms": {
+            "p50": round(percentile(downtimes, 0.5), 1),
+            "p99": round(percentile(downtimes, 0.99), 1),
+            "max": round(max(downtimes), 1),
+            "min": round(min(downtimes), 1),
+        },
+        "expected_downtime_ms": {"p50": round(percentile(expected, 0.5), 1), "max": round(max(expected), 1)},
+    }
     print(json.dumps(result, indent=1))
     if a.json:
         a.json.write_text(json.dumps(result, indent=1) + "\n")

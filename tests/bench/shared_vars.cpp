@@ -40,7 +40,7 @@ double measure(Op op, int n = 2'000'000) {
     return best;
 }
 
-} // namespace
+}  // namespace
 
 int main(int argc, char **argv) {
     if (argc != 2) {

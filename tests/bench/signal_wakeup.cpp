@@ -73,7 +73,9 @@ void send(pid_t to, int sig, int64_t value) {
     sigqueue(to, sig, v);
 }
 
-int64_t valueOf(const siginfo_t &info) { return static_cast<int64_t>(reinterpret_cast<intptr_t>(info.si_value.sival_ptr)); }
+int64_t valueOf(const siginfo_t &info) {
+    return static_cast<int64_t>(reinterpret_cast<intptr_t>(info.si_value.sival_ptr));
+}
 
 // The worker: the "process module" of the signal-based design.
 int worker(pid_t dispatcher, int priority) {
@@ -100,13 +102,14 @@ int worker(pid_t dispatcher, int priority) {
         send(dispatcher, SIGRTMIN + 1, due);  // done
     }
     g_wake.print(stdout, "signal_wake");
-    std::printf("@info signal_wake wakes=%llu realtime=%d mlockall=%d notes=%s\n", static_cast<unsigned long long>(wakes),
-                rt ? 1 : 0, locked ? 1 : 0, notes.empty() ? "-" : notes.c_str());
+    std::printf("@info signal_wake wakes=%llu realtime=%d mlockall=%d notes=%s\n",
+                static_cast<unsigned long long>(wakes), rt ? 1 : 0, locked ? 1 : 0,
+                notes.empty() ? "-" : notes.c_str());
     std::fflush(stdout);
     return 0;
 }
 
-} // namespace
+}  // namespace
 
 int main(int argc, char **argv) {
     int64_t period = 0;
@@ -122,14 +125,18 @@ int main(int argc, char **argv) {
         }
         if (i + 1 >= argc) usage(("option " + a + " needs a value").c_str());
         const char *v = argv[++i];
-        if (a == "--period-ns") period = number("--period-ns", v, 10'000, 1'000'000'000);
-        else if (a == "--cpu") cpu = static_cast<int>(number("--cpu", v, 0, CPU_SETSIZE - 1));
-        else if (a == "--rt-priority") priority = static_cast<int>(number("--rt-priority", v, 2, 99));
+        if (a == "--period-ns")
+            period = number("--period-ns", v, 10'000, 1'000'000'000);
+        else if (a == "--cpu")
+            cpu = static_cast<int>(number("--cpu", v, 0, CPU_SETSIZE - 1));
+        else if (a == "--rt-priority")
+            priority = static_cast<int>(number("--rt-priority", v, 2, 99));
         else if (a == "--duration") {
             char *end = nullptr;
             duration = std::strtod(v, &end);
             if (!end || *end || !(duration > 0) || duration > 1e6) usage("--duration: expected positive seconds");
-        } else usage(("unknown option " + a).c_str());
+        } else
+            usage(("unknown option " + a).c_str());
     }
     if (period == 0 || duration == 0) usage("--period-ns and --duration are required");
 
@@ -183,8 +190,7 @@ int main(int argc, char **argv) {
     for (uint64_t n = 0; n < total; ++n, ++cycles) {
         int64_t due = t0 + static_cast<int64_t>(n) * period;
         const timespec at = toTimespec(due);
-        while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &at, nullptr) == EINTR) {
-        }
+        while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &at, nullptr) == EINTR) {}
         const int64_t woke = bench::nowNs();
         const int64_t late = woke - due;
         g_dispatcher.record(late);

@@ -20,6 +20,7 @@ against cyclictest's latency, overruns, misses, samples received and dropped, RS
 least-squares slope after the first minute, swaps done and the periods missed during swaps.
 Timing figures are never asserted by tests: docs/soak.md records a run.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -44,7 +45,9 @@ import live_processes  # noqa: E402  (copy_cell, start_irpd, stop: as the cell's
 from indurop_agent.client import Client  # noqa: E402
 
 STREAMED = [f"PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[{i}]" for i in range(6)] + [
-    "PLC_ROBOT.PLC_OUT.Step", "PLC_ROBOT.PLC_OUT.Cycles"]
+    "PLC_ROBOT.PLC_OUT.Step",
+    "PLC_ROBOT.PLC_OUT.Cycles",
+]
 RELOADED = ("main", 3, 4)  # the PLC program: lowest priority already, so 3 <-> 4 changes no order
 
 
@@ -86,8 +89,10 @@ def slope_per_min(points: list[tuple[float, int]]) -> float | None:
 def percentile_from_buckets(h: dict, q: float, absolute: bool = False) -> float | None:
     """The upper edge of the bucket holding quantile q of an irpd histogram (GET /jitter/histograms);
     absolute: of |x| (a negative bucket [low, low + width) holds |x| up to |low|)."""
-    edges = [(abs(b["low_ns"]) if absolute and b["low_ns"] < 0 else b["low_ns"] + b["width_ns"], b["count"])
-             for b in h["buckets"]]
+    edges = [
+        (abs(b["low_ns"]) if absolute and b["low_ns"] < 0 else b["low_ns"] + b["width_ns"], b["count"])
+        for b in h["buckets"]
+    ]
     total = sum(n for _, n in edges)
     if not total:
         return None
@@ -103,8 +108,24 @@ def percentile_from_buckets(h: dict, q: float, absolute: bool = False) -> float 
 def cyclictest(cpu: int, priority: int, interval_us: int, seconds: int, work: Path) -> dict:
     """cyclictest's wake-up latency (µs histogram up to 20 ms): samples, p99.99, max, overflows."""
     hist = work / "cyclictest-hist.txt"
-    cmd = ["cyclictest", "-m", "-q", "-p", str(priority), "-i", str(interval_us), "-a", str(cpu), "-t", "1",
-           "-D", str(seconds), "-h", "20000", f"--histfile={hist}"]
+    cmd = [
+        "cyclictest",
+        "-m",
+        "-q",
+        "-p",
+        str(priority),
+        "-i",
+        str(interval_us),
+        "-a",
+        str(cpu),
+        "-t",
+        "1",
+        "-D",
+        str(seconds),
+        "-h",
+        "20000",
+        f"--histfile={hist}",
+    ]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=seconds + 60)
     if done.returncode != 0:
         raise RuntimeError(f"cyclictest failed: {done.stderr.strip()}")
@@ -125,9 +146,13 @@ def cyclictest(cpu: int, priority: int, interval_us: int, seconds: int, work: Pa
             p9999 = us + 1
             break
     # p99.99 beyond the histogram (more than 0.01 % of the samples over 20 ms): None, shown as "> 20 ms".
-    return {"samples": total, "p99_99_ns": p9999 * 1000 if p9999 is not None else None,
-            "max_ns": maximum * 1000 if maximum is not None else None, "overflows": overflows,
-            "command": " ".join(cmd[:-1])}
+    return {
+        "samples": total,
+        "p99_99_ns": p9999 * 1000 if p9999 is not None else None,
+        "max_ns": maximum * 1000 if maximum is not None else None,
+        "overflows": overflows,
+        "command": " ".join(cmd[:-1]),
+    }
 
 
 class Streams:
@@ -178,22 +203,43 @@ def main() -> int:
     ap.add_argument("--cyclictest-minutes", type=float, default=None, help="default: min(--minutes, 2)")
     ap.add_argument("--cpu", type=int, default=max(os.sched_getaffinity(0)), help="irpd's (and cyclictest's) CPU")
     ap.add_argument("--rt-priority", type=int, default=80)
-    ap.add_argument("--comm-timeout-s", type=float, default=10.0,
-                    help="silence of the simulated drives before comm loss (a shared VM starves them at times)")
-    ap.add_argument("--drives-priority", type=int, default=10,
-                    help="SCHED_FIFO priority of the drive simulator (0: a normal process).  Real drives run on "
-                         "their own CPUs; on the shared CPU the agent's load would starve the simulator and the "
-                         "robot stop with a following error or lost communication")
-    ap.add_argument("--no-restart", dest="restart_cell", action="store_false",
-                    help="leave the cell stopped when the PLC reports an error (by default the soak resets and "
-                         "starts it again, as an operator would, and counts it)")
+    ap.add_argument(
+        "--comm-timeout-s",
+        type=float,
+        default=10.0,
+        help="silence of the simulated drives before comm loss (a shared VM starves them at times)",
+    )
+    ap.add_argument(
+        "--drives-priority",
+        type=int,
+        default=10,
+        help="SCHED_FIFO priority of the drive simulator (0: a normal process).  Real drives run on "
+        "their own CPUs; on the shared CPU the agent's load would starve the simulator and the "
+        "robot stop with a following error or lost communication",
+    )
+    ap.add_argument(
+        "--no-restart",
+        dest="restart_cell",
+        action="store_false",
+        help="leave the cell stopped when the PLC reports an error (by default the soak resets and "
+        "starts it again, as an operator would, and counts it)",
+    )
     ap.add_argument("--no-stress", action="store_true", help="without stress-ng (to compare)")
-    ap.add_argument("--stress-nice", type=int, default=19,
-                    help="stress-ng's nice value: at 19 it takes every cycle the agent, its clients and the drive "
-                         "simulator (which stands for drives on the network) leave")
-    ap.add_argument("--tracemalloc", type=int, default=0, metavar="FRAMES",
-                    help="trace the agent's Python allocations (slows it): a snapshot at --snapshot-min and one at "
-                         "the end, and the call sites that grew between them in the report")
+    ap.add_argument(
+        "--stress-nice",
+        type=int,
+        default=19,
+        help="stress-ng's nice value: at 19 it takes every cycle the agent, its clients and the drive "
+        "simulator (which stands for drives on the network) leave",
+    )
+    ap.add_argument(
+        "--tracemalloc",
+        type=int,
+        default=0,
+        metavar="FRAMES",
+        help="trace the agent's Python allocations (slows it): a snapshot at --snapshot-min and one at "
+        "the end, and the call sites that grew between them in the report",
+    )
     ap.add_argument("--snapshot-min", type=float, default=2.0)
     ap.add_argument("--out-json", type=Path)
     ap.add_argument("--out-md", type=Path)
@@ -217,11 +263,21 @@ def main() -> int:
         # The drive simulator stands for drives on the network but shares this machine's CPUs: give
         # it --comm-timeout-s of silence before the I/O dispatcher calls the drives lost.
         period_ms = 1 if "1ms" in a.cell else 10
-        config, _ = live_processes.copy_cell(work / "cell", a.cell,
-                                             fail_limit=min(1000, max(1, int(a.comm_timeout_s * 1000 / period_ms))))
+        config, _ = live_processes.copy_cell(
+            work / "cell", a.cell, fail_limit=min(1000, max(1, int(a.comm_timeout_s * 1000 / period_ms)))
+        )
         sock = work / "irpd.sock"
-        irpd = live_processes.start_irpd(sock, config, f"soak-{os.getpid()}", "--cpu", str(a.cpu), "--rt-priority",
-                                         str(a.rt_priority), log=work / "irpd.log", module_output=True)
+        irpd = live_processes.start_irpd(
+            sock,
+            config,
+            f"soak-{os.getpid()}",
+            "--cpu",
+            str(a.cpu),
+            "--rt-priority",
+            str(a.rt_priority),
+            log=work / "irpd.log",
+            module_output=True,
+        )
         procs.append(irpd)
         os.sched_setaffinity(0, other)  # this script, its threads and what it starts next stay off irpd's CPU
         drives = live_processes.drive_simulator_realtime(irpd.pid, a.drives_priority)
@@ -229,8 +285,14 @@ def main() -> int:
         # on the other CPUs (this script's affinity, inherited), as a deployment runs it; with
         # --tracemalloc, Python's tracer runs in it (memtrace.py: SIGUSR2 writes a snapshot)
         tracing = {"PYTHONTRACEMALLOC": str(a.tracemalloc)} if a.tracemalloc else {}
-        agent = live_processes.start_agent(port, work / "data", sock, log=work / "agent.log", env=tracing,
-                                           timeout_s=live_processes.START_TIMEOUT_S * (3 if tracing else 1))  # tracing imports slowly
+        agent = live_processes.start_agent(
+            port,
+            work / "data",
+            sock,
+            log=work / "agent.log",
+            env=tracing,
+            timeout_s=live_processes.START_TIMEOUT_S * (3 if tracing else 1),
+        )  # tracing imports slowly
         procs.append(agent)
         url = f"http://127.0.0.1:{port}/api/v1"
         token = (work / "data" / "admin-token").read_text().strip()
@@ -247,6 +309,7 @@ def main() -> int:
         status = r.json()
         basic_ns = status["basic_period_ns"]
         log(f"irpd runs {a.cell} (basic period {basic_ns / 1e6:g} ms) on CPU {a.cpu}; agent on {sorted(other)}")
+
         def read(path: str):
             return api.get(f"/variables/PLC_ROBOT.{path}").json().get("value")
 
@@ -259,8 +322,15 @@ def main() -> int:
         write("PLC_ROBOT.PLC_IN.Enable", 1)
         write("PLC_ROBOT.PLC_IN.CycleMode", 1)
         if not within(30, lambda: read("PLC_OUT.Powered") == 1):
-            seen = {v: read(v) for v in (
-                "ROBOT_MODULE_STATE.Powered", "ROBOT_MODULE_STATE.ErrorID", "PLC_OUT.ErrorID", "IO_STATUS.comm_lost[0]")}
+            seen = {
+                v: read(v)
+                for v in (
+                    "ROBOT_MODULE_STATE.Powered",
+                    "ROBOT_MODULE_STATE.ErrorID",
+                    "PLC_OUT.ErrorID",
+                    "IO_STATUS.comm_lost[0]",
+                )
+            }
             raise RuntimeError(f"the drives did not power up within 30 s: {seen}")
         write("PLC_ROBOT.I0", 1)
 
@@ -279,10 +349,27 @@ def main() -> int:
         plc_faults = []
         stress = None
         if not a.no_stress:
-            stress = subprocess.Popen(["nice", "-n", str(a.stress_nice), "stress-ng", "--cpu", str(len(other)), "--vm", "1", "--vm-bytes", "128M",
-                                       "--taskset", ",".join(map(str, sorted(other))), "--timeout",
-                                       str(seconds + ct_seconds + 120), "--quiet"],
-                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            stress = subprocess.Popen(
+                [
+                    "nice",
+                    "-n",
+                    str(a.stress_nice),
+                    "stress-ng",
+                    "--cpu",
+                    str(len(other)),
+                    "--vm",
+                    "1",
+                    "--vm-bytes",
+                    "128M",
+                    "--taskset",
+                    ",".join(map(str, sorted(other))),
+                    "--timeout",
+                    str(seconds + ct_seconds + 120),
+                    "--quiet",
+                ],
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+            )
             procs.append(stress)
         streams = Streams(url, token, a.clients, other)
         streams.start()
@@ -296,8 +383,10 @@ def main() -> int:
         next_rss = started
         flip = 0
         snapshot_at = started + 60 * a.snapshot_min if a.tracemalloc else None
-        log(f"soaking for {a.minutes:g} min: {a.clients} stream clients, a hot reload every {a.reload_s:g} s"
-            f"{'' if a.no_stress else ', stress-ng on the other CPU(s)'}")
+        log(
+            f"soaking for {a.minutes:g} min: {a.clients} stream clients, a hot reload every {a.reload_s:g} s"
+            f"{'' if a.no_stress else ', stress-ng on the other CPU(s)'}"
+        )
         while (now := time.monotonic()) < started + seconds:
             if now >= next_rss:
                 for name, p in (("irpd", irpd), ("agent", agent)):
@@ -306,9 +395,12 @@ def main() -> int:
                         rss[name].append((round(now - started, 1), kib))
                 next_rss += a.rss_every_s
                 if a.restart_cell and read("PLC_OUT.Error"):
-                    fault = {"at_s": round(now - started, 1), "error_id": read("PLC_OUT.ErrorID"),
-                             "robot_error_id": read("ROBOT_MODULE_STATE.ErrorID"),
-                             "io_errors_so_far": read("IO_STATUS.errors[0]") - io_before["errors"]}
+                    fault = {
+                        "at_s": round(now - started, 1),
+                        "error_id": read("PLC_OUT.ErrorID"),
+                        "robot_error_id": read("ROBOT_MODULE_STATE.ErrorID"),
+                        "io_errors_so_far": read("IO_STATUS.errors[0]") - io_before["errors"],
+                    }
                     fault["restarted"] = restart_cell()
                     plc_faults.append(fault)
             if now >= next_reload:
@@ -319,9 +411,14 @@ def main() -> int:
                 if r.status_code == 200:
                     body = r.json()
                     reports = body.get("reports") or [body]
-                    swaps.append({"at_s": round(t0 - started, 1), "took_s": round(time.monotonic() - t0, 3),
-                                  "missed_periods": sum(x.get("missed_periods") or 0 for x in reports),
-                                  "kept": len(reports[-1].get("kept") or [])})
+                    swaps.append(
+                        {
+                            "at_s": round(t0 - started, 1),
+                            "took_s": round(time.monotonic() - t0, 3),
+                            "missed_periods": sum(x.get("missed_periods") or 0 for x in reports),
+                            "kept": len(reports[-1].get("kept") or []),
+                        }
+                    )
                 else:
                     swap_errors.append(f"{r.status_code}: {r.text[:200]}")
                 next_reload += a.reload_s
@@ -339,8 +436,10 @@ def main() -> int:
         after = api.get("/jitter").json()
         hist = api.get("/jitter/histograms", params={"name": "dispatcher"}).json()["records"][0]
         cycles = api.get("/variables/PLC_ROBOT.PLC_OUT.Cycles").json()["value"]
-        io = {"cycles": read("IO_STATUS.cycles") - io_before["cycles"],
-              "failed_transactions_device_0": read("IO_STATUS.errors[0]") - io_before["errors"]}
+        io = {
+            "cycles": read("IO_STATUS.cycles") - io_before["cycles"],
+            "failed_transactions_device_0": read("IO_STATUS.errors[0]") - io_before["errors"],
+        }
         plc_error = api.get("/variables/PLC_ROBOT.PLC_OUT.ErrorID").json()["value"]
         events = api.get("/events", params={"limit": 1000}).json()
         live_processes.stop(irpd)
@@ -353,35 +452,58 @@ def main() -> int:
         lat, jit = hist["latency_ns"], hist["jitter_ns"]
         irpd_fig = {
             "periods": disp_a["runs"] - disp_b["runs"],
-            "latency_p99_99_ns": percentile_from_buckets(lat, 0.9999), "latency_max_ns": lat["max"],
+            "latency_p99_99_ns": percentile_from_buckets(lat, 0.9999),
+            "latency_max_ns": lat["max"],
             "jitter_p99_99_ns": percentile_from_buckets(jit, 0.9999, absolute=True),
             "jitter_max_abs_ns": max(abs(jit["max"]), abs(jit["min"])),
             "overruns": disp_a["overruns"] - disp_b["overruns"],
             "missed": disp_a["missed"] - disp_b["missed"],
             "skipped": (disp_a.get("skipped") or 0) - (disp_b.get("skipped") or 0),
-            "module_overruns": {m["name"]: m["overruns"] - b["overruns"] for m, b in zip(after["modules"],
-                                                                                        before["modules"])},
-            "module_missed": {m["name"]: m["missed"] - b["missed"] for m, b in zip(after["modules"], before["modules"])},
+            "module_overruns": {
+                m["name"]: m["overruns"] - b["overruns"] for m, b in zip(after["modules"], before["modules"])
+            },
+            "module_missed": {
+                m["name"]: m["missed"] - b["missed"] for m, b in zip(after["modules"], before["modules"])
+            },
             "histograms_since": "irpd's start (percentiles and max); counters: the soak only",
         }
         result = {
-            "cell": a.cell, "basic_period_ns": basic_ns, "minutes": a.minutes, "clients": a.clients,
-            "stress": not a.no_stress, "cpu": a.cpu, "realtime": status.get("realtime"),
+            "cell": a.cell,
+            "basic_period_ns": basic_ns,
+            "minutes": a.minutes,
+            "clients": a.clients,
+            "stress": not a.no_stress,
+            "cpu": a.cpu,
+            "realtime": status.get("realtime"),
             "irpd": irpd_fig,
             "cyclictest": reference,
-            "ratio_latency_p99_99": (irpd_fig["latency_p99_99_ns"] / reference["p99_99_ns"]
-                                     if reference["p99_99_ns"] else None),
+            "ratio_latency_p99_99": (
+                irpd_fig["latency_p99_99_ns"] / reference["p99_99_ns"] if reference["p99_99_ns"] else None
+            ),
             "ratio_latency_max": irpd_fig["latency_max_ns"] / reference["max_ns"] if reference["max_ns"] else None,
-            "stream": {"samples_received": sum(streams.samples), "dropped": sum(streams.dropped),
-                       "per_client_dropped": streams.dropped, "errors": streams.errors[:10]},
-            "swaps": {"done": len(swaps), "failed": len(swap_errors), "errors": swap_errors[:5],
-                      "missed_periods": sum(s["missed_periods"] for s in swaps),
-                      "swaps_with_misses": sum(1 for s in swaps if s["missed_periods"]),
-                      "took_s_max": max((s["took_s"] for s in swaps), default=None)},
-            "rss_kib": {name: {"first": pts[0][1] if pts else None, "last": pts[-1][1] if pts else None,
-                               "slope_kib_per_min_after_1min": slope_per_min([p for p in pts if p[0] >= 60]),
-                               "samples": pts}
-                        for name, pts in rss.items()},
+            "stream": {
+                "samples_received": sum(streams.samples),
+                "dropped": sum(streams.dropped),
+                "per_client_dropped": streams.dropped,
+                "errors": streams.errors[:10],
+            },
+            "swaps": {
+                "done": len(swaps),
+                "failed": len(swap_errors),
+                "errors": swap_errors[:5],
+                "missed_periods": sum(s["missed_periods"] for s in swaps),
+                "swaps_with_misses": sum(1 for s in swaps if s["missed_periods"]),
+                "took_s_max": max((s["took_s"] for s in swaps), default=None),
+            },
+            "rss_kib": {
+                name: {
+                    "first": pts[0][1] if pts else None,
+                    "last": pts[-1][1] if pts else None,
+                    "slope_kib_per_min_after_1min": slope_per_min([p for p in pts if p[0] >= 60]),
+                    "samples": pts,
+                }
+                for name, pts in rss.items()
+            },
             "plc": {"cycles": cycles, "error_id": plc_error, "faults": plc_faults},
             "io": io,
             "drive_simulator": drives,
@@ -438,41 +560,66 @@ def per_min(slope) -> str:
 def markdown(r: dict) -> str:
     i, c, s, w = r["irpd"], r["cyclictest"], r["stream"], r["swaps"]
     rows = [
-        ("run", f"{r['minutes']:g} min, {r['cell']} (basic period {r['basic_period_ns'] / 1e6:g} ms), CPU {r['cpu']}, "
-                f"{r['clients']} stream clients, {'stress-ng on the other CPU' if r['stress'] else 'no stress-ng'}"),
+        (
+            "run",
+            f"{r['minutes']:g} min, {r['cell']} (basic period {r['basic_period_ns'] / 1e6:g} ms), CPU {r['cpu']}, "
+            f"{r['clients']} stream clients, {'stress-ng on the other CPU' if r['stress'] else 'no stress-ng'}",
+        ),
         ("irpd periods run", f"{i['periods']}"),
-        ("wake-up latency p99.99: irpd / cyclictest", f"{ms(i['latency_p99_99_ns'])} / {ms(c['p99_99_ns'])} "
-                                                       f"(ratio {ratio(r['ratio_latency_p99_99'])})"),
-        ("wake-up latency max: irpd / cyclictest", f"{ms(i['latency_max_ns'])} / {ms(c['max_ns'])} "
-                                                   f"(ratio {ratio(r['ratio_latency_max'])})"),
+        (
+            "wake-up latency p99.99: irpd / cyclictest",
+            f"{ms(i['latency_p99_99_ns'])} / {ms(c['p99_99_ns'])} (ratio {ratio(r['ratio_latency_p99_99'])})",
+        ),
+        (
+            "wake-up latency max: irpd / cyclictest",
+            f"{ms(i['latency_max_ns'])} / {ms(c['max_ns'])} (ratio {ratio(r['ratio_latency_max'])})",
+        ),
         ("jitter, Eq. (1), |p99.99| / max |·|", f"{ms(i['jitter_p99_99_ns'])} / {ms(i['jitter_max_abs_ns'])}"),
         ("cyclictest samples", f"{c['samples']} ({c['overflows']} over 20 ms)"),
         ("dispatcher overruns / missed / skipped", f"{i['overruns']} / {i['missed']} / {i['skipped']}"),
         ("module overruns", ", ".join(f"{k} {v}" for k, v in i["module_overruns"].items())),
-        ("stream samples received / dropped", f"{s['samples_received']} / {s['dropped']}"
-                                              f"{' (errors: ' + str(len(s['errors'])) + ')' if s['errors'] else ''}"),
+        (
+            "stream samples received / dropped",
+            f"{s['samples_received']} / {s['dropped']}"
+            f"{' (errors: ' + str(len(s['errors'])) + ')' if s['errors'] else ''}",
+        ),
         ("hot reloads done / failed", f"{w['done']} / {w['failed']}"),
         ("periods missed during swaps", f"{w['missed_periods']} ({w['swaps_with_misses']} swaps with a miss)"),
-        ("RSS irpd: first → last, slope after 1 min",
-         f"{r['rss_kib']['irpd']['first']} → {r['rss_kib']['irpd']['last']} KiB, "
-         f"{per_min(r['rss_kib']['irpd']['slope_kib_per_min_after_1min'])}"),
-        ("RSS agent: first → last, slope after 1 min",
-         f"{r['rss_kib']['agent']['first']} → {r['rss_kib']['agent']['last']} KiB, "
-         f"{per_min(r['rss_kib']['agent']['slope_kib_per_min_after_1min'])}"),
+        (
+            "RSS irpd: first → last, slope after 1 min",
+            f"{r['rss_kib']['irpd']['first']} → {r['rss_kib']['irpd']['last']} KiB, "
+            f"{per_min(r['rss_kib']['irpd']['slope_kib_per_min_after_1min'])}",
+        ),
+        (
+            "RSS agent: first → last, slope after 1 min",
+            f"{r['rss_kib']['agent']['first']} → {r['rss_kib']['agent']['last']} KiB, "
+            f"{per_min(r['rss_kib']['agent']['slope_kib_per_min_after_1min'])}",
+        ),
         ("PLC cycles completed, ErrorID at the end", f"{r['plc']['cycles']}, {r['plc']['error_id']}"),
-        ("PLC stopped on an error, restarted", f"{len(r['plc'].get('faults', []))} times (ErrorIDs "
-         f"{sorted({f['error_id'] for f in r['plc'].get('faults', [])})}), "
-         f"{sum(f['restarted'] for f in r['plc'].get('faults', []))} restarts succeeded"),
-        ("I/O cycles, failed Modbus transactions (drives)", f"{r['io']['cycles']}, "
-         f"{r['io']['failed_transactions_device_0']}" if r.get("io") else "–"),
+        (
+            "PLC stopped on an error, restarted",
+            f"{len(r['plc'].get('faults', []))} times (ErrorIDs "
+            f"{sorted({f['error_id'] for f in r['plc'].get('faults', [])})}), "
+            f"{sum(f['restarted'] for f in r['plc'].get('faults', []))} restarts succeeded",
+        ),
+        (
+            "I/O cycles, failed Modbus transactions (drives)",
+            f"{r['io']['cycles']}, {r['io']['failed_transactions_device_0']}" if r.get("io") else "–",
+        ),
         ("drive simulator", r.get("drive_simulator", "a normal process")),
     ]
     m = r.get("agent_memory_trace")
     if m and "error" not in m:
-        rows.append(("agent: Python-traced memory, snapshot → end",
-                     f"{m['traced_kib']['old']} → {m['traced_kib']['new']} KiB (RSS {m['rss_kib_over_the_same_span']})"))
-        rows += [(f"grew: {d['where'][-1]}", f"{d['size_diff_kib']:+.1f} KiB, {d['count_diff']:+d} blocks")
-                 for d in m["top"][:5]]
+        rows.append(
+            (
+                "agent: Python-traced memory, snapshot → end",
+                f"{m['traced_kib']['old']} → {m['traced_kib']['new']} KiB (RSS {m['rss_kib_over_the_same_span']})",
+            )
+        )
+        rows += [
+            (f"grew: {d['where'][-1]}", f"{d['size_diff_kib']:+.1f} KiB, {d['count_diff']:+d} blocks")
+            for d in m["top"][:5]
+        ]
     elif m:
         rows.append(("agent memory trace", m["error"]))
     return "| figure | value |\n| --- | --- |\n" + "".join(f"| {k} | {v} |\n" for k, v in rows)

@@ -21,6 +21,7 @@ This script plays systemd (an AF_UNIX datagram socket as NOTIFY_SOCKET, WATCHDOG
 Figures are reported, not asserted; they go between the markers <!-- supervision-figures -->
 of --out.  Python 3.11 standard library only.  Run as root (SCHED_FIFO).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -41,6 +42,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests" / "python"))
 from live_processes import module_entry as module  # noqa: E402
+
 # The stalled executor's window: 2 basic periods (2 ms) + 2 of the main thread's 20 ms ticks.
 WINDOW_S = 0.044
 
@@ -63,7 +65,7 @@ class FakeSystemd:
         while not self.stop:
             try:
                 data = self.sock.recv(4096)
-            except socket.timeout:
+            except TimeoutError:
                 continue
             with self.lock:
                 self.messages.append((time.monotonic(), data.decode(errors="replace")))
@@ -93,13 +95,24 @@ def trigger_set(folder: Path, fixture: Path, trigger: Path) -> Path:
     never = f'<property><value name="trigger">{folder / "never"}</value></property>'
     armed = f'<property><value name="trigger">{trigger}</value></property><executor>side</executor>'
     xml = folder / "module.xml"
-    xml.write_text("<root>\n  <executor><name>side</name></executor>\n" + module("healthy", "healthy.so", 1_000_000, 1, never)
-                   + module("bad", "bad.so", 2_000_000, 2, armed) + "</root>\n")
+    xml.write_text(
+        "<root>\n  <executor><name>side</name></executor>\n"
+        + module("healthy", "healthy.so", 1_000_000, 1, never)
+        + module("bad", "bad.so", 2_000_000, 2, armed)
+        + "</root>\n"
+    )
     return xml
 
 
-def start(irpd: Path, config: Path, folder: Path, instance: str, notify: Path, watchdog_us: int = 0,
-          extra: tuple[str, ...] = ()) -> subprocess.Popen:
+def start(
+    irpd: Path,
+    config: Path,
+    folder: Path,
+    instance: str,
+    notify: Path,
+    watchdog_us: int = 0,
+    extra: tuple[str, ...] = (),
+) -> subprocess.Popen:
     """irpd as systemd starts it (without WATCHDOG_PID, which sd_watchdog_enabled then does not check)."""
     env = {k: v for k, v in os.environ.items() if k not in ("WATCHDOG_PID", "WATCHDOG_USEC")}
     env["NOTIFY_SOCKET"] = str(notify)
@@ -108,12 +121,27 @@ def start(irpd: Path, config: Path, folder: Path, instance: str, notify: Path, w
 
     def no_core():
         import resource
+
         resource.setrlimit(resource.RLIMIT_CORE, (0, 0))  # the crashes here are on purpose
 
-    return subprocess.Popen([str(irpd), "--config", str(config), "--instance", instance, "--state-dir",
-                             str(folder / "state"), "--module-cache", str(folder / "cache"), *extra],
-                            env=env, preexec_fn=no_core, stdout=subprocess.DEVNULL,
-                            stderr=open(folder / "irpd.log", "a"))
+    return subprocess.Popen(
+        [
+            str(irpd),
+            "--config",
+            str(config),
+            "--instance",
+            instance,
+            "--state-dir",
+            str(folder / "state"),
+            "--module-cache",
+            str(folder / "cache"),
+            *extra,
+        ],
+        env=env,
+        preexec_fn=no_core,
+        stdout=subprocess.DEVNULL,
+        stderr=open(folder / "irpd.log", "a"),
+    )
 
 
 def stop(p: subprocess.Popen, instance: str, sig=signal.SIGKILL):
@@ -127,8 +155,10 @@ def stop(p: subprocess.Popen, instance: str, sig=signal.SIGKILL):
 
 def describe(values: list[float]) -> str:
     ms = sorted(v * 1000 for v in values)
-    return (f"n={len(ms)}, min {ms[0]:.1f} ms, median {statistics.median(ms):.1f} ms, "
-            f"p90 {ms[int(0.9 * (len(ms) - 1))]:.1f} ms, max {ms[-1]:.1f} ms")
+    return (
+        f"n={len(ms)}, min {ms[0]:.1f} ms, median {statistics.median(ms):.1f} ms, "
+        f"p90 {ms[int(0.9 * (len(ms) - 1))]:.1f} ms, max {ms[-1]:.1f} ms"
+    )
 
 
 def watchdog_trials(irpd: Path, fixtures: Path, trials: int, watchdog_s: float) -> tuple[list[float], int]:

@@ -3,7 +3,11 @@
 import { api, expect } from "./fixtures";
 
 async function write(path: string, value: number): Promise<void> {
-  const r = await api(`/variables/${path}`, { method: "PUT", body: JSON.stringify({ value }), headers: { "Content-Type": "application/json" } }, "operator");
+  const r = await api(
+    `/variables/${path}`,
+    { method: "PUT", body: JSON.stringify({ value }), headers: { "Content-Type": "application/json" } },
+    "operator",
+  );
   expect(r.status, await r.clone().text()).toBe(200);
 }
 
@@ -48,7 +52,15 @@ export async function startCell(): Promise<void> {
     if ((await read("PLC_ROBOT.PLC_OUT.Running")) === 1) return;
     if (await powerOnAndStart()) return;
   }
-  const state = await Promise.all(["PLC_OUT.Error", "PLC_OUT.ErrorID", "ROBOT_MODULE_STATE.ErrorID",
-    "ROBOT_MODULE_STATE.eState", "PLC_OUT.Powered", "IO_STATUS.comm_lost[0]"].map(async (v) => `${v} ${await read(`PLC_ROBOT.${v}`)}`));
+  const state = await Promise.all(
+    [
+      "PLC_OUT.Error",
+      "PLC_OUT.ErrorID",
+      "ROBOT_MODULE_STATE.ErrorID",
+      "ROBOT_MODULE_STATE.eState",
+      "PLC_OUT.Powered",
+      "IO_STATUS.comm_lost[0]",
+    ].map(async (v) => `${v} ${await read(`PLC_ROBOT.${v}`)}`),
+  );
   throw new Error(`the cell did not start after 3 attempts: ${state.join(", ")}`);
 }

@@ -1,7 +1,8 @@
 // fixtures.ts -- what every browser test starts from: the server of global-setup.ts, a signed-in
 // page per role, a screenshot helper that keeps the pictures as artifacts.
-import { test as base, expect, type Page } from "@playwright/test";
+
 import { join } from "node:path";
+import { test as base, expect, type Page } from "@playwright/test";
 import type { Server } from "./server";
 
 export const SHOTS = join(__dirname, "../../build/test-artifacts/browser/screenshots");
@@ -26,7 +27,11 @@ export async function shot(page: Page, name: string): Promise<void> {
 }
 
 /** An API call with a role's token, for checking what the UI did. */
-export async function api(path: string, init: RequestInit = {}, role: "admin" | "operator" | "viewer" = "admin"): Promise<Response> {
+export async function api(
+  path: string,
+  init: RequestInit = {},
+  role: "admin" | "operator" | "viewer" = "admin",
+): Promise<Response> {
   const s = server();
   const headers = new Headers(init.headers);
   headers.set("Authorization", `Bearer ${s.tokens[role]}`);

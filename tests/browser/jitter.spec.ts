@@ -11,12 +11,15 @@ test("the jitter page draws its histograms", async ({ page }) => {
     expect(box!.width).toBeGreaterThan(100);
   }
   const hist = page.getByTestId("hist-Robot");
-  const drawn = await hist.locator("canvas").first().evaluate((c: HTMLCanvasElement) => {
-    const d = c.getContext("2d")!.getImageData(0, 0, c.width, c.height).data;
-    let ink = 0;
-    for (let i = 3; i < d.length; i += 4) if (d[i] > 0) ink++;
-    return ink;
-  });
+  const drawn = await hist
+    .locator("canvas")
+    .first()
+    .evaluate((c: HTMLCanvasElement) => {
+      const d = c.getContext("2d")!.getImageData(0, 0, c.width, c.height).data;
+      let ink = 0;
+      for (let i = 3; i < d.length; i += 4) if (d[i] > 0) ink++;
+      return ink;
+    });
   expect(drawn).toBeGreaterThan(100);
   await page.waitForTimeout(3000);
   await expect(page.getByTestId("jitter-time-Robot")).toBeVisible();

@@ -28,7 +28,11 @@ test("editing a period in the UI changes it in the API", async ({ page }) => {
   expect(gen).toBeGreaterThan(1);
   await shot(page, "modules-swap-report");
   // put it back for the other tests
-  const r = await api("/modules/main", { method: "PATCH", body: JSON.stringify({ period_ns: 10_000_000 }), headers: { "Content-Type": "application/json" } });
+  const r = await api("/modules/main", {
+    method: "PATCH",
+    body: JSON.stringify({ period_ns: 10_000_000 }),
+    headers: { "Content-Type": "application/json" },
+  });
   expect(r.status).toBe(200);
 });
 

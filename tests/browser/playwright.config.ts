@@ -1,8 +1,9 @@
 // playwright.config.ts -- the browser tests: Debian's chromium (headless, WebGL by SwiftShader),
 // against a real irpd + agent started by global-setup.ts.  Screenshots and traces land in
 // build/test-artifacts/browser/.
-import { defineConfig } from "@playwright/test";
+
 import { join } from "node:path";
+import { defineConfig } from "@playwright/test";
 
 const artifacts = join(__dirname, "../../build/test-artifacts/browser");
 

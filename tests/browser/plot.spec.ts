@@ -1,7 +1,8 @@
 // plot.spec.ts -- the Variables page: the tree lists the layout, a picked variable's live plot
 // changes over time, the drop counter is shown, an operator writes a PLC input.
-import { api, expect, shot, signIn, test } from "./fixtures";
+
 import { startCell } from "./cell";
+import { api, expect, shot, signIn, test } from "./fixtures";
 
 test("a live plot's canvas changes over time", async ({ page }) => {
   await startCell();

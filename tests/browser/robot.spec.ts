@@ -2,8 +2,8 @@
 // both viewers (viser on the main agent, meshcat on the second agent of the same irpd); the joint
 // readouts beside it follow the robot.
 import type { Page } from "@playwright/test";
-import { expect, server, shot, test } from "./fixtures";
 import { startCell } from "./cell";
+import { expect, server, shot, test } from "./fixtures";
 
 async function openRobot(page: Page, url: string, token: string): Promise<void> {
   await page.goto(`${url}/?token=${encodeURIComponent(token)}#/robot`);

@@ -10,7 +10,10 @@ test("the slot table and the timeline show the running schedule", async ({ page 
   const order: string[] = schedule.slots[0].modules;
   const text = await table.innerText();
   const at = order.map((m) => text.indexOf(m));
-  expect(at.every((i) => i >= 0), `${order} in ${text}`).toBe(true);
+  expect(
+    at.every((i) => i >= 0),
+    `${order} in ${text}`,
+  ).toBe(true);
   expect([...at].sort((a, b) => a - b)).toEqual(at); // priority order, as irpd runs them
   const timeline = page.getByTestId("timeline");
   await expect(timeline).toBeVisible();

@@ -19,7 +19,10 @@ const BROKEN = `<?xml version="1.0"?>
 test("a broken module.xml is refused with its line", async ({ page }) => {
   const setsBefore = (await (await api("/sets")).json()).length;
   await signIn(page, "admin", "#/modules");
-  await page.locator("input[type=file]").first().setInputFiles({ name: "module.xml", mimeType: "text/xml", buffer: Buffer.from(BROKEN) });
+  await page
+    .locator("input[type=file]")
+    .first()
+    .setInputFiles({ name: "module.xml", mimeType: "text/xml", buffer: Buffer.from(BROKEN) });
   const error = page.getByTestId("upload-error");
   await expect(error).toContainText("module.xml");
   await expect(error).toContainText(/line 5/);
@@ -35,8 +38,11 @@ const ONLINE = join(ROOT, "build/tests/cpp/online");
 function counterSet(dir: string, layout: string, modules: Record<string, string>): string {
   mkdirSync(dir, { recursive: true });
   const body = Object.entries(modules)
-    .map(([name, file], i) => `  <module><name>${name}</name><filename>${file}</filename><moduletype>thread</moduletype>` +
-      `<operationtype>periodic</operationtype><period>1000000</period><priority>${i + 1}</priority></module>`)
+    .map(
+      ([name, file], i) =>
+        `  <module><name>${name}</name><filename>${file}</filename><moduletype>thread</moduletype>` +
+        `<operationtype>periodic</operationtype><period>1000000</period><priority>${i + 1}</priority></module>`,
+    )
     .join("\n");
   writeFileSync(join(dir, "module.xml"), `<root>\n  <layout>${layout}</layout>\n${body}\n</root>\n`);
   return join(dir, "module.xml");
@@ -45,19 +51,30 @@ function counterSet(dir: string, layout: string, modules: Record<string, string>
 /** The files of an upload: module.xml naming ./<file>.so with layout.json beside it. */
 function uploadOf(layout: string, modules: Record<string, string>) {
   const xml = Object.entries(modules)
-    .map(([name, file], i) => `  <module><name>${name}</name><filename>./${file}</filename><moduletype>thread</moduletype>` +
-      `<operationtype>periodic</operationtype><period>1000000</period><priority>${i + 1}</priority></module>`)
+    .map(
+      ([name, file], i) =>
+        `  <module><name>${name}</name><filename>./${file}</filename><moduletype>thread</moduletype>` +
+        `<operationtype>periodic</operationtype><period>1000000</period><priority>${i + 1}</priority></module>`,
+    )
     .join("\n");
   return [
     { name: "module.xml", mimeType: "text/xml", buffer: Buffer.from(`<root>\n${xml}\n</root>\n`) },
     { name: "layout.json", mimeType: "application/json", buffer: readFileSync(join(ONLINE, layout, "layout.json")) },
-    ...Object.values(modules).map((file) => ({ name: file, mimeType: "application/octet-stream", buffer: readFileSync(join(ONLINE, "modules", file)) })),
+    ...Object.values(modules).map((file) => ({
+      name: file,
+      mimeType: "application/octet-stream",
+      buffer: readFileSync(join(ONLINE, "modules", file)),
+    })),
   ];
 }
 
-test("an upload that adds a shared variable shows the variable diff and activates online; one laid out afresh runs after a confirmed restart", async ({ page }) => {
+test("an upload that adds a shared variable shows the variable diff and activates online; one laid out afresh runs after a confirmed restart", async ({
+  page,
+}) => {
   const work = mkdtempSync(join(tmpdir(), "indurop-online-"));
-  const s = await startServer(counterSet(work, join(ONLINE, "oc_v1/layout.json"), { counter: join(ONLINE, "modules/oc_counter_v1.so") }));
+  const s = await startServer(
+    counterSet(work, join(ONLINE, "oc_v1/layout.json"), { counter: join(ONLINE, "modules/oc_counter_v1.so") }),
+  );
   try {
     await page.goto(`${s.url}/#/modules`);
     await page.getByTestId("token").fill(s.tokens.admin);
@@ -65,7 +82,9 @@ test("an upload that adds a shared variable shows the variable diff and activate
     await expect(page.getByTestId("who")).toContainText("admin");
 
     // v2: the counter rebuilt against it (kept) and the adder writing the new variable
-    await page.getByTestId("upload-files").setInputFiles(uploadOf("oc_v2", { counter: "oc_counter_v2.so", adder: "oc_adder_v2.so" }));
+    await page
+      .getByTestId("upload-files")
+      .setInputFiles(uploadOf("oc_v2", { counter: "oc_counter_v2.so", adder: "oc_adder_v2.so" }));
     const plan = page.getByTestId("upload-result").getByTestId("plan");
     await expect(plan.getByTestId("plan-variables-summary")).toHaveText("shared variables: 1 added");
     await expect(plan.locator("[data-variable='oc.added']")).toContainText("+ added");
@@ -79,7 +98,9 @@ test("an upload that adds a shared variable shows the variable diff and activate
     await expect(report.getByTestId("report-started")).toHaveText("adder");
 
     // a layout laid out afresh: only a restart can run it, and the button waits for the confirmation
-    await page.getByTestId("upload-files").setInputFiles(uploadOf("oc_reordered", { counter: "oc_counter_reordered.so" }));
+    await page
+      .getByTestId("upload-files")
+      .setInputFiles(uploadOf("oc_reordered", { counter: "oc_counter_reordered.so" }));
     const restart = page.getByTestId("upload-result").getByTestId("plan");
     await expect(restart.getByTestId("plan-restart")).toContainText("start at zero");
     await expect(restart.getByTestId("plan-restart-reason")).toContainText("online");
@@ -99,12 +120,16 @@ test("an upload that adds a shared variable shows the variable diff and activate
     await expect(fromHistory.getByTestId("plan-activate")).toBeDisabled();
 
     // confirmed: irpd restarts onto it (the same process), and the report gives the measured downtime
-    const before = await (await page.request.get(`${s.url}/api/v1/status`, { headers: { Authorization: `Bearer ${s.tokens.admin}` } })).json();
+    const before = await (
+      await page.request.get(`${s.url}/api/v1/status`, { headers: { Authorization: `Bearer ${s.tokens.admin}` } })
+    ).json();
     await fromHistory.getByTestId("plan-restart-confirm").check();
     await fromHistory.getByTestId("plan-activate").click();
     const restarted = page.getByTestId("swap-report").last();
     await expect(restarted.getByTestId("report-downtime")).toHaveText(/^[0-9.]+ (ms|s)$/, { timeout: 30_000 });
-    const after = await (await page.request.get(`${s.url}/api/v1/status`, { headers: { Authorization: `Bearer ${s.tokens.admin}` } })).json();
+    const after = await (
+      await page.request.get(`${s.url}/api/v1/status`, { headers: { Authorization: `Bearer ${s.tokens.admin}` } })
+    ).json();
     expect(after.set_id).toBe(id);
     expect(after.pid).toBe(before.pid);
     expect(after.last_restart.downtime_ns).toBeGreaterThan(0);

@@ -21,20 +21,19 @@ using testing_support::Client;
 using testing_support::kFig1;
 using testing_support::kIrpd;
 using testing_support::Process;
-using testing_support::uniqueInstance;
 using testing_support::TempDir;
+using testing_support::uniqueInstance;
 
 namespace {
-
 
 struct Running {
     TempDir dir;
     std::string socket = (dir.path / "irpd.sock").string();
     std::unique_ptr<Process> irpd;
     explicit Running(const std::string &config = kFig1) {
-        irpd = std::make_unique<Process>(
-            std::vector<std::string>{kIrpd, "--config", config, "--control-socket", socket, "--instance", uniqueInstance()},
-            dir.path);
+        irpd = std::make_unique<Process>(std::vector<std::string>{kIrpd, "--config", config, "--control-socket", socket,
+                                                                  "--instance", uniqueInstance()},
+                                         dir.path);
         EXPECT_TRUE(irpd->waitForErr("irpd: running")) << irpd->err();
     }
     ~Running() {
@@ -43,7 +42,7 @@ struct Running {
     }
 };
 
-} // namespace
+}  // namespace
 
 TEST(ControlSocket, HelloThenStatusScheduleModulesStats) {
     Running r;
@@ -80,7 +79,9 @@ TEST(ControlSocket, BadRequestsGetAnErrorAndTheConnectionGoesOn) {
     Running r;
     Client c(r.socket);
     c.readLine();
-    struct Case { std::string line, code, message; };
+    struct Case {
+        std::string line, code, message;
+    };
     for (const Case &k : {Case{"{not json", "bad_request", "not valid JSON"},
                           Case{"[1,2]", "bad_request", "a request is a JSON object with a string \"cmd\""},
                           Case{R"({"id":7})", "bad_request", "with a string \"cmd\""},
@@ -117,7 +118,8 @@ TEST(ControlSocket, ARequestNestedThousandsDeepIsRefusedNotACrash) {
     // 64 levels, counting the request object, are still a request.
     c.sendRaw(R"({"cmd":"status","id":)" + std::string(63, '[') + std::string(63, ']') + "}\n");
     EXPECT_EQ(json::parse(c.readLine())["ok"], true);
-    c.sendRaw(R"({"cmd":"status","id":"[[[[ in a string is no nesting"})" "\n");
+    c.sendRaw(R"({"cmd":"status","id":"[[[[ in a string is no nesting"})"
+              "\n");
     EXPECT_EQ(json::parse(c.readLine())["ok"], true);
 }
 
@@ -138,7 +140,9 @@ TEST(ControlSocket, AClientThatNeverReadsCannotStallIrpd) {
     Client hog(r.socket);
     // Thousands of requests whose answers it never reads.
     std::string many;
-    for (int i = 0; i < 3000; ++i) many += R"({"cmd":"modules"})" "\n";
+    for (int i = 0; i < 3000; ++i)
+        many += R"({"cmd":"modules"})"
+                "\n";
     hog.sendRaw(many);
     Client c(r.socket);
     c.readLine();
@@ -153,13 +157,14 @@ TEST(ControlSocket, TheSocketIsMode0660AndGoesWithIrpd) {
     {
         Running r;
         path = r.socket;
-        struct stat st{};
+        struct stat st {};
         ASSERT_EQ(stat(path.c_str(), &st), 0);
         EXPECT_TRUE(S_ISSOCK(st.st_mode));
         EXPECT_EQ(st.st_mode & 0777, 0660u);
         // A second irpd on the same socket is refused, and starts nothing.
         TempDir other;
-        Process second({kIrpd, "--config", kFig1, "--control-socket", path, "--instance", uniqueInstance()}, other.path);
+        Process second({kIrpd, "--config", kFig1, "--control-socket", path, "--instance", uniqueInstance()},
+                       other.path);
         EXPECT_EQ(second.wait(std::chrono::seconds(10)), 1);
         EXPECT_NE(second.err().find("control socket " + path + " is in use by another irpd"), std::string::npos)
             << second.err();

@@ -48,7 +48,7 @@ void enable(ModbusClient &c, int axis) {
     ASSERT_TRUE(eventually([&] { return state(c.input1(input(axis, regs::kStatusword))) == 0x27; }));
 }
 
-} // namespace
+}  // namespace
 
 // ---- the axis model, stepped directly ----------------------------------------------------------
 

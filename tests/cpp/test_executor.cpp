@@ -117,7 +117,7 @@ struct Fig1Like : ::testing::Test {
     uint64_t count(const stats::Counter &c) { return c.load(); }
 };
 
-} // namespace
+}  // namespace
 
 TEST_F(Fig1Like, RunsEverySlotInPriorityOrder) {
     Executor e = make();
@@ -183,8 +183,8 @@ TEST_F(Fig1Like, CatchUpRunsTheLateSlotsBackToBack) {
     EXPECT_EQ(count(records[1].runs), 100u);
     EXPECT_EQ(count(records[3].runs), 20u);
     EXPECT_EQ(count(records[0].skipped), 0u);
-    EXPECT_EQ(count(records[0].missed), 1u);     // one wake-up came a whole period late
-    EXPECT_EQ(count(records[0].caught_up), 3u);  // slots 11, 12, 13 then ran without sleeping
+    EXPECT_EQ(count(records[0].missed), 1u);          // one wake-up came a whole period late
+    EXPECT_EQ(count(records[0].caught_up), 3u);       // slots 11, 12, 13 then ran without sleeping
     EXPECT_EQ(records[0].latency.count.load(), 97u);  // only real wake-ups are latency samples
     EXPECT_EQ(stats::summarize(records[0].latency).max, 350'000);
     EXPECT_EQ(count(records[2].missed), 3u);  // m1 started slots 10, 11, 12 a whole period late
@@ -202,8 +202,8 @@ TEST_F(Fig1Like, SkipPolicyDropsTheLateSlots) {
     EXPECT_EQ(count(records[1].skipped), 3u);
     EXPECT_EQ(count(records[3].runs), 19u);  // slot 10 of m3 dropped
     EXPECT_EQ(count(records[3].skipped), 1u);
-    EXPECT_EQ(count(records[0].missed), 1u);  // the one wake-up that came a whole period late
-    EXPECT_EQ(count(records[1].missed), 0u);  // what ran was less than a period late
+    EXPECT_EQ(count(records[0].missed), 1u);                       // the one wake-up that came a whole period late
+    EXPECT_EQ(count(records[1].missed), 0u);                       // what ran was less than a period late
     EXPECT_EQ(stats::summarize(records[0].latency).max, 350'000);  // measured against slot 10
     EXPECT_EQ(runsOf(13), (std::vector<std::string>{"m1", "m2"}));
     EXPECT_TRUE(runsOf(11).empty());
@@ -321,7 +321,7 @@ struct Successors {
         table.tasks = {&k1, &k2, &k3};
     }
 };
-} // namespace
+}  // namespace
 
 TEST_F(Fig1Like, ASwapCarriesTheKeptTasksStateOver) {
     g_throw_in = "m2";  // m2 throws in cycle 0: disabled by a fault
@@ -370,7 +370,7 @@ std::vector<Fault> outcomes(Executor &e) {
     while (e.marker().take(f)) all.push_back(f);
     return all;
 }
-} // namespace
+}  // namespace
 
 TEST_F(Fig1Like, OverrunWarnCountsItAndChangesNothingElse) {
     m2.config.on_overrun = OverrunAction::Warn;
@@ -445,8 +445,8 @@ TEST_F(Fig1Like, OverrunStopHaltsEveryModuleButTheGridGoesOn) {
     EXPECT_TRUE(halted.load());
     EXPECT_EQ(count(records[1].runs), 11u);  // m1 ran before m2 in slot 10, then nothing
     EXPECT_EQ(count(records[2].runs), 11u);
-    EXPECT_EQ(count(records[3].runs), 2u);   // slots 0 and 5; slot 10's m3 came after m2
-    EXPECT_EQ(count(records[0].runs), 100u); // the loop still keeps its time grid
+    EXPECT_EQ(count(records[3].runs), 2u);    // slots 0 and 5; slot 10's m3 came after m2
+    EXPECT_EQ(count(records[0].runs), 100u);  // the loop still keeps its time grid
     EXPECT_EQ(clock.t, 99 * kBasic);
 }
 
@@ -467,7 +467,7 @@ TEST_F(Fig1Like, TheWatchdogSeesARunStillGoingAndStopsTheSetBeforeItReturns) {
                   EXPECT_EQ(watchdog.check(10 * kBasic + 50'000), 10 * kBasic + 100'000 + 1);
                   EXPECT_TRUE(reported.empty());
                   next_look = watchdog.check(clock.t);
-                  EXPECT_TRUE(halted.load());  // the other executors stop at once
+                  EXPECT_TRUE(halted.load());                             // the other executors stop at once
                   EXPECT_EQ(watchdog.check(clock.t + 1), next_look + 1);  // reported once per run
               }};
     e.loop(0, 200, stop, nullptr);
@@ -519,7 +519,8 @@ config::SetSpec recorderSet(const std::string &extra_module_xml = "") {
           <period>100000</period><priority>1</priority></module>
   <module><filename>desc_a.so</filename><moduletype>thread</moduletype><operationtype>periodic</operationtype>
           <period>500000</period><priority>3</priority></module>
-)" + extra_module_xml + "</root>";
+)" + extra_module_xml +
+                      "</root>";
     auto set = config::parseModuleXmlText(xml, std::string(FIXTURE_MODULES) + "/module.xml");
     EXPECT_TRUE(set.ok()) << set.error().message;
     return *set;
@@ -561,14 +562,15 @@ RealRun runFor(const config::SetSpec &set, int64_t duration_ns) {
     EXPECT_TRUE(run.modules->startAll().ok());
     dispatch::DispatcherOptions options;
     run.tables = dispatch::buildTables(set, *schedule, bindings);
-    run.dispatcher = std::make_unique<dispatch::Dispatcher>(set, *run.tables, *run.segment, options, osal::monotonicClock());
+    run.dispatcher =
+        std::make_unique<dispatch::Dispatcher>(set, *run.tables, *run.segment, options, osal::monotonicClock());
     EXPECT_TRUE(run.dispatcher->start(duration_ns).ok());
     run.dispatcher->join();
     EXPECT_TRUE(run.modules->stopAll().empty());
     return run;
 }
 
-} // namespace
+}  // namespace
 
 TEST(RealDispatcher, RunsTheFigure1ShapeForOneSecondInOrder) {
     journal::clear();
@@ -588,8 +590,10 @@ TEST(RealDispatcher, RunsTheFigure1ShapeForOneSecondInOrder) {
     std::map<uint64_t, std::vector<std::string>> by_cycle;
     std::map<std::string, std::vector<std::string>> lifecycle;
     for (const auto &e : entries) {
-        if (e.what == "run") by_cycle[e.cycle].push_back(e.who);
-        else lifecycle[e.who].push_back(e.what);
+        if (e.what == "run")
+            by_cycle[e.cycle].push_back(e.who);
+        else
+            lifecycle[e.who].push_back(e.what);
     }
     ASSERT_GT(by_cycle.size(), 11000u);
     for (const auto &[cycle, who] : by_cycle) {
@@ -651,8 +655,13 @@ TEST(RealDispatcher, ASporadicModuleFiresInTheBasicPeriodItsConditionTurnsTrue) 
     for (const auto &e : journal::entries()) events.emplace_back(e.who + ":" + e.what, e.cycle);
     // The event handler runs after the periodic modules of the same basic period.
     using E = std::pair<std::string, uint64_t>;
-    EXPECT_EQ(events, (std::vector<E>{{"source:raise", 7}, {"handler:run", 7}, {"source:raise", 300}, {"handler:run", 300},
-                                      {"source:raise", 301}, {"handler:run", 301}, {"source:raise", 2999},
+    EXPECT_EQ(events, (std::vector<E>{{"source:raise", 7},
+                                      {"handler:run", 7},
+                                      {"source:raise", 300},
+                                      {"handler:run", 300},
+                                      {"source:raise", 301},
+                                      {"handler:run", 301},
+                                      {"source:raise", 2999},
                                       {"handler:run", 2999}}));
     const stats::TimingRecord &handler = run.segment->record(1 + 1);
     EXPECT_STREQ(handler.name, "event_handler");

@@ -50,8 +50,8 @@ std::string thread(const std::string &name, const std::string &file, int64_t per
 std::string process(const std::string &name, const std::string &properties, const std::string &extra = "") {
     return "  <module><name>" + name + "</name><filename>" + kProcess +
            "</filename><moduletype>process</moduletype><operationtype>periodic</operationtype>"
-           "<period>2000000</period><priority>5</priority>" + extra + "<property>" + properties +
-           "</property></module>\n";
+           "<period>2000000</period><priority>5</priority>" +
+           extra + "<property>" + properties + "</property></module>\n";
 }
 
 std::string value(const std::string &name, const std::string &v) {
@@ -60,12 +60,12 @@ std::string value(const std::string &name, const std::string &v) {
 
 // irpd on `folder`/module.xml with its control socket and module cache there; returns it running
 // and a client past the hello.
-std::pair<std::unique_ptr<Process>, std::unique_ptr<Client>> startIrpd(const fs::path &folder, const std::string &socket,
-                                                                       const std::string &instance = uniqueInstance()) {
-    auto irpd = std::make_unique<Process>(
-        std::vector<std::string>{kIrpd, "--config", (folder / "module.xml").string(), "--control-socket", socket,
-                                 "--instance", instance, "--module-cache", (folder / "cache").string()},
-        folder);
+std::pair<std::unique_ptr<Process>, std::unique_ptr<Client>>
+startIrpd(const fs::path &folder, const std::string &socket, const std::string &instance = uniqueInstance()) {
+    auto irpd = std::make_unique<Process>(std::vector<std::string>{kIrpd, "--config", (folder / "module.xml").string(),
+                                                                   "--control-socket", socket, "--instance", instance,
+                                                                   "--module-cache", (folder / "cache").string()},
+                                          folder);
     EXPECT_TRUE(irpd->waitForErr("irpd: running")) << irpd->err();
     auto client = std::make_unique<Client>(socket, 60);
     EXPECT_FALSE(client->readLine().empty());  // the hello
@@ -88,7 +88,8 @@ struct Cell {
         fs::copy_file(kModules / "throws_in_run.so", dir.path / "throws.so");
         std::ofstream(dir.path / "module.xml")
             << "<root>\n" + root_extra +
-                   thread("keep", "keep.so", 1'000'000, 1, "<property>" + value("journal", journal("keep")) + "</property>") +
+                   thread("keep", "keep.so", 1'000'000, 1,
+                          "<property>" + value("journal", journal("keep")) + "</property>") +
                    body + "</root>\n";
         std::tie(irpd, client) = startIrpd(dir.path, socket);
     }
@@ -136,7 +137,7 @@ struct Cell {
 
 bool contains(const std::string &text, const std::string &part) { return text.find(part) != std::string::npos; }
 
-} // namespace
+}  // namespace
 
 // ---- a thread module that overruns ------------------------------------------------------------
 
@@ -241,7 +242,8 @@ TEST(ProcessFault, AnExitIsLoggedAndRestartedWhileTheRestRunsOn) {
 
 TEST(ProcessFault, AFloodOfOutputIsCutAndReportedWhileTheRestRunsOn) {
     Cell cell(process("p", value("args", "--flood-at 5 200000")));
-    ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("process_output_dropped", "p").empty(); })) << cell.irpd->err();
+    ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("process_output_dropped", "p").empty(); }))
+        << cell.irpd->err();
     EXPECT_TRUE(cell.keepRuns());
     const uint64_t p = cell.runs("p");
     EXPECT_TRUE(cell.waitUntil([&] { return cell.runs("p") > p; }));  // it goes on after its flood
@@ -262,7 +264,8 @@ TEST(ProcessFault, AHangIsDetectedKilledAndRestartedWithOnOverrunRestart) {
 }
 
 TEST(ProcessFault, AHangWithOnOverrunWarnIsReportedOnce) {
-    Cell cell(process("p", value("args", "--hang-at 5"), "<on_overrun>warn</on_overrun><overrun_limit>2000000</overrun_limit>"));
+    Cell cell(process("p", value("args", "--hang-at 5"),
+                      "<on_overrun>warn</on_overrun><overrun_limit>2000000</overrun_limit>"));
     ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("process_hang", "p").empty(); })) << cell.irpd->out();
     EXPECT_TRUE(cell.keepRuns());
     EXPECT_EQ(cell.events("process_hang", "p").size(), 1u);
@@ -320,7 +323,7 @@ uint16_t statusword(ModbusClient &c, int axis) { return c.input1(8 * axis); }
 bool operationEnabled(uint16_t sw) { return (sw & 0x6F) == 0x27; }
 bool fault(uint16_t sw) { return (sw & 0x4F) == 0x08; }
 
-} // namespace
+}  // namespace
 
 TEST(DeviceSide, AStopDrivesTheControlwordsToZeroWhileTheFaultyModuleIsStillStuck) {
     DriveSim sim({"--quiet"});
@@ -329,8 +332,9 @@ TEST(DeviceSide, AStopDrivesTheControlwordsToZeroWhileTheFaultyModuleIsStillStuc
     PlcCell cell(sim.port(),
                  "<module><name>stuck</name><filename>./overrun.so</filename><moduletype>thread</moduletype>"
                  "<operationtype>periodic</operationtype><period>10000000</period><priority>0</priority>"
-                 "<on_overrun>stop</on_overrun><property>" + value("journal", "@DIR@/stuck.log") +
-                     value("hang_at", "600") + value("hang_ms", "3000") + "</property></module>\n");
+                 "<on_overrun>stop</on_overrun><property>" +
+                     value("journal", "@DIR@/stuck.log") + value("hang_at", "600") + value("hang_ms", "3000") +
+                     "</property></module>\n");
     cell.enableDrives();
     ASSERT_TRUE(eventually([&] { return operationEnabled(statusword(probe, 0)); }, std::chrono::seconds(20)));
     const std::string journal = (cell.dir.path / "stuck.log").string();
@@ -355,7 +359,8 @@ TEST(DeviceSide, IrpdKilledLeavesTheDrivesToTheirCommTimeoutWhichQuickStopsThem)
     PlcCell cell(sim.port(), "");
     cell.enableDrives();
     for (int axis = 0; axis < kAxes; ++axis)
-        ASSERT_TRUE(eventually([&] { return operationEnabled(statusword(probe, axis)); }, std::chrono::seconds(20))) << axis;
+        ASSERT_TRUE(eventually([&] { return operationEnabled(statusword(probe, axis)); }, std::chrono::seconds(20)))
+            << axis;
     kill(cell.irpd->pid(), SIGKILL);
     ASSERT_EQ(cell.irpd->wait(std::chrono::seconds(10)), -2);
     for (int axis = 0; axis < kAxes; ++axis) {

@@ -77,7 +77,7 @@ TEST(SignedHistogram, NegativeAndPositiveValuesKeepTheirOrder) {
     EXPECT_EQ(s.min, -50000);
     EXPECT_EQ(s.max, 49900);
     EXPECT_NEAR(s.mean, -50, 0.01);
-    EXPECT_NEAR(s.p50, -100, 1600);          // the 500th value is -100
+    EXPECT_NEAR(s.p50, -100, 1600);  // the 500th value is -100
     EXPECT_NEAR(s.p99, 48900, 48900 * 0.032);
     EXPECT_LT(quantile(*h, 0.01), -48000);
     EXPECT_LT(quantile(*h, 0.25), 0);

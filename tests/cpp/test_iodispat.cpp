@@ -98,7 +98,8 @@ void resetVariables() {
 }
 
 // The shipped demo ioconfig.xml with another port and device settings.
-std::string demoConfig(int port, const std::string &device_settings = R"(timeout_ms="2" fail_limit="3" reconnect_ms="500")") {
+std::string demoConfig(int port,
+                       const std::string &device_settings = R"(timeout_ms="2" fail_limit="3" reconnect_ms="500")") {
     std::string text = readText(std::string(SOURCE_ROOT) + "/config/sets/plc-robot/ioconfig.xml");
     auto replace = [&](const std::string &from, const std::string &to) {
         const auto at = text.find(from);
@@ -161,7 +162,7 @@ bool cyclesUntil(Run &&run, Done done, int max_cycles = 1000) {
 
 uint16_t state(uint16_t statusword) { return statusword & 0x6F; }
 
-} // namespace
+}  // namespace
 
 // ---- ioconfig.xml ---------------------------------------------------------------------------------
 
@@ -191,9 +192,11 @@ namespace {
 
 // The message of the ConfigError a device body (inside a modbus-tcp device unless `device` says
 // otherwise) raises, or "(accepted)".
-std::string refusal(const std::string &body, const std::string &device = R"(name="d" type="modbus-tcp" host="127.0.0.1")",
+std::string refusal(const std::string &body,
+                    const std::string &device = R"(name="d" type="modbus-tcp" host="127.0.0.1")",
                     const std::string &root = "") {
-    const std::string text = "<ioconfig" + root + ">\n  <device " + device + ">\n" + body + "\n  </device>\n</ioconfig>\n";
+    const std::string text =
+        "<ioconfig" + root + ">\n  <device " + device + ">\n" + body + "\n  </device>\n</ioconfig>\n";
     try {
         parseIoConfigText(text, "io.xml");
     } catch (const ConfigError &e) {
@@ -202,13 +205,13 @@ std::string refusal(const std::string &body, const std::string &device = R"(name
     return "(accepted)";
 }
 
-#define EXPECT_REFUSED(message, ...)                                                         \
-    do {                                                                                     \
-        const std::string m = (message);                                                     \
-        for (const char *part : {__VA_ARGS__}) EXPECT_NE(m.find(part), std::string::npos) << m; \
+#define EXPECT_REFUSED(message, ...)                                                                                   \
+    do {                                                                                                               \
+        const std::string m = (message);                                                                               \
+        for (const char *part : {__VA_ARGS__}) EXPECT_NE(m.find(part), std::string::npos) << m;                        \
     } while (0)
 
-} // namespace
+}  // namespace
 
 TEST(IoConfig, AcceptsEveryKindOfMapping) {
     EXPECT_EQ(refusal(R"(
@@ -246,7 +249,8 @@ TEST(IoConfig, RefusesAnotherRootElement) {
 }
 
 TEST(IoConfig, RefusesAnUnknownAttribute) {
-    EXPECT_REFUSED(refusal(R"(    <input table="input" address="0" path="a" sacle="2"/>)"), "io.xml:3:", "<input>", "unknown attribute 'sacle'");
+    EXPECT_REFUSED(refusal(R"(    <input table="input" address="0" path="a" sacle="2"/>)"), "io.xml:3:", "<input>",
+                   "unknown attribute 'sacle'");
 }
 
 TEST(IoConfig, RefusesAMappingWithoutPath) {
@@ -258,11 +262,13 @@ TEST(IoConfig, RefusesAnOutputToAReadOnlyTable) {
 }
 
 TEST(IoConfig, RefusesARegisterTypeOnACoil) {
-    EXPECT_REFUSED(refusal(R"(    <input table="coil" address="0" type="s32" path="a"/>)"), "io.xml:3:", "type is bool");
+    EXPECT_REFUSED(refusal(R"(    <input table="coil" address="0" type="s32" path="a"/>)"),
+                   "io.xml:3:", "type is bool");
 }
 
 TEST(IoConfig, RefusesAnUnknownTable) {
-    EXPECT_REFUSED(refusal(R"(    <input table="holdings" address="0" path="a"/>)"), "io.xml:3:", "'holdings' is not one of coil, discrete, holding, input");
+    EXPECT_REFUSED(refusal(R"(    <input table="holdings" address="0" path="a"/>)"),
+                   "io.xml:3:", "'holdings' is not one of coil, discrete, holding, input");
 }
 
 TEST(IoConfig, RefusesTwoOutputsOnOneRegister) {
@@ -272,11 +278,13 @@ TEST(IoConfig, RefusesTwoOutputsOnOneRegister) {
 }
 
 TEST(IoConfig, RefusesAZeroScale) {
-    EXPECT_REFUSED(refusal(R"(    <input table="input" address="0" path="a" scale="0"/>)"), "io.xml:3:", "'scale' must not be 0");
+    EXPECT_REFUSED(refusal(R"(    <input table="input" address="0" path="a" scale="0"/>)"),
+                   "io.xml:3:", "'scale' must not be 0");
 }
 
 TEST(IoConfig, RefusesASafeValueOnAnInput) {
-    EXPECT_REFUSED(refusal(R"(    <input table="input" address="0" path="a" safe="0"/>)"), "io.xml:3:", "'safe' is for outputs");
+    EXPECT_REFUSED(refusal(R"(    <input table="input" address="0" path="a" safe="0"/>)"),
+                   "io.xml:3:", "'safe' is for outputs");
 }
 
 TEST(IoConfig, RefusesAHostName) {
@@ -284,16 +292,20 @@ TEST(IoConfig, RefusesAHostName) {
 }
 
 TEST(IoConfig, RefusesATimeoutOfZero) {
-    EXPECT_REFUSED(refusal("", R"(name="d" type="modbus-tcp" host="127.0.0.1" timeout_ms="0")"), "io.xml:2:", "timeout_ms", "outside");
+    EXPECT_REFUSED(refusal("", R"(name="d" type="modbus-tcp" host="127.0.0.1" timeout_ms="0")"),
+                   "io.xml:2:", "timeout_ms", "outside");
 }
 
 TEST(IoConfig, RefusesAnUnknownDeviceType) {
-    EXPECT_REFUSED(refusal("", R"(name="d" type="profinet")"), "io.xml:2:", "'profinet' is not one of modbus-tcp, modbus-rtu, socketcan");
+    EXPECT_REFUSED(refusal("", R"(name="d" type="profinet")"),
+                   "io.xml:2:", "'profinet' is not one of modbus-tcp, modbus-rtu, socketcan");
 }
 
 TEST(IoConfig, RefusesTwoDevicesOfOneName) {
     try {
-        parseIoConfigText("<ioconfig>\n<device name='a' type='socketcan' fd='3'/>\n<device name='a' type='socketcan' fd='4'/>\n</ioconfig>", "io.xml");
+        parseIoConfigText("<ioconfig>\n<device name='a' type='socketcan' fd='3'/>\n<device name='a' type='socketcan' "
+                          "fd='4'/>\n</ioconfig>",
+                          "io.xml");
         FAIL() << "accepted";
     } catch (const ConfigError &e) {
         EXPECT_REFUSED(e.what(), "io.xml:3:", "already defined");
@@ -301,24 +313,29 @@ TEST(IoConfig, RefusesTwoDevicesOfOneName) {
 }
 
 TEST(IoConfig, RefusesACanDeviceWithBothInterfaceAndFd) {
-    EXPECT_REFUSED(refusal("", R"(name="c" type="socketcan" interface="can0" fd="3")"), "io.xml:2:", "either interface");
+    EXPECT_REFUSED(refusal("", R"(name="c" type="socketcan" interface="can0" fd="3")"),
+                   "io.xml:2:", "either interface");
 }
 
 TEST(IoConfig, RefusesALongStandardId) {
-    EXPECT_REFUSED(refusal(R"(    <frame id="0x800" direction="in" extended="false"/>)", R"(name="c" type="socketcan" fd="3")"),
-                   "io.xml:3:", "at most 0x7FF");
+    EXPECT_REFUSED(
+        refusal(R"(    <frame id="0x800" direction="in" extended="false"/>)", R"(name="c" type="socketcan" fd="3")"),
+        "io.xml:3:", "at most 0x7FF");
 }
 
 TEST(IoConfig, RefusesASignalPastTheDlc) {
-    EXPECT_REFUSED(refusal(R"(    <frame id="0x201" direction="out" dlc="2"><signal start="8" length="16" path="a"/></frame>)",
-                           R"(name="c" type="socketcan" fd="3")"),
-                   "io.xml:3:", "<signal>", "past the frame's dlc");
+    EXPECT_REFUSED(
+        refusal(R"(    <frame id="0x201" direction="out" dlc="2"><signal start="8" length="16" path="a"/></frame>)",
+                R"(name="c" type="socketcan" fd="3")"),
+        "io.xml:3:", "<signal>", "past the frame's dlc");
 }
 
 TEST(IoConfig, RefusesOverlappingOutputSignals) {
-    EXPECT_REFUSED(refusal(R"(    <frame id="0x201" direction="out"><signal start="0" length="16" path="a"/><signal start="8" length="8" path="b"/></frame>)",
-                           R"(name="c" type="socketcan" fd="3")"),
-                   "overlaps");
+    EXPECT_REFUSED(
+        refusal(
+            R"(    <frame id="0x201" direction="out"><signal start="0" length="16" path="a"/><signal start="8" length="8" path="b"/></frame>)",
+            R"(name="c" type="socketcan" fd="3")"),
+        "overlaps");
 }
 
 TEST(IoConfig, RefusesAFrameIdThatACia402NodeUses) {
@@ -328,8 +345,8 @@ TEST(IoConfig, RefusesAFrameIdThatACia402NodeUses) {
 }
 
 TEST(IoConfig, RefusesAModbusElementInACanDevice) {
-    EXPECT_REFUSED(refusal(R"(    <input table="input" address="0" path="a"/>)", R"(name="c" type="socketcan" fd="3")"), "io.xml:3:",
-                   "<frame> and <cia402>");
+    EXPECT_REFUSED(refusal(R"(    <input table="input" address="0" path="a"/>)", R"(name="c" type="socketcan" fd="3")"),
+                   "io.xml:3:", "<frame> and <cia402>");
 }
 
 TEST(IoConfig, NamesAMissingFile) {
@@ -462,7 +479,9 @@ TEST(IoDispatModbus, DemoConfigDrivesTheSixAxes) {
     DriveSim sim({"--quiet"});
     TempDir dir;
     LoadedModule io;
-    ASSERT_EQ(io.load(writeFile(dir, "ioconfig.xml", demoConfig(sim.port(), R"(timeout_ms="200" fail_limit="3" reconnect_ms="100")"))), "");
+    ASSERT_EQ(io.load(writeFile(dir, "ioconfig.xml",
+                                demoConfig(sim.port(), R"(timeout_ms="200" fail_limit="3" reconnect_ms="100")"))),
+              "");
     auto run = [&] { io.run(); };
     ASSERT_TRUE(cyclesUntil(run, [] { return IO_STATUS.comm_lost[0] == 0 && (AXIS_IN[5].statusword & 0x4F) == 0x40; }));
 
@@ -518,7 +537,8 @@ TEST(IoDispatModbus, DemoConfigIsTwoTransactionsPerCycle) {
 namespace {
 
 // Axis 0 of the simulator plus loopback registers, with the given device settings and extras.
-std::string driveConfig(int port, const std::string &settings, const std::string &extra = "", const std::string &root = "") {
+std::string driveConfig(int port, const std::string &settings, const std::string &extra = "",
+                        const std::string &root = "") {
     return R"(<ioconfig status="PLC_ROBOT.IO_STATUS")" + root + R"(>
   <device name="drives" type="modbus-tcp" host="127.0.0.1" port=")" +
            std::to_string(port) + "\" " + settings + R"(>
@@ -528,13 +548,14 @@ std::string driveConfig(int port, const std::string &settings, const std::string
     <output table="holding" address="0" type="u16" path="PLC_ROBOT.AXIS_OUT[0].controlword" safe="0"/>
     <output table="holding" address="2" type="s32" path="PLC_ROBOT.AXIS_OUT[0].position" scale="1e-5" safe="hold"/>
     <output table="holding" address="520" type="s16" path="PLC_ROBOT.PLC_OUT.Step" safe="1234"/>
-)" + extra + R"(
+)" + extra +
+           R"(
   </device>
 </ioconfig>
 )";
 }
 
-} // namespace
+}  // namespace
 
 TEST(IoDispatModbus, EveryEncodingAndScalingThroughTheLoopback) {
     resetVariables();
@@ -556,13 +577,14 @@ TEST(IoDispatModbus, EveryEncodingAndScalingThroughTheLoopback) {
     LoadedModule io;
     ASSERT_EQ(io.load(writeFile(dir, "io.xml", driveConfig(sim.port(), R"(timeout_ms="200")", extra))), "");
     PLC_ROBOT::ROBOT_MODULE_SERVICE.dTarget[0] = -1.25;
-    PLC_ROBOT::ROBOT_MODULE_SERVICE.dTarget[1] = 7.5;   // raw (7.5 - 10) / 0.001 = -2500
+    PLC_ROBOT::ROBOT_MODULE_SERVICE.dTarget[1] = 7.5;  // raw (7.5 - 10) / 0.001 = -2500
     PLC_ROBOT::PLC_OUT.ErrorID = -321;
     PLC_ROBOT::PLC_OUT.Cycles = 3000000000u;
-    PLC_ROBOT::ROBOT_MODULE_SERVICE.dTarget[2] = -5;     // clamped to 0 by u16
+    PLC_ROBOT::ROBOT_MODULE_SERVICE.dTarget[2] = -5;  // clamped to 0 by u16
     PLC_ROBOT::PLC_IN.Start = 1;
     auto run = [&] { io.run(); };
-    ASSERT_TRUE(cyclesUntil(run, [] { return PLC_ROBOT::ROBOT_MODULE_STATE.nAckSeq == 3000000000u && PLC_ROBOT::PLC_OUT.Running == 1; }));
+    ASSERT_TRUE(cyclesUntil(
+        run, [] { return PLC_ROBOT::ROBOT_MODULE_STATE.nAckSeq == 3000000000u && PLC_ROBOT::PLC_OUT.Running == 1; }));
     EXPECT_EQ(PLC_ROBOT::ROBOT_MODULE_STATE.dCurJoint[0], -1.25);
     EXPECT_NEAR(PLC_ROBOT::ROBOT_MODULE_STATE.dCurJoint[1], 7.5, 1e-9);
     EXPECT_EQ(PLC_ROBOT::ROBOT_MODULE_STATE.ErrorID, -321);
@@ -584,14 +606,17 @@ TEST(IoDispatModbus, CommLostInTheSameCycleWhenTheSimulatorDiesAndSafeOutputsFir
     TempDir dir;
     const double timeout_ms = 50;
     LoadedModule io;
-    ASSERT_EQ(io.load(writeFile(dir, "io.xml", driveConfig(port, R"(timeout_ms="50" fail_limit="3" reconnect_ms="200")"))), "");
+    ASSERT_EQ(
+        io.load(writeFile(dir, "io.xml", driveConfig(port, R"(timeout_ms="50" fail_limit="3" reconnect_ms="200")"))),
+        "");
     auto run = [&] { io.run(); };
     PLC_ROBOT::PLC_OUT.Step = 77;
     AXIS_OUT[0].position = 0.03;
     AXIS_OUT[0].controlword = 0x06;
     {
         ModbusClient c(port);
-        ASSERT_TRUE(cyclesUntil(run, [&] { return c.holding(520, 1)[0] == 77 && c.holding32(2) == 3000 && c.holding(0, 1)[0] == 6; }));
+        ASSERT_TRUE(cyclesUntil(
+            run, [&] { return c.holding(520, 1)[0] == 77 && c.holding32(2) == 3000 && c.holding(0, 1)[0] == 6; }));
     }
     ASSERT_EQ(IO_STATUS.comm_lost[0], 0);
     ASSERT_NE(static_cast<uint16_t>(AXIS_IN[0].error), 65535);
@@ -637,9 +662,11 @@ void silentDevice(int fail_limit) {
     TempDir dir;
     const int timeout_ms = 50;
     LoadedModule io;
-    ASSERT_EQ(io.load(writeFile(dir, "io.xml", driveConfig(sim.port(), "timeout_ms=\"" + std::to_string(timeout_ms) + "\" fail_limit=\"" +
-                                                                         std::to_string(fail_limit) + "\" reconnect_ms=\"200\""))),
-              "");
+    ASSERT_EQ(
+        io.load(writeFile(dir, "io.xml",
+                          driveConfig(sim.port(), "timeout_ms=\"" + std::to_string(timeout_ms) + "\" fail_limit=\"" +
+                                                      std::to_string(fail_limit) + "\" reconnect_ms=\"200\""))),
+        "");
     auto run = [&] { io.run(); };
     ASSERT_TRUE(cyclesUntil(run, [] { return IO_STATUS.comm_lost[0] == 0; }));
     const uint32_t errors_before = IO_STATUS.errors[0];
@@ -670,7 +697,7 @@ void silentDevice(int fail_limit) {
     EXPECT_NE(static_cast<uint16_t>(AXIS_IN[0].error), 65535);
 }
 
-} // namespace
+}  // namespace
 
 TEST(IoDispatModbus, SilentDeviceIsCommLostInTheCycleOfItsFirstTimeout) { silentDevice(1); }
 
@@ -681,7 +708,10 @@ TEST(IoDispatModbus, TheBudgetCutsAWaitShorterThanTheTimeout) {
     DriveSim sim({"--quiet", "--fail-after", "0"});  // connects (the kernel's backlog), never answers
     TempDir dir;
     LoadedModule io;
-    ASSERT_EQ(io.load(writeFile(dir, "io.xml", driveConfig(sim.port(), R"(timeout_ms="2000" fail_limit="100")", "", R"( budget_us="20000")"))), "");
+    ASSERT_EQ(io.load(writeFile(
+                  dir, "io.xml",
+                  driveConfig(sim.port(), R"(timeout_ms="2000" fail_limit="100")", "", R"( budget_us="20000")"))),
+              "");
     std::chrono::nanoseconds longest{0};
     for (int k = 0; k < 5; ++k) longest = std::max(longest, io.run());
     EXPECT_LT(longest, std::chrono::milliseconds(3 * 20));  // never the 2 s timeout
@@ -705,9 +735,9 @@ TEST(IoDispatModbus, AnUnreachableDeviceAtStartIsCommLostNotARefusal) {
     }
     const auto elapsed = std::chrono::steady_clock::now() - t0;
     EXPECT_EQ(IO_STATUS.comm_lost[0], 1);
-    EXPECT_GE(IO_STATUS.errors[0], 2u);  // connect attempts, refused ...
+    EXPECT_GE(IO_STATUS.errors[0], 2u);                                            // connect attempts, refused ...
     EXPECT_LE(IO_STATUS.errors[0], 1 + elapsed / std::chrono::milliseconds(100));  // ... at most one per reconnect_ms
-    EXPECT_EQ(static_cast<uint16_t>(AXIS_IN[0].error), 65535);  // the default from the start
+    EXPECT_EQ(static_cast<uint16_t>(AXIS_IN[0].error), 65535);                     // the default from the start
 }
 
 TEST(IoDispatModbus, StartRefusesAnUnknownPathNamingTheLine) {
@@ -722,9 +752,10 @@ TEST(IoDispatModbus, StartRefusesAnUnknownPathNamingTheLine) {
 
 TEST(IoDispatModbus, IrpdRefusesTheFdTestHookNamingTheLine) {
     TempDir dir;
-    const std::string text = "<ioconfig>\n  <device name=\"bus\" type=\"socketcan\" fd=\"3\">\n"
-                             "    <frame id=\"0x181\" direction=\"in\"><signal start=\"0\" length=\"16\" path=\"PLC_ROBOT.I0\"/></frame>\n"
-                             "  </device>\n</ioconfig>\n";
+    const std::string text =
+        "<ioconfig>\n  <device name=\"bus\" type=\"socketcan\" fd=\"3\">\n"
+        "    <frame id=\"0x181\" direction=\"in\"><signal start=\"0\" length=\"16\" path=\"PLC_ROBOT.I0\"/></frame>\n"
+        "  </device>\n</ioconfig>\n";
     LoadedModule io;
     const std::string e = io.load(writeFile(dir, "io.xml", text));
     EXPECT_REFUSED(e, "initialize() failed", "io.xml:2", "device 'bus'", "fd=\"3\" is a test hook", "interface=");
@@ -775,11 +806,12 @@ TEST(IoDispatRtu, RoundTripOverAPseudoTerminal) {
         }
     });
     TempDir dir;
-    const std::string text = std::string("<ioconfig>\n  <device name=\"line\" type=\"modbus-rtu\" device=\"") + name +
-                             "\" baud=\"115200\" parity=\"N\" unit=\"5\" timeout_ms=\"500\">\n"
-                             "    <input  table=\"input\"   address=\"3\" type=\"s16\" path=\"PLC_ROBOT.PLC_OUT.Step\" scale=\"0.5\"/>\n"
-                             "    <output table=\"holding\" address=\"7\" type=\"u16\" path=\"PLC_ROBOT.PLC_IN.Override\" scale=\"0.01\"/>\n"
-                             "  </device>\n</ioconfig>\n";
+    const std::string text =
+        std::string("<ioconfig>\n  <device name=\"line\" type=\"modbus-rtu\" device=\"") + name +
+        "\" baud=\"115200\" parity=\"N\" unit=\"5\" timeout_ms=\"500\">\n"
+        "    <input  table=\"input\"   address=\"3\" type=\"s16\" path=\"PLC_ROBOT.PLC_OUT.Step\" scale=\"0.5\"/>\n"
+        "    <output table=\"holding\" address=\"7\" type=\"u16\" path=\"PLC_ROBOT.PLC_IN.Override\" scale=\"0.01\"/>\n"
+        "  </device>\n</ioconfig>\n";
     {
         Dispatcher d(parseIoConfig(writeFile(dir, "io.xml", text)));
         d.start();
@@ -836,11 +868,11 @@ std::vector<can_frame> drain(int fd) {
 void sendFrame(int fd, const can_frame &f) { ASSERT_EQ(send(fd, &f, sizeof f, 0), static_cast<ssize_t>(sizeof f)); }
 
 std::string canConfig(int fd, const std::string &body, const std::string &attrs = "") {
-    return "<ioconfig status=\"PLC_ROBOT.IO_STATUS\">\n  <device name=\"can\" type=\"socketcan\" fd=\"" + std::to_string(fd) + "\"" + attrs +
-           ">\n" + body + "\n  </device>\n</ioconfig>\n";
+    return "<ioconfig status=\"PLC_ROBOT.IO_STATUS\">\n  <device name=\"can\" type=\"socketcan\" fd=\"" +
+           std::to_string(fd) + "\"" + attrs + ">\n" + body + "\n  </device>\n</ioconfig>\n";
 }
 
-} // namespace
+}  // namespace
 
 TEST(CanPort, CarriesWholeFramesOverASocketpair) {
     Pair p;
@@ -940,9 +972,9 @@ TEST(CanDevice, MissingInputFrameIsCommLossWithSafeOutputsInTheSameCycle) {
         }
     }
     ASSERT_EQ(IO_STATUS.comm_lost[0], 1);
-    EXPECT_EQ(extractBits(out[0].data, 0, 16), 0u);                                 // safe
-    EXPECT_EQ(static_cast<int32_t>(extractBits(out[0].data, 16, 32)), 20000);        // held
-    EXPECT_EQ(AXIS_IN[0].statusword, 0);                                            // the default
+    EXPECT_EQ(extractBits(out[0].data, 0, 16), 0u);                            // safe
+    EXPECT_EQ(static_cast<int32_t>(extractBits(out[0].data, 16, 32)), 20000);  // held
+    EXPECT_EQ(AXIS_IN[0].statusword, 0);                                       // the default
     // It talks again.
     sendFrame(p.peer, frame(0x181, {0x37, 0x02}));
     d.cycle();
@@ -973,7 +1005,7 @@ std::vector<can_frame> driveNode(int fd, drivesim::Axis &axis, int node) {
     return seen;
 }
 
-} // namespace
+}  // namespace
 
 TEST(CanDevice, Cia402OverPdosBringsADriveToOperationEnabledAndMovesIt) {
     resetVariables();
@@ -1030,13 +1062,17 @@ TEST(CanDevice, Cia402OverPdosBringsADriveToOperationEnabledAndMovesIt) {
 TEST(CanVcan, SignalMapOverVcan0) {
     const int probe = socket(PF_CAN, SOCK_RAW, CAN_RAW);
     if (probe < 0)
-        GTEST_SKIP() << "this kernel has no CAN support: socket(PF_CAN, SOCK_RAW, CAN_RAW) failed: " << std::strerror(errno)
+        GTEST_SKIP() << "this kernel has no CAN support: socket(PF_CAN, SOCK_RAW, CAN_RAW) failed: "
+                     << std::strerror(errno)
                      << " (the socketpair tests above cover the framing, the signal map and the CiA 402 PDOs)";
     close(probe);
     if (if_nametoindex("vcan0") == 0) {
-        if (geteuid() != 0) GTEST_SKIP() << "no vcan0 interface, and not root to create it (ip link add dev vcan0 type vcan)";
-        if (std::system("ip link add dev vcan0 type vcan 2>/dev/null; ip link set up vcan0 2>/dev/null") != 0 || if_nametoindex("vcan0") == 0)
-            GTEST_SKIP() << "no vcan0 interface, and `ip link add dev vcan0 type vcan` failed (is the vcan module available?)";
+        if (geteuid() != 0)
+            GTEST_SKIP() << "no vcan0 interface, and not root to create it (ip link add dev vcan0 type vcan)";
+        if (std::system("ip link add dev vcan0 type vcan 2>/dev/null; ip link set up vcan0 2>/dev/null") != 0 ||
+            if_nametoindex("vcan0") == 0)
+            GTEST_SKIP()
+                << "no vcan0 interface, and `ip link add dev vcan0 type vcan` failed (is the vcan module available?)";
     }
     resetVariables();
     CanPort peer;

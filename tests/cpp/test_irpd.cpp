@@ -21,31 +21,32 @@ using nlohmann::json;
 using testing_support::kFig1;
 using testing_support::kIrpd;
 using testing_support::Process;
-using testing_support::uniqueInstance;
 using testing_support::readFile;
 using testing_support::TempDir;
+using testing_support::uniqueInstance;
 
 namespace {
 
-
-bool shmExists(const std::string &instance) { return std::filesystem::exists("/dev/shm/indurop." + instance + ".stats"); }
-
-void writeFile(const std::filesystem::path &p, const std::string &text) {
-    std::ofstream(p) << text;
+bool shmExists(const std::string &instance) {
+    return std::filesystem::exists("/dev/shm/indurop." + instance + ".stats");
 }
+
+void writeFile(const std::filesystem::path &p, const std::string &text) { std::ofstream(p) << text; }
 
 std::string module(const std::string &file, int64_t period, int priority, const std::string &extra = "") {
     return "  <module>\n    <filename>" + file +
            "</filename>\n    <moduletype>thread</moduletype>\n    <operationtype>periodic</operationtype>\n"
-           "    <period>" + std::to_string(period) + "</period>\n    <priority>" + std::to_string(priority) +
-           "</priority>\n" + extra + "  </module>\n";
+           "    <period>" +
+           std::to_string(period) + "</period>\n    <priority>" + std::to_string(priority) + "</priority>\n" + extra +
+           "  </module>\n";
 }
 
 // A module of the paper-fig1 set, with the set's layout.json beside it (the modules use its variables).
 void copyFig1Module(const std::string &file, const TempDir &dir) {
     const std::string set = std::string(BUILD_ROOT) + "/sets/paper-fig1/";
     std::filesystem::copy_file(set + file, dir.path / file);
-    if (!std::filesystem::exists(dir.path / "layout.json")) std::filesystem::copy_file(set + "layout.json", dir.path / "layout.json");
+    if (!std::filesystem::exists(dir.path / "layout.json"))
+        std::filesystem::copy_file(set + "layout.json", dir.path / "layout.json");
 }
 
 struct Outcome {
@@ -65,24 +66,23 @@ Outcome irpd(std::vector<std::string> args, const TempDir &dir, std::chrono::sec
     return {status, p.out(), p.err()};
 }
 
-} // namespace
+}  // namespace
 
 TEST(IrpdPrintSchedule, Figure1IsTable3) {
     TempDir dir;
     Outcome r = irpd({"--config", kFig1, "--print-schedule"}, dir);
     ASSERT_EQ(r.status, 0) << r.err;
-    EXPECT_EQ(r.out,
-              "basic period 100000 ns (100 us), macro period 500000 ns (500 us), 5 slots\n"
-              "slot  offset_ns    modules (in priority order)\n"
-              "0     0            cntr3 > cntr2 > cntr1 > cntr4\n"
-              "1     100000       cntr3 > cntr2\n"
-              "2     200000       cntr3 > cntr2\n"
-              "3     300000       cntr3 > cntr2\n"
-              "4     400000       cntr3 > cntr2\n"
-              "outside the slot table:\n"
-              "  event1 (sporadic thread, deadline 1000000 ns, priority 1, checked every basic period)\n"
-              "  visionEvt (sporadic process, deadline 100000000 ns, priority 2, checked every basic period)\n"
-              "  nonReaTime (non-real process, runs in the time left over)\n");
+    EXPECT_EQ(r.out, "basic period 100000 ns (100 us), macro period 500000 ns (500 us), 5 slots\n"
+                     "slot  offset_ns    modules (in priority order)\n"
+                     "0     0            cntr3 > cntr2 > cntr1 > cntr4\n"
+                     "1     100000       cntr3 > cntr2\n"
+                     "2     200000       cntr3 > cntr2\n"
+                     "3     300000       cntr3 > cntr2\n"
+                     "4     400000       cntr3 > cntr2\n"
+                     "outside the slot table:\n"
+                     "  event1 (sporadic thread, deadline 1000000 ns, priority 1, checked every basic period)\n"
+                     "  visionEvt (sporadic process, deadline 100000000 ns, priority 2, checked every basic period)\n"
+                     "  nonReaTime (non-real process, runs in the time left over)\n");
 }
 
 TEST(IrpdPrintSchedule, Figure1AsJson) {
@@ -105,14 +105,17 @@ TEST(IrpdPrintSchedule, BasicPeriodBelowTheConfiguredMinimumIsRefused) {
     TempDir dir;
     Outcome r = irpd({"--config", kFig1, "--print-schedule", "--min-basic-period", "200000"}, dir);
     EXPECT_EQ(r.status, 2);
-    EXPECT_NE(r.err.find("the basic period (GCD of the periods) is 100000 ns, below the minimum basic period of 200000 ns"),
-              std::string::npos) << r.err;
+    EXPECT_NE(
+        r.err.find("the basic period (GCD of the periods) is 100000 ns, below the minimum basic period of 200000 ns"),
+        std::string::npos)
+        << r.err;
 }
 
 TEST(IrpdRefuses, MalformedXmlWithFileLineAndNothingStarted) {
     TempDir dir;
     const std::string instance = uniqueInstance();
-    writeFile(dir.path / "module.xml", "<root>\n" + module("./a.so", 100000, 1) + "  <module>\n    <filename>./b.so\n</root>\n");
+    writeFile(dir.path / "module.xml",
+              "<root>\n" + module("./a.so", 100000, 1) + "  <module>\n    <filename>./b.so\n</root>\n");
     Outcome r = irpd({"--config", (dir.path / "module.xml").string(), "--instance", instance}, dir);
     EXPECT_EQ(r.status, 2);
     EXPECT_TRUE(std::regex_search(r.err, std::regex("module\\.xml:[0-9]+: malformed XML"))) << r.err;
@@ -122,20 +125,23 @@ TEST(IrpdRefuses, MalformedXmlWithFileLineAndNothingStarted) {
 
 TEST(IrpdRefuses, BadPeriodNamesLineModuleAndField) {
     TempDir dir;
-    writeFile(dir.path / "module.xml", "<root>\n" + module("./a.so", 100000, 1) +
-                                           "  <module>\n    <filename>./b.so</filename>\n    <moduletype>thread</moduletype>\n"
-                                           "    <operationtype>periodic</operationtype>\n    <period>-5</period>\n"
-                                           "    <priority>2</priority>\n  </module>\n</root>\n");
+    writeFile(dir.path / "module.xml",
+              "<root>\n" + module("./a.so", 100000, 1) +
+                  "  <module>\n    <filename>./b.so</filename>\n    <moduletype>thread</moduletype>\n"
+                  "    <operationtype>periodic</operationtype>\n    <period>-5</period>\n"
+                  "    <priority>2</priority>\n  </module>\n</root>\n");
     Outcome r = irpd({"--config", (dir.path / "module.xml").string()}, dir);
     EXPECT_EQ(r.status, 2);
-    EXPECT_NE(r.err.find("module.xml:13: module 'b': <period>: '-5' must be greater than 0"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("module.xml:13: module 'b': <period>: '-5' must be greater than 0"), std::string::npos)
+        << r.err;
 }
 
 TEST(IrpdRefuses, MissingModuleFileAndNothingStarted) {
     TempDir dir;
     const std::string instance = uniqueInstance();
     copyFig1Module("cntr1.so", dir);
-    writeFile(dir.path / "module.xml", "<root>\n" + module("./cntr1.so", 100000, 1) + module("./gone.so", 100000, 2) + "</root>\n");
+    writeFile(dir.path / "module.xml",
+              "<root>\n" + module("./cntr1.so", 100000, 1) + module("./gone.so", 100000, 2) + "</root>\n");
     Outcome r = irpd({"--config", (dir.path / "module.xml").string(), "--instance", instance}, dir);
     EXPECT_EQ(r.status, 2);
     EXPECT_NE(r.err.find("module.xml:9: module 'gone': <filename> ./gone.so"), std::string::npos) << r.err;
@@ -148,10 +154,12 @@ TEST(IrpdRefuses, InitializeFailureStartsNothing) {
     TempDir dir;
     copyFig1Module("cntr1.so", dir);
     writeFile(dir.path / "module.xml", "<root>\n" + module("./cntr1.so", 100000, 1) +
-                                           module(std::string(FIXTURE_MODULES) + "/init_throws.so", 100000, 2) + "</root>\n");
+                                           module(std::string(FIXTURE_MODULES) + "/init_throws.so", 100000, 2) +
+                                           "</root>\n");
     Outcome r = irpd({"--config", (dir.path / "module.xml").string()}, dir);
     EXPECT_EQ(r.status, 2);
-    EXPECT_NE(r.err.find("module 'init_throws': initialize() failed: calibration table missing"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("module 'init_throws': initialize() failed: calibration table missing"), std::string::npos)
+        << r.err;
     EXPECT_NE(r.out.find("[cntr1] initialize"), std::string::npos);
     EXPECT_EQ(r.out.find("[cntr1] start"), std::string::npos);
 }
@@ -164,17 +172,21 @@ TEST(IrpdRefuses, ALateStartFailureReleasesWhatWasBuiltInReverse) {
     const std::string instance = uniqueInstance();
     copyFig1Module("cntr1.so", dir);
     copyFig1Module("cntr4.exe", dir);
-    writeFile(dir.path / "module.xml",
-              "<root>\n" + module("./cntr1.so", 100000, 1) +
-                  "  <module>\n    <filename>./cntr4.exe</filename>\n    <moduletype>process</moduletype>\n"
-                  "    <operationtype>periodic</operationtype>\n    <period>500000</period>\n    <priority>4</priority>\n"
-                  "  </module>\n</root>\n");
+    writeFile(
+        dir.path / "module.xml",
+        "<root>\n" + module("./cntr1.so", 100000, 1) +
+            "  <module>\n    <filename>./cntr4.exe</filename>\n    <moduletype>process</moduletype>\n"
+            "    <operationtype>periodic</operationtype>\n    <period>500000</period>\n    <priority>4</priority>\n"
+            "  </module>\n</root>\n");
     const std::string socket = (dir.path / "missing" / "irpd.sock").string();
-    Outcome r = irpd({"--config", (dir.path / "module.xml").string(), "--instance", instance, "--control-socket", socket}, dir);
+    Outcome r =
+        irpd({"--config", (dir.path / "module.xml").string(), "--instance", instance, "--control-socket", socket}, dir);
     EXPECT_EQ(r.status, 1) << r.err;
-    EXPECT_NE(r.err.find("irpd: error: control socket " + socket + ": No such file or directory"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("irpd: error: control socket " + socket + ": No such file or directory"), std::string::npos)
+        << r.err;
     EXPECT_EQ(r.err.find("irpd: running"), std::string::npos) << r.err;
-    const std::size_t started = r.out.find("[cntr1] start"), process_stopped = r.out.find("[cntr4] cntr4: stop after 0 periods"),
+    const std::size_t started = r.out.find("[cntr1] start"),
+                      process_stopped = r.out.find("[cntr4] cntr4: stop after 0 periods"),
                       module_stopped = r.out.find("[cntr1] stop after 0 runs");
     ASSERT_NE(started, std::string::npos) << r.out;
     ASSERT_NE(process_stopped, std::string::npos) << r.out;
@@ -182,7 +194,8 @@ TEST(IrpdRefuses, ALateStartFailureReleasesWhatWasBuiltInReverse) {
     EXPECT_LT(started, process_stopped);
     EXPECT_LT(process_stopped, module_stopped) << r.out;
     for (const auto &entry : std::filesystem::directory_iterator("/dev/shm"))
-        EXPECT_NE(entry.path().filename().string().rfind("indurop." + instance + ".", 0), 0u) << entry.path() << " left behind";
+        EXPECT_NE(entry.path().filename().string().rfind("indurop." + instance + ".", 0), 0u)
+            << entry.path() << " left behind";
 }
 
 TEST(IrpdOptions, HelpAndBadOptions) {
@@ -190,15 +203,18 @@ TEST(IrpdOptions, HelpAndBadOptions) {
     Outcome help = irpd({"--help"}, dir);
     EXPECT_EQ(help.status, 0);
     EXPECT_NE(help.out.find("--print-schedule"), std::string::npos);
-    struct Case { std::vector<std::string> args; std::string message; };
-    for (const Case &c : {Case{{"--bogus"}, "unknown option --bogus"},
-                          Case{{}, "--config FILE.xml is required"},
-                          Case{{"--config", kFig1, "--json"}, "--json goes with --print-schedule"},
-                          Case{{"--config", kFig1, "--rt-priority", "200"}, "--rt-priority: '200' is not an integer from 1 to 99"},
-                          Case{{"--config", kFig1, "--duration", "-1"}, "--duration: '-1' is not a positive number"},
-                          Case{{"--config", kFig1, "--overrun-policy", "later"}, "expected catch-up or skip"},
-                          Case{{"--config", kFig1, "--instance", "../x"}, "--instance: '../x'"},
-                          Case{{"--config", kFig1, "--cpu"}, "needs a value"}}) {
+    struct Case {
+        std::vector<std::string> args;
+        std::string message;
+    };
+    for (const Case &c :
+         {Case{{"--bogus"}, "unknown option --bogus"}, Case{{}, "--config FILE.xml is required"},
+          Case{{"--config", kFig1, "--json"}, "--json goes with --print-schedule"},
+          Case{{"--config", kFig1, "--rt-priority", "200"}, "--rt-priority: '200' is not an integer from 1 to 99"},
+          Case{{"--config", kFig1, "--duration", "-1"}, "--duration: '-1' is not a positive number"},
+          Case{{"--config", kFig1, "--overrun-policy", "later"}, "expected catch-up or skip"},
+          Case{{"--config", kFig1, "--instance", "../x"}, "--instance: '../x'"},
+          Case{{"--config", kFig1, "--cpu"}, "needs a value"}}) {
         Outcome r = irpd(c.args, dir);
         EXPECT_EQ(r.status, 2) << c.message;
         EXPECT_NE(r.err.find(c.message), std::string::npos) << r.err;
@@ -209,7 +225,8 @@ TEST(IrpdRun, Figure1ForADurationGivesExactRunCountsAndStats) {
     TempDir dir;
     const std::string instance = uniqueInstance();
     const auto stats_path = dir.path / "stats.json";
-    Outcome r = irpd({"--config", kFig1, "--duration", "1.2", "--stats-json", stats_path.string(), "--instance", instance}, dir);
+    Outcome r = irpd(
+        {"--config", kFig1, "--duration", "1.2", "--stats-json", stats_path.string(), "--instance", instance}, dir);
     ASSERT_EQ(r.status, 0) << r.err;
     json s = json::parse(readFile(stats_path));
     EXPECT_EQ(s["basic_period_ns"], 100000);
@@ -230,7 +247,8 @@ TEST(IrpdRun, Figure1ForADurationGivesExactRunCountsAndStats) {
         EXPECT_EQ(m["jitter_ns"]["count"], m["runs"]);
         // What the module itself counted (printed by its stop()) is what the dispatcher counted.
         EXPECT_NE(r.out.find("[" + name + "] stop after " + std::to_string(m["runs"].get<uint64_t>()) + " runs"),
-                  std::string::npos) << r.out;
+                  std::string::npos)
+            << r.out;
     }
     // event1 (Figure 7) fires when cntr3 has turned joint[0].x to 180 degrees, 3600 runs of 0.05,
     // and resets it: three times in 12000 runs, in the slot where the condition turned true.
@@ -245,7 +263,8 @@ TEST(IrpdRun, Figure1ForADurationGivesExactRunCountsAndStats) {
     EXPECT_GT(cntr4["runs"].get<uint64_t>(), 0u);
     EXPECT_LE(cntr4["runs"].get<uint64_t>() + cntr4["skipped"].get<uint64_t>(), 2400u);
     EXPECT_NE(r.out.find("[cntr4] cntr4: stop after " + std::to_string(cntr4["runs"].get<uint64_t>()) + " periods"),
-              std::string::npos) << r.out;  // every release the dispatcher counted, the process served
+              std::string::npos)
+        << r.out;  // every release the dispatcher counted, the process served
     EXPECT_GT(by_name.at("visionEvt")["runs"].get<uint64_t>(), 0u);
     EXPECT_EQ(by_name.at("nonReaTime")["runs"], 0);  // not dispatched: it runs in the time left over
     for (const char *name : {"cntr4", "visionEvt", "nonReaTime"})
@@ -274,7 +293,7 @@ void stopsCleanlyOn(int signal) {
     EXPECT_FALSE(shmExists(instance));
 }
 
-} // namespace
+}  // namespace
 
 TEST(IrpdRun, SigtermStopsEveryModuleAndUnloads) { stopsCleanlyOn(SIGTERM); }
 TEST(IrpdRun, SigintStopsEveryModuleAndUnloads) { stopsCleanlyOn(SIGINT); }
@@ -287,7 +306,8 @@ TEST(IrpdRun, SecondIrpdOnTheSameInstanceIsRefused) {
     Outcome second = irpd({"--config", kFig1, "--instance", instance}, dir2);
     EXPECT_EQ(second.status, 1);
     EXPECT_NE(second.err.find("instance '" + instance + "' is in use by irpd pid " + std::to_string(first.pid())),
-              std::string::npos) << second.err;
+              std::string::npos)
+        << second.err;
     kill(first.pid(), SIGTERM);
     EXPECT_EQ(first.wait(std::chrono::seconds(10)), 0);
 }
@@ -297,8 +317,9 @@ TEST(IrpdRun, WithoutRtPrivilegesItRunsSchedOtherAndSaysSo) {
     TempDir dir;
     const auto stats_path = dir.path / "stats.json";
     // No capabilities at all (so no CAP_SYS_NICE) and RLIMIT_RTPRIO 0: SCHED_FIFO is refused.
-    Process p({"/usr/bin/setpriv", "--inh-caps=-all", "--bounding-set=-all", "--", "/usr/bin/prlimit", "--rtprio=0", kIrpd,
-               "--config", kFig1, "--duration", "0.5", "--stats-json", stats_path.string(), "--instance", uniqueInstance()},
+    Process p({"/usr/bin/setpriv", "--inh-caps=-all", "--bounding-set=-all", "--", "/usr/bin/prlimit", "--rtprio=0",
+               kIrpd, "--config", kFig1, "--duration", "0.5", "--stats-json", stats_path.string(), "--instance",
+               uniqueInstance()},
               dir.path);
     ASSERT_EQ(p.wait(), 0) << p.err();
     EXPECT_NE(p.err().find("SCHED_FIFO refused"), std::string::npos) << p.err();
@@ -312,7 +333,9 @@ TEST(IrpdRun, RealTimeStatsSayRealtimeWhenPrivileged) {
     if (geteuid() != 0) GTEST_SKIP() << "needs root or CAP_SYS_NICE";
     TempDir dir;
     const auto stats_path = dir.path / "stats.json";
-    Outcome r = irpd({"--config", kFig1, "--duration", "0.2", "--stats-json", stats_path.string(), "--instance", uniqueInstance()}, dir);
+    Outcome r = irpd(
+        {"--config", kFig1, "--duration", "0.2", "--stats-json", stats_path.string(), "--instance", uniqueInstance()},
+        dir);
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(json::parse(readFile(stats_path))["realtime"], true);
     EXPECT_NE(r.err.find("SCHED_FIFO priority 80"), std::string::npos) << r.err;
@@ -341,7 +364,7 @@ TEST(IrpdRun, StatsAreReadableLiveFromAnotherProcess) {
     const uint64_t before = h->cycles.load();
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
     const uint64_t after = h->cycles.load();
-    EXPECT_GT(after, before + 100);  // the RT thread keeps going while it is being read
+    EXPECT_GT(after, before + 100);                         // the RT thread keeps going while it is being read
     EXPECT_GT(irp::stats::summarize(r[3].exec).count, 0u);  // cntr3's histogram, read live
     kill(p.pid(), SIGTERM);
     EXPECT_EQ(p.wait(std::chrono::seconds(10)), 0);
@@ -394,7 +417,8 @@ TEST(IrpdRefuses, AModuleUsingVariablesInASetWithoutLayout) {
 TEST(IrpdRefuses, AMalformedLayout) {
     TempDir dir;
     writeFile(dir.path / "layout.json", "{\"format\": \"indurop-layout\", \"version\": 7}");
-    writeFile(dir.path / "module.xml", "<root>\n" + module(std::string(FIXTURE_MODULES) + "/rec_a.so", 100000, 1) + "</root>\n");
+    writeFile(dir.path / "module.xml",
+              "<root>\n" + module(std::string(FIXTURE_MODULES) + "/rec_a.so", 100000, 1) + "</root>\n");
     Outcome r = irpd({"--config", (dir.path / "module.xml").string()}, dir);
     EXPECT_EQ(r.status, 2);
     EXPECT_NE(r.err.find("layout.json: layout version 7; this irpd reads version 1"), std::string::npos) << r.err;

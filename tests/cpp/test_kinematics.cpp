@@ -47,10 +47,11 @@ Eigen::Matrix3d Ry(double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::Unit
 Eigen::Matrix3d Rz(double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()).toRotationMatrix(); }
 
 void expectPose(const Pose &p, Eigen::Vector3d xyz, const Eigen::Matrix3d &R, const char *what) {
-    EXPECT_LT((p.position - xyz).norm(), 1e-12) << what << ": position " << p.position.transpose() << ", expected "
-                                               << xyz.transpose();
-    EXPECT_LT((p.rotation() - R).cwiseAbs().maxCoeff(), 1e-12) << what << ": rotation\n" << p.rotation() << "\nexpected\n"
-                                                              << R;
+    EXPECT_LT((p.position - xyz).norm(), 1e-12)
+        << what << ": position " << p.position.transpose() << ", expected " << xyz.transpose();
+    EXPECT_LT((p.rotation() - R).cwiseAbs().maxCoeff(), 1e-12) << what << ": rotation\n"
+                                                               << p.rotation() << "\nexpected\n"
+                                                               << R;
 }
 
 Joints randomWithinLimits(std::mt19937 &rng) {
@@ -89,7 +90,8 @@ LimitCheck checkLimits(const std::vector<Joints> &q, double dt, const Joints &vm
         Joints v = (q[k] - q[k - 1]) / dt;
         for (int i = 0; i < kAxes; ++i) {
             c.velocity_ratio = std::max(c.velocity_ratio, std::abs(v[i]) / vmax[i]);
-            EXPECT_LE(std::abs(v[i]), vmax[i] * (1 + tol)) << what << ": joint " << i + 1 << " velocity at sample " << k;
+            EXPECT_LE(std::abs(v[i]), vmax[i] * (1 + tol))
+                << what << ": joint " << i + 1 << " velocity at sample " << k;
         }
         if (k + 1 < q.size()) {
             Joints a = (q[k + 1] - 2 * q[k] + q[k - 1]) / (dt * dt);
@@ -103,7 +105,7 @@ LimitCheck checkLimits(const std::vector<Joints> &q, double dt, const Joints &vm
     return c;
 }
 
-} // namespace
+}  // namespace
 
 // ---- loading ------------------------------------------------------------------------------------
 
@@ -170,13 +172,15 @@ TEST(RobotLoad, RefusesAZeroVelocityLimit) {
 }
 
 TEST(RobotLoad, RefusesAFloatingJoint) {
-    auto r = Robot::fromString(urdfWith("<joint name=\"joint_3\" type=\"revolute\">", "<joint name=\"joint_3\" type=\"floating\">"));
+    auto r = Robot::fromString(
+        urdfWith("<joint name=\"joint_3\" type=\"revolute\">", "<joint name=\"joint_3\" type=\"floating\">"));
     ASSERT_FALSE(r);
     EXPECT_NE(r.error().message.find("joint 'joint_3' is floating"), std::string::npos) << r.error().message;
 }
 
 TEST(RobotLoad, AContinuousJointHasNoPositionLimits) {
-    auto r = Robot::fromString(urdfWith("<joint name=\"joint_6\" type=\"revolute\">", "<joint name=\"joint_6\" type=\"continuous\">"));
+    auto r = Robot::fromString(
+        urdfWith("<joint name=\"joint_6\" type=\"revolute\">", "<joint name=\"joint_6\" type=\"continuous\">"));
     ASSERT_TRUE(r) << r.error().message;
     EXPECT_TRUE(std::isinf(r->limits().lower[5]) && r->limits().lower[5] < 0);
     EXPECT_TRUE(std::isinf(r->limits().upper[5]) && r->limits().upper[5] > 0);
@@ -187,9 +191,7 @@ TEST(RobotLoad, AContinuousJointHasNoPositionLimits) {
 // Zero pose: shoulder at (0.1, 0, 0.4), elbow at (0.1, 0, 0.85), wrist centre at (0.55, 0, 0.885),
 // flange at (0.63, 0, 0.885); tool0 = Ry(pi/2) (its z along +x).
 
-TEST(ForwardKinematics, ZeroPose) {
-    expectPose(robot().fk(Joints::Zero()), {0.63, 0, 0.885}, Ry(M_PI / 2), "q = 0");
-}
+TEST(ForwardKinematics, ZeroPose) { expectPose(robot().fk(Joints::Zero()), {0.63, 0, 0.885}, Ry(M_PI / 2), "q = 0"); }
 
 TEST(ForwardKinematics, SingleJointRotations) {
     const double h = M_PI / 2;
@@ -386,7 +388,8 @@ TEST(MoveJ, AllJointsArriveTogether) {
     JointTrajectory tr;
     tr.plan(from, to, robot().limits().velocity, kAmax, 1.0, 1.0);
     JointSample before = tr.sample(tr.duration() - 0.01);
-    for (int i = 0; i < kAxes; ++i) EXPECT_GT(std::abs(to[i] - before.q[i]), 0) << "joint " << i + 1 << " arrived early";
+    for (int i = 0; i < kAxes; ++i)
+        EXPECT_GT(std::abs(to[i] - before.q[i]), 0) << "joint " << i + 1 << " arrived early";
     EXPECT_FALSE(before.done);
     EXPECT_TRUE(tr.sample(tr.duration()).done);
 }
@@ -509,7 +512,7 @@ void expectOnLine(const Pose &p, const Pose &a, const Pose &b, const char *what)
 
 const Joints kHome = J(0, 0, 0, 0, M_PI / 2, 0);
 
-} // namespace
+}  // namespace
 
 TEST(MoveL, StraightLineWithinEveryLimit) {
     static CartesianTrajectory tr(robot());
@@ -672,7 +675,8 @@ TEST(MoveL, StopStaysOnTheLineWithinTheLimits) {
         EXPECT_EQ(run.q.back(), tr.finalPosition());
         // The tip decelerates within the full Cartesian limit (2 m/s^2): the stop takes at least v / a.
         for (size_t k = 1; k + 1 < run.pose.size(); ++k) {
-            Eigen::Vector3d a = (run.pose[k + 1].position - 2 * run.pose[k].position + run.pose[k - 1].position) / (dt * dt);
+            Eigen::Vector3d a =
+                (run.pose[k + 1].position - 2 * run.pose[k].position + run.pose[k - 1].position) / (dt * dt);
             EXPECT_LE(a.norm(), CartesianLimits{}.accel * 1.01) << "sample " << k;
         }
         CartesianSample at_stop = tr.sample(t_stop);

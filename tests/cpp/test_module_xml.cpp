@@ -54,7 +54,7 @@ private:
 
 const fs::path kFixtures = FIXTURE_FILES;
 
-} // namespace
+}  // namespace
 
 // ---- the paper's figures, as printed ----------------------------------------------------------
 
@@ -175,7 +175,7 @@ TEST(ModuleXml, RelativeFilenamesResolveAgainstTheXmlFolder) {
     EXPECT_EQ(set.modules[0].path, fs::path("/sets/bad/b/x.so"));
     EXPECT_EQ(set.modules[1].path, fs::path("/sets/lib/y.so"));
     EXPECT_EQ(set.modules[2].path, fs::path("/opt/z/z.so"));  // absolute stays, normalised
-    EXPECT_EQ(set.modules[0].filename, "./a/../b/./x.so");  // as written
+    EXPECT_EQ(set.modules[0].filename, "./a/../b/./x.so");    // as written
 }
 
 TEST(ModuleXml, RelativeXmlPathIsAnchoredAtTheWorkingDirectory) {
@@ -186,9 +186,10 @@ TEST(ModuleXml, RelativeXmlPathIsAnchoredAtTheWorkingDirectory) {
 }
 
 TEST(ModuleXml, PredefinedEntitiesAndCharacterReferencesAreDecoded) {
-    SetSpec set = accepted(document(periodic().line(
-        "<property><value name=\"a&amp;b\">&lt;x&gt; &amp; &apos;y&apos; &quot;z&quot; &#65;&#x42; &#xE9; &#x20AC;</value>"
-        "<value name=\"cdata\"><![CDATA[&lt; stays]]></value></property>")));
+    SetSpec set =
+        accepted(document(periodic().line("<property><value name=\"a&amp;b\">&lt;x&gt; &amp; &apos;y&apos; "
+                                          "&quot;z&quot; &#65;&#x42; &#xE9; &#x20AC;</value>"
+                                          "<value name=\"cdata\"><![CDATA[&lt; stays]]></value></property>")));
     ASSERT_EQ(set.modules.size(), 1u);
     using Props = std::vector<std::pair<std::string, std::string>>;
     EXPECT_EQ(set.modules[0].properties,
@@ -209,8 +210,8 @@ TEST(ModuleXml, WhitespaceAroundValuesIsIgnored) {
 }
 
 TEST(ModuleXml, PeriodicDeadlineIsOptionalAndMayEqualThePeriod) {
-    SetSpec set = accepted(document(periodic("a"), periodic("b").set("deadline", "100000"),
-                                    periodic("c").set("deadline", "50000")));
+    SetSpec set = accepted(
+        document(periodic("a"), periodic("b").set("deadline", "100000"), periodic("c").set("deadline", "50000")));
     ASSERT_EQ(set.modules.size(), 3u);
     EXPECT_EQ(set.modules[0].deadline_ns, 0);
     EXPECT_EQ(set.modules[1].deadline_ns, 100000);
@@ -259,8 +260,8 @@ TEST(ModuleXml, OverrunWatchdogTagsAndTheirDefaults) {
 }
 
 TEST(ModuleXml, OnCrashDefaultsToExclude) {
-    SetSpec set = accepted(document(periodic("a"), periodic("b").set("on_crash", "restart"),
-                                    periodic("c").set("on_crash", "exclude")));
+    SetSpec set = accepted(
+        document(periodic("a"), periodic("b").set("on_crash", "restart"), periodic("c").set("on_crash", "exclude")));
     EXPECT_EQ(set.modules[0].on_crash, irp::config::CrashPolicy::Exclude);
     EXPECT_EQ(set.modules[1].on_crash, irp::config::CrashPolicy::Restart);
     EXPECT_EQ(set.modules[2].on_crash, irp::config::CrashPolicy::Exclude);
@@ -315,18 +316,21 @@ TEST(ModuleXmlBad, UnknownModuleType) {
 
 TEST(ModuleXmlBad, ModuleTypeIsCaseSensitive) {
     const std::string text = document(periodic().set("moduletype", "Thread"));
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<moduletype>"), {"<moduletype>", "'Thread'", "expected thread or process"}));
+    EXPECT_TRUE(
+        refusedAt(text, lineOf(text, "<moduletype>"), {"<moduletype>", "'Thread'", "expected thread or process"}));
 }
 
 TEST(ModuleXmlBad, MissingModuleType) {
     const std::string text = document(periodic().without("moduletype"));
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<module>"), {"module 'cntr1'", "<moduletype> is missing", "thread or process"}));
+    EXPECT_TRUE(
+        refusedAt(text, lineOf(text, "<module>"), {"module 'cntr1'", "<moduletype> is missing", "thread or process"}));
 }
 
 TEST(ModuleXmlBad, UnknownOperationType) {
     const std::string text = document(periodic().set("operationtype", "cyclic"));
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<operationtype>"),
-                          {"module 'cntr1'", "<operationtype>", "'cyclic'", "expected periodic, sporadic or non-real"}));
+    EXPECT_TRUE(
+        refusedAt(text, lineOf(text, "<operationtype>"),
+                  {"module 'cntr1'", "<operationtype>", "'cyclic'", "expected periodic, sporadic or non-real"}));
 }
 
 TEST(ModuleXmlBad, NonRealSpelledWithoutHyphen) {
@@ -342,7 +346,8 @@ TEST(ModuleXmlBad, MissingOperationType) {
 
 TEST(ModuleXmlBad, PeriodicWithoutPeriod) {
     const std::string text = document(periodic("ok"), periodic("cntr2").without("period"));
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<module>", 1), {"module 'cntr2'", "<period> is missing", "periodic", "ns"}));
+    EXPECT_TRUE(
+        refusedAt(text, lineOf(text, "<module>", 1), {"module 'cntr2'", "<period> is missing", "periodic", "ns"}));
 }
 
 TEST(ModuleXmlBad, PeriodZero) {
@@ -352,7 +357,8 @@ TEST(ModuleXmlBad, PeriodZero) {
 
 TEST(ModuleXmlBad, PeriodNegative) {
     const std::string text = document(periodic().set("period", "-100000"));
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<period>"), {"module 'cntr1'", "<period>", "'-100000'", "greater than 0"}));
+    EXPECT_TRUE(
+        refusedAt(text, lineOf(text, "<period>"), {"module 'cntr1'", "<period>", "'-100000'", "greater than 0"}));
 }
 
 TEST(ModuleXmlBad, PeriodInScientificNotation) {
@@ -373,7 +379,8 @@ TEST(ModuleXmlBad, PeriodNotANumber) {
 
 TEST(ModuleXmlBad, PeriodEmpty) {
     const std::string text = document(periodic().set("period", ""));
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<period>"), {"module 'cntr1'", "<period>", "empty", "expected an integer"}));
+    EXPECT_TRUE(
+        refusedAt(text, lineOf(text, "<period>"), {"module 'cntr1'", "<period>", "empty", "expected an integer"}));
 }
 
 TEST(ModuleXmlBad, PeriodWithDecimalPoint) {
@@ -388,7 +395,8 @@ TEST(ModuleXmlBad, PeriodWithPlusSign) {
 
 TEST(ModuleXmlBad, PeriodOverflow) {
     const std::string text = document(periodic().set("period", "9223372036854775808"));  // 2^63
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<period>"), {"module 'cntr1'", "<period>", "'9223372036854775808'", "too large"}));
+    EXPECT_TRUE(refusedAt(text, lineOf(text, "<period>"),
+                          {"module 'cntr1'", "<period>", "'9223372036854775808'", "too large"}));
 }
 
 TEST(ModuleXmlBad, DeadlineLongerThanPeriod) {
@@ -450,14 +458,16 @@ TEST(ModuleXmlBad, PriorityTooLarge) {
 
 TEST(ModuleXmlBad, DuplicateNamesFromStems) {
     // Same stem in two folders: the second is refused, naming the line of the first.
-    const std::string text = document(periodic().set("filename", "./a/cntr1.so"), periodic().set("filename", "./b/cntr1.so"));
+    const std::string text =
+        document(periodic().set("filename", "./a/cntr1.so"), periodic().set("filename", "./b/cntr1.so"));
     const int first = lineOf(text, "<module>", 0), second = lineOf(text, "<module>", 1);
     const std::string also = "also the module at line " + std::to_string(first);
     EXPECT_TRUE(refusedAt(text, second, {"module 'cntr1'", "duplicate name", also, "set <name>"}));
 }
 
 TEST(ModuleXmlBad, DuplicateNamesFromNameTags) {
-    const std::string text = document(periodic("a").set("name", "ctl"), periodic("b"), periodic("c").set("name", "ctl"));
+    const std::string text =
+        document(periodic("a").set("name", "ctl"), periodic("b"), periodic("c").set("name", "ctl"));
     const int first = lineOf(text, "<module>", 0), third = lineOf(text, "<module>", 2);
     const std::string also = "also the module at line " + std::to_string(first);
     EXPECT_TRUE(refusedAt(text, third, {"module 'ctl'", "duplicate name", also}));
@@ -465,7 +475,8 @@ TEST(ModuleXmlBad, DuplicateNamesFromNameTags) {
 
 TEST(ModuleXmlBad, DuplicateNameStemAgainstNameTag) {
     const std::string text = document(periodic("cntr1"), periodic("other").set("name", "cntr1"));
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<module>", 1), {"module 'cntr1'", "duplicate name", "also the module at line 3"}));
+    EXPECT_TRUE(refusedAt(text, lineOf(text, "<module>", 1),
+                          {"module 'cntr1'", "duplicate name", "also the module at line 3"}));
 }
 
 TEST(ModuleXmlBad, TagRepeatedInOneModule) {
@@ -503,7 +514,8 @@ TEST(ModuleXmlBad, MalformedUnclosedTag) {
 }
 
 TEST(ModuleXmlBad, MalformedDocumentEndsInsideAnElement) {
-    const std::string text = document(periodic()).substr(0, document(periodic()).size() - std::string("</root>\n").size());
+    const std::string text =
+        document(periodic()).substr(0, document(periodic()).size() - std::string("</root>\n").size());
     auto parsed = parseModuleXmlText(text, kFakePath);
     ASSERT_FALSE(parsed.ok());
     EXPECT_NE(parsed.error().message.find("malformed XML"), std::string::npos) << parsed.error().message;
@@ -520,22 +532,20 @@ TEST(ModuleXmlBad, MalformedAttributeWithoutQuotes) {
     EXPECT_TRUE(refusedAt(text, lineOf(text, "name=a"), {"malformed XML"}));
 }
 
-TEST(ModuleXmlBad, EmptyDocument) {
-    EXPECT_TRUE(refusedAt("", 1, {"no <root> element"}));
-}
+TEST(ModuleXmlBad, EmptyDocument) { EXPECT_TRUE(refusedAt("", 1, {"no <root> element"})); }
 
 TEST(ModuleXmlBad, DoctypeWithEntitiesIsRefused) {
     // "billion laughs": refused before anything is expanded.
-    const std::string text =
-        "<?xml version=\"1.0\"?>\n"
-        "<!DOCTYPE root [\n"
-        "  <!ENTITY lol \"lol\">\n"
-        "  <!ENTITY lol1 \"&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;\">\n"
-        "  <!ENTITY lol2 \"&lol1;&lol1;&lol1;&lol1;&lol1;&lol1;&lol1;&lol1;&lol1;&lol1;\">\n"
-        "  <!ENTITY lol3 \"&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;\">\n"
-        "]>\n"
-        "<root>\n" +
-        periodic().line("<property><value name=\"x\">&lol3;</value></property>").xml() + "</root>\n";
+    const std::string text = "<?xml version=\"1.0\"?>\n"
+                             "<!DOCTYPE root [\n"
+                             "  <!ENTITY lol \"lol\">\n"
+                             "  <!ENTITY lol1 \"&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;\">\n"
+                             "  <!ENTITY lol2 \"&lol1;&lol1;&lol1;&lol1;&lol1;&lol1;&lol1;&lol1;&lol1;&lol1;\">\n"
+                             "  <!ENTITY lol3 \"&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;\">\n"
+                             "]>\n"
+                             "<root>\n" +
+                             periodic().line("<property><value name=\"x\">&lol3;</value></property>").xml() +
+                             "</root>\n";
     EXPECT_TRUE(refusedAt(text, 2, {"DOCTYPE is not allowed", "entity"}));
 }
 
@@ -583,8 +593,8 @@ TEST(ModuleXmlBad, CharacterReferenceToASurrogate) {
 
 TEST(ModuleXmlBad, UndefinedEntityOnALaterLineOfAValue) {
     // The line is that of the reference, not that of the <value> it sits in.
-    const std::string text =
-        document(periodic().line("<property><value name=\"x\">").line("first line").line("&foo;").line("</value></property>"));
+    const std::string text = document(
+        periodic().line("<property><value name=\"x\">").line("first line").line("&foo;").line("</value></property>"));
     EXPECT_TRUE(refusedAt(text, lineOf(text, "&foo;"), {"'&foo;' is not allowed"}));
 }
 
@@ -607,14 +617,16 @@ TEST(ModuleXmlBad, UnknownAttributeOnRoot) {
 
 TEST(ModuleXmlBad, UnknownAttributeOnPropertyValue) {
     const std::string text = document(periodic().line("<property><value name=\"x\" type=\"int\">1</value></property>"));
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<value"), {"module 'cntr1'", "unknown attribute 'type' on <value>", "name="}));
+    EXPECT_TRUE(
+        refusedAt(text, lineOf(text, "<value"), {"module 'cntr1'", "unknown attribute 'type' on <value>", "name="}));
 }
 
 TEST(ModuleXmlBad, DuplicateAttributeOnPropertyValue) {
     const std::string text = document(periodic().line("<property><value name=\"x\" name=\"y\">1</value></property>"));
     auto parsed = parseModuleXmlText(text, kFakePath);
     ASSERT_FALSE(parsed.ok()) << "a second name= would silently win";
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<value"), {"module 'cntr1'", "name=\"...\" appears twice on one <value>"}));
+    EXPECT_TRUE(
+        refusedAt(text, lineOf(text, "<value"), {"module 'cntr1'", "name=\"...\" appears twice on one <value>"}));
 }
 
 TEST(ModuleXmlBad, PropertyValueWithoutName) {
@@ -638,7 +650,8 @@ TEST(ModuleXmlBad, DuplicatePropertyName) {
 
 TEST(ModuleXmlBad, UnknownTagInProperty) {
     const std::string text = document(periodic().line("<property><item name=\"x\">1</item></property>"));
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<item"), {"module 'cntr1'", "unknown tag <item> in <property>", "<value name="}));
+    EXPECT_TRUE(
+        refusedAt(text, lineOf(text, "<item"), {"module 'cntr1'", "unknown tag <item> in <property>", "<value name="}));
 }
 
 TEST(ModuleXmlBad, PropertyValueWithElementInside) {
@@ -653,8 +666,8 @@ TEST(ModuleXmlBad, ElementInsideLeafField) {
 
 TEST(ModuleXmlBad, InvalidModuleNameFromStem) {
     const std::string text = document(periodic().set("filename", "./my module.so"));
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<filename>"),
-                          {"module name 'my module'", "letters, digits", "set <name>"}));
+    EXPECT_TRUE(
+        refusedAt(text, lineOf(text, "<filename>"), {"module name 'my module'", "letters, digits", "set <name>"}));
 }
 
 TEST(ModuleXmlBad, InvalidModuleNameTag) {
@@ -700,13 +713,16 @@ TEST(ModuleXmlBad, ExecutorDefinedTwice) {
 }
 
 TEST(ModuleXmlBad, ExecutorRtPriorityZero) {
-    const std::string text = document("  <executor><name>io</name>\n<rtpriority>0</rtpriority></executor>\n", periodic());
+    const std::string text =
+        document("  <executor><name>io</name>\n<rtpriority>0</rtpriority></executor>\n", periodic());
     EXPECT_TRUE(refusedAt(text, lineOf(text, "<rtpriority>"), {"executor 'io': <rtpriority>", "greater than 0"}));
 }
 
 TEST(ModuleXmlBad, ExecutorRtPriorityAbove99) {
-    const std::string text = document("  <executor><name>io</name>\n<rtpriority>100</rtpriority></executor>\n", periodic());
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<rtpriority>"), {"executor 'io': <rtpriority>: '100' must be from 1 to 99"}));
+    const std::string text =
+        document("  <executor><name>io</name>\n<rtpriority>100</rtpriority></executor>\n", periodic());
+    EXPECT_TRUE(
+        refusedAt(text, lineOf(text, "<rtpriority>"), {"executor 'io': <rtpriority>: '100' must be from 1 to 99"}));
 }
 
 TEST(ModuleXmlBad, ExecutorCpuNegative) {
@@ -716,7 +732,8 @@ TEST(ModuleXmlBad, ExecutorCpuNegative) {
 
 TEST(ModuleXmlBad, ExecutorUnknownTag) {
     const std::string text = document("  <executor><name>io</name>\n<core>1</core></executor>\n", periodic());
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<core>"), {"unknown tag <core> in <executor>", "name, rtpriority or cpu"}));
+    EXPECT_TRUE(
+        refusedAt(text, lineOf(text, "<core>"), {"unknown tag <core> in <executor>", "name, rtpriority or cpu"}));
 }
 
 TEST(ModuleXmlBad, ExecutorInvalidName) {
@@ -726,12 +743,14 @@ TEST(ModuleXmlBad, ExecutorInvalidName) {
 
 TEST(ModuleXmlBad, BudgetLongerThanPeriod) {
     const std::string text = document(periodic().set("budget", "100001"));
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<budget>"), {"module 'cntr1'", "<budget>", "longer than the period 100000"}));
+    EXPECT_TRUE(
+        refusedAt(text, lineOf(text, "<budget>"), {"module 'cntr1'", "<budget>", "longer than the period 100000"}));
 }
 
 TEST(ModuleXmlBad, OnCrashUnknownValue) {
     const std::string text = document(periodic().set("on_crash", "sometimes"));
-    EXPECT_TRUE(refusedAt(text, lineOf(text, "<on_crash>"), {"module 'cntr1'", "<on_crash>", "'sometimes'; expected exclude or restart"}));
+    EXPECT_TRUE(refusedAt(text, lineOf(text, "<on_crash>"),
+                          {"module 'cntr1'", "<on_crash>", "'sometimes'; expected exclude or restart"}));
 }
 
 TEST(ModuleXmlBad, BudgetOnSporadicModule) {

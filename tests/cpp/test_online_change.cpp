@@ -43,9 +43,9 @@ std::string thread(const std::string &name, const std::string &file, const fs::p
                    const std::string &extra = "") {
     return "  <module><name>" + name + "</name><filename>" + (kOnline / "modules" / file).string() +
            "</filename><moduletype>thread</moduletype><operationtype>periodic</operationtype>"
-           "<period>1000000</period><priority>" + std::to_string(priority) +
-           "</priority><property><value name=\"journal\">" + (dir / (name + ".log")).string() +
-           "</value></property>" + extra + "</module>\n";
+           "<period>1000000</period><priority>" +
+           std::to_string(priority) + "</priority><property><value name=\"journal\">" +
+           (dir / (name + ".log")).string() + "</value></property>" + extra + "</module>\n";
 }
 
 std::string process(const std::string &name, const std::string &file) {
@@ -65,9 +65,17 @@ struct Cell {
 
     explicit Cell(const std::string &modules = "", std::vector<std::string> extra = {}) {
         writeSet("start.xml", "v1", thread("counter", "oc_counter_v1.so", dir.path) + modules);
-        std::vector<std::string> args{kIrpd, "--config", (dir.path / "start.xml").string(), "--control-socket", socket,
-                                      "--instance", instance, "--module-cache", (dir.path / "cache").string(),
-                                      "--stats-json", (dir.path / "stats.json").string()};
+        std::vector<std::string> args{kIrpd,
+                                      "--config",
+                                      (dir.path / "start.xml").string(),
+                                      "--control-socket",
+                                      socket,
+                                      "--instance",
+                                      instance,
+                                      "--module-cache",
+                                      (dir.path / "cache").string(),
+                                      "--stats-json",
+                                      (dir.path / "stats.json").string()};
         args.insert(args.end(), extra.begin(), extra.end());
         irpd = std::make_unique<Process>(args, dir.path);
         EXPECT_TRUE(irpd->waitForErr("irpd: running")) << irpd->err();
@@ -83,7 +91,8 @@ struct Cell {
     }
     // A module.xml naming `layout` (a folder of kOnline) and the modules.
     std::string writeSet(const std::string &file, const std::string &layout, const std::string &modules) {
-        std::ofstream(dir.path / file) << "<root>\n  <layout>" << layoutOf(layout) << "</layout>\n" << modules << "</root>\n";
+        std::ofstream(dir.path / file) << "<root>\n  <layout>" << layoutOf(layout) << "</layout>\n"
+                                       << modules << "</root>\n";
         return (dir.path / file).string();
     }
     json ask(const json &request) { return client->request(request); }
@@ -120,7 +129,7 @@ struct Cell {
 
 void settle() { std::this_thread::sleep_for(std::chrono::milliseconds(200)); }
 
-} // namespace
+}  // namespace
 
 TEST(OnlineChange, AVariableIsAddedWhileTheCounterKeepsCounting) {
     Cell cell;
@@ -128,8 +137,9 @@ TEST(OnlineChange, AVariableIsAddedWhileTheCounterKeepsCounting) {
     const uint64_t before = cell.u64("oc.counter");
     EXPECT_GT(before, 0u);
     // The counter module rebuilt against v2 is the same code: kept.  The adder is new.
-    json answer = cell.load(cell.writeSet("v2.xml", "v2", thread("counter", "oc_counter_v2.so", cell.dir.path) +
-                                                              thread("adder", "oc_adder_v2.so", cell.dir.path, 2)));
+    json answer = cell.load(cell.writeSet("v2.xml", "v2",
+                                          thread("counter", "oc_counter_v2.so", cell.dir.path) +
+                                              thread("adder", "oc_adder_v2.so", cell.dir.path, 2)));
     ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
     const json &report = answer["result"];
     EXPECT_EQ(report["kept"], json({"counter"}));
@@ -161,14 +171,16 @@ TEST(OnlineChange, AVariableIsRemovedAndItsRoomStaysAHole) {
 
 TEST(OnlineChange, ARetypedVariableMovesAndItsUsersAreRebuiltOrRefused) {
     Cell cell;
-    ASSERT_TRUE(cell.load(cell.writeSet("v3.xml", "v3", thread("counter", "oc_counter_v1.so", cell.dir.path) +
-                                                            thread("retyped", "oc_retyped_v3.so", cell.dir.path, 2)))["ok"]);
+    ASSERT_TRUE(cell.load(cell.writeSet("v3.xml", "v3",
+                                        thread("counter", "oc_counter_v1.so", cell.dir.path) +
+                                            thread("retyped", "oc_retyped_v3.so", cell.dir.path, 2)))["ok"]);
     settle();
     EXPECT_GT(cell.f64("oc.retyped"), 0.0);
     const json generation = cell.generation();
     // v4 makes oc.retyped a float: the module built against v3 has no place in it.
-    json refused = cell.load(cell.writeSet("v4-old.xml", "v4", thread("counter", "oc_counter_v1.so", cell.dir.path) +
-                                                                   thread("retyped", "oc_retyped_v3.so", cell.dir.path, 2)));
+    json refused = cell.load(cell.writeSet("v4-old.xml", "v4",
+                                           thread("counter", "oc_counter_v1.so", cell.dir.path) +
+                                               thread("retyped", "oc_retyped_v3.so", cell.dir.path, 2)));
     ASSERT_FALSE(refused.value("ok", true)) << refused.dump();
     const std::string message = refused["error"]["message"];
     EXPECT_NE(message.find("'oc.retyped'"), std::string::npos) << message;
@@ -180,8 +192,9 @@ TEST(OnlineChange, ARetypedVariableMovesAndItsUsersAreRebuiltOrRefused) {
 
     // Built against v1, the counter module knows oc.retyped as a double where v4 no longer has it, so
     // it is rebuilt too: the same code (it does not use oc.retyped), so the running instance is kept.
-    json answer = cell.load(cell.writeSet("v4.xml", "v4", thread("counter", "oc_counter_v4.so", cell.dir.path) +
-                                                              thread("retyped", "oc_retyped_v4.so", cell.dir.path, 2)));
+    json answer = cell.load(cell.writeSet("v4.xml", "v4",
+                                          thread("counter", "oc_counter_v4.so", cell.dir.path) +
+                                              thread("retyped", "oc_retyped_v4.so", cell.dir.path, 2)));
     ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
     EXPECT_EQ(answer["result"]["kept"], json({"counter"}));
     EXPECT_EQ(answer["result"]["started"], json({"retyped"}));
@@ -197,8 +210,8 @@ TEST(OnlineChange, ARetypedVariableMovesAndItsUsersAreRebuiltOrRefused) {
 
 TEST(OnlineChange, AProcessBuiltAgainstTheOldLayoutRunsOnTheNewOne) {
     Cell cell;
-    json answer = cell.load(cell.writeSet("v2.xml", "v2", thread("counter", "oc_counter_v1.so", cell.dir.path) +
-                                                              process("proc", "oc_proc_v1.exe")));
+    json answer = cell.load(cell.writeSet(
+        "v2.xml", "v2", thread("counter", "oc_counter_v1.so", cell.dir.path) + process("proc", "oc_proc_v1.exe")));
     ASSERT_TRUE(answer.value("ok", false)) << answer.dump() << cell.irpd->err();
     EXPECT_EQ(answer["result"]["started"], json({"proc"}));
     settle();
@@ -247,17 +260,21 @@ TEST(OnlineChange, MoreRoomTakesTheBigLayoutOnline) {
 TEST(OnlineChange, TheFixedRoomIsNamedWithTheOptionThatRaisesIt) {
     Cell cell("", {"--module-records", "1", "--process-slots", "1"});
     // One module record, taken by the counter: a new module has none left.
-    json refused = cell.load(cell.writeSet("v2.xml", "v2", thread("counter", "oc_counter_v2.so", cell.dir.path) +
-                                                               thread("adder", "oc_adder_v2.so", cell.dir.path, 2)));
+    json refused = cell.load(cell.writeSet("v2.xml", "v2",
+                                           thread("counter", "oc_counter_v2.so", cell.dir.path) +
+                                               thread("adder", "oc_adder_v2.so", cell.dir.path, 2)));
     ASSERT_FALSE(refused.value("ok", true));
     EXPECT_EQ(refused["error"]["code"], "restart_required") << refused.dump();
-    EXPECT_NE(refused["error"]["message"].get<std::string>().find("--module-records"), std::string::npos) << refused.dump();
+    EXPECT_NE(refused["error"]["message"].get<std::string>().find("--module-records"), std::string::npos)
+        << refused.dump();
     // One process slot: a set with two processes cannot be taken online.
-    refused = cell.load(cell.writeSet("procs.xml", "v1", thread("counter", "oc_counter_v1.so", cell.dir.path) +
-                                                             process("p1", "oc_proc_v1.exe") + process("p2", "oc_proc_v1.exe")));
+    refused = cell.load(cell.writeSet("procs.xml", "v1",
+                                      thread("counter", "oc_counter_v1.so", cell.dir.path) +
+                                          process("p1", "oc_proc_v1.exe") + process("p2", "oc_proc_v1.exe")));
     ASSERT_FALSE(refused.value("ok", true));
     EXPECT_EQ(refused["error"]["code"], "restart_required") << refused.dump();
-    EXPECT_NE(refused["error"]["message"].get<std::string>().find("--process-slots"), std::string::npos) << refused.dump();
+    EXPECT_NE(refused["error"]["message"].get<std::string>().find("--process-slots"), std::string::npos)
+        << refused.dump();
     cell.expectCounterMissedNoPeriod();
 }
 
@@ -276,24 +293,27 @@ std::string fixture(const std::string &name, const std::string &file, int64_t pe
            extra + "</module>\n";
 }
 
-} // namespace
+}  // namespace
 
 TEST(OnlineChange, AnExporterAKeptModuleCallsIntoNeedsThatModuleReplacedToo) {
     Cell cell(fixture("math", "fn_export.so", 1'000'000, 2) + fixture("user", "fn_import.so", 1'000'000, 3));
     const json generation = cell.generation();
-    json refused = cell.load(cell.writeSet("v1-math2.xml", "v1", thread("counter", "oc_counter_v1.so", cell.dir.path) +
-                                                                     fixture("math", "fn_export_v2.so", 1'000'000, 2) +
-                                                                     fixture("user", "fn_import.so", 1'000'000, 3)));
+    json refused = cell.load(cell.writeSet("v1-math2.xml", "v1",
+                                           thread("counter", "oc_counter_v1.so", cell.dir.path) +
+                                               fixture("math", "fn_export_v2.so", 1'000'000, 2) +
+                                               fixture("user", "fn_import.so", 1'000'000, 3)));
     ASSERT_FALSE(refused.value("ok", true));
     EXPECT_EQ(refused["error"]["code"], "restart_required") << refused.dump();
     const std::string message = refused["error"]["message"];
     EXPECT_NE(message.find("module 'user' keeps running and calls shared functions of module 'math' (math.scale)"),
-              std::string::npos) << message;
+              std::string::npos)
+        << message;
     EXPECT_EQ(cell.generation(), generation);
     // With its user replaced too, the new exporter goes in online; so does removing both.
-    json answer = cell.load(cell.writeSet("v1-both.xml", "v1", thread("counter", "oc_counter_v1.so", cell.dir.path) +
-                                                                   fixture("math", "fn_export_v2.so", 1'000'000, 2) +
-                                                                   fixture("user", "fn_import_v2.so", 1'000'000, 3)));
+    json answer = cell.load(cell.writeSet("v1-both.xml", "v1",
+                                          thread("counter", "oc_counter_v1.so", cell.dir.path) +
+                                              fixture("math", "fn_export_v2.so", 1'000'000, 2) +
+                                              fixture("user", "fn_import_v2.so", 1'000'000, 3)));
     ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
     EXPECT_EQ(answer["result"]["started"], json({"math", "user"}));
     answer = cell.load(cell.writeSet("v1-none.xml", "v1", thread("counter", "oc_counter_v1.so", cell.dir.path)));
@@ -304,7 +324,8 @@ TEST(OnlineChange, AnExporterAKeptModuleCallsIntoNeedsThatModuleReplacedToo) {
 
 TEST(OnlineChange, ProcessesCallTheNewCodeOfAnExporterReplacedOnline) {
     Cell cell(fixture("owner", "fn_owner.so", 1'000'000, 2) +
-              fixture("caller", "fn_caller.exe", 0, 0, "process", "<property><value name=\"args\">--loop</value></property>"));
+              fixture("caller", "fn_caller.exe", 0, 0, "process",
+                      "<property><value name=\"args\">--loop</value></property>"));
     ASSERT_TRUE(cell.irpd->waitForOut("scale=10")) << cell.irpd->out() << cell.irpd->err();
     json answer = cell.load(cell.writeSet("owner2.xml", "v1",
                                           thread("counter", "oc_counter_v1.so", cell.dir.path) +
@@ -368,7 +389,7 @@ std::string withSide(Cell &cell, int rt_priority = 0, int cpu = -1) {
                              thread("adder", "oc_adder_v2.so", cell.dir.path, 2, "<executor>side</executor>"));
 }
 
-} // namespace
+}  // namespace
 
 TEST(OnlineChange, AnExecutorIsAddedItsThreadStartsBeforeTheSwapAndRunsTheNewModule) {
     Cell cell;
@@ -406,10 +427,12 @@ TEST(OnlineChange, AnExecutorIsRemovedItsModuleMovesToMainAndItsThreadEnds) {
     ASSERT_TRUE(cell.load(withSide(cell))["ok"]);
     settle();
     const uint64_t added = moduleStats(cell, "adder")["runs"];
-    json answer = cell.load(cell.writeSet("main.xml", "v2", thread("counter", "oc_counter_v2.so", cell.dir.path) +
-                                                                thread("adder", "oc_adder_v2.so", cell.dir.path, 2)));
+    json answer = cell.load(cell.writeSet("main.xml", "v2",
+                                          thread("counter", "oc_counter_v2.so", cell.dir.path) +
+                                              thread("adder", "oc_adder_v2.so", cell.dir.path, 2)));
     ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
-    EXPECT_EQ(answer["result"]["kept"], json({"counter", "adder"})) << "a thread module moved to another executor is kept";
+    EXPECT_EQ(answer["result"]["kept"], json({"counter", "adder"}))
+        << "a thread module moved to another executor is kept";
     EXPECT_TRUE(answer["result"]["missed_periods"].is_number_unsigned()) << answer.dump();
     EXPECT_EQ(executorThreads(cell.irpd->pid()).count("side"), 0u) << "the thread was stopped and joined by the swap";
     EXPECT_EQ(dispatchers(cell).count("side"), 0u);
@@ -456,8 +479,8 @@ TEST(OnlineChange, AnExecutorOnACpuIrpdMayNotUseIsRefusedAndNothingChanges) {
 
 TEST(OnlineChange, ANewExecutorWithoutAStatsRecordNamesTheOption) {
     Cell cell("", {"--module-records", "1"});
-    json refused = cell.load(cell.writeSet("side.xml", "v1", executor("side") +
-                                                                 thread("counter", "oc_counter_v1.so", cell.dir.path)));
+    json refused = cell.load(
+        cell.writeSet("side.xml", "v1", executor("side") + thread("counter", "oc_counter_v1.so", cell.dir.path)));
     ASSERT_FALSE(refused.value("ok", true));
     EXPECT_EQ(refused["error"]["code"], "restart_required") << refused.dump();
     const std::string message = refused["error"]["message"];

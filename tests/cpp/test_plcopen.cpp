@@ -109,8 +109,7 @@ private:
         case OpCode::PowerOn:
             if (inError()) return refuse(st.ErrorID);
             return begin(powerCycles);
-        case OpCode::PowerOff:
-            return begin(powerCycles);
+        case OpCode::PowerOff: return begin(powerCycles);
         case OpCode::MoveJ:
         case OpCode::MoveL:
             if (inError()) return refuse(st.ErrorID);
@@ -141,8 +140,7 @@ private:
                 return;
             }
             return finishReset();
-        default:
-            return refuse(7);
+        default: return refuse(7);
         }
     }
     void finish() {
@@ -156,11 +154,8 @@ private:
             st.Powered = 0;
             if (!inError()) st.eState = 0;
             break;
-        case OpCode::Reset:
-            return finishReset();
-        default:
-            st.eState = 1;
-            break;
+        case OpCode::Reset: return finishReset();
+        default: st.eState = 1; break;
         }
         st.Busy = 0;
         st.MotionDone = 1;
@@ -946,8 +941,8 @@ TEST_F(Program, StartRunsTheWholeCycleThroughEveryStepInOrder) {
     Vec6 pickUp = settings.pick, placeUp = settings.place;
     pickUp[2] += settings.lift;
     placeUp[2] += settings.lift;
-    const std::vector<Vec6> targets{settings.home, settings.pick_above, settings.pick, pickUp,
-                                    settings.place_above, settings.place, placeUp, settings.home};
+    const std::vector<Vec6> targets{settings.home,        settings.pick_above, settings.pick, pickUp,
+                                    settings.place_above, settings.place,      placeUp,       settings.home};
     for (std::size_t i = 0; i < m.size(); ++i) {
         EXPECT_EQ(m[i].op, ops[i]) << "step " << i + 1;
         for (int k = 0; k < kAxes; ++k) EXPECT_DOUBLE_EQ(m[i].target[k], targets[i][k]) << "step " << i + 1;
@@ -1349,9 +1344,9 @@ TEST_F(CellSegment, MainRunsTheCycleOnTheSharedVariables) {
     EXPECT_EQ(steps, kOneCycle);
     EXPECT_EQ(out.Done, 1);
     EXPECT_EQ(out.Cycles, 1u);
-    ASSERT_EQ(robot.ops(), (std::vector<OpCode>{OpCode::PowerOn, OpCode::MoveJ, OpCode::MoveJ, OpCode::MoveL,
-                                                OpCode::MoveL, OpCode::MoveJ, OpCode::MoveL, OpCode::MoveL,
-                                                OpCode::MoveJ}));
+    ASSERT_EQ(robot.ops(),
+              (std::vector<OpCode>{OpCode::PowerOn, OpCode::MoveJ, OpCode::MoveJ, OpCode::MoveL, OpCode::MoveL,
+                                   OpCode::MoveJ, OpCode::MoveL, OpCode::MoveL, OpCode::MoveJ}));
     const pou::Settings defaults;
     for (int k = 0; k < kAxes; ++k) EXPECT_DOUBLE_EQ(robot.taken[1].target[k], defaults.home[k]);
     EXPECT_DOUBLE_EQ(robot.taken[1].speed, 1.0);

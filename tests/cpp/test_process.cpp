@@ -63,8 +63,10 @@ config::ModuleSpec processSpec(const std::string &name, const std::string &file,
     m.priority = 1;
     m.properties = std::move(props);
     auto parsed = config::parseProcessProperties(m.properties);  // as module.xml's parser does
-    if (!parsed) ADD_FAILURE() << parsed.error().message;
-    else m.process = std::move(*parsed);
+    if (!parsed)
+        ADD_FAILURE() << parsed.error().message;
+    else
+        m.process = std::move(*parsed);
     m.where = "sets/test/module.xml:9";
     m.line = 9;
     return m;
@@ -73,7 +75,8 @@ config::ModuleSpec processSpec(const std::string &name, const std::string &file,
 // What irpd's dispatcher does for one release of slot s; returns the release's sequence number.
 uint32_t release(indurop_process_slot &s, uint64_t cycle) {
     std::atomic_ref<uint64_t>(s.cycle).store(cycle, std::memory_order_relaxed);
-    std::atomic_ref<int64_t>(s.planned_ns).store(5'000'000'000 + static_cast<int64_t>(cycle) * 1'000'000, std::memory_order_relaxed);
+    std::atomic_ref<int64_t>(s.planned_ns)
+        .store(5'000'000'000 + static_cast<int64_t>(cycle) * 1'000'000, std::memory_order_relaxed);
     std::atomic_ref<int64_t>(s.basic_ns).store(1'000'000, std::memory_order_relaxed);
     std::atomic_ref<int64_t>(s.release_ns).store(nowNs(), std::memory_order_relaxed);
     const uint32_t seq = std::atomic_ref<uint32_t>(s.release_seq).fetch_add(1, std::memory_order_release) + 1;
@@ -114,8 +117,10 @@ struct Harness {
 
     explicit Harness(uint32_t slots = 4) {
         auto c = ControlSegment::create(instance, slots);
-        if (!c) ADD_FAILURE() << c.error().message;
-        else control = std::move(*c);
+        if (!c)
+            ADD_FAILURE() << c.error().message;
+        else
+            control = std::move(*c);
     }
     ~Harness() { supervisor.stopAll(2'000 * kMs); }
 
@@ -174,13 +179,15 @@ struct Variables {
             return;
         }
         auto s = variables::VariableSegment::create(uniqueInstance(), *layout);
-        if (!s) ADD_FAILURE() << s.error().message;
-        else segment = std::move(*s);
+        if (!s)
+            ADD_FAILURE() << s.error().message;
+        else
+            segment = std::move(*s);
     }
     std::string name() const { return segment->name(); }
 };
 
-} // namespace
+}  // namespace
 
 // ---- lifecycle ----------------------------------------------------------------------------------
 
@@ -204,8 +211,8 @@ TEST(ProcessLifecycle, ReleasedAndAwaitedThroughItsSlot) {
         EXPECT_GE(s.done_ns, s.release_ns);
         // irp::cycle() in the process is what the slot carried.
         const std::string expected = "[cyc] period n=" + std::to_string(k + 1) + " cycle=" + std::to_string(cycle) +
-                                     " slot=" + std::to_string(cycle) + " planned=" +
-                                     std::to_string(5'000'000'000 + cycle * 1'000'000) + " basic=1000000";
+                                     " slot=" + std::to_string(cycle) +
+                                     " planned=" + std::to_string(5'000'000'000 + cycle * 1'000'000) + " basic=1000000";
         EXPECT_TRUE(h.waitFor(expected)) << h.all();
     }
     EXPECT_EQ(stateOf(s), INDUROP_PROCESS_READY);
@@ -227,10 +234,11 @@ TEST(ProcessLifecycle, ArgsAndEnvPropertiesReachTheChild) {
     const int leaked = open("/dev/null", O_RDONLY);  // no O_CLOEXEC: the child must not get it
     ASSERT_GE(leaked, 3);
     Harness h;
-    auto spec = processSpec("argenv", "proc_periodic.exe", config::OperationType::NonReal,
-                            {{"args", R"(--env FOO --env INDUROP_MODULE --env INDUROP_SLOT --env INDUROP_CTL)"
-                                      R"( --env INDUROP_SHM --env INDUROP_TEST_INHERITED "two words" "q\"uote" --no-init)"},
-                             {"env.FOO", "bar baz"}});
+    auto spec =
+        processSpec("argenv", "proc_periodic.exe", config::OperationType::NonReal,
+                    {{"args", R"(--env FOO --env INDUROP_MODULE --env INDUROP_SLOT --env INDUROP_CTL)"
+                              R"( --env INDUROP_SHM --env INDUROP_TEST_INHERITED "two words" "q\"uote" --no-init)"},
+                     {"env.FOO", "bar baz"}});
     ASSERT_TRUE(h.supervisor.start(h.launch(spec, 2)).ok());
     unsetenv("INDUROP_TEST_INHERITED");
     close(leaked);
@@ -268,7 +276,8 @@ TEST(ProcessLifecycle, RealTimePriorityAndCpuOrOneReportEach) {
     ASSERT_TRUE(h.waitUntil("rt", [](const hosts::ProcessInfo &p) { return p.starts == 2; })) << h.all();
     ASSERT_TRUE(h.supervisor.waitReady(kLong).ok()) << h.all();
     auto count = [&](const std::string &text) {
-        return std::count_if(h.lines.begin(), h.lines.end(), [&](const std::string &l) { return l.find(text) != std::string::npos; });
+        return std::count_if(h.lines.begin(), h.lines.end(),
+                             [&](const std::string &l) { return l.find(text) != std::string::npos; });
     };
     ASSERT_TRUE(h.waitUntil("rt", [&](const hosts::ProcessInfo &) { return count("[rt] fds=") == 2; })) << h.all();
     // Either granted, or refused with one line for both starts (a container may refuse SCHED_FIFO).
@@ -280,9 +289,10 @@ TEST(ProcessLifecycle, RealTimePriorityAndCpuOrOneReportEach) {
 
 TEST(ProcessLifecycle, NotReadyInTimeIsNamed) {
     Harness h;
-    ASSERT_TRUE(h.supervisor.start(h.launch(processSpec("sleepy", "proc_periodic.exe", config::OperationType::Periodic,
-                                                        {{"args", "--no-init"}}),
-                                            0))
+    ASSERT_TRUE(h.supervisor
+                    .start(h.launch(processSpec("sleepy", "proc_periodic.exe", config::OperationType::Periodic,
+                                                {{"args", "--no-init"}}),
+                                    0))
                     .ok());
     Status ready = h.supervisor.waitReady(200 * kMs);
     ASSERT_FALSE(ready.ok());
@@ -312,7 +322,8 @@ TEST(ProcessRestart, CrashIsLoggedCountedAndRestartedOnFailure) {
     EXPECT_TRUE(h.has("process module 'crashy' (pid " + std::to_string(first) + ") killed by SIGSEGV")) << h.all();
     EXPECT_TRUE(h.has("restarting in 20 ms (restart=on-failure)")) << h.all();
 
-    ASSERT_TRUE(h.waitUntil("crashy", [](const hosts::ProcessInfo &p) { return p.running && p.restarts == 1; })) << h.all();
+    ASSERT_TRUE(h.waitUntil("crashy", [](const hosts::ProcessInfo &p) { return p.running && p.restarts == 1; }))
+        << h.all();
     info = h.info("crashy");
     EXPECT_EQ(info.starts, 2u);
     EXPECT_NE(info.pid, first);
@@ -344,10 +355,12 @@ TEST(ProcessRestart, CrashWithRestartNeverStaysDown) {
 
 TEST(ProcessRestart, CleanExitRestartedWithAlwaysUpToMaxRestarts) {
     Harness h;
-    auto spec = processSpec("loop", "proc_periodic.exe", config::OperationType::NonReal,
-                            {{"args", "--exit-now 0"}, {"restart", "always"}, {"restart_delay_ms", "1"}, {"max_restarts", "3"}});
+    auto spec = processSpec(
+        "loop", "proc_periodic.exe", config::OperationType::NonReal,
+        {{"args", "--exit-now 0"}, {"restart", "always"}, {"restart_delay_ms", "1"}, {"max_restarts", "3"}});
     ASSERT_TRUE(h.supervisor.start(h.launch(spec, 0)).ok());
-    ASSERT_TRUE(h.waitUntil("loop", [](const hosts::ProcessInfo &p) { return p.exits == 4 && !p.restart_pending; })) << h.all();
+    ASSERT_TRUE(h.waitUntil("loop", [](const hosts::ProcessInfo &p) { return p.exits == 4 && !p.restart_pending; }))
+        << h.all();
     const auto info = h.info("loop");
     EXPECT_EQ(info.starts, 4u);
     EXPECT_EQ(info.restarts, 3u);
@@ -360,9 +373,10 @@ TEST(ProcessRestart, CleanExitRestartedWithAlwaysUpToMaxRestarts) {
 
 TEST(ProcessRestart, CleanExitNotRestartedOnFailurePolicy) {
     Harness h;
-    ASSERT_TRUE(h.supervisor.start(h.launch(processSpec("fine", "proc_periodic.exe", config::OperationType::NonReal,
-                                                        {{"args", "--exit-now 0"}}),
-                                            0))
+    ASSERT_TRUE(h.supervisor
+                    .start(h.launch(processSpec("fine", "proc_periodic.exe", config::OperationType::NonReal,
+                                                {{"args", "--exit-now 0"}}),
+                                    0))
                     .ok());
     ASSERT_TRUE(h.waitUntil("fine", [](const hosts::ProcessInfo &p) { return p.exits == 1; })) << h.all();
     EXPECT_FALSE(h.info("fine").restart_pending);
@@ -413,16 +427,17 @@ TEST(ProcessStop, HangInItsPeriodTimesOutThenStopAllKillsIt) {
 TEST(ProcessStop, StopAllEndsEveryKindOfChild) {
     Harness h;
     ASSERT_TRUE(h.supervisor.start(h.launch(processSpec("p", "proc_periodic.exe"), 0)).ok());
-    ASSERT_TRUE(h.supervisor.start(h.launch(processSpec("n", "proc_periodic.exe", config::OperationType::NonReal,
-                                                        {{"args", "--no-init"}}),
-                                            1))
-                    .ok());
+    ASSERT_TRUE(
+        h.supervisor
+            .start(h.launch(
+                processSpec("n", "proc_periodic.exe", config::OperationType::NonReal, {{"args", "--no-init"}}), 1))
+            .ok());
     ASSERT_TRUE(h.supervisor.waitReady(kLong).ok()) << h.all();
     const pid_t p = h.info("p").pid, n = h.info("n").pid;
     h.supervisor.stopAll(1'000 * kMs);
     EXPECT_TRUE(pidGone(p));
     EXPECT_TRUE(pidGone(n));
-    EXPECT_EQ(h.info("p").last_exit, "exited with status 0");          // left through waitPeriod() == -1
+    EXPECT_EQ(h.info("p").last_exit, "exited with status 0");             // left through waitPeriod() == -1
     EXPECT_NE(h.info("n").last_exit.find("SIGTERM"), std::string::npos);  // no handshake: SIGTERM
 }
 
@@ -701,9 +716,11 @@ TEST_P(ChannelBadPath, IsMinusOneWithAReason) {
     const BadPath &bad = GetParam();
     char buffer[128] = {};
     EXPECT_EQ(read(handle, bad.path, bad.size, buffer), -1);
-    EXPECT_NE(std::string(channel::lastError(handle)).find(bad.message), std::string::npos) << channel::lastError(handle);
+    EXPECT_NE(std::string(channel::lastError(handle)).find(bad.message), std::string::npos)
+        << channel::lastError(handle);
     EXPECT_EQ(write(handle, bad.path, bad.size, buffer), -1);
-    EXPECT_NE(std::string(channel::lastError(handle)).find(bad.message), std::string::npos) << channel::lastError(handle);
+    EXPECT_NE(std::string(channel::lastError(handle)).find(bad.message), std::string::npos)
+        << channel::lastError(handle);
     // The handle still works afterwards.
     double y;
     EXPECT_EQ(read(handle, "joint[0].x", sizeof y, &y), 8);
@@ -712,26 +729,27 @@ TEST_P(ChannelBadPath, IsMinusOneWithAReason) {
 
 INSTANTIATE_TEST_SUITE_P(
     Paths, ChannelBadPath,
-    ::testing::Values(
-        BadPath{"IndexOutOfRange", "joint[4].y", 8, "index 4 out of range, 'joint' has 4 elements (0..3)"},
-        BadPath{"NoSuchMember", "joint[1].w", 8, "'joint[1]' has no member w (members: x, y, z)"},
-        BadPath{"SizeOfALeaf", "joint[1].y", 4, "size 4 given for 'joint[1].y', which is 8 bytes"},
-        BadPath{"SizeOfAWholeArray", "joint", 24, "size 24 given for 'joint', which is 96 bytes"},
-        BadPath{"MemberOfAnArray", "joint.y", 8, "'joint' is an array of 4: index it before .y"},
-        BadPath{"MemberOfAScalar", "joint[1].y.z", 8, "'joint[1].y' is a double, it has no member z"},
-        BadPath{"IndexOfAScalar", "joint[1].y[0]", 8, "'joint[1].y' is not an array"},
-        BadPath{"IndexNotANumber", "joint[x].y", 8, "index 'x' is not a decimal number"},
-        BadPath{"NegativeIndex", "joint[-1].y", 8, "index '-1' is not a decimal number"},
-        BadPath{"UnclosedBracket", "joint[1", 8, "'[' without ']'"},
-        BadPath{"EmptyMember", "joint[1]..y", 8, "empty member name"},
-        BadPath{"TextAfterIndex", "joint[1]y", 8, "unexpected 'y' after 'joint[1]'"},
-        BadPath{"OuterIndexOutOfRange", "m[2][0]", 4, "index 2 out of range, 'm' has 2 elements"},
-        BadPath{"InnerIndexOutOfRange", "m[1][3]", 4, "index 3 out of range, 'm[1]' has 3 elements"},
-        BadPath{"UnknownVariable", "nosuch", 4, "no shared variable matches path 'nosuch'"},
-        BadPath{"PrefixOfAVariable", "jointx[1].y", 8, "no shared variable matches path 'jointx[1].y'"},
-        BadPath{"AmbiguousWithoutNamespace", "tick", 4, "'tick' is ambiguous: tick is in several namespaces (test.cell.tick, test.other.tick)"},
-        BadPath{"NamespacedIndexOutOfRange", "test.cell.rec[2]", 16, "index 2 out of range"},
-        BadPath{"EmptyPath", "", 4, "empty path"}),
+    ::testing::Values(BadPath{"IndexOutOfRange", "joint[4].y", 8,
+                              "index 4 out of range, 'joint' has 4 elements (0..3)"},
+                      BadPath{"NoSuchMember", "joint[1].w", 8, "'joint[1]' has no member w (members: x, y, z)"},
+                      BadPath{"SizeOfALeaf", "joint[1].y", 4, "size 4 given for 'joint[1].y', which is 8 bytes"},
+                      BadPath{"SizeOfAWholeArray", "joint", 24, "size 24 given for 'joint', which is 96 bytes"},
+                      BadPath{"MemberOfAnArray", "joint.y", 8, "'joint' is an array of 4: index it before .y"},
+                      BadPath{"MemberOfAScalar", "joint[1].y.z", 8, "'joint[1].y' is a double, it has no member z"},
+                      BadPath{"IndexOfAScalar", "joint[1].y[0]", 8, "'joint[1].y' is not an array"},
+                      BadPath{"IndexNotANumber", "joint[x].y", 8, "index 'x' is not a decimal number"},
+                      BadPath{"NegativeIndex", "joint[-1].y", 8, "index '-1' is not a decimal number"},
+                      BadPath{"UnclosedBracket", "joint[1", 8, "'[' without ']'"},
+                      BadPath{"EmptyMember", "joint[1]..y", 8, "empty member name"},
+                      BadPath{"TextAfterIndex", "joint[1]y", 8, "unexpected 'y' after 'joint[1]'"},
+                      BadPath{"OuterIndexOutOfRange", "m[2][0]", 4, "index 2 out of range, 'm' has 2 elements"},
+                      BadPath{"InnerIndexOutOfRange", "m[1][3]", 4, "index 3 out of range, 'm[1]' has 3 elements"},
+                      BadPath{"UnknownVariable", "nosuch", 4, "no shared variable matches path 'nosuch'"},
+                      BadPath{"PrefixOfAVariable", "jointx[1].y", 8, "no shared variable matches path 'jointx[1].y'"},
+                      BadPath{"AmbiguousWithoutNamespace", "tick", 4,
+                              "'tick' is ambiguous: tick is in several namespaces (test.cell.tick, test.other.tick)"},
+                      BadPath{"NamespacedIndexOutOfRange", "test.cell.rec[2]", 16, "index 2 out of range"},
+                      BadPath{"EmptyPath", "", 4, "empty path"}),
     [](const ::testing::TestParamInfo<BadPath> &info) { return std::string(info.param.name); });
 
 TEST(ChannelPaths, NullArgumentsAreErrors) {
@@ -794,9 +812,9 @@ TEST(PaperFigure8, SporadicProcessReleasedThroughItsSlotReadsJoint1Y) {
     Harness h;
     Variables vars;
     joint[1].y = 181.5;  // an event for its condition()
-    ASSERT_TRUE(h.supervisor.start(h.launch(processSpec("fig8", "fig8_sporadic_process.exe",
-                                                        config::OperationType::Sporadic),
-                                            0, vars.name()))
+    ASSERT_TRUE(h.supervisor
+                    .start(h.launch(processSpec("fig8", "fig8_sporadic_process.exe", config::OperationType::Sporadic),
+                                    0, vars.name()))
                     .ok());
     ASSERT_TRUE(h.supervisor.waitReady(kLong).ok()) << h.all();
     indurop_process_slot &s = h.slot(0);

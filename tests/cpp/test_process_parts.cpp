@@ -35,7 +35,7 @@ RestartPolicy policy(config::RestartPolicy restart, int64_t delay_ms = 100, int6
     return RestartPolicy(p);
 }
 
-} // namespace
+}  // namespace
 
 // ---- restart policy ---------------------------------------------------------------------------
 
@@ -65,7 +65,8 @@ TEST(RestartPolicy, TheDelayDoublesPerQuickRestartUpToTenSecondsAndResetsAfterAS
     RestartPolicy p = policy(config::RestartPolicy::Always, 1000);
     std::vector<int64_t> delays;
     for (int i = 0; i < 6; ++i) delays.push_back(p.afterExit(exitedWith(1), kMs, static_cast<uint64_t>(i)).delay_ns);
-    EXPECT_EQ(delays, (std::vector<int64_t>{1 * kSecond, 2 * kSecond, 4 * kSecond, 8 * kSecond, 10 * kSecond, 10 * kSecond}));
+    EXPECT_EQ(delays,
+              (std::vector<int64_t>{1 * kSecond, 2 * kSecond, 4 * kSecond, 8 * kSecond, 10 * kSecond, 10 * kSecond}));
     // A run of 10 s: the first delay again.
     EXPECT_EQ(p.afterExit(exitedWith(1), 10 * kSecond, 6).delay_ns, 1 * kSecond);
     EXPECT_EQ(p.afterExit(exitedWith(1), kMs, 7).delay_ns, 2 * kSecond);
@@ -115,7 +116,9 @@ struct Piped {
     ~Piped() {
         if (write_end >= 0) close(write_end);
     }
-    void write(const std::string &text) { ASSERT_EQ(::write(write_end, text.data(), text.size()), static_cast<ssize_t>(text.size())); }
+    void write(const std::string &text) {
+        ASSERT_EQ(::write(write_end, text.data(), text.size()), static_cast<ssize_t>(text.size()));
+    }
     void closeWriter() {
         close(write_end);
         write_end = -1;
@@ -128,12 +131,13 @@ struct Output {
     Piped out, err;
     hosts::ProcessOutput output;
     explicit Output(hosts::OutputLimits limits = {})
-        : output("talker", limits, [this](std::string_view l) { lines.emplace_back(l); }, [this] { return t; }) {
+        : output(
+              "talker", limits, [this](std::string_view l) { lines.emplace_back(l); }, [this] { return t; }) {
         output.attach(out.read_end, err.read_end);
     }
 };
 
-} // namespace
+}  // namespace
 
 TEST(ProcessOutput, LinesOfBothStreamsAreForwardedWithTheModulesName) {
     Output o;
@@ -174,7 +178,9 @@ TEST(ProcessOutput, AFloodIsDroppedCountedAndReportedOncePerSecond) {
     o.t += kSecond;
     o.output.reportDrops(false);
     ASSERT_EQ(o.lines.size(), 4u);
-    EXPECT_EQ(o.lines.back(), "irpd: process module 'talker': 2 output lines (2 bytes) dropped: more than 3 lines or 64 KiB per second");
+    EXPECT_EQ(
+        o.lines.back(),
+        "irpd: process module 'talker': 2 output lines (2 bytes) dropped: more than 3 lines or 64 KiB per second");
     EXPECT_FALSE(o.output.dropping());
     o.out.write("f\n");  // a new window
     o.output.read();
@@ -201,7 +207,7 @@ int devNull() {
     close(fd);
     return moved;
 }
-} // namespace
+}  // namespace
 
 TEST(ProcessSpawn, TheEnvironmentDropsIrpdsVariablesAndReplacesWhatIsSet) {
     std::string path = "PATH=/usr/bin", stale = "INDUROP_SHM=/old", foo = "FOO=old", bare = "BARE";

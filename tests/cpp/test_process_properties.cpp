@@ -36,7 +36,7 @@ std::string processWith(const std::vector<std::pair<std::string, std::string>> &
     return refusedAt(text, lineOf(text, "name=\"" + property + "\""), pieces);
 }
 
-} // namespace
+}  // namespace
 
 // ---- accepted ---------------------------------------------------------------------------------
 
@@ -68,9 +68,11 @@ TEST(ProcessProperties, DefaultsWithoutAnyProperty) {
 
 TEST(ProcessProperties, EveryAcceptedValueOfTheLimits) {
     for (const char *policy : {"never", "always", "on-failure"})
-        EXPECT_EQ(toString(accepted(processWith({{"restart", policy}})).modules[0].process.restart), std::string(policy));
+        EXPECT_EQ(toString(accepted(processWith({{"restart", policy}})).modules[0].process.restart),
+                  std::string(policy));
     EXPECT_EQ(accepted(processWith({{"restart_delay_ms", "1"}})).modules[0].process.restart_delay_ns, 1'000'000);
-    EXPECT_EQ(accepted(processWith({{"restart_delay_ms", "10000"}})).modules[0].process.restart_delay_ns, 10'000'000'000);
+    EXPECT_EQ(accepted(processWith({{"restart_delay_ms", "10000"}})).modules[0].process.restart_delay_ns,
+              10'000'000'000);
     EXPECT_EQ(accepted(processWith({{"max_restarts", "0"}})).modules[0].process.max_restarts, 0);
     EXPECT_EQ(accepted(processWith({{"max_restarts", "unlimited"}})).modules[0].process.max_restarts, -1);
     EXPECT_TRUE(accepted(processWith({{"args", ""}})).modules[0].process.args.empty());
@@ -78,7 +80,8 @@ TEST(ProcessProperties, EveryAcceptedValueOfTheLimits) {
 
 TEST(ProcessProperties, AThreadModuleKeepsWhatANameMeansToIt) {
     // Thread modules get every property in initialize(): "restart" is theirs to interpret.
-    const SetSpec set = accepted(document(periodic().line(R"(<property><value name="restart">sometimes</value></property>)")));
+    const SetSpec set =
+        accepted(document(periodic().line(R"(<property><value name="restart">sometimes</value></property>)")));
     ASSERT_EQ(set.modules.size(), 1u);
     EXPECT_EQ(set.modules[0].properties, (std::vector<std::pair<std::string, std::string>>{{"restart", "sometimes"}}));
     EXPECT_EQ(set.modules[0].process, ProcessProperties{});
@@ -94,8 +97,9 @@ TEST(ProcessProperties, APeriodicProcessIsCheckedToo) {
 // ---- refused, one test per bad property --------------------------------------------------------
 
 TEST(ProcessPropertiesBad, RestartSometimes) {
-    EXPECT_TRUE(refusesProperty("restart", "sometimes",
-                                {"module 'logger': property restart = 'sometimes': expected never, always or on-failure"}));
+    EXPECT_TRUE(
+        refusesProperty("restart", "sometimes",
+                        {"module 'logger': property restart = 'sometimes': expected never, always or on-failure"}));
 }
 
 TEST(ProcessPropertiesBad, RestartIsCaseSensitive) {
@@ -107,8 +111,9 @@ TEST(ProcessPropertiesBad, RestartEmpty) {
 }
 
 TEST(ProcessPropertiesBad, RestartDelayNotANumber) {
-    EXPECT_TRUE(refusesProperty("restart_delay_ms", "soon",
-                                {"module 'logger': property restart_delay_ms = 'soon': expected a whole number from 1 to 10000"}));
+    EXPECT_TRUE(refusesProperty(
+        "restart_delay_ms", "soon",
+        {"module 'logger': property restart_delay_ms = 'soon': expected a whole number from 1 to 10000"}));
 }
 
 TEST(ProcessPropertiesBad, RestartDelayZero) {
@@ -124,7 +129,8 @@ TEST(ProcessPropertiesBad, RestartDelayWithUnit) {
 }
 
 TEST(ProcessPropertiesBad, RestartDelayOverflow) {
-    EXPECT_TRUE(refusesProperty("restart_delay_ms", "99999999999999999999999", {"restart_delay_ms = '9999", "from 1 to 10000"}));
+    EXPECT_TRUE(refusesProperty("restart_delay_ms", "99999999999999999999999",
+                                {"restart_delay_ms = '9999", "from 1 to 10000"}));
 }
 
 TEST(ProcessPropertiesBad, MaxRestartsNegative) {
@@ -142,9 +148,10 @@ TEST(ProcessPropertiesBad, ArgsWithAnUnterminatedQuote) {
 }
 
 TEST(ProcessPropertiesBad, EnvOverridingAnIrpdVariable) {
-    EXPECT_TRUE(refusesProperty("env.INDUROP_SLOT", "0",
-                                {"module 'logger': property env.INDUROP_SLOT: INDUROP_SLOT is set by irpd and cannot be "
-                                 "overridden"}));
+    EXPECT_TRUE(
+        refusesProperty("env.INDUROP_SLOT", "0",
+                        {"module 'logger': property env.INDUROP_SLOT: INDUROP_SLOT is set by irpd and cannot be "
+                         "overridden"}));
 }
 
 TEST(ProcessPropertiesBad, EnvWithoutAName) {
@@ -160,7 +167,8 @@ TEST(ProcessPropertiesBad, EnvNameWithAnEqualsSign) {
 TEST(ProcessPropertiesParts, TheFirstBadPropertyIsTheError) {
     auto parsed = parseProcessProperties({{"restart", "never"}, {"max_restarts", "x"}, {"restart", "sometimes"}});
     ASSERT_FALSE(parsed.ok());
-    EXPECT_EQ(parsed.error().message, "property max_restarts = 'x': expected a whole number from 0 to 1000000000, or unlimited");
+    EXPECT_EQ(parsed.error().message,
+              "property max_restarts = 'x': expected a whole number from 0 to 1000000000, or unlimited");
     auto good = parseProcessProperties({{"restart", "never"}, {"args", "-v"}});
     ASSERT_TRUE(good.ok()) << good.error().message;
     EXPECT_EQ(good->restart, RestartPolicy::Never);

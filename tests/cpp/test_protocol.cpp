@@ -79,9 +79,10 @@ json changes(std::size_t count, const json &entry_values) {
 }
 
 std::string periodic(const std::string &name, int64_t period_ns, int64_t priority) {
-    return "  <module><filename>./" + name + ".so</filename><moduletype>thread</moduletype>"
-           "<operationtype>periodic</operationtype><period>" + std::to_string(period_ns) + "</period><priority>" +
-           std::to_string(priority) + "</priority></module>\n";
+    return "  <module><filename>./" + name +
+           ".so</filename><moduletype>thread</moduletype>"
+           "<operationtype>periodic</operationtype><period>" +
+           std::to_string(period_ns) + "</period><priority>" + std::to_string(priority) + "</priority></module>\n";
 }
 
 irp::Result<irp::config::SetSpec> parsed(const std::string &modules) {
@@ -89,7 +90,7 @@ irp::Result<irp::config::SetSpec> parsed(const std::string &modules) {
                                            "/sets/test/module.xml");
 }
 
-} // namespace
+}  // namespace
 
 TEST(ProtocolTable, EveryCommandDecodesWithTheArgumentsItsTableRequires) {
     std::set<std::string> names;
@@ -103,8 +104,7 @@ TEST(ProtocolTable, EveryCommandDecodesWithTheArgumentsItsTableRequires) {
             if (!command.args[i].required) continue;
             json without = request;
             without.erase(command.args[i].name);
-            EXPECT_TRUE(refused(without, std::string("'") + command.args[i].name + "' is required"))
-                << command.name;
+            EXPECT_TRUE(refused(without, std::string("'") + command.args[i].name + "' is required")) << command.name;
         }
     }
     EXPECT_EQ(names.size(), protocol::kCommandCount) << "a command is in the table twice";
@@ -124,7 +124,8 @@ TEST(ProtocolTable, ArgumentsOfTheWrongTypeAreRefusedNamingTheArgument) {
     EXPECT_TRUE(refused({{"cmd", "load"}, {"config", "a.xml"}, {"set_id", 3}}, "'set_id' must be a string"));
     EXPECT_TRUE(refused({{"cmd", "set_period"}, {"module", "cntr1"}, {"period_ns", 1.5}}, "'period_ns' must be"));
     EXPECT_TRUE(refused({{"cmd", "write"}, {"path", "x"}, {"value", "1"}}, "'value' must be a number or a boolean"));
-    EXPECT_TRUE(refused({{"cmd", "write"}, {"path", "x"}, {"value", nullptr}}, "'value' must be a number or a boolean"));
+    EXPECT_TRUE(
+        refused({{"cmd", "write"}, {"path", "x"}, {"value", nullptr}}, "'value' must be a number or a boolean"));
     EXPECT_TRUE(refused({{"cmd", "trace"}, {"channels", "x"}}, "'channels' must be a list"));
     EXPECT_TRUE(refused({{"cmd", "trace"}, {"channels", {"x", 3}}}, "channels[1] must be a non-empty string"));
     EXPECT_TRUE(refused({{"cmd", "change"}, {"changes", {{{"module", "a"}, {"priority", 1}}}}, {"dry_run", "yes"}},
@@ -176,7 +177,8 @@ TEST(ProtocolLimits, PeriodModuleNameAndEventLimitAtTheirEdges) {
     EXPECT_TRUE(refused({{"cmd", "events"}, {"since", -1}}, "'since' must be a non-negative integer"));
     auto most = decodeCommand("events", json{{"cmd", "events"}, {"limit", protocol::kEventLogCapacity + 1}});
     ASSERT_TRUE(most.ok());
-    EXPECT_EQ(most->limit, static_cast<std::size_t>(protocol::kEventLogCapacity)) << "more than the log holds counts as all";
+    EXPECT_EQ(most->limit, static_cast<std::size_t>(protocol::kEventLogCapacity))
+        << "more than the log holds counts as all";
     auto plain = decodeCommand("events", json{{"cmd", "events"}});
     ASSERT_TRUE(plain.ok());
     EXPECT_EQ(plain->limit, static_cast<std::size_t>(protocol::kEventsDefaultLimit));

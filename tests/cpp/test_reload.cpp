@@ -105,14 +105,15 @@ std::size_t children(pid_t parent) {
     return n;
 }
 
-} // namespace
+}  // namespace
 
 TEST(HotReload, AKeptModuleKeepsItsInstanceAndAChangedOneIsItsNewCode) {
     Cell cell;
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     // swap.so is rebuilt (v2) at the same path; keep.so is untouched.
     fs::copy_file(kModules / "counter_v2.so", cell.dir.path / "swap.so", fs::copy_options::overwrite_existing);
-    json report = cell.result({{"cmd", "load"}, {"config", (cell.dir.path / "module.xml").string()}, {"set_id", "abc"}});
+    json report =
+        cell.result({{"cmd", "load"}, {"config", (cell.dir.path / "module.xml").string()}, {"set_id", "abc"}});
     EXPECT_EQ(report["kept"], json({"keep"}));
     EXPECT_EQ(report["started"], json({"swap"}));
     EXPECT_EQ(report["stopped"], json({"swap"}));
@@ -225,7 +226,9 @@ TEST(HotReload, ASwapThatFailsHalfwayStopsWhatItStartedAndLeavesTheRunningSetUnt
     fs::copy_file(kModules / "start_throws.so", cell.dir.path / "startthrows.so");
     const std::string exe = std::string(FIXTURE_PROCESSES) + "/proc_periodic.exe";
     const std::string keep = module("keep", "keep.so", 1'000'000, 1, journalOf(cell.dir.path, "keep"));
-    auto fresh = [&](const std::string &name) { return module(name, name + ".so", 2'000'000, 2, journalOf(cell.dir.path, name)); };
+    auto fresh = [&](const std::string &name) {
+        return module(name, name + ".so", 2'000'000, 2, journalOf(cell.dir.path, name));
+    };
     // New thread modules are all loaded, then all initialized, then started in file order;
     // processes start after them.  a_log, c_log: what a and c (before and after the failing x)
     // must have journaled: every start() stopped again.
@@ -239,8 +242,10 @@ TEST(HotReload, ASwapThatFailsHalfwayStopsWhatItStartedAndLeavesTheRunningSetUnt
         {"start throws", module("x", "startthrows.so", 2'000'000, 3), "drive not ready", started, ""},
         {"a process that exits before it is ready",
          "  <module><name>x</name><filename>" + exe +
-             "</filename><moduletype>process</moduletype><operationtype>periodic</operationtype><period>2000000</period>"
-             "<priority>3</priority><property><value name=\"args\">--exit-now 3</value><value name=\"restart\">never</value>"
+             "</filename><moduletype>process</moduletype><operationtype>periodic</operationtype><period>2000000</"
+             "period>"
+             "<priority>3</priority><property><value name=\"args\">--exit-now 3</value><value "
+             "name=\"restart\">never</value>"
              "</property></module>\n",
          "x", started, started},
     };
@@ -252,7 +257,8 @@ TEST(HotReload, ASwapThatFailsHalfwayStopsWhatItStartedAndLeavesTheRunningSetUnt
         cell.write("half.xml", "<root>\n" + keep + fresh("a") + c.failing + fresh("c") + "</root>\n");
         json answer = cell.ask({{"cmd", "load"}, {"config", (cell.dir.path / "half.xml").string()}});
         ASSERT_FALSE(answer.value("ok", true)) << c.name;
-        EXPECT_NE(answer["error"].value("message", "").find(c.expected), std::string::npos) << c.name << ": " << answer.dump();
+        EXPECT_NE(answer["error"].value("message", "").find(c.expected), std::string::npos)
+            << c.name << ": " << answer.dump();
         // What the attempt started it stopped again; what came after the failure never started.
         EXPECT_EQ(cell.log("a"), c.a_log) << c.name;
         EXPECT_EQ(cell.log("c"), c.c_log) << c.name;
@@ -326,7 +332,8 @@ TEST(HotReload, CheckValidatesWithoutLoading) {
     json good = cell.result({{"cmd", "check"}, {"config", (cell.dir.path / "module.xml").string()}});
     EXPECT_EQ(good["valid"], true);
     EXPECT_EQ(good["schedule"]["basic_period_ns"], 1'000'000);
-    cell.write("bad.xml", "<root>" + module("x", "swap.so", 10'000, 2) + module("y", "gone.so", 1'000'000, 1) + "</root>");
+    cell.write("bad.xml",
+               "<root>" + module("x", "swap.so", 10'000, 2) + module("y", "gone.so", 1'000'000, 1) + "</root>");
     json bad = cell.result({{"cmd", "check"}, {"config", (cell.dir.path / "bad.xml").string()}});
     EXPECT_EQ(bad["valid"], false);
     EXPECT_EQ(bad["errors"].size(), 2u) << bad.dump();
@@ -339,8 +346,8 @@ TEST(HotReload, CheckValidatesWithoutLoading) {
 TEST(HotReload, CheckRefusesABadProcessPropertyWithFileLine) {
     Cell cell;
     const std::string exe = std::string(FIXTURE_PROCESSES) + "/proc_periodic.exe";
-    cell.write("bad.xml", "<root>\n" + module("keep", "keep.so", 1'000'000, 1) +
-                              "  <module><name>p</name><filename>" + exe +
+    cell.write("bad.xml", "<root>\n" + module("keep", "keep.so", 1'000'000, 1) + "  <module><name>p</name><filename>" +
+                              exe +
                               "</filename><moduletype>process</moduletype><operationtype>periodic</operationtype>\n"
                               "    <period>2000000</period><priority>3</priority>\n"
                               "    <property><value name=\"restart\">sometimes</value></property></module>\n</root>\n");
@@ -365,8 +372,8 @@ TEST(HotReload, ProcessModulesAreKeptReplacedOrRefusedLikeThreads) {
     auto process = [&](const std::string &args) {
         return "  <module><name>p</name><filename>" + exe +
                "</filename><moduletype>process</moduletype><operationtype>periodic</operationtype>"
-               "<period>2000000</period><priority>3</priority><property><value name=\"args\">" + args +
-               "</value></property></module>\n";
+               "<period>2000000</period><priority>3</priority><property><value name=\"args\">" +
+               args + "</value></property></module>\n";
     };
     const std::string threads = module("keep", "keep.so", 1'000'000, 1, journalOf(cell.dir.path, "keep"));
     auto load = [&](const std::string &body) {
@@ -415,7 +422,8 @@ namespace {
 // does: the middle of the bucket holding rank ceil(q * count), clamped to [min, max].
 double quantileOf(const json &h, double q) {
     const uint64_t count = h["count"].get<uint64_t>();
-    const uint64_t rank = std::clamp<uint64_t>(static_cast<uint64_t>(std::ceil(q * static_cast<double>(count))), 1, count);
+    const uint64_t rank =
+        std::clamp<uint64_t>(static_cast<uint64_t>(std::ceil(q * static_cast<double>(count))), 1, count);
     uint64_t seen = 0;
     for (const json &b : h["buckets"]) {
         seen += b[2].get<uint64_t>();
@@ -440,7 +448,7 @@ std::size_t eventsOfKind(Cell &cell, const std::string &kind) {
     return n;
 }
 
-} // namespace
+}  // namespace
 
 TEST(HotReload, HistogramsListTheNonEmptyBucketsThatAddUpToTheCounts) {
     Cell cell;
@@ -504,8 +512,8 @@ TEST(HotReload, ADryRunChangeShowsTheNewTableAndChangesNothing) {
     Cell cell;
     const json status = cell.result({{"cmd", "status"}});
     const json schedule = cell.result({{"cmd", "schedule"}});
-    const json changes = json::array({{{"module", "keep"}, {"period_ns", 2'000'000}},
-                                      {{"module", "swap"}, {"priority", 0}, {"enabled", true}}});
+    const json changes = json::array(
+        {{{"module", "keep"}, {"period_ns", 2'000'000}}, {{"module", "swap"}, {"priority", 0}, {"enabled", true}}});
     const json dry = cell.result({{"cmd", "change"}, {"changes", changes}, {"dry_run", true}});
     EXPECT_EQ(dry["dry_run"], true);
     EXPECT_TRUE(dry["report"].is_null());
@@ -532,8 +540,8 @@ TEST(HotReload, ADryRunChangeShowsTheNewTableAndChangesNothing) {
 
 TEST(HotReload, ABatchChangeIsOneSwapOfEveryModuleItNames) {
     Cell cell;
-    const json changes = json::array({{{"module", "keep"}, {"period_ns", 2'000'000}},
-                                      {{"module", "swap"}, {"priority", 0}}});
+    const json changes =
+        json::array({{{"module", "keep"}, {"period_ns", 2'000'000}}, {{"module", "swap"}, {"priority", 0}}});
     const json answer = cell.result({{"cmd", "change"}, {"changes", changes}});
     EXPECT_EQ(answer["dry_run"], false);
     EXPECT_EQ(answer["report"]["generation"], 2);
@@ -548,9 +556,9 @@ TEST(HotReload, ABatchChangeIsOneSwapOfEveryModuleItNames) {
     EXPECT_EQ(eventsOfKind(cell, "swap"), 1u);
 
     // Disabling one and changing the other's period is one swap too.
-    const json more = cell.result({{"cmd", "change"},
-                                   {"changes", {{{"module", "swap"}, {"enabled", false}},
-                                                {{"module", "keep"}, {"period_ns", 1'000'000}}}}});
+    const json more = cell.result(
+        {{"cmd", "change"},
+         {"changes", {{{"module", "swap"}, {"enabled", false}}, {{"module", "keep"}, {"period_ns", 1'000'000}}}}});
     EXPECT_EQ(more["report"]["generation"], 3);
     const json swap = cell.moduleNamed("swap");
     EXPECT_EQ(swap["enabled"], false);
@@ -566,18 +574,18 @@ TEST(HotReload, ABatchChangeIsOneSwapOfEveryModuleItNames) {
 TEST(HotReload, ChangeRefusalsNameWhatToFixAndLeaveTheSetAsItWas) {
     Cell cell;
     // keep 60 % and swap 30 % busy by their budgets: 90 %, a warning; swap at 1 ms would be 120 %.
-    cell.write("budget.xml", "<root>\n" +
-                                 module("keep", "keep.so", 1'000'000, 1,
-                                        journalOf(cell.dir.path, "keep") + "<budget>600000</budget>") +
-                                 module("swap", "swap.so", 2'000'000, 2,
-                                        journalOf(cell.dir.path, "swap") + "<budget>600000</budget>") +
-                                 "</root>\n");
+    cell.write(
+        "budget.xml",
+        "<root>\n" +
+            module("keep", "keep.so", 1'000'000, 1, journalOf(cell.dir.path, "keep") + "<budget>600000</budget>") +
+            module("swap", "swap.so", 2'000'000, 2, journalOf(cell.dir.path, "swap") + "<budget>600000</budget>") +
+            "</root>\n");
     const json loaded = cell.result({{"cmd", "load"}, {"config", (cell.dir.path / "budget.xml").string()}});
     ASSERT_EQ(loaded["kept"], json({"keep", "swap"}));
     const json before = cell.result({{"cmd", "status"}});
 
-    const json same_priority = cell.result(
-        {{"cmd", "change"}, {"changes", {{{"module", "swap"}, {"priority", 1}}}}, {"dry_run", true}});
+    const json same_priority =
+        cell.result({{"cmd", "change"}, {"changes", {{{"module", "swap"}, {"priority", 1}}}}, {"dry_run", true}});
     EXPECT_TRUE(hasWarning(same_priority, "both have priority 1")) << same_priority.dump();
     EXPECT_TRUE(hasWarning(same_priority, "above 80 %")) << same_priority.dump();
     EXPECT_GE(same_priority["utilization"]["main"].get<double>(), 0.899);
@@ -590,9 +598,14 @@ TEST(HotReload, ChangeRefusalsNameWhatToFixAndLeaveTheSetAsItWas) {
     const std::vector<Case> cases = {
         {"unknown module", {{"changes", {{{"module", "nope"}, {"priority", 1}}}}}, "not_found", "no module 'nope'"},
         {"over 100 %", {{"changes", {{{"module", "swap"}, {"period_ns", 1'000'000}}}}}, "refused", "% busy"},
-        {"period below the budget", {{"changes", {{{"module", "keep"}, {"period_ns", 500'000}}}}}, "refused", "<budget>"},
-        {"twice", {{"changes", {{{"module", "keep"}, {"priority", 1}}, {{"module", "keep"}, {"period_ns", 2'000'000}}}}},
-         "refused", "changed twice"},
+        {"period below the budget",
+         {{"changes", {{{"module", "keep"}, {"period_ns", 500'000}}}}},
+         "refused",
+         "<budget>"},
+        {"twice",
+         {{"changes", {{{"module", "keep"}, {"priority", 1}}, {{"module", "keep"}, {"period_ns", 2'000'000}}}}},
+         "refused",
+         "changed twice"},
         {"nothing to change", {{"changes", {{{"module", "keep"}}}}}, "refused", "changes nothing"},
         {"empty", {{"changes", json::array()}}, "refused", "'changes'"},
         {"not a list", {{"changes", "keep"}}, "refused", "'changes'"},
@@ -600,7 +613,9 @@ TEST(HotReload, ChangeRefusalsNameWhatToFixAndLeaveTheSetAsItWas) {
         {"period not an integer", {{"changes", {{{"module", "keep"}, {"period_ns", "1ms"}}}}}, "refused", "period_ns"},
         {"negative period", {{"changes", {{{"module", "keep"}, {"period_ns", -1}}}}}, "refused", "positive"},
         {"enabled not a boolean", {{"changes", {{{"module", "keep"}, {"enabled", 1}}}}}, "refused", "'enabled'"},
-        {"dry_run not a boolean", {{"changes", {{{"module", "keep"}, {"priority", 1}}}}, {"dry_run", "yes"}}, "refused",
+        {"dry_run not a boolean",
+         {{"changes", {{{"module", "keep"}, {"priority", 1}}}}, {"dry_run", "yes"}},
+         "refused",
          "'dry_run'"},
     };
     for (const bool dry_run : {true, false})
@@ -624,12 +639,12 @@ TEST(HotReload, ChangeRefusalsNameWhatToFixAndLeaveTheSetAsItWas) {
 TEST(HotReload, AChangeBelowTheMinimumBasicPeriodIsRefused) {
     Cell cell;
     for (const bool dry_run : {true, false}) {
-        const json answer = cell.ask({{"cmd", "change"},
-                                      {"changes", {{{"module", "keep"}, {"period_ns", 10'000}}}},
-                                      {"dry_run", dry_run}});
+        const json answer = cell.ask(
+            {{"cmd", "change"}, {"changes", {{{"module", "keep"}, {"period_ns", 10'000}}}}, {"dry_run", dry_run}});
         EXPECT_FALSE(answer.value("ok", true));
         EXPECT_NE(answer["error"].value("message", "").find("below the minimum basic period of 50000 ns"),
-                  std::string::npos) << answer.dump();
+                  std::string::npos)
+            << answer.dump();
     }
     EXPECT_EQ(cell.result({{"cmd", "status"}})["generation"], 1);
     EXPECT_EQ(eventsOfKind(cell, "swap_failed"), 1u) << "a refused dry run is no failed swap";

@@ -43,7 +43,9 @@ void removeShm(const std::string &instance) {
 
 // A set with shared variables: irpd started on a set without any has no segment to put them in,
 // so only a restart can run it.
-std::string variables() { return "  <layout>" + (fs::path(ONLINE_DIR) / "oc_v1" / "layout.json").string() + "</layout>\n"; }
+std::string variables() {
+    return "  <layout>" + (fs::path(ONLINE_DIR) / "oc_v1" / "layout.json").string() + "</layout>\n";
+}
 
 // irpd on one.xml: module "a" (counter v1, 1 ms) journaling to a.log.  two.xml: module "b"
 // (counter v2) on an <executor> of its own, with shared variables, which only a restart can bring in.
@@ -60,10 +62,10 @@ struct Cell {
         write("one.xml", "<root>\n" + module("a", "a.so", 1'000'000, journal("a")) + "</root>\n");
         write("two.xml", "<root>\n" + variables() + "  <executor><name>side</name></executor>\n" +
                              module("b", "b.so", 2'000'000, journal("b") + "<executor>side</executor>") + "</root>\n");
-        irpd = std::make_unique<Process>(
-            std::vector<std::string>{kIrpd, "--config", (dir.path / "one.xml").string(), "--control-socket", socket,
-                                     "--instance", instance, "--module-cache", (dir.path / "cache").string()},
-            dir.path);
+        irpd = std::make_unique<Process>(std::vector<std::string>{kIrpd, "--config", (dir.path / "one.xml").string(),
+                                                                  "--control-socket", socket, "--instance", instance,
+                                                                  "--module-cache", (dir.path / "cache").string()},
+                                         dir.path);
         EXPECT_TRUE(irpd->waitForErr("irpd: running")) << irpd->err();
     }
     ~Cell() {
@@ -124,7 +126,7 @@ struct Cell {
     }
 };
 
-} // namespace
+}  // namespace
 
 // A set that only a restart can run (shared variables on an irpd without them): refused online, run after the restart by
 // the same process, with the downtime measured from the old set's last period to the new one's first.
@@ -214,7 +216,8 @@ TEST(ManagedRestart, ASetThatDoesNotStartBringsBackTheSetThatRan) {
     EXPECT_NE(failed[0]["message"].get<std::string>().find("could not start set bad"), std::string::npos);
     EXPECT_NE(failed[0]["message"].get<std::string>().find("came back on set one"), std::string::npos);
     // a was stopped, then started again by the fallback image.
-    EXPECT_TRUE(std::regex_match(cell.log("a"), std::regex("start v1\nstop v1 runs=[0-9]+\nstart v1\n"))) << cell.log("a");
+    EXPECT_TRUE(std::regex_match(cell.log("a"), std::regex("start v1\nstop v1 runs=[0-9]+\nstart v1\n")))
+        << cell.log("a");
     const uint64_t runs = cell.runsOf("a");
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     EXPECT_GT(cell.runsOf("a"), runs);

@@ -72,8 +72,8 @@ struct FakeDrives {
     std::array<DS, 6> state{};
     std::array<double, 6> position{};
     std::array<uint16_t, 6> last_cw{};
-    std::array<bool, 6> frozen{};   // follows no command (a following error)
-    std::array<bool, 6> deaf{};     // ignores controlwords (a power-on timeout)
+    std::array<bool, 6> frozen{};                       // follows no command (a following error)
+    std::array<bool, 6> deaf{};                         // ignores controlwords (a power-on timeout)
     std::vector<std::array<uint16_t, 6>> controlwords;  // every period's, as sent
     bool comm_lost = false;
 
@@ -92,7 +92,7 @@ struct FakeDrives {
             } else if (s == DS::NotReady) {
                 s = DS::SwitchOnDisabled;
             } else if (s == DS::QuickStop) {
-                s = DS::SwitchOnDisabled;  // quick stop done: to switch on disabled
+                s = DS::SwitchOnDisabled;   // quick stop done: to switch on disabled
             } else if ((cw & 0x02) == 0) {  // disable voltage
                 s = DS::SwitchOnDisabled;
             } else if ((cw & 0x04) == 0) {  // quick stop
@@ -233,7 +233,7 @@ protected:
 
 const std::array<double, 6> kTargetJ = {0.8, 0.4, -0.5, 0.6, 1.2, -0.7};
 
-} // namespace
+}  // namespace
 
 // ---- power ------------------------------------------------------------------------------------------
 
@@ -344,7 +344,8 @@ TEST_F(RobotModule, MoveLFollowsTheLine) {
         EXPECT_NEAR(s.dWorldPos[2] - st0.dWorldPos[2], -2.0 / 3.0 * (s.dWorldPos[1] - st0.dWorldPos[1]), 1e-6);
     }
     for (size_t k = 1; k < states.size(); ++k) {
-        double dy = states[k].dWorldPos[1] - states[k - 1].dWorldPos[1], dz = states[k].dWorldPos[2] - states[k - 1].dWorldPos[2];
+        double dy = states[k].dWorldPos[1] - states[k - 1].dWorldPos[1],
+               dz = states[k].dWorldPos[2] - states[k - 1].dWorldPos[2];
         EXPECT_LE(std::hypot(dy, dz) / kDt, 0.6 * 0.5 + 1e-6) << "max_cart_speed 0.5 m/s at t_speed 0.6";
     }
 }
@@ -366,7 +367,8 @@ TEST_F(RobotModule, ANewMotionReplacesTheRunningOneAfterStopping) {
     for (size_t k = 2; k < states.size(); ++k)
         for (int i = 0; i < 6; ++i) {
             double v = (states[k].dCmdJoint[i] - states[k - 1].dCmdJoint[i]) / kDt;
-            double a = (states[k].dCmdJoint[i] - 2 * states[k - 1].dCmdJoint[i] + states[k - 2].dCmdJoint[i]) / (kDt * kDt);
+            double a =
+                (states[k].dCmdJoint[i] - 2 * states[k - 1].dCmdJoint[i] + states[k - 2].dCmdJoint[i]) / (kDt * kDt);
             EXPECT_LE(std::abs(v), robot->limits().velocity[i] + 1e-9) << "period " << k << " joint " << i + 1;
             EXPECT_LE(std::abs(a), 8.0 + 1e-6) << "period " << k << " joint " << i + 1;
         }
@@ -407,7 +409,8 @@ TEST_F(RobotModule, PowerOffWhileMovingStopsFirst) {
     EXPECT_EQ(st.Powered, 0);
     for (size_t k = 2; k < states.size(); ++k)
         for (int i = 0; i < 6; ++i) {
-            double a = (states[k].dCmdJoint[i] - 2 * states[k - 1].dCmdJoint[i] + states[k - 2].dCmdJoint[i]) / (kDt * kDt);
+            double a =
+                (states[k].dCmdJoint[i] - 2 * states[k - 1].dCmdJoint[i] + states[k - 2].dCmdJoint[i]) / (kDt * kDt);
             EXPECT_LE(std::abs(a), 8.0 + 1e-6);
         }
 }
@@ -543,7 +546,8 @@ TEST_F(RobotModule, CommunicationLossStopsAndRefusesPowerOn) {
 TEST(RobotModuleProperties, RefusedWithTheirReason) {
     std::string error;
     EXPECT_FALSE(loadRobot({{"urdf", "missing.urdf"}}, &error));
-    EXPECT_NE(error.find("property 'urdf': " + kSet + "/missing.urdf: cannot read the URDF"), std::string::npos) << error;
+    EXPECT_NE(error.find("property 'urdf': " + kSet + "/missing.urdf: cannot read the URDF"), std::string::npos)
+        << error;
     EXPECT_FALSE(loadRobot({{"max_joint_accel", "8,8"}}, &error));
     EXPECT_NE(error.find("property 'max_joint_accel': one value for every joint or 6 values, got 2"), std::string::npos)
         << error;

@@ -30,25 +30,30 @@ namespace {
 const std::string kSetPath = "/sets/test/module.xml";
 
 std::string periodic(const std::string &name, int64_t period_ns, int priority, const std::string &extra = "") {
-    return "  <module><filename>./" + name + ".so</filename><moduletype>thread</moduletype>"
-           "<operationtype>periodic</operationtype><period>" + std::to_string(period_ns) + "</period><priority>" +
-           std::to_string(priority) + "</priority>" + extra + "</module>\n";
+    return "  <module><filename>./" + name +
+           ".so</filename><moduletype>thread</moduletype>"
+           "<operationtype>periodic</operationtype><period>" +
+           std::to_string(period_ns) + "</period><priority>" + std::to_string(priority) + "</priority>" + extra +
+           "</module>\n";
 }
 
 std::string periodicProcess(const std::string &name, int64_t period_ns, int priority) {
-    return "  <module><filename>./" + name + ".exe</filename><moduletype>process</moduletype>"
-           "<operationtype>periodic</operationtype><period>" + std::to_string(period_ns) + "</period><priority>" +
-           std::to_string(priority) + "</priority></module>\n";
+    return "  <module><filename>./" + name +
+           ".exe</filename><moduletype>process</moduletype>"
+           "<operationtype>periodic</operationtype><period>" +
+           std::to_string(period_ns) + "</period><priority>" + std::to_string(priority) + "</priority></module>\n";
 }
 
 std::string sporadic(const std::string &name, int64_t deadline_ns, int priority) {
-    return "  <module><filename>./" + name + ".so</filename><moduletype>thread</moduletype>"
-           "<operationtype>sporadic</operationtype><deadline>" + std::to_string(deadline_ns) + "</deadline><priority>" +
-           std::to_string(priority) + "</priority></module>\n";
+    return "  <module><filename>./" + name +
+           ".so</filename><moduletype>thread</moduletype>"
+           "<operationtype>sporadic</operationtype><deadline>" +
+           std::to_string(deadline_ns) + "</deadline><priority>" + std::to_string(priority) + "</priority></module>\n";
 }
 
 std::string nonReal(const std::string &name) {
-    return "  <module><filename>./" + name + ".exe</filename><moduletype>process</moduletype>"
+    return "  <module><filename>./" + name +
+           ".exe</filename><moduletype>process</moduletype>"
            "<operationtype>non-real</operationtype></module>\n";
 }
 
@@ -103,7 +108,8 @@ void expectWellFormed(const Schedule &s) {
 }
 
 // The message must be one line starting with the set's path and holding every piece.
-::testing::AssertionResult refused(const SetSpec &set, const Limits &limits, std::initializer_list<std::string> pieces) {
+::testing::AssertionResult refused(const SetSpec &set, const Limits &limits,
+                                   std::initializer_list<std::string> pieces) {
     auto s = build(set, limits);
     if (s.ok()) return ::testing::AssertionFailure() << "accepted: " << s->slots.size() << " slots";
     const std::string &message = s.error().message;
@@ -130,7 +136,7 @@ std::vector<std::string> textLines(const std::string &text) {
     return lines;
 }
 
-} // namespace
+}  // namespace
 
 // ---- Table 3: the paper's Figure 1 ------------------------------------------------------------
 
@@ -357,7 +363,8 @@ TEST(Schedule, EverySlotHoldsTheModulesWhosePeriodDividesItsOffset) {
             std::vector<int> due;
             for (std::size_t i = 0; i < periods.size(); ++i)
                 if (slot.offset_ns % periods[i].first == 0) due.push_back(static_cast<int>(i));
-            std::stable_sort(due.begin(), due.end(), [&](int a, int b) { return periods[a].second < periods[b].second; });
+            std::stable_sort(due.begin(), due.end(),
+                             [&](int a, int b) { return periods[a].second < periods[b].second; });
             EXPECT_EQ(slot.modules, due) << "slot " << slot.index;
         }
     }
@@ -373,9 +380,9 @@ TEST(ScheduleRefused, DefaultMinimumBasicPeriodIs50us) {
 
 TEST(ScheduleRefused, PeriodBelowTheMinimum) {
     SetSpec set = setOf({periodic("a", 40'000, 1)});
-    EXPECT_TRUE(refused(set, {},
-                        {"basic period (GCD of the periods) is 40000 ns", "below the minimum basic period of 50000 ns",
-                         "50 us"}));
+    EXPECT_TRUE(refused(
+        set, {},
+        {"basic period (GCD of the periods) is 40000 ns", "below the minimum basic period of 50000 ns", "50 us"}));
 }
 
 TEST(ScheduleRefused, GcdBelowTheMinimumThoughEveryPeriodIsAbove) {
@@ -403,8 +410,9 @@ TEST(ScheduleRefused, MinimumIsConfigurable) {
 TEST(ScheduleRefused, TooManySlots) {
     // 50 ms and 50.05 ms: GCD 50 us, LCM 1000 * 1001 basic periods.
     SetSpec set = setOf({periodic("a", 50'000'000, 1), periodic("b", 50'050'000, 2)});
-    EXPECT_TRUE(refused(set, {}, {"macro period (LCM of the periods) is 50050000000 ns", "1001000 basic periods",
-                                  "at most 100000", "multiples of each other"}));
+    EXPECT_TRUE(refused(set, {},
+                        {"macro period (LCM of the periods) is 50050000000 ns", "1001000 basic periods",
+                         "at most 100000", "multiples of each other"}));
 }
 
 TEST(ScheduleRefused, MaxSlotsIsConfigurable) {

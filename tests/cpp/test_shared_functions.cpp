@@ -169,7 +169,7 @@ protected:
 };
 class ProcessCalls : public CallServer {};
 
-} // namespace
+}  // namespace
 
 // ---- irpd's side ----------------------------------------------------------------------------------
 
@@ -222,8 +222,10 @@ TEST_F(CallServer, TheScanStartsAfterTheLastServedSoNoProcessStarves) {
     h.server->serve(Harness::kUnit, 1, false);
     std::vector<uint32_t> waiting;
     for (uint32_t s = 1; s < Harness::kSlots; ++s)
-        if (INDUROP_CALL_PHASE(load(h.area(s).word)) == INDUROP_CALL_PENDING) waiting.push_back(s);
-        else reset(h.area(s)), post(h.area(s), fn, kAddSignature, 1, 1);  // asks again at once
+        if (INDUROP_CALL_PHASE(load(h.area(s).word)) == INDUROP_CALL_PENDING)
+            waiting.push_back(s);
+        else
+            reset(h.area(s)), post(h.area(s), fn, kAddSignature, 1, 1);  // asks again at once
     ASSERT_EQ(waiting.size(), Harness::kSlots - 1 - kCallsServedPerPeriod);
     h.server->serve(Harness::kUnit, 2, false);
     for (uint32_t s : waiting) EXPECT_EQ(h.area(s).served_cycle, 2u) << "slot " << s << " starved";
@@ -306,8 +308,9 @@ TEST_F(ProcessCalls, ATimeoutWithdrawsTheRequest) {
     EXPECT_EQ(callFunction("unit.add", &r, 20 * kMs, int32_t{1}, int32_t{1}), -1);  // nobody serves
     const int64_t took = nowNs() - start;
     EXPECT_EQ(lastCallStatus(), INDUROP_CALL_TIMEOUT);
-    EXPECT_NE(std::string(lastCallError()).find("shared function 'unit.add': no answer within 20 ms (irpd serves it "
-                                                "after each run() of module 'unit', every 1 ms)"),
+    EXPECT_NE(std::string(lastCallError())
+                  .find("shared function 'unit.add': no answer within 20 ms (irpd serves it "
+                        "after each run() of module 'unit', every 1 ms)"),
               std::string::npos)
         << lastCallError();
     EXPECT_GE(took, 20 * kMs);
@@ -347,14 +350,16 @@ TEST_F(ProcessCalls, ErrorsFoundBeforeAnyRequest) {
     int32_t r = 0;
     EXPECT_EQ(callFunction("unit.nope", &r, 10 * kMs), -1);
     EXPECT_EQ(lastCallStatus(), INDUROP_CALL_UNKNOWN_FUNCTION);
-    EXPECT_NE(std::string(lastCallError()).find("no module exports a shared function 'unit.nope' (the set exports 4: "
-                                                "other.get, unit.add, unit.slow, unit_sporadic.get"),
+    EXPECT_NE(std::string(lastCallError())
+                  .find("no module exports a shared function 'unit.nope' (the set exports 4: "
+                        "other.get, unit.add, unit.slow, unit_sporadic.get"),
               std::string::npos)
         << lastCallError();
     EXPECT_EQ(callFunction("unit.add", &r, 10 * kMs, 1.0, 2.0), -1);
     EXPECT_EQ(lastCallStatus(), INDUROP_CALL_SIGNATURE_MISMATCH);
-    EXPECT_NE(std::string(lastCallError()).find("shared function 'unit.add' of module 'unit' is int (int, int), not int "
-                                                "(double, double)"),
+    EXPECT_NE(std::string(lastCallError())
+                  .find("shared function 'unit.add' of module 'unit' is int (int, int), not int "
+                        "(double, double)"),
               std::string::npos)
         << lastCallError();
     const int64_t start = nowNs();
@@ -399,11 +404,14 @@ namespace {
 std::string fixtureModule(const std::string &file) { return std::string(FIXTURE_MODULES) + "/" + file; }
 std::string fixtureProcess(const std::string &file) { return std::string(FIXTURE_PROCESSES) + "/" + file; }
 
-std::string threadModule(const std::string &file, const std::string &timing, int priority, const std::string &extra = "") {
+std::string threadModule(const std::string &file, const std::string &timing, int priority,
+                         const std::string &extra = "") {
     return "  <module><filename>" + fixtureModule(file) + "</filename><moduletype>thread</moduletype>" + timing +
            "<priority>" + std::to_string(priority) + "</priority>" + extra + "</module>\n";
 }
-std::string periodic(int64_t ns) { return "<operationtype>periodic</operationtype><period>" + std::to_string(ns) + "</period>"; }
+std::string periodic(int64_t ns) {
+    return "<operationtype>periodic</operationtype><period>" + std::to_string(ns) + "</period>";
+}
 
 // The "step ..." lines of fn_caller, by step name: rc, status, value, ms, error.
 struct Step {
@@ -435,15 +443,16 @@ std::vector<uint64_t> servedCycles(const std::string &out, const std::string &wh
     return cycles;
 }
 
-} // namespace
+}  // namespace
 
 TEST(IrpdCalls, ProcessesCallThreadModulesFunctionsServedInTheOwnersSlots) {
     TempDir dir;
     // Basic period 500 us: fn_owner (1 ms) runs in the even cycles, fn_slow (500 ms) every 1000th,
     // fn_idle (4 s) only in cycle 0 of this 2 s run.
     const std::string xml =
-        "<root>\n" + threadModule("rec_a.so", periodic(500'000), 5) + threadModule("fn_owner.so", periodic(1'000'000), 2) +
-        threadModule("fn_slow.so", periodic(500'000'000), 3) + threadModule("fn_idle.so", periodic(4'000'000'000), 4) +
+        "<root>\n" + threadModule("rec_a.so", periodic(500'000), 5) +
+        threadModule("fn_owner.so", periodic(1'000'000), 2) + threadModule("fn_slow.so", periodic(500'000'000), 3) +
+        threadModule("fn_idle.so", periodic(4'000'000'000), 4) +
         threadModule("fn_fragile.so", periodic(1'000'000), 4,
                      "<property><value name=\"throw_at\">200</value></property>") +
         threadModule("fn_sporadic.so", "<operationtype>sporadic</operationtype><deadline>1000000</deadline>", 1) +
@@ -451,7 +460,8 @@ TEST(IrpdCalls, ProcessesCallThreadModulesFunctionsServedInTheOwnersSlots) {
         "</filename><moduletype>process</moduletype><operationtype>sporadic</operationtype>"
         "<deadline>100000000</deadline><priority>2</priority>"
         "<property><value name=\"args\">--sporadic</value></property></module>\n"
-        "  <module><filename>" + fixtureProcess("fn_caller.exe") +
+        "  <module><filename>" +
+        fixtureProcess("fn_caller.exe") +
         "</filename><moduletype>process</moduletype><operationtype>non-real</operationtype></module>\n"
         "</root>\n";
     std::ofstream(dir.path / "module.xml") << xml;
@@ -502,12 +512,15 @@ TEST(IrpdCalls, ProcessesCallThreadModulesFunctionsServedInTheOwnersSlots) {
     expectError("wrong_signature", INDUROP_CALL_SIGNATURE_MISMATCH,
                 "shared function 'math.scale' of module 'fn_owner' is double (double), not int (int)");
     expectError("wrong_signature_deduced", INDUROP_CALL_SIGNATURE_MISMATCH, "is double (double), not double (int)");
-    expectError("too_large", INDUROP_CALL_TOO_LARGE,
-                "shared function 'math.big': its arguments are 300 bytes, more than the 256 a call from a process carries");
-    expectError("pointer", INDUROP_CALL_NOT_TRANSFERABLE,
-                "shared function 'math.peek' of module 'fn_owner' cannot be called from a process: it takes or returns a "
-                "pointer");
-    expectError("throws", INDUROP_CALL_THREW, "shared function 'math.throws' of module 'fn_owner' threw: negative input -3");
+    expectError(
+        "too_large", INDUROP_CALL_TOO_LARGE,
+        "shared function 'math.big': its arguments are 300 bytes, more than the 256 a call from a process carries");
+    expectError(
+        "pointer", INDUROP_CALL_NOT_TRANSFERABLE,
+        "shared function 'math.peek' of module 'fn_owner' cannot be called from a process: it takes or returns a "
+        "pointer");
+    expectError("throws", INDUROP_CALL_THREW,
+                "shared function 'math.throws' of module 'fn_owner' threw: negative input -3");
     expectError("sporadic_owner", INDUROP_CALL_NOT_SERVED, "only periodic thread modules have one");
     EXPECT_LT(steps["sporadic_owner"].ms, 1000);
     expectError("bad_timeout", INDUROP_CALL_INVALID, "the timeout must be positive");
@@ -531,8 +544,9 @@ TEST(IrpdCalls, AProcessNotStartedByIrpdIsToldSo) {
         EXPECT_EQ(s.rc, -1) << name;
         if (name == "too_large") continue;  // found before anything else
         EXPECT_EQ(s.status, INDUROP_CALL_NO_IRPD) << name << ": " << s.error;
-        EXPECT_NE(s.error.find("shared functions are called through irpd: not started by irpd (INDUROP_CTL is not set)"),
-                  std::string::npos)
+        EXPECT_NE(
+            s.error.find("shared functions are called through irpd: not started by irpd (INDUROP_CTL is not set)"),
+            std::string::npos)
             << name << ": " << s.error;
     }
 }

@@ -54,7 +54,7 @@ using knu::Robot::joints;
 using knu::Robot::joints_t;
 using knu::Robot::tick;
 
-} // namespace
+}  // namespace
 
 TEST(SharedVariables, ScalarsReadAndWriteLikeGlobals) {
     tick = 5;

@@ -35,12 +35,16 @@ constexpr Field kComplete[] = {
     IRP_SHM_FIELD(Sample, c, ""),
     IRP_SHM_FIELD(Sample, d, ""),
 };
-constexpr Field kWithoutB[] = {IRP_SHM_FIELD(Sample, a, ""), IRP_SHM_FIELD(Sample, c, ""), IRP_SHM_FIELD(Sample, d, "")};
-constexpr Field kWithoutD[] = {IRP_SHM_FIELD(Sample, a, ""), IRP_SHM_FIELD(Sample, b, ""), IRP_SHM_FIELD(Sample, c, "")};
-constexpr Field kOutOfOrder[] = {IRP_SHM_FIELD(Sample, a, ""), IRP_SHM_FIELD(Sample, c, ""), IRP_SHM_FIELD(Sample, b, ""),
-                                 IRP_SHM_FIELD(Sample, d, "")};
+constexpr Field kWithoutB[] = {IRP_SHM_FIELD(Sample, a, ""), IRP_SHM_FIELD(Sample, c, ""),
+                               IRP_SHM_FIELD(Sample, d, "")};
+constexpr Field kWithoutD[] = {IRP_SHM_FIELD(Sample, a, ""), IRP_SHM_FIELD(Sample, b, ""),
+                               IRP_SHM_FIELD(Sample, c, "")};
+constexpr Field kOutOfOrder[] = {IRP_SHM_FIELD(Sample, a, ""), IRP_SHM_FIELD(Sample, c, ""),
+                                 IRP_SHM_FIELD(Sample, b, ""), IRP_SHM_FIELD(Sample, d, "")};
 
-std::size_t gap(std::span<const Field> fields) { return irp::shm::firstUndescribed(fields, sizeof(Sample), alignof(Sample)); }
+std::size_t gap(std::span<const Field> fields) {
+    return irp::shm::firstUndescribed(fields, sizeof(Sample), alignof(Sample));
+}
 
 TEST(ShmDescribe, ATableCoveringEveryByteButTheTailPaddingIsComplete) {
     EXPECT_EQ(gap(kComplete), sizeof(Sample));
@@ -90,14 +94,16 @@ TEST(ShmLayout, DescribesEachSegmentWithTheConstantsIrpdIsBuiltWith) {
 }
 
 TEST(ShmLayout, GivesTheOffsetsAndSizesOfTheStructs) {
-    EXPECT_EQ(offsetIn("variables", "indurop_segment_header", "layout_seq"), offsetof(indurop_segment_header, layout_seq));
+    EXPECT_EQ(offsetIn("variables", "indurop_segment_header", "layout_seq"),
+              offsetof(indurop_segment_header, layout_seq));
     EXPECT_EQ(offsetIn("variables", "indurop_var_lock", "seq"), offsetof(indurop_var_lock, seq));
     EXPECT_EQ(offsetIn("trace", "indurop_trace_header", "head"), offsetof(indurop_trace_header, head));
     EXPECT_EQ(offsetIn("trace", "indurop_trace_channel", "type"), offsetof(indurop_trace_channel, type));
     EXPECT_EQ(offsetIn("control", "indurop_process_slot", "call"), offsetof(indurop_process_slot, call));
     EXPECT_EQ(offsetIn("control", "indurop_call_area", "result"), offsetof(indurop_call_area, result));
     EXPECT_EQ(layout()["segments"]["stats"]["structs"]["timing_record"]["size"], sizeof(irp::stats::TimingRecord));
-    EXPECT_EQ(layout()["segments"]["control"]["structs"]["indurop_function_entry"]["size"], sizeof(indurop_function_entry));
+    EXPECT_EQ(layout()["segments"]["control"]["structs"]["indurop_function_entry"]["size"],
+              sizeof(indurop_function_entry));
 }
 
 // Every segment's header opens with magic, version and header_size (docs/shared-memory.md), and
@@ -136,4 +142,4 @@ TEST(ShmLayout, TheAgentsCopyIsIrpdsDescription) {
         << "would misread the new layout)";
 }
 
-} // namespace
+}  // namespace

@@ -130,11 +130,11 @@ std::string trigger(const fs::path &file) {
 void writeStallSet(const fs::path &folder) {
     fs::copy_file(kModules / "stall_on_trigger.so", folder / "stall.so");
     fs::copy_file(kModules / "crash_on_trigger.so", folder / "healthy.so");
-    std::ofstream(folder / "module.xml")
-        << "<root>\n  <executor><name>side</name></executor>\n"
-        << module("healthy", "healthy.so", 1'000'000, 1, trigger(folder / "never"))
-        << module("stall", "stall.so", 2'000'000, 2, trigger(folder / "stall") + "<executor>side</executor>")
-        << "</root>\n";
+    std::ofstream(folder / "module.xml") << "<root>\n  <executor><name>side</name></executor>\n"
+                                         << module("healthy", "healthy.so", 1'000'000, 1, trigger(folder / "never"))
+                                         << module("stall", "stall.so", 2'000'000, 2,
+                                                   trigger(folder / "stall") + "<executor>side</executor>")
+                                         << "</root>\n";
 }
 
 // irpd on the stall set, as systemd would start it.
@@ -175,7 +175,7 @@ bool mainThreadAnswers(const std::string &socket) {
     return answer.value("ok", false);
 }
 
-} // namespace
+}  // namespace
 
 TEST(Supervision, ReadyThenWatchdogPingsWhileEveryDispatcherRuns) {
     SupervisedIrpd s(300'000);  // WatchdogSec=300ms: a ping every 150 ms or so
@@ -234,10 +234,10 @@ TEST(Supervision, ReloadsAreAnsweredAndPingsGoOnAfterThem) {
     ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
     // The main thread stretched the watchdog for the reload, then restored it.
     EXPECT_TRUE(s.systemd.waitFor("WATCHDOG_USEC=300000", 1, std::chrono::seconds(5))) << s.systemd.all();
-    EXPECT_TRUE(s.systemd.waitFor("STATUS=running " + (s.dir.path / "module.xml").string() +
-                                      " (generation 2, 2 of 2 modules enabled, " +
-                                      (s.irpd->err().find("NOT REAL-TIME") == std::string::npos ? "real-time" : "NOT real-time") + ")",
-                                  1, std::chrono::seconds(5)))
+    EXPECT_TRUE(s.systemd.waitFor(
+        "STATUS=running " + (s.dir.path / "module.xml").string() + " (generation 2, 2 of 2 modules enabled, " +
+            (s.irpd->err().find("NOT REAL-TIME") == std::string::npos ? "real-time" : "NOT real-time") + ")",
+        1, std::chrono::seconds(5)))
         << s.systemd.all();
     const std::size_t pings = s.systemd.with("WATCHDOG=1").size();
     EXPECT_TRUE(s.systemd.waitFor("WATCHDOG=1", pings + 3, std::chrono::seconds(20))) << s.systemd.all();
@@ -252,7 +252,8 @@ TEST(Supervision, AManagedRestartIsAReloadAndPingsGoOnAfterIt) {
     {
         Client client(s.socket, 60);
         ASSERT_FALSE(client.readLine().empty());
-        asked = client.request({{"cmd", "restart"}, {"config", (s.dir.path / "module.xml").string()}, {"set_id", "again"}});
+        asked =
+            client.request({{"cmd", "restart"}, {"config", (s.dir.path / "module.xml").string()}, {"set_id", "again"}});
     }
     ASSERT_TRUE(asked.value("ok", false)) << asked.dump();
     ASSERT_TRUE(s.systemd.waitFor("READY=1", 2, std::chrono::seconds(30))) << s.irpd->err() << s.systemd.all();
@@ -312,7 +313,7 @@ bool canUseFifo() {
     return WIFEXITED(status) && WEXITSTATUS(status) == 0;
 }
 
-} // namespace
+}  // namespace
 
 TEST(PrivilegeDrop, RunsAsTheUserWithTwoCapabilitiesAndHotReloadsStillGetRealTime) {
     if (geteuid() != 0) GTEST_SKIP() << "irpd --user needs the test to run as root";
@@ -324,9 +325,9 @@ TEST(PrivilegeDrop, RunsAsTheUserWithTwoCapabilitiesAndHotReloadsStillGetRealTim
     fs::create_directory(dir.path / "run");
     ASSERT_EQ(chown((dir.path / "run").c_str(), nobody->pw_uid, nobody->pw_gid), 0);
     fs::copy_file(kModules / "crash_on_trigger.so", dir.path / "healthy.so");
-    std::ofstream(dir.path / "module.xml") << "<root>\n"
-                                           << module("healthy", "healthy.so", 1'000'000, 1, trigger(dir.path / "never"))
-                                           << "</root>\n";
+    std::ofstream(dir.path / "module.xml")
+        << "<root>\n"
+        << module("healthy", "healthy.so", 1'000'000, 1, trigger(dir.path / "never")) << "</root>\n";
     const std::string socket = (dir.path / "run" / "irpd.sock").string(), instance = uniqueInstance();
     Process irpd({kIrpd, "--config", (dir.path / "module.xml").string(), "--control-socket", socket, "--instance",
                   instance, "--state-dir", (dir.path / "state").string(), "--module-cache",
@@ -349,7 +350,7 @@ TEST(PrivilegeDrop, RunsAsTheUserWithTwoCapabilitiesAndHotReloadsStillGetRealTim
 
     // What the agent's group uses: shared memory and the control socket, the user's group, 0660.
     for (const fs::path &p : {fs::path("/dev/shm/indurop." + instance + ".stats"), fs::path(socket)}) {
-        struct stat st{};
+        struct stat st {};
         ASSERT_EQ(stat(p.c_str(), &st), 0) << p;
         EXPECT_EQ(st.st_uid, nobody->pw_uid) << p;
         EXPECT_EQ(st.st_gid, nobody->pw_gid) << p;
@@ -435,8 +436,10 @@ namespace {
 // file `go` exists and waits for it to die.
 bool canBePid1() { return geteuid() == 0 && std::system("unshare --pid --fork true 2>/dev/null") == 0; }
 std::vector<std::string> asPid1SendingSigabrt(const fs::path &go) {
-    return {"unshare", "--pid", "--fork", "sh", "-c",
-            "\"$@\" & p=$!; until [ -e '" + go.string() + "' ]; do sleep 0.02; done; kill -ABRT $p; wait $p", "sh"};
+    return {"unshare", "--pid",
+            "--fork",  "sh",
+            "-c",      "\"$@\" & p=$!; until [ -e '" + go.string() + "' ]; do sleep 0.02; done; kill -ABRT $p; wait $p",
+            "sh"};
 }
 
 // irpd on a set with "healthy" on main and "crashy" on executor "side", which dereferences null
@@ -462,22 +465,23 @@ struct CrashCell {
     std::unique_ptr<Process> start(std::vector<std::string> wrapper = {}) {
         const fs::path out = dir.path / ("run" + std::to_string(++runs));
         fs::create_directory(out);
-        for (const std::string &arg : {kIrpd, std::string("--config"), (dir.path / "module.xml").string(),
-                                       std::string("--control-socket"), socket, std::string("--instance"), instance,
-                                       std::string("--state-dir"), state.string(), std::string("--module-cache"),
-                                       (dir.path / "cache").string()})
+        for (const std::string &arg :
+             {kIrpd, std::string("--config"), (dir.path / "module.xml").string(), std::string("--control-socket"),
+              socket, std::string("--instance"), instance, std::string("--state-dir"), state.string(),
+              std::string("--module-cache"), (dir.path / "cache").string()})
             wrapper.push_back(arg);
-        auto p = std::make_unique<Process>(
-            wrapper, out, [] {
-                rlimit none{0, 0};
-                setrlimit(RLIMIT_CORE, &none);  // no core file for the crash this test causes
-            });
+        auto p = std::make_unique<Process>(wrapper, out, [] {
+            rlimit none{0, 0};
+            setrlimit(RLIMIT_CORE, &none);  // no core file for the crash this test causes
+        });
         EXPECT_TRUE(p->waitForErr("irpd: running")) << p->err();
         return p;
     }
     void pull(bool armed) {
-        if (armed) std::ofstream(dir.path / "crash") << "now\n";
-        else fs::remove(dir.path / "crash");
+        if (armed)
+            std::ofstream(dir.path / "crash") << "now\n";
+        else
+            fs::remove(dir.path / "crash");
     }
     json ask(const json &request) {
         Client client(socket, 60);
@@ -507,7 +511,7 @@ struct CrashCell {
     ~CrashCell() { removeShm(instance); }
 };
 
-} // namespace
+}  // namespace
 
 TEST(CrashRecord, ASegfaultInAThreadModuleIsRecordedWithModuleExecutorAndSignal) {
     CrashCell cell("");
@@ -517,7 +521,8 @@ TEST(CrashRecord, ASegfaultInAThreadModuleIsRecordedWithModuleExecutorAndSignal)
     EXPECT_NE(record.find("\nexecutor=side\n"), std::string::npos) << record;
     EXPECT_NE(record.find("\nsignal_name=SIGSEGV\n"), std::string::npos) << record;
     EXPECT_NE(record.find("\nset=" + fs::weakly_canonical(cell.dir.path / "module.xml").string() + "\n"),
-              std::string::npos) << record;
+              std::string::npos)
+        << record;
     EXPECT_NE(record.find("\ngeneration=1\n"), std::string::npos) << record;
 }
 
@@ -577,9 +582,17 @@ TEST(CrashRecord, TheWatchdogsKillNamesTheModuleAStalledDispatcherIsStuckIn) {
     const std::string instance = uniqueInstance(), socket = (dir.path / "irpd.sock").string();
     const fs::path state = dir.path / "state", go = dir.path / "go";
     writeStallSet(dir.path);
-    const std::vector<std::string> irpd = {kIrpd, "--config", (dir.path / "module.xml").string(), "--control-socket",
-                                           socket, "--instance", instance, "--state-dir", state.string(),
-                                           "--module-cache", (dir.path / "cache").string()};
+    const std::vector<std::string> irpd = {kIrpd,
+                                           "--config",
+                                           (dir.path / "module.xml").string(),
+                                           "--control-socket",
+                                           socket,
+                                           "--instance",
+                                           instance,
+                                           "--state-dir",
+                                           state.string(),
+                                           "--module-cache",
+                                           (dir.path / "cache").string()};
     std::vector<std::string> wrapped = asPid1SendingSigabrt(go);
     wrapped.insert(wrapped.end(), irpd.begin(), irpd.end());
     const std::string notify = (dir.path / "notify").string();
@@ -608,7 +621,9 @@ TEST(CrashRecord, TheWatchdogsKillNamesTheModuleAStalledDispatcherIsStuckIn) {
     Process second(irpd, out);
     ASSERT_TRUE(second.waitForErr("irpd: running")) << second.err();
     EXPECT_NE(second.err().find("died of SIGABRT from systemd's watchdog (pid 1) in module 'stall' on executor "
-                                "'side', stuck there"), std::string::npos) << second.err();
+                                "'side', stuck there"),
+              std::string::npos)
+        << second.err();
     Client client(socket, 60);
     ASSERT_FALSE(client.readLine().empty());
     json status = client.request({{"cmd", "status"}})["result"];

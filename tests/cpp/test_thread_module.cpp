@@ -44,7 +44,7 @@ std::string lifecycleError(const config::ModuleSpec &spec) {
     return "";
 }
 
-} // namespace
+}  // namespace
 
 TEST(ThreadModuleLoad, PlainStyleModule) {
     auto m = hosts::ThreadModule::load(fixture("rec_a.so"));
@@ -136,9 +136,9 @@ TEST(ThreadModuleLifecycle, PropertiesReachInitializeAndCallsComeInOrder) {
     }
     std::vector<std::string> calls;
     for (const auto &e : journal::entries()) calls.push_back(e.who + ":" + e.what);
-    EXPECT_EQ(calls, (std::vector<std::string>{"rec_b:initialize", "rec_b:start", "rec_b:run", "rec_b:run", "rec_b:stop",
-                                               "desc_b:initialize", "desc_b:start", "desc_b:run", "desc_b:run",
-                                               "desc_b:stop"}));
+    EXPECT_EQ(calls, (std::vector<std::string>{"rec_b:initialize", "rec_b:start", "rec_b:run", "rec_b:run",
+                                               "rec_b:stop", "desc_b:initialize", "desc_b:start", "desc_b:run",
+                                               "desc_b:run", "desc_b:stop"}));
 }
 
 TEST(ThreadModuleLifecycle, StopIsNotCalledWithoutStart) {
@@ -166,7 +166,7 @@ TEST(ModuleSet, AFailedStartStopsTheModulesAlreadyStartedInReverse) {
     for (const auto &e : journal::entries())
         if (e.what != "initialize") calls.push_back(e.who + ":" + e.what);
     EXPECT_EQ(calls, (std::vector<std::string>{"rec_a:start", "rec_b:start", "rec_b:stop", "rec_a:stop"}));
-    EXPECT_TRUE((*loaded)->stopAll().empty());  // nothing is stopped twice
+    EXPECT_TRUE((*loaded)->stopAll().empty());                // nothing is stopped twice
     EXPECT_EQ(journal::entries().size(), 3u + calls.size());  // 3 initialize (start_throws has none)
 }
 
@@ -197,8 +197,10 @@ TEST(ModuleSet, ASporadicThreadModuleNeedsCondition) {
     set.modules[0].deadline_ns = 100'000;
     auto loaded = hosts::ModuleSet::load(set);
     ASSERT_FALSE(loaded.ok());
-    EXPECT_NE(loaded.error().message.find("sets/test/module.xml:7: module 'rec_a': a sporadic thread module needs condition()"),
-              std::string::npos) << loaded.error().message;
+    EXPECT_NE(loaded.error().message.find(
+                  "sets/test/module.xml:7: module 'rec_a': a sporadic thread module needs condition()"),
+              std::string::npos)
+        << loaded.error().message;
     set.modules = {fixture("event_handler.so")};
     set.modules[0].operation = config::OperationType::Sporadic;
     EXPECT_TRUE(hosts::ModuleSet::load(set).ok());
@@ -223,7 +225,7 @@ config::SetSpec setOf(std::initializer_list<const char *> files) {
     }
     return set;
 }
-} // namespace
+}  // namespace
 
 TEST(SharedFunctions, AThreadModuleCallsAnotherModulesFunctionDirectly) {
     journal::clear();
@@ -246,7 +248,8 @@ TEST(SharedFunctions, AnotherSignatureRefusesTheSetNamingBoth) {
     ASSERT_FALSE(started.ok());
     EXPECT_NE(started.error().message.find("module 'fn_wrong_sig': start() failed: shared function 'math.scale' of "
                                            "module 'fn_export' is double (double), not int (int)"),
-              std::string::npos) << started.error().message;
+              std::string::npos)
+        << started.error().message;
 }
 
 TEST(SharedFunctions, AnUnknownNameRefusesTheSet) {
@@ -255,7 +258,8 @@ TEST(SharedFunctions, AnUnknownNameRefusesTheSet) {
     ASSERT_TRUE((*loaded)->initializeAll().ok());
     Status started = (*loaded)->startAll();
     ASSERT_FALSE(started.ok());
-    EXPECT_NE(started.error().message.find("no module exports a shared function 'nobody.exports.this'"), std::string::npos);
+    EXPECT_NE(started.error().message.find("no module exports a shared function 'nobody.exports.this'"),
+              std::string::npos);
 }
 
 TEST(SharedFunctions, ExportsGoWithTheirModule) {
@@ -277,8 +281,8 @@ TEST(SharedFunctions, ExportsGoWithTheirModule) {
 }
 
 TEST(Property, PathResolvesRelativeNamesAgainstTheSetFolder) {
-    std::vector<indurop_property_entry> entries = {{"config", "ioconfig.xml"}, {"abs", "/etc/x.xml"},
-                                                   {"indurop.set_dir", "/srv/sets/cell"}};
+    std::vector<indurop_property_entry> entries = {
+        {"config", "ioconfig.xml"}, {"abs", "/etc/x.xml"}, {"indurop.set_dir", "/srv/sets/cell"}};
     indurop_property_list list{entries.data(), entries.size()};
     irp::Property p(&list);
     EXPECT_EQ(p.path("config"), "/srv/sets/cell/ioconfig.xml");

@@ -42,14 +42,16 @@ struct Var {
 };
 
 json makeLayout() {
-    const std::vector<Var> scalars = {{"t.i8", "int8_t", 0, 1},      {"t.u8", "uint8_t", 1, 1},  {"t.i16", "int16_t", 2, 2},
-                                      {"t.u16", "uint16_t", 4, 2},   {"t.i32", "int32_t", 8, 4}, {"t.u32", "uint32_t", 12, 4},
-                                      {"t.i64", "int64_t", 16, 8},   {"t.u64", "uint64_t", 24, 8}, {"t.f32", "float", 32, 4},
-                                      {"t.f64", "double", 40, 8},    {"t.b", "bool", 48, 1}};
+    const std::vector<Var> scalars = {
+        {"t.i8", "int8_t", 0, 1},    {"t.u8", "uint8_t", 1, 1},    {"t.i16", "int16_t", 2, 2},
+        {"t.u16", "uint16_t", 4, 2}, {"t.i32", "int32_t", 8, 4},   {"t.u32", "uint32_t", 12, 4},
+        {"t.i64", "int64_t", 16, 8}, {"t.u64", "uint64_t", 24, 8}, {"t.f32", "float", 32, 4},
+        {"t.f64", "double", 40, 8},  {"t.b", "bool", 48, 1}};
     json variables = json::array(), leaves = json::array();
     uint32_t lock = 0;
     for (const Var &v : scalars) {
-        variables.push_back({{"path", v.path}, {"type", v.type}, {"offset", v.offset}, {"size", v.size}, {"lock", lock}});
+        variables.push_back(
+            {{"path", v.path}, {"type", v.type}, {"offset", v.offset}, {"size", v.size}, {"lock", lock}});
         leaves.push_back({{"path", v.path}, {"type", v.type}, {"offset", v.offset}, {"size", v.size}, {"lock", lock}});
         ++lock;
     }
@@ -59,11 +61,19 @@ json makeLayout() {
     ++lock;
     variables.push_back({{"path", "t.arr"}, {"type", "double"}, {"offset", 128}, {"size", 24}, {"lock", lock}});
     for (int i = 0; i < 3; ++i)
-        leaves.push_back({{"path", "t.arr[" + std::to_string(i) + "]"}, {"type", "double"}, {"offset", 128 + 8 * i}, {"size", 8}, {"lock", lock}});
+        leaves.push_back({{"path", "t.arr[" + std::to_string(i) + "]"},
+                          {"type", "double"},
+                          {"offset", 128 + 8 * i},
+                          {"size", 8},
+                          {"lock", lock}});
     ++lock;
     variables.push_back({{"path", "t.many"}, {"type", "double"}, {"offset", 192}, {"size", 70 * 8}, {"lock", lock}});
     for (int i = 0; i < 70; ++i)
-        leaves.push_back({{"path", "t.many[" + std::to_string(i) + "]"}, {"type", "double"}, {"offset", 192 + 8 * i}, {"size", 8}, {"lock", lock}});
+        leaves.push_back({{"path", "t.many[" + std::to_string(i) + "]"},
+                          {"type", "double"},
+                          {"offset", 192 + 8 * i},
+                          {"size", 8},
+                          {"lock", lock}});
     ++lock;
     const std::string long_name = "t." + std::string(240, 'l');
     variables.push_back({{"path", long_name}, {"type", "double"}, {"offset", 768}, {"size", 8}, {"lock", lock}});
@@ -71,14 +81,15 @@ json makeLayout() {
     ++lock;
     json scalar_types = json::object();
     for (const Var &v : scalars)
-        scalar_types[v.type] = {{"size", v.size}, {"align", v.size},
+        scalar_types[v.type] = {{"size", v.size},
+                                {"align", v.size},
                                 {"kind", v.type == "float" || v.type == "double" ? "float"
                                          : v.type == "bool"                      ? "bool"
                                          : v.type[0] == 'u'                      ? "unsigned"
                                                                                  : "signed"}};
-    return {{"format", "indurop-layout"}, {"version", 1}, {"hash", std::string(64, 'c')}, {"data_size", 832},
-            {"lock_count", lock}, {"scalars", scalar_types}, {"types", json::object()}, {"variables", variables},
-            {"leaves", leaves}};
+    return {{"format", "indurop-layout"}, {"version", 1},           {"hash", std::string(64, 'c')},
+            {"data_size", 832},           {"lock_count", lock},     {"scalars", scalar_types},
+            {"types", json::object()},    {"variables", variables}, {"leaves", leaves}};
 }
 
 uint32_t lockOf(const json &layout, const std::string &leaf_path) {
@@ -100,8 +111,8 @@ template <class T>
 void put(const json &layout, const std::string &path, T v) {
     const uint64_t offset = offsetOf(layout, path);
     const uint32_t lock = lockOf(layout, path);
-    shared::ScalarRef<T>(offset, lock, /*in_aggregate=*/path.find_first_of("[") != std::string::npos ||
-                                           path.rfind("t.s.", 0) == 0)
+    shared::ScalarRef<T>(offset, lock,
+                         /*in_aggregate=*/path.find_first_of("[") != std::string::npos || path.rfind("t.s.", 0) == 0)
         .store(v);
 }
 
@@ -149,7 +160,8 @@ public:
                 out[i].first_seq = f[i];
                 const uint32_t n = std::min<uint32_t>(c[i].channel_count, INDUROP_TRACE_CHANNELS);
                 for (uint32_t k = 0; k < n; ++k)
-                    out[i].paths.emplace_back(c[i].channels[k].path, strnlen(c[i].channels[k].path, INDUROP_TRACE_PATH_CHARS));
+                    out[i].paths.emplace_back(c[i].channels[k].path,
+                                              strnlen(c[i].channels[k].path, INDUROP_TRACE_PATH_CHARS));
             }
             std::atomic_thread_fence(std::memory_order_acquire);
             bool same = true;
@@ -250,14 +262,14 @@ protected:
     std::optional<variables::VariableSegment> vars_;
 };
 
-} // namespace
+}  // namespace
 
 TEST_F(Trace, TheSegmentIsCreatedWithItsPinnedLayout) {
     auto created = TraceRings::create(uniqueInstance());
     ASSERT_TRUE(created.ok()) << created.error().message;
     TraceRings &r = *created;
     EXPECT_EQ(r.capacity(), trace::kDefaultCapacity);
-    struct stat st{};
+    struct stat st {};
     ASSERT_EQ(stat(("/dev/shm" + r.name()).c_str(), &st), 0);
     EXPECT_EQ(st.st_mode & 0777, 0660u);
     Reader reader(r.name());
@@ -415,9 +427,10 @@ TEST_F(Trace, RowsAreReadBackInOrderWithTheirSeqAndDueTime) {
 
 TEST_F(Trace, EveryScalarTypeIsSampledAsItsExactValue) {
     TraceRings r = rings();
-    ASSERT_TRUE(r.configure({"t.i8", "t.u8", "t.i16", "t.u16", "t.i32", "t.u32", "t.i64", "t.u64", "t.f32", "t.f64", "t.b"},
-                            *vars_)
-                    .ok());
+    ASSERT_TRUE(
+        r.configure({"t.i8", "t.u8", "t.i16", "t.u16", "t.i32", "t.u32", "t.i64", "t.u64", "t.f32", "t.f64", "t.b"},
+                    *vars_)
+            .ok());
     put<int8_t>(layout_, "t.i8", -5);
     put<uint8_t>(layout_, "t.u8", 250);
     put<int16_t>(layout_, "t.i16", -30000);
@@ -565,7 +578,8 @@ TEST_F(Trace, AReaderRacingTheSamplerNeverAcceptsATornRow) {
             lost += got.lost;
             uint64_t expect = next + 1 + got.lost;
             for (const Row &row : got.rows) {
-                bool ok = row.seq == expect && row.t_ns == t0 + static_cast<int64_t>(row.seq) * 100 && row.values.size() == 64;
+                bool ok = row.seq == expect && row.t_ns == t0 + static_cast<int64_t>(row.seq) * 100 &&
+                          row.values.size() == 64;
                 for (std::size_t k = 0; ok && k < row.values.size(); ++k)
                     ok = row.values[k] == static_cast<double>(row.seq * 64 + k);
                 if (!ok) ++bad;
@@ -579,7 +593,8 @@ TEST_F(Trace, AReaderRacingTheSamplerNeverAcceptsATornRow) {
     });
     for (uint64_t s = 1; s <= kRows; ++s) {
         shared::detail::writeExclusive(lock, [&] {
-            for (uint64_t k = 0; k < 64; ++k) std::atomic_ref<double>(many[k]).store(static_cast<double>(s * 64 + k), std::memory_order_relaxed);
+            for (uint64_t k = 0; k < 64; ++k)
+                std::atomic_ref<double>(many[k]).store(static_cast<double>(s * 64 + k), std::memory_order_relaxed);
         });
         r.sample(t0 + static_cast<int64_t>(s) * 100);
     }

@@ -46,7 +46,8 @@ struct Stats {
     stats::TimingRecord &record(std::size_t i) { return segment.record(i); }
 };
 
-config::ModuleSpec moduleSpec(const std::string &name, int index, config::ModuleType type = config::ModuleType::Thread) {
+config::ModuleSpec moduleSpec(const std::string &name, int index,
+                              config::ModuleType type = config::ModuleType::Thread) {
     config::ModuleSpec m;
     m.name = name;
     m.index = index;
@@ -88,7 +89,7 @@ std::vector<std::string> kindsOf(const events::EventLog &log) {
     return kinds;
 }
 
-} // namespace
+}  // namespace
 
 // ---- EventWatch ---------------------------------------------------------------------------------
 
@@ -207,7 +208,7 @@ struct Hang {
     }
 };
 
-} // namespace
+}  // namespace
 
 TEST(ProcessHangWatch, ARestartKillsTheProcessOncePerRelease) {
     Hang h;
@@ -304,7 +305,7 @@ struct SafeOutputs {
     }
 };
 
-} // namespace
+}  // namespace
 
 TEST(FaultStop, EveryModuleIsStoppedAndItsSafeOutputsDriven) {
     SafeOutputs s;
@@ -321,7 +322,8 @@ TEST(FaultStop, TheWatchdogsHooksReportEveryOverrunAndStopTheSet) {
     SafeOutputs s;
     ASSERT_TRUE(s.g.members[0].thread);
     auto current = std::make_shared<const reload::Generation>(std::move(s.g));
-    const dispatch::Watchdog::Hooks hooks = watch::watchdogHooks(s.log, [&] { return current; }, s.stats.segment);
+    const dispatch::Watchdog::Hooks hooks = watch::watchdogHooks(
+        s.log, [&] { return current; }, s.stats.segment);
     dispatch::Fault f;
     f.kind = dispatch::Fault::Kind::Running;
     f.action = config::OverrunAction::Stop;
@@ -338,7 +340,8 @@ TEST(FaultStop, TheWatchdogsHooksReportEveryOverrunAndStopTheSet) {
     EXPECT_EQ(seen[0].module, "overrun");
     EXPECT_EQ(seen[0].message, f.describe());
     EXPECT_EQ(seen[1].kind, "stopped");
-    EXPECT_EQ(seen[1].message.rfind("set stopped by a fault of module 'overrun': outputs of 1 module(s) driven to safe values in ", 0),
+    EXPECT_EQ(seen[1].message.rfind(
+                  "set stopped by a fault of module 'overrun': outputs of 1 module(s) driven to safe values in ", 0),
               0u)
         << seen[1].message;
     EXPECT_EQ(readFile(s.dir.path / "journal"), "start\nsafe_outputs while idle\n");
@@ -358,7 +361,7 @@ reload::Generation twoExecutors() {
     g.tables->executors[1].basic_ns = 10 * kMs;
     return g;
 }
-} // namespace
+}  // namespace
 
 TEST(Progress, EachDispatchersSlotsAndWindow) {
     Stats stats;
@@ -380,7 +383,8 @@ TEST(Progress, FirstSlotsAreAwaitedUntilEveryDispatcherRanOne) {
 
 TEST(Progress, TheStatusLineSaysTheSetGenerationAndEnabledModules) {
     const reload::Generation g = twoExecutors();
-    EXPECT_EQ(watch::statusLine(g, true), "running /sets/cell/module.xml (generation 3, 1 of 2 modules enabled, real-time)");
+    EXPECT_EQ(watch::statusLine(g, true),
+              "running /sets/cell/module.xml (generation 3, 1 of 2 modules enabled, real-time)");
     EXPECT_EQ(watch::statusLine(g, false),
               "running /sets/cell/module.xml (generation 3, 1 of 2 modules enabled, NOT real-time)");
 }
@@ -396,13 +400,14 @@ struct Crashed {
     events::EventLog log;
 
     Crashed() {
-        const std::string xml =
-            "<root>\n"
-            "<module><filename>crashy.so</filename><moduletype>thread</moduletype><operationtype>periodic</operationtype>"
-            "<period>1000000</period><priority>1</priority></module>\n"
-            "<module><filename>again.so</filename><moduletype>thread</moduletype><operationtype>periodic</operationtype>"
-            "<period>1000000</period><priority>2</priority><on_crash>restart</on_crash></module>\n"
-            "</root>\n";
+        const std::string xml = "<root>\n"
+                                "<module><filename>crashy.so</filename><moduletype>thread</"
+                                "moduletype><operationtype>periodic</operationtype>"
+                                "<period>1000000</period><priority>1</priority></module>\n"
+                                "<module><filename>again.so</filename><moduletype>thread</"
+                                "moduletype><operationtype>periodic</operationtype>"
+                                "<period>1000000</period><priority>2</priority><on_crash>restart</on_crash></module>\n"
+                                "</root>\n";
         std::ofstream(dir.path / "module.xml") << xml;
         set = config::parseModuleXml(dir.path / "module.xml").value();
     }
@@ -415,7 +420,7 @@ struct Crashed {
     }
 };
 
-} // namespace
+}  // namespace
 
 TEST(CrashIntake, TheCrashingModuleIsLeftOutOfItsSet) {
     Crashed c;

@@ -32,7 +32,8 @@ std::unique_ptr<IoConfig> config;
 
 std::string ioconfigText(int fd) {
     return R"(<ioconfig status="PLC_ROBOT.IO_STATUS">
-  <device name="fuzz" type="socketcan" fd=")" + std::to_string(fd) + R"(" timeout_ms="60000" fail_limit="2" sync="true">
+  <device name="fuzz" type="socketcan" fd=")" +
+           std::to_string(fd) + R"(" timeout_ms="60000" fail_limit="2" sync="true">
     <frame id="0x123" direction="in">
       <signal start="0" length="1" path="PLC_ROBOT.PLC_OUT.Running"/>
       <signal start="4" length="12" path="PLC_ROBOT.PLC_IN.Override" scale="0.001" default="0.5"/>
@@ -61,11 +62,10 @@ std::string ioconfigText(int fd) {
 
 void drain(int fd) {
     char buf[64];
-    while (recv(fd, buf, sizeof buf, MSG_DONTWAIT) >= 0) {
-    }
+    while (recv(fd, buf, sizeof buf, MSG_DONTWAIT) >= 0) {}
 }
 
-} // namespace
+}  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int *, char ***) {
     fuzz::plcRobotSegment("fuzz-can");

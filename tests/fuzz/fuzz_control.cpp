@@ -38,12 +38,17 @@ irp::Result<json> handle(const std::string &cmd, const nlohmann::json &request) 
                            {"priority", c.priority ? json(*c.priority) : json(nullptr)},
                            {"enabled", c.enabled ? json(*c.enabled) : json(nullptr)}});
     }
-    return json{{"kind", static_cast<int>(command->kind)}, {"name", command->name},     {"since", command->since},
-                {"limit", command->limit},                  {"config", command->config}, {"set_id", command->set_id},
-                {"changes", std::move(changes)},            {"dry_run", command->dry_run}};
+    return json{{"kind", static_cast<int>(command->kind)},
+                {"name", command->name},
+                {"since", command->since},
+                {"limit", command->limit},
+                {"config", command->config},
+                {"set_id", command->set_id},
+                {"changes", std::move(changes)},
+                {"dry_run", command->dry_run}};
 }
 
-} // namespace
+}  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int *, char ***) {
     layoutJson = nlohmann::json::parse(fuzz::plcRobotSegment("fuzz-control").text);
@@ -63,7 +68,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     } catch (const std::exception &e) {
         finding("the answer is not JSON", answer);
     }
-    if (!parsed.is_object() || !parsed.contains("ok") || !parsed["ok"].is_boolean()) finding("no boolean \"ok\"", answer);
-    if (!parsed["ok"].get<bool>() && parsed["error"].value("message", "").empty()) finding("a refusal without a message", answer);
+    if (!parsed.is_object() || !parsed.contains("ok") || !parsed["ok"].is_boolean())
+        finding("no boolean \"ok\"", answer);
+    if (!parsed["ok"].get<bool>() && parsed["error"].value("message", "").empty())
+        finding("a refusal without a message", answer);
     return 0;
 }

@@ -15,7 +15,8 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 with atheris.instrument_imports():
     from glbc_compiler.cli import source
     from glbc_compiler.emit_header import render as render_header
-    from glbc_compiler.emit_layout import document, render as render_layout
+    from glbc_compiler.emit_layout import document
+    from glbc_compiler.emit_layout import render as render_layout
     from glbc_compiler.errors import GlbError
     from glbc_compiler.layout import build
     from glbc_compiler.parser import parse_file

@@ -44,8 +44,7 @@ int can_ours = -1, can_peer = -1;
 
 void drain(int fd) {
     char buf[64];
-    while (recv(fd, buf, sizeof buf, MSG_DONTWAIT) >= 0) {
-    }
+    while (recv(fd, buf, sizeof buf, MSG_DONTWAIT) >= 0) {}
 }
 
 // Every device pointed at something local that fails or stays silent at once.
@@ -58,7 +57,7 @@ void unreachable(IoConfig &config) {
     }
 }
 
-} // namespace
+}  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int *, char ***) {
     fuzz::plcRobotSegment("fuzz-ioconfig");

@@ -40,7 +40,8 @@ std::unique_ptr<IoConfig> config;
 // FC16 holding 0..2.
 std::string ioconfigText(int port) {
     return R"(<ioconfig status="PLC_ROBOT.IO_STATUS">
-  <device name="fuzz" type="modbus-tcp" host="127.0.0.1" port=")" + std::to_string(port) + R"(" unit="1"
+  <device name="fuzz" type="modbus-tcp" host="127.0.0.1" port=")" +
+           std::to_string(port) + R"(" unit="1"
           timeout_ms="1000" fail_limit="2" reconnect_ms="600000">
     <input  table="input"    address="0" type="u16" path="PLC_ROBOT.AXIS_IN[0].statusword"/>
     <input  table="input"    address="1" type="s16" path="PLC_ROBOT.AXIS_IN[0].mode" default="-1"/>
@@ -60,7 +61,7 @@ std::string ioconfigText(int port) {
 )";
 }
 
-} // namespace
+}  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int *, char ***) {
     fuzz::plcRobotSegment("fuzz-modbus");
@@ -69,8 +70,8 @@ extern "C" int LLVMFuzzerInitialize(int *, char ***) {
     addr.sin_family = AF_INET;
     addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
     socklen_t len = sizeof addr;
-    if (listener < 0 || bind(listener, reinterpret_cast<sockaddr *>(&addr), sizeof addr) != 0 || listen(listener, 8) != 0 ||
-        getsockname(listener, reinterpret_cast<sockaddr *>(&addr), &len) != 0) {
+    if (listener < 0 || bind(listener, reinterpret_cast<sockaddr *>(&addr), sizeof addr) != 0 ||
+        listen(listener, 8) != 0 || getsockname(listener, reinterpret_cast<sockaddr *>(&addr), &len) != 0) {
         std::perror("fuzz_modbus: listening socket");
         std::exit(2);
     }

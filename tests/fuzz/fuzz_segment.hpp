@@ -35,4 +35,4 @@ inline const irp::variables::Layout &plcRobotSegment(const char *target) {
     return *layout;
 }
 
-} // namespace fuzz
+}  // namespace fuzz

@@ -45,29 +45,43 @@ def f32_words(x, high_first=True):
 
 def input_registers(status=0x0237, mode=-1, position=123456, velocity=1.5, step=7.0, cycles=40000):
     p = position & 0xFFFFFFFF
-    return ([status, mode & 0xFFFF, p & 0xFFFF, p >> 16] + f32_words(velocity) + f32_words(step, False)
-            + [cycles >> 16, cycles & 0xFFFF])
+    return (
+        [status, mode & 0xFFFF, p & 0xFFFF, p >> 16]
+        + f32_words(velocity)
+        + f32_words(step, False)
+        + [cycles >> 16, cycles & 0xFFFF]
+    )
 
 
 def cycle(tid, first, inputs, error_id=-5, holding=(0, 0, 0), coils=(1,), discrete=(1, 0, 0, 0, 0, 1), powered=(1,)):
     """One dispatcher cycle's answers; returns (bytes, next tid)."""
     out = b""
     if first:  # the output blocks read once: coil 0, holding 0..2
-        out += mbap(tid, 1, read_bits(1, coils)); tid += 1
-        out += mbap(tid, 1, read_regs(3, list(holding))); tid += 1
-    out += mbap(tid, 1, read_bits(1, powered)); tid += 1
-    out += mbap(tid, 1, read_bits(2, discrete)); tid += 1
-    out += mbap(tid, 1, read_regs(4, inputs)); tid += 1
+        out += mbap(tid, 1, read_bits(1, coils))
+        tid += 1
+        out += mbap(tid, 1, read_regs(3, list(holding)))
+        tid += 1
+    out += mbap(tid, 1, read_bits(1, powered))
+    tid += 1
+    out += mbap(tid, 1, read_bits(2, discrete))
+    tid += 1
+    out += mbap(tid, 1, read_regs(4, inputs))
+    tid += 1
     e = error_id & 0xFFFFFFFF
-    out += mbap(tid, 2, read_regs(3, [e >> 16, e & 0xFFFF])); tid += 1
-    out += mbap(tid, 1, struct.pack(">BHH", 15, 0, 1)); tid += 1
-    out += mbap(tid, 1, struct.pack(">BHH", 16, 0, 3)); tid += 1
+    out += mbap(tid, 2, read_regs(3, [e >> 16, e & 0xFFFF]))
+    tid += 1
+    out += mbap(tid, 1, struct.pack(">BHH", 15, 0, 1))
+    tid += 1
+    out += mbap(tid, 1, struct.pack(">BHH", 16, 0, 3))
+    tid += 1
     return out, tid
 
 
 def modbus_seeds():
     good, tid = cycle(1, True, input_registers())
-    more, tid = cycle(tid, False, input_registers(position=-1, velocity=float("inf"), step=float("nan"), cycles=0xFFFFFFFF))
+    more, tid = cycle(
+        tid, False, input_registers(position=-1, velocity=float("inf"), step=float("nan"), cycles=0xFFFFFFFF)
+    )
     last, tid = cycle(tid, False, input_registers(status=0xFFFF, mode=-32768, velocity=-3.4e38, step=3.4e38))
     write("fuzz_modbus", "three-cycles", good + more + last)
     write("fuzz_modbus", "one-cycle", good)
@@ -103,8 +117,13 @@ def can_seeds():
     top = frame(0x7FF, u64(0xF0FFFFFFFFFFFFFF))
     cycle = b"\xff"
     write("fuzz_can", "signals-and-pdo", tpdo + sig + ext + top + cycle + tpdo + cycle)
-    write("fuzz_can", "float-nan-inf", frame(0x123, [0, 0, 0, 0] + list(struct.pack("<f", math.inf)))
-          + frame(0x1ABCDEF | CAN_EFF, [0] + list(struct.pack("<f", math.nan)) + [0, 0, 0]) + cycle)
+    write(
+        "fuzz_can",
+        "float-nan-inf",
+        frame(0x123, [0, 0, 0, 0] + list(struct.pack("<f", math.inf)))
+        + frame(0x1ABCDEF | CAN_EFF, [0] + list(struct.pack("<f", math.nan)) + [0, 0, 0])
+        + cycle,
+    )
     write("fuzz_can", "short-dlc", frame(0x123, [1, 2]) + frame(0x183, [0x37]) + cycle)
     write("fuzz_can", "dlc-above-8", frame(0x123, list(range(8)), dlc=15) + cycle)
     write("fuzz_can", "rtr-and-error-frames", frame(0x123 | CAN_RTR, [], dlc=8) + frame(CAN_ERR | 4, [0] * 8) + cycle)

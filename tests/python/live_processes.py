@@ -1,5 +1,6 @@
 """live_processes.py -- real irpd and agent processes for the Python tests: started on loopback,
 on free ports, with their own instance names, and stopped by pid."""
+
 from __future__ import annotations
 
 import os
@@ -24,8 +25,13 @@ API = "/api/v1"
 CELL = BUILD / "sets" / "plc-robot"
 
 
-def copy_cell(folder: Path, xml: str = "module.xml", extra_drivesim: list[str] | None = None,
-              fail_limit: int | None = None, port: int | None = None) -> tuple[Path, int]:
+def copy_cell(
+    folder: Path,
+    xml: str = "module.xml",
+    extra_drivesim: list[str] | None = None,
+    fail_limit: int | None = None,
+    port: int | None = None,
+) -> tuple[Path, int]:
     """The PLC + robot cell copied to `folder` with its drive simulator on a free port (irpd starts
     it; two cells never share one), and room for the test machine's stalls: a shared VM starves the
     simulator for a fraction of a second at times, and a late answer must not read as a dead drive
@@ -39,24 +45,45 @@ def copy_cell(folder: Path, xml: str = "module.xml", extra_drivesim: list[str] |
     port = port or free_port()
     fail_limit = fail_limit or (1000 if "1ms" in xml else 100)
     ioconfig = folder / "ioconfig.xml"
-    ioconfig.write_text(ioconfig.read_text().replace("15020", str(port))
-                        .replace('timeout_ms="4" fail_limit="3"', f'timeout_ms="8" fail_limit="{fail_limit}"'))
+    ioconfig.write_text(
+        ioconfig.read_text()
+        .replace("15020", str(port))
+        .replace('timeout_ms="4" fail_limit="3"', f'timeout_ms="8" fail_limit="{fail_limit}"')
+    )
     config = folder / xml
-    config.write_text(config.read_text().replace(
-        '<value name="urdf">indurop6.urdf</value>',
-        '<value name="urdf">indurop6.urdf</value><value name="following_error">2</value>').replace(
-        "--port 15020 --quiet", " ".join(["--port", str(port), "--quiet", "--comm-timeout", "1000", "--following-limit", "2",
-                                          *(extra_drivesim or [])])))
+    config.write_text(
+        config.read_text()
+        .replace(
+            '<value name="urdf">indurop6.urdf</value>',
+            '<value name="urdf">indurop6.urdf</value><value name="following_error">2</value>',
+        )
+        .replace(
+            "--port 15020 --quiet",
+            " ".join(
+                [
+                    "--port",
+                    str(port),
+                    "--quiet",
+                    "--comm-timeout",
+                    "1000",
+                    "--following-limit",
+                    "2",
+                    *(extra_drivesim or []),
+                ]
+            ),
+        )
+    )
     return config, port
 
 
-def module_entry(name: str, file: str, period_ns: int, priority: int, extra: str = "",
-                 kind: str = "thread") -> str:
+def module_entry(name: str, file: str, period_ns: int, priority: int, extra: str = "", kind: str = "thread") -> str:
     """One periodic <module> of a module.xml; `extra` is added inside it (properties, <executor>,
     <on_overrun>...)."""
-    return (f"  <module><name>{name}</name><filename>{file}</filename><moduletype>{kind}</moduletype>"
-            f"<operationtype>periodic</operationtype><period>{period_ns}</period><priority>{priority}</priority>"
-            f"{extra}</module>\n")
+    return (
+        f"  <module><name>{name}</name><filename>{file}</filename><moduletype>{kind}</moduletype>"
+        f"<operationtype>periodic</operationtype><period>{period_ns}</period><priority>{priority}</priority>"
+        f"{extra}</module>\n"
+    )
 
 
 def free_port() -> int:
@@ -77,8 +104,15 @@ def _output_file(log: Path | None):
     return open(log, "w+") if log else tempfile.TemporaryFile("w+")
 
 
-def start_irpd(sock: Path, config: Path = FIG1, instance: str | None = None, *extra: str,
-               log: Path | None = None, module_output: bool = False, drives_priority: int = 0) -> subprocess.Popen:
+def start_irpd(
+    sock: Path,
+    config: Path = FIG1,
+    instance: str | None = None,
+    *extra: str,
+    log: Path | None = None,
+    module_output: bool = False,
+    drives_priority: int = 0,
+) -> subprocess.Popen:
     """irpd running `config` with its control socket at `sock`; returns once the socket is there.
     Its stderr goes to `log` when given, else to a temporary file: output(p); its stdout (the
     modules' irp::printf lines) too with module_output, else nowhere.  With drives_priority, the
@@ -86,9 +120,21 @@ def start_irpd(sock: Path, config: Path = FIG1, instance: str | None = None, *ex
     is not permitted, a warning on stderr and a normal process)."""
     sock.unlink(missing_ok=True)
     out = _output_file(log)
-    p = subprocess.Popen([str(IRPD), "--config", str(config), "--control-socket", str(sock),
-                          "--instance", instance or f"agent-test-{os.getpid()}", *extra],
-                         stdout=out if module_output else subprocess.DEVNULL, stderr=out, text=True)
+    p = subprocess.Popen(
+        [
+            str(IRPD),
+            "--config",
+            str(config),
+            "--control-socket",
+            str(sock),
+            "--instance",
+            instance or f"agent-test-{os.getpid()}",
+            *extra,
+        ],
+        stdout=out if module_output else subprocess.DEVNULL,
+        stderr=out,
+        text=True,
+    )
     STARTED.append(p)
     p.log = out
     deadline = time.monotonic() + START_TIMEOUT_S
@@ -104,18 +150,42 @@ def start_irpd(sock: Path, config: Path = FIG1, instance: str | None = None, *ex
     return p
 
 
-def start_agent(port: int, data: Path, sock: Path, *extra: str, log: Path | None = None,
-                env: dict[str, str] | None = None, timeout_s: float = START_TIMEOUT_S) -> subprocess.Popen:
+def start_agent(
+    port: int,
+    data: Path,
+    sock: Path,
+    *extra: str,
+    log: Path | None = None,
+    env: dict[str, str] | None = None,
+    timeout_s: float = START_TIMEOUT_S,
+) -> subprocess.Popen:
     """`python -m indurop_agent` on 127.0.0.1:port; returns once /health answers.  Its output goes
     to `log` when given, else to a temporary file, never a pipe nobody reads (a full pipe would stop
     the agent): output(p).  `env` is added to this process's environment.  An agent that exits or
     does not answer within `timeout_s` is stopped (not left loading the machine) and the start
     fails with its output."""
     out = _output_file(log)
-    p = subprocess.Popen([sys.executable, "-m", "indurop_agent", "--host", "127.0.0.1", "--port", str(port),
-                          "--data-dir", str(data), "--irpd-socket", str(sock), *extra],
-                         cwd=ROOT / "agent", stdout=out, stderr=subprocess.STDOUT, text=True,
-                         env={**os.environ, **(env or {})})
+    p = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "indurop_agent",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            str(port),
+            "--data-dir",
+            str(data),
+            "--irpd-socket",
+            str(sock),
+            *extra,
+        ],
+        cwd=ROOT / "agent",
+        stdout=out,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env={**os.environ, **(env or {})},
+    )
     STARTED.append(p)
     p.log = out
     deadline = time.monotonic() + timeout_s
@@ -128,8 +198,9 @@ def start_agent(port: int, data: Path, sock: Path, *extra: str, log: Path | None
         if p.poll() is not None or time.monotonic() > deadline:
             exited = p.poll() is not None
             stop(p)
-            raise AssertionError(f"the agent {'exited' if exited else f'did not answer within {timeout_s:g} s'}: "
-                                 f"{output(p)}")
+            raise AssertionError(
+                f"the agent {'exited' if exited else f'did not answer within {timeout_s:g} s'}: {output(p)}"
+            )
         time.sleep(0.05)
 
 
@@ -171,5 +242,3 @@ def stop(p: subprocess.Popen) -> None:
         except subprocess.TimeoutExpired:
             p.kill()
             p.wait()
-
-

@@ -3,15 +3,15 @@
 import "uplot/dist/uPlot.min.css";
 import "./styles/app.css";
 import { makeApi } from "./api/client";
-import { roleAtLeast, type AppContext, type Page, type Role, type Session } from "./app/context";
-import { StreamClient } from "./stream/stream";
-import { overviewPage } from "./pages/overview";
-import { modulesPage } from "./pages/modules";
-import { schedulePage } from "./pages/schedule";
+import { type AppContext, type Page, type Role, roleAtLeast, type Session } from "./app/context";
+import { forgetToken, signIn, storedToken } from "./app/signin";
 import { jitterPage } from "./pages/jitter";
-import { variablesPage } from "./pages/variables";
+import { modulesPage } from "./pages/modules";
+import { overviewPage } from "./pages/overview";
 import { robotPage } from "./pages/robot";
-import { signIn, storedToken, forgetToken } from "./app/signin";
+import { schedulePage } from "./pages/schedule";
+import { variablesPage } from "./pages/variables";
+import { StreamClient } from "./stream/stream";
 
 const PAGES: { id: string; title: string; page: Page }[] = [
   { id: "overview", title: "Overview", page: overviewPage },
@@ -64,7 +64,8 @@ async function start(root: HTMLElement): Promise<void> {
     unmount?.();
     main.innerHTML = "";
     main.dataset.page = p.id;
-    for (const a of root.querySelectorAll<HTMLAnchorElement>("nav a")) a.classList.toggle("active", a.dataset.page === p.id);
+    for (const a of root.querySelectorAll<HTMLAnchorElement>("nav a"))
+      a.classList.toggle("active", a.dataset.page === p.id);
     unmount = p.page(main, ctx);
   };
   window.addEventListener("hashchange", route);

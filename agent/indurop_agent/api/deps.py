@@ -1,5 +1,6 @@
 """deps.py -- what the routes depend on, as named types: the irpd clients, the caller's identity
 (role checked, brute-force lockout applied), and `audited`, which writes a mutation's audit line."""
+
 from __future__ import annotations
 
 from contextlib import contextmanager
@@ -52,10 +53,17 @@ def check_token(state, address: str, token: str, role: str) -> Identity:
     if who is None:
         if state.lockout.failed(address):
             window = int(state.lockout.window_s)
-            state.audit.write("lockout", who=None, client=address, target=address, result="ok",
-                              detail=f"{state.lockout.attempts} unknown tokens within {window} s")
-            state.events.add("lockout", f"client {address} locked out for {window} s after "
-                                        f"{state.lockout.attempts} unknown tokens")
+            state.audit.write(
+                "lockout",
+                who=None,
+                client=address,
+                target=address,
+                result="ok",
+                detail=f"{state.lockout.attempts} unknown tokens within {window} s",
+            )
+            state.events.add(
+                "lockout", f"client {address} locked out for {window} s after {state.lockout.attempts} unknown tokens"
+            )
             raise AuthFailure(429, f"too many unknown tokens from {address}; try again in {window} s", window)
         raise AuthFailure(401, "unknown token")
     if not allows(who.role, role):
@@ -71,15 +79,24 @@ def require(role: str):
         if credentials is None:
             wait = request.app.state.lockout.retry_after(client_address(request))
             if wait:
-                raise HTTPException(429, f"too many unknown tokens from {client_address(request)}; try again in {wait} s",
-                                    headers={"Retry-After": str(wait)})
-            raise HTTPException(401, "a bearer token is required (Authorization: Bearer <token>)",
-                                headers={"WWW-Authenticate": "Bearer"})
+                raise HTTPException(
+                    429,
+                    f"too many unknown tokens from {client_address(request)}; try again in {wait} s",
+                    headers={"Retry-After": str(wait)},
+                )
+            raise HTTPException(
+                401,
+                "a bearer token is required (Authorization: Bearer <token>)",
+                headers={"WWW-Authenticate": "Bearer"},
+            )
         try:
             return check_token(request.app.state, client_address(request), credentials.credentials, role)
         except AuthFailure as e:
-            headers = {"Retry-After": str(e.retry_after)} if e.retry_after else (
-                {"WWW-Authenticate": "Bearer"} if e.status == 401 else None)
+            headers = (
+                {"Retry-After": str(e.retry_after)}
+                if e.retry_after
+                else ({"WWW-Authenticate": "Bearer"} if e.status == 401 else None)
+            )
             raise HTTPException(e.status, e.message, headers=headers) from e
 
     return check
@@ -119,4 +136,3 @@ def audited(request: Request, who: Identity, action: str, target: str | None = N
         raise
     else:
         log.write(action, **common, **entry, result="ok")
-

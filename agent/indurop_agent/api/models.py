@@ -3,6 +3,7 @@ generated client) says what comes back: the agent's own (sets, events, host load
 irpd's answers (status, schedule, modules, stats, histograms, swap reports).  irpd's shapes list
 the fields irpd sends and let any others through (extra="allow"), so a newer irpd's additions
 reach the client."""
+
 from __future__ import annotations
 
 from typing import Any, Literal
@@ -22,8 +23,10 @@ class SetFile(BaseModel):
     path: str = Field(description="relative to the set's root, e.g. lib/cntr1.so")
     sha256: str
     size: int
-    kind: str = Field(description="module_xml, config, thread_module, library, executable, layout, json, robot "
-                                  "(robot.json), glb, urdf, mesh, header or text")
+    kind: str = Field(
+        description="module_xml, config, thread_module, library, executable, layout, json, robot "
+        "(robot.json), glb, urdf, mesh, header or text"
+    )
 
 
 class ErrorBody(BaseModel):
@@ -88,29 +91,40 @@ class VariableChanges(BaseModel):
 
     layout: str | None = Field(None, description="the new layout's hash")
     added: list[str] = Field([], description="variables the running layout does not have (zeroed before the swap)")
-    removed: list[str] = Field([], description="variables the new layout does not have (their room stays a hole "
-                                               "until irpd restarts)")
+    removed: list[str] = Field(
+        [], description="variables the new layout does not have (their room stays a hole until irpd restarts)"
+    )
     moved: list[MovedVariable] = Field([], description="variables whose type changed: a new place, zeroed")
-    replaced: list[str] = Field([], description="running modules built against a layout that has a changed "
-                                                "variable elsewhere: they are loaded anew, not kept")
+    replaced: list[str] = Field(
+        [],
+        description="running modules built against a layout that has a changed "
+        "variable elsewhere: they are loaded anew, not kept",
+    )
 
 
 class RestartNeed(BaseModel):
     model_config = ConfigDict(extra="allow")
     reason: str = Field(description="why irpd cannot take the set online")
-    expected_downtime_ns: int | None = Field(None, description="what the restart is expected to cost: from the last "
-                                                               "period of the running set to the first of the new one")
+    expected_downtime_ns: int | None = Field(
+        None,
+        description="what the restart is expected to cost: from the last "
+        "period of the running set to the first of the new one",
+    )
 
 
 class Validation(BaseModel):
     valid: bool | None = Field(description="irpd's `check` verdict; null when irpd could not check the set")
     errors: list[str] = []
-    problems: list[Problem] = Field([], description="`errors` again, each with the file, line and column it "
-                                                    "names (where it names one)")
+    problems: list[Problem] = Field(
+        [], description="`errors` again, each with the file, line and column it names (where it names one)"
+    )
     warnings: list[str] = []
     schedule: Schedule | None = Field(None, description="the slot table irpd would run, as GET /schedule")
-    online: bool | None = Field(None, description="whether irpd can take the set by a hot swap (checked against what "
-                                                  "ran when it was checked); false: only a restart can run it")
+    online: bool | None = Field(
+        None,
+        description="whether irpd can take the set by a hot swap (checked against what "
+        "ran when it was checked); false: only a restart can run it",
+    )
     restart: RestartNeed | None = Field(None, description="when online is false: why, and the expected downtime")
     variables: VariableChanges | None = Field(None, description="the shared variables it adds, removes and moves")
 
@@ -144,9 +158,11 @@ class ActivateRequest(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
     mode: Literal["online", "restart", "auto"] = Field(
-        "online", description="online: a hot swap, refused (409) for a set irpd can run only after a restart; "
-                              "restart: irpd stops and starts again (same pid) on the set; auto: restart only when "
-                              "irpd cannot take the set online")
+        "online",
+        description="online: a hot swap, refused (409) for a set irpd can run only after a restart; "
+        "restart: irpd stops and starts again (same pid) on the set; auto: restart only when "
+        "irpd cannot take the set online",
+    )
 
 
 class SwapReport(BaseModel):
@@ -154,8 +170,11 @@ class SwapReport(BaseModel):
 
     model_config = ConfigDict(extra="allow")
     mode: Literal["online", "restart"] = Field("online", description="how the set went in: a hot swap or a restart")
-    downtime_ns: int | None = Field(None, description="restart: from the old set's last period to the new one's "
-                                                      "first, as irpd measured it; null for a hot swap")
+    downtime_ns: int | None = Field(
+        None,
+        description="restart: from the old set's last period to the new one's "
+        "first, as irpd measured it; null for a hot swap",
+    )
     set: str | None = None
     set_id: str | None = None
     generation: int | None = None
@@ -189,8 +208,9 @@ class Status(IrpdShape):
     pid: int = Field(description="irpd's process id")
     basic_period_ns: int
     macro_period_ns: int
-    min_basic_period_ns: int | None = Field(None, description="the shortest basic period irpd accepts "
-                                                              "(a set or change below it is refused)")
+    min_basic_period_ns: int | None = Field(
+        None, description="the shortest basic period irpd accepts (a set or change below it is refused)"
+    )
     uptime_ns: int
     cycles: int = Field(description="basic periods dispatched")
     modules: int = Field(description="how many modules the set has")
@@ -199,16 +219,23 @@ class Status(IrpdShape):
     skipped: int
     caught_up: int
     events: int = Field(description="the last event's seq")
-    stopped_by_fault: str | None = Field(None, description="null, or why a fault stopped the set (an overrun with "
-                                                           "on_overrun=stop): docs/faults.md")
-    last_crash: dict[str, Any] | None = Field(None, description="the crash record irpd took in at start (signal, "
-                                                                "module, executor, set, time, cause: fault, abort, "
-                                                                "watchdog or signal, sender_pid...), or null: "
-                                                                "docs/supervision.md")
+    stopped_by_fault: str | None = Field(
+        None, description="null, or why a fault stopped the set (an overrun with on_overrun=stop): docs/faults.md"
+    )
+    last_crash: dict[str, Any] | None = Field(
+        None,
+        description="the crash record irpd took in at start (signal, "
+        "module, executor, set, time, cause: fault, abort, "
+        "watchdog or signal, sender_pid...), or null: "
+        "docs/supervision.md",
+    )
     left_out_after_crash: list[dict[str, Any]] = Field([], description="modules a crash left out ({module, set})")
-    last_restart: dict[str, Any] | None = Field(None, description="the managed restart this irpd came from "
-                                                "({from_set_id, set_id, downtime_ns, requested_ns, fell_back, error}), "
-                                                "or null")
+    last_restart: dict[str, Any] | None = Field(
+        None,
+        description="the managed restart this irpd came from "
+        "({from_set_id, set_id, downtime_ns, requested_ns, fell_back, error}), "
+        "or null",
+    )
     shared_memory: SharedMemory
 
 
@@ -323,6 +350,7 @@ class EventsPage(BaseModel):
 # --- what the web UI needs beyond the figures irpd gives (host load, histograms, batch changes,
 # the 3D view); documented in docs/api.md.
 
+
 class ProcessLoad(BaseModel):
     pid: int
     cpu: float = Field(description="CPU time used since the previous sample, as a fraction of one CPU (0..n)")
@@ -398,14 +426,18 @@ class ChangesReport(BaseModel):
     dry_run: bool
     before: Schedule = Field(description="the slot table running before the changes, as GET /schedule")
     after: Schedule = Field(description="the slot table with the changes, as GET /schedule")
-    utilization: float = Field(description="estimated busy fraction of the busiest executor with the changes "
-                                           "(measured exec p99 of each module, or its <budget> when larger, "
-                                           "over its period); irpd refuses above 1")
-    executors: dict[str, float] = Field({}, description="the same estimate per executor (main and every "
-                                                         "<executor>)")
-    warnings: list[str] = Field([], description="what may not be meant: a new basic or macro period, modules "
-                                                "sharing a priority on one executor, an executor above 80 %, a "
-                                                "module whose file changed and is loaded anew")
+    utilization: float = Field(
+        description="estimated busy fraction of the busiest executor with the changes "
+        "(measured exec p99 of each module, or its <budget> when larger, "
+        "over its period); irpd refuses above 1"
+    )
+    executors: dict[str, float] = Field({}, description="the same estimate per executor (main and every <executor>)")
+    warnings: list[str] = Field(
+        [],
+        description="what may not be meant: a new basic or macro period, modules "
+        "sharing a priority on one executor, an executor above 80 %, a "
+        "module whose file changed and is loaded anew",
+    )
     report: SwapReport | None = Field(None, description="irpd's swap report (null for a dry run)")
 
 
@@ -429,8 +461,11 @@ class RobotView(BaseModel):
     viewer_url: str | None = Field(description="where the embedded 3D view is served (relative to the agent)")
     urdf: str | None = Field(description="the URDF file of the running set")
     joints: list[RobotJoint]
-    set_id: str | None = Field(None, description="the running set's id in the store (null: irpd runs a folder the "
-                                                 "store does not hold yet; PUT /robot/joints imports it)")
+    set_id: str | None = Field(
+        None,
+        description="the running set's id in the store (null: irpd runs a folder the "
+        "store does not hold yet; PUT /robot/joints imports it)",
+    )
 
 
 class JointMapUpdate(BaseModel):

@@ -2,6 +2,7 @@
 kinematics (urdf.py), the set's robot.json (mapping.py), two viewer backends behind one interface
 (base.py: viser_view.py, meshcat_view.py), the task that keeps the view live (live.py) and the
 tickets that let the browser's iframe through the agent's proxy (ticket.py)."""
+
 from __future__ import annotations
 
 from ..config import VIEWERS

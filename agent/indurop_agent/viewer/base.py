@@ -2,6 +2,7 @@
 move its joints, and tell the reverse proxy (api/routes/robot.py) where its page and its
 WebSocket are, so the browser reaches it through the agent's port only.  Backends: viser_view.py
 (the default) and meshcat_view.py."""
+
 from __future__ import annotations
 
 import socket

@@ -8,6 +8,7 @@ loads the robot into the viewer (started on first use).  At `robot_rate_hz` (30 
 mapped variables straight from the shared-variable segment (variables.py, no lock, no HTTP) and
 sets the joints: position = value · scale + offset.  It never raises: irpd may come and go.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -21,8 +22,16 @@ from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
 from ..variables import Segment, VariableError
 from . import make_viewer
 from .base import Viewer, ViewerError
-from .mapping import (ROBOT_JSON, JointMapping, MappingError, RobotConfig, check_against_urdf, complete,
-                      parse_config, variable_problem)
+from .mapping import (
+    ROBOT_JSON,
+    JointMapping,
+    MappingError,
+    RobotConfig,
+    check_against_urdf,
+    complete,
+    parse_config,
+    variable_problem,
+)
 from .urdf import Urdf, UrdfError, parse
 
 STATUS_EVERY_S = 0.5
@@ -56,8 +65,8 @@ class View:
     set_id: str | None = None
     config: RobotConfig | None = None
     urdf: Urdf | None = None
-    joints: list[JointMapping] = field(default_factory=list)     # every movable joint, URDF order
-    problems: dict[str, str] = field(default_factory=dict)       # joint -> why its variable is not read
+    joints: list[JointMapping] = field(default_factory=list)  # every movable joint, URDF order
+    problems: dict[str, str] = field(default_factory=dict)  # joint -> why its variable is not read
 
 
 class RobotLive(threading.Thread):
@@ -128,8 +137,15 @@ class RobotLive(threading.Thread):
             status = self.irpd.request("status")
         except (IrpdUnavailable, IrpdRefused) as e:
             self._key = None
-            self.view = View(False, f"irpd does not answer: {e}", self.view.folder, self.view.set_id,
-                             self.view.config, self.view.urdf, self.view.joints)
+            self.view = View(
+                False,
+                f"irpd does not answer: {e}",
+                self.view.folder,
+                self.view.set_id,
+                self.view.config,
+                self.view.urdf,
+                self.view.joints,
+            )
             return
         key = (status.get("pid"), status.get("set"), status.get("generation"), status.get("set_id"))
         if key != self._key:
@@ -154,7 +170,10 @@ class RobotLive(threading.Thread):
         if not robot_json.is_file():
             return self._unavailable(
                 f"the running set ({folder}) has no {ROBOT_JSON}: the file that names the robot's URDF and maps "
-                "shared variables to its joints (docs/robot-view.md)", folder, set_id)
+                "shared variables to its joints (docs/robot-view.md)",
+                folder,
+                set_id,
+            )
         try:
             config = parse_config(robot_json.read_bytes(), str(robot_json))
             urdf = parse(folder / config.urdf, str(folder / config.urdf))
@@ -187,8 +206,11 @@ class RobotLive(threading.Thread):
         detail = "; ".join(f"{j}: {p} (held at 0)" for j, p in problems.items()) or None
         self.view = View(True, detail, folder, set_id, config, urdf, joints, problems)
         if not keep:
-            self.events.add("robot_view", f"the 3D view ({self.viewer_kind}) shows {config.urdf} of "
-                                          f"{'set ' + set_id if set_id else folder}", set_id=set_id)
+            self.events.add(
+                "robot_view",
+                f"the 3D view ({self.viewer_kind}) shows {config.urdf} of {'set ' + set_id if set_id else folder}",
+                set_id=set_id,
+            )
         self._move()
 
     def _check_variables(self, status: dict, joints: list[JointMapping]) -> dict[str, str]:

@@ -5,6 +5,7 @@ variable drives each joint: {"urdf": "indurop6.urdf", "joints": [{"joint": "join
 is value · scale + offset (rad or m); a movable joint the file does not name, or one whose
 variable is null, stays at 0.  Checked three ways: its own shape, against the URDF (the joints
 exist and move) and against the running layout (the variables exist and are scalars)."""
+
 from __future__ import annotations
 
 import json
@@ -35,7 +36,7 @@ class JointMapping:
 
 @dataclass
 class RobotConfig:
-    urdf: str                    # the URDF's path in the set, relative to its root
+    urdf: str  # the URDF's path in the set, relative to its root
     joints: list[JointMapping]
     description: str | None = None  # what the file is for, in words (kept when the map changes)
 
@@ -44,7 +45,9 @@ class RobotConfig:
         the same set id)."""
         head = [f' "description": {json.dumps(self.description)},'] if self.description else []
         rows = ",\n".join(f"  {json.dumps(j.as_dict())}" for j in self.joints)
-        return "\n".join(["{", *head, f' "urdf": {json.dumps(self.urdf)},', ' "joints": [', rows, " ]", "}", ""]).encode()
+        return "\n".join(
+            ["{", *head, f' "urdf": {json.dumps(self.urdf)},', ' "joints": [', rows, " ]", "}", ""]
+        ).encode()
 
     def positions(self, values: dict[str, float]) -> dict[str, float]:
         """Joint positions from variable values (a joint whose variable has no value: 0)."""
@@ -87,8 +90,9 @@ def joints_from(items, shown: str) -> list[JointMapping]:
             raise MappingError(f"{where} must be an object {{joint, variable, scale, offset}}")
         unknown = set(item) - {"joint", "variable", "scale", "offset"}
         if unknown:
-            raise MappingError(f"{where}: unknown keys {', '.join(sorted(unknown))}; "
-                               "the keys are joint, variable, scale, offset")
+            raise MappingError(
+                f"{where}: unknown keys {', '.join(sorted(unknown))}; the keys are joint, variable, scale, offset"
+            )
         joint, variable = item.get("joint"), item.get("variable")
         if not isinstance(joint, str) or not joint:
             raise MappingError(f"{where}.joint must be a joint name of the URDF")
@@ -97,8 +101,14 @@ def joints_from(items, shown: str) -> list[JointMapping]:
         seen.add(joint)
         if variable is not None and (not isinstance(variable, str) or not variable):
             raise MappingError(f"{where}.variable must be a shared variable's path or null")
-        out.append(JointMapping(joint, variable, _number(item.get("scale", 1.0), f"{where}.scale"),
-                                _number(item.get("offset", 0.0), f"{where}.offset")))
+        out.append(
+            JointMapping(
+                joint,
+                variable,
+                _number(item.get("scale", 1.0), f"{where}.scale"),
+                _number(item.get("offset", 0.0), f"{where}.offset"),
+            )
+        )
     return out
 
 
@@ -112,7 +122,9 @@ def parse_config(data: bytes | str, shown: str = ROBOT_JSON) -> RobotConfig:
         raise MappingError(f"{shown} must be an object {{\"urdf\": ..., \"joints\": [...]}}")
     unknown = set(body) - {"description", "urdf", "joints"}
     if unknown:
-        raise MappingError(f"{shown}: unknown keys {', '.join(sorted(unknown))}; the keys are description, urdf, joints")
+        raise MappingError(
+            f"{shown}: unknown keys {', '.join(sorted(unknown))}; the keys are description, urdf, joints"
+        )
     description = body.get("description")
     if description is not None and not isinstance(description, str):
         raise MappingError(f"{shown}: \"description\" must be a string")
@@ -125,8 +137,10 @@ def check_against_urdf(joints: list[JointMapping], urdf: Urdf, shown: str, urdf_
     for i, m in enumerate(joints):
         if m.joint not in movable:
             what = "a fixed joint" if m.joint in urdf.joints else "not a joint"
-            raise MappingError(f"{shown}: joints[{i}].joint {json.dumps(m.joint)} is {what} of {urdf_name}; "
-                               f"its movable joints are {', '.join(movable)}")
+            raise MappingError(
+                f"{shown}: joints[{i}].joint {json.dumps(m.joint)} is {what} of {urdf_name}; "
+                f"its movable joints are {', '.join(movable)}"
+            )
 
 
 def variable_problem(path: str, leaves: dict, scalars: dict) -> str | None:

@@ -6,6 +6,7 @@ ports it is given (meshcat's own entry point listens on every address and picks 
 
 Prints "ready" once both ports are bound; ends when its standard input closes, so it never
 outlives the agent that started it."""
+
 from __future__ import annotations
 
 import argparse

@@ -4,6 +4,7 @@ the URDF's visuals (box, cylinder, sphere; .stl/.obj/.dae files inside the set),
 link, and each update sends the links' world poses from our forward kinematics (urdf.py), only
 those that moved.  meshcat's page connects to ws://<host>/ (the server's root), which cannot work
 under a subpath: the proxy hands the browser the page with the WebSocket URL it must use."""
+
 from __future__ import annotations
 
 import subprocess
@@ -22,7 +23,7 @@ START_TIMEOUT_S = 30.0
 # meshcat's page: viewer.connect() without a URL means ws://<host>/.  Through the proxy, the
 # WebSocket is at the page's own URL without its query and trailing slash (as viser does it).
 CONNECT = b"viewer.connect();"
-CONNECT_HERE = (b"viewer.connect(location.href.split(/[?#]/)[0].replace(/^http/, 'ws').replace(/\\/$/, ''));")
+CONNECT_HERE = b"viewer.connect(location.href.split(/[?#]/)[0].replace(/^http/, 'ws').replace(/\\/$/, ''));"
 # The camera, from the front right and above, orbiting the base (meshcat's camera frame is
 # three.js's, y up: world (x, y, z) is (x, -z, y) there; its orbit controls turn about the origin).
 CAMERA_POSITION = [1.6, 1.0, 1.6]
@@ -57,17 +58,32 @@ class MeshcatViewer(Viewer):
         last = "no attempt"
         for _ in range(3):  # a port taken between choosing it and binding it: choose again
             zmq_port, web_port = free_port(), free_port()
-            proc = subprocess.Popen([sys.executable, "-m", "indurop_agent.viewer.meshcat_server",
-                                     "--zmq-port", str(zmq_port), "--web-port", str(web_port)],
-                                    cwd=Path(__file__).resolve().parents[2], stdin=subprocess.PIPE,
-                                    stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+            proc = subprocess.Popen(
+                [
+                    sys.executable,
+                    "-m",
+                    "indurop_agent.viewer.meshcat_server",
+                    "--zmq-port",
+                    str(zmq_port),
+                    "--web-port",
+                    str(web_port),
+                ],
+                cwd=Path(__file__).resolve().parents[2],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.DEVNULL,
+                text=True,
+            )
             line = self._first_line(proc)
             if line == "ready":
                 self.proc, self._port = proc, web_port
                 context = zmq.Context.instance()
                 sock = context.socket(zmq.REQ)
-                for option, value in ((zmq.RCVTIMEO, REPLY_TIMEOUT_MS), (zmq.SNDTIMEO, REPLY_TIMEOUT_MS),
-                                      (zmq.LINGER, 0)):
+                for option, value in (
+                    (zmq.RCVTIMEO, REPLY_TIMEOUT_MS),
+                    (zmq.SNDTIMEO, REPLY_TIMEOUT_MS),
+                    (zmq.LINGER, 0),
+                ):
                     sock.setsockopt(option, value)
                 sock.connect(f"tcp://127.0.0.1:{zmq_port}")
                 self._zmq = sock
@@ -144,14 +160,15 @@ class MeshcatViewer(Viewer):
             return g.Cylinder(v.size[1], v.size[0]), CYLINDER_UP
         name = v.filename or ""
         if name.startswith("file://"):
-            name = name[len("file://"):]
+            name = name[len("file://") :]
         if base is None or "://" in name or name.startswith("/"):
             return None, None  # package:// and absolute paths name files outside the set
         path = (base / name).resolve()
         if not path.is_relative_to(base.resolve()) or not path.is_file():
             return None, None
         loader = {".stl": g.StlMeshGeometry, ".obj": g.ObjMeshGeometry, ".dae": g.DaeMeshGeometry}.get(
-            path.suffix.lower())
+            path.suffix.lower()
+        )
         if loader is None:
             return None, None
         return loader.from_file(str(path)), np.diag([*v.size, 1.0])
@@ -163,8 +180,11 @@ class MeshcatViewer(Viewer):
         base = urdf.path.parent if urdf.path else None
         with self._lock:
             self._send(c.Delete(self._path()))
-            self._send(c.SetProperty("position", CAMERA_POSITION,
-                                     self._path(root=("Cameras", "default", "rotated", "<object>"))))
+            self._send(
+                c.SetProperty(
+                    "position", CAMERA_POSITION, self._path(root=("Cameras", "default", "rotated", "<object>"))
+                )
+            )
             self._urdf, self._shown = urdf, {}
             self._positions = {j.name: 0.0 for j in urdf.movable_joints()}
             for i, v in enumerate(urdf.visuals):

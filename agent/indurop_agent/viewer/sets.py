@@ -5,6 +5,7 @@ rolled back) and activated by a hot reload that keeps every module (same files, 
 A running set that is not in the store yet (irpd started directly on a build folder) is first
 imported from its folder: every regular file, the running config stored as module.xml (a module.xml
 beside it that is not the running one is left out), checked as an upload is."""
+
 from __future__ import annotations
 
 import hashlib
@@ -63,8 +64,9 @@ def import_folder(state, config: Path, who: dict) -> dict:
             sha, size = _stage_copy(p, dest)
             total += size
             if size > limits.max_file_bytes or total > limits.max_upload_bytes:
-                raise HTTPException(413, f"{where}: {rel} makes it larger than a set may be "
-                                         "(max_file_bytes, max_upload_bytes)")
+                raise HTTPException(
+                    413, f"{where}: {rel} makes it larger than a set may be (max_file_bytes, max_upload_bytes)"
+                )
             received.append(uploads.Received(name, dest, sha, size))
         try:
             files = uploads.check_set(received)
@@ -72,10 +74,16 @@ def import_folder(state, config: Path, who: dict) -> dict:
             raise HTTPException(e.status_code, f"{where} cannot be stored as a set: {e.detail}") from None
         manifest, new = store.commit(files, who, NOT_CHECKED_YET)
         if new or manifest["validation"]["valid"] is None:
-            validation = irpd_validation(state.irpd_swap, store.module_xml(manifest["id"]), state.settings.swap_timeout_s)
+            validation = irpd_validation(
+                state.irpd_swap, store.module_xml(manifest["id"]), state.settings.swap_timeout_s
+            )
             manifest = store.save_validation(manifest["id"], validation)
-        state.events.add("upload", f"the running set's folder {folder} stored as set {manifest['id']} "
-                                   f"({len(files)} files, {'new' if new else 'already stored'})", set_id=manifest["id"])
+        state.events.add(
+            "upload",
+            f"the running set's folder {folder} stored as set {manifest['id']} "
+            f"({len(files)} files, {'new' if new else 'already stored'})",
+            set_id=manifest["id"],
+        )
         return manifest
     finally:
         remove_tree(staging)
@@ -87,14 +95,19 @@ def with_robot_json(state, base_files: list[dict], robot_json: bytes, who: dict)
     store = state.store
     staging = store.staging_dir()
     try:
-        files = [StagedFile(f["path"], store.blobs / f["sha256"], f["sha256"], f["size"], f["kind"])
-                 for f in base_files if f["path"] != ROBOT_JSON]
+        files = [
+            StagedFile(f["path"], store.blobs / f["sha256"], f["sha256"], f["size"], f["kind"])
+            for f in base_files
+            if f["path"] != ROBOT_JSON
+        ]
         dest = staging / ROBOT_JSON
         dest.write_bytes(robot_json)
         files.append(StagedFile(ROBOT_JSON, dest, hashlib.sha256(robot_json).hexdigest(), len(robot_json), "robot"))
         manifest, new = store.commit(files, who, NOT_CHECKED_YET)
         if new or manifest["validation"]["valid"] is None:
-            validation = irpd_validation(state.irpd_swap, store.module_xml(manifest["id"]), state.settings.swap_timeout_s)
+            validation = irpd_validation(
+                state.irpd_swap, store.module_xml(manifest["id"]), state.settings.swap_timeout_s
+            )
             manifest = store.save_validation(manifest["id"], validation)
         return manifest
     finally:

@@ -7,6 +7,7 @@ secret the agent draws at start (so a restart invalidates every ticket) and vali
 cookie of the same form (purpose "session", valid `viewer_session_s`) scoped to the viewer's path,
 and redirects to the URL without the ticket.  Every check also asks the token store: a revoked
 token's tickets and cookies stop working at once."""
+
 from __future__ import annotations
 
 import base64
@@ -26,8 +27,9 @@ class TicketError(Exception):
 
 
 class Tickets:
-    def __init__(self, tokens: TokenStore, ticket_s: float = 600.0, session_s: float = 3600.0,
-                 secret: bytes | None = None):
+    def __init__(
+        self, tokens: TokenStore, ticket_s: float = 600.0, session_s: float = 3600.0, secret: bytes | None = None
+    ):
         self.tokens, self.ticket_s, self.session_s = tokens, ticket_s, session_s
         self._secret = secret or secrets.token_bytes(32)
 
@@ -46,8 +48,10 @@ class Tickets:
             raise TicketError("not a viewer ticket; GET /api/v1/robot gives a viewer_url with a fresh one")
         expires, token_id, mac = int(m.group(1)), m.group(2), m.group(3)
         if not hmac.compare_digest(mac, self._sign(purpose, expires, token_id)):
-            raise TicketError("the viewer ticket's signature does not match (the agent restarted, or it was "
-                              "altered); GET /api/v1/robot gives a fresh one")
+            raise TicketError(
+                "the viewer ticket's signature does not match (the agent restarted, or it was "
+                "altered); GET /api/v1/robot gives a fresh one"
+            )
         if expires <= (time.time() if now is None else now):
             raise TicketError("the viewer ticket has expired; GET /api/v1/robot gives a fresh one")
         entry = next((t for t in self.tokens.list() if t["id"] == token_id), None)

@@ -5,6 +5,7 @@ each link's visuals (box, cylinder, sphere, mesh file) with their colours, and f
 A joint's frame is URDF's: T_parent_child(q) = T_origin · motion(axis, q), a rotation about the
 axis (revolute, continuous) or a translation along it (prismatic); fixed, floating and planar
 joints do not move here.  The file is parsed without DTDs or entities (defusedxml)."""
+
 from __future__ import annotations
 
 import math
@@ -27,8 +28,8 @@ class Joint:
     type: str
     parent: str
     child: str
-    origin: np.ndarray          # 4x4, the child frame in the parent's at q = 0
-    axis: np.ndarray            # unit vector in the joint frame
+    origin: np.ndarray  # 4x4, the child frame in the parent's at q = 0
+    axis: np.ndarray  # unit vector in the joint frame
     lower: float | None
     upper: float | None
 
@@ -48,9 +49,9 @@ class Joint:
 @dataclass
 class Visual:
     link: str
-    origin: np.ndarray          # 4x4 in the link frame
-    shape: str                  # box, cylinder, sphere or mesh
-    size: tuple[float, ...]     # box: x y z; cylinder: radius, length; sphere: radius; mesh: scale x y z
+    origin: np.ndarray  # 4x4 in the link frame
+    shape: str  # box, cylinder, sphere or mesh
+    size: tuple[float, ...]  # box: x y z; cylinder: radius, length; sphere: radius; mesh: scale x y z
     rgba: tuple[float, float, float, float]
     filename: str | None = None  # mesh: as written in the URDF
 
@@ -175,8 +176,10 @@ def parse(source: Path | str | bytes, shown: str | None = None) -> Urdf:
             if shape.tag == "box":
                 size = _numbers(shape.get("size"), 3, "", f"{where} <box size>")
             elif shape.tag == "cylinder":
-                size = (_numbers(shape.get("radius"), 1, "", f"{where} <cylinder radius>")[0],
-                        _numbers(shape.get("length"), 1, "", f"{where} <cylinder length>")[0])
+                size = (
+                    _numbers(shape.get("radius"), 1, "", f"{where} <cylinder radius>")[0],
+                    _numbers(shape.get("length"), 1, "", f"{where} <cylinder length>")[0],
+                )
             elif shape.tag == "sphere":
                 size = _numbers(shape.get("radius"), 1, "", f"{where} <sphere radius>")
             elif shape.tag == "mesh":
@@ -205,8 +208,11 @@ def parse(source: Path | str | bytes, shown: str | None = None) -> Urdf:
         for role, link in (("parent", parent), ("child", child)):
             if link not in links:
                 raise UrdfError(f"{where}: its {role} link {link!r} is not a <link> of the file")
-        axis = np.array(_numbers(j.find("axis").get("xyz") if j.find("axis") is not None else None,
-                                 3, "1 0 0", f"{where} <axis xyz>"))
+        axis = np.array(
+            _numbers(
+                j.find("axis").get("xyz") if j.find("axis") is not None else None, 3, "1 0 0", f"{where} <axis xyz>"
+            )
+        )
         if kind in MOVABLE:
             norm = float(np.linalg.norm(axis))
             if norm == 0:

@@ -4,6 +4,7 @@ own thread and event loop) on 127.0.0.1, the robot drawn by viser.extras.ViserUr
 URL from its own address (ws + the page's URL without the query and the trailing slash), so it
 works under the agent's /api/v1/robot/viewer/ as it is.  Share links (a tunnel to viser's public
 relay) are turned off: the view never leaves the machine except through the agent."""
+
 from __future__ import annotations
 
 import contextlib

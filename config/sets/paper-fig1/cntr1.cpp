@@ -10,7 +10,7 @@
 namespace {
 int64_t counter = 0;
 uint64_t runs = 0;
-}
+}  // namespace
 
 extern "C" void initialize(irp::Property const &property) {
     counter = property.get<int64_t>("intialize_value", 0);  // the paper's spelling

@@ -18,7 +18,9 @@ void onRun() {
     ++runs;
     tick = tick + 10;
     INDUROP_TYPEDEF(joints)::value_type v = joints[0];
-    v.x += 1; v.y += 2; v.z += 3;
+    v.x += 1;
+    v.y += 2;
+    v.z += 3;
     joints[0] = v;
 }
 

@@ -145,7 +145,8 @@ void PickAndPlace::scan(const Inputs &in, Outputs &out, AxisGroupRef &robot, Tim
     // (* Rung 5: a rising edge of Start begins a cycle when powered, not stopped and without error.
     //    A Start already held in the first scan (a reload while the button is held) is no edge. *)
     StartEdge(in.I0 || in.Start);
-    if (StartEdge.Q && !firstScan && step == kIdle && Power.Status && !stop && !errorLatched && GroupError.GroupErrorID == 0) {
+    if (StartEdge.Q && !firstScan && step == kIdle && Power.Status && !stop && !errorLatched &&
+        GroupError.GroupErrorID == 0) {
         step = kHome;
         done = false;
     }

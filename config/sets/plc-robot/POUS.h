@@ -22,15 +22,15 @@ using Pose = std::array<double, plcopen::kAxes>;    // x y z (m), roll pitch yaw
 
 // The program's parameters: module.xml properties of main.so (docs/plc.md).
 struct Settings {
-    Joints home{0.0, -0.5, 1.0, 0.0, 0.5, 0.0};           // "home"
-    Joints pick_above{0.5, -0.3, 1.1, 0.0, 0.8, 0.0};     // "pick_above": MoveJ target above the pick point
-    Pose pick{0.45, 0.25, 0.15, 3.14159265358979, 0.0, 0.0};   // "pick": MoveL down to it
-    Joints place_above{-0.5, -0.3, 1.1, 0.0, 0.8, 0.0};   // "place_above"
-    Pose place{0.45, -0.25, 0.15, 3.14159265358979, 0.0, 0.0}; // "place"
-    double lift = 0.10;           // "lift" (m): MoveL up goes to pick/place raised by this along base z
-    double joint_speed = 0.5;     // "joint_speed": MoveJ speed, fraction of the maximum, before Override
-    double linear_speed = 0.25;   // "linear_speed": MoveL speed, fraction of the maximum, before Override
-    double accel = 0.5;           // "accel": acceleration of every move, fraction of the maximum
+    Joints home{0.0, -0.5, 1.0, 0.0, 0.5, 0.0};                 // "home"
+    Joints pick_above{0.5, -0.3, 1.1, 0.0, 0.8, 0.0};           // "pick_above": MoveJ target above the pick point
+    Pose pick{0.45, 0.25, 0.15, 3.14159265358979, 0.0, 0.0};    // "pick": MoveL down to it
+    Joints place_above{-0.5, -0.3, 1.1, 0.0, 0.8, 0.0};         // "place_above"
+    Pose place{0.45, -0.25, 0.15, 3.14159265358979, 0.0, 0.0};  // "place"
+    double lift = 0.10;                // "lift" (m): MoveL up goes to pick/place raised by this along base z
+    double joint_speed = 0.5;          // "joint_speed": MoveJ speed, fraction of the maximum, before Override
+    double linear_speed = 0.25;        // "linear_speed": MoveL speed, fraction of the maximum, before Override
+    double accel = 0.5;                // "accel": acceleration of every move, fraction of the maximum
     plcopen::Time dwell{200'000'000};  // "dwell_ms": wait at the pick and place poses (the gripper)
     double override_default = 1.0;     // "override": PLC_IN.Override set at start when it is 0
     bool auto_enable = false;          // "auto_enable": PLC_IN.Enable = 1 at start
@@ -41,8 +41,8 @@ struct Settings {
 
 // The process image: what the program reads at the start of a scan...
 struct Inputs {
-    bool I0 = false;        // start (rising edge), like Start
-    bool I1 = false;        // stop (level), like Stop
+    bool I0 = false;  // start (rising edge), like Start
+    bool I1 = false;  // stop (level), like Stop
     bool Start = false;
     bool Stop = false;
     bool Reset = false;     // rising edge: MC_Reset
@@ -53,7 +53,7 @@ struct Inputs {
 
 // ...and what it writes at the end.
 struct Outputs {
-    bool O0 = false;        // the robot's MotionDone (the interlock lamp)
+    bool O0 = false;  // the robot's MotionDone (the interlock lamp)
     bool Running = false;
     bool Done = false;
     bool Error = false;

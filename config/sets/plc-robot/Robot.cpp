@@ -112,17 +112,17 @@ uint16_t controlword(State state, Goal goal) {
     }
     return kDisableVoltage;
 }
-} // namespace cia402
+}  // namespace cia402
 
 // ---- configuration (module.xml properties) ----------------------------------------------------------
 
 struct Config {
     std::string urdf;  // resolved path
     std::string base_link = "base_link", tip_link = "tool0";
-    CartesianLimits cart;               // max_cart_speed, max_cart_accel, max_cart_rot_speed, max_cart_rot_accel
-    Joints joint_accel = Joints::Constant(8.0);  // max_joint_accel, rad/s^2
-    double following_error = 0.35;      // rad; 0 disables the check
-    double power_timeout = 1.0;         // s (power_timeout_ms)
+    CartesianLimits cart;  // max_cart_speed, max_cart_accel, max_cart_rot_speed, max_cart_rot_accel
+    Joints joint_accel = Joints::Constant(8.0);                                         // max_joint_accel, rad/s^2
+    double following_error = 0.35;                                                      // rad; 0 disables the check
+    double power_timeout = 1.0;                                                         // s (power_timeout_ms)
     std::array<bool, 8> drive_devices{true, true, true, true, true, true, true, true};  // IO_STATUS indices watched
 };
 
@@ -138,8 +138,8 @@ std::vector<double> numberList(const char *name, std::string_view text) {
         double v = 0;
         auto [ptr, ec] = std::from_chars(item.data(), item.data() + item.size(), v);
         if (item.empty() || ec != std::errc() || ptr != item.data() + item.size())
-            throw irp::PropertyError(std::string("property '") + name + "': expected a number or a comma-separated list, got '" +
-                                     std::string(text) + "'");
+            throw irp::PropertyError(std::string("property '") + name +
+                                     "': expected a number or a comma-separated list, got '" + std::string(text) + "'");
         out.push_back(v);
         at = end + 1;
     }
@@ -200,7 +200,9 @@ using AxesOut = INDUROP_TYPEDEF(PLC_ROBOT::AXIS_OUT)::array_type;
 class RobotTask {
 public:
     RobotTask(Robot robot, Config config)
-        : robot_(std::move(robot)), config_(std::move(config)), cart_{CartesianTrajectory(robot_), CartesianTrajectory(robot_)} {}
+        : robot_(std::move(robot)),
+          config_(std::move(config)),
+          cart_{CartesianTrajectory(robot_), CartesianTrajectory(robot_)} {}
 
     void start();
     void run();
@@ -296,8 +298,10 @@ bool RobotTask::allOff() const {
 void RobotTask::run() {
     const irp::Cycle &cycle = irp::cycle();
     double dt = 0;
-    if (cycle.planned_ns == 0) dt = 0.01;  // called outside irpd's dispatcher: assume 10 ms
-    else if (last_planned_ns_ != 0) dt = static_cast<double>(cycle.planned_ns - last_planned_ns_) * 1e-9;
+    if (cycle.planned_ns == 0)
+        dt = 0.01;  // called outside irpd's dispatcher: assume 10 ms
+    else if (last_planned_ns_ != 0)
+        dt = static_cast<double>(cycle.planned_ns - last_planned_ns_) * 1e-9;
     last_planned_ns_ = cycle.planned_ns;
     now_ += std::max(dt, 0.0);
 
@@ -389,8 +393,10 @@ void RobotTask::takeRequest(const ServiceBlock &svc) {
     }
     if (error_) {  // only a reset leaves the error state; power off is still obeyed
         if (op_ == kPowerOff) {
-            if (moving()) stopMotion(), power_off_after_stop_ = true;
-            else goal_ = cia402::Goal::Off;
+            if (moving())
+                stopMotion(), power_off_after_stop_ = true;
+            else
+                goal_ = cia402::Goal::Off;
         }
         irp::printf("Robot: request %u (%s) refused: in error %d, reset first", ack_, opName(op_), error_id_);
         return;
@@ -420,10 +426,8 @@ void RobotTask::takeRequest(const ServiceBlock &svc) {
         if (!moving()) done_ = true;
         return;
     case kMoveJ:
-    case kMoveL:
-        return acceptMotion(svc);
-    default:
-        return refuse(kBadOpCode, "unknown eOpCode");
+    case kMoveL: return acceptMotion(svc);
+    default: return refuse(kBadOpCode, "unknown eOpCode");
     }
 }
 
@@ -466,11 +470,14 @@ void RobotTask::acceptMotion(const ServiceBlock &svc) {
         m.cart = &cart_[slot];
         PlanReport report = m.cart->plan(from, target, robot_.limits().velocity, config_.joint_accel, config_.cart,
                                          std::min(speed, 1.0), std::min(accel, 1.0));
-        if (!report) return refuse(report.error == PlanError::OutsideLimits ? kOutsideLimits : kUnreachable, report.text);
+        if (!report)
+            return refuse(report.error == PlanError::OutsideLimits ? kOutsideLimits : kUnreachable, report.text);
         if (report.speed_scale < 1) irp::printf("Robot: request %u: %s", ack_, report.text);
     }
-    if (moving()) next_ = slot;
-    else active_ = slot;
+    if (moving())
+        next_ = slot;
+    else
+        active_ = slot;
 }
 
 void RobotTask::advanceMotion() {
@@ -551,11 +558,15 @@ void RobotTask::advanceRequest() {
     }
     if (done_ || error_) return;
     if (op_ == kPowerOn) {
-        if (powered()) done_ = true;
-        else if (now_ > deadline_) raise(kPowerTimeout, "the drives did not reach operation enabled in time");
+        if (powered())
+            done_ = true;
+        else if (now_ > deadline_)
+            raise(kPowerTimeout, "the drives did not reach operation enabled in time");
     } else if (op_ == kPowerOff && goal_ == cia402::Goal::Off) {
-        if (allOff()) done_ = true;
-        else if (now_ > deadline_) raise(kPowerTimeout, "the drives did not switch off in time");
+        if (allOff())
+            done_ = true;
+        else if (now_ > deadline_)
+            raise(kPowerTimeout, "the drives did not switch off in time");
     }
 }
 
@@ -581,9 +592,12 @@ void RobotTask::writeOutputs() {
     st.ErrorID = error_ ? error_id_ : 0;
     st.nAckSeq = ack_;
     bool stopping = moving() && motions_[active_].stopping() && next_ < 0;
-    if (error_) st.eState = kErrorState;
-    else if (moving()) st.eState = stopping && (op_ == kStop || op_ == kPowerOff || op_ == kReset) ? kStopping : kMoving;
-    else st.eState = powered() ? kStandstill : kDisabled;
+    if (error_)
+        st.eState = kErrorState;
+    else if (moving())
+        st.eState = stopping && (op_ == kStop || op_ == kPowerOff || op_ == kReset) ? kStopping : kMoving;
+    else
+        st.eState = powered() ? kStandstill : kDisabled;
     double world[6];
     robot_.fk(q_cmd_).toXyzRpy(world);
     for (int i = 0; i < kAxes; ++i) {
@@ -597,7 +611,7 @@ void RobotTask::writeOutputs() {
 
 std::unique_ptr<RobotTask> task;
 
-} // namespace
+}  // namespace
 
 extern "C" void initialize(irp::Property const &property) {
     Config config = readConfig(property);

@@ -21,7 +21,7 @@ double shape(int k, double phase) {  // phase in cycles
     default: return 0.6 * std::sin(2 * M_PI * x) + 0.4 * std::sin(2 * M_PI * 7 * x);
     }
 }
-} // namespace
+}  // namespace
 
 extern "C" void initialize(irp::Property const &p) {
     base_hz = p.get<double>("base_hz", 1.0);

@@ -43,7 +43,7 @@ extern "C" {
 #endif
 
 #define INDUROP_CONTROL_MAGIC 0x314C544350524955ull /* the bytes "UIRPCTL1" */
-#define INDUROP_CONTROL_VERSION 2u /* 2: call areas and the function table */
+#define INDUROP_CONTROL_VERSION 2u                  /* 2: call areas and the function table */
 
 enum indurop_process_state {
     INDUROP_PROCESS_EMPTY = 0,    /* not started, or exited and not restarted */
@@ -55,17 +55,17 @@ enum indurop_process_state {
 
 /* Shared-function calls ------------------------------------------------------------------- */
 
-#define INDUROP_CALL_BYTES 256u              /* packed arguments, and the result, at most */
-#define INDUROP_FUNCTION_NAME_CHARS 96u      /* names of 96 characters or more are not listed */
+#define INDUROP_CALL_BYTES 256u         /* packed arguments, and the result, at most */
+#define INDUROP_FUNCTION_NAME_CHARS 96u /* names of 96 characters or more are not listed */
 #define INDUROP_FUNCTION_SIGNATURE_CHARS 160u
 
 enum indurop_call_phase {
     INDUROP_CALL_IDLE = 0,
-    INDUROP_CALL_PENDING = 1,   /* written by the process, not taken yet */
-    INDUROP_CALL_SERVING = 2,   /* irpd is calling the function */
-    INDUROP_CALL_ANSWERED = 3,  /* status (and result) written */
+    INDUROP_CALL_PENDING = 1,  /* written by the process, not taken yet */
+    INDUROP_CALL_SERVING = 2,  /* irpd is calling the function */
+    INDUROP_CALL_ANSWERED = 3, /* status (and result) written */
 };
-#define INDUROP_CALL_PHASE(word) ((word) & 3u)
+#define INDUROP_CALL_PHASE(word) ((word)&3u)
 #define INDUROP_CALL_TAG(word) ((word) >> 2)
 
 /* What a call came to (irp::lastCallStatus()).  irpd answers OK, SIGNATURE_MISMATCH,
@@ -89,20 +89,20 @@ enum indurop_call_status {
 
 /* enum values of indurop_control_header.calls */
 enum indurop_calls_state {
-    INDUROP_CALLS_NONE = 0,     /* no table yet */
-    INDUROP_CALLS_SERVING = 1,  /* the table is published; requests are served */
-    INDUROP_CALLS_STOPPED = 2,  /* the dispatcher stopped: nothing will be served any more */
+    INDUROP_CALLS_NONE = 0,    /* no table yet */
+    INDUROP_CALLS_SERVING = 1, /* the table is published; requests are served */
+    INDUROP_CALLS_STOPPED = 2, /* the dispatcher stopped: nothing will be served any more */
 };
 
 typedef struct indurop_call_area {
-    uint32_t word;            /* futex: (tag << 2) | enum indurop_call_phase */
-    uint32_t function;        /* request: index in the function table */
-    uint64_t signature_hash;  /* request: FNV-1a 64 of the caller's typeid(R(A...)).name() */
-    uint32_t args_size;       /* request: packed argument bytes */
-    uint32_t result_size;     /* request: result bytes expected */
-    int32_t status;           /* answer: enum indurop_call_status */
+    uint32_t word;           /* futex: (tag << 2) | enum indurop_call_phase */
+    uint32_t function;       /* request: index in the function table */
+    uint64_t signature_hash; /* request: FNV-1a 64 of the caller's typeid(R(A...)).name() */
+    uint32_t args_size;      /* request: packed argument bytes */
+    uint32_t result_size;    /* request: result bytes expected */
+    int32_t status;          /* answer: enum indurop_call_status */
     uint32_t reserved0;
-    uint64_t served_cycle;    /* answer: the owner executor's basic-period count when served */
+    uint64_t served_cycle;              /* answer: the owner executor's basic-period count when served */
     uint8_t args[INDUROP_CALL_BYTES];   /* the arguments, back to back in order, no padding */
     uint8_t result[INDUROP_CALL_BYTES]; /* the result's bytes; THREW: the message, 0-terminated */
 } indurop_call_area;
@@ -110,12 +110,12 @@ typedef struct indurop_call_area {
 typedef struct indurop_function_entry {
     char name[INDUROP_FUNCTION_NAME_CHARS];
     char signature[INDUROP_FUNCTION_SIGNATURE_CHARS]; /* typeid name, cut if longer (the hash is of all of it) */
-    char owner[64];           /* the exporting module ("" if exported outside a lifecycle call) */
-    uint64_t signature_hash;  /* FNV-1a 64 of the whole typeid name */
-    int64_t owner_period_ns;  /* 0 when the owner has no period (sporadic) */
-    uint32_t owner_index;     /* the owner's index in module.xml, UINT32_MAX: none */
-    uint32_t refusal;         /* 0: callable from processes; else the enum indurop_call_status why not */
-    uint32_t args_size;       /* packed argument bytes */
+    char owner[64];          /* the exporting module ("" if exported outside a lifecycle call) */
+    uint64_t signature_hash; /* FNV-1a 64 of the whole typeid name */
+    int64_t owner_period_ns; /* 0 when the owner has no period (sporadic) */
+    uint32_t owner_index;    /* the owner's index in module.xml, UINT32_MAX: none */
+    uint32_t refusal;        /* 0: callable from processes; else the enum indurop_call_status why not */
+    uint32_t args_size;      /* packed argument bytes */
     uint32_t result_size;
 } indurop_function_entry;
 
@@ -128,31 +128,31 @@ typedef struct indurop_process_slot {
     uint32_t state;          /* enum indurop_process_state */
     uint32_t stop_requested; /* irpd: 1 = leave */
     int32_t pid;
-    uint32_t kind;           /* 0 periodic, 1 sporadic, 2 non-real */
+    uint32_t kind; /* 0 periodic, 1 sporadic, 2 non-real */
     /* what irp::cycle() returns in the process for the current release */
     uint64_t cycle;
     int64_t planned_ns;
     int64_t basic_ns;
-    int64_t release_ns;      /* CLOCK_MONOTONIC time of the last release */
-    int64_t done_ns;         /* when the process reported the last release done */
-    uint64_t generation;     /* +1 each time irpd (re)starts the process */
+    int64_t release_ns;  /* CLOCK_MONOTONIC time of the last release */
+    int64_t done_ns;     /* when the process reported the last release done */
+    uint64_t generation; /* +1 each time irpd (re)starts the process */
     char name[64];
     uint8_t reserved[32];
-    indurop_call_area call;  /* this process's calls of shared functions */
+    indurop_call_area call; /* this process's calls of shared functions */
 } indurop_process_slot;
 
 typedef struct indurop_control_header {
     uint64_t magic;
     uint32_t version;
     uint32_t header_size;
-    uint32_t slot_size;      /* sizeof(indurop_process_slot) */
+    uint32_t slot_size; /* sizeof(indurop_process_slot) */
     uint32_t slot_count;
     int64_t owner_pid;
     uint64_t function_offset; /* of the function table, from the segment's start */
     uint32_t function_count;
-    uint32_t function_size;   /* sizeof(indurop_function_entry) */
-    uint32_t calls;           /* enum indurop_calls_state */
-    uint32_t call_bytes;      /* INDUROP_CALL_BYTES */
+    uint32_t function_size; /* sizeof(indurop_function_entry) */
+    uint32_t calls;         /* enum indurop_calls_state */
+    uint32_t call_bytes;    /* INDUROP_CALL_BYTES */
     uint64_t reserved[2];
 } indurop_control_header;
 

@@ -111,11 +111,14 @@ inline constexpr bool kComplete<T, std::void_t<decltype(sizeof(T))>> = true;
 template <class T>
 constexpr bool transferable() {
     using U = std::remove_cvref_t<T>;
-    if constexpr (std::is_reference_v<T> && !std::is_const_v<std::remove_reference_t<T>>) return false;
+    if constexpr (std::is_reference_v<T> && !std::is_const_v<std::remove_reference_t<T>>)
+        return false;
     else if constexpr (std::is_pointer_v<U> || std::is_member_pointer_v<U> || std::is_array_v<U> || std::is_void_v<U>)
         return false;
-    else if constexpr (!kComplete<U>) return false;
-    else return std::is_trivially_copyable_v<U>;
+    else if constexpr (!kComplete<U>)
+        return false;
+    else
+        return std::is_trivially_copyable_v<U>;
 }
 template <class T>
 inline constexpr bool kTransferable = transferable<T>();
@@ -182,15 +185,18 @@ template <class R, class... A>
 constexpr CallShape callShapeOf() {
     if constexpr (kTransferableResult<R> && (kTransferable<A> && ...)) {
         constexpr std::size_t result_size = [] {
-            if constexpr (std::is_void_v<R>) return std::size_t{0};
-            else return sizeof(R);
+            if constexpr (std::is_void_v<R>)
+                return std::size_t{0};
+            else
+                return sizeof(R);
         }();
-        return CallShape{&thunkOf<R, A...>, static_cast<uint32_t>(kPackedSize<A...>), static_cast<uint32_t>(result_size)};
+        return CallShape{&thunkOf<R, A...>, static_cast<uint32_t>(kPackedSize<A...>),
+                         static_cast<uint32_t>(result_size)};
     } else {
         return CallShape{};
     }
 }
-} // namespace detail
+}  // namespace detail
 
 // Exports fn under name for the other thread modules of the set, and -- when its types can cross a
 // process boundary -- for process modules through irpd.
@@ -220,7 +226,7 @@ int resolveFunction(const char *name, const char *signature, uint32_t args_size,
 int callResolved(uint32_t index, const char *signature, const void *args, uint32_t args_size, void *result,
                  uint32_t result_size, int64_t timeout_ns) noexcept;
 int failCall(int status, const char *message) noexcept;  // sets lastCallError/Status, returns -1
-} // namespace detail
+}  // namespace detail
 
 template <class Signature>
 class SharedFunction;
@@ -242,13 +248,16 @@ public:
     int operator()(R *result, int64_t timeout_ns, A... args) noexcept {
         constexpr std::size_t args_size = detail::kPackedSize<A...>;
         constexpr std::size_t result_size = [] {
-            if constexpr (std::is_void_v<R>) return std::size_t{0};
-            else return sizeof(R);
+            if constexpr (std::is_void_v<R>)
+                return std::size_t{0};
+            else
+                return sizeof(R);
         }();
         if constexpr (args_size > kCallBytes || result_size > kCallBytes) {
             char text[200];
-            std::snprintf(text, sizeof text, "shared function '%s': %s %zu bytes, more than the %zu a call from a process carries",
-                          name_, args_size > kCallBytes ? "its arguments are" : "its result is",
+            std::snprintf(text, sizeof text,
+                          "shared function '%s': %s %zu bytes, more than the %zu a call from a process carries", name_,
+                          args_size > kCallBytes ? "its arguments are" : "its result is",
                           args_size > kCallBytes ? args_size : result_size, kCallBytes);
             ((void)args, ...);
             return detail::failCall(INDUROP_CALL_TOO_LARGE, text);
@@ -265,7 +274,8 @@ public:
             } else {
                 if (!result) return detail::failCall(INDUROP_CALL_INVALID, "the result pointer is null");
                 unsigned char out[result_size];
-                if (detail::callResolved(index_, typeid(R(A...)).name(), packed, args_size, out, result_size, timeout_ns) != 0)
+                if (detail::callResolved(index_, typeid(R(A...)).name(), packed, args_size, out, result_size,
+                                         timeout_ns) != 0)
                     return -1;
                 std::memcpy(static_cast<void *>(result), out, result_size);
                 return 0;
@@ -294,4 +304,4 @@ int callFunction(const char *name, std::nullptr_t, int64_t timeout_ns, A... args
     return SharedFunction<void(A...)>(name)(nullptr, timeout_ns, args...);
 }
 
-} // namespace irp
+}  // namespace irp

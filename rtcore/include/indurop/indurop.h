@@ -85,21 +85,34 @@ struct Hook {
         call = [](Erased g, Args... args) -> int {
             auto h = reinterpret_cast<R (*)(A...)>(g);
             if constexpr (std::is_void_v<R>) {
-                if constexpr (sizeof...(A) == 0) h(); else h(args...);
+                if constexpr (sizeof...(A) == 0)
+                    h();
+                else
+                    h(args...);
                 return 0;
             } else if constexpr (std::is_same_v<R, bool>) {
                 bool ok;
-                if constexpr (sizeof...(A) == 0) ok = h(); else ok = h(args...);
+                if constexpr (sizeof...(A) == 0)
+                    ok = h();
+                else
+                    ok = h(args...);
                 return ok ? 0 : 1;
             } else {
                 R rc;
-                if constexpr (sizeof...(A) == 0) rc = h(); else rc = h(args...);
+                if constexpr (sizeof...(A) == 0)
+                    rc = h();
+                else
+                    rc = h(args...);
                 return rc == 0 ? 0 : 1;
             }
         };
         return *this;
     }
-    Hook &operator=(std::nullptr_t) { fn = nullptr; call = nullptr; return *this; }
+    Hook &operator=(std::nullptr_t) {
+        fn = nullptr;
+        call = nullptr;
+        return *this;
+    }
     explicit operator bool() const { return fn != nullptr; }
 };
 
@@ -188,8 +201,8 @@ indurop_module_v1 buildTable(Setter setter) {
     return t;
 }
 
-} // namespace detail
-} // namespace irp
+}  // namespace detail
+}  // namespace irp
 
 #ifndef INDUROP_NO_PLAIN_ENTRY_POINTS
 extern "C" {
@@ -202,28 +215,27 @@ int condition(void);
 #endif
 
 // INDUROP_MODULE(field = value, ...): fills the module's descriptor table (see the top of this file).
-#define INDUROP_MODULE(...)                                                                        \
-    namespace {                                                                                    \
-    ::irp::detail::ModuleFields indurop_module_fields_;                                            \
-    }                                                                                              \
-    extern "C" __attribute__((visibility("default"))) const indurop_module_v1 *                    \
-    indurop_module_v1_descriptor(void) {                                                           \
-        static const indurop_module_v1 table =                                                     \
-            ::irp::detail::buildTable<&indurop_module_fields_>([](::irp::detail::ModuleFields &f) { \
-                auto &name = f.name;                                                               \
-                auto &description = f.description;                                                 \
-                auto &author = f.author;                                                           \
-                auto &license = f.license;                                                         \
-                auto &initialize = f.initialize;                                                   \
-                auto &start = f.start;                                                             \
-                auto &run = f.run;                                                                 \
-                auto &stop = f.stop;                                                               \
-                ::irp::detail::ConditionField condition{&f.condition_hook};                        \
-                (void)name, (void)description, (void)author, (void)license, (void)initialize;      \
-                (void)start, (void)run, (void)stop, (void)condition;                               \
-                __VA_ARGS__;                                                                       \
-            });                                                                                    \
-        return &table;                                                                             \
+#define INDUROP_MODULE(...)                                                                                            \
+    namespace {                                                                                                        \
+    ::irp::detail::ModuleFields indurop_module_fields_;                                                                \
+    }                                                                                                                  \
+    extern "C" __attribute__((visibility("default"))) const indurop_module_v1 *indurop_module_v1_descriptor(void) {    \
+        static const indurop_module_v1 table =                                                                         \
+            ::irp::detail::buildTable<&indurop_module_fields_>([](::irp::detail::ModuleFields &f) {                    \
+                auto &name = f.name;                                                                                   \
+                auto &description = f.description;                                                                     \
+                auto &author = f.author;                                                                               \
+                auto &license = f.license;                                                                             \
+                auto &initialize = f.initialize;                                                                       \
+                auto &start = f.start;                                                                                 \
+                auto &run = f.run;                                                                                     \
+                auto &stop = f.stop;                                                                                   \
+                ::irp::detail::ConditionField condition{&f.condition_hook};                                            \
+                (void)name, (void)description, (void)author, (void)license, (void)initialize;                          \
+                (void)start, (void)run, (void)stop, (void)condition;                                                   \
+                __VA_ARGS__;                                                                                           \
+            });                                                                                                        \
+        return &table;                                                                                                 \
     }
 
 #include <indurop/process.h>

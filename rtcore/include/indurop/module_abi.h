@@ -38,16 +38,16 @@ typedef struct indurop_module_v1 {
     uint32_t abi_version; /* INDUROP_MODULE_ABI_VERSION the module was built with */
     uint32_t struct_size; /* sizeof(indurop_module_v1) in the module's build */
 
-    const char *name;        /* display metadata; the scheduling name comes from module.xml */
+    const char *name; /* display metadata; the scheduling name comes from module.xml */
     const char *description;
     const char *author;
     const char *license;
 
     int (*initialize)(const indurop_property_list *properties, char *err, size_t err_len);
     int (*start)(char *err, size_t err_len);
-    void (*run)(void);       /* called every period on the RT thread: see indurop.h for the rules */
+    void (*run)(void); /* called every period on the RT thread: see indurop.h for the rules */
     void (*stop)(void);
-    int (*condition)(void);  /* sporadic modules: non-zero when the event occurred */
+    int (*condition)(void); /* sporadic modules: non-zero when the event occurred */
 } indurop_module_v1;
 
 typedef const indurop_module_v1 *(*indurop_module_descriptor_fn)(void);

@@ -79,7 +79,7 @@ int initPeriodExe();
 // leaves.  RT-safe.
 int waitPeriod();
 
-} // namespace irp
+}  // namespace irp
 
 // Shared variables by path (Figure 8's `channel::Handle`).  Named "channel" as in the paper: a
 // handle is this process's view of the shared-variable segment irpd gave it (INDUROP_SHM), with
@@ -140,4 +140,4 @@ int connect(Handle &handle);
 // The reason of the handle's last failed call ("" after a success).  Valid until the next call.
 const char *lastError(const Handle &handle) noexcept;
 
-} // namespace channel
+}  // namespace channel

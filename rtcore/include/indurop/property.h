@@ -98,4 +98,4 @@ private:
     const indurop_property_list *list_ = nullptr;
 };
 
-} // namespace irp
+}  // namespace irp

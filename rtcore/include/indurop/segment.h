@@ -36,13 +36,13 @@ typedef struct indurop_segment_header {
     uint64_t total_size;
     uint64_t locks_offset;
     uint32_t lock_count;
-    uint32_t lock_size;   /* sizeof(indurop_var_lock) */
+    uint32_t lock_size; /* sizeof(indurop_var_lock) */
     uint64_t layout_offset;
     uint64_t layout_size; /* bytes of layout.json text, not NUL-terminated */
     uint64_t data_offset;
     uint64_t data_size;
-    int64_t owner_pid;    /* the irpd that created it */
-    uint32_t layout_seq;  /* even: the layout fields above are stable; odd: being published */
+    int64_t owner_pid;        /* the irpd that created it */
+    uint32_t layout_seq;      /* even: the layout fields above are stable; odd: being published */
     uint32_t lock_capacity;   /* locks initialised in the lock table (lock_count <= lock_capacity) */
     uint64_t layout_capacity; /* bytes of each of the two halves of the text area */
     uint64_t data_capacity;   /* bytes of the data area (data_size <= data_capacity) */
@@ -88,7 +88,7 @@ inline void copyLayout(const indurop_segment_header *h, std::string &hash, std::
     }
 }
 
-} // namespace irp::segment
+}  // namespace irp::segment
 #endif
 
 #endif /* INDUROP_SEGMENT_H */

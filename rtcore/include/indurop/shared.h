@@ -35,15 +35,15 @@ extern "C" {
 
 // The lock of one top-level variable, in the segment's lock table.
 struct alignas(64) indurop_var_lock {
-    pthread_mutex_t mutex;       // PTHREAD_PRIO_INHERIT, PTHREAD_PROCESS_SHARED, PTHREAD_MUTEX_ROBUST
-    uint32_t seq;                // even: stable; odd: a writer is inside (accessed atomically)
+    pthread_mutex_t mutex;  // PTHREAD_PRIO_INHERIT, PTHREAD_PROCESS_SHARED, PTHREAD_MUTEX_ROBUST
+    uint32_t seq;           // even: stable; odd: a writer is inside (accessed atomically)
 };
 
 // Where this process mapped the segment (null until then).  Set by libindurop.
 extern char *indurop_shared_data;
 extern indurop_var_lock *indurop_shared_locks;
 
-} // extern "C"
+}  // extern "C"
 
 // One lock per cache line.  Readers in other languages find `seq` in irpd's description of the
 // segment (`irpd --print-shm-layout`, docs/shared-memory.md).
@@ -90,14 +90,18 @@ inline void atomicCopy(void *dst, const void *src, std::size_t n) noexcept {
     auto copy = [&](auto word) {
         using W = decltype(word);
         for (std::size_t i = 0; i < n; i += sizeof(W))
-            __atomic_store_n(reinterpret_cast<W *>(d + i), __atomic_load_n(reinterpret_cast<const W *>(s + i), __ATOMIC_RELAXED),
-                             __ATOMIC_RELAXED);
+            __atomic_store_n(reinterpret_cast<W *>(d + i),
+                             __atomic_load_n(reinterpret_cast<const W *>(s + i), __ATOMIC_RELAXED), __ATOMIC_RELAXED);
     };
     const uintptr_t misalign = d | s | n;
-    if ((misalign & 7) == 0) copy(uint64_t{});
-    else if ((misalign & 3) == 0) copy(uint32_t{});
-    else if ((misalign & 1) == 0) copy(uint16_t{});
-    else copy(uint8_t{});
+    if ((misalign & 7) == 0)
+        copy(uint64_t{});
+    else if ((misalign & 3) == 0)
+        copy(uint32_t{});
+    else if ((misalign & 1) == 0)
+        copy(uint16_t{});
+    else
+        copy(uint8_t{});
 }
 
 // Runs copy() until it saw no writer (seqlock), or under the lock after kSpinReads tries.
@@ -132,7 +136,7 @@ inline void writeExclusive(uint32_t lock, Write write) noexcept {
     unlockVariable(lock);
 }
 
-} // namespace detail
+}  // namespace detail
 
 // Every reference: an offset into the data area and the lock index of its top-level variable.
 class RefBase {
@@ -166,8 +170,10 @@ public:
     operator T() const noexcept { return load(); }
 
     void store(T v) const noexcept {
-        if (!in_aggregate_) std::atomic_ref<T>(*ptr()).store(v, std::memory_order_release);
-        else detail::writeExclusive(lock_, [&] { std::atomic_ref<T>(*ptr()).store(v, std::memory_order_relaxed); });
+        if (!in_aggregate_)
+            std::atomic_ref<T>(*ptr()).store(v, std::memory_order_release);
+        else
+            detail::writeExclusive(lock_, [&] { std::atomic_ref<T>(*ptr()).store(v, std::memory_order_relaxed); });
     }
     T operator=(T v) const noexcept {
         store(v);
@@ -186,20 +192,42 @@ public:
         });
         return result;
     }
-    T operator+=(T d) const noexcept { return update([d](T v) { return v + d; }); }
-    T operator-=(T d) const noexcept { return update([d](T v) { return v - d; }); }
-    T operator*=(T d) const noexcept { return update([d](T v) { return v * d; }); }
-    T operator/=(T d) const noexcept { return update([d](T v) { return v / d; }); }
-    T operator++() const noexcept { return update([](T v) { return v + 1; }); }
-    T operator--() const noexcept { return update([](T v) { return v - 1; }); }
-    T operator++(int) const noexcept { return static_cast<T>(update([](T v) { return v + 1; }) - 1); }
-    T operator--(int) const noexcept { return static_cast<T>(update([](T v) { return v - 1; }) + 1); }
+    T operator+=(T d) const noexcept {
+        return update([d](T v) { return v + d; });
+    }
+    T operator-=(T d) const noexcept {
+        return update([d](T v) { return v - d; });
+    }
+    T operator*=(T d) const noexcept {
+        return update([d](T v) { return v * d; });
+    }
+    T operator/=(T d) const noexcept {
+        return update([d](T v) { return v / d; });
+    }
+    T operator++() const noexcept {
+        return update([](T v) { return v + 1; });
+    }
+    T operator--() const noexcept {
+        return update([](T v) { return v - 1; });
+    }
+    T operator++(int) const noexcept {
+        return static_cast<T>(update([](T v) { return v + 1; }) - 1);
+    }
+    T operator--(int) const noexcept {
+        return static_cast<T>(update([](T v) { return v - 1; }) + 1);
+    }
     template <class U = T, class = std::enable_if_t<std::is_integral_v<U>>>
-    T operator|=(T d) const noexcept { return update([d](T v) { return v | d; }); }
+    T operator|=(T d) const noexcept {
+        return update([d](T v) { return v | d; });
+    }
     template <class U = T, class = std::enable_if_t<std::is_integral_v<U>>>
-    T operator&=(T d) const noexcept { return update([d](T v) { return v & d; }); }
+    T operator&=(T d) const noexcept {
+        return update([d](T v) { return v & d; });
+    }
     template <class U = T, class = std::enable_if_t<std::is_integral_v<U>>>
-    T operator^=(T d) const noexcept { return update([d](T v) { return v ^ d; }); }
+    T operator^=(T d) const noexcept {
+        return update([d](T v) { return v ^ d; });
+    }
 
 private:
     T *ptr() const noexcept { return reinterpret_cast<T *>(indurop_shared_data + offset_); }
@@ -282,7 +310,7 @@ public:
     array_type operator=(const ArrayRef &other) const noexcept { return *this = other.load(); }
 };
 
-} // namespace irp::shared
+}  // namespace irp::shared
 
 // The type of a shared variable's reference; `INDUROP_TYPEDEF(joints)::value_type` is the type
 // of one element (Figure 5), `INDUROP_TYPEDEF(tick)::value_type` the scalar type.

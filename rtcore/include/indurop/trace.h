@@ -32,9 +32,9 @@ extern "C" {
 
 #define INDUROP_TRACE_MAGIC 0x3143415254505249ull /* the bytes "IRPTRAC1" */
 #define INDUROP_TRACE_VERSION 1u
-#define INDUROP_TRACE_CHANNELS 64                 /* channels per configuration */
-#define INDUROP_TRACE_PATH_CHARS 232              /* a channel's path, NUL included */
-#define INDUROP_TRACE_NO_SEQ UINT64_MAX           /* first_seq of a config not (yet) in force */
+#define INDUROP_TRACE_CHANNELS 64       /* channels per configuration */
+#define INDUROP_TRACE_PATH_CHARS 232    /* a channel's path, NUL included */
+#define INDUROP_TRACE_NO_SEQ UINT64_MAX /* first_seq of a config not (yet) in force */
 
 /* How a channel's variable is stored in the variables segment (its value in the rings is a double). */
 enum indurop_trace_type {
@@ -65,9 +65,9 @@ typedef struct indurop_trace_channel {
 /* One of the two channel configurations.  Values column c of a row sampled with this config is
  * channels[c]. */
 typedef struct indurop_trace_config {
-    uint64_t generation;     /* > 0; 0 while the control thread rewrites this config (retry) */
-    uint64_t first_seq;      /* the first row sampled with it; INDUROP_TRACE_NO_SEQ until then */
-    uint32_t channel_count;  /* 0..INDUROP_TRACE_CHANNELS */
+    uint64_t generation;    /* > 0; 0 while the control thread rewrites this config (retry) */
+    uint64_t first_seq;     /* the first row sampled with it; INDUROP_TRACE_NO_SEQ until then */
+    uint32_t channel_count; /* 0..INDUROP_TRACE_CHANNELS */
     uint32_t reserved0;
     uint64_t reserved[5];
     indurop_trace_channel channels[INDUROP_TRACE_CHANNELS];
@@ -77,19 +77,19 @@ typedef struct indurop_trace_header {
     /* fixed when irpd creates the segment */
     uint64_t magic;
     uint32_t version;
-    uint32_t header_size;      /* sizeof(indurop_trace_header) */
+    uint32_t header_size; /* sizeof(indurop_trace_header) */
     uint64_t total_size;
-    uint64_t capacity;         /* rows per ring, a power of two */
-    uint32_t channel_max;      /* INDUROP_TRACE_CHANNELS */
-    uint32_t channel_size;     /* sizeof(indurop_trace_channel) */
-    uint32_t config_size;      /* sizeof(indurop_trace_config) */
+    uint64_t capacity;     /* rows per ring, a power of two */
+    uint32_t channel_max;  /* INDUROP_TRACE_CHANNELS */
+    uint32_t channel_size; /* sizeof(indurop_trace_channel) */
+    uint32_t config_size;  /* sizeof(indurop_trace_config) */
     uint32_t reserved0;
-    uint64_t configs_offset;   /* indurop_trace_config[2] */
-    uint64_t seq_offset;       /* uint64_t[capacity]: the seq of the row at each index */
-    uint64_t time_offset;      /* int64_t[capacity]: CLOCK_MONOTONIC due time of its basic period, ns */
-    uint64_t values_offset;    /* double[channel_max][capacity] */
-    int64_t owner_pid;         /* the irpd that created it */
-    int64_t basic_period_ns;   /* (atomic) the sampling period; irpd updates it when a swap changes it */
+    uint64_t configs_offset; /* indurop_trace_config[2] */
+    uint64_t seq_offset;     /* uint64_t[capacity]: the seq of the row at each index */
+    uint64_t time_offset;    /* int64_t[capacity]: CLOCK_MONOTONIC due time of its basic period, ns */
+    uint64_t values_offset;  /* double[channel_max][capacity] */
+    int64_t owner_pid;       /* the irpd that created it */
+    int64_t basic_period_ns; /* (atomic) the sampling period; irpd updates it when a swap changes it */
     uint64_t reserved1[4];
     /* written by the sampler (the RT thread), each with an atomic store */
     uint64_t head;              /* seq of the newest complete row; 0 = none yet (release-stored) */
@@ -97,10 +97,10 @@ typedef struct indurop_trace_header {
     uint64_t config_seq;        /* the first seq sampled with it */
     uint32_t active_config;     /* 0 or 1: the config in force */
     uint32_t reserved2;
-    uint64_t torn_skips;        /* samples that took a channel's previous value: a writer stayed inside */
+    uint64_t torn_skips; /* samples that took a channel's previous value: a writer stayed inside */
     uint64_t reserved3[3];
     /* written by the control thread and taken by the sampler (atomic exchange) */
-    uint32_t pending_config;    /* 0: nothing asked; 1 + index of the config to put in force */
+    uint32_t pending_config; /* 0: nothing asked; 1 + index of the config to put in force */
     uint32_t reserved4;
     uint64_t reserved5[7];
 } indurop_trace_header;

@@ -56,11 +56,14 @@ void CanDevice::start(channel::Handle &handle, const VarTable &vars) {
         rpdo.frame.can_id = canKey(0x200u + static_cast<uint32_t>(n.node), false);
         rpdo.frame.can_dlc = 6;
         if (!n.controlword.empty())
-            rpdo.signals.push_back(Signal{CanSignal{0, 16, false, false, n.controlword, {}, std::nullopt, Safe{false, n.controlword_safe}, n.line},
-                                          vars.resolve(handle, n.controlword, where(n.line))});
+            rpdo.signals.push_back(Signal{
+                CanSignal{
+                    0, 16, false, false, n.controlword, {}, std::nullopt, Safe{false, n.controlword_safe}, n.line},
+                vars.resolve(handle, n.controlword, where(n.line))});
         if (!n.target.empty())
-            rpdo.signals.push_back(Signal{CanSignal{16, 32, true, false, n.target, n.scaling, std::nullopt, n.target_safe, n.line},
-                                          vars.resolve(handle, n.target, where(n.line))});
+            rpdo.signals.push_back(
+                Signal{CanSignal{16, 32, true, false, n.target, n.scaling, std::nullopt, n.target_safe, n.line},
+                       vars.resolve(handle, n.target, where(n.line))});
         if (!rpdo.signals.empty()) tx_.push_back(std::move(rpdo));
     }
     std::vector<canid_t> ids;
@@ -84,7 +87,8 @@ void CanDevice::start(channel::Handle &handle, const VarTable &vars) {
         sendNmtStart();
     } else {
         if (port_.open(config_.interface.c_str(), filters_) != 0) {
-            irp::printf("iodispat: device '%s': %s (retrying every %g ms)", config_.name.c_str(), port_.why(), config_.reconnect_ms);
+            irp::printf("iodispat: device '%s': %s (retrying every %g ms)", config_.name.c_str(), port_.why(),
+                        config_.reconnect_ms);
             next_attempt_ns_ = now + static_cast<int64_t>(config_.reconnect_ms * 1e6);
         } else {
             sendNmtStart();
@@ -145,7 +149,8 @@ void CanDevice::exchange(CycleContext &ctx) noexcept {
             broken = true;
             break;
         }
-        const canid_t key = (f.can_id & CAN_EFF_FLAG) ? (f.can_id & (CAN_EFF_FLAG | CAN_EFF_MASK)) : (f.can_id & CAN_SFF_MASK);
+        const canid_t key =
+            (f.can_id & CAN_EFF_FLAG) ? (f.can_id & (CAN_EFF_FLAG | CAN_EFF_MASK)) : (f.can_id & CAN_SFF_MASK);
         if (f.can_id & (CAN_RTR_FLAG | CAN_ERR_FLAG)) continue;  // remote requests and error frames carry no signals
         for (RxFrame &r : rx_) {
             if (r.key != key) continue;
@@ -189,8 +194,10 @@ void CanDevice::exchange(CycleContext &ctx) noexcept {
             encodeSignal(t.frame.data, s.map, toRaw(v, s.map.scaling));
         }
         const int rc = port_.send(t.frame);
-        if (rc == 0) tx_failed = true, ++errors_;
-        else if (rc < 0) broken = true, ++errors_;
+        if (rc == 0)
+            tx_failed = true, ++errors_;
+        else if (rc < 0)
+            broken = true, ++errors_;
         if (broken) break;
     }
     if (!broken && config_.sync) {
@@ -198,8 +205,10 @@ void CanDevice::exchange(CycleContext &ctx) noexcept {
         sync.can_id = 0x080;
         sync.can_dlc = 0;
         const int rc = port_.send(sync);
-        if (rc == 0) tx_failed = true, ++errors_;
-        else if (rc < 0) broken = true, ++errors_;
+        if (rc == 0)
+            tx_failed = true, ++errors_;
+        else if (rc < 0)
+            broken = true, ++errors_;
     }
     if (broken) {
         port_.close();
@@ -216,4 +225,4 @@ void CanDevice::exchange(CycleContext &ctx) noexcept {
     }
 }
 
-} // namespace irp::iodispat
+}  // namespace irp::iodispat

@@ -51,4 +51,4 @@ private:
     int64_t next_attempt_ns_ = 0;
 };
 
-} // namespace irp::iodispat
+}  // namespace irp::iodispat

@@ -36,7 +36,8 @@ CanPort &CanPort::operator=(CanPort &&other) noexcept {
 std::vector<can_filter> CanPort::filtersFor(const std::vector<canid_t> &ids) {
     std::vector<can_filter> filters;
     for (canid_t id : ids)
-        filters.push_back(can_filter{id, (id & CAN_EFF_FLAG) ? (CAN_EFF_FLAG | CAN_EFF_MASK) : (CAN_EFF_FLAG | CAN_SFF_MASK)});
+        filters.push_back(
+            can_filter{id, (id & CAN_EFF_FLAG) ? (CAN_EFF_FLAG | CAN_EFF_MASK) : (CAN_EFF_FLAG | CAN_SFF_MASK)});
     return filters;
 }
 
@@ -94,4 +95,4 @@ void CanPort::close() noexcept {
     fd_ = -1;
 }
 
-} // namespace irp::iodispat
+}  // namespace irp::iodispat

@@ -49,6 +49,8 @@ private:
 };
 
 // A frame's identifier as the port reports it: CAN_EFF_FLAG | id for 29-bit ids.
-inline canid_t canKey(uint32_t id, bool extended) { return extended ? (id & CAN_EFF_MASK) | CAN_EFF_FLAG : id & CAN_SFF_MASK; }
+inline canid_t canKey(uint32_t id, bool extended) {
+    return extended ? (id & CAN_EFF_MASK) | CAN_EFF_FLAG : id & CAN_SFF_MASK;
+}
 
-} // namespace irp::iodispat
+}  // namespace irp::iodispat

@@ -26,7 +26,7 @@ void split(uint32_t v, WordOrder w, uint16_t *out) noexcept {
     out[1] = w == WordOrder::HighFirst ? lo : hi;
 }
 
-} // namespace
+}  // namespace
 
 double decodeRegisters(const uint16_t *r, Format f, WordOrder w) noexcept {
     switch (f) {
@@ -67,9 +67,11 @@ void storeWord(uint8_t data[8], uint64_t v) noexcept {
 
 uint64_t mask(int length) noexcept { return length >= 64 ? ~uint64_t{0} : (uint64_t{1} << length) - 1; }
 
-} // namespace
+}  // namespace
 
-uint64_t extractBits(const uint8_t data[8], int start, int length) noexcept { return (load(data) >> start) & mask(length); }
+uint64_t extractBits(const uint8_t data[8], int start, int length) noexcept {
+    return (load(data) >> start) & mask(length);
+}
 
 void insertBits(uint8_t data[8], int start, int length, uint64_t value) noexcept {
     const uint64_t m = mask(length) << start;
@@ -100,4 +102,4 @@ void encodeSignal(uint8_t data[8], const CanSignal &s, double raw) noexcept {
     insertBits(data, s.start, s.length, bits);
 }
 
-} // namespace irp::iodispat
+}  // namespace irp::iodispat

@@ -27,4 +27,4 @@ void encodeSignal(uint8_t data[8], const CanSignal &s, double raw) noexcept;
 // Rounds and clamps to [lo, hi]; NaN -> 0.
 double clampRound(double v, double lo, double hi) noexcept;
 
-} // namespace irp::iodispat
+}  // namespace irp::iodispat

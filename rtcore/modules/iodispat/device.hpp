@@ -47,8 +47,8 @@ public:
     const DeviceConfig &config() const { return config_; }
     bool commLost() const { return comm_lost_; }
     uint32_t errors() const { return errors_; }
-    uint64_t skipped() const { return skipped_; }   // rounds (or parts) left out for the budget
-    uint64_t rounds() const { return rounds_; }     // successful rounds
+    uint64_t skipped() const { return skipped_; }  // rounds (or parts) left out for the budget
+    uint64_t rounds() const { return rounds_; }    // successful rounds
 
 protected:
     const DeviceConfig &config_;
@@ -58,4 +58,4 @@ protected:
     uint64_t rounds_ = 0;
 };
 
-} // namespace irp::iodispat
+}  // namespace irp::iodispat

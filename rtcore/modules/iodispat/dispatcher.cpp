@@ -12,8 +12,10 @@ namespace irp::iodispat {
 
 Dispatcher::Dispatcher(IoConfig config) : config_(std::move(config)) {
     for (const DeviceConfig &d : config_.devices) {
-        if (d.type == DeviceType::SocketCan) devices_.push_back(std::make_unique<CanDevice>(d));
-        else devices_.push_back(std::make_unique<ModbusDevice>(d));
+        if (d.type == DeviceType::SocketCan)
+            devices_.push_back(std::make_unique<CanDevice>(d));
+        else
+            devices_.push_back(std::make_unique<ModbusDevice>(d));
     }
 }
 
@@ -25,8 +27,8 @@ void Dispatcher::resolveStatus(const VarTable &vars) {
     for (std::size_t d = 0; d < devices_.size(); ++d) {
         const std::string i = "[" + std::to_string(d) + "]";
         status_.comm_lost.push_back(vars.resolve(handle_, config_.status + ".comm_lost" + i,
-                                                 where + " (device " + std::to_string(d) + " '" + devices_[d]->config().name +
-                                                     "' needs comm_lost" + i + ")"));
+                                                 where + " (device " + std::to_string(d) + " '" +
+                                                     devices_[d]->config().name + "' needs comm_lost" + i + ")"));
         status_.errors.push_back(vars.resolve(handle_, config_.status + ".errors" + i,
                                               where + " (device " + std::to_string(d) + " needs errors" + i + ")"));
     }
@@ -50,8 +52,10 @@ void Dispatcher::cycle() noexcept {
     ctx.start_ns = t0;
     ctx.cycle = cycles_;
     int64_t budget = kNoDeadline;
-    if (config_.budget_us > 0) budget = static_cast<int64_t>(config_.budget_us * 1000);
-    else if (irp::cycle().basic_ns > 0) budget = irp::cycle().basic_ns / 2;
+    if (config_.budget_us > 0)
+        budget = static_cast<int64_t>(config_.budget_us * 1000);
+    else if (irp::cycle().basic_ns > 0)
+        budget = irp::cycle().basic_ns / 2;
     ctx.deadline_ns = budget == kNoDeadline ? kNoDeadline : t0 + budget;
 
     for (auto &d : devices_)
@@ -76,4 +80,4 @@ void Dispatcher::stop() noexcept {
     for (auto &d : devices_) d->stop();
 }
 
-} // namespace irp::iodispat
+}  // namespace irp::iodispat

@@ -49,4 +49,4 @@ private:
     int64_t last_ns_ = 0, max_ns_ = 0;
 };
 
-} // namespace irp::iodispat
+}  // namespace irp::iodispat

@@ -59,11 +59,14 @@ namespace {
 // One element being read: its attributes, checked one by one, and the unknown ones refused.
 class Element {
 public:
-    Element(pugi::xml_node node, const std::string &file, std::string_view text) : node_(node), file_(file), text_(text) {}
+    Element(pugi::xml_node node, const std::string &file, std::string_view text)
+        : node_(node), file_(file), text_(text) {}
 
     int line() const {
         const auto offset = static_cast<std::size_t>(std::max<std::ptrdiff_t>(0, node_.offset_debug()));
-        return 1 + static_cast<int>(std::count(text_.begin(), text_.begin() + static_cast<std::ptrdiff_t>(std::min(offset, text_.size())), '\n'));
+        return 1 +
+               static_cast<int>(std::count(
+                   text_.begin(), text_.begin() + static_cast<std::ptrdiff_t>(std::min(offset, text_.size())), '\n'));
     }
     std::string where() const { return file_ + ":" + std::to_string(line()) + ": <" + node_.name() + ">"; }
 
@@ -114,7 +117,8 @@ public:
         if (v.empty() || *end || errno)
             fail(std::string("attribute '") + name + "': expected an integer (decimal or 0x hex), got '" + v + "'");
         if (x < lo || x > hi)
-            fail(std::string("attribute '") + name + "': " + v + " is outside " + std::to_string(lo) + ".." + std::to_string(hi));
+            fail(std::string("attribute '") + name + "': " + v + " is outside " + std::to_string(lo) + ".." +
+                 std::to_string(hi));
         return x;
     }
 
@@ -127,7 +131,8 @@ public:
     }
 
     template <class E>
-    E choice(const char *name, std::initializer_list<std::pair<const char *, E>> choices, std::optional<E> fallback = std::nullopt) {
+    E choice(const char *name, std::initializer_list<std::pair<const char *, E>> choices,
+             std::optional<E> fallback = std::nullopt) {
         if (!has(name)) {
             if (!fallback) fail(std::string("attribute '") + name + "' is required (" + list(choices) + ")");
             return *fallback;
@@ -166,7 +171,8 @@ private:
 
 std::optional<double> fallbackOf(Element &e, Direction d) {
     if (!e.has("default")) return std::nullopt;
-    if (d == Direction::Out) e.fail("attribute 'default' is for inputs (the value while comm-lost); outputs take 'safe'");
+    if (d == Direction::Out)
+        e.fail("attribute 'default' is for inputs (the value while comm-lost); outputs take 'safe'");
     return e.number("default", 0, -1e300, 1e300);
 }
 
@@ -188,7 +194,8 @@ Scaling scalingOf(Element &e) {
 
 std::string pathOf(Element &e, const char *name = "path") {
     std::string p = e.text(name);
-    if (p.find_first_of(" \t\r\n") != std::string::npos) e.fail(std::string("attribute '") + name + "': a path has no spaces");
+    if (p.find_first_of(" \t\r\n") != std::string::npos)
+        e.fail(std::string("attribute '") + name + "': a path has no spaces");
     return p;
 }
 
@@ -204,17 +211,30 @@ void parseModbusMapping(Element &e, Direction d, DeviceConfig &dev) {
         e.fail(std::string("an output writes a coil or a holding register; '") + toString(m.table) + "' is read-only");
     const bool bits = m.table == Table::Coil || m.table == Table::DiscreteInput;
     m.format = e.choice<Format>("type",
-                                {{"bool", Format::Bool}, {"u16", Format::U16}, {"uint16", Format::U16}, {"s16", Format::S16},
-                                 {"int16", Format::S16}, {"u32", Format::U32}, {"uint32", Format::U32}, {"s32", Format::S32},
-                                 {"int32", Format::S32}, {"f32", Format::F32}, {"float", Format::F32}, {"float32", Format::F32}},
+                                {{"bool", Format::Bool},
+                                 {"u16", Format::U16},
+                                 {"uint16", Format::U16},
+                                 {"s16", Format::S16},
+                                 {"int16", Format::S16},
+                                 {"u32", Format::U32},
+                                 {"uint32", Format::U32},
+                                 {"s32", Format::S32},
+                                 {"int32", Format::S32},
+                                 {"f32", Format::F32},
+                                 {"float", Format::F32},
+                                 {"float32", Format::F32}},
                                 bits ? Format::Bool : Format::U16);
     if (bits && m.format != Format::Bool) e.fail(std::string("a ") + toString(m.table) + " is one bit: type is bool");
     if (!bits && m.format == Format::Bool) e.fail("a register is 16 bits: type is u16, s16, u32, s32 or f32");
     m.address = static_cast<int>(e.integer("address", -1, 0, 65535));
     if (m.address < 0) e.fail("attribute 'address' is required (0-based protocol address)");
-    if (m.address + registerCount(m.format) - 1 > 65535) e.fail("a 32-bit value at 65535 would end past the last register");
-    m.words = e.choice<WordOrder>("words", {{"high-first", WordOrder::HighFirst}, {"big", WordOrder::HighFirst},
-                                            {"low-first", WordOrder::LowFirst}, {"little", WordOrder::LowFirst}},
+    if (m.address + registerCount(m.format) - 1 > 65535)
+        e.fail("a 32-bit value at 65535 would end past the last register");
+    m.words = e.choice<WordOrder>("words",
+                                  {{"high-first", WordOrder::HighFirst},
+                                   {"big", WordOrder::HighFirst},
+                                   {"low-first", WordOrder::LowFirst},
+                                   {"little", WordOrder::LowFirst}},
                                   WordOrder::HighFirst);
     m.unit = static_cast<int>(e.integer("unit", -1, 0, 255));
     m.path = pathOf(e);
@@ -251,9 +271,12 @@ void parseCanFrame(Element &e, DeviceConfig &dev, const std::string &file, std::
         if (f.direction == Direction::Out && sig.start + sig.length > f.dlc * 8)
             s.fail("the signal ends past the frame's dlc (" + std::to_string(f.dlc) + " bytes)");
         const std::string type = s.has("type") ? s.text("type") : "unsigned";
-        if (type == "signed") sig.is_signed = true;
-        else if (type == "float") sig.is_float = true;
-        else if (type != "unsigned") s.fail("attribute 'type': '" + type + "' is not one of unsigned, signed, float");
+        if (type == "signed")
+            sig.is_signed = true;
+        else if (type == "float")
+            sig.is_float = true;
+        else if (type != "unsigned")
+            s.fail("attribute 'type': '" + type + "' is not one of unsigned, signed, float");
         if (sig.is_float && sig.length != 32) s.fail("a float signal is 32 bits long");
         sig.path = pathOf(s);
         sig.scaling = scalingOf(s);
@@ -262,7 +285,8 @@ void parseCanFrame(Element &e, DeviceConfig &dev, const std::string &file, std::
         s.done();
         if (f.direction == Direction::Out) {
             for (auto [a, b] : used)
-                if (sig.start < b && a < sig.start + sig.length) s.fail("the signal overlaps another signal of this output frame");
+                if (sig.start < b && a < sig.start + sig.length)
+                    s.fail("the signal overlaps another signal of this output frame");
             used.emplace_back(sig.start, sig.start + sig.length);
         }
         f.signals.push_back(std::move(sig));
@@ -316,7 +340,8 @@ void checkCanIds(const DeviceConfig &dev, const std::string &file) {
             char hex[16];
             std::snprintf(hex, sizeof hex, "0x%X", id);
             throw ConfigError(file + ":" + std::to_string(line) + ": " + what + ": CAN id " + hex + " (" +
-                              (d == Direction::In ? "in" : "out") + ") is already used at line " + std::to_string(it->second));
+                              (d == Direction::In ? "in" : "out") + ") is already used at line " +
+                              std::to_string(it->second));
         }
     };
     for (const CanFrameMap &f : dev.frames) add(f.id | (f.extended ? 0x80000000u : 0), f.direction, f.line, "<frame>");
@@ -345,7 +370,8 @@ DeviceConfig parseDevice(Element &e, const std::string &file, std::string_view t
         d.host = e.text("host");
         in_addr probe{};
         if (inet_pton(AF_INET, d.host.c_str(), &probe) != 1)
-            e.fail("attribute 'host': '" + d.host + "' is not an IPv4 address (libmodbus's modbus_new_tcp takes dotted quads)");
+            e.fail("attribute 'host': '" + d.host +
+                   "' is not an IPv4 address (libmodbus's modbus_new_tcp takes dotted quads)");
         d.port = static_cast<int>(e.integer("port", 502, 1, 65535));
         d.unit = static_cast<int>(e.integer("unit", 1, 0, 255));
         d.read_gap = static_cast<int>(e.integer("read_gap", 8, 0, 100));
@@ -354,7 +380,8 @@ DeviceConfig parseDevice(Element &e, const std::string &file, std::string_view t
     case DeviceType::ModbusRtu:
         d.serial = e.text("device");
         d.baud = static_cast<int>(e.integer("baud", 19200, 50, 4000000));
-        d.parity = e.choice<char>("parity", {{"N", 'N'}, {"none", 'N'}, {"E", 'E'}, {"even", 'E'}, {"O", 'O'}, {"odd", 'O'}}, 'E');
+        d.parity = e.choice<char>(
+            "parity", {{"N", 'N'}, {"none", 'N'}, {"E", 'E'}, {"even", 'E'}, {"O", 'O'}, {"odd", 'O'}}, 'E');
         d.data_bits = static_cast<int>(e.integer("data_bits", 8, 5, 8));
         d.stop_bits = static_cast<int>(e.integer("stop_bits", 1, 1, 2));
         d.unit = static_cast<int>(e.integer("unit", 1, 1, 247));
@@ -363,8 +390,10 @@ DeviceConfig parseDevice(Element &e, const std::string &file, std::string_view t
     case DeviceType::SocketCan:
         if (e.has("interface")) d.interface = e.text("interface");
         d.fd = static_cast<int>(e.integer("fd", -1, 0, 1 << 20));
-        if (d.interface.empty() == (d.fd < 0)) e.fail("a socketcan device names either interface=\"can0\" or (tests) fd=\"N\"");
-        if (d.interface.size() >= 16) e.fail("attribute 'interface': a network interface name is at most 15 characters");
+        if (d.interface.empty() == (d.fd < 0))
+            e.fail("a socketcan device names either interface=\"can0\" or (tests) fd=\"N\"");
+        if (d.interface.size() >= 16)
+            e.fail("attribute 'interface': a network interface name is at most 15 characters");
         d.sync = e.boolean("sync", false);
         d.nmt_start = e.boolean("nmt_start", true);
         break;
@@ -375,25 +404,33 @@ DeviceConfig parseDevice(Element &e, const std::string &file, std::string_view t
         if (child.type() != pugi::node_element) continue;
         Element c(child, file, text);
         const std::string_view tag = child.name();
-        if (!can && (tag == "input" || tag == "output")) parseModbusMapping(c, tag == "input" ? Direction::In : Direction::Out, d);
-        else if (can && tag == "frame") parseCanFrame(c, d, file, text);
-        else if (can && tag == "cia402") parseCia402(c, d);
-        else c.fail(can ? "a socketcan device holds <frame> and <cia402> elements"
-                        : "a Modbus device holds <input> and <output> elements");
+        if (!can && (tag == "input" || tag == "output"))
+            parseModbusMapping(c, tag == "input" ? Direction::In : Direction::Out, d);
+        else if (can && tag == "frame")
+            parseCanFrame(c, d, file, text);
+        else if (can && tag == "cia402")
+            parseCia402(c, d);
+        else
+            c.fail(can ? "a socketcan device holds <frame> and <cia402> elements"
+                       : "a Modbus device holds <input> and <output> elements");
     }
-    if (can) checkCanIds(d, file);
-    else checkModbusOverlaps(d, file);
+    if (can)
+        checkCanIds(d, file);
+    else
+        checkModbusOverlaps(d, file);
     return d;
 }
 
-} // namespace
+}  // namespace
 
 IoConfig parseIoConfigText(std::string_view text, const std::string &name) {
     pugi::xml_document doc;
     const pugi::xml_parse_result r = doc.load_buffer(text.data(), text.size());
     if (!r) {
         const auto offset = static_cast<std::size_t>(std::max<std::ptrdiff_t>(0, r.offset));
-        const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(std::min(offset, text.size())), '\n'));
+        const int line =
+            1 + static_cast<int>(std::count(
+                    text.begin(), text.begin() + static_cast<std::ptrdiff_t>(std::min(offset, text.size())), '\n'));
         throw ConfigError(name + ":" + std::to_string(line) + ": not well-formed XML: " + r.description());
     }
     pugi::xml_node root = doc.document_element();
@@ -427,4 +464,4 @@ IoConfig parseIoConfig(const std::string &file) {
     return parseIoConfigText(text, file);
 }
 
-} // namespace irp::iodispat
+}  // namespace irp::iodispat

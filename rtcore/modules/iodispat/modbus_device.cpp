@@ -42,21 +42,31 @@ bool isException(int e) { return e > MODBUS_ENOBASE && e <= MODBUS_ENOBASE + MOD
 // The connection itself is gone: no use waiting for fail_limit.
 bool isBroken(int e) {
     switch (e) {
-    case ECONNRESET: case ECONNREFUSED: case ECONNABORTED: case EPIPE: case ENOTCONN: case EBADF:
-    case EHOSTUNREACH: case ENETUNREACH: case ENETDOWN: case EIO: case ENODEV: case ENXIO: case ENOENT:
-        return true;
-    default:
-        return false;
+    case ECONNRESET:
+    case ECONNREFUSED:
+    case ECONNABORTED:
+    case EPIPE:
+    case ENOTCONN:
+    case EBADF:
+    case EHOSTUNREACH:
+    case ENETUNREACH:
+    case ENETDOWN:
+    case EIO:
+    case ENODEV:
+    case ENXIO:
+    case ENOENT: return true;
+    default: return false;
     }
 }
 
-} // namespace
+}  // namespace
 
 ModbusDevice::ModbusDevice(const DeviceConfig &config) : Device(config) {}
 
 ModbusDevice::~ModbusDevice() { stop(); }
 
-std::vector<ModbusDevice::Block> ModbusDevice::group(Direction direction, const VarTable &vars, channel::Handle &handle) const {
+std::vector<ModbusDevice::Block> ModbusDevice::group(Direction direction, const VarTable &vars,
+                                                     channel::Handle &handle) const {
     // (unit, table) -> its mappings by address
     std::map<std::pair<int, Table>, std::vector<const ModbusMapping *>> by;
     for (const ModbusMapping &m : config_.mappings)
@@ -87,8 +97,10 @@ std::vector<ModbusDevice::Block> ModbusDevice::group(Direction direction, const 
         }
     }
     for (Block &b : blocks) {
-        if (isBits(b.table)) b.bits.assign(static_cast<std::size_t>(b.count), 0);
-        else b.regs.assign(static_cast<std::size_t>(b.count), 0);
+        if (isBits(b.table))
+            b.bits.assign(static_cast<std::size_t>(b.count), 0);
+        else
+            b.regs.assign(static_cast<std::size_t>(b.count), 0);
     }
     return blocks;
 }
@@ -96,9 +108,14 @@ std::vector<ModbusDevice::Block> ModbusDevice::group(Direction direction, const 
 void ModbusDevice::start(channel::Handle &handle, const VarTable &vars) {
     inputs_ = group(Direction::In, vars, handle);
     outputs_ = group(Direction::Out, vars, handle);
-    if (config_.type == DeviceType::ModbusTcp) mb_ = modbus_new_tcp(config_.host.c_str(), config_.port);
-    else mb_ = modbus_new_rtu(config_.serial.c_str(), config_.baud, config_.parity, config_.data_bits, config_.stop_bits);
-    if (!mb_) throw std::runtime_error("device '" + config_.name + "': libmodbus refused its parameters: " + modbus_strerror(errno));
+    if (config_.type == DeviceType::ModbusTcp)
+        mb_ = modbus_new_tcp(config_.host.c_str(), config_.port);
+    else
+        mb_ =
+            modbus_new_rtu(config_.serial.c_str(), config_.baud, config_.parity, config_.data_bits, config_.stop_bits);
+    if (!mb_)
+        throw std::runtime_error("device '" + config_.name +
+                                 "': libmodbus refused its parameters: " + modbus_strerror(errno));
     modbus_set_slave(mb_, config_.unit);
     modbus_set_error_recovery(mb_, MODBUS_ERROR_RECOVERY_NONE);
     // The output blocks start from the variables' values (used for "hold" until the device's own are read).
@@ -108,8 +125,10 @@ void ModbusDevice::start(channel::Handle &handle, const VarTable &vars) {
     applyFallbacks(ctx);  // comm-lost until the first round
     // One connect attempt now; the first exchange happens in run().
     ctx.start_ns = nowNs();
-    if (arm(ctx) && modbus_connect(mb_) == 0) connected_ = true;
-    else next_attempt_ns_ = nowNs() + static_cast<int64_t>(config_.reconnect_ms * 1e6);
+    if (arm(ctx) && modbus_connect(mb_) == 0)
+        connected_ = true;
+    else
+        next_attempt_ns_ = nowNs() + static_cast<int64_t>(config_.reconnect_ms * 1e6);
 }
 
 void ModbusDevice::stop() noexcept {
@@ -145,8 +164,10 @@ void ModbusDevice::compose(CycleContext &ctx, Block &b, bool safe) noexcept {
             continue;  // cannot happen for a resolved path; keep the last value
         }
         const double raw = toRaw(v, m.scaling);
-        if (isBits(b.table)) b.bits[static_cast<std::size_t>(it.offset)] = raw != 0 && raw == raw ? 1 : 0;
-        else encodeRegisters(raw, m.format, m.words, &b.regs[static_cast<std::size_t>(it.offset)]);
+        if (isBits(b.table))
+            b.bits[static_cast<std::size_t>(it.offset)] = raw != 0 && raw == raw ? 1 : 0;
+        else
+            encodeRegisters(raw, m.format, m.words, &b.regs[static_cast<std::size_t>(it.offset)]);
     }
 }
 
@@ -175,8 +196,9 @@ ModbusDevice::Outcome ModbusDevice::transact(CycleContext &ctx, Block &b, bool w
         answered = true;
         if (!b.reported) {
             b.reported = true;
-            irp::printf("iodispat: device '%s': %s %s %d..%d of unit %d: %s", config_.name.c_str(), write ? "writing" : "reading",
-                        toString(b.table), b.start, b.start + b.count - 1, b.unit, modbus_strerror(e));
+            irp::printf("iodispat: device '%s': %s %s %d..%d of unit %d: %s", config_.name.c_str(),
+                        write ? "writing" : "reading", toString(b.table), b.start, b.start + b.count - 1, b.unit,
+                        modbus_strerror(e));
         }
         return Outcome::Ok;
     }
@@ -208,7 +230,8 @@ ModbusDevice::Outcome ModbusDevice::round(CycleContext &ctx) noexcept {
         if (answered) continue;  // an exception: no values
         for (const Item &it : b.items) {
             const std::size_t at = static_cast<std::size_t>(it.offset);
-            const double raw = isBits(b.table) ? (b.bits[at] ? 1.0 : 0.0) : decodeRegisters(&b.regs[at], it.mapping->format, it.mapping->words);
+            const double raw = isBits(b.table) ? (b.bits[at] ? 1.0 : 0.0)
+                                               : decodeRegisters(&b.regs[at], it.mapping->format, it.mapping->words);
             writeVar(*ctx.handle, it.var, toVariable(raw, it.mapping->scaling));
         }
     }
@@ -274,4 +297,4 @@ void ModbusDevice::exchange(CycleContext &ctx) noexcept {
     }
 }
 
-} // namespace irp::iodispat
+}  // namespace irp::iodispat

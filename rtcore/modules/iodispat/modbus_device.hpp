@@ -36,14 +36,14 @@ private:
         int start = 0;
         int count = 0;
         std::vector<Item> items;
-        std::vector<uint16_t> regs;   // registers: the last read or sent values
-        std::vector<uint8_t> bits;    // coils / discrete inputs
-        bool reported = false;        // an exception response was logged once
+        std::vector<uint16_t> regs;  // registers: the last read or sent values
+        std::vector<uint8_t> bits;   // coils / discrete inputs
+        bool reported = false;       // an exception response was logged once
     };
     enum class Outcome { Ok, Failed, Skipped };
 
     std::vector<Block> group(Direction direction, const VarTable &vars, channel::Handle &handle) const;
-    bool arm(CycleContext &ctx) noexcept;                       // sets the timeout; false: no time left
+    bool arm(CycleContext &ctx) noexcept;  // sets the timeout; false: no time left
     Outcome transact(CycleContext &ctx, Block &b, bool write, bool &answered) noexcept;
     Outcome round(CycleContext &ctx) noexcept;
     void fail(CycleContext &ctx, int error) noexcept;
@@ -53,10 +53,10 @@ private:
     modbus_t *mb_ = nullptr;
     std::vector<Block> inputs_, outputs_;
     bool connected_ = false;
-    bool dirty_ = false;            // a transaction failed: flush stale bytes before the next
-    bool outputs_known_ = false;    // the output blocks hold the device's values (read once at the first connect)
-    int fails_ = 0;                 // failed rounds in a row
-    int64_t next_attempt_ns_ = 0;   // no connect attempt before this
+    bool dirty_ = false;           // a transaction failed: flush stale bytes before the next
+    bool outputs_known_ = false;   // the output blocks hold the device's values (read once at the first connect)
+    int fails_ = 0;                // failed rounds in a row
+    int64_t next_attempt_ns_ = 0;  // no connect attempt before this
 };
 
-} // namespace irp::iodispat
+}  // namespace irp::iodispat

@@ -46,17 +46,19 @@ std::string findConfig(const irp::Property &property) {
                                            : std::filesystem::path(property.path("config"));
     std::error_code ec;
     if (!std::filesystem::is_regular_file(file, ec))
-        throw irp::PropertyError("property 'config': " + file.string() + " does not exist (a relative name is looked "
+        throw irp::PropertyError("property 'config': " + file.string() +
+                                 " does not exist (a relative name is looked "
                                  "for beside module.xml, or in the property config_dir)");
     return std::filesystem::absolute(file).lexically_normal().string();
 }
 
-} // namespace
+}  // namespace
 
 extern "C" void initialize(irp::Property const &property) {
     if (g_started)
-        throw std::runtime_error("libiodispat.so is already running in this irpd (its state is per library): stop the running set, "
-                                 "or restart irpd, to change its configuration");
+        throw std::runtime_error(
+            "libiodispat.so is already running in this irpd (its state is per library): stop the running set, "
+            "or restart irpd, to change its configuration");
     g_dispatcher.reset();
     const std::string file = findConfig(property);
     irp::iodispat::IoConfig config = irp::iodispat::parseIoConfig(file);
@@ -66,7 +68,8 @@ extern "C" void initialize(irp::Property const &property) {
     for (const irp::iodispat::DeviceConfig &d : config.devices)
         if (d.fd >= 0)
             throw irp::PropertyError(d.file + ":" + std::to_string(d.line) + ": device '" + d.name + "': fd=\"" +
-                                     std::to_string(d.fd) + "\" is a test hook that irpd does not accept; name the "
+                                     std::to_string(d.fd) +
+                                     "\" is a test hook that irpd does not accept; name the "
                                      "SocketCAN interface instead (interface=\"can0\")");
     g_dispatcher = std::make_unique<irp::iodispat::Dispatcher>(std::move(config));
     irp::printf("iodispat: %s: %zu device(s)", file.c_str(), g_dispatcher->deviceCount());
@@ -103,7 +106,8 @@ void stop() {
     g_config.store(nullptr);
     if (g_dispatcher) {
         g_dispatcher->stop();
-        irp::printf("iodispat: stopped after %llu cycles, the longest %lld us", static_cast<unsigned long long>(g_dispatcher->cycles()),
+        irp::printf("iodispat: stopped after %llu cycles, the longest %lld us",
+                    static_cast<unsigned long long>(g_dispatcher->cycles()),
                     static_cast<long long>(g_dispatcher->maxCycleNs() / 1000));
     }
     g_dispatcher.reset();

@@ -48,7 +48,7 @@ std::string drive(const DeviceConfig &d, double timeout_ms) {
     return failure;
 }
 
-} // namespace
+}  // namespace
 
 std::vector<std::string> driveSafeOutputs(const IoConfig &config, double timeout_ms) {
     std::vector<std::string> failures;
@@ -59,4 +59,4 @@ std::vector<std::string> driveSafeOutputs(const IoConfig &config, double timeout
     return failures;
 }
 
-} // namespace irp::iodispat
+}  // namespace irp::iodispat

@@ -18,4 +18,4 @@ namespace irp::iodispat {
 // the serial line or bus belongs to the cycle; they rely on the device's own comm timeout.
 std::vector<std::string> driveSafeOutputs(const IoConfig &config, double timeout_ms);
 
-} // namespace irp::iodispat
+}  // namespace irp::iodispat

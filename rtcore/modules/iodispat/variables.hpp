@@ -16,9 +16,9 @@ namespace irp::iodispat {
 enum class ScalarKind { Signed, Unsigned, Float, Bool };
 
 struct VarRef {
-    std::string path;               // the full layout path ("PLC_ROBOT.AXIS_IN[2].position")
+    std::string path;  // the full layout path ("PLC_ROBOT.AXIS_IN[2].position")
     ScalarKind kind = ScalarKind::Float;
-    int size = 0;                   // bytes: 1, 2, 4 or 8
+    int size = 0;  // bytes: 1, 2, 4 or 8
     bool valid() const { return size != 0; }
 };
 
@@ -51,4 +51,4 @@ bool readVar(channel::Handle &handle, const VarRef &v, double &out) noexcept;
 // Stores value, rounded and clamped to the variable's type (bool: != 0).  False when refused.
 bool writeVar(channel::Handle &handle, const VarRef &v, double value) noexcept;
 
-} // namespace irp::iodispat
+}  // namespace irp::iodispat

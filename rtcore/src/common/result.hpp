@@ -47,4 +47,4 @@ private:
 struct Ok {};
 using Status = Result<Ok>;
 
-} // namespace irp
+}  // namespace irp

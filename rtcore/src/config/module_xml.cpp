@@ -42,8 +42,7 @@ struct ParseFailure {
 
 class Parser {
 public:
-    Parser(std::string_view text, std::filesystem::path xml_path)
-        : text_(text), shown_(xml_path.string()) {
+    Parser(std::string_view text, std::filesystem::path xml_path) : text_(text), shown_(xml_path.string()) {
         std::error_code ec;
         auto absolute = std::filesystem::absolute(xml_path, ec);
         path_ = ec ? xml_path : absolute.lexically_normal();
@@ -57,7 +56,8 @@ public:
                                   pugi::parse_fragment) &
                                  ~pugi::parse_escapes;
         pugi::xml_parse_result parsed = doc.load_buffer(text_.data(), text_.size(), options, pugi::encoding_utf8);
-        if (!parsed) fail(static_cast<std::ptrdiff_t>(parsed.offset), std::string("malformed XML: ") + parsed.description());
+        if (!parsed)
+            fail(static_cast<std::ptrdiff_t>(parsed.offset), std::string("malformed XML: ") + parsed.description());
 
         pugi::xml_node root;
         for (pugi::xml_node node : doc.children()) {
@@ -65,7 +65,9 @@ public:
             case pugi::node_doctype:
                 fail(node, "a DOCTYPE is not allowed in module.xml (no DTDs, so no entity definitions)");
             case pugi::node_element:
-                if (root) fail(node, "a second top-level element <" + std::string(node.name()) + ">; module.xml has one <root>");
+                if (root)
+                    fail(node,
+                         "a second top-level element <" + std::string(node.name()) + ">; module.xml has one <root>");
                 root = node;
                 break;
             case pugi::node_pcdata:
@@ -74,8 +76,7 @@ public:
                 break;
             case pugi::node_pi:
                 fail(node, "processing instruction <?" + std::string(node.name()) + "?> is not allowed");
-            default:
-                break;  // declaration
+            default: break;  // declaration
             }
         }
         if (!root) fail(0, "no <root> element");
@@ -103,7 +104,8 @@ public:
                 set.layout = p.is_absolute() ? p.lexically_normal() : (path_.parent_path() / p).lexically_normal();
                 set.layout_line = lineOf(node);
             } else {
-                fail(node, "unknown tag <" + std::string(tag) + "> in <root>; expected <module>, <executor> or <layout>");
+                fail(node,
+                     "unknown tag <" + std::string(tag) + "> in <root>; expected <module>, <executor> or <layout>");
             }
         }
         crossCheck(set);
@@ -129,7 +131,8 @@ private:
     // so the line of the offending character is the node's line plus the newlines before it.
     [[noreturn]] void failInText(pugi::xml_node node, std::string_view text, std::size_t i,
                                  const std::string &what) const {
-        int line = lineOf(node) + static_cast<int>(std::count(text.begin(), text.begin() + std::min(i, text.size()), '\n'));
+        int line =
+            lineOf(node) + static_cast<int>(std::count(text.begin(), text.begin() + std::min(i, text.size()), '\n'));
         throw ParseFailure{shown_ + ":" + std::to_string(line) + ": " + what};
     }
     // For a field of a module: "file:line: module 'cntr1': <period>: what"
@@ -147,7 +150,8 @@ private:
             if (first == std::string_view::npos) return true;
             failInText(node, v, first, "unexpected text '" + std::string(trim(v)) + "' between elements");
         }
-        if (node.type() == pugi::node_pi) fail(node, "processing instruction <?" + std::string(node.name()) + "?> is not allowed");
+        if (node.type() == pugi::node_pi)
+            fail(node, "processing instruction <?" + std::string(node.name()) + "?> is not allowed");
         return false;
     }
 
@@ -176,11 +180,16 @@ private:
             if (semi == std::string_view::npos || semi - i > 12)
                 failInText(at, raw, i, "a bare '&' in text; write it as &amp;");
             std::string_view name = raw.substr(i + 1, semi - i - 1);
-            if (name == "lt") out += '<';
-            else if (name == "gt") out += '>';
-            else if (name == "amp") out += '&';
-            else if (name == "apos") out += '\'';
-            else if (name == "quot") out += '"';
+            if (name == "lt")
+                out += '<';
+            else if (name == "gt")
+                out += '>';
+            else if (name == "amp")
+                out += '&';
+            else if (name == "apos")
+                out += '\'';
+            else if (name == "quot")
+                out += '"';
             else if (name.size() > 1 && name[0] == '#') {
                 bool hex = name[1] == 'x';
                 std::string_view digits = name.substr(hex ? 2 : 1);
@@ -191,8 +200,10 @@ private:
                     failInText(at, raw, i, "bad character reference '&" + std::string(name) + ";'");
                 appendUtf8(out, static_cast<uint32_t>(code));
             } else {
-                failInText(at, raw, i, "entity reference '&" + std::string(name) +
-                             ";' is not allowed: module.xml has no DTD; only &lt; &gt; &amp; &apos; &quot; and &#N; work");
+                failInText(
+                    at, raw, i,
+                    "entity reference '&" + std::string(name) +
+                        ";' is not allowed: module.xml has no DTD; only &lt; &gt; &amp; &apos; &quot; and &#N; work");
             }
             i = semi;
         }
@@ -238,7 +249,8 @@ private:
         auto [p, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
         if (text.empty()) failField(node, module, node.name(), std::string("is empty; expected an integer") + unit);
         if (ec == std::errc::result_out_of_range)
-            failField(node, module, node.name(), "'" + text + "' is too large; expected an integer" + unit + " below 2^63");
+            failField(node, module, node.name(),
+                      "'" + text + "' is too large; expected an integer" + unit + " below 2^63");
         if (ec != std::errc() || p != text.data() + text.size())
             failField(node, module, node.name(), "'" + text + "' is not an integer; expected an integer" + unit);
         if (value < min)
@@ -266,14 +278,15 @@ private:
         for (pugi::xml_node child : node.children()) {
             if (skippable(child)) continue;
             std::string tag = child.name();
-            static const std::set<std::string> known = {"filename", "moduletype", "operationtype", "period",
-                                                        "deadline", "priority",   "property",      "name",
-                                                        "budget",   "executor",      "on_overrun", "overrun_limit",
-                                                        "on_crash"};
+            static const std::set<std::string> known = {
+                "filename", "moduletype", "operationtype", "period",     "deadline",      "priority", "property",
+                "name",     "budget",     "executor",      "on_overrun", "overrun_limit", "on_crash"};
             if (!known.count(tag))
-                defer(child, "unknown tag <" + tag + "> in <module>; expected one of filename, moduletype, "
-                             "operationtype, period, deadline, priority, property, name, budget, executor, on_overrun, "
-                             "overrun_limit, on_crash");
+                defer(child,
+                      "unknown tag <" + tag +
+                          "> in <module>; expected one of filename, moduletype, "
+                          "operationtype, period, deadline, priority, property, name, budget, executor, on_overrun, "
+                          "overrun_limit, on_crash");
             else if (fields.count(tag))
                 defer(child, "<" + tag + "> appears twice in one <module>");
             else
@@ -296,7 +309,8 @@ private:
         if (problem) fail(problem, (m.name.empty() ? std::string() : "module '" + m.name + "': ") + problem_text);
         if (!field("filename")) fail(node, "<module> without <filename>");
         if (m.filename.empty()) failField(field("filename"), m.name, "filename", "is empty");
-        if (m.filename.find('\0') != std::string::npos) failField(field("filename"), m.name, "filename", "contains a NUL");
+        if (m.filename.find('\0') != std::string::npos)
+            failField(field("filename"), m.name, "filename", "contains a NUL");
         checkName(field("name") ? field("name") : field("filename"), m.name);
         std::filesystem::path file(m.filename);
         m.path = file.is_absolute() ? file.lexically_normal() : (path_.parent_path() / file).lexically_normal();
@@ -305,17 +319,26 @@ private:
         pugi::xml_node type = field("moduletype");
         if (!type) fail(node, "module '" + m.name + "': <moduletype> is missing; expected thread or process");
         std::string t = leafText(type, m.name);
-        if (t == "thread") m.type = ModuleType::Thread;
-        else if (t == "process") m.type = ModuleType::Process;
-        else failField(type, m.name, "moduletype", "unknown value '" + t + "'; expected thread or process");
+        if (t == "thread")
+            m.type = ModuleType::Thread;
+        else if (t == "process")
+            m.type = ModuleType::Process;
+        else
+            failField(type, m.name, "moduletype", "unknown value '" + t + "'; expected thread or process");
 
         pugi::xml_node op = field("operationtype");
-        if (!op) fail(node, "module '" + m.name + "': <operationtype> is missing; expected periodic, sporadic or non-real");
+        if (!op)
+            fail(node, "module '" + m.name + "': <operationtype> is missing; expected periodic, sporadic or non-real");
         std::string o = leafText(op, m.name);
-        if (o == "periodic") m.operation = OperationType::Periodic;
-        else if (o == "sporadic") m.operation = OperationType::Sporadic;
-        else if (o == "non-real") m.operation = OperationType::NonReal;
-        else failField(op, m.name, "operationtype", "unknown value '" + o + "'; expected periodic, sporadic or non-real");
+        if (o == "periodic")
+            m.operation = OperationType::Periodic;
+        else if (o == "sporadic")
+            m.operation = OperationType::Sporadic;
+        else if (o == "non-real")
+            m.operation = OperationType::NonReal;
+        else
+            failField(op, m.name, "operationtype",
+                      "unknown value '" + o + "'; expected periodic, sporadic or non-real");
 
         const char *ns = " number of nanoseconds";
         pugi::xml_node period = field("period");
@@ -323,23 +346,26 @@ private:
         pugi::xml_node priority = field("priority");
         switch (m.operation) {
         case OperationType::Periodic:
-            if (!period) fail(node, "module '" + m.name + "': <period> is missing; a periodic module needs one (in ns)");
+            if (!period)
+                fail(node, "module '" + m.name + "': <period> is missing; a periodic module needs one (in ns)");
             m.period_ns = integer(period, m.name, leafText(period, m.name), 1, ns);
             break;
         case OperationType::Sporadic:
             if (period) failField(period, m.name, "period", "a sporadic module has a <deadline>, not a <period>");
-            if (!deadline) fail(node, "module '" + m.name + "': <deadline> is missing; a sporadic module needs one (in ns)");
+            if (!deadline)
+                fail(node, "module '" + m.name + "': <deadline> is missing; a sporadic module needs one (in ns)");
             break;
         case OperationType::NonReal:
-            if (period) failField(period, m.name, "period", "a non-real module runs in left-over time and has no <period>");
+            if (period)
+                failField(period, m.name, "period", "a non-real module runs in left-over time and has no <period>");
             if (deadline) failField(deadline, m.name, "deadline", "a non-real module has no <deadline>");
             break;
         }
         if (deadline) {
             m.deadline_ns = integer(deadline, m.name, leafText(deadline, m.name), 1, ns);
             if (m.period_ns && m.deadline_ns > m.period_ns)
-                failField(deadline, m.name, "deadline", std::to_string(m.deadline_ns) + " is longer than the period " +
-                                                            std::to_string(m.period_ns));
+                failField(deadline, m.name, "deadline",
+                          std::to_string(m.deadline_ns) + " is longer than the period " + std::to_string(m.period_ns));
         }
         if (priority) {
             // The range is the control protocol's (protocol/control.json), so that `set_priority` and
@@ -363,9 +389,12 @@ private:
         }
         if (pugi::xml_node f = field("on_crash")) {  // docs/supervision.md
             const std::string v = leafText(f, m.name);
-            if (v == "restart") m.on_crash = CrashPolicy::Restart;
-            else if (v != "exclude") failField(f, m.name, "on_crash", "'" + v + "'; expected exclude or restart");
-            if (m.type != ModuleType::Thread) failField(f, m.name, "on_crash", "only thread modules (a process's crash is its own)");
+            if (v == "restart")
+                m.on_crash = CrashPolicy::Restart;
+            else if (v != "exclude")
+                failField(f, m.name, "on_crash", "'" + v + "'; expected exclude or restart");
+            if (m.type != ModuleType::Thread)
+                failField(f, m.name, "on_crash", "only thread modules (a process's crash is its own)");
         }
         if (pugi::xml_node executor = field("executor")) {
             m.executor = leafText(executor, m.name);
@@ -386,15 +415,20 @@ private:
             failField(action, m.name, "on_overrun", "only periodic modules have an overrun watchdog");
         const bool thread = m.type == ModuleType::Thread;
         const std::string a = leafText(action, m.name);
-        static const std::map<std::string, OverrunAction> known = {{"warn", OverrunAction::Warn}, {"skip", OverrunAction::Skip},
-            {"disable", OverrunAction::Disable}, {"stop", OverrunAction::Stop}, {"restart", OverrunAction::Restart}};
+        static const std::map<std::string, OverrunAction> known = {{"warn", OverrunAction::Warn},
+                                                                   {"skip", OverrunAction::Skip},
+                                                                   {"disable", OverrunAction::Disable},
+                                                                   {"stop", OverrunAction::Stop},
+                                                                   {"restart", OverrunAction::Restart}};
         auto it = known.find(a);
-        const bool allowed = it != known.end() && (thread ? it->second != OverrunAction::Restart
-                                                          : it->second != OverrunAction::Skip && it->second != OverrunAction::Disable);
+        const bool allowed =
+            it != known.end() && (thread ? it->second != OverrunAction::Restart
+                                         : it->second != OverrunAction::Skip && it->second != OverrunAction::Disable);
         if (!allowed)
-            failField(action, m.name, "on_overrun", "unknown value '" + a + "'; expected " +
-                                                        (thread ? "warn, skip, disable or stop" : "warn, restart or stop") +
-                                                        " for a " + toString(m.type) + " module");
+            failField(action, m.name, "on_overrun",
+                      "unknown value '" + a + "'; expected " +
+                          (thread ? "warn, skip, disable or stop" : "warn, restart or stop") + " for a " +
+                          toString(m.type) + " module");
         m.on_overrun = it->second;
         m.overrun_limit_ns = m.deadline_ns ? m.deadline_ns : m.period_ns;
         if (limit) m.overrun_limit_ns = integer(limit, m.name, leafText(limit, m.name), 1, " number of nanoseconds");
@@ -412,22 +446,26 @@ private:
             bool has_name = false;
             for (pugi::xml_attribute a : v.attributes()) {
                 if (std::string_view(a.name()) != "name")
-                    fail(v, "module '" + m.name + "': unknown attribute '" + a.name() + "' on <value>; expected name=\"...\"");
+                    fail(v, "module '" + m.name + "': unknown attribute '" + a.name() +
+                                "' on <value>; expected name=\"...\"");
                 if (has_name) fail(v, "module '" + m.name + "': name=\"...\" appears twice on one <value>");
                 name = unescape(v, a.value());
                 has_name = true;
             }
             if (!has_name || name.empty()) fail(v, "module '" + m.name + "': <value> without a name=\"...\"");
-            if (!seen.insert(name).second)
-                fail(v, "module '" + m.name + "': property '" + name + "' is set twice");
+            if (!seen.insert(name).second) fail(v, "module '" + m.name + "': property '" + name + "' is set twice");
             std::string raw;
             for (pugi::xml_node child : v.children()) {
                 if (child.type() == pugi::node_comment) continue;
-                if (child.type() == pugi::node_pcdata) raw += unescape(child, child.value());
-                else if (child.type() == pugi::node_cdata) raw += child.value();
-                else fail(child, "module '" + m.name + "': property '" + name + "' must be plain text");
+                if (child.type() == pugi::node_pcdata)
+                    raw += unescape(child, child.value());
+                else if (child.type() == pugi::node_cdata)
+                    raw += child.value();
+                else
+                    fail(child, "module '" + m.name + "': property '" + name + "' must be plain text");
             }
-            if (raw.find('\0') != std::string::npos) fail(v, "module '" + m.name + "': property '" + name + "' contains a NUL");
+            if (raw.find('\0') != std::string::npos)
+                fail(v, "module '" + m.name + "': property '" + name + "' contains a NUL");
             std::string value(trim(raw));
             // A process's own properties are checked now, so that `check` refuses what the start would.
             if (m.type == ModuleType::Process)
@@ -440,7 +478,8 @@ private:
     void checkName(pugi::xml_node at, const std::string &name, const char *what = "module") const {
         if (name.empty()) fail(at, std::string(what) + " name is empty");
         if (name.size() > kMaxNameLength)
-            fail(at, std::string(what) + " name '" + name + "' is longer than " + std::to_string(kMaxNameLength) + " characters");
+            fail(at, std::string(what) + " name '" + name + "' is longer than " + std::to_string(kMaxNameLength) +
+                         " characters");
         for (char c : name)
             if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.'))
                 fail(at, std::string(what) + " name '" + name + "' may only hold letters, digits, '_', '-' and '.'" +
@@ -459,7 +498,8 @@ private:
             if (skippable(child)) continue;
             std::string tag = child.name();
             if (!seen.insert(tag).second) fail(child, "<" + tag + "> appears twice in one <executor>");
-            if (tag == "name") e.name = leafText(child, "");
+            if (tag == "name")
+                e.name = leafText(child, "");
             else if (tag == "rtpriority") {
                 std::string text = leafText(child, label);
                 e.rt_priority = static_cast<int>(integer(child, label, text, 1, " from 1 to 99"));
@@ -468,7 +508,8 @@ private:
                 std::string text = leafText(child, label);
                 e.cpu = static_cast<int>(integer(child, label, text, 0, " (a CPU number)"));
                 if (e.cpu > 4095) failField(child, label, "cpu", "'" + text + "' must be a CPU number below 4096");
-            } else fail(child, "unknown tag <" + tag + "> in <executor>; expected name, rtpriority or cpu");
+            } else
+                fail(child, "unknown tag <" + tag + "> in <executor>; expected name, rtpriority or cpu");
         }
         owner_kind_ = "module";
         if (e.name.empty()) fail(node, "<executor> without a <name>");
@@ -490,7 +531,8 @@ private:
         std::set<std::string> executors;
         for (const ExecutorSpec &e : set.executors)
             if (!executors.insert(e.name).second)
-                throw ParseFailure{shown_ + ":" + std::to_string(e.line) + ": executor '" + e.name + "' is defined twice"};
+                throw ParseFailure{shown_ + ":" + std::to_string(e.line) + ": executor '" + e.name +
+                                   "' is defined twice"};
         for (std::size_t i = 0; i < executor_refs_.size(); ++i) {
             const auto &[name, node] = executor_refs_[i];
             if (name != kMainExecutor && !executors.count(name))
@@ -501,17 +543,18 @@ private:
 
     std::string_view text_;
     std::string owner_kind_ = "module";  // what failField names: a module or an executor
-    std::string shown_;           // the path as the user gave it, for messages
-    std::filesystem::path path_;  // absolute, anchors relative filenames
+    std::string shown_;                  // the path as the user gave it, for messages
+    std::filesystem::path path_;         // absolute, anchors relative filenames
     std::vector<std::pair<std::string, pugi::xml_node>> executor_refs_;
     std::vector<std::string> executor_ref_module_;
 };
 
-} // namespace
+}  // namespace
 
 Result<SetSpec> parseModuleXmlText(std::string_view text, const std::filesystem::path &xml_path) {
     if (text.size() > kMaxXmlBytes)
-        return Error{xml_path.string() + ": larger than " + std::to_string(kMaxXmlBytes >> 20) + " MiB; not a module.xml"};
+        return Error{xml_path.string() + ": larger than " + std::to_string(kMaxXmlBytes >> 20) +
+                     " MiB; not a module.xml"};
     try {
         return Parser(text, xml_path).run();
     } catch (const ParseFailure &f) {
@@ -526,7 +569,8 @@ Result<SetSpec> parseModuleXml(const std::filesystem::path &xml_path) {
     auto size = std::filesystem::file_size(xml_path, ec);
     if (ec) return Error{xml_path.string() + ": " + ec.message()};
     if (size > kMaxXmlBytes)
-        return Error{xml_path.string() + ": larger than " + std::to_string(kMaxXmlBytes >> 20) + " MiB; not a module.xml"};
+        return Error{xml_path.string() + ": larger than " + std::to_string(kMaxXmlBytes >> 20) +
+                     " MiB; not a module.xml"};
     std::ifstream in(xml_path, std::ios::binary);
     if (!in) return Error{xml_path.string() + ": cannot be read"};
     std::ostringstream buffer;
@@ -535,4 +579,4 @@ Result<SetSpec> parseModuleXml(const std::filesystem::path &xml_path) {
     return parseModuleXmlText(text, xml_path);
 }
 
-} // namespace irp::config
+}  // namespace irp::config

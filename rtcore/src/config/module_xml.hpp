@@ -34,40 +34,40 @@ const char *toString(OverrunAction action);
 inline constexpr const char *kMainExecutor = "main";
 
 struct ModuleSpec {
-    std::string name;               // <name>, or the stem of <filename>
-    std::string filename;           // as written in the XML
-    std::filesystem::path path;     // resolved against the XML file's folder
-    std::string set_dir;            // that folder, absolute: thread modules get it as property indurop.set_dir
+    std::string name;            // <name>, or the stem of <filename>
+    std::string filename;        // as written in the XML
+    std::filesystem::path path;  // resolved against the XML file's folder
+    std::string set_dir;         // that folder, absolute: thread modules get it as property indurop.set_dir
     ModuleType type = ModuleType::Thread;
     OperationType operation = OperationType::Periodic;
-    int64_t period_ns = 0;          // periodic only
-    int64_t deadline_ns = 0;        // sporadic: required; periodic: optional (0 = the period)
-    int priority = 0;               // lowest value = highest priority
-    int64_t budget_ns = 0;          // optional execution budget; 0 = none
+    int64_t period_ns = 0;    // periodic only
+    int64_t deadline_ns = 0;  // sporadic: required; periodic: optional (0 = the period)
+    int priority = 0;         // lowest value = highest priority
+    int64_t budget_ns = 0;    // optional execution budget; 0 = none
     std::string executor = kMainExecutor;
     OverrunAction on_overrun = OverrunAction::None;  // <on_overrun>
-    int64_t overrun_limit_ns = 0;   // <overrun_limit>: the watchdog time; 0 with on_overrun = the deadline
-    CrashPolicy on_crash = CrashPolicy::Exclude;  // <on_crash>
+    int64_t overrun_limit_ns = 0;  // <overrun_limit>: the watchdog time; 0 with on_overrun = the deadline
+    CrashPolicy on_crash = CrashPolicy::Exclude;                  // <on_crash>
     std::vector<std::pair<std::string, std::string>> properties;  // <property><value name=..>
     // A process module's args, env.*, restart, restart_delay_ms and max_restarts, parsed from
     // `properties` when module.xml is read (a ModuleSpec made in code: parseProcessProperties).
     ProcessProperties process;
-    int index = 0;                  // position in the file (ties in priority go to the earlier one)
-    int line = 0;                   // line of <module>
-    std::string where;              // "path/module.xml:12", for messages
+    int index = 0;      // position in the file (ties in priority go to the earlier one)
+    int line = 0;       // line of <module>
+    std::string where;  // "path/module.xml:12", for messages
 };
 
 // An extra dispatcher thread (<executor> at the root): its own RT priority and CPU.
 struct ExecutorSpec {
     std::string name;
-    int rt_priority = 0;            // 0 = the main executor's priority minus one
-    int cpu = -1;                   // -1 = the main executor's CPU
+    int rt_priority = 0;  // 0 = the main executor's priority minus one
+    int cpu = -1;         // -1 = the main executor's CPU
     int line = 0;
 };
 
 struct SetSpec {
     std::filesystem::path xml_path;
-    std::filesystem::path layout;         // <layout> at the root: the set's layout.json (empty: none)
+    std::filesystem::path layout;  // <layout> at the root: the set's layout.json (empty: none)
     int layout_line = 0;
     std::vector<ModuleSpec> modules;
     std::vector<ExecutorSpec> executors;  // not including "main"
@@ -84,4 +84,4 @@ Result<SetSpec> parseModuleXml(const std::filesystem::path &xml_path);
 // filenames.
 Result<SetSpec> parseModuleXmlText(std::string_view text, const std::filesystem::path &xml_path);
 
-} // namespace irp::config
+}  // namespace irp::config

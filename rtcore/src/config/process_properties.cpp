@@ -23,7 +23,7 @@ Result<int64_t> parseCount(const std::string &name, const std::string &text, int
     return value;
 }
 
-} // namespace
+}  // namespace
 
 const char *toString(RestartPolicy policy) {
     switch (policy) {
@@ -75,16 +75,21 @@ Status applyProcessProperty(ProcessProperties &into, const std::string &name, co
     } else if (name.starts_with("env.")) {
         const std::string var = name.substr(4);
         if (var.empty() || var.find('=') != std::string::npos)
-            return Error{"property " + name + ": '" + var + "' is not an environment variable name (env.NAME, NAME not "
+            return Error{"property " + name + ": '" + var +
+                         "' is not an environment variable name (env.NAME, NAME not "
                          "empty and without '=')"};
         if (isIrpdVariable(var))
             return Error{"property " + name + ": " + var + " is set by irpd and cannot be overridden"};
         into.env.emplace_back(var, value);
     } else if (name == "restart") {
-        if (value == "never") into.restart = RestartPolicy::Never;
-        else if (value == "always") into.restart = RestartPolicy::Always;
-        else if (value == "on-failure") into.restart = RestartPolicy::OnFailure;
-        else return Error{"property restart = '" + value + "': expected never, always or on-failure"};
+        if (value == "never")
+            into.restart = RestartPolicy::Never;
+        else if (value == "always")
+            into.restart = RestartPolicy::Always;
+        else if (value == "on-failure")
+            into.restart = RestartPolicy::OnFailure;
+        else
+            return Error{"property restart = '" + value + "': expected never, always or on-failure"};
     } else if (name == "restart_delay_ms") {
         auto ms = parseCount(name, value, 1, kMaxRestartDelayNs / kMs, " (milliseconds)");
         if (!ms) return ms.error();
@@ -108,4 +113,4 @@ Result<ProcessProperties> parseProcessProperties(const std::vector<std::pair<std
     return parsed;
 }
 
-} // namespace irp::config
+}  // namespace irp::config

@@ -34,11 +34,11 @@ inline constexpr int64_t kMaxRestartDelayNs = 10'000'000'000;  // also the backo
 inline constexpr int64_t kMaxRestartsLimit = 1'000'000'000;
 
 struct ProcessProperties {
-    std::vector<std::string> args;                            // after argv[0]
-    std::vector<std::pair<std::string, std::string>> env;     // NAME, value
+    std::vector<std::string> args;                         // after argv[0]
+    std::vector<std::pair<std::string, std::string>> env;  // NAME, value
     RestartPolicy restart = RestartPolicy::OnFailure;
     int64_t restart_delay_ns = kDefaultRestartDelayNs;
-    int64_t max_restarts = -1;                                // -1 = unlimited
+    int64_t max_restarts = -1;  // -1 = unlimited
 
     bool operator==(const ProcessProperties &) const = default;
 };
@@ -58,4 +58,4 @@ Result<ProcessProperties> parseProcessProperties(const std::vector<std::pair<std
 // The `args` property split into arguments: white space separates, "..." groups (\" and \\ inside).
 Result<std::vector<std::string>> splitArgs(const std::string &text);
 
-} // namespace irp::config
+}  // namespace irp::config

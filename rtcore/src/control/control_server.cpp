@@ -26,8 +26,8 @@ using json = nlohmann::ordered_json;
 
 struct Client {
     int fd = -1;
-    std::string in;   // bytes of the request line being read
-    std::string out;  // answers not yet written
+    std::string in;        // bytes of the request line being read
+    std::string out;       // answers not yet written
     bool closing = false;  // write what is pending, then close
 };
 
@@ -45,8 +45,10 @@ int nestingDepth(const std::string &text) {
     for (std::size_t i = 0; i < text.size(); ++i) {
         const char c = text[i];
         if (in_string) {
-            if (c == '\\') ++i;
-            else if (c == '"') in_string = false;
+            if (c == '\\')
+                ++i;
+            else if (c == '"')
+                in_string = false;
         } else if (c == '"') {
             in_string = true;
         } else if (c == '[' || c == '{') {
@@ -58,14 +60,15 @@ int nestingDepth(const std::string &text) {
     return deepest;
 }
 
-} // namespace
+}  // namespace
 
 std::string answerRequest(const std::string &request, const Handler &handler) {
     json answer;
     json id = nullptr;
     if (nestingDepth(request) > kMaxRequestDepth)
-        return line(failure(id, protocol::kBadRequest, "the request nests arrays and objects deeper than " +
-                                                   std::to_string(kMaxRequestDepth) + " levels"));
+        return line(failure(id, protocol::kBadRequest,
+                            "the request nests arrays and objects deeper than " + std::to_string(kMaxRequestDepth) +
+                                " levels"));
     try {
         json parsed = json::parse(request);
         if (!parsed.is_object() || !parsed.contains("cmd") || !parsed["cmd"].is_string())
@@ -85,8 +88,8 @@ std::string answerRequest(const std::string &request, const Handler &handler) {
 Result<std::unique_ptr<ControlServer>> ControlServer::open(const std::string &path, Handler handler) {
     sockaddr_un addr{};
     if (path.empty() || path.size() >= sizeof addr.sun_path)
-        return Error{"--control-socket: '" + path + "' must be a path of 1 to " + std::to_string(sizeof addr.sun_path - 1) +
-                     " characters"};
+        return Error{"--control-socket: '" + path + "' must be a path of 1 to " +
+                     std::to_string(sizeof addr.sun_path - 1) + " characters"};
     addr.sun_family = AF_UNIX;
     std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
 
@@ -98,11 +101,12 @@ Result<std::unique_ptr<ControlServer>> ControlServer::open(const std::string &pa
         int probe = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
         bool alive = connect(probe, reinterpret_cast<sockaddr *>(&addr), sizeof addr) == 0;
         close(probe);
-        struct stat st{};
+        struct stat st {};
         if (alive || (lstat(path.c_str(), &st) == 0 && !S_ISSOCK(st.st_mode))) {
             close(fd);
-            return Error{"control socket " + path + (alive ? " is in use by another irpd"
-                                                           : " exists and is not a socket; remove it or choose another path")};
+            return Error{"control socket " + path +
+                         (alive ? " is in use by another irpd"
+                                : " exists and is not a socket; remove it or choose another path")};
         }
         unlink(path.c_str());
         rc = bind(fd, reinterpret_cast<sockaddr *>(&addr), sizeof addr);
@@ -161,15 +165,17 @@ void ControlServer::serve() {
                 int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
                 if (fd < 0) break;
                 if (static_cast<int>(clients.size()) >= kMaxClients) {
-                    std::string busy = line(failure(nullptr, protocol::kBusy, "too many control clients (at most " +
-                                                                           std::to_string(kMaxClients) + ")"));
+                    std::string busy =
+                        line(failure(nullptr, protocol::kBusy,
+                                     "too many control clients (at most " + std::to_string(kMaxClients) + ")"));
                     (void)!send(fd, busy.data(), busy.size(), MSG_NOSIGNAL);
                     close(fd);
                     continue;
                 }
                 Client c;
                 c.fd = fd;
-                c.out = line({{"protocol", protocol::kProtocol}, {"version", kProtocolVersion}, {"irpd", INDUROP_VERSION}});
+                c.out =
+                    line({{"protocol", protocol::kProtocol}, {"version", kProtocolVersion}, {"irpd", INDUROP_VERSION}});
                 clients.push_back(std::move(c));
             }
         }
@@ -189,8 +195,8 @@ void ControlServer::serve() {
                     c.out += answerRequest(request, handler_);
                 }
                 if (c.in.size() > kMaxRequestBytes) {
-                    c.out += line(failure(nullptr, protocol::kTooLarge, "a request line is at most " +
-                                                                    std::to_string(kMaxRequestBytes) + " bytes"));
+                    c.out += line(failure(nullptr, protocol::kTooLarge,
+                                          "a request line is at most " + std::to_string(kMaxRequestBytes) + " bytes"));
                     c.in.clear();
                     c.closing = true;
                 }
@@ -198,8 +204,10 @@ void ControlServer::serve() {
             }
             if (!c.out.empty()) {
                 ssize_t n = send(c.fd, c.out.data(), c.out.size(), MSG_NOSIGNAL);  // a gone client is no SIGPIPE
-                if (n > 0) c.out.erase(0, static_cast<std::size_t>(n));
-                else if (n < 0 && errno != EAGAIN && errno != EINTR) c.closing = true, c.out.clear();
+                if (n > 0)
+                    c.out.erase(0, static_cast<std::size_t>(n));
+                else if (n < 0 && errno != EAGAIN && errno != EINTR)
+                    c.closing = true, c.out.clear();
             }
         }
         for (std::size_t i = clients.size(); i-- > 0;)
@@ -216,4 +224,4 @@ void ControlServer::serve() {
     }
 }
 
-} // namespace irp::control
+}  // namespace irp::control

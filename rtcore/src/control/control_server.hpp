@@ -19,13 +19,16 @@ namespace irp::control {
 
 // The framing's limits, from protocol/control.json (protocol/limits.hpp).
 inline constexpr int kProtocolVersion = protocol::kVersion;
-inline constexpr auto kMaxRequestBytes = static_cast<std::size_t>(protocol::kMaxRequestBytes);    // one line
-inline constexpr auto kMaxPendingOutput = static_cast<std::size_t>(protocol::kMaxPendingOutput);  // per client, then it is dropped
+inline constexpr auto kMaxRequestBytes = static_cast<std::size_t>(protocol::kMaxRequestBytes);  // one line
+inline constexpr auto kMaxPendingOutput =
+    static_cast<std::size_t>(protocol::kMaxPendingOutput);  // per client, then it is dropped
 inline constexpr auto kMaxClients = static_cast<int>(protocol::kMaxClients);
-inline constexpr auto kMaxRequestDepth = static_cast<int>(protocol::kMaxRequestDepth);  // arrays and objects inside each other
+inline constexpr auto kMaxRequestDepth =
+    static_cast<int>(protocol::kMaxRequestDepth);  // arrays and objects inside each other
 
 // Answers one request: the command's result, or an Error (the client gets it as {"ok": false}).
-using Handler = std::function<Result<nlohmann::ordered_json>(const std::string &command, const nlohmann::json &request)>;
+using Handler =
+    std::function<Result<nlohmann::ordered_json>(const std::string &command, const nlohmann::json &request)>;
 
 // One request line (without its '\n') -> the answer line (with its '\n'): the JSON is parsed and
 // checked for a string "cmd", the handler answers, and anything wrong becomes a bad_request
@@ -53,4 +56,4 @@ private:
     std::thread thread_;
 };
 
-} // namespace irp::control
+}  // namespace irp::control

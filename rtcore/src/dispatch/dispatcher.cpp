@@ -40,10 +40,11 @@ struct Dispatcher::Plan {
 std::vector<ExecutorOptions> executorsOf(const config::SetSpec &set, const DispatcherOptions &options) {
     const int cpu = options.cpu >= 0 ? options.cpu : osal::lastAllowedCpu();
     std::vector<ExecutorOptions> all;
-    all.push_back({config::kMainExecutor, options.rt_priority, cpu, options.policy, options.max_catchup_ns, options.trace});
+    all.push_back(
+        {config::kMainExecutor, options.rt_priority, cpu, options.policy, options.max_catchup_ns, options.trace});
     for (const config::ExecutorSpec &e : set.executors)
-        all.push_back({e.name, e.rt_priority ? e.rt_priority : std::max(1, options.rt_priority - 1), e.cpu >= 0 ? e.cpu : cpu,
-                       options.policy, options.max_catchup_ns, nullptr});
+        all.push_back({e.name, e.rt_priority ? e.rt_priority : std::max(1, options.rt_priority - 1),
+                       e.cpu >= 0 ? e.cpu : cpu, options.policy, options.max_catchup_ns, nullptr});
     return all;
 }
 
@@ -53,7 +54,8 @@ Status checkExecutors(const std::vector<ExecutorOptions> &executors) {
             return Error{"executor '" + e.name + "': CPU " + std::to_string(e.cpu) +
                          " is not available to irpd (see --cpu, <cpu>)"};
         if (e.rt_priority < 1 || e.rt_priority > 99)
-            return Error{"executor '" + e.name + "': RT priority " + std::to_string(e.rt_priority) + " is outside 1..99"};
+            return Error{"executor '" + e.name + "': RT priority " + std::to_string(e.rt_priority) +
+                         " is outside 1..99"};
     }
     return Ok{};
 }
@@ -72,7 +74,8 @@ std::unique_ptr<Tables> buildTables(const config::SetSpec &set, const schedule::
     tables->by_module.assign(set.modules.size(), nullptr);
     std::vector<const config::ModuleSpec *> by_priority;
     for (const config::ModuleSpec &m : set.modules) by_priority.push_back(&m);
-    std::stable_sort(by_priority.begin(), by_priority.end(), [](const auto *a, const auto *b) { return a->priority < b->priority; });
+    std::stable_sort(by_priority.begin(), by_priority.end(),
+                     [](const auto *a, const auto *b) { return a->priority < b->priority; });
     for (const config::ModuleSpec *m : by_priority) {
         const ModuleBinding &b = bindings[static_cast<std::size_t>(m->index)];
         if (m->operation == config::OperationType::NonReal || (!b.run && !b.process)) continue;
@@ -137,7 +140,8 @@ Dispatcher::Dispatcher(const config::SetSpec &set, Tables &tables, stats::StatsS
     macro_ns_ = tables.macro_ns;
 }
 
-std::unique_ptr<Dispatcher::Plan> Dispatcher::makePlan(const ExecutorOptions &options, std::size_t record, const Table *table) {
+std::unique_ptr<Dispatcher::Plan> Dispatcher::makePlan(const ExecutorOptions &options, std::size_t record,
+                                                       const Table *table) {
     auto plan = std::make_unique<Plan>();
     plan->options = options;
     plan->options.halted = &halted_;
@@ -149,8 +153,8 @@ std::unique_ptr<Dispatcher::Plan> Dispatcher::makePlan(const ExecutorOptions &op
     plan->idle.slots.resize(1);
     plan->record_index = record;
     plan->record = &segment_.describe(record, stats::RecordKind::Dispatcher,
-                                      plans_.empty() ? std::string("dispatcher") : "dispatcher@" + options.name, options.name,
-                                      (table ? *table : plan->idle).basic_ns, options.rt_priority, 0);
+                                      plans_.empty() ? std::string("dispatcher") : "dispatcher@" + options.name,
+                                      options.name, (table ? *table : plan->idle).basic_ns, options.rt_priority, 0);
     plan->executor = std::make_shared<Executor>(clock_, table ? table : &plan->idle, plan->record, plan->options);
     return plan;
 }
@@ -181,7 +185,8 @@ Status Dispatcher::prepare(const config::SetSpec &set, Tables &next) {
         if (!record) {
             undo();
             return Error{"no room for executor '" + w.name + "' in irpd's stats block (" +
-                         std::to_string(segment_.recordCount()) + " records for dispatchers and modules; irpd's "
+                         std::to_string(segment_.recordCount()) +
+                         " records for dispatchers and modules; irpd's "
                          "--module-records raises it): restart irpd onto this set, or with a larger --module-records"};
         }
         fresh.push_back(makePlan(w, *record, nullptr));
@@ -311,7 +316,8 @@ void Dispatcher::requestStop() {
 
 bool Dispatcher::finished() const {
     std::lock_guard lock(plans_mutex_);
-    return std::all_of(plans_.begin(), plans_.end(), [](const auto &p) { return p->finished.load(std::memory_order_acquire); });
+    return std::all_of(plans_.begin(), plans_.end(),
+                       [](const auto &p) { return p->finished.load(std::memory_order_acquire); });
 }
 
 Status Dispatcher::start(int64_t duration_ns) {
@@ -371,11 +377,14 @@ Status Dispatcher::launch(Plan &plan, const std::shared_ptr<StartGate> &gate, in
     pthread_attr_setstacksize(&attr, kThreadStackBytes);  // locked and prefaulted: keep it small
     auto *heap = new std::function<void()>(std::move(body));
     pthread_t thread;
-    int rc = pthread_create(&thread, &attr, [](void *arg) -> void * {
-        std::unique_ptr<std::function<void()>> fn(static_cast<std::function<void()> *>(arg));
-        (*fn)();
-        return nullptr;
-    }, heap);
+    int rc = pthread_create(
+        &thread, &attr,
+        [](void *arg) -> void * {
+            std::unique_ptr<std::function<void()>> fn(static_cast<std::function<void()> *>(arg));
+            (*fn)();
+            return nullptr;
+        },
+        heap);
     pthread_attr_destroy(&attr);
     if (rc != 0) {
         delete heap;
@@ -417,7 +426,8 @@ std::vector<ExecutorReport> Dispatcher::reports() const {
 
 bool Dispatcher::realtime() const {
     std::lock_guard lock(plans_mutex_);
-    return !plans_.empty() && std::all_of(plans_.begin(), plans_.end(), [](const auto &p) { return p->report.realtime; });
+    return !plans_.empty() &&
+           std::all_of(plans_.begin(), plans_.end(), [](const auto &p) { return p->report.realtime; });
 }
 
-} // namespace irp::dispatch
+}  // namespace irp::dispatch

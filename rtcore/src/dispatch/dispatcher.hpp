@@ -48,9 +48,9 @@ struct ModuleBinding {
 // The tables of every executor for one generation of a set, and the tasks they point to.
 struct Tables {
     std::vector<std::unique_ptr<Task>> tasks;
-    std::vector<Table> executors;  // [0] main, then the set's <executor>s in file order
-    std::vector<Task *> by_module; // per set index: its task, or null (non-real, not dispatched)
-    int64_t macro_ns = 0;          // the set's macro period: every executor's grid meets at its multiples
+    std::vector<Table> executors;   // [0] main, then the set's <executor>s in file order
+    std::vector<Task *> by_module;  // per set index: its task, or null (non-real, not dispatched)
+    int64_t macro_ns = 0;           // the set's macro period: every executor's grid meets at its multiples
     // Set by the dispatcher that runs them (its constructor, or prepare() before a swap): per
     // table of `executors`, the stats record of its thread and its crash-handler marker (-1: none).
     std::vector<std::size_t> records;
@@ -163,4 +163,4 @@ private:
     osal::Clock &clock_;
 };
 
-} // namespace irp::dispatch
+}  // namespace irp::dispatch

@@ -34,14 +34,19 @@ Executor::Executor(osal::Clock &clock, const Table *table, stats::TimingRecord *
 Executor::Executor(osal::Clock &clock, int64_t basic_ns, std::vector<std::vector<Task *>> slots,
                    std::vector<Task *> tasks, stats::TimingRecord *self, ExecutorOptions options,
                    std::vector<Task *> events)
-    : clock_(clock), own_(new Table{basic_ns, std::move(slots), std::move(tasks), std::move(events)}),
-      table_(own_.get()), self_(self), options_(std::move(options)) {
+    : clock_(clock),
+      own_(new Table{basic_ns, std::move(slots), std::move(tasks), std::move(events)}),
+      table_(own_.get()),
+      self_(self),
+      options_(std::move(options)) {
     noteTable(*table_);
 }
 
 void Executor::noteTable(const Table &table) {
     bool watched = false;
-    for (const Task *t : table.tasks) watched = watched || (t->config.kind == Task::Kind::Thread && t->config.on_overrun != config::OverrunAction::None);
+    for (const Task *t : table.tasks)
+        watched =
+            watched || (t->config.kind == Task::Kind::Thread && t->config.on_overrun != config::OverrunAction::None);
     watching_.store(watched, std::memory_order_relaxed);
     basic_ns_.store(table.basic_ns, std::memory_order_relaxed);
 }
@@ -123,7 +128,8 @@ bool Executor::runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start
     std::atomic_ref<uint32_t> state(slot.state), release(slot.release_seq), done(slot.done_seq);
     const uint32_t served = release.load(std::memory_order_relaxed);
     // Ready means waiting in irp::waitPeriod() with the last release finished.
-    if (state.load(std::memory_order_acquire) != INDUROP_PROCESS_READY || done.load(std::memory_order_acquire) != served)
+    if (state.load(std::memory_order_acquire) != INDUROP_PROCESS_READY ||
+        done.load(std::memory_order_acquire) != served)
         return false;
     slot.cycle = cycle;
     slot.planned_ns = due;
@@ -365,8 +371,9 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
     runtime::setCycle({});
     if (crash_marker_ < kMaxMarkedExecutors) g_running_markers[crash_marker_].tid.store(0, std::memory_order_relaxed);
     crash_marker_ = SIZE_MAX;
-    if (finished_ns) finished_ns->store(previous_end == INT64_MIN ? clock_.now() : previous_end, std::memory_order_relaxed);
+    if (finished_ns)
+        finished_ns->store(previous_end == INT64_MIN ? clock_.now() : previous_end, std::memory_order_relaxed);
     self_->state.store(0, std::memory_order_relaxed);
 }
 
-} // namespace irp::dispatch
+}  // namespace irp::dispatch

@@ -49,11 +49,11 @@ struct Task;
 struct TaskConfig {
     enum class Kind : uint8_t { Thread, Process };
     Kind kind = Kind::Thread;
-    bool sporadic = false;     // run by the event handler, not from the slot table
-    void (*run)() = nullptr;   // thread modules
-    int (*condition)() = nullptr;            // sporadic thread modules
-    indurop_process_slot *process = nullptr; // process modules: their control slot
-    int64_t deadline_ns = 0;   // sporadic: from condition true / release to completion
+    bool sporadic = false;                    // run by the event handler, not from the slot table
+    void (*run)() = nullptr;                  // thread modules
+    int (*condition)() = nullptr;             // sporadic thread modules
+    indurop_process_slot *process = nullptr;  // process modules: their control slot
+    int64_t deadline_ns = 0;                  // sporadic: from condition true / release to completion
     stats::TimingRecord *stats = nullptr;
     int64_t period_ns = 0;
     int64_t period_slots = 1;  // period / the executor's basic period
@@ -64,8 +64,8 @@ struct TaskConfig {
     int64_t overrun_limit_ns = 0;
     // a thread module whose exported functions process modules call: served after its run()
     CallServer *calls = nullptr;
-    int module = -1;           // its owner id in the call server's table
-    bool disabled = false;     // taken out of dispatch by request: its state starts disabled
+    int module = -1;        // its owner id in the call server's table
+    bool disabled = false;  // taken out of dispatch by request: its state starts disabled
     // Hot reload: the same module's task in the table this one replaces (kept modules).  At the
     // swap the loop carries its run-time state over (TaskState::carryOver).
     const Task *predecessor = nullptr;
@@ -75,10 +75,10 @@ struct TaskConfig {
 // What the executor thread learns while it runs a task; written by that thread only (and copied
 // from the predecessor's at a swap, on the same thread).  Plain data: a carry-over is a few stores.
 struct TaskState {
-    int64_t t0 = 0;            // first start (T0 of Eq. (1))
-    int64_t first_due = 0;     // the due time of the slot of its first start: run n is due first_due + n * period
+    int64_t t0 = 0;         // first start (T0 of Eq. (1))
+    int64_t first_due = 0;  // the due time of the slot of its first start: run n is due first_due + n * period
     bool started = false;
-    bool disabled = false;     // by request (TaskConfig::disabled), a throw or <on_overrun>disable
+    bool disabled = false;           // by request (TaskConfig::disabled), a throw or <on_overrun>disable
     int64_t skip_until = INT64_MIN;  // on_overrun=skip: runs due before this are dropped
     // a sporadic process's release in flight
     bool in_flight = false;
@@ -200,7 +200,7 @@ private:
 
     osal::Clock &clock_;
     std::size_t crash_marker_ = SIZE_MAX;  // options_.marker while the loop runs (markRunning ignores SIZE_MAX)
-    std::unique_ptr<Table> own_;     // the table of the second constructor
+    std::unique_ptr<Table> own_;           // the table of the second constructor
     const Table *table_;
     stats::TimingRecord *self_;
     ExecutorOptions options_;
@@ -216,4 +216,4 @@ private:
     void noteTable(const Table &table);
 };
 
-} // namespace irp::dispatch
+}  // namespace irp::dispatch

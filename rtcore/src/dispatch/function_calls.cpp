@@ -25,7 +25,8 @@ void copyText(char (&field)[N], const std::string &text) {
 
 int32_t refusalOf(const runtime::FunctionExport &e, const config::ModuleSpec *owner) {
     if (!e.shape.thunk) return INDUROP_CALL_NOT_TRANSFERABLE;
-    if (e.shape.args_size > INDUROP_CALL_BYTES || e.shape.result_size > INDUROP_CALL_BYTES) return INDUROP_CALL_TOO_LARGE;
+    if (e.shape.args_size > INDUROP_CALL_BYTES || e.shape.result_size > INDUROP_CALL_BYTES)
+        return INDUROP_CALL_TOO_LARGE;
     if (!owner || owner->type != config::ModuleType::Thread || owner->operation != config::OperationType::Periodic)
         return INDUROP_CALL_NOT_SERVED;
     return INDUROP_CALL_OK;
@@ -42,9 +43,12 @@ const config::ModuleSpec *ownerOf(const runtime::FunctionExport &x, const config
 // The answer to one request taken by the owner (the area is SERVING: the process leaves it alone).
 void answer(indurop_call_area &a, const CallServer::Function &f, uint64_t cycle, bool disabled) noexcept {
     int32_t status = INDUROP_CALL_OK;
-    if (disabled) status = INDUROP_CALL_OWNER_DISABLED;
-    else if (f.refusal != INDUROP_CALL_OK || !f.thunk) status = f.refusal ? f.refusal : INDUROP_CALL_NOT_TRANSFERABLE;
-    else if (atomic(a.signature_hash).load(std::memory_order_relaxed) != f.signature_hash) status = INDUROP_CALL_SIGNATURE_MISMATCH;
+    if (disabled)
+        status = INDUROP_CALL_OWNER_DISABLED;
+    else if (f.refusal != INDUROP_CALL_OK || !f.thunk)
+        status = f.refusal ? f.refusal : INDUROP_CALL_NOT_TRANSFERABLE;
+    else if (atomic(a.signature_hash).load(std::memory_order_relaxed) != f.signature_hash)
+        status = INDUROP_CALL_SIGNATURE_MISMATCH;
     else if (atomic(a.args_size).load(std::memory_order_relaxed) != f.args_size ||
              atomic(a.result_size).load(std::memory_order_relaxed) != f.result_size)
         status = INDUROP_CALL_BAD_REQUEST;
@@ -63,7 +67,7 @@ void answer(indurop_call_area &a, const CallServer::Function &f, uint64_t cycle,
     atomic(a.status).store(status, std::memory_order_relaxed);
 }
 
-} // namespace
+}  // namespace
 
 std::unique_ptr<CallServer> CallServer::publish(hosts::ControlSegment &control, const config::SetSpec &set,
                                                 const std::vector<runtime::FunctionExport> &exports,
@@ -78,7 +82,8 @@ std::unique_ptr<CallServer> CallServer::publish(hosts::ControlSegment &control, 
         const config::ModuleSpec *owner = ownerOf(x, set);
         indurop_function_entry &e = control.function(i);
         e = indurop_function_entry{};
-        if (x.name.size() < sizeof e.name) copyText(e.name, x.name);  // a longer name stays unlisted: "" never matches
+        if (x.name.size() < sizeof e.name)
+            copyText(e.name, x.name);  // a longer name stays unlisted: "" never matches
         else
             notes.push_back("shared function '" + x.name + "': its name is longer than " +
                             std::to_string(sizeof e.name - 1) + " characters, process modules cannot call it");
@@ -115,7 +120,8 @@ Result<std::unique_ptr<CallServer>> CallServer::rebind(const config::SetSpec &se
         const runtime::FunctionExport *x = nullptr;
         for (const runtime::FunctionExport &e : exports)
             if (e.name == names_[i]) x = &e;
-        const std::string why = "process modules may call shared function '" + names_[i] + "' (the function table "
+        const std::string why = "process modules may call shared function '" + names_[i] +
+                                "' (the function table "
                                 "irpd published at start): ";
         if (!x) return Error{why + "no module of the set exports it any more; a restart publishes the table anew"};
         if (runtime::signatureHash(x->signature.c_str()) != was.signature_hash || x->shape.args_size != was.args_size ||
@@ -150,7 +156,8 @@ int CallServer::ownerId(const std::string &name) const {
 }
 
 bool CallServer::serves(int module) const {
-    return module >= 0 && static_cast<std::size_t>(module) < serves_.size() && serves_[static_cast<std::size_t>(module)];
+    return module >= 0 && static_cast<std::size_t>(module) < serves_.size() &&
+           serves_[static_cast<std::size_t>(module)];
 }
 
 unsigned CallServer::serve(int module, uint64_t cycle, bool disabled) noexcept {
@@ -169,7 +176,8 @@ unsigned CallServer::serve(int module, uint64_t cycle, bool disabled) noexcept {
         // the word's tag changed.)
         const uint32_t fn = atomic(a.function).load(std::memory_order_relaxed);
         if (fn >= functions_.size() || functions_[fn].owner != module) continue;
-        if (!atomic(a.word).compare_exchange_strong(word, (word & ~3u) | INDUROP_CALL_SERVING, std::memory_order_acq_rel))
+        if (!atomic(a.word).compare_exchange_strong(word, (word & ~3u) | INDUROP_CALL_SERVING,
+                                                    std::memory_order_acq_rel))
             continue;  // withdrawn by its timeout just now
         answer(a, functions_[fn], cycle, disabled);
         atomic(a.word).store((word & ~3u) | INDUROP_CALL_ANSWERED, std::memory_order_release);
@@ -187,4 +195,4 @@ void CallServer::stop() noexcept {
     for (indurop_process_slot *s : slots_) futex::wakeAll(&s->call.word);
 }
 
-} // namespace irp::dispatch
+}  // namespace irp::dispatch

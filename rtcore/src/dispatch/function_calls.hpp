@@ -63,8 +63,8 @@ public:
         uint64_t signature_hash = 0;
         uint32_t args_size = 0;
         uint32_t result_size = 0;
-        int32_t refusal = 0;            // enum indurop_call_status; 0 = callable
-        int owner = -1;                 // module index, -1 = none
+        int32_t refusal = 0;  // enum indurop_call_status; 0 = callable
+        int owner = -1;       // module index, -1 = none
     };
 
 private:
@@ -82,4 +82,4 @@ private:
     std::vector<std::string> owners_;            // per module: its name
 };
 
-} // namespace irp::dispatch
+}  // namespace irp::dispatch

@@ -29,4 +29,4 @@ inline void markRunning(std::size_t index, const char *module) noexcept {
     if (index < kMaxMarkedExecutors) g_running_markers[index].module.store(module, std::memory_order_relaxed);
 }
 
-} // namespace irp::dispatch
+}  // namespace irp::dispatch

@@ -16,10 +16,10 @@ std::string ms(int64_t ns) {
     return text;
 }
 
-constexpr int64_t kIdleNs = 20'000'000;       // no watched module anywhere: only drain the rings
-constexpr int64_t kMinIntervalNs = 100'000;   // the shortest look interval
+constexpr int64_t kIdleNs = 20'000'000;      // no watched module anywhere: only drain the rings
+constexpr int64_t kMinIntervalNs = 100'000;  // the shortest look interval
 
-} // namespace
+}  // namespace
 
 std::string Fault::describe() const {
     const std::string what = "on_overrun=" + std::string(config::toString(action));
@@ -33,7 +33,8 @@ std::string Fault::describe() const {
     switch (action) {
     case config::OverrunAction::Skip: return text + ": the runs it missed are skipped";
     case config::OverrunAction::Disable: return text + ": disabled (enable it to run it again)";
-    case config::OverrunAction::Stop: return text + (seen_running ? ": it returned; the set stays stopped" : ": set stopped");
+    case config::OverrunAction::Stop:
+        return text + (seen_running ? ": it returned; the set stays stopped" : ": set stopped");
     default: return text;
     }
 }
@@ -162,4 +163,4 @@ void Watchdog::stop() {
     if (thread_.joinable()) thread_.join();
 }
 
-} // namespace irp::dispatch
+}  // namespace irp::dispatch

@@ -39,10 +39,10 @@ struct Fault {
     config::OverrunAction action = config::OverrunAction::None;
     const stats::TimingRecord *record = nullptr;  // the module (its name); lives as long as irpd
     const char *executor = "";
-    int64_t started_ns = 0;   // CLOCK_MONOTONIC start of the run
+    int64_t started_ns = 0;  // CLOCK_MONOTONIC start of the run
     int64_t limit_ns = 0;
-    int64_t elapsed_ns = 0;   // Running: how long it had run when seen; Returned: its execution time
-    int64_t seen_ns = 0;      // when the watchdog saw it (Running) or the run ended (Returned)
+    int64_t elapsed_ns = 0;     // Running: how long it had run when seen; Returned: its execution time
+    int64_t seen_ns = 0;        // when the watchdog saw it (Running) or the run ended (Returned)
     bool seen_running = false;  // Returned: the watchdog had already reported this run
 
     std::string module() const { return record ? record->name : ""; }
@@ -139,4 +139,4 @@ private:
     std::thread thread_;
 };
 
-} // namespace irp::dispatch
+}  // namespace irp::dispatch

@@ -51,4 +51,4 @@ nlohmann::ordered_json EventLog::since(uint64_t since, std::size_t limit) const 
     return json{{"next", next}, {"dropped", oldest > since + 1 ? oldest - since - 1 : 0}, {"events", std::move(list)}};
 }
 
-} // namespace irp::events
+}  // namespace irp::events

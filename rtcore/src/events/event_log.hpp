@@ -17,10 +17,10 @@ namespace irp::events {
 
 struct Event {
     uint64_t seq = 0;
-    int64_t time_ns = 0;   // CLOCK_REALTIME
-    std::string kind;      // start, stop, swap, swap_failed, fault, deadline, overrun, stopped, safe_outputs_failed,
-                           // process_exit, process_restart, process_hang, process_output_dropped
-    std::string module;    // "" = the set as a whole
+    int64_t time_ns = 0;  // CLOCK_REALTIME
+    std::string kind;     // start, stop, swap, swap_failed, fault, deadline, overrun, stopped, safe_outputs_failed,
+                          // process_exit, process_restart, process_hang, process_output_dropped
+    std::string module;   // "" = the set as a whole
     std::string message;
 };
 
@@ -46,4 +46,4 @@ private:
 // "2026-11-22T10:15:02.123456Z"
 std::string isoTime(int64_t realtime_ns);
 
-} // namespace irp::events
+}  // namespace irp::events

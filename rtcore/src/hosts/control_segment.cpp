@@ -23,14 +23,17 @@ static_assert(sizeof(indurop_control_header) % 8 == 0 && sizeof(indurop_process_
 static_assert(offsetof(indurop_process_slot, call) % 8 == 0 && offsetof(indurop_call_area, args) % 8 == 0,
               "the call area's 64-bit words are naturally aligned");
 
-Result<ControlSegment> ControlSegment::create(const std::string &instance, uint32_t slot_count, uint32_t function_count) {
+Result<ControlSegment> ControlSegment::create(const std::string &instance, uint32_t slot_count,
+                                              uint32_t function_count) {
     const std::string name = shmName(instance);
-    const std::size_t functions_at = sizeof(indurop_control_header) + std::size_t{slot_count} * sizeof(indurop_process_slot);
+    const std::size_t functions_at =
+        sizeof(indurop_control_header) + std::size_t{slot_count} * sizeof(indurop_process_slot);
     const std::size_t size = functions_at + std::size_t{function_count} * sizeof(indurop_function_entry);
-    auto shm = osal::SharedMemory::createForInstance(name, size, instance, [](const osal::SharedMemory &old) -> int64_t {
-        const auto *h = static_cast<const indurop_control_header *>(old.data());
-        return old.size() >= sizeof *h && h->magic == INDUROP_CONTROL_MAGIC ? h->owner_pid : 0;
-    });
+    auto shm =
+        osal::SharedMemory::createForInstance(name, size, instance, [](const osal::SharedMemory &old) -> int64_t {
+            const auto *h = static_cast<const indurop_control_header *>(old.data());
+            return old.size() >= sizeof *h && h->magic == INDUROP_CONTROL_MAGIC ? h->owner_pid : 0;
+        });
     if (!shm) return shm.error();
     ControlSegment segment;
     segment.shm_ = std::move(*shm);
@@ -51,4 +54,4 @@ Result<ControlSegment> ControlSegment::create(const std::string &instance, uint3
     return segment;
 }
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

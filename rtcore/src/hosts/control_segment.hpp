@@ -27,7 +27,8 @@ public:
     }
     uint32_t slotCount() const { return header()->slot_count; }
     indurop_function_entry &function(uint32_t i) const {
-        return reinterpret_cast<indurop_function_entry *>(static_cast<char *>(shm_.data()) + header()->function_offset)[i];
+        return reinterpret_cast<indurop_function_entry *>(static_cast<char *>(shm_.data()) +
+                                                          header()->function_offset)[i];
     }
     uint32_t functionCount() const { return header()->function_count; }
     const std::string &name() const { return shm_.name(); }
@@ -37,4 +38,4 @@ private:
 };
 
 // The futex calls on the slots' words: irp::futex (sdk/sync.hpp), shared with libindurop.
-} // namespace irp::hosts
+}  // namespace irp::hosts

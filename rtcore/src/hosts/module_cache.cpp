@@ -61,7 +61,9 @@ Result<ModuleCache::Entry> ModuleCache::put(const std::filesystem::path &file) c
     if (std::filesystem::is_regular_file(entry.image, ec)) return entry;
     const std::filesystem::path temporary = entry.image.string() + ".tmp" + std::to_string(::getpid());
     std::filesystem::copy_file(file, temporary, std::filesystem::copy_options::overwrite_existing, ec);
-    if (!ec) std::filesystem::permissions(temporary, std::filesystem::perms::owner_read | std::filesystem::perms::group_read, ec);
+    if (!ec)
+        std::filesystem::permissions(temporary, std::filesystem::perms::owner_read | std::filesystem::perms::group_read,
+                                     ec);
     if (!ec) std::filesystem::rename(temporary, entry.image, ec);
     if (ec) {
         std::filesystem::remove(temporary, ec);
@@ -85,4 +87,4 @@ void ModuleCache::prune(const std::vector<std::filesystem::path> &keep) const {
     }
 }
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

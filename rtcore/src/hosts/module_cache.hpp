@@ -42,4 +42,4 @@ private:
     std::filesystem::path dir_;
 };
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

@@ -26,7 +26,7 @@ struct Fd {
     }
 };
 
-} // namespace
+}  // namespace
 
 Result<ModuleIdentity> identify(const std::filesystem::path &file) {
     if (elf_version(EV_CURRENT) == EV_NONE) return Error{"libelf: " + std::string(elf_errmsg(-1))};
@@ -53,9 +53,7 @@ Result<ModuleIdentity> identify(const std::filesystem::path &file) {
             const auto *text = static_cast<const char *>(data->d_buf);
             id.layout.assign(text, strnlen(text, data->d_size));
         }
-        const struct {
-            uint64_t addr, size, flags, type;
-        } shape{sh.sh_addr, sh.sh_size, sh.sh_flags, sh.sh_type};
+        const struct { uint64_t addr, size, flags, type; } shape{sh.sh_addr, sh.sh_size, sh.sh_flags, sh.sh_type};
         EVP_DigestUpdate(ctx.get(), name, std::strlen(name) + 1);
         EVP_DigestUpdate(ctx.get(), &shape, sizeof shape);
         if (stamp || std::strcmp(name, kBuildId) == 0) continue;  // their size counted, not their bytes
@@ -69,4 +67,4 @@ Result<ModuleIdentity> identify(const std::filesystem::path &file) {
     return id;
 }
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

@@ -22,4 +22,4 @@ struct ModuleIdentity {
 
 Result<ModuleIdentity> identify(const std::filesystem::path &file);
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

@@ -33,4 +33,4 @@ private:
     std::vector<std::unique_ptr<ThreadModule>> modules_;
 };
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

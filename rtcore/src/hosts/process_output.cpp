@@ -13,7 +13,7 @@ namespace irp::hosts {
 namespace {
 constexpr int64_t kSecond = 1'000'000'000;
 constexpr uint32_t kFinalDrainBytes = 1u << 20;  // what is read after an exit at most
-} // namespace
+}  // namespace
 
 ProcessOutput::ProcessOutput(std::string name, OutputLimits limits, Sink sink, Now now)
     : name_(std::move(name)), limits_(limits), sink_(std::move(sink)), now_(std::move(now)) {
@@ -143,4 +143,4 @@ void ProcessOutput::close() {
     }
 }
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

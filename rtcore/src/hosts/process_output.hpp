@@ -25,7 +25,7 @@ struct OutputLimits {
 class ProcessOutput {
 public:
     using Sink = std::function<void(std::string_view line)>;  // one line, no newline
-    using Now = std::function<int64_t()>;                      // CLOCK_MONOTONIC ns (tests: a fake)
+    using Now = std::function<int64_t()>;                     // CLOCK_MONOTONIC ns (tests: a fake)
 
     // name: the module's, for "[name] " and the drop report.  now: the rate window's clock.
     ProcessOutput(std::string name, OutputLimits limits, Sink sink, Now now = {});
@@ -71,4 +71,4 @@ private:
     uint64_t window_dropped_ = 0, window_dropped_bytes_ = 0;
 };
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

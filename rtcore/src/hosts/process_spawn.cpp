@@ -56,7 +56,7 @@ int childMain(void *arg) {
     auto *plan = static_cast<SpawnPlan *>(arg);
     // Default dispositions (irpd's handlers and SIG_IGN must not leak), the mask is cleared last:
     // the parent blocked every signal around clone().
-    struct sigaction dfl{};
+    struct sigaction dfl {};
     dfl.sa_handler = SIG_DFL;
     sigemptyset(&dfl.sa_mask);
     for (int sig = 1; sig < NSIG; ++sig)
@@ -121,9 +121,10 @@ bool makePipe(int &read_end, int &write_end) {
     return true;
 }
 
-} // namespace
+}  // namespace
 
-std::vector<std::string> childEnvironment(char *const *base, const std::vector<std::pair<std::string, std::string>> &set) {
+std::vector<std::string> childEnvironment(char *const *base,
+                                          const std::vector<std::pair<std::string, std::string>> &set) {
     std::set<std::string, std::less<>> replaced;
     for (const auto &[name, value] : set) replaced.insert(name);
     std::vector<std::string> env;
@@ -203,8 +204,7 @@ Result<Spawned> spawnChild(const SpawnRequest &request) {
         close(out_r), close(err_r);
         if (pid < 0) return Error{"cannot start " + request.exe + ": clone: " + std::strerror(clone_errno)};
         int status = 0;
-        while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-        }
+        while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {}
         return Error{"cannot start " + request.exe + ": " + plan.failed_step + ": " + std::strerror(plan.failed_errno)};
     }
     Spawned spawned;
@@ -216,4 +216,4 @@ Result<Spawned> spawnChild(const SpawnRequest &request) {
     return spawned;
 }
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

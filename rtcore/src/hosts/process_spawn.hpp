@@ -21,7 +21,7 @@
 namespace irp::hosts {
 
 struct SpawnRequest {
-    std::string exe;                // absolute path; also argv[0]
+    std::string exe;  // absolute path; also argv[0]
     std::string cwd;
     std::vector<std::string> args;  // after argv[0]
     std::vector<std::string> env;   // the whole environment, NAME=value
@@ -32,9 +32,10 @@ struct SpawnRequest {
 
 struct Spawned {
     pid_t pid = -1;
-    int out_fd = -1, err_fd = -1;  // read ends of its stdout and stderr: non-blocking, close-on-exec, owned by the caller
-    int sched_errno = 0;           // SCHED_FIFO refused: it runs SCHED_OTHER
-    int cpu_errno = 0;             // pinning refused: it runs on any CPU
+    int out_fd = -1,
+        err_fd = -1;      // read ends of its stdout and stderr: non-blocking, close-on-exec, owned by the caller
+    int sched_errno = 0;  // SCHED_FIFO refused: it runs SCHED_OTHER
+    int cpu_errno = 0;    // pinning refused: it runs on any CPU
 };
 
 // Starts the child.  An Error says which step failed ("cannot start /x/y.exe: execve: Permission
@@ -43,9 +44,10 @@ Result<Spawned> spawnChild(const SpawnRequest &request);
 
 // A child's environment: `base` (irpd's own, `environ`) without irpd's variables
 // (config::isIrpdVariable) and without the names of `set`, then `set` in order.
-std::vector<std::string> childEnvironment(char *const *base, const std::vector<std::pair<std::string, std::string>> &set);
+std::vector<std::string> childEnvironment(char *const *base,
+                                          const std::vector<std::pair<std::string, std::string>> &set);
 
 // A wait status in words: "exited with status 3", "killed by SIGSEGV (Segmentation fault)", ...
 std::string describeWaitStatus(int status);
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

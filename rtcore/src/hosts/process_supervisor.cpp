@@ -33,8 +33,7 @@ int64_t now() { return osal::monotonicNow(); }
 
 void sleepNs(int64_t ns) {
     timespec ts{static_cast<time_t>(ns / kSecond), static_cast<long>(ns % kSecond)};
-    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {
-    }
+    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {}
 }
 
 template <class T>
@@ -42,7 +41,7 @@ std::atomic_ref<T> atomic(T &word) {
     return std::atomic_ref<T>(word);
 }
 
-} // namespace
+}  // namespace
 
 struct ProcessSupervisor::Child {
     Child(const ProcessLaunch &l, const OutputLimits &limits, ProcessOutput::Sink sink)
@@ -61,7 +60,9 @@ struct ProcessSupervisor::Child {
 
     ProcessInfo info;
 
-    bool handshake() const { return launch.spec.operation != config::OperationType::NonReal && !launch.control_shm.empty(); }
+    bool handshake() const {
+        return launch.spec.operation != config::OperationType::NonReal && !launch.control_shm.empty();
+    }
     std::string who() const { return "process module '" + launch.spec.name + "'"; }
 };
 
@@ -83,8 +84,7 @@ ProcessSupervisor::ProcessSupervisor(Sink sink, OutputLimits limits) : sink_(std
 ProcessSupervisor::~ProcessSupervisor() {
     try {
         stopAll(2 * kSecond);
-    } catch (...) {
-    }
+    } catch (...) {}
     for (auto &c : children_) c->output.close();
     if (devnull_ >= 0) close(devnull_);
 }
@@ -140,8 +140,8 @@ Status ProcessSupervisor::start(const ProcessLaunch &launch) {
         auto child = std::make_unique<Child>(launch, limits_, [this](std::string_view line) { emit(line); });
         std::error_code ec;
         const std::filesystem::path exe = std::filesystem::absolute(spec.path, ec).lexically_normal();
-        const std::string shown = "<filename> " + (spec.filename.empty() ? spec.path.string() : spec.filename) + " -> " +
-                                  exe.string();
+        const std::string shown =
+            "<filename> " + (spec.filename.empty() ? spec.path.string() : spec.filename) + " -> " + exe.string();
         if (!std::filesystem::exists(exe, ec)) return Error{where + shown + " does not exist"};
         if (!std::filesystem::is_regular_file(exe, ec)) return Error{where + shown + " is not a regular file"};
         if (access(exe.c_str(), X_OK) != 0)
@@ -150,7 +150,8 @@ Status ProcessSupervisor::start(const ProcessLaunch &launch) {
         child->cwd = exe.parent_path().string();
         if (launch.rt_priority < 0 || launch.rt_priority > 99)
             return Error{where + "RT priority " + std::to_string(launch.rt_priority) + " is outside 0..99"};
-        if (launch.cpu >= CPU_SETSIZE || launch.cpu < -1) return Error{where + "CPU " + std::to_string(launch.cpu) + " does not exist"};
+        if (launch.cpu >= CPU_SETSIZE || launch.cpu < -1)
+            return Error{where + "CPU " + std::to_string(launch.cpu) + " does not exist"};
         if (!launch.control_shm.empty()) {
             auto control = controlSegment(launch.control_shm);
             if (!control) return Error{where + control.error().message};
@@ -216,7 +217,8 @@ Status ProcessSupervisor::spawn(Child &child) {
     request.cpu = child.launch.cpu;
     auto spawned = spawnChild(request);
     if (!spawned) {
-        if (indurop_process_slot *s = slotOf(child)) atomic(s->state).store(INDUROP_PROCESS_EXITED, std::memory_order_release);
+        if (indurop_process_slot *s = slotOf(child))
+            atomic(s->state).store(INDUROP_PROCESS_EXITED, std::memory_order_release);
         return spawned.error();
     }
 
@@ -256,7 +258,8 @@ void ProcessSupervisor::handleExit(Child &child, int status) {
     ++child.info.exits;
     if (signaled && !child.stopping) ++child.info.crashes;
     if (status >= 0 && WIFEXITED(status) && WEXITSTATUS(status) != 0) ++child.info.failures;
-    child.info.last_exit = status < 0 ? "ended (its exit status was lost: is SIGCHLD ignored?)" : describeWaitStatus(status);
+    child.info.last_exit =
+        status < 0 ? "ended (its exit status was lost: is SIGCHLD ignored?)" : describeWaitStatus(status);
     if (indurop_process_slot *s = slotOf(child)) {
         atomic(s->pid).store(0, std::memory_order_relaxed);
         atomic(s->state).store(INDUROP_PROCESS_EXITED, std::memory_order_release);
@@ -268,7 +271,8 @@ void ProcessSupervisor::handleExit(Child &child, int status) {
         emit(line);
         return;
     }
-    const RestartPolicy::Decision next = child.restarts.afterExit(status, now() - child.started_ns, child.info.restarts);
+    const RestartPolicy::Decision next =
+        child.restarts.afterExit(status, now() - child.started_ns, child.info.restarts);
     if (next.restart) {
         child.restart_due_ns = now() + next.delay_ns;
         child.info.restart_pending = true;
@@ -285,8 +289,10 @@ void ProcessSupervisor::poll() {
                 if (child.output.dropping()) child.output.reportDrops(false);
                 int status = 0;
                 const pid_t r = waitpid(child.info.pid, &status, WNOHANG);
-                if (r == child.info.pid) handleExit(child, status);
-                else if (r < 0 && errno == ECHILD) handleExit(child, -1);
+                if (r == child.info.pid)
+                    handleExit(child, status);
+                else if (r < 0 && errno == ECHILD)
+                    handleExit(child, -1);
             } else if (child.info.restart_pending && now() >= child.restart_due_ns) {
                 child.info.restart_pending = false;
                 if (Status s = spawn(child); s) {
@@ -322,12 +328,13 @@ Status ProcessSupervisor::waitReady(int64_t timeout_ns) {
             if (!child.handshake()) continue;
             if (child.info.exits > exits_before[i])
                 return Error{child.who() + " " + child.info.last_exit + " before it was ready (its output is above)"};
-            if (!child.info.running)
-                return Error{child.who() + " is not running (" + child.info.last_exit + ")"};
+            if (!child.info.running) return Error{child.who() + " is not running (" + child.info.last_exit + ")"};
             indurop_process_slot *s = slotOf(child);
-            const uint32_t state = s ? atomic(s->state).load(std::memory_order_acquire) : uint32_t{INDUROP_PROCESS_READY};
+            const uint32_t state =
+                s ? atomic(s->state).load(std::memory_order_acquire) : uint32_t{INDUROP_PROCESS_READY};
             if (state != INDUROP_PROCESS_READY && state != INDUROP_PROCESS_RUNNING)
-                slow += (slow.empty() ? "'" : ", '") + child.launch.spec.name + "' (pid " + std::to_string(child.info.pid) + ")";
+                slow += (slow.empty() ? "'" : ", '") + child.launch.spec.name + "' (pid " +
+                        std::to_string(child.info.pid) + ")";
         }
         if (slow.empty()) return Ok{};
         if (now() >= deadline)
@@ -342,12 +349,15 @@ void ProcessSupervisor::stopAll(int64_t grace_ns, bool term_non_real) {
 }
 
 void ProcessSupervisor::stop(const std::vector<uint32_t> &slots, int64_t grace_ns) {
-    auto chosen = [&slots](const Child &c) { return std::find(slots.begin(), slots.end(), c.launch.slot) != slots.end(); };
+    auto chosen = [&slots](const Child &c) {
+        return std::find(slots.begin(), slots.end(), c.launch.slot) != slots.end();
+    };
     stopWhere(chosen, grace_ns);
     std::erase_if(children_, [&](const std::unique_ptr<Child> &c) { return chosen(*c); });
 }
 
-void ProcessSupervisor::stopWhere(const std::function<bool(const Child &)> &chosen, int64_t grace_ns, bool term_non_real) {
+void ProcessSupervisor::stopWhere(const std::function<bool(const Child &)> &chosen, int64_t grace_ns,
+                                  bool term_non_real) {
     bool any = false;
     for (auto &c : children_) {
         if (!chosen(*c)) continue;
@@ -376,8 +386,7 @@ void ProcessSupervisor::stopWhere(const std::function<bool(const Child &)> &chos
             const pid_t pid = child.info.pid;
             try {
                 child.output.read();
-            } catch (...) {
-            }
+            } catch (...) {}
             int status = 0;
             const pid_t r = waitpid(pid, &status, WNOHANG);
             if (r == pid || (r < 0 && errno == ECHILD)) {
@@ -406,7 +415,8 @@ void ProcessSupervisor::stopWhere(const std::function<bool(const Child &)> &chos
             // Unkillable (stuck in the kernel): stop waiting, never hold irpd's exit on it.
             for (auto &c : children_)
                 if (c->info.running && chosen(*c)) {
-                    emit("irpd: " + c->who() + " (pid " + std::to_string(c->info.pid) + ") survives SIGKILL; left behind");
+                    emit("irpd: " + c->who() + " (pid " + std::to_string(c->info.pid) +
+                         ") survives SIGKILL; left behind");
                     c->output.close();
                     c->info.running = false;
                 }
@@ -429,4 +439,4 @@ std::optional<ProcessInfo> ProcessSupervisor::process(const std::string &name) c
     return found;
 }
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

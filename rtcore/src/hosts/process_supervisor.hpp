@@ -56,17 +56,17 @@ struct ProcessLaunch {
 struct ProcessInfo {
     std::string name;
     uint32_t slot = 0;
-    pid_t pid = 0;                // 0 while not running
+    pid_t pid = 0;  // 0 while not running
     bool running = false;
     bool restart_pending = false;
-    uint64_t starts = 0;          // successful spawns, the first included
-    uint64_t exits = 0;           // every end, whatever the cause
-    uint64_t crashes = 0;         // killed by a signal irpd did not send
-    uint64_t failures = 0;        // exited with a non-zero status
-    uint64_t restarts = 0;        // restart attempts after an exit (a spawn that failed included)
-    uint64_t lines = 0;           // output lines forwarded
-    uint64_t dropped_lines = 0;   // output lines dropped by the rate limit
-    std::string last_exit;        // "exited with status 3", "killed by SIGSEGV (Segmentation fault)", ...
+    uint64_t starts = 0;         // successful spawns, the first included
+    uint64_t exits = 0;          // every end, whatever the cause
+    uint64_t crashes = 0;        // killed by a signal irpd did not send
+    uint64_t failures = 0;       // exited with a non-zero status
+    uint64_t restarts = 0;       // restart attempts after an exit (a spawn that failed included)
+    uint64_t lines = 0;          // output lines forwarded
+    uint64_t dropped_lines = 0;  // output lines dropped by the rate limit
+    std::string last_exit;       // "exited with status 3", "killed by SIGSEGV (Segmentation fault)", ...
 };
 
 class ProcessSupervisor {
@@ -123,4 +123,4 @@ private:
     int devnull_ = -1;
 };
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

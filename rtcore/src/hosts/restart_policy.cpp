@@ -10,7 +10,7 @@ namespace irp::hosts {
 namespace {
 constexpr int64_t kMs = 1'000'000;
 constexpr int64_t kStableRunNs = 10'000'000'000;  // running this long resets the backoff
-} // namespace
+}  // namespace
 
 int64_t RestartPolicy::nextDelay() {
     int64_t delay = first_delay_ns_;
@@ -22,10 +22,12 @@ int64_t RestartPolicy::nextDelay() {
 RestartPolicy::Decision RestartPolicy::afterExit(int status, int64_t ran_ns, uint64_t restarts) {
     const bool signaled = status >= 0 && WIFSIGNALED(status);
     const bool failed = status < 0 || signaled || WEXITSTATUS(status) != 0;
-    const bool wanted = policy_ == config::RestartPolicy::Always || (policy_ == config::RestartPolicy::OnFailure && failed);
+    const bool wanted =
+        policy_ == config::RestartPolicy::Always || (policy_ == config::RestartPolicy::OnFailure && failed);
     Decision d;
     if (status >= 0 && WIFEXITED(status) && WEXITSTATUS(status) == kExitLayoutRefused) {
-        d.why = "; not restarted: it refused the running shared-variable layout (rebuild it against the set's .glb files)";
+        d.why =
+            "; not restarted: it refused the running shared-variable layout (rebuild it against the set's .glb files)";
     } else if (!wanted) {
         d.why = std::string("; not restarted (restart=") + config::toString(policy_) + ")";
     } else if (max_restarts_ >= 0 && static_cast<int64_t>(restarts) >= max_restarts_) {
@@ -34,7 +36,8 @@ RestartPolicy::Decision RestartPolicy::afterExit(int status, int64_t ran_ns, uin
         if (ran_ns >= kStableRunNs) consecutive_ = 0;
         d.restart = true;
         d.delay_ns = nextDelay();
-        d.why = "; restarting in " + std::to_string(d.delay_ns / kMs) + " ms (restart=" + config::toString(policy_) + ")";
+        d.why =
+            "; restarting in " + std::to_string(d.delay_ns / kMs) + " ms (restart=" + config::toString(policy_) + ")";
     }
     return d;
 }
@@ -47,4 +50,4 @@ RestartPolicy::Decision RestartPolicy::afterFailedStart(uint64_t restarts) {
     return d;
 }
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

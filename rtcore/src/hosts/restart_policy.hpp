@@ -29,7 +29,8 @@ public:
     };
 
     explicit RestartPolicy(const config::ProcessProperties &properties)
-        : policy_(properties.restart), first_delay_ns_(properties.restart_delay_ns),
+        : policy_(properties.restart),
+          first_delay_ns_(properties.restart_delay_ns),
           max_restarts_(properties.max_restarts) {}
 
     // After an exit with wait status `status` (-1: lost) of a run that lasted ran_ns; `restarts`:
@@ -53,4 +54,4 @@ private:
 // (libindurop, docs/process-modules.md).
 inline constexpr int kExitLayoutRefused = 78;
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

@@ -26,7 +26,7 @@ std::string lastDlError() {
     return e ? e : "unknown loader error";
 }
 
-} // namespace
+}  // namespace
 
 ThreadModule::ThreadModule(const config::ModuleSpec &spec) : spec_(spec) {
     static std::atomic<uint64_t> loads{0};
@@ -45,8 +45,8 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
                                                          const std::filesystem::path &image) {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(spec.path, ec))
-        return Error{spec.where + ": " + who(spec) +
-                     ": <filename> " + spec.filename + " -> " + spec.path.string() + " does not exist"};
+        return Error{spec.where + ": " + who(spec) + ": <filename> " + spec.filename + " -> " + spec.path.string() +
+                     " does not exist"};
 
     std::unique_ptr<ThreadModule> module(new ThreadModule(spec));
     dlerror();
@@ -69,7 +69,8 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
     if (void *sym = dlsym(module->handle_, INDUROP_MODULE_DESCRIPTOR_SYMBOL)) {
         auto descriptor = reinterpret_cast<indurop_module_descriptor_fn>(sym);
         const indurop_module_v1 *table = descriptor();
-        if (!table || table->abi_version != INDUROP_MODULE_ABI_VERSION || table->struct_size < sizeof(indurop_module_v1))
+        if (!table || table->abi_version != INDUROP_MODULE_ABI_VERSION ||
+            table->struct_size < sizeof(indurop_module_v1))
             return Error{who(spec) + ": " + spec.path.string() + " was built for module ABI version " +
                          std::to_string(table ? table->abi_version : 0) + "; this irpd runs version " +
                          std::to_string(INDUROP_MODULE_ABI_VERSION) + ": rebuild it against this SDK"};
@@ -129,16 +130,20 @@ struct LifecycleMark {
         m.tid.store(static_cast<int>(syscall(SYS_gettid)), std::memory_order_relaxed);
         m.module.store(name.c_str(), std::memory_order_relaxed);
     }
-    ~LifecycleMark() { dispatch::g_running_markers[dispatch::kLifecycleMarker].module.store(nullptr, std::memory_order_relaxed); }
+    ~LifecycleMark() {
+        dispatch::g_running_markers[dispatch::kLifecycleMarker].module.store(nullptr, std::memory_order_relaxed);
+    }
 };
 
 // Marks whose initialize()/start() runs, so that its shared-function exports are its own.
 struct CurrentModule {
-    CurrentModule(const std::string &name, uint64_t instance) : mark(name) { runtime::setCurrentModule(name, instance); }
+    CurrentModule(const std::string &name, uint64_t instance) : mark(name) {
+        runtime::setCurrentModule(name, instance);
+    }
     ~CurrentModule() { runtime::setCurrentModule(""); }
     LifecycleMark mark;
 };
-} // namespace
+}  // namespace
 
 // One lifecycle call of the module on the main thread: the error it reports in `err` (a nonzero
 // return) or a C++ exception it lets out is the Error, "<what> failed: <why>".
@@ -188,4 +193,4 @@ Status ThreadModule::stop() {
     });
 }
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

@@ -89,4 +89,4 @@ private:
     std::vector<indurop_property_entry> property_entries_;
 };
 
-} // namespace irp::hosts
+}  // namespace irp::hosts

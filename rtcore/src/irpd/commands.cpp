@@ -100,7 +100,7 @@ json moduleEntry(const reload::Generation &g, const config::ModuleSpec &m, const
     return entry;
 }
 
-} // namespace
+}  // namespace
 
 Result<Command> decodeCommand(const std::string &cmd, const nlohmann::json &request) {
     auto spec = protocol::findCommand(cmd);
@@ -134,9 +134,12 @@ Result<Command> decodeCommand(const std::string &cmd, const nlohmann::json &requ
         // Only the value the command names: other members of the request are not its arguments.
         reload::Change change;
         change.module = textOf(request, "module");
-        if (command.kind == Kind::SetPeriod) change.period_ns = request["period_ns"].get<int64_t>();
-        else if (command.kind == Kind::SetPriority) change.priority = static_cast<int>(request["priority"].get<int64_t>());
-        else change.enabled = command.kind == Kind::Enable;
+        if (command.kind == Kind::SetPeriod)
+            change.period_ns = request["period_ns"].get<int64_t>();
+        else if (command.kind == Kind::SetPriority)
+            change.priority = static_cast<int>(request["priority"].get<int64_t>());
+        else
+            change.enabled = command.kind == Kind::Enable;
         command.changes.push_back(std::move(change));
         break;
     }
@@ -243,12 +246,14 @@ control::Handler commandHandler(const CommandContext &c) {
                 add(c.stats->record(g->members[static_cast<std::size_t>(m.index)].record));
             if (records.empty()) {
                 std::string known;
-                for (std::size_t i : executors) known += (known.empty() ? "" : ", ") + std::string(c.stats->record(i).name);
+                for (std::size_t i : executors)
+                    known += (known.empty() ? "" : ", ") + std::string(c.stats->record(i).name);
                 for (const config::ModuleSpec &m : g->set.modules) known += ", " + m.name;
                 return Error{"no dispatcher or module '" + name + "' in the running set (the records: " + known + ")",
                              protocol::kNotFound};
             }
-            return json{{"cycles", h->cycles.load()}, {"time_ns", osal::monotonicNow()}, {"records", std::move(records)}};
+            return json{
+                {"cycles", h->cycles.load()}, {"time_ns", osal::monotonicNow()}, {"records", std::move(records)}};
         }
         case Command::Kind::Events: return c.events->since(command.since, command.limit);
         case Command::Kind::Check: {
@@ -262,7 +267,8 @@ control::Handler commandHandler(const CommandContext &c) {
             if (c.variables_shm.empty() || !c.vars) return Error{"the running set has no shared variables"};
             return variables::writeByPath(layouts->of(*c.vars), command.path, command.value);
         case Command::Kind::Load:
-            return onMain([r = c.reloader, path = command.config, set_id = command.set_id] { return r->load(path, set_id); });
+            return onMain(
+                [r = c.reloader, path = command.config, set_id = command.set_id] { return r->load(path, set_id); });
         case Command::Kind::SetPeriod:
         case Command::Kind::SetPriority:
         case Command::Kind::Enable:
@@ -270,13 +276,16 @@ control::Handler commandHandler(const CommandContext &c) {
             // One change that answers its swap report.
             return onMain([r = c.reloader, change = command.changes.front()] { return r->change(change); });
         case Command::Kind::Change:
-            return onMain([r = c.reloader, changes = command.changes, dry_run = command.dry_run] { return r->change(changes, dry_run); });
+            return onMain([r = c.reloader, changes = command.changes, dry_run = command.dry_run] {
+                return r->change(changes, dry_run);
+            });
         case Command::Kind::Trace: return trace::handleTraceCommand(*c.trace, c.vars, request);
         case Command::Kind::ClearCrash: {
             if (!c.crash) return Error{"irpd keeps no crash records (no state folder; see --state-dir)"};
             json cleared = c.crash->clear();
-            c.events->add("crash_cleared", "", "crash record and left-out modules cleared; a module left out runs "
-                                                "again when enabled, or at the next start or load of its set");
+            c.events->add("crash_cleared", "",
+                          "crash record and left-out modules cleared; a module left out runs "
+                          "again when enabled, or at the next start or load of its set");
             return cleared;
         }
         }
@@ -284,4 +293,4 @@ control::Handler commandHandler(const CommandContext &c) {
     };
 }
 
-} // namespace irp::daemon
+}  // namespace irp::daemon

@@ -27,17 +27,17 @@ namespace irp::daemon {
 
 // A request's command and arguments, checked (decodeCommand) before anything runs.
 struct Command {
-    using Kind = protocol::Cmd;         // one per command of protocol/control.json
+    using Kind = protocol::Cmd;  // one per command of protocol/control.json
     Kind kind = Kind::Status;
-    std::string name;                   // histograms: one record ("" = all)
-    uint64_t since = 0;                 // events
+    std::string name;                                   // histograms: one record ("" = all)
+    uint64_t since = 0;                                 // events
     std::size_t limit = protocol::kEventsDefaultLimit;  // events
-    std::string config;                 // check, load, restart: a module.xml path
-    std::string set_id;                 // load, restart
-    std::string path;                   // write: the variable
-    nlohmann::json value;               // write: its new value (checked against the layout when run)
-    std::vector<reload::Change> changes;  // change; set_period, set_priority, enable, disable: one
-    bool dry_run = false;               // change
+    std::string config;                                 // check, load, restart: a module.xml path
+    std::string set_id;                                 // load, restart
+    std::string path;                                   // write: the variable
+    nlohmann::json value;                               // write: its new value (checked against the layout when run)
+    std::vector<reload::Change> changes;                // change; set_period, set_priority, enable, disable: one
+    bool dry_run = false;                               // change
 };
 
 // The command `cmd` with the arguments of `request`, or an Error naming the argument to fix: the
@@ -56,11 +56,11 @@ struct CommandContext {
     std::string variables_shm;  // "" = none
     trace::TraceRings *trace = nullptr;
     const variables::VariableSegment *vars = nullptr;  // null: no shared variables
-    std::function<std::string()> stopped_by;            // why a fault stopped the set ("" = it did not)
-    supervise::CrashState *crash = nullptr;             // null: no state folder (no crash records)
-    RestartDesk *restarts = nullptr;                    // null: `restart` is refused
+    std::function<std::string()> stopped_by;           // why a fault stopped the set ("" = it did not)
+    supervise::CrashState *crash = nullptr;            // null: no state folder (no crash records)
+    RestartDesk *restarts = nullptr;                   // null: `restart` is refused
 };
 
 control::Handler commandHandler(const CommandContext &context);
 
-} // namespace irp::daemon
+}  // namespace irp::daemon

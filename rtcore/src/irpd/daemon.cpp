@@ -197,8 +197,8 @@ private:
     std::optional<RestartPlan> restart_;                             // taken by serve(): stop() runs it
     std::optional<config::SetSpec> set_;
     std::optional<schedule::Schedule> schedule_;
-    std::set<int> kept_off_;                                         // the CPUs non-RT work was kept off
-    std::optional<supervise::Identity> identity_;                    // --user
+    std::set<int> kept_off_;                       // the CPUs non-RT work was kept off
+    std::optional<supervise::Identity> identity_;  // --user
     std::optional<variables::Layout> layout_;
 
     // The resources, in the order start() builds them: destroyed in reverse.
@@ -222,20 +222,13 @@ private:
 
 // The start-up, in order: each step builds the members of its resource (declared in this order).
 const Daemon::Step Daemon::kSteps[] = {
-    {&Daemon::readSet, kExitRefused},
-    {&Daemon::holdDmaLatency, kExitFailure},
-    {&Daemon::openStateFolder, kExitFailure},
-    {&Daemon::dropPrivileges, kExitFailure},
-    {&Daemon::armCrashHandler, kExitFailure},
-    {&Daemon::createStats, kExitFailure},
-    {&Daemon::readLayout, kExitRefused},
-    {&Daemon::createVariables, kExitFailure},
-    {&Daemon::createTraceRings, kExitFailure},
-    {&Daemon::openModuleCache, kExitFailure},
-    {&Daemon::startSupervision, kExitFailure},
-    {&Daemon::startFirstGeneration, kExitRefused},
-    {&Daemon::openControlSocket, kExitFailure},
-    {&Daemon::startDispatchers, kExitRefused},
+    {&Daemon::readSet, kExitRefused},           {&Daemon::holdDmaLatency, kExitFailure},
+    {&Daemon::openStateFolder, kExitFailure},   {&Daemon::dropPrivileges, kExitFailure},
+    {&Daemon::armCrashHandler, kExitFailure},   {&Daemon::createStats, kExitFailure},
+    {&Daemon::readLayout, kExitRefused},        {&Daemon::createVariables, kExitFailure},
+    {&Daemon::createTraceRings, kExitFailure},  {&Daemon::openModuleCache, kExitFailure},
+    {&Daemon::startSupervision, kExitFailure},  {&Daemon::startFirstGeneration, kExitRefused},
+    {&Daemon::openControlSocket, kExitFailure}, {&Daemon::startDispatchers, kExitRefused},
     {&Daemon::announce, kExitFailure},
 };
 
@@ -250,8 +243,10 @@ int Daemon::attempt(const Step &step) {
 
 int Daemon::printSchedule() {
     if (const int status = attempt(kSteps[0]); status != kExitOk) return status;
-    if (options_.json) std::cout << schedule::toJson(*schedule_, *set_).dump(2) << std::endl;
-    else std::cout << schedule::formatText(*schedule_, *set_);
+    if (options_.json)
+        std::cout << schedule::toJson(*schedule_, *set_).dump(2) << std::endl;
+    else
+        std::cout << schedule::formatText(*schedule_, *set_);
     return kExitOk;
 }
 
@@ -306,8 +301,10 @@ Status Daemon::openStateFolder() {
     Status ready = identity_ ? supervise::handOver(dir, *identity_) : Status{Ok{}};
     if (ready) {
         auto opened = supervise::CrashState::open(dir, options_.instance);
-        if (opened) crash_ = std::move(*opened);
-        else ready = opened.error();
+        if (opened)
+            crash_ = std::move(*opened);
+        else
+            ready = opened.error();
     }
     if (!ready) {
         if (!options_.state_dir.empty()) return ready.error();  // asked for: it must work
@@ -337,7 +334,8 @@ Status Daemon::armCrashHandler() {
 Status Daemon::createStats() {
     const std::size_t module_records =
         options_.module_records ? options_.module_records : std::max(kMinModuleRecords, 2 * set_->modules.size());
-    auto segment = stats::StatsSegment::create(options_.instance, dispatch::Dispatcher::executorCount(*set_) + module_records);
+    auto segment =
+        stats::StatsSegment::create(options_.instance, dispatch::Dispatcher::executorCount(*set_) + module_records);
     if (!segment) return segment.error();
     stats_ = std::move(*segment);
     stats::Header *header = stats_->header();
@@ -358,12 +356,13 @@ Status Daemon::readLayout() {
 // Shared variables: the segment exists before any module is loaded.
 Status Daemon::createVariables() {
     if (!layout_) return Ok{};
-    auto created = variables::VariableSegment::create(options_.instance, *layout_, variables::Room{options_.var_headroom});
+    auto created =
+        variables::VariableSegment::create(options_.instance, *layout_, variables::Room{options_.var_headroom});
     if (!created) return created.error();
     vars_ = std::move(*created);
-    say("shared variables: " + std::to_string(layout_->variables) + " variables, " + std::to_string(layout_->data_size) +
-        " bytes (room for " + std::to_string(vars_->header()->data_capacity) + "), layout " + vars_->hash() +
-        ", in /dev/shm" + vars_->name());
+    say("shared variables: " + std::to_string(layout_->variables) + " variables, " +
+        std::to_string(layout_->data_size) + " bytes (room for " + std::to_string(vars_->header()->data_capacity) +
+        "), layout " + vars_->hash() + ", in /dev/shm" + vars_->name());
     return Ok{};
 }
 
@@ -382,7 +381,7 @@ Status Daemon::createTraceRings() {
 Status Daemon::openModuleCache() {
     std::filesystem::path dir = options_.module_cache;
     if (dir.empty()) dir = "/tmp/indurop-" + std::to_string(getuid()) + "-" + options_.instance + "-modules";
-    struct stat st{};
+    struct stat st {};
     if (lstat(dir.c_str(), &st) == 0 && (!S_ISDIR(st.st_mode) || st.st_uid != getuid()))
         return Error{"module cache " + dir.string() + " is not a directory owned by uid " + std::to_string(getuid()) +
                      ": remove it or choose --module-cache"};
@@ -412,9 +411,12 @@ Status Daemon::startSupervision() {
     services.trace = &*trace_;
     if (crash_) {
         watch::takeInCrash(*crash_, *set_, events_);
-        services.left_out = [c = crash_.get()](const config::SetSpec &s) { return c->excluded(watch::canonicalSet(s.xml_path)); };
+        services.left_out = [c = crash_.get()](const config::SetSpec &s) {
+            return c->excluded(watch::canonicalSet(s.xml_path));
+        };
         services.forgive = [c = crash_.get(), this](const std::string &module) {
-            if (c->forgive(module)) events_.add("crash_cleared", module, "enabled again: no longer left out after its crash");
+            if (c->forgive(module))
+                events_.add("crash_cleared", module, "enabled again: no longer left out after its crash");
         };
     }
     if (services.dispatcher.cpu < 0) services.dispatcher.cpu = osal::lastAllowedCpu();
@@ -434,8 +436,9 @@ Status Daemon::startFirstGeneration() {
     }
     std::size_t processes = 0;
     for (const config::ModuleSpec &m : set_->modules) processes += m.type == config::ModuleType::Process;
-    const uint32_t slots = options_.process_slots ? std::max(options_.process_slots, static_cast<uint32_t>(processes))
-                                                  : std::max<uint32_t>(kMinProcessSlots, static_cast<uint32_t>(processes));
+    const uint32_t slots = options_.process_slots
+                               ? std::max(options_.process_slots, static_cast<uint32_t>(processes))
+                               : std::max<uint32_t>(kMinProcessSlots, static_cast<uint32_t>(processes));
     const std::string set_id = session_.arrived ? session_.arrived->starting().set_id : "";
     auto first = reloader_->prepare(*set_, nullptr, left_out, set_id, [&](reload::Generation &g) {
         const std::vector<runtime::FunctionExport> exports = runtime::functionExports();
@@ -485,7 +488,8 @@ Status Daemon::openControlSocket() {
 Status Daemon::startDispatchers() {
     if (options_.dispatcher.realtime) {
         if (Status s = osal::lockMemory(); !s) say("WARNING: " + s.error().message + "; page faults may add latency");
-        if (!dma_latency_.held()) say("note: /dev/cpu_dma_latency not held at 0; CPU idle states may add wake-up latency");
+        if (!dma_latency_.held())
+            say("note: /dev/cpu_dma_latency not held at 0; CPU idle states may add wake-up latency");
     }
     dispatch::DispatcherOptions dispatcher_options = options_.dispatcher;
     dispatcher_options.trace = &*trace_;
@@ -495,7 +499,8 @@ Status Daemon::startDispatchers() {
     reloader_->adopt(first_->adopt(), *dispatcher_);
     watchdog_ = std::make_unique<dispatch::Watchdog>(
         osal::monotonicClock(), [this] { return dispatcher_->executors(); }, dispatcher_->halted(),
-        watch::watchdogHooks(events_, [this] { return reloader_->current(); }, *stats_));
+        watch::watchdogHooks(
+            events_, [this] { return reloader_->current(); }, *stats_));
     // Above the dispatchers, on the non-RT CPUs.
     watchdog_->start(dispatcher_->realtime() ? std::min(99, options_.dispatcher.rt_priority + 1) : 0);
     watchdog_now_.store(watchdog_.get());
@@ -513,10 +518,11 @@ Status Daemon::announce() {
     }
     if (server_) say("control socket " + server_->path());
     say("running " + set_->xml_path.string() + ": basic period " + schedule::humanDuration(schedule_->basic_ns) +
-        ", macro period " + schedule::humanDuration(schedule_->macro_ns) + ", " + std::to_string(schedule_->slots.size()) +
-        " slots, stats in /dev/shm" + stats_->name());
-    events_.add("start", "", "irpd " INDUROP_VERSION " started " + set_->xml_path.string() +
-                                 (dispatcher_->realtime() ? " (real-time)" : " (NOT real-time)"));
+        ", macro period " + schedule::humanDuration(schedule_->macro_ns) + ", " +
+        std::to_string(schedule_->slots.size()) + " slots, stats in /dev/shm" + stats_->name());
+    events_.add("start", "",
+                "irpd " INDUROP_VERSION " started " + set_->xml_path.string() +
+                    (dispatcher_->realtime() ? " (real-time)" : " (NOT real-time)"));
     // Start-up: main() to the first period's due time; a restart's downtime once that period ran.
     const stats::Header *header = stats_->header();
     const int64_t startup_ns = header->started_ns.load() - session_.began_ns;
@@ -628,8 +634,10 @@ void Daemon::serve() {
 // module's safe_outputs() runs (nothing dispatches them any more), then the same stop as always.
 int Daemon::stop() {
     const int64_t stop_began = osal::monotonicNow();
-    if (restart_) notify_.restarting("restarting onto set " + describeSet(restart_->target), kRestartWatchdogAllowanceNs);
-    else notify_.stopping("stopping");
+    if (restart_)
+        notify_.restarting("restarting onto set " + describeSet(restart_->target), kRestartWatchdogAllowanceNs);
+    else
+        notify_.stopping("stopping");
     queue_.close();
     server_.reset();  // no client reads a set that is going away
     dispatcher_->requestStop();
@@ -657,8 +665,9 @@ int Daemon::stop() {
         status = kExitFailure;
     }
     const stats::TimingRecord &main = stats_->record(0);
-    say("stopped after " + std::to_string(main.runs.load()) + " basic periods: " + std::to_string(main.overruns.load()) +
-        " overruns, " + std::to_string(main.missed.load()) + " missed, " + std::to_string(main.skipped.load()) + " skipped");
+    say("stopped after " + std::to_string(main.runs.load()) +
+        " basic periods: " + std::to_string(main.overruns.load()) + " overruns, " + std::to_string(main.missed.load()) +
+        " missed, " + std::to_string(main.skipped.load()) + " skipped");
     crash_handler_.disarm();
     if (restart_) {  // the descriptor goes to the next image (it may not be allowed to open it again)
         restart_->last_period_ns = header->finished_ns.load();
@@ -669,7 +678,7 @@ int Daemon::stop() {
     return status;
 }
 
-} // namespace
+}  // namespace
 
 int run(const Options &options, Session &session) {
     Daemon irpd(options, session);
@@ -679,4 +688,4 @@ int run(const Options &options, Session &session) {
     return irpd.stop();
 }
 
-} // namespace irp::daemon
+}  // namespace irp::daemon

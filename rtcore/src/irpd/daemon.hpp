@@ -16,7 +16,7 @@ inline constexpr int kExitRefused = 2;  // bad module.xml, module refused, sched
 
 // One image of irpd: how it came to be, and how it ended.
 struct Session {
-    int64_t began_ns = 0;               // CLOCK_MONOTONIC at main()'s start: start-up is measured from it
+    int64_t began_ns = 0;                // CLOCK_MONOTONIC at main()'s start: start-up is measured from it
     std::optional<RestartPlan> arrived;  // this image is a managed restart (INDUROP_RESTART)
     // Set by run():
     std::string error;                   // the message of the failure it returned with
@@ -28,4 +28,4 @@ struct Session {
 // blocked in the calling thread (main() does it before any thread exists).
 int run(const Options &options, Session &session);
 
-} // namespace irp::daemon
+}  // namespace irp::daemon

@@ -21,8 +21,10 @@ int main(int argc, char **argv) {
     irp::daemon::Session session;
     session.began_ns = irp::osal::monotonicNow();
     auto arrived = irp::daemon::takeRestartPlan();
-    if (!arrived) std::cerr << "irpd: WARNING: " << arrived.error().message << "; starting as a fresh irpd\n";
-    else session.arrived = std::move(*arrived);
+    if (!arrived)
+        std::cerr << "irpd: WARNING: " << arrived.error().message << "; starting as a fresh irpd\n";
+    else
+        session.arrived = std::move(*arrived);
     if (session.arrived && !session.arrived->process_name.empty())
         prctl(PR_SET_NAME, session.arrived->process_name.c_str(), 0, 0, 0);
     // SIGINT/SIGTERM are taken with sigtimedwait by the main thread; blocked here, before any

@@ -79,4 +79,4 @@ private:
     bool closed_ = false;
 };
 
-} // namespace irp::daemon
+}  // namespace irp::daemon

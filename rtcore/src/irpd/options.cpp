@@ -15,9 +15,30 @@ namespace irp::daemon {
 namespace {
 
 enum Flag {
-    kConfig = 1000, kPrintSchedule, kJson, kDuration, kStatsJson, kInstance, kMinBasic, kCpu, kRtPriority, kNoRt,
-    kPolicy, kMaxCatchup, kHelp, kVersion, kShmLayout, kLayout, kControlSocket, kModuleCache,
-    kStateDir, kUser, kGroup, kVarHeadroom, kModuleRecords, kProcessSlots,
+    kConfig = 1000,
+    kPrintSchedule,
+    kJson,
+    kDuration,
+    kStatsJson,
+    kInstance,
+    kMinBasic,
+    kCpu,
+    kRtPriority,
+    kNoRt,
+    kPolicy,
+    kMaxCatchup,
+    kHelp,
+    kVersion,
+    kShmLayout,
+    kLayout,
+    kControlSocket,
+    kModuleCache,
+    kStateDir,
+    kUser,
+    kGroup,
+    kVarHeadroom,
+    kModuleRecords,
+    kProcessSlots,
 };
 
 const option kOptions[] = {
@@ -58,7 +79,7 @@ Result<int64_t> integer(const char *option, const char *text, int64_t min, int64
     return v;
 }
 
-} // namespace
+}  // namespace
 
 std::string usage() {
     return R"(usage: irpd --config FILE.xml [options]
@@ -148,18 +169,24 @@ Result<Options> parseOptions(int argc, char **argv) {
             char *end = nullptr;
             const unsigned long long v = std::strtoull(optarg, &end, 10);
             uint64_t unit = 1;
-            if (end && (*end == 'K' || *end == 'k')) unit = 1ull << 10, ++end;
-            else if (end && (*end == 'M' || *end == 'm')) unit = 1ull << 20, ++end;
-            else if (end && (*end == 'G' || *end == 'g')) unit = 1ull << 30, ++end;
-            if (!end || *end || end == optarg || !std::isdigit(static_cast<unsigned char>(optarg[0])) || v * unit > (1ull << 30))
-                return Error{std::string("--var-headroom: '") + optarg + "' is not a size from 0 to 1G (bytes, or with K, M or G)"};
+            if (end && (*end == 'K' || *end == 'k'))
+                unit = 1ull << 10, ++end;
+            else if (end && (*end == 'M' || *end == 'm'))
+                unit = 1ull << 20, ++end;
+            else if (end && (*end == 'G' || *end == 'g'))
+                unit = 1ull << 30, ++end;
+            if (!end || *end || end == optarg || !std::isdigit(static_cast<unsigned char>(optarg[0])) ||
+                v * unit > (1ull << 30))
+                return Error{std::string("--var-headroom: '") + optarg +
+                             "' is not a size from 0 to 1G (bytes, or with K, M or G)"};
             o.var_headroom = v * unit;
             break;
         }
         case kInstance: {
             o.instance = optarg;
             bool ok = !o.instance.empty() && o.instance.size() <= 64;
-            for (char ch : o.instance) ok = ok && (std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-');
+            for (char ch : o.instance)
+                ok = ok && (std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-');
             if (!ok) return Error{"--instance: '" + o.instance + "' must be 1-64 letters, digits, '_' or '-'"};
             break;
         }
@@ -183,9 +210,12 @@ Result<Options> parseOptions(int argc, char **argv) {
         }
         case kNoRt: o.dispatcher.realtime = false; break;
         case kPolicy:
-            if (std::strcmp(optarg, "catch-up") == 0) o.dispatcher.policy = dispatch::OverrunPolicy::CatchUp;
-            else if (std::strcmp(optarg, "skip") == 0) o.dispatcher.policy = dispatch::OverrunPolicy::Skip;
-            else return Error{std::string("--overrun-policy: '") + optarg + "'; expected catch-up or skip"};
+            if (std::strcmp(optarg, "catch-up") == 0)
+                o.dispatcher.policy = dispatch::OverrunPolicy::CatchUp;
+            else if (std::strcmp(optarg, "skip") == 0)
+                o.dispatcher.policy = dispatch::OverrunPolicy::Skip;
+            else
+                return Error{std::string("--overrun-policy: '") + optarg + "'; expected catch-up or skip"};
             break;
         case kMaxCatchup: {
             auto v = integer(name, optarg, 0, 60'000'000'000);
@@ -223,4 +253,4 @@ Result<Options> parseOptions(int argc, char **argv) {
     return o;
 }
 
-} // namespace irp::daemon
+}  // namespace irp::daemon

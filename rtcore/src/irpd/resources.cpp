@@ -62,4 +62,4 @@ FirstGeneration::~FirstGeneration() {
         if (m.thread) (void)m.thread->stop();
 }
 
-} // namespace irp::daemon
+}  // namespace irp::daemon

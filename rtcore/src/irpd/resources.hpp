@@ -86,4 +86,4 @@ private:
     hosts::ProcessSupervisor &supervisor_;
 };
 
-} // namespace irp::daemon
+}  // namespace irp::daemon

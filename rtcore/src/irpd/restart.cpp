@@ -48,7 +48,7 @@ std::string ownName() {
     return name;
 }
 
-} // namespace
+}  // namespace
 
 std::string describeSet(const SetRef &set) { return set.set_id.empty() ? set.config : set.set_id; }
 
@@ -191,16 +191,17 @@ void reportRestart(const RestartPlan &plan, int64_t first_period_ns, int64_t sta
     desk.started(startup_ns, std::move(last));
     const std::string target = describeSet(plan.target), origin = describeSet(plan.origin);
     if (plan.fallback) {
-        const std::string message = "could not start set " + target + " (" + plan.error + "); came back on set " + origin +
-                                    ": downtime " + ms + ", from the last period of set " + origin + " to its first again";
+        const std::string message = "could not start set " + target + " (" + plan.error + "); came back on set " +
+                                    origin + ": downtime " + ms + ", from the last period of set " + origin +
+                                    " to its first again";
         events.add("restart_failed", "", message);
         say(message);
     } else {
-        const std::string message = "restarted onto set " + target + ": downtime " + ms + ", from the last period of set " +
-                                    origin + " to the first of set " + target;
+        const std::string message = "restarted onto set " + target + ": downtime " + ms +
+                                    ", from the last period of set " + origin + " to the first of set " + target;
         events.add("restart", "", message);
         say(message);
     }
 }
 
-} // namespace irp::daemon
+}  // namespace irp::daemon

@@ -45,11 +45,11 @@ struct RestartPlan {
     int64_t last_period_ns = 0;  // the end of the origin's last period (the main dispatcher's last slot)
     int64_t stop_ns = 0;         // the old image's stop: leaving the loop -> execv
     int64_t expected_downtime_ns = 0;
-    int dma_latency_fd = -1;     // /dev/cpu_dma_latency held open across the exec (-1: none)
-    bool fallback = false;       // this image runs the origin again because the target did not start
-    std::string error;           // fallback: why the target did not start
-    std::string process_name;    // the old image's /proc/<pid>/comm, given back to the new one (execv
-                                 // of /proc/self/exe would name it "exe")
+    int dma_latency_fd = -1;   // /dev/cpu_dma_latency held open across the exec (-1: none)
+    bool fallback = false;     // this image runs the origin again because the target did not start
+    std::string error;         // fallback: why the target did not start
+    std::string process_name;  // the old image's /proc/<pid>/comm, given back to the new one (execv
+                               // of /proc/self/exe would name it "exe")
 
     // The set this image starts on.
     const SetRef &starting() const { return fallback ? origin : target; }
@@ -102,4 +102,4 @@ private:
     nlohmann::ordered_json last_restart_ = nullptr;
 };
 
-} // namespace irp::daemon
+}  // namespace irp::daemon

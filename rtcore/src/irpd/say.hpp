@@ -9,4 +9,4 @@ namespace irp::daemon {
 
 inline void say(const std::string &line) { std::cerr << "irpd: " << line << std::endl; }
 
-} // namespace irp::daemon
+}  // namespace irp::daemon

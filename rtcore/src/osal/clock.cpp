@@ -8,8 +8,7 @@ namespace irp::osal {
 void MonotonicClock::sleepUntil(int64_t deadline) noexcept {
     timespec ts{static_cast<time_t>(deadline / 1'000'000'000), static_cast<long>(deadline % 1'000'000'000)};
     // EINTR (a signal) restarts the same absolute wait; nothing else can fail with valid arguments.
-    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
-    }
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {}
 }
 
 MonotonicClock &monotonicClock() noexcept {
@@ -17,4 +16,4 @@ MonotonicClock &monotonicClock() noexcept {
     return clock;
 }
 
-} // namespace irp::osal
+}  // namespace irp::osal

@@ -14,7 +14,7 @@ namespace irp::osal {
 class Clock {
 public:
     virtual ~Clock() = default;
-    virtual int64_t now() noexcept = 0;                  // nanoseconds
+    virtual int64_t now() noexcept = 0;                      // nanoseconds
     virtual void sleepUntil(int64_t deadline) noexcept = 0;  // returns at or after deadline
 };
 
@@ -29,4 +29,4 @@ public:
 // The process-wide real clock.
 MonotonicClock &monotonicClock() noexcept;
 
-} // namespace irp::osal
+}  // namespace irp::osal

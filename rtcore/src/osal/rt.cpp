@@ -30,7 +30,7 @@ bool hasIpcLock() {
     return caps & (1ull << 14);  // CAP_IPC_LOCK
 }
 
-} // namespace
+}  // namespace
 
 Status lockMemory() {
     // MCL_FUTURE under a finite RLIMIT_MEMLOCK makes every later mapping (a thread stack, a
@@ -55,7 +55,8 @@ RtStatus makeCurrentThreadRealtime(int priority, int cpu) {
         CPU_ZERO(&set);
         CPU_SET(cpu, &set);
         int rc = pthread_setaffinity_np(pthread_self(), sizeof set, &set);
-        notes += rc == 0 ? "pinned to CPU " + std::to_string(cpu) : "could not pin to CPU " + std::to_string(cpu) + ": " + std::strerror(rc);
+        notes += rc == 0 ? "pinned to CPU " + std::to_string(cpu)
+                         : "could not pin to CPU " + std::to_string(cpu) + ": " + std::strerror(rc);
     }
     prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);  // 1 ns: the smallest slack the kernel accepts
     sched_param param{};
@@ -150,4 +151,4 @@ void releaseAlternateSignalStack(void *stack) {
     munmap(stack, kSignalStackBytes);
 }
 
-} // namespace irp::osal
+}  // namespace irp::osal

@@ -46,4 +46,4 @@ std::string keepOffCpus(const std::vector<int> &rt_cpus);
 // executes itself again, so that the next image finds the same CPUs).
 void restoreStartupCpus();
 
-} // namespace irp::osal
+}  // namespace irp::osal

@@ -47,7 +47,8 @@ Result<SharedMemory> SharedMemory::create(const std::string &name, std::size_t s
         int e = errno;
         close(fd);
         shm_unlink(name.c_str());
-        return Error{"shared memory " + name + ": cannot size to " + std::to_string(size) + " bytes: " + std::strerror(e)};
+        return Error{"shared memory " + name + ": cannot size to " + std::to_string(size) +
+                     " bytes: " + std::strerror(e)};
     }
     void *p = mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
     int e = errno;
@@ -67,7 +68,7 @@ Result<SharedMemory> SharedMemory::create(const std::string &name, std::size_t s
 Result<SharedMemory> SharedMemory::open(const std::string &name, bool writable) {
     int fd = shm_open(name.c_str(), (writable ? O_RDWR : O_RDONLY) | O_CLOEXEC, 0);
     if (fd < 0) return Error{"shared memory " + name + ": " + std::strerror(errno)};
-    struct stat st{};
+    struct stat st {};
     if (fstat(fd, &st) != 0 || st.st_size <= 0) {
         close(fd);
         return Error{"shared memory " + name + ": empty or unreadable"};
@@ -104,7 +105,7 @@ bool runsThisProgram(int64_t pid) {
     return theirs.empty() || theirs == commOf("/proc/self");
 }
 
-} // namespace
+}  // namespace
 
 Result<SharedMemory> SharedMemory::createForInstance(const std::string &name, std::size_t size,
                                                      const std::string &instance,
@@ -114,11 +115,11 @@ Result<SharedMemory> SharedMemory::createForInstance(const std::string &name, st
     if (auto old = open(name, false)) {
         const int64_t pid = owner_of(*old);
         if (pid > 0 && pid != getpid() && runsThisProgram(pid))
-            return Error{"instance '" + instance + "' is in use by irpd pid " + std::to_string(pid) + " (shared memory " +
-                         name + "); stop it or choose another --instance"};
+            return Error{"instance '" + instance + "' is in use by irpd pid " + std::to_string(pid) +
+                         " (shared memory " + name + "); stop it or choose another --instance"};
     }
     unlink(name);
     return create(name, size, 0660);
 }
 
-} // namespace irp::osal
+}  // namespace irp::osal

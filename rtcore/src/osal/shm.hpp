@@ -26,7 +26,8 @@ public:
     // irpd made it (0: unknown, not one of ours).  A live irpd other than this process refuses
     // ("instance 'x' is in use by irpd pid N"); a segment left by a dead one, or by a pid that
     // now runs another program, is replaced.
-    static Result<SharedMemory> createForInstance(const std::string &name, std::size_t size, const std::string &instance,
+    static Result<SharedMemory> createForInstance(const std::string &name, std::size_t size,
+                                                  const std::string &instance,
                                                   const std::function<int64_t(const SharedMemory &existing)> &owner_of);
     // Maps an existing segment; its whole size, read-only unless writable.
     static Result<SharedMemory> open(const std::string &name, bool writable);
@@ -45,4 +46,4 @@ private:
     bool owner_ = false;
 };
 
-} // namespace irp::osal
+}  // namespace irp::osal

@@ -28,7 +28,8 @@ Status checkValue(const Arg &arg, const nlohmann::json &value, const std::string
 Status checkInteger(const Arg &arg, const nlohmann::json &value, const std::string &label) {
     if (!value.is_number_integer()) return Error{label + " must be " + arg.expected};
     // nlohmann keeps integers above 2^63 - 1 as unsigned; every integer argument is an int64.
-    if (value.is_number_unsigned() && value.get<uint64_t>() > static_cast<uint64_t>(std::numeric_limits<int64_t>::max()))
+    if (value.is_number_unsigned() &&
+        value.get<uint64_t>() > static_cast<uint64_t>(std::numeric_limits<int64_t>::max()))
         return Error{label + " is out of range: at most " + std::to_string(std::numeric_limits<int64_t>::max())};
     const auto v = value.get<int64_t>();
     if ((arg.has_min && v < arg.min) || (arg.has_max && v > arg.max)) return Error{label + " must be " + arg.expected};
@@ -89,7 +90,8 @@ Status checkList(const Arg &arg, const nlohmann::json &value, const std::string 
         return Error{label + " holds more than " + std::to_string(arg.max) + " entries; it must be " + arg.expected};
     for (std::size_t i = 0; i < value.size(); ++i) {
         const std::string at = prefix + arg.name + "[" + std::to_string(i) + "]";
-        Status st = arg.type == ArgType::ObjectList ? checkEntry(arg, value[i], at) : checkValue(arg.members[0], value[i], "", at);
+        Status st = arg.type == ArgType::ObjectList ? checkEntry(arg, value[i], at)
+                                                    : checkValue(arg.members[0], value[i], "", at);
         if (!st) return st;
     }
     return Ok{};
@@ -112,7 +114,7 @@ Status checkValue(const Arg &arg, const nlohmann::json &value, const std::string
     return Error{named + ": no check for its type"};
 }
 
-} // namespace
+}  // namespace
 
 Result<const Command *> findCommand(const std::string &name) {
     for (const Command &command : kCommands)
@@ -132,4 +134,4 @@ Status checkArguments(const Command &command, const nlohmann::json &request) {
     return Ok{};
 }
 
-} // namespace irp::protocol
+}  // namespace irp::protocol

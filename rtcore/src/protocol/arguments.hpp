@@ -21,4 +21,4 @@ Result<const Command *> findCommand(const std::string &name);
 // "cmd"); inside a list's entries they are refused.
 Status checkArguments(const Command &command, const nlohmann::json &request);
 
-} // namespace irp::protocol
+}  // namespace irp::protocol

@@ -36,15 +36,15 @@ struct Generation {
     std::string set_id;   // the caller's name for the set (the agent's set store id), may be empty
     config::SetSpec set;
     schedule::Schedule schedule;
-    std::vector<Member> members;      // per set index
-    std::set<std::string> disabled;   // modules taken out of dispatch by request
+    std::vector<Member> members;     // per set index
+    std::set<std::string> disabled;  // modules taken out of dispatch by request
     std::unique_ptr<dispatch::Tables> tables;
     // The shared-variable layout it runs on (null: none) and what changed from the generation
     // before; published into the segment before its modules load (docs/hot-reload.md).
     std::shared_ptr<const variables::Layout> layout;
     layouts::Diff variables;
-    std::vector<std::string> replaced_for_layout;  // running modules the new layout leaves no place for
-    bool published = false;                        // this generation published its layout
+    std::vector<std::string> replaced_for_layout;              // running modules the new layout leaves no place for
+    bool published = false;                                    // this generation published its layout
     std::shared_ptr<const variables::Layout> previous_layout;  // what undo publishes again
     // The server of calls from processes bound to this generation's exports (null: none).
     std::shared_ptr<dispatch::CallServer> calls;
@@ -57,4 +57,4 @@ struct Generation {
     }
 };
 
-} // namespace irp::reload
+}  // namespace irp::reload

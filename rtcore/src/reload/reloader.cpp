@@ -45,7 +45,8 @@ json names(const std::vector<std::string> &list) { return json(list); }
 
 json variablesJson(const Generation &g) {
     json moved = json::array();
-    for (const layouts::Moved &m : g.variables.moved) moved.push_back({{"path", m.path}, {"from", m.from}, {"to", m.to}});
+    for (const layouts::Moved &m : g.variables.moved)
+        moved.push_back({{"path", m.path}, {"from", m.from}, {"to", m.to}});
     return json{{"layout", g.layout ? json(g.layout->hash) : json(nullptr)},
                 {"added", g.variables.added},
                 {"removed", g.variables.removed},
@@ -71,7 +72,7 @@ Fates fatesOf(const Generation &next, const Generation *running) {
     return f;
 }
 
-} // namespace
+}  // namespace
 
 void resolveLayout(config::SetSpec &set, const std::filesystem::path &override_path) {
     if (!override_path.empty()) set.layout = override_path;
@@ -98,8 +99,8 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
                          protocol::kRestartRequired};
         layouts::Diff d = layouts::diff(s_.vars->layout()->model, layout->model);
         if (!d.online_impossible.empty())
-            return Error{"the set's shared-variable layout " + layout->hash.substr(0, 12) + "… (" + set.layout.string() +
-                             ") cannot replace the running one online: " + d.online_impossible,
+            return Error{"the set's shared-variable layout " + layout->hash.substr(0, 12) + "… (" +
+                             set.layout.string() + ") cannot replace the running one online: " + d.online_impossible,
                          protocol::kRestartRequired};
         if (std::string why = s_.vars->fits(*layout); !why.empty()) return Error{why, protocol::kRestartRequired};
         if (out) {
@@ -112,14 +113,17 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
         if (!std::filesystem::is_regular_file(m.path, ec))
             return Error{who(m) + ": <filename> " + m.filename + " -> " + m.path.string() + " does not exist"};
         if (m.type == config::ModuleType::Thread && m.operation == config::OperationType::NonReal)
-            return Error{who(m) + ": a non-real module runs in the time left over as a process: set <moduletype>process</moduletype>"};
+            return Error{
+                who(m) +
+                ": a non-real module runs in the time left over as a process: set <moduletype>process</moduletype>"};
     }
     if (Status st = dispatch::checkExecutors(dispatch::executorsOf(set, s_.dispatcher)); !st) return st.error();
     std::size_t processes = 0;
     for (const config::ModuleSpec &m : set.modules) processes += m.type == config::ModuleType::Process;
     if (running && s_.control && processes > s_.control->slotCount())
         return Error{"the set has " + std::to_string(processes) + " process modules; this irpd has room for " +
-                         std::to_string(s_.control->slotCount()) + " (irpd's --process-slots, by default the larger of "
+                         std::to_string(s_.control->slotCount()) +
+                         " (irpd's --process-slots, by default the larger of "
                          "16 and the first set's): a restart onto this set makes room",
                      protocol::kRestartRequired};
     return Ok{};
@@ -141,8 +145,10 @@ json Reloader::check(const std::filesystem::path &xml) const {
                                        "they share it until irpd restarts onto this set");
         resolveLayout(*set);
         auto schedule = schedule::build(*set, s_.limits);
-        if (!schedule) errors.push_back(schedule.error().message);
-        else schedule_json = schedule::toJson(*schedule, *set);
+        if (!schedule)
+            errors.push_back(schedule.error().message);
+        else
+            schedule_json = schedule::toJson(*schedule, *set);
         // The plan of a load, without loading: which modules stay, what the layout changes.
         const auto running = current();
         if (!schedule) {  // still say what else is wrong
@@ -150,8 +156,10 @@ json Reloader::check(const std::filesystem::path &xml) const {
                 errors.push_back(st.error().message);
         } else if (auto planned = plan(*set, running.get(), running ? running->disabled : std::set<std::string>{}, "");
                    !planned) {
-            if (planned.error().code == protocol::kRestartRequired) restart = json{{"reason", planned.error().message}};
-            else errors.push_back(planned.error().message);
+            if (planned.error().code == protocol::kRestartRequired)
+                restart = json{{"reason", planned.error().message}};
+            else
+                errors.push_back(planned.error().message);
         } else {
             if ((*planned)->layout) variables = variablesJson(**planned);
             const Fates f = fatesOf(**planned, running.get());
@@ -159,8 +167,13 @@ json Reloader::check(const std::filesystem::path &xml) const {
         }
     }
     // A set that only a restart can run is valid: activation offers the restart (docs/hot-reload.md).
-    return json{{"valid", errors.empty()}, {"errors", errors}, {"warnings", warnings}, {"schedule", schedule_json},
-                {"online", errors.empty() && restart.is_null()}, {"restart", restart}, {"variables", variables},
+    return json{{"valid", errors.empty()},
+                {"errors", errors},
+                {"warnings", warnings},
+                {"schedule", schedule_json},
+                {"online", errors.empty() && restart.is_null()},
+                {"restart", restart},
+                {"variables", variables},
                 {"modules", modules}};
 }
 
@@ -201,7 +214,9 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
     // What the set's modules are checked against: its layout, else the segment's (a set without
     // <layout> on an irpd that has one).
     const std::shared_ptr<const variables::Layout> segment_layout = s_.vars ? s_.vars->layout() : nullptr;
-    const layouts::Model *model = next->layout ? &next->layout->model : segment_layout ? &segment_layout->model : nullptr;
+    const layouts::Model *model = next->layout     ? &next->layout->model
+                                  : segment_layout ? &segment_layout->model
+                                                   : nullptr;
 
     // Which modules stay.  A running module that goes away must not own shared functions: kept
     // modules may hold pointers into its code (found in their start()).
@@ -256,9 +271,11 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
                 std::string list;
                 for (const std::string &f : exported) list += (list.empty() ? "" : ", ") + f;
                 return Error{"module '" + m.name + "' keeps running and calls shared functions of module '" +
-                                 running->set.modules[o].name + "' (" + list + ") through pointers it found at its "
-                                 "start: replacing or removing '" + running->set.modules[o].name + "' online needs '" +
-                                 m.name + "' replaced too; a restart does both",
+                                 running->set.modules[o].name + "' (" + list +
+                                 ") through pointers it found at its "
+                                 "start: replacing or removing '" +
+                                 running->set.modules[o].name + "' online needs '" + m.name +
+                                 "' replaced too; a restart does both",
                              protocol::kRestartRequired};
             }
         }
@@ -312,8 +329,9 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         if (!free) {
             for (std::size_t r : taken) s_.stats->release(r);
             return Error{"no room for module '" + m.name + "' in irpd's stats block (" +
-                         std::to_string(s_.stats->recordCount() - s_.executors) + " module records, irpd's "
-                         "--module-records): restart irpd onto this set, or with a larger --module-records",
+                             std::to_string(s_.stats->recordCount() - s_.executors) +
+                             " module records, irpd's "
+                             "--module-records): restart irpd onto this set, or with a larger --module-records",
                          protocol::kRestartRequired};
         }
         member.record = *free;
@@ -338,7 +356,9 @@ Status Reloader::realize(Generation &generation, const Generation *running,
 
     // New thread modules: loaded from their content-addressed copies, initialized, started.
     const std::shared_ptr<const variables::Layout> segment_layout = s_.vars ? s_.vars->layout() : nullptr;
-    const layouts::Model *model = next->layout ? &next->layout->model : segment_layout ? &segment_layout->model : nullptr;
+    const layouts::Model *model = next->layout     ? &next->layout->model
+                                  : segment_layout ? &segment_layout->model
+                                                   : nullptr;
     for (const config::ModuleSpec &m : spec.modules) {
         Member &member = next->members[static_cast<std::size_t>(m.index)];
         if (member.kept || m.type != config::ModuleType::Thread) continue;
@@ -458,7 +478,8 @@ Status Reloader::realize(Generation &generation, const Generation *running,
             if (!task || old < 0 || !next->members[static_cast<std::size_t>(m.index)].kept) continue;
             const dispatch::Task *before = running->tables->by_module[static_cast<std::size_t>(old)];
             // Carried only on the same executor: another executor's thread still writes it until the swap.
-            if (before && m.executor == running->set.modules[static_cast<std::size_t>(old)].executor) task->config.predecessor = before;
+            if (before && m.executor == running->set.modules[static_cast<std::size_t>(old)].executor)
+                task->config.predecessor = before;
             task->config.clear_fault = !task->config.disabled && running->disabled.count(m.name) > 0;
         }
     // Threads for executors the set adds or changes: started and parked until the swap.
@@ -499,7 +520,7 @@ void Reloader::adopt(std::unique_ptr<Generation> first, dispatch::Dispatcher &di
     for (const config::ModuleSpec &m : first->set.modules)
         s_.stats->record(first->members[static_cast<std::size_t>(m.index)].record)
             .state.store(static_cast<uint32_t>(first->disabled.count(m.name) ? stats::ModuleState::Disabled
-                                                                            : stats::ModuleState::Running));
+                                                                             : stats::ModuleState::Running));
     std::lock_guard lock(mutex_);
     current_ = std::shared_ptr<Generation>(std::move(first));
 }
@@ -580,7 +601,8 @@ std::vector<std::string> changeWarnings(const Generation &before, const Generati
             std::ostringstream text;
             text.precision(3);
             text << "executor '" << executor << "' would be " << busy * 100 << " % busy (above "
-                 << protocol::kUtilizationWarning * 100 << " %): little room is left for jitter and for the non-real modules";
+                 << protocol::kUtilizationWarning * 100
+                 << " %): little room is left for jitter and for the non-real modules";
             warnings.push_back(text.str());
         }
     for (const config::ModuleSpec &m : after.set.modules)
@@ -590,7 +612,7 @@ std::vector<std::string> changeWarnings(const Generation &before, const Generati
     return warnings;
 }
 
-} // namespace
+}  // namespace
 
 Result<json> Reloader::change(const std::vector<Change> &changes, bool dry_run) {
     if (Status s = refuseWhenHalted(dispatcher_); !s) return s.error();
@@ -599,7 +621,8 @@ Result<json> Reloader::change(const std::vector<Change> &changes, bool dry_run) 
     config::SetSpec set = running->set;
     std::set<std::string> disabled = running->disabled, seen;
     std::string names;
-    if (changes.empty()) return Error{"'changes' is empty; give at least one {module, period_ns?, priority?, enabled?}"};
+    if (changes.empty())
+        return Error{"'changes' is empty; give at least one {module, period_ns?, priority?, enabled?}"};
     for (const Change &change : changes) {
         const int index = running->find(change.module);
         if (index < 0) {
@@ -620,14 +643,18 @@ Result<json> Reloader::change(const std::vector<Change> &changes, bool dry_run) 
             if (m.deadline_ns == m.period_ns) m.deadline_ns = *change.period_ns;
             m.period_ns = *change.period_ns;
             if (m.budget_ns > m.period_ns || m.deadline_ns > m.period_ns)
-                return Error{"module '" + m.name + "': the period " + std::to_string(m.period_ns) + " ns is shorter than its " +
+                return Error{"module '" + m.name + "': the period " + std::to_string(m.period_ns) +
+                             " ns is shorter than its " +
                              (m.budget_ns > m.period_ns ? "<budget> " + std::to_string(m.budget_ns)
-                                                        : "<deadline> " + std::to_string(m.deadline_ns)) + " ns"};
+                                                        : "<deadline> " + std::to_string(m.deadline_ns)) +
+                             " ns"};
         }
         if (change.priority) m.priority = *change.priority;
         if (change.enabled) {
-            if (*change.enabled) disabled.erase(m.name);
-            else disabled.insert(m.name);
+            if (*change.enabled)
+                disabled.erase(m.name);
+            else
+                disabled.insert(m.name);
         }
     }
     const std::string failed_module = changes.size() == 1 ? names : "";
@@ -656,7 +683,8 @@ Result<json> Reloader::change(const std::vector<Change> &changes, bool dry_run) 
     // A fault-disabled module comes back with enable: its new task does not inherit the disable.
     for (const Change &change : changes)
         if (change.enabled && *change.enabled)
-            if (dispatch::Task *task = (*next)->tables->by_module[static_cast<std::size_t>(running->find(change.module))])
+            if (dispatch::Task *task =
+                    (*next)->tables->by_module[static_cast<std::size_t>(running->find(change.module))])
                 task->config.clear_fault = true;
     auto report = swap(std::move(*next), requested);
     if (!report) return report.error();
@@ -707,7 +735,8 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
     const uint64_t cycles_then = s_.stats->header()->cycles.load();
     const uint64_t settle = static_cast<uint64_t>(next->schedule.macro_ns / next->schedule.basic_ns) + 1;
     const int64_t settle_until = now() + 2'000'000'000;
-    while (s_.stats->header()->cycles.load() < cycles_then + settle && now() < settle_until && s_.stats->header()->running.load())
+    while (s_.stats->header()->cycles.load() < cycles_then + settle && now() < settle_until &&
+           s_.stats->header()->running.load())
         std::this_thread::sleep_for(std::chrono::microseconds(500));
     const uint64_t missed = lost() - lost_before;
     dispatcher_->retire();  // the threads of executors the new set does not have
@@ -743,7 +772,8 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
          << stopped.size() << " stopped, " << missed << " periods missed";
     if (next->published)
         text << "; shared variables " << next->variables.added.size() << " added, " << next->variables.removed.size()
-             << " removed, " << next->variables.moved.size() << " moved (layout " << next->layout->hash.substr(0, 12) << "…)";
+             << " removed, " << next->variables.moved.size() << " moved (layout " << next->layout->hash.substr(0, 12)
+             << "…)";
     s_.events->add("swap", "", text.str());
     if (next->calls) s_.calls = next->calls.get();
     {
@@ -789,4 +819,4 @@ std::vector<std::string> Reloader::stopAll() {
     return errors;
 }
 
-} // namespace irp::reload
+}  // namespace irp::reload

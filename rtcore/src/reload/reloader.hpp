@@ -48,23 +48,23 @@ namespace irp::reload {
 // What the reloader works with; all owned by the daemon and alive longer than the reloader.
 struct Services {
     stats::StatsSegment *stats = nullptr;
-    std::size_t executors = 1;                     // dispatcher records before the modules'
-    variables::VariableSegment *vars = nullptr;    // null: irpd runs without shared variables
-    hosts::ControlSegment *control = nullptr;      // the process modules' slots
+    std::size_t executors = 1;                   // dispatcher records before the modules'
+    variables::VariableSegment *vars = nullptr;  // null: irpd runs without shared variables
+    hosts::ControlSegment *control = nullptr;    // the process modules' slots
     hosts::ProcessSupervisor *supervisor = nullptr;
     hosts::ModuleCache *cache = nullptr;
     events::EventLog *events = nullptr;
-    dispatch::CallServer *calls = nullptr;         // the shared-function table for processes, if any
-    trace::TraceRings *trace = nullptr;            // told the basic period after a swap that changes it
+    dispatch::CallServer *calls = nullptr;  // the shared-function table for processes, if any
+    trace::TraceRings *trace = nullptr;     // told the basic period after a swap that changes it
     schedule::Limits limits;
-    dispatch::DispatcherOptions dispatcher;        // the RT priority and CPU processes inherit
-    std::set<int> kept_off;                        // CPUs irpd's non-RT threads were kept off at start (empty: none)
+    dispatch::DispatcherOptions dispatcher;  // the RT priority and CPU processes inherit
+    std::set<int> kept_off;                  // CPUs irpd's non-RT threads were kept off at start (empty: none)
     // Modules left out of a set after they crashed irpd (supervise/crash_record.hpp): a `load`
     // of that set starts them disabled; an `enable` of one calls forgive.  Empty: none.
     std::function<std::set<std::string>(const config::SetSpec &)> left_out;
     std::function<void(const std::string &module)> forgive;
-    int64_t ready_timeout_ns = 5'000'000'000;     // new processes: until irp::initPeriodExe()
-    int64_t swap_timeout_ns = 10'000'000'000;     // offer -> every executor switched
+    int64_t ready_timeout_ns = 5'000'000'000;  // new processes: until irp::initPeriodExe()
+    int64_t swap_timeout_ns = 10'000'000'000;  // offer -> every executor switched
 };
 
 // Values of one module of the running set changed (a hot reload of the same set).
@@ -144,4 +144,4 @@ nlohmann::ordered_json scheduleJson(const Generation &g);
 // module.xml when there is one.
 void resolveLayout(config::SetSpec &set, const std::filesystem::path &override_path = {});
 
-} // namespace irp::reload
+}  // namespace irp::reload

@@ -33,14 +33,15 @@ Result<Schedule> build(const config::SetSpec &set, const Limits &limits) {
         if (m->period_ns > longest->period_ns) longest = m;
     }
     if (s.basic_ns < limits.min_basic_ns)
-        return Error{set.xml_path.string() + ": the basic period (GCD of the periods) is " + std::to_string(s.basic_ns) +
-                     " ns, below the minimum basic period of " + std::to_string(limits.min_basic_ns) +
-                     " ns; make the periods multiples of at least " + humanDuration(limits.min_basic_ns)};
+        return Error{set.xml_path.string() + ": the basic period (GCD of the periods) is " +
+                     std::to_string(s.basic_ns) + " ns, below the minimum basic period of " +
+                     std::to_string(limits.min_basic_ns) + " ns; make the periods multiples of at least " +
+                     humanDuration(limits.min_basic_ns)};
     const int64_t count = s.macro_ns / s.basic_ns;
     if (static_cast<uint64_t>(count) > limits.max_slots)
-        return Error{set.xml_path.string() + ": the macro period (LCM of the periods) is " + std::to_string(s.macro_ns) +
-                     " ns, " + std::to_string(count) + " basic periods of " + std::to_string(s.basic_ns) +
-                     " ns; at most " + std::to_string(limits.max_slots) +
+        return Error{set.xml_path.string() + ": the macro period (LCM of the periods) is " +
+                     std::to_string(s.macro_ns) + " ns, " + std::to_string(count) + " basic periods of " +
+                     std::to_string(s.basic_ns) + " ns; at most " + std::to_string(limits.max_slots) +
                      " are allowed: choose periods that are multiples of each other"};
 
     // Run order inside a slot: priority, then position in the file.
@@ -59,13 +60,19 @@ Result<Schedule> build(const config::SetSpec &set, const Limits &limits) {
 }
 
 std::string humanDuration(int64_t ns) {
-    struct Unit { int64_t scale; const char *name; };
+    struct Unit {
+        int64_t scale;
+        const char *name;
+    };
     static constexpr Unit units[] = {{1'000'000'000, "s"}, {1'000'000, "ms"}, {1'000, "us"}, {1, "ns"}};
     for (const Unit &u : units) {
         if (ns >= u.scale || u.scale == 1) {
             char buf[48];
-            if (ns % u.scale == 0) std::snprintf(buf, sizeof buf, "%lld %s", static_cast<long long>(ns / u.scale), u.name);
-            else std::snprintf(buf, sizeof buf, "%.3g %s", static_cast<double>(ns) / static_cast<double>(u.scale), u.name);
+            if (ns % u.scale == 0)
+                std::snprintf(buf, sizeof buf, "%lld %s", static_cast<long long>(ns / u.scale), u.name);
+            else
+                std::snprintf(buf, sizeof buf, "%.3g %s", static_cast<double>(ns) / static_cast<double>(u.scale),
+                              u.name);
             return buf;
         }
     }
@@ -78,13 +85,13 @@ std::string shownName(const ModuleSpec &m) {
     return m.executor == config::kMainExecutor ? m.name : m.name + "@" + m.executor;
 }
 
-} // namespace
+}  // namespace
 
 std::string formatText(const Schedule &s, const config::SetSpec &set) {
     std::ostringstream out;
     out << "basic period " << s.basic_ns << " ns (" << humanDuration(s.basic_ns) << "), macro period " << s.macro_ns
-        << " ns (" << humanDuration(s.macro_ns) << "), " << s.slots.size() << " slot" << (s.slots.size() == 1 ? "" : "s")
-        << "\n";
+        << " ns (" << humanDuration(s.macro_ns) << "), " << s.slots.size() << " slot"
+        << (s.slots.size() == 1 ? "" : "s") << "\n";
     out << "slot  offset_ns    modules (in priority order)\n";
     for (const Slot &slot : s.slots) {
         char head[40];
@@ -135,4 +142,4 @@ nlohmann::ordered_json toJson(const Schedule &s, const config::SetSpec &set) {
             {"modules", std::move(modules)}};
 }
 
-} // namespace irp::schedule
+}  // namespace irp::schedule

@@ -21,7 +21,8 @@ namespace irp::schedule {
 // The defaults are the control protocol's (protocol/control.json): the web UI's pre-checks read them too.
 struct Limits {
     int64_t min_basic_ns = protocol::kMinBasicPeriodNs;  // a set whose GCD is below this is refused
-    std::size_t max_slots = static_cast<std::size_t>(protocol::kMaxSlots);  // macro / basic above this is refused (non-harmonic periods)
+    std::size_t max_slots =
+        static_cast<std::size_t>(protocol::kMaxSlots);  // macro / basic above this is refused (non-harmonic periods)
 };
 
 struct Slot {
@@ -48,4 +49,4 @@ nlohmann::ordered_json toJson(const Schedule &schedule, const config::SetSpec &s
 // "100 us", "1.5 ms", "2 s": a duration for people.
 std::string humanDuration(int64_t ns);
 
-} // namespace irp::schedule
+}  // namespace irp::schedule

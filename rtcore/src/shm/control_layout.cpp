@@ -6,10 +6,22 @@
 
 namespace irp::shm {
 
-template <> struct TypeName<indurop_control_header> { static constexpr std::string_view value = "indurop_control_header"; };
-template <> struct TypeName<indurop_process_slot> { static constexpr std::string_view value = "indurop_process_slot"; };
-template <> struct TypeName<indurop_call_area> { static constexpr std::string_view value = "indurop_call_area"; };
-template <> struct TypeName<indurop_function_entry> { static constexpr std::string_view value = "indurop_function_entry"; };
+template <>
+struct TypeName<indurop_control_header> {
+    static constexpr std::string_view value = "indurop_control_header";
+};
+template <>
+struct TypeName<indurop_process_slot> {
+    static constexpr std::string_view value = "indurop_process_slot";
+};
+template <>
+struct TypeName<indurop_call_area> {
+    static constexpr std::string_view value = "indurop_call_area";
+};
+template <>
+struct TypeName<indurop_function_entry> {
+    static constexpr std::string_view value = "indurop_function_entry";
+};
 
 namespace {
 
@@ -83,8 +95,9 @@ constexpr Struct kStructs[] = {
     describe<H>("At offset 0", kHeader),
     describe<S>("From header_size on: slot_count of them, slot_size bytes apart, in module.xml order", kSlot),
     describe<A>("The call area inside each slot", kCall),
-    describe<F>("From function_offset on: function_count of them, sorted by name; written once before any process starts",
-                kFunction),
+    describe<F>(
+        "From function_offset on: function_count of them, sorted by name; written once before any process starts",
+        kFunction),
 };
 
 constexpr Constant kConstants[] = {
@@ -114,8 +127,9 @@ constexpr Constant kStatuses[] = {
     {"timeout", INDUROP_CALL_TIMEOUT, "no answer within the caller's timeout"},
     {"owner_disabled", INDUROP_CALL_OWNER_DISABLED, "the owner threw from run() and is disabled"},
     {"not_served", INDUROP_CALL_NOT_SERVED, "the owner is not a periodic thread module"},
-    {"not_transferable", INDUROP_CALL_NOT_TRANSFERABLE, "the export takes or returns pointers, references or "
-                                                        "non-trivially-copyable types"},
+    {"not_transferable", INDUROP_CALL_NOT_TRANSFERABLE,
+     "the export takes or returns pointers, references or "
+     "non-trivially-copyable types"},
     {"threw", INDUROP_CALL_THREW, "the function threw; result holds what()"},
     {"no_irpd", INDUROP_CALL_NO_IRPD, "not started by irpd, or its control segment unusable"},
     {"stopped", INDUROP_CALL_STOPPED, "irpd stopped serving calls (it is stopping)"},
@@ -135,16 +149,22 @@ constexpr Enum kEnums[] = {
     {"indurop_calls_state", "indurop_control_header.calls", kCalls},
 };
 
-} // namespace
+}  // namespace
 
 const Segment &controlSegment() {
     static constexpr Segment segment{
-        "control", "/indurop.<instance>.ctl",
+        "control",
+        "/indurop.<instance>.ctl",
         "How irpd releases process modules and serves their calls of shared functions: [header][indurop_process_slot "
         "x slot_count][indurop_function_entry x function_count]. The handshakes are futexes on the slots' 32-bit "
         "words (<indurop/control.h>, docs/process-modules.md).",
-        INDUROP_CONTROL_MAGIC, INDUROP_CONTROL_VERSION, TypeName<H>::value, kStructs, kConstants, kEnums};
+        INDUROP_CONTROL_MAGIC,
+        INDUROP_CONTROL_VERSION,
+        TypeName<H>::value,
+        kStructs,
+        kConstants,
+        kEnums};
     return segment;
 }
 
-} // namespace irp::shm
+}  // namespace irp::shm

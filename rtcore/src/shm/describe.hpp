@@ -28,20 +28,57 @@ struct TypeName;
 template <class T>
 struct TypeName<std::atomic<T>> : TypeName<T> {};  // read as the plain value
 template <class T>
-    requires std::is_enum_v<T>
-struct TypeName<T> : TypeName<std::underlying_type_t<T>> {};  // its values are listed as an Enum
-template <> struct TypeName<uint8_t> { static constexpr std::string_view value = "u8"; };
-template <> struct TypeName<uint16_t> { static constexpr std::string_view value = "u16"; };
-template <> struct TypeName<uint32_t> { static constexpr std::string_view value = "u32"; };
-template <> struct TypeName<uint64_t> { static constexpr std::string_view value = "u64"; };
-template <> struct TypeName<int8_t> { static constexpr std::string_view value = "i8"; };
-template <> struct TypeName<int16_t> { static constexpr std::string_view value = "i16"; };
-template <> struct TypeName<int32_t> { static constexpr std::string_view value = "i32"; };
-template <> struct TypeName<int64_t> { static constexpr std::string_view value = "i64"; };
-template <> struct TypeName<float> { static constexpr std::string_view value = "f32"; };
-template <> struct TypeName<double> { static constexpr std::string_view value = "f64"; };
-template <> struct TypeName<char> { static constexpr std::string_view value = "char"; };
-template <> struct TypeName<pthread_mutex_t> { static constexpr std::string_view value = "pthread_mutex_t"; };
+requires std::is_enum_v<T>
+struct TypeName<T> : TypeName<std::underlying_type_t<T>> {
+};  // its values are listed as an Enum
+template <>
+struct TypeName<uint8_t> {
+    static constexpr std::string_view value = "u8";
+};
+template <>
+struct TypeName<uint16_t> {
+    static constexpr std::string_view value = "u16";
+};
+template <>
+struct TypeName<uint32_t> {
+    static constexpr std::string_view value = "u32";
+};
+template <>
+struct TypeName<uint64_t> {
+    static constexpr std::string_view value = "u64";
+};
+template <>
+struct TypeName<int8_t> {
+    static constexpr std::string_view value = "i8";
+};
+template <>
+struct TypeName<int16_t> {
+    static constexpr std::string_view value = "i16";
+};
+template <>
+struct TypeName<int32_t> {
+    static constexpr std::string_view value = "i32";
+};
+template <>
+struct TypeName<int64_t> {
+    static constexpr std::string_view value = "i64";
+};
+template <>
+struct TypeName<float> {
+    static constexpr std::string_view value = "f32";
+};
+template <>
+struct TypeName<double> {
+    static constexpr std::string_view value = "f64";
+};
+template <>
+struct TypeName<char> {
+    static constexpr std::string_view value = "char";
+};
+template <>
+struct TypeName<pthread_mutex_t> {
+    static constexpr std::string_view value = "pthread_mutex_t";
+};
 
 struct Field {
     std::string_view name;
@@ -55,12 +92,16 @@ struct Field {
 template <class Member>
 constexpr Field field(std::string_view name, std::size_t offset, std::string_view meaning) {
     using Element = std::remove_all_extents_t<Member>;
-    return {name, offset, sizeof(Member), TypeName<Element>::value,
-            std::is_array_v<Member> ? sizeof(Member) / sizeof(Element) : 0, meaning};
+    return {name,
+            offset,
+            sizeof(Member),
+            TypeName<Element>::value,
+            std::is_array_v<Member> ? sizeof(Member) / sizeof(Element) : 0,
+            meaning};
 }
 
 // One field of struct S: IRP_SHM_FIELD(indurop_trace_header, head, "seq of the newest row").
-#define IRP_SHM_FIELD(S, member, meaning) \
+#define IRP_SHM_FIELD(S, member, meaning)                                                                              \
     ::irp::shm::field<decltype(S::member)>(#member, __builtin_offsetof(S, member), meaning)
 
 // Where a field table stops describing a struct of `size` bytes aligned to `align`: the offset of
@@ -82,10 +123,10 @@ constexpr bool describesEveryByte(std::span<const Field> fields) {
 }
 
 // Stops the build when `fields` leaves a byte of S undescribed: a member added, moved or resized.
-#define IRP_SHM_DESCRIBES(S, fields)                                                                   \
-    static_assert(::irp::shm::describesEveryByte<S>(fields),                                         \
-                  #S ": a member is not described (or the table is out of order); add it to " #fields \
-                  " with its meaning, then regenerate with `ninja -C build shm-layout`")
+#define IRP_SHM_DESCRIBES(S, fields)                                                                                   \
+    static_assert(::irp::shm::describesEveryByte<S>(fields),                                                           \
+                  #S ": a member is not described (or the table is out of order); add it to " #fields                  \
+                     " with its meaning, then regenerate with `ninja -C build shm-layout`")
 
 // A struct as readers see it.
 struct Struct {
@@ -133,4 +174,4 @@ const Segment &statsSegment();
 const Segment &traceSegment();
 const Segment &controlSegment();
 
-} // namespace irp::shm
+}  // namespace irp::shm

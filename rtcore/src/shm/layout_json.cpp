@@ -36,7 +36,7 @@ json structJson(const Struct &s) {
     return {{"size", s.size}, {"align", s.align}, {"meaning", str(s.meaning)}, {"fields", std::move(fields)}};
 }
 
-} // namespace
+}  // namespace
 
 json segmentJson(const Segment &segment) {
     json structs = json::object();
@@ -44,14 +44,10 @@ json segmentJson(const Segment &segment) {
     json enums = json::object();
     for (const Enum &e : segment.enums)
         enums[str(e.name)] = {{"meaning", str(e.meaning)}, {"values", constants(e.values)}};
-    return {{"shm", str(segment.shm)},
-            {"meaning", str(segment.meaning)},
-            {"magic", segment.magic},
-            {"magic_text", magicText(segment.magic)},
-            {"version", segment.version},
-            {"header", str(segment.header)},
-            {"structs", std::move(structs)},
-            {"constants", constants(segment.constants)},
+    return {{"shm", str(segment.shm)},       {"meaning", str(segment.meaning)},
+            {"magic", segment.magic},        {"magic_text", magicText(segment.magic)},
+            {"version", segment.version},    {"header", str(segment.header)},
+            {"structs", std::move(structs)}, {"constants", constants(segment.constants)},
             {"enums", std::move(enums)}};
 }
 
@@ -65,4 +61,4 @@ json layoutJson() {
             {"segments", std::move(segments)}};
 }
 
-} // namespace irp::shm
+}  // namespace irp::shm

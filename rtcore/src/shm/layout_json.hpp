@@ -17,4 +17,4 @@ nlohmann::ordered_json layoutJson();
 // One segment's entry of it.
 nlohmann::ordered_json segmentJson(const Segment &segment);
 
-} // namespace irp::shm
+}  // namespace irp::shm

@@ -6,10 +6,22 @@
 
 namespace irp::shm {
 
-template <> struct TypeName<stats::Header> { static constexpr std::string_view value = "stats_header"; };
-template <> struct TypeName<stats::TimingRecord> { static constexpr std::string_view value = "timing_record"; };
-template <> struct TypeName<stats::SignedHistogram> { static constexpr std::string_view value = "signed_histogram"; };
-template <> struct TypeName<stats::Histogram> { static constexpr std::string_view value = "histogram"; };
+template <>
+struct TypeName<stats::Header> {
+    static constexpr std::string_view value = "stats_header";
+};
+template <>
+struct TypeName<stats::TimingRecord> {
+    static constexpr std::string_view value = "timing_record";
+};
+template <>
+struct TypeName<stats::SignedHistogram> {
+    static constexpr std::string_view value = "signed_histogram";
+};
+template <>
+struct TypeName<stats::Histogram> {
+    static constexpr std::string_view value = "histogram";
+};
 
 namespace {
 
@@ -24,7 +36,8 @@ constexpr Field kHeader[] = {
     IRP_SHM_FIELD(H, version, "the segment's format version"),
     IRP_SHM_FIELD(H, header_size, "bytes of this header; the records follow it"),
     IRP_SHM_FIELD(H, record_size, "bytes of one timing_record"),
-    IRP_SHM_FIELD(H, record_count, "records: dispatchers first (main, then each executor), then modules and unused ones"),
+    IRP_SHM_FIELD(H, record_count,
+                  "records: dispatchers first (main, then each executor), then modules and unused ones"),
     IRP_SHM_FIELD(H, pid, "the irpd that owns the segment"),
     IRP_SHM_FIELD(H, basic_ns, "the basic period"),
     IRP_SHM_FIELD(H, macro_ns, "the macro period"),
@@ -72,8 +85,9 @@ constexpr Field kHistogram[] = {
     IRP_SHM_FIELD(Hi, sum, "their sum"),
     IRP_SHM_FIELD(Hi, min, "the smallest, 18446744073709551615 while empty"),
     IRP_SHM_FIELD(Hi, max, "the largest, exact"),
-    IRP_SHM_FIELD(Hi, buckets, "log-linear: values below 2^sub_bucket_bits exactly, then 2^sub_bucket_bits "
-                               "buckets per power of two up to 2^max_exponent; larger values in the last bucket"),
+    IRP_SHM_FIELD(Hi, buckets,
+                  "log-linear: values below 2^sub_bucket_bits exactly, then 2^sub_bucket_bits "
+                  "buckets per power of two up to 2^max_exponent; larger values in the last bucket"),
 };
 IRP_SHM_DESCRIBES(stats::Histogram, kHistogram);
 
@@ -82,7 +96,8 @@ IRP_SHM_DESCRIBES(stats::Histogram, kHistogram);
 constexpr Struct kStructs[] = {
     describe<H>("At offset 0", kHeader),
     describe<R>("From header_size on: record_count of them, record_size bytes apart; each has a single writer, "
-                "its dispatcher thread", kRecord),
+                "its dispatcher thread",
+                kRecord),
     describe<SH>("A histogram of signed values", kSigned),
     describe<Hi>("A log-linear histogram of non-negative values, in ns", kHistogram),
 };
@@ -112,15 +127,21 @@ constexpr Enum kEnums[] = {
     {"module_state", "timing_record.state of a module", kStates},
 };
 
-} // namespace
+}  // namespace
 
 const Segment &statsSegment() {
     static constexpr Segment segment{
-        "stats", "/indurop.<instance>.stats",
+        "stats",
+        "/indurop.<instance>.stats",
         "Timing figures of the running set: [header][timing_record x record_count], every struct 64-byte aligned. "
         "The RT threads write their own records with plain stores; readers never make them wait (docs/scheduler.md).",
-        stats::kMagic, stats::kVersion, TypeName<H>::value, kStructs, kConstants, kEnums};
+        stats::kMagic,
+        stats::kVersion,
+        TypeName<H>::value,
+        kStructs,
+        kConstants,
+        kEnums};
     return segment;
 }
 
-} // namespace irp::shm
+}  // namespace irp::shm

@@ -6,9 +6,18 @@
 
 namespace irp::shm {
 
-template <> struct TypeName<indurop_trace_header> { static constexpr std::string_view value = "indurop_trace_header"; };
-template <> struct TypeName<indurop_trace_config> { static constexpr std::string_view value = "indurop_trace_config"; };
-template <> struct TypeName<indurop_trace_channel> { static constexpr std::string_view value = "indurop_trace_channel"; };
+template <>
+struct TypeName<indurop_trace_header> {
+    static constexpr std::string_view value = "indurop_trace_header";
+};
+template <>
+struct TypeName<indurop_trace_config> {
+    static constexpr std::string_view value = "indurop_trace_config";
+};
+template <>
+struct TypeName<indurop_trace_channel> {
+    static constexpr std::string_view value = "indurop_trace_channel";
+};
 
 namespace {
 
@@ -26,8 +35,9 @@ constexpr Field kHeader[] = {
     IRP_SHM_FIELD(H, configs_offset, "the two configurations, indurop_trace_config[2]"),
     IRP_SHM_FIELD(H, seq_offset, "u64[capacity]: the seq of the row at each index"),
     IRP_SHM_FIELD(H, time_offset, "i64[capacity]: CLOCK_MONOTONIC due time of the row's basic period, ns"),
-    IRP_SHM_FIELD(H, values_offset, "f64[channel_max][capacity], channel-major: column c of row index i at "
-                                    "values_offset + 8 x (c x capacity + i)"),
+    IRP_SHM_FIELD(H, values_offset,
+                  "f64[channel_max][capacity], channel-major: column c of row index i at "
+                  "values_offset + 8 x (c x capacity + i)"),
     IRP_SHM_FIELD(H, owner_pid, "the irpd that created the segment"),
     IRP_SHM_FIELD(H, basic_period_ns, "the sampling period (atomic; irpd sets it again when a swap changes it)"),
     IRP_SHM_FIELD(H, reserved1, "zero"),
@@ -46,8 +56,9 @@ IRP_SHM_DESCRIBES(indurop_trace_header, kHeader);
 
 using C = indurop_trace_config;
 constexpr Field kConfig[] = {
-    IRP_SHM_FIELD(C, generation, "> 0, increasing from one configuration to the next; 0 while the control thread "
-                                 "rewrites it (read again)"),
+    IRP_SHM_FIELD(C, generation,
+                  "> 0, increasing from one configuration to the next; 0 while the control thread "
+                  "rewrites it (read again)"),
     IRP_SHM_FIELD(C, first_seq, "the first row sampled with it; no_seq while not (yet) in force"),
     IRP_SHM_FIELD(C, channel_count, "channels in use, 0 to channel_max"),
     IRP_SHM_FIELD(C, reserved0, "zero"),
@@ -69,7 +80,8 @@ IRP_SHM_DESCRIBES(indurop_trace_channel, kChannel);
 
 constexpr Struct kStructs[] = {
     describe<H>("At offset 0; the cache line from head on is written by the sampler only, the one from "
-                "pending_config on by the control thread", kHeader),
+                "pending_config on by the control thread",
+                kHeader),
     describe<C>("Two of them at configs_offset, config_size bytes apart; read like a seqlock on generation", kConfig),
     describe<Ch>("A traced scalar variable", kChannel),
 };
@@ -82,35 +94,36 @@ constexpr Constant kConstants[] = {
 
 // Each value's name is the type as glbc's layout.json spells it.
 constexpr Constant kTypes[] = {
-    {"none", INDUROP_TRACE_NONE, "unused channel"},
-    {"float", INDUROP_TRACE_FLOAT32, "32-bit float"},
-    {"double", INDUROP_TRACE_FLOAT64, "64-bit float"},
-    {"int8_t", INDUROP_TRACE_INT8, "signed 8-bit"},
-    {"int16_t", INDUROP_TRACE_INT16, "signed 16-bit"},
-    {"int32_t", INDUROP_TRACE_INT32, "signed 32-bit"},
-    {"int64_t", INDUROP_TRACE_INT64, "signed 64-bit"},
-    {"uint8_t", INDUROP_TRACE_UINT8, "unsigned 8-bit"},
-    {"uint16_t", INDUROP_TRACE_UINT16, "unsigned 16-bit"},
-    {"uint32_t", INDUROP_TRACE_UINT32, "unsigned 32-bit"},
-    {"uint64_t", INDUROP_TRACE_UINT64, "unsigned 64-bit"},
-    {"bool", INDUROP_TRACE_BOOL, "0 or 1"},
+    {"none", INDUROP_TRACE_NONE, "unused channel"},        {"float", INDUROP_TRACE_FLOAT32, "32-bit float"},
+    {"double", INDUROP_TRACE_FLOAT64, "64-bit float"},     {"int8_t", INDUROP_TRACE_INT8, "signed 8-bit"},
+    {"int16_t", INDUROP_TRACE_INT16, "signed 16-bit"},     {"int32_t", INDUROP_TRACE_INT32, "signed 32-bit"},
+    {"int64_t", INDUROP_TRACE_INT64, "signed 64-bit"},     {"uint8_t", INDUROP_TRACE_UINT8, "unsigned 8-bit"},
+    {"uint16_t", INDUROP_TRACE_UINT16, "unsigned 16-bit"}, {"uint32_t", INDUROP_TRACE_UINT32, "unsigned 32-bit"},
+    {"uint64_t", INDUROP_TRACE_UINT64, "unsigned 64-bit"}, {"bool", INDUROP_TRACE_BOOL, "0 or 1"},
 };
 
 constexpr Enum kEnums[] = {
     {"indurop_trace_type", "indurop_trace_channel.type, named as layout.json names the type", kTypes},
 };
 
-} // namespace
+}  // namespace
 
 const Segment &traceSegment() {
     static constexpr Segment segment{
-        "trace", "/indurop.<instance>.trace",
-        "Rings of one row per basic period of the main dispatcher: [header][indurop_trace_config x 2][u64 seq[capacity]]"
+        "trace",
+        "/indurop.<instance>.trace",
+        "Rings of one row per basic period of the main dispatcher: [header][indurop_trace_config x 2][u64 "
+        "seq[capacity]]"
         "[i64 t_ns[capacity]][f64 values[channel_max][capacity]], each part on a 64-byte boundary. Row seq sits at "
         "index seq % capacity of every ring; single writer (the RT sampler), readers never wait "
         "(docs/trace-and-stream.md).",
-        INDUROP_TRACE_MAGIC, INDUROP_TRACE_VERSION, TypeName<H>::value, kStructs, kConstants, kEnums};
+        INDUROP_TRACE_MAGIC,
+        INDUROP_TRACE_VERSION,
+        TypeName<H>::value,
+        kStructs,
+        kConstants,
+        kEnums};
     return segment;
 }
 
-} // namespace irp::shm
+}  // namespace irp::shm

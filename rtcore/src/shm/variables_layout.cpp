@@ -7,8 +7,14 @@
 
 namespace irp::shm {
 
-template <> struct TypeName<indurop_segment_header> { static constexpr std::string_view value = "indurop_segment_header"; };
-template <> struct TypeName<indurop_var_lock> { static constexpr std::string_view value = "indurop_var_lock"; };
+template <>
+struct TypeName<indurop_segment_header> {
+    static constexpr std::string_view value = "indurop_segment_header";
+};
+template <>
+struct TypeName<indurop_var_lock> {
+    static constexpr std::string_view value = "indurop_var_lock";
+};
 
 namespace {
 
@@ -24,11 +30,13 @@ constexpr Field kHeader[] = {
     IRP_SHM_FIELD(H, lock_size, "bytes of one lock-table entry"),
     IRP_SHM_FIELD(H, layout_offset, "the published layout.json text, from the segment's start; read under layout_seq"),
     IRP_SHM_FIELD(H, layout_size, "bytes of that text (not NUL-terminated); read under layout_seq"),
-    IRP_SHM_FIELD(H, data_offset, "the data area, from the segment's start; a variable's layout offset counts from here"),
+    IRP_SHM_FIELD(H, data_offset,
+                  "the data area, from the segment's start; a variable's layout offset counts from here"),
     IRP_SHM_FIELD(H, data_size, "bytes of the data area the published layout uses; read under layout_seq"),
     IRP_SHM_FIELD(H, owner_pid, "the irpd that created the segment"),
-    IRP_SHM_FIELD(H, layout_seq, "even: the layout fields are stable; odd: a new layout is being published. "
-                                 "Readers copy the layout fields and retry when it was odd or moved meanwhile"),
+    IRP_SHM_FIELD(H, layout_seq,
+                  "even: the layout fields are stable; odd: a new layout is being published. "
+                  "Readers copy the layout fields and retry when it was odd or moved meanwhile"),
     IRP_SHM_FIELD(H, lock_capacity, "locks initialised in the lock table (lock_count <= lock_capacity)"),
     IRP_SHM_FIELD(H, layout_capacity, "bytes of each of the two halves of the layout text area"),
     IRP_SHM_FIELD(H, data_capacity, "bytes of the data area (data_size <= data_capacity)"),
@@ -39,8 +47,9 @@ IRP_SHM_DESCRIBES(indurop_segment_header, kHeader);
 using L = indurop_var_lock;
 constexpr Field kLock[] = {
     IRP_SHM_FIELD(L, mutex, "the variable's writers' lock: priority inheritance, process-shared, robust"),
-    IRP_SHM_FIELD(L, seq, "seqlock sequence: even while stable, odd while a writer is inside. A reader copies "
-                          "the value between two equal even reads of it"),
+    IRP_SHM_FIELD(L, seq,
+                  "seqlock sequence: even while stable, odd while a writer is inside. A reader copies "
+                  "the value between two equal even reads of it"),
 };
 IRP_SHM_DESCRIBES(indurop_var_lock, kLock);
 
@@ -53,15 +62,21 @@ constexpr Constant kConstants[] = {
     {"layout_hash_chars", INDUROP_LAYOUT_HASH_CHARS, "hex characters of layout_hash"},
 };
 
-} // namespace
+}  // namespace
 
 const Segment &variablesSegment() {
     static constexpr Segment segment{
-        "variables", "/indurop.<instance>.vars",
+        "variables",
+        "/indurop.<instance>.vars",
         "The shared variables of the running set: [header][lock table][layout text: 2 x layout_capacity][data], "
         "each part on a 64-byte boundary. The data area is laid out as the published layout.json says.",
-        INDUROP_SEGMENT_MAGIC, INDUROP_SEGMENT_VERSION, TypeName<H>::value, kStructs, kConstants, {}};
+        INDUROP_SEGMENT_MAGIC,
+        INDUROP_SEGMENT_VERSION,
+        TypeName<H>::value,
+        kStructs,
+        kConstants,
+        {}};
     return segment;
 }
 
-} // namespace irp::shm
+}  // namespace irp::shm

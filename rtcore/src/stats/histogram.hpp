@@ -91,9 +91,11 @@ struct SignedHistogram {
         positive.reset();
     }
     void record(int64_t v) noexcept {
-        if (v < 0) negative.record(static_cast<uint64_t>(-(v + 1)) + 1);
-        else positive.record(static_cast<uint64_t>(v));
+        if (v < 0)
+            negative.record(static_cast<uint64_t>(-(v + 1)) + 1);
+        else
+            positive.record(static_cast<uint64_t>(v));
     }
 };
 
-} // namespace irp::stats
+}  // namespace irp::stats

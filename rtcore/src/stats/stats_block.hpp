@@ -30,30 +30,30 @@ enum class ModuleState : uint32_t {
     Disabled = 2,  // taken out of the slot table after a fault (see last_error)
     Skipped = 3,   // a kind of module this irpd cannot run yet; listed, never called
     Stopped = 4,
-    Exited = 5,    // a process module that is not running (crashed or ended, no restart pending)
+    Exited = 5,  // a process module that is not running (crashed or ended, no restart pending)
 };
 
 struct alignas(64) TimingRecord {
-    char name[64];          // NUL-terminated
-    char executor[64];      // the dispatcher thread it runs on ("main", ...)
+    char name[64];      // NUL-terminated
+    char executor[64];  // the dispatcher thread it runs on ("main", ...)
     RecordKind kind;
     std::atomic<uint32_t> state;  // ModuleState (modules) or 1 while the dispatcher runs
     int32_t priority;
     uint32_t reserved0;
-    int64_t period_ns;      // module period, or the basic period for a dispatcher
-    int64_t budget_ns;      // 0 = none
+    int64_t period_ns;  // module period, or the basic period for a dispatcher
+    int64_t budget_ns;  // 0 = none
 
-    Counter runs;           // run() calls (modules) / slots executed (dispatchers)
-    Counter overruns;       // modules: exec above budget; dispatchers: slot work above the basic period
-    Counter missed;         // started a whole period (module's, or basic) or more after it was due
-    Counter skipped;        // runs / slots dropped by the overrun policy
-    Counter errors;         // exceptions thrown out of run()
-    Counter caught_up;      // dispatchers: slots started at once, without sleeping, because the
-                            // previous slot ended past their due time (catch-up after a late wake-up or an overrun)
+    Counter runs;       // run() calls (modules) / slots executed (dispatchers)
+    Counter overruns;   // modules: exec above budget; dispatchers: slot work above the basic period
+    Counter missed;     // started a whole period (module's, or basic) or more after it was due
+    Counter skipped;    // runs / slots dropped by the overrun policy
+    Counter errors;     // exceptions thrown out of run()
+    Counter caught_up;  // dispatchers: slots started at once, without sleeping, because the
+                        // previous slot ended past their due time (catch-up after a late wake-up or an overrun)
 
-    SignedHistogram jitter; // Eq. (1): J_n = T0 + n * period - T_n, in ns
-    Histogram latency;      // start (wake-up for a dispatcher) minus its planned time, in ns
-    Histogram exec;         // execution time of run() / of the slot's whole work, in ns
+    SignedHistogram jitter;  // Eq. (1): J_n = T0 + n * period - T_n, in ns
+    Histogram latency;       // start (wake-up for a dispatcher) minus its planned time, in ns
+    Histogram exec;          // execution time of run() / of the slot's whole work, in ns
 };
 
 struct alignas(64) Header {
@@ -65,12 +65,12 @@ struct alignas(64) Header {
     int64_t pid;            // the irpd that owns the segment
     int64_t basic_ns;
     int64_t macro_ns;
-    std::atomic<uint32_t> realtime;   // 1 = every dispatcher thread got SCHED_FIFO
-    std::atomic<uint32_t> running;    // 1 while the dispatchers run
-    std::atomic<int64_t> started_ns;  // CLOCK_MONOTONIC time of slot 0 (T0 of the dispatcher)
-    std::atomic<int64_t> finished_ns; // when the main dispatcher's last slot ended (0 while running)
-    Counter cycles;                   // basic periods completed by the main dispatcher
-    char set_path[512];               // module.xml of the running set
+    std::atomic<uint32_t> realtime;    // 1 = every dispatcher thread got SCHED_FIFO
+    std::atomic<uint32_t> running;     // 1 while the dispatchers run
+    std::atomic<int64_t> started_ns;   // CLOCK_MONOTONIC time of slot 0 (T0 of the dispatcher)
+    std::atomic<int64_t> finished_ns;  // when the main dispatcher's last slot ended (0 while running)
+    Counter cycles;                    // basic periods completed by the main dispatcher
+    char set_path[512];                // module.xml of the running set
 };
 
 static_assert(std::is_standard_layout_v<TimingRecord>, "TimingRecord is read by other processes");
@@ -89,9 +89,11 @@ inline void resetFigures(TimingRecord &r) noexcept {
 
 inline std::size_t blockSize(std::size_t records) { return sizeof(Header) + records * sizeof(TimingRecord); }
 
-inline TimingRecord *records(Header *h) { return reinterpret_cast<TimingRecord *>(reinterpret_cast<char *>(h) + sizeof(Header)); }
+inline TimingRecord *records(Header *h) {
+    return reinterpret_cast<TimingRecord *>(reinterpret_cast<char *>(h) + sizeof(Header));
+}
 inline const TimingRecord *records(const Header *h) {
     return reinterpret_cast<const TimingRecord *>(reinterpret_cast<const char *>(h) + sizeof(Header));
 }
 
-} // namespace irp::stats
+}  // namespace irp::stats

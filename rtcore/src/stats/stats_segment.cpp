@@ -16,10 +16,11 @@ std::string StatsSegment::shmName(const std::string &instance) { return "/induro
 Result<StatsSegment> StatsSegment::create(const std::string &instance, std::size_t count) {
     const std::string name = shmName(instance);
     // A segment left over from an irpd that died is replaced; its header names the owner.
-    auto shm = osal::SharedMemory::createForInstance(name, blockSize(count), instance, [](const osal::SharedMemory &old) -> int64_t {
-        const auto *h = static_cast<const Header *>(old.data());
-        return old.size() >= sizeof(Header) && h->magic == kMagic ? h->pid : 0;
-    });
+    auto shm = osal::SharedMemory::createForInstance(
+        name, blockSize(count), instance, [](const osal::SharedMemory &old) -> int64_t {
+            const auto *h = static_cast<const Header *>(old.data());
+            return old.size() >= sizeof(Header) && h->magic == kMagic ? h->pid : 0;
+        });
     if (!shm) return shm.error();
     StatsSegment segment;
     segment.shm_ = std::move(*shm);
@@ -62,4 +63,4 @@ std::optional<std::size_t> StatsSegment::findUnused(std::size_t from) const {
     return std::nullopt;
 }
 
-} // namespace irp::stats
+}  // namespace irp::stats

@@ -37,4 +37,4 @@ private:
     osal::SharedMemory shm_;
 };
 
-} // namespace irp::stats
+}  // namespace irp::stats

@@ -12,9 +12,7 @@ namespace {
 
 constexpr auto relaxed = std::memory_order_relaxed;
 
-double mid(std::size_t i) {
-    return static_cast<double>(bucketLow(i)) + static_cast<double>(bucketWidth(i) - 1) / 2.0;
-}
+double mid(std::size_t i) { return static_cast<double>(bucketLow(i)) + static_cast<double>(bucketWidth(i) - 1) / 2.0; }
 
 uint64_t rankOf(uint64_t count, double q) {
     auto r = static_cast<uint64_t>(std::ceil(q * static_cast<double>(count)));
@@ -27,7 +25,7 @@ uint64_t bucketSum(const Histogram &h) {
     return n;
 }
 
-} // namespace
+}  // namespace
 
 double quantile(const Histogram &h, double q) {
     uint64_t total = bucketSum(h);  // the buckets themselves, so a live reader stays consistent
@@ -48,7 +46,8 @@ double quantile(const SignedHistogram &h, double q) {
     if (rank <= neg) {
         // The negative half, most negative first: walk its magnitudes from the top.
         uint64_t seen = 0;
-        double lo = static_cast<double>(h.negative.min.load(relaxed)), hi = static_cast<double>(h.negative.max.load(relaxed));
+        double lo = static_cast<double>(h.negative.min.load(relaxed)),
+               hi = static_cast<double>(h.negative.max.load(relaxed));
         for (std::size_t i = kBuckets; i-- > 0;) {
             seen += h.negative.buckets[i].load(relaxed);
             if (seen >= rank) return -std::clamp(mid(i), std::min(lo, hi), hi);
@@ -83,8 +82,10 @@ Summary summarize(const SignedHistogram &h) {
     uint64_t neg = h.negative.count.load(relaxed), pos = h.positive.count.load(relaxed);
     s.count = neg + pos;
     if (s.count == 0) return s;
-    s.min = neg ? -static_cast<double>(h.negative.max.load(relaxed)) : static_cast<double>(h.positive.min.load(relaxed));
-    s.max = pos ? static_cast<double>(h.positive.max.load(relaxed)) : -static_cast<double>(h.negative.min.load(relaxed));
+    s.min =
+        neg ? -static_cast<double>(h.negative.max.load(relaxed)) : static_cast<double>(h.positive.min.load(relaxed));
+    s.max =
+        pos ? static_cast<double>(h.positive.max.load(relaxed)) : -static_cast<double>(h.negative.min.load(relaxed));
     s.mean = (static_cast<double>(h.positive.sum.load(relaxed)) - static_cast<double>(h.negative.sum.load(relaxed))) /
              static_cast<double>(s.count);
     s.p50 = quantile(h, 0.50);
@@ -94,8 +95,8 @@ Summary summarize(const SignedHistogram &h) {
 }
 
 nlohmann::ordered_json toJson(const Summary &s) {
-    return {{"count", s.count}, {"min", s.min},   {"max", s.max},  {"mean", s.mean},
-            {"p50", s.p50},     {"p99", s.p99},   {"p999", s.p999}};
+    return {{"count", s.count}, {"min", s.min}, {"max", s.max},  {"mean", s.mean},
+            {"p50", s.p50},     {"p99", s.p99}, {"p999", s.p999}};
 }
 
 const char *toString(ModuleState state) {
@@ -112,17 +113,17 @@ const char *toString(ModuleState state) {
 
 nlohmann::ordered_json toJson(const TimingRecord &r) {
     nlohmann::ordered_json j = {{"name", r.name},
-                        {"executor", r.executor},
-                        {"kind", r.kind == RecordKind::Dispatcher ? "dispatcher" : "module"},
-                        {"period_ns", r.period_ns},
-                        {"runs", r.runs.load(relaxed)},
-                        {"jitter_ns", toJson(summarize(r.jitter))},
-                        {"latency_ns", toJson(summarize(r.latency))},
-                        {"exec_ns", toJson(summarize(r.exec))},
-                        {"overruns", r.overruns.load(relaxed)},
-                        {"missed", r.missed.load(relaxed)},
-                        {"skipped", r.skipped.load(relaxed)},
-                        {"errors", r.errors.load(relaxed)}};
+                                {"executor", r.executor},
+                                {"kind", r.kind == RecordKind::Dispatcher ? "dispatcher" : "module"},
+                                {"period_ns", r.period_ns},
+                                {"runs", r.runs.load(relaxed)},
+                                {"jitter_ns", toJson(summarize(r.jitter))},
+                                {"latency_ns", toJson(summarize(r.latency))},
+                                {"exec_ns", toJson(summarize(r.exec))},
+                                {"overruns", r.overruns.load(relaxed)},
+                                {"missed", r.missed.load(relaxed)},
+                                {"skipped", r.skipped.load(relaxed)},
+                                {"errors", r.errors.load(relaxed)}};
     if (r.kind == RecordKind::Dispatcher) j["caught_up"] = r.caught_up.load(relaxed);
     if (r.kind == RecordKind::Module) {
         j["state"] = toString(static_cast<ModuleState>(r.state.load(relaxed)));
@@ -154,10 +155,10 @@ void list(Listed &out, std::size_t i, uint64_t n, bool negative) {
 // A stored value as int64 (UINT64_MAX, an empty histogram's min, becomes INT64_MAX).
 int64_t signedOf(uint64_t v) {
     return v > static_cast<uint64_t>(std::numeric_limits<int64_t>::max()) ? std::numeric_limits<int64_t>::max()
-                                                                         : static_cast<int64_t>(v);
+                                                                          : static_cast<int64_t>(v);
 }
 
-} // namespace
+}  // namespace
 
 // min and max are stored after a sample's bucket, so a live reader may see them lag the buckets by
 // one sample: a min above every listed bucket or a max below them is replaced by the buckets' bound.
@@ -203,4 +204,4 @@ nlohmann::ordered_json histogramsJson(const TimingRecord &r) {
             {"exec_ns", histogramJson(r.exec)}};
 }
 
-} // namespace irp::stats
+}  // namespace irp::stats

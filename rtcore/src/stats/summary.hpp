@@ -38,4 +38,4 @@ nlohmann::ordered_json histogramJson(const SignedHistogram &h);
 // with the three histograms as histogramJson.
 nlohmann::ordered_json histogramsJson(const TimingRecord &r);
 
-} // namespace irp::stats
+}  // namespace irp::stats

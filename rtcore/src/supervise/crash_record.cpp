@@ -63,12 +63,8 @@ struct Writer {
         while ((v >>= 4) && n < 16);
         while (n && used + 1 < size) out[used++] = digits[--n];
     }
-    void field(const char *key, const char *value) {
-        text(key), text("="), text(value), text("\n");
-    }
-    void field(const char *key, uint64_t value) {
-        text(key), text("="), number(value), text("\n");
-    }
+    void field(const char *key, const char *value) { text(key), text("="), text(value), text("\n"); }
+    void field(const char *key, uint64_t value) { text(key), text("="), number(value), text("\n"); }
 };
 
 const char *signalName(int sig) {
@@ -154,7 +150,7 @@ void onCrash(int sig, siginfo_t *info, void *) {
     // Back to the default action, and the signal again: the process dies of it (SA_RESETHAND
     // already restored the default; raised while blocked, it is delivered when this returns, and
     // a fault's instruction faults again).
-    struct sigaction dfl{};
+    struct sigaction dfl {};
     dfl.sa_handler = SIG_DFL;
     sigemptyset(&dfl.sa_mask);
     sigaction(sig, &dfl, nullptr);
@@ -182,7 +178,7 @@ bool writeAtomically(const std::filesystem::path &path, const std::string &text)
     return !ec;
 }
 
-} // namespace
+}  // namespace
 
 std::optional<CrashRecord> parseCrashRecord(const std::string &text) {
     std::istringstream in(text);
@@ -200,19 +196,32 @@ std::optional<CrashRecord> parseCrashRecord(const std::string &text) {
                 return int64_t{0};
             }
         };
-        if (key == "signal") r.signal = static_cast<int>(number());
-        else if (key == "signal_name") r.signal_name = value;
-        else if (key == "time_ns") r.time_ns = number();
-        else if (key == "pid") r.pid = number();
-        else if (key == "tid") r.tid = number();
-        else if (key == "executor") r.executor = value;
-        else if (key == "module") r.module = value;
-        else if (key == "set") r.set = value;
-        else if (key == "set_id") r.set_id = value;
-        else if (key == "generation") r.generation = static_cast<uint64_t>(number());
-        else if (key == "fault_address") r.fault_address = value;
-        else if (key == "sender_pid") r.sender_pid = number();
-        else if (key == "stuck") r.stuck = number() != 0;
+        if (key == "signal")
+            r.signal = static_cast<int>(number());
+        else if (key == "signal_name")
+            r.signal_name = value;
+        else if (key == "time_ns")
+            r.time_ns = number();
+        else if (key == "pid")
+            r.pid = number();
+        else if (key == "tid")
+            r.tid = number();
+        else if (key == "executor")
+            r.executor = value;
+        else if (key == "module")
+            r.module = value;
+        else if (key == "set")
+            r.set = value;
+        else if (key == "set_id")
+            r.set_id = value;
+        else if (key == "generation")
+            r.generation = static_cast<uint64_t>(number());
+        else if (key == "fault_address")
+            r.fault_address = value;
+        else if (key == "sender_pid")
+            r.sender_pid = number();
+        else if (key == "stuck")
+            r.stuck = number() != 0;
     }
     if (!r.signal) return std::nullopt;
     return r;
@@ -267,13 +276,16 @@ Result<std::unique_ptr<CrashState>> CrashState::open(const std::filesystem::path
     chmod(dir.c_str(), 0750);
     s->dir_fd_ = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
     if (s->dir_fd_ < 0 || faccessat(s->dir_fd_, ".", W_OK, AT_EACCESS) != 0)
-        return Error{"state folder " + dir.string() + " is not a writable folder: " + std::strerror(errno) + " (see --state-dir)"};
+        return Error{"state folder " + dir.string() + " is not a writable folder: " + std::strerror(errno) +
+                     " (see --state-dir)"};
 
     const std::filesystem::path record = dir / (instance + ".crash"), last = dir / (instance + ".last-crash");
     if (std::filesystem::exists(record)) {
         s->fresh_ = parseCrashRecord(readText(record));
-        if (s->fresh_) std::filesystem::rename(record, last, ec);
-        else std::filesystem::remove(record, ec);  // torn or foreign: not a record
+        if (s->fresh_)
+            std::filesystem::rename(record, last, ec);
+        else
+            std::filesystem::remove(record, ec);  // torn or foreign: not a record
     }
     s->last_ = parseCrashRecord(readText(last));
     std::istringstream excluded(readText(dir / (instance + ".excluded")));
@@ -362,7 +374,7 @@ Status CrashState::arm() {
     ss.ss_size = sizeof main_stack;
     sigaltstack(&ss, nullptr);
     for (int sig : kCrashSignals) {
-        struct sigaction sa{};
+        struct sigaction sa {};
         sa.sa_sigaction = onCrash;
         sa.sa_flags = SA_SIGINFO | SA_ONSTACK | SA_RESETHAND;
         sigemptyset(&sa.sa_mask);
@@ -387,4 +399,4 @@ void CrashState::disarm() {
     g_handler.dir_fd = -1;
 }
 
-} // namespace irp::supervise
+}  // namespace irp::supervise

@@ -33,9 +33,9 @@ struct CrashRecord {
     std::string set;           // module.xml of the running set
     std::string set_id;
     uint64_t generation = 0;
-    std::string fault_address; // si_addr, "0x..."
-    int64_t sender_pid = -1;   // who sent the signal (kill, abort, systemd), -1: the kernel, for a fault
-    bool stuck = false;        // the watchdog's kill, and `module` is where a stalled dispatcher was stuck
+    std::string fault_address;  // si_addr, "0x..."
+    int64_t sender_pid = -1;    // who sent the signal (kill, abort, systemd), -1: the kernel, for a fault
+    bool stuck = false;         // the watchdog's kill, and `module` is where a stalled dispatcher was stuck
 
     // "fault" (the kernel, for the crashed thread's own instruction), "abort" (irpd raised it
     // itself), "watchdog" (SIGABRT from pid 1: systemd's WatchdogSec), "signal" (another sender).
@@ -98,4 +98,4 @@ private:
 // Parses a record file's text; nullopt if it is not one.
 std::optional<CrashRecord> parseCrashRecord(const std::string &text);
 
-} // namespace irp::supervise
+}  // namespace irp::supervise

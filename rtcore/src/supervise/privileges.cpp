@@ -37,7 +37,7 @@ int threadCount() {
 
 std::string lastError(const std::string &what) { return what + ": " + std::strerror(errno); }
 
-} // namespace
+}  // namespace
 
 Result<Identity> resolveIdentity(const std::string &user, const std::string &group) {
     Identity who;
@@ -68,7 +68,7 @@ Status handOver(const std::filesystem::path &dir, const Identity &who) {
 
 Status prepareFolderFor(const std::filesystem::path &file, const Identity &who) {
     const std::filesystem::path dir = std::filesystem::absolute(file).parent_path();
-    struct stat st{};
+    struct stat st {};
     if (stat(dir.c_str(), &st) != 0) {
         if (Status st = handOver(dir, who); !st) return st;
         chmod(dir.c_str(), 0750);
@@ -107,7 +107,7 @@ Status checkKept(const Identity &who) {
     return Ok{};
 }
 
-} // namespace
+}  // namespace
 
 Status dropPrivileges(const Identity &who) {
     if (geteuid() != 0 && getuid() == who.uid) return checkKept(who);
@@ -138,7 +138,8 @@ Status dropPrivileges(const Identity &who) {
     if (rc != 0) return Error{lastError("cap_set_proc")};
     if (cap_reset_ambient() != 0 && errno != EINVAL) return Error{lastError("cap_reset_ambient")};
     for (cap_value_t c : kKept)
-        if (cap_set_ambient(c, CAP_SET) != 0) return Error{lastError("raising " + std::string(cap_to_name(c)) + " as ambient")};
+        if (cap_set_ambient(c, CAP_SET) != 0)
+            return Error{lastError("raising " + std::string(cap_to_name(c)) + " as ambient")};
     if (prctl(PR_SET_KEEPCAPS, 0, 0, 0, 0) != 0) return Error{lastError("PR_SET_KEEPCAPS")};
     if (prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) != 0) return Error{lastError("PR_SET_NO_NEW_PRIVS")};
     // The switch is complete or irpd does not go on: check what the kernel says now.
@@ -157,4 +158,4 @@ std::string describeCredentials() {
     return line;
 }
 
-} // namespace irp::supervise
+}  // namespace irp::supervise

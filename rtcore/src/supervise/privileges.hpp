@@ -42,4 +42,4 @@ Status dropPrivileges(const Identity &who);
 // "uid 65534 gid 65534, cap_ipc_lock,cap_sys_nice=ep", for the log.
 std::string describeCredentials();
 
-} // namespace irp::supervise
+}  // namespace irp::supervise

@@ -126,4 +126,4 @@ void SystemdNotify::endLongWork(const std::function<std::vector<uint64_t>()> &pr
     }
 }
 
-} // namespace irp::supervise
+}  // namespace irp::supervise

@@ -80,4 +80,4 @@ private:
     bool restore_at_ready_ = false;
 };
 
-} // namespace irp::supervise
+}  // namespace irp::supervise

@@ -5,7 +5,8 @@
 
 namespace irp::trace {
 
-Result<json> handleTraceCommand(TraceRings &rings, const variables::VariableSegment *vars, const nlohmann::json &request) {
+Result<json> handleTraceCommand(TraceRings &rings, const variables::VariableSegment *vars,
+                                const nlohmann::json &request) {
     if (!rings.header()) return Error{"trace rings are not available in this irpd"};
     auto found = request.find("channels");
     if (found == request.end()) return rings.describe();
@@ -18,12 +19,16 @@ Result<json> handleTraceCommand(TraceRings &rings, const variables::VariableSegm
         paths.push_back(list[i].get<std::string>());
     }
     Result<json> answer = Error{""};
-    if (vars) answer = rings.configure(paths, *vars);
-    else if (paths.empty()) answer = rings.clear();
-    else return Error{"the running set has no shared variables (no layout.json): '" + paths.front() + "' cannot be traced"};
+    if (vars)
+        answer = rings.configure(paths, *vars);
+    else if (paths.empty())
+        answer = rings.clear();
+    else
+        return Error{"the running set has no shared variables (no layout.json): '" + paths.front() +
+                     "' cannot be traced"};
     if (!answer) return answer;
     if (!rings.waitApplied(rings.requestedGeneration(), kApplyWaitNs)) return answer;  // "applied": false
     return rings.describe();
 }
 
-} // namespace irp::trace
+}  // namespace irp::trace

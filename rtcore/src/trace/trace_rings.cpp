@@ -29,13 +29,21 @@ constexpr uint64_t roundUp(uint64_t v) { return (v + 63) & ~uint64_t{63}; }
 
 // Atomic access to the plain fields of the C layout (each naturally aligned).
 template <class T>
-T loadAcquire(const T &field) noexcept { return __atomic_load_n(&field, __ATOMIC_ACQUIRE); }
+T loadAcquire(const T &field) noexcept {
+    return __atomic_load_n(&field, __ATOMIC_ACQUIRE);
+}
 template <class T>
-T loadRelaxed(const T &field) noexcept { return __atomic_load_n(&field, __ATOMIC_RELAXED); }
+T loadRelaxed(const T &field) noexcept {
+    return __atomic_load_n(&field, __ATOMIC_RELAXED);
+}
 template <class T>
-void storeRelease(T &field, T v) noexcept { __atomic_store_n(&field, v, __ATOMIC_RELEASE); }
+void storeRelease(T &field, T v) noexcept {
+    __atomic_store_n(&field, v, __ATOMIC_RELEASE);
+}
 template <class T>
-void storeRelaxed(T &field, T v) noexcept { __atomic_store_n(&field, v, __ATOMIC_RELAXED); }
+void storeRelaxed(T &field, T v) noexcept {
+    __atomic_store_n(&field, v, __ATOMIC_RELAXED);
+}
 
 indurop_trace_config *configs(indurop_trace_header *h) {
     return reinterpret_cast<indurop_trace_config *>(reinterpret_cast<char *>(h) + h->configs_offset);
@@ -43,7 +51,8 @@ indurop_trace_config *configs(indurop_trace_header *h) {
 
 // The scalar kinds of a layout ("scalars": {"uint32_t": {"size": 4, "kind": "unsigned"}}) as trace types.
 indurop_trace_type traceType(const std::string &kind, uint64_t size) {
-    if (kind == "float") return size == 4 ? INDUROP_TRACE_FLOAT32 : size == 8 ? INDUROP_TRACE_FLOAT64 : INDUROP_TRACE_NONE;
+    if (kind == "float")
+        return size == 4 ? INDUROP_TRACE_FLOAT32 : size == 8 ? INDUROP_TRACE_FLOAT64 : INDUROP_TRACE_NONE;
     if (kind == "bool") return size == 1 ? INDUROP_TRACE_BOOL : INDUROP_TRACE_NONE;
     const bool sign = kind == "signed";
     if (!sign && kind != "unsigned") return INDUROP_TRACE_NONE;
@@ -56,7 +65,7 @@ indurop_trace_type traceType(const std::string &kind, uint64_t size) {
     }
 }
 
-} // namespace
+}  // namespace
 
 // One channel as the sampler reads it: where the value is, its lock's sequence, what it is.
 struct RtChannel {
@@ -91,8 +100,8 @@ struct TraceRings::Control {
         std::string type;
     };
     mutable std::mutex mutex;
-    uint32_t last_submitted = 0;  // the buffer last written and asked for (0: the initial, empty one)
-    uint64_t next_generation = 3; // 1 and 2 are the initial buffers'
+    uint32_t last_submitted = 0;   // the buffer last written and asked for (0: the initial, empty one)
+    uint64_t next_generation = 3;  // 1 and 2 are the initial buffers'
     uint64_t requested_generation = 1;
     std::vector<Resolved> requested;
     // The layout of the variables segment last resolved against, by hash.
@@ -119,10 +128,11 @@ Result<TraceRings> TraceRings::create(const std::string &instance, uint64_t capa
     const uint64_t total = values_offset + uint64_t{kMaxChannels} * capacity * sizeof(double);
 
     const std::string name = shmName(instance);
-    auto shm = osal::SharedMemory::createForInstance(name, total, instance, [](const osal::SharedMemory &old) -> int64_t {
-        const auto *h = static_cast<const indurop_trace_header *>(old.data());
-        return old.size() >= sizeof *h && h->magic == INDUROP_TRACE_MAGIC ? h->owner_pid : 0;
-    });
+    auto shm =
+        osal::SharedMemory::createForInstance(name, total, instance, [](const osal::SharedMemory &old) -> int64_t {
+            const auto *h = static_cast<const indurop_trace_header *>(old.data());
+            return old.size() >= sizeof *h && h->magic == INDUROP_TRACE_MAGIC ? h->owner_pid : 0;
+        });
     if (!shm) return shm.error();
     // Touch every page now (and lock them where the limit allows): the RT thread must not fault.
     std::memset(shm->data(), 0, total);
@@ -303,8 +313,9 @@ json TraceRings::describe() const {
                 {"basic_period_ns", loadRelaxed(header_->basic_period_ns)},
                 {"generation", c.requested_generation},
                 {"applied", applied},
-                {"from_seq", applied && in_force == c.requested_generation && first != INDUROP_TRACE_NO_SEQ ? json(first)
-                                                                                                         : json(nullptr)},
+                {"from_seq", applied && in_force == c.requested_generation && first != INDUROP_TRACE_NO_SEQ
+                                 ? json(first)
+                                 : json(nullptr)},
                 {"head", loadAcquire(header_->head)},
                 {"torn_skips", loadRelaxed(header_->torn_skips)},
                 {"channels", std::move(channels)}};
@@ -361,7 +372,7 @@ double load(const RtChannel &c) noexcept {
     }
 }
 
-} // namespace
+}  // namespace
 
 /*
  * One row per basic period, on the RT thread:
@@ -408,8 +419,10 @@ void TraceRings::sample(int64_t due_ns) noexcept {
                 break;
             }
         }
-        if (read) c.last = v;
-        else ++s.torn;
+        if (read)
+            c.last = v;
+        else
+            ++s.torn;
         __atomic_store_n(reinterpret_cast<uint64_t *>(&values[i * capacity + index]), std::bit_cast<uint64_t>(v),
                          __ATOMIC_RELAXED);
     }
@@ -420,4 +433,4 @@ void TraceRings::sample(int64_t due_ns) noexcept {
     s.head = seq;
 }
 
-} // namespace irp::trace
+}  // namespace irp::trace

@@ -29,7 +29,7 @@ namespace irp::trace {
 
 using json = nlohmann::ordered_json;
 
-inline constexpr uint64_t kDefaultCapacity = 16384;        // 1.6 s at 100 us
+inline constexpr uint64_t kDefaultCapacity = 16384;  // 1.6 s at 100 us
 inline constexpr uint64_t kMaxCapacity = uint64_t{1} << 20;
 inline constexpr uint32_t kMaxChannels = INDUROP_TRACE_CHANNELS;
 // Seqlock tries per channel and sample before the sampler takes the channel's previous value.
@@ -94,6 +94,7 @@ private:
 // empty list is accepted).  Waits up to kApplyWaitNs for the sampler to take the new channels;
 // "applied" in the answer says whether it did.
 inline constexpr int64_t kApplyWaitNs = 200'000'000;
-Result<json> handleTraceCommand(TraceRings &rings, const variables::VariableSegment *vars, const nlohmann::json &request);
+Result<json> handleTraceCommand(TraceRings &rings, const variables::VariableSegment *vars,
+                                const nlohmann::json &request);
 
-} // namespace irp::trace
+}  // namespace irp::trace

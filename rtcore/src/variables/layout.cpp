@@ -13,8 +13,10 @@ namespace irp::variables {
 Result<Layout> readLayout(const std::filesystem::path &path) {
     const std::string where = path.string() + ": ";
     std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec)) return Error{where + "no such layout file (glbc writes it: glbc FILE.glb -o DIR)"};
-    if (std::filesystem::file_size(path, ec) > kMaxLayoutBytes) return Error{where + "larger than 64 MiB; not a layout"};
+    if (!std::filesystem::is_regular_file(path, ec))
+        return Error{where + "no such layout file (glbc writes it: glbc FILE.glb -o DIR)"};
+    if (std::filesystem::file_size(path, ec) > kMaxLayoutBytes)
+        return Error{where + "larger than 64 MiB; not a layout"};
     std::ifstream in(path, std::ios::binary);
     std::ostringstream buffer;
     buffer << in.rdbuf();
@@ -38,7 +40,8 @@ Result<Layout> readLayout(const std::filesystem::path &path) {
             return Error{where + "\"hash\" is not 64 lower-case hex digits"};
         layout.data_size = j.at("data_size").get<uint64_t>();
         if (layout.data_size % 64 || layout.data_size > kMaxDataSize)
-            return Error{where + "\"data_size\" " + std::to_string(layout.data_size) + " is not a multiple of 64 up to 1 GiB"};
+            return Error{where + "\"data_size\" " + std::to_string(layout.data_size) +
+                         " is not a multiple of 64 up to 1 GiB"};
         layout.lock_count = j.at("lock_count").get<uint32_t>();
         const auto &variables = j.at("variables");
         // lock_count may exceed the variables: a layout laid out against a running one (glbc
@@ -52,9 +55,11 @@ Result<Layout> readLayout(const std::filesystem::path &path) {
             const auto lock = v.at("lock").get<uint64_t>();
             if (offset + size > layout.data_size || offset + size < offset)
                 return Error{where + "variable " + path_name + " lies outside the data area"};
-            if (lock >= layout.lock_count) return Error{where + "variable " + path_name + " names lock " + std::to_string(lock)};
+            if (lock >= layout.lock_count)
+                return Error{where + "variable " + path_name + " names lock " + std::to_string(lock)};
             if (!locks.insert(lock).second)
-                return Error{where + "variable " + path_name + " shares lock " + std::to_string(lock) + " with another variable"};
+                return Error{where + "variable " + path_name + " shares lock " + std::to_string(lock) +
+                             " with another variable"};
         }
         layout.variables = variables.size();
     } catch (const nlohmann::json::exception &e) {
@@ -67,4 +72,4 @@ Result<Layout> readLayout(const std::filesystem::path &path) {
     return layout;
 }
 
-} // namespace irp::variables
+}  // namespace irp::variables

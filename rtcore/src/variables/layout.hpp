@@ -12,12 +12,12 @@ namespace irp::variables {
 
 struct Layout {
     std::filesystem::path path;
-    std::string text;        // the file as written: copied into the segment for path lookups
-    std::string hash;        // 64 hex digits
-    uint64_t data_size = 0;  // bytes, a multiple of 64
-    uint32_t lock_count = 0; // one per top-level variable, and the holes' (glbc --previous)
+    std::string text;         // the file as written: copied into the segment for path lookups
+    std::string hash;         // 64 hex digits
+    uint64_t data_size = 0;   // bytes, a multiple of 64
+    uint32_t lock_count = 0;  // one per top-level variable, and the holes' (glbc --previous)
     std::size_t variables = 0;
-    layouts::Model model;    // the variables' places and the lineage, for online change
+    layouts::Model model;  // the variables' places and the lineage, for online change
 };
 
 inline constexpr uint64_t kMaxDataSize = 1ull << 30;
@@ -27,4 +27,4 @@ inline constexpr std::size_t kMaxLayoutBytes = 64u << 20;
 // area and naming a lock that exists.  Errors name the file and what is wrong.
 Result<Layout> readLayout(const std::filesystem::path &path);
 
-} // namespace irp::variables
+}  // namespace irp::variables

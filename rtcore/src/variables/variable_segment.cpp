@@ -19,14 +19,15 @@ namespace {
 
 constexpr uint64_t roundUp(uint64_t v) { return (v + 63) & ~uint64_t{63}; }
 
-} // namespace
+}  // namespace
 
 std::string VariableSegment::shmName(const std::string &instance) { return "/indurop." + instance + ".vars"; }
 
 Result<VariableSegment> VariableSegment::create(const std::string &instance, const Layout &layout, Room room) {
     if (room.data_bytes > kMaxDataSize) return Error{"--var-headroom: at most 1 GiB"};
     const uint64_t data_capacity = roundUp(layout.data_size + room.data_bytes);
-    const uint32_t lock_capacity = layout.lock_count + static_cast<uint32_t>(std::max<uint64_t>(256, room.data_bytes / 256));
+    const uint32_t lock_capacity =
+        layout.lock_count + static_cast<uint32_t>(std::max<uint64_t>(256, room.data_bytes / 256));
     const uint64_t layout_capacity = roundUp(layout.text.size() + 2 * room.data_bytes);
     const uint64_t locks_offset = roundUp(sizeof(indurop_segment_header));
     const uint64_t layout_offset = roundUp(locks_offset + uint64_t{lock_capacity} * sizeof(indurop_var_lock));
@@ -34,10 +35,11 @@ Result<VariableSegment> VariableSegment::create(const std::string &instance, con
     const uint64_t total = data_offset + data_capacity;
 
     const std::string name = shmName(instance);
-    auto shm = osal::SharedMemory::createForInstance(name, total, instance, [](const osal::SharedMemory &old) -> int64_t {
-        const auto *h = static_cast<const indurop_segment_header *>(old.data());
-        return old.size() >= sizeof *h && h->magic == INDUROP_SEGMENT_MAGIC ? h->owner_pid : 0;
-    });
+    auto shm =
+        osal::SharedMemory::createForInstance(name, total, instance, [](const osal::SharedMemory &old) -> int64_t {
+            const auto *h = static_cast<const indurop_segment_header *>(old.data());
+            return old.size() >= sizeof *h && h->magic == INDUROP_SEGMENT_MAGIC ? h->owner_pid : 0;
+        });
     if (!shm) return shm.error();
 
     auto *base = static_cast<char *>(shm->data());
@@ -86,8 +88,11 @@ Result<VariableSegment> VariableSegment::create(const std::string &instance, con
 std::string VariableSegment::fits(const Layout &next) const {
     const indurop_segment_header *h = header();
     auto why = [&](const std::string &what, uint64_t needs, uint64_t has) {
-        return "the layout " + next.hash.substr(0, 12) + "… needs " + std::to_string(needs) + " " + what + "; the running "
-               "segment has room for " + std::to_string(has) + " (made with irpd's --var-headroom, default 1M, which "
+        return "the layout " + next.hash.substr(0, 12) + "… needs " + std::to_string(needs) + " " + what +
+               "; the running "
+               "segment has room for " +
+               std::to_string(has) +
+               " (made with irpd's --var-headroom, default 1M, which "
                "also sizes the locks and the layout text): restart irpd with a larger --var-headroom, or activate "
                "with a restart (a new segment sized for the set)";
     };
@@ -102,7 +107,8 @@ Status VariableSegment::publish(const Layout &next, const std::vector<std::strin
     auto *base = static_cast<char *>(shm_.data());
     auto *h = reinterpret_cast<indurop_segment_header *>(base);
     for (const std::string &path : fresh)
-        if (const layouts::Variable *v = next.model.self.find(path)) std::memset(base + h->data_offset + v->offset, 0, v->size);
+        if (const layouts::Variable *v = next.model.self.find(path))
+            std::memset(base + h->data_offset + v->offset, 0, v->size);
     const uint64_t first_half = roundUp(h->locks_offset + uint64_t{h->lock_capacity} * sizeof(indurop_var_lock));
     const uint64_t idle = h->layout_offset == first_half ? first_half + h->layout_capacity : first_half;
     std::memcpy(base + idle, next.text.data(), next.text.size());
@@ -127,4 +133,4 @@ VariableSegment::~VariableSegment() {
     if (shm_.data() && shared::segmentHeader() == header()) shared::adopt(nullptr);
 }
 
-} // namespace irp::variables
+}  // namespace irp::variables

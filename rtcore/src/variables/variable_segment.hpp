@@ -65,4 +65,4 @@ private:
     std::shared_ptr<const Layout> layout_;
 };
 
-} // namespace irp::variables
+}  // namespace irp::variables

@@ -43,7 +43,7 @@ Result<json> store(const std::string &path, T value) {
     return json{{"path", path}, {"value", value}};
 }
 
-} // namespace
+}  // namespace
 
 Result<json> writeByPath(const nlohmann::json &layout, const std::string &path, const nlohmann::json &value) {
     if (!layout.contains("leaves") || !layout.contains("scalars")) return Error{"the running layout cannot be read"};
@@ -56,8 +56,9 @@ Result<json> writeByPath(const nlohmann::json &layout, const std::string &path, 
             const std::string p = l.value("path", "");
             if (p.rfind(path, 0) == 0 && hint.size() < 200) hint += (hint.empty() ? "" : ", ") + p;
         }
-        return Error{"no variable '" + path + "' in the running layout" +
-                     (hint.empty() ? std::string("; GET /api/v1/variables lists them") : "; did you mean " + hint + "?")};
+        return Error{
+            "no variable '" + path + "' in the running layout" +
+            (hint.empty() ? std::string("; GET /api/v1/variables lists them") : "; did you mean " + hint + "?")};
     }
     const std::string type = leaf->value("type", "");
     const auto size = leaf->value("size", 0);
@@ -95,4 +96,4 @@ Result<json> writeByPath(const nlohmann::json &layout, const std::string &path, 
     return Error{"'" + path + "' is a " + type + ", which cannot be written from JSON"};
 }
 
-} // namespace irp::variables
+}  // namespace irp::variables

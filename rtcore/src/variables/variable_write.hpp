@@ -16,4 +16,4 @@ namespace irp::variables {
 Result<nlohmann::ordered_json> writeByPath(const nlohmann::json &layout, const std::string &path,
                                            const nlohmann::json &value);
 
-} // namespace irp::variables
+}  // namespace irp::variables

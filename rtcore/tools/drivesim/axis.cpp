@@ -21,8 +21,10 @@ const char *toString(State s) {
     return "?";
 }
 
-Axis::Axis(const AxisParams &params) : params_(params), target_(static_cast<int32_t>(std::lround(params.initial_position))),
-                                       pos_(params.initial_position) {}
+Axis::Axis(const AxisParams &params)
+    : params_(params),
+      target_(static_cast<int32_t>(std::lround(params.initial_position))),
+      pos_(params.initial_position) {}
 
 void Axis::setControlword(uint16_t controlword) {
     if ((controlword & cw::kFaultReset) && !(controlword_ & cw::kFaultReset)) reset_edge_ = true;
@@ -47,7 +49,7 @@ Command decode(uint16_t c) {
     return Command::EnableOperation;
 }
 
-} // namespace
+}  // namespace
 
 void Axis::transition(double /*dt*/) {
     if (fault_pending_ && state_ != State::Fault && state_ != State::FaultReactionActive) {
@@ -66,24 +68,34 @@ void Axis::transition(double /*dt*/) {
         if (c == Command::Shutdown) state_ = State::ReadyToSwitchOn;  // 2
         break;
     case State::ReadyToSwitchOn:
-        if (c == Command::SwitchOn || c == Command::EnableOperation) state_ = State::SwitchedOn;  // 3 (then 4)
-        else if (c == Command::DisableVoltage || c == Command::QuickStop) state_ = State::SwitchOnDisabled;  // 7
+        if (c == Command::SwitchOn || c == Command::EnableOperation)
+            state_ = State::SwitchedOn;  // 3 (then 4)
+        else if (c == Command::DisableVoltage || c == Command::QuickStop)
+            state_ = State::SwitchOnDisabled;  // 7
         break;
     case State::SwitchedOn:
         if (c == Command::EnableOperation) {
             state_ = State::OperationEnabled;  // 4
-        } else if (c == Command::Shutdown) state_ = State::ReadyToSwitchOn;  // 6
-        else if (c == Command::DisableVoltage || c == Command::QuickStop) state_ = State::SwitchOnDisabled;  // 10
+        } else if (c == Command::Shutdown)
+            state_ = State::ReadyToSwitchOn;  // 6
+        else if (c == Command::DisableVoltage || c == Command::QuickStop)
+            state_ = State::SwitchOnDisabled;  // 10
         break;
     case State::OperationEnabled:
-        if (c == Command::SwitchOn) state_ = State::SwitchedOn;  // 5
-        else if (c == Command::Shutdown) state_ = State::ReadyToSwitchOn;  // 8
-        else if (c == Command::DisableVoltage) state_ = State::SwitchOnDisabled;  // 9
-        else if (c == Command::QuickStop) state_ = State::QuickStopActive;  // 11
+        if (c == Command::SwitchOn)
+            state_ = State::SwitchedOn;  // 5
+        else if (c == Command::Shutdown)
+            state_ = State::ReadyToSwitchOn;  // 8
+        else if (c == Command::DisableVoltage)
+            state_ = State::SwitchOnDisabled;  // 9
+        else if (c == Command::QuickStop)
+            state_ = State::QuickStopActive;  // 11
         break;
     case State::QuickStopActive:  // quick stop option code 6: brake, then stay here
-        if (c == Command::DisableVoltage) state_ = State::SwitchOnDisabled;  // 12
-        else if (c == Command::EnableOperation && vel_ == 0) state_ = State::OperationEnabled;  // 16
+        if (c == Command::DisableVoltage)
+            state_ = State::SwitchOnDisabled;  // 12
+        else if (c == Command::EnableOperation && vel_ == 0)
+            state_ = State::OperationEnabled;  // 16
         break;
     case State::FaultReactionActive:
         if (vel_ == 0) state_ = State::Fault;  // 14: braked to standstill
@@ -100,8 +112,10 @@ void Axis::transition(double /*dt*/) {
 
 void Axis::brake(double dt) {
     const double dv = params_.max_acceleration * dt;
-    if (std::abs(vel_) <= dv) vel_ = 0;
-    else vel_ -= std::copysign(dv, vel_);
+    if (std::abs(vel_) <= dv)
+        vel_ = 0;
+    else
+        vel_ -= std::copysign(dv, vel_);
     pos_ += vel_ * dt;
 }
 
@@ -124,8 +138,10 @@ void Axis::move(double dt) {
 
 void Axis::step(double dt) {
     transition(dt);
-    if (state_ == State::OperationEnabled && mode_ == kModeCsp) move(dt);
-    else brake(dt);
+    if (state_ == State::OperationEnabled && mode_ == kModeCsp)
+        move(dt);
+    else
+        brake(dt);
 }
 
 uint16_t Axis::statusword() const {
@@ -139,8 +155,12 @@ uint16_t Axis::statusword() const {
         s |= sw::kQuickStop | sw::kVoltageEnabled | sw::kReadyToSwitchOn | sw::kSwitchedOn | sw::kOperationEnabled;
         if (mode_ == kModeCsp) s |= sw::kFollowsTarget;
         break;
-    case State::QuickStopActive: s |= sw::kVoltageEnabled | sw::kReadyToSwitchOn | sw::kSwitchedOn | sw::kOperationEnabled; break;
-    case State::FaultReactionActive: s |= sw::kReadyToSwitchOn | sw::kSwitchedOn | sw::kOperationEnabled | sw::kFault; break;
+    case State::QuickStopActive:
+        s |= sw::kVoltageEnabled | sw::kReadyToSwitchOn | sw::kSwitchedOn | sw::kOperationEnabled;
+        break;
+    case State::FaultReactionActive:
+        s |= sw::kReadyToSwitchOn | sw::kSwitchedOn | sw::kOperationEnabled | sw::kFault;
+        break;
     case State::Fault: s |= sw::kFault; break;
     }
     if (state_ == State::OperationEnabled && std::abs(static_cast<double>(target_) - pos_) <= params_.target_window &&
@@ -151,12 +171,10 @@ uint16_t Axis::statusword() const {
 }
 
 namespace {
-int32_t saturate(double v) {
-    return static_cast<int32_t>(std::clamp(std::round(v), -2147483648.0, 2147483647.0));
-}
-} // namespace
+int32_t saturate(double v) { return static_cast<int32_t>(std::clamp(std::round(v), -2147483648.0, 2147483647.0)); }
+}  // namespace
 
 int32_t Axis::position() const { return saturate(pos_); }
 int32_t Axis::velocity() const { return saturate(vel_); }
 
-} // namespace irp::drivesim
+}  // namespace irp::drivesim

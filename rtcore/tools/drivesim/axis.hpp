@@ -25,7 +25,7 @@ inline constexpr uint16_t kSwitchOnCmd = 0x0007;
 inline constexpr uint16_t kEnableOperationCmd = 0x000F;
 inline constexpr uint16_t kDisableVoltage = 0x0000;
 inline constexpr uint16_t kQuickStopCmd = 0x0002;
-} // namespace cw
+}  // namespace cw
 
 // Statusword bits; the state is statusword & 0x6F (0x4F for switch on disabled).
 namespace sw {
@@ -38,13 +38,13 @@ inline constexpr uint16_t kQuickStop = 0x0020;  // 1: no quick stop in progress
 inline constexpr uint16_t kSwitchOnDisabled = 0x0040;
 inline constexpr uint16_t kRemote = 0x0200;
 inline constexpr uint16_t kTargetReached = 0x0400;
-inline constexpr uint16_t kFollowsTarget = 0x1000;    // CSP: the drive follows the target
+inline constexpr uint16_t kFollowsTarget = 0x1000;  // CSP: the drive follows the target
 inline constexpr uint16_t kFollowingError = 0x2000;
-} // namespace sw
+}  // namespace sw
 
 // Error codes (CiA 402 / CiA 301 emergency codes).
-inline constexpr uint16_t kErrorFollowing = 0x8611;  // following error
-inline constexpr uint16_t kErrorInjected = 0xFF00;   // raised through the fault-injection register
+inline constexpr uint16_t kErrorFollowing = 0x8611;    // following error
+inline constexpr uint16_t kErrorInjected = 0xFF00;     // raised through the fault-injection register
 inline constexpr uint16_t kErrorCommTimeout = 0x8130;  // the master went silent (life guard / heartbeat error)
 
 inline constexpr int8_t kModeCsp = 8;
@@ -62,12 +62,12 @@ enum class State : uint8_t {
 const char *toString(State s);
 
 struct AxisParams {
-    double max_velocity = 600000;        // counts/s
-    double max_acceleration = 5000000;   // counts/s^2 (also the quick-stop and disable deceleration)
-    double lag_s = 0.004;                // time constant of the position loop (first-order lag)
-    double following_limit = 10000;      // counts: |target - actual| above this in CSP -> fault 0x8611
-    double target_window = 50;           // counts: statusword bit 10 "target reached" within this
-    double initial_position = 0;         // counts
+    double max_velocity = 600000;       // counts/s
+    double max_acceleration = 5000000;  // counts/s^2 (also the quick-stop and disable deceleration)
+    double lag_s = 0.004;               // time constant of the position loop (first-order lag)
+    double following_limit = 10000;     // counts: |target - actual| above this in CSP -> fault 0x8611
+    double target_window = 50;          // counts: statusword bit 10 "target reached" within this
+    double initial_position = 0;        // counts
 };
 
 class Axis {
@@ -88,8 +88,8 @@ public:
     uint16_t statusword() const;
     uint16_t errorCode() const { return error_; }
     int8_t modeDisplay() const { return mode_; }
-    int32_t position() const;                 // counts, rounded
-    int32_t velocity() const;                 // counts/s, rounded
+    int32_t position() const;  // counts, rounded
+    int32_t velocity() const;  // counts/s, rounded
     double exactPosition() const { return pos_; }
     double followingError() const { return target_ - pos_; }  // counts (meaningful in CSP)
     State state() const { return state_; }
@@ -115,4 +115,4 @@ private:
     uint16_t pending_error_ = 0;
 };
 
-} // namespace irp::drivesim
+}  // namespace irp::drivesim

@@ -54,10 +54,10 @@ struct Options {
     std::vector<double> max_acceleration{60.0};  // rad/s^2
     std::vector<double> initial{0.0};            // rad
     double lag_s = 0.004;
-    double following_limit = 0.1;                // rad
-    double fail_after = -1;                      // s, < 0: never
-    double fail_for = -1;                        // s, < 0: for ever
-    double comm_timeout_ms = 100;                // 0: no comm watchdog
+    double following_limit = 0.1;  // rad
+    double fail_after = -1;        // s, < 0: never
+    double fail_for = -1;          // s, < 0: for ever
+    double comm_timeout_ms = 100;  // 0: no comm watchdog
     bool quiet = false;
 };
 
@@ -107,7 +107,22 @@ std::vector<double> numbers(const char *option, const char *text) {
 }
 
 Options parse(int argc, char **argv) {
-    enum { kHost = 1, kPort, kAxes, kCpr, kVmax, kAmax, kInitial, kLag, kFollowing, kFailAfter, kFailFor, kCommTimeout, kQuiet, kHelp };
+    enum {
+        kHost = 1,
+        kPort,
+        kAxes,
+        kCpr,
+        kVmax,
+        kAmax,
+        kInitial,
+        kLag,
+        kFollowing,
+        kFailAfter,
+        kFailFor,
+        kCommTimeout,
+        kQuiet,
+        kHelp
+    };
     static const option longs[] = {{"host", required_argument, nullptr, kHost},
                                    {"port", required_argument, nullptr, kPort},
                                    {"axes", required_argument, nullptr, kAxes},
@@ -238,7 +253,8 @@ public:
     // deceleration in fault reaction) and ends in fault until a fault reset.
     void commTimeout(double silent_ms) {
         for (Axis &a : axes_) a.injectFault(kErrorCommTimeout);
-        std::printf("comm timeout: no write for %.1f ms: every axis quick-stops and faults (error 0x8130)\n", silent_ms);
+        std::printf("comm timeout: no write for %.1f ms: every axis quick-stops and faults (error 0x8130)\n",
+                    silent_ms);
     }
 
     void step() {
@@ -257,10 +273,10 @@ public:
 
 private:
     static const char *errorText(uint16_t code) {
-        return code == kErrorFollowing ? " (error 0x8611: following error)"
-             : code == kErrorInjected  ? " (error 0xFF00: injected fault)"
-             : code == kErrorCommTimeout ? " (error 0x8130: comm timeout)"
-                                       : " (error)";
+        return code == kErrorFollowing     ? " (error 0x8611: following error)"
+               : code == kErrorInjected    ? " (error 0xFF00: injected fault)"
+               : code == kErrorCommTimeout ? " (error 0x8130: comm timeout)"
+                                           : " (error)";
     }
 
     void publish() {
@@ -285,13 +301,13 @@ private:
     uint32_t sim_ms_ = 0;
 };
 
-} // namespace
+}  // namespace
 
 int main(int argc, char **argv) {
     const Options o = parse(argc, argv);
     setvbuf(stdout, nullptr, _IOLBF, 0);
 
-    struct sigaction sa{};
+    struct sigaction sa {};
     sa.sa_handler = onSignal;
     sigemptyset(&sa.sa_mask);
     sigaction(SIGTERM, &sa, nullptr);  // no SA_RESTART: select() returns EINTR
@@ -306,7 +322,8 @@ int main(int argc, char **argv) {
 
     const int server = modbus_tcp_listen(ctx, 16);
     if (server < 0) {
-        std::fprintf(stderr, "indurop-drivesim: cannot listen on %s:%d: %s\n", o.host.c_str(), o.port, modbus_strerror(errno));
+        std::fprintf(stderr, "indurop-drivesim: cannot listen on %s:%d: %s\n", o.host.c_str(), o.port,
+                     modbus_strerror(errno));
         modbus_mapping_free(map);
         modbus_free(ctx);
         return 1;
@@ -349,11 +366,13 @@ int main(int argc, char **argv) {
         if (now >= next_tick) next_tick = now + 1'000'000;  // more than 100 ms behind: skip, do not race
 
         const double elapsed = static_cast<double>(now - start) * 1e-9;
-        const bool fail_now = o.fail_after >= 0 && elapsed >= o.fail_after && !(o.fail_for >= 0 && elapsed >= o.fail_after + o.fail_for);
+        const bool fail_now =
+            o.fail_after >= 0 && elapsed >= o.fail_after && !(o.fail_for >= 0 && elapsed >= o.fail_after + o.fail_for);
         if (fail_now != failing) {
             failing = fail_now;
             armed = false;  // a simulated dead drive has no watchdog running
-            if (!o.quiet) std::printf("%s\n", failing ? "fail-after: no longer answering" : "fail-for: answering again");
+            if (!o.quiet)
+                std::printf("%s\n", failing ? "fail-after: no longer answering" : "fail-for: answering again");
         }
 
         fd_set ready;
@@ -389,7 +408,9 @@ int main(int argc, char **argv) {
                     close(fd);  // select() cannot watch it
                 } else {
                     clients.push_back(fd);
-                    if (!o.quiet) std::printf("client %d connected from %s:%d\n", fd, inet_ntoa(peer.sin_addr), ntohs(peer.sin_port));
+                    if (!o.quiet)
+                        std::printf("client %d connected from %s:%d\n", fd, inet_ntoa(peer.sin_addr),
+                                    ntohs(peer.sin_port));
                 }
             }
         }

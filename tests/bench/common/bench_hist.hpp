@@ -49,8 +49,9 @@ struct Histogram {
 
     // Prints the text form on `out`, flushed line by line (a pipe is block-buffered).
     void print(std::FILE *out, const char *label) const {
-        std::fprintf(out, "@hist %s count=%llu sum=%llu min=%llu max=%llu sub_bucket_bits=%d max_exponent=%d "
-                          "bucket_count=%zu\n",
+        std::fprintf(out,
+                     "@hist %s count=%llu sum=%llu min=%llu max=%llu sub_bucket_bits=%d max_exponent=%d "
+                     "bucket_count=%zu\n",
                      label, static_cast<unsigned long long>(count), static_cast<unsigned long long>(sum),
                      static_cast<unsigned long long>(count ? min : 0), static_cast<unsigned long long>(max),
                      kSubBucketBits, kMaxExponent, kBuckets);
@@ -76,4 +77,4 @@ struct Histogram {
 // runs mlockall'd; a process module is told to do the same, docs/process-modules.md).
 inline bool lockMemory() noexcept { return mlockall(MCL_CURRENT | MCL_FUTURE) == 0; }
 
-} // namespace bench
+}  // namespace bench

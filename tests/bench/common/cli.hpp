@@ -22,4 +22,4 @@ inline int64_t number(const char *program, const char *option, const char *text,
     return v;
 }
 
-} // namespace bench
+}  // namespace bench

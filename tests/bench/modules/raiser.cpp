@@ -22,7 +22,7 @@ void onRun() {
     sporadic::raised_ns = bench::nowNs();
     sporadic::seq = sporadic::seq + 1;  // single writer: a load and a release store
 }
-} // namespace
+}  // namespace
 
 INDUROP_MODULE(name = "raiser", description = "benchmark: raises the sporadic event every n-th basic period",
                initialize = &::onInit, run = &::onRun)

@@ -11,9 +11,9 @@
 
 namespace {
 bench::Histogram g_reaction;
-uint64_t g_seen = 0;                              // the last seq handled
-uint64_t g_same = 0, g_next = 0, g_later = 0;     // basic period of the reaction vs the raise
-uint64_t g_lost = 0;                              // raises never handled (seq moved by more than 1)
+uint64_t g_seen = 0;                           // the last seq handled
+uint64_t g_same = 0, g_next = 0, g_later = 0;  // basic period of the reaction vs the raise
+uint64_t g_lost = 0;                           // raises never handled (seq moved by more than 1)
 
 void onStart() { g_seen = sporadic::seq; }
 
@@ -38,7 +38,7 @@ void onStop() {
                 static_cast<unsigned long long>(g_later), static_cast<unsigned long long>(g_lost));
     std::fflush(stdout);
 }
-} // namespace
+}  // namespace
 
 INDUROP_MODULE(name = "reactor", description = "benchmark: sporadic thread, measures its reaction time",
                start = &::onStart, run = &::onRun, stop = &::onStop, condition = &::onCondition)

@@ -17,7 +17,7 @@ void note(const std::string &line) {
         std::fclose(f);
     }
 }
-} // namespace
+}  // namespace
 
 extern "C" void initialize(irp::Property const &p) { journal = p.get("journal", std::string_view("/dev/null")); }
 void start() { note("start v" + std::to_string(COUNTER_VERSION)); }

@@ -54,9 +54,9 @@ INDUROP_MODULE(run = &::onRun)
 // A descriptor from a future SDK.
 namespace {
 void onRun() {}
-indurop_module_v1 table = {99, sizeof(indurop_module_v1), "future", nullptr, nullptr, nullptr,
-                           nullptr, nullptr, &onRun, nullptr, nullptr};
-} // namespace
+indurop_module_v1 table = {
+    99, sizeof(indurop_module_v1), "future", nullptr, nullptr, nullptr, nullptr, nullptr, &onRun, nullptr, nullptr};
+}  // namespace
 extern "C" __attribute__((visibility("default"))) const indurop_module_v1 *indurop_module_v1_descriptor(void) {
     return &table;
 }

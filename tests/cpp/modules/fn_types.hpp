@@ -6,13 +6,13 @@
 
 namespace fn_types {
 
-struct Pair {      // padding after `a`: the packed bytes are the struct's, padding included
+struct Pair {  // padding after `a`: the packed bytes are the struct's, padding included
     int32_t a;
     double b;
 };
 
-struct Big {       // 300 bytes: more than a call from a process carries
+struct Big {  // 300 bytes: more than a call from a process carries
     char bytes[300];
 };
 
-} // namespace fn_types
+}  // namespace fn_types

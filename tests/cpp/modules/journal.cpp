@@ -18,7 +18,7 @@ Raw g_entries[kCapacity];
 std::atomic<std::size_t> g_count{0};
 std::atomic<int> g_flag{0};
 
-} // namespace
+}  // namespace
 
 void add(const char *who, const char *what, uint64_t cycle) noexcept {
     std::size_t i = g_count.fetch_add(1);
@@ -45,4 +45,4 @@ void clear() {
     g_flag = 0;
 }
 
-} // namespace journal
+}  // namespace journal

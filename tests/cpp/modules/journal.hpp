@@ -11,8 +11,8 @@ namespace journal {
 
 struct Entry {
     std::string who;
-    std::string what;   // "initialize", "start", "run", "stop", ...
-    uint64_t cycle;     // irp::cycle().count for runs
+    std::string what;  // "initialize", "start", "run", "stop", ...
+    uint64_t cycle;    // irp::cycle().count for runs
 };
 
 void add(const char *who, const char *what, uint64_t cycle = 0) noexcept;
@@ -22,4 +22,4 @@ int flag() noexcept;
 std::vector<Entry> entries();
 void clear();
 
-} // namespace journal
+}  // namespace journal

@@ -33,7 +33,7 @@ long long nowNs() {
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return static_cast<long long>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
 }
-} // namespace
+}  // namespace
 
 extern "C" void initialize(irp::Property const &p) {
     journal = p.get("journal", std::string_view("/dev/null"));
@@ -48,11 +48,10 @@ void run() {
     running.store(n);
     const long long begun = nowNs();
     const long long until = begun + (hang_ms > 0 ? hang_ms : 10'000) * 1'000'000;
-    while (nowNs() < until && !(hang_ms == 0 && safe.load())) {
-    }
+    while (nowNs() < until && !(hang_ms == 0 && safe.load())) {}
     running.store(0);
-    note("run " + std::to_string(n) + " overran " + std::to_string((nowNs() - begun) / 1'000'000) + " ms (spin began at " +
-         std::to_string(begun) + " ns)");
+    note("run " + std::to_string(n) + " overran " + std::to_string((nowNs() - begun) / 1'000'000) +
+         " ms (spin began at " + std::to_string(begun) + " ns)");
 }
 extern "C" void safe_outputs() {
     const long during = running.load();

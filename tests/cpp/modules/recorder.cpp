@@ -17,7 +17,7 @@ void spin() {
     do clock_gettime(CLOCK_MONOTONIC, &b);
     while ((b.tv_sec - a.tv_sec) * 1'000'000'000 + (b.tv_nsec - a.tv_nsec) < busy_ns);
 }
-} // namespace
+}  // namespace
 
 #ifdef RECORDER_DESCRIPTOR
 bool onInitialize(irp::Property const &p) {

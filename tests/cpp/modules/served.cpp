@@ -19,7 +19,7 @@
 
 namespace {
 [[maybe_unused]] unsigned long long cycleNow() { return static_cast<unsigned long long>(irp::cycle().count); }
-} // namespace
+}  // namespace
 
 #if defined(FN_OWNER)
 #ifndef FN_FACTOR

@@ -11,7 +11,7 @@
 namespace {
 std::string trigger;
 bool fired() { return !trigger.empty() && access(trigger.c_str(), F_OK) == 0; }
-} // namespace
+}  // namespace
 
 extern "C" void initialize(irp::Property const &p) { trigger = p.get("trigger"); }
 

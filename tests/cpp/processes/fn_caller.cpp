@@ -56,7 +56,7 @@ int sporadic() {
     return 0;
 }
 
-} // namespace
+}  // namespace
 
 // --loop: calls math.scale(4.0) every 20 ms and prints "scale=<value>" (test_online_change: the
 // owner replaced online, the calls go on to its new code).
@@ -64,8 +64,10 @@ int loop() {
     irp::SharedFunction<double(double)> scale("math.scale");
     for (int i = 0; i < 100000; ++i) {
         double y = 0;
-        if (scale(&y, 2'000 * kMs, 4.0) == 0) std::printf("scale=%g\n", y);
-        else std::printf("scale failed: %s\n", irp::lastCallError());
+        if (scale(&y, 2'000 * kMs, 4.0) == 0)
+            std::printf("scale=%g\n", y);
+        else
+            std::printf("scale failed: %s\n", irp::lastCallError());
         std::fflush(stdout);
         timespec pause{0, 20 * kMs};
         nanosleep(&pause, nullptr);

@@ -31,13 +31,20 @@ int main(int argc, char *argv[]) {
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         auto next = [&]() -> long { return i + 1 < argc ? std::atol(argv[++i]) : 0; };
-        if (a == "--env" && i + 1 < argc) env.push_back(argv[++i]);
-        else if (a == "--no-init") init = false;
-        else if (a == "--exit-now") return static_cast<int>(next());
-        else if (a == "--crash-at") crash_at = next();
-        else if (a == "--exit-at") exit_at = next(), exit_status = next();
-        else if (a == "--hang-at") hang_at = next();
-        else if (a == "--flood-at") flood_at = next(), flood_lines = next();
+        if (a == "--env" && i + 1 < argc)
+            env.push_back(argv[++i]);
+        else if (a == "--no-init")
+            init = false;
+        else if (a == "--exit-now")
+            return static_cast<int>(next());
+        else if (a == "--crash-at")
+            crash_at = next();
+        else if (a == "--exit-at")
+            exit_at = next(), exit_status = next();
+        else if (a == "--hang-at")
+            hang_at = next();
+        else if (a == "--flood-at")
+            flood_at = next(), flood_lines = next();
     }
     for (const std::string &name : env) {
         const char *value = std::getenv(name.c_str());
@@ -50,7 +57,10 @@ int main(int argc, char *argv[]) {
     sched_param param{};
     sched_getparam(0, &param);
     const int policy = sched_getscheduler(0);
-    std::printf("sched=%s prio=%d\n", policy == SCHED_FIFO ? "FIFO" : policy == SCHED_OTHER ? "OTHER" : "other",
+    std::printf("sched=%s prio=%d\n",
+                policy == SCHED_FIFO    ? "FIFO"
+                : policy == SCHED_OTHER ? "OTHER"
+                                        : "other",
                 param.sched_priority);
     cpu_set_t cpus;
     if (sched_getaffinity(0, sizeof cpus, &cpus) == 0) {
@@ -62,7 +72,8 @@ int main(int argc, char *argv[]) {
     if (DIR *d = opendir("/proc/self/fd")) {
         std::string fds;
         while (dirent *e = readdir(d))
-            if (e->d_name[0] != '.' && std::atoi(e->d_name) != dirfd(d)) fds += (fds.empty() ? "" : ",") + std::string(e->d_name);
+            if (e->d_name[0] != '.' && std::atoi(e->d_name) != dirfd(d))
+                fds += (fds.empty() ? "" : ",") + std::string(e->d_name);
         closedir(d);
         std::printf("fds=%s\n", fds.c_str());
     }

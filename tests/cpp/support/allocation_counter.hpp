@@ -31,7 +31,7 @@ public:
 private:
     long start_;
 };
-} // namespace testing_support
+}  // namespace testing_support
 
 extern "C" {
 void *malloc(size_t n) noexcept { return testing_support::countAllocation(), __libc_malloc(n); }

@@ -28,7 +28,9 @@ public:
     }
     ~Client() { close(fd_); }
     bool connected() const { return connected_; }
-    void sendRaw(const std::string &bytes) { ASSERT_EQ(::write(fd_, bytes.data(), bytes.size()), static_cast<ssize_t>(bytes.size())); }
+    void sendRaw(const std::string &bytes) {
+        ASSERT_EQ(::write(fd_, bytes.data(), bytes.size()), static_cast<ssize_t>(bytes.size()));
+    }
     // The next line, or "" at end of stream / timeout.
     std::string readLine() {
         for (;;) {
@@ -55,5 +57,4 @@ private:
     std::string buffer_;
 };
 
-
-} // namespace testing_support
+}  // namespace testing_support

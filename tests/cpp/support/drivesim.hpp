@@ -83,7 +83,8 @@ public:
         if (modbus_connect(ctx_) != 0) {
             const std::string why = modbus_strerror(errno);
             modbus_free(ctx_);
-            throw std::runtime_error("cannot connect to the drive simulator on port " + std::to_string(port) + ": " + why);
+            throw std::runtime_error("cannot connect to the drive simulator on port " + std::to_string(port) + ": " +
+                                     why);
         }
     }
     ~ModbusClient() {
@@ -108,7 +109,8 @@ public:
         return r;
     }
     void write(int address, std::vector<uint16_t> values) {
-        if (modbus_write_registers(ctx_, address, static_cast<int>(values.size()), values.data()) != static_cast<int>(values.size()))
+        if (modbus_write_registers(ctx_, address, static_cast<int>(values.size()), values.data()) !=
+            static_cast<int>(values.size()))
             throw std::runtime_error(std::string("write holding registers: ") + modbus_strerror(errno));
     }
     uint16_t input1(int address) { return input(address, 1)[0]; }
@@ -140,4 +142,4 @@ bool eventually(Fn done, std::chrono::milliseconds limit = std::chrono::seconds(
     return done();
 }
 
-} // namespace testing_support
+}  // namespace testing_support

@@ -17,4 +17,4 @@ inline std::string uniqueInstance() {
     return "test-" + std::to_string(getpid()) + "-" + std::to_string(n++);
 }
 
-} // namespace testing_support
+}  // namespace testing_support

@@ -59,7 +59,7 @@ struct Module {
 };
 
 inline Module periodic(const std::string &stem = "cntr1", const std::string &period = "100000",
-                const std::string &priority = "1") {
+                       const std::string &priority = "1") {
     Module m;
     m.set("filename", "./" + stem + ".so")
         .set("moduletype", "thread")
@@ -91,8 +91,7 @@ inline std::string xmlOf(const std::string &raw) { return raw; }
 // A whole document: the declaration on line 1, <root> on line 2, then the parts, then </root>.
 template <class... Parts>
 inline std::string document(const Parts &...parts) {
-    return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<root>\n" + (std::string() + ... + xmlOf(parts)) +
-           "</root>\n";
+    return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<root>\n" + (std::string() + ... + xmlOf(parts)) + "</root>\n";
 }
 
 // 1-based line of the n-th (0-based) occurrence of needle in text; 0 when absent.
@@ -104,8 +103,9 @@ inline int lineOf(const std::string &text, std::string_view needle, int nth = 0)
 }
 
 // The text must be refused with one line that starts with "<path>:<line>: " and holds every piece.
-inline ::testing::AssertionResult refusedAt(const std::string &text, int line, std::initializer_list<std::string_view> pieces,
-                                     const std::string &path = kFakePath) {
+inline ::testing::AssertionResult refusedAt(const std::string &text, int line,
+                                            std::initializer_list<std::string_view> pieces,
+                                            const std::string &path = kFakePath) {
     if (line <= 0) return ::testing::AssertionFailure() << "bad test: the expected line is " << line;
     auto parsed = parseModuleXmlText(text, path);
     if (parsed.ok())
@@ -135,4 +135,4 @@ inline const ModuleSpec *find(const SetSpec &set, const std::string &name) {
     return nullptr;
 }
 
-} // namespace module_xml_text
+}  // namespace module_xml_text

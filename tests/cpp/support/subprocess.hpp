@@ -112,4 +112,4 @@ private:
     std::filesystem::path out_, err_;
 };
 
-} // namespace testing_support
+}  // namespace testing_support

@@ -1,6 +1,7 @@
 """agent_helpers.py -- plain helpers of the agent's tests (fixtures are in conftest.py): paths,
 the in-process agent's handle, ELF patching, module.xml text, and upload bodies written byte by
 byte so that a test controls every name it sends."""
+
 from __future__ import annotations
 
 import io
@@ -19,8 +20,7 @@ import httpx
 from fastapi.testclient import TestClient
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from live_processes import (API, BUILD, FIG1, IRPD, ROOT, copy_cell, free_port, output, start_agent, start_irpd,  # noqa: E402,F401
-                            stop)
+from live_processes import API, BUILD, FIG1, IRPD, ROOT, copy_cell, free_port, output, start_agent, start_irpd, stop  # noqa: E402,F401
 
 
 @dataclass
@@ -34,8 +34,9 @@ class Agent:
 
     def stored(self) -> list[str]:
         """Everything the store holds (blobs, sets, uploads in progress), as relative paths."""
-        return sorted(str(p.relative_to(self.data)) for d in ("blobs/sha256", "sets", "tmp")
-                      for p in (self.data / d).rglob("*"))
+        return sorted(
+            str(p.relative_to(self.data)) for d in ("blobs/sha256", "sets", "tmp") for p in (self.data / d).rglob("*")
+        )
 
     def audit(self) -> list[dict]:
         path = self.data / "audit.jsonl"
@@ -46,15 +47,15 @@ class Agent:
 class Elves:
     """Real ELF files built by gcc for the tests."""
 
-    module: bytes        # a thread module: ELF64 x86-64 ET_DYN defining run()
-    descriptor: bytes    # a thread module that defines only indurop_module_v1_descriptor
-    library: bytes       # a shared object defining neither
-    pie: bytes           # an executable (PIE: ET_DYN with PT_INTERP)
-    exec_: bytes         # an executable (ET_EXEC, -no-pie)
+    module: bytes  # a thread module: ELF64 x86-64 ET_DYN defining run()
+    descriptor: bytes  # a thread module that defines only indurop_module_v1_descriptor
+    library: bytes  # a shared object defining neither
+    pie: bytes  # an executable (PIE: ET_DYN with PT_INTERP)
+    exec_: bytes  # an executable (ET_EXEC, -no-pie)
 
 
 def patched(elf: bytes, offset: int, value: bytes) -> bytes:
-    return elf[:offset] + value + elf[offset + len(value):]
+    return elf[:offset] + value + elf[offset + len(value) :]
 
 
 def wrong_machine(elf: bytes, machine: int) -> bytes:
@@ -65,26 +66,34 @@ def wrong_machine(elf: bytes, machine: int) -> bytes:
 # ---- sets and upload bodies ---------------------------------------------------------------------
 def module_xml(*modules: tuple[str, str], extra: str = "") -> bytes:
     """module.xml text naming (filename, moduletype) modules, each periodic at 1 ms."""
-    body = "".join(f"""  <module>
+    body = "".join(
+        f"""  <module>
     <filename>{filename}</filename>
     <moduletype>{kind}</moduletype>
     <operationtype>periodic</operationtype>
     <period>1000000</period>
     <priority>{i}</priority>
   </module>
-""" for i, (filename, kind) in enumerate(modules, 1))
+"""
+        for i, (filename, kind) in enumerate(modules, 1)
+    )
     return f'<?xml version="1.0" encoding="UTF-8"?>\n<root>\n{body}{extra}</root>\n'.encode()
 
 
 def small_set(elves: Elves) -> dict[str, bytes]:
     """A set of one thread module, one process module, a layout and a note."""
-    return {"module.xml": module_xml(("./lib/ctl.so", "thread"), ("./proc.exe", "process")),
-            "lib/ctl.so": elves.module, "proc.exe": elves.pie, "layout.json": b'{"leaves": []}',
-            "README.md": b"# a test set\n"}
+    return {
+        "module.xml": module_xml(("./lib/ctl.so", "thread"), ("./proc.exe", "process")),
+        "lib/ctl.so": elves.module,
+        "proc.exe": elves.pie,
+        "layout.json": b'{"leaves": []}',
+        "README.md": b"# a test set\n",
+    }
 
 
-def multipart(parts: list[tuple[str, str | bytes | None, bytes]],
-              boundary: str = "indurop-test-boundary") -> tuple[bytes, str]:
+def multipart(
+    parts: list[tuple[str, str | bytes | None, bytes]], boundary: str = "indurop-test-boundary"
+) -> tuple[bytes, str]:
     """A multipart/form-data body written byte by byte: (field name, filename or None, content).
     Names go out exactly as given (bytes: as they are), as a hostile client would send them."""
     out = io.BytesIO()

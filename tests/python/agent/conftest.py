@@ -8,13 +8,11 @@ import subprocess
 import sys
 
 import pytest
-
 from agent_helpers import ROOT, Agent, Elves
 
 sys.path.insert(0, str(ROOT / "agent"))
 
 from fastapi.testclient import TestClient  # noqa: E402
-
 from indurop_agent.app import create_app  # noqa: E402
 from indurop_agent.config import Settings  # noqa: E402
 
@@ -60,8 +58,9 @@ def elves(tmp_path_factory) -> Elves:
 
     return Elves(
         module=build("module.so", "void run(void) {}\n", "-shared", "-fPIC"),
-        descriptor=build("descr.so", "const void *indurop_module_v1_descriptor(void) { return 0; }\n",
-                         "-shared", "-fPIC"),
+        descriptor=build(
+            "descr.so", "const void *indurop_module_v1_descriptor(void) { return 0; }\n", "-shared", "-fPIC"
+        ),
         library=build("lib.so", "int helper(int x) { return x + 1; }\n", "-shared", "-fPIC"),
         pie=build("pie", "int main(void) { return 0; }\n", "-pie", "-fPIE"),
         exec_=build("exec", "int main(void) { return 0; }\n", "-no-pie"),

@@ -1,5 +1,6 @@
 """test_agent.py -- indurop-agent against a real irpd on loopback: health, token auth, status,
 schedule and modules through the control socket, and irpd going away and coming back."""
+
 from __future__ import annotations
 
 import stat
@@ -7,7 +8,6 @@ import time
 
 import httpx
 import pytest
-
 from agent_helpers import IRPD, free_port, start_agent, start_irpd, stop
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
@@ -84,15 +84,25 @@ def test_openapi_is_served_under_api_v1(cell):
 # a body that route accepts and the status it then answers.  Only requests that change nothing:
 # the module change is a dry run.
 DRY_RUN = {"changes": [{"name": "cntr1", "period_ns": 1000000}], "dry_run": True}
-ROUTES = [("GET", "/status", "viewer", None, 200), ("GET", "/schedule", "viewer", None, 200),
-          ("GET", "/modules", "viewer", None, 200), ("GET", "/modules/cntr1", "viewer", None, 200),
-          ("GET", "/jitter", "viewer", None, 200), ("GET", "/jitter/histograms", "viewer", None, 200),
-          ("GET", "/host", "viewer", None, 200), ("GET", "/variables", "viewer", None, 200),
-          ("GET", "/variables/knu.Robot.tick", "viewer", None, 200), ("GET", "/events", "viewer", None, 200),
-          ("GET", "/layout", "viewer", None, 200),
-          ("GET", "/sets", "viewer", None, 200), ("GET", "/auth/me", "viewer", None, 200),
-          ("POST", "/modules/changes", "operator", DRY_RUN, 200), ("GET", "/audit", "admin", None, 200),
-          ("GET", "/tokens", "admin", None, 200), ("POST", "/tokens", "admin", {"name": "x", "role": "viewer"}, 201)]
+ROUTES = [
+    ("GET", "/status", "viewer", None, 200),
+    ("GET", "/schedule", "viewer", None, 200),
+    ("GET", "/modules", "viewer", None, 200),
+    ("GET", "/modules/cntr1", "viewer", None, 200),
+    ("GET", "/jitter", "viewer", None, 200),
+    ("GET", "/jitter/histograms", "viewer", None, 200),
+    ("GET", "/host", "viewer", None, 200),
+    ("GET", "/variables", "viewer", None, 200),
+    ("GET", "/variables/knu.Robot.tick", "viewer", None, 200),
+    ("GET", "/events", "viewer", None, 200),
+    ("GET", "/layout", "viewer", None, 200),
+    ("GET", "/sets", "viewer", None, 200),
+    ("GET", "/auth/me", "viewer", None, 200),
+    ("POST", "/modules/changes", "operator", DRY_RUN, 200),
+    ("GET", "/audit", "admin", None, 200),
+    ("GET", "/tokens", "admin", None, 200),
+    ("POST", "/tokens", "admin", {"name": "x", "role": "viewer"}, 201),
+]
 ROLES = ["viewer", "operator", "admin"]
 
 
@@ -100,16 +110,18 @@ def test_the_role_matrix_over_every_route(cell):
     url, admin, *_ = cell
     tokens = {"admin": admin}
     for role in ("viewer", "operator"):
-        r = httpx.post(f"{url}/tokens", json={"name": f"t-{role}", "role": role},
-                       headers={"Authorization": f"Bearer {admin}"})
+        r = httpx.post(
+            f"{url}/tokens", json={"name": f"t-{role}", "role": role}, headers={"Authorization": f"Bearer {admin}"}
+        )
         assert r.status_code == 201, r.text
         assert r.json()["role"] == role
         tokens[role] = r.json()["token"]
     for method, path, needed, body, ok in ROUTES:
         assert httpx.request(method, f"{url}{path}", json=body).status_code == 401, path
         for role in ROLES:
-            r = httpx.request(method, f"{url}{path}", json=body, timeout=40,
-                              headers={"Authorization": f"Bearer {tokens[role]}"})
+            r = httpx.request(
+                method, f"{url}{path}", json=body, timeout=40, headers={"Authorization": f"Bearer {tokens[role]}"}
+            )
             allowed = ROLES.index(role) >= ROLES.index(needed)
             assert r.status_code == (ok if allowed else 403), (method, path, role, r.status_code, r.text)
             if not allowed:
@@ -121,14 +133,25 @@ def test_every_route_of_the_api_is_in_the_role_matrix(cell):
     url, *_ = cell
     spec = httpx.get(f"{url}/openapi.json").json()
     listed = {(m, p) for m, p, *_ in ROUTES}
-    covered_elsewhere = {("GET", "/health"), ("PATCH", "/modules/{name}"), ("PUT", "/variables/{path}"),
-                         ("POST", "/sets"), ("GET", "/sets/active"), ("GET", "/sets/{set_id}"),
-                         ("POST", "/sets/{set_id}/activate"), ("POST", "/sets/rollback"),
-                         ("POST", "/sets/{set_id}/check"),  # test_online_layout.py
-                         ("DELETE", "/tokens/{token_id}"), ("GET", "/robot"), ("GET", "/robot/urdf"),
-                         ("PUT", "/robot/joints")}
-    templates = {("GET", "/modules/cntr1"): ("GET", "/modules/{name}"),
-                 ("GET", "/variables/knu.Robot.tick"): ("GET", "/variables/{path}")}
+    covered_elsewhere = {
+        ("GET", "/health"),
+        ("PATCH", "/modules/{name}"),
+        ("PUT", "/variables/{path}"),
+        ("POST", "/sets"),
+        ("GET", "/sets/active"),
+        ("GET", "/sets/{set_id}"),
+        ("POST", "/sets/{set_id}/activate"),
+        ("POST", "/sets/rollback"),
+        ("POST", "/sets/{set_id}/check"),  # test_online_layout.py
+        ("DELETE", "/tokens/{token_id}"),
+        ("GET", "/robot"),
+        ("GET", "/robot/urdf"),
+        ("PUT", "/robot/joints"),
+    }
+    templates = {
+        ("GET", "/modules/cntr1"): ("GET", "/modules/{name}"),
+        ("GET", "/variables/knu.Robot.tick"): ("GET", "/variables/{path}"),
+    }
     listed = {templates.get(r, r) for r in listed}
     for path, operations in spec["paths"].items():
         for method in operations:

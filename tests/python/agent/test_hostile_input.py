@@ -20,6 +20,7 @@ they move without the battery (docs/security.md has a run's figures).
 One agent and one irpd serve the whole file (module scope), so the tests run in file order and
 the last one checks the file system and irpd after everything before it.
 """
+
 from __future__ import annotations
 
 import json
@@ -33,34 +34,75 @@ from pathlib import Path
 
 import httpx
 import pytest
+from agent_helpers import (
+    API,
+    FIG1,
+    IRPD,
+    ROOT,
+    files_body,
+    free_port,
+    module_xml,
+    multipart,
+    output,
+    start_agent,
+    start_irpd,
+    stop,
+    tar_gz,
+)
 from websockets.exceptions import ConnectionClosed, InvalidStatus
 from websockets.sync.client import connect
 
-from agent_helpers import (API, FIG1, IRPD, ROOT, files_body, free_port, module_xml, multipart, output,
-                           start_agent, start_irpd, stop, tar_gz)
-
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
-MARKER = f"hostile{os.getpid()}"      # in every name an attack tries to write outside the data dir
-LIMITS = {"max_body_bytes": 4096, "max_file_bytes": 64 << 10, "max_upload_bytes": 128 << 10, "max_files": 64,
-          "header_timeout_s": 2, "body_idle_s": 2, "body_timeout_s": 4, "lockout_attempts": 5,
-          "lockout_window_s": 60, "irpd_poll_s": 0.5}
-ANSWER_S = 30                          # a bound on any one answer (a hang fails, never a figure)
+MARKER = f"hostile{os.getpid()}"  # in every name an attack tries to write outside the data dir
+LIMITS = {
+    "max_body_bytes": 4096,
+    "max_file_bytes": 64 << 10,
+    "max_upload_bytes": 128 << 10,
+    "max_files": 64,
+    "header_timeout_s": 2,
+    "body_idle_s": 2,
+    "body_timeout_s": 4,
+    "lockout_attempts": 5,
+    "lockout_window_s": 60,
+    "irpd_poll_s": 0.5,
+}
+ANSWER_S = 30  # a bound on any one answer (a hang fails, never a figure)
 ROLES = ("viewer", "operator", "admin")
 
 # The role every route of the API needs (None: none).  A new route must be added here.
-NEEDS = {("GET", "/health"): None, ("GET", "/status"): "viewer", ("GET", "/schedule"): "viewer",
-         ("GET", "/host"): "viewer", ("GET", "/modules"): "viewer", ("GET", "/modules/{name}"): "viewer",
-         ("PATCH", "/modules/{name}"): "operator", ("POST", "/modules/changes"): "operator",
-         ("GET", "/jitter"): "viewer", ("GET", "/jitter/histograms"): "viewer", ("GET", "/variables"): "viewer",
-         ("GET", "/variables/{path}"): "viewer", ("PUT", "/variables/{path}"): "operator",
-         ("GET", "/sets"): "viewer", ("POST", "/sets"): "admin", ("GET", "/sets/active"): "viewer",
-         ("GET", "/sets/{set_id}"): "viewer", ("POST", "/sets/rollback"): "operator",
-         ("POST", "/sets/{set_id}/activate"): "operator", ("GET", "/robot"): "viewer",
-         ("POST", "/sets/{set_id}/check"): "operator", ("GET", "/layout"): "viewer",
-         ("GET", "/robot/urdf"): "viewer", ("PUT", "/robot/joints"): "admin", ("GET", "/events"): "viewer",
-         ("GET", "/audit"): "admin", ("GET", "/auth/me"): "viewer", ("GET", "/tokens"): "admin",
-         ("POST", "/tokens"): "admin", ("DELETE", "/tokens/{token_id}"): "admin"}
+NEEDS = {
+    ("GET", "/health"): None,
+    ("GET", "/status"): "viewer",
+    ("GET", "/schedule"): "viewer",
+    ("GET", "/host"): "viewer",
+    ("GET", "/modules"): "viewer",
+    ("GET", "/modules/{name}"): "viewer",
+    ("PATCH", "/modules/{name}"): "operator",
+    ("POST", "/modules/changes"): "operator",
+    ("GET", "/jitter"): "viewer",
+    ("GET", "/jitter/histograms"): "viewer",
+    ("GET", "/variables"): "viewer",
+    ("GET", "/variables/{path}"): "viewer",
+    ("PUT", "/variables/{path}"): "operator",
+    ("GET", "/sets"): "viewer",
+    ("POST", "/sets"): "admin",
+    ("GET", "/sets/active"): "viewer",
+    ("GET", "/sets/{set_id}"): "viewer",
+    ("POST", "/sets/rollback"): "operator",
+    ("POST", "/sets/{set_id}/activate"): "operator",
+    ("GET", "/robot"): "viewer",
+    ("POST", "/sets/{set_id}/check"): "operator",
+    ("GET", "/layout"): "viewer",
+    ("GET", "/robot/urdf"): "viewer",
+    ("PUT", "/robot/joints"): "admin",
+    ("GET", "/events"): "viewer",
+    ("GET", "/audit"): "admin",
+    ("GET", "/auth/me"): "viewer",
+    ("GET", "/tokens"): "admin",
+    ("POST", "/tokens"): "admin",
+    ("DELETE", "/tokens/{token_id}"): "admin",
+}
 SAMPLE = {"{name}": "cntr1", "{path}": "knu.Robot.tick", "{set_id}": "0" * 64, "{token_id}": "0" * 12}
 
 
@@ -101,8 +143,9 @@ class Battery:
     def h(self, role: str = "admin") -> dict:
         return {"Authorization": f"Bearer {self.tokens[role]}"}
 
-    def request(self, method: str, path: str, role: str | None = "admin", source: str | None = None,
-                **kw) -> httpx.Response:
+    def request(
+        self, method: str, path: str, role: str | None = "admin", source: str | None = None, **kw
+    ) -> httpx.Response:
         headers = {**(self.h(role) if role else {}), **kw.pop("headers", {})}
         transport = httpx.HTTPTransport(local_address=source) if source else None
         with httpx.Client(transport=transport, timeout=ANSWER_S) as c:
@@ -174,7 +217,7 @@ def test_no_token_and_a_role_too_low_are_refused_on_every_route(battery, route):
     r = battery.request(method, concrete(path), None)
     assert r.status_code == 401 and "bearer token is required" in detail(r), (r.status_code, r.text)
     assert r.headers["WWW-Authenticate"] == "Bearer"
-    for role in ROLES[:ROLES.index(needed)]:
+    for role in ROLES[: ROLES.index(needed)]:
         r = battery.request(method, concrete(path), role)
         assert r.status_code == 403, (role, r.status_code, r.text)
         assert f"needs the {needed} role; the token has {role}" in detail(r)
@@ -243,14 +286,18 @@ def test_the_viewer_proxy_refuses_without_a_ticket_or_cookie(battery):
 def test_guessing_tokens_locks_out_the_guessing_address_only(battery):
     attacker = "127.0.0.2"
     attempts = LIMITS["lockout_attempts"]
-    codes = [battery.get("/status", None, source=attacker, headers={"Authorization": f"Bearer guess{i}"}).status_code
-             for i in range(attempts + 2)]
+    codes = [
+        battery.get("/status", None, source=attacker, headers={"Authorization": f"Bearer guess{i}"}).status_code
+        for i in range(attempts + 2)
+    ]
     assert codes == [401] * (attempts - 1) + [429] * 3, codes
     r = battery.get("/status", "admin", source=attacker)  # a correct token from there is refused too
     assert r.status_code == 429 and 0 < int(r.headers["Retry-After"]) <= LIMITS["lockout_window_s"]
     assert f"too many unknown tokens from {attacker}" in detail(r) and "try again in" in detail(r)
-    code, reason = stream_closed(f"ws://127.0.0.1:{battery.port}{API}/stream?token={battery.tokens['viewer']}",
-                                 sock=bound_socket(attacker, battery.port))
+    code, reason = stream_closed(
+        f"ws://127.0.0.1:{battery.port}{API}/stream?token={battery.tokens['viewer']}",
+        sock=bound_socket(attacker, battery.port),
+    )
     assert code == 4429 and "try again" in reason
     assert battery.get("/status", "viewer").status_code == 200  # everybody else is served
     assert battery.get("/status", "viewer", source="127.0.0.3").status_code == 200
@@ -259,10 +306,15 @@ def test_guessing_tokens_locks_out_the_guessing_address_only(battery):
 
 
 def test_x_forwarded_for_does_not_let_a_client_pick_the_address_the_lockout_counts(battery):
-    codes = [battery.get("/status", None, source="127.0.0.4",
-                         headers={"Authorization": "Bearer guess", "X-Forwarded-For": f"10.0.0.{i}",
-                                  "Forwarded": f"for=10.0.1.{i}"}).status_code
-             for i in range(LIMITS["lockout_attempts"] + 1)]
+    codes = [
+        battery.get(
+            "/status",
+            None,
+            source="127.0.0.4",
+            headers={"Authorization": "Bearer guess", "X-Forwarded-For": f"10.0.0.{i}", "Forwarded": f"for=10.0.1.{i}"},
+        ).status_code
+        for i in range(LIMITS["lockout_attempts"] + 1)
+    ]
     assert codes[-1] == 429, codes
     r = battery.get("/status", "viewer", source="127.0.0.4", headers={"X-Forwarded-For": "127.0.0.1"})
     assert r.status_code == 429 and "127.0.0.4" in detail(r)
@@ -281,16 +333,27 @@ def test_json_bodies_over_the_limit_are_413_with_and_without_content_length(batt
     big = {"name": "x" * (2 * limit), "role": "viewer"}
     r = battery.request("POST", "/tokens", json=big)
     assert r.status_code == 413 and f"larger than {limit} bytes" in detail(r)
-    r = battery.request("POST", "/tokens", content=trickle(b'{"name": "', b"x" * (2 * limit), b'", "role": "viewer"}'),
-                        headers={"Content-Type": "application/json"})  # chunked: no Content-Length
+    r = battery.request(
+        "POST",
+        "/tokens",
+        content=trickle(b'{"name": "', b"x" * (2 * limit), b'", "role": "viewer"}'),
+        headers={"Content-Type": "application/json"},
+    )  # chunked: no Content-Length
     assert r.status_code == 413 and f"larger than {limit} bytes" in detail(r)
-    r = battery.request("PUT", "/variables/knu.Robot.tick", "operator", content=b"[" + b"1," * limit + b"1]",
-                        headers={"Content-Type": "application/json"})
+    r = battery.request(
+        "PUT",
+        "/variables/knu.Robot.tick",
+        "operator",
+        content=b"[" + b"1," * limit + b"1]",
+        headers={"Content-Type": "application/json"},
+    )
     assert r.status_code == 413
     r = battery.request("POST", "/tokens", "viewer", json=big)  # refused for size before the role matters
     assert r.status_code == 413
-    s = battery.raw(b"POST /api/v1/tokens HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
-                    b"Content-Length: 99999999999999999999\r\n\r\n{}")
+    s = battery.raw(
+        b"POST /api/v1/tokens HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+        b"Content-Length: 99999999999999999999\r\n\r\n{}"
+    )
     status, _, body = read_response(s)
     s.close()
     assert status == 413 and b"larger than" in body
@@ -304,16 +367,22 @@ def test_uploads_over_the_limit_are_413_with_and_without_content_length(battery)
     r = battery.request("POST", "/sets", content=trickle(body[:1000], body[1000:]), headers={"Content-Type": ctype})
     assert r.status_code == 413 and "the limit per file" in detail(r)
     huge = b"\0" * (LIMITS["max_upload_bytes"] + 1)
-    r = battery.request("POST", "/sets", content=trickle(huge[:50000], huge[50000:]),
-                        headers={"Content-Type": "application/gzip"})
+    r = battery.request(
+        "POST", "/sets", content=trickle(huge[:50000], huge[50000:]), headers={"Content-Type": "application/gzip"}
+    )
     assert r.status_code == 413 and "the limit per upload" in detail(r)
-    s = battery.raw(b"POST /api/v1/sets HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer " + battery.tokens["admin"].encode()
-                    + b"\r\nContent-Type: application/gzip\r\nContent-Length: 10000000000\r\n\r\n")
+    s = battery.raw(
+        b"POST /api/v1/sets HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer "
+        + battery.tokens["admin"].encode()
+        + b"\r\nContent-Type: application/gzip\r\nContent-Length: 10000000000\r\n\r\n"
+    )
     status, _, body = read_response(s)
     s.close()
     assert status == 413 and b"the limit is" in body
-    bomb = tar_gz([("module.xml", module_xml(("a.so", "thread")))] +
-                  [(f"f{i}.txt", b"\0" * (LIMITS["max_file_bytes"] - 1)) for i in range(3)])
+    bomb = tar_gz(
+        [("module.xml", module_xml(("a.so", "thread")))]
+        + [(f"f{i}.txt", b"\0" * (LIMITS["max_file_bytes"] - 1)) for i in range(3)]
+    )
     assert len(bomb) < 2000  # compresses to nothing, unpacks past the upload limit
     r = battery.request("POST", "/sets", content=bomb, headers={"Content-Type": "application/gzip"})
     assert r.status_code == 413 and "the limit per upload" in detail(r), r.text
@@ -369,13 +438,17 @@ def test_slowloris_headers_get_408_and_the_others_are_served_meanwhile(battery):
 
 
 def test_a_stalled_body_gets_408_and_a_trickled_one_too(battery):
-    s = battery.raw(b"POST /api/v1/tokens HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
-                    b"Authorization: Bearer " + battery.tokens["admin"].encode() + b"\r\nContent-Length: 100\r\n\r\n{\"na")
+    s = battery.raw(
+        b"POST /api/v1/tokens HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+        b"Authorization: Bearer " + battery.tokens["admin"].encode() + b"\r\nContent-Length: 100\r\n\r\n{\"na"
+    )
     status, _, body = read_response(s)
     s.close()
     assert status == 408 and b"no byte for 2 s (body_idle_s)" in body
-    s = battery.raw(b"POST /api/v1/tokens HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
-                    b"Authorization: Bearer " + battery.tokens["admin"].encode() + b"\r\nContent-Length: 100\r\n\r\n")
+    s = battery.raw(
+        b"POST /api/v1/tokens HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+        b"Authorization: Bearer " + battery.tokens["admin"].encode() + b"\r\nContent-Length: 100\r\n\r\n"
+    )
     answer = None
     for _ in range(100):  # one byte a second: never idle for body_idle_s, yet never done
         try:
@@ -386,7 +459,7 @@ def test_a_stalled_body_gets_408_and_a_trickled_one_too(battery):
         try:
             answer = s.recv(65536, socket.MSG_PEEK)
             break
-        except socket.timeout:
+        except TimeoutError:
             pass
     s.settimeout(ANSWER_S)
     assert answer, "the trickled body was never answered"
@@ -397,8 +470,11 @@ def test_a_stalled_body_gets_408_and_a_trickled_one_too(battery):
 
 def test_a_stalled_upload_gets_408_and_stores_nothing(battery):
     body, ctype = files_body({"module.xml": module_xml(("a.so", "thread"))})
-    s = battery.raw(f"POST /api/v1/sets HTTP/1.1\r\nHost: x\r\nContent-Type: {ctype}\r\nAuthorization: Bearer "
-                    f"{battery.tokens['admin']}\r\nContent-Length: {len(body) + 100}\r\n\r\n".encode() + body[:-20])
+    s = battery.raw(
+        f"POST /api/v1/sets HTTP/1.1\r\nHost: x\r\nContent-Type: {ctype}\r\nAuthorization: Bearer "
+        f"{battery.tokens['admin']}\r\nContent-Length: {len(body) + 100}\r\n\r\n".encode()
+        + body[:-20]
+    )
     status, _, answer = read_response(s)
     s.close()
     assert status == 408 and b"body_idle_s" in answer
@@ -409,8 +485,10 @@ def test_a_stalled_upload_gets_408_and_stores_nothing(battery):
 
 # ---- many connections -----------------------------------------------------------------------------
 def ws_handshake(port: int, path: str) -> bytes:
-    return (f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-            "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n").encode()
+    return (
+        f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+        "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n"
+    ).encode()
 
 
 def test_a_thousand_idle_websockets_do_not_stop_the_agent_serving_others(battery):
@@ -432,8 +510,11 @@ def test_a_thousand_idle_websockets_do_not_stop_the_agent_serving_others(battery
         # All 1000 are open and silent: the others are still served, and a stream still streams.
         assert battery.get("/health", None).json()["agent"] == "ok"
         assert battery.get("/status", "viewer").status_code == 200
-        with connect(f"ws://127.0.0.1:{battery.port}{API}/stream?token={battery.tokens['viewer']}",
-                     open_timeout=ANSWER_S, max_size=None) as ws:
+        with connect(
+            f"ws://127.0.0.1:{battery.port}{API}/stream?token={battery.tokens['viewer']}",
+            open_timeout=ANSWER_S,
+            max_size=None,
+        ) as ws:
             ws.send(json.dumps({"subscribe": ["knu.Robot.tick"]}))
             kinds = set()
             while bytes not in kinds:
@@ -481,9 +562,19 @@ def test_beyond_max_connections_the_agent_answers_503_with_retry_after(tmp_path)
 
 
 # ---- names ----------------------------------------------------------------------------------------
-TRAVERSALS = [f"../{MARKER}", f"/tmp/{MARKER}-abs", f"%2e%2e/{MARKER}", f"%2E%2E%2F{MARKER}",
-              f"lib/../../{MARKER}", f"..\\{MARKER}", f"lib/{MARKER}\0.so", f"{MARKER}\n.txt",
-              f"\x1b[2J{MARKER}.txt", f"..%2f{MARKER}", f"....//{MARKER}/../../x"]
+TRAVERSALS = [
+    f"../{MARKER}",
+    f"/tmp/{MARKER}-abs",
+    f"%2e%2e/{MARKER}",
+    f"%2E%2E%2F{MARKER}",
+    f"lib/../../{MARKER}",
+    f"..\\{MARKER}",
+    f"lib/{MARKER}\0.so",
+    f"{MARKER}\n.txt",
+    f"\x1b[2J{MARKER}.txt",
+    f"..%2f{MARKER}",
+    f"....//{MARKER}/../../x",
+]
 
 
 @pytest.mark.parametrize("name", TRAVERSALS, ids=repr)
@@ -492,8 +583,9 @@ def test_traversal_names_in_uploads_are_400_naming_the_file(battery, name):
     r = battery.request("POST", "/sets", content=body, headers={"Content-Type": ctype})
     assert r.status_code == 400, (r.status_code, r.text)
     text = detail(r)
-    assert "file name" in text and any(w in text for w in ("..", "absolute", "percent-escape", "backslash",
-                                                          "NUL", "control character")), text
+    assert "file name" in text and any(
+        w in text for w in ("..", "absolute", "percent-escape", "backslash", "NUL", "control character")
+    ), text
 
 
 def link(name: str, target: str, kind=tarfile.SYMTYPE) -> tarfile.TarInfo:
@@ -508,16 +600,18 @@ def device(name: str, kind) -> tarfile.TarInfo:
     return info
 
 
-ARCHIVES = {"member ../": ([(f"../{MARKER}", b"x")], "'..'"),
-            "absolute member": ([(f"/tmp/{MARKER}-abs", b"x")], "absolute"),
-            "symlink out": ([link("lib", "/tmp"), (f"lib/{MARKER}", b"x")], "symbolic link"),
-            "symlink to file": ([link("module.xml", "/etc/passwd")], "symbolic link"),
-            "hard link": ([link("module.xml", "/etc/passwd", tarfile.LNKTYPE)], "hard link"),
-            "char device": ([device("null", tarfile.CHRTYPE)], "device file"),
-            "block device": ([device("disk", tarfile.BLKTYPE)], "device file"),
-            "fifo": ([device("pipe", tarfile.FIFOTYPE)], "FIFO"),
-            "percent member": ([(f"%2e%2e/{MARKER}", b"x")], "percent-escape"),
-            "backslash member": ([(f"..\\{MARKER}", b"x")], "backslash")}
+ARCHIVES = {
+    "member ../": ([(f"../{MARKER}", b"x")], "'..'"),
+    "absolute member": ([(f"/tmp/{MARKER}-abs", b"x")], "absolute"),
+    "symlink out": ([link("lib", "/tmp"), (f"lib/{MARKER}", b"x")], "symbolic link"),
+    "symlink to file": ([link("module.xml", "/etc/passwd")], "symbolic link"),
+    "hard link": ([link("module.xml", "/etc/passwd", tarfile.LNKTYPE)], "hard link"),
+    "char device": ([device("null", tarfile.CHRTYPE)], "device file"),
+    "block device": ([device("disk", tarfile.BLKTYPE)], "device file"),
+    "fifo": ([device("pipe", tarfile.FIFOTYPE)], "FIFO"),
+    "percent member": ([(f"%2e%2e/{MARKER}", b"x")], "percent-escape"),
+    "backslash member": ([(f"..\\{MARKER}", b"x")], "backslash"),
+}
 
 
 @pytest.mark.parametrize("case", sorted(ARCHIVES))
@@ -529,9 +623,20 @@ def test_links_devices_and_traversal_inside_archives_are_400(battery, case):
         assert r.status_code == 400 and words in detail(r), (case, r.status_code, r.text)
 
 
-@pytest.mark.parametrize("path", ["/sets/..%2f..%2f..%2fetc%2fpasswd", "/sets/%2e%2e", "/sets/x%00y",
-                                  "/variables/..%2f..%2fetc%2fpasswd", "/modules/..%2f..", "/tokens/%2e%2e%2f",
-                                  "/audit/../../etc/passwd", "/../../../etc/passwd", "/sets/%252e%252e"])
+@pytest.mark.parametrize(
+    "path",
+    [
+        "/sets/..%2f..%2f..%2fetc%2fpasswd",
+        "/sets/%2e%2e",
+        "/sets/x%00y",
+        "/variables/..%2f..%2fetc%2fpasswd",
+        "/modules/..%2f..",
+        "/tokens/%2e%2e%2f",
+        "/audit/../../etc/passwd",
+        "/../../../etc/passwd",
+        "/sets/%252e%252e",
+    ],
+)
 def test_traversal_in_url_paths_reaches_nothing(battery, path):
     r = battery.get(path, "admin", follow_redirects=False)
     if r.is_redirect:  # a trailing slash dropped: still under the API
@@ -542,8 +647,15 @@ def test_traversal_in_url_paths_reaches_nothing(battery, path):
 
 
 # ---- text that reaches a log ----------------------------------------------------------------------
-HOSTILE_TEXT = ["%s%s%s%n%n", "{0.__class__}", "${jndi:ldap:x}", "\x1b[31mred\x1b[0m", "line\nforged: entry",
-                "cr\rforged", "%x" * 20]
+HOSTILE_TEXT = [
+    "%s%s%s%n%n",
+    "{0.__class__}",
+    "${jndi:ldap:x}",
+    "\x1b[31mred\x1b[0m",
+    "line\nforged: entry",
+    "cr\rforged",
+    "%x" * 20,
+]
 
 
 def audit_lines(battery) -> list[str]:
@@ -564,7 +676,7 @@ def test_hostile_text_in_variable_paths_and_module_names_is_answered_and_audited
     assert r.status_code in (404, 409) and detail(r), (r.status_code, r.text)
     r = battery.request("PATCH", f"/modules/{quoted}", "operator", json={"period_ns": 1000000})
     assert r.status_code in (404, 409) and detail(r), (r.status_code, r.text)
-    r = battery.get(f"/jitter/histograms", "viewer", params={"name": text})
+    r = battery.get("/jitter/histograms", "viewer", params={"name": text})
     assert r.status_code in (404, 422)
     lines = audit_lines(battery)
     # One line per audited refusal, however many newlines the text holds (a path with a newline
@@ -615,8 +727,17 @@ def test_after_the_battery_nothing_was_written_outside_the_data_dir_no_5xx_and_i
     roots = [Path("/tmp"), ROOT / "agent", ROOT / "tests", battery.tmp, Path.cwd(), Path("/var/tmp")]
     assert marked(roots) == []
     assert not list((battery.data / "tmp").iterdir())  # no upload left half-received
-    outside = {p.name for p in battery.data.iterdir()} - {"tokens.json", "admin-token", "audit.jsonl", "blobs",
-                                                          "sets", "tmp", "active.json", "active", "history.jsonl"}
+    outside = {p.name for p in battery.data.iterdir()} - {
+        "tokens.json",
+        "admin-token",
+        "audit.jsonl",
+        "blobs",
+        "sets",
+        "tmp",
+        "active.json",
+        "active",
+        "history.jsonl",
+    }
     assert outside == set(), outside
     for line in audit_lines(battery):
         json.loads(line)  # every line whole
@@ -629,6 +750,9 @@ def test_after_the_battery_nothing_was_written_outside_the_data_dir_no_5xx_and_i
         for b, a in zip(battery.stats_before[key], after[key]):
             figures[a["name"]] = {k: (a.get(k) or 0) - (b.get(k) or 0) for k in ("runs", "overruns", "missed")}
     assert figures["dispatcher"]["runs"] > 0
-    (battery.tmp / "rt-during-battery.json").write_text(json.dumps(
-        {"during_battery": figures, "jitter_max_ns_after": after["executors"][0]["jitter_ns"]["max"]}, indent=1))
+    (battery.tmp / "rt-during-battery.json").write_text(
+        json.dumps(
+            {"during_battery": figures, "jitter_max_ns_after": after["executors"][0]["jitter_ns"]["max"]}, indent=1
+        )
+    )
     print("irpd during the battery:", json.dumps(figures["dispatcher"]))

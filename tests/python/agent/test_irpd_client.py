@@ -2,6 +2,7 @@
 accepts (1 and 2), the per-call timeout of long commands, and that a request that timed out is
 not sent a second time (irpd may still be carrying out a `load`).  The peer is a small Unix-socket
 server in the test that says a given hello and answers, or stays silent, as told."""
+
 from __future__ import annotations
 
 import json
@@ -10,7 +11,6 @@ import threading
 import time
 
 import pytest
-
 from indurop_agent.irpd_client import IrpdClient, IrpdUnavailable
 
 
@@ -109,8 +109,9 @@ def test_a_stopped_irpd_fails_each_caller_after_its_own_timeout_not_after_the_qu
     silent.bind(path)
     silent.listen(16)
     client = IrpdClient(path, timeout_s=2.0)
-    queued = [threading.Thread(target=lambda: pytest.raises(IrpdUnavailable, client.request, "stats"))
-              for _ in range(5)]
+    queued = [
+        threading.Thread(target=lambda: pytest.raises(IrpdUnavailable, client.request, "stats")) for _ in range(5)
+    ]
     for t in queued:
         t.start()
     time.sleep(0.1)  # the five hold or wait for the one connection: 10 s of waiting one after another

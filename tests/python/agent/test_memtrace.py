@@ -1,5 +1,6 @@
 """The agent's memory snapshots (memtrace.py): PYTHONTRACEMALLOC + SIGUSR2 write them, the comparison
 names the call site that grew, and without the tracer SIGUSR2 is left alone."""
+
 from __future__ import annotations
 
 import signal
@@ -60,15 +61,31 @@ def test_the_comparison_names_the_call_site_that_grew(tmp_path):
     assert first["size_diff_kib"] > 1900 and first["count_diff"] >= 2000
     assert any(w.endswith(f"test_memtrace.py:{grow.__code__.co_firstlineno + 1}") for w in first["where"])
 
-    out = subprocess.run([sys.executable, "-m", "indurop_agent.memtrace", str(tmp_path / "old.snap"),
-                          str(tmp_path / "new.snap"), "--top", "3"], cwd=ROOT / "agent", capture_output=True, text=True)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "indurop_agent.memtrace",
+            str(tmp_path / "old.snap"),
+            str(tmp_path / "new.snap"),
+            "--top",
+            "3",
+        ],
+        cwd=ROOT / "agent",
+        capture_output=True,
+        text=True,
+    )
     assert out.returncode == 0, out.stderr
     assert "traced by Python:" in out.stdout and "test_memtrace.py" in out.stdout
 
 
 def test_a_missing_snapshot_is_named(tmp_path):
-    out = subprocess.run([sys.executable, "-m", "indurop_agent.memtrace", str(tmp_path / "a.snap"),
-                          str(tmp_path / "b.snap")], cwd=ROOT / "agent", capture_output=True, text=True)
+    out = subprocess.run(
+        [sys.executable, "-m", "indurop_agent.memtrace", str(tmp_path / "a.snap"), str(tmp_path / "b.snap")],
+        cwd=ROOT / "agent",
+        capture_output=True,
+        text=True,
+    )
     assert out.returncode == 2 and f"{tmp_path / 'a.snap'}: no such snapshot" in out.stderr
 
 

@@ -5,6 +5,7 @@ the new variable is listed and read at once; a set laid out afresh is valid but 
 activating it online is refused with the reason; an <executor> added and taken away again is swapped
 in and out online while the counter module on main misses no period.  The fixtures are built by
 tests/cpp/online/."""
+
 from __future__ import annotations
 
 import json
@@ -13,25 +14,29 @@ from pathlib import Path
 
 import httpx
 import pytest
-
 from agent_helpers import BUILD, IRPD, free_port, start_agent, start_irpd, stop
 
 ONLINE = BUILD / "tests" / "cpp" / "online"
-pytestmark = pytest.mark.skipif(not (ONLINE / "modules" / "oc_adder_v2.so").exists(),
-                                reason=f"the online-change fixtures are not built ({ONLINE})")
+pytestmark = pytest.mark.skipif(
+    not (ONLINE / "modules" / "oc_adder_v2.so").exists(), reason=f"the online-change fixtures are not built ({ONLINE})"
+)
 
 
 def module(name: str, file: str, extra: str = "") -> str:
-    return (f"  <module><name>{name}</name><filename>{file}</filename><moduletype>thread</moduletype>"
-            f"<operationtype>periodic</operationtype><period>1000000</period><priority>1</priority>{extra}</module>\n")
+    return (
+        f"  <module><name>{name}</name><filename>{file}</filename><moduletype>thread</moduletype>"
+        f"<operationtype>periodic</operationtype><period>1000000</period><priority>1</priority>{extra}</module>\n"
+    )
 
 
 def set_files(layout: str, *modules: tuple[str, ...], root: str = "") -> list[tuple[str, tuple[str, bytes]]]:
     """A set: module.xml (`root` at its top), its modules (name, fixture file[, tags inside the
     <module>]) and the layout of tests/cpp/online/oc_<layout>."""
     xml = "<root>\n  <layout>layout.json</layout>\n" + root + "".join(module(*m) for m in modules) + "</root>\n"
-    files = [("files", ("module.xml", xml.encode())),
-             ("files", ("layout.json", (ONLINE / f"oc_{layout}" / "layout.json").read_bytes()))]
+    files = [
+        ("files", ("module.xml", xml.encode())),
+        ("files", ("layout.json", (ONLINE / f"oc_{layout}" / "layout.json").read_bytes())),
+    ]
     files += [("files", (m[1], (ONLINE / "modules" / m[1]).read_bytes())) for m in modules]
     return files
 
@@ -42,9 +47,13 @@ class Cell:
     def __init__(self, tmp: Path):
         folder = tmp / "start"
         folder.mkdir()
-        (folder / "module.xml").write_text("<root>\n  <layout>" + str(ONLINE / "oc_v1" / "layout.json") +
-                                           "</layout>\n" + module("counter", str(ONLINE / "modules" / "oc_counter_v1.so"))
-                                           + "</root>\n")
+        (folder / "module.xml").write_text(
+            "<root>\n  <layout>"
+            + str(ONLINE / "oc_v1" / "layout.json")
+            + "</layout>\n"
+            + module("counter", str(ONLINE / "modules" / "oc_counter_v1.so"))
+            + "</root>\n"
+        )
         self.sock, data = tmp / "irpd.sock", tmp / "data"
         self.irpd = start_irpd(self.sock, folder / "module.xml", f"online-{free_port()}")
         config = tmp / "agent.json"
@@ -101,7 +110,9 @@ def test_a_variable_added_online_is_planned_activated_and_read_at_once(cell):
     assert "oc.added" in [v["path"] for v in cell.call("GET", "/variables").json()["variables"]]
     deadline = time.monotonic() + 5
     while cell.call("GET", "/variables/oc.added").json()["value"] == 0:
-        assert time.monotonic() < deadline, "oc.added stayed 0: the adder does not run, or the agent reads the old layout"
+        assert time.monotonic() < deadline, (
+            "oc.added stayed 0: the adder does not run, or the agent reads the old layout"
+        )
         time.sleep(0.05)
     assert json.loads(cell.call("GET", "/layout").text)["hash"] == report["variables"]["layout"]
 
@@ -128,9 +139,14 @@ def test_a_layout_laid_out_afresh_is_valid_but_needs_a_restart(cell):
 
 
 def test_an_executor_added_and_taken_away_online_keeps_the_counter_counting(cell):
-    side = cell.upload(set_files("v2", ("counter", "oc_counter_v2.so"),
-                                 ("adder", "oc_adder_v2.so", "<executor>side</executor>"),
-                                 root="  <executor><name>side</name><rtpriority>30</rtpriority></executor>\n"))
+    side = cell.upload(
+        set_files(
+            "v2",
+            ("counter", "oc_counter_v2.so"),
+            ("adder", "oc_adder_v2.so", "<executor>side</executor>"),
+            root="  <executor><name>side</name><rtpriority>30</rtpriority></executor>\n",
+        )
+    )
     assert side["validation"]["online"] is True and side["validation"]["restart"] is None, side["validation"]
     r = cell.call("POST", f"/sets/{side['id']}/activate")
     assert r.status_code == 200, r.text

@@ -2,14 +2,13 @@
 through the generated indurop_agent/protocol.py), tried at each edge: a value inside reaches irpd
 (absent here: 503), one outside is refused by the agent (422) naming the field.  What irpd alone
 decides (a module named twice, one the set lacks) is not checked here at all."""
+
 from __future__ import annotations
 
 import json
 
 import pytest
-
 from agent_helpers import API
-
 from indurop_agent import protocol
 
 
@@ -18,8 +17,9 @@ def patch(agent, body: dict, name: str = "cntr1"):
 
 
 def changes(agent, entries: list[dict]):
-    return agent.client.post(f"{API}/modules/changes", json={"changes": entries, "dry_run": True},
-                             headers=agent.h("operator"))
+    return agent.client.post(
+        f"{API}/modules/changes", json={"changes": entries, "dry_run": True}, headers=agent.h("operator")
+    )
 
 
 def refused_naming(r, field: str) -> bool:
@@ -31,8 +31,15 @@ def test_the_limits_are_the_ones_irpd_and_module_xml_hold():
     assert protocol.MAX_CHANGES == 1024
 
 
-@pytest.mark.parametrize("priority, passes", [(protocol.PRIORITY_MIN - 1, False), (protocol.PRIORITY_MIN, True),
-                                              (protocol.PRIORITY_MAX, True), (protocol.PRIORITY_MAX + 1, False)])
+@pytest.mark.parametrize(
+    "priority, passes",
+    [
+        (protocol.PRIORITY_MIN - 1, False),
+        (protocol.PRIORITY_MIN, True),
+        (protocol.PRIORITY_MAX, True),
+        (protocol.PRIORITY_MAX + 1, False),
+    ],
+)
 def test_priority_at_its_edges(agent, priority, passes):
     for r in (patch(agent, {"priority": priority}), changes(agent, [{"name": "cntr1", "priority": priority}])):
         if passes:

@@ -4,21 +4,22 @@ started with room for three) is refused
 in mode online, naming why and what mode restart would do; mode restart (and auto) restarts irpd
 onto it -- the same pid -- and records it like any activation; a restart whose set does not start
 brings irpd back on its old set and changes nothing in the store."""
+
 from __future__ import annotations
 
 import json
 
 import pytest
-
-from test_sets_irpd import FIG1_DIR, Cell
-
 from agent_helpers import BUILD, IRPD
+from test_sets_irpd import FIG1_DIR, Cell
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
 # One process module more than the three of Figure 1 (cntr4.exe once more, under another name).
-FOURTH = (b"  <module><name>cntr5</name><filename>./cntr4.exe</filename><moduletype>process</moduletype>"
-          b"<operationtype>periodic</operationtype><period>1000000</period><priority>5</priority></module>\n</root>")
+FOURTH = (
+    b"  <module><name>cntr5</name><filename>./cntr4.exe</filename><moduletype>process</moduletype>"
+    b"<operationtype>periodic</operationtype><period>1000000</period><priority>5</priority></module>\n</root>"
+)
 INIT_THROWS = BUILD / "tests" / "cpp" / "modules" / "init_throws.so"  # a real module whose initialize() throws
 
 
@@ -56,7 +57,7 @@ def test_online_refuses_a_set_that_needs_a_restart_and_says_why(cell):
     cell.activate(base["id"])
     side = upload(cell, fourth=True)
     assert side["validation"]["valid"] is True, side["validation"]
-    r = cell.post(f"/sets/{side['id']}/activate")                      # no body: mode online
+    r = cell.post(f"/sets/{side['id']}/activate")  # no body: mode online
     assert r.status_code == 409, r.text
     detail = r.json()["detail"]
     assert "process modules" in detail and "mode restart" in detail and "expected downtime" in detail, detail
@@ -77,8 +78,10 @@ def test_mode_restart_restarts_irpd_onto_the_set_with_the_same_pid(cell):
     report = r.json()
     assert report["mode"] == "restart" and report["set_id"] == side["id"], report
     assert report["downtime_ns"] > 0 and report["missed_periods"] is None, report
-    print(f"agent restart: downtime {report['downtime_ns'] / 1e6:.1f} ms, "
-          f"expected {report['expected_downtime_ns'] / 1e6:.1f} ms")
+    print(
+        f"agent restart: downtime {report['downtime_ns'] / 1e6:.1f} ms, "
+        f"expected {report['expected_downtime_ns'] / 1e6:.1f} ms"
+    )
     status = cell.get("/status").json()
     assert status["set_id"] == side["id"] and status["pid"] == pid and cell.irpd.poll() is None
     assert status["last_restart"]["downtime_ns"] == report["downtime_ns"]

@@ -2,6 +2,7 @@
 activator): a restarted irpd gets the store's active set back, and a restore that failed (irpd
 still busy, a swap that timed out) is tried again with a growing delay instead of waiting for
 irpd's next restart; while an activation runs (a managed restart of irpd) the watcher stays out."""
+
 from __future__ import annotations
 
 from indurop_agent.activation import Restorer
@@ -62,24 +63,24 @@ def test_a_failed_restore_is_tried_again_with_a_growing_delay(monkeypatch):
     now = [1000.0]
     monkeypatch.setattr("indurop_agent.activation.time.monotonic", lambda: now[0])
     r, irpd, activator, log = watcher(failures=2, clock=now)
-    r.poll_once()                        # irpd seen first: restore, fails
+    r.poll_once()  # irpd seen first: restore, fails
     assert activator.calls == 1 and irpd.status["set_id"] == "A"
     assert any(k == "restore_failed" and "again in 2 s" in m for k, m in log.lines)
     now[0] += 1.0
-    r.poll_once()                        # same irpd, before the retry time: nothing
+    r.poll_once()  # same irpd, before the retry time: nothing
     assert activator.calls == 1
     now[0] += 1.5
-    r.poll_once()                        # retried, fails again; next delay 4 s
+    r.poll_once()  # retried, fails again; next delay 4 s
     assert activator.calls == 2
     assert any(k == "restore_failed" and "again in 4 s" in m for k, m in log.lines)
     now[0] += 3.0
     r.poll_once()
     assert activator.calls == 2
     now[0] += 1.5
-    r.poll_once()                        # third try works: irpd runs the active set
+    r.poll_once()  # third try works: irpd runs the active set
     assert activator.calls == 3 and irpd.status["set_id"] == "B"
     now[0] += 100.0
-    r.poll_once()                        # and nothing more is tried
+    r.poll_once()  # and nothing more is tried
     assert activator.calls == 3
 
 
@@ -96,7 +97,7 @@ def test_the_watcher_stays_out_while_an_activation_runs():
     r, irpd, activator, log = watcher(failures=0, clock=None)
     r.poll_once()
     assert activator.calls == 1
-    activator.activating = True               # e.g. a managed restart: irpd away, then on set C
+    activator.activating = True  # e.g. a managed restart: irpd away, then on set C
     irpd.status = {"pid": 10, "set_id": "C"}
     for _ in range(3):
         r.poll_once()

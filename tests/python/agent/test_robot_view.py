@@ -7,6 +7,7 @@ build/sets/plc-robot on its own Modbus port), a real agent with --viewer, the vi
 WebSocket through the agent's proxy, the scene's joint transforms followed while the cell runs its
 pick-and-place cycle, every socket on 127.0.0.1, and PUT /robot/joints refusing bad maps and
 storing a good one as a new set that keeps every module and drives the view."""
+
 from __future__ import annotations
 
 import asyncio
@@ -21,14 +22,24 @@ from pathlib import Path
 import httpx
 import numpy as np
 import pytest
-from websockets.asyncio.client import connect
-from websockets.exceptions import InvalidStatus
-
-from agent_helpers import BUILD, ROOT, IRPD, copy_cell, files_body, free_port, post_set, small_set, start_agent, start_irpd, stop
-
+from agent_helpers import (
+    BUILD,
+    IRPD,
+    ROOT,
+    copy_cell,
+    files_body,
+    free_port,
+    post_set,
+    small_set,
+    start_agent,
+    start_irpd,
+    stop,
+)
 from indurop_agent import config  # noqa: E402
 from indurop_agent.viewer.mapping import parse_config  # noqa: E402
 from indurop_agent.viewer.urdf import parse as parse_urdf  # noqa: E402
+from websockets.asyncio.client import connect
+from websockets.exceptions import InvalidStatus
 
 CELL = BUILD / "sets" / "plc-robot"
 SOURCE = ROOT / "config" / "sets" / "plc-robot"
@@ -58,20 +69,28 @@ def robot_json(joint: str = "joint_1", urdf: str = "arm.urdf") -> bytes:
 
 
 def test_a_set_holds_robot_json_as_its_own_kind(agent, elves):
-    r = post_set(agent, *files_body({**small_set(elves), "arm.urdf": URDF.read_bytes(), "robot.json": robot_json(),
-                                     "more/robot.json": b"{}"}))
+    r = post_set(
+        agent,
+        *files_body(
+            {**small_set(elves), "arm.urdf": URDF.read_bytes(), "robot.json": robot_json(), "more/robot.json": b"{}"}
+        ),
+    )
     assert r.status_code == 201, r.text
     kinds = {f["path"]: f["kind"] for f in r.json()["files"]}
     assert (kinds["robot.json"], kinds["arm.urdf"], kinds["more/robot.json"]) == ("robot", "urdf", "json")
 
 
-@pytest.mark.parametrize("files, words", [
-    ({"robot.json": robot_json(), "arm.urdf": URDF.read_bytes()}, None),
-    ({"robot.json": robot_json("joint_9"), "arm.urdf": URDF.read_bytes()}, '"joint_9" is not a joint of arm.urdf'),
-    ({"robot.json": robot_json(urdf="missing.urdf")}, '"missing.urdf", which is not a .urdf file of the upload'),
-    ({"robot.json": b'{"urdf": "arm.urdf"}', "arm.urdf": URDF.read_bytes()}, '"joints" must be a non-empty list'),
-    ({"robot.json": robot_json(), "arm.urdf": b"<robot><link/></robot>"}, "a <link> without a name")],
-    ids=["good", "unknown joint", "missing urdf", "no joints", "bad urdf"])
+@pytest.mark.parametrize(
+    "files, words",
+    [
+        ({"robot.json": robot_json(), "arm.urdf": URDF.read_bytes()}, None),
+        ({"robot.json": robot_json("joint_9"), "arm.urdf": URDF.read_bytes()}, '"joint_9" is not a joint of arm.urdf'),
+        ({"robot.json": robot_json(urdf="missing.urdf")}, '"missing.urdf", which is not a .urdf file of the upload'),
+        ({"robot.json": b'{"urdf": "arm.urdf"}', "arm.urdf": URDF.read_bytes()}, '"joints" must be a non-empty list'),
+        ({"robot.json": robot_json(), "arm.urdf": b"<robot><link/></robot>"}, "a <link> without a name"),
+    ],
+    ids=["good", "unknown joint", "missing urdf", "no joints", "bad urdf"],
+)
 def test_an_upload_with_a_robot_json_that_does_not_fit_its_urdf_is_refused(agent, elves, files, words):
     r = post_set(agent, *files_body({**small_set(elves), **files}))
     if words is None:
@@ -144,8 +163,9 @@ class Live:
         self.folder = _cell_folder(tmp)
         self.sock, self.data = tmp / "irpd.sock", tmp / "data"
         # the drive simulator at SCHED_FIFO: a loaded machine must not fault the drives mid-motion
-        self.irpd = start_irpd(self.sock, self.folder / "module.xml", f"robot-view-{viewer}-{os.getpid()}",
-                               drives_priority=10)
+        self.irpd = start_irpd(
+            self.sock, self.folder / "module.xml", f"robot-view-{viewer}-{os.getpid()}", drives_priority=10
+        )
         self.port = free_port()
         cfg = tmp / "agent.json"
         cfg.write_text(json.dumps({"irpd_poll_s": 0.2}))
@@ -188,8 +208,15 @@ class Live:
         return {f"joint_{i + 1}": self.read(f"ROBOT_MODULE_STATE.dCurJoint[{i}]") for i in range(6)}
 
     def state(self) -> str:
-        return ", ".join(f"{v}={self.read(v)}" for v in ("ROBOT_MODULE_STATE.eState", "ROBOT_MODULE_STATE.ErrorID",
-                                                         "PLC_OUT.ErrorID", "IO_STATUS.comm_lost[0]"))
+        return ", ".join(
+            f"{v}={self.read(v)}"
+            for v in (
+                "ROBOT_MODULE_STATE.eState",
+                "ROBOT_MODULE_STATE.ErrorID",
+                "PLC_OUT.ErrorID",
+                "IO_STATUS.comm_lost[0]",
+            )
+        )
 
     def pulse(self, path: str) -> None:
         self.write(path, 0)
@@ -233,15 +260,19 @@ def _viser_messages(raw: bytes) -> list[dict]:
     import zstandard
 
     size, packed = int.from_bytes(raw[:8], "little"), int.from_bytes(raw[8:16], "little")
-    inner = zstandard.ZstdDecompressor().decompress(raw[16:16 + packed], max_output_size=size)
+    inner = zstandard.ZstdDecompressor().decompress(raw[16 : 16 + packed], max_output_size=size)
     return msgspec.msgpack.decode(inner)["messages"]
 
 
 def _quaternion_matrix(wxyz) -> np.ndarray:
     w, x, y, z = wxyz
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 async def _watch(live: Live, cookie: str, seconds: float, on_open=None) -> list[dict[str, np.ndarray]]:
@@ -253,8 +284,13 @@ async def _watch(live: Live, cookie: str, seconds: float, on_open=None) -> list[
 
         subprotocols = [f"viser-v{viser.__version__}"]
     states, scene = [], {}
-    async with connect(f"ws://127.0.0.1:{live.port}/api/v1/robot/viewer", additional_headers=headers,
-                       subprotocols=subprotocols, max_size=None, open_timeout=10) as ws:
+    async with connect(
+        f"ws://127.0.0.1:{live.port}/api/v1/robot/viewer",
+        additional_headers=headers,
+        subprotocols=subprotocols,
+        max_size=None,
+        open_timeout=10,
+    ) as ws:
         if live.viewer == "viser":
             assert ws.subprotocol == subprotocols[0]  # the viewer's choice, relayed by the proxy
         opener = asyncio.create_task(asyncio.to_thread(on_open or (lambda: None)))
@@ -317,8 +353,9 @@ def test_the_viewer_page_comes_through_the_proxy_with_a_ticket_only(live):
 def test_the_viewer_websocket_needs_the_cookie_and_the_pages_own_origin(live):
     async def refused(headers):
         with pytest.raises(InvalidStatus) as e:
-            async with connect(f"ws://127.0.0.1:{live.port}/api/v1/robot/viewer", additional_headers=headers,
-                               open_timeout=10):
+            async with connect(
+                f"ws://127.0.0.1:{live.port}/api/v1/robot/viewer", additional_headers=headers, open_timeout=10
+            ):
                 pass
         return e.value.response.status_code
 
@@ -336,7 +373,7 @@ def world(live: Live, scene: dict[str, np.ndarray], link: str) -> np.ndarray:
     if live.viewer == "meshcat":
         return scene[link]
     pose = np.eye(4)
-    for name in CHAIN[:CHAIN.index(link) + 1]:
+    for name in CHAIN[: CHAIN.index(link) + 1]:
         pose = pose @ scene[name]
     return pose
 
@@ -363,6 +400,7 @@ def test_the_scene_follows_the_joints_while_the_cell_runs(live):
     # that comes and goes between two reads of the API may still be in the scene.
     live.write("I1", 1)
     try:
+
         def scene_between_equal_joints():
             before = live.joints()
             time.sleep(0.5)
@@ -381,7 +419,8 @@ def test_get_robot_shows_the_sets_map_and_the_urdf(live):
     view = live.get("/robot").json()
     assert view["urdf"] == "indurop6.urdf" and view["detail"] is None
     assert [(j["joint"], j["variable"], j["scale"], j["offset"], j["type"]) for j in view["joints"]] == [
-        (f"joint_{i + 1}", f"{NS}ROBOT_MODULE_STATE.dCurJoint[{i}]", 1.0, 0.0, "revolute") for i in range(6)]
+        (f"joint_{i + 1}", f"{NS}ROBOT_MODULE_STATE.dCurJoint[{i}]", 1.0, 0.0, "revolute") for i in range(6)
+    ]
     assert (view["joints"][1]["lower"], view["joints"][1]["upper"]) == (-1.745, 2.356)
     r = live.get("/robot/urdf")
     assert r.status_code == 200 and r.headers["content-type"] == "application/xml"
@@ -390,6 +429,7 @@ def test_get_robot_shows_the_sets_map_and_the_urdf(live):
 
 def _listening(pid: int) -> set[str]:
     """The local addresses of the TCP sockets a process and its children listen on."""
+
     def inodes(p):
         out = set()
         for fd in Path(f"/proc/{p}/fd").iterdir():
@@ -411,8 +451,9 @@ def _listening(pid: int) -> set[str]:
             f = line.split()
             if f[3] == "0A" and f[9] in mine:  # LISTEN
                 address = f[1].split(":")[0]
-                found.add(".".join(str(int(address[i:i + 2], 16)) for i in (6, 4, 2, 0)) if len(address) == 8
-                          else address)
+                found.add(
+                    ".".join(str(int(address[i : i + 2], 16)) for i in (6, 4, 2, 0)) if len(address) == 8 else address
+                )
     return found
 
 
@@ -420,8 +461,9 @@ def test_the_agent_and_its_viewer_listen_on_loopback_only(live):
     addresses = _listening(live.agent.pid)
     assert addresses == {"127.0.0.1"}, addresses
     if live.viewer == "meshcat":  # the viewer's server is a child process of the agent
-        children = [int(c) for t in Path(f"/proc/{live.agent.pid}/task").iterdir()
-                    for c in (t / "children").read_text().split()]
+        children = [
+            int(c) for t in Path(f"/proc/{live.agent.pid}/task").iterdir() for c in (t / "children").read_text().split()
+        ]
         assert children, "the meshcat server is not the agent's child"
 
 
@@ -432,7 +474,8 @@ def test_put_joints_refuses_a_bad_map_naming_the_entry(live):
         ({"joints": [good, {**good, "joint": "joint_tool0"}]}, 'joints[1].joint "joint_tool0" is a fixed joint'),
         ({"joints": [{**good, "variable": f"{NS}NOPE"}]}, f'no variable "{NS}NOPE" in the running layout'),
         ({"joints": [{**good, "variable": f"{NS}ROBOT_MODULE_STATE.dCurJoint"}]}, "not a scalar"),
-        ({"joints": [good, good]}, 'joints[1].joint "joint_1" is mapped twice')]
+        ({"joints": [good, good]}, 'joints[1].joint "joint_1" is mapped twice'),
+    ]
     sets_before = live.get("/sets").json()
     for body, words in cases:
         r = live.put("/robot/joints", body)
@@ -447,8 +490,12 @@ def test_put_joints_stores_a_new_set_keeps_every_module_and_drives_the_view(live
     status = live.get("/status").json()
     modules_before = {m["name"]: m["runs"] for m in live.get("/modules").json()}
     override = f"{NS}PLC_IN.Override"
-    body = {"joints": [{"joint": "joint_1", "variable": override, "scale": 2.0, "offset": 0.25},
-                       {"joint": "joint_2", "variable": f"{NS}ROBOT_MODULE_STATE.dCurJoint[1]", "scale": 1, "offset": 0}]}
+    body = {
+        "joints": [
+            {"joint": "joint_1", "variable": override, "scale": 2.0, "offset": 0.25},
+            {"joint": "joint_2", "variable": f"{NS}ROBOT_MODULE_STATE.dCurJoint[1]", "scale": 1, "offset": 0},
+        ]
+    }
     r = live.put("/robot/joints", body)
     assert r.status_code == 200, r.text
     view = r.json()
@@ -457,8 +504,10 @@ def test_put_joints_stores_a_new_set_keeps_every_module_and_drives_the_view(live
     assert new_id and after["set_id"] == new_id and after["generation"] == status["generation"] + 1
     assert view["available"] and view["viewer_url"]
     assert [(j["joint"], j["variable"], j["scale"], j["offset"]) for j in view["joints"]] == [
-        ("joint_1", override, 2.0, 0.25), ("joint_2", f"{NS}ROBOT_MODULE_STATE.dCurJoint[1]", 1.0, 0.0),
-        *((f"joint_{i}", None, 1.0, 0.0) for i in range(3, 7))]
+        ("joint_1", override, 2.0, 0.25),
+        ("joint_2", f"{NS}ROBOT_MODULE_STATE.dCurJoint[1]", 1.0, 0.0),
+        *((f"joint_{i}", None, 1.0, 0.0) for i in range(3, 7)),
+    ]
     # Stored like any set: robot.json replaced, every other file the running one's.
     stored = live.get(f"/sets/{new_id}").json()
     assert stored["active"] and {f["path"]: f["kind"] for f in stored["files"]}["robot.json"] == "robot"
@@ -495,8 +544,11 @@ def test_put_joints_stores_a_new_set_keeps_every_module_and_drives_the_view(live
 def test_a_set_without_robot_json_makes_the_view_unavailable_and_rollback_brings_it_back(live):
     active = live.get("/sets/active").json()
     files = Path(live.get("/status").json()["set"]).parent
-    parts = [("files", (p.relative_to(files).as_posix(), p.read_bytes())) for p in sorted(files.rglob("*"))
-             if p.is_file() and p.name != "robot.json"]
+    parts = [
+        ("files", (p.relative_to(files).as_posix(), p.read_bytes()))
+        for p in sorted(files.rglob("*"))
+        if p.is_file() and p.name != "robot.json"
+    ]
     r = httpx.post(f"{live.base}/api/v1/sets", headers=live.h, files=parts, timeout=60)
     assert r.status_code == 201, r.text
     bare = r.json()["id"]
@@ -509,23 +561,26 @@ def test_a_set_without_robot_json_makes_the_view_unavailable_and_rollback_brings
     assert view["set_id"] == active["id"] and view["joints"][0]["scale"] == 2.0
 
 
-
 def test_a_hot_reload_that_keeps_the_robot_keeps_the_scene(live):
     """A period or priority change swaps the set, not the robot: the viewer keeps its scene (no
     flicker, no scene rebuilt every reload); a new robot.json loads the robot again."""
+
     def robot_views() -> int:
         events = live.get("/events?since=0&agent_since=0&limit=1000").json()["events"]
         return sum(e["kind"] == "robot_view" for e in events)
 
     def view_follows(set_id):
-        return live.wait(lambda: (v := live.get("/robot").json())["set_id"] == set_id and v["available"] and v,
-                         f"the view to follow set {set_id}")
+        return live.wait(
+            lambda: (v := live.get("/robot").json())["set_id"] == set_id and v["available"] and v,
+            f"the view to follow set {set_id}",
+        )
 
     view_follows(live.get("/status").json()["set_id"])
     shown = robot_views()
     main = live.get("/modules/main").json()
-    r = httpx.patch(f"{live.base}/api/v1/modules/main", headers=live.h, json={"priority": main["priority"] + 1},
-                    timeout=60)
+    r = httpx.patch(
+        f"{live.base}/api/v1/modules/main", headers=live.h, json={"priority": main["priority"] + 1}, timeout=60
+    )
     assert r.status_code == 200, r.text
     swapped = live.get("/status").json()
     view_follows(swapped["set_id"])
@@ -535,8 +590,12 @@ def test_a_hot_reload_that_keeps_the_robot_keeps_the_scene(live):
     assert np.isfinite(tool).all()  # the kept scene still answers a new client with the robot
 
     view = live.get("/robot").json()
-    body = {"joints": [{"joint": j["joint"], "variable": j["variable"], "scale": j["scale"] * 1.5, "offset": j["offset"]}
-                       for j in view["joints"][:1]]}
+    body = {
+        "joints": [
+            {"joint": j["joint"], "variable": j["variable"], "scale": j["scale"] * 1.5, "offset": j["offset"]}
+            for j in view["joints"][:1]
+        ]
+    }
     r = live.put("/robot/joints", body)
     assert r.status_code == 200, r.text
     view_follows(r.json()["set_id"])

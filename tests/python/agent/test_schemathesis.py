@@ -2,16 +2,16 @@
 (every route, every parameter, valid and invalid bodies) and sends them, with an admin token, to
 a real agent in front of a real irpd: no answer may be a 5xx.  The stream (WebSocket) is not in
 the spec; tests/python/agent/test_stream.py covers it."""
+
 from __future__ import annotations
 
 import os
 
 import pytest
 import schemathesis
+from agent_helpers import free_port, start_agent, start_irpd, stop
 from hypothesis import HealthCheck, settings
 from schemathesis.checks import not_a_server_error
-
-from agent_helpers import free_port, start_agent, start_irpd, stop
 
 schemathesis.experimental.OPEN_API_3_1.enable()  # FastAPI writes OpenAPI 3.1
 

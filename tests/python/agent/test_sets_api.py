@@ -2,6 +2,7 @@
 and listing sets, who may do what, the audit log, the agent's events, tokens, the brute-force
 lockout, the body limit, the validation of PATCH and PUT bodies, and the TLS options.
 (With a real irpd v2: test_sets_irpd.py.)"""
+
 from __future__ import annotations
 
 import json
@@ -13,7 +14,6 @@ import time
 
 import httpx
 import pytest
-
 from agent_helpers import API, ROOT, files_body, post_set, small_set
 from indurop_agent import config
 from indurop_agent.security import Lockout
@@ -28,14 +28,25 @@ def upload(agent, elves, **extra) -> dict:
 # ---- sets ---------------------------------------------------------------------------------------
 def test_an_upload_is_stored_unchecked_when_irpd_is_unreachable(agent, elves):
     s = upload(agent, elves)
-    assert s["validation"] == {"valid": None, "errors": [], "problems": [],
-                               "warnings": ["not checked: irpd unreachable"], "schedule": None,
-                               "online": None, "restart": None, "variables": None}
+    assert s["validation"] == {
+        "valid": None,
+        "errors": [],
+        "problems": [],
+        "warnings": ["not checked: irpd unreachable"],
+        "schedule": None,
+        "online": None,
+        "restart": None,
+        "variables": None,
+    }
     assert s["by"]["name"] == "admin" and s["by"]["role"] == "admin" and len(s["by"]["id"]) == 12
     assert s["active"] is False
     assert {f["path"]: f["kind"] for f in s["files"]} == {
-        "module.xml": "module_xml", "lib/ctl.so": "thread_module", "proc.exe": "executable",
-        "layout.json": "layout", "README.md": "text"}
+        "module.xml": "module_xml",
+        "lib/ctl.so": "thread_module",
+        "proc.exe": "executable",
+        "layout.json": "layout",
+        "README.md": "text",
+    }
     manifest = json.loads((agent.data / "sets" / s["id"] / "manifest.json").read_text())
     assert manifest["validation"] == s["validation"] and manifest["files"] == s["files"]
     assert (agent.data / "sets" / s["id"] / "files" / "module.xml").read_bytes() == small_set(elves)["module.xml"]
@@ -55,8 +66,14 @@ def test_sets_are_listed_newest_first_and_read_by_id(agent, elves):
     b = upload(agent, elves, **{"notes.txt": b"b"})
     listing = agent.client.get(f"{API}/sets", headers=agent.h("viewer")).json()
     assert [s["id"] for s in listing] == [b["id"], a["id"]]
-    assert listing[0] == {"id": b["id"], "created": b["created"], "by": b["by"], "files": 6, "valid": None,
-                          "active": False}
+    assert listing[0] == {
+        "id": b["id"],
+        "created": b["created"],
+        "by": b["by"],
+        "files": 6,
+        "valid": None,
+        "active": False,
+    }
     assert agent.client.get(f"{API}/sets/{a['id']}", headers=agent.h("viewer")).json() == a
 
 
@@ -94,12 +111,21 @@ def test_activation_without_irpd_is_503_and_changes_nothing(agent, elves):
 
 
 # ---- roles --------------------------------------------------------------------------------------
-ROUTES = [("POST", "/sets", "admin"), ("GET", "/sets", "viewer"), ("GET", "/sets/active", "viewer"),
-          ("GET", "/sets/0123456789abcdef", "viewer"), ("POST", "/sets/0123456789abcdef/activate", "operator"),
-          ("POST", "/sets/rollback", "operator"), ("GET", "/modules/cntr1", "viewer"),
-          ("PATCH", "/modules/cntr1", "operator"), ("PUT", "/variables/joint[1].y", "operator"),
-          ("GET", "/events", "viewer"), ("GET", "/audit", "admin"), ("GET", "/tokens", "admin"),
-          ("DELETE", "/tokens/0123456789ab", "admin")]
+ROUTES = [
+    ("POST", "/sets", "admin"),
+    ("GET", "/sets", "viewer"),
+    ("GET", "/sets/active", "viewer"),
+    ("GET", "/sets/0123456789abcdef", "viewer"),
+    ("POST", "/sets/0123456789abcdef/activate", "operator"),
+    ("POST", "/sets/rollback", "operator"),
+    ("GET", "/modules/cntr1", "viewer"),
+    ("PATCH", "/modules/cntr1", "operator"),
+    ("PUT", "/variables/joint[1].y", "operator"),
+    ("GET", "/events", "viewer"),
+    ("GET", "/audit", "admin"),
+    ("GET", "/tokens", "admin"),
+    ("DELETE", "/tokens/0123456789ab", "admin"),
+]
 BODIES = {"PATCH": {"period_ns": 1000000}, "PUT": {"value": 1.0}}
 
 
@@ -223,19 +249,29 @@ def test_a_large_body_is_refused_with_413_except_for_uploads(make_agent, elves):
 
 
 # ---- PATCH and PUT bodies -----------------------------------------------------------------------
-@pytest.mark.parametrize("body, field", [({}, "at least one"), ({"period_ns": 0}, "period_ns"),
-                                         ({"period_ns": "100"}, "period_ns"), ({"priority": -1}, "priority"),
-                                         ({"enabled": "yes"}, "enabled"), ({"speed": 2}, "speed")])
+@pytest.mark.parametrize(
+    "body, field",
+    [
+        ({}, "at least one"),
+        ({"period_ns": 0}, "period_ns"),
+        ({"period_ns": "100"}, "period_ns"),
+        ({"priority": -1}, "priority"),
+        ({"enabled": "yes"}, "enabled"),
+        ({"speed": 2}, "speed"),
+    ],
+)
 def test_a_bad_module_patch_is_422_naming_the_field(agent, body, field):
     r = agent.client.patch(f"{API}/modules/cntr1", json=body, headers=agent.h("operator"))
     assert r.status_code == 422 and field in json.dumps(r.json()["detail"])
 
 
-@pytest.mark.parametrize("raw", ['{"value": "1"}', '{"value": null}', '{"value": NaN}', '{"value": Infinity}',
-                                 '{"v": 1}', '{"value": [1]}'])
+@pytest.mark.parametrize(
+    "raw", ['{"value": "1"}', '{"value": null}', '{"value": NaN}', '{"value": Infinity}', '{"v": 1}', '{"value": [1]}']
+)
 def test_a_bad_variable_write_is_422(agent, raw):
-    r = agent.client.put(f"{API}/variables/joint[1].y", content=raw,
-                         headers={**agent.h("operator"), "Content-Type": "application/json"})
+    r = agent.client.put(
+        f"{API}/variables/joint[1].y", content=raw, headers={**agent.h("operator"), "Content-Type": "application/json"}
+    )
     assert r.status_code == 422, r.text
 
 
@@ -245,8 +281,12 @@ def test_writes_and_patches_without_irpd_are_503_and_audited(agent):
     r = agent.client.patch(f"{API}/modules/cntr1", json={"enabled": False}, headers=agent.h("operator"))
     assert r.status_code == 503
     write, patch = agent.audit()[-2:]
-    assert (write["action"], write["target"], write["value"], write["status"]) == \
-        ("write_variable", "joint[1].y", True, 503)
+    assert (write["action"], write["target"], write["value"], write["status"]) == (
+        "write_variable",
+        "joint[1].y",
+        True,
+        503,
+    )
     assert (patch["action"], patch["changes"], patch["who"]["role"]) == ("patch_module", {"enabled": False}, "operator")
 
 
@@ -274,15 +314,27 @@ def test_the_config_file_sets_limits_and_tls_and_refuses_unknown_keys(tmp_path, 
     cert.write_text("c")
     key.write_text("k")
     f = tmp_path / "agent.json"
-    f.write_text(json.dumps({"max_file_bytes": 1000, "max_upload_bytes": 5000, "max_files": 3,
-                             "tls_cert": str(cert), "tls_key": str(key), "lockout_attempts": 5}))
+    f.write_text(
+        json.dumps(
+            {
+                "max_file_bytes": 1000,
+                "max_upload_bytes": 5000,
+                "max_files": 3,
+                "tls_cert": str(cert),
+                "tls_key": str(key),
+                "lockout_attempts": 5,
+            }
+        )
+    )
     s = config.parse(["--config", str(f)])
     assert (s.max_file_bytes, s.max_upload_bytes, s.max_files, s.lockout_attempts) == (1000, 5000, 3, 5)
     assert s.tls_cert == cert and s.tls_key == key
-    for bad, words in [({"max_files": "many"}, "'max_files' must be an integer"),
-                       ({"colour": 1}, "unknown keys colour"),
-                       ({"max_file_bytes": 0}, "max_file_bytes must be greater than 0"),
-                       ({"max_file_bytes": 10, "max_upload_bytes": 5}, "larger than max_upload_bytes")]:
+    for bad, words in [
+        ({"max_files": "many"}, "'max_files' must be an integer"),
+        ({"colour": 1}, "unknown keys colour"),
+        ({"max_file_bytes": 0}, "max_file_bytes must be greater than 0"),
+        ({"max_file_bytes": 10, "max_upload_bytes": 5}, "larger than max_upload_bytes"),
+    ]:
         f.write_text(json.dumps(bad))
         with pytest.raises(SystemExit):
             config.parse(["--config", str(f)])
@@ -291,16 +343,53 @@ def test_the_config_file_sets_limits_and_tls_and_refuses_unknown_keys(tmp_path, 
 
 def test_the_agent_serves_https_with_tls_options(tmp_path):
     cert, key = tmp_path / "cert.pem", tmp_path / "key.pem"
-    made = subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "1",
-                           "-subj", "/CN=127.0.0.1", "-addext", "subjectAltName=IP:127.0.0.1",
-                           "-keyout", str(key), "-out", str(cert)], capture_output=True, text=True)
+    made = subprocess.run(
+        [
+            "openssl",
+            "req",
+            "-x509",
+            "-newkey",
+            "rsa:2048",
+            "-nodes",
+            "-days",
+            "1",
+            "-subj",
+            "/CN=127.0.0.1",
+            "-addext",
+            "subjectAltName=IP:127.0.0.1",
+            "-keyout",
+            str(key),
+            "-out",
+            str(cert),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert made.returncode == 0, made.stderr
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    p = subprocess.Popen([sys.executable, "-m", "indurop_agent", "--port", str(port), "--data-dir", str(tmp_path / "d"),
-                          "--irpd-socket", str(tmp_path / "none.sock"), "--tls-cert", str(cert), "--tls-key", str(key)],
-                         cwd=ROOT / "agent", stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    p = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "indurop_agent",
+            "--port",
+            str(port),
+            "--data-dir",
+            str(tmp_path / "d"),
+            "--irpd-socket",
+            str(tmp_path / "none.sock"),
+            "--tls-cert",
+            str(cert),
+            "--tls-key",
+            str(key),
+        ],
+        cwd=ROOT / "agent",
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     try:
         deadline = time.monotonic() + 20
         while True:

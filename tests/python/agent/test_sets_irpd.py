@@ -10,6 +10,7 @@ end-to-end check of the agent's set work and must run once irpd v2 is in.
 The sets are the paper's Figure 1 set as built in build/sets/paper-fig1 (every module kind), and
 variants of it that differ in module.xml only.
 """
+
 from __future__ import annotations
 
 import json
@@ -19,7 +20,6 @@ from pathlib import Path
 
 import httpx
 import pytest
-
 from agent_helpers import BUILD, FIG1, IRPD, free_port, start_agent, start_irpd, stop
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
@@ -151,7 +151,14 @@ def test_activation_hot_swaps_irpd_to_the_set_and_records_it(cell):
     history = [json.loads(line) for line in (cell.data / "history.jsonl").read_text().splitlines()]
     assert [(h["action"], h["set_id"]) for h in history] == [("activate", s["id"])]
     assert [m["name"] for m in cell.get("/modules").json()] == [
-        "cntr1", "cntr2", "cntr3", "cntr4", "event1", "visionEvt", "nonReaTime"]
+        "cntr1",
+        "cntr2",
+        "cntr3",
+        "cntr4",
+        "event1",
+        "visionEvt",
+        "nonReaTime",
+    ]
 
 
 def test_a_refused_activation_changes_nothing(cell):
@@ -253,15 +260,19 @@ COUNTERS = BUILD / "tests" / "cpp" / "modules"
 def counter_set(swap_version: int) -> list:
     """A set of two counter modules (tests/cpp/modules/counter.cpp): `keep` at the basic period,
     `swap` in the given version; uploading it again with the other version changes only swap."""
-    xml = (b"<root>\n"
-           b"  <module><name>keep</name><filename>keep.so</filename><moduletype>thread</moduletype>"
-           b"<operationtype>periodic</operationtype><period>1000000</period><priority>1</priority></module>\n"
-           b"  <module><name>swap</name><filename>swap.so</filename><moduletype>thread</moduletype>"
-           b"<operationtype>periodic</operationtype><period>2000000</period><priority>2</priority></module>\n"
-           b"</root>\n")
-    return [("files", ("module.xml", xml)),
-            ("files", ("keep.so", (COUNTERS / "counter_v1.so").read_bytes())),
-            ("files", ("swap.so", (COUNTERS / f"counter_v{swap_version}.so").read_bytes()))]
+    xml = (
+        b"<root>\n"
+        b"  <module><name>keep</name><filename>keep.so</filename><moduletype>thread</moduletype>"
+        b"<operationtype>periodic</operationtype><period>1000000</period><priority>1</priority></module>\n"
+        b"  <module><name>swap</name><filename>swap.so</filename><moduletype>thread</moduletype>"
+        b"<operationtype>periodic</operationtype><period>2000000</period><priority>2</priority></module>\n"
+        b"</root>\n"
+    )
+    return [
+        ("files", ("module.xml", xml)),
+        ("files", ("keep.so", (COUNTERS / "counter_v1.so").read_bytes())),
+        ("files", ("swap.so", (COUNTERS / f"counter_v{swap_version}.so").read_bytes())),
+    ]
 
 
 def test_upload_validate_activate_keeps_a_counter_counting_through_hot_reloads(cell):

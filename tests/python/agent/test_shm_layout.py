@@ -2,6 +2,7 @@
 (agent/indurop_agent/shm_layout.json, docs/shared-memory.md): the copy and the docs' tables are
 current; the four segments of a live irpd read through it give what irpd put there; a reader
 refuses a segment whose header the description does not match, naming what differs."""
+
 from __future__ import annotations
 
 import json
@@ -12,7 +13,6 @@ import time
 from pathlib import Path
 
 import pytest
-
 from agent_helpers import FIG1, IRPD, ROOT, start_irpd, stop
 from indurop_agent import shm_layout
 from indurop_agent.shm_layout import LayoutError, segment
@@ -36,14 +36,20 @@ def test_every_struct_is_described_byte_by_byte_with_known_types():
     another described struct, and the same opening for every segment."""
     for name in SEGMENTS:
         s = segment(name)
-        assert [(f, s.header.offset(f), s.header.format(f)) for f in ("magic", "version", "header_size")] == \
-            [("magic", 0, "<Q"), ("version", 8, "<I"), ("header_size", 12, "<I")]
+        assert [(f, s.header.offset(f), s.header.format(f)) for f in ("magic", "version", "header_size")] == [
+            ("magic", 0, "<Q"),
+            ("version", 8, "<I"),
+            ("header_size", 12, "<I"),
+        ]
         for st in s.structs.values():
             at = 0
             for field_name, f in st.fields.items():
                 assert f["offset"] == at, f"{name}: {st.name}.{field_name}"
-                assert f["type"] in shm_layout.SCALARS or f["type"] in ("char", "pthread_mutex_t") or \
-                    f["type"] in s.structs, f"{name}: {st.name}.{field_name} is a {f['type']}"
+                assert (
+                    f["type"] in shm_layout.SCALARS
+                    or f["type"] in ("char", "pthread_mutex_t")
+                    or f["type"] in s.structs
+                ), f"{name}: {st.name}.{field_name} is a {f['type']}"
                 at += f["size"]
             assert 0 <= st.size - at < 64, st.name
 
@@ -110,7 +116,7 @@ def test_the_live_variable_segment_holds_the_layout_its_header_points_at(live):
     s, mm = opened("variables", live)
     h = s.header
     try:
-        text = mm[h.read(mm, "layout_offset"):h.read(mm, "layout_offset") + h.read(mm, "layout_size")]
+        text = mm[h.read(mm, "layout_offset") : h.read(mm, "layout_offset") + h.read(mm, "layout_size")]
         layout = json.loads(text)
         assert layout["hash"] == h.text(mm, "layout_hash")
         assert h.read(mm, "lock_size") == s.struct("indurop_var_lock").size

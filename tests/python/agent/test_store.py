@@ -1,6 +1,7 @@
 """test_store.py -- the set store on disk (agent/indurop_agent/store.py): content-addressed blobs,
 content-derived ids, the read-only materialized tree, the activation history with its rollback
 stack, active.json and the `active` link, and what a restart finds."""
+
 from __future__ import annotations
 
 import hashlib
@@ -9,7 +10,6 @@ import os
 import stat
 
 import pytest
-
 from indurop_agent.store import SetStore, StagedFile, StoreError, set_id_of
 
 WHO = {"id": "0123456789ab", "name": "tester", "role": "admin"}
@@ -28,8 +28,12 @@ def staged(store: SetStore, files: dict[str, tuple[bytes, str]]) -> list[StagedF
 
 
 def a_set(xml: bytes = b"<root/>", so: bytes = b"\x7fELF-pretend") -> dict[str, tuple[bytes, str]]:
-    return {"module.xml": (xml, "module_xml"), "lib/ctl.so": (so, "thread_module"),
-            "proc.exe": (b"\x7fELF-exe", "executable"), "notes.txt": (b"hello", "text")}
+    return {
+        "module.xml": (xml, "module_xml"),
+        "lib/ctl.so": (so, "thread_module"),
+        "proc.exe": (b"\x7fELF-exe", "executable"),
+        "notes.txt": (b"hello", "text"),
+    }
 
 
 @pytest.fixture
@@ -104,8 +108,9 @@ def test_a_malformed_id_is_no_set(store, bad):
 
 
 def commit_sets(store, n: int) -> list[str]:
-    return [store.commit(staged(store, a_set(xml=f"<root>{i}</root>".encode())), WHO, UNCHECKED)[0]["id"]
-            for i in range(n)]
+    return [
+        store.commit(staged(store, a_set(xml=f"<root>{i}</root>".encode())), WHO, UNCHECKED)[0]["id"] for i in range(n)
+    ]
 
 
 def test_activation_is_recorded_and_rollback_walks_back_the_stack(store):
@@ -120,7 +125,12 @@ def test_activation_is_recorded_and_rollback_walks_back_the_stack(store):
     assert store.active_id() == a and store.rollback_target() is None
     history = [json.loads(line) for line in store.history_path.read_text().splitlines()]
     assert [(h["action"], h["set_id"], h["previous"]) for h in history] == [
-        ("activate", a, None), ("activate", b, a), ("activate", c, b), ("rollback", b, c), ("rollback", a, b)]
+        ("activate", a, None),
+        ("activate", b, a),
+        ("activate", c, b),
+        ("rollback", b, c),
+        ("rollback", a, b),
+    ]
     assert all(h["by"] == WHO for h in history)
 
 
@@ -155,7 +165,7 @@ def test_a_restart_finds_the_same_state_and_repairs_active_json_from_the_history
     a, b = commit_sets(store, 2)
     store.record_activation(a, "activate", WHO, None)
     store.record_activation(b, "activate", WHO, None)
-    store.active_path.unlink()   # as if the agent died between history and active.json
+    store.active_path.unlink()  # as if the agent died between history and active.json
     store.active_link.unlink()
     again = SetStore(tmp_path / "data")
     assert again.active_id() == b and again.rollback_target() == a

@@ -2,6 +2,7 @@
 and a real agent: every sample of knu.Robot.tick (cntr2 adds 10 every 100 us period) arrives in
 order without gaps, decimated streams stay aligned, a slow client's drops are counted exactly and
 do not touch the others, bad subscriptions and bad tokens are answered, irpd restarting."""
+
 from __future__ import annotations
 
 import base64
@@ -16,11 +17,10 @@ from pathlib import Path
 
 import httpx
 import pytest
-from websockets.exceptions import ConnectionClosed
-from websockets.sync.client import connect
-
 from agent_helpers import IRPD, free_port, start_agent, start_irpd, stop
 from indurop_agent import stream_frame
+from websockets.exceptions import ConnectionClosed
+from websockets.sync.client import connect
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
@@ -32,8 +32,13 @@ def decode(frame: bytes) -> dict:
     """A samples frame (docs/trace-and-stream.md §4; the decoder is tested against the spec's vectors
     in test_stream_frame.py)."""
     f = stream_frame.decode(frame)
-    return {"first": f.first_seq, "count": len(f.t_ns), "dropped": f.dropped, "t": tuple(f.t_ns),
-            "columns": [tuple(c) for c in f.columns]}
+    return {
+        "first": f.first_seq,
+        "count": len(f.t_ns),
+        "dropped": f.dropped,
+        "t": tuple(f.t_ns),
+        "columns": [tuple(c) for c in f.columns],
+    }
 
 
 @pytest.fixture
@@ -45,8 +50,9 @@ def cell(tmp_path):
     agent = start_agent(port, data, sock)
     url = f"http://127.0.0.1:{port}/api/v1"
     admin = (data / "admin-token").read_text().strip()
-    viewer = httpx.post(f"{url}/tokens", json={"name": "plots", "role": "viewer"},
-                        headers={"Authorization": f"Bearer {admin}"}).json()["token"]
+    viewer = httpx.post(
+        f"{url}/tokens", json={"name": "plots", "role": "viewer"}, headers={"Authorization": f"Bearer {admin}"}
+    ).json()["token"]
     state.update(ws=f"ws://127.0.0.1:{port}/api/v1/stream", viewer=viewer)
     yield state
     stop(agent)
@@ -91,8 +97,10 @@ def samples(frames: list[dict], decimation: int = 1) -> list[tuple[int, int, lis
 def test_every_sample_arrives_in_order_without_gaps_at_the_basic_period(cell):
     with open_stream(cell) as ws:
         answer = subscribe(ws, [TICK, "joint[0].x"], stats=True)
-        assert answer["channels"] == [{"index": 0, "path": TICK, "type": "uint32_t"},
-                                      {"index": 1, "path": "joint[0].x", "type": "double"}]
+        assert answer["channels"] == [
+            {"index": 0, "path": TICK, "type": "uint32_t"},
+            {"index": 1, "path": "joint[0].x", "type": "double"},
+        ]
         basic = answer["basic_period_ns"]
         assert basic == 100_000 and answer["decimation"] == 1
         texts: list = []
@@ -145,9 +153,13 @@ class RawStream:
         self.sock.settimeout(10)
         self.sock.connect((host, int(port)))
         key = base64.b64encode(os.urandom(16)).decode()
-        self.sock.sendall((f"GET /api/v1/stream?token={cell['viewer']} HTTP/1.1\r\nHost: {host}:{port}\r\n"
-                           f"Upgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
-                           "Sec-WebSocket-Version: 13\r\n\r\n").encode())
+        self.sock.sendall(
+            (
+                f"GET /api/v1/stream?token={cell['viewer']} HTTP/1.1\r\nHost: {host}:{port}\r\n"
+                f"Upgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
+                "Sec-WebSocket-Version: 13\r\n\r\n"
+            ).encode()
+        )
         self.buffer = b""
         while b"\r\n\r\n" not in self.buffer:
             self.buffer += self.sock.recv(4096)
@@ -174,9 +186,9 @@ class RawStream:
             b0, b1 = self._take(2)
             n = b1 & 0x7F
             if n == 126:
-                n, = struct.unpack(">H", self._take(2))
+                (n,) = struct.unpack(">H", self._take(2))
             elif n == 127:
-                n, = struct.unpack(">Q", self._take(8))
+                (n,) = struct.unpack(">Q", self._take(8))
             payload = self._take(n)
             if b0 & 0x0F == 1:
                 return payload.decode()
@@ -189,8 +201,11 @@ class RawStream:
 
 
 def test_a_slow_client_counts_exactly_what_it_lost_and_the_others_lose_nothing(cell):
-    layout = [TICK] + [f"knu.Robot.joints[{j}].{a}" for j in range(10) for a in "xyz"] + \
-             [f"joint[{j}].{a}" for j in range(6) for a in "xyz"]  # 49 channels: 4 MB/s at 100 us
+    layout = (
+        [TICK]
+        + [f"knu.Robot.joints[{j}].{a}" for j in range(10) for a in "xyz"]
+        + [f"joint[{j}].{a}" for j in range(6) for a in "xyz"]
+    )  # 49 channels: 4 MB/s at 100 us
     slow = RawStream(cell)
     try:
         with open_stream(cell) as fast:
@@ -258,8 +273,10 @@ def test_guessing_tokens_on_the_stream_locks_the_address_out_as_on_http(cell):
         with pytest.raises(ConnectionClosed) as closed:
             ws.recv(timeout=10)
         assert closed.value.rcvd.code == 4429 and "try again" in closed.value.rcvd.reason
-    r = httpx.get(cell["ws"].replace("ws://", "http://").replace("/stream", "/status"),
-                  headers={"Authorization": f"Bearer {cell['viewer']}"})
+    r = httpx.get(
+        cell["ws"].replace("ws://", "http://").replace("/stream", "/status"),
+        headers={"Authorization": f"Bearer {cell['viewer']}"},
+    )
     assert r.status_code == 429 and int(r.headers["Retry-After"]) > 0
 
 

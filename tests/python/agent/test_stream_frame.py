@@ -3,6 +3,7 @@ generated from it are current, a changed field makes them stale, and the Python 
 (indurop_agent.stream_frame, used by the stream route and the client) decodes every frame of the
 spec's vectors (protocol/stream/vectors.json, decoded by webui/tests/unit/frame.test.ts too) and
 encodes them byte for byte."""
+
 from __future__ import annotations
 
 import importlib.util
@@ -13,7 +14,6 @@ import sys
 from array import array
 
 import pytest
-
 from agent_helpers import ROOT
 from indurop_agent import client, stream_frame
 
@@ -21,8 +21,13 @@ GENERATE = ROOT / "protocol" / "stream" / "generate.py"
 REGENERATE = "python3 protocol/stream/generate.py"
 VECTORS = json.loads((ROOT / "protocol" / "stream" / "vectors.json").read_text())
 # What each refusal of the vectors is called in the decoder's message.
-REASONS = {"short": "too short", "magic": "not an indurop stream frame", "version": "this client reads version",
-           "kind": "is not a sample frame", "length": "announces"}
+REASONS = {
+    "short": "too short",
+    "magic": "not an indurop stream frame",
+    "version": "this client reads version",
+    "kind": "is not a sample frame",
+    "length": "announces",
+}
 
 
 def generator():
@@ -37,11 +42,14 @@ def test_the_files_generated_from_the_spec_are_current():
     assert r.returncode == 0, f"{r.stderr.strip()}\n(run `{REGENERATE}` and review the diff)"
 
 
-@pytest.mark.parametrize("change, stale", [
-    ("a field's type", {"python", "typescript", "doc"}),  # the same bytes: the vectors stay
-    ("a new field", {"python", "typescript", "vectors", "doc"}),
-    ("the version", {"python", "typescript", "vectors", "doc"}),
-])
+@pytest.mark.parametrize(
+    "change, stale",
+    [
+        ("a field's type", {"python", "typescript", "doc"}),  # the same bytes: the vectors stay
+        ("a new field", {"python", "typescript", "vectors", "doc"}),
+        ("the version", {"python", "typescript", "vectors", "doc"}),
+    ],
+)
 def test_a_changed_spec_leaves_the_generated_files_stale(tmp_path, change, stale):
     gen = generator()
     changed = json.loads(gen.SPEC.read_text())
@@ -54,8 +62,12 @@ def test_a_changed_spec_leaves_the_generated_files_stale(tmp_path, change, stale
     path = tmp_path / "frame.json"
     path.write_text(json.dumps(changed))
     before, after = gen.load(gen.SPEC), gen.load(path)
-    render = {"python": gen.python_module, "typescript": gen.typescript_module, "vectors": gen.vectors,
-              "doc": gen.doc_table}
+    render = {
+        "python": gen.python_module,
+        "typescript": gen.typescript_module,
+        "vectors": gen.vectors,
+        "doc": gen.doc_table,
+    }
     assert {name for name, f in render.items() if f(after) != f(before)} == stale
 
 
@@ -73,13 +85,18 @@ def test_a_spec_the_decoders_cannot_view_as_typed_arrays_is_refused(tmp_path):
 def test_every_vector_decodes_to_its_frame_and_encodes_back(vector):
     raw, want = bytes.fromhex(vector["hex"]), vector["frame"]
     f = stream_frame.decode(raw)
-    assert (f.first_seq, len(f.t_ns), len(f.columns), f.dropped) == \
-        (want["first_seq"], want["count"], want["channels"], want["dropped"])
+    assert (f.first_seq, len(f.t_ns), len(f.columns), f.dropped) == (
+        want["first_seq"],
+        want["count"],
+        want["channels"],
+        want["dropped"],
+    )
     assert f.t_ns == want["t_ns"]
     assert f.columns == want["columns"]
     # -0.0 == 0.0: compare the signs too
-    assert [[math.copysign(1, y) for y in c] for c in f.columns] == \
-        [[math.copysign(1, y) for y in c] for c in want["columns"]]
+    assert [[math.copysign(1, y) for y in c] for c in f.columns] == [
+        [math.copysign(1, y) for y in c] for c in want["columns"]
+    ]
     assert stream_frame.encode(want["first_seq"], want["t_ns"], want["columns"], want["dropped"]) == raw
     assert client.decode_frame(raw) == f  # the client decodes with the same codec
 

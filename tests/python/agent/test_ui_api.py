@@ -1,6 +1,7 @@
 """test_ui_api.py -- the routes the web UI needs, against a real irpd and a real agent on loopback:
 histograms (GET /jitter/histograms), batch module changes and their dry run
 (POST /modules/changes), the host's load (GET /host), and the minimum basic period in /status."""
+
 from __future__ import annotations
 
 import math
@@ -10,7 +11,6 @@ from pathlib import Path
 
 import httpx
 import pytest
-
 from agent_helpers import BUILD, IRPD, free_port, start_agent, start_irpd, stop
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
@@ -45,8 +45,12 @@ class Live:
         return r.json()
 
     def change(self, changes: list[dict], dry_run: bool, role: str = "operator") -> httpx.Response:
-        return httpx.post(f"{self.url}/modules/changes", json={"changes": changes, "dry_run": dry_run},
-                          headers=self.h(role), timeout=40)
+        return httpx.post(
+            f"{self.url}/modules/changes",
+            json={"changes": changes, "dry_run": dry_run},
+            headers=self.h(role),
+            timeout=40,
+        )
 
     def module(self, name: str) -> dict:
         return self.ok(f"/modules/{name}")
@@ -67,10 +71,14 @@ def live(tmp_path):
 def budget_cell(tmp_path):
     """Two counter modules whose <budget>s make the main executor 90 % busy: keep (600 us every
     1 ms) and swap (600 us every 2 ms)."""
+
     def module(name: str, period: int, priority: int) -> str:
-        return (f"  <module><name>{name}</name><filename>{COUNTERS / 'counter_v1.so'}</filename>"
-                f"<moduletype>thread</moduletype><operationtype>periodic</operationtype><period>{period}</period>"
-                f"<priority>{priority}</priority><budget>600000</budget></module>\n")
+        return (
+            f"  <module><name>{name}</name><filename>{COUNTERS / 'counter_v1.so'}</filename>"
+            f"<moduletype>thread</moduletype><operationtype>periodic</operationtype><period>{period}</period>"
+            f"<priority>{priority}</priority><budget>600000</budget></module>\n"
+        )
+
     config = tmp_path / "module.xml"
     config.write_text("<root>\n" + module("keep", 1_000_000, 1) + module("swap", 2_000_000, 2) + "</root>\n")
     cell = Live(tmp_path, config)
@@ -184,8 +192,9 @@ def test_a_batch_change_is_one_swap_of_every_module_it_names(live):
     assert live.ok("/status")["generation"] == generation + 1
     assert live.ok("/schedule")["slots"] == report["after"]["slots"]
     assert live.module("cntr1")["period_ns"] == 1_000_000 and live.module("cntr2")["priority"] == 7
-    line = [e for e in httpx.get(f"{live.url}/audit", headers=live.h("admin")).json()
-            if e["action"] == "change_modules"][-1]
+    line = [
+        e for e in httpx.get(f"{live.url}/audit", headers=live.h("admin")).json() if e["action"] == "change_modules"
+    ][-1]
     assert (line["result"], line["target"], line["generation"]) == ("ok", "cntr1, cntr2", generation + 1)
     events = live.ok("/events")["events"]
     assert any(e["source"] == "agent" and e["kind"] == "change_modules" for e in events)
@@ -205,9 +214,14 @@ def test_refused_changes_say_what_to_fix_and_change_nothing(live, dry_run):
     assert r.status_code == 409 and "changed twice" in r.json()["detail"], r.text  # irpd's refusal
     r = live.change([{"name": "cntr1"}], dry_run)  # the spec's entry gives at least one value
     assert r.status_code == 422 and "at least one of period_ns, priority or enabled" in r.text, r.text
-    for body in ({"changes": []}, {"changes": [{"name": "cntr1", "period_ns": "1ms"}]},
-                 {"changes": [{"name": "cntr1", "period_ns": 0}]}, {"changes": [{"name": "cntr1", "period": 5}]},
-                 {"changes": [{"name": "cntr1", "enabled": "no"}]}, {"changes": "cntr1"}):
+    for body in (
+        {"changes": []},
+        {"changes": [{"name": "cntr1", "period_ns": "1ms"}]},
+        {"changes": [{"name": "cntr1", "period_ns": 0}]},
+        {"changes": [{"name": "cntr1", "period": 5}]},
+        {"changes": [{"name": "cntr1", "enabled": "no"}]},
+        {"changes": "cntr1"},
+    ):
         r = httpx.post(f"{live.url}/modules/changes", json=body, headers=live.h(), timeout=40)
         assert r.status_code == 422, (body, r.text)
     assert live.change(CHANGES, dry_run, role="viewer").status_code == 403
@@ -234,8 +248,13 @@ def test_a_change_over_100_percent_is_refused_and_80_percent_warned(budget_cell)
 def test_host_load_is_in_range_and_names_irpds_process(live):
     first = live.ok("/host")
     status = live.ok("/status")
-    assert len(first["cpus"]) == len([line for line in Path("/proc/stat").read_text().splitlines()
-                                      if line.startswith("cpu") and not line.startswith("cpu ")])
+    assert len(first["cpus"]) == len(
+        [
+            line
+            for line in Path("/proc/stat").read_text().splitlines()
+            if line.startswith("cpu") and not line.startswith("cpu ")
+        ]
+    )
     assert all(0.0 <= c["busy"] <= 1.0 for c in first["cpus"])
     assert len(first["load_avg"]) == 3 and all(v >= 0 for v in first["load_avg"])
     assert first["interval_s"] > 0

@@ -3,6 +3,7 @@ input: the exact status, a detail naming the problem, and nothing left in the st
 uploads in progress).  Names are sent byte by byte (agent_helpers.multipart), archives are built
 with tarfile, ELF files are real ones from gcc, patched where a test needs a wrong one.
 irpd is absent here: these refusals happen before the agent asks it anything."""
+
 from __future__ import annotations
 
 import gzip
@@ -10,9 +11,7 @@ import os
 import tarfile
 
 import pytest
-
-from agent_helpers import (files_body, module_xml, multipart, patched, post_set, small_set, tar_gz,
-                           wrong_machine)
+from agent_helpers import files_body, module_xml, multipart, patched, post_set, small_set, tar_gz, wrong_machine
 from indurop_agent.uploads import UploadError, clean_name
 
 GZ = "application/gzip"
@@ -29,10 +28,19 @@ def refused(agent, response, status: int, *words: str) -> str:
 
 
 # ---- names --------------------------------------------------------------------------------------
-@pytest.mark.parametrize("name, normalized", [
-    ("module.xml", "module.xml"), ("./module.xml", "module.xml"), ("lib//a.so", "lib/a.so"),
-    ("lib/./a.so", "lib/a.so"), ("meshes/arm link.stl", "meshes/arm link.stl"), ("ünïcode.txt", "ünïcode.txt"),
-    ("50%.txt", "50%.txt"), ("{0}%s.txt", "{0}%s.txt")])
+@pytest.mark.parametrize(
+    "name, normalized",
+    [
+        ("module.xml", "module.xml"),
+        ("./module.xml", "module.xml"),
+        ("lib//a.so", "lib/a.so"),
+        ("lib/./a.so", "lib/a.so"),
+        ("meshes/arm link.stl", "meshes/arm link.stl"),
+        ("ünïcode.txt", "ünïcode.txt"),
+        ("50%.txt", "50%.txt"),
+        ("{0}%s.txt", "{0}%s.txt"),
+    ],
+)
 def test_good_names_are_normalized(name, normalized):
     assert clean_name(name) == normalized
 
@@ -122,20 +130,23 @@ def member(name: str, kind: bytes, linkname: str = "") -> tarfile.TarInfo:
     return info
 
 
-@pytest.mark.parametrize("case, entry, words", [
-    ("symlink", member("evil", tarfile.SYMTYPE, "/etc/passwd"), "symbolic link"),
-    ("symlink inside", member("lib/alias.so", tarfile.SYMTYPE, "ctl.so"), "symbolic link"),
-    ("hard link", member("evil", tarfile.LNKTYPE, "module.xml"), "hard link"),
-    ("char device", member("dev/null", tarfile.CHRTYPE), "device file"),
-    ("block device", member("dev/sda", tarfile.BLKTYPE), "device file"),
-    ("fifo", member("pipe", tarfile.FIFOTYPE), "FIFO"),
-    ("traversal", ("../evil.txt", b"x"), "'..'"),
-    ("traversal deep", ("lib/../../../evil.txt", b"x"), "'..'"),
-    ("absolute", ("/etc/cron.d/evil", b"x"), "absolute"),
-    ("percent-encoded traversal", ("%2e%2e/%2e%2e/evil.txt", b"x"), "percent-escape"),
-    ("backslash", ("..\\..\\evil.txt", b"x"), "backslash"),
-    ("control character", ("evil\x1b[2J.txt", b"x"), "control character"),
-])
+@pytest.mark.parametrize(
+    "case, entry, words",
+    [
+        ("symlink", member("evil", tarfile.SYMTYPE, "/etc/passwd"), "symbolic link"),
+        ("symlink inside", member("lib/alias.so", tarfile.SYMTYPE, "ctl.so"), "symbolic link"),
+        ("hard link", member("evil", tarfile.LNKTYPE, "module.xml"), "hard link"),
+        ("char device", member("dev/null", tarfile.CHRTYPE), "device file"),
+        ("block device", member("dev/sda", tarfile.BLKTYPE), "device file"),
+        ("fifo", member("pipe", tarfile.FIFOTYPE), "FIFO"),
+        ("traversal", ("../evil.txt", b"x"), "'..'"),
+        ("traversal deep", ("lib/../../../evil.txt", b"x"), "'..'"),
+        ("absolute", ("/etc/cron.d/evil", b"x"), "absolute"),
+        ("percent-encoded traversal", ("%2e%2e/%2e%2e/evil.txt", b"x"), "percent-escape"),
+        ("backslash", ("..\\..\\evil.txt", b"x"), "backslash"),
+        ("control character", ("evil\x1b[2J.txt", b"x"), "control character"),
+    ],
+)
 def test_archives_with_links_devices_or_bad_names_are_refused(agent, elves, case, entry, words):
     archive = tar_gz([*small_set(elves).items(), entry])
     refused(agent, post_set(agent, archive, GZ), 400, words)
@@ -144,8 +155,7 @@ def test_archives_with_links_devices_or_bad_names_are_refused(agent, elves, case
 
 
 def test_a_huge_pax_header_is_refused_before_it_is_read(agent, elves):
-    archive = tar_gz(list(small_set(elves).items()), format=tarfile.PAX_FORMAT,
-                     pax_headers={"comment": "x" * 200_000})
+    archive = tar_gz(list(small_set(elves).items()), format=tarfile.PAX_FORMAT, pax_headers={"comment": "x" * 200_000})
     refused(agent, post_set(agent, archive, GZ), 400, "extended header")
 
 
@@ -203,8 +213,9 @@ def test_more_files_than_the_limit_are_refused(make_agent, elves):
 
 def test_a_declared_content_length_over_the_limit_is_refused_before_reading(make_agent, elves):
     agent = make_agent(max_file_bytes=1000, max_upload_bytes=1000)
-    r = agent.client.post("/api/v1/sets", content=b"x" * 200_000,
-                          headers={**agent.h(), "Content-Type": GZ, "Content-Length": "200000"})
+    r = agent.client.post(
+        "/api/v1/sets", content=b"x" * 200_000, headers={**agent.h(), "Content-Type": GZ, "Content-Length": "200000"}
+    )
     refused(agent, r, 413, "the limit is 1000")
 
 
@@ -248,8 +259,9 @@ def test_a_missing_layout_is_refused(agent, elves):
     refused(agent, post_set(agent, *files_body(files)), 400, '<layout> names "vars.json"')
 
 
-@pytest.mark.parametrize("filename, words", [("/opt/ctl.so", "absolute"), ("../ctl.so", "'..'"),
-                                             ("%2e%2e/ctl.so", "percent-escape")])
+@pytest.mark.parametrize(
+    "filename, words", [("/opt/ctl.so", "absolute"), ("../ctl.so", "'..'"), ("%2e%2e/ctl.so", "percent-escape")]
+)
 def test_a_module_file_outside_the_set_is_refused(agent, elves, filename, words):
     files = {**small_set(elves), "module.xml": module_xml((filename, "thread"))}
     refused(agent, post_set(agent, *files_body(files)), 400, "<filename>", words)
@@ -274,8 +286,9 @@ DTD_ONLY = b"""<?xml version="1.0"?>
 """
 
 
-@pytest.mark.parametrize("case, text", [("billion laughs", BILLION_LAUGHS), ("external entity", XXE),
-                                        ("external DTD", DTD_ONLY)])
+@pytest.mark.parametrize(
+    "case, text", [("billion laughs", BILLION_LAUGHS), ("external entity", XXE), ("external DTD", DTD_ONLY)]
+)
 def test_xml_bombs_and_dtds_in_module_xml_are_refused(agent, elves, case, text):
     files = {**small_set(elves), "module.xml": text}
     refused(agent, post_set(agent, *files_body(files)), 400, "module.xml", "DTD")
@@ -394,8 +407,9 @@ def test_a_thread_module_that_is_an_executable_is_refused(agent, elves):
 
 def test_a_process_module_that_is_a_shared_object_is_refused(agent, elves):
     files = {**small_set(elves), "proc.exe": elves.library}
-    refused(agent, post_set(agent, *files_body(files)), 415, '"proc.exe" (process module \'proc\')',
-            "not an executable")
+    refused(
+        agent, post_set(agent, *files_body(files)), 415, '"proc.exe" (process module \'proc\')', "not an executable"
+    )
 
 
 def test_a_process_module_that_is_no_elf_is_refused(agent, elves):
@@ -406,22 +420,50 @@ def test_a_process_module_that_is_no_elf_is_refused(agent, elves):
 def test_accepted_kinds(agent, elves):
     """Every kind a set may hold, each judged by content where it matters."""
     files = {
-        "module.xml": module_xml(("./lib/ctl.so", "thread"), ("./descr.so", "thread"), ("./proc.exe", "process"),
-                                 ("./bin/static", "process")),
-        "lib/ctl.so": elves.module, "descr.so": elves.descriptor, "proc.exe": elves.pie, "bin/static": elves.exec_,
-        "lib/libhelper.so": elves.library, "ioconfig.xml": b"<io/>", "layout.json": b"{}", "robot.urdf": b"<robot/>",
-        "vars.glb": b"joint { double x; }", "meshes/arm.glb": b"glTF\x02\x00\x00\x00", "meshes/a.stl": b"solid a",
-        "meshes/b.dae": b"<COLLADA/>", "meshes/c.obj": b"v 0 0 0", "view.json": b"[]",
-        "indurop/generated.h": b"#pragma once\n", "notes.txt": b"hi", "README.md": b"# hi"}
+        "module.xml": module_xml(
+            ("./lib/ctl.so", "thread"), ("./descr.so", "thread"), ("./proc.exe", "process"), ("./bin/static", "process")
+        ),
+        "lib/ctl.so": elves.module,
+        "descr.so": elves.descriptor,
+        "proc.exe": elves.pie,
+        "bin/static": elves.exec_,
+        "lib/libhelper.so": elves.library,
+        "ioconfig.xml": b"<io/>",
+        "layout.json": b"{}",
+        "robot.urdf": b"<robot/>",
+        "vars.glb": b"joint { double x; }",
+        "meshes/arm.glb": b"glTF\x02\x00\x00\x00",
+        "meshes/a.stl": b"solid a",
+        "meshes/b.dae": b"<COLLADA/>",
+        "meshes/c.obj": b"v 0 0 0",
+        "view.json": b"[]",
+        "indurop/generated.h": b"#pragma once\n",
+        "notes.txt": b"hi",
+        "README.md": b"# hi",
+    }
     r = post_set(agent, *files_body(files))
     assert r.status_code == 201, r.text
     kinds = {f["path"]: f["kind"] for f in r.json()["files"]}
     assert kinds == {
-        "module.xml": "module_xml", "lib/ctl.so": "thread_module", "descr.so": "thread_module",
-        "proc.exe": "executable", "bin/static": "executable", "lib/libhelper.so": "library", "ioconfig.xml": "config",
-        "layout.json": "layout", "robot.urdf": "urdf", "vars.glb": "glb", "meshes/arm.glb": "mesh",
-        "meshes/a.stl": "mesh", "meshes/b.dae": "mesh", "meshes/c.obj": "mesh", "view.json": "json",
-        "indurop/generated.h": "header", "notes.txt": "text", "README.md": "text"}
+        "module.xml": "module_xml",
+        "lib/ctl.so": "thread_module",
+        "descr.so": "thread_module",
+        "proc.exe": "executable",
+        "bin/static": "executable",
+        "lib/libhelper.so": "library",
+        "ioconfig.xml": "config",
+        "layout.json": "layout",
+        "robot.urdf": "urdf",
+        "vars.glb": "glb",
+        "meshes/arm.glb": "mesh",
+        "meshes/a.stl": "mesh",
+        "meshes/b.dae": "mesh",
+        "meshes/c.obj": "mesh",
+        "view.json": "json",
+        "indurop/generated.h": "header",
+        "notes.txt": "text",
+        "README.md": "text",
+    }
 
 
 def test_a_refused_upload_after_a_good_one_changes_nothing(agent, elves):

@@ -1,12 +1,12 @@
 """test_webui_serving.py -- the agent serves the built web UI at / (no token: the UI signs in with
 one) while /api/v1 answers as before, unknown API paths stay JSON 404s, and without a build GET /
 says how to make one."""
+
 from __future__ import annotations
 
 from pathlib import Path
 
 import pytest
-
 from agent_helpers import API, free_port, output, start_agent, stop
 from indurop_agent import config
 
@@ -41,8 +41,10 @@ def test_the_api_is_unaffected_by_the_ui(make_agent, dist):
     assert agent.client.get(f"{API}/openapi.json").json()["info"]["title"] == "indurop agent"
 
 
-@pytest.mark.parametrize("method, path", [("GET", f"{API}/unknown"), ("POST", f"{API}/unknown"),
-                                          ("GET", "/api"), ("DELETE", f"{API}/nothing/here")])
+@pytest.mark.parametrize(
+    "method, path",
+    [("GET", f"{API}/unknown"), ("POST", f"{API}/unknown"), ("GET", "/api"), ("DELETE", f"{API}/nothing/here")],
+)
 def test_unknown_api_paths_are_json_404s(make_agent, dist, method, path):
     r = make_agent(webui_dir=dist).client.request(method, path)
     assert r.status_code == 404, r.text

@@ -3,6 +3,7 @@ without stopping: the PLC program and the robot task, rebuilt against the grown 
 against the running one, glbc --previous), are the same code and stay the running instances; the
 cycle goes on from the step it was in, no period is missed, and the new variable can be written and
 read at once.  The grown set is built by tests/cpp/online/CMakeLists.txt."""
+
 from __future__ import annotations
 
 import shutil

@@ -5,6 +5,7 @@ drives power up; Start -> the pick-and-place cycle runs every step, the robot re
 measured joints come back from the simulated drives over Modbus), O0 follows MotionDone and the
 cycle counter counts; Stop halts it; the drives going silent -> comm_lost and the robot in error.
 The simulator is the set's own non-real process module: irpd starts and stops it."""
+
 from __future__ import annotations
 
 import sys
@@ -24,8 +25,9 @@ SET = BUILD / "sets" / "plc-robot"
 DRIVESIM = SET / "indurop-drivesim"
 NS = "PLC_ROBOT."
 
-pytestmark = pytest.mark.skipif(not (SET / "Robot.so").exists() or not DRIVESIM.exists(),
-                                reason=f"the plc-robot cell is not built ({SET})")
+pytestmark = pytest.mark.skipif(
+    not (SET / "Robot.so").exists() or not DRIVESIM.exists(), reason=f"the plc-robot cell is not built ({SET})"
+)
 
 
 class Cell:
@@ -114,8 +116,8 @@ def test_enable_start_runs_the_whole_pick_and_place_cycle_through_modbus(cell):
         assert cell.read("PLC_OUT.Error") == 0, cell.read("PLC_OUT.ErrorID")
         time.sleep(0.005)
     cell.write("I0", 0)
-    assert len(steps) >= 8, sorted(steps)                # every step of the cycle was visited
-    assert lamp == {0, 1}                                # O0 followed MotionDone through the moves
+    assert len(steps) >= 8, sorted(steps)  # every step of the cycle was visited
+    assert lamp == {0, 1}  # O0 followed MotionDone through the moves
     assert cell.read("PLC_OUT.Done") == 1
     # The robot moved: the joints the drives report over Modbus travelled, and ended where commanded.
     assert travel > 1.0, travel
@@ -135,7 +137,7 @@ def test_stop_halts_the_cycle_and_the_robot(cell):
     cell.wait(lambda: cell.read("PLC_OUT.Running") == 0 and cell.read("ROBOT_MODULE_STATE.Busy") == 0)
     halted = cell.joints("dCmdJoint")
     time.sleep(0.3)
-    assert cell.joints("dCmdJoint") == halted          # standing still
+    assert cell.joints("dCmdJoint") == halted  # standing still
     assert cell.read("PLC_OUT.Cycles") == 0
 
 

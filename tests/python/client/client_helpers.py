@@ -6,15 +6,15 @@ from __future__ import annotations
 import contextlib
 import itertools
 import json
-import shutil
 import os
+import shutil
 import ssl
 import struct
 import subprocess
 import sys
 import threading
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 import time
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 from urllib.parse import parse_qs, urlsplit
 
@@ -28,6 +28,7 @@ FIG1_DIR = FIG1.parent
 
 sys.path.insert(0, str(ROOT / "agent"))  # the package, also when it is not pip-installed
 from indurop_agent import stream_frame_spec as spec  # noqa: E402
+
 _instances = itertools.count()
 
 
@@ -74,10 +75,20 @@ def sample_frame(first_seq: int, t_ns: list[int], columns: list[list[float]], dr
     """A binary frame built independently of the client's codec, from the spec's generated constants
     (protocol/stream/frame.json): header, timestamps, then column by column."""
     n = len(t_ns)
-    values = {"magic": spec.MAGIC, "version": spec.VERSION, "kind": kind, "first_seq": first_seq, "count": n,
-              "channels": len(columns), "dropped": dropped}
-    return (struct.pack(spec.HEADER_FORMAT, *(values[f] for f in spec.HEADER_FIELDS))
-            + struct.pack(f"<{n}q", *t_ns) + b"".join(struct.pack(f"<{n}d", *c) for c in columns))
+    values = {
+        "magic": spec.MAGIC,
+        "version": spec.VERSION,
+        "kind": kind,
+        "first_seq": first_seq,
+        "count": n,
+        "channels": len(columns),
+        "dropped": dropped,
+    }
+    return (
+        struct.pack(spec.HEADER_FORMAT, *(values[f] for f in spec.HEADER_FIELDS))
+        + struct.pack(f"<{n}q", *t_ns)
+        + b"".join(struct.pack(f"<{n}d", *c) for c in columns)
+    )
 
 
 class StreamServer:
@@ -130,11 +141,17 @@ class StreamServer:
         dropped = 0
         for f in range(3):
             seqs = [100 + 4 * f + i for i in range(4)]
-            values = {"knu.Robot.tick": [10.0 * s for s in seqs], "joint[1].y": [s / 4 for s in seqs],
-                      "io.ready": [float(s % 2) for s in seqs]}
+            values = {
+                "knu.Robot.tick": [10.0 * s for s in seqs],
+                "joint[1].y": [s / 4 for s in seqs],
+                "io.ready": [float(s % 2) for s in seqs],
+            }
             dropped += 3 * f
-            ws.send(sample_frame(seqs[0], [T0 + 100_000 * step * (s - 100) for s in seqs],
-                                 [values[p] for p in paths], dropped))
+            ws.send(
+                sample_frame(
+                    seqs[0], [T0 + 100_000 * step * (s - 100) for s in seqs], [values[p] for p in paths], dropped
+                )
+            )
         ws.send(sample_frame(0, [], [], dropped, kind=2))
         ws.close()
 
@@ -144,9 +161,19 @@ class StreamServer:
 
 
 # -- an agent of the contract's v2 routes on an httpx mock transport (canned answers) ------------------
-SWAP = {"set": "/var/lib/indurop/sets/0123456789abcdef/module.xml", "set_id": "0123456789abcdef", "generation": 3,
-        "swap_cycle": 123456, "swap_at_ns": 987654321000, "kept": ["cntr1", "cntr2", "cntr3"], "started": ["cntr4"],
-        "stopped": [], "missed_periods": 0, "request_to_swap_ns": 12_300_000, "total_ns": 45_600_000}
+SWAP = {
+    "set": "/var/lib/indurop/sets/0123456789abcdef/module.xml",
+    "set_id": "0123456789abcdef",
+    "generation": 3,
+    "swap_cycle": 123456,
+    "swap_at_ns": 987654321000,
+    "kept": ["cntr1", "cntr2", "cntr3"],
+    "started": ["cntr4"],
+    "stopped": [],
+    "missed_periods": 0,
+    "request_to_swap_ns": 12_300_000,
+    "total_ns": 45_600_000,
+}
 WHO = {"id": "a1b2c3d4e5f6", "name": "admin", "role": "admin"}
 SCHEDULE = {"basic_period_ns": 100000, "macro_period_ns": 500000, "slots": [{"index": i} for i in range(5)]}
 
@@ -164,19 +191,49 @@ class FakeAgent:
         path, method = request.url.path.removeprefix("/api/v1"), request.method
         if (method, path) == ("POST", "/sets"):
             bad = b"<period>12<" in request.content
-            files = [{"path": "module.xml", "sha256": "ab" * 32, "size": 1834, "kind": "module_xml"},
-                     {"path": "lib/cntr1.so", "sha256": "cd" * 32, "size": 16_400, "kind": "thread_module"}]
+            files = [
+                {"path": "module.xml", "sha256": "ab" * 32, "size": 1834, "kind": "module_xml"},
+                {"path": "lib/cntr1.so", "sha256": "cd" * 32, "size": 16_400, "kind": "thread_module"},
+            ]
             error = "module.xml:13: module 'cntr1': <period>: 12 ns is below the minimum basic period (10000 ns)"
-            validation = ({"valid": False, "errors": [error], "warnings": [], "schedule": None} if bad
-                          else {"valid": True, "errors": [], "warnings": [], "schedule": SCHEDULE})
-            return httpx.Response(201, json={"id": "0123456789abcdef", "created": "2026-11-22T10:00:00Z", "by": WHO,
-                                             "files": files, "validation": validation, "active": False})
+            validation = (
+                {"valid": False, "errors": [error], "warnings": [], "schedule": None}
+                if bad
+                else {"valid": True, "errors": [], "warnings": [], "schedule": SCHEDULE}
+            )
+            return httpx.Response(
+                201,
+                json={
+                    "id": "0123456789abcdef",
+                    "created": "2026-11-22T10:00:00Z",
+                    "by": WHO,
+                    "files": files,
+                    "validation": validation,
+                    "active": False,
+                },
+            )
         if (method, path) == ("GET", "/sets"):
-            return httpx.Response(200, json=[
-                {"id": "0123456789abcdef", "created": "2026-11-22T10:00:00Z", "by": WHO, "files": 9, "valid": True,
-                 "active": True},
-                {"id": "fedcba9876543210", "created": "2026-11-21T09:00:00Z", "by": None, "files": 8, "valid": None,
-                 "active": False}])
+            return httpx.Response(
+                200,
+                json=[
+                    {
+                        "id": "0123456789abcdef",
+                        "created": "2026-11-22T10:00:00Z",
+                        "by": WHO,
+                        "files": 9,
+                        "valid": True,
+                        "active": True,
+                    },
+                    {
+                        "id": "fedcba9876543210",
+                        "created": "2026-11-21T09:00:00Z",
+                        "by": None,
+                        "files": 8,
+                        "valid": None,
+                        "active": False,
+                    },
+                ],
+            )
         if method == "POST" and path in ("/sets/0123456789abcdef/activate", "/sets/rollback"):
             return httpx.Response(200, json=SWAP)
         if method == "POST" and path.endswith("/activate"):
@@ -184,25 +241,71 @@ class FakeAgent:
         if method == "PATCH" and path.startswith("/modules/"):
             body = json.loads(request.content)
             if body.get("period_ns", 10**9) < 10_000:
-                return httpx.Response(409, json={"detail": "period_ns: module 'cntr1': period 10 ns is below the "
-                                                           "minimum basic period (10000 ns); nothing was changed"})
+                return httpx.Response(
+                    409,
+                    json={
+                        "detail": "period_ns: module 'cntr1': period 10 ns is below the "
+                        "minimum basic period (10000 ns); nothing was changed"
+                    },
+                )
             return httpx.Response(200, json={**SWAP, "reports": [SWAP]})
         if method == "PUT" and path.startswith("/variables/"):
             value = json.loads(request.content)["value"]
             return httpx.Response(200, json={"path": path.split("/", 2)[2], "value": value})
         if (method, path) == ("GET", "/events"):
-            return httpx.Response(200, json={"events": [
-                {"source": "irpd", "seq": 4, "time": "2026-11-22T10:00:01Z", "time_ns": 1, "kind": "swap",
-                 "module": None, "message": "generation 3"},
-                {"source": "agent", "seq": 7, "time": "2026-11-22T10:00:02Z", "time_ns": 2, "kind": "upload",
-                 "module": None, "message": "set 0123456789abcdef uploaded by admin"}],
-                "next": 5, "agent_next": 8, "dropped": 0, "irpd": "ok"})
+            return httpx.Response(
+                200,
+                json={
+                    "events": [
+                        {
+                            "source": "irpd",
+                            "seq": 4,
+                            "time": "2026-11-22T10:00:01Z",
+                            "time_ns": 1,
+                            "kind": "swap",
+                            "module": None,
+                            "message": "generation 3",
+                        },
+                        {
+                            "source": "agent",
+                            "seq": 7,
+                            "time": "2026-11-22T10:00:02Z",
+                            "time_ns": 2,
+                            "kind": "upload",
+                            "module": None,
+                            "message": "set 0123456789abcdef uploaded by admin",
+                        },
+                    ],
+                    "next": 5,
+                    "agent_next": 8,
+                    "dropped": 0,
+                    "irpd": "ok",
+                },
+            )
         if (method, path) == ("GET", "/audit"):
-            return httpx.Response(200, json=[
-                {"time": "2026-11-22T10:00:02Z", "who": WHO, "client": "127.0.0.1", "action": "upload",
-                 "target": "0123456789abcdef", "result": "ok"},
-                {"time": "2026-11-22T10:00:03Z", "who": WHO, "client": "127.0.0.1", "action": "activate",
-                 "target": "nope", "result": "error", "status": 404, "detail": "no set 'nope'"}])
+            return httpx.Response(
+                200,
+                json=[
+                    {
+                        "time": "2026-11-22T10:00:02Z",
+                        "who": WHO,
+                        "client": "127.0.0.1",
+                        "action": "upload",
+                        "target": "0123456789abcdef",
+                        "result": "ok",
+                    },
+                    {
+                        "time": "2026-11-22T10:00:03Z",
+                        "who": WHO,
+                        "client": "127.0.0.1",
+                        "action": "activate",
+                        "target": "nope",
+                        "result": "error",
+                        "status": 404,
+                        "detail": "no set 'nope'",
+                    },
+                ],
+            )
         return httpx.Response(404, json={"detail": "Not Found"})
 
 
@@ -213,9 +316,28 @@ def tls_context(tmp: Path) -> tuple[ssl.SSLContext, Path]:
     if not shutil.which("openssl"):
         pytest.skip("the openssl command is not installed (apt-get install openssl)")
     cert, key = tmp / "cert.pem", tmp / "key.pem"
-    subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", str(key), "-out", str(cert),
-                    "-days", "1", "-subj", "/CN=127.0.0.1", "-addext", "subjectAltName=IP:127.0.0.1"],
-                   check=True, capture_output=True)
+    subprocess.run(
+        [
+            "openssl",
+            "req",
+            "-x509",
+            "-newkey",
+            "rsa:2048",
+            "-nodes",
+            "-keyout",
+            str(key),
+            "-out",
+            str(cert),
+            "-days",
+            "1",
+            "-subj",
+            "/CN=127.0.0.1",
+            "-addext",
+            "subjectAltName=IP:127.0.0.1",
+        ],
+        check=True,
+        capture_output=True,
+    )
     ctx = ssl.SSLContext(ssl.PROTOCOL_TLS_SERVER)
     ctx.load_cert_chain(cert, key)
     return ctx, cert

@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import httpx
 import pytest
-
 from client_helpers import Cell, FakeAgent, HttpsStatus, StreamServer, tls_context
 from indurop_agent import cli
 
 
 def pytest_configure(config):
-    config.addinivalue_line("markers", "contract_v2: needs the agent routes of notes/contract-v2 (sets, PATCH, "
-                                       "writes, stream, events, audit)")
+    config.addinivalue_line(
+        "markers",
+        "contract_v2: needs the agent routes of notes/contract-v2 (sets, PATCH, writes, stream, events, audit)",
+    )
 
 
 @pytest.fixture(scope="module")

@@ -20,6 +20,7 @@ Peers and fixtures: client_helpers.py and conftest.py.
   /variables/{path}), watch and trace (WebSocket /api/v1/stream), events (GET /events), audit
   (GET /audit).  `pytest -m "not contract_v2"` leaves them out.
 """
+
 from __future__ import annotations
 
 import csv
@@ -37,7 +38,6 @@ from pathlib import Path
 
 import httpx
 import pytest
-
 from client_helpers import FIG1_DIR, GOOD_TOKEN, T0, free_port, sample_frame, stop
 from indurop_agent import cli, cli_text
 from indurop_agent import stream_frame_spec as spec
@@ -112,27 +112,59 @@ def test_a_header_announcing_more_than_it_carries_is_refused():
 
 
 # -- durations and values --------------------------------------------------------------------------
-@pytest.mark.parametrize("text, ns", [("1ms", 1_000_000), ("100us", 100_000), ("100µs", 100_000),
-                                      ("500000ns", 500_000), ("2.5ms", 2_500_000), ("500000", 500_000),
-                                      ("0.1ms", 100_000), ("1s", 1_000_000_000), (" 250 us ", 250_000),
-                                      (".5ms", 500_000), ("1.000ms", 1_000_000)])
+@pytest.mark.parametrize(
+    "text, ns",
+    [
+        ("1ms", 1_000_000),
+        ("100us", 100_000),
+        ("100µs", 100_000),
+        ("500000ns", 500_000),
+        ("2.5ms", 2_500_000),
+        ("500000", 500_000),
+        ("0.1ms", 100_000),
+        ("1s", 1_000_000_000),
+        (" 250 us ", 250_000),
+        (".5ms", 500_000),
+        ("1.000ms", 1_000_000),
+    ],
+)
 def test_durations_parse_to_whole_nanoseconds(text, ns):
     assert cli_text.parse_duration(text) == ns
 
 
-@pytest.mark.parametrize("text, message", [("", "not a duration"), ("ms", "not a duration"),
-                                           ("1 min", "not a duration"), ("-1ms", "not a duration"),
-                                           ("1.5ns", "not a whole number of nanoseconds"),
-                                           ("0.0000001ms", "not a whole number"), ("0", "longer than 0"),
-                                           ("0ms", "longer than 0"), ("1e3", "not a duration")])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("", "not a duration"),
+        ("ms", "not a duration"),
+        ("1 min", "not a duration"),
+        ("-1ms", "not a duration"),
+        ("1.5ns", "not a whole number of nanoseconds"),
+        ("0.0000001ms", "not a whole number"),
+        ("0", "longer than 0"),
+        ("0ms", "longer than 0"),
+        ("1e3", "not a duration"),
+    ],
+)
 def test_bad_durations_say_what_to_give(text, message):
     with pytest.raises(ValueError, match=message):
         cli_text.parse_duration(text)
 
 
-@pytest.mark.parametrize("ns, text", [(100_000, "100 µs"), (1_000_000, "1 ms"), (2_500_000, "2.5 ms"),
-                                      (500, "500 ns"), (0, "0 ns"), (1_500_000_000, "1.5 s"),
-                                      (12_927.5, "12.9 µs"), (-1_070, "-1.07 µs"), (None, "-")])
+@pytest.mark.parametrize(
+    "ns, text",
+    [
+        (100_000, "100 µs"),
+        (1_000_000, "1 ms"),
+        (2_500_000, "2.5 ms"),
+        (500, "500 ns"),
+        (0, "0 ns"),
+        (1_500_000_000, "1.5 s"),
+        (12_927.5, "12.9 µs"),
+        (-1_070, "-1.07 µs"),
+        (None, "-"),
+    ],
+)
 def test_durations_print_in_their_unit(ns, text):
     assert cli_text.format_duration(ns) == text
 
@@ -142,8 +174,9 @@ def test_periods_print_exactly():
     assert cli_text.format_duration(100_000, exact=True) == "100 µs"
 
 
-@pytest.mark.parametrize("text, value", [("true", True), ("False", False), ("12", 12), ("-3", -3),
-                                         ("2.5", 2.5), ("1e-3", 0.001)])
+@pytest.mark.parametrize(
+    "text, value", [("true", True), ("False", False), ("12", 12), ("-3", -3), ("2.5", 2.5), ("1e-3", 0.001)]
+)
 def test_values_parse_as_bool_int_or_float(text, value):
     v = cli_text.parse_value(text)
     assert v == value and type(v) is type(value)
@@ -157,27 +190,33 @@ def test_bad_values_are_refused(text):
 
 def test_tables_align_text_left_and_numbers_right():
     assert cli_text.table(["NAME", "RUNS"], [["a", 5], ["long-name", 12345]], "lr").splitlines() == [
-        "NAME        RUNS", "a              5", "long-name  12345"]
+        "NAME        RUNS",
+        "a              5",
+        "long-name  12345",
+    ]
 
 
 # -- irpctl's usage errors: exit 2 and a message ----------------------------------------------------
-@pytest.mark.parametrize("argv, message", [
-    ([], "required: COMMAND"),
-    (["frobnicate"], "invalid choice: 'frobnicate'"),
-    (["set-period", "cntr1", "fast"], "'fast' is not a duration"),
-    (["set-period", "cntr1"], "required: PERIOD"),
-    (["set-priority", "cntr1", "high"], "'high' is not a whole number"),
-    (["write", "knu.Robot.tick", "lots"], "'lots' is not a value: give a number"),
-    (["watch"], "required: PATH"),
-    (["watch", "a", "--count", "3", "--seconds", "1"], "not allowed with argument"),
-    (["watch", "a", "--decimation", "0"], "'0': give 1 or more"),
-    (["watch", "a", "--seconds", "-1"], "give more than 0 seconds"),
-    (["trace", "a", "--seconds", "1"], "required: --csv"),
-    (["trace", "a", "--csv", "x.csv"], "required: --seconds"),
-    (["events", "--since", "-4"], "give 0 or more"),
-    (["upload"], "required: DIR|FILE|ARCHIVE"),
-    (["activate"], "required: ID"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        ([], "required: COMMAND"),
+        (["frobnicate"], "invalid choice: 'frobnicate'"),
+        (["set-period", "cntr1", "fast"], "'fast' is not a duration"),
+        (["set-period", "cntr1"], "required: PERIOD"),
+        (["set-priority", "cntr1", "high"], "'high' is not a whole number"),
+        (["write", "knu.Robot.tick", "lots"], "'lots' is not a value: give a number"),
+        (["watch"], "required: PATH"),
+        (["watch", "a", "--count", "3", "--seconds", "1"], "not allowed with argument"),
+        (["watch", "a", "--decimation", "0"], "'0': give 1 or more"),
+        (["watch", "a", "--seconds", "-1"], "give more than 0 seconds"),
+        (["trace", "a", "--seconds", "1"], "required: --csv"),
+        (["trace", "a", "--csv", "x.csv"], "required: --seconds"),
+        (["events", "--since", "-4"], "give 0 or more"),
+        (["upload"], "required: DIR|FILE|ARCHIVE"),
+        (["activate"], "required: ID"),
+    ],
+)
 def test_usage_errors_exit_2_and_name_what_to_fix(irpctl, argv, message):
     code, out, err = irpctl(*argv)
     assert code == 2
@@ -230,8 +269,11 @@ def test_options_go_before_or_after_the_command(irpctl, monkeypatch):
     assert irpctl("status", "--url", "http://h:2/api/v1/")[0] == 0
     monkeypatch.setenv("INDUROP_URL", "https://h:3")
     assert irpctl("status")[0] == 0
-    assert [(c.url, c.token) for c in clients] == [("http://h:1/api/v1", "t"), ("http://h:2/api/v1", None),
-                                                   ("https://h:3/api/v1", None)]
+    assert [(c.url, c.token) for c in clients] == [
+        ("http://h:1/api/v1", "t"),
+        ("http://h:2/api/v1", None),
+        ("https://h:3/api/v1", None),
+    ]
 
 
 def test_the_token_comes_from_the_option_then_the_file_then_the_environment(irpctl, monkeypatch, tmp_path):
@@ -344,8 +386,9 @@ def test_the_stream_yields_typed_samples_and_the_drop_counter(stream_server):
     c = Client(stream_server.url, GOOD_TOKEN)
     with c.watch(["knu.Robot.tick", "joint[1].y", "io.ready"], decimation=10) as s:
         samples = list(s)
-    assert stream_server.subscriptions == [{"subscribe": ["knu.Robot.tick", "joint[1].y", "io.ready"],
-                                            "decimation": 10}]
+    assert stream_server.subscriptions == [
+        {"subscribe": ["knu.Robot.tick", "joint[1].y", "io.ready"], "decimation": 10}
+    ]
     assert [seq for seq, _, _ in samples] == list(range(100, 112))
     assert samples[1] == (101, T0 + 1_000_000, {"knu.Robot.tick": 1010, "joint[1].y": 25.25, "io.ready": True})
     assert type(samples[0][2]["knu.Robot.tick"]) is int and samples[0][2]["io.ready"] is False
@@ -399,19 +442,24 @@ def test_a_stream_to_nowhere_is_unreachable():
 
 
 def test_irpctl_watch_prints_a_row_per_sample_and_stops_at_count(irpctl, stream_server):
-    code, out, err = irpctl("--url", stream_server.url, "--token", GOOD_TOKEN, "watch", "knu.Robot.tick",
-                            "joint[1].y", "--count", "3")
+    code, out, err = irpctl(
+        "--url", stream_server.url, "--token", GOOD_TOKEN, "watch", "knu.Robot.tick", "joint[1].y", "--count", "3"
+    )
     assert code == 0
     lines = out.splitlines()
     assert lines[0].split() == ["SEQ", "T", "(ms)", "knu.Robot.tick", "joint[1].y"]
-    assert [line.split() for line in lines[1:]] == [["100", "0.000", "1000", "25"], ["101", "0.100", "1010", "25.25"],
-                                                     ["102", "0.200", "1020", "25.5"]]
+    assert [line.split() for line in lines[1:]] == [
+        ["100", "0.000", "1000", "25"],
+        ["101", "0.100", "1010", "25.25"],
+        ["102", "0.200", "1020", "25.5"],
+    ]
     assert "3 samples" in err
 
 
 def test_irpctl_watch_json_is_one_object_per_line(irpctl, stream_server):
-    code, out, _ = irpctl("--url", stream_server.url, "--token", GOOD_TOKEN, "--json", "watch", "io.ready",
-                          "--decimation", "2")
+    code, out, _ = irpctl(
+        "--url", stream_server.url, "--token", GOOD_TOKEN, "--json", "watch", "io.ready", "--decimation", "2"
+    )
     assert code == 0
     rows = [json.loads(line) for line in out.splitlines()]
     assert len(rows) == 12 and rows[3] == {"seq": 103, "t_ns": T0 + 600_000, "values": {"io.ready": True}}
@@ -420,8 +468,19 @@ def test_irpctl_watch_json_is_one_object_per_line(irpctl, stream_server):
 
 def test_irpctl_trace_writes_csv(irpctl, stream_server, tmp_path):
     out_file = tmp_path / "trace.csv"
-    code, _, err = irpctl("--url", stream_server.url, "--token", GOOD_TOKEN, "trace", "knu.Robot.tick", "joint[1].y",
-                          "--seconds", "5", "--csv", str(out_file))
+    code, _, err = irpctl(
+        "--url",
+        stream_server.url,
+        "--token",
+        GOOD_TOKEN,
+        "trace",
+        "knu.Robot.tick",
+        "joint[1].y",
+        "--seconds",
+        "5",
+        "--csv",
+        str(out_file),
+    )
     assert code == 0
     rows = list(csv.reader(out_file.open()))
     assert rows[0] == ["seq", "t_ns", "knu.Robot.tick", "joint[1].y"]
@@ -481,7 +540,8 @@ def test_upload_shows_the_files_and_the_validation(irpctl, fake_agent, tmp_path)
         "module.xml     1.8 kB  module_xml     abababababababab",
         "lib/cntr1.so  16.4 kB  thread_module  cdcdcdcdcdcdcdcd",
         "validation: valid (0 errors, 0 warnings)",
-        "schedule: basic period 100 µs, macro period 500 µs, 5 slots"]
+        "schedule: basic period 100 µs, macro period 500 µs, 5 slots",
+    ]
     assert [r.method for r in fake_agent.requests] == ["POST"]
 
 
@@ -489,7 +549,9 @@ def test_upload_activate_activates_a_valid_set_and_prints_the_swap_report(irpctl
     code, out, err = irpctl(*FAKE, "upload", "--activate", str(a_set(tmp_path)))
     assert code == 0, err
     assert [(r.method, r.url.path) for r in fake_agent.requests] == [
-        ("POST", "/api/v1/sets"), ("POST", "/api/v1/sets/0123456789abcdef/activate")]
+        ("POST", "/api/v1/sets"),
+        ("POST", "/api/v1/sets/0123456789abcdef/activate"),
+    ]
     assert out.split("\n\n")[1].splitlines() == [
         "swapped to       /var/lib/indurop/sets/0123456789abcdef/module.xml (set 0123456789abcdef), generation 3",
         "at cycle         123456",
@@ -498,7 +560,8 @@ def test_upload_activate_activates_a_valid_set_and_prints_the_swap_report(irpctl
         "stopped          -",
         "missed periods   0",
         "request to swap  12.3 ms",
-        "total            45.6 ms"]
+        "total            45.6 ms",
+    ]
     code, out, _ = irpctl(*FAKE, "--json", "upload", "--activate", str(a_set(tmp_path)))
     answer = json.loads(out)
     assert answer["upload"]["id"] == answer["swap"]["set_id"] == "0123456789abcdef"
@@ -526,7 +589,8 @@ def test_sets_is_a_table_with_the_active_one_starred(irpctl, fake_agent):
     assert out.splitlines() == [
         "ID                CREATED               BY             FILES  VALID  ACTIVE",
         "0123456789abcdef  2026-11-22T10:00:00Z  admin (admin)      9  yes    *",
-        "fedcba9876543210  2026-11-21T09:00:00Z  -                  8  ?"]
+        "fedcba9876543210  2026-11-21T09:00:00Z  -                  8  ?",
+    ]
 
 
 def test_activate_rollback_and_their_refusals(irpctl, fake_agent):
@@ -539,15 +603,20 @@ def test_activate_rollback_and_their_refusals(irpctl, fake_agent):
 
 
 def test_module_changes_are_patches(irpctl, fake_agent):
-    for argv in (["set-period", "cntr1", "2.5ms"], ["set-priority", "cntr1", "4"], ["disable", "cntr4"],
-                 ["enable", "cntr4"]):
+    for argv in (
+        ["set-period", "cntr1", "2.5ms"],
+        ["set-priority", "cntr1", "4"],
+        ["disable", "cntr4"],
+        ["enable", "cntr4"],
+    ):
         code, out, err = irpctl(*FAKE, *argv)
         assert code == 0 and "missed periods   0" in out, err
     assert [(r.method, r.url.path, json.loads(r.content)) for r in fake_agent.requests] == [
         ("PATCH", "/api/v1/modules/cntr1", {"period_ns": 2_500_000}),
         ("PATCH", "/api/v1/modules/cntr1", {"priority": 4}),
         ("PATCH", "/api/v1/modules/cntr4", {"enabled": False}),
-        ("PATCH", "/api/v1/modules/cntr4", {"enabled": True})]
+        ("PATCH", "/api/v1/modules/cntr4", {"enabled": True}),
+    ]
     code, _, err = irpctl(*FAKE, "set-period", "cntr1", "10ns")
     assert code == 1 and "409: period_ns: module 'cntr1': period 10 ns is below the minimum basic period" in err
 
@@ -566,7 +635,8 @@ def test_events_and_audit_tables(irpctl, fake_agent):
     assert code == 0 and out.splitlines() == [
         "SEQ  TIME                  FROM   KIND    MODULE  MESSAGE",
         "  4  2026-11-22T10:00:01Z  irpd   swap    -       generation 3",
-        "  7  2026-11-22T10:00:02Z  agent  upload  -       set 0123456789abcdef uploaded by admin"]
+        "  7  2026-11-22T10:00:02Z  agent  upload  -       set 0123456789abcdef uploaded by admin",
+    ]
     code, out, _ = irpctl(*FAKE, "audit", "--limit", "2")
     assert code == 0 and out.splitlines()[2].endswith("activate  nope              error (404 no set 'nope')")
     assert fake_agent.requests[-1].url.params["limit"] == "2"
@@ -614,8 +684,9 @@ def test_modules_human_is_a_table_with_periods_in_their_unit(irpctl, cell):
     assert list(rows) == ["cntr1", "cntr2", "cntr3", "cntr4", "event1", "visionEvt", "nonReaTime"]
     assert rows["cntr1"].split()[1:6] == ["thread", "periodic", "500", "µs", "-"]
     assert rows["event1"].split()[1:6] == ["thread", "sporadic", "-", "1", "ms"]
-    assert all(line.index(" thread" if " thread" in line else " process") + 1 == lines[0].index("TYPE")
-               for line in lines[1:])  # aligned columns
+    assert all(
+        line.index(" thread" if " thread" in line else " process") + 1 == lines[0].index("TYPE") for line in lines[1:]
+    )  # aligned columns
 
 
 def test_modules_json(irpctl, cell):
@@ -645,8 +716,15 @@ def test_jitter_human_lists_the_dispatcher_and_every_module(irpctl, cell):
     assert lines[0].startswith("cycles ")
     assert lines[2].split()[:5] == ["NAME", "KIND", "PERIOD", "RUNS", "JITTER"]
     assert lines[3].split()[:4] == ["dispatcher", "dispatcher", "100", "µs"]
-    assert [line.split()[0] for line in lines[4:]] == ["cntr1", "cntr2", "cntr3", "cntr4", "event1", "visionEvt",
-                                                      "nonReaTime"]
+    assert [line.split()[0] for line in lines[4:]] == [
+        "cntr1",
+        "cntr2",
+        "cntr3",
+        "cntr4",
+        "event1",
+        "visionEvt",
+        "nonReaTime",
+    ]
     assert lines[-1].split()[4:8] == ["-", "-", "-", "-"]  # nonReaTime has no jitter samples
 
 
@@ -858,8 +936,11 @@ def test_watch_and_trace_the_real_stream(irpctl, fresh_cell, tmp_path):
     assert all(b["seq"] > a["seq"] and b["t_ns"] > a["t_ns"] for a, b in zip(rows, rows[1:]))
     assert all(r["values"]["knu.Robot.tick"] % 10 == 0 for r in rows)
     trace = tmp_path / "t.csv"
-    code, _, err = irpctl(*fresh_cell.args("trace", "knu.Robot.tick", "joint[1].y", "--seconds", "0.5",
-                                           "--decimation", "10", "--csv", str(trace)))
+    code, _, err = irpctl(
+        *fresh_cell.args(
+            "trace", "knu.Robot.tick", "joint[1].y", "--seconds", "0.5", "--decimation", "10", "--csv", str(trace)
+        )
+    )
     assert code == 0, err
     rows = list(csv.reader(trace.open()))
     assert rows[0] == ["seq", "t_ns", "knu.Robot.tick", "joint[1].y"] and len(rows) > 100

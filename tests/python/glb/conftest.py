@@ -6,7 +6,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-
 from glb_helpers import RTCORE_INCLUDE, gxx, run_glbc
 
 

@@ -16,9 +16,11 @@ FIXTURES = HERE / "fixtures"
 # The paper's figures that an example set ships are kept once, in that set; the tests use them
 # under the paper's names (the golden outputs name their sources).
 PAPER_FIGURES = ROOT / "config" / "sets" / "paper-figures"
-IN_THE_SETS = {"fig3-knuRobot.glb": PAPER_FIGURES / "knuRobot.glb",
-               "fig4-output.cpp": PAPER_FIGURES / "fig4_output.cpp",
-               "fig5-modify.cpp": PAPER_FIGURES / "fig5_modify.cpp"}
+IN_THE_SETS = {
+    "fig3-knuRobot.glb": PAPER_FIGURES / "knuRobot.glb",
+    "fig4-output.cpp": PAPER_FIGURES / "fig4_output.cpp",
+    "fig5-modify.cpp": PAPER_FIGURES / "fig5_modify.cpp",
+}
 GOLDEN = HERE / "golden"
 RTCORE_INCLUDE = ROOT / "rtcore" / "include"
 REGENERATE = "python3 tests/python/glb/regenerate_golden.py"
@@ -71,5 +73,9 @@ static_assert(sizeof(irp::shared::ArrayRef<Inner, 2>::value_type) == 5, "nested 
 def arrayref_nesting_works(compiler: str, include: Path, folder: Path) -> bool:
     probe = folder / "probe.cpp"
     probe.write_text(_PROBE)
-    return subprocess.run([compiler, "-std=c++20", "-fsyntax-only", "-I", str(include), str(probe)],
-                          capture_output=True).returncode == 0
+    return (
+        subprocess.run(
+            [compiler, "-std=c++20", "-fsyntax-only", "-I", str(include), str(probe)], capture_output=True
+        ).returncode
+        == 0
+    )

@@ -10,7 +10,6 @@ import subprocess
 from pathlib import Path
 
 import pytest
-
 from glb_helpers import RTCORE_INCLUDE, arrayref_nesting_works, compile_case, fixture, load_layout, run_glbc
 
 FLAGS = ["-std=c++20", "-Wall", "-Wextra", "-Werror"]
@@ -99,6 +98,7 @@ def test_shared_h_sizes_nested_arrays(cxx, tmp_path):
 
 # -- leaves: layout.json against the header's references, at run time ----------------------------
 
+
 def leaf_program(layout: dict) -> str:
     """A program that writes a distinct value through the reference of every leaf, checks that it
     lands at the leaf's offset, then checks that no later write overwrote it."""
@@ -142,7 +142,7 @@ def leaf_program(layout: dict) -> str:
     checks = []
     for k, leaf in enumerate(layout["leaves"]):
         var = variables[leaf["lock"]]
-        suffix = leaf["path"][len(var["path"]):]
+        suffix = leaf["path"][len(var["path"]) :]
         expr = "::" + var["namespace"].replace(".", "::") + "::" + var["name"] + suffix
         value = "true" if leaf["type"] == "bool" else f"({leaf['type']})({k % 120 + 1})"
         typ = "bool" if leaf["type"] == "bool" else leaf["type"]
@@ -160,8 +160,12 @@ def test_leaves_are_where_the_references_point(case, cxx, shared_include, tmp_pa
     src.write_text(leaf_program(load_layout(out)))
     exe = tmp_path / "leaves"
     include = RTCORE_INCLUDE if case != "stress" else shared_include
-    build = subprocess.run([cxx, *FLAGS, "-O0", f"-I{out}", f"-I{include}", str(src), "-o", str(exe)],
-                           capture_output=True, text=True, timeout=300)
+    build = subprocess.run(
+        [cxx, *FLAGS, "-O0", f"-I{out}", f"-I{include}", str(src), "-o", str(exe)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert build.returncode == 0, build.stderr
     run = subprocess.run([str(exe)], capture_output=True, text=True, timeout=60)
     assert run.returncode == 0 and run.stdout == "ok\n", run.stdout + run.stderr
@@ -170,16 +174,21 @@ def test_leaves_are_where_the_references_point(case, cxx, shared_include, tmp_pa
 def test_leaves_of_a_layout_laid_out_against_a_previous_one(cxx, tmp_path):
     """glbc --previous: kept, moved and new variables out of declaration order, locks with gaps."""
     out = compile_case("fig3_fig11", tmp_path)
-    (tmp_path / "b.glb").write_text("namespace knu.Robot;\nstruct { double x; double y; } joints[10]\nint added[3];\n"
-                                    "uint32_t tick;\n")
+    (tmp_path / "b.glb").write_text(
+        "namespace knu.Robot;\nstruct { double x; double y; } joints[10]\nint added[3];\nuint32_t tick;\n"
+    )
     result = run_glbc(["fig11-plcRobot.glb", "b.glb", "-o", "next", "--previous", str(out / "layout.json")], tmp_path)
     assert result.returncode == 0, result.stderr
     layout = load_layout(tmp_path / "next")
     assert layout["changes"]["moved"] and layout["changes"]["added"] and layout["changes"]["removed"] == []
     src = tmp_path / "leaves.cpp"
     src.write_text(leaf_program(layout))
-    build = subprocess.run([cxx, *FLAGS, "-O0", f"-I{tmp_path / 'next'}", f"-I{RTCORE_INCLUDE}", str(src), "-o",
-                            str(tmp_path / "leaves")], capture_output=True, text=True, timeout=300)
+    build = subprocess.run(
+        [cxx, *FLAGS, "-O0", f"-I{tmp_path / 'next'}", f"-I{RTCORE_INCLUDE}", str(src), "-o", str(tmp_path / "leaves")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert build.returncode == 0, build.stderr
     run = subprocess.run([str(tmp_path / "leaves")], capture_output=True, text=True, timeout=60)
     assert run.returncode == 0 and run.stdout == "ok\n", run.stdout + run.stderr
@@ -197,20 +206,31 @@ def test_header_of_empty_input_compiles(cxx, glb):
 
 
 def test_header_of_several_files_and_namespaces_compiles(cxx, glb):
-    result = compile_glb_text(cxx, glb, {
-        "a.glb": "namespace a;\n#define N 2\nint x[N];\n",
-        "ab.glb": "namespace a.b;\nstruct { double v; } s;\n",
-        "a2.glb": "namespace a;\nstruct { char c[N]; } t;\n",
-    })
+    result = compile_glb_text(
+        cxx,
+        glb,
+        {
+            "a.glb": "namespace a;\n#define N 2\nint x[N];\n",
+            "ab.glb": "namespace a.b;\nstruct { double v; } s;\n",
+            "a2.glb": "namespace a;\nstruct { char c[N]; } t;\n",
+        },
+    )
     assert result.returncode == 0, result.stderr
 
 
 def test_fields_named_like_reference_members_compile(cxx, glb):
     """Field and variable names that the reference classes also use (constructor parameters,
     RefBase and ArrayRef members) are fine."""
-    result = compile_glb_text(cxx, glb, {"a.glb": (
-        "namespace a;\n"
-        "struct { int offset; int lock; int size; int at; int extent; int reference; int array_type;\n"
-        "         int address; int lockIndex; int in_aggregate; struct { int offset; } lock_t; } offset;\n"
-        "int lock;\n")})
+    result = compile_glb_text(
+        cxx,
+        glb,
+        {
+            "a.glb": (
+                "namespace a;\n"
+                "struct { int offset; int lock; int size; int at; int extent; int reference; int array_type;\n"
+                "         int address; int lockIndex; int in_aggregate; struct { int offset; } lock_t; } offset;\n"
+                "int lock;\n"
+            )
+        },
+    )
     assert result.returncode == 0, result.stderr

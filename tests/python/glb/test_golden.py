@@ -7,7 +7,6 @@ from __future__ import annotations
 import difflib
 
 import pytest
-
 from glb_helpers import FIXTURES, GOLDEN, GOLDEN_CASES, REGENERATE, compile_case, fixture
 
 FIGURES = FIXTURES.parents[4] / "shared" / "reference" / "figures"
@@ -21,9 +20,13 @@ def test_output_matches_golden(case, output, tmp_path):
     golden = GOLDEN / case / output.split("/")[-1]
     want = golden.read_text(encoding="utf-8") if golden.exists() else ""
     if got != want:
-        diff = "".join(difflib.unified_diff(want.splitlines(True), got.splitlines(True), str(golden), "glbc output", n=2))
-        pytest.fail(f"{golden} is stale; if glbc's new output is intended, run `{REGENERATE}` "
-                    f"and review the diff:\n{diff[:6000]}")
+        diff = "".join(
+            difflib.unified_diff(want.splitlines(True), got.splitlines(True), str(golden), "glbc output", n=2)
+        )
+        pytest.fail(
+            f"{golden} is stale; if glbc's new output is intended, run `{REGENERATE}` "
+            f"and review the diff:\n{diff[:6000]}"
+        )
 
 
 @pytest.mark.parametrize("name", ["fig3-knuRobot.glb", "fig11-plcRobot.glb", "fig4-output.cpp", "fig5-modify.cpp"])

@@ -89,10 +89,13 @@ def test_namespace_and_a_nested_namespace(glb):
 
 
 def test_several_files_share_a_namespace_in_command_line_order(glb):
-    doc = ok(glb, {"b.glb": "namespace n;\nint second;\n", "a.glb": "namespace n;\nint first;\n"},
-             order=["a.glb", "b.glb"])
-    assert [(v["name"], v["lock"], v["source"]) for v in doc["variables"]] == [("first", 0, "a.glb:2"),
-                                                                              ("second", 1, "b.glb:2")]
+    doc = ok(
+        glb, {"b.glb": "namespace n;\nint second;\n", "a.glb": "namespace n;\nint first;\n"}, order=["a.glb", "b.glb"]
+    )
+    assert [(v["name"], v["lock"], v["source"]) for v in doc["variables"]] == [
+        ("first", 0, "a.glb:2"),
+        ("second", 1, "b.glb:2"),
+    ]
     assert header(glb).count("namespace n {") == 2  # one block per file
 
 
@@ -109,12 +112,29 @@ def test_only_empty_files_give_an_empty_segment(glb):
 
 def test_all_type_spellings(glb):
     spellings = {
-        "int8_t": "int8_t", "uint64_t": "uint64_t", "char": "char", "signed char": "signed char",
-        "unsigned char": "unsigned char", "short": "short", "short int": "short", "signed short int": "short",
-        "unsigned short": "unsigned short", "int": "int", "signed": "int", "unsigned": "unsigned int",
-        "unsigned int": "unsigned int", "long": "long", "long int": "long", "unsigned long": "unsigned long",
-        "long unsigned int": "unsigned long", "long long": "long long", "unsigned long long": "unsigned long long",
-        "float": "float", "double": "double", "bool": "bool", "BOOL": "bool",
+        "int8_t": "int8_t",
+        "uint64_t": "uint64_t",
+        "char": "char",
+        "signed char": "signed char",
+        "unsigned char": "unsigned char",
+        "short": "short",
+        "short int": "short",
+        "signed short int": "short",
+        "unsigned short": "unsigned short",
+        "int": "int",
+        "signed": "int",
+        "unsigned": "unsigned int",
+        "unsigned int": "unsigned int",
+        "long": "long",
+        "long int": "long",
+        "unsigned long": "unsigned long",
+        "long unsigned int": "unsigned long",
+        "long long": "long long",
+        "unsigned long long": "unsigned long long",
+        "float": "float",
+        "double": "double",
+        "bool": "bool",
+        "BOOL": "bool",
     }
     text = "namespace t;\n" + "".join(f"{w} v{i};\n" for i, w in enumerate(spellings))
     doc = ok(glb, {"t.glb": text})
@@ -127,8 +147,10 @@ def test_header_shapes(glb):
     ok(glb, {"a.glb": "namespace k.r;\nint t;\nint m[2][3];\nstruct { struct { int a; } f[4]; double g; } v[5];\n"})
     h = header(glb)
     assert "inline constexpr ::irp::shared::ScalarRef<int> t{0, 0};" in h
-    assert ("inline constexpr ::irp::shared::ArrayRef<::irp::shared::ArrayRef<::irp::shared::ScalarRef<int>, 3>, 2> "
-            "m{64, 1};") in h
+    assert (
+        "inline constexpr ::irp::shared::ArrayRef<::irp::shared::ArrayRef<::irp::shared::ScalarRef<int>, 3>, 2> "
+        "m{64, 1};"
+    ) in h
     assert "inline constexpr ::irp::shared::ArrayRef<v_t_ref, 5> v{128, 2};" in h
     assert "struct v_t_f_t {" in h and "struct v_t_f_t_ref : ::irp::shared::StructRef<v_t_f_t> {" in h
     assert "    v_t_f_t f[4];" in h and "    ::irp::shared::ArrayRef<v_t_f_t_ref, 4> f;" in h
@@ -148,6 +170,7 @@ def test_a_file_without_namespace_declares_global_variables(glb):
 
 
 def test_global_and_namespaced_files_together(glb):
-    doc = ok(glb, {"a.glb": "namespace knu.Robot;\nuint32_t tick;\n", "b.glb": "uint32_t tick;\n"},
-             order=["a.glb", "b.glb"])
+    doc = ok(
+        glb, {"a.glb": "namespace knu.Robot;\nuint32_t tick;\n", "b.glb": "uint32_t tick;\n"}, order=["a.glb", "b.glb"]
+    )
     assert [v[0] for v in variables(doc)] == ["knu.Robot.tick", "tick"]

@@ -7,7 +7,6 @@ import hashlib
 import json
 
 import pytest
-
 from glb_helpers import compile_case, load_layout
 
 
@@ -33,17 +32,36 @@ def type_id(description) -> str:
 
 def test_figure3_variables(fig3):
     v = by_path(fig3["variables"])
-    assert v["knu.Robot.tick"] == {"path": "knu.Robot.tick", "namespace": "knu.Robot", "name": "tick",
-                                   "type": "uint32_t", "type_id": type_id({"type": "uint32_t", "dims": [], "size": 4}),
-                                   "offset": 0, "size": 4, "align": 4, "dims": [], "lock": 0,
-                                   "source": "fig3-knuRobot.glb:3"}
+    assert v["knu.Robot.tick"] == {
+        "path": "knu.Robot.tick",
+        "namespace": "knu.Robot",
+        "name": "tick",
+        "type": "uint32_t",
+        "type_id": type_id({"type": "uint32_t", "dims": [], "size": 4}),
+        "offset": 0,
+        "size": 4,
+        "align": 4,
+        "dims": [],
+        "lock": 0,
+        "source": "fig3-knuRobot.glb:3",
+    }
     joints = v["knu.Robot.joints"]
-    assert (joints["type"], joints["offset"], joints["size"], joints["dims"], joints["lock"]) == \
-        ("knu.Robot.joints_t", 64, 240, [10], 1)
-    assert fig3["types"]["knu.Robot.joints_t"] == {"size": 24, "align": 8, "fields": [
-        {"name": "x", "type": "double", "offset": 0, "size": 8, "dims": []},
-        {"name": "y", "type": "double", "offset": 8, "size": 8, "dims": []},
-        {"name": "z", "type": "double", "offset": 16, "size": 8, "dims": []}]}
+    assert (joints["type"], joints["offset"], joints["size"], joints["dims"], joints["lock"]) == (
+        "knu.Robot.joints_t",
+        64,
+        240,
+        [10],
+        1,
+    )
+    assert fig3["types"]["knu.Robot.joints_t"] == {
+        "size": 24,
+        "align": 8,
+        "fields": [
+            {"name": "x", "type": "double", "offset": 0, "size": 8, "dims": []},
+            {"name": "y", "type": "double", "offset": 8, "size": 8, "dims": []},
+            {"name": "z", "type": "double", "offset": 16, "size": 8, "dims": []},
+        ],
+    }
     assert (fig3["data_size"], fig3["lock_count"], fig3["namespaces"]) == (320, 2, ["knu.Robot"])
 
 
@@ -57,11 +75,21 @@ def test_figure11_robot_module_state_as_gxx_lays_it_out(fig11):
     t = fig11["types"]["PLC_ROBOT.ROBOT_MODULE_STATE_t"]
     offsets = {f["name"]: (f["offset"], f["size"]) for f in t["fields"]}
     assert offsets == {
-        "nAXESGROUP": (0, 2), "MotionDone": (2, 2), "Busy": (4, 2), "eState": (6, 2), "bRuntimeService": (8, 2),
+        "nAXESGROUP": (0, 2),
+        "MotionDone": (2, 2),
+        "Busy": (4, 2),
+        "eState": (6, 2),
+        "bRuntimeService": (8, 2),
         "bJob_RobotMoving": (10, 2),
         # unsigned long is 8 bytes, aligned to 8: 4 bytes of padding after bJob_RobotMoving
-        "dCurJoint": (16, 48), "dCmdJoint": (64, 48), "dWorldPos": (112, 48), "dUserPos": (160, 48),
-        "dBasePos": (208, 48), "dJointSpeed": (256, 48), "dBaseSpeed": (304, 48), "dWorldSpeed": (352, 48),
+        "dCurJoint": (16, 48),
+        "dCmdJoint": (64, 48),
+        "dWorldPos": (112, 48),
+        "dUserPos": (160, 48),
+        "dBasePos": (208, 48),
+        "dJointSpeed": (256, 48),
+        "dBaseSpeed": (304, 48),
+        "dWorldSpeed": (352, 48),
         "nposeINFO": (400, 6),
     }
     assert (t["size"], t["align"]) == (408, 8)  # 406 rounded up to the alignment
@@ -72,13 +100,22 @@ def test_figure11_other_structs_and_scalars(fig11):
     assert service == {"eOpCode": 0, "t_pl": 4, "t_speed": 8, "p_Target": 16, "p_Mid": 18}
     assert fig11["types"]["PLC_ROBOT.ROBOT_MODULE_SERVICE_t"]["size"] == 24
     axis = fig11["types"]["PLC_ROBOT.AXIS1_IN_t"]
-    assert [(f["name"], f["offset"]) for f in axis["fields"]] == [("error", 0), ("status", 2), ("mode", 4), ("position", 8)]
+    assert [(f["name"], f["offset"]) for f in axis["fields"]] == [
+        ("error", 0),
+        ("status", 2),
+        ("mode", 4),
+        ("position", 8),
+    ]
     assert (axis["size"], axis["align"]) == (12, 4)
     v = by_path(fig11["variables"])
     assert [(p, x["offset"], x["lock"]) for p, x in v.items()] == [
-        ("PLC_ROBOT.I0", 0, 0), ("PLC_ROBOT.I1", 64, 1), ("PLC_ROBOT.O0", 128, 2),
-        ("PLC_ROBOT.ROBOT_MODULE_STATE", 192, 3), ("PLC_ROBOT.ROBOT_MODULE_SERVICE", 640, 4),
-        ("PLC_ROBOT.AXIS1_IN", 704, 5)]
+        ("PLC_ROBOT.I0", 0, 0),
+        ("PLC_ROBOT.I1", 64, 1),
+        ("PLC_ROBOT.O0", 128, 2),
+        ("PLC_ROBOT.ROBOT_MODULE_STATE", 192, 3),
+        ("PLC_ROBOT.ROBOT_MODULE_SERVICE", 640, 4),
+        ("PLC_ROBOT.AXIS1_IN", 704, 5),
+    ]
     assert v["PLC_ROBOT.I0"]["type"] == "short"
     assert fig11["defines"] == {"PLC_ROBOT.MAX_JOINTS": 6}
     assert (fig11["data_size"], fig11["lock_count"]) == (768, 6)
@@ -98,9 +135,14 @@ def test_two_files_make_one_segment_with_namespaces_apart(tmp_path):
 def test_stress_layout(tmp_path):
     doc = load_layout(compile_case("stress", tmp_path))
     t = doc["types"]
-    assert t["test.stress.odd_t_nested_t_inner_t"] == {"size": 6, "align": 2, "fields": [
-        {"name": "deep", "type": "int16_t", "offset": 0, "size": 2, "dims": []},
-        {"name": "pad", "type": "char", "offset": 2, "size": 3, "dims": [3]}]}
+    assert t["test.stress.odd_t_nested_t_inner_t"] == {
+        "size": 6,
+        "align": 2,
+        "fields": [
+            {"name": "deep", "type": "int16_t", "offset": 0, "size": 2, "dims": []},
+            {"name": "pad", "type": "char", "offset": 2, "size": 3, "dims": [3]},
+        ],
+    }
     nested = {f["name"]: (f["offset"], f["size"]) for f in t["test.stress.odd_t_nested_t"]["fields"]}
     assert nested == {"a": (0, 1), "b": (8, 16), "inner": (24, 12)}
     odd = {f["name"]: (f["offset"], f["size"], f["dims"]) for f in t["test.stress.odd_t"]["fields"]}
@@ -112,13 +154,32 @@ def test_stress_layout(tmp_path):
     assert v["test.stress.grid"]["dims"] == [3, 2, 5] and v["test.stress.grid"]["size"] == 30
     assert v["test.stress.after_comment"]["type"] == "double"
     spelled = {v["name"]: v["type"] for v in doc["variables"]}
-    assert spelled.items() >= {"c0": "char", "sc": "signed char", "uc": "unsigned char", "si16": "short", "ss": "short",
-                            "usi": "unsigned short", "sg": "int", "sgi": "int", "u": "unsigned int", "li": "long",
-                            "sl": "long", "lui": "unsigned long", "lli": "long long", "ull": "unsigned long long",
-                            "b": "bool", "B": "bool"}.items()
+    assert (
+        spelled.items()
+        >= {
+            "c0": "char",
+            "sc": "signed char",
+            "uc": "unsigned char",
+            "si16": "short",
+            "ss": "short",
+            "usi": "unsigned short",
+            "sg": "int",
+            "sgi": "int",
+            "u": "unsigned int",
+            "li": "long",
+            "sl": "long",
+            "lui": "unsigned long",
+            "lli": "long long",
+            "ull": "unsigned long long",
+            "b": "bool",
+            "B": "bool",
+        }.items()
+    )
     leaf = by_path(doc["leaves"])
     base = v["test.stress.odd"]["offset"]
-    assert leaf["test.stress.odd[1][2].nested.inner[1].pad[2]"]["offset"] == base + (1 * 3 + 2) * 72 + 8 + 24 + 6 + 2 + 2
+    assert (
+        leaf["test.stress.odd[1][2].nested.inner[1].pad[2]"]["offset"] == base + (1 * 3 + 2) * 72 + 8 + 24 + 6 + 2 + 2
+    )
     assert leaf["test.stress.grid[2][1][4]"]["offset"] == v["test.stress.grid"]["offset"] + 2 * 10 + 1 * 5 + 4
     assert doc["defines"] == {"test.stress.ROWS": 3, "test.stress.COLS": 2, "test.stress.DIM": 3}
 
@@ -133,9 +194,15 @@ def test_every_variable_has_its_own_cache_lines(tmp_path):
 
 
 def test_hash_is_sha256_of_the_documented_canonical_form(fig3):
-    canonical = json.dumps({"types": fig3["types"],
-                            "variables": [{k: x for k, x in v.items() if k != "source"} for v in fig3["variables"]]},
-                           sort_keys=True, separators=(",", ":"), ensure_ascii=True)
+    canonical = json.dumps(
+        {
+            "types": fig3["types"],
+            "variables": [{k: x for k, x in v.items() if k != "source"} for v in fig3["variables"]],
+        },
+        sort_keys=True,
+        separators=(",", ":"),
+        ensure_ascii=True,
+    )
     assert fig3["hash"] == hashlib.sha256(canonical.encode()).hexdigest()
 
 
@@ -149,18 +216,24 @@ def layout_of(glb, text, name="a.glb"):
 
 
 def test_hash_ignores_file_names_comments_and_formatting(glb, fig3):
-    doc = layout_of(glb, "// renamed\nnamespace knu.Robot\nuint32_t tick\nstruct { double x; double y; double z; } joints[10];",
-                    "other.glb")
+    doc = layout_of(
+        glb,
+        "// renamed\nnamespace knu.Robot\nuint32_t tick\nstruct { double x; double y; double z; } joints[10];",
+        "other.glb",
+    )
     assert doc["hash"] == fig3["hash"]
 
 
-@pytest.mark.parametrize("change", [
-    ("uint32_t tick", "uint32_t tock"),          # a name
-    ("uint32_t tick", "int32_t tick"),           # a type of the same size
-    ("double z", "double w"),                    # a field name
-    ("joints[10]", "joints[11]"),                # a size
-    ("knu.Robot", "knu.Robot2"),                 # the namespace
-])
+@pytest.mark.parametrize(
+    "change",
+    [
+        ("uint32_t tick", "uint32_t tock"),  # a name
+        ("uint32_t tick", "int32_t tick"),  # a type of the same size
+        ("double z", "double w"),  # a field name
+        ("joints[10]", "joints[11]"),  # a size
+        ("knu.Robot", "knu.Robot2"),  # the namespace
+    ],
+)
 def test_hash_changes_with_any_declaration(glb, fig3, change):
     assert layout_of(glb, FIG3.replace(*change))["hash"] != fig3["hash"]
 
@@ -188,16 +261,21 @@ def test_layout_json_is_deterministic_utf8_json(tmp_path):
 
 
 def test_type_id_is_sha256_of_the_documented_canonical_form(fig3):
-    xyz = [{"name": n, "type": "double", "offset": o, "size": 8, "dims": []} for n, o in (("x", 0), ("y", 8), ("z", 16))]
+    xyz = [
+        {"name": n, "type": "double", "offset": o, "size": 8, "dims": []} for n, o in (("x", 0), ("y", 8), ("z", 16))
+    ]
     joints = by_path(fig3["variables"])["knu.Robot.joints"]
     assert joints["type_id"] == type_id({"type": {"fields": xyz}, "dims": [10], "size": 240})
 
 
 def test_type_id_is_equal_exactly_when_the_bytes_mean_the_same(glb):
-    doc = layout_of(glb, "namespace a;\nstruct { double x; int n[2]; } p;\nstruct { double x; int n[2]; } q;\n"
-                         "struct { double x; int m[2]; } r;\nstruct { double x; unsigned n[2]; } s;\n"
-                         "int t[2]; int u[3]; long v; long long w; int64_t y;\n"
-                         "struct { struct { char c; } in; } z1;\nstruct { struct { char d; } in; } z2;\n")
+    doc = layout_of(
+        glb,
+        "namespace a;\nstruct { double x; int n[2]; } p;\nstruct { double x; int n[2]; } q;\n"
+        "struct { double x; int m[2]; } r;\nstruct { double x; unsigned n[2]; } s;\n"
+        "int t[2]; int u[3]; long v; long long w; int64_t y;\n"
+        "struct { struct { char c; } in; } z1;\nstruct { struct { char d; } in; } z2;\n",
+    )
     ids = {v["name"]: v["type_id"] for v in doc["variables"]}
     assert ids["p"] == ids["q"]  # the struct's generated name (p_t, q_t) does not enter it
     assert len({ids[n] for n in "prstuvwy"} | {ids["z1"], ids["z2"]}) == 10

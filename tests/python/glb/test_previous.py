@@ -12,7 +12,6 @@ import subprocess
 from pathlib import Path
 
 import pytest
-
 from glb_helpers import RTCORE_INCLUDE, compile_case, load_layout, run_glbc
 
 NS = "namespace a;\n"
@@ -57,8 +56,10 @@ def test_unchanged_variables_keep_offset_and_lock(tmp_path):
     assert placed(ok(tmp_path, grown, "fresh"))["x"] == (64, 1)  # without --previous everything shifts
     leaves = {leaf["path"]: (leaf["offset"], leaf["lock"]) for leaf in v2["leaves"]}
     assert leaves["a.first"] == (256, 3) and leaves["a.s[1].n[2]"] == (64 + 24 + 8 + 8, 1)
-    assert [leaf["offset"] for leaf in v2["leaves"]] == [256, 0] + [leaf["offset"] for leaf in v1["leaves"][1:-1]] + \
-        [320, 192]
+    assert [leaf["offset"] for leaf in v2["leaves"]] == [256, 0] + [leaf["offset"] for leaf in v1["leaves"][1:-1]] + [
+        320,
+        192,
+    ]
     header = (tmp_path / "v2" / "indurop" / "generated.h").read_text()
     assert "ScalarRef<int> first{256, 3};" in header and "ScalarRef<int> x{0, 0};" in header
     assert "ArrayRef<s_t_ref, 4> s{64, 1};" in header and "// a.between: offset 320, 4 bytes, lock 4" in header
@@ -72,8 +73,14 @@ def test_new_variables_go_first_fit_into_free_space_in_declaration_order(tmp_pat
     (tmp_path / "gap" / "layout.json").write_text(json.dumps(v1))
     v2 = ok(tmp_path, "int x;\nint y;\nchar big[300];\nchar small[100];\nchar tiny;\nchar huge[1000];\n", "v2", "gap")
     # big (5 cache lines) fits at 64, small (2) right after it; tiny and huge only after y.
-    assert placed(v2) == {"x": (0, 0), "y": (512, 5), "big": (64, 1), "small": (384, 2), "tiny": (576, 3),
-                          "huge": (640, 4)}
+    assert placed(v2) == {
+        "x": (0, 0),
+        "y": (512, 5),
+        "big": (64, 1),
+        "small": (384, 2),
+        "tiny": (576, 3),
+        "huge": (640, 4),
+    }
     assert (v2["data_size"], v2["lock_count"]) == (1664, 6)
 
 
@@ -92,23 +99,31 @@ def test_a_removed_variable_leaves_a_hole_and_a_lock_that_are_not_reused(tmp_pat
     for doc in (g3, g4):
         assert overlaps(doc, 64, 256) == [] and 1 not in [v["lock"] for v in doc["variables"]]
     assert [entry["hash"] for entry in g4["lineage"]] == [g3["hash"], g2["hash"], g1["hash"]]
-    assert {"path": "a.gone", "type_id": g1["variables"][1]["type_id"], "offset": 64, "size": 160, "lock": 1} in \
-        g4["lineage"][2]["variables"]
+    assert {"path": "a.gone", "type_id": g1["variables"][1]["type_id"], "offset": 64, "size": 160, "lock": 1} in g4[
+        "lineage"
+    ][2]["variables"]
 
 
-@pytest.mark.parametrize("before, after", [
-    ("int x;", "long x;"),                               # another scalar type
-    ("int x;", "int x[2];"),                             # an array
-    ("int x;", "unsigned x;"),                           # the same size, another meaning
-    ("struct { int x; } x;", "struct { int y; } x;"),    # a field name
-    ("struct { int x; } x;", "struct { float x; } x;"),  # a field type
-])
+@pytest.mark.parametrize(
+    "before, after",
+    [
+        ("int x;", "long x;"),  # another scalar type
+        ("int x;", "int x[2];"),  # an array
+        ("int x;", "unsigned x;"),  # the same size, another meaning
+        ("struct { int x; } x;", "struct { int y; } x;"),  # a field name
+        ("struct { int x; } x;", "struct { float x; } x;"),  # a field type
+    ],
+)
 def test_a_changed_type_is_moved(tmp_path, before, after):
     g1 = ok(tmp_path, before + "\nstruct { double a; } s;\n", "g1")
     g2 = ok(tmp_path, after + "\nstruct { double a; } s;\n", "g2", "g1")
     assert placed(g2) == {"x": (128, 2), "s": (64, 1)}
-    assert g2["changes"] | {"previous": None} == {"previous": None, "added": [], "removed": [],
-                                                  "moved": [{"path": "a.x", "from": 0, "to": 128}]}
+    assert g2["changes"] | {"previous": None} == {
+        "previous": None,
+        "added": [],
+        "removed": [],
+        "moved": [{"path": "a.x", "from": 0, "to": 128}],
+    }
     assert g2["variables"][0]["type_id"] != g1["variables"][0]["type_id"]
     g3 = ok(tmp_path, after + "\nstruct { double a; } s;\nchar c;\n", "g3", "g2")
     assert placed(g3)["c"] == (192, 3)  # not the old x's bytes nor its lock
@@ -136,8 +151,12 @@ def test_changes_and_the_summary_line(tmp_path):
     assert result.returncode == 0, result.stderr
     assert result.stderr == f"glbc: against layout {g1['hash'][:12]}…: 1 added, 1 removed, 1 moved\n"
     g2 = load_layout(tmp_path / "g2")
-    assert g2["changes"] == {"previous": g1["hash"], "added": ["a.n"], "removed": ["a.gone"],
-                             "moved": [{"path": "a.s", "from": 128, "to": 192}]}
+    assert g2["changes"] == {
+        "previous": g1["hash"],
+        "added": ["a.n"],
+        "removed": ["a.gone"],
+        "moved": [{"path": "a.s", "from": 128, "to": 192}],
+    }
     assert list(g2)[:6] == ["format", "version", "hash", "data_size", "lock_count", "changes"]
 
 
@@ -146,8 +165,13 @@ def test_the_same_declarations_again_change_nothing(tmp_path):
     result = run(tmp_path, "int x;\n" + STRUCT, "g2", "--previous", "g1/layout.json")
     assert result.stderr.endswith(": 0 added, 0 removed, 0 moved\n")
     g2 = load_layout(tmp_path / "g2")
-    assert (g2["hash"], g2["data_size"], g2["lock_count"], g2["variables"], g2["leaves"]) == \
-        (g1["hash"], g1["data_size"], g1["lock_count"], g1["variables"], g1["leaves"])
+    assert (g2["hash"], g2["data_size"], g2["lock_count"], g2["variables"], g2["leaves"]) == (
+        g1["hash"],
+        g1["data_size"],
+        g1["lock_count"],
+        g1["variables"],
+        g1["leaves"],
+    )
     assert g2["changes"] == {"previous": g1["hash"], "added": [], "removed": [], "moved": []}
     assert g2["lineage"] == [], "a layout is not its own ancestor"
     g3 = ok(tmp_path, "int x;\nint y;\n" + STRUCT, "g3", "g2")
@@ -167,14 +191,28 @@ def test_previous_may_be_the_output_itself(tmp_path):
 def test_without_previous_there_are_no_changes_and_an_empty_lineage(tmp_path):
     out = compile_case("fig3", tmp_path)
     doc = load_layout(out)
-    assert list(doc) == ["format", "version", "hash", "data_size", "lock_count", "sources", "namespaces", "defines",
-                         "scalars", "types", "variables", "leaves", "lineage"]
+    assert list(doc) == [
+        "format",
+        "version",
+        "hash",
+        "data_size",
+        "lock_count",
+        "sources",
+        "namespaces",
+        "defines",
+        "scalars",
+        "types",
+        "variables",
+        "leaves",
+        "lineage",
+    ]
     assert doc["lineage"] == [] and all(re.fullmatch(r"[0-9a-f]{16}", v["type_id"]) for v in doc["variables"])
     result = run(tmp_path, "int x;\n", "plain")
     assert result.returncode == 0 and result.stderr == ""
 
 
 # -- errors -----------------------------------------------------------------------------------------
+
 
 def good_previous(tmp_path: Path) -> dict:
     return ok(tmp_path, "int x;\nint y;\n", "v1")
@@ -185,6 +223,7 @@ def without(key: str, where: str = "variables"):
         for v in doc[where] if where == "variables" else doc["lineage"][0]["variables"]:
             v.pop(key, None)
         return doc
+
     return edit
 
 
@@ -201,26 +240,35 @@ def with_lineage(doc):
     return doc
 
 
-@pytest.mark.parametrize("content, message", [
-    (None, f"cannot read the previous layout: No such file or directory; {GIVE}"),
-    ("folder", f"cannot read the previous layout: Is a directory; {GIVE}"),
-    (b"{\"format\": ", f"the previous layout is not JSON (Expecting value: line 1 column 12 (char 11)); {GIVE}"),
-    (b"\xff\xfe", None),  # not UTF-8: also "not JSON"
-    (lambda doc: {"format": "something-else"}, f'not an indurop layout ("format" is not "indurop-layout"); {GIVE}'),
-    (lambda doc: [doc], f'not an indurop layout ("format" is not "indurop-layout"); {GIVE}'),
-    (lambda doc: doc | {"version": 2}, "layout version 2; this glbc reads version 1: compile the running set's .glb "
-                                       "files with the glbc that wrote it"),
-    (lambda doc: doc | {"hash": "abc"}, f'the layout has no "hash" of 64 hex digits: not a layout glbc wrote; {GIVE}'),
-    (lambda doc: doc | {"variables": {}}, f'the layout has no "variables" list: not a layout glbc wrote; {GIVE}'),
-    (without("path"), f'variable 0 of the layout has no "path": not a layout glbc wrote; {GIVE}'),
-    (without("offset"), f'variable a.x of the layout has no valid "offset": not a layout glbc wrote; {GIVE}'),
-    (without("size"), f'variable a.x of the layout has no valid "size": not a layout glbc wrote; {GIVE}'),
-    (without("lock"), f'variable a.x of the layout has no valid "lock": not a layout glbc wrote; {GIVE}'),
-    (without("type_id"), f'variable a.x of the layout has no "type_id": {OLDER}'),
-    (old_glbc, f'variable a.x of the layout has no "type_id": {OLDER}'),
-    (lambda doc: doc | {"lineage": {}}, f'"lineage" is not a list: not a layout glbc wrote; {GIVE}'),
-    (with_lineage, f'variable a.old of lineage entry 0 has no "type_id": {OLDER}'),
-])
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        (None, f"cannot read the previous layout: No such file or directory; {GIVE}"),
+        ("folder", f"cannot read the previous layout: Is a directory; {GIVE}"),
+        (b"{\"format\": ", f"the previous layout is not JSON (Expecting value: line 1 column 12 (char 11)); {GIVE}"),
+        (b"\xff\xfe", None),  # not UTF-8: also "not JSON"
+        (lambda doc: {"format": "something-else"}, f'not an indurop layout ("format" is not "indurop-layout"); {GIVE}'),
+        (lambda doc: [doc], f'not an indurop layout ("format" is not "indurop-layout"); {GIVE}'),
+        (
+            lambda doc: doc | {"version": 2},
+            "layout version 2; this glbc reads version 1: compile the running set's .glb "
+            "files with the glbc that wrote it",
+        ),
+        (
+            lambda doc: doc | {"hash": "abc"},
+            f'the layout has no "hash" of 64 hex digits: not a layout glbc wrote; {GIVE}',
+        ),
+        (lambda doc: doc | {"variables": {}}, f'the layout has no "variables" list: not a layout glbc wrote; {GIVE}'),
+        (without("path"), f'variable 0 of the layout has no "path": not a layout glbc wrote; {GIVE}'),
+        (without("offset"), f'variable a.x of the layout has no valid "offset": not a layout glbc wrote; {GIVE}'),
+        (without("size"), f'variable a.x of the layout has no valid "size": not a layout glbc wrote; {GIVE}'),
+        (without("lock"), f'variable a.x of the layout has no valid "lock": not a layout glbc wrote; {GIVE}'),
+        (without("type_id"), f'variable a.x of the layout has no "type_id": {OLDER}'),
+        (old_glbc, f'variable a.x of the layout has no "type_id": {OLDER}'),
+        (lambda doc: doc | {"lineage": {}}, f'"lineage" is not a list: not a layout glbc wrote; {GIVE}'),
+        (with_lineage, f'variable a.old of lineage entry 0 has no "type_id": {OLDER}'),
+    ],
+)
 def test_previous_errors(tmp_path, content, message):
     doc = good_previous(tmp_path)
     prev = tmp_path / "prev.json"
@@ -247,18 +295,23 @@ def test_max_size_counts_the_holes(tmp_path):
     assert result.returncode == 1
     assert result.stderr.splitlines()[0] == (
         "a.glb:3:5: error: segment over its limit: variable 'n' (4 bytes) goes to offset 4096, the first space the "
-        f"running layout and its lineage leave free, and ends at byte 4160, over --max-size 4096; {RESTART}")
+        f"running layout and its lineage leave free, and ends at byte 4160, over --max-size 4096; {RESTART}"
+    )
     result = run(tmp_path, "int x;\n", "g2", "--previous", "g1/layout.json", "--max-size", "1K")
     assert result.returncode == 1
-    assert result.stderr == ("g1/layout.json: error: segment over its limit: the variables and holes this layout keeps "
-                             f"end at byte 4096, over --max-size 1024; {RESTART}\n")
+    assert result.stderr == (
+        "g1/layout.json: error: segment over its limit: the variables and holes this layout keeps "
+        f"end at byte 4096, over --max-size 1024; {RESTART}\n"
+    )
     assert not (tmp_path / "g2").exists()
 
 
 # -- the layout stamp in generated.h ----------------------------------------------------------------
 
-STAMP = ('extern "C" __attribute__((weak, visibility("default"), section(".indurop_layout"))) '
-         "const char indurop_layout_hash[] = INDUROP_LAYOUT_HASH;")
+STAMP = (
+    'extern "C" __attribute__((weak, visibility("default"), section(".indurop_layout"))) '
+    "const char indurop_layout_hash[] = INDUROP_LAYOUT_HASH;"
+)
 
 
 def test_the_stamp_is_in_its_own_section(tmp_path):
@@ -272,8 +325,12 @@ def test_appending_a_variable_changes_only_the_stamp_in_the_header(tmp_path):
     ok(tmp_path, text, "v1")
     ok(tmp_path, text + "double added[3];\n", "v2", "v1")
     h1, h2 = ((tmp_path / v / "indurop" / "generated.h").read_text().splitlines() for v in ("v1", "v2"))
-    macros = ("#define INDUROP_LAYOUT_HASH ", "#define INDUROP_LAYOUT_DATA_SIZE ", "#define INDUROP_LAYOUT_LOCK_COUNT ",
-              "// Regenerate: ")
+    macros = (
+        "#define INDUROP_LAYOUT_HASH ",
+        "#define INDUROP_LAYOUT_DATA_SIZE ",
+        "#define INDUROP_LAYOUT_LOCK_COUNT ",
+        "// Regenerate: ",
+    )
     assert all(line.startswith(macros) for line in set(h1) - set(h2))
     assert all(line.startswith(macros) or "added" in line for line in set(h2) - set(h1))
 
@@ -281,15 +338,15 @@ def test_appending_a_variable_changes_only_the_stamp_in_the_header(tmp_path):
 def alloc_sections(path: Path) -> dict[str, bytes]:
     """The contents of an ELF64 file's SHF_ALLOC sections (those loaded into memory), by name."""
     data = path.read_bytes()
-    shoff, = struct.unpack_from("<Q", data, 0x28)
+    (shoff,) = struct.unpack_from("<Q", data, 0x28)
     shentsize, shnum, shstrndx = struct.unpack_from("<HHH", data, 0x3A)
     headers = [struct.unpack_from("<IIQQQQIIQQ", data, shoff + i * shentsize) for i in range(shnum)]
     names = headers[shstrndx]
     out = {}
     for name, kind, flags, _, offset, size, *_ in headers:
         if flags & 2:  # SHF_ALLOC
-            label = data[names[4] + name:data.index(b"\0", names[4] + name)].decode()
-            out[label] = b"" if kind == 8 else data[offset:offset + size]  # SHT_NOBITS: no bytes in the file
+            label = data[names[4] + name : data.index(b"\0", names[4] + name)].decode()
+            out[label] = b"" if kind == 8 else data[offset : offset + size]  # SHT_NOBITS: no bytes in the file
     return out
 
 
@@ -298,10 +355,12 @@ def test_a_module_rebuilt_against_a_grown_layout_differs_only_in_the_stamp(cxx, 
     ok(tmp_path, text, "v1")
     ok(tmp_path, "int x;\nint before;\n" + STRUCT + "double added[3];\n", "v2", "v1")
     src = tmp_path / "module.cpp"
-    src.write_text("#include <indurop/generated.h>\n"
-                   'extern "C" int step() {\n'
-                   "    a::x += 1; a::s_t v = a::s[1]; v.n[2] = a::x; a::s[2] = v; return a::x;\n"
-                   "}\n")
+    src.write_text(
+        "#include <indurop/generated.h>\n"
+        'extern "C" int step() {\n'
+        "    a::x += 1; a::s_t v = a::s[1]; v.n[2] = a::x; a::s[2] = v; return a::x;\n"
+        "}\n"
+    )
     built = {}
     for v in ("v1", "v2"):
         so = tmp_path / f"{v}.so"
@@ -311,5 +370,6 @@ def test_a_module_rebuilt_against_a_grown_layout_differs_only_in_the_stamp(cxx, 
         built[v] = alloc_sections(so)
     assert ".indurop_layout" in built["v1"] and built["v1"][".indurop_layout"] != built["v2"][".indurop_layout"]
     ignored = {".indurop_layout", ".note.gnu.build-id"}
-    assert {k: x for k, x in built["v1"].items() if k not in ignored} == \
-        {k: x for k, x in built["v2"].items() if k not in ignored}
+    assert {k: x for k, x in built["v1"].items() if k not in ignored} == {
+        k: x for k, x in built["v2"].items() if k not in ignored
+    }

@@ -2,6 +2,7 @@
 generated from it fails here when it is stale, naming the command that regenerates it; the
 generator refuses what it cannot turn into code; the spec's shapes are valid JSON Schema and say
 what irpd and the agent accept at the edges of each range."""
+
 from __future__ import annotations
 
 import copy
@@ -26,8 +27,9 @@ OUTPUTS = generate.outputs(SPEC)
 
 @pytest.mark.parametrize("path", sorted(OUTPUTS))
 def test_the_generated_file_is_fresh(path):
-    assert (ROOT / path).read_text() == OUTPUTS[path], \
+    assert (ROOT / path).read_text() == OUTPUTS[path], (
         f"{path} is stale (protocol/control.json changed): run `{generate.COMMAND}`"
+    )
 
 
 def test_a_changed_spec_makes_every_output_stale(tmp_path):
@@ -60,19 +62,25 @@ def command(raw: dict, name: str) -> dict:
     return next(c for c in raw["commands"] if c["name"] == name)
 
 
-@pytest.mark.parametrize("mutate, says", [
-    (lambda s: command(s, "set_priority")["arguments"]["properties"].__setitem__("x", {"type": "object"}),
-     "#/commands/set_priority/arguments/properties/x: an argument is a value or a list"),
-    (lambda s: command(s, "events")["arguments"]["properties"]["limit"].__setitem__("type", "number"),
-     "#/commands/events/arguments/properties/limit: type 'number' is none of"),
-    (lambda s: s["types"]["priority"].__setitem__("maximum", {"$limit": "nope"}),
-     "no limit 'nope'"),
-    (lambda s: command(s, "load")["errors"].append("exploded"), "'exploded' is not in #/errors"),
-    (lambda s: s["types"]["module"].__setitem__("pattern", "^[a-z]+$"), "pattern: no language checks that"),
-    (lambda s: command(s, "load")["arguments"]["required"].append("speed"), "speed not among the properties"),
-    (lambda s: s["types"]["change_entry"].pop("unevaluatedProperties"), "takes no other members"),
-    (lambda s: s["commands"].append(copy.deepcopy(command(s, "status"))), "a command is described twice"),
-])
+@pytest.mark.parametrize(
+    "mutate, says",
+    [
+        (
+            lambda s: command(s, "set_priority")["arguments"]["properties"].__setitem__("x", {"type": "object"}),
+            "#/commands/set_priority/arguments/properties/x: an argument is a value or a list",
+        ),
+        (
+            lambda s: command(s, "events")["arguments"]["properties"]["limit"].__setitem__("type", "number"),
+            "#/commands/events/arguments/properties/limit: type 'number' is none of",
+        ),
+        (lambda s: s["types"]["priority"].__setitem__("maximum", {"$limit": "nope"}), "no limit 'nope'"),
+        (lambda s: command(s, "load")["errors"].append("exploded"), "'exploded' is not in #/errors"),
+        (lambda s: s["types"]["module"].__setitem__("pattern", "^[a-z]+$"), "pattern: no language checks that"),
+        (lambda s: command(s, "load")["arguments"]["required"].append("speed"), "speed not among the properties"),
+        (lambda s: s["types"]["change_entry"].pop("unevaluatedProperties"), "takes no other members"),
+        (lambda s: s["commands"].append(copy.deepcopy(command(s, "status"))), "a command is described twice"),
+    ],
+)
 def test_the_generator_refuses_what_it_cannot_generate(mutate, says):
     assert says in broken(mutate)
 
@@ -138,8 +146,9 @@ def test_every_event_kind_irpd_logs_is_described():
     for source in (ROOT / "rtcore" / "src").rglob("*.cpp"):
         added |= set(re.findall(r'\b(?:events|log_|log|events_)(?:\.|->)add\("([a-z_]+)"', source.read_text()))
     described = {k["kind"] for k in SPEC["event_kinds"]}
-    assert added and added == described, f"irpd adds {sorted(added - described)} undescribed; " \
-                                         f"described but never added: {sorted(described - added)}"
+    assert added and added == described, (
+        f"irpd adds {sorted(added - described)} undescribed; described but never added: {sorted(described - added)}"
+    )
 
 
 def test_no_error_code_is_written_out_by_hand():
@@ -162,6 +171,7 @@ def test_no_error_code_is_written_out_by_hand():
 
 # ---- the agent's models of irpd's answers ------------------------------------------------------
 
+
 def properties_of(schema: dict) -> tuple[set[str], set[str]]:
     """(every property, the required ones) of a result shape, through $ref and allOf."""
     if "$ref" in schema:
@@ -181,18 +191,21 @@ def result_of(name: str) -> dict:
     return next(c for c in SPEC["commands"] if c["name"] == name)["result"]["schema"]
 
 
-@pytest.mark.parametrize("model, shape, agent_only", [
-    ("Status", result_of("status"), set()),
-    ("Schedule", SPEC["shapes"]["schedule"], set()),
-    ("ScheduleSlot", SPEC["shapes"]["schedule"]["properties"]["slots"]["items"], set()),
-    ("ScheduledModule", SPEC["shapes"]["schedule"]["properties"]["modules"]["items"], set()),
-    ("Figures", SPEC["shapes"]["figures"], set()),
-    ("TimingRecord", SPEC["shapes"]["timing_record"], set()),
-    ("ModuleInfo", SPEC["shapes"]["module_info"], set()),
-    ("Stats", result_of("stats"), set()),
-    ("SwapReport", SPEC["shapes"]["swap_report"], {"mode", "downtime_ns"}),
-    ("VariableChanges", SPEC["shapes"]["variable_changes"], set()),
-])
+@pytest.mark.parametrize(
+    "model, shape, agent_only",
+    [
+        ("Status", result_of("status"), set()),
+        ("Schedule", SPEC["shapes"]["schedule"], set()),
+        ("ScheduleSlot", SPEC["shapes"]["schedule"]["properties"]["slots"]["items"], set()),
+        ("ScheduledModule", SPEC["shapes"]["schedule"]["properties"]["modules"]["items"], set()),
+        ("Figures", SPEC["shapes"]["figures"], set()),
+        ("TimingRecord", SPEC["shapes"]["timing_record"], set()),
+        ("ModuleInfo", SPEC["shapes"]["module_info"], set()),
+        ("Stats", result_of("stats"), set()),
+        ("SwapReport", SPEC["shapes"]["swap_report"], {"mode", "downtime_ns"}),
+        ("VariableChanges", SPEC["shapes"]["variable_changes"], set()),
+    ],
+)
 def test_the_agents_models_of_irpds_answers_follow_the_spec(model, shape, agent_only):
     """The agent passes irpd's answers on with these models (OpenAPI, the UI's types): a field they
     name is one irpd sends, and every field irpd always sends is named."""

@@ -1,6 +1,7 @@
 """test_live_answers.py -- a real irpd's answers hold the shapes protocol/control.json gives each
 command's result (JSON Schema), and its refusals carry error codes the spec lists for that
 command.  irpd runs the paper's Figure 1 set on an instance of its own."""
+
 from __future__ import annotations
 
 import importlib.util
@@ -9,13 +10,11 @@ import time
 from pathlib import Path
 
 import pytest
+from indurop_agent.irpd_client import IrpdClient, IrpdRefused
 from jsonschema import Draft202012Validator
+from live_processes import FIG1, IRPD, ROOT, start_irpd, stop
 from referencing import Registry, Resource
 from referencing.jsonschema import DRAFT202012
-
-from live_processes import FIG1, IRPD, ROOT, start_irpd, stop
-
-from indurop_agent.irpd_client import IrpdClient, IrpdRefused
 
 _spec = importlib.util.spec_from_file_location("protocol_generate", ROOT / "protocol" / "generate.py")
 generate = importlib.util.module_from_spec(_spec)
@@ -25,8 +24,9 @@ SPEC = generate.load()
 COMMANDS = {c["name"]: c for c in SPEC["commands"]}
 REGISTRY = Registry().with_resource("urn:indurop:control", Resource.from_contents(SPEC, DRAFT202012))
 
-pytestmark = pytest.mark.skipif(not IRPD.exists() or not FIG1.exists(),
-                                reason=f"irpd and the paper-fig1 set are not built ({IRPD}): a full build")
+pytestmark = pytest.mark.skipif(
+    not IRPD.exists() or not FIG1.exists(), reason=f"irpd and the paper-fig1 set are not built ({IRPD}): a full build"
+)
 
 
 def result_validator(name: str) -> Draft202012Validator:
@@ -67,14 +67,24 @@ def test_every_answer_has_the_shape_the_spec_gives(irpd):
     as it was; every answer is validated against its command's result schema."""
     answered = set()
     for name, arguments in [
-        ("status", {}), ("schedule", {}), ("modules", {}), ("stats", {}), ("histograms", {}),
-        ("histograms", {"name": "cntr1"}), ("events", {"since": 0, "limit": 10}), ("check", {"config": str(FIG1)}),
-        ("trace", {}), ("write", {"path": "joint[1].y", "value": 1.5}),
+        ("status", {}),
+        ("schedule", {}),
+        ("modules", {}),
+        ("stats", {}),
+        ("histograms", {}),
+        ("histograms", {"name": "cntr1"}),
+        ("events", {"since": 0, "limit": 10}),
+        ("check", {"config": str(FIG1)}),
+        ("trace", {}),
+        ("write", {"path": "joint[1].y", "value": 1.5}),
         ("change", {"changes": [{"module": "cntr1", "priority": 9}], "dry_run": True}),
-        ("set_priority", {"module": "cntr1", "priority": 9}), ("set_priority", {"module": "cntr1", "priority": 3}),
-        ("disable", {"module": "cntr2"}), ("enable", {"module": "cntr2"}),
+        ("set_priority", {"module": "cntr1", "priority": 9}),
+        ("set_priority", {"module": "cntr1", "priority": 3}),
+        ("disable", {"module": "cntr2"}),
+        ("enable", {"module": "cntr2"}),
         ("set_period", {"module": "cntr2", "period_ns": 100_000}),
-        ("load", {"config": str(FIG1), "set_id": "protocol-test"}), ("clear_crash", {}),
+        ("load", {"config": str(FIG1), "set_id": "protocol-test"}),
+        ("clear_crash", {}),
     ]:
         answer_of(irpd, name, **arguments)
         answered.add(name)
@@ -84,16 +94,19 @@ def test_every_answer_has_the_shape_the_spec_gives(irpd):
     assert events and all(e["kind"] in kinds for e in events), [e["kind"] for e in events]
 
 
-@pytest.mark.parametrize("name, arguments, code", [
-    ("histograms", {"name": "nope"}, "not_found"),
-    ("set_priority", {"module": "nope", "priority": 1}, "not_found"),
-    ("set_priority", {"module": "cntr1", "priority": -1}, "refused"),
-    ("set_priority", {"module": "cntr1", "priority": 1_000_001}, "refused"),
-    ("change", {"changes": [{"module": "cntr1", "enabled": True}] * 1025}, "refused"),
-    ("load", {}, "refused"),
-    ("write", {"path": "joint[1].y", "value": "x"}, "refused"),
-    ("restart", {"config": "/nonexistent/module.xml"}, "refused"),
-])
+@pytest.mark.parametrize(
+    "name, arguments, code",
+    [
+        ("histograms", {"name": "nope"}, "not_found"),
+        ("set_priority", {"module": "nope", "priority": 1}, "not_found"),
+        ("set_priority", {"module": "cntr1", "priority": -1}, "refused"),
+        ("set_priority", {"module": "cntr1", "priority": 1_000_001}, "refused"),
+        ("change", {"changes": [{"module": "cntr1", "enabled": True}] * 1025}, "refused"),
+        ("load", {}, "refused"),
+        ("write", {"path": "joint[1].y", "value": "x"}, "refused"),
+        ("restart", {"config": "/nonexistent/module.xml"}, "refused"),
+    ],
+)
 def test_refusals_carry_a_code_the_spec_lists_for_the_command(irpd, name, arguments, code):
     with pytest.raises(IrpdRefused) as refused:
         irpd.request(name, timeout=60, **arguments)

@@ -3,6 +3,7 @@ composes the URDF's joint origins (xyz, rpy) and axis rotations read with xml.et
 result is compared with the C++ library's (tests/cpp/kinematics_fk, built with the C++ tests) for
 hand-picked and random joint values, on config/robots/indurop6.urdf and on a variant with tilted
 joint frames and oblique axes that exercises every part of the URDF -> KDL conversion."""
+
 from __future__ import annotations
 
 import os
@@ -20,6 +21,7 @@ URDF = ROOT / "config" / "robots" / "indurop6.urdf"
 
 
 # ---- FK with numpy, from the URDF text ------------------------------------------------------------
+
 
 def rot_x(a: float) -> np.ndarray:
     c, s = np.cos(a), np.sin(a)
@@ -73,15 +75,17 @@ class UrdfChain:
             axis_el = j.find("axis")
             axis = numbers(axis_el.get("xyz") if axis_el is not None else None, "1 0 0")
             limit = j.find("limit")
-            self.joints.append({
-                "name": j.get("name"),
-                "type": j.get("type"),
-                # URDF: rpy are fixed-axis roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll)
-                "origin": homogeneous(rot_z(rpy[2]) @ rot_y(rpy[1]) @ rot_x(rpy[0]), xyz),
-                "axis": axis / np.linalg.norm(axis),
-                "lower": float(limit.get("lower")) if limit is not None else None,
-                "upper": float(limit.get("upper")) if limit is not None else None,
-            })
+            self.joints.append(
+                {
+                    "name": j.get("name"),
+                    "type": j.get("type"),
+                    # URDF: rpy are fixed-axis roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll)
+                    "origin": homogeneous(rot_z(rpy[2]) @ rot_y(rpy[1]) @ rot_x(rpy[0]), xyz),
+                    "axis": axis / np.linalg.norm(axis),
+                    "lower": float(limit.get("lower")) if limit is not None else None,
+                    "upper": float(limit.get("upper")) if limit is not None else None,
+                }
+            )
         self.movable = [j for j in self.joints if j["type"] != "fixed"]
 
     def fk(self, q) -> np.ndarray:
@@ -100,6 +104,7 @@ class UrdfChain:
 
 
 # ---- the C++ side -----------------------------------------------------------------------------------
+
 
 def cpp_fk(urdf: Path, qs: list) -> list[np.ndarray]:
     assert FK_TOOL.exists(), f"{FK_TOOL} is missing: build first (bash packaging/build.sh)"

@@ -2,6 +2,7 @@
 kinematics against the arm's hand-worked poses (docs/robot.md §1) and against yourdfpy (what the
 viser viewer draws with), robot.json's checks (one named case per malformed input), the map from
 variable values to joint positions, viewer tickets, and meshcat's page as the proxy serves it."""
+
 from __future__ import annotations
 
 import json
@@ -16,10 +17,18 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "agent"))
 
 from indurop_agent.auth import TokenStore  # noqa: E402
-from indurop_agent.viewer.mapping import (JointMapping, MappingError, RobotConfig, check_against_urdf,  # noqa: E402
-                                          check_variables, complete, parse_config, variable_problem)
+from indurop_agent.viewer.mapping import (  # noqa: E402
+    JointMapping,
+    MappingError,
+    RobotConfig,
+    check_against_urdf,
+    check_variables,
+    complete,
+    parse_config,
+    variable_problem,
+)
 from indurop_agent.viewer.meshcat_view import CONNECT, MeshcatViewer  # noqa: E402
-from indurop_agent.viewer.ticket import Tickets, TicketError  # noqa: E402
+from indurop_agent.viewer.ticket import TicketError, Tickets  # noqa: E402
 from indurop_agent.viewer.urdf import UrdfError, parse  # noqa: E402
 
 URDF = ROOT / "config" / "robots" / "indurop6.urdf"
@@ -83,17 +92,29 @@ BAD_URDFS = {
     "not a robot": (b"<model/>", "expected <robot>"),
     "a dtd": (b'<!DOCTYPE robot [<!ENTITY x "y">]><robot name="t"/>', "not a URDF"),
     "no link": (_urdf(""), "no <link>"),
-    "unknown parent": (_urdf(LINKS + '<joint name="j" type="fixed"><parent link="z"/><child link="b"/></joint>'),
-                       "parent link 'z'"),
-    "revolute without limit": (_urdf(LINKS + '<joint name="j" type="revolute"><parent link="a"/><child link="b"/>'
-                                     '</joint>'), "needs <limit"),
-    "zero axis": (_urdf(LINKS + '<joint name="j" type="continuous"><parent link="a"/><child link="b"/>'
-                        '<axis xyz="0 0 0"/></joint>'), "axis is zero"),
-    "bad origin": (_urdf(LINKS + '<joint name="j" type="fixed"><parent link="a"/><child link="b"/>'
-                         '<origin xyz="1 2"/></joint>'), "<origin xyz>"),
+    "unknown parent": (
+        _urdf(LINKS + '<joint name="j" type="fixed"><parent link="z"/><child link="b"/></joint>'),
+        "parent link 'z'",
+    ),
+    "revolute without limit": (
+        _urdf(LINKS + '<joint name="j" type="revolute"><parent link="a"/><child link="b"/></joint>'),
+        "needs <limit",
+    ),
+    "zero axis": (
+        _urdf(
+            LINKS + '<joint name="j" type="continuous"><parent link="a"/><child link="b"/><axis xyz="0 0 0"/></joint>'
+        ),
+        "axis is zero",
+    ),
+    "bad origin": (
+        _urdf(LINKS + '<joint name="j" type="fixed"><parent link="a"/><child link="b"/><origin xyz="1 2"/></joint>'),
+        "<origin xyz>",
+    ),
     "two roots": (_urdf(LINKS), "one tree"),
-    "unknown geometry": (_urdf('<link name="a"><visual><geometry><cone/></geometry></visual></link>'),
-                         "unknown geometry <cone>"),
+    "unknown geometry": (
+        _urdf('<link name="a"><visual><geometry><cone/></geometry></visual></link>'),
+        "unknown geometry <cone>",
+    ),
 }
 
 
@@ -110,7 +131,8 @@ def test_the_cells_robot_json_maps_each_joint_to_the_measured_angle(arm):
     config = parse_config(CELL_ROBOT_JSON.read_bytes())
     assert config.urdf == "indurop6.urdf"
     assert [(j.joint, j.variable) for j in config.joints] == [
-        (f"joint_{i + 1}", f"PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[{i}]") for i in range(6)]
+        (f"joint_{i + 1}", f"PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[{i}]") for i in range(6)
+    ]
     check_against_urdf(config.joints, arm, "robot.json", "indurop6.urdf")
     assert config.dump() == CELL_ROBOT_JSON.read_bytes(), "robot.json is not in the form the agent writes"
 
@@ -119,8 +141,14 @@ def test_positions_are_value_times_scale_plus_offset_and_unmapped_joints_stay_at
     joints = complete([JointMapping("joint_2", "A", 2.0, 0.5), JointMapping("joint_1", "B", -1.0, 0.0)], arm)
     assert [j.joint for j in joints] == [f"joint_{i}" for i in range(1, 7)]  # URDF order, all movable joints
     positions = RobotConfig("x.urdf", joints).positions({"A": 0.25, "B": 0.1})
-    assert positions == {"joint_1": -0.1, "joint_2": 1.0, "joint_3": 0.0, "joint_4": 0.0, "joint_5": 0.0,
-                         "joint_6": 0.0}
+    assert positions == {
+        "joint_1": -0.1,
+        "joint_2": 1.0,
+        "joint_3": 0.0,
+        "joint_4": 0.0,
+        "joint_5": 0.0,
+        "joint_6": 0.0,
+    }
     assert RobotConfig("x.urdf", joints).positions({})["joint_2"] == 0.0  # no value yet: held at 0
 
 
@@ -144,12 +172,18 @@ BAD_MAPS = {
     "joint without a name": ({**GOOD, "joints": [{"variable": "V.x"}]}, "joints[0].joint must be"),
     "joint twice": ({**GOOD, "joints": GOOD["joints"] * 2}, 'joints[1].joint "joint_1" is mapped twice'),
     "variable not a string": ({**GOOD, "joints": [{"joint": "joint_1", "variable": 3}]}, "joints[0].variable"),
-    "scale not a number": ({**GOOD, "joints": [{"joint": "joint_1", "variable": "V.x", "scale": "2"}]},
-                           "joints[0].scale must be a finite number"),
-    "offset infinite": ({**GOOD, "joints": [{"joint": "joint_1", "variable": "V.x", "offset": float("inf")}]},
-                        "joints[0].offset must be a finite number"),
-    "unknown joint key": ({**GOOD, "joints": [{"joint": "joint_1", "variable": "V.x", "gain": 2}]},
-                          "unknown keys gain"),
+    "scale not a number": (
+        {**GOOD, "joints": [{"joint": "joint_1", "variable": "V.x", "scale": "2"}]},
+        "joints[0].scale must be a finite number",
+    ),
+    "offset infinite": (
+        {**GOOD, "joints": [{"joint": "joint_1", "variable": "V.x", "offset": float("inf")}]},
+        "joints[0].offset must be a finite number",
+    ),
+    "unknown joint key": (
+        {**GOOD, "joints": [{"joint": "joint_1", "variable": "V.x", "gain": 2}]},
+        "unknown keys gain",
+    ),
 }
 
 
@@ -161,22 +195,35 @@ def test_a_malformed_robot_json_is_refused_naming_the_entry(case):
     assert words in str(e.value) and "robot.json" in str(e.value)
 
 
-@pytest.mark.parametrize("joint, words", [("joint_9", '"joint_9" is not a joint of r.urdf'),
-                                          ("joint_tool0", '"joint_tool0" is a fixed joint of r.urdf')])
+@pytest.mark.parametrize(
+    "joint, words",
+    [("joint_9", '"joint_9" is not a joint of r.urdf'), ("joint_tool0", '"joint_tool0" is a fixed joint of r.urdf')],
+)
 def test_a_map_naming_a_joint_that_does_not_move_is_refused_with_the_movable_ones(arm, joint, words):
     with pytest.raises(MappingError) as e:
         check_against_urdf([JointMapping(joint, None)], arm, "robot.json", "r.urdf")
     assert words in str(e.value) and "joint_1, joint_2, joint_3, joint_4, joint_5, joint_6" in str(e.value)
 
 
-LEAVES = {"C.s.x": {"path": "C.s.x", "type": "double", "size": 8}, "C.a[0]": {"path": "C.a[0]", "type": "short", "size": 2},
-          "C.name": {"path": "C.name", "type": "string", "size": 16}}
+LEAVES = {
+    "C.s.x": {"path": "C.s.x", "type": "double", "size": 8},
+    "C.a[0]": {"path": "C.a[0]", "type": "short", "size": 2},
+    "C.name": {"path": "C.name", "type": "string", "size": 16},
+}
 SCALARS = {"double": {"kind": "float"}, "short": {"kind": "signed"}, "string": {"kind": "char"}}
 
 
-@pytest.mark.parametrize("path, words", [("C.s.x", None), ("C.a[0]", None), ("C.nope", "no variable"),
-                                         ("C.s", "a struct or an array"), ("C.a", "a struct or an array"),
-                                         ("C.name", "not a number the agent can read")])
+@pytest.mark.parametrize(
+    "path, words",
+    [
+        ("C.s.x", None),
+        ("C.a[0]", None),
+        ("C.nope", "no variable"),
+        ("C.s", "a struct or an array"),
+        ("C.a", "a struct or an array"),
+        ("C.name", "not a number the agent can read"),
+    ],
+)
 def test_a_variable_must_be_a_scalar_of_the_layout(path, words):
     problem = variable_problem(path, LEAVES, SCALARS)
     assert (problem is None) if words is None else (words in problem and path in problem)
@@ -203,11 +250,15 @@ def test_a_ticket_opens_the_view_for_its_token_until_it_expires(tickets):
     assert t.check(session, "session", now=4599.0) == viewer
 
 
-@pytest.mark.parametrize("change, words", [
-    (lambda s: s[:-1] + ("A" if s[-1] != "A" else "B"), "signature does not match"),
-    (lambda s: str(int(s.split(".")[0]) + 1000) + s[s.index("."):], "signature does not match"),
-    (lambda s: "nonsense", "not a viewer ticket"),
-    (lambda s: "", "not a viewer ticket")])
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        (lambda s: s[:-1] + ("A" if s[-1] != "A" else "B"), "signature does not match"),
+        (lambda s: str(int(s.split(".")[0]) + 1000) + s[s.index(".") :], "signature does not match"),
+        (lambda s: "nonsense", "not a viewer ticket"),
+        (lambda s: "", "not a viewer ticket"),
+    ],
+)
 def test_an_altered_ticket_is_refused(tickets, change, words):
     t, _, viewer = tickets
     with pytest.raises(TicketError, match=words):

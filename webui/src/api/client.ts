@@ -21,7 +21,8 @@ export function detailOf(body: unknown): string {
   if (body && typeof body === "object" && "detail" in body) {
     const d = (body as { detail: unknown }).detail;
     if (typeof d === "string") return d;
-    if (Array.isArray(d)) return d.map((e) => (e && typeof e === "object" && "msg" in e ? String(e.msg) : String(e))).join("; ");
+    if (Array.isArray(d))
+      return d.map((e) => (e && typeof e === "object" && "msg" in e ? String(e.msg) : String(e))).join("; ");
     return JSON.stringify(d);
   }
   return typeof body === "string" ? body : JSON.stringify(body);

@@ -1,6 +1,6 @@
 // signin.ts -- the sign-in form: a token, checked against GET /api/v1/auth/me, kept in
 // sessionStorage (gone when the tab closes).  ?token=... in the URL signs in directly.
-import { makeApi, unwrap, ApiError } from "../api/client";
+import { ApiError, makeApi, unwrap } from "../api/client";
 import type { Role, Session } from "./context";
 
 const KEY = "indurop.token";

@@ -6,13 +6,13 @@
 // if what runs changed meanwhile, the new plan is shown instead and asked for again.
 import { unwrap } from "../api/client";
 import type { AppContext } from "../app/context";
-import { activationPlan, activationRequest, planKey, variableDiff, type ActivationPlan } from "./activation";
+import { type ActivationPlan, activationPlan, activationRequest, planKey, variableDiff } from "./activation";
 import { errorText, h, setText } from "./dom";
 import { renderSlotTable } from "./slot-table-view";
-import { renderVariableDiff } from "./variable-diff-view";
 import { buildSlotTable, changedSlots } from "./timeline";
 import type { Schedule, SetPublic, SwapReport, Validation } from "./types";
 import { formatTime } from "./units";
+import { renderVariableDiff } from "./variable-diff-view";
 
 export class ActivationReview {
   readonly element: HTMLElement;
@@ -85,31 +85,49 @@ export class ActivationReview {
   private render(v: Validation, now: Schedule | null, note: string): void {
     const plan = activationPlan(v);
     this.shownKey = planKey(v);
-    setText(this.status, `${note ? `${note} ` : ""}checked against what runs now at ${formatTime(new Date().toISOString())}`);
+    setText(
+      this.status,
+      `${note ? `${note} ` : ""}checked against what runs now at ${formatTime(new Date().toISOString())}`,
+    );
     const after = v.schedule ? buildSlotTable(v.schedule as unknown as Schedule) : null;
     const before = now ? buildSlotTable(now) : null;
     const changed = before && after ? changedSlots(before, after) : undefined;
     const vars =
       plan.kind === "restart" && !v.variables
-        ? h("div", { class: "ops-vardiff", "data-testid": "plan-variables" }, h("div", { "data-testid": "plan-variables-summary" }, "shared variables: laid out afresh by the restart"))
+        ? h(
+            "div",
+            { class: "ops-vardiff", "data-testid": "plan-variables" },
+            h("div", { "data-testid": "plan-variables-summary" }, "shared variables: laid out afresh by the restart"),
+          )
         : renderVariableDiff(variableDiff(v.variables));
     // h() leaves out the parts that are null
     this.body.replaceChildren(
       h(
         "div",
         {},
-        plan.kind === "invalid" ? h("ul", { class: "ops-issues" }, ...plan.errors.map((e) => h("li", { class: "bad mono" }, e))) : null,
+        plan.kind === "invalid"
+          ? h("ul", { class: "ops-issues" }, ...plan.errors.map((e) => h("li", { class: "bad mono" }, e)))
+          : null,
         plan.kind === "unchecked" ? h("div", { class: "warn" }, `not checked: ${plan.why}`) : null,
-        v.warnings.length && plan.kind !== "unchecked" ? h("ul", { class: "ops-issues" }, ...v.warnings.map((w) => h("li", { class: "warn" }, w))) : null,
+        v.warnings.length && plan.kind !== "unchecked"
+          ? h("ul", { class: "ops-issues" }, ...v.warnings.map((w) => h("li", { class: "warn" }, w)))
+          : null,
         h(
           "div",
           { class: "ops-plan-grid" },
-          before ? h("div", {}, h("h5", {}, "slot table now"), renderSlotTable(before, { testid: "plan-before" })) : null,
+          before
+            ? h("div", {}, h("h5", {}, "slot table now"), renderSlotTable(before, { testid: "plan-before" }))
+            : null,
           after
             ? h(
                 "div",
                 {},
-                h("h5", {}, "with this set", changed?.size ? h("span", { class: "ops-sub" }, ` — ${changed.size} slot(s) differ`) : null),
+                h(
+                  "h5",
+                  {},
+                  "with this set",
+                  changed?.size ? h("span", { class: "ops-sub" }, ` — ${changed.size} slot(s) differ`) : null,
+                ),
                 renderSlotTable(after, { testid: "plan-after", changed }),
               )
             : null,
@@ -139,7 +157,11 @@ export class ActivationReview {
 
   private actions(plan: ActivationPlan | null): HTMLElement {
     const restart = plan?.kind === "restart";
-    const go = h("button", { class: `primary${restart ? " danger" : ""}`, "data-testid": "plan-activate" }, restart ? "Restart irpd onto this set" : "Activate: hot swap now");
+    const go = h(
+      "button",
+      { class: `primary${restart ? " danger" : ""}`, "data-testid": "plan-activate" },
+      restart ? "Restart irpd onto this set" : "Activate: hot swap now",
+    );
     const again = h("button", { "data-testid": "plan-recheck" }, "Check again");
     const cancel = h("button", { "data-testid": "plan-cancel" }, "Cancel");
     const box = h("input", { type: "checkbox", "data-testid": "plan-restart-confirm" });
@@ -161,7 +183,14 @@ export class ActivationReview {
     return h(
       "div",
       { class: "ops-actions" },
-      restart ? h("label", {}, box, " I understand: irpd restarts, the cell stops for that time and the shared variables start at zero") : null,
+      restart
+        ? h(
+            "label",
+            {},
+            box,
+            " I understand: irpd restarts, the cell stops for that time and the shared variables start at zero",
+          )
+        : null,
       go,
       again,
       cancel,
@@ -181,16 +210,26 @@ export class ActivationReview {
       if (this.closed) return;
       if (planKey(fresh.validation) !== this.shownKey) {
         this.busy = false;
-        this.render(fresh.validation, await this.fetchNow(), "What runs changed since the plan was shown: review it again.");
+        this.render(
+          fresh.validation,
+          await this.fetchNow(),
+          "What runs changed since the plan was shown: review it again.",
+        );
         return;
       }
       setText(button, req.mode === "restart" ? "Restarting irpd…" : "Swapping…");
       const report = unwrap(
-        await this.ctx.api.POST("/api/v1/sets/{set_id}/activate", { params: { path: { set_id: this.setId } }, body: { mode: req.mode } }),
+        await this.ctx.api.POST("/api/v1/sets/{set_id}/activate", {
+          params: { path: { set_id: this.setId } },
+          body: { mode: req.mode },
+        }),
       );
       this.busy = false;
       this.close();
-      this.onReport(`Set ${this.setId} ${req.mode === "restart" ? "activated by a restart of irpd" : "activated"}`, report);
+      this.onReport(
+        `Set ${this.setId} ${req.mode === "restart" ? "activated by a restart of irpd" : "activated"}`,
+        report,
+      );
       this.ctx.notify(`activate ${this.setId}: done`);
       this.onClose();
     } catch (e) {

@@ -78,7 +78,10 @@ export function activationPlan(v: Validation): ActivationPlan {
  * needs a restart goes only with the operator's explicit confirmation; an invalid or unchecked
  * one not at all.
  */
-export function activationRequest(plan: ActivationPlan, restartConfirmed: boolean): { mode: ActivationMode } | { refused: string } {
+export function activationRequest(
+  plan: ActivationPlan,
+  restartConfirmed: boolean,
+): { mode: ActivationMode } | { refused: string } {
   switch (plan.kind) {
     case "online":
       return { mode: "online" };
@@ -93,7 +96,14 @@ export function activationRequest(plan: ActivationPlan, restartConfirmed: boolea
 
 /** A key that changes when what activation would do changes (the plan shown vs. a fresh check). */
 export function planKey(v: Validation): string {
-  return JSON.stringify([v.valid, v.online ?? null, v.restart ?? null, v.variables ?? null, v.schedule ?? null, v.errors]);
+  return JSON.stringify([
+    v.valid,
+    v.online ?? null,
+    v.restart ?? null,
+    v.variables ?? null,
+    v.schedule ?? null,
+    v.errors,
+  ]);
 }
 
 /** How a swap report's set went in, and the measured downtime of a restart (null: none or not measured). */

@@ -8,8 +8,8 @@ import type { ModuleTable } from "./module-table";
 import { renderSlotTable } from "./slot-table-view";
 import { buildSlotTable, changedSlots } from "./timeline";
 import type { ChangesReport, ModuleChange, Schedule, SwapReport } from "./types";
-import { checkEdits, distinctMessages, DEFAULT_LIMITS, type Check, type Limits } from "./validate";
 import { formatNs, formatPercent } from "./units";
+import { type Check, checkEdits, DEFAULT_LIMITS, distinctMessages, type Limits } from "./validate";
 
 const DEBOUNCE_MS = 400;
 
@@ -25,7 +25,10 @@ function isRefusal(e: unknown): boolean {
   return e instanceof ApiError && [400, 404, 409, 422].includes(e.status);
 }
 
-export function describeChange(c: ModuleChange, before?: { period_ns: number; priority: number; enabled: boolean }): string[] {
+export function describeChange(
+  c: ModuleChange,
+  before?: { period_ns: number; priority: number; enabled: boolean },
+): string[] {
   const out: string[] = [];
   if (c.period_ns != null) out.push(`period ${before ? formatNs(before.period_ns) : "?"} → ${formatNs(c.period_ns)}`);
   if (c.priority != null) out.push(`priority ${before ? before.priority : "?"} → ${c.priority}`);
@@ -96,14 +99,20 @@ export class ChangePanel {
     if (this.previewKey !== null && this.previewKey !== key) this.closePreview();
 
     // summary
-    if (!any) setText(this.summary, "No pending changes. Edit a period, a priority or enabled in the table; they are checked as you type.");
+    if (!any)
+      setText(
+        this.summary,
+        "No pending changes. Edit a period, a priority or enabled in the table; they are checked as you type.",
+      );
     else if (!check.changes.length) setText(this.summary, "The edits equal what runs now: nothing to apply.");
     else
       setText(
         this.summary,
         `${check.changes.length} module${check.changes.length === 1 ? "" : "s"} to change — basic period ${formatNs(check.basicNs)}, macro period ${formatNs(check.macroNs)}` +
           (check.slots !== null && Number.isFinite(check.slots) ? ` (${check.slots} slots)` : "") +
-          (this.limitsKnown ? "" : ` · minimum basic period assumed ${formatNs(this.limits.minBasicNs)} (irpd's default)`),
+          (this.limitsKnown
+            ? ""
+            : ` · minimum basic period assumed ${formatNs(this.limits.minBasicNs)} (irpd's default)`),
       );
 
     // client-side issues (only the ones about the edits when nothing is edited would be noise)
@@ -112,7 +121,13 @@ export class ChangePanel {
     if (issuesKey !== this.lastIssuesKey) {
       this.lastIssuesKey = issuesKey;
       this.issuesList.replaceChildren(
-        ...shown.map((i) => h("li", { class: i.level === "error" ? "bad" : i.level === "warning" ? "warn" : "", "data-level": i.level }, `${i.level}: ${i.message}`)),
+        ...shown.map((i) =>
+          h(
+            "li",
+            { class: i.level === "error" ? "bad" : i.level === "warning" ? "warn" : "", "data-level": i.level },
+            `${i.level}: ${i.message}`,
+          ),
+        ),
       );
     }
 
@@ -126,8 +141,19 @@ export class ChangePanel {
             "span",
             { class: "ops-load-item", "data-executor": l.executor },
             `${l.executor} `,
-            h("span", { class: "ops-bar small" }, h("span", { class: `ops-bar-fill ${l.level === "error" ? "bad" : l.level === "warning" ? "warn" : ""}`, style: `width:${Math.min(100, l.fraction * 100).toFixed(1)}%` })),
-            h("span", { class: `num ${l.level === "error" ? "bad" : l.level === "warning" ? "warn" : ""}` }, ` ${formatPercent(l.fraction)}`),
+            h(
+              "span",
+              { class: "ops-bar small" },
+              h("span", {
+                class: `ops-bar-fill ${l.level === "error" ? "bad" : l.level === "warning" ? "warn" : ""}`,
+                style: `width:${Math.min(100, l.fraction * 100).toFixed(1)}%`,
+              }),
+            ),
+            h(
+              "span",
+              { class: `num ${l.level === "error" ? "bad" : l.level === "warning" ? "warn" : ""}` },
+              ` ${formatPercent(l.fraction)}`,
+            ),
           ),
         ),
       );
@@ -139,7 +165,11 @@ export class ChangePanel {
       this.timer = null;
       this.dry = null;
       this.seq++;
-    } else if (!this.dry || this.dry.key !== key || (this.dry.state === "failed" && Date.now() - (this.dry.at ?? 0) > RETRY_MS)) {
+    } else if (
+      !this.dry ||
+      this.dry.key !== key ||
+      (this.dry.state === "failed" && Date.now() - (this.dry.at ?? 0) > RETRY_MS)
+    ) {
       // new changes, or a dry run that failed to get an answer a while ago: ask (again)
       this.dry = { key, state: "pending" };
       if (this.timer) clearTimeout(this.timer);
@@ -189,7 +219,10 @@ export class ChangePanel {
     }
     dataState(this.dryLine, d?.state ?? "none");
     this.applyBtn.disabled = this.busy || d?.state !== "ok";
-    this.applyBtn.title = d?.state === "ok" ? "show the new slot table, then confirm" : "available once the server accepted the changes (dry run)";
+    this.applyBtn.title =
+      d?.state === "ok"
+        ? "show the new slot table, then confirm"
+        : "available once the server accepted the changes (dry run)";
   }
 
   private async ask(changes: ModuleChange[], dryRun: boolean): Promise<ChangesReport> {
@@ -204,7 +237,12 @@ export class ChangePanel {
       this.dry = { key, state: "ok", report };
     } catch (e) {
       if (seq !== this.seq) return;
-      this.dry = { key, state: isRefusal(e) ? "refused" : "failed", message: e instanceof ApiError && isRefusal(e) ? e.message : errorText(e), at: Date.now() };
+      this.dry = {
+        key,
+        state: isRefusal(e) ? "refused" : "failed",
+        message: e instanceof ApiError && isRefusal(e) ? e.message : errorText(e),
+        at: Date.now(),
+      };
     }
     if (this.check) this.showDry(this.check, JSON.stringify(this.check.changes));
   }
@@ -257,19 +295,42 @@ export class ChangePanel {
         "table",
         { class: "ops-grid ops-dense", "data-testid": "preview-changes" },
         h("thead", {}, h("tr", {}, h("th", {}, "module"), h("th", {}, "change"))),
-        h("tbody", {}, ...changes.map((c) => h("tr", {}, h("td", { class: "mono" }, c.name), h("td", {}, describeChange(c, current.get(c.name)).join(", "))))),
+        h(
+          "tbody",
+          {},
+          ...changes.map((c) =>
+            h(
+              "tr",
+              {},
+              h("td", { class: "mono" }, c.name),
+              h("td", {}, describeChange(c, current.get(c.name)).join(", ")),
+            ),
+          ),
+        ),
       ),
       h(
         "div",
         { class: "ops-sub" },
         `estimated utilization of the busiest executor after the change: ${formatPercent(report.utilization)}`,
-        report.warnings.length ? h("ul", { class: "ops-issues" }, ...report.warnings.map((w) => h("li", { class: "warn" }, `warning: ${w}`))) : null,
+        report.warnings.length
+          ? h("ul", { class: "ops-issues" }, ...report.warnings.map((w) => h("li", { class: "warn" }, `warning: ${w}`)))
+          : null,
       ),
       h(
         "div",
         { class: "ops-side-by-side" },
         h("div", {}, h("h5", {}, "now"), renderSlotTable(before, { testid: "preview-before" })),
-        h("div", {}, h("h5", {}, "after the change", changed.size ? h("span", { class: "ops-sub" }, ` — ${changed.size} slot(s) differ`) : null), renderSlotTable(after, { testid: "preview-after", changed, changedModules: mods })),
+        h(
+          "div",
+          {},
+          h(
+            "h5",
+            {},
+            "after the change",
+            changed.size ? h("span", { class: "ops-sub" }, ` — ${changed.size} slot(s) differ`) : null,
+          ),
+          renderSlotTable(after, { testid: "preview-after", changed, changedModules: mods }),
+        ),
       ),
       h("div", { class: "ops-actions" }, confirm, cancel),
       error,
@@ -287,7 +348,8 @@ export class ChangePanel {
         const done = await this.ask(changes, false);
         this.closePreview();
         this.busy = false;
-        if (done.report) this.onReport(`Module changes applied (${changes.map((c) => c.name).join(", ")})`, done.report);
+        if (done.report)
+          this.onReport(`Module changes applied (${changes.map((c) => c.name).join(", ")})`, done.report);
         this.ctx.notify(`module changes applied: ${changes.map((c) => c.name).join(", ")}`);
         this.table.discard();
       } catch (e) {

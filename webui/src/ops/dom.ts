@@ -18,7 +18,8 @@ export function h<K extends keyof HTMLElementTagNameMap>(
     else if (v === true) e.setAttribute(k, "");
     else e.setAttribute(k, String(v));
   }
-  for (const c of children.flat()) if (c !== null && c !== undefined && c !== false) e.append(typeof c === "number" ? String(c) : c);
+  for (const c of children.flat())
+    if (c !== null && c !== undefined && c !== false) e.append(typeof c === "number" ? String(c) : c);
   return e;
 }
 
@@ -86,7 +87,9 @@ export function poll(fn: () => Promise<unknown>, everyMs: number, onError: (e: u
 export function setPath(e: Element, path: string): void {
   if (e.getAttribute("title") === path) return;
   e.setAttribute("title", path);
-  e.replaceChildren(...path.split(/(?<=\/)/).flatMap((part, i) => (i ? [document.createElement("wbr"), part] : [part])));
+  e.replaceChildren(
+    ...path.split(/(?<=\/)/).flatMap((part, i) => (i ? [document.createElement("wbr"), part] : [part])),
+  );
 }
 
 /** One line saying what went wrong: the agent's message, or that it did not answer. */
@@ -94,7 +97,10 @@ export function errorText(e: unknown): string {
   if (e instanceof ApiError) {
     if (e.status === 503) return `irpd unreachable: ${e.message}`;
     if (e.status === 502 || e.status === 504) return `the agent did not answer (HTTP ${e.status} from the proxy)`;
-    if (e.status >= 500 && (!e.message || /^(undefined|null|\{\})$/.test(e.message) || /internal server error/i.test(e.message)))
+    if (
+      e.status >= 500 &&
+      (!e.message || /^(undefined|null|\{\})$/.test(e.message) || /internal server error/i.test(e.message))
+    )
       return `HTTP ${e.status}: the agent failed to answer this request`;
     return `HTTP ${e.status}: ${e.message}`;
   }

@@ -27,9 +27,17 @@ export function mergeEvents(tail: Tail, page: EventsPage, max = 500): Tail {
   const seen = new Set(tail.events.map(eventKey));
   const fresh = page.events.filter((e) => !seen.has(eventKey(e)) && (seen.add(eventKey(e)), true));
   const events = fresh.length
-    ? [...fresh, ...tail.events].sort((a, b) => b.time_ns - a.time_ns || (a.source === b.source ? b.seq - a.seq : 0)).slice(0, max)
+    ? [...fresh, ...tail.events]
+        .sort((a, b) => b.time_ns - a.time_ns || (a.source === b.source ? b.seq - a.seq : 0))
+        .slice(0, max)
     : tail.events;
-  return { events, since: page.next, agentSince: page.agent_next, dropped: tail.dropped + page.dropped, irpd: page.irpd };
+  return {
+    events,
+    since: page.next,
+    agentSince: page.agent_next,
+    dropped: tail.dropped + page.dropped,
+    irpd: page.irpd,
+  };
 }
 
 /**
@@ -48,8 +56,18 @@ export function pageFull(page: EventsPage, limit: number): boolean {
   return irpd >= limit || agent >= limit;
 }
 
-const BAD = new Set(["fault", "crash", "swap_failed", "process_exit", "irpd_lost", "restore_failed", "lockout",
-                     "stopped", "safe_outputs_failed", "process_hang"]);
+const BAD = new Set([
+  "fault",
+  "crash",
+  "swap_failed",
+  "process_exit",
+  "irpd_lost",
+  "restore_failed",
+  "lockout",
+  "stopped",
+  "safe_outputs_failed",
+  "process_hang",
+]);
 const WARN = new Set(["deadline", "overrun", "process_restart", "process_output_dropped", "rollback"]);
 
 /** The state an event kind stands for: "bad", "warn" or "" (colors are for states only). */

@@ -9,7 +9,9 @@ export interface FaultSummary {
 }
 
 /** `st`: the status members it reads; an older irpd may lack them. */
-export function faultSummary(st: Partial<Pick<Status, "stopped_by_fault" | "last_crash" | "left_out_after_crash">>): FaultSummary {
+export function faultSummary(
+  st: Partial<Pick<Status, "stopped_by_fault" | "last_crash" | "left_out_after_crash">>,
+): FaultSummary {
   if (st.stopped_by_fault) return { level: "bad", text: `set stopped: ${st.stopped_by_fault}` };
   const out = st.left_out_after_crash ?? [];
   if (out.length > 0) {
@@ -27,7 +29,10 @@ export function faultSummary(st: Partial<Pick<Status, "stopped_by_fault" | "last
           : c.cause === "abort"
             ? " (irpd's own abort)"
             : "";
-    return { level: "warn", text: `restarted after ${c.signal ?? "a crash"}${from}${where}${c.time ? ` at ${c.time}` : ""}` };
+    return {
+      level: "warn",
+      text: `restarted after ${c.signal ?? "a crash"}${from}${where}${c.time ? ` at ${c.time}` : ""}`,
+    };
   }
   return { level: "good", text: "none" };
 }

@@ -20,7 +20,11 @@ export function classifyHealth(p: Probe): HealthState {
   const b = p.body as Partial<Health> | null;
   if (p.status !== 200 || !b || typeof b !== "object" || b.agent !== "ok")
     // a proxy's 502/504 or an error page: the agent itself is not answering
-    return { kind: "agent-down", health: null, detail: `no answer from the agent (HTTP ${p.status}${p.status === 502 || p.status === 504 ? " from the proxy" : ""})` };
+    return {
+      kind: "agent-down",
+      health: null,
+      detail: `no answer from the agent (HTTP ${p.status}${p.status === 502 || p.status === 504 ? " from the proxy" : ""})`,
+    };
   const health = b as Health;
   if (health.irpd !== "ok") return { kind: "irpd-down", health, detail: health.detail ?? `irpd ${health.irpd}` };
   return { kind: "ok", health, detail: "" };

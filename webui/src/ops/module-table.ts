@@ -1,9 +1,9 @@
 // module-table.ts -- the modules of the running set, one row each, refreshed in place: figures
 // update every poll while the operator's edits (period, priority, enabled) stay as typed.
 import { h, setClass, setText } from "./dom";
-import type { Edit, Issue } from "./validate";
 import type { ModuleInfo } from "./types";
 import { formatCount, formatNs, parsePeriod, periodText } from "./units";
+import type { Edit, Issue } from "./validate";
 
 interface Row {
   tr: HTMLTableRowElement;
@@ -64,7 +64,11 @@ export class ModuleTable {
     this.element = h(
       "table",
       { class: "ops-grid ops-dense ops-modules", "data-testid": "module-table" },
-      h("thead", {}, h("tr", {}, ...COLUMNS.map(([, label, cls, title]) => h("th", { class: cls, title: title ?? null }, label)))),
+      h(
+        "thead",
+        {},
+        h("tr", {}, ...COLUMNS.map(([, label, cls, title]) => h("th", { class: cls, title: title ?? null }, label))),
+      ),
       this.body,
     );
   }
@@ -92,7 +96,11 @@ export class ModuleTable {
         const input = row[field];
         if (!input) continue;
         const mine = issues.filter((i) => i.module === name && i.field === field);
-        const level = mine.some((i) => i.level === "error") ? "invalid" : mine.some((i) => i.level === "warning") ? "warning" : "";
+        const level = mine.some((i) => i.level === "error")
+          ? "invalid"
+          : mine.some((i) => i.level === "warning")
+            ? "warning"
+            : "";
         const dirty = this.edits.get(name)?.[field] !== undefined;
         setClass(input, `ops-edit${dirty ? " dirty" : ""}${level ? ` ${level}` : ""}`);
         input.title = mine.map((i) => i.message).join("\n");
@@ -114,7 +122,11 @@ export class ModuleTable {
   private makeRow(m: ModuleInfo): Row {
     const cells: Record<string, HTMLElement> = {};
     for (const [key, , cls] of COLUMNS) cells[key] = h("td", { class: cls, "data-col": key });
-    const row: Row = { tr: h("tr", { "data-testid": `module-row-${m.name}`, "data-module": m.name }), cells, was: h("div", { class: "ops-was" }) };
+    const row: Row = {
+      tr: h("tr", { "data-testid": `module-row-${m.name}`, "data-module": m.name }),
+      cells,
+      was: h("div", { class: "ops-was" }),
+    };
     setText(cells.name, m.name);
     if (this.editable) {
       if (m.operationtype === "periodic") {
@@ -142,7 +154,12 @@ export class ModuleTable {
       });
       row.priority.addEventListener("input", () => this.edited(m.name, "priority", row.priority!.value));
       cells.priority.append(row.priority);
-      row.enabled = h("input", { type: "checkbox", class: "ops-edit", "data-testid": `edit-enabled-${m.name}`, "aria-label": `${m.name} enabled` });
+      row.enabled = h("input", {
+        type: "checkbox",
+        class: "ops-edit",
+        "data-testid": `edit-enabled-${m.name}`,
+        "aria-label": `${m.name} enabled`,
+      });
       row.enabled.addEventListener("change", () => this.edited(m.name, "enabled", row.enabled!.checked));
       cells.enabled.append(row.enabled);
     }
@@ -204,11 +221,13 @@ export class ModuleTable {
     const e = this.edits.get(m.name);
 
     if (row.period) {
-      if (force || (e?.period === undefined && document.activeElement !== row.period)) row.period.value = periodText(m.period_ns);
+      if (force || (e?.period === undefined && document.activeElement !== row.period))
+        row.period.value = periodText(m.period_ns);
       setText(row.was, e?.period !== undefined ? `now ${formatNs(m.period_ns)}` : "");
     } else setText(c.period, periodic ? formatNs(m.period_ns) : "–");
     if (row.priority) {
-      if (force || (e?.priority === undefined && document.activeElement !== row.priority)) row.priority.value = String(m.priority);
+      if (force || (e?.priority === undefined && document.activeElement !== row.priority))
+        row.priority.value = String(m.priority);
     } else setText(c.priority, String(m.priority));
     if (row.enabled) {
       if (force || e?.enabled === undefined) row.enabled.checked = m.enabled;

@@ -13,7 +13,12 @@ export class SetHistory {
   private body = h("tbody", {});
   private info = h("span", { class: "ops-sub" });
   private error = h("div", { class: "ops-error", "data-testid": "set-history-error", hidden: true });
-  private actionError = h("div", { class: "ops-error", "data-testid": "set-action-error", hidden: true, role: "alert" });
+  private actionError = h("div", {
+    class: "ops-error",
+    "data-testid": "set-action-error",
+    hidden: true,
+    role: "alert",
+  });
   private confirmBar = h("div", { class: "ops-confirm", "data-testid": "set-confirm", hidden: true });
   private reviewArea = h("div", { "data-testid": "set-review", hidden: true });
   private review: ActivationReview | null = null;
@@ -50,7 +55,17 @@ export class SetHistory {
           h(
             "thead",
             {},
-            h("tr", {}, h("th", {}, "id"), h("th", {}, "created"), h("th", {}, "by"), h("th", { class: "num" }, "files"), h("th", {}, "valid"), h("th", {}, "active"), canAct ? h("th", {}, "") : null),
+            h(
+              "tr",
+              {},
+              h("th", {}, "id"),
+              h("th", {}, "created"),
+              h("th", {}, "by"),
+              h("th", { class: "num" }, "files"),
+              h("th", {}, "valid"),
+              h("th", {}, "active"),
+              canAct ? h("th", {}, "") : null,
+            ),
           ),
           this.body,
         ),
@@ -99,7 +114,17 @@ export class SetHistory {
               canAct ? h("td", {}, !s.active && s.valid !== false ? this.activateButton(s.id) : null) : null,
             ),
           )
-        : [h("tr", {}, h("td", { colspan: 7, class: "ops-sub" }, "no set stored yet (sets started from the command line are not in the store)"))]),
+        : [
+            h(
+              "tr",
+              {},
+              h(
+                "td",
+                { colspan: 7, class: "ops-sub" },
+                "no set stored yet (sets started from the command line are not in the store)",
+              ),
+            ),
+          ]),
     );
   }
 
@@ -115,12 +140,17 @@ export class SetHistory {
     this.review?.close();
     this.confirmBar.hidden = true;
     this.actionError.hidden = true;
-    const review = new ActivationReview(this.ctx, id, (title, r) => this.reported(title, r), () => {
-      if (this.review !== review) return;
-      this.review = null;
-      this.reviewArea.hidden = true;
-      this.reviewArea.replaceChildren();
-    });
+    const review = new ActivationReview(
+      this.ctx,
+      id,
+      (title, r) => this.reported(title, r),
+      () => {
+        if (this.review !== review) return;
+        this.review = null;
+        this.reviewArea.hidden = true;
+        this.reviewArea.replaceChildren();
+      },
+    );
     this.review = review;
     this.reviewArea.replaceChildren(review.element);
     this.reviewArea.hidden = false;

@@ -48,7 +48,8 @@ export function renderSlotTable(t: SlotTable, opt: SlotTableOptions = {}): HTMLE
       "tr",
       {
         "data-slot": r.index,
-        class: [opt.changed?.has(i) ? "changed" : "", opt.selected === r.index ? "selected" : ""].join(" ").trim() || null,
+        class:
+          [opt.changed?.has(i) ? "changed" : "", opt.selected === r.index ? "selected" : ""].join(" ").trim() || null,
       },
       num,
       h("td", { class: "num" }, formatNs(r.offsetNs)),
@@ -56,18 +57,32 @@ export function renderSlotTable(t: SlotTable, opt: SlotTableOptions = {}): HTMLE
     );
     if (i === 0)
       tr.append(
-        h("td", { rowspan: t.rows.length, class: "slot-macro" }, `repeat the ${t.slots} basic period${t.slots === 1 ? "" : "s"} every ${formatNs(t.macroNs)}`),
+        h(
+          "td",
+          { rowspan: t.rows.length, class: "slot-macro" },
+          `repeat the ${t.slots} basic period${t.slots === 1 ? "" : "s"} every ${formatNs(t.macroNs)}`,
+        ),
       );
     body.append(tr);
   });
-  const table = h("table", { class: "ops-grid ops-slot-table", "data-testid": opt.testid ?? null }, h("thead", {}, head), body);
+  const table = h(
+    "table",
+    { class: "ops-grid ops-slot-table", "data-testid": opt.testid ?? null },
+    h("thead", {}, head),
+    body,
+  );
   const wrap = h(
     "div",
     { class: "ops-slot-wrap" },
-    h("div", { class: "ops-sub" }, `basic period ${formatNs(t.basicNs)} (GCD) · macro period ${formatNs(t.macroNs)} (LCM) · ${t.slots} slot${t.slots === 1 ? "" : "s"}`),
+    h(
+      "div",
+      { class: "ops-sub" },
+      `basic period ${formatNs(t.basicNs)} (GCD) · macro period ${formatNs(t.macroNs)} (LCM) · ${t.slots} slot${t.slots === 1 ? "" : "s"}`,
+    ),
     table,
   );
-  if (t.rows.length < t.slots) wrap.append(h("div", { class: "ops-sub" }, `first ${t.rows.length} of ${t.slots} slots shown`));
+  if (t.rows.length < t.slots)
+    wrap.append(h("div", { class: "ops-sub" }, `first ${t.rows.length} of ${t.slots} slots shown`));
   if (t.outside.length)
     wrap.append(
       h(

@@ -16,7 +16,15 @@ export function renderSwapReport(title: string, r: SwapReport, at: Date = new Da
     h("tr", {}, h("th", {}, label), h("td", { class: cls, "data-testid": testid ?? null }, value));
   const vars =
     mode === "restart" && !r.variables
-      ? h("div", { "data-testid": "report-variables" }, h("div", { "data-testid": "report-variables-summary" }, "shared variables laid out afresh by the restart: every one started at zero"))
+      ? h(
+          "div",
+          { "data-testid": "report-variables" },
+          h(
+            "div",
+            { "data-testid": "report-variables-summary" },
+            "shared variables laid out afresh by the restart: every one started at zero",
+          ),
+        )
       : renderVariableDiff(variableDiff(r.variables), "report-variables");
   return h(
     "div",
@@ -28,12 +36,19 @@ export function renderSwapReport(title: string, r: SwapReport, at: Date = new Da
       row("set", `${r.set ?? "–"}${r.set_id ? ` (id ${r.set_id})` : ""}`, "mono wrap"),
       row("generation", r.generation != null ? String(r.generation) : "–", "num"),
       mode ? row("how", mode === "restart" ? "restart of irpd" : "hot swap", "", "report-mode") : null,
-      mode === "restart" ? row("downtime", downtimeNs !== null ? formatNs(downtimeNs) : "not measured", "num", "report-downtime") : null,
+      mode === "restart"
+        ? row("downtime", downtimeNs !== null ? formatNs(downtimeNs) : "not measured", "num", "report-downtime")
+        : null,
       row("kept", list(r.kept), "mono", "report-kept"),
       row("started", list(r.started), "mono", "report-started"),
       row("stopped", list(r.stopped), "mono", "report-stopped"),
       row("swap cycle", r.swap_cycle != null ? formatCount(r.swap_cycle) : "–", "num", "report-swap-cycle"),
-      row("missed periods", missed != null ? String(missed) : "–", `num state ${missed === 0 ? "good" : missed ? "bad" : ""}`, "report-missed"),
+      row(
+        "missed periods",
+        missed != null ? String(missed) : "–",
+        `num state ${missed === 0 ? "good" : missed ? "bad" : ""}`,
+        "report-missed",
+      ),
       row("request to swap", formatNs(r.request_to_swap_ns ?? null), "num", "report-request-to-swap"),
       row("total", formatNs(r.total_ns ?? null), "num"),
     ),

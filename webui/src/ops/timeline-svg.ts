@@ -1,6 +1,6 @@
 // timeline-svg.ts -- draws a Timeline (timeline.ts) as SVG: one lane per executor, the slot
 // boundaries, the modules' execution times to scale, the sporadic part, the time left over.
-import { ticks, type Box, type Timeline } from "./timeline";
+import { type Box, type Timeline, ticks } from "./timeline";
 import { formatNs } from "./units";
 
 const NS = "http://www.w3.org/2000/svg";
@@ -9,7 +9,11 @@ const AXIS_H = 34;
 const LANE_H = 56;
 const PAD = 6;
 
-function el<K extends keyof SVGElementTagNameMap>(tag: K, attrs: Record<string, string | number>, text?: string): SVGElementTagNameMap[K] {
+function el<K extends keyof SVGElementTagNameMap>(
+  tag: K,
+  attrs: Record<string, string | number>,
+  text?: string,
+): SVGElementTagNameMap[K] {
   const e = document.createElementNS(NS, tag);
   for (const [k, v] of Object.entries(attrs)) e.setAttribute(k, String(v));
   if (text !== undefined) e.textContent = text;
@@ -29,7 +33,13 @@ export interface TimelineOptions {
 
 function defs(): SVGDefsElement {
   const d = el("defs", {});
-  const hatch = el("pattern", { id: "tl-hatch", width: 6, height: 6, patternUnits: "userSpaceOnUse", patternTransform: "rotate(45)" });
+  const hatch = el("pattern", {
+    id: "tl-hatch",
+    width: 6,
+    height: 6,
+    patternUnits: "userSpaceOnUse",
+    patternTransform: "rotate(45)",
+  });
   hatch.appendChild(el("rect", { width: 6, height: 6, class: "tl-sporadic-bg" }));
   hatch.appendChild(el("line", { x1: 0, y1: 0, x2: 0, y2: 6, class: "tl-sporadic-line" }));
   const dots = el("pattern", { id: "tl-dots", width: 5, height: 5, patternUnits: "userSpaceOnUse" });
@@ -62,7 +72,9 @@ export function renderTimeline(tl: Timeline, from: number, to: number, opt: Time
     axis.appendChild(el("line", { x1: x(t), x2: x(t), y1: AXIS_H - 6, y2: h - PAD, class: "tl-tick" }));
     // labels near the ends are anchored inside the plot, so they are not cut off
     const anchor = x(t) > LABEL_W + plotW - 24 ? "end" : x(t) < LABEL_W + 12 ? "start" : "middle";
-    axis.appendChild(el("text", { x: x(t), y: AXIS_H - 9, class: "tl-tick-label", "text-anchor": anchor }, formatNs(t)));
+    axis.appendChild(
+      el("text", { x: x(t), y: AXIS_H - 9, class: "tl-tick-label", "text-anchor": anchor }, formatNs(t)),
+    );
   }
   svg.appendChild(axis);
 
@@ -92,18 +104,29 @@ export function renderTimeline(tl: Timeline, from: number, to: number, opt: Time
     const g = el("g", { class: "tl-lane", "data-executor": lane.executor });
     g.appendChild(el("rect", { x: LABEL_W, y: y + 2, width: plotW, height: LANE_H - 4, class: "tl-lane-bg" }));
     g.appendChild(el("text", { x: 4, y: y + LANE_H / 2 - 2, class: "tl-lane-label" }, lane.executor));
-    g.appendChild(el("text", { x: 4, y: y + LANE_H / 2 + 11, class: "tl-lane-sub" }, `busiest ${formatNs(lane.busiestNs, 3)}`));
+    g.appendChild(
+      el("text", { x: 4, y: y + LANE_H / 2 + 11, class: "tl-lane-sub" }, `busiest ${formatNs(lane.busiestNs, 3)}`),
+    );
     for (const idle of lane.idle) {
       if (!visible(idle.start, idle.end)) continue;
       const r = titled(
-        el("rect", { x: clipX(idle.start), y: y + 6, width: w(idle.start, idle.end), height: LANE_H - 12, class: "tl-idle" }),
+        el("rect", {
+          x: clipX(idle.start),
+          y: y + 6,
+          width: w(idle.start, idle.end),
+          height: LANE_H - 12,
+          class: "tl-idle",
+        }),
         `slot ${idle.slot}: ${formatNs(idle.end - idle.start)} left over${lane.nonReal.length ? ` — non-real: ${lane.nonReal.join(", ")}` : ""}`,
       );
       g.appendChild(r);
       if (w(idle.start, idle.end) > 120)
         g.appendChild(
-          el("text", { x: clipX(idle.start) + 6, y: y + LANE_H / 2 + 4, class: "tl-idle-label" },
-            `${lane.nonReal.length ? `non-real: ${lane.nonReal.join(", ")}` : "idle"} · ${formatNs(idle.end - idle.start, 3)}`),
+          el(
+            "text",
+            { x: clipX(idle.start) + 6, y: y + LANE_H / 2 + 4, class: "tl-idle-label" },
+            `${lane.nonReal.length ? `non-real: ${lane.nonReal.join(", ")}` : "idle"} · ${formatNs(idle.end - idle.start, 3)}`,
+          ),
         );
     }
     for (const b of lane.boxes) {
@@ -111,21 +134,38 @@ export function renderTimeline(tl: Timeline, from: number, to: number, opt: Time
       // the whisker to the max is cut at the end of the slot (a box itself may run past it)
       const whiskerEnd = Math.min(b.start + b.max, Math.max(slotEnd, b.start + b.p99));
       if (!visible(b.start, Math.max(b.start + b.p99, whiskerEnd))) continue;
-      const bg = el("g", { class: `tl-box tl-${b.kind}${b.overflow ? " tl-overflow" : ""}${b.measured ? "" : " tl-unmeasured"}`, "data-module": b.module, "data-slot": b.slot });
+      const bg = el("g", {
+        class: `tl-box tl-${b.kind}${b.overflow ? " tl-overflow" : ""}${b.measured ? "" : " tl-unmeasured"}`,
+        "data-module": b.module,
+        "data-slot": b.slot,
+      });
       titled(bg, boxTitle(b));
       const top = y + 8;
       const bh = LANE_H - 16;
       if (!b.measured) {
-        bg.appendChild(el("line", { x1: clipX(b.start), x2: clipX(b.start), y1: top, y2: top + bh, class: "tl-marker" }));
+        bg.appendChild(
+          el("line", { x1: clipX(b.start), x2: clipX(b.start), y1: top, y2: top + bh, class: "tl-marker" }),
+        );
       } else {
-        bg.appendChild(el("rect", { x: clipX(b.start), y: top, width: w(b.start, b.start + b.p99, 1), height: bh, class: "tl-p99" }));
-        bg.appendChild(el("rect", { x: clipX(b.start), y: top, width: w(b.start, b.start + b.p50, 1), height: bh, class: "tl-p50" }));
+        bg.appendChild(
+          el("rect", { x: clipX(b.start), y: top, width: w(b.start, b.start + b.p99, 1), height: bh, class: "tl-p99" }),
+        );
+        bg.appendChild(
+          el("rect", { x: clipX(b.start), y: top, width: w(b.start, b.start + b.p50, 1), height: bh, class: "tl-p50" }),
+        );
         // the whisker to the max, along the box's bottom edge
         if (b.max > b.p99 && visible(b.start + b.p99, whiskerEnd)) {
           const wy = top + bh - 1;
-          bg.appendChild(el("line", { x1: clipX(b.start + b.p99), x2: clipX(whiskerEnd), y1: wy, y2: wy, class: "tl-max" }));
+          bg.appendChild(
+            el("line", { x1: clipX(b.start + b.p99), x2: clipX(whiskerEnd), y1: wy, y2: wy, class: "tl-max" }),
+          );
           if (whiskerEnd < b.start + b.max && whiskerEnd <= to)
-            bg.appendChild(el("path", { d: `M${x(whiskerEnd) - 5},${wy - 3} L${x(whiskerEnd)},${wy} L${x(whiskerEnd) - 5},${wy + 3}`, class: "tl-max" }));
+            bg.appendChild(
+              el("path", {
+                d: `M${x(whiskerEnd) - 5},${wy - 3} L${x(whiskerEnd)},${wy} L${x(whiskerEnd) - 5},${wy + 3}`,
+                class: "tl-max",
+              }),
+            );
         }
       }
       if (w(b.start, b.start + b.p99) > 8 + b.module.length * 6.5)
@@ -142,7 +182,8 @@ export function timelineLegend(): HTMLElement {
   const div = document.createElement("div");
   div.className = "tl-legend";
   div.dataset.testid = "timeline-legend";
-  const item = (cls: string, text: string) => `<span class="tl-key"><svg width="22" height="12"><rect width="22" height="12" class="${cls}" /></svg>${text}</span>`;
+  const item = (cls: string, text: string) =>
+    `<span class="tl-key"><svg width="22" height="12"><rect width="22" height="12" class="${cls}" /></svg>${text}</span>`;
   div.innerHTML = [
     item("tl-p50", "periodic: exec p50"),
     item("tl-p99", "… up to p99"),

@@ -67,7 +67,12 @@ export function changedSlots(before: SlotTable, after: SlotTable): Set<number> {
   for (let i = 0; i < n; i++) {
     const a = before.rows[i];
     const b = after.rows[i];
-    if (!a || !b || a.offsetNs !== b.offsetNs || a.cells.map((c) => c.name).join() !== b.cells.map((c) => c.name).join())
+    if (
+      !a ||
+      !b ||
+      a.offsetNs !== b.offsetNs ||
+      a.cells.map((c) => c.name).join() !== b.cells.map((c) => c.name).join()
+    )
       out.add(i);
   }
   return out;
@@ -114,7 +119,8 @@ export interface Timeline {
   lanes: Lane[];
 }
 
-type Figures = Pick<ModuleInfo, "name" | "runs" | "exec_ns" | "enabled" | "state"> & Partial<Pick<ModuleInfo, "executor" | "operationtype" | "priority">>;
+type Figures = Pick<ModuleInfo, "name" | "runs" | "exec_ns" | "enabled" | "state"> &
+  Partial<Pick<ModuleInfo, "executor" | "operationtype" | "priority">>;
 
 /** Lays out one macro period from the slot table and the modules' measured execution times. */
 export function buildTimeline(schedule: Schedule, figures: Figures[], maxSlots = 4096): Timeline {
@@ -136,7 +142,17 @@ export function buildTimeline(schedule: Schedule, figures: Figures[], maxSlots =
     const p50 = measured && running(name) ? Math.max(0, e!.p50) : 0;
     const p99 = measured && running(name) ? Math.max(p50, e!.p99) : 0;
     const max = measured && running(name) ? Math.max(p99, e!.max) : 0;
-    return { module: name, kind, slot, start, p50, p99, max, measured: measured && running(name), overflow: start + p99 > slotEnd };
+    return {
+      module: name,
+      kind,
+      slot,
+      start,
+      p50,
+      p99,
+      max,
+      measured: measured && running(name),
+      overflow: start + p99 > slotEnd,
+    };
   };
 
   const lanes: Lane[] = executors.map((executor) => {

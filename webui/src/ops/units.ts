@@ -4,8 +4,8 @@
 const SCALE: Record<string, number> = {
   ns: 1,
   us: 1_000,
-  "µs": 1_000,
-  "μs": 1_000,
+  µs: 1_000,
+  μs: 1_000,
   ms: 1_000_000,
   s: 1_000_000_000,
 };
@@ -56,7 +56,11 @@ export function formatNs(ns: number | null | undefined, digits = 4): string {
 /** A period as it goes back into an edit field: exact, typable units ("10ms", "500us", "1500ns"). */
 export function periodText(ns: number): string {
   // s and ms with up to three decimals, whole µs, else ns: 1.5ms, 250us, 1234567ns
-  for (const [unit, scale, step] of [["s", 1e9, 1e6], ["ms", 1e6, 1e3], ["us", 1e3, 1e3]] as const)
+  for (const [unit, scale, step] of [
+    ["s", 1e9, 1e6],
+    ["ms", 1e6, 1e3],
+    ["us", 1e3, 1e3],
+  ] as const)
     if (ns >= scale && ns % step === 0) return `${ns / scale}${unit}`;
   return `${ns}ns`;
 }
@@ -95,7 +99,9 @@ export function formatPercent(f: number | null | undefined, digits = 1): string 
 /** A count with thin-space thousands: 1234567 → "1 234 567". */
 export function formatCount(n: number | null | undefined): string {
   if (n === null || n === undefined || !Number.isFinite(n)) return "–";
-  return Math.round(n).toString().replace(/\B(?=(\d{3})+(?!\d))/g, "\u2009");
+  return Math.round(n)
+    .toString()
+    .replace(/\B(?=(\d{3})+(?!\d))/g, "\u2009");
 }
 
 /** Local time of an ISO timestamp with milliseconds: "14:03:07.412" (and the date when not today). */

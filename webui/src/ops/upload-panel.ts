@@ -6,8 +6,18 @@ import { h, setText } from "./dom";
 import { renderSlotTable } from "./slot-table-view";
 import { buildSlotTable } from "./timeline";
 import type { Schedule, SetPublic } from "./types";
-import { buildForm, filesFromDrop, filesFromList, planUpload, refusal, refusalWhere, send, type UploadFile, type UploadHandle } from "./upload";
 import { formatBytes } from "./units";
+import {
+  buildForm,
+  filesFromDrop,
+  filesFromList,
+  planUpload,
+  refusal,
+  refusalWhere,
+  send,
+  type UploadFile,
+  type UploadHandle,
+} from "./upload";
 
 export class UploadPanel {
   readonly element: HTMLElement;
@@ -15,7 +25,12 @@ export class UploadPanel {
   private progressText = h("span", { class: "ops-sub num" });
   private progressRow: HTMLElement;
   private cancel = h("button", { class: "small", "data-testid": "upload-cancel" }, "cancel");
-  private error = h("div", { class: "ops-error ops-upload-error", "data-testid": "upload-error", hidden: true, role: "alert" });
+  private error = h("div", {
+    class: "ops-error ops-upload-error",
+    "data-testid": "upload-error",
+    hidden: true,
+    role: "alert",
+  });
   private result = h("div", { class: "ops-upload-result", "data-testid": "upload-result", hidden: true });
   private current: UploadHandle | null = null;
 
@@ -63,11 +78,24 @@ export class UploadPanel {
       );
     });
     this.cancel.addEventListener("click", () => this.current?.abort());
-    this.progressRow = h("div", { class: "ops-progress", hidden: true }, this.progress, " ", this.progressText, " ", this.cancel);
+    this.progressRow = h(
+      "div",
+      { class: "ops-progress", hidden: true },
+      this.progress,
+      " ",
+      this.progressText,
+      " ",
+      this.cancel,
+    );
     this.element = h(
       "section",
       { class: "panel ops-panel", "data-testid": "upload" },
-      h("h3", {}, "Upload a set", h("span", { class: "ops-sub" }, " — stored and checked by irpd; activating it is a separate step")),
+      h(
+        "h3",
+        {},
+        "Upload a set",
+        h("span", { class: "ops-sub" }, " — stored and checked by irpd; activating it is a separate step"),
+      ),
       drop,
       this.progressRow,
       this.error,
@@ -111,7 +139,9 @@ export class UploadPanel {
       this.progress.value = Math.min(sent, t);
       setText(
         this.progressText,
-        sent >= t ? `${what}: ${formatBytes(t)} sent; irpd is checking the set…` : `${what}: ${formatBytes(sent)} of ${formatBytes(t)} (${Math.round((sent / t) * 100)} %)`,
+        sent >= t
+          ? `${what}: ${formatBytes(t)} sent; irpd is checking the set…`
+          : `${what}: ${formatBytes(sent)} of ${formatBytes(t)} (${Math.round((sent / t) * 100)} %)`,
       );
     });
     const { status, body } = await this.current.done;
@@ -134,22 +164,43 @@ export class UploadPanel {
 
   private showResult(set: SetPublic): void {
     const v = set.validation;
-    const verdict = v.valid === true ? (v.online === false ? "valid; only a restart of irpd can run it" : "valid") : v.valid === false ? "NOT valid: irpd will refuse to activate it" : "not checked (irpd did not answer)";
+    const verdict =
+      v.valid === true
+        ? v.online === false
+          ? "valid; only a restart of irpd can run it"
+          : "valid"
+        : v.valid === false
+          ? "NOT valid: irpd will refuse to activate it"
+          : "not checked (irpd did not answer)";
     const cls = v.valid === true ? "good" : v.valid === false ? "bad" : "warn";
     const schedule = v.schedule ? (v.schedule as unknown as Schedule) : null;
     // the review shows the slot table now and after beside the variable diff; without one, the set's own table
-    const review: HTMLElement | null = !set.active && v.valid !== false ? this.renderActivate(set.id, () => review?.remove()) : null;
+    const review: HTMLElement | null =
+      !set.active && v.valid !== false ? this.renderActivate(set.id, () => review?.remove()) : null;
     this.result.hidden = false;
     // h() leaves out the parts that are null
     this.result.replaceChildren(
       h(
         "div",
         {},
-        h("h4", {}, "Set ", h("span", { class: "mono", "data-testid": "upload-set-id" }, set.id), ` — ${set.files.length} files`, set.active ? " (active)" : ""),
+        h(
+          "h4",
+          {},
+          "Set ",
+          h("span", { class: "mono", "data-testid": "upload-set-id" }, set.id),
+          ` — ${set.files.length} files`,
+          set.active ? " (active)" : "",
+        ),
         h("div", { class: `state ${cls}`, "data-testid": "upload-valid" }, `validation: ${verdict}`),
-        v.errors.length ? h("ul", { class: "ops-issues" }, ...v.errors.map((e) => h("li", { class: "bad mono" }, e))) : null,
-        v.warnings.length ? h("ul", { class: "ops-issues" }, ...v.warnings.map((w) => h("li", { class: "warn" }, w))) : null,
-        !review && schedule && schedule.slots ? renderSlotTable(buildSlotTable(schedule), { testid: "upload-schedule" }) : null,
+        v.errors.length
+          ? h("ul", { class: "ops-issues" }, ...v.errors.map((e) => h("li", { class: "bad mono" }, e)))
+          : null,
+        v.warnings.length
+          ? h("ul", { class: "ops-issues" }, ...v.warnings.map((w) => h("li", { class: "warn" }, w)))
+          : null,
+        !review && schedule && schedule.slots
+          ? renderSlotTable(buildSlotTable(schedule), { testid: "upload-schedule" })
+          : null,
         h(
           "details",
           {},
@@ -157,12 +208,30 @@ export class UploadPanel {
           h(
             "table",
             { class: "ops-grid ops-dense" },
-            h("thead", {}, h("tr", {}, h("th", {}, "path"), h("th", {}, "kind"), h("th", { class: "num" }, "size"), h("th", {}, "sha256"))),
+            h(
+              "thead",
+              {},
+              h(
+                "tr",
+                {},
+                h("th", {}, "path"),
+                h("th", {}, "kind"),
+                h("th", { class: "num" }, "size"),
+                h("th", {}, "sha256"),
+              ),
+            ),
             h(
               "tbody",
               {},
               ...set.files.map((f) =>
-                h("tr", {}, h("td", { class: "mono" }, f.path), h("td", {}, f.kind), h("td", { class: "num" }, formatBytes(f.size)), h("td", { class: "mono ops-sub" }, f.sha256.slice(0, 16))),
+                h(
+                  "tr",
+                  {},
+                  h("td", { class: "mono" }, f.path),
+                  h("td", {}, f.kind),
+                  h("td", { class: "num" }, formatBytes(f.size)),
+                  h("td", { class: "mono ops-sub" }, f.sha256.slice(0, 16)),
+                ),
               ),
             ),
           ),

@@ -78,8 +78,16 @@ export function planUpload(input: UploadFile[]): Plan {
   const archives = input.filter((f) => isArchive(f.path));
   if (archives.length) {
     if (input.length > 1)
-      return { kind: "error", message: `send an archive alone: ${archives[0].path} came with ${input.length - 1} other file(s)` };
-    return { kind: "archive", file: archives[0].file, name: archives[0].path.split("/").pop()!, bytes: archives[0].file.size };
+      return {
+        kind: "error",
+        message: `send an archive alone: ${archives[0].path} came with ${input.length - 1} other file(s)`,
+      };
+    return {
+      kind: "archive",
+      file: archives[0].file,
+      name: archives[0].path.split("/").pop()!,
+      bytes: archives[0].file.size,
+    };
   }
   const skipped = input.filter((f) => JUNK.test(f.path)).map((f) => f.path);
   let files = input.filter((f) => !JUNK.test(f.path)).map((f) => ({ ...f, path: f.path.replace(/^\/+/, "") }));
@@ -92,7 +100,10 @@ export function planUpload(input: UploadFile[]): Plan {
     files = files.map((f) => ({ ...f, path: f.path.slice(first.length + 1) }));
   }
   if (!files.some((f) => f.path === "module.xml"))
-    return { kind: "error", message: "no module.xml at the top of the set: drop the set's folder, its files, or one .tar.gz" };
+    return {
+      kind: "error",
+      message: "no module.xml at the top of the set: drop the set's folder, its files, or one .tar.gz",
+    };
   const seen = new Set<string>();
   for (const f of files) {
     if (seen.has(f.path)) return { kind: "error", message: `${f.path} appears twice` };
@@ -124,13 +135,23 @@ export function refusal(status: number, body: unknown): Refusal {
   const num = (v: unknown) => (typeof v === "number" && Number.isFinite(v) ? v : undefined);
   let message = body === undefined || body === "" ? `HTTP ${status}` : detailOf(body);
   if (status === 0) message = body === "aborted" ? "upload cancelled" : "the agent did not answer (network error)";
-  return { status, message, file: typeof b.file === "string" ? b.file : undefined, line: num(b.line), column: num(b.column) };
+  return {
+    status,
+    message,
+    file: typeof b.file === "string" ? b.file : undefined,
+    line: num(b.line),
+    column: num(b.column),
+  };
 }
 
 /** "module.xml:12:5" from a refusal, or "" when it names no file. */
 export function refusalWhere(r: Refusal): string {
   if (!r.file) return "";
-  return r.file + (r.line !== undefined ? `:${r.line}` : "") + (r.line !== undefined && r.column !== undefined ? `:${r.column}` : "");
+  return (
+    r.file +
+    (r.line !== undefined ? `:${r.line}` : "") +
+    (r.line !== undefined && r.column !== undefined ? `:${r.column}` : "")
+  );
 }
 
 export interface UploadHandle {
@@ -139,7 +160,12 @@ export interface UploadHandle {
 }
 
 /** POSTs `form` with XMLHttpRequest, to report upload progress (fetch cannot). */
-export function send(url: string, token: string, form: FormData, onProgress: (sent: number, total: number) => void): UploadHandle {
+export function send(
+  url: string,
+  token: string,
+  form: FormData,
+  onProgress: (sent: number, total: number) => void,
+): UploadHandle {
   const xhr = new XMLHttpRequest();
   const done = new Promise<{ status: number; body: unknown }>((resolve) => {
     xhr.open("POST", url);

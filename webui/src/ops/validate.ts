@@ -84,7 +84,10 @@ export function lcm(a: number, b: number): number {
 export function parsePriority(text: string): { ok: true; value: number } | { ok: false; error: string } {
   const t = text.trim();
   if (!/^-?\d+$/.test(t))
-    return { ok: false, error: `priority "${t}" must be a whole number from ${PRIORITY_MIN} to ${PRIORITY_MAX} (lowest = first)` };
+    return {
+      ok: false,
+      error: `priority "${t}" must be a whole number from ${PRIORITY_MIN} to ${PRIORITY_MAX} (lowest = first)`,
+    };
   const value = Number(t);
   if (value < PRIORITY_MIN) return { ok: false, error: `priority ${t} is below ${PRIORITY_MIN}` };
   if (value > PRIORITY_MAX) return { ok: false, error: `priority ${t} is above ${PRIORITY_MAX}` };
@@ -93,7 +96,14 @@ export function parsePriority(text: string): { ok: true; value: number } | { ok:
 
 /** Executor loads: Σ max(exec p99, budget) / period of the enabled periodic modules. */
 export function executorLoads(
-  modules: { executor: string; operationtype: string; period_ns: number; enabled: boolean; budget_ns?: number; exec_ns?: { p99: number } }[],
+  modules: {
+    executor: string;
+    operationtype: string;
+    period_ns: number;
+    enabled: boolean;
+    budget_ns?: number;
+    exec_ns?: { p99: number };
+  }[],
   limits: Pick<Limits, "utilizationError" | "utilizationWarning"> = DEFAULT_LIMITS,
 ): ExecutorLoad[] {
   const sums = new Map<string, number>();
@@ -131,7 +141,12 @@ export function checkEdits(modules: ModuleInfo[], edits: Map<string, Edit>, limi
         issues.push({ level: "error", module: name, field: "period", message: `${name}: ${p.error}` });
         complete = false;
       } else if (m.operationtype !== "periodic") {
-        issues.push({ level: "error", module: name, field: "period", message: `${name} is ${m.operationtype}: only periodic modules have a period` });
+        issues.push({
+          level: "error",
+          module: name,
+          field: "period",
+          message: `${name} is ${m.operationtype}: only periodic modules have a period`,
+        });
         complete = false;
       } else if (p.ns !== m.period_ns) {
         if (p.ns < limits.minBasicNs)
@@ -195,9 +210,15 @@ export function checkEdits(modules: ModuleInfo[], edits: Map<string, Edit>, limi
         message: `the macro period (LCM of the periods) would span ${Number.isFinite(slots) ? slots : "too many"} basic periods; at most ${limits.maxSlots}: choose periods that are multiples of each other`,
       });
     else if (oldMacro !== null && macroNs !== oldMacro)
-      issues.push({ level: "info", message: `macro period ${formatNs(oldMacro)} → ${formatNs(macroNs)} (${slots} slots)` });
+      issues.push({
+        level: "info",
+        message: `macro period ${formatNs(oldMacro)} → ${formatNs(macroNs)} (${slots} slots)`,
+      });
   } else {
-    issues.push({ level: "error", message: "no periodic module left: there would be no basic period to run the set on" });
+    issues.push({
+      level: "error",
+      message: "no periodic module left: there would be no basic period to run the set on",
+    });
   }
 
   const load = executorLoads(after, limits);
@@ -214,14 +235,19 @@ export function checkEdits(modules: ModuleInfo[], edits: Map<string, Edit>, limi
       });
   }
   if (changes.length > MAX_CHANGES)
-    issues.push({ level: "error", message: `${changes.length} modules changed at once; irpd takes at most ${MAX_CHANGES} in one change` });
+    issues.push({
+      level: "error",
+      message: `${changes.length} modules changed at once; irpd takes at most ${MAX_CHANGES} in one change`,
+    });
 
   for (const w of duplicatePriorities(after)) issues.push(w);
   return { changes, issues, complete, basicNs, macroNs, slots, load };
 }
 
 /** Modules of one executor and operation type (periodic or sporadic) sharing a priority: they run in file order. */
-export function duplicatePriorities(modules: { name: string; executor: string; operationtype: string; priority: number }[]): Issue[] {
+export function duplicatePriorities(
+  modules: { name: string; executor: string; operationtype: string; priority: number }[],
+): Issue[] {
   const groups = new Map<string, string[]>();
   for (const m of modules) {
     if (m.operationtype !== "periodic" && m.operationtype !== "sporadic") continue;

@@ -19,7 +19,11 @@ export function renderVariableDiff(d: VariableDiff, testid = "plan-variables"): 
       ? h(
           "table",
           { class: "ops-grid ops-dense" },
-          h("thead", {}, h("tr", {}, h("th", {}, "change"), h("th", {}, "variable"), h("th", { class: "num" }, "byte offset"))),
+          h(
+            "thead",
+            {},
+            h("tr", {}, h("th", {}, "change"), h("th", {}, "variable"), h("th", { class: "num" }, "byte offset")),
+          ),
           h(
             "tbody",
             {},
@@ -44,6 +48,8 @@ export function renderVariableDiff(d: VariableDiff, testid = "plan-variables"): 
           h("span", { class: "mono" }, d.replaced.join(", ")),
         )
       : null,
-    d.layout && !d.unchanged ? h("div", { class: "ops-sub mono", title: d.layout }, `layout ${d.layout.slice(0, 12)}…`) : null,
+    d.layout && !d.unchanged
+      ? h("div", { class: "ops-sub mono", title: d.layout }, `layout ${d.layout.slice(0, 12)}…`)
+      : null,
   );
 }

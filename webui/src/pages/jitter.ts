@@ -5,10 +5,10 @@
 // misses of the interval marked in red.
 import "../plot/plot.css";
 import uPlot from "uplot";
-import type { Page } from "../app/context";
-import type { components } from "../api/schema";
 import { ApiError, unwrap } from "../api/client";
-import { diffHist, figures, logBins, type Hist } from "../plot/hist";
+import type { components } from "../api/schema";
+import type { Page } from "../app/context";
+import { diffHist, figures, type Hist, logBins } from "../plot/hist";
 import { drawHistogram } from "../plot/histchart";
 import { fmtNs } from "../plot/ticks";
 
@@ -84,7 +84,8 @@ function advance(tr: Track, cur: Record, t: number): void {
   tr.max.push(us(f.max));
   tr.overruns.push(restarted ? cur.overruns : Math.max(0, cur.overruns - prev.overruns));
   tr.missed.push(restarted ? cur.missed : Math.max(0, cur.missed - prev.missed));
-  if (tr.times.length > KEEP) for (const a of [tr.times, tr.min, tr.p50, tr.p99, tr.max, tr.overruns, tr.missed]) a.splice(0, a.length - KEEP);
+  if (tr.times.length > KEEP)
+    for (const a of [tr.times, tr.min, tr.p50, tr.p99, tr.max, tr.overruns, tr.missed]) a.splice(0, a.length - KEEP);
 }
 
 /** Red lines at the intervals with overruns, dashed dark red at those with deadline misses. */
@@ -94,7 +95,10 @@ function markers(tr: Track) {
     const { top, height } = u.bbox;
     g.save();
     g.lineWidth = 2 * uPlot.pxRatio;
-    for (const [arr, color, dash] of [[tr.overruns, "#c62828", []], [tr.missed, "#8e0000", [4, 3]]] as const) {
+    for (const [arr, color, dash] of [
+      [tr.overruns, "#c62828", []],
+      [tr.missed, "#8e0000", [4, 3]],
+    ] as const) {
       g.strokeStyle = color;
       g.setLineDash(dash.map((d) => d * uPlot.pxRatio));
       g.beginPath();
@@ -147,7 +151,10 @@ export const jitterPage: Page = (root, ctx) => {
       </div>`;
     const hists = {} as TrackView["hists"];
     for (const [k] of KINDS)
-      hists[k] = { canvas: card.querySelector<HTMLCanvasElement>(`canvas[data-kind=${k}]`)!, figs: card.querySelector<HTMLElement>(`.figs[data-kind=${k}]`)! };
+      hists[k] = {
+        canvas: card.querySelector<HTMLCanvasElement>(`canvas[data-kind=${k}]`)!,
+        figs: card.querySelector<HTMLElement>(`.figs[data-kind=${k}]`)!,
+      };
     const timeHost = card.querySelector<HTMLElement>(`.jit-time > div`)!;
     cardsEl.appendChild(card);
     const chart = new uPlot(
@@ -162,7 +169,10 @@ export const jitterPage: Page = (root, ctx) => {
           { label: "p99", stroke: "#ef6c00", width: 1.5, spanGaps: false },
           { label: "max", stroke: "#c62828", width: 1, spanGaps: false },
         ],
-        axes: [{ stroke: "#5f6b76", grid: { stroke: "#eef1f4" } }, { stroke: "#5f6b76", size: 60, grid: { stroke: "#eef1f4" } }],
+        axes: [
+          { stroke: "#5f6b76", grid: { stroke: "#eef1f4" } },
+          { stroke: "#5f6b76", size: 60, grid: { stroke: "#eef1f4" } },
+        ],
         cursor: { points: { show: false } },
         hooks: { draw: [markers(tr)] },
       },
@@ -173,7 +183,8 @@ export const jitterPage: Page = (root, ctx) => {
   };
 
   const render = (tr: Track) => {
-    const v = (tr.view ??= makeView(tr));
+    tr.view ??= makeView(tr);
+    const v = tr.view;
     const r = tr.rec;
     const ov = tr.overruns.reduce((a, b) => a + b, 0);
     const ms = tr.missed.reduce((a, b) => a + b, 0);
@@ -188,15 +199,22 @@ export const jitterPage: Page = (root, ctx) => {
       const last = tr.interval[k] ? figures(tr.interval[k]!) : null;
       const h = v.hists[k];
       h.figs.textContent =
-        `p50 ${fmtNs(all.p50)} · p99 ${fmtNs(all.p99)} · max ${fmtNs(all.max)}` + (last ? ` | last poll: p50 ${fmtNs(last.p50)} · p99 ${fmtNs(last.p99)} · max ${fmtNs(last.max)}` : "");
+        `p50 ${fmtNs(all.p50)} · p99 ${fmtNs(all.p99)} · max ${fmtNs(all.max)}` +
+        (last ? ` | last poll: p50 ${fmtNs(last.p50)} · p99 ${fmtNs(last.p99)} · max ${fmtNs(last.max)}` : "");
       const w = Math.max(200, h.canvas.parentElement!.clientWidth);
-      drawHistogram(h.canvas, w, HIST_H, logBins(r[k].buckets, PER_DECADE), last ? logBins(tr.interval[k]!.buckets, PER_DECADE) : null,
+      drawHistogram(
+        h.canvas,
+        w,
+        HIST_H,
+        logBins(r[k].buckets, PER_DECADE),
+        last ? logBins(tr.interval[k]!.buckets, PER_DECADE) : null,
         [
           { label: "p50", ns: all.p50, color: "#2e7d32" },
           { label: "p99", ns: all.p99, color: "#ef6c00" },
           { label: "max", ns: all.max, color: "#c62828" },
         ],
-        PER_DECADE);
+        PER_DECADE,
+      );
     }
     const w = Math.max(300, v.timeHost.clientWidth);
     if (Math.abs(w - v.chart.width) > 2) v.chart.setSize({ width: w, height: TIME_H });
@@ -252,7 +270,22 @@ export const jitterPage: Page = (root, ctx) => {
         if (!tr) {
           // module names are unique; a dispatcher sharing its name is told apart by its executor
           const name = names.get(rec.name)! > 1 && rec.kind === "dispatcher" ? `dispatcher-${rec.executor}` : rec.name;
-          tr = { key, name, kind: rec.kind, rec, prev: null, interval: {}, times: [], min: [], p50: [], p99: [], max: [], overruns: [], missed: [], view: null };
+          tr = {
+            key,
+            name,
+            kind: rec.kind,
+            rec,
+            prev: null,
+            interval: {},
+            times: [],
+            min: [],
+            p50: [],
+            p99: [],
+            max: [],
+            overruns: [],
+            missed: [],
+            view: null,
+          };
           tracks.set(key, tr);
         }
         advance(tr, rec, t);
@@ -263,7 +296,9 @@ export const jitterPage: Page = (root, ctx) => {
           tr.view?.card.remove();
           tracks.delete(n);
         }
-      order = [...tracks.values()].sort((a, b) => Number(b.kind === "dispatcher") - Number(a.kind === "dispatcher")).map((tr) => tr.key);
+      order = [...tracks.values()]
+        .sort((a, b) => Number(b.kind === "dispatcher") - Number(a.kind === "dispatcher"))
+        .map((tr) => tr.key);
       renderPick();
       layout();
       statusEl.textContent = `${data.cycles} cycles · ${data.records.length} records · updated ${new Date().toLocaleTimeString()}`;

@@ -12,15 +12,19 @@ import { ModuleTable } from "../ops/module-table";
 import { SetHistory } from "../ops/set-history";
 import { renderSwapReport } from "../ops/swap-report-view";
 import type { ModuleInfo, Status, SwapReport } from "../ops/types";
-import { UploadPanel } from "../ops/upload-panel";
 import { formatNs } from "../ops/units";
+import { UploadPanel } from "../ops/upload-panel";
 
 export const modulesPage: Page = (root, ctx) => {
   const editable = ctx.can("operator");
   let panel: ChangePanel | null = null;
   const table = new ModuleTable(editable, () => panel?.refresh());
 
-  const reportArea = h("section", { class: "panel ops-panel ops-report-area", "data-testid": "swap-report", hidden: true });
+  const reportArea = h("section", {
+    class: "panel ops-panel ops-report-area",
+    "data-testid": "swap-report",
+    hidden: true,
+  });
   const showReport = (title: string, r: SwapReport) => {
     reportArea.hidden = false;
     const close = h("button", { class: "link small ops-close", "aria-label": "close" }, "×");
@@ -32,7 +36,13 @@ export const modulesPage: Page = (root, ctx) => {
 
   if (editable) panel = new ChangePanel(ctx, table, showReport);
   const sets = new SetHistory(ctx, showReport);
-  const upload = ctx.can("admin") ? new UploadPanel(ctx, () => void sets.refresh(), (id, onClose) => sets.reviewOf(id, onClose)) : null;
+  const upload = ctx.can("admin")
+    ? new UploadPanel(
+        ctx,
+        () => void sets.refresh(),
+        (id, onClose) => sets.reviewOf(id, onClose),
+      )
+    : null;
 
   const info = h("span", { class: "ops-sub", "data-testid": "modules-info" });
   const error = h("div", { class: "ops-error", "data-testid": "modules-error", hidden: true });

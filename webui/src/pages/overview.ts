@@ -8,7 +8,7 @@ import { CounterWindow } from "../ops/counters";
 import { errorText, h, poll, setClass, setPath, setText } from "../ops/dom";
 import { emptyTail, eventLevel, mergeEvents, pageFull, resetCursors, type Tail } from "../ops/events";
 import { faultSummary } from "../ops/faults";
-import { bannerText, classifyHealth, nextWatch, probeHealth, type HealthWatch } from "../ops/health";
+import { bannerText, classifyHealth, type HealthWatch, nextWatch, probeHealth } from "../ops/health";
 import type { HostLoad, Status } from "../ops/types";
 import { formatBytes, formatCount, formatNs, formatPercent, formatTime, formatUptime } from "../ops/units";
 
@@ -17,7 +17,8 @@ const EVENTS_KEPT = 500;
 
 export const overviewPage: Page = (root, ctx) => {
   const v = (testid: string, cls = "num") => h("td", { class: cls, "data-testid": testid }, "–");
-  const row = (label: string, value: HTMLElement, unit = "") => h("tr", {}, h("th", {}, label), value, h("td", { class: "unit" }, unit));
+  const row = (label: string, value: HTMLElement, unit = "") =>
+    h("tr", {}, h("th", {}, label), value, h("td", { class: "unit" }, unit));
 
   const banner = h("div", { class: "ops-banner", "data-testid": "health-banner", role: "alert", hidden: true });
 
@@ -85,7 +86,13 @@ export const overviewPage: Page = (root, ctx) => {
     "section",
     { class: "panel ops-panel" },
     h("h3", {}, "Health"),
-    h("table", { class: "ops-kv" }, row("agent", cells.agent), row("irpd", cells.irpd), row("agent version", cells.version)),
+    h(
+      "table",
+      { class: "ops-kv" },
+      row("agent", cells.agent),
+      row("irpd", cells.irpd),
+      row("agent version", cells.version),
+    ),
   );
 
   const cpuBars = h("div", { class: "ops-cpus", "data-testid": "cpu-bars" });
@@ -101,7 +108,13 @@ export const overviewPage: Page = (root, ctx) => {
   };
   const hostMessage = h("span", {});
   const hostRetry = h("button", { class: "small", "data-testid": "host-retry" }, "retry now");
-  const hostError = h("div", { class: "ops-error", "data-testid": "host-error", hidden: true }, hostMessage, " ", hostRetry);
+  const hostError = h(
+    "div",
+    { class: "ops-error", "data-testid": "host-error", hidden: true },
+    hostMessage,
+    " ",
+    hostRetry,
+  );
   const hostPanel = h(
     "section",
     { class: "panel ops-panel ops-host", "data-testid": "host" },
@@ -118,7 +131,12 @@ export const overviewPage: Page = (root, ctx) => {
         h("tr", {}, h("th", {}, "agent"), hostCells.agentCpu, hostCells.agentRss, hostCells.agentThreads),
       ),
     ),
-    h("table", { class: "ops-kv" }, row("load average", hostCells.load, "1, 5, 15 min"), row("agent uptime", hostCells.agentUptime)),
+    h(
+      "table",
+      { class: "ops-kv" },
+      row("load average", hostCells.load, "1, 5, 15 min"),
+      row("agent uptime", hostCells.agentUptime),
+    ),
     hostError,
   );
 
@@ -136,14 +154,32 @@ export const overviewPage: Page = (root, ctx) => {
       h(
         "table",
         { class: "ops-grid ops-dense", "data-testid": "event-tail" },
-        h("thead", {}, h("tr", {}, h("th", {}, "time"), h("th", {}, "source"), h("th", {}, "kind"), h("th", {}, "module"), h("th", {}, "message"))),
+        h(
+          "thead",
+          {},
+          h(
+            "tr",
+            {},
+            h("th", {}, "time"),
+            h("th", {}, "source"),
+            h("th", {}, "kind"),
+            h("th", {}, "module"),
+            h("th", {}, "message"),
+          ),
+        ),
         tailBody,
       ),
     ),
   );
 
   root.append(
-    h("div", { class: "ops-page", "data-testid": "overview" }, banner, h("div", { class: "ops-cols" }, setPanel, timingPanel, healthPanel, hostPanel), tailPanel),
+    h(
+      "div",
+      { class: "ops-page", "data-testid": "overview" },
+      banner,
+      h("div", { class: "ops-cols" }, setPanel, timingPanel, healthPanel, hostPanel),
+      tailPanel,
+    ),
   );
 
   let tail: Tail = emptyTail();
@@ -162,11 +198,27 @@ export const overviewPage: Page = (root, ctx) => {
     setClass(cells.agent, watch.state.kind === "agent-down" ? "state bad" : "state good");
     setText(
       cells.irpd,
-      watch.state.kind === "agent-down" ? "unknown (agent unreachable)" : hl?.irpd === "ok" ? (hl.running ? "ok, running" : "ok, not running") : `unreachable${hl?.detail ? `: ${hl.detail}` : ""}`,
+      watch.state.kind === "agent-down"
+        ? "unknown (agent unreachable)"
+        : hl?.irpd === "ok"
+          ? hl.running
+            ? "ok, running"
+            : "ok, not running"
+          : `unreachable${hl?.detail ? `: ${hl.detail}` : ""}`,
     );
-    setClass(cells.irpd, watch.state.kind === "ok" ? (hl?.running ? "state good" : "state warn") : watch.state.kind === "irpd-down" ? "state bad" : "state muted");
+    setClass(
+      cells.irpd,
+      watch.state.kind === "ok"
+        ? hl?.running
+          ? "state good"
+          : "state warn"
+        : watch.state.kind === "irpd-down"
+          ? "state bad"
+          : "state muted",
+    );
     setText(cells.version, hl?.version ?? "–");
-    for (const p of [setPanel, timingPanel, hostPanel, tailPanel]) p.classList.toggle("stale-health", watch.state.kind !== "ok");
+    for (const p of [setPanel, timingPanel, hostPanel, tailPanel])
+      p.classList.toggle("stale-health", watch.state.kind !== "ok");
   };
   const healthPoll = poll(async () => {
     const s = classifyHealth(await probeHealth());
@@ -315,7 +367,9 @@ export const overviewPage: Page = (root, ctx) => {
       }
       for (let round = 0; round < 10; round++) {
         const page = unwrap(
-          await ctx.api.GET("/api/v1/events", { params: { query: { since: tail.since, agent_since: tail.agentSince, limit: EVENT_LIMIT } } }),
+          await ctx.api.GET("/api/v1/events", {
+            params: { query: { since: tail.since, agent_since: tail.agentSince, limit: EVENT_LIMIT } },
+          }),
         );
         tail = mergeEvents(tail, page, EVENTS_KEPT);
         if (!pageFull(page, EVENT_LIMIT)) break;

@@ -1,7 +1,7 @@
 // robot.ts -- the robot page: the running set's robot in 3D (the agent's viewer, viser or meshcat,
 // in an iframe through the agent's proxy), the joint readouts beside it, live from the stream, and
 // for an admin the joint map editor.  docs/robot-view.md describes the view.
-import { unwrap, ApiError } from "../api/client";
+import { ApiError, unwrap } from "../api/client";
 import type { Page } from "../app/context";
 import { escapeHtml, type RobotView } from "../robot/format";
 import { jointMapForm, readJointMap } from "../robot/jointmap";
@@ -50,7 +50,8 @@ export const robotPage: Page = (root, ctx) => {
           <iframe data-testid="robot-viewer" title="3D view of the robot" src="${escapeHtml(view.viewer_url)}"></iframe>
           <div class="robot-caption">
             <span data-testid="robot-caption">${escapeHtml(view.urdf ?? "")} · viewer ${escapeHtml(view.viewer)}${
-              view.set_id ? ` · set ${escapeHtml(view.set_id)}` : ""}</span>
+              view.set_id ? ` · set ${escapeHtml(view.set_id)}` : ""
+            }</span>
             <button type="button" class="link" data-testid="robot-viewer-reload">reload view</button>
           </div>
           ${view.detail ? `<p class="warn" data-testid="robot-detail">${escapeHtml(view.detail)}</p>` : ""}
@@ -126,7 +127,8 @@ export const robotPage: Page = (root, ctx) => {
       if (force || (shape(view) !== shown && !editing)) render(view);
     } catch (e) {
       if (closed) return;
-      if (!shown) body.innerHTML = `<p class="bad" data-testid="robot-detail">${escapeHtml(String(e instanceof Error ? e.message : e))}</p>`;
+      if (!shown)
+        body.innerHTML = `<p class="bad" data-testid="robot-detail">${escapeHtml(String(e instanceof Error ? e.message : e))}</p>`;
       ctx.notify(`robot view: ${e instanceof Error ? e.message : e}`, "error");
     }
   };

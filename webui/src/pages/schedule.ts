@@ -6,7 +6,7 @@ import { unwrap } from "../api/client";
 import type { Page } from "../app/context";
 import { errorText, h, poll, setText } from "../ops/dom";
 import { renderSlotTable } from "../ops/slot-table-view";
-import { buildSlotTable, buildTimeline, viewRange, type Timeline } from "../ops/timeline";
+import { buildSlotTable, buildTimeline, type Timeline, viewRange } from "../ops/timeline";
 import { renderTimeline, timelineLegend } from "../ops/timeline-svg";
 import type { ModuleInfo, Schedule } from "../ops/types";
 import { formatNs, formatPercent } from "../ops/units";
@@ -33,7 +33,12 @@ export const schedulePage: Page = (root, ctx) => {
   const timelinePanel = h(
     "section",
     { class: "panel ops-panel" },
-    h("h3", {}, "One macro period", h("span", { class: "ops-sub" }, " — measured execution times to scale, per executor, in run order")),
+    h(
+      "h3",
+      {},
+      "One macro period",
+      h("span", { class: "ops-sub" }, " — measured execution times to scale, per executor, in run order"),
+    ),
     h(
       "div",
       { class: "ops-actions" },
@@ -78,9 +83,16 @@ export const schedulePage: Page = (root, ctx) => {
     const key = JSON.stringify([schedule.slots, schedule.modules, slot]);
     if (key !== tableKey) {
       tableKey = key;
-      tableHolder.replaceChildren(renderSlotTable(buildSlotTable(schedule), { testid: "slot-table", onSlot: (s) => setSlot(s === slot ? null : s), selected: slot }));
+      tableHolder.replaceChildren(
+        renderSlotTable(buildSlotTable(schedule), {
+          testid: "slot-table",
+          onSlot: (s) => setSlot(s === slot ? null : s),
+          selected: slot,
+        }),
+      );
       const options = [h("option", { value: "" }, `whole macro period (${formatNs(schedule.macro_period_ns)})`)];
-      for (let i = 0; i < timeline.slots; i++) options.push(h("option", { value: i }, `slot ${i} (+${formatNs(i * schedule.basic_period_ns)})`));
+      for (let i = 0; i < timeline.slots; i++)
+        options.push(h("option", { value: i }, `slot ${i} (+${formatNs(i * schedule.basic_period_ns)})`));
       zoom.replaceChildren(...options);
     }
     zoom.value = slot === null ? "" : String(slot);

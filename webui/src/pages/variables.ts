@@ -2,14 +2,14 @@
 // (refreshed twice a second while on screen) and, for operators, a box to write it; beside it,
 // plot panels fed with every sample from the stream (src/plot/panel.ts).
 import "../plot/plot.css";
-import type { Page } from "../app/context";
 import { ApiError, unwrap } from "../api/client";
-import type { VarInfo } from "../plot/paths";
-import { formatValue, parseValue } from "../plot/vartypes";
-import { VarTree, type LeafRow } from "../plot/vartree";
-import { MAX_VARS, PlotPanel, WINDOWS_S, type PanelConfig, type PanelEnv } from "../plot/panel";
-import { Pacer, plotStats, recordFrame } from "../plot/stats";
+import type { Page } from "../app/context";
+import { MAX_VARS, type PanelConfig, type PanelEnv, PlotPanel, WINDOWS_S } from "../plot/panel";
 import { panelsFromHash } from "../plot/panel-link";
+import type { VarInfo } from "../plot/paths";
+import { Pacer, plotStats, recordFrame } from "../plot/stats";
+import { type LeafRow, VarTree } from "../plot/vartree";
+import { formatValue, parseValue } from "../plot/vartypes";
 
 const REFRESH_MS = 500;
 const MAX_REFRESH = 60; // values read per refresh at most (the rows on screen)
@@ -83,7 +83,10 @@ export const variablesPage: Page = (root, ctx) => {
     if (c.mode !== "xy") c.mode = "time";
     // only known variables reach the stream: one unknown path would make irpd refuse them all
     c.paths = c.paths.filter((p) => vars.has(p)).slice(0, MAX_VARS);
-    c.xy = [c.xy?.[0] ?? null, c.xy?.[1] ?? null].map((p) => (p && c.paths.includes(p) ? p : null)) as [string | null, string | null];
+    c.xy = [c.xy?.[0] ?? null, c.xy?.[1] ?? null].map((p) => (p && c.paths.includes(p) ? p : null)) as [
+      string | null,
+      string | null,
+    ];
     const p = new PlotPanel(nextId++, c, env);
     panels.push(p);
     panelsEl.appendChild(p.el);
@@ -122,7 +125,9 @@ export const variablesPage: Page = (root, ctx) => {
     if (drew) stats.points = points;
     const st = ctx.stream.status;
     stats.uiDropped = st.discarded ?? 0;
-    const text = `dropped by the agent: ${st.dropped} · discarded by the UI: ${stats.uiDropped}` + (st.connected ? "" : " · stream disconnected");
+    const text =
+      `dropped by the agent: ${st.dropped} · discarded by the UI: ${stats.uiDropped}` +
+      (st.connected ? "" : " · stream disconnected");
     if (text !== dropText) {
       dropEl.textContent = dropText = text;
       dropEl.classList.toggle("bad", st.dropped > 0 || stats.uiDropped > 0);
@@ -140,7 +145,9 @@ export const variablesPage: Page = (root, ctx) => {
   // ---- values and writes -----------------------------------------------------------------------
   const readOne = async (path: string, row: LeafRow) => {
     try {
-      const r = unwrap(await ctx.api.GET("/api/v1/variables/{path}", { params: { path: { path } } })) as { value: unknown };
+      const r = unwrap(await ctx.api.GET("/api/v1/variables/{path}", { params: { path: { path } } })) as {
+        value: unknown;
+      };
       const v = vars.get(path);
       const text = formatValue(r.value, v?.type ?? "");
       if (row.value.textContent !== text) row.value.textContent = text;
@@ -182,7 +189,12 @@ export const variablesPage: Page = (root, ctx) => {
     }
     row.error.textContent = "writing…";
     try {
-      unwrap(await ctx.api.PUT("/api/v1/variables/{path}", { params: { path: { path: v.path } }, body: { value: parsed.value } }));
+      unwrap(
+        await ctx.api.PUT("/api/v1/variables/{path}", {
+          params: { path: { path: v.path } },
+          body: { value: parsed.value },
+        }),
+      );
       row.error.textContent = `wrote ${String(parsed.value)}`;
       row.error.classList.add("good");
       void readOne(v.path, row);
@@ -200,7 +212,9 @@ export const variablesPage: Page = (root, ctx) => {
       if (!alive) return;
       const list = (r.variables ?? []).filter((v) => v && typeof v.path === "string");
       vars = new Map(list.map((v) => [v.path, v]));
-      root.querySelector("#var-paths")!.innerHTML = list.map((v) => `<option value="${v.path.replace(/"/g, "&quot;")}"></option>`).join("");
+      root.querySelector("#var-paths")!.innerHTML = list
+        .map((v) => `<option value="${v.path.replace(/"/g, "&quot;")}"></option>`)
+        .join("");
       tree = new VarTree(list, { canWrite: ctx.can("operator"), plot, write: (v, t, row) => void write(v, t, row) });
       treeHost.innerHTML = "";
       treeHost.appendChild(tree.el);

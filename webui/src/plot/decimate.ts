@@ -27,7 +27,10 @@ class Buckets {
   gap: Uint8Array;
   ya: Float64Array[];
   yb: Float64Array[];
-  constructor(readonly size: number, readonly channels: number) {
+  constructor(
+    readonly size: number,
+    readonly channels: number,
+  ) {
     this.x1 = new Float64Array(size);
     this.x2 = new Float64Array(size);
     this.np = new Uint8Array(size);
@@ -120,7 +123,14 @@ export function bucketSize(samples: number, pixels: number): number {
 }
 
 /** The points of the ring's logical samples [i0, i1) in buckets of `size`, appended to `out`. */
-export function decimateRange(ring: SampleRing, i0: number, i1: number, size: number, xOff: number, out: DrawData): void {
+export function decimateRange(
+  ring: SampleRing,
+  i0: number,
+  i1: number,
+  size: number,
+  xOff: number,
+  out: DrawData,
+): void {
   const b = new Buckets(1, ring.channels);
   for (let a = i0; a < i1; a += size) {
     b.compute(0, ring, a, Math.min(i1, a + size));
@@ -139,7 +149,11 @@ export class LiveDecimator {
   private resets = -1;
   private total = 0;
 
-  constructor(readonly size: number, ringCapacity: number, readonly channels: number) {
+  constructor(
+    readonly size: number,
+    ringCapacity: number,
+    readonly channels: number,
+  ) {
     this.b = new Buckets(Math.ceil(ringCapacity / size) + 2, channels);
   }
 

@@ -1,7 +1,7 @@
 // histchart.ts -- one timing histogram on a canvas: x on a symmetric log scale in µs (jitter is
 // signed), count on a log scale; bars since start (light) with the last poll interval over them
 // (dark), and p50/p99/max marked.
-import { symlog, type Bin } from "./hist";
+import { type Bin, symlog } from "./hist";
 
 export interface Mark {
   label: string;
@@ -21,7 +21,15 @@ function decadeLabel(ns: number): string {
   return `${s}${a / 1e9} s`;
 }
 
-export function drawHistogram(canvas: HTMLCanvasElement, width: number, height: number, total: Bin[], interval: Bin[] | null, marks: Mark[], perDecade: number): void {
+export function drawHistogram(
+  canvas: HTMLCanvasElement,
+  width: number,
+  height: number,
+  total: Bin[],
+  interval: Bin[] | null,
+  marks: Mark[],
+  perDecade: number,
+): void {
   const dpr = window.devicePixelRatio || 1;
   if (canvas.width !== Math.round(width * dpr) || canvas.height !== Math.round(height * dpr)) {
     canvas.width = Math.round(width * dpr);
@@ -41,11 +49,12 @@ export function drawHistogram(canvas: HTMLCanvasElement, width: number, height: 
   // x: whole bins on the symlog axis, zero and ±1 µs always in view for signed data
   let k0 = total[0].k;
   let k1 = total[total.length - 1].k + 1;
-  for (const m of marks) if (m.ns !== null) {
-    const k = Math.floor(symlog(m.ns) * perDecade);
-    k0 = Math.min(k0, k);
-    k1 = Math.max(k1, k + 1);
-  }
+  for (const m of marks)
+    if (m.ns !== null) {
+      const k = Math.floor(symlog(m.ns) * perDecade);
+      k0 = Math.min(k0, k);
+      k1 = Math.max(k1, k + 1);
+    }
   if (k0 < 0) k1 = Math.max(k1, perDecade);
   k0 = Math.min(k0, 0);
   const x0 = k0 / perDecade;
@@ -71,7 +80,8 @@ export function drawHistogram(canvas: HTMLCanvasElement, width: number, height: 
   }
   // 0, ±1 µs, ±10 µs, ... as far as the axis goes; every other decade when they crowd
   const ticks = [0];
-  for (let ns = 1e3; ns < 1e11; ns *= 10) for (const v of [ns, -ns]) if (symlog(v) >= x0 && symlog(v) <= x1) ticks.push(v);
+  for (let ns = 1e3; ns < 1e11; ns *= 10)
+    for (const v of [ns, -ns]) if (symlog(v) >= x0 && symlog(v) <= x1) ticks.push(v);
   ticks.sort((a, b) => a - b);
   const crowded = ticks.length > 9;
   for (const ns of ticks) {

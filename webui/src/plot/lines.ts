@@ -2,8 +2,24 @@
 // already decimated (at most one a pixel), and the series' colours.
 import uPlot from "uplot";
 
-export const COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",
-  "#7f7f7f", "#bcbd22", "#393b79", "#ad494a", "#637939", "#8c6d31", "#7b4173", "#3182bd"];
+export const COLORS = [
+  "#1f77b4",
+  "#d62728",
+  "#2ca02c",
+  "#ff7f0e",
+  "#9467bd",
+  "#8c564b",
+  "#e377c2",
+  "#17becf",
+  "#7f7f7f",
+  "#bcbd22",
+  "#393b79",
+  "#ad494a",
+  "#637939",
+  "#8c6d31",
+  "#7b4173",
+  "#3182bd",
+];
 
 /** Draws every shown series as one polyline, lifting the pen at nulls: what uPlot's own path
  * builder would do, without its per-point work (the points are already decimated). */
@@ -13,7 +29,8 @@ export function drawLines(u: uPlot): void {
   const xs = u.data[0];
   const sx = u.scales.x;
   const sy = u.scales.y;
-  if (sx.min == null || sx.max == null || sy.min == null || sy.max == null || sx.max <= sx.min || sy.max <= sy.min) return;
+  if (sx.min == null || sx.max == null || sy.min == null || sy.max == null || sx.max <= sx.min || sy.max <= sy.min)
+    return;
   const ax = width / (sx.max - sx.min);
   const ay = height / (sy.max - sy.min);
   const x0 = sx.min;

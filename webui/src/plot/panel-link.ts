@@ -10,7 +10,10 @@ export function panelsFromHash(hash: string): PanelConfig[] | null {
   const plot = new URLSearchParams(hash.slice(q + 1)).get("plot");
   if (!plot) return null;
   return plot.split(";").map((group) => ({
-    paths: group.split(",").map((p) => p.trim()).filter(Boolean),
+    paths: group
+      .split(",")
+      .map((p) => p.trim())
+      .filter(Boolean),
     mode: "time" as const,
     windowS: 10,
     xy: [null, null] as [string | null, string | null],

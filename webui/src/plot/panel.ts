@@ -5,13 +5,13 @@
 // Resume goes back to live.
 import uPlot from "uplot";
 import type { Samples, StreamClient } from "../stream/stream";
-import { SampleRing } from "./ring";
-import { LiveDecimator, bucketSize, clearDraw, decimateRange, emptyDraw, type DrawData } from "./decimate";
 import { download, windowCsv } from "./csv";
-import { XYPlot } from "./xy";
-import type { PlotStats } from "./stats";
-import { shortLabels } from "./paths";
+import { bucketSize, clearDraw, type DrawData, decimateRange, emptyDraw, LiveDecimator } from "./decimate";
 import { COLORS, drawLines } from "./lines";
+import { shortLabels } from "./paths";
+import { SampleRing } from "./ring";
+import type { PlotStats } from "./stats";
+import { XYPlot } from "./xy";
 
 export type Mode = "time" | "xy";
 
@@ -81,7 +81,11 @@ export class PlotPanel {
   private host: HTMLElement;
   private info: HTMLElement;
 
-  constructor(readonly id: number, readonly cfg: PanelConfig, private env: PanelEnv) {
+  constructor(
+    readonly id: number,
+    readonly cfg: PanelConfig,
+    private env: PanelEnv,
+  ) {
     this.draw = emptyDraw(cfg.paths.length);
     const el = document.createElement("section");
     el.className = "plot-panel";
@@ -204,7 +208,9 @@ export class PlotPanel {
   private subscribe(): void {
     const old = this.unsubscribe;
     // the new subscription first: the variables both have stay traced throughout
-    this.unsubscribe = this.cfg.paths.length ? this.env.stream.subscribe(this.cfg.paths, (s) => this.onSamples(s)) : null;
+    this.unsubscribe = this.cfg.paths.length
+      ? this.env.stream.subscribe(this.cfg.paths, (s) => this.onSamples(s))
+      : null;
     old?.();
   }
 
@@ -215,9 +221,13 @@ export class PlotPanel {
     // the basic period from the channels message (a new set may change it), else from the due times
     const statusPeriod = this.env.stream.status.basicPeriodNs;
     const period =
-      statusPeriod !== null ? (statusPeriod / 1e9) * s.decimation
-      : this.periodS !== null ? this.periodS
-      : n > 1 ? (s.t[n - 1] - s.t[0]) / (n - 1) : 1e-3;
+      statusPeriod !== null
+        ? (statusPeriod / 1e9) * s.decimation
+        : this.periodS !== null
+          ? this.periodS
+          : n > 1
+            ? (s.t[n - 1] - s.t[0]) / (n - 1)
+            : 1e-3;
     if (!this.ring || this.periodS === null || Math.abs(period - this.periodS) > 1e-12) {
       this.periodS = period;
       this.ring = this.makeRing(this.ring);
@@ -329,10 +339,16 @@ export class PlotPanel {
   // ---- CSV ----------------------------------------------------------------------------------------
   exportCsv(): void {
     const v = this.visible();
-    if (!v) return this.env.notify(`Plot ${this.id} has no samples yet`);
+    if (!v) {
+      this.env.notify(`Plot ${this.id} has no samples yet`);
+      return;
+    }
     const parts = windowCsv(v.src, this.cfg.paths, v.range[0], v.range[1]);
     const [i0, i1] = v.src.range(v.range[0], v.range[1]);
-    const name = i1 > i0 ? `indurop-plot${this.id}-seq${v.src.seqAt(i0)}-${v.src.seqAt(i1 - 1)}.csv` : `indurop-plot${this.id}-empty.csv`;
+    const name =
+      i1 > i0
+        ? `indurop-plot${this.id}-seq${v.src.seqAt(i0)}-${v.src.seqAt(i1 - 1)}.csv`
+        : `indurop-plot${this.id}-empty.csv`;
     download(name, parts);
   }
 
@@ -347,12 +363,19 @@ export class PlotPanel {
     const chips = this.el.querySelector(".chips")!;
     const labels = shortLabels(this.cfg.paths);
     chips.innerHTML = this.cfg.paths
-      .map((p, i) => `<span class="chip" data-testid="chip-${esc(p)}" title="${esc(p)}" style="border-color:${COLORS[i % COLORS.length]}">${esc(labels[i])}<button data-path="${esc(p)}" title="remove">×</button></span>`)
+      .map(
+        (p, i) =>
+          `<span class="chip" data-testid="chip-${esc(p)}" title="${esc(p)}" style="border-color:${COLORS[i % COLORS.length]}">${esc(labels[i])}<button data-path="${esc(p)}" title="remove">×</button></span>`,
+      )
       .join("");
-    for (const b of chips.querySelectorAll<HTMLButtonElement>("button")) b.onclick = () => this.removePath(b.dataset.path!);
+    for (const b of chips.querySelectorAll<HTMLButtonElement>("button"))
+      b.onclick = () => this.removePath(b.dataset.path!);
     const pick = this.el.querySelector<HTMLElement>(".xy-pick")!;
     pick.hidden = this.cfg.mode !== "xy";
-    for (const [i, id] of [[0, "xy-x"], [1, "xy-y"]] as const) {
+    for (const [i, id] of [
+      [0, "xy-x"],
+      [1, "xy-y"],
+    ] as const) {
       const s = this.el.querySelector<HTMLSelectElement>(`[data-testid=${id}]`)!;
       s.innerHTML = `<option value="">—</option>` + this.cfg.paths.map((p) => `<option>${esc(p)}</option>`).join("");
       s.value = this.cfg.xy[i] ?? "";
@@ -380,9 +403,18 @@ export class PlotPanel {
       series: [
         { value: (_u, v) => (v == null ? "--" : clockTime(v)) },
         // the lines are drawn by drawLines (the data is already one point a pixel at most)
-        ...shortLabels(this.cfg.paths).map((label, i) => ({ label, stroke: COLORS[i % COLORS.length], width: 1, points: { show: false }, paths: () => null })),
+        ...shortLabels(this.cfg.paths).map((label, i) => ({
+          label,
+          stroke: COLORS[i % COLORS.length],
+          width: 1,
+          points: { show: false },
+          paths: () => null,
+        })),
       ],
-      axes: [{ stroke: "#5f6b76", grid: { stroke: "#eef1f4" } }, { stroke: "#5f6b76", size: 64, grid: { stroke: "#eef1f4" } }],
+      axes: [
+        { stroke: "#5f6b76", grid: { stroke: "#eef1f4" } },
+        { stroke: "#5f6b76", size: 64, grid: { stroke: "#eef1f4" } },
+      ],
       cursor: { drag: { x: true, y: false, setScale: false }, bind: { dblclick: () => null }, points: { show: false } },
       legend: { live: true },
       hooks: { setSelect: [(u) => this.onSelect(u)], draw: [drawLines] },
@@ -429,7 +461,8 @@ export class PlotPanel {
     const [px, py] = this.cfg.xy;
     const cx = px ? this.cfg.paths.indexOf(px) : -1;
     const cy = py ? this.cfg.paths.indexOf(py) : -1;
-    let i0 = 0, i1 = 0;
+    let i0 = 0,
+      i1 = 0;
     if (v) [i0, i1] = v.src.range(v.range[0], v.range[1]);
     return this.xy.draw(v?.src ?? null, i0, i1, cx, cy, px ?? "", py ?? "", this.width, HEIGHT);
   }
@@ -449,7 +482,10 @@ export class PlotPanel {
       const per = this.periodS ?? 0;
       parts.push(`${r.length} samples held (${(r.length * per).toFixed(1)} s at ${(per * 1e3).toPrecision(3)} ms)`);
       if (this.capped) parts.push(`window limited to ${((r.capacity - 1100) * per).toFixed(0)} s by memory`);
-      if (r.gapSamples) parts.push(`seq gaps: ${r.gapSamples} samples (${this.unaccounted} not in the drop counter: resubscriptions, reconnections)`);
+      if (r.gapSamples)
+        parts.push(
+          `seq gaps: ${r.gapSamples} samples (${this.unaccounted} not in the drop counter: resubscriptions, reconnections)`,
+        );
       if (r.resets) parts.push(`irpd restarted ${r.resets}×`);
     }
     if (this.frozen) parts.push(this.paused ? "paused" : "zoomed — double-click or Resume for live");

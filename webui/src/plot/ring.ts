@@ -24,7 +24,10 @@ export class SampleRing {
   gapSamples = 0;
   resets = 0;
 
-  constructor(readonly capacity: number, readonly channels: number) {
+  constructor(
+    readonly capacity: number,
+    readonly channels: number,
+  ) {
     if (!(capacity >= 1)) throw new RangeError(`ring capacity ${capacity}`);
     this.seq = new Float64Array(capacity);
     this.t = new Float64Array(capacity);
@@ -39,7 +42,12 @@ export class SampleRing {
   }
 
   /** Appends a frame: sample k has seq firstSeq + k × decimation; a missing column is NaN. */
-  push(firstSeq: number, decimation: number, t: ArrayLike<number>, cols: readonly (ArrayLike<number> | undefined)[]): PushResult {
+  push(
+    firstSeq: number,
+    decimation: number,
+    t: ArrayLike<number>,
+    cols: readonly (ArrayLike<number> | undefined)[],
+  ): PushResult {
     const n = t.length;
     let gap = 0;
     let reset = false;

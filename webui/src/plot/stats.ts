@@ -27,7 +27,18 @@ declare global {
 }
 
 export function plotStats(): PlotStats {
-  const s: PlotStats = { frames: 0, draws: 0, frameTimes: [], frameIntervals: [], fps: 0, samples: 0, uiDropped: 0, points: 0, panels: 0, drawEvery: 1 };
+  const s: PlotStats = {
+    frames: 0,
+    draws: 0,
+    frameTimes: [],
+    frameIntervals: [],
+    fps: 0,
+    samples: 0,
+    uiDropped: 0,
+    points: 0,
+    panels: 0,
+    drawEvery: 1,
+  };
   window.__induropPlotStats = s;
   return s;
 }

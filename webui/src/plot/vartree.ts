@@ -34,7 +34,10 @@ export class VarTree {
   readonly visible = new Set<string>();
   private observer: IntersectionObserver | null;
 
-  constructor(vars: VarInfo[], private env: TreeEnv) {
+  constructor(
+    vars: VarInfo[],
+    private env: TreeEnv,
+  ) {
     this.root = buildTree(vars);
     // groups start open, breadth first, while that shows no more than OPEN_ROWS rows
     let rows = this.root.children.length;
@@ -112,7 +115,10 @@ export class VarTree {
       budget.rows = -1;
       return;
     }
-    if (n.leaf && n.children.length === 0) return this.renderLeaf(n, n.leaf, into, budget);
+    if (n.leaf && n.children.length === 0) {
+      this.renderLeaf(n, n.leaf, into, budget);
+      return;
+    }
     const g = document.createElement("div");
     g.className = "grp";
     const open = searching || this.open.has(n.id);

@@ -15,7 +15,11 @@ export function kindOf(type: string): Kind | null {
   if (t === "char") return "char";
   if (/^unsigned\b/.test(t) || /^u_?int(_least|_fast)?\d+_t$/.test(t) || /^(size_t|uintptr_t|uintmax_t)$/.test(t))
     return "unsigned";
-  if (/^(signed\b.*|short( int)?|int|long( int)?|long long( int)?|int(_least|_fast)?\d+_t|ssize_t|intptr_t|intmax_t|ptrdiff_t)$/.test(t))
+  if (
+    /^(signed\b.*|short( int)?|int|long( int)?|long long( int)?|int(_least|_fast)?\d+_t|ssize_t|intptr_t|intmax_t|ptrdiff_t)$/.test(
+      t,
+    )
+  )
     return "signed";
   return null;
 }
@@ -42,7 +46,8 @@ function integer(text: string, lo: bigint, hi: bigint, type: string): Parsed {
   let v = BigInt(m[2]);
   if (m[1] === "-") v = -v;
   if (v < lo || v > hi) return { ok: false, error: `${text} is out of the range of ${type}: ${lo}..${hi}` };
-  if (v > SAFE || v < -SAFE) return { ok: false, error: `${text} is beyond ±2^53 and cannot be sent exactly from the browser` };
+  if (v > SAFE || v < -SAFE)
+    return { ok: false, error: `${text} is beyond ±2^53 and cannot be sent exactly from the browser` };
   return { ok: true, value: Number(v) };
 }
 
@@ -59,10 +64,12 @@ export function parseValue(text: string, type: string, size: number): Parsed {
       return { ok: false, error: `bool takes true, false, 1 or 0, not "${s}"` };
     }
     case "float": {
-      if (!/^[+-]?(\d+\.?\d*|\.\d+)(e[+-]?\d+)?$/i.test(s)) return { ok: false, error: `${type} takes a number, not "${s}"` };
+      if (!/^[+-]?(\d+\.?\d*|\.\d+)(e[+-]?\d+)?$/i.test(s))
+        return { ok: false, error: `${type} takes a number, not "${s}"` };
       const v = Number(s);
       if (!Number.isFinite(v)) return { ok: false, error: `${s} is not a finite ${type}` };
-      if (size === 4 && Math.abs(v) > FLOAT_MAX) return { ok: false, error: `${s} is beyond the range of a float (±3.4e38)` };
+      if (size === 4 && Math.abs(v) > FLOAT_MAX)
+        return { ok: false, error: `${s} is beyond the range of a float (±3.4e38)` };
       if (size !== 4 && size !== 8) return { ok: false, error: `a ${size}-byte ${type} cannot be written` };
       return { ok: true, value: v };
     }
@@ -84,7 +91,8 @@ export function parseValue(text: string, type: string, size: number): Parsed {
     }
     default: {
       // A type we do not know by name: an integer that fits its size either way; irpd decides.
-      if (![1, 2, 4, 8].includes(size)) return { ok: false, error: `${type} (${size} bytes) cannot be written from here` };
+      if (![1, 2, 4, 8].includes(size))
+        return { ok: false, error: `${type} (${size} bytes) cannot be written from here` };
       return integer(s, intRange(true, size)[0], intRange(false, size)[1], type);
     }
   }

@@ -17,7 +17,17 @@ export class XYPlot {
   }
 
   /** Draws channels cx against cy of the ring's logical samples [i0, i1); returns the points drawn. */
-  draw(ring: SampleRing | null, i0: number, i1: number, cx: number, cy: number, xLabel: string, yLabel: string, width: number, height: number): number {
+  draw(
+    ring: SampleRing | null,
+    i0: number,
+    i1: number,
+    cx: number,
+    cy: number,
+    xLabel: string,
+    yLabel: string,
+    width: number,
+    height: number,
+  ): number {
     const dpr = window.devicePixelRatio || 1;
     const c = this.canvas;
     if (c.width !== Math.round(width * dpr) || c.height !== Math.round(height * dpr)) {
@@ -33,16 +43,24 @@ export class XYPlot {
     g.font = "11px system-ui, sans-serif";
     g.fillStyle = "#5f6b76";
     if (!ring || cx < 0 || cy < 0 || i1 <= i0) {
-      g.fillText(cx < 0 || cy < 0 ? "pick a variable for X and one for Y" : "waiting for samples…", PAD.left, PAD.top + 20);
+      g.fillText(
+        cx < 0 || cy < 0 ? "pick a variable for X and one for Y" : "waiting for samples…",
+        PAD.left,
+        PAD.top + 20,
+      );
       return 0;
     }
     const X = ring.cols[cx];
     const Y = ring.cols[cy];
     const stride = Math.max(1, Math.ceil((i1 - i0) / MAX_POINTS));
-    let xmin = Infinity, xmax = -Infinity, ymin = Infinity, ymax = -Infinity;
+    let xmin = Infinity,
+      xmax = -Infinity,
+      ymin = Infinity,
+      ymax = -Infinity;
     for (let i = i0; i < i1; i += stride) {
       const p = ring.slot(i);
-      const x = X[p], y = Y[p];
+      const x = X[p],
+        y = Y[p];
       if (Number.isNaN(x) || Number.isNaN(y)) continue;
       if (x < xmin) xmin = x;
       if (x > xmax) xmax = x;
@@ -58,12 +76,20 @@ export class XYPlot {
     // some room around the data; a flat signal still gets a range
     const padx = (xmax - xmin) * 0.05 || Math.abs(xmax) * 0.05 || 1;
     const pady = (ymax - ymin) * 0.05 || Math.abs(ymax) * 0.05 || 1;
-    xmin -= padx; xmax += padx; ymin -= pady; ymax += pady;
+    xmin -= padx;
+    xmax += padx;
+    ymin -= pady;
+    ymax += pady;
     if (this.equal) {
-      const sx = (xmax - xmin) / pw, sy = (ymax - ymin) / ph, s = Math.max(sx, sy);
-      const cxm = (xmin + xmax) / 2, cym = (ymin + ymax) / 2;
-      xmin = cxm - (s * pw) / 2; xmax = cxm + (s * pw) / 2;
-      ymin = cym - (s * ph) / 2; ymax = cym + (s * ph) / 2;
+      const sx = (xmax - xmin) / pw,
+        sy = (ymax - ymin) / ph,
+        s = Math.max(sx, sy);
+      const cxm = (xmin + xmax) / 2,
+        cym = (ymin + ymax) / 2;
+      xmin = cxm - (s * pw) / 2;
+      xmax = cxm + (s * pw) / 2;
+      ymin = cym - (s * ph) / 2;
+      ymax = cym + (s * ph) / 2;
     }
     const px = (v: number) => PAD.left + ((v - xmin) / (xmax - xmin)) * pw;
     const py = (v: number) => PAD.top + ph - ((v - ymin) / (ymax - ymin)) * ph;
@@ -73,12 +99,14 @@ export class XYPlot {
     g.beginPath();
     for (const t of niceTicks(xmin, xmax, Math.max(2, Math.floor(pw / 90)))) {
       const x = Math.round(px(t)) + 0.5;
-      g.moveTo(x, PAD.top); g.lineTo(x, PAD.top + ph);
+      g.moveTo(x, PAD.top);
+      g.lineTo(x, PAD.top + ph);
       g.fillText(tickLabel(t), x - 12, PAD.top + ph + 14);
     }
     for (const t of niceTicks(ymin, ymax, Math.max(2, Math.floor(ph / 50)))) {
       const y = Math.round(py(t)) + 0.5;
-      g.moveTo(PAD.left, y); g.lineTo(PAD.left + pw, y);
+      g.moveTo(PAD.left, y);
+      g.lineTo(PAD.left + pw, y);
       g.fillText(tickLabel(t), 4, y + 4);
     }
     g.stroke();
@@ -95,17 +123,29 @@ export class XYPlot {
     g.strokeStyle = "#0b63c5";
     g.lineWidth = 1.25;
     g.beginPath();
-    let drawn = 0, lx = NaN, ly = NaN, pen = false;
+    let drawn = 0,
+      lx = NaN,
+      ly = NaN,
+      pen = false;
     const dec = ring.decimation;
     for (let i = i0; i < i1; i += stride) {
       const p = ring.slot(i);
-      const x = X[p], y = Y[p];
-      if (Number.isNaN(x) || Number.isNaN(y)) { pen = false; continue; }
+      const x = X[p],
+        y = Y[p];
+      if (Number.isNaN(x) || Number.isNaN(y)) {
+        pen = false;
+        continue;
+      }
       if (pen && stride === 1 && i > i0 && ring.seq[p] - ring.seqAt(i - 1) !== dec) pen = false;
-      const qx = Math.round(px(x) * 2) / 2, qy = Math.round(py(y) * 2) / 2;
+      const qx = Math.round(px(x) * 2) / 2,
+        qy = Math.round(py(y) * 2) / 2;
       if (pen && qx === lx && qy === ly) continue;
-      if (pen) g.lineTo(qx, qy); else g.moveTo(qx, qy);
-      pen = true; lx = qx; ly = qy; drawn++;
+      if (pen) g.lineTo(qx, qy);
+      else g.moveTo(qx, qy);
+      pen = true;
+      lx = qx;
+      ly = qy;
+      drawn++;
     }
     g.stroke();
     const pl = ring.slot(i1 - 1);

@@ -35,8 +35,10 @@ export function limitsText(j: RobotJoint): string {
 }
 
 export function outsideLimits(j: RobotJoint, position: number): boolean {
-  return (j.lower !== null && j.lower !== undefined && position < j.lower - 1e-9) ||
-    (j.upper !== null && j.upper !== undefined && position > j.upper + 1e-9);
+  return (
+    (j.lower !== null && j.lower !== undefined && position < j.lower - 1e-9) ||
+    (j.upper !== null && j.upper !== undefined && position > j.upper + 1e-9)
+  );
 }
 
 export function escapeHtml(s: string): string {

@@ -1,6 +1,15 @@
 // readouts.ts -- the joint readouts beside the 3D view: one row per joint (name, variable, position
 // in rad and degrees, limits), fed with the newest sample of each mapped variable.
-import { degrees, escapeHtml, isAngular, jointPosition, limitsText, num, outsideLimits, type RobotJoint } from "./format";
+import {
+  degrees,
+  escapeHtml,
+  isAngular,
+  jointPosition,
+  limitsText,
+  num,
+  outsideLimits,
+  type RobotJoint,
+} from "./format";
 
 export class JointReadouts {
   readonly el: HTMLTableElement;

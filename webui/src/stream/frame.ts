@@ -2,7 +2,15 @@
 // docs/trace-and-stream.md §4): columns of due times and one column of doubles per subscribed
 // channel.  The header's offsets and constants come from frame_spec.ts, generated from the spec;
 // tests/unit/frame.test.ts decodes the spec's vectors (protocol/stream/vectors.json).
-import { BODY, FIELDS, FRAME_KIND_SAMPLES, FRAME_MAGIC, FRAME_MAGIC_TEXT, FRAME_VERSION, HEADER_BYTES } from "./frame_spec";
+import {
+  BODY,
+  FIELDS,
+  FRAME_KIND_SAMPLES,
+  FRAME_MAGIC,
+  FRAME_MAGIC_TEXT,
+  FRAME_VERSION,
+  HEADER_BYTES,
+} from "./frame_spec";
 
 // The body this decoder reads: a spec that lays it out otherwise stops the build or the import.
 if (BODY.length !== 2 || BODY[0].type !== "i64" || BODY[1].type !== "f64" || BODY[1].repeat !== "channels")
@@ -40,7 +48,8 @@ function read(v: DataView, f: Field): number {
 }
 
 export function decodeFrame(buf: ArrayBuffer): Frame {
-  if (buf.byteLength < HEADER_BYTES) throw new FrameError(`frame of ${buf.byteLength} bytes is shorter than its header`);
+  if (buf.byteLength < HEADER_BYTES)
+    throw new FrameError(`frame of ${buf.byteLength} bytes is shorter than its header`);
   const v = new DataView(buf);
   if (read(v, FIELDS.magic) !== FRAME_MAGIC) throw new FrameError(`frame does not start with ${FRAME_MAGIC_TEXT}`);
   const version = read(v, FIELDS.version);

@@ -4,6 +4,7 @@
 // `discarded` the samples that arrived but could not be handed on (a frame that does not decode or
 // does not match the channels in force).
 import { decodeFrame, FrameError } from "./frame";
+import { FIELDS } from "./frame_spec";
 
 export interface Samples {
   firstSeq: number;
@@ -36,7 +37,11 @@ export class StreamClient {
   status: StreamStatus = { connected: false, dropped: 0, discarded: 0, basicPeriodNs: null, error: null };
   onStatus: (s: StreamStatus) => void = () => {};
 
-  constructor(private readonly url: string, private readonly token: string, private readonly decimation = 1) {}
+  constructor(
+    private readonly url: string,
+    private readonly token: string,
+    private readonly decimation = 1,
+  ) {}
 
   /** Starts delivering `paths` to `onSamples`; returns the function that stops it. */
   subscribe(paths: string[], onSamples: (s: Samples) => void): () => void {
@@ -113,12 +118,14 @@ export class StreamClient {
       return;
     }
     if (!(data instanceof ArrayBuffer)) return;
-    let f;
+    let f: ReturnType<typeof decodeFrame>;
     try {
       f = decodeFrame(data);
     } catch (e) {
       if (!(e instanceof FrameError)) throw e;
-      const count = data.byteLength >= 20 ? new DataView(data).getUint32(16, true) : 0;
+      // the samples a refused frame carried, when its header got that far
+      const count =
+        data.byteLength >= FIELDS.count.offset + 4 ? new DataView(data).getUint32(FIELDS.count.offset, true) : 0;
       this.setStatus({ discarded: this.status.discarded + count, error: e.message });
       return;
     }

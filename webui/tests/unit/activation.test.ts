@@ -12,10 +12,30 @@ import type { Schedule, SwapReport, Validation, VariableChanges } from "../../sr
 const sched = (macro: number): Schedule => ({
   basic_period_ns: 1_000_000,
   macro_period_ns: macro,
-  slots: Array.from({ length: macro / 1_000_000 }, (_, i) => ({ index: i, offset_ns: i * 1_000_000, modules: i === 0 ? ["counter", "adder"] : ["counter"] })),
+  slots: Array.from({ length: macro / 1_000_000 }, (_, i) => ({
+    index: i,
+    offset_ns: i * 1_000_000,
+    modules: i === 0 ? ["counter", "adder"] : ["counter"],
+  })),
   modules: [
-    { name: "counter", moduletype: "thread", operationtype: "periodic", period_ns: 1_000_000, deadline_ns: 0, priority: 1, executor: "main" },
-    { name: "adder", moduletype: "thread", operationtype: "periodic", period_ns: macro, deadline_ns: 0, priority: 2, executor: "main" },
+    {
+      name: "counter",
+      moduletype: "thread",
+      operationtype: "periodic",
+      period_ns: 1_000_000,
+      deadline_ns: 0,
+      priority: 1,
+      executor: "main",
+    },
+    {
+      name: "adder",
+      moduletype: "thread",
+      operationtype: "periodic",
+      period_ns: macro,
+      deadline_ns: 0,
+      priority: 2,
+      executor: "main",
+    },
   ],
 });
 
@@ -39,7 +59,14 @@ const validation = (over: Partial<Validation> = {}): Validation => ({
   variables: UNCHANGED,
   ...over,
 });
-const RESTART = validation({ online: false, variables: null, restart: { reason: "the set's shared-variable layout cannot replace the running one online: oc.a moved", expected_downtime_ns: 250_000_000 } });
+const RESTART = validation({
+  online: false,
+  variables: null,
+  restart: {
+    reason: "the set's shared-variable layout cannot replace the running one online: oc.a moved",
+    expected_downtime_ns: 250_000_000,
+  },
+});
 
 describe("variableDiff", () => {
   it("lists added, removed and moved variables and the modules replaced", () => {
@@ -81,7 +108,9 @@ describe("activationPlan and activationRequest", () => {
   });
 
   it("an unknown expected downtime reads 'unknown'", () => {
-    const plan = activationPlan(validation({ online: false, restart: { reason: "executors differ", expected_downtime_ns: null } }));
+    const plan = activationPlan(
+      validation({ online: false, restart: { reason: "executors differ", expected_downtime_ns: null } }),
+    );
     expect(plan).toMatchObject({ kind: "restart", expectedDowntimeNs: null, downtime: "unknown" });
   });
 
@@ -89,7 +118,9 @@ describe("activationPlan and activationRequest", () => {
     const invalid = activationPlan(validation({ valid: false, online: false, errors: ["module.xml:3: bad"] }));
     expect(invalid.kind).toBe("invalid");
     expect("refused" in activationRequest(invalid, true)).toBe(true);
-    const unchecked = activationPlan(validation({ valid: null, warnings: ["not checked: irpd unreachable"], online: null }));
+    const unchecked = activationPlan(
+      validation({ valid: null, warnings: ["not checked: irpd unreachable"], online: null }),
+    );
     expect(unchecked).toEqual({ kind: "unchecked", why: "not checked: irpd unreachable" });
     expect("refused" in activationRequest(unchecked, true)).toBe(true);
   });
@@ -107,15 +138,29 @@ describe("activationPlan and activationRequest", () => {
 
 describe("reportMode", () => {
   it("reads mode and downtime when the report has them", () => {
-    expect(reportMode({ kept: [], started: [], stopped: [], mode: "online" })).toEqual({ mode: "online", downtimeNs: null });
-    expect(reportMode({ kept: [], started: [], stopped: [], mode: "restart", downtime_ns: 180_000_000 })).toEqual({ mode: "restart", downtimeNs: 180_000_000 });
+    expect(reportMode({ kept: [], started: [], stopped: [], mode: "online" })).toEqual({
+      mode: "online",
+      downtimeNs: null,
+    });
+    expect(reportMode({ kept: [], started: [], stopped: [], mode: "restart", downtime_ns: 180_000_000 })).toEqual({
+      mode: "restart",
+      downtimeNs: 180_000_000,
+    });
   });
 });
 
 describe("renderSwapReport", () => {
   const q = (root: Element, id: string) => root.querySelector(`[data-testid=${id}]`);
   it("shows the variables the swap changed", () => {
-    const r: SwapReport = { kept: ["counter"], started: ["adder"], stopped: [], missed_periods: 0, variables: CHANGES, mode: "online", downtime_ns: null };
+    const r: SwapReport = {
+      kept: ["counter"],
+      started: ["adder"],
+      stopped: [],
+      missed_periods: 0,
+      variables: CHANGES,
+      mode: "online",
+      downtime_ns: null,
+    };
     const e = renderSwapReport("done", r);
     expect(q(e, "report-mode")?.textContent).toBe("hot swap");
     expect(q(e, "report-downtime")).toBeNull();
@@ -125,7 +170,14 @@ describe("renderSwapReport", () => {
   });
 
   it("shows a restart's measured downtime", () => {
-    const e = renderSwapReport("done", { kept: [], started: ["counter"], stopped: ["counter"], mode: "restart", downtime_ns: 180_000_000, variables: null });
+    const e = renderSwapReport("done", {
+      kept: [],
+      started: ["counter"],
+      stopped: ["counter"],
+      mode: "restart",
+      downtime_ns: 180_000_000,
+      variables: null,
+    });
     expect(q(e, "report-mode")?.textContent).toBe("restart of irpd");
     expect(q(e, "report-downtime")?.textContent).toBe("180 ms");
     expect(q(e, "report-variables-summary")?.textContent).toMatch(/started at zero/);
@@ -142,7 +194,11 @@ function setup(checks: Validation[]) {
   const calls: { path: string; body?: unknown }[] = [];
   const reports: string[] = [];
   let n = 0;
-  const answer = (data: unknown, status = 200) => ({ data: status < 300 ? data : undefined, error: status < 300 ? undefined : data, response: new Response(null, { status }) });
+  const answer = (data: unknown, status = 200) => ({
+    data: status < 300 ? data : undefined,
+    error: status < 300 ? undefined : data,
+    response: new Response(null, { status }),
+  });
   const ctx = {
     api: {
       GET: async (path: string) => {
@@ -151,7 +207,15 @@ function setup(checks: Validation[]) {
       },
       POST: async (path: string, opts: { body?: unknown }) => {
         calls.push({ path, body: opts.body });
-        if (path.endsWith("/check")) return answer({ id: "abc", created: "", by: null, files: [], active: false, validation: checks[Math.min(n++, checks.length - 1)] });
+        if (path.endsWith("/check"))
+          return answer({
+            id: "abc",
+            created: "",
+            by: null,
+            files: [],
+            active: false,
+            validation: checks[Math.min(n++, checks.length - 1)],
+          });
         return answer({ kept: ["counter"], started: [], stopped: [], missed_periods: 0, variables: CHANGES });
       },
     },

@@ -14,7 +14,13 @@ export function buildFrame(firstSeq: number, t: number[], columns: number[][], d
   v.setUint32(FIELDS.count.offset, count, true);
   v.setUint32(FIELDS.channels.offset, columns.length, true);
   v.setBigUint64(FIELDS.dropped.offset, BigInt(dropped), true);
-  t.forEach((x, k) => v.setBigInt64(HEADER_BYTES + 8 * k, BigInt(x), true));
-  columns.forEach((col, c) => col.forEach((x, k) => v.setFloat64(HEADER_BYTES + 8 * count * (1 + c) + 8 * k, x, true)));
+  t.forEach((x, k) => {
+    v.setBigInt64(HEADER_BYTES + 8 * k, BigInt(x), true);
+  });
+  columns.forEach((col, c) => {
+    col.forEach((x, k) => {
+      v.setFloat64(HEADER_BYTES + 8 * count * (1 + c) + 8 * k, x, true);
+    });
+  });
   return buf;
 }

@@ -8,17 +8,56 @@ import type { ModuleInfo, Schedule } from "../../src/ops/types";
 
 const pct = (p99: number) => ({ count: 1, min: 0, max: p99, mean: 0, p50: p99 / 2, p99, p999: p99 });
 const mod = (name: string, period_ns: number, priority: number): ModuleInfo => ({
-  name, executor: "main", kind: "module", period_ns, runs: 10, jitter_ns: pct(0), latency_ns: pct(0), exec_ns: pct(1_000),
-  overruns: 0, missed: 0, skipped: 0, errors: 0, state: "running", priority, budget_ns: 0, moduletype: "thread",
-  operationtype: "periodic", deadline_ns: 0, enabled: true, file: `lib/${name}.so`, sha256: "", properties: {},
+  name,
+  executor: "main",
+  kind: "module",
+  period_ns,
+  runs: 10,
+  jitter_ns: pct(0),
+  latency_ns: pct(0),
+  exec_ns: pct(1_000),
+  overruns: 0,
+  missed: 0,
+  skipped: 0,
+  errors: 0,
+  state: "running",
+  priority,
+  budget_ns: 0,
+  moduletype: "thread",
+  operationtype: "periodic",
+  deadline_ns: 0,
+  enabled: true,
+  file: `lib/${name}.so`,
+  sha256: "",
+  properties: {},
 });
 const sched = (macro: number): Schedule => ({
   basic_period_ns: 100_000,
   macro_period_ns: macro,
-  slots: Array.from({ length: macro / 100_000 }, (_, i) => ({ index: i, offset_ns: i * 100_000, modules: i === 0 ? ["a", "b"] : ["a"] })),
+  slots: Array.from({ length: macro / 100_000 }, (_, i) => ({
+    index: i,
+    offset_ns: i * 100_000,
+    modules: i === 0 ? ["a", "b"] : ["a"],
+  })),
   modules: [
-    { name: "a", moduletype: "thread", operationtype: "periodic", period_ns: 100_000, deadline_ns: 0, priority: 1, executor: "main" },
-    { name: "b", moduletype: "thread", operationtype: "periodic", period_ns: macro, deadline_ns: 0, priority: 2, executor: "main" },
+    {
+      name: "a",
+      moduletype: "thread",
+      operationtype: "periodic",
+      period_ns: 100_000,
+      deadline_ns: 0,
+      priority: 1,
+      executor: "main",
+    },
+    {
+      name: "b",
+      moduletype: "thread",
+      operationtype: "periodic",
+      period_ns: macro,
+      deadline_ns: 0,
+      priority: 2,
+      executor: "main",
+    },
   ],
 });
 
@@ -33,7 +72,11 @@ function fakeCtx(answer: (body: { changes: unknown[]; dry_run: boolean }) => Ans
         calls.push(opts.body);
         const a = answer(opts.body);
         const ok = a.status < 300;
-        return { data: ok ? a.body : undefined, error: ok ? undefined : a.body, response: new Response(null, { status: a.status }) };
+        return {
+          data: ok ? a.body : undefined,
+          error: ok ? undefined : a.body,
+          response: new Response(null, { status: a.status }),
+        };
       },
     },
     session: { token: "t", name: "op", role: "operator" },
@@ -73,7 +116,16 @@ const ACCEPT = (b: { dry_run: boolean }): Answer => ({
     after: sched(1_000_000),
     utilization: 0.25,
     warnings: [],
-    report: b.dry_run ? null : { kept: ["a", "b"], started: [], stopped: [], swap_cycle: 42, missed_periods: 0, request_to_swap_ns: 1_000_000 },
+    report: b.dry_run
+      ? null
+      : {
+          kept: ["a", "b"],
+          started: [],
+          stopped: [],
+          swap_cycle: 42,
+          missed_periods: 0,
+          request_to_swap_ns: 1_000_000,
+        },
   },
 });
 
@@ -123,7 +175,9 @@ describe("ChangePanel", () => {
     s.type("edit-period-b", "300us");
     await vi.advanceTimersByTimeAsync(500);
     await flush();
-    expect(s.q("dry-run").textContent).toBe("Server check (dry run): refused — module 'b': the basic period would be 1 µs");
+    expect(s.q("dry-run").textContent).toBe(
+      "Server check (dry run): refused — module 'b': the basic period would be 1 µs",
+    );
     expect(s.q<HTMLButtonElement>("apply").disabled).toBe(true);
   });
 

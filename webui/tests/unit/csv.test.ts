@@ -1,7 +1,7 @@
 // csv.test.ts -- the CSV export of a plot's visible window.
 import { describe, expect, it } from "vitest";
-import { SampleRing } from "../../src/plot/ring";
 import { windowCsv } from "../../src/plot/csv";
+import { SampleRing } from "../../src/plot/ring";
 
 describe("windowCsv", () => {
   const r = new SampleRing(8, 2);

@@ -1,11 +1,16 @@
 // decimate.test.ts -- min/max buckets for drawing, live (incremental) and frozen (on demand).
 import { describe, expect, it } from "vitest";
+import { bucketSize, decimateRange, emptyDraw, LiveDecimator } from "../../src/plot/decimate";
 import { SampleRing } from "../../src/plot/ring";
-import { LiveDecimator, bucketSize, decimateRange, emptyDraw } from "../../src/plot/decimate";
 
 function ringOf(values: number[], first = 1, capacity = 1000): SampleRing {
   const r = new SampleRing(capacity, 1);
-  r.push(first, 1, Float64Array.from(values, (_, k) => first + k), [Float64Array.from(values)]);
+  r.push(
+    first,
+    1,
+    Float64Array.from(values, (_, k) => first + k),
+    [Float64Array.from(values)],
+  );
   return r;
 }
 

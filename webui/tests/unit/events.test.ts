@@ -14,7 +14,13 @@ const ev = (source: "irpd" | "agent", seq: number, t: number, kind = "start"): A
   message: `${source} ${seq}`,
 });
 
-const page = (events: AgentEvent[], next: number, agent_next: number, dropped = 0, irpd = "ok"): EventsPage => ({ events, next, agent_next, dropped, irpd });
+const page = (events: AgentEvent[], next: number, agent_next: number, dropped = 0, irpd = "ok"): EventsPage => ({
+  events,
+  next,
+  agent_next,
+  dropped,
+  irpd,
+});
 
 describe("mergeEvents", () => {
   it("newest first, with the page's cursors", () => {
@@ -55,7 +61,10 @@ describe("mergeEvents", () => {
   });
 
   it("says why irpd's events are missing", () => {
-    const t = mergeEvents(emptyTail(), page([ev("agent", 1, 1, "irpd_lost")], 0, 2, 0, "unavailable: connection refused"));
+    const t = mergeEvents(
+      emptyTail(),
+      page([ev("agent", 1, 1, "irpd_lost")], 0, 2, 0, "unavailable: connection refused"),
+    );
     expect(t.irpd).toBe("unavailable: connection refused");
   });
 });

@@ -7,11 +7,19 @@ describe("faultSummary", () => {
     expect(faultSummary({ stopped_by_fault: null, last_crash: null, left_out_after_crash: [] }).level).toBe("good");
   });
   it("puts a set stopped by a fault first", () => {
-    const s = faultSummary({ stopped_by_fault: "module 'hog' overran", left_out_after_crash: [{ module: "x", set: "/s" }] });
+    const s = faultSummary({
+      stopped_by_fault: "module 'hog' overran",
+      left_out_after_crash: [{ module: "x", set: "/s" }],
+    });
     expect(s).toEqual({ level: "bad", text: "set stopped: module 'hog' overran" });
   });
   it("names the modules a crash left out", () => {
-    const s = faultSummary({ left_out_after_crash: [{ module: "a", set: "/s" }, { module: "b", set: "/s" }] });
+    const s = faultSummary({
+      left_out_after_crash: [
+        { module: "a", set: "/s" },
+        { module: "b", set: "/s" },
+      ],
+    });
     expect(s.level).toBe("warn");
     expect(s.text).toContain("a, b");
   });

@@ -3,7 +3,7 @@
 // built here.
 import { describe, expect, it } from "vitest";
 import vectors from "../../../protocol/stream/vectors.json";
-import { FRAME_MAGIC, FrameError, decodeFrame } from "../../src/stream/frame";
+import { decodeFrame, FRAME_MAGIC, FrameError } from "../../src/stream/frame";
 import { FIELDS } from "../../src/stream/frame_spec";
 import { buildFrame } from "./build-frame";
 
@@ -39,7 +39,17 @@ describe("the spec's vectors", () => {
 describe("decodeFrame", () => {
   it("reads the header, the due times and the columns", () => {
     const t = [123456789012345, 123456790012345, 123456791012345];
-    const f = decodeFrame(buildFrame(4242, t, [[1.5, -2, 3], [0, 1e300, -0]], 17));
+    const f = decodeFrame(
+      buildFrame(
+        4242,
+        t,
+        [
+          [1.5, -2, 3],
+          [0, 1e300, -0],
+        ],
+        17,
+      ),
+    );
     expect(new DataView(buildFrame(1, [], [])).getUint32(0, true)).toBe(FRAME_MAGIC);
     expect(f.firstSeq).toBe(4242);
     expect(f.count).toBe(3);

@@ -8,7 +8,11 @@ describe("classifyHealth", () => {
     expect(classifyHealth({ ok: true, status: 200, body: { agent: "ok", irpd: "ok", running: true } }).kind).toBe("ok");
   });
   it("irpd unreachable, with the agent's reason", () => {
-    const s = classifyHealth({ ok: true, status: 200, body: { agent: "ok", irpd: "unreachable", detail: "connection refused" } });
+    const s = classifyHealth({
+      ok: true,
+      status: 200,
+      body: { agent: "ok", irpd: "unreachable", detail: "connection refused" },
+    });
     expect(s).toMatchObject({ kind: "irpd-down", detail: "connection refused" });
   });
   it("the agent not answering: no connection, a timeout, or a proxy's error page", () => {
@@ -21,7 +25,11 @@ describe("classifyHealth", () => {
 describe("watch and banner", () => {
   it("no banner when ok; how long it has been down; back by itself", () => {
     const ok = classifyHealth({ ok: true, status: 200, body: { agent: "ok", irpd: "ok" } });
-    const down = classifyHealth({ ok: true, status: 200, body: { agent: "ok", irpd: "unreachable", detail: "no socket" } });
+    const down = classifyHealth({
+      ok: true,
+      status: 200,
+      body: { agent: "ok", irpd: "unreachable", detail: "no socket" },
+    });
     let w = nextWatch(null, ok, 0);
     expect(bannerText(w, 0)).toBe("");
     w = nextWatch(w, down, 1000);

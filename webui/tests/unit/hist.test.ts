@@ -1,6 +1,6 @@
 // hist.test.ts -- quantiles from buckets, the difference of two polls, log re-binning.
 import { describe, expect, it } from "vitest";
-import { diffHist, figures, logBins, quantile, symexp, symlog, type Hist } from "../../src/plot/hist";
+import { diffHist, figures, type Hist, logBins, quantile, symexp, symlog } from "../../src/plot/hist";
 
 /** irpd's log-linear bucket of a non-negative value: exact below 32, then 32 per power of two. */
 function bucketOf(v: number): { low: number; width: number } {

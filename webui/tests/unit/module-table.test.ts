@@ -39,7 +39,10 @@ function type(input: HTMLInputElement, value: string): void {
 describe("ModuleTable", () => {
   it("one row per module, with figures and units", () => {
     const t = new ModuleTable(false, () => {});
-    t.update([mod("main"), mod("drivesim", { operationtype: "non-real", moduletype: "process", period_ns: 0, runs: 0 })]);
+    t.update([
+      mod("main"),
+      mod("drivesim", { operationtype: "non-real", moduletype: "process", period_ns: 0, runs: 0 }),
+    ]);
     const row = t.element.querySelector("[data-testid=module-row-main]")!;
     const cell = (k: string) => row.querySelector(`[data-col=${k}]`)!.textContent;
     expect(cell("period")).toBe("10 ms");

@@ -17,7 +17,12 @@ const labels = (n: TreeNode) => n.children.map((c) => c.label);
 
 describe("splitPath", () => {
   it("splits on dots and array indices", () => {
-    expect(splitPath("PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[0]")).toEqual(["PLC_ROBOT", "ROBOT_MODULE_STATE", "dCurJoint", "[0]"]);
+    expect(splitPath("PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[0]")).toEqual([
+      "PLC_ROBOT",
+      "ROBOT_MODULE_STATE",
+      "dCurJoint",
+      "[0]",
+    ]);
     expect(splitPath("PLC.AXIS_IN[0].position")).toEqual(["PLC", "AXIS_IN", "[0]", "position"]);
     expect(splitPath("grid[1][2]")).toEqual(["grid", "[1]", "[2]"]);
     expect(splitPath("plain")).toEqual(["plain"]);
@@ -63,7 +68,10 @@ describe("search", () => {
   it("prunes the tree to the matching variables", () => {
     const f = filterTree(root, "curjoint")!;
     expect(f.count).toBe(2);
-    expect(leavesOf(f).map((l) => l.path)).toEqual(["PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[0]", "PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[1]"]);
+    expect(leavesOf(f).map((l) => l.path)).toEqual([
+      "PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[0]",
+      "PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[1]",
+    ]);
     expect(labels(f)).toEqual(["PLC_ROBOT"]);
     expect(filterTree(root, "nothing-like-this")).toBeNull();
     expect(filterTree(root, "")).toBe(root);

@@ -5,7 +5,9 @@ import { SampleRing } from "../../src/plot/ring";
 /** n samples from seq `first`, t = seq / 1000 s, channel c = seq * 10 + c. */
 function frame(first: number, n: number, channels = 2, dec = 1) {
   const t = Float64Array.from({ length: n }, (_, k) => (first + k * dec) / 1000);
-  const cols = Array.from({ length: channels }, (_, c) => Float64Array.from({ length: n }, (_, k) => (first + k * dec) * 10 + c));
+  const cols = Array.from({ length: channels }, (_, c) =>
+    Float64Array.from({ length: n }, (_, k) => (first + k * dec) * 10 + c),
+  );
   return { t, cols };
 }
 

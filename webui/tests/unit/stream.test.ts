@@ -1,7 +1,7 @@
 // stream.test.ts -- the stream client against a fake WebSocket: one socket, the union of the
 // listeners' paths, each listener given its own columns, the drop counter, reconnection.
 import { afterEach, beforeEach, describe, expect, it, vi } from "vitest";
-import { StreamClient, type Samples } from "../../src/stream/stream";
+import { type Samples, StreamClient } from "../../src/stream/stream";
 import { buildFrame } from "./build-frame";
 
 class FakeSocket {
@@ -43,7 +43,11 @@ class FakeSocket {
   }
 }
 
-const channels = (paths: string[]) => ({ channels: paths.map((path, index) => ({ index, path, type: "double" })), decimation: 1, basic_period_ns: 1000000 });
+const channels = (paths: string[]) => ({
+  channels: paths.map((path, index) => ({ index, path, type: "double" })),
+  decimation: 1,
+  basic_period_ns: 1000000,
+});
 
 beforeEach(() => {
   FakeSocket.all = [];
@@ -81,7 +85,18 @@ describe("StreamClient", () => {
     ws.open();
     ws.text(channels(["a", "b", "c"]));
     expect(c.status.basicPeriodNs).toBe(1000000);
-    ws.binary(buildFrame(100, [1e9, 2e9], [[1, 2], [3, 4], [5, 6]], 7));
+    ws.binary(
+      buildFrame(
+        100,
+        [1e9, 2e9],
+        [
+          [1, 2],
+          [3, 4],
+          [5, 6],
+        ],
+        7,
+      ),
+    );
     expect(got1.length).toBe(1);
     expect(got1[0].firstSeq).toBe(100);
     expect([...got1[0].t]).toEqual([1, 2]);
@@ -103,7 +118,16 @@ describe("StreamClient", () => {
     const ws = FakeSocket.all[0];
     ws.open();
     ws.text(channels(["a"]));
-    ws.binary(buildFrame(1, [1, 2, 3], [[1, 2, 3], [4, 5, 6]])); // two channels: not this subscription
+    ws.binary(
+      buildFrame(
+        1,
+        [1, 2, 3],
+        [
+          [1, 2, 3],
+          [4, 5, 6],
+        ],
+      ),
+    ); // two channels: not this subscription
     const bad = buildFrame(4, [1, 2], [[1, 2]]);
     new DataView(bad).setUint8(0, 0);
     ws.binary(bad);

@@ -1,9 +1,9 @@
 // timeline.test.ts -- the slot table (Table 3) and the geometry of one macro period (Figure 2)
 // from GET /schedule and the modules' measured execution times.
 import { describe, expect, it } from "vitest";
+import { renderSlotTable } from "../../src/ops/slot-table-view";
 import { buildSlotTable, buildTimeline, changedSlots, ticks, viewRange } from "../../src/ops/timeline";
 import { renderTimeline } from "../../src/ops/timeline-svg";
-import { renderSlotTable } from "../../src/ops/slot-table-view";
 import type { Schedule } from "../../src/ops/types";
 
 // the paper's Figure 1 as irpd schedules it (Table 3)
@@ -18,13 +18,69 @@ const FIG1: Schedule = {
     { index: 4, offset_ns: 400_000, modules: ["cntr3", "cntr2"] },
   ],
   modules: [
-    { name: "cntr1", moduletype: "thread", operationtype: "periodic", period_ns: 500_000, deadline_ns: 0, priority: 3, executor: "main" },
-    { name: "cntr2", moduletype: "thread", operationtype: "periodic", period_ns: 100_000, deadline_ns: 0, priority: 2, executor: "main" },
-    { name: "cntr3", moduletype: "thread", operationtype: "periodic", period_ns: 100_000, deadline_ns: 0, priority: 1, executor: "main" },
-    { name: "cntr4", moduletype: "process", operationtype: "periodic", period_ns: 500_000, deadline_ns: 0, priority: 4, executor: "main" },
-    { name: "visionEvt", moduletype: "process", operationtype: "sporadic", period_ns: 0, deadline_ns: 100_000_000, priority: 2, executor: "main" },
-    { name: "event1", moduletype: "thread", operationtype: "sporadic", period_ns: 0, deadline_ns: 1_000_000, priority: 1, executor: "main" },
-    { name: "nonReaTime", moduletype: "process", operationtype: "non-real", period_ns: 0, deadline_ns: 0, priority: 0, executor: "main" },
+    {
+      name: "cntr1",
+      moduletype: "thread",
+      operationtype: "periodic",
+      period_ns: 500_000,
+      deadline_ns: 0,
+      priority: 3,
+      executor: "main",
+    },
+    {
+      name: "cntr2",
+      moduletype: "thread",
+      operationtype: "periodic",
+      period_ns: 100_000,
+      deadline_ns: 0,
+      priority: 2,
+      executor: "main",
+    },
+    {
+      name: "cntr3",
+      moduletype: "thread",
+      operationtype: "periodic",
+      period_ns: 100_000,
+      deadline_ns: 0,
+      priority: 1,
+      executor: "main",
+    },
+    {
+      name: "cntr4",
+      moduletype: "process",
+      operationtype: "periodic",
+      period_ns: 500_000,
+      deadline_ns: 0,
+      priority: 4,
+      executor: "main",
+    },
+    {
+      name: "visionEvt",
+      moduletype: "process",
+      operationtype: "sporadic",
+      period_ns: 0,
+      deadline_ns: 100_000_000,
+      priority: 2,
+      executor: "main",
+    },
+    {
+      name: "event1",
+      moduletype: "thread",
+      operationtype: "sporadic",
+      period_ns: 0,
+      deadline_ns: 1_000_000,
+      priority: 1,
+      executor: "main",
+    },
+    {
+      name: "nonReaTime",
+      moduletype: "process",
+      operationtype: "non-real",
+      period_ns: 0,
+      deadline_ns: 0,
+      priority: 0,
+      executor: "main",
+    },
   ],
 };
 
@@ -57,7 +113,10 @@ describe("slot table", () => {
   });
 
   it("changed slots between two tables", () => {
-    const after: Schedule = { ...FIG1, slots: FIG1.slots.map((s) => (s.index === 0 ? { ...s, modules: ["cntr3", "cntr2", "cntr1"] } : s)) };
+    const after: Schedule = {
+      ...FIG1,
+      slots: FIG1.slots.map((s) => (s.index === 0 ? { ...s, modules: ["cntr3", "cntr2", "cntr1"] } : s)),
+    };
     expect([...changedSlots(buildSlotTable(FIG1), buildSlotTable(after))]).toEqual([0]);
     const shorter: Schedule = { ...FIG1, slots: FIG1.slots.slice(0, 1) };
     expect([...changedSlots(buildSlotTable(FIG1), buildSlotTable(shorter))]).toEqual([1, 2, 3, 4]);
@@ -120,10 +179,15 @@ describe("timeline", () => {
   });
 
   it("a module on its own executor gets its own lane with the same slots", () => {
-    const two: Schedule = { ...FIG1, modules: FIG1.modules.map((m) => (m.name === "cntr2" ? { ...m, executor: "fast" } : m)) };
+    const two: Schedule = {
+      ...FIG1,
+      modules: FIG1.modules.map((m) => (m.name === "cntr2" ? { ...m, executor: "fast" } : m)),
+    };
     const t = buildTimeline(two, FIGURES);
     expect(t.lanes.map((l) => l.executor)).toEqual(["main", "fast"]);
-    expect(t.lanes[1].boxes.map((b) => [b.module, b.slot, b.start])).toEqual([0, 1, 2, 3, 4].map((s) => ["cntr2", s, s * 100_000]));
+    expect(t.lanes[1].boxes.map((b) => [b.module, b.slot, b.start])).toEqual(
+      [0, 1, 2, 3, 4].map((s) => ["cntr2", s, s * 100_000]),
+    );
     expect(t.lanes[0].boxes.filter((b) => b.slot === 1).map((b) => b.module)).toEqual(["cntr3", "event1", "visionEvt"]);
   });
 

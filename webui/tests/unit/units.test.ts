@@ -1,6 +1,14 @@
 // units.test.ts -- periods typed by people, and durations, sizes and counts shown to them.
 import { describe, expect, it } from "vitest";
-import { formatBytes, formatCount, formatNs, formatPercent, formatUptime, parsePeriod, periodText } from "../../src/ops/units";
+import {
+  formatBytes,
+  formatCount,
+  formatNs,
+  formatPercent,
+  formatUptime,
+  parsePeriod,
+  periodText,
+} from "../../src/ops/units";
 
 describe("parsePeriod", () => {
   it.each([

@@ -1,7 +1,16 @@
 // upload.test.ts -- the files of a drop (folders walked, relative paths kept), the set's root,
 // the multipart body, and the refusal with its file and line.
 import { describe, expect, it } from "vitest";
-import { buildForm, filesFromEntries, filesFromList, planUpload, refusal, refusalWhere, type EntryLike, type UploadFile } from "../../src/ops/upload";
+import {
+  buildForm,
+  type EntryLike,
+  filesFromEntries,
+  filesFromList,
+  planUpload,
+  refusal,
+  refusalWhere,
+  type UploadFile,
+} from "../../src/ops/upload";
 
 const file = (name: string, text = name) => new File([text], name);
 
@@ -87,7 +96,10 @@ describe("planUpload", () => {
   });
 
   it("refuses a set without module.xml at its top", () => {
-    expect(planUpload(up("a/module.xml", "b/x.so"))).toMatchObject({ kind: "error", message: /no module.xml at the top/ });
+    expect(planUpload(up("a/module.xml", "b/x.so"))).toMatchObject({
+      kind: "error",
+      message: /no module.xml at the top/,
+    });
     expect(planUpload(up("x.so"))).toMatchObject({ kind: "error" });
     expect(planUpload([])).toMatchObject({ kind: "error", message: "no files" });
   });
@@ -95,7 +107,10 @@ describe("planUpload", () => {
   it("one .tar.gz goes alone as the archive", () => {
     expect(planUpload(up("dl/set.tar.gz"))).toMatchObject({ kind: "archive", name: "set.tar.gz" });
     expect(planUpload(up("set.tgz"))).toMatchObject({ kind: "archive" });
-    expect(planUpload(up("set.tar.gz", "module.xml"))).toMatchObject({ kind: "error", message: /send an archive alone/ });
+    expect(planUpload(up("set.tar.gz", "module.xml"))).toMatchObject({
+      kind: "error",
+      message: /send an archive alone/,
+    });
   });
 });
 
@@ -120,8 +135,19 @@ describe("multipart body", () => {
 
 describe("refusals", () => {
   it("carry file, line and column when the agent names them", () => {
-    const r = refusal(400, { detail: "module 'x': <period>: 'abc' is not a number", file: "module.xml", line: 12, column: 5 });
-    expect(r).toEqual({ status: 400, message: "module 'x': <period>: 'abc' is not a number", file: "module.xml", line: 12, column: 5 });
+    const r = refusal(400, {
+      detail: "module 'x': <period>: 'abc' is not a number",
+      file: "module.xml",
+      line: 12,
+      column: 5,
+    });
+    expect(r).toEqual({
+      status: 400,
+      message: "module 'x': <period>: 'abc' is not a number",
+      file: "module.xml",
+      line: 12,
+      column: 5,
+    });
     expect(refusalWhere(r)).toBe("module.xml:12:5");
     expect(refusalWhere(refusal(400, { detail: "d", file: "a.so" }))).toBe("a.so");
     expect(refusalWhere(refusal(413, { detail: "too large" }))).toBe("");

@@ -11,7 +11,16 @@ import {
   UTILIZATION_WARNING,
 } from "../../src/api/protocol";
 import type { ModuleInfo } from "../../src/ops/types";
-import { checkEdits, DEFAULT_LIMITS, duplicatePriorities, executorLoads, gcd, lcm, parsePriority, type Edit } from "../../src/ops/validate";
+import {
+  checkEdits,
+  DEFAULT_LIMITS,
+  duplicatePriorities,
+  type Edit,
+  executorLoads,
+  gcd,
+  lcm,
+  parsePriority,
+} from "../../src/ops/validate";
 
 const pct = (p50: number, p99: number, max = p99) => ({ count: 100, min: 0, max, mean: p50, p50, p99, p999: p99 });
 
@@ -55,7 +64,8 @@ const FIG1 = [
 ];
 
 const edits = (e: Record<string, Edit>) => new Map(Object.entries(e));
-const messages = (c: ReturnType<typeof checkEdits>, level: string) => c.issues.filter((i) => i.level === level).map((i) => i.message);
+const messages = (c: ReturnType<typeof checkEdits>, level: string) =>
+  c.issues.filter((i) => i.level === level).map((i) => i.message);
 
 describe("gcd and lcm", () => {
   it("of periods", () => {
@@ -76,9 +86,15 @@ describe("checkEdits", () => {
   });
 
   it("turns typed fields into changes, leaving out what equals the running value", () => {
-    const c = checkEdits(FIG1, edits({ cntr1: { period: "1ms", priority: "3" }, cntr2: { enabled: false }, cntr3: { period: "100us" } }));
+    const c = checkEdits(
+      FIG1,
+      edits({ cntr1: { period: "1ms", priority: "3" }, cntr2: { enabled: false }, cntr3: { period: "100us" } }),
+    );
     expect(c.complete).toBe(true);
-    expect(c.changes).toEqual([{ name: "cntr1", period_ns: 1_000_000 }, { name: "cntr2", enabled: false }]);
+    expect(c.changes).toEqual([
+      { name: "cntr1", period_ns: 1_000_000 },
+      { name: "cntr2", enabled: false },
+    ]);
     expect(c.macroNs).toBe(1_000_000);
     expect(c.slots).toBe(10);
     expect(messages(c, "info")).toContain("macro period 500 µs → 1 ms (10 slots)");
@@ -100,7 +116,11 @@ describe("checkEdits", () => {
     // 150 µs and 100 µs: GCD 50 µs; with a 60 µs minimum it is refused
     const c = checkEdits(FIG1, edits({ cntr1: { period: "150us" } }), { ...DEFAULT_LIMITS, minBasicNs: 60_000 });
     expect(c.basicNs).toBe(50_000);
-    expect(messages(c, "error").some((m) => /new basic period \(GCD of the periods\) would be 50 µs, below the minimum 60 µs/.test(m))).toBe(true);
+    expect(
+      messages(c, "error").some((m) =>
+        /new basic period \(GCD of the periods\) would be 50 µs, below the minimum 60 µs/.test(m),
+      ),
+    ).toBe(true);
   });
 
   it("a GCD change within the limits is information", () => {
@@ -117,7 +137,9 @@ describe("checkEdits", () => {
   it("a period shorter than the module's own execution time", () => {
     const mods = [mod("a", { period_ns: 1_000_000, exec_ns: pct(100_000, 300_000) })];
     const c = checkEdits(mods, edits({ a: { period: "200us" } }));
-    expect(c.issues.some((i) => i.module === "a" && /shorter than its measured execution time/.test(i.message))).toBe(true);
+    expect(c.issues.some((i) => i.module === "a" && /shorter than its measured execution time/.test(i.message))).toBe(
+      true,
+    );
   });
 
   it("only periodic modules have a period", () => {
@@ -142,7 +164,9 @@ describe("checkEdits", () => {
   });
 
   it("disabling every periodic module leaves the GCD (disabled ones keep their slots)", () => {
-    const all = edits(Object.fromEntries(FIG1.filter((m) => m.operationtype === "periodic").map((m) => [m.name, { enabled: false }])));
+    const all = edits(
+      Object.fromEntries(FIG1.filter((m) => m.operationtype === "periodic").map((m) => [m.name, { enabled: false }])),
+    );
     const c = checkEdits(FIG1, all);
     expect(c.basicNs).toBe(100_000);
     expect(c.load.find((l) => l.executor === "main")!.fraction).toBe(0);
@@ -165,10 +189,15 @@ describe("utilization", () => {
   });
 
   it("over 80 % is a warning, over 100 % an error", () => {
-    const mods = [mod("a", { period_ns: 100_000, exec_ns: pct(10_000, 45_000) }), mod("b", { period_ns: 100_000, exec_ns: pct(10_000, 40_000), priority: 2 })];
+    const mods = [
+      mod("a", { period_ns: 100_000, exec_ns: pct(10_000, 45_000) }),
+      mod("b", { period_ns: 100_000, exec_ns: pct(10_000, 40_000), priority: 2 }),
+    ];
     const warn = checkEdits(mods, new Map());
     expect(warn.load[0]).toMatchObject({ level: "warning" });
-    expect(messages(warn, "warning").some((m) => /executor main: estimated utilization 85.0 % is over 80 %/.test(m))).toBe(true);
+    expect(
+      messages(warn, "warning").some((m) => /executor main: estimated utilization 85.0 % is over 80 %/.test(m)),
+    ).toBe(true);
     const err = checkEdits(mods, edits({ b: { period: "60us" } }), { ...DEFAULT_LIMITS, minBasicNs: 10_000 });
     expect(err.load[0].level).toBe("error");
     expect(messages(err, "error").some((m) => /is over 100 %/.test(m))).toBe(true);
@@ -197,7 +226,12 @@ describe("duplicate priorities", () => {
 
   it("an edit that makes two priorities equal is flagged", () => {
     const c = checkEdits(FIG1, edits({ cntr1: { priority: "2" } }));
-    expect(c.issues.filter((i) => i.level === "warning").map((i) => i.module).sort()).toEqual(["cntr1", "cntr2"]);
+    expect(
+      c.issues
+        .filter((i) => i.level === "warning")
+        .map((i) => i.module)
+        .sort(),
+    ).toEqual(["cntr1", "cntr2"]);
   });
 
   it("the paper's set has none (event1 and cntr3 share 1, but one is sporadic)", () => {
@@ -213,8 +247,14 @@ describe("irpd's limits at their edges", () => {
   it("priority: from PRIORITY_MIN to PRIORITY_MAX", () => {
     expect(parsePriority(String(PRIORITY_MIN))).toEqual({ ok: true, value: PRIORITY_MIN });
     expect(parsePriority(String(PRIORITY_MAX))).toEqual({ ok: true, value: PRIORITY_MAX });
-    expect(parsePriority(String(PRIORITY_MIN - 1))).toMatchObject({ ok: false, error: `priority ${PRIORITY_MIN - 1} is below ${PRIORITY_MIN}` });
-    expect(parsePriority(String(PRIORITY_MAX + 1))).toMatchObject({ ok: false, error: `priority ${PRIORITY_MAX + 1} is above ${PRIORITY_MAX}` });
+    expect(parsePriority(String(PRIORITY_MIN - 1))).toMatchObject({
+      ok: false,
+      error: `priority ${PRIORITY_MIN - 1} is below ${PRIORITY_MIN}`,
+    });
+    expect(parsePriority(String(PRIORITY_MAX + 1))).toMatchObject({
+      ok: false,
+      error: `priority ${PRIORITY_MAX + 1} is above ${PRIORITY_MAX}`,
+    });
   });
 
   it("a period of exactly the minimum basic period, and one nanosecond less", () => {
@@ -225,7 +265,10 @@ describe("irpd's limits at their edges", () => {
   });
 
   it("a macro period of exactly MAX_SLOTS basic periods, and one more", () => {
-    const two = [mod("a", { period_ns: MIN_BASIC_PERIOD_NS }), mod("b", { period_ns: MIN_BASIC_PERIOD_NS, priority: 2 })];
+    const two = [
+      mod("a", { period_ns: MIN_BASIC_PERIOD_NS }),
+      mod("b", { period_ns: MIN_BASIC_PERIOD_NS, priority: 2 }),
+    ];
     const most = checkEdits(two, edits({ b: { period: `${MIN_BASIC_PERIOD_NS * MAX_SLOTS}ns` } }));
     expect(most.slots).toBe(MAX_SLOTS);
     expect(errors(most)).toEqual([]);
@@ -243,15 +286,18 @@ describe("irpd's limits at their edges", () => {
   });
 
   it("one change holds at most MAX_CHANGES modules", () => {
-    const many = (n: number) => Array.from({ length: n }, (_, i) => mod(`m${i}`, { operationtype: "sporadic", period_ns: 0, priority: i }));
+    const many = (n: number) =>
+      Array.from({ length: n }, (_, i) => mod(`m${i}`, { operationtype: "sporadic", period_ns: 0, priority: i }));
     const off = (mods: ModuleInfo[]) => new Map(mods.map((m) => [m.name, { enabled: false } as Edit]));
     const most = many(MAX_CHANGES);
-    const some = [...most, mod("p")];  // a periodic module keeps a basic period
+    const some = [...most, mod("p")]; // a periodic module keeps a basic period
     expect(checkEdits(some, off(most)).changes.length).toBe(MAX_CHANGES);
     expect(errors(checkEdits(some, off(most))).some((m) => /at most/.test(m))).toBe(false);
     const over = many(MAX_CHANGES + 1);
-    expect(errors(checkEdits([...over, mod("p")], off(over))).some((m) => new RegExp(`at most ${MAX_CHANGES} in one change`).test(m))).toBe(
-      true,
-    );
+    expect(
+      errors(checkEdits([...over, mod("p")], off(over))).some((m) =>
+        new RegExp(`at most ${MAX_CHANGES} in one change`).test(m),
+      ),
+    ).toBe(true);
   });
 });

@@ -15,8 +15,19 @@ const refused = (text: string, type: string, size: number) => {
 
 describe("kindOf", () => {
   it("knows the layout's type names", () => {
-    for (const t of ["short", "int", "int32_t", "int8_t", "long long", "signed char", "int64_t"]) expect(kindOf(t)).toBe("signed");
-    for (const t of ["unsigned short", "uint32_t", "uint16_t", "uint8_t", "unsigned", "unsigned char", "size_t", "uint64_t"]) expect(kindOf(t)).toBe("unsigned");
+    for (const t of ["short", "int", "int32_t", "int8_t", "long long", "signed char", "int64_t"])
+      expect(kindOf(t)).toBe("signed");
+    for (const t of [
+      "unsigned short",
+      "uint32_t",
+      "uint16_t",
+      "uint8_t",
+      "unsigned",
+      "unsigned char",
+      "size_t",
+      "uint64_t",
+    ])
+      expect(kindOf(t)).toBe("unsigned");
     for (const t of ["double", "float"]) expect(kindOf(t)).toBe("float");
     expect(kindOf("bool")).toBe("bool");
     expect(kindOf("char")).toBe("char");

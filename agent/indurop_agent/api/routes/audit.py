@@ -1,4 +1,5 @@
 """audit.py -- GET /api/v1/audit (admin): the last lines of the audit log, oldest first."""
+
 from fastapi import APIRouter, Query, Request
 
 from ..deps import AdminDep

@@ -1,4 +1,5 @@
 """health.py -- GET /api/v1/health: is the agent up, and does irpd answer (no token needed)."""
+
 from fastapi import APIRouter
 
 from ... import __version__

@@ -4,6 +4,7 @@ several modules changed as one hot swap, or only tried (dry run).  The bodies' t
 are the control protocol's (protocol/control.json); everything else about a change (a module the
 set lacks, one named twice, a period below the minimum) is irpd's to refuse, and its answer is
 passed on."""
+
 from __future__ import annotations
 
 from fastapi import APIRouter, HTTPException, Request
@@ -36,10 +37,14 @@ def module(name: str, irpd: IrpdDep, _: ViewerDep) -> ModuleInfo:
     return _find(irpd, name)
 
 
-@router.patch("/modules/{name}", responses={404: {"description": "no such module in the running set"},
-                                            409: {"description": "irpd refused a change (its message)"}})
-def patch_module(name: str, body: ModulePatch, request: Request, swap: SwapIrpdDep,
-                 who: OperatorDep) -> PatchReport:
+@router.patch(
+    "/modules/{name}",
+    responses={
+        404: {"description": "no such module in the running set"},
+        409: {"description": "irpd refused a change (its message)"},
+    },
+)
+def patch_module(name: str, body: ModulePatch, request: Request, swap: SwapIrpdDep, who: OperatorDep) -> PatchReport:
     """Applies period_ns, then priority, then enabled, each as one swap; answers the last swap
     report with every report in `reports`.  If a later one is refused, the earlier ones stay
     applied and the 409 says which."""
@@ -66,10 +71,16 @@ def patch_module(name: str, body: ModulePatch, request: Request, swap: SwapIrpdD
     return PatchReport(**reports[-1], reports=reports)
 
 
-@router.post("/modules/changes", responses={404: {"model": ErrorBody, "description": "a module not in the running set"},
-                                           409: {"model": ErrorBody, "description": "irpd refused the changes "
-                                                                                 "(its message: a module twice, a "
-                                                                                 "period below the minimum, ...)"}})
+@router.post(
+    "/modules/changes",
+    responses={
+        404: {"model": ErrorBody, "description": "a module not in the running set"},
+        409: {
+            "model": ErrorBody,
+            "description": "irpd refused the changes (its message: a module twice, a period below the minimum, ...)",
+        },
+    },
+)
 def change_modules(body: ModuleChanges, request: Request, swap: SwapIrpdDep, who: OperatorDep) -> ChangesReport:
     """Several modules' period, priority or enabled changed in one hot swap (one new generation);
     with dry_run, the same checks and the slot table before and after with the estimated
@@ -84,10 +95,18 @@ def change_modules(body: ModuleChanges, request: Request, swap: SwapIrpdDep, who
         with audited(request, who, "change_modules", names, changes=changes) as entry:
             result = ask(swap, "change", changes=changes, dry_run=False, timeout=timeout)
             entry["generation"] = (result.get("report") or {}).get("generation")
-        request.app.state.events.add("change_modules", f"modules {names}: {changes} by {who.name} "
-                                                       f"(generation {entry['generation']})",
-                                     module=body.changes[0].name if len(body.changes) == 1 else None)
+        request.app.state.events.add(
+            "change_modules",
+            f"modules {names}: {changes} by {who.name} (generation {entry['generation']})",
+            module=body.changes[0].name if len(body.changes) == 1 else None,
+        )
     per_executor = {k: float(v) for k, v in (result.get("utilization") or {}).items()}
-    return ChangesReport(dry_run=body.dry_run, before=result["before"], after=result["schedule"],
-                         utilization=max(per_executor.values(), default=0.0), executors=per_executor,
-                         warnings=result.get("warnings") or [], report=result.get("report"))
+    return ChangesReport(
+        dry_run=body.dry_run,
+        before=result["before"],
+        after=result["schedule"],
+        utilization=max(per_executor.values(), default=0.0),
+        executors=per_executor,
+        warnings=result.get("warnings") or [],
+        report=result.get("report"),
+    )

@@ -5,6 +5,7 @@ serves the viewer's page and WebSocket under /api/v1/robot/viewer/ (docs/robot-v
 The proxy's callers are iframes: they show a ticket once (?ticket=, from GET /robot's viewer_url),
 which is traded for an HttpOnly cookie scoped to the viewer's path, then load the page and open
 the WebSocket with that cookie.  The viewer's own server listens on 127.0.0.1 only."""
+
 from __future__ import annotations
 
 import asyncio
@@ -20,8 +21,7 @@ from ...irpd_client import IrpdRefused, IrpdUnavailable
 from ...store import StoreError
 from ...viewer.base import ViewerError
 from ...viewer.live import View
-from ...viewer.mapping import (MappingError, RobotConfig, check_against_urdf, check_variables, complete,
-                               joints_from)
+from ...viewer.mapping import MappingError, RobotConfig, check_against_urdf, check_variables, complete, joints_from
 from ...viewer.sets import running_set, with_robot_json
 from ...viewer.ticket import TicketError
 from ..deps import AdminDep, ViewerDep, ask, audited
@@ -33,8 +33,12 @@ router = APIRouter(tags=["robot"])
 COOKIE = "indurop_viewer"
 VIEWER = "/robot/viewer"
 MAX_MESSAGE_BYTES = 64 << 20  # viser sends a whole mesh in one message
-PAGE_HEADERS = {"Cache-Control": "no-store", "X-Content-Type-Options": "nosniff", "Referrer-Policy": "no-referrer",
-                "Content-Security-Policy": "frame-ancestors 'self'"}
+PAGE_HEADERS = {
+    "Cache-Control": "no-store",
+    "X-Content-Type-Options": "nosniff",
+    "Referrer-Policy": "no-referrer",
+    "Content-Security-Policy": "frame-ancestors 'self'",
+}
 CLOSE_UNAUTHENTICATED, CLOSE_FORBIDDEN, CLOSE_NO_VIEWER = 4401, 4403, 4404
 
 
@@ -44,14 +48,30 @@ def _public(request: Request, view: View, who) -> RobotView:
     if view.urdf is not None:
         for m in view.joints:
             j = view.urdf.joints[m.joint]
-            joints.append(RobotJoint(joint=m.joint, variable=m.variable, scale=m.scale, offset=m.offset, type=j.type,
-                                     lower=j.lower, upper=j.upper))
+            joints.append(
+                RobotJoint(
+                    joint=m.joint,
+                    variable=m.variable,
+                    scale=m.scale,
+                    offset=m.offset,
+                    type=j.type,
+                    lower=j.lower,
+                    upper=j.upper,
+                )
+            )
     url = None
     if view.available:
         ticket = request.app.state.tickets.issue(who)
         url = f"{request.url.path.rsplit('/robot', 1)[0]}{VIEWER}/?ticket={ticket}"
-    return RobotView(available=view.available, detail=view.detail, viewer=settings.viewer, viewer_url=url,
-                     urdf=view.config.urdf if view.config else None, joints=joints, set_id=view.set_id)
+    return RobotView(
+        available=view.available,
+        detail=view.detail,
+        viewer=settings.viewer,
+        viewer_url=url,
+        urdf=view.config.urdf if view.config else None,
+        joints=joints,
+        set_id=view.set_id,
+    )
 
 
 @router.get("/robot")
@@ -61,8 +81,11 @@ def robot(request: Request, who: ViewerDep) -> RobotView:
     return _public(request, request.app.state.robot.current(), who)
 
 
-@router.get("/robot/urdf", response_class=Response,
-            responses={200: {"content": {"application/xml": {}}}, 404: {"description": "no robot in the running set"}})
+@router.get(
+    "/robot/urdf",
+    response_class=Response,
+    responses={200: {"content": {"application/xml": {}}}, 404: {"description": "no robot in the running set"}},
+)
 def robot_urdf(request: Request, _: ViewerDep) -> Response:
     view = request.app.state.robot.current()
     if view.urdf is None or view.urdf.path is None:
@@ -84,9 +107,14 @@ def _check_map(body: JointMapUpdate, view: View, leaves: dict, scalars: dict) ->
     return joints
 
 
-@router.put("/robot/joints", responses={400: {"description": "a joint or a variable that does not exist (named)"},
-                                        409: {"description": "the running set has no robot, or irpd refused the set"},
-                                        503: {"description": "irpd unreachable"}})
+@router.put(
+    "/robot/joints",
+    responses={
+        400: {"description": "a joint or a variable that does not exist (named)"},
+        409: {"description": "the running set has no robot, or irpd refused the set"},
+        503: {"description": "irpd unreachable"},
+    },
+)
 def put_joints(body: JointMapUpdate, request: Request, who: AdminDep) -> RobotView:
     """Stores a new mapping as a new version of the running set (history and rollback as for any
     set), activates it (a hot reload that keeps every module) and applies it to the view at once.
@@ -121,15 +149,18 @@ def put_joints(body: JointMapUpdate, request: Request, who: AdminDep) -> RobotVi
             entry["generation"] = (report or {}).get("generation")
             entry["kept"] = (report or {}).get("kept")
     view = state.robot.refresh()
-    state.events.add("robot_joints", f"{who.name} changed the joint map: set {manifest['id']} (from {base_id}) is "
-                                     "active", set_id=manifest["id"])
+    state.events.add(
+        "robot_joints",
+        f"{who.name} changed the joint map: set {manifest['id']} (from {base_id}) is active",
+        set_id=manifest["id"],
+    )
     return _public(request, view, who)
 
 
 # ---- the proxy ------------------------------------------------------------------------------
 def _prefix(path: str) -> str:
     """/api/v1/robot/viewer, from a request's path under it."""
-    return path[:path.index(VIEWER) + len(VIEWER)]
+    return path[: path.index(VIEWER) + len(VIEWER)]
 
 
 def _identify(state, cookies, query) -> None:
@@ -160,9 +191,15 @@ async def viewer_file(path: str, request: Request) -> Response:
             raise HTTPException(401, str(e)) from e
         rest = [(k, v) for k, v in request.query_params.multi_items() if k != "ticket"]
         response = RedirectResponse(request.url.path + (f"?{urlencode(rest)}" if rest else ""), status_code=303)
-        response.set_cookie(COOKIE, state.tickets.issue(who, "session"), max_age=int(state.settings.viewer_session_s),
-                            path=_prefix(request.url.path), httponly=True, samesite="strict",
-                            secure=state.settings.tls_cert is not None)
+        response.set_cookie(
+            COOKIE,
+            state.tickets.issue(who, "session"),
+            max_age=int(state.settings.viewer_session_s),
+            path=_prefix(request.url.path),
+            httponly=True,
+            samesite="strict",
+            secure=state.settings.tls_cert is not None,
+        )
         return response
     try:
         _identify(state, request.cookies, {})
@@ -205,8 +242,14 @@ async def viewer_socket(ws: WebSocket, path: str = "") -> None:
         return await _refuse(ws, CLOSE_NO_VIEWER, "no 3D view: the running set has no robot")
     subprotocols = list(ws.scope.get("subprotocols") or [])
     try:
-        upstream = await connect(f"ws://127.0.0.1:{viewer.port}{viewer.ws_path}", subprotocols=subprotocols or None,
-                                 max_size=MAX_MESSAGE_BYTES, compression=None, open_timeout=10, ping_interval=None)
+        upstream = await connect(
+            f"ws://127.0.0.1:{viewer.port}{viewer.ws_path}",
+            subprotocols=subprotocols or None,
+            max_size=MAX_MESSAGE_BYTES,
+            compression=None,
+            open_timeout=10,
+            ping_interval=None,
+        )
     except (OSError, TimeoutError, websockets.exceptions.WebSocketException, ViewerError) as e:
         return await _refuse(ws, 1011, f"the viewer did not answer: {e}")
     await ws.accept(subprotocol=upstream.subprotocol)
@@ -240,4 +283,3 @@ async def viewer_socket(ws: WebSocket, path: str = "") -> None:
             await ws.close()
         except RuntimeError:
             pass  # already closed by the browser
-

@@ -1,6 +1,7 @@
 """sets.py -- module sets: upload (admin), list and read (viewer), activate and roll back
 (operator).  The store is agent/indurop_agent/store.py; uploads are checked by uploads.py;
 activation is a hot swap in irpd (activation.py)."""
+
 from __future__ import annotations
 
 from fastapi import APIRouter, HTTPException, Request
@@ -17,16 +18,41 @@ from ..models import ActivateRequest, ActiveSet, ErrorBody, SetPublic, SetSummar
 router = APIRouter(tags=["sets"])
 
 NOT_CHECKED_YET = {"valid": None, "errors": [], "problems": [], "warnings": ["not checked yet"], "schedule": None}
-UPLOAD_BODY = {"requestBody": {"required": True, "content": {
-    "multipart/form-data": {"schema": {"type": "object", "properties": {
-        "files": {"type": "array", "items": {"type": "string", "format": "binary"},
-                  "description": "one part per file; its filename is the path in the set (module.xml, lib/cntr1.so)"},
-        "archive": {"type": "string", "format": "binary", "description": "or: the whole set as one .tar.gz"}}}},
-    "application/gzip": {"schema": {"type": "string", "format": "binary", "description": "the set as a .tar.gz"}}}}}
-REFUSALS = {400: {"model": ErrorBody, "description": "a bad name, module.xml or file content; the detail says what "
-                                                     "to fix, file/line/column where"},
-            413: {"model": ErrorBody, "description": "a file, the upload or the file count is over the limit"},
-            415: {"model": ErrorBody, "description": "a kind of file a set does not hold"}}
+UPLOAD_BODY = {
+    "requestBody": {
+        "required": True,
+        "content": {
+            "multipart/form-data": {
+                "schema": {
+                    "type": "object",
+                    "properties": {
+                        "files": {
+                            "type": "array",
+                            "items": {"type": "string", "format": "binary"},
+                            "description": "one part per file; its filename is the path in the set (module.xml, lib/cntr1.so)",
+                        },
+                        "archive": {
+                            "type": "string",
+                            "format": "binary",
+                            "description": "or: the whole set as one .tar.gz",
+                        },
+                    },
+                }
+            },
+            "application/gzip": {
+                "schema": {"type": "string", "format": "binary", "description": "the set as a .tar.gz"}
+            },
+        },
+    }
+}
+REFUSALS = {
+    400: {
+        "model": ErrorBody,
+        "description": "a bad name, module.xml or file content; the detail says what to fix, file/line/column where",
+    },
+    413: {"model": ErrorBody, "description": "a file, the upload or the file count is over the limit"},
+    415: {"model": ErrorBody, "description": "a kind of file a set does not hold"},
+}
 
 
 def _located(request: Request, manifest: dict) -> dict:
@@ -62,16 +88,20 @@ async def upload_set(request: Request, who: AdminDep) -> SetPublic:
             manifest, new = await run_in_threadpool(state.store.commit, files, who.as_dict(), NOT_CHECKED_YET)
             if new or manifest["validation"]["valid"] is None:  # checked now, or again now irpd may answer
                 module_xml = state.store.module_xml(manifest["id"])
-                validation = await run_in_threadpool(irpd_validation, state.irpd_swap, module_xml,
-                                                     state.settings.swap_timeout_s)
+                validation = await run_in_threadpool(
+                    irpd_validation, state.irpd_swap, module_xml, state.settings.swap_timeout_s
+                )
                 manifest = await run_in_threadpool(state.store.save_validation, manifest["id"], validation)
             entry["new"] = new
             entry["valid"] = manifest["validation"]["valid"]
     finally:
         await run_in_threadpool(remove_tree, staging)
-    state.events.add("upload", f"set {manifest['id']} uploaded by {who.name} ({len(files)} files, "
-                               f"{'new' if new else 'already stored'}, valid: {manifest['validation']['valid']})",
-                     set_id=manifest["id"])
+    state.events.add(
+        "upload",
+        f"set {manifest['id']} uploaded by {who.name} ({len(files)} files, "
+        f"{'new' if new else 'already stored'}, valid: {manifest['validation']['valid']})",
+        set_id=manifest["id"],
+    )
     return _public(request, manifest)
 
 
@@ -79,9 +109,17 @@ async def upload_set(request: Request, who: AdminDep) -> SetPublic:
 def list_sets(request: Request, _: ViewerDep) -> list[SetSummary]:
     """Every stored set, newest first."""
     active = request.app.state.store.active_id()
-    return [SetSummary(id=m["id"], created=m["created"], by=m["by"], files=len(m["files"]),
-                       valid=m["validation"]["valid"], active=m["id"] == active)
-            for m in request.app.state.store.list()]
+    return [
+        SetSummary(
+            id=m["id"],
+            created=m["created"],
+            by=m["by"],
+            files=len(m["files"]),
+            valid=m["validation"]["valid"],
+            active=m["id"] == active,
+        )
+        for m in request.app.state.store.list()
+    ]
 
 
 @router.get("/sets/active", responses={404: {"description": "no set has been activated through the agent"}})
@@ -91,8 +129,13 @@ def active_set(request: Request, _: ViewerDep) -> ActiveSet:
     manifest = store.manifest(active["set_id"]) if active else None
     if manifest is None:
         raise HTTPException(404, "no set has been activated through the agent yet; POST /api/v1/sets/{id}/activate")
-    return ActiveSet(**_located(request, manifest), active=True, since=active["since"], action=active["action"],
-                     rollback_to=store.rollback_target())
+    return ActiveSet(
+        **_located(request, manifest),
+        active=True,
+        since=active["since"],
+        action=active["action"],
+        rollback_to=store.rollback_target(),
+    )
 
 
 @router.get("/sets/{set_id}", responses={404: {"description": "no such set"}})
@@ -111,8 +154,9 @@ async def check_set(set_id: str, request: Request, _: OperatorDep) -> SetPublic:
     state = request.app.state
     if state.store.manifest(set_id) is None:
         raise HTTPException(404, f"no set {set_id!r}; GET /api/v1/sets lists them")
-    validation = await run_in_threadpool(irpd_validation, state.irpd_swap, state.store.module_xml(set_id),
-                                         state.settings.swap_timeout_s)
+    validation = await run_in_threadpool(
+        irpd_validation, state.irpd_swap, state.store.module_xml(set_id), state.settings.swap_timeout_s
+    )
     manifest = await run_in_threadpool(state.store.save_validation, set_id, validation)
     return _public(request, manifest)
 
@@ -126,8 +170,11 @@ def _run_swap(call, root=None):
     except RestartFellBack as e:  # irpd restarted, and runs its old set again
         raise LocatedError(409, str(e), **(locate(str(e), root) if root is not None else {})) from e
     except IrpdRefused as e:
-        raise LocatedError(409, f"irpd refused the set and kept the running one: {e}",
-                           **(locate(str(e), root) if root is not None else {})) from e
+        raise LocatedError(
+            409,
+            f"irpd refused the set and kept the running one: {e}",
+            **(locate(str(e), root) if root is not None else {}),
+        ) from e
     except IrpdUnavailable as e:
         raise HTTPException(503, str(e)) from e
 
@@ -155,11 +202,19 @@ def rollback(request: Request, who: OperatorDep, body: ActivateRequest | None = 
     return SwapReport(**(report or {}))
 
 
-@router.post("/sets/{set_id}/activate", responses={404: {"description": "no such set"},
-                                                    409: {"model": ErrorBody, "description": "irpd refused the set "
-                                                          "(its message; file and line where it names them), a set "
-                                                          "that needs a restart in mode online, or a restart after "
-                                                          "which irpd came back on its old set"}})
+@router.post(
+    "/sets/{set_id}/activate",
+    responses={
+        404: {"description": "no such set"},
+        409: {
+            "model": ErrorBody,
+            "description": "irpd refused the set "
+            "(its message; file and line where it names them), a set "
+            "that needs a restart in mode online, or a restart after "
+            "which irpd came back on its old set",
+        },
+    },
+)
 def activate(set_id: str, request: Request, who: OperatorDep, body: ActivateRequest | None = None) -> SwapReport:
     """Puts this set into irpd: mode online (the default) hot-swaps it at a macro-period boundary and
     refuses (409) a set that needs a restart, naming why; mode restart restarts irpd (same pid) onto

@@ -1,5 +1,6 @@
 """status.py -- the running set: its status and its schedule (Table 3); the host's load.  Modules:
 modules.py."""
+
 from fastapi import APIRouter, Request
 from starlette.concurrency import run_in_threadpool
 

@@ -6,6 +6,7 @@ rings every 20 ms and gives each client what is new for it.  A client that reads
 frames, never the agent's memory: its queue is bounded, and every frame carries the number of
 samples the client has lost so far.
 """
+
 from __future__ import annotations
 
 import asyncio
@@ -16,25 +17,25 @@ from collections import deque
 from fastapi import APIRouter, WebSocket
 from starlette.websockets import WebSocketDisconnect
 
-from ..deps import AuthFailure, check_token
-from ...irpd_client import IrpdRefused, IrpdUnavailable
 from ... import stream_frame
+from ...irpd_client import IrpdRefused, IrpdUnavailable
 from ...trace import TraceError, TraceRead, TraceRing
+from ..deps import AuthFailure, check_token
 
 router = APIRouter(tags=["stream"])
 
 # Samples go out as the binary frame of protocol/stream/frame.json (stream_frame.py).
 
-MAX_CHANNELS = 64              # irpd's limit, for all clients together
+MAX_CHANNELS = 64  # irpd's limit, for all clients together
 MAX_DECIMATION = 1_000_000
 POLL_S = 0.020
 MAX_SAMPLES_PER_FRAME = 1024
-QUEUE_BYTES = 4 << 20          # frames waiting for one client; beyond it frames are dropped
-MAX_CONTROL_MESSAGES = 64      # JSON messages waiting for one client; beyond it the client is closed
+QUEUE_BYTES = 4 << 20  # frames waiting for one client; beyond it frames are dropped
+MAX_CONTROL_MESSAGES = 64  # JSON messages waiting for one client; beyond it the client is closed
 MAX_CLIENTS = 32
 AUTH_TIMEOUT_S = 10.0
 STATS_EVERY_S = 1.0
-RECHECK_EVERY_S = 1.0          # irpd restarted, or the traced channels changed under us
+RECHECK_EVERY_S = 1.0  # irpd restarted, or the traced channels changed under us
 CLOSE_UNAUTHENTICATED, CLOSE_FORBIDDEN, CLOSE_LOCKED_OUT, CLOSE_TOO_SLOW, CLOSE_BUSY = 4401, 4403, 4429, 1008, 1013
 
 
@@ -144,7 +145,7 @@ class Hub:
     """The agent's one reader of the trace rings, shared by every stream client."""
 
     @staticmethod
-    def of(app) -> "Hub":
+    def of(app) -> Hub:
         hub = getattr(app.state, "stream_hub", None)
         if hub is None:
             hub = app.state.stream_hub = Hub(app.state.irpd)
@@ -153,11 +154,11 @@ class Hub:
     def __init__(self, irpd):
         self.irpd = irpd
         self.clients: set[Client] = set()
-        self.union: list[str] = []        # what irpd was asked to trace, in channel order
+        self.union: list[str] = []  # what irpd was asked to trace, in channel order
         self.types: dict[str, str] = {}
-        self.lock = asyncio.Lock()        # one reconfiguration at a time
+        self.lock = asyncio.Lock()  # one reconfiguration at a time
         self.ring: TraceRing | None = None
-        self.cursor = 0                   # the last seq handed to the clients
+        self.cursor = 0  # the last seq handed to the clients
         self.task: asyncio.Task | None = None
         self.background: set[asyncio.Task] = set()
         self.last_stats = self.last_recheck = 0.0
@@ -183,7 +184,7 @@ class Hub:
         channel order and appending new paths."""
         want: list[str] = []
         for c in self.clients:
-            for p in (paths if c is client else c.paths):
+            for p in paths if c is client else c.paths:
                 if p not in want:
                     want.append(p)
         if client is not None and client not in self.clients:
@@ -192,10 +193,14 @@ class Hub:
         return kept + [p for p in want if p not in kept]
 
     def channels_message(self, client: Client, restarted: bool = False) -> dict:
-        message = {"channels": [{"index": i, "path": p, "type": self.types.get(p)} for i, p in enumerate(client.paths)],
-                   "decimation": client.decimation, "stats": client.stats, "frame_version": stream_frame.VERSION,
-                   "basic_period_ns": self.ring.basic_period_ns if self.ring else None,
-                   "capacity": self.ring.capacity if self.ring else None}
+        message = {
+            "channels": [{"index": i, "path": p, "type": self.types.get(p)} for i, p in enumerate(client.paths)],
+            "decimation": client.decimation,
+            "stats": client.stats,
+            "frame_version": stream_frame.VERSION,
+            "basic_period_ns": self.ring.basic_period_ns if self.ring else None,
+            "capacity": self.ring.capacity if self.ring else None,
+        }
         if restarted:
             message["restarted"] = True
         return message
@@ -203,22 +208,36 @@ class Hub:
     async def subscribe(self, client: Client, message: dict) -> None:
         paths, decimation, stats = message.get("subscribe"), message.get("decimation", 1), message.get("stats", False)
         if not isinstance(paths, list) or not all(isinstance(p, str) for p in paths):
-            return client.post(error("bad_request", 'send {"subscribe": ["variable path", ...], "decimation": n, '
-                                                    '"stats": false}; "subscribe" must be a list of paths'))
+            return client.post(
+                error(
+                    "bad_request",
+                    'send {"subscribe": ["variable path", ...], "decimation": n, '
+                    '"stats": false}; "subscribe" must be a list of paths',
+                )
+            )
         if len(set(paths)) != len(paths):
             twice = next(p for p in paths if paths.count(p) > 1)
             return client.post(error("bad_request", f"'{twice}' is listed twice in \"subscribe\""))
         if isinstance(decimation, bool) or not isinstance(decimation, int) or not 1 <= decimation <= MAX_DECIMATION:
-            return client.post(error("bad_request", f'"decimation" must be an integer from 1 to {MAX_DECIMATION} '
-                                                    f"(1: every basic period), not {json.dumps(decimation)}"))
+            return client.post(
+                error(
+                    "bad_request",
+                    f'"decimation" must be an integer from 1 to {MAX_DECIMATION} '
+                    f"(1: every basic period), not {json.dumps(decimation)}",
+                )
+            )
         if not isinstance(stats, bool):
             return client.post(error("bad_request", f'"stats" must be true or false, not {json.dumps(stats)}'))
         async with self.lock:
             union = self.wanted(client, paths)
             if len(union) > MAX_CHANNELS:
-                return client.post(error("too_many_channels",
-                                         f"this subscription would make {len(union)} channels traced for all stream "
-                                         f"clients together; irpd traces at most {MAX_CHANNELS}"))
+                return client.post(
+                    error(
+                        "too_many_channels",
+                        f"this subscription would make {len(union)} channels traced for all stream "
+                        f"clients together; irpd traces at most {MAX_CHANNELS}",
+                    )
+                )
             if union != self.union or self.ring is None:
                 try:
                     await self.configure(union)
@@ -276,13 +295,24 @@ class Hub:
             status = None
         for c in self.clients:
             if c.stats:
-                c.post_stats({"stream": {"dropped": c.dropped, "sent_frames": c.sent_frames,
-                                         "sent_samples": c.sent_samples, "queued_bytes": c.queued_bytes,
-                                         "decimation": c.decimation, "channels": len(c.paths)},
-                              "trace": {"head": self.ring.head() if self.ring else None,
-                                        "torn_skips": self.ring.torn_skips if self.ring else None,
-                                        "traced_channels": len(self.union)},
-                              "irpd": status})
+                c.post_stats(
+                    {
+                        "stream": {
+                            "dropped": c.dropped,
+                            "sent_frames": c.sent_frames,
+                            "sent_samples": c.sent_samples,
+                            "queued_bytes": c.queued_bytes,
+                            "decimation": c.decimation,
+                            "channels": len(c.paths),
+                        },
+                        "trace": {
+                            "head": self.ring.head() if self.ring else None,
+                            "torn_skips": self.ring.torn_skips if self.ring else None,
+                            "traced_channels": len(self.union),
+                        },
+                        "irpd": status,
+                    }
+                )
 
     # ---- the poll loop ----------------------------------------------------------------------------
     async def run(self) -> None:
@@ -316,7 +346,7 @@ async def authenticate(ws: WebSocket) -> tuple[bool, dict | None]:
     if token is None:
         try:
             message = await asyncio.wait_for(ws.receive(), AUTH_TIMEOUT_S)
-        except asyncio.TimeoutError:
+        except TimeoutError:
             message = {"type": "websocket.receive"}
         if message["type"] == "websocket.disconnect":
             return False, None
@@ -326,7 +356,9 @@ async def authenticate(ws: WebSocket) -> tuple[bool, dict | None]:
             first = None
         token = first.get("token") if isinstance(first, dict) else None
         if not isinstance(token, str):
-            await ws.close(CLOSE_UNAUTHENTICATED, 'a viewer token is required: ?token=... or a first message {"token": "..."}')
+            await ws.close(
+                CLOSE_UNAUTHENTICATED, 'a viewer token is required: ?token=... or a first message {"token": "..."}'
+            )
             return False, None
     address = ws.client.host if ws.client else "unknown"
     try:
@@ -359,8 +391,11 @@ async def stream(ws: WebSocket) -> None:
                 if "subscribe" in pending:
                     await hub.subscribe(client, pending)
                 else:
-                    client.post(error("bad_request", 'send {"subscribe": ["variable path", ...], "decimation": n, '
-                                                     '"stats": false}'))
+                    client.post(
+                        error(
+                            "bad_request", 'send {"subscribe": ["variable path", ...], "decimation": n, "stats": false}'
+                        )
+                    )
             message = await ws.receive()
             if message["type"] == "websocket.disconnect" or pump.done():
                 break

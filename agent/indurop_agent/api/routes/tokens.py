@@ -1,5 +1,6 @@
 """tokens.py -- bearer tokens: who am I (any role); create one for a role (shown once), list them,
 revoke one (admin)."""
+
 from typing import Literal
 
 from fastapi import APIRouter, HTTPException, Request
@@ -46,8 +47,9 @@ def create_token(body: TokenCreate, request: Request, who: AdminDep) -> TokenPub
     with audited(request, who, "token_create", body.name, role=body.role) as entry:
         token, identity = request.app.state.tokens.add(body.name, body.role)
         entry["token_id"] = identity.id
-    request.app.state.events.add("token_create",
-                                 f"token {identity.id} ({body.name}, {body.role}) created by {who.name}")
+    request.app.state.events.add(
+        "token_create", f"token {identity.id} ({body.name}, {body.role}) created by {who.name}"
+    )
     return TokenPublic(id=identity.id, name=body.name, role=body.role, token=token)
 
 
@@ -56,8 +58,11 @@ def list_tokens(request: Request, _: AdminDep) -> list[TokenInfo]:
     return [TokenInfo(**t) for t in request.app.state.tokens.list()]
 
 
-@router.delete("/tokens/{token_id}", status_code=204, responses={404: {"description": "no such token"},
-                                                                  409: {"description": "the last admin token"}})
+@router.delete(
+    "/tokens/{token_id}",
+    status_code=204,
+    responses={404: {"description": "no such token"}, 409: {"description": "the last admin token"}},
+)
 def revoke_token(token_id: str, request: Request, who: AdminDep) -> None:
     with audited(request, who, "token_revoke", token_id) as entry:
         try:

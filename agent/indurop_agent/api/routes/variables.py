@@ -2,6 +2,7 @@
 GET /api/v1/variables/{path} (one value, read consistently from shared memory),
 PUT /api/v1/variables/{path} (operator: irpd writes the value, type-checked against the layout) and
 GET /api/v1/layout (the running layout.json, to lay a changed .glb out against: glbc --previous)."""
+
 from fastapi import APIRouter, HTTPException, Request, Response
 from pydantic import BaseModel, ConfigDict
 
@@ -33,18 +34,26 @@ def segment(request: Request, irpd) -> Segment:
 @router.get("/variables")
 def list_variables(request: Request, irpd: IrpdDep, _: ViewerDep) -> VariableList:
     seg = segment(request, irpd)
-    return {"layout_hash": seg.hash,
-            "variables": [{k: leaf[k] for k in ("path", "type", "size")} for leaf in seg.layout["leaves"]]}
+    return {
+        "layout_hash": seg.hash,
+        "variables": [{k: leaf[k] for k in ("path", "type", "size")} for leaf in seg.layout["leaves"]],
+    }
 
 
-@router.get("/layout", response_class=Response, responses={200: {"content": {"application/json": {}},
-                                                                  "description": "the layout.json text"}})
+@router.get(
+    "/layout",
+    response_class=Response,
+    responses={200: {"content": {"application/json": {}}, "description": "the layout.json text"}},
+)
 def running_layout(request: Request, irpd: IrpdDep, _: ViewerDep) -> Response:
     """The running shared-variable layout (glbc's layout.json, as published last in the segment): the
     file to give glbc --previous, or indurop_add_glb(... PREVIOUS), when a .glb changes."""
     seg = segment(request, irpd)
-    return Response(seg.text, media_type="application/json",
-                    headers={"Content-Disposition": 'attachment; filename="layout.json"', "ETag": f'"{seg.hash}"'})
+    return Response(
+        seg.text,
+        media_type="application/json",
+        headers={"Content-Disposition": 'attachment; filename="layout.json"', "ETag": f'"{seg.hash}"'},
+    )
 
 
 @router.get("/variables/{path:path}")
@@ -63,10 +72,13 @@ class VariableWrite(BaseModel):
     value: protocol.VariableValue
 
 
-@router.put("/variables/{path:path}", responses={409: {"description": "irpd refused: unknown path, wrong type, "
-                                                                      "out of range (its message)"}})
-def write_variable(path: str, body: VariableWrite, request: Request, irpd: IrpdDep,
-                   who: OperatorDep) -> VariableWritten:
+@router.put(
+    "/variables/{path:path}",
+    responses={409: {"description": "irpd refused: unknown path, wrong type, out of range (its message)"}},
+)
+def write_variable(
+    path: str, body: VariableWrite, request: Request, irpd: IrpdDep, who: OperatorDep
+) -> VariableWritten:
     with audited(request, who, "write_variable", path, value=body.value):
         result = ask(irpd, "write", path=path, value=body.value)
     return result if isinstance(result, dict) else {"path": path, "value": body.value}

@@ -13,12 +13,12 @@
 namespace irp::kin {
 
 namespace {
-constexpr double kGridStep = 0.01;        // m between grid points, at most
-constexpr double kGridAngle = 0.02;       // rad between grid points, at most
-constexpr double kMaxGridJump = 0.15;     // rad: a grid solution this far from its prediction changed configuration
-constexpr double kSingularRatio = 1e-5;   // smallest / largest singular value of J below this: singular
+constexpr double kGridStep = 0.01;       // m between grid points, at most
+constexpr double kGridAngle = 0.02;      // rad between grid points, at most
+constexpr double kMaxGridJump = 0.15;    // rad: a grid solution this far from its prediction changed configuration
+constexpr double kSingularRatio = 1e-5;  // smallest / largest singular value of J below this: singular
 constexpr double kInf = std::numeric_limits<double>::infinity();
-} // namespace
+}  // namespace
 
 const char *describe(PlanError error) noexcept {
     switch (error) {
@@ -199,8 +199,8 @@ PlanReport CartesianTrajectory::plan(const Joints &from, const Pose &target, con
     profile_.plan(1.0, sd, sdd);
     if (speed_scale_ < 1)
         std::snprintf(report.text, sizeof report.text,
-                      "MoveL slowed to %.0f%% of the requested speed by joint %d's limits (%.2f s)",
-                      100 * speed_scale_, slow_joint + 1, profile_.duration());
+                      "MoveL slowed to %.0f%% of the requested speed by joint %d's limits (%.2f s)", 100 * speed_scale_,
+                      slow_joint + 1, profile_.duration());
     else
         std::snprintf(report.text, sizeof report.text, "MoveL planned: %.3f m, %.3f rad in %.2f s", length, angle_,
                       profile_.duration());
@@ -240,4 +240,4 @@ void CartesianTrajectory::stop(double t) noexcept {
     if (robot_->ikNear(poseAt(s), seed, q_end_, 6) != IkStatus::Ok) q_end_ = seed;
 }
 
-} // namespace irp::kin
+}  // namespace irp::kin

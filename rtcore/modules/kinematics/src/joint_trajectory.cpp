@@ -16,10 +16,10 @@ double commonRate(const Joints &d, const Joints &limit) noexcept {
         if (std::abs(d[i]) > 0) r = std::min(r, limit[i] / std::abs(d[i]));
     return r;
 }
-} // namespace
+}  // namespace
 
-void JointTrajectory::plan(const Joints &from, const Joints &to, const Joints &vmax, const Joints &amax,
-                           double speed, double accel) noexcept {
+void JointTrajectory::plan(const Joints &from, const Joints &to, const Joints &vmax, const Joints &amax, double speed,
+                           double accel) noexcept {
     from_ = from;
     to_ = to;
     direction_ = to - from;
@@ -70,4 +70,4 @@ Joints JointTrajectory::finalPosition() const noexcept {
     return from_ + direction_ * profile_.finalPosition();
 }
 
-} // namespace irp::kin
+}  // namespace irp::kin

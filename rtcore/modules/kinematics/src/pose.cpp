@@ -33,4 +33,4 @@ double orientationError(const Pose &a, const Pose &b) noexcept {
     return 2.0 * std::atan2(d.vec().norm(), std::abs(d.w()));
 }
 
-} // namespace irp::kin
+}  // namespace irp::kin

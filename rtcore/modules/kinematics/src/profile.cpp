@@ -64,4 +64,4 @@ double Trapezoid::duration() const noexcept { return stopping_ ? ts_ + vs_ / ds_
 
 double Trapezoid::finalPosition() const noexcept { return stopping_ ? ss_ + vs_ * vs_ / (2 * ds_) : d_; }
 
-} // namespace irp::kin
+}  // namespace irp::kin

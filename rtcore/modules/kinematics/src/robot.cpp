@@ -100,7 +100,7 @@ private:
     std::string text_;
 };
 
-} // namespace
+}  // namespace
 
 const char *describe(IkStatus status) noexcept {
     switch (status) {
@@ -268,8 +268,8 @@ IkStatus Robot::ik(const Pose &target, const Joints &seed, Joints &q) const noex
         return accept(flipped);
     };
     if (tryLma(seed)) return IkStatus::Ok;
-    static constexpr double kArm[8][2] = {{0.3, -0.3}, {0.8, 0.4}, {-0.4, -1.8}, {1.5, 0.6}, {2.2, 0.6},
-                                          {2.1, 1.0},  {-1.3, 0.2}, {1.7, -2.1}};
+    static constexpr double kArm[8][2] = {{0.3, -0.3}, {0.8, 0.4}, {-0.4, -1.8}, {1.5, 0.6},
+                                          {2.2, 0.6},  {2.1, 1.0}, {-1.3, 0.2},  {1.7, -2.1}};
     const double toward = std::atan2(target.position.y(), target.position.x());
     for (double base : {toward, toward > 0 ? toward - M_PI : toward + M_PI, seed[0]})
         for (const auto &arm : kArm)
@@ -281,4 +281,4 @@ IkStatus Robot::ik(const Pose &target, const Joints &seed, Joints &q) const noex
     return reached_outside ? IkStatus::OutsideLimits : IkStatus::NoConvergence;
 }
 
-} // namespace irp::kin
+}  // namespace irp::kin

@@ -32,8 +32,8 @@ KDL::RigidBodyInertia inertiaOf(const urdf::Link &link) {
     const urdf::Inertial &i = *link.inertial;
     KDL::Frame origin = toKdl(i.origin);
     KDL::RotationalInertia about_com(i.ixx, i.iyy, i.izz, i.ixy, i.ixz, i.iyz);
-    KDL::RotationalInertia in_link = (origin.M * KDL::RigidBodyInertia(0, KDL::Vector::Zero(), about_com))
-                                         .getRotationalInertia();
+    KDL::RotationalInertia in_link =
+        (origin.M * KDL::RigidBodyInertia(0, KDL::Vector::Zero(), about_com)).getRotationalInertia();
     return KDL::RigidBodyInertia(i.mass, origin.p, in_link);
 }
 
@@ -49,7 +49,7 @@ const char *typeName(int type) {
     }
 }
 
-} // namespace
+}  // namespace
 
 Result<UrdfChain> chainFromUrdf(const urdf::ModelInterface &model, const std::string &base, const std::string &tip,
                                 const std::string &where) {
@@ -76,9 +76,7 @@ Result<UrdfChain> chainFromUrdf(const urdf::ModelInterface &model, const std::st
         KDL::Vector axis = toKdl(joint->axis);
         KDL::Joint kdl_joint;
         switch (joint->type) {
-        case urdf::Joint::FIXED:
-            kdl_joint = KDL::Joint(joint->name, KDL::Joint::Fixed);
-            break;
+        case urdf::Joint::FIXED: kdl_joint = KDL::Joint(joint->name, KDL::Joint::Fixed); break;
         case urdf::Joint::REVOLUTE:
         case urdf::Joint::CONTINUOUS:
         case urdf::Joint::PRISMATIC: {
@@ -115,4 +113,4 @@ Result<UrdfChain> chainFromUrdf(const urdf::ModelInterface &model, const std::st
     return out;
 }
 
-} // namespace irp::kin
+}  // namespace irp::kin

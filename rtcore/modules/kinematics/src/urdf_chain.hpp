@@ -26,4 +26,4 @@ struct UrdfChain {
 Result<UrdfChain> chainFromUrdf(const urdf::ModelInterface &model, const std::string &base, const std::string &tip,
                                 const std::string &where);
 
-} // namespace irp::kin
+}  // namespace irp::kin

@@ -47,4 +47,4 @@ void takeInCrash(supervise::CrashState &crash, const config::SetSpec &starting, 
     daemon::say("the previous run ended by a crash: " + fresh->describe() + consequence);
 }
 
-} // namespace irp::watch
+}  // namespace irp::watch

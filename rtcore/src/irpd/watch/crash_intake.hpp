@@ -20,4 +20,4 @@ std::string canonicalSet(const std::filesystem::path &xml);
 // Says on irpd's log what it did.
 void takeInCrash(supervise::CrashState &crash, const config::SetSpec &starting, events::EventLog &events);
 
-} // namespace irp::watch
+}  // namespace irp::watch

@@ -14,12 +14,14 @@ void EventWatch::look(const reload::Generation &g, const std::vector<hosts::Proc
             log_.add("fault", m.name, "threw from run() or condition(); disabled (enable it to run it again)");
         if (figures || seen.first) {
             if (missed > seen.missed && !seen.first)
-                log_.add("deadline", m.name, std::to_string(missed - seen.missed) + " deadline misses (" +
-                                                 std::to_string(missed) + " in all)");
+                log_.add("deadline", m.name,
+                         std::to_string(missed - seen.missed) + " deadline misses (" + std::to_string(missed) +
+                             " in all)");
             // (a module with <on_overrun> has each overrun reported by the watchdog instead)
             if (overruns > seen.overruns && !seen.first && m.on_overrun == config::OverrunAction::None)
-                log_.add("overrun", m.name, std::to_string(overruns - seen.overruns) + " budget overruns (" +
-                                                std::to_string(overruns) + " in all)");
+                log_.add("overrun", m.name,
+                         std::to_string(overruns - seen.overruns) + " budget overruns (" + std::to_string(overruns) +
+                             " in all)");
             seen.missed = missed;
             seen.overruns = overruns;
         }
@@ -29,7 +31,8 @@ void EventWatch::look(const reload::Generation &g, const std::vector<hosts::Proc
     for (const hosts::ProcessInfo &p : processes) {
         Seen &seen = seen_["process:" + p.name + ":" + std::to_string(p.slot)];
         if (p.exits > seen.exits) log_.add("process_exit", p.name, p.last_exit);
-        if (p.restarts > seen.restarts) log_.add("process_restart", p.name, "restarted (" + std::to_string(p.restarts) + " restarts)");
+        if (p.restarts > seen.restarts)
+            log_.add("process_restart", p.name, "restarted (" + std::to_string(p.restarts) + " restarts)");
         if (p.dropped_lines > seen.dropped && figures)  // at most one a second
             log_.add("process_output_dropped", p.name,
                      std::to_string(p.dropped_lines - seen.dropped) + " output lines dropped by the rate limit (" +
@@ -40,4 +43,4 @@ void EventWatch::look(const reload::Generation &g, const std::vector<hosts::Proc
     }
 }
 
-} // namespace irp::watch
+}  // namespace irp::watch

@@ -36,4 +36,4 @@ private:
     std::map<std::string, Seen> seen_;  // by module name, and "process:<name>:<slot>"
 };
 
-} // namespace irp::watch
+}  // namespace irp::watch

@@ -23,7 +23,8 @@ std::size_t driveSafeOutputs(const reload::Generation &g, stats::StatsSegment &s
     return driven;
 }
 
-dispatch::Watchdog::Hooks watchdogHooks(events::EventLog &events, CurrentGeneration current, stats::StatsSegment &stats) {
+dispatch::Watchdog::Hooks watchdogHooks(events::EventLog &events, CurrentGeneration current,
+                                        stats::StatsSegment &stats) {
     dispatch::Watchdog::Hooks hooks;
     hooks.report = [&events](const dispatch::Fault &f) {
         events.add("overrun", f.module(), f.describe());
@@ -46,4 +47,4 @@ dispatch::Watchdog::Hooks watchdogHooks(events::EventLog &events, CurrentGenerat
     return hooks;
 }
 
-} // namespace irp::watch
+}  // namespace irp::watch

@@ -26,6 +26,7 @@ using CurrentGeneration = std::function<std::shared_ptr<const reload::Generation
 // The watchdog's hooks: every overrun is an "overrun" event (and a line on irpd's log when it
 // stops the set or is seen while running); a stop drives every module's outputs to safe values
 // at once and says so ("stopped" event).
-dispatch::Watchdog::Hooks watchdogHooks(events::EventLog &events, CurrentGeneration current, stats::StatsSegment &stats);
+dispatch::Watchdog::Hooks watchdogHooks(events::EventLog &events, CurrentGeneration current,
+                                        stats::StatsSegment &stats);
 
-} // namespace irp::watch
+}  // namespace irp::watch

@@ -49,4 +49,4 @@ void ProcessHangWatch::look(const reload::Generation &g, hosts::ControlSegment &
     }
 }
 
-} // namespace irp::watch
+}  // namespace irp::watch

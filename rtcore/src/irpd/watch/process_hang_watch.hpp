@@ -25,7 +25,7 @@ namespace irp::watch {
 // process, kill(2) and the watchdog's stopSet; a test's: fakes.
 struct HangActions {
     std::function<std::optional<hosts::ProcessInfo>(const std::string &module)> process;
-    std::function<void(pid_t)> kill;                         // SIGKILL to the process
+    std::function<void(pid_t)> kill;                        // SIGKILL to the process
     std::function<void(const dispatch::Fault &)> stop_set;  // halts every executor, drives safe outputs
 };
 
@@ -44,4 +44,4 @@ private:
     std::map<int, Acted> acted_;  // per control slot
 };
 
-} // namespace irp::watch
+}  // namespace irp::watch

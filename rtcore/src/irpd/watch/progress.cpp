@@ -37,4 +37,4 @@ std::string statusLine(const reload::Generation &g, bool realtime) {
            " modules enabled, " + (realtime ? "real-time" : "NOT real-time") + ")";
 }
 
-} // namespace irp::watch
+}  // namespace irp::watch

@@ -28,4 +28,4 @@ bool awaitFirstSlots(const stats::StatsSegment &segment, const reload::Generatio
 // "running <set> (generation G, N of M modules enabled, real-time)"
 std::string statusLine(const reload::Generation &g, bool realtime);
 
-} // namespace irp::watch
+}  // namespace irp::watch

@@ -6,9 +6,33 @@ import { degrees, jointPosition, limitsText, outsideLimits, type RobotJoint } fr
 import { jointMapForm, readJointMap } from "../../../src/robot/jointmap";
 import { JointReadouts } from "../../../src/robot/readouts";
 
-const J1: RobotJoint = { joint: "joint_1", variable: "C.q[0]", scale: 2, offset: 0.5, type: "revolute", lower: -2.967, upper: 2.967 };
-const J2: RobotJoint = { joint: "joint_2", variable: null, scale: 1, offset: 0, type: "revolute", lower: -1.745, upper: 2.356 };
-const SLIDE: RobotJoint = { joint: "slide", variable: "C.x", scale: 1, offset: 0, type: "prismatic", lower: 0, upper: 0.5 };
+const J1: RobotJoint = {
+  joint: "joint_1",
+  variable: "C.q[0]",
+  scale: 2,
+  offset: 0.5,
+  type: "revolute",
+  lower: -2.967,
+  upper: 2.967,
+};
+const J2: RobotJoint = {
+  joint: "joint_2",
+  variable: null,
+  scale: 1,
+  offset: 0,
+  type: "revolute",
+  lower: -1.745,
+  upper: 2.356,
+};
+const SLIDE: RobotJoint = {
+  joint: "slide",
+  variable: "C.x",
+  scale: 1,
+  offset: 0,
+  type: "prismatic",
+  lower: 0,
+  upper: 0.5,
+};
 
 describe("format", () => {
   it("computes a joint's position as the agent does and holds unmapped joints at 0", () => {
@@ -34,7 +58,12 @@ describe("readouts", () => {
     const rows = r.el.querySelectorAll<HTMLElement>("[data-testid=joint-row]");
     expect([...rows].map((x) => x.dataset.joint)).toEqual(["joint_1", "joint_2", "slide"]);
     expect(rows[1].textContent).toContain("held at 0");
-    r.update(new Map([["C.q[0]", 0.25], ["C.x", 0.125]]));
+    r.update(
+      new Map([
+        ["C.q[0]", 0.25],
+        ["C.x", 0.125],
+      ]),
+    );
     expect(rows[0].querySelector("[data-testid=joint-rad]")!.textContent).toBe("1.0000");
     expect(rows[0].querySelector("[data-testid=joint-deg]")!.textContent).toBe("57.30");
     expect(rows[2].querySelector("[data-testid=joint-rad]")!.textContent).toBe("0.1250 m");
@@ -65,7 +94,9 @@ describe("joint map editor", () => {
   });
   it("names the joint whose scale or offset is not a number", () => {
     const form = jointMapForm([J1, J2], []);
-    form.querySelectorAll<HTMLElement>("tr[data-joint]")[1].querySelector<HTMLInputElement>("input[name=scale]")!.value = "two";
+    form
+      .querySelectorAll<HTMLElement>("tr[data-joint]")[1]
+      .querySelector<HTMLInputElement>("input[name=scale]")!.value = "two";
     expect(readJointMap(form)).toEqual({ error: 'joint_2: the scale "two" is not a number' });
   });
 });

@@ -25,8 +25,8 @@ enum class OpCode : int32_t {
     None = 0,
     PowerOn = 1,
     PowerOff = 2,
-    MoveJ = 3,      // dTarget: 6 joint angles (rad)
-    MoveL = 4,      // dTarget: x y z (m), roll pitch yaw (rad), base frame
+    MoveJ = 3,  // dTarget: 6 joint angles (rad)
+    MoveL = 4,  // dTarget: x y z (m), roll pitch yaw (rad), base frame
     Stop = 5,
     Reset = 6,
 };

@@ -130,12 +130,12 @@ private:
     void issue(AxisGroupRef &group, OpCode op);
 
     bool lastEnable_ = false;
-    bool pending_ = false;      // a request of ours awaits its answer
+    bool pending_ = false;  // a request of ours awaits its answer
     uint32_t seq_ = 0;
     bool error_ = false;
     int32_t errorId_ = 0;
-    bool wasPowered_ = false;   // Powered was seen while enabled
-    bool retry_ = false;        // power on again once the group's error is cleared
+    bool wasPowered_ = false;  // Powered was seen while enabled
+    bool retry_ = false;       // power on again once the group's error is cleared
 };
 
 // The group's error, read continuously while Enable is TRUE (PLCopen Part 4).

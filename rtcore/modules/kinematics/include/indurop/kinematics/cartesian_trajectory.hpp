@@ -46,10 +46,10 @@ const char *describe(PlanError error) noexcept;
 
 struct PlanReport {
     PlanError error = PlanError::None;
-    int joint = -1;           // the joint concerned (0-based), or -1
-    double s = 0;             // where along the line (0 = start, 1 = target)
-    double speed_scale = 1;   // planned path speed / the requested one (< 1: slowed by a joint)
-    char text[200] = {};      // one sentence for the log (formatted without allocation)
+    int joint = -1;          // the joint concerned (0-based), or -1
+    double s = 0;            // where along the line (0 = start, 1 = target)
+    double speed_scale = 1;  // planned path speed / the requested one (< 1: slowed by a joint)
+    char text[200] = {};     // one sentence for the log (formatted without allocation)
     explicit operator bool() const noexcept { return error == PlanError::None; }
 };
 
@@ -108,4 +108,4 @@ private:
     Trapezoid profile_;
 };
 
-} // namespace irp::kin
+}  // namespace irp::kin

@@ -47,4 +47,4 @@ private:
     Trapezoid profile_;
 };
 
-} // namespace irp::kin
+}  // namespace irp::kin

@@ -16,7 +16,7 @@ using Matrix6 = Eigen::Matrix<double, 6, 6>;
 using Vector6 = Eigen::Matrix<double, 6, 1>;
 
 struct Pose {
-    Eigen::Vector3d position = Eigen::Vector3d::Zero();                // m, in the base frame
+    Eigen::Vector3d position = Eigen::Vector3d::Zero();               // m, in the base frame
     Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  // unit quaternion
 
     // From / to {x, y, z, roll, pitch, yaw}.  toXyzRpy gives pitch in [-pi/2, pi/2]; at
@@ -31,4 +31,4 @@ struct Pose {
 double positionError(const Pose &a, const Pose &b) noexcept;
 double orientationError(const Pose &a, const Pose &b) noexcept;
 
-} // namespace irp::kin
+}  // namespace irp::kin

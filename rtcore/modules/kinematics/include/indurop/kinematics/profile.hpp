@@ -42,4 +42,4 @@ private:
     double ts_ = 0, ss_ = 0, vs_ = 0, ds_ = 0;  // the stop: start time, position, velocity, deceleration
 };
 
-} // namespace irp::kin
+}  // namespace irp::kin

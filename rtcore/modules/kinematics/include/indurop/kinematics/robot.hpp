@@ -90,4 +90,4 @@ private:
     std::unique_ptr<Impl> impl_;  // stable address: KDL's solvers keep references to the chain
 };
 
-} // namespace irp::kin
+}  // namespace irp::kin
