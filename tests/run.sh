@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # run.sh -- the whole test suite: installs what is missing, builds, runs every test (ctest, pytest,
-# the UI's unit tests with Vitest, the browser tests with Playwright on Debian's chromium), a short
+# the UI's unit tests with Vitest, the browser tests with Playwright on Debian's chromium), the
+# formatting and lint checks of every language (tests/lint.sh, seconds), a short
 # run of every fuzz target (tests/fuzz/run.sh: its own clang build in build-fuzz/), and the Debian
 # package in a chroot.
 # Timing figures are not tested here; tests/bench/ measures them.
@@ -15,6 +16,7 @@ venv=$(bash "$root/packaging/venv.sh")
 bash "$root/packaging/npm-ci.sh" "$root/tests/browser"
 
 status=0
+bash "$root/tests/lint.sh" || status=1
 (cd "$root/build" && ctest --output-on-failure --timeout 300) || status=1
 "$venv/bin/pytest" -q "$root/tests/python" || status=1
 (cd "$root/webui" && npx vitest run) || status=1
