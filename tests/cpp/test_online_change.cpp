@@ -449,14 +449,18 @@ TEST(OnlineChange, AnExecutorWhosePriorityChangesGetsANewThread) {
     settle();
     auto threads = executorThreads(cell.irpd->pid());
     const bool realtime = threads["main"] > 0;  // SCHED_FIFO where irpd may use it
-    if (realtime) EXPECT_EQ(threads["side"], 10);
+    if (realtime) {
+        EXPECT_EQ(threads["side"], 10);
+    }
     json answer = cell.load(withSide(cell, 20));
     ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
     EXPECT_EQ(answer["result"]["kept"], json({"counter", "adder"}));
     EXPECT_TRUE(answer["result"]["missed_periods"].is_number_unsigned()) << answer.dump();
     threads = executorThreads(cell.irpd->pid());
     EXPECT_EQ(threads.count("side"), 1u) << "the old thread is gone";
-    if (realtime) EXPECT_EQ(threads["side"], 20);
+    if (realtime) {
+        EXPECT_EQ(threads["side"], 20);
+    }
     settle();
     cell.expectCounterMissedNoPeriod();
 }

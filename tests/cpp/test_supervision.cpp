@@ -398,8 +398,9 @@ TEST(PrivilegeDrop, RunsAsTheUserWithTwoCapabilitiesAndHotReloadsStillGetRealTim
     EXPECT_EQ(statusField(irpd.pid(), "CapAmb"), kept);
     EXPECT_EQ(statusField(irpd.pid(), "NoNewPrivs"), "1");
     EXPECT_GE(fifoThreads(irpd.pid()), 1) << "the new image's dispatcher is SCHED_FIFO";
-    if (fs::exists("/dev/cpu_dma_latency"))  // held open across the exec: the user could not open it
+    if (fs::exists("/dev/cpu_dma_latency")) {  // held open across the exec: the user could not open it
         EXPECT_EQ(irpd.err().find("cpu_dma_latency not held"), std::string::npos) << irpd.err();
+    }
     kill(irpd.pid(), SIGTERM);
     EXPECT_EQ(irpd.wait(std::chrono::seconds(20)), 0) << irpd.err();
     EXPECT_FALSE(fs::exists("/dev/shm/indurop." + instance + ".stats")) << "removed by the user that owns it";
