@@ -184,10 +184,12 @@ Status Dispatcher::prepare(const config::SetSpec &set, Tables &next) {
         auto record = segment_.findUnused(1);
         if (!record) {
             undo();
-            return Error{"no room for executor '" + w.name + "' in irpd's stats block (" +
-                         std::to_string(segment_.recordCount()) +
-                         " records for dispatchers and modules; irpd's "
-                         "--module-records raises it): restart irpd onto this set, or with a larger --module-records"};
+            return Error{
+                "no room for executor '" + w.name + "' in irpd's stats block (" +
+                    std::to_string(segment_.recordCount()) +
+                    " records for dispatchers and modules; irpd's "
+                    "--module-records raises it): restart irpd onto this set, or with a larger --module-records",
+                protocol::kRestartRequired};
         }
         fresh.push_back(makePlan(w, *record, nullptr));
         next_.push_back(fresh.back().get());

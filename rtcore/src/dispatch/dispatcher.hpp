@@ -116,8 +116,9 @@ public:
     // yet (a new <executor>, or one whose priority or CPU changed) are started and parked: they
     // run an empty table on the running time grid, so that they take their table at the swap as
     // the running ones do.  Fills next.records and next.markers.  An Error names the executor (a
-    // CPU irpd may not use, a priority outside 1..99, no free stats record: the pool of
-    // --module-records).  Nothing changes for the running tables.
+    // CPU irpd may not use, a priority outside 1..99, or no free stats record in the pool of
+    // --module-records, which has the code restart_required).  Nothing changes for the running
+    // tables.
     Status prepare(const config::SetSpec &set, Tables &next);
     // The first macro-period boundary of the running tables at or after `t` (they all share the
     // main table's macro period and T0).

@@ -486,9 +486,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
     if (dispatcher_)
         if (Status st = dispatcher_->prepare(spec, *next->tables); !st) {
             undo(*next);
-            return st.error().message.find("--module-records") != std::string::npos
-                       ? Error{st.error().message, protocol::kRestartRequired}
-                       : st.error();
+            return st.error();
         }
     return Ok{};
 }
