@@ -6,22 +6,10 @@
 
 namespace irp::shm {
 
-template <>
-struct TypeName<indurop_control_header> {
-    static constexpr std::string_view value = "indurop_control_header";
-};
-template <>
-struct TypeName<indurop_process_slot> {
-    static constexpr std::string_view value = "indurop_process_slot";
-};
-template <>
-struct TypeName<indurop_call_area> {
-    static constexpr std::string_view value = "indurop_call_area";
-};
-template <>
-struct TypeName<indurop_function_entry> {
-    static constexpr std::string_view value = "indurop_function_entry";
-};
+IRP_SHM_TYPE_NAME(indurop_control_header, "indurop_control_header");
+IRP_SHM_TYPE_NAME(indurop_process_slot, "indurop_process_slot");
+IRP_SHM_TYPE_NAME(indurop_call_area, "indurop_call_area");
+IRP_SHM_TYPE_NAME(indurop_function_entry, "indurop_function_entry");
 
 namespace {
 

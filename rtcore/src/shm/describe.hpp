@@ -100,6 +100,14 @@ constexpr Field field(std::string_view name, std::size_t offset, std::string_vie
             meaning};
 }
 
+// The name readers see for described struct S (inside namespace irp::shm):
+// IRP_SHM_TYPE_NAME(stats::Header, "stats_header");
+#define IRP_SHM_TYPE_NAME(S, name)                                                                                     \
+    template <>                                                                                                        \
+    struct TypeName<S> {                                                                                               \
+        static constexpr std::string_view value = name;                                                                \
+    }
+
 // One field of struct S: IRP_SHM_FIELD(indurop_trace_header, head, "seq of the newest row").
 #define IRP_SHM_FIELD(S, member, meaning)                                                                              \
     ::irp::shm::field<decltype(S::member)>(#member, __builtin_offsetof(S, member), meaning)

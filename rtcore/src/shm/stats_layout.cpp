@@ -6,22 +6,10 @@
 
 namespace irp::shm {
 
-template <>
-struct TypeName<stats::Header> {
-    static constexpr std::string_view value = "stats_header";
-};
-template <>
-struct TypeName<stats::TimingRecord> {
-    static constexpr std::string_view value = "timing_record";
-};
-template <>
-struct TypeName<stats::SignedHistogram> {
-    static constexpr std::string_view value = "signed_histogram";
-};
-template <>
-struct TypeName<stats::Histogram> {
-    static constexpr std::string_view value = "histogram";
-};
+IRP_SHM_TYPE_NAME(stats::Header, "stats_header");
+IRP_SHM_TYPE_NAME(stats::TimingRecord, "timing_record");
+IRP_SHM_TYPE_NAME(stats::SignedHistogram, "signed_histogram");
+IRP_SHM_TYPE_NAME(stats::Histogram, "histogram");
 
 namespace {
 

@@ -6,18 +6,9 @@
 
 namespace irp::shm {
 
-template <>
-struct TypeName<indurop_trace_header> {
-    static constexpr std::string_view value = "indurop_trace_header";
-};
-template <>
-struct TypeName<indurop_trace_config> {
-    static constexpr std::string_view value = "indurop_trace_config";
-};
-template <>
-struct TypeName<indurop_trace_channel> {
-    static constexpr std::string_view value = "indurop_trace_channel";
-};
+IRP_SHM_TYPE_NAME(indurop_trace_header, "indurop_trace_header");
+IRP_SHM_TYPE_NAME(indurop_trace_config, "indurop_trace_config");
+IRP_SHM_TYPE_NAME(indurop_trace_channel, "indurop_trace_channel");
 
 namespace {
 

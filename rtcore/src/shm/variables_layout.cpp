@@ -7,14 +7,8 @@
 
 namespace irp::shm {
 
-template <>
-struct TypeName<indurop_segment_header> {
-    static constexpr std::string_view value = "indurop_segment_header";
-};
-template <>
-struct TypeName<indurop_var_lock> {
-    static constexpr std::string_view value = "indurop_var_lock";
-};
+IRP_SHM_TYPE_NAME(indurop_segment_header, "indurop_segment_header");
+IRP_SHM_TYPE_NAME(indurop_var_lock, "indurop_var_lock");
 
 namespace {
 
