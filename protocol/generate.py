@@ -21,6 +21,9 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "protocol"))
+import generated_files  # noqa: E402
+
 SPEC = ROOT / "protocol" / "control.json"
 COMMAND = "python3 protocol/generate.py"
 CPP_LIMITS = "rtcore/src/protocol/limits.hpp"
@@ -601,7 +604,7 @@ def outputs(spec: dict, root: Path = ROOT) -> dict[str, str]:
 def stale(root: Path = ROOT) -> list[str]:
     """The generated files that differ from what the spec makes now."""
     wanted = outputs(load(root / "protocol" / "control.json"), root)
-    return [path for path, text in wanted.items() if not (root / path).exists() or (root / path).read_text() != text]
+    return [str(p.relative_to(root)) for p in generated_files.stale({root / k: v for k, v in wanted.items()})]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -613,16 +616,7 @@ def main(argv: list[str] | None = None) -> int:
     except (SpecError, KeyError) as e:
         print(f"generate.py: protocol/control.json: {e}", file=sys.stderr)
         return 2
-    changed = [p for p, text in wanted.items() if not (ROOT / p).exists() or (ROOT / p).read_text() != text]
-    if args.check:
-        for path in changed:
-            print(f"{path} is stale: run `{COMMAND}`", file=sys.stderr)
-        return 1 if changed else 0
-    for path in changed:
-        (ROOT / path).parent.mkdir(parents=True, exist_ok=True)
-        (ROOT / path).write_text(wanted[path])
-        print(f"wrote {path}")
-    return 0
+    return generated_files.write_or_check({ROOT / k: v for k, v in wanted.items()}, args.check, COMMAND, ROOT)
 
 
 if __name__ == "__main__":

@@ -25,6 +25,9 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "protocol"))
+from generated_files import write_or_check  # noqa: E402
+
 SPEC = ROOT / "protocol" / "stream" / "frame.json"
 PYTHON = ROOT / "agent" / "indurop_agent" / "stream_frame_spec.py"
 TYPESCRIPT = ROOT / "webui" / "src" / "stream" / "frame_spec.ts"
@@ -257,15 +260,7 @@ def main() -> int:
     except (SpecError, OSError, ValueError, KeyError) as e:
         print(f"generate.py: {e}", file=sys.stderr)
         return 2
-    stale = [p for p, text in files.items() if not p.exists() or p.read_text() != text]
-    if args.check:
-        for p in stale:
-            print(f"{p.relative_to(ROOT)} is stale: run `{COMMAND}`", file=sys.stderr)
-        return 1 if stale else 0
-    for p in stale:
-        p.write_text(files[p])
-        print(f"wrote {p.relative_to(ROOT)}")
-    return 0
+    return write_or_check(files, args.check, COMMAND, ROOT)
 
 
 if __name__ == "__main__":
