@@ -2,8 +2,11 @@
 // restart, restart_delay_ms, max_restarts); see process_properties.hpp.
 #include "config/process_properties.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <iterator>
+#include <utility>
 
 namespace irp::config {
 namespace {
@@ -25,12 +28,13 @@ Result<int64_t> parseCount(const std::string &name, const std::string &text, int
 
 }  // namespace
 
+// Each policy and its name in module.xml.
+constexpr std::pair<RestartPolicy, const char *> kRestartPolicies[] = {
+    {RestartPolicy::Never, "never"}, {RestartPolicy::Always, "always"}, {RestartPolicy::OnFailure, "on-failure"}};
+
 const char *toString(RestartPolicy policy) {
-    switch (policy) {
-    case RestartPolicy::Never: return "never";
-    case RestartPolicy::Always: return "always";
-    case RestartPolicy::OnFailure: return "on-failure";
-    }
+    for (const auto &[p, name] : kRestartPolicies)
+        if (p == policy) return name;
     return "?";
 }
 
@@ -82,14 +86,11 @@ Status applyProcessProperty(ProcessProperties &into, const std::string &name, co
             return Error{"property " + name + ": " + var + " is set by irpd and cannot be overridden"};
         into.env.emplace_back(var, value);
     } else if (name == "restart") {
-        if (value == "never")
-            into.restart = RestartPolicy::Never;
-        else if (value == "always")
-            into.restart = RestartPolicy::Always;
-        else if (value == "on-failure")
-            into.restart = RestartPolicy::OnFailure;
-        else
+        auto known = std::find_if(std::begin(kRestartPolicies), std::end(kRestartPolicies),
+                                  [&](const auto &entry) { return value == entry.second; });
+        if (known == std::end(kRestartPolicies))
             return Error{"property restart = '" + value + "': expected never, always or on-failure"};
+        into.restart = known->first;
     } else if (name == "restart_delay_ms") {
         auto ms = parseCount(name, value, 1, kMaxRestartDelayNs / kMs, " (milliseconds)");
         if (!ms) return ms.error();
