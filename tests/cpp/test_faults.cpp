@@ -189,6 +189,28 @@ TEST(OverrunWatchdog, DisableTakesTheModuleOutAndTheRestRunsOn) {
     EXPECT_TRUE(cell.result({{"cmd", "status"}})["stopped_by_fault"].is_null());
 }
 
+// An executor that a hot reload adds is watched as well: its module's overrun comes back as an
+// event (the watchdog drains the new executor's outcomes) and its action is taken.
+TEST(OverrunWatchdog, AnExecutorAddedOnlineIsWatched) {
+    Cell cell("");
+    std::string body = overrun("disable", value("hang_at", "10") + value("hang_ms", "30"), "<executor>slow</executor>");
+    for (std::size_t at; (at = body.find("@DIR@")) != std::string::npos;) body.replace(at, 5, cell.dir.path.string());
+    std::ofstream(cell.dir.path / "slow.xml")
+        << "<root>\n  <executor><name>slow</name></executor>\n" +
+               thread("keep", "keep.so", 1'000'000, 1,
+                      "<property>" + value("journal", cell.journal("keep")) + "</property>") +
+               body + "</root>\n";
+    const json report = cell.result({{"cmd", "load"}, {"config", (cell.dir.path / "slow.xml").string()}});
+    EXPECT_EQ(report["kept"], json({"keep"})) << report.dump();
+    ASSERT_TRUE(cell.waitUntil([&] { return cell.module("stuck").value("state", "") == "disabled"; }));
+    ASSERT_TRUE(cell.waitUntil([&] {
+        for (const json &e : cell.events("overrun", "stuck"))
+            if (contains(e["message"], "disabled")) return true;
+        return false;
+    })) << cell.irpd->err();
+    EXPECT_TRUE(cell.keepRuns());
+}
+
 TEST(OverrunWatchdog, SkipDropsTheMissedRunsAndTheModuleGoesOn) {
     Cell cell(overrun("skip", value("hang_at", "10") + value("hang_ms", "30")));
     ASSERT_TRUE(cell.waitUntil([&] { return cell.runs("stuck") > 30; }));

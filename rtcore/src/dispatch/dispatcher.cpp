@@ -214,6 +214,7 @@ Status Dispatcher::prepare(const config::SetSpec &set, Tables &next) {
         gate->go.count_down();
         std::lock_guard lock(plans_mutex_);
         arriving_ = std::move(fresh);
+        executors_version_.fetch_add(1, std::memory_order_release);
     }
     next.records.clear();
     next.markers.clear();
@@ -273,6 +274,7 @@ std::optional<std::vector<Switch>> Dispatcher::switched() {
             if (std::find(next_.begin(), next_.end(), p.get()) == next_.end()) leaving_.push_back(p);
         plans_ = std::move(running);
         arriving_.clear();
+        executors_version_.fetch_add(1, std::memory_order_release);
     }
     next_.clear();
     offered_ = nullptr;
@@ -296,6 +298,7 @@ void Dispatcher::retire() {
         going.insert(going.end(), arriving_.begin(), arriving_.end());
         leaving_.clear();
         arriving_.clear();
+        executors_version_.fetch_add(1, std::memory_order_release);
     }
     next_.clear();
     for (const auto &plan : going) plan->stop.store(true, std::memory_order_relaxed);

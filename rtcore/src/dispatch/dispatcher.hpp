@@ -107,6 +107,8 @@ public:
     // and leaving), for the overrun watchdog (dispatch/watchdog.hpp); each lives as long as a
     // copy of its pointer.
     std::vector<std::shared_ptr<Executor>> executors() const;
+    // Changes whenever executors() would answer another list (cheap: one atomic load).
+    uint64_t executorsVersion() const { return executors_version_.load(std::memory_order_acquire); }
     // Set once a fault stopped the set: every executor then runs no module (docs/faults.md).
     std::atomic<bool> &halted() { return halted_; }
     bool isHalted() const { return halted_.load(std::memory_order_relaxed); }
@@ -150,7 +152,8 @@ private:
     // leaving_: after the switch, the executors without a table in the running ones.
     std::vector<std::shared_ptr<Plan>> plans_, arriving_, leaving_;
     std::vector<Plan *> next_;
-    mutable std::mutex plans_mutex_;  // the lists above, against executors() and reports()
+    mutable std::mutex plans_mutex_;              // the lists above, against executors() and reports()
+    std::atomic<uint64_t> executors_version_{0};  // +1 under plans_mutex_ whenever the lists change
     std::vector<bool> marker_used_;
     int64_t epoch_ns_ = 0;  // T0 of the running tables (the first slot, or the last swap)
     int64_t macro_ns_ = 0;  // their macro period

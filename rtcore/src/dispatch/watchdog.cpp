@@ -86,22 +86,28 @@ Watchdog::Watchdog(osal::Clock &clock, Executors executors, std::atomic<bool> &h
     : clock_(clock), executors_(std::move(executors)), halted_(halted), hooks_(std::move(hooks)) {}
 
 Watchdog::Watchdog(osal::Clock &clock, std::vector<Executor *> executors, std::atomic<bool> &halted, Hooks hooks)
-    : Watchdog(clock, Executors([executors] {
-                   std::vector<std::shared_ptr<Executor>> all;
-                   for (Executor *e : executors) all.emplace_back(e, [](Executor *) {});  // not owned
-                   return all;
-               }),
+    : Watchdog(clock,
+               Executors{[] { return uint64_t{0}; },
+                         [executors] {
+                             std::vector<std::shared_ptr<Executor>> all;
+                             for (Executor *e : executors) all.emplace_back(e, [](Executor *) {});  // not owned
+                             return all;
+                         }},
                halted, std::move(hooks)) {}
 
 Watchdog::~Watchdog() { stop(); }
 
 int64_t Watchdog::check(int64_t now) {
     int64_t next = now + kIdleNs;
-    const std::vector<std::shared_ptr<Executor>> executors = executors_();
-    std::erase_if(reported_, [&](const auto &entry) {  // executors a hot reload took away
-        return std::none_of(executors.begin(), executors.end(), [&](const auto &e) { return e.get() == entry.first; });
-    });
-    for (const std::shared_ptr<Executor> &watched : executors) {
+    if (const uint64_t version = executors_.version(); version != watched_version_) {  // a hot reload changed them
+        watched_ = executors_.list();
+        watched_version_ = version;
+        std::erase_if(reported_, [&](const auto &entry) {
+            return std::none_of(watched_.begin(), watched_.end(),
+                                [&](const auto &e) { return e.get() == entry.first; });
+        });
+    }
+    for (const std::shared_ptr<Executor> &watched : watched_) {
         Executor &e = *watched;
         RunMarker &marker = e.marker();
         if (e.watching()) next = std::min(next, now + std::clamp<int64_t>(e.basicNs(), kMinIntervalNs, kIdleNs));

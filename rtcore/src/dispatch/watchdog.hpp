@@ -21,6 +21,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -98,9 +99,13 @@ public:
         std::function<void(const Fault &)> stop;
     };
 
-    // The executors to watch, asked at every look (a hot reload adds and removes them); each
-    // pointer keeps its executor alive while the look holds it.
-    using Executors = std::function<std::vector<std::shared_ptr<Executor>>()>;
+    // The executors to watch (a hot reload adds and removes them): `version` changes whenever the
+    // list does, and is asked at every look; `list` only then.  Each pointer keeps its executor
+    // alive while the watchdog holds it.
+    struct Executors {
+        std::function<uint64_t()> version;
+        std::function<std::vector<std::shared_ptr<Executor>>()> list;
+    };
 
     // Watches the markers of `executors`; `halted` is the flag every executor checks (the dispatcher's).
     Watchdog(osal::Clock &clock, Executors executors, std::atomic<bool> &halted, Hooks hooks);
@@ -135,7 +140,9 @@ private:
     std::atomic<bool> quit_{false};
     std::string stopped_by_;
     bool stopped_ = false;
-    std::map<const Executor *, uint64_t> reported_;  // per executor: the last run reported as running
+    std::map<const Executor *, uint64_t> reported_;   // per executor: the last run reported as running
+    std::vector<std::shared_ptr<Executor>> watched_;  // executors_.list() as of watched_version_
+    std::optional<uint64_t> watched_version_;
     std::thread thread_;
 };
 

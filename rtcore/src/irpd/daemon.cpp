@@ -498,7 +498,10 @@ Status Daemon::startDispatchers() {
     session_.dispatched = true;
     reloader_->adopt(first_->adopt(), *dispatcher_);
     watchdog_ = std::make_unique<dispatch::Watchdog>(
-        osal::monotonicClock(), [this] { return dispatcher_->executors(); }, dispatcher_->halted(),
+        osal::monotonicClock(),
+        dispatch::Watchdog::Executors{[this] { return dispatcher_->executorsVersion(); },
+                                      [this] { return dispatcher_->executors(); }},
+        dispatcher_->halted(),
         watch::watchdogHooks(
             events_, [this] { return reloader_->current(); }, *stats_));
     // Above the dispatchers, on the non-RT CPUs.
