@@ -410,6 +410,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         for (const Member &member : running->members)
             if (member.slot >= 0) slot_used[static_cast<std::size_t>(member.slot)] = true;
     bool any_new_process = false;
+    const std::vector<dispatch::ExecutorOptions> threads = dispatch::executorsOf(spec, s_.dispatcher);
     for (const config::ModuleSpec &m : spec.modules) {
         Member &member = next->members[static_cast<std::size_t>(m.index)];
         if (member.kept || m.type != config::ModuleType::Process) continue;
@@ -433,7 +434,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         launch.control_shm = s_.control->name();
         launch.variables_shm = s_.vars ? s_.vars->name() : "";
         if (m.operation != config::OperationType::NonReal)
-            for (const dispatch::ExecutorOptions &e : dispatch::executorsOf(spec, s_.dispatcher))
+            for (const dispatch::ExecutorOptions &e : threads)
                 if (e.name == m.executor) {  // one below its executor, on its CPU
                     launch.rt_priority = s_.dispatcher.realtime ? std::max(1, e.rt_priority - 1) : 0;
                     launch.cpu = e.cpu;
