@@ -14,6 +14,8 @@ docs/trace-and-stream.md §4).
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import json
 import os
 import ssl
@@ -324,7 +326,11 @@ def set_files(paths: list[Path], root: str | os.PathLike | None = None) -> list[
 
 class Stream:
     """A WebSocket subscription to /api/v1/stream; iterate it for (seq, t_ns, {path: value}).
-    Use it in a `with` block, or call close()."""
+    Use it in a `with` block, or call close().
+
+    The connection lives on an event loop of its own thread: one thread reads, writes and closes
+    it.  An SSL socket must not be read in one thread while another writes or closes it (OpenSSL's
+    SSL object is not thread-safe), which a threaded WebSocket client does under wss://."""
 
     def __init__(self, client: Client, paths: list[str], decimation: int = 1, seconds: float | None = None):
         if not paths:
@@ -339,17 +345,49 @@ class Stream:
         self.seconds = seconds
         self._until: float | None = None
         self._ws = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._thread: threading.Thread | None = None
+
+    def _call(self, awaitable):
+        """Awaits on the stream's loop and gives the result (or raises the exception)."""
+        if self._loop is None:
+            self._loop = asyncio.new_event_loop()
+            self._thread = threading.Thread(target=self._loop.run_forever, name="irp-stream", daemon=True)
+            self._thread.start()
+
+        async def result():
+            return await awaitable
+
+        return asyncio.run_coroutine_threadsafe(result(), self._loop).result()
+
+    def _stop_loop(self) -> None:
+        loop, thread, self._loop, self._thread = self._loop, self._thread, None, None
+        if loop is None:
+            return
+        loop.call_soon_threadsafe(loop.stop)
+        if thread is not None:
+            thread.join()
+        loop.close()
 
     def _connect(self):
+        from websockets.asyncio.client import connect
         from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidStatus
-        from websockets.sync.client import connect
 
         url = self.client._stream_url()
         try:
-            ws = connect(
-                url, ssl=self.client._stream_ssl(), open_timeout=self.client.timeout, max_size=None, compression=None
+            # A deep queue: reading is not paused while the reader is busy, so a close is answered at once.
+            ws = self._call(
+                connect(
+                    url,
+                    ssl=self.client._stream_ssl(),
+                    open_timeout=self.client.timeout,
+                    max_size=None,
+                    max_queue=4096,
+                    compression=None,
+                )
             )
         except InvalidStatus as e:
+            self._stop_loop()
             response = e.response
             try:
                 message = json.loads(response.body or b"{}").get("detail")
@@ -359,10 +397,13 @@ class Stream:
                 message = "the agent refused the WebSocket: the token, or an agent without /api/v1/stream"
             raise ApiError(response.status_code, f"stream: {message or response.reason_phrase}") from e
         except (OSError, TimeoutError, InvalidHandshake) as e:
+            self._stop_loop()
             raise ApiError(0, f"cannot open the stream at {url.split('?')[0]}: {e}") from e
         try:
-            ws.send(json.dumps({"subscribe": self.paths, "decimation": self.decimation}))
+            self._call(ws.send(json.dumps({"subscribe": self.paths, "decimation": self.decimation})))
         except ConnectionClosed as e:  # refused right after the handshake
+            self._ws = ws
+            self.close()
             _raise_for_close(e)
         return ws
 
@@ -375,23 +416,24 @@ class Stream:
         self.close()
 
     def close(self) -> None:
-        """Closes the WebSocket.  websockets' sync close() waits until every message that came in is
-        read, so the messages still arriving are read (and dropped) while it closes."""
-        from websockets.exceptions import ConnectionClosed
-
+        """Closes the WebSocket (the closing handshake, at most the client's timeout) and its loop."""
         ws, self._ws = self._ws, None
-        if ws is None:
-            return
-        closer = threading.Thread(target=ws.close, name="irp-stream-close", daemon=True)
-        closer.start()
-        while closer.is_alive():
+        if ws is not None:
+            with contextlib.suppress(Exception):
+                self._call(asyncio.wait_for(ws.close(), self.client.timeout))
+        self._stop_loop()
+
+    def _recv(self, timeout: float | None):
+        """The next message, or None when `timeout` seconds pass without one."""
+        ws = self._ws
+
+        async def receive():
             try:
-                ws.recv(timeout=0.05)
-            except TimeoutError:
-                continue
-            except ConnectionClosed:
-                break
-        closer.join()
+                return await asyncio.wait_for(ws.recv(), timeout)
+            except asyncio.TimeoutError:
+                return None
+
+        return self._call(receive())
 
     def __iter__(self) -> Iterator[tuple[int, int, dict[str, Any]]]:
         for frame in self.frames():
@@ -411,28 +453,31 @@ class Stream:
             self._ws = self._connect()
         if self.seconds is not None and self._until is None:
             self._until = time.monotonic() + self.seconds
-        while True:
-            left = None if self._until is None else self._until - time.monotonic()
-            if left is not None and left <= 0:
-                return
-            try:
-                message = self._ws.recv(timeout=left)
-            except TimeoutError:
-                return
-            except ConnectionClosed as e:
-                _raise_for_close(e)
-                return
-            if isinstance(message, str):
-                self._control(message)
-                continue
-            if kind(message) not in (None, FRAME_SAMPLES):
-                continue  # a frame kind of a newer server: not ours to read
-            try:
-                frame = decode_frame(message)
-            except ValueError as e:
-                raise ApiError(502, f"stream: {e}") from e
-            self.dropped = frame.dropped
-            yield frame
+        try:
+            while True:
+                left = None if self._until is None else self._until - time.monotonic()
+                if left is not None and left <= 0:
+                    return
+                try:
+                    message = self._recv(left)
+                except ConnectionClosed as e:
+                    _raise_for_close(e)
+                    return
+                if message is None:
+                    return  # the seconds asked have passed
+                if isinstance(message, str):
+                    self._control(message)
+                    continue
+                if kind(message) not in (None, FRAME_SAMPLES):
+                    continue  # a frame kind of a newer server: not ours to read
+                try:
+                    frame = decode_frame(message)
+                except ValueError as e:
+                    raise ApiError(502, f"stream: {e}") from e
+                self.dropped = frame.dropped
+                yield frame
+        finally:
+            self.close()  # the stream ended, failed, or its reader left
 
     def _control(self, text: str) -> None:
         try:

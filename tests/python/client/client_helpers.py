@@ -3,6 +3,7 @@
 # protocol (StreamServer), and the contract's v2 routes with canned answers (FakeAgent).
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import itertools
 import json
@@ -96,16 +97,24 @@ class StreamServer:
     with a 1008 close.  After the subscription it sends the channels, three frames of four samples
     (seq 100..111, t = T0 + (seq - 100) * 100 us * decimation, tick = 10 * seq, joint[1].y = seq / 4,
     io.ready = seq odd; dropped 0, 3, 9), a frame of an unknown kind, and closes normally; a path
-    it does not know gets {"error": ...}.  Path "idle" gets channels only."""
+    it does not know gets {"error": ...}.  Path "idle" gets channels only.
+
+    It runs websockets' asyncio server on an event loop of its own thread, so that one thread
+    reads and writes each connection (an SSL socket must not be used by two threads at once)."""
 
     def __init__(self, tls: ssl.SSLContext | None = None):
-        from websockets.sync.server import serve
+        from websockets.asyncio.server import serve
 
         self.port = free_port()
         self.subscriptions: list[dict] = []
-        self.server = serve(self.handle, "127.0.0.1", self.port, process_request=self.check, ssl=tls)
-        self.thread = threading.Thread(target=self.server.serve_forever, daemon=True)
+        self.loop = asyncio.new_event_loop()
+        self.thread = threading.Thread(target=self.loop.run_forever, daemon=True)
         self.thread.start()
+
+        async def start():
+            return await serve(self.handle, "127.0.0.1", self.port, process_request=self.check, ssl=tls)
+
+        self.server = asyncio.run_coroutine_threadsafe(start(), self.loop).result(10)
         self.url = f"{'https' if tls else 'http'}://127.0.0.1:{self.port}"
 
     @staticmethod
@@ -119,24 +128,25 @@ class StreamServer:
             return connection.respond(403, '{"detail": "unknown token"}')
         return None
 
-    def handle(self, ws):
+    async def handle(self, ws):
         if self.token(ws.request.path) == "close-me":
-            ws.close(1008, "unknown token")
+            await ws.close(1008, "unknown token")
             return
-        sub = json.loads(ws.recv())
+        sub = json.loads(await ws.recv())
         self.subscriptions.append(sub)
         paths = sub["subscribe"]
         if paths == ["idle"]:
-            ws.send(json.dumps({"channels": [{"index": 0, "path": "idle", "type": "double"}]}))
+            await ws.send(json.dumps({"channels": [{"index": 0, "path": "idle", "type": "double"}]}))
             with contextlib.suppress(Exception):
-                ws.recv()  # until the client goes
+                await ws.recv()  # until the client goes
             return
         unknown = [p for p in paths if p not in CHANNELS]
         if unknown:
-            ws.send(json.dumps({"error": f"no variable '{unknown[0]}'; GET /api/v1/variables lists them"}))
-            ws.close()
+            await ws.send(json.dumps({"error": f"no variable '{unknown[0]}'; GET /api/v1/variables lists them"}))
+            await ws.close()
             return
-        ws.send(json.dumps({"channels": [{"index": i, "path": p, "type": CHANNELS[p]} for i, p in enumerate(paths)]}))
+        channels = [{"index": i, "path": p, "type": CHANNELS[p]} for i, p in enumerate(paths)]
+        await ws.send(json.dumps({"channels": channels}))
         step = sub.get("decimation", 1)
         dropped = 0
         for f in range(3):
@@ -147,17 +157,24 @@ class StreamServer:
                 "io.ready": [float(s % 2) for s in seqs],
             }
             dropped += 3 * f
-            ws.send(
+            await ws.send(
                 sample_frame(
                     seqs[0], [T0 + 100_000 * step * (s - 100) for s in seqs], [values[p] for p in paths], dropped
                 )
             )
-        ws.send(sample_frame(0, [], [], dropped, kind=2))
-        ws.close()
+        await ws.send(sample_frame(0, [], [], dropped, kind=2))
+        await ws.close()
 
     def close(self):
-        self.server.shutdown()
+        async def stop():
+            self.server.close()
+            await self.server.wait_closed()
+
+        with contextlib.suppress(Exception):
+            asyncio.run_coroutine_threadsafe(stop(), self.loop).result(10)
+        self.loop.call_soon_threadsafe(self.loop.stop)
         self.thread.join(5)
+        self.loop.close()
 
 
 # -- an agent of the contract's v2 routes on an httpx mock transport (canned answers) ------------------
