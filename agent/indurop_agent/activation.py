@@ -133,6 +133,7 @@ class Activator:
                 e.code,
                 f"set {set_id} cannot go online: {e}; activating it with mode restart "
                 f"(or auto) restarts irpd onto it{expected}",
+                e.place,
             ) from e
 
     def _restart(self, config: str, set_id: str) -> dict:
@@ -163,6 +164,7 @@ class Activator:
                 "restart_failed",
                 f"irpd could not start set {set_id} (error {last.get('error')}) "
                 f"and came back on set {status.get('set_id')}",
+                last.get("error_at"),
             )
         return {
             "mode": "restart",
@@ -291,7 +293,7 @@ def irpd_validation(irpd: IrpdClient, module_xml, timeout_s: float = 30.0) -> di
     return {
         "valid": bool(result.get("valid")),
         "errors": errors,
-        "problems": problems(errors, Path(module_xml).parent),
+        "problems": problems(result.get("problems") or [], Path(module_xml).parent),
         "warnings": [str(x) for x in result.get("warnings") or []],
         "schedule": result.get("schedule"),
         "online": result.get("online"),

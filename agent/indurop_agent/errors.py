@@ -1,23 +1,21 @@
 """errors.py -- errors that point into a file of a set: an HTTPException that answers
-{"detail", "file", "line", "column"} (the last three where known), and `locate`, which finds where
-one of irpd's messages points ("<path>/module.xml:12: module 'x': ...")."""
+{"detail", "file", "line", "column", "module", "field"} (those known), and `place`, which takes the
+place irpd gives an error as fields (protocol/control.json, #/shapes/place) and names its file
+relative to the set's folder.  No text is parsed: irpd's messages are for people."""
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 from fastapi import HTTPException, Request
 from fastapi.responses import JSONResponse
 
-# "<file>:<line>[:<column>]: " or "<file>: " at the start of a message (a file name holds no
-# colon and no white space).
-WHERE = re.compile(r"^(?P<file>[^:\s]+)(?::(?P<line>\d+))?(?::(?P<column>\d+))?: ")
+PLACE_FIELDS = ("file", "line", "column", "module", "field")
 
 
 class LocatedError(HTTPException):
     """An HTTP error whose detail is about a file of a set: `file` relative to the set's root,
-    `line` and `column` counted from 1 (None: not known)."""
+    `line` and `column` counted from 1, the `module` and the module.xml `field` (None: not known)."""
 
     def __init__(
         self,
@@ -27,10 +25,12 @@ class LocatedError(HTTPException):
         file: str | None = None,
         line: int | None = None,
         column: int | None = None,
+        module: str | None = None,
+        field: str | None = None,
         headers: dict | None = None,
     ):
         super().__init__(status_code, detail, headers=headers)
-        self.file, self.line, self.column = file, line, column
+        self.file, self.line, self.column, self.module, self.field = file, line, column, module, field
 
     def at(self, file: str | None = None, line: int | None = None, column: int | None = None) -> LocatedError:
         """Adds what is known of where (keeps what was already set); returns self, to re-raise."""
@@ -41,7 +41,7 @@ class LocatedError(HTTPException):
 
     def body(self) -> dict:
         out = {"detail": self.detail}
-        for key in ("file", "line", "column"):
+        for key in PLACE_FIELDS:
             if getattr(self, key) is not None:
                 out[key] = getattr(self, key)
         return out
@@ -51,31 +51,32 @@ async def located_error(_: Request, exc: LocatedError) -> JSONResponse:
     return JSONResponse(status_code=exc.status_code, content=exc.body(), headers=exc.headers)
 
 
-def locate(message: str, root: Path | str | None = None) -> dict:
-    """Where `message` points: {"file", "line", "column"} with the keys known (maybe none).
-
-    With `root` (a set's folder), only paths inside it count, and come back relative to it
-    ("module.xml", "lib/cntr1.so"); without, only a leading "<path>:<line>: " counts, as it is.
-    """
-    m = WHERE.match(message)
-    if m is None:
+def place(fields: dict | None, root: Path | str | None = None) -> dict:
+    """The known fields of an error's place as irpd gives them ({"file", "line", "column",
+    "module", "field"}, any of them).  With `root` (a set's folder), a file inside it comes back
+    relative to it ("module.xml", "lib/cntr1.so") and a file outside it is left out."""
+    if not isinstance(fields, dict):
         return {}
-    file = m.group("file")
-    if root is not None:
-        base = str(Path(root)).rstrip("/") + "/"
-        if not file.startswith(base):
-            return {}
-        file = file[len(base) :]
-    elif m.group("line") is None:
-        return {}
-    where = {"file": file}
-    if m.group("line"):
-        where["line"] = int(m.group("line"))
-    if m.group("column"):
-        where["column"] = int(m.group("column"))
-    return where
+    out = {key: fields[key] for key in PLACE_FIELDS if fields.get(key) not in (None, "", 0)}
+    if "file" in out and root is not None:
+        relative = _inside(Path(out["file"]), Path(root))
+        if relative is None:
+            del out["file"]
+        else:
+            out["file"] = relative
+    return out
 
 
-def problems(messages: list[str], root: Path | str | None = None) -> list[dict]:
-    """Each message with where it points: [{"message", "file"?, "line"?, "column"?}]."""
-    return [{"message": m, **locate(m, root)} for m in messages]
+def _inside(file: Path, root: Path) -> str | None:
+    """`file` relative to `root` ("lib/x.so"), or None when it is outside it."""
+    for base in (root, root.resolve()):
+        try:
+            return file.relative_to(base).as_posix()
+        except ValueError:
+            continue
+    return None
+
+
+def problems(found: list, root: Path | str | None = None) -> list[dict]:
+    """irpd's problems ({"message", and the place's fields}) with their files relative to `root`."""
+    return [{"message": str(p.get("message", "")), **place(p, root)} for p in found if isinstance(p, dict)]

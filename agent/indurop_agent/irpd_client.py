@@ -27,9 +27,10 @@ class IrpdUnavailable(Exception):
 class IrpdRefused(Exception):
     """irpd answered the request with an error."""
 
-    def __init__(self, code: str, message: str):
+    def __init__(self, code: str, message: str, place: dict | None = None):
         super().__init__(message)
         self.code = code
+        self.place = place or {}  # the error's place as irpd gives it: file, line, column, module, field
 
 
 class IrpdClient:
@@ -123,7 +124,9 @@ class IrpdClient:
                 if answer.get("ok"):
                     return answer.get("result")
                 error = answer.get("error") or {}
-                raise IrpdRefused(error.get("code", protocol.REFUSED), error.get("message", "irpd refused the request"))
+                raise IrpdRefused(
+                    error.get("code", protocol.REFUSED), error.get("message", "irpd refused the request"), error
+                )
         finally:
             self._lock.release()
         raise IrpdUnavailable(f"irpd is not reachable on {self.path}")

@@ -871,3 +871,70 @@ TEST(ModuleXmlBad, TooManyModules) {
     const std::string text = document(modules);
     EXPECT_TRUE(refusedAt(text, lineOf(text, "<filename>./m1024.so<") - 1, {"more than 1024 modules"}));
 }
+
+// ---- the place as fields: file, line, column, module, field -----------------------------------
+
+// The refusal of text, which must be refused.
+static irp::Error refusal(const std::string &text) {
+    auto parsed = parseModuleXmlText(text, kFakePath);
+    EXPECT_FALSE(parsed.ok()) << text;
+    return parsed.ok() ? irp::Error{} : parsed.error();
+}
+
+// 1-based column of needle in its line of text.
+static int columnOf(const std::string &text, std::string_view needle) {
+    const std::size_t at = text.find(needle);
+    const std::size_t newline = text.rfind('\n', at);
+    return static_cast<int>(at - (newline == std::string::npos ? 0 : newline + 1)) + 1;
+}
+
+TEST(ModuleXmlPlace, AFieldsRefusalNamesTheModuleTheFieldAndTheColumn) {
+    const std::string text = document(periodic("a"), periodic("b").set("period", "0"));
+    const irp::Error e = refusal(text);
+    EXPECT_EQ(e.code, "refused");
+    EXPECT_EQ(e.place.file, kFakePath);
+    EXPECT_EQ(e.place.line, lineOf(text, "<period>0<"));
+    EXPECT_EQ(e.place.column, columnOf(text, "<period>0<"));
+    EXPECT_EQ(e.place.module, "b");
+    EXPECT_EQ(e.place.field, "period");
+}
+
+TEST(ModuleXmlPlace, AProcessPropertyIsTheFieldPropertyDotItsName) {
+    const std::string text =
+        document(nonReal("p").line("<property><value name=\"restart\">sometimes</value></property>"));
+    const irp::Error e = refusal(text);
+    EXPECT_NE(e.message.find("restart"), std::string::npos) << e.message;
+    EXPECT_EQ(e.place.line, lineOf(text, "sometimes"));
+    EXPECT_EQ(e.place.module, "p");
+    EXPECT_EQ(e.place.field, "property.restart");
+}
+
+TEST(ModuleXmlPlace, AnExecutorsFieldNamesTheExecutor) {
+    const std::string text =
+        document("  <executor><name>io</name>\n    <rtpriority>120</rtpriority></executor>\n", periodic());
+    const irp::Error e = refusal(text);
+    EXPECT_EQ(e.place.line, lineOf(text, "<rtpriority>"));
+    EXPECT_EQ(e.place.column, columnOf(text, "<rtpriority>"));
+    EXPECT_EQ(e.place.module, "io");
+    EXPECT_EQ(e.place.field, "rtpriority");
+}
+
+TEST(ModuleXmlPlace, AWholeSetCheckNamesTheModuleAtItsLine) {
+    const std::string text = document(periodic("a"), periodic("a", "200000"));
+    const irp::Error e = refusal(text);
+    EXPECT_EQ(e.place.line, lineOf(text, "<module>", 1));
+    EXPECT_EQ(e.place.module, "a");
+    EXPECT_EQ(e.place.field, "");
+}
+
+TEST(ModuleXmlPlace, MalformedXmlHasNoModuleAndARootTagNoField) {
+    const irp::Error broken = refusal("<root>\n  <module>\n</root>\n");
+    EXPECT_EQ(broken.place.file, kFakePath);
+    EXPECT_GT(broken.place.line, 0);
+    EXPECT_EQ(broken.place.module, "");
+    const std::string text = document(periodic("a"), "  <layout></layout>\n");
+    const irp::Error layout = refusal(text);
+    EXPECT_EQ(layout.place.line, lineOf(text, "<layout>"));
+    EXPECT_EQ(layout.place.module, "") << "a module read before does not follow into the root's tags";
+    EXPECT_EQ(layout.place.field, "");
+}

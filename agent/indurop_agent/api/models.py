@@ -36,15 +36,19 @@ class ErrorBody(BaseModel):
     file: str | None = Field(None, description="the file of the set it is about, relative to the set's root")
     line: int | None = Field(None, description="from 1")
     column: int | None = Field(None, description="from 1")
+    module: str | None = Field(None, description="the module (or executor) it is about")
+    field: str | None = Field(None, description="the module.xml element: period, executor, property.restart, ...")
 
 
 class Problem(BaseModel):
-    """One of irpd's validation errors with where it points (parsed from its `file:line: ` prefix)."""
+    """One of irpd's validation errors with where it points (the place irpd gives as fields)."""
 
     message: str
     file: str | None = Field(None, description="relative to the set's root, e.g. module.xml")
     line: int | None = None
     column: int | None = None
+    module: str | None = Field(None, description="the module (or executor) it is about")
+    field: str | None = Field(None, description="the module.xml element: period, executor, property.restart, ...")
 
 
 class IrpdShape(BaseModel):

@@ -2,7 +2,9 @@
 //
 // Every function that can refuse user input (module.xml, a module .so, a schedule) returns a
 // Result carrying either the value or an Error whose message a user can act on: where (file:line),
-// which field, what was expected.  Nothing on the RT path returns or throws errors.
+// which field, what was expected.  The place is also given as fields (Place), which the control
+// protocol sends as they are, so that no reader has to find it in the text.  Nothing on the RT
+// path returns or throws errors.
 #pragma once
 
 #include "protocol/limits.hpp"
@@ -13,12 +15,44 @@
 
 namespace irp {
 
+// Where in a set's files an error is: the fields that apply (empty or 0: not known).
+struct Place {
+    Place() = default;
+    explicit Place(std::string file_, int line_ = 0, int column_ = 0, std::string module_ = {}, std::string field_ = {})
+        : file(std::move(file_)), line(line_), column(column_), module(std::move(module_)), field(std::move(field_)) {}
+
+    std::string file;    // the file, as irpd names it (a set's files by absolute path)
+    int line = 0;        // counted from 1
+    int column = 0;      // counted from 1
+    std::string module;  // the module (or executor) it is about
+    std::string field;   // the module.xml element: period, executor, property.restart, ...
+
+    bool empty() const { return file.empty() && module.empty() && field.empty(); }
+};
+
 struct Error {
-    std::string message;
+    Error() = default;
+    Error(std::string message_, std::string code_ = protocol::kRefused, Place place_ = {})
+        : message(std::move(message_)), code(std::move(code_)), place(std::move(place_)) {}
+
+    std::string message;  // the whole sentence, place included ("module.xml:12: module 'x': ...")
     // The control protocol's error code (protocol/control.json): refused, or not_found when the
     // request names a module or record that does not exist, or restart_required.
     std::string code = protocol::kRefused;
+    Place place;
 };
+
+// An error about a whole file: "<file>: what", placed at the file.
+inline Error fileError(const std::string &file, const std::string &what) {
+    return Error{file + ": " + what, protocol::kRefused, Place{file}};
+}
+
+// An error about a module of a set, at its line of module.xml: "<xml>:<line>: what".
+inline Error moduleError(const std::string &xml, int line, const std::string &module, const std::string &what,
+                         std::string field = {}) {
+    return Error{xml + ":" + std::to_string(line) + ": " + what, protocol::kRefused,
+                 Place{xml, line, 0, module, std::move(field)}};
+}
 
 template <class T>
 class [[nodiscard]] Result {

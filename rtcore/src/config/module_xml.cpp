@@ -38,6 +38,7 @@ namespace {
 // Thrown inside the parser only, turned into an Error at its door.
 struct ParseFailure {
     std::string message;
+    Place place;
 };
 
 class Parser {
@@ -87,6 +88,7 @@ public:
         SetSpec set;
         set.xml_path = path_;
         for (pugi::xml_node node : root.children()) {
+            module_.clear();
             if (skippable(node)) continue;
             std::string_view tag = node.name();
             if (tag == "module") {
@@ -108,6 +110,7 @@ public:
                      "unknown tag <" + std::string(tag) + "> in <root>; expected <module>, <executor> or <layout>");
             }
         }
+        module_.clear();
         crossCheck(set);
         return set;
     }
@@ -120,25 +123,69 @@ private:
         return 1 + static_cast<int>(std::count(text_.begin(), end, '\n'));
     }
     int lineOf(pugi::xml_node node) const { return lineAt(node.offset_debug()); }
+    // The column (from 1) of offset in its line.
+    int columnAt(std::ptrdiff_t offset) const {
+        if (offset < 0) return 0;
+        const auto at = std::min<std::size_t>(static_cast<std::size_t>(offset), text_.size());
+        const auto newline = at == 0 ? std::string_view::npos : text_.rfind('\n', at - 1);
+        return static_cast<int>(at - (newline == std::string_view::npos ? 0 : newline + 1)) + 1;
+    }
+    // Where a node starts: an element's offset is its name's, so one back is its '<'.
+    std::ptrdiff_t offsetOf(pugi::xml_node node) const {
+        std::ptrdiff_t offset = node.offset_debug();
+        if (node.type() == pugi::node_element && offset > 0 && offset <= static_cast<std::ptrdiff_t>(text_.size()) &&
+            text_[static_cast<std::size_t>(offset - 1)] == '<')
+            --offset;
+        return offset;
+    }
+
+    // The module.xml field a node is in: the element under <module> or <executor> that holds it,
+    // "property.NAME" inside a <property>'s <value name="NAME">.
+    static std::string fieldOf(pugi::xml_node node) {
+        std::string value_name;
+        for (pugi::xml_node n = node; n && n.parent(); n = n.parent()) {
+            const std::string_view parent = n.parent().name();
+            if (std::string_view(n.name()) == "value" && parent == "property") value_name = n.attribute("name").value();
+            if (n.type() == pugi::node_element && (parent == "module" || parent == "executor"))
+                return value_name.empty() ? n.name() : std::string(n.name()) + "." + value_name;
+        }
+        return {};
+    }
+
+    // The place of an error on `line`, with the column of offset when offset is on that line.
+    Place placeAt(std::ptrdiff_t offset, int line, std::string field) const {
+        return Place{path_.string(), line, line == lineAt(offset) ? columnAt(offset) : 0, module_, std::move(field)};
+    }
 
     [[noreturn]] void fail(std::ptrdiff_t offset, const std::string &what) const {
-        throw ParseFailure{shown_ + ":" + std::to_string(lineAt(offset)) + ": " + what};
+        const int line = lineAt(offset);
+        throw ParseFailure{shown_ + ":" + std::to_string(line) + ": " + what, placeAt(offset, line, {})};
     }
-    [[noreturn]] void fail(pugi::xml_node node, const std::string &what) const {
-        throw ParseFailure{shown_ + ":" + std::to_string(lineOf(node)) + ": " + what};
+    [[noreturn]] void fail(pugi::xml_node node, const std::string &what, std::string field = {}) const {
+        const std::ptrdiff_t offset = offsetOf(node);
+        const int line = lineAt(offset);
+        throw ParseFailure{shown_ + ":" + std::to_string(line) + ": " + what,
+                           placeAt(offset, line, field.empty() ? fieldOf(node) : std::move(field))};
     }
     // For position i of the text (value) of node: text nodes start right after the previous tag,
     // so the line of the offending character is the node's line plus the newlines before it.
     [[noreturn]] void failInText(pugi::xml_node node, std::string_view text, std::size_t i,
                                  const std::string &what) const {
-        int line =
+        const int line =
             lineOf(node) + static_cast<int>(std::count(text.begin(), text.begin() + std::min(i, text.size()), '\n'));
-        throw ParseFailure{shown_ + ":" + std::to_string(line) + ": " + what};
+        throw ParseFailure{shown_ + ":" + std::to_string(line) + ": " + what,
+                           placeAt(node.offset_debug() + static_cast<std::ptrdiff_t>(i), line, fieldOf(node))};
     }
     // For a field of a module: "file:line: module 'cntr1': <period>: what"
     [[noreturn]] void failField(pugi::xml_node node, const std::string &module, const std::string &field,
                                 const std::string &what) const {
-        fail(node, (module.empty() ? std::string() : owner_kind_ + " '" + module + "': ") + "<" + field + ">: " + what);
+        fail(node, (module.empty() ? std::string() : owner_kind_ + " '" + module + "': ") + "<" + field + ">: " + what,
+             fieldOf(node).empty() ? field : fieldOf(node));
+    }
+    // For the whole of a module or executor, found by the whole-set checks.
+    [[noreturn]] void failOwner(int line, const std::string &owner, const std::string &what) const {
+        throw ParseFailure{shown_ + ":" + std::to_string(line) + ": " + what,
+                           Place{path_.string(), line, 0, owner, {}}};
     }
 
     // ---- node helpers -----------------------------------------------------------------------
@@ -264,7 +311,9 @@ private:
         ModuleSpec m;
         m.index = index;
         m.line = lineOf(node);
+        module_.clear();
         m.where = shown_ + ":" + std::to_string(m.line);
+        m.xml = path_.string();
 
         // Structural problems are reported after the name is known, so that they can name it.
         pugi::xml_node problem;
@@ -306,6 +355,7 @@ private:
         } else if (!m.filename.empty()) {
             m.name = std::filesystem::path(m.filename).stem().string();
         }
+        module_ = m.name;
         if (problem) fail(problem, (m.name.empty() ? std::string() : "module '" + m.name + "': ") + problem_text);
         if (!field("filename")) fail(node, "<module> without <filename>");
         if (m.filename.empty()) failField(field("filename"), m.name, "filename", "is empty");
@@ -493,6 +543,7 @@ private:
         e.line = lineOf(node);
         owner_kind_ = "executor";
         const std::string label = std::string(trim(node.child("name").child_value()));
+        module_ = label;
         std::set<std::string> seen;
         for (pugi::xml_node child : node.children()) {
             if (skippable(child)) continue;
@@ -524,15 +575,14 @@ private:
         for (const ModuleSpec &m : set.modules) {
             auto [it, fresh] = by_name.emplace(m.name, &m);
             if (!fresh)
-                throw ParseFailure{shown_ + ":" + std::to_string(m.line) + ": module '" + m.name +
-                                   "': duplicate name (also the module at line " + std::to_string(it->second->line) +
-                                   "); set <name> on one of them"};
+                failOwner(m.line, m.name,
+                          "module '" + m.name + "': duplicate name (also the module at line " +
+                              std::to_string(it->second->line) + "); set <name> on one of them");
         }
         std::set<std::string> executors;
         for (const ExecutorSpec &e : set.executors)
             if (!executors.insert(e.name).second)
-                throw ParseFailure{shown_ + ":" + std::to_string(e.line) + ": executor '" + e.name +
-                                   "' is defined twice"};
+                failOwner(e.line, e.name, "executor '" + e.name + "' is defined twice");
         for (std::size_t i = 0; i < executor_refs_.size(); ++i) {
             const auto &[name, node] = executor_refs_[i];
             if (name != kMainExecutor && !executors.count(name))
@@ -543,6 +593,7 @@ private:
 
     std::string_view text_;
     std::string owner_kind_ = "module";  // what failField names: a module or an executor
+    std::string module_;                 // the module or executor being read, once its name is known
     std::string shown_;                  // the path as the user gave it, for messages
     std::filesystem::path path_;         // absolute, anchors relative filenames
     std::vector<std::pair<std::string, pugi::xml_node>> executor_refs_;
@@ -553,26 +604,26 @@ private:
 
 Result<SetSpec> parseModuleXmlText(std::string_view text, const std::filesystem::path &xml_path) {
     if (text.size() > kMaxXmlBytes)
-        return Error{xml_path.string() + ": larger than " + std::to_string(kMaxXmlBytes >> 20) +
-                     " MiB; not a module.xml"};
+        return fileError(xml_path.string(),
+                         "larger than " + std::to_string(kMaxXmlBytes >> 20) + " MiB; not a module.xml");
     try {
         return Parser(text, xml_path).run();
     } catch (const ParseFailure &f) {
-        return Error{f.message};
+        return Error{f.message, protocol::kRefused, f.place};
     }
 }
 
 Result<SetSpec> parseModuleXml(const std::filesystem::path &xml_path) {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(xml_path, ec))
-        return Error{xml_path.string() + ": no such file (the set's module.xml)"};
+        return fileError(xml_path.string(), "no such file (the set's module.xml)");
     auto size = std::filesystem::file_size(xml_path, ec);
-    if (ec) return Error{xml_path.string() + ": " + ec.message()};
+    if (ec) return fileError(xml_path.string(), ec.message());
     if (size > kMaxXmlBytes)
-        return Error{xml_path.string() + ": larger than " + std::to_string(kMaxXmlBytes >> 20) +
-                     " MiB; not a module.xml"};
+        return fileError(xml_path.string(),
+                         "larger than " + std::to_string(kMaxXmlBytes >> 20) + " MiB; not a module.xml");
     std::ifstream in(xml_path, std::ios::binary);
-    if (!in) return Error{xml_path.string() + ": cannot be read"};
+    if (!in) return fileError(xml_path.string(), "cannot be read");
     std::ostringstream buffer;
     buffer << in.rdbuf();
     std::string text = buffer.str();

@@ -55,6 +55,7 @@ struct ModuleSpec {
     int index = 0;      // position in the file (ties in priority go to the earlier one)
     int line = 0;       // line of <module>
     std::string where;  // "path/module.xml:12", for messages
+    std::string xml;    // that module.xml, absolute: the file of an error's place
 };
 
 // An extra dispatcher thread (<executor> at the root): its own RT priority and CPU.

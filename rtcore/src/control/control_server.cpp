@@ -2,6 +2,8 @@
 // and non-blocking sockets, so that no client can stall the others (or irpd).
 #include "control/control_server.hpp"
 
+#include "protocol/errors.hpp"
+
 #include <fcntl.h>
 #include <poll.h>
 #include <sys/eventfd.h>
@@ -76,7 +78,7 @@ std::string answerRequest(const std::string &request, const Handler &handler) {
         if (parsed.contains("id")) id = parsed["id"];
         auto result = handler(parsed["cmd"].get<std::string>(), parsed);
         answer = result ? json{{"id", id}, {"ok", true}, {"result", std::move(*result)}}
-                        : failure(id, result.error().code, result.error().message);
+                        : json{{"id", id}, {"ok", false}, {"error", protocol::errorJson(result.error())}};
     } catch (const nlohmann::json::exception &e) {
         answer = failure(id, protocol::kBadRequest, std::string("not valid JSON: ") + e.what());
     } catch (const std::exception &e) {

@@ -21,6 +21,11 @@ namespace {
 
 std::string who(const config::ModuleSpec &spec) { return "module '" + spec.name + "'"; }
 
+// An error in a module's shared object: "module 'x': what", placed at the .so.
+Error inObject(const config::ModuleSpec &spec, const std::string &what) {
+    return Error{who(spec) + ": " + what, protocol::kRefused, Place{spec.path.string(), 0, 0, spec.name, {}}};
+}
+
 std::string lastDlError() {
     const char *e = dlerror();
     return e ? e : "unknown loader error";
@@ -46,22 +51,23 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
     std::error_code ec;
     if (!std::filesystem::is_regular_file(spec.path, ec))
         return Error{spec.where + ": " + who(spec) + ": <filename> " + spec.filename + " -> " + spec.path.string() +
-                     " does not exist"};
+                         " does not exist",
+                     protocol::kRefused, Place{spec.xml, spec.line, 0, spec.name, "filename"}};
 
     std::unique_ptr<ThreadModule> module(new ThreadModule(spec));
     dlerror();
     const std::filesystem::path &file = image.empty() ? spec.path : image;
     module->handle_ = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (!module->handle_) return Error{who(spec) + ": cannot load " + spec.path.string() + ": " + lastDlError()};
+    if (!module->handle_) return inObject(spec, "cannot load " + spec.path.string() + ": " + lastDlError());
 
     // Built with <indurop/generated.h>: the layout it was compiled against must be the one it will
     // run on, or one that layout was laid out against with its variables in place (layouts.hpp).
     if (const auto *built = static_cast<const char *>(dlsym(module->handle_, "indurop_layout_hash"))) {
         if (!layout)
-            return Error{who(spec) + ": " + spec.path.string() + " uses shared variables (layout " + built +
-                         ") but the set declares no <layout>"};
+            return inObject(spec, spec.path.string() + " uses shared variables (layout " + built +
+                                      ") but the set declares no <layout>");
         if (std::string why = layouts::compatible(built, *layout); !why.empty())
-            return Error{who(spec) + ": " + spec.path.string() + ": " + why};
+            return inObject(spec, spec.path.string() + ": " + why);
         module->built_layout_ = built;
     }
     dlerror();
@@ -71,24 +77,24 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
         const indurop_module_v1 *table = descriptor();
         if (!table || table->abi_version != INDUROP_MODULE_ABI_VERSION ||
             table->struct_size < sizeof(indurop_module_v1))
-            return Error{who(spec) + ": " + spec.path.string() + " was built for module ABI version " +
-                         std::to_string(table ? table->abi_version : 0) + "; this irpd runs version " +
-                         std::to_string(INDUROP_MODULE_ABI_VERSION) + ": rebuild it against this SDK"};
+            return inObject(spec, spec.path.string() + " was built for module ABI version " +
+                                      std::to_string(table ? table->abi_version : 0) + "; this irpd runs version " +
+                                      std::to_string(INDUROP_MODULE_ABI_VERSION) + ": rebuild it against this SDK");
         module->table_ = *table;
         module->descriptor_ = true;
         if (table->initialize) module->initialize_ = table->initialize;
         if (table->start) module->start_ = table->start;
         if (!module->table_.run)
-            return Error{who(spec) + ": INDUROP_MODULE(...) in " + spec.path.string() +
-                         " sets no run; write INDUROP_MODULE(run = &::yourFunction)"};
+            return inObject(spec, "INDUROP_MODULE(...) in " + spec.path.string() +
+                                      " sets no run; write INDUROP_MODULE(run = &::yourFunction)");
     } else {
         dlerror();
         module->table_.abi_version = INDUROP_MODULE_ABI_VERSION;
         module->table_.struct_size = sizeof(indurop_module_v1);
         module->table_.run = reinterpret_cast<void (*)()>(dlsym(module->handle_, "run"));
         if (!module->table_.run)
-            return Error{who(spec) + ": " + spec.path.string() +
-                         " has neither INDUROP_MODULE(...) nor an extern \"C\" run() (" + lastDlError() + ")"};
+            return inObject(spec, spec.path.string() + " has neither INDUROP_MODULE(...) nor an extern \"C\" run() (" +
+                                      lastDlError() + ")");
         module->table_.stop = reinterpret_cast<void (*)()>(dlsym(module->handle_, "stop"));
         module->table_.condition = reinterpret_cast<int (*)()>(dlsym(module->handle_, "condition"));
         // extern "C" initialize(irp::Property const &) and start(): their throw is their error.
@@ -149,14 +155,17 @@ struct CurrentModule {
 // return) or a C++ exception it lets out is the Error, "<what> failed: <why>".
 Status ThreadModule::call(const char *what, const std::function<int(char *err, std::size_t size)> &fn) const {
     char err[512] = "";
+    const auto failed = [&](const std::string &why) {
+        return Error{who(spec_) + ": " + what + why, protocol::kRefused, Place{{}, 0, 0, spec_.name, {}}};
+    };
     try {
         if (fn(err, sizeof err) == 0) return Ok{};
     } catch (const std::exception &e) {
-        return Error{who(spec_) + ": " + what + " failed: " + e.what()};
+        return failed(std::string(" failed: ") + e.what());
     } catch (...) {
-        return Error{who(spec_) + ": " + what + " threw a non-standard exception"};
+        return failed(" threw a non-standard exception");
     }
-    return Error{who(spec_) + ": " + what + " failed: " + err};
+    return failed(std::string(" failed: ") + err);
 }
 
 Status ThreadModule::initialize() {

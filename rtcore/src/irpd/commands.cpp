@@ -3,6 +3,7 @@
 
 #include "osal/clock.hpp"
 #include "protocol/arguments.hpp"
+#include "protocol/errors.hpp"
 #include "stats/summary.hpp"
 #include "variables/variable_write.hpp"
 
@@ -64,9 +65,12 @@ Result<json> askRestart(const CommandContext &c, const reload::Generation &g, co
     if (!c.restarts) return Error{"this irpd cannot restart itself"};
     const json checked = c.reloader->check(command.config);
     if (!checked.value("valid", false)) {
-        std::string errors;
-        for (const auto &e : checked["errors"]) errors += (errors.empty() ? "" : "; ") + e.get<std::string>();
-        return Error{errors};
+        // One refusal: every sentence, and the place of the first.
+        Error refused;
+        for (const auto &e : checked["errors"])
+            refused.message += (refused.message.empty() ? "" : "; ") + e.get<std::string>();
+        if (!checked["problems"].empty()) refused.place = protocol::placeFrom(checked["problems"][0]);
+        return refused;
     }
     RestartPlan plan;
     plan.target = {std::filesystem::absolute(command.config).string(), command.set_id, ""};

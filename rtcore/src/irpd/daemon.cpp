@@ -235,7 +235,7 @@ const Daemon::Step Daemon::kSteps[] = {
 int Daemon::attempt(const Step &step) {
     if (Status st = (this->*step.build)(); !st) {
         std::cerr << "irpd: error: " << st.error().message << std::endl;
-        session_.error = st.error().message;
+        session_.error = st.error();
         return step.exit_status;
     }
     return kExitOk;

@@ -19,7 +19,7 @@ struct Session {
     int64_t began_ns = 0;                // CLOCK_MONOTONIC at main()'s start: start-up is measured from it
     std::optional<RestartPlan> arrived;  // this image is a managed restart (INDUROP_RESTART)
     // Set by run():
-    std::string error;                   // the message of the failure it returned with
+    Error error;                         // the failure it returned with
     bool dispatched = false;             // the set ran (a later failure is no refusal at start)
     std::optional<RestartPlan> restart;  // a managed restart was asked: main() executes it
 };

@@ -5,6 +5,7 @@
 #include "events/event_log.hpp"
 #include "irpd/say.hpp"
 #include "osal/rt.hpp"
+#include "protocol/errors.hpp"
 
 #include <fcntl.h>
 #include <linux/close_range.h>
@@ -23,6 +24,13 @@ namespace irp::daemon {
 namespace {
 
 using json = nlohmann::ordered_json;
+
+// The known fields of an error's place, as an object (empty: none known).
+json placeJson(const Place &place) {
+    json out = json::object();
+    protocol::addPlace(out, place);
+    return out;
+}
 
 json setJson(const SetRef &s) { return json{{"config", s.config}, {"set_id", s.set_id}, {"layout", s.layout}}; }
 
@@ -52,7 +60,7 @@ std::string ownName() {
 
 std::string describeSet(const SetRef &set) { return set.set_id.empty() ? set.config : set.set_id; }
 
-RestartPlan RestartPlan::fallBack(const std::string &why) const {
+RestartPlan RestartPlan::fallBack(const Error &why) const {
     RestartPlan back = *this;
     back.fallback = true;
     back.error = why;
@@ -68,7 +76,8 @@ json RestartPlan::toJson() const {
                 {"expected_downtime_ns", expected_downtime_ns},
                 {"dma_latency_fd", dma_latency_fd},
                 {"fallback", fallback},
-                {"error", error},
+                {"error", error.message},
+                {"error_at", placeJson(error.place)},
                 {"name", process_name.empty() ? ownName() : process_name}};
 }
 
@@ -87,7 +96,8 @@ Result<RestartPlan> RestartPlan::fromJson(const std::string &text) {
         plan.expected_downtime_ns = j.value("expected_downtime_ns", int64_t{0});
         plan.dma_latency_fd = j.value("dma_latency_fd", -1);
         plan.fallback = j.value("fallback", false);
-        plan.error = j.value("error", "");
+        plan.error.message = j.value("error", "");
+        if (j.contains("error_at")) plan.error.place = protocol::placeFrom(j["error_at"]);
         plan.process_name = j.value("name", "");
     } catch (const nlohmann::json::exception &e) {
         return Error{std::string(kRestartVariable) + ": " + e.what()};
@@ -185,15 +195,16 @@ void reportRestart(const RestartPlan &plan, int64_t first_period_ns, int64_t sta
                  {"downtime_ns", downtime},
                  {"requested_ns", plan.requested_ns},
                  {"fell_back", plan.fallback},
-                 {"error", plan.fallback ? json(plan.error) : json(nullptr)},
+                 {"error", plan.fallback ? json(plan.error.message) : json(nullptr)},
+                 {"error_at", plan.fallback ? placeJson(plan.error.place) : json(nullptr)},
                  {"stop_ns", plan.stop_ns},
                  {"startup_ns", startup_ns}};
     desk.started(startup_ns, std::move(last));
     const std::string target = describeSet(plan.target), origin = describeSet(plan.origin);
     if (plan.fallback) {
-        const std::string message = "could not start set " + target + " (" + plan.error + "); came back on set " +
-                                    origin + ": downtime " + ms + ", from the last period of set " + origin +
-                                    " to its first again";
+        const std::string message = "could not start set " + target + " (" + plan.error.message +
+                                    "); came back on set " + origin + ": downtime " + ms +
+                                    ", from the last period of set " + origin + " to its first again";
         events.add("restart_failed", "", message);
         say(message);
     } else {

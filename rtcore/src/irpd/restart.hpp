@@ -47,14 +47,14 @@ struct RestartPlan {
     int64_t expected_downtime_ns = 0;
     int dma_latency_fd = -1;   // /dev/cpu_dma_latency held open across the exec (-1: none)
     bool fallback = false;     // this image runs the origin again because the target did not start
-    std::string error;         // fallback: why the target did not start
+    Error error;               // fallback: why the target did not start (its message and place)
     std::string process_name;  // the old image's /proc/<pid>/comm, given back to the new one (execv
                                // of /proc/self/exe would name it "exe")
 
     // The set this image starts on.
     const SetRef &starting() const { return fallback ? origin : target; }
     // The plan for the image that runs the origin again.
-    RestartPlan fallBack(const std::string &why) const;
+    RestartPlan fallBack(const Error &why) const;
 
     nlohmann::ordered_json toJson() const;
     static Result<RestartPlan> fromJson(const std::string &text);

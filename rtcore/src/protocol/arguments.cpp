@@ -125,11 +125,17 @@ Result<const Command *> findCommand(const std::string &name) {
 Status checkArguments(const Command &command, const nlohmann::json &request) {
     for (const Arg &arg : std::span<const Arg>(command.args, command.arg_count)) {
         auto found = request.find(arg.name);
+        // The argument is the error's field.
+        const auto refused = [&](std::string message) {
+            Error e{std::move(message)};
+            e.place.field = arg.name;
+            return e;
+        };
         if (found == request.end()) {
-            if (arg.required) return Error{quoted(arg.name) + " is required: " + arg.expected};
+            if (arg.required) return refused(quoted(arg.name) + " is required: " + arg.expected);
             continue;
         }
-        if (Status st = checkValue(arg, *found, "", quoted(arg.name)); !st) return st;
+        if (Status st = checkValue(arg, *found, "", quoted(arg.name)); !st) return refused(st.error().message);
     }
     return Ok{};
 }

@@ -4,6 +4,7 @@
 #include "hosts/module_identity.hpp"
 #include "osal/clock.hpp"
 #include "osal/rt.hpp"
+#include "protocol/errors.hpp"
 #include "sdk/runtime.hpp"
 #include "stats/summary.hpp"
 #include "variables/layout.hpp"
@@ -19,6 +20,11 @@ namespace {
 using json = nlohmann::ordered_json;
 
 std::string who(const config::ModuleSpec &m) { return m.where + ": module '" + m.name + "'"; }
+
+// An error about module m, at its line of module.xml: "<xml>:<line>: module 'm': what".
+Error about(const config::ModuleSpec &m, const std::string &what, std::string field = {}) {
+    return Error{who(m) + ": " + what, protocol::kRefused, Place{m.xml, m.line, 0, m.name, std::move(field)}};
+}
 
 // Whether executor `name` is the same thread in both sets: the same priority and CPU.
 bool sameThread(const std::vector<dispatch::ExecutorOptions> &a, const std::vector<dispatch::ExecutorOptions> &b,
@@ -111,11 +117,12 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
     for (const config::ModuleSpec &m : set.modules) {
         std::error_code ec;
         if (!std::filesystem::is_regular_file(m.path, ec))
-            return Error{who(m) + ": <filename> " + m.filename + " -> " + m.path.string() + " does not exist"};
+            return about(m, "<filename> " + m.filename + " -> " + m.path.string() + " does not exist", "filename");
         if (m.type == config::ModuleType::Thread && m.operation == config::OperationType::NonReal)
-            return Error{
-                who(m) +
-                ": a non-real module runs in the time left over as a process: set <moduletype>process</moduletype>"};
+            return about(m,
+                         "a non-real module runs in the time left over as a process: set "
+                         "<moduletype>process</moduletype>",
+                         "moduletype");
     }
     if (Status st = dispatch::checkExecutors(dispatch::executorsOf(set, s_.dispatcher)); !st) return st.error();
     std::size_t processes = 0;
@@ -130,11 +137,16 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
 }
 
 json Reloader::check(const std::filesystem::path &xml) const {
-    json errors = json::array(), warnings = json::array(), schedule_json = nullptr, variables = nullptr,
-         restart = nullptr, modules = nullptr;
+    json errors = json::array(), problems = json::array(), warnings = json::array(), schedule_json = nullptr,
+         variables = nullptr, restart = nullptr, modules = nullptr;
+    // Each error as its sentence (errors) and with its place as fields (problems).
+    const auto refuse = [&](const Error &e) {
+        errors.push_back(e.message);
+        problems.push_back(protocol::problemJson(e));
+    };
     auto set = config::parseModuleXml(xml);
     if (!set) {
-        errors.push_back(set.error().message);
+        refuse(set.error());
     } else {
         // An executor on a CPU that irpd's non-RT threads were not kept off at start shares it with them.
         if (!s_.kept_off.empty())
@@ -146,20 +158,20 @@ json Reloader::check(const std::filesystem::path &xml) const {
         resolveLayout(*set);
         auto schedule = schedule::build(*set, s_.limits);
         if (!schedule)
-            errors.push_back(schedule.error().message);
+            refuse(schedule.error());
         else
             schedule_json = schedule::toJson(*schedule, *set);
         // The plan of a load, without loading: which modules stay, what the layout changes.
         const auto running = current();
         if (!schedule) {  // still say what else is wrong
             if (Status st = checkAgainst(*set, running.get()); !st && st.error().code != protocol::kRestartRequired)
-                errors.push_back(st.error().message);
+                refuse(st.error());
         } else if (auto planned = plan(*set, running.get(), running ? running->disabled : std::set<std::string>{}, "");
                    !planned) {
             if (planned.error().code == protocol::kRestartRequired)
                 restart = json{{"reason", planned.error().message}};
             else
-                errors.push_back(planned.error().message);
+                refuse(planned.error());
         } else {
             if ((*planned)->layout) variables = variablesJson(**planned);
             const Fates f = fatesOf(**planned, running.get());
@@ -167,14 +179,9 @@ json Reloader::check(const std::filesystem::path &xml) const {
         }
     }
     // A set that only a restart can run is valid: activation offers the restart (docs/hot-reload.md).
-    return json{{"valid", errors.empty()},
-                {"errors", errors},
-                {"warnings", warnings},
-                {"schedule", schedule_json},
-                {"online", errors.empty() && restart.is_null()},
-                {"restart", restart},
-                {"variables", variables},
-                {"modules", modules}};
+    return json{{"valid", errors.empty()}, {"errors", errors},          {"problems", problems},
+                {"warnings", warnings},    {"schedule", schedule_json}, {"online", errors.empty() && restart.is_null()},
+                {"restart", restart},      {"variables", variables},    {"modules", modules}};
 }
 
 Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const Generation *running,
@@ -227,7 +234,7 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
     for (const config::ModuleSpec &m : spec.modules) {
         Member &member = next->members[static_cast<std::size_t>(m.index)];
         auto identity = hosts::identify(m.path);
-        if (!identity) return Error{who(m) + ": " + identity.error().message};
+        if (!identity) return about(m, identity.error().message);
         member.identity = identity->code;
         member.layout = identity->layout;
         if (!running) continue;
@@ -241,7 +248,7 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
         // the running instance addresses every variable where the new layout has it.
         if (!member.layout.empty() && model)
             if (std::string why = layouts::compatible(member.layout, *model); !why.empty())
-                return Error{who(m) + ": " + m.path.string() + ": " + why};
+                return about(m, m.path.string() + ": " + why);
         member.thread = running->members[o].thread;
         member.record = running->members[o].record;
         member.slot = running->members[o].slot;
@@ -365,7 +372,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         auto image = s_.cache->put(m.path);
         if (!image) {
             undo(*next);
-            return Error{who(m) + ": " + image.error().message};
+            return about(m, image.error().message);
         }
         member.sha256 = image->sha256;
         auto loaded = hosts::ThreadModule::load(m, model, image->image);
@@ -375,8 +382,8 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         }
         if (m.operation == config::OperationType::Sporadic && !(*loaded)->hasCondition()) {
             undo(*next);
-            return Error{who(m) + ": a sporadic thread module needs condition() (extern \"C\" int condition(), or " +
-                         "INDUROP_MODULE(condition = ...)), which the event handler calls every basic period"};
+            return about(m, "a sporadic thread module needs condition() (extern \"C\" int condition(), or "
+                            "INDUROP_MODULE(condition = ...)), which the event handler calls every basic period");
         }
         member.layout = (*loaded)->builtLayout();
         member.thread = std::move(*loaded);
@@ -417,13 +424,13 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         auto free = std::find(slot_used.begin(), slot_used.end(), false);
         if (free == slot_used.end()) {
             undo(*next);
-            return Error{who(m) + ": no free control slot (irpd has " + std::to_string(slot_used.size()) +
-                         "; the running set's processes keep theirs until the swap)"};
+            return about(m, "no free control slot (irpd has " + std::to_string(slot_used.size()) +
+                                "; the running set's processes keep theirs until the swap)");
         }
         auto sha = hosts::sha256File(m.path);
         if (!sha) {
             undo(*next);
-            return Error{who(m) + ": " + sha.error().message};
+            return about(m, sha.error().message);
         }
         member.sha256 = *sha;
         *free = true;

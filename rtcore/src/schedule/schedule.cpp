@@ -18,7 +18,7 @@ Result<Schedule> build(const config::SetSpec &set, const Limits &limits) {
     for (const ModuleSpec &m : set.modules)
         if (m.operation == OperationType::Periodic) periodic.push_back(&m);
     if (periodic.empty())
-        return Error{set.xml_path.string() + ": no periodic module, so there is no basic period to run the set on"};
+        return fileError(set.xml_path.string(), "no periodic module, so there is no basic period to run the set on");
 
     Schedule s;
     s.basic_ns = periodic.front()->period_ns;
@@ -28,21 +28,24 @@ Result<Schedule> build(const config::SetSpec &set, const Limits &limits) {
         s.basic_ns = std::gcd(s.basic_ns, m->period_ns);
         int64_t factor = m->period_ns / std::gcd(s.macro_ns, m->period_ns);
         if (__builtin_mul_overflow(s.macro_ns, factor, &s.macro_ns))
-            return Error{set.xml_path.string() + ":" + std::to_string(m->line) + ": module '" + m->name +
-                         "': the periods have no common multiple below 2^63 ns; choose harmonic periods"};
+            return moduleError(set.xml_path.string(), m->line, m->name,
+                               "module '" + m->name +
+                                   "': the periods have no common multiple below 2^63 ns; choose harmonic periods",
+                               "period");
         if (m->period_ns > longest->period_ns) longest = m;
     }
     if (s.basic_ns < limits.min_basic_ns)
-        return Error{set.xml_path.string() + ": the basic period (GCD of the periods) is " +
-                     std::to_string(s.basic_ns) + " ns, below the minimum basic period of " +
-                     std::to_string(limits.min_basic_ns) + " ns; make the periods multiples of at least " +
-                     humanDuration(limits.min_basic_ns)};
+        return fileError(set.xml_path.string(),
+                         "the basic period (GCD of the periods) is " + std::to_string(s.basic_ns) +
+                             " ns, below the minimum basic period of " + std::to_string(limits.min_basic_ns) +
+                             " ns; make the periods multiples of at least " + humanDuration(limits.min_basic_ns));
     const int64_t count = s.macro_ns / s.basic_ns;
     if (static_cast<uint64_t>(count) > limits.max_slots)
-        return Error{set.xml_path.string() + ": the macro period (LCM of the periods) is " +
-                     std::to_string(s.macro_ns) + " ns, " + std::to_string(count) + " basic periods of " +
-                     std::to_string(s.basic_ns) + " ns; at most " + std::to_string(limits.max_slots) +
-                     " are allowed: choose periods that are multiples of each other"};
+        return fileError(set.xml_path.string(), "the macro period (LCM of the periods) is " +
+                                                    std::to_string(s.macro_ns) + " ns, " + std::to_string(count) +
+                                                    " basic periods of " + std::to_string(s.basic_ns) +
+                                                    " ns; at most " + std::to_string(limits.max_slots) +
+                                                    " are allowed: choose periods that are multiples of each other");
 
     // Run order inside a slot: priority, then position in the file.
     std::stable_sort(periodic.begin(), periodic.end(), [](const ModuleSpec *a, const ModuleSpec *b) {

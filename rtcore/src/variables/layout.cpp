@@ -11,12 +11,12 @@
 namespace irp::variables {
 
 Result<Layout> readLayout(const std::filesystem::path &path) {
-    const std::string where = path.string() + ": ";
+    const std::string file = path.string();
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec))
-        return Error{where + "no such layout file (glbc writes it: glbc FILE.glb -o DIR)"};
+        return fileError(file, "no such layout file (glbc writes it: glbc FILE.glb -o DIR)");
     if (std::filesystem::file_size(path, ec) > kMaxLayoutBytes)
-        return Error{where + "larger than 64 MiB; not a layout"};
+        return fileError(file, "larger than 64 MiB; not a layout");
     std::ifstream in(path, std::ios::binary);
     std::ostringstream buffer;
     buffer << in.rdbuf();
@@ -28,46 +28,46 @@ Result<Layout> readLayout(const std::filesystem::path &path) {
     try {
         j = nlohmann::json::parse(layout.text);
     } catch (const nlohmann::json::exception &e) {
-        return Error{where + "not valid JSON: " + e.what()};
+        return fileError(file, std::string("not valid JSON: ") + e.what());
     }
     try {
         if (!j.is_object() || j.value("format", "") != "indurop-layout")
-            return Error{where + "not an indurop layout (\"format\" is not \"indurop-layout\")"};
+            return fileError(file, "not an indurop layout (\"format\" is not \"indurop-layout\")");
         if (j.at("version").get<int>() != 1)
-            return Error{where + "layout version " + j.at("version").dump() + "; this irpd reads version 1"};
+            return fileError(file, "layout version " + j.at("version").dump() + "; this irpd reads version 1");
         layout.hash = j.at("hash").get<std::string>();
         if (layout.hash.size() != 64 || layout.hash.find_first_not_of("0123456789abcdef") != std::string::npos)
-            return Error{where + "\"hash\" is not 64 lower-case hex digits"};
+            return fileError(file, "\"hash\" is not 64 lower-case hex digits");
         layout.data_size = j.at("data_size").get<uint64_t>();
         if (layout.data_size % 64 || layout.data_size > kMaxDataSize)
-            return Error{where + "\"data_size\" " + std::to_string(layout.data_size) +
-                         " is not a multiple of 64 up to 1 GiB"};
+            return fileError(file, "\"data_size\" " + std::to_string(layout.data_size) +
+                                       " is not a multiple of 64 up to 1 GiB");
         layout.lock_count = j.at("lock_count").get<uint32_t>();
         const auto &variables = j.at("variables");
         // lock_count may exceed the variables: a layout laid out against a running one (glbc
         // --previous) keeps the locks of removed variables as holes.
         if (!variables.is_array() || variables.size() > layout.lock_count)
-            return Error{where + "\"lock_count\" is smaller than the number of variables"};
+            return fileError(file, "\"lock_count\" is smaller than the number of variables");
         std::set<uint64_t> locks;
         for (const auto &v : variables) {
             const auto path_name = v.at("path").get<std::string>();
             const auto offset = v.at("offset").get<uint64_t>(), size = v.at("size").get<uint64_t>();
             const auto lock = v.at("lock").get<uint64_t>();
             if (offset + size > layout.data_size || offset + size < offset)
-                return Error{where + "variable " + path_name + " lies outside the data area"};
+                return fileError(file, "variable " + path_name + " lies outside the data area");
             if (lock >= layout.lock_count)
-                return Error{where + "variable " + path_name + " names lock " + std::to_string(lock)};
+                return fileError(file, "variable " + path_name + " names lock " + std::to_string(lock));
             if (!locks.insert(lock).second)
-                return Error{where + "variable " + path_name + " shares lock " + std::to_string(lock) +
-                             " with another variable"};
+                return fileError(file, "variable " + path_name + " shares lock " + std::to_string(lock) +
+                                           " with another variable");
         }
         layout.variables = variables.size();
     } catch (const nlohmann::json::exception &e) {
-        return Error{where + "malformed layout: " + e.what()};
+        return fileError(file, std::string("malformed layout: ") + e.what());
     }
     std::string problem;
     auto model = layouts::fromJson(j, problem);
-    if (!model) return Error{where + problem};
+    if (!model) return fileError(file, problem);
     layout.model = std::move(*model);
     return layout;
 }

@@ -1,6 +1,7 @@
 // module_xml_text.hpp -- module.xml documents built from shared fragments for the parser's tests
 // (one named test per malformed input, ros2_control's test_component_parser style), and the check
-// that a refusal is one line naming file:line and every expected piece.
+// that a refusal is one line naming file:line and every expected piece, with the same file and line
+// as the fields of its place.
 #pragma once
 
 #include "config/module_xml.hpp"
@@ -119,6 +120,11 @@ inline ::testing::AssertionResult refusedAt(const std::string &text, int line,
     for (std::string_view piece : pieces)
         if (message.find(piece) == std::string::npos)
             return ::testing::AssertionFailure() << "the message lacks '" << piece << "': " << message;
+    // The place is also given as fields, the same as the message's.
+    const irp::Place &place = parsed.error().place;
+    if (place.file != path || place.line != line)
+        return ::testing::AssertionFailure()
+               << "the place's fields say " << place.file << ":" << place.line << ", the message " << prefix;
     return ::testing::AssertionSuccess() << message;
 }
 

@@ -116,17 +116,19 @@ def test_a_set_irpd_finds_wrong_is_stored_with_irpds_errors(cell):
     assert cell.get(f"/sets/{s['id']}").json()["validation"] == s["validation"]
 
 
-def test_irpds_errors_of_a_stored_set_say_the_file_and_line(cell):
+def test_irpds_errors_of_a_stored_set_say_the_file_line_column_module_and_field(cell):
     s = cell.upload(cntr1_period="abc")  # irpd's parser: "<set>/module.xml:13: module 'cntr1': <period>: ..."
     line = FIG1.read_text().splitlines().index("    <period>500000</period>") + 1
+    where = {"file": "module.xml", "line": line, "column": 5, "module": "cntr1", "field": "period"}
     validation = s["validation"]
     assert validation["valid"] is False
-    assert validation["problems"][0]["message"] == validation["errors"][0]
-    assert (validation["problems"][0]["file"], validation["problems"][0]["line"]) == ("module.xml", line), validation
+    problem = validation["problems"][0]
+    assert problem["message"] == validation["errors"][0]
+    assert {k: problem[k] for k in where} == where, validation
     assert cell.get(f"/sets/{s['id']}").json()["validation"]["problems"] == validation["problems"]
     r = cell.post(f"/sets/{s['id']}/activate")
     assert r.status_code == 409, r.text
-    assert (r.json()["file"], r.json()["line"]) == ("module.xml", line)
+    assert {k: r.json()[k] for k in where} == where, r.json()
     assert f"module.xml:{line}: module 'cntr1': <period>" in r.json()["detail"]
 
 

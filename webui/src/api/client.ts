@@ -1,17 +1,17 @@
 // client.ts -- the typed API client: openapi-fetch over the types generated from the agent's
 // OpenAPI document (schema.d.ts, `npm run gen-api`; tests/python/webui checks it is not stale).
 import createClient, { type Middleware } from "openapi-fetch";
+import { type Place, placeIn } from "./place";
 import type { paths } from "./schema";
 
 export type Api = ReturnType<typeof createClient<paths>>;
 
-/** An API error with the agent's message (`detail`) and, for refused uploads, file and line. */
+/** An API error with the agent's message (`detail`) and, for a refused set, where in it (the place's fields). */
 export class ApiError extends Error {
   constructor(
     readonly status: number,
     message: string,
-    readonly file?: string,
-    readonly line?: number,
+    readonly place: Place = {},
   ) {
     super(message);
   }
@@ -44,10 +44,7 @@ export function makeApi(token: string, base = ""): Api {
 /** The data of an openapi-fetch answer, or an ApiError carrying the agent's message. */
 export function unwrap<T>(r: { data?: T; error?: unknown; response: Response }): T {
   if (r.error !== undefined || !r.response.ok) {
-    const body = r.error as Record<string, unknown> | undefined;
-    const file = body && typeof body.file === "string" ? body.file : undefined;
-    const line = body && typeof body.line === "number" ? body.line : undefined;
-    throw new ApiError(r.response.status, detailOf(r.error), file, line);
+    throw new ApiError(r.response.status, detailOf(r.error), placeIn(r.error));
   }
   return r.data as T;
 }

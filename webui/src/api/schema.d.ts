@@ -630,6 +630,11 @@ export interface components {
             /** Detail */
             detail: string;
             /**
+             * Field
+             * @description the module.xml element: period, executor, property.restart, ...
+             */
+            field?: string | null;
+            /**
              * File
              * @description the file of the set it is about, relative to the set's root
              */
@@ -639,6 +644,11 @@ export interface components {
              * @description from 1
              */
             line?: number | null;
+            /**
+             * Module
+             * @description the module (or executor) it is about
+             */
+            module?: string | null;
         };
         /** Event */
         Event: {
@@ -1069,11 +1079,16 @@ export interface components {
         };
         /**
          * Problem
-         * @description One of irpd's validation errors with where it points (parsed from its `file:line: ` prefix).
+         * @description One of irpd's validation errors with where it points (the place irpd gives as fields).
          */
         Problem: {
             /** Column */
             column?: number | null;
+            /**
+             * Field
+             * @description the module.xml element: period, executor, property.restart, ...
+             */
+            field?: string | null;
             /**
              * File
              * @description relative to the set's root, e.g. module.xml
@@ -1083,6 +1098,11 @@ export interface components {
             line?: number | null;
             /** Message */
             message: string;
+            /**
+             * Module
+             * @description the module (or executor) it is about
+             */
+            module?: string | null;
         };
         /** ProcessLoad */
         ProcessLoad: {

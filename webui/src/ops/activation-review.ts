@@ -8,6 +8,7 @@ import { unwrap } from "../api/client";
 import type { AppContext } from "../app/context";
 import { type ActivationPlan, activationPlan, activationRequest, planKey, variableDiff } from "./activation";
 import { errorText, h, setText } from "./dom";
+import { problemList } from "./problems-view";
 import { renderSlotTable } from "./slot-table-view";
 import { buildSlotTable, changedSlots } from "./timeline";
 import type { Schedule, SetPublic, SwapReport, Validation } from "./types";
@@ -105,9 +106,7 @@ export class ActivationReview {
       h(
         "div",
         {},
-        plan.kind === "invalid"
-          ? h("ul", { class: "ops-issues" }, ...plan.errors.map((e) => h("li", { class: "bad mono" }, e)))
-          : null,
+        plan.kind === "invalid" ? problemList(v) : null,
         plan.kind === "unchecked" ? h("div", { class: "warn" }, `not checked: ${plan.why}`) : null,
         v.warnings.length && plan.kind !== "unchecked"
           ? h("ul", { class: "ops-issues" }, ...v.warnings.map((w) => h("li", { class: "warn" }, w)))

@@ -1,6 +1,7 @@
 // dom.ts -- small DOM helpers for the operations pages: building elements, escaping text,
 // polling without overlap, and error messages people can act on.
 import { ApiError } from "../api/client";
+import { placeText } from "../api/place";
 
 type Child = Node | string | number | null | undefined | false;
 
@@ -102,7 +103,8 @@ export function errorText(e: unknown): string {
       (!e.message || /^(undefined|null|\{\})$/.test(e.message) || /internal server error/i.test(e.message))
     )
       return `HTTP ${e.status}: the agent failed to answer this request`;
-    return `HTTP ${e.status}: ${e.message}`;
+    const where = placeText(e.place);
+    return `HTTP ${e.status}: ${where ? `${where}: ` : ""}${e.message}`;
   }
   if (e instanceof TypeError) return "the agent did not answer (network error)";
   if (e instanceof Error) return e.message;

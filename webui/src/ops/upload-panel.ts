@@ -1,8 +1,11 @@
 // upload-panel.ts -- uploading a set (admin): drop its folder, its files or one .tar.gz (or pick
 // them), watch the upload's progress, read irpd's validation of the stored set or the refusal
 // with its file and line; then the activation review (what activating it would change, one button).
+
+import { placeText } from "../api/place";
 import type { AppContext } from "../app/context";
 import { h, setText } from "./dom";
+import { problemList } from "./problems-view";
 import { renderSlotTable } from "./slot-table-view";
 import { buildSlotTable } from "./timeline";
 import type { Schedule, SetPublic } from "./types";
@@ -12,8 +15,8 @@ import {
   filesFromDrop,
   filesFromList,
   planUpload,
+  type Refusal,
   refusal,
-  refusalWhere,
   send,
   type UploadFile,
   type UploadHandle,
@@ -103,9 +106,9 @@ export class UploadPanel {
     );
   }
 
-  private fail(r: { status: number; message: string; file?: string; line?: number; column?: number }): void {
+  private fail(r: Refusal): void {
     this.error.hidden = false;
-    const where = refusalWhere(r);
+    const where = placeText(r);
     this.error.replaceChildren(
       h(
         "div",
@@ -151,7 +154,7 @@ export class UploadPanel {
       this.progressRow.hidden = true;
       const r = refusal(status, body);
       this.fail(r);
-      this.ctx.notify(`upload refused: ${refusalWhere(r) ? `${refusalWhere(r)}: ` : ""}${r.message}`, "error");
+      this.ctx.notify(`upload refused: ${placeText(r) ? `${placeText(r)}: ` : ""}${r.message}`, "error");
       return;
     }
     this.progress.value = this.progress.max;
@@ -192,9 +195,7 @@ export class UploadPanel {
           set.active ? " (active)" : "",
         ),
         h("div", { class: `state ${cls}`, "data-testid": "upload-valid" }, `validation: ${verdict}`),
-        v.errors.length
-          ? h("ul", { class: "ops-issues" }, ...v.errors.map((e) => h("li", { class: "bad mono" }, e)))
-          : null,
+        v.errors.length ? problemList(v) : null,
         v.warnings.length
           ? h("ul", { class: "ops-issues" }, ...v.warnings.map((w) => h("li", { class: "warn" }, w)))
           : null,

@@ -2,6 +2,7 @@
 // webkitGetAsEntry, keeping relative paths), the set's root found (module.xml at the top), the
 // multipart body (`files` parts named by path, or one `archive`), and the POST with progress.
 import { detailOf } from "../api/client";
+import { type Place, placeIn } from "../api/place";
 
 export interface UploadFile {
   /** path inside the set, "/"-separated, e.g. lib/cntr1.so */
@@ -121,37 +122,16 @@ export function buildForm(plan: Exclude<Plan, { kind: "error" }>): FormData {
   return form;
 }
 
-export interface Refusal {
+export interface Refusal extends Place {
   status: number;
   message: string;
-  file?: string;
-  line?: number;
-  column?: number;
 }
 
-/** An upload's refusal from its status and body ({detail, file?, line?, column?}). */
+/** An upload's refusal from its status and body ({detail, and the place's fields}). */
 export function refusal(status: number, body: unknown): Refusal {
-  const b = body && typeof body === "object" ? (body as Record<string, unknown>) : {};
-  const num = (v: unknown) => (typeof v === "number" && Number.isFinite(v) ? v : undefined);
   let message = body === undefined || body === "" ? `HTTP ${status}` : detailOf(body);
   if (status === 0) message = body === "aborted" ? "upload cancelled" : "the agent did not answer (network error)";
-  return {
-    status,
-    message,
-    file: typeof b.file === "string" ? b.file : undefined,
-    line: num(b.line),
-    column: num(b.column),
-  };
-}
-
-/** "module.xml:12:5" from a refusal, or "" when it names no file. */
-export function refusalWhere(r: Refusal): string {
-  if (!r.file) return "";
-  return (
-    r.file +
-    (r.line !== undefined ? `:${r.line}` : "") +
-    (r.line !== undefined && r.column !== undefined ? `:${r.column}` : "")
-  );
+  return { status, message, ...placeIn(body) };
 }
 
 export interface UploadHandle {

@@ -1,6 +1,7 @@
 // upload.test.ts -- the files of a drop (folders walked, relative paths kept), the set's root,
 // the multipart body, and the refusal with its file and line.
 import { describe, expect, it } from "vitest";
+import { placeText } from "../../src/api/place";
 import {
   buildForm,
   type EntryLike,
@@ -8,7 +9,6 @@ import {
   filesFromList,
   planUpload,
   refusal,
-  refusalWhere,
   type UploadFile,
 } from "../../src/ops/upload";
 
@@ -148,9 +148,23 @@ describe("refusals", () => {
       line: 12,
       column: 5,
     });
-    expect(refusalWhere(r)).toBe("module.xml:12:5");
-    expect(refusalWhere(refusal(400, { detail: "d", file: "a.so" }))).toBe("a.so");
-    expect(refusalWhere(refusal(413, { detail: "too large" }))).toBe("");
+    expect(placeText(r)).toBe("module.xml:12:5");
+    expect(placeText(refusal(400, { detail: "d", file: "a.so" }))).toBe("a.so");
+    expect(placeText(refusal(413, { detail: "too large" }))).toBe("");
+  });
+
+  it("names the module and the module.xml field from their fields, never from the message", () => {
+    const r = refusal(409, {
+      detail: "irpd refused the set: elsewhere.xml:99: something",
+      file: "module.xml",
+      line: 7,
+      column: 5,
+      module: "cntr1",
+      field: "property.restart",
+    });
+    expect(placeText(r)).toBe("module.xml:7:5 (module cntr1, <property.restart>)");
+    expect(placeText(refusal(409, { detail: "d", module: "io" }))).toBe("module io");
+    expect(placeText(refusal(409, { detail: "d", line: 3, field: "period" }))).toBe("line 3 (<period>)");
   });
 
   it("say when the agent did not answer or the upload was cancelled", () => {

@@ -9,7 +9,7 @@ from starlette.concurrency import run_in_threadpool
 
 from ... import uploads
 from ...activation import RestartFellBack, irpd_validation
-from ...errors import LocatedError, locate, problems
+from ...errors import LocatedError, place
 from ...irpd_client import IrpdRefused, IrpdUnavailable
 from ...store import StoreError, remove_tree, set_id_of
 from ..deps import AdminDep, OperatorDep, ViewerDep, audited
@@ -56,13 +56,15 @@ REFUSALS = {
 
 
 def _located(request: Request, manifest: dict) -> dict:
-    """The manifest with its validation's errors also as problems (where each points in the set),
-    for sets stored before the validation kept them."""
+    """The manifest with its validation's errors also as problems, for sets stored before the
+    validation kept them (without places: checking the set again gives them)."""
     validation = manifest["validation"]
     if "problems" in validation:
         return manifest
-    root = request.app.state.store.files_dir(manifest["id"])
-    return {**manifest, "validation": {**validation, "problems": problems(validation.get("errors") or [], root)}}
+    return {
+        **manifest,
+        "validation": {**validation, "problems": [{"message": e} for e in validation.get("errors") or []]},
+    }
 
 
 def _public(request: Request, manifest: dict) -> SetPublic:
@@ -168,12 +170,12 @@ def _run_swap(call, root=None):
     except StoreError as e:
         raise _store_error(e) from e
     except RestartFellBack as e:  # irpd restarted, and runs its old set again
-        raise LocatedError(409, str(e), **(locate(str(e), root) if root is not None else {})) from e
+        raise LocatedError(409, str(e), **(place(e.place, root) if root is not None else {})) from e
     except IrpdRefused as e:
         raise LocatedError(
             409,
             f"irpd refused the set and kept the running one: {e}",
-            **(locate(str(e), root) if root is not None else {}),
+            **(place(e.place, root) if root is not None else {}),
         ) from e
     except IrpdUnavailable as e:
         raise HTTPException(503, str(e)) from e

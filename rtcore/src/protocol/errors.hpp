@@ -1,0 +1,43 @@
+// errors.hpp -- an Error as the control protocol sends it (protocol/control.json, "error"): its
+// code, its message, and the fields of its place that are known (file, line, column, module,
+// field), so that the agent and the web UI read the place instead of finding it in the text.
+#pragma once
+
+#include "common/result.hpp"
+
+#include <nlohmann/json.hpp>
+
+namespace irp::protocol {
+
+// The place's known fields into `out` (an object).
+inline void addPlace(nlohmann::ordered_json &out, const Place &place) {
+    if (!place.file.empty()) out["file"] = place.file;
+    if (place.line > 0) out["line"] = place.line;
+    if (place.column > 0) out["column"] = place.column;
+    if (!place.module.empty()) out["module"] = place.module;
+    if (!place.field.empty()) out["field"] = place.field;
+}
+
+// A place read back from such an object (the fields it lacks stay unknown).
+template <class Json>
+Place placeFrom(const Json &j) {
+    if (!j.is_object()) return {};
+    return Place{j.value("file", ""), j.value("line", 0), j.value("column", 0), j.value("module", ""),
+                 j.value("field", "")};
+}
+
+// {"code", "message", and the place's fields}: a refusal's "error".
+inline nlohmann::ordered_json errorJson(const Error &error) {
+    nlohmann::ordered_json out{{"code", error.code}, {"message", error.message}};
+    addPlace(out, error.place);
+    return out;
+}
+
+// {"message", and the place's fields}: one entry of `check`'s "problems".
+inline nlohmann::ordered_json problemJson(const Error &error) {
+    nlohmann::ordered_json out{{"message", error.message}};
+    addPlace(out, error.place);
+    return out;
+}
+
+}  // namespace irp::protocol
