@@ -430,7 +430,7 @@ class Stream:
         async def receive():
             try:
                 return await asyncio.wait_for(ws.recv(), timeout)
-            except asyncio.TimeoutError:
+            except TimeoutError:
                 return None
 
         return self._call(receive())
