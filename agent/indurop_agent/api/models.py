@@ -1,14 +1,16 @@
 """models.py -- the shapes the API answers with, so that the OpenAPI description (and the web UI's
-generated client) says what comes back: the agent's own (sets, events, host load, errors) and
-irpd's answers (status, schedule, modules, stats, histograms, swap reports).  irpd's shapes list
-the fields irpd sends and let any others through (extra="allow"), so a newer irpd's additions
-reach the client."""
+generated client) says what comes back: the agent's own (sets, events, host load, errors), and
+what the agent makes of irpd's answers where it passes on more or other than irpd sent (an
+activation's report, histograms with their buckets as objects, a change's report).  irpd's
+answers themselves are the models protocol.py generates from protocol/control.json (Status,
+Schedule, ModuleInfo, Stats, ...): they list the fields irpd sends and let any others through
+(extra="allow"), so a newer irpd's additions reach the client."""
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any, Literal, get_origin
 
-from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt
+from pydantic import BaseModel, ConfigDict, Field, create_model
 
 from .. import protocol
 
@@ -29,108 +31,42 @@ class SetFile(BaseModel):
     )
 
 
-class ErrorBody(BaseModel):
-    """An error answer: what to fix, and for a refused upload or activation where, when known."""
+class ErrorBody(protocol.Place):
+    """An error answer: what to fix, and for a refused upload or activation where, when known (the
+    place irpd gives, with the file relative to the set's root)."""
 
     detail: str
     file: str | None = Field(None, description="the file of the set it is about, relative to the set's root")
-    line: int | None = Field(None, description="from 1")
-    column: int | None = Field(None, description="from 1")
-    module: str | None = Field(None, description="the module (or executor) it is about")
-    field: str | None = Field(None, description="the module.xml element: period, executor, property.restart, ...")
 
 
-class Problem(BaseModel):
-    """One of irpd's validation errors with where it points (the place irpd gives as fields)."""
+class Problem(protocol.Place):
+    """One of irpd's validation errors with where it points (the place irpd gives, with the file
+    relative to the set's root)."""
 
     message: str
     file: str | None = Field(None, description="relative to the set's root, e.g. module.xml")
-    line: int | None = None
-    column: int | None = None
-    module: str | None = Field(None, description="the module (or executor) it is about")
-    field: str | None = Field(None, description="the module.xml element: period, executor, property.restart, ...")
 
 
-class IrpdShape(BaseModel):
-    """An answer from irpd: the fields listed are always there; others a newer irpd adds pass through."""
-
-    model_config = ConfigDict(extra="allow")
-
-
-class ScheduleSlot(IrpdShape):
-    index: int
-    offset_ns: int = Field(description="index * basic period")
-    modules: list[str] = Field(description="the modules run in this slot, in run order (priority, then file order)")
-
-
-class ScheduledModule(IrpdShape):
-    name: str
-    moduletype: str = Field(description="thread or process")
-    operationtype: str = Field(description="periodic, sporadic or non-real")
-    period_ns: int = Field(description="0 for sporadic and non-real modules")
-    deadline_ns: int = Field(description="0 = the period")
-    priority: int = Field(description="lowest value = highest priority")
-    executor: str
-    enabled: bool | None = Field(None, description="false: taken out of dispatch (absent in a stored set's check)")
-
-
-class Schedule(IrpdShape):
-    """The slot table (the paper's Table 3): irpd's `schedule`."""
-
-    basic_period_ns: int = Field(description="GCD of the periods")
-    macro_period_ns: int = Field(description="LCM of the periods")
-    slots: list[ScheduleSlot]
-    modules: list[ScheduledModule] = Field(description="every module of the set, in module.xml order")
-
-
-class MovedVariable(BaseModel):
-    model_config = ConfigDict(populate_by_name=True)
-    path: str
-    from_: int = Field(alias="from", description="its offset in the running layout")
-    to: int = Field(description="its offset in the new one (its type changed)")
-
-
-class VariableChanges(BaseModel):
-    """What a set's layout changes in the running shared variables (docs/hot-reload.md)."""
-
-    layout: str | None = Field(None, description="the new layout's hash")
-    added: list[str] = Field([], description="variables the running layout does not have (zeroed before the swap)")
-    removed: list[str] = Field(
-        [], description="variables the new layout does not have (their room stays a hole until irpd restarts)"
-    )
-    moved: list[MovedVariable] = Field([], description="variables whose type changed: a new place, zeroed")
-    replaced: list[str] = Field(
-        [],
-        description="running modules built against a layout that has a changed "
-        "variable elsewhere: they are loaded anew, not kept",
-    )
-
-
-class RestartNeed(BaseModel):
-    model_config = ConfigDict(extra="allow")
-    reason: str = Field(description="why irpd cannot take the set online")
-    expected_downtime_ns: int | None = Field(
-        None,
-        description="what the restart is expected to cost: from the last "
-        "period of the running set to the first of the new one",
-    )
+RestartNeed = protocol.RestartNeed
 
 
 class Validation(BaseModel):
     valid: bool | None = Field(description="irpd's `check` verdict; null when irpd could not check the set")
     errors: list[str] = []
     problems: list[Problem] = Field(
-        [], description="`errors` again, each with the file, line and column it names (where it names one)"
+        [], description="`errors` again, each with its place: file, line, column, module and field (those known)"
     )
     warnings: list[str] = []
-    schedule: Schedule | None = Field(None, description="the slot table irpd would run, as GET /schedule")
+    schedule: protocol.Schedule | None = Field(None, description="the slot table irpd would run, as GET /schedule")
     online: bool | None = Field(
         None,
         description="whether irpd can take the set by a hot swap (checked against what "
         "ran when it was checked); false: only a restart can run it",
     )
     restart: RestartNeed | None = Field(None, description="when online is false: why, and the expected downtime")
-    variables: VariableChanges | None = Field(None, description="the shared variables it adds, removes and moves")
+    variables: protocol.VariableChanges | None = Field(
+        None, description="the shared variables it adds, removes and moves"
+    )
 
 
 class SetPublic(BaseModel):
@@ -169,135 +105,35 @@ class ActivateRequest(BaseModel):
     )
 
 
-class SwapReport(BaseModel):
-    """irpd's report of a hot swap (control protocol v2), or of a managed restart (mode restart)."""
-
-    model_config = ConfigDict(extra="allow")
-    mode: Literal["online", "restart"] = Field("online", description="how the set went in: a hot swap or a restart")
-    downtime_ns: int | None = Field(
-        None,
-        description="restart: from the old set's last period to the new one's "
-        "first, as irpd measured it; null for a hot swap",
-    )
-    set: str | None = None
-    set_id: str | None = None
-    generation: int | None = None
-    swap_cycle: int | None = Field(None, description="global basic-period count at which the new table took over")
-    swap_at_ns: int | None = None
-    basic_period_ns: int | None = None
-    macro_period_ns: int | None = None
-    kept: list[str] = []
-    started: list[str] = []
-    stopped: list[str] = []
-    missed_periods: int | None = Field(None, description="dispatcher periods missed around the swap; the goal is 0")
-    variables: VariableChanges | None = Field(None, description="the shared variables the swap added, removed, moved")
-    request_to_swap_ns: int | None = None
-    total_ns: int | None = None
+def _each_optional(model: type[BaseModel]) -> dict[str, Any]:
+    """`model`'s fields as create_model takes them, each optional: an empty list, or null, when absent."""
+    fields = {}
+    for name, f in model.model_fields.items():
+        listed = get_origin(f.annotation) is list
+        fields[name] = (
+            f.annotation if listed else f.annotation | None,
+            Field([] if listed else None, alias=f.alias, description=f.description),
+        )
+    return fields
 
 
-class SharedMemory(IrpdShape):
-    stats: str = Field(description="the stats block's shm name")
-    variables: str | None = Field(description="the shared variables' shm name; null: the set has none")
-    trace: str | None = Field(None, description="the trace rings' shm name")
-
-
-class Status(IrpdShape):
-    """irpd's `status`."""
-
-    set: str = Field(description="the running module.xml")
-    set_id: str | None = Field(description="the stored set's id given at activation; null otherwise")
-    generation: int = Field(description="1 + hot swaps since irpd started")
-    running: bool
-    realtime: bool = Field(description="false: the dispatchers run SCHED_OTHER; periods are not guaranteed")
-    pid: int = Field(description="irpd's process id")
-    basic_period_ns: int
-    macro_period_ns: int
-    min_basic_period_ns: int | None = Field(
-        None, description="the shortest basic period irpd accepts (a set or change below it is refused)"
-    )
-    uptime_ns: int
-    cycles: int = Field(description="basic periods dispatched")
-    modules: int = Field(description="how many modules the set has")
-    overruns: int
-    missed: int
-    skipped: int
-    caught_up: int
-    events: int = Field(description="the last event's seq")
-    stopped_by_fault: str | None = Field(
-        None, description="null, or why a fault stopped the set (an overrun with on_overrun=stop): docs/faults.md"
-    )
-    last_crash: dict[str, Any] | None = Field(
-        None,
-        description="the crash record irpd took in at start (signal, "
-        "module, executor, set, time, cause: fault, abort, "
-        "watchdog or signal, sender_pid...), or null: "
-        "docs/supervision.md",
-    )
-    left_out_after_crash: list[dict[str, Any]] = Field([], description="modules a crash left out ({module, set})")
-    last_restart: dict[str, Any] | None = Field(
-        None,
-        description="the managed restart this irpd came from "
-        "({from_set_id, set_id, downtime_ns, requested_ns, fell_back, error}), "
-        "or null",
-    )
-    shared_memory: SharedMemory
-
-
-class Figures(BaseModel):
-    """A distribution summarized (ns): min, max, mean and percentiles, from the histograms."""
-
-    model_config = ConfigDict(extra="allow")
-    count: int
-    min: float
-    max: float
-    mean: float
-    p50: float
-    p99: float
-    p999: float
-
-
-class TimingRecord(IrpdShape):
-    """A dispatcher's or a module's figures (irpd's stats record)."""
-
-    name: str
-    executor: str
-    kind: str = Field(description="dispatcher or module")
-    period_ns: int = Field(description="the module's period, or the basic period for a dispatcher")
-    runs: int
-    jitter_ns: Figures = Field(description="Eq. (1): planned start minus actual start (may be negative)")
-    latency_ns: Figures = Field(description="start (wake-up for a dispatcher) minus its planned time")
-    exec_ns: Figures = Field(description="execution time")
-    overruns: int
-    missed: int
-    skipped: int
-    errors: int
-    caught_up: int | None = Field(None, description="dispatchers only")
-    state: str | None = Field(None, description="modules only: loaded, running, disabled, skipped, stopped, exited")
-    priority: int | None = Field(None, description="modules only")
-    budget_ns: int | None = Field(None, description="modules only; 0 = none")
-
-
-class Stats(IrpdShape):
-    """irpd's `stats`: every dispatcher and module record."""
-
-    cycles: int
-    executors: list[TimingRecord] = Field(description="the dispatchers' records, the main one first")
-    modules: list[TimingRecord]
-
-
-class ModuleInfo(TimingRecord):
-    """One module of the running set: its figures, its module.xml entry and its state."""
-
-    state: str = Field(description="loaded, running, disabled, skipped, stopped or exited")
-    priority: int
-    budget_ns: int
-    moduletype: str
-    operationtype: str
-    deadline_ns: int
-    enabled: bool
-    file: str
-    sha256: str
-    properties: dict[str, str]
+SwapReport = create_model(
+    "SwapReport",
+    __base__=protocol.IrpdShape,
+    __doc__="irpd's report of a hot swap (the control protocol's swap_report), or of a managed restart "
+    "(mode restart): a restart's report has what irpd's status tells after it (set, set_id, generation, "
+    "the periods) and downtime_ns, its other fields empty or null.",
+    mode=(Literal["online", "restart"], Field("online", description="how the set went in: a hot swap or a restart")),
+    downtime_ns=(
+        int | None,
+        Field(
+            None,
+            description="restart: from the old set's last period to the new one's first, as irpd measured it; "
+            "null for a hot swap",
+        ),
+    ),
+    **_each_optional(protocol.SwapReport),
+)
 
 
 class Health(BaseModel):
@@ -319,12 +155,7 @@ class VariableList(BaseModel):
     variables: list[VariableInfo]
 
 
-class VariableWritten(BaseModel):
-    path: str
-    value: StrictBool | StrictInt | float = Field(description="as irpd stored it (checked against the type)")
-
-
-class VariableValue(VariableWritten):
+class VariableValue(protocol.VariableWritten):
     layout_hash: str = Field(description="the layout the value was read with")
 
 
@@ -384,32 +215,21 @@ class Bucket(BaseModel):
     count: int
 
 
-class Histogram(BaseModel):
-    count: int
-    min: float
-    max: float
+class Histogram(protocol.Histogram):
+    """irpd's histogram with each bucket an object (irpd sends [low, width, count])."""
+
     buckets: list[Bucket] = Field(description="the non-empty buckets, ascending; jitter may have negative ones")
 
 
-class HistogramRecord(BaseModel):
-    model_config = ConfigDict(extra="allow")
-    name: str
-    kind: str = Field(description="dispatcher or module")
-    executor: str
-    runs: int
-    overruns: int
-    missed: int
-    skipped: int
-    errors: int
+class HistogramRecord(protocol.HistogramRecord):
     jitter_ns: Histogram
     latency_ns: Histogram
     exec_ns: Histogram
 
 
-class Histograms(BaseModel):
-    model_config = ConfigDict(extra="allow")
-    cycles: int = Field(description="basic periods dispatched so far; the figures are cumulative since start")
-    time_ns: int = Field(description="CLOCK_MONOTONIC when read")
+class Histograms(protocol.Histograms):
+    """irpd's `histograms`, each bucket an object."""
+
     records: list[HistogramRecord]
 
 
@@ -428,8 +248,8 @@ class ModuleChanges(BaseModel):
 
 class ChangesReport(BaseModel):
     dry_run: bool
-    before: Schedule = Field(description="the slot table running before the changes, as GET /schedule")
-    after: Schedule = Field(description="the slot table with the changes, as GET /schedule")
+    before: protocol.Schedule = Field(description="the slot table running before the changes, as GET /schedule")
+    after: protocol.Schedule = Field(description="the slot table with the changes, as GET /schedule")
     utilization: float = Field(
         description="estimated busy fraction of the busiest executor with the changes "
         "(measured exec p99 of each module, or its <budget> when larger, "

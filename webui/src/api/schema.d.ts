@@ -618,20 +618,66 @@ export interface components {
             cpu: number;
         };
         /**
+         * CrashRecord
+         * @description A crash irpd took in (docs/supervision.md).
+         */
+        CrashRecord: {
+            /**
+             * Cause
+             * @enum {string}
+             */
+            cause: "fault" | "abort" | "watchdog" | "signal";
+            /** Executor */
+            executor: string | null;
+            /** Fault Address */
+            fault_address: string;
+            /** Generation */
+            generation: number;
+            /** Module */
+            module: string | null;
+            /** Pid */
+            pid: number;
+            /**
+             * Sender Pid
+             * @description who sent the signal; null for a fault
+             */
+            sender_pid: number | null;
+            /** Set */
+            set: string;
+            /** Set Id */
+            set_id: string | null;
+            /** Signal */
+            signal: string;
+            /** Signal Number */
+            signal_number: number;
+            /**
+             * Stuck
+             * @description the watchdog's kill; `module` is the one a stalled dispatcher was stuck in
+             */
+            stuck: boolean;
+            /** Thread */
+            thread: number;
+            /** Time */
+            time: string;
+        } & {
+            [key: string]: unknown;
+        };
+        /**
          * ErrorBody
-         * @description An error answer: what to fix, and for a refused upload or activation where, when known.
+         * @description An error answer: what to fix, and for a refused upload or activation where, when known (the
+         *     place irpd gives, with the file relative to the set's root).
          */
         ErrorBody: {
             /**
              * Column
-             * @description from 1
+             * @description the column, counted from 1
              */
             column?: number | null;
             /** Detail */
             detail: string;
             /**
              * Field
-             * @description the module.xml element: period, executor, property.restart, ...
+             * @description the module.xml element (`period`, `executor`, `property.restart`), or the request's argument
              */
             field?: string | null;
             /**
@@ -641,7 +687,7 @@ export interface components {
             file?: string | null;
             /**
              * Line
-             * @description from 1
+             * @description the line, counted from 1
              */
             line?: number | null;
             /**
@@ -649,6 +695,8 @@ export interface components {
              * @description the module (or executor) it is about
              */
             module?: string | null;
+        } & {
+            [key: string]: unknown;
         };
         /** Event */
         Event: {
@@ -702,7 +750,7 @@ export interface components {
         };
         /**
          * Figures
-         * @description A distribution summarized (ns): min, max, mean and percentiles, from the histograms.
+         * @description A distribution summarized (ns), from its histogram.
          */
         Figures: {
             /** Count */
@@ -752,7 +800,10 @@ export interface components {
             /** Version */
             version: string;
         };
-        /** Histogram */
+        /**
+         * Histogram
+         * @description irpd's histogram with each bucket an object (irpd sends [low, width, count]).
+         */
         Histogram: {
             /**
              * Buckets
@@ -765,6 +816,8 @@ export interface components {
             max: number;
             /** Min */
             min: number;
+        } & {
+            [key: string]: unknown;
         };
         /** HistogramRecord */
         HistogramRecord: {
@@ -776,9 +829,9 @@ export interface components {
             jitter_ns: components["schemas"]["Histogram"];
             /**
              * Kind
-             * @description dispatcher or module
+             * @enum {string}
              */
-            kind: string;
+            kind: "dispatcher" | "module";
             latency_ns: components["schemas"]["Histogram"];
             /** Missed */
             missed: number;
@@ -793,7 +846,10 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
-        /** Histograms */
+        /**
+         * Histograms
+         * @description irpd's `histograms`, each bucket an object.
+         */
         Histograms: {
             /**
              * Cycles
@@ -858,6 +914,50 @@ export interface components {
             /** Joints */
             joints: components["schemas"]["JointMap"][];
         };
+        /**
+         * LastRestart
+         * @description The managed restart this process came from (docs/hot-reload.md).
+         */
+        LastRestart: {
+            /** Downtime Ns */
+            downtime_ns: number;
+            /**
+             * Error
+             * @description why, when it fell back
+             */
+            error: string | null;
+            /** @description its place: the fields that are known */
+            error_at: components["schemas"]["Place"] | null;
+            /**
+             * Fell Back
+             * @description true: that set did not start and irpd runs `from_set_id` again
+             */
+            fell_back: boolean;
+            /** From Set Id */
+            from_set_id: string | null;
+            /** Requested Ns */
+            requested_ns: number;
+            /**
+             * Set Id
+             * @description the set asked for
+             */
+            set_id: string | null;
+            /** Startup Ns */
+            startup_ns: number;
+            /** Stop Ns */
+            stop_ns: number;
+        } & {
+            [key: string]: unknown;
+        };
+        /** LeftOutModule */
+        LeftOutModule: {
+            /** Module */
+            module: string;
+            /** Set */
+            set: string;
+        } & {
+            [key: string]: unknown;
+        };
         /** Me */
         Me: {
             /** Id */
@@ -910,7 +1010,7 @@ export interface components {
         };
         /**
          * ModuleInfo
-         * @description One module of the running set: its figures, its module.xml entry and its state.
+         * @description One module of the running set: its stats record, its module.xml entry and its state.
          */
         ModuleInfo: {
             /** Budget Ns */
@@ -936,19 +1036,25 @@ export interface components {
             jitter_ns: components["schemas"]["Figures"];
             /**
              * Kind
-             * @description dispatcher or module
+             * @enum {string}
              */
-            kind: string;
+            kind: "dispatcher" | "module";
             /** @description start (wake-up for a dispatcher) minus its planned time */
             latency_ns: components["schemas"]["Figures"];
             /** Missed */
             missed: number;
-            /** Moduletype */
-            moduletype: string;
+            /**
+             * Moduletype
+             * @enum {string}
+             */
+            moduletype: "thread" | "process";
             /** Name */
             name: string;
-            /** Operationtype */
-            operationtype: string;
+            /**
+             * Operationtype
+             * @enum {string}
+             */
+            operationtype: "periodic" | "sporadic" | "non-real";
             /** Overruns */
             overruns: number;
             /**
@@ -970,9 +1076,9 @@ export interface components {
             skipped: number;
             /**
              * State
-             * @description loaded, running, disabled, skipped, stopped or exited
+             * @enum {string}
              */
-            state: string;
+            state: "loaded" | "running" | "disabled" | "skipped" | "stopped" | "exited";
         } & {
             [key: string]: unknown;
         };
@@ -1011,6 +1117,8 @@ export interface components {
              * @description its offset in the new one (its type changed)
              */
             to: number;
+        } & {
+            [key: string]: unknown;
         };
         /** PatchReport */
         PatchReport: {
@@ -1032,7 +1140,7 @@ export interface components {
             macro_period_ns?: number | null;
             /**
              * Missed Periods
-             * @description dispatcher periods missed around the swap; the goal is 0
+             * @description the dispatchers' missed and skipped periods from the request to one macro period after the swap
              */
             missed_periods?: number | null;
             /**
@@ -1067,26 +1175,63 @@ export interface components {
             swap_at_ns?: number | null;
             /**
              * Swap Cycle
-             * @description global basic-period count at which the new table took over
+             * @description the first basic period run from the new table (a macro-period boundary)
              */
             swap_cycle?: number | null;
             /** Total Ns */
             total_ns?: number | null;
-            /** @description the shared variables the swap added, removed, moved */
+            /** @description the shared variables the swap added, removed and moved */
             variables?: components["schemas"]["VariableChanges"] | null;
         } & {
             [key: string]: unknown;
         };
         /**
-         * Problem
-         * @description One of irpd's validation errors with where it points (the place irpd gives as fields).
+         * Place
+         * @description Where in a set's files an error is: the fields that apply (rtcore/src/common/result.hpp, Place); the message says the same in words.
          */
-        Problem: {
-            /** Column */
+        Place: {
+            /**
+             * Column
+             * @description the column, counted from 1
+             */
             column?: number | null;
             /**
              * Field
-             * @description the module.xml element: period, executor, property.restart, ...
+             * @description the module.xml element (`period`, `executor`, `property.restart`), or the request's argument
+             */
+            field?: string | null;
+            /**
+             * File
+             * @description the file, absolute for a set's files (module.xml, a module's .so, layout.json)
+             */
+            file?: string | null;
+            /**
+             * Line
+             * @description the line, counted from 1
+             */
+            line?: number | null;
+            /**
+             * Module
+             * @description the module (or executor) it is about
+             */
+            module?: string | null;
+        } & {
+            [key: string]: unknown;
+        };
+        /**
+         * Problem
+         * @description One of irpd's validation errors with where it points (the place irpd gives, with the file
+         *     relative to the set's root).
+         */
+        Problem: {
+            /**
+             * Column
+             * @description the column, counted from 1
+             */
+            column?: number | null;
+            /**
+             * Field
+             * @description the module.xml element (`period`, `executor`, `property.restart`), or the request's argument
              */
             field?: string | null;
             /**
@@ -1094,7 +1239,10 @@ export interface components {
              * @description relative to the set's root, e.g. module.xml
              */
             file?: string | null;
-            /** Line */
+            /**
+             * Line
+             * @description the line, counted from 1
+             */
             line?: number | null;
             /** Message */
             message: string;
@@ -1103,6 +1251,8 @@ export interface components {
              * @description the module (or executor) it is about
              */
             module?: string | null;
+        } & {
+            [key: string]: unknown;
         };
         /** ProcessLoad */
         ProcessLoad: {
@@ -1118,7 +1268,10 @@ export interface components {
             /** Threads */
             threads: number;
         };
-        /** RestartNeed */
+        /**
+         * RestartNeed
+         * @description Why only a restart can run the set.
+         */
         RestartNeed: {
             /**
              * Expected Downtime Ns
@@ -1202,7 +1355,7 @@ export interface components {
         };
         /**
          * Schedule
-         * @description The slot table (the paper's Table 3): irpd's `schedule`.
+         * @description The slot table (the paper's Table 3), as `irpd --print-schedule --json`.
          */
         Schedule: {
             /**
@@ -1231,7 +1384,7 @@ export interface components {
             index: number;
             /**
              * Modules
-             * @description the modules run in this slot, in run order (priority, then file order)
+             * @description the modules run in this slot, in run order: priority, then file order
              */
             modules: string[];
             /**
@@ -1251,23 +1404,23 @@ export interface components {
             deadline_ns: number;
             /**
              * Enabled
-             * @description false: taken out of dispatch (absent in a stored set's check)
+             * @description false: taken out of dispatch; the running set's only (`schedule`, `change`), absent in `check`
              */
             enabled?: boolean | null;
             /** Executor */
             executor: string;
             /**
              * Moduletype
-             * @description thread or process
+             * @enum {string}
              */
-            moduletype: string;
+            moduletype: "thread" | "process";
             /** Name */
             name: string;
             /**
              * Operationtype
-             * @description periodic, sporadic or non-real
+             * @enum {string}
              */
-            operationtype: string;
+            operationtype: "periodic" | "sporadic" | "non-real";
             /**
              * Period Ns
              * @description 0 for sporadic and non-real modules
@@ -1342,7 +1495,7 @@ export interface components {
              * Trace
              * @description the trace rings' shm name
              */
-            trace?: string | null;
+            trace: string;
             /**
              * Variables
              * @description the shared variables' shm name; null: the set has none
@@ -1353,7 +1506,7 @@ export interface components {
         };
         /**
          * Stats
-         * @description irpd's `stats`: every dispatcher and module record.
+         * @description Every dispatcher's and module's stats record (`stats`).
          */
         Stats: {
             /** Cycles */
@@ -1370,7 +1523,7 @@ export interface components {
         };
         /**
          * Status
-         * @description irpd's `status`.
+         * @description The running set's and irpd's state (`status`).
          */
         Status: {
             /** Basic Period Ns */
@@ -1392,35 +1545,22 @@ export interface components {
              * @description 1 + hot swaps since irpd started
              */
             generation: number;
-            /**
-             * Last Crash
-             * @description the crash record irpd took in at start (signal, module, executor, set, time, cause: fault, abort, watchdog or signal, sender_pid...), or null: docs/supervision.md
-             */
-            last_crash?: {
-                [key: string]: unknown;
-            } | null;
-            /**
-             * Last Restart
-             * @description the managed restart this irpd came from ({from_set_id, set_id, downtime_ns, requested_ns, fell_back, error}), or null
-             */
-            last_restart?: {
-                [key: string]: unknown;
-            } | null;
+            /** @description the crash record irpd last took in, or null: docs/supervision.md */
+            last_crash: components["schemas"]["CrashRecord"] | null;
+            /** @description null, or the managed restart this process came from */
+            last_restart: components["schemas"]["LastRestart"] | null;
             /**
              * Left Out After Crash
-             * @description modules a crash left out ({module, set})
-             * @default []
+             * @description modules a crash left out
              */
-            left_out_after_crash: {
-                [key: string]: unknown;
-            }[];
+            left_out_after_crash: components["schemas"]["LeftOutModule"][];
             /** Macro Period Ns */
             macro_period_ns: number;
             /**
              * Min Basic Period Ns
-             * @description the shortest basic period irpd accepts (a set or change below it is refused)
+             * @description the shortest basic period irpd accepts (`--min-basic-period`; a set or change below it is refused)
              */
-            min_basic_period_ns?: number | null;
+            min_basic_period_ns: number;
             /** Missed */
             missed: number;
             /**
@@ -1449,7 +1589,7 @@ export interface components {
             set: string;
             /**
              * Set Id
-             * @description the stored set's id given at activation; null otherwise
+             * @description the stored set's id given by the last `load` (or `restart`); null otherwise
              */
             set_id: string | null;
             shared_memory: components["schemas"]["SharedMemory"];
@@ -1459,7 +1599,7 @@ export interface components {
              * Stopped By Fault
              * @description null, or why a fault stopped the set (an overrun with on_overrun=stop): docs/faults.md
              */
-            stopped_by_fault?: string | null;
+            stopped_by_fault: string | null;
             /** Uptime Ns */
             uptime_ns: number;
         } & {
@@ -1467,7 +1607,7 @@ export interface components {
         };
         /**
          * SwapReport
-         * @description irpd's report of a hot swap (control protocol v2), or of a managed restart (mode restart).
+         * @description irpd's report of a hot swap (the control protocol's swap_report), or of a managed restart (mode restart): a restart's report has what irpd's status tells after it (set, set_id, generation, the periods) and downtime_ns, its other fields empty or null.
          */
         SwapReport: {
             /** Basic Period Ns */
@@ -1488,7 +1628,7 @@ export interface components {
             macro_period_ns?: number | null;
             /**
              * Missed Periods
-             * @description dispatcher periods missed around the swap; the goal is 0
+             * @description the dispatchers' missed and skipped periods from the request to one macro period after the swap
              */
             missed_periods?: number | null;
             /**
@@ -1518,19 +1658,19 @@ export interface components {
             swap_at_ns?: number | null;
             /**
              * Swap Cycle
-             * @description global basic-period count at which the new table took over
+             * @description the first basic period run from the new table (a macro-period boundary)
              */
             swap_cycle?: number | null;
             /** Total Ns */
             total_ns?: number | null;
-            /** @description the shared variables the swap added, removed, moved */
+            /** @description the shared variables the swap added, removed and moved */
             variables?: components["schemas"]["VariableChanges"] | null;
         } & {
             [key: string]: unknown;
         };
         /**
          * TimingRecord
-         * @description A dispatcher's or a module's figures (irpd's stats record).
+         * @description A dispatcher's or a module's figures (as `irpd --stats-json`).
          */
         TimingRecord: {
             /**
@@ -1553,9 +1693,9 @@ export interface components {
             jitter_ns: components["schemas"]["Figures"];
             /**
              * Kind
-             * @description dispatcher or module
+             * @enum {string}
              */
-            kind: string;
+            kind: "dispatcher" | "module";
             /** @description start (wake-up for a dispatcher) minus its planned time */
             latency_ns: components["schemas"]["Figures"];
             /** Missed */
@@ -1580,9 +1720,9 @@ export interface components {
             skipped: number;
             /**
              * State
-             * @description modules only: loaded, running, disabled, skipped, stopped, exited
+             * @description modules only
              */
-            state?: string | null;
+            state?: ("loaded" | "running" | "disabled" | "skipped" | "stopped" | "exited") | null;
         } & {
             [key: string]: unknown;
         };
@@ -1638,7 +1778,7 @@ export interface components {
             online?: boolean | null;
             /**
              * Problems
-             * @description `errors` again, each with the file, line and column it names (where it names one)
+             * @description `errors` again, each with its place: file, line, column, module and field (those known)
              * @default []
              */
             problems: components["schemas"]["Problem"][];
@@ -1676,32 +1816,30 @@ export interface components {
             /**
              * Added
              * @description variables the running layout does not have (zeroed before the swap)
-             * @default []
              */
             added: string[];
             /**
              * Layout
-             * @description the new layout's hash
+             * @description the new layout's hash; null: the set has no shared variables
              */
-            layout?: string | null;
+            layout: string | null;
             /**
              * Moved
              * @description variables whose type changed: a new place, zeroed
-             * @default []
              */
             moved: components["schemas"]["MovedVariable"][];
             /**
              * Removed
              * @description variables the new layout does not have (their room stays a hole until irpd restarts)
-             * @default []
              */
             removed: string[];
             /**
              * Replaced
              * @description running modules built against a layout that has a changed variable elsewhere: they are loaded anew, not kept
-             * @default []
              */
             replaced: string[];
+        } & {
+            [key: string]: unknown;
         };
         /** VariableInfo */
         VariableInfo: {
@@ -1733,6 +1871,8 @@ export interface components {
              * @description as irpd stored it (checked against the type)
              */
             value: boolean | number;
+        } & {
+            [key: string]: unknown;
         };
         /**
          * VariableWrite
@@ -1754,6 +1894,8 @@ export interface components {
              * @description as irpd stored it (checked against the type)
              */
             value: boolean | number;
+        } & {
+            [key: string]: unknown;
         };
         /** Who */
         Who: {

@@ -1,16 +1,16 @@
 // faults.ts -- the overview's "faults" line from irpd's status: a set stopped by a fault (an
 // overrun with on_overrun=stop, docs/faults.md), modules a crash left out (docs/supervision.md),
 // the crash irpd came back from (and who sent its signal: systemd's watchdog, a kill, irpd's abort).
-import type { Status } from "./types";
+import type { CrashRecord, Status } from "./types";
 
 export interface FaultSummary {
   level: "good" | "warn" | "bad";
   text: string;
 }
 
-/** `st`: the status members it reads; an older irpd may lack them. */
+/** `st`: the status members it reads; an older irpd may lack them, or members of the crash record. */
 export function faultSummary(
-  st: Partial<Pick<Status, "stopped_by_fault" | "last_crash" | "left_out_after_crash">>,
+  st: Partial<Pick<Status, "stopped_by_fault" | "left_out_after_crash">> & { last_crash?: Partial<CrashRecord> | null },
 ): FaultSummary {
   if (st.stopped_by_fault) return { level: "bad", text: `set stopped: ${st.stopped_by_fault}` };
   const out = st.left_out_after_crash ?? [];

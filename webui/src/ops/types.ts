@@ -6,6 +6,7 @@ import type { components } from "../api/schema";
 type S = components["schemas"];
 export type Health = S["Health"];
 export type Status = S["Status"];
+export type CrashRecord = S["CrashRecord"];
 export type Schedule = S["Schedule"];
 export type ScheduleModule = S["ScheduledModule"];
 export type Slot = S["ScheduleSlot"];

@@ -85,7 +85,7 @@ const FIG1: Schedule = {
 };
 
 const exec = (p50: number, p99: number, max: number) => ({ count: 10, min: p50, max, mean: p50, p50, p99, p999: p99 });
-const FIGURES = [
+const FIGURES: Parameters<typeof buildTimeline>[1] = [
   { name: "cntr1", runs: 10, exec_ns: exec(1_000, 2_000, 9_000), enabled: true, state: "running" },
   { name: "cntr2", runs: 10, exec_ns: exec(3_000, 5_000, 7_000), enabled: true, state: "running" },
   { name: "cntr3", runs: 10, exec_ns: exec(2_000, 4_000, 4_000), enabled: true, state: "running" },
@@ -172,7 +172,7 @@ describe("timeline", () => {
   });
 
   it("a disabled module takes no time", () => {
-    const off = FIGURES.map((f) => (f.name === "cntr3" ? { ...f, enabled: false, state: "disabled" } : f));
+    const off = FIGURES.map((f) => (f.name === "cntr3" ? { ...f, enabled: false, state: "disabled" as const } : f));
     const b = buildTimeline(FIG1, off).lanes[0].boxes;
     expect(b[0]).toMatchObject({ module: "cntr3", p99: 0, measured: false });
     expect(b[1]).toMatchObject({ module: "cntr2", start: 0 });

@@ -6,13 +6,13 @@ from fastapi import APIRouter, Query
 
 from ... import protocol
 from ..deps import IrpdDep, ViewerDep, ask
-from ..models import Histograms, Stats
+from ..models import Histograms
 
 router = APIRouter(tags=["jitter"])
 
 
 @router.get("/jitter")
-def jitter(irpd: IrpdDep, _: ViewerDep) -> Stats:
+def jitter(irpd: IrpdDep, _: ViewerDep) -> protocol.Stats:
     return ask(irpd, "stats")
 
 

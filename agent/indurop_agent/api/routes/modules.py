@@ -11,7 +11,7 @@ from fastapi import APIRouter, HTTPException, Request
 
 from ... import protocol
 from ..deps import IrpdDep, OperatorDep, SwapIrpdDep, ViewerDep, ask, audited
-from ..models import ChangesReport, ErrorBody, ModuleChanges, ModuleInfo, PatchReport
+from ..models import ChangesReport, ErrorBody, ModuleChanges, PatchReport
 
 router = APIRouter(tags=["modules"])
 
@@ -21,7 +21,7 @@ class ModulePatch(protocol.ModuleValues):
 
 
 @router.get("/modules")
-def modules(irpd: IrpdDep, _: ViewerDep) -> list[ModuleInfo]:
+def modules(irpd: IrpdDep, _: ViewerDep) -> list[protocol.ModuleInfo]:
     return ask(irpd, "modules")
 
 
@@ -33,7 +33,7 @@ def _find(irpd, name: str) -> dict:
 
 
 @router.get("/modules/{name}", responses={404: {"description": "no such module in the running set"}})
-def module(name: str, irpd: IrpdDep, _: ViewerDep) -> ModuleInfo:
+def module(name: str, irpd: IrpdDep, _: ViewerDep) -> protocol.ModuleInfo:
     return _find(irpd, name)
 
 

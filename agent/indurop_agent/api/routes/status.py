@@ -4,20 +4,21 @@ modules.py."""
 from fastapi import APIRouter, Request
 from starlette.concurrency import run_in_threadpool
 
+from ... import protocol
 from ...irpd_client import IrpdRefused, IrpdUnavailable
 from ..deps import IrpdDep, ViewerDep, ask
-from ..models import HostLoad, Schedule, Status
+from ..models import HostLoad
 
 router = APIRouter(tags=["status"])
 
 
 @router.get("/status")
-def status(irpd: IrpdDep, _: ViewerDep) -> Status:
+def status(irpd: IrpdDep, _: ViewerDep) -> protocol.Status:
     return ask(irpd, "status")
 
 
 @router.get("/schedule")
-def schedule(irpd: IrpdDep, _: ViewerDep) -> Schedule:
+def schedule(irpd: IrpdDep, _: ViewerDep) -> protocol.Schedule:
     return ask(irpd, "schedule")
 
 

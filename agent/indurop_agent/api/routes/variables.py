@@ -9,7 +9,7 @@ from pydantic import BaseModel, ConfigDict
 from ... import protocol
 from ...variables import Segment, VariableError
 from ..deps import IrpdDep, OperatorDep, ViewerDep, ask, audited
-from ..models import VariableList, VariableValue, VariableWritten
+from ..models import VariableList, VariableValue
 
 router = APIRouter(tags=["variables"])
 
@@ -78,7 +78,7 @@ class VariableWrite(BaseModel):
 )
 def write_variable(
     path: str, body: VariableWrite, request: Request, irpd: IrpdDep, who: OperatorDep
-) -> VariableWritten:
+) -> protocol.VariableWritten:
     with audited(request, who, "write_variable", path, value=body.value):
         result = ask(irpd, "write", path=path, value=body.value)
     return result if isinstance(result, dict) else {"path": path, "value": body.value}
