@@ -66,6 +66,38 @@ struct Cycle {
 // The cycle of the calling dispatcher thread; all zero outside run().
 const Cycle &cycle() noexcept;
 
+// ---- alarms (docs/alarms.md; the segment's layout: <indurop/alarms.h>) --------------------------
+// An alarm of a module is its id, 1 .. 1023, with a text and a severity declared in module.xml
+// (<alarm id="8" severity="high">drive communication lost</alarm>) or by declareAlarm().  The
+// agent keeps each alarm's state for the operators (active, acknowledged, cleared, shelved) and
+// its history.  The same calls work in process modules (through the segment irpd names in
+// INDUROP_ALARMS).
+enum class Severity : uint8_t { Declared = 0, Low = 1, Medium = 2, High = 3, Critical = 4 };
+
+// Raises alarm `id` of the calling module, with an optional detail text (at most 135 characters
+// are kept) and a number that goes with it (an error count, an error code).  RT-safe: no
+// allocation, no lock, no blocking call.  Raising an alarm that is active already does nothing,
+// so a module may raise it every period.  Returns true when it was recorded; false when it was
+// active already, or over the rate limit (counted; its state still changes), or the id is not
+// 1 .. 1023 (counted).  An id the module did not declare is recorded and flagged as undeclared.
+bool raiseAlarm(uint32_t id, const char *detail = nullptr, double value = 0,
+                Severity severity = Severity::Declared) noexcept;
+
+// Clears alarm `id` of the calling module: its condition is gone.  RT-safe; clearing an alarm
+// that is not active does nothing.  Returns true when it was recorded.
+bool clearAlarm(uint32_t id) noexcept;
+
+// Level style, for PLC-like code: raises `id` while `active`, clears it when not.  Call it every
+// period with the condition; only the changes are recorded.
+inline bool alarm(uint32_t id, bool active, const char *detail = nullptr, double value = 0) noexcept {
+    return active ? raiseAlarm(id, detail, value) : clearAlarm(id);
+}
+
+// Declares alarm `id`'s text and severity, as module.xml's <alarm> does, from initialize() or
+// start() (not from run(): it allocates).  Throws irp::PropertyError for an id outside 1 .. 1023,
+// an empty text or one over 200 characters, or an id declared already with another text.
+void declareAlarm(uint32_t id, Severity severity, const char *text);
+
 namespace detail {
 
 // A hook taking Args... and returning void, bool or an integer, stored type-erased.
