@@ -2,7 +2,7 @@
 app.state the irpd clients, tokens, the lockout, the set store, the activator, the audit log, the
 agent's events and the host-load sampler.  While the app runs, a watcher restores the active set
 into a (re)started irpd (activation.py), and the robot view follows the running set's robot
-(viewer/live.py)."""
+(viewer/live.py), and the alarm watcher keeps the alarms current (alarms/watcher.py)."""
 
 from __future__ import annotations
 
@@ -18,7 +18,24 @@ from fastapi.staticfiles import StaticFiles
 
 from . import __version__
 from .activation import Activator, Restorer
-from .api.routes import audit, events, health, jitter, modules, robot, sets, status, stream, tokens, variables
+from .alarms.manager import AlarmManager
+from .alarms.store import AlarmStore
+from .alarms.system import SystemAlarms, Thresholds
+from .alarms.watcher import AlarmWatcher
+from .api.routes import (
+    alarms,
+    audit,
+    events,
+    health,
+    jitter,
+    modules,
+    robot,
+    sets,
+    status,
+    stream,
+    tokens,
+    variables,
+)
 from .audit import AuditLog
 from .auth import TokenStore
 from .config import Settings, default_webui_dir
@@ -110,7 +127,17 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
             restorer.start()
         app.state.restorer = restorer
         app.state.robot.start()
+        watcher = AlarmWatcher(
+            app.state.alarms,
+            app.state.system_alarms,
+            settings.irpd_socket,
+            app.state.events,
+            settings.alarm_poll_s,
+            settings.irpd_poll_s,
+        )
+        watcher.start()
         yield
+        watcher.stop()
         app.state.robot.stop()
         if restorer is not None:
             restorer.stop()
@@ -139,13 +166,26 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     state.webui_dir = webui_dir(settings)
     state.robot = RobotLive(settings.viewer, settings.irpd_socket, state.events, settings.robot_rate_hz)
     state.tickets = Tickets(state.tokens, settings.viewer_ticket_s, settings.viewer_session_s)
+    alarm_store = AlarmStore(settings.data_dir / "alarms.sqlite3", settings.alarm_history_rows)
+    if alarm_store.moved_aside is not None:
+        state.events.add("agent_error", f"the alarm database did not open: moved aside to {alarm_store.moved_aside}")
+    state.alarms = AlarmManager(alarm_store, settings.alarm_history_per_s)
+    state.system_alarms = SystemAlarms(
+        state.alarms,
+        Thresholds(
+            settings.alarm_overruns_per_s,
+            settings.alarm_misses_per_s,
+            settings.alarm_clear_s,
+            settings.alarm_unreachable_s,
+        ),
+    )
     app.add_exception_handler(RequestValidationError, validation_error)
     app.add_exception_handler(LocatedError, located_error)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, exempt=is_upload)
     app.add_middleware(
         BodyTimeoutMiddleware, idle_s=settings.body_idle_s, total_s=settings.body_timeout_s, exempt=is_upload
     )
-    for module in (health, status, modules, jitter, variables, sets, robot, events, audit, tokens, stream):
+    for module in (health, status, modules, jitter, variables, sets, robot, events, alarms, audit, tokens, stream):
         app.include_router(module.router, prefix=API)
     serve_webui(app, state.webui_dir)  # last: the API routes match first
     return app

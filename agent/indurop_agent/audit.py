@@ -28,6 +28,10 @@ ACTIONS = (
     "token_create",
     "token_revoke",
     "lockout",
+    "alarm_ack",
+    "alarm_ack_all",
+    "alarm_shelve",
+    "alarm_unshelve",
 )
 
 

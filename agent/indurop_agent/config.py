@@ -68,6 +68,19 @@ class Settings:
     robot_rate_hz: float = 30.0
     viewer_ticket_s: float = 600.0
     viewer_session_s: float = 3600.0
+    # Alarms (docs/alarms.md).  The system alarms: a module's overruns (deadline misses) in one
+    # second, as irpd's events count them, that raise <module>/overruns (<module>/deadline_misses);
+    # the seconds without such a second that clear it; the seconds irpd may not answer before
+    # agent/irpd_unreachable.  How often the alarm segment is read.  The history's bound (rows in
+    # <data-dir>/alarms.sqlite3; the oldest go first) and the rows one module's alarms may add in
+    # one second (more transitions change the states but are counted as a flood, not recorded).
+    alarm_overruns_per_s: int = 10
+    alarm_misses_per_s: int = 10
+    alarm_clear_s: float = 10.0
+    alarm_unreachable_s: float = 5.0
+    alarm_poll_s: float = 0.1
+    alarm_history_rows: int = 200_000
+    alarm_history_per_s: int = 100
 
 
 FIELDS = {f.name: f for f in dataclasses.fields(Settings)}
@@ -89,6 +102,13 @@ POSITIVE = {
     "robot_rate_hz",
     "viewer_ticket_s",
     "viewer_session_s",
+    "alarm_overruns_per_s",
+    "alarm_misses_per_s",
+    "alarm_clear_s",
+    "alarm_unreachable_s",
+    "alarm_poll_s",
+    "alarm_history_rows",
+    "alarm_history_per_s",
 }
 VIEWERS = ("viser", "meshcat")
 

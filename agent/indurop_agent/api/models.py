@@ -295,3 +295,122 @@ class RobotView(BaseModel):
 class JointMapUpdate(BaseModel):
     model_config = ConfigDict(extra="forbid")
     joints: list[JointMap] = Field(min_length=1, max_length=64)
+
+
+# --- alarms (docs/alarms.md): the agent's alarm manager, agent/indurop_agent/alarms/.
+
+Severity = Literal["low", "medium", "high", "critical"]
+AlarmState = Literal["normal", "active_unacknowledged", "active_acknowledged", "cleared_unacknowledged", "shelved"]
+AlarmEvent = Literal["raise", "clear", "acknowledge", "shelve", "unshelve", "shelve_expired", "flood"]
+SHELVE_MAX_MINUTES = 7 * 24 * 60
+SHELVE_REASON_MAX = 200
+
+
+class AlarmPublic(BaseModel):
+    key: str = Field(description="<module>/<id>: PLC/8, iodispat/101, cntr1/overruns, agent/irpd_unreachable")
+    module: str = Field(description="the module that raised it; irpd and agent for the platform's own")
+    id: str = Field(description="1 .. 1023 for a module's alarms; a word for the system alarms the agent raises")
+    origin: Literal["module", "system"] = Field(
+        description="module: from irpd's alarm segment; system: raised by the agent from irpd's events and status"
+    )
+    state: AlarmState = Field(description="shelved over any other")
+    condition: AlarmState = Field(description="the state without the shelf")
+    severity: Severity
+    text: str = Field(description="the declared text (module.xml <alarm>, irp::declareAlarm)")
+    detail: str = Field(description="the last raise's detail text")
+    value: float = Field(description="the number that came with the last raise (an error count, an error code)")
+    flags: list[str] = Field(description="undeclared (the id was not declared), truncated (the detail was cut)")
+    active: bool
+    acknowledged: bool
+    raises: int = Field(description="raises since it was last normal")
+    changed: str | None = Field(description="the last transition (ISO 8601 UTC)")
+    changed_ns: int
+    raised: str | None
+    cleared: str | None
+    acknowledged_at: str | None
+    acknowledged_by: Who | None
+    shelved_at: str | None
+    shelved_until: str | None
+    shelved_by: Who | None
+    shelve_reason: str | None
+
+
+class AlarmCounts(BaseModel):
+    active: int = Field(description="active alarms, not shelved")
+    unacknowledged: int = Field(description="alarms not acknowledged (active or cleared), not shelved")
+    shelved: int
+    highest: Severity | None = Field(description="the highest severity of the alarms counted above")
+
+
+class AlarmSourceCounters(BaseModel):
+    source: int
+    module: str
+    generation: int
+    recorded: int
+    rate_dropped: int = Field(description="transitions over the rate limit: not recorded, the bitmap still changed")
+    undeclared: int
+    bad_ids: int
+    truncated: int
+
+
+class AlarmSegmentStatus(BaseModel):
+    name: str | None = Field(description="the alarm segment's shm name, as irpd's status names it")
+    error: str | None = Field(description="why it is not read, or null")
+    lost: int = Field(0, description="records overwritten before the agent read them (then it reconciles)")
+    abandoned: int = Field(0, description="records skipped: their writer stopped in the middle")
+    suppressed: int = Field(0, description="transitions not recorded one by one in the history: floods")
+    capacity: int | None = None
+    rate_limit: int | None = None
+    declarations: str | None = Field(None, description="ok, or why irpd's texts and severities were not read")
+    sources: list[AlarmSourceCounters] = []
+
+
+class AlarmList(BaseModel):
+    alarms: list[AlarmPublic] = Field(
+        description="every alarm that is not normal, or shelved: unacknowledged first, then by severity, newest first"
+    )
+    counts: AlarmCounts
+    newest: AlarmPublic | None = Field(description="the alarm raised last among those not shelved")
+    segment: AlarmSegmentStatus
+
+
+class AlarmTransition(BaseModel):
+    seq: int = Field(description="increasing for good: ?after= gives the newer ones")
+    time: str
+    time_ns: int
+    key: str
+    module: str
+    id: str
+    event: AlarmEvent
+    state: AlarmState | Literal[""] = Field(description="the alarm's state after it (empty for a flood row)")
+    severity: Severity | Literal[""]
+    text: str
+    detail: str
+    value: float
+    who: Who | None = Field(description="who acknowledged, shelved or unshelved it")
+    note: str = Field(description="why, when the agent made the transition (reconciliation, irpd restarted, ...)")
+    flags: list[str]
+    count: int = Field(description="1; for a flood row, the transitions it stands for")
+
+
+class AlarmHistory(BaseModel):
+    transitions: list[AlarmTransition] = Field(description="newest first")
+    total: int = Field(description="how many match the filters")
+    offset: int
+    limit: int
+
+
+class AckAll(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    module: str | None = Field(None, description="only this module's alarms")
+
+
+class AckAnswer(BaseModel):
+    acknowledged: list[str] = Field(description="the keys acknowledged")
+    counts: AlarmCounts
+
+
+class ShelveRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    minutes: float = Field(gt=0, le=SHELVE_MAX_MINUTES, description="how long; it comes back when the time is up")
+    reason: str = Field(min_length=1, max_length=SHELVE_REASON_MAX, description="why, for the history")

@@ -95,6 +95,10 @@ ROUTES = [
     ("GET", "/variables", "viewer", None, 200),
     ("GET", "/variables/knu.Robot.tick", "viewer", None, 200),
     ("GET", "/events", "viewer", None, 200),
+    ("GET", "/alarms", "viewer", None, 200),
+    ("GET", "/alarms/history", "viewer", None, 200),
+    ("GET", "/alarms/history.csv", "viewer", None, 200),
+    ("POST", "/alarms/ack", "operator", {}, 200),
     ("GET", "/layout", "viewer", None, 200),
     ("GET", "/sets", "viewer", None, 200),
     ("GET", "/auth/me", "viewer", None, 200),
@@ -147,6 +151,9 @@ def test_every_route_of_the_api_is_in_the_role_matrix(cell):
         ("GET", "/robot"),
         ("GET", "/robot/urdf"),
         ("PUT", "/robot/joints"),
+        ("POST", "/alarms/{key}/ack"),  # test_alarms_api.py
+        ("POST", "/alarms/{key}/shelve"),
+        ("POST", "/alarms/{key}/unshelve"),
     }
     templates = {
         ("GET", "/modules/cntr1"): ("GET", "/modules/{name}"),

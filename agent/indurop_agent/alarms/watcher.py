@@ -1,0 +1,206 @@
+"""watcher.py -- the agent's thread that keeps the alarms current: every `poll_s` it reads the new
+records of irpd's alarm segment; every `irpd_poll_s` it asks irpd for its status and new events
+(the system alarms, system.py), and for its declarations when the set changed.
+
+    each poll (poll_s, 0.1 s):
+        irpd's turn (irpd_poll_s)? status -> reachable or not, restarted or not, fault stop;
+                                   events since the cursor -> system alarms;
+                                   the set's generation changed -> `alarms` (texts, severities)
+        the segment: opened (again) if irpd names another one or it was replaced;
+                     the sources changed -> `alarms` again;
+                     new records -> transitions, in seq order;
+                     reconciled from the sources' active bitmaps when it was (re)opened, a source
+                     changed, or records were lost, skipped or not written (rate limit)
+        shelves whose time is up; rate alarms below their threshold; flood rows
+        the cursors (irpd's event log, the ring) saved with the transitions, in one transaction
+
+It has an irpd connection of its own.  Anything that goes wrong is an agent event and the next
+poll tries again; the watcher outlives whatever irpd does.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+from .. import protocol
+from ..events import AgentEvents
+from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
+from ..shm_layout import LayoutError
+from .manager import AlarmManager
+from .segment import AlarmSegment, AlarmSegmentError, Record, RingReader
+from .system import SystemAlarms
+
+RESTART_TOLERANCE_NS = 5_000_000_000  # irpd's start time as (now - uptime) wanders by the polls' latency
+NAMES_KEPT = 4096  # (source, generation) -> module name, for records written before a swap
+
+
+class AlarmWatcher(threading.Thread):
+    def __init__(
+        self,
+        manager: AlarmManager,
+        system: SystemAlarms,
+        socket_path: str,
+        events: AgentEvents,
+        poll_s: float = 0.1,
+        irpd_poll_s: float = 1.0,
+    ):
+        super().__init__(name="alarm-watcher", daemon=True)
+        self.manager, self.system, self.events = manager, system, events
+        self.poll_s, self.irpd_poll_s = poll_s, irpd_poll_s
+        self.client = IrpdClient(socket_path, timeout_s=2.0)
+        self._stop_event = threading.Event()
+        self.next_irpd = self.retry_open = 0.0
+        self.generation: int | None = None
+        self.segment_name: str | None = None
+        self.segment: AlarmSegment | None = None
+        self.reader: RingReader | None = None
+        self.sources: dict[int, tuple[int, str]] = {}  # index -> (generation, name)
+        self.names: dict[tuple[int, int], str] = {}
+        self.rate_dropped = 0
+        self.reconcile_note: str | None = "reconciled when the agent started"
+        self.last_error: str | None = None
+
+    def stop(self) -> None:
+        self._stop_event.set()
+        self.join(timeout=5)
+        self.client.close()
+        if self.segment is not None:
+            self.segment.close()
+
+    def run(self) -> None:
+        while not self._stop_event.wait(self.poll_s):
+            try:
+                self.poll_once()
+                self.last_error = None
+            except Exception as e:  # noqa: BLE001 -- the watcher must outlive anything irpd does
+                error = f"the alarm watcher: {type(e).__name__}: {e}"
+                if error != self.last_error:  # once, not every 0.1 s
+                    self.events.add("agent_error", error)
+                self.last_error = error
+
+    def poll_once(self) -> None:
+        now = time.monotonic()
+        if now >= self.next_irpd:
+            self.next_irpd = now + self.irpd_poll_s
+            self.poll_irpd()
+        self.read_segment()
+        self.manager.expire_shelves()
+        self.system.tick()
+        self.manager.flush_floods()
+
+    # ---- irpd: status, events, declarations ---------------------------------------------------------
+    def poll_irpd(self) -> None:
+        try:
+            status = self.client.request("status")
+        except (IrpdUnavailable, IrpdRefused) as e:
+            self.system.irpd_failed(str(e))
+            return
+        seen = self.manager.meta.get("irpd") or {}
+        started = time.time_ns() - int(status.get("uptime_ns") or 0)
+        last_event = int(status.get("events") or 0)
+        same = (
+            seen.get("pid") == status.get("pid")
+            and abs(seen.get("started_ns", 0) - started) < RESTART_TOLERANCE_NS
+            and last_event >= seen.get("events", 0)
+        )
+        cursor = seen.get("events", 0) if same else 0
+        with self.manager.batch():
+            if seen and not same:
+                self.system.irpd_restarted(f"irpd restarted (pid {status.get('pid')})")
+            self.system.irpd_answered(status)
+            for _ in range(16):  # the whole log at most (its capacity), a page at a time
+                page = self.client.request("events", since=cursor, limit=protocol.EVENT_LOG_CAPACITY) or {}
+                events = page.get("events") or []
+                self.system.events(events)
+                cursor = int(page.get("next", cursor))
+                if len(events) < protocol.EVENT_LOG_CAPACITY:
+                    break
+            self.manager.set_meta(
+                irpd={
+                    "pid": status.get("pid"),
+                    "started_ns": seen["started_ns"] if same else started,
+                    "events": cursor,
+                }
+            )
+        self.segment_name = (status.get("shared_memory") or {}).get("alarms")
+        if status.get("generation") != self.generation:
+            self.generation = status.get("generation")
+            self.declare()
+
+    def declare(self) -> None:
+        """The texts and severities of every source's alarms, from irpd's `alarms` command."""
+        try:
+            answer = self.client.request("alarms") or {}
+        except (IrpdUnavailable, IrpdRefused) as e:
+            self.manager.segment["declarations"] = f"not read: {e}"
+            return
+        self.manager.declare(answer.get("sources") or [])
+        self.manager.segment["declarations"] = "ok"
+
+    # ---- the segment --------------------------------------------------------------------------------
+    def open_segment(self) -> None:
+        if self.segment is not None:
+            self.segment.close()
+            self.segment = self.reader = None
+            self.reconcile_note = "reconciled after irpd restarted"
+        if self.segment_name is None:
+            self.manager.segment.update(name=None, error="irpd names no alarm segment (status.shared_memory.alarms)")
+            return
+        try:
+            seg = AlarmSegment(self.segment_name)
+        except (AlarmSegmentError, LayoutError) as e:
+            self.manager.segment.update(name=self.segment_name, error=str(e))
+            return
+        ring = self.manager.meta.get("ring") or {}
+        same = (ring.get("name"), ring.get("inode"), ring.get("owner_pid")) == (seg.name, seg.inode, seg.owner_pid)
+        self.segment, self.reader = seg, RingReader(seg, ring.get("cursor", 0) if same else 0)
+        self.sources, self.rate_dropped = {}, 0
+        self.manager.segment.update(name=seg.name, error=None, capacity=seg.capacity, rate_limit=seg.rate_limit)
+
+    def name_of(self, r: Record) -> str | None:
+        return self.names.get((r.source, r.source_generation))
+
+    def read_segment(self) -> None:
+        seg = self.segment
+        if seg is None or seg.replaced() or seg.name != self.segment_name:
+            if seg is not None or time.monotonic() >= self.retry_open:  # a missing one: once per irpd poll
+                self.retry_open = time.monotonic() + self.irpd_poll_s
+                self.open_segment()
+            seg = self.segment
+            if seg is None:
+                return
+        sources = seg.sources()
+        current = {s.index: (s.generation, s.name) for s in sources}
+        if current != self.sources:
+            if self.sources:
+                self.declare()
+                self.reconcile_note = self.reconcile_note or "reconciled after the set changed"
+            self.sources = current
+            if len(self.names) > NAMES_KEPT:
+                self.names.clear()
+            self.names.update({(i, g): name for i, (g, name) in current.items()})
+        read = self.reader.read(limit=seg.capacity)
+        dropped = sum(s.rate_dropped for s in sources)
+        if read.lost or read.abandoned:
+            self.reconcile_note = self.reconcile_note or (
+                f"reconciled after {read.lost + read.abandoned} records were lost or skipped"
+            )
+        if dropped != self.rate_dropped:
+            self.reconcile_note = self.reconcile_note or "reconciled after the rate limit left transitions unrecorded"
+            self.rate_dropped = dropped
+        with self.manager.batch():
+            self.manager.apply(read.records, self.name_of)
+            if self.reconcile_note:
+                self.manager.reconcile(seg.sources(), self.reconcile_note)
+                self.reconcile_note = None
+            ring = {"name": seg.name, "inode": seg.inode, "owner_pid": seg.owner_pid, "cursor": self.reader.cursor}
+            if ring != self.manager.meta.get("ring"):
+                self.manager.set_meta(ring=ring)
+        self.manager.segment.update(
+            lost=self.reader.lost,
+            abandoned=self.reader.abandoned,
+            sources=[
+                {"source": s.index, "module": s.name, "generation": s.generation, **s.counters()} for s in sources
+            ],
+        )
