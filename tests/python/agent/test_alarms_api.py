@@ -9,6 +9,7 @@ import csv
 import io
 import time
 
+import pytest
 from agent_helpers import API
 
 PLC = [
@@ -212,3 +213,29 @@ def test_a_flood_is_counted_not_recorded_and_keeps_the_older_history(make_agent)
     assert listed["counts"]["active"] == 1  # PLC/8
     assert listed["counts"]["unacknowledged"] == 1000  # FLOOD/1 .. /1000 cleared, unacknowledged
     assert len(m.alarms) == 1001  # memory: the alarms that need attention, nothing per transition
+
+
+def test_the_live_push_sends_a_snapshot_then_every_transition_with_the_counts(agent):
+    raise_plc8(agent)
+    with agent.client.websocket_connect(f"{API}/alarms/live?token={agent.tokens['viewer']}") as ws:
+        first = ws.receive_json()
+        assert [a["key"] for a in first["snapshot"]["alarms"]] == ["PLC/8"]
+        assert first["snapshot"]["counts"]["unacknowledged"] == 1
+        alarms_of(agent).raise_alarm("ROBOT", "3", time.time_ns(), detail="joint 3 limit")
+        message = ws.receive_json()
+        assert [(t["key"], t["event"]) for t in message["transitions"]] == [("ROBOT/3", "raise")]
+        assert message["changed"][0]["state"] == "active_unacknowledged"
+        assert message["counts"]["active"] == 2 and message["counts"]["unacknowledged"] == 2
+        assert post(agent, "/alarms/ack", "operator").status_code == 200
+        message = ws.receive_json()
+        assert [t["event"] for t in message["transitions"]] == ["acknowledge", "acknowledge"]
+        assert message["counts"]["unacknowledged"] == 0
+
+
+def test_the_live_push_needs_a_token(agent):
+    from starlette.websockets import WebSocketDisconnect
+
+    with agent.client.websocket_connect(f"{API}/alarms/live?token=nonsense") as ws:
+        with pytest.raises(WebSocketDisconnect) as closed:
+            ws.receive_json()
+    assert closed.value.code == 4401
