@@ -1,5 +1,5 @@
 """cli.py -- irpctl, the command line of the agent's API: status, modules, sets, hot reload,
-variables, the sample stream, events (docs/irpctl.md).
+variables, the sample stream, events, alarms (docs/irpctl.md).
 
 Human output by default (aligned tables, durations as "100 µs"), the API's JSON with --json.
 Exit codes: 0 done, 1 the API refused (4xx, 409), 2 usage, 3 the agent or irpd unreachable.
@@ -12,19 +12,24 @@ import csv
 import json
 import math
 import os
+import re
 import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
 from .cli_text import (
     EVENT_HEADERS,
+    TRANSITION_HEADERS,
     Out,
+    alarms_text,
     audit_text,
     events_rows,
     format_value,
+    history_text,
     jitter_text,
     module_text,
     modules_text,
@@ -36,6 +41,7 @@ from .cli_text import (
     status_text,
     swap_text,
     table,
+    transition_row,
     upload_text,
 )
 from .client import ApiError, Client
@@ -228,6 +234,94 @@ def _events_of(answer: Any, cursors: tuple[int, int | None]) -> tuple[list[dict]
     return answer.get("events") or [], (answer.get("next", cursors[0]), answer.get("agent_next", cursors[1]))
 
 
+ALARM_FILTERS = ("since", "until", "module", "key", "severity", "state")
+
+
+def cmd_alarms(c: Client, a, out: Out) -> int:
+    """The alarms that need attention (or, with --history, their transitions); --follow goes on
+    printing transitions as they come (polling the history with its seq cursor)."""
+    filters = {k: getattr(a, k) for k in ALARM_FILTERS if getattr(a, k) is not None}
+    if a.history:
+        page = c.alarm_history(**filters, limit=a.limit, offset=a.offset)
+        out.show(page, history_text)
+        last = max([t["seq"] for t in page["transitions"]], default=0)
+    else:
+        only_history = [f"--{k}" for k in ("since", "until", "state") if k in filters]
+        if only_history:
+            print(f"irpctl alarms: {', '.join(only_history)} go with --history", file=sys.stderr)
+            return EXIT_USAGE
+        listed = c.alarms()
+        listed["alarms"] = [
+            x
+            for x in listed["alarms"]
+            if all(x.get(k) == filters[k] for k in ("module", "key", "severity") if k in filters)
+        ]
+        out.show(listed, alarms_text)
+        last = None
+    if not a.follow:
+        return EXIT_OK
+    if last is None:
+        last = max([t["seq"] for t in c.alarm_history(limit=1)["transitions"]], default=0)
+    if not out.as_json:
+        out.line()
+        out.line("  ".join(TRANSITION_HEADERS))
+    try:
+        while True:
+            time.sleep(a.interval)
+            page = c.alarm_history(**filters, after=last, limit=1000)
+            for t in reversed(page["transitions"]):
+                out.line(
+                    json.dumps(t, ensure_ascii=False) if out.as_json else "  ".join(str(x) for x in transition_row(t))
+                )
+                last = max(last, t["seq"])
+    except KeyboardInterrupt:
+        return EXIT_OK
+
+
+def cmd_ack(c: Client, a, out: Out) -> int:
+    if (a.key is None) == (not a.all):
+        print("irpctl ack: give an alarm KEY (irpctl alarms lists them) or --all, not both", file=sys.stderr)
+        return EXIT_USAGE
+    if a.module and not a.all:
+        print("irpctl ack: --module goes with --all (a KEY names its module already)", file=sys.stderr)
+        return EXIT_USAGE
+    if a.all:
+        answer = c.acknowledge_all(a.module)
+        out.show(answer, lambda x: f"acknowledged {len(x['acknowledged'])}: {', '.join(x['acknowledged']) or '-'}")
+    else:
+        out.show(c.acknowledge(a.key), lambda x: f"{x['key']}: {x['state']}")
+    return EXIT_OK
+
+
+def cmd_shelve(c: Client, a, out: Out) -> int:
+    if not a.reason.strip():
+        print("irpctl shelve: --reason must say why (it goes into the history)", file=sys.stderr)
+        return EXIT_USAGE
+    shelved = c.shelve(a.key, a.minutes, a.reason)
+    out.show(shelved, lambda x: f"{x['key']}: shelved until {x['shelved_until']} ({x['shelve_reason']})")
+    return EXIT_OK
+
+
+_AGO = re.compile(r"(\d+(?:\.\d*)?)\s*(s|m|min|h|d)")
+
+
+def parse_time(text: str) -> str:
+    """A time for the history's filters: ISO 8601 (UTC without a zone), or how long ago (30m, 2h, 1d)."""
+    ago = _AGO.fullmatch(text.strip())
+    if ago:
+        unit = {"s": 1, "m": 60, "min": 60, "h": 3600, "d": 86400}[ago.group(2)]
+        t = datetime.now(UTC) - timedelta(seconds=float(ago.group(1)) * unit)
+    else:
+        try:
+            t = datetime.fromisoformat(text.strip())
+        except ValueError:
+            raise ValueError(
+                f"'{text}' is not a time: give ISO 8601 (2026-01-31T08:00, UTC without a zone) or how long ago (30m, 2h, 1d)"
+            ) from None
+        t = t if t.tzinfo else t.replace(tzinfo=UTC)
+    return t.astimezone(UTC).isoformat().replace("+00:00", "Z")
+
+
 # -- argument types ----------------------------------------------------------------------------------
 def _argument(convert: Callable[[str], Any], what: str | None, minimum: float | None = None, at_least: str = ""):
     """An argparse type: `convert` the text (a ValueError's message, or "'text' is not <what>", is
@@ -251,6 +345,8 @@ _int_arg = _argument(int, "a whole number")
 _positive_int = _argument(int, "a whole number", 1, "give 1 or more")
 _nonneg_int = _argument(int, "a whole number", 0, "give 0 or more")
 _seconds = _argument(float, "a number of seconds", math.nextafter(0.0, 1.0), "give more than 0 seconds")
+_minutes = _argument(float, "a number of minutes", math.nextafter(0.0, 1.0), "give more than 0 minutes")
+_time_arg = _argument(parse_time, None)
 
 
 def _connection_options(parser: argparse.ArgumentParser, top: bool) -> None:
@@ -447,6 +543,61 @@ COMMANDS: tuple[Command, ...] = (
             arg("--follow", "-f", action="store_true", help="keep printing new events (Ctrl-C stops)"),
             arg("--interval", type=_seconds, default=1.0, metavar="S", help="with --follow: poll every S s"),
         ),
+    ),
+    Command(
+        "alarms",
+        "the alarms that need attention (--history: their transitions)",
+        cmd_alarms,
+        (
+            arg("--history", action="store_true", help="the transitions (raised, cleared, acknowledged, shelved)"),
+            arg("--follow", "-f", action="store_true", help="keep printing transitions as they come (Ctrl-C stops)"),
+            arg(
+                "--since",
+                type=_time_arg,
+                metavar="TIME",
+                help="with --history: from TIME (ISO 8601, or 30m, 2h, 1d ago)",
+            ),
+            arg("--until", type=_time_arg, metavar="TIME", help="with --history: up to TIME"),
+            arg("--module", metavar="MODULE", help="one module's (irpd, agent: the platform's)"),
+            arg("--key", metavar="KEY", help="one alarm's, e.g. PLC/8"),
+            arg("--severity", choices=("low", "medium", "high", "critical")),
+            arg(
+                "--state",
+                choices=("active_unacknowledged", "active_acknowledged", "cleared_unacknowledged", "normal", "shelved"),
+                help="with --history: transitions that left an alarm in this state",
+            ),
+            arg(
+                "--limit", type=_positive_int, default=100, metavar="N", help="with --history: at most N (default 100)"
+            ),
+            arg("--offset", type=_nonneg_int, default=0, metavar="N", help="with --history: skip the newest N"),
+            arg("--interval", type=_seconds, default=1.0, metavar="S", help="with --follow: poll every S s"),
+        ),
+    ),
+    Command(
+        "ack",
+        "acknowledge an alarm, or all of them (operator)",
+        cmd_ack,
+        (
+            arg("key", nargs="?", metavar="KEY", help="the alarm, e.g. PLC/8 (irpctl alarms lists them)"),
+            arg("--all", action="store_true", help="every unacknowledged alarm"),
+            arg("--module", metavar="MODULE", help="with --all: only this module's"),
+        ),
+    ),
+    Command(
+        "shelve",
+        "set an alarm aside for a time, with a reason (operator)",
+        cmd_shelve,
+        (
+            arg("key", metavar="KEY", help="the alarm, e.g. PLC/8"),
+            arg("--minutes", type=_minutes, required=True, metavar="N", help="how long (at most a week)"),
+            arg("--reason", required=True, metavar="TEXT", help="why, for the history"),
+        ),
+    ),
+    Command(
+        "unshelve",
+        "bring a shelved alarm back before its time (operator)",
+        _show(lambda c, a: c.unshelve(a.key), lambda x: f"{x['key']}: {x['state']}"),
+        (arg("key", metavar="KEY"),),
     ),
     Command(
         "audit",

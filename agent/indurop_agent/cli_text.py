@@ -459,3 +459,79 @@ def audit_text(entries: list[dict]) -> str:
             ]
         )
     return table(["TIME", "WHO", "CLIENT", "ACTION", "TARGET", "RESULT"], rows)
+
+
+# -- alarms ------------------------------------------------------------------------------------------
+STATE_WORDS = {
+    "active_unacknowledged": "ACTIVE, unack",
+    "active_acknowledged": "active, ack",
+    "cleared_unacknowledged": "cleared, unack",
+    "normal": "normal",
+    "shelved": "shelved",
+}
+
+
+def _when(iso_time: str | None) -> str:
+    """An ISO 8601 UTC time as the operator reads it: 2026-01-31 12:00:00 (UTC)."""
+    return iso_time[:19].replace("T", " ") if iso_time else "-"
+
+
+def alarms_text(listed: dict) -> str:
+    c = listed.get("counts") or {}
+    counts = f"{c.get('active', 0)} active, {c.get('unacknowledged', 0)} unacknowledged, {c.get('shelved', 0)} shelved"
+    alarms = listed.get("alarms") or []
+    segment = listed.get("segment") or {}
+    note = f"\n(irpd's alarm segment is not read: {segment['error']})" if segment.get("error") else ""
+    if not alarms:
+        return f"no alarms ({counts}){note}"
+    rows = []
+    for a in alarms:
+        state = STATE_WORDS.get(a.get("state"), a.get("state", "-"))
+        if a.get("state") == "shelved":
+            state += f" until {_when(a.get('shelved_until'))[11:]} ({a.get('shelve_reason')})"
+        detail = f" -- {a['detail']}" if a.get("detail") else ""
+        rows.append(
+            [
+                a.get("key"),
+                state,
+                a.get("severity"),
+                _when(a.get("raised") or a.get("changed")),
+                a.get("text", "") + detail,
+            ]
+        )
+    return table(["KEY", "STATE", "SEVERITY", "RAISED (UTC)", "TEXT"], rows) + f"\n\n{counts}{note}"
+
+
+TRANSITION_HEADERS = ["SEQ", "TIME (UTC)", "KEY", "EVENT", "STATE", "SEVERITY", "TEXT"]
+
+
+def transition_row(t: dict) -> list[Any]:
+    words = [t.get("text", "")]
+    if t.get("detail"):
+        words.append(f"-- {t['detail']}")
+    if t.get("who"):
+        words.append(f"by {_who(t['who'])}")
+    if t.get("note"):
+        words.append(f"({t['note']})")
+    return [
+        t.get("seq", "-"),
+        _when(t.get("time")),
+        t.get("key", "-"),
+        t.get("event", "-"),
+        STATE_WORDS.get(t.get("state"), t.get("state") or "-"),
+        t.get("severity") or "-",
+        " ".join(words),
+    ]
+
+
+def history_text(page: dict) -> str:
+    """A history page (newest first from the API), printed oldest first."""
+    transitions = list(reversed(page.get("transitions") or []))
+    if not transitions:
+        return "no transitions"
+    shown = (
+        f"\n({len(transitions)} of {page.get('total')}; --limit and --offset page)"
+        if page.get("total", 0) > len(transitions)
+        else ""
+    )
+    return table(TRANSITION_HEADERS, [transition_row(t) for t in transitions], "r") + shown

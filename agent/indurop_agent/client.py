@@ -264,6 +264,32 @@ class Client:
         "dropped"}; ask again with since=next, agent_since=agent_next for the newer ones."""
         return self.get("/events", since=since, agent_since=agent_since, limit=limit)
 
+    # -- alarms (docs/alarms.md) -----------------------------------------------------------------
+    def alarms(self) -> dict:
+        """The alarms that need attention or are shelved, the counts, the newest one."""
+        return self.get("/alarms")
+
+    def alarm_history(self, **filters) -> dict:
+        """Transitions, newest first: {"transitions", "total", "offset", "limit"}; filters are
+        since, until (ISO 8601), module, key, severity, state, after (a seq), limit, offset."""
+        return self.get("/alarms/history", **filters)
+
+    def acknowledge(self, key: str) -> dict:
+        """Acknowledges alarm `key` (e.g. "PLC/8"; operator); its state afterwards."""
+        return self.request("POST", f"/alarms/{quote(key, safe='')}/ack")
+
+    def acknowledge_all(self, module: str | None = None) -> dict:
+        """Acknowledges every unacknowledged alarm (of `module`); {"acknowledged": keys, "counts"}."""
+        return self.request("POST", "/alarms/ack", json={"module": module} if module else None)
+
+    def shelve(self, key: str, minutes: float, reason: str) -> dict:
+        return self.request(
+            "POST", f"/alarms/{quote(key, safe='')}/shelve", json={"minutes": minutes, "reason": reason}
+        )
+
+    def unshelve(self, key: str) -> dict:
+        return self.request("POST", f"/alarms/{quote(key, safe='')}/unshelve")
+
     def audit(self, limit: int | None = None) -> list[dict]:
         return self.get("/audit", limit=limit)
 
