@@ -4,6 +4,143 @@
  */
 
 export interface paths {
+    "/api/v1/alarms": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Alarms
+         * @description The alarms that need attention or are shelved, the counts (the banner's), the newest one and
+         *     how irpd's alarm segment is read.
+         */
+        get: operations["alarms_api_v1_alarms_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/alarms/ack": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Acknowledge All
+         * @description Acknowledges every unacknowledged alarm (of `module` when given), shelved ones too.
+         */
+        post: operations["acknowledge_all_api_v1_alarms_ack_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/alarms/history": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** History */
+        get: operations["history_api_v1_alarms_history_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/alarms/history.csv": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * History Csv
+         * @description Every transition matching the filters, oldest first, as CSV (the columns of the JSON).
+         */
+        get: operations["history_csv_api_v1_alarms_history_csv_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/alarms/{key}/ack": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Acknowledge
+         * @description Acknowledges one alarm: 404 when no alarm of that key needs attention, 409 when it is
+         *     acknowledged already.
+         */
+        post: operations["acknowledge_api_v1_alarms__key__ack_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/alarms/{key}/shelve": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Shelve
+         * @description Sets an alarm aside for `minutes` with a reason: it leaves the counts and comes back when the
+         *     time is up.  An alarm held, or one declared by a module of the running set (404 otherwise).
+         */
+        post: operations["shelve_api_v1_alarms__key__shelve_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/alarms/{key}/unshelve": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /** Unshelve */
+        post: operations["unshelve_api_v1_alarms__key__unshelve_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/audit": {
         parameters: {
             query?: never;
@@ -518,6 +655,23 @@ export interface paths {
 export type webhooks = Record<string, never>;
 export interface components {
     schemas: {
+        /** AckAll */
+        AckAll: {
+            /**
+             * Module
+             * @description only this module's alarms
+             */
+            module?: string | null;
+        };
+        /** AckAnswer */
+        AckAnswer: {
+            /**
+             * Acknowledged
+             * @description the keys acknowledged
+             */
+            acknowledged: string[];
+            counts: components["schemas"]["AlarmCounts"];
+        };
         /**
          * ActivateRequest
          * @description How to put a set into irpd (docs/set-store.md, activation modes).
@@ -564,6 +718,263 @@ export interface components {
              */
             since: string;
             validation: components["schemas"]["Validation"];
+        };
+        /** AlarmCounts */
+        AlarmCounts: {
+            /**
+             * Active
+             * @description active alarms, not shelved
+             */
+            active: number;
+            /**
+             * Highest
+             * @description the highest severity of the alarms counted above
+             */
+            highest: ("low" | "medium" | "high" | "critical") | null;
+            /** Shelved */
+            shelved: number;
+            /**
+             * Unacknowledged
+             * @description alarms not acknowledged (active or cleared), not shelved
+             */
+            unacknowledged: number;
+        };
+        /** AlarmHistory */
+        AlarmHistory: {
+            /** Limit */
+            limit: number;
+            /** Offset */
+            offset: number;
+            /**
+             * Total
+             * @description how many match the filters
+             */
+            total: number;
+            /**
+             * Transitions
+             * @description newest first
+             */
+            transitions: components["schemas"]["AlarmTransition"][];
+        };
+        /** AlarmList */
+        AlarmList: {
+            /**
+             * Alarms
+             * @description every alarm that is not normal, or shelved: unacknowledged first, then by severity, newest first
+             */
+            alarms: components["schemas"]["AlarmPublic"][];
+            counts: components["schemas"]["AlarmCounts"];
+            /** @description the alarm raised last among those not shelved */
+            newest: components["schemas"]["AlarmPublic"] | null;
+            segment: components["schemas"]["AlarmSegmentStatus"];
+        };
+        /** AlarmPublic */
+        AlarmPublic: {
+            /** Acknowledged */
+            acknowledged: boolean;
+            /** Acknowledged At */
+            acknowledged_at: string | null;
+            acknowledged_by: components["schemas"]["Who"] | null;
+            /** Active */
+            active: boolean;
+            /**
+             * Changed
+             * @description the last transition (ISO 8601 UTC)
+             */
+            changed: string | null;
+            /** Changed Ns */
+            changed_ns: number;
+            /** Cleared */
+            cleared: string | null;
+            /**
+             * Condition
+             * @description the state without the shelf
+             * @enum {string}
+             */
+            condition: "normal" | "active_unacknowledged" | "active_acknowledged" | "cleared_unacknowledged" | "shelved";
+            /**
+             * Detail
+             * @description the last raise's detail text
+             */
+            detail: string;
+            /**
+             * Flags
+             * @description undeclared (the id was not declared), truncated (the detail was cut)
+             */
+            flags: string[];
+            /**
+             * Id
+             * @description 1 .. 1023 for a module's alarms; a word for the system alarms the agent raises
+             */
+            id: string;
+            /**
+             * Key
+             * @description <module>/<id>: PLC/8, iodispat/101, cntr1/overruns, agent/irpd_unreachable
+             */
+            key: string;
+            /**
+             * Module
+             * @description the module that raised it; irpd and agent for the platform's own
+             */
+            module: string;
+            /**
+             * Origin
+             * @description module: from irpd's alarm segment; system: raised by the agent from irpd's events and status
+             * @enum {string}
+             */
+            origin: "module" | "system";
+            /** Raised */
+            raised: string | null;
+            /**
+             * Raises
+             * @description raises since it was last normal
+             */
+            raises: number;
+            /**
+             * Severity
+             * @enum {string}
+             */
+            severity: "low" | "medium" | "high" | "critical";
+            /** Shelve Reason */
+            shelve_reason: string | null;
+            /** Shelved At */
+            shelved_at: string | null;
+            shelved_by: components["schemas"]["Who"] | null;
+            /** Shelved Until */
+            shelved_until: string | null;
+            /**
+             * State
+             * @description shelved over any other
+             * @enum {string}
+             */
+            state: "normal" | "active_unacknowledged" | "active_acknowledged" | "cleared_unacknowledged" | "shelved";
+            /**
+             * Text
+             * @description the declared text (module.xml <alarm>, irp::declareAlarm)
+             */
+            text: string;
+            /**
+             * Value
+             * @description the number that came with the last raise (an error count, an error code)
+             */
+            value: number;
+        };
+        /** AlarmSegmentStatus */
+        AlarmSegmentStatus: {
+            /**
+             * Abandoned
+             * @description records skipped: their writer stopped in the middle
+             * @default 0
+             */
+            abandoned: number;
+            /** Capacity */
+            capacity?: number | null;
+            /**
+             * Declarations
+             * @description ok, or why irpd's texts and severities were not read
+             */
+            declarations?: string | null;
+            /**
+             * Error
+             * @description why it is not read, or null
+             */
+            error: string | null;
+            /**
+             * Lost
+             * @description records overwritten before the agent read them (then it reconciles)
+             * @default 0
+             */
+            lost: number;
+            /**
+             * Name
+             * @description the alarm segment's shm name, as irpd's status names it
+             */
+            name: string | null;
+            /** Rate Limit */
+            rate_limit?: number | null;
+            /**
+             * Sources
+             * @default []
+             */
+            sources: components["schemas"]["AlarmSourceCounters"][];
+            /**
+             * Suppressed
+             * @description transitions not recorded one by one in the history: floods
+             * @default 0
+             */
+            suppressed: number;
+        };
+        /** AlarmSourceCounters */
+        AlarmSourceCounters: {
+            /** Bad Ids */
+            bad_ids: number;
+            /** Generation */
+            generation: number;
+            /** Module */
+            module: string;
+            /**
+             * Rate Dropped
+             * @description transitions over the rate limit: not recorded, the bitmap still changed
+             */
+            rate_dropped: number;
+            /** Recorded */
+            recorded: number;
+            /** Source */
+            source: number;
+            /** Truncated */
+            truncated: number;
+            /** Undeclared */
+            undeclared: number;
+        };
+        /** AlarmTransition */
+        AlarmTransition: {
+            /**
+             * Count
+             * @description 1; for a flood row, the transitions it stands for
+             */
+            count: number;
+            /** Detail */
+            detail: string;
+            /**
+             * Event
+             * @enum {string}
+             */
+            event: "raise" | "clear" | "acknowledge" | "shelve" | "unshelve" | "shelve_expired" | "flood";
+            /** Flags */
+            flags: string[];
+            /** Id */
+            id: string;
+            /** Key */
+            key: string;
+            /** Module */
+            module: string;
+            /**
+             * Note
+             * @description why, when the agent made the transition (reconciliation, irpd restarted, ...)
+             */
+            note: string;
+            /**
+             * Seq
+             * @description increasing for good: ?after= gives the newer ones
+             */
+            seq: number;
+            /** Severity */
+            severity: ("low" | "medium" | "high" | "critical") | "";
+            /**
+             * State
+             * @description the alarm's state after it (empty for a flood row)
+             */
+            state: ("normal" | "active_unacknowledged" | "active_acknowledged" | "cleared_unacknowledged" | "shelved") | "";
+            /** Text */
+            text: string;
+            /** Time */
+            time: string;
+            /** Time Ns */
+            time_ns: number;
+            /** Value */
+            value: number;
+            /** @description who acknowledged, shelved or unshelved it */
+            who: components["schemas"]["Who"] | null;
         };
         /**
          * Bucket
@@ -1504,6 +1915,19 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
+        /** ShelveRequest */
+        ShelveRequest: {
+            /**
+             * Minutes
+             * @description how long; it comes back when the time is up
+             */
+            minutes: number;
+            /**
+             * Reason
+             * @description why, for the history
+             */
+            reason: string;
+        };
         /**
          * Stats
          * @description Every dispatcher's and module's stats record (`stats`).
@@ -1918,6 +2342,244 @@ export interface components {
 }
 export type $defs = Record<string, never>;
 export interface operations {
+    alarms_api_v1_alarms_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AlarmList"];
+                };
+            };
+        };
+    };
+    acknowledge_all_api_v1_alarms_ack_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: {
+            content: {
+                "application/json": components["schemas"]["AckAll"] | null;
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AckAnswer"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    history_api_v1_alarms_history_get: {
+        parameters: {
+            query?: {
+                limit?: number;
+                offset?: number;
+                /** @description transitions at or after it (ISO 8601; UTC without a zone) */
+                since?: string | null;
+                /** @description transitions at or before it */
+                until?: string | null;
+                /** @description one module's (irpd, agent: the platform's) */
+                module?: string | null;
+                /** @description one alarm's */
+                key?: string | null;
+                severity?: ("low" | "medium" | "high" | "critical") | null;
+                /** @description the state the transition left the alarm in */
+                state?: ("normal" | "active_unacknowledged" | "active_acknowledged" | "cleared_unacknowledged" | "shelved") | null;
+                /** @description only transitions with a larger seq (following the history) */
+                after?: number | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AlarmHistory"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    history_csv_api_v1_alarms_history_csv_get: {
+        parameters: {
+            query?: {
+                /** @description transitions at or after it (ISO 8601; UTC without a zone) */
+                since?: string | null;
+                /** @description transitions at or before it */
+                until?: string | null;
+                /** @description one module's (irpd, agent: the platform's) */
+                module?: string | null;
+                /** @description one alarm's */
+                key?: string | null;
+                severity?: ("low" | "medium" | "high" | "critical") | null;
+                /** @description the state the transition left the alarm in */
+                state?: ("normal" | "active_unacknowledged" | "active_acknowledged" | "cleared_unacknowledged" | "shelved") | null;
+                /** @description only transitions with a larger seq (following the history) */
+                after?: number | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description the history, oldest first */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "text/csv": unknown;
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    acknowledge_api_v1_alarms__key__ack_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                key: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AlarmPublic"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    shelve_api_v1_alarms__key__shelve_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                key: string;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["ShelveRequest"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AlarmPublic"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    unshelve_api_v1_alarms__key__unshelve_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                key: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AlarmPublic"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
     audit_api_v1_audit_get: {
         parameters: {
             query?: {

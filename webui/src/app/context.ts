@@ -1,7 +1,8 @@
-// context.ts -- what every page gets: the API client, who is signed in, the sample stream, and
-// the page contract (mount into an element, give back a function that unmounts).
+// context.ts -- what every page gets: the API client, who is signed in, the sample stream, the
+// alarm feed, and the page contract (mount into an element, give back a function that unmounts).
 import type { Api } from "../api/client";
 import type { StreamClient } from "../stream/stream";
+import type { AlarmFeed } from "./alarm-feed";
 
 export type Role = "viewer" | "operator" | "admin";
 
@@ -15,6 +16,8 @@ export interface AppContext {
   api: Api;
   session: Session;
   stream: StreamClient;
+  /** the alarms, live (one WebSocket for the whole UI) */
+  alarms: AlarmFeed;
   /** true when the signed-in role is at least `role` (viewer < operator < admin). */
   can(role: Role): boolean;
   /** shows a short message in the status bar (errors in red). */

@@ -1,9 +1,11 @@
 // overview.ts -- the overview page: is everything up (GET /health every second, a banner when the
-// agent or irpd is not answering), the running set and its periods, uptime, overrun and miss
-// counters, the host's CPU load (GET /host), and a live tail of the event log (GET /events).
+// agent or irpd is not answering), the newest alarm (the alarm push), the running set and its
+// periods, uptime, overrun and miss counters, the host's CPU load (GET /host), and a live tail of
+// the event log (GET /events).
 import "../ops/ops.css";
 import { unwrap } from "../api/client";
 import type { Page } from "../app/context";
+import { bannerOf, stateLevel, stateText } from "../ops/alarms";
 import { CounterWindow } from "../ops/counters";
 import { errorText, h, poll, setClass, setPath, setText } from "../ops/dom";
 import { emptyTail, eventLevel, mergeEvents, pageFull, resetCursors, type Tail } from "../ops/events";
@@ -172,11 +174,60 @@ export const overviewPage: Page = (root, ctx) => {
     ),
   );
 
+  const newest = h("div", { "data-testid": "newest-alarm" }, "–");
+  const alarmCounts = h("span", { class: "ops-sub", "data-testid": "overview-alarm-counts" }, "");
+  const alarmPanel = h(
+    "section",
+    { class: "panel ops-panel" },
+    h("h3", {}, "Newest alarm", alarmCounts, " ", h("a", { href: "#/alarms", class: "ops-sub" }, "all alarms ›")),
+    newest,
+  );
+  const stopAlarms = ctx.alarms.listen((view, connected) => {
+    const b = bannerOf(view, connected);
+    setText(alarmCounts, ` — ${b.text}`);
+    const a = view.newest;
+    if (!a) {
+      newest.replaceChildren(h("span", { class: "muted" }, connected ? "none needs attention" : "–"));
+      return;
+    }
+    newest.replaceChildren(
+      h(
+        "table",
+        { class: "ops-kv" },
+        h(
+          "tr",
+          {},
+          h("th", {}, a.key),
+          h(
+            "td",
+            { class: "wrap" },
+            h(
+              "span",
+              { class: `state ${a.severity === "high" || a.severity === "critical" ? "bad" : "warn"}` },
+              a.severity,
+            ),
+            " ",
+            a.text,
+            a.detail ? h("span", { class: "ops-sub" }, ` — ${a.detail}`) : null,
+          ),
+        ),
+        h(
+          "tr",
+          {},
+          h("th", {}, "since"),
+          h("td", { class: "mono", title: a.raised ?? "" }, a.raised ? formatTime(a.raised) : "–"),
+        ),
+        h("tr", {}, h("th", {}, "state"), h("td", { class: `state ${stateLevel(a.state)}` }, stateText(a.state))),
+      ),
+    );
+  });
+
   root.append(
     h(
       "div",
       { class: "ops-page", "data-testid": "overview" },
       banner,
+      alarmPanel,
       h("div", { class: "ops-cols" }, setPanel, timingPanel, healthPanel, hostPanel),
       tailPanel,
     ),
@@ -386,6 +437,7 @@ export const overviewPage: Page = (root, ctx) => {
 
   const clock = setInterval(showHealth, 1000);
   return () => {
+    stopAlarms();
     clearInterval(clock);
     healthPoll.stop();
     statusPoll.stop();
