@@ -169,7 +169,17 @@ class AlarmManager:
         self.alarms: dict[str, Alarm] = {a.key: a for a in map(Alarm.from_json, saved)}
         self.declared: dict[str, dict[str, tuple[str, str]]] = {}  # module -> id -> (severity, text)
         self.listeners: list[Callable[[dict], None]] = []
-        self.segment: dict = {"name": None, "error": "not read yet", "lost": 0, "abandoned": 0, "sources": []}
+        # how the watcher reads the segment (every key there from the start: readers copy it unlocked)
+        self.segment: dict = {
+            "name": None,
+            "error": "not read yet",
+            "lost": 0,
+            "abandoned": 0,
+            "capacity": None,
+            "rate_limit": None,
+            "declarations": None,
+            "sources": [],
+        }
         self._budget: dict[str, tuple[int, int]] = {}  # module -> (second, rows written in it)
         self._flooded: dict[str, tuple[int, int]] = {}  # module -> (transitions not recorded, time of the last)
         self.suppressed = int(self.meta.get("suppressed", 0))  # transitions not recorded one by one, in all
@@ -476,13 +486,15 @@ class AlarmManager:
 
     # ---- what the API shows ----------------------------------------------------------------------------
     def counts(self) -> dict:
-        now = self.clock()
-        shown = [a for a in self.alarms.values() if not a.shelved(now)]
+        with self._lock:
+            now = self.clock()
+            shown = [a for a in self.alarms.values() if not a.shelved(now)]
+            total = len(self.alarms)
         unacknowledged = [a for a in shown if not a.acknowledged]
         return {
             "active": sum(a.active for a in shown),
             "unacknowledged": len(unacknowledged),
-            "shelved": len(self.alarms) - len(shown),
+            "shelved": total - len(shown),
             "highest": max(
                 (a.severity for a in shown if a.active or not a.acknowledged),
                 key=lambda s: SEVERITIES.index(s) if s in SEVERITIES else -1,
