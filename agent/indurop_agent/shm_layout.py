@@ -6,8 +6,9 @@ shm_layout.json next to this file is that description; a test fails when it is s
 `ninja -C build shm-layout`, which rewrites it.  The agent's readers (variables.py, trace.py) take
 every offset, size and constant from here and write none down.
 
-Every segment opens the same way: magic (u64), version (u32), header_size (u32).  `open_segment`
-maps one read-only and checks all three against the description.
+Every segment opens the same way: magic (u64), version (u32), header_size (u32).
+`SegmentLayout.open` maps one read-only and checks all three against the description; `Mapped`
+holds such a mapping for the readers of segments that writers change under them (trace, alarms).
 """
 
 from __future__ import annotations
@@ -166,3 +167,29 @@ def segment(name: str, path: Path = DESCRIPTION) -> SegmentLayout:
     if name not in segments:
         raise LayoutError(f"no segment '{name}' in {path}; it describes {', '.join(segments)}")
     return SegmentLayout(name, segments[name])
+
+
+class Mapped:
+    """A segment mapped read-only: the words its writers change, read as one aligned 8-byte load
+    each (memoryview item access copies the whole word at once, unlike struct's '<Q', which goes
+    byte by byte), and whether /dev/shm still holds it (a restarted irpd makes a new file)."""
+
+    def __init__(self, layout: SegmentLayout, name: str):
+        self.name = name
+        self.path = Path("/dev/shm") / name.lstrip("/")
+        self.mm, self.inode = layout.open(name)
+        self._u64 = memoryview(self.mm).cast("Q")
+
+    def close(self) -> None:
+        self._u64.release()
+        self.mm.close()
+
+    def _word(self, offset: int) -> int:
+        return self._u64[offset // 8]
+
+    def replaced(self) -> bool:
+        """True when /dev/shm no longer holds this segment (irpd stopped or restarted)."""
+        try:
+            return os.stat(self.path).st_ino != self.inode
+        except OSError:
+            return True

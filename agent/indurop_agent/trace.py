@@ -10,12 +10,10 @@ belongs to the latest configuration put in force at or before its seq.
 
 from __future__ import annotations
 
-import os
 from array import array
 from dataclasses import dataclass, field
-from pathlib import Path
 
-from .shm_layout import LayoutError, segment
+from .shm_layout import LayoutError, Mapped, segment
 
 # Every offset, size and constant from irpd's description of the segment (shm_layout.py).
 LAYOUT = segment("trace")
@@ -81,12 +79,10 @@ class TraceRead:
         return self.parts[0].first_seq if self.parts else self.next + 1
 
 
-class TraceRing:
+class TraceRing(Mapped):
     def __init__(self, name: str):
-        self.name = name
-        self.path = Path("/dev/shm") / name.lstrip("/")
         try:
-            self.mm, self.inode = LAYOUT.open(name)
+            super().__init__(LAYOUT, name)
         except LayoutError as e:
             raise TraceError(str(e)) from e
 
@@ -99,21 +95,11 @@ class TraceRing:
         self.time_offset, self.values_offset = read("time_offset"), read("values_offset")
         self.owner_pid = read("owner_pid")
         if (self.channel_size, self.config_size) != (CHANNEL.size, CONFIG.size):
-            self.mm.close()
+            self.close()
             raise TraceError(
                 f"{name} has {self.config_size}-byte configurations of {self.channel_size}-byte "
                 f"channels; this agent's description says {CONFIG.size} and {CHANNEL.size}"
             )
-        # 8-byte fields that the sampler changes are read as one aligned load each (memoryview
-        # item access copies the whole word at once, unlike struct's '<Q', which goes byte by byte).
-        self._u64 = memoryview(self.mm).cast("Q")
-
-    def close(self) -> None:
-        self._u64.release()
-        self.mm.close()
-
-    def _word(self, offset: int) -> int:
-        return self._u64[offset // 8]
 
     def head(self) -> int:
         """The seq of the newest complete row (0: none yet)."""
@@ -126,13 +112,6 @@ class TraceRing:
     @property
     def torn_skips(self) -> int:
         return self._word(H_TORN)
-
-    def replaced(self) -> bool:
-        """True when /dev/shm no longer holds this segment (irpd stopped or restarted)."""
-        try:
-            return os.stat(self.path).st_ino != self.inode
-        except OSError:
-            return True
 
     # ---- configurations ---------------------------------------------------------------------
     def _channels_of(self, i: int) -> tuple[Channel, ...]:

@@ -42,7 +42,11 @@ test("the banner counts a new alarm and an operator acknowledges it on the Alarm
   await expect.poll(() => unacknowledged(page), { timeout: 30_000 }).toBeLessThan(waiting);
   await expect(page.getByTestId("alarm-history")).toContainText("acknowledge", { timeout: 30_000 });
 
-  const audit = (await (await api("/audit?limit=50")).json()) as { action: string; target: string; who: { name: string } }[];
+  const audit = (await (await api("/audit?limit=50")).json()) as {
+    action: string;
+    target: string;
+    who: { name: string };
+  }[];
   const ack = audit.filter((e) => e.action === "alarm_ack" && e.target === KEY);
   expect(ack.at(-1)?.who.name).toBe("browser-operator");
 });

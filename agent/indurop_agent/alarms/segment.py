@@ -21,13 +21,11 @@ Records are handed over in seq order.  A segment replaced by a restarted irpd is
 
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass, field
 from functools import cache
-from pathlib import Path
 
-from ..shm_layout import LayoutError, SegmentLayout, segment
+from ..shm_layout import LayoutError, Mapped, SegmentLayout, segment
 
 
 class AlarmSegmentError(Exception):
@@ -95,17 +93,15 @@ def _ids(words) -> frozenset[int]:
     return frozenset(w * 64 + b for w, word in enumerate(words) if word for b in range(64) if word >> b & 1)
 
 
-class AlarmSegment:
+class AlarmSegment(Mapped):
     """The mapped segment: its geometry, the head, single records and the sources."""
 
     def __init__(self, name: str, description: SegmentLayout | None = None):
         try:
             self.layout = description or layout()
-            self.mm, self.inode = self.layout.open(name)
+            super().__init__(self.layout, name)
         except LayoutError as e:
             raise AlarmSegmentError(str(e)) from e
-        self.name = name
-        self.path = Path("/dev/shm") / name.lstrip("/")
         header = self.layout.header
         self.record_layout = self.layout.struct("indurop_alarm_record")
         self.source_layout = self.layout.struct("indurop_alarm_source")
@@ -123,15 +119,13 @@ class AlarmSegment:
             self.sources_offset + self.source_max * self.source_size,
         )
         if wrong or not self.capacity or end > len(self.mm):
-            self.mm.close()
+            self.close()
             raise AlarmSegmentError(
                 f"{name} has {self.record_size}-byte records and {self.source_size}-byte sources in "
                 f"{len(self.mm)} bytes; this agent's description says {self.record_layout.size} and "
                 f"{self.source_layout.size}: run the agent that came with this irpd"
             )
-        # Fields the writers change are read as one aligned 8-byte load each (memoryview item
-        # access copies the whole word at once, unlike struct's '<Q', which goes byte by byte).
-        self._u64 = memoryview(self.mm).cast("Q")
+        # Fields the writers change are read as one aligned 8-byte load each (Mapped._word).
         self._head = header.offset("head")
         self._seq = self.record_layout.offset("seq")
         src = self.source_layout
@@ -150,23 +144,9 @@ class AlarmSegment:
         self.flag_undeclared = self.layout.constant("flag_undeclared")
         self.flag_truncated = self.layout.constant("flag_truncated")
 
-    def close(self) -> None:
-        self._u64.release()
-        self.mm.close()
-
-    def _word(self, offset: int) -> int:
-        return self._u64[offset // 8]
-
     def head(self) -> int:
         """The last sequence number claimed (0: none yet)."""
         return self._word(self._head)
-
-    def replaced(self) -> bool:
-        """True when /dev/shm no longer holds this segment (irpd stopped or restarted)."""
-        try:
-            return os.stat(self.path).st_ino != self.inode
-        except OSError:
-            return True
 
     # ---- records --------------------------------------------------------------------------------
     def record(self, s: int) -> Record | int:

@@ -4,47 +4,11 @@
 import { describe, expect, it } from "vitest";
 import type { AlarmFeed } from "../../src/app/alarm-feed";
 import type { AppContext, Role } from "../../src/app/context";
-import { type AlarmView, applyPush, emptyView } from "../../src/ops/alarms";
-import type { AlarmPublic } from "../../src/ops/types";
+import { type AlarmView, emptyView } from "../../src/ops/alarms";
 import { alarmsPage } from "../../src/pages/alarms";
+import { alarm, live } from "./alarm-fixtures";
 
-const plc8: AlarmPublic = {
-  key: "PLC/8",
-  module: "PLC",
-  id: "8",
-  origin: "module",
-  state: "active_unacknowledged",
-  condition: "active_unacknowledged",
-  severity: "high",
-  text: "drive communication lost",
-  detail: "comm lost: Invalid data",
-  value: 22,
-  flags: [],
-  active: true,
-  acknowledged: false,
-  raises: 1,
-  changed: "2026-11-26T10:00:00.000000Z",
-  changed_ns: 1,
-  raised: "2026-11-26T10:00:00.000000Z",
-  cleared: null,
-  acknowledged_at: null,
-  acknowledged_by: null,
-  shelved_at: null,
-  shelved_until: null,
-  shelved_by: null,
-  shelve_reason: null,
-};
-
-function live(alarms: AlarmPublic[]): AlarmView {
-  return applyPush(emptyView(), {
-    snapshot: {
-      alarms,
-      counts: { active: alarms.length, unacknowledged: alarms.length, shelved: 0, highest: "high" },
-      newest: alarms[0] ?? null,
-      segment: { name: "/indurop.t.alarms", error: null, lost: 0, abandoned: 0, suppressed: 0, sources: [] },
-    },
-  });
-}
+const plc8 = alarm("PLC/8", { text: "drive communication lost", detail: "comm lost: Invalid data", value: 22 });
 
 function mount(role: Role) {
   const calls: { method: string; path: string; opts: Record<string, unknown> }[] = [];

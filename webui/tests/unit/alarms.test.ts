@@ -4,7 +4,6 @@
 import { afterEach, beforeEach, describe, expect, it, vi } from "vitest";
 import { AlarmFeed } from "../../src/app/alarm-feed";
 import {
-  type AlarmPush,
   type AlarmView,
   applyPush,
   bannerOf,
@@ -17,54 +16,9 @@ import {
   sortedAlarms,
   stateLevel,
 } from "../../src/ops/alarms";
-import type { AlarmCounts, AlarmList, AlarmPublic, AlarmTransition } from "../../src/ops/types";
-
-function alarm(key: string, over: Partial<AlarmPublic> = {}): AlarmPublic {
-  const [module, id] = key.split("/");
-  return {
-    key,
-    module,
-    id,
-    origin: "module",
-    state: "active_unacknowledged",
-    condition: "active_unacknowledged",
-    severity: "high",
-    text: `text of ${key}`,
-    detail: "",
-    value: 0,
-    flags: [],
-    active: true,
-    acknowledged: false,
-    raises: 1,
-    changed: "2026-11-26T10:00:00.000000Z",
-    changed_ns: 1_000,
-    raised: "2026-11-26T10:00:00.000000Z",
-    cleared: null,
-    acknowledged_at: null,
-    acknowledged_by: null,
-    shelved_at: null,
-    shelved_until: null,
-    shelved_by: null,
-    shelve_reason: null,
-    ...over,
-  };
-}
-
-const counts = (active: number, unacknowledged: number, shelved = 0, highest: AlarmCounts["highest"] = "high") => ({
-  active,
-  unacknowledged,
-  shelved,
-  highest,
-});
-
-function snapshot(alarms: AlarmPublic[], c: AlarmCounts): AlarmList {
-  return {
-    alarms,
-    counts: c,
-    newest: newestOf(alarms),
-    segment: { name: "/indurop.x.alarms", error: null, lost: 0, abandoned: 0, suppressed: 0, sources: [] },
-  };
-}
+import type { AlarmCounts, AlarmTransition } from "../../src/ops/types";
+import { alarm, counts, snapshot } from "./alarm-fixtures";
+import { FakeSocket } from "./fake-socket";
 
 function transition(seq: number, key: string, event: AlarmTransition["event"]): AlarmTransition {
   return {
@@ -203,25 +157,6 @@ describe("the history's filters", () => {
   });
 });
 
-class FakeSocket {
-  static all: FakeSocket[] = [];
-  onopen: (() => void) | null = null;
-  onmessage: ((ev: { data: unknown }) => void) | null = null;
-  onclose: ((ev: { code: number; reason: string }) => void) | null = null;
-  constructor(readonly url: string) {
-    FakeSocket.all.push(this);
-  }
-  close() {
-    this.onclose?.({ code: 1000, reason: "" });
-  }
-  push(m: AlarmPush) {
-    this.onmessage?.({ data: JSON.stringify(m) });
-  }
-  drop(code = 1006) {
-    this.onclose?.({ code, reason: "gone" });
-  }
-}
-
 describe("the feed", () => {
   beforeEach(() => {
     FakeSocket.all = [];
@@ -241,8 +176,8 @@ describe("the feed", () => {
     feed.listen((v, connected) => b.push(bannerOf(v, connected).text));
     expect(FakeSocket.all.length).toBe(1);
     expect(FakeSocket.all[0].url).toBe("ws://agent/api/v1/alarms/live?token=tok%20en");
-    FakeSocket.all[0].onopen?.();
-    FakeSocket.all[0].push({ snapshot: snapshot([alarm("PLC/8")], counts(1, 1)) });
+    FakeSocket.all[0].open();
+    FakeSocket.all[0].text({ snapshot: snapshot([alarm("PLC/8")], counts(1, 1)) });
     expect(a.at(-1)).toBe("1 active · 1 unacknowledged");
     expect(b.at(-1)).toBe("1 active · 1 unacknowledged");
   });
@@ -251,14 +186,14 @@ describe("the feed", () => {
     const feed = new AlarmFeed("ws://agent/api/v1/alarms/live", "t");
     const seen: string[] = [];
     feed.listen((v, connected) => seen.push(bannerOf(v, connected).text));
-    FakeSocket.all[0].onopen?.();
-    FakeSocket.all[0].push({ snapshot: snapshot([alarm("PLC/8")], counts(1, 1)) });
+    FakeSocket.all[0].open();
+    FakeSocket.all[0].text({ snapshot: snapshot([alarm("PLC/8")], counts(1, 1)) });
     FakeSocket.all[0].drop();
     expect(seen.at(-1)).toBe("alarms: not connected");
     vi.advanceTimersByTime(1000);
     expect(FakeSocket.all.length).toBe(2);
-    FakeSocket.all[1].onopen?.();
-    FakeSocket.all[1].push({ snapshot: snapshot([], counts(0, 0, 0, null)) });
+    FakeSocket.all[1].open();
+    FakeSocket.all[1].text({ snapshot: snapshot([], counts(0, 0, 0, null)) });
     expect(seen.at(-1)).toBe("no alarms");
     FakeSocket.all[1].drop(4401);
     vi.advanceTimersByTime(5000);
@@ -270,7 +205,7 @@ describe("the feed", () => {
     const warn = vi.spyOn(console, "warn").mockImplementation(() => {});
     const feed = new AlarmFeed("ws://agent/api/v1/alarms/live", "t");
     feed.listen(() => {});
-    FakeSocket.all[0].push({ hello: 1 } as unknown as AlarmPush);
+    FakeSocket.all[0].text({ hello: 1 });
     expect(warn).toHaveBeenCalled();
     expect(feed.view.live).toBe(false);
     warn.mockRestore();

@@ -3,45 +3,7 @@
 import { afterEach, beforeEach, describe, expect, it, vi } from "vitest";
 import { type Samples, StreamClient } from "../../src/stream/stream";
 import { buildFrame } from "./build-frame";
-
-class FakeSocket {
-  static OPEN = 1;
-  static all: FakeSocket[] = [];
-  readyState = 0;
-  binaryType = "";
-  sent: unknown[] = [];
-  onopen: (() => void) | null = null;
-  onmessage: ((ev: { data: unknown }) => void) | null = null;
-  onclose: ((ev: { code: number; reason: string }) => void) | null = null;
-  constructor(readonly url: string) {
-    FakeSocket.all.push(this);
-  }
-  send(data: string) {
-    this.sent.push(JSON.parse(data));
-  }
-  close() {
-    this.readyState = 3;
-    this.onclose?.({ code: 1000, reason: "" });
-  }
-  // the agent's side
-  open() {
-    this.readyState = 1;
-    this.onopen?.();
-  }
-  text(m: unknown) {
-    this.onmessage?.({ data: JSON.stringify(m) });
-  }
-  binary(b: ArrayBuffer) {
-    this.onmessage?.({ data: b });
-  }
-  drop(code = 1006) {
-    this.readyState = 3;
-    this.onclose?.({ code, reason: "gone" });
-  }
-  get last() {
-    return this.sent[this.sent.length - 1] as { subscribe: string[]; decimation: number };
-  }
-}
+import { FakeSocket } from "./fake-socket";
 
 const channels = (paths: string[]) => ({
   channels: paths.map((path, index) => ({ index, path, type: "double" })),

@@ -9,6 +9,7 @@ import csv
 import io
 import json
 from collections import deque
+from contextlib import contextmanager
 from datetime import UTC, datetime, timedelta
 from typing import Annotated
 
@@ -70,8 +71,14 @@ def history_filter(
 FilterDep = Annotated[HistoryFilter, Depends(history_filter)]
 
 
-def refused(e: AlarmError) -> HTTPException:
-    return HTTPException(e.status, str(e))
+@contextmanager
+def answered(request: Request, who, action: str, key: str, **details):
+    """An operator's change of one alarm: audited, and the manager's refusal as its HTTP status."""
+    with audited(request, who, action, target=key, **details):
+        try:
+            yield
+        except AlarmError as e:
+            raise HTTPException(e.status, str(e)) from e
 
 
 @router.get("/alarms")
@@ -146,31 +153,22 @@ def acknowledge_all(
 def acknowledge(key: str, request: Request, manager: AlarmsDep, who: OperatorDep) -> AlarmPublic:
     """Acknowledges one alarm: 404 when no alarm of that key needs attention, 409 when it is
     acknowledged already."""
-    with audited(request, who, "alarm_ack", target=key):
-        try:
-            return manager.acknowledge(key, who.as_dict())
-        except AlarmError as e:
-            raise refused(e) from e
+    with answered(request, who, "alarm_ack", key):
+        return manager.acknowledge(key, who.as_dict())
 
 
 @router.post("/alarms/{key:path}/shelve")
 def shelve(key: str, body: ShelveRequest, request: Request, manager: AlarmsDep, who: OperatorDep) -> AlarmPublic:
     """Sets an alarm aside for `minutes` with a reason: it leaves the counts and comes back when the
     time is up.  An alarm held, or one declared by a module of the running set (404 otherwise)."""
-    with audited(request, who, "alarm_shelve", target=key, minutes=body.minutes, reason=body.reason):
-        try:
-            return manager.shelve(key, body.minutes, body.reason, who.as_dict())
-        except AlarmError as e:
-            raise refused(e) from e
+    with answered(request, who, "alarm_shelve", key, minutes=body.minutes, reason=body.reason):
+        return manager.shelve(key, body.minutes, body.reason, who.as_dict())
 
 
 @router.post("/alarms/{key:path}/unshelve")
 def unshelve(key: str, request: Request, manager: AlarmsDep, who: OperatorDep) -> AlarmPublic:
-    with audited(request, who, "alarm_unshelve", target=key):
-        try:
-            return manager.unshelve(key, who.as_dict())
-        except AlarmError as e:
-            raise refused(e) from e
+    with answered(request, who, "alarm_unshelve", key):
+        return manager.unshelve(key, who.as_dict())
 
 
 @router.websocket("/alarms/live")
