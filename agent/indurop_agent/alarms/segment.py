@@ -5,14 +5,16 @@ bitmaps and counters, and a ring of records that many writers fill and nobody wa
 maps it read-only, takes every offset from irpd's description (shm_layout.json) and follows the
 reader protocol of alarms.h:
 
-- record s sits at index s % capacity; a writer stores its `seq` = s last, with release;
+- record s sits at index s % capacity; its writer sets `seq` to 0 while it writes and stores
+  `seq` = s last, with release;
 - the reader copies record s after loading seq == s, then loads seq again: the copy is intact iff
   both loads gave s;
-- seq < s: not written yet -- read it again later, unless head has moved capacity past s: then the
-  writer died in it and the reader skips it (counted in `abandoned`).  The agent also skips a
-  record that stays unwritten for `stall_s` (a write takes microseconds; a process module killed in
-  the middle of one must not hold back every other module's alarms); the skip is counted too, and
-  the caller reconciles from the bitmaps;
+- seq < s: not written yet -- read it again later; once head has moved capacity past s the slot
+  belongs to a later lap and the record is counted in `lost`.  A record that stays unwritten for
+  `stall_s` (1 s; a write takes microseconds) is skipped and counted in `abandoned`: its writer
+  died in it (a process module killed in the middle of one) or collided with another and wrote
+  nothing, and it must not hold back every other module's alarms.  Either way the caller
+  reconciles from the bitmaps;
 - seq > s: overwritten before it was read (counted in `lost`).
 
 Records are handed over in seq order.  A segment replaced by a restarted irpd is a new file:
@@ -56,6 +58,9 @@ class Record:
     text: str
 
 
+COUNTERS = ("recorded", "rate_dropped", "undeclared", "bad_ids", "truncated", "collided")  # each atomic, u64
+
+
 @dataclass(frozen=True)
 class Source:
     """One source: irpd (0) or a module of the running set (1 + its index), with its bitmaps and counters."""
@@ -70,15 +75,15 @@ class Source:
     undeclared: int
     bad_ids: int
     truncated: int
+    collided: int = 0
 
     def counters(self) -> dict[str, int]:
-        return {
-            "recorded": self.recorded,
-            "rate_dropped": self.rate_dropped,
-            "undeclared": self.undeclared,
-            "bad_ids": self.bad_ids,
-            "truncated": self.truncated,
-        }
+        return {c: getattr(self, c) for c in COUNTERS}
+
+    @property
+    def unrecorded(self) -> int:
+        """Transitions whose record was not written (the rate limit, a ring slot taken): only the bitmap has them."""
+        return self.rate_dropped + self.collided
 
 
 @dataclass
@@ -132,7 +137,7 @@ class AlarmSegment(Mapped):
         self._generation = src.offset("generation")
         self._words = src.field("active")["count"]
         self._bitmaps = src.offset("declared"), src.offset("active")
-        self._counters = {c: src.offset(c) for c in ("recorded", "rate_dropped", "undeclared", "bad_ids", "truncated")}
+        self._counters = {c: src.offset(c) for c in COUNTERS if c in src.fields}
         if any(o % 8 for o in (self._head, self._seq, self._generation, *self._bitmaps, *self._counters.values())):
             self.close()
             raise AlarmSegmentError(
@@ -141,8 +146,8 @@ class AlarmSegment(Mapped):
         self.actions = self.layout.enum("indurop_alarm_action")
         severities = self.layout.enum("indurop_alarm_severity")
         self.severities = {number: name for name, number in severities.items() if number}
-        self.flag_undeclared = self.layout.constant("flag_undeclared")
-        self.flag_truncated = self.layout.constant("flag_truncated")
+        flags = self.layout.enum("indurop_alarm_flags")
+        self.flag_undeclared, self.flag_truncated = flags["undeclared"], flags["truncated"]
 
     def head(self) -> int:
         """The last sequence number claimed (0: none yet)."""
@@ -200,7 +205,7 @@ class AlarmSegment(Mapped):
 class RingReader:
     """Follows the ring from a cursor (the last seq handed over), by the protocol above."""
 
-    def __init__(self, seg: AlarmSegment, cursor: int = 0, stall_s: float = 2.0, clock=time.monotonic):
+    def __init__(self, seg: AlarmSegment, cursor: int = 0, stall_s: float = 1.0, clock=time.monotonic):
         self.segment = seg
         self.cursor = cursor
         self.stall_s = stall_s

@@ -57,7 +57,7 @@ class AlarmWatcher(threading.Thread):
         self.reader: RingReader | None = None
         self.sources: dict[int, tuple[int, str]] = {}  # index -> (generation, name)
         self.names: dict[tuple[int, int], str] = {}
-        self.rate_dropped = 0
+        self.unrecorded = 0  # the sources' transitions not recorded (rate limit, ring slot taken), summed
         self.reconcile_note: str | None = "reconciled when the agent started"
         self.last_error: str | None = None
 
@@ -155,7 +155,7 @@ class AlarmWatcher(threading.Thread):
         ring = self.manager.meta.get("ring") or {}
         same = (ring.get("name"), ring.get("inode"), ring.get("owner_pid")) == (seg.name, seg.inode, seg.owner_pid)
         self.segment, self.reader = seg, RingReader(seg, ring.get("cursor", 0) if same else 0)
-        self.sources, self.rate_dropped = {}, 0
+        self.sources, self.unrecorded = {}, 0
         self.manager.segment.update(name=seg.name, error=None, capacity=seg.capacity, rate_limit=seg.rate_limit)
 
     def name_of(self, r: Record) -> str | None:
@@ -181,14 +181,16 @@ class AlarmWatcher(threading.Thread):
                 self.names.clear()
             self.names.update({(i, g): name for i, (g, name) in current.items()})
         read = self.reader.read(limit=seg.capacity)
-        dropped = sum(s.rate_dropped for s in sources)
+        unrecorded = sum(s.unrecorded for s in sources)
         if read.lost or read.abandoned:
             self.reconcile_note = self.reconcile_note or (
                 f"reconciled after {read.lost + read.abandoned} records were lost or skipped"
             )
-        if dropped != self.rate_dropped:
-            self.reconcile_note = self.reconcile_note or "reconciled after the rate limit left transitions unrecorded"
-            self.rate_dropped = dropped
+        if unrecorded != self.unrecorded:
+            self.reconcile_note = (
+                self.reconcile_note or "reconciled after transitions went unrecorded (rate limit, ring)"
+            )
+            self.unrecorded = unrecorded
         with self.manager.batch():
             self.manager.apply(read.records, self.name_of)
             if self.reconcile_note:

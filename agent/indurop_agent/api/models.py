@@ -351,6 +351,7 @@ class AlarmSourceCounters(BaseModel):
     undeclared: int
     bad_ids: int
     truncated: int
+    collided: int = Field(0, description="records not written: their ring slot was taken; the bitmap still changed")
 
 
 class AlarmSegmentStatus(BaseModel):

@@ -37,7 +37,9 @@ def writer():
 def test_intact_records_come_in_seq_order_with_every_field(writer):
     t = time.time_ns()
     writer.transition(1, 8, text="comm lost: Invalid data", value=22, time_ns=t)
-    writer.transition(2, 3, severity="critical", flags=writer.layout.constant("flag_truncated"), text="x" * 135)
+    writer.transition(
+        2, 3, severity="critical", flags=writer.layout.enum("indurop_alarm_flags")["truncated"], text="x" * 135
+    )
     writer.transition(1, 8, raised=False, time_ns=t + 5)
     seg = AlarmSegment(writer.name)
     read = RingReader(seg).read()
@@ -71,7 +73,14 @@ def test_the_sources_bitmaps_and_counters(writer):
     irpd, plc, robot = seg.sources()
     assert (irpd.index, irpd.name, plc.name, robot.name, robot.generation) == (0, "irpd", "PLC", "ROBOT", 3)
     assert plc.declared == {1, 8} and plc.active == {1, 64, 1023}
-    assert plc.counters() == {"recorded": 0, "rate_dropped": 5, "undeclared": 0, "bad_ids": 2, "truncated": 0}
+    assert plc.counters() == {
+        "recorded": 0,
+        "rate_dropped": 5,
+        "undeclared": 0,
+        "bad_ids": 2,
+        "truncated": 0,
+        "collided": 0,
+    }
     assert [s.index for s in seg.sources()] == [0, 1, 2]  # source 3 unused (generation 0)
     seg.close()
 

@@ -908,6 +908,12 @@ export interface components {
         AlarmSourceCounters: {
             /** Bad Ids */
             bad_ids: number;
+            /**
+             * Collided
+             * @description records not written: their ring slot was taken; the bitmap still changed
+             * @default 0
+             */
+            collided: number;
             /** Generation */
             generation: number;
             /** Module */
