@@ -48,12 +48,14 @@ AlarmsDep = Annotated[AlarmManager, Depends(alarm_manager)]
 
 
 def _ns(t: datetime | None) -> int | None:
-    """A time given with a zone, or in UTC without one, as ns since the epoch."""
+    """A time given with a zone, or in UTC without one, as ns since the epoch (exact: no float on
+    the way), held to what a 64-bit time holds (years 1677 .. 2262)."""
     if t is None:
         return None
     if t.tzinfo is None:
         t = t.replace(tzinfo=UTC)
-    return (t - EPOCH) // timedelta(microseconds=1) * 1000  # exact: no float on the way
+    ns = (t - EPOCH) // timedelta(microseconds=1) * 1000
+    return min(max(ns, -(2**63)), 2**63 - 1)
 
 
 def history_filter(
