@@ -116,13 +116,13 @@ class AlarmWatcher(threading.Thread):
                 cursor = int(page.get("next", cursor))
                 if len(events) < protocol.EVENT_LOG_CAPACITY:
                     break
-            self.manager.set_meta(
-                irpd={
-                    "pid": status.get("pid"),
-                    "started_ns": seen["started_ns"] if same else started,
-                    "events": cursor,
-                }
-            )
+            now_seen = {
+                "pid": status.get("pid"),
+                "started_ns": seen["started_ns"] if same else started,
+                "events": cursor,
+            }
+            if now_seen != seen:  # (not a synced write every second for nothing)
+                self.manager.set_meta(irpd=now_seen)
         self.segment_name = (status.get("shared_memory") or {}).get("alarms")
         if status.get("generation") != self.generation:
             self.generation = status.get("generation")
