@@ -97,13 +97,26 @@ NEEDS = {
     ("GET", "/robot/urdf"): "viewer",
     ("PUT", "/robot/joints"): "admin",
     ("GET", "/events"): "viewer",
+    ("GET", "/alarms"): "viewer",
+    ("GET", "/alarms/history"): "viewer",
+    ("GET", "/alarms/history.csv"): "viewer",
+    ("POST", "/alarms/ack"): "operator",
+    ("POST", "/alarms/{key}/ack"): "operator",
+    ("POST", "/alarms/{key}/shelve"): "operator",
+    ("POST", "/alarms/{key}/unshelve"): "operator",
     ("GET", "/audit"): "admin",
     ("GET", "/auth/me"): "viewer",
     ("GET", "/tokens"): "admin",
     ("POST", "/tokens"): "admin",
     ("DELETE", "/tokens/{token_id}"): "admin",
 }
-SAMPLE = {"{name}": "cntr1", "{path}": "knu.Robot.tick", "{set_id}": "0" * 64, "{token_id}": "0" * 12}
+SAMPLE = {
+    "{name}": "cntr1",
+    "{path}": "knu.Robot.tick",
+    "{set_id}": "0" * 64,
+    "{token_id}": "0" * 12,
+    "{key}": "PLC/8",
+}
 
 
 class Battery:
@@ -737,6 +750,9 @@ def test_after_the_battery_nothing_was_written_outside_the_data_dir_no_5xx_and_i
         "active.json",
         "active",
         "history.jsonl",
+        "alarms.sqlite3",  # and SQLite's write-ahead log beside it
+        "alarms.sqlite3-wal",
+        "alarms.sqlite3-shm",
     }
     assert outside == set(), outside
     for line in audit_lines(battery):
