@@ -43,6 +43,10 @@ MAX_REQUEST_DEPTH = 64
 MAX_PENDING_OUTPUT = 4_194_304
 # connected clients; one more is answered busy and closed
 MAX_CLIENTS = 32
+# characters of an alarm's declared text (module.xml `<alarm>`, irp::declareAlarm)
+ALARM_TEXT_MAX = 200
+# alarm records one source (a module) may write per second; more transitions are counted, not recorded (docs/alarms.md)
+ALARM_RATE_LIMIT = 1_000
 # how long the control thread waits for irpd's main thread to carry out a change
 MAIN_THREAD_WAIT_MS = 60_000
 
@@ -61,7 +65,7 @@ TOO_LARGE = "too_large"
 BUSY = "busy"
 ERROR_CODES = (REFUSED, NOT_FOUND, RESTART_REQUIRED, BAD_REQUEST, TOO_LARGE, BUSY)
 
-COMMANDS = ("status", "schedule", "modules", "stats", "histograms", "events", "check", "restart", "load", "change", "set_period", "set_priority", "enable", "disable", "clear_crash", "write", "trace")
+COMMANDS = ("status", "schedule", "modules", "stats", "alarms", "histograms", "events", "check", "restart", "load", "change", "set_period", "set_priority", "enable", "disable", "clear_crash", "write", "trace")
 EVENT_KINDS = ("start", "swap", "swap_failed", "fault", "deadline", "overrun", "stopped", "safe_outputs_failed", "process_exit", "process_restart", "process_hang", "process_output_dropped", "crash", "crash_cleared", "restart", "restart_failed")
 
 # ---- argument types
@@ -105,6 +109,30 @@ class IrpdShape(BaseModel):
     pass through."""
 
     model_config = ConfigDict(extra="allow")
+
+
+class AlarmDeclaration(IrpdShape):
+    """An alarm a module declared: its id, severity and text (docs/alarms.md)."""
+
+    id: int = Field(description="1 .. 1023, per module")
+    severity: Literal["low", "medium", "high", "critical"]
+    text: str = Field(description="what the operator reads")
+    origin: Literal["module.xml", "code"] = Field(description="module.xml's <alarm>, or irp::declareAlarm in initialize() or start()")
+
+
+class AlarmSource(IrpdShape):
+    """One source of the alarm segment: irpd (0) or a module of the running set (1 + its index), its declared alarms and its counters."""
+
+    source: int = Field(description="its index in the segment's sources")
+    module: str = Field(description="the module's name; irpd for source 0")
+    generation: int = Field(description="changes when another module takes the source")
+    declared: list[AlarmDeclaration]
+    active: list[int] = Field(description="the ids active now")
+    recorded: int
+    rate_dropped: int
+    undeclared: int
+    bad_ids: int
+    truncated: int
 
 
 class Place(IrpdShape):
@@ -290,6 +318,7 @@ class SharedMemory(IrpdShape):
     stats: str = Field(description="the stats block's shm name")
     variables: str | None = Field(description="the shared variables' shm name; null: the set has none")
     trace: str = Field(description="the trace rings' shm name")
+    alarms: str = Field(description="the alarm segment's shm name (<indurop/alarms.h>)")
 
 
 class Status(IrpdShape):
@@ -325,6 +354,12 @@ class Stats(IrpdShape):
     cycles: int
     executors: list[TimingRecord] = Field(description="the dispatchers' records, the main one first")
     modules: list[TimingRecord]
+
+
+class AlarmSources(IrpdShape):
+    segment: str
+    rate_limit: int
+    sources: list[AlarmSource]
 
 
 class HistogramRecord(IrpdShape):

@@ -87,6 +87,8 @@ void setCurrentModule(const std::string &name, uint64_t instance) {
     g_current_instance = instance;
 }
 
+uint64_t currentModuleInstance() noexcept { return g_current_instance; }
+
 void dropFunctionsOf(uint64_t instance) {
     std::lock_guard lock(g_mutex);
     for (auto it = g_exports.begin(); it != g_exports.end();) {

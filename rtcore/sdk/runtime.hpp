@@ -2,6 +2,7 @@
 // drain the lines modules wrote with irp::printf.  Not installed for modules.
 #pragma once
 
+#include <indurop/alarms.h>
 #include <indurop/indurop.h>
 
 #include <cstddef>
@@ -31,6 +32,7 @@ uint64_t droppedLogLines() noexcept;
 // exports are recorded as its own), and dropping a module's exports when it is unloaded.  The
 // instance tells two loads of a module of the same name apart (a hot reload's old and new one).
 void setCurrentModule(const std::string &name, uint64_t instance = 0);
+uint64_t currentModuleInstance() noexcept;  // 0: no module's initialize()/start() runs on this thread
 void dropFunctionsOf(uint64_t instance);
 std::size_t exportedFunctions();
 
@@ -49,6 +51,30 @@ std::vector<std::string> exportsOf(uint64_t instance);
 std::set<uint64_t> importersOf(uint64_t instance);
 // FNV-1a 64 of a typeid name: how a call request names its signature (<indurop/control.h>).
 uint64_t signatureHash(const char *signature) noexcept;
+
+// ---- alarms (sdk/alarms.cpp, docs/alarms.md) ------------------------------------------------------
+// The alarm segment this process writes to: irpd adopts the one it created (null: none any more);
+// a process module maps the one INDUROP_ALARMS names when libindurop loads.
+void adoptAlarms(indurop_alarm_header *header) noexcept;
+// The source the calling thread's module writes to: the dispatcher sets it before run() and
+// condition(), the host before initialize() and start().  kNoAlarmSource: none (the calls do
+// nothing, except in a process module, whose every thread has the process's source).
+inline constexpr uint32_t kNoAlarmSource = UINT32_MAX;
+void setAlarmSource(uint32_t source) noexcept;
+
+// An alarm a module declared, in module.xml or by irp::declareAlarm.
+struct AlarmDeclaration {
+    uint32_t id = 0;
+    Severity severity = Severity::Medium;
+    std::string text;
+    bool from_code = false;  // irp::declareAlarm; else module.xml's <alarm>
+};
+// Module.xml's declarations of a module instance, given before its initialize(): what
+// irp::declareAlarm is checked against.  Replaces what the instance had.
+void declareAlarms(uint64_t instance, std::vector<AlarmDeclaration> declarations);
+// Every declaration of an instance, by id.
+std::vector<AlarmDeclaration> alarmsOf(uint64_t instance);
+void dropAlarmsOf(uint64_t instance);
 
 }  // namespace irp::runtime
 

@@ -4,9 +4,12 @@
 // segfaults, exits, floods its output or hangs.  Each test checks that irpd still answers, that
 // the rest of the set still runs, and that the event names the module.  The device side, on the
 // plc-robot cell with the drive simulator started apart: a stop drives the drives' controlwords
-// to 0 over Modbus while the faulty module is still stuck, and irpd killed -9 leaves the drives to
-// their own comm timeout, which quick-stops them.  No timing figure is
-// asserted here; tests/bench/faults.py measures them.
+// to 0 over Modbus while the faulty module is still stuck, irpd killed -9 leaves the drives to
+// their own comm timeout, which quick-stops them, and the drives that stop answering make the PLC
+// raise its alarm 8 with its text (docs/alarms.md), cleared once they are back and the error
+// reset.  No timing figure is asserted here; tests/bench/faults.py measures them.
+#include "osal/shm.hpp"
+#include "support/alarm_ring.hpp"
 #include "support/control_client.hpp"
 #include "support/drivesim.hpp"
 #include "support/irpd.hpp"
@@ -16,6 +19,7 @@
 
 #include <signal.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -391,4 +395,72 @@ TEST(DeviceSide, IrpdKilledLeavesTheDrivesToTheirCommTimeoutWhichQuickStopsThem)
         EXPECT_EQ(probe.input32(8 * axis + 5), 0) << axis;      // standing still
     }
     EXPECT_TRUE(contains(sim.out(), "comm timeout: no write for")) << sim.out();
+}
+
+namespace {
+
+// The `alarms` answer's source of `module`.
+json alarmSource(Client &client, const std::string &module) {
+    const json answer = client.request({{"cmd", "alarms"}});
+    for (const json &s : answer["result"]["sources"])
+        if (s["module"] == module) return s;
+    return json();
+}
+
+bool active(Client &client, const std::string &module, int id) {
+    const json source = alarmSource(client, module);
+    return source.is_object() &&
+           std::find(source["active"].begin(), source["active"].end(), id) != source["active"].end();
+}
+
+}  // namespace
+
+TEST(DeviceSide, TheDrivesStoppingToAnswerRaiseThePlcsAlarm8WithItsTextClearedWhenTheyAreBackAndReset) {
+    DriveSim sim({"--quiet"});
+    ModbusClient probe(sim.port());
+    PlcCell cell(sim.port(), "");
+    cell.enableDrives();
+    for (int axis = 0; axis < kAxes; ++axis)
+        ASSERT_TRUE(eventually([&] { return operationEnabled(statusword(probe, axis)); }, std::chrono::seconds(20)))
+            << axis;
+    const json plc = alarmSource(*cell.client, "main");
+    ASSERT_TRUE(plc.is_object()) << cell.client->request({{"cmd", "alarms"}}).dump();
+    std::string text;
+    for (const json &d : plc["declared"])
+        if (d["id"] == 8) text = d["text"];
+    EXPECT_EQ(text, "Drive communication lost: the drives' I/O device does not answer");
+    EXPECT_TRUE(plc["active"].empty()) << plc.dump();
+
+    // The simulator stops answering (stopped, its connections open): comm lost, the robot's
+    // ErrorID 8, the PLC stops with it and raises alarm 8; libiodispat raises its comm lost.
+    ASSERT_EQ(kill(sim.pid(), SIGSTOP), 0);
+    EXPECT_TRUE(eventually([&] { return active(*cell.client, "main", 8); }, std::chrono::seconds(20)))
+        << alarmSource(*cell.client, "main").dump();
+    EXPECT_TRUE(active(*cell.client, "libiodispat", 100)) << alarmSource(*cell.client, "libiodispat").dump();
+    // The record in the ring: from the PLC's source, its value the ErrorID.
+    const json status = cell.client->request({{"cmd", "status"}});
+    auto mapped = irp::osal::SharedMemory::open(status["result"]["shared_memory"]["alarms"], false);
+    ASSERT_TRUE(mapped.ok());
+    const auto *header = static_cast<const indurop_alarm_header *>(mapped->data());
+    bool recorded = false;
+    for (uint64_t seq = 1; seq <= header->head; ++seq)
+        if (auto r = testing_support::AlarmRing(header).read(seq); r && r->id == 8)
+            recorded = r->source == plc["source"] && r->action == INDUROP_ALARM_RAISE && r->value == 8 && r->flags == 0;
+    EXPECT_TRUE(recorded);
+
+    // Back: libiodispat clears its alarm; the PLC's error is latched until a reset, which clears 8.
+    ASSERT_EQ(kill(sim.pid(), SIGCONT), 0);
+    EXPECT_TRUE(eventually([&] { return !active(*cell.client, "libiodispat", 100); }, std::chrono::seconds(20)));
+    EXPECT_TRUE(active(*cell.client, "main", 8));
+    for (int edge : {1, 0}) {
+        json answer = cell.client->request({{"cmd", "write"}, {"path", "PLC_ROBOT.PLC_IN.Reset"}, {"value", edge}});
+        ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    EXPECT_TRUE(
+        eventually([&] { return alarmSource(*cell.client, "main")["active"].empty(); }, std::chrono::seconds(20)))
+        << alarmSource(*cell.client, "main").dump();
+    const json after = alarmSource(*cell.client, "main");
+    EXPECT_GE(after["recorded"].get<int>(), 2);  // raised, cleared
+    EXPECT_EQ(after["undeclared"], 0);
 }

@@ -201,7 +201,45 @@ TEST(IoConfig, RefusesAFrameIdThatACia402NodeUses) {
 
 TEST(IoConfig, RefusesAModbusElementInACanDevice) {
     EXPECT_REFUSED(refusal(R"(    <input table="input" address="0" path="a"/>)", R"(name="c" type="socketcan" fd="3")"),
-                   "io.xml:3:", "<frame> and <cia402>");
+                   "io.xml:3:", "<frame>, <cia402> and <drive>");
+}
+
+// <drive>: the drives whose faults are alarms (docs/io.md "Alarms").
+TEST(IoConfig, DrivesAreNumberedAcrossTheFileAndNamedByDefault) {
+    const IoConfig c = parseIoConfig(std::string(SOURCE_ROOT) + "/config/sets/plc-robot/ioconfig.xml");
+    ASSERT_EQ(c.devices[0].drives.size(), 6u);
+    EXPECT_EQ(c.devices[0].drives[2].name, "axis 2");
+    EXPECT_EQ(c.devices[0].drives[2].index, 2);
+    EXPECT_EQ(c.devices[0].drives[2].statusword, "PLC_ROBOT.AXIS_IN[2].statusword");
+    EXPECT_EQ(c.devices[0].drives[2].error_code, "PLC_ROBOT.AXIS_IN[2].error");
+    const IoConfig two = parseIoConfigText(R"(<ioconfig>
+  <device name="a" type="modbus-tcp" host="127.0.0.1">
+    <input table="input" address="0" path="s"/><drive statusword="s"/>
+  </device>
+  <device name="c" type="socketcan" fd="3">
+    <cia402 node="2" statusword="t"/><drive name="z" statusword="t"/>
+  </device>
+</ioconfig>)",
+                                           "io.xml");
+    EXPECT_EQ(two.devices[0].drives[0].name, "drive 0");
+    EXPECT_EQ(two.devices[1].drives[0].index, 1);
+    EXPECT_EQ(two.devices[1].drives[0].name, "z");
+}
+
+TEST(IoConfig, RefusesADriveWhoseStatuswordIsNoInputOfItsDevice) {
+    EXPECT_REFUSED(refusal("    <output table=\"holding\" address=\"0\" path=\"s\"/>\n    <drive statusword=\"s\"/>"),
+                   "io.xml:4:", "<drive>", "attribute 'statusword'", "'s' is no input of device 'd'");
+}
+
+TEST(IoConfig, RefusesADriveWhoseErrorCodeIsNoInputOfItsDevice) {
+    EXPECT_REFUSED(
+        refusal(
+            "    <input table=\"input\" address=\"0\" path=\"s\"/>\n    <drive statusword=\"s\" error_code=\"e\"/>"),
+        "io.xml:4:", "attribute 'error_code'", "'e' is no input");
+}
+
+TEST(IoConfig, RefusesADriveWithoutStatusword) {
+    EXPECT_REFUSED(refusal(R"(    <drive name="x"/>)"), "io.xml:3:", "<drive>", "attribute 'statusword' is required");
 }
 
 TEST(IoConfig, NamesAMissingFile) {

@@ -14,6 +14,7 @@
 #include "hosts/thread_module.hpp"
 #include "support/drivesim.hpp"
 #include "support/iodispat.hpp"
+#include "support/iodispat_module.hpp"
 
 #include <indurop/generated.h>  // the plc-robot cell's variables (PLC_ROBOT::...)
 #include <indurop/indurop.h>
@@ -33,7 +34,10 @@ using namespace irp::iodispat;
 using PLC_ROBOT::AXIS_IN;
 using PLC_ROBOT::AXIS_OUT;
 using PLC_ROBOT::IO_STATUS;
+using testing_support::cyclesUntil;
+using testing_support::demoConfig;
 using testing_support::DriveSim;
+using testing_support::LoadedModule;
 using testing_support::ModbusClient;
 using testing_support::readFile;
 using testing_support::resetVariables;
@@ -44,69 +48,6 @@ using testing_support::writeFile;
 namespace {
 
 constexpr double kCpr = 100000;  // the simulator's default counts per rad; the demo scales by 1e-5
-
-// The shipped demo ioconfig.xml with another port and device settings.
-std::string demoConfig(int port,
-                       const std::string &device_settings = R"(timeout_ms="2" fail_limit="3" reconnect_ms="500")") {
-    std::string text = readFile(std::string(SOURCE_ROOT) + "/config/sets/plc-robot/ioconfig.xml");
-    auto replace = [&](const std::string &from, const std::string &to) {
-        const auto at = text.find(from);
-        EXPECT_NE(at, std::string::npos) << from;
-        if (at != std::string::npos) text.replace(at, from.size(), to);
-    };
-    replace(R"(port="15020")", "port=\"" + std::to_string(port) + "\"");
-    replace(R"(timeout_ms="4" fail_limit="3" reconnect_ms="500")", device_settings);
-    return text;
-}
-
-// libiodispat.so through irpd's own loader, initialized and started; stopped at the end.
-class LoadedModule {
-public:
-    // "" when it runs, else the loader's or the module's message.
-    std::string load(const std::string &config, std::vector<std::pair<std::string, std::string>> more = {}) {
-        config::ModuleSpec spec;
-        spec.name = "libiodispat";
-        spec.filename = "./libiodispat.so";
-        spec.path = IODISPAT_PATH;
-        spec.where = "test/module.xml:3";
-        spec.line = 3;
-        spec.period_ns = 10'000'000;
-        spec.priority = 1;
-        spec.properties = {{"config", config}};
-        spec.properties.insert(spec.properties.end(), more.begin(), more.end());
-        auto m = hosts::ThreadModule::load(spec);
-        if (!m) return m.error().message;
-        module_ = std::move(*m);
-        if (Status s = module_->initialize(); !s) return s.error().message;
-        if (Status s = module_->start(); !s) return s.error().message;
-        run_ = module_->runFunction();
-        return "";
-    }
-    ~LoadedModule() {
-        if (module_) (void)module_->stop();
-    }
-    // One cycle, as the dispatcher calls it; returns how long run() took.
-    std::chrono::nanoseconds run() {
-        const auto t0 = std::chrono::steady_clock::now();
-        run_();
-        return std::chrono::steady_clock::now() - t0;
-    }
-
-private:
-    std::unique_ptr<hosts::ThreadModule> module_;
-    void (*run_)() = nullptr;
-};
-
-// Runs cycles 10 ms apart until done() holds (true) or max_cycles ran (false).
-template <class Run, class Done>
-bool cyclesUntil(Run &&run, Done done, int max_cycles = 1000) {
-    for (int k = 0; k < max_cycles; ++k) {
-        run();
-        if (done()) return true;
-        std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return false;
-}
 
 }  // namespace
 

@@ -4,12 +4,14 @@
 //
 // POU_PROGRAM() is one PLC scan: read the inputs (PLC points and the robot's state) into the
 // process image, run the rungs of the pick-and-place POU (POUS.h) on it, write the outputs and
-// the robot request of this scan back to the shared variables of cell.glb.
+// the robot request of this scan back to the shared variables of cell.glb, and keep the alarm of
+// the ErrorID the outputs show (module.xml declares the texts; docs/plc.md "Alarms").
 #include <indurop/indurop.h>
 #include <indurop/generated.h>
 
 #include "POUS.h"
 
+#include <cstdio>
 #include <iostream>
 #include <optional>
 
@@ -25,6 +27,35 @@ plcopen::AxisGroupRef robot = plcopen::bindAxisGroup(service, state);
 
 pou::Inputs inputs;
 pou::Outputs outputs;
+
+// The ErrorIDs module.xml declares: the robot's 1-8 and the blocks' 1001-1004 (docs/plc.md).
+constexpr int32_t kErrorIds[] = {1, 2, 3, 4, 5, 6, 7, 8, 1001, 1002, 1003, 1004};
+// The alarm raised now (0: none; -1: not known yet, e.g. after a hot reload of main.so, whose
+// source keeps the alarms the previous instance raised) and the last step the cycle was in.
+int32_t alarm_raised = -1;
+int32_t last_step = 0;
+char alarm_detail[48] = "";
+
+// Level style: while PLC_OUT.Error, the alarm of PLC_OUT.ErrorID is raised; it clears with the
+// error, i.e. after a reset.  Only the changes write a record (irp::raiseAlarm is RT-safe).
+void keepAlarms() {
+    if (outputs.Step != 0)
+        last_step = outputs.Step;
+    else if (!outputs.Error)
+        last_step = 0;  // idle without an error: a later error is not that cycle's
+    const int32_t now = outputs.Error ? outputs.ErrorID : 0;
+    if (now == alarm_raised) return;
+    if (alarm_raised > 0) irp::clearAlarm(static_cast<uint32_t>(alarm_raised));
+    if (alarm_raised < 0)
+        for (int32_t id : kErrorIds)
+            if (id != now) irp::clearAlarm(static_cast<uint32_t>(id));
+    if (now > 0) {
+        std::snprintf(alarm_detail, sizeof alarm_detail, "PLC stopped in step %d of the cycle",
+                      static_cast<int>(last_step));
+        irp::raiseAlarm(static_cast<uint32_t>(now), last_step ? alarm_detail : nullptr, now);
+    }
+    alarm_raised = now;
+}
 
 void printVector(const char *name, const std::array<double, plcopen::kAxes> &v) {
     std::cout << "  " << name << " =";
@@ -71,6 +102,7 @@ void POU_PROGRAM() {
     out.ErrorID = outputs.ErrorID;
     out.Cycles = outputs.Cycles;
     PLC_ROBOT::PLC_OUT = out;
+    keepAlarms();
 }
 
 extern "C" void initialize(irp::Property const &property) {

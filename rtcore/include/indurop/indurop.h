@@ -74,12 +74,15 @@ const Cycle &cycle() noexcept;
 // INDUROP_ALARMS).
 enum class Severity : uint8_t { Declared = 0, Low = 1, Medium = 2, High = 3, Critical = 4 };
 
-// Raises alarm `id` of the calling module, with an optional detail text (at most 135 characters
-// are kept) and a number that goes with it (an error count, an error code).  RT-safe: no
-// allocation, no lock, no blocking call.  Raising an alarm that is active already does nothing,
-// so a module may raise it every period.  Returns true when it was recorded; false when it was
-// active already, or over the rate limit (counted; its state still changes), or the id is not
-// 1 .. 1023 (counted).  An id the module did not declare is recorded and flagged as undeclared.
+// Raises alarm `id` of the calling module, with an optional detail text (at most 135 bytes are
+// kept, cut before a UTF-8 character) and a number that goes with it (an error count, an error
+// code).  RT-safe: no allocation, no lock, no blocking call.  Raising an alarm that is active
+// already does nothing, so a module may raise it every period.  Returns true when it was
+// recorded; false when it was active already, or over the rate limit (counted; its state still
+// changes), or the id is not 1 .. 1023 (counted).  An id the module did not declare is recorded
+// and flagged as undeclared.  Works in run(), condition(), initialize() and start() of a thread
+// module and anywhere in a process module; elsewhere (a thread the module started itself, stop())
+// it does nothing and returns false.
 bool raiseAlarm(uint32_t id, const char *detail = nullptr, double value = 0,
                 Severity severity = Severity::Declared) noexcept;
 
@@ -93,9 +96,12 @@ inline bool alarm(uint32_t id, bool active, const char *detail = nullptr, double
     return active ? raiseAlarm(id, detail, value) : clearAlarm(id);
 }
 
-// Declares alarm `id`'s text and severity, as module.xml's <alarm> does, from initialize() or
-// start() (not from run(): it allocates).  Throws irp::PropertyError for an id outside 1 .. 1023,
-// an empty text or one over 200 characters, or an id declared already with another text.
+// Declares alarm `id`'s text and severity, as module.xml's <alarm> does, from a thread module's
+// initialize() or start() (not from run(): it allocates).  Severity::Declared stands for Medium.
+// Declaring the same id again with the same text and severity is fine.  Throws
+// irp::PropertyError for an id outside 1 .. 1023, an empty text, one over 200 characters or with
+// a control character, an id declared already (in module.xml or by the module) otherwise, or a
+// call outside initialize()/start() -- process modules declare in module.xml only.
 void declareAlarm(uint32_t id, Severity severity, const char *text);
 
 namespace detail {

@@ -118,6 +118,7 @@ void CanDevice::applyFallbacks(CycleContext &ctx) noexcept {
 }
 
 void CanDevice::lose(CycleContext &ctx, const char *why) noexcept {
+    cause_ = why;
     if (comm_lost_) return;
     comm_lost_ = true;
     irp::printf("iodispat: device '%s' comm lost: %s", config_.name.c_str(), why);

@@ -49,6 +49,8 @@ public:
     uint32_t errors() const { return errors_; }
     uint64_t skipped() const { return skipped_; }  // rounds (or parts) left out for the budget
     uint64_t rounds() const { return rounds_; }    // successful rounds
+    // Why it is (or was last) comm-lost: a static text ("Connection refused", "an input frame is missing").
+    const char *cause() const { return cause_; }
 
 protected:
     const DeviceConfig &config_;
@@ -56,6 +58,7 @@ protected:
     uint32_t errors_ = 0;
     uint64_t skipped_ = 0;
     uint64_t rounds_ = 0;
+    const char *cause_ = "no answer yet";
 };
 
 }  // namespace irp::iodispat

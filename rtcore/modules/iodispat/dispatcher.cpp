@@ -41,6 +41,7 @@ void Dispatcher::start() {
     VarTable vars;
     resolveStatus(vars);
     for (auto &d : devices_) d->start(handle_, vars);
+    alarms_.start(config_, handle_, vars, nowNs());
     cycles_ = 0;
     publishStatus();
 }
@@ -60,6 +61,7 @@ void Dispatcher::cycle() noexcept {
 
     for (auto &d : devices_)
         if (cycles_ % static_cast<uint64_t>(d->config().divider) == 0) d->exchange(ctx);
+    alarms_.report(handle_, devices_, nowNs());
     ++cycles_;
 
     last_ns_ = nowNs() - t0;

@@ -1,9 +1,10 @@
 // dispatcher.hpp -- the I/O dispatcher: the devices of one ioconfig.xml exchanged in file order
-// once per cycle within a time budget, and IO_STATUS (comm_lost[d], errors[d], cycles,
-// last_cycle_us) written after them.  module.cpp wraps one of these as libiodispat.so; tests may
+// once per cycle within a time budget, then their alarms (comm lost, drive faults: alarms.hpp)
+// and IO_STATUS (comm_lost[d], errors[d], cycles, last_cycle_us) written after them.  module.cpp wraps one of these as libiodispat.so; tests may
 // drive it directly.
 #pragma once
 
+#include "alarms.hpp"
 #include "device.hpp"
 #include "ioconfig.hpp"
 #include "variables.hpp"
@@ -44,6 +45,7 @@ private:
     IoConfig config_;
     channel::Handle handle_;
     std::vector<std::unique_ptr<Device>> devices_;
+    DeviceAlarms alarms_;
     Status status_;
     uint64_t cycles_ = 0;
     int64_t last_ns_ = 0, max_ns_ = 0;

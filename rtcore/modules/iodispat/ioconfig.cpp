@@ -316,6 +316,34 @@ void parseCia402(Element &e, DeviceConfig &dev) {
     dev.nodes.push_back(std::move(n));
 }
 
+// <drive name= statusword= error_code=/>: the paths must be inputs of the same device (checked
+// once the device's mappings are all read).
+void parseDrive(Element &e, DeviceConfig &dev) {
+    DriveConfig drive;
+    drive.line = e.line();
+    if (e.has("name")) drive.name = e.text("name");
+    drive.statusword = pathOf(e, "statusword");
+    if (e.has("error_code")) drive.error_code = pathOf(e, "error_code");
+    e.done();
+    dev.drives.push_back(std::move(drive));
+}
+
+void checkDrives(const DeviceConfig &dev, const std::string &file) {
+    std::set<std::string> inputs;
+    for (const ModbusMapping &m : dev.mappings)
+        if (m.direction == Direction::In) inputs.insert(m.path);
+    for (const CanFrameMap &f : dev.frames)
+        if (f.direction == Direction::In)
+            for (const CanSignal &s : f.signals) inputs.insert(s.path);
+    for (const Cia402Node &n : dev.nodes) inputs.insert(n.statusword);
+    for (const DriveConfig &d : dev.drives)
+        for (const auto &[attribute, path] : {std::pair{"statusword", &d.statusword}, {"error_code", &d.error_code}})
+            if (!path->empty() && !inputs.count(*path))
+                throw ConfigError(file + ":" + std::to_string(d.line) + ": <drive>: attribute '" + attribute + "': '" +
+                                  *path + "' is no input of device '" + dev.name +
+                                  "'; name the path of one of its <input>s (or signals)");
+}
+
 void checkModbusOverlaps(const DeviceConfig &dev, const std::string &file) {
     // Two outputs must not write the same coil or register of a unit.
     std::map<std::tuple<int, Table, int>, int> written;  // (unit, table, address) -> line
@@ -410,10 +438,13 @@ DeviceConfig parseDevice(Element &e, const std::string &file, std::string_view t
             parseCanFrame(c, d, file, text);
         else if (can && tag == "cia402")
             parseCia402(c, d);
+        else if (tag == "drive")
+            parseDrive(c, d);
         else
-            c.fail(can ? "a socketcan device holds <frame> and <cia402> elements"
-                       : "a Modbus device holds <input> and <output> elements");
+            c.fail(can ? "a socketcan device holds <frame>, <cia402> and <drive> elements"
+                       : "a Modbus device holds <input>, <output> and <drive> elements");
     }
+    checkDrives(d, file);
     if (can)
         checkCanIds(d, file);
     else
@@ -442,6 +473,7 @@ IoConfig parseIoConfigText(std::string_view text, const std::string &name) {
     config.budget_us = top.number("budget_us", 0, 0, 10'000'000);
     top.done();
     std::set<std::string> names;
+    int drives = 0;
     for (pugi::xml_node child : root.children()) {
         if (child.type() != pugi::node_element) continue;
         Element e(child, name, text);
@@ -449,6 +481,11 @@ IoConfig parseIoConfigText(std::string_view text, const std::string &name) {
         DeviceConfig d = parseDevice(e, name, text);
         if (!names.insert(d.name).second) e.fail("a device named '" + d.name + "' is already defined");
         if (config.devices.size() >= kMaxDevices) e.fail("more than " + std::to_string(kMaxDevices) + " devices");
+        for (DriveConfig &drive : d.drives) {
+            if (drives >= kMaxDrives) e.fail("more than " + std::to_string(kMaxDrives) + " <drive>s");
+            drive.index = drives++;
+            if (drive.name.empty()) drive.name = "drive " + std::to_string(drive.index);
+        }
         config.devices.push_back(std::move(d));
     }
     return config;

@@ -92,6 +92,16 @@ struct Cia402Node {
     int line = 0;
 };
 
+// A CiA 402 drive whose fault the dispatcher reports as an alarm (docs/io.md, "Alarms"): the
+// paths of its statusword and (optionally) error code, each an input of the same device.
+struct DriveConfig {
+    std::string name;        // for the operator ("axis 0"); default: "drive <n>", n its index in the file
+    std::string statusword;  // bit 3 (0x08): fault
+    std::string error_code;  // "" = none
+    int index = 0;           // among every <drive> of the file, in file order: alarm 200 + index
+    int line = 0;
+};
+
 struct DeviceConfig {
     std::string name;
     std::string file;  // the ioconfig.xml it comes from (for messages)
@@ -121,6 +131,7 @@ struct DeviceConfig {
     std::vector<ModbusMapping> mappings;
     std::vector<CanFrameMap> frames;
     std::vector<Cia402Node> nodes;
+    std::vector<DriveConfig> drives;
 };
 
 struct IoConfig {
@@ -135,5 +146,6 @@ IoConfig parseIoConfig(const std::string &file);
 IoConfig parseIoConfigText(std::string_view text, const std::string &name);
 
 inline constexpr int kMaxDevices = 64;
+inline constexpr int kMaxDrives = 256;
 
 }  // namespace irp::iodispat

@@ -125,10 +125,12 @@ void ModbusDevice::start(channel::Handle &handle, const VarTable &vars) {
     applyFallbacks(ctx);  // comm-lost until the first round
     // One connect attempt now; the first exchange happens in run().
     ctx.start_ns = nowNs();
-    if (arm(ctx) && modbus_connect(mb_) == 0)
+    if (arm(ctx) && modbus_connect(mb_) == 0) {
         connected_ = true;
-    else
+    } else {
+        cause_ = modbus_strerror(errno);
         next_attempt_ns_ = nowNs() + static_cast<int64_t>(config_.reconnect_ms * 1e6);
+    }
 }
 
 void ModbusDevice::stop() noexcept {
@@ -244,6 +246,7 @@ ModbusDevice::Outcome ModbusDevice::round(CycleContext &ctx) noexcept {
 }
 
 void ModbusDevice::fail(CycleContext &ctx, int error) noexcept {
+    cause_ = modbus_strerror(error);
     ++errors_;
     ++fails_;
     dirty_ = true;
@@ -269,6 +272,7 @@ void ModbusDevice::exchange(CycleContext &ctx) noexcept {
         }
         next_attempt_ns_ = nowNs() + static_cast<int64_t>(config_.reconnect_ms * 1e6);
         if (modbus_connect(mb_) != 0) {
+            cause_ = modbus_strerror(errno);
             ++errors_;
             if (!comm_lost_) {
                 comm_lost_ = true;

@@ -8,7 +8,9 @@
 //   </module>
 //
 // initialize() reads ioconfig.xml (property `config`; a relative path is looked for in the
-// property `config_dir` if given, else beside the set's module.xml); start() resolves the shared variables and opens the devices; run() is one I/O cycle:
+// property `config_dir` if given, else beside the set's module.xml) and declares its alarms (a
+// device's comm lost, a drive's fault: alarms.hpp); start() resolves the shared variables and
+// opens the devices; run() is one I/O cycle:
 // fieldbus I/O inside the RT period by design, as in the paper, bounded by the devices' timeouts
 // and the budget (docs/io.md); stop() closes the devices.  safe_outputs() is irpd's hook when a
 // fault stops the set: every Modbus TCP device's safe values over a connection of its own, from
@@ -72,6 +74,8 @@ extern "C" void initialize(irp::Property const &property) {
                                      "\" is a test hook that irpd does not accept; name the "
                                      "SocketCAN interface instead (interface=\"can0\")");
     g_dispatcher = std::make_unique<irp::iodispat::Dispatcher>(std::move(config));
+    for (const irp::iodispat::AlarmText &a : irp::iodispat::alarmTexts(g_dispatcher->config()))
+        irp::declareAlarm(a.id, a.severity, a.text.c_str());
     irp::printf("iodispat: %s: %zu device(s)", file.c_str(), g_dispatcher->deviceCount());
 }
 

@@ -5,6 +5,8 @@
 // numeric character references is reported instead of passed through.
 #include "config/module_xml.hpp"
 
+#include "sdk/alarm_rules.hpp"
+
 #include <pugixml.hpp>
 
 #include <algorithm>
@@ -324,18 +326,21 @@ private:
         if (pugi::xml_attribute a = node.first_attribute())
             defer(node, "unknown attribute '" + std::string(a.name()) + "' on <module>");
         std::map<std::string, pugi::xml_node> fields;
+        std::vector<pugi::xml_node> alarm_nodes;  // <alarm>: several allowed
         for (pugi::xml_node child : node.children()) {
             if (skippable(child)) continue;
             std::string tag = child.name();
             static const std::set<std::string> known = {
                 "filename", "moduletype", "operationtype", "period",     "deadline",      "priority", "property",
                 "name",     "budget",     "executor",      "on_overrun", "overrun_limit", "on_crash"};
-            if (!known.count(tag))
+            if (tag == "alarm")
+                alarm_nodes.push_back(child);
+            else if (!known.count(tag))
                 defer(child,
                       "unknown tag <" + tag +
                           "> in <module>; expected one of filename, moduletype, "
                           "operationtype, period, deadline, priority, property, name, budget, executor, on_overrun, "
-                          "overrun_limit, on_crash");
+                          "overrun_limit, on_crash, alarm");
             else if (fields.count(tag))
                 defer(child, "<" + tag + "> appears twice in one <module>");
             else
@@ -454,7 +459,75 @@ private:
         }
         overrunWatchdog(field("on_overrun"), field("overrun_limit"), m);
         if (pugi::xml_node props = field("property")) properties(props, m);
+        for (pugi::xml_node a : alarm_nodes) alarm(a, m);
         return m;
+    }
+
+    // <alarm id="N" severity="low|medium|high|critical">text</alarm> (docs/alarms.md): the id
+    // 1 .. 1023 and unique in the module, the severity medium unless given, the text one line of
+    // 1 .. alarm_text_max characters (its whitespace runs, newlines included, become one space).
+    void alarm(pugi::xml_node node, ModuleSpec &m) {
+        AlarmSpec a;
+        a.line = lineOf(node);
+        std::string field = "alarm";
+        auto refuse = [&](const std::string &what) {
+            fail(node,
+                 "module '" + m.name + "': <alarm" + (a.id ? " id=\"" + std::to_string(a.id) + "\"" : "") +
+                     ">: " + what,
+                 field);
+        };
+        std::string id_text, severity_text;
+        bool has_id = false, has_severity = false;
+        for (pugi::xml_attribute attr : node.attributes()) {
+            const std::string_view name = attr.name();
+            if (name == "id" && !has_id)
+                id_text = unescape(node, attr.value()), has_id = true;
+            else if (name == "severity" && !has_severity)
+                severity_text = unescape(node, attr.value()), has_severity = true;
+            else if (name == "id" || name == "severity")
+                refuse(std::string(name) + "=\"...\" appears twice");
+            else
+                refuse("unknown attribute '" + std::string(name) + "'; expected id=\"1..." +
+                       std::to_string(INDUROP_ALARM_ID_MAX) + "\" and severity=\"low|medium|high|critical\"");
+        }
+        if (!has_id)
+            refuse("id=\"...\" is missing; expected an alarm id from 1 to " + std::to_string(INDUROP_ALARM_ID_MAX));
+        uint64_t id = 0;
+        auto [end, ec] = std::from_chars(id_text.data(), id_text.data() + id_text.size(), id);
+        if (ec != std::errc() || end != id_text.data() + id_text.size() || !alarm_rules::validId(id))
+            refuse("id '" + id_text + "' is not an alarm id; expected an integer from 1 to " +
+                   std::to_string(INDUROP_ALARM_ID_MAX));
+        a.id = static_cast<uint32_t>(id);
+        field = "alarm." + std::to_string(a.id);
+        for (const AlarmSpec &other : m.alarms)
+            if (other.id == a.id)
+                refuse("alarm " + id_text + " is declared twice in the module (also at line " +
+                       std::to_string(other.line) + "); ids are unique per module");
+        if (has_severity) {
+            const auto severity = alarm_rules::severityNamed(severity_text);
+            if (!severity) refuse("severity '" + severity_text + "'; expected low, medium, high or critical");
+            a.severity = *severity;
+        }
+        std::string raw;
+        for (pugi::xml_node child : node.children()) {
+            if (child.type() == pugi::node_comment) continue;
+            if (child.type() == pugi::node_pcdata)
+                raw += unescape(child, child.value());
+            else if (child.type() == pugi::node_cdata)
+                raw += child.value();
+            else
+                refuse("expected the alarm's text, found <" + std::string(child.name()) + ">");
+        }
+        for (char c : raw) {  // whitespace runs (a text wrapped over lines) become one space
+            const bool space = c == ' ' || c == '\t' || c == '\r' || c == '\n';
+            if (!space)
+                a.text += c;
+            else if (!a.text.empty() && a.text.back() != ' ')
+                a.text += ' ';
+        }
+        if (!a.text.empty() && a.text.back() == ' ') a.text.pop_back();
+        if (const std::string problem = alarm_rules::textProblem(a.text); !problem.empty()) refuse(problem);
+        m.alarms.push_back(std::move(a));
     }
 
     // <on_overrun> and <overrun_limit>: the per-module watchdog (docs/faults.md).

@@ -10,6 +10,9 @@
 #include "config/process_properties.hpp"
 #include "protocol/limits.hpp"
 
+#include <indurop/indurop.h>
+
+#include <algorithm>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -33,6 +36,14 @@ const char *toString(OverrunAction action);
 // The executor every module runs on unless it names another one.
 inline constexpr const char *kMainExecutor = "main";
 
+// <alarm id="8" severity="high">drive communication lost</alarm> in a <module> (docs/alarms.md).
+struct AlarmSpec {
+    uint32_t id = 0;                       // 1 .. INDUROP_ALARM_ID_MAX, unique per module
+    Severity severity = Severity::Medium;  // low, medium (the default), high, critical
+    std::string text;                      // one line: the element's whitespace collapsed
+    int line = 0;
+};
+
 struct ModuleSpec {
     std::string name;            // <name>, or the stem of <filename>
     std::string filename;        // as written in the XML
@@ -52,11 +63,20 @@ struct ModuleSpec {
     // A process module's args, env.*, restart, restart_delay_ms and max_restarts, parsed from
     // `properties` when module.xml is read (a ModuleSpec made in code: parseProcessProperties).
     ProcessProperties process;
-    int index = 0;      // position in the file (ties in priority go to the earlier one)
-    int line = 0;       // line of <module>
-    std::string where;  // "path/module.xml:12", for messages
-    std::string xml;    // that module.xml, absolute: the file of an error's place
+    std::vector<AlarmSpec> alarms;  // <alarm>s, in file order
+    int index = 0;                  // position in the file (ties in priority go to the earlier one)
+    int line = 0;                   // line of <module>
+    std::string where;              // "path/module.xml:12", for messages
+    std::string xml;                // that module.xml, absolute: the file of an error's place
 };
+
+// The same <alarm>s (ids, severities, texts, in order; not their lines).
+inline bool sameAlarms(const ModuleSpec &a, const ModuleSpec &b) {
+    return std::equal(a.alarms.begin(), a.alarms.end(), b.alarms.begin(), b.alarms.end(),
+                      [](const AlarmSpec &x, const AlarmSpec &y) {
+                          return x.id == y.id && x.severity == y.severity && x.text == y.text;
+                      });
+}
 
 // An extra dispatcher thread (<executor> at the root): its own RT priority and CPU.
 struct ExecutorSpec {

@@ -39,7 +39,8 @@ const char *toString(RestartPolicy policy) {
 }
 
 bool isIrpdVariable(std::string_view name) {
-    return name == "INDUROP_CTL" || name == "INDUROP_SLOT" || name == "INDUROP_SHM" || name == "INDUROP_MODULE";
+    return name == "INDUROP_CTL" || name == "INDUROP_SLOT" || name == "INDUROP_SHM" || name == "INDUROP_MODULE" ||
+           name == "INDUROP_ALARMS" || name == "INDUROP_ALARM_SOURCE";
 }
 
 Result<std::vector<std::string>> splitArgs(const std::string &text) {

@@ -94,6 +94,7 @@ std::unique_ptr<Tables> buildTables(const config::SetSpec &set, const schedule::
         c.calls = b.calls;
         c.module = b.owner;
         c.disabled = b.disabled;
+        c.alarm_source = b.alarm_source;
         auto task = std::make_unique<Task>(c);
         tables->by_module[static_cast<std::size_t>(m->index)] = task.get();
         Table &table = *by_name.at(m->executor);

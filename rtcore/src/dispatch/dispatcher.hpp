@@ -43,6 +43,9 @@ struct ModuleBinding {
     CallServer *calls = nullptr;
     int owner = -1;         // the module's owner id in `calls`
     bool disabled = false;  // taken out of dispatch by request (enable/disable)
+    // Thread modules: the module's source in the alarm segment, which its run() and condition()
+    // raise alarms on (runtime::setAlarmSource); none: the calls do nothing.
+    uint32_t alarm_source = runtime::kNoAlarmSource;
 };
 
 // The tables of every executor for one generation of a set, and the tasks they point to.

@@ -110,6 +110,7 @@ void Executor::overran(Task &task, stats::TimingRecord &r, uint64_t run, int64_t
 }
 
 void Executor::runThread(Task &task, stats::TimingRecord &r) {
+    runtime::setAlarmSource(task.config.alarm_source);  // its irp::raiseAlarm calls are its own
     try {
         task.config.run();
     } catch (const std::exception &e) {
@@ -152,6 +153,7 @@ int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
         if (c.kind == Task::Kind::Thread) {
             int fired = 0;
             markRunning(crash_marker_, r.name);
+            runtime::setAlarmSource(c.alarm_source);
             try {
                 fired = c.condition();
             } catch (...) {
@@ -369,6 +371,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         ++cycle;
     }
     runtime::setCycle({});
+    runtime::setAlarmSource(runtime::kNoAlarmSource);
     if (crash_marker_ < kMaxMarkedExecutors) g_running_markers[crash_marker_].tid.store(0, std::memory_order_relaxed);
     crash_marker_ = SIZE_MAX;
     if (finished_ns)

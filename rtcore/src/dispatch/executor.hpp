@@ -9,6 +9,7 @@
 #include "config/module_xml.hpp"
 #include "dispatch/watchdog.hpp"
 #include "osal/clock.hpp"
+#include "sdk/runtime.hpp"
 #include "stats/stats_block.hpp"
 
 #include <indurop/control.h>
@@ -64,8 +65,9 @@ struct TaskConfig {
     int64_t overrun_limit_ns = 0;
     // a thread module whose exported functions process modules call: served after its run()
     CallServer *calls = nullptr;
-    int module = -1;        // its owner id in the call server's table
-    bool disabled = false;  // taken out of dispatch by request: its state starts disabled
+    int module = -1;                                  // its owner id in the call server's table
+    bool disabled = false;                            // taken out of dispatch by request: its state starts disabled
+    uint32_t alarm_source = runtime::kNoAlarmSource;  // thread modules: set for run() and condition()
     // Hot reload: the same module's task in the table this one replaces (kept modules).  At the
     // swap the loop carries its run-time state over (TaskState::carryOver).
     const Task *predecessor = nullptr;

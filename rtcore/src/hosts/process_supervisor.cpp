@@ -204,6 +204,10 @@ Status ProcessSupervisor::spawn(Child &child) {
         set.emplace_back("INDUROP_SLOT", std::to_string(child.launch.slot));
     }
     if (!child.launch.variables_shm.empty()) set.emplace_back("INDUROP_SHM", child.launch.variables_shm);
+    if (!child.launch.alarms_shm.empty()) {
+        set.emplace_back("INDUROP_ALARMS", child.launch.alarms_shm);
+        set.emplace_back("INDUROP_ALARM_SOURCE", std::to_string(child.launch.alarm_source));
+    }
     set.emplace_back("INDUROP_MODULE", child.launch.spec.name);
     for (const auto &variable : child.launch.spec.process.env) set.push_back(variable);
 

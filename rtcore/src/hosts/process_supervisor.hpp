@@ -16,8 +16,9 @@
 //   stopAll(grace)     stop_requested + wake, SIGTERM, SIGKILL of the process group after grace.
 //
 // The child gets INDUROP_CTL, INDUROP_SLOT, INDUROP_SHM (when the set has variables),
-// INDUROP_MODULE and its env.* properties besides irpd's environment; argv[0] is the module's
-// absolute path, its folder the working directory.
+// INDUROP_ALARMS and INDUROP_ALARM_SOURCE (the alarm segment and its source there, when irpd has
+// one), INDUROP_MODULE and its env.* properties besides irpd's environment; argv[0] is the
+// module's absolute path, its folder the working directory.
 //
 // irpd must not set SIGCHLD to SIG_IGN (exits could not be reaped).  Nothing a child does makes
 // the supervisor throw or crash.
@@ -50,6 +51,8 @@ struct ProcessLaunch {
     int cpu = -1;               // pin to this CPU, -1 = no pinning
     std::string control_shm;    // INDUROP_CTL
     std::string variables_shm;  // INDUROP_SHM ("" = no variables)
+    std::string alarms_shm;     // INDUROP_ALARMS ("" = no alarm segment)
+    uint32_t alarm_source = 0;  // INDUROP_ALARM_SOURCE: its source there
 };
 
 // What one process module did so far.

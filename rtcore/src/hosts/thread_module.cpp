@@ -33,7 +33,7 @@ std::string lastDlError() {
 
 }  // namespace
 
-ThreadModule::ThreadModule(const config::ModuleSpec &spec) : spec_(spec) {
+ThreadModule::ThreadModule(const config::ModuleSpec &spec) : spec_(spec), alarm_source_(runtime::kNoAlarmSource) {
     static std::atomic<uint64_t> loads{0};
     instance_ = ++loads;
 }
@@ -123,6 +123,7 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
 
 ThreadModule::~ThreadModule() {
     runtime::dropFunctionsOf(instance_);  // its exports point into the code about to go
+    runtime::dropAlarmsOf(instance_);
     if (handle_) dlclose(handle_);
 }
 
@@ -141,12 +142,17 @@ struct LifecycleMark {
     }
 };
 
-// Marks whose initialize()/start() runs, so that its shared-function exports are its own.
+// Marks whose initialize()/start() runs, so that its shared-function exports and its alarms are
+// its own.
 struct CurrentModule {
-    CurrentModule(const std::string &name, uint64_t instance) : mark(name) {
+    CurrentModule(const std::string &name, uint64_t instance, uint32_t alarm_source) : mark(name) {
         runtime::setCurrentModule(name, instance);
+        runtime::setAlarmSource(alarm_source);
     }
-    ~CurrentModule() { runtime::setCurrentModule(""); }
+    ~CurrentModule() {
+        runtime::setCurrentModule("");
+        runtime::setAlarmSource(runtime::kNoAlarmSource);
+    }
     LifecycleMark mark;
 };
 }  // namespace
@@ -169,14 +175,17 @@ Status ThreadModule::call(const char *what, const std::function<int(char *err, s
 }
 
 Status ThreadModule::initialize() {
-    CurrentModule current(spec_.name, instance_);
+    std::vector<runtime::AlarmDeclaration> declared;
+    for (const config::AlarmSpec &a : spec_.alarms) declared.push_back({a.id, a.severity, a.text, false});
+    runtime::declareAlarms(instance_, std::move(declared));
+    CurrentModule current(spec_.name, instance_, alarm_source_);
     if (!initialize_) return Ok{};
     const indurop_property_list list{property_entries_.data(), property_entries_.size()};
     return call("initialize()", [&](char *err, std::size_t size) { return initialize_(&list, err, size); });
 }
 
 Status ThreadModule::start() {
-    CurrentModule current(spec_.name, instance_);
+    CurrentModule current(spec_.name, instance_, alarm_source_);
     if (start_)
         if (Status st = call("start()", start_); !st) return st;
     started_ = true;

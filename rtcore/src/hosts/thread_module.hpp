@@ -48,7 +48,14 @@ public:
     ThreadModule(const ThreadModule &) = delete;
     ThreadModule &operator=(const ThreadModule &) = delete;
 
+    // The module's source in the alarm segment (docs/alarms.md): its initialize() and start()
+    // raise and declare alarms there.  Set before initialize(); none by default.
+    void setAlarmSource(uint32_t source) { alarm_source_ = source; }
+    uint32_t alarmSource() const { return alarm_source_; }
+
     // initialize(properties) then start(): non-RT, before dispatching.  The Error names the module.
+    // initialize() first registers module.xml's <alarm>s as the instance's declarations
+    // (runtime::declareAlarms), which irp::declareAlarm in either adds to.
     Status initialize();
     Status start();
     // stop(): non-RT, after the last run().  Calls the module's stop() once, and only after a
@@ -76,6 +83,7 @@ private:
 
     config::ModuleSpec spec_;
     uint64_t instance_;  // unique per load: owns the shared functions its initialize()/start() export
+    uint32_t alarm_source_;
     void *handle_ = nullptr;
     bool descriptor_ = false;
     bool started_ = false;

@@ -4,11 +4,14 @@
 #include "osal/clock.hpp"
 #include "protocol/arguments.hpp"
 #include "protocol/errors.hpp"
+#include "sdk/alarm_rules.hpp"
+#include "sdk/runtime.hpp"
 #include "stats/summary.hpp"
 #include "variables/variable_write.hpp"
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <limits>
@@ -104,6 +107,43 @@ json moduleEntry(const reload::Generation &g, const config::ModuleSpec &m, const
     return entry;
 }
 
+// alarms: irpd's source, then every module's by source, with what it declared and its counters.
+json alarmSources(const alarms::AlarmSegment &segment, const reload::Generation &g) {
+    auto source = [&](uint32_t index, json declared) {
+        const alarms::SourceView v = segment.view(index);
+        return json{{"source", v.source},
+                    {"module", v.name},
+                    {"generation", v.generation},
+                    {"declared", std::move(declared)},
+                    {"active", v.active},
+                    {"recorded", v.recorded},
+                    {"rate_dropped", v.rate_dropped},
+                    {"undeclared", v.undeclared},
+                    {"bad_ids", v.bad_ids},
+                    {"truncated", v.truncated}};
+    };
+    std::vector<std::pair<uint32_t, json>> sources{{alarms::kIrpdSource, source(alarms::kIrpdSource, json::array())}};
+    for (const config::ModuleSpec &m : g.set.modules) {
+        const reload::Member &member = g.members[static_cast<std::size_t>(m.index)];
+        std::vector<runtime::AlarmDeclaration> list;
+        if (member.thread)
+            list = runtime::alarmsOf(member.thread->instance());
+        else
+            for (const config::AlarmSpec &a : m.alarms) list.push_back({a.id, a.severity, a.text, false});
+        json declared = json::array();
+        for (const runtime::AlarmDeclaration &d : list)
+            declared.push_back({{"id", d.id},
+                                {"severity", alarm_rules::severityName(d.severity)},
+                                {"text", d.text},
+                                {"origin", d.from_code ? "code" : "module.xml"}});
+        sources.emplace_back(member.alarm_source, source(member.alarm_source, std::move(declared)));
+    }
+    std::sort(sources.begin(), sources.end(), [](const auto &a, const auto &b) { return a.first < b.first; });
+    json list = json::array();
+    for (auto &[index, entry] : sources) list.push_back(std::move(entry));
+    return json{{"segment", segment.name()}, {"rate_limit", segment.rateLimit()}, {"sources", std::move(list)}};
+}
+
 }  // namespace
 
 Result<Command> decodeCommand(const std::string &cmd, const nlohmann::json &request) {
@@ -155,6 +195,7 @@ Result<Command> decodeCommand(const std::string &cmd, const nlohmann::json &requ
     case Kind::Schedule:
     case Kind::Modules:
     case Kind::Stats:
+    case Kind::Alarms:
     case Kind::ClearCrash:
     case Kind::Trace: break;
     }
@@ -223,7 +264,8 @@ control::Handler commandHandler(const CommandContext &c) {
                         {"shared_memory",
                          {{"stats", c.stats->name()},
                           {"variables", c.variables_shm.empty() ? json(nullptr) : json(c.variables_shm)},
-                          {"trace", c.trace->describe().value("shm", "")}}}};
+                          {"trace", c.trace->describe().value("shm", "")},
+                          {"alarms", c.alarms ? c.alarms->name() : ""}}}};
         }
         case Command::Kind::Schedule: return reload::scheduleJson(*g);
         case Command::Kind::Modules: {
@@ -238,6 +280,9 @@ control::Handler commandHandler(const CommandContext &c) {
                 modules.push_back(stats::toJson(c.stats->record(g->members[static_cast<std::size_t>(m.index)].record)));
             return json{{"cycles", h->cycles.load()}, {"executors", executors_json}, {"modules", modules}};
         }
+        case Command::Kind::Alarms:
+            if (!c.alarms) return Error{"this irpd has no alarm segment"};
+            return alarmSources(*c.alarms, *g);
         case Command::Kind::Histograms: {
             // Every dispatcher record, then every module's, or those named `name`.
             const std::string &name = command.name;

@@ -2,10 +2,12 @@
 // thread.  Reads (status, schedule, modules, stats, histograms, events, check) answer from the
 // running generation and the shared-memory stats block; changes (load, change, set_period,
 // set_priority, enable, disable) run on the main thread through the MainQueue; write goes through libindurop's
-// locked path access; trace configures the trace rings (docs/trace-and-stream.md); restart checks
+// locked path access; trace configures the trace rings (docs/trace-and-stream.md); alarms reads
+// the alarm segment's sources and the modules' declarations (docs/alarms.md); restart checks
 // the set and hands a managed restart to the main thread (irpd/restart.hpp).
 #pragma once
 
+#include "alarms/alarm_segment.hpp"
 #include "control/control_server.hpp"
 #include "events/event_log.hpp"
 #include "irpd/main_queue.hpp"
@@ -55,6 +57,7 @@ struct CommandContext {
     const Options *options = nullptr;
     std::string variables_shm;  // "" = none
     trace::TraceRings *trace = nullptr;
+    const alarms::AlarmSegment *alarms = nullptr;
     const variables::VariableSegment *vars = nullptr;  // null: no shared variables
     std::function<std::string()> stopped_by;           // why a fault stopped the set ("" = it did not)
     supervise::CrashState *crash = nullptr;            // null: no state folder (no crash records)

@@ -11,6 +11,8 @@
 //   stats        the stats block (room for a hot reload's old and new modules at once)
 //   layout, variables  the set's layout read, the shared-variable segment made from it
 //   trace        the trace rings, every page touched before memory is locked
+//   alarms       the alarm segment (a source for irpd and for each module a set may hold), every
+//                page touched, adopted by this process's libindurop for the thread modules
 //   module cache the content-addressed copies thread modules are loaded from
 //   supervision  the process supervisor and the reloader; the crash record taken in (an event,
 //                its module left out)
@@ -38,6 +40,7 @@
 // on the new set (irpd/restart.hpp).
 #include "irpd/daemon.hpp"
 
+#include "alarms/alarm_segment.hpp"
 #include "config/module_xml.hpp"
 #include "control/control_server.hpp"
 #include "dispatch/dispatcher.hpp"
@@ -176,6 +179,7 @@ private:
     Status readLayout();
     Status createVariables();
     Status createTraceRings();
+    Status createAlarmSegment();
     Status openModuleCache();
     Status startSupervision();
     Status startFirstGeneration();
@@ -208,6 +212,7 @@ private:
     std::optional<stats::StatsSegment> stats_;
     std::optional<variables::VariableSegment> vars_;
     std::optional<trace::TraceRings> trace_;
+    std::optional<alarms::AlarmSegment> alarms_;
     std::optional<hosts::ModuleCache> cache_;
     std::optional<hosts::ProcessSupervisor> supervisor_;
     std::optional<reload::Reloader> reloader_;
@@ -222,13 +227,21 @@ private:
 
 // The start-up, in order: each step builds the members of its resource (declared in this order).
 const Daemon::Step Daemon::kSteps[] = {
-    {&Daemon::readSet, kExitRefused},           {&Daemon::holdDmaLatency, kExitFailure},
-    {&Daemon::openStateFolder, kExitFailure},   {&Daemon::dropPrivileges, kExitFailure},
-    {&Daemon::armCrashHandler, kExitFailure},   {&Daemon::createStats, kExitFailure},
-    {&Daemon::readLayout, kExitRefused},        {&Daemon::createVariables, kExitFailure},
-    {&Daemon::createTraceRings, kExitFailure},  {&Daemon::openModuleCache, kExitFailure},
-    {&Daemon::startSupervision, kExitFailure},  {&Daemon::startFirstGeneration, kExitRefused},
-    {&Daemon::openControlSocket, kExitFailure}, {&Daemon::startDispatchers, kExitRefused},
+    {&Daemon::readSet, kExitRefused},
+    {&Daemon::holdDmaLatency, kExitFailure},
+    {&Daemon::openStateFolder, kExitFailure},
+    {&Daemon::dropPrivileges, kExitFailure},
+    {&Daemon::armCrashHandler, kExitFailure},
+    {&Daemon::createStats, kExitFailure},
+    {&Daemon::readLayout, kExitRefused},
+    {&Daemon::createVariables, kExitFailure},
+    {&Daemon::createTraceRings, kExitFailure},
+    {&Daemon::createAlarmSegment, kExitFailure},
+    {&Daemon::openModuleCache, kExitFailure},
+    {&Daemon::startSupervision, kExitFailure},
+    {&Daemon::startFirstGeneration, kExitRefused},
+    {&Daemon::openControlSocket, kExitFailure},
+    {&Daemon::startDispatchers, kExitRefused},
     {&Daemon::announce, kExitFailure},
 };
 
@@ -376,6 +389,17 @@ Status Daemon::createTraceRings() {
     return Ok{};
 }
 
+// Written by the modules from run() (libindurop's irp::raiseAlarm), read by the agent: created
+// before memory is locked, every page touched; a source for irpd and one for each module a set may
+// hold (a swap gives a new name a source no module of either set uses, docs/alarms.md).
+Status Daemon::createAlarmSegment() {
+    auto segment = alarms::AlarmSegment::create(options_.instance, 1 + static_cast<uint32_t>(config::kMaxModules));
+    if (!segment) return segment.error();
+    alarms_ = std::move(*segment);
+    alarms_->adopt();
+    return Ok{};
+}
+
 // --module-cache, else a folder of this user's own under /tmp.  An existing folder must be a real
 // directory owned by irpd's user (not a link another user planted).
 Status Daemon::openModuleCache() {
@@ -409,6 +433,7 @@ Status Daemon::startSupervision() {
     services.dispatcher = options_.dispatcher;
     services.kept_off = kept_off_;
     services.trace = &*trace_;
+    services.alarms = &*alarms_;
     if (crash_) {
         watch::takeInCrash(*crash_, *set_, events_);
         services.left_out = [c = crash_.get()](const config::SetSpec &s) {
@@ -469,6 +494,7 @@ Status Daemon::openControlSocket() {
     context.options = &options_;
     context.variables_shm = vars_ ? vars_->name() : "";
     context.trace = &*trace_;
+    context.alarms = &*alarms_;
     context.vars = vars_ ? &*vars_ : nullptr;
     context.stopped_by = [this] {
         const dispatch::Watchdog *w = watchdog_now_.load();

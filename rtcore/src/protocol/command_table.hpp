@@ -11,9 +11,9 @@
 
 namespace irp::protocol {
 
-enum class Cmd { Status, Schedule, Modules, Stats, Histograms, Events, Check, Restart, Load, Change, SetPeriod, SetPriority, Enable, Disable, ClearCrash, Write, Trace };
-inline constexpr std::size_t kCommandCount = 17;
-inline constexpr const char *kCommandList = "status, schedule, modules, stats, histograms, events, check, restart, load, change, set_period, set_priority, enable, disable, clear_crash, write, trace";
+enum class Cmd { Status, Schedule, Modules, Stats, Alarms, Histograms, Events, Check, Restart, Load, Change, SetPeriod, SetPriority, Enable, Disable, ClearCrash, Write, Trace };
+inline constexpr std::size_t kCommandCount = 18;
+inline constexpr const char *kCommandList = "status, schedule, modules, stats, alarms, histograms, events, check, restart, load, change, set_period, set_priority, enable, disable, clear_crash, write, trace";
 
 // How an argument is checked: String (min/max: its length), Integer (min/max: the range), Boolean,
 // Scalar (a number or a boolean), StringList and ObjectList (min/max: the entries).
@@ -110,6 +110,7 @@ inline constexpr Command kCommands[kCommandCount] = {
     {Cmd::Schedule, "schedule", nullptr, 0, false},
     {Cmd::Modules, "modules", nullptr, 0, false},
     {Cmd::Stats, "stats", nullptr, 0, false},
+    {Cmd::Alarms, "alarms", nullptr, 0, false},
     {Cmd::Histograms, "histograms", kHistogramsArgs, sizeof kHistogramsArgs / sizeof kHistogramsArgs[0], false},
     {Cmd::Events, "events", kEventsArgs, sizeof kEventsArgs / sizeof kEventsArgs[0], false},
     {Cmd::Check, "check", kCheckArgs, sizeof kCheckArgs / sizeof kCheckArgs[0], false},

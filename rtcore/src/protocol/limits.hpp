@@ -40,6 +40,10 @@ inline constexpr int64_t kMaxRequestDepth = 64;
 inline constexpr int64_t kMaxPendingOutput = 4'194'304;
 // connected clients; one more is answered busy and closed
 inline constexpr int64_t kMaxClients = 32;
+// characters of an alarm's declared text (module.xml `<alarm>`, irp::declareAlarm)
+inline constexpr int64_t kAlarmTextMax = 200;
+// alarm records one source (a module) may write per second; more transitions are counted, not recorded (docs/alarms.md)
+inline constexpr int64_t kAlarmRateLimit = 1'000;
 // how long the control thread waits for irpd's main thread to carry out a change
 inline constexpr int64_t kMainThreadWaitMs = 60'000;
 

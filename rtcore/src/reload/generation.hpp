@@ -29,6 +29,8 @@ struct Member {
     std::size_t record = 0;                       // its stats record
     int slot = -1;                                // process modules: their control slot
     bool kept = false;                            // the same instance as in the previous generation
+    uint32_t alarm_source = 0;                    // its source in the alarm segment (0: none; 0 is irpd's)
+    bool alarm_claimed = false;                   // that source was given to it for this generation
 };
 
 struct Generation {

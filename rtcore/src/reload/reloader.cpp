@@ -5,6 +5,7 @@
 #include "osal/clock.hpp"
 #include "osal/rt.hpp"
 #include "protocol/errors.hpp"
+#include "reload/alarm_sources.hpp"
 #include "sdk/runtime.hpp"
 #include "stats/summary.hpp"
 #include "variables/layout.hpp"
@@ -42,7 +43,7 @@ bool sameThread(const std::vector<dispatch::ExecutorOptions> &a, const std::vect
 bool keepable(const config::ModuleSpec &next, const std::string &next_identity, const config::ModuleSpec &old,
               const Member &old_member, bool same_thread) {
     if (next.type != old.type || next.operation != old.operation || next_identity != old_member.identity ||
-        next.properties != old.properties)
+        next.properties != old.properties || !config::sameAlarms(next, old))
         return false;
     return next.type == config::ModuleType::Thread || (next.executor == old.executor && same_thread);
 }
@@ -348,6 +349,13 @@ Status Reloader::realize(Generation &generation, const Generation *running,
             .state.store(static_cast<uint32_t>(stats::ModuleState::Loaded));
     }
 
+    // Alarm sources, by name: the modules' initialize() and start() may raise and declare.
+    if (s_.alarms)
+        if (Status st = assignAlarmSources(*s_.alarms, *next, running); !st) {
+            undo(*next);
+            return st.error();
+        }
+
     // A changed layout is published before anything new loads: the new variables are zeroed and
     // visible, the old ones stay where they are for the modules that keep running.
     if (next->layout && s_.vars && next->layout->hash != s_.vars->hash()) {
@@ -386,6 +394,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
                             "INDUROP_MODULE(condition = ...)), which the event handler calls every basic period");
         }
         member.layout = (*loaded)->builtLayout();
+        if (s_.alarms) (*loaded)->setAlarmSource(member.alarm_source);
         member.thread = std::move(*loaded);
     }
     for (auto phase : {&hosts::ThreadModule::initialize, &hosts::ThreadModule::start})
@@ -440,6 +449,10 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         launch.slot = static_cast<uint32_t>(member.slot);
         launch.control_shm = s_.control->name();
         launch.variables_shm = s_.vars ? s_.vars->name() : "";
+        if (s_.alarms) {
+            launch.alarms_shm = s_.alarms->name();
+            launch.alarm_source = member.alarm_source;
+        }
         if (m.operation != config::OperationType::NonReal)
             for (const dispatch::ExecutorOptions &e : threads)
                 if (e.name == m.executor) {  // one below its executor, on its CPU
@@ -468,6 +481,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         if (member.thread) {
             b.run = member.thread->runFunction();
             b.condition = member.thread->table().condition;
+            if (s_.alarms) b.alarm_source = member.alarm_source;
         }
         if (member.slot >= 0 && m.operation != config::OperationType::NonReal)
             b.process = &s_.control->slot(static_cast<uint32_t>(member.slot));
@@ -514,6 +528,7 @@ void Reloader::undo(Generation &partial) {
         member.record = 0;
     }
     if (!slots.empty()) s_.supervisor->stop(slots, 2'000'000'000);
+    if (s_.alarms) undoAlarmSources(*s_.alarms, partial, current().get());
     if (partial.published && partial.previous_layout) {
         (void)s_.vars->publish(*partial.previous_layout);  // it fitted before
         partial.published = false;
@@ -749,6 +764,7 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
 
     const auto [kept, started, stopped] = fatesOf(*next, running.get());
     retire(*running, *next);
+    if (s_.alarms) settleAlarmSources(*s_.alarms, *next, *running);  // after retire stopped the old processes
     for (const config::ModuleSpec &m : next->set.modules)
         s_.stats->record(next->members[static_cast<std::size_t>(m.index)].record)
             .state.store(static_cast<uint32_t>(next->disabled.count(m.name) ? stats::ModuleState::Disabled

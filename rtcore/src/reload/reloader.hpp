@@ -5,21 +5,24 @@
 //             file; keep the modules whose file content, type, operation and properties are
 //             unchanged (same instance, same state, same stats record, same process); estimate
 //             the utilization (over 100 %: refused).  No side effect: a dry run stops here.
-//   realize   load the other modules from content-addressed copies (hosts/module_cache.hpp),
-//             initialize and start them, start the new processes and wait until they are ready;
-//             build the executors' tables.  Any failure undoes what it did: the running set is
+//   realize   give every module its alarm source (reload/alarm_sources.hpp); load the other
+//             modules from content-addressed copies (hosts/module_cache.hpp), initialize and
+//             start them, start the new processes and wait until they are ready; build the
+//             executors' tables.  Any failure undoes what it did: the running set is
 //             untouched and the Error says why.  (prepare = plan + realize.)
 //   swap      each executor takes its new table at the first slot due at or after the boundary
 //             (a pointer exchange on its own thread, Executor::offer), carrying the kept tasks'
 //             state over; the reloader waits until all did.
 //   retire    stops the modules the new set no longer runs (the RT threads let go of them at
-//             the swap), unloads them, stops their processes, frees their records.
+//             the swap), unloads them, stops their processes, frees their records and alarm
+//             sources.
 //
 // Every swap returns a report (docs/hot-reload.md) and adds a "swap" event.  One reload at a time,
 // from irpd's main thread (the process supervisor's thread); the control thread reads
 // current() at any time.
 #pragma once
 
+#include "alarms/alarm_segment.hpp"
 #include "common/result.hpp"
 #include "dispatch/dispatcher.hpp"
 #include "dispatch/function_calls.hpp"
@@ -54,8 +57,9 @@ struct Services {
     hosts::ProcessSupervisor *supervisor = nullptr;
     hosts::ModuleCache *cache = nullptr;
     events::EventLog *events = nullptr;
-    dispatch::CallServer *calls = nullptr;  // the shared-function table for processes, if any
-    trace::TraceRings *trace = nullptr;     // told the basic period after a swap that changes it
+    dispatch::CallServer *calls = nullptr;   // the shared-function table for processes, if any
+    trace::TraceRings *trace = nullptr;      // told the basic period after a swap that changes it
+    alarms::AlarmSegment *alarms = nullptr;  // the modules' alarm sources (reload/alarm_sources.hpp); null: none
     schedule::Limits limits;
     dispatch::DispatcherOptions dispatcher;  // the RT priority and CPU processes inherit
     std::set<int> kept_off;                  // CPUs irpd's non-RT threads were kept off at start (empty: none)

@@ -165,7 +165,7 @@ struct Enum {
 
 // One segment irpd creates in /dev/shm.
 struct Segment {
-    std::string_view name;     // "variables", "stats", "trace", "control"
+    std::string_view name;     // "variables", "stats", "trace", "control", "alarms"
     std::string_view shm;      // "/indurop.<instance>.vars"
     std::string_view meaning;  // what it is for and how its parts follow one another
     uint64_t magic;            // the u64 at offset 0
@@ -176,10 +176,11 @@ struct Segment {
     std::span<const Enum> enums;
 };
 
-// The four segments, each described in its own file of this folder.
+// The segments, each described in its own file of this folder.
 const Segment &variablesSegment();
 const Segment &statsSegment();
 const Segment &traceSegment();
 const Segment &controlSegment();
+const Segment &alarmsSegment();
 
 }  // namespace irp::shm

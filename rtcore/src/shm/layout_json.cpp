@@ -53,7 +53,8 @@ json segmentJson(const Segment &segment) {
 
 json layoutJson() {
     json segments = json::object();
-    for (const Segment *s : {&variablesSegment(), &statsSegment(), &traceSegment(), &controlSegment()})
+    for (const Segment *s :
+         {&variablesSegment(), &statsSegment(), &traceSegment(), &controlSegment(), &alarmsSegment()})
         segments[str(s->name)] = segmentJson(*s);
     return {{"format", kDescriptionFormat},
             {"byte_order", "little"},

@@ -1,6 +1,6 @@
 """test_shm_layout.py -- the agent reads irpd's segments by irpd's own description of them
 (agent/indurop_agent/shm_layout.json, docs/shared-memory.md): the copy and the docs' tables are
-current; the four segments of a live irpd read through it give what irpd put there; a reader
+current; the segments of a live irpd read through it give what irpd put there; a reader
 refuses a segment whose header the description does not match, naming what differs."""
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from indurop_agent.variables import Segment
 GENERATE = ROOT / "protocol" / "shm" / "generate.py"
 REGENERATE = "ninja -C build shm-layout"
 needs_irpd = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
-SEGMENTS = ("variables", "stats", "trace", "control")
+SEGMENTS = ("variables", "stats", "trace", "control", "alarms")
 
 
 @needs_irpd
@@ -87,7 +87,7 @@ def live(tmp_path_factory):
     names = {s: segment(s).shm_name(instance) for s in SEGMENTS}
     deadline = time.monotonic() + 60
     while not all((Path("/dev/shm") / n.lstrip("/")).exists() for n in names.values()):  # ctl: after the threads start
-        assert p.poll() is None and time.monotonic() < deadline, "irpd did not create its four segments"
+        assert p.poll() is None and time.monotonic() < deadline, "irpd did not create its segments"
         time.sleep(0.05)
     yield p, names
     stop(p)
@@ -103,6 +103,7 @@ def opened(name: str, live) -> tuple:
 
 def test_each_live_segment_opens_and_names_its_irpd(live):
     pid_field = {"variables": "owner_pid", "stats": "pid", "trace": "owner_pid", "control": "owner_pid"}
+    pid_field["alarms"] = "owner_pid"
     for name in SEGMENTS:
         s, mm = opened(name, live)
         try:
@@ -165,6 +166,23 @@ def test_the_live_control_slots_name_the_process_modules(live):
     finally:
         mm.close()
     assert {"cntr4", "visionEvt", "nonReaTime"} <= names
+
+
+def test_the_live_alarm_sources_name_irpd_and_the_modules(live):
+    s, mm = opened("alarms", live)
+    h, source = s.header, s.struct("indurop_alarm_source")
+    try:
+        assert h.read(mm, "source_size") == source.size
+        assert h.read(mm, "record_size") == s.struct("indurop_alarm_record").size
+        assert h.read(mm, "capacity") & (h.read(mm, "capacity") - 1) == 0
+        first = h.read(mm, "sources_offset")
+        names = [source.text(mm, "name", first + i * source.size) for i in range(8)]
+        generations = [source.read(mm, "generation", first + i * source.size) for i in range(8)]
+    finally:
+        mm.close()
+    assert names[0] == "irpd" and generations[0] > 0
+    # module i of the set's first generation has source 1 + i
+    assert names[1:5] == ["cntr1", "cntr2", "cntr3", "cntr4"] and all(g > 0 for g in generations[1:5])
 
 
 def test_the_live_trace_rings_read_by_the_agent(live):

@@ -71,6 +71,7 @@ def test_every_answer_has_the_shape_the_spec_gives(irpd):
         ("schedule", {}),
         ("modules", {}),
         ("stats", {}),
+        ("alarms", {}),
         ("histograms", {}),
         ("histograms", {"name": "cntr1"}),
         ("events", {"since": 0, "limit": 10}),

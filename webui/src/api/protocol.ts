@@ -30,6 +30,10 @@ export const MAX_REQUEST_DEPTH = 64;
 export const MAX_PENDING_OUTPUT = 4_194_304;
 /** connected clients; one more is answered busy and closed */
 export const MAX_CLIENTS = 32;
+/** characters of an alarm's declared text (module.xml `<alarm>`, irp::declareAlarm) */
+export const ALARM_TEXT_MAX = 200;
+/** alarm records one source (a module) may write per second; more transitions are counted, not recorded (docs/alarms.md) */
+export const ALARM_RATE_LIMIT = 1_000;
 /** how long the control thread waits for irpd's main thread to carry out a change */
 export const MAIN_THREAD_WAIT_MS = 60_000;
 
@@ -37,5 +41,5 @@ export const MAIN_THREAD_WAIT_MS = 60_000;
 export const ERROR_CODES = ["refused", "not_found", "restart_required", "bad_request", "too_large", "busy"] as const;
 export type ErrorCode = (typeof ERROR_CODES)[number];
 
-export const COMMANDS = ["status", "schedule", "modules", "stats", "histograms", "events", "check", "restart", "load", "change", "set_period", "set_priority", "enable", "disable", "clear_crash", "write", "trace"] as const;
+export const COMMANDS = ["status", "schedule", "modules", "stats", "alarms", "histograms", "events", "check", "restart", "load", "change", "set_period", "set_priority", "enable", "disable", "clear_crash", "write", "trace"] as const;
 export type CommandName = (typeof COMMANDS)[number];
