@@ -122,12 +122,12 @@ export const alarmsPage: Page = (root, ctx) => {
         shelving = null;
       }),
     );
-    return h("span", { class: "ops-actions" }, minutes, " min ", reason, ok, cancel);
+    return h("span", { class: "ops-row-actions" }, minutes, " min ", reason, ok, cancel);
   };
 
   const actions = (a: AlarmPublic): HTMLElement => {
     if (shelving?.key === a.key) return shelving.form;
-    const out = h("span", { class: "ops-actions" });
+    const out = h("span", { class: "ops-row-actions" });
     if (!a.acknowledged) {
       const b = h("button", { class: "small primary", "data-testid": `ack-${a.key}` }, "Acknowledge");
       b.addEventListener("click", () =>
