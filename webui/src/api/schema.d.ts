@@ -1487,6 +1487,11 @@ export interface components {
         /** SharedMemory */
         SharedMemory: {
             /**
+             * Alarms
+             * @description the alarm segment's shm name (<indurop/alarms.h>)
+             */
+            alarms: string;
+            /**
              * Stats
              * @description the stats block's shm name
              */
