@@ -124,15 +124,20 @@ def cmd_layout(c: Client, a, out: Out) -> int:
 
 
 def cmd_read(c: Client, a, out: Out) -> int:
-    answers = [{"path": p, "value": c.read(p)} for p in a.paths]
+    """A leaf's value, or each leaf of a group (a namespace, a struct, an array or an element)."""
+    answers = []
+    for p in a.paths:
+        x = c.variable(p)
+        answers.append({"path": p, "value": x["value"]} if "value" in x else {"path": p, "values": x["values"]})
     if out.as_json:
         out.json(answers[0] if len(answers) == 1 else answers)
-    else:
-        out.line(
-            table(["PATH", "VALUE"], [[x["path"], format_value(x["value"])] for x in answers], "lr")
-            if len(answers) > 1
-            else f"{answers[0]['path']} = {format_value(answers[0]['value'])}"
-        )
+        return EXIT_OK
+    leaves = [leaf for x in answers for leaf in x.get("values", [x])]
+    out.line(
+        f"{leaves[0]['path']} = {format_value(leaves[0]['value'])}"
+        if len(answers) == 1 and "value" in answers[0]
+        else table(["PATH", "VALUE"], [[x["path"], format_value(x["value"])] for x in leaves], "lr")
+    )
     return EXIT_OK
 
 
@@ -503,9 +508,9 @@ COMMANDS: tuple[Command, ...] = (
     ),
     Command(
         "read",
-        "read shared variables",
+        "read shared variables: leaves, or every leaf of a group (struct, array, namespace)",
         cmd_read,
-        (arg("paths", nargs="+", metavar="PATH", help="e.g. knu.Robot.tick 'joint[1].y'"),),
+        (arg("paths", nargs="+", metavar="PATH", help="e.g. knu.Robot.tick 'joint[1].y' 'joint[1]' knu.Robot"),),
     ),
     Command(
         "write",

@@ -249,9 +249,17 @@ class Client:
         """The running layout.json as irpd published it (for glbc --previous)."""
         return self._send("GET", "/layout").text
 
+    def variable(self, path: str) -> dict:
+        """GET /variables/{path} as the agent answers it: {"path", "value", "layout_hash"} for a leaf,
+        {"path", "values": [{"path", "type", "value"}], "layout_hash"} for a group (a namespace, a
+        struct, an array or one of its elements)."""
+        return self.get(f"/variables/{quote(path, safe='')}")
+
     def read(self, path: str) -> Any:
-        """The value of a shared variable, e.g. read("joint[1].y")."""
-        return self.get(f"/variables/{quote(path, safe='')}")["value"]
+        """The value of a shared variable, e.g. read("joint[1].y"); for a group, {leaf path: value}
+        of every leaf under it, e.g. read("joint[1]") -> {"joint[1].x": ..., "joint[1].y": ...}."""
+        answer = self.variable(path)
+        return answer["value"] if "value" in answer else {v["path"]: v["value"] for v in answer["values"]}
 
     def write(self, path: str, value: float | int | bool) -> Any:
         """Writes a shared variable; the value as irpd stored it."""

@@ -3,7 +3,9 @@
 The agent maps /dev/shm/<name> read-only and takes the layout from the segment itself.  A value
 is read as libindurop reads it: the sequence of its variable's lock before and after the copy,
 retried while a writer is inside (odd) or came between; the agent never takes a lock, so it can
-never make an RT writer wait.
+never make an RT writer wait.  A group's path (a namespace, a struct, an array or one of its
+elements) names every leaf under it (`select`); the leaves of one variable are copied together,
+so that they come from one write (`values`).
 
 An online change publishes a new layout into the same segment (docs/shared-variables.md, "Layouts
 that evolve"): every read first compares the header's layout_seq with the one the layout was
@@ -13,6 +15,7 @@ restarted irpd is a new file: `replaced()` tells, and the caller maps the new on
 
 from __future__ import annotations
 
+import difflib
 import json
 import os
 import struct
@@ -48,7 +51,7 @@ FORMATS = {
 
 
 class VariableError(Exception):
-    """A path that is not a leaf of the layout, or a segment that is not there."""
+    """A path that names no leaf and no group of the layout, or a segment that is not there."""
 
 
 class Segment:
@@ -84,6 +87,7 @@ class Segment:
         self.layout = json.loads(self.text)
         self.leaves = {leaf["path"]: leaf for leaf in self.layout["leaves"]}
         self.scalars = self.layout.get("scalars", {})
+        self._names: list[str] | None = None  # every leaf and group path, for unknown()
         self.seq = seq
         return True
 
@@ -101,22 +105,75 @@ class Segment:
         self.mm.close()
 
     def read(self, path: str):
+        """The value of the leaf `path`."""
         self.refresh()
         leaf = self.leaves.get(path)
         if leaf is None:
-            raise VariableError(f"no variable '{path}' in layout {self.hash[:12]}…; GET /api/v1/variables lists them")
-        kind = self.scalars.get(leaf["type"], {}).get("kind", "unsigned")
-        fmt = FORMATS.get((kind, leaf["size"]))
-        if fmt is None:
-            raise VariableError(f"'{path}' is a {leaf['type']}, which the agent cannot decode")
-        lock = self.locks + leaf["lock"] * self.lock_size
-        at = self.data + leaf["offset"]
+            raise VariableError(self.unknown(path))
+        return self.values([leaf])[0]
+
+    def select(self, path: str) -> list[dict]:
+        """The layout's leaves that `path` names: the leaf itself, or for a group (a namespace, a
+        struct, an array or one of its elements) every leaf under it, in layout order."""
+        self.refresh()
+        leaf = self.leaves.get(path)
+        if leaf is not None:
+            return [leaf]
+        under = tuple(path + c for c in ".[")
+        found = [leaf for leaf in self.layout["leaves"] if leaf["path"].startswith(under)] if path else []
+        if not found:
+            raise VariableError(self.unknown(path))
+        return found
+
+    def unknown(self, path: str) -> str:
+        """What to say about a path that names no leaf and no group: the nearest names it has."""
+        if self._names is None:
+            names = set(self.leaves)
+            for p in self.leaves:  # every group a leaf is under: its path up to each '.' and '['
+                names.update(p[:i] for i, c in enumerate(p) if c in ".[")
+            self._names = sorted(names)
+        near = difflib.get_close_matches(path, self._names, n=3, cutoff=0.75)
+        near.sort(key=lambda n: (-difflib.SequenceMatcher(None, path, n).ratio(), n))  # the nearest first
+        names = [repr(n) for n in near]
+        listed = f"{', '.join(names[:-1])} or {names[-1]}" if len(names) > 1 else "".join(names)
+        hint = f"; did you mean {listed}?" if near else ";"
+        return (
+            f"no variable '{path}' (neither a leaf nor a group) in layout {self.hash[:12]}…{hint} "
+            "GET /api/v1/variables lists the leaves"
+        )
+
+    def values(self, leaves: list[dict]) -> list:
+        """The values of `leaves` (entries of the layout held): the leaves of one variable (one lock)
+        are copied together, between two equal reads of the lock's sequence, so that they are of
+        the same write."""
+        formats = []
+        for leaf in leaves:
+            kind = self.scalars.get(leaf["type"], {}).get("kind", "unsigned")
+            fmt = FORMATS.get((kind, leaf["size"]))
+            if fmt is None:
+                raise VariableError(f"'{leaf['path']}' is a {leaf['type']}, which the agent cannot decode")
+            formats.append(fmt)
+        by_lock: dict[int, list[int]] = {}
+        for i, leaf in enumerate(leaves):
+            by_lock.setdefault(leaf["lock"], []).append(i)
+        out: list = [None] * len(leaves)
+        for lock, which in by_lock.items():
+            lo = min(leaves[i]["offset"] for i in which)
+            hi = max(leaves[i]["offset"] + leaves[i]["size"] for i in which)
+            raw = self._copy(lock, lo, hi, leaves[which[0]]["path"])
+            for i in which:
+                out[i] = struct.unpack_from(formats[i], raw, leaves[i]["offset"] - lo)[0]
+        return out
+
+    def _copy(self, lock_index: int, lo: int, hi: int, path: str) -> bytes:
+        """The data bytes [lo, hi) of one variable, as one writer left them."""
+        lock = self.locks + lock_index * self.lock_size
         for _ in range(10000):
             before = self._field(LOCK_SEQ, lock)
             if before & 1:
                 continue
-            raw = self.mm[at : at + leaf["size"]]
+            raw = self.mm[self.data + lo : self.data + hi]
             after = self._field(LOCK_SEQ, lock)
             if after == before:
-                return struct.unpack(fmt, raw)[0]
+                return raw
         raise VariableError(f"'{path}' is being written continuously; try again")

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any, Literal, get_origin
 
-from pydantic import BaseModel, ConfigDict, Field, create_model
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, create_model
 
 from .. import protocol
 
@@ -157,6 +157,22 @@ class VariableList(BaseModel):
 
 class VariableValue(protocol.VariableWritten):
     layout_hash: str = Field(description="the layout the value was read with")
+
+
+class LeafValue(BaseModel):
+    path: str = Field(description="the leaf's full path, e.g. PLC_ROBOT.IO_STATUS.errors[0]")
+    type: str = Field(description="its scalar type, as GET /variables gives it")
+    value: StrictBool | StrictInt | float
+
+
+class GroupValue(BaseModel):
+    """The answer for a group's path (a namespace, a struct, an array or one of its elements)."""
+
+    path: str = Field(description="the group asked for, e.g. PLC_ROBOT.IO_STATUS or joint[1]")
+    values: list[LeafValue] = Field(
+        description="every leaf under it, in layout order; the leaves of one variable are read together, from one write"
+    )
+    layout_hash: str = Field(description="the layout the values were read with")
 
 
 class PatchReport(SwapReport):

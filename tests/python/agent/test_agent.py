@@ -196,3 +196,54 @@ def test_variables_are_listed_and_read_live_from_shared_memory(cell):
     assert 0 <= x <= 181
     r = httpx.get(f"{url}/variables/knu.Robot.nothing", headers=h)
     assert r.status_code == 404 and "no variable 'knu.Robot.nothing'" in r.json()["detail"]
+
+
+def test_a_struct_path_answers_every_leaf_of_the_struct(cell):
+    url, admin, *_ = cell
+    h = {"Authorization": f"Bearer {admin}"}
+    r = httpx.get(f"{url}/variables/joint[1]", headers=h)
+    assert r.status_code == 200, r.text
+    answer = r.json()
+    assert answer["path"] == "joint[1]" and "value" not in answer
+    assert answer["layout_hash"] == httpx.get(f"{url}/variables", headers=h).json()["layout_hash"]
+    assert [(v["path"], v["type"]) for v in answer["values"]] == [
+        ("joint[1].x", "double"),
+        ("joint[1].y", "double"),
+        ("joint[1].z", "double"),
+    ]
+    assert all(isinstance(v["value"], float) for v in answer["values"])
+
+
+def test_an_array_path_answers_its_elements_in_order_and_a_namespace_all_it_holds(cell):
+    url, admin, *_ = cell
+    h = {"Authorization": f"Bearer {admin}"}
+    listing = [v["path"] for v in httpx.get(f"{url}/variables", headers=h).json()["variables"]]
+    joints = httpx.get(f"{url}/variables/knu.Robot.joints", headers=h).json()
+    assert [v["path"] for v in joints["values"]] == [f"knu.Robot.joints[{i}].{c}" for i in range(10) for c in "xyz"]
+    namespace = httpx.get(f"{url}/variables/knu.Robot", headers=h).json()
+    assert [v["path"] for v in namespace["values"]] == [p for p in listing if p.startswith("knu.Robot.")]
+    assert namespace["values"][0]["path"] == "knu.Robot.tick" and namespace["values"][0]["type"] == "uint32_t"
+    assert isinstance(namespace["values"][0]["value"], int)
+
+
+def test_a_leaf_path_answers_as_before(cell):
+    url, admin, *_ = cell
+    r = httpx.get(f"{url}/variables/joint[1].y", headers={"Authorization": f"Bearer {admin}"})
+    assert r.status_code == 200
+    assert set(r.json()) == {"path", "value", "layout_hash"} and r.json()["path"] == "joint[1].y"
+
+
+def test_a_path_that_names_nothing_is_a_404_with_the_nearest_names(cell):
+    url, admin, *_ = cell
+    for path, near in [
+        ("joint[1].w", "'joint[1].x'"),  # a leaf that is not there: the nearest ones
+        ("knu.Robot.joint", "'knu.Robot.joints'"),  # a group misspelt
+        ("knu.Rob", "'knu.Robot'"),  # the start of a name is no group
+        ("PLC_ROBOT", None),  # not in this layout at all
+        ("joint[6]", "'joint[5]'"),  # past the end of the array
+    ]:
+        r = httpx.get(f"{url}/variables/{path}", headers={"Authorization": f"Bearer {admin}"})
+        assert r.status_code == 404, path
+        detail = r.json()["detail"]
+        assert f"no variable '{path}' (neither a leaf nor a group)" in detail and "GET /api/v1/variables" in detail
+        assert (near in detail.partition("; did you mean ")[2]) if near else "did you mean" not in detail, detail

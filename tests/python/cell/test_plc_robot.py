@@ -4,7 +4,8 @@ the PLC's inputs written and its outputs read through irpd's shared variables.  
 drives power up; Start -> the pick-and-place cycle runs every step, the robot really moves (its
 measured joints come back from the simulated drives over Modbus), O0 follows MotionDone and the
 cycle counter counts; Stop halts it; the drives going silent -> comm_lost and the robot in error.
-The simulator is the set's own non-real process module: irpd starts and stops it."""
+The simulator is the set's own non-real process module: irpd starts and stops it.  An agent in
+front of the cell reads IO_STATUS, a struct, leaf by leaf (GET /variables/{path}, irpctl read)."""
 
 from __future__ import annotations
 
@@ -12,12 +13,14 @@ import sys
 import time
 from pathlib import Path
 
+import httpx
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from live_processes import BUILD, ROOT, copy_cell, start_irpd, stop  # noqa: E402
+from live_processes import API, BUILD, ROOT, copy_cell, free_port, start_agent, start_irpd, stop  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "agent"))
+from indurop_agent import cli  # noqa: E402
 from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
 from indurop_agent.variables import Segment  # noqa: E402
 
@@ -152,3 +155,28 @@ def test_silent_drives_raise_comm_lost_and_stop_the_robot(tmp_path):
         assert cell.read("PLC_OUT.Error") == 1
     finally:
         cell.close()
+
+
+def test_the_agent_and_irpctl_read_the_io_status_struct_leaf_by_leaf(cell, tmp_path, capsys):
+    """A struct's path (the I/O dispatcher's IO_STATUS) answers every leaf of it, in layout order."""
+    port, data = free_port(), tmp_path / "data"
+    agent = start_agent(port, data, cell.sock)
+    try:
+        url = f"http://127.0.0.1:{port}"
+        token = (data / "admin-token").read_text().strip()
+        r = httpx.get(f"{url}{API}/variables/{NS}IO_STATUS", headers={"Authorization": f"Bearer {token}"}, timeout=30)
+        assert r.status_code == 200, r.text
+        leaves = [f"{NS}IO_STATUS.{f}[{i}]" for f in ("comm_lost", "errors") for i in range(8)]
+        leaves += [f"{NS}IO_STATUS.cycles", f"{NS}IO_STATUS.last_cycle_us"]
+        values = r.json()["values"]
+        assert [v["path"] for v in values] == leaves
+        got = {v["path"]: v for v in values}
+        assert got[f"{NS}IO_STATUS.cycles"]["type"] == "uint32_t" and got[f"{NS}IO_STATUS.cycles"]["value"] > 0
+        assert got[f"{NS}IO_STATUS.comm_lost[0]"]["value"] == 0
+        capsys.readouterr()
+        code = cli.main(["--url", url, "--token-file", str(data / "admin-token"), "read", f"{NS}IO_STATUS"])
+        out = capsys.readouterr().out.splitlines()
+        assert code == 0 and out[0].split() == ["PATH", "VALUE"]
+        assert [line.split()[0] for line in out[1:]] == leaves
+    finally:
+        stop(agent)

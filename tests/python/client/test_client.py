@@ -752,6 +752,36 @@ def test_read_json(irpctl, cell):
     assert [a["path"] for a in json.loads(out)] == ["knu.Robot.tick", "joint[0].x"]
 
 
+def test_read_of_a_group_prints_each_leaf(irpctl, cell):
+    code, out, _ = irpctl(*cell.args("read", "joint[1]"))
+    lines = out.splitlines()
+    assert code == 0 and lines[0].split() == ["PATH", "VALUE"]
+    assert [line.split()[0] for line in lines[1:]] == ["joint[1].x", "joint[1].y", "joint[1].z"]
+    code, out, _ = irpctl(*cell.args("read", "knu.Robot.tick", "knu.Robot.joints"))
+    paths = [line.split()[0] for line in out.splitlines()[1:]]
+    assert code == 0 and paths == ["knu.Robot.tick"] + [f"knu.Robot.joints[{i}].{c}" for i in range(10) for c in "xyz"]
+
+
+def test_read_json_of_a_group_gives_its_leaves_with_their_types(irpctl, cell):
+    code, out, _ = irpctl(*cell.args("--json", "read", "joint[2]"))
+    answer = json.loads(out)
+    assert code == 0 and answer["path"] == "joint[2]" and "value" not in answer
+    assert [(v["path"], v["type"]) for v in answer["values"]] == [(f"joint[2].{c}", "double") for c in "xyz"]
+    code, out, _ = irpctl(*cell.args("--json", "read", "joint[2]", "knu.Robot.tick"))
+    assert [set(a) for a in json.loads(out)] == [{"path", "values"}, {"path", "value"}]
+
+
+def test_the_python_client_reads_a_group_as_a_dict_of_its_leaves(cell):
+    with Client(cell.url, cell.token) as c:
+        joint = c.read("joint[3]")
+        assert list(joint) == ["joint[3].x", "joint[3].y", "joint[3].z"]
+        assert all(isinstance(v, float) for v in joint.values())
+        assert c.variable("joint[3].x").keys() == {"path", "value", "layout_hash"}
+        with pytest.raises(ApiError) as e:
+            c.read("joint[3].w")
+        assert e.value.status == 404 and "did you mean 'joint[3].x'" in e.value.message
+
+
 def test_the_python_client_reads_what_irpctl_shows(cell):
     with Client(cell.url, cell.token) as c:
         assert c.status()["running"] is True

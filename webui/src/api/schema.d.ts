@@ -640,7 +640,12 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** Read Variable */
+        /**
+         * Read Variable
+         * @description A leaf's value (`{path, value, layout_hash}`), or for a group (a namespace, a struct, an array
+         *     or one of its elements, e.g. `PLC_ROBOT.IO_STATUS`, `joint[1]`) every leaf under it
+         *     (`{path, values: [{path, type, value}], layout_hash}`).
+         */
         get: operations["read_variable_api_v1_variables__path__get"];
         /** Write Variable */
         put: operations["write_variable_api_v1_variables__path__put"];
@@ -1187,6 +1192,27 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
+        /**
+         * GroupValue
+         * @description The answer for a group's path (a namespace, a struct, an array or one of its elements).
+         */
+        GroupValue: {
+            /**
+             * Layout Hash
+             * @description the layout the values were read with
+             */
+            layout_hash: string;
+            /**
+             * Path
+             * @description the group asked for, e.g. PLC_ROBOT.IO_STATUS or joint[1]
+             */
+            path: string;
+            /**
+             * Values
+             * @description every leaf under it, in layout order; the leaves of one variable are read together, from one write
+             */
+            values: components["schemas"]["LeafValue"][];
+        };
         /** HTTPValidationError */
         HTTPValidationError: {
             /** Detail */
@@ -1365,6 +1391,21 @@ export interface components {
             stop_ns: number;
         } & {
             [key: string]: unknown;
+        };
+        /** LeafValue */
+        LeafValue: {
+            /**
+             * Path
+             * @description the leaf's full path, e.g. PLC_ROBOT.IO_STATUS.errors[0]
+             */
+            path: string;
+            /**
+             * Type
+             * @description its scalar type, as GET /variables gives it
+             */
+            type: string;
+            /** Value */
+            value: boolean | number;
         };
         /** LeftOutModule */
         LeftOutModule: {
@@ -3505,8 +3546,15 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["VariableValue"];
+                    "application/json": components["schemas"]["VariableValue"] | components["schemas"]["GroupValue"];
                 };
+            };
+            /** @description the path names no leaf and no group (the nearest names it has) */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
             /** @description Validation Error */
             422: {

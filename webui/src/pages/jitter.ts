@@ -11,12 +11,14 @@ import type { Page } from "../app/context";
 import { diffHist, figures, type Hist, logBins } from "../plot/hist";
 import { drawHistogram } from "../plot/histchart";
 import { fmtNs } from "../plot/ticks";
+import { wallClockRange } from "../plot/timeaxis";
 
 type Record = components["schemas"]["HistogramRecord"];
 type Histograms = components["schemas"]["Histograms"];
 
 const POLL_MS = 1000;
 const KEEP = 600; // intervals on the time axis (10 min)
+const MIN_SPAN_S = 30; // the time axis's shortest window, while fewer intervals are there
 const PER_DECADE = 8;
 const HIST_H = 130;
 const TIME_H = 180;
@@ -161,7 +163,8 @@ export const jitterPage: Page = (root, ctx) => {
       {
         width: Math.max(300, timeHost.clientWidth || 800),
         height: TIME_H,
-        scales: { x: { time: true } },
+        // x: each poll's wall-clock time (Unix s), from the first poll to the newest, MIN_SPAN_S at least
+        scales: { x: { time: true, range: () => wallClockRange(tr.times, MIN_SPAN_S) } },
         series: [
           {},
           { label: "min", stroke: "#90a4ae", width: 1, spanGaps: false },

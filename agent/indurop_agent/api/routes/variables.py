@@ -1,7 +1,7 @@
 """variables.py -- GET /api/v1/variables (every shared variable of the running set's layout),
-GET /api/v1/variables/{path} (one value, read consistently from shared memory),
-PUT /api/v1/variables/{path} (operator: irpd writes the value, type-checked against the layout) and
-GET /api/v1/layout (the running layout.json, to lay a changed .glb out against: glbc --previous)."""
+GET /api/v1/variables/{path} (one value, or every leaf of a group, read consistently from shared
+memory), PUT /api/v1/variables/{path} (operator: irpd writes the value, type-checked against the
+layout) and GET /api/v1/layout (the running layout.json, to lay a changed .glb out against: glbc --previous)."""
 
 from fastapi import APIRouter, HTTPException, Request, Response
 from pydantic import BaseModel, ConfigDict
@@ -9,7 +9,7 @@ from pydantic import BaseModel, ConfigDict
 from ... import protocol
 from ...variables import Segment, VariableError
 from ..deps import IrpdDep, OperatorDep, ViewerDep, ask, audited
-from ..models import VariableList, VariableValue
+from ..models import GroupValue, VariableList, VariableValue
 
 router = APIRouter(tags=["variables"])
 
@@ -56,13 +56,27 @@ def running_layout(request: Request, irpd: IrpdDep, _: ViewerDep) -> Response:
     )
 
 
-@router.get("/variables/{path:path}")
-def read_variable(path: str, request: Request, irpd: IrpdDep, _: ViewerDep) -> VariableValue:
+@router.get(
+    "/variables/{path:path}",
+    responses={404: {"description": "the path names no leaf and no group (the nearest names it has)"}},
+)
+def read_variable(path: str, request: Request, irpd: IrpdDep, _: ViewerDep) -> VariableValue | GroupValue:
+    """A leaf's value (`{path, value, layout_hash}`), or for a group (a namespace, a struct, an array
+    or one of its elements, e.g. `PLC_ROBOT.IO_STATUS`, `joint[1]`) every leaf under it
+    (`{path, values: [{path, type, value}], layout_hash}`)."""
     seg = segment(request, irpd)
     try:
-        return {"path": path, "value": seg.read(path), "layout_hash": seg.hash}
+        leaves = seg.select(path)
+        values = seg.values(leaves)
     except VariableError as e:
         raise HTTPException(404, str(e)) from e
+    if leaves[0]["path"] == path:
+        return {"path": path, "value": values[0], "layout_hash": seg.hash}
+    return {
+        "path": path,
+        "values": [{"path": leaf["path"], "type": leaf["type"], "value": v} for leaf, v in zip(leaves, values)],
+        "layout_hash": seg.hash,
+    }
 
 
 class VariableWrite(BaseModel):
