@@ -27,7 +27,11 @@ def wait_for(paths, count: int, seconds: float = 30.0) -> list[Path]:
 def test_sigusr2_writes_snapshots_of_a_traced_agent(tmp_path, monkeypatch):
     monkeypatch.setenv("PYTHONTRACEMALLOC", "5")
     data = tmp_path / "data"
-    agent = live_processes.start_agent(live_processes.free_port(), data, tmp_path / "no-irpd.sock")
+    # Tracing every allocation with 5 frames slows the agent's imports several times over: on a
+    # loaded machine its start takes longer than the usual minute.
+    agent = live_processes.start_agent(
+        live_processes.free_port(), data, tmp_path / "no-irpd.sock", timeout_s=4 * live_processes.START_TIMEOUT_S
+    )
     try:
         for n in (1, 2):
             agent.send_signal(signal.SIGUSR2)
