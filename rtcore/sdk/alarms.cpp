@@ -272,7 +272,12 @@ void declareAlarm(uint32_t id, Severity severity, const char *text) {
 
 namespace runtime {
 
-void adoptAlarms(indurop_alarm_header *header) noexcept { g_segment.store(header, std::memory_order_release); }
+// irpd: its own segment; a segment INDUROP_ALARMS named in its environment (an irpd started by a
+// process module) is not its own, nor any source of a process.
+void adoptAlarms(indurop_alarm_header *header) noexcept {
+    g_process_source = kNoAlarmSource;
+    g_segment.store(header, std::memory_order_release);
+}
 
 void setAlarmSource(uint32_t source) noexcept { t_source = source; }
 

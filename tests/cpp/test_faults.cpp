@@ -349,6 +349,14 @@ uint16_t statusword(ModbusClient &c, int axis) { return c.input1(8 * axis); }
 bool operationEnabled(uint16_t sw) { return (sw & 0x6F) == 0x27; }
 bool fault(uint16_t sw) { return (sw & 0x4F) == 0x08; }
 
+// Every axis of the simulator reaches operation enabled (the PLC powers them after enableDrives).
+::testing::AssertionResult allOperationEnabled(ModbusClient &probe) {
+    for (int axis = 0; axis < kAxes; ++axis)
+        if (!eventually([&] { return operationEnabled(statusword(probe, axis)); }, std::chrono::seconds(20)))
+            return ::testing::AssertionFailure() << "axis " << axis << " is not operation enabled";
+    return ::testing::AssertionSuccess();
+}
+
 }  // namespace
 
 TEST(DeviceSide, AStopDrivesTheControlwordsToZeroWhileTheFaultyModuleIsStillStuck) {
@@ -384,9 +392,7 @@ TEST(DeviceSide, IrpdKilledLeavesTheDrivesToTheirCommTimeoutWhichQuickStopsThem)
     ModbusClient probe(sim.port());
     PlcCell cell(sim.port(), "");
     cell.enableDrives();
-    for (int axis = 0; axis < kAxes; ++axis)
-        ASSERT_TRUE(eventually([&] { return operationEnabled(statusword(probe, axis)); }, std::chrono::seconds(20)))
-            << axis;
+    ASSERT_TRUE(allOperationEnabled(probe));
     kill(cell.irpd->pid(), SIGKILL);
     ASSERT_EQ(cell.irpd->wait(std::chrono::seconds(10)), -2);
     for (int axis = 0; axis < kAxes; ++axis) {
@@ -420,9 +426,7 @@ TEST(DeviceSide, TheDrivesStoppingToAnswerRaiseThePlcsAlarm8WithItsTextClearedWh
     ModbusClient probe(sim.port());
     PlcCell cell(sim.port(), "");
     cell.enableDrives();
-    for (int axis = 0; axis < kAxes; ++axis)
-        ASSERT_TRUE(eventually([&] { return operationEnabled(statusword(probe, axis)); }, std::chrono::seconds(20)))
-            << axis;
+    ASSERT_TRUE(allOperationEnabled(probe));
     const json plc = alarmSource(*cell.client, "main");
     ASSERT_TRUE(plc.is_object()) << cell.client->request({{"cmd", "alarms"}}).dump();
     std::string text;

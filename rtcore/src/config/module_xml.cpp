@@ -277,18 +277,28 @@ private:
         }
     }
 
+    // The text of node's children, unescaped, CDATA as it is, comments left out; an element among
+    // them goes to `element` (the caller refuses it in its own words).
+    std::string mixedText(pugi::xml_node node, pugi::xml_node &element) const {
+        std::string raw;
+        for (pugi::xml_node child : node.children()) {
+            if (child.type() == pugi::node_pcdata)
+                raw += unescape(child, child.value());
+            else if (child.type() == pugi::node_cdata)
+                raw += child.value();
+            else if (child.type() != pugi::node_comment && !element)
+                element = child;
+        }
+        return raw;
+    }
+
     // The text of a leaf element such as <period>100000</period>, unescaped and trimmed.
     std::string leafText(pugi::xml_node node, const std::string &module) const {
         noAttributes(node);
-        std::string raw;
-        for (pugi::xml_node child : node.children()) {
-            if (child.type() == pugi::node_comment) continue;
-            if (child.type() == pugi::node_pcdata || child.type() == pugi::node_cdata) {
-                raw += child.type() == pugi::node_cdata ? std::string(child.value()) : unescape(child, child.value());
-                continue;
-            }
-            failField(node, module, node.name(), "expected plain text, found <" + std::string(child.name()) + ">");
-        }
+        pugi::xml_node element;
+        std::string raw = mixedText(node, element);
+        if (element)
+            failField(node, module, node.name(), "expected plain text, found <" + std::string(element.name()) + ">");
         return std::string(trim(raw));
     }
 
@@ -508,16 +518,9 @@ private:
             if (!severity) refuse("severity '" + severity_text + "'; expected low, medium, high or critical");
             a.severity = *severity;
         }
-        std::string raw;
-        for (pugi::xml_node child : node.children()) {
-            if (child.type() == pugi::node_comment) continue;
-            if (child.type() == pugi::node_pcdata)
-                raw += unescape(child, child.value());
-            else if (child.type() == pugi::node_cdata)
-                raw += child.value();
-            else
-                refuse("expected the alarm's text, found <" + std::string(child.name()) + ">");
-        }
+        pugi::xml_node element;
+        const std::string raw = mixedText(node, element);
+        if (element) refuse("expected the alarm's text, found <" + std::string(element.name()) + ">");
         for (char c : raw) {  // whitespace runs (a text wrapped over lines) become one space
             const bool space = c == ' ' || c == '\t' || c == '\r' || c == '\n';
             if (!space)
@@ -577,16 +580,9 @@ private:
             }
             if (!has_name || name.empty()) fail(v, "module '" + m.name + "': <value> without a name=\"...\"");
             if (!seen.insert(name).second) fail(v, "module '" + m.name + "': property '" + name + "' is set twice");
-            std::string raw;
-            for (pugi::xml_node child : v.children()) {
-                if (child.type() == pugi::node_comment) continue;
-                if (child.type() == pugi::node_pcdata)
-                    raw += unescape(child, child.value());
-                else if (child.type() == pugi::node_cdata)
-                    raw += child.value();
-                else
-                    fail(child, "module '" + m.name + "': property '" + name + "' must be plain text");
-            }
+            pugi::xml_node element;
+            const std::string raw = mixedText(v, element);
+            if (element) fail(element, "module '" + m.name + "': property '" + name + "' must be plain text");
             if (raw.find('\0') != std::string::npos)
                 fail(v, "module '" + m.name + "': property '" + name + "' contains a NUL");
             std::string value(trim(raw));
