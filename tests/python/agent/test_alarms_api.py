@@ -189,6 +189,9 @@ def test_the_history_filters_pages_and_exports_csv(agent):
     # times beyond what 64-bit nanoseconds hold select everything or nothing, never a 500
     assert get(agent, "/alarms/history", since="2263-01-01T00:00:00Z")["total"] == 0
     assert get(agent, "/alarms/history", since="0001-01-01T00:00:00Z")["total"] == 11
+    for big in ({"offset": 2**63}, {"after": 2**63}):  # beyond SQLite's integers: refused, not a 500
+        assert agent.client.get(f"{API}/alarms/history", headers=agent.h(), params=big).status_code == 422
+    assert get(agent, "/alarms/history", offset=2**63 - 1)["transitions"] == []
 
 
 def test_a_flood_is_counted_not_recorded_and_keeps_the_older_history(make_agent):

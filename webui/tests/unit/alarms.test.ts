@@ -1,7 +1,7 @@
 // alarms.test.ts -- the alarms as the UI holds them: the view kept from the push (snapshot, then
 // changes), the banner's words and color, the list's order, the history's filters and CSV path,
 // and the feed's one WebSocket against a fake one (snapshot on every reconnection).
-import { afterEach, beforeEach, describe, expect, it, vi } from "vitest";
+import { describe, expect, it, vi } from "vitest";
 import { AlarmFeed } from "../../src/app/alarm-feed";
 import {
   type AlarmView,
@@ -18,7 +18,7 @@ import {
 } from "../../src/ops/alarms";
 import type { AlarmCounts, AlarmTransition } from "../../src/ops/types";
 import { alarm, counts, snapshot } from "./alarm-fixtures";
-import { FakeSocket } from "./fake-socket";
+import { FakeSocket, useFakeSocket } from "./fake-socket";
 
 function transition(seq: number, key: string, event: AlarmTransition["event"]): AlarmTransition {
   return {
@@ -158,15 +158,7 @@ describe("the history's filters", () => {
 });
 
 describe("the feed", () => {
-  beforeEach(() => {
-    FakeSocket.all = [];
-    vi.useFakeTimers();
-    vi.stubGlobal("WebSocket", FakeSocket);
-  });
-  afterEach(() => {
-    vi.useRealTimers();
-    vi.unstubAllGlobals();
-  });
+  useFakeSocket();
 
   it("opens one socket for every listener and hands each the view", () => {
     const feed = new AlarmFeed("ws://agent/api/v1/alarms/live", "tok en");

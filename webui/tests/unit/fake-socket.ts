@@ -1,5 +1,20 @@
 // fake-socket.ts -- a WebSocket the tests play the agent's side of: what the client sent, and
-// open / text / binary / drop to answer it (stubbed in as the global WebSocket).
+// open / text / binary / drop to answer it; useFakeSocket() stubs it in as the global WebSocket
+// (with fake timers, for the reconnections) around every test of the file or describe block.
+import { afterEach, beforeEach, vi } from "vitest";
+
+export function useFakeSocket(): void {
+  beforeEach(() => {
+    FakeSocket.all = [];
+    vi.useFakeTimers();
+    vi.stubGlobal("WebSocket", FakeSocket);
+  });
+  afterEach(() => {
+    vi.useRealTimers();
+    vi.unstubAllGlobals();
+  });
+}
+
 export class FakeSocket {
   static OPEN = 1;
   static all: FakeSocket[] = [];

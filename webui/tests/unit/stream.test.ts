@@ -1,9 +1,9 @@
 // stream.test.ts -- the stream client against a fake WebSocket: one socket, the union of the
 // listeners' paths, each listener given its own columns, the drop counter, reconnection.
-import { afterEach, beforeEach, describe, expect, it, vi } from "vitest";
+import { describe, expect, it, vi } from "vitest";
 import { type Samples, StreamClient } from "../../src/stream/stream";
 import { buildFrame } from "./build-frame";
-import { FakeSocket } from "./fake-socket";
+import { FakeSocket, useFakeSocket } from "./fake-socket";
 
 const channels = (paths: string[]) => ({
   channels: paths.map((path, index) => ({ index, path, type: "double" })),
@@ -11,15 +11,7 @@ const channels = (paths: string[]) => ({
   basic_period_ns: 1000000,
 });
 
-beforeEach(() => {
-  FakeSocket.all = [];
-  vi.useFakeTimers();
-  vi.stubGlobal("WebSocket", FakeSocket);
-});
-afterEach(() => {
-  vi.useRealTimers();
-  vi.unstubAllGlobals();
-});
+useFakeSocket();
 
 describe("StreamClient", () => {
   it("asks for the union of the listeners' paths on one socket, every sample", () => {

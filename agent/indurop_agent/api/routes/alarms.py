@@ -38,6 +38,7 @@ MAX_QUEUED = 256  # push messages waiting for one client; beyond them it gets a 
 CSV_COLUMNS = ("seq", "time", "key", "module", "id", "event", "state", "severity", "text", "detail", "value")
 CSV_MORE = ("who", "note", "count")
 EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
+INT64_MAX = 2**63 - 1  # what SQLite's integers hold
 
 
 def alarm_manager(request: Request) -> AlarmManager:
@@ -55,7 +56,7 @@ def _ns(t: datetime | None) -> int | None:
     if t.tzinfo is None:
         t = t.replace(tzinfo=UTC)
     ns = (t - EPOCH) // timedelta(microseconds=1) * 1000
-    return min(max(ns, -(2**63)), 2**63 - 1)
+    return min(max(ns, -INT64_MAX - 1), INT64_MAX)
 
 
 def history_filter(
@@ -65,7 +66,9 @@ def history_filter(
     key: str | None = Query(None, max_length=300, description="one alarm's"),
     severity: Severity | None = Query(None),
     state: AlarmState | None = Query(None, description="the state the transition left the alarm in"),
-    after: int | None = Query(None, ge=0, description="only transitions with a larger seq (following the history)"),
+    after: int | None = Query(
+        None, ge=0, le=INT64_MAX, description="only transitions with a larger seq (following the history)"
+    ),
 ) -> HistoryFilter:
     return HistoryFilter(_ns(since), _ns(until), module, key, severity, state, after)
 
@@ -96,7 +99,7 @@ def history(
     _: ViewerDep,
     f: FilterDep,
     limit: int = Query(100, ge=1, le=1000),
-    offset: int = Query(0, ge=0),
+    offset: int = Query(0, ge=0, le=INT64_MAX),
 ) -> AlarmHistory:
     rows, total = manager.store.query(f, limit, offset)
     return AlarmHistory(transitions=[public_row(r) for r in rows], total=total, offset=offset, limit=limit)
