@@ -133,7 +133,7 @@ class Activator:
                 e.code,
                 f"set {set_id} cannot go online: {e}; activating it with mode restart "
                 f"(or auto) restarts irpd onto it{expected}",
-                e.place,
+                e.error,
             ) from e
 
     def _restart(self, config: str, set_id: str) -> dict:

@@ -27,10 +27,12 @@ class IrpdUnavailable(Exception):
 class IrpdRefused(Exception):
     """irpd answered the request with an error."""
 
-    def __init__(self, code: str, message: str, place: dict | None = None):
+    def __init__(self, code: str, message: str, error: dict | None = None):
         super().__init__(message)
         self.code = code
-        self.place = place or {}  # the error's place as irpd gives it: file, line, column, module, field
+        # The error object irpd sent (#/shapes/error: code, message and the fields of its place that
+        # are known), or just those fields; errors.place() reads the place from it.
+        self.error = error or {}
 
 
 class IrpdClient:

@@ -26,8 +26,6 @@ struct Place {
     int column = 0;      // counted from 1
     std::string module;  // the module (or executor) it is about
     std::string field;   // the module.xml element: period, executor, property.restart, ...
-
-    bool empty() const { return file.empty() && module.empty() && field.empty(); }
 };
 
 struct Error {
@@ -45,13 +43,6 @@ struct Error {
 // An error about a whole file: "<file>: what", placed at the file.
 inline Error fileError(const std::string &file, const std::string &what) {
     return Error{file + ": " + what, protocol::kRefused, Place{file}};
-}
-
-// An error about a module of a set, at its line of module.xml: "<xml>:<line>: what".
-inline Error moduleError(const std::string &xml, int line, const std::string &module, const std::string &what,
-                         std::string field = {}) {
-    return Error{xml + ":" + std::to_string(line) + ": " + what, protocol::kRefused,
-                 Place{xml, line, 0, module, std::move(field)}};
 }
 
 template <class T>

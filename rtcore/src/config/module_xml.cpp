@@ -35,6 +35,11 @@ const char *toString(OverrunAction action) {
     return names[static_cast<int>(action)];
 }
 
+Error errorAbout(const ModuleSpec &m, const std::string &what, std::string field) {
+    return Error{m.where + ": module '" + m.name + "': " + what, protocol::kRefused,
+                 Place{m.xml, m.line, 0, m.name, std::move(field)}};
+}
+
 namespace {
 
 // Thrown inside the parser only, turned into an Error at its door.
@@ -181,8 +186,9 @@ private:
     // For a field of a module: "file:line: module 'cntr1': <period>: what"
     [[noreturn]] void failField(pugi::xml_node node, const std::string &module, const std::string &field,
                                 const std::string &what) const {
+        std::string in = fieldOf(node);  // more precise where it names a property
         fail(node, (module.empty() ? std::string() : owner_kind_ + " '" + module + "': ") + "<" + field + ">: " + what,
-             fieldOf(node).empty() ? field : fieldOf(node));
+             in.empty() ? field : std::move(in));
     }
     // For the whole of a module or executor, found by the whole-set checks.
     [[noreturn]] void failOwner(int line, const std::string &owner, const std::string &what) const {

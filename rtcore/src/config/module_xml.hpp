@@ -86,6 +86,10 @@ struct ExecutorSpec {
     int line = 0;
 };
 
+// An error about module m, at its <module> line: "<where>: module 'm': what", placed there (its
+// module.xml and line, the module, and `field` when it is about one of the module's elements).
+Error errorAbout(const ModuleSpec &m, const std::string &what, std::string field = {});
+
 struct SetSpec {
     std::filesystem::path xml_path;
     std::filesystem::path layout;  // <layout> at the root: the set's layout.json (empty: none)

@@ -11,16 +11,17 @@ Result<std::unique_ptr<ModuleSet>> ModuleSet::load(const config::SetSpec &set, c
             continue;
         }
         if (spec.operation == config::OperationType::NonReal)
-            return Error{
-                spec.where + ": module '" + spec.name +
-                "': a non-real module runs in the time left over as a process: set <moduletype>process</moduletype>"};
+            return config::errorAbout(spec,
+                                      "a non-real module runs in the time left over as a process: set "
+                                      "<moduletype>process</moduletype>",
+                                      "moduletype");
         auto module = ThreadModule::load(spec, layout_hash);
         if (!module) return module.error();
         if (spec.operation == config::OperationType::Sporadic && !(*module)->hasCondition())
-            return Error{
-                spec.where + ": module '" + spec.name + "': a sporadic thread module needs condition() " +
-                "(extern \"C\" int condition(), or INDUROP_MODULE(condition = ...)), which the event handler calls " +
-                "every basic period"};
+            return config::errorAbout(spec,
+                                      "a sporadic thread module needs condition() (extern \"C\" int condition(), or "
+                                      "INDUROP_MODULE(condition = ...)), which the event handler calls every basic "
+                                      "period");
         loaded->modules_.push_back(std::move(*module));
     }
     return loaded;

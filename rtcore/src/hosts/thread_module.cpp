@@ -50,9 +50,8 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
                                                          const std::filesystem::path &image) {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(spec.path, ec))
-        return Error{spec.where + ": " + who(spec) + ": <filename> " + spec.filename + " -> " + spec.path.string() +
-                         " does not exist",
-                     protocol::kRefused, Place{spec.xml, spec.line, 0, spec.name, "filename"}};
+        return config::errorAbout(spec, "<filename> " + spec.filename + " -> " + spec.path.string() + " does not exist",
+                                  "filename");
 
     std::unique_ptr<ThreadModule> module(new ThreadModule(spec));
     dlerror();

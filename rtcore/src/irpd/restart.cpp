@@ -25,13 +25,6 @@ namespace {
 
 using json = nlohmann::ordered_json;
 
-// The known fields of an error's place, as an object (empty: none known).
-json placeJson(const Place &place) {
-    json out = json::object();
-    protocol::addPlace(out, place);
-    return out;
-}
-
 json setJson(const SetRef &s) { return json{{"config", s.config}, {"set_id", s.set_id}, {"layout", s.layout}}; }
 
 SetRef setOf(const nlohmann::json &j) {
@@ -77,7 +70,7 @@ json RestartPlan::toJson() const {
                 {"dma_latency_fd", dma_latency_fd},
                 {"fallback", fallback},
                 {"error", error.message},
-                {"error_at", placeJson(error.place)},
+                {"error_at", protocol::placeJson(error.place)},
                 {"name", process_name.empty() ? ownName() : process_name}};
 }
 
@@ -196,7 +189,7 @@ void reportRestart(const RestartPlan &plan, int64_t first_period_ns, int64_t sta
                  {"requested_ns", plan.requested_ns},
                  {"fell_back", plan.fallback},
                  {"error", plan.fallback ? json(plan.error.message) : json(nullptr)},
-                 {"error_at", plan.fallback ? placeJson(plan.error.place) : json(nullptr)},
+                 {"error_at", plan.fallback ? protocol::placeJson(plan.error.place) : json(nullptr)},
                  {"stop_ns", plan.stop_ns},
                  {"startup_ns", startup_ns}};
     desk.started(startup_ns, std::move(last));

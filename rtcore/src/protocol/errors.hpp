@@ -18,6 +18,13 @@ inline void addPlace(nlohmann::ordered_json &out, const Place &place) {
     if (!place.field.empty()) out["field"] = place.field;
 }
 
+// The place's known fields as an object of their own (`status.last_restart.error_at`).
+inline nlohmann::ordered_json placeJson(const Place &place) {
+    nlohmann::ordered_json out = nlohmann::ordered_json::object();
+    addPlace(out, place);
+    return out;
+}
+
 // A place read back from such an object (the fields it lacks stay unknown).
 template <class Json>
 Place placeFrom(const Json &j) {

@@ -20,12 +20,7 @@ namespace {
 
 using json = nlohmann::ordered_json;
 
-std::string who(const config::ModuleSpec &m) { return m.where + ": module '" + m.name + "'"; }
-
-// An error about module m, at its line of module.xml: "<xml>:<line>: module 'm': what".
-Error about(const config::ModuleSpec &m, const std::string &what, std::string field = {}) {
-    return Error{who(m) + ": " + what, protocol::kRefused, Place{m.xml, m.line, 0, m.name, std::move(field)}};
-}
+using config::errorAbout;
 
 // Whether executor `name` is the same thread in both sets: the same priority and CPU.
 bool sameThread(const std::vector<dispatch::ExecutorOptions> &a, const std::vector<dispatch::ExecutorOptions> &b,
@@ -118,9 +113,9 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
     for (const config::ModuleSpec &m : set.modules) {
         std::error_code ec;
         if (!std::filesystem::is_regular_file(m.path, ec))
-            return about(m, "<filename> " + m.filename + " -> " + m.path.string() + " does not exist", "filename");
+            return errorAbout(m, "<filename> " + m.filename + " -> " + m.path.string() + " does not exist", "filename");
         if (m.type == config::ModuleType::Thread && m.operation == config::OperationType::NonReal)
-            return about(m,
+            return errorAbout(m,
                          "a non-real module runs in the time left over as a process: set "
                          "<moduletype>process</moduletype>",
                          "moduletype");
@@ -235,7 +230,7 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
     for (const config::ModuleSpec &m : spec.modules) {
         Member &member = next->members[static_cast<std::size_t>(m.index)];
         auto identity = hosts::identify(m.path);
-        if (!identity) return about(m, identity.error().message);
+        if (!identity) return errorAbout(m, identity.error().message);
         member.identity = identity->code;
         member.layout = identity->layout;
         if (!running) continue;
@@ -249,7 +244,7 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
         // the running instance addresses every variable where the new layout has it.
         if (!member.layout.empty() && model)
             if (std::string why = layouts::compatible(member.layout, *model); !why.empty())
-                return about(m, m.path.string() + ": " + why);
+                return errorAbout(m, m.path.string() + ": " + why);
         member.thread = running->members[o].thread;
         member.record = running->members[o].record;
         member.slot = running->members[o].slot;
@@ -380,7 +375,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         auto image = s_.cache->put(m.path);
         if (!image) {
             undo(*next);
-            return about(m, image.error().message);
+            return errorAbout(m, image.error().message);
         }
         member.sha256 = image->sha256;
         auto loaded = hosts::ThreadModule::load(m, model, image->image);
@@ -390,7 +385,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         }
         if (m.operation == config::OperationType::Sporadic && !(*loaded)->hasCondition()) {
             undo(*next);
-            return about(m, "a sporadic thread module needs condition() (extern \"C\" int condition(), or "
+            return errorAbout(m, "a sporadic thread module needs condition() (extern \"C\" int condition(), or "
                             "INDUROP_MODULE(condition = ...)), which the event handler calls every basic period");
         }
         member.layout = (*loaded)->builtLayout();
@@ -433,13 +428,13 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         auto free = std::find(slot_used.begin(), slot_used.end(), false);
         if (free == slot_used.end()) {
             undo(*next);
-            return about(m, "no free control slot (irpd has " + std::to_string(slot_used.size()) +
+            return errorAbout(m, "no free control slot (irpd has " + std::to_string(slot_used.size()) +
                                 "; the running set's processes keep theirs until the swap)");
         }
         auto sha = hosts::sha256File(m.path);
         if (!sha) {
             undo(*next);
-            return about(m, sha.error().message);
+            return errorAbout(m, sha.error().message);
         }
         member.sha256 = *sha;
         *free = true;

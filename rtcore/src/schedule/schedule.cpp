@@ -28,10 +28,9 @@ Result<Schedule> build(const config::SetSpec &set, const Limits &limits) {
         s.basic_ns = std::gcd(s.basic_ns, m->period_ns);
         int64_t factor = m->period_ns / std::gcd(s.macro_ns, m->period_ns);
         if (__builtin_mul_overflow(s.macro_ns, factor, &s.macro_ns))
-            return moduleError(set.xml_path.string(), m->line, m->name,
-                               "module '" + m->name +
-                                   "': the periods have no common multiple below 2^63 ns; choose harmonic periods",
-                               "period");
+            return Error{set.xml_path.string() + ":" + std::to_string(m->line) + ": module '" + m->name +
+                             "': the periods have no common multiple below 2^63 ns; choose harmonic periods",
+                         protocol::kRefused, Place{set.xml_path.string(), m->line, 0, m->name, "period"}};
         if (m->period_ns > longest->period_ns) longest = m;
     }
     if (s.basic_ns < limits.min_basic_ns)

@@ -113,7 +113,7 @@ def test_refusals_carry_a_code_the_spec_lists_for_the_command(irpd, name, argume
         irpd.request(name, timeout=60, **arguments)
     assert refused.value.code == code, str(refused.value)
     assert code in COMMANDS[name]["errors"]
-    error = refused.value.place  # the whole error object irpd sent
+    error = refused.value.error  # the whole error object irpd sent
     shape = Draft202012Validator({"$ref": "urn:indurop:control#/shapes/error"}, registry=REGISTRY)
     assert not list(shape.iter_errors(error)), error
 
@@ -128,8 +128,8 @@ def test_a_refusal_and_a_check_give_the_place_as_fields(irpd, tmp_path):
     where = {"file": str(bad), "line": line, "column": 5, "module": "cntr1", "field": "period"}
     with pytest.raises(IrpdRefused) as refused:
         irpd.request("load", timeout=60, config=str(bad))
-    assert {k: refused.value.place.get(k) for k in where} == where, refused.value.place
-    assert refused.value.place["message"].startswith(f"{bad}:{line}: module 'cntr1': <period>")
+    assert {k: refused.value.error.get(k) for k in where} == where, refused.value.error
+    assert refused.value.error["message"].startswith(f"{bad}:{line}: module 'cntr1': <period>")
     checked = answer_of(irpd, "check", config=str(bad))
     assert checked["valid"] is False
     assert checked["problems"][0]["message"] == checked["errors"][0]
@@ -139,4 +139,4 @@ def test_a_refusal_and_a_check_give_the_place_as_fields(irpd, tmp_path):
 def test_an_argument_refusal_names_the_argument_as_its_field(irpd):
     with pytest.raises(IrpdRefused) as refused:
         irpd.request("set_priority", timeout=60, module="cntr1", priority=-1)
-    assert refused.value.place.get("field") == "priority", refused.value.place
+    assert refused.value.error.get("field") == "priority", refused.value.error

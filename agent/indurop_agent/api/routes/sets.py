@@ -55,7 +55,7 @@ REFUSALS = {
 }
 
 
-def _located(request: Request, manifest: dict) -> dict:
+def _located(manifest: dict) -> dict:
     """The manifest with its validation's errors also as problems, for sets stored before the
     validation kept them (without places: checking the set again gives them)."""
     validation = manifest["validation"]
@@ -68,7 +68,7 @@ def _located(request: Request, manifest: dict) -> dict:
 
 
 def _public(request: Request, manifest: dict) -> SetPublic:
-    return SetPublic(**_located(request, manifest), active=manifest["id"] == request.app.state.store.active_id())
+    return SetPublic(**_located(manifest), active=manifest["id"] == request.app.state.store.active_id())
 
 
 def _store_error(e: StoreError) -> HTTPException:
@@ -132,7 +132,7 @@ def active_set(request: Request, _: ViewerDep) -> ActiveSet:
     if manifest is None:
         raise HTTPException(404, "no set has been activated through the agent yet; POST /api/v1/sets/{id}/activate")
     return ActiveSet(
-        **_located(request, manifest),
+        **_located(manifest),
         active=True,
         since=active["since"],
         action=active["action"],
@@ -165,17 +165,21 @@ async def check_set(set_id: str, request: Request, _: OperatorDep) -> SetPublic:
 
 def _run_swap(call, root=None):
     """`root`: the folder of the set being activated, so that a refusal can say where in it."""
+
+    def where(e: IrpdRefused) -> dict:
+        return place(e.error, root) if root is not None else {}
+
     try:
         return call()
     except StoreError as e:
         raise _store_error(e) from e
     except RestartFellBack as e:  # irpd restarted, and runs its old set again
-        raise LocatedError(409, str(e), **(place(e.place, root) if root is not None else {})) from e
+        raise LocatedError(409, str(e), **where(e)) from e
     except IrpdRefused as e:
         raise LocatedError(
             409,
             f"irpd refused the set and kept the running one: {e}",
-            **(place(e.place, root) if root is not None else {}),
+            **where(e),
         ) from e
     except IrpdUnavailable as e:
         raise HTTPException(503, str(e)) from e
