@@ -20,6 +20,7 @@ from pathlib import Path
 
 ROLES = ("viewer", "operator", "admin")
 ID_LENGTH = 12
+TOKEN_PREFIX = "irp_"
 
 
 def _hash(token: str) -> str:
@@ -71,8 +72,14 @@ class TokenStore:
             token = self._add_locked(name, role)
         return token, self.identify(token)
 
+    @staticmethod
+    def _mint() -> str:
+        """A new secret. The prefix names what it is (for secret scanners and for people) and
+        keeps it from starting with "-", which a command line would read as an option."""
+        return TOKEN_PREFIX + secrets.token_urlsafe(32)
+
     def _add_locked(self, name: str, role: str) -> str:
-        token = secrets.token_urlsafe(32)
+        token = self._mint()
         self._tokens[_hash(token)] = {"name": name, "role": role, "created": now_iso()}
         self._save()
         return token

@@ -182,6 +182,15 @@ def test_tokens_are_listed_without_secrets_and_revoked_by_id(agent):
     assert (line["action"], line["target"], line["name"], line["result"]) == ("token_revoke", new["id"], "hmi", "ok")
 
 
+def test_a_minted_token_never_reads_as_a_command_line_option():
+    """token_urlsafe starts with "-" one time in 32; irpctl --token would take it for an option."""
+    from indurop_agent.auth import TOKEN_PREFIX, TokenStore
+
+    tokens = [TokenStore._mint() for _ in range(200)]
+    assert all(t.startswith(TOKEN_PREFIX) and len(t) > 40 for t in tokens)
+    assert len(set(tokens)) == len(tokens)
+
+
 def test_the_last_admin_token_cannot_be_revoked(agent):
     listing = agent.client.get(f"{API}/tokens", headers=agent.h()).json()
     admin_id = next(t["id"] for t in listing if t["role"] == "admin")
