@@ -28,33 +28,57 @@ plcopen::AxisGroupRef robot = plcopen::bindAxisGroup(service, state);
 pou::Inputs inputs;
 pou::Outputs outputs;
 
-// The ErrorIDs module.xml declares: the robot's 1-8 and the blocks' 1001-1004 (docs/plc.md).
-constexpr int32_t kErrorIds[] = {1, 2, 3, 4, 5, 6, 7, 8, 1001, 1002, 1003, 1004};
-// The alarm raised now (0: none; -1: not known yet, e.g. after a hot reload of main.so, whose
-// source keeps the alarms the previous instance raised) and the last step the cycle was in.
-int32_t alarm_raised = -1;
+// The ErrorIDs module.xml declares: the robot's 1-8 and the blocks' 1001-1004 (docs/plc.md), and
+// the alarm that the cell waits for a reset.
+constexpr int32_t kCommLost = 8;
+constexpr int32_t kWaitsForReset = 1000;
+constexpr int32_t kAlarmIds[] = {1, 2, 3, 4, 5, 6, 7, 8, 1000, 1001, 1002, 1003, 1004};
+// The alarms raised now (0: none), and whether they are known: after a hot reload of main.so its
+// source keeps the alarms the previous instance raised, so the first scan clears the others.
+int32_t cause_raised = 0;
+bool waiting_raised = false;
+bool alarms_known = false;
 int32_t last_step = 0;
 char alarm_detail[48] = "";
 
-// Level style: while PLC_OUT.Error, the alarm of PLC_OUT.ErrorID is raised; it clears with the
-// error, i.e. after a reset.  Only the changes write a record (irp::raiseAlarm is RT-safe).
-void keepAlarms() {
+// An alarm shows a condition (ISA-18.2): it is active while the condition holds.
+//  - The cause: while PLC_OUT.Error, the alarm of PLC_OUT.ErrorID.  The PLC latches every error
+//    until a reset, and so does its alarm -- except ErrorID 8, whose condition the scan can see:
+//    alarm 8 is active while an I/O device of IO_STATUS does not answer, and clears when it
+//    answers again, though the PLC's error stays latched.
+//  - 1000 "waits for a reset": while PLC_OUT.Error and its cause has cleared.
+// Only the changes write a record (irp::raiseAlarm is RT-safe and allocates nothing).
+void keepAlarms(bool comm_lost) {
     if (outputs.Step != 0)
         last_step = outputs.Step;
     else if (!outputs.Error)
         last_step = 0;  // idle without an error: a later error is not that cycle's
-    const int32_t now = outputs.Error ? outputs.ErrorID : 0;
-    if (now == alarm_raised) return;
-    if (alarm_raised > 0) irp::clearAlarm(static_cast<uint32_t>(alarm_raised));
-    if (alarm_raised < 0)
-        for (int32_t id : kErrorIds)
-            if (id != now) irp::clearAlarm(static_cast<uint32_t>(id));
-    if (now > 0) {
-        std::snprintf(alarm_detail, sizeof alarm_detail, "PLC stopped in step %d of the cycle",
-                      static_cast<int>(last_step));
-        irp::raiseAlarm(static_cast<uint32_t>(now), last_step ? alarm_detail : nullptr, now);
+    const int32_t error = outputs.Error ? outputs.ErrorID : 0;
+    const int32_t cause = error == kCommLost && !comm_lost ? 0 : error;
+    const bool waiting = error != 0 && cause == 0;
+    if (!alarms_known) {
+        for (int32_t id : kAlarmIds)
+            if (id != cause && !(waiting && id == kWaitsForReset)) irp::clearAlarm(static_cast<uint32_t>(id));
+        cause_raised = 0;  // raised again below, with this instance's detail
+        waiting_raised = false;
+        alarms_known = true;
     }
-    alarm_raised = now;
+    if (cause != cause_raised) {
+        if (cause_raised > 0) irp::clearAlarm(static_cast<uint32_t>(cause_raised));
+        if (cause > 0) {
+            std::snprintf(alarm_detail, sizeof alarm_detail, "PLC stopped in step %d of the cycle",
+                          static_cast<int>(last_step));
+            irp::raiseAlarm(static_cast<uint32_t>(cause), last_step ? alarm_detail : nullptr, cause);
+        }
+        cause_raised = cause;
+    }
+    if (waiting != waiting_raised) {
+        if (waiting)
+            irp::raiseAlarm(static_cast<uint32_t>(kWaitsForReset), nullptr, error);  // value: the ErrorID
+        else
+            irp::clearAlarm(static_cast<uint32_t>(kWaitsForReset));
+        waiting_raised = waiting;
+    }
 }
 
 void printVector(const char *name, const std::array<double, plcopen::kAxes> &v) {
@@ -102,7 +126,10 @@ void POU_PROGRAM() {
     out.ErrorID = outputs.ErrorID;
     out.Cycles = outputs.Cycles;
     PLC_ROBOT::PLC_OUT = out;
-    keepAlarms();
+    const PLC_ROBOT::IO_STATUS_t io = PLC_ROBOT::IO_STATUS;  // one consistent copy
+    bool comm_lost = false;
+    for (short lost : io.comm_lost) comm_lost = comm_lost || lost != 0;
+    keepAlarms(comm_lost);
 }
 
 extern "C" void initialize(irp::Property const &property) {

@@ -157,6 +157,48 @@ def test_silent_drives_raise_comm_lost_and_stop_the_robot(tmp_path):
         cell.close()
 
 
+def test_silent_drives_raise_alarm_8_with_its_text_and_it_clears_when_they_answer_again(tmp_path):
+    """The drives stop answering for a while: the PLC's alarm 8 is active with module.xml's text
+    beside libiodispat's comm-lost alarm 100; when they answer again both clear (cleared,
+    unacknowledged), the PLC's error stays latched and alarm 1000 says the cell waits for a reset,
+    which clears it.  Read through the agent, as the browser sees them."""
+    cell = Cell(tmp_path, ["--fail-after", "12", "--fail-for", "4"])
+    port, data = free_port(), tmp_path / "data"
+    agent = start_agent(port, data, cell.sock)
+    try:
+        url = f"http://127.0.0.1:{port}{API}"
+        headers = {"Authorization": f"Bearer {(data / 'admin-token').read_text().strip()}"}
+
+        def alarm(key: str) -> dict:
+            listed = httpx.get(f"{url}/alarms", headers=headers, timeout=30).json()["alarms"]
+            return next((a for a in listed if a["key"] == key), {"active": False, "state": "normal"})
+
+        cell.write("PLC_IN.Enable", 1)
+        cell.wait(lambda: cell.read("PLC_OUT.Powered") == 1)
+        assert not alarm("main/8")["active"], "the drives answer: no alarm yet"
+        lost = cell.wait(lambda: (a := alarm("main/8"))["active"] and a, seconds=30, every=0.1)
+        assert lost["text"] == "Drive communication lost: the drives' I/O device does not answer"
+        assert (lost["severity"], lost["state"], lost["value"]) == ("high", "active_unacknowledged", 8)
+        assert cell.read("PLC_OUT.ErrorID") == 8
+        assert alarm("libiodispat/100")["active"], "the I/O alarm with the cause is beside it"
+
+        back = cell.wait(lambda: (a := alarm("main/8"))["state"] == "cleared_unacknowledged" and a, seconds=30)
+        assert back["cleared"] is not None and not back["active"]
+        assert alarm("libiodispat/100")["state"] == "cleared_unacknowledged"
+        assert cell.read("PLC_OUT.Error") == 1 and cell.read("PLC_OUT.ErrorID") == 8, "the PLC's error stays latched"
+        waits = cell.wait(lambda: (a := alarm("main/1000"))["active"] and a, seconds=5)
+        assert waits["value"] == 8 and "Reset" in waits["text"]
+
+        cell.write("PLC_IN.Reset", 1)
+        cell.wait(lambda: cell.read("PLC_OUT.Error") == 0)
+        cell.write("PLC_IN.Reset", 0)
+        assert cell.wait(lambda: alarm("main/1000")["state"] == "cleared_unacknowledged", seconds=5)
+        assert alarm("main/8")["state"] == "cleared_unacknowledged", "a reset is no acknowledgement"
+    finally:
+        stop(agent)
+        cell.close()
+
+
 def test_the_agent_and_irpctl_read_the_io_status_struct_leaf_by_leaf(cell, tmp_path, capsys):
     """A struct's path (the I/O dispatcher's IO_STATUS) answers every leaf of it, in layout order."""
     port, data = free_port(), tmp_path / "data"
