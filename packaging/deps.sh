@@ -16,7 +16,8 @@ packages=(
   qemu-system-x86 busybox-static file            # SocketCAN on vcan in a small guest (tests/vcan/)
   googletest libgtest-dev                        # C++ tests
   rt-tests                                       # cyclictest: the benchmark's reference
-  stress-ng                                      # the soak's load on the other CPU (tests/bench/soak.py)
+  stress-ng                                      # the soak's and io_load's load on the other CPU (tests/bench/)
+  tcpdump                                        # the Modbus transactions' times on the wire (tests/bench/io_load.py)
   clang libclang-rt-14-dev llvm                  # the fuzz targets: libFuzzer, ASan + UBSan, llvm-symbolizer, llvm-cov (tests/fuzz/)
   clang-format                                   # the C++ formatting check (tests/lint.sh, .clang-format)
   util-linux                                     # setpriv, prlimit: the non-RT fallback test

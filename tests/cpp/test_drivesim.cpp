@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include <sched.h>
+
 #include <cmath>
 
 using namespace irp::drivesim;
@@ -327,9 +329,32 @@ TEST(DriveSim, ExitsCleanlyOnSigterm) {
     EXPECT_NE(sim.out().find("indurop-drivesim: stopped"), std::string::npos) << sim.out();
 }
 
+// A drive answers from a CPU of its own; --rt-priority gives the simulator the nearest thing on a
+// shared machine.  Where SCHED_FIFO is not permitted it says so and answers as a normal process.
+TEST(DriveSim, RtPriorityRunsItAtSchedFifoOrSaysWhyNot) {
+    DriveSim sim({"--rt-priority", "7"});
+    ModbusClient c(sim.port());
+    c.write(regs::kLoopback, {5});
+    EXPECT_EQ(c.input1(regs::kLoopback), 5);
+    sched_param param{};
+    if (sched_getscheduler(sim.pid()) == SCHED_FIFO) {
+        ASSERT_EQ(sched_getparam(sim.pid(), &param), 0);
+        EXPECT_EQ(param.sched_priority, 7);
+        EXPECT_EQ(sim.err().find("--rt-priority"), std::string::npos) << sim.err();
+    } else {
+        EXPECT_NE(sim.err().find("--rt-priority 7: "), std::string::npos) << sim.err();
+        EXPECT_NE(sim.err().find("running as a normal process"), std::string::npos) << sim.err();
+    }
+}
+
 TEST(DriveSim, RefusesBadOptions) {
-    for (const std::vector<std::string> &args : std::vector<std::vector<std::string>>{
-             {"--axes", "0"}, {"--axes", "33"}, {"--host", "localhost"}, {"--max-velocity", "1,2"}, {"--bogus"}}) {
+    for (const std::vector<std::string> &args : std::vector<std::vector<std::string>>{{"--axes", "0"},
+                                                                                      {"--axes", "33"},
+                                                                                      {"--host", "localhost"},
+                                                                                      {"--max-velocity", "1,2"},
+                                                                                      {"--rt-priority", "0"},
+                                                                                      {"--rt-priority", "100"},
+                                                                                      {"--bogus"}}) {
         testing_support::TempDir dir;
         std::vector<std::string> argv{DRIVESIM_PATH, "--port", "0"};
         argv.insert(argv.end(), args.begin(), args.end());

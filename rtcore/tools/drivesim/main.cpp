@@ -16,6 +16,7 @@
 #include <arpa/inet.h>
 #include <getopt.h>
 #include <netinet/in.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/select.h>
 #include <sys/socket.h>
@@ -58,6 +59,7 @@ struct Options {
     double fail_after = -1;        // s, < 0: never
     double fail_for = -1;          // s, < 0: for ever
     double comm_timeout_ms = 100;  // 0: no comm watchdog
+    int rt_priority = 0;           // 0: a normal process
     bool quiet = false;
 };
 
@@ -77,6 +79,9 @@ const char *kUsage =
     "  --fail-for S              ...and answer again S seconds later (default: never)\n"
     "  --comm-timeout MS         no write from the master for MS ms: every axis quick-stops and faults,\n"
     "                            error 0x8130 (a drive's fieldbus watchdog; default 100, 0: none)\n"
+    "  --rt-priority P            run at SCHED_FIFO P (1..99), as a drive answers from a CPU of its own:\n"
+    "                            on a loaded machine a normal process answers up to a scheduler tick\n"
+    "                            late (docs/io-load.md); not permitted: a warning, a normal process\n"
     "  --quiet                   print only the listening line and errors\n"
     "Prints \"indurop-drivesim: listening on HOST:PORT\" when ready; SIGTERM or SIGINT end it cleanly.\n";
 
@@ -120,6 +125,7 @@ Options parse(int argc, char **argv) {
         kFailAfter,
         kFailFor,
         kCommTimeout,
+        kRtPriority,
         kQuiet,
         kHelp
     };
@@ -135,6 +141,7 @@ Options parse(int argc, char **argv) {
                                    {"fail-after", required_argument, nullptr, kFailAfter},
                                    {"fail-for", required_argument, nullptr, kFailFor},
                                    {"comm-timeout", required_argument, nullptr, kCommTimeout},
+                                   {"rt-priority", required_argument, nullptr, kRtPriority},
                                    {"quiet", no_argument, nullptr, kQuiet},
                                    {"help", no_argument, nullptr, kHelp},
                                    {nullptr, 0, nullptr, 0}};
@@ -178,6 +185,12 @@ Options parse(int argc, char **argv) {
             o.comm_timeout_ms = number("--comm-timeout", optarg);
             if (o.comm_timeout_ms < 0) usage("--comm-timeout: expected 0 (none) or a number of ms");
             break;
+        case kRtPriority: {
+            double p = number("--rt-priority", optarg);
+            if (p < 1 || p > 99 || p != std::floor(p)) usage("--rt-priority: expected 1..99");
+            o.rt_priority = static_cast<int>(p);
+            break;
+        }
         case kQuiet: o.quiet = true; break;
         case kHelp: std::fputs(kUsage, stdout); std::exit(0);
         default: usage(std::string("unknown option or missing value: ") + name);
@@ -313,6 +326,13 @@ int main(int argc, char **argv) {
     sigaction(SIGTERM, &sa, nullptr);  // no SA_RESTART: select() returns EINTR
     sigaction(SIGINT, &sa, nullptr);
     signal(SIGPIPE, SIG_IGN);
+    if (o.rt_priority > 0) {
+        sched_param param{};
+        param.sched_priority = o.rt_priority;
+        if (sched_setscheduler(0, SCHED_FIFO, &param) != 0)
+            std::fprintf(stderr, "indurop-drivesim: --rt-priority %d: %s; running as a normal process\n", o.rt_priority,
+                         std::strerror(errno));
+    }
 
     modbus_t *ctx = modbus_new_tcp(o.host.c_str(), o.port);
     if (!ctx) return std::fprintf(stderr, "indurop-drivesim: modbus_new_tcp: %s\n", modbus_strerror(errno)), 1;
