@@ -252,6 +252,14 @@ def main() -> int:
                 start_new_session=True,
             ))  # fmt: skip
         procs.extend(load)
+        if not a.no_browser:  # the pages are open, or the run is not the one asked for
+
+            def opened() -> bool:
+                return "pages are open" in (work / "browser.log").read_text()
+
+            within(120, lambda: opened() or load[-1].poll() is not None)
+            if not opened():
+                raise RuntimeError(f"chromium's pages did not open: {(work / 'browser.log').read_text()[-2000:]}")
 
         # Every second: iodispat's counts, the simulator's run-queue wait, the steal time.
         samples = []
@@ -296,6 +304,11 @@ def main() -> int:
             if e.get("event") == "raise" and (e.get("key", "").endswith("/100") or e.get("key") == "main/8")
         ]  # fmt: skip
         sim_policy = policy(sim)
+        if not a.no_browser:
+            try:
+                load[-1].wait(timeout=60)  # it ends by itself after its SECONDS and prints its figures
+            except subprocess.TimeoutExpired:
+                pass
         for p in load:
             os.killpg(p.pid, signal.SIGTERM) if p.poll() is None else None
         for p in load:

@@ -59,7 +59,7 @@ def main() -> int:
         shutil.copytree(folder / "a", other)  # the same cell (same drive simulator port), another set id
         sets = [(xml, "cell-a"), (other / xml.name, "cell-b")]
         sock = folder / "irpd.sock"
-        irpd = start_irpd(sock, xml, f"restart-bench-{port}", drives_priority=10)
+        irpd = start_irpd(sock, xml, f"restart-bench-{port}")
         control = IrpdClient(str(sock), timeout_s=30)
         downtimes, expected, failed = [], [], []
         try:

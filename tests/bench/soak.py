@@ -213,7 +213,7 @@ def main() -> int:
         "--drives-priority",
         type=int,
         default=10,
-        help="SCHED_FIFO priority of the drive simulator (0: a normal process).  Real drives run on "
+        help="SCHED_FIFO priority of the drive simulator (0: as the cell's module.xml has it, 10).  Real drives run on "
         "their own CPUs; on the shared CPU the agent's load would starve the simulator and the "
         "robot stop with a following error or lost communication",
     )

@@ -53,7 +53,7 @@ def main(out: Path, config: Path) -> None:
     if cell:  # a copy with its drive simulator on a free port, patient with a loaded machine
         config, _ = copy_cell(work / "plc-robot")
     # chromium's load must not starve the simulated drives into a fault mid-test
-    irpd = start_irpd(sock, config, f"browser-{os.getpid()}", log=work / "irpd.log", drives_priority=10 if cell else 0)
+    irpd = start_irpd(sock, config, f"browser-{os.getpid()}", log=work / "irpd.log")
     agents, urls, tokens = [], {}, {}
     for viewer in ("viser", "meshcat"):
         port, vdata = free_port(), data / viewer

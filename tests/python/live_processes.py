@@ -111,13 +111,11 @@ def start_irpd(
     *extra: str,
     log: Path | None = None,
     module_output: bool = False,
-    drives_priority: int = 0,
 ) -> subprocess.Popen:
     """irpd running `config` with its control socket at `sock`; returns once the socket is there.
     Its stderr goes to `log` when given, else to a temporary file: output(p); its stdout (the
-    modules' irp::printf lines) too with module_output, else nowhere.  With drives_priority, the
-    cell's drive simulator runs at that SCHED_FIFO priority (drive_simulator_realtime; where that
-    is not permitted, a warning on stderr and a normal process)."""
+    modules' irp::printf lines) too with module_output, else nowhere.  The plc-robot cell's drive
+    simulator runs at the SCHED_FIFO priority its module.xml gives (--rt-priority)."""
     sock.unlink(missing_ok=True)
     out = _output_file(log)
     p = subprocess.Popen(
@@ -142,11 +140,6 @@ def start_irpd(
         assert p.poll() is None, output(p)
         assert time.monotonic() < deadline, "irpd did not open its control socket"
         time.sleep(0.02)
-    if drives_priority:
-        try:
-            drive_simulator_realtime(p.pid, drives_priority)
-        except RuntimeError as e:
-            print(f"live_processes: {e}; the drive simulator runs as a normal process", file=sys.stderr)
     return p
 
 
@@ -206,11 +199,11 @@ def start_agent(
 
 def drive_simulator_realtime(irpd_pid: int, priority: int) -> str:
     """Gives the drive simulator (irpd's process module, its child) SCHED_FIFO `priority` on the
-    CPUs it runs on, so that a loaded machine does not starve it (real drives have CPUs of their
-    own); returns what was done, for a report.  RuntimeError when it cannot (not found within
+    CPUs it runs on, another than the --rt-priority of the cell's module.xml (the soak's
+    --drives-priority); returns what was done, for a report.  RuntimeError when it cannot (not found within
     10 s, or not permitted)."""
     if priority <= 0:
-        return "a normal process"
+        return "as the cell's module.xml has it (--rt-priority)"
     deadline = time.monotonic() + 10
     while time.monotonic() < deadline:
         children = [c for t in Path(f"/proc/{irpd_pid}/task").glob("*/children") for c in t.read_text().split()]

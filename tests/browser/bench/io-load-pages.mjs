@@ -41,6 +41,7 @@ const frames = (page, ms) =>
 
 const robot = await open("#/robot");
 const variables = await open(`#/variables?plot=${encodeURIComponent(paths.join(","))}`);
+console.error("io-load-pages: the robot and variables pages are open");
 const ms = Number(seconds) * 1000;
 const [robotFrames, variablesFrames] = await Promise.all([frames(robot, ms), frames(variables, ms)]);
 await browser.close();

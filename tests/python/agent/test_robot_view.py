@@ -162,10 +162,9 @@ class Live:
         self.viewer = viewer
         self.folder = _cell_folder(tmp)
         self.sock, self.data = tmp / "irpd.sock", tmp / "data"
-        # the drive simulator at SCHED_FIFO: a loaded machine must not fault the drives mid-motion
-        self.irpd = start_irpd(
-            self.sock, self.folder / "module.xml", f"robot-view-{viewer}-{os.getpid()}", drives_priority=10
-        )
+        # the drive simulator runs at SCHED_FIFO (the cell's module.xml): a loaded machine must not
+        # fault the drives mid-motion
+        self.irpd = start_irpd(self.sock, self.folder / "module.xml", f"robot-view-{viewer}-{os.getpid()}")
         self.port = free_port()
         cfg = tmp / "agent.json"
         cfg.write_text(json.dumps({"irpd_poll_s": 0.2}))

@@ -39,7 +39,7 @@ class Cell:
         self.folder = tmp / "plc-robot"
         self.xml, self.port = copy_cell(self.folder, xml, extra_drivesim)
         self.sock = tmp / "irpd.sock"
-        self.irpd = start_irpd(self.sock, self.xml, f"cell-test-{id(self)}", drives_priority=10)
+        self.irpd = start_irpd(self.sock, self.xml, f"cell-test-{id(self)}")
         self.control = IrpdClient(str(self.sock), timeout_s=30)
         status = self.wait(self.status_once_dispatching)
         self.vars = Segment(status["shared_memory"]["variables"])
