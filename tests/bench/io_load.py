@@ -287,11 +287,7 @@ def main() -> int:
                 "plc_error": read("PLC_OUT.ErrorID") if read("PLC_OUT.Error") else 0,
             })  # fmt: skip
             prev = (errors, steal, sched)
-            if (
-                samples[-1]["plc_error"]
-                and not samples[-2:-1]
-                or (len(samples) > 1 and samples[-1]["plc_error"] and not samples[-2]["plc_error"])
-            ):
+            if samples[-1]["plc_error"] and (len(samples) == 1 or not samples[-2]["plc_error"]):
                 log(f"{samples[-1]['t']:.0f} s: the PLC stopped with ErrorID {samples[-1]['plc_error']}")
             if len(samples) % 60 == 0:
                 log(f"{len(samples) // 60} min: {read('IO_STATUS.errors[0]') - errors0} failed transactions")
