@@ -36,8 +36,10 @@ import dpkt
 import httpx
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "python"))
+import kernel_trace  # noqa: E402
 import live_processes  # noqa: E402
 from live_processes import BUILD, ROOT  # noqa: E402
+from rtbench.cyclictest import parse_cyclictest_hist  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "agent"))
 from indurop_agent.variables import Segment  # noqa: E402
@@ -158,6 +160,16 @@ def main() -> int:
     ap.add_argument("--no-stress", action="store_true")
     ap.add_argument("--no-browser", action="store_true")
     ap.add_argument("--drivesim-args", default=None, help="replace the set's drive simulator arguments (to compare)")
+    ap.add_argument(
+        "--kernel-trace",
+        action="store_true",
+        help="record the scheduler's events (ftrace) and explain each late answer; about 0.5 MB/s",
+    )
+    ap.add_argument(
+        "--no-cyclictest",
+        action="store_true",
+        help="without cyclictest at SCHED_FIFO 99 on the simulator's CPU (what the machine lets a woken thread wait)",
+    )
     ap.add_argument("--keep", action="store_true", help="keep the work folder (the capture, the logs)")
     ap.add_argument("--out-json", type=Path)
     ap.add_argument("--out-md", type=Path)
@@ -171,6 +183,7 @@ def main() -> int:
     seconds = int(a.minutes * 60)
     work = Path(tempfile.mkdtemp(prefix="indurop-io-load-"))
     procs: list[subprocess.Popen] = []
+    ktrace = None
     try:
         # The cell as shipped; only the simulator's port is a free one.
         cell = work / "plc-robot"
@@ -248,7 +261,9 @@ def main() -> int:
             load.append(subprocess.Popen(
                 ["node", str(ROOT / "tests" / "browser" / "bench" / "io-load-pages.mjs"), url, token,
                  str(seconds), *JOINTS[:3], f"{NS}PLC_OUT.Step"],
-                cwd=ROOT / "tests" / "browser", stdout=open(browser_out, "w"), stderr=open(work / "browser.log", "w"),
+                cwd=ROOT / "tests" / "browser",
+                # a browser is not pinned: it runs on every CPU, irpd's dispatcher's too
+                preexec_fn=lambda: os.sched_setaffinity(0, range(os.cpu_count() or 1)), stdout=open(browser_out, "w"), stderr=open(work / "browser.log", "w"),
                 start_new_session=True,
             ))  # fmt: skip
         procs.extend(load)
@@ -260,6 +275,19 @@ def main() -> int:
             within(120, lambda: opened() or load[-1].poll() is not None)
             if not opened():
                 raise RuntimeError(f"chromium's pages did not open: {(work / 'browser.log').read_text()[-2000:]}")
+
+        # The reference: how late the machine wakes the highest-priority thread on the simulator's CPU.
+        sim_cpu = int(cpus_allowed(sim).split(",")[0].split("-")[0])
+        if not a.no_cyclictest:
+            load.append(subprocess.Popen(
+                ["cyclictest", "-m", "-q", "-p", "99", "-i", "1000", "-a", str(sim_cpu), "-t", "1", "-D", str(seconds),
+                 "-h", "20000", f"--histfile={work / 'cyclictest.hist'}"],
+                stdout=subprocess.DEVNULL, stderr=open(work / "cyclictest.log", "w"), start_new_session=True,
+            ))  # fmt: skip
+        if a.kernel_trace:
+            ktrace = kernel_trace.KernelTrace(work / "sched.trace", sim)
+            ktrace.start()
+        realtime_offset = time.clock_gettime_ns(time.CLOCK_REALTIME) - time.clock_gettime_ns(time.CLOCK_MONOTONIC)
 
         # Every second: iodispat's counts, the simulator's run-queue wait, the steal time.
         samples = []
@@ -300,9 +328,9 @@ def main() -> int:
             if e.get("event") == "raise" and (e.get("key", "").endswith("/100") or e.get("key") == "main/8")
         ]  # fmt: skip
         sim_policy = policy(sim)
-        if not a.no_browser:
+        for p in load[1:] if not a.no_stress else load:  # cyclictest and the browser end by themselves
             try:
-                load[-1].wait(timeout=60)  # it ends by itself after its SECONDS and prints its figures
+                p.wait(timeout=60)  # and write their figures
             except subprocess.TimeoutExpired:
                 pass
         for p in load:
@@ -319,6 +347,10 @@ def main() -> int:
         tcpdump.wait(timeout=30)
         dropped = (work / "tcpdump.log").read_text()
 
+        if ktrace:
+            ktrace.stop()
+        hist = work / "cyclictest.hist"
+        ct = parse_cyclictest_hist(hist.read_text()) if hist.exists() and hist.stat().st_size else None
         tx = transactions(pcap, port)
         answered = [(r["answer"] - r["request"]) / 1e6 for r in tx if r["answer"] is not None]
         late = [r for r in tx if r["answer"] is None or (r["answer"] - r["request"]) / 1e6 > timeout_ms]
@@ -363,8 +395,36 @@ def main() -> int:
                 "all_max": max(s["steal_ms"] for s in samples) if samples else None,
                 "failing_seconds_p50": pct([s["steal_ms"] for s in bad_seconds], 0.5),
             },
+            "cyclictest": None
+            if ct is None
+            else {
+                "cpu": sim_cpu,
+                "samples": ct["count"],
+                "max_us": ct["max"],
+                "over_timeout": sum(n for us, n in ct["counts"].items() if us >= timeout_ms * 1000) + ct["overflows"],
+            },
             "tcpdump": dropped.strip().splitlines()[-3:],
         }
+        if ktrace:
+            windows = sorted(
+                (
+                    r["request"] - realtime_offset - 1_000_000,
+                    (r["answer"] or r["request"] + 20_000_000) - realtime_offset + 1_000_000,
+                )
+                for r in late[:30]
+            )
+            wakeups, switches = kernel_trace.read(work / "sched.trace", sim, windows)
+            explained = kernel_trace.explain(late[:30], wakeups, switches, sim, realtime_offset)
+            woken_in_time = [e for e in explained if e.get("first_wakeup", {}).get("ms", 99) < 0.5 and "first_run" in e]
+            result["kernel"] = {
+                "trace_overruns": ktrace.overruns,
+                "explained": len(explained),
+                # woken at the request, yet a normal-priority task kept the CPU for milliseconds: the
+                # guest kernel preempts it at once for a SCHED_FIFO wake-up, so the virtual CPU did not run
+                "woken_in_time_run_late": len(woken_in_time),
+                "run_after": sorted({e["first_run"]["after"] for e in woken_in_time}),
+                "late": explained,
+            }
         print(json.dumps(result, indent=1))
         if a.out_json:
             a.out_json.write_text(json.dumps({**result, "samples": samples}, indent=1))
@@ -372,6 +432,8 @@ def main() -> int:
             a.out_md.write_text(markdown(result))
         return 0
     finally:
+        if ktrace:
+            ktrace.stop()  # never leave the machine tracing
         for p in procs:
             if p.poll() is None:
                 try:
@@ -405,6 +467,8 @@ def markdown(r: dict) -> str:
         ("… in the seconds with a failure: median", ms(r["sim_wait_ms_per_s"]["failing_seconds_p50"])),
         ("steal time per second: max; in the seconds with a failure: median",
          f"{ms(r['steal_ms_per_s']['all_max'])}; {ms(r['steal_ms_per_s']['failing_seconds_p50'])}"),
+        ("cyclictest (SCHED_FIFO 99, 1 ms) on the simulator's CPU: max; wake-ups later than the timeout",
+         "–" if not r["cyclictest"] else f"{r['cyclictest']['max_us'] / 1000:.3f} ms; {r['cyclictest']['over_timeout']} of {r['cyclictest']['samples']}"),
         ("PLC cycles completed", str(r["plc_cycles"])),
     ]  # fmt: skip
     return "| figure | value |\n| --- | --- |\n" + "".join(f"| {k} | {v} |\n" for k, v in rows)
