@@ -282,6 +282,34 @@ TEST(IoDispatModbus, SilentDeviceIsCommLostInTheCycleOfItsFirstTimeout) { silent
 
 TEST(IoDispatModbus, SilentDeviceIsCommLostInTheCycleOfItsThirdTimeoutInARow) { silentDevice(3); }
 
+// A device that stalls for two rounds and then answers: the answer to the request that timed out
+// is read back first and dropped, the stalled round sends nothing new, and the first round after
+// the stall succeeds.  Sending a new request first took the late answer for its own ("Invalid
+// data"), and one stall failed three rounds in a row: comm loss (docs/io-load.md).
+TEST(IoDispatModbus, ALateAnswerIsReadBackNotTakenForTheNextRequests) {
+    resetVariables();
+    DriveSim sim({"--quiet"});
+    TempDir dir;
+    LoadedModule io;
+    ASSERT_EQ(io.load(writeFile(dir, "io.xml",
+                                driveConfig(sim.port(), R"(timeout_ms="30" fail_limit="3" reconnect_ms="200")"))),
+              "");
+    auto run = [&] { io.run(); };
+    ASSERT_TRUE(cyclesUntil(run, [] { return IO_STATUS.comm_lost[0] == 0 && IO_STATUS.cycles > 2; }));
+    for (int k = 0; k < 3; ++k) io.run();
+    const uint32_t errors_before = IO_STATUS.errors[0];
+    ASSERT_EQ(kill(sim.pid(), SIGSTOP), 0);
+    io.run();  // times out: its answer is owed
+    io.run();  // the device still silent: this round fails too, and sends nothing
+    EXPECT_EQ(IO_STATUS.errors[0] - errors_before, 2u);
+    ASSERT_EQ(kill(sim.pid(), SIGCONT), 0);
+    for (int k = 0; k < 20; ++k) {
+        io.run();
+        ASSERT_EQ(IO_STATUS.comm_lost[0], 0) << "round " << k << " after the stall";
+    }
+    EXPECT_EQ(IO_STATUS.errors[0] - errors_before, 2u) << "every round after the stall succeeds";
+}
+
 TEST(IoDispatModbus, TheBudgetCutsAWaitShorterThanTheTimeout) {
     resetVariables();
     DriveSim sim({"--quiet", "--fail-after", "0"});  // connects (the kernel's backlog), never answers

@@ -9,6 +9,10 @@
 // Every wait is one libmodbus call with its response timeout set to min(timeout_ms, what is left
 // of the cycle's budget); the first failure ends the round.  A timeout counts towards fail_limit;
 // a broken connection (reset, refused, closed) or a failure while comm-lost is comm loss at once.
+// A request that timed out is still owed an answer: the next round first reads it (and drops it),
+// waiting as for a transaction, and sends nothing new until it came.  Sending first would take the
+// late answer for the new request's (libmodbus: "Invalid data") and owe one more: one stall of the
+// device then failed three rounds in a row (docs/io-load.md).
 // libmodbus allocates nothing after modbus_new_*; these calls are socket or tty syscalls.
 #include "modbus_device.hpp"
 
@@ -191,6 +195,7 @@ ModbusDevice::Outcome ModbusDevice::transact(CycleContext &ctx, Block &b, bool w
     }
     if (rc == b.count) return Outcome::Ok;
     const int e = rc < 0 ? errno : EMBBADDATA;
+    if (e == ETIMEDOUT) answer_owed_ = true;
     if (isException(e)) {
         // The device is there but refuses this block (a wrong address in ioconfig.xml?): an error,
         // not comm loss; the rest of the round goes on.
@@ -206,6 +211,14 @@ ModbusDevice::Outcome ModbusDevice::transact(CycleContext &ctx, Block &b, bool w
     }
     errno = e;
     return Outcome::Failed;
+}
+
+ModbusDevice::Outcome ModbusDevice::collectOwedAnswer(CycleContext &ctx) noexcept {
+    if (!arm(ctx)) return Outcome::Skipped;
+    uint8_t late[MODBUS_MAX_ADU_LENGTH];
+    if (modbus_receive_confirmation(mb_, late) < 0) return Outcome::Failed;  // still silent: errno says how
+    answer_owed_ = false;
+    return Outcome::Ok;
 }
 
 void ModbusDevice::applyFallbacks(CycleContext &ctx) noexcept {
@@ -282,6 +295,14 @@ void ModbusDevice::exchange(CycleContext &ctx) noexcept {
         }
         connected_ = true;
         dirty_ = false;
+        answer_owed_ = false;  // a new connection owes nothing
+    }
+    if (answer_owed_) {
+        switch (collectOwedAnswer(ctx)) {
+        case Outcome::Ok: break;
+        case Outcome::Skipped: ++skipped_; return;
+        case Outcome::Failed: fail(ctx, errno); return;
+        }
     }
     if (dirty_) {
         modbus_flush(mb_);  // a late answer to a timed-out request must not be taken for the next one

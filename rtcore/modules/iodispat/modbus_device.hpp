@@ -44,6 +44,7 @@ private:
 
     std::vector<Block> group(Direction direction, const VarTable &vars, channel::Handle &handle) const;
     bool arm(CycleContext &ctx) noexcept;  // sets the timeout; false: no time left
+    Outcome collectOwedAnswer(CycleContext &ctx) noexcept;
     Outcome transact(CycleContext &ctx, Block &b, bool write, bool &answered) noexcept;
     Outcome round(CycleContext &ctx) noexcept;
     void fail(CycleContext &ctx, int error) noexcept;
@@ -54,6 +55,7 @@ private:
     std::vector<Block> inputs_, outputs_;
     bool connected_ = false;
     bool dirty_ = false;           // a transaction failed: flush stale bytes before the next
+    bool answer_owed_ = false;     // a request timed out: its answer may still come (read before the next)
     bool outputs_known_ = false;   // the output blocks hold the device's values (read once at the first connect)
     int fails_ = 0;                // failed rounds in a row
     int64_t next_attempt_ns_ = 0;  // no connect attempt before this
