@@ -115,9 +115,9 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
             return errorAbout(m, "<filename> " + m.filename + " -> " + m.path.string() + " does not exist", "filename");
         if (m.type == config::ModuleType::Thread && m.operation == config::OperationType::NonReal)
             return errorAbout(m,
-                         "a non-real module runs in the time left over as a process: set "
-                         "<moduletype>process</moduletype>",
-                         "moduletype");
+                              "a non-real module runs in the time left over as a process: set "
+                              "<moduletype>process</moduletype>",
+                              "moduletype");
     }
     if (Status st = dispatch::checkExecutors(dispatch::executorsOf(set, s_.dispatcher)); !st) return st.error();
     std::size_t processes = 0;
@@ -378,7 +378,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         if (m.operation == config::OperationType::Sporadic && !(*loaded)->hasCondition()) {
             undo(*next);
             return errorAbout(m, "a sporadic thread module needs condition() (extern \"C\" int condition(), or "
-                            "INDUROP_MODULE(condition = ...)), which the event handler calls every basic period");
+                                 "INDUROP_MODULE(condition = ...)), which the event handler calls every basic period");
         }
         member.layout = (*loaded)->builtLayout();
         member.thread = std::move(*loaded);
@@ -420,7 +420,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         if (free == slot_used.end()) {
             undo(*next);
             return errorAbout(m, "no free control slot (irpd has " + std::to_string(slot_used.size()) +
-                                "; the running set's processes keep theirs until the swap)");
+                                     "; the running set's processes keep theirs until the swap)");
         }
         auto sha = hosts::sha256File(m.path);
         if (!sha) {
