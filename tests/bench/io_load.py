@@ -64,21 +64,6 @@ def within(seconds: float, condition) -> bool:
     return False
 
 
-def child_named(parent: int, name: bytes, seconds: float = 10) -> int:
-    """The pid of `parent`'s child whose program is `name`."""
-    deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline:
-        for task in Path(f"/proc/{parent}/task").glob("*/children"):
-            for child in task.read_text().split():
-                try:
-                    if name in Path(f"/proc/{child}/cmdline").read_bytes().split(b"\0")[0]:
-                        return int(child)
-                except OSError:
-                    pass
-        time.sleep(0.1)
-    raise RuntimeError(f"irpd's child {name.decode()} did not start within {seconds:g} s")
-
-
 def steal_ticks() -> int:
     """The machine's steal time so far (USER_HZ ticks, all CPUs): the hypervisor ran another guest."""
     return int(Path("/proc/stat").read_text().split("\n")[0].split()[8])
@@ -218,7 +203,7 @@ def main() -> int:
         )  # fmt: skip
         procs.append(irpd)
         os.sched_setaffinity(0, other)
-        sim = child_named(irpd.pid, b"drivesim")
+        sim = live_processes.child_named(irpd.pid, b"drivesim")
         agent_port = live_processes.free_port()
         agent = live_processes.start_agent(agent_port, work / "data", sock, log=work / "agent.log")
         procs.append(agent)
@@ -249,41 +234,47 @@ def main() -> int:
             f"cell cycling; irpd on CPU {a.cpu}, simulator pid {sim} ({policy(sim)}, CPUs {sim_cpus}), load on CPUs {sorted(other)}"
         )
 
-        load = []
+        # stress-ng runs until it is stopped; the browser and cyclictest end by themselves after
+        # `seconds` and write their figures.
+        stress = None
         if not a.no_stress:
-            load.append(subprocess.Popen(
+            stress = subprocess.Popen(
                 ["taskset", "-c", ",".join(map(str, sorted(other))), "stress-ng", "--cpu", str(len(other)),
                  "--vm", "1", "--vm-bytes", "128M", "--timeout", f"{seconds + 30}s", "--quiet"],
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
-            ))  # fmt: skip
+            )  # fmt: skip
+            procs.append(stress)
+        timed: list[subprocess.Popen] = []
         browser_out = work / "browser.json"
         if not a.no_browser:
-            load.append(subprocess.Popen(
+            browser = subprocess.Popen(
                 ["node", str(ROOT / "tests" / "browser" / "bench" / "io-load-pages.mjs"), url, token,
                  str(seconds), *JOINTS[:3], f"{NS}PLC_OUT.Step"],
                 cwd=ROOT / "tests" / "browser",
                 # a browser is not pinned: it runs on every CPU, irpd's dispatcher's too
-                preexec_fn=lambda: os.sched_setaffinity(0, range(os.cpu_count() or 1)), stdout=open(browser_out, "w"), stderr=open(work / "browser.log", "w"),
-                start_new_session=True,
-            ))  # fmt: skip
-        procs.extend(load)
-        if not a.no_browser:  # the pages are open, or the run is not the one asked for
+                preexec_fn=lambda: os.sched_setaffinity(0, range(os.cpu_count() or 1)),
+                stdout=open(browser_out, "w"), stderr=open(work / "browser.log", "w"), start_new_session=True,
+            )  # fmt: skip
+            procs.append(browser)
+            timed.append(browser)
 
             def opened() -> bool:
                 return "pages are open" in (work / "browser.log").read_text()
 
-            within(120, lambda: opened() or load[-1].poll() is not None)
-            if not opened():
+            within(120, lambda: opened() or browser.poll() is not None)
+            if not opened():  # the pages are open, or the run is not the one asked for
                 raise RuntimeError(f"chromium's pages did not open: {(work / 'browser.log').read_text()[-2000:]}")
 
         # The reference: how late the machine wakes the highest-priority thread on the simulator's CPU.
-        sim_cpu = int(cpus_allowed(sim).split(",")[0].split("-")[0])
+        sim_cpu = int(sim_cpus.split(",")[0].split("-")[0])
         if not a.no_cyclictest:
-            load.append(subprocess.Popen(
+            cyclictest = subprocess.Popen(
                 ["cyclictest", "-m", "-q", "-p", "99", "-i", "1000", "-a", str(sim_cpu), "-t", "1", "-D", str(seconds),
                  "-h", "20000", f"--histfile={work / 'cyclictest.hist'}"],
                 stdout=subprocess.DEVNULL, stderr=open(work / "cyclictest.log", "w"), start_new_session=True,
-            ))  # fmt: skip
+            )  # fmt: skip
+            procs.append(cyclictest)
+            timed.append(cyclictest)
         if a.kernel_trace:
             ktrace = kernel_trace.KernelTrace(work / "sched.trace", sim)
             ktrace.start()
@@ -324,15 +315,16 @@ def main() -> int:
         plc_cycles = read("PLC_OUT.Cycles")
         history = api.get("/alarms/history", params={"limit": 1000}).json()
         comm_alarms = [
-            e for e in history.get("transitions", history.get("items", []))
+            e for e in history["transitions"]
             if e.get("event") == "raise" and (e.get("key", "").endswith("/100") or e.get("key") == "main/8")
         ]  # fmt: skip
         sim_policy = policy(sim)
-        for p in load[1:] if not a.no_stress else load:  # cyclictest and the browser end by themselves
+        for p in timed:
             try:
-                p.wait(timeout=60)  # and write their figures
+                p.wait(timeout=60)
             except subprocess.TimeoutExpired:
                 pass
+        load = [p for p in (stress, *timed) if p is not None]
         for p in load:
             os.killpg(p.pid, signal.SIGTERM) if p.poll() is None else None
         for p in load:

@@ -197,27 +197,35 @@ def start_agent(
         time.sleep(0.05)
 
 
+def child_named(parent: int, name: bytes, seconds: float = 10) -> int:
+    """The pid of `parent`'s child whose program's path contains `name` (irpd's process modules
+    are its children); RuntimeError when none appears within `seconds`."""
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        for task in Path(f"/proc/{parent}/task").glob("*/children"):
+            for child in task.read_text().split():
+                try:
+                    if name in Path(f"/proc/{child}/cmdline").read_bytes().split(b"\0")[0]:
+                        return int(child)
+                except OSError:
+                    pass  # gone meanwhile
+        time.sleep(0.1)
+    raise RuntimeError(f"no child {name.decode()} of pid {parent} within {seconds:g} s")
+
+
 def drive_simulator_realtime(irpd_pid: int, priority: int) -> str:
     """Gives the drive simulator (irpd's process module, its child) SCHED_FIFO `priority` on the
     CPUs it runs on, another than the --rt-priority of the cell's module.xml (the soak's
-    --drives-priority); returns what was done, for a report.  RuntimeError when it cannot (not found within
-    10 s, or not permitted)."""
+    --drives-priority); returns what was done, for a report.  RuntimeError when it cannot (not
+    found within 10 s, or not permitted)."""
     if priority <= 0:
         return "as the cell's module.xml has it (--rt-priority)"
-    deadline = time.monotonic() + 10
-    while time.monotonic() < deadline:
-        children = [c for t in Path(f"/proc/{irpd_pid}/task").glob("*/children") for c in t.read_text().split()]
-        for child in children:
-            try:
-                if b"drivesim" in Path(f"/proc/{child}/cmdline").read_bytes().split(b"\0")[0]:
-                    os.sched_setscheduler(int(child), os.SCHED_FIFO, os.sched_param(priority))
-                    return f"SCHED_FIFO {priority}, CPUs {sorted(os.sched_getaffinity(int(child)))}"
-            except PermissionError as e:
-                raise RuntimeError(f"the drive simulator cannot run at SCHED_FIFO {priority}: {e}") from e
-            except OSError:
-                pass
-        time.sleep(0.1)
-    raise RuntimeError("the drive simulator (irpd's child indurop-drivesim) did not start within 10 s")
+    sim = child_named(irpd_pid, b"drivesim")
+    try:
+        os.sched_setscheduler(sim, os.SCHED_FIFO, os.sched_param(priority))
+    except PermissionError as e:
+        raise RuntimeError(f"the drive simulator cannot run at SCHED_FIFO {priority}: {e}") from e
+    return f"SCHED_FIFO {priority}, CPUs {sorted(os.sched_getaffinity(sim))}"
 
 
 def output(p: subprocess.Popen) -> str:
