@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import bisect
 import re
+import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -46,9 +47,15 @@ class KernelTrace:
     def _w(self, name: str, value: str) -> None:
         (TRACEFS / name).write_text(value)
 
-    def start(self) -> None:
-        import subprocess
+    def _r(self, name: str) -> str:
+        return (TRACEFS / name).read_text()
 
+    def start(self) -> None:
+        # what stop() puts back: the clock in brackets ("[local] global ..."), the buffer's real
+        # size ("7 (expanded: 1408)" before its first use)
+        self._clock = re.search(r"\[(\w+)\]", self._r("trace_clock")).group(1)
+        size = self._r("buffer_size_kb")
+        self._buffer_kb = (re.search(r"expanded: (\d+)", size) or re.match(r"(\d+)", size)).group(1)
         self._w("tracing_on", "0")
         self._w("trace", "")
         self._w("trace_clock", "mono")
@@ -69,14 +76,14 @@ class KernelTrace:
         self._w("events/sched/sched_switch/enable", "0")
         self._w("events/sched/sched_waking/filter", "0")
         self._w("events/sched/sched_switch/filter", "0")
-        self._w("trace_clock", "local")
+        self._w("trace_clock", self._clock)
         if self._reader:
             self._reader.terminate()
             self._reader.wait(timeout=10)
             self._reader = None
-        self._w("buffer_size_kb", "1408")
-        lost = [(c.name, (c / "stats").read_text()) for c in (TRACEFS / "per_cpu").iterdir()]
-        self.overruns = sum(int(m.group(1)) for _, s in lost for m in [re.search(r"overrun: (\d+)", s)] if m)
+        self._w("buffer_size_kb", self._buffer_kb)
+        stats = [(cpu / "stats").read_text() for cpu in (TRACEFS / "per_cpu").iterdir()]
+        self.overruns = sum(int(re.search(r"overrun: (\d+)", text).group(1)) for text in stats)
 
 
 @dataclass
