@@ -305,7 +305,7 @@ void ModbusDevice::exchange(CycleContext &ctx) noexcept {
         }
     }
     if (dirty_) {
-        modbus_flush(mb_);  // a late answer to a timed-out request must not be taken for the next one
+        modbus_flush(mb_);  // what else a failed transaction left: a partial or malformed answer
         dirty_ = false;
     }
     switch (round(ctx)) {

@@ -79,7 +79,7 @@ const char *kUsage =
     "  --fail-for S              ...and answer again S seconds later (default: never)\n"
     "  --comm-timeout MS         no write from the master for MS ms: every axis quick-stops and faults,\n"
     "                            error 0x8130 (a drive's fieldbus watchdog; default 100, 0: none)\n"
-    "  --rt-priority P            run at SCHED_FIFO P (1..99), as a drive answers from a CPU of its own:\n"
+    "  --rt-priority P           run at SCHED_FIFO P (1..99), as a drive answers from a CPU of its own:\n"
     "                            on a loaded machine a normal process answers up to a scheduler tick\n"
     "                            late (docs/io-load.md); not permitted: a warning, a normal process\n"
     "  --quiet                   print only the listening line and errors\n"
