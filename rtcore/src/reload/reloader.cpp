@@ -152,11 +152,10 @@ Status Reloader::checkRecordRoom(const Generation &next, const std::vector<dispa
     if (modules <= for_modules && needing.size() <= in_all) return Ok{};
     std::string list;
     for (const std::string &n : needing) list += (list.empty() ? "" : ", ") + n;
-    return Error{"no room in irpd's stats block for " + list + " (" + std::to_string(needing.size()) +
-                     " records needed, " + std::to_string(in_all) + " free of " +
-                     std::to_string(s_.stats->recordCount()) +
-                     " for dispatchers and modules; irpd's --module-records raises it): restart irpd onto this "
-                     "set, or with a larger --module-records",
+    return Error{"no room in irpd's stats block for " + list + " (" + std::to_string(needing.size()) + " needed, " +
+                     std::to_string(in_all) + " free of its " + std::to_string(s_.stats->recordCount()) +
+                     " records for dispatchers and modules; irpd's --module-records raises it): restart irpd onto "
+                     "this set, or with a larger --module-records",
                  protocol::kRestartRequired};
 }
 
