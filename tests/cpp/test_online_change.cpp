@@ -40,12 +40,13 @@ const fs::path kOnline = ONLINE_DIR;
 std::string layoutOf(const std::string &name) { return (kOnline / ("oc_" + name) / "layout.json").string(); }
 
 std::string thread(const std::string &name, const std::string &file, const fs::path &dir, int priority = 1,
-                   const std::string &extra = "") {
+                   const std::string &extra = "", int64_t period_ns = 1'000'000) {
     return "  <module><name>" + name + "</name><filename>" + (kOnline / "modules" / file).string() +
            "</filename><moduletype>thread</moduletype><operationtype>periodic</operationtype>"
-           "<period>1000000</period><priority>" +
-           std::to_string(priority) + "</priority><property><value name=\"journal\">" +
-           (dir / (name + ".log")).string() + "</value></property>" + extra + "</module>\n";
+           "<period>" +
+           std::to_string(period_ns) + "</period><priority>" + std::to_string(priority) +
+           "</priority><property><value name=\"journal\">" + (dir / (name + ".log")).string() + "</value></property>" +
+           extra + "</module>\n";
 }
 
 std::string process(const std::string &name, const std::string &file) {
@@ -367,6 +368,13 @@ std::map<std::string, int> executorThreads(pid_t pid) {
     return threads;
 }
 
+// The kernel id of irpd's thread for executor `name` ("irp@<name>"), or 0 when there is none.
+pid_t executorTid(pid_t pid, const std::string &name) {
+    for (const auto &task : fs::directory_iterator("/proc/" + std::to_string(pid) + "/task"))
+        if (readFile(task.path() / "comm") == "irp@" + name + "\n") return std::stoi(task.path().filename());
+    return 0;
+}
+
 // The stats of the running generation's dispatchers, by executor name.
 std::map<std::string, json> dispatchers(Cell &cell) {
     std::map<std::string, json> by_name;
@@ -382,11 +390,13 @@ json moduleStats(Cell &cell, const std::string &name) {
     return nullptr;
 }
 
-// The v2 set: counter on main (kept from v1), adder on executor `side` (its priority and CPU).
-std::string withSide(Cell &cell, int rt_priority = 0, int cpu = -1) {
-    return cell.writeSet("side.xml", "v2",
-                         executor("side", rt_priority, cpu) + thread("counter", "oc_counter_v2.so", cell.dir.path) +
-                             thread("adder", "oc_adder_v2.so", cell.dir.path, 2, "<executor>side</executor>"));
+// The v2 set: counter on main (kept from v1), adder on executor `side` (its priority and CPU, and
+// the adder's period, which is side's basic period).
+std::string withSide(Cell &cell, int rt_priority = 0, int cpu = -1, int64_t adder_period_ns = 1'000'000) {
+    return cell.writeSet(
+        "side.xml", "v2",
+        executor("side", rt_priority, cpu) + thread("counter", "oc_counter_v2.so", cell.dir.path) +
+            thread("adder", "oc_adder_v2.so", cell.dir.path, 2, "<executor>side</executor>", adder_period_ns));
 }
 
 }  // namespace
@@ -395,6 +405,8 @@ TEST(OnlineChange, AnExecutorIsAddedItsThreadStartsBeforeTheSwapAndRunsTheNewMod
     Cell cell;
     settle();
     EXPECT_EQ(executorThreads(cell.irpd->pid()).count("side"), 0u);
+    const uint64_t counted = cell.u64("oc.counter");
+    EXPECT_GT(counted, 0u);
     const json checked = cell.ask({{"cmd", "check"}, {"config", withSide(cell)}})["result"];
     EXPECT_EQ(checked["online"], true) << checked.dump();
     EXPECT_EQ(checked["warnings"], json::array()) << "on main's CPU, which non-RT work was kept off";
@@ -419,6 +431,7 @@ TEST(OnlineChange, AnExecutorIsAddedItsThreadStartsBeforeTheSwapAndRunsTheNewMod
     EXPECT_EQ(adder["executor"], "side");
     EXPECT_GT(adder["runs"].get<uint64_t>(), 50u);
     EXPECT_GT(cell.f64("oc.added"), 0.0) << "the module on the new executor writes its variable";
+    EXPECT_GT(cell.u64("oc.counter"), counted) << "the counter on main kept its value and went on counting";
     cell.expectCounterMissedNoPeriod();
 }
 
@@ -465,6 +478,29 @@ TEST(OnlineChange, AnExecutorWhosePriorityChangesGetsANewThread) {
     cell.expectCounterMissedNoPeriod();
 }
 
+TEST(OnlineChange, AnExecutorWhosePeriodChangesKeepsItsThreadAndRecordOnTheNewGrid) {
+    Cell cell;
+    ASSERT_TRUE(cell.load(withSide(cell))["ok"]);
+    settle();
+    const pid_t tid = executorTid(cell.irpd->pid(), "side");
+    ASSERT_NE(tid, 0);
+    const uint64_t side_runs = dispatchers(cell).at("side")["runs"];
+    const uint64_t adder_runs = moduleStats(cell, "adder")["runs"];
+    json answer = cell.load(withSide(cell, 0, -1, 2'000'000));
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    EXPECT_EQ(answer["result"]["kept"], json({"counter", "adder"}));
+    EXPECT_EQ(answer["result"]["started"], json::array());
+    EXPECT_EQ(executorTid(cell.irpd->pid(), "side"), tid) << "the same name, priority and CPU: the same thread";
+    settle();
+    const json side = dispatchers(cell).at("side");
+    EXPECT_EQ(side["period_ns"], 2'000'000) << "its basic period is the adder's new period";
+    EXPECT_GT(side["runs"].get<uint64_t>(), side_runs) << "its record goes on";
+    const json adder = moduleStats(cell, "adder");
+    EXPECT_EQ(adder["period_ns"], 2'000'000);
+    EXPECT_GT(adder["runs"].get<uint64_t>(), adder_runs + 50) << "the same instance goes on at 2 ms";
+    cell.expectCounterMissedNoPeriod();
+}
+
 TEST(OnlineChange, AnExecutorOnACpuIrpdMayNotUseIsRefusedAndNothingChanges) {
     Cell cell;
     const json generation = cell.generation();
@@ -483,13 +519,23 @@ TEST(OnlineChange, AnExecutorOnACpuIrpdMayNotUseIsRefusedAndNothingChanges) {
 
 TEST(OnlineChange, ANewExecutorWithoutAStatsRecordNamesTheOption) {
     Cell cell("", {"--module-records", "1"});
-    json refused = cell.load(
-        cell.writeSet("side.xml", "v1", executor("side") + thread("counter", "oc_counter_v1.so", cell.dir.path)));
+    const json generation = cell.generation();
+    const std::string xml =
+        cell.writeSet("side.xml", "v1", executor("side") + thread("counter", "oc_counter_v1.so", cell.dir.path));
+    // The dry run says so before anything is loaded.
+    const json checked = cell.ask({{"cmd", "check"}, {"config", xml}})["result"];
+    EXPECT_EQ(checked["valid"], true) << checked.dump();
+    EXPECT_EQ(checked["online"], false) << checked.dump();
+    ASSERT_TRUE(checked["restart"].is_object()) << checked.dump();
+    EXPECT_NE(checked["restart"]["reason"].get<std::string>().find("--module-records"), std::string::npos)
+        << checked.dump();
+    json refused = cell.load(xml);
     ASSERT_FALSE(refused.value("ok", true));
     EXPECT_EQ(refused["error"]["code"], "restart_required") << refused.dump();
     const std::string message = refused["error"]["message"];
     EXPECT_NE(message.find("executor 'side'"), std::string::npos) << message;
     EXPECT_NE(message.find("--module-records"), std::string::npos) << message;
+    EXPECT_EQ(cell.generation(), generation);
     EXPECT_EQ(executorThreads(cell.irpd->pid()).count("side"), 0u);
     cell.expectCounterMissedNoPeriod();
 }

@@ -132,6 +132,33 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
     return Ok{};
 }
 
+// Room in the stats block for what a swap adds, before anything is loaded: realize() takes a record
+// for each new module (past the records irpd started with for its executors), then the
+// dispatcher's prepare() one for each new executor thread (any free record).  Records of what the
+// swap stops are freed only after it.
+Status Reloader::checkRecordRoom(const Generation &next, const std::vector<dispatch::ExecutorOptions> &threads,
+                                 const std::vector<dispatch::ExecutorOptions> &running_threads) const {
+    if (!s_.stats) return Ok{};
+    std::vector<std::string> needing;
+    std::size_t modules = 0;
+    for (const config::ModuleSpec &m : next.set.modules)
+        if (!next.members[static_cast<std::size_t>(m.index)].kept) {
+            needing.push_back("module '" + m.name + "'");
+            ++modules;
+        }
+    for (const dispatch::ExecutorOptions &e : threads)
+        if (!sameThread(threads, running_threads, e.name)) needing.push_back("executor '" + e.name + "'");
+    const std::size_t for_modules = s_.stats->countUnused(s_.executors), in_all = s_.stats->countUnused(1);
+    if (modules <= for_modules && needing.size() <= in_all) return Ok{};
+    std::string list;
+    for (const std::string &n : needing) list += (list.empty() ? "" : ", ") + n;
+    return Error{"no room in irpd's stats block for " + list + " (" + std::to_string(needing.size()) + " needed, " +
+                     std::to_string(in_all) + " free of its " + std::to_string(s_.stats->recordCount()) +
+                     " records for dispatchers and modules; irpd's --module-records raises it): restart irpd onto "
+                     "this set, or with a larger --module-records",
+                 protocol::kRestartRequired};
+}
+
 json Reloader::check(const std::filesystem::path &xml) const {
     json errors = json::array(), problems = json::array(), warnings = json::array(), schedule_json = nullptr,
          variables = nullptr, restart = nullptr, modules = nullptr;
@@ -282,6 +309,9 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
                              protocol::kRestartRequired};
             }
         }
+
+    if (running)
+        if (Status st = checkRecordRoom(*next, threads, running_threads); !st) return st.error();
 
     // Estimated utilization per executor: measured exec p99 of kept modules, budget of new ones.
     Estimate own;

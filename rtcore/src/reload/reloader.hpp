@@ -132,6 +132,10 @@ private:
     Result<nlohmann::ordered_json> swap(std::unique_ptr<Generation> next, int64_t requested_ns);
     // out (optional) gets the set's layout and its diff against the segment's.
     Status checkAgainst(const config::SetSpec &set, const Generation *running, Generation *out = nullptr) const;
+    // Free stats records for next's new modules and new executor threads (`threads` against
+    // `running_threads`); restart_required naming them and --module-records when short.
+    Status checkRecordRoom(const Generation &next, const std::vector<dispatch::ExecutorOptions> &threads,
+                           const std::vector<dispatch::ExecutorOptions> &running_threads) const;
     void retire(const Generation &old, const Generation &next);
     void undo(Generation &partial);
 

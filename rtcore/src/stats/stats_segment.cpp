@@ -63,4 +63,10 @@ std::optional<std::size_t> StatsSegment::findUnused(std::size_t from) const {
     return std::nullopt;
 }
 
+std::size_t StatsSegment::countUnused(std::size_t from) const {
+    std::size_t n = 0;
+    for (std::size_t i = from; i < recordCount(); ++i) n += record(i).kind == RecordKind::Unused;
+    return n;
+}
+
 }  // namespace irp::stats

@@ -32,6 +32,8 @@ public:
     void release(std::size_t i);
     // The first unused record at or after `from`.
     std::optional<std::size_t> findUnused(std::size_t from) const;
+    // How many records at or after `from` are unused.
+    std::size_t countUnused(std::size_t from) const;
 
 private:
     osal::SharedMemory shm_;
