@@ -644,3 +644,54 @@ TEST_F(Trace, TheTraceCommandDescribesConfiguresAndRefuses) {
     error(json{{"channels", {"t.i16"}}}, nullptr, "no shared variables");
     EXPECT_TRUE(trace::handleTraceCommand(r, nullptr, json{{"channels", json::array()}}).ok());
 }
+
+TEST_F(Trace, TwoOwnersAreTracedAsTheUnionAndEachWithdrawsOnlyItsOwn) {
+    TraceRings r = rings();
+    auto paths = [](const json &answer) {
+        std::vector<std::string> out;
+        for (const auto &c : answer["channels"]) out.push_back(c["path"].get<std::string>());
+        return out;
+    };
+    auto agent = r.configureFor("agent", {"t.i16", "t.s.x"}, &*vars_);
+    ASSERT_TRUE(agent.ok()) << agent.error().message;
+    auto dds = r.configureFor("dds", {"t.s.x", "t.f64"}, &*vars_);
+    ASSERT_TRUE(dds.ok()) << dds.error().message;
+    EXPECT_EQ(paths(*dds), (std::vector<std::string>{"t.i16", "t.s.x", "t.f64"}));  // shared once, in place
+    EXPECT_EQ((*dds)["owners"]["dds"], (json{"t.s.x", "t.f64"}));
+    EXPECT_EQ((*dds)["owners"]["agent"], (json{"t.i16", "t.s.x"}));
+
+    // The agent asks anew: the bridge's channels stay, the agent's order does not move them.
+    auto again = r.configureFor("agent", {"t.u32", "t.i16"}, &*vars_);
+    ASSERT_TRUE(again.ok()) << again.error().message;
+    EXPECT_EQ(paths(*again), (std::vector<std::string>{"t.i16", "t.s.x", "t.f64", "t.u32"}));
+
+    // A refusal (a path of its own unknown, or the union over 64) changes nobody's request.
+    auto bad = r.configureFor("dds", {"t.f64", "t.nothing"}, &*vars_);
+    ASSERT_FALSE(bad.ok());
+    EXPECT_NE(bad.error().message.find("no variable 't.nothing'"), std::string::npos) << bad.error().message;
+    std::vector<std::string> many;
+    for (int i = 0; i < 62; ++i) many.push_back("t.many[" + std::to_string(i) + "]");
+    auto over = r.configureFor("dds", many, &*vars_);
+    ASSERT_FALSE(over.ok());
+    EXPECT_NE(over.error().message.find("'dds' asks for 62 channels; with every owner's (agent: 2, dds: 62) 64"),
+              std::string::npos)
+        << over.error().message;
+    EXPECT_EQ(paths(r.describe()), (std::vector<std::string>{"t.i16", "t.s.x", "t.f64", "t.u32"}));
+    auto twice = r.configureFor("dds", {"t.f64", "t.f64"}, &*vars_);
+    ASSERT_FALSE(twice.ok());
+    EXPECT_NE(twice.error().message.find("'t.f64' is listed twice"), std::string::npos);
+
+    // The bridge withdraws: only the agent's channels stay.
+    auto gone = r.configureFor("dds", {}, &*vars_);
+    ASSERT_TRUE(gone.ok());
+    EXPECT_EQ(paths(*gone), (std::vector<std::string>{"t.i16", "t.u32"}));
+    EXPECT_FALSE((*gone)["owners"].contains("dds"));
+
+    // Through the command: "owner" names who asks, and without it the request is the agent's.
+    auto byCommand = trace::handleTraceCommand(r, &*vars_, json{{"channels", {"t.b"}}, {"owner", "dds"}});
+    ASSERT_TRUE(byCommand.ok());
+    EXPECT_EQ((*byCommand)["owners"]["dds"], (json{"t.b"}));
+    auto legacy = trace::handleTraceCommand(r, &*vars_, json{{"channels", json::array()}});
+    ASSERT_TRUE(legacy.ok());
+    EXPECT_EQ(paths(*legacy), (std::vector<std::string>{"t.b"}));
+}

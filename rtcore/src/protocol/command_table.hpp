@@ -103,6 +103,7 @@ inline constexpr Arg kTraceChannelsEntries[] = {
 
 inline constexpr Arg kTraceArgs[] = {
     {"channels", ArgType::StringList, false, false, false, 0, 0, "a list of strings", kTraceChannelsEntries, 1, false},
+    {"owner", ArgType::String, false, true, true, 1, 63, "a non-empty string of at most 63 characters", nullptr, 0, false},
 };
 
 inline constexpr Command kCommands[kCommandCount] = {

@@ -18,14 +18,9 @@ Result<json> handleTraceCommand(TraceRings &rings, const variables::VariableSegm
             return Error{"\"channels\"[" + std::to_string(i) + "] is " + list[i].dump() + ", not a variable path"};
         paths.push_back(list[i].get<std::string>());
     }
-    Result<json> answer = Error{""};
-    if (vars)
-        answer = rings.configure(paths, *vars);
-    else if (paths.empty())
-        answer = rings.clear();
-    else
-        return Error{"the running set has no shared variables (no layout.json): '" + paths.front() +
-                     "' cannot be traced"};
+    auto owner = request.find("owner");
+    Result<json> answer =
+        rings.configureFor(owner != request.end() && owner->is_string() ? owner->get<std::string>() : "agent", paths, vars);
     if (!answer) return answer;
     if (!rings.waitApplied(rings.requestedGeneration(), kApplyWaitNs)) return answer;  // "applied": false
     return rings.describe();

@@ -10,6 +10,7 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <bit>
 #include <cerrno>
@@ -17,6 +18,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <new>
 #include <thread>
@@ -109,6 +111,7 @@ struct TraceRings::Control {
     std::unordered_map<std::string, Leaf> leaves;
     std::unordered_map<std::string, std::pair<std::string, uint64_t>> scalars;  // type -> kind, size
     std::vector<std::string> leaf_order;
+    std::map<std::string, std::vector<std::string>> owners;  // each reader's request (configureFor)
 };
 
 std::string TraceRings::shmName(const std::string &instance) { return "/indurop." + instance + ".trace"; }
@@ -259,6 +262,58 @@ Result<json> TraceRings::configure(const std::vector<std::string> &paths, const 
     return submit(std::move(channels));
 }
 
+Result<json> TraceRings::configureFor(const std::string &owner, const std::vector<std::string> &paths,
+                                      const variables::VariableSegment *vars) {
+    if (!header_) return Error{"trace rings: not created"};
+    for (std::size_t i = 0; i < paths.size(); ++i)
+        for (std::size_t j = 0; j < i; ++j)
+            if (paths[i] == paths[j]) return Error{"channel '" + paths[i] + "' is listed twice"};
+    std::map<std::string, std::vector<std::string>> owners;
+    std::vector<std::string> in_force;
+    {
+        std::lock_guard lock(control_->mutex);
+        owners = control_->owners;
+        for (const Resolved &r : control_->requested) in_force.push_back(r.path);
+    }
+    if (paths.empty())
+        owners.erase(owner);
+    else
+        owners[owner] = paths;
+    auto wanted = [&](const std::string &path) {
+        for (const auto &[who, list] : owners)
+            if (std::find(list.begin(), list.end(), path) != list.end()) return true;
+        return false;
+    };
+    std::vector<std::string> traced;
+    for (const std::string &path : in_force)
+        if (wanted(path)) traced.push_back(path);
+    for (const auto &[who, list] : owners)
+        for (const std::string &path : list)
+            if (std::find(traced.begin(), traced.end(), path) == traced.end()) traced.push_back(path);
+    if (traced.size() > kMaxChannels) {
+        std::string held;
+        for (const auto &[who, list] : owners)
+            held += (held.empty() ? "" : ", ") + who + ": " + std::to_string(list.size());
+        return Error{"'" + owner + "' asks for " + std::to_string(paths.size()) + " channels; with every owner's (" +
+                     held + ") " + std::to_string(traced.size()) + " would be traced, at most " +
+                     std::to_string(kMaxChannels) + " can be"};
+    }
+    Result<json> answer = Error{""};
+    if (vars)
+        answer = configure(traced, *vars);
+    else if (traced.empty())
+        answer = clear();
+    else
+        return Error{"the running set has no shared variables (no layout.json): '" + traced.front() +
+                     "' cannot be traced"};
+    if (!answer) return answer;
+    {
+        std::lock_guard lock(control_->mutex);
+        control_->owners = std::move(owners);
+    }
+    return describe();
+}
+
 Result<json> TraceRings::clear() {
     if (!header_) return Error{"trace rings: not created"};
     return submit({});
@@ -318,6 +373,7 @@ json TraceRings::describe() const {
                                  : json(nullptr)},
                 {"head", loadAcquire(header_->head)},
                 {"torn_skips", loadRelaxed(header_->torn_skips)},
+                {"owners", c.owners},
                 {"channels", std::move(channels)}};
 }
 

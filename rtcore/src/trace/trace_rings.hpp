@@ -58,8 +58,17 @@ public:
     Result<json> configure(const std::vector<std::string> &paths, const variables::VariableSegment &vars);
     // No channels (rows keep coming, with seq and time only).
     Result<json> clear();
+    // One reader's request (the agent's stream, the DDS bridge...): `paths` replace what `owner`
+    // asked for before (empty: withdrawn), and the union of every owner's request is traced, the
+    // channels traced already first and in their order, then the new ones.  Refused as configure()
+    // refuses (a path twice in one request, a union over 64 channels naming who holds them); a
+    // refusal leaves every owner's request and the channels in force as they were.  vars may be
+    // null (a set without shared variables): then only an empty union is accepted.
+    Result<json> configureFor(const std::string &owner, const std::vector<std::string> &paths,
+                              const variables::VariableSegment *vars);
     // {"shm", "capacity", "basic_period_ns", "generation", "applied", "from_seq", "head",
-    //  "torn_skips", "channels": [{"index", "path", "type"}]}: the last configuration asked for.
+    //  "torn_skips", "owners": {owner: [paths]}, "channels": [{"index", "path", "type"}]}: the last
+    //  configuration asked for.
     json describe() const;
     // The sampling period, published in the header for readers (set it again after a swap).
     void setBasicPeriod(int64_t ns) noexcept;
@@ -89,8 +98,8 @@ private:
     std::unique_ptr<Control> control_;
 };
 
-// The control protocol's `trace` command: {"channels": [paths]} configures (an empty list clears),
-// without "channels" it describes.  vars may be null (a set without shared variables: only an
+// The control protocol's `trace` command: {"channels": [paths], "owner": "agent"} sets that owner's
+// request (an empty list withdraws it; owner defaults to "agent"), without "channels" it describes.  vars may be null (a set without shared variables: only an
 // empty list is accepted).  Waits up to kApplyWaitNs for the sampler to take the new channels;
 // "applied" in the answer says whether it did.
 inline constexpr int64_t kApplyWaitNs = 200'000'000;
