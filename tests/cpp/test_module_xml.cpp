@@ -240,6 +240,14 @@ TEST(ModuleXml, ExecutorsAndBudgets) {
     EXPECT_EQ(set.modules[1].executor, "main");
 }
 
+TEST(ModuleXml, WritesDeclaresTheVariablesAModuleWrites) {
+    SetSpec set = accepted(document(periodic("a").line("<writes>knu.Robot.tick</writes>").line("<writes> joint[1].y </writes>"),
+                                    periodic("b")));
+    ASSERT_EQ(set.modules.size(), 2u);
+    EXPECT_EQ(set.modules[0].writes, (std::vector<std::string>{"knu.Robot.tick", "joint[1].y"}));
+    EXPECT_TRUE(set.modules[1].writes.empty());
+}
+
 TEST(ModuleXml, OverrunWatchdogTagsAndTheirDefaults) {
     Module process = periodic("p");
     process.set("moduletype", "process").set("filename", "./p.exe").set("on_overrun", "restart");
@@ -745,6 +753,13 @@ TEST(ModuleXmlBad, BudgetLongerThanPeriod) {
     const std::string text = document(periodic().set("budget", "100001"));
     EXPECT_TRUE(
         refusedAt(text, lineOf(text, "<budget>"), {"module 'cntr1'", "<budget>", "longer than the period 100000"}));
+}
+
+TEST(ModuleXmlBad, WritesEmptyOrTwice) {
+    const std::string empty = document(periodic().line("<writes> </writes>"));
+    EXPECT_TRUE(refusedAt(empty, lineOf(empty, "<writes>"), {"module 'cntr1'", "<writes>", "is empty"}));
+    const std::string twice = document(periodic().line("<writes>a.b</writes>").line("<writes>a.b</writes>"));
+    EXPECT_TRUE(refusedAt(twice, lineOf(twice, "<writes>a.b</writes>", 1), {"'a.b' is declared twice"}));
 }
 
 TEST(ModuleXmlBad, OnCrashUnknownValue) {

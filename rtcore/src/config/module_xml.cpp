@@ -342,7 +342,8 @@ private:
         if (pugi::xml_attribute a = node.first_attribute())
             defer(node, "unknown attribute '" + std::string(a.name()) + "' on <module>");
         std::map<std::string, pugi::xml_node> fields;
-        std::vector<pugi::xml_node> alarm_nodes;  // <alarm>: several allowed
+        std::vector<pugi::xml_node> alarm_nodes;   // <alarm>: several allowed
+        std::vector<pugi::xml_node> writes_nodes;  // <writes>: several allowed
         for (pugi::xml_node child : node.children()) {
             if (skippable(child)) continue;
             std::string tag = child.name();
@@ -351,12 +352,14 @@ private:
                 "name",     "budget",     "executor",      "on_overrun", "overrun_limit", "on_crash"};
             if (tag == "alarm")
                 alarm_nodes.push_back(child);
+            else if (tag == "writes")
+                writes_nodes.push_back(child);
             else if (!known.count(tag))
                 defer(child,
                       "unknown tag <" + tag +
                           "> in <module>; expected one of filename, moduletype, "
                           "operationtype, period, deadline, priority, property, name, budget, executor, on_overrun, "
-                          "overrun_limit, on_crash, alarm");
+                          "overrun_limit, on_crash, alarm, writes");
             else if (fields.count(tag))
                 defer(child, "<" + tag + "> appears twice in one <module>");
             else
@@ -476,6 +479,16 @@ private:
         overrunWatchdog(field("on_overrun"), field("overrun_limit"), m);
         if (pugi::xml_node props = field("property")) properties(props, m);
         for (pugi::xml_node a : alarm_nodes) alarm(a, m);
+        // <writes>PATH</writes>: a shared variable this module writes, declared so that a second
+        // writer (the DDS bridge's mapping, docs/dds.md) is refused when the set is loaded.
+        for (pugi::xml_node w : writes_nodes) {
+            std::string path = leafText(w, m.name);
+            if (path.empty())
+                failField(w, m.name, "writes", "is empty; name the shared variable the module writes, e.g. knu.Robot.tick");
+            if (std::find(m.writes.begin(), m.writes.end(), path) != m.writes.end())
+                failField(w, m.name, "writes", "'" + path + "' is declared twice");
+            m.writes.push_back(std::move(path));
+        }
         return m;
     }
 

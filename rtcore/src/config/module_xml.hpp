@@ -64,6 +64,7 @@ struct ModuleSpec {
     // `properties` when module.xml is read (a ModuleSpec made in code: parseProcessProperties).
     ProcessProperties process;
     std::vector<AlarmSpec> alarms;  // <alarm>s, in file order
+    std::vector<std::string> writes;  // <writes>: the shared variables it declares it writes (docs/dds.md)
     int index = 0;                  // position in the file (ties in priority go to the earlier one)
     int line = 0;                   // line of <module>
     std::string where;              // "path/module.xml:12", for messages
