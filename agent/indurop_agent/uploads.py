@@ -31,6 +31,8 @@ from starlette.exceptions import HTTPException
 from .elf_check import MissingSymbol, NotLoadable, check_executable, check_shared_object
 from .errors import LocatedError
 from .store import StagedFile
+from .dds import bridge_file
+from .dds.bridge_file import BRIDGE_JSON
 from .viewer.mapping import ROBOT_JSON, MappingError, check_against_urdf, parse_config
 from .viewer.urdf import UrdfError
 from .viewer.urdf import parse as parse_urdf
@@ -41,7 +43,7 @@ MAX_TAR_HEADER_BYTES = 64 << 10  # a pax or GNU long-name header larger than thi
 GZIP_TYPES = ("application/gzip", "application/x-gzip")
 ACCEPTED = (
     "module.xml (one, at the root), other .xml configs, .so thread modules and libraries, "
-    "the executables module.xml names, .glb, .urdf, .json (robot.json at the root: the 3D view's joint map), "
+    "the executables module.xml names, .glb, .urdf, .json (robot.json at the root: the 3D view's joint map; dds.json at the root: the DDS bridge's mapping), "
     ".stl/.dae/.obj meshes, .h, .txt, .md"
 )
 PERCENT_ESCAPE = re.compile(r"%[0-9A-Fa-f]{2}")
@@ -443,6 +445,7 @@ class ModuleRef:
     type: str  # thread | process
     line: int | None = None  # of its <filename> in module.xml
     column: int | None = None
+    writes: list[str] = field(default_factory=list)  # <writes>: the shared variables it declares it writes
 
 
 def _parse_xml(path: Path, shown: str, name: str):
@@ -539,6 +542,7 @@ def parse_module_xml(path: Path) -> ModuleXml:
                 kind if kind in ("thread", "process") else "thread" if filename.endswith(".so") else "process",
                 at(filename_node)["line"],
                 at(filename_node)["column"],
+                [(w.text or "").strip() for w in node.findall("writes")],
             )
         )
     layout_node = root.find("layout")
@@ -568,6 +572,8 @@ def _kind_by_name(path: str, source: Path) -> str | None:
         return "layout"
     if path == ROBOT_JSON:
         return "robot"
+    if path == BRIDGE_JSON:
+        return "bridge"
     return {
         ".so": "library",
         ".xml": "config",
@@ -649,7 +655,22 @@ def check_set(files: list[Received]) -> list[StagedFile]:
         staged.append(StagedFile(path, f.source, f.sha256, f.size, kind))
     if ROBOT_JSON in by_path:
         check_robot_json(by_path[ROBOT_JSON].source, {f.path: f for f in staged})
+    if BRIDGE_JSON in by_path:
+        layout_file = by_path.get(layout) if layout else None
+        check_bridge_json(by_path[BRIDGE_JSON].source, modules, layout_file.source if layout_file else None)
     return staged
+
+
+def check_bridge_json(source: Path, modules: list[ModuleRef], layout: Path | None) -> None:
+    """dds.json's shape, one mapping per topic, one writer per variable (a second subscription or a
+    module's <writes>), and, when the upload holds the layout, every mapped variable in it (docs/dds.md)."""
+    try:
+        bridge = bridge_file.parse(source.read_bytes())
+        bridge_file.check_writers(bridge, {m.name: m.writes for m in modules})
+        if layout is not None:
+            bridge_file.check_variables(bridge, bridge_file.layout_scalars(json.loads(layout.read_bytes())))
+    except bridge_file.BridgeFileError as e:
+        raise UploadError(400, str(e), file=e.file, line=e.line) from None
 
 
 def check_robot_json(source: Path, staged: dict[str, StagedFile]) -> None:
@@ -680,7 +701,7 @@ def _check_content(f: Received, kind: str, ref: ModuleRef | None, shown: str) ->
         raise UploadError(400, str(e), file=f.path) from None
     if kind == "config" or kind == "urdf" or (kind == "mesh" and f.path.lower().endswith(".dae")):
         _parse_xml(f.source, shown, f.path)
-    elif kind in ("layout", "json", "robot"):
+    elif kind in ("layout", "json", "robot", "bridge"):
         try:
             with open(f.source, "rb") as fh:
                 json.load(fh)

@@ -1,6 +1,6 @@
 """ROS 2 message types on the DDS wire, as cyclonedds IdlStruct classes.
 
-Generated from protocol/ros2/**/*.idl by python3 protocol/ros2/generate.py; do not edit.
+Generated from protocol/ros2/**/*.idl by python3 protocol/dds/generate.py; do not edit.
 """
 
 from dataclasses import dataclass, field

@@ -1,31 +1,39 @@
 #!/usr/bin/env python3
-"""Writes the DDS bridge's Python message types from the ROS 2 IDL files in this folder.
+"""Writes the DDS bridge's generated files from their truths in protocol/.
 
-protocol/ros2/<package>/msg/<Message>.idl are ROS 2's message definitions in the form ROS 2 puts on
-the DDS wire (module <package>::msg::dds_, struct <Message>_).  They are the one truth of the
-bridge's types: this script writes agent/indurop_agent/dds/ros2_types.py (cyclonedds IdlStruct
-classes) from them, and the compatibility test builds its separate C reader from the same files
-with Debian's idlc.  `--check` fails, naming this command, when the written file is stale.
+- protocol/ros2/<package>/msg/<Message>.idl are ROS 2's message definitions in the form ROS 2 puts
+  on the DDS wire (module <package>::msg::dds_, struct <Message>_).  They are the one truth of the
+  bridge's types: this writes agent/indurop_agent/dds/ros2_types.py (cyclonedds IdlStruct classes)
+  from them, and the compatibility test builds its separate C reader from the same files with
+  Debian's idlc.
+- protocol/dds/bridge.schema.json is the shape of a set's dds.json: this writes it into
+  agent/indurop_agent/dds/bridge_schema.py, after checking that every message type it names has
+  its IDL here.
+
+`--check` fails, naming this command, when a written file is stale.
 
 Cyclone DDS's own idlc Python backend (`idlc -l py`) is not used: the cyclonedds wheel ships its
 backend without an idlc, and Debian's idlc 0.10.2 crashes loading the wheel's 11.x backend
 (docs/dds.md).  So this reads the small part of IDL the ROS 2 messages use — modules, structs,
 constants, sequence<>, string and the basic types — and refuses anything else, naming file and line.
 
-    python3 protocol/ros2/generate.py [--check]
+    python3 protocol/dds/generate.py [--check]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import re
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-HERE = Path(__file__).resolve().parent
-OUT = HERE.parent.parent / "agent" / "indurop_agent" / "dds" / "ros2_types.py"
-COMMAND = "python3 protocol/ros2/generate.py"
+ROOT = Path(__file__).resolve().parents[2]
+HERE = ROOT / "protocol" / "ros2"  # the IDL files
+SCHEMA = ROOT / "protocol" / "dds" / "bridge.schema.json"
+OUT = ROOT / "agent" / "indurop_agent" / "dds"
+COMMAND = "python3 protocol/dds/generate.py"
 
 # IDL type -> (the annotation in the generated Python, the C/IDL spelling kept for the table)
 BASIC = {
@@ -223,11 +231,34 @@ def render(structs: dict[str, Struct]) -> str:
     return "\n".join(out) + "\n"
 
 
-def generate() -> str:
+def render_schema(structs: dict[str, Struct]) -> str:
+    schema = json.loads(SCHEMA.read_text(encoding="utf-8"))
+    defs = schema["$defs"]
+    for kind in ("scalar_type", "array_type"):
+        for name in defs[kind]["enum"]:
+            package, msg, message = name.split("/")
+            if f"{package}::{msg}::dds_::{message}_" not in structs:
+                raise IdlError(f"{SCHEMA.relative_to(ROOT)}: {name} has no IDL (protocol/ros2/{package}/msg/{message}.idl)")
+    return "\n".join(
+        [
+            '"""The shape of a set\'s dds.json (docs/dds.md), as JSON Schema.',
+            "",
+            f"Generated from protocol/dds/bridge.schema.json by {COMMAND}; do not edit.",
+            '"""',
+            "",
+            "import json",
+            "",
+            f"SCHEMA = json.loads({json.dumps(json.dumps(schema, indent=1))})",
+            "",
+        ]
+    )
+
+
+def generate() -> dict[Path, str]:
     structs: dict[str, Struct] = {}
     for path in sorted(HERE.rglob("*.idl")):
         parse(path, structs)
-    return render(structs)
+    return {OUT / "ros2_types.py": render(structs), OUT / "bridge_schema.py": render_schema(structs)}
 
 
 def main() -> int:
@@ -235,18 +266,19 @@ def main() -> int:
     ap.add_argument("--check", action="store_true", help="fail if the written file is stale")
     args = ap.parse_args()
     try:
-        text = generate()
+        files = generate()
     except IdlError as e:
         print(f"generate.py: {e}", file=sys.stderr)
         return 2
+    stale = [p for p, text in files.items() if not p.exists() or p.read_text(encoding="utf-8") != text]
     if args.check:
-        if not OUT.exists() or OUT.read_text(encoding="utf-8") != text:
-            print(f"{OUT.relative_to(HERE.parent.parent)} is stale: run {COMMAND}", file=sys.stderr)
-            return 1
-        return 0
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    OUT.write_text(text, encoding="utf-8")
-    print(f"wrote {OUT.relative_to(HERE.parent.parent)}")
+        for p in stale:
+            print(f"{p.relative_to(ROOT)} is stale: run {COMMAND}", file=sys.stderr)
+        return 1 if stale else 0
+    for p in stale:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_text(files[p], encoding="utf-8")
+        print(f"wrote {p.relative_to(ROOT)}")
     return 0
 
 

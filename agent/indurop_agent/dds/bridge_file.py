@@ -1,0 +1,207 @@
+"""bridge_file.py -- a set's dds.json (docs/dds.md): read, checked against its schema and the set.
+
+The shape is protocol/dds/bridge.schema.json (generated into bridge_schema.py); the checks here
+are what a schema cannot say: a topic mapped twice, a topic both published and subscribed, and a
+variable with two writers (two subscriptions, or a subscription and a module's `<writes>` in
+module.xml).  Every refusal is a BridgeFileError naming the file, the line and what to fix; the
+agent's upload (uploads.py) and the bridge at start both use it.
+"""
+
+from __future__ import annotations
+
+import json
+import json.decoder
+import json.scanner
+from dataclasses import dataclass, field
+
+import jsonschema
+
+from .bridge_schema import SCHEMA
+
+BRIDGE_JSON = "dds.json"
+MAX_BYTES = 1 << 20
+
+_VALIDATOR = jsonschema.Draft202012Validator(SCHEMA)
+_DEFS = SCHEMA["$defs"]
+SCALAR_TYPES = tuple(_DEFS["scalar_type"]["enum"])
+ARRAY_TYPES = tuple(_DEFS["array_type"]["enum"])
+
+
+class BridgeFileError(ValueError):
+    def __init__(self, message: str, line: int | None = None, file: str = BRIDGE_JSON):
+        super().__init__(f"{file}:{line}: {message}" if line else f"{file}: {message}")
+        self.file, self.line, self.reason = file, line, message
+
+
+@dataclass(frozen=True)
+class Mapping:
+    topic: str  # the ROS 2 name without a leading slash; on the wire "rt/" + topic
+    type: str  # std_msgs/msg/Float64
+    variables: tuple[str, ...]  # one for a scalar type
+    qos: str = "default"
+    rate_hz: float = 10.0  # publish: how often; subscribe: at most this many samples written a second
+    line: int | None = None
+
+    @property
+    def is_array(self) -> bool:
+        return self.type in ARRAY_TYPES
+
+
+@dataclass(frozen=True)
+class BridgeFile:
+    joint_states: bool = True
+    joint_states_topic: str = "joint_states"
+    joint_states_hz: float = 100.0
+    frame_id: str = ""
+    diagnostics: bool = True
+    diagnostics_hz: float = 1.0
+    publish: tuple[Mapping, ...] = ()
+    subscribe: tuple[Mapping, ...] = ()
+    description: str = ""
+    written: dict[str, Mapping] = field(default_factory=dict)  # variable -> the mapping that writes it
+
+
+class _Located(dict):
+    line = 0
+
+
+def _load_with_lines(text: str):
+    """json.loads, but every object remembers the line it starts on (for the messages)."""
+    decoder = json.JSONDecoder()
+    plain = decoder.parse_object
+
+    def parse_object(s_and_end, *args):
+        s, end = s_and_end
+        obj, after = plain(s_and_end, *args)
+        located = _Located(obj)
+        located.line = s.count("\n", 0, end) + 1
+        return located, after
+
+    decoder.parse_object = parse_object
+    decoder.scan_once = json.scanner.py_make_scanner(decoder)
+    return decoder.decode(text)
+
+
+def _where(path) -> str:
+    out = ""
+    for p in path:
+        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else p)
+    return out or "the top level"
+
+
+def _line_of(doc, path) -> int | None:
+    line, node = getattr(doc, "line", None), doc
+    for p in path:
+        try:
+            node = node[p]
+        except (KeyError, IndexError, TypeError):
+            break
+        line = getattr(node, "line", line)
+    return line
+
+
+def parse(data: bytes | str, file: str = BRIDGE_JSON) -> BridgeFile:
+    """dds.json's text -> BridgeFile; BridgeFileError naming the line and what to fix."""
+    if len(data) > MAX_BYTES:
+        raise BridgeFileError(f"larger than {MAX_BYTES >> 20} MiB", file=file)
+    try:
+        text = data.decode("utf-8") if isinstance(data, bytes) else data
+        doc = _load_with_lines(text)
+    except UnicodeDecodeError as e:
+        raise BridgeFileError(f"not UTF-8: {e}", file=file) from None
+    except json.JSONDecodeError as e:
+        raise BridgeFileError(f"not valid JSON: {e.msg} (column {e.colno})", e.lineno, file) from None
+    except RecursionError:
+        raise BridgeFileError("nested too deeply", file=file) from None
+    error = jsonschema.exceptions.best_match(_VALIDATOR.iter_errors(doc))
+    if error is not None:
+        raise BridgeFileError(f"{_where(error.absolute_path)}: {error.message}", _line_of(doc, error.absolute_path), file)
+
+    def mappings(kind: str, rate_key: str, default_rate: float) -> tuple[Mapping, ...]:
+        out = []
+        for m in doc.get(kind, []):
+            out.append(
+                Mapping(
+                    topic=m["topic"].lstrip("/"),
+                    type=m["type"],
+                    variables=tuple(m["variables"]) if "variables" in m else (m["variable"],),
+                    qos=m.get("qos", "default"),
+                    rate_hz=float(m.get(rate_key, default_rate)),
+                    line=m.line,
+                )
+            )
+        return tuple(out)
+
+    js, diag = doc.get("joint_states", {}), doc.get("diagnostics", {})
+    bridge = BridgeFile(
+        joint_states=js.get("enabled", True),
+        joint_states_topic=js.get("topic", "joint_states").lstrip("/"),
+        joint_states_hz=float(js.get("rate_hz", 100)),
+        frame_id=js.get("frame_id", ""),
+        diagnostics=diag.get("enabled", True),
+        diagnostics_hz=float(diag.get("rate_hz", 1)),
+        publish=mappings("publish", "rate_hz", 10.0),
+        subscribe=mappings("subscribe", "max_rate_hz", 100.0),
+        description=doc.get("description", ""),
+    )
+    _check_topics(bridge, file)
+    for m in bridge.subscribe:
+        for v in m.variables:
+            other = bridge.written.get(v)
+            if other is not None:
+                raise BridgeFileError(
+                    f"{v} would have two writers: the subscriptions to {other.topic} (line {other.line}) "
+                    f"and {m.topic} (line {m.line}); map it from one topic",
+                    m.line,
+                    file,
+                )
+            bridge.written[v] = m
+    return bridge
+
+
+def _check_topics(bridge: BridgeFile, file: str) -> None:
+    seen: dict[str, tuple[str, int | None]] = {}
+    if bridge.joint_states:
+        seen[bridge.joint_states_topic] = ("joint_states", None)
+    if bridge.diagnostics:
+        seen["diagnostics"] = ("diagnostics", None)
+    for kind, ms in (("publish", bridge.publish), ("subscribe", bridge.subscribe)):
+        for m in ms:
+            if m.topic in seen:
+                what, line = seen[m.topic]
+                at = f" (line {line})" if line else ""
+                raise BridgeFileError(
+                    f"{kind}: topic {m.topic} is already mapped by {what}{at}; one mapping per topic", m.line, file
+                )
+            seen[m.topic] = (kind, m.line)
+
+
+def check_writers(bridge: BridgeFile, module_writes: dict[str, list[str]], file: str = BRIDGE_JSON) -> None:
+    """A variable a subscription writes must not be declared by a module as one it writes
+    (module.xml `<writes>`): refused naming both."""
+    for module, paths in module_writes.items():
+        for v in paths:
+            m = bridge.written.get(v)
+            if m is not None:
+                raise BridgeFileError(
+                    f"{v} would have two writers: module {module} (module.xml <writes>) and the "
+                    f"subscription to {m.topic}; drop one of them",
+                    m.line,
+                    file,
+                )
+
+
+def check_variables(bridge: BridgeFile, scalars: dict[str, str], file: str = BRIDGE_JSON) -> None:
+    """Every mapped variable is a scalar leaf of the layout (path -> its type)."""
+    for kind, ms in (("publish", bridge.publish), ("subscribe", bridge.subscribe)):
+        for m in ms:
+            for v in m.variables:
+                if v not in scalars:
+                    near = [p for p in scalars if p.startswith(v + ".") or p.startswith(v + "[")]
+                    hint = f" (it is a struct or an array: map {near[0]}, ...)" if near else ""
+                    raise BridgeFileError(f"{kind} {m.topic}: no scalar variable {v} in the layout{hint}", m.line, file)
+
+
+def layout_scalars(layout: dict) -> dict[str, str]:
+    """layout.json -> {scalar path: its type} (the leaves glbc lists)."""
+    return {leaf["path"]: leaf["type"] for leaf in layout.get("leaves", []) if leaf.get("type") in layout.get("scalars", {})}

@@ -1,0 +1,107 @@
+"""settings.py -- the DDS bridge's settings (command line, then an optional JSON file) and the
+Cyclone DDS configuration made from them (docs/dds.md "Settings").
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import ipaddress
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from xml.sax.saxutils import escape, quoteattr
+
+
+@dataclass
+class BridgeSettings:
+    irpd_socket: str = "/run/indurop/irpd.sock"
+    # DDS domain (0..232, as ROS_DOMAIN_ID) and the network interface it uses; "lo": loopback only,
+    # with unicast discovery on 127.0.0.1 (the loopback device has no multicast).
+    domain_id: int = 0
+    interface: str = "lo"
+    # Other hosts' addresses for unicast discovery on a network without multicast (not on "lo").
+    peers: tuple[str, ...] = ()
+    # Prepended to every topic of this controller ("cell1" -> rt/cell1/joint_states); "" for none.
+    namespace: str = ""
+    # What DiagnosticStatus.hardware_id and the bridge's own status name this controller.
+    name: str = "indurop"
+    poll_ms: float = 1.0  # how often the trace rings and the subscriptions are read
+    status_s: float = 0.5  # how often irpd's status is asked (a new set, a restart)
+    # The owner name under which the bridge asks irpd to trace its channels.
+    trace_owner: str = "dds"
+
+
+def _check(s: BridgeSettings) -> BridgeSettings:
+    if not 0 <= s.domain_id <= 232:
+        raise ValueError(f"domain_id {s.domain_id}: a DDS domain id for ROS 2 is 0..232")
+    if not re.fullmatch(r"[A-Za-z0-9_.:-]{1,15}", s.interface):
+        raise ValueError(f"interface {s.interface!r}: a network interface name such as lo or eth0")
+    for p in s.peers:
+        ipaddress.ip_address(p)  # ValueError names it
+    if s.namespace and not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*", s.namespace):
+        raise ValueError(f"namespace {s.namespace!r}: letters, digits, _ and /, starting with a letter")
+    if not 0.05 <= s.poll_ms <= 1000:
+        raise ValueError(f"poll_ms {s.poll_ms}: from 0.05 to 1000")
+    return s
+
+
+def cyclone_config(s: BridgeSettings) -> str:
+    """The Cyclone DDS XML for these settings (Domain(domain_id, config=...))."""
+    if s.interface == "lo":
+        general = (
+            '<Interfaces><NetworkInterface name="lo"/></Interfaces><AllowMulticast>false</AllowMulticast>'
+        )
+        peers = ["127.0.0.1"]
+    else:
+        general = f"<Interfaces><NetworkInterface name={quoteattr(s.interface)}/></Interfaces>"
+        peers = list(s.peers)
+    discovery = "<ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>64</MaxAutoParticipantIndex>"
+    if peers:
+        discovery += "<Peers>" + "".join(f"<Peer address={quoteattr(escape(p))}/>" for p in peers) + "</Peers>"
+    return (
+        '<CycloneDDS xmlns="https://cdds.io/config"><Domain Id="any">'
+        f"<General>{general}</General><Discovery>{discovery}</Discovery>"
+        "</Domain></CycloneDDS>"
+    )
+
+
+def parse_args(argv: list[str] | None = None) -> BridgeSettings:
+    ap = argparse.ArgumentParser(
+        prog="indurop-dds-bridge",
+        description="Publishes the controller's joints, timing and mapped variables on Cyclone DDS for ROS 2 "
+        "(docs/dds.md).",
+    )
+    ap.add_argument("--config", type=Path, help="a JSON file with any of the settings below (same names)")
+    ap.add_argument("--irpd-socket", help="irpd's control socket (default /run/indurop/irpd.sock)")
+    ap.add_argument("--domain-id", type=int, help="the DDS domain, 0..232 (default 0)")
+    ap.add_argument("--interface", help="the network interface DDS uses (default lo: this host only)")
+    ap.add_argument("--peer", action="append", dest="peers", help="a host's address for unicast discovery")
+    ap.add_argument("--namespace", help="prepended to every topic (default none)")
+    ap.add_argument("--name", help="this controller's name in the diagnostics (default indurop)")
+    ap.add_argument("--poll-ms", type=float, help="how often the rings and subscriptions are read (default 1)")
+    args = ap.parse_args(argv)
+    values: dict = {}
+    if args.config:
+        try:
+            values = json.loads(args.config.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as e:
+            ap.error(f"--config {args.config}: {e}")
+        if not isinstance(values, dict):
+            ap.error(f"--config {args.config}: expected a JSON object of settings")
+        known = {f.name for f in dataclasses.fields(BridgeSettings)}
+        unknown = sorted(set(values) - known)
+        if unknown:
+            ap.error(f"--config {args.config}: unknown setting {unknown[0]!r}; known: {', '.join(sorted(known))}")
+    for f in dataclasses.fields(BridgeSettings):
+        v = getattr(args, f.name, None)
+        if v is not None:
+            values[f.name] = v
+    if "peers" in values:
+        values["peers"] = tuple(values["peers"])
+    try:
+        return _check(BridgeSettings(**values))
+    except (TypeError, ValueError) as e:
+        ap.error(str(e))
+        raise
