@@ -1,0 +1,7 @@
+"""python -m indurop_agent.dds: the same as indurop-dds-bridge."""
+
+import sys
+
+from .bridge import main
+
+sys.exit(main())

@@ -1,0 +1,495 @@
+"""bridge.py -- indurop-dds-bridge: the controller on Cyclone DDS, as ROS 2 sees it (docs/dds.md).
+
+A non-RT process beside the agent.  It reads what the agent reads and never blocks irpd:
+
+- irpd's control socket (its own connection): `status` every status_s, `trace` with the owner
+  "dds" (irpd traces the union of every owner's channels), `stats` and `alarms` for the
+  diagnostics, and `write` for the variables its subscriptions map — the only writes it makes;
+- the trace rings, mapped read-only: every sample of the joint variables and mapped variables.
+
+Each poll (poll_ms): the rows sampled since the last poll are published — sensor_msgs/JointState
+on rt/<ns>/joint_states from robot.json's joint map (position = value x scale + offset), stamped
+with the row's due time on the wall clock, and the mapped variables — then the subscriptions are
+taken and written, each topic at most max_rate_hz.  Every diagnostics period: one
+diagnostic_msgs/DiagnosticArray on rt/<ns>/diagnostics.
+
+    indurop-dds-bridge --irpd-socket /run/indurop/irpd.sock [--domain-id 0] [--interface lo]
+"""
+
+from __future__ import annotations
+
+import math
+import signal
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from cyclonedds.core import Policy, Qos
+from cyclonedds.domain import Domain, DomainParticipant
+from cyclonedds.pub import DataWriter
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
+from cyclonedds.util import duration
+
+from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
+from ..trace import TraceError, TraceRing
+from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config
+from . import bridge_file, ros2_types
+from .bridge_file import BRIDGE_JSON, BridgeFile, BridgeFileError, Mapping
+from .settings import BridgeSettings, cyclone_config, parse_args
+
+# ROS 2's QoS profiles (rmw_qos_profile_default, rmw_qos_profile_sensor_data).
+QOS = {
+    "default": Qos(
+        Policy.Reliability.Reliable(duration(milliseconds=100)), Policy.Durability.Volatile, Policy.History.KeepLast(10)
+    ),
+    "sensor_data": Qos(Policy.Reliability.BestEffort, Policy.Durability.Volatile, Policy.History.KeepLast(5)),
+}
+LEVEL_OK, LEVEL_WARN, LEVEL_ERROR, LEVEL_STALE = 0, 1, 2, 3
+MAX_TAKE = 64  # samples taken from one subscription per poll; the reader keeps the newest (keep-last)
+
+
+def message_class(type_name: str):
+    """std_msgs/msg/Float64 -> ros2_types.Float64."""
+    return getattr(ros2_types, type_name.rsplit("/", 1)[-1])
+
+
+def ros_time(ns: int) -> ros2_types.Time:
+    return ros2_types.Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+
+
+@dataclass
+class Counters:
+    """What the bridge did since it started; sent in the diagnostics (docs/dds.md "Counters")."""
+
+    joint_states: int = 0  # JointState samples published
+    published: int = 0  # mapped-variable samples published
+    rows_lost: int = 0  # trace rows overwritten before the bridge read them
+    received: int = 0  # samples taken from subscriptions
+    written: int = 0  # variables written through irpd
+    refused: int = 0  # writes irpd refused (a value out of the variable's range or type)
+    malformed: int = 0  # samples that do not fit their mapping (an array of another length, NaN for an integer)
+    dropped: int = 0  # samples over a subscription's max_rate_hz, not written
+    irpd_errors: int = 0  # requests irpd did not answer
+
+    def as_values(self) -> list[ros2_types.KeyValue]:
+        return [ros2_types.KeyValue(key=k, value=str(v)) for k, v in self.__dict__.items()]
+
+
+@dataclass
+class Subscription:
+    mapping: Mapping
+    reader: DataReader
+    tokens: float = 0.0  # a token bucket of max_rate_hz, at most one second's worth
+    last: float = field(default_factory=time.monotonic)
+
+
+@dataclass
+class Publication:
+    mapping: Mapping
+    writer: DataWriter
+    decimation: int = 1
+
+
+class Bridge:
+    def __init__(self, settings: BridgeSettings):
+        self.s = settings
+        self.counters = Counters()
+        self.irpd = IrpdClient(settings.irpd_socket, timeout_s=2.0)
+        self.domain = Domain(settings.domain_id, cyclone_config(settings))
+        self.participant = DomainParticipant(settings.domain_id)
+        self._topics: dict[str, Topic] = {}
+        self.ring: TraceRing | None = None
+        self.cursor = 0
+        self.set_key: tuple | None = None
+        self.set_path = ""
+        self.problem = ""  # why the set's files are not (all) published, for the diagnostics
+        self.bridge = BridgeFile()
+        self.joints: list[tuple[str, str, float, float]] = []  # (joint, variable, scale, offset)
+        self.joint_writer: DataWriter | None = None
+        self.joint_decimation = 1
+        self.diag_writer = DataWriter(self.participant, self.topic("diagnostics", ros2_types.DiagnosticArray), QOS["default"])
+        self.publications: list[Publication] = []
+        self.subscriptions: list[Subscription] = []
+        self.basic_period_ns = 0
+        self.clock_offset_ns = time.time_ns() - time.monotonic_ns()
+        self.status: dict = {}
+        self.next_status = 0.0
+        self.next_diag = 0.0
+        self.stopping = False
+
+    # ---- DDS ---------------------------------------------------------------------------------
+    def wire_name(self, topic: str) -> str:
+        """A ROS 2 topic as ROS 2 names it on DDS: rt/<namespace>/<topic>."""
+        return "rt/" + "/".join(p for p in (self.s.namespace, topic) if p)
+
+    def topic(self, name: str, cls) -> Topic:
+        wire = self.wire_name(name)
+        if wire not in self._topics:
+            self._topics[wire] = Topic(self.participant, wire, cls)
+        return self._topics[wire]
+
+    # ---- the running set ---------------------------------------------------------------------
+    def poll_status(self) -> None:
+        try:
+            status = self.irpd.request("status")
+        except (IrpdUnavailable, IrpdRefused) as e:
+            if self.status:
+                print(f"indurop-dds-bridge: irpd: {e}", file=sys.stderr, flush=True)
+            self.counters.irpd_errors += 1
+            self.status = {}
+            return
+        self.status = status
+        key = (status.get("pid"), status.get("set"), status.get("generation"))
+        if key != self.set_key or self.ring is None or self.ring.replaced():
+            self.set_key = key
+            self.load_set(status)
+
+    def load_set(self, status: dict) -> None:
+        """Reads the running set's robot.json and dds.json and asks irpd to trace their variables."""
+        self.set_path = status.get("set") or ""
+        folder = Path(self.set_path).parent
+        self.basic_period_ns = int(status.get("basic_period_ns") or 0)
+        problems = []
+        bridge = BridgeFile()
+        if (folder / BRIDGE_JSON).is_file():
+            try:
+                bridge = bridge_file.parse((folder / BRIDGE_JSON).read_bytes())
+                bridge_file.check_writers(bridge, module_writes(Path(self.set_path)))
+            except (BridgeFileError, OSError) as e:
+                problems.append(str(e))
+                bridge = BridgeFile(publish=(), subscribe=())
+        joints = []
+        if bridge.joint_states and (folder / ROBOT_JSON).is_file():
+            try:
+                config = parse_config((folder / ROBOT_JSON).read_bytes())
+                joints = [(j.joint, j.variable, j.scale, j.offset) for j in config.joints if j.variable]
+            except (MappingError, OSError) as e:
+                problems.append(str(e))
+        channels = list(dict.fromkeys([v for _, v, _, _ in joints] + [v for m in bridge.publish for v in m.variables]))
+        try:
+            answer = self.irpd.request("trace", channels=channels, owner=self.s.trace_owner)
+        except IrpdRefused as e:
+            problems.append(f"irpd refused to trace the mapped variables: {e}")
+            joints, bridge = [], BridgeFile(joint_states=False, publish=(), subscribe=bridge.subscribe)
+            answer = self.irpd.request("trace", channels=[], owner=self.s.trace_owner)
+        except IrpdUnavailable as e:
+            self.counters.irpd_errors += 1
+            self.set_key = None
+            print(f"indurop-dds-bridge: irpd: {e}", file=sys.stderr, flush=True)
+            return
+        self.open_ring(answer["shm"])
+        self.bridge, self.joints, self.problem = bridge, joints, "; ".join(problems)
+        self.setup_writers()
+        if self.problem:
+            print(f"indurop-dds-bridge: {self.problem}", file=sys.stderr, flush=True)
+        print(
+            f"indurop-dds-bridge: set {self.set_path}: {len(joints)} joints on "
+            f"{self.wire_name(bridge.joint_states_topic)} every {self.joint_decimation} basic period(s), "
+            f"{len(bridge.publish)} published and {len(bridge.subscribe)} subscribed mappings",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    def open_ring(self, shm: str) -> None:
+        if self.ring is not None and self.ring.name == shm and not self.ring.replaced():
+            return
+        if self.ring is not None:
+            self.ring.close()
+        self.ring = TraceRing(shm)
+        self.cursor = self.ring.head()
+
+    def decimation(self, rate_hz: float) -> int:
+        if self.basic_period_ns <= 0:
+            return 1
+        return max(1, round(1e9 / (rate_hz * self.basic_period_ns)))
+
+    def setup_writers(self) -> None:
+        # The previous set's writers and readers go with their last reference (cyclonedds deletes
+        # an entity when it is collected).
+        b = self.bridge
+        self.joint_writer = None
+        if b.joint_states and self.joints:
+            self.joint_writer = DataWriter(
+                self.participant, self.topic(b.joint_states_topic, ros2_types.JointState), QOS["default"]
+            )
+            self.joint_decimation = self.decimation(b.joint_states_hz)
+        self.publications = [
+            Publication(
+                m,
+                DataWriter(self.participant, self.topic(m.topic, message_class(m.type)), QOS[m.qos]),
+                self.decimation(m.rate_hz),
+            )
+            for m in b.publish
+        ]
+        self.subscriptions = [
+            Subscription(m, DataReader(self.participant, self.topic(m.topic, message_class(m.type)), QOS[m.qos]))
+            for m in b.subscribe
+        ]
+
+    # ---- samples out -------------------------------------------------------------------------
+    def publish_rows(self) -> None:
+        if self.ring is None:
+            return
+        try:
+            read = self.ring.read_since(self.cursor)
+        except TraceError:
+            return
+        self.cursor = read.next
+        self.counters.rows_lost += read.lost
+        for part in read.parts:
+            column = {p: part.columns[i] for i, p in enumerate(part.config.paths)}
+            self.publish_joints(part, column)
+            for pub in self.publications:
+                cols = [column.get(v) for v in pub.mapping.variables]
+                if None in cols:
+                    continue
+                cls = message_class(pub.mapping.type)
+                for k in range(part.count):
+                    if (part.first_seq + k) % pub.decimation:
+                        continue
+                    values = [cast(pub.mapping.type, c[k]) for c in cols]
+                    pub.writer.write(cls(data=values) if pub.mapping.is_array else cls(data=values[0]))
+                    self.counters.published += 1
+
+    def publish_joints(self, part, column: dict) -> None:
+        if self.joint_writer is None:
+            return
+        cols = [column.get(v) for _, v, _, _ in self.joints]
+        if None in cols:
+            return  # not (yet) traced
+        names = [j for j, _, _, _ in self.joints]
+        for k in range(part.count):
+            if (part.first_seq + k) % self.joint_decimation:
+                continue
+            stamp = ros_time(part.t_ns[k] + self.clock_offset_ns)
+            self.joint_writer.write(
+                ros2_types.JointState(
+                    header=ros2_types.Header(stamp=stamp, frame_id=self.bridge.frame_id),
+                    name=names,
+                    position=[c[k] * scale + offset for c, (_, _, scale, offset) in zip(cols, self.joints)],
+                )
+            )
+            self.counters.joint_states += 1
+
+    # ---- samples in --------------------------------------------------------------------------
+    def take_subscriptions(self) -> None:
+        now = time.monotonic()
+        for sub in self.subscriptions:
+            m = sub.mapping
+            sub.tokens = min(m.rate_hz, sub.tokens + (now - sub.last) * m.rate_hz)
+            sub.last = now
+            try:
+                samples = sub.reader.take(N=MAX_TAKE)
+            except Exception as e:  # a sample cyclonedds cannot deserialize
+                self.counters.malformed += 1
+                print(f"indurop-dds-bridge: {self.wire_name(m.topic)}: {e}", file=sys.stderr, flush=True)
+                continue
+            for sample in samples:
+                if not isinstance(sample, message_class(m.type)):
+                    continue  # an instance-state notice, not data
+                self.counters.received += 1
+                if sub.tokens < 1:
+                    self.counters.dropped += 1
+                    continue
+                sub.tokens -= 1
+                self.write(m, sample)
+
+    def write(self, m: Mapping, sample) -> None:
+        values = list(sample.data) if m.is_array else [sample.data]
+        if len(values) != len(m.variables) or any(not _fits(m.type, v) for v in values):
+            self.counters.malformed += 1
+            return
+        for variable, value in zip(m.variables, values):
+            try:
+                self.irpd.request("write", path=variable, value=value)
+                self.counters.written += 1
+            except IrpdRefused:
+                self.counters.refused += 1
+            except IrpdUnavailable:
+                self.counters.irpd_errors += 1
+
+    # ---- diagnostics -------------------------------------------------------------------------
+    def publish_diagnostics(self) -> None:
+        now_ns = time.time_ns()
+        statuses = [self.bridge_status()]
+        if self.status:
+            try:
+                stats = self.irpd.request("stats")
+                alarms = self.irpd.request("alarms")
+            except (IrpdUnavailable, IrpdRefused):
+                self.counters.irpd_errors += 1
+                stats, alarms = {}, {}
+            statuses.append(self.set_status(alarms))
+            for record in stats.get("executors", []) + stats.get("modules", []):
+                statuses.append(timing_status(self.s.name, record))
+        self.diag_writer.write(
+            ros2_types.DiagnosticArray(header=ros2_types.Header(stamp=ros_time(now_ns)), status=statuses)
+        )
+
+    def bridge_status(self) -> ros2_types.DiagnosticStatus:
+        level, message = LEVEL_OK, "publishing"
+        if not self.status:
+            level, message = LEVEL_STALE, "irpd does not answer"
+        elif self.problem:
+            level, message = LEVEL_ERROR, self.problem
+        values = [
+            ros2_types.KeyValue(key="domain_id", value=str(self.s.domain_id)),
+            ros2_types.KeyValue(key="interface", value=self.s.interface),
+            *self.counters.as_values(),
+        ]
+        return ros2_types.DiagnosticStatus(
+            level=level, name=f"{self.s.name}: dds bridge", message=message[:1000], hardware_id=self.s.name, values=values
+        )
+
+    def set_status(self, alarms: dict) -> ros2_types.DiagnosticStatus:
+        st = self.status
+        active = []
+        for source in alarms.get("sources", []):
+            texts = {d.get("id"): d for d in source.get("declared", [])}
+            for alarm_id in source.get("active", []):
+                d = texts.get(alarm_id, {})
+                active.append(
+                    ros2_types.KeyValue(
+                        key=f"alarm {source.get('module')}/{alarm_id}",
+                        value=f"{d.get('severity', '')}: {d.get('text', '')}".strip(": "),
+                    )
+                )
+        level = LEVEL_OK if st.get("running") and not st.get("stopped_by_fault") else LEVEL_ERROR
+        if active and level == LEVEL_OK:
+            level = LEVEL_WARN
+        message = "running" if st.get("running") else "not running"
+        if st.get("stopped_by_fault"):
+            message = f"stopped by a fault: {st['stopped_by_fault']}"
+        elif active:
+            message += f", {len(active)} alarm(s) active"
+        values = [
+            ros2_types.KeyValue(key=k, value=str(st.get(k)))
+            for k in ("set", "set_id", "generation", "basic_period_ns", "cycles", "overruns", "missed", "pid")
+        ]
+        return ros2_types.DiagnosticStatus(
+            level=level, name=f"{self.s.name}: set", message=message, hardware_id=self.s.name, values=values + active
+        )
+
+    # ---- the loop ----------------------------------------------------------------------------
+    def step(self) -> None:
+        now = time.monotonic()
+        if now >= self.next_status:
+            self.next_status = now + self.s.status_s
+            self.clock_offset_ns = time.time_ns() - time.monotonic_ns()
+            self.poll_status()
+        if self.status:
+            self.publish_rows()
+            self.take_subscriptions()
+        if self.bridge.diagnostics and now >= self.next_diag:
+            self.next_diag = now + 1.0 / self.bridge.diagnostics_hz
+            self.publish_diagnostics()
+
+    def run(self) -> None:
+        period = self.s.poll_ms / 1000.0
+        while not self.stopping:
+            start = time.monotonic()
+            self.step()
+            time.sleep(max(0.0, period - (time.monotonic() - start)))
+
+    def close(self) -> None:
+        try:
+            self.irpd.request("trace", channels=[], owner=self.s.trace_owner)
+        except (IrpdUnavailable, IrpdRefused):
+            pass
+        if self.ring is not None:
+            self.ring.close()
+        self.irpd.close()
+
+
+def cast(type_name: str, value: float):
+    """A traced double as the message's field: bool, int, or float."""
+    base = type_name.rsplit("/", 1)[-1]
+    if base == "Bool":
+        return bool(value)
+    if "Int" in base:
+        return int(value) if math.isfinite(value) else 0
+    return float(value)
+
+
+_RANGES = {
+    "Int8": (-(1 << 7), (1 << 7) - 1),
+    "UInt8": (0, (1 << 8) - 1),
+    "Int16": (-(1 << 15), (1 << 15) - 1),
+    "UInt16": (0, (1 << 16) - 1),
+    "Int32": (-(1 << 31), (1 << 31) - 1),
+    "UInt32": (0, (1 << 32) - 1),
+    "Int64": (-(1 << 63), (1 << 63) - 1),
+    "UInt64": (0, (1 << 64) - 1),
+}
+
+
+def _fits(type_name: str, value) -> bool:
+    """A received value the message type allows (irpd checks it against the variable's own type)."""
+    if isinstance(value, bool):
+        return True
+    if isinstance(value, float):
+        return math.isfinite(value)
+    base = type_name.rsplit("/", 1)[-1].replace("MultiArray", "")
+    low, high = _RANGES.get(base, (-math.inf, math.inf))
+    return isinstance(value, int) and low <= value <= high
+
+
+def timing_status(name: str, record: dict) -> ros2_types.DiagnosticStatus:
+    """One dispatcher's or module's stats record (irpd `stats`) as a DiagnosticStatus."""
+    kind = record.get("kind", "module")
+    level = LEVEL_OK
+    if record.get("overruns") or record.get("missed"):
+        level = LEVEL_WARN
+    if record.get("state") in ("disabled", "stopped", "exited"):
+        level = LEVEL_ERROR
+    values = [
+        ros2_types.KeyValue(key=k, value=str(record.get(k)))
+        for k in ("executor", "period_ns", "runs", "overruns", "missed", "skipped", "errors", "state")
+        if k in record
+    ]
+    for figure in ("jitter_ns", "latency_ns", "exec_ns"):
+        f = record.get(figure) or {}
+        for q in ("p50", "p99", "max"):
+            if q in f:
+                values.append(ros2_types.KeyValue(key=f"{figure} {q}", value=str(f[q])))
+    return ros2_types.DiagnosticStatus(
+        level=level,
+        name=f"{name}: {kind} {record.get('name')}",
+        message=f"{record.get('runs', 0)} runs, {record.get('overruns', 0)} overruns, {record.get('missed', 0)} missed",
+        hardware_id=name,
+        values=values,
+    )
+
+
+def module_writes(module_xml: Path) -> dict[str, list[str]]:
+    """{module: [variables]} of module.xml's <writes> (docs/module-xml.md)."""
+    from ..uploads import UploadError, parse_module_xml
+
+    try:
+        return {m.name: m.writes for m in parse_module_xml(module_xml).modules}
+    except (UploadError, OSError) as e:
+        raise BridgeFileError(f"module.xml cannot be read for its <writes>: {e}") from None
+
+
+def main(argv: list[str] | None = None) -> int:
+    settings = parse_args(argv)
+    bridge = Bridge(settings)
+    signal.signal(signal.SIGTERM, lambda *_: setattr(bridge, "stopping", True))
+    signal.signal(signal.SIGINT, lambda *_: setattr(bridge, "stopping", True))
+    print(
+        f"indurop-dds-bridge: domain {settings.domain_id} on {settings.interface}, irpd {settings.irpd_socket}",
+        file=sys.stderr,
+        flush=True,
+    )
+    try:
+        bridge.run()
+    finally:
+        bridge.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
+
