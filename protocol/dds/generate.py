@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 import sys
 from dataclasses import dataclass, field
@@ -273,12 +274,12 @@ def main() -> int:
     stale = [p for p, text in files.items() if not p.exists() or p.read_text(encoding="utf-8") != text]
     if args.check:
         for p in stale:
-            print(f"{p.relative_to(ROOT)} is stale: run {COMMAND}", file=sys.stderr)
+            print(f"{os.path.relpath(p, ROOT)} is stale: run {COMMAND}", file=sys.stderr)
         return 1 if stale else 0
     for p in stale:
         p.parent.mkdir(parents=True, exist_ok=True)
         p.write_text(files[p], encoding="utf-8")
-        print(f"wrote {p.relative_to(ROOT)}")
+        print(f"wrote {os.path.relpath(p, ROOT)}")
     return 0
 
 

@@ -126,7 +126,7 @@ def test_the_generated_types_and_schema_are_current():
     assert r.returncode == 0, r.stderr
 
 
-def test_a_stale_generated_file_is_named_with_the_command(tmp_path, monkeypatch):
+def test_a_stale_generated_file_is_named_with_the_command(tmp_path, monkeypatch, capsys):
     import importlib.util
 
     spec = importlib.util.spec_from_file_location("dds_generate", ROOT / "protocol" / "dds" / "generate.py")
@@ -140,6 +140,7 @@ def test_a_stale_generated_file_is_named_with_the_command(tmp_path, monkeypatch)
     assert gen.main() == 0
     (tmp_path / "ros2_types.py").write_text("# edited\n")
     assert gen.main() == 1
+    assert "ros2_types.py is stale: run python3 protocol/dds/generate.py" in capsys.readouterr().err
 
 
 def test_the_generated_types_carry_ros2_s_dds_type_names():
