@@ -1,0 +1,291 @@
+"""test_bridge_live.py -- irpd running the plc-robot cell at 1 ms, the agent, and indurop-dds-bridge
+on loopback, read and written by a separate DDS peer built only from protocol/ros2's IDL: Debian's
+idlc makes its C types, Debian's libddsc 0.10.2 runs it (the bridge runs the cyclonedds wheel's
+11.x).  Checks ROS 2's names, type names and QoS, JointState at every basic period with the joint
+names of robot.json, the diagnostics, a mapped subscription written through irpd, and that an
+unmapped topic, a topic of another type, malformed values and a flood change nothing they must not
+(docs/dds.md).  Every DDS participant uses loopback only, on a domain of its own."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from live_processes import (  # noqa: E402
+    BUILD,
+    ROOT,
+    STARTED,
+    copy_cell,
+    free_port,
+    output,
+    start_agent,
+    start_irpd,
+    stop,
+)
+
+sys.path.insert(0, str(ROOT / "agent"))
+from indurop_agent.dds.settings import BridgeSettings, cyclone_config  # noqa: E402
+from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
+from indurop_agent.variables import Segment  # noqa: E402
+
+SET = BUILD / "sets" / "plc-robot"
+IDL = ROOT / "protocol" / "ros2"
+READER_SOURCE = Path(__file__).with_name("ros2_reader.c")
+IDL_FILES = [
+    "builtin_interfaces/msg/Time",
+    "std_msgs/msg/Header",
+    "sensor_msgs/msg/JointState",
+    "diagnostic_msgs/msg/KeyValue",
+    "diagnostic_msgs/msg/DiagnosticStatus",
+    "diagnostic_msgs/msg/DiagnosticArray",
+    "std_msgs/msg/Float64",
+    "std_msgs/msg/Bool",
+    "std_msgs/msg/Int32",
+]
+JOINTS = [f"joint_{i}" for i in range(1, 7)]
+BASIC_NS = 1_000_000  # module-1ms.xml
+
+pytestmark = pytest.mark.skipif(not (SET / "Robot.so").exists(), reason=f"the plc-robot cell is not built ({SET})")
+
+
+@pytest.fixture(scope="module")
+def ros2_reader(tmp_path_factory) -> Path:
+    """The separate DDS peer (ros2_reader.c), its types made by idlc from protocol/ros2's IDL."""
+    if not shutil.which("idlc") or not Path("/usr/include/dds/dds.h").exists():
+        pytest.skip("Debian's cyclonedds-dev and cyclonedds-tools are not installed (packaging/deps.sh)")
+    out = tmp_path_factory.mktemp("ros2_reader")
+    for f in IDL_FILES:
+        (out / f).parent.mkdir(parents=True, exist_ok=True)
+        subprocess.run(
+            ["idlc", "-x", "final", "-I", str(IDL), "-o", str((out / f).parent), str(IDL / f"{f}.idl")],
+            check=True,
+            capture_output=True,
+        )
+    exe = out / "ros2_reader"
+    sources = [str(p) for p in out.rglob("*.c")]
+    subprocess.run(
+        ["cc", "-O1", "-Wall", "-Werror", "-I", str(out), "-o", str(exe), str(READER_SOURCE), *sources, "-lddsc"],
+        check=True,
+    )
+    return exe
+
+
+class Controller:
+    """irpd on the 1 ms cell, the agent, and the bridge on domain `domain`, loopback only."""
+
+    def __init__(self, tmp: Path, reader: Path):
+        self.reader = reader
+        self.domain = 100 + os.getpid() % 100
+        self.folder = tmp / "plc-robot"
+        xml, _ = copy_cell(self.folder, "module-1ms.xml")
+        self.sock = tmp / "irpd.sock"
+        self.irpd = start_irpd(self.sock, xml, f"dds-test-{os.getpid()}")
+        self.control = IrpdClient(str(self.sock), timeout_s=30)
+        status = self.wait(self.status, 60)
+        self.vars = Segment(status["shared_memory"]["variables"])
+        self.agent = start_agent(free_port(), tmp / "agent-data", self.sock)
+        self.bridge_log = open(tmp / "bridge.log", "w+")
+        self.bridge = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "indurop_agent.dds",
+                "--irpd-socket",
+                str(self.sock),
+                "--domain-id",
+                str(self.domain),
+                "--name",
+                "cell-test",
+            ],
+            cwd=ROOT / "agent",
+            stdout=self.bridge_log,
+            stderr=subprocess.STDOUT,
+        )
+        STARTED.append(self.bridge)
+        self.bridge.log = self.bridge_log
+        config = cyclone_config(BridgeSettings(domain_id=self.domain)).replace('Id="any"', f'Id="{self.domain}"')
+        self.env = {**os.environ, "CYCLONEDDS_URI": config}
+
+    def status(self):
+        try:
+            return self.control.request("status")
+        except IrpdRefused:
+            return None  # starting
+
+    def wait(self, what, seconds: float = 30.0):
+        deadline = time.monotonic() + seconds
+        while True:
+            value = what()
+            if value:
+                return value
+            assert time.monotonic() < deadline, f"timed out waiting for {what.__doc__ or what}"
+            time.sleep(0.05)
+
+    def read(self, kind: str, topic: str, count: int, timeout_s: int = 60) -> tuple[dict, list[dict]]:
+        """The matched writer and `count` samples, as the separate reader printed them."""
+        r = subprocess.run(
+            [str(self.reader), "read", kind, topic, str(count), str(timeout_s)],
+            env=self.env,
+            capture_output=True,
+            text=True,
+            timeout=timeout_s + 30,
+        )
+        lines = [json.loads(line) for line in r.stdout.splitlines()]
+        assert r.returncode == 0, f"{r.stderr}\n{lines[:3]}\nbridge: {output(self.bridge)}"
+        matches = [line["match"] for line in lines if "match" in line]
+        return (matches[0] if matches else {}), [line for line in lines if "match" not in line]
+
+    def send(self, kind: str, topic: str, value: str, count: int) -> None:
+        r = subprocess.run(
+            [str(self.reader), "write", kind, topic, value, str(count)],
+            env=self.env,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        assert r.returncode == 0, r.stderr
+
+    def counters(self) -> dict:
+        """The bridge's counters from its next DiagnosticArray."""
+        _, (sample,) = self.read("diagnostics", "rt/diagnostics", 1)
+        (mine,) = [s for s in sample["status"] if s["name"] == "cell-test: dds bridge"]
+        return {k: int(v) for k, v in mine["values"].items() if v.isdigit()}
+
+    def close(self) -> None:
+        for p in (self.bridge, self.agent):
+            stop(p)
+        self.control.close()
+        self.vars.close()
+        stop(self.irpd)
+
+
+@pytest.fixture(scope="module")
+def controller(tmp_path_factory, ros2_reader):
+    c = Controller(tmp_path_factory.mktemp("dds-live"), ros2_reader)
+    yield c
+    c.close()
+
+
+def test_joint_states_come_at_every_basic_period_with_ros2_names_types_and_qos(controller):
+    match, samples = controller.read("joint_states", "rt/joint_states", 300)
+    assert match == {
+        "topic": "rt/joint_states",
+        "type": "sensor_msgs::msg::dds_::JointState_",
+        "reliability": "reliable",
+        "durability": "volatile",
+    }
+    assert all(s["name"] == JOINTS and len(s["position"]) == 6 for s in samples)
+    assert all(s["velocity"] == 0 and s["effort"] == 0 for s in samples)
+    stamps = [s["sec"] * 1_000_000_000 + s["nanosec"] for s in samples]
+    steps = [b - a for a, b in zip(stamps, stamps[1:])]
+    # Stamped with the sample's due time: on the 1 ms grid, one sample per basic period (a reader
+    # that fell behind its keep-last 10 may skip some, never see one twice).
+    assert all(step > 0 and step % BASIC_NS == 0 for step in steps), steps
+    assert sorted(steps)[len(steps) // 2] == BASIC_NS, steps
+    # The wall clock of the stamp is today's (CLOCK_MONOTONIC moved onto CLOCK_REALTIME).
+    assert abs(stamps[-1] / 1e9 - time.time()) < 60
+
+
+def test_the_positions_are_the_mapped_variables(controller):
+    _, (sample,) = controller.read("joint_states", "rt/joint_states", 1)
+    now = [controller.vars.read(f"PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[{i}]") for i in range(6)]
+    assert sample["position"] == pytest.approx(now, abs=0.05)  # the drives stand still (not enabled)
+
+
+def test_diagnostics_carry_the_set_the_dispatcher_and_every_module(controller):
+    match, (sample,) = controller.read("diagnostics", "rt/diagnostics", 1)
+    assert match["type"] == "diagnostic_msgs::msg::dds_::DiagnosticArray_"
+    names = {s["name"]: s for s in sample["status"]}
+    assert {"cell-test: dds bridge", "cell-test: set", "cell-test: dispatcher main"} <= set(names)
+    assert {"cell-test: module libiodispat", "cell-test: module Robot", "cell-test: module main"} <= set(names)
+    assert names["cell-test: set"]["values"]["set"].endswith("module-1ms.xml")
+    assert names["cell-test: set"]["values"]["basic_period_ns"] == str(BASIC_NS)
+    assert "jitter_ns p99" in names["cell-test: dispatcher main"]["values"]
+    assert names["cell-test: dds bridge"]["level"] == 0, names["cell-test: dds bridge"]
+
+
+def test_a_mapped_topic_is_written_through_irpd_and_nothing_else_is(controller):
+    c = controller
+    c.send("float64", "rt/cell/override", "0.25", 1)
+    c.wait(lambda: c.vars.read("PLC_ROBOT.PLC_IN.Override") == 0.25, 20)
+    enable = c.vars.read("PLC_ROBOT.PLC_IN.Enable")
+    before = c.counters()
+    c.send("bool", "rt/cell/enable", "1", 20)  # no mapping names it
+    c.send("int32", "rt/cell/override", "1", 20)  # the mapped topic, another type
+    c.send("float64", "rt/cell/override", "nan", 3)  # not a value for a variable
+    time.sleep(1.0)
+    assert c.vars.read("PLC_ROBOT.PLC_IN.Enable") == enable
+    assert c.vars.read("PLC_ROBOT.PLC_IN.Override") == 0.25
+    after = c.counters()
+    assert after["malformed"] - before["malformed"] == 3
+    assert after["written"] == before["written"]
+
+
+def test_a_flood_is_bounded_counted_and_irpd_keeps_running(controller):
+    c = controller
+    before, cycles = c.counters(), c.status()["cycles"]
+    c.send("float64", "rt/cell/override", "0.5", 5000)
+    time.sleep(1.0)
+    after = c.counters()
+    received = after["received"] - before["received"]
+    written = after["written"] - before["written"]
+    assert received > 0 and after["dropped"] > before["dropped"]
+    assert written + (after["dropped"] - before["dropped"]) == received
+    status = c.status()
+    assert status["running"] and status["cycles"] > cycles and c.irpd.poll() is None
+
+
+def test_the_bridge_and_another_reader_are_traced_together(controller):
+    c = controller
+    answer = c.control.request("trace", channels=["PLC_ROBOT.I0"])  # as the agent asks, owner "agent"
+    traced = [ch["path"] for ch in answer["channels"]]
+    assert "PLC_ROBOT.I0" in traced and "PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[5]" in traced
+    assert set(answer["owners"]) == {"agent", "dds"}
+    _, samples = c.read("joint_states", "rt/joint_states", 20)
+    assert len(samples) == 20
+    c.control.request("trace", channels=[])
+
+
+ROS2_VENV = ROOT / ".venv-ros2"
+
+
+def test_a_ros2_node_sees_joint_states(controller):
+    """rclpy (ROS 2 Jazzy, rmw_fastrtps_cpp: another DDS implementation) on loopback only."""
+    python = ROS2_VENV / "bin" / "python"
+    if not python.exists():
+        pytest.skip("no ROS 2 wheels: bash packaging/ros2-venv.sh makes .venv-ros2")
+    here = Path(__file__).parent
+    profile = str(here / "fastdds_loopback.xml")
+    r = subprocess.run(
+        [str(python), str(here / "rclpy_joint_states.py"), "/joint_states", "5", "60"],
+        env={
+            "ROS_DOMAIN_ID": str(controller.domain),
+            "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
+            "FASTRTPS_DEFAULT_PROFILES_FILE": profile,
+            "FASTDDS_DEFAULT_PROFILES_FILE": profile,
+            "PATH": os.environ.get("PATH", ""),
+        },
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    samples = [json.loads(line) for line in r.stdout.splitlines()]
+    assert len(samples) == 5, r.stderr
+    assert all(s["name"] == JOINTS and len(s["position"]) == 6 for s in samples)
+    stamps = [s["sec"] * 1_000_000_000 + s["nanosec"] for s in samples]
+    assert all(b > a and (b - a) % BASIC_NS == 0 for a, b in zip(stamps, stamps[1:]))
+
+
+def test_the_bridge_withdraws_its_channels_when_it_stops(tmp_path, ros2_reader, controller):
+    c = controller
+    stop(c.bridge)
+    assert c.bridge.returncode == 0, output(c.bridge)
+    assert "dds" not in c.control.request("trace").get("owners", {})
