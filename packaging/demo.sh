@@ -2,8 +2,8 @@
 # demo.sh -- installs what is missing, builds, and starts the default demo: irpd running the
 # set activated last through the agent, or the PLC + robot cell (config/sets/plc-robot, the paper's
 # §4, its drives simulated on Modbus TCP by indurop-drivesim) the first time, with its control
-# socket, and
-# indurop-agent on http://127.0.0.1:8080/api/v1 beside it.  Ctrl-C stops both.  Extra arguments
+# socket, indurop-agent on http://127.0.0.1:8080/api/v1 beside it and the DDS bridge on loopback
+# (docs/dds.md).  Ctrl-C stops them.  Extra arguments
 # go to irpd, e.g. `bash packaging/demo.sh --duration 10 --stats-json /tmp/stats.json` (the
 # agent stops when irpd does).  INDUROP_PORT and INDUROP_DATA change the port and data folder.
 set -euo pipefail
@@ -33,6 +33,11 @@ n=$(nproc)
 (cd "$root/agent" && exec "${off_rt[@]}" "$venv/bin/python" -m indurop_agent --host 127.0.0.1 --port "$port" \
     --data-dir "$data" --irpd-socket "$sock") &
 agent_pid=$!
+# The DDS bridge (docs/dds.md): ROS 2's /joint_states and /diagnostics on Cyclone DDS, loopback
+# only, domain INDUROP_DDS_DOMAIN (default 0).
+(cd "$root/agent" && exec "${off_rt[@]}" "$venv/bin/python" -m indurop_agent.dds --irpd-socket "$sock" \
+    --domain-id "${INDUROP_DDS_DOMAIN:-0}" --interface lo) &
+bridge_pid=$!
 url=http://127.0.0.1:$port
 for _ in $(seq 200); do curl -sf "$url/api/v1/health" >/dev/null && break; kill -0 $agent_pid 2>/dev/null || break; sleep 0.1; done
 # The first time, the cell becomes the set store's first set (history, rollback, the UI's edits
@@ -44,9 +49,10 @@ fi
 echo "demo: the web UI: $url/  (sign in with the admin token: $data/admin-token)"
 echo "demo: start the cell from the UI's Variables page (PLC_ROBOT.PLC_IN.Enable = 1, then PLC_ROBOT.I0 = 1) or: irpctl write PLC_ROBOT.PLC_IN.Enable 1; irpctl write PLC_ROBOT.I0 1 (docs/plc-robot-cell.md)"
 echo "demo: irpd (pid $irpd_pid) on $config; agent (pid $agent_pid) on $url/api/v1/docs"
+echo "demo: DDS bridge (pid $bridge_pid): rt/joint_states and rt/diagnostics on domain ${INDUROP_DDS_DOMAIN:-0}, loopback (docs/dds.md)"
 echo "demo: the admin token is in $data/admin-token"
 
-stop() { kill -TERM $irpd_pid $agent_pid 2>/dev/null || true; wait 2>/dev/null || true; }
+stop() { kill -TERM $irpd_pid $agent_pid $bridge_pid 2>/dev/null || true; wait 2>/dev/null || true; }
 trap stop INT TERM
 # Whichever ends first (irpd after --duration, or the agent) ends the demo.
 wait -n $irpd_pid $agent_pid || true

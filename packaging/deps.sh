@@ -13,6 +13,7 @@ packages=(
   libsystemd-dev                                 # sd_notify, the watchdog (irpd as a Type=notify service)
   libcap-dev                                     # irpd --user: keeps CAP_SYS_NICE and CAP_IPC_LOCK, drops the rest
   libmodbus-dev                                  # Modbus TCP/RTU (the I/O dispatcher, the drive simulator)
+  cyclonedds-dev cyclonedds-tools                # the DDS bridge's test: a separate ROS 2 peer in C (idlc, libddsc)
   qemu-system-x86 busybox-static file            # SocketCAN on vcan in a small guest (tests/vcan/)
   googletest libgtest-dev                        # C++ tests
   rt-tests                                       # cyclictest: the benchmark's reference
