@@ -39,7 +39,7 @@ COMMAND = "python3 protocol/dds/generate.py"
 # IDL type -> (the annotation in the generated Python, the C/IDL spelling kept for the table)
 BASIC = {
     "boolean": "bool",
-    "octet": "types.uint8",
+    "octet": "types.byte",  # IDL octet (ROS 2 byte): TK_BYTE, which Cyclone 0.10 also knows
     "char": "types.char",
     "int8": "types.int8",
     "uint8": "types.uint8",

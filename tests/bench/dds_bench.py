@@ -49,7 +49,7 @@ def wakeup_p99(before: dict, after: dict) -> float | None:
     difference of their buckets, the upper edge of the bucket holding the rank."""
 
     def buckets(answer):
-        (rec,) = [r for r in answer["records"] if r["kind"] == "dispatcher" and r["name"] == "main"]
+        (rec,) = [r for r in answer["records"] if r["kind"] == "dispatcher" and r["executor"] == "main"]
         return {(low, width): n for low, width, n in rec["latency_ns"]["buckets"]}
 
     a, b = buckets(before), buckets(after)
@@ -114,9 +114,9 @@ def main() -> int:
                 assert time.monotonic() < deadline
                 time.sleep(0.1)
         for phase in range(args.phases):
-            h0 = control.request("histograms", name="main")
+            h0 = control.request("histograms", name="dispatcher")
             time.sleep(args.phase_s)
-            off = wakeup_p99(h0, control.request("histograms", name="main"))
+            off = wakeup_p99(h0, control.request("histograms", name="dispatcher"))
             bridge = subprocess.Popen(
                 [sys.executable, "-m", "indurop_agent.dds", "--irpd-socket", str(sock), "--domain-id", str(domain)],
                 cwd=ROOT / "agent",
@@ -125,9 +125,9 @@ def main() -> int:
             )
             time.sleep(5)  # started, traced, matched
             sub.on = True
-            h0 = control.request("histograms", name="main")
+            h0 = control.request("histograms", name="dispatcher")
             time.sleep(args.phase_s)
-            on = wakeup_p99(h0, control.request("histograms", name="main"))
+            on = wakeup_p99(h0, control.request("histograms", name="dispatcher"))
             sub.on = False
             stop(bridge)
             results["off_p99_ns"].append(off)

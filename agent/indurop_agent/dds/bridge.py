@@ -377,7 +377,7 @@ class Bridge:
         now = time.monotonic()
         if now >= self.next_status:
             self.next_status = now + self.s.status_s
-            self.clock_offset_ns = time.time_ns() - time.monotonic_ns()
+            self.follow_wall_clock()
             self.poll_status()
         if self.status:
             self.publish_rows()
@@ -385,6 +385,13 @@ class Bridge:
         if self.bridge.diagnostics and now >= self.next_diag:
             self.next_diag = now + 1.0 / self.bridge.diagnostics_hz
             self.publish_diagnostics()
+
+    def follow_wall_clock(self) -> None:
+        """The stamps' offset from CLOCK_MONOTONIC to the wall clock, taken again only when the
+        wall clock was stepped (by more than 1 ms): between steps, stamps stay on the period grid."""
+        offset = time.time_ns() - time.monotonic_ns()
+        if abs(offset - self.clock_offset_ns) > 1_000_000:
+            self.clock_offset_ns = offset
 
     def run(self) -> None:
         period = self.s.poll_ms / 1000.0
@@ -456,7 +463,8 @@ def timing_status(name: str, record: dict) -> ros2_types.DiagnosticStatus:
                 values.append(ros2_types.KeyValue(key=f"{figure} {q}", value=str(f[q])))
     return ros2_types.DiagnosticStatus(
         level=level,
-        name=f"{name}: {kind} {record.get('name')}",
+        # A dispatcher's record is named "dispatcher": it is told apart by its executor.
+        name=f"{name}: {kind} {record.get('executor') if kind == 'dispatcher' else record.get('name')}",
         message=f"{record.get('runs', 0)} runs, {record.get('overruns', 0)} overruns, {record.get('missed', 0)} missed",
         hardware_id=name,
         values=values,

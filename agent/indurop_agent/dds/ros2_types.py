@@ -64,7 +64,7 @@ class KeyValue(IdlStruct, typename="diagnostic_msgs::msg::dds_::KeyValue_"):
 class DiagnosticStatus(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticStatus_"):
     """diagnostic_msgs::msg::dds_::DiagnosticStatus_ (diagnostic_msgs/msg/DiagnosticStatus.idl)."""
 
-    level: types.uint8 = 0
+    level: types.byte = 0
     name: str = ""
     message: str = ""
     hardware_id: str = ""

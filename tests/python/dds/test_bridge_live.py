@@ -257,7 +257,7 @@ def test_the_bridge_and_another_reader_are_traced_together(controller):
 ROS2_VENV = ROOT / ".venv-ros2"
 
 
-def test_a_ros2_node_sees_joint_states(controller):
+def test_a_ros2_node_sees_joint_states(controller, tmp_path):
     """rclpy (ROS 2 Jazzy, rmw_fastrtps_cpp: another DDS implementation) on loopback only."""
     python = ROS2_VENV / "bin" / "python"
     if not python.exists():
@@ -272,6 +272,8 @@ def test_a_ros2_node_sees_joint_states(controller):
             "FASTRTPS_DEFAULT_PROFILES_FILE": profile,
             "FASTDDS_DEFAULT_PROFILES_FILE": profile,
             "PATH": os.environ.get("PATH", ""),
+            "HOME": str(tmp_path),
+            "ROS_LOG_DIR": str(tmp_path / "ros-log"),
         },
         capture_output=True,
         text=True,
