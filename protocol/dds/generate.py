@@ -76,7 +76,7 @@ def tokens(path: Path):
         m = TOKEN.match(text, pos)
         if not m:
             line = text.count("\n", 0, pos) + 1
-            raise IdlError(f"{path.relative_to(HERE)}:{line}: cannot read {text[pos:pos + 20].strip()!r}")
+            raise IdlError(f"{path.relative_to(HERE)}:{line}: cannot read {text[pos : pos + 20].strip()!r}")
         pos = m.end()
         if m.group(1) or m.group(2):
             continue
@@ -119,7 +119,9 @@ def parse(path: Path, structs: dict[str, Struct]) -> None:
             parts.append(name())
         scoped = "::".join(parts)
         if len(parts) == 1 and scoped not in BASIC:
-            raise IdlError(f"{rel}:{toks[i - 1][1]}: {scoped!r} is not a type this generator knows (write other structs fully scoped)")
+            raise IdlError(
+                f"{rel}:{toks[i - 1][1]}: {scoped!r} is not a type this generator knows (write other structs fully scoped)"
+            )
         return scoped
 
     while i < len(toks):
@@ -239,7 +241,9 @@ def render_schema(structs: dict[str, Struct]) -> str:
         for name in defs[kind]["enum"]:
             package, msg, message = name.split("/")
             if f"{package}::{msg}::dds_::{message}_" not in structs:
-                raise IdlError(f"{SCHEMA.relative_to(ROOT)}: {name} has no IDL (protocol/ros2/{package}/msg/{message}.idl)")
+                raise IdlError(
+                    f"{SCHEMA.relative_to(ROOT)}: {name} has no IDL (protocol/ros2/{package}/msg/{message}.idl)"
+                )
     return "\n".join(
         [
             '"""The shape of a set\'s dds.json (docs/dds.md), as JSON Schema.',

@@ -27,8 +27,6 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests" / "python"))
 sys.path.insert(0, str(ROOT / "agent"))
-from live_processes import copy_cell, start_irpd, stop  # noqa: E402
-
 from cyclonedds.domain import Domain, DomainParticipant  # noqa: E402
 from cyclonedds.sub import DataReader  # noqa: E402
 from cyclonedds.topic import Topic  # noqa: E402
@@ -36,6 +34,7 @@ from indurop_agent.dds import ros2_types  # noqa: E402
 from indurop_agent.dds.bridge import QOS  # noqa: E402
 from indurop_agent.dds.settings import BridgeSettings, cyclone_config  # noqa: E402
 from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
+from live_processes import copy_cell, start_irpd, stop  # noqa: E402
 
 BASIC_NS = 1_000_000
 

@@ -241,8 +241,8 @@ TEST(ModuleXml, ExecutorsAndBudgets) {
 }
 
 TEST(ModuleXml, WritesDeclaresTheVariablesAModuleWrites) {
-    SetSpec set = accepted(document(periodic("a").line("<writes>knu.Robot.tick</writes>").line("<writes> joint[1].y </writes>"),
-                                    periodic("b")));
+    SetSpec set = accepted(document(
+        periodic("a").line("<writes>knu.Robot.tick</writes>").line("<writes> joint[1].y </writes>"), periodic("b")));
     ASSERT_EQ(set.modules.size(), 2u);
     EXPECT_EQ(set.modules[0].writes, (std::vector<std::string>{"knu.Robot.tick", "joint[1].y"}));
     EXPECT_TRUE(set.modules[1].writes.empty());

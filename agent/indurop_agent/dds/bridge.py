@@ -109,7 +109,9 @@ class Bridge:
         self.joints: list[tuple[str, str, float, float]] = []  # (joint, variable, scale, offset)
         self.joint_writer: DataWriter | None = None
         self.joint_decimation = 1
-        self.diag_writer = DataWriter(self.participant, self.topic("diagnostics", ros2_types.DiagnosticArray), QOS["default"])
+        self.diag_writer = DataWriter(
+            self.participant, self.topic("diagnostics", ros2_types.DiagnosticArray), QOS["default"]
+        )
         self.publications: list[Publication] = []
         self.subscriptions: list[Subscription] = []
         self.basic_period_ns = 0
@@ -340,7 +342,11 @@ class Bridge:
             *self.counters.as_values(),
         ]
         return ros2_types.DiagnosticStatus(
-            level=level, name=f"{self.s.name}: dds bridge", message=message[:1000], hardware_id=self.s.name, values=values
+            level=level,
+            name=f"{self.s.name}: dds bridge",
+            message=message[:1000],
+            hardware_id=self.s.name,
+            values=values,
         )
 
     def set_status(self, alarms: dict) -> ros2_types.DiagnosticStatus:
@@ -500,4 +506,3 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
-

@@ -115,7 +115,9 @@ def parse(data: bytes | str, file: str = BRIDGE_JSON) -> BridgeFile:
         raise BridgeFileError("nested too deeply", file=file) from None
     error = jsonschema.exceptions.best_match(_VALIDATOR.iter_errors(doc))
     if error is not None:
-        raise BridgeFileError(f"{_where(error.absolute_path)}: {error.message}", _line_of(doc, error.absolute_path), file)
+        raise BridgeFileError(
+            f"{_where(error.absolute_path)}: {error.message}", _line_of(doc, error.absolute_path), file
+        )
 
     def mappings(kind: str, rate_key: str, default_rate: float) -> tuple[Mapping, ...]:
         out = []
@@ -204,4 +206,6 @@ def check_variables(bridge: BridgeFile, scalars: dict[str, str], file: str = BRI
 
 def layout_scalars(layout: dict) -> dict[str, str]:
     """layout.json -> {scalar path: its type} (the leaves glbc lists)."""
-    return {leaf["path"]: leaf["type"] for leaf in layout.get("leaves", []) if leaf.get("type") in layout.get("scalars", {})}
+    return {
+        leaf["path"]: leaf["type"] for leaf in layout.get("leaves", []) if leaf.get("type") in layout.get("scalars", {})
+    }

@@ -50,9 +50,7 @@ def _check(s: BridgeSettings) -> BridgeSettings:
 def cyclone_config(s: BridgeSettings) -> str:
     """The Cyclone DDS XML for these settings (Domain(domain_id, config=...))."""
     if s.interface == "lo":
-        general = (
-            '<Interfaces><NetworkInterface name="lo"/></Interfaces><AllowMulticast>false</AllowMulticast>'
-        )
+        general = '<Interfaces><NetworkInterface name="lo"/></Interfaces><AllowMulticast>false</AllowMulticast>'
         peers = ["127.0.0.1"]
     else:
         general = f"<Interfaces><NetworkInterface name={quoteattr(s.interface)}/></Interfaces>"

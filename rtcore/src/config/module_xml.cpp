@@ -484,7 +484,8 @@ private:
         for (pugi::xml_node w : writes_nodes) {
             std::string path = leafText(w, m.name);
             if (path.empty())
-                failField(w, m.name, "writes", "is empty; name the shared variable the module writes, e.g. knu.Robot.tick");
+                failField(w, m.name, "writes",
+                          "is empty; name the shared variable the module writes, e.g. knu.Robot.tick");
             if (std::find(m.writes.begin(), m.writes.end(), path) != m.writes.end())
                 failField(w, m.name, "writes", "'" + path + "' is declared twice");
             m.writes.push_back(std::move(path));

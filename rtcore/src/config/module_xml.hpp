@@ -63,12 +63,12 @@ struct ModuleSpec {
     // A process module's args, env.*, restart, restart_delay_ms and max_restarts, parsed from
     // `properties` when module.xml is read (a ModuleSpec made in code: parseProcessProperties).
     ProcessProperties process;
-    std::vector<AlarmSpec> alarms;  // <alarm>s, in file order
+    std::vector<AlarmSpec> alarms;    // <alarm>s, in file order
     std::vector<std::string> writes;  // <writes>: the shared variables it declares it writes (docs/dds.md)
-    int index = 0;                  // position in the file (ties in priority go to the earlier one)
-    int line = 0;                   // line of <module>
-    std::string where;              // "path/module.xml:12", for messages
-    std::string xml;                // that module.xml, absolute: the file of an error's place
+    int index = 0;                    // position in the file (ties in priority go to the earlier one)
+    int line = 0;                     // line of <module>
+    std::string where;                // "path/module.xml:12", for messages
+    std::string xml;                  // that module.xml, absolute: the file of an error's place
 };
 
 // The same <alarm>s (ids, severities, texts, in order; not their lines).

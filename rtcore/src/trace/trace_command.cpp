@@ -19,8 +19,8 @@ Result<json> handleTraceCommand(TraceRings &rings, const variables::VariableSegm
         paths.push_back(list[i].get<std::string>());
     }
     auto owner = request.find("owner");
-    Result<json> answer =
-        rings.configureFor(owner != request.end() && owner->is_string() ? owner->get<std::string>() : "agent", paths, vars);
+    Result<json> answer = rings.configureFor(
+        owner != request.end() && owner->is_string() ? owner->get<std::string>() : "agent", paths, vars);
     if (!answer) return answer;
     if (!rings.waitApplied(rings.requestedGeneration(), kApplyWaitNs)) return answer;  // "applied": false
     return rings.describe();

@@ -21,7 +21,15 @@ end = time.monotonic() + timeout_s
 while time.monotonic() < end and len(got) < count:
     rclpy.spin_once(node, timeout_sec=0.1)
 for m in got[:count]:
-    print(json.dumps({"sec": m.header.stamp.sec, "nanosec": m.header.stamp.nanosec, "name": list(m.name),
-                      "position": list(m.position)}))
+    print(
+        json.dumps(
+            {
+                "sec": m.header.stamp.sec,
+                "nanosec": m.header.stamp.nanosec,
+                "name": list(m.name),
+                "position": list(m.position),
+            }
+        )
+    )
 node.destroy_node()
 rclpy.shutdown()

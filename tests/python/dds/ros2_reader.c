@@ -32,7 +32,10 @@ static void json_string(const char *s) {
     putchar('"');
     for (; s && *s; ++s) {
         if (*s == '"' || *s == '\\') putchar('\\');
-        if ((unsigned char)*s < 0x20) printf("\\u%04x", *s); else putchar(*s);
+        if ((unsigned char)*s < 0x20)
+            printf("\\u%04x", *s);
+        else
+            putchar(*s);
     }
     putchar('"');
 }
@@ -62,7 +65,9 @@ static void print_match(dds_entity_t reader) {
         json_string(ep->type_name);
         printf(", \"reliability\": \"%s\", \"durability\": \"%s\"}}\n",
                rel == DDS_RELIABILITY_RELIABLE ? "reliable" : "best_effort",
-               dur == DDS_DURABILITY_VOLATILE ? "volatile" : dur == DDS_DURABILITY_TRANSIENT_LOCAL ? "transient_local" : "other");
+               dur == DDS_DURABILITY_VOLATILE          ? "volatile"
+               : dur == DDS_DURABILITY_TRANSIENT_LOCAL ? "transient_local"
+                                                       : "other");
         dds_builtintopic_free_endpoint(ep);
     }
     fflush(stdout);
@@ -74,7 +79,10 @@ static void print_sample(const char *kind, const void *s) {
         printf("{\"sec\": %d, \"nanosec\": %u, \"frame_id\": ", m->header.stamp.sec, m->header.stamp.nanosec);
         json_string(m->header.frame_id);
         printf(", \"name\": [");
-        for (uint32_t i = 0; i < m->name._length; ++i) { if (i) printf(", "); json_string(m->name._buffer[i]); }
+        for (uint32_t i = 0; i < m->name._length; ++i) {
+            if (i) printf(", ");
+            json_string(m->name._buffer[i]);
+        }
         printf("], \"position\": [");
         for (uint32_t i = 0; i < m->position._length; ++i) printf("%s%.17g", i ? ", " : "", m->position._buffer[i]);
         printf("], \"velocity\": %u, \"effort\": %u}\n", m->velocity._length, m->effort._length);
@@ -116,9 +124,15 @@ int main(int argc, char **argv) {
     }
     const char *kind = argv[2];
     dds_entity_t participant = dds_create_participant(DDS_DOMAIN_DEFAULT, NULL, NULL);
-    if (participant < 0) { fprintf(stderr, "participant: %s\n", dds_strretcode(-participant)); return 1; }
+    if (participant < 0) {
+        fprintf(stderr, "participant: %s\n", dds_strretcode(-participant));
+        return 1;
+    }
     dds_entity_t topic = dds_create_topic(participant, descriptor(kind), argv[3], NULL, NULL);
-    if (topic < 0) { fprintf(stderr, "topic: %s\n", dds_strretcode(-topic)); return 1; }
+    if (topic < 0) {
+        fprintf(stderr, "topic: %s\n", dds_strretcode(-topic));
+        return 1;
+    }
     dds_qos_t *qos = ros2_default_qos();
     int rc = 0;
     if (!strcmp(argv[1], "read")) {
@@ -132,20 +146,24 @@ int main(int argc, char **argv) {
         while (got < want && dds_time() < until) {
             if (!matched) {
                 dds_subscription_matched_status_t st;
-                if (dds_get_subscription_matched_status(reader, &st) == 0 && st.current_count > 0) print_match(reader), matched = 1;
+                if (dds_get_subscription_matched_status(reader, &st) == 0 && st.current_count > 0)
+                    print_match(reader), matched = 1;
             }
             dds_return_t n = dds_take(reader, samples, infos, 16, 16);
             for (dds_return_t i = 0; i < n && got < want; ++i)
                 if (infos[i].valid_data) print_sample(kind, samples[i]), ++got;
-            if (n > 0) dds_return_loan(reader, samples, n);
-            else dds_sleepfor(DDS_MSECS(1));
+            if (n > 0)
+                dds_return_loan(reader, samples, n);
+            else
+                dds_sleepfor(DDS_MSECS(1));
         }
         rc = got < want ? 3 : 0;
     } else {
         dds_entity_t writer = dds_create_writer(participant, topic, qos, NULL);
         dds_time_t until = dds_time() + DDS_SECS(10);
         dds_publication_matched_status_t st = {0};
-        while (dds_time() < until && (dds_get_publication_matched_status(writer, &st), st.current_count == 0)) dds_sleepfor(DDS_MSECS(10));
+        while (dds_time() < until && (dds_get_publication_matched_status(writer, &st), st.current_count == 0))
+            dds_sleepfor(DDS_MSECS(10));
         dds_sleepfor(DDS_MSECS(200));
         long count = atol(argv[5]);
         double value = atof(argv[4]);
@@ -153,10 +171,12 @@ int main(int argc, char **argv) {
             std_msgs_msg_dds__Float64_ f = {value};
             std_msgs_msg_dds__Bool_ b = {value != 0};
             std_msgs_msg_dds__Int32_ n = {(int32_t)value};
-            const void *sample = !strcmp(kind, "float64") ? (const void *)&f : !strcmp(kind, "bool") ? (const void *)&b : (const void *)&n;
+            const void *sample = !strcmp(kind, "float64") ? (const void *)&f
+                                 : !strcmp(kind, "bool")  ? (const void *)&b
+                                                          : (const void *)&n;
             dds_write(writer, sample);
         }
-        dds_sleepfor(DDS_MSECS(300));  /* reliable: let the last samples arrive */
+        dds_sleepfor(DDS_MSECS(300)); /* reliable: let the last samples arrive */
         printf("{\"written\": %ld, \"matched\": %d}\n", count, st.current_count);
     }
     dds_delete_qos(qos);
