@@ -228,6 +228,18 @@ def drive_simulator_realtime(irpd_pid: int, priority: int) -> str:
     return f"SCHED_FIFO {priority}, CPUs {sorted(os.sched_getaffinity(sim))}"
 
 
+def wait_until(what, seconds: float = 20.0, every: float = 0.01):
+    """Polls what() until it is truthy; returns its value.  Fails naming what() (its docstring)
+    after `seconds`."""
+    deadline = time.monotonic() + seconds
+    while True:
+        value = what()
+        if value:
+            return value
+        assert time.monotonic() < deadline, f"timed out waiting for {what.__doc__ or what}"
+        time.sleep(every)
+
+
 def output(p: subprocess.Popen) -> str:
     """What irpd (its stderr) or an agent started here printed so far."""
     p.log.seek(0)

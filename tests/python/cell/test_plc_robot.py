@@ -17,7 +17,17 @@ import httpx
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from live_processes import API, BUILD, ROOT, copy_cell, free_port, start_agent, start_irpd, stop  # noqa: E402
+from live_processes import (  # noqa: E402
+    API,
+    BUILD,
+    ROOT,
+    copy_cell,
+    free_port,
+    start_agent,
+    start_irpd,
+    stop,
+    wait_until,
+)
 
 sys.path.insert(0, str(ROOT / "agent"))
 from indurop_agent import cli  # noqa: E402
@@ -66,13 +76,7 @@ class Cell:
 
     def wait(self, what, seconds: float = 20.0, every: float = 0.01):
         """Polls what() until it is truthy; returns its value."""
-        deadline = time.monotonic() + seconds
-        while True:
-            value = what()
-            if value:
-                return value
-            assert time.monotonic() < deadline, f"timed out waiting for {what.__doc__ or what}"
-            time.sleep(every)
+        return wait_until(what, seconds, every)
 
     def close(self) -> None:
         self.control.close()

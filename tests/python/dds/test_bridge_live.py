@@ -29,6 +29,7 @@ from live_processes import (  # noqa: E402
     start_agent,
     start_irpd,
     stop,
+    wait_until,
 )
 
 sys.path.insert(0, str(ROOT / "agent"))
@@ -121,13 +122,7 @@ class Controller:
             return None  # starting
 
     def wait(self, what, seconds: float = 30.0):
-        deadline = time.monotonic() + seconds
-        while True:
-            value = what()
-            if value:
-                return value
-            assert time.monotonic() < deadline, f"timed out waiting for {what.__doc__ or what}"
-            time.sleep(0.05)
+        return wait_until(what, seconds, 0.05)
 
     def read(self, kind: str, topic: str, count: int, timeout_s: int = 60) -> tuple[dict, list[dict]]:
         """The matched writer and `count` samples, as the separate reader printed them."""
