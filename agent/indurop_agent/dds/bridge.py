@@ -25,6 +25,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication
 from cyclonedds.core import Policy, Qos
 from cyclonedds.domain import Domain, DomainParticipant
 from cyclonedds.pub import DataWriter
@@ -71,6 +72,8 @@ class Counters:
     refused: int = 0  # writes irpd refused (a value out of the variable's range or type)
     malformed: int = 0  # samples that do not fit their mapping (an array of another length, NaN for an integer)
     dropped: int = 0  # samples over a subscription's max_rate_hz, not written
+    foreign_writers: int = 0  # writers on a subscribed topic with another type: DDS never matches them
+    incompatible_qos: int = 0  # writers on a subscribed topic whose QoS cannot match (e.g. best effort)
     irpd_errors: int = 0  # requests irpd did not answer
 
     def as_values(self) -> list[ros2_types.KeyValue]:
@@ -109,11 +112,15 @@ class Bridge:
         self.joints: list[tuple[str, str, float, float]] = []  # (joint, variable, scale, offset)
         self.joint_writer: DataWriter | None = None
         self.joint_decimation = 1
+        # Every writer on the domain, to count those on a subscribed topic with a foreign type.
+        self.publications_seen = BuiltinDataReader(self.participant, BuiltinTopicDcpsPublication)
+        self.foreign: set = set()
         self.diag_writer = DataWriter(
             self.participant, self.topic("diagnostics", ros2_types.DiagnosticArray), QOS["default"]
         )
         self.publications: list[Publication] = []
         self.subscriptions: list[Subscription] = []
+        self.incompatible_before = 0
         self.basic_period_ns = 0
         self.clock_offset_ns = time.time_ns() - time.monotonic_ns()
         self.status: dict = {}
@@ -209,7 +216,8 @@ class Bridge:
 
     def setup_writers(self) -> None:
         # The previous set's writers and readers go with their last reference (cyclonedds deletes
-        # an entity when it is collected).
+        # an entity when it is collected); their counts stay.
+        self.incompatible_before = self.counters.incompatible_qos
         b = self.bridge
         self.joint_writer = None
         if b.joint_states and self.joints:
@@ -226,7 +234,11 @@ class Bridge:
             for m in b.publish
         ]
         self.subscriptions = [
-            Subscription(m, DataReader(self.participant, self.topic(m.topic, message_class(m.type)), QOS[m.qos]))
+            Subscription(
+                m,
+                DataReader(self.participant, self.topic(m.topic, message_class(m.type)), QOS[m.qos]),
+                tokens=m.rate_hz,
+            )
             for m in b.subscribe
         ]
 
@@ -297,6 +309,26 @@ class Bridge:
                     continue
                 sub.tokens -= 1
                 self.write(m, sample)
+
+    def watch_writers(self) -> None:
+        """Counts writers on a subscribed topic whose type is not the mapping's (Cyclone does not
+        match them and counts nothing itself), and the readers' incompatible-QoS notices."""
+        wanted = {
+            self.wire_name(s.mapping.topic): message_class(s.mapping.type).__idl_typename__ for s in self.subscriptions
+        }
+        for w in self.publications_seen.take(N=256):
+            name = getattr(w, "topic_name", None)
+            if name in wanted and getattr(w, "type_name", None) != wanted[name] and w.key not in self.foreign:
+                self.foreign.add(w.key)
+                self.counters.foreign_writers += 1
+                print(
+                    f"indurop-dds-bridge: a writer of {w.type_name} on {name} (mapped as {wanted[name]}) is ignored",
+                    file=sys.stderr,
+                    flush=True,
+                )
+        self.counters.incompatible_qos = self.incompatible_before + sum(
+            s.reader.get_requested_incompatible_qos_status().total_count for s in self.subscriptions
+        )
 
     def write(self, m: Mapping, sample) -> None:
         values = list(sample.data) if m.is_array else [sample.data]
@@ -385,6 +417,7 @@ class Bridge:
             self.next_status = now + self.s.status_s
             self.follow_wall_clock()
             self.poll_status()
+            self.watch_writers()
         if self.status:
             self.publish_rows()
             self.take_subscriptions()

@@ -222,6 +222,7 @@ def test_a_mapped_topic_is_written_through_irpd_and_nothing_else_is(controller):
     after = c.counters()
     assert after["malformed"] - before["malformed"] == 3
     assert after["written"] == before["written"]
+    assert after["foreign_writers"] - before["foreign_writers"] == 1  # the Int32 writer
 
 
 def test_a_flood_is_bounded_counted_and_irpd_keeps_running(controller):
