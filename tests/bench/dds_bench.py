@@ -5,7 +5,9 @@ and irpd's wake-up latency p99 with the bridge publishing every basic period div
 without the bridge, in the same run (phases alternate: off, on, off, on ...).
 
 irpd runs the plc-robot cell's 1 ms variant (module-1ms.xml); the bridge and the subscriber (a
-cyclonedds reader in this process) use loopback only, on a domain of their own.  Not in CI: run it
+cyclonedds reader in this process) use loopback only, on a domain of their own, and run off irpd's
+dispatcher CPU (the last one) as the demo and the .deb's units run the bridge (--same-cpu: on
+every CPU, to see what that costs).  Not in CI: run it
 when nothing else loads the machine.
 
     .venv/bin/python tests/bench/dds_bench.py [--phase-s 20] [--phases 4] [--json out.json]
@@ -94,15 +96,26 @@ def main() -> int:
     ap.add_argument("--phase-s", type=float, default=20.0)
     ap.add_argument("--phases", type=int, default=4, help="pairs of (without, with) the bridge")
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--same-cpu", action="store_true", help="let the bridge and the subscriber run on irpd's CPU too")
     args = ap.parse_args()
     work = Path(tempfile.mkdtemp(prefix="dds-bench-"))
+    cpus = os.cpu_count() or 1
+    off_rt = [] if args.same_cpu or cpus < 2 else ["taskset", "-c", f"0-{cpus - 2}"]
     xml, _ = copy_cell(work / "plc-robot", "module-1ms.xml")
     sock = work / "irpd.sock"
     irpd = start_irpd(sock, xml, f"dds-bench-{os.getpid()}")
     control = IrpdClient(str(sock), timeout_s=30)
     domain = 150 + os.getpid() % 50
+    if off_rt:
+        os.sched_setaffinity(0, range(cpus - 1))  # this process and the subscriber's thread
     sub = Subscriber(domain)
-    results = {"phase_s": args.phase_s, "phases": args.phases, "off_p99_ns": [], "on_p99_ns": []}
+    results = {
+        "phase_s": args.phase_s,
+        "phases": args.phases,
+        "bridge_cpus": "all" if not off_rt else off_rt[-1],
+        "off_p99_ns": [],
+        "on_p99_ns": [],
+    }
     try:
         deadline = time.monotonic() + 60
         while True:
@@ -117,7 +130,16 @@ def main() -> int:
             time.sleep(args.phase_s)
             off = wakeup_p99(h0, control.request("histograms", name="dispatcher"))
             bridge = subprocess.Popen(
-                [sys.executable, "-m", "indurop_agent.dds", "--irpd-socket", str(sock), "--domain-id", str(domain)],
+                [
+                    *off_rt,
+                    sys.executable,
+                    "-m",
+                    "indurop_agent.dds",
+                    "--irpd-socket",
+                    str(sock),
+                    "--domain-id",
+                    str(domain),
+                ],
                 cwd=ROOT / "agent",
                 stdout=subprocess.DEVNULL,
                 stderr=open(work / "bridge.log", "a"),
