@@ -178,17 +178,18 @@ class Bridge:
                 problems.append(str(e))
         channels = list(dict.fromkeys([v for _, v, _, _ in joints] + [v for m in bridge.publish for v in m.variables]))
         try:
-            answer = self.irpd.request("trace", channels=channels, owner=self.s.trace_owner)
-        except IrpdRefused as e:
-            problems.append(f"irpd refused to trace the mapped variables: {e}")
-            joints, bridge = [], BridgeFile(joint_states=False, publish=(), subscribe=bridge.subscribe)
-            answer = self.irpd.request("trace", channels=[], owner=self.s.trace_owner)
-        except IrpdUnavailable as e:
+            try:
+                answer = self.irpd.request("trace", channels=channels, owner=self.s.trace_owner)
+            except IrpdRefused as e:
+                problems.append(f"irpd refused to trace the mapped variables: {e}")
+                joints, bridge = [], BridgeFile(joint_states=False, publish=(), subscribe=bridge.subscribe)
+                answer = self.irpd.request("trace", channels=[], owner=self.s.trace_owner)
+            self.open_ring(answer["shm"])
+        except (IrpdUnavailable, IrpdRefused, TraceError, KeyError) as e:
             self.counters.irpd_errors += 1
-            self.set_key = None
-            print(f"indurop-dds-bridge: irpd: {e}", file=sys.stderr, flush=True)
+            self.set_key = None  # try again at the next status
+            print(f"indurop-dds-bridge: the trace rings: {e}", file=sys.stderr, flush=True)
             return
-        self.open_ring(answer["shm"])
         self.bridge, self.joints, self.problem = bridge, joints, "; ".join(problems)
         self.setup_writers()
         if self.problem:

@@ -287,3 +287,35 @@ def test_the_bridge_withdraws_its_channels_when_it_stops(tmp_path, ros2_reader, 
     stop(c.bridge)
     assert c.bridge.returncode == 0, output(c.bridge)
     assert "dds" not in c.control.request("trace").get("owners", {})
+
+
+def test_without_irpd_the_bridge_says_so_in_its_diagnostics_and_waits(tmp_path, ros2_reader):
+    domain = 200 + os.getpid() % 30
+    log = open(tmp_path / "bridge.log", "w+")
+    bridge = subprocess.Popen(
+        [sys.executable, "-m", "indurop_agent.dds", "--irpd-socket", str(tmp_path / "none.sock")]
+        + ["--domain-id", str(domain), "--name", "lonely"],
+        cwd=ROOT / "agent",
+        stdout=log,
+        stderr=subprocess.STDOUT,
+    )
+    STARTED.append(bridge)
+    bridge.log = log
+    try:
+        config = cyclone_config(BridgeSettings(domain_id=domain)).replace('Id="any"', f'Id="{domain}"')
+        r = subprocess.run(
+            [str(ros2_reader), "read", "diagnostics", "rt/diagnostics", "1", "60"],
+            env={**os.environ, "CYCLONEDDS_URI": config},
+            capture_output=True,
+            text=True,
+            timeout=90,
+        )
+        assert r.returncode == 0, r.stderr + output(bridge)
+        sample = json.loads(r.stdout.splitlines()[-1])
+        assert [(s["name"], s["level"], s["message"]) for s in sample["status"]] == [
+            ("lonely: dds bridge", 3, "irpd does not answer")
+        ]
+        assert bridge.poll() is None
+    finally:
+        stop(bridge)
+    assert bridge.returncode == 0, output(bridge)
