@@ -415,3 +415,19 @@ def test_the_agent_serves_https_with_tls_options(tmp_path):
     finally:
         p.terminate()  # by pid
         p.wait(10)
+
+
+def test_a_sets_dds_json_is_checked_at_upload_and_stored_as_the_bridge_file(agent, elves):
+    """docs/dds.md: dds.json's refusals name the file and the line; a good one is kind "bridge"."""
+    bad = b'{"publish": [\n  {"topic": "9x", "type": "std_msgs/msg/Bool", "variable": "v"}]}'
+    r = post_set(agent, *files_body({**small_set(elves), "dds.json": bad}))
+    assert r.status_code == 400, r.text
+    body = r.json()
+    assert body["file"] == "dds.json" and body["line"] == 2, body
+    assert "publish[0].topic" in body["detail"]
+    two = b'{"subscribe": [{"topic": "a", "type": "std_msgs/msg/Bool", "variable": "v"},\n {"topic": "b", "type": "std_msgs/msg/Bool", "variable": "v"}]}'
+    r = post_set(agent, *files_body({**small_set(elves), "dds.json": two}))
+    assert r.status_code == 400 and "v would have two writers" in r.json()["detail"], r.text
+    good = b'{"joint_states": {"rate_hz": 50}}'
+    s = upload(agent, elves, **{"dds.json": good})
+    assert {f["path"]: f["kind"] for f in s["files"]}["dds.json"] == "bridge"
