@@ -27,7 +27,7 @@ class SetFile(BaseModel):
     size: int
     kind: str = Field(
         description="module_xml, config, thread_module, library, executable, layout, json, robot "
-        "(robot.json), glb, urdf, mesh, header or text"
+        "(robot.json), bridge (dds.json), glb, urdf, mesh, header or text"
     )
 
 

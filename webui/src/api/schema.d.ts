@@ -1896,7 +1896,7 @@ export interface components {
         SetFile: {
             /**
              * Kind
-             * @description module_xml, config, thread_module, library, executable, layout, json, robot (robot.json), glb, urdf, mesh, header or text
+             * @description module_xml, config, thread_module, library, executable, layout, json, robot (robot.json), bridge (dds.json), glb, urdf, mesh, header or text
              */
             kind: string;
             /**
