@@ -82,17 +82,17 @@ def ros2_reader(tmp_path_factory) -> Path:
 class Controller:
     """irpd on the 1 ms cell, the agent, and the bridge on domain `domain`, loopback only."""
 
-    def __init__(self, tmp: Path, reader: Path):
+    def __init__(self, tmp: Path, reader: Path, domain: int, drivesim: list[str] | None = None, agent: bool = True):
         self.reader = reader
-        self.domain = 100 + os.getpid() % 100
+        self.domain = domain
         self.folder = tmp / "plc-robot"
-        xml, _ = copy_cell(self.folder, "module-1ms.xml")
+        xml, _ = copy_cell(self.folder, "module-1ms.xml", drivesim)
         self.sock = tmp / "irpd.sock"
         self.irpd = start_irpd(self.sock, xml, f"dds-test-{os.getpid()}")
         self.control = IrpdClient(str(self.sock), timeout_s=30)
         status = self.wait(self.status, 60)
         self.vars = Segment(status["shared_memory"]["variables"])
-        self.agent = start_agent(free_port(), tmp / "agent-data", self.sock)
+        self.agent = start_agent(free_port(), tmp / "agent-data", self.sock) if agent else None
         self.bridge_log = open(tmp / "bridge.log", "w+")
         self.bridge = subprocess.Popen(
             [
@@ -156,7 +156,8 @@ class Controller:
 
     def close(self) -> None:
         for p in (self.bridge, self.agent):
-            stop(p)
+            if p is not None:
+                stop(p)
         self.control.close()
         self.vars.close()
         stop(self.irpd)
@@ -164,7 +165,7 @@ class Controller:
 
 @pytest.fixture(scope="module")
 def controller(tmp_path_factory, ros2_reader):
-    c = Controller(tmp_path_factory.mktemp("dds-live"), ros2_reader)
+    c = Controller(tmp_path_factory.mktemp("dds-live"), ros2_reader, 100 + os.getpid() % 60)
     yield c
     c.close()
 
@@ -290,7 +291,7 @@ def test_the_bridge_withdraws_its_channels_when_it_stops(tmp_path, ros2_reader, 
 
 
 def test_without_irpd_the_bridge_says_so_in_its_diagnostics_and_waits(tmp_path, ros2_reader):
-    domain = 200 + os.getpid() % 30
+    domain = 160 + os.getpid() % 30
     log = open(tmp_path / "bridge.log", "w+")
     bridge = subprocess.Popen(
         [sys.executable, "-m", "indurop_agent.dds", "--irpd-socket", str(tmp_path / "none.sock")]
@@ -319,3 +320,27 @@ def test_without_irpd_the_bridge_says_so_in_its_diagnostics_and_waits(tmp_path, 
     finally:
         stop(bridge)
     assert bridge.returncode == 0, output(bridge)
+
+
+def test_active_alarms_are_in_the_diagnostics_while_they_are_active(tmp_path, ros2_reader):
+    """The drives stop answering 3 s after the start for 20 s: libiodispat's comm-lost alarm (100)
+    is in the set's status, which turns WARN, and leaves it when they answer again."""
+    c = Controller(
+        tmp_path, ros2_reader, 190 + os.getpid() % 40, ["--fail-after", "3", "--fail-for", "20"], agent=False
+    )
+    try:
+
+        def set_status() -> dict:
+            _, (sample,) = c.read("diagnostics", "rt/diagnostics", 1)
+            return next(s for s in sample["status"] if s["name"] == "cell-test: set")
+
+        def alarmed():
+            """the comm-lost alarm in the diagnostics"""
+            s = set_status()
+            return s if any(k.startswith("alarm libiodispat/100") for k in s["values"]) else None
+
+        s = wait_until(alarmed, 60, 0)
+        assert s["level"] == 1 and "alarm(s) active" in s["message"], s
+        wait_until(lambda: not alarmed(), 60, 0)
+    finally:
+        c.close()
