@@ -88,7 +88,7 @@ class Controller:
         self.folder = tmp / "plc-robot"
         xml, _ = copy_cell(self.folder, "module-1ms.xml", drivesim)
         self.sock = tmp / "irpd.sock"
-        self.irpd = start_irpd(self.sock, xml, f"dds-test-{os.getpid()}")
+        self.irpd = start_irpd(self.sock, xml, f"dds-test-{os.getpid()}-{domain}")
         self.control = IrpdClient(str(self.sock), timeout_s=30)
         status = self.wait(self.status, 60)
         self.vars = Segment(status["shared_memory"]["variables"])
