@@ -19,7 +19,6 @@ import argparse
 import json
 import os
 import statistics
-import subprocess
 import sys
 import tempfile
 import threading
@@ -36,7 +35,7 @@ from indurop_agent.dds import ros2_types  # noqa: E402
 from indurop_agent.dds.bridge import QOS  # noqa: E402
 from indurop_agent.dds.settings import BridgeSettings, cyclone_config  # noqa: E402
 from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
-from live_processes import copy_cell, start_irpd, stop  # noqa: E402
+from live_processes import copy_cell, start_bridge, start_irpd, stop  # noqa: E402
 
 BASIC_NS = 1_000_000
 
@@ -131,21 +130,7 @@ def main() -> int:
             h0 = control.request("histograms", name="dispatcher")
             time.sleep(args.phase_s)
             off = wakeup_p99(h0, control.request("histograms", name="dispatcher"))
-            bridge = subprocess.Popen(
-                [
-                    *off_rt,
-                    sys.executable,
-                    "-m",
-                    "indurop_agent.dds",
-                    "--irpd-socket",
-                    str(sock),
-                    "--domain-id",
-                    str(domain),
-                ],
-                cwd=ROOT / "agent",
-                stdout=subprocess.DEVNULL,
-                stderr=open(work / "bridge.log", "a"),
-            )
+            bridge = start_bridge(sock, domain, log=work / "bridge.log", prefix=tuple(off_rt))
             time.sleep(5)  # started, traced, matched
             sub.phase, sub.on = phase, True
             h0 = control.request("histograms", name="dispatcher")

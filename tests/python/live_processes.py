@@ -197,6 +197,23 @@ def start_agent(
         time.sleep(0.05)
 
 
+def start_bridge(sock: Path, domain: int, *extra: str, log: Path | None = None, prefix: tuple = ()) -> subprocess.Popen:
+    """indurop-dds-bridge (`python -m indurop_agent.dds`) for the irpd at `sock`, on DDS domain
+    `domain`, loopback only (its default); `prefix` goes before the command (taskset ...).  Its
+    output goes to `log` when given, else to a temporary file: output(p)."""
+    out = _output_file(log)
+    p = subprocess.Popen(
+        [*prefix, sys.executable, "-m", "indurop_agent.dds", "--irpd-socket", str(sock), "--domain-id", str(domain)]
+        + list(extra),
+        cwd=ROOT / "agent",
+        stdout=out,
+        stderr=subprocess.STDOUT,
+    )
+    STARTED.append(p)
+    p.log = out
+    return p
+
+
 def child_named(parent: int, name: bytes, seconds: float = 10) -> int:
     """The pid of `parent`'s child whose program's path contains `name` (irpd's process modules
     are its children); RuntimeError when none appears within `seconds`."""

@@ -22,11 +22,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from live_processes import (  # noqa: E402
     BUILD,
     ROOT,
-    STARTED,
     copy_cell,
     free_port,
     output,
     start_agent,
+    start_bridge,
     start_irpd,
     stop,
     wait_until,
@@ -93,25 +93,7 @@ class Controller:
         status = self.wait(self.status, 60)
         self.vars = Segment(status["shared_memory"]["variables"])
         self.agent = start_agent(free_port(), tmp / "agent-data", self.sock) if agent else None
-        self.bridge_log = open(tmp / "bridge.log", "w+")
-        self.bridge = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "indurop_agent.dds",
-                "--irpd-socket",
-                str(self.sock),
-                "--domain-id",
-                str(self.domain),
-                "--name",
-                "cell-test",
-            ],
-            cwd=ROOT / "agent",
-            stdout=self.bridge_log,
-            stderr=subprocess.STDOUT,
-        )
-        STARTED.append(self.bridge)
-        self.bridge.log = self.bridge_log
+        self.bridge = start_bridge(self.sock, self.domain, "--name", "cell-test", log=tmp / "bridge.log")
         config = cyclone_config(BridgeSettings(domain_id=self.domain)).replace('Id="any"', f'Id="{self.domain}"')
         self.env = {**os.environ, "CYCLONEDDS_URI": config}
 
@@ -292,16 +274,7 @@ def test_the_bridge_withdraws_its_channels_when_it_stops(tmp_path, ros2_reader, 
 
 def test_without_irpd_the_bridge_says_so_in_its_diagnostics_and_waits(tmp_path, ros2_reader):
     domain = 160 + os.getpid() % 30
-    log = open(tmp_path / "bridge.log", "w+")
-    bridge = subprocess.Popen(
-        [sys.executable, "-m", "indurop_agent.dds", "--irpd-socket", str(tmp_path / "none.sock")]
-        + ["--domain-id", str(domain), "--name", "lonely"],
-        cwd=ROOT / "agent",
-        stdout=log,
-        stderr=subprocess.STDOUT,
-    )
-    STARTED.append(bridge)
-    bridge.log = log
+    bridge = start_bridge(tmp_path / "none.sock", domain, "--name", "lonely")
     try:
         config = cyclone_config(BridgeSettings(domain_id=domain)).replace('Id="any"', f'Id="{domain}"')
         r = subprocess.run(
