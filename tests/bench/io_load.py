@@ -23,6 +23,7 @@ import argparse
 import json
 import os
 import shutil
+import secrets
 import signal
 import statistics
 import subprocess
@@ -212,6 +213,9 @@ def main() -> int:
         url = f"http://127.0.0.1:{agent_port}"
         token = (work / "data" / "admin-token").read_text().strip()
         api = httpx.Client(base_url=f"{url}/api/v1", headers={"Authorization": f"Bearer {token}"}, timeout=60)
+        # the browser signs in as a person would: a user made with the admin token
+        viewer = {"name": "bench", "role": "viewer", "password": f"pw-{secrets.token_urlsafe(12)}"}
+        api.post("/users", json=viewer).raise_for_status()
         vars_ = Segment(api.get("/status").json()["shared_memory"]["variables"])
 
         def read(path: str):
@@ -246,8 +250,8 @@ def main() -> int:
         browser_out = work / "browser.json"
         if not a.no_browser:
             load.append(subprocess.Popen(
-                ["node", str(ROOT / "tests" / "browser" / "bench" / "io-load-pages.mjs"), url, token,
-                 str(seconds), *JOINTS[:3], f"{NS}PLC_OUT.Step"],
+                ["node", str(ROOT / "tests" / "browser" / "bench" / "io-load-pages.mjs"), url, viewer["name"],
+                 viewer["password"], str(seconds), *JOINTS[:3], f"{NS}PLC_OUT.Step"],
                 cwd=ROOT / "tests" / "browser", stdout=open(browser_out, "w"), stderr=open(work / "browser.log", "w"),
                 start_new_session=True,
             ))  # fmt: skip
