@@ -25,6 +25,7 @@ from .alarms.manager import AlarmManager
 from .alarms.store import AlarmStore
 from .alarms.system import SystemAlarms, Thresholds
 from .alarms.watcher import AlarmWatcher
+from .api.deps import identity_by_id
 from .api.routes import (
     alarms,
     audit,
@@ -41,7 +42,6 @@ from .api.routes import (
     users,
     variables,
 )
-from .api.deps import identity_by_id
 from .audit import AuditLog
 from .auth import TokenStore
 from .config import Settings, default_webui_dir
@@ -65,9 +65,12 @@ def is_upload(method: str, path: str) -> bool:
 
 
 def json_safe(value):
-    """JSON without NaN/Infinity: Python's parser accepts them in a body, JSON answers cannot hold them."""
+    """JSON without NaN/Infinity and without unpaired surrogates (written as \\udXXX): Python's
+    parser accepts both in a body (e.g. "\\ud800"), an answer in UTF-8 can hold neither."""
     if isinstance(value, float) and not math.isfinite(value):
         return str(value)
+    if isinstance(value, str):
+        return value.encode("utf-8", "backslashreplace").decode("utf-8")
     if isinstance(value, dict):
         return {k: json_safe(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
@@ -76,7 +79,8 @@ def json_safe(value):
 
 
 async def validation_error(_: Request, exc: RequestValidationError) -> JSONResponse:
-    """FastAPI's 422, made safe for inputs such as {"value": NaN} (its own answer would be a 500)."""
+    """FastAPI's 422, made safe for inputs such as {"value": NaN} or an unpaired surrogate (its own
+    answer would be a 500)."""
     return JSONResponse(status_code=422, content={"detail": json_safe(jsonable_encoder(exc.errors()))})
 
 

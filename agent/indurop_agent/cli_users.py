@@ -107,8 +107,10 @@ def cmd_passwd(c: Client, a, out: Out) -> int:
     c.set_password(a.name, password, current)
     out.show(
         {"name": a.name, "changed": True},
-        lambda _: f"password of {a.name} {'changed' if own else 'reset'}; "
-        + ("your other sessions were signed out" if own else "their sessions were signed out"),
+        lambda _: (
+            f"password of {a.name} {'changed' if own else 'reset'}; "
+            + ("your other sessions were signed out" if own else "their sessions were signed out")
+        ),
     )
     return 0
 
@@ -148,7 +150,12 @@ USER_COMMANDS = (
         cmd_add,
         (NAME, (("--role",), {"choices": ROLES, "required": True}), PASSWORD_STDIN),
     ),
-    ("disable", "disable a user: their tokens are revoked, their sessions end (admin)", _change(lambda a: {"disabled": True}), (NAME,)),
+    (
+        "disable",
+        "disable a user: their tokens are revoked, their sessions end (admin)",
+        _change(lambda a: {"disabled": True}),
+        (NAME,),
+    ),
     ("enable", "enable a disabled user again (admin)", _change(lambda a: {"disabled": False}), (NAME,)),
     (
         "passwd",
@@ -156,6 +163,11 @@ USER_COMMANDS = (
         cmd_passwd,
         (NAME, PASSWORD_STDIN),
     ),
-    ("role", "change a user's role (admin)", _change(lambda a: {"role": a.role}), (NAME, (("role",), {"choices": ROLES}))),
+    (
+        "role",
+        "change a user's role (admin)",
+        _change(lambda a: {"role": a.role}),
+        (NAME, (("role",), {"choices": ROLES})),
+    ),
     ("tokens", "the tokens a user owns (admin, or oneself)", cmd_tokens, (NAME,)),
 )

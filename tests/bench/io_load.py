@@ -22,8 +22,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import shutil
 import secrets
+import shutil
 import signal
 import statistics
 import subprocess

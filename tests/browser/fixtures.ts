@@ -22,7 +22,12 @@ export async function fillSignIn(page: Page, user: User): Promise<void> {
 }
 
 /** Signs in through the form as the user of `role` (of agent `url`) and waits for the shell. */
-export async function signIn(page: Page, role: Role, hash = "#/overview", s: { url: string; users: Record<Role, User> } = server()): Promise<void> {
+export async function signIn(
+  page: Page,
+  role: Role,
+  hash = "#/overview",
+  s: { url: string; users: Record<Role, User> } = server(),
+): Promise<void> {
   await page.goto(`${s.url}/${hash}`);
   await fillSignIn(page, s.users[role]);
   await expect(page.getByTestId("who")).toContainText(role);

@@ -9,7 +9,7 @@ import { createServer } from "node:net";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 import type { Browser, Page } from "@playwright/test";
-import { api, expect, fillSignIn, shot, signIn, server, test } from "./fixtures";
+import { api, expect, fillSignIn, server, shot, signIn, test } from "./fixtures";
 import { ROOT } from "./server";
 
 function uniqueName(prefix: string): string {
@@ -115,10 +115,18 @@ test("an admin changes a role, disables a user (signed out at once, refused afte
   await back.context().close();
   await user.context().close();
 
-  const audit = (await (await api("/audit?limit=200")).json()) as { action: string; target: string; who: { name: string } }[];
+  const audit = (await (await api("/audit?limit=200")).json()) as {
+    action: string;
+    target: string;
+    who: { name: string };
+  }[];
   const mine = audit.filter((e) => e.target === name).map((e) => e.action);
   expect(mine).toEqual(expect.arrayContaining(["user_add", "user_change", "user_password", "sign_in"]));
-  expect(audit.filter((e) => e.target === name && e.action === "user_change").every((e) => e.who.name === server().users.admin.name)).toBe(true);
+  expect(
+    audit
+      .filter((e) => e.target === name && e.action === "user_change")
+      .every((e) => e.who.name === server().users.admin.name),
+  ).toBe(true);
 });
 
 // ---- the first run: an agent with no user yet (no irpd needed for it) ----------------------------------
@@ -138,13 +146,30 @@ test("with no user yet, the first-run page creates the first admin with the admi
   const port = await freePort();
   const agent = spawn(
     join(ROOT, ".venv/bin/python"),
-    ["-m", "indurop_agent", "--host", "127.0.0.1", "--port", String(port), "--data-dir", data, "--irpd-socket", join(data, "none.sock")],
+    [
+      "-m",
+      "indurop_agent",
+      "--host",
+      "127.0.0.1",
+      "--port",
+      String(port),
+      "--data-dir",
+      data,
+      "--irpd-socket",
+      join(data, "none.sock"),
+    ],
     { stdio: "ignore" },
   );
   const url = `http://127.0.0.1:${port}`;
   try {
     for (let i = 0; i < 300; i++) {
-      if (await fetch(`${url}/api/v1/health`).then((r) => r.ok, () => false)) break;
+      if (
+        await fetch(`${url}/api/v1/health`).then(
+          (r) => r.ok,
+          () => false,
+        )
+      )
+        break;
       await new Promise((r) => setTimeout(r, 100));
     }
     await page.goto(`${url}/`);

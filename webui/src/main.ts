@@ -87,9 +87,9 @@ async function start(root: HTMLElement): Promise<void> {
       location.reload();
     }
   });
-  root.querySelector("[data-testid=change-password]")!.addEventListener("click", () =>
-    openPasswordDialog(api, session.name, (message) => ctx.notify(message)),
-  );
+  root
+    .querySelector("[data-testid=change-password]")!
+    .addEventListener("click", () => openPasswordDialog(api, session.name, (message) => ctx.notify(message)));
   const ctx: AppContext = {
     api,
     session,

@@ -17,7 +17,6 @@ import hmac
 import re
 import secrets
 import time
-
 from collections.abc import Callable
 
 from ..auth import Identity

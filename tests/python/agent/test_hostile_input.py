@@ -699,9 +699,7 @@ def test_hostile_text_in_token_names_is_422_naming_the_field(battery, text):
 
 
 @pytest.mark.parametrize("text", HOSTILE_TEXT, ids=repr)
-def test_hostile_user_names_are_422_naming_the_field_and_reach_the_audit_log_as_data_when_signing_in(
-    battery, text
-):
+def test_hostile_user_names_are_422_naming_the_field_and_reach_the_audit_log_as_data_when_signing_in(battery, text):
     r = battery.request("POST", "/users", json={"name": text, "role": "viewer", "password": "long enough password"})
     assert r.status_code == 422 and r.json()["detail"][0]["loc"] == ["body", "name"], r.text
     assert "lowercase letters" in r.json()["detail"][0]["msg"]
@@ -740,7 +738,9 @@ def test_a_password_guessing_flood_is_slowed_locked_out_and_never_a_5xx(battery)
     assert set(codes) <= {401, 429, 503}, codes
     assert codes.count(401) <= 5 + 32, codes  # signin_attempts, and those already checking when it locked
     assert codes.count(429) >= 50, codes
-    r = battery.request("POST", "/session", None, source="127.0.3.200", json={"name": "victim", "password": "victim-password-1"})
+    r = battery.request(
+        "POST", "/session", None, source="127.0.3.200", json={"name": "victim", "password": "victim-password-1"}
+    )
     assert r.status_code == 429 and 0 < int(r.headers["Retry-After"]) <= 300, r.text
     r = battery.request(
         "POST", "/session", None, source="127.0.3.201", json={"name": "bystander", "password": "bystander-password-1"}

@@ -277,7 +277,9 @@ def test_guessing_tokens_on_the_stream_locks_the_address_out_as_on_http(cell):
                 ws.recv(timeout=10)
             codes.append(closed.value.rcvd.code)
     assert codes[:9] == [4401] * 9 and codes[9:] == [4429] * 3, codes
-    with connect(cell["ws"], additional_headers=bearer(cell["viewer"]), close_timeout=1) as ws:  # locked out even with a good one
+    with connect(
+        cell["ws"], additional_headers=bearer(cell["viewer"]), close_timeout=1
+    ) as ws:  # locked out even with a good one
         with pytest.raises(ConnectionClosed) as closed:
             ws.recv(timeout=10)
         assert closed.value.rcvd.code == 4429 and "try again" in closed.value.rcvd.reason

@@ -47,13 +47,20 @@ def test_the_first_admin_and_the_users_from_the_command_line(irpctl, fresh_cell,
     code, out, _ = irpctl(*c.args("user", "list"))
     lines = out.splitlines()
     assert lines[0].split() == ["NAME", "ROLE", "STATE", "LAST", "SIGN-IN", "TOKENS", "SESSIONS"]
-    assert lines[1].split()[:3] == ["ada", "admin", "enabled"] and lines[2].split()[:4] == ["bob", "operator", "enabled", "never"]
+    assert lines[1].split()[:3] == ["ada", "admin", "enabled"] and lines[2].split()[:4] == [
+        "bob",
+        "operator",
+        "enabled",
+        "never",
+    ]
     code, out, _ = irpctl(*c.args("--json", "user", "show", "bob"))
     assert json.loads(out)["role"] == "operator" and "hash" not in json.loads(out)
 
     assert irpctl(*c.args("user", "role", "bob", "viewer"))[0] == 0
     token = httpx.post(
-        f"{c.url}{API}/tokens", json={"name": "bobs-script", "role": "viewer", "owner": "bob"}, headers={"Authorization": f"Bearer {c.token}"}
+        f"{c.url}{API}/tokens",
+        json={"name": "bobs-script", "role": "viewer", "owner": "bob"},
+        headers={"Authorization": f"Bearer {c.token}"},
     ).json()["token"]
     code, out, _ = irpctl(*c.args("user", "tokens", "bob"))
     assert code == 0 and "bobs-script" in out

@@ -80,9 +80,7 @@ export function makeApi(options: ApiOptions = {}): Api {
   const auth: Middleware = {
     onRequest({ request }) {
       if (options.token) request.headers.set("Authorization", `Bearer ${options.token}`);
-      else
-        for (const [k, v] of Object.entries(sessionHeaders(request.method, options.csrf)))
-          request.headers.set(k, v);
+      else for (const [k, v] of Object.entries(sessionHeaders(request.method, options.csrf))) request.headers.set(k, v);
       return request;
     },
     onResponse({ response }) {

@@ -105,7 +105,12 @@ export const usersPage: Page = (root, ctx) => {
   // ---- a user's tokens --------------------------------------------------------------------------------
   const tokensTitle = h("h3", {}, "Tokens");
   const tokensList = h("div", { "data-testid": "tokens-list" });
-  const tokensPanel = h("section", { class: "panel ops-panel", hidden: true, "data-testid": "tokens-panel" }, tokensTitle, tokensList);
+  const tokensPanel = h(
+    "section",
+    { class: "panel ops-panel", hidden: true, "data-testid": "tokens-panel" },
+    tokensTitle,
+    tokensList,
+  );
 
   root.append(
     h(
@@ -167,7 +172,9 @@ export const usersPage: Page = (root, ctx) => {
                         "data-testid": `revoke-${t.id}`,
                         onclick: async () => {
                           try {
-                            unwrap(await api.DELETE("/api/v1/tokens/{token_id}", { params: { path: { token_id: t.id } } }));
+                            unwrap(
+                              await api.DELETE("/api/v1/tokens/{token_id}", { params: { path: { token_id: t.id } } }),
+                            );
                             done(`token ${t.name} of ${name} revoked`);
                           } catch (e) {
                             fail(e);
@@ -216,7 +223,11 @@ export const usersPage: Page = (root, ctx) => {
       { "data-testid": `user-row-${u.name}`, class: u.disabled ? "muted" : "" },
       h("td", {}, u.name, u.name === ctx.session.name ? h("span", { class: "ops-sub" }, " (you)") : null),
       h("td", {}, role),
-      h("td", { "data-testid": `state-${u.name}`, class: u.disabled ? "bad" : "good" }, u.disabled ? "disabled" : "enabled"),
+      h(
+        "td",
+        { "data-testid": `state-${u.name}`, class: u.disabled ? "bad" : "good" },
+        u.disabled ? "disabled" : "enabled",
+      ),
       h("td", { "data-testid": `last-sign-in-${u.name}` }, when(u.last_sign_in)),
       h("td", {}, when(u.password_changed)),
       h("td", { class: "num" }, tokens),
@@ -229,7 +240,10 @@ export const usersPage: Page = (root, ctx) => {
     try {
       const users = unwrap(await api.GET("/api/v1/users")) as User[];
       body.replaceChildren(...users.map(row));
-      setText(info, ` — ${users.length} user${users.length === 1 ? "" : "s"}, ${users.filter((u) => u.disabled).length} disabled`);
+      setText(
+        info,
+        ` — ${users.length} user${users.length === 1 ? "" : "s"}, ${users.filter((u) => u.disabled).length} disabled`,
+      );
     } catch (e) {
       fail(e);
     }

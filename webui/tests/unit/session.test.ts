@@ -13,7 +13,7 @@ describe("the session's headers", () => {
 
   it("mark the UI's own requests once the user has not touched the page for a while", () => {
     expect(sessionHeaders("GET", "c", true)).toEqual({ "X-Indurop-Background": "1" });
-    const target = new EventTarget();
+    const target = document.createElement("div");
     watchPresence(target);
     target.dispatchEvent(new Event("keydown"));
     const now = Date.now();

@@ -104,12 +104,16 @@ describe("the Users page", () => {
     q<HTMLInputElement>(root, "add-name")!.value = "carol";
     q<HTMLInputElement>(root, "add-password")!.value = "one long password";
     q<HTMLInputElement>(root, "add-again")!.value = "another password";
-    q(root, "add-user")!.closest("form")!.dispatchEvent(new Event("submit", { cancelable: true }));
+    q(root, "add-user")!
+      .closest("form")!
+      .dispatchEvent(new Event("submit", { cancelable: true }));
     await flush();
     expect(calls.some((c) => c.method === "POST")).toBe(false);
     expect(q(root, "users-error")?.textContent).toContain("differ");
     q<HTMLInputElement>(root, "add-again")!.value = "one long password";
-    q(root, "add-user")!.closest("form")!.dispatchEvent(new Event("submit", { cancelable: true }));
+    q(root, "add-user")!
+      .closest("form")!
+      .dispatchEvent(new Event("submit", { cancelable: true }));
     await flush();
     expect(calls.find((c) => c.method === "POST")?.opts).toEqual({
       body: { name: "carol", role: "operator", password: "one long password" },

@@ -30,7 +30,7 @@ from ..models import (
     Severity,
     ShelveRequest,
 )
-from .stream import authenticate
+from .stream import authenticate, stop_session_watch
 
 router = APIRouter(tags=["alarms"])
 
@@ -228,3 +228,4 @@ async def live(ws: WebSocket) -> None:
     finally:
         stop()
         task.cancel()
+        stop_session_watch(ws)

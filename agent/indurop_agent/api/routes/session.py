@@ -151,7 +151,7 @@ def get_session(request: Request, response: Response) -> SessionState:
     return state_of(request, state.sessions.find(session_id))
 
 
-@router.delete("/session", status_code=204, responses={403: {"description": "no CSRF token"}})
+@router.delete("/session", status_code=204, response_model=None, responses={403: {"description": "no CSRF token"}})
 def sign_out(request: Request, response: Response) -> None:
     """Signs out: the session ends on the server (its cookie is refused from now on) and the
     browser is told to forget the cookie.  Without a live session there is nothing to end."""
@@ -168,4 +168,3 @@ def sign_out(request: Request, response: Response) -> None:
         raise http_failure(e) from e
     state.sessions.end(session_id)
     state.audit.write("sign_out", who=who.as_dict(), client=client_address(request), target=who.name, result="ok")
-

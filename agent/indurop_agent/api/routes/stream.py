@@ -368,7 +368,11 @@ async def end_with_session(ws: WebSocket, session_id: str) -> None:
         await asyncio.sleep(SESSION_RECHECK_S)
 
 
-_session_watches: set[asyncio.Task] = set()
+def stop_session_watch(ws: WebSocket) -> None:
+    """Ends the watch of authenticate() (call it when the WebSocket's handler ends)."""
+    watch = getattr(ws.state, "session_watch", None)
+    if watch is not None:
+        watch.cancel()
 
 
 async def authenticate(ws: WebSocket) -> tuple[bool, dict | None]:
@@ -389,18 +393,14 @@ async def authenticate(ws: WebSocket) -> tuple[bool, dict | None]:
     session_id = ws.cookies.get(COOKIE) if token is None else None
     if session_id:
         if not same_origin(ws.headers):
-            await ws.close(
-                CLOSE_FORBIDDEN, "the session cookie is accepted only from this agent's own pages (Origin)"
-            )
+            await ws.close(CLOSE_FORBIDDEN, "the session cookie is accepted only from this agent's own pages (Origin)")
             return False, None
         try:
             check_session(state, session_id, "GET", ws.headers, "viewer", touch=False)
         except AuthFailure as e:
             await ws.close(CLOSE_UNAUTHENTICATED if e.status == 401 else CLOSE_FORBIDDEN, e.message)
             return False, None
-        watch = asyncio.create_task(end_with_session(ws, session_id))
-        _session_watches.add(watch)  # held until done (the loop keeps only weak references)
-        watch.add_done_callback(_session_watches.discard)
+        ws.state.session_watch = asyncio.create_task(end_with_session(ws, session_id))  # see stop_session_watch
         return True, None
     if token is None:
         try:
@@ -438,6 +438,7 @@ async def stream(ws: WebSocket) -> None:
         return
     hub = Hub.of(ws.app)
     if len(hub.clients) >= MAX_CLIENTS:
+        stop_session_watch(ws)
         await ws.close(CLOSE_BUSY, f"at most {MAX_CLIENTS} stream clients at once; try again later")
         return
     client = Client(ws)
@@ -469,4 +470,5 @@ async def stream(ws: WebSocket) -> None:
         pass  # the client went away (RuntimeError: receive after the pump closed it)
     finally:
         pump.cancel()
+        stop_session_watch(ws)
         await hub.remove(client)

@@ -108,6 +108,7 @@ def change_user(body: UserUpdate, request: Request, who: AdminDep, name: NamePar
 @router.put(
     "/users/{name}/password",
     status_code=204,
+    response_model=None,
     responses={**MISSING, 422: {"description": "a password the rules refuse, or a wrong current_password"}},
 )
 def change_password(body: PasswordChange, request: Request, who: ViewerDep, name: NameParam) -> None:
