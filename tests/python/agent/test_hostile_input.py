@@ -722,8 +722,9 @@ def test_a_password_guessing_flood_is_slowed_locked_out_and_never_a_5xx(battery)
     refused while the name is locked, another user signs in."""
     import concurrent.futures
 
-    for name in ("victim", "bystander"):
-        r = battery.request("POST", "/users", json={"name": name, "role": "viewer", "password": f"{name}-password-1"})
+    passwords = {"victim": "guarded secret 1", "bystander": "another secret 22"}
+    for name, password in passwords.items():
+        r = battery.request("POST", "/users", json={"name": name, "role": "viewer", "password": password})
         assert r.status_code == 201, r.text
 
     def guess(i: int) -> int:  # not in battery.answers: 503 is this flood's designed answer
@@ -739,11 +740,11 @@ def test_a_password_guessing_flood_is_slowed_locked_out_and_never_a_5xx(battery)
     assert codes.count(401) <= 5 + 32, codes  # signin_attempts, and those already checking when it locked
     assert codes.count(429) >= 50, codes
     r = battery.request(
-        "POST", "/session", None, source="127.0.3.200", json={"name": "victim", "password": "victim-password-1"}
+        "POST", "/session", None, source="127.0.3.200", json={"name": "victim", "password": passwords["victim"]}
     )
     assert r.status_code == 429 and 0 < int(r.headers["Retry-After"]) <= 300, r.text
     r = battery.request(
-        "POST", "/session", None, source="127.0.3.201", json={"name": "bystander", "password": "bystander-password-1"}
+        "POST", "/session", None, source="127.0.3.201", json={"name": "bystander", "password": passwords["bystander"]}
     )
     assert r.status_code == 200 and r.json()["signed_in"], r.text
     lockouts = [e for e in battery.get("/audit?limit=1000").json() if e["action"] == "lockout"]
