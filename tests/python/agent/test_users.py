@@ -142,6 +142,7 @@ def test_signing_in_gives_an_httponly_strict_cookie_and_the_csrf_token(users):
     cookie = r.headers["set-cookie"]
     assert cookie.startswith(f"{COOKIE}=") and "HttpOnly" in cookie and "SameSite=strict" in cookie
     assert "Path=/" in cookie and "Secure" not in cookie  # plain HTTP here
+    assert "Max-Age" not in cookie and "expires" not in cookie.lower()  # gone when the browser closes
     sid = r.cookies[COOKIE]
     assert sid not in (users.data / "sessions.json").read_text()  # stored hashed
     assert stat.S_IMODE((users.data / "sessions.json").stat().st_mode) == 0o600

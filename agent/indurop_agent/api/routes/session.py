@@ -123,10 +123,9 @@ def sign_in(body: SignIn, request: Request, response: Response) -> SessionState:
     session_id, s = state.sessions.create(user.name, address, replacing=request.cookies.get(COOKIE))
     who = session_identity(state, s)
     state.audit.write("sign_in", who=who.as_dict(), client=address, target=user.name, result="ok")
-    response.set_cookie(
+    response.set_cookie(  # no Max-Age: the browser forgets it when it closes; the agent ends it anyway
         COOKIE,
         session_id,
-        max_age=int(state.sessions.lifetime_s),
         path="/",
         secure=secure(request),
         httponly=True,
