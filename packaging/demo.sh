@@ -41,7 +41,13 @@ if [ ! -e "$data/active" ]; then
   INDUROP_URL=$url INDUROP_TOKEN_FILE=$data/admin-token "$venv/bin/irpctl" upload "$(dirname "$config")" --activate >/dev/null \
     || echo "demo: the cell could not be stored in the set store; it runs as started" >&2
 fi
-echo "demo: the web UI: $url/  (sign in with the admin token: $data/admin-token)"
+# No default password: the first admin sets theirs with the admin token the agent's first start wrote.
+if curl -sf "$url/api/v1/session" | grep -q '"first_run":true'; then
+  echo "demo: no user yet: set the first admin's password in the web UI ($url/ asks for the admin token in"
+  echo "demo:   $data/admin-token), or on this shell (it asks the password twice):"
+  echo "demo:   INDUROP_URL=$url INDUROP_TOKEN_FILE=$data/admin-token $venv/bin/irpctl user add admin --role admin"
+fi
+echo "demo: the web UI: $url/  (sign in with a user name and password; docs/administration.md)"
 echo "demo: start the cell from the UI's Variables page (PLC_ROBOT.PLC_IN.Enable = 1, then PLC_ROBOT.I0 = 1) or: irpctl write PLC_ROBOT.PLC_IN.Enable 1; irpctl write PLC_ROBOT.I0 1 (docs/plc-robot-cell.md)"
 echo "demo: irpd (pid $irpd_pid) on $config; agent (pid $agent_pid) on $url/api/v1/docs"
 echo "demo: the admin token is in $data/admin-token"

@@ -18,6 +18,12 @@ def main(argv: list[str] | None = None) -> int:
     created = app.state.tokens.ensure_admin()
     if created:
         print(f"indurop-agent: the admin token is in {created} (mode 0600); keep it safe", flush=True)
+    if not app.state.users.any():
+        print(
+            "indurop-agent: no user yet: the web UI's first-run page, or `irpctl --token-file "
+            f"{app.state.tokens.admin_token_path} user add NAME --role admin`, sets the first admin's password",
+            flush=True,
+        )
     scheme = "https" if settings.tls_cert else "http"
     print(
         f"indurop-agent: {scheme}://{settings.host}:{settings.port}/api/v1/docs  (irpd: {settings.irpd_socket}, "

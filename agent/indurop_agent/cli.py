@@ -1,5 +1,5 @@
 """cli.py -- irpctl, the command line of the agent's API: status, modules, sets, hot reload,
-variables, the sample stream, events, alarms (docs/irpctl.md).
+variables, the sample stream, events, alarms, users (cli_users.py) (docs/irpctl.md).
 
 Human output by default (aligned tables, durations as "100 µs"), the API's JSON with --json.
 Exit codes: 0 done, 1 the API refused (4xx, 409), 2 usage, 3 the agent or irpd unreachable.
@@ -44,6 +44,7 @@ from .cli_text import (
     transition_row,
     upload_text,
 )
+from .cli_users import USER_COMMANDS
 from .client import ApiError, Client
 
 DEFAULT_URL = "http://127.0.0.1:8080"
@@ -421,9 +422,10 @@ STREAM = (
 class Command:
     name: str
     help: str
-    run: Callable[[Client, argparse.Namespace, Out], int]
+    run: Callable[[Client, argparse.Namespace, Out], int] | None
     args: tuple[tuple[tuple[str, ...], dict], ...] = ()
     exclusive: tuple[tuple[tuple[str, ...], dict], ...] = ()  # at most one of these
+    sub: tuple[Command, ...] = ()  # a group: `irpctl NAME SUBCOMMAND ...` (run is None)
 
 
 COMMANDS: tuple[Command, ...] = (
@@ -610,7 +612,30 @@ COMMANDS: tuple[Command, ...] = (
         _show(lambda c, a: c.audit(limit=a.limit), audit_text),
         (arg("--limit", type=_positive_int, metavar="N"),),
     ),
+    Command(
+        "user",
+        "the people who sign in: list, show, add, disable, enable, passwd, role, tokens",
+        None,
+        sub=tuple(Command(name, text, run, args) for name, text, run, args in USER_COMMANDS),
+    ),
 )
+
+
+def _add_command(sub, command: Command) -> None:
+    p = sub.add_parser(command.name, help=command.help, description=command.help)
+    _connection_options(p, top=False)
+    if command.sub:
+        inner = p.add_subparsers(dest="subcommand", metavar="SUBCOMMAND", required=True)
+        for c in command.sub:
+            _add_command(inner, c)
+        return
+    p.set_defaults(func=command.run)
+    for flags, kw in command.args:
+        p.add_argument(*flags, **kw)
+    if command.exclusive:
+        group = p.add_mutually_exclusive_group()
+        for flags, kw in command.exclusive:
+            group.add_argument(*flags, **kw)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -623,15 +648,7 @@ def build_parser() -> argparse.ArgumentParser:
     _connection_options(ap, top=True)
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for command in COMMANDS:
-        p = sub.add_parser(command.name, help=command.help, description=command.help)
-        _connection_options(p, top=False)
-        p.set_defaults(func=command.run)
-        for flags, kw in command.args:
-            p.add_argument(*flags, **kw)
-        if command.exclusive:
-            group = p.add_mutually_exclusive_group()
-            for flags, kw in command.exclusive:
-                group.add_argument(*flags, **kw)
+        _add_command(sub, command)
     return ap
 
 
@@ -667,7 +684,7 @@ def _hint(e: ApiError, token: str | None) -> str:
     if e.status == 401:
         return "this agent does not know the token given: check --token / --token-file / $INDUROP_TOKEN*"
     if e.status == 403 and "WebSocket" not in e.message:
-        return "use a token with that role (an admin can make one: POST /api/v1/tokens)"
+        return "use a token with that role (an admin can make one: POST /api/v1/tokens, for a user of that role)"
     if e.status in (404, 405) and e.message.endswith(("Not Found", "Method Not Allowed")):
         return "this agent does not offer that route: is it older than irpctl?"
     if e.status == 503:

@@ -8,17 +8,25 @@ Schedule, ModuleInfo, Stats, ...): they list the fields irpd sends and let any o
 
 from __future__ import annotations
 
-from typing import Any, Literal, get_origin
+from typing import Annotated, Any, Literal, get_origin
 
-from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, create_model
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, StrictBool, StrictInt, create_model, model_validator
 
 from .. import protocol
+from ..sessions import CSRF_HEADER
+from ..users import NAME_PATTERN, PASSWORD_MAX, PASSWORD_MIN, name_problem
+
+Role = Literal["viewer", "operator", "admin"]
 
 
 class Who(BaseModel):
-    id: str | None = Field(description="the token's id (first 12 hex digits of its hash); null for the agent itself")
-    name: str
+    id: str | None = Field(
+        description="the token's id (first 12 hex digits of its hash) or the session's handle; null for the agent itself"
+    )
+    name: str = Field(description="the token's name, or the signed-in user's")
     role: str | None
+    user: str | None = Field(None, description="the user behind it (a session's, a token's owner); null: the appliance")
+    via: Literal["token", "session"] | None = Field(None, description="how the request was signed in")
 
 
 class SetFile(BaseModel):
@@ -431,3 +439,95 @@ class ShelveRequest(BaseModel):
     model_config = ConfigDict(extra="forbid")
     minutes: float = Field(gt=0, le=SHELVE_MAX_MINUTES, description="how long; it comes back when the time is up")
     reason: str = Field(min_length=1, max_length=SHELVE_REASON_MAX, description="why, for the history")
+
+
+# ---- users and sessions (docs/administration.md) ----------------------------------------------------
+def _user_name(value: str) -> str:
+    problem = name_problem(value)
+    if problem:
+        raise ValueError(problem)
+    return value
+
+
+UserName = Annotated[
+    str,
+    AfterValidator(_user_name),
+    Field(json_schema_extra={"pattern": NAME_PATTERN, "minLength": 2, "maxLength": 32}),
+]
+NewPassword = Annotated[
+    str,
+    Field(
+        max_length=PASSWORD_MAX,
+        description=f"{PASSWORD_MIN} to {PASSWORD_MAX} characters, no control characters, not containing the user "
+        "name (in any case), not the present password",
+        json_schema_extra={"minLength": PASSWORD_MIN},
+    ),
+]
+
+
+class SignIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    name: str = Field(min_length=1, max_length=256, description="the user name")
+    password: str = Field(min_length=1, max_length=PASSWORD_MAX)
+
+
+class SessionState(BaseModel):
+    """The browser's session (GET /session, and the answer to a sign-in)."""
+
+    signed_in: bool
+    first_run: bool = Field(
+        description="no user exists yet: the first admin is created with the admin token the agent wrote at its "
+        "first start (POST /users, or `irpctl user add NAME --role admin`)"
+    )
+    name: str | None = None
+    role: Role | None = None
+    csrf_token: str | None = Field(
+        None, description=f"send it in the {CSRF_HEADER} header with every change (POST, PUT, PATCH, DELETE)"
+    )
+    csrf_header: str = CSRF_HEADER
+    idle_timeout_s: float = Field(description="a session without a request of its user for this long ends")
+    expires: str | None = Field(None, description="when the session ends whatever happens (ISO 8601, UTC)")
+
+
+class UserCreate(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    name: UserName
+    role: Role
+    password: NewPassword
+
+
+class UserUpdate(BaseModel):
+    """An admin's change of a user: the role, or disabled (which revokes their tokens and ends their
+    sessions) or enabled again."""
+
+    model_config = ConfigDict(extra="forbid")
+    role: Role | None = None
+    disabled: StrictBool | None = None
+
+    @model_validator(mode="after")
+    def _something(self):
+        if self.role is None and self.disabled is None:
+            raise ValueError('give "role", "disabled" or both')
+        return self
+
+
+class PasswordChange(BaseModel):
+    """A new password: a user's own (with `current_password`), or an admin's reset of another's."""
+
+    model_config = ConfigDict(extra="forbid")
+    password: NewPassword
+    current_password: str | None = Field(
+        None, max_length=PASSWORD_MAX, description="the present password: needed to change one's own"
+    )
+
+
+class UserPublic(BaseModel):
+    name: str
+    role: Role
+    disabled: bool
+    created: str
+    created_by: str | None = Field(description="who created the user (a user's name, or the token's)")
+    last_sign_in: str | None
+    password_changed: str
+    tokens: int = Field(description="the user's tokens (GET /users/{name}/tokens)")
+    sessions: int = Field(description="the user's live browser sessions")

@@ -106,6 +106,8 @@ ROUTES = [
     ("GET", "/audit", "admin", None, 200),
     ("GET", "/tokens", "admin", None, 200),
     ("POST", "/tokens", "admin", {"name": "x", "role": "viewer"}, 201),
+    ("GET", "/users", "admin", None, 200),
+    ("POST", "/users", "admin", {"name": "matrix", "role": "viewer", "password": "a long password 1"}, 201),
 ]
 ROLES = ["viewer", "operator", "admin"]
 
@@ -154,6 +156,13 @@ def test_every_route_of_the_api_is_in_the_role_matrix(cell):
         ("POST", "/alarms/{key}/ack"),  # test_alarms_api.py
         ("POST", "/alarms/{key}/shelve"),
         ("POST", "/alarms/{key}/unshelve"),
+        ("POST", "/session"),  # test_users.py: sessions, and their role matrix
+        ("GET", "/session"),
+        ("DELETE", "/session"),
+        ("GET", "/users/{name}"),
+        ("PATCH", "/users/{name}"),
+        ("PUT", "/users/{name}/password"),
+        ("GET", "/users/{name}/tokens"),
     }
     templates = {
         ("GET", "/modules/cntr1"): ("GET", "/modules/{name}"),

@@ -5,6 +5,7 @@ the spec; tests/python/agent/test_stream.py covers it."""
 
 from __future__ import annotations
 
+import json
 import os
 
 import pytest
@@ -26,7 +27,11 @@ def live(tmp_path_factory):
     irpd = start_irpd(sock, instance=f"schemathesis-{os.getpid()}")  # two runs at once do not collide
     port = free_port()
     data = tmp / "data"
-    agent = start_agent(port, data, sock)
+    # Generated sign-ins fail by the hundred: they must not lock the test's own address (and so
+    # every later operation) out.  The lockouts have tests of their own (test_users.py).
+    config = tmp / "agent.json"
+    config.write_text(json.dumps({"lockout_attempts": 1_000_000, "signin_attempts": 1_000_000}))
+    agent = start_agent(port, data, sock, "--config", str(config))
     token = (data / "admin-token").read_text().strip()
     yield {"url": f"http://127.0.0.1:{port}", "headers": {"Authorization": f"Bearer {token}"}}
     stop(agent)

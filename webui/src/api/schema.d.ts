@@ -171,7 +171,7 @@ export interface paths {
         };
         /**
          * Me
-         * @description Who the token is: its id, name and role (what a UI shows as editable).
+         * @description Who the caller is: the token's (or session's) id, name and role (what a UI shows as editable).
          */
         get: operations["me_api_v1_auth_me_get"];
         put?: never;
@@ -440,6 +440,37 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/session": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get Session
+         * @description Who the browser is signed in as, with the CSRF token; or signed_in false (and first_run when
+         *     no user exists yet).  Needs no credentials.
+         */
+        get: operations["get_session_api_v1_session_get"];
+        put?: never;
+        /**
+         * Sign In
+         * @description Signs in with a name and a password: a new session (never the one the browser had: its
+         *     cookie, if any, is ended), the cookie, and the CSRF token to send with every change.
+         */
+        post: operations["sign_in_api_v1_session_post"];
+        /**
+         * Sign Out
+         * @description Signs out: the session ends on the server (its cookie is refused from now on) and the
+         *     browser is told to forget the cookie.  Without a live session there is nothing to end.
+         */
+        delete: operations["sign_out_api_v1_session_delete"];
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/sets": {
         parameters: {
             query?: never;
@@ -611,6 +642,94 @@ export interface paths {
         post?: never;
         /** Revoke Token */
         delete: operations["revoke_token_api_v1_tokens__token_id__delete"];
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/users": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** List Users */
+        get: operations["list_users_api_v1_users_get"];
+        put?: never;
+        /**
+         * Add User
+         * @description A new user with a role and a first password (docs/administration.md, "Passwords").  The
+         *     first admin is created this way with the admin token the agent wrote at its first start.
+         */
+        post: operations["add_user_api_v1_users_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/users/{name}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get User
+         * @description A user's record (admin, or the user themself).
+         */
+        get: operations["get_user_api_v1_users__name__get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        /**
+         * Change User
+         * @description Changes a user's role, or disables (their tokens are revoked, their sessions end) or enables
+         *     them.  The last enabled admin can be neither demoted nor disabled.
+         */
+        patch: operations["change_user_api_v1_users__name__patch"];
+        trace?: never;
+    };
+    "/api/v1/users/{name}/password": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        /**
+         * Change Password
+         * @description A user's own new password (with current_password; their other sessions end), or an admin's
+         *     reset of another user's (every session of that user ends).
+         */
+        put: operations["change_password_api_v1_users__name__password_put"];
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/users/{name}/tokens": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * User Tokens
+         * @description The tokens a user owns (admin, or the user themself); never the tokens themselves.
+         */
+        get: operations["user_tokens_api_v1_users__name__tokens_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
         options?: never;
         head?: never;
         patch?: never;
@@ -1427,6 +1546,17 @@ export interface components {
              * @enum {string}
              */
             role: "viewer" | "operator" | "admin";
+            /**
+             * User
+             * @description the signed-in user, or the token's owner
+             */
+            user?: string | null;
+            /**
+             * Via
+             * @default token
+             * @enum {string}
+             */
+            via: "token" | "session";
         };
         /**
          * ModuleChange
@@ -1577,6 +1707,22 @@ export interface components {
             to: number;
         } & {
             [key: string]: unknown;
+        };
+        /**
+         * PasswordChange
+         * @description A new password: a user's own (with `current_password`), or an admin's reset of another's.
+         */
+        PasswordChange: {
+            /**
+             * Current Password
+             * @description the present password: needed to change one's own
+             */
+            current_password?: string | null;
+            /**
+             * Password
+             * @description 12 to 1024 characters, no control characters, not containing the user name (in any case), not the present password
+             */
+            password: string;
         };
         /** PatchReport */
         PatchReport: {
@@ -1892,6 +2038,43 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
+        /**
+         * SessionState
+         * @description The browser's session (GET /session, and the answer to a sign-in).
+         */
+        SessionState: {
+            /**
+             * Csrf Header
+             * @default X-CSRF-Token
+             */
+            csrf_header: string;
+            /**
+             * Csrf Token
+             * @description send it in the X-CSRF-Token header with every change (POST, PUT, PATCH, DELETE)
+             */
+            csrf_token?: string | null;
+            /**
+             * Expires
+             * @description when the session ends whatever happens (ISO 8601, UTC)
+             */
+            expires?: string | null;
+            /**
+             * First Run
+             * @description no user exists yet: the first admin is created with the admin token the agent wrote at its first start (POST /users, or `irpctl user add NAME --role admin`)
+             */
+            first_run: boolean;
+            /**
+             * Idle Timeout S
+             * @description a session without a request of its user for this long ends
+             */
+            idle_timeout_s: number;
+            /** Name */
+            name?: string | null;
+            /** Role */
+            role?: ("viewer" | "operator" | "admin") | null;
+            /** Signed In */
+            signed_in: boolean;
+        };
         /** SetFile */
         SetFile: {
             /**
@@ -1979,6 +2162,16 @@ export interface components {
              * @description why, for the history
              */
             reason: string;
+        };
+        /** SignIn */
+        SignIn: {
+            /**
+             * Name
+             * @description the user name
+             */
+            name: string;
+            /** Password */
+            password: string;
         };
         /**
          * Stats
@@ -2207,6 +2400,11 @@ export interface components {
             /** Name */
             name: string;
             /**
+             * Owner
+             * @description the user it belongs to (default: the caller's user; none for the appliance's admin token); its role may not be above theirs
+             */
+            owner?: string | null;
+            /**
              * Role
              * @enum {string}
              */
@@ -2220,6 +2418,11 @@ export interface components {
             id: string;
             /** Name */
             name: string;
+            /**
+             * Owner
+             * @description the user it belongs to; null: the appliance
+             */
+            owner?: string | null;
             /** Role */
             role: string;
         };
@@ -2232,6 +2435,11 @@ export interface components {
             id: string;
             /** Name */
             name: string;
+            /**
+             * Owner
+             * @description the user it belongs to; null: the appliance
+             */
+            owner?: string | null;
             /** Role */
             role: string;
             /**
@@ -2239,6 +2447,65 @@ export interface components {
              * @description shown only in this answer; stored hashed
              */
             token: string;
+        };
+        /** UserCreate */
+        UserCreate: {
+            /** Name */
+            name: string;
+            /**
+             * Password
+             * @description 12 to 1024 characters, no control characters, not containing the user name (in any case), not the present password
+             */
+            password: string;
+            /**
+             * Role
+             * @enum {string}
+             */
+            role: "viewer" | "operator" | "admin";
+        };
+        /** UserPublic */
+        UserPublic: {
+            /** Created */
+            created: string;
+            /**
+             * Created By
+             * @description who created the user (a user's name, or the token's)
+             */
+            created_by: string | null;
+            /** Disabled */
+            disabled: boolean;
+            /** Last Sign In */
+            last_sign_in: string | null;
+            /** Name */
+            name: string;
+            /** Password Changed */
+            password_changed: string;
+            /**
+             * Role
+             * @enum {string}
+             */
+            role: "viewer" | "operator" | "admin";
+            /**
+             * Sessions
+             * @description the user's live browser sessions
+             */
+            sessions: number;
+            /**
+             * Tokens
+             * @description the user's tokens (GET /users/{name}/tokens)
+             */
+            tokens: number;
+        };
+        /**
+         * UserUpdate
+         * @description An admin's change of a user: the role, or disabled (which revokes their tokens and ends their
+         *     sessions) or enabled again.
+         */
+        UserUpdate: {
+            /** Disabled */
+            disabled?: boolean | null;
+            /** Role */
+            role?: ("viewer" | "operator" | "admin") | null;
         };
         /** Validation */
         Validation: {
@@ -2377,13 +2644,26 @@ export interface components {
         Who: {
             /**
              * Id
-             * @description the token's id (first 12 hex digits of its hash); null for the agent itself
+             * @description the token's id (first 12 hex digits of its hash) or the session's handle; null for the agent itself
              */
             id: string | null;
-            /** Name */
+            /**
+             * Name
+             * @description the token's name, or the signed-in user's
+             */
             name: string;
             /** Role */
             role: string | null;
+            /**
+             * User
+             * @description the user behind it (a session's, a token's owner); null: the appliance
+             */
+            user?: string | null;
+            /**
+             * Via
+             * @description how the request was signed in
+             */
+            via?: ("token" | "session") | null;
         };
     };
     responses: never;
@@ -3119,6 +3399,105 @@ export interface operations {
             };
         };
     };
+    get_session_api_v1_session_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SessionState"];
+                };
+            };
+        };
+    };
+    sign_in_api_v1_session_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["SignIn"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SessionState"];
+                };
+            };
+            /** @description wrong name or password, or a disabled user */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+            /** @description the name or the client's address is locked out for a while (Retry-After) */
+            429: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description too many password checks at once */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    sign_out_api_v1_session_delete: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            204: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no CSRF token */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
     list_sets_api_v1_sets_get: {
         parameters: {
             query?: never;
@@ -3415,7 +3794,10 @@ export interface operations {
     };
     list_tokens_api_v1_tokens_get: {
         parameters: {
-            query?: never;
+            query?: {
+                /** @description only this user's */
+                owner?: string | null;
+            };
             header?: never;
             path?: never;
             cookie?: never;
@@ -3429,6 +3811,15 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["TokenInfo"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
                 };
             };
         };
@@ -3454,6 +3845,20 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["TokenPublic"];
                 };
+            };
+            /** @description no such owner */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the owner is disabled */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
             /** @description Validation Error */
             422: {
@@ -3493,6 +3898,233 @@ export interface operations {
             };
             /** @description the last admin token */
             409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_users_api_v1_users_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["UserPublic"][];
+                };
+            };
+        };
+    };
+    add_user_api_v1_users_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["UserCreate"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["UserPublic"];
+                };
+            };
+            /** @description the name is taken */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    get_user_api_v1_users__name__get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description the user name */
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["UserPublic"];
+                };
+            };
+            /** @description no such user */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    change_user_api_v1_users__name__patch: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description the user name */
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["UserUpdate"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["UserPublic"];
+                };
+            };
+            /** @description no such user */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the last enabled admin */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    change_password_api_v1_users__name__password_put: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description the user name */
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["PasswordChange"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            204: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such user */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a password the rules refuse, or a wrong current_password */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    user_tokens_api_v1_users__name__tokens_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description the user name */
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["TokenInfo"][];
+                };
+            };
+            /** @description no such user */
+            404: {
                 headers: {
                     [name: string]: unknown;
                 };
