@@ -11,6 +11,8 @@ import uvicorn
 from . import config, memtrace, server
 from .app import create_app
 
+GRACEFUL_STOP_S = 5
+
 
 def main(argv: list[str] | None = None) -> int:
     settings = config.parse(argv)
@@ -51,9 +53,11 @@ def main(argv: list[str] | None = None) -> int:
         ws_max_size=settings.max_body_bytes,
         proxy_headers=bool(settings.forwarded_allow_ips),
         forwarded_allow_ips=settings.forwarded_allow_ips or None,
+        # a stop (SIGTERM, a restart from the System page) does not wait for ever on followed logs
+        timeout_graceful_shutdown=GRACEFUL_STOP_S,
         **tls,
     )
-    return 0
+    return app.state.agent_restart.exit_code()  # 75 when a restart was asked: the supervisor starts it again
 
 
 if __name__ == "__main__":

@@ -33,6 +33,7 @@ from .api.routes import (
     sets,
     status,
     stream,
+    system,
     tokens,
     variables,
 )
@@ -45,6 +46,8 @@ from .host import Sampler
 from .irpd_client import IrpdClient
 from .security import BodyLimitMiddleware, BodyTimeoutMiddleware, Lockout
 from .store import SetStore
+from .system.restart import AgentRestarter, detect_supervisor
+from .system.restore import apply_pending
 from .viewer.live import RobotLive
 from .viewer.ticket import Tickets
 
@@ -52,8 +55,8 @@ API = "/api/v1"
 
 
 def is_upload(method: str, path: str) -> bool:
-    """Set uploads check their own (larger) limits while they stream to disk."""
-    return method == "POST" and path.rstrip("/") == f"{API}/sets"
+    """Set uploads and backups sent to restore check their own (larger) limits while they stream to disk."""
+    return method == "POST" and path.rstrip("/") in (f"{API}/sets", f"{API}/system/restore")
 
 
 def json_safe(value):
@@ -112,10 +115,33 @@ def serve_webui(app: FastAPI, folder: Path | None) -> None:
         return JSONResponse(status_code=404, content={"detail": NO_WEBUI})
 
 
+def _restored(state, record: dict) -> None:
+    """The audit line and event of a restore applied at this start (into the restored audit log;
+    the replaced one has the line of the request)."""
+    plan = record.get("plan") or {}
+    created = (plan.get("archive") or {}).get("created")
+    state.audit.write(
+        "restore_applied",
+        who=record.get("who"),
+        client=record.get("client"),
+        target=created,
+        result="ok",
+        replaced_to=record.get("replaced_to"),
+        files=[f["path"] for f in plan.get("files") or []],
+        sets_added=(plan.get("sets") or {}).get("added"),
+    )
+    state.events.add(
+        "restore_applied",
+        f"the backup of {created} is restored; the files it replaced are in {record.get('replaced_to')}",
+    )
+
+
 def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     """The agent.  restore=False leaves out the watcher that re-activates the stored set."""
     settings.data_dir = settings.data_dir.resolve()
     settings.data_dir.mkdir(parents=True, exist_ok=True)
+    # A restore staged before the agent restarted, applied before anything opens the data folder.
+    restored = apply_pending(settings.data_dir)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
@@ -154,6 +180,8 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     )
     state = app.state
     state.settings = settings
+    state.agent_restart = AgentRestarter(detect_supervisor())
+    state.log_followers = 0
     state.tokens = TokenStore(settings.data_dir)
     state.lockout = Lockout(settings.lockout_attempts, settings.lockout_window_s)
     state.irpd = IrpdClient(settings.irpd_socket)
@@ -179,13 +207,15 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
             settings.alarm_unreachable_s,
         ),
     )
+    if restored is not None:
+        _restored(state, restored)
     app.add_exception_handler(RequestValidationError, validation_error)
     app.add_exception_handler(LocatedError, located_error)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, exempt=is_upload)
     app.add_middleware(
         BodyTimeoutMiddleware, idle_s=settings.body_idle_s, total_s=settings.body_timeout_s, exempt=is_upload
     )
-    for module in (health, status, modules, jitter, variables, sets, robot, events, alarms, audit, tokens, stream):
+    for module in (health, status, modules, jitter, variables, sets, robot, events, alarms, audit, tokens, stream, system):
         app.include_router(module.router, prefix=API)
     serve_webui(app, state.webui_dir)  # last: the API routes match first
     return app

@@ -1,0 +1,61 @@
+"""restart.py -- the agent restarting itself: it cannot start a new process of itself (it runs as an
+unprivileged user, NoNewPrivileges), so it ends with EXIT_RESTART and lets whatever supervises it
+start it again: systemd (Restart=on-failure, RestartForceExitStatus=75 in indurop-agent.service) or
+packaging/demo.sh (which starts the agent again when it exits with 75).  Without a supervisor the
+restart is refused, since the agent would just be gone.
+
+The exit is graceful: SIGTERM to itself a moment after the answer went out, so that uvicorn closes
+the connections and the lifespan stops the watchers; __main__ then returns EXIT_RESTART.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+
+EXIT_RESTART = 75  # EX_TEMPFAIL: "try again"; the supervisors start the agent again on it
+DELAY_S = 0.5  # the answer (and its audit line) goes out first
+
+
+def detect_supervisor(environ=os.environ) -> str | None:
+    """Who starts the agent again after it exits: "systemd" (it sets INVOCATION_ID for each start of a
+    unit), the name in INDUROP_SUPERVISOR (packaging/demo.sh sets "demo"), or None."""
+    if environ.get("INVOCATION_ID"):
+        return "systemd"
+    return environ.get("INDUROP_SUPERVISOR") or None
+
+
+class NoSupervisor(Exception):
+    """Nothing would start the agent again."""
+
+
+class AgentRestarter:
+    """Restarts the agent by exiting gracefully with EXIT_RESTART.  `terminate` is what ends the
+    process (tests replace it)."""
+
+    def __init__(self, supervisor: str | None = None, terminate=None, delay_s: float = DELAY_S):
+        self.supervisor = supervisor
+        self.terminate = terminate or (lambda: os.kill(os.getpid(), signal.SIGTERM))
+        self.delay_s = delay_s
+        self.requested = False
+        self._lock = threading.Lock()
+
+    def request(self) -> None:
+        """Schedules the exit; raises NoSupervisor when nothing would start the agent again."""
+        if self.supervisor is None:
+            raise NoSupervisor(
+                "the agent runs without a supervisor that would start it again (systemd, or packaging/demo.sh "
+                "with INDUROP_SUPERVISOR=demo); restart it by hand"
+            )
+        with self._lock:
+            if self.requested:
+                return  # one restart is already on its way
+            self.requested = True
+        timer = threading.Timer(self.delay_s, self.terminate)
+        timer.daemon = True
+        timer.start()
+
+    def exit_code(self) -> int:
+        """What the agent's process exits with once uvicorn has stopped."""
+        return EXIT_RESTART if self.requested else 0
