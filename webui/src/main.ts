@@ -15,6 +15,7 @@ import { modulesPage } from "./pages/modules";
 import { overviewPage } from "./pages/overview";
 import { robotPage } from "./pages/robot";
 import { schedulePage } from "./pages/schedule";
+import { systemPage } from "./pages/system";
 import { variablesPage } from "./pages/variables";
 import { StreamClient } from "./stream/stream";
 
@@ -26,6 +27,7 @@ const PAGES: { id: string; title: string; page: Page }[] = [
   { id: "variables", title: "Variables", page: variablesPage },
   { id: "robot", title: "Robot", page: robotPage },
   { id: "alarms", title: "Alarms", page: alarmsPage },
+  { id: "system", title: "System", page: systemPage },
 ];
 
 function socketUrl(path: string): string {
