@@ -18,10 +18,14 @@ EXIT_RESTART = 75  # EX_TEMPFAIL: "try again"; the supervisors start the agent a
 DELAY_S = 0.5  # the answer (and its audit line) goes out first
 
 
-def detect_supervisor(environ=os.environ) -> str | None:
-    """Who starts the agent again after it exits: "systemd" (it sets INVOCATION_ID for each start of a
-    unit), the name in INDUROP_SUPERVISOR (packaging/demo.sh sets "demo"), or None."""
-    if environ.get("INVOCATION_ID"):
+def detect_supervisor(environ=os.environ, pid: int | None = None, parent: int | None = None) -> str | None:
+    """Who starts the agent again after it exits: "systemd" when this process is the one a unit
+    started (systemd names it in SYSTEMD_EXEC_PID; older ones: INVOCATION_ID and systemd as the
+    parent), the name in INDUROP_SUPERVISOR (packaging/demo.sh sets "demo"), or None.  Only the
+    unit's own process counts: a test run inside a unit passes INVOCATION_ID on to what it starts."""
+    pid = os.getpid() if pid is None else pid
+    parent = os.getppid() if parent is None else parent
+    if environ.get("SYSTEMD_EXEC_PID") == str(pid) or (environ.get("INVOCATION_ID") and parent == 1):
         return "systemd"
     return environ.get("INDUROP_SUPERVISOR") or None
 

@@ -109,6 +109,15 @@ NEEDS = {
     ("GET", "/tokens"): "admin",
     ("POST", "/tokens"): "admin",
     ("DELETE", "/tokens/{token_id}"): "admin",
+    ("GET", "/system"): "admin",
+    ("POST", "/system/restart/irpd"): "admin",
+    ("POST", "/system/restart/agent"): "admin",
+    ("GET", "/system/logs/{log}"): "admin",
+    ("GET", "/system/logs/{log}/follow"): "admin",
+    ("GET", "/system/backup"): "admin",
+    ("POST", "/system/restore"): "admin",
+    ("POST", "/system/tls"): "admin",
+    ("POST", "/sets/prune"): "admin",
 }
 SAMPLE = {
     "{name}": "cntr1",
@@ -116,6 +125,7 @@ SAMPLE = {
     "{set_id}": "0" * 64,
     "{token_id}": "0" * 12,
     "{key}": "PLC/8",
+    "{log}": "irpd",
 }
 
 
