@@ -215,9 +215,15 @@ class JournalLog:
             raise LogUnavailable(f"journalctl did not answer within {JOURNAL_TIMEOUT_S:g} s") from e
         except OSError as e:
             raise LogUnavailable(f"journalctl cannot run: {e.strerror}") from e
-        # exit 1 with nothing on stdout: no entry matched (journalctl --grep says so that way)
-        if done.returncode != 0 and done.stdout.strip():
-            raise LogUnavailable(f"journalctl failed: {done.stderr.decode('utf-8', 'replace').strip()[:500]}")
+        said = done.stderr.decode("utf-8", "replace").strip()
+        if "insufficient permissions" in said and not done.stdout.strip():
+            raise LogUnavailable(
+                "journalctl may not read the journal: the agent's user must be in the group systemd-journal "
+                "(the package adds it; restart the agent after adding it by hand)"
+            )
+        # a failure says why on stderr (no entry matching --grep is no failure: nothing is said)
+        if done.returncode != 0 and said:
+            raise LogUnavailable(f"journalctl failed: {said[:500]}")
         lines = [x for x in (_journal_line(self.log, raw) for raw in done.stdout.splitlines()) if x]
         return [x for x in lines if query.matches(x)][-query.lines :], False
 

@@ -4,8 +4,9 @@ start it again: systemd (Restart=on-failure, RestartForceExitStatus=75 in induro
 packaging/demo.sh (which starts the agent again when it exits with 75).  Without a supervisor the
 restart is refused, since the agent would just be gone.
 
-The exit is graceful: SIGTERM to itself a moment after the answer went out, so that uvicorn closes
-the connections and the lifespan stops the watchers; __main__ then returns EXIT_RESTART.
+The exit is graceful: a moment after the answer went out, uvicorn is asked to stop as a SIGTERM
+would ask it (__main__ sets `terminate`), so that it closes the connections and the lifespan stops
+the watchers; __main__ then returns EXIT_RESTART.
 """
 
 from __future__ import annotations
@@ -35,8 +36,8 @@ class NoSupervisor(Exception):
 
 
 class AgentRestarter:
-    """Restarts the agent by exiting gracefully with EXIT_RESTART.  `terminate` is what ends the
-    process (tests replace it)."""
+    """Restarts the agent by exiting gracefully with EXIT_RESTART.  `terminate` is what stops the
+    server (__main__ gives uvicorn's; without one, SIGTERM; tests give their own)."""
 
     def __init__(self, supervisor: str | None = None, terminate=None, delay_s: float = DELAY_S):
         self.supervisor = supervisor
@@ -56,7 +57,7 @@ class AgentRestarter:
             if self.requested:
                 return  # one restart is already on its way
             self.requested = True
-        timer = threading.Timer(self.delay_s, self.terminate)
+        timer = threading.Timer(self.delay_s, lambda: self.terminate())  # the one set by then
         timer.daemon = True
         timer.start()
 

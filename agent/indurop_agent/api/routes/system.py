@@ -173,10 +173,10 @@ async def follow_log(
     source = _source(request, log)
     if state.log_followers >= MAX_FOLLOWERS:
         raise HTTPException(429, f"{MAX_FOLLOWERS} logs are followed already; close one", headers={"Retry-After": "5"})
-    state.log_followers += 1
     query = _query(lines, grep, since)
 
     async def stream():
+        state.log_followers += 1  # counted while the stream runs (a response never started counts nothing)
         try:
             async for line in source.follow(query):
                 yield json.dumps(LogLine(**line).model_dump(), ensure_ascii=False) + "\n"
@@ -275,11 +275,10 @@ async def restore_backup(
             entry["sets_added"] = review["sets"]["added"]
             entry["files"] = [f["path"] for f in review["files"]]
             restarting = False
-            if not dry_run:
-                with state.activator.exclusive():
-                    await run_in_threadpool(
-                        restore.stage, staging, settings.data_dir, review, who.as_dict(), client_address(request)
-                    )
+            if not dry_run:  # (the live data folder is not touched until the agent starts again)
+                await run_in_threadpool(
+                    restore.stage, staging, settings.data_dir, review, who.as_dict(), client_address(request)
+                )
                 staging = None
                 try:
                     state.agent_restart.request()
