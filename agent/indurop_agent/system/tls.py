@@ -119,7 +119,7 @@ def self_signed(dns: list[str], ips: list, days: int = VALID_DAYS) -> tuple[byte
     name = x509.Name(
         [
             x509.NameAttribute(NameOID.COMMON_NAME, (dns[1] if len(dns) > 1 else dns[0])[:64]),
-            x509.NameAttribute(NameOID.ORGANIZATION_NAME, "indurop appliance (self-signed)"),
+            x509.NameAttribute(NameOID.ORGANIZATION_NAME, "indurop appliance"),
         ]
     )
     now = datetime.now(UTC)
