@@ -47,21 +47,10 @@ for _ in $(seq 100); do [ -S "$sock" ] && break; kill -0 $irpd_pid 2>/dev/null |
 off_rt=()
 n=$(nproc)
 [ "$n" -gt 1 ] && off_rt=(taskset -c "0-$((n - 2))")
-# The agent, started again whenever it exits with 75 (it asks for a restart that way).
-supervise_agent() {
-  local child rc
-  trap 'kill -TERM "$child" 2>/dev/null; wait "$child"; exit 143' TERM INT
-  while :; do
-    (cd "$root/agent" && INDUROP_SUPERVISOR=demo exec "${off_rt[@]}" "$venv/bin/python" -m indurop_agent \
-        --host 127.0.0.1 --port "$port" --data-dir "$data" --irpd-socket "$sock" \
-        --irpd-log "$logs/irpd.log" --agent-log "$logs/agent.log") > >(stamp "$logs/agent.log") 2>&1 &
-    child=$!
-    wait "$child" && rc=0 || rc=$?
-    [ "$rc" -eq 75 ] || exit "$rc"
-    echo "demo: the agent asked to be restarted; starting it again"
-  done
-}
-supervise_agent &
+# The agent, started again whenever it exits with 75 (a restart asked from the System page).
+(cd "$root/agent" && INDUROP_SUPERVISOR=demo exec bash "$root/packaging/respawn.sh" "${off_rt[@]}" \
+    "$venv/bin/python" -m indurop_agent --host 127.0.0.1 --port "$port" --data-dir "$data" --irpd-socket "$sock" \
+    --irpd-log "$logs/irpd.log" --agent-log "$logs/agent.log") > >(stamp "$logs/agent.log") 2>&1 &
 agent_pid=$!
 url=http://127.0.0.1:$port
 for _ in $(seq 200); do curl -sf "$url/api/v1/health" >/dev/null && break; kill -0 $agent_pid 2>/dev/null || break; sleep 0.1; done
