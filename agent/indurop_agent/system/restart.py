@@ -1,7 +1,7 @@
 """restart.py -- the agent restarting itself: it cannot start a new process of itself (it runs as an
 unprivileged user, NoNewPrivileges), so it ends with EXIT_RESTART and lets whatever supervises it
 start it again: systemd (Restart=on-failure, RestartForceExitStatus=75 in indurop-agent.service) or
-packaging/demo.sh (which starts the agent again when it exits with 75).  Without a supervisor the
+packaging/demo.sh (whose packaging/respawn.sh starts the agent again when it exits with 75).  Without a supervisor the
 restart is refused, since the agent would just be gone.
 
 The exit is graceful: a moment after the answer went out, uvicorn is asked to stop as a SIGTERM
