@@ -95,7 +95,7 @@ def _sha256_of(path: Path) -> str:
 
 def _snapshot_sqlite(source: Path, target: Path) -> None:
     """A consistent copy of a live database (WAL and all), as SQLite's own backup makes it."""
-    src = sqlite3.connect(f"file:{source}?mode=ro", uri=True, timeout=10)
+    src = sqlite3.connect(source, timeout=10)  # (read-only would need the WAL's -shm all the same)
     try:
         dst = sqlite3.connect(target)
         try:

@@ -377,7 +377,7 @@ def _check_text(path: Path, what: str) -> None:
 
 def _check_sqlite(path: Path) -> None:
     try:
-        db = sqlite3.connect(f"file:{path}?mode=ro&immutable=1", uri=True)
+        db = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro&immutable=1", uri=True)
         try:
             verdict = db.execute("PRAGMA integrity_check").fetchone()[0]
             tables = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
