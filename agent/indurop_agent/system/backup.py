@@ -39,16 +39,18 @@ FORMAT = "indurop-backup"
 FORMAT_VERSION = 1
 MANIFEST = "manifest.json"
 DATA = "data/"
-# the keys a users file's password hashes are under (left out of a backup without secrets)
-PASSWORD_KEYS = frozenset({"password_hash", "password"})
+# the keys a users file's password hashes are under (users.py: "hash"), emptied in a backup
+# without secrets
+PASSWORD_KEYS = frozenset({"hash", "password_hash"})
 
 
 def without_password_hashes(raw: bytes) -> bytes:
-    """A JSON users file with every PASSWORD_KEYS key removed, at any depth."""
+    """A JSON users file with every PASSWORD_KEYS value emptied, at any depth: the users keep their
+    shape (the agent still reads them) and no password matches an empty hash until one is set."""
 
     def strip(value):
         if isinstance(value, dict):
-            return {k: strip(v) for k, v in value.items() if k not in PASSWORD_KEYS}
+            return {k: "" if k in PASSWORD_KEYS else strip(v) for k, v in value.items()}
         if isinstance(value, list):
             return [strip(v) for v in value]
         return value
@@ -66,18 +68,26 @@ class Item:
     secret: bool = False  # only in a backup taken with secrets
     redact: Callable[[bytes], bytes] | None = None  # what a backup without secrets holds of it
     mode: int = 0o600  # its mode when restored into a folder that lacks it
+    drops: tuple[str, ...] = ()  # files that belong to the one it replaces: moved aside with it
 
 
 # The data folder's files a backup takes, besides the set store (sets' manifests and blobs, always
 # taken).  A new file of the data folder that belongs in backups is one more line here; restore.py
 # checks each kind it knows (CHECKS there) and restores each the same way.
 ITEMS: tuple[Item, ...] = (
-    Item("tokens.json", "the tokens: their hashes, names and roles"),
+    # admin-token: the clear text of a token of the tokens replaced
+    Item("tokens.json", "the tokens: their hashes, names and roles", drops=("admin-token",)),
     Item("history.jsonl", "the activation history", mode=0o644),
     Item("active.json", "the active set", mode=0o644),
     Item("audit.jsonl", "the audit log"),
     Item("alarms.sqlite3", "the alarm history and states", sqlite=True),
-    Item("users.json", "the users (password hashes only with secrets)", redact=without_password_hashes),
+    # sessions.json: the browser sessions of the users replaced (sessions are never in a backup)
+    Item(
+        "users.json",
+        "the users (password hashes only with secrets)",
+        redact=without_password_hashes,
+        drops=("sessions.json",),
+    ),
     Item("agent.json", "the agent's settings kept in the data folder (--config <data>/agent.json)"),
     Item("tls/cert.pem", "the TLS certificate", mode=0o644),
     Item("tls/key.pem", "the TLS private key", secret=True),

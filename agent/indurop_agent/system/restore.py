@@ -581,9 +581,9 @@ def apply_pending(data_dir: Path) -> dict | None:
         target.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
         os.chmod(source, mode)
         os.replace(source, target)
-        if item.path == "tokens.json" and (data_dir / "admin-token").exists():
-            # the first admin token's clear text belongs to the tokens just replaced
-            _move_aside(data_dir / "admin-token", aside, "admin-token")
+        for dropped in item.drops:
+            if (data_dir / dropped).exists():
+                _move_aside(data_dir / dropped, aside, dropped)
     active = data_dir / "active.json"
     if "active.json" not in record["skip"] and active.exists():
         set_id = json.loads(active.read_text()).get("set_id")

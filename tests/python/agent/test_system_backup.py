@@ -21,7 +21,8 @@ from indurop_agent.config import Settings
 from indurop_agent.system import restore as restoring
 from indurop_agent.system.restart import AgentRestarter
 
-USERS = {"users": {"ana": {"role": "admin", "password_hash": "$argon2id$v=19$m=65536,t=3,p=4$c2FsdA$aGFzaA"}}}
+# a users file as users.py writes it
+USERS = {"format": 1, "users": {"ana": {"role": "admin", "hash": "$argon2id$v=19$m=65536,t=3,p=4$c2FsdA$aGFzaA"}}}
 
 
 def quiet_restarts(agent) -> list[str]:
@@ -154,7 +155,7 @@ def test_a_backup_without_secrets_leaves_out_the_password_hashes_and_the_tls_key
     plain = members(backup(agent))
     manifest = json.loads(plain["manifest.json"])
     assert manifest["format"] == "indurop-backup" and manifest["with_secrets"] is False
-    assert "password_hash" not in plain["data/users.json"].decode() and b"ana" in plain["data/users.json"]
+    assert json.loads(plain["data/users.json"]) == {"format": 1, "users": {"ana": {"role": "admin", "hash": ""}}}
     assert "data/tls/key.pem" not in plain and plain["data/tls/cert.pem"] == b"cert"
     assert "data/tokens.json" in plain and "data/admin-token" not in plain  # hashes only, never the clear token
     for f in manifest["files"]:  # every file listed with its size and SHA-256
