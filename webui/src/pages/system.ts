@@ -38,7 +38,8 @@ function confirmBar(testid: string) {
         bar.hidden = true;
       });
       yes.addEventListener("click", async () => {
-        yes.disabled = no.disabled = true;
+        yes.disabled = true;
+        no.disabled = true;
         try {
           await act();
         } finally {
