@@ -1,18 +1,21 @@
 #!/usr/bin/env bash
 # old_deb.sh NEW_DEB OUT_DEB [REF] -- an "older build" of the package to upgrade from: NEW_DEB with
 # the maintainer scripts, the agent's unit and activate-default-set of the commit REF (default: the
-# last one before the agent served HTTPS by default) and a lower version (<version>~before-https).
+# parent of the commit that made the agent serve HTTPS) and a lower version (<version>~before-https).
 # What an upgrade meets is then what that build left: its data folder (tokens, the set store, no
 # certificate) and its unit (plain HTTP on 127.0.0.1:8080).  The programs inside are NEW_DEB's: the
-# data folder's formats did not change between REF and now.  Exit 77 when REF is not in this
-# clone's history (a shallow clone).
+# data folder's formats did not change between REF and now.  Exit 77 when there is no such commit
+# in this clone's history (a shallow clone).
 set -euo pipefail
 new=$(realpath "$1")
 out=$2
-ref=${3:-025082a}  # "io_load: the PLC's stop logged once, plainly"
 root=$(cd "$(dirname "$0")/../.." && pwd)
-git -C "$root" rev-parse -q --verify "$ref^{commit}" >/dev/null \
-  || { echo "old_deb: commit $ref is not in this clone's history (shallow?)" >&2; exit 77; }
+# the default: the parent of the commit that made the agent's unit serve HTTPS
+https=$(git -C "$root" log -1 --format=%H -S'--tls-cert /var/lib/indurop/tls/cert.pem' \
+        -- packaging/systemd/indurop-agent.service 2>/dev/null || true)
+ref=${3:-${https:+$https^}}
+[ -n "$ref" ] && git -C "$root" rev-parse -q --verify "$ref^{commit}" >/dev/null \
+  || { echo "old_deb: no commit before HTTPS in this clone's history (shallow?)" >&2; exit 77; }
 work=$(mktemp -d /tmp/indurop-old-deb-XXXXXX)
 trap 'rm -rf "$work"' EXIT
 dpkg-deb -R "$new" "$work/pkg"
