@@ -1,5 +1,5 @@
 // system.spec.ts -- the System page as an admin sees it: the agent's and irpd's versions, the data
-// folder and the certificate line; irpd's log shown and searched; a backup downloaded and checked by
+// folder and the certificate line; the agent's log shown and searched; a backup downloaded and checked by
 // a restore's dry run (its review shown, then cancelled); the prune's dry run; a restart asked for
 // and cancelled (the suite's one irpd keeps running).  A viewer is told the page is the admin's.
 import { readFileSync } from "node:fs";
@@ -15,11 +15,13 @@ test("an admin sees the system's figures, its logs, a backup's review and the pr
   await expect(page.getByTestId("tls-subject")).toContainText("plain HTTP");
   await expect(page.getByTestId("log-sources")).toContainText("irpd.log");
 
-  // irpd's log, then searched
+  // the agent's log (the file serve.py has it write: its start lines at least), then searched
+  await page.getByTestId("log-select").selectOption("agent");
   await page.getByTestId("log-show").click();
-  await expect(page.getByTestId("log-info")).toContainText("line(s)");
-  const all = await page.getByTestId("log-lines-view").locator(".ops-log-line").count();
-  expect(all).toBeGreaterThan(0);
+  await expect(page.getByTestId("log-lines-view")).toContainText("indurop-agent");
+  await page.getByTestId("log-grep").fill("INDUROP-AGENT"); // any case
+  await page.getByTestId("log-show").click();
+  await expect(page.getByTestId("log-info")).not.toContainText(" 0 line(s)");
   await page.getByTestId("log-grep").fill("no line holds this text 1f2e3d");
   await page.getByTestId("log-show").click();
   await expect(page.getByTestId("log-info")).toContainText("0 line(s)");
