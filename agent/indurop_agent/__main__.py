@@ -70,5 +70,6 @@ def main(argv: list[str] | None = None) -> int:
         return STARTUP_FAILURE  # the address is taken, the certificate unreadable, ...: uvicorn said why
     return app.state.agent_restart.exit_code()  # 75 when a restart was asked: the supervisor starts it again
 
+
 if __name__ == "__main__":
     sys.exit(main())

@@ -215,7 +215,8 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     app.add_middleware(
         BodyTimeoutMiddleware, idle_s=settings.body_idle_s, total_s=settings.body_timeout_s, exempt=is_upload
     )
-    for module in (health, status, modules, jitter, variables, sets, robot, events, alarms, audit, tokens, stream, system):
+    for module in (health, status, modules, jitter, variables, sets, robot, events, alarms, audit, tokens, stream):
         app.include_router(module.router, prefix=API)
+    app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)
     serve_webui(app, state.webui_dir)  # last: the API routes match first
     return app

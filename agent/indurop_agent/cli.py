@@ -22,6 +22,7 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
+from .cli_system import SETS_ARGS, SYSTEM_COMMANDS, cmd_sets
 from .cli_text import (
     EVENT_HEADERS,
     TRANSITION_HEADERS,
@@ -44,7 +45,6 @@ from .cli_text import (
     transition_row,
     upload_text,
 )
-from .cli_system import SETS_ARGS, SYSTEM_COMMANDS, cmd_sets
 from .client import ApiError, Client
 
 DEFAULT_URL = "http://127.0.0.1:8080"

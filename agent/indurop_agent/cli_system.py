@@ -52,12 +52,18 @@ def system_text(s: dict) -> str:
     ]
     if irpd["reachable"]:
         items.append(
-            ("irpd", f"{irpd.get('version') or '?'}, pid {irpd['pid']}, up {_uptime((irpd['uptime_s'] or 0) * 1e9)}, set {irpd.get('set_id') or '-'}")
+            (
+                "irpd",
+                f"{irpd.get('version') or '?'}, pid {irpd['pid']}, up {_uptime((irpd['uptime_s'] or 0) * 1e9)}, set {irpd.get('set_id') or '-'}",
+            )
         )
     else:
         items.append(("irpd", f"unreachable ({irpd.get('detail')})"))
     items += [
-        ("data folder", f"{data['path']}: {_size(data['used_bytes'])} used, {_size(data['free_bytes'])} free of {_size(data['filesystem_bytes'])}"),
+        (
+            "data folder",
+            f"{data['path']}: {_size(data['used_bytes'])} used, {_size(data['free_bytes'])} free of {_size(data['filesystem_bytes'])}",
+        ),
         ("logs", f"irpd: {s['logs']['irpd'] or '-'}; agent: {s['logs']['agent'] or '-'}"),
     ]
     if cert is None:
@@ -86,9 +92,15 @@ def restore_text(p: dict) -> str:
     lines = [
         pairs(
             [
-                ("backup", f"of {a['host']}, {a['created']}, agent {a['agent_version']}, {a['files']} files, "
-                 f"{_size(a['bytes'])}{', with secrets' if a['with_secrets'] else ''}"),
-                ("sets", f"{len(sets['added'])} added, {len(sets['present'])} already here, {len(sets['kept'])} only here (kept)"),
+                (
+                    "backup",
+                    f"of {a['host']}, {a['created']}, agent {a['agent_version']}, {a['files']} files, "
+                    f"{_size(a['bytes'])}{', with secrets' if a['with_secrets'] else ''}",
+                ),
+                (
+                    "sets",
+                    f"{len(sets['added'])} added, {len(sets['present'])} already here, {len(sets['kept'])} only here (kept)",
+                ),
                 ("active set", change("active_set")),
                 ("tokens", change("tokens")),
                 ("users", change("users")),
@@ -96,7 +108,9 @@ def restore_text(p: dict) -> str:
             ]
         ),
         "",
-        table(["FILE", "ACTION", "WHAT"], [[f["path"], f["action"], f["what"]] for f in p["files"]]) if p["files"] else "(no files)",
+        table(["FILE", "ACTION", "WHAT"], [[f["path"], f["action"], f["what"]] for f in p["files"]])
+        if p["files"]
+        else "(no files)",
     ]
     lines += [f"warning: {w}" for w in p["warnings"]]
     if p["dry_run"]:
@@ -136,7 +150,9 @@ def cmd_backup(c, a, out) -> int:
     if out.as_json:
         out.json({"file": str(path), "bytes": path.stat().st_size})
     else:
-        out.line(f"wrote {path} ({_size(path.stat().st_size)}){' with secrets: keep it safe' if a.with_secrets else ''}")
+        out.line(
+            f"wrote {path} ({_size(path.stat().st_size)}){' with secrets: keep it safe' if a.with_secrets else ''}"
+        )
     return EXIT_OK
 
 
@@ -171,8 +187,10 @@ def cmd_tls(c, a, out) -> int:
     cert = done["certificate"]
     out.show(
         done,
-        lambda d: f"installed {cert['subject']}, SHA-256 {cert['fingerprint_sha256']}, valid until {cert['not_after']}"
-        + ("; the agent restarts to serve it" if d["restarting"] else "; restart the agent to serve it"),
+        lambda d: (
+            f"installed {cert['subject']}, SHA-256 {cert['fingerprint_sha256']}, valid until {cert['not_after']}"
+            + ("; the agent restarts to serve it" if d["restarting"] else "; restart the agent to serve it")
+        ),
     )
     return EXIT_OK
 

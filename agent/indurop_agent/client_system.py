@@ -62,9 +62,7 @@ class SystemCalls:
 
         params = {"with_secrets": "true"} if with_secrets else None
         try:
-            with self._http.stream(
-                "GET", "/system/backup", params=params, timeout=httpx.Timeout(LONG_TIMEOUT_S)
-            ) as r:
+            with self._http.stream("GET", "/system/backup", params=params, timeout=httpx.Timeout(LONG_TIMEOUT_S)) as r:
                 if r.status_code >= 400:
                     r.read()
                     raise ApiError(r.status_code, _detail(r))

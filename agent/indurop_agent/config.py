@@ -184,7 +184,9 @@ def parse(argv: list[str] | None = None) -> Settings:
     )
     ap.add_argument("--viewer", choices=VIEWERS, help="the 3D robot view's viewer (default viser)")
     ap.add_argument(
-        "--irpd-log", type=Path, help="a file irpd's output is written to (the System page's logs; default: the journal)"
+        "--irpd-log",
+        type=Path,
+        help="a file irpd's output is written to (the System page's logs; default: the journal)",
     )
     ap.add_argument("--agent-log", type=Path, help="a file this agent's output is written to (as --irpd-log)")
     a = ap.parse_args(argv)

@@ -257,8 +257,7 @@ class SetStore:
                 _fsync_dir(self.blobs)
             return {
                 "deleted": [
-                    {"id": m["id"], "created": m["created"], "by": m.get("by"), "files": len(m["files"])}
-                    for m in going
+                    {"id": m["id"], "created": m["created"], "by": m.get("by"), "files": len(m["files"])} for m in going
                 ],
                 "kept": [m["id"] for m in kept],
                 "blobs": blobs,

@@ -193,7 +193,14 @@ class JournalLog:
         return f"journal, unit {self.unit}"
 
     def _command(self, query: LogQuery, follow: bool) -> list[str]:
-        cmd = [self.journalctl, "--output=json", "--no-pager", "--quiet", f"--unit={self.unit}", f"--lines={query.lines}"]
+        cmd = [
+            self.journalctl,
+            "--output=json",
+            "--no-pager",
+            "--quiet",
+            f"--unit={self.unit}",
+            f"--lines={query.lines}",
+        ]
         if query.since is not None:
             cmd.append(f"--since=@{query.since.timestamp():.6f}")
         if query.grep:

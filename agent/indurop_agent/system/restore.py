@@ -196,7 +196,9 @@ def _parse_manifest(raw: bytes, limits: Limits, room: int) -> dict:
             and HEX64.match(f["sha256"])
         )
         if not ok:
-            raise RestoreError(400, f"manifest.json lists a file without a path, size and SHA-256: {json.dumps(f)[:200]}")
+            raise RestoreError(
+                400, f"manifest.json lists a file without a path, size and SHA-256: {json.dumps(f)[:200]}"
+            )
         if f["path"] in seen:
             raise RestoreError(400, f"manifest.json lists {json.dumps(f['path'])} twice")
         seen.add(f["path"])
@@ -207,7 +209,8 @@ def _parse_manifest(raw: bytes, limits: Limits, room: int) -> dict:
         )
     if total + ROOM_MARGIN > room:
         raise RestoreError(
-            507, f"the backup unpacks to {total} bytes and the data folder's file system has {room} free; make room first"
+            507,
+            f"the backup unpacks to {total} bytes and the data folder's file system has {room} free; make room first",
         )
     return manifest
 
@@ -232,7 +235,9 @@ def unpack(archive: Path, staging: Path, limits: Limits) -> dict:
                         f"the archive has more than {limits.max_members + 1} members (max_backup_members)",
                     )
                 shown = json.dumps(member.name)
-                problem = type_problem(member) or name_problem(member.name.rstrip("/") if member.isdir() else member.name)
+                problem = type_problem(member) or name_problem(
+                    member.name.rstrip("/") if member.isdir() else member.name
+                )
                 if problem:
                     raise RestoreError(400, f"archive member {shown} {problem}")
                 if hasattr(tarfile, "data_filter"):  # Python's own checks, on top of ours
@@ -337,7 +342,9 @@ def _check_set(set_id: str, path: Path, blobs: dict[str, Path]) -> dict:
             and isinstance(f.get("kind"), str)
             and KIND.match(f["kind"])
         ):
-            raise RestoreError(400, f"{shown}'s manifest has a file entry that is not safe to restore: {json.dumps(f)[:200]}")
+            raise RestoreError(
+                400, f"{shown}'s manifest has a file entry that is not safe to restore: {json.dumps(f)[:200]}"
+            )
         blob = blobs.get(f["sha256"])
         if blob is None:
             raise RestoreError(400, f"{shown} names the blob {f['sha256']} ({f['path']}) and the archive lacks it")
@@ -393,7 +400,9 @@ def _check_settings(path: Path) -> None:
     values = _json(path, "agent.json")
     unknown = set(values) - set(config.FIELDS) if isinstance(values, dict) else None
     if unknown is None or unknown:
-        raise RestoreError(400, f"agent.json in the backup is not the agent's settings (unknown keys: {sorted(unknown or [])})")
+        raise RestoreError(
+            400, f"agent.json in the backup is not the agent's settings (unknown keys: {sorted(unknown or [])})"
+        )
 
 
 def check(manifest: dict, staging: Path) -> dict:
@@ -473,7 +482,9 @@ def plan(manifest: dict, checked: dict, staging: Path, data_dir: Path) -> dict:
             "needs a new password"
         )
     if "audit.jsonl" in restored and (data_dir / "audit.jsonl").exists():
-        warnings.append("this unit's audit log is replaced by the backup's; the current one is kept in replaced-<time>/")
+        warnings.append(
+            "this unit's audit log is replaced by the backup's; the current one is kept in replaced-<time>/"
+        )
     if "tokens.json" in restored:
         warnings.append("the tokens become the backup's: tokens made here since stop working")
 

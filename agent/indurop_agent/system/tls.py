@@ -187,7 +187,9 @@ def check_pair(cert_pem: bytes, key_pem: bytes, now: datetime | None = None) -> 
         raise CertificateError(f"the key is not a PEM private key (-----BEGIN PRIVATE KEY-----): {e}") from e
     if isinstance(key, rsa.RSAPrivateKey) and key.key_size < MIN_RSA_BITS:
         raise CertificateError(f"the RSA key has {key.key_size} bits; at least {MIN_RSA_BITS} are needed")
-    if not isinstance(key, (rsa.RSAPrivateKey, ec.EllipticCurvePrivateKey, ed25519.Ed25519PrivateKey, ed448.Ed448PrivateKey)):
+    if not isinstance(
+        key, (rsa.RSAPrivateKey, ec.EllipticCurvePrivateKey, ed25519.Ed25519PrivateKey, ed448.Ed448PrivateKey)
+    ):
         raise CertificateError(f"a {type(key).__name__} cannot serve TLS; give an RSA or ECDSA key")
     public = serialization.PublicFormat.SubjectPublicKeyInfo
     if key.public_key().public_bytes(serialization.Encoding.DER, public) != cert.public_key().public_bytes(

@@ -49,7 +49,9 @@ def test_a_log_file_is_read_oldest_first_with_its_times(agent_with_logs):
     assert r.status_code == 200, r.text
     page = r.json()
     assert page["log"] == "irpd" and page["source"].startswith("file ") and page["truncated"] is False
-    assert [x["message"] for x in page["lines"]] == [line.split(" ", 1)[1] if line[0] == "2" else line for line in LINES]
+    assert [x["message"] for x in page["lines"]] == [
+        line.split(" ", 1)[1] if line[0] == "2" else line for line in LINES
+    ]
     assert page["lines"][0]["time"] == "2026-01-31T08:00:00Z"
     assert page["lines"][2]["time"] == "2026-01-31T08:00:01Z"  # an unstamped line takes the time before it
 
@@ -122,7 +124,12 @@ def test_a_followed_log_sends_the_last_lines_then_each_new_one(tmp_path):
                 time.sleep(0.7)
                 f.write(" (finished)\n")
             got += [json.loads(next(lines)) for _ in range(2)]
-        assert [x["message"] for x in got] == ["irpd: started set a", "irpd: swap to set b", "irpd: set c", "irpd: set d (finished)"]
+        assert [x["message"] for x in got] == [
+            "irpd: started set a",
+            "irpd: swap to set b",
+            "irpd: set c",
+            "irpd: set d (finished)",
+        ]
         assert got[2]["time"] == "2026-01-31T10:00:00Z"
         # the follow ended with the client: the agent still answers, and follows again
         with httpx.stream("GET", url, headers={"Authorization": f"Bearer {token}"}, timeout=20) as r:

@@ -54,7 +54,9 @@ def test_ensure_makes_a_self_signed_pair_once_with_a_private_key(tmp_path):
     cert = x509.load_pem_x509_certificate(cert_path.read_bytes())
     info = tls.describe(cert)
     der = cert.public_bytes(serialization.Encoding.DER)
-    assert info["fingerprint_sha256"] == hashlib.sha256(der).hexdigest().upper() and len(info["fingerprint_sha256"]) == 95
+    assert (
+        info["fingerprint_sha256"] == hashlib.sha256(der).hexdigest().upper() and len(info["fingerprint_sha256"]) == 95
+    )
     assert info["fingerprint_sha256"].count(":") == 31
     assert {"localhost", "127.0.0.1", "::1"} <= set(info["names"])
     assert info["self_signed"] is True and info["days_left"] >= 3649
@@ -83,7 +85,10 @@ def test_a_good_pair_is_described():
         (lambda: pair(days=1, start_days=-10), "expired"),
         (lambda: pair(start_days=2), "not valid before"),
         (lambda: (pair()[0], pair()[1]), "does not belong to the certificate"),
-        (lambda: (pair()[0], b"-----BEGIN PRIVATE KEY-----\nnot base64\n-----END PRIVATE KEY-----\n"), "not a PEM private key"),
+        (
+            lambda: (pair()[0], b"-----BEGIN PRIVATE KEY-----\nnot base64\n-----END PRIVATE KEY-----\n"),
+            "not a PEM private key",
+        ),
         (lambda: (b"hello", pair()[1]), "not PEM"),
         (lambda: (b"", pair()[1]), "empty"),
         (lambda: pair(bits=1024), "1024 bits"),
@@ -136,15 +141,21 @@ def test_the_agent_serves_its_certificate_and_an_admin_replaces_it(tmp_path):
         old = cert_path.read_bytes()
         cert, key = pair()
         bad = httpx.post(
-            f"{url}/system/tls", json={"certificate": cert.decode(), "key": pair()[1].decode()}, headers=h,
-            verify=str(cert_path), timeout=30,
+            f"{url}/system/tls",
+            json={"certificate": cert.decode(), "key": pair()[1].decode()},
+            headers=h,
+            verify=str(cert_path),
+            timeout=30,
         )
         assert bad.status_code == 400 and "does not belong" in bad.json()["detail"]
         assert cert_path.read_bytes() == old  # a refused pair changes nothing
 
         r = httpx.post(
-            f"{url}/system/tls", json={"certificate": cert.decode(), "key": key.decode()}, headers=h,
-            verify=str(cert_path), timeout=30,
+            f"{url}/system/tls",
+            json={"certificate": cert.decode(), "key": key.decode()},
+            headers=h,
+            verify=str(cert_path),
+            timeout=30,
         )
         assert r.status_code == 200, r.text
         assert r.json()["restarting"] is True
@@ -171,9 +182,12 @@ def test_a_certificate_cannot_be_uploaded_to_an_agent_on_plain_http(make_agent):
     assert r.status_code == 409 and "plain HTTP" in r.json()["detail"]
     assert agent.client.post(f"{API}/system/tls", json={"certificate": "x"}, headers=agent.h()).status_code == 422
     for role in ("viewer", "operator"):
-        assert agent.client.post(
-            f"{API}/system/tls", json={"certificate": "x", "key": "y"}, headers=agent.h(role)
-        ).status_code == 403
+        assert (
+            agent.client.post(
+                f"{API}/system/tls", json={"certificate": "x", "key": "y"}, headers=agent.h(role)
+            ).status_code
+            == 403
+        )
 
 
 def test_a_certificate_outside_the_data_folder_is_not_replaced(make_agent, tmp_path):

@@ -65,7 +65,10 @@ def system_info(request: Request, _: AdminDep) -> SystemInfo:
 @router.post(
     "/system/restart/irpd",
     responses={
-        409: {**REFUSED, "description": "irpd refused the restart, or could not start the set and came back on its old one"},
+        409: {
+            **REFUSED,
+            "description": "irpd refused the restart, or could not start the set and came back on its old one",
+        },
         503: {**REFUSED, "description": "irpd does not answer (systemd restarts a dead irpd by itself)"},
     },
 )
@@ -222,7 +225,9 @@ async def _receive_archive(request: Request, folder: Path, limit: int) -> Path:
     """The request body into `folder`/backup.tar.gz, refused (413) once it passes `limit` bytes."""
     kind = request.headers.get("content-type", "").split(";")[0].strip().lower()
     if kind not in GZIP_TYPES:
-        raise HTTPException(415, f"send the backup as the body with Content-Type application/gzip (not {kind or 'none'})")
+        raise HTTPException(
+            415, f"send the backup as the body with Content-Type application/gzip (not {kind or 'none'})"
+        )
     length = request.headers.get("content-length")
     if length is not None and length.isdigit() and int(length) > limit:
         raise HTTPException(413, f"the backup is {length} bytes; at most {limit} are accepted (max_backup_bytes)")
@@ -338,7 +343,9 @@ def upload_tls(body: TlsUpload, request: Request, who: AdminDep) -> TlsInstalled
         except NoSupervisor:
             restarting = False
         entry["restarting"] = restarting
-    state.events.add("tls_upload", f"a TLS certificate ({described['fingerprint_sha256'][:23]}…) installed by {who.name}")
+    state.events.add(
+        "tls_upload", f"a TLS certificate ({described['fingerprint_sha256'][:23]}…) installed by {who.name}"
+    )
     return TlsInstalled(certificate=TlsCertificate(path=str(cert_path), **described), restarting=restarting)
 
 
@@ -364,4 +371,3 @@ def prune_sets(body: PruneRequest, request: Request, who: AdminDep) -> PruneRepo
         f"{who.name}; {len(report['kept'])} kept",
     )
     return PruneReport(**report)
-
