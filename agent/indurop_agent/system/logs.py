@@ -98,33 +98,37 @@ class FileLog:
 
     def read(self, query: LogQuery) -> tuple[list[dict], bool]:
         """The last `query.lines` lines that match: (lines, truncated: older lines were not scanned)."""
+        lines, truncated, _, _ = self._tail(query, partial=True)
+        return lines, truncated
+
+    def _tail(self, query: LogQuery, partial: bool) -> tuple[list[dict], bool, int | None, int]:
+        """read()'s answer (with a last line still being written, if `partial`), the file's inode and
+        the offset after its last whole line (where a follow goes on)."""
         try:
             with open(self.path, "rb") as f:
+                inode = os.fstat(f.fileno()).st_ino
                 size = f.seek(0, os.SEEK_END)
                 start = max(0, size - MAX_SCAN_BYTES)
                 f.seek(start)
                 data = f.read(size - start)
         except FileNotFoundError:
-            return [], False  # nothing written yet
+            return [], False, None, 0  # nothing written yet
         except OSError as e:
             raise LogUnavailable(f"cannot read the {self.log} log {self.path}: {e.strerror}") from e
         truncated = start > 0
         if truncated:  # the first line was cut by the start of the window
             data = data[data.find(b"\n") + 1 :]
-        lines, _ = self._lines(data, None)
+        cut = data.rfind(b"\n") + 1  # a follow reads a last line still being written when it is whole
+        lines, _ = self._lines(data if partial else data[:cut], None)
         kept = deque((x for x in lines if query.matches(x)), maxlen=query.lines)
-        return list(kept), truncated
+        return list(kept), truncated, inode, size - (len(data) - cut)
 
     async def follow(self, query: LogQuery) -> AsyncIterator[dict]:
         """The last `query.lines` matching lines, then every new matching line as it is written."""
-        lines, _ = await asyncio.to_thread(self.read, query)
+        # where the first read ended, taken with it: what is written later is the follow's
+        lines, _, inode, position = await asyncio.to_thread(self._tail, query, False)
         for line in lines:
             yield line
-        try:
-            st = await asyncio.to_thread(os.stat, self.path)
-            inode, position = st.st_ino, st.st_size
-        except FileNotFoundError:
-            inode, position = None, 0
         time, pending = None, b""
         while True:
             await asyncio.sleep(FOLLOW_POLL_S)

@@ -55,7 +55,8 @@ def test_ensure_makes_a_self_signed_pair_once_with_a_private_key(tmp_path):
     info = tls.describe(cert)
     der = cert.public_bytes(serialization.Encoding.DER)
     assert (
-        info["fingerprint_sha256"] == hashlib.sha256(der).hexdigest().upper() and len(info["fingerprint_sha256"]) == 95
+        info["fingerprint_sha256"] == hashlib.sha256(der).digest().hex(":").upper()
+        and len(info["fingerprint_sha256"]) == 95
     )
     assert info["fingerprint_sha256"].count(":") == 31
     assert {"localhost", "127.0.0.1", "::1"} <= set(info["names"])
