@@ -43,7 +43,11 @@ export function appendLines<T>(kept: T[], more: T[], keep = FOLLOW_KEEP): T[] {
 }
 
 /** The query a log read sends: empty fields left out, a local datetime-local value as UTC ISO. */
-export function logQuery(lines: number, grep: string, sinceLocal: string): { lines: number; grep?: string; since?: string } {
+export function logQuery(
+  lines: number,
+  grep: string,
+  sinceLocal: string,
+): { lines: number; grep?: string; since?: string } {
   const q: { lines: number; grep?: string; since?: string } = { lines };
   if (grep.trim()) q.grep = grep.trim();
   if (sinceLocal) {

@@ -13,8 +13,8 @@ import {
   type LogLine,
   logQuery,
   NdjsonSplitter,
-  planRows,
   type PruneReport,
+  planRows,
   pruneText,
   type RestorePlan,
   type SystemInfo,
@@ -64,7 +64,12 @@ export const systemPage: Page = (root, ctx) => {
       h(
         "div",
         { class: "ops-page", "data-testid": "system-page" },
-        h("section", { class: "panel ops-panel" }, h("h3", {}, "System"), h("p", {}, "The System page needs the admin role.")),
+        h(
+          "section",
+          { class: "panel ops-panel" },
+          h("h3", {}, "System"),
+          h("p", {}, "The System page needs the admin role."),
+        ),
       ),
     );
     return () => {};
@@ -116,7 +121,12 @@ export const systemPage: Page = (root, ctx) => {
     setText(
       rows.data[1],
       `${d.path}: ${formatBytes(d.used_bytes)} used · ${formatBytes(d.free_bytes)} free of ${formatBytes(d.filesystem_bytes)}` +
-        (d.parts.length ? ` (${d.parts.slice(0, 4).map((p) => `${p.name} ${formatBytes(p.bytes)}`).join(", ")})` : ""),
+        (d.parts.length
+          ? ` (${d.parts
+              .slice(0, 4)
+              .map((p) => `${p.name} ${formatBytes(p.bytes)}`)
+              .join(", ")})`
+          : ""),
     );
     const t = s.tls;
     if (!t) {
@@ -127,7 +137,10 @@ export const systemPage: Page = (root, ctx) => {
       setText(rows.tls[1], t.error);
       setClass(rows.tls[1], "bad");
     } else {
-      setText(rows.tls[1], `${t.subject ?? ""}${t.self_signed ? " (self-signed)" : ""} · ${(t.names ?? []).join(", ")}`);
+      setText(
+        rows.tls[1],
+        `${t.subject ?? ""}${t.self_signed ? " (self-signed)" : ""} · ${(t.names ?? []).join(", ")}`,
+      );
       setText(rows.fingerprint[1], t.fingerprint_sha256 ?? "–");
       const e = expiryText(t);
       setText(rows.expiry[1], e.text);
@@ -202,7 +215,15 @@ export const systemPage: Page = (root, ctx) => {
     h("option", { value: "agent" }, "agent"),
   );
   const grep = h("input", { type: "search", placeholder: "search", class: "ops-edit", "data-testid": "log-grep" });
-  const lines = h("input", { type: "number", min: 1, max: 5000, value: 200, class: "ops-edit", size: 5, "data-testid": "log-lines" });
+  const lines = h("input", {
+    type: "number",
+    min: 1,
+    max: 5000,
+    value: 200,
+    class: "ops-edit",
+    size: 5,
+    "data-testid": "log-lines",
+  });
   const since = h("input", { type: "datetime-local", class: "ops-edit", "data-testid": "log-since" });
   const showLogs = h("button", { class: "primary", "data-testid": "log-show" }, "Show");
   const follow = h("button", { "data-testid": "log-follow" }, "Follow live");
@@ -241,7 +262,10 @@ export const systemPage: Page = (root, ctx) => {
         await ctx.api.GET("/api/v1/system/logs/{log}", { params: { path: { log }, query: query() } }),
       );
       shown = page.lines;
-      setText(logInfo, ` — ${page.source}, ${page.lines.length} line(s)${page.truncated ? ", older lines not searched" : ""}`);
+      setText(
+        logInfo,
+        ` — ${page.source}, ${page.lines.length} line(s)${page.truncated ? ", older lines not searched" : ""}`,
+      );
       renderLines();
       logView.scrollTop = logView.scrollHeight;
     } catch (e) {
@@ -292,7 +316,16 @@ export const systemPage: Page = (root, ctx) => {
     "section",
     { class: "panel ops-panel" },
     h("h3", {}, "Logs", logInfo),
-    h("div", { class: "ops-actions" }, logSelect, grep, h("label", {}, "lines ", lines), h("label", {}, "since ", since), showLogs, follow),
+    h(
+      "div",
+      { class: "ops-actions" },
+      logSelect,
+      grep,
+      h("label", {}, "lines ", lines),
+      h("label", {}, "since ", since),
+      showLogs,
+      follow,
+    ),
     logError,
     logView,
   );
@@ -300,7 +333,11 @@ export const systemPage: Page = (root, ctx) => {
   // ---- backup and restore ----------------------------------------------------------------------
   const withSecrets = h("input", { type: "checkbox", "data-testid": "backup-secrets" });
   const download = h("button", { class: "primary", "data-testid": "backup-download" }, "Download a backup");
-  const restoreFile = h("input", { type: "file", accept: ".tar.gz,.tgz,application/gzip", "data-testid": "restore-file" });
+  const restoreFile = h("input", {
+    type: "file",
+    accept: ".tar.gz,.tgz,application/gzip",
+    "data-testid": "restore-file",
+  });
   const checkRestore = h("button", { "data-testid": "restore-check", disabled: true }, "Check it…");
   const backupError = h("div", { class: "ops-error", "data-testid": "backup-error", hidden: true, role: "alert" });
   const planView = h("div", { "data-testid": "restore-plan", hidden: true });
@@ -351,10 +388,12 @@ export const systemPage: Page = (root, ctx) => {
             h(
               "tbody",
               {},
-              ...p.files.map((f) => h("tr", {}, h("td", { class: "mono" }, f.path), h("td", {}, f.action), h("td", {}, f.what))),
+              ...p.files.map((f) =>
+                h("tr", {}, h("td", { class: "mono" }, f.path), h("td", {}, f.action), h("td", {}, f.what)),
+              ),
             ),
           )
-        : null,
+        : "",
       ...p.warnings.map((w) => h("div", { class: "warn", "data-testid": "restore-warning" }, `⚠ ${w}`)),
     );
   };
@@ -409,7 +448,14 @@ export const systemPage: Page = (root, ctx) => {
   );
 
   // ---- the set store's prune -------------------------------------------------------------------
-  const keep = h("input", { type: "number", min: 0, value: 10, class: "ops-edit", size: 4, "data-testid": "prune-keep" });
+  const keep = h("input", {
+    type: "number",
+    min: 0,
+    value: 10,
+    class: "ops-edit",
+    size: 4,
+    "data-testid": "prune-keep",
+  });
   const dryRun = h("button", { "data-testid": "prune-dry-run" }, "Dry run");
   const pruneError = h("div", { class: "ops-error", "data-testid": "prune-error", hidden: true, role: "alert" });
   const pruneReport = h("div", { "data-testid": "prune-report" });
@@ -423,9 +469,11 @@ export const systemPage: Page = (root, ctx) => {
         ? h(
             "ul",
             { class: "mono" },
-            ...r.deleted.map((s) => h("li", {}, `${s.id} · ${formatTime(s.created)} · ${s.files} files · ${s.by?.name ?? "–"}`)),
+            ...r.deleted.map((s) =>
+              h("li", {}, `${s.id} · ${formatTime(s.created)} · ${s.files} files · ${s.by?.name ?? "–"}`),
+            ),
           )
-        : null,
+        : "",
     );
   dryRun.addEventListener("click", async () => {
     pruneError.hidden = true;
@@ -519,4 +567,3 @@ export const systemPage: Page = (root, ctx) => {
     for (const c of cleanups) c();
   };
 };
-

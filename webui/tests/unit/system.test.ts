@@ -11,8 +11,8 @@ import {
   expiryText,
   logQuery,
   NdjsonSplitter,
-  planRows,
   type PruneReport,
+  planRows,
   pruneText,
   type RestorePlan,
   type SystemInfo,
@@ -44,7 +44,14 @@ describe("the log stream", () => {
 const plan: RestorePlan = {
   dry_run: true,
   restarting: false,
-  archive: { created: "2026-01-31T08:00:00Z", agent_version: "0.1.0", host: "cell7", with_secrets: false, files: 12, bytes: 2048 },
+  archive: {
+    created: "2026-01-31T08:00:00Z",
+    agent_version: "0.1.0",
+    host: "cell7",
+    with_secrets: false,
+    files: 12,
+    bytes: 2048,
+  },
   sets: { added: ["a", "b"], present: ["c"], kept: [] },
   active_set: { now: null, after: "a" },
   tokens: { now: 3, after: 3 },
@@ -91,7 +98,13 @@ describe("waiting for a restarted agent", () => {
   it("waits until the agent went away and answers again", async () => {
     const answers = [up, down, down, up];
     let asked = 0;
-    const back = await waitForAgent(async () => answers[Math.min(asked++, answers.length - 1)], 10_000, 500, 3000, noSleep);
+    const back = await waitForAgent(
+      async () => answers[Math.min(asked++, answers.length - 1)],
+      10_000,
+      500,
+      3000,
+      noSleep,
+    );
     expect(back).toBe(true);
     expect(asked).toBe(4);
   });
@@ -114,7 +127,15 @@ const info: SystemInfo = {
     host: "0.0.0.0",
     port: 8443,
   },
-  irpd: { reachable: true, version: "0.1.0", protocol: 2, pid: 7, uptime_s: 60, set_id: "5c1e0a9b7d3f2e41", running: true },
+  irpd: {
+    reachable: true,
+    version: "0.1.0",
+    protocol: 2,
+    pid: 7,
+    uptime_s: 60,
+    set_id: "5c1e0a9b7d3f2e41",
+    running: true,
+  },
   data: {
     path: "/var/lib/indurop",
     used_bytes: 5 << 20,
@@ -145,7 +166,13 @@ function mount(role: Role) {
       let data: unknown = {};
       if (path === "/api/v1/system") data = info;
       if (path === "/api/v1/sets/prune")
-        data = { dry_run: (opts.body as { dry_run: boolean }).dry_run, deleted: [], kept: ["a"], blobs: [{ sha256: "0", size: 10 }], bytes: 10 };
+        data = {
+          dry_run: (opts.body as { dry_run: boolean }).dry_run,
+          deleted: [],
+          kept: ["a"],
+          blobs: [{ sha256: "0", size: 10 }],
+          bytes: 10,
+        };
       if (path === "/api/v1/system/restart/irpd") data = { mode: "restart", set_id: "s", pid: 7, downtime_ns: 120e6 };
       return { data, response: new Response(null, { status: 200 }) };
     };
