@@ -4300,6 +4300,7 @@ export interface operations {
         requestBody: {
             content: {
                 "application/gzip": string;
+                "application/octet-stream": string;
             };
         };
         responses: {

@@ -47,7 +47,10 @@ BINARY = {"type": "string", "format": "binary"}
 RESTORE_BODY = {
     "requestBody": {
         "required": True,
-        "content": {"application/gzip": {"schema": {**BINARY, "description": "a backup from GET /system/backup"}}},
+        "content": {
+            kind: {"schema": {**BINARY, "description": "a backup from GET /system/backup"}}
+            for kind in ("application/gzip", "application/octet-stream")
+        },
     }
 }
 REFUSED = {"model": ErrorBody}
