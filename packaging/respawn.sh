@@ -17,5 +17,5 @@ while :; do
   wait "$child"
   rc=$?
   [ "$rc" -eq 75 ] || exit "$rc"
-  echo "respawn: $1 exited 75 (a restart was asked): starting it again" >&2
+  echo "respawn: exit 75 (a restart was asked): starting it again" >&2
 done

@@ -42,7 +42,7 @@ def test_exit_75_starts_the_command_again_and_another_exit_ends_it(tmp_path):
     p = respawn(tmp_path, "75,75,3")
     assert p.wait(30) == 3
     assert (tmp_path / "runs").read_text() == "3"
-    assert p.stderr.read().count("exited 75") == 2
+    assert p.stderr.read().count("exit 75") == 2
 
 
 def test_a_sigterm_reaches_the_command_and_is_waited_for(tmp_path):
