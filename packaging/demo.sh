@@ -6,6 +6,9 @@
 # indurop-agent on http://127.0.0.1:8080/api/v1 beside it.  Ctrl-C stops both.  Extra arguments
 # go to irpd, e.g. `bash packaging/demo.sh --duration 10 --stats-json /tmp/stats.json` (the
 # agent stops when irpd does).  INDUROP_PORT and INDUROP_DATA change the port and data folder.
+# Both programs' output goes to the terminal and, each line stamped with its UTC time, to
+# <data>/logs/irpd.log and agent.log, which the web UI's System page reads.  The agent is started
+# again when it exits asking for it (exit 75: a restart from the System page, a restore).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 bash "$root/packaging/deps.sh"
@@ -22,7 +25,21 @@ sock="$data/irpd.sock"
 # indurop-drivesim, a non-real process module of the set that irpd starts and stops.
 config="$root/build/sets/plc-robot/module.xml"
 [ -f "$data/active/module.xml" ] && config="$data/active/module.xml"
-"$root/build/bin/irpd" --config "$config" --control-socket "$sock" "$@" &
+# The logs: each line to the terminal, and stamped to its file (bash's printf keeps it one process).
+logs="$data/logs"
+mkdir -p "$logs"
+for f in irpd agent; do  # one older generation is kept
+  if [ -f "$logs/$f.log" ] && [ "$(stat -c %s "$logs/$f.log")" -gt $((16 << 20)) ]; then mv "$logs/$f.log" "$logs/$f.log.1"; fi
+done
+stamp() {
+  local line
+  export TZ=UTC  # (this runs in its own subshell)
+  while IFS= read -r line || [ -n "$line" ]; do
+    printf '%s\n' "$line"
+    printf '%(%Y-%m-%dT%H:%M:%S)TZ %s\n' -1 "$line" >>"$1"
+  done
+}
+"$root/build/bin/irpd" --config "$config" --control-socket "$sock" "$@" > >(stamp "$logs/irpd.log") 2>&1 &
 irpd_pid=$!
 for _ in $(seq 100); do [ -S "$sock" ] && break; kill -0 $irpd_pid 2>/dev/null || break; sleep 0.05; done
 # The agent, like irpd's own non-RT threads, stays off the dispatcher's CPU (irpd's default: the
@@ -30,8 +47,10 @@ for _ in $(seq 100); do [ -S "$sock" ] && break; kill -0 $irpd_pid 2>/dev/null |
 off_rt=()
 n=$(nproc)
 [ "$n" -gt 1 ] && off_rt=(taskset -c "0-$((n - 2))")
-(cd "$root/agent" && exec "${off_rt[@]}" "$venv/bin/python" -m indurop_agent --host 127.0.0.1 --port "$port" \
-    --data-dir "$data" --irpd-socket "$sock") &
+# The agent, started again whenever it exits with 75 (a restart asked from the System page).
+(cd "$root/agent" && INDUROP_SUPERVISOR=demo exec bash "$root/packaging/respawn.sh" "${off_rt[@]}" \
+    "$venv/bin/python" -m indurop_agent --host 127.0.0.1 --port "$port" --data-dir "$data" --irpd-socket "$sock" \
+    --irpd-log "$logs/irpd.log" --agent-log "$logs/agent.log") > >(stamp "$logs/agent.log") 2>&1 &
 agent_pid=$!
 url=http://127.0.0.1:$port
 for _ in $(seq 200); do curl -sf "$url/api/v1/health" >/dev/null && break; kill -0 $agent_pid 2>/dev/null || break; sleep 0.1; done
@@ -51,6 +70,7 @@ echo "demo: the web UI: $url/  (sign in with a user name and password; docs/admi
 echo "demo: start the cell from the UI's Variables page (PLC_ROBOT.PLC_IN.Enable = 1, then PLC_ROBOT.I0 = 1) or: irpctl write PLC_ROBOT.PLC_IN.Enable 1; irpctl write PLC_ROBOT.I0 1 (docs/plc-robot-cell.md)"
 echo "demo: irpd (pid $irpd_pid) on $config; agent (pid $agent_pid) on $url/api/v1/docs"
 echo "demo: the admin token is in $data/admin-token"
+echo "demo: the logs are in $logs (irpd.log, agent.log; the web UI's System page shows them)"
 
 stop() { kill -TERM $irpd_pid $agent_pid 2>/dev/null || true; wait 2>/dev/null || true; }
 trap stop INT TERM

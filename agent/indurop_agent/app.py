@@ -38,6 +38,7 @@ from .api.routes import (
     sets,
     status,
     stream,
+    system,
     tokens,
     users,
     variables,
@@ -52,6 +53,8 @@ from .irpd_client import IrpdClient
 from .security import BodyLimitMiddleware, BodyTimeoutMiddleware, Lockout
 from .sessions import SessionStore
 from .store import SetStore
+from .system.restart import AgentRestarter, detect_supervisor
+from .system.restore import apply_pending
 from .users import UserStore
 from .viewer.live import RobotLive
 from .viewer.ticket import Tickets
@@ -60,8 +63,8 @@ API = "/api/v1"
 
 
 def is_upload(method: str, path: str) -> bool:
-    """Set uploads check their own (larger) limits while they stream to disk."""
-    return method == "POST" and path.rstrip("/") == f"{API}/sets"
+    """Set uploads and backups sent to restore check their own (larger) limits while they stream to disk."""
+    return method == "POST" and path.rstrip("/") in (f"{API}/sets", f"{API}/system/restore")
 
 
 def json_safe(value):
@@ -124,10 +127,33 @@ def serve_webui(app: FastAPI, folder: Path | None) -> None:
         return JSONResponse(status_code=404, content={"detail": NO_WEBUI})
 
 
+def _restored(state, record: dict) -> None:
+    """The audit line and event of a restore applied at this start (into the restored audit log;
+    the replaced one has the line of the request)."""
+    plan = record.get("plan") or {}
+    created = (plan.get("archive") or {}).get("created")
+    state.audit.write(
+        "restore_applied",
+        who=record.get("who"),
+        client=record.get("client"),
+        target=created,
+        result="ok",
+        replaced_to=record.get("replaced_to"),
+        files=[f["path"] for f in plan.get("files") or []],
+        sets_added=(plan.get("sets") or {}).get("added"),
+    )
+    state.events.add(
+        "restore_applied",
+        f"the backup of {created} is restored; the files it replaced are in {record.get('replaced_to')}",
+    )
+
+
 def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     """The agent.  restore=False leaves out the watcher that re-activates the stored set."""
     settings.data_dir = settings.data_dir.resolve()
     settings.data_dir.mkdir(parents=True, exist_ok=True)
+    # A restore staged before the agent restarted, applied before anything opens the data folder.
+    restored = apply_pending(settings.data_dir)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
@@ -166,6 +192,8 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     )
     state = app.state
     state.settings = settings
+    state.agent_restart = AgentRestarter(detect_supervisor())
+    state.log_followers = 0
     state.tokens = TokenStore(settings.data_dir)
     hasher = PasswordHasher(settings.argon2_time_cost, settings.argon2_memory_kib, settings.argon2_parallelism)
     state.users = UserStore(settings.data_dir, hasher)
@@ -198,6 +226,8 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
             settings.alarm_unreachable_s,
         ),
     )
+    if restored is not None:
+        _restored(state, restored)
     app.add_exception_handler(RequestValidationError, validation_error)
     app.add_exception_handler(LocatedError, located_error)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, exempt=is_upload)
@@ -207,5 +237,6 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     routers = (health, status, modules, jitter, variables, sets, robot, events, alarms, audit, tokens, session, users)
     for module in (*routers, stream):
         app.include_router(module.router, prefix=API)
+    app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)
     serve_webui(app, state.webui_dir)  # last: the API routes match first
     return app

@@ -37,6 +37,14 @@ ACTIONS = (
     "alarm_ack_all",
     "alarm_shelve",
     "alarm_unshelve",
+    # the System page (docs/administration.md)
+    "irpd_restart",
+    "agent_restart",
+    "backup",
+    "restore_backup",
+    "restore_applied",
+    "tls_upload",
+    "sets_prune",
 )
 
 

@@ -1,5 +1,6 @@
 """cli.py -- irpctl, the command line of the agent's API: status, modules, sets, hot reload,
-variables, the sample stream, events, alarms, users (cli_users.py) (docs/irpctl.md).
+variables, the sample stream, events, alarms, users (cli_users.py), and the administration of
+cli_system.py (docs/irpctl.md).
 
 Human output by default (aligned tables, durations as "100 µs"), the API's JSON with --json.
 Exit codes: 0 done, 1 the API refused (4xx, 409), 2 usage, 3 the agent or irpd unreachable.
@@ -21,6 +22,7 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
+from .cli_system import SETS_ARGS, SYSTEM_COMMANDS, cmd_sets
 from .cli_text import (
     EVENT_HEADERS,
     TRANSITION_HEADERS,
@@ -37,7 +39,6 @@ from .cli_text import (
     parse_value,
     schedule_text,
     set_text,
-    sets_text,
     status_text,
     swap_text,
     table,
@@ -456,7 +457,12 @@ COMMANDS: tuple[Command, ...] = (
     Command(
         "validate", "upload a set and show irpd's validation report (exit 1 when not valid)", cmd_validate, SOURCES
     ),
-    Command("sets", "the uploaded sets, newest first", _show(lambda c, a: c.sets(), sets_text)),
+    Command(
+        "sets",
+        "the uploaded sets, newest first; `sets prune --keep N` deletes old ones (admin)",
+        cmd_sets,
+        SETS_ARGS,
+    ),
     Command(
         "set",
         "one uploaded set: files and validation",
@@ -618,6 +624,7 @@ COMMANDS: tuple[Command, ...] = (
         None,
         sub=tuple(Command(name, text, run, args) for name, text, run, args in USER_COMMANDS),
     ),
+    *(Command(*spec) for spec in SYSTEM_COMMANDS),  # system, backup, restore, restart, logs, tls
 )
 
 

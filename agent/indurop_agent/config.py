@@ -95,10 +95,19 @@ class Settings:
     alarm_poll_s: float = 0.1
     alarm_history_rows: int = 200_000
     alarm_history_per_s: int = 100
+    # The System page (docs/administration.md).  Logs: irpd's and the agent's output as files
+    # (packaging/demo.sh writes them; --irpd-log, --agent-log), else the journal when journald runs.
+    # A backup's restore: at most this many bytes (the upload, and separately what it unpacks to)
+    # and this many archive members.
+    irpd_log: Path | None = None
+    agent_log: Path | None = None
+    max_backup_bytes: int = 4 << 30
+    max_backup_members: int = 200_000
 
 
 FIELDS = {f.name: f for f in dataclasses.fields(Settings)}
-PATHS = {"data_dir", "tls_cert", "tls_key", "webui_dir"}
+PATHS = {"data_dir", "tls_cert", "tls_key", "webui_dir", "irpd_log", "agent_log"}
+OPTIONAL_PATHS = {"tls_cert", "tls_key", "webui_dir", "irpd_log", "agent_log"}
 POSITIVE = {
     "port",
     "max_file_bytes",
@@ -131,13 +140,15 @@ POSITIVE = {
     "alarm_poll_s",
     "alarm_history_rows",
     "alarm_history_per_s",
+    "max_backup_bytes",
+    "max_backup_members",
 }
 VIEWERS = ("viser", "meshcat")
 
 
 def _coerce(key: str, value, where: str) -> object:
     """A config-file value of the field's type, or ValueError naming the key and what it needs."""
-    if value is None and key in ("tls_cert", "tls_key", "webui_dir"):
+    if value is None and key in OPTIONAL_PATHS:
         return None
     if key in PATHS:
         if not isinstance(value, str) or not value:
@@ -202,6 +213,12 @@ def parse(argv: list[str] | None = None) -> Settings:
         f"else {INSTALLED_WEBUI})",
     )
     ap.add_argument("--viewer", choices=VIEWERS, help="the 3D robot view's viewer (default viser)")
+    ap.add_argument(
+        "--irpd-log",
+        type=Path,
+        help="a file irpd's output is written to (the System page's logs; default: the journal)",
+    )
+    ap.add_argument("--agent-log", type=Path, help="a file this agent's output is written to (as --irpd-log)")
     a = ap.parse_args(argv)
     s = Settings()
     if a.config:
@@ -220,7 +237,18 @@ def parse(argv: list[str] | None = None) -> Settings:
                 setattr(s, key, _coerce(key, value, where))
             except ValueError as e:
                 ap.error(str(e))
-    for key in ("host", "port", "data_dir", "irpd_socket", "tls_cert", "tls_key", "webui_dir", "viewer"):
+    for key in (
+        "host",
+        "port",
+        "data_dir",
+        "irpd_socket",
+        "tls_cert",
+        "tls_key",
+        "webui_dir",
+        "viewer",
+        "irpd_log",
+        "agent_log",
+    ):
         if getattr(a, key) is not None:
             setattr(s, key, getattr(a, key))
     problems = check(s)

@@ -73,7 +73,10 @@ def main(out: Path, config: Path) -> None:
     for viewer in ("viser", "meshcat"):
         port, vdata = free_port(), data / viewer
         vdata.mkdir(parents=True)
-        agents.append(start_agent(port, vdata, sock, "--viewer", viewer, log=work / f"agent-{viewer}.log"))
+        log = work / f"agent-{viewer}.log"
+        # the System page's logs: the files irpd and this agent write here
+        agents.append(start_agent(port, vdata, sock, "--viewer", viewer, "--irpd-log", str(work / "irpd.log"),
+                                  "--agent-log", str(log), log=log))
         urls[viewer] = f"http://127.0.0.1:{port}"
         admin = (vdata / "admin-token").read_text().strip()
         tokens[viewer] = tokens_for(urls[viewer], admin)

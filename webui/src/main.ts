@@ -17,6 +17,7 @@ import { modulesPage } from "./pages/modules";
 import { overviewPage } from "./pages/overview";
 import { robotPage } from "./pages/robot";
 import { schedulePage } from "./pages/schedule";
+import { systemPage } from "./pages/system";
 import { usersPage } from "./pages/users";
 import { variablesPage } from "./pages/variables";
 import { StreamClient } from "./stream/stream";
@@ -30,6 +31,7 @@ const ALL_PAGES: { id: string; title: string; page: Page; role: Role }[] = [
   { id: "robot", title: "Robot", page: robotPage, role: "viewer" },
   { id: "alarms", title: "Alarms", page: alarmsPage, role: "viewer" },
   { id: "users", title: "Users", page: usersPage, role: "admin" },
+  { id: "system", title: "System", page: systemPage, role: "admin" },
 ];
 
 function socketUrl(path: string): string {

@@ -120,6 +120,15 @@ NEEDS = {
     ("PATCH", "/users/{name}"): "admin",
     ("PUT", "/users/{name}/password"): "viewer",
     ("GET", "/users/{name}/tokens"): "viewer",
+    ("GET", "/system"): "admin",
+    ("POST", "/system/restart/irpd"): "admin",
+    ("POST", "/system/restart/agent"): "admin",
+    ("GET", "/system/logs/{log}"): "admin",
+    ("GET", "/system/logs/{log}/follow"): "admin",
+    ("GET", "/system/backup"): "admin",
+    ("POST", "/system/restore"): "admin",
+    ("POST", "/system/tls"): "admin",
+    ("POST", "/sets/prune"): "admin",
 }
 SAMPLE = {
     "{name}": "cntr1",
@@ -127,6 +136,7 @@ SAMPLE = {
     "{set_id}": "0" * 64,
     "{token_id}": "0" * 12,
     "{key}": "PLC/8",
+    "{log}": "irpd",
 }
 
 
