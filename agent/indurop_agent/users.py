@@ -117,6 +117,38 @@ def write_private(path: Path, value) -> None:
         os.close(folder)
 
 
+def parse_users(stored) -> dict[str, User]:
+    """The users of a users.json's content (`{"format": 1, "users": {name: fields}}`), or ValueError
+    saying what is wrong with it (a restore checks a backup's file with this before using it)."""
+    if not isinstance(stored, dict) or not isinstance(stored.get("users"), dict):
+        raise ValueError('not a users file ({"format": 1, "users": {name: {...}}})')
+    if stored.get("format") != FORMAT:
+        raise ValueError(f"format {stored.get('format')!r}; this agent reads format {FORMAT}")
+    users = {}
+    for name, fields in stored["users"].items():
+        try:
+            user = User(name=name, **fields)
+        except TypeError as e:
+            raise ValueError(f"user {name!r}: {e}") from None
+        if name_problem(name) or user.role not in ROLES or not isinstance(user.hash, str):
+            raise ValueError(f"user {name!r}: a bad name, role or hash")
+        users[name] = user
+    return users
+
+
+def without_password_hashes(stored: dict) -> dict:
+    """A users file's content with every password hash emptied: the users keep their names, roles
+    and history, and no password matches until an admin sets one (a backup without secrets)."""
+    users = parse_users(stored)
+    return {"format": FORMAT, "users": {n: {**_fields(replace(u, hash=""))} for n, u in users.items()}}
+
+
+def _fields(user: User) -> dict:
+    fields = asdict(user)
+    del fields["name"]
+    return fields
+
+
 class UserStore:
     """The users of one data directory.  Thread-safe; every change is written before it returns."""
 
@@ -126,8 +158,7 @@ class UserStore:
         self._lock = threading.Lock()
         self._users: dict[str, User] = {}
         if self.path.exists():
-            stored = json.loads(self.path.read_text())
-            self._users = {name: User(name=name, **fields) for name, fields in stored.get("users", {}).items()}
+            self._users = parse_users(json.loads(self.path.read_text()))
         self._decoy: str | None = None
 
     # ---- reading --------------------------------------------------------------------------------
@@ -150,7 +181,7 @@ class UserStore:
         user = self._users.get(name)
         candidate = normalized(password) if encodable(password) else "\ufffd"  # never anyone's: too short
         try:
-            if user is None or user.disabled:
+            if user is None or user.disabled or not user.hash:  # not user.hash: restored without secrets
                 self.hasher.verify(self._decoy_hash(), candidate)
                 return None
             self.hasher.verify(user.hash, candidate)
@@ -252,9 +283,4 @@ class UserStore:
             return False
 
     def _save(self) -> None:
-        users = {}
-        for u in self._users.values():
-            fields = asdict(u)
-            del fields["name"]
-            users[u.name] = fields
-        write_private(self.path, {"format": FORMAT, "users": users})
+        write_private(self.path, {"format": FORMAT, "users": {u.name: _fields(u) for u in self._users.values()}})

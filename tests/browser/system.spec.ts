@@ -1,7 +1,7 @@
 // system.spec.ts -- the System page as an admin sees it: the agent's and irpd's versions, the data
 // folder and the certificate line; the agent's log shown and searched; a backup downloaded and checked by
 // a restore's dry run (its review shown, then cancelled); the prune's dry run; a restart asked for
-// and cancelled (the suite's one irpd keeps running).  A viewer is told the page is the admin's.
+// and cancelled (the suite's one irpd keeps running).  A viewer has no System page.
 import { readFileSync } from "node:fs";
 import { api, expect, shot, signIn, test } from "./fixtures";
 
@@ -60,8 +60,12 @@ test("an admin sees the system's figures, its logs, a backup's review and the pr
   await expect(page.getByTestId("restart-confirm")).toBeHidden();
 });
 
-test("a viewer is told the System page is the admin's", async ({ page }) => {
+test("a viewer has no System page: not in the menu, its address shows the Overview, its API refuses", async ({
+  page,
+}) => {
   await signIn(page, "viewer", "#/system");
-  await expect(page.getByTestId("system-page")).toContainText("needs the admin role");
+  await expect(page.locator("nav a[data-page=overview]")).toBeVisible();
+  await expect(page.locator("nav a[data-page=system]")).toHaveCount(0);
+  await expect(page.locator("main[data-page=overview]")).toBeVisible();
   expect((await api("/system", {}, "viewer")).status).toBe(403);
 });

@@ -34,28 +34,15 @@ from pathlib import Path
 from .. import __version__
 from ..auth import now_iso
 from ..store import remove_tree
+from ..users import parse_users, without_password_hashes
 
 FORMAT = "indurop-backup"
 FORMAT_VERSION = 1
 MANIFEST = "manifest.json"
 DATA = "data/"
-# the keys a users file's password hashes are under (users.py: "hash"), emptied in a backup
-# without secrets
-PASSWORD_KEYS = frozenset({"hash", "password_hash"})
-
-
-def without_password_hashes(raw: bytes) -> bytes:
-    """A JSON users file with every PASSWORD_KEYS value emptied, at any depth: the users keep their
-    shape (the agent still reads them) and no password matches an empty hash until one is set."""
-
-    def strip(value):
-        if isinstance(value, dict):
-            return {k: "" if k in PASSWORD_KEYS else strip(v) for k, v in value.items()}
-        if isinstance(value, list):
-            return [strip(v) for v in value]
-        return value
-
-    return json.dumps(strip(json.loads(raw)), indent=1).encode()
+def _users_redacted(raw: bytes) -> bytes:
+    """users.json without its password hashes (users.without_password_hashes)."""
+    return json.dumps(without_password_hashes(json.loads(raw)), indent=1).encode()
 
 
 @dataclass(frozen=True)
@@ -85,7 +72,7 @@ ITEMS: tuple[Item, ...] = (
     Item(
         "users.json",
         "the users (password hashes only with secrets)",
-        redact=without_password_hashes,
+        redact=_users_redacted,
         drops=("sessions.json",),
     ),
     Item("agent.json", "the agent's settings kept in the data folder (--config <data>/agent.json)"),
@@ -122,14 +109,11 @@ def _count_lines(path: Path) -> int:
 
 
 def _users_count(path: Path) -> int | None:
-    """How many users a users file lists (a JSON list, {"users": [...]} or {name: user}), if it says."""
+    """How many users a users file lists, if it is one."""
     try:
-        users = json.loads(path.read_bytes())
+        return len(parse_users(json.loads(path.read_bytes())))
     except (OSError, ValueError):
         return None
-    if isinstance(users, dict) and isinstance(users.get("users"), (list, dict)):
-        users = users["users"]
-    return len(users) if isinstance(users, (list, dict)) else None
 
 
 def summary_of(root: Path, set_ids: list[str]) -> dict:

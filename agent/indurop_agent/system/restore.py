@@ -44,6 +44,7 @@ from pathlib import Path
 from .. import config
 from ..auth import ROLES, now_iso
 from ..store import SET_ID, SetStore, remove_tree, set_id_of
+from ..users import parse_users
 from .backup import DATA, FORMAT, FORMAT_VERSION, ITEM_PATHS, ITEMS, MANIFEST, summary_of
 from .tls import CertificateError, check_pair
 
@@ -435,7 +436,10 @@ def check(manifest: dict, staging: Path) -> dict:
     if (root / "alarms.sqlite3").exists():
         _check_sqlite(root / "alarms.sqlite3")
     if (root / "users.json").exists():
-        _json(root / "users.json", "users.json")
+        try:
+            parse_users(_json(root / "users.json", "users.json"))
+        except ValueError as e:
+            raise RestoreError(400, f"users.json in the backup: {e}") from None
     if (root / "agent.json").exists():
         _check_settings(root / "agent.json")
     cert, key = root / "tls" / "cert.pem", root / "tls" / "key.pem"

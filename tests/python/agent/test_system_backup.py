@@ -1,6 +1,6 @@
 """test_system_backup.py -- GET /system/backup and POST /system/restore on in-process agents (no
 irpd): a backup restored into an empty data folder brings back the same sets, active set, tokens
-and users file; the dry run changes nothing and says what would change; secrets only when asked;
+and users (who sign in with the same password); the dry run changes nothing and says what would change; secrets only when asked;
 an altered archive is refused, and so is every hostile one (traversal, absolute names, links,
 devices, FIFOs, too many members, size bombs, ...), each with a 4xx naming what is wrong and the
 data folder untouched.  docs/administration.md, "Backup and restore"."""
@@ -21,8 +21,8 @@ from indurop_agent.config import Settings
 from indurop_agent.system import restore as restoring
 from indurop_agent.system.restart import AgentRestarter
 
-# a users file as users.py writes it
-USERS = {"format": 1, "users": {"ana": {"role": "admin", "hash": "$argon2id$v=19$m=65536,t=3,p=4$c2FsdA$aGFzaA"}}}
+# the people seeded() adds through the API, with their passwords
+PEOPLE = {"ana": ("admin", "correct horse battery"), "olaf": ("operator", "staple gun 42 meters")}
 
 
 def quiet_restarts(agent) -> list[str]:
@@ -33,7 +33,7 @@ def quiet_restarts(agent) -> list[str]:
 
 
 def seeded(agent, elves) -> dict:
-    """Two sets (the first one active), a users file and an audit line: what a backup must carry."""
+    """Two sets (the first one active), two users and an audit line: what a backup must carry."""
     ids = []
     for note in (b"# one\n", b"# two\n"):
         files = small_set(elves)
@@ -43,8 +43,14 @@ def seeded(agent, elves) -> dict:
         ids.append(r.json()["id"])
     state = agent.client.app.state
     state.store.record_activation(ids[0], "activate", {"id": None, "name": "test", "role": "admin"}, {"generation": 1})
-    (agent.data / "users.json").write_text(json.dumps(USERS))
+    for name, (role, password) in PEOPLE.items():
+        r = agent.client.post(f"{API}/users", json={"name": name, "role": role, "password": password}, headers=agent.h())
+        assert r.status_code == 201, r.text
     return {"ids": ids, "active": ids[0]}
+
+
+def sign_in(client: TestClient, name: str, password: str) -> int:
+    return client.post(f"{API}/session", json={"name": name, "password": password}).status_code
 
 
 def backup(agent, **params) -> bytes:
@@ -118,7 +124,7 @@ def test_a_backup_restored_into_an_empty_data_folder_brings_back_sets_active_set
     assert plan["dry_run"] is True and plan["restarting"] is False
     assert sorted(plan["sets"]["added"]) == sorted(seed["ids"]) and plan["sets"]["kept"] == []
     assert plan["active_set"] == {"now": None, "after": seed["active"]}
-    assert plan["users"] == {"now": None, "after": 1}
+    assert plan["users"] == {"now": None, "after": len(PEOPLE)}
     assert {f["path"]: f["action"] for f in plan["files"]}["tokens.json"] == "replace"
     assert not (target.data / "restore-pending").exists() and asked == []
 
@@ -136,7 +142,11 @@ def test_a_backup_restored_into_an_empty_data_folder_brings_back_sets_active_set
     assert active["id"] == seed["active"]
     assert client.get(f"{API}/audit", headers=h).json()[-1]["action"] == "restore_applied"
     assert client.get(f"{API}/sets", headers=target.h()).status_code == 401  # the target's own tokens are gone
-    assert json.loads((target.data / "users.json").read_text()) == USERS
+    assert (target.data / "users.json").read_bytes() == (source.data / "users.json").read_bytes()
+    for name, (role, password) in PEOPLE.items():  # the people sign in here with their passwords
+        assert sign_in(client, name, password) == 200
+        assert client.get(f"{API}/session").json()["role"] == role
+        assert sign_in(client, name, password + "!") == 401
     assert (target.data / "active").resolve() == (target.data / "sets" / seed["active"] / "files").resolve()
     assert (target.data / "active" / "module.xml").read_bytes() == small_set(elves)["module.xml"]
     for set_id in seed["ids"]:  # the trees, made again from the blobs
@@ -155,13 +165,17 @@ def test_a_backup_without_secrets_leaves_out_the_password_hashes_and_the_tls_key
     plain = members(backup(agent))
     manifest = json.loads(plain["manifest.json"])
     assert manifest["format"] == "indurop-backup" and manifest["with_secrets"] is False
-    assert json.loads(plain["data/users.json"]) == {"format": 1, "users": {"ana": {"role": "admin", "hash": ""}}}
+    stored = json.loads((agent.data / "users.json").read_text())
+    redacted = json.loads(plain["data/users.json"])
+    assert set(redacted["users"]) == set(PEOPLE) and all(u["hash"] == "" for u in redacted["users"].values())
+    for name, user in redacted["users"].items():  # everything else as stored
+        assert {**user, "hash": stored["users"][name]["hash"]} == stored["users"][name]
     assert "data/tls/key.pem" not in plain and plain["data/tls/cert.pem"] == b"cert"
     assert "data/tokens.json" in plain and "data/admin-token" not in plain  # hashes only, never the clear token
     for f in manifest["files"]:  # every file listed with its size and SHA-256
         assert hashlib.sha256(plain[f["path"]]).hexdigest() == f["sha256"] and len(plain[f["path"]]) == f["size"]
     secret = members(backup(agent, with_secrets="true"))
-    assert json.loads(secret["data/users.json"]) == USERS and secret["data/tls/key.pem"] == b"key"
+    assert json.loads(secret["data/users.json"]) == stored and secret["data/tls/key.pem"] == b"key"
     actions = [e for e in agent.audit() if e["action"] == "backup"]
     assert [e["with_secrets"] for e in actions] == [False, True] and actions[0]["who"]["name"] == "admin"
 
@@ -171,6 +185,22 @@ def test_the_dry_run_of_a_backup_without_secrets_warns_that_users_need_new_passw
     seeded(source, elves)
     plan = restore(target, backup(source), dry_run=True).json()
     assert any("without their password hashes" in w for w in plan["warnings"]), plan["warnings"]
+
+
+def test_users_restored_without_secrets_sign_in_only_once_an_admin_sets_their_passwords(make_agent, elves):
+    source, target = make_agent(), make_agent()
+    seeded(source, elves)
+    quiet_restarts(target)
+    assert restore(target, backup(source), dry_run=False).status_code == 200
+    client = restarted(target)
+    role, password = PEOPLE["olaf"]
+    assert sign_in(client, "olaf", password) == 401  # no hash came: no password matches, not even ""
+    assert sign_in(client, "olaf", "") in (401, 422)
+    h = {"Authorization": f"Bearer {source.tokens['admin']}"}
+    r = client.put(f"{API}/users/olaf/password", json={"password": "a new one for him 7"}, headers=h)
+    assert r.status_code == 204, r.text
+    assert sign_in(client, "olaf", "a new one for him 7") == 200
+
 
 
 def test_only_admins_back_up_and_restore(make_agent, elves):
@@ -377,3 +407,11 @@ def test_a_token_file_with_an_unknown_role_is_refused(pair):
     del files["manifest.json"]
     files["data/tokens.json"] = json.dumps({"a" * 64: {"name": "x", "role": "root"}}).encode()
     refused(target, repack(with_manifest(files)), 400, "tokens.json")
+
+
+def test_a_users_file_that_is_not_one_is_refused(pair):
+    _, archive, target = pair
+    files = members(archive)
+    del files["manifest.json"]
+    files["data/users.json"] = json.dumps({"format": 1, "users": {"ana": {"role": "root"}}}).encode()
+    refused(target, repack(with_manifest(files)), 400, "users.json", "'ana'")
