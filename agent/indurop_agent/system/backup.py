@@ -40,6 +40,8 @@ FORMAT = "indurop-backup"
 FORMAT_VERSION = 1
 MANIFEST = "manifest.json"
 DATA = "data/"
+
+
 def _users_redacted(raw: bytes) -> bytes:
     """users.json without its password hashes (users.without_password_hashes)."""
     return json.dumps(without_password_hashes(json.loads(raw)), indent=1).encode()

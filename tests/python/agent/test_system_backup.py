@@ -44,7 +44,9 @@ def seeded(agent, elves) -> dict:
     state = agent.client.app.state
     state.store.record_activation(ids[0], "activate", {"id": None, "name": "test", "role": "admin"}, {"generation": 1})
     for name, (role, password) in PEOPLE.items():
-        r = agent.client.post(f"{API}/users", json={"name": name, "role": role, "password": password}, headers=agent.h())
+        r = agent.client.post(
+            f"{API}/users", json={"name": name, "role": role, "password": password}, headers=agent.h()
+        )
         assert r.status_code == 201, r.text
     return {"ids": ids, "active": ids[0]}
 
@@ -200,7 +202,6 @@ def test_users_restored_without_secrets_sign_in_only_once_an_admin_sets_their_pa
     r = client.put(f"{API}/users/olaf/password", json={"password": "a new one for him 7"}, headers=h)
     assert r.status_code == 204, r.text
     assert sign_in(client, "olaf", "a new one for him 7") == 200
-
 
 
 def test_only_admins_back_up_and_restore(make_agent, elves):
