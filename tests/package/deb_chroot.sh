@@ -2,8 +2,9 @@
 # deb_chroot.sh DEB [OLD_DEB] -- installs the .deb into a clean Debian 12 (bookworm) minbase chroot
 # with apt (real dependency resolution), checks what it installed and that it runs, then removes and
 # purges it and checks that nothing of it is left; with OLD_DEB (an older build: old_deb.sh), then
-# installs that, runs it, upgrades it to DEB and checks that the upgrade kept the data and that the
-# old admin token still signs in, over HTTPS.  Needs root (debootstrap, chroot, mounts).
+# installs that, runs it (a user added and signed in), upgrades it to DEB and checks that the
+# upgrade kept the data, the users and their sessions, and that the old admin token, the old session
+# and the user's password sign in over HTTPS; then upgrades again and checks the certificate is kept.  Needs root (debootstrap, chroot, mounts).
 #
 #   bash tests/package/deb_chroot.sh build/indurop_0.1.0_amd64.deb [build/indurop-old.deb]
 #
@@ -245,17 +246,37 @@ start_agent http
 in_chroot runuser -u indurop -- env INDUROP_URL="http://127.0.0.1:$port" /usr/lib/indurop/activate-default-set \
   || { cat "$cache/agent.log"; fail "activate-default-set of the older build"; }
 runs_active_set http || fail "the older build's irpd does not run its active set"
-kept_before=$(cd "$chr/var/lib/indurop" && sha256sum tokens.json active.json history.jsonl admin-token && ls sets)
+# a person of the older build: added with the admin token, signed in (a session cookie in the jar)
+password="upgrade kept me $$"
+curl -sf -H "Authorization: Bearer $(cat "$chr/var/lib/indurop/admin-token")" -H 'Content-Type: application/json' \
+  -d "{\"name\": \"ana\", \"role\": \"operator\", \"password\": \"$password\"}" "http://127.0.0.1:$port/api/v1/users" >/dev/null \
+  || fail "the older build did not add a user"
+jar="$cache/cookies"
+rm -f "$jar"
+sign_in() {  # SCHEME: name and password -> 200 and a session cookie in the jar
+  curl -sf -c "$jar" $([ "$1" = https ] && echo --cacert "$ca") -H 'Content-Type: application/json' \
+    -d "{\"name\": \"ana\", \"password\": \"$password\"}" "$1://127.0.0.1:$port/api/v1/session" >/dev/null
+}
+session_of() {  # SCHEME: who the jar's session cookie is (GET /session)
+  curl -sf -b "$jar" $([ "$1" = https ] && echo --cacert "$ca") "$1://127.0.0.1:$port/api/v1/session" \
+    | python3 -c 'import json, sys; s = json.load(sys.stdin); print(s["name"] if s["signed_in"] else "nobody")'
+}
+sign_in http || fail "the older build's user did not sign in"
+[ "$(session_of http)" = ana ] || fail "the older build's session is not ana's"
+kept_files="tokens.json active.json history.jsonl admin-token users.json sessions.json"
 active_before=$(active_id)
 stop_chroot_processes
+# shellcheck disable=SC2086  # the names, word-split
+kept_before=$(cd "$chr/var/lib/indurop" && sha256sum $kept_files && ls sets)
 # The upgrade (the units would be stopped and started again around it under systemd).
 in_chroot env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "/tmp/$(basename "$deb")" \
   >"$cache/upgrade.log" 2>&1 || { tail -30 "$cache/upgrade.log" >&2; fail "apt-get install of DEB over the older build"; }
 grep -q "Unpacking indurop .* over " "$cache/upgrade.log" || { tail -20 "$cache/upgrade.log"; fail "the install was not an upgrade"; }
 fingerprint=$(sed -n 's/.*SHA-256 fingerprint \([0-9A-F:]*\).*/\1/p' "$cache/upgrade.log" | tail -1)
 [ ${#fingerprint} -eq 95 ] || fail "the upgrade did not make a certificate and print its fingerprint"
-[ "$(cd "$chr/var/lib/indurop" && sha256sum tokens.json active.json history.jsonl admin-token && ls sets)" = "$kept_before" ] \
-  || fail "the upgrade changed the tokens, the set store or the active set"
+# shellcheck disable=SC2086
+[ "$(cd "$chr/var/lib/indurop" && sha256sum $kept_files && ls sets)" = "$kept_before" ] \
+  || fail "the upgrade changed the tokens, the users, their sessions, the set store or the active set"
 : > "$cache/irpd.log"
 start_irpd
 start_agent https
@@ -263,7 +284,21 @@ start_agent https
 [ "$(api sets/active | python3 -c 'import json, sys; print(json.load(sys.stdin)["id"])')" = "$active_before" ] \
   || fail "after the upgrade the old admin token does not sign in, or the active set changed"
 runs_active_set || fail "after the upgrade irpd does not run the active set"
+[ "$(session_of https)" = ana ] || fail "after the upgrade the session of the older build is not ana's over HTTPS"
+sign_in https || fail "after the upgrade ana does not sign in with her password over HTTPS"
+stop_chroot_processes
+# The next upgrade (the same build again) keeps the certificate the first one made, and the rest.
+kept_before=$(cd "$chr/var/lib/indurop" && sha256sum tls/cert.pem tls/key.pem users.json tokens.json && ls sets)
+in_chroot env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --reinstall --no-install-recommends "/tmp/$(basename "$deb")" \
+  >"$cache/reinstall.log" 2>&1 || { tail -30 "$cache/reinstall.log" >&2; fail "apt-get install --reinstall of DEB"; }
+[ "$(cd "$chr/var/lib/indurop" && sha256sum tls/cert.pem tls/key.pem users.json tokens.json && ls sets)" = "$kept_before" ] \
+  || fail "the second upgrade changed the certificate, the users, the tokens or the set store"
+: > "$cache/irpd.log"
+start_irpd
+start_agent https
+[ "$(served_fingerprint)" = "$fingerprint" ] || fail "after the second upgrade the agent serves another certificate"
+[ "$(session_of https)" = ana ] || fail "after the second upgrade the session is not ana's"
 stop_chroot_processes
 in_chroot env DEBIAN_FRONTEND=noninteractive apt-get purge -y -q --autoremove indurop >"$cache/purge.log" 2>&1 \
   || { tail -20 "$cache/purge.log" >&2; fail "apt-get purge after the upgrade"; }
-echo "deb_chroot: upgraded from $(basename "$old_deb"): tokens, sets and the active set kept, a certificate made, the old admin token signs in over HTTPS"
+echo "deb_chroot: upgraded from $(basename "$old_deb"): tokens, users, their sessions, sets and the active set kept, a certificate made and kept by the next upgrade, the old admin token and the old session over HTTPS, the user signs in with her password"
