@@ -22,6 +22,8 @@ from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
+from .files import write_json
+
 ROLES = ("viewer", "operator", "admin")
 ID_LENGTH = 12
 TOKEN_PREFIX = "irp_"
@@ -158,11 +160,7 @@ class TokenStore:
         return [d[:ID_LENGTH] for d in gone]
 
     def _save(self) -> None:
-        tmp = self.path.with_suffix(".tmp")
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-        with os.fdopen(fd, "w") as f:
-            json.dump(self._tokens, f, indent=1)
-        os.replace(tmp, self.path)
+        write_json(self.path, self._tokens)
 
 
 def allows(role: str, needed: str) -> bool:

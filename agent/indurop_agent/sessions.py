@@ -23,7 +23,7 @@ import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
-from .users import write_private
+from .files import write_json
 
 COOKIE = "indurop_session"
 CSRF_HEADER = "X-CSRF-Token"
@@ -179,4 +179,4 @@ class SessionStore:
             del fields["key"]
             sessions[key] = fields
             self._saved_seen[key] = s.last_seen
-        write_private(self.path, {"format": FORMAT, "sessions": sessions})
+        write_json(self.path, {"format": FORMAT, "sessions": sessions})

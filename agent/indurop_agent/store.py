@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .auth import now_iso
+from .files import fsync_dir, write_json
 
 SET_ID = re.compile(r"^[0-9a-f]{16}$")
 EXECUTABLE_KINDS = {"executable", "thread_module", "library"}  # blobs with the execute bit
@@ -67,29 +68,6 @@ def set_id_of(files: list[StagedFile] | list[dict]) -> str:
     pairs = sorted((f["path"], f["sha256"]) if isinstance(f, dict) else (f.path, f.sha256) for f in files)
     digest = hashlib.sha256("".join(f"{p}\0{h}\n" for p, h in pairs).encode())
     return digest.hexdigest()[:16]
-
-
-def _write_atomically(path: Path, text: str, mode: int = 0o644) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp, mode)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    _fsync_dir(path.parent)
-
-
-def _fsync_dir(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 def remove_tree(path: Path) -> None:
@@ -218,9 +196,9 @@ class SetStore:
                 os.chmod(d, 0o555)
             os.chmod(tree, 0o555)
             os.chmod(partial, 0o755)
-            _write_atomically(partial / "manifest.json", json.dumps(manifest, indent=1))
+            write_json(partial / "manifest.json", manifest, 0o644)
             os.rename(partial, self.sets / set_id)
-            _fsync_dir(self.sets)
+            fsync_dir(self.sets)
         except BaseException:
             remove_tree(partial)
             raise
@@ -253,8 +231,8 @@ class SetStore:
                     remove_tree(doomed)
                 for b in blobs:
                     (self.blobs / b["sha256"]).unlink(missing_ok=True)
-                _fsync_dir(self.sets)
-                _fsync_dir(self.blobs)
+                fsync_dir(self.sets)
+                fsync_dir(self.blobs)
             return {
                 "deleted": [
                     {"id": m["id"], "created": m["created"], "by": m.get("by"), "files": len(m["files"])} for m in going
@@ -283,7 +261,7 @@ class SetStore:
             if manifest is None:
                 raise StoreError(f"no set {set_id}")
             manifest["validation"] = validation
-            _write_atomically(self.sets / set_id / "manifest.json", json.dumps(manifest, indent=1))
+            write_json(self.sets / set_id / "manifest.json", manifest, 0o644)
             return manifest
 
     # ---- activation state -----------------------------------------------------------------
@@ -349,19 +327,17 @@ class SetStore:
 
     def _write_active(self, entry: dict) -> None:
         set_id = entry["set_id"]
-        _write_atomically(
+        write_json(
             self.active_path,
-            json.dumps(
-                {
-                    "set_id": set_id,
-                    "since": entry["time"],
-                    "action": entry["action"],
-                    "by": entry["by"],
-                    "config": str(self.module_xml(set_id)),
-                    "rollback_to": self.rollback_target(),
-                },
-                indent=1,
-            ),
+            {
+                "set_id": set_id,
+                "since": entry["time"],
+                "action": entry["action"],
+                "by": entry["by"],
+                "config": str(self.module_xml(set_id)),
+                "rollback_to": self.rollback_target(),
+            },
+            0o644,
         )
         tmp = self.root / ".active.tmp"
         tmp.unlink(missing_ok=True)

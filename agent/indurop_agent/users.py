@@ -11,10 +11,8 @@ at the next successful sign-in (PasswordHasher.check_needs_rehash).
 from __future__ import annotations
 
 import json
-import os
 import re
 import secrets
-import tempfile
 import threading
 import unicodedata
 from dataclasses import asdict, dataclass, replace
@@ -24,6 +22,7 @@ from argon2 import PasswordHasher
 from argon2.exceptions import InvalidHashError, VerificationError, VerifyMismatchError
 
 from .auth import ROLES, now_iso
+from .files import write_json
 
 NAME_PATTERN = r"^[a-z][a-z0-9._-]{1,31}$"
 NAME_RULE = "2 to 32 characters: lowercase letters, digits, '.', '_' or '-', starting with a letter"
@@ -95,26 +94,6 @@ class User:
         d = asdict(self)
         del d["hash"]
         return d
-
-
-def write_private(path: Path, value) -> None:
-    """Writes `value` as JSON to `path` (mode 0600): a temporary file beside it, fsync'ed, renamed
-    over it, and the folder fsync'ed, so that a crash leaves the old file or the new one."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")  # mkstemp: mode 0600
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(value, f, indent=1)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    folder = os.open(path.parent, os.O_RDONLY)
-    try:
-        os.fsync(folder)
-    finally:
-        os.close(folder)
 
 
 def parse_users(stored) -> dict[str, User]:
@@ -283,4 +262,4 @@ class UserStore:
             return False
 
     def _save(self) -> None:
-        write_private(self.path, {"format": FORMAT, "users": {u.name: _fields(u) for u in self._users.values()}})
+        write_json(self.path, {"format": FORMAT, "users": {u.name: _fields(u) for u in self._users.values()}})

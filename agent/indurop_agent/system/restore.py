@@ -42,6 +42,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from .. import config
+from ..archives import tar_stream, type_problem
 from ..auth import ROLES, now_iso
 from ..store import SET_ID, SetStore, remove_tree, set_id_of
 from ..users import parse_users
@@ -50,7 +51,6 @@ from .tls import CertificateError, check_pair
 
 PENDING = "restore-pending"
 MAX_MANIFEST_BYTES = 64 << 20
-MAX_TAR_HEADER_BYTES = 64 << 10  # a pax or GNU long-name header larger than this is refused
 MAX_NAME_BYTES = 1024
 HEX64 = re.compile(r"^[0-9a-f]{64}$")
 SET_MANIFEST = re.compile(r"^sets/([0-9a-f]{16})/manifest\.json$")
@@ -78,56 +78,6 @@ class Limits:
 
 
 # ---- 1. unpacking ----------------------------------------------------------------------------
-class _LimitedReader:
-    """The decompressed stream, refused (413) once it grows past `limit` bytes: a gzip bomb stops here."""
-
-    def __init__(self, raw, limit: int):
-        self.raw, self.limit, self.seen = raw, limit, 0
-
-    def read(self, n: int = -1) -> bytes:
-        want = self.limit + 1 - self.seen if n is None or n < 0 else min(n, self.limit + 1 - self.seen)
-        data = self.raw.read(max(want, 0))
-        self.seen += len(data)
-        if self.seen > self.limit:
-            raise RestoreError(413, f"the archive unpacks to more than {self.limit} bytes (max_backup_bytes)")
-        return data
-
-
-class _BoundedTarInfo(tarfile.TarInfo):
-    """tarfile reads pax and GNU long-name headers whole into memory: huge ones are refused first."""
-
-    def _proc_member(self, tf):
-        long_headers = (
-            tarfile.XHDTYPE,
-            tarfile.XGLTYPE,
-            tarfile.SOLARIS_XHDTYPE,
-            tarfile.GNUTYPE_LONGNAME,
-            tarfile.GNUTYPE_LONGLINK,
-        )
-        if self.type in long_headers and self.size > MAX_TAR_HEADER_BYTES:
-            raise RestoreError(
-                400, f"the archive has a {self.size}-byte extended header; at most {MAX_TAR_HEADER_BYTES} are accepted"
-            )
-        return super()._proc_member(tf)
-
-
-def type_problem(member: tarfile.TarInfo) -> str | None:
-    """Why a member is not a regular file or a folder, or None."""
-    if member.issym():
-        return f"is a symbolic link (to {json.dumps(member.linkname)}); a backup holds regular files only"
-    if member.islnk():
-        return f"is a hard link (to {json.dumps(member.linkname)}); a backup holds regular files only"
-    if member.ischr() or member.isblk():
-        return "is a device file; a backup holds regular files only"
-    if member.isfifo():
-        return "is a FIFO; a backup holds regular files only"
-    if member.issparse():
-        return "is a sparse file; a backup holds regular files only"
-    if not (member.isreg() or member.isdir()):
-        return f"has tar type {member.type!r}; a backup holds regular files only"
-    return None
-
-
 def name_problem(name: str) -> str | None:
     """Why a member's name is unsafe, or None: the names a backup writes are plain relative paths."""
     if not name:
@@ -226,7 +176,7 @@ def unpack(archive: Path, staging: Path, limits: Limits) -> dict:
         with (
             open(archive, "rb") as raw,
             gzip.GzipFile(fileobj=raw, mode="rb") as gz,
-            tarfile.open(fileobj=_LimitedReader(gz, stream_limit), mode="r|", tarinfo=_BoundedTarInfo) as tar,
+            tar_stream(gz, stream_limit, RestoreError, "max_backup_bytes") as tar,
         ):
             for member in tar:
                 members += 1
@@ -236,7 +186,7 @@ def unpack(archive: Path, staging: Path, limits: Limits) -> dict:
                         f"the archive has more than {limits.max_members + 1} members (max_backup_members)",
                     )
                 shown = json.dumps(member.name)
-                problem = type_problem(member) or name_problem(
+                problem = type_problem(member, "a backup") or name_problem(
                     member.name.rstrip("/") if member.isdir() else member.name
                 )
                 if problem:

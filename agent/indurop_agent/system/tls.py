@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import ipaddress
-import os
 import socket
 import ssl
 import sys
@@ -29,6 +28,8 @@ from cryptography import x509
 from cryptography.hazmat.primitives import hashes, serialization
 from cryptography.hazmat.primitives.asymmetric import ec, ed448, ed25519, rsa
 from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
+
+from ..files import write_atomically
 
 CERT_NAME, KEY_NAME = "cert.pem", "key.pem"
 VALID_DAYS = 3650
@@ -215,28 +216,14 @@ def check_pair(cert_pem: bytes, key_pem: bytes, now: datetime | None = None) -> 
 
 
 # ---- writing ---------------------------------------------------------------------------------
-def _write(path: Path, data: bytes, mode: int) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        os.fchmod(fd, mode)
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def install(cert_path: Path, key_path: Path, cert_pem: bytes, key_pem: bytes) -> None:
     """Writes the pair (the key 0600, the certificate 0644), each replaced atomically; the ones
     they replace are kept as <name>.previous."""
     cert_path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
     for path, data, mode in ((key_path, key_pem, 0o600), (cert_path, cert_pem, 0o644)):
         if path.exists():
-            _write(path.with_name(path.name + ".previous"), path.read_bytes(), mode)
-        _write(path, data, mode)
+            write_atomically(path.with_name(path.name + ".previous"), path.read_bytes(), mode)
+        write_atomically(path, data, mode)
 
 
 def ensure(data_dir: Path, dns: list[str] | None = None) -> tuple[Path, bool]:

@@ -17,6 +17,7 @@ import pytest
 from agent_helpers import API, files_body, post_set, small_set
 from fastapi.testclient import TestClient
 from indurop_agent.app import create_app
+from indurop_agent.archives import LimitedReader
 from indurop_agent.config import Settings
 from indurop_agent.system import restore as restoring
 from indurop_agent.system.restart import AgentRestarter
@@ -348,7 +349,7 @@ def test_a_member_larger_than_its_manifest_says_is_refused_before_it_is_read(pai
 
 
 def test_the_decompressed_stream_is_cut_at_its_limit():
-    reader = restoring._LimitedReader(io.BytesIO(b"\0" * 5000), 4096)
+    reader = LimitedReader(io.BytesIO(b"\0" * 5000), 4096, restoring.RestoreError, "max_backup_bytes")
     assert len(reader.read(4000)) == 4000
     with pytest.raises(restoring.RestoreError) as e:
         reader.read(4000)
