@@ -72,7 +72,9 @@ class Activator:
                 status = self.irpd.request("status", timeout=self.swap_timeout_s) or {}
                 config, set_id = status.get("set"), status.get("set_id")
                 if not config:
-                    raise IrpdRefused("refused", "irpd does not say which module.xml it runs; activate a set first")
+                    raise IrpdRefused(
+                        protocol.REFUSED, "irpd does not say which module.xml it runs; activate a set first"
+                    )
             report = self._restart(config, set_id)
             self.events.add(
                 "irpd_restart",
