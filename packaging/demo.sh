@@ -6,6 +6,9 @@
 # (docs/dds.md).  Ctrl-C stops them.  Extra arguments
 # go to irpd, e.g. `bash packaging/demo.sh --duration 10 --stats-json /tmp/stats.json` (the
 # agent stops when irpd does).  INDUROP_PORT and INDUROP_DATA change the port and data folder.
+# Both programs' output goes to the terminal and, each line stamped with its UTC time, to
+# <data>/logs/irpd.log and agent.log, which the web UI's System page reads.  The agent is started
+# again when it exits asking for it (exit 75: a restart from the System page, a restore).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 bash "$root/packaging/deps.sh"
@@ -22,7 +25,21 @@ sock="$data/irpd.sock"
 # indurop-drivesim, a non-real process module of the set that irpd starts and stops.
 config="$root/build/sets/plc-robot/module.xml"
 [ -f "$data/active/module.xml" ] && config="$data/active/module.xml"
-"$root/build/bin/irpd" --config "$config" --control-socket "$sock" "$@" &
+# The logs: each line to the terminal, and stamped to its file (bash's printf keeps it one process).
+logs="$data/logs"
+mkdir -p "$logs"
+for f in irpd agent; do  # one older generation is kept
+  if [ -f "$logs/$f.log" ] && [ "$(stat -c %s "$logs/$f.log")" -gt $((16 << 20)) ]; then mv "$logs/$f.log" "$logs/$f.log.1"; fi
+done
+stamp() {
+  local line
+  export TZ=UTC  # (this runs in its own subshell)
+  while IFS= read -r line || [ -n "$line" ]; do
+    printf '%s\n' "$line"
+    printf '%(%Y-%m-%dT%H:%M:%S)TZ %s\n' -1 "$line" >>"$1"
+  done
+}
+"$root/build/bin/irpd" --config "$config" --control-socket "$sock" "$@" > >(stamp "$logs/irpd.log") 2>&1 &
 irpd_pid=$!
 for _ in $(seq 100); do [ -S "$sock" ] && break; kill -0 $irpd_pid 2>/dev/null || break; sleep 0.05; done
 # The agent, like irpd's own non-RT threads, stays off the dispatcher's CPU (irpd's default: the
@@ -30,13 +47,15 @@ for _ in $(seq 100); do [ -S "$sock" ] && break; kill -0 $irpd_pid 2>/dev/null |
 off_rt=()
 n=$(nproc)
 [ "$n" -gt 1 ] && off_rt=(taskset -c "0-$((n - 2))")
-(cd "$root/agent" && exec "${off_rt[@]}" "$venv/bin/python" -m indurop_agent --host 127.0.0.1 --port "$port" \
-    --data-dir "$data" --irpd-socket "$sock") &
+# The agent, started again whenever it exits with 75 (a restart asked from the System page).
+(cd "$root/agent" && INDUROP_SUPERVISOR=demo exec bash "$root/packaging/respawn.sh" "${off_rt[@]}" \
+    "$venv/bin/python" -m indurop_agent --host 127.0.0.1 --port "$port" --data-dir "$data" --irpd-socket "$sock" \
+    --irpd-log "$logs/irpd.log" --agent-log "$logs/agent.log") > >(stamp "$logs/agent.log") 2>&1 &
 agent_pid=$!
 # The DDS bridge (docs/dds.md): ROS 2's /joint_states and /diagnostics on Cyclone DDS, loopback
 # only, domain INDUROP_DDS_DOMAIN (default 0).
 (cd "$root/agent" && exec "${off_rt[@]}" "$venv/bin/python" -m indurop_agent.dds --irpd-socket "$sock" \
-    --domain-id "${INDUROP_DDS_DOMAIN:-0}" --interface lo) &
+    --domain-id "${INDUROP_DDS_DOMAIN:-0}" --interface lo) > >(stamp "$logs/dds-bridge.log") 2>&1 &
 bridge_pid=$!
 url=http://127.0.0.1:$port
 for _ in $(seq 200); do curl -sf "$url/api/v1/health" >/dev/null && break; kill -0 $agent_pid 2>/dev/null || break; sleep 0.1; done
@@ -46,11 +65,18 @@ if [ ! -e "$data/active" ]; then
   INDUROP_URL=$url INDUROP_TOKEN_FILE=$data/admin-token "$venv/bin/irpctl" upload "$(dirname "$config")" --activate >/dev/null \
     || echo "demo: the cell could not be stored in the set store; it runs as started" >&2
 fi
-echo "demo: the web UI: $url/  (sign in with the admin token: $data/admin-token)"
+# No default password: the first admin sets theirs with the admin token the agent's first start wrote.
+if curl -sf "$url/api/v1/session" | grep -q '"first_run":true'; then
+  echo "demo: no user yet: set the first admin's password in the web UI ($url/ asks for the admin token in"
+  echo "demo:   $data/admin-token), or on this shell (it asks the password twice):"
+  echo "demo:   INDUROP_URL=$url INDUROP_TOKEN_FILE=$data/admin-token $venv/bin/irpctl user add admin --role admin"
+fi
+echo "demo: the web UI: $url/  (sign in with a user name and password; docs/administration.md)"
 echo "demo: start the cell from the UI's Variables page (PLC_ROBOT.PLC_IN.Enable = 1, then PLC_ROBOT.I0 = 1) or: irpctl write PLC_ROBOT.PLC_IN.Enable 1; irpctl write PLC_ROBOT.I0 1 (docs/plc-robot-cell.md)"
 echo "demo: irpd (pid $irpd_pid) on $config; agent (pid $agent_pid) on $url/api/v1/docs"
 echo "demo: DDS bridge (pid $bridge_pid): rt/joint_states and rt/diagnostics on domain ${INDUROP_DDS_DOMAIN:-0}, loopback (docs/dds.md)"
 echo "demo: the admin token is in $data/admin-token"
+echo "demo: the logs are in $logs (irpd.log, agent.log, dds-bridge.log; the web UI's System page shows the first two)"
 
 stop() { kill -TERM $irpd_pid $agent_pid $bridge_pid 2>/dev/null || true; wait 2>/dev/null || true; }
 trap stop INT TERM

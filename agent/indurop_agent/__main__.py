@@ -11,6 +11,9 @@ import uvicorn
 from . import config, memtrace, server
 from .app import create_app
 
+GRACEFUL_STOP_S = 5
+STARTUP_FAILURE = 3  # as uvicorn.run exits when the server did not start
+
 
 def main(argv: list[str] | None = None) -> int:
     settings = config.parse(argv)
@@ -18,6 +21,12 @@ def main(argv: list[str] | None = None) -> int:
     created = app.state.tokens.ensure_admin()
     if created:
         print(f"indurop-agent: the admin token is in {created} (mode 0600); keep it safe", flush=True)
+    if not app.state.users.any():
+        print(
+            "indurop-agent: no user yet: the web UI's first-run page, or `irpctl --token-file "
+            f"{app.state.tokens.admin_token_path} user add NAME --role admin`, sets the first admin's password",
+            flush=True,
+        )
     scheme = "https" if settings.tls_cert else "http"
     print(
         f"indurop-agent: {scheme}://{settings.host}:{settings.port}/api/v1/docs  (irpd: {settings.irpd_socket}, "
@@ -42,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
     if why:
         print(why, flush=True)
     tls = {"ssl_certfile": str(settings.tls_cert), "ssl_keyfile": str(settings.tls_key)} if settings.tls_cert else {}
-    uvicorn.run(
+    server_config = uvicorn.Config(
         app,
         host=settings.host,
         port=settings.port,
@@ -51,9 +60,21 @@ def main(argv: list[str] | None = None) -> int:
         ws_max_size=settings.max_body_bytes,
         proxy_headers=bool(settings.forwarded_allow_ips),
         forwarded_allow_ips=settings.forwarded_allow_ips or None,
+        # a stop (SIGTERM, a restart from the System page) does not wait for ever on followed logs
+        timeout_graceful_shutdown=GRACEFUL_STOP_S,
         **tls,
     )
-    return 0
+    # uvicorn.run's server, held here so that a restart can ask it to stop as SIGTERM does (a
+    # signal would be raised again once uvicorn stopped, and end the process by it instead of 75)
+    http_server = uvicorn.Server(server_config)
+    app.state.agent_restart.terminate = lambda: setattr(http_server, "should_exit", True)
+    try:
+        http_server.run()
+    except KeyboardInterrupt:
+        pass
+    if not http_server.started:
+        return STARTUP_FAILURE  # the address is taken, the certificate unreadable, ...: uvicorn said why
+    return app.state.agent_restart.exit_code()  # 75 when a restart was asked: the supervisor starts it again
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import threading
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 from . import protocol
@@ -49,6 +50,39 @@ class Activator:
     def busy(self) -> bool:
         """True while an activation (or rollback, or restore) runs."""
         return self._lock.locked()
+
+    @contextmanager
+    def exclusive(self):
+        """No activation (nor rollback, restore or restart) runs while the block does: the set
+        store's pruning and a backup's restore hold it, so that irpd never loads a set they touch."""
+        with self._lock:
+            yield
+
+    def restart_irpd(self) -> dict:
+        """irpd's managed restart onto the active set (safe outputs first, same pid), or, before any
+        set was activated, onto the module.xml it runs.  Nothing is recorded in the set store: the
+        active set does not change.  Returns the restart's report ({"mode": "restart", "downtime_ns",
+        "pid", "set_id", ...}); raises IrpdRefused (RestartFellBack: irpd came back on its old set)
+        or IrpdUnavailable."""
+        with self._lock:
+            set_id = self.store.active_id()
+            if set_id is not None:
+                config = str(self.store.module_xml(set_id))
+            else:
+                status = self.irpd.request("status", timeout=self.swap_timeout_s) or {}
+                config, set_id = status.get("set"), status.get("set_id")
+                if not config:
+                    raise IrpdRefused(
+                        protocol.REFUSED, "irpd does not say which module.xml it runs; activate a set first"
+                    )
+            report = self._restart(config, set_id)
+            self.events.add(
+                "irpd_restart",
+                f"irpd restarted onto set {set_id or config} (pid {report.get('pid')}, downtime "
+                f"{(report.get('downtime_ns') or 0) / 1e6:.1f} ms)",
+                set_id=set_id,
+            )
+            return report
 
     def activate(self, set_id: str, who: dict | None, action: str = "activate", mode: str = "online") -> dict:
         """Puts the set into irpd (mode online, restart or auto) and records it; returns irpd's swap
@@ -136,10 +170,11 @@ class Activator:
                 e.error,
             ) from e
 
-    def _restart(self, config: str, set_id: str) -> dict:
+    def _restart(self, config: str, set_id: str | None) -> dict:
         """irpd's managed restart onto the set; waits for the new image (the same pid) to say it ran
         this request's restart (status.last_restart.requested_ns)."""
-        asked = self.irpd.request("restart", config=config, set_id=set_id, timeout=self.swap_timeout_s) or {}
+        named = {"set_id": set_id} if set_id is not None else {}  # a set irpd runs without an id keeps none
+        asked = self.irpd.request("restart", config=config, timeout=self.swap_timeout_s, **named) or {}
         requested, pid = asked.get("requested_ns"), asked.get("pid")
         limit = self.swap_timeout_s + (asked.get("expected_downtime_ns") or 0) / 1e9
         deadline = time.monotonic() + limit

@@ -1,15 +1,18 @@
 """app.py -- the FastAPI application: routers under /api/v1, the built web UI at /, and in
-app.state the irpd clients, tokens, the lockout, the set store, the activator, the audit log, the
-agent's events and the host-load sampler.  While the app runs, a watcher restores the active set
-into a (re)started irpd (activation.py), and the robot view follows the running set's robot
-(viewer/live.py), and the alarm watcher keeps the alarms current (alarms/watcher.py)."""
+app.state the irpd clients, users, tokens, browser sessions, the lockouts, the set store, the
+activator, the audit log, the agent's events and the host-load sampler.  While the app runs, a
+watcher restores the active set into a (re)started irpd (activation.py), and the robot view follows
+the running set's robot (viewer/live.py), and the alarm watcher keeps the alarms current
+(alarms/watcher.py)."""
 
 from __future__ import annotations
 
 import math
+import threading
 from contextlib import asynccontextmanager
 from pathlib import Path
 
+from argon2 import PasswordHasher
 from fastapi import FastAPI, HTTPException, Request
 from fastapi.encoders import jsonable_encoder
 from fastapi.exceptions import RequestValidationError
@@ -22,6 +25,7 @@ from .alarms.manager import AlarmManager
 from .alarms.store import AlarmStore
 from .alarms.system import SystemAlarms, Thresholds
 from .alarms.watcher import AlarmWatcher
+from .api.deps import identity_by_id
 from .api.routes import (
     alarms,
     audit,
@@ -30,10 +34,13 @@ from .api.routes import (
     jitter,
     modules,
     robot,
+    session,
     sets,
     status,
     stream,
+    system,
     tokens,
+    users,
     variables,
 )
 from .audit import AuditLog
@@ -44,7 +51,11 @@ from .events import AgentEvents
 from .host import Sampler
 from .irpd_client import IrpdClient
 from .security import BodyLimitMiddleware, BodyTimeoutMiddleware, Lockout
+from .sessions import SessionStore
 from .store import SetStore
+from .system.restart import AgentRestarter, detect_supervisor
+from .system.restore import apply_pending
+from .users import UserStore
 from .viewer.live import RobotLive
 from .viewer.ticket import Tickets
 
@@ -52,14 +63,17 @@ API = "/api/v1"
 
 
 def is_upload(method: str, path: str) -> bool:
-    """Set uploads check their own (larger) limits while they stream to disk."""
-    return method == "POST" and path.rstrip("/") == f"{API}/sets"
+    """Set uploads and backups sent to restore check their own (larger) limits while they stream to disk."""
+    return method == "POST" and path.rstrip("/") in (f"{API}/sets", f"{API}/system/restore")
 
 
 def json_safe(value):
-    """JSON without NaN/Infinity: Python's parser accepts them in a body, JSON answers cannot hold them."""
+    """JSON without NaN/Infinity and without unpaired surrogates (written as \\udXXX): Python's
+    parser accepts both in a body (e.g. "\\ud800"), an answer in UTF-8 can hold neither."""
     if isinstance(value, float) and not math.isfinite(value):
         return str(value)
+    if isinstance(value, str):
+        return value.encode("utf-8", "backslashreplace").decode("utf-8")
     if isinstance(value, dict):
         return {k: json_safe(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
@@ -68,7 +82,8 @@ def json_safe(value):
 
 
 async def validation_error(_: Request, exc: RequestValidationError) -> JSONResponse:
-    """FastAPI's 422, made safe for inputs such as {"value": NaN} (its own answer would be a 500)."""
+    """FastAPI's 422, made safe for inputs such as {"value": NaN} or an unpaired surrogate (its own
+    answer would be a 500)."""
     return JSONResponse(status_code=422, content={"detail": json_safe(jsonable_encoder(exc.errors()))})
 
 
@@ -112,10 +127,33 @@ def serve_webui(app: FastAPI, folder: Path | None) -> None:
         return JSONResponse(status_code=404, content={"detail": NO_WEBUI})
 
 
+def _restored(state, record: dict) -> None:
+    """The audit line and event of a restore applied at this start (into the restored audit log;
+    the replaced one has the line of the request)."""
+    plan = record.get("plan") or {}
+    created = (plan.get("archive") or {}).get("created")
+    state.audit.write(
+        "restore_applied",
+        who=record.get("who"),
+        client=record.get("client"),
+        target=created,
+        result="ok",
+        replaced_to=record.get("replaced_to"),
+        files=[f["path"] for f in plan.get("files") or []],
+        sets_added=(plan.get("sets") or {}).get("added"),
+    )
+    state.events.add(
+        "restore_applied",
+        f"the backup of {created} is restored; the files it replaced are in {record.get('replaced_to')}",
+    )
+
+
 def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     """The agent.  restore=False leaves out the watcher that re-activates the stored set."""
     settings.data_dir = settings.data_dir.resolve()
     settings.data_dir.mkdir(parents=True, exist_ok=True)
+    # A restore staged before the agent restarted, applied before anything opens the data folder.
+    restored = apply_pending(settings.data_dir)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
@@ -154,8 +192,17 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     )
     state = app.state
     state.settings = settings
+    state.agent_restart = AgentRestarter(detect_supervisor())
+    state.log_followers = 0
     state.tokens = TokenStore(settings.data_dir)
+    hasher = PasswordHasher(settings.argon2_time_cost, settings.argon2_memory_kib, settings.argon2_parallelism)
+    state.users = UserStore(settings.data_dir, hasher)
+    state.sessions = SessionStore(
+        settings.data_dir / "sessions.json", settings.session_idle_s, settings.session_lifetime_s
+    )
+    state.hash_slots = threading.BoundedSemaphore(settings.password_hash_slots)
     state.lockout = Lockout(settings.lockout_attempts, settings.lockout_window_s)
+    state.name_lockout = Lockout(settings.signin_attempts, settings.signin_window_s)
     state.irpd = IrpdClient(settings.irpd_socket)
     state.irpd_swap = IrpdClient(settings.irpd_socket)  # load, set_period, ...: long calls, own connection
     state.events = AgentEvents()
@@ -165,7 +212,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     state.host = Sampler()
     state.webui_dir = webui_dir(settings)
     state.robot = RobotLive(settings.viewer, settings.irpd_socket, state.events, settings.robot_rate_hz)
-    state.tickets = Tickets(state.tokens, settings.viewer_ticket_s, settings.viewer_session_s)
+    state.tickets = Tickets(lambda i: identity_by_id(state, i), settings.viewer_ticket_s, settings.viewer_session_s)
     alarm_store = AlarmStore(settings.data_dir / "alarms.sqlite3", settings.alarm_history_rows)
     if alarm_store.moved_aside is not None:
         state.events.add("agent_error", f"the alarm database did not open: moved aside to {alarm_store.moved_aside}")
@@ -179,13 +226,17 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
             settings.alarm_unreachable_s,
         ),
     )
+    if restored is not None:
+        _restored(state, restored)
     app.add_exception_handler(RequestValidationError, validation_error)
     app.add_exception_handler(LocatedError, located_error)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, exempt=is_upload)
     app.add_middleware(
         BodyTimeoutMiddleware, idle_s=settings.body_idle_s, total_s=settings.body_timeout_s, exempt=is_upload
     )
-    for module in (health, status, modules, jitter, variables, sets, robot, events, alarms, audit, tokens, stream):
+    routers = (health, status, modules, jitter, variables, sets, robot, events, alarms, audit, tokens, session, users)
+    for module in (*routers, stream):
         app.include_router(module.router, prefix=API)
+    app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)
     serve_webui(app, state.webui_dir)  # last: the API routes match first
     return app

@@ -28,10 +28,23 @@ ACTIONS = (
     "token_create",
     "token_revoke",
     "lockout",
+    "sign_in",
+    "sign_out",
+    "user_add",
+    "user_change",
+    "user_password",
     "alarm_ack",
     "alarm_ack_all",
     "alarm_shelve",
     "alarm_unshelve",
+    # the System page (docs/administration.md)
+    "irpd_restart",
+    "agent_restart",
+    "backup",
+    "restore_backup",
+    "restore_applied",
+    "tls_upload",
+    "sets_prune",
 )
 
 

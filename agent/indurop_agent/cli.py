@@ -1,5 +1,6 @@
 """cli.py -- irpctl, the command line of the agent's API: status, modules, sets, hot reload,
-variables, the sample stream, events, alarms (docs/irpctl.md).
+variables, the sample stream, events, alarms, users (cli_users.py), and the administration of
+cli_system.py (docs/irpctl.md).
 
 Human output by default (aligned tables, durations as "100 µs"), the API's JSON with --json.
 Exit codes: 0 done, 1 the API refused (4xx, 409), 2 usage, 3 the agent or irpd unreachable.
@@ -21,6 +22,7 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
+from .cli_system import SETS_ARGS, SYSTEM_COMMANDS, cmd_sets
 from .cli_text import (
     EVENT_HEADERS,
     TRANSITION_HEADERS,
@@ -37,13 +39,13 @@ from .cli_text import (
     parse_value,
     schedule_text,
     set_text,
-    sets_text,
     status_text,
     swap_text,
     table,
     transition_row,
     upload_text,
 )
+from .cli_users import USER_COMMANDS
 from .client import ApiError, Client
 
 DEFAULT_URL = "http://127.0.0.1:8080"
@@ -421,9 +423,10 @@ STREAM = (
 class Command:
     name: str
     help: str
-    run: Callable[[Client, argparse.Namespace, Out], int]
+    run: Callable[[Client, argparse.Namespace, Out], int] | None
     args: tuple[tuple[tuple[str, ...], dict], ...] = ()
     exclusive: tuple[tuple[tuple[str, ...], dict], ...] = ()  # at most one of these
+    sub: tuple[Command, ...] = ()  # a group: `irpctl NAME SUBCOMMAND ...` (run is None)
 
 
 COMMANDS: tuple[Command, ...] = (
@@ -454,7 +457,12 @@ COMMANDS: tuple[Command, ...] = (
     Command(
         "validate", "upload a set and show irpd's validation report (exit 1 when not valid)", cmd_validate, SOURCES
     ),
-    Command("sets", "the uploaded sets, newest first", _show(lambda c, a: c.sets(), sets_text)),
+    Command(
+        "sets",
+        "the uploaded sets, newest first; `sets prune --keep N` deletes old ones (admin)",
+        cmd_sets,
+        SETS_ARGS,
+    ),
     Command(
         "set",
         "one uploaded set: files and validation",
@@ -610,7 +618,31 @@ COMMANDS: tuple[Command, ...] = (
         _show(lambda c, a: c.audit(limit=a.limit), audit_text),
         (arg("--limit", type=_positive_int, metavar="N"),),
     ),
+    Command(
+        "user",
+        "the people who sign in: list, show, add, disable, enable, passwd, role, tokens",
+        None,
+        sub=tuple(Command(name, text, run, args) for name, text, run, args in USER_COMMANDS),
+    ),
+    *(Command(*spec) for spec in SYSTEM_COMMANDS),  # system, backup, restore, restart, logs, tls
 )
+
+
+def _add_command(sub, command: Command) -> None:
+    p = sub.add_parser(command.name, help=command.help, description=command.help)
+    _connection_options(p, top=False)
+    if command.sub:
+        inner = p.add_subparsers(dest="subcommand", metavar="SUBCOMMAND", required=True)
+        for c in command.sub:
+            _add_command(inner, c)
+        return
+    p.set_defaults(func=command.run)
+    for flags, kw in command.args:
+        p.add_argument(*flags, **kw)
+    if command.exclusive:
+        group = p.add_mutually_exclusive_group()
+        for flags, kw in command.exclusive:
+            group.add_argument(*flags, **kw)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -623,15 +655,7 @@ def build_parser() -> argparse.ArgumentParser:
     _connection_options(ap, top=True)
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for command in COMMANDS:
-        p = sub.add_parser(command.name, help=command.help, description=command.help)
-        _connection_options(p, top=False)
-        p.set_defaults(func=command.run)
-        for flags, kw in command.args:
-            p.add_argument(*flags, **kw)
-        if command.exclusive:
-            group = p.add_mutually_exclusive_group()
-            for flags, kw in command.exclusive:
-                group.add_argument(*flags, **kw)
+        _add_command(sub, command)
     return ap
 
 
@@ -667,7 +691,7 @@ def _hint(e: ApiError, token: str | None) -> str:
     if e.status == 401:
         return "this agent does not know the token given: check --token / --token-file / $INDUROP_TOKEN*"
     if e.status == 403 and "WebSocket" not in e.message:
-        return "use a token with that role (an admin can make one: POST /api/v1/tokens)"
+        return "use a token with that role (an admin can make one: POST /api/v1/tokens, for a user of that role)"
     if e.status in (404, 405) and e.message.endswith(("Not Found", "Method Not Allowed")):
         return "this agent does not offer that route: is it older than irpctl?"
     if e.status == 503:

@@ -98,6 +98,15 @@ def parse_value(text: str) -> int | float | bool:
 
 
 # -- output ----------------------------------------------------------------------------------------
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
+
+
+def printable(value: Any) -> str:
+    """Text a client sent (a user name, a path), as a terminal may show it: control characters
+    (escape sequences, newlines) written as \\xNN, so that it can neither colour nor forge a line."""
+    return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", str(value))
+
+
 def table(headers: list[str], rows: Iterable[Iterable[Any]], align: str = "") -> str:
     """Columns padded to their widest cell; align is one letter per column, l or r (default l)."""
     cells = [[str(c) for c in row] for row in rows]
@@ -451,11 +460,11 @@ def audit_text(entries: list[dict]) -> str:
         rows.append(
             [
                 e.get("time", "-"),
-                _who(e.get("who")),
+                printable(_who(e.get("who"))),
                 e.get("client", "-"),
                 e.get("action", "-"),
-                e.get("target") or "-",
-                result,
+                printable(e.get("target") or "-"),
+                printable(result),
             ]
         )
     return table(["TIME", "WHO", "CLIENT", "ACTION", "TARGET", "RESULT"], rows)

@@ -24,10 +24,11 @@ import time
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any, BinaryIO
-from urllib.parse import quote, urlencode, urlsplit, urlunsplit
+from urllib.parse import quote, urlsplit, urlunsplit
 
 import httpx
 
+from .client_system import SystemCalls
 from .stream_frame import HEADER_SIZE, KIND_SAMPLES, MAGIC, VERSION, Frame, decode, encode, kind
 
 API = "/api/v1"
@@ -92,8 +93,8 @@ def _archive_name(path: Path) -> bool:
     return path.name.endswith((".tar.gz", ".tgz"))
 
 
-class Client:
-    """The agent's API.  url: "http://host:port" (with or without /api/v1); token: a bearer token;
+class Client(SystemCalls):
+    """The agent's API (the System page's calls: client_system.py).  url: "http://host:port" (with or without /api/v1); token: a bearer token;
     ca: a CA file for https; verify=False accepts any certificate; timeout in seconds; transport:
     an httpx transport (tests)."""
 
@@ -301,8 +302,33 @@ class Client:
     def audit(self, limit: int | None = None) -> list[dict]:
         return self.get("/audit", limit=limit)
 
-    def create_token(self, name: str, role: str) -> str:
-        return self.request("POST", "/tokens", json={"name": name, "role": role})["token"]
+    def create_token(self, name: str, role: str, owner: str | None = None) -> str:
+        """A new token (shown only now) for `role`, belonging to `owner` (default: the caller's user)."""
+        body = {"name": name, "role": role, **({"owner": owner} if owner else {})}
+        return self.request("POST", "/tokens", json=body)["token"]
+
+    # -- users (docs/administration.md) ----------------------------------------------------------
+    def users(self) -> list[dict]:
+        return self.get("/users")
+
+    def user(self, name: str) -> dict:
+        return self.get(f"/users/{quote(name, safe='')}")
+
+    def add_user(self, name: str, role: str, password: str) -> dict:
+        return self.request("POST", "/users", json={"name": name, "role": role, "password": password})
+
+    def change_user(self, name: str, role: str | None = None, disabled: bool | None = None) -> dict:
+        """An admin's change: the role, or disabled (tokens revoked, sessions ended) or enabled."""
+        body = {k: v for k, v in (("role", role), ("disabled", disabled)) if v is not None}
+        return self.request("PATCH", f"/users/{quote(name, safe='')}", json=body)
+
+    def set_password(self, name: str, password: str, current: str | None = None) -> None:
+        """One's own new password (give `current`), or an admin's reset of another user's."""
+        body = {"password": password, **({"current_password": current} if current is not None else {})}
+        self.request("PUT", f"/users/{quote(name, safe='')}/password", json=body)
+
+    def user_tokens(self, name: str) -> list[dict]:
+        return self.get(f"/users/{quote(name, safe='')}/tokens")
 
     # -- the stream -------------------------------------------------------------------------------
     def watch(self, paths: Iterable[str], decimation: int = 1, seconds: float | None = None) -> Stream:
@@ -316,8 +342,11 @@ class Client:
     def _stream_url(self) -> str:
         parts = urlsplit(self.url)
         scheme = "wss" if parts.scheme == "https" else "ws"
-        query = urlencode({"token": self.token}) if self.token else ""
-        return urlunsplit((scheme, parts.netloc, parts.path + "/stream", query, ""))
+        return urlunsplit((scheme, parts.netloc, parts.path + "/stream", "", ""))
+
+    def _stream_headers(self) -> dict[str, str]:
+        """The token goes in the handshake's Authorization header, never in the URL."""
+        return {"Authorization": f"Bearer {self.token}"} if self.token else {}
 
     def _stream_ssl(self) -> ssl.SSLContext | None:
         if not self.url.startswith("https"):
@@ -413,6 +442,7 @@ class Stream:
             ws = self._call(
                 connect(
                     url,
+                    additional_headers=self.client._stream_headers(),
                     ssl=self.client._stream_ssl(),
                     open_timeout=self.client.timeout,
                     max_size=None,

@@ -55,6 +55,20 @@ class Settings:
     # lock that address out for the window (429 with Retry-After).
     lockout_attempts: int = 10
     lockout_window_s: float = 60.0
+    # Sign-in (docs/administration.md): this many wrong passwords for one user name within the
+    # window lock that name for the window (the address counts them too, with the unknown tokens,
+    # above).  A browser session ends after session_idle_s without a request of its user, and after
+    # session_lifetime_s whatever happens.  At most password_hash_slots password checks at once.
+    signin_attempts: int = 5
+    signin_window_s: float = 300.0
+    session_idle_s: float = 1800.0
+    session_lifetime_s: float = 43200.0
+    password_hash_slots: int = 2
+    # argon2id's cost (argon2-cffi's PasswordHasher; these are its defaults, RFC 9106's low-memory
+    # profile).  A password hashed with other values is hashed again at its user's next sign-in.
+    argon2_time_cost: int = 3
+    argon2_memory_kib: int = 65536
+    argon2_parallelism: int = 4
     # How often the agent looks at irpd to notice a (re)connection and restore the active set.
     irpd_poll_s: float = 1.0
     # irpd `load`, `set_period`, ... (a swap at a macro-period boundary) may take this long.
@@ -81,10 +95,19 @@ class Settings:
     alarm_poll_s: float = 0.1
     alarm_history_rows: int = 200_000
     alarm_history_per_s: int = 100
+    # The System page (docs/administration.md).  Logs: irpd's and the agent's output as files
+    # (packaging/demo.sh writes them; --irpd-log, --agent-log), else the journal when journald runs.
+    # A backup's restore: at most this many bytes (the upload, and separately what it unpacks to)
+    # and this many archive members.
+    irpd_log: Path | None = None
+    agent_log: Path | None = None
+    max_backup_bytes: int = 4 << 30
+    max_backup_members: int = 200_000
 
 
 FIELDS = {f.name: f for f in dataclasses.fields(Settings)}
-PATHS = {"data_dir", "tls_cert", "tls_key", "webui_dir"}
+PATHS = {"data_dir", "tls_cert", "tls_key", "webui_dir", "irpd_log", "agent_log"}
+OPTIONAL_PATHS = {"tls_cert", "tls_key", "webui_dir", "irpd_log", "agent_log"}
 POSITIVE = {
     "port",
     "max_file_bytes",
@@ -97,6 +120,14 @@ POSITIVE = {
     "max_connections",
     "lockout_attempts",
     "lockout_window_s",
+    "signin_attempts",
+    "signin_window_s",
+    "session_idle_s",
+    "session_lifetime_s",
+    "password_hash_slots",
+    "argon2_time_cost",
+    "argon2_memory_kib",
+    "argon2_parallelism",
     "irpd_poll_s",
     "swap_timeout_s",
     "robot_rate_hz",
@@ -109,13 +140,15 @@ POSITIVE = {
     "alarm_poll_s",
     "alarm_history_rows",
     "alarm_history_per_s",
+    "max_backup_bytes",
+    "max_backup_members",
 }
 VIEWERS = ("viser", "meshcat")
 
 
 def _coerce(key: str, value, where: str) -> object:
     """A config-file value of the field's type, or ValueError naming the key and what it needs."""
-    if value is None and key in ("tls_cert", "tls_key", "webui_dir"):
+    if value is None and key in OPTIONAL_PATHS:
         return None
     if key in PATHS:
         if not isinstance(value, str) or not value:
@@ -144,6 +177,14 @@ def check(s: Settings) -> list[str]:
         problems.append(f"port {s.port} is not a TCP port")
     if s.viewer not in VIEWERS:
         problems.append(f"viewer {s.viewer!r} is not one of {', '.join(VIEWERS)}")
+    if s.argon2_memory_kib < 8 * s.argon2_parallelism:
+        problems.append(
+            f"argon2_memory_kib ({s.argon2_memory_kib}) must be at least 8 × argon2_parallelism ({s.argon2_parallelism})"
+        )
+    if s.session_idle_s > s.session_lifetime_s:
+        problems.append(
+            f"session_idle_s ({s.session_idle_s}) is longer than session_lifetime_s ({s.session_lifetime_s})"
+        )
     if s.max_file_bytes > s.max_upload_bytes:
         problems.append(f"max_file_bytes ({s.max_file_bytes}) is larger than max_upload_bytes ({s.max_upload_bytes})")
     if (s.tls_cert is None) != (s.tls_key is None):
@@ -161,7 +202,7 @@ def parse(argv: list[str] | None = None) -> Settings:
     ap.add_argument("--config", type=Path, help=f"a JSON file with any of: {', '.join(FIELDS)}")
     ap.add_argument("--host", help="address to listen on (default 127.0.0.1)")
     ap.add_argument("--port", type=int)
-    ap.add_argument("--data-dir", type=Path, help="tokens, the set store, the audit log")
+    ap.add_argument("--data-dir", type=Path, help="users, tokens, sessions, the set store, the audit log")
     ap.add_argument("--irpd-socket", help="irpd's control socket")
     ap.add_argument("--tls-cert", type=Path, help="serve HTTPS with this PEM certificate (needs --tls-key)")
     ap.add_argument("--tls-key", type=Path, help="the PEM private key of --tls-cert")
@@ -172,6 +213,12 @@ def parse(argv: list[str] | None = None) -> Settings:
         f"else {INSTALLED_WEBUI})",
     )
     ap.add_argument("--viewer", choices=VIEWERS, help="the 3D robot view's viewer (default viser)")
+    ap.add_argument(
+        "--irpd-log",
+        type=Path,
+        help="a file irpd's output is written to (the System page's logs; default: the journal)",
+    )
+    ap.add_argument("--agent-log", type=Path, help="a file this agent's output is written to (as --irpd-log)")
     a = ap.parse_args(argv)
     s = Settings()
     if a.config:
@@ -190,7 +237,18 @@ def parse(argv: list[str] | None = None) -> Settings:
                 setattr(s, key, _coerce(key, value, where))
             except ValueError as e:
                 ap.error(str(e))
-    for key in ("host", "port", "data_dir", "irpd_socket", "tls_cert", "tls_key", "webui_dir", "viewer"):
+    for key in (
+        "host",
+        "port",
+        "data_dir",
+        "irpd_socket",
+        "tls_cert",
+        "tls_key",
+        "webui_dir",
+        "viewer",
+        "irpd_log",
+        "agent_log",
+    ):
         if getattr(a, key) is not None:
             setattr(s, key, getattr(a, key))
     problems = check(s)

@@ -1,6 +1,7 @@
-"""security.py -- the agent's guards that are not about roles: the brute-force lockout of client
-addresses that try unknown tokens, and the body-size limit of every request but a set upload, and the
-deadline of request bodies that stall."""
+"""security.py -- the agent's guards that are not about roles: the brute-force lockout (of client
+addresses that try unknown tokens or wrong passwords, and of user names whose password is guessed),
+the body-size limit of every request but a set upload, and the deadline of request bodies that
+stall."""
 
 from __future__ import annotations
 
@@ -14,10 +15,11 @@ from starlette.exceptions import HTTPException
 
 
 class Lockout:
-    """`attempts` unknown tokens from one address within `window_s` lock it out for `window_s`.
+    """`attempts` failures of one key (a client address, a user name) within `window_s` lock it out
+    for `window_s`.
 
-    While locked, every token from that address is refused, good or bad (a correct guess must not
-    get through).  At most `max_addresses` addresses are remembered, the least recent dropped.
+    While locked, every credential for that key is refused, good or bad (a correct guess must not
+    get through).  At most `max_addresses` keys are remembered, the least recent dropped.
     """
 
     def __init__(self, attempts: int = 10, window_s: float = 60.0, max_addresses: int = 10000, clock=time.monotonic):
@@ -54,6 +56,11 @@ class Lockout:
             while len(self._failures) > self.max_addresses:
                 self._failures.popitem(last=False)
             return False
+
+    def forget(self, key: str) -> None:
+        """Clears the failures counted for `key` (a user name whose right password was given)."""
+        with self._lock:
+            self._failures.pop(key, None)
 
 
 class BodyTooLarge(HTTPException):

@@ -10,6 +10,9 @@ active set.
     <data>/active -> sets/<id>/files     so irpd can start with --config <data>/active/module.xml
     <data>/tmp/                          uploads being received (emptied at start)
 
+prune() deletes old sets (neither active, nor the rollback target, nor among the newest N) and then
+every blob no remaining set uses (docs/set-store.md, "Pruning").
+
 A set's id is the first 16 hex digits of the sha256 over its sorted "path NUL sha256 LF" lines, so
 the same files give the same id.  Files in a set's tree are hard links to their blob, except
 shared objects (.so), which are copied: the dynamic loader treats two paths of one inode as the
@@ -26,10 +29,12 @@ import shutil
 import stat
 import tempfile
 import threading
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
 from .auth import now_iso
+from .files import fsync_dir, write_json
 
 SET_ID = re.compile(r"^[0-9a-f]{16}$")
 EXECUTABLE_KINDS = {"executable", "thread_module", "library"}  # blobs with the execute bit
@@ -65,29 +70,6 @@ def set_id_of(files: list[StagedFile] | list[dict]) -> str:
     return digest.hexdigest()[:16]
 
 
-def _write_atomically(path: Path, text: str, mode: int = 0o644) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp, mode)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    _fsync_dir(path.parent)
-
-
-def _fsync_dir(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
 def remove_tree(path: Path) -> None:
     """rmtree that also removes the read-only folders of a materialized set."""
     if not path.exists() and not path.is_symlink():
@@ -120,6 +102,13 @@ class SetStore:
         self._lock = threading.RLock()
         self._stack: list[str] = []  # the activation stack; its top is the active set
         self._load_history()
+
+    @contextmanager
+    def locked(self):
+        """No upload, activation record or prune changes the store while the block runs (a backup
+        takes its snapshot under it)."""
+        with self._lock:
+            yield
 
     # ---- sets -----------------------------------------------------------------------------
     def staging_dir(self) -> Path:
@@ -161,38 +150,102 @@ class SetStore:
             remove_tree(self.sets / set_id)  # a folder without a manifest: not a set
             for f in files:
                 self._keep_blob(f)
-            partial = Path(tempfile.mkdtemp(prefix=f".partial-{set_id}-", dir=self.sets))
-            try:
-                tree = partial / "files"
-                for f in sorted(files, key=lambda f: f.path):
-                    dest = tree / f.path
-                    dest.parent.mkdir(parents=True, exist_ok=True)
-                    blob = self.blobs / f.sha256
-                    if f.kind in COPIED_KINDS:
-                        shutil.copyfile(blob, dest)
-                        os.chmod(dest, 0o555)
-                    else:
-                        os.link(blob, dest)
-                for d in sorted((p for p in tree.rglob("*") if p.is_dir()), key=lambda p: -len(p.parts)):
-                    os.chmod(d, 0o555)
-                os.chmod(tree, 0o555)
-                os.chmod(partial, 0o755)
-                manifest = {
-                    "id": set_id,
-                    "created": now_iso(),
-                    "by": who,
-                    "files": [f.entry() for f in sorted(files, key=lambda f: f.path)],
-                    "validation": validation,
-                }
-                _write_atomically(partial / "manifest.json", json.dumps(manifest, indent=1))
-                os.rename(partial, self.sets / set_id)
-                _fsync_dir(self.sets)
-            except BaseException:
-                remove_tree(partial)
-                raise
+            manifest = {
+                "id": set_id,
+                "created": now_iso(),
+                "by": who,
+                "files": [f.entry() for f in sorted(files, key=lambda f: f.path)],
+                "validation": validation,
+            }
+            self._materialize(manifest)
             return manifest, True
 
+    def adopt(self, manifest: dict, blob_sources: dict[str, Path]) -> bool:
+        """Stores a set taken from a backup (system/restore.py, which checked it): the blobs it
+        names that the store lacks are moved in from `blob_sources` (sha256 -> file), its tree is
+        materialized and its manifest kept as it was (id, created, by, validation).  False when
+        the set is stored already."""
+        set_id = manifest["id"]
+        with self._lock:
+            if self.manifest(set_id) is not None:
+                return False
+            remove_tree(self.sets / set_id)
+            for f in manifest["files"]:
+                self._keep_blob(StagedFile(f["path"], blob_sources.get(f["sha256"]), f["sha256"], f["size"], f["kind"]))
+            self._materialize(manifest)
+            return True
+
+    def _materialize(self, manifest: dict) -> None:
+        """The set's read-only tree from its blobs, and its manifest, in sets/.partial-* renamed to
+        sets/<id> at the end (a crash leaves a .partial- folder the next start removes)."""
+        set_id = manifest["id"]
+        partial = Path(tempfile.mkdtemp(prefix=f".partial-{set_id}-", dir=self.sets))
+        try:
+            tree = partial / "files"
+            tree.mkdir()
+            for f in sorted(manifest["files"], key=lambda f: f["path"]):
+                dest = tree / f["path"]
+                dest.parent.mkdir(parents=True, exist_ok=True)
+                blob = self.blobs / f["sha256"]
+                if f["kind"] in COPIED_KINDS:
+                    shutil.copyfile(blob, dest)
+                    os.chmod(dest, 0o555)
+                else:
+                    os.link(blob, dest)
+            for d in sorted((p for p in tree.rglob("*") if p.is_dir()), key=lambda p: -len(p.parts)):
+                os.chmod(d, 0o555)
+            os.chmod(tree, 0o555)
+            os.chmod(partial, 0o755)
+            write_json(partial / "manifest.json", manifest, 0o644)
+            os.rename(partial, self.sets / set_id)
+            fsync_dir(self.sets)
+        except BaseException:
+            remove_tree(partial)
+            raise
+
+    # ---- pruning --------------------------------------------------------------------------
+    def prune(self, keep_last: int, dry_run: bool = True) -> dict:
+        """Deletes the sets that are not active, not the rollback target and not among the newest
+        `keep_last`, then the blobs no remaining set names.  With dry_run nothing is deleted: the
+        answer says what would go.  Returns {"deleted": [manifests' summaries], "kept": [ids],
+        "blobs": [{"sha256", "size"}], "bytes": the bytes the blobs free, "dry_run"}."""
+        if keep_last < 0:
+            raise StoreError(f"keep_last must be 0 or more (it is {keep_last})", status=422)
+        with self._lock:
+            sets = self.list()  # newest first
+            protected = {self.active_id(), self.rollback_target()} - {None}
+            kept = [m for i, m in enumerate(sets) if i < keep_last or m["id"] in protected]
+            kept_ids = {m["id"] for m in kept}
+            going = [m for m in sets if m["id"] not in kept_ids]
+            used = {f["sha256"] for m in kept for f in m["files"]}
+            blobs = []
+            for blob in sorted(self.blobs.iterdir()):
+                if blob.name not in used and re.fullmatch(r"[0-9a-f]{64}", blob.name):
+                    blobs.append({"sha256": blob.name, "size": blob.stat().st_size})
+            if not dry_run:
+                for m in going:
+                    # renamed first (one atomic step), so that a crash leaves a .partial- folder
+                    # the next start removes, never half a set under its id
+                    doomed = Path(tempfile.mkdtemp(prefix=f".partial-pruned-{m['id']}-", dir=self.sets))
+                    os.rename(self.sets / m["id"], doomed / m["id"])
+                    remove_tree(doomed)
+                for b in blobs:
+                    (self.blobs / b["sha256"]).unlink(missing_ok=True)
+                fsync_dir(self.sets)
+                fsync_dir(self.blobs)
+            return {
+                "deleted": [
+                    {"id": m["id"], "created": m["created"], "by": m.get("by"), "files": len(m["files"])} for m in going
+                ],
+                "kept": [m["id"] for m in kept],
+                "blobs": blobs,
+                "bytes": sum(b["size"] for b in blobs),
+                "dry_run": dry_run,
+            }
+
     def _keep_blob(self, f: StagedFile) -> None:
+        """Moves a staged file into blobs/ (read-only; executable for the kinds that run), or, when
+        that content is stored already, leaves the stored blob (made executable if needed)."""
         blob = self.blobs / f.sha256
         mode = 0o555 if f.kind in EXECUTABLE_KINDS else 0o444
         if blob.exists():
@@ -208,7 +261,7 @@ class SetStore:
             if manifest is None:
                 raise StoreError(f"no set {set_id}")
             manifest["validation"] = validation
-            _write_atomically(self.sets / set_id / "manifest.json", json.dumps(manifest, indent=1))
+            write_json(self.sets / set_id / "manifest.json", manifest, 0o644)
             return manifest
 
     # ---- activation state -----------------------------------------------------------------
@@ -274,19 +327,17 @@ class SetStore:
 
     def _write_active(self, entry: dict) -> None:
         set_id = entry["set_id"]
-        _write_atomically(
+        write_json(
             self.active_path,
-            json.dumps(
-                {
-                    "set_id": set_id,
-                    "since": entry["time"],
-                    "action": entry["action"],
-                    "by": entry["by"],
-                    "config": str(self.module_xml(set_id)),
-                    "rollback_to": self.rollback_target(),
-                },
-                indent=1,
-            ),
+            {
+                "set_id": set_id,
+                "since": entry["time"],
+                "action": entry["action"],
+                "by": entry["by"],
+                "config": str(self.module_xml(set_id)),
+                "rollback_to": self.rollback_target(),
+            },
+            0o644,
         )
         tmp = self.root / ".active.tmp"
         tmp.unlink(missing_ok=True)

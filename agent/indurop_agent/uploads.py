@@ -28,6 +28,7 @@ from python_multipart.multipart import MultipartParser, parse_options_header
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException
 
+from .archives import tar_stream, type_problem
 from .dds import bridge_file
 from .dds.bridge_file import BRIDGE_JSON
 from .elf_check import MissingSymbol, NotLoadable, check_executable, check_shared_object
@@ -39,7 +40,6 @@ from .viewer.urdf import parse as parse_urdf
 
 MAX_NAME_BYTES = 255
 MAX_MODULE_XML_BYTES = 4 << 20  # irpd's own limit (rtcore/src/config/module_xml.hpp)
-MAX_TAR_HEADER_BYTES = 64 << 10  # a pax or GNU long-name header larger than this is refused
 GZIP_TYPES = ("application/gzip", "application/x-gzip")
 ACCEPTED = (
     "module.xml (one, at the root), other .xml configs, .so thread modules and libraries, "
@@ -323,60 +323,6 @@ async def _receive_multipart(request, boundary: bytes, receiver: Receiver) -> No
 
 
 # ---- archives -------------------------------------------------------------------------------
-class _LimitedReader:
-    """The decompressed stream of an archive, refused (413) once it grows past `limit` bytes."""
-
-    def __init__(self, raw, limit: int):
-        self.raw, self.limit, self.seen = raw, limit, 0
-
-    def read(self, n: int = -1) -> bytes:
-        want = self.limit + 1 - self.seen if n is None or n < 0 else min(n, self.limit + 1 - self.seen)
-        data = self.raw.read(max(want, 0))
-        self.seen += len(data)
-        if self.seen > self.limit:
-            raise UploadError(413, f"the archive unpacks to more than {self.limit} bytes")
-        return data
-
-
-class _BoundedTarInfo(tarfile.TarInfo):
-    """tarfile reads pax and GNU long-name headers whole into memory: refuse huge ones first."""
-
-    def _proc_member(self, tf):
-        if (
-            self.type
-            in (
-                tarfile.XHDTYPE,
-                tarfile.XGLTYPE,
-                tarfile.SOLARIS_XHDTYPE,
-                tarfile.GNUTYPE_LONGNAME,
-                tarfile.GNUTYPE_LONGLINK,
-            )
-            and self.size > MAX_TAR_HEADER_BYTES
-        ):
-            raise UploadError(
-                400,
-                f"the archive has a {self.size}-byte extended header; "
-                f"at most {MAX_TAR_HEADER_BYTES} bytes are accepted",
-            )
-        return super()._proc_member(tf)
-
-
-def _member_problem(member: tarfile.TarInfo) -> str | None:
-    if member.issym():
-        return f"is a symbolic link (to {json.dumps(member.linkname)}); a set holds regular files only"
-    if member.islnk():
-        return f"is a hard link (to {json.dumps(member.linkname)}); a set holds regular files only"
-    if member.ischr() or member.isblk():
-        return "is a device file; a set holds regular files only"
-    if member.isfifo():
-        return "is a FIFO; a set holds regular files only"
-    if member.issparse():
-        return "is a sparse file; pack it as a regular file"
-    if not (member.isreg() or member.isdir()):
-        return f"has tar type {member.type!r}; a set holds regular files only"
-    return None
-
-
 def unpack_archive(archive: Path, receiver: Receiver) -> None:
     """Unpacks a .tar.gz into the receiver: regular files only, each name sanitized (and checked by
     tarfile's "data" filter too), sizes and counts limited as they are read."""
@@ -387,11 +333,11 @@ def unpack_archive(archive: Path, receiver: Receiver) -> None:
         with (
             open(archive, "rb") as raw,
             gzip.GzipFile(fileobj=raw, mode="rb") as gz,
-            tarfile.open(fileobj=_LimitedReader(gz, stream_limit), mode="r|", tarinfo=_BoundedTarInfo) as tar,
+            tar_stream(gz, stream_limit, UploadError) as tar,
         ):
             for member in tar:
                 shown = json.dumps(member.name)
-                problem = _member_problem(member)
+                problem = type_problem(member, "a set")
                 if problem:
                     raise UploadError(400, f"archive member {shown} {problem}")
                 if member.isdir() and not [p for p in member.name.split("/") if p not in ("", ".")]:

@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import secrets
 import shutil
 import signal
 import statistics
@@ -210,6 +211,9 @@ def main() -> int:
         url = f"http://127.0.0.1:{agent_port}"
         token = (work / "data" / "admin-token").read_text().strip()
         api = httpx.Client(base_url=f"{url}/api/v1", headers={"Authorization": f"Bearer {token}"}, timeout=60)
+        # the browser signs in as a person would: a user made with the admin token
+        viewer = {"name": "bench", "role": "viewer", "password": f"pw-{secrets.token_urlsafe(12)}"}
+        api.post("/users", json=viewer).raise_for_status()
         vars_ = Segment(api.get("/status").json()["shared_memory"]["variables"])
 
         def read(path: str):
@@ -248,8 +252,8 @@ def main() -> int:
         browser_out = work / "browser.json"
         if not a.no_browser:
             browser = subprocess.Popen(
-                ["node", str(ROOT / "tests" / "browser" / "bench" / "io-load-pages.mjs"), url, token,
-                 str(seconds), *JOINTS[:3], f"{NS}PLC_OUT.Step"],
+                ["node", str(ROOT / "tests" / "browser" / "bench" / "io-load-pages.mjs"), url, viewer["name"],
+                 viewer["password"], str(seconds), *JOINTS[:3], f"{NS}PLC_OUT.Step"],
                 cwd=ROOT / "tests" / "browser",
                 # a browser is not pinned: it runs on every CPU, irpd's dispatcher's too
                 preexec_fn=lambda: os.sched_setaffinity(0, range(os.cpu_count() or 1)),

@@ -1,9 +1,10 @@
-// fixtures.ts -- what every browser test starts from: the server of global-setup.ts, a signed-in
-// page per role, a screenshot helper that keeps the pictures as artifacts.
+// fixtures.ts -- what every browser test starts from: the server of global-setup.ts, signing in
+// through the form with a user's name and password, a screenshot helper that keeps the pictures as
+// artifacts, and API calls with a role's token for checking what the UI did.
 
 import { join } from "node:path";
 import { test as base, expect, type Page } from "@playwright/test";
-import type { Server } from "./server";
+import type { Role, Server, User } from "./server";
 
 export const SHOTS = join(__dirname, "../../build/test-artifacts/browser/screenshots");
 
@@ -13,12 +14,22 @@ export function server(): Server {
   return JSON.parse(s) as Server;
 }
 
-/** Signs in through the form with the token of `role` and waits for the shell. */
-export async function signIn(page: Page, role: "admin" | "operator" | "viewer", hash = "#/overview"): Promise<void> {
-  const s = server();
-  await page.goto(`${s.url}/${hash}`);
-  await page.getByTestId("token").fill(s.tokens[role]);
+/** Fills the sign-in form (the page shows it) with `user`'s name and password and sends it. */
+export async function fillSignIn(page: Page, user: User): Promise<void> {
+  await page.getByTestId("user-name").fill(user.name);
+  await page.getByTestId("password").fill(user.password);
   await page.getByTestId("sign-in").click();
+}
+
+/** Signs in through the form as the user of `role` (of agent `url`) and waits for the shell. */
+export async function signIn(
+  page: Page,
+  role: Role,
+  hash = "#/overview",
+  s: { url: string; users: Record<Role, User> } = server(),
+): Promise<void> {
+  await page.goto(`${s.url}/${hash}`);
+  await fillSignIn(page, s.users[role]);
   await expect(page.getByTestId("who")).toContainText(role);
 }
 
@@ -27,11 +38,7 @@ export async function shot(page: Page, name: string): Promise<void> {
 }
 
 /** An API call with a role's token, for checking what the UI did. */
-export async function api(
-  path: string,
-  init: RequestInit = {},
-  role: "admin" | "operator" | "viewer" = "admin",
-): Promise<Response> {
+export async function api(path: string, init: RequestInit = {}, role: Role = "admin"): Promise<Response> {
   const s = server();
   const headers = new Headers(init.headers);
   headers.set("Authorization", `Bearer ${s.tokens[role]}`);

@@ -3,12 +3,7 @@
 // readouts beside it follow the robot.
 import type { Page } from "@playwright/test";
 import { startCell } from "./cell";
-import { expect, server, shot, test } from "./fixtures";
-
-async function openRobot(page: Page, url: string, token: string): Promise<void> {
-  await page.goto(`${url}/?token=${encodeURIComponent(token)}#/robot`);
-  await expect(page.getByTestId("who")).toBeVisible();
-}
+import { expect, server, shot, signIn, test } from "./fixtures";
 
 async function expectMoving(page: Page, name: string): Promise<void> {
   const view = page.getByTestId("robot-viewer");
@@ -36,14 +31,12 @@ async function expectMoving(page: Page, name: string): Promise<void> {
 
 test("the viser view loads and moves", async ({ page }) => {
   await startCell();
-  const s = server();
-  await openRobot(page, s.url, s.tokens.viewer);
+  await signIn(page, "viewer", "#/robot");
   await expectMoving(page, "robot-viser");
 });
 
 test("the meshcat view loads and moves", async ({ page }) => {
   await startCell();
-  const s = server().meshcat;
-  await openRobot(page, s.url, s.tokens.viewer);
+  await signIn(page, "viewer", "#/robot", server().meshcat);
   await expectMoving(page, "robot-meshcat");
 });

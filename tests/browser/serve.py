@@ -1,11 +1,13 @@
 """serve.py -- the real irpd + agent the browser tests run against: irpd on the PLC + robot cell,
-the agent serving the built UI on a free loopback port with the viser 3D view, one token per
-role, and a second agent on the same irpd with the meshcat view.  Writes what the tests need as
-JSON to the file named by argv[1], then runs until SIGTERM and stops them all by pid."""
+the agent serving the built UI on a free loopback port with the viser 3D view, one user (name and
+password, to sign in through the form) and one token (for the tests' own API calls) per role, and
+a second agent on the same irpd with the meshcat view.  Writes what the tests need as JSON to the
+file named by argv[1], then runs until SIGTERM and stops them all by pid."""
 from __future__ import annotations
 
 import json
 import os
+import secrets
 import signal
 import sys
 import tempfile
@@ -19,6 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "python"))
 from live_processes import API, BUILD, copy_cell, free_port, start_agent, start_irpd, stop  # noqa: E402
 
 CELL = BUILD / "sets" / "plc-robot" / "module.xml"
+USERS = {"admin": "anna", "operator": "otto", "viewer": "vera"}
 
 
 def tokens_for(url: str, admin: str) -> dict:
@@ -29,6 +32,18 @@ def tokens_for(url: str, admin: str) -> dict:
         r.raise_for_status()
         tokens[role] = r.json()["token"]
     return tokens
+
+
+def users_for(url: str, admin: str) -> dict:
+    """One user per role, created with the admin token as the first admin would be: {role: {name, password}}."""
+    users = {}
+    for role, name in USERS.items():
+        password = f"pw-{secrets.token_urlsafe(12)}"
+        r = httpx.post(f"{url}{API}/users", json={"name": name, "role": role, "password": password},
+                       headers={"Authorization": f"Bearer {admin}"})
+        r.raise_for_status()
+        users[role] = {"name": name, "password": password}
+    return users
 
 
 def wait_for_drives(url: str, token: str) -> None:
@@ -54,17 +69,24 @@ def main(out: Path, config: Path) -> None:
         config, _ = copy_cell(work / "plc-robot")
     # chromium's load must not starve the simulated drives into a fault mid-test
     irpd = start_irpd(sock, config, f"browser-{os.getpid()}", log=work / "irpd.log")
-    agents, urls, tokens = [], {}, {}
+    agents, urls, tokens, users = [], {}, {}, {}
     for viewer in ("viser", "meshcat"):
         port, vdata = free_port(), data / viewer
         vdata.mkdir(parents=True)
-        agents.append(start_agent(port, vdata, sock, "--viewer", viewer, log=work / f"agent-{viewer}.log"))
+        log = work / f"agent-{viewer}.log"
+        # the System page's logs: the files irpd and this agent write here
+        agents.append(start_agent(port, vdata, sock, "--viewer", viewer, "--irpd-log", str(work / "irpd.log"),
+                                  "--agent-log", str(log), log=log))
         urls[viewer] = f"http://127.0.0.1:{port}"
-        tokens[viewer] = tokens_for(urls[viewer], (vdata / "admin-token").read_text().strip())
+        admin = (vdata / "admin-token").read_text().strip()
+        tokens[viewer] = tokens_for(urls[viewer], admin)
+        users[viewer] = users_for(urls[viewer], admin)
     if cell:
         wait_for_drives(urls["viser"], tokens["viser"]["viewer"])
-    out.write_text(json.dumps({"url": urls["viser"], "tokens": tokens["viser"], "work": str(work),
-                               "meshcat": {"url": urls["meshcat"], "tokens": tokens["meshcat"]},
+    out.write_text(json.dumps({"url": urls["viser"], "tokens": tokens["viser"], "users": users["viser"],
+                               "work": str(work),
+                               "meshcat": {"url": urls["meshcat"], "tokens": tokens["meshcat"],
+                                           "users": users["meshcat"]},
                                "pids": {"irpd": irpd.pid, "agent": agents[0].pid, "agent_meshcat": agents[1].pid,
                                         "serve": os.getpid()}}))
     done = threading.Event()

@@ -4,12 +4,22 @@ import { existsSync, mkdtempSync, readFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join, resolve } from "node:path";
 
+export type Role = "admin" | "operator" | "viewer";
+/** a user the tests sign in with through the form */
+export interface User {
+  name: string;
+  password: string;
+}
+
 export interface Server {
   url: string;
-  tokens: { admin: string; operator: string; viewer: string };
+  /** for the tests' own API calls (checking what the UI did) */
+  tokens: Record<Role, string>;
+  /** one user per role, created with the admin token when the agent started */
+  users: Record<Role, User>;
   work: string;
   /** a second agent on the same irpd, with the meshcat 3D view */
-  meshcat: { url: string; tokens: { admin: string; operator: string; viewer: string } };
+  meshcat: { url: string; tokens: Record<Role, string>; users: Record<Role, User> };
   pids: { irpd: number; agent: number; agent_meshcat: number; serve: number };
 }
 

@@ -76,10 +76,7 @@ test("an upload that adds a shared variable shows the variable diff and activate
     counterSet(work, join(ONLINE, "oc_v1/layout.json"), { counter: join(ONLINE, "modules/oc_counter_v1.so") }),
   );
   try {
-    await page.goto(`${s.url}/#/modules`);
-    await page.getByTestId("token").fill(s.tokens.admin);
-    await page.getByTestId("sign-in").click();
-    await expect(page.getByTestId("who")).toContainText("admin");
+    await signIn(page, "admin", "#/modules", s);
 
     // v2: the counter rebuilt against it (kept) and the adder writing the new variable
     await page

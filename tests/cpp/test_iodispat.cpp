@@ -310,6 +310,30 @@ TEST(IoDispatModbus, ALateAnswerIsReadBackNotTakenForTheNextRequests) {
     EXPECT_EQ(IO_STATUS.errors[0] - errors_before, 2u) << "every round after the stall succeeds";
 }
 
+// safe_outputs() when the drive is busy past one timeout (20 ms): the write is tried again on a
+// new connection, and the controlword reaches 0 once the drive answers.  One attempt left the
+// drives enabled on a loaded machine (DeviceSide.AStopDrivesTheControlwordsToZero...).
+TEST(IoDispatModbus, SafeOutputsAreTriedAgainWhenTheDeviceAnswersLate) {
+    resetVariables();
+    DriveSim sim({"--quiet"});
+    TempDir dir;
+    LoadedModule io;
+    ASSERT_EQ(io.load(writeFile(dir, "io.xml", driveConfig(sim.port(), R"(timeout_ms="50" fail_limit="3")"))), "");
+    AXIS_OUT[0].controlword = 0x0F;
+    PLC_ROBOT::PLC_OUT.Step = 77;
+    ModbusClient c(sim.port());
+    ASSERT_TRUE(cyclesUntil([&] { io.run(); }, [&] { return c.holding(0, 1)[0] == 0x0F; }));
+    ASSERT_EQ(kill(sim.pid(), SIGSTOP), 0);
+    irp::Status driven = irp::Ok{};
+    std::thread watchdog([&] { driven = io.safeOutputs(); });
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));  // past the first attempt's 20 ms
+    ASSERT_EQ(kill(sim.pid(), SIGCONT), 0);
+    watchdog.join();
+    ASSERT_TRUE(driven.ok()) << driven.error().message;
+    EXPECT_EQ(c.holding(0, 1)[0], 0);       // controlword: safe="0"
+    EXPECT_EQ(c.holding(520, 1)[0], 1234);  // PLC_OUT.Step: safe="1234"
+}
+
 TEST(IoDispatModbus, TheBudgetCutsAWaitShorterThanTheTimeout) {
     resetVariables();
     DriveSim sim({"--quiet", "--fail-after", "0"});  // connects (the kernel's backlog), never answers

@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
-# deb_chroot.sh DEB -- installs the .deb into a clean Debian 12 (bookworm) minbase chroot with apt
-# (real dependency resolution), checks what it installed and that it runs, then removes and purges
-# it and checks that nothing of it is left.  Needs root (debootstrap, chroot, mounts).
+# deb_chroot.sh DEB [OLD_DEB] -- installs the .deb into a clean Debian 12 (bookworm) minbase chroot
+# with apt (real dependency resolution), checks what it installed and that it runs, then removes and
+# purges it and checks that nothing of it is left; with OLD_DEB (an older build: old_deb.sh), then
+# installs that, runs it (a user added and signed in), upgrades it to DEB and checks that the
+# upgrade kept the data, the users and their sessions, and that the old admin token, the old session
+# and the user's password sign in over HTTPS; then upgrades again and checks the certificate is kept.  Needs root (debootstrap, chroot, mounts).
 #
-#   bash tests/package/deb_chroot.sh build/indurop_0.1.0_amd64.deb
+#   bash tests/package/deb_chroot.sh build/indurop_0.1.0_amd64.deb [build/indurop-old.deb]
 #
 # The chroot is made once by debootstrap (a few minutes, most of it downloading) and kept as a
 # tarball in build/package-chroot/; later runs unpack a fresh copy of it (seconds).  The packages
@@ -14,11 +17,17 @@
 # data folder and first admin token, every ELF file's libraries resolved, irpd --version,
 # indurop-agent --help, irpd running a shipped set for a second, irpd started the way irpd.service
 # starts it (irpd-start, without SCHED_FIFO: --no-rt) with the agent beside it as the user
-# indurop answering /api/v1/health on 127.0.0.1, the default set stored and activated
+# indurop started with its unit's arguments (HTTPS with the certificate postinst made, its
+# fingerprint the one the install printed; plain HTTP not answered; on 127.0.0.1 and a free port
+# instead of every interface and 8443), the default set stored and activated
 # (activate-default-set), irpd restarted on the active set; then `apt-get remove` (data kept),
-# `apt-get purge --autoremove` (the file system's names as before the install).
+# `apt-get purge --autoremove` (the file system's names as before the install).  The upgrade:
+# OLD_DEB installed and run as its unit has it (HTTP), its default set activated; DEB installed
+# over it: the tokens, the set store and the active set kept, a certificate made, the agent on
+# HTTPS answering the old admin token with the same active set; then purged again.
 set -euo pipefail
 deb=$(realpath "$1")
+old_deb=${2:+$(realpath "$2")}
 root=$(cd "$(dirname "$0")/../.." && pwd)
 cache=${INDUROP_CHROOT_CACHE:-$root/build/package-chroot}
 mirror=${INDUROP_DEBIAN_MIRROR:-http://deb.debian.org/debian}
@@ -84,6 +93,10 @@ in_chroot env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-
   >"$cache/install.log" 2>&1 || { tail -30 "$cache/install.log" >&2; fail "apt-get install of the .deb"; }
 echo "deb_chroot: installed in $(( $(date +%s) - t0 )) s: $(grep -c '^Unpacking' "$cache/install.log") packages unpacked"
 grep "admin token" "$cache/install.log" || fail "postinst did not say where the first admin token is"
+# The certificate the agent serves: made at the install, its fingerprint in the install log.
+fingerprint=$(sed -n 's/.*SHA-256 fingerprint \([0-9A-F:]*\).*/\1/p' "$cache/install.log" | tail -1)
+[ ${#fingerprint} -eq 95 ] || { tail -20 "$cache/install.log"; fail "postinst did not print the certificate's SHA-256 fingerprint"; }
+echo "deb_chroot: the install made a TLS certificate, SHA-256 $fingerprint"
 
 # Files.
 for f in /usr/bin/irpd /usr/bin/glbc /usr/bin/indurop-agent /usr/bin/irpctl /usr/include/indurop/indurop.h \
@@ -101,6 +114,8 @@ in_chroot id indurop >/dev/null || fail "no user indurop"
 # (stat in the chroot: the names are the chroot's users)
 [ "$(in_chroot stat -c '%U:%G %a' /var/lib/indurop)" = "indurop:indurop 750" ] || fail "/var/lib/indurop: $(in_chroot stat -c '%U:%G %a' /var/lib/indurop)"
 [ "$(in_chroot stat -c '%U %a' /var/lib/indurop/admin-token)" = "indurop 600" ] || fail "the admin token is not indurop's, 0600"
+[ "$(in_chroot stat -c '%U %a' /var/lib/indurop/tls/key.pem)" = "indurop 600" ] || fail "the TLS key is not indurop's, 0600"
+[ "$(in_chroot stat -c '%U' /var/lib/indurop/tls/cert.pem)" = "indurop" ] || fail "the TLS certificate is not indurop's"
 for f in "$chr"/etc/systemd/system/{irpd,indurop-agent,indurop-dds-bridge}.service.d/50-cpus.conf; do
   grep -q '^CPUAffinity=' "$f" || fail "$f has no CPUAffinity"
 done
@@ -152,13 +167,36 @@ start_irpd() {
 start_irpd
 grep -q "no set activated yet" "$cache/irpd.log" || fail "irpd-start did not fall back to the default set"
 [ "$(in_chroot stat -c %U /run/indurop/irpd.sock)" = indurop ] || fail "irpd did not switch to the user indurop (socket: $(in_chroot stat -c %U /run/indurop/irpd.sock))"
-in_chroot runuser -u indurop -- /usr/bin/indurop-agent --host 127.0.0.1 --port "$port" \
-  --data-dir /var/lib/indurop --irpd-socket /run/indurop/irpd.sock >"$cache/agent.log" 2>&1 &
-health=
-for _ in $(seq 300); do health=$(curl -sf "http://127.0.0.1:$port/api/v1/health" || true); [ -n "$health" ] && break; sleep 0.1; done
-[ -n "$health" ] || { cat "$cache/agent.log"; fail "the agent did not answer /api/v1/health"; }
-echo "deb_chroot: /api/v1/health: $health"
-in_chroot runuser -u indurop -- env INDUROP_URL="http://127.0.0.1:$port" /usr/lib/indurop/activate-default-set \
+# The agent as its unit starts it (its INDUROP_AGENT_ARGS), but on 127.0.0.1 and a free port.
+unit_args() {
+  sed -n 's/^Environment="INDUROP_AGENT_ARGS=\(.*\)"$/\1/p' "$chr/usr/lib/systemd/system/indurop-agent.service" \
+    | sed -e 's/--host [^ ]*/--host 127.0.0.1/' -e "s/--port [0-9]*/--port $port/"
+}
+ca="$chr/var/lib/indurop/tls/cert.pem"
+start_agent() {  # SCHEME: runs the agent as its unit has it; waits for /health over SCHEME
+  local scheme=$1 health=
+  # shellcheck disable=SC2046  # the unit's arguments, word-split as systemd does
+  in_chroot runuser -u indurop -- /usr/bin/indurop-agent $(unit_args) --data-dir /var/lib/indurop \
+    --irpd-socket /run/indurop/irpd.sock >"$cache/agent.log" 2>&1 &
+  for _ in $(seq 300); do
+    health=$(curl -sf $([ "$scheme" = https ] && echo --cacert "$ca") "$scheme://127.0.0.1:$port/api/v1/health" || true)
+    [ -n "$health" ] && break; sleep 0.1
+  done
+  [ -n "$health" ] || { cat "$cache/agent.log"; fail "the agent did not answer $scheme://127.0.0.1:$port/api/v1/health"; }
+  echo "deb_chroot: /api/v1/health over $scheme: $health"
+}
+served_fingerprint() {
+  python3 -c 'import hashlib, ssl, sys
+der = ssl.PEM_cert_to_DER_cert(ssl.get_server_certificate(("127.0.0.1", int(sys.argv[1]))))
+print(hashlib.sha256(der).hexdigest().upper())' "$port" | sed 's/../&:/g; s/:$//'
+}
+case " $(unit_args) " in *" --tls-cert "*) ;; *) fail "the agent's unit does not serve HTTPS: $(unit_args)" ;; esac
+grep -q '^Environment="INDUROP_AGENT_ARGS=--host 0.0.0.0 --port 8443 ' "$chr/usr/lib/systemd/system/indurop-agent.service" \
+  || fail "the agent's unit does not listen on every interface, port 8443"
+start_agent https
+[ "$(served_fingerprint)" = "$fingerprint" ] || fail "the agent serves $(served_fingerprint), not the certificate the install made ($fingerprint)"
+! curl -sf -m 5 "http://127.0.0.1:$port/api/v1/health" >/dev/null 2>&1 || fail "the agent answers plain HTTP"
+in_chroot runuser -u indurop -- env INDUROP_URL="https://127.0.0.1:$port" /usr/lib/indurop/activate-default-set \
   || { cat "$cache/agent.log"; fail "activate-default-set"; }
 [ -L "$chr/var/lib/indurop/active" ] && [ -f "$chr/var/lib/indurop/active/module.xml" ] || fail "no active set after activate-default-set"
 # irpd killed: started again, it runs the active set (the store's link), not the default one.
@@ -166,10 +204,19 @@ kill -9 "$irpd_pid"; wait "$irpd_pid" 2>/dev/null || true
 : > "$cache/irpd.log"
 start_irpd
 ! grep -q "no set activated yet" "$cache/irpd.log" || fail "irpd-start did not start the active set"
-status=$(curl -sf -H "Authorization: Bearer $(cat "$chr/var/lib/indurop/admin-token")" "http://127.0.0.1:$port/api/v1/status" || true)
-for _ in $(seq 50); do echo "$status" | grep -q "$(readlink "$chr/var/lib/indurop/active" | cut -d/ -f2)" && break
-  sleep 0.2; status=$(curl -sf -H "Authorization: Bearer $(cat "$chr/var/lib/indurop/admin-token")" "http://127.0.0.1:$port/api/v1/status" || true); done
-echo "$status" | grep -q "$(readlink "$chr/var/lib/indurop/active" | cut -d/ -f2)" || { echo "$status"; fail "irpd does not run the active set after its restart"; }
+# api PATH [SCHEME]: GET as the first admin
+api() {
+  local scheme=${2:-https}
+  curl -sf $([ "$scheme" = https ] && echo --cacert "$ca") -H "Authorization: Bearer $(cat "$chr/var/lib/indurop/admin-token")" \
+    "$scheme://127.0.0.1:$port/api/v1/$1" || true
+}
+active_id() { readlink "$chr/var/lib/indurop/active" | cut -d/ -f2; }
+runs_active_set() {  # until irpd (through the agent) runs the store's active set
+  local status
+  for _ in $(seq 50); do status=$(api status "$@"); echo "$status" | grep -q "$(active_id)" && return 0; sleep 0.2; done
+  echo "$status"; return 1
+}
+runs_active_set || fail "irpd does not run the active set after its restart"
 stop_chroot_processes
 
 # remove: the programs go, the data stays.
@@ -187,4 +234,73 @@ snapshot > "$cache/after.txt"
 # Backups that useradd and userdel keep of the account files (/etc/passwd- ...) are not ours.
 left=$(comm -13 "$cache/before.txt" "$cache/after.txt" | grep -v -E '^\./etc/(passwd|group|shadow|gshadow)-$' || true)
 [ -z "$left" ] || { echo "$left" | head -30; fail "left after purge (not there before the install)"; }
-echo "deb_chroot: installed, ran (irpd, the agent on 127.0.0.1:$port, the default set activated, irpd restarted on it), removed, purged: nothing left"
+echo "deb_chroot: installed, ran (irpd, the agent on https://127.0.0.1:$port, the default set activated, irpd restarted on it), removed, purged: nothing left"
+
+[ -n "$old_deb" ] || exit 0
+# The upgrade from an older build: installed and run as its unit has it (plain HTTP).
+cp "$old_deb" "$chr/tmp/old.deb"
+in_chroot env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends /tmp/old.deb \
+  >"$cache/install-old.log" 2>&1 || { tail -30 "$cache/install-old.log" >&2; fail "apt-get install of the older build"; }
+[ ! -e "$chr/var/lib/indurop/tls" ] || fail "the older build made a certificate: it is not the build before HTTPS"
+: > "$cache/irpd.log"
+start_irpd
+start_agent http
+in_chroot runuser -u indurop -- env INDUROP_URL="http://127.0.0.1:$port" /usr/lib/indurop/activate-default-set \
+  || { cat "$cache/agent.log"; fail "activate-default-set of the older build"; }
+runs_active_set http || fail "the older build's irpd does not run its active set"
+# a person of the older build: added with the admin token, signed in (a session cookie in the jar)
+password="upgrade kept me $$"
+curl -sf -H "Authorization: Bearer $(cat "$chr/var/lib/indurop/admin-token")" -H 'Content-Type: application/json' \
+  -d "{\"name\": \"ana\", \"role\": \"operator\", \"password\": \"$password\"}" "http://127.0.0.1:$port/api/v1/users" >/dev/null \
+  || fail "the older build did not add a user"
+jar="$cache/cookies"
+rm -f "$jar"
+sign_in() {  # SCHEME: name and password -> 200 and a session cookie in the jar
+  curl -sf -c "$jar" $([ "$1" = https ] && echo --cacert "$ca") -H 'Content-Type: application/json' \
+    -d "{\"name\": \"ana\", \"password\": \"$password\"}" "$1://127.0.0.1:$port/api/v1/session" >/dev/null
+}
+session_of() {  # SCHEME: who the jar's session cookie is (GET /session)
+  curl -sf -b "$jar" $([ "$1" = https ] && echo --cacert "$ca") "$1://127.0.0.1:$port/api/v1/session" \
+    | python3 -c 'import json, sys; s = json.load(sys.stdin); print(s["name"] if s["signed_in"] else "nobody")'
+}
+sign_in http || fail "the older build's user did not sign in"
+[ "$(session_of http)" = ana ] || fail "the older build's session is not ana's"
+kept_files="tokens.json active.json history.jsonl admin-token users.json sessions.json"
+active_before=$(active_id)
+stop_chroot_processes
+# shellcheck disable=SC2086  # the names, word-split
+kept_before=$(cd "$chr/var/lib/indurop" && sha256sum $kept_files && ls sets)
+# The upgrade (the units would be stopped and started again around it under systemd).
+in_chroot env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "/tmp/$(basename "$deb")" \
+  >"$cache/upgrade.log" 2>&1 || { tail -30 "$cache/upgrade.log" >&2; fail "apt-get install of DEB over the older build"; }
+grep -q "Unpacking indurop .* over " "$cache/upgrade.log" || { tail -20 "$cache/upgrade.log"; fail "the install was not an upgrade"; }
+fingerprint=$(sed -n 's/.*SHA-256 fingerprint \([0-9A-F:]*\).*/\1/p' "$cache/upgrade.log" | tail -1)
+[ ${#fingerprint} -eq 95 ] || fail "the upgrade did not make a certificate and print its fingerprint"
+# shellcheck disable=SC2086
+[ "$(cd "$chr/var/lib/indurop" && sha256sum $kept_files && ls sets)" = "$kept_before" ] \
+  || fail "the upgrade changed the tokens, the users, their sessions, the set store or the active set"
+: > "$cache/irpd.log"
+start_irpd
+start_agent https
+[ "$(served_fingerprint)" = "$fingerprint" ] || fail "after the upgrade the agent serves another certificate than the one made"
+[ "$(api sets/active | python3 -c 'import json, sys; print(json.load(sys.stdin)["id"])')" = "$active_before" ] \
+  || fail "after the upgrade the old admin token does not sign in, or the active set changed"
+runs_active_set || fail "after the upgrade irpd does not run the active set"
+[ "$(session_of https)" = ana ] || fail "after the upgrade the session of the older build is not ana's over HTTPS"
+sign_in https || fail "after the upgrade ana does not sign in with her password over HTTPS"
+stop_chroot_processes
+# The next upgrade (the same build again) keeps the certificate the first one made, and the rest.
+kept_before=$(cd "$chr/var/lib/indurop" && sha256sum tls/cert.pem tls/key.pem users.json tokens.json && ls sets)
+in_chroot env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --reinstall --no-install-recommends "/tmp/$(basename "$deb")" \
+  >"$cache/reinstall.log" 2>&1 || { tail -30 "$cache/reinstall.log" >&2; fail "apt-get install --reinstall of DEB"; }
+[ "$(cd "$chr/var/lib/indurop" && sha256sum tls/cert.pem tls/key.pem users.json tokens.json && ls sets)" = "$kept_before" ] \
+  || fail "the second upgrade changed the certificate, the users, the tokens or the set store"
+: > "$cache/irpd.log"
+start_irpd
+start_agent https
+[ "$(served_fingerprint)" = "$fingerprint" ] || fail "after the second upgrade the agent serves another certificate"
+[ "$(session_of https)" = ana ] || fail "after the second upgrade the session is not ana's"
+stop_chroot_processes
+in_chroot env DEBIAN_FRONTEND=noninteractive apt-get purge -y -q --autoremove indurop >"$cache/purge.log" 2>&1 \
+  || { tail -20 "$cache/purge.log" >&2; fail "apt-get purge after the upgrade"; }
+echo "deb_chroot: upgraded from $(basename "$old_deb"): tokens, users, their sessions, sets and the active set kept, a certificate made and kept by the next upgrade, the old admin token and the old session over HTTPS, the user signs in with her password"

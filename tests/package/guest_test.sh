@@ -11,8 +11,10 @@
 # journal) and restarted; the agent answering with irpd's status after each; a managed restart
 # through the agent (same main pid, no systemd restart, the user and capabilities kept).
 exec >"${1:-/dev/stdout}" 2>&1
-api=http://127.0.0.1:8080/api/v1
+# The agent serves HTTPS on 8443 with the certificate the package made (docs/administration.md).
+api=https://127.0.0.1:8443/api/v1
 data=/var/lib/indurop
+ca=(--cacert "$data/tls/cert.pem")
 now_ms() { date +%s%3N; }
 fail() { echo "FAIL $*"; }
 # wait_until SECONDS COMMAND...: runs COMMAND every 20 ms until it succeeds; 1 when it never did.
@@ -23,7 +25,7 @@ wait_until() {
 main_pid() { systemctl show -p MainPID --value irpd.service; }
 active_set() { readlink "$data/active" | sed -n 's#^sets/\([0-9a-f]*\)/files$#\1#p'; }
 # api_get SECONDS PATH [CURL OPTIONS...]: the agent's answer to GET $api/PATH as the admin.
-api_get() { local limit=$1 path=$2; shift 2; curl -s -m "$limit" "$@" -H "Authorization: Bearer $(cat $data/admin-token)" "$api/$path"; }
+api_get() { local limit=$1 path=$2; shift 2; curl -s -m "$limit" "${ca[@]}" "$@" -H "Authorization: Bearer $(cat $data/admin-token)" "$api/$path"; }
 # irpd_set: the set id in the agent's GET /status (2 s limit); each answer is logged to $probes
 # (time ms, HTTP status or 000 for none, seconds taken, set id) for the failure report.
 probes=/tmp/guest-status-probes
@@ -50,7 +52,7 @@ irpd_back() {   # a new main pid, the unit active (READY=1 received)
 }
 runs_active_set() { [ -n "$(active_set)" ] && [ "$(irpd_set)" = "$(active_set)" ]; }
 
-wait_until 180 curl -sf -m 2 "$api/health" || fail "the agent did not answer $api/health within 180 s of its start"
+wait_until 180 curl -sf -m 2 "${ca[@]}" "$api/health" || fail "the agent did not answer $api/health within 180 s of its start"
 wait_until 90 test -e "$data/active.json" || fail "the default set was not activated (no $data/active.json)"
 wait_until 30 runs_active_set || fail "irpd does not run the active set"
 echo "RESULT irpd=$(systemctl is-active irpd.service) agent=$(systemctl is-active indurop-agent.service) enabled=$(systemctl is-enabled irpd.service),$(systemctl is-enabled indurop-agent.service)"
@@ -106,7 +108,7 @@ fi
 # systemd, the same main pid, no restart counted by systemd, still the user indurop with its two
 # capabilities (ambient across the exec), and the downtime reported.
 pid=$(main_pid); restarts=$(systemctl show -p NRestarts --value irpd.service)
-answer=$(curl -s -m 60 -X POST -H "Authorization: Bearer $(cat $data/admin-token)" -H 'Content-Type: application/json' \
+answer=$(curl -s -m 60 "${ca[@]}" -X POST -H "Authorization: Bearer $(cat $data/admin-token)" -H 'Content-Type: application/json' \
   -d '{"mode": "restart"}' "$api/sets/$(active_set)/activate")
 downtime=$(printf '%s' "$answer" | python3 -S -c 'import json, sys; print(json.load(sys.stdin).get("downtime_ns"))' 2>/dev/null)
 wait_until 30 runs_active_set || fail "irpd does not run the active set after a managed restart"

@@ -151,12 +151,14 @@ def start_agent(
     log: Path | None = None,
     env: dict[str, str] | None = None,
     timeout_s: float = START_TIMEOUT_S,
+    ca: Path | None = None,
 ) -> subprocess.Popen:
     """`python -m indurop_agent` on 127.0.0.1:port; returns once /health answers.  Its output goes
     to `log` when given, else to a temporary file, never a pipe nobody reads (a full pipe would stop
     the agent): output(p).  `env` is added to this process's environment.  An agent that exits or
     does not answer within `timeout_s` is stopped (not left loading the machine) and the start
-    fails with its output."""
+    fails with its output.  `ca`: the agent serves HTTPS (--tls-cert in `extra`), checked with this
+    certificate."""
     out = _output_file(log)
     p = subprocess.Popen(
         [
@@ -184,7 +186,9 @@ def start_agent(
     deadline = time.monotonic() + timeout_s
     while True:
         try:
-            if httpx.get(f"http://127.0.0.1:{port}{API}/health", timeout=1).status_code == 200:
+            scheme = "https" if ca else "http"
+            health = httpx.get(f"{scheme}://127.0.0.1:{port}{API}/health", timeout=1, verify=str(ca) if ca else True)
+            if health.status_code == 200:
                 return p
         except httpx.HTTPError:
             pass

@@ -1,12 +1,14 @@
-// main.ts -- the shell: sign-in, the navigation bar with the alarm banner, the hash router
-// (#/overview, #/modules, ...) and the status bar.  Each page lives in src/pages/<name>.ts and gets
-// an AppContext.
+// main.ts -- the shell: sign-in, the navigation bar with the alarm banner and the user's menu
+// (password, sign out), the hash router (#/overview, #/modules, ...) and the status bar.  Each page
+// lives in src/pages/<name>.ts and gets an AppContext.  When the agent says the session has ended
+// (a 401, a WebSocket closed with 4401), the page reloads onto the sign-in form, saying why.
 import "uplot/dist/uPlot.min.css";
 import "./styles/app.css";
-import { makeApi } from "./api/client";
+import { makeApi, watchPresence } from "./api/client";
 import { AlarmFeed } from "./app/alarm-feed";
 import { type AppContext, type Page, type Role, roleAtLeast, type Session } from "./app/context";
-import { forgetToken, signIn, storedToken } from "./app/signin";
+import { openPasswordDialog } from "./app/password-dialog";
+import { noticeAfterReload, signIn, signOut } from "./app/signin";
 import { bannerOf } from "./ops/alarms";
 import { setClass, setText } from "./ops/dom";
 import { alarmsPage } from "./pages/alarms";
@@ -15,17 +17,21 @@ import { modulesPage } from "./pages/modules";
 import { overviewPage } from "./pages/overview";
 import { robotPage } from "./pages/robot";
 import { schedulePage } from "./pages/schedule";
+import { systemPage } from "./pages/system";
+import { usersPage } from "./pages/users";
 import { variablesPage } from "./pages/variables";
 import { StreamClient } from "./stream/stream";
 
-const PAGES: { id: string; title: string; page: Page }[] = [
-  { id: "overview", title: "Overview", page: overviewPage },
-  { id: "modules", title: "Modules", page: modulesPage },
-  { id: "schedule", title: "Schedule", page: schedulePage },
-  { id: "jitter", title: "Jitter", page: jitterPage },
-  { id: "variables", title: "Variables", page: variablesPage },
-  { id: "robot", title: "Robot", page: robotPage },
-  { id: "alarms", title: "Alarms", page: alarmsPage },
+const ALL_PAGES: { id: string; title: string; page: Page; role: Role }[] = [
+  { id: "overview", title: "Overview", page: overviewPage, role: "viewer" },
+  { id: "modules", title: "Modules", page: modulesPage, role: "viewer" },
+  { id: "schedule", title: "Schedule", page: schedulePage, role: "viewer" },
+  { id: "jitter", title: "Jitter", page: jitterPage, role: "viewer" },
+  { id: "variables", title: "Variables", page: variablesPage, role: "viewer" },
+  { id: "robot", title: "Robot", page: robotPage, role: "viewer" },
+  { id: "alarms", title: "Alarms", page: alarmsPage, role: "viewer" },
+  { id: "users", title: "Users", page: usersPage, role: "admin" },
+  { id: "system", title: "System", page: systemPage, role: "admin" },
 ];
 
 function socketUrl(path: string): string {
@@ -34,17 +40,31 @@ function socketUrl(path: string): string {
   return u.toString();
 }
 
+let ending = false;
+/** The session ended on the agent: back to the sign-in form, which says why. */
+function sessionEnded(): void {
+  if (ending) return;
+  ending = true;
+  noticeAfterReload("Your session has ended (signed out, idle too long, or changed by an admin): sign in again.");
+  location.reload();
+}
+
 async function start(root: HTMLElement): Promise<void> {
-  const session: Session = await signIn(root, storedToken());
-  const api = makeApi(session.token);
-  const stream = new StreamClient(socketUrl("api/v1/stream"), session.token);
-  const alarms = new AlarmFeed(socketUrl("api/v1/alarms/live"), session.token);
+  watchPresence(window);
+  const session: Session = await signIn(root);
+  const api = makeApi({ csrf: session.csrf, onSignedOut: sessionEnded });
+  const stream = new StreamClient(socketUrl("api/v1/stream"));
+  const alarms = new AlarmFeed(socketUrl("api/v1/alarms/live"));
+  stream.onSignedOut = sessionEnded;
+  alarms.onSignedOut = sessionEnded;
+  const pages = ALL_PAGES.filter((p) => roleAtLeast(session.role, p.role));
   root.innerHTML = `
     <header class="bar">
       <span class="brand">indurop</span>
-      <nav>${PAGES.map((p) => `<a href="#/${p.id}" data-page="${p.id}">${p.title}</a>`).join("")}</nav>
+      <nav>${pages.map((p) => `<a href="#/${p.id}" data-page="${p.id}">${p.title}</a>`).join("")}</nav>
       <a class="alarm-banner muted" href="#/alarms" data-testid="alarm-banner" role="status"></a>
-      <span class="who" data-testid="who">${session.name} · ${session.role}</span>
+      <span class="who" data-testid="who"></span>
+      <button class="link" data-testid="change-password">password</button>
       <button class="link" data-testid="sign-out">sign out</button>
     </header>
     <main id="page"></main>
@@ -60,10 +80,18 @@ async function start(root: HTMLElement): Promise<void> {
     banner.dataset.active = String(view.counts.active);
     banner.dataset.unacknowledged = String(view.counts.unacknowledged);
   });
-  root.querySelector("[data-testid=sign-out]")!.addEventListener("click", () => {
-    forgetToken();
-    location.reload();
+  root.querySelector<HTMLElement>("[data-testid=who]")!.textContent = `${session.name} · ${session.role}`;
+  root.querySelector("[data-testid=sign-out]")!.addEventListener("click", async () => {
+    ending = true; // the 401s of pages still polling are expected now
+    try {
+      await signOut(session.csrf);
+    } finally {
+      location.reload();
+    }
   });
+  root
+    .querySelector("[data-testid=change-password]")!
+    .addEventListener("click", () => openPasswordDialog(api, session.name, (message) => ctx.notify(message)));
   const ctx: AppContext = {
     api,
     session,
@@ -78,7 +106,7 @@ async function start(root: HTMLElement): Promise<void> {
   let unmount: (() => void) | null = null;
   const route = () => {
     const id = location.hash.replace(/^#\/?/, "").split(/[/?]/)[0] || "overview";
-    const p = PAGES.find((x) => x.id === id) ?? PAGES[0];
+    const p = pages.find((x) => x.id === id) ?? pages[0];
     unmount?.();
     main.innerHTML = "";
     main.dataset.page = p.id;

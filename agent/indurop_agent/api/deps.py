@@ -1,9 +1,12 @@
 """deps.py -- what the routes depend on, as named types: the irpd clients, the caller's identity
-(role checked, brute-force lockout applied), and `audited`, which writes a mutation's audit line."""
+(a bearer token, or a browser session's cookie with its CSRF token on changes; role checked,
+brute-force lockout applied), and `audited`, which writes a mutation's audit line."""
 
 from __future__ import annotations
 
+import hmac
 from contextlib import contextmanager
+from dataclasses import replace
 from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request
@@ -11,8 +14,9 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.exceptions import HTTPException as AnyHTTPException  # FastAPI's and Starlette's (security.py's)
 
 from .. import protocol
-from ..auth import Identity, allows
+from ..auth import Identity, allows, lesser_role
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
+from ..sessions import BACKGROUND_HEADER, COOKIE, CSRF_HEADER, Session
 
 _bearer = HTTPBearer(auto_error=False)
 
@@ -36,11 +40,53 @@ def client_address(request: Request) -> str:
 
 
 class AuthFailure(Exception):
-    """A token refused: status 401 (unknown), 403 (role too low) or 429 (address locked out)."""
+    """A credential refused: status 401 (unknown token, ended session), 403 (role too low, no CSRF
+    token) or 429 (address locked out)."""
 
     def __init__(self, status: int, message: str, retry_after: int = 0):
         super().__init__(message)
         self.status, self.message, self.retry_after = status, message, retry_after
+
+
+SAFE_METHODS = ("GET", "HEAD", "OPTIONS")
+NEED_CREDENTIALS = (
+    "a bearer token is required (Authorization: Bearer <token>), or a browser session: sign in with "
+    "POST /api/v1/session"
+)
+
+
+def locked_out_message(address: str, wait: int) -> str:
+    return f"too many unknown tokens or wrong passwords from {address}; try again in {wait} s"
+
+
+def note_lockout(state, target: str, client: str, what: str, window: int, why: str) -> None:
+    """Audits a lockout that just began (of an address or a user name: `what` says which, e.g.
+    "client 10.0.0.7") and adds it to the events.  `target` may be a name a client sent: it is
+    stored as JSON data, and `what` must show it quoted (repr)."""
+    state.audit.write("lockout", who=None, client=client, target=target, result="ok", detail=f"{why} within {window} s")
+    state.events.add("lockout", f"{what} locked out for {window} s after {why}")
+
+
+def address_failed(state, address: str) -> int:
+    """Counts a failed credential (an unknown token, a wrong password) from `address`; the seconds
+    it is now locked out for (0: not)."""
+    if state.lockout.failed(address):
+        window = int(state.lockout.window_s)
+        why = f"{state.lockout.attempts} unknown tokens or wrong passwords"
+        note_lockout(state, address, address, f"client {address}", window, why)
+        return window
+    return 0
+
+
+def with_owner(state, who: Identity) -> Identity | None:
+    """A token's identity as its owner allows: its role capped by the owner's; None when the owner
+    is disabled or gone (their tokens are revoked then; this also covers a hand-edited file)."""
+    if who.user is None:
+        return who
+    owner = state.users.get(who.user)
+    if owner is None or owner.disabled:
+        return None
+    return replace(who, role=lesser_role(who.role, owner.role))
 
 
 def check_token(state, address: str, token: str, role: str) -> Identity:
@@ -48,56 +94,109 @@ def check_token(state, address: str, token: str, role: str) -> Identity:
     and locks the address out after too many (HTTP routes and the WebSocket stream alike)."""
     wait = state.lockout.retry_after(address)
     if wait:
-        raise AuthFailure(429, f"too many unknown tokens from {address}; try again in {wait} s", wait)
+        raise AuthFailure(429, locked_out_message(address, wait), wait)
     who = state.tokens.identify(token)
     if who is None:
-        if state.lockout.failed(address):
-            window = int(state.lockout.window_s)
-            state.audit.write(
-                "lockout",
-                who=None,
-                client=address,
-                target=address,
-                result="ok",
-                detail=f"{state.lockout.attempts} unknown tokens within {window} s",
-            )
-            state.events.add(
-                "lockout", f"client {address} locked out for {window} s after {state.lockout.attempts} unknown tokens"
-            )
-            raise AuthFailure(429, f"too many unknown tokens from {address}; try again in {window} s", window)
+        window = address_failed(state, address)
+        if window:
+            raise AuthFailure(429, locked_out_message(address, window), window)
         raise AuthFailure(401, "unknown token")
+    who = with_owner(state, who)
+    if who is None:
+        raise AuthFailure(401, "the token's user is disabled")
     if not allows(who.role, role):
         raise AuthFailure(403, f"this needs the {role} role; the token has {who.role}")
     return who
 
 
+def session_ended(state) -> str:
+    idle, lifetime = state.sessions.idle_s, state.sessions.lifetime_s
+    return (
+        f"the session has ended (signed out, no request for {idle / 60:g} min, or older than "
+        f"{lifetime / 3600:g} h); sign in again"
+    )
+
+
+def session_identity(state, s: Session) -> Identity | None:
+    """Who a live session is (its user's current role), or None when the user is disabled or gone."""
+    user = state.users.get(s.user)
+    if user is None or user.disabled:
+        return None
+    return Identity(s.handle, user.name, user.role, user.name, "session")
+
+
+def check_session(state, session_id: str, method: str, headers, role: str, touch: bool = True) -> Identity:
+    """The identity of a session cookie if its user has `role` or above.  A change (any method but
+    GET, HEAD, OPTIONS) must carry the session's CSRF token in the X-CSRF-Token header: another site
+    can make the browser send the cookie, never read the token.  A request counts as the user's
+    (the idle timeout starts again) unless the UI marked it as its own (X-Indurop-Background)."""
+    s = state.sessions.find(session_id)
+    who = session_identity(state, s) if s is not None else None
+    if who is None:
+        if s is not None:
+            state.sessions.end(session_id)
+        raise AuthFailure(401, session_ended(state))
+    if method not in SAFE_METHODS:
+        sent = headers.get(CSRF_HEADER)
+        if sent is None or not hmac.compare_digest(sent.encode(), s.csrf.encode()):
+            raise AuthFailure(
+                403,
+                f"a change made with the session cookie needs the session's CSRF token in the {CSRF_HEADER} header "
+                "(POST /api/v1/session and GET /api/v1/session give it)",
+            )
+    if not allows(who.role, role):
+        raise AuthFailure(403, f"this needs the {role} role; the user has {who.role}")
+    if touch and headers.get(BACKGROUND_HEADER) is None:
+        state.sessions.touch(s)
+    return who
+
+
+def identity_by_id(state, identity_id: str) -> Identity | None:
+    """The token or live session an id names (a viewer ticket's), as it may act now; None when it
+    was revoked, has ended, or its user is disabled."""
+    who = state.tokens.by_id(identity_id)
+    if who is not None:
+        return with_owner(state, who)
+    s = state.sessions.by_handle(identity_id)
+    return session_identity(state, s) if s is not None else None
+
+
+def http_failure(e: AuthFailure, clear_cookie: bool = False) -> HTTPException:
+    headers = {}
+    if e.retry_after:
+        headers["Retry-After"] = str(e.retry_after)
+    elif e.status == 401:
+        headers["WWW-Authenticate"] = "Bearer"
+    if clear_cookie:
+        headers["Set-Cookie"] = f"{COOKIE}=; Max-Age=0; Path=/; HttpOnly; SameSite=Strict"
+    return HTTPException(e.status, e.message, headers=headers or None)
+
+
 def require(role: str):
-    """A dependency that lets through a token of `role` or above (401 without one or with an
-    unknown one, 403 below the role, 429 while the client's address is locked out)."""
+    """A dependency that lets through a token, or a session, of `role` or above (401 without one or
+    with an unknown or ended one, 403 below the role or a change without the CSRF token, 429 while
+    the client's address is locked out).  A bearer token comes first: a script's request is never
+    taken for the browser's."""
 
     def check(request: Request, credentials: HTTPAuthorizationCredentials | None = Depends(_bearer)) -> Identity:
-        if credentials is None:
-            wait = request.app.state.lockout.retry_after(client_address(request))
-            if wait:
-                raise HTTPException(
-                    429,
-                    f"too many unknown tokens from {client_address(request)}; try again in {wait} s",
-                    headers={"Retry-After": str(wait)},
-                )
+        state = request.app.state
+        if credentials is not None:
+            try:
+                return check_token(state, client_address(request), credentials.credentials, role)
+            except AuthFailure as e:
+                raise http_failure(e) from e
+        session_id = request.cookies.get(COOKIE)
+        if session_id:
+            try:
+                return check_session(state, session_id, request.method, request.headers, role)
+            except AuthFailure as e:
+                raise http_failure(e, clear_cookie=e.status == 401) from e
+        wait = state.lockout.retry_after(client_address(request))
+        if wait:
             raise HTTPException(
-                401,
-                "a bearer token is required (Authorization: Bearer <token>)",
-                headers={"WWW-Authenticate": "Bearer"},
+                429, locked_out_message(client_address(request), wait), headers={"Retry-After": str(wait)}
             )
-        try:
-            return check_token(request.app.state, client_address(request), credentials.credentials, role)
-        except AuthFailure as e:
-            headers = (
-                {"Retry-After": str(e.retry_after)}
-                if e.retry_after
-                else ({"WWW-Authenticate": "Bearer"} if e.status == 401 else None)
-            )
-            raise HTTPException(e.status, e.message, headers=headers) from e
+        raise HTTPException(401, NEED_CREDENTIALS, headers={"WWW-Authenticate": "Bearer"})
 
     return check
 

@@ -8,17 +8,25 @@ Schedule, ModuleInfo, Stats, ...): they list the fields irpd sends and let any o
 
 from __future__ import annotations
 
-from typing import Any, Literal, get_origin
+from typing import Annotated, Any, Literal, get_origin
 
-from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, create_model
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, StrictBool, StrictInt, create_model, model_validator
 
 from .. import protocol
+from ..sessions import CSRF_HEADER
+from ..users import NAME_PATTERN, PASSWORD_MAX, PASSWORD_MIN, name_problem
+
+Role = Literal["viewer", "operator", "admin"]
 
 
 class Who(BaseModel):
-    id: str | None = Field(description="the token's id (first 12 hex digits of its hash); null for the agent itself")
-    name: str
+    id: str | None = Field(
+        description="the token's id (first 12 hex digits of its hash) or the session's handle; null for the agent itself"
+    )
+    name: str = Field(description="the token's name, or the signed-in user's")
     role: str | None
+    user: str | None = Field(None, description="the user behind it (a session's, a token's owner); null: the appliance")
+    via: Literal["token", "session"] | None = Field(None, description="how the request was signed in")
 
 
 class SetFile(BaseModel):
@@ -431,3 +439,284 @@ class ShelveRequest(BaseModel):
     model_config = ConfigDict(extra="forbid")
     minutes: float = Field(gt=0, le=SHELVE_MAX_MINUTES, description="how long; it comes back when the time is up")
     reason: str = Field(min_length=1, max_length=SHELVE_REASON_MAX, description="why, for the history")
+
+
+# ---- users and sessions (docs/administration.md) ----------------------------------------------------
+def _user_name(value: str) -> str:
+    problem = name_problem(value)
+    if problem:
+        raise ValueError(problem)
+    return value
+
+
+UserName = Annotated[
+    str,
+    AfterValidator(_user_name),
+    Field(json_schema_extra={"pattern": NAME_PATTERN, "minLength": 2, "maxLength": 32}),
+]
+NewPassword = Annotated[
+    str,
+    Field(
+        max_length=PASSWORD_MAX,
+        description=f"{PASSWORD_MIN} to {PASSWORD_MAX} characters, no control characters, not containing the user "
+        "name (in any case), not the present password",
+        json_schema_extra={"minLength": PASSWORD_MIN},
+    ),
+]
+
+
+class SignIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    name: str = Field(min_length=1, max_length=256, description="the user name")
+    password: str = Field(min_length=1, max_length=PASSWORD_MAX)
+
+
+class SessionState(BaseModel):
+    """The browser's session (GET /session, and the answer to a sign-in)."""
+
+    signed_in: bool
+    first_run: bool = Field(
+        description="no user exists yet: the first admin is created with the admin token the agent wrote at its "
+        "first start (POST /users, or `irpctl user add NAME --role admin`)"
+    )
+    name: str | None = None
+    role: Role | None = None
+    csrf_token: str | None = Field(
+        None, description=f"send it in the {CSRF_HEADER} header with every change (POST, PUT, PATCH, DELETE)"
+    )
+    csrf_header: str = CSRF_HEADER
+    idle_timeout_s: float = Field(description="a session without a request of its user for this long ends")
+    expires: str | None = Field(None, description="when the session ends whatever happens (ISO 8601, UTC)")
+
+
+class UserCreate(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    name: UserName
+    role: Role
+    password: NewPassword
+
+
+class UserUpdate(BaseModel):
+    """An admin's change of a user: the role, or disabled (which revokes their tokens and ends their
+    sessions) or enabled again."""
+
+    model_config = ConfigDict(extra="forbid")
+    role: Role | None = None
+    disabled: StrictBool | None = None
+
+    @model_validator(mode="after")
+    def _something(self):
+        if self.role is None and self.disabled is None:
+            raise ValueError('give "role", "disabled" or both')
+        return self
+
+
+class PasswordChange(BaseModel):
+    """A new password: a user's own (with `current_password`), or an admin's reset of another's."""
+
+    model_config = ConfigDict(extra="forbid")
+    password: NewPassword
+    current_password: str | None = Field(
+        None, max_length=PASSWORD_MAX, description="the present password: needed to change one's own"
+    )
+
+
+class UserPublic(BaseModel):
+    name: str
+    role: Role
+    disabled: bool
+    created: str
+    created_by: str | None = Field(description="who created the user (a user's name, or the token's)")
+    last_sign_in: str | None
+    password_changed: str
+    tokens: int = Field(description="the user's tokens (GET /users/{name}/tokens)")
+    sessions: int = Field(description="the user's live browser sessions")
+
+
+# ---- the System page (routes/system.py, docs/administration.md) ---------------------------------
+class AgentInfo(BaseModel):
+    version: str
+    pid: int
+    started: str = Field(description="when this agent process started (UTC)")
+    uptime_s: float
+    python: str
+    supervisor: str | None = Field(
+        description="what starts the agent again after POST /system/restart/agent: systemd, demo, or null (nothing: "
+        "the restart is refused)"
+    )
+    scheme: Literal["http", "https"]
+    host: str
+    port: int
+
+
+class IrpdInfo(BaseModel):
+    reachable: bool
+    detail: str | None = Field(None, description="why irpd does not answer")
+    version: str | None = Field(None, description="irpd's version, from its control socket's hello")
+    protocol: int | None = Field(None, description="the control protocol's version irpd speaks")
+    pid: int | None = None
+    uptime_s: float | None = Field(None, description="since irpd's process (or its last managed restart) started")
+    set_id: str | None = None
+    running: bool | None = None
+
+
+class DiskPart(BaseModel):
+    name: str = Field(description="an entry of the data folder: blobs, sets, audit.jsonl, alarms.sqlite3, ...")
+    bytes: int
+
+
+class DataFolder(BaseModel):
+    path: str
+    used_bytes: int = Field(description="allocated on disk, each file once (a set's tree shares its blobs' inodes)")
+    parts: list[DiskPart] = Field(description="by entry of the data folder, largest first")
+    complete: bool = Field(description="false: the folder has more files than are counted")
+    filesystem_bytes: int
+    free_bytes: int
+
+
+class TlsCertificate(BaseModel):
+    path: str = Field(description="the PEM file served")
+    error: str | None = Field(None, description="why it cannot be read (the other fields are then absent)")
+    fingerprint_sha256: str | None = Field(None, description="as browsers show it: AB:CD:... (32 bytes)")
+    subject: str | None = None
+    issuer: str | None = None
+    self_signed: bool | None = None
+    names: list[str] = Field([], description="the host names and addresses it is valid for")
+    not_before: str | None = None
+    not_after: str | None = None
+    days_left: int | None = Field(None, description="until not_after; negative once expired")
+
+
+class LogSources(BaseModel):
+    irpd: str | None = Field(description="where irpd's log is read from (a file, or the journal's unit); null: nowhere")
+    agent: str | None
+
+
+class SystemInfo(BaseModel):
+    agent: AgentInfo
+    irpd: IrpdInfo
+    data: DataFolder
+    tls: TlsCertificate | None = Field(description="the certificate served; null when the agent serves plain HTTP")
+    logs: LogSources
+    restore_pending: bool = Field(description="a restore is staged and is applied when the agent starts again")
+
+
+class IrpdRestartReport(BaseModel):
+    """irpd's managed restart onto the active set (docs/hot-reload.md): the same process, outputs
+    driven to safe values first."""
+
+    model_config = ConfigDict(extra="allow")
+    mode: Literal["restart"] = "restart"
+    set_id: str | None = Field(description="the set irpd runs after it")
+    pid: int | None = Field(description="irpd's pid, the same before and after")
+    downtime_ns: int | None = Field(description="from the last period before to the first after, as irpd measured it")
+    generation: int | None = None
+    expected_downtime_ns: int | None = None
+
+
+class AgentRestart(BaseModel):
+    restarting: bool
+    supervisor: str = Field(description="what starts it again: systemd or demo")
+    detail: str
+
+
+class LogLine(BaseModel):
+    log: Literal["irpd", "agent"]
+    time: str | None = Field(description="UTC, ISO 8601; null when the source gives none")
+    message: str = Field(description="the line as written (cut after 8192 characters, saying so)")
+    pid: int | None = Field(None, description="the writing process (journal only)")
+    priority: int | None = Field(None, description="syslog priority 0 (emergency) .. 7 (debug) (journal only)")
+
+
+class LogPage(BaseModel):
+    log: Literal["irpd", "agent"]
+    source: str = Field(description="where it was read: a file, or the journal's unit")
+    lines: list[LogLine] = Field(description="oldest first: the last `lines` lines that match")
+    truncated: bool = Field(description="the file is larger than what was scanned: older lines are not searched")
+
+
+class BackupArchive(BaseModel):
+    created: str | None
+    agent_version: str | None
+    host: str | None
+    with_secrets: bool
+    files: int
+    bytes: int = Field(description="the unpacked size")
+
+
+class RestoreSets(BaseModel):
+    added: list[str] = Field(description="in the backup, not stored here: added")
+    present: list[str] = Field(description="in the backup and stored here already (same content): kept")
+    kept: list[str] = Field(description="stored here only: kept (a restore deletes no set)")
+
+
+class BeforeAfterSet(BaseModel):
+    now: str | None
+    after: str | None
+
+
+class BeforeAfterCount(BaseModel):
+    now: int | None = Field(description="null: there is no such file here")
+    after: int | None
+
+
+class RestoreFile(BaseModel):
+    path: str = Field(description="in the data folder")
+    action: Literal["add", "replace"]
+    what: str
+
+
+class RestorePlan(BaseModel):
+    """What a restore does (its dry run), or did stage (then the agent restarts to apply it)."""
+
+    dry_run: bool
+    archive: BackupArchive
+    sets: RestoreSets
+    active_set: BeforeAfterSet
+    tokens: BeforeAfterCount
+    users: BeforeAfterCount
+    audit_lines: BeforeAfterCount
+    files: list[RestoreFile] = Field(description="the data folder's files the backup adds or replaces")
+    warnings: list[str]
+    restarting: bool = Field(
+        False, description="the restore is staged and the agent restarts now to apply it (false: at its next start)"
+    )
+
+
+class TlsUpload(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    certificate: str = Field(
+        min_length=1, description="PEM: the server's certificate first, then any intermediate ones"
+    )
+    key: str = Field(min_length=1, description="PEM: its private key, not encrypted")
+
+
+class TlsInstalled(BaseModel):
+    certificate: TlsCertificate
+    restarting: bool = Field(description="the agent restarts now to serve it (false: at its next start)")
+
+
+class PruneRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    keep_last: StrictInt = Field(ge=0, le=1_000_000, description="how many of the newest sets to keep")
+    dry_run: StrictBool = Field(False, description="true: only say what would be deleted")
+
+
+class PrunedSet(BaseModel):
+    id: str
+    created: str
+    by: Who | None
+    files: int
+
+
+class PrunedBlob(BaseModel):
+    sha256: str
+    size: int
+
+
+class PruneReport(BaseModel):
+    deleted: list[PrunedSet] = Field(description="the sets deleted (or, in a dry run, that would be)")
+    kept: list[str] = Field(description="the sets kept: the newest keep_last, the active set and the rollback target")
+    blobs: list[PrunedBlob] = Field(description="the stored files no kept set uses, deleted with them")
+    bytes: int = Field(description="what the deleted blobs held")
+    dry_run: bool

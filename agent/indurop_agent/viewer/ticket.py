@@ -5,8 +5,9 @@ GET /robot hands a viewer a URL with ?ticket=<expiry>.<token id>.<HMAC-SHA256>, 
 secret the agent draws at start (so a restart invalidates every ticket) and valid for
 `viewer_ticket_s` (10 min).  The proxy trades a good ticket for an HttpOnly, SameSite=Strict
 cookie of the same form (purpose "session", valid `viewer_session_s`) scoped to the viewer's path,
-and redirects to the URL without the ticket.  Every check also asks the token store: a revoked
-token's tickets and cookies stop working at once."""
+and redirects to the URL without the ticket.  The id is a token's or a browser session's handle;
+every check asks who it is now: a revoked token's, an ended session's or a disabled user's tickets
+and cookies stop working at once."""
 
 from __future__ import annotations
 
@@ -16,8 +17,9 @@ import hmac
 import re
 import secrets
 import time
+from collections.abc import Callable
 
-from ..auth import Identity, TokenStore
+from ..auth import Identity
 
 TICKET = re.compile(r"^(\d{1,12})\.([0-9a-f]{12})\.([A-Za-z0-9_-]{43})$")
 
@@ -27,10 +29,16 @@ class TicketError(Exception):
 
 
 class Tickets:
+    """identify(id): the identity a token id or session handle has now, or None (revoked, ended)."""
+
     def __init__(
-        self, tokens: TokenStore, ticket_s: float = 600.0, session_s: float = 3600.0, secret: bytes | None = None
+        self,
+        identify: Callable[[str], Identity | None],
+        ticket_s: float = 600.0,
+        session_s: float = 3600.0,
+        secret: bytes | None = None,
     ):
-        self.tokens, self.ticket_s, self.session_s = tokens, ticket_s, session_s
+        self.identify, self.ticket_s, self.session_s = identify, ticket_s, session_s
         self._secret = secret or secrets.token_bytes(32)
 
     def _sign(self, purpose: str, expires: int, token_id: str) -> str:
@@ -54,7 +62,10 @@ class Tickets:
             )
         if expires <= (time.time() if now is None else now):
             raise TicketError("the viewer ticket has expired; GET /api/v1/robot gives a fresh one")
-        entry = next((t for t in self.tokens.list() if t["id"] == token_id), None)
-        if entry is None:
-            raise TicketError("the token this viewer ticket was issued to has been revoked")
-        return Identity(token_id, entry["name"], entry["role"])
+        who = self.identify(token_id)
+        if who is None:
+            raise TicketError(
+                "the token this viewer ticket was issued to has been revoked, or the session has ended; "
+                "GET /api/v1/robot gives a fresh one"
+            )
+        return who

@@ -98,8 +98,10 @@ void run() {
 extern "C" void safe_outputs() {
     const irp::iodispat::IoConfig *config = g_config.load();
     if (!config) return;
-    // A short, fixed timeout: the devices are on a LAN, and this runs while the set is stopped.
-    const std::vector<std::string> failures = irp::iodispat::driveSafeOutputs(*config, 20.0);
+    // A short, fixed timeout: the devices are on a LAN, and this runs while the set is stopped;
+    // three attempts, so that one late answer does not leave a drive enabled.
+    const std::vector<std::string> failures =
+        irp::iodispat::driveSafeOutputs(*config, irp::iodispat::kSafeTimeoutMs, irp::iodispat::kSafeAttempts);
     if (failures.empty()) return;
     std::string all;
     for (const std::string &f : failures) all += (all.empty() ? "" : "; ") + f;

@@ -50,11 +50,18 @@ std::string drive(const DeviceConfig &d, double timeout_ms) {
 
 }  // namespace
 
-std::vector<std::string> driveSafeOutputs(const IoConfig &config, double timeout_ms) {
+std::vector<std::string> driveSafeOutputs(const IoConfig &config, double timeout_ms, int attempts) {
     std::vector<std::string> failures;
     for (const DeviceConfig &d : config.devices) {
         if (d.type != DeviceType::ModbusTcp) continue;
-        if (std::string f = drive(d, timeout_ms); !f.empty()) failures.push_back(std::move(f));
+        std::string failure;
+        for (int attempt = 1; attempt <= attempts; ++attempt) {
+            failure = drive(d, timeout_ms);
+            if (failure.empty()) break;
+        }
+        if (!failure.empty())
+            failures.push_back(failure + " (" + std::to_string(attempts) + " attempt" + (attempts == 1 ? "" : "s") +
+                               ")");
     }
     return failures;
 }

@@ -73,6 +73,8 @@ public:
         return took;
     }
     const irp::hosts::ThreadModule &module() const { return *module_; }
+    // Its safe_outputs(), as irpd's watchdog calls it when a fault stops the set.
+    irp::Status safeOutputs() { return module_->safeOutputs(); }
 
 private:
     uint32_t alarm_source_;

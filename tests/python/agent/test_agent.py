@@ -106,6 +106,10 @@ ROUTES = [
     ("GET", "/audit", "admin", None, 200),
     ("GET", "/tokens", "admin", None, 200),
     ("POST", "/tokens", "admin", {"name": "x", "role": "viewer"}, 201),
+    ("GET", "/users", "admin", None, 200),
+    ("POST", "/users", "admin", {"name": "matrix", "role": "viewer", "password": "a long password 1"}, 201),
+    ("GET", "/system", "admin", None, 200),
+    ("POST", "/sets/prune", "admin", {"keep_last": 1000, "dry_run": True}, 200),
 ]
 ROLES = ["viewer", "operator", "admin"]
 
@@ -154,6 +158,20 @@ def test_every_route_of_the_api_is_in_the_role_matrix(cell):
         ("POST", "/alarms/{key}/ack"),  # test_alarms_api.py
         ("POST", "/alarms/{key}/shelve"),
         ("POST", "/alarms/{key}/unshelve"),
+        ("POST", "/session"),  # test_users.py: sessions, and their role matrix
+        ("GET", "/session"),
+        ("DELETE", "/session"),
+        ("GET", "/users/{name}"),
+        ("PATCH", "/users/{name}"),
+        ("PUT", "/users/{name}/password"),
+        ("GET", "/users/{name}/tokens"),
+        ("POST", "/system/restart/irpd"),  # test_system_live.py
+        ("POST", "/system/restart/agent"),
+        ("GET", "/system/logs/{log}"),  # test_system_logs.py
+        ("GET", "/system/logs/{log}/follow"),
+        ("GET", "/system/backup"),  # test_system_backup.py
+        ("POST", "/system/restore"),
+        ("POST", "/system/tls"),  # test_system_tls.py
     }
     templates = {
         ("GET", "/modules/cntr1"): ("GET", "/modules/{name}"),

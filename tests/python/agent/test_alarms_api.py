@@ -223,7 +223,7 @@ def test_a_flood_is_counted_not_recorded_and_keeps_the_older_history(make_agent)
 
 def test_the_live_push_sends_a_snapshot_then_every_transition_with_the_counts(agent):
     raise_plc8(agent)
-    with agent.client.websocket_connect(f"{API}/alarms/live?token={agent.tokens['viewer']}") as ws:
+    with agent.client.websocket_connect(f"{API}/alarms/live", headers=agent.h("viewer")) as ws:
         first = ws.receive_json()
         assert [a["key"] for a in first["snapshot"]["alarms"]] == ["PLC/8"]
         assert first["snapshot"]["counts"]["unacknowledged"] == 1
@@ -241,7 +241,12 @@ def test_the_live_push_sends_a_snapshot_then_every_transition_with_the_counts(ag
 def test_the_live_push_needs_a_token(agent):
     from starlette.websockets import WebSocketDisconnect
 
-    with agent.client.websocket_connect(f"{API}/alarms/live?token=nonsense") as ws:
+    with agent.client.websocket_connect(f"{API}/alarms/live", headers={"Authorization": "Bearer nonsense"}) as ws:
         with pytest.raises(WebSocketDisconnect) as closed:
             ws.receive_json()
     assert closed.value.code == 4401
+    # a token in the URL is refused whatever it is: URLs end up in logs and browser histories
+    with agent.client.websocket_connect(f"{API}/alarms/live?token={agent.tokens['viewer']}") as ws:
+        with pytest.raises(WebSocketDisconnect) as closed:
+            ws.receive_json()
+    assert closed.value.code == 4401 and "?token= is not accepted" in closed.value.reason

@@ -10,7 +10,9 @@ front of a real irpd running the paper's Figure 1 set, attacked the ways a netwo
   many       1000 idle WebSocket connections while others are served; the connection cap
   names      traversal names in uploads (../, absolute, percent-encoded, NUL, backslash) and
              links and devices inside .tar.gz archives; traversal in URL paths
-  logs       format strings, ANSI escapes and newlines in every text that reaches a log
+  logs       format strings, ANSI escapes and newlines in every text that reaches a log, user
+             names signing in among them
+  guessing   a flood of password guesses from many addresses: the name locks, the checks queue
 
 Expected everywhere: a 4xx whose detail names what to fix, never a 5xx; nothing written outside
 the agent's data directory; irpd keeps running its set.  irpd's overruns and misses during the
@@ -109,6 +111,24 @@ NEEDS = {
     ("GET", "/tokens"): "admin",
     ("POST", "/tokens"): "admin",
     ("DELETE", "/tokens/{token_id}"): "admin",
+    ("POST", "/session"): None,
+    ("GET", "/session"): None,
+    ("DELETE", "/session"): None,
+    ("GET", "/users"): "admin",
+    ("POST", "/users"): "admin",
+    ("GET", "/users/{name}"): "viewer",  # and only one's own but for an admin (test_users.py)
+    ("PATCH", "/users/{name}"): "admin",
+    ("PUT", "/users/{name}/password"): "viewer",
+    ("GET", "/users/{name}/tokens"): "viewer",
+    ("GET", "/system"): "admin",
+    ("POST", "/system/restart/irpd"): "admin",
+    ("POST", "/system/restart/agent"): "admin",
+    ("GET", "/system/logs/{log}"): "admin",
+    ("GET", "/system/logs/{log}/follow"): "admin",
+    ("GET", "/system/backup"): "admin",
+    ("POST", "/system/restore"): "admin",
+    ("POST", "/system/tls"): "admin",
+    ("POST", "/sets/prune"): "admin",
 }
 SAMPLE = {
     "{name}": "cntr1",
@@ -116,6 +136,7 @@ SAMPLE = {
     "{set_id}": "0" * 64,
     "{token_id}": "0" * 12,
     "{key}": "PLC/8",
+    "{log}": "irpd",
 }
 
 
@@ -243,9 +264,11 @@ def test_an_unknown_token_is_refused_naming_the_problem(battery):
     assert r.status_code == 401 and "bearer token is required" in detail(r)
 
 
-def stream_closed(uri: str, first: str | None = None, sock=None) -> tuple[int, str]:
-    """The close code and reason the stream gives a client that sends `first` (or nothing)."""
-    with connect(uri, sock=sock, open_timeout=ANSWER_S, close_timeout=1) as ws:
+def stream_closed(uri: str, first: str | None = None, sock=None, token: str | None = None) -> tuple[int, str]:
+    """The close code and reason the stream gives a client that sends `first` (or nothing), with
+    `token` in its handshake's Authorization header."""
+    headers = {"Authorization": f"Bearer {token}"} if token else None
+    with connect(uri, additional_headers=headers, sock=sock, open_timeout=ANSWER_S, close_timeout=1) as ws:
         if first is not None:
             ws.send(first)
         with pytest.raises(ConnectionClosed) as closed:
@@ -267,8 +290,10 @@ def test_the_stream_refuses_a_missing_or_unknown_token(battery):
     assert code == 4401 and "token is required" in reason
     code, reason = stream_closed(ws, "%s%n{0.__class__}\x1b[2J")  # not even JSON
     assert code == 4401 and "token is required" in reason
-    code, reason = stream_closed(ws + "?token=wrong", sock=bound_socket("127.0.0.5", battery.port))
+    code, reason = stream_closed(ws, token="wrong", sock=bound_socket("127.0.0.5", battery.port))
     assert code == 4401 and reason == "unknown token"
+    code, reason = stream_closed(f"{ws}?token={battery.tokens['viewer']}")  # never in the URL, even a good one
+    assert code == 4401 and "?token= is not accepted" in reason
 
 
 def ws_refusal(uri: str) -> tuple[str, int]:
@@ -306,10 +331,11 @@ def test_guessing_tokens_locks_out_the_guessing_address_only(battery):
     assert codes == [401] * (attempts - 1) + [429] * 3, codes
     r = battery.get("/status", "admin", source=attacker)  # a correct token from there is refused too
     assert r.status_code == 429 and 0 < int(r.headers["Retry-After"]) <= LIMITS["lockout_window_s"]
-    assert f"too many unknown tokens from {attacker}" in detail(r) and "try again in" in detail(r)
+    assert f"too many unknown tokens or wrong passwords from {attacker}" in detail(r) and "try again in" in detail(r)
     code, reason = stream_closed(
-        f"ws://127.0.0.1:{battery.port}{API}/stream?token={battery.tokens['viewer']}",
+        f"ws://127.0.0.1:{battery.port}{API}/stream",
         sock=bound_socket(attacker, battery.port),
+        token=battery.tokens["viewer"],
     )
     assert code == 4429 and "try again" in reason
     assert battery.get("/status", "viewer").status_code == 200  # everybody else is served
@@ -524,7 +550,8 @@ def test_a_thousand_idle_websockets_do_not_stop_the_agent_serving_others(battery
         assert battery.get("/health", None).json()["agent"] == "ok"
         assert battery.get("/status", "viewer").status_code == 200
         with connect(
-            f"ws://127.0.0.1:{battery.port}{API}/stream?token={battery.tokens['viewer']}",
+            f"ws://127.0.0.1:{battery.port}{API}/stream",
+            additional_headers=battery.h("viewer"),
             open_timeout=ANSWER_S,
             max_size=None,
         ) as ws:
@@ -682,6 +709,60 @@ def test_hostile_text_in_token_names_is_422_naming_the_field(battery, text):
 
 
 @pytest.mark.parametrize("text", HOSTILE_TEXT, ids=repr)
+def test_hostile_user_names_are_422_naming_the_field_and_reach_the_audit_log_as_data_when_signing_in(battery, text):
+    r = battery.request("POST", "/users", json={"name": text, "role": "viewer", "password": "long enough password"})
+    assert r.status_code == 422 and r.json()["detail"][0]["loc"] == ["body", "name"], r.text
+    assert "lowercase letters" in r.json()["detail"][0]["msg"]
+    before = len(audit_lines(battery))
+    source = f"127.0.2.{HOSTILE_TEXT.index(text) + 1}"  # an address of its own: no lockout from the others
+    r = battery.request("POST", "/session", None, source=source, json={"name": text, "password": "guess"})
+    assert r.status_code == 401 and "wrong user name or password" in detail(r)
+    assert "set-cookie" not in r.headers
+    lines = audit_lines(battery)[before:]
+    assert len(lines) == 1, lines  # one line, whatever newlines the name holds
+    assert "\x1b" not in lines[0] and "\r" not in lines[0] and lines[0].isascii()
+    entry = json.loads(lines[0])
+    assert (entry["action"], entry["target"], entry["result"], entry["client"]) == ("sign_in", text, "error", source)
+
+
+def test_a_password_guessing_flood_is_slowed_locked_out_and_never_a_5xx(battery):
+    """Many addresses guessing one user's password at once: the name locks after signin_attempts,
+    at most password_hash_slots checks run at once (the others wait, or get 503), every answer is
+    401, 429 or 503, and the agent serves the others meanwhile; the user's right password is
+    refused while the name is locked, another user signs in."""
+    import concurrent.futures
+
+    passwords = {"victim": "guarded secret 1", "bystander": "another secret 22"}
+    for name, password in passwords.items():
+        r = battery.request("POST", "/users", json={"name": name, "role": "viewer", "password": password})
+        assert r.status_code == 201, r.text
+
+    def guess(i: int) -> int:  # not in battery.answers: 503 is this flood's designed answer
+        transport = httpx.HTTPTransport(local_address=f"127.0.3.{i % 50 + 1}")
+        with httpx.Client(transport=transport, timeout=ANSWER_S) as c:
+            return c.post(f"{battery.url}/session", json={"name": "victim", "password": f"guess-{i}"}).status_code
+
+    with concurrent.futures.ThreadPoolExecutor(32) as pool:
+        started = time.monotonic()
+        codes = list(pool.map(guess, range(100)))
+        assert battery.get("/status", "viewer").status_code == 200
+    assert set(codes) <= {401, 429, 503}, codes
+    assert codes.count(401) <= 5 + 32, codes  # signin_attempts, and those already checking when it locked
+    assert codes.count(429) >= 50, codes
+    r = battery.request(
+        "POST", "/session", None, source="127.0.3.200", json={"name": "victim", "password": passwords["victim"]}
+    )
+    assert r.status_code == 429 and 0 < int(r.headers["Retry-After"]) <= 300, r.text
+    r = battery.request(
+        "POST", "/session", None, source="127.0.3.201", json={"name": "bystander", "password": passwords["bystander"]}
+    )
+    assert r.status_code == 200 and r.json()["signed_in"], r.text
+    lockouts = [e for e in battery.get("/audit?limit=1000").json() if e["action"] == "lockout"]
+    assert any(e["target"] == "victim" for e in lockouts)
+    print(f"flood: {len(codes)} guesses in {time.monotonic() - started:.1f} s: {sorted(set(codes))}")
+
+
+@pytest.mark.parametrize("text", HOSTILE_TEXT, ids=repr)
 def test_hostile_text_in_variable_paths_and_module_names_is_answered_and_audited_escaped(battery, text):
     before = len(audit_lines(battery))
     quoted = urllib.parse.quote(text, safe="")
@@ -750,6 +831,8 @@ def test_after_the_battery_nothing_was_written_outside_the_data_dir_no_5xx_and_i
         "active.json",
         "active",
         "history.jsonl",
+        "users.json",
+        "sessions.json",
         "alarms.sqlite3",  # and SQLite's write-ahead log beside it
         "alarms.sqlite3-wal",
         "alarms.sqlite3-shm",

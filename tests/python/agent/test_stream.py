@@ -59,9 +59,13 @@ def cell(tmp_path):
     stop(state["irpd"])
 
 
+def bearer(token: str) -> dict:
+    return {"Authorization": f"Bearer {token}"}
+
+
 def open_stream(cell, token=True, sock=None):
-    uri = cell["ws"] + (f"?token={cell['viewer']}" if token else "")
-    return connect(uri, sock=sock, max_size=None, open_timeout=10, close_timeout=1)
+    headers = bearer(cell["viewer"]) if token else None
+    return connect(cell["ws"], additional_headers=headers, sock=sock, max_size=None, open_timeout=10, close_timeout=1)
 
 
 def subscribe(ws, paths, decimation=1, stats=False) -> dict:
@@ -155,7 +159,7 @@ class RawStream:
         key = base64.b64encode(os.urandom(16)).decode()
         self.sock.sendall(
             (
-                f"GET /api/v1/stream?token={cell['viewer']} HTTP/1.1\r\nHost: {host}:{port}\r\n"
+                f"GET /api/v1/stream HTTP/1.1\r\nHost: {host}:{port}\r\nAuthorization: Bearer {cell['viewer']}\r\n"
                 f"Upgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
                 "Sec-WebSocket-Version: 13\r\n\r\n"
             ).encode()
@@ -238,11 +242,15 @@ def test_a_slow_client_counts_exactly_what_it_lost_and_the_others_lose_nothing(c
         assert all((int(y) - int(x)) % U32 == 10 for x, y in zip(ticks, ticks[1:]))  # frames themselves are whole
 
 
-def test_a_token_is_required_in_the_query_or_the_first_message(cell):
-    with connect(cell["ws"] + "?token=not-a-token") as ws:
+def test_a_token_is_required_in_the_header_or_the_first_message_never_in_the_url(cell):
+    with connect(cell["ws"], additional_headers=bearer("not-a-token")) as ws:
         with pytest.raises(ConnectionClosed) as closed:
             ws.recv(timeout=10)
-        assert closed.value.rcvd.code == 4401
+        assert closed.value.rcvd.code == 4401 and closed.value.rcvd.reason == "unknown token"
+    with connect(cell["ws"] + f"?token={cell['viewer']}") as ws:  # a good token, in the URL
+        with pytest.raises(ConnectionClosed) as closed:
+            ws.recv(timeout=10)
+        assert closed.value.rcvd.code == 4401 and "?token= is not accepted" in closed.value.rcvd.reason
     with open_stream(cell, token=False) as ws:
         ws.send(json.dumps({"subscribe": [TICK]}))  # no token
         with pytest.raises(ConnectionClosed) as closed:
@@ -264,12 +272,14 @@ def test_a_token_is_required_in_the_query_or_the_first_message(cell):
 def test_guessing_tokens_on_the_stream_locks_the_address_out_as_on_http(cell):
     codes = []
     for _ in range(12):
-        with connect(cell["ws"] + "?token=guess", close_timeout=1) as ws:
+        with connect(cell["ws"], additional_headers=bearer("guess"), close_timeout=1) as ws:
             with pytest.raises(ConnectionClosed) as closed:
                 ws.recv(timeout=10)
             codes.append(closed.value.rcvd.code)
     assert codes[:9] == [4401] * 9 and codes[9:] == [4429] * 3, codes
-    with connect(cell["ws"] + f"?token={cell['viewer']}", close_timeout=1) as ws:  # locked out even with a good one
+    with connect(
+        cell["ws"], additional_headers=bearer(cell["viewer"]), close_timeout=1
+    ) as ws:  # locked out even with a good one
         with pytest.raises(ConnectionClosed) as closed:
             ws.recv(timeout=10)
         assert closed.value.rcvd.code == 4429 and "try again" in closed.value.rcvd.reason

@@ -17,7 +17,7 @@ import threading
 import time
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
-from urllib.parse import parse_qs, urlsplit
+from urllib.parse import urlsplit
 
 import httpx
 import pytest
@@ -93,7 +93,7 @@ def sample_frame(first_seq: int, t_ns: list[int], columns: list[list[float]], dr
 
 
 class StreamServer:
-    """Answers ?token=good-token; refuses other tokens at the handshake (403) or, for "close-me",
+    """Answers Authorization: Bearer good-token; refuses other tokens at the handshake (403) or, for "close-me",
     with a 1008 close.  After the subscription it sends the channels, three frames of four samples
     (seq 100..111, t = T0 + (seq - 100) * 100 us * decimation, tick = 10 * seq, joint[1].y = seq / 4,
     io.ready = seq odd; dropped 0, 3, 9), a frame of an unknown kind, and closes normally; a path
@@ -118,18 +118,21 @@ class StreamServer:
         self.url = f"{'https' if tls else 'http'}://127.0.0.1:{self.port}"
 
     @staticmethod
-    def token(path: str) -> str:
-        return parse_qs(urlsplit(path).query).get("token", [""])[0]
+    def token(request) -> str:
+        """The handshake's bearer token (the agent takes none from the URL)."""
+        if "token=" in urlsplit(request.path).query:
+            raise AssertionError(f"a token in the URL: {request.path}")
+        return request.headers.get("Authorization", "").removeprefix("Bearer ")
 
     def check(self, connection, request):
         if urlsplit(request.path).path != "/api/v1/stream":
             return connection.respond(404, '{"detail": "Not Found"}')
-        if self.token(request.path) not in (GOOD_TOKEN, "close-me"):
+        if self.token(request) not in (GOOD_TOKEN, "close-me"):
             return connection.respond(403, '{"detail": "unknown token"}')
         return None
 
     async def handle(self, ws):
-        if self.token(ws.request.path) == "close-me":
+        if self.token(ws.request) == "close-me":
             await ws.close(1008, "unknown token")
             return
         sub = json.loads(await ws.recv())

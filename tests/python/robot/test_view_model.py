@@ -237,7 +237,7 @@ def test_a_variable_must_be_a_scalar_of_the_layout(path, words):
 def tickets(tmp_path):
     tokens = TokenStore(tmp_path)
     _, viewer = tokens.add("hmi", "viewer")
-    return Tickets(tokens, ticket_s=600, session_s=3600), tokens, viewer
+    return Tickets(tokens.by_id, ticket_s=600, session_s=3600), tokens, viewer
 
 
 def test_a_ticket_opens_the_view_for_its_token_until_it_expires(tickets):
@@ -275,7 +275,7 @@ def test_a_ticket_is_not_a_session_cookie_nor_the_other_way_round(tickets):
 
 def test_another_agents_tickets_and_a_revoked_tokens_are_refused(tickets):
     t, tokens, viewer = tickets
-    other = Tickets(tokens)  # a restarted agent draws a new secret
+    other = Tickets(tokens.by_id)  # a restarted agent draws a new secret
     with pytest.raises(TicketError, match="signature"):
         other.check(t.issue(viewer))
     ticket = t.issue(viewer)

@@ -171,7 +171,7 @@ export interface paths {
         };
         /**
          * Me
-         * @description Who the token is: its id, name and role (what a UI shows as editable).
+         * @description Who the caller is: the token's (or session's) id, name and role (what a UI shows as editable).
          */
         get: operations["me_api_v1_auth_me_get"];
         put?: never;
@@ -440,6 +440,37 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/session": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get Session
+         * @description Who the browser is signed in as, with the CSRF token; or signed_in false (and first_run when
+         *     no user exists yet).  Needs no credentials.
+         */
+        get: operations["get_session_api_v1_session_get"];
+        put?: never;
+        /**
+         * Sign In
+         * @description Signs in with a name and a password: a new session (never the one the browser had: its
+         *     cookie, if any, is ended), the cookie, and the CSRF token to send with every change.
+         */
+        post: operations["sign_in_api_v1_session_post"];
+        /**
+         * Sign Out
+         * @description Signs out: the session ends on the server (its cookie is refused from now on) and the
+         *     browser is told to forget the cookie.  Without a live session there is nothing to end.
+         */
+        delete: operations["sign_out_api_v1_session_delete"];
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/sets": {
         parameters: {
             query?: never;
@@ -476,6 +507,27 @@ export interface paths {
         get: operations["active_set_api_v1_sets_active_get"];
         put?: never;
         post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/sets/prune": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Prune Sets
+         * @description Deletes the sets that are neither active, nor the rollback target, nor among the newest
+         *     keep_last, then the stored files (blobs) no remaining set uses; dry_run says what would go.
+         */
+        post: operations["prune_sets_api_v1_sets_prune_post"];
         delete?: never;
         options?: never;
         head?: never;
@@ -581,6 +633,176 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/system": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * System Info
+         * @description Versions and uptimes of the agent and irpd, the data folder's disk use and free space, the
+         *     TLS certificate served (fingerprint, expiry), where the logs come from.
+         */
+        get: operations["system_info_api_v1_system_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/system/backup": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Download Backup
+         * @description A backup of the data folder: the sets, the active set and history, the tokens (their hashes),
+         *     the users (without password hashes unless with_secrets), the audit log, the alarm database, the
+         *     settings kept there, the TLS certificate (its key only with_secrets); manifest.json lists every
+         *     file's size and SHA-256.
+         */
+        get: operations["download_backup_api_v1_system_backup_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/system/logs/{log}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Read Log
+         * @description The last lines of irpd's or the agent's log (journal or file), oldest first.
+         */
+        get: operations["read_log_api_v1_system_logs__log__get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/system/logs/{log}/follow": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Follow Log
+         * @description irpd's or the agent's log, live.
+         */
+        get: operations["follow_log_api_v1_system_logs__log__follow_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/system/restart/agent": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Restart Agent
+         * @description Ends the agent gracefully a moment after this answer, for its supervisor (systemd, or
+         *     packaging/demo.sh) to start it again: a few seconds without the API and the web UI.
+         */
+        post: operations["restart_agent_api_v1_system_restart_agent_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/system/restart/irpd": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Restart Irpd
+         * @description irpd's managed restart onto the active set: its outputs go to safe values, it stops, and the
+         *     same process starts again on the set (docs/hot-reload.md); answers once it runs again.
+         */
+        post: operations["restart_irpd_api_v1_system_restart_irpd_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/system/restore": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Restore Backup
+         * @description Checks a backup whole (every member's type, name, size and SHA-256 against its manifest, then
+         *     its content) and answers what restoring it replaces.  Unless dry_run, the checked backup is
+         *     staged and the agent restarts to apply it before it opens anything (the files it replaces are
+         *     kept in <data>/replaced-<time>/).
+         */
+        post: operations["restore_backup_api_v1_system_restore_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/system/tls": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Upload Tls
+         * @description Replaces the certificate and key the agent serves (their files, which must be in the data
+         *     folder, as the package has them) after checking them; the agent restarts to serve them.
+         */
+        post: operations["upload_tls_api_v1_system_tls_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/tokens": {
         parameters: {
             query?: never;
@@ -611,6 +833,94 @@ export interface paths {
         post?: never;
         /** Revoke Token */
         delete: operations["revoke_token_api_v1_tokens__token_id__delete"];
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/users": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** List Users */
+        get: operations["list_users_api_v1_users_get"];
+        put?: never;
+        /**
+         * Add User
+         * @description A new user with a role and a first password (docs/administration.md, "Passwords").  The
+         *     first admin is created this way with the admin token the agent wrote at its first start.
+         */
+        post: operations["add_user_api_v1_users_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/users/{name}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get User
+         * @description A user's record (admin, or the user themself).
+         */
+        get: operations["get_user_api_v1_users__name__get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        /**
+         * Change User
+         * @description Changes a user's role, or disables (their tokens are revoked, their sessions end) or enables
+         *     them.  The last enabled admin can be neither demoted nor disabled.
+         */
+        patch: operations["change_user_api_v1_users__name__patch"];
+        trace?: never;
+    };
+    "/api/v1/users/{name}/password": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        /**
+         * Change Password
+         * @description A user's own new password (with current_password; their other sessions end), or an admin's
+         *     reset of another user's (every session of that user ends).
+         */
+        put: operations["change_password_api_v1_users__name__password_put"];
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/users/{name}/tokens": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * User Tokens
+         * @description The tokens a user owns (admin, or the user themself); never the tokens themselves.
+         */
+        get: operations["user_tokens_api_v1_users__name__tokens_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
         options?: never;
         head?: never;
         patch?: never;
@@ -723,6 +1033,48 @@ export interface components {
              */
             since: string;
             validation: components["schemas"]["Validation"];
+        };
+        /** AgentInfo */
+        AgentInfo: {
+            /** Host */
+            host: string;
+            /** Pid */
+            pid: number;
+            /** Port */
+            port: number;
+            /** Python */
+            python: string;
+            /**
+             * Scheme
+             * @enum {string}
+             */
+            scheme: "http" | "https";
+            /**
+             * Started
+             * @description when this agent process started (UTC)
+             */
+            started: string;
+            /**
+             * Supervisor
+             * @description what starts the agent again after POST /system/restart/agent: systemd, demo, or null (nothing: the restart is refused)
+             */
+            supervisor: string | null;
+            /** Uptime S */
+            uptime_s: number;
+            /** Version */
+            version: string;
+        };
+        /** AgentRestart */
+        AgentRestart: {
+            /** Detail */
+            detail: string;
+            /** Restarting */
+            restarting: boolean;
+            /**
+             * Supervisor
+             * @description what starts it again: systemd or demo
+             */
+            supervisor: string;
         };
         /** AlarmCounts */
         AlarmCounts: {
@@ -987,6 +1339,41 @@ export interface components {
             /** @description who acknowledged, shelved or unshelved it */
             who: components["schemas"]["Who"] | null;
         };
+        /** BackupArchive */
+        BackupArchive: {
+            /** Agent Version */
+            agent_version: string | null;
+            /**
+             * Bytes
+             * @description the unpacked size
+             */
+            bytes: number;
+            /** Created */
+            created: string | null;
+            /** Files */
+            files: number;
+            /** Host */
+            host: string | null;
+            /** With Secrets */
+            with_secrets: boolean;
+        };
+        /** BeforeAfterCount */
+        BeforeAfterCount: {
+            /** After */
+            after: number | null;
+            /**
+             * Now
+             * @description null: there is no such file here
+             */
+            now: number | null;
+        };
+        /** BeforeAfterSet */
+        BeforeAfterSet: {
+            /** After */
+            after: string | null;
+            /** Now */
+            now: string | null;
+        };
         /**
          * Bucket
          * @description One non-empty bucket: values in [low_ns, low_ns + width_ns).
@@ -1083,6 +1470,40 @@ export interface components {
             time: string;
         } & {
             [key: string]: unknown;
+        };
+        /** DataFolder */
+        DataFolder: {
+            /**
+             * Complete
+             * @description false: the folder has more files than are counted
+             */
+            complete: boolean;
+            /** Filesystem Bytes */
+            filesystem_bytes: number;
+            /** Free Bytes */
+            free_bytes: number;
+            /**
+             * Parts
+             * @description by entry of the data folder, largest first
+             */
+            parts: components["schemas"]["DiskPart"][];
+            /** Path */
+            path: string;
+            /**
+             * Used Bytes
+             * @description allocated on disk, each file once (a set's tree shares its blobs' inodes)
+             */
+            used_bytes: number;
+        };
+        /** DiskPart */
+        DiskPart: {
+            /** Bytes */
+            bytes: number;
+            /**
+             * Name
+             * @description an entry of the data folder: blobs, sets, audit.jsonl, alarms.sqlite3, ...
+             */
+            name: string;
         };
         /**
          * ErrorBody
@@ -1329,6 +1750,71 @@ export interface components {
              */
             load_avg: number[];
         };
+        /** IrpdInfo */
+        IrpdInfo: {
+            /**
+             * Detail
+             * @description why irpd does not answer
+             */
+            detail?: string | null;
+            /** Pid */
+            pid?: number | null;
+            /**
+             * Protocol
+             * @description the control protocol's version irpd speaks
+             */
+            protocol?: number | null;
+            /** Reachable */
+            reachable: boolean;
+            /** Running */
+            running?: boolean | null;
+            /** Set Id */
+            set_id?: string | null;
+            /**
+             * Uptime S
+             * @description since irpd's process (or its last managed restart) started
+             */
+            uptime_s?: number | null;
+            /**
+             * Version
+             * @description irpd's version, from its control socket's hello
+             */
+            version?: string | null;
+        };
+        /**
+         * IrpdRestartReport
+         * @description irpd's managed restart onto the active set (docs/hot-reload.md): the same process, outputs
+         *     driven to safe values first.
+         */
+        IrpdRestartReport: {
+            /**
+             * Downtime Ns
+             * @description from the last period before to the first after, as irpd measured it
+             */
+            downtime_ns: number | null;
+            /** Expected Downtime Ns */
+            expected_downtime_ns?: number | null;
+            /** Generation */
+            generation?: number | null;
+            /**
+             * Mode
+             * @default restart
+             * @constant
+             */
+            mode: "restart";
+            /**
+             * Pid
+             * @description irpd's pid, the same before and after
+             */
+            pid: number | null;
+            /**
+             * Set Id
+             * @description the set irpd runs after it
+             */
+            set_id: string | null;
+        } & {
+            [key: string]: unknown;
+        };
         /** JointMap */
         JointMap: {
             /**
@@ -1416,6 +1902,67 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
+        /** LogLine */
+        LogLine: {
+            /**
+             * Log
+             * @enum {string}
+             */
+            log: "irpd" | "agent";
+            /**
+             * Message
+             * @description the line as written (cut after 8192 characters, saying so)
+             */
+            message: string;
+            /**
+             * Pid
+             * @description the writing process (journal only)
+             */
+            pid?: number | null;
+            /**
+             * Priority
+             * @description syslog priority 0 (emergency) .. 7 (debug) (journal only)
+             */
+            priority?: number | null;
+            /**
+             * Time
+             * @description UTC, ISO 8601; null when the source gives none
+             */
+            time: string | null;
+        };
+        /** LogPage */
+        LogPage: {
+            /**
+             * Lines
+             * @description oldest first: the last `lines` lines that match
+             */
+            lines: components["schemas"]["LogLine"][];
+            /**
+             * Log
+             * @enum {string}
+             */
+            log: "irpd" | "agent";
+            /**
+             * Source
+             * @description where it was read: a file, or the journal's unit
+             */
+            source: string;
+            /**
+             * Truncated
+             * @description the file is larger than what was scanned: older lines are not searched
+             */
+            truncated: boolean;
+        };
+        /** LogSources */
+        LogSources: {
+            /** Agent */
+            agent: string | null;
+            /**
+             * Irpd
+             * @description where irpd's log is read from (a file, or the journal's unit); null: nowhere
+             */
+            irpd: string | null;
+        };
         /** Me */
         Me: {
             /** Id */
@@ -1427,6 +1974,17 @@ export interface components {
              * @enum {string}
              */
             role: "viewer" | "operator" | "admin";
+            /**
+             * User
+             * @description the signed-in user, or the token's owner
+             */
+            user?: string | null;
+            /**
+             * Via
+             * @default token
+             * @enum {string}
+             */
+            via: "token" | "session";
         };
         /**
          * ModuleChange
@@ -1578,6 +2136,22 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
+        /**
+         * PasswordChange
+         * @description A new password: a user's own (with `current_password`), or an admin's reset of another's.
+         */
+        PasswordChange: {
+            /**
+             * Current Password
+             * @description the present password: needed to change one's own
+             */
+            current_password?: string | null;
+            /**
+             * Password
+             * @description 12 to 1024 characters, no control characters, not containing the user name (in any case), not the present password
+             */
+            password: string;
+        };
         /** PatchReport */
         PatchReport: {
             /** Basic Period Ns */
@@ -1726,6 +2300,62 @@ export interface components {
             /** Threads */
             threads: number;
         };
+        /** PruneReport */
+        PruneReport: {
+            /**
+             * Blobs
+             * @description the stored files no kept set uses, deleted with them
+             */
+            blobs: components["schemas"]["PrunedBlob"][];
+            /**
+             * Bytes
+             * @description what the deleted blobs held
+             */
+            bytes: number;
+            /**
+             * Deleted
+             * @description the sets deleted (or, in a dry run, that would be)
+             */
+            deleted: components["schemas"]["PrunedSet"][];
+            /** Dry Run */
+            dry_run: boolean;
+            /**
+             * Kept
+             * @description the sets kept: the newest keep_last, the active set and the rollback target
+             */
+            kept: string[];
+        };
+        /** PruneRequest */
+        PruneRequest: {
+            /**
+             * Dry Run
+             * @description true: only say what would be deleted
+             * @default false
+             */
+            dry_run: boolean;
+            /**
+             * Keep Last
+             * @description how many of the newest sets to keep
+             */
+            keep_last: number;
+        };
+        /** PrunedBlob */
+        PrunedBlob: {
+            /** Sha256 */
+            sha256: string;
+            /** Size */
+            size: number;
+        };
+        /** PrunedSet */
+        PrunedSet: {
+            by: components["schemas"]["Who"] | null;
+            /** Created */
+            created: string;
+            /** Files */
+            files: number;
+            /** Id */
+            id: string;
+        };
         /**
          * RestartNeed
          * @description Why only a restart can run the set.
@@ -1743,6 +2373,66 @@ export interface components {
             reason: string;
         } & {
             [key: string]: unknown;
+        };
+        /** RestoreFile */
+        RestoreFile: {
+            /**
+             * Action
+             * @enum {string}
+             */
+            action: "add" | "replace";
+            /**
+             * Path
+             * @description in the data folder
+             */
+            path: string;
+            /** What */
+            what: string;
+        };
+        /**
+         * RestorePlan
+         * @description What a restore does (its dry run), or did stage (then the agent restarts to apply it).
+         */
+        RestorePlan: {
+            active_set: components["schemas"]["BeforeAfterSet"];
+            archive: components["schemas"]["BackupArchive"];
+            audit_lines: components["schemas"]["BeforeAfterCount"];
+            /** Dry Run */
+            dry_run: boolean;
+            /**
+             * Files
+             * @description the data folder's files the backup adds or replaces
+             */
+            files: components["schemas"]["RestoreFile"][];
+            /**
+             * Restarting
+             * @description the restore is staged and the agent restarts now to apply it (false: at its next start)
+             * @default false
+             */
+            restarting: boolean;
+            sets: components["schemas"]["RestoreSets"];
+            tokens: components["schemas"]["BeforeAfterCount"];
+            users: components["schemas"]["BeforeAfterCount"];
+            /** Warnings */
+            warnings: string[];
+        };
+        /** RestoreSets */
+        RestoreSets: {
+            /**
+             * Added
+             * @description in the backup, not stored here: added
+             */
+            added: string[];
+            /**
+             * Kept
+             * @description stored here only: kept (a restore deletes no set)
+             */
+            kept: string[];
+            /**
+             * Present
+             * @description in the backup and stored here already (same content): kept
+             */
+            present: string[];
         };
         /** RobotJoint */
         RobotJoint: {
@@ -1892,6 +2582,43 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
+        /**
+         * SessionState
+         * @description The browser's session (GET /session, and the answer to a sign-in).
+         */
+        SessionState: {
+            /**
+             * Csrf Header
+             * @default X-CSRF-Token
+             */
+            csrf_header: string;
+            /**
+             * Csrf Token
+             * @description send it in the X-CSRF-Token header with every change (POST, PUT, PATCH, DELETE)
+             */
+            csrf_token?: string | null;
+            /**
+             * Expires
+             * @description when the session ends whatever happens (ISO 8601, UTC)
+             */
+            expires?: string | null;
+            /**
+             * First Run
+             * @description no user exists yet: the first admin is created with the admin token the agent wrote at its first start (POST /users, or `irpctl user add NAME --role admin`)
+             */
+            first_run: boolean;
+            /**
+             * Idle Timeout S
+             * @description a session without a request of its user for this long ends
+             */
+            idle_timeout_s: number;
+            /** Name */
+            name?: string | null;
+            /** Role */
+            role?: ("viewer" | "operator" | "admin") | null;
+            /** Signed In */
+            signed_in: boolean;
+        };
         /** SetFile */
         SetFile: {
             /**
@@ -1979,6 +2706,16 @@ export interface components {
              * @description why, for the history
              */
             reason: string;
+        };
+        /** SignIn */
+        SignIn: {
+            /**
+             * Name
+             * @description the user name
+             */
+            name: string;
+            /** Password */
+            password: string;
         };
         /**
          * Stats
@@ -2144,6 +2881,20 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
+        /** SystemInfo */
+        SystemInfo: {
+            agent: components["schemas"]["AgentInfo"];
+            data: components["schemas"]["DataFolder"];
+            irpd: components["schemas"]["IrpdInfo"];
+            logs: components["schemas"]["LogSources"];
+            /**
+             * Restore Pending
+             * @description a restore is staged and is applied when the agent starts again
+             */
+            restore_pending: boolean;
+            /** @description the certificate served; null when the agent serves plain HTTP */
+            tls: components["schemas"]["TlsCertificate"] | null;
+        };
         /**
          * TimingRecord
          * @description A dispatcher's or a module's figures (as `irpd --stats-json`).
@@ -2202,10 +2953,76 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
+        /** TlsCertificate */
+        TlsCertificate: {
+            /**
+             * Days Left
+             * @description until not_after; negative once expired
+             */
+            days_left?: number | null;
+            /**
+             * Error
+             * @description why it cannot be read (the other fields are then absent)
+             */
+            error?: string | null;
+            /**
+             * Fingerprint Sha256
+             * @description as browsers show it: AB:CD:... (32 bytes)
+             */
+            fingerprint_sha256?: string | null;
+            /** Issuer */
+            issuer?: string | null;
+            /**
+             * Names
+             * @description the host names and addresses it is valid for
+             * @default []
+             */
+            names: string[];
+            /** Not After */
+            not_after?: string | null;
+            /** Not Before */
+            not_before?: string | null;
+            /**
+             * Path
+             * @description the PEM file served
+             */
+            path: string;
+            /** Self Signed */
+            self_signed?: boolean | null;
+            /** Subject */
+            subject?: string | null;
+        };
+        /** TlsInstalled */
+        TlsInstalled: {
+            certificate: components["schemas"]["TlsCertificate"];
+            /**
+             * Restarting
+             * @description the agent restarts now to serve it (false: at its next start)
+             */
+            restarting: boolean;
+        };
+        /** TlsUpload */
+        TlsUpload: {
+            /**
+             * Certificate
+             * @description PEM: the server's certificate first, then any intermediate ones
+             */
+            certificate: string;
+            /**
+             * Key
+             * @description PEM: its private key, not encrypted
+             */
+            key: string;
+        };
         /** TokenCreate */
         TokenCreate: {
             /** Name */
             name: string;
+            /**
+             * Owner
+             * @description the user it belongs to (default: the caller's user; none for the appliance's admin token); its role may not be above theirs
+             */
+            owner?: string | null;
             /**
              * Role
              * @enum {string}
@@ -2220,6 +3037,11 @@ export interface components {
             id: string;
             /** Name */
             name: string;
+            /**
+             * Owner
+             * @description the user it belongs to; null: the appliance
+             */
+            owner?: string | null;
             /** Role */
             role: string;
         };
@@ -2232,6 +3054,11 @@ export interface components {
             id: string;
             /** Name */
             name: string;
+            /**
+             * Owner
+             * @description the user it belongs to; null: the appliance
+             */
+            owner?: string | null;
             /** Role */
             role: string;
             /**
@@ -2239,6 +3066,65 @@ export interface components {
              * @description shown only in this answer; stored hashed
              */
             token: string;
+        };
+        /** UserCreate */
+        UserCreate: {
+            /** Name */
+            name: string;
+            /**
+             * Password
+             * @description 12 to 1024 characters, no control characters, not containing the user name (in any case), not the present password
+             */
+            password: string;
+            /**
+             * Role
+             * @enum {string}
+             */
+            role: "viewer" | "operator" | "admin";
+        };
+        /** UserPublic */
+        UserPublic: {
+            /** Created */
+            created: string;
+            /**
+             * Created By
+             * @description who created the user (a user's name, or the token's)
+             */
+            created_by: string | null;
+            /** Disabled */
+            disabled: boolean;
+            /** Last Sign In */
+            last_sign_in: string | null;
+            /** Name */
+            name: string;
+            /** Password Changed */
+            password_changed: string;
+            /**
+             * Role
+             * @enum {string}
+             */
+            role: "viewer" | "operator" | "admin";
+            /**
+             * Sessions
+             * @description the user's live browser sessions
+             */
+            sessions: number;
+            /**
+             * Tokens
+             * @description the user's tokens (GET /users/{name}/tokens)
+             */
+            tokens: number;
+        };
+        /**
+         * UserUpdate
+         * @description An admin's change of a user: the role, or disabled (which revokes their tokens and ends their
+         *     sessions) or enabled again.
+         */
+        UserUpdate: {
+            /** Disabled */
+            disabled?: boolean | null;
+            /** Role */
+            role?: ("viewer" | "operator" | "admin") | null;
         };
         /** Validation */
         Validation: {
@@ -2377,13 +3263,26 @@ export interface components {
         Who: {
             /**
              * Id
-             * @description the token's id (first 12 hex digits of its hash); null for the agent itself
+             * @description the token's id (first 12 hex digits of its hash) or the session's handle; null for the agent itself
              */
             id: string | null;
-            /** Name */
+            /**
+             * Name
+             * @description the token's name, or the signed-in user's
+             */
             name: string;
             /** Role */
             role: string | null;
+            /**
+             * User
+             * @description the user behind it (a session's, a token's owner); null: the appliance
+             */
+            user?: string | null;
+            /**
+             * Via
+             * @description how the request was signed in
+             */
+            via?: ("token" | "session") | null;
         };
     };
     responses: never;
@@ -3119,6 +4018,105 @@ export interface operations {
             };
         };
     };
+    get_session_api_v1_session_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SessionState"];
+                };
+            };
+        };
+    };
+    sign_in_api_v1_session_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["SignIn"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["SessionState"];
+                };
+            };
+            /** @description wrong name or password, or a disabled user */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+            /** @description the name or the client's address is locked out for a while (Retry-After) */
+            429: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description too many password checks at once */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    sign_out_api_v1_session_delete: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            204: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no CSRF token */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
     list_sets_api_v1_sets_get: {
         parameters: {
             query?: never;
@@ -3223,6 +4221,39 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content?: never;
+            };
+        };
+    };
+    prune_sets_api_v1_sets_prune_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["PruneRequest"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["PruneReport"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
             };
         };
     };
@@ -3413,7 +4444,7 @@ export interface operations {
             };
         };
     };
-    list_tokens_api_v1_tokens_get: {
+    system_info_api_v1_system_get: {
         parameters: {
             query?: never;
             header?: never;
@@ -3428,7 +4459,365 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
+                    "application/json": components["schemas"]["SystemInfo"];
+                };
+            };
+        };
+    };
+    download_backup_api_v1_system_backup_get: {
+        parameters: {
+            query?: {
+                /** @description also the users' password hashes and the TLS private key */
+                with_secrets?: boolean;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description the backup (.tar.gz) */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/gzip": string;
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    read_log_api_v1_system_logs__log__get: {
+        parameters: {
+            query?: {
+                /** @description at most this many lines: the newest that match */
+                lines?: number;
+                /** @description only lines holding this text (any case) */
+                grep?: string | null;
+                /** @description only lines from this time on (ISO 8601; UTC without a zone) */
+                since?: string | null;
+            };
+            header?: never;
+            path: {
+                log: "irpd" | "agent";
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["LogPage"];
+                };
+            };
+            /** @description no source for this log here */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    follow_log_api_v1_system_logs__log__follow_get: {
+        parameters: {
+            query?: {
+                /** @description at most this many lines: the newest that match */
+                lines?: number;
+                /** @description only lines holding this text (any case) */
+                grep?: string | null;
+                /** @description only lines from this time on (ISO 8601; UTC without a zone) */
+                since?: string | null;
+            };
+            header?: never;
+            path: {
+                log: "irpd" | "agent";
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description newline-delimited JSON, one LogLine a line: the last `lines` that match, then each new one as it is written, until the client closes */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/x-ndjson": components["schemas"]["LogLine"];
+                };
+            };
+            /** @description no source for this log here */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+            /** @description 8 logs are followed already */
+            429: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+        };
+    };
+    restart_agent_api_v1_system_restart_agent_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            202: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AgentRestart"];
+                };
+            };
+            /** @description nothing would start the agent again (no systemd, no demo script) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+        };
+    };
+    restart_irpd_api_v1_system_restart_irpd_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["IrpdRestartReport"];
+                };
+            };
+            /** @description irpd refused the restart, or could not start the set and came back on its old one */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description irpd does not answer (systemd restarts a dead irpd by itself) */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+        };
+    };
+    restore_backup_api_v1_system_restore_post: {
+        parameters: {
+            query?: {
+                /** @description true: check the archive and say what it would replace, change nothing */
+                dry_run?: boolean;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/gzip": string;
+                "application/octet-stream": string;
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["RestorePlan"];
+                };
+            };
+            /** @description not a backup, or an unsafe or altered one: the detail names the member */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description over max_backup_bytes or max_backup_members */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description not sent as application/gzip */
+            415: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+            /** @description no room for it on the data folder's file system */
+            507: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+        };
+    };
+    upload_tls_api_v1_system_tls_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["TlsUpload"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["TlsInstalled"];
+                };
+            };
+            /** @description not a usable pair: the detail says what (expired, another key, ...) */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description the agent serves plain HTTP, or its certificate is outside the data folder */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_tokens_api_v1_tokens_get: {
+        parameters: {
+            query?: {
+                /** @description only this user's */
+                owner?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
                     "application/json": components["schemas"]["TokenInfo"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
                 };
             };
         };
@@ -3454,6 +4843,20 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["TokenPublic"];
                 };
+            };
+            /** @description no such owner */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the owner is disabled */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
             /** @description Validation Error */
             422: {
@@ -3493,6 +4896,233 @@ export interface operations {
             };
             /** @description the last admin token */
             409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_users_api_v1_users_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["UserPublic"][];
+                };
+            };
+        };
+    };
+    add_user_api_v1_users_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["UserCreate"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["UserPublic"];
+                };
+            };
+            /** @description the name is taken */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    get_user_api_v1_users__name__get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description the user name */
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["UserPublic"];
+                };
+            };
+            /** @description no such user */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    change_user_api_v1_users__name__patch: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description the user name */
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["UserUpdate"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["UserPublic"];
+                };
+            };
+            /** @description no such user */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the last enabled admin */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    change_password_api_v1_users__name__password_put: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description the user name */
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["PasswordChange"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            204: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such user */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a password the rules refuse, or a wrong current_password */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    user_tokens_api_v1_users__name__tokens_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description the user name */
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["TokenInfo"][];
+                };
+            };
+            /** @description no such user */
+            404: {
                 headers: {
                     [name: string]: unknown;
                 };

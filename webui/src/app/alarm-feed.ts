@@ -13,11 +13,11 @@ export class AlarmFeed {
   view: AlarmView = emptyView();
   connected = false;
   error: string | null = null;
+  /** the agent closed the feed because the session has ended (4401) */
+  onSignedOut: () => void = () => {};
 
-  constructor(
-    private readonly url: string,
-    private readonly token: string,
-  ) {}
+  /** `url`: ws(s)://.../api/v1/alarms/live; the browser signs it in with the session cookie. */
+  constructor(private readonly url: string) {}
 
   /** Calls `fn` now and after every change; returns the function that stops it. */
   listen(fn: Listener): () => void {
@@ -34,7 +34,7 @@ export class AlarmFeed {
   }
 
   private connect(): void {
-    const ws = new WebSocket(`${this.url}?token=${encodeURIComponent(this.token)}`);
+    const ws = new WebSocket(this.url);
     this.ws = ws;
     ws.onmessage = (ev) => {
       if (this.ws === ws && typeof ev.data === "string") this.handle(JSON.parse(ev.data) as AlarmPush);
@@ -52,6 +52,7 @@ export class AlarmFeed {
       this.view = { ...this.view, live: false };
       this.error = ev.code >= 4000 ? `alarms: ${ev.code} ${ev.reason}` : null;
       this.emit();
+      if (ev.code === 4401 && !this.closed) this.onSignedOut();
       if (!this.closed && ev.code !== 4401 && ev.code !== 4403)
         this.retry = setTimeout(() => {
           this.retry = null;

@@ -6,10 +6,12 @@ import type { AlarmFeed } from "./alarm-feed";
 
 export type Role = "viewer" | "operator" | "admin";
 
+/** Who is signed in (the session itself is the agent's, behind an HttpOnly cookie). */
 export interface Session {
-  token: string;
   name: string;
   role: Role;
+  /** the session's CSRF token: the API client sends it with every change */
+  csrf: string;
 }
 
 export interface AppContext {

@@ -136,7 +136,7 @@ export class UploadPanel {
     this.progress.value = 0;
     setText(this.progressText, `${what}: 0 of ${formatBytes(plan.bytes)}`);
     this.cancel.hidden = false;
-    this.current = send("api/v1/sets", this.ctx.session.token, buildForm(plan), (sent, total) => {
+    this.current = send("api/v1/sets", this.ctx.session.csrf, buildForm(plan), (sent, total) => {
       const t = total || plan.bytes || 1;
       this.progress.max = t;
       this.progress.value = Math.min(sent, t);

@@ -1,7 +1,7 @@
 // upload.ts -- a set upload from the browser: the files dropped or picked (folders walked with
 // webkitGetAsEntry, keeping relative paths), the set's root found (module.xml at the top), the
 // multipart body (`files` parts named by path, or one `archive`), and the POST with progress.
-import { detailOf } from "../api/client";
+import { detailOf, sessionHeaders } from "../api/client";
 import { type Place, placeIn } from "../api/place";
 
 export interface UploadFile {
@@ -139,17 +139,18 @@ export interface UploadHandle {
   abort(): void;
 }
 
-/** POSTs `form` with XMLHttpRequest, to report upload progress (fetch cannot). */
+/** POSTs `form` with XMLHttpRequest, to report upload progress (fetch cannot); the session cookie
+ * signs it in, `csrf` is the session's CSRF token. */
 export function send(
   url: string,
-  token: string,
+  csrf: string,
   form: FormData,
   onProgress: (sent: number, total: number) => void,
 ): UploadHandle {
   const xhr = new XMLHttpRequest();
   const done = new Promise<{ status: number; body: unknown }>((resolve) => {
     xhr.open("POST", url);
-    xhr.setRequestHeader("Authorization", `Bearer ${token}`);
+    for (const [k, v] of Object.entries(sessionHeaders("POST", csrf))) xhr.setRequestHeader(k, v);
     xhr.upload.onprogress = (e) => onProgress(e.loaded, e.lengthComputable ? e.total : 0);
     const finish = () => {
       let body: unknown = xhr.responseText;

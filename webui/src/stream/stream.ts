@@ -36,10 +36,12 @@ export class StreamClient {
   private retry: ReturnType<typeof setTimeout> | null = null;
   status: StreamStatus = { connected: false, dropped: 0, discarded: 0, basicPeriodNs: null, error: null };
   onStatus: (s: StreamStatus) => void = () => {};
+  /** the agent closed the stream because the session has ended (4401) */
+  onSignedOut: () => void = () => {};
 
+  /** `url`: ws(s)://.../api/v1/stream; the browser signs it in with the session cookie. */
   constructor(
     private readonly url: string,
-    private readonly token: string,
     private readonly decimation = 1,
   ) {}
 
@@ -77,7 +79,7 @@ export class StreamClient {
   }
 
   private connect(): void {
-    const ws = new WebSocket(`${this.url}?token=${encodeURIComponent(this.token)}`);
+    const ws = new WebSocket(this.url);
     ws.binaryType = "arraybuffer";
     this.ws = ws;
     ws.onopen = () => {
@@ -92,6 +94,7 @@ export class StreamClient {
       if (this.ws !== ws) return;
       this.ws = null;
       this.setStatus({ connected: false, error: ev.code >= 4000 ? `stream closed: ${ev.code} ${ev.reason}` : null });
+      if (ev.code === 4401 && !this.closed) this.onSignedOut();
       if (!this.closed && ev.code !== 4401 && ev.code !== 4403)
         this.retry = setTimeout(() => {
           this.retry = null;

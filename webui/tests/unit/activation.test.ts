@@ -219,7 +219,7 @@ function setup(checks: Validation[]) {
         return answer({ kept: ["counter"], started: [], stopped: [], missed_periods: 0, variables: CHANGES });
       },
     },
-    session: { token: "t", name: "op", role: "operator" },
+    session: { name: "op", role: "operator", csrf: "c" },
     can: () => true,
     notify: () => {},
   } as unknown as AppContext;

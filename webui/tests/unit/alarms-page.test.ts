@@ -29,7 +29,7 @@ function mount(role: Role) {
   } as unknown as AlarmFeed;
   const ctx = {
     api: { GET: answer("GET"), POST: answer("POST") },
-    session: { token: "t", name: "op", role },
+    session: { name: "op", role, csrf: "c" },
     alarms: feed,
     can: (r: Role) => (role === "viewer" ? r === "viewer" : true),
     notify: () => {},

@@ -161,21 +161,23 @@ describe("the feed", () => {
   useFakeSocket();
 
   it("opens one socket for every listener and hands each the view", () => {
-    const feed = new AlarmFeed("ws://agent/api/v1/alarms/live", "tok en");
+    const feed = new AlarmFeed("ws://agent/api/v1/alarms/live");
     const a: string[] = [];
     const b: string[] = [];
     feed.listen((v, connected) => a.push(bannerOf(v, connected).text));
     feed.listen((v, connected) => b.push(bannerOf(v, connected).text));
     expect(FakeSocket.all.length).toBe(1);
-    expect(FakeSocket.all[0].url).toBe("ws://agent/api/v1/alarms/live?token=tok%20en");
+    expect(FakeSocket.all[0].url).toBe("ws://agent/api/v1/alarms/live"); // the session cookie signs it in
     FakeSocket.all[0].open();
     FakeSocket.all[0].text({ snapshot: snapshot([alarm("PLC/8")], counts(1, 1)) });
     expect(a.at(-1)).toBe("1 active · 1 unacknowledged");
     expect(b.at(-1)).toBe("1 active · 1 unacknowledged");
   });
 
-  it("reconnects and starts again from a snapshot; gives up on a refused token", () => {
-    const feed = new AlarmFeed("ws://agent/api/v1/alarms/live", "t");
+  it("reconnects and starts again from a snapshot; gives up when the session has ended", () => {
+    const feed = new AlarmFeed("ws://agent/api/v1/alarms/live");
+    let signedOut = 0;
+    feed.onSignedOut = () => signedOut++;
     const seen: string[] = [];
     feed.listen((v, connected) => seen.push(bannerOf(v, connected).text));
     FakeSocket.all[0].open();
@@ -187,15 +189,17 @@ describe("the feed", () => {
     FakeSocket.all[1].open();
     FakeSocket.all[1].text({ snapshot: snapshot([], counts(0, 0, 0, null)) });
     expect(seen.at(-1)).toBe("no alarms");
+    expect(signedOut).toBe(0);
     FakeSocket.all[1].drop(4401);
     vi.advanceTimersByTime(5000);
     expect(FakeSocket.all.length).toBe(2);
     expect(feed.error).toBe("alarms: 4401 gone");
+    expect(signedOut).toBe(1);
   });
 
   it("logs a message it does not know and keeps the view", () => {
     const warn = vi.spyOn(console, "warn").mockImplementation(() => {});
-    const feed = new AlarmFeed("ws://agent/api/v1/alarms/live", "t");
+    const feed = new AlarmFeed("ws://agent/api/v1/alarms/live");
     feed.listen(() => {});
     FakeSocket.all[0].text({ hello: 1 });
     expect(warn).toHaveBeenCalled();

@@ -79,7 +79,7 @@ function fakeCtx(answer: (body: { changes: unknown[]; dry_run: boolean }) => Ans
         };
       },
     },
-    session: { token: "t", name: "op", role: "operator" },
+    session: { name: "op", role: "operator", csrf: "c" },
     can: () => true,
     notify: (m: string) => notes.push(m),
   } as unknown as AppContext;

@@ -15,11 +15,11 @@ useFakeSocket();
 
 describe("StreamClient", () => {
   it("asks for the union of the listeners' paths on one socket, every sample", () => {
-    const c = new StreamClient("ws://x/api/v1/stream", "tok");
+    const c = new StreamClient("ws://x/api/v1/stream");
     c.subscribe(["a", "b"], () => {});
     expect(FakeSocket.all.length).toBe(1);
     const ws = FakeSocket.all[0];
-    expect(ws.url).toBe("ws://x/api/v1/stream?token=tok");
+    expect(ws.url).toBe("ws://x/api/v1/stream"); // the session cookie signs it in, no token in the URL
     ws.open();
     expect(ws.last).toEqual({ subscribe: ["a", "b"], decimation: 1, stats: true });
     const off = c.subscribe(["b", "c"], () => {});
@@ -30,7 +30,7 @@ describe("StreamClient", () => {
   });
 
   it("hands each listener the columns of its own paths, and keeps the agent's drop counter", () => {
-    const c = new StreamClient("ws://x", "t");
+    const c = new StreamClient("ws://x");
     const got1: Samples[] = [];
     const got2: Samples[] = [];
     c.subscribe(["a", "b"], (s) => got1.push(s));
@@ -66,7 +66,7 @@ describe("StreamClient", () => {
   });
 
   it("counts the samples of a frame it cannot hand on as discarded", () => {
-    const c = new StreamClient("ws://x", "t");
+    const c = new StreamClient("ws://x");
     const got: Samples[] = [];
     c.subscribe(["a"], (s) => got.push(s));
     const ws = FakeSocket.all[0];
@@ -91,7 +91,7 @@ describe("StreamClient", () => {
   });
 
   it("reports a refused subscription", () => {
-    const c = new StreamClient("ws://x", "t");
+    const c = new StreamClient("ws://x");
     c.subscribe(["nope"], () => {});
     const ws = FakeSocket.all[0];
     ws.open();
@@ -100,7 +100,7 @@ describe("StreamClient", () => {
   });
 
   it("reconnects once after a drop, even if a page subscribes while it waits", () => {
-    const c = new StreamClient("ws://x", "t");
+    const c = new StreamClient("ws://x");
     c.subscribe(["a"], () => {});
     FakeSocket.all[0].open();
     FakeSocket.all[0].drop();
@@ -116,12 +116,15 @@ describe("StreamClient", () => {
     expect(FakeSocket.all.length).toBe(2);
   });
 
-  it("does not reconnect after a refused token", () => {
-    const c = new StreamClient("ws://x", "t");
+  it("does not reconnect once the session has ended, and says so", () => {
+    const c = new StreamClient("ws://x");
+    let signedOut = 0;
+    c.onSignedOut = () => signedOut++;
     c.subscribe(["a"], () => {});
     FakeSocket.all[0].drop(4401);
     vi.advanceTimersByTime(5000);
     expect(FakeSocket.all.length).toBe(1);
     expect(c.status.error).toMatch(/4401/);
+    expect(signedOut).toBe(1);
   });
 });

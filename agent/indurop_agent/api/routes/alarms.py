@@ -30,7 +30,7 @@ from ..models import (
     Severity,
     ShelveRequest,
 )
-from .stream import authenticate
+from .stream import authenticate, stop_session_watch
 
 router = APIRouter(tags=["alarms"])
 
@@ -178,7 +178,8 @@ def unshelve(key: str, request: Request, manager: AlarmsDep, who: OperatorDep) -
 
 @router.websocket("/alarms/live")
 async def live(ws: WebSocket) -> None:
-    """A viewer token (?token= or a first message {"token"}), then JSON messages: first
+    """A viewer (a token in the Authorization header or a first message {"token"}, or the browser's
+    session cookie from this agent's own page), then JSON messages: first
     {"snapshot": GET /alarms}, then {"transitions": [...], "changed": [alarms], "counts"} for every
     change.  A client that falls MAX_QUEUED messages behind gets one {"snapshot", "missed"} instead."""
     await ws.accept()
@@ -227,3 +228,4 @@ async def live(ws: WebSocket) -> None:
     finally:
         stop()
         task.cancel()
+        stop_session_watch(ws)

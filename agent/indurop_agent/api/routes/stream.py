@@ -10,17 +10,20 @@ samples the client has lost so far.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import time
 from collections import deque
+from urllib.parse import urlsplit
 
 from fastapi import APIRouter, WebSocket
-from starlette.websockets import WebSocketDisconnect
+from starlette.websockets import WebSocketDisconnect, WebSocketState
 
 from ... import stream_frame
 from ...irpd_client import IrpdRefused, IrpdUnavailable
+from ...sessions import COOKIE
 from ...trace import TraceError, TraceRead, TraceRing
-from ..deps import AuthFailure, check_token
+from ..deps import AuthFailure, check_session, check_token, session_ended, session_identity
 
 router = APIRouter(tags=["stream"])
 
@@ -34,6 +37,7 @@ QUEUE_BYTES = 4 << 20  # frames waiting for one client; beyond it frames are dro
 MAX_CONTROL_MESSAGES = 64  # JSON messages waiting for one client; beyond it the client is closed
 MAX_CLIENTS = 32
 AUTH_TIMEOUT_S = 10.0
+SESSION_RECHECK_S = 2.0  # how soon a WebSocket notices that its session ended
 STATS_EVERY_S = 1.0
 RECHECK_EVERY_S = 1.0  # irpd restarted, or the traced channels changed under us
 CLOSE_UNAUTHENTICATED, CLOSE_FORBIDDEN, CLOSE_LOCKED_OUT, CLOSE_TOO_SLOW, CLOSE_BUSY = 4401, 4403, 4429, 1008, 1013
@@ -339,10 +343,65 @@ class Hub:
         task.add_done_callback(self.background.discard)
 
 
+def same_origin(headers) -> bool:
+    """The page that opened the WebSocket is one of this agent's own (its Origin names the host the
+    browser connected to).  Browsers always send Origin with a WebSocket, and send the session
+    cookie whichever site's page opens it: without this check another site could read the stream
+    in the name of whoever is signed in (cross-site WebSocket hijacking)."""
+    origin, host = headers.get("origin"), headers.get("host")
+    if not origin or not host:
+        return False
+    parts = urlsplit(origin)
+    return parts.scheme in ("http", "https") and parts.netloc.lower() == host.lower()
+
+
+async def end_with_session(ws: WebSocket, session_id: str) -> None:
+    """Closes a WebSocket signed in by a session cookie (4401) once the session ends: signed out,
+    timed out, or its user disabled."""
+    state = ws.app.state
+    while ws.client_state == WebSocketState.CONNECTED and ws.application_state == WebSocketState.CONNECTED:
+        s = state.sessions.find(session_id)
+        if s is None or session_identity(state, s) is None:
+            with contextlib.suppress(Exception):
+                await ws.close(CLOSE_UNAUTHENTICATED, session_ended(state))
+            return
+        await asyncio.sleep(SESSION_RECHECK_S)
+
+
+def stop_session_watch(ws: WebSocket) -> None:
+    """Ends the watch of authenticate() (call it when the WebSocket's handler ends)."""
+    watch = getattr(ws.state, "session_watch", None)
+    if watch is not None:
+        watch.cancel()
+
+
 async def authenticate(ws: WebSocket) -> tuple[bool, dict | None]:
-    """A viewer token from ?token= or from the first message {"token": ...}.  Returns whether the
-    client may stay, and that first message (it may carry a subscription too)."""
-    token, first = ws.query_params.get("token"), None
+    """Who may stay: a viewer's bearer token in the handshake's Authorization header, the browser's
+    session cookie (from a page of this agent's origin), or a first message {"token": ...} within
+    AUTH_TIMEOUT_S.  Returns whether the client may stay, and that first message (it may carry a
+    subscription too).  A token in the URL (?token=) is refused: URLs end up in logs and histories."""
+    state = ws.app.state
+    address = ws.client.host if ws.client else "unknown"
+    if "token" in ws.query_params:
+        await ws.close(
+            CLOSE_UNAUTHENTICATED,
+            '?token= is not accepted; send the token in the Authorization header or a first message {"token": "..."}',
+        )
+        return False, None
+    header = ws.headers.get("authorization", "")
+    token, first = (header[7:].strip() if header[:7].lower() == "bearer " else None), None
+    session_id = ws.cookies.get(COOKIE) if token is None else None
+    if session_id:
+        if not same_origin(ws.headers):
+            await ws.close(CLOSE_FORBIDDEN, "the session cookie is accepted only from this agent's own pages (Origin)")
+            return False, None
+        try:
+            check_session(state, session_id, "GET", ws.headers, "viewer", touch=False)
+        except AuthFailure as e:
+            await ws.close(CLOSE_UNAUTHENTICATED if e.status == 401 else CLOSE_FORBIDDEN, e.message)
+            return False, None
+        ws.state.session_watch = asyncio.create_task(end_with_session(ws, session_id))  # see stop_session_watch
+        return True, None
     if token is None:
         try:
             message = await asyncio.wait_for(ws.receive(), AUTH_TIMEOUT_S)
@@ -357,12 +416,13 @@ async def authenticate(ws: WebSocket) -> tuple[bool, dict | None]:
         token = first.get("token") if isinstance(first, dict) else None
         if not isinstance(token, str):
             await ws.close(
-                CLOSE_UNAUTHENTICATED, 'a viewer token is required: ?token=... or a first message {"token": "..."}'
+                CLOSE_UNAUTHENTICATED,
+                'a viewer token is required: the Authorization header, a first message {"token": "..."}, '
+                "or a browser session",
             )
             return False, None
-    address = ws.client.host if ws.client else "unknown"
     try:
-        check_token(ws.app.state, address, token, "viewer")
+        check_token(state, address, token, "viewer")
     except AuthFailure as e:
         code = {401: CLOSE_UNAUTHENTICATED, 403: CLOSE_FORBIDDEN}.get(e.status, CLOSE_LOCKED_OUT)
         await ws.close(code, e.message)
@@ -378,6 +438,7 @@ async def stream(ws: WebSocket) -> None:
         return
     hub = Hub.of(ws.app)
     if len(hub.clients) >= MAX_CLIENTS:
+        stop_session_watch(ws)
         await ws.close(CLOSE_BUSY, f"at most {MAX_CLIENTS} stream clients at once; try again later")
         return
     client = Client(ws)
@@ -409,4 +470,5 @@ async def stream(ws: WebSocket) -> None:
         pass  # the client went away (RuntimeError: receive after the pump closed it)
     finally:
         pump.cancel()
+        stop_session_watch(ws)
         await hub.remove(client)
