@@ -9,13 +9,15 @@
 - protocol/dds/bridge.schema.json is the shape of a set's dds.json: this writes it into
   agent/indurop_agent/dds/bridge_schema.py, after checking that every message type it names has
   its IDL here.
+- protocol/dds/*.idl are indurop's own types on the domain (line.idl: a controller's announcement,
+  docs/dds.md "The line"): this writes agent/indurop_agent/dds/line_types.py from them.
 
 `--check` fails, naming this command, when a written file is stale.
 
 Cyclone DDS's own idlc Python backend (`idlc -l py`) is not used: the cyclonedds wheel ships its
 backend without an idlc, and Debian's idlc 0.10.2 crashes loading the wheel's 11.x backend
-(docs/dds.md).  So this reads the small part of IDL the ROS 2 messages use — modules, structs,
-constants, sequence<>, string and the basic types — and refuses anything else, naming file and line.
+(docs/dds.md).  So this reads the small part of IDL these files use — modules, structs, constants,
+sequence<>, string, the basic types and @key — and refuses anything else, naming file and line.
 
     python3 protocol/dds/generate.py [--check]
 """
@@ -32,6 +34,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 HERE = ROOT / "protocol" / "ros2"  # the IDL files
+OWN = ROOT / "protocol" / "dds"  # indurop's own types (line.idl)
 SCHEMA = ROOT / "protocol" / "dds" / "bridge.schema.json"
 OUT = ROOT / "agent" / "indurop_agent" / "dds"
 COMMAND = "python3 protocol/dds/generate.py"
@@ -54,7 +57,7 @@ BASIC = {
     "string": "str",
 }
 
-TOKEN = re.compile(r"\s*(?:(//[^\n]*)|(#include\s+\"[^\"]+\")|(::|[{};<>=,])|([A-Za-z_][A-Za-z0-9_]*)|(-?\d+))")
+TOKEN = re.compile(r"\s*(?:(//[^\n]*)|(#include\s+\"[^\"]+\")|(::|[{};<>=,@])|([A-Za-z_][A-Za-z0-9_]*)|(-?\d+))")
 
 
 class IdlError(ValueError):
@@ -66,9 +69,10 @@ class Struct:
     scoped: str  # sensor_msgs::msg::dds_::JointState_
     fields: list[tuple[str, str]] = field(default_factory=list)  # (name, type as written, scoped)
     where: str = ""
+    keys: list[str] = field(default_factory=list)  # the members marked @key
 
 
-def tokens(path: Path):
+def tokens(path: Path, base: Path = HERE):
     """(token, line) pairs; comments and #include lines are skipped (every file is read anyway)."""
     text = path.read_text(encoding="utf-8")
     pos = 0
@@ -76,7 +80,7 @@ def tokens(path: Path):
         m = TOKEN.match(text, pos)
         if not m:
             line = text.count("\n", 0, pos) + 1
-            raise IdlError(f"{path.relative_to(HERE)}:{line}: cannot read {text[pos : pos + 20].strip()!r}")
+            raise IdlError(f"{path.relative_to(base)}:{line}: cannot read {text[pos : pos + 20].strip()!r}")
         pos = m.end()
         if m.group(1) or m.group(2):
             continue
@@ -84,9 +88,9 @@ def tokens(path: Path):
         yield (m.group(3) or m.group(4) or m.group(5)), text.count("\n", 0, start) + 1
 
 
-def parse(path: Path, structs: dict[str, Struct]) -> None:
-    toks = list(tokens(path))
-    rel = path.relative_to(HERE)
+def parse(path: Path, structs: dict[str, Struct], base: Path = HERE) -> None:
+    toks = list(tokens(path, base))
+    rel = path.relative_to(base)
     i = 0
     scope: list[str] = []
 
@@ -148,8 +152,15 @@ def parse(path: Path, structs: dict[str, Struct]) -> None:
             s = Struct("::".join([*scope, name()]), where=f"{rel}:{line}")
             expect("{")
             while toks[i][0] != "}":
+                keyed = toks[i][0] == "@"
+                if keyed:
+                    i += 1
+                    if name() != "key":
+                        raise IdlError(f"{rel}:{toks[i - 1][1]}: the only annotation this generator reads is @key")
                 t = type_name()
                 s.fields.append((name(), t))
+                if keyed:
+                    s.keys.append(s.fields[-1][0])
                 expect(";")
             i += 1
             expect(";")
@@ -177,7 +188,7 @@ def annotation(t: str, structs: dict[str, Struct]) -> str:
     return class_name(t)
 
 
-def render(structs: dict[str, Struct]) -> str:
+def render(structs: dict[str, Struct], title: str, source: str) -> str:
     names = [class_name(s) for s in structs]
     if len(set(names)) != len(names):
         raise IdlError("two structs would make the same Python class name: " + ", ".join(sorted(structs)))
@@ -196,16 +207,18 @@ def render(structs: dict[str, Struct]) -> str:
 
     for scoped in sorted(structs):
         visit(scoped)
+    keyed = any(s.keys for s in structs.values())
     out = [
-        '"""ROS 2 message types on the DDS wire, as cyclonedds IdlStruct classes.',
+        f'"""{title}, as cyclonedds IdlStruct classes.',
         "",
-        f"Generated from protocol/ros2/**/*.idl by {COMMAND}; do not edit.",
+        f"Generated from {source} by {COMMAND}; do not edit.",
         '"""',
         "",
         "from dataclasses import dataclass, field",
         "",
         "from cyclonedds.idl import IdlStruct",
         "from cyclonedds.idl import types",
+        *(["from cyclonedds.idl.annotations import key"] if keyed else []),
         "",
         "__all__ = [",
         *(f'    "{class_name(s)}",' for s in order),
@@ -231,6 +244,8 @@ def render(structs: dict[str, Struct]) -> str:
             else:
                 default = " = 0"
             out.append(f"    {fname}: {ann}{default}")
+            if fname in s.keys:
+                out.append(f'    key("{fname}")')
     return "\n".join(out) + "\n"
 
 
@@ -263,7 +278,14 @@ def generate() -> dict[Path, str]:
     structs: dict[str, Struct] = {}
     for path in sorted(HERE.rglob("*.idl")):
         parse(path, structs)
-    return {OUT / "ros2_types.py": render(structs), OUT / "bridge_schema.py": render_schema(structs)}
+    own: dict[str, Struct] = {}
+    for path in sorted(OWN.glob("*.idl")):
+        parse(path, own, OWN)
+    return {
+        OUT / "ros2_types.py": render(structs, "ROS 2 message types on the DDS wire", "protocol/ros2/**/*.idl"),
+        OUT / "bridge_schema.py": render_schema(structs),
+        OUT / "line_types.py": render(own, "indurop's own types on the DDS domain", "protocol/dds/*.idl"),
+    }
 
 
 def main() -> int:

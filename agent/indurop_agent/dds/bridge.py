@@ -11,7 +11,8 @@ Each poll (poll_ms): the rows sampled since the last poll are published — sens
 on rt/<ns>/joint_states from robot.json's joint map (position = value x scale + offset), stamped
 with the row's due time on the wall clock, and the mapped variables — then the subscriptions are
 taken and written, each topic at most max_rate_hz.  Every diagnostics period: one
-diagnostic_msgs/DiagnosticArray on rt/<ns>/diagnostics.
+diagnostic_msgs/DiagnosticArray on rt/<ns>/diagnostics.  Every line period: the controller's
+announcement on the line, and the line's view for the agent (line.py).
 
     indurop-dds-bridge --irpd-socket /run/indurop/irpd.sock [--domain-id 0] [--interface lo]
 """
@@ -38,6 +39,7 @@ from ..trace import TraceError, TraceRing
 from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config
 from . import bridge_file, ros2_types
 from .bridge_file import BRIDGE_JSON, BridgeFile, BridgeFileError, Mapping
+from .line import Line
 from .settings import BridgeSettings, cyclone_config, parse_args
 
 # ROS 2's QoS profiles (rmw_qos_profile_default, rmw_qos_profile_sensor_data).
@@ -127,6 +129,7 @@ class Bridge:
         self.next_status = 0.0
         self.next_diag = 0.0
         self.stopping = False
+        self.line = Line(self.participant, settings, self.irpd)
 
     # ---- DDS ---------------------------------------------------------------------------------
     def wire_name(self, topic: str) -> str:
@@ -425,6 +428,7 @@ class Bridge:
         if self.bridge.diagnostics and now >= self.next_diag:
             self.next_diag = now + 1.0 / self.bridge.diagnostics_hz
             self.publish_diagnostics()
+        self.line.step(now, self.status)
 
     def follow_wall_clock(self) -> None:
         """The stamps' offset from CLOCK_MONOTONIC to the wall clock, taken again only when the
@@ -441,6 +445,7 @@ class Bridge:
             time.sleep(max(0.0, period - (time.monotonic() - start)))
 
     def close(self) -> None:
+        self.line.close()
         try:
             self.irpd.request("trace", channels=[], owner=self.s.trace_owner)
         except (IrpdUnavailable, IrpdRefused):
