@@ -45,7 +45,9 @@ def line_text(view: dict, now: float | None = None) -> str:
         )
     head = f"domain {view['domain_id']} on {printable(view['interface'])}, as {printable(view['this'])} (*) sees it"
     out = [head, table(HEADERS, rows, "llllrrrll")]
-    notes = [f"{printable(c['name'])}: {printable('; '.join(c['reasons']))}" for c in view["controllers"] if c["reasons"]]
+    notes = [
+        f"{printable(c['name'])}: {printable('; '.join(c['reasons']))}" for c in view["controllers"] if c["reasons"]
+    ]
     return "\n".join(out + ([""] + notes if notes else []))
 
 

@@ -66,7 +66,9 @@ class Switch:
         self.subnet = f"10.{random.randint(64, 250)}.{random.randint(1, 254)}"
         self.switch = f"idp-{self.tag}-sw"
         self.bridge = f"br{self.tag}"
-        self.spaces = [Namespace(f"idp-{self.tag}-{i}", f"ve{self.tag}{i}", f"{self.subnet}.{i + 1}") for i in range(count)]
+        self.spaces = [
+            Namespace(f"idp-{self.tag}-{i}", f"ve{self.tag}{i}", f"{self.subnet}.{i + 1}") for i in range(count)
+        ]
         self.made: list[str] = []
 
     def create(self) -> Switch:

@@ -270,7 +270,9 @@ class Line:
         try:
             write_view(self.file, self.view())
             if self.file_problem:
-                print(f"indurop-dds-bridge: the line's view is written to {self.file} again", file=sys.stderr, flush=True)
+                print(
+                    f"indurop-dds-bridge: the line's view is written to {self.file} again", file=sys.stderr, flush=True
+                )
             self.file_problem = ""
         except OSError as e:
             if not self.file_problem:  # said once, not every period

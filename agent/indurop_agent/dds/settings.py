@@ -104,7 +104,8 @@ def parse_args(argv: list[str] | None = None) -> BridgeSettings:
     ap.add_argument("--line-period-s", type=float, help="how often the controller announces itself (default 1)")
     ap.add_argument("--line-lease-s", type=float, help="its liveliness lease on the line (default 3)")
     ap.add_argument(
-        "--line-file", help="where the line's view is written for the agent (default /run/indurop-dds/line.json; '': none)"
+        "--line-file",
+        help="where the line's view is written for the agent (default /run/indurop-dds/line.json; '': none)",
     )
     args = ap.parse_args(argv)
     values: dict = {}

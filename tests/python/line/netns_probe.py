@@ -22,7 +22,6 @@ from cyclonedds.domain import Domain, DomainParticipant  # noqa: E402
 from cyclonedds.pub import DataWriter  # noqa: E402
 from cyclonedds.sub import DataReader  # noqa: E402
 from cyclonedds.topic import Topic  # noqa: E402
-
 from indurop_agent.dds import ros2_types  # noqa: E402
 from indurop_agent.dds.bridge import QOS  # noqa: E402
 from indurop_agent.dds.settings import BridgeSettings, cyclone_config  # noqa: E402
@@ -72,7 +71,11 @@ def main(argv: list[str]) -> int:
     if kind == "joint-states":
         print(json.dumps(joint_states(domain, interface, int(argv[3]), argv[4:])))
     elif kind == "write":
-        print(json.dumps({"matched": write(domain, interface, argv[3], float(argv[4]), int(argv[5]), "--matched" in argv)}))
+        print(
+            json.dumps(
+                {"matched": write(domain, interface, argv[3], float(argv[4]), int(argv[5]), "--matched" in argv)}
+            )
+        )
     else:
         print(f"netns_probe.py: unknown {kind!r}", file=sys.stderr)
         return 2

@@ -58,7 +58,9 @@ def wait_for(node: LineNode, want: dict[str, str | None], others: list[LineNode]
     try:
         return wait_until(reached, LIMIT_S, 0.25)
     except AssertionError:
-        raise AssertionError(f"{node.name} sees {states(node)}, not {want}\n" + "\n".join(n.logs() for n in others))
+        raise AssertionError(
+            f"{node.name} sees {states(node)}, not {want}\n" + "\n".join(n.logs() for n in others)
+        ) from None
 
 
 def test_every_agent_lists_every_controller_with_its_fields(nodes):

@@ -83,7 +83,9 @@ def wait_for(node: LineNode, want: dict[str, str], everyone) -> None:
     try:
         wait_until(reached, LIMIT_S, 0.5)
     except AssertionError:
-        raise AssertionError(f"{node.name} shows {node.line()}\n" + "\n".join(n.logs() for n in everyone.values()))
+        raise AssertionError(
+            f"{node.name} shows {node.line()}\n" + "\n".join(n.logs() for n in everyone.values())
+        ) from None
 
 
 def test_joint_states_of_every_controller_come_at_the_configured_rate_with_their_names(line):

@@ -94,13 +94,19 @@ def test_a_current_view_is_sorted_with_states_and_this_controller_marked(tmp_pat
     assert oct(path.stat().st_mode & 0o777) == "0o640"
     view = read_view(path, now)
     assert view.bridge == "ok" and view.message == "" and view.this == "a" and view.domain_id == 7
-    assert [(c.name, c.state, c.this) for c in view.controllers] == [("a", "ok", True), ("b", "ok", False), ("c", "lost", False)]
+    assert [(c.name, c.state, c.this) for c in view.controllers] == [
+        ("a", "ok", True),
+        ("b", "ok", False),
+        ("c", "lost", False),
+    ]
     assert view.controllers[1].age_s == pytest.approx(2, abs=0.01)
     text = line_text(view.model_dump(), now)
     assert text.splitlines()[0] == "domain 7 on lo, as a (*) sees it"
     assert "a *" in text and "lost, last" in text and "c: lease ran out" in text
     assert "12 µs" in text and "http://10.0.0.1:8080/" in text
-    assert line_text(read_view(tmp_path / "absent.json").model_dump()).startswith("no line: the DDS bridge is not running")
+    assert line_text(read_view(tmp_path / "absent.json").model_dump()).startswith(
+        "no line: the DDS bridge is not running"
+    )
 
 
 def test_the_jitter_window_is_the_difference_of_cumulative_histograms():
@@ -122,14 +128,21 @@ def test_active_alarms_come_most_severe_first():
             {"module": "io", "declared": [{"id": 1, "severity": "low", "text": "low"}], "active": [1]},
             {
                 "module": "main",
-                "declared": [{"id": 8, "severity": "critical", "text": "x" * 500}, {"id": 9, "severity": "high", "text": "h"}],
+                "declared": [
+                    {"id": 8, "severity": "critical", "text": "x" * 500},
+                    {"id": 9, "severity": "high", "text": "h"},
+                ],
                 "active": [9, 8],
             },
             {"module": "quiet", "declared": [{"id": 2, "severity": "high", "text": "h"}], "active": []},
         ]
     }
     got = active_alarms(answer)
-    assert [(a.source, a.id, a.severity) for a in got] == [("main", 8, "critical"), ("main", 9, "high"), ("io", 1, "low")]
+    assert [(a.source, a.id, a.severity) for a in got] == [
+        ("main", 8, "critical"),
+        ("main", 9, "high"),
+        ("io", 1, "low"),
+    ]
     assert len(got[0].text) == 200
 
 
@@ -158,7 +171,6 @@ def test_bad_line_settings_are_refused_naming_the_setting(argv, words, capsys):
 
 def test_two_announcers_see_each_other_and_a_disposed_one_leaves(tmp_path):
     from cyclonedds.domain import Domain, DomainParticipant
-
     from indurop_agent.dds.settings import cyclone_config
 
     domain = 20 + os.getpid() % 30  # the line tests use 20..99 (docs/dds.md)
@@ -166,7 +178,10 @@ def test_two_announcers_see_each_other_and_a_disposed_one_leaves(tmp_path):
     lines = {}
     for name in ("a", "b"):
         settings = BridgeSettings(
-            domain_id=domain, name=name, irpd_socket=str(tmp_path / "none.sock"), line_file=str(tmp_path / f"{name}.json")
+            domain_id=domain,
+            name=name,
+            irpd_socket=str(tmp_path / "none.sock"),
+            line_file=str(tmp_path / f"{name}.json"),
         )
         lines[name] = Line(DomainParticipant(domain), settings, irpd=None)
 

@@ -74,7 +74,9 @@ export function lineRow(c: LineController): LineRow {
     alarms: c.alarms_active ? `${c.alarms_active}${top ? ` (${top.severity})` : ""}` : "0",
     alarmsTitle: c.alarms.map((a) => `${a.severity} ${a.source}/${a.id}: ${a.text}`).join("\n"),
     uptime: c.uptime_ns ? formatUptime(c.uptime_ns / 1e9) : "–",
-    seen: c.alive ? `${Math.round(c.age_s)} s ago` : `lost at ${clock(c.lost_since ?? c.last_seen)}, last seen ${clock(c.last_seen)}`,
+    seen: c.alive
+      ? `${Math.round(c.age_s)} s ago`
+      : `lost at ${clock(c.lost_since ?? c.last_seen)}, last seen ${clock(c.last_seen)}`,
     link: safeLink(c.agent_url),
   };
 }

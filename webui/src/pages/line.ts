@@ -45,7 +45,7 @@ class Row {
     setClass(this.cells[1], `state ${r.stateClass}`);
     this.cells[1].title = r.reasons;
     const texts = [r.state, r.health, r.set, r.jitter, r.alarms, r.uptime, r.seen];
-    texts.forEach((t, i) => setText(this.cells[i + 1], t));
+    for (const [i, t] of texts.entries()) setText(this.cells[i + 1], t);
     this.cells[3].title = r.setTitle;
     this.cells[5].title = r.alarmsTitle;
     if (r.link !== this.href) {
@@ -97,11 +97,11 @@ export const linePage: Page = (root, ctx) => {
       const seen = new Set<string>();
       for (const c of view.controllers) {
         seen.add(c.name);
-        let r = rows.get(c.name);
-        if (!r) rows.set(c.name, (r = new Row(c.name)));
+        const r = rows.get(c.name) ?? new Row(c.name);
+        rows.set(c.name, r);
         r.update(c);
       }
-      for (const [name, r] of rows) if (!seen.has(name)) rows.delete(name);
+      for (const name of [...rows.keys()]) if (!seen.has(name)) rows.delete(name);
       body.replaceChildren(...view.controllers.map((c) => rows.get(c.name)!.tr));
       reasons.replaceChildren(
         ...view.controllers
