@@ -98,8 +98,7 @@ export function lineNotice(view: LineView): { level: "" | "warn" | "bad"; text: 
       return { level: "warn", text: `This controller (${view.this}) does not see its own announcement yet.` };
     return { level: "", text: "" };
   }
-  const what = { off: "The DDS bridge is off", stale: "The DDS bridge stopped", unreadable: "The line cannot be read" }[
-    view.bridge
-  ];
-  return { level: view.bridge === "off" ? "warn" : "bad", text: `${what}: ${view.message}` };
+  // the agent's words say what happened and what to do
+  const text = view.message ? view.message[0].toUpperCase() + view.message.slice(1) : `The line is ${view.bridge}.`;
+  return { level: view.bridge === "off" ? "warn" : "bad", text };
 }
