@@ -43,7 +43,8 @@ class LineEntry(BaseModel):
     health_detail: str = Field(description="why: the fault's reason, irpd's error; empty when running")
     basic_period_ns: int
     jitter_p99_ns: int | None = Field(
-        description="the main dispatcher's wake-up jitter, 99th percentile over the last 10 s; null when unknown"
+        description="the main dispatcher's wake-up jitter: its wake-up latency (woke - due), 99th percentile "
+        "over the last 10 s; null when unknown"
     )
     alarms_active: int
     alarms: list[LineAlarm] = Field(description="the most severe active alarms, at most 5")

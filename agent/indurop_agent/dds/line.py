@@ -3,7 +3,8 @@ on the domain and reads every controller's announcement, its own included, for i
 
 - Announcing: indurop::line::Controller (protocol/dds/line.idl) on the topic "indurop/line", keyed
   by the controller's name, every line_period_s: the agent's URL, the running set, health, the main
-  dispatcher's wake-up jitter p99 over the last 10 s (from irpd's cumulative `histograms`), the
+  dispatcher's wake-up jitter p99 over the last 10 s (its wake-up latency, woke - due, from irpd's
+  cumulative `histograms`), the
   active alarms (irpd's `alarms`), irpd's uptime.  Reliable, transient-local, keep-last 1 (a new
   reader gets everyone's last announcement at once), liveliness AUTOMATIC with line_lease_s.  Its
   writer does not dispose an instance it unregisters by dying: a killed controller's instance is
@@ -167,7 +168,8 @@ class Line:
             return a
         dispatchers = [r for r in histograms.get("records", []) if r.get("kind") == "dispatcher"]
         if dispatchers:  # the main dispatcher first
-            buckets = dispatchers[0].get("jitter_ns", {}).get("buckets", [])
+            # wake-up latency (woke - due, never negative), not Eq. (1)'s signed start jitter
+            buckets = dispatchers[0].get("latency_ns", {}).get("buckets", [])
             value = self.jitter.add(time.monotonic(), status.get("pid"), buckets)
             a.jitter_p99_ns = -1 if value is None else value
         active = active_alarms(alarms)

@@ -1984,7 +1984,7 @@ export interface components {
             health_detail: string;
             /**
              * Jitter P99 Ns
-             * @description the main dispatcher's wake-up jitter, 99th percentile over the last 10 s; null when unknown
+             * @description the main dispatcher's wake-up jitter: its wake-up latency (woke - due), 99th percentile over the last 10 s; null when unknown
              */
             jitter_p99_ns: number | null;
             /**

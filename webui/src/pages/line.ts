@@ -13,7 +13,7 @@ const HEADERS: [string, string][] = [
   ["state", ""],
   ["health", ""],
   ["set", ""],
-  ["jitter p99", "the main dispatcher's wake-up jitter, 99th percentile over the last 10 s"],
+  ["jitter p99", "the main dispatcher's wake-up latency (woke − due), 99th percentile over the last 10 s"],
   ["alarms", "active alarms (the most severe one's severity)"],
   ["up", "irpd's uptime"],
   ["last seen", "when its last announcement arrived"],
