@@ -40,7 +40,8 @@ TOPIC = "indurop/line"
 MAX_ALARMS = 5
 JITTER_WINDOW_S = 10.0
 HEALTHS = ("running", "stopped", "fault", "irpd_unreachable")
-READ_MAX = 256  # announcements taken per period (a line is a few dozen controllers)
+READ_MAX = 256  # announcements taken per read (a line is a few dozen controllers)
+READ_S = 0.1  # how often the others' announcements are read between two of this controller's
 
 
 def writer_qos(lease_s: float) -> Qos:
@@ -122,18 +123,24 @@ class Line:
         self.layout: tuple = (None, "")  # (the segment's name, its layout hash)
         self.seq = 0
         self.next = 0.0
+        self.next_read = 0.0
         self.file = Path(settings.line_file) if settings.line_file else None
         self.file_problem = ""
 
     # ---- announcing ----------------------------------------------------------------------------
     def step(self, now: float, status: dict) -> None:
-        """Every line_period_s: announce, read the others, write the view."""
-        if now < self.next:
-            return
-        self.next = now + self.s.line_period_s
-        self.writer.write(self.announcement(status))
-        self.take(time.time())
-        self.write_file()
+        """Every line_period_s: announce, read the others, write the view; in between, every
+        READ_S, read them and write the view at once when one came, went or was lost."""
+        if now >= self.next:
+            self.next = now + self.s.line_period_s
+            self.next_read = now + READ_S
+            self.writer.write(self.announcement(status))
+            self.take(time.time())
+            self.write_file()
+        elif now >= self.next_read:
+            self.next_read = now + READ_S
+            if self.take(time.time()):
+                self.write_file()
 
     def announcement(self, status: dict) -> Controller:
         self.seq += 1
@@ -189,7 +196,9 @@ class Line:
         return self.layout[1]
 
     # ---- reading ---------------------------------------------------------------------------------
-    def take(self, now: float) -> None:
+    def take(self, now: float) -> bool:
+        """Takes what arrived; True when a controller came, went, or was lost."""
+        before = {name: e.alive for name, e in self.entries.items()}
         for sample in self.reader.take(N=READ_MAX):
             info = sample.sample_info
             handle = info.instance_handle
@@ -205,11 +214,13 @@ class Line:
                 lease = self.entries[name].lease_s
                 self.lost(name, now, f"its liveliness lease ({lease:g} s) ran out: no writer is left")
         for name, e in list(self.entries.items()):
-            if e.alive and now - e.last_seen > max(e.lease_s, 2 * e.period_s):
-                # alive for DDS (its process keeps the lease) but silent: a stuck bridge
+            if e.alive and now - e.last_seen > e.lease_s + 2 * e.period_s:
+                # alive for DDS (its process keeps the lease: Cyclone's own threads) but silent: a
+                # stuck bridge.  Later than the lease, so that a dead one is told by its lease.
                 self.lost(name, now, f"alive on DDS but silent for {now - e.last_seen:.0f} s")
             elif not e.alive and now - (e.lost_since or now) > self.s.line_forget_s:
                 self.forget(name)
+        return before != {name: e.alive for name, e in self.entries.items()}
 
     def heard(self, c: Controller, info, now: float) -> None:
         writers = self.writers.setdefault(c.name, {})
