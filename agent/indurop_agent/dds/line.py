@@ -168,21 +168,32 @@ class Line:
         else:
             a.health = "running"
         try:
-            histograms = self.irpd.request("histograms")
-            alarms = self.irpd.request("alarms")
-        except (IrpdUnavailable, IrpdRefused) as e:
+            a.jitter_p99_ns = self.jitter_p99(status)
+            active = active_alarms(self.irpd.request("alarms"))
+        except IrpdUnavailable as e:
             a.health_detail = a.health_detail or f"irpd: {e}"
             return a
-        dispatchers = [r for r in histograms.get("records", []) if r.get("kind") == "dispatcher"]
-        if dispatchers:  # the main dispatcher first
-            # wake-up latency (woke - due, never negative), not Eq. (1)'s signed start jitter
-            buckets = dispatchers[0].get("latency_ns", {}).get("buckets", [])
-            value = self.jitter.add(time.monotonic(), status.get("pid"), buckets)
-            a.jitter_p99_ns = -1 if value is None else value
-        active = active_alarms(alarms)
+        except IrpdRefused as e:
+            print(f"indurop-dds-bridge: the line: irpd refused: {e}", file=sys.stderr, flush=True)
+            return a
         a.alarms_active = len(active)
         a.alarms = active[:MAX_ALARMS]
         return a
+
+    def jitter_p99(self, status: dict) -> int:
+        """The main dispatcher's wake-up latency (woke - due, never negative; not Eq. (1)'s signed
+        start jitter) p99 over the window, or -1."""
+        try:
+            # its record only: all of them are tens of kB, asked every period
+            answer = self.irpd.request("histograms", name="dispatcher")
+        except IrpdRefused:
+            return -1  # a set with a module named so, or an irpd without it
+        dispatchers = [r for r in answer.get("records", []) if r.get("kind") == "dispatcher"]
+        if not dispatchers:
+            return -1
+        buckets = dispatchers[0].get("latency_ns", {}).get("buckets", [])
+        value = self.jitter.add(time.monotonic(), status.get("pid"), buckets)
+        return -1 if value is None else value
 
     def layout_hash(self, status: dict) -> str:
         name = (status.get("shared_memory") or {}).get("variables")
