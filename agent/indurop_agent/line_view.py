@@ -67,6 +67,7 @@ class LineFile(BaseModel):
     name: str = Field(description="the name this bridge announces")
     domain_id: int
     interface: str
+    ignored: int = Field(0, description="announcements not listed: not a controller's name, or more names than 256")
     controllers: list[LineEntry]
 
 
@@ -93,6 +94,7 @@ class LineView(BaseModel):
     interface: str | None
     age_s: float | None = Field(description="seconds since the bridge wrote the view")
     period_s: float | None
+    ignored: int = Field(0, description="announcements the bridge did not list (a bad name, or over 256 names)")
     controllers: list[LineController] = Field(description="sorted by name; empty unless bridge is ok")
 
 
@@ -169,6 +171,7 @@ def read_view(path: Path, now: float | None = None) -> LineView:
         "interface": view.interface,
         "age_s": round(age, 3),
         "period_s": view.period_s,
+        "ignored": view.ignored,
     }
     if view.format != FORMAT:
         return LineView(

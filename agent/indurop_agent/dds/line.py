@@ -34,13 +34,15 @@ from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
 from ..line_view import FORMAT, SEVERITIES, LineAlarm, LineEntry, LineFile, write_view
 from ..variables import Segment, VariableError
 from .line_types import Alarm, Controller
-from .settings import BridgeSettings
+from .settings import NAME, BridgeSettings
 
 TOPIC = "indurop/line"
 MAX_ALARMS = 5
 JITTER_WINDOW_S = 10.0
 HEALTHS = ("running", "stopped", "fault", "irpd_unreachable")
 READ_MAX = 256  # announcements taken per read (a line is a few dozen controllers)
+MAX_CONTROLLERS = 256  # listed at most; announcements of more names are ignored (counted)
+TEXT_MAX = 500  # characters kept of any announced text
 READ_S = 0.1  # how often the others' announcements are read between two of this controller's
 
 
@@ -122,6 +124,7 @@ class Line:
         self.jitter = JitterWindow()
         self.layout: tuple = (None, "")  # (the segment's name, its layout hash)
         self.seq = 0
+        self.ignored = 0  # announcements not listed: a name that is none, or one over MAX_CONTROLLERS
         self.next = 0.0
         self.next_read = 0.0
         self.file = Path(settings.line_file) if settings.line_file else None
@@ -213,8 +216,7 @@ class Line:
         for sample in self.reader.take(N=READ_MAX):
             info = sample.sample_info
             handle = info.instance_handle
-            if info.valid_data:
-                self.heard(sample, info, now)
+            if info.valid_data and self.heard(sample, info, now):
                 self.names[handle] = sample.name
             name = self.names.get(handle)
             if name is None or name not in self.entries:
@@ -233,7 +235,13 @@ class Line:
                 self.forget(name)
         return before != {name: e.alive for name, e in self.entries.items()}
 
-    def heard(self, c: Controller, info, now: float) -> None:
+    def heard(self, c: Controller, info, now: float) -> bool:
+        """Lists an announcement; False when it is ignored (any participant on the domain may write
+        anything: the names, their number and every text are bounded)."""
+        full = c.name not in self.entries and c.name != self.s.name and len(self.entries) >= MAX_CONTROLLERS
+        if full or not NAME.fullmatch(c.name):  # this controller is always listed
+            self.ignored += 1
+            return False
         writers = self.writers.setdefault(c.name, {})
         writers[info.publication_handle] = now
         lease = max(c.lease_ms / 1000.0, 0.001)
@@ -245,17 +253,20 @@ class Line:
             health, detail = "fault", f"an unknown health {c.health!r}"
         self.entries[c.name] = LineEntry(
             name=c.name,
-            agent_url=c.agent_url,
-            version=c.version,
-            set_name=c.set_name,
-            set_id=c.set_id,
-            layout_hash=c.layout_hash,
+            agent_url=c.agent_url[:TEXT_MAX],
+            version=c.version[:TEXT_MAX],
+            set_name=c.set_name[:TEXT_MAX],
+            set_id=c.set_id[:TEXT_MAX],
+            layout_hash=c.layout_hash[:TEXT_MAX],
             health=health,
-            health_detail=detail,
+            health_detail=detail[:TEXT_MAX],
             basic_period_ns=c.basic_period_ns,
             jitter_p99_ns=None if c.jitter_p99_ns < 0 else c.jitter_p99_ns,
             alarms_active=c.alarms_active,
-            alarms=[LineAlarm(source=a.source, id=a.id, severity=a.severity, text=a.text) for a in c.alarms],
+            alarms=[
+                LineAlarm(source=a.source[:TEXT_MAX], id=a.id, severity=a.severity[:TEXT_MAX], text=a.text[:TEXT_MAX])
+                for a in c.alarms[:MAX_ALARMS]
+            ],
             uptime_ns=c.uptime_ns,
             period_s=c.period_ms / 1000.0,
             lease_s=lease,
@@ -263,6 +274,7 @@ class Line:
             last_seen=now,
             duplicate=len(writers) > 1,
         )
+        return True
 
     def lost(self, name: str, now: float, reason: str) -> None:
         e = self.entries[name]
@@ -285,6 +297,7 @@ class Line:
             name=self.s.name,
             domain_id=self.s.domain_id,
             interface=self.s.interface,
+            ignored=self.ignored,
             controllers=list(self.entries.values()),
         )
 

@@ -13,6 +13,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import escape, quoteattr
 
+# A controller's name on the line (and in the diagnostics).
+NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,62}")
+
 
 @dataclass
 class BridgeSettings:
@@ -53,7 +56,7 @@ def _check(s: BridgeSettings) -> BridgeSettings:
         raise ValueError(f"namespace {s.namespace!r}: letters, digits, _ and /, starting with a letter")
     if not 0.05 <= s.poll_ms <= 1000:
         raise ValueError(f"poll_ms {s.poll_ms}: from 0.05 to 1000")
-    if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,62}", s.name):
+    if not NAME.fullmatch(s.name):
         raise ValueError(f"name {s.name!r}: 1 to 63 letters, digits, _, . and -, starting with a letter or digit")
     if s.agent_url and not re.fullmatch(r"https?://[^\s/?#]+(/[^\s]*)?", s.agent_url):
         raise ValueError(f"agent_url {s.agent_url!r}: an http:// or https:// URL, e.g. https://cell1:8443/")

@@ -205,3 +205,42 @@ def test_two_announcers_see_each_other_and_a_disposed_one_leaves(tmp_path):
         lines["a"].next = 0
         lines["a"].step(time.monotonic(), {})
         time.sleep(0.1)
+
+
+def test_hostile_announcements_are_bounded_and_counted(tmp_path):
+    """Any participant on the domain may announce anything: names that are none, more names than
+    the line lists, texts of any length."""
+    from cyclonedds.domain import Domain, DomainParticipant
+    from cyclonedds.pub import DataWriter
+    from cyclonedds.topic import Topic
+    from indurop_agent.dds.line import MAX_CONTROLLERS, TEXT_MAX, TOPIC, writer_qos
+    from indurop_agent.dds.line_types import Alarm, Controller
+    from indurop_agent.dds.settings import cyclone_config
+
+    domain = 50 + os.getpid() % 25
+    Domain(domain, cyclone_config(BridgeSettings(domain_id=domain)))
+    settings = BridgeSettings(domain_id=domain, name="a", line_file=str(tmp_path / "a.json"))
+    line = Line(DomainParticipant(domain), settings, irpd=None)
+    dp = DomainParticipant(domain)
+    w = DataWriter(dp, Topic(dp, TOPIC, Controller), writer_qos(3))
+    deadline = time.monotonic() + 30
+    while not w.get_publication_matched_status().current_count:
+        assert time.monotonic() < deadline, "the line's reader did not match"
+        time.sleep(0.05)
+    w.write(Controller(name="", health="running"))
+    w.write(Controller(name="x\n<script>", health="running"))
+    long_alarms = [Alarm(source="m", id=i, severity="high", text="t" * 5000) for i in range(50)]
+    w.write(Controller(name="big", health="weird", agent_url="u" * 10_000, alarms=long_alarms, lease_ms=3000))
+    for i in range(MAX_CONTROLLERS + 20):
+        w.write(Controller(name=f"n{i:04d}", health="running", lease_ms=3000, period_ms=1000))
+    while line.ignored < 2 + 20 + 1 or "a" not in line.entries:  # 2 bad names, 21 over the limit
+        assert time.monotonic() < deadline, (line.ignored, len(line.entries))
+        line.next = 0
+        line.step(time.monotonic(), {})
+        time.sleep(0.05)
+    assert len(line.entries) in (MAX_CONTROLLERS, MAX_CONTROLLERS + 1)  # this controller is always listed
+    big = line.entries["big"]
+    assert len(big.agent_url) == TEXT_MAX and len(big.alarms) == 5 and all(len(a.text) == TEXT_MAX for a in big.alarms)
+    assert big.health == "fault" and "unknown health" in big.health_detail
+    view = read_view(tmp_path / "a.json")
+    assert view.bridge == "ok" and view.ignored >= 23 and len(view.controllers) == len(line.entries)

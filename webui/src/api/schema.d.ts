@@ -2079,6 +2079,12 @@ export interface components {
             controllers: components["schemas"]["LineController"][];
             /** Domain Id */
             domain_id: number | null;
+            /**
+             * Ignored
+             * @description announcements the bridge did not list (a bad name, or over 256 names)
+             * @default 0
+             */
+            ignored: number;
             /** Interface */
             interface: string | null;
             /**
