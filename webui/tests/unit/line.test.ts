@@ -42,6 +42,7 @@ function view(over: Partial<LineView> = {}): LineView {
     interface: "lo",
     age_s: 0.2,
     period_s: 1,
+    ignored: 0,
     controllers: [controller({ this: true }), controller({ name: "b", state: "lost", alive: false })],
     ...over,
   };
