@@ -81,14 +81,15 @@ export function lineRow(c: LineController): LineRow {
   };
 }
 
-/** "3 controllers: 2 ok, 1 lost · domain 0 on lo" */
+/** "3 controllers: 2 ok, 1 lost · domain 0 on lo", and the announcements the bridge did not list */
 export function lineSummary(view: LineView): string {
   const n = view.controllers.length;
   const counts = (["ok", "warning", "fault", "lost"] as const)
     .map((s) => [s, view.controllers.filter((c) => c.state === s).length] as const)
     .filter(([, k]) => k > 0)
     .map(([s, k]) => `${k} ${s}`);
-  return `${n} controller${n === 1 ? "" : "s"}${counts.length ? `: ${counts.join(", ")}` : ""} · domain ${view.domain_id} on ${view.interface}`;
+  const ignored = view.ignored ? ` · ${view.ignored} announcements ignored (bad names, or more than 256)` : "";
+  return `${n} controller${n === 1 ? "" : "s"}${counts.length ? `: ${counts.join(", ")}` : ""} · domain ${view.domain_id} on ${view.interface}${ignored}`;
 }
 
 /** What the page says above the table: nothing when the bridge's view is current. */

@@ -100,6 +100,7 @@ describe("safeLink", () => {
 describe("summary and notice", () => {
   it("counts the states", () => {
     expect(lineSummary(view())).toBe("2 controllers: 1 ok, 1 lost · domain 0 on lo");
+    expect(lineSummary(view({ ignored: 3 }))).toMatch(/· 3 announcements ignored/);
   });
   it("nothing to say when the view is current and holds this controller", () => {
     expect(lineNotice(view())).toEqual({ level: "", text: "" });
