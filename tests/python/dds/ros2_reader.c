@@ -2,9 +2,11 @@
  * Debian's libddsc: the compatibility test's independent reader and writer (docs/dds.md).
  *
  *   ros2_reader read  KIND TOPIC COUNT TIMEOUT_S   prints the matched writer, then COUNT samples
- *   ros2_reader write KIND TOPIC VALUE COUNT       writes VALUE COUNT times (KIND float64, bool, int32)
+ *   ros2_reader write KIND TOPIC VALUE COUNT       writes VALUE COUNT times (KIND float64, bool, int32;
+ *                                                  cell_command: VALUE is "override,cycle_mode")
  *
- * KIND: joint_states, diagnostics, float64, bool, int32.  One JSON object per line on stdout.
+ * KIND: joint_states, diagnostics, float64, bool, int32, and the declared-type test's cell_status
+ * and cell_command (idl/cell_msgs/msg/Cell.idl).  One JSON object per line on stdout.
  * QoS: ROS 2's default (reliable, volatile, keep-last 10).  The domain and interface come from
  * CYCLONEDDS_URI, as for any Cyclone DDS program. */
 #include <dds/dds.h>
@@ -13,6 +15,7 @@
 #include <string.h>
 
 #include "builtin_interfaces/msg/Time.h"
+#include "cell_msgs/msg/Cell.h"
 #include "diagnostic_msgs/msg/DiagnosticArray.h"
 #include "sensor_msgs/msg/JointState.h"
 #include "std_msgs/msg/Bool.h"
@@ -25,6 +28,8 @@ static const dds_topic_descriptor_t *descriptor(const char *kind) {
     if (!strcmp(kind, "float64")) return &std_msgs_msg_dds__Float64__desc;
     if (!strcmp(kind, "bool")) return &std_msgs_msg_dds__Bool__desc;
     if (!strcmp(kind, "int32")) return &std_msgs_msg_dds__Int32__desc;
+    if (!strcmp(kind, "cell_status")) return &cell_msgs_msg_dds__CellStatus__desc;
+    if (!strcmp(kind, "cell_command")) return &cell_msgs_msg_dds__CellCommand__desc;
     return NULL;
 }
 
@@ -107,6 +112,17 @@ static void print_sample(const char *kind, const void *s) {
             printf("}}");
         }
         printf("]}\n");
+    } else if (!strcmp(kind, "cell_status")) {
+        const cell_msgs_msg_dds__CellStatus_ *m = s;
+        printf("{\"sec\": %d, \"nanosec\": %u, \"frame_id\": ", m->header.stamp.sec, m->header.stamp.nanosec);
+        json_string(m->header.frame_id);
+        printf(", \"cycles\": %u, \"running\": %d, \"joints\": [", m->cycles, m->running);
+        for (int i = 0; i < 6; ++i) printf("%s%.17g", i ? ", " : "", m->joints[i]);
+        printf("], \"first\": [");
+        for (uint32_t i = 0; i < m->first._length; ++i) printf("%s%.17g", i ? ", " : "", m->first._buffer[i]);
+        printf("], \"note\": ");
+        json_string(m->note);
+        printf("}\n");
     } else if (!strcmp(kind, "float64")) {
         printf("{\"data\": %.17g}\n", ((const std_msgs_msg_dds__Float64_ *)s)->data);
     } else if (!strcmp(kind, "bool")) {
@@ -167,13 +183,18 @@ int main(int argc, char **argv) {
         dds_sleepfor(DDS_MSECS(200));
         long count = atol(argv[5]);
         double value = atof(argv[4]);
+        const char *comma = strchr(argv[4], ',');
         for (long i = 0; i < count; ++i) {
             std_msgs_msg_dds__Float64_ f = {value};
             std_msgs_msg_dds__Bool_ b = {value != 0};
             std_msgs_msg_dds__Int32_ n = {(int32_t)value};
-            const void *sample = !strcmp(kind, "float64") ? (const void *)&f
-                                 : !strcmp(kind, "bool")  ? (const void *)&b
-                                                          : (const void *)&n;
+            cell_msgs_msg_dds__CellCommand_ c = {.header = {.frame_id = "peer"},
+                                                 .override = value,
+                                                 .cycle_mode = (int16_t)(comma ? atoi(comma + 1) : 0)};
+            const void *sample = !strcmp(kind, "float64")        ? (const void *)&f
+                                 : !strcmp(kind, "bool")         ? (const void *)&b
+                                 : !strcmp(kind, "cell_command") ? (const void *)&c
+                                                                 : (const void *)&n;
             dds_write(writer, sample);
         }
         dds_sleepfor(DDS_MSECS(300)); /* reliable: let the last samples arrive */
