@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication
-from cyclonedds.core import Policy, Qos
+from cyclonedds.core import DDSException, Policy, Qos
 from cyclonedds.domain import Domain, DomainParticipant
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
@@ -522,7 +522,17 @@ def module_writes(module_xml: Path) -> dict[str, list[str]]:
 
 def main(argv: list[str] | None = None) -> int:
     settings = parse_args(argv)
-    bridge = Bridge(settings)
+    try:
+        bridge = Bridge(settings)
+    except DDSException as e:
+        why = f"Cyclone DDS refused its configuration: {e}"
+        if settings.security:
+            why += (
+                "; DDS Security is configured, and the cyclonedds wheel's libddsc is built without it "
+                '(docs/dds.md "Security"): the bridge does not run unsecured instead'
+            )
+        print(f"indurop-dds-bridge: {why}", file=sys.stderr, flush=True)
+        return 2
     signal.signal(signal.SIGTERM, lambda *_: setattr(bridge, "stopping", True))
     signal.signal(signal.SIGINT, lambda *_: setattr(bridge, "stopping", True))
     print(
