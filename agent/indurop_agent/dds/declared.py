@@ -332,10 +332,14 @@ def _compile_field(defs, f: Field, spec, path: str, leaves: list[Leaf]):
     if not isinstance(spec, list):
         raise DeclarationError(f"{what} takes a list of variables, one per element")
     if f.container == "array" and len(spec) != f.size:
-        raise DeclarationError(f"{what} maps {len(spec)} variables; it has {f.size} elements: map each once")
+        raise DeclarationError(f"{what} maps {_count(spec)}; it has {f.size} elements: map each once")
     if f.size and len(spec) > f.size:
-        raise DeclarationError(f"{what} maps {len(spec)} variables; it holds at most {f.size}")
+        raise DeclarationError(f"{what} maps {_count(spec)}; it holds at most {f.size}")
     return ("list", tuple(_leaf(f.basic, f"{path}[{i}]", v, leaves) for i, v in enumerate(spec)))
+
+
+def _count(variables: list) -> str:
+    return f"{len(variables)} variable" + ("" if len(variables) == 1 else "s")
 
 
 def _leaf(basic: str, path: str, variable: str, leaves: list[Leaf]):
