@@ -78,22 +78,12 @@ def parse(path: Path, structs: dict[str, Struct]) -> None:
     try:
         types = get_types_from_idl(text)
     except TypesysError as e:
-        raise IdlError(f"{rel}: {rosbags_reason(e, text)}") from None
+        raise IdlError(f"{rel}: {idl_basic.rosbags_reason(e)}") from None
     for name, (_, fields) in types.items():
         scoped = name.replace("/", "::")  # rosbags names sensor_msgs::msg::dds_::JointState_ with slashes
         if scoped in structs:
             raise IdlError(f"{rel}: {scoped} is defined twice (also in {structs[scoped].where})")
         structs[scoped] = Struct(scoped, list(fields), str(rel))
-
-
-def rosbags_reason(e: Exception, text: str) -> str:
-    """rosbags' parse error (the whole text, the offset where it gave up, the text from there, what
-    it expected) as a line number, the words there and what was expected."""
-    lines = str(e).splitlines()
-    if len(lines) >= 5 and lines[2].isdigit():
-        line = text.count("\n", 0, int(lines[2])) + 1
-        return f"line {line}: rosbags cannot read the definition from {lines[3].strip()[:40]!r} on; it expected {lines[-1]}"
-    return lines[0] if lines else type(e).__name__
 
 
 def class_name(scoped: str) -> str:

@@ -13,7 +13,6 @@ the words to fix it; bridge_file adds the file, the line and the mapping.
 
 from __future__ import annotations
 
-import ast
 import math
 import typing
 from dataclasses import dataclass
@@ -23,7 +22,7 @@ from rosbags.interfaces import Nodetype
 from rosbags.typesys import TypesysError, get_types_from_msg
 
 from . import ros2_types
-from .idl_basic import BASIC, msg_basic, value_range
+from .idl_basic import BASIC, msg_basic, rosbags_reason, value_range
 
 TIME = "builtin_interfaces/msg/Time"
 MAX_LEAVES = 256  # variables one message maps
@@ -95,22 +94,6 @@ def _shipped_fields(cls) -> tuple[Field, ...]:
 
 _SHIPPED_DEFS = {name: TypeDef(name, _shipped_fields(cls), cls) for name, cls in SHIPPED.items()}
 _BUILT: dict[tuple, type] = {}  # the classes made, by their definitions: a reload reuses them
-
-
-def rosbags_reason(e: Exception) -> str:
-    """rosbags' parse error (the text it read, the offset where it gave up, ...) as a line number,
-    the words there and what it expected."""
-    lines = str(e).splitlines()
-    if len(lines) >= 4 and lines[2].isdigit():
-        try:
-            text = ast.literal_eval(lines[1])
-        except (ValueError, SyntaxError):
-            text = ""
-        line = text.count("\n", 0, int(lines[2])) + 1 - text.startswith("MSG: ")
-        words = lines[3].strip()[:40]
-        expected = f"; it expected {lines[-1]}" if len(lines) >= 5 else ""
-        return f"line {line} of its definition: rosbags cannot read {words!r}{expected}"
-    return lines[0] if lines else type(e).__name__
 
 
 def _field(name: str, desc, where: str) -> Field:

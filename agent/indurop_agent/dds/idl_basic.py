@@ -3,11 +3,12 @@ annotations with the kind and width of the values they hold.
 
 One table for both users: protocol/dds/generate.py writes ros2_types.py with it (it loads this file
 by path: nothing here imports the generated code), and declared.py builds and checks the message
-types a dds.json declares with it.
+types a dds.json declares with it.  Both say rosbags' parse errors with rosbags_reason.
 """
 
 from __future__ import annotations
 
+import ast
 from typing import NamedTuple
 
 
@@ -66,3 +67,19 @@ def holds(dst: tuple[str, int], src: tuple[str, int]) -> bool:
     if dkind == "signed":
         return sbits <= dbits if skind == "signed" else sbits < dbits
     return skind == "unsigned" and sbits <= dbits
+
+
+def rosbags_reason(e: Exception) -> str:
+    """rosbags' parse error (the text it read, the offset where it gave up, ...) as a line number,
+    the words there and what it expected."""
+    lines = str(e).splitlines()
+    if len(lines) >= 4 and lines[2].isdigit():
+        try:
+            text = ast.literal_eval(lines[1])
+        except (ValueError, SyntaxError):
+            text = ""
+        line = text.count("\n", 0, int(lines[2])) + 1 - text.startswith("MSG: ")
+        words = lines[3].strip()[:40]
+        expected = f"; it expected {lines[-1]}" if len(lines) >= 5 else ""
+        return f"line {line} of its definition: rosbags cannot read {words!r}{expected}"
+    return lines[0] if lines else type(e).__name__
