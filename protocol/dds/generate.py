@@ -12,17 +12,23 @@
 
 `--check` fails, naming this command, when a written file is stale.
 
-Cyclone DDS's own idlc Python backend (`idlc -l py`) is not used: the cyclonedds wheel ships its
-backend without an idlc, and Debian's idlc 0.10.2 crashes loading the wheel's 11.x backend
-(docs/dds.md).  So this reads the small part of IDL the ROS 2 messages use — modules, structs,
-constants, sequence<>, string and the basic types — and refuses anything else, naming file and line.
+The IDL is read by rosbags (`rosbags.typesys.get_types_from_idl`), a maintained parser of ROS 2's
+message definitions; this only writes the code.  rosbags reads definitions, not the preprocessor:
+the `#include` lines, which Debian's idlc needs to build the test's reader from the same files, are
+blanked before (the files are all read anyway).  Cyclone DDS's own idlc Python backend
+(`idlc -l py`) is not used: the cyclonedds wheel's idlc dies of a segmentation fault, and Debian's
+idlc 0.10.2 of a bus error loading the wheel's 11.x backend (docs/dds.md).
 
     python3 protocol/dds/generate.py [--check]
+
+rosbags is in the project's venv (bash packaging/venv.sh); run by another Python, this runs itself
+again with the venv's.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import re
@@ -35,26 +41,23 @@ HERE = ROOT / "protocol" / "ros2"  # the IDL files
 SCHEMA = ROOT / "protocol" / "dds" / "bridge.schema.json"
 OUT = ROOT / "agent" / "indurop_agent" / "dds"
 COMMAND = "python3 protocol/dds/generate.py"
+VENV_PYTHON = ROOT / ".venv" / "bin" / "python"
 
-# IDL type -> (the annotation in the generated Python, the C/IDL spelling kept for the table)
-BASIC = {
-    "boolean": "bool",
-    "octet": "types.byte",  # IDL octet (ROS 2 byte): TK_BYTE, which Cyclone 0.10 also knows
-    "char": "types.char",
-    "int8": "types.int8",
-    "uint8": "types.uint8",
-    "int16": "types.int16",
-    "uint16": "types.uint16",
-    "int32": "types.int32",
-    "uint32": "types.uint32",
-    "int64": "types.int64",
-    "uint64": "types.uint64",
-    "float": "types.float32",
-    "double": "types.float64",
-    "string": "str",
-}
+try:
+    from rosbags.interfaces import Nodetype
+    from rosbags.typesys import TypesysError, get_types_from_idl
+except ImportError:  # not the venv's Python
+    if VENV_PYTHON.exists() and Path(sys.executable) != VENV_PYTHON and __name__ == "__main__":
+        os.execv(VENV_PYTHON, [str(VENV_PYTHON), __file__, *sys.argv[1:]])
+    sys.exit(f"generate.py: rosbags is not installed: run it with {VENV_PYTHON} (bash packaging/venv.sh makes it)")
 
-TOKEN = re.compile(r"\s*(?:(//[^\n]*)|(#include\s+\"[^\"]+\")|(::|[{};<>=,])|([A-Za-z_][A-Za-z0-9_]*)|(-?\d+))")
+# The basic types' cyclonedds annotations (agent/indurop_agent/dds/idl_basic.py, loaded by path:
+# the package itself imports the files written here).
+_spec = importlib.util.spec_from_file_location("idl_basic", OUT / "idl_basic.py")
+idl_basic = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(idl_basic)
+BASIC = idl_basic.BASIC
+INCLUDE = re.compile(r"^[ \t]*#include[^\n]*", re.MULTILINE)
 
 
 class IdlError(ValueError):
@@ -64,102 +67,23 @@ class IdlError(ValueError):
 @dataclass
 class Struct:
     scoped: str  # sensor_msgs::msg::dds_::JointState_
-    fields: list[tuple[str, str]] = field(default_factory=list)  # (name, type as written, scoped)
-    where: str = ""
-
-
-def tokens(path: Path):
-    """(token, line) pairs; comments and #include lines are skipped (every file is read anyway)."""
-    text = path.read_text(encoding="utf-8")
-    pos = 0
-    while text[pos:].strip():
-        m = TOKEN.match(text, pos)
-        if not m:
-            line = text.count("\n", 0, pos) + 1
-            raise IdlError(f"{path.relative_to(HERE)}:{line}: cannot read {text[pos : pos + 20].strip()!r}")
-        pos = m.end()
-        if m.group(1) or m.group(2):
-            continue
-        start = m.start(3) if m.group(3) else m.start(4) if m.group(4) else m.start(5)
-        yield (m.group(3) or m.group(4) or m.group(5)), text.count("\n", 0, start) + 1
+    fields: list[tuple[str, tuple]] = field(default_factory=list)  # (name, rosbags' field description)
+    where: str = ""  # the file
 
 
 def parse(path: Path, structs: dict[str, Struct]) -> None:
-    toks = list(tokens(path))
+    """One IDL file's structs, read by rosbags, into `structs` by their scoped names."""
     rel = path.relative_to(HERE)
-    i = 0
-    scope: list[str] = []
-
-    def expect(value: str) -> None:
-        nonlocal i
-        if i >= len(toks) or toks[i][0] != value:
-            got, line = toks[i] if i < len(toks) else ("the end", toks[-1][1])
-            raise IdlError(f"{rel}:{line}: expected {value!r}, found {got!r}")
-        i += 1
-
-    def name() -> str:
-        nonlocal i
-        tok, line = toks[i]
-        if not re.fullmatch(r"[A-Za-z_]\w*", tok):
-            raise IdlError(f"{rel}:{line}: expected a name, found {tok!r}")
-        i += 1
-        return tok
-
-    def type_name() -> str:
-        nonlocal i
-        if toks[i][0] == "sequence":
-            i += 1
-            expect("<")
-            inner = type_name()
-            expect(">")
-            return f"sequence<{inner}>"
-        parts = [name()]
-        while i < len(toks) and toks[i][0] == "::":
-            i += 1
-            parts.append(name())
-        scoped = "::".join(parts)
-        if len(parts) == 1 and scoped not in BASIC:
-            raise IdlError(
-                f"{rel}:{toks[i - 1][1]}: {scoped!r} is not a type this generator knows (write other structs fully scoped)"
-            )
-        return scoped
-
-    while i < len(toks):
-        tok, line = toks[i]
-        if tok == "module":
-            i += 1
-            scope.append(name())
-            expect("{")
-        elif tok == "}":
-            i += 1
-            expect(";")
-            if not scope:
-                raise IdlError(f"{rel}:{line}: a '}}' closes nothing")
-            scope.pop()
-        elif tok == "const":
-            i += 1
-            type_name()
-            name()
-            expect("=")
-            i += 1
-            expect(";")
-        elif tok == "struct":
-            i += 1
-            s = Struct("::".join([*scope, name()]), where=f"{rel}:{line}")
-            expect("{")
-            while toks[i][0] != "}":
-                t = type_name()
-                s.fields.append((name(), t))
-                expect(";")
-            i += 1
-            expect(";")
-            if s.scoped in structs:
-                raise IdlError(f"{rel}:{line}: {s.scoped} is defined twice (also at {structs[s.scoped].where})")
-            structs[s.scoped] = s
-        else:
-            raise IdlError(f"{rel}:{line}: {tok!r} is outside what this generator reads (module, struct, const)")
-    if scope:
-        raise IdlError(f"{rel}: module {'::'.join(scope)} is not closed")
+    text = INCLUDE.sub("", path.read_text(encoding="utf-8"))
+    try:
+        types = get_types_from_idl(text)
+    except TypesysError as e:
+        raise IdlError(f"{rel}: {idl_basic.rosbags_reason(e)}") from None
+    for name, (_, fields) in types.items():
+        scoped = name.replace("/", "::")  # rosbags names sensor_msgs::msg::dds_::JointState_ with slashes
+        if scoped in structs:
+            raise IdlError(f"{rel}: {scoped} is defined twice (also in {structs[scoped].where})")
+        structs[scoped] = Struct(scoped, list(fields), str(rel))
 
 
 def class_name(scoped: str) -> str:
@@ -167,14 +91,37 @@ def class_name(scoped: str) -> str:
     return scoped.split("::")[-1].rstrip("_")
 
 
-def annotation(t: str, structs: dict[str, Struct]) -> str:
-    if t.startswith("sequence<"):
-        return f"types.sequence[{annotation(t[9:-1], structs)}]"
-    if t in BASIC:
-        return BASIC[t]
-    if t not in structs:
-        raise IdlError(f"{t} is used but defined in no file of protocol/ros2")
-    return class_name(t)
+def annotation(desc: tuple, structs: dict[str, Struct], where: str) -> str:
+    """rosbags' description of a field as its cyclonedds annotation."""
+    node, rest = desc
+    if node == Nodetype.BASE:
+        name, bound = rest
+        if name not in BASIC:
+            raise IdlError(f"{where}: {name} has no cyclonedds type here")
+        return f"types.bounded_str[{bound}]" if name == "string" and bound else BASIC[name].annotation
+    if node == Nodetype.NAME:
+        scoped = rest.replace("/", "::")
+        if scoped not in structs:
+            raise IdlError(f"{where}: {scoped} is used but defined in no file of protocol/ros2")
+        return class_name(scoped)
+    inner, size = rest
+    inner = annotation(inner, structs, where)
+    if node == Nodetype.ARRAY:
+        return f"types.array[{inner}, {size}]"
+    return f"types.sequence[{inner}, {size}]" if size else f"types.sequence[{inner}]"
+
+
+def default(desc: tuple, structs: dict[str, Struct]) -> str:
+    node, rest = desc
+    if node == Nodetype.SEQUENCE:
+        return " = field(default_factory=list)"
+    if node == Nodetype.ARRAY:
+        inner, size = rest
+        return f" = field(default_factory=lambda: [{default(inner, structs)[3:]}] * {size})"
+    if node == Nodetype.NAME:
+        return f" = field(default_factory={class_name(rest.replace('/', '::'))})"
+    kind = BASIC[rest[0]].kind
+    return {"string": ' = ""', "char": ' = "\\0"', "bool": " = False", "float": " = 0.0"}.get(kind, " = 0")
 
 
 def render(structs: dict[str, Struct]) -> str:
@@ -186,10 +133,10 @@ def render(structs: dict[str, Struct]) -> str:
     def visit(scoped: str) -> None:
         if scoped in order:
             return
-        for _, t in structs[scoped].fields:
-            inner = t[9:-1] if t.startswith("sequence<") else t
-            while inner.startswith("sequence<"):
-                inner = inner[9:-1]
+        for _, desc in structs[scoped].fields:
+            while desc[0] in (Nodetype.ARRAY, Nodetype.SEQUENCE):
+                desc = desc[1][0]
+            inner = desc[1].replace("/", "::") if desc[0] == Nodetype.NAME else None
             if inner in structs:
                 visit(inner)
         order.append(scoped)
@@ -214,23 +161,12 @@ def render(structs: dict[str, Struct]) -> str:
     for scoped in order:
         s = structs[scoped]
         out += ["", "", "@dataclass", f'class {class_name(scoped)}(IdlStruct, typename="{scoped}"):']
-        out.append(f'    """{scoped} ({s.where.split(":")[0]})."""')
+        out.append(f'    """{scoped} ({s.where})."""')
         out.append("")
-        for fname, t in s.fields:
-            ann = annotation(t, structs)
-            if t.startswith("sequence<"):
-                default = " = field(default_factory=list)"
-            elif t in structs:
-                default = f" = field(default_factory={class_name(t)})"
-            elif t == "string":
-                default = ' = ""'
-            elif t == "boolean":
-                default = " = False"
-            elif t in ("float", "double"):
-                default = " = 0.0"
-            else:
-                default = " = 0"
-            out.append(f"    {fname}: {ann}{default}")
+        for fname, desc in s.fields:
+            out.append(
+                f"    {fname}: {annotation(desc, structs, f'{s.where}: {scoped}.{fname}')}{default(desc, structs)}"
+            )
     return "\n".join(out) + "\n"
 
 

@@ -1,5 +1,6 @@
 """settings.py -- the DDS bridge's settings (command line, then an optional JSON file) and the
-Cyclone DDS configuration made from them (docs/dds.md "Settings").
+Cyclone DDS configuration made from them (docs/dds.md "Settings"), DDS Security's included
+(docs/dds.md "Security").
 """
 
 from __future__ import annotations
@@ -31,6 +32,12 @@ class BridgeSettings:
     status_s: float = 0.5  # how often irpd's status is asked (a new set, a restart)
     # The owner name under which the bridge asks irpd to trace its channels.
     trace_owner: str = "dds"
+    # DDS Security (--config only): the files of SECURITY_FILES by those names, and "plugins", the
+    # folder of libdds_security_{auth,ac,crypto}.so when they are not on the library path.
+    security: dict | None = None
+
+
+SECURITY_FILES = ("identity_ca", "identity_certificate", "private_key", "permissions_ca", "governance", "permissions")
 
 
 def _check(s: BridgeSettings) -> BridgeSettings:
@@ -44,6 +51,19 @@ def _check(s: BridgeSettings) -> BridgeSettings:
         raise ValueError(f"namespace {s.namespace!r}: letters, digits, _ and /, starting with a letter")
     if not 0.05 <= s.poll_ms <= 1000:
         raise ValueError(f"poll_ms {s.poll_ms}: from 0.05 to 1000")
+    if s.security is not None:
+        if not isinstance(s.security, dict):
+            raise ValueError(f"security: an object of {', '.join(SECURITY_FILES)} and plugins")
+        unknown = sorted(set(s.security) - {*SECURITY_FILES, "plugins"})
+        missing = [k for k in SECURITY_FILES if k not in s.security]
+        if unknown or missing:
+            raise ValueError(
+                f"security: {'unknown ' + unknown[0] if unknown else 'missing ' + missing[0]}; "
+                f"it names {', '.join(SECURITY_FILES)} (files) and plugins (a folder, optional)"
+            )
+        for k, v in s.security.items():
+            if not isinstance(v, str) or not Path(v).is_absolute() or not Path(v).exists():
+                raise ValueError(f"security.{k} {v!r}: an absolute path that exists")
     return s
 
 
@@ -61,8 +81,38 @@ def cyclone_config(s: BridgeSettings, pinned: bool = False) -> str:
         discovery += "<Peers>" + "".join(f"<Peer address={quoteattr(escape(p))}/>" for p in peers) + "</Peers>"
     return (
         f'<CycloneDDS xmlns="https://cdds.io/config"><Domain Id="{s.domain_id if pinned else "any"}">'
-        f"<General>{general}</General><Discovery>{discovery}</Discovery>"
+        f"<General>{general}</General><Discovery>{discovery}</Discovery>{security_config(s.security)}"
         "</Domain></CycloneDDS>"
+    )
+
+
+def security_config(security: dict | None) -> str:
+    """Cyclone DDS's <Security>: the builtin plugins (authentication, access control, cryptography)
+    and the files; "" without security."""
+    if not security:
+        return ""
+
+    def library(name: str, init: str) -> str:
+        path = f"{security['plugins']}/lib{name}.so" if security.get("plugins") else name
+        return f"<Library path={quoteattr(path)} initFunction={quoteattr('init_' + init)} finalizeFunction={quoteattr('finalize_' + init)}/>"
+
+    def file(key: str) -> str:
+        return escape("file:" + security[key])
+
+    return (
+        "<Security><Authentication>"
+        f"{library('dds_security_auth', 'authentication')}"
+        f"<IdentityCA>{file('identity_ca')}</IdentityCA>"
+        f"<IdentityCertificate>{file('identity_certificate')}</IdentityCertificate>"
+        f"<PrivateKey>{file('private_key')}</PrivateKey>"
+        "</Authentication><AccessControl>"
+        f"{library('dds_security_ac', 'access_control')}"
+        f"<PermissionsCA>{file('permissions_ca')}</PermissionsCA>"
+        f"<Governance>{file('governance')}</Governance>"
+        f"<Permissions>{file('permissions')}</Permissions>"
+        "</AccessControl><Cryptographic>"
+        f"{library('dds_security_crypto', 'crypto')}"
+        "</Cryptographic></Security>"
     )
 
 

@@ -143,6 +143,23 @@ def test_a_stale_generated_file_is_named_with_the_command(tmp_path, monkeypatch,
     assert "ros2_types.py is stale: run python3 protocol/dds/generate.py" in capsys.readouterr().err
 
 
+def test_an_idl_file_rosbags_cannot_read_is_refused_naming_the_file_and_line(tmp_path, monkeypatch, capsys):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("dds_generate", ROOT / "protocol" / "dds" / "generate.py")
+    gen = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, "dds_generate", gen)
+    spec.loader.exec_module(gen)
+    (tmp_path / "a" / "msg").mkdir(parents=True)
+    (tmp_path / "a" / "msg" / "B.idl").write_text(
+        '#include "x.idl"\nmodule a { module msg { module dds_ {\nstruct B_ {\n double x\n long y; };\n}; }; };\n'
+    )
+    monkeypatch.setattr(gen, "HERE", tmp_path)
+    monkeypatch.setattr(sys, "argv", ["generate.py", "--check"])
+    assert gen.main() == 2
+    assert "generate.py: a/msg/B.idl: line 3 of its definition: rosbags cannot read" in capsys.readouterr().err
+
+
 def test_the_generated_types_carry_ros2_s_dds_type_names():
     from indurop_agent.dds import ros2_types
 

@@ -37,19 +37,10 @@ from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
 from indurop_agent.variables import Segment  # noqa: E402
 
 SET = BUILD / "sets" / "plc-robot"
-READER = BUILD / "tools" / "dds" / "ros2_reader"  # tools/dds: built from protocol/ros2's IDL
 JOINTS = [f"joint_{i}" for i in range(1, 7)]
 BASIC_NS = 1_000_000  # module-1ms.xml
 
 pytestmark = pytest.mark.skipif(not (SET / "Robot.so").exists(), reason=f"the plc-robot cell is not built ({SET})")
-
-
-@pytest.fixture(scope="module")
-def ros2_reader() -> Path:
-    """The separate DDS peer (tools/dds/ros2_reader.c), its types made by idlc from protocol/ros2's IDL."""
-    if not READER.exists():
-        pytest.skip(f"{READER} is not built: packaging/deps.sh installs cyclonedds-dev and cyclonedds-tools, then packaging/build.sh")
-    return READER
 
 
 class Controller:
