@@ -36,7 +36,9 @@ IDL_DIRS = {
 def ros2_reader() -> Path:
     """The separate DDS peer as the build makes it (tools/dds/CMakeLists.txt)."""
     if not BUILT.exists():
-        pytest.skip(f"{BUILT} is not built: packaging/deps.sh installs cyclonedds-dev and cyclonedds-tools, then packaging/build.sh")
+        pytest.skip(
+            f"{BUILT} is not built: packaging/deps.sh installs cyclonedds-dev and cyclonedds-tools, then packaging/build.sh"
+        )
     return BUILT
 
 

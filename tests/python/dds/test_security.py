@@ -144,8 +144,8 @@ def pki(tmp_path_factory) -> dict[str, dict]:
 
 
 def env(security: dict | None) -> dict:
-    config = cyclone_config(BridgeSettings(domain_id=DOMAIN, security=security))
-    return {**os.environ, "CYCLONEDDS_URI": config.replace('Id="any"', f'Id="{DOMAIN}"')}
+    config = cyclone_config(BridgeSettings(domain_id=DOMAIN, security=security), pinned=True)
+    return {**os.environ, "CYCLONEDDS_URI": config}
 
 
 def reader(peer: Path, security: dict | None) -> subprocess.Popen:
