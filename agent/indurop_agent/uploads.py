@@ -608,13 +608,14 @@ def check_set(files: list[Received]) -> list[StagedFile]:
 
 
 def check_bridge_json(source: Path, modules: list[ModuleRef], layout: Path | None) -> None:
-    """dds.json's shape, one mapping per topic, one writer per variable (a second subscription or a
-    module's <writes>), and, when the upload holds the layout, every mapped variable in it (docs/dds.md)."""
+    """dds.json's shape, one mapping per topic, one writer per variable (a second subscription, an
+    import or a module's <writes>), and, when the upload holds the layout, every mapped, exported and
+    imported variable in it with a type that fits (docs/dds.md)."""
     try:
         bridge = bridge_file.parse(source.read_bytes())
         bridge_file.check_writers(bridge, {m.name: m.writes for m in modules})
         if layout is not None:
-            bridge_file.check_variables(bridge, bridge_file.layout_scalars(json.loads(layout.read_bytes())))
+            bridge_file.check_layout(bridge, json.loads(layout.read_bytes()))
     except bridge_file.BridgeFileError as e:
         raise UploadError(400, str(e), file=e.file, line=e.line) from None
 

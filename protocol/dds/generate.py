@@ -6,6 +6,9 @@
   bridge's types: this writes agent/indurop_agent/dds/ros2_types.py (cyclonedds IdlStruct classes)
   from them, and the compatibility test builds its separate C reader from the same files with
   Debian's idlc.
+- protocol/dds/**/*.idl are indurop's own DDS types (module indurop::dds: the shared variables
+  controllers export to each other); they are written into agent/indurop_agent/dds/indurop_types.py
+  the same way, `@key` members becoming the type's keys.
 - protocol/dds/bridge.schema.json is the shape of a set's dds.json: this writes it into
   agent/indurop_agent/dds/bridge_schema.py, after checking that every message type it names has
   its IDL here.
@@ -15,7 +18,8 @@
 Cyclone DDS's own idlc Python backend (`idlc -l py`) is not used: the cyclonedds wheel ships its
 backend without an idlc, and Debian's idlc 0.10.2 crashes loading the wheel's 11.x backend
 (docs/dds.md).  So this reads the small part of IDL the ROS 2 messages use — modules, structs,
-constants, sequence<>, string and the basic types — and refuses anything else, naming file and line.
+constants, sequence<>, string, the basic types and the `@key` annotation — and refuses anything
+else, naming file and line.
 
     python3 protocol/dds/generate.py [--check]
 """
@@ -31,7 +35,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-HERE = ROOT / "protocol" / "ros2"  # the IDL files
+HERE = ROOT / "protocol" / "ros2"  # the ROS 2 messages' IDL files
+OWN = ROOT / "protocol" / "dds"  # indurop's own DDS types' IDL files
 SCHEMA = ROOT / "protocol" / "dds" / "bridge.schema.json"
 OUT = ROOT / "agent" / "indurop_agent" / "dds"
 COMMAND = "python3 protocol/dds/generate.py"
@@ -54,7 +59,9 @@ BASIC = {
     "string": "str",
 }
 
-TOKEN = re.compile(r"\s*(?:(//[^\n]*)|(#include\s+\"[^\"]+\")|(::|[{};<>=,])|([A-Za-z_][A-Za-z0-9_]*)|(-?\d+))")
+TOKEN = re.compile(
+    r"\s*(?:(//[^\n]*)|(#include\s+\"[^\"]+\")|(::|[{};<>=,])|(@?[A-Za-z_][A-Za-z0-9_]*)|(-?\d+))"
+)
 
 
 class IdlError(ValueError):
@@ -66,9 +73,10 @@ class Struct:
     scoped: str  # sensor_msgs::msg::dds_::JointState_
     fields: list[tuple[str, str]] = field(default_factory=list)  # (name, type as written, scoped)
     where: str = ""
+    keys: list[str] = field(default_factory=list)  # the members annotated @key, in order
 
 
-def tokens(path: Path):
+def tokens(path: Path, root: Path = HERE):
     """(token, line) pairs; comments and #include lines are skipped (every file is read anyway)."""
     text = path.read_text(encoding="utf-8")
     pos = 0
@@ -76,7 +84,7 @@ def tokens(path: Path):
         m = TOKEN.match(text, pos)
         if not m:
             line = text.count("\n", 0, pos) + 1
-            raise IdlError(f"{path.relative_to(HERE)}:{line}: cannot read {text[pos : pos + 20].strip()!r}")
+            raise IdlError(f"{path.relative_to(root)}:{line}: cannot read {text[pos : pos + 20].strip()!r}")
         pos = m.end()
         if m.group(1) or m.group(2):
             continue
@@ -84,9 +92,9 @@ def tokens(path: Path):
         yield (m.group(3) or m.group(4) or m.group(5)), text.count("\n", 0, start) + 1
 
 
-def parse(path: Path, structs: dict[str, Struct]) -> None:
-    toks = list(tokens(path))
-    rel = path.relative_to(HERE)
+def parse(path: Path, structs: dict[str, Struct], root: Path = HERE) -> None:
+    toks = list(tokens(path, root))
+    rel = path.relative_to(root)
     i = 0
     scope: list[str] = []
 
@@ -100,7 +108,7 @@ def parse(path: Path, structs: dict[str, Struct]) -> None:
     def name() -> str:
         nonlocal i
         tok, line = toks[i]
-        if not re.fullmatch(r"[A-Za-z_]\w*", tok):
+        if not re.fullmatch(r"[A-Za-z_]\w*", tok):  # (an annotation, @key, is not a name)
             raise IdlError(f"{rel}:{line}: expected a name, found {tok!r}")
         i += 1
         return tok
@@ -148,8 +156,14 @@ def parse(path: Path, structs: dict[str, Struct]) -> None:
             s = Struct("::".join([*scope, name()]), where=f"{rel}:{line}")
             expect("{")
             while toks[i][0] != "}":
+                key = toks[i][0] == "@key"
+                if toks[i][0].startswith("@") and not key:
+                    raise IdlError(f"{rel}:{toks[i][1]}: {toks[i][0]}: the only annotation this generator reads is @key")
+                i += key
                 t = type_name()
                 s.fields.append((name(), t))
+                if key:
+                    s.keys.append(s.fields[-1][0])
                 expect(";")
             i += 1
             expect(";")
@@ -177,7 +191,7 @@ def annotation(t: str, structs: dict[str, Struct]) -> str:
     return class_name(t)
 
 
-def render(structs: dict[str, Struct]) -> str:
+def render(structs: dict[str, Struct], title: str, source: str) -> str:
     names = [class_name(s) for s in structs]
     if len(set(names)) != len(names):
         raise IdlError("two structs would make the same Python class name: " + ", ".join(sorted(structs)))
@@ -196,14 +210,16 @@ def render(structs: dict[str, Struct]) -> str:
 
     for scoped in sorted(structs):
         visit(scoped)
+    keyed = any(structs[s].keys for s in order)
     out = [
-        '"""ROS 2 message types on the DDS wire, as cyclonedds IdlStruct classes.',
+        f'"""{title}, as cyclonedds IdlStruct classes.',
         "",
-        f"Generated from protocol/ros2/**/*.idl by {COMMAND}; do not edit.",
+        f"Generated from {source} by {COMMAND}; do not edit.",
         '"""',
         "",
         "from dataclasses import dataclass, field",
         "",
+        *(["import cyclonedds.idl.annotations as annotate"] if keyed else []),
         "from cyclonedds.idl import IdlStruct",
         "from cyclonedds.idl import types",
         "",
@@ -231,6 +247,7 @@ def render(structs: dict[str, Struct]) -> str:
             else:
                 default = " = 0"
             out.append(f"    {fname}: {ann}{default}")
+        out += [f'    annotate.key("{k}")' for k in s.keys]
     return "\n".join(out) + "\n"
 
 
@@ -263,7 +280,14 @@ def generate() -> dict[Path, str]:
     structs: dict[str, Struct] = {}
     for path in sorted(HERE.rglob("*.idl")):
         parse(path, structs)
-    return {OUT / "ros2_types.py": render(structs), OUT / "bridge_schema.py": render_schema(structs)}
+    own: dict[str, Struct] = {}
+    for path in sorted(OWN.rglob("*.idl")):
+        parse(path, own, OWN)
+    return {
+        OUT / "ros2_types.py": render(structs, "ROS 2 message types on the DDS wire", "protocol/ros2/**/*.idl"),
+        OUT / "indurop_types.py": render(own, "indurop's own DDS types", "protocol/dds/**/*.idl"),
+        OUT / "bridge_schema.py": render_schema(structs),
+    }
 
 
 def main() -> int:

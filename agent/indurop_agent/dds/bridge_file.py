@@ -3,7 +3,7 @@
 The shape is protocol/dds/bridge.schema.json (generated into bridge_schema.py); the checks here
 are what a schema cannot say: a topic mapped twice, a topic both published and subscribed, and a
 variable with two writers (two subscriptions, or a subscription and a module's `<writes>` in
-module.xml).  Every refusal is a BridgeFileError naming the file, the line and what to fix; the
+module.xml; the imports' writers: sharing.py).  Every refusal is a BridgeFileError naming the file, the line and what to fix; the
 agent's upload (uploads.py) and the bridge at start both use it.
 """
 
@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import jsonschema
 
+from . import sharing
 from .bridge_schema import SCHEMA
 
 BRIDGE_JSON = "dds.json"
@@ -59,6 +60,8 @@ class BridgeFile:
     subscribe: tuple[Mapping, ...] = ()
     description: str = ""
     written: dict[str, Mapping] = field(default_factory=dict)  # variable -> the mapping that writes it
+    export: tuple[sharing.Export, ...] = ()  # variables other controllers may import
+    imports: tuple[sharing.Import, ...] = ()  # variables of other controllers written into this set's
 
 
 class _Located(dict):
@@ -135,6 +138,7 @@ def parse(data: bytes | str, file: str = BRIDGE_JSON) -> BridgeFile:
         return tuple(out)
 
     js, diag = doc.get("joint_states", {}), doc.get("diagnostics", {})
+    export, imports = sharing.parse(doc, lambda message, line: BridgeFileError(message, line, file))
     bridge = BridgeFile(
         joint_states=js.get("enabled", True),
         joint_states_topic=js.get("topic", "joint_states").lstrip("/"),
@@ -145,6 +149,8 @@ def parse(data: bytes | str, file: str = BRIDGE_JSON) -> BridgeFile:
         publish=mappings("publish", "rate_hz", 10.0),
         subscribe=mappings("subscribe", "max_rate_hz", 100.0),
         description=doc.get("description", ""),
+        export=export,
+        imports=imports,
     )
     _check_topics(bridge, file)
     for m in bridge.subscribe:
@@ -158,6 +164,7 @@ def parse(data: bytes | str, file: str = BRIDGE_JSON) -> BridgeFile:
                     file,
                 )
             bridge.written[v] = m
+    sharing.check_writers(imports, bridge.written, {}, lambda message, line: BridgeFileError(message, line, file))
     return bridge
 
 
@@ -191,6 +198,7 @@ def check_writers(bridge: BridgeFile, module_writes: dict[str, list[str]], file:
                     m.line,
                     file,
                 )
+    sharing.check_writers(bridge.imports, {}, module_writes, lambda message, line: BridgeFileError(message, line, file))
 
 
 def check_variables(bridge: BridgeFile, scalars: dict[str, str], file: str = BRIDGE_JSON) -> None:
@@ -202,6 +210,14 @@ def check_variables(bridge: BridgeFile, scalars: dict[str, str], file: str = BRI
                     near = [p for p in scalars if p.startswith(v + ".") or p.startswith(v + "[")]
                     hint = f" (it is a struct or an array: map {near[0]}, ...)" if near else ""
                     raise BridgeFileError(f"{kind} {m.topic}: no scalar variable {v} in the layout{hint}", m.line, file)
+
+
+def check_layout(bridge: BridgeFile, layout: dict, file: str = BRIDGE_JSON) -> None:
+    """Every mapped, exported and imported variable against the layout (layout.json)."""
+    check_variables(bridge, layout_scalars(layout), file)
+    sharing.check_layout(
+        bridge.export, bridge.imports, layout, lambda message, line: BridgeFileError(message, line, file)
+    )
 
 
 def layout_scalars(layout: dict) -> dict[str, str]:
