@@ -602,7 +602,7 @@ def check_set(files: list[Received]) -> list[StagedFile]:
     if ROBOT_JSON in by_path:
         check_robot_json(by_path[ROBOT_JSON].source, {f.path: f for f in staged})
     if BRIDGE_JSON in by_path:
-        layout_file = by_path.get(layout) if layout else None
+        layout_file = by_path.get(layout or "layout.json")  # irpd's default: layout.json beside module.xml
         check_bridge_json(by_path[BRIDGE_JSON].source, modules, layout_file.source if layout_file else None)
     return staged
 

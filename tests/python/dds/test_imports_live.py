@@ -214,7 +214,8 @@ def line(tmp_path_factory):
 
 def fresh(b: Controller, name: str = "count") -> bool:
     """B's import follows A"""
-    return b.read(f"{V}{name}_stale") is False and b.read(V + name) != FALLBACK[name]
+    value, fallback = (b.read(V + "vec[0]"), -1) if name == "vec" else (b.read(V + name), FALLBACK[name])
+    return b.read(f"{V}{name}_stale") is False and value != fallback
 
 
 def stale_with_fallbacks(b: Controller) -> bool:
