@@ -59,9 +59,7 @@ BASIC = {
     "string": "str",
 }
 
-TOKEN = re.compile(
-    r"\s*(?:(//[^\n]*)|(#include\s+\"[^\"]+\")|(::|[{};<>=,])|(@?[A-Za-z_][A-Za-z0-9_]*)|(-?\d+))"
-)
+TOKEN = re.compile(r"\s*(?:(//[^\n]*)|(#include\s+\"[^\"]+\")|(::|[{};<>=,])|(@?[A-Za-z_][A-Za-z0-9_]*)|(-?\d+))")
 
 
 class IdlError(ValueError):
@@ -158,7 +156,9 @@ def parse(path: Path, structs: dict[str, Struct], root: Path = HERE) -> None:
             while toks[i][0] != "}":
                 key = toks[i][0] == "@key"
                 if toks[i][0].startswith("@") and not key:
-                    raise IdlError(f"{rel}:{toks[i][1]}: {toks[i][0]}: the only annotation this generator reads is @key")
+                    raise IdlError(
+                        f"{rel}:{toks[i][1]}: {toks[i][0]}: the only annotation this generator reads is @key"
+                    )
                 i += key
                 t = type_name()
                 s.fields.append((name(), t))

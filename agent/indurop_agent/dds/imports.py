@@ -137,6 +137,11 @@ class Sharing:
         """Takes the set's exports and imports; returns (the channels to trace for the exports,
         a problem or "").  Variables that do not fit the running layout refuse both lists."""
         problem = ""
+        if exports and not sharing.CONTROLLER.search(self.name):
+            problem = (
+                f"the controller's name {self.name!r} cannot be imported (letters, digits, _ . -): nothing exported"
+            )
+            exports = ()
         if exports or imports:
             try:
                 if layout is None:
@@ -253,7 +258,10 @@ class Sharing:
                 s.counts["received"] += 1
                 if sample.type != s.shape.name:
                     s.counts["mismatched"] += 1
-                    self.refuse(s, f"{s.spec.source} exports {s.spec.path} as {sample.type}, {s.spec.variable} is a {s.shape.name}")
+                    self.refuse(
+                        s,
+                        f"{s.spec.source} exports {s.spec.path} as {sample.type}, {s.spec.variable} is a {s.shape.name}",
+                    )
                     continue
                 values = [sharing.as_written(s.shape.type, v) for v in sample.values]
                 if len(values) != len(s.shape.leaves) or not all(sharing.fits(s.shape.type, v) for v in values):
@@ -375,4 +383,3 @@ class Sharing:
         self.withdraw()
         if self.segment is not None:
             self.segment.close()
-

@@ -16,9 +16,12 @@ import math
 import re
 from dataclasses import dataclass
 
+from .bridge_schema import SCHEMA
+
 DEFAULT_RATE_HZ = 100.0
 DEFAULT_TIMEOUT_MS = 250.0
 _INDEX = re.compile(r"(\[\d+\])+")
+CONTROLLER = re.compile(SCHEMA["$defs"]["controller"]["pattern"])  # a name imports can name
 
 
 class SharingError(ValueError):
@@ -88,8 +91,14 @@ def parse(doc: dict, error) -> tuple[tuple[Export, ...], tuple[Import, ...]]:
         for v in imp.written:
             for other_var, other in writes.items():
                 if overlaps(v, other_var):
-                    same = " (twice in one import)" if other is imp else f" and the import of {other.key} (line {other.line})"
-                    raise error(f"{v} would have two writers: the import of {imp.key}{same}; one writer per variable", imp.line)
+                    same = (
+                        " (twice in one import)"
+                        if other is imp
+                        else f" and the import of {other.key} (line {other.line})"
+                    )
+                    raise error(
+                        f"{v} would have two writers: the import of {imp.key}{same}; one writer per variable", imp.line
+                    )
             writes[v] = imp
         imports.append(imp)
     return tuple(exports), tuple(imports)
@@ -171,8 +180,11 @@ def shape(layout: dict, path: str) -> Shape | None:
     return Shape(tuple(leaf["path"] for leaf in leaves), element_type(s["kind"], s["size"]), array)
 
 
-_RANGES = {f"{s}int{b}": ((-(1 << (b - 1)), (1 << (b - 1)) - 1) if s == "" else (0, (1 << b) - 1))
-           for s in ("", "u") for b in (8, 16, 32, 64)}
+_RANGES = {
+    f"{s}int{b}": ((-(1 << (b - 1)), (1 << (b - 1)) - 1) if s == "" else (0, (1 << b) - 1))
+    for s in ("", "u")
+    for b in (8, 16, 32, 64)
+}
 
 
 def fits(type_: str, value) -> bool:
@@ -204,7 +216,8 @@ def check_layout(exports: tuple[Export, ...], imports: tuple[Import, ...], layou
         local = shape(layout, imp.variable)
         if local is None:
             raise error(
-                f"the import of {imp.key}: no scalar variable or array of scalars {imp.variable} in the layout", imp.line
+                f"the import of {imp.key}: no scalar variable or array of scalars {imp.variable} in the layout",
+                imp.line,
             )
         wanted = {
             imp.stale: ("the staleness flag", lambda t: t == "bool" or "int" in t, "a bool (or an integer)"),

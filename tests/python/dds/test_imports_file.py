@@ -106,7 +106,10 @@ def test_an_export_named_twice_is_refused():
 @pytest.mark.parametrize(
     "second, words",
     [
-        ({**IMPORT, "path": "S.other"}, "IN.count would have two writers: the import of cell-a:S.other and the import of cell-a:S.count (line 2)"),
+        (
+            {**IMPORT, "path": "S.other"},
+            "IN.count would have two writers: the import of cell-a:S.other and the import of cell-a:S.count (line 2)",
+        ),
         ({**IMPORT, "variable": "IN.level", "stale": "IN.stale"}, "IN.stale would have two writers"),
         ({**IMPORT, "variable": "IN.vec[1]", "stale": "IN.stale2"}, "IN.vec[1] would have two writers"),
     ],
@@ -121,12 +124,17 @@ def test_a_variable_two_imports_write_is_refused_naming_both(second, words):
 def test_an_import_and_a_subscription_on_one_variable_are_refused_naming_both():
     text = doc(IMPORT, subscribe=[{"topic": "t", "type": "std_msgs/msg/UInt32", "variable": "IN.count"}])
     e = refused(text)
-    assert "IN.count would have two writers: the subscription to t" in str(e) and "the import of cell-a:S.count" in str(e)
+    assert "IN.count would have two writers: the subscription to t" in str(e) and "the import of cell-a:S.count" in str(
+        e
+    )
 
 
 def test_an_import_on_a_variable_a_module_writes_is_refused_naming_both():
     e = refused(doc({**IMPORT, "variable": "IN.vec[2]"}), writes={"plc": ["IN.vec"]})
-    assert "IN.vec[2] would have two writers: module plc (module.xml <writes>IN.vec</writes>) and the import of cell-a:S.count" in str(e)
+    assert (
+        "IN.vec[2] would have two writers: module plc (module.xml <writes>IN.vec</writes>) and the import of cell-a:S.count"
+        in str(e)
+    )
     assert e.line == 2
     e = refused(doc({**IMPORT, "stale": "IN.stale"}), writes={"plc": ["IN.stale"]})
     assert "IN.stale would have two writers: module plc" in str(e)
@@ -137,7 +145,10 @@ def test_an_import_on_a_variable_a_module_writes_is_refused_naming_both():
     [
         ({**IMPORT, "variable": "IN.missing"}, "no scalar variable or array of scalars IN.missing in the layout"),
         ({**IMPORT, "variable": "S.axis"}, "no scalar variable or array of scalars S.axis"),
-        ({**IMPORT, "stale": "IN.level"}, "the staleness flag IN.level is a float64; it must be a bool (or an integer)"),
+        (
+            {**IMPORT, "stale": "IN.level"},
+            "the staleness flag IN.level is a float64; it must be a bool (or an integer)",
+        ),
         ({**IMPORT, "stale": "IN.vec"}, "the staleness flag IN.vec is not a scalar variable"),
         ({**IMPORT, "stamp_ns": "IN.age"}, "the stamp IN.age is a uint32; it must be an int64_t or a uint64_t"),
         ({**IMPORT, "age_us": "IN.odd"}, "the age IN.odd is a bool; it must be an integer or a float"),

@@ -89,11 +89,27 @@ def b_file() -> dict:
     ]
     for name in ("level", "small", "odd", "vec"):
         imports.append(
-            {"from": A, "path": f"SHARE.{name}", "variable": V + name, "stale": f"{V}{name}_stale", "rate_hz": 200, "fallback": FALLBACK[name]}
+            {
+                "from": A,
+                "path": f"SHARE.{name}",
+                "variable": V + name,
+                "stale": f"{V}{name}_stale",
+                "rate_hz": 200,
+                "fallback": FALLBACK[name],
+            }
         )
-    imports.append({"from": A, "path": "SHARE.count", "variable": V + "wrong", "stale": V + "wrong_stale", "fallback": -5})
     imports.append(
-        {"from": f"nobody-{PID}", "path": "SHARE.level", "variable": V + "unknown", "stale": V + "unknown_stale", "rate_hz": 50, "fallback": 42}
+        {"from": A, "path": "SHARE.count", "variable": V + "wrong", "stale": V + "wrong_stale", "fallback": -5}
+    )
+    imports.append(
+        {
+            "from": f"nobody-{PID}",
+            "path": "SHARE.level",
+            "variable": V + "unknown",
+            "stale": V + "unknown_stale",
+            "rate_hz": 50,
+            "fallback": 42,
+        }
     )
     return {"joint_states": {"enabled": False}, "diagnostics": {"rate_hz": 5}, "imports": imports}
 
@@ -126,7 +142,9 @@ class Controller:
         self.irpd = start_irpd(self.sock, self.folder / "module.xml", self.instance, log=self.tmp / "irpd.log")
 
     def start_bridge(self) -> None:
-        self.bridge = start_bridge(self.sock, DOMAIN, "--name", self.name, log=self.tmp / f"bridge-{time.monotonic_ns()}.log")
+        self.bridge = start_bridge(
+            self.sock, DOMAIN, "--name", self.name, log=self.tmp / f"bridge-{time.monotonic_ns()}.log"
+        )
 
     def status(self):
         """irpd's status once it runs a set"""
@@ -220,9 +238,11 @@ def fresh(b: Controller, name: str = "count") -> bool:
 
 def stale_with_fallbacks(b: Controller) -> bool:
     """every import of A stale, with its fallback"""
-    return all(b.read(f"{V}{n}_stale") is True for n in FALLBACK) and [b.read(f"{V}vec[{i}]") for i in range(4)] == [
-        -1
-    ] * 4 and (b.read(V + "count"), b.read(V + "level"), b.read(V + "small"), b.read(V + "odd")) == (0, -1, -999, False)
+    return (
+        all(b.read(f"{V}{n}_stale") is True for n in FALLBACK)
+        and [b.read(f"{V}vec[{i}]") for i in range(4)] == [-1] * 4
+        and (b.read(V + "count"), b.read(V + "level"), b.read(V + "small"), b.read(V + "odd")) == (0, -1, -999, False)
+    )
 
 
 def rows(c: Controller, channels: list[str], seconds: float) -> list[dict]:
@@ -344,8 +364,28 @@ def test_a_flood_from_a_foreign_writer_is_bounded_and_counted(line):
     writer = peer.writer()
     n, start = 5000, time.monotonic()
     for i in range(1, n + 1):
-        writer.write(SharedVariable(controller=f"nobody-{PID}", path="SHARE.level", seq=i, stamp_ns=time.time_ns(), every=1, type="float64", values=[i * 0.5]))
-        writer.write(SharedVariable(controller=f"intruder-{PID}", path=f"x{i % 100}", seq=i, stamp_ns=time.time_ns(), every=1, type="bool", values=[1.0]))
+        writer.write(
+            SharedVariable(
+                controller=f"nobody-{PID}",
+                path="SHARE.level",
+                seq=i,
+                stamp_ns=time.time_ns(),
+                every=1,
+                type="float64",
+                values=[i * 0.5],
+            )
+        )
+        writer.write(
+            SharedVariable(
+                controller=f"intruder-{PID}",
+                path=f"x{i % 100}",
+                seq=i,
+                stamp_ns=time.time_ns(),
+                every=1,
+                type="bool",
+                values=[1.0],
+            )
+        )
     time.sleep(0.5)
     elapsed = time.monotonic() - start + 1.0  # and the diagnostics' period
     after = peer.counts(V + "unknown")
@@ -375,9 +415,15 @@ def test_a_bad_import_is_refused_at_upload_naming_what_to_fix(line):
 
     base = {"from": A, "path": "SHARE.count", "variable": V + "count", "stale": V + "count_stale"}
     for imports, words in (
-        ([{**base, "variable": V + "nothing"}], "no scalar variable or array of scalars SHARE.IN.nothing in the layout"),
+        (
+            [{**base, "variable": V + "nothing"}],
+            "no scalar variable or array of scalars SHARE.IN.nothing in the layout",
+        ),
         ([{**base, "stale": V + "level"}], "the staleness flag SHARE.IN.level is a float64; it must be a bool"),
-        ([{**base, "variable": "SHARE.count"}], "SHARE.count would have two writers: module share (module.xml <writes>SHARE.count</writes>) and the import of"),
+        (
+            [{**base, "variable": "SHARE.count"}],
+            "SHARE.count would have two writers: module share (module.xml <writes>SHARE.count</writes>) and the import of",
+        ),
     ):
         r = upload(imports)
         assert r.status_code == 400, r.text
