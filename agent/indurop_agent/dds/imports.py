@@ -239,8 +239,9 @@ class Sharing:
         if sweep:
             samples = self.reader.take(N=MAX_SWEEP)
             for s in samples:
-                key = (getattr(s, "controller", None), getattr(s, "path", None))
-                if isinstance(s, SharedVariable) and key in self.by_key:
+                k = s if isinstance(s, SharedVariable) else getattr(s, "key_sample", None)  # a notice: its key
+                key = (getattr(k, "controller", None), getattr(k, "path", None))
+                if key in self.by_key:
                     self.receive(key, [s], now)
                 else:
                     self.ignored += 1

@@ -342,6 +342,22 @@ def test_a_killed_turns_b_stale_with_its_fallbacks_and_an_alarm_and_back(line, w
     wait_until(lambda: not b.alarms().get(ALARM, {}).get("active"), 30)
 
 
+def test_b_s_own_bridge_killed_its_stamp_ages_and_the_alarm_says_so(line):
+    """The flag stays as the dead bridge left it; the stamp is what tells."""
+    _, b, _ = line
+    wait_until(lambda: fresh(b), 60)
+    wait_until(lambda: not b.alarms().get(ALARM, {}).get("active"), 60)
+    b.bridge.send_signal(signal.SIGKILL)
+    b.bridge.wait()
+    flag = b.read(V + "count_stale")
+    alarm = wait_until(lambda: b.alarms().get(ALARM, {}).get("active") and b.alarms()[ALARM], 30)
+    if flag is False:  # as the bridge left it, following A: only the stamp's age tells
+        assert "count_stamp_ns is" in alarm["detail"] and "the DDS bridge does not write it" in alarm["detail"], alarm
+    b.start_bridge()
+    wait_until(lambda: fresh(b), 60)
+    wait_until(lambda: not b.alarms().get(ALARM, {}).get("active"), 30)
+
+
 def test_an_unknown_source_stays_stale_and_a_mismatch_is_counted_never_written(line):
     a, b, peer = line
     wait_until(lambda: fresh(b), 60)
