@@ -148,7 +148,7 @@ class Sharing:
                     raise sharing.SharingError("irpd names no shared-variable segment", None)
                 sharing.check_layout(exports, imports, layout, sharing.SharingError)
             except sharing.SharingError as e:
-                problem = f"dds.json:{e.line}: {e}" if e.line else f"dds.json: {e}"
+                problem = "; ".join(filter(None, [problem, f"dds.json:{e.line}: {e}" if e.line else f"dds.json: {e}"]))
                 exports, imports = (), ()
         kept = {x.spec.variable for x in self.exports}
         now_exported = {x.variable for x in exports}
