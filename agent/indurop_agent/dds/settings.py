@@ -47,8 +47,9 @@ def _check(s: BridgeSettings) -> BridgeSettings:
     return s
 
 
-def cyclone_config(s: BridgeSettings) -> str:
-    """The Cyclone DDS XML for these settings (Domain(domain_id, config=...))."""
+def cyclone_config(s: BridgeSettings, pinned: bool = False) -> str:
+    """The Cyclone DDS XML for these settings (Domain(domain_id, config=...)); `pinned`: for the
+    settings' domain only, as CYCLONEDDS_URI for a program that joins the default domain."""
     if s.interface == "lo":
         general = '<Interfaces><NetworkInterface name="lo"/></Interfaces><AllowMulticast>false</AllowMulticast>'
         peers = ["127.0.0.1"]
@@ -59,7 +60,7 @@ def cyclone_config(s: BridgeSettings) -> str:
     if peers:
         discovery += "<Peers>" + "".join(f"<Peer address={quoteattr(escape(p))}/>" for p in peers) + "</Peers>"
     return (
-        '<CycloneDDS xmlns="https://cdds.io/config"><Domain Id="any">'
+        f'<CycloneDDS xmlns="https://cdds.io/config"><Domain Id="{s.domain_id if pinned else "any"}">'
         f"<General>{general}</General><Discovery>{discovery}</Discovery>"
         "</Domain></CycloneDDS>"
     )
@@ -79,6 +80,12 @@ def parse_args(argv: list[str] | None = None) -> BridgeSettings:
     ap.add_argument("--namespace", help="prepended to every topic (default none)")
     ap.add_argument("--name", help="this controller's name in the diagnostics (default indurop)")
     ap.add_argument("--poll-ms", type=float, help="how often the rings and subscriptions are read (default 1)")
+    ap.add_argument(
+        "--print-cyclonedds-uri",
+        action="store_true",
+        help="print the Cyclone DDS configuration these settings make and exit: CYCLONEDDS_URI for another DDS "
+        "program (a reader) on the same domain and interface",
+    )
     args = ap.parse_args(argv)
     values: dict = {}
     if args.config:
@@ -99,7 +106,11 @@ def parse_args(argv: list[str] | None = None) -> BridgeSettings:
     if "peers" in values:
         values["peers"] = tuple(values["peers"])
     try:
-        return _check(BridgeSettings(**values))
+        settings = _check(BridgeSettings(**values))
     except (TypeError, ValueError) as e:
         ap.error(str(e))
         raise
+    if args.print_cyclonedds_uri:
+        print(cyclone_config(settings, pinned=True))
+        ap.exit(0)
+    return settings

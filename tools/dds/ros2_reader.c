@@ -1,5 +1,6 @@
 /* ros2_reader.c -- a DDS peer built only from protocol/ros2's IDL (C types by Debian's idlc) and
- * Debian's libddsc: the compatibility test's independent reader and writer (docs/dds.md).
+ * Debian's libddsc: prints what the DDS bridge publishes without ROS, and is the compatibility
+ * tests' independent reader and writer (docs/dds.md).  Built as build/tools/dds/ros2_reader.
  *
  *   ros2_reader read  KIND TOPIC COUNT TIMEOUT_S   prints the matched writer, then COUNT samples
  *   ros2_reader write KIND TOPIC VALUE COUNT       writes VALUE COUNT times (KIND float64, bool, int32)
