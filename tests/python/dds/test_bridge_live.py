@@ -48,7 +48,9 @@ pytestmark = pytest.mark.skipif(not (SET / "Robot.so").exists(), reason=f"the pl
 def ros2_reader() -> Path:
     """The separate DDS peer (tools/dds/ros2_reader.c), its types made by idlc from protocol/ros2's IDL."""
     if not READER.exists():
-        pytest.skip(f"{READER} is not built: packaging/deps.sh installs cyclonedds-dev and cyclonedds-tools, then packaging/build.sh")
+        pytest.skip(
+            f"{READER} is not built: packaging/deps.sh installs cyclonedds-dev and cyclonedds-tools, then packaging/build.sh"
+        )
     return READER
 
 
