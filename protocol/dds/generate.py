@@ -6,6 +6,9 @@
   bridge's types: this writes agent/indurop_agent/dds/ros2_types.py (cyclonedds IdlStruct classes)
   from them, and the compatibility test builds its separate C reader from the same files with
   Debian's idlc.
+- protocol/dds/**/*.idl are indurop's own DDS types (module indurop::dds: the shared variables
+  controllers export to each other); they are written into agent/indurop_agent/dds/indurop_types.py
+  the same way, `@key` members becoming the type's keys.
 - protocol/dds/bridge.schema.json is the shape of a set's dds.json: this writes it into
   agent/indurop_agent/dds/bridge_schema.py, after checking that every message type it names has
   its IDL here.
@@ -15,7 +18,9 @@
 The IDL is read by rosbags (`rosbags.typesys.get_types_from_idl`), a maintained parser of ROS 2's
 message definitions; this only writes the code.  rosbags reads definitions, not the preprocessor:
 the `#include` lines, which Debian's idlc needs to build the test's reader from the same files, are
-blanked before (the files are all read anyway).  Cyclone DDS's own idlc Python backend
+blanked before (the files are all read anyway); and it reads annotations without keeping them, so
+the members annotated `@key` are found by one regular expression and checked against the fields
+rosbags read (a file with keys holds one struct).  Cyclone DDS's own idlc Python backend
 (`idlc -l py`) is not used: the cyclonedds wheel's idlc dies of a segmentation fault, and Debian's
 idlc 0.10.2 of a bus error loading the wheel's 11.x backend (docs/dds.md).
 
@@ -38,6 +43,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 HERE = ROOT / "protocol" / "ros2"  # the IDL files
+OWN = ROOT / "protocol" / "dds"  # indurop's own IDL files
 SCHEMA = ROOT / "protocol" / "dds" / "bridge.schema.json"
 OUT = ROOT / "agent" / "indurop_agent" / "dds"
 COMMAND = "python3 protocol/dds/generate.py"
@@ -58,6 +64,7 @@ idl_basic = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(idl_basic)
 BASIC = idl_basic.BASIC
 INCLUDE = re.compile(r"^[ \t]*#include[^\n]*", re.MULTILINE)
+KEY = re.compile(r"@key\s+[^;]*?(\w+)\s*;")  # `@key string controller;` -> controller
 
 
 class IdlError(ValueError):
@@ -69,21 +76,28 @@ class Struct:
     scoped: str  # sensor_msgs::msg::dds_::JointState_
     fields: list[tuple[str, tuple]] = field(default_factory=list)  # (name, rosbags' field description)
     where: str = ""  # the file
+    keys: list[str] = field(default_factory=list)  # the members annotated @key, in order
 
 
-def parse(path: Path, structs: dict[str, Struct]) -> None:
+def parse(path: Path, structs: dict[str, Struct], root: Path = HERE) -> None:
     """One IDL file's structs, read by rosbags, into `structs` by their scoped names."""
-    rel = path.relative_to(HERE)
+    rel = path.relative_to(root)
     text = INCLUDE.sub("", path.read_text(encoding="utf-8"))
     try:
         types = get_types_from_idl(text)
     except TypesysError as e:
         raise IdlError(f"{rel}: {idl_basic.rosbags_reason(e)}") from None
+    keys = KEY.findall(re.sub(r"//[^\n]*", "", text))
+    if keys and len(types) != 1:
+        raise IdlError(f"{rel}: a file with @key members holds one struct (it has {len(types)})")
     for name, (_, fields) in types.items():
         scoped = name.replace("/", "::")  # rosbags names sensor_msgs::msg::dds_::JointState_ with slashes
         if scoped in structs:
             raise IdlError(f"{rel}: {scoped} is defined twice (also in {structs[scoped].where})")
-        structs[scoped] = Struct(scoped, list(fields), str(rel))
+        unknown = [k for k in keys if k not in {f for f, _ in fields}]
+        if unknown:
+            raise IdlError(f"{rel}: @key {unknown[0]} is not a member of {scoped}")
+        structs[scoped] = Struct(scoped, list(fields), str(rel), keys)
 
 
 def class_name(scoped: str) -> str:
@@ -124,7 +138,7 @@ def default(desc: tuple, structs: dict[str, Struct]) -> str:
     return {"string": ' = ""', "char": ' = "\\0"', "bool": " = False", "float": " = 0.0"}.get(kind, " = 0")
 
 
-def render(structs: dict[str, Struct]) -> str:
+def render(structs: dict[str, Struct], title: str, source: str) -> str:
     names = [class_name(s) for s in structs]
     if len(set(names)) != len(names):
         raise IdlError("two structs would make the same Python class name: " + ", ".join(sorted(structs)))
@@ -143,14 +157,16 @@ def render(structs: dict[str, Struct]) -> str:
 
     for scoped in sorted(structs):
         visit(scoped)
+    keyed = any(structs[s].keys for s in order)
     out = [
-        '"""ROS 2 message types on the DDS wire, as cyclonedds IdlStruct classes.',
+        f'"""{title}, as cyclonedds IdlStruct classes.',
         "",
-        f"Generated from protocol/ros2/**/*.idl by {COMMAND}; do not edit.",
+        f"Generated from {source} by {COMMAND}; do not edit.",
         '"""',
         "",
         "from dataclasses import dataclass, field",
         "",
+        *(["import cyclonedds.idl.annotations as annotate"] if keyed else []),
         "from cyclonedds.idl import IdlStruct",
         "from cyclonedds.idl import types",
         "",
@@ -167,6 +183,7 @@ def render(structs: dict[str, Struct]) -> str:
             out.append(
                 f"    {fname}: {annotation(desc, structs, f'{s.where}: {scoped}.{fname}')}{default(desc, structs)}"
             )
+        out += [f'    annotate.key("{k}")' for k in s.keys]
     return "\n".join(out) + "\n"
 
 
@@ -199,7 +216,14 @@ def generate() -> dict[Path, str]:
     structs: dict[str, Struct] = {}
     for path in sorted(HERE.rglob("*.idl")):
         parse(path, structs)
-    return {OUT / "ros2_types.py": render(structs), OUT / "bridge_schema.py": render_schema(structs)}
+    own: dict[str, Struct] = {}
+    for path in sorted(OWN.rglob("*.idl")):
+        parse(path, own, OWN)
+    return {
+        OUT / "ros2_types.py": render(structs, "ROS 2 message types on the DDS wire", "protocol/ros2/**/*.idl"),
+        OUT / "indurop_types.py": render(own, "indurop's own DDS types", "protocol/dds/**/*.idl"),
+        OUT / "bridge_schema.py": render_schema(structs),
+    }
 
 
 def main() -> int:

@@ -4,14 +4,17 @@ A non-RT process beside the agent.  It reads what the agent reads and never bloc
 
 - irpd's control socket (its own connection): `status` every status_s, `trace` with the owner
   "dds" (irpd traces the union of every owner's channels), `stats` and `alarms` for the
-  diagnostics, and `write` for the variables its subscriptions map — the only writes it makes;
-- the trace rings, mapped read-only: every sample of the joint variables and mapped variables.
+  diagnostics, and `write` for the variables its subscriptions and imports map — the only writes
+  it makes;
+- the trace rings, mapped read-only: every sample of the joint, mapped and exported variables;
+- the variables segment, mapped read-only, for the running layout (the exports' and imports' types).
 
 Each poll (poll_ms): the rows sampled since the last poll are published — sensor_msgs/JointState
 on rt/<ns>/joint_states from robot.json's joint map (position = value x scale + offset), stamped
-with the row's due time on the wall clock, and the mapped variables (std_msgs types, or the
-message types dds.json declares, declared.py) — then the subscriptions are taken and written,
-each topic at most max_rate_hz.  Every diagnostics period: one
+with the row's due time on the wall clock, the mapped variables (std_msgs types, or the message
+types dds.json declares, declared.py) and the exported variables (imports.py) — then the
+subscriptions are taken and written, each topic at most max_rate_hz, and the imports, each at most
+rate_hz.  Every diagnostics period: one
 diagnostic_msgs/DiagnosticArray on rt/<ns>/diagnostics.
 
     indurop-dds-bridge --irpd-socket /run/indurop/irpd.sock [--domain-id 0] [--interface lo]
@@ -39,6 +42,7 @@ from ..variables import Segment, VariableError
 from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config
 from . import bridge_file, declared, ros2_types
 from .bridge_file import BRIDGE_JSON, BridgeFile, BridgeFileError, Mapping, std_basic
+from .imports import Sharing
 from .settings import BridgeSettings, cyclone_config, parse_args
 
 # ROS 2's QoS profiles (rmw_qos_profile_default, rmw_qos_profile_sensor_data).
@@ -115,6 +119,7 @@ class Bridge:
             self.participant, self.topic("diagnostics", ros2_types.DiagnosticArray), QOS["default"]
         )
         self.publications: list[Publication] = []
+        self.sharing = Sharing(self.participant, settings.name, self.irpd)  # export and imports (imports.py)
         self.subscriptions: list[Subscription] = []
         self.incompatible_before = 0
         self.basic_period_ns = 0
@@ -144,6 +149,7 @@ class Bridge:
                 print(f"indurop-dds-bridge: irpd: {e}", file=sys.stderr, flush=True)
             self.counters.irpd_errors += 1
             self.status = {}
+            self.sharing.withdraw()
             return
         self.status = status
         key = (status.get("pid"), status.get("set"), status.get("generation"))
@@ -173,13 +179,19 @@ class Bridge:
                 joints = [(j.joint, j.variable, j.scale, j.offset) for j in config.joints if j.variable]
             except (MappingError, OSError) as e:
                 problems.append(str(e))
-        channels = list(dict.fromkeys([v for _, v, _, _ in joints] + [v for m in bridge.publish for v in m.variables]))
+        layout = self.sharing.layout(status)
+        exported, problem = self.sharing.load(bridge.export, bridge.imports, layout, self.decimation)
+        problems += [problem] if problem else []
+        channels = [v for _, v, _, _ in joints] + [v for m in bridge.publish for v in m.variables] + exported
+        channels = list(dict.fromkeys(channels))
         try:
             try:
                 answer = self.irpd.request("trace", channels=channels, owner=self.s.trace_owner)
             except IrpdRefused as e:
                 problems.append(f"irpd refused to trace the mapped variables: {e}")
-                joints, bridge = [], BridgeFile(joint_states=False, publish=(), subscribe=bridge.subscribe)
+                joints = []
+                bridge = BridgeFile(joint_states=False, publish=(), subscribe=bridge.subscribe, imports=bridge.imports)
+                self.sharing.load((), bridge.imports, layout, self.decimation)
                 answer = self.irpd.request("trace", channels=[], owner=self.s.trace_owner)
             self.open_ring(answer["shm"])
         except (IrpdUnavailable, IrpdRefused, TraceError, KeyError) as e:
@@ -194,7 +206,8 @@ class Bridge:
         print(
             f"indurop-dds-bridge: set {self.set_path}: {len(joints)} joints on "
             f"{self.wire_name(bridge.joint_states_topic)} every {self.joint_decimation} basic period(s), "
-            f"{len(bridge.publish)} published and {len(bridge.subscribe)} subscribed mappings",
+            f"{len(bridge.publish)} published and {len(bridge.subscribe)} subscribed mappings, "
+            f"{len(self.sharing.exports)} exports and {len(self.sharing.imports)} imports",
             file=sys.stderr,
             flush=True,
         )
@@ -254,6 +267,7 @@ class Bridge:
         for part in read.parts:
             column = {p: part.columns[i] for i, p in enumerate(part.config.paths)}
             self.publish_joints(part, column)
+            self.sharing.publish(part, column, self.clock_offset_ns)
             for pub in self.publications:
                 m = pub.mapping
                 cols = [column.get(v) for v in m.variables]
@@ -355,7 +369,7 @@ class Bridge:
     # ---- diagnostics -------------------------------------------------------------------------
     def publish_diagnostics(self) -> None:
         now_ns = time.time_ns()
-        statuses = [self.bridge_status()]
+        statuses = [self.bridge_status(), *self.sharing.statuses(self.s.name)]
         if self.status:
             try:
                 stats = self.irpd.request("stats")
@@ -380,6 +394,7 @@ class Bridge:
             ros2_types.KeyValue(key="domain_id", value=str(self.s.domain_id)),
             ros2_types.KeyValue(key="interface", value=self.s.interface),
             *self.counters.as_values(),
+            *self.sharing.values(),
         ]
         return ros2_types.DiagnosticStatus(
             level=level,
@@ -421,7 +436,8 @@ class Bridge:
     # ---- the loop ----------------------------------------------------------------------------
     def step(self) -> None:
         now = time.monotonic()
-        if now >= self.next_status:
+        sweep = now >= self.next_status
+        if sweep:
             self.next_status = now + self.s.status_s
             self.follow_wall_clock()
             self.poll_status()
@@ -429,6 +445,7 @@ class Bridge:
         if self.status:
             self.publish_rows()
             self.take_subscriptions()
+            self.sharing.step(now, self.clock_offset_ns, sweep)
         if self.bridge.diagnostics and now >= self.next_diag:
             self.next_diag = now + 1.0 / self.bridge.diagnostics_hz
             self.publish_diagnostics()
@@ -448,6 +465,7 @@ class Bridge:
             time.sleep(max(0.0, period - (time.monotonic() - start)))
 
     def close(self) -> None:
+        self.sharing.close()
         try:
             self.irpd.request("trace", channels=[], owner=self.s.trace_owner)
         except (IrpdUnavailable, IrpdRefused):

@@ -3,10 +3,11 @@
 The shape is protocol/dds/bridge.schema.json (generated into bridge_schema.py); the checks here
 are what a schema cannot say: a topic mapped twice, a topic both published and subscribed, a
 variable with two writers (two subscriptions, or a subscription and a module's `<writes>` in
-module.xml), the message types the file declares and the fields of the mappings that use them
-(declared.py), and, against a layout, every mapped variable's type against its field's.  Every
-refusal is a BridgeFileError naming the file, the line and what to fix; the agent's upload
-(uploads.py) and the bridge at start both use it.
+module.xml; the imports' writers: sharing.py), the message types the file declares and the
+fields of the mappings that use them (declared.py), and, against a layout, every mapped variable's
+type against its field's, and the exported and imported variables (sharing.py).  Every refusal is a
+BridgeFileError naming the file, the line and what to fix; the agent's upload (uploads.py) and the
+bridge at start both use it.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from dataclasses import dataclass, field
 
 import jsonschema
 
-from . import declared, ros2_types
+from . import declared, ros2_types, sharing
 from .bridge_schema import SCHEMA
 from .declared import DeclarationError, Plan
 from .idl_basic import BASIC, holds
@@ -85,6 +86,8 @@ class BridgeFile:
     description: str = ""
     written: dict[str, Mapping] = field(default_factory=dict)  # variable -> the mapping that writes it
     types: dict[str, declared.TypeDef] = field(default_factory=dict)  # the declared and shipped types
+    export: tuple[sharing.Export, ...] = ()  # variables other controllers may import
+    imports: tuple[sharing.Import, ...] = ()  # variables of other controllers written into this set's
 
 
 class _Located(dict):
@@ -174,6 +177,7 @@ def parse(data: bytes | str, file: str = BRIDGE_JSON) -> BridgeFile:
         return tuple(out)
 
     js, diag = doc.get("joint_states", {}), doc.get("diagnostics", {})
+    export, imports = sharing.parse(doc, lambda message, line: BridgeFileError(message, line, file))
     bridge = BridgeFile(
         joint_states=js.get("enabled", True),
         joint_states_topic=js.get("topic", "joint_states").lstrip("/"),
@@ -185,6 +189,8 @@ def parse(data: bytes | str, file: str = BRIDGE_JSON) -> BridgeFile:
         subscribe=mappings("subscribe", "max_rate_hz", 100.0),
         description=doc.get("description", ""),
         types=types,
+        export=export,
+        imports=imports,
     )
     _check_topics(bridge, file)
     for m in bridge.subscribe:
@@ -198,6 +204,7 @@ def parse(data: bytes | str, file: str = BRIDGE_JSON) -> BridgeFile:
                     file,
                 )
             bridge.written[v] = m
+    sharing.check_writers(imports, bridge.written, {}, lambda message, line: BridgeFileError(message, line, file))
     return bridge
 
 
@@ -256,6 +263,7 @@ def check_writers(bridge: BridgeFile, module_writes: dict[str, list[str]], file:
                     m.line,
                     file,
                 )
+    sharing.check_writers(bridge.imports, {}, module_writes, lambda message, line: BridgeFileError(message, line, file))
 
 
 def check_variables(bridge: BridgeFile, scalars: dict[str, str], file: str = BRIDGE_JSON, kinds=None) -> None:
@@ -286,6 +294,15 @@ def check_variables(bridge: BridgeFile, scalars: dict[str, str], file: str = BRI
                         m.line,
                         file,
                     )
+
+
+def check_layout(bridge: BridgeFile, layout: dict, file: str = BRIDGE_JSON) -> None:
+    """Every mapped, exported and imported variable against the layout (layout.json), with the types
+    their fields hold."""
+    check_variables(bridge, layout_scalars(layout), file, kinds=layout_kinds(layout))
+    sharing.check_layout(
+        bridge.export, bridge.imports, layout, lambda message, line: BridgeFileError(message, line, file)
+    )
 
 
 def layout_scalars(layout: dict) -> dict[str, str]:

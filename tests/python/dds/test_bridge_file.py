@@ -133,7 +133,7 @@ def test_a_stale_generated_file_is_named_with_the_command(tmp_path, monkeypatch,
     gen = importlib.util.module_from_spec(spec)
     monkeypatch.setitem(sys.modules, "dds_generate", gen)  # its dataclasses look their module up
     spec.loader.exec_module(gen)
-    for name in ("ros2_types.py", "bridge_schema.py"):
+    for name in ("ros2_types.py", "indurop_types.py", "bridge_schema.py"):
         (tmp_path / name).write_text((ROOT / "agent" / "indurop_agent" / "dds" / name).read_text())
     monkeypatch.setattr(gen, "OUT", tmp_path)
     monkeypatch.setattr(sys, "argv", ["generate.py", "--check"])
