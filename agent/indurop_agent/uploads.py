@@ -602,19 +602,21 @@ def check_set(files: list[Received]) -> list[StagedFile]:
     if ROBOT_JSON in by_path:
         check_robot_json(by_path[ROBOT_JSON].source, {f.path: f for f in staged})
     if BRIDGE_JSON in by_path:
-        layout_file = by_path.get(layout) if layout else None
+        layout_file = by_path.get(layout or "layout.json")  # irpd's default: layout.json beside module.xml
         check_bridge_json(by_path[BRIDGE_JSON].source, modules, layout_file.source if layout_file else None)
     return staged
 
 
 def check_bridge_json(source: Path, modules: list[ModuleRef], layout: Path | None) -> None:
-    """dds.json's shape, one mapping per topic, one writer per variable (a second subscription or a
-    module's <writes>), and, when the upload holds the layout, every mapped variable in it (docs/dds.md)."""
+    """dds.json's shape, its declared message types and their mappings' fields, one mapping per topic,
+    one writer per variable (a second subscription, an import or a module's <writes>), and, when the
+    upload holds the layout, every mapped, exported and imported variable in it with a type its field
+    fits (docs/dds.md)."""
     try:
         bridge = bridge_file.parse(source.read_bytes())
         bridge_file.check_writers(bridge, {m.name: m.writes for m in modules})
         if layout is not None:
-            bridge_file.check_variables(bridge, bridge_file.layout_scalars(json.loads(layout.read_bytes())))
+            bridge_file.check_layout(bridge, json.loads(layout.read_bytes()))
     except bridge_file.BridgeFileError as e:
         raise UploadError(400, str(e), file=e.file, line=e.line) from None
 

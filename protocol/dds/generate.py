@@ -6,25 +6,34 @@
   bridge's types: this writes agent/indurop_agent/dds/ros2_types.py (cyclonedds IdlStruct classes)
   from them, and the compatibility test builds its separate C reader from the same files with
   Debian's idlc.
+- protocol/dds/**/*.idl are indurop's own DDS types (module indurop::dds: the shared variables
+  controllers export to each other); they are written into agent/indurop_agent/dds/indurop_types.py
+  the same way, `@key` members becoming the type's keys.
 - protocol/dds/bridge.schema.json is the shape of a set's dds.json: this writes it into
   agent/indurop_agent/dds/bridge_schema.py, after checking that every message type it names has
   its IDL here.
-- protocol/dds/*.idl are indurop's own types on the domain (line.idl: a controller's announcement,
-  docs/dds.md "The line"): this writes agent/indurop_agent/dds/line_types.py from them.
 
 `--check` fails, naming this command, when a written file is stale.
 
-Cyclone DDS's own idlc Python backend (`idlc -l py`) is not used: the cyclonedds wheel ships its
-backend without an idlc, and Debian's idlc 0.10.2 crashes loading the wheel's 11.x backend
-(docs/dds.md).  So this reads the small part of IDL these files use — modules, structs, constants,
-sequence<>, string, the basic types and @key — and refuses anything else, naming file and line.
+The IDL is read by rosbags (`rosbags.typesys.get_types_from_idl`), a maintained parser of ROS 2's
+message definitions; this only writes the code.  rosbags reads definitions, not the preprocessor:
+the `#include` lines, which Debian's idlc needs to build the test's reader from the same files, are
+blanked before (the files are all read anyway); and it reads annotations without keeping them, so
+the members annotated `@key` are found by one regular expression and checked against the fields
+rosbags read (a file with keys holds one struct).  Cyclone DDS's own idlc Python backend
+(`idlc -l py`) is not used: the cyclonedds wheel's idlc dies of a segmentation fault, and Debian's
+idlc 0.10.2 of a bus error loading the wheel's 11.x backend (docs/dds.md).
 
     python3 protocol/dds/generate.py [--check]
+
+rosbags is in the project's venv (bash packaging/venv.sh); run by another Python, this runs itself
+again with the venv's.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import re
@@ -34,30 +43,28 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 HERE = ROOT / "protocol" / "ros2"  # the IDL files
-OWN = ROOT / "protocol" / "dds"  # indurop's own types (line.idl)
+OWN = ROOT / "protocol" / "dds"  # indurop's own IDL files
 SCHEMA = ROOT / "protocol" / "dds" / "bridge.schema.json"
 OUT = ROOT / "agent" / "indurop_agent" / "dds"
 COMMAND = "python3 protocol/dds/generate.py"
+VENV_PYTHON = ROOT / ".venv" / "bin" / "python"
 
-# IDL type -> (the annotation in the generated Python, the C/IDL spelling kept for the table)
-BASIC = {
-    "boolean": "bool",
-    "octet": "types.byte",  # IDL octet (ROS 2 byte): TK_BYTE, which Cyclone 0.10 also knows
-    "char": "types.char",
-    "int8": "types.int8",
-    "uint8": "types.uint8",
-    "int16": "types.int16",
-    "uint16": "types.uint16",
-    "int32": "types.int32",
-    "uint32": "types.uint32",
-    "int64": "types.int64",
-    "uint64": "types.uint64",
-    "float": "types.float32",
-    "double": "types.float64",
-    "string": "str",
-}
+try:
+    from rosbags.interfaces import Nodetype
+    from rosbags.typesys import TypesysError, get_types_from_idl
+except ImportError:  # not the venv's Python
+    if VENV_PYTHON.exists() and Path(sys.executable) != VENV_PYTHON and __name__ == "__main__":
+        os.execv(VENV_PYTHON, [str(VENV_PYTHON), __file__, *sys.argv[1:]])
+    sys.exit(f"generate.py: rosbags is not installed: run it with {VENV_PYTHON} (bash packaging/venv.sh makes it)")
 
-TOKEN = re.compile(r"\s*(?:(//[^\n]*)|(#include\s+\"[^\"]+\")|(::|[{};<>=,@])|([A-Za-z_][A-Za-z0-9_]*)|(-?\d+))")
+# The basic types' cyclonedds annotations (agent/indurop_agent/dds/idl_basic.py, loaded by path:
+# the package itself imports the files written here).
+_spec = importlib.util.spec_from_file_location("idl_basic", OUT / "idl_basic.py")
+idl_basic = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(idl_basic)
+BASIC = idl_basic.BASIC
+INCLUDE = re.compile(r"^[ \t]*#include[^\n]*", re.MULTILINE)
+KEY = re.compile(r"@key\s+[^;]*?(\w+)\s*;")  # `@key string controller;` -> controller
 
 
 class IdlError(ValueError):
@@ -67,110 +74,30 @@ class IdlError(ValueError):
 @dataclass
 class Struct:
     scoped: str  # sensor_msgs::msg::dds_::JointState_
-    fields: list[tuple[str, str]] = field(default_factory=list)  # (name, type as written, scoped)
-    where: str = ""
-    keys: list[str] = field(default_factory=list)  # the members marked @key
+    fields: list[tuple[str, tuple]] = field(default_factory=list)  # (name, rosbags' field description)
+    where: str = ""  # the file
+    keys: list[str] = field(default_factory=list)  # the members annotated @key, in order
 
 
-def tokens(path: Path, base: Path = HERE):
-    """(token, line) pairs; comments and #include lines are skipped (every file is read anyway)."""
-    text = path.read_text(encoding="utf-8")
-    pos = 0
-    while text[pos:].strip():
-        m = TOKEN.match(text, pos)
-        if not m:
-            line = text.count("\n", 0, pos) + 1
-            raise IdlError(f"{path.relative_to(base)}:{line}: cannot read {text[pos : pos + 20].strip()!r}")
-        pos = m.end()
-        if m.group(1) or m.group(2):
-            continue
-        start = m.start(3) if m.group(3) else m.start(4) if m.group(4) else m.start(5)
-        yield (m.group(3) or m.group(4) or m.group(5)), text.count("\n", 0, start) + 1
-
-
-def parse(path: Path, structs: dict[str, Struct], base: Path = HERE) -> None:
-    toks = list(tokens(path, base))
-    rel = path.relative_to(base)
-    i = 0
-    scope: list[str] = []
-
-    def expect(value: str) -> None:
-        nonlocal i
-        if i >= len(toks) or toks[i][0] != value:
-            got, line = toks[i] if i < len(toks) else ("the end", toks[-1][1])
-            raise IdlError(f"{rel}:{line}: expected {value!r}, found {got!r}")
-        i += 1
-
-    def name() -> str:
-        nonlocal i
-        tok, line = toks[i]
-        if not re.fullmatch(r"[A-Za-z_]\w*", tok):
-            raise IdlError(f"{rel}:{line}: expected a name, found {tok!r}")
-        i += 1
-        return tok
-
-    def type_name() -> str:
-        nonlocal i
-        if toks[i][0] == "sequence":
-            i += 1
-            expect("<")
-            inner = type_name()
-            expect(">")
-            return f"sequence<{inner}>"
-        parts = [name()]
-        while i < len(toks) and toks[i][0] == "::":
-            i += 1
-            parts.append(name())
-        scoped = "::".join(parts)
-        if len(parts) == 1 and scoped not in BASIC:
-            raise IdlError(
-                f"{rel}:{toks[i - 1][1]}: {scoped!r} is not a type this generator knows (write other structs fully scoped)"
-            )
-        return scoped
-
-    while i < len(toks):
-        tok, line = toks[i]
-        if tok == "module":
-            i += 1
-            scope.append(name())
-            expect("{")
-        elif tok == "}":
-            i += 1
-            expect(";")
-            if not scope:
-                raise IdlError(f"{rel}:{line}: a '}}' closes nothing")
-            scope.pop()
-        elif tok == "const":
-            i += 1
-            type_name()
-            name()
-            expect("=")
-            i += 1
-            expect(";")
-        elif tok == "struct":
-            i += 1
-            s = Struct("::".join([*scope, name()]), where=f"{rel}:{line}")
-            expect("{")
-            while toks[i][0] != "}":
-                keyed = toks[i][0] == "@"
-                if keyed:
-                    i += 1
-                    if name() != "key":
-                        raise IdlError(f"{rel}:{toks[i - 1][1]}: the only annotation this generator reads is @key")
-                t = type_name()
-                s.fields.append((name(), t))
-                if keyed:
-                    s.keys.append(s.fields[-1][0])
-                expect(";")
-            i += 1
-            expect(";")
-            if s.scoped in structs:
-                raise IdlError(f"{rel}:{line}: {s.scoped} is defined twice (also at {structs[s.scoped].where})")
-            structs[s.scoped] = s
-        else:
-            raise IdlError(f"{rel}:{line}: {tok!r} is outside what this generator reads (module, struct, const)")
-    if scope:
-        raise IdlError(f"{rel}: module {'::'.join(scope)} is not closed")
+def parse(path: Path, structs: dict[str, Struct], root: Path = HERE) -> None:
+    """One IDL file's structs, read by rosbags, into `structs` by their scoped names."""
+    rel = path.relative_to(root)
+    text = INCLUDE.sub("", path.read_text(encoding="utf-8"))
+    try:
+        types = get_types_from_idl(text)
+    except TypesysError as e:
+        raise IdlError(f"{rel}: {idl_basic.rosbags_reason(e)}") from None
+    keys = KEY.findall(re.sub(r"//[^\n]*", "", text))
+    if keys and len(types) != 1:
+        raise IdlError(f"{rel}: a file with @key members holds one struct (it has {len(types)})")
+    for name, (_, fields) in types.items():
+        scoped = name.replace("/", "::")  # rosbags names sensor_msgs::msg::dds_::JointState_ with slashes
+        if scoped in structs:
+            raise IdlError(f"{rel}: {scoped} is defined twice (also in {structs[scoped].where})")
+        unknown = [k for k in keys if k not in {f for f, _ in fields}]
+        if unknown:
+            raise IdlError(f"{rel}: @key {unknown[0]} is not a member of {scoped}")
+        structs[scoped] = Struct(scoped, list(fields), str(rel), keys)
 
 
 def class_name(scoped: str) -> str:
@@ -178,14 +105,37 @@ def class_name(scoped: str) -> str:
     return scoped.split("::")[-1].rstrip("_")
 
 
-def annotation(t: str, structs: dict[str, Struct]) -> str:
-    if t.startswith("sequence<"):
-        return f"types.sequence[{annotation(t[9:-1], structs)}]"
-    if t in BASIC:
-        return BASIC[t]
-    if t not in structs:
-        raise IdlError(f"{t} is used but defined in no file of protocol/ros2")
-    return class_name(t)
+def annotation(desc: tuple, structs: dict[str, Struct], where: str) -> str:
+    """rosbags' description of a field as its cyclonedds annotation."""
+    node, rest = desc
+    if node == Nodetype.BASE:
+        name, bound = rest
+        if name not in BASIC:
+            raise IdlError(f"{where}: {name} has no cyclonedds type here")
+        return f"types.bounded_str[{bound}]" if name == "string" and bound else BASIC[name].annotation
+    if node == Nodetype.NAME:
+        scoped = rest.replace("/", "::")
+        if scoped not in structs:
+            raise IdlError(f"{where}: {scoped} is used but defined in no file of protocol/ros2")
+        return class_name(scoped)
+    inner, size = rest
+    inner = annotation(inner, structs, where)
+    if node == Nodetype.ARRAY:
+        return f"types.array[{inner}, {size}]"
+    return f"types.sequence[{inner}, {size}]" if size else f"types.sequence[{inner}]"
+
+
+def default(desc: tuple, structs: dict[str, Struct]) -> str:
+    node, rest = desc
+    if node == Nodetype.SEQUENCE:
+        return " = field(default_factory=list)"
+    if node == Nodetype.ARRAY:
+        inner, size = rest
+        return f" = field(default_factory=lambda: [{default(inner, structs)[3:]}] * {size})"
+    if node == Nodetype.NAME:
+        return f" = field(default_factory={class_name(rest.replace('/', '::'))})"
+    kind = BASIC[rest[0]].kind
+    return {"string": ' = ""', "char": ' = "\\0"', "bool": " = False", "float": " = 0.0"}.get(kind, " = 0")
 
 
 def render(structs: dict[str, Struct], title: str, source: str) -> str:
@@ -197,17 +147,17 @@ def render(structs: dict[str, Struct], title: str, source: str) -> str:
     def visit(scoped: str) -> None:
         if scoped in order:
             return
-        for _, t in structs[scoped].fields:
-            inner = t[9:-1] if t.startswith("sequence<") else t
-            while inner.startswith("sequence<"):
-                inner = inner[9:-1]
+        for _, desc in structs[scoped].fields:
+            while desc[0] in (Nodetype.ARRAY, Nodetype.SEQUENCE):
+                desc = desc[1][0]
+            inner = desc[1].replace("/", "::") if desc[0] == Nodetype.NAME else None
             if inner in structs:
                 visit(inner)
         order.append(scoped)
 
     for scoped in sorted(structs):
         visit(scoped)
-    keyed = any(s.keys for s in structs.values())
+    keyed = any(structs[s].keys for s in order)
     out = [
         f'"""{title}, as cyclonedds IdlStruct classes.',
         "",
@@ -216,9 +166,9 @@ def render(structs: dict[str, Struct], title: str, source: str) -> str:
         "",
         "from dataclasses import dataclass, field",
         "",
+        *(["import cyclonedds.idl.annotations as annotate"] if keyed else []),
         "from cyclonedds.idl import IdlStruct",
         "from cyclonedds.idl import types",
-        *(["from cyclonedds.idl.annotations import key"] if keyed else []),
         "",
         "__all__ = [",
         *(f'    "{class_name(s)}",' for s in order),
@@ -227,25 +177,13 @@ def render(structs: dict[str, Struct], title: str, source: str) -> str:
     for scoped in order:
         s = structs[scoped]
         out += ["", "", "@dataclass", f'class {class_name(scoped)}(IdlStruct, typename="{scoped}"):']
-        out.append(f'    """{scoped} ({s.where.split(":")[0]})."""')
+        out.append(f'    """{scoped} ({s.where})."""')
         out.append("")
-        for fname, t in s.fields:
-            ann = annotation(t, structs)
-            if t.startswith("sequence<"):
-                default = " = field(default_factory=list)"
-            elif t in structs:
-                default = f" = field(default_factory={class_name(t)})"
-            elif t == "string":
-                default = ' = ""'
-            elif t == "boolean":
-                default = " = False"
-            elif t in ("float", "double"):
-                default = " = 0.0"
-            else:
-                default = " = 0"
-            out.append(f"    {fname}: {ann}{default}")
-            if fname in s.keys:
-                out.append(f'    key("{fname}")')
+        for fname, desc in s.fields:
+            out.append(
+                f"    {fname}: {annotation(desc, structs, f'{s.where}: {scoped}.{fname}')}{default(desc, structs)}"
+            )
+        out += [f'    annotate.key("{k}")' for k in s.keys]
     return "\n".join(out) + "\n"
 
 
@@ -279,12 +217,12 @@ def generate() -> dict[Path, str]:
     for path in sorted(HERE.rglob("*.idl")):
         parse(path, structs)
     own: dict[str, Struct] = {}
-    for path in sorted(OWN.glob("*.idl")):
+    for path in sorted(OWN.rglob("*.idl")):
         parse(path, own, OWN)
     return {
         OUT / "ros2_types.py": render(structs, "ROS 2 message types on the DDS wire", "protocol/ros2/**/*.idl"),
+        OUT / "indurop_types.py": render(own, "indurop's own DDS types", "protocol/dds/**/*.idl"),
         OUT / "bridge_schema.py": render_schema(structs),
-        OUT / "line_types.py": render(own, "indurop's own types on the DDS domain", "protocol/dds/*.idl"),
     }
 
 

@@ -11,6 +11,7 @@ records of irpd's alarm segment; every `irpd_poll_s` it asks irpd for its status
                      new records -> transitions, in seq order;
                      reconciled from the sources' active bitmaps when it was (re)opened, a source
                      changed, or records were lost, skipped or not written (rate limit)
+        the running set's DDS imports: stale or not (dds_imports.py)
         shelves whose time is up; rate alarms below their threshold; flood rows
         the cursors (irpd's event log, the ring) saved with the transitions, in one transaction
 
@@ -27,6 +28,7 @@ from .. import protocol
 from ..events import AgentEvents
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
 from ..shm_layout import LayoutError
+from .dds_imports import ImportAlarms
 from .manager import AlarmManager
 from .segment import AlarmSegment, AlarmSegmentError, Record, RingReader
 from .system import SystemAlarms
@@ -44,9 +46,11 @@ class AlarmWatcher(threading.Thread):
         events: AgentEvents,
         poll_s: float = 0.1,
         irpd_poll_s: float = 1.0,
+        imports: ImportAlarms | None = None,
     ):
         super().__init__(name="alarm-watcher", daemon=True)
         self.manager, self.system, self.events = manager, system, events
+        self.imports = imports or ImportAlarms(manager)
         self.poll_s, self.irpd_poll_s = poll_s, irpd_poll_s
         self.client = IrpdClient(socket_path, timeout_s=2.0)
         self._stop_event = threading.Event()
@@ -67,6 +71,7 @@ class AlarmWatcher(threading.Thread):
         self.client.close()
         if self.segment is not None:
             self.segment.close()
+        self.imports.close()
 
     def run(self) -> None:
         while not self._stop_event.wait(self.poll_s):
@@ -85,6 +90,7 @@ class AlarmWatcher(threading.Thread):
             self.next_irpd = now + self.irpd_poll_s
             self.poll_irpd()
         self.read_segment()
+        self.imports.poll()
         self.manager.expire_shelves()
         self.system.tick()
         self.manager.flush_floods()
@@ -124,6 +130,7 @@ class AlarmWatcher(threading.Thread):
             if now_seen != seen:  # (not a synced write every second for nothing)
                 self.manager.set_meta(irpd=now_seen)
         self.segment_name = (status.get("shared_memory") or {}).get("alarms")
+        self.imports.follow(status)
         if status.get("generation") != self.generation:
             self.generation = status.get("generation")
             self.declare()

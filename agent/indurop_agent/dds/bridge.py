@@ -4,13 +4,17 @@ A non-RT process beside the agent.  It reads what the agent reads and never bloc
 
 - irpd's control socket (its own connection): `status` every status_s, `trace` with the owner
   "dds" (irpd traces the union of every owner's channels), `stats` and `alarms` for the
-  diagnostics, and `write` for the variables its subscriptions map — the only writes it makes;
-- the trace rings, mapped read-only: every sample of the joint variables and mapped variables.
+  diagnostics, and `write` for the variables its subscriptions and imports map — the only writes
+  it makes;
+- the trace rings, mapped read-only: every sample of the joint, mapped and exported variables;
+- the variables segment, mapped read-only, for the running layout (the exports' and imports' types).
 
 Each poll (poll_ms): the rows sampled since the last poll are published — sensor_msgs/JointState
 on rt/<ns>/joint_states from robot.json's joint map (position = value x scale + offset), stamped
-with the row's due time on the wall clock, and the mapped variables — then the subscriptions are
-taken and written, each topic at most max_rate_hz.  Every diagnostics period: one
+with the row's due time on the wall clock, the mapped variables (std_msgs types, or the message
+types dds.json declares, declared.py) and the exported variables (imports.py) — then the
+subscriptions are taken and written, each topic at most max_rate_hz, and the imports, each at most
+rate_hz.  Every diagnostics period: one
 diagnostic_msgs/DiagnosticArray on rt/<ns>/diagnostics.  Every line period: the controller's
 announcement on the line, and the line's view for the agent (line.py).
 
@@ -19,7 +23,6 @@ announcement on the line, and the line's view for the agent (line.py).
 
 from __future__ import annotations
 
-import math
 import signal
 import sys
 import time
@@ -27,7 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication
-from cyclonedds.core import Policy, Qos
+from cyclonedds.core import DDSException, Policy, Qos
 from cyclonedds.domain import Domain, DomainParticipant
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
@@ -36,9 +39,11 @@ from cyclonedds.util import duration
 
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
 from ..trace import TraceError, TraceRing
+from ..variables import Segment, VariableError
 from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config
-from . import bridge_file, ros2_types
-from .bridge_file import BRIDGE_JSON, BridgeFile, BridgeFileError, Mapping
+from . import bridge_file, declared, ros2_types
+from .bridge_file import BRIDGE_JSON, BridgeFile, BridgeFileError, Mapping, std_basic
+from .imports import Sharing
 from .line import Line
 from .settings import BridgeSettings, cyclone_config, parse_args
 
@@ -51,11 +56,6 @@ QOS = {
 }
 LEVEL_OK, LEVEL_WARN, LEVEL_ERROR, LEVEL_STALE = 0, 1, 2, 3
 MAX_TAKE = 64  # samples taken from one subscription per poll; the reader keeps the newest (keep-last)
-
-
-def message_class(type_name: str):
-    """std_msgs/msg/Float64 -> ros2_types.Float64."""
-    return getattr(ros2_types, type_name.rsplit("/", 1)[-1])
 
 
 def ros_time(ns: int) -> ros2_types.Time:
@@ -104,7 +104,7 @@ class Bridge:
         self.irpd = IrpdClient(settings.irpd_socket, timeout_s=2.0)
         self.domain = Domain(settings.domain_id, cyclone_config(settings))
         self.participant = DomainParticipant(settings.domain_id)
-        self._topics: dict[str, Topic] = {}
+        self._topics: dict[str, Topic] = {}  # by wire name; replaced when a set maps it with another type
         self.ring: TraceRing | None = None
         self.cursor = 0
         self.set_key: tuple | None = None
@@ -121,6 +121,7 @@ class Bridge:
             self.participant, self.topic("diagnostics", ros2_types.DiagnosticArray), QOS["default"]
         )
         self.publications: list[Publication] = []
+        self.sharing = Sharing(self.participant, settings.name, self.irpd)  # export and imports (imports.py)
         self.subscriptions: list[Subscription] = []
         self.incompatible_before = 0
         self.basic_period_ns = 0
@@ -138,7 +139,7 @@ class Bridge:
 
     def topic(self, name: str, cls) -> Topic:
         wire = self.wire_name(name)
-        if wire not in self._topics:
+        if wire not in self._topics or self._topics[wire].data_type is not cls:
             self._topics[wire] = Topic(self.participant, wire, cls)
         return self._topics[wire]
 
@@ -151,6 +152,7 @@ class Bridge:
                 print(f"indurop-dds-bridge: irpd: {e}", file=sys.stderr, flush=True)
             self.counters.irpd_errors += 1
             self.status = {}
+            self.sharing.withdraw()
             return
         self.status = status
         key = (status.get("pid"), status.get("set"), status.get("generation"))
@@ -169,6 +171,7 @@ class Bridge:
             try:
                 bridge = bridge_file.parse((folder / BRIDGE_JSON).read_bytes())
                 bridge_file.check_writers(bridge, module_writes(Path(self.set_path)))
+                check_against_layout(bridge, status)
             except (BridgeFileError, OSError) as e:
                 problems.append(str(e))
                 bridge = BridgeFile(publish=(), subscribe=())
@@ -179,13 +182,19 @@ class Bridge:
                 joints = [(j.joint, j.variable, j.scale, j.offset) for j in config.joints if j.variable]
             except (MappingError, OSError) as e:
                 problems.append(str(e))
-        channels = list(dict.fromkeys([v for _, v, _, _ in joints] + [v for m in bridge.publish for v in m.variables]))
+        layout = self.sharing.layout(status)
+        exported, problem = self.sharing.load(bridge.export, bridge.imports, layout, self.decimation)
+        problems += [problem] if problem else []
+        channels = [v for _, v, _, _ in joints] + [v for m in bridge.publish for v in m.variables] + exported
+        channels = list(dict.fromkeys(channels))
         try:
             try:
                 answer = self.irpd.request("trace", channels=channels, owner=self.s.trace_owner)
             except IrpdRefused as e:
                 problems.append(f"irpd refused to trace the mapped variables: {e}")
-                joints, bridge = [], BridgeFile(joint_states=False, publish=(), subscribe=bridge.subscribe)
+                joints = []
+                bridge = BridgeFile(joint_states=False, publish=(), subscribe=bridge.subscribe, imports=bridge.imports)
+                self.sharing.load((), bridge.imports, layout, self.decimation)
                 answer = self.irpd.request("trace", channels=[], owner=self.s.trace_owner)
             self.open_ring(answer["shm"])
         except (IrpdUnavailable, IrpdRefused, TraceError, KeyError) as e:
@@ -200,7 +209,8 @@ class Bridge:
         print(
             f"indurop-dds-bridge: set {self.set_path}: {len(joints)} joints on "
             f"{self.wire_name(bridge.joint_states_topic)} every {self.joint_decimation} basic period(s), "
-            f"{len(bridge.publish)} published and {len(bridge.subscribe)} subscribed mappings",
+            f"{len(bridge.publish)} published and {len(bridge.subscribe)} subscribed mappings, "
+            f"{len(self.sharing.exports)} exports and {len(self.sharing.imports)} imports",
             file=sys.stderr,
             flush=True,
         )
@@ -222,6 +232,7 @@ class Bridge:
         # The previous set's writers and readers go with their last reference (cyclonedds deletes
         # an entity when it is collected); their counts stay.
         self.incompatible_before = self.counters.incompatible_qos
+        self.publications, self.subscriptions = [], []
         b = self.bridge
         self.joint_writer = None
         if b.joint_states and self.joints:
@@ -232,7 +243,7 @@ class Bridge:
         self.publications = [
             Publication(
                 m,
-                DataWriter(self.participant, self.topic(m.topic, message_class(m.type)), QOS[m.qos]),
+                DataWriter(self.participant, self.topic(m.topic, m.cls), QOS[m.qos]),
                 self.decimation(m.rate_hz),
             )
             for m in b.publish
@@ -240,7 +251,7 @@ class Bridge:
         self.subscriptions = [
             Subscription(
                 m,
-                DataReader(self.participant, self.topic(m.topic, message_class(m.type)), QOS[m.qos]),
+                DataReader(self.participant, self.topic(m.topic, m.cls), QOS[m.qos]),
                 tokens=m.rate_hz,
             )
             for m in b.subscribe
@@ -259,16 +270,21 @@ class Bridge:
         for part in read.parts:
             column = {p: part.columns[i] for i, p in enumerate(part.config.paths)}
             self.publish_joints(part, column)
+            self.sharing.publish(part, column, self.clock_offset_ns)
             for pub in self.publications:
-                cols = [column.get(v) for v in pub.mapping.variables]
+                m = pub.mapping
+                cols = [column.get(v) for v in m.variables]
                 if None in cols:
                     continue
-                cls = message_class(pub.mapping.type)
                 for k in range(part.count):
                     if (part.first_seq + k) % pub.decimation:
                         continue
-                    values = [cast(pub.mapping.type, c[k]) for c in cols]
-                    pub.writer.write(cls(data=values) if pub.mapping.is_array else cls(data=values[0]))
+                    if m.plan:
+                        message = m.plan.build([c[k] for c in cols], part.t_ns[k] + self.clock_offset_ns)
+                    else:
+                        values = [cast(m.type, c[k]) for c in cols]
+                        message = m.cls(data=values) if m.is_array else m.cls(data=values[0])
+                    pub.writer.write(message)
                     self.counters.published += 1
 
     def publish_joints(self, part, column: dict) -> None:
@@ -305,7 +321,7 @@ class Bridge:
                 print(f"indurop-dds-bridge: {self.wire_name(m.topic)}: {e}", file=sys.stderr, flush=True)
                 continue
             for sample in samples:
-                if not isinstance(sample, message_class(m.type)):
+                if not isinstance(sample, m.cls):
                     continue  # an instance-state notice, not data
                 self.counters.received += 1
                 if sub.tokens < 1:
@@ -317,9 +333,7 @@ class Bridge:
     def watch_writers(self) -> None:
         """Counts writers on a subscribed topic whose type is not the mapping's (Cyclone does not
         match them and counts nothing itself), and the readers' incompatible-QoS notices."""
-        wanted = {
-            self.wire_name(s.mapping.topic): message_class(s.mapping.type).__idl_typename__ for s in self.subscriptions
-        }
+        wanted = {self.wire_name(s.mapping.topic): s.mapping.cls.__idl_typename__ for s in self.subscriptions}
         for w in self.publications_seen.take(N=256):
             name = getattr(w, "topic_name", None)
             if name in wanted and getattr(w, "type_name", None) != wanted[name] and w.key not in self.foreign:
@@ -335,8 +349,15 @@ class Bridge:
         )
 
     def write(self, m: Mapping, sample) -> None:
-        values = list(sample.data) if m.is_array else [sample.data]
-        if len(values) != len(m.variables) or any(not _fits(m.type, v) for v in values):
+        if m.plan:
+            try:
+                values = m.plan.read(sample)
+            except declared.Malformed:
+                values = []
+        else:
+            values = list(sample.data) if m.is_array else [sample.data]
+        leaves = m.leaves()
+        if len(values) != len(leaves) or any(not declared.fits(b, v) for (_, b, _), v in zip(leaves, values)):
             self.counters.malformed += 1
             return
         for variable, value in zip(m.variables, values):
@@ -351,7 +372,7 @@ class Bridge:
     # ---- diagnostics -------------------------------------------------------------------------
     def publish_diagnostics(self) -> None:
         now_ns = time.time_ns()
-        statuses = [self.bridge_status()]
+        statuses = [self.bridge_status(), *self.sharing.statuses(self.s.name)]
         if self.status:
             try:
                 stats = self.irpd.request("stats")
@@ -376,6 +397,7 @@ class Bridge:
             ros2_types.KeyValue(key="domain_id", value=str(self.s.domain_id)),
             ros2_types.KeyValue(key="interface", value=self.s.interface),
             *self.counters.as_values(),
+            *self.sharing.values(),
         ]
         return ros2_types.DiagnosticStatus(
             level=level,
@@ -417,7 +439,8 @@ class Bridge:
     # ---- the loop ----------------------------------------------------------------------------
     def step(self) -> None:
         now = time.monotonic()
-        if now >= self.next_status:
+        sweep = now >= self.next_status
+        if sweep:
             self.next_status = now + self.s.status_s
             self.follow_wall_clock()
             self.poll_status()
@@ -425,6 +448,7 @@ class Bridge:
         if self.status:
             self.publish_rows()
             self.take_subscriptions()
+            self.sharing.step(now, self.clock_offset_ns, sweep)
         if self.bridge.diagnostics and now >= self.next_diag:
             self.next_diag = now + 1.0 / self.bridge.diagnostics_hz
             self.publish_diagnostics()
@@ -446,6 +470,7 @@ class Bridge:
 
     def close(self) -> None:
         self.line.close()
+        self.sharing.close()
         try:
             self.irpd.request("trace", channels=[], owner=self.s.trace_owner)
         except (IrpdUnavailable, IrpdRefused):
@@ -456,36 +481,28 @@ class Bridge:
 
 
 def cast(type_name: str, value: float):
-    """A traced double as the message's field: bool, int, or float."""
-    base = type_name.rsplit("/", 1)[-1]
-    if base == "Bool":
-        return bool(value)
-    if "Int" in base:
-        return int(value) if math.isfinite(value) else 0
-    return float(value)
-
-
-_RANGES = {
-    "Int8": (-(1 << 7), (1 << 7) - 1),
-    "UInt8": (0, (1 << 8) - 1),
-    "Int16": (-(1 << 15), (1 << 15) - 1),
-    "UInt16": (0, (1 << 16) - 1),
-    "Int32": (-(1 << 31), (1 << 31) - 1),
-    "UInt32": (0, (1 << 32) - 1),
-    "Int64": (-(1 << 63), (1 << 63) - 1),
-    "UInt64": (0, (1 << 64) - 1),
-}
+    """A traced double as a std_msgs type's data: bool, int (in its range), or float."""
+    return declared.cast(std_basic(type_name), value)
 
 
 def _fits(type_name: str, value) -> bool:
-    """A received value the message type allows (irpd checks it against the variable's own type)."""
-    if isinstance(value, bool):
-        return True
-    if isinstance(value, float):
-        return math.isfinite(value)
-    base = type_name.rsplit("/", 1)[-1].replace("MultiArray", "")
-    low, high = _RANGES.get(base, (-math.inf, math.inf))
-    return isinstance(value, int) and low <= value <= high
+    """A received value a std_msgs type allows (irpd checks it against the variable's own type)."""
+    return declared.fits(std_basic(type_name), value)
+
+
+def check_against_layout(bridge: BridgeFile, status: dict) -> None:
+    """dds.json's variables against the running layout (as the upload checks them against the set's
+    layout.json): each a scalar leaf, of a type its field fits.  Skipped when the segment cannot be
+    read; irpd then refuses an unknown variable itself."""
+    try:
+        segment = Segment(status["shared_memory"]["variables"])
+    except (KeyError, TypeError, VariableError, OSError):
+        return
+    try:
+        layout = segment.layout
+        bridge_file.check_variables(bridge, bridge_file.layout_scalars(layout), kinds=bridge_file.layout_kinds(layout))
+    finally:
+        segment.close()
 
 
 def timing_status(name: str, record: dict) -> ros2_types.DiagnosticStatus:
@@ -528,7 +545,17 @@ def module_writes(module_xml: Path) -> dict[str, list[str]]:
 
 def main(argv: list[str] | None = None) -> int:
     settings = parse_args(argv)
-    bridge = Bridge(settings)
+    try:
+        bridge = Bridge(settings)
+    except DDSException as e:
+        why = f"Cyclone DDS refused its configuration: {e}"
+        if settings.security:
+            why += (
+                "; DDS Security is configured, and the cyclonedds wheel's libddsc is built without it "
+                '(docs/dds.md "Security"): the bridge does not run unsecured instead'
+            )
+        print(f"indurop-dds-bridge: {why}", file=sys.stderr, flush=True)
+        return 2
     signal.signal(signal.SIGTERM, lambda *_: setattr(bridge, "stopping", True))
     signal.signal(signal.SIGINT, lambda *_: setattr(bridge, "stopping", True))
     print(

@@ -1,15 +1,14 @@
 """line.py -- the line of controllers (docs/dds.md "The line"): the bridge announces its controller
 on the domain and reads every controller's announcement, its own included, for its agent.
 
-- Announcing: indurop::line::Controller (protocol/dds/line.idl) on the topic "indurop/line", keyed
-  by the controller's name, every line_period_s: the agent's URL, the running set, health, the main
-  dispatcher's wake-up jitter p99 over the last 10 s (its wake-up latency, woke - due, from irpd's
-  cumulative `histograms`), the
-  active alarms (irpd's `alarms`), irpd's uptime.  Reliable, transient-local, keep-last 1 (a new
-  reader gets everyone's last announcement at once), liveliness AUTOMATIC with line_lease_s.  Its
-  writer does not dispose an instance it unregisters by dying: a killed controller's instance is
-  left without writers when its lease runs out (lost, with when it was last seen); a clean stop
-  disposes it (it leaves the line).
+- Announcing: indurop::dds::LineController (protocol/dds/indurop/dds/LineController.idl) on the
+  topic "indurop/line", keyed by the controller's name, every line_period_s: the agent's URL, the
+  running set, health, the main dispatcher's wake-up jitter p99 over the last 10 s (its wake-up
+  latency, woke - due, from irpd's cumulative `histograms`), the active alarms (irpd's `alarms`),
+  irpd's uptime.  Reliable, transient-local, keep-last 1 (a new reader gets everyone's last
+  announcement at once), liveliness AUTOMATIC with line_lease_s.  Its writer does not dispose an
+  instance it unregisters by dying: a killed controller's instance is left without writers when its
+  lease runs out (lost, with when it was last seen); a clean stop disposes it (it leaves the line).
 - Reading: every announcement on the domain, taken each period into a table by name; the table
   goes to the agent as a JSON file (line_file, replaced atomically: line_view.py), which the agent
   serves as GET /line.
@@ -33,7 +32,8 @@ from .. import __version__
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
 from ..line_view import FORMAT, SEVERITIES, LineAlarm, LineEntry, LineFile, write_view
 from ..variables import Segment, VariableError
-from .line_types import Alarm, Controller
+from .indurop_types import LineAlarm as Alarm
+from .indurop_types import LineController as Controller
 from .settings import NAME, BridgeSettings
 
 TOPIC = "indurop/line"

@@ -1,5 +1,6 @@
 """settings.py -- the DDS bridge's settings (command line, then an optional JSON file) and the
-Cyclone DDS configuration made from them (docs/dds.md "Settings").
+Cyclone DDS configuration made from them (docs/dds.md "Settings"), DDS Security's included
+(docs/dds.md "Security").
 """
 
 from __future__ import annotations
@@ -13,8 +14,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import escape, quoteattr
 
-# A controller's name on the line (and in the diagnostics).
-NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,62}")
+from .bridge_schema import SCHEMA
+
+# A controller's name on the line, in the imports and the diagnostics (dds.json's schema says it).
+NAME = re.compile(SCHEMA["$defs"]["controller"]["pattern"])
 
 
 @dataclass
@@ -43,6 +46,12 @@ class BridgeSettings:
     line_lease_s: float = 3.0
     line_forget_s: float = 3600.0
     line_file: str = "/run/indurop-dds/line.json"
+    # DDS Security (--config only): the files of SECURITY_FILES by those names, and "plugins", the
+    # folder of libdds_security_{auth,ac,crypto}.so when they are not on the library path.
+    security: dict | None = None
+
+
+SECURITY_FILES = ("identity_ca", "identity_certificate", "private_key", "permissions_ca", "governance", "permissions")
 
 
 def _check(s: BridgeSettings) -> BridgeSettings:
@@ -57,7 +66,7 @@ def _check(s: BridgeSettings) -> BridgeSettings:
     if not 0.05 <= s.poll_ms <= 1000:
         raise ValueError(f"poll_ms {s.poll_ms}: from 0.05 to 1000")
     if not NAME.fullmatch(s.name):
-        raise ValueError(f"name {s.name!r}: 1 to 63 letters, digits, _, . and -, starting with a letter or digit")
+        raise ValueError(f"name {s.name!r}: 1 to 63 letters, digits, _, . and -")
     if s.agent_url and not re.fullmatch(r"https?://[^\s/?#]+(/[^\s]*)?", s.agent_url):
         raise ValueError(f"agent_url {s.agent_url!r}: an http:// or https:// URL, e.g. https://cell1:8443/")
     if not 0.1 <= s.line_period_s <= 60:
@@ -68,11 +77,25 @@ def _check(s: BridgeSettings) -> BridgeSettings:
         )
     if s.line_forget_s <= 0:
         raise ValueError(f"line_forget_s {s.line_forget_s}: more than 0")
+    if s.security is not None:
+        if not isinstance(s.security, dict):
+            raise ValueError(f"security: an object of {', '.join(SECURITY_FILES)} and plugins")
+        unknown = sorted(set(s.security) - {*SECURITY_FILES, "plugins"})
+        missing = [k for k in SECURITY_FILES if k not in s.security]
+        if unknown or missing:
+            raise ValueError(
+                f"security: {'unknown ' + unknown[0] if unknown else 'missing ' + missing[0]}; "
+                f"it names {', '.join(SECURITY_FILES)} (files) and plugins (a folder, optional)"
+            )
+        for k, v in s.security.items():
+            if not isinstance(v, str) or not Path(v).is_absolute() or not Path(v).exists():
+                raise ValueError(f"security.{k} {v!r}: an absolute path that exists")
     return s
 
 
-def cyclone_config(s: BridgeSettings) -> str:
-    """The Cyclone DDS XML for these settings (Domain(domain_id, config=...))."""
+def cyclone_config(s: BridgeSettings, pinned: bool = False) -> str:
+    """The Cyclone DDS XML for these settings (Domain(domain_id, config=...)); `pinned`: for the
+    settings' domain only, as CYCLONEDDS_URI for a program that joins the default domain."""
     if s.interface == "lo":
         general = '<Interfaces><NetworkInterface name="lo"/></Interfaces><AllowMulticast>false</AllowMulticast>'
         peers = ["127.0.0.1"]
@@ -83,9 +106,39 @@ def cyclone_config(s: BridgeSettings) -> str:
     if peers:
         discovery += "<Peers>" + "".join(f"<Peer address={quoteattr(escape(p))}/>" for p in peers) + "</Peers>"
     return (
-        '<CycloneDDS xmlns="https://cdds.io/config"><Domain Id="any">'
-        f"<General>{general}</General><Discovery>{discovery}</Discovery>"
+        f'<CycloneDDS xmlns="https://cdds.io/config"><Domain Id="{s.domain_id if pinned else "any"}">'
+        f"<General>{general}</General><Discovery>{discovery}</Discovery>{security_config(s.security)}"
         "</Domain></CycloneDDS>"
+    )
+
+
+def security_config(security: dict | None) -> str:
+    """Cyclone DDS's <Security>: the builtin plugins (authentication, access control, cryptography)
+    and the files; "" without security."""
+    if not security:
+        return ""
+
+    def library(name: str, init: str) -> str:
+        path = f"{security['plugins']}/lib{name}.so" if security.get("plugins") else name
+        return f"<Library path={quoteattr(path)} initFunction={quoteattr('init_' + init)} finalizeFunction={quoteattr('finalize_' + init)}/>"
+
+    def file(key: str) -> str:
+        return escape("file:" + security[key])
+
+    return (
+        "<Security><Authentication>"
+        f"{library('dds_security_auth', 'authentication')}"
+        f"<IdentityCA>{file('identity_ca')}</IdentityCA>"
+        f"<IdentityCertificate>{file('identity_certificate')}</IdentityCertificate>"
+        f"<PrivateKey>{file('private_key')}</PrivateKey>"
+        "</Authentication><AccessControl>"
+        f"{library('dds_security_ac', 'access_control')}"
+        f"<PermissionsCA>{file('permissions_ca')}</PermissionsCA>"
+        f"<Governance>{file('governance')}</Governance>"
+        f"<Permissions>{file('permissions')}</Permissions>"
+        "</AccessControl><Cryptographic>"
+        f"{library('dds_security_crypto', 'crypto')}"
+        "</Cryptographic></Security>"
     )
 
 
@@ -110,6 +163,12 @@ def parse_args(argv: list[str] | None = None) -> BridgeSettings:
         "--line-file",
         help="where the line's view is written for the agent (default /run/indurop-dds/line.json; '': none)",
     )
+    ap.add_argument(
+        "--print-cyclonedds-uri",
+        action="store_true",
+        help="print the Cyclone DDS configuration these settings make and exit: CYCLONEDDS_URI for another DDS "
+        "program (a reader) on the same domain and interface",
+    )
     args = ap.parse_args(argv)
     values: dict = {}
     if args.config:
@@ -130,7 +189,11 @@ def parse_args(argv: list[str] | None = None) -> BridgeSettings:
     if "peers" in values:
         values["peers"] = tuple(values["peers"])
     try:
-        return _check(BridgeSettings(**values))
+        settings = _check(BridgeSettings(**values))
     except (TypeError, ValueError) as e:
         ap.error(str(e))
         raise
+    if args.print_cyclonedds_uri:
+        print(cyclone_config(settings, pinned=True))
+        ap.exit(0)
+    return settings

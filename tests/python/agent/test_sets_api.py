@@ -431,3 +431,27 @@ def test_a_sets_dds_json_is_checked_at_upload_and_stored_as_the_bridge_file(agen
     good = b'{"joint_states": {"rate_hz": 50}}'
     s = upload(agent, elves, **{"dds.json": good})
     assert {f["path"]: f["kind"] for f in s["files"]}["dds.json"] == "bridge"
+
+
+def test_a_dds_json_with_a_bad_declared_type_or_mapping_is_refused_and_not_stored(agent, elves):
+    """docs/dds.md "Declared message types": refused at upload naming the type or the mapping and
+    the field; the set is not stored, so it never reaches irpd."""
+    before = len(agent.client.get(f"{API}/sets", headers=agent.h()).json())
+    types = '"types": {"cell_msgs/msg/Status": "float64 speed\\nfloat64[2] pair"}'
+    publish = '"publish": [\n {"topic": "s", "type": "cell_msgs/msg/Status", "fields": {FIELDS}}]'
+    for fields, words in (
+        ('"speed": "P.S"', "field pair (float64[2]) is not mapped"),
+        ('"speed": "P.S", "pair": ["P.A"]', "field pair (float64[2]) maps 1 variable; it has 2 elements"),
+    ):
+        text = "{" + types + ",\n" + publish.replace("FIELDS", fields) + "}"
+        r = post_set(agent, *files_body({**small_set(elves), "dds.json": text.encode()}))
+        assert r.status_code == 400, r.text
+        body = r.json()
+        assert body["file"] == "dds.json" and body["line"] == 3, body
+        assert f"publish s (cell_msgs/msg/Status): {words}" in body["detail"]
+    bad = b'{"types": {"cell_msgs/msg/Status": "float64[x] speed"}}'
+    r = post_set(agent, *files_body({**small_set(elves), "dds.json": bad}))
+    assert r.status_code == 400 and "types: cell_msgs/msg/Status: line 1 of its definition" in r.json()["detail"], (
+        r.text
+    )
+    assert len(agent.client.get(f"{API}/sets", headers=agent.h()).json()) == before

@@ -133,7 +133,7 @@ def test_a_stale_generated_file_is_named_with_the_command(tmp_path, monkeypatch,
     gen = importlib.util.module_from_spec(spec)
     monkeypatch.setitem(sys.modules, "dds_generate", gen)  # its dataclasses look their module up
     spec.loader.exec_module(gen)
-    for name in ("ros2_types.py", "bridge_schema.py", "line_types.py"):
+    for name in ("ros2_types.py", "indurop_types.py", "bridge_schema.py"):
         (tmp_path / name).write_text((ROOT / "agent" / "indurop_agent" / "dds" / name).read_text())
     monkeypatch.setattr(gen, "OUT", tmp_path)
     monkeypatch.setattr(sys, "argv", ["generate.py", "--check"])
@@ -141,6 +141,23 @@ def test_a_stale_generated_file_is_named_with_the_command(tmp_path, monkeypatch,
     (tmp_path / "ros2_types.py").write_text("# edited\n")
     assert gen.main() == 1
     assert "ros2_types.py is stale: run python3 protocol/dds/generate.py" in capsys.readouterr().err
+
+
+def test_an_idl_file_rosbags_cannot_read_is_refused_naming_the_file_and_line(tmp_path, monkeypatch, capsys):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("dds_generate", ROOT / "protocol" / "dds" / "generate.py")
+    gen = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, "dds_generate", gen)
+    spec.loader.exec_module(gen)
+    (tmp_path / "a" / "msg").mkdir(parents=True)
+    (tmp_path / "a" / "msg" / "B.idl").write_text(
+        '#include "x.idl"\nmodule a { module msg { module dds_ {\nstruct B_ {\n double x\n long y; };\n}; }; };\n'
+    )
+    monkeypatch.setattr(gen, "HERE", tmp_path)
+    monkeypatch.setattr(sys, "argv", ["generate.py", "--check"])
+    assert gen.main() == 2
+    assert "generate.py: a/msg/B.idl: line 3 of its definition: rosbags cannot read" in capsys.readouterr().err
 
 
 def test_the_generated_types_carry_ros2_s_dds_type_names():

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import subprocess
 import sys
 import time
@@ -38,45 +37,10 @@ from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
 from indurop_agent.variables import Segment  # noqa: E402
 
 SET = BUILD / "sets" / "plc-robot"
-IDL = ROOT / "protocol" / "ros2"
-READER_SOURCE = Path(__file__).with_name("ros2_reader.c")
-IDL_FILES = [
-    "builtin_interfaces/msg/Time",
-    "std_msgs/msg/Header",
-    "sensor_msgs/msg/JointState",
-    "diagnostic_msgs/msg/KeyValue",
-    "diagnostic_msgs/msg/DiagnosticStatus",
-    "diagnostic_msgs/msg/DiagnosticArray",
-    "std_msgs/msg/Float64",
-    "std_msgs/msg/Bool",
-    "std_msgs/msg/Int32",
-]
 JOINTS = [f"joint_{i}" for i in range(1, 7)]
 BASIC_NS = 1_000_000  # module-1ms.xml
 
 pytestmark = pytest.mark.skipif(not (SET / "Robot.so").exists(), reason=f"the plc-robot cell is not built ({SET})")
-
-
-@pytest.fixture(scope="module")
-def ros2_reader(tmp_path_factory) -> Path:
-    """The separate DDS peer (ros2_reader.c), its types made by idlc from protocol/ros2's IDL."""
-    if not shutil.which("idlc") or not Path("/usr/include/dds/dds.h").exists():
-        pytest.skip("Debian's cyclonedds-dev and cyclonedds-tools are not installed (packaging/deps.sh)")
-    out = tmp_path_factory.mktemp("ros2_reader")
-    for f in IDL_FILES:
-        (out / f).parent.mkdir(parents=True, exist_ok=True)
-        subprocess.run(
-            ["idlc", "-x", "final", "-I", str(IDL), "-o", str((out / f).parent), str(IDL / f"{f}.idl")],
-            check=True,
-            capture_output=True,
-        )
-    exe = out / "ros2_reader"
-    sources = [str(p) for p in out.rglob("*.c")]
-    subprocess.run(
-        ["cc", "-O1", "-Wall", "-Werror", "-I", str(out), "-o", str(exe), str(READER_SOURCE), *sources, "-lddsc"],
-        check=True,
-    )
-    return exe
 
 
 class Controller:
@@ -94,7 +58,7 @@ class Controller:
         self.vars = Segment(status["shared_memory"]["variables"])
         self.agent = start_agent(free_port(), tmp / "agent-data", self.sock) if agent else None
         self.bridge = start_bridge(self.sock, self.domain, "--name", "cell-test", log=tmp / "bridge.log")
-        config = cyclone_config(BridgeSettings(domain_id=self.domain)).replace('Id="any"', f'Id="{self.domain}"')
+        config = cyclone_config(BridgeSettings(domain_id=self.domain), pinned=True)
         self.env = {**os.environ, "CYCLONEDDS_URI": config}
 
     def status(self):
@@ -276,7 +240,7 @@ def test_without_irpd_the_bridge_says_so_in_its_diagnostics_and_waits(tmp_path, 
     domain = 160 + os.getpid() % 30
     bridge = start_bridge(tmp_path / "none.sock", domain, "--name", "lonely")
     try:
-        config = cyclone_config(BridgeSettings(domain_id=domain)).replace('Id="any"', f'Id="{domain}"')
+        config = cyclone_config(BridgeSettings(domain_id=domain), pinned=True)
         r = subprocess.run(
             [str(ros2_reader), "read", "diagnostics", "rt/diagnostics", "1", "60"],
             env={**os.environ, "CYCLONEDDS_URI": config},

@@ -1,10 +1,14 @@
 /* ros2_reader.c -- a DDS peer built only from protocol/ros2's IDL (C types by Debian's idlc) and
- * Debian's libddsc: the compatibility test's independent reader and writer (docs/dds.md).
+ * Debian's libddsc: prints what the DDS bridge publishes without ROS, and is the compatibility
+ * tests' independent reader and writer (docs/dds.md).  Built as build/tools/dds/ros2_reader.
  *
  *   ros2_reader read  KIND TOPIC COUNT TIMEOUT_S   prints the matched writer, then COUNT samples
- *   ros2_reader write KIND TOPIC VALUE COUNT       writes VALUE COUNT times (KIND float64, bool, int32)
+ *   ros2_reader write KIND TOPIC VALUE COUNT       writes VALUE COUNT times (KIND float64, bool, int32;
+ *                                                  cell_command: VALUE is "override,cycle_mode")
  *
- * KIND: joint_states, diagnostics, float64, bool, int32.  One JSON object per line on stdout.
+ * KIND: joint_states, diagnostics, float64, bool, int32; built with -DROS2_READER_CELL_MSGS and the
+ * declared-type test's IDL (tests/python/dds/idl/cell_msgs/msg/Cell.idl, tests/python/dds/conftest.py)
+ * also cell_status and cell_command.  One JSON object per line on stdout.
  * QoS: ROS 2's default (reliable, volatile, keep-last 10).  The domain and interface come from
  * CYCLONEDDS_URI, as for any Cyclone DDS program. */
 #include <dds/dds.h>
@@ -13,6 +17,9 @@
 #include <string.h>
 
 #include "builtin_interfaces/msg/Time.h"
+#ifdef ROS2_READER_CELL_MSGS
+#include "cell_msgs/msg/Cell.h"
+#endif
 #include "diagnostic_msgs/msg/DiagnosticArray.h"
 #include "sensor_msgs/msg/JointState.h"
 #include "std_msgs/msg/Bool.h"
@@ -25,6 +32,10 @@ static const dds_topic_descriptor_t *descriptor(const char *kind) {
     if (!strcmp(kind, "float64")) return &std_msgs_msg_dds__Float64__desc;
     if (!strcmp(kind, "bool")) return &std_msgs_msg_dds__Bool__desc;
     if (!strcmp(kind, "int32")) return &std_msgs_msg_dds__Int32__desc;
+#ifdef ROS2_READER_CELL_MSGS
+    if (!strcmp(kind, "cell_status")) return &cell_msgs_msg_dds__CellStatus__desc;
+    if (!strcmp(kind, "cell_command")) return &cell_msgs_msg_dds__CellCommand__desc;
+#endif
     return NULL;
 }
 
@@ -107,6 +118,19 @@ static void print_sample(const char *kind, const void *s) {
             printf("}}");
         }
         printf("]}\n");
+#ifdef ROS2_READER_CELL_MSGS
+    } else if (!strcmp(kind, "cell_status")) {
+        const cell_msgs_msg_dds__CellStatus_ *m = s;
+        printf("{\"sec\": %d, \"nanosec\": %u, \"frame_id\": ", m->header.stamp.sec, m->header.stamp.nanosec);
+        json_string(m->header.frame_id);
+        printf(", \"cycles\": %u, \"running\": %d, \"joints\": [", m->cycles, m->running);
+        for (int i = 0; i < 6; ++i) printf("%s%.17g", i ? ", " : "", m->joints[i]);
+        printf("], \"first\": [");
+        for (uint32_t i = 0; i < m->first._length; ++i) printf("%s%.17g", i ? ", " : "", m->first._buffer[i]);
+        printf("], \"note\": ");
+        json_string(m->note);
+        printf("}\n");
+#endif
     } else if (!strcmp(kind, "float64")) {
         printf("{\"data\": %.17g}\n", ((const std_msgs_msg_dds__Float64_ *)s)->data);
     } else if (!strcmp(kind, "bool")) {
@@ -174,6 +198,13 @@ int main(int argc, char **argv) {
             const void *sample = !strcmp(kind, "float64") ? (const void *)&f
                                  : !strcmp(kind, "bool")  ? (const void *)&b
                                                           : (const void *)&n;
+#ifdef ROS2_READER_CELL_MSGS
+            const char *comma = strchr(argv[4], ',');
+            cell_msgs_msg_dds__CellCommand_ c = {.header = {.frame_id = "peer"},
+                                                 .override = value,
+                                                 .cycle_mode = (int16_t)(comma ? atoi(comma + 1) : 0)};
+            if (!strcmp(kind, "cell_command")) sample = &c;
+#endif
             dds_write(writer, sample);
         }
         dds_sleepfor(DDS_MSECS(300)); /* reliable: let the last samples arrive */
