@@ -213,9 +213,9 @@ def test_hostile_announcements_are_bounded_and_counted(tmp_path):
     from cyclonedds.domain import Domain, DomainParticipant
     from cyclonedds.pub import DataWriter
     from cyclonedds.topic import Topic
-    from indurop_agent.dds.line import MAX_CONTROLLERS, TEXT_MAX, TOPIC, writer_qos
     from indurop_agent.dds.indurop_types import LineAlarm as Alarm
     from indurop_agent.dds.indurop_types import LineController as Controller
+    from indurop_agent.dds.line import MAX_CONTROLLERS, TEXT_MAX, TOPIC, writer_qos
     from indurop_agent.dds.settings import cyclone_config
 
     domain = 50 + os.getpid() % 25
