@@ -79,9 +79,10 @@ class Struct:
     keys: list[str] = field(default_factory=list)  # the members annotated @key, in order
 
 
-def parse(path: Path, structs: dict[str, Struct], root: Path = HERE) -> None:
-    """One IDL file's structs, read by rosbags, into `structs` by their scoped names."""
-    rel = path.relative_to(root)
+def parse(path: Path, structs: dict[str, Struct], root: Path | None = None) -> None:
+    """One IDL file's structs, read by rosbags, into `structs` by their scoped names; `root` (default
+    protocol/ros2) is where the names in messages start."""
+    rel = path.relative_to(root or HERE)
     text = INCLUDE.sub("", path.read_text(encoding="utf-8"))
     try:
         types = get_types_from_idl(text)
