@@ -81,7 +81,7 @@ class Struct:
 
 def parse(path: Path, structs: dict[str, Struct], root: Path | None = None) -> None:
     """One IDL file's structs, read by rosbags, into `structs` by their scoped names; `root` (default
-    HERE, looked up when called) is what the file is named relative to."""
+    protocol/ros2) is where the names in messages start."""
     rel = path.relative_to(root or HERE)
     text = INCLUDE.sub("", path.read_text(encoding="utf-8"))
     try:

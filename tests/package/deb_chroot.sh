@@ -266,10 +266,13 @@ session_of() {  # SCHEME: who the jar's session cookie is (GET /session)
 sign_in http || fail "the older build's user did not sign in"
 [ "$(session_of http)" = ana ] || fail "the older build's session is not ana's"
 kept_files="tokens.json active.json history.jsonl admin-token users.json sessions.json"
+kept() {  # FILE...: the files' hashes under the data folder and the stored sets, to compare across an upgrade
+  (cd "$chr/var/lib/indurop" && sha256sum "$@" && ls sets)
+}
 active_before=$(active_id)
 stop_chroot_processes
 # shellcheck disable=SC2086  # the names, word-split
-kept_before=$(cd "$chr/var/lib/indurop" && sha256sum $kept_files && ls sets)
+kept_before=$(kept $kept_files)
 # The upgrade (the units would be stopped and started again around it under systemd).
 in_chroot env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "/tmp/$(basename "$deb")" \
   >"$cache/upgrade.log" 2>&1 || { tail -30 "$cache/upgrade.log" >&2; fail "apt-get install of DEB over the older build"; }
@@ -277,7 +280,7 @@ grep -q "Unpacking indurop .* over " "$cache/upgrade.log" || { tail -20 "$cache/
 fingerprint=$(sed -n 's/.*SHA-256 fingerprint \([0-9A-F:]*\).*/\1/p' "$cache/upgrade.log" | tail -1)
 [ ${#fingerprint} -eq 95 ] || fail "the upgrade did not make a certificate and print its fingerprint"
 # shellcheck disable=SC2086
-[ "$(cd "$chr/var/lib/indurop" && sha256sum $kept_files && ls sets)" = "$kept_before" ] \
+[ "$(kept $kept_files)" = "$kept_before" ] \
   || fail "the upgrade changed the tokens, the users, their sessions, the set store or the active set"
 : > "$cache/irpd.log"
 start_irpd
@@ -290,10 +293,10 @@ runs_active_set || fail "after the upgrade irpd does not run the active set"
 sign_in https || fail "after the upgrade ana does not sign in with her password over HTTPS"
 stop_chroot_processes
 # The next upgrade (the same build again) keeps the certificate the first one made, and the rest.
-kept_before=$(cd "$chr/var/lib/indurop" && sha256sum tls/cert.pem tls/key.pem users.json tokens.json && ls sets)
+kept_before=$(kept tls/cert.pem tls/key.pem users.json tokens.json)
 in_chroot env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --reinstall --no-install-recommends "/tmp/$(basename "$deb")" \
   >"$cache/reinstall.log" 2>&1 || { tail -30 "$cache/reinstall.log" >&2; fail "apt-get install --reinstall of DEB"; }
-[ "$(cd "$chr/var/lib/indurop" && sha256sum tls/cert.pem tls/key.pem users.json tokens.json && ls sets)" = "$kept_before" ] \
+[ "$(kept tls/cert.pem tls/key.pem users.json tokens.json)" = "$kept_before" ] \
   || fail "the second upgrade changed the certificate, the users, the tokens or the set store"
 : > "$cache/irpd.log"
 start_irpd
