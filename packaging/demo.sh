@@ -17,6 +17,7 @@ venv=$(bash "$root/packaging/venv.sh")
 
 data=${INDUROP_DATA:-$root/build/demo-data}
 port=${INDUROP_PORT:-8080}
+url=http://127.0.0.1:$port
 mkdir -p "$data"
 sock="$data/irpd.sock"
 
@@ -50,14 +51,15 @@ n=$(nproc)
 # The agent, started again whenever it exits with 75 (a restart asked from the System page).
 (cd "$root/agent" && INDUROP_SUPERVISOR=demo exec bash "$root/packaging/respawn.sh" "${off_rt[@]}" \
     "$venv/bin/python" -m indurop_agent --host 127.0.0.1 --port "$port" --data-dir "$data" --irpd-socket "$sock" \
-    --irpd-log "$logs/irpd.log" --agent-log "$logs/agent.log") > >(stamp "$logs/agent.log") 2>&1 &
+    --irpd-log "$logs/irpd.log" --agent-log "$logs/agent.log" --line-file "$data/line.json") > >(stamp "$logs/agent.log") 2>&1 &
 agent_pid=$!
 # The DDS bridge (docs/dds.md): ROS 2's /joint_states and /diagnostics on Cyclone DDS, loopback
-# only, domain INDUROP_DDS_DOMAIN (default 0).
+# only, domain INDUROP_DDS_DOMAIN (default 0); it announces this controller on the line as
+# INDUROP_NAME (default: the host's name) and writes the line's view the agent serves (the Line page).
 (cd "$root/agent" && exec "${off_rt[@]}" "$venv/bin/python" -m indurop_agent.dds --irpd-socket "$sock" \
-    --domain-id "${INDUROP_DDS_DOMAIN:-0}" --interface lo) > >(stamp "$logs/dds-bridge.log") 2>&1 &
+    --domain-id "${INDUROP_DDS_DOMAIN:-0}" --interface lo --name "${INDUROP_NAME:-$(hostname -s)}" \
+    --agent-url "$url/" --line-file "$data/line.json") > >(stamp "$logs/dds-bridge.log") 2>&1 &
 bridge_pid=$!
-url=http://127.0.0.1:$port
 for _ in $(seq 200); do curl -sf "$url/api/v1/health" >/dev/null && break; kill -0 $agent_pid 2>/dev/null || break; sleep 0.1; done
 # The first time, the cell becomes the set store's first set (history, rollback, the UI's edits
 # are versions of it): uploaded and activated, a hot reload in which every module is kept.
@@ -74,7 +76,7 @@ fi
 echo "demo: the web UI: $url/  (sign in with a user name and password; docs/administration.md)"
 echo "demo: start the cell from the UI's Variables page (PLC_ROBOT.PLC_IN.Enable = 1, then PLC_ROBOT.I0 = 1) or: irpctl write PLC_ROBOT.PLC_IN.Enable 1; irpctl write PLC_ROBOT.I0 1 (docs/plc-robot-cell.md)"
 echo "demo: irpd (pid $irpd_pid) on $config; agent (pid $agent_pid) on $url/api/v1/docs"
-echo "demo: DDS bridge (pid $bridge_pid): rt/joint_states and rt/diagnostics on domain ${INDUROP_DDS_DOMAIN:-0}, loopback (docs/dds.md)"
+echo "demo: DDS bridge (pid $bridge_pid): rt/joint_states and rt/diagnostics on domain ${INDUROP_DDS_DOMAIN:-0}, loopback; the line on the web UI's Line page and irpctl line (docs/dds.md)"
 echo "demo: the admin token is in $data/admin-token"
 echo "demo: the logs are in $logs (irpd.log, agent.log, dds-bridge.log; the web UI's System page shows the first two)"
 

@@ -32,6 +32,7 @@ from .api.routes import (
     events,
     health,
     jitter,
+    line,
     modules,
     robot,
     session,
@@ -235,6 +236,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
         BodyTimeoutMiddleware, idle_s=settings.body_idle_s, total_s=settings.body_timeout_s, exempt=is_upload
     )
     routers = (health, status, modules, jitter, variables, sets, robot, events, alarms, audit, tokens, session, users)
+    routers += (line,)  # the line of controllers, from the DDS bridge
     for module in (*routers, stream):
         app.include_router(module.router, prefix=API)
     app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)

@@ -103,10 +103,13 @@ class Settings:
     agent_log: Path | None = None
     max_backup_bytes: int = 4 << 30
     max_backup_members: int = 200_000
+    # The line (GET /line, docs/dds.md "The line"): the view of the line the DDS bridge writes
+    # (its --line-file).
+    line_file: Path = Path("/run/indurop-dds/line.json")
 
 
 FIELDS = {f.name: f for f in dataclasses.fields(Settings)}
-PATHS = {"data_dir", "tls_cert", "tls_key", "webui_dir", "irpd_log", "agent_log"}
+PATHS = {"data_dir", "tls_cert", "tls_key", "webui_dir", "irpd_log", "agent_log", "line_file"}
 OPTIONAL_PATHS = {"tls_cert", "tls_key", "webui_dir", "irpd_log", "agent_log"}
 POSITIVE = {
     "port",
@@ -219,6 +222,11 @@ def parse(argv: list[str] | None = None) -> Settings:
         help="a file irpd's output is written to (the System page's logs; default: the journal)",
     )
     ap.add_argument("--agent-log", type=Path, help="a file this agent's output is written to (as --irpd-log)")
+    ap.add_argument(
+        "--line-file",
+        type=Path,
+        help="the view of the line the DDS bridge writes (its --line-file; default /run/indurop-dds/line.json)",
+    )
     a = ap.parse_args(argv)
     s = Settings()
     if a.config:
@@ -248,6 +256,7 @@ def parse(argv: list[str] | None = None) -> Settings:
         "viewer",
         "irpd_log",
         "agent_log",
+        "line_file",
     ):
         if getattr(a, key) is not None:
             setattr(s, key, getattr(a, key))

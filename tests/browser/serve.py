@@ -1,8 +1,11 @@
 """serve.py -- the real irpd + agent the browser tests run against: irpd on the PLC + robot cell,
 the agent serving the built UI on a free loopback port with the viser 3D view, one user (name and
 password, to sign in through the form) and one token (for the tests' own API calls) per role, and
-a second agent on the same irpd with the meshcat view.  Writes what the tests need as JSON to the
-file named by argv[1], then runs until SIGTERM and stops them all by pid."""
+a second agent on the same irpd with the meshcat view.  The cell's DDS bridge (loopback, a domain
+of its own) announces it on the line as browser-cell and writes the line's view the first agent
+reads; a second bridge, "ghost", without an irpd, stands for another controller of the line (the
+second agent reads no view: its Line page says the bridge is off).  Writes what the tests need as
+JSON to the file named by argv[1], then runs until SIGTERM and stops them all by pid."""
 from __future__ import annotations
 
 import json
@@ -18,7 +21,7 @@ from pathlib import Path
 import httpx
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "python"))
-from live_processes import API, BUILD, copy_cell, free_port, start_agent, start_irpd, stop  # noqa: E402
+from live_processes import API, BUILD, copy_cell, free_port, start_agent, start_bridge, start_irpd, stop  # noqa: E402
 
 CELL = BUILD / "sets" / "plc-robot" / "module.xml"
 USERS = {"admin": "anna", "operator": "otto", "viewer": "vera"}
@@ -70,17 +73,26 @@ def main(out: Path, config: Path) -> None:
     # chromium's load must not starve the simulated drives into a fault mid-test
     irpd = start_irpd(sock, config, f"browser-{os.getpid()}", log=work / "irpd.log")
     agents, urls, tokens, users = [], {}, {}, {}
+    line_file = work / "line.json"
     for viewer in ("viser", "meshcat"):
         port, vdata = free_port(), data / viewer
         vdata.mkdir(parents=True)
         log = work / f"agent-{viewer}.log"
         # the System page's logs: the files irpd and this agent write here
+        line = line_file if viewer == "viser" else work / "no-bridge.json"
         agents.append(start_agent(port, vdata, sock, "--viewer", viewer, "--irpd-log", str(work / "irpd.log"),
-                                  "--agent-log", str(log), log=log))
+                                  "--agent-log", str(log), "--line-file", str(line), log=log))
         urls[viewer] = f"http://127.0.0.1:{port}"
         admin = (vdata / "admin-token").read_text().strip()
         tokens[viewer] = tokens_for(urls[viewer], admin)
         users[viewer] = users_for(urls[viewer], admin)
+    domain = 5 + os.getpid() % 15  # the browser tests' DDS domains: 5..19 (docs/dds.md)
+    bridges = [
+        start_bridge(sock, domain, "--name", "browser-cell", "--agent-url", f"{urls['viser']}/", "--poll-ms", "10",
+                     log=work / "bridge.log", line_file=line_file),
+        start_bridge(work / "no-irpd.sock", domain, "--name", "ghost", "--agent-url", "http://127.0.0.1:9/",
+                     log=work / "ghost.log"),
+    ]
     if cell:
         wait_for_drives(urls["viser"], tokens["viser"]["viewer"])
     out.write_text(json.dumps({"url": urls["viser"], "tokens": tokens["viser"], "users": users["viser"],
@@ -88,6 +100,7 @@ def main(out: Path, config: Path) -> None:
                                "meshcat": {"url": urls["meshcat"], "tokens": tokens["meshcat"],
                                            "users": users["meshcat"]},
                                "pids": {"irpd": irpd.pid, "agent": agents[0].pid, "agent_meshcat": agents[1].pid,
+                                        "bridge": bridges[0].pid, "ghost": bridges[1].pid,
                                         "serve": os.getpid()}}))
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: done.set())
@@ -96,8 +109,8 @@ def main(out: Path, config: Path) -> None:
         if irpd.poll() is not None or any(a.poll() is not None for a in agents):
             print(f"serve.py: irpd or an agent ended; logs in {work}", file=sys.stderr)
             break
-    for a in agents:
-        stop(a)
+    for p in (*bridges, *agents):
+        stop(p)
     stop(irpd)
 
 

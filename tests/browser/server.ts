@@ -20,7 +20,8 @@ export interface Server {
   work: string;
   /** a second agent on the same irpd, with the meshcat 3D view */
   meshcat: { url: string; tokens: Record<Role, string>; users: Record<Role, User> };
-  pids: { irpd: number; agent: number; agent_meshcat: number; serve: number };
+  /** bridge: the cell's DDS bridge (browser-cell on the line); ghost: another controller's bridge, without an irpd */
+  pids: { irpd: number; agent: number; agent_meshcat: number; bridge: number; ghost: number; serve: number };
 }
 
 export const ROOT = resolve(__dirname, "../..");

@@ -111,15 +111,18 @@ def start_irpd(
     *extra: str,
     log: Path | None = None,
     module_output: bool = False,
+    prefix: tuple | list = (),
 ) -> subprocess.Popen:
     """irpd running `config` with its control socket at `sock`; returns once the socket is there.
     Its stderr goes to `log` when given, else to a temporary file: output(p); its stdout (the
     modules' irp::printf lines) too with module_output, else nowhere.  The plc-robot cell's drive
-    simulator runs at the SCHED_FIFO priority its module.xml gives (--rt-priority)."""
+    simulator runs at the SCHED_FIFO priority its module.xml gives (--rt-priority).  `prefix` goes
+    before the command (ip netns exec NAME ...)."""
     sock.unlink(missing_ok=True)
     out = _output_file(log)
     p = subprocess.Popen(
         [
+            *prefix,
             str(IRPD),
             "--config",
             str(config),
@@ -201,13 +204,22 @@ def start_agent(
         time.sleep(0.05)
 
 
-def start_bridge(sock: Path, domain: int, *extra: str, log: Path | None = None, prefix: tuple = ()) -> subprocess.Popen:
+def start_bridge(
+    sock: Path,
+    domain: int,
+    *extra: str,
+    log: Path | None = None,
+    prefix: tuple | list = (),
+    line_file: Path | None = None,
+) -> subprocess.Popen:
     """indurop-dds-bridge (`python -m indurop_agent.dds`) for the irpd at `sock`, on DDS domain
     `domain`, loopback only (its default); `prefix` goes before the command (taskset ...).  Its
-    output goes to `log` when given, else to a temporary file: output(p)."""
+    view of the line goes to `line_file` (none without it).  Its output goes to `log` when given,
+    else to a temporary file: output(p)."""
     out = _output_file(log)
     p = subprocess.Popen(
         [*prefix, sys.executable, "-m", "indurop_agent.dds", "--irpd-socket", str(sock), "--domain-id", str(domain)]
+        + ["--line-file", str(line_file or "")]
         + list(extra),
         cwd=ROOT / "agent",
         stdout=out,

@@ -13,6 +13,7 @@ import { bannerOf } from "./ops/alarms";
 import { setClass, setText } from "./ops/dom";
 import { alarmsPage } from "./pages/alarms";
 import { jitterPage } from "./pages/jitter";
+import { linePage } from "./pages/line";
 import { modulesPage } from "./pages/modules";
 import { overviewPage } from "./pages/overview";
 import { robotPage } from "./pages/robot";
@@ -30,6 +31,7 @@ const ALL_PAGES: { id: string; title: string; page: Page; role: Role }[] = [
   { id: "variables", title: "Variables", page: variablesPage, role: "viewer" },
   { id: "robot", title: "Robot", page: robotPage, role: "viewer" },
   { id: "alarms", title: "Alarms", page: alarmsPage, role: "viewer" },
+  { id: "line", title: "Line", page: linePage, role: "viewer" },
   { id: "users", title: "Users", page: usersPage, role: "admin" },
   { id: "system", title: "System", page: systemPage, role: "admin" },
 ];

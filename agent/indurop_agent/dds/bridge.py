@@ -15,7 +15,8 @@ with the row's due time on the wall clock, the mapped variables (std_msgs types,
 types dds.json declares, declared.py) and the exported variables (imports.py) — then the
 subscriptions are taken and written, each topic at most max_rate_hz, and the imports, each at most
 rate_hz.  Every diagnostics period: one
-diagnostic_msgs/DiagnosticArray on rt/<ns>/diagnostics.
+diagnostic_msgs/DiagnosticArray on rt/<ns>/diagnostics.  Every line period: the controller's
+announcement on the line, and the line's view for the agent (line.py).
 
     indurop-dds-bridge --irpd-socket /run/indurop/irpd.sock [--domain-id 0] [--interface lo]
 """
@@ -43,6 +44,7 @@ from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config
 from . import bridge_file, declared, ros2_types
 from .bridge_file import BRIDGE_JSON, BridgeFile, BridgeFileError, Mapping, std_basic
 from .imports import Sharing
+from .line import Line
 from .settings import BridgeSettings, cyclone_config, parse_args
 
 # ROS 2's QoS profiles (rmw_qos_profile_default, rmw_qos_profile_sensor_data).
@@ -128,6 +130,7 @@ class Bridge:
         self.next_status = 0.0
         self.next_diag = 0.0
         self.stopping = False
+        self.line = Line(self.participant, settings, self.irpd)
 
     # ---- DDS ---------------------------------------------------------------------------------
     def wire_name(self, topic: str) -> str:
@@ -449,6 +452,7 @@ class Bridge:
         if self.bridge.diagnostics and now >= self.next_diag:
             self.next_diag = now + 1.0 / self.bridge.diagnostics_hz
             self.publish_diagnostics()
+        self.line.step(now, self.status)
 
     def follow_wall_clock(self) -> None:
         """The stamps' offset from CLOCK_MONOTONIC to the wall clock, taken again only when the
@@ -465,6 +469,7 @@ class Bridge:
             time.sleep(max(0.0, period - (time.monotonic() - start)))
 
     def close(self) -> None:
+        self.line.close()
         self.sharing.close()
         try:
             self.irpd.request("trace", channels=[], owner=self.s.trace_owner)

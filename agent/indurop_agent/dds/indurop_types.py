@@ -10,8 +10,43 @@ from cyclonedds.idl import IdlStruct
 from cyclonedds.idl import types
 
 __all__ = [
+    "LineAlarm",
+    "LineController",
     "SharedVariable",
 ]
+
+
+@dataclass
+class LineAlarm(IdlStruct, typename="indurop::dds::LineAlarm"):
+    """indurop::dds::LineAlarm (indurop/dds/LineAlarm.idl)."""
+
+    source: str = ""
+    id: types.uint32 = 0
+    severity: str = ""
+    text: str = ""
+
+
+@dataclass
+class LineController(IdlStruct, typename="indurop::dds::LineController"):
+    """indurop::dds::LineController (indurop/dds/LineController.idl)."""
+
+    name: str = ""
+    agent_url: str = ""
+    version: str = ""
+    set_name: str = ""
+    set_id: str = ""
+    layout_hash: str = ""
+    health: str = ""
+    health_detail: str = ""
+    basic_period_ns: types.uint64 = 0
+    jitter_p99_ns: types.int64 = 0
+    alarms_active: types.uint32 = 0
+    alarms: types.sequence[LineAlarm] = field(default_factory=list)
+    uptime_ns: types.uint64 = 0
+    period_ms: types.uint32 = 0
+    lease_ms: types.uint32 = 0
+    seq: types.uint32 = 0
+    annotate.key("name")
 
 
 @dataclass

@@ -14,6 +14,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import escape, quoteattr
 
+from .bridge_schema import SCHEMA
+
+# A controller's name on the line, in the imports and the diagnostics (dds.json's schema says it).
+NAME = re.compile(SCHEMA["$defs"]["controller"]["pattern"])
+
 
 @dataclass
 class BridgeSettings:
@@ -32,6 +37,15 @@ class BridgeSettings:
     status_s: float = 0.5  # how often irpd's status is asked (a new set, a restart)
     # The owner name under which the bridge asks irpd to trace its channels.
     trace_owner: str = "dds"
+    # The line (docs/dds.md "The line"): this controller's agent as other controllers link to it
+    # (its web UI), how often the controller announces itself, its liveliness lease, how long a lost
+    # controller stays listed, and the file the view of the line is written to for the agent ("":
+    # none).  `name` is the controller's name on the line: unique on the domain.
+    agent_url: str = ""
+    line_period_s: float = 1.0
+    line_lease_s: float = 3.0
+    line_forget_s: float = 3600.0
+    line_file: str = "/run/indurop-dds/line.json"
     # DDS Security (--config only): the files of SECURITY_FILES by those names, and "plugins", the
     # folder of libdds_security_{auth,ac,crypto}.so when they are not on the library path.
     security: dict | None = None
@@ -51,6 +65,18 @@ def _check(s: BridgeSettings) -> BridgeSettings:
         raise ValueError(f"namespace {s.namespace!r}: letters, digits, _ and /, starting with a letter")
     if not 0.05 <= s.poll_ms <= 1000:
         raise ValueError(f"poll_ms {s.poll_ms}: from 0.05 to 1000")
+    if not NAME.fullmatch(s.name):
+        raise ValueError(f"name {s.name!r}: 1 to 63 letters, digits, _, . and -")
+    if s.agent_url and not re.fullmatch(r"https?://[^\s/?#]+(/[^\s]*)?", s.agent_url):
+        raise ValueError(f"agent_url {s.agent_url!r}: an http:// or https:// URL, e.g. https://cell1:8443/")
+    if not 0.1 <= s.line_period_s <= 60:
+        raise ValueError(f"line_period_s {s.line_period_s}: from 0.1 to 60")
+    if not 2 * s.line_period_s <= s.line_lease_s <= 3600:
+        raise ValueError(
+            f"line_lease_s {s.line_lease_s}: at least twice line_period_s ({s.line_period_s}) and at most 3600"
+        )
+    if s.line_forget_s <= 0:
+        raise ValueError(f"line_forget_s {s.line_forget_s}: more than 0")
     if s.security is not None:
         if not isinstance(s.security, dict):
             raise ValueError(f"security: an object of {', '.join(SECURITY_FILES)} and plugins")
@@ -130,6 +156,13 @@ def parse_args(argv: list[str] | None = None) -> BridgeSettings:
     ap.add_argument("--namespace", help="prepended to every topic (default none)")
     ap.add_argument("--name", help="this controller's name in the diagnostics (default indurop)")
     ap.add_argument("--poll-ms", type=float, help="how often the rings and subscriptions are read (default 1)")
+    ap.add_argument("--agent-url", help="this controller's web UI, as the line links to it (e.g. https://cell1:8443/)")
+    ap.add_argument("--line-period-s", type=float, help="how often the controller announces itself (default 1)")
+    ap.add_argument("--line-lease-s", type=float, help="its liveliness lease on the line (default 3)")
+    ap.add_argument(
+        "--line-file",
+        help="where the line's view is written for the agent (default /run/indurop-dds/line.json; '': none)",
+    )
     ap.add_argument(
         "--print-cyclonedds-uri",
         action="store_true",

@@ -98,6 +98,7 @@ ROUTES = [
     ("GET", "/alarms", "viewer", None, 200),
     ("GET", "/alarms/history", "viewer", None, 200),
     ("GET", "/alarms/history.csv", "viewer", None, 200),
+    ("GET", "/line", "viewer", None, 200),  # the line (docs/dds.md): no bridge here, "off"
     ("POST", "/alarms/ack", "operator", {}, 200),
     ("GET", "/layout", "viewer", None, 200),
     ("GET", "/sets", "viewer", None, 200),

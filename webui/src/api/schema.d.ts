@@ -300,6 +300,27 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/line": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Line
+         * @description Every controller on the line (this one included, `this`), sorted by name: ok, warning, fault
+         *     or lost, with why; `bridge` says whether the view is current.
+         */
+        get: operations["line_api_v1_line_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/modules": {
         parameters: {
             query?: never;
@@ -1901,6 +1922,183 @@ export interface components {
             set: string;
         } & {
             [key: string]: unknown;
+        };
+        /** LineAlarm */
+        LineAlarm: {
+            /** Id */
+            id: number;
+            /**
+             * Severity
+             * @description low, medium, high or critical
+             */
+            severity: string;
+            /**
+             * Source
+             * @description the module that raised it, or irpd
+             */
+            source: string;
+            /** Text */
+            text: string;
+        };
+        /** LineController */
+        LineController: {
+            /**
+             * Age S
+             * @description seconds since its last announcement arrived
+             */
+            age_s: number;
+            /**
+             * Agent Url
+             * @description its agent, where its web UI is; empty when it did not say
+             */
+            agent_url: string;
+            /**
+             * Alarms
+             * @description the most severe active alarms, at most 5
+             */
+            alarms: components["schemas"]["LineAlarm"][];
+            /** Alarms Active */
+            alarms_active: number;
+            /**
+             * Alive
+             * @description false: its announcements stopped (no writer left, or silent for a lease)
+             */
+            alive: boolean;
+            /** Basic Period Ns */
+            basic_period_ns: number;
+            /**
+             * Duplicate
+             * @description more than one controller announces this name
+             * @default false
+             */
+            duplicate: boolean;
+            /**
+             * Health
+             * @enum {string}
+             */
+            health: "running" | "stopped" | "fault" | "irpd_unreachable";
+            /**
+             * Health Detail
+             * @description why: the fault's reason, irpd's error; empty when running
+             */
+            health_detail: string;
+            /**
+             * Jitter P99 Ns
+             * @description the main dispatcher's wake-up jitter: its wake-up latency (woke - due), 99th percentile over the last 10 s; null when unknown
+             */
+            jitter_p99_ns: number | null;
+            /**
+             * Last Seen
+             * @description when its last announcement arrived (Unix time, this controller's clock)
+             */
+            last_seen: number;
+            /**
+             * Layout Hash
+             * @description the shared-variable layout's hash; empty when unknown
+             */
+            layout_hash: string;
+            /**
+             * Lease S
+             * @description its liveliness lease: lost when nothing keeps it alive for this long
+             */
+            lease_s: number;
+            /**
+             * Lost Reason
+             * @default
+             */
+            lost_reason: string;
+            /**
+             * Lost Since
+             * @description when it was found lost (Unix time); null while alive
+             */
+            lost_since?: number | null;
+            /**
+             * Name
+             * @description the controller's name on the domain (its bridge's --name)
+             */
+            name: string;
+            /**
+             * Period S
+             * @description how often it announces itself
+             */
+            period_s: number;
+            /**
+             * Reasons
+             * @description why it is not ok, in words
+             */
+            reasons: string[];
+            /**
+             * Set Id
+             * @description the stored set's id; empty when irpd was not started from the store
+             */
+            set_id: string;
+            /**
+             * Set Name
+             * @description the running module.xml, as folder/file
+             */
+            set_name: string;
+            /**
+             * State
+             * @description ok; warning (set stopped, alarms active, name announced twice); fault (irpd faulted or unreachable, a critical alarm); lost (its announcements stopped)
+             * @enum {string}
+             */
+            state: "ok" | "warning" | "fault" | "lost";
+            /**
+             * This
+             * @description this agent's own controller
+             */
+            this: boolean;
+            /**
+             * Uptime Ns
+             * @description irpd's
+             */
+            uptime_ns: number;
+            /** Version */
+            version: string;
+        };
+        /**
+         * LineView
+         * @description GET /line: the controllers this controller's DDS bridge sees on its domain.
+         */
+        LineView: {
+            /**
+             * Age S
+             * @description seconds since the bridge wrote the view
+             */
+            age_s: number | null;
+            /**
+             * Bridge
+             * @description ok; off (no view: the bridge does not run or has no line file); stale (the bridge stopped writing it); unreadable (not a view this agent reads)
+             * @enum {string}
+             */
+            bridge: "ok" | "off" | "stale" | "unreadable";
+            /**
+             * Controllers
+             * @description sorted by name; empty unless bridge is ok
+             */
+            controllers: components["schemas"]["LineController"][];
+            /** Domain Id */
+            domain_id: number | null;
+            /**
+             * Ignored
+             * @description announcements the bridge did not list (a bad name, or over 256 names)
+             * @default 0
+             */
+            ignored: number;
+            /** Interface */
+            interface: string | null;
+            /**
+             * Message
+             * @description what the bridge state means, in words; empty when ok
+             */
+            message: string;
+            /** Period S */
+            period_s: number | null;
+            /**
+             * This
+             * @description the name this controller announces
+             */
+            this: string | null;
         };
         /** LogLine */
         LogLine: {
@@ -3735,6 +3933,26 @@ export interface operations {
                 };
                 content: {
                     "application/json": unknown;
+                };
+            };
+        };
+    };
+    line_api_v1_line_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["LineView"];
                 };
             };
         };
