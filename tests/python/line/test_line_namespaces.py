@@ -5,14 +5,18 @@ discovering each other by multicast.  A DDS reader in A's namespace sees each co
 at the configured rate with robot.json's joint names; every agent's GET /line (asked over its own
 namespace address) lists the three; A killed (irpd, agent and bridge) turns lost on B and C, and
 comes back when started again; samples written from B's namespace to topics A does not map change
-nothing in A's segment, while one to the topic it maps does.  Limits on waits are generous; what is
-asserted is the state reached, never how fast."""
+nothing in A's segment, while one to the topic it maps does.  B imports A's I/O cycle count into a
+variable its cell.glb gained (laid out against the cell's layout, so the cell's modules still run on
+it): it follows A's; A killed turns it stale with its fallback and raises B's dds/import alarm, and
+A back clears both.  Limits on waits are generous; what is asserted is the state reached, never how
+fast."""
 
 from __future__ import annotations
 
 import json
 import os
 import statistics
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -35,6 +39,51 @@ NAMES = ("a", "b", "c")  # the controllers' names, and their topics' namespaces 
 JOINTS = [f"joint_{i}" for i in range(1, 7)]
 JOINT_RATE_HZ = 50  # dds.json's, under the cell's 100 Hz basic rate: every second basic period
 LIMIT_S = 60
+# B's import of A's I/O cycle count (docs/dds.md "Controllers sharing variables"), into variables
+# B's cell.glb gains at its end.
+EXPORTED = "PLC_ROBOT.IO_STATUS.cycles"
+FROM_A = "PLC_ROBOT.FROM_A"
+GROWN_GLB = """
+struct {
+  uint32_t cycles;      // A's PLC_ROBOT.IO_STATUS.cycles, imported
+  bool stale;           // 1 while A is gone (cycles then holds the fallback)
+  uint32_t age_us;
+  int64_t stamp_ns;
+} FROM_A;
+"""
+FALLBACK = 7  # never one of A's counts while B follows: A has counted past it long before
+IMPORT = {
+    "from": "a",
+    "path": EXPORTED,
+    "variable": f"{FROM_A}.cycles",
+    "stale": f"{FROM_A}.stale",
+    "age_us": f"{FROM_A}.age_us",
+    "stamp_ns": f"{FROM_A}.stamp_ns",
+    "rate_hz": 50,
+    "fallback": FALLBACK,
+}
+ALARM = f"dds/import:{FROM_A}.cycles"
+
+
+def grow_layout(folder: Path) -> None:
+    """B's cell.glb gains FROM_A, laid out by glbc against the cell's layout (its modules kept)."""
+    glb = folder / "cell.glb"
+    glb.write_text((ROOT / "config" / "sets" / "plc-robot" / "cell.glb").read_text() + GROWN_GLB)
+    r = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "glb" / "glbc"),
+            "--previous",
+            str(folder / "layout.json"),
+            "-o",
+            str(folder),
+            str(glb),
+        ],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr
+
 
 why_not = netns.unavailable()
 pytestmark = [
@@ -54,6 +103,11 @@ def line(tmp_path_factory):
                 config, _ = copy_cell(tmp / f"cell-{name}")
                 dds = json.loads((config.parent / "dds.json").read_text())
                 dds["joint_states"]["rate_hz"] = JOINT_RATE_HZ
+                if name == "a":
+                    dds["export"] = [{"variable": EXPORTED, "rate_hz": 50}]
+                if name == "b":
+                    grow_layout(config.parent)
+                    dds["imports"] = [IMPORT]
                 (config.parent / "dds.json").write_text(json.dumps(dds))
                 nodes[name] = LineNode(tmp, name, domain, config, ns, ["--namespace", name])
             for n in nodes.values():
@@ -86,6 +140,47 @@ def wait_for(node: LineNode, want: dict[str, str], everyone) -> None:
         raise AssertionError(
             f"{node.name} shows {node.line()}\n" + "\n".join(n.logs() for n in everyone.values())
         ) from None
+
+
+def segment_of(node: LineNode) -> Segment:
+    return Segment(IrpdClient(str(node.sock)).request("status")["shared_memory"]["variables"])
+
+
+def import_alarm(node: LineNode) -> dict:
+    return next((a for a in node.get("/alarms")["alarms"] if a["key"] == ALARM), {})
+
+
+def wait_following(a: LineNode, b: LineNode, everyone) -> None:
+    """B's import fresh, holding a count A had (never ahead of A's, at most 100 of A's cycles behind)."""
+    sa, sb = segment_of(a), segment_of(b)
+
+    def follows():
+        if sb.read(f"{FROM_A}.stale"):
+            return False
+        theirs = sb.read(f"{FROM_A}.cycles")
+        ours = sa.read(EXPORTED)
+        return theirs != FALLBACK and 0 <= ours - theirs <= 100
+
+    try:
+        wait_until(follows, LIMIT_S, 0.2)
+        assert not import_alarm(b).get("active"), import_alarm(b)
+    except AssertionError:
+        raise AssertionError(
+            f"B holds {sb.values(sb.select(FROM_A))}, A counts {sa.read(EXPORTED)}\n"
+            + "\n".join(n.logs() for n in everyone.values())
+        ) from None
+    finally:
+        sa.close()
+        sb.close()
+
+
+def test_b_s_import_follows_a_s_variable(line):
+    wait_following(line["a"], line["b"], line)
+    sb = segment_of(line["b"])
+    try:
+        assert 0 < sb.read(f"{FROM_A}.age_us") < 10_000_000  # written with each value: seconds at most
+    finally:
+        sb.close()
 
 
 def test_joint_states_of_every_controller_come_at_the_configured_rate_with_their_names(line):
@@ -134,12 +229,23 @@ def test_a_killed_turns_lost_on_b_and_c_and_comes_back_when_restarted(line):
     a, b, c = (line[n] for n in NAMES)
     for n in (b, c):
         wait_for(n, {"a": "ok"}, line)
+    wait_following(a, b, line)
     for which in ("bridge", "agent", "irpd"):
         a.kill(which)
     for n in (b, c):
-        wait_for(n, {"a": "lost", "b": "ok", "c": "ok"}, line)
+        wait_for(n, {"a": "lost", "c": "ok"}, line)
     lost = b.controllers()["a"]
     assert not lost["alive"] and "lease" in lost["lost_reason"] and lost["last_seen"] <= lost["lost_since"]
+    # B's import: stale, the fallback in place, the alarm active
+    sb = segment_of(b)
+    try:
+        wait_until(lambda: sb.read(f"{FROM_A}.stale") and sb.read(f"{FROM_A}.cycles") == FALLBACK, LIMIT_S, 0.2)
+        alarm = wait_until(lambda: import_alarm(b).get("active") and import_alarm(b), LIMIT_S, 0.5)
+        assert alarm["severity"] == "high", alarm
+    finally:
+        sb.close()
     a.start()
     for n in (a, b, c):
         wait_for(n, {"a": "ok", "b": "ok", "c": "ok"}, line)
+    wait_following(a, b, line)
+    wait_until(lambda: not import_alarm(b).get("active"), LIMIT_S, 0.5)
