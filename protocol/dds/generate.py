@@ -12,6 +12,10 @@
 - protocol/dds/bridge.schema.json is the shape of a set's dds.json: this writes it into
   agent/indurop_agent/dds/bridge_schema.py, after checking that every message type it names has
   its IDL here.
+- The recorder's MCAP files carry sensor_msgs/msg/JointState in ROS 2's CDR with its message
+  definition as rosbag2 stores it (ros2msg: the type's .msg text, then each type it uses after a
+  line of 80 '='): this writes agent/indurop_agent/recorder/ros2_msgdefs.py from the same IDL,
+  the text made by rosbags' Typestore.generate_msgdef (docs/recorder.md).
 
 `--check` fails, naming this command, when a written file is stale.
 
@@ -46,12 +50,14 @@ HERE = ROOT / "protocol" / "ros2"  # the IDL files
 OWN = ROOT / "protocol" / "dds"  # indurop's own IDL files
 SCHEMA = ROOT / "protocol" / "dds" / "bridge.schema.json"
 OUT = ROOT / "agent" / "indurop_agent" / "dds"
+RECORDER = ROOT / "agent" / "indurop_agent" / "recorder"
+MSGDEFS = ("sensor_msgs/msg/JointState",)  # the ROS 2 types the recorder writes
 COMMAND = "python3 protocol/dds/generate.py"
 VENV_PYTHON = ROOT / ".venv" / "bin" / "python"
 
 try:
     from rosbags.interfaces import Nodetype
-    from rosbags.typesys import TypesysError, get_types_from_idl
+    from rosbags.typesys import Stores, TypesysError, get_types_from_idl, get_typestore
 except ImportError:  # not the venv's Python
     if VENV_PYTHON.exists() and Path(sys.executable) != VENV_PYTHON and __name__ == "__main__":
         os.execv(VENV_PYTHON, [str(VENV_PYTHON), __file__, *sys.argv[1:]])
@@ -213,6 +219,39 @@ def render_schema(structs: dict[str, Struct]) -> str:
     )
 
 
+def ros_name(scoped: str) -> str:
+    """sensor_msgs::msg::dds_::JointState_ (the DDS wire's name) -> sensor_msgs/msg/JointState (ROS 2's)."""
+    parts = scoped.split("::")
+    return "/".join([*parts[:-2], parts[-1].rstrip("_")]) if parts[-2:-1] == ["dds_"] else "/".join(parts)
+
+
+def ros_desc(desc: tuple) -> tuple:
+    """rosbags' description of a field with the types it names in ROS 2's spelling."""
+    node, rest = desc
+    if node == Nodetype.NAME:
+        return node, ros_name(rest.replace("/", "::"))
+    if node in (Nodetype.ARRAY, Nodetype.SEQUENCE):
+        return node, (ros_desc(rest[0]), rest[1])
+    return desc
+
+
+def render_msgdefs(structs: dict[str, Struct]) -> str:
+    store = get_typestore(Stores.EMPTY)
+    store.register({ros_name(s): ([], [(f, ros_desc(d)) for f, d in st.fields]) for s, st in structs.items()})
+    out = [
+        '"""ROS 2 message definitions as rosbag2 stores them in MCAP (schema encoding ros2msg).',
+        "",
+        f"Generated from protocol/ros2/**/*.idl by {COMMAND} (rosbags' Typestore.generate_msgdef); do not edit.",
+        '"""',
+        "",
+        "MSGDEFS = {",
+    ]
+    for name in MSGDEFS:
+        text, _ = store.generate_msgdef(name, ros_version=2)
+        out.append(f"    {json.dumps(name)}: {json.dumps(text)},")
+    return "\n".join([*out, "}", ""])
+
+
 def generate() -> dict[Path, str]:
     structs: dict[str, Struct] = {}
     for path in sorted(HERE.rglob("*.idl")):
@@ -224,6 +263,7 @@ def generate() -> dict[Path, str]:
         OUT / "ros2_types.py": render(structs, "ROS 2 message types on the DDS wire", "protocol/ros2/**/*.idl"),
         OUT / "indurop_types.py": render(own, "indurop's own DDS types", "protocol/dds/**/*.idl"),
         OUT / "bridge_schema.py": render_schema(structs),
+        RECORDER / "ros2_msgdefs.py": render_msgdefs(structs),
     }
 
 
