@@ -1,0 +1,332 @@
+"""mcap_out.py -- one MCAP file of recorded rows, written with the `mcap` library (docs/recorder.md,
+"The file").  The recorder and the triggered captures both write through it.
+
+    out = McapOut(path, [Variable("SIG.sample", "uint32_t"), Variable("SIG.wave[0]", "double", "V")],
+                  title="run-7", basic_period_ns=1_000_000)
+    out.add_rows(range(101, 104), t_ns=[...], columns=[[1, 2, 3], [0.0, 0.5, 1.0]])  # seq, due time, values
+    out.note("drop", "rows overwritten before they were read", first_seq=104, last_seq=110, count=7)
+    out.flush()   # the open chunk to disk (and fsync): a crash loses nothing written before it
+    out.close({"rows": "3"})  # the summary section and footer
+
+What it holds:
+- `/indurop/samples`: one JSON message per row (orjson), `{"seq", "t_ns", <field>: value, ...}`; a
+  field per variable (`field_names`: the path with every character but [A-Za-z0-9_] made `_`, so
+  that Foxglove's and PlotJuggler's message paths can name it), a JSON Schema naming each field's
+  variable path, type and unit, and the same list in the channel's metadata (`indurop.variables`).
+  Values are the ring's doubles, `null` where not finite.  log_time = the row's due time on the
+  wall clock (t_ns + clock_offset_ns), sequence = seq mod 2^32 (the full seq is in the message).
+- `/indurop/notes`: JSON messages for what is not a row: drops, gaps, triggers, why it stopped.
+- `/joint_states` (when `joints` are given): sensor_msgs/msg/JointState in ROS 2 CDR, encoded by
+  mcap-ros2-support from the ros2msg definition rosbag2 stores (ros2_msgdefs.py, generated from
+  protocol/ros2), position = value x scale + offset, at most one message per `joint_every` rows.
+- metadata records: `indurop.part` at the start (what the caller gives), `indurop.summary` at close.
+
+Chunks (zstd) are closed at `chunk_bytes` and at every flush(); a file whose writer died holds every
+chunk flushed before (mcap_read.recover makes it whole again).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import orjson
+from mcap.well_known import MessageEncoding, SchemaEncoding
+from mcap.writer import CompressionType, Writer
+from mcap_ros2._dynamic import serialize_dynamic  # the encoder mcap_ros2.writer.Writer uses, for a file of our own
+
+from .ros2_msgdefs import MSGDEFS
+
+SAMPLES_TOPIC = "/indurop/samples"
+NOTES_TOPIC = "/indurop/notes"
+JOINT_STATES_TOPIC = "/joint_states"
+SAMPLES_SCHEMA = "indurop.Samples"
+NOTES_SCHEMA = "indurop.Note"
+JOINT_STATE = "sensor_msgs/msg/JointState"
+CHUNK_BYTES = 4 << 20  # uncompressed bytes of a chunk before it is compressed and written
+RESERVED = ("seq", "t_ns")  # the fields every row has; no variable's field takes these names
+LIBRARY = "indurop-recorder"
+NOTE_KINDS = ("drop", "gap", "trigger", "stop", "info")
+NOTES_JSON_SCHEMA = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": NOTES_SCHEMA,
+    "description": "what happened to the rows: rows dropped, a gap between two parts, a trigger, a stop",
+    "type": "object",
+    "properties": {
+        "kind": {"type": "string", "enum": list(NOTE_KINDS)},
+        "text": {"type": "string"},
+        "seq": {"type": "integer", "description": "the row it is about (a trigger's)"},
+        "first_seq": {"type": "integer", "description": "the first row it is about"},
+        "last_seq": {"type": "integer", "description": "the last row it is about"},
+        "count": {"type": "integer", "description": "rows it is about (dropped rows: those the file would hold)"},
+    },
+    "required": ["kind", "text"],
+}
+
+
+@dataclass(frozen=True)
+class Variable:
+    """A recorded variable: its path in the shared-variable layout, the layout's type, a unit."""
+
+    path: str
+    type: str
+    unit: str = ""
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A joint of the JointState channel: its name and the recorded variable that drives it."""
+
+    name: str
+    variable: str
+    scale: float = 1.0
+    offset: float = 0.0
+
+
+def field_names(paths: Sequence[str]) -> list[str]:
+    """The JSON field of each path: [A-Za-z0-9_] kept, runs of anything else one `_`, none at the
+    ends (`SIG.wave[0]` -> `SIG_wave_0`); a name taken already (by `seq`, `t_ns` or an earlier
+    path) gets `_2`, `_3`, ... so that every field is unique."""
+    taken, out = set(RESERVED), []
+    for path in paths:
+        base = re.sub(r"[^A-Za-z0-9_]+", "_", path).strip("_") or "v"
+        name, n = base, 1
+        while name in taken:
+            n += 1
+            name = f"{base}_{n}"
+        taken.add(name)
+        out.append(name)
+    return out
+
+
+def samples_schema(title: str, variables: Sequence[Variable], fields: Sequence[str]) -> dict:
+    """The JSON Schema of the rows: every variable's field with its path, type and unit."""
+    properties = {
+        "seq": {
+            "type": "integer",
+            "description": "the trace row's sequence number: irpd's basic periods since it started",
+        },
+        "t_ns": {"type": "integer", "description": "the row's due time, CLOCK_MONOTONIC ns"},
+    }
+    for v, f in zip(variables, fields):
+        unit = f", {v.unit}" if v.unit else ""
+        properties[f] = {
+            "type": "number",
+            "title": v.path,
+            "description": f"{v.path} ({v.type}{unit}); null when not finite",
+            "x-indurop-path": v.path,
+            "x-indurop-type": v.type,
+            "x-indurop-unit": v.unit,
+        }
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "title": SAMPLES_SCHEMA,
+        "description": f"rows of {title}: one per recorded basic period",
+        "type": "object",
+        "properties": properties,
+        "required": list(properties),
+    }
+
+
+class McapOut:
+    """One MCAP file being written.  Not thread-safe: one writer thread per file.  OSError (a full
+    disk) leaves the file as it was after its last complete write: call abandon(), not close()."""
+
+    def __init__(
+        self,
+        path: Path,
+        variables: Sequence[Variable],
+        *,
+        title: str,
+        basic_period_ns: int,
+        decimation: int = 1,
+        clock_offset_ns: int | None = None,
+        joints: Sequence[Joint] = (),
+        joint_every: int = 1,
+        metadata: dict[str, str] | None = None,
+        chunk_bytes: int = CHUNK_BYTES,
+        compression: CompressionType = CompressionType.ZSTD,
+    ):
+        if not variables:
+            raise ValueError("a recording file needs at least one variable")
+        self.path = Path(path)
+        self.variables = list(variables)
+        self.fields = field_names([v.path for v in self.variables])
+        self.clock_offset_ns = time.time_ns() - time.monotonic_ns() if clock_offset_ns is None else clock_offset_ns
+        self.rows = 0
+        self.first_seq: int | None = None
+        self.last_seq: int | None = None
+        self.first_t_ns: int | None = None
+        self.last_t_ns: int | None = None
+        self.closed = False
+        index = {v.path: i for i, v in enumerate(self.variables)}
+        missing = [j.variable for j in joints if j.variable not in index]
+        if missing:
+            raise ValueError(f"joint variable {missing[0]!r} is not among the recorded variables")
+        self.joints = list(joints)
+        self.joint_columns = [index[j.variable] for j in self.joints]
+        self.joint_every = max(1, joint_every)
+        self.joint_messages = 0
+        self._joint_phase = 0
+        # rows are written as a template filled with orjson's numbers (see add_rows)
+        head = b'{"seq":%s,"t_ns":%s'
+        self._template = head + b"".join(b"," + orjson.dumps(f) + b":%s" for f in self.fields) + b"}"
+        self._file = open(self.path, "xb")  # never over an existing file
+        try:
+            self._writer = Writer(self._file, chunk_size=chunk_bytes, compression=compression)
+            self._writer.start(profile="", library=LIBRARY)
+            described = [
+                {"field": f, "path": v.path, "type": v.type, "unit": v.unit} for v, f in zip(variables, self.fields)
+            ]
+            schema = self._writer.register_schema(
+                SAMPLES_SCHEMA, SchemaEncoding.JSONSchema, orjson.dumps(samples_schema(title, variables, self.fields))
+            )
+            self._samples = self._writer.register_channel(
+                SAMPLES_TOPIC,
+                MessageEncoding.JSON,
+                schema,
+                {
+                    "indurop.title": title,
+                    "indurop.variables": orjson.dumps(described).decode(),
+                    "indurop.decimation": str(decimation),
+                    "indurop.basic_period_ns": str(basic_period_ns),
+                    "indurop.clock_offset_ns": str(self.clock_offset_ns),
+                },
+            )
+            notes = self._writer.register_schema(
+                NOTES_SCHEMA, SchemaEncoding.JSONSchema, orjson.dumps(NOTES_JSON_SCHEMA)
+            )
+            self._notes = self._writer.register_channel(NOTES_TOPIC, MessageEncoding.JSON, notes)
+            self._joint_channel = None
+            if self.joints:
+                definition = MSGDEFS[JOINT_STATE]
+                self._encode_joints = serialize_dynamic(JOINT_STATE, definition)[JOINT_STATE]
+                js = self._writer.register_schema(JOINT_STATE, SchemaEncoding.ROS2, definition.encode())
+                self._joint_channel = self._writer.register_channel(
+                    JOINT_STATES_TOPIC,
+                    MessageEncoding.CDR,
+                    js,
+                    {"indurop.joints": orjson.dumps([j.__dict__ for j in self.joints]).decode()},
+                )
+            part = {"title": title, "basic_period_ns": str(basic_period_ns), "decimation": str(decimation)}
+            part["clock_offset_ns"] = str(self.clock_offset_ns)
+            self._writer.add_metadata("indurop.part", {**part, **(metadata or {})})
+            self._writer.flush()
+        except BaseException:
+            self._file.close()
+            raise
+
+    # ---- rows -------------------------------------------------------------------------------------
+    def add_rows(self, seqs: Sequence[int], t_ns: Sequence[int], columns: Sequence[Sequence[float]]) -> int:
+        """Writes rows: seqs[k] and t_ns[k] (the due time, CLOCK_MONOTONIC ns) with columns[c][k],
+        the value of variables[c].  Rows must come in increasing seq.  Returns the rows written."""
+        n = len(seqs)
+        if n == 0:
+            return 0
+        if len(columns) != len(self.variables) or len(t_ns) != n or any(len(c) != n for c in columns):
+            raise ValueError(f"add_rows wants {len(self.variables)} columns of {n} values and {n} times")
+        seqs = [int(s) for s in seqs]
+        times = [int(t) for t in t_ns]
+        if self.last_seq is not None and seqs[0] <= self.last_seq:
+            raise ValueError(f"row {seqs[0]} comes after row {self.last_seq}: rows are written in increasing seq")
+        block = np.column_stack([np.asarray(c, dtype=np.float64) for c in columns])
+        # orjson writes the block as [[v,v,...],[v,...]] (shortest round-trip numbers, null for NaN
+        # and infinities); each row's numbers then fill the template of field names.
+        text = orjson.dumps(block, option=orjson.OPT_SERIALIZE_NUMPY)
+        rows = text[2:-2].split(b"],[")
+        template, add, channel, offset = self._template, self._writer.add_message, self._samples, self.clock_offset_ns
+        for k in range(n):
+            log_time = times[k] + offset
+            data = template % (b"%d" % seqs[k], b"%d" % times[k], *rows[k].split(b","))
+            add(channel, log_time, data, log_time, seqs[k] & 0xFFFFFFFF)
+        if self._joint_channel is not None:
+            self._add_joints(seqs, times, block)
+        if self.first_seq is None:
+            self.first_seq, self.first_t_ns = seqs[0], times[0]
+        self.last_seq, self.last_t_ns = seqs[-1], times[-1]
+        self.rows += n
+        return n
+
+    def _add_joints(self, seqs: list[int], times: list[int], block: np.ndarray) -> None:
+        names = [j.name for j in self.joints]
+        scale = np.array([j.scale for j in self.joints])
+        offset = np.array([j.offset for j in self.joints])
+        positions = block[:, self.joint_columns] * scale + offset
+        k0 = (-self._joint_phase) % self.joint_every
+        self._joint_phase = (self._joint_phase + len(seqs)) % self.joint_every
+        for k in range(k0, len(seqs), self.joint_every):
+            log_time = times[k] + self.clock_offset_ns
+            message = {
+                "header": {
+                    "stamp": {"sec": log_time // 1_000_000_000, "nanosec": log_time % 1_000_000_000},
+                    "frame_id": "",
+                },
+                "name": names,
+                "position": positions[k].tolist(),
+                "velocity": [],
+                "effort": [],
+            }
+            self._writer.add_message(
+                self._joint_channel, log_time, self._encode_joints(message), log_time, seqs[k] & 0xFFFFFFFF
+            )
+            self.joint_messages += 1
+
+    def note(self, kind: str, text: str, *, t_ns: int | None = None, **fields) -> None:
+        """A note on /indurop/notes: `kind` one of NOTE_KINDS, `text` in words, and any of seq,
+        first_seq, last_seq, count (integers) or other JSON fields.  Its time: the due time t_ns
+        given (CLOCK_MONOTONIC), else now."""
+        if kind not in NOTE_KINDS:
+            raise ValueError(f"note kind {kind!r} is not one of {', '.join(NOTE_KINDS)}")
+        log_time = (t_ns + self.clock_offset_ns) if t_ns is not None else time.time_ns()
+        data = orjson.dumps({"kind": kind, "text": text, **fields})
+        self._writer.add_message(self._notes, log_time, data, log_time, 0)
+
+    def add_metadata(self, name: str, values: dict[str, str]) -> None:
+        """A metadata record (string to string), e.g. a capture's trigger definition."""
+        self._writer.add_metadata(name, values)
+
+    # ---- the file -------------------------------------------------------------------------------
+    @property
+    def size(self) -> int:
+        """Bytes on disk (what flush() has written; the open chunk is not counted)."""
+        return self._file.tell()
+
+    def flush(self, sync: bool = True) -> None:
+        """Closes the open chunk, writes it out, and with `sync` fsyncs the file."""
+        self._writer.flush()
+        if sync:
+            os.fsync(self._file.fileno())
+
+    def close(self, summary: dict[str, str] | None = None) -> int:
+        """The summary metadata, indexes and footer; returns the file's size."""
+        if self.closed:
+            return self.size
+        done = {
+            "rows": str(self.rows),
+            "first_seq": str(self.first_seq or ""),
+            "last_seq": str(self.last_seq or ""),
+            "joint_states": str(self.joint_messages),
+        }
+        self._writer.add_metadata("indurop.summary", {**done, **(summary or {})})
+        self._writer.finish()
+        self._file.flush()
+        os.fsync(self._file.fileno())
+        size = self._file.tell()
+        self._file.close()
+        self.closed = True
+        return size
+
+    def abandon(self) -> None:
+        """Closes the file as it is, without a footer (after a write failed): what was flushed stays
+        readable, mcap_read.recover() completes it later."""
+        if not self.closed:
+            self.closed = True
+            try:
+                self._file.close()
+            except OSError:
+                pass  # the buffered tail could not be written either: the flushed chunks are what counts
