@@ -2,8 +2,8 @@
 app.state the irpd clients, users, tokens, browser sessions, the lockouts, the set store, the
 activator, the audit log, the agent's events and the host-load sampler.  While the app runs, a
 watcher restores the active set into a (re)started irpd (activation.py), and the robot view follows
-the running set's robot (viewer/live.py), and the alarm watcher keeps the alarms current
-(alarms/watcher.py)."""
+the running set's robot (viewer/live.py), the alarm watcher keeps the alarms current
+(alarms/watcher.py), and the recorder writes the running recordings (recorder/manager.py)."""
 
 from __future__ import annotations
 
@@ -34,6 +34,7 @@ from .api.routes import (
     jitter,
     line,
     modules,
+    recordings,
     robot,
     session,
     sets,
@@ -51,6 +52,8 @@ from .errors import LocatedError, located_error
 from .events import AgentEvents
 from .host import Sampler
 from .irpd_client import IrpdClient
+from .recorder.manager import Recorder
+from .recorder.store import Store
 from .security import BodyLimitMiddleware, BodyTimeoutMiddleware, Lockout
 from .sessions import SessionStore
 from .store import SetStore
@@ -175,7 +178,9 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
             settings.irpd_poll_s,
         )
         watcher.start()
+        app.state.recorder.start()
         yield
+        app.state.recorder.stop()
         watcher.stop()
         app.state.robot.stop()
         if restorer is not None:
@@ -218,6 +223,10 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     if alarm_store.moved_aside is not None:
         state.events.add("agent_error", f"the alarm database did not open: moved aside to {alarm_store.moved_aside}")
     state.alarms = AlarmManager(alarm_store, settings.alarm_history_per_s)
+    state.recordings = Store(
+        settings.data_dir / "recordings", settings.recordings_quota_bytes, settings.recordings_min_free_bytes
+    )
+    state.recorder = Recorder(state.recordings, settings.irpd_socket, state.events)
     state.system_alarms = SystemAlarms(
         state.alarms,
         Thresholds(
@@ -237,6 +246,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     )
     routers = (health, status, modules, jitter, variables, sets, robot, events, alarms, audit, tokens, session, users)
     routers += (line,)  # the line of controllers, from the DDS bridge
+    routers += (recordings,)  # the recorder (docs/recorder.md)
     for module in (*routers, stream):
         app.include_router(module.router, prefix=API)
     app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)

@@ -106,6 +106,12 @@ class Settings:
     # The line (GET /line, docs/dds.md "The line"): the view of the line the DDS bridge writes
     # (its --line-file).
     line_file: Path = Path("/run/indurop-dds/line.json")
+    # The recorder (docs/recorder.md): <data-dir>/recordings/ holds at most recordings_quota_bytes
+    # (the oldest recordings and captures are deleted first to stay under it, never one being
+    # written); recordings stop cleanly when the data folder's disk has less than
+    # recordings_min_free_bytes free.
+    recordings_quota_bytes: int = 4 << 30
+    recordings_min_free_bytes: int = 256 * MiB
 
 
 FIELDS = {f.name: f for f in dataclasses.fields(Settings)}
@@ -145,7 +151,10 @@ POSITIVE = {
     "alarm_history_per_s",
     "max_backup_bytes",
     "max_backup_members",
+    "recordings_quota_bytes",
+    "recordings_min_free_bytes",
 }
+MIN_RECORDINGS_QUOTA = 16 * MiB  # a quota smaller than this could not hold a second of a fast recording
 VIEWERS = ("viser", "meshcat")
 
 
@@ -187,6 +196,11 @@ def check(s: Settings) -> list[str]:
     if s.session_idle_s > s.session_lifetime_s:
         problems.append(
             f"session_idle_s ({s.session_idle_s}) is longer than session_lifetime_s ({s.session_lifetime_s})"
+        )
+    if s.recordings_quota_bytes < MIN_RECORDINGS_QUOTA:
+        problems.append(
+            f"recordings_quota_bytes ({s.recordings_quota_bytes}) is too small: give at least {MIN_RECORDINGS_QUOTA} "
+            "(16 MiB), or the recordings cannot be kept"
         )
     if s.max_file_bytes > s.max_upload_bytes:
         problems.append(f"max_file_bytes ({s.max_file_bytes}) is larger than max_upload_bytes ({s.max_upload_bytes})")

@@ -31,7 +31,7 @@ from ..trace import MAX_CHANNELS, TraceError, TraceRing
 from ..variables import Segment, VariableError
 from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config, variable_problem
 from . import mcap_read
-from .mcap_out import Joint, Variable
+from .mcap_out import JOINT_FILE_SUFFIX, Joint, Variable
 from .recording import Recording
 from .store import Store, StoreError, check_name, now
 
@@ -64,8 +64,10 @@ class Recorder(threading.Thread):
         poll_s: float = 0.05,
         flush_s: float = 1.0,
         check_s: float = 1.0,
+        owner: str = OWNER,
     ):
         super().__init__(name="recorder", daemon=True)
+        self.owner = owner  # the trace owner irpd knows it by (one per agent)
         self.store, self.events = store, events
         self.poll_s, self.flush_s, self.check_s = poll_s, flush_s, check_s
         self.irpd = IrpdClient(socket_path, timeout_s=2.0)
@@ -237,7 +239,7 @@ class Recorder(threading.Thread):
         """Asks irpd to trace `union` for the recorder (with config_lock held).  quiet: failures
         are left for the next check (irpd gone forgets our channels by itself)."""
         try:
-            answer = self.irpd.request("trace", channels=union, owner=OWNER)
+            answer = self.irpd.request("trace", channels=union, owner=self.owner)
         except IrpdUnavailable as e:
             if quiet:
                 return None
@@ -474,6 +476,9 @@ class Recorder(threading.Thread):
             if part is not None and part.get("closed"):
                 continue
             found = mcap_read.recover(path)
+            joints = path.with_name(path.name.removesuffix(".mcap") + JOINT_FILE_SUFFIX)
+            if joints.exists():
+                mcap_read.recover(joints)
             if part is None:
                 pid = found.metadata.get("indurop.part", {}).get("irpd_pid")
                 part = {"file": path.name, "irpd_pid": int(pid) if pid else None, "opened": None, "drops": 0}
@@ -485,7 +490,7 @@ class Recorder(threading.Thread):
                 rows=found.rows,
                 first_unix_ns=found.first_unix_ns,
                 last_unix_ns=found.last_unix_ns,
-                size=path.stat().st_size,
+                size=path.stat().st_size + (joints.stat().st_size if joints.exists() else 0),
                 recovered=found.error,
             )
         entry.meta["rows"] = sum(p.get("rows") or 0 for p in entry.meta["parts"])

@@ -16,10 +16,14 @@ What it holds:
   Values are the ring's doubles, `null` where not finite.  log_time = the row's due time on the
   wall clock (t_ns + clock_offset_ns), sequence = seq mod 2^32 (the full seq is in the message).
 - `/indurop/notes`: JSON messages for what is not a row: drops, gaps, triggers, why it stopped.
-- `/joint_states` (when `joints` are given): sensor_msgs/msg/JointState in ROS 2 CDR, encoded by
-  mcap-ros2-support from the ros2msg definition rosbag2 stores (ros2_msgdefs.py, generated from
-  protocol/ros2), position = value x scale + offset, at most one message per `joint_every` rows.
 - metadata records: `indurop.part` at the start (what the caller gives), `indurop.summary` at close.
+
+With `joints`, a second file beside it, `<name>.joint_states.mcap` (`joint_file`), in the MCAP
+`ros2` profile: `/joint_states`, sensor_msgs/msg/JointState in ROS 2 CDR, encoded by
+mcap-ros2-support from the ros2msg definition rosbag2 stores (ros2_msgdefs.py, generated from
+protocol/ros2), position = value x scale + offset, at most one message per `joint_every` rows.  It
+is a file of its own because ROS 2 readers (rosbags, rosbag2) take only files of that profile, all
+CDR; Foxglove opens both together.
 
 Chunks (zstd) are closed at `chunk_bytes` and at every flush(); a file whose writer died holds every
 chunk flushed before (mcap_read.recover makes it whole again).
@@ -48,6 +52,7 @@ JOINT_STATES_TOPIC = "/joint_states"
 SAMPLES_SCHEMA = "indurop.Samples"
 NOTES_SCHEMA = "indurop.Note"
 JOINT_STATE = "sensor_msgs/msg/JointState"
+JOINT_FILE_SUFFIX = ".joint_states.mcap"  # part-0001.mcap -> part-0001.joint_states.mcap
 CHUNK_BYTES = 4 << 20  # uncompressed bytes of a chunk before it is compressed and written
 RESERVED = ("seq", "t_ns")  # the fields every row has; no variable's field takes these names
 LIBRARY = "indurop-recorder"
@@ -176,6 +181,8 @@ class McapOut:
         # rows are written as a template filled with orjson's numbers (see add_rows)
         head = b'{"seq":%s,"t_ns":%s'
         self._template = head + b"".join(b"," + orjson.dumps(f) + b":%s" for f in self.fields) + b"}"
+        self.joint_file: Path | None = None
+        self._joint_out = self._joint_writer = None
         self._file = open(self.path, "xb")  # never over an existing file
         try:
             self._writer = Writer(self._file, chunk_size=chunk_bytes, compression=compression)
@@ -202,24 +209,34 @@ class McapOut:
                 NOTES_SCHEMA, SchemaEncoding.JSONSchema, orjson.dumps(NOTES_JSON_SCHEMA)
             )
             self._notes = self._writer.register_channel(NOTES_TOPIC, MessageEncoding.JSON, notes)
-            self._joint_channel = None
-            if self.joints:
-                definition = MSGDEFS[JOINT_STATE]
-                self._encode_joints = serialize_dynamic(JOINT_STATE, definition)[JOINT_STATE]
-                js = self._writer.register_schema(JOINT_STATE, SchemaEncoding.ROS2, definition.encode())
-                self._joint_channel = self._writer.register_channel(
-                    JOINT_STATES_TOPIC,
-                    MessageEncoding.CDR,
-                    js,
-                    {"indurop.joints": orjson.dumps([j.__dict__ for j in self.joints]).decode()},
-                )
             part = {"title": title, "basic_period_ns": str(basic_period_ns), "decimation": str(decimation)}
             part["clock_offset_ns"] = str(self.clock_offset_ns)
             self._writer.add_metadata("indurop.part", {**part, **(metadata or {})})
             self._writer.flush()
+            if self.joints:
+                self._open_joint_file(compression, {**part, **(metadata or {})})
         except BaseException:
             self._file.close()
+            if self._joint_out is not None:
+                self._joint_out.close()
             raise
+
+    def _open_joint_file(self, compression: CompressionType, part: dict[str, str]) -> None:
+        self.joint_file = self.path.with_name(self.path.name.removesuffix(".mcap") + JOINT_FILE_SUFFIX)
+        self._joint_out = open(self.joint_file, "xb")
+        self._joint_writer = Writer(self._joint_out, chunk_size=CHUNK_BYTES, compression=compression)
+        self._joint_writer.start(profile="ros2", library=LIBRARY)
+        definition = MSGDEFS[JOINT_STATE]
+        self._encode_joints = serialize_dynamic(JOINT_STATE, definition)[JOINT_STATE]
+        schema = self._joint_writer.register_schema(JOINT_STATE, SchemaEncoding.ROS2, definition.encode())
+        self._joint_channel = self._joint_writer.register_channel(
+            JOINT_STATES_TOPIC,
+            MessageEncoding.CDR,
+            schema,
+            {"indurop.joints": orjson.dumps([j.__dict__ for j in self.joints]).decode()},
+        )
+        self._joint_writer.add_metadata("indurop.part", part)
+        self._joint_writer.flush()
 
     # ---- rows -------------------------------------------------------------------------------------
     def add_rows(self, seqs: Sequence[int], t_ns: Sequence[int], columns: Sequence[Sequence[float]]) -> int:
@@ -244,7 +261,7 @@ class McapOut:
             log_time = times[k] + offset
             data = template % (b"%d" % seqs[k], b"%d" % times[k], *rows[k].split(b","))
             add(channel, log_time, data, log_time, seqs[k] & 0xFFFFFFFF)
-        if self._joint_channel is not None:
+        if self._joint_writer is not None:
             self._add_joints(seqs, times, block)
         if self.first_seq is None:
             self.first_seq, self.first_t_ns = seqs[0], times[0]
@@ -271,7 +288,7 @@ class McapOut:
                 "velocity": [],
                 "effort": [],
             }
-            self._writer.add_message(
+            self._joint_writer.add_message(
                 self._joint_channel, log_time, self._encode_joints(message), log_time, seqs[k] & 0xFFFFFFFF
             )
             self.joint_messages += 1
@@ -293,14 +310,21 @@ class McapOut:
     # ---- the file -------------------------------------------------------------------------------
     @property
     def size(self) -> int:
-        """Bytes on disk (what flush() has written; the open chunk is not counted)."""
-        return self._file.tell()
+        """Bytes on disk of both files (what flush() has written; the open chunk is not counted)."""
+        return self._file.tell() + (self._joint_out.tell() if self._joint_out is not None else 0)
 
     def flush(self, sync: bool = True) -> None:
-        """Closes the open chunk, writes it out, and with `sync` fsyncs the file."""
-        self._writer.flush()
-        if sync:
-            os.fsync(self._file.fileno())
+        """Closes the open chunks, writes them out, and with `sync` fsyncs the files."""
+        for writer, f in self._files():
+            writer.flush()
+            if sync:
+                os.fsync(f.fileno())
+
+    def _files(self) -> list:
+        files = [(self._writer, self._file)]
+        if self._joint_writer is not None:
+            files.append((self._joint_writer, self._joint_out))
+        return files
 
     def close(self, summary: dict[str, str] | None = None) -> int:
         """The summary metadata, indexes and footer; returns the file's size."""
@@ -312,12 +336,14 @@ class McapOut:
             "last_seq": str(self.last_seq or ""),
             "joint_states": str(self.joint_messages),
         }
-        self._writer.add_metadata("indurop.summary", {**done, **(summary or {})})
-        self._writer.finish()
-        self._file.flush()
-        os.fsync(self._file.fileno())
-        size = self._file.tell()
-        self._file.close()
+        for writer, f in self._files():
+            writer.add_metadata("indurop.summary", {**done, **(summary or {})})
+            writer.finish()
+            f.flush()
+            os.fsync(f.fileno())
+        size = self.size
+        for _, f in self._files():
+            f.close()
         self.closed = True
         return size
 
@@ -326,7 +352,8 @@ class McapOut:
         readable, mcap_read.recover() completes it later."""
         if not self.closed:
             self.closed = True
-            try:
-                self._file.close()
-            except OSError:
-                pass  # the buffered tail could not be written either: the flushed chunks are what counts
+            for _, f in self._files():
+                try:
+                    f.close()
+                except OSError:
+                    pass  # the buffered tail could not be written either: the flushed chunks are what counts

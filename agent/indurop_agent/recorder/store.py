@@ -1,6 +1,7 @@
 """store.py -- where recordings and captures live on disk (docs/recorder.md "Files"):
 <data-dir>/recordings/<name>/ holds `entry.json` (the definition and state, replaced atomically)
-and the MCAP files of its parts, `part-0001.mcap`, `part-0002.mcap`, ...
+and the MCAP files of its parts, `part-0001.mcap`, `part-0002.mcap`, ... (each with its
+`part-0001.joint_states.mcap` when the recording has a /joint_states channel)
 
     store = Store(data_dir / "recordings", quota_bytes=8 << 30, min_free_bytes=256 << 20)
     entry = store.create("run-7", "recording", {"variables": [...]})   # StoreError 409: the name is taken
@@ -28,6 +29,8 @@ import threading
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
+
+from .mcap_out import JOINT_FILE_SUFFIX
 
 NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 NAME_RULE = "1 to 64 letters, digits, '_', '.' or '-', starting with a letter or a digit"
@@ -85,6 +88,16 @@ class Entry:
         """The MCAP files, in part order."""
         found = [(int(m.group(1)), p) for p in self.folder.iterdir() if (m := PART.fullmatch(p.name))]
         return [p for _, p in sorted(found)]
+
+    def files(self) -> list[Path]:
+        """Every MCAP file, in part order: each part, and its .joint_states.mcap when it has one."""
+        out = []
+        for part in self.parts():
+            out.append(part)
+            joints = part.with_name(part.name.removesuffix(".mcap") + JOINT_FILE_SUFFIX)
+            if joints.exists():
+                out.append(joints)
+        return out
 
     def new_part(self) -> Path:
         """The file name of the next part (one after the highest there is)."""
