@@ -450,6 +450,25 @@ class Recorder(threading.Thread):
         self.store.done_writing(rec.name)
         self.events.add("recording", f"recording '{rec.name}' {state}: {reason}")
 
+    @staticmethod
+    def gaps_from_notes(entry, index: int, found: mcap_read.Scan) -> None:
+        """A gap the file noted that entry.json lacks (a crash came before it was saved)."""
+        gaps = entry.meta.setdefault("gaps", [])
+        for note in found.notes:
+            if note.get("kind") == "gap" and not any(g["part"] == index for g in gaps):
+                missing = note.get("count")
+                reason = note.get("text", "").removeprefix("gap: ").split(";")[0]
+                gaps.append(
+                    {
+                        "part": index,
+                        "last_seq": note.get("last_seq"),
+                        "first_seq": note.get("first_seq"),
+                        "missing": missing,
+                        "reason": reason,
+                    }
+                )
+        gaps.sort(key=lambda g: g["part"])
+
     def resume(self) -> None:
         """The recordings entry.json says were running: their last part completed if a crash left
         it open, then recording again in a new part (the gap recorded with its first rows)."""
@@ -493,7 +512,10 @@ class Recorder(threading.Thread):
                 size=path.stat().st_size + (joints.stat().st_size if joints.exists() else 0),
                 recovered=found.error,
             )
+            part["drops"] = sum(n.get("count", 0) for n in found.notes if n.get("kind") == "drop")
+            self.gaps_from_notes(entry, entry.meta["parts"].index(part), found)
         entry.meta["rows"] = sum(p.get("rows") or 0 for p in entry.meta["parts"])
+        entry.meta["drops"] = sum(p.get("drops") or 0 for p in entry.meta["parts"])
         try:
             entry.save()
         except OSError:

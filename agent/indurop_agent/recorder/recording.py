@@ -92,7 +92,8 @@ class Recording:
 
     def write(self, s0: int, t: list[int], columns: list, irpd_pid: int | None) -> None:
         n = self.decimation
-        if self.out is None:
+        opened = self.out is None
+        if opened:
             self.open_part(irpd_pid)
         offset = self.out.clock_offset_ns
         if self.duration_ns is not None:
@@ -110,6 +111,7 @@ class Recording:
         seqs = range(s0, s0 + n * len(t), n)
         if self.gap is not None:
             self.record_gap(seqs[0], t[0])
+            opened = True
         self.out.add_rows(seqs, t, columns)
         p = self.part
         if p["first_seq"] is None:
@@ -120,6 +122,8 @@ class Recording:
         self.meta["last_unix_ns"] = p["last_unix_ns"]
         if self.max_bytes is not None and self.size() >= self.max_bytes:
             self.done = ("stopped", "size", f"its size limit ({self.max_bytes} bytes) is reached")
+        if opened:
+            self.save()  # the new part and the gap before it, at once
 
     def drop(self, lo: int, hi: int, why: str) -> None:
         count = multiples(lo, hi, self.decimation)
@@ -134,7 +138,7 @@ class Recording:
         """The gap before the first rows of a new part: the last seq written before it, this first
         one, and how many rows it misses (counted in one irpd run only: seq restarts with irpd)."""
         gap = {
-            "part": len(self.meta["parts"]),
+            "part": len(self.meta["parts"]) - 1,
             "last_seq": self.gap["last_seq"],
             "first_seq": first_seq,
             "missing": None,
@@ -186,7 +190,6 @@ class Recording:
         for note in self.pending:
             self.out.note(**note)
         self.pending.clear()
-        self.save()
 
     def close_part(self, note: tuple[str, str] | None = None) -> None:
         """Closes the current part with its summary (and a last note); OSError when it cannot."""
