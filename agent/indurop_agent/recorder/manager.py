@@ -74,6 +74,7 @@ class Recorder(threading.Thread):
         self.lock = threading.RLock()
         self.config_lock = threading.Lock()
         self.recordings: dict[str, Recording] = {}
+        self.unsaved: dict[str, Recording] = {}  # ended, but entry.json could not be written (disk full)
         self.ring: TraceRing | None = None
         self.cursor = 0
         self.irpd_pid: int | None = None
@@ -164,9 +165,10 @@ class Recorder(threading.Thread):
         self.store.delete(name)
 
     def live(self, name: str) -> dict | None:
-        """The meta of a running recording as the thread holds it (with the open part's size)."""
+        """The meta of a running recording as the thread holds it (with the open part's size), or of
+        one that ended but whose entry.json could not be written yet (a full disk)."""
         with self.lock:
-            rec = self.recordings.get(name)
+            rec = self.recordings.get(name) or self.unsaved.get(name)
             if rec is None:
                 return None
             if rec.part is not None and rec.out is not None:
@@ -388,6 +390,14 @@ class Recorder(threading.Thread):
                     except RecorderError as e:
                         if e.status == 409:
                             self.variables_gone(e.message)
+        with self.lock:
+            for name, rec in list(self.unsaved.items()):
+                try:
+                    rec.save()
+                    del self.unsaved[name]
+                except OSError:
+                    pass
+        self.store.keep_reserve()
         for name in self.store.evict():
             self.events.add(
                 "recording",
@@ -445,7 +455,11 @@ class Recorder(threading.Thread):
         try:
             rec.save()
         except OSError:
-            pass  # no room even for entry.json: the next start sees "recording" and checks again
+            self.store.release_reserve()  # the room kept for this
+            try:
+                rec.save()
+            except OSError:
+                self.unsaved[rec.name] = rec  # shown from memory; saved when there is room
         self.recordings.pop(rec.name, None)
         self.store.done_writing(rec.name)
         self.events.add("recording", f"recording '{rec.name}' {state}: {reason}")

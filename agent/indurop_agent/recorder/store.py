@@ -37,6 +37,8 @@ NAME_RULE = "1 to 64 letters, digits, '_', '.' or '-', starting with a letter or
 META = "entry.json"
 PART = re.compile(r"part-(\d{4,})\.mcap")
 KINDS = ("recording", "capture")
+RESERVE = ".reserve"  # room kept for saving states when the disk is full (not counted in the quota)
+RESERVE_BYTES = 256 << 10
 
 
 class StoreError(Exception):
@@ -110,15 +112,33 @@ class Entry:
 
 
 class Store:
-    def __init__(self, root: Path, quota_bytes: int, min_free_bytes: int = 0):
+    def __init__(self, root: Path, quota_bytes: int, min_free_bytes: int = 0, reserve_bytes: int = RESERVE_BYTES):
         self.root = Path(root)
         self.quota_bytes = quota_bytes
         self.min_free_bytes = min_free_bytes
+        self.reserve_bytes = reserve_bytes
         self.lock = threading.RLock()  # creation, deletion and eviction, one at a time
         self._writing: set[str] = set()
         self.root.mkdir(parents=True, exist_ok=True)
         for stale in self.root.glob(f"*/{META}.tmp"):
             stale.unlink(missing_ok=True)  # a save a crash interrupted: entry.json is the old one
+        self.keep_reserve()
+
+    def keep_reserve(self) -> None:
+        """Makes the reserve file (reserve_bytes taken on the disk) if it is not there and there
+        is room: a full disk then still has room to save the state of what it stopped."""
+        path = self.root / RESERVE
+        if not self.reserve_bytes or path.exists():
+            return
+        try:
+            with open(path, "wb") as f:
+                os.posix_fallocate(f.fileno(), 0, self.reserve_bytes)
+        except OSError:
+            path.unlink(missing_ok=True)
+
+    def release_reserve(self) -> None:
+        """Frees the reserve (the disk is full); keep_reserve() makes it again once there is room."""
+        (self.root / RESERVE).unlink(missing_ok=True)
 
     def writing(self, name: str) -> None:
         """`name` is being written: evict() and delete() leave it alone until done_writing(name)."""
@@ -189,10 +209,12 @@ class Store:
 
     # ---- room -----------------------------------------------------------------------------------------
     def used(self) -> int:
-        """Bytes of every file under the folder."""
+        """Bytes of every file under the folder (but the reserve)."""
         total = 0
         for dirpath, _, files in os.walk(self.root):
             for f in files:
+                if f == RESERVE and dirpath == str(self.root):
+                    continue
                 try:
                     total += os.lstat(os.path.join(dirpath, f)).st_size
                 except OSError:

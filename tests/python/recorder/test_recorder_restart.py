@@ -14,8 +14,8 @@ import signal
 import time
 
 import pytest
-from recorder_helpers import IRPD, irpd_ready, samples_of, start_agent, start_cell, stop
 from live_processes import FIG1, start_irpd
+from recorder_helpers import IRPD, irpd_ready, samples_of, start_agent, start_cell, stop
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
