@@ -28,6 +28,7 @@ from urllib.parse import quote, urlsplit, urlunsplit
 
 import httpx
 
+from .client_record import RecordCalls
 from .client_system import SystemCalls
 from .stream_frame import HEADER_SIZE, KIND_SAMPLES, MAGIC, VERSION, Frame, decode, encode, kind
 
@@ -93,8 +94,8 @@ def _archive_name(path: Path) -> bool:
     return path.name.endswith((".tar.gz", ".tgz"))
 
 
-class Client(SystemCalls):
-    """The agent's API (the System page's calls: client_system.py).  url: "http://host:port" (with or without /api/v1); token: a bearer token;
+class Client(SystemCalls, RecordCalls):
+    """The agent's API (the System page's calls: client_system.py; the recorder's: client_record.py).  url: "http://host:port" (with or without /api/v1); token: a bearer token;
     ca: a CA file for https; verify=False accepts any certificate; timeout in seconds; transport:
     an httpx transport (tests)."""
 

@@ -17,6 +17,7 @@ import time
 
 import pyarrow.parquet as pq
 import pytest
+from indurop_agent import cli
 from recorder_helpers import BUILD, IRPD, digests, notes_of, samples_of, start_cell, stop
 from rosbags.rosbag2.storage_mcap import McapReader as RosbagsMcap
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
@@ -160,6 +161,40 @@ def test_a_recording_stopped_by_hand_is_closed_and_kept(cell, tmp_path):
     assert got["state"] == "stopped" and got["cause"] == "manual" and "stopped by" in got["reason"]
     assert got["parts"][0]["closed"] and got["rows"] > 500
     assert notes_of(api.download("manual", tmp_path))[-1]["kind"] == "stop"
+
+
+def test_irpctl_record_starts_lists_stops_exports_downloads_and_removes(cell, tmp_path, capsys, monkeypatch):
+    api = cell["api"]
+    for name in ("INDUROP_URL", "INDUROP_TOKEN", "INDUROP_TOKEN_FILE"):
+        monkeypatch.delenv(name, raising=False)
+
+    def irpctl(role: str, *argv: str) -> tuple[int, str, str]:
+        capsys.readouterr()
+        code = cli.main(["--url", api.url.removesuffix("/api/v1"), "--token", api.tokens[role], *argv])
+        out, err = capsys.readouterr()
+        return code, out, err
+
+    code, out, _ = irpctl("operator", "record", "start", "cli-run", "SIG.sample", "SIG.wave[9]=V", "--decimation", "2")
+    assert code == 0 and "state" in out and "SIG.wave[9] [V]" in out
+    code, out, _ = irpctl("viewer", "record", "list")
+    assert code == 0 and "cli-run" in out and "trace channels:" in out and "recorder" in out
+    assert irpctl("viewer", "record", "stop", "cli-run")[0] == 1  # a viewer may not
+    time.sleep(1)
+    code, out, _ = irpctl("operator", "record", "stop", "cli-run")
+    assert code == 0 and "stopped by" in out and "part-0001.mcap" in out
+    code, out, _ = irpctl("viewer", "--json", "record", "get", "cli-run")
+    got = json.loads(out)
+    assert code == 0 and got["state"] == "stopped" and got["decimation"] == 2
+    code, _, err = irpctl("viewer", "record", "export", "cli-run", "--format", "csv", "-o", str(tmp_path / "rows.csv"))
+    assert code == 0 and "rows as csv" in err
+    lines = (tmp_path / "rows.csv").read_text().splitlines()
+    assert lines[0] == "seq,t_ns,unix_ns,SIG.sample,SIG.wave[9]" and len(lines) == got["rows"] + 1
+    code, _, err = irpctl("viewer", "record", "download", "cli-run", "-o", str(tmp_path / "run.mcap"))
+    assert code == 0 and len(samples_of([tmp_path / "run.mcap"])) == got["rows"]
+    code, _, err = irpctl("operator", "record", "start", "../x", "SIG.sample")
+    assert code == 1 and "letters, digits" in err
+    assert irpctl("operator", "record", "rm", "cli-run")[0] == 0
+    assert irpctl("viewer", "record", "get", "cli-run")[0] == 1
 
 
 def test_the_60_s_recording_has_every_row_with_the_values_the_generator_wrote(cell, tmp_path):
