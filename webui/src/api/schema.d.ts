@@ -384,6 +384,116 @@ export interface paths {
         patch: operations["patch_module_api_v1_modules__name__patch"];
         trace?: never;
     };
+    "/api/v1/recordings": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List Recordings
+         * @description Every recording and capture, oldest first, with the folder's quota and use, and the trace
+         *     rings' channels each owner holds.
+         */
+        get: operations["list_recordings_api_v1_recordings_get"];
+        put?: never;
+        /**
+         * Start Recording
+         * @description Starts recording every row (or every `decimation`-th) of the variables into
+         *     <data-dir>/recordings/<name>/, until `stop` says or POST .../stop.
+         */
+        post: operations["start_recording_api_v1_recordings_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/recordings/{name}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Get Recording */
+        get: operations["get_recording_api_v1_recordings__name__get"];
+        put?: never;
+        post?: never;
+        /**
+         * Delete Recording
+         * @description Deletes a recording or capture and its files (not while it is being written).
+         */
+        delete: operations["delete_recording_api_v1_recordings__name__delete"];
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/recordings/{name}/download": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Download Recording
+         * @description The recording's MCAP file, or with several files (it resumed after a restart, or has a
+         *     .joint_states.mcap beside each part) a .zip of them; `part` picks one part.  A part being written comes as far as it is flushed (without its index:
+         *     readers read it front to back).
+         */
+        get: operations["download_recording_api_v1_recordings__name__download_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/recordings/{name}/export": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Export Recording
+         * @description Every row of every part as CSV or Parquet (seq, t_ns, unix_ns, a column per variable named
+         *     by its path), made while it is sent.
+         */
+        get: operations["export_recording_api_v1_recordings__name__export_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/recordings/{name}/stop": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Stop Recording
+         * @description Stops a running recording: its last part is closed (complete) and it is kept.
+         */
+        post: operations["stop_recording_api_v1_recordings__name__stop_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/robot": {
         parameters: {
             query?: never;
@@ -1436,6 +1546,23 @@ export interface components {
              * @default []
              */
             warnings: string[];
+        };
+        /** ChannelUse */
+        ChannelUse: {
+            /**
+             * Limit
+             * @description channels irpd traces at most, for all its owners
+             */
+            limit: number;
+            /**
+             * Owners
+             * @description channels each owner asks for (agent: the stream, dds, recorder)
+             */
+            owners: {
+                [key: string]: number;
+            };
+            /** Traced */
+            traced: number;
         };
         /** CpuLoad */
         CpuLoad: {
@@ -2554,6 +2681,193 @@ export interface components {
             /** Id */
             id: string;
         };
+        /** RecordingGap */
+        RecordingGap: {
+            /**
+             * First Seq
+             * @description the first row after it
+             */
+            first_seq: number;
+            /**
+             * Last Seq
+             * @description the last row written before the gap
+             */
+            last_seq: number | null;
+            /**
+             * Missing
+             * @description rows the recording would have held in it (null: irpd restarted, seq began again)
+             */
+            missing: number | null;
+            /**
+             * Part
+             * @description the part (0-based) whose first rows follow the gap
+             */
+            part: number;
+            /** Reason */
+            reason: string;
+        };
+        /** RecordingList */
+        RecordingList: {
+            /** @description the trace rings' channels (null: irpd unreachable) */
+            channels: components["schemas"]["ChannelUse"] | null;
+            /** Disk Free Bytes */
+            disk_free_bytes: number;
+            /**
+             * Min Free Bytes
+             * @description recordings stop when the disk has less free
+             */
+            min_free_bytes: number;
+            /** Quota Bytes */
+            quota_bytes: number;
+            /**
+             * Recordings
+             * @description oldest first
+             */
+            recordings: components["schemas"]["RecordingPublic"][];
+            /** Used Bytes */
+            used_bytes: number;
+        };
+        /** RecordingPart */
+        RecordingPart: {
+            /**
+             * Closed
+             * @description complete (summary and footer written); false: being written, or cut by a crash
+             */
+            closed: boolean;
+            /** Drops */
+            drops: number | null;
+            /**
+             * File
+             * @description the part's MCAP file
+             */
+            file: string;
+            /** First Seq */
+            first_seq: number | null;
+            /** First Time */
+            first_time: string | null;
+            /** Irpd Pid */
+            irpd_pid: number | null;
+            /** Last Seq */
+            last_seq: number | null;
+            /** Last Time */
+            last_time: string | null;
+            /**
+             * Recovered
+             * @description a crash cut it: why its reading stopped before it was completed
+             */
+            recovered?: string | null;
+            /** Rows */
+            rows: number | null;
+            /** Size */
+            size: number | null;
+        };
+        /** RecordingPublic */
+        RecordingPublic: {
+            /** Basic Period Ns */
+            basic_period_ns?: number | null;
+            /**
+             * Cause
+             * @description why it ended
+             */
+            cause?: ("manual" | "duration" | "size" | "quota" | "disk_full" | "variables" | "error") | null;
+            /** Created */
+            created: string;
+            /** Created By */
+            created_by?: string | null;
+            /** Decimation */
+            decimation?: number | null;
+            /**
+             * Download
+             * @description where to download it (an .mcap, or a .zip of its parts)
+             */
+            download: string;
+            /**
+             * Drops
+             * @description rows overwritten in the trace rings before they were read (noted in the file)
+             */
+            drops: number;
+            /**
+             * Duration S
+             * @description from its first row's due time to its last's
+             */
+            duration_s: number | null;
+            /** Ended */
+            ended?: string | null;
+            /** First Time */
+            first_time: string | null;
+            /** Gaps */
+            gaps: components["schemas"]["RecordingGap"][];
+            /**
+             * Joint States
+             * @description the joints of its /joint_states channel (none: no such channel)
+             */
+            joint_states: string[];
+            /**
+             * Kind
+             * @enum {string}
+             */
+            kind: "recording" | "capture";
+            /** Last Time */
+            last_time: string | null;
+            /** Name */
+            name: string;
+            /** Parts */
+            parts: components["schemas"]["RecordingPart"][];
+            /**
+             * Reason
+             * @description why it ended, in words
+             */
+            reason?: string | null;
+            /** Rows */
+            rows: number;
+            /**
+             * Size
+             * @description bytes of its files
+             */
+            size: number;
+            /** State */
+            state: ("recording" | "stopped" | "failed") | "damaged";
+            stop?: components["schemas"]["StopCondition"] | null;
+            /** Variables */
+            variables: components["schemas"]["RecordingVariable"][];
+        };
+        /** RecordingStart */
+        RecordingStart: {
+            /**
+             * Decimation
+             * @description every n-th row (seq divisible by n); 1: every row
+             * @default 1
+             */
+            decimation: number;
+            /**
+             * Name
+             * @description the recording's name: 1 to 64 letters, digits, '_', '.' or '-', starting with a letter or a digit
+             */
+            name: string;
+            stop?: components["schemas"]["StopCondition"];
+            /**
+             * Variables
+             * @description paths of scalar shared variables, or {path, unit}; irpd traces at most 64 channels for all its owners together
+             */
+            variables: (string | components["schemas"]["VariableWanted"])[];
+        };
+        /** RecordingVariable */
+        RecordingVariable: {
+            /**
+             * Field
+             * @description its field in the MCAP rows' JSON
+             */
+            field?: string | null;
+            /** Path */
+            path: string;
+            /**
+             * Type
+             * @description the layout's type, e.g. double, uint32_t
+             */
+            type: string;
+            /** Unit */
+            unit: string;
+        };
         /**
          * RestartNeed
          * @description Why only a restart can run the set.
@@ -3017,6 +3331,22 @@ export interface components {
             [key: string]: unknown;
         };
         /**
+         * StopCondition
+         * @description When a recording ends by itself (neither: when it is stopped).
+         */
+        StopCondition: {
+            /**
+             * Duration S
+             * @description seconds of rows (due time from the first row), then it stops
+             */
+            duration_s?: number | null;
+            /**
+             * Max Bytes
+             * @description stops once its files hold this many bytes (checked each second; at most the quota)
+             */
+            max_bytes?: number | null;
+        };
+        /**
          * SwapReport
          * @description irpd's report of a hot swap (the control protocol's swap_report), or of a managed restart (mode restart): a restart's report has what irpd's status tells after it (set, set_id, generation, the periods) and downtime_ns, its other fields empty or null.
          */
@@ -3433,6 +3763,20 @@ export interface components {
             value: boolean | number;
         } & {
             [key: string]: unknown;
+        };
+        /** VariableWanted */
+        VariableWanted: {
+            /**
+             * Path
+             * @description a scalar leaf of the running layout
+             */
+            path: string;
+            /**
+             * Unit
+             * @description its unit, written into the file (the layout has none)
+             * @default
+             */
+            unit: string;
         };
         /**
          * VariableWrite
@@ -4112,6 +4456,430 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["HTTPValidationError"];
                 };
+            };
+        };
+    };
+    list_recordings_api_v1_recordings_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["RecordingList"];
+                };
+            };
+        };
+    };
+    start_recording_api_v1_recordings_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["RecordingStart"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["RecordingPublic"];
+                };
+            };
+            /** @description a bad name, an unknown or non-scalar variable, a variable twice, max_bytes over the quota */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such recording */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the name is taken; irpd refused to trace (its message names every owner's channels); not running (stop) or being written (delete) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+            /** @description irpd unreachable */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the disk is too full to record */
+            507: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    get_recording_api_v1_recordings__name__get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["RecordingPublic"];
+                };
+            };
+            /** @description a bad name, an unknown or non-scalar variable, a variable twice, max_bytes over the quota */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such recording */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the name is taken; irpd refused to trace (its message names every owner's channels); not running (stop) or being written (delete) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+            /** @description irpd unreachable */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the disk is too full to record */
+            507: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    delete_recording_api_v1_recordings__name__delete: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            204: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a bad name, an unknown or non-scalar variable, a variable twice, max_bytes over the quota */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such recording */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the name is taken; irpd refused to trace (its message names every owner's channels); not running (stop) or being written (delete) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+            /** @description irpd unreachable */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the disk is too full to record */
+            507: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    download_recording_api_v1_recordings__name__download_get: {
+        parameters: {
+            query?: {
+                /** @description only this part (1: the first); default: every part */
+                part?: number | null;
+            };
+            header?: never;
+            path: {
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description an .mcap or a .zip */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/octet-stream": unknown;
+                    "application/zip": unknown;
+                };
+            };
+            /** @description a bad name, an unknown or non-scalar variable, a variable twice, max_bytes over the quota */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such recording */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the name is taken; irpd refused to trace (its message names every owner's channels); not running (stop) or being written (delete) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+            /** @description irpd unreachable */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the disk is too full to record */
+            507: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    export_recording_api_v1_recordings__name__export_get: {
+        parameters: {
+            query?: {
+                /** @description csv or parquet */
+                format?: "csv" | "parquet";
+            };
+            header?: never;
+            path: {
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description the rows */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/vnd.apache.parquet": unknown;
+                    "text/csv": unknown;
+                };
+            };
+            /** @description a bad name, an unknown or non-scalar variable, a variable twice, max_bytes over the quota */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such recording */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the name is taken; irpd refused to trace (its message names every owner's channels); not running (stop) or being written (delete) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+            /** @description irpd unreachable */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the disk is too full to record */
+            507: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    stop_recording_api_v1_recordings__name__stop_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["RecordingPublic"];
+                };
+            };
+            /** @description a bad name, an unknown or non-scalar variable, a variable twice, max_bytes over the quota */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such recording */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the name is taken; irpd refused to trace (its message names every owner's channels); not running (stop) or being written (delete) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+            /** @description irpd unreachable */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the disk is too full to record */
+            507: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
         };
     };
