@@ -99,6 +99,7 @@ ROUTES = [
     ("GET", "/alarms/history", "viewer", None, 200),
     ("GET", "/alarms/history.csv", "viewer", None, 200),
     ("GET", "/line", "viewer", None, 200),  # the line (docs/dds.md): no bridge here, "off"
+    ("GET", "/recordings", "viewer", None, 200),
     ("POST", "/alarms/ack", "operator", {}, 200),
     ("GET", "/layout", "viewer", None, 200),
     ("GET", "/sets", "viewer", None, 200),
@@ -173,6 +174,12 @@ def test_every_route_of_the_api_is_in_the_role_matrix(cell):
         ("GET", "/system/backup"),  # test_system_backup.py
         ("POST", "/system/restore"),
         ("POST", "/system/tls"),  # test_system_tls.py
+        ("POST", "/recordings"),  # tests/python/recorder/test_recorder_live.py
+        ("GET", "/recordings/{name}"),
+        ("POST", "/recordings/{name}/stop"),
+        ("DELETE", "/recordings/{name}"),
+        ("GET", "/recordings/{name}/download"),
+        ("GET", "/recordings/{name}/export"),
     }
     templates = {
         ("GET", "/modules/cntr1"): ("GET", "/modules/{name}"),

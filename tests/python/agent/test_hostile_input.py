@@ -129,6 +129,14 @@ NEEDS = {
     ("POST", "/system/restore"): "admin",
     ("POST", "/system/tls"): "admin",
     ("POST", "/sets/prune"): "admin",
+    ("GET", "/line"): "viewer",
+    ("GET", "/recordings"): "viewer",
+    ("POST", "/recordings"): "operator",
+    ("GET", "/recordings/{name}"): "viewer",
+    ("POST", "/recordings/{name}/stop"): "operator",
+    ("DELETE", "/recordings/{name}"): "operator",
+    ("GET", "/recordings/{name}/download"): "viewer",
+    ("GET", "/recordings/{name}/export"): "viewer",
 }
 SAMPLE = {
     "{name}": "cntr1",
@@ -836,6 +844,7 @@ def test_after_the_battery_nothing_was_written_outside_the_data_dir_no_5xx_and_i
         "alarms.sqlite3",  # and SQLite's write-ahead log beside it
         "alarms.sqlite3-wal",
         "alarms.sqlite3-shm",
+        "recordings",  # the recorder's folder (docs/recorder.md)
     }
     assert outside == set(), outside
     for line in audit_lines(battery):
