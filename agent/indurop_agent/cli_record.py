@@ -68,13 +68,11 @@ def recordings_text(listed: dict) -> str:
         out = "no recordings: irpctl record start NAME PATH ... starts one"
     quota = f"{_size(listed['used_bytes'])} of {_size(listed['quota_bytes'])} quota, {_size(listed['disk_free_bytes'])} free on disk"
     channels = listed.get("channels")
-    traced = (
-        f"trace channels: {channels['traced']} of {channels['limit']} ("
-        + ", ".join(f"{k} {v}" for k, v in sorted(channels["owners"].items()))
-        + ")"
-        if channels
-        else "trace channels: irpd unreachable"
-    )
+    if channels is None:
+        traced = "trace channels: irpd unreachable"
+    else:
+        owners = ", ".join(f"{k} {v}" for k, v in sorted(channels["owners"].items()) if v)
+        traced = f"trace channels: {channels['traced']} of {channels['limit']}" + (f" ({owners})" if owners else "")
     return "\n".join([out, "", quota, traced])
 
 
@@ -97,21 +95,25 @@ def recording_text(r: dict) -> str:
         ("joint states", ", ".join(r["joint_states"]) or "-"),
         ("created", f"{r['created']} by {printable(r.get('created_by') or '-')}"),
     ]
-    parts = table(
-        ["PART", "ROWS", "FIRST SEQ", "LAST SEQ", "DROPS", "SIZE", "CLOSED"],
-        [
+    parts = (
+        "no part yet (no row recorded)"
+        if not r["parts"]
+        else table(
+            ["PART", "ROWS", "FIRST SEQ", "LAST SEQ", "DROPS", "SIZE", "CLOSED"],
             [
-                p["file"],
-                p["rows"],
-                p["first_seq"],
-                p["last_seq"],
-                p["drops"],
-                _size(p["size"]),
-                "yes" if p["closed"] else "no",
-            ]
-            for p in r["parts"]
-        ],
-        "lrrrrrl",
+                [
+                    p["file"],
+                    p["rows"],
+                    p["first_seq"],
+                    p["last_seq"],
+                    p["drops"],
+                    _size(p["size"]),
+                    "yes" if p["closed"] else "no",
+                ]
+                for p in r["parts"]
+            ],
+            "lrrrrrl",
+        )
     )
     gaps = [
         f"gap before part {g['part'] + 1}: after row {g['last_seq']}, from row {g['first_seq']}"

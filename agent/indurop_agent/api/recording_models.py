@@ -82,8 +82,10 @@ class RecordingGap(BaseModel):
 class RecordingPublic(BaseModel):
     name: str
     kind: Literal["recording", "capture"]
-    state: Literal[STATES] | Literal["damaged"]
-    cause: Literal[CAUSES] | None = Field(None, description="why it ended")
+    state: str = Field(
+        description=f"a recording: {', '.join(STATES)}; damaged: its entry.json cannot be read; a capture: its own states"
+    )
+    cause: str | None = Field(None, description=f"why it ended: {', '.join(CAUSES)}")
     reason: str | None = Field(None, description="why it ended, in words")
     created: str
     created_by: str | None = None

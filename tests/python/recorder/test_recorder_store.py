@@ -72,3 +72,14 @@ def test_an_entry_json_a_crash_left_half_written_is_the_old_one(tmp_path):
     again = Store(tmp_path / "recordings", quota_bytes=1 << 20)
     assert again.get("run").meta["state"] == "recording"
     assert not (entry.folder / "entry.json.tmp").exists()
+
+
+def test_the_agent_refuses_a_quota_too_small_to_keep_recordings():
+    from indurop_agent.config import Settings, check
+
+    problems = check(Settings(recordings_quota_bytes=1 << 20))
+    assert any("recordings_quota_bytes (1048576) is too small" in p and "16 MiB" in p for p in problems)
+    assert not any("recordings" in p for p in check(Settings()))
+    assert any(
+        "recordings_min_free_bytes must be greater than 0" in p for p in check(Settings(recordings_min_free_bytes=0))
+    )

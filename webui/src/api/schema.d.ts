@@ -2767,9 +2767,9 @@ export interface components {
             basic_period_ns?: number | null;
             /**
              * Cause
-             * @description why it ended
+             * @description why it ended: manual, duration, size, quota, disk_full, variables, error
              */
-            cause?: ("manual" | "duration" | "size" | "quota" | "disk_full" | "variables" | "error") | null;
+            cause?: string | null;
             /** Created */
             created: string;
             /** Created By */
@@ -2825,8 +2825,11 @@ export interface components {
              * @description bytes of its files
              */
             size: number;
-            /** State */
-            state: ("recording" | "stopped" | "failed") | "damaged";
+            /**
+             * State
+             * @description a recording: recording, stopped, failed; damaged: its entry.json cannot be read; a capture: its own states
+             */
+            state: string;
             stop?: components["schemas"]["StopCondition"] | null;
             /** Variables */
             variables: components["schemas"]["RecordingVariable"][];
