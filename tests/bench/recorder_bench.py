@@ -96,6 +96,30 @@ class ProcessSampler:
         return busy / wall if wall else None
 
 
+class ApiProbe:
+    """GET /health every 0.2 s: how long the agent takes to answer, tagged with the phase."""
+
+    def __init__(self, url: str, sampler: ProcessSampler):
+        self.url, self.sampler = url, sampler
+        self.samples: list[tuple[str, float]] = []
+        self.stopping = threading.Event()
+        self.thread = threading.Thread(target=self.run, daemon=True)
+        self.thread.start()
+
+    def run(self) -> None:
+        with httpx.Client(timeout=30) as client:
+            while not self.stopping.wait(0.2):
+                t0 = time.perf_counter()
+                client.get(f"{self.url}/health")
+                self.samples.append((self.sampler.phase, time.perf_counter() - t0))
+
+    def percentiles(self, on: bool) -> dict:
+        got = sorted(s for p, s in self.samples if p.startswith("on") == on)
+        if not got:
+            return {}
+        return {"p50_ms": got[len(got) // 2] * 1e3, "p99_ms": got[int(len(got) * 0.99)] * 1e3, "count": len(got)}
+
+
 def encode_cost(rows: int = 20_000) -> dict:
     """Writing rows of 64 channels with McapOut, in this process: microseconds per row, bytes per row."""
     with tempfile.TemporaryDirectory() as d:
@@ -156,6 +180,7 @@ def main() -> int:
     api = f"http://127.0.0.1:{port}/api/v1"
     auth = {"Authorization": f"Bearer {(work / 'data' / 'admin-token').read_text().strip()}"}
     sampler = ProcessSampler(agent.pid)
+    probe = ApiProbe(api, sampler)
     results.update(phase_s=phase_s, phases=args.phases, channels=len(CHANNELS), basic_period_ns=BASIC_NS)
     results.update(off_p99_ns=[], on_p99_ns=[], recordings=[])
     try:
@@ -198,10 +223,12 @@ def main() -> int:
             )
             log(f"phase {phase + 1}: wake-up p99 without {off} ns, with {on} ns; {results['recordings'][-1]}")
         results["agent_cpu_share_off"] = sampler.share("off")
+        results["api_health_off"], results["api_health_on"] = probe.percentiles(False), probe.percentiles(True)
         results["wakeup_p99_ratio"] = statistics.median(results["on_p99_ns"]) / statistics.median(results["off_p99_ns"])
         results["load_average"] = os.getloadavg()
     finally:
         sampler.stopping.set()
+        probe.stopping.set()
         control.close()
         stop(agent)
         stop(irpd)

@@ -79,7 +79,6 @@ class Recorder(threading.Thread):
         self.cursor = 0
         self.irpd_pid: int | None = None
         self.union: list[str] = []  # what irpd was last asked to trace for the recorder
-        self.resumed = False
         self._stop_event = threading.Event()
 
     # ---- the API's calls -------------------------------------------------------------------------
@@ -88,10 +87,11 @@ class Recorder(threading.Thread):
         name = check_name(wanted.name)
         try:
             self.store.get(name)
-            raise RecorderError(409, f"there is a recording or capture named '{name}' already; pick another name")
         except StoreError as e:
             if e.status != 404:
                 raise
+        else:
+            raise RecorderError(409, f"there is a recording or capture named '{name}' already; pick another name")
         paths = [p for p, _ in wanted.variables]
         if len(set(paths)) != len(paths):
             twice = next(p for p in paths if paths.count(p) > 1)
@@ -147,8 +147,9 @@ class Recorder(threading.Thread):
                 rec.last = int(answer.get("head") or 0)  # from the rows after this answer on
                 self.cursor = min(self.cursor, rec.last) if self.recordings else rec.last
                 self.recordings[name] = rec
+                started = copy.deepcopy(entry.meta)
         self.events.add("recording", f"recording '{name}' started: {len(paths)} variables")
-        return entry.meta
+        return started
 
     def end(self, name: str, who: str | None) -> dict:
         """Stops a running recording (its file closed, complete); its meta."""

@@ -9,6 +9,7 @@ than the last row handled (`last`): so no row is ever written twice, also across
 
 from __future__ import annotations
 
+import bisect
 import time
 from dataclasses import dataclass, field
 
@@ -100,9 +101,7 @@ class Recording:
             first = self.meta.get("first_unix_ns")
             if first is None:
                 first = self.meta["first_unix_ns"] = t[0] + offset
-            keep = 0
-            while keep < len(t) and t[keep] + offset - first < self.duration_ns:
-                keep += 1
+            keep = bisect.bisect_left(t, first + self.duration_ns - offset)  # due times increase
             if keep < len(t):
                 t, columns = t[:keep], [c[:keep] for c in columns]
                 self.done = ("stopped", "duration", f"its duration ({self.duration_ns / 1e9:g} s) is recorded")
