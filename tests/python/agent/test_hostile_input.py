@@ -100,6 +100,7 @@ NEEDS = {
     ("PUT", "/robot/joints"): "admin",
     ("GET", "/events"): "viewer",
     ("GET", "/alarms"): "viewer",
+    ("GET", "/line"): "viewer",
     ("GET", "/alarms/history"): "viewer",
     ("GET", "/alarms/history.csv"): "viewer",
     ("POST", "/alarms/ack"): "operator",
