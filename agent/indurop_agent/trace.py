@@ -21,7 +21,7 @@ HEADER = LAYOUT.header
 CONFIG = LAYOUT.struct("indurop_trace_config")
 CHANNEL = LAYOUT.struct("indurop_trace_channel")
 NO_SEQ = LAYOUT.constant("no_seq")
-MAX_CHANNELS = LAYOUT.constant("channels")  # traced at once, for every owner together
+MAX_CHANNELS = LAYOUT.constant("channels")  # channels irpd traces, for all owners together
 # enum indurop_trace_type: each value is named as layout.json names the type.
 TYPES = {number: name for name, number in LAYOUT.enum("indurop_trace_type").items() if number}
 # Fields the sampler changes, read as one aligned 8-byte load each (see TraceRing._word).

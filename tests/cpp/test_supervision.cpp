@@ -606,8 +606,13 @@ TEST(CrashRecord, TheWatchdogsKillNamesTheModuleAStalledDispatcherIsStuckIn) {
     });
     ASSERT_TRUE(systemd.waitFor("WATCHDOG=1", 3, std::chrono::seconds(30))) << first->err() << systemd.all();
     std::ofstream(dir.path / "stall") << "now\n";
-    const auto end = Clock::now() + std::chrono::seconds(20);
-    while (Clock::now() - systemd.with("WATCHDOG=1").back().at < std::chrono::seconds(1) && Clock::now() < end)
+    // The pings stopped for a second, and a second has passed since the trigger: the stall module
+    // (every 2 ms on an RT thread) is inside its run() by then.  A loaded machine can delay a ping
+    // by a second before the stall begins; the kill must not come then (no module to name).
+    const auto stalled = Clock::now(), end = stalled + std::chrono::seconds(20);
+    while ((Clock::now() - systemd.with("WATCHDOG=1").back().at < std::chrono::seconds(1) ||
+            Clock::now() - stalled < std::chrono::seconds(1)) &&
+           Clock::now() < end)
         std::this_thread::sleep_for(std::chrono::milliseconds(50));
     std::ofstream(go) << "now\n";  // systemd's watchdog fires
     first->wait(std::chrono::seconds(30));

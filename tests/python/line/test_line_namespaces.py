@@ -143,7 +143,12 @@ def wait_for(node: LineNode, want: dict[str, str], everyone) -> None:
 
 
 def segment_of(node: LineNode) -> Segment:
-    return Segment(IrpdClient(str(node.sock)).request("status")["shared_memory"]["variables"])
+    """The node's shared-variable segment, mapped read-only (irpd's status names it)."""
+    control = IrpdClient(str(node.sock))
+    try:
+        return Segment(control.request("status")["shared_memory"]["variables"])
+    finally:
+        control.close()
 
 
 def import_alarm(node: LineNode) -> dict:
@@ -212,7 +217,7 @@ def test_every_agent_lists_the_three_over_its_namespace_address(line):
 
 def test_a_write_to_an_unmapped_topic_changes_nothing_in_a_s_segment(line):
     a, b = line["a"], line["b"]
-    segment = Segment(IrpdClient(str(a.sock)).request("status")["shared_memory"]["variables"])
+    segment = segment_of(a)
     inputs = segment.select("PLC_ROBOT.PLC_IN")
     before = segment.values(inputs)
     for topic in ("rt/a/cell/not_mapped", "rt/a/override", "rt/cell/override", "rt/b/cell/override_x"):

@@ -22,14 +22,13 @@ from starlette.websockets import WebSocketDisconnect, WebSocketState
 from ... import stream_frame
 from ...irpd_client import IrpdRefused, IrpdUnavailable
 from ...sessions import COOKIE
-from ...trace import TraceError, TraceRead, TraceRing
+from ...trace import MAX_CHANNELS, TraceError, TraceRead, TraceRing
 from ..deps import AuthFailure, check_session, check_token, session_ended, session_identity
 
 router = APIRouter(tags=["stream"])
 
 # Samples go out as the binary frame of protocol/stream/frame.json (stream_frame.py).
 
-MAX_CHANNELS = 64  # irpd's limit, for all clients together
 MAX_DECIMATION = 1_000_000
 POLL_S = 0.020
 MAX_SAMPLES_PER_FRAME = 1024
