@@ -183,8 +183,11 @@ class Capture:
         self.state, self.history, self.pending = IDLE, None, []
 
     def restart(self, note: str) -> None:
-        """The rings began again (irpd restarted): the history is gone; a shot being collected is
-        saved with what it has; the capture stays armed, from the new rings' first rows."""
+        """The rings began again (irpd restarted): the history is gone.  An event waiting for its row
+        takes the old rings' newest (what led up to the restart), a shot being collected is saved
+        with what it has; the capture stays armed, from the new rings' first rows."""
+        if self.state == ARMED and self.pending:
+            self._resolve_pending(stalled=True)
         if self.shot is not None:
             self._finish(note)
         if self.state in (ARMED, TRIGGERED):

@@ -263,14 +263,16 @@ class CaptureEngine(threading.Thread):
             self._drop_refused(str(e))
             return
         for entry in self.armed():
-            entry.message = None
-            if restarted:
-                entry.cursor = 0
-                if self.basic_period_ns != entry.capture.basic_period_ns:
-                    self._disarm(entry, f"irpd restarted with another basic period ({self.basic_period_ns} ns)")
-                    entry.want_armed = True  # armed again, its lengths in rows anew
-                else:
-                    entry.capture.restart("irpd restarted: the rings began again")
+            if not restarted:
+                entry.message = None
+                continue
+            entry.cursor = 0
+            if self.basic_period_ns != entry.capture.basic_period_ns:
+                self._disarm(entry, f"irpd restarted with another basic period ({self.basic_period_ns} ns)")
+                entry.want_armed = True  # armed again, its lengths in rows anew
+            else:
+                entry.capture.restart("irpd restarted: the rings began again")
+                entry.message = f"irpd restarted at {now_iso()}: armed again in its new rings"
         if restarted:
             self.events.add("captures", "irpd restarted: the armed captures go on in its new trace rings")
 

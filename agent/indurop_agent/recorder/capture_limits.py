@@ -19,6 +19,9 @@ MAX_CONDITIONS = 4
 DEFAULT_RING_ROWS = 16384
 # Post-trigger rows (the trigger row not counted); the memory bound below usually comes first.
 MAX_POST_ROWS = 1_000_000
+# What a length may say at all (the limits above are checked once it is in rows).
+MAX_LENGTH_ROWS = 1_000_000_000
+MAX_LENGTH_S = 1_000_000.0
 # Rows a level or window condition must hold before it triggers.
 MAX_HOLD_ROWS = 1_000_000
 # Memory of one armed capture: its history (pre-trigger rows, plus the rows an event may come late

@@ -108,8 +108,8 @@ class Length(Strict):
     """A length in rows (basic periods) or in seconds (rounded up to rows at the basic period in force
     when it is armed): exactly one of the two."""
 
-    rows: int | None = Field(None, ge=0)
-    seconds: Number | None = Field(None, ge=0)
+    rows: int | None = Field(None, ge=0, le=L.MAX_LENGTH_ROWS)
+    seconds: Number | None = Field(None, ge=0, le=L.MAX_LENGTH_S)
 
     @model_validator(mode="after")
     def one(self):
@@ -177,7 +177,10 @@ class CapturePublic(BaseModel):
     created: str
     armed_at: str | None
     by: str | None = Field(description="who armed it last")
-    message: str | None = Field(None, description="why it is not armed (irpd restarted and refused its channels...)")
+    message: str | None = Field(
+        None,
+        description="what happened to it last: why it is not armed, or that it was armed again after irpd restarted",
+    )
     shots: list[ShotSummary] = Field(description="the shots kept, oldest first")
 
 

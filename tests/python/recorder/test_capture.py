@@ -223,3 +223,18 @@ def test_lengths_in_seconds_are_rows_of_the_basic_period(seconds, rows):
     from indurop_agent.recorder.capture import rows_of
 
     assert rows_of({"seconds": seconds}, BASIC) == rows
+
+
+def test_when_the_rings_restart_a_pending_event_takes_the_old_rings_last_rows_and_it_goes_on():
+    c, shots = make({"kind": "fault"}, pre=20, post=50, repeat=0)
+    c.arm(head=0)
+    feed(c, 1, 100)
+    c.on_event(Event("fault", c.armed_at_ns + 1, "irpd died"), T0 + 500 * BASIC)
+    c.restart("irpd restarted")
+    s = shots[0].summary()
+    assert (s["trigger_seq"], s["pre_rows"], s["post_rows"]) == (100, 20, 0) and "irpd restarted" in s["notes"]
+    assert c.state == ARMED and c.pre_filled() == 0
+    feed(c, 1, 30)  # the new rings' rows, from seq 1 again
+    assert c.pre_filled() == 20 and c.on_event(Event("manual", c.armed_at_ns + 1, "now"), T0 + 25 * BASIC, force=True)
+    feed(c, 31, 80)
+    assert shots[1].trigger_seq == 25 and shots[1].summary()["pre_rows"] == 20 and shots[1].number == 2

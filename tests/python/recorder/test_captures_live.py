@@ -272,11 +272,82 @@ def test_irpctl_arms_lists_gets_and_disarms(cell, tmp_path):
     lines = csv_file.read_text().splitlines()
     assert lines[0] == f"seq,t_ns,{SQUARE},{SAMPLE}" and len(lines) == 1 + 50 + 1 + 20
     assert "falling" in got.stdout or "trigger" in got.stdout
-    rearmed = irpctl("capture", "arm", "--again", capture_id)
-    assert rearmed.returncode == 0, rearmed.stderr
-    disarmed = irpctl("capture", "disarm", capture_id)
+    manual = irpctl(
+        "--json", "capture", "arm", SAMPLE, "--on", "manual", "--pre", "10", "--post", "5", "--name", "by hand"
+    )
+    assert manual.returncode == 0, manual.stderr
+    manual_id = json.loads(manual.stdout)["id"]
+    assert irpctl("capture", "trigger", manual_id).returncode == 0
+    wait_shots(cell, manual_id, 1)
+    rearmed = irpctl("capture", "arm", "--again", manual_id)  # done: armed again as it was asked for
+    assert rearmed.returncode == 0 and "armed" in rearmed.stdout, rearmed.stderr
+    disarmed = irpctl("capture", "disarm", manual_id)
     assert disarmed.returncode == 0 and "idle" in disarmed.stdout
+    assert irpctl("capture", "disarm", manual_id).returncode == 1  # not armed
     bad = irpctl("capture", "arm", SQUARE, "--when", f"{SQUARE} sideways 0", "--pre", "1", "--post", "1")
     assert bad.returncode == 2 and "sideways" in bad.stderr
     assert irpctl("capture", "delete", capture_id).returncode == 0
     assert irpctl("capture", "get", capture_id).returncode == 1
+
+
+def test_a_hot_swap_makes_a_shot_at_the_row_of_its_event(cell):
+    request = {
+        "name": "swap",
+        "variables": [SAMPLE],
+        "trigger": {"kind": "swap"},
+        "pre": {"rows": 300},
+        "post": {"rows": 50},
+    }
+    armed = cell.call("POST", "/captures", json=request).json()
+    wait_until(lambda: cell.capture(armed["id"])["pre_filled"] == 300, LIMIT_S, 0.1)
+    swapped = cell.call("PATCH", "/modules/conveyor", json={"priority": 3})
+    assert swapped.status_code == 200, swapped.text
+    done = wait_shots(cell, armed["id"], 1)
+    s = done["shots"][0]
+    events = cell.call("GET", "/events", "viewer", params={"limit": 5000}).json()["events"]
+    swap = [e for e in events if e["source"] == "irpd" and e["kind"] == "swap"][-1]
+    assert (s["cause"], s["trigger_time_ns"]) == ("swap", swap["time_ns"])
+    assert (s["pre_rows"], s["post_rows"], s["drops"]) == (300, 50, 0)
+
+
+def test_an_armed_capture_goes_on_after_the_agent_and_irpd_restart(tmp_path):
+    c = Cell(tmp_path, SIGNALS / "module.xml")
+    try:
+        request = {
+            "name": "night",
+            "variables": [SAMPLE],
+            "trigger": {"kind": "fault"},
+            "pre": {"rows": 100},
+            "post": {"rows": 10},
+            "repeat": 0,
+        }
+        armed = c.call("POST", "/captures", json=request).json()
+        stop(c.agent)
+        c.agent = start_agent(c.port, c.data, c.sock, "--config", str(tmp_path / "agent.json"))
+
+        def filled():
+            """the capture armed again by the restarted agent, its pre-trigger buffer full"""
+            x = c.capture(armed["id"])
+            return x if x["state"] == "armed" and x["pre_filled"] == 100 else None
+
+        assert wait_until(filled, LIMIT_S, 0.1)["armed_at"] != armed["armed_at"]
+        stop(c.irpd)  # irpd restarts: its rings begin again at seq 1
+        c.irpd = start_irpd(c.sock, SIGNALS / "module.xml", f"captures-{os.getpid()}-{tmp_path.name}")
+
+        def rearmed():
+            """the capture armed again in the new rings, its pre-trigger buffer full"""
+            x = filled()
+            return x if x and "irpd restarted" in (x["message"] or "") else None
+
+        wait_until(rearmed, LIMIT_S, 0.1)
+        status = c.call("GET", "/status", "viewer").json()
+        forced = c.call("POST", f"/captures/{armed['id']}/trigger")
+        assert forced.status_code == 200, forced.text
+        done = wait_shots(c, armed["id"], 1)
+        s = done["shots"][0]
+        assert s["cause"] == "manual" and s["pre_rows"] == 100 and s["post_rows"] == 10 and s["drops"] == 0
+        assert s["trigger_seq"] <= status["cycles"] + 2000  # a row of the new rings
+        assert done["state"] == "armed"  # repeat 0: armed again after the shot
+        assert c.call("POST", f"/captures/{armed['id']}/trigger", "viewer").status_code == 403
+    finally:
+        c.stop()
