@@ -569,13 +569,16 @@ class CaptureEngine(threading.Thread):
                 return  # deleted meanwhile
         seq, t_ns, values = shot.arrays()
         writer = self.sink.open(header)
-        for k in range(0, len(seq), L.BLOCK_ROWS * 8):
-            writer.rows(
-                seq[k : k + L.BLOCK_ROWS * 8], t_ns[k : k + L.BLOCK_ROWS * 8], values[:, k : k + L.BLOCK_ROWS * 8]
-            )
-        for note in shot.notes:
-            writer.note(note)
-        writer.close(shot.summary())
+        try:
+            step = L.BLOCK_ROWS * 8
+            for k in range(0, len(seq), step):
+                writer.rows(seq[k : k + step], t_ns[k : k + step], values[:, k : k + step])
+            for note in shot.notes:
+                writer.note(note)
+            writer.close(shot.summary())
+        except BaseException:
+            writer.abort()
+            raise
         kept = self.store.summaries(header["capture"])
         for old in kept[: max(0, len(kept) - L.MAX_SHOTS_KEPT)]:
             self.store.delete(header["capture"], old["shot"])

@@ -39,6 +39,9 @@ class ShotWriter(Protocol):
     def close(self, summary: dict) -> None:
         """The shot is complete; after this it is listed and read back."""
 
+    def abort(self) -> None:
+        """Writing failed (a full disk): what was written of this shot goes; nothing else is touched."""
+
 
 class CaptureSink(Protocol):
     def open(self, header: dict) -> ShotWriter: ...
@@ -81,6 +84,9 @@ class _MemoryShot:
 
     def note(self, text: str) -> None:
         self.notes.append(text)
+
+    def abort(self) -> None:
+        self.parts.clear()
 
     def close(self, summary: dict) -> None:
         channels = len(self.header["channels"])
@@ -146,6 +152,13 @@ class _FileShot:
         os.fsync(self.file.fileno())
         self.file.close()
         os.replace(self.part, self.path)
+
+    def abort(self) -> None:
+        try:
+            self.file.close()
+        except OSError:
+            pass  # the data it could not flush is what is being thrown away
+        self.part.unlink(missing_ok=True)
 
 
 class JsonLinesSink:
