@@ -224,13 +224,12 @@ class Capture:
                 if self.state == TRIGGERED:
                     return
                 continue
-            if hits is not None:
-                k = self._first_trigger(seq, hits, start)
-                if k is None:
-                    return
-                self._trigger(int(seq[k]), "condition", self.clock())
-            elif not self._resolve_pending():
+            if self._resolve_pending():  # an event (or an operator's "now") whose row has come
+                continue
+            k = self._first_trigger(seq, hits, start) if hits is not None else None
+            if k is None:
                 return
+            self._trigger(int(seq[k]), "condition", self.clock())
 
     def _first_trigger(self, seq: np.ndarray, hits: np.ndarray, start: int) -> int | None:
         """The first row at or after `start` where the condition holds, after the arming and after

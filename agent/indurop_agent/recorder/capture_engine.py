@@ -420,11 +420,14 @@ class CaptureEngine(threading.Thread):
                 try:
                     self._arm(entry)
                     self.events.add("captures", f"capture {entry.id} ({entry.request.get('name') or '-'}) armed again")
+                    self._save()
                 except CaptureError as e:
-                    entry.message = f"not armed again: {e}"
+                    message = f"not armed again: {e}"
                     if e.status != 503:  # irpd down: try again; refused: it stays idle, saying why
                         entry.want_armed = False
-                self._save()
+                    if message != entry.message or not entry.want_armed:
+                        entry.message = message
+                        self._save()
 
     # ---- the API's calls ----------------------------------------------------------------------------
     def create(self, request: dict, who: str | None) -> dict:

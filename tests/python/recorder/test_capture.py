@@ -238,3 +238,12 @@ def test_when_the_rings_restart_a_pending_event_takes_the_old_rings_last_rows_an
     assert c.pre_filled() == 20 and c.on_event(Event("manual", c.armed_at_ns + 1, "now"), T0 + 25 * BASIC, force=True)
     feed(c, 31, 80)
     assert shots[1].trigger_seq == 25 and shots[1].summary()["pre_rows"] == 20 and shots[1].number == 2
+
+
+def test_now_on_a_capture_of_conditions_waits_for_its_row():
+    c, shots = make(pre=5, post=5, repeat=0)  # rising at 50, 150, ...
+    c.arm(head=0)
+    feed(c, 1, 30)
+    assert c.on_event(Event("manual", c.armed_at_ns + 1, "now"), T0 + 40 * BASIC, force=True)  # not sampled yet
+    feed(c, 31, 60)
+    assert [(s.trigger_seq, s.cause) for s in shots] == [(40, "manual"), (50, "condition")]
