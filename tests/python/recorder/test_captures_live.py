@@ -351,3 +351,22 @@ def test_an_armed_capture_goes_on_after_the_agent_and_irpd_restart(tmp_path):
         assert c.call("POST", f"/captures/{armed['id']}/trigger", "viewer").status_code == 403
     finally:
         c.stop()
+
+
+def test_the_roles_of_a_captures_routes(cell):
+    armed = cell.call("POST", "/captures", json={**edge_request(), "trigger": {"kind": "manual"}}).json()
+    path = f"/captures/{armed['id']}"
+    for method, suffix in (("POST", "/arm"), ("POST", "/disarm"), ("POST", "/trigger"), ("DELETE", "")):
+        r = cell.call(method, path + suffix, "viewer")
+        assert r.status_code == 403 and "needs the operator role" in r.json()["detail"], (method, suffix)
+        assert httpx.request(method, f"{cell.url}{path}{suffix}").status_code == 401
+    assert cell.call("GET", path, "viewer").status_code == 200
+    assert cell.call("POST", path + "/trigger").status_code == 200
+    wait_shots(cell, armed["id"], 1)
+    assert cell.call("GET", path + "/shots/1", "viewer").status_code == 200
+    assert cell.call("GET", path + "/shots/2", "viewer").status_code == 404
+    assert cell.call("DELETE", path).status_code == 204
+    assert cell.call("GET", path, "viewer").status_code == 404
+    audit = [json.loads(line) for line in (cell.data / "audit.jsonl").read_text().splitlines()]
+    mine = [a for a in audit if a.get("target") == armed["id"]]
+    assert [a["action"] for a in mine if a["result"] == "ok"] == ["capture_arm", "capture_trigger", "capture_delete"]
