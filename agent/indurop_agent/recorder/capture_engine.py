@@ -35,19 +35,11 @@ from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
 from ..trace import TraceError, TraceRing
 from . import capture_limits as L
 from .capture import ARMED, DONE, IDLE, Capture, Shot, capture_bytes, rows_of
+from .capture_checks import CaptureError, channels_of, check_request
 from .capture_sink import CaptureSink, JsonLinesSink, ShotStore
-from .triggers import Event, alarm_events, irpd_events, trigger_variables
+from .triggers import Event, alarm_events, irpd_events
 
 CHECK_EVERY_S = 1.0
-NUMERIC_KINDS = ("signed", "unsigned", "float", "bool")
-
-
-class CaptureError(Exception):
-    """A request the captures cannot take: the HTTP status and what to fix."""
-
-    def __init__(self, status: int, message: str):
-        super().__init__(message)
-        self.status = status
 
 
 @dataclass
@@ -64,12 +56,6 @@ class Entry:
     next_number: int = 1
     armed_at: str | None = None
     message: str | None = None
-
-
-def channels_of(request: dict) -> list[str]:
-    """The capture's columns: its variables, then the trigger's that are not among them."""
-    out = list(request["variables"])
-    return out + [v for v in trigger_variables(request["trigger"]) if v not in out]
 
 
 class CaptureEngine(threading.Thread):
@@ -292,84 +278,14 @@ class CaptureEngine(threading.Thread):
     # ---- arming ------------------------------------------------------------------------------------
     def _check(self, entry: Entry) -> None:
         """Raises CaptureError naming what to fix when the capture cannot be armed as asked."""
-        request = entry.request
-        channels = channels_of(request)
-        if len(channels) > L.MAX_CHANNELS:
-            extra = len(channels) - len(request["variables"])
-            raise CaptureError(
-                422,
-                f"{len(channels)} channels ({len(request['variables'])} variables and {extra} more of the "
-                f"trigger's, first '{channels[L.MAX_CHANNELS]}' over); a capture traces at most {L.MAX_CHANNELS}",
-            )
-        types = self._numeric(request, channels)
-        describe = self._ask("trace")
-        capacity, basic = int(describe["capacity"]), int(describe["basic_period_ns"])
-        pre, post = rows_of(request["pre"], basic), rows_of(request["post"], basic)
-        if pre > capacity:
-            raise CaptureError(
-                422,
-                f"pre-trigger of {pre} rows ({pre * basic / 1e9:g} s at the basic period of {basic / 1e3:g} µs) "
-                f"is longer than the trace rings hold: at most {capacity} rows ({capacity * basic / 1e9:g} s); shorten pre",
-            )
-        if post > L.MAX_POST_ROWS:
-            raise CaptureError(422, f"post-trigger of {post} rows; at most {L.MAX_POST_ROWS}: shorten post")
-        event = request["trigger"]["kind"] != "condition"
-        need = capture_bytes(len(channels), pre, post, event, basic)
-        if need > L.MAX_CAPTURE_BYTES:
-            raise CaptureError(
-                422,
-                f"this capture would take {need / L.MiB:.1f} MiB ({pre} + 1 + {post} rows of {len(channels)} "
-                f"channels, and its history); a capture may take {L.MAX_CAPTURE_BYTES // L.MiB} MiB: "
-                "fewer rows or fewer channels",
-            )
         taken = sum(
-            capture_bytes(len(e.channels), e.capture.pre, e.capture.post, e.capture.event_trigger, basic)
+            capture_bytes(
+                len(e.channels), e.capture.pre, e.capture.post, e.capture.event_trigger, e.capture.basic_period_ns
+            )
             for e in self.armed()
             if e is not entry
         )
-        if taken + need > L.MAX_TOTAL_BYTES:
-            raise CaptureError(
-                409,
-                f"the armed captures take {taken / L.MiB:.1f} MiB and this one would take {need / L.MiB:.1f} MiB; "
-                f"all together may take {L.MAX_TOTAL_BYTES // L.MiB} MiB: disarm one, or capture fewer rows",
-            )
-        entry.channels, entry.types = channels, types
-
-    def _numeric(self, request: dict, channels: list[str]) -> dict[str, str]:
-        """Each channel's type, when every one is a numeric scalar of the running layout."""
-        from ..variables import Segment, VariableError
-
-        name = (self._ask("status").get("shared_memory") or {}).get("variables")
-        if not name:
-            raise CaptureError(409, "the running set has no shared variables (no layout): nothing to capture")
-        try:
-            seg = Segment(name)
-        except VariableError as e:
-            raise CaptureError(503, str(e)) from e
-        try:
-            in_trigger = set(trigger_variables(request["trigger"]))
-            types = {}
-            for path in channels:
-                role = "the trigger's variable" if path in in_trigger else "variable"
-                leaf = seg.leaves.get(path)
-                if leaf is None:
-                    try:
-                        under = seg.select(path)
-                    except VariableError as e:
-                        raise CaptureError(422, f"{role} '{path}': {e}") from e
-                    names = ", ".join(f"'{x['path']}'" for x in under[:3])
-                    raise CaptureError(
-                        422,
-                        f"{role} '{path}' is not a number: it is a group of {len(under)} variables ({names}"
-                        f"{', ...' if len(under) > 3 else ''}); name one numeric scalar",
-                    )
-                kind = seg.scalars.get(leaf["type"], {}).get("kind")
-                if kind not in NUMERIC_KINDS:
-                    raise CaptureError(422, f"{role} '{path}' is a {leaf['type']}, not a number")
-                types[path] = leaf["type"]
-            return types
-        finally:
-            seg.close()
+        entry.channels, entry.types = check_request(entry.request, self._ask, taken)
 
     def _ask(self, cmd: str, **arguments) -> dict:
         try:

@@ -247,3 +247,18 @@ def test_now_on_a_capture_of_conditions_waits_for_its_row():
     assert c.on_event(Event("manual", c.armed_at_ns + 1, "now"), T0 + 40 * BASIC, force=True)  # not sampled yet
     feed(c, 31, 60)
     assert [(s.trigger_seq, s.cause) for s in shots] == [(40, "manual"), (50, "condition")]
+
+
+def test_a_pre_trigger_buffer_as_long_as_the_rings():
+    c, shots = make(pre=16384, post=10)
+    c.arm(head=0)
+    seq = np.arange(1, 40_001, dtype=np.int64)
+    x = np.where((seq // 10_000) % 2 == 1, 1.0, -1.0)  # rising at 10 000 (too early) and 30 000
+    for k in range(0, len(seq), 200):
+        s = seq[k : k + 200]
+        c.feed(s, T0 + s * BASIC, np.stack([x[k : k + 200], s.astype(float)]))
+    assert len(shots) == 1 and shots[0].trigger_seq == 30_000
+    got, _, values = shots[0].arrays()
+    s = shots[0].summary()
+    assert (s["pre_rows"], s["post_rows"], s["drops"]) == (16384, 10, 0)
+    assert got[0] == 30_000 - 16384 and list(values[1]) == list(map(float, got))
