@@ -226,6 +226,13 @@ def refused(cell: Cell, request: dict, status: int, *words: str) -> None:
 
 def test_bad_input_is_refused_naming_what_to_fix(cell):
     before = cell.call("GET", "/captures", "viewer").json()["captures"]
+    limits = cell.call("GET", "/captures/limits", "viewer").json()
+    assert (limits["max_pre_rows"], limits["ring_rows"], limits["max_conditions"], limits["max_channels"]) == (
+        16384,
+        16384,
+        4,
+        64,
+    )
     refused(cell, edge_request(variables=["SIG.wavee[4]"]), 422, "SIG.wavee[4]", "did you mean")
     group = edge_request()
     group["trigger"]["conditions"][0]["variable"] = "SIG.wave"
