@@ -135,8 +135,8 @@ def _json_rows(seq: np.ndarray, t_ns: np.ndarray, values: np.ndarray) -> str:
 
 
 class _FileShot:
-    def __init__(self, path: Path, header: dict):
-        self.path, self.part = path, path.with_name(path.name + ".part")
+    def __init__(self, path: Path, header: dict, closed):
+        self.path, self.part, self.closed = path, path.with_name(path.name + ".part"), closed
         self.file = open(self.part, "w", encoding="utf-8")  # noqa: SIM115 -- closed by close()
         self.file.write(json.dumps({"header": header}) + "\n")
 
@@ -152,6 +152,7 @@ class _FileShot:
         os.fsync(self.file.fileno())
         self.file.close()
         os.replace(self.part, self.path)
+        self.closed()
 
     def abort(self) -> None:
         try:
@@ -167,6 +168,9 @@ class JsonLinesSink:
     def __init__(self, folder: Path):
         self.folder = Path(folder)
         self.folder.mkdir(parents=True, exist_ok=True)
+        self._summaries: dict[str, list[dict]] = {}  # each capture's, read once from its files
+        self._changes = 0  # shots closed or deleted: a list read meanwhile is not cached
+        self._lock = threading.Lock()
         for part in self.folder.glob("*/*.part"):  # a shot a crash left half written
             part.unlink(missing_ok=True)
 
@@ -178,7 +182,12 @@ class JsonLinesSink:
     def open(self, header: dict) -> ShotWriter:
         folder = self._dir(header["capture"])
         folder.mkdir(exist_ok=True)
-        return _FileShot(folder / f"shot-{int(header['shot'])}.jsonl", header)
+        return _FileShot(folder / f"shot-{int(header['shot'])}.jsonl", header, lambda: self._forget(header["capture"]))
+
+    def _forget(self, capture_id: str) -> None:
+        with self._lock:
+            self._summaries.pop(capture_id, None)
+            self._changes += 1
 
     def _files(self, capture_id: str) -> list[tuple[int, Path]]:
         folder = self._dir(capture_id)
@@ -188,12 +197,19 @@ class JsonLinesSink:
         return sorted(found)
 
     def summaries(self, capture_id: str) -> list[dict]:
+        with self._lock:
+            cached, changes = self._summaries.get(capture_id), self._changes
+        if cached is not None:
+            return list(cached)
         out = []
         for n, path in self._files(capture_id):
             summary = _last_line(path).get("summary")
             if summary is not None:
                 out.append({**summary, "shot": n})
-        return out
+        with self._lock:
+            if changes == self._changes:
+                self._summaries[capture_id] = out
+        return list(out)
 
     def read(self, capture_id: str, shot: int) -> ShotData | None:
         path = self._dir(capture_id) / f"shot-{int(shot)}.jsonl"
@@ -222,6 +238,7 @@ class JsonLinesSink:
             shutil.rmtree(self._dir(capture_id), ignore_errors=True)
         else:
             (self._dir(capture_id) / f"shot-{int(shot)}.jsonl").unlink(missing_ok=True)
+        self._forget(capture_id)
 
 
 def _last_line(path: Path) -> dict:
