@@ -3,7 +3,8 @@ app.state the irpd clients, users, tokens, browser sessions, the lockouts, the s
 activator, the audit log, the agent's events and the host-load sampler.  While the app runs, a
 watcher restores the active set into a (re)started irpd (activation.py), and the robot view follows
 the running set's robot (viewer/live.py), the alarm watcher keeps the alarms current
-(alarms/watcher.py), and the recorder writes the running recordings (recorder/manager.py)."""
+(alarms/watcher.py), the recorder writes the running recordings (recorder/manager.py) and the
+capture engine runs the triggered captures (recorder/capture_engine.py)."""
 
 from __future__ import annotations
 
@@ -29,6 +30,7 @@ from .api.deps import identity_by_id
 from .api.routes import (
     alarms,
     audit,
+    captures,
     events,
     health,
     jitter,
@@ -54,6 +56,7 @@ from .host import Sampler
 from .irpd_client import IrpdClient
 from .recorder.manager import Recorder
 from .recorder.store import Store
+from .recorder.capture_engine import CaptureEngine
 from .security import BodyLimitMiddleware, BodyTimeoutMiddleware, Lockout
 from .sessions import SessionStore
 from .store import SetStore
@@ -176,12 +179,17 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
             app.state.events,
             settings.alarm_poll_s,
             settings.irpd_poll_s,
+            on_events=[app.state.captures.on_irpd_events],
         )
+        unsubscribe = app.state.alarms.subscribe(app.state.captures.on_alarms)
+        app.state.captures.start()
         watcher.start()
         app.state.recorder.start()
         yield
         app.state.recorder.stop()
         watcher.stop()
+        unsubscribe()
+        app.state.captures.stop()
         app.state.robot.stop()
         if restorer is not None:
             restorer.stop()
@@ -236,6 +244,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
             settings.alarm_unreachable_s,
         ),
     )
+    state.captures = CaptureEngine(settings.irpd_socket, settings.data_dir / "captures", state.events)
     if restored is not None:
         _restored(state, restored)
     app.add_exception_handler(RequestValidationError, validation_error)
@@ -247,6 +256,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     routers = (health, status, modules, jitter, variables, sets, robot, events, alarms, audit, tokens, session, users)
     routers += (line,)  # the line of controllers, from the DDS bridge
     routers += (recordings,)  # the recorder (docs/recorder.md)
+    routers += (captures,)  # the scope's triggered captures
     for module in (*routers, stream):
         app.include_router(module.router, prefix=API)
     app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)

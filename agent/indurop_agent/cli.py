@@ -1,7 +1,7 @@
 """cli.py -- irpctl, the command line of the agent's API: status, modules, sets, hot reload,
 variables, the sample stream, events, alarms, users (cli_users.py), the administration of
-cli_system.py, the line of controllers (cli_line.py) and the recordings (cli_record.py)
-(docs/irpctl.md).
+cli_system.py, the line of controllers (cli_line.py), the recordings (cli_record.py) and the
+triggered captures (cli_capture.py) (docs/irpctl.md).
 
 Human output by default (aligned tables, durations as "100 µs"), the API's JSON with --json.
 Exit codes: 0 done, 1 the API refused (4xx, 409), 2 usage, 3 the agent or irpd unreachable.
@@ -23,6 +23,7 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
+from .cli_capture import CAPTURE_COMMANDS
 from .cli_line import LINE_COMMANDS
 from .cli_record import RECORD_COMMANDS
 from .cli_system import SETS_ARGS, SYSTEM_COMMANDS, cmd_sets
@@ -634,6 +635,12 @@ COMMANDS: tuple[Command, ...] = (
         "recordings on the appliance: start, stop, list, get, rm, download, export",
         None,
         sub=tuple(Command(*spec) for spec in RECORD_COMMANDS),
+    ),
+    Command(
+        "capture",
+        "triggered captures of variables: arm, disarm, trigger, list, get (CSV), delete",
+        None,
+        sub=tuple(Command(*spec) for spec in CAPTURE_COMMANDS),
     ),
 )
 

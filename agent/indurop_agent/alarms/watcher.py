@@ -4,7 +4,8 @@ records of irpd's alarm segment; every `irpd_poll_s` it asks irpd for its status
 
     each poll (poll_s, 0.1 s):
         irpd's turn (irpd_poll_s)? status -> reachable or not, restarted or not, fault stop;
-                                   events since the cursor -> system alarms;
+                                   events since the cursor -> system alarms, and to the
+                                   on_events listeners (the captures' fault and swap triggers);
                                    the set's generation changed -> `alarms` (texts, severities)
         the segment: opened (again) if irpd names another one or it was replaced;
                      the sources changed -> `alarms` again;
@@ -23,6 +24,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 
 from .. import protocol
 from ..events import AgentEvents
@@ -47,6 +49,7 @@ class AlarmWatcher(threading.Thread):
         poll_s: float = 0.1,
         irpd_poll_s: float = 1.0,
         imports: ImportAlarms | None = None,
+        on_events: list[Callable[[list[dict]], None]] | None = None,
     ):
         super().__init__(name="alarm-watcher", daemon=True)
         self.manager, self.system, self.events = manager, system, events
@@ -64,6 +67,7 @@ class AlarmWatcher(threading.Thread):
         self.unrecorded = 0  # the sources' transitions not recorded (rate limit, ring slot taken), summed
         self.reconcile_note: str | None = "reconciled when the agent started"
         self.last_error: str | None = None
+        self.on_events = on_events if on_events is not None else []  # irpd's new events, as read (captures)
 
     def stop(self) -> None:
         self._stop_event.set()
@@ -119,6 +123,8 @@ class AlarmWatcher(threading.Thread):
                 page = self.client.request("events", since=cursor, limit=protocol.EVENT_LOG_CAPACITY) or {}
                 events = page.get("events") or []
                 self.system.events(events)
+                for listener in self.on_events:
+                    listener(events)
                 cursor = int(page.get("next", cursor))
                 if len(events) < protocol.EVENT_LOG_CAPACITY:
                     break

@@ -84,6 +84,12 @@ def test_openapi_is_served_under_api_v1(cell):
 # a body that route accepts and the status it then answers.  Only requests that change nothing:
 # the module change is a dry run.
 DRY_RUN = {"changes": [{"name": "cntr1", "period_ns": 1000000}], "dry_run": True}
+CAPTURE = {
+    "variables": ["knu.Robot.tick"],
+    "trigger": {"kind": "manual"},
+    "pre": {"rows": 10},
+    "post": {"rows": 10},
+}
 ROUTES = [
     ("GET", "/status", "viewer", None, 200),
     ("GET", "/schedule", "viewer", None, 200),
@@ -112,6 +118,9 @@ ROUTES = [
     ("POST", "/users", "admin", {"name": "matrix", "role": "viewer", "password": "a long password 1"}, 201),
     ("GET", "/system", "admin", None, 200),
     ("POST", "/sets/prune", "admin", {"keep_last": 1000, "dry_run": True}, 200),
+    ("GET", "/captures", "viewer", None, 200),
+    ("GET", "/captures/limits", "viewer", None, 200),
+    ("POST", "/captures", "operator", CAPTURE, 201),
 ]
 ROLES = ["viewer", "operator", "admin"]
 
@@ -180,6 +189,12 @@ def test_every_route_of_the_api_is_in_the_role_matrix(cell):
         ("DELETE", "/recordings/{name}"),
         ("GET", "/recordings/{name}/download"),
         ("GET", "/recordings/{name}/export"),
+        ("GET", "/captures/{capture_id}"),  # tests/python/recorder/test_captures_live.py
+        ("GET", "/captures/{capture_id}/shots/{shot}"),
+        ("POST", "/captures/{capture_id}/arm"),
+        ("POST", "/captures/{capture_id}/disarm"),
+        ("POST", "/captures/{capture_id}/trigger"),
+        ("DELETE", "/captures/{capture_id}"),
     }
     templates = {
         ("GET", "/modules/cntr1"): ("GET", "/modules/{name}"),

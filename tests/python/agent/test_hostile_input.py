@@ -137,6 +137,15 @@ NEEDS = {
     ("DELETE", "/recordings/{name}"): "operator",
     ("GET", "/recordings/{name}/download"): "viewer",
     ("GET", "/recordings/{name}/export"): "viewer",
+    ("GET", "/captures"): "viewer",
+    ("GET", "/captures/limits"): "viewer",
+    ("POST", "/captures"): "operator",
+    ("GET", "/captures/{capture_id}"): "viewer",
+    ("GET", "/captures/{capture_id}/shots/{shot}"): "viewer",
+    ("POST", "/captures/{capture_id}/arm"): "operator",
+    ("POST", "/captures/{capture_id}/disarm"): "operator",
+    ("POST", "/captures/{capture_id}/trigger"): "operator",
+    ("DELETE", "/captures/{capture_id}"): "operator",
 }
 SAMPLE = {
     "{name}": "cntr1",
@@ -145,6 +154,8 @@ SAMPLE = {
     "{token_id}": "0" * 12,
     "{key}": "PLC/8",
     "{log}": "irpd",
+    "{capture_id}": "0" * 10,
+    "{shot}": "1",
 }
 
 
@@ -845,6 +856,7 @@ def test_after_the_battery_nothing_was_written_outside_the_data_dir_no_5xx_and_i
         "alarms.sqlite3-wal",
         "alarms.sqlite3-shm",
         "recordings",  # the recorder's folder (docs/recorder.md)
+        "captures",  # the triggered captures' shots and captures.json (docs/recorder.md)
     }
     assert outside == set(), outside
     for line in audit_lines(battery):

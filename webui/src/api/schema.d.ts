@@ -182,6 +182,153 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/captures": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List Captures
+         * @description Every capture with its state (idle, armed, triggered, done) and its shots, oldest first.
+         */
+        get: operations["list_captures_api_v1_captures_get"];
+        put?: never;
+        /**
+         * Arm
+         * @description Arms a new capture: its variables and the trigger's are traced (owner "capture"), its
+         *     pre-trigger buffer fills, and each trigger makes a shot of pre + 1 + post rows.
+         */
+        post: operations["arm_api_v1_captures_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/captures/limits": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Limits
+         * @description The captures' limits, with the running trace rings' capacity (the longest pre-trigger).
+         */
+        get: operations["limits_api_v1_captures_limits_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/captures/{capture_id}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Get Capture */
+        get: operations["get_capture_api_v1_captures__capture_id__get"];
+        put?: never;
+        post?: never;
+        /**
+         * Delete
+         * @description Disarms it and deletes it with its shots.
+         */
+        delete: operations["delete_api_v1_captures__capture_id__delete"];
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/captures/{capture_id}/arm": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Rearm
+         * @description Arms an idle or done capture again, as it was asked for (its shots are kept; new ones go on numbering).
+         */
+        post: operations["rearm_api_v1_captures__capture_id__arm_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/captures/{capture_id}/disarm": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Disarm
+         * @description Idle: a shot being collected is saved with the rows it has.
+         */
+        post: operations["disarm_api_v1_captures__capture_id__disarm_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/captures/{capture_id}/shots/{shot}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Shot Rows
+         * @description One shot's rows as columns (seq, t_ns, one list per channel), with its trigger seq, pre and
+         *     post counts and drops; `shot` 0 is the newest.
+         */
+        get: operations["shot_rows_api_v1_captures__capture_id__shots__shot__get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/captures/{capture_id}/trigger": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Trigger Now
+         * @description Triggers an armed capture now, whatever its trigger: the row whose due time is now.
+         */
+        post: operations["trigger_now_api_v1_captures__capture_id__trigger_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/events": {
         parameters: {
             query?: never;
@@ -1470,6 +1617,24 @@ export interface components {
             /** @description who acknowledged, shelved or unshelved it */
             who: components["schemas"]["Who"] | null;
         };
+        /**
+         * AlarmTrigger
+         * @description An alarm raised: any (neither key nor severity), one (`key`, e.g. main/8), or of at least a severity.
+         */
+        AlarmTrigger: {
+            /** Key */
+            key?: string | null;
+            /**
+             * @description discriminator enum property added by openapi-typescript
+             * @enum {string}
+             */
+            kind: "alarm";
+            /**
+             * Severity
+             * @description this severity or higher
+             */
+            severity?: ("low" | "medium" | "high" | "critical") | null;
+        };
         /** BackupArchive */
         BackupArchive: {
             /** Agent Version */
@@ -1517,6 +1682,135 @@ export interface components {
             /** Width Ns */
             width_ns: number;
         };
+        /** CaptureLimits */
+        CaptureLimits: {
+            /** Event Lag S */
+            event_lag_s: number;
+            /** Max Armed */
+            max_armed: number;
+            /** Max Capture Bytes */
+            max_capture_bytes: number;
+            /** Max Captures */
+            max_captures: number;
+            /** Max Channels */
+            max_channels: number;
+            /** Max Conditions */
+            max_conditions: number;
+            /** Max Hold Rows */
+            max_hold_rows: number;
+            /** Max Name Chars */
+            max_name_chars: number;
+            /** Max Post Rows */
+            max_post_rows: number;
+            /**
+             * Max Pre Rows
+             * @description the running rings' capacity (the default when irpd does not answer)
+             */
+            max_pre_rows: number;
+            /** Max Repeat */
+            max_repeat: number;
+            /** Max Shots Kept */
+            max_shots_kept: number;
+            /** Max Total Bytes */
+            max_total_bytes: number;
+            /**
+             * Ring Rows
+             * @description the running rings' capacity; null when irpd does not answer
+             */
+            ring_rows: number | null;
+        };
+        /** CaptureList */
+        CaptureList: {
+            /** Captures */
+            captures: components["schemas"]["CapturePublic"][];
+        };
+        /** CapturePublic */
+        CapturePublic: {
+            /** Armed At */
+            armed_at: string | null;
+            /** Basic Period Ns */
+            basic_period_ns: number | null;
+            /**
+             * By
+             * @description who armed it last
+             */
+            by: string | null;
+            /**
+             * Channels
+             * @description the variables, then the trigger's: the columns of its shots
+             */
+            channels: components["schemas"]["Channel"][];
+            /** Created */
+            created: string;
+            /** Id */
+            id: string;
+            /**
+             * Lost Rows
+             * @description rows it did not get while armed (overwritten before they were read)
+             */
+            lost_rows: number;
+            /**
+             * Message
+             * @description what happened to it last: why it is not armed, or that it was armed again after irpd restarted
+             */
+            message?: string | null;
+            /** Name */
+            name: string;
+            /** Post Rows */
+            post_rows: number;
+            /**
+             * Pre Filled
+             * @description rows of the pre-trigger buffer held (armed: filling until pre_rows)
+             */
+            pre_filled: number;
+            /** Pre Rows */
+            pre_rows: number;
+            request: components["schemas"]["CaptureRequest"];
+            /**
+             * Shots
+             * @description the shots kept, oldest first
+             */
+            shots: components["schemas"]["ShotSummary"][];
+            /**
+             * Shots Taken
+             * @description since it was last armed
+             */
+            shots_taken: number;
+            /**
+             * State
+             * @enum {string}
+             */
+            state: "idle" | "armed" | "triggered" | "done";
+        };
+        /**
+         * CaptureRequest
+         * @description A capture to arm.
+         */
+        CaptureRequest: {
+            /**
+             * Name
+             * @description for people; need not be unique
+             * @default
+             */
+            name: string;
+            /** @description rows after the trigger row */
+            post: components["schemas"]["Length"];
+            /** @description rows before the trigger row (at most the rings' capacity, 16384) */
+            pre: components["schemas"]["Length"];
+            /**
+             * Repeat
+             * @description shots to take, re-armed after each (1: single; 0: until disarmed)
+             * @default 1
+             */
+            repeat: number;
+            /** Trigger */
+            trigger: components["schemas"]["ConditionTrigger"] | components["schemas"]["AlarmTrigger"] | components["schemas"]["FaultTrigger"] | components["schemas"]["SwapTrigger"] | components["schemas"]["ManualTrigger"];
+            /**
+             * Variables
+             * @description the variables captured; the trigger's are added after them (at most 64 channels in all)
+             */
+            variables: string[];
+        };
         /** ChangesReport */
         ChangesReport: {
             /** @description the slot table with the changes, as GET /schedule */
@@ -1547,6 +1841,16 @@ export interface components {
              */
             warnings: string[];
         };
+        /** Channel */
+        Channel: {
+            /** Path */
+            path: string;
+            /**
+             * Type
+             * @description the layout's type (double, uint32_t, bool, ...)
+             */
+            type: string | null;
+        };
         /** ChannelUse */
         ChannelUse: {
             /**
@@ -1563,6 +1867,26 @@ export interface components {
             };
             /** Traced */
             traced: number;
+        };
+        /**
+         * ConditionTrigger
+         * @description Conditions on variables, combined row by row; the trigger row is the first row at which the
+         *     combination holds (its seq is exact).
+         */
+        ConditionTrigger: {
+            /**
+             * Combine
+             * @default and
+             * @enum {string}
+             */
+            combine: "and" | "or";
+            /** Conditions */
+            conditions: (components["schemas"]["EdgeCondition"] | components["schemas"]["LevelCondition"] | components["schemas"]["WindowCondition"])[];
+            /**
+             * @description discriminator enum property added by openapi-typescript
+             * @enum {string}
+             */
+            kind: "condition";
         };
         /** CpuLoad */
         CpuLoad: {
@@ -1654,6 +1978,34 @@ export interface components {
             name: string;
         };
         /**
+         * EdgeCondition
+         * @description The variable crosses `threshold`: rising (the row before < threshold <= this row), falling
+         *     (the row before >= threshold > this row) or either.
+         */
+        EdgeCondition: {
+            /**
+             * Direction
+             * @default rising
+             * @enum {string}
+             */
+            direction: "rising" | "falling" | "either";
+            /**
+             * @description discriminator enum property added by openapi-typescript
+             * @enum {string}
+             */
+            kind: "edge";
+            /**
+             * Threshold
+             * @default 0
+             */
+            threshold: number;
+            /**
+             * Variable
+             * @description a scalar shared variable, e.g. SIG.wave[4]
+             */
+            variable: string;
+        };
+        /**
          * ErrorBody
          * @description An error answer: what to fix, and for a refused upload or activation where, when known (the
          *     place irpd gives, with the file relative to the set's root).
@@ -1738,6 +2090,17 @@ export interface components {
              * @description irpd's cursor: pass it as ?since= next time
              */
             next: number;
+        };
+        /**
+         * FaultTrigger
+         * @description irpd's events `fault` (a module threw and was disabled) and `stopped` (a fault stopped the set).
+         */
+        FaultTrigger: {
+            /**
+             * @description discriminator enum property added by openapi-typescript
+             * @enum {string}
+             */
+            kind: "fault";
         };
         /**
          * Figures
@@ -2050,6 +2413,53 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
+        /**
+         * Length
+         * @description A length in rows (basic periods) or in seconds (rounded up to rows at the basic period in force
+         *     when it is armed): exactly one of the two.
+         */
+        Length: {
+            /** Rows */
+            rows?: number | null;
+            /** Seconds */
+            seconds?: number | null;
+        };
+        /**
+         * LevelCondition
+         * @description The variable is above, below or equal to `value` (within `tolerance`), for `hold_rows` rows
+         *     in a row.
+         */
+        LevelCondition: {
+            /**
+             * Compare
+             * @enum {string}
+             */
+            compare: "above" | "below" | "equal";
+            /**
+             * Hold Rows
+             * @description rows it must hold; the last one is the trigger row
+             * @default 1
+             */
+            hold_rows: number;
+            /**
+             * @description discriminator enum property added by openapi-typescript
+             * @enum {string}
+             */
+            kind: "level";
+            /**
+             * Tolerance
+             * @description for equal: |x - value| <= tolerance
+             * @default 0
+             */
+            tolerance: number;
+            /** Value */
+            value: number;
+            /**
+             * Variable
+             * @description a scalar shared variable, e.g. SIG.wave[4]
+             */
+            variable: string;
+        };
         /** LineAlarm */
         LineAlarm: {
             /** Id */
@@ -2287,6 +2697,17 @@ export interface components {
              * @description where irpd's log is read from (a file, or the journal's unit); null: nowhere
              */
             irpd: string | null;
+        };
+        /**
+         * ManualTrigger
+         * @description POST /captures/{id}/trigger (which also forces a capture of any other trigger).
+         */
+        ManualTrigger: {
+            /**
+             * @description discriminator enum property added by openapi-typescript
+             * @enum {string}
+             */
+            kind: "manual";
         };
         /** Me */
         Me: {
@@ -3222,6 +3643,85 @@ export interface components {
              */
             reason: string;
         };
+        /**
+         * ShotRows
+         * @description One shot's rows as columns (the plot panel's shape): seq[k], t_ns[k] and columns[c][k] are row k.
+         */
+        ShotRows: {
+            /** Basic Period Ns */
+            basic_period_ns: number;
+            /** Capture */
+            capture: string;
+            /** Channels */
+            channels: components["schemas"]["Channel"][];
+            /**
+             * Columns
+             * @description one list per channel; null where NaN
+             */
+            columns: (number | null)[][];
+            /**
+             * Every
+             * @description every n-th row (1: all)
+             */
+            every: number;
+            /** Seq */
+            seq: number[];
+            summary: components["schemas"]["ShotSummary"];
+            /**
+             * T Ns
+             * @description due times, CLOCK_MONOTONIC ns
+             */
+            t_ns: number[];
+        };
+        /** ShotSummary */
+        ShotSummary: {
+            /**
+             * Cause
+             * @description condition, alarm, fault, swap or manual
+             */
+            cause: string;
+            /**
+             * Drops
+             * @description rows of first_seq..last_seq after the capture's first row that it did not get
+             */
+            drops: number;
+            /** First Seq */
+            first_seq: number;
+            /** Last Seq */
+            last_seq: number;
+            /**
+             * Notes
+             * @default []
+             */
+            notes: string[];
+            /**
+             * Post Rows
+             * @description rows held after it
+             */
+            post_rows: number;
+            /**
+             * Pre Rows
+             * @description rows held before the trigger row
+             */
+            pre_rows: number;
+            /** Rows */
+            rows: number;
+            /**
+             * Shot
+             * @description its number in the capture (1, 2, ...)
+             */
+            shot: number;
+            /**
+             * Trigger Seq
+             * @description the seq of the trigger row
+             */
+            trigger_seq: number;
+            /**
+             * Trigger Time Ns
+             * @description CLOCK_REALTIME: when the condition was found, or the event's time
+             */
+            trigger_time_ns: number;
+        };
         /** SignIn */
         SignIn: {
             /**
@@ -3411,6 +3911,17 @@ export interface components {
             variables?: components["schemas"]["VariableChanges"] | null;
         } & {
             [key: string]: unknown;
+        };
+        /**
+         * SwapTrigger
+         * @description irpd's event `swap`: a hot swap (an online change, an activation) took over.
+         */
+        SwapTrigger: {
+            /**
+             * @description discriminator enum property added by openapi-typescript
+             * @enum {string}
+             */
+            kind: "swap";
         };
         /** SystemInfo */
         SystemInfo: {
@@ -3829,6 +4340,37 @@ export interface components {
              */
             via?: ("token" | "session") | null;
         };
+        /**
+         * WindowCondition
+         * @description The variable is inside [low, high] or outside it, for `hold_rows` rows in a row.
+         */
+        WindowCondition: {
+            /** High */
+            high: number;
+            /**
+             * Hold Rows
+             * @default 1
+             */
+            hold_rows: number;
+            /**
+             * @description discriminator enum property added by openapi-typescript
+             * @enum {string}
+             */
+            kind: "window";
+            /** Low */
+            low: number;
+            /**
+             * Variable
+             * @description a scalar shared variable, e.g. SIG.wave[4]
+             */
+            variable: string;
+            /**
+             * Where
+             * @default inside
+             * @enum {string}
+             */
+            where: "inside" | "outside";
+        };
     };
     responses: never;
     parameters: never;
@@ -4126,6 +4668,402 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["Me"];
                 };
+            };
+        };
+    };
+    list_captures_api_v1_captures_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CaptureList"];
+                };
+            };
+        };
+    };
+    arm_api_v1_captures_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["CaptureRequest"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CapturePublic"];
+                };
+            };
+            /** @description no capture of that id */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description not in a state for it, or irpd refused its channels (its message) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description what to fix: an unknown variable, a path that is not a number, a length or a count over its limit */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description irpd does not answer */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    limits_api_v1_captures_limits_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CaptureLimits"];
+                };
+            };
+        };
+    };
+    get_capture_api_v1_captures__capture_id__get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                capture_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CapturePublic"];
+                };
+            };
+            /** @description no capture of that id */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description not in a state for it, or irpd refused its channels (its message) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description what to fix: an unknown variable, a path that is not a number, a length or a count over its limit */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description irpd does not answer */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    delete_api_v1_captures__capture_id__delete: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                capture_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            204: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no capture of that id */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description not in a state for it, or irpd refused its channels (its message) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description what to fix: an unknown variable, a path that is not a number, a length or a count over its limit */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description irpd does not answer */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    rearm_api_v1_captures__capture_id__arm_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                capture_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CapturePublic"];
+                };
+            };
+            /** @description no capture of that id */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description not in a state for it, or irpd refused its channels (its message) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description what to fix: an unknown variable, a path that is not a number, a length or a count over its limit */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description irpd does not answer */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    disarm_api_v1_captures__capture_id__disarm_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                capture_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CapturePublic"];
+                };
+            };
+            /** @description no capture of that id */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description not in a state for it, or irpd refused its channels (its message) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description what to fix: an unknown variable, a path that is not a number, a length or a count over its limit */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description irpd does not answer */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    shot_rows_api_v1_captures__capture_id__shots__shot__get: {
+        parameters: {
+            query?: {
+                /** @description only these channels (repeat it), in this order */
+                channel?: string[] | null;
+                /** @description every n-th row, from the first */
+                every?: number;
+            };
+            header?: never;
+            path: {
+                capture_id: string;
+                shot: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ShotRows"];
+                };
+            };
+            /** @description no capture of that id */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description not in a state for it, or irpd refused its channels (its message) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description what to fix: an unknown variable, a path that is not a number, a length or a count over its limit */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description irpd does not answer */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    trigger_now_api_v1_captures__capture_id__trigger_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                capture_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CapturePublic"];
+                };
+            };
+            /** @description no capture of that id */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description not in a state for it, or irpd refused its channels (its message) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description what to fix: an unknown variable, a path that is not a number, a length or a count over its limit */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description irpd does not answer */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
         };
     };
