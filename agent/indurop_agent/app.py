@@ -54,9 +54,9 @@ from .errors import LocatedError, located_error
 from .events import AgentEvents
 from .host import Sampler
 from .irpd_client import IrpdClient
+from .recorder.capture_engine import CaptureEngine
 from .recorder.manager import Recorder
 from .recorder.store import Store
-from .recorder.capture_engine import CaptureEngine
 from .security import BodyLimitMiddleware, BodyTimeoutMiddleware, Lockout
 from .sessions import SessionStore
 from .store import SetStore
