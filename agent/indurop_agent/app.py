@@ -55,6 +55,7 @@ from .events import AgentEvents
 from .host import Sampler
 from .irpd_client import IrpdClient
 from .recorder.capture_engine import CaptureEngine
+from .recorder.capture_files import CaptureFiles
 from .recorder.manager import Recorder
 from .recorder.store import Store
 from .security import BodyLimitMiddleware, BodyTimeoutMiddleware, Lockout
@@ -244,7 +245,10 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
             settings.alarm_unreachable_s,
         ),
     )
-    state.captures = CaptureEngine(settings.irpd_socket, settings.data_dir / "captures", state.events)
+    shots = CaptureFiles(state.recordings)
+    for name in shots.cleared:
+        state.events.add("agent_error", f"capture shot {name} was cut short when the agent stopped: deleted")
+    state.captures = CaptureEngine(settings.irpd_socket, settings.data_dir / "captures", shots, state.events)
     if restored is not None:
         _restored(state, restored)
     app.add_exception_handler(RequestValidationError, validation_error)

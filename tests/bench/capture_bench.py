@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """capture_bench.py -- what a triggered capture costs the agent: the CPU time of evaluating a
-trigger on the rows and keeping the pre-trigger buffer, and of writing a shot as JSON lines.
+trigger on the rows and keeping the pre-trigger buffer, and of writing a shot as an MCAP file
+(capture_files.py, as the agent does).
 
     .venv/bin/python tests/bench/capture_bench.py [--seconds 3] [--channels 64] [--captures 1]
 
@@ -25,7 +26,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "agent"))
 from indurop_agent.recorder.capture import Capture  # noqa: E402
-from indurop_agent.recorder.capture_sink import JsonLinesSink  # noqa: E402
+from indurop_agent.recorder.capture_files import CaptureFiles  # noqa: E402
+from indurop_agent.recorder.store import Store  # noqa: E402
 
 BASIC = 100_000  # 100 µs
 BLOCK = 200  # rows per 20 ms poll
@@ -83,17 +85,28 @@ def main() -> int:
     print(f"  at 10 000 rows a second: {per_row * 1e4 * 100:.1f} % of one CPU")
     if shots:
         with tempfile.TemporaryDirectory() as folder:
-            sink = JsonLinesSink(Path(folder))
+            store = Store(Path(folder), 1 << 40, reserve_bytes=0)
+            sink = CaptureFiles(store)
             shot = shots[0]
             seq, t_ns, values = shot.arrays()
-            header = {"capture": "bench", "shot": 1, "channels": [{"path": p} for p in spec["variables"]]}
+            header = {
+                "capture": "bench",
+                "shot": 1,
+                "channels": [{"path": p, "type": "double"} for p in spec["variables"]],
+                "basic_period_ns": BASIC,
+                "trigger_seq": shot.trigger_seq,
+                "cause": shot.cause,
+            }
             start = time.perf_counter()
             w = sink.open(header)
             w.rows(seq, t_ns, values)
             w.close(shot.summary())
             took = time.perf_counter() - start
-            size = (Path(folder) / "bench" / "shot-1.jsonl").stat().st_size
-            print(f"  one shot of {len(seq)} rows as JSON lines: {took:.2f} s to write, {size / 2**20:.1f} MiB")
+            size = store.get("bench.shot-1").size()
+            print(f"  one shot of {len(seq)} rows as MCAP: {took:.2f} s to write, {size / 2**20:.1f} MiB")
+            start = time.perf_counter()
+            back = sink.read("bench", 1)
+            print(f"  read back ({len(back.seq)} rows): {time.perf_counter() - start:.2f} s")
     return 0
 
 

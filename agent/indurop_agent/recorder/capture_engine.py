@@ -36,7 +36,7 @@ from ..trace import TraceError, TraceRing
 from . import capture_limits as L
 from .capture import ARMED, DONE, IDLE, Capture, Shot, capture_bytes, rows_of
 from .capture_checks import CaptureError, channels_of, check_request
-from .capture_sink import CaptureSink, JsonLinesSink, ShotStore
+from .capture_sink import Shots
 from .triggers import Event, alarm_events, irpd_events
 
 CHECK_EVERY_S = 1.0
@@ -63,15 +63,14 @@ class CaptureEngine(threading.Thread):
         self,
         irpd_socket: str,
         folder: Path,
+        shots: Shots,
         events: AgentEvents | None = None,
-        sink: CaptureSink | None = None,
-        store: ShotStore | None = None,
         poll_s: float = L.POLL_S,
     ):
         super().__init__(name="captures", daemon=True)
-        self.folder = Path(folder)
-        disk = JsonLinesSink(self.folder) if sink is None or store is None else None
-        self.sink, self.store = sink or disk, store or disk
+        self.folder = Path(folder)  # captures.json
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self.shots = shots  # capture_files.CaptureFiles: MCAP files in the recordings folder
         self.events = events or AgentEvents()
         self.client = IrpdClient(irpd_socket, timeout_s=2.0)
         self.poll_s = poll_s
@@ -83,7 +82,7 @@ class CaptureEngine(threading.Thread):
         self.capacity: int | None = None
         self.basic_period_ns: int | None = None
         self.queued: deque[Event] = deque(maxlen=1024)
-        self.shots: queue.Queue = queue.Queue()
+        self.finished: queue.Queue = queue.Queue()  # shots for the writer thread
         self.writer = threading.Thread(target=self._write_shots, name="capture-writer", daemon=True)
         self._stop = threading.Event()
         self.next_check = self.next_rearm = 0.0
@@ -100,7 +99,7 @@ class CaptureEngine(threading.Thread):
         self._stop.set()
         if self.is_alive():
             self.join(timeout=5)
-        self.shots.put(None)
+        self.finished.put(None)
         if self.writer.is_alive():
             self.writer.join(timeout=30)
         self.client.close()
@@ -401,7 +400,7 @@ class CaptureEngine(threading.Thread):
             del self.entries[capture_id]
             self._narrow()
             self._save()
-        self.store.delete(capture_id)
+        self.shots.delete(capture_id)
 
     def list(self) -> list[dict]:
         with self.lock:
@@ -428,7 +427,7 @@ class CaptureEngine(threading.Thread):
             "armed_at": entry.armed_at,
             "by": entry.by,
             "message": entry.message,
-            "shots": self.store.summaries(entry.id),
+            "shots": self.shots.summaries(entry.id),
         }
 
     def limits(self) -> dict:
@@ -450,6 +449,7 @@ class CaptureEngine(threading.Thread):
         header = {
             "capture": entry.id,
             "name": entry.request.get("name", ""),
+            "by": entry.by,
             "shot": shot.number,
             "channels": [{"path": p, "type": (entry.types or {}).get(p)} for p in entry.channels],
             "basic_period_ns": capture.basic_period_ns,
@@ -460,14 +460,14 @@ class CaptureEngine(threading.Thread):
             "cause": shot.cause,
             "trigger_time_ns": shot.trigger_time_ns,
         }
-        self.shots.put((header, shot))
+        self.finished.put((header, shot))
         if capture.state == DONE:
             entry.want_armed = False
         self._save()
 
     def _write_shots(self) -> None:
         while True:
-            item = self.shots.get()
+            item = self.finished.get()
             if item is None:
                 return
             header, shot = item
@@ -480,14 +480,14 @@ class CaptureEngine(threading.Thread):
                     if entry is not None:
                         entry.message = f"shot {header['shot']} not saved: {e}"
             finally:
-                self.shots.task_done()
+                self.finished.task_done()
 
     def _write(self, header: dict, shot: Shot) -> None:
         with self.lock:
             if header["capture"] not in self.entries:
                 return  # deleted meanwhile
         seq, t_ns, values = shot.arrays()
-        writer = self.sink.open(header)
+        writer = self.shots.open(header)
         try:
             step = L.BLOCK_ROWS * 8
             for k in range(0, len(seq), step):
@@ -498,14 +498,14 @@ class CaptureEngine(threading.Thread):
         except BaseException:
             writer.abort()
             raise
-        kept = self.store.summaries(header["capture"])
+        kept = self.shots.summaries(header["capture"])
         for old in kept[: max(0, len(kept) - L.MAX_SHOTS_KEPT)]:
-            self.store.delete(header["capture"], old["shot"])
+            self.shots.delete(header["capture"], old["shot"])
 
     def flush(self, timeout_s: float = 30.0) -> None:
         """Waits until every finished shot is written (tests, shutdown)."""
         deadline = time.monotonic() + timeout_s
-        while self.shots.unfinished_tasks and time.monotonic() < deadline:
+        while self.finished.unfinished_tasks and time.monotonic() < deadline:
             time.sleep(0.01)
 
     # ---- persistence -----------------------------------------------------------------------------

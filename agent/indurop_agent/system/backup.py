@@ -77,6 +77,7 @@ ITEMS: tuple[Item, ...] = (
         redact=_users_redacted,
         drops=("sessions.json",),
     ),
+    Item("captures/captures.json", "the triggered captures: what each asks for and whether it is armed"),
     Item("agent.json", "the agent's settings kept in the data folder (--config <data>/agent.json)"),
     Item("tls/cert.pem", "the TLS certificate", mode=0o644),
     Item("tls/key.pem", "the TLS private key", secret=True),

@@ -356,6 +356,15 @@ def _check_settings(path: Path) -> None:
         )
 
 
+def _check_captures(path: Path) -> None:
+    saved = _json(path, "captures/captures.json")
+    rows = saved.get("captures") if isinstance(saved, dict) else None
+    if not isinstance(rows, list) or not all(
+        isinstance(r, dict) and isinstance(r.get("id"), str) and isinstance(r.get("request"), dict) for r in rows
+    ):
+        raise RestoreError(400, "captures/captures.json in the backup is not a list of captures (id, request)")
+
+
 def check(manifest: dict, staging: Path) -> dict:
     """Checks the unpacked content (see the module's docstring): {"sets": {id: manifest}, "skip":
     [item paths not to restore], "warnings": [...]}.  Raises RestoreError naming the file."""
@@ -392,6 +401,8 @@ def check(manifest: dict, staging: Path) -> dict:
             raise RestoreError(400, f"users.json in the backup: {e}") from None
     if (root / "agent.json").exists():
         _check_settings(root / "agent.json")
+    if (root / "captures" / "captures.json").exists():
+        _check_captures(root / "captures" / "captures.json")
     cert, key = root / "tls" / "cert.pem", root / "tls" / "key.pem"
     if cert.exists() and key.exists():
         try:

@@ -417,3 +417,46 @@ def test_a_users_file_that_is_not_one_is_refused(pair):
     del files["manifest.json"]
     files["data/users.json"] = json.dumps({"format": 1, "users": {"ana": {"role": "root"}}}).encode()
     refused(target, repack(with_manifest(files)), 400, "users.json", "'ana'")
+
+
+CAPTURE = {
+    "id": "c0ffee12",
+    "request": {
+        "name": "error rising",
+        "variables": ["PLC_ROBOT.PLC_OUT.Error"],
+        "trigger": {
+            "kind": "condition",
+            "conditions": [{"kind": "edge", "variable": "PLC_ROBOT.PLC_OUT.Error", "direction": "rising"}],
+        },
+        "pre": {"seconds": 1.0},
+        "post": {"seconds": 0.5},
+        "repeat": 0,
+    },
+    "created": "2026-11-26T20:00:00.000Z",
+    "by": "olaf",
+    "want_armed": True,
+    "next_number": 4,
+}
+
+
+def test_the_triggered_captures_are_in_a_backup_and_come_back_armed(make_agent, elves):
+    source, target = make_agent(), make_agent()
+    seeded(source, elves)
+    (source.data / "captures" / "captures.json").write_text(json.dumps({"captures": [CAPTURE]}))
+    archive = backup(source)
+    assert json.loads(members(archive)["data/captures/captures.json"])["captures"][0]["id"] == CAPTURE["id"]
+    quiet_restarts(target)
+    assert restore(target, archive, dry_run=False).status_code == 200
+    client = restarted(target)
+    h = {"Authorization": f"Bearer {source.tokens['admin']}"}
+    (listed,) = client.get(f"{API}/captures", headers=h).json()["captures"]
+    assert listed["id"] == CAPTURE["id"] and listed["request"]["name"] == "error rising" and listed["by"] == "olaf"
+    assert client.app.state.captures.entries[CAPTURE["id"]].want_armed  # armed again once irpd answers
+
+
+def test_a_captures_file_that_is_not_one_is_refused(pair):
+    _, archive, target = pair
+    files = members(archive)
+    del files["manifest.json"]
+    files["data/captures/captures.json"] = json.dumps({"captures": [{"request": "x"}]}).encode()
+    refused(target, repack(with_manifest(files)), 400, "captures/captures.json")

@@ -115,11 +115,11 @@ def shot_rows(
         with captures.lock:
             captures.get(capture_id)
         if shot == 0:
-            kept = captures.store.summaries(capture_id)
+            kept = captures.shots.summaries(capture_id)
             if not kept:
                 raise CaptureError(404, f"capture {capture_id} has no shot yet")
             shot = kept[-1]["shot"]
-        data = captures.store.read(capture_id, shot)
+        data = captures.shots.read(capture_id, shot)
         if data is None:
             raise CaptureError(404, f"capture {capture_id} has no shot {shot}; GET /captures/{capture_id} lists them")
         paths = data.paths
