@@ -79,6 +79,13 @@ class RecordingGap(BaseModel):
     reason: str
 
 
+class ShotOf(BaseModel):
+    capture: str = Field(description="the capture's id (GET /captures/{capture})")
+    shot: int
+    trigger_seq: int = Field(description="the trace row that triggered it")
+    cause: str = Field(description="what triggered it, in words")
+
+
 class RecordingPublic(BaseModel):
     name: str
     kind: Literal["recording", "capture"]
@@ -104,6 +111,7 @@ class RecordingPublic(BaseModel):
     basic_period_ns: int | None = None
     joint_states: list[str] = Field(description="the joints of its /joint_states channel (none: no such channel)")
     download: str = Field(description="where to download it (an .mcap, or a .zip of its parts)")
+    shot: ShotOf | None = Field(None, description="a capture's shot: which capture and shot, and its trigger row")
 
 
 class ChannelUse(BaseModel):

@@ -6,6 +6,8 @@ first with the edge on its exact row, the alarm's within a row of it (docs/recor
 
 from __future__ import annotations
 
+import io
+import json
 import os
 import signal
 import sys
@@ -13,6 +15,7 @@ from pathlib import Path
 
 import httpx
 import pytest
+from mcap.reader import make_reader
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from live_processes import (
@@ -95,6 +98,18 @@ def test_a_capture_on_the_plcs_error_holds_the_second_before_the_drives_went_sil
         assert rows["columns"][1][k + 1] == 8  # ErrorID: the drives' communication
         assert on_alarm["cause"] == "alarm" and (on_alarm["pre_rows"], on_alarm["drops"]) == (100, 0)
         assert abs(on_alarm["trigger_seq"] - on_edge["trigger_seq"]) <= 1  # the alarm's row: the edge's, ± 1
+        # the shot as the MCAP file an operator downloads for Foxglove: the rows of the second
+        # before the fault, the edge's row named by the trigger note
+        mcap = httpx.get(f"{url}/recordings/{ids[0]}.shot-1/download", headers=h, timeout=30)
+        assert mcap.status_code == 200, mcap.text
+        reader = make_reader(io.BytesIO(mcap.content))
+        samples = [json.loads(m.data) for _, _, m in reader.iter_messages(topics=["/indurop/samples"])]
+        assert [m["seq"] for m in samples] == rows["seq"]
+        assert [m["PLC_ROBOT_PLC_OUT_Error"] for m in samples] == rows["columns"][0]
+        notes = [json.loads(m.data) for _, _, m in reader.iter_messages(topics=["/indurop/notes"])]
+        assert [n["seq"] for n in notes if n["kind"] == "trigger"] == [on_edge["trigger_seq"]]
+        (schema,) = [s for s in reader.get_summary().schemas.values() if s.name == "indurop.Samples"]
+        assert json.loads(schema.data)["properties"]["PLC_ROBOT_PLC_OUT_Error"]["x-indurop-path"] == ERROR
     finally:
         if sim is not None:
             os.kill(sim, signal.SIGCONT)

@@ -8,6 +8,7 @@ arms, lists, gets and disarms (docs/recorder.md "Triggered captures")."""
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import shutil
@@ -19,6 +20,7 @@ from pathlib import Path
 
 import httpx
 import pytest
+from mcap.reader import make_reader
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from indurop_agent.trace import TraceRing
@@ -169,6 +171,19 @@ def test_a_rising_edge_lands_on_the_exact_row_with_the_rings_values(cell):
     # and the edge is the wave's: the first row of its second half-period, SIG.sample counting rows
     assert all(b - a == 1 for a, b in zip(rows["columns"][2], rows["columns"][2][1:]))
     assert sum(1 for v in square if v > 0) == 101
+    # the shot is a file of the recordings: listed, and an MCAP file any reader opens with its trigger
+    name = f"{armed['id']}.shot-1"
+    listed = cell.call("GET", f"/recordings/{name}", "viewer").json()
+    assert listed["kind"] == "capture" and listed["rows"] == 301 and listed["drops"] == 0
+    assert listed["shot"] == {"capture": armed["id"], "shot": 1, "trigger_seq": trigger, "cause": s["cause"]}
+    assert [v["path"] for v in listed["variables"]] == [SQUARE, SINE, SAMPLE]
+    mcap = cell.call("GET", f"/recordings/{name}/download", "viewer")
+    assert mcap.status_code == 200, mcap.text
+    reader = make_reader(io.BytesIO(mcap.content))
+    notes = [json.loads(m.data) for _, _, m in reader.iter_messages(topics=["/indurop/notes"])]
+    assert [n["seq"] for n in notes if n["kind"] == "trigger"] == [trigger]
+    samples = [json.loads(m.data) for _, _, m in reader.iter_messages(topics=["/indurop/samples"])]
+    assert [m["seq"] for m in samples] == rows["seq"]
 
 
 def test_a_repeated_capture_takes_a_shot_at_each_edge(cell):

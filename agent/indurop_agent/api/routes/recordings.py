@@ -96,7 +96,23 @@ def public(meta: dict) -> dict:
         "basic_period_ns": meta.get("basic_period_ns"),
         "joint_states": [j["name"] for j in meta.get("joints") or []],
         "download": f"/api/v1/recordings/{meta['name']}/download",
+        "shot": _shot_of(meta.get("capture")),
     }
+
+
+def _shot_of(header) -> dict | None:
+    """A capture shot's header (capture_files.py) as RecordingPublic.shot."""
+    if not isinstance(header, dict):
+        return None
+    try:
+        return {
+            "capture": str(header["capture"]),
+            "shot": int(header["shot"]),
+            "trigger_seq": int(header["trigger_seq"]),
+            "cause": str(header.get("cause", "")),
+        }
+    except (KeyError, TypeError, ValueError):
+        return None
 
 
 def current(rec: Recorder, name: str) -> dict:
