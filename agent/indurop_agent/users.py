@@ -69,6 +69,17 @@ def password_problem(name: str, password: str) -> str | None:
     return None
 
 
+def password_matches(hasher: PasswordHasher, digest: str, password: str) -> bool:
+    """Whether `password` is the one `digest` (an argon2 hash of users.json) was made from; also for
+    readers of users.json that never write it (the OPC UA server, docs/opcua.md)."""
+    if not encodable(password) or not digest:
+        return False
+    try:
+        return hasher.verify(digest, normalized(password))
+    except (VerifyMismatchError, VerificationError, InvalidHashError):
+        return False
+
+
 class UserError(Exception):
     """A refused change: `status` (404 no such user, 409 a conflict, 422 bad input), the `field`
     it is about (422), and a message that says what to do."""
@@ -254,12 +265,7 @@ class UserStore:
         return self.enabled_admins() == [name]
 
     def _matches(self, digest: str, password: str) -> bool:
-        if not encodable(password):
-            return False
-        try:
-            return self.hasher.verify(digest, normalized(password))
-        except (VerifyMismatchError, VerificationError, InvalidHashError):
-            return False
+        return password_matches(self.hasher, digest, password)
 
     def _save(self) -> None:
         write_json(self.path, {"format": FORMAT, "users": {u.name: _fields(u) for u in self._users.values()}})

@@ -1,0 +1,111 @@
+"""writes.py -- a client's Write of a shared variable (docs/opcua.md "Writes"): only an operator or an
+admin may (a viewer gets BadUserAccessDenied); the value must be of the variable's kind (a Boolean
+for a bool, an integer type for an integer, a number for a float: BadTypeMismatch), an array whole
+or by an IndexRange of one dimension; irpd's typed `write` does the rest, as PUT /variables does
+(a value out of the type's range is refused by irpd: BadOutOfRange).  Every write, done or refused,
+is one line of the agent's audit log (<data>/audit.jsonl, action write_variable) with the OPC UA
+user, the client's address and the endpoint."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+
+from asyncua import ua
+
+from ..audit import AuditLog
+from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
+from .values import INTEGERS, Var
+
+FLOATS = (ua.VariantType.Float, ua.VariantType.Double)
+
+
+def _fits(var: Var, value) -> bool:
+    if var.variant == ua.VariantType.Boolean:
+        return isinstance(value, bool)
+    if isinstance(value, bool):
+        return False
+    if var.variant in INTEGERS:
+        return isinstance(value, int)
+    return isinstance(value, (int, float)) and math.isfinite(value)
+
+
+def _flatten(value) -> list:
+    if isinstance(value, (list, tuple)):
+        return [x for v in value for x in _flatten(v)]
+    return [value]
+
+
+def _index_range(text: str, length: int) -> range | None:
+    """An IndexRange ("3", "2:4") of a 1-D array of `length`; None when it is not one."""
+    try:
+        if ":" in text:
+            a, b = (int(x) for x in text.split(":"))
+            ok = 0 <= a < b < length
+            return range(a, b + 1) if ok else None
+        a = int(text)
+        return range(a, a + 1) if 0 <= a < length else None
+    except ValueError:
+        return None
+
+
+class Writes:
+    def __init__(self, irpd: IrpdClient, audit: AuditLog, endpoint: str):
+        self.irpd = irpd  # a connection of its own: writes never wait behind the status polls
+        self.audit = audit
+        self.endpoint = endpoint
+
+    async def write(self, session, var: Var, wv: ua.WriteValue) -> ua.StatusCode:
+        user = session.user
+        peer = session.name if isinstance(session.name, tuple) else ("unknown", 0)
+        who = {
+            "id": f"opcua-session-{session.session_id.Identifier}",
+            "name": getattr(user, "name", None),
+            "role": getattr(user, "agent_role", None),
+            "user": getattr(user, "name", None) if getattr(user, "via", "") == "password" else None,
+            "via": "opcua",
+        }
+        raw = wv.Value.Value.Value if wv.Value is not None and wv.Value.Value is not None else None
+        entry = {"who": who, "client": str(peer[0]), "target": var.path, "endpoint": self.endpoint}
+        if wv.IndexRange:
+            entry["index_range"] = wv.IndexRange
+        value_for_log = raw if isinstance(raw, (bool, int, float, list)) else repr(raw)[:200]
+
+        def done(code: int, detail: str | None = None, **more) -> ua.StatusCode:
+            status = ua.StatusCode(code)
+            result = "ok" if status.is_good() else "error"
+            self.audit.write("write_variable", **entry, result=result, value=value_for_log, status=status.name,
+                             **({"detail": detail} if detail else {}), **more)  # fmt: skip
+            return status
+
+        if not (hasattr(user, "may_write") and user.may_write()):
+            role = getattr(user, "agent_role", "none")
+            return done(ua.StatusCodes.BadUserAccessDenied, f"writing needs the operator role; the session has {role}")
+        if wv.Value is None or wv.Value.Value is None or raw is None:
+            return done(ua.StatusCodes.BadTypeMismatch, "no value")
+        leaves = list(var.leaves)
+        if var.dims:
+            if not isinstance(raw, (list, tuple)):
+                return done(ua.StatusCodes.BadTypeMismatch, f"{var.path} is an array of {len(leaves)}")
+            values = _flatten(raw)
+            if wv.IndexRange:
+                picked = _index_range(wv.IndexRange, len(leaves)) if len(var.dims) == 1 else None
+                if picked is None:
+                    return done(ua.StatusCodes.BadIndexRangeInvalid, f"index range {wv.IndexRange!r} of {var.dims}")
+                leaves = [leaves[i] for i in picked]
+            if len(values) != len(leaves):
+                return done(ua.StatusCodes.BadTypeMismatch, f"{len(values)} values for {len(leaves)} elements")
+        else:
+            if wv.IndexRange:
+                return done(ua.StatusCodes.BadIndexRangeNoData, "an index range of a scalar")
+            values = [raw]
+        if not all(_fits(var, v) for v in values):
+            return done(ua.StatusCodes.BadTypeMismatch, f"{var.path} holds {var.type} ({var.variant.name})")
+        try:
+            for leaf, v in zip(leaves, values):
+                await asyncio.to_thread(self.irpd.request, "write", path=leaf, value=v)
+        except IrpdRefused as e:
+            return done(ua.StatusCodes.BadOutOfRange, str(e))
+        except IrpdUnavailable as e:
+            return done(ua.StatusCodes.BadNoCommunication, str(e))
+        return done(ua.StatusCodes.Good)
