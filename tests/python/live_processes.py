@@ -230,6 +230,33 @@ def start_bridge(
     return p
 
 
+def start_opcua(sock: Path, data: Path, port: int, *extra: str, log: Path | None = None) -> subprocess.Popen:
+    """indurop-opcua (`python -m indurop_agent.opcua`) for the irpd at `sock` on 127.0.0.1:port,
+    with the agent's data folder `data`; returns once it listens (its status file is written after
+    its first poll of irpd).  Its output goes to `log` when given, else to a temporary file: output(p)."""
+    out = _output_file(log)
+    p = subprocess.Popen(
+        [sys.executable, "-m", "indurop_agent.opcua", "--irpd-socket", str(sock), "--data-dir", str(data)]
+        + ["--host", "127.0.0.1", "--port", str(port), *extra],
+        cwd=ROOT / "agent",
+        stdout=out,
+        stderr=subprocess.STDOUT,
+    )
+    STARTED.append(p)
+    p.log = out
+    deadline = time.monotonic() + START_TIMEOUT_S
+    while True:
+        try:
+            with socket.create_connection(("127.0.0.1", port), timeout=1):
+                return p
+        except OSError:
+            pass
+        if p.poll() is not None or time.monotonic() > deadline:
+            stop(p)
+            raise AssertionError(f"indurop-opcua did not listen on {port}: {output(p)}")
+        time.sleep(0.1)
+
+
 def child_named(parent: int, name: bytes, seconds: float = 10) -> int:
     """The pid of `parent`'s child whose program's path contains `name` (irpd's process modules
     are its children); RuntimeError when none appears within `seconds`."""

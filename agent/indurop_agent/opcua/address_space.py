@@ -111,6 +111,9 @@ class Space:
         self._model_change = await self.server.get_event_generator(
             ua.ObjectIds.GeneralModelChangeEventType, self.server.nodes.server
         )
+        # asyncua types the field by its DataType's NodeId; on the wire it is an array of
+        # ModelChangeStructureDataType as ExtensionObjects
+        self._model_change.event.data_types["Changes"] = ua.VariantType.ExtensionObject
 
     # ---- the layout's tree --------------------------------------------------------------------
     async def apply(self, layout: dict | None, layout_hash: str) -> tuple[int, int]:
@@ -142,9 +145,11 @@ class Space:
         await self._properties["LayoutHash"].write_value(ua.Variant(layout_hash, ua.VariantType.String))
         if changes and old:  # the first build is no change
             self._model_change.event.Changes = changes
-            await self._model_change.trigger(
-                message=f"layout {layout_hash[:12]}: {len(gone)} nodes removed, {len(added)} added"
-            )
+            message = f"layout {layout_hash[:12]}: {len(gone)} nodes removed, {len(added)} added"
+            try:
+                await self._model_change.trigger(message=message)
+            except Exception as e:  # the nodes are right whatever happens to the event
+                print(f"indurop-opcua: the model change event: {type(e).__name__}: {e}", flush=True)
         return len(gone), len(added)
 
     async def _add_variable(self, parent: Node, var: Var, name: ua.QualifiedName) -> None:

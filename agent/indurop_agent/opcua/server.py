@@ -333,7 +333,7 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(name)s: %(levelname)s: %(message)s")
     # asyncua logs every refused session and bad request at ERROR with a traceback; our audit log and
     # status codes say it once
-    for name in ("asyncua.server.uaprocessor", "asyncua.server.binary_server_asyncio"):
+    for name in ("asyncua.server.uaprocessor", "asyncua.server.binary_server_asyncio", "asyncuagds.validate"):
         logging.getLogger(name).setLevel(logging.CRITICAL)
     try:
         return asyncio.run(run(settings))

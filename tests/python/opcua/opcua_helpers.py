@@ -1,0 +1,137 @@
+"""opcua_helpers.py -- a live controller for the OPC UA tests: irpd on a set, the agent (its users: an
+admin token, an operator and a viewer made through its API), indurop-opcua on 127.0.0.1 with small
+limits, and asyncua clients that sign in with a client certificate the server trusts."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import shutil
+import sys
+from pathlib import Path
+
+import httpx
+from asyncua import Client, ua
+from asyncua.crypto.cert_gen import setup_self_signed_certificate
+from asyncua.crypto.security_policies import SecurityPolicyAes128Sha256RsaOaep, SecurityPolicyBasic256Sha256
+from cryptography.x509.oid import ExtendedKeyUsageOID
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from live_processes import API, ROOT, free_port, output, start_agent, start_irpd, start_opcua, stop, wait_until
+
+sys.path.insert(0, str(ROOT / "agent"))
+from indurop_agent.irpd_client import IrpdClient, IrpdRefused
+
+NAMESPACE = "urn:indurop:controller"
+PASSWORDS = {"oper": "turn-the-crank-1", "view": "look-but-dont-touch"}
+ROLES = {"oper": "operator", "view": "viewer"}
+LIMITS = {  # small, so that the tests reach them quickly
+    "max_sessions": 8,
+    "max_monitored_items_per_session": 300,
+    "max_monitored_items_per_call": 400,
+    "max_nodes_per_read": 500,
+    "max_request_bytes": 256 * 1024,
+    "status_s": 0.5,
+}
+POLICIES = {"Basic256Sha256": SecurityPolicyBasic256Sha256, "Aes128_Sha256_RsaOaep": SecurityPolicyAes128Sha256RsaOaep}
+
+
+class Controller:
+    """irpd on `config`, the agent with an operator and a viewer, and indurop-opcua."""
+
+    def __init__(self, tmp: Path, config: Path, instance: str, settings: dict | None = None):
+        self.tmp, self.sock, self.data = tmp, tmp / "irpd.sock", tmp / "data"
+        self.irpd = start_irpd(self.sock, config, f"{instance}-{os.getpid()}")
+        self.control = IrpdClient(str(self.sock), timeout_s=30)
+        wait_until(self.status, 60)
+        self.agent_port = free_port()
+        self.agent = start_agent(self.agent_port, self.data, self.sock)
+        self.api = f"http://127.0.0.1:{self.agent_port}{API}"
+        self.admin = {"Authorization": f"Bearer {(self.data / 'admin-token').read_text().strip()}"}
+        for name, role in ROLES.items():
+            r = httpx.post(
+                f"{self.api}/users", json={"name": name, "role": role, "password": PASSWORDS[name]}, headers=self.admin, timeout=30
+            )
+            assert r.status_code == 201, r.text
+        self.settings = {**LIMITS, **(settings or {})}
+        (tmp / "opcua.json").write_text(json.dumps(self.settings))
+        self.port = free_port()
+        self.url = f"opc.tcp://127.0.0.1:{self.port}/"
+        self.opcua = start_opcua(self.sock, self.data, self.port, "--config", str(tmp / "opcua.json"), log=tmp / "opcua.log")
+        wait_until(lambda: self.server_status().get("layout_hash") is not None, 60, 0.1)
+        self.client_key, self.client_cert = tmp / "client-key.pem", tmp / "client-cert.der"
+        asyncio.run(make_client_certificate(self.client_key, self.client_cert, "urn:indurop:test:client"))
+        trusted = self.data / "opcua" / "pki" / "trusted"
+        shutil.copy(self.client_cert, trusted / "test-client.der")
+
+    def status(self):
+        """irpd's status once it dispatches (None while it answers "starting")"""
+        try:
+            return self.control.request("status")
+        except IrpdRefused:
+            return None
+
+    def server_status(self) -> dict:
+        try:
+            return json.loads((self.data / "opcua" / "status.json").read_text())
+        except (OSError, ValueError):
+            return {}
+
+    def rest(self, path: str):
+        r = httpx.get(f"{self.api}{path}", headers=self.admin, timeout=30)
+        assert r.status_code == 200, r.text
+        return r.json()
+
+    def audit(self) -> list[dict]:
+        return [json.loads(line) for line in (self.data / "audit.jsonl").read_text().splitlines()]
+
+    async def connect(self, user: str | None = "oper", password: str | None = None, policy: str = "Basic256Sha256",
+                      mode=ua.MessageSecurityMode.SignAndEncrypt, cert: tuple[Path, Path] | None = None) -> Client:  # fmt: skip
+        """An asyncua client connected and signed in as `user` (None: anonymous) over `policy` and
+        `mode`, with the trusted client certificate (or `cert`: (key, certificate))."""
+        c = Client(self.url, timeout=30)
+        c.application_uri = "urn:indurop:test:client"
+        if user is not None:
+            c.set_user(user)
+            c.set_password(password if password is not None else PASSWORDS[user])
+        key, certificate = cert or (self.client_key, self.client_cert)
+        await c.set_security(POLICIES[policy], str(certificate), str(key), mode=mode)
+        await c.connect()
+        return c
+
+    def output(self) -> str:
+        return output(self.opcua)
+
+    def close(self) -> None:
+        for p in (self.opcua, self.agent):
+            stop(p)
+        self.control.close()
+        stop(self.irpd)
+
+
+async def make_client_certificate(key: Path, cert: Path, uri: str) -> None:
+    await setup_self_signed_certificate(
+        key, cert, uri, "localhost", [ExtendedKeyUsageOID.CLIENT_AUTH], {"organizationName": "indurop tests"}
+    )
+
+
+async def ns_of(c: Client) -> int:
+    return await c.get_namespace_index(NAMESPACE)
+
+
+async def leaves_under(c: Client, node) -> list:
+    """Every variable under `node` (depth first), as (node, browse path)."""
+    out = []
+
+    async def walk(n, prefix):
+        for child in await n.get_children(refs=ua.ObjectIds.HierarchicalReferences):
+            name = (await child.read_browse_name()).Name
+            cls = await child.read_node_class()
+            if cls == ua.NodeClass.Variable:
+                out.append(child)
+            elif cls == ua.NodeClass.Object:
+                await walk(child, f"{prefix}/{name}")
+
+    await walk(node, "")
+    return out
