@@ -65,7 +65,6 @@ OPERATION_LIMITS = {  # advertised in Server.ServerCapabilities.OperationLimits,
     ua.ObjectIds.Server_ServerCapabilities_OperationLimits_MaxNodesPerBrowse: "max_nodes_per_browse",
     ua.ObjectIds.Server_ServerCapabilities_OperationLimits_MaxMonitoredItemsPerCall: "max_monitored_items_per_call",
 }
-STATUS_FILE_S = 5.0  # how often <data>/opcua/status.json is written
 
 
 def log(message: str) -> None:
@@ -290,7 +289,7 @@ async def loop_status(rt: Runtime) -> None:
         try:
             await poll_status(rt)
             if start >= next_file:
-                next_file = start + STATUS_FILE_S
+                next_file = start + rt.settings.status_file_s
                 await asyncio.to_thread(write_status, rt)
         except Exception as e:  # never leave the loop: the next poll tries again
             log(f"status: {type(e).__name__}: {e}")

@@ -54,6 +54,7 @@ class OpcuaSettings:
     max_queue_size: int = 1000
     poll_ms: float = 5.0  # how often the trace rings are read and due items sampled
     status_s: float = 1.0  # how often irpd's status, modules and stats are asked
+    status_file_s: float = 5.0  # how often <data>/opcua/status.json is written
     # Bounds (answered with OPC UA status codes).
     max_sessions: int = 32
     max_subscriptions_per_session: int = 16
@@ -139,8 +140,8 @@ def check(s: OpcuaSettings) -> OpcuaSettings:
             raise ValueError(f"{name} {getattr(s, name)}: at least 1")
     if s.max_request_bytes < 64 * 1024:
         raise ValueError(f"max_request_bytes {s.max_request_bytes}: at least 65536")
-    if s.lockout_window_s <= 0 or s.status_s <= 0:
-        raise ValueError("lockout_window_s and status_s: more than 0")
+    if s.lockout_window_s <= 0 or s.status_s <= 0 or s.status_file_s <= 0:
+        raise ValueError("lockout_window_s, status_s and status_file_s: more than 0")
     return s
 
 

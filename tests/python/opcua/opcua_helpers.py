@@ -33,6 +33,7 @@ LIMITS = {  # small, so that the tests reach them quickly
     "max_nodes_per_read": 500,
     "max_request_bytes": 256 * 1024,
     "status_s": 0.5,
+    "status_file_s": 0.5,
 }
 POLICIES = {"Basic256Sha256": SecurityPolicyBasic256Sha256, "Aes128_Sha256_RsaOaep": SecurityPolicyAes128Sha256RsaOaep}
 
@@ -51,14 +52,19 @@ class Controller:
         self.admin = {"Authorization": f"Bearer {(self.data / 'admin-token').read_text().strip()}"}
         for name, role in ROLES.items():
             r = httpx.post(
-                f"{self.api}/users", json={"name": name, "role": role, "password": PASSWORDS[name]}, headers=self.admin, timeout=30
+                f"{self.api}/users",
+                json={"name": name, "role": role, "password": PASSWORDS[name]},
+                headers=self.admin,
+                timeout=30,
             )
             assert r.status_code == 201, r.text
         self.settings = {**LIMITS, **(settings or {})}
         (tmp / "opcua.json").write_text(json.dumps(self.settings))
         self.port = free_port()
         self.url = f"opc.tcp://127.0.0.1:{self.port}/"
-        self.opcua = start_opcua(self.sock, self.data, self.port, "--config", str(tmp / "opcua.json"), log=tmp / "opcua.log")
+        self.opcua = start_opcua(
+            self.sock, self.data, self.port, "--config", str(tmp / "opcua.json"), log=tmp / "opcua.log"
+        )
         wait_until(lambda: self.server_status().get("layout_hash") is not None, 60, 0.1)
         self.client_key, self.client_cert = tmp / "client-key.pem", tmp / "client-cert.der"
         asyncio.run(make_client_certificate(self.client_key, self.client_cert, "urn:indurop:test:client"))

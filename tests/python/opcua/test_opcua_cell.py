@@ -134,7 +134,9 @@ def test_the_controller_shows_the_set_its_layout_and_every_module_and_dispatcher
         try:
             ns = await ns_of(c)
             get = lambda path: c.get_node(ua.NodeId(path, ns))  # noqa: E731
-            props = {p: await get(f"@Controller.{p}").read_value() for p in ("LayoutHash", "Set", "Generation", "Running")}
+            props = {
+                p: await get(f"@Controller.{p}").read_value() for p in ("LayoutHash", "Set", "Generation", "Running")
+            }
             modules = {(await m.read_browse_name()).Name for m in await get("@Controller.Modules").get_children()}
             runs = await get("@Controller.Modules.main.Runs").read_value()
             state = await get("@Controller.Modules.Robot.State").read_value()
@@ -191,7 +193,7 @@ def test_anonymous_sessions_and_wrong_passwords_are_refused(cell):
     async def attempt(**kw) -> str:
         try:
             c = await cell.connect(**kw)
-        except (UaError, asyncio.TimeoutError) as e:
+        except (TimeoutError, UaError) as e:
             return type(e).__name__
         await c.disconnect()
         return "connected"
@@ -262,12 +264,17 @@ def test_monitored_items_use_only_the_trace_channels_other_owners_leave_free(cel
             changes = Changes()
             sub = await c.create_subscription(50, changes)
             await sub.subscribe_data_change(
-                [c.get_node(ua.NodeId(p, ns)) for p in ("PLC_ROBOT.IO_STATUS.cycles", "PLC_ROBOT.IO_STATUS.last_cycle_us")],
+                [
+                    c.get_node(ua.NodeId(p, ns))
+                    for p in ("PLC_ROBOT.IO_STATUS.cycles", "PLC_ROBOT.IO_STATUS.last_cycle_us")
+                ],
                 sampling_interval=10,
             )
             await wait_for(lambda: len(changes.values.get("PLC_ROBOT.IO_STATUS.cycles", [])) >= 20)
             await wait_for(lambda: cell.server_status().get("sampling", {}).get("traced_channels") == 2)
-            arrays = await sub.subscribe_data_change(c.get_node(ua.NodeId("PLC_ROBOT.ROBOT_MODULE_STATE.dCmdJoint", ns)))
+            arrays = await sub.subscribe_data_change(
+                c.get_node(ua.NodeId("PLC_ROBOT.ROBOT_MODULE_STATE.dCmdJoint", ns))
+            )
             await wait_for(lambda: changes.values.get("PLC_ROBOT.ROBOT_MODULE_STATE.dCmdJoint"))
             await sub.unsubscribe(arrays)
             return changes
@@ -356,7 +363,9 @@ def test_an_online_change_rebuilds_the_nodes_and_subscriptions_on_unchanged_vari
             ns = await ns_of(c)
             changes = Changes()
             sub = await c.create_subscription(100, changes)
-            await sub.subscribe_data_change(c.get_node(ua.NodeId("PLC_ROBOT.IO_STATUS.cycles", ns)), sampling_interval=10)
+            await sub.subscribe_data_change(
+                c.get_node(ua.NodeId("PLC_ROBOT.IO_STATUS.cycles", ns)), sampling_interval=10
+            )
             await sub.subscribe_events(c.nodes.server, ua.ObjectIds.GeneralModelChangeEventType)
             await wait_for(lambda: len(changes.values.get("PLC_ROBOT.IO_STATUS.cycles", [])) >= 5)
             report = await asyncio.to_thread(

@@ -39,7 +39,9 @@ def test_the_cell_layout_makes_objects_for_structs_and_array_variables_for_array
     assert nodes["PLC_ROBOT.I0"].variant == ua.VariantType.Int16
     assert nodes["PLC_ROBOT.PLC_IN.Override"].variant == ua.VariantType.Double
     joints = nodes["PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint"]
-    assert joints.dims == (6,) and joints.leaves == tuple(f"PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[{i}]" for i in range(6))
+    assert joints.dims == (6,) and joints.leaves == tuple(
+        f"PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[{i}]" for i in range(6)
+    )
     assert nodes["PLC_ROBOT.AXIS_IN"] == Obj("PLC_ROBOT.AXIS_IN", "PLC_ROBOT", "AXIS_IN")
     assert nodes["PLC_ROBOT.AXIS_IN[3]"] == Obj("PLC_ROBOT.AXIS_IN[3]", "PLC_ROBOT.AXIS_IN", "[3]")
     assert nodes["PLC_ROBOT.AXIS_IN[3].mode"].variant == ua.VariantType.SByte
@@ -58,7 +60,11 @@ def test_the_cell_layout_makes_objects_for_structs_and_array_variables_for_array
 def test_multi_dimensional_arrays_and_nameless_namespaces():
     layout = {
         "scalars": {"double": {"kind": "float", "size": 8}, "bool": {"kind": "bool", "size": 1}},
-        "types": {"P": {"fields": [{"name": "on", "type": "bool", "dims": []}, {"name": "m", "type": "double", "dims": [2, 3]}]}},
+        "types": {
+            "P": {
+                "fields": [{"name": "on", "type": "bool", "dims": []}, {"name": "m", "type": "double", "dims": [2, 3]}]
+            }
+        },
         "variables": [
             {"path": "tick", "namespace": "", "name": "tick", "type": "double", "dims": []},
             {"path": "A.B.p", "namespace": "A.B", "name": "p", "type": "P", "dims": [2]},
@@ -67,7 +73,12 @@ def test_multi_dimensional_arrays_and_nameless_namespaces():
     nodes = tree(layout)
     assert nodes["tick"].parent == "" and nodes["A"].parent == "" and nodes["A.B"].parent == "A"
     m = nodes["A.B.p[1].m"]
-    assert m.dims == (2, 3) and m.leaves[:4] == ("A.B.p[1].m[0][0]", "A.B.p[1].m[0][1]", "A.B.p[1].m[0][2]", "A.B.p[1].m[1][0]")
+    assert m.dims == (2, 3) and m.leaves[:4] == (
+        "A.B.p[1].m[0][0]",
+        "A.B.p[1].m[0][1]",
+        "A.B.p[1].m[0][2]",
+        "A.B.p[1].m[1][0]",
+    )
     assert element_suffixes((2, 2)) == ["[0][0]", "[0][1]", "[1][0]", "[1][1]"]
     assert shaped([1, 2, 3, 4, 5, 6], (2, 3)) == [[1, 2, 3], [4, 5, 6]]
     assert nodes["A.B.p[0].on"].variant == ua.VariantType.Boolean
@@ -111,7 +122,10 @@ def queue_after(values: list[int], size: int, discard_oldest: bool) -> list[tupl
             await sub.enqueue_datachange_event(7, notification(v), size)
 
     asyncio.run(fill())
-    return [(n.Value.Value.Value, bool(n.Value.StatusCode.value & OVERFLOW == OVERFLOW)) for n in sub._triggered_datachanges[7]]
+    return [
+        (n.Value.Value.Value, bool(n.Value.StatusCode.value & OVERFLOW == OVERFLOW))
+        for n in sub._triggered_datachanges[7]
+    ]
 
 
 def test_a_full_queue_discards_the_oldest_and_marks_the_next_one():
@@ -146,7 +160,10 @@ def test_what_a_write_must_be():
         ({"security_policies": ("Basic128Rsa15",)}, "is not one of"),
         ({"security_policies": ()}, "at least one"),
         ({"anonymous_role": "root"}, "anonymous_role"),
-        ({"user_certificates": ({"certificate": "/nonexistent.der", "name": "mes", "role": "operator"},)}, "a DER or PEM file"),
+        (
+            {"user_certificates": ({"certificate": "/nonexistent.der", "name": "mes", "role": "operator"},)},
+            "a DER or PEM file",
+        ),
         ({"user_certificates": ({"certificate": "/etc/hostname", "name": "mes", "role": "god"},)}, "role 'god'"),
         ({"poll_ms": 50.0}, "poll_ms"),
         ({"max_sessions": 0}, "max_sessions 0"),

@@ -1,0 +1,155 @@
+"""test_opcua_signals.py -- indurop-opcua in front of a real irpd running the signals set (the sample
+counter SIG.sample and sixteen waves every 1 ms) with a module that raises an alarm while a file
+exists: a monitored item at 10 ms on the 1 kHz counter gets every tenth row's value from the trace
+rings (each one 10 more than the one before: nothing skipped, nothing twice), stamped 10 ms apart on
+the period grid; items at 10 ms and 50 ms on the same variable each see their own rate; a queue
+smaller than a publishing interval's values keeps the newest with the Overflow bit; the alarm's
+raise and clear arrive as AlarmConditionType events with their severity (docs/opcua.md)."""
+
+from __future__ import annotations
+
+import asyncio
+import shutil
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from asyncua import ua
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from live_processes import BUILD, module_entry
+from opcua_helpers import Controller, ns_of
+
+SIGNALS = BUILD / "sets" / "signals"
+ALARMING = BUILD / "tests" / "cpp" / "modules" / "alarming.so"  # raises its `ids` while `trigger` exists
+LIMIT_S = 60
+
+pytestmark = pytest.mark.skipif(
+    not (SIGNALS / "module.xml").exists() or not ALARMING.exists(), reason=f"the signals set is not built ({SIGNALS})"
+)
+
+
+@pytest.fixture(scope="module")
+def signals(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("opcua-signals")
+    folder = tmp / "signals"
+    shutil.copytree(SIGNALS, folder)
+    shutil.copy(ALARMING, folder / "alarming.so")
+    conveyor = module_entry(
+        "conveyor",
+        "./alarming.so",
+        1_000_000,
+        2,
+        f'<property><value name="ids">5</value><value name="trigger">{folder / "jam"}</value></property>'
+        '<alarm id="5" severity="high">Conveyor jammed</alarm>',
+    )
+    xml = folder / "module.xml"
+    xml.write_text(xml.read_text().replace("</root>", conveyor + "</root>"))
+    c = Controller(tmp, xml, "opcua-signals")
+    c.folder = folder
+    yield c
+    c.close()
+
+
+class Notes:
+    def __init__(self):
+        self.values: dict[int, list[ua.DataValue]] = {}
+        self.events: list = []
+
+    def datachange_notification(self, node, value, data):
+        self.values.setdefault(data.subscription_data.server_handle, []).append(data.monitored_item.Value)
+
+    def event_notification(self, event):
+        self.events.append(event)
+
+
+async def until(what, seconds: float = LIMIT_S):
+    deadline = time.monotonic() + seconds
+    while not what():
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        await asyncio.sleep(0.05)
+
+
+def test_a_1khz_counter_monitored_at_10ms_gets_every_tenth_row(signals):
+    async def go():
+        c = await signals.connect("view")
+        try:
+            ns = await ns_of(c)
+            sample = c.get_node(ua.NodeId("SIG.sample", ns))
+            notes = Notes()
+            sub = await c.create_subscription(100, notes)
+            # An item's values come from the segment until irpd traces its variable for the server:
+            # once it does, a new item's values after its first come from the rings alone.
+            await sub.subscribe_data_change(sample, sampling_interval=1000)
+            await until(lambda: signals.server_status().get("sampling", {}).get("traced_channels") == 1)
+            fast = await sub.subscribe_data_change(sample, sampling_interval=10, queuesize=100)
+            slow = await sub.subscribe_data_change(sample, sampling_interval=50, queuesize=100)
+            await until(lambda: len(notes.values.get(fast, [])) >= 300)
+            await sub.delete()
+            return notes.values[fast], notes.values[slow]
+        finally:
+            await c.disconnect()
+
+    fast, slow = asyncio.run(go())
+    # The first value is the variable as it was when the item was made (read from the segment); from
+    # then on every tenth row of the rings, each 10 samples later than the one before.
+    counts = [dv.Value.Value for dv in fast[1:]]
+    steps = {b - a for a, b in zip(counts, counts[1:])}
+    assert steps == {10}, f"steps between notifications: {sorted(steps)[:10]}"
+    times = [dv.SourceTimestamp for dv in fast[1:]]
+    gaps = {round((b - a).total_seconds() * 1000) for a, b in zip(times, times[1:])}
+    assert gaps == {10}, gaps  # due times of rows ten periods apart (the grid, not when read)
+    assert all(dv.StatusCode.is_good() for dv in fast)
+    slow_counts = [dv.Value.Value for dv in slow[1:]]
+    assert {b - a for a, b in zip(slow_counts, slow_counts[1:])} == {50}
+
+
+def test_a_queue_smaller_than_a_publishing_intervals_values_keeps_the_newest_with_the_overflow_bit(signals):
+    async def go():
+        c = await signals.connect("view")
+        try:
+            ns = await ns_of(c)
+            notes = Notes()
+            sub = await c.create_subscription(500, notes)  # 50 values of a 10 ms item per publish
+            await sub.subscribe_data_change(c.get_node(ua.NodeId("SIG.sample", ns)), sampling_interval=10, queuesize=5)
+            await until(lambda: sum(len(v) for v in notes.values.values()) >= 20)
+            await sub.delete()
+            return [dv for values in notes.values.values() for dv in values]
+        finally:
+            await c.disconnect()
+
+    values = asyncio.run(go())
+    flagged = [dv for dv in values if dv.StatusCode.value & 0x0480 == 0x0480]
+    assert flagged, "no value carried the Overflow bit"
+    # discardOldest (the default): the oldest kept value of a full queue carries the bit
+    counts = [dv.Value.Value for dv in values[1:]]
+    assert counts == sorted(counts)
+
+
+def test_an_alarm_raised_and_cleared_by_a_module_arrives_as_condition_events_with_its_severity(signals):
+    jam = signals.folder / "jam"
+
+    async def go():
+        c = await signals.connect("view")
+        try:
+            notes = Notes()
+            sub = await c.create_subscription(100, notes)
+            await sub.subscribe_events(c.nodes.server, ua.ObjectIds.AlarmConditionType)
+            await asyncio.sleep(1)
+            jam.touch()
+            await until(lambda: any(getattr(e, "ConditionName", "") == "conveyor/5" for e in notes.events))
+            jam.unlink()
+            await until(lambda: len([e for e in notes.events if getattr(e, "ConditionName", "") == "conveyor/5"]) >= 2)
+            ns = await ns_of(c)
+            return notes.events, await c.get_node(ua.NodeId("@Controller.Alarms.ActiveCount", ns)).read_value()
+        finally:
+            await c.disconnect()
+
+    events, active = asyncio.run(go())
+    raised, cleared = [e for e in events if getattr(e, "ConditionName", "") == "conveyor/5"][:2]
+    assert raised.Severity == 750 and raised.SourceName == "conveyor"
+    assert "Conveyor jammed" in raised.Message.Text
+    assert raised.ActiveState.Text == "Active" and cleared.ActiveState.Text == "Inactive"
+    assert active == 0
