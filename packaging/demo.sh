@@ -2,8 +2,8 @@
 # demo.sh -- installs what is missing, builds, and starts the default demo: irpd running the
 # set activated last through the agent, or the PLC + robot cell (config/sets/plc-robot, the paper's
 # §4, its drives simulated on Modbus TCP by indurop-drivesim) the first time, with its control
-# socket, indurop-agent on http://127.0.0.1:8080/api/v1 beside it and the DDS bridge on loopback
-# (docs/dds.md).  Ctrl-C stops them.  Extra arguments
+# socket, indurop-agent on http://127.0.0.1:8080/api/v1 beside it, the DDS bridge on loopback
+# (docs/dds.md) and the OPC UA server on opc.tcp://127.0.0.1:4840/ (docs/opcua.md).  Ctrl-C stops them.  Extra arguments
 # go to irpd, e.g. `bash packaging/demo.sh --duration 10 --stats-json /tmp/stats.json` (the
 # agent stops when irpd does).  INDUROP_PORT and INDUROP_DATA change the port and data folder.
 # Both programs' output goes to the terminal and, each line stamped with its UTC time, to
@@ -60,6 +60,13 @@ agent_pid=$!
     --domain-id "${INDUROP_DDS_DOMAIN:-0}" --interface lo --name "${INDUROP_NAME:-$(hostname -s)}" \
     --agent-url "$url/" --line-file "$data/line.json") > >(stamp "$logs/dds-bridge.log") 2>&1 &
 bridge_pid=$!
+# The OPC UA server (docs/opcua.md): opc.tcp://127.0.0.1:INDUROP_OPCUA_PORT (default 4840), the web
+# UI's users and roles, Basic256Sha256 and Aes128_Sha256_RsaOaep; its certificate and PKI folders in
+# <data>/opcua/.
+opcua_port=${INDUROP_OPCUA_PORT:-4840}
+(cd "$root/agent" && exec "${off_rt[@]}" "$venv/bin/python" -m indurop_agent.opcua --irpd-socket "$sock" \
+    --data-dir "$data" --host 127.0.0.1 --port "$opcua_port") > >(stamp "$logs/opcua.log") 2>&1 &
+opcua_pid=$!
 for _ in $(seq 200); do curl -sf "$url/api/v1/health" >/dev/null && break; kill -0 $agent_pid 2>/dev/null || break; sleep 0.1; done
 # The first time, the cell becomes the set store's first set (history, rollback, the UI's edits
 # are versions of it): uploaded and activated, a hot reload in which every module is kept.
@@ -77,10 +84,11 @@ echo "demo: the web UI: $url/  (sign in with a user name and password; docs/admi
 echo "demo: start the cell from the UI's Variables page (PLC_ROBOT.PLC_IN.Enable = 1, then PLC_ROBOT.I0 = 1) or: irpctl write PLC_ROBOT.PLC_IN.Enable 1; irpctl write PLC_ROBOT.I0 1 (docs/plc-robot-cell.md)"
 echo "demo: irpd (pid $irpd_pid) on $config; agent (pid $agent_pid) on $url/api/v1/docs"
 echo "demo: DDS bridge (pid $bridge_pid): rt/joint_states and rt/diagnostics on domain ${INDUROP_DDS_DOMAIN:-0}, loopback; the line on the web UI's Line page and irpctl line (docs/dds.md)"
+echo "demo: OPC UA server (pid $opcua_pid): opc.tcp://127.0.0.1:$opcua_port/ -- sign in with a web UI user (Basic256Sha256 or Aes128_Sha256_RsaOaep, Sign or SignAndEncrypt); a client's certificate is refused until moved from $data/opcua/pki/rejected to trusted (docs/opcua.md)"
 echo "demo: the admin token is in $data/admin-token"
-echo "demo: the logs are in $logs (irpd.log, agent.log, dds-bridge.log; the web UI's System page shows the first two)"
+echo "demo: the logs are in $logs (irpd.log, agent.log, dds-bridge.log, opcua.log; the web UI's System page shows the first two)"
 
-stop() { kill -TERM $irpd_pid $agent_pid $bridge_pid 2>/dev/null || true; wait 2>/dev/null || true; }
+stop() { kill -TERM $irpd_pid $agent_pid $bridge_pid $opcua_pid 2>/dev/null || true; wait 2>/dev/null || true; }
 trap stop INT TERM
 # Whichever ends first (irpd after --duration, or the agent) ends the demo.
 wait -n $irpd_pid $agent_pid || true

@@ -104,7 +104,8 @@ for f in /usr/bin/irpd /usr/bin/glbc /usr/bin/indurop-agent /usr/bin/irpctl /usr
          /usr/share/indurop/webui/index.html /usr/share/indurop/sets/signals/module.xml \
          /usr/share/indurop/sets/plc-robot/module.xml /usr/lib/systemd/system/irpd.service \
          /usr/lib/systemd/system/indurop-agent.service /usr/lib/systemd/system/indurop-dds-bridge.service \
-         /usr/bin/indurop-dds-bridge /usr/lib/sysusers.d/indurop.conf \
+         /usr/bin/indurop-dds-bridge /usr/lib/systemd/system/indurop-opcua.service /usr/bin/indurop-opcua \
+         /usr/share/doc/indurop/opcua.md /usr/lib/sysusers.d/indurop.conf \
          /usr/lib/tmpfiles.d/indurop.conf /usr/lib/indurop/venv/bin/python; do
   [ -e "$chr$f" ] || fail "$f is not installed"
 done
@@ -116,10 +117,10 @@ in_chroot id indurop >/dev/null || fail "no user indurop"
 [ "$(in_chroot stat -c '%U %a' /var/lib/indurop/admin-token)" = "indurop 600" ] || fail "the admin token is not indurop's, 0600"
 [ "$(in_chroot stat -c '%U %a' /var/lib/indurop/tls/key.pem)" = "indurop 600" ] || fail "the TLS key is not indurop's, 0600"
 [ "$(in_chroot stat -c '%U' /var/lib/indurop/tls/cert.pem)" = "indurop" ] || fail "the TLS certificate is not indurop's"
-for f in "$chr"/etc/systemd/system/{irpd,indurop-agent,indurop-dds-bridge}.service.d/50-cpus.conf; do
+for f in "$chr"/etc/systemd/system/{irpd,indurop-agent,indurop-dds-bridge,indurop-opcua}.service.d/50-cpus.conf; do
   grep -q '^CPUAffinity=' "$f" || fail "$f has no CPUAffinity"
 done
-for unit in irpd indurop-agent indurop-dds-bridge; do   # enabled for the next boot (deb-systemd-helper)
+for unit in irpd indurop-agent indurop-dds-bridge indurop-opcua; do   # enabled for the next boot (deb-systemd-helper)
   [ -L "$chr/etc/systemd/system/multi-user.target.wants/$unit.service" ] || fail "$unit.service is not enabled"
 done
 # Every ELF file's libraries are found: the Depends are complete.  (A library a wheel bundles
@@ -149,6 +150,7 @@ in_chroot irpd --version | grep -q . || fail "irpd --version"
 in_chroot indurop-agent --help >/dev/null || fail "indurop-agent --help"
 in_chroot irpctl --help >/dev/null || fail "irpctl --help"
 in_chroot indurop-dds-bridge --help >/dev/null || fail "indurop-dds-bridge --help"
+in_chroot indurop-opcua --help >/dev/null || fail "indurop-opcua --help"
 in_chroot glbc --version >/dev/null || fail "glbc --version"
 out=$(in_chroot irpd --config /usr/share/indurop/sets/signals/module.xml --duration 1 --no-rt --instance pkg-chroot 2>&1) \
   || { echo "$out"; fail "irpd on the signals set"; }

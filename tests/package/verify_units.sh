@@ -14,7 +14,8 @@ ln -s usr/lib "$root/lib" && ln -s usr/bin "$root/bin" && ln -s usr/sbin "$root/
 cp /etc/passwd /etc/group "$root/etc/"
 dpkg-deb -x "$deb" "$root"
 out=$(systemd-analyze verify --root="$root" /usr/lib/systemd/system/irpd.service \
-      /usr/lib/systemd/system/indurop-agent.service /usr/lib/systemd/system/indurop-dds-bridge.service 2>&1) || { echo "$out"; echo "FAILED: systemd-analyze verify"; exit 1; }
+      /usr/lib/systemd/system/indurop-agent.service /usr/lib/systemd/system/indurop-dds-bridge.service \
+      /usr/lib/systemd/system/indurop-opcua.service 2>&1) || { echo "$out"; echo "FAILED: systemd-analyze verify"; exit 1; }
 [ -z "$out" ] || { echo "$out"; echo "FAILED: systemd-analyze verify has something to say"; exit 1; }
-systemd-analyze security --offline=yes --root="$root" irpd.service indurop-agent.service indurop-dds-bridge.service 2>/dev/null | grep "Overall" || true
-echo "verify_units: irpd.service, indurop-agent.service and indurop-dds-bridge.service verified"
+systemd-analyze security --offline=yes --root="$root" irpd.service indurop-agent.service indurop-dds-bridge.service indurop-opcua.service 2>/dev/null | grep "Overall" || true
+echo "verify_units: irpd.service, indurop-agent.service, indurop-dds-bridge.service and indurop-opcua.service verified"

@@ -137,7 +137,7 @@ class Users:
     def _note(self, name, client, via, refused, role=None) -> None:
         """One audit line per session sign-in, accepted or refused (as the agent's sign_in)."""
         who = {"id": None, "name": name, "role": role, "user": name if via == "password" else None, "via": "opcua"}
-        extra = {"result": "error", "status": "BadUserAccessDenied", "detail": refused} if refused else {}
+        extra = {"result": "error", "opcua_status": "BadUserAccessDenied", "detail": refused} if refused else {}
         self.audit.write("sign_in", who=who, client=client, target=name, method=via, **({"result": "ok"} | extra))
 
 

@@ -74,7 +74,7 @@ class Writes:
         def done(code: int, detail: str | None = None, **more) -> ua.StatusCode:
             status = ua.StatusCode(code)
             result = "ok" if status.is_good() else "error"
-            self.audit.write("write_variable", **entry, result=result, value=value_for_log, status=status.name,
+            self.audit.write("write_variable", **entry, result=result, value=value_for_log, opcua_status=status.name,
                              **({"detail": detail} if detail else {}), **more)  # fmt: skip
             return status
 

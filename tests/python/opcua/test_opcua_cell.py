@@ -185,8 +185,11 @@ def test_an_operator_writes_a_viewer_is_refused_and_both_are_audited(cell):
     assert done and done[-1]["who"]["name"] == "oper" and done[-1]["who"]["via"] == "opcua" and done[-1]["value"] == 0.5
     assert done[-1]["endpoint"] == cell.url and done[-1]["client"] == "127.0.0.1"
     refused = [e for e in writes if e["who"]["name"] == "view"]
-    assert refused and refused[-1]["result"] == "error" and refused[-1]["status"] == "BadUserAccessDenied"
-    assert [e["status"] for e in writes if e["who"]["name"] == "oper"][-2:] == ["BadTypeMismatch", "BadOutOfRange"]
+    assert refused and refused[-1]["result"] == "error" and refused[-1]["opcua_status"] == "BadUserAccessDenied"
+    assert [e["opcua_status"] for e in writes if e["who"]["name"] == "oper"][-2:] == [
+        "BadTypeMismatch",
+        "BadOutOfRange",
+    ]
 
 
 def test_anonymous_sessions_and_wrong_passwords_are_refused(cell):
