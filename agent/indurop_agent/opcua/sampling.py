@@ -30,6 +30,7 @@ from ..variables import VariableError
 from .values import Var, Variables, typed, variant, wall
 
 _NOTHING = object()
+IDLE_S = 0.05  # how often the loop wakes while nothing is monitored
 Deliver = Callable[[int, ua.DataValue], Awaitable[None]]
 
 
@@ -216,7 +217,8 @@ class Sampler:
                 await self.step()
             except Exception as e:  # a bug must not stop every subscription
                 print(f"indurop-opcua: sampling: {type(e).__name__}: {e}", flush=True)
-            await asyncio.sleep(max(0.0, self.poll_s - (time.monotonic() - start)))
+            period = self.poll_s if self.items else IDLE_S
+            await asyncio.sleep(max(0.0, period - (time.monotonic() - start)))
 
     async def step(self) -> None:
         if not self.items:

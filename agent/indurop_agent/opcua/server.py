@@ -136,11 +136,10 @@ class Session(InternalSession):
             var = self.runtime.space.var_of(wv.NodeId)
             if var is not None and wv.AttributeId == ua.AttributeIds.Value:
                 results.append(await self.runtime.writes.write(self, var, wv))
-            elif var is not None or not getattr(self.user, "may_write", lambda: False)():
+            elif not getattr(self.user, "may_write", lambda: False)():
                 results.append(ua.StatusCode(ua.StatusCodes.BadUserAccessDenied))
-            else:
-                one = ua.WriteParameters(NodesToWrite=[wv])
-                results += await self.iserver.attribute_service.write(one, user=self.user)
+            else:  # only the shared variables' values are written by clients
+                results.append(ua.StatusCode(ua.StatusCodes.BadNotWritable))
         return results
 
     async def browse(self, params):

@@ -4,7 +4,8 @@ Aes128_Sha256_RsaOaep: the tree against GET /variables, every leaf's value, the 
 figures; writes by an operator done and audited, by a viewer refused; anonymous sessions, wrong
 passwords and untrusted client certificates refused; the cell started by writing PLC_IN.Enable and
 I0 while PLC_OUT.Cycles is watched; monitored items within the trace channels irpd has free; bad
-input bounded with status codes; an online change that grows the layout rebuilds the nodes while a
+input (malformed messages, too many items, nodes or sessions, an oversized request) bounded with
+status codes; an online change that grows the layout rebuilds the nodes while a
 subscription on an unchanged variable goes on (docs/opcua.md).  Limits on waits are generous; what
 is asserted is the state reached, never how fast."""
 
@@ -12,6 +13,8 @@ from __future__ import annotations
 
 import asyncio
 import shutil
+import socket
+import struct
 import sys
 import time
 from pathlib import Path
@@ -294,8 +297,31 @@ def test_monitored_items_use_only_the_trace_channels_other_owners_leave_free(cel
         cell.control.request("trace", channels=[], owner="agent")
 
 
+def malformed(port: int) -> list[bytes]:
+    """What the server answers to messages no client would send: garbage, a Hello announcing a
+    huge message, a chunk header claiming 1 GiB, a secure message before any channel."""
+    answers = []
+    hello = struct.pack("<IIIIII", 0, 65536, 65536, 0x7FFFFFFF, 0x7FFFFFFF, 10) + b"opc.tcp://x"
+    for raw in (
+        bytes(range(256)) * 4,
+        b"HELF" + struct.pack("<I", 8 + len(hello)) + hello,
+        b"MSGF" + struct.pack("<I", 1 << 30) + b"\0" * 64,
+        b"MSGF" + struct.pack("<I", 32) + b"\1" * 24,
+    ):
+        with socket.create_connection(("127.0.0.1", port), timeout=10) as s:
+            s.sendall(raw)
+            s.shutdown(socket.SHUT_WR)
+            try:
+                answers.append(s.recv(4096))
+            except OSError:
+                answers.append(b"")
+    return answers
+
+
 def test_bad_input_is_bounded_with_status_codes_and_disturbs_neither_irpd_nor_the_agent(cell):
     missed_before = cell.control.request("status")["missed"]
+    for answer in malformed(cell.port):
+        assert answer == b"" or answer[:3] in (b"ERR", b"ACK"), answer[:16]
 
     async def go():
         c = await cell.connect("view")
