@@ -13,6 +13,7 @@ from pathlib import Path
 
 import httpx
 from asyncua import Client, ua
+from asyncua.crypto import uacrypto
 from asyncua.crypto.cert_gen import setup_self_signed_certificate
 from asyncua.crypto.security_policies import SecurityPolicyAes128Sha256RsaOaep, SecurityPolicyBasic256Sha256
 from cryptography.x509.oid import ExtendedKeyUsageOID
@@ -58,7 +59,11 @@ class Controller:
                 timeout=30,
             )
             assert r.status_code == 201, r.text
-        self.settings = {**LIMITS, **(settings or {})}
+        # An X.509 user certificate the settings map to the operator "mes" (docs/opcua.md "Security").
+        self.user_key, self.user_cert = tmp / "mes-key.pem", tmp / "mes-cert.der"
+        asyncio.run(make_client_certificate(self.user_key, self.user_cert, "urn:indurop:test:mes"))
+        mes = {"certificate": str(self.user_cert), "name": "mes", "role": "operator"}
+        self.settings = {**LIMITS, "user_certificates": [mes], **(settings or {})}
         (tmp / "opcua.json").write_text(json.dumps(self.settings))
         self.port = free_port()
         self.url = f"opc.tcp://127.0.0.1:{self.port}/"
@@ -93,9 +98,11 @@ class Controller:
         return [json.loads(line) for line in (self.data / "audit.jsonl").read_text().splitlines()]
 
     async def connect(self, user: str | None = "oper", password: str | None = None, policy: str = "Basic256Sha256",
-                      mode=ua.MessageSecurityMode.SignAndEncrypt, cert: tuple[Path, Path] | None = None) -> Client:  # fmt: skip
-        """An asyncua client connected and signed in as `user` (None: anonymous) over `policy` and
-        `mode`, with the trusted client certificate (or `cert`: (key, certificate))."""
+                      mode=ua.MessageSecurityMode.SignAndEncrypt, cert: tuple[Path, Path] | None = None,
+                      identity: tuple[Path, Path] | None = None) -> Client:  # fmt: skip
+        """An asyncua client connected over `policy` and `mode` with the trusted client certificate (or
+        `cert`: (key, certificate)), signed in as `user`, or with the X.509 user certificate
+        `identity` (key, certificate), or anonymously (neither)."""
         c = Client(self.url, timeout=30)
         c.application_uri = "urn:indurop:test:client"
         if user is not None:
@@ -103,6 +110,12 @@ class Controller:
             c.set_password(password if password is not None else PASSWORDS[user])
         key, certificate = cert or (self.client_key, self.client_cert)
         await c.set_security(POLICIES[policy], str(certificate), str(key), mode=mode)
+        # asyncua signs in with the application certificate when there is no user name; the tests
+        # say which identity they mean
+        c.user_certificate, c.user_private_key = None, None
+        if identity is not None:
+            c.user_certificate = await uacrypto.load_certificate(str(identity[1]))
+            c.user_private_key = await uacrypto.load_private_key(str(identity[0]))
         await c.connect()
         return c
 

@@ -2,7 +2,7 @@
 beside a real agent whose users sign in, read with asyncua's client over Basic256Sha256 and
 Aes128_Sha256_RsaOaep: the tree against GET /variables, every leaf's value, the controller's
 figures; writes by an operator done and audited, by a viewer refused; anonymous sessions, wrong
-passwords and untrusted client certificates refused; the cell started by writing PLC_IN.Enable and
+passwords and untrusted client certificates refused; an X.509 user certificate mapped to a role; the cell started by writing PLC_IN.Enable and
 I0 while PLC_OUT.Cycles is watched; monitored items within the trace channels irpd has free; bad
 input (malformed messages, too many items, nodes or sessions, an oversized request) bounded with
 status codes; an online change that grows the layout rebuilds the nodes while a
@@ -212,6 +212,31 @@ def test_anonymous_sessions_and_wrong_passwords_are_refused(cell):
     assert any(e["target"] == "oper" and e["result"] == "error" for e in sign_ins)
     assert any(e["target"] == "nobody" and e["result"] == "error" for e in sign_ins)
     assert any(e["target"] == "view" and e["result"] == "ok" and e["who"]["role"] == "viewer" for e in sign_ins)
+
+
+def test_an_x509_user_certificate_signs_in_with_the_role_the_settings_give_it(cell):
+    async def go():
+        mes = await cell.connect(user=None, identity=(cell.user_key, cell.user_cert))
+        try:
+            ns = await ns_of(mes)
+            await mes.get_node(ua.NodeId("PLC_ROBOT.PLC_IN.Override", ns)).write_value(
+                ua.Variant(0.75, ua.VariantType.Double)
+            )
+        finally:
+            await mes.disconnect()
+        try:  # a certificate the settings do not list
+            other = await cell.connect(user=None, identity=(cell.client_key, cell.client_cert))
+        except UaError as e:
+            return type(e).__name__
+        await other.disconnect()
+        return "connected"
+
+    assert asyncio.run(go()) == "BadUserAccessDenied"
+    assert cell.rest("/variables/PLC_ROBOT.PLC_IN.Override")["value"] == 0.75
+    (line,) = [e for e in cell.audit() if e["action"] == "write_variable" and e["value"] == 0.75]
+    assert line["who"]["name"] == "mes" and line["who"]["role"] == "operator" and line["result"] == "ok"
+    sign_ins = [e for e in cell.audit() if e["action"] == "sign_in" and e.get("method") == "certificate"]
+    assert [e["result"] for e in sign_ins][-2:] == ["ok", "error"]
 
 
 def test_an_unknown_client_certificate_is_rejected_until_it_is_moved_to_trusted(cell, tmp_path):
