@@ -27,7 +27,7 @@ from asyncua import ua
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
 from ..trace import MAX_CHANNELS, TraceError, TraceRing
 from ..variables import VariableError
-from .values import Var, Variables, typed, variant, wall
+from .values import Var, Variables, narrowed, typed, variant, wall
 
 _NOTHING = object()
 IDLE_S = 0.05  # how often the loop wakes while nothing is monitored
@@ -39,15 +39,19 @@ class Item:
     """One monitored item of a shared variable."""
 
     handle: int
-    var: Var
+    node: Var  # the variable node monitored
     interval_ms: float  # revised: a multiple of the basic period
     deliver: Deliver  # hands a DataValue to the monitored item (subscriptions.py)
+    picked: range | None = None  # an IndexRange of a 1-D array: those elements only
     last: object = _NOTHING  # the value delivered last (typed), to deliver changes only
     next_due: float = 0.0  # shm sampling: when (monotonic s) it is sampled next
     after_seq: int = 0  # ring sampling: rows up to this seq were covered by a read of the segment
     ring: bool = False  # fed from the trace rings now
     decimation: int = 1
     gone: bool = False  # its variable left the layout: it gets no more values
+
+    def __post_init__(self) -> None:
+        self.var = narrowed(self.node, self.picked)  # what is sampled: the node, or its elements picked
 
     @property
     def scalar(self) -> bool:
@@ -128,13 +132,13 @@ class Sampler:
         same type and shape (its leaves are taken anew); the others are returned, marked gone."""
         gone = []
         for item in self.items.values():
-            new = variables.get(item.var.path)
-            if new is None or new.signature != item.var.signature:
+            new = variables.get(item.node.path)
+            if new is None or new.signature != item.node.signature:
                 if not item.gone:
                     item.gone = True
                     gone.append(item)
             else:
-                item.var, item.gone = new, False
+                item.node, item.var, item.gone = new, narrowed(new, item.picked), False
         self._dirty = True
         return gone
 

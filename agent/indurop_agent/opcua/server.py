@@ -48,7 +48,7 @@ from .sampling import Sampler
 from .security import TrustList, Users, application_uri, ensure_certificate, thumbprint
 from .settings import OpcuaSettings, parse_args
 from .subscriptions import Subscriptions
-from .values import Variables
+from .values import Variables, index_range, narrowed
 from .writes import Writes
 
 POLICY_TYPES = {
@@ -123,10 +123,20 @@ class Session(InternalSession):
         self._bound(len(params.NodesToRead), "max_nodes_per_read")
         results = await super().read(params)
         may_write = getattr(self.user, "may_write", lambda: False)()
-        if not may_write:
-            for i, rv in enumerate(params.NodesToRead):
-                if rv.AttributeId == ua.AttributeIds.UserAccessLevel and self.runtime.space.var_of(rv.NodeId):
-                    results[i] = ua.DataValue(ua.Variant(ua.AccessLevel.CurrentRead.mask, ua.VariantType.Byte))
+        space = self.runtime.space
+        for i, rv in enumerate(params.NodesToRead):
+            var = space.var_of(rv.NodeId)
+            if var is None:
+                continue
+            if rv.AttributeId == ua.AttributeIds.UserAccessLevel and not may_write:
+                results[i] = ua.DataValue(ua.Variant(ua.AccessLevel.CurrentRead.mask, ua.VariantType.Byte))
+            elif rv.AttributeId == ua.AttributeIds.Value and rv.IndexRange:
+                picked = index_range(rv.IndexRange, len(var.leaves)) if len(var.dims) == 1 else None
+                results[i] = (
+                    self.runtime.variables.data_value(narrowed(var, picked))
+                    if picked is not None
+                    else ua.DataValue(StatusCode=ua.StatusCode(ua.StatusCodes.BadIndexRangeInvalid))
+                )
         return results
 
     async def write(self, params):

@@ -25,6 +25,7 @@ from asyncua.server.monitored_item_service import MonitoredItemService
 from asyncua.server.subscription_service import SubscriptionService
 
 from .sampling import Item
+from .values import index_range
 
 if TYPE_CHECKING:
     from .server import Runtime
@@ -175,14 +176,17 @@ class MonitoredItems(MonitoredItemService):
         var = self.runtime.space.var_of(ref.NodeId) if ref.AttributeId == ua.AttributeIds.Value else None
         if var is None:
             return await super()._create_data_change_monitored_item(params)
-        if ref.IndexRange:
-            return ua.MonitoredItemCreateResult(StatusCode=ua.StatusCode(ua.StatusCodes.BadIndexRangeInvalid))
+        picked = None
+        if ref.IndexRange:  # elements of a 1-D array: sampled as variables of their own
+            picked = index_range(ref.IndexRange, len(var.leaves)) if len(var.dims) == 1 else None
+            if picked is None:
+                return ua.MonitoredItemCreateResult(StatusCode=ua.StatusCode(ua.StatusCodes.BadIndexRangeInvalid))
         result, mdata = self._make_monitored_item_common(params)
         handle = next(HANDLES)
         mdata.callback_handle = handle
         self._commit_monitored_item(result, mdata)
         self._monitored_datachange[handle] = result.MonitoredItemId
-        item = Item(handle, var, result.RevisedSamplingInterval, self.deliver)
+        item = Item(handle, var, result.RevisedSamplingInterval, self.deliver, picked)
         sampler = self.runtime.sampler
         sampler.add(item)
         if mdata.mode != ua.MonitoringMode.Disabled:

@@ -5,6 +5,7 @@ own reader (variables.Segment: never a lock, never a wait on an RT writer)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -77,6 +78,26 @@ def element_suffixes(dims: tuple[int, ...]) -> list[str]:
     for d in dims:
         out = [s + f"[{i}]" for s in out for i in range(d)]
     return out
+
+
+def index_range(text: str, length: int) -> range | None:
+    """An IndexRange of a 1-D array of `length` ("3", "2:4"); None when it is not one of it."""
+    try:
+        if ":" in text:
+            a, b = (int(x) for x in text.split(":"))
+            return range(a, b + 1) if 0 <= a < b < length else None
+        a = int(text)
+        return range(a, a + 1) if 0 <= a < length else None
+    except ValueError:
+        return None
+
+
+def narrowed(var: Var, picked: range | None) -> Var:
+    """The elements `picked` of a 1-D array variable as a variable of their own (one: a scalar)."""
+    if picked is None:
+        return var
+    dims = () if len(picked) == 1 else (len(picked),)
+    return dataclasses.replace(var, dims=dims, leaves=tuple(var.leaves[i] for i in picked))
 
 
 def variant_of(layout: dict, type_name: str) -> ua.VariantType | None:

@@ -15,7 +15,7 @@ from asyncua import ua
 
 from ..audit import AuditLog
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
-from .values import INTEGERS, Var
+from .values import INTEGERS, Var, index_range
 
 FLOATS = (ua.VariantType.Float, ua.VariantType.Double)
 
@@ -34,19 +34,6 @@ def _flatten(value) -> list:
     if isinstance(value, (list, tuple)):
         return [x for v in value for x in _flatten(v)]
     return [value]
-
-
-def _index_range(text: str, length: int) -> range | None:
-    """An IndexRange ("3", "2:4") of a 1-D array of `length`; None when it is not one."""
-    try:
-        if ":" in text:
-            a, b = (int(x) for x in text.split(":"))
-            ok = 0 <= a < b < length
-            return range(a, b + 1) if ok else None
-        a = int(text)
-        return range(a, a + 1) if 0 <= a < length else None
-    except ValueError:
-        return None
 
 
 class Writes:
@@ -89,7 +76,7 @@ class Writes:
                 return done(ua.StatusCodes.BadTypeMismatch, f"{var.path} is an array of {len(leaves)}")
             values = _flatten(raw)
             if wv.IndexRange:
-                picked = _index_range(wv.IndexRange, len(leaves)) if len(var.dims) == 1 else None
+                picked = index_range(wv.IndexRange, len(leaves)) if len(var.dims) == 1 else None
                 if picked is None:
                     return done(ua.StatusCodes.BadIndexRangeInvalid, f"index range {wv.IndexRange!r} of {var.dims}")
                 leaves = [leaves[i] for i in picked]

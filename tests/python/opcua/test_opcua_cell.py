@@ -84,6 +84,7 @@ def test_the_tree_is_the_layout_of_get_variables_with_its_types(cell):
         c = await cell.connect("view")
         try:
             ns = await ns_of(c)
+            assert ns == 2  # as the README and docs/opcua.md write the NodeIds
             found = {}
             for node in await leaves_under(c, c.get_node(ua.NodeId("PLC_ROBOT", ns))):
                 path = node.nodeid.Identifier

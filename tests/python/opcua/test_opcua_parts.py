@@ -21,8 +21,8 @@ sys.path.insert(0, str(ROOT / "agent"))
 from indurop_agent.opcua.sampling import Sampler
 from indurop_agent.opcua.settings import OpcuaSettings, check, parse_args
 from indurop_agent.opcua.subscriptions import OVERFLOW, Subscription
-from indurop_agent.opcua.values import Obj, Var, Variables, element_suffixes, shaped, tree, typed
-from indurop_agent.opcua.writes import _fits, _index_range
+from indurop_agent.opcua.values import Obj, Var, Variables, element_suffixes, index_range, narrowed, shaped, tree, typed
+from indurop_agent.opcua.writes import _fits
 
 CELL_LAYOUT = BUILD / "sets" / "plc-robot" / "layout.json"
 needs_cell = pytest.mark.skipif(not CELL_LAYOUT.exists(), reason=f"the plc-robot cell is not built ({CELL_LAYOUT})")
@@ -149,8 +149,11 @@ def test_what_a_write_must_be():
     assert _fits(double, 1.5) and _fits(double, 2) and not _fits(double, float("nan")) and not _fits(double, True)
     assert _fits(short, 3) and not _fits(short, 3.0) and not _fits(short, False)
     assert _fits(flag, True) and not _fits(flag, 1)
-    assert _index_range("2", 6) == range(2, 3) and _index_range("1:3", 6) == range(1, 4)
-    assert _index_range("6", 6) is None and _index_range("3:1", 6) is None and _index_range("x", 6) is None
+    assert index_range("2", 6) == range(2, 3) and index_range("1:3", 6) == range(1, 4)
+    assert index_range("6", 6) is None and index_range("3:1", 6) is None and index_range("x", 6) is None
+    joints = Var("j", "", "j", "double", ua.VariantType.Double, (6,), tuple(f"j[{i}]" for i in range(6)))
+    assert narrowed(joints, range(4, 5)).leaves == ("j[4]",) and narrowed(joints, range(4, 5)).dims == ()
+    assert narrowed(joints, range(1, 3)).dims == (2,) and narrowed(joints, None) is joints
 
 
 @pytest.mark.parametrize(

@@ -2,7 +2,7 @@
 counter SIG.sample and sixteen waves every 1 ms) with a module that raises an alarm while a file
 exists: a monitored item at 10 ms on the 1 kHz counter gets every tenth row's value from the trace
 rings (each one 10 more than the one before: nothing skipped, nothing twice), stamped 10 ms apart on
-the period grid; items at 10 ms and 50 ms on the same variable each see their own rate; a queue
+the period grid; an element of an array (an IndexRange) the same; items at 10 ms and 50 ms on the same variable each see their own rate; a queue
 smaller than a publishing interval's values keeps the newest with the Overflow bit; the alarm's
 raise and clear arrive as AlarmConditionType events with their severity (docs/opcua.md)."""
 
@@ -104,6 +104,38 @@ def test_a_1khz_counter_monitored_at_10ms_gets_every_tenth_row(signals):
     assert all(dv.StatusCode.is_good() for dv in fast)
     slow_counts = [dv.Value.Value for dv in slow[1:]]
     assert {b - a for a, b in zip(slow_counts, slow_counts[1:])} == {50}
+
+
+def test_an_element_of_an_array_is_monitored_and_read_by_index_range(signals):
+    async def go():
+        c = await signals.connect("view")
+        try:
+            ns = await ns_of(c)
+            waves = c.get_node(ua.NodeId("SIG.wave", ns))
+            notes = Notes()
+            sub = await c.create_subscription(100, notes)
+            request = sub._make_monitored_item_request(
+                waves, ua.AttributeIds.Value, None, 100, ua.MonitoringMode.Reporting, 10
+            )
+            request.ItemToMonitor.IndexRange = "0"  # the 1 Hz sine: a new value every row
+            (sine,) = await sub.create_monitored_items([request])
+            await until(lambda: signals.server_status().get("sampling", {}).get("from_trace_rings", 0) >= 1)
+            count = len(notes.values.get(sine, []))
+            await until(lambda: len(notes.values.get(sine, [])) >= count + 100)
+            values = notes.values[sine][count + 1 :]  # from the rings now
+            rv = ua.ReadValueId(NodeId=waves.nodeid, AttributeId=ua.AttributeIds.Value, IndexRange="4:5")
+            params = ua.ReadParameters(NodesToRead=[rv])
+            (two,) = await c.uaclient.read(params)
+            await sub.delete()
+            return values, two
+        finally:
+            await c.disconnect()
+
+    values, two = asyncio.run(go())
+    assert all(isinstance(dv.Value.Value, float) for dv in values)
+    gaps = {round((b.SourceTimestamp - a.SourceTimestamp).total_seconds() * 1000) for a, b in zip(values, values[1:])}
+    assert gaps == {10}, gaps  # every tenth row of the rings
+    assert two.StatusCode.is_good() and len(two.Value.Value) == 2
 
 
 def test_a_queue_smaller_than_a_publishing_intervals_values_keeps_the_newest_with_the_overflow_bit(signals):
