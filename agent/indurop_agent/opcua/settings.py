@@ -52,6 +52,7 @@ class OpcuaSettings:
     max_sampling_interval_ms: float = 3_600_000.0
     min_publishing_interval_ms: float = 20.0
     max_queue_size: int = 1000
+    max_notifications_per_publish: int = 2000  # data changes in one NotificationMessage, at most
     poll_ms: float = 5.0  # how often the trace rings are read and due items sampled
     status_s: float = 1.0  # how often irpd's status, modules and stats are asked
     status_file_s: float = 5.0  # how often <data>/opcua/status.json is written
@@ -123,6 +124,7 @@ def check(s: OpcuaSettings) -> OpcuaSettings:
         raise ValueError(f"poll_ms {s.poll_ms}: from 0.5 to min_sampling_interval_ms")
     positive = (
         "max_queue_size",
+        "max_notifications_per_publish",
         "max_sessions",
         "max_subscriptions_per_session",
         "max_subscriptions",

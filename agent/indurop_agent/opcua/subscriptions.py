@@ -6,6 +6,8 @@ asyncua does (docs/opcua.md "Subscriptions", "Limits"):
 - sampling intervals are revised as sampling.py runs them (a multiple of the basic period, at least
   min_sampling_interval_ms); monitored items of shared variables are fed by the Sampler instead of
   the address space's write callbacks;
+- at most max_notifications_per_publish data changes go in one NotificationMessage (MoreNotifications
+  set while more wait);
 - queue sizes follow the spec (0 and 1: one value; at most max_queue_size), with discardOldest and
   the Overflow bit of the StatusCode's InfoBits on the value next to the one discarded;
 - monitored items are bounded per call (BadTooManyOperations), per session and in all
@@ -66,6 +68,7 @@ class Subscriptions(SubscriptionService):
             result.RevisedLifetimeCount = 3 * result.RevisedMaxKeepAliveCount
         self._sub_id_counter += 1
         result.SubscriptionId = self._sub_id_counter
+        requested = int(params.MaxNotificationsPerPublish or 0)
         sub = Subscription(
             result,
             self.aspace,
@@ -77,6 +80,9 @@ class Subscriptions(SubscriptionService):
             no_acks_limit=self.iserver.max_unacked_messages_per_subscription,
             max_queue_size=s.max_queue_size,
             publishing_enabled=params.PublishingEnabled,
+        )
+        sub.max_notifications = (
+            min(requested, s.max_notifications_per_publish) if requested else s.max_notifications_per_publish
         )
         await sub.start()
         self.subscriptions[result.SubscriptionId] = sub
@@ -97,6 +103,30 @@ class Subscription(InternalSubscription):
     def __init__(self, *args, runtime: Runtime, **kwargs):
         super().__init__(*args, **kwargs)
         self.monitored_item_srv = MonitoredItems(self, self.monitored_item_srv.aspace, runtime)
+        self.max_notifications = runtime.settings.max_notifications_per_publish
+
+    def _pop_triggered_datachanges(self, result) -> None:
+        """At most max_notifications data changes per NotificationMessage (the client's
+        MaxNotificationsPerPublish, and the server's own bound, which keeps a message under the
+        size a client accepts); the rest wait for the next publish, oldest first."""
+        taken: list = []
+        for mid in list(self._triggered_datachanges):
+            queue = self._triggered_datachanges[mid]
+            part = queue[: self.max_notifications - len(taken)]
+            taken += part
+            if len(part) == len(queue):
+                del self._triggered_datachanges[mid]
+            else:
+                del queue[: len(part)]
+            if len(taken) >= self.max_notifications:
+                break
+        if taken:
+            result.NotificationMessage.NotificationData.append(ua.DataChangeNotification(MonitoredItems=taken))
+
+    def _pop_publish_result(self):
+        result = super()._pop_publish_result()
+        result.MoreNotifications = bool(self._triggered_datachanges)
+        return result
 
     async def enqueue_datachange_event(self, mid, eventdata, maxsize) -> None:
         """The spec's queue (Part 4, 5.12.1.5): full, discardOldest drops the oldest value and sets

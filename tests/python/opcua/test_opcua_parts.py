@@ -142,6 +142,19 @@ def test_a_queue_of_one_keeps_the_newest_without_the_overflow_bit():
     assert queue_after([1, 2, 3], 0, True) == [(3, False)]
 
 
+def test_a_publish_carries_at_most_max_notifications_the_rest_wait_oldest_first():
+    sub = Subscription.__new__(Subscription)
+    sub.max_notifications = 3
+    sub._triggered_datachanges = {1: [notification(1), notification(2)], 2: [notification(3), notification(4)]}
+    first, second = ua.PublishResult(), ua.PublishResult()
+    sub._pop_triggered_datachanges(first)
+    assert [n.Value.Value.Value for n in first.NotificationMessage.NotificationData[0].MonitoredItems] == [1, 2, 3]
+    assert sub._triggered_datachanges == {2: [notification(4)]}
+    sub._pop_triggered_datachanges(second)
+    assert [n.Value.Value.Value for n in second.NotificationMessage.NotificationData[0].MonitoredItems] == [4]
+    assert sub._triggered_datachanges == {}
+
+
 def test_what_a_write_must_be():
     double = Var("x", "", "x", "double", ua.VariantType.Double, (), ("x",))
     short = Var("s", "", "s", "short", ua.VariantType.Int16, (), ("s",))
