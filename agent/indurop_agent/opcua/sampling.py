@@ -27,7 +27,7 @@ from asyncua import ua
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
 from ..trace import MAX_CHANNELS, TraceError, TraceRing
 from ..variables import VariableError
-from .values import Var, Variables, narrowed, typed, variant, wall
+from .values import Var, Variables, clock_offset_ns, narrowed, typed, variant, wall
 
 _NOTHING = object()
 IDLE_S = 0.05  # how often the loop wakes while nothing is monitored
@@ -77,7 +77,7 @@ class Sampler:
         self.ring_name: str | None = None
         self.cursor = 0
         self.basic_ns = 0
-        self.clock_offset_ns = time.time_ns() - time.monotonic_ns()
+        self.clock_offset_ns = clock_offset_ns()  # rows' due times (CLOCK_MONOTONIC) onto the wall clock
         self.granted: list[str] = []  # the channels irpd traces for us
         self.in_force: set[str] = set()  # the paths of the configuration the newest rows have
         self.stats = SamplerStats()
@@ -163,7 +163,7 @@ class Sampler:
             self.basic_ns = basic
             for item in self.items.values():
                 item.decimation = self._decimation(item.interval_ms)
-        offset = time.time_ns() - time.monotonic_ns()
+        offset = clock_offset_ns()
         if abs(offset - self.clock_offset_ns) > 1_000_000:  # the wall clock was stepped
             self.clock_offset_ns = offset
         if self.ring is not None:

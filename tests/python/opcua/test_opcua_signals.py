@@ -22,6 +22,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from live_processes import BUILD, module_entry
 from opcua_helpers import Controller, ns_of
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "agent"))
+from indurop_agent.auth import now_iso
+
 SIGNALS = BUILD / "sets" / "signals"
 ALARMING = BUILD / "tests" / "cpp" / "modules" / "alarming.so"  # raises its `ids` while `trigger` exists
 LIMIT_S = 60
@@ -65,6 +68,12 @@ class Notes:
         self.events.append(event)
 
 
+def sampling_since(signals, since: str) -> dict:
+    """The server's sampling counts from a status.json written after `since` (ISO time), else {}."""
+    status = signals.server_status()
+    return status.get("sampling", {}) if status.get("updated", "") > since else {}
+
+
 async def until(what, seconds: float = LIMIT_S):
     deadline = time.monotonic() + seconds
     while not what():
@@ -83,7 +92,8 @@ def test_a_1khz_counter_monitored_at_10ms_gets_every_tenth_row(signals):
             # An item's values come from the segment until irpd traces its variable for the server:
             # once it does, a new item's values after its first come from the rings alone.
             await sub.subscribe_data_change(sample, sampling_interval=1000)
-            await until(lambda: signals.server_status().get("sampling", {}).get("traced_channels") == 1)
+            since = now_iso()
+            await until(lambda: sampling_since(signals, since).get("from_trace_rings") == 1)
             fast = await sub.subscribe_data_change(sample, sampling_interval=10, queuesize=100)
             slow = await sub.subscribe_data_change(sample, sampling_interval=50, queuesize=100)
             await until(lambda: len(notes.values.get(fast, [])) >= 300)
@@ -119,7 +129,8 @@ def test_an_element_of_an_array_is_monitored_and_read_by_index_range(signals):
             )
             request.ItemToMonitor.IndexRange = "0"  # the 1 Hz sine: a new value every row
             (sine,) = await sub.create_monitored_items([request])
-            await until(lambda: signals.server_status().get("sampling", {}).get("from_trace_rings", 0) >= 1)
+            since = now_iso()
+            await until(lambda: sampling_since(signals, since).get("from_trace_rings") == 1)
             count = len(notes.values.get(sine, []))
             await until(lambda: len(notes.values.get(sine, [])) >= count + 100)
             values = notes.values[sine][count + 1 :]  # from the rings now
