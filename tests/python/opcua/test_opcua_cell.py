@@ -12,8 +12,10 @@ is asserted is the state reached, never how fast."""
 from __future__ import annotations
 
 import asyncio
+import json
 import shutil
 import socket
+import stat
 import struct
 import sys
 import time
@@ -21,12 +23,13 @@ from pathlib import Path
 
 import httpx
 import pytest
-from asyncua import ua
+from asyncua import Client, ua
 from asyncua.ua.uaerrors import UaError
+from cryptography import x509
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from live_processes import BUILD, copy_cell, wait_until
+from live_processes import BUILD, copy_cell, free_port, output, start_opcua, stop, wait_until
 from opcua_helpers import Controller, leaves_under, make_client_certificate, ns_of
 
 CELL = BUILD / "sets" / "plc-robot"
@@ -238,6 +241,60 @@ def test_an_x509_user_certificate_signs_in_with_the_role_the_settings_give_it(ce
     assert line["who"]["name"] == "mes" and line["who"]["role"] == "operator" and line["result"] == "ok"
     sign_ins = [e for e in cell.audit() if e["action"] == "sign_in" and e.get("method") == "certificate"]
     assert [e["result"] for e in sign_ins][-2:] == ["ok", "error"]
+
+
+def test_the_server_certificate_was_made_at_first_start_with_the_hosts_names(cell):
+    folder = cell.data / "opcua"
+    assert stat.S_IMODE((folder / "server-key.pem").stat().st_mode) == 0o600
+    cert = x509.load_der_x509_certificate((folder / "server-cert.der").read_bytes())
+    names = cert.extensions.get_extension_for_class(x509.SubjectAlternativeName).value
+    assert socket.gethostname() in names.get_values_for_type(x509.DNSName)
+    assert "127.0.0.1" in [str(a) for a in names.get_values_for_type(x509.IPAddress)]
+    assert f"urn:{socket.gethostname()}:indurop:opcua" in names.get_values_for_type(x509.UniformResourceIdentifier)
+    status = cell.server_status()
+    assert status["security"] == {
+        "policies": ["Basic256Sha256", "Aes128_Sha256_RsaOaep"],
+        "security_none": False,
+        "anonymous": False,
+        "warnings": [],
+    }
+    assert "WARNING" not in cell.output()
+
+
+def test_none_and_anonymous_run_only_when_configured_and_are_warned_about(cell, tmp_path):
+    config = tmp_path / "open.json"
+    settings = {
+        "security_policies": ["None"],
+        "allow_anonymous": True,
+        "trace_owner": "opcua-open",
+        "status_file_s": 0.5,
+    }
+    config.write_text(json.dumps(settings))
+    port = free_port()
+    server = start_opcua(cell.sock, tmp_path / "data", port, "--config", str(config))
+
+    async def go():
+        c = Client(f"opc.tcp://127.0.0.1:{port}/", timeout=30)  # no security, no user
+        await c.connect()
+        try:
+            ns = await ns_of(c)
+            node = c.get_node(ua.NodeId("PLC_ROBOT.IO_STATUS.cycles", ns))
+            value = await node.read_value()
+            with pytest.raises(ua.uaerrors.BadUserAccessDenied):  # anonymous_role: viewer
+                await c.get_node(ua.NodeId("PLC_ROBOT.I1", ns)).write_value(ua.Variant(1, ua.VariantType.Int16))
+            return value
+        finally:
+            await c.disconnect()
+
+    try:
+        assert asyncio.run(go()) > 0
+        status = wait_until(lambda: json.loads((tmp_path / "data" / "opcua" / "status.json").read_text()), 30, 0.1)
+        assert status["security"]["security_none"] and status["security"]["anonymous"]
+        assert len(status["security"]["warnings"]) == 2
+        log = output(server)
+        assert "WARNING: security policy None is offered" in log and "WARNING: anonymous sessions are allowed" in log
+    finally:
+        stop(server)
 
 
 def test_an_unknown_client_certificate_is_rejected_until_it_is_moved_to_trusted(cell, tmp_path):
