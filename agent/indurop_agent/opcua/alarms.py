@@ -69,8 +69,9 @@ class AlarmEvents:
                 (s.get("module"), d.get("id")): d for s in answer.get("sources", []) for d in s.get("declared", [])
             }
         if self.segment is not None:
-            self.names = {s.index: s.name for s in self.segment.sources()}
-            active = sum(len(s.active) for s in self.segment.sources())
+            sources = self.segment.sources()
+            self.names = {s.index: s.name for s in sources}
+            active = sum(len(s.active) for s in sources)
             await self.active_node.write_value(ua.Variant(active, ua.VariantType.UInt32))
 
     async def step(self) -> None:

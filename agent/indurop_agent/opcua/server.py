@@ -255,8 +255,9 @@ async def poll_status(rt: Runtime) -> None:
     await rt.alarms.follow(status, set_changed)
 
 
-def write_status(rt: Runtime) -> None:
-    """<data>/opcua/status.json: what the agent (and its UI) may show about the server."""
+def status_body(rt: Runtime) -> dict:
+    """<data>/opcua/status.json: what the agent (and its UI) may show about the server (made in the
+    event loop, which alone changes what it counts)."""
     s = rt.settings
     cert = rt.certificate
     sessions = len(rt.iserver._external_sessions)
@@ -279,7 +280,6 @@ def write_status(rt: Runtime) -> None:
             "sha256": thumbprint(cert.public_bytes(Encoding.DER)) if cert else None,
             "not_after": cert.not_valid_after_utc.isoformat() if cert else None,
         },
-        "trust": rt.trust.listing(),
         "irpd": bool(rt.status),
         "layout_hash": rt.space.layout_hash,
         "sessions": sessions,
@@ -288,7 +288,13 @@ def write_status(rt: Runtime) -> None:
         "sampling": rt.sampler.counts(),
         "alarm_events": rt.alarms.emitted,
     }
-    write_atomically(s.pki / "status.json", json.dumps(body, indent=1), mode=0o640)
+    return body
+
+
+def write_status(rt: Runtime, body: dict) -> None:
+    """Writes status.json with the trust list (files only: in a worker thread)."""
+    body["trust"] = rt.trust.listing()
+    write_atomically(rt.settings.pki / "status.json", json.dumps(body, indent=1), mode=0o640)
 
 
 async def loop_status(rt: Runtime) -> None:
@@ -299,7 +305,7 @@ async def loop_status(rt: Runtime) -> None:
             await poll_status(rt)
             if start >= next_file:
                 next_file = start + rt.settings.status_file_s
-                await asyncio.to_thread(write_status, rt)
+                await asyncio.to_thread(write_status, rt, status_body(rt))
         except Exception as e:  # never leave the loop: the next poll tries again
             log(f"status: {type(e).__name__}: {e}")
         await asyncio.sleep(max(0.0, rt.settings.status_s - (time.monotonic() - start)))
