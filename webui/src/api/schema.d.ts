@@ -3241,6 +3241,8 @@ export interface components {
             reason?: string | null;
             /** Rows */
             rows: number;
+            /** @description a capture's shot: which capture and shot, and its trigger row */
+            shot?: components["schemas"]["ShotOf"] | null;
             /**
              * Size
              * @description bytes of its files
@@ -3642,6 +3644,26 @@ export interface components {
              * @description why, for the history
              */
             reason: string;
+        };
+        /** ShotOf */
+        ShotOf: {
+            /**
+             * Capture
+             * @description the capture's id (GET /captures/{capture})
+             */
+            capture: string;
+            /**
+             * Cause
+             * @description what triggered it, in words
+             */
+            cause: string;
+            /** Shot */
+            shot: number;
+            /**
+             * Trigger Seq
+             * @description the trace row that triggered it
+             */
+            trigger_seq: number;
         };
         /**
          * ShotRows
