@@ -53,17 +53,9 @@ export class CapturesView {
           h(
             "tr",
             {},
-            [
-              "capture",
-              "state",
-              "trigger",
-              "before / after",
-              "pre-trigger buffer",
-              "shots",
-              "lost rows",
-              "message",
-              "shot",
-            ].map((t) => h("th", {}, t)),
+            ["capture", "state", "trigger", "before / after", "buffer", "shots", "lost rows", "shot"].map((t) =>
+              h("th", {}, t),
+            ),
             env.operator ? h("th", {}, "") : null,
           ),
         ),
@@ -104,7 +96,7 @@ export class CapturesView {
       this.body.replaceChildren(
         ...(captures.length
           ? captures.map((c) => this.rows.get(c.id)!.tr)
-          : [h("tr", {}, h("td", { colspan: 10, class: "muted" }, "no capture: set one up above and arm it"))]),
+          : [h("tr", {}, h("td", { colspan: 9, class: "muted" }, "no capture: set one up above and arm it"))]),
       );
     }
   }
@@ -117,24 +109,29 @@ export class CapturesView {
       fill,
       shots: h("td", { class: "num", "data-testid": `shots-${c.id}` }),
       lost: h("td", { class: "num" }),
-      message: h("td", { class: "wrap", "data-testid": `message-${c.id}` }),
+      message: h("div", { class: "ops-sub warn", "data-testid": `message-${c.id}` }),
     };
     const tr = h(
       "tr",
       { "data-testid": `capture-${c.id}`, "data-state": c.state, "data-shots": c.shots.length },
-      h("td", { class: "nowrap", title: c.id }, req.name || c.id, h("div", { class: "ops-sub mono" }, c.id)),
+      h(
+        "td",
+        { class: "nowrap", title: c.id },
+        req.name || h("span", { class: "mono" }, c.id),
+        req.name ? h("div", { class: "ops-sub mono" }, c.id) : null,
+      ),
       h("td", { class: `state ${STATE_LEVEL[c.state]}`, "data-testid": `state-${c.id}` }, c.state),
       h(
         "td",
-        { class: "wrap mono" },
-        triggerText(req.trigger),
-        h("div", { class: "ops-sub" }, req.variables.join(", ")),
+        { class: "scope-trigger" },
+        h("span", { class: "mono" }, triggerText(req.trigger)),
+        h("div", { class: "ops-sub" }, `capturing ${req.variables.join(", ")}`),
+        cells.message,
       ),
       h("td", { class: "nowrap" }, `${lengthText(req.pre)} / ${lengthText(req.post)}`),
       fill,
       cells.shots,
       cells.lost,
-      cells.message,
       h("td", { class: "nowrap" }, this.shotPicker(c)),
       this.env.operator ? h("td", { class: "nowrap" }, this.actions(c)) : null,
     );
@@ -159,7 +156,7 @@ export class CapturesView {
     );
     plot.addEventListener("click", () => this.env.plot(c, Number(pick.value), false));
     over.addEventListener("click", () => this.env.plot(c, Number(pick.value), true));
-    return [pick, " ", plot, " ", over];
+    return [pick, h("br", {}), plot, " ", over];
   }
 
   private actions(c: CapturePublic): HTMLElement {
@@ -186,8 +183,4 @@ export class CapturesView {
 export function countsText(captures: CapturePublic[]): string {
   const n = (s: CapturePublic["state"]) => captures.filter((c) => c.state === s).length;
   return `${captures.length} captures · ${n("armed")} armed · ${n("triggered")} triggered · ${n("done")} done`;
-}
-
-export function setCounts(el: Element, captures: CapturePublic[]): void {
-  setText(el, countsText(captures));
 }

@@ -108,6 +108,6 @@ export function summaryText(s: ShotSummary, every = 1): string {
     `${s.drops} dropped`,
     `cause: ${s.cause}`,
   ];
-  if (every > 1) parts.push(`every ${every}th row shown`);
+  if (every > 1) parts.push(`1 row in ${every} shown`);
   return parts.join(" · ");
 }
