@@ -2,16 +2,18 @@
 on in-process agents (no irpd): saved, listed, read and deleted with the roles the API says and
 an audit line per change; names that could be paths, bodies that are not a capture request and
 unknown sets refused with nothing written; at most MAX_CONFIGS per set; a prune removes them with
-their set, and a backup carries them into another data folder.  docs/recorder.md "Trace
-configurations"."""
+their set, and a backup carries them into another data folder; irpctl scope saves, lists, gets
+and removes them.  docs/recorder.md "Trace configurations", docs/irpctl.md."""
 
 from __future__ import annotations
 
 import json
 import stat
 
+import httpx
 import pytest
-from agent_helpers import API, files_body, post_set, small_set
+from agent_helpers import API, files_body, free_port, post_set, small_set, start_agent, stop
+from indurop_agent import cli
 from indurop_agent.api.scope_models import MAX_CONFIGS
 from test_system_backup import backup, members, quiet_restarts, repack, restarted, restore, snapshot, with_manifest
 
@@ -242,3 +244,63 @@ def test_a_backup_with_a_bad_configuration_or_one_of_a_set_it_lacks_is_refused(m
         r = restore(target, repack(with_manifest(files)), dry_run=True)
         assert r.status_code == 400 and says in r.json()["detail"], r.text
     assert snapshot(target.data) == before
+
+
+# ---- irpctl scope -----------------------------------------------------------------------------------
+@pytest.fixture
+def irpctl(tmp_path, capsys, monkeypatch, elves):
+    """irpctl against a real agent (no irpd) holding one stored set, none active: (run, set id)."""
+    for name in ("INDUROP_URL", "INDUROP_TOKEN", "INDUROP_TOKEN_FILE"):
+        monkeypatch.delenv(name, raising=False)
+    port, data = free_port(), tmp_path / "data"
+    agent = start_agent(port, data, tmp_path / "no-irpd.sock")
+    url, token_file = f"http://127.0.0.1:{port}", str(data / "admin-token")
+    body, ctype = files_body(small_set(elves))
+    token = (data / "admin-token").read_text().strip()
+    r = httpx.post(
+        f"{url}{API}/sets", content=body, headers={"Authorization": f"Bearer {token}", "Content-Type": ctype}
+    )
+    assert r.status_code == 201, r.text
+
+    def run(*argv: str) -> tuple[int, str, str]:
+        capsys.readouterr()
+        code = cli.main(["--url", url, "--token-file", token_file, *argv])
+        out, err = capsys.readouterr()
+        return code, out, err
+
+    yield run, r.json()["id"]
+    stop(agent)
+
+
+def test_irpctl_scope_saves_lists_gets_and_removes_a_configuration(irpctl, tmp_path):
+    run, set_id = irpctl
+    code, _, err = run("scope", "list")  # no set active through the agent
+    assert code == 1 and "give --set ID" in err
+    request = tmp_path / "capture.json"
+    request.write_text(json.dumps(CONFIG["capture"]))  # a bare capture request, as `capture arm` sends
+    code, out, err = run("scope", "save", "square", str(request), "--set", set_id)
+    assert code == 0, err
+    assert out.strip() == f"saved square with set {set_id}"
+    code, out, err = run("scope", "list", "--set", set_id)
+    assert code == 0, err
+    assert "1 of at most 100" in out and "square" in out and "SIG.wave[4] rising 0 or SIG.sample outside" in out
+    written = tmp_path / "square.json"
+    code, out, err = run("scope", "get", "square", "--set", set_id, "-o", str(written))
+    assert code == 0 and f"wrote {written}" in out
+    config = json.loads(written.read_text())
+    assert config["capture"]["pre"] == {"rows": 200, "seconds": None} and config["mode"] == "time"
+    config["mode"] = "xy"  # what get wrote is what save takes
+    written.write_text(json.dumps(config))
+    assert run("scope", "save", "square", str(written), "--set", set_id)[0] == 0
+    code, out, _ = run("--json", "scope", "get", "square", "--set", set_id)
+    assert json.loads(out)["config"]["mode"] == "xy"
+    code, _, err = run("scope", "save", "../x", str(written), "--set", set_id)
+    assert code == 1 and "is not allowed" in err
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"capture": {"variables": []}}')
+    code, _, err = run("scope", "save", "bad", str(bad), "--set", set_id)
+    assert code == 1 and "422" in err
+    code, out, err = run("scope", "rm", "square", "--set", set_id)
+    assert code == 0 and f"deleted square of set {set_id}" in out
+    code, _, err = run("scope", "rm", "square", "--set", set_id)
+    assert code == 1 and "no trace configuration 'square'" in err
