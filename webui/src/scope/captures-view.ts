@@ -53,7 +53,7 @@ export class CapturesView {
           h(
             "tr",
             {},
-            ["capture", "state", "trigger", "before / after", "buffer", "shots", "lost rows", "shot"].map((t) =>
+            ["capture", "state", "trigger", "before / after", "buffer", "shots", "lost", "shot"].map((t) =>
               h("th", {}, t),
             ),
             env.operator ? h("th", {}, "") : null,
@@ -128,12 +128,12 @@ export class CapturesView {
         h("div", { class: "ops-sub" }, `capturing ${req.variables.join(", ")}`),
         cells.message,
       ),
-      h("td", { class: "nowrap" }, `${lengthText(req.pre)} / ${lengthText(req.post)}`),
+      h("td", { class: "nowrap" }, `${lengthText(req.pre)} /`, h("br", {}), lengthText(req.post)),
       fill,
       cells.shots,
       cells.lost,
       h("td", { class: "nowrap" }, this.shotPicker(c)),
-      this.env.operator ? h("td", { class: "nowrap" }, this.actions(c)) : null,
+      this.env.operator ? h("td", { class: "scope-actions" }, this.actions(c)) : null,
     );
     return { tr, cells };
   }

@@ -267,6 +267,43 @@ describe("the Scope page", () => {
     });
   });
 
+  it("starts a recording of the form's variables, with a decimation and a stop, after checking them", async () => {
+    const m = mount("operator");
+    mounted = m;
+    await settle();
+    q(m.root, "rec-start")!.click();
+    expect(q(m.root, "rec-error")!.textContent).toBe("give the recording a name");
+    type(q<HTMLInputElement>(m.root, "rec-name")!, "run-7");
+    q(m.root, "rec-start")!.click();
+    expect(q(m.root, "rec-error")!.textContent).toContain("choose the variables to record");
+    q(m.root, `plotvar-${SQUARE}`)!.click();
+    type(q<HTMLInputElement>(m.root, "rec-decimation")!, "10");
+    type(q<HTMLSelectElement>(m.root, "rec-stop-kind")!, "duration");
+    type(q<HTMLInputElement>(m.root, "rec-stop-value")!, "60");
+    q(m.root, "rec-start")!.click();
+    await settle();
+    const post = m.calls.find((c) => c.method === "POST" && c.path === "/api/v1/recordings");
+    expect(post?.opts.body).toEqual({ name: "run-7", variables: [SQUARE], decimation: 10, stop: { duration_s: 60 } });
+  });
+
+  it("links every part of a recording that has several, and its exports", async () => {
+    const { recordingLinks } = await import("../../src/scope/recordings-view");
+    const parts = [SHOT_ENTRY.parts[0], SHOT_ENTRY.parts[0]];
+    const links = recordingLinks({
+      ...SHOT_ENTRY,
+      name: "run-7",
+      parts,
+      download: "/api/v1/recordings/run-7/download",
+    } as never);
+    expect(links.map((l) => `${l.label} ${l.href}`)).toEqual([
+      "MCAP (zip) /api/v1/recordings/run-7/download",
+      "part 1 /api/v1/recordings/run-7/download?part=1",
+      "part 2 /api/v1/recordings/run-7/download?part=2",
+      "CSV /api/v1/recordings/run-7/export?format=csv",
+      "Parquet /api/v1/recordings/run-7/export?format=parquet",
+    ]);
+  });
+
   it("gives a viewer the captures, the shots and the downloads, and no button that changes anything", async () => {
     const m = mount("viewer");
     mounted = m;
