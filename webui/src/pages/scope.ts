@@ -74,14 +74,27 @@ export const scopePage: Page = (root, ctx) => {
     clock: { offset: null },
     known: () => true,
     notify: (m, k) => ctx.notify(m, k),
-    changed: () => {},
+    changed: () => {
+      if (!applying) view = currentView(); // what the user made of the plot stays for the next shots
+    },
     remove: () => {},
     activate: () => {},
   };
   const panel = new PlotPanel(1, { paths: [], mode: "time", windowS: 10, xy: [null, null] }, panelEnv);
   let shown: (Shown & { capture: string; shot: number })[] = [];
-  /** how a restored configuration plots (its channels, mode, x–y), applied to the next shot plotted */
-  let view: Pick<ScopeConfig, "plotted" | "mode" | "xy"> | null = null;
+  type View = Pick<ScopeConfig, "plotted" | "mode" | "xy">;
+  /** how shots are plotted (their channels, the mode, x–y): a restored configuration's, or what the
+   * user last made of the plot; applied to every shot plotted after */
+  let view: View | null = null;
+  let applying = false;
+  /** The plot's view now: the channels shown when a single shot shows fewer than it has. */
+  const currentView = (): View => {
+    const one = shown.length === 1 ? shown[0] : null;
+    const all = one?.rows.channels.length ?? 0;
+    const plotted = one && panel.cfg.paths.length < all ? [...panel.cfg.paths] : null;
+    const mode = panel.cfg.mode;
+    return { plotted, mode, xy: mode === "xy" ? [...panel.cfg.xy] : null };
+  };
   const shotInfo = h("div", { class: "scope-shots", "data-testid": "shot-info" });
   const follow = h("input", { type: "checkbox", checked: true, "data-testid": "follow-shots" });
   const clearOverlay = h(
@@ -95,10 +108,17 @@ export const scopePage: Page = (root, ctx) => {
 
   const drawShown = () => {
     if (!shown.length) return;
-    panel.showRows(plotRows(shown));
-    if (view) {
-      panel.setView(view.mode ?? "time", view.xy ?? null);
-      view = null;
+    applying = true;
+    try {
+      panel.showRows(plotRows(shown));
+      if (view) {
+        panel.setView(view.mode ?? "time", view.xy ?? null);
+        const keep = view.plotted ?? [];
+        if (shown.length === 1 && keep.some((p) => panel.cfg.paths.includes(p)))
+          for (const p of [...panel.cfg.paths]) if (!keep.includes(p)) panel.removePath(p);
+      }
+    } finally {
+      applying = false;
     }
     shotInfo.replaceChildren(
       ...shown.map((s, i) =>
@@ -121,13 +141,11 @@ export const scopePage: Page = (root, ctx) => {
   const plot = async (c: CapturePublic, shot: number, overlay: boolean) => {
     const summary = shot ? c.shots.find((s) => s.shot === shot) : c.shots[c.shots.length - 1];
     if (!summary) return;
-    const plotted = view?.plotted?.filter((p) => c.channels.some((ch) => ch.path === p));
-    const channels = plotted?.length ? plotted : undefined;
-    const every = everyFor(summary.rows, channels?.length ?? c.channels.length);
+    const every = everyFor(summary.rows, c.channels.length);
     try {
       const rows = unwrap(
         await ctx.api.GET("/api/v1/captures/{capture_id}/shots/{shot}", {
-          params: { path: { capture_id: c.id, shot: summary.shot }, query: { every, channel: channels } },
+          params: { path: { capture_id: c.id, shot: summary.shot }, query: { every } },
         }),
       );
       const entry = { rows, tag: shotTag(c, summary.shot), capture: c.id, shot: summary.shot };
@@ -271,15 +289,12 @@ export const scopePage: Page = (root, ctx) => {
         showErrors(built.errors);
         return;
       }
-      const one = shown.length === 1 ? shown[0] : null;
-      const all = one?.rows.channels.map((c) => c.path) ?? [];
-      const plotted = one && panel.cfg.paths.length < all.length ? [...panel.cfg.paths] : null;
-      const [x, y] = panel.cfg.xy;
+      const shows = shown.length ? currentView() : view;
       const body: ScopeConfig = {
         capture: built.request,
-        plotted,
-        mode: panel.cfg.mode,
-        xy: panel.cfg.mode === "xy" ? [x, y] : null,
+        plotted: shows?.plotted ?? null,
+        mode: shows?.mode ?? "time",
+        xy: shows?.xy ?? null,
       };
       const set_id = activeSet;
       void act(

@@ -92,6 +92,7 @@ const SHOT_ENTRY = {
   download: "/api/v1/recordings/3631b11105.shot-1/download",
   shot: { capture: "3631b11105", shot: 1, trigger_seq: 9751, cause: "condition" },
 };
+const TWO = [...CAPTURE.channels, { path: "SIG.sample", type: "uint64_t" }];
 const SAVED = {
   name: "square-rising",
   set_id: SET,
@@ -108,7 +109,7 @@ interface Call {
   opts: { params?: { path?: Record<string, string>; query?: Record<string, unknown> }; body?: unknown };
 }
 
-function mount(role: Role, refuse: string | null = null) {
+function mount(role: Role, refuse: string | null = null, saved: unknown[] = [SAVED]) {
   const calls: Call[] = [];
   const answers: Record<string, unknown> = {
     "/api/v1/variables": {
@@ -118,7 +119,7 @@ function mount(role: Role, refuse: string | null = null) {
         { path: "SIG.letter", type: "char", size: 1 },
       ],
     },
-    "/api/v1/captures": { captures: [CAPTURE] },
+    "/api/v1/captures": { captures: [{ ...CAPTURE, channels: TWO }] },
     "/api/v1/captures/limits": {
       max_channels: 64,
       max_conditions: 4,
@@ -131,7 +132,7 @@ function mount(role: Role, refuse: string | null = null) {
     },
     "/api/v1/status": { basic_period_ns: 1_000_000 },
     "/api/v1/sets": [{ id: SET, active: true }],
-    "/api/v1/sets/{set_id}/scopes": { set_id: SET, scopes: [SAVED], max_configs: 100, max_bytes: 262144 },
+    "/api/v1/sets/{set_id}/scopes": { set_id: SET, scopes: saved, max_configs: 100, max_bytes: 262144 },
     "/api/v1/recordings": {
       recordings: [SHOT_ENTRY],
       quota_bytes: 4 << 30,
@@ -143,11 +144,11 @@ function mount(role: Role, refuse: string | null = null) {
     "/api/v1/captures/{capture_id}/shots/{shot}": {
       capture: CAPTURE.id,
       summary: SUMMARY,
-      channels: CAPTURE.channels,
+      channels: TWO,
       basic_period_ns: 1_000_000,
       seq: Array.from({ length: 301 }, (_, k) => 9551 + k),
       t_ns: Array.from({ length: 301 }, (_, k) => (9551 + k) * 1e6),
-      columns: [Array.from({ length: 301 }, (_, k) => (k < 200 ? -1 : 1))],
+      columns: [Array.from({ length: 301 }, (_, k) => (k < 200 ? -1 : 1)), Array.from({ length: 301 }, (_, k) => k)],
       every: 1,
     },
   };
@@ -265,6 +266,35 @@ describe("the Scope page", () => {
       mode: "time",
       xy: null,
     });
+  });
+
+  it("plots shots as a restored configuration says: its channels and its x–y mode", async () => {
+    const xy = {
+      ...SAVED,
+      name: "xy",
+      config: { ...SAVED.config, plotted: [SQUARE, "SIG.sample"], mode: "xy", xy: ["SIG.sample", SQUARE] },
+    };
+    const one = { ...SAVED, name: "one", config: { ...SAVED.config, plotted: ["SIG.sample"] } };
+    const m = mount("viewer", null, [xy, one]);
+    mounted = m;
+    await settle();
+    const chips = () =>
+      [...m.root.querySelectorAll("[data-testid=plot-panel-1] .chip")].map((c) => c.getAttribute("title"));
+    const mode = () => q<HTMLSelectElement>(m.root, "mode")!.value;
+    q(m.root, `plot-${CAPTURE.id}`)!.click();
+    await settle();
+    expect([chips(), mode()]).toEqual([[SQUARE, "SIG.sample"], "time"]);
+    q(m.root, "restore-one")!.click(); // applied to the shot shown, and to those plotted after
+    expect([chips(), mode()]).toEqual([["SIG.sample"], "time"]);
+    q(m.root, `plot-${CAPTURE.id}`)!.click();
+    await settle();
+    expect(chips()).toEqual(["SIG.sample"]);
+    q(m.root, "restore-xy")!.click();
+    expect([chips(), mode()]).toEqual([[SQUARE, "SIG.sample"], "xy"]);
+    expect([q<HTMLSelectElement>(m.root, "xy-x")!.value, q<HTMLSelectElement>(m.root, "xy-y")!.value]).toEqual([
+      "SIG.sample",
+      SQUARE,
+    ]);
   });
 
   it("starts a recording of the form's variables, with a decimation and a stop, after checking them", async () => {
