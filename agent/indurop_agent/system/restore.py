@@ -9,17 +9,19 @@ replace), staged, and applied when the agent starts again.
    (max_backup_bytes: a size bomb stops at the limit, not at the disk's end), each member's
    SHA-256 compared with the manifest's (an altered or damaged archive is refused, naming the
    member).  Only names of the kinds a backup holds are accepted (backup.ITEMS, sets' manifests,
-   blobs, the sets' trace configurations), and each is written to a path made here, in a staging folder in <data>/tmp.
+   blobs, the sets' trace configurations), each written to a path made here, in a staging folder
+   in <data>/tmp.
 2. check(): the content makes sense: every blob holds the content its name says, every set's
    manifest names safe paths and blobs of the archive and has the id its files give, every trace
-   configuration is one (scope_configs.parse) of a set the archive holds, the tokens, the active set, the alarm database, the settings and the TLS pair are what the agent can use.
+   configuration is one (scope_configs.parse) of a set the archive holds, the tokens, the active
+   set, the alarm database, the settings and the TLS pair are what the agent can use.
 3. plan(): what a restore would do here (the dry run's answer): sets added, the active set, the
    tokens and users before and after, each file added or replaced.
 4. stage(): the checked staging folder becomes <data>/restore-pending (one rename), and the agent
    restarts.  apply_pending(), at the agent's start before anything opens the data folder, moves
    the files it replaces to <data>/replaced-<time>/ and the archive's into place, each by a
-   rename, adds the sets and their trace configurations, and points the `active` link at the restored active set.  Each step can
-   be run again, so a crash during it finishes at the next start.
+   rename, adds the sets and their trace configurations, and points the `active` link at the
+   restored active set.  Each step can be run again, so a crash during it finishes at the next start.
 
 Nothing in the data folder changes before step 4; a refusal at any step leaves it as it was.
 """
@@ -41,12 +43,10 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
-from .. import config
+from .. import config, scope_configs
 from ..archives import tar_stream, type_problem
 from ..auth import ROLES, now_iso
 from ..recorder.store import NAME
-from ..scope_configs import ScopeError
-from ..scope_configs import parse as parse_scope
 from ..store import SET_ID, SetStore, remove_tree, set_id_of
 from ..users import parse_users
 from .backup import DATA, FORMAT, FORMAT_VERSION, ITEM_PATHS, ITEMS, MANIFEST, summary_of
@@ -388,18 +388,14 @@ def check(manifest: dict, staging: Path) -> dict:
         found = SET_MANIFEST.match(entry["path"][len(DATA) :])
         if found:
             sets[found.group(1)] = _check_set(found.group(1), root / entry["path"][len(DATA) :], blobs)
-    scopes = []
-    for entry in manifest["files"]:
-        rel = entry["path"][len(DATA) :]
-        found = SET_SCOPE.match(rel)
-        if found:
-            if found.group(1) not in sets:
-                raise RestoreError(400, f"{rel} in the backup belongs to set {found.group(1)}, which the backup lacks")
-            try:
-                parse_scope((root / rel).read_bytes(), f"{rel} in the backup")
-            except ScopeError as e:
-                raise RestoreError(400, e.message) from None
-            scopes.append(rel)
+    scopes = [e["path"][len(DATA) :] for e in manifest["files"] if SET_SCOPE.match(e["path"][len(DATA) :])]
+    for rel in scopes:
+        if SET_SCOPE.match(rel).group(1) not in sets:
+            raise RestoreError(400, f"{rel} in the backup belongs to set {rel.split('/')[1]}, which the backup lacks")
+        try:
+            scope_configs.parse((root / rel).read_bytes(), f"{rel} in the backup")
+        except scope_configs.ScopeError as e:
+            raise RestoreError(400, e.message) from None
     warnings, skip = [], []
     if (root / "tokens.json").exists():
         _check_tokens(root / "tokens.json")
