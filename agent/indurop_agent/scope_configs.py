@@ -93,11 +93,19 @@ class ScopeConfigs:
         return self.store.sets / set_id / FOLDER
 
     def _file(self, set_id: str, name: str) -> Path:
-        return self.folder(set_id) / f"{check_name(name)}{SUFFIX}"
+        folder = self.folder(set_id)
+        if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
+            raise ScopeError(409, f"{folder} is not a folder the agent made: move it away")
+        return folder / f"{check_name(name)}{SUFFIX}"
+
+    def _read(self, path: Path) -> bytes:
+        if path.is_symlink():  # never made by the agent: not followed
+            raise FileNotFoundError(path)
+        return path.read_bytes()
 
     def names(self, set_id: str) -> list[str]:
         folder = self.folder(set_id)
-        if not folder.is_dir():
+        if folder.is_symlink() or not folder.is_dir():
             return []
         found = []
         for p in folder.iterdir():
@@ -114,7 +122,7 @@ class ScopeConfigs:
             for name in self.names(set_id):
                 path = self._file(set_id, name)
                 try:
-                    raw = path.read_bytes()
+                    raw = self._read(path)
                 except OSError:
                     continue  # deleted meanwhile
                 try:
@@ -130,7 +138,7 @@ class ScopeConfigs:
         with self.store.locked():
             path = self._file(set_id, name)
             try:
-                raw = path.read_bytes()
+                raw = self._read(path)
             except FileNotFoundError:
                 raise ScopeError(404, f"set {set_id} has no trace configuration {name!r}") from None
             return {**parse(raw, f"trace configuration {name}"), "name": name, "size": len(raw), "error": None}

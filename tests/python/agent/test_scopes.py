@@ -304,3 +304,19 @@ def test_irpctl_scope_saves_lists_gets_and_removes_a_configuration(irpctl, tmp_p
     assert code == 0 and f"deleted square of set {set_id}" in out
     code, _, err = run("scope", "rm", "square", "--set", set_id)
     assert code == 1 and "no trace configuration 'square'" in err
+
+
+def test_links_made_by_hand_in_a_set_folder_are_not_followed(agent, elves, tmp_path):
+    set_id, elsewhere = upload(agent, elves), tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (elsewhere / "x.json").write_text(json.dumps({"name": "x", "config": CONFIG}))
+    folder(agent, set_id).symlink_to(elsewhere)
+    r = scopes(agent, set_id, "y", "PUT", body=CONFIG)
+    assert r.status_code == 409 and "is not a folder the agent made" in r.json()["detail"]
+    assert scopes(agent, set_id, role="viewer").json()["scopes"] == []
+    assert sorted(p.name for p in elsewhere.iterdir()) == ["x.json"]
+    folder(agent, set_id).unlink()
+    folder(agent, set_id).mkdir()
+    (folder(agent, set_id) / "x.json").symlink_to(elsewhere / "x.json")
+    assert scopes(agent, set_id, role="viewer").json()["scopes"] == []
+    assert scopes(agent, set_id, "x", role="viewer").status_code == 404
