@@ -207,11 +207,12 @@ export const scopePage: Page = (root, ctx) => {
     plot: (c, shot, overlay) => void plot(c, shot, overlay),
     edit: (c) => form.set(formOf(c.request)),
   });
-  const capturesPanel = panelOf("Captures", "captures-panel", captureCounts, listError, capturesView.el);
+  const capturesPanel = panelOf("Captures", "captures-panel", listError, capturesView.el);
   capturesPanel.querySelector("h3")!.append(" ", captureCounts);
 
-  const arm = async (request: CaptureRequest, errorBox: HTMLElement) => {
-    errorBox.hidden = true;
+  /** Arms a capture; the agent's refusal is shown next to the form (a saved one is restored into it first). */
+  const arm = async (request: CaptureRequest) => {
+    showErrors([]);
     try {
       const c = unwrap(await ctx.api.POST("/api/v1/captures", { body: request }));
       following = c.id;
@@ -224,7 +225,7 @@ export const scopePage: Page = (root, ctx) => {
   armButton.addEventListener("click", () => {
     const built = buildRequest(form.form, env());
     if (!built.ok) showErrors(built.errors);
-    else void arm(built.request, formError);
+    else void arm(built.request);
   });
 
   // ---- trace configurations kept with the active set --------------------------------------------
@@ -261,7 +262,7 @@ export const scopePage: Page = (root, ctx) => {
     arm(s) {
       if (!s.config) return;
       restore(s);
-      void arm(s.config.capture, savedError);
+      void arm(s.config.capture);
     },
     remove(s) {
       void act(
@@ -404,7 +405,7 @@ export const scopePage: Page = (root, ctx) => {
   );
 
   // ---- polling -----------------------------------------------------------------------------------
-  let lastFollowed = 0;
+  let lastFollowed = "";
   const capturePoll = poll(
     async () => {
       const list = unwrap(await ctx.api.GET("/api/v1/captures"));
@@ -415,8 +416,9 @@ export const scopePage: Page = (root, ctx) => {
       capturesView.show(captures);
       const f = following ? captures.find((c) => c.id === following) : undefined;
       const newest = f?.shots[f.shots.length - 1]?.shot ?? 0;
-      if (f && follow.checked && newest && newest !== lastFollowed && shown.length < 2) {
-        lastFollowed = newest;
+      // each capture's new shot once (by capture and number: a new capture starts again at #1)
+      if (f && follow.checked && newest && `${f.id}#${newest}` !== lastFollowed && shown.length < 2) {
+        lastFollowed = `${f.id}#${newest}`;
         await plot(f, newest, false);
       }
     },

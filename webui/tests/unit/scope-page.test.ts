@@ -210,6 +210,8 @@ describe("the Scope page", () => {
     expect(post?.path).toBe("/api/v1/captures");
     expect(post?.opts.body).toEqual({ ...REQUEST, pre: { rows: 200 }, post: { rows: 100 } });
     expect(q(m.root, "form-error")!.hidden).toBe(true);
+    // the capture armed here: its shot is plotted as it comes, at the next look at the captures
+    await vi.waitFor(() => expect(q(m.root, "shot-info-0")?.dataset.triggerSeq).toBe("9751"), { timeout: 3000 });
   });
 
   it("says what to fix before sending, and shows the agent's refusal next to the form", async () => {
