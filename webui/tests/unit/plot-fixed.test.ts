@@ -3,27 +3,10 @@
 // while a single shot's seq jump is a gap; the lines are drawn across undefined and lifted at null;
 // the panel (its own uPlot chart) shows the rows on an x axis of seconds from the mark, in time
 // and x–y mode, without the stream's controls.
+import "./dom-shims";
 import { afterEach, beforeEach, describe, expect, it, vi } from "vitest";
 
 const charts = vi.hoisted(() => {
-  window.matchMedia = ((query: string) => ({
-    matches: false,
-    media: query,
-    addEventListener() {},
-    removeEventListener() {},
-  })) as unknown as typeof window.matchMedia;
-  (globalThis as { Path2D?: unknown }).Path2D = class {
-    moveTo() {}
-    lineTo() {}
-    rect() {}
-    arc() {}
-    closePath() {}
-    bezierCurveTo() {}
-  };
-  (globalThis as { ResizeObserver?: unknown }).ResizeObserver = class {
-    observe() {}
-    disconnect() {}
-  };
   return [] as { data: (number | null | undefined)[][]; scales: { x: { time?: boolean } }; series: unknown[] }[];
 });
 vi.mock("uplot", async (original) => {

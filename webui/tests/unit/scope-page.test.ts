@@ -3,29 +3,9 @@
 // plotted with its trigger seq and pre/post counts; a configuration is saved with the active set
 // (PUT) and restored into the form; a viewer sees the captures, the shots and the downloads but no
 // button that changes anything.
+import "./dom-shims";
 import { afterEach, beforeEach, describe, expect, it, vi } from "vitest";
 import type { AppContext, Role } from "../../src/app/context";
-
-vi.hoisted(() => {
-  window.matchMedia = ((query: string) => ({
-    matches: false,
-    media: query,
-    addEventListener() {},
-    removeEventListener() {},
-  })) as unknown as typeof window.matchMedia;
-  (globalThis as { Path2D?: unknown }).Path2D = class {
-    moveTo() {}
-    lineTo() {}
-    rect() {}
-    arc() {}
-    closePath() {}
-    bezierCurveTo() {}
-  };
-  (globalThis as { ResizeObserver?: unknown }).ResizeObserver = class {
-    observe() {}
-    disconnect() {}
-  };
-});
 
 const { scopePage } = await import("../../src/pages/scope");
 
