@@ -15,9 +15,10 @@ import sys
 from pathlib import Path
 from urllib.parse import quote
 
-from .cli_capture import _trigger_text, arg
+from .cli_capture import arg
 from .cli_text import Out, printable, table
 from .client import ApiError
+from .recorder.trigger_text import describe_trigger
 
 EXIT_OK = 0  # as cli.py's
 
@@ -46,7 +47,9 @@ def scopes_text(answer: dict) -> str:
         rows.append(
             [
                 printable(s["name"]),
-                printable(_trigger_text(capture["trigger"])) if capture else f"(damaged: {printable(s.get('error'))})",
+                printable(describe_trigger(capture["trigger"]))
+                if capture
+                else f"(damaged: {printable(s.get('error'))})",
                 printable(", ".join(capture["variables"])) if capture else "-",
                 printable((s.get("by") or {}).get("name", "-")),
                 s.get("saved") or "-",
