@@ -38,6 +38,7 @@ from .api.routes import (
     modules,
     recordings,
     robot,
+    scopes,
     session,
     sets,
     status,
@@ -58,6 +59,7 @@ from .recorder.capture_engine import CaptureEngine
 from .recorder.capture_files import CaptureFiles
 from .recorder.manager import Recorder
 from .recorder.store import Store
+from .scope_configs import ScopeConfigs
 from .security import BodyLimitMiddleware, BodyTimeoutMiddleware, Lockout
 from .sessions import SessionStore
 from .store import SetStore
@@ -223,6 +225,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     state.events = AgentEvents()
     state.audit = AuditLog(settings.data_dir / "audit.jsonl")
     state.store = SetStore(settings.data_dir)
+    state.scopes = ScopeConfigs(state.store)  # trace configurations kept with the sets
     state.activator = Activator(state.store, state.irpd_swap, state.events, settings.swap_timeout_s)
     state.host = Sampler()
     state.webui_dir = webui_dir(settings)
@@ -261,6 +264,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     routers += (line,)  # the line of controllers, from the DDS bridge
     routers += (recordings,)  # the recorder (docs/recorder.md)
     routers += (captures,)  # the scope's triggered captures
+    routers += (scopes,)  # trace configurations kept with a set
     for module in (*routers, stream):
         app.include_router(module.router, prefix=API)
     app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)

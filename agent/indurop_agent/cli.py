@@ -26,6 +26,7 @@ from typing import Any
 from .cli_capture import CAPTURE_COMMANDS
 from .cli_line import LINE_COMMANDS
 from .cli_record import RECORD_COMMANDS
+from .cli_scope import SCOPE_COMMANDS
 from .cli_system import SETS_ARGS, SYSTEM_COMMANDS, cmd_sets
 from .cli_text import (
     EVENT_HEADERS,
@@ -641,6 +642,12 @@ COMMANDS: tuple[Command, ...] = (
         "triggered captures of variables: arm, disarm, trigger, list, get (CSV), delete",
         None,
         sub=tuple(Command(*spec) for spec in CAPTURE_COMMANDS),
+    ),
+    Command(
+        "scope",
+        "trace configurations kept with a set: list, get, save, rm",
+        None,
+        sub=tuple(Command(*spec) for spec in SCOPE_COMMANDS),
     ),
 )
 

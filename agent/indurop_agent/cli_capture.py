@@ -16,6 +16,7 @@ import sys
 from datetime import UTC, datetime
 
 from .cli_text import Out, format_duration, pairs, parse_duration, printable, table
+from .recorder.trigger_text import describe_trigger
 
 EXIT_OK = 0  # as cli.py's
 WHEN_FORMS = (
@@ -100,23 +101,6 @@ def parse_length(text: str) -> dict:
 
 
 # -- what it prints --------------------------------------------------------------------------------
-def _trigger_text(t: dict) -> str:
-    if t["kind"] != "condition":
-        extra = [x for x in (t.get("key"), t.get("severity") and f">= {t['severity']}") if x]
-        return t["kind"] + (f" ({', '.join(extra)})" if extra else "")
-    words = []
-    for c in t["conditions"]:
-        if c["kind"] == "edge":
-            words.append(f"{c['variable']} {c['direction']} {c['threshold']:g}")
-        elif c["kind"] == "level":
-            words.append(f"{c['variable']} {c['compare']} {c['value']:g}")
-        else:
-            words.append(f"{c['variable']} {c['where']} [{c['low']:g}, {c['high']:g}]")
-        if c.get("hold_rows", 1) > 1:
-            words[-1] += f" for {c['hold_rows']}"
-    return f" {t.get('combine', 'and')} ".join(words)
-
-
 def _time(ns: int | None) -> str:
     return datetime.fromtimestamp(ns / 1e9, UTC).strftime("%Y-%m-%d %H:%M:%S.%f")[:-3] if ns else "-"
 
@@ -133,7 +117,7 @@ def captures_text(answer: dict) -> str:
                 c["id"],
                 printable(c["name"] or "-"),
                 c["state"],
-                printable(_trigger_text(c["request"]["trigger"])),
+                printable(describe_trigger(c["request"]["trigger"])),
                 f"{c['pre_rows']}/{c['post_rows']}",
                 len(c["shots"]),
                 last["trigger_seq"] if last else "-",
@@ -151,7 +135,7 @@ def capture_text(c: dict) -> str:
             "state",
             c["state"] + (f" (pre-trigger buffer {c['pre_filled']}/{c['pre_rows']})" if c["state"] == "armed" else ""),
         ),
-        ("trigger", printable(_trigger_text(c["request"]["trigger"]))),
+        ("trigger", printable(describe_trigger(c["request"]["trigger"]))),
         ("channels", ", ".join(printable(ch["path"]) for ch in c["channels"])),
         ("pre / post", f"{c['pre_rows']} / {c['post_rows']} rows" + (f" of {format_duration(basic)}" if basic else "")),
         ("repeat", c["request"]["repeat"] or "until disarmed"),

@@ -18,6 +18,7 @@ import { modulesPage } from "./pages/modules";
 import { overviewPage } from "./pages/overview";
 import { robotPage } from "./pages/robot";
 import { schedulePage } from "./pages/schedule";
+import { scopePage } from "./pages/scope";
 import { systemPage } from "./pages/system";
 import { usersPage } from "./pages/users";
 import { variablesPage } from "./pages/variables";
@@ -29,6 +30,7 @@ const ALL_PAGES: { id: string; title: string; page: Page; role: Role }[] = [
   { id: "schedule", title: "Schedule", page: schedulePage, role: "viewer" },
   { id: "jitter", title: "Jitter", page: jitterPage, role: "viewer" },
   { id: "variables", title: "Variables", page: variablesPage, role: "viewer" },
+  { id: "scope", title: "Scope", page: scopePage, role: "viewer" },
   { id: "robot", title: "Robot", page: robotPage, role: "viewer" },
   { id: "alarms", title: "Alarms", page: alarmsPage, role: "viewer" },
   { id: "line", title: "Line", page: linePage, role: "viewer" },

@@ -27,6 +27,7 @@ from . import mcap_read
 from .capture_sink import ShotData, ShotWriter
 from .mcap_out import McapOut, Variable
 from .store import Entry, Store, StoreError, now
+from .trigger_text import describe_trigger
 
 SHOT_NAME = re.compile(r"^([a-z0-9-]{1,40})\.shot-(\d{1,9})$")
 
@@ -87,7 +88,9 @@ class _McapShot:
         t = None  # the trigger row's due time: rows are one basic period apart
         if out.first_seq is not None:
             t = out.first_t_ns + (int(h["trigger_seq"]) - out.first_seq) * int(h["basic_period_ns"])
-        out.note("trigger", str(h["cause"]), seq=int(h["trigger_seq"]), t_ns=t)
+        said = describe_trigger(h["trigger"]) if isinstance(h.get("trigger"), dict) else ""
+        text = f"{h['cause']}: {said}" if said and said != h["cause"] else str(h["cause"])
+        out.note("trigger", text, seq=int(h["trigger_seq"]), t_ns=t)
         size = out.close({k: json.dumps(v) for k, v in summary.items()})
         first_unix = out.first_t_ns + out.clock_offset_ns if out.first_t_ns is not None else None
         last_unix = out.last_t_ns + out.clock_offset_ns if out.last_t_ns is not None else None

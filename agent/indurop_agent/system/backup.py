@@ -9,6 +9,7 @@ The archive is a .tar.gz:
     data/<item path>                each of ITEMS the data folder has (secrets only when asked)
     data/sets/<id>/manifest.json    every stored set's manifest
     data/blobs/sha256/<hex>         every blob a set names (the sets' trees are made from them)
+    data/sets/<id>/scopes/<n>.json  the trace configurations kept with a set (scope_configs.py)
 
 The sets' trees (sets/<id>/files/) are not in it: they are hard links and copies of the blobs,
 made again at restore.  Neither are the first admin token's clear text (admin-token), uploads in
@@ -33,6 +34,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..auth import now_iso
+from ..scope_configs import ScopeConfigs
 from ..store import remove_tree
 from ..users import parse_users, without_password_hashes
 
@@ -180,6 +182,11 @@ def create(data_dir: Path, store, activator, with_secrets: bool = False) -> tupl
                 target.parent.mkdir(parents=True, exist_ok=True)
                 shutil.copyfile(store.sets / m["id"] / "manifest.json", target)
                 files.append((f"{DATA}sets/{m['id']}/manifest.json", target))
+                for scope in ScopeConfigs(store).files(m["id"]):
+                    target = snap / "sets" / m["id"] / "scopes" / scope.name
+                    target.parent.mkdir(exist_ok=True)
+                    shutil.copyfile(scope, target)
+                    files.append((f"{DATA}sets/{m['id']}/scopes/{scope.name}", target))
             (snap / "blobs" / "sha256").mkdir(parents=True)
             for sha in blobs:
                 target = snap / "blobs" / "sha256" / sha

@@ -9,17 +9,19 @@ replace), staged, and applied when the agent starts again.
    (max_backup_bytes: a size bomb stops at the limit, not at the disk's end), each member's
    SHA-256 compared with the manifest's (an altered or damaged archive is refused, naming the
    member).  Only names of the kinds a backup holds are accepted (backup.ITEMS, sets' manifests,
-   blobs), and each is written to a path made here, in a staging folder in <data>/tmp.
+   blobs, the sets' trace configurations), each written to a path made here, in a staging folder
+   in <data>/tmp.
 2. check(): the content makes sense: every blob holds the content its name says, every set's
-   manifest names safe paths and blobs of the archive and has the id its files give, the tokens,
-   the active set, the alarm database, the settings and the TLS pair are what the agent can use.
+   manifest names safe paths and blobs of the archive and has the id its files give, every trace
+   configuration is one (scope_configs.parse) of a set the archive holds, the tokens, the active
+   set, the alarm database, the settings and the TLS pair are what the agent can use.
 3. plan(): what a restore would do here (the dry run's answer): sets added, the active set, the
    tokens and users before and after, each file added or replaced.
 4. stage(): the checked staging folder becomes <data>/restore-pending (one rename), and the agent
    restarts.  apply_pending(), at the agent's start before anything opens the data folder, moves
    the files it replaces to <data>/replaced-<time>/ and the archive's into place, each by a
-   rename, adds the sets, and points the `active` link at the restored active set.  Each step can
-   be run again, so a crash during it finishes at the next start.
+   rename, adds the sets and their trace configurations, and points the `active` link at the
+   restored active set.  Each step can be run again, so a crash during it finishes at the next start.
 
 Nothing in the data folder changes before step 4; a refusal at any step leaves it as it was.
 """
@@ -41,9 +43,10 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
-from .. import config
+from .. import config, scope_configs
 from ..archives import tar_stream, type_problem
 from ..auth import ROLES, now_iso
+from ..recorder.store import NAME
 from ..store import SET_ID, SetStore, remove_tree, set_id_of
 from ..users import parse_users
 from .backup import DATA, FORMAT, FORMAT_VERSION, ITEM_PATHS, ITEMS, MANIFEST, summary_of
@@ -55,6 +58,7 @@ MAX_NAME_BYTES = 1024
 HEX64 = re.compile(r"^[0-9a-f]{64}$")
 SET_MANIFEST = re.compile(r"^sets/([0-9a-f]{16})/manifest\.json$")
 BLOB = re.compile(r"^blobs/sha256/([0-9a-f]{64})$")
+SET_SCOPE = re.compile(rf"^sets/([0-9a-f]{{16}})/scopes/({NAME.pattern})\.json$")
 KIND = re.compile(r"^[a-z_]{1,32}$")
 ROOM_MARGIN = 64 << 20  # left free on the data folder's file system after unpacking
 
@@ -107,6 +111,8 @@ def kind_of(name: str) -> str | None:
         return "item"
     if SET_MANIFEST.match(rel):
         return "set"
+    if SET_SCOPE.match(rel):
+        return "scope"
     if BLOB.match(rel):
         return "blob"
     return None
@@ -382,6 +388,14 @@ def check(manifest: dict, staging: Path) -> dict:
         found = SET_MANIFEST.match(entry["path"][len(DATA) :])
         if found:
             sets[found.group(1)] = _check_set(found.group(1), root / entry["path"][len(DATA) :], blobs)
+    scopes = [e["path"][len(DATA) :] for e in manifest["files"] if SET_SCOPE.match(e["path"][len(DATA) :])]
+    for rel in scopes:
+        if SET_SCOPE.match(rel).group(1) not in sets:
+            raise RestoreError(400, f"{rel} in the backup belongs to set {rel.split('/')[1]}, which the backup lacks")
+        try:
+            scope_configs.parse((root / rel).read_bytes(), f"{rel} in the backup")
+        except scope_configs.ScopeError as e:
+            raise RestoreError(400, e.message) from None
     warnings, skip = [], []
     if (root / "tokens.json").exists():
         _check_tokens(root / "tokens.json")
@@ -416,7 +430,7 @@ def check(manifest: dict, staging: Path) -> dict:
             "and key here are kept"
         )
         skip.append("tls/cert.pem")
-    return {"sets": sets, "skip": skip, "warnings": warnings}
+    return {"sets": sets, "scopes": scopes, "skip": skip, "warnings": warnings}
 
 
 # ---- 3. the review ---------------------------------------------------------------------------
@@ -439,6 +453,10 @@ def plan(manifest: dict, checked: dict, staging: Path, data_dir: Path) -> dict:
         if (root / item.path).exists() and item.path not in checked["skip"]:
             action = "replace" if (data_dir / item.path).exists() else "add"
             files.append({"path": item.path, "action": action, "what": item.what})
+    for rel in checked.get("scopes", []):
+        action = "replace" if (data_dir / rel).exists() else "add"
+        set_id = SET_SCOPE.match(rel).group(1)
+        files.append({"path": rel, "action": action, "what": f"a trace configuration kept with set {set_id}"})
     restored = {f["path"] for f in files}
     warnings = list(checked["warnings"])
     if "users.json" in restored and "users.json" in (manifest.get("redacted") or []):
@@ -542,6 +560,16 @@ def apply_pending(data_dir: Path) -> dict | None:
     blob_sources = {p.name: p for p in blob_dir.iterdir()} if blob_dir.is_dir() else {}
     for manifest_path in sorted((root / "sets").glob("*/manifest.json")):
         store.adopt(json.loads(manifest_path.read_text()), blob_sources)
+    for source in sorted((root / "sets").glob("*/scopes/*.json")):
+        rel = source.relative_to(root).as_posix()
+        if not SET_SCOPE.match(rel) or not (data_dir / "sets" / source.parent.parent.name).is_dir():
+            continue
+        target = data_dir / rel
+        if target.exists():
+            _move_aside(target, aside, rel)
+        target.parent.mkdir(mode=0o755, exist_ok=True)
+        os.chmod(source, 0o644)
+        os.replace(source, target)
     for item in ITEMS:
         source, target = root / item.path, data_dir / item.path
         if not source.exists() or item.path in record["skip"]:

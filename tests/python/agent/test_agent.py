@@ -121,6 +121,11 @@ ROUTES = [
     ("GET", "/captures", "viewer", None, 200),
     ("GET", "/captures/limits", "viewer", None, 200),
     ("POST", "/captures", "operator", CAPTURE, 201),
+    # trace configurations kept with a set (tests/python/agent/test_scopes.py): no such set here
+    ("GET", "/sets/0123456789abcdef/scopes", "viewer", None, 404),
+    ("GET", "/sets/0123456789abcdef/scopes/x", "viewer", None, 404),
+    ("PUT", "/sets/0123456789abcdef/scopes/x", "operator", {"capture": CAPTURE}, 404),
+    ("DELETE", "/sets/0123456789abcdef/scopes/x", "operator", None, 404),
 ]
 ROLES = ["viewer", "operator", "admin"]
 
@@ -199,6 +204,11 @@ def test_every_route_of_the_api_is_in_the_role_matrix(cell):
     templates = {
         ("GET", "/modules/cntr1"): ("GET", "/modules/{name}"),
         ("GET", "/variables/knu.Robot.tick"): ("GET", "/variables/{path}"),
+        **{
+            (m, p): (m, p.replace("0123456789abcdef", "{set_id}").replace("/x", "/{name}"))
+            for m, p, *_ in ROUTES
+            if "/scopes" in p
+        },
     }
     listed = {templates.get(r, r) for r in listed}
     for path, operations in spec["paths"].items():

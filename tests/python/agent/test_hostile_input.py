@@ -146,6 +146,10 @@ NEEDS = {
     ("POST", "/captures/{capture_id}/disarm"): "operator",
     ("POST", "/captures/{capture_id}/trigger"): "operator",
     ("DELETE", "/captures/{capture_id}"): "operator",
+    ("GET", "/sets/{set_id}/scopes"): "viewer",
+    ("GET", "/sets/{set_id}/scopes/{name}"): "viewer",
+    ("PUT", "/sets/{set_id}/scopes/{name}"): "operator",
+    ("DELETE", "/sets/{set_id}/scopes/{name}"): "operator",
 }
 SAMPLE = {
     "{name}": "cntr1",
@@ -822,6 +826,27 @@ def test_a_set_with_format_strings_in_its_file_names_is_stored_and_its_names_sta
     assert r.status_code == 201, r.text
     assert name in [f["path"] for f in r.json()["files"]]
     assert json.loads(audit_lines(battery)[-1])["files"][name]
+
+
+SCOPE = {
+    "capture": {"variables": ["knu.Robot.tick"], "trigger": {"kind": "manual"}, "pre": {"rows": 1}, "post": {"rows": 1}}
+}
+
+
+@pytest.mark.parametrize(
+    "name",
+    [f"..%2f{MARKER}", f"%2e%2e%2f%2e%2e%2f%2e%2e%2f{MARKER}", f"{MARKER}%00", f"..%5c{MARKER}", f"x/../../{MARKER}"],
+    ids=repr,
+)
+def test_trace_configuration_names_that_could_be_paths_are_400_and_write_nothing(battery, name):
+    set_id = battery.get("/sets").json()[0]["id"]  # the set the test above stored
+    r = battery.request("PUT", f"/sets/{set_id}/scopes/{name}", "operator", json=SCOPE)
+    assert r.status_code in (400, 404), (r.status_code, r.text)
+    if r.status_code == 400:
+        assert "is not allowed" in detail(r)
+    r = battery.request("PUT", f"/sets/{set_id}/scopes/good", "operator", json=SCOPE)
+    assert r.status_code == 200, r.text
+    assert (battery.data / "sets" / set_id / "scopes" / "good.json").is_file()
 
 
 # ---- afterwards -----------------------------------------------------------------------------------

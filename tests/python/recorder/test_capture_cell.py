@@ -107,7 +107,8 @@ def test_a_capture_on_the_plcs_error_holds_the_second_before_the_drives_went_sil
         assert [m["seq"] for m in samples] == rows["seq"]
         assert [m["PLC_ROBOT_PLC_OUT_Error"] for m in samples] == rows["columns"][0]
         notes = [json.loads(m.data) for _, _, m in reader.iter_messages(topics=["/indurop/notes"])]
-        assert [n["seq"] for n in notes if n["kind"] == "trigger"] == [on_edge["trigger_seq"]]
+        (trigger,) = [n for n in notes if n["kind"] == "trigger"]
+        assert trigger["seq"] == on_edge["trigger_seq"] and f"{ERROR} rising 0.5" in trigger["text"]
         (schema,) = [s for s in reader.get_summary().schemas.values() if s.name == "indurop.Samples"]
         assert json.loads(schema.data)["properties"]["PLC_ROBOT_PLC_OUT_Error"]["x-indurop-path"] == ERROR
     finally:

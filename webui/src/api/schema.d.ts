@@ -894,6 +894,49 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/sets/{set_id}/scopes": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List Scopes
+         * @description The set's trace configurations, by name.
+         */
+        get: operations["list_scopes_api_v1_sets__set_id__scopes_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/sets/{set_id}/scopes/{name}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Get Scope */
+        get: operations["get_scope_api_v1_sets__set_id__scopes__name__get"];
+        /**
+         * Put Scope
+         * @description Saves a trace configuration with the set under `name` (replacing one of that name).  The set
+         *     is not changed (its id is the hash of its files): the configuration is kept beside it.
+         */
+        put: operations["put_scope_api_v1_sets__set_id__scopes__name__put"];
+        post?: never;
+        /** Delete Scope */
+        delete: operations["delete_scope_api_v1_sets__set_id__scopes__name__delete"];
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/status": {
         parameters: {
             query?: never;
@@ -3241,6 +3284,8 @@ export interface components {
             reason?: string | null;
             /** Rows */
             rows: number;
+            /** @description a capture's shot: which capture and shot, and its trigger row */
+            shot?: components["schemas"]["ShotOf"] | null;
             /**
              * Size
              * @description bytes of its files
@@ -3519,6 +3564,83 @@ export interface components {
             [key: string]: unknown;
         };
         /**
+         * ScopeConfig
+         * @description A trace configuration: the capture to arm and how the Scope page plots its shots.
+         */
+        ScopeConfig: {
+            /** @description what POST /captures takes: arm it as it is */
+            capture: components["schemas"]["CaptureRequest"];
+            /**
+             * Mode
+             * @description the plot's mode
+             * @default time
+             * @enum {string}
+             */
+            mode: "time" | "xy";
+            /**
+             * Plotted
+             * @description the channels the plot shows, when not all of the capture's (null: all)
+             */
+            plotted?: string[] | null;
+            /**
+             * Xy
+             * @description the x–y mode's variables: [x, y] (null: not chosen)
+             */
+            xy?: (string | null)[] | null;
+        };
+        /** ScopeList */
+        ScopeList: {
+            /**
+             * Max Bytes
+             * @description bytes one configuration's file may hold
+             */
+            max_bytes: number;
+            /**
+             * Max Configs
+             * @description configurations a set may hold
+             */
+            max_configs: number;
+            /**
+             * Scopes
+             * @description by name
+             */
+            scopes: components["schemas"]["ScopeSaved"][];
+            /** Set Id */
+            set_id: string;
+        };
+        /**
+         * ScopeSaved
+         * @description A configuration as it is kept: its name, when and by whom it was saved, and itself.
+         */
+        ScopeSaved: {
+            /** @description who saved it */
+            by: components["schemas"]["Who"] | null;
+            /** @description null when its file cannot be read (then `error` says why) */
+            config: components["schemas"]["ScopeConfig"] | null;
+            /**
+             * Error
+             * @description why its file is not a configuration (it was altered by hand)
+             */
+            error?: string | null;
+            /**
+             * Name
+             * @description 1 to 64 letters, digits, '_', '.' or '-', starting with a letter or a digit
+             */
+            name: string;
+            /**
+             * Saved
+             * @description when it was saved (UTC)
+             */
+            saved: string;
+            /** Set Id */
+            set_id: string;
+            /**
+             * Size
+             * @description bytes of its file
+             */
+            size: number;
+        };
+        /**
          * SessionState
          * @description The browser's session (GET /session, and the answer to a sign-in).
          */
@@ -3642,6 +3764,26 @@ export interface components {
              * @description why, for the history
              */
             reason: string;
+        };
+        /** ShotOf */
+        ShotOf: {
+            /**
+             * Capture
+             * @description the capture's id (GET /captures/{capture})
+             */
+            capture: string;
+            /**
+             * Cause
+             * @description what triggered it, in words
+             */
+            cause: string;
+            /** Shot */
+            shot: number;
+            /**
+             * Trigger Seq
+             * @description the trace row that triggered it
+             */
+            trigger_seq: number;
         };
         /**
          * ShotRows
@@ -6348,6 +6490,239 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["HTTPValidationError"];
                 };
+            };
+        };
+    };
+    list_scopes_api_v1_sets__set_id__scopes_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                set_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ScopeList"];
+                };
+            };
+            /** @description a name that could be a path: names are 1 to 64 of [A-Za-z0-9_.-], first a letter or digit */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such set, or no such configuration */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the set holds 100 configurations already */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a configuration over 262144 bytes */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a body that is not a configuration (pydantic's message), or a damaged file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    get_scope_api_v1_sets__set_id__scopes__name__get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                set_id: string;
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ScopeSaved"];
+                };
+            };
+            /** @description a name that could be a path: names are 1 to 64 of [A-Za-z0-9_.-], first a letter or digit */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such set, or no such configuration */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the set holds 100 configurations already */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a configuration over 262144 bytes */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a body that is not a configuration (pydantic's message), or a damaged file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    put_scope_api_v1_sets__set_id__scopes__name__put: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                set_id: string;
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["ScopeConfig"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ScopeSaved"];
+                };
+            };
+            /** @description a name that could be a path: names are 1 to 64 of [A-Za-z0-9_.-], first a letter or digit */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such set, or no such configuration */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the set holds 100 configurations already */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a configuration over 262144 bytes */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a body that is not a configuration (pydantic's message), or a damaged file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    delete_scope_api_v1_sets__set_id__scopes__name__delete: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                set_id: string;
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            204: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a name that could be a path: names are 1 to 64 of [A-Za-z0-9_.-], first a letter or digit */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such set, or no such configuration */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the set holds 100 configurations already */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a configuration over 262144 bytes */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a body that is not a configuration (pydantic's message), or a damaged file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
         };
     };

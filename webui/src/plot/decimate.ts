@@ -1,12 +1,14 @@
 // decimate.ts -- what a time plot draws: at most two points (the min and the max, in the order
 // they came) per bucket of samples, a bucket being about one pixel wide, and a gap (null) where
-// samples are missing.  The live view keeps finished buckets and computes only the new samples
+// samples are missing (in a sparse ring, where a series has no sample the line goes on to its
+// next one: undefined, not null).  The live view keeps finished buckets and computes only the new samples
 // of each frame, so a frame's work does not grow with the window.
 import type { SampleRing } from "./ring";
 
 export interface DrawData {
   x: number[];
-  ys: (number | null)[][];
+  /** null: a gap (the pen lifts); undefined: no sample of this series here (drawn across) */
+  ys: (number | null | undefined)[][];
 }
 
 export function emptyDraw(channels: number): DrawData {
@@ -23,6 +25,8 @@ export function clearDraw(d: DrawData, channels: number): void {
 class Buckets {
   x1: Float64Array;
   x2: Float64Array;
+  /** NaN is emitted as undefined (a sparse ring's "no sample here"), else as null (a gap) */
+  missing: null | undefined = null;
   np: Uint8Array;
   gap: Uint8Array;
   ya: Float64Array[];
@@ -42,8 +46,9 @@ class Buckets {
   /** Fills slot s from the ring's logical samples [a, b). */
   compute(s: number, ring: SampleRing, a: number, b: number): void {
     const dec = ring.decimation;
-    let gap = a > 0 && ring.seqAt(a) - ring.seqAt(a - 1) !== dec;
-    for (let i = a + 1; i < b && !gap; i++) if (ring.seqAt(i) - ring.seqAt(i - 1) !== dec) gap = true;
+    this.missing = ring.sparse ? undefined : null;
+    let gap = !ring.sparse && a > 0 && ring.seqAt(a) - ring.seqAt(a - 1) !== dec;
+    for (let i = a + 1; i < b && !gap && !ring.sparse; i++) if (ring.seqAt(i) - ring.seqAt(i - 1) !== dec) gap = true;
     this.gap[s] = gap ? 1 : 0;
     this.x1[s] = ring.tAt(a);
     this.x2[s] = ring.tAt(b - 1);
@@ -99,14 +104,14 @@ class Buckets {
     out.x.push(this.x1[s] + xOff);
     for (let c = 0; c < this.channels; c++) {
       const v = this.ya[c][s];
-      out.ys[c].push(Number.isNaN(v) ? null : v);
+      out.ys[c].push(Number.isNaN(v) ? this.missing : v);
     }
     n++;
     if (this.np[s] === 2) {
       out.x.push(this.x2[s] + xOff);
       for (let c = 0; c < this.channels; c++) {
         const v = this.yb[c][s];
-        out.ys[c].push(Number.isNaN(v) ? null : v);
+        out.ys[c].push(Number.isNaN(v) ? this.missing : v);
       }
       n++;
     }

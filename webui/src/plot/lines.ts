@@ -21,8 +21,9 @@ export const COLORS = [
   "#3182bd",
 ];
 
-/** Draws every shown series as one polyline, lifting the pen at nulls: what uPlot's own path
- * builder would do, without its per-point work (the points are already decimated). */
+/** Draws every shown series as one polyline, lifting the pen at nulls and drawing across
+ * undefined (no sample of this series there): what uPlot's own path builder would do, without its
+ * per-point work (the points are already decimated). */
 export function drawLines(u: uPlot): void {
   const g = u.ctx;
   const { left, top, width, height } = u.bbox;
@@ -45,13 +46,14 @@ export function drawLines(u: uPlot): void {
   for (let s = 1; s < u.series.length; s++) {
     const ser = u.series[s];
     if (!ser.show) continue;
-    const ys = u.data[s] as (number | null)[];
+    const ys = u.data[s] as (number | null | undefined)[];
     g.strokeStyle = COLORS[(s - 1) % COLORS.length];
     g.beginPath();
     let pen = false;
     for (let i = 0; i < xs.length; i++) {
       const v = ys[i];
-      if (v == null) {
+      if (v === undefined) continue;
+      if (v === null) {
         pen = false;
         continue;
       }
@@ -64,6 +66,31 @@ export function drawLines(u: uPlot): void {
       }
     }
     g.stroke();
+  }
+  g.restore();
+}
+
+/** Vertical dashed lines across the plot at x values (a shot's trigger), each with its label. */
+export function drawMarks(u: uPlot, marks: readonly { x: number; label: string }[]): void {
+  const sx = u.scales.x;
+  if (!marks.length || sx.min == null || sx.max == null || sx.max <= sx.min) return;
+  const g = u.ctx;
+  const { left, top, width, height } = u.bbox;
+  const r = uPlot.pxRatio;
+  g.save();
+  g.strokeStyle = "#b3261e";
+  g.fillStyle = "#b3261e";
+  g.lineWidth = r;
+  g.setLineDash([4 * r, 3 * r]);
+  g.font = `${11 * r}px system-ui, sans-serif`;
+  for (const m of marks) {
+    if (m.x < sx.min || m.x > sx.max) continue;
+    const px = Math.round(left + ((m.x - sx.min) / (sx.max - sx.min)) * width) + 0.5;
+    g.beginPath();
+    g.moveTo(px, top);
+    g.lineTo(px, top + height);
+    g.stroke();
+    g.fillText(m.label, px + 3 * r, top + 12 * r);
   }
   g.restore();
 }

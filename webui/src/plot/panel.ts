@@ -2,14 +2,16 @@
 // sample stream (every sample, no decimation on the wire), a ring holding its window, and a uPlot
 // time chart or an x–y canvas drawn at most once per animation frame.  Pausing or zooming (drag
 // on the chart) freezes a copy of the samples while the ring keeps filling; double-click or
-// Resume goes back to live.
+// Resume goes back to live.  A panel made without a stream shows a fixed table of rows instead
+// (showRows: a capture's shots on the Scope page), with the same zoom, cursor and x–y mode, its x
+// axis in seconds from a mark (the trigger).
 import uPlot from "uplot";
 import type { Samples, StreamClient } from "../stream/stream";
 import { download, windowCsv } from "./csv";
 import { bucketSize, clearDraw, type DrawData, decimateRange, emptyDraw, LiveDecimator } from "./decimate";
-import { COLORS, drawLines } from "./lines";
+import { COLORS, drawLines, drawMarks } from "./lines";
 import { shortLabels } from "./paths";
-import { SampleRing } from "./ring";
+import { type FixedRows, SampleRing } from "./ring";
 import type { PlotStats } from "./stats";
 import { XYPlot } from "./xy";
 
@@ -25,7 +27,8 @@ export interface PanelConfig {
 
 /** What the page gives its panels. */
 export interface PanelEnv {
-  stream: StreamClient;
+  /** null: a panel of fixed rows (showRows), not fed by the stream */
+  stream: StreamClient | null;
   stats: PlotStats;
   /** CLOCK_MONOTONIC → wall clock, fixed at the first sample the page saw (for the time axis) */
   clock: { offset: number | null };
@@ -77,6 +80,9 @@ export class PlotPanel {
   private unaccounted = 0;
   private capped = false;
   private width = 600;
+  /** a panel of fixed rows (no stream): its rows are `frozen`, its marks drawn over them */
+  readonly fixed: boolean;
+  private marks: FixedRows["marks"] = [];
   private resize: ResizeObserver;
   private host: HTMLElement;
   private info: HTMLElement;
@@ -86,6 +92,7 @@ export class PlotPanel {
     readonly cfg: PanelConfig,
     private env: PanelEnv,
   ) {
+    this.fixed = env.stream === null;
     this.draw = emptyDraw(cfg.paths.length);
     const el = document.createElement("section");
     el.className = "plot-panel";
@@ -111,6 +118,13 @@ export class PlotPanel {
       <div class="plot-host"></div>
       <div class="panel-info" data-testid="panel-info"></div>`;
     this.el = el;
+    if (this.fixed) {
+      // what a table of fixed rows has no use for: a window, pause (it never moves), the stream's
+      // variables, the visible window's CSV (a shot is exported whole from the recordings' list)
+      for (const id of ["window", "pause", "csv", "remove-panel", "panel-add"])
+        el.querySelector<HTMLElement>(`[data-testid=${id}]`)!.closest("label, button, input")!.remove();
+      el.dataset.state = "fixed";
+    }
     this.host = el.querySelector(".plot-host")!;
     this.info = el.querySelector(".panel-info")!;
     const q = <T extends HTMLElement>(id: string) => el.querySelector<T>(`[data-testid=${id}]`)!;
@@ -121,19 +135,21 @@ export class PlotPanel {
       this.build();
       env.changed();
     };
-    const win = q<HTMLSelectElement>("window");
-    win.value = String(cfg.windowS);
-    win.onchange = () => this.setWindow(Number(win.value));
-    q("pause").onclick = () => (this.frozen ? this.resume() : this.pause());
-    q("csv").onclick = () => this.exportCsv();
-    q("remove-panel").onclick = () => env.remove(this);
     el.addEventListener("pointerdown", () => env.activate(this));
-    const add = q<HTMLInputElement>("panel-add");
-    add.onchange = () => {
-      const p = add.value.trim();
-      add.value = "";
-      if (p) this.addPath(p);
-    };
+    if (!this.fixed) {
+      const win = q<HTMLSelectElement>("window");
+      win.value = String(cfg.windowS);
+      win.onchange = () => this.setWindow(Number(win.value));
+      q("pause").onclick = () => (this.frozen ? this.resume() : this.pause());
+      q("csv").onclick = () => this.exportCsv();
+      q("remove-panel").onclick = () => env.remove(this);
+      const add = q<HTMLInputElement>("panel-add");
+      add.onchange = () => {
+        const p = add.value.trim();
+        add.value = "";
+        if (p) this.addPath(p);
+      };
+    }
     const pickX = q<HTMLSelectElement>("xy-x");
     const pickY = q<HTMLSelectElement>("xy-y");
     pickX.onchange = pickY.onchange = () => {
@@ -165,6 +181,40 @@ export class PlotPanel {
 
   setActive(on: boolean): void {
     this.el.classList.toggle("active", on);
+  }
+
+  /** Shows these rows (a panel of fixed rows only): their series, whole, unzoomed; the x–y
+   * variables are kept when the new rows have them. */
+  showRows(rows: FixedRows): void {
+    if (!this.fixed) throw new Error("showRows: this panel follows the stream");
+    this.frozen = SampleRing.of(rows);
+    this.marks = rows.marks;
+    this.zoom = null;
+    this.cfg.paths = [...rows.names];
+    const keep = (p: string | null) => (p && rows.names.includes(p) ? p : null);
+    const [x, y] = this.cfg.xy.map(keep);
+    this.cfg.xy = [x ?? rows.names[0] ?? null, y ?? rows.names.find((n) => n !== (x ?? rows.names[0])) ?? null];
+    this.draw = emptyDraw(rows.names.length);
+    this.build();
+  }
+
+  /** The mode and the x–y variables (a restored view); variables the panel lacks are dropped. */
+  setView(mode: Mode, xy: readonly (string | null)[] | null): void {
+    this.cfg.mode = mode;
+    const keep = (p: string | null | undefined) => (p && this.cfg.paths.includes(p) ? p : null);
+    if (xy) this.cfg.xy = [keep(xy[0]), keep(xy[1])];
+    this.el.querySelector<HTMLSelectElement>("[data-testid=mode]")!.value = mode;
+    this.build();
+  }
+
+  /** The rows shown (a panel of fixed rows), null before showRows. */
+  get rows(): SampleRing | null {
+    return this.fixed ? this.frozen : null;
+  }
+
+  /** Makes the panel draw again at its next frame (the page changed the mode, say). */
+  redraw(): void {
+    this.dirty = true;
   }
 
   // ---- variables --------------------------------------------------------------------------------
@@ -206,6 +256,7 @@ export class PlotPanel {
   }
 
   private subscribe(): void {
+    if (!this.env.stream) return;
     const old = this.unsubscribe;
     // the new subscription first: the variables both have stay traced throughout
     this.unsubscribe = this.cfg.paths.length
@@ -217,7 +268,7 @@ export class PlotPanel {
   // ---- samples --------------------------------------------------------------------------------
   private onSamples(s: Samples): void {
     const n = s.t.length;
-    if (n === 0) return;
+    if (n === 0 || !this.env.stream) return;
     // the basic period from the channels message (a new set may change it), else from the due times
     const statusPeriod = this.env.stream.status.basicPeriodNs;
     const period =
@@ -284,6 +335,12 @@ export class PlotPanel {
   }
 
   resume(): void {
+    if (this.fixed) {
+      this.zoom = null; // fixed rows never go live: back to all of them
+      this.dirty = true;
+      this.updateButtons();
+      return;
+    }
     this.paused = false;
     this.frozen = null;
     this.zoom = null;
@@ -292,10 +349,19 @@ export class PlotPanel {
   }
 
   private updateButtons(): void {
+    if (this.fixed) {
+      this.el.dataset.state = this.zoom ? "zoomed" : "fixed";
+      return;
+    }
     const b = this.el.querySelector<HTMLButtonElement>("[data-testid=pause]")!;
     b.textContent = this.frozen ? "Resume" : "Pause";
     b.classList.toggle("on", !!this.frozen);
     this.el.dataset.state = this.frozen ? (this.paused ? "paused" : "zoomed") : "live";
+  }
+
+  /** What x values are shifted by: the wall clock's offset live, none for fixed rows. */
+  private get xOffset(): number {
+    return this.fixed ? 0 : (this.env.clock.offset ?? 0);
   }
 
   private liveRange(): [number, number] | null {
@@ -319,7 +385,7 @@ export class PlotPanel {
   private onSelect(u: uPlot): void {
     const sel = u.select;
     if (sel.width < 3) return;
-    const off = this.env.clock.offset ?? 0;
+    const off = this.xOffset;
     const a = u.posToVal(sel.left, "x") - off;
     const b = u.posToVal(sel.left + sel.width, "x") - off;
     u.setSelect({ left: 0, top: 0, width: 0, height: 0 }, false);
@@ -330,7 +396,7 @@ export class PlotPanel {
   }
 
   private unzoom(): void {
-    if (this.paused && this.frozen) this.zoom = null;
+    if ((this.paused || this.fixed) && this.frozen) this.zoom = null;
     else this.resume();
     this.dirty = true;
     this.updateButtons();
@@ -393,15 +459,19 @@ export class PlotPanel {
   }
 
   private makeChart(): uPlot {
+    const fixed = this.fixed;
     const opts: uPlot.Options = {
       width: this.width,
       height: HEIGHT,
       scales: {
-        x: { time: true, range: (_u, lo, hi) => this.xRange ?? [lo, hi] },
+        x: { time: !fixed, range: (_u, lo, hi) => this.xRange ?? [lo, hi] },
         y: { auto: true },
       },
       series: [
-        { value: (_u, v) => (v == null ? "--" : clockTime(v)) },
+        {
+          label: fixed ? "t from trigger" : "Time",
+          value: (_u, v) => (v == null ? "--" : fixed ? `${(v * 1e3).toPrecision(6)} ms` : clockTime(v)),
+        },
         // the lines are drawn by drawLines (the data is already one point a pixel at most)
         ...shortLabels(this.cfg.paths).map((label, i) => ({
           label,
@@ -412,12 +482,16 @@ export class PlotPanel {
         })),
       ],
       axes: [
-        { stroke: "#5f6b76", grid: { stroke: "#eef1f4" } },
+        {
+          stroke: "#5f6b76",
+          grid: { stroke: "#eef1f4" },
+          ...(fixed ? { label: "s from the trigger", labelSize: 20 } : {}),
+        },
         { stroke: "#5f6b76", size: 64, grid: { stroke: "#eef1f4" } },
       ],
       cursor: { drag: { x: true, y: false, setScale: false }, bind: { dblclick: () => null }, points: { show: false } },
       legend: { live: true },
-      hooks: { setSelect: [(u) => this.onSelect(u)], draw: [drawLines] },
+      hooks: { setSelect: [(u) => this.onSelect(u)], draw: [drawLines, (u) => drawMarks(u, this.marks)] },
     };
     const u = new uPlot(opts, [[], ...this.cfg.paths.map(() => [])], this.host);
     u.over.addEventListener("dblclick", () => this.unzoom());
@@ -432,7 +506,7 @@ export class PlotPanel {
     const v = this.visible();
     if (this.cfg.mode === "xy") return this.drawXY(v);
     if (!this.chart) return -1;
-    const off = this.env.clock.offset ?? 0;
+    const off = this.xOffset;
     const d = this.draw;
     clearDraw(d, this.cfg.paths.length);
     let points = 0;
@@ -476,7 +550,12 @@ export class PlotPanel {
     this.infoAt = now;
     const r = this.ring;
     const parts: string[] = [];
-    if (!this.cfg.paths.length) parts.push("add variables with + in the tree or the box above");
+    if (this.fixed) {
+      const f = this.frozen;
+      parts.push(f ? `${f.length} rows` : "nothing to show yet");
+      if (f && this.zoom) parts.push("zoomed — double-click for all");
+      else if (f) parts.push("drag to zoom");
+    } else if (!this.cfg.paths.length) parts.push("add variables with + in the tree or the box above");
     else if (!r || r.length === 0) parts.push("waiting for samples…");
     else {
       const per = this.periodS ?? 0;
@@ -488,7 +567,7 @@ export class PlotPanel {
         );
       if (r.resets) parts.push(`irpd restarted ${r.resets}×`);
     }
-    if (this.frozen) parts.push(this.paused ? "paused" : "zoomed — double-click or Resume for live");
+    if (this.frozen && !this.fixed) parts.push(this.paused ? "paused" : "zoomed — double-click or Resume for live");
     const text = parts.join(" · ");
     if (text !== this.infoText) this.info.textContent = this.infoText = text;
   }

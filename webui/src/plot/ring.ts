@@ -1,11 +1,30 @@
 // ring.ts -- the samples of one plot panel: a ring of rows (seq, due time, one value per channel)
-// holding the last `capacity` samples, checked for seq continuity as frames arrive.
+// holding the last `capacity` samples, checked for seq continuity as frames arrive; or a fixed
+// table of rows (a capture's shot, SampleRing.of) that nothing is added to.
 
 export interface PushResult {
   /** samples missing between the previous frame and this one (by seq) */
   gap: number;
   /** seq went backwards (irpd restarted): the ring was emptied first */
   reset: boolean;
+}
+
+/** A fixed table of rows for a panel to show instead of the stream (the Scope page's shots). */
+export interface FixedRows {
+  /** one per column: the series' names */
+  names: string[];
+  /** row k's seq (for a single shot, the trace row's) and its x value (seconds) */
+  seq: ArrayLike<number>;
+  t: ArrayLike<number>;
+  /** one per name; NaN: no value */
+  cols: ArrayLike<number>[];
+  /** seq step between rows that follow each other (a bigger step is drawn as a gap) */
+  decimation: number;
+  /** rows of several tables merged on one x axis: NaN is "no sample of this series here" (the
+   * line goes on to its next sample) and seq steps are not checked */
+  sparse: boolean;
+  /** vertical lines drawn at these x values (a trigger) */
+  marks: { x: number; label: string }[];
 }
 
 export class SampleRing {
@@ -23,6 +42,23 @@ export class SampleRing {
   /** samples missing between frames since the ring was made (not counting resets) */
   gapSamples = 0;
   resets = 0;
+  /** NaN means "no sample of this channel at this row" (FixedRows.sparse) */
+  sparse = false;
+
+  /** A full ring holding exactly the given rows (nothing is pushed to it afterwards). */
+  static of(rows: FixedRows): SampleRing {
+    const n = rows.t.length;
+    const r = new SampleRing(Math.max(1, n), rows.cols.length);
+    r.seq.set(rows.seq);
+    r.t.set(rows.t);
+    for (let c = 0; c < rows.cols.length; c++) r.cols[c].set(rows.cols[c]);
+    r.head = n % r.capacity;
+    r.length = r.total = n;
+    r.decimation = rows.decimation;
+    r.nextSeq = n ? rows.seq[n - 1] + rows.decimation : null;
+    r.sparse = rows.sparse;
+    return r;
+  }
 
   constructor(
     readonly capacity: number,
@@ -158,6 +194,7 @@ export class SampleRing {
     r.decimation = this.decimation;
     r.gapSamples = this.gapSamples;
     r.resets = this.resets;
+    r.sparse = this.sparse;
     return r;
   }
 }

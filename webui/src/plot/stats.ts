@@ -26,8 +26,9 @@ declare global {
   }
 }
 
-export function plotStats(): PlotStats {
-  const s: PlotStats = {
+/** Counters that no benchmark reads (a panel of fixed rows needs some all the same). */
+export function emptyStats(): PlotStats {
+  return {
     frames: 0,
     draws: 0,
     frameTimes: [],
@@ -39,6 +40,10 @@ export function plotStats(): PlotStats {
     panels: 0,
     drawEvery: 1,
   };
+}
+
+export function plotStats(): PlotStats {
+  const s = emptyStats();
   window.__induropPlotStats = s;
   return s;
 }

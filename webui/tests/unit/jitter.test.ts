@@ -2,6 +2,7 @@
 // seconds the page has polled and is labelled with clock times, from the first interval on.  The
 // page runs as in the browser (its own uPlot charts, GET /jitter/histograms answered here, polls
 // on fake timers); canvases get a 2D context that records the text drawn on it.
+import "./dom-shims";
 import { afterEach, beforeEach, describe, expect, it, vi } from "vitest";
 import type { Api } from "../../src/api/client";
 import type { components } from "../../src/api/schema";
@@ -10,23 +11,8 @@ import { wallClockRange } from "../../src/plot/timeaxis";
 
 type Histograms = components["schemas"]["Histograms"];
 
-// uPlot reads matchMedia and draws with Path2D, neither of which jsdom has; the charts the page
-// makes are kept to look at their scales
+// the charts the page makes are kept to look at their scales (dom-shims.ts gives uPlot what jsdom lacks)
 const charts = vi.hoisted(() => {
-  window.matchMedia = ((query: string) => ({
-    matches: false,
-    media: query,
-    addEventListener() {},
-    removeEventListener() {},
-  })) as unknown as typeof window.matchMedia;
-  (globalThis as { Path2D?: unknown }).Path2D = class {
-    moveTo() {}
-    lineTo() {}
-    rect() {}
-    arc() {}
-    closePath() {}
-    bezierCurveTo() {}
-  };
   return [] as { scales: { x: { min?: number | null; max?: number | null } }; root: HTMLElement }[];
 });
 vi.mock("uplot", async (original) => {
