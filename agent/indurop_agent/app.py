@@ -36,6 +36,7 @@ from .api.routes import (
     jitter,
     line,
     modules,
+    opcua,
     recordings,
     robot,
     scopes,
@@ -265,6 +266,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     routers += (recordings,)  # the recorder (docs/recorder.md)
     routers += (captures,)  # the scope's triggered captures
     routers += (scopes,)  # trace configurations kept with a set
+    routers += (opcua,)  # the OPC UA server's state and trust list (docs/opcua.md)
     for module in (*routers, stream):
         app.include_router(module.router, prefix=API)
     app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)

@@ -39,6 +39,7 @@ from ..audit import AuditLog
 from ..auth import allows
 from ..security import Lockout
 from ..users import parse_users, password_matches
+from .pki import Pki
 from .settings import OpcuaSettings
 
 CERT_DAYS = 5 * 365
@@ -256,23 +257,8 @@ class TrustList:
         raise ServiceError(ua.StatusCodes.BadCertificateUntrusted)
 
     def listing(self) -> dict:
-        def entries(folder: Path) -> list[dict]:
-            out = []
-            for p in sorted(folder.glob("*")):
-                try:
-                    cert = x509_load(p)
-                except (OSError, ValueError):
-                    continue
-                out.append(
-                    {
-                        "file": p.name,
-                        "subject": cert.subject.rfc4514_string(),
-                        "sha256": thumbprint(uacrypto.der_from_x509(cert)),
-                    }
-                )
-            return out
-
-        return {"trusted": entries(self.trusted_dir), "rejected": entries(self.rejected_dir), "refused": self.refused}
+        """The trusted and rejected certificates (pki.py's description of each) and the refusals."""
+        return Pki(self.trusted_dir.parents[1]).listing() | {"refused": self.refused}
 
 
 def _safe(text: str) -> str:

@@ -18,6 +18,7 @@ nodes (address_space.py), the figures, and <data>/opcua/status.json for the agen
 from __future__ import annotations
 
 import asyncio
+import hashlib
 import json
 import logging
 import math
@@ -267,6 +268,7 @@ def status_body(rt: Runtime) -> dict:
         "pid": os.getpid(),
         "started": rt.started,
         "updated": now_iso(),
+        "status_file_s": s.status_file_s,
         "endpoint": s.endpoint,
         "application_uri": application_uri(),
         "security": {
@@ -277,6 +279,8 @@ def status_body(rt: Runtime) -> dict:
         },
         "certificate": {
             "file": str(s.pki / "server-cert.der"),
+            "subject": cert.subject.rfc4514_string() if cert else None,
+            "sha1": hashlib.sha1(cert.public_bytes(Encoding.DER)).hexdigest() if cert else None,  # OPC UA's thumbprint
             "sha256": thumbprint(cert.public_bytes(Encoding.DER)) if cert else None,
             "not_after": cert.not_valid_after_utc.isoformat() if cert else None,
         },

@@ -105,6 +105,11 @@ ROUTES = [
     ("GET", "/alarms/history", "viewer", None, 200),
     ("GET", "/alarms/history.csv", "viewer", None, 200),
     ("GET", "/line", "viewer", None, 200),  # the line (docs/dds.md): no bridge here, "off"
+    ("GET", "/opcua", "viewer", None, 200),  # the OPC UA server (docs/opcua.md): none here, "off"
+    # the trust list (tests/python/agent/test_opcua_trust.py): no such certificate here
+    ("POST", f"/opcua/certificates/{'0' * 64}/trust", "admin", None, 404),
+    ("POST", f"/opcua/certificates/{'0' * 64}/reject", "admin", None, 404),
+    ("DELETE", f"/opcua/certificates/{'0' * 64}", "admin", None, 404),
     ("GET", "/recordings", "viewer", None, 200),
     ("POST", "/alarms/ack", "operator", {}, 200),
     ("GET", "/layout", "viewer", None, 200),
@@ -209,6 +214,7 @@ def test_every_route_of_the_api_is_in_the_role_matrix(cell):
             for m, p, *_ in ROUTES
             if "/scopes" in p
         },
+        **{(m, p): (m, p.replace("0" * 64, "{thumbprint}")) for m, p, *_ in ROUTES if "/opcua/" in p},
     }
     listed = {templates.get(r, r) for r in listed}
     for path, operations in spec["paths"].items():

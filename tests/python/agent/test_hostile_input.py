@@ -150,6 +150,10 @@ NEEDS = {
     ("GET", "/sets/{set_id}/scopes/{name}"): "viewer",
     ("PUT", "/sets/{set_id}/scopes/{name}"): "operator",
     ("DELETE", "/sets/{set_id}/scopes/{name}"): "operator",
+    ("GET", "/opcua"): "viewer",
+    ("POST", "/opcua/certificates/{thumbprint}/trust"): "admin",
+    ("POST", "/opcua/certificates/{thumbprint}/reject"): "admin",
+    ("DELETE", "/opcua/certificates/{thumbprint}"): "admin",
 }
 SAMPLE = {
     "{name}": "cntr1",
@@ -160,6 +164,7 @@ SAMPLE = {
     "{log}": "irpd",
     "{capture_id}": "0" * 10,
     "{shot}": "1",
+    "{thumbprint}": "0" * 40,
 }
 
 
@@ -698,6 +703,8 @@ def test_links_devices_and_traversal_inside_archives_are_400(battery, case):
         "/audit/../../etc/passwd",
         "/../../../etc/passwd",
         "/sets/%252e%252e",
+        "/opcua/certificates/..%2f..%2fusers.json/trust",
+        "/opcua/certificates/%2e%2e",
     ],
 )
 def test_traversal_in_url_paths_reaches_nothing(battery, path):
@@ -847,6 +854,20 @@ def test_trace_configuration_names_that_could_be_paths_are_400_and_write_nothing
     r = battery.request("PUT", f"/sets/{set_id}/scopes/good", "operator", json=SCOPE)
     assert r.status_code == 200, r.text
     assert (battery.data / "sets" / set_id / "scopes" / "good.json").is_file()
+
+
+@pytest.mark.parametrize(
+    "thumbprint",
+    [f"..%2f..%2f{MARKER}", "%2e%2e", "..%2fusers.json", f"{'a' * 40}%00", "a" * 41, "A" * 40 + "%2f.."],
+    ids=repr,
+)
+def test_opcua_thumbprints_that_could_be_paths_are_400_or_404_and_move_nothing(battery, thumbprint):
+    for method, path in (("POST", "trust"), ("POST", "reject"), ("DELETE", "")):
+        r = battery.request(method, f"/opcua/certificates/{thumbprint}{'/' + path if path else ''}", "admin")
+        assert r.status_code in (400, 404, 405), (method, path, r.status_code, r.text)
+        if r.status_code == 400:
+            assert "hexadecimal digits" in detail(r)
+    assert not (battery.data / "opcua").exists()  # the agent makes no OPC UA folder of its own
 
 
 # ---- afterwards -----------------------------------------------------------------------------------

@@ -531,6 +531,91 @@ export interface paths {
         patch: operations["patch_module_api_v1_modules__name__patch"];
         trace?: never;
     };
+    "/api/v1/opcua": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Opcua State
+         * @description The OPC UA server's endpoint, security (with a warning when None or anonymous sessions are on),
+         *     sessions and figures as it last wrote them, and the trust list: the client applications'
+         *     certificates, trusted and rejected.
+         */
+        get: operations["opcua_state_api_v1_opcua_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/opcua/certificates/{thumbprint}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        post?: never;
+        /**
+         * Remove
+         * @description Deletes the certificate from the trust list (both folders).  The application is refused from
+         *     then on, and its certificate lands in pki/rejected again at its next try.
+         */
+        delete: operations["remove_api_v1_opcua_certificates__thumbprint__delete"];
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/opcua/certificates/{thumbprint}/reject": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Reject
+         * @description Moves a certificate to pki/rejected: new sessions of that application are refused
+         *     (BadCertificateUntrusted); those open go on until they close.
+         */
+        post: operations["reject_api_v1_opcua_certificates__thumbprint__reject_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/opcua/certificates/{thumbprint}/trust": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Trust
+         * @description Moves a client application's certificate to pki/trusted: its next session is let in (no
+         *     restart).  Its SHA-1 or SHA-256 thumbprint, as GET /opcua lists them.
+         */
+        post: operations["trust_api_v1_opcua_certificates__thumbprint__trust_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/recordings": {
         parameters: {
             query?: never;
@@ -2924,6 +3009,195 @@ export interface components {
             to: number;
         } & {
             [key: string]: unknown;
+        };
+        /**
+         * OpcuaCertificate
+         * @description A client application's certificate in the trust list (or a CA that issues them).
+         */
+        OpcuaCertificate: {
+            /**
+             * Application Uri
+             * @description the URI in its subjectAltName, the client's ApplicationUri
+             */
+            application_uri: string | null;
+            /**
+             * Ca
+             * @description a CA certificate: when trusted, the certificates it issued are trusted
+             */
+            ca: boolean;
+            /**
+             * File
+             * @description its file name in <data>/opcua/pki/<folder>/
+             */
+            file: string;
+            /**
+             * Folder
+             * @enum {string}
+             */
+            folder: "trusted" | "rejected";
+            /** Issuer */
+            issuer: string;
+            /** Not After */
+            not_after: string;
+            /**
+             * Not Before
+             * @description ISO 8601, UTC
+             */
+            not_before: string;
+            /**
+             * Sha1
+             * @description the SHA-1 thumbprint of its DER form (OPC UA's thumbprint), lowercase hex
+             */
+            sha1: string;
+            /**
+             * Sha256
+             * @description the SHA-256 thumbprint, lowercase hex
+             */
+            sha256: string;
+            /**
+             * Subject
+             * @description RFC 4514, e.g. CN=UaExpert@host,O=...
+             */
+            subject: string;
+            /**
+             * Valid Now
+             * @description false: expired or not yet valid (the server refuses it, trusted or not)
+             */
+            valid_now: boolean;
+        };
+        /** OpcuaSecurity */
+        OpcuaSecurity: {
+            /**
+             * Anonymous
+             * @description anonymous sessions are allowed
+             */
+            anonymous: boolean;
+            /**
+             * Policies
+             * @description the security policies offered, each with Sign and SignAndEncrypt
+             */
+            policies: string[];
+            /**
+             * Security None
+             * @description policy None is offered: messages are neither signed nor encrypted
+             */
+            security_none: boolean;
+            /**
+             * Warnings
+             * @description what lets a client in without security, in words; empty: none
+             */
+            warnings: string[];
+        };
+        /** OpcuaServerCertificate */
+        OpcuaServerCertificate: {
+            /** File */
+            file?: string | null;
+            /** Not After */
+            not_after?: string | null;
+            /** Sha1 */
+            sha1?: string | null;
+            /** Sha256 */
+            sha256?: string | null;
+            /** Subject */
+            subject?: string | null;
+        };
+        /**
+         * OpcuaState
+         * @description GET /opcua: the OPC UA server as it last said in <data>/opcua/status.json, and its trust list
+         *     as the folders hold it now.
+         */
+        OpcuaState: {
+            /**
+             * Age S
+             * @description seconds since it wrote its status
+             */
+            age_s?: number | null;
+            /** Application Uri */
+            application_uri?: string | null;
+            /** @description the server's own certificate */
+            certificate?: components["schemas"]["OpcuaServerCertificate"] | null;
+            /**
+             * Endpoint
+             * @description opc.tcp://host:port/ it listens on
+             */
+            endpoint?: string | null;
+            /**
+             * Irpd
+             * @description the server reaches irpd
+             */
+            irpd?: boolean | null;
+            /** Layout Hash */
+            layout_hash?: string | null;
+            /**
+             * Message
+             * @description what the server state means, in words; empty when ok
+             */
+            message: string;
+            /** Monitored Items */
+            monitored_items?: number | null;
+            /** Pid */
+            pid?: number | null;
+            /**
+             * Refused
+             * @description client certificates refused since the server started
+             */
+            refused?: number | null;
+            /**
+             * Rejected
+             * @description pki/rejected: applications refused (BadCertificateUntrusted), kept to be trusted or removed
+             */
+            rejected: components["schemas"]["OpcuaCertificate"][];
+            security?: components["schemas"]["OpcuaSecurity"] | null;
+            /**
+             * Server
+             * @description ok; off (no status.json: the server has not run with this data folder); stale (it stopped writing it: stopped, killed or stuck); unreadable (not a status this agent reads)
+             * @enum {string}
+             */
+            server: "ok" | "off" | "stale" | "unreadable";
+            /** Sessions */
+            sessions?: number | null;
+            /**
+             * Started
+             * @description when the server started (ISO 8601, UTC)
+             */
+            started?: string | null;
+            /** Subscriptions */
+            subscriptions?: number | null;
+            /**
+             * Trusted
+             * @description pki/trusted: sessions from these applications are let in
+             */
+            trusted: components["schemas"]["OpcuaCertificate"][];
+            /**
+             * Unreadable
+             * @description files in the folders that are not certificates (folder/name)
+             */
+            unreadable: string[];
+            /**
+             * Updated
+             * @description when it wrote its status
+             */
+            updated?: string | null;
+        };
+        /**
+         * OpcuaTrustChange
+         * @description What a trust, reject or remove did.
+         */
+        OpcuaTrustChange: {
+            /**
+             * Action
+             * @enum {string}
+             */
+            action: "trust" | "reject" | "remove";
+            /** @description the certificate as it is now (its folder and file) */
+            certificate: components["schemas"]["OpcuaCertificate"];
+            /**
+             * Changed
+             * @description false: it already was where it was asked to go
+             */
+            changed: boolean;
+            /** Detail */
+            detail: string;
         };
         /**
          * PasswordChange
@@ -5530,6 +5804,173 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    opcua_state_api_v1_opcua_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["OpcuaState"];
+                };
+            };
+        };
+    };
+    remove_api_v1_opcua_certificates__thumbprint__delete: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                thumbprint: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["OpcuaTrustChange"];
+                };
+            };
+            /** @description a thumbprint is 40 (SHA-1) or 64 (SHA-256) hexadecimal digits, as GET /opcua lists them */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description no certificate with this thumbprint in pki/trusted or pki/rejected */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    reject_api_v1_opcua_certificates__thumbprint__reject_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                thumbprint: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["OpcuaTrustChange"];
+                };
+            };
+            /** @description a thumbprint is 40 (SHA-1) or 64 (SHA-256) hexadecimal digits, as GET /opcua lists them */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description no certificate with this thumbprint in pki/trusted or pki/rejected */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    trust_api_v1_opcua_certificates__thumbprint__trust_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                thumbprint: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["OpcuaTrustChange"];
+                };
+            };
+            /** @description a thumbprint is 40 (SHA-1) or 64 (SHA-256) hexadecimal digits, as GET /opcua lists them */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description no certificate with this thumbprint in pki/trusted or pki/rejected */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
             };
             /** @description Validation Error */
             422: {
