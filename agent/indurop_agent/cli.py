@@ -1,7 +1,7 @@
 """cli.py -- irpctl, the command line of the agent's API: status, modules, sets, hot reload,
 variables, the sample stream, events, alarms, users (cli_users.py), the administration of
-cli_system.py, the line of controllers (cli_line.py), the recordings (cli_record.py) and the
-triggered captures (cli_capture.py) (docs/irpctl.md).
+cli_system.py, the line of controllers (cli_line.py), the recordings (cli_record.py), the
+triggered captures (cli_capture.py) and the OPC UA server's trust list (cli_opcua.py) (docs/irpctl.md).
 
 Human output by default (aligned tables, durations as "100 µs"), the API's JSON with --json.
 Exit codes: 0 done, 1 the API refused (4xx, 409), 2 usage, 3 the agent or irpd unreachable.
@@ -25,6 +25,7 @@ from typing import Any
 
 from .cli_capture import CAPTURE_COMMANDS
 from .cli_line import LINE_COMMANDS
+from .cli_opcua import OPCUA_COMMANDS
 from .cli_record import RECORD_COMMANDS
 from .cli_scope import SCOPE_COMMANDS
 from .cli_system import SETS_ARGS, SYSTEM_COMMANDS, cmd_sets
@@ -648,6 +649,12 @@ COMMANDS: tuple[Command, ...] = (
         "trace configurations kept with a set: list, get, save, rm",
         None,
         sub=tuple(Command(*spec) for spec in SCOPE_COMMANDS),
+    ),
+    Command(
+        "opcua",
+        "the OPC UA server: status, certs, and its trust list: trust, reject, rm",
+        None,
+        sub=tuple(Command(*spec) for spec in OPCUA_COMMANDS),
     ),
 )
 

@@ -1,7 +1,8 @@
 """test_opcua_trust.py -- GET /opcua and the trust list's routes on an in-process agent (no irpd, no
 OPC UA server: its status.json and PKI folders are written here as the server writes them): the
 state and its warning, the certificates with both thumbprints, trust / reject / remove as renames
-in the folders, audited, admin only; bad thumbprints 400 and unknown ones 404 with nothing changed.
+in the folders, audited, admin only; bad thumbprints 400 and unknown ones 404 with nothing changed;
+irpctl opcua status, certs, trust, reject and rm against a real agent.
 The server taking the change without a restart: tests/python/opcua/test_node_opcua.py."""
 
 from __future__ import annotations
@@ -13,12 +14,13 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import pytest
-from agent_helpers import API
+from agent_helpers import API, free_port, start_agent, stop
 from cryptography import x509
 from cryptography.hazmat.primitives import hashes
 from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.hazmat.primitives.serialization import Encoding
 from cryptography.x509.oid import NameOID
+from indurop_agent import cli
 
 
 def certificate(name: str, uri: str, days: int = 30) -> bytes:
@@ -191,3 +193,53 @@ def test_bad_and_unknown_thumbprints_are_refused_and_change_nothing(agent, thumb
             assert words in r.json()["detail"], r.text
     assert os.listdir(root / "rejected") == ["c.der"] and os.listdir(root / "trusted") == []
     assert (root / "rejected" / "c.der").read_bytes() == der
+
+
+# ---- irpctl opcua ---------------------------------------------------------------------------------
+@pytest.fixture
+def irpctl(tmp_path, capsys, monkeypatch):
+    """A real agent (no irpd) with one rejected client certificate, and irpctl against it."""
+    for name in ("INDUROP_URL", "INDUROP_TOKEN", "INDUROP_TOKEN_FILE"):
+        monkeypatch.delenv(name, raising=False)
+    port, data = free_port(), tmp_path / "data"
+    root = data / "opcua" / "pki"
+    for f in ("trusted", "rejected"):
+        (root / f).mkdir(parents=True)
+    der = certificate("UaExpert@ws1", "urn:ws1:UaExpert")
+    (root / "rejected" / "uaexpert.der").write_bytes(der)
+    agent = start_agent(port, data, tmp_path / "no-irpd.sock")
+
+    def run(*argv: str) -> tuple[int, str, str]:
+        capsys.readouterr()
+        code = cli.main(["--url", f"http://127.0.0.1:{port}", "--token-file", str(data / "admin-token"), *argv])
+        out, err = capsys.readouterr()
+        return code, out, err
+
+    run.root, run.der = root, der
+    yield run
+    stop(agent)
+
+
+def test_irpctl_opcua_status_certs_trust_reject_and_rm(irpctl):
+    sha1 = hashlib.sha1(irpctl.der).hexdigest()
+    code, out, _ = irpctl("opcua", "status")
+    assert code == 0 and "OPC UA server: off" in out and "0 trusted, 1 rejected" in out
+    code, out, _ = irpctl("opcua", "certs")
+    assert code == 0 and "rejected  CN=UaExpert@ws1  urn:ws1:UaExpert" in out and sha1 in out
+    code, out, _ = irpctl("opcua", "trust", sha1[:8])  # the start of a thumbprint is enough
+    assert code == 0 and "moved to trusted/uaexpert.der" in out, out
+    assert os.listdir(irpctl.root / "trusted") == ["uaexpert.der"]
+    code, out, _ = irpctl("--json", "opcua", "reject", sha1)
+    assert code == 0 and json.loads(out)["certificate"]["folder"] == "rejected"
+    code, out, err = irpctl("opcua", "rm", "0123456789")
+    assert code == 1 and "no certificate's thumbprint starts with 0123456789" in err
+    code, out, err = irpctl("opcua", "rm", "abc")
+    assert code == 2 and "at least 6 hex digits" in err
+    code, out, err = irpctl("opcua", "trust", "../users.json")
+    assert code == 2 and "hexadecimal digits" in err
+    code, out, err = irpctl("opcua", "trust", "a" * 65)
+    assert code == 2 and "hexadecimal digits" in err
+    code, out, _ = irpctl("opcua", "rm", sha1)
+    assert code == 0 and "removed rejected/uaexpert.der" in out
+    code, out, _ = irpctl("opcua", "certs")
+    assert code == 0 and "no client certificates" in out
