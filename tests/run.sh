@@ -15,8 +15,10 @@ venv=$(bash "$root/packaging/venv.sh")
 # ROS 2's rclpy from PyPI's wheels, apart (.venv-ros2): the DDS bridge's test with a real ROS 2
 # node.  Without it (no network) that one test is skipped and says so.
 bash "$root/packaging/ros2-venv.sh" >/dev/null || echo "run.sh: .venv-ros2 not made; the rclpy test of the DDS bridge is skipped" >&2
-# The browser tests' own packages (Playwright's runner; the browser is Debian's chromium).
+# The browser tests' own packages (Playwright's runner; the browser is Debian's chromium), and
+# node-opcua, the independent OPC UA client of tests/python/opcua/test_node_opcua.py.
 bash "$root/packaging/npm-ci.sh" "$root/tests/browser"
+bash "$root/packaging/npm-ci.sh" "$root/tests/opcua-client"
 
 status=0
 bash "$root/tests/lint.sh" || status=1
