@@ -4,6 +4,7 @@
 //   node client.mjs PKI_FOLDER     (node-opcua's own certificate store: made there at the first start)
 //   {"op": "connect", "id": "a", "url": "opc.tcp://127.0.0.1:PORT/", "policy": "Basic256Sha256",
 //    "mode": "SignAndEncrypt", "user": "oper", "password": "...", "server_cert": "FILE.der"}  -> {"ok": true} | {"error": ...}
+//    ("user": null: anonymous; with "force_anonymous": true, sent even when the server offers no such token)
 //   {"op": "browse", "id": "a", "root": "ns=2;s=PLC_ROBOT"}       -> {"variables": [{nodeId, dataType, valueRank, arrayDimensions}]}
 //   {"op": "read", "id": "a", "nodes": ["ns=2;s=..."]}            -> {"values": [{value, status}]}
 //   {"op": "write", "id": "a", "node": "...", "type": "Int16", "value": 1}    -> {"status": "Good"}
@@ -71,6 +72,16 @@ async function connect(c) {
   });
   try {
     await client.connect(c.url);
+    if (c.user === null && c.force_anonymous) {
+      // the server offers no anonymous token policy and node-opcua would refuse to send one: add one
+      // to the endpoints it read, so that the server's own refusal is what the test sees
+      for (const e of client._serverEndpoints ?? []) {
+        e.userIdentityTokens = [
+          ...(e.userIdentityTokens ?? []),
+          { policyId: "anonymous", tokenType: UserTokenType.Anonymous },
+        ];
+      }
+    }
     const identity =
       c.user === undefined || c.user === null
         ? { type: UserTokenType.Anonymous }
