@@ -662,7 +662,10 @@ class BeforeAfterCount(BaseModel):
 
 class RestoreFile(BaseModel):
     path: str = Field(description="in the data folder")
-    action: Literal["add", "replace"]
+    action: Literal["add", "replace", "remove"] = Field(
+        description="remove: a file the restore moves aside without a replacement (an OPC UA client certificate "
+        "the backup's trust list lacks)"
+    )
     what: str
 
 

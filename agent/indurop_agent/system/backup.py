@@ -10,6 +10,7 @@ The archive is a .tar.gz:
     data/sets/<id>/manifest.json    every stored set's manifest
     data/blobs/sha256/<hex>         every blob a set names (the sets' trees are made from them)
     data/sets/<id>/scopes/<n>.json  the trace configurations kept with a set (scope_configs.py)
+    data/opcua/pki/<folder>/<name>  the OPC UA server's trust list (opcua_backup.py)
 
 The sets' trees (sets/<id>/files/) are not in it: they are hard links and copies of the blobs,
 made again at restore.  Neither are the first admin token's clear text (admin-token), uploads in
@@ -37,6 +38,7 @@ from ..auth import now_iso
 from ..scope_configs import ScopeConfigs
 from ..store import remove_tree
 from ..users import parse_users, without_password_hashes
+from . import opcua_backup
 
 FORMAT = "indurop-backup"
 FORMAT_VERSION = 1
@@ -83,6 +85,9 @@ ITEMS: tuple[Item, ...] = (
     Item("agent.json", "the agent's settings kept in the data folder (--config <data>/agent.json)"),
     Item("tls/cert.pem", "the TLS certificate", mode=0o644),
     Item("tls/key.pem", "the TLS private key", secret=True),
+    # the OPC UA server's (opcua_backup.py: its trust list is taken beside ITEMS)
+    Item("opcua/server-cert.der", "the OPC UA server's certificate", mode=0o640),
+    Item("opcua/server-key.pem", "the OPC UA server's private key", secret=True),
 )
 ITEM_PATHS = {i.path: i for i in ITEMS}
 
@@ -175,6 +180,11 @@ def create(data_dir: Path, store, activator, with_secrets: bool = False) -> tupl
                 else:
                     shutil.copyfile(source, target)
                 files.append((DATA + item.path, target))
+            for rel in opcua_backup.trust_files(data_dir):  # the OPC UA server's trust list
+                target = snap / rel
+                target.parent.mkdir(parents=True, exist_ok=True)
+                shutil.copyfile(data_dir / rel, target)
+                files.append((DATA + rel, target))
             manifests = store.list()
             blobs = sorted({f["sha256"] for m in manifests for f in m["files"]})
             for m in manifests:

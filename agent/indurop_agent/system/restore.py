@@ -9,12 +9,13 @@ replace), staged, and applied when the agent starts again.
    (max_backup_bytes: a size bomb stops at the limit, not at the disk's end), each member's
    SHA-256 compared with the manifest's (an altered or damaged archive is refused, naming the
    member).  Only names of the kinds a backup holds are accepted (backup.ITEMS, sets' manifests,
-   blobs, the sets' trace configurations), each written to a path made here, in a staging folder
+   blobs, the sets' trace configurations, the OPC UA trust list), each written to a path made here, in a staging folder
    in <data>/tmp.
 2. check(): the content makes sense: every blob holds the content its name says, every set's
    manifest names safe paths and blobs of the archive and has the id its files give, every trace
    configuration is one (scope_configs.parse) of a set the archive holds, the tokens, the active
-   set, the alarm database, the settings and the TLS pair are what the agent can use.
+   set, the alarm database, the settings, the TLS pair and the OPC UA server's certificates
+   (opcua_backup.py) are what the agent and the OPC UA server can use.
 3. plan(): what a restore would do here (the dry run's answer): sets added, the active set, the
    tokens and users before and after, each file added or replaced.
 4. stage(): the checked staging folder becomes <data>/restore-pending (one rename), and the agent
@@ -49,6 +50,7 @@ from ..auth import ROLES, now_iso
 from ..recorder.store import NAME
 from ..store import SET_ID, SetStore, remove_tree, set_id_of
 from ..users import parse_users
+from . import opcua_backup
 from .backup import DATA, FORMAT, FORMAT_VERSION, ITEM_PATHS, ITEMS, MANIFEST, summary_of
 from .tls import CertificateError, check_pair
 
@@ -115,6 +117,8 @@ def kind_of(name: str) -> str | None:
         return "scope"
     if BLOB.match(rel):
         return "blob"
+    if opcua_backup.TRUST.match(rel):
+        return "opcua_trust"
     return None
 
 
@@ -430,7 +434,14 @@ def check(manifest: dict, staging: Path) -> dict:
             "and key here are kept"
         )
         skip.append("tls/cert.pem")
-    return {"sets": sets, "scopes": scopes, "skip": skip, "warnings": warnings}
+    trust = [e["path"][len(DATA) :] for e in manifest["files"] if opcua_backup.TRUST.match(e["path"][len(DATA) :])]
+    try:
+        opcua_skip, opcua_warnings = opcua_backup.check(root, trust)
+    except opcua_backup.Refused as e:
+        raise RestoreError(400, str(e)) from None
+    skip, warnings = skip + opcua_skip, warnings + opcua_warnings
+    trust_list = trust if opcua_backup.replaces_trust_list(root, trust) else None
+    return {"sets": sets, "scopes": scopes, "skip": skip, "warnings": warnings, "opcua_trust": trust_list}
 
 
 # ---- 3. the review ---------------------------------------------------------------------------
@@ -457,6 +468,7 @@ def plan(manifest: dict, checked: dict, staging: Path, data_dir: Path) -> dict:
         action = "replace" if (data_dir / rel).exists() else "add"
         set_id = SET_SCOPE.match(rel).group(1)
         files.append({"path": rel, "action": action, "what": f"a trace configuration kept with set {set_id}"})
+    files += opcua_backup.plan_files(checked.get("opcua_trust"), data_dir)
     restored = {f["path"] for f in files}
     warnings = list(checked["warnings"])
     if "users.json" in restored and "users.json" in (manifest.get("redacted") or []):
@@ -508,7 +520,7 @@ def verify(archive: Path, tmp: Path, data_dir: Path, limits: Limits) -> tuple[Pa
     except BaseException:
         remove_tree(staging)
         raise
-    return staging, {**review, "_skip": checked["skip"]}
+    return staging, {**review, "_skip": checked["skip"], "_opcua_trust": checked["opcua_trust"]}
 
 
 # ---- 4. staging and applying -----------------------------------------------------------------
@@ -520,6 +532,7 @@ def stage(staging: Path, data_dir: Path, review: dict, who: dict, client: str | 
         "who": who,
         "client": client,
         "skip": review["_skip"],
+        "opcua_trust": review.get("_opcua_trust"),
         "plan": {k: v for k, v in review.items() if not k.startswith("_")},
     }
     (staging / "restore.json").write_text(json.dumps(record, indent=1))
@@ -588,6 +601,7 @@ def apply_pending(data_dir: Path) -> dict | None:
         for dropped in item.drops:
             if (data_dir / dropped).exists():
                 _move_aside(data_dir / dropped, aside, dropped)
+    opcua_backup.apply(root, data_dir, record.get("opcua_trust"), lambda p, rel: _move_aside(p, aside, rel))
     active = data_dir / "active.json"
     if "active.json" not in record["skip"] and active.exists():
         set_id = json.loads(active.read_text()).get("set_id")

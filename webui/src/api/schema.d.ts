@@ -3633,9 +3633,10 @@ export interface components {
         RestoreFile: {
             /**
              * Action
+             * @description remove: a file the restore moves aside without a replacement (an OPC UA client certificate the backup's trust list lacks)
              * @enum {string}
              */
-            action: "add" | "replace";
+            action: "add" | "replace" | "remove";
             /**
              * Path
              * @description in the data folder
