@@ -15,6 +15,7 @@ import { alarmsPage } from "./pages/alarms";
 import { jitterPage } from "./pages/jitter";
 import { linePage } from "./pages/line";
 import { modulesPage } from "./pages/modules";
+import { opcuaPage } from "./pages/opcua";
 import { overviewPage } from "./pages/overview";
 import { robotPage } from "./pages/robot";
 import { schedulePage } from "./pages/schedule";
@@ -34,6 +35,7 @@ const ALL_PAGES: { id: string; title: string; page: Page; role: Role }[] = [
   { id: "robot", title: "Robot", page: robotPage, role: "viewer" },
   { id: "alarms", title: "Alarms", page: alarmsPage, role: "viewer" },
   { id: "line", title: "Line", page: linePage, role: "viewer" },
+  { id: "opcua", title: "OPC UA", page: opcuaPage, role: "viewer" },
   { id: "users", title: "Users", page: usersPage, role: "admin" },
   { id: "system", title: "System", page: systemPage, role: "admin" },
 ];
