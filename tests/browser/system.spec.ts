@@ -1,9 +1,13 @@
 // system.spec.ts -- the System page as an admin sees it: the agent's and irpd's versions, the data
 // folder and the certificate line; the agent's log shown and searched; a backup downloaded and checked by
 // a restore's dry run (its review shown, then cancelled); the prune's dry run; a restart asked for
-// and cancelled (the suite's one irpd keeps running).  A viewer has no System page.
-import { readFileSync } from "node:fs";
-import { api, expect, shot, signIn, test } from "./fixtures";
+// and cancelled (the suite's one irpd keeps running).  A viewer has no System page.  The OPC UA page: a
+// client application's certificate (left in pki/rejected, as the server does) trusted by an admin.
+import { spawnSync } from "node:child_process";
+import { mkdirSync, readFileSync } from "node:fs";
+import { join } from "node:path";
+import { api, expect, server, shot, signIn, test } from "./fixtures";
+import { ROOT } from "./server";
 
 test("an admin sees the system's figures, its logs, a backup's review and the prune's dry run", async ({ page }) => {
   await signIn(page, "admin", "#/system");
@@ -69,3 +73,50 @@ test("a viewer has no System page: not in the menu, its address shows the Overvi
   await expect(page.locator("main[data-page=overview]")).toBeVisible();
   expect((await api("/system", {}, "viewer")).status).toBe(403);
 });
+
+test("an admin trusts a rejected OPC UA client certificate on the OPC UA page", async ({ page }) => {
+  // a client's certificate where the OPC UA server leaves an unknown one (this suite runs no server)
+  const rejected = join(server().work, "data", "viser", "opcua", "pki", "rejected");
+  mkdirSync(rejected, { recursive: true });
+  const made = spawnSync(join(ROOT, ".venv/bin/python"), ["-c", MAKE_CERT, join(rejected, "scada.der")], {
+    encoding: "utf8",
+  });
+  expect(made.status, made.stderr).toBe(0);
+  const sha1 = made.stdout.trim();
+  await signIn(page, "admin", "#/opcua");
+  await expect(page.getByTestId("opcua-notice")).toContainText("has not run");
+  const row = page.getByTestId(`opcua-cert-${sha1}`);
+  await expect(row).toHaveAttribute("data-folder", "rejected");
+  await expect(row).toContainText("urn:plant:scada");
+  await page.getByTestId(`opcua-trust-${sha1}`).click();
+  await expect(page.getByTestId("opcua-confirm")).toContainText("Trust urn:plant:scada?");
+  await shot(page, "opcua");
+  await page.getByTestId("opcua-confirm-yes").click();
+  await expect(page.getByTestId("opcua-result")).toContainText("moved to trusted/scada.der");
+  await expect(page.getByTestId(`opcua-cert-${sha1}`)).toHaveAttribute("data-folder", "trusted");
+  const state = (await (await api("/opcua")).json()) as { trusted: { sha1: string }[] };
+  expect(state.trusted.map((c) => c.sha1)).toContain(sha1);
+  await page.getByTestId(`opcua-remove-${sha1}`).click();
+  await page.getByTestId("opcua-confirm-yes").click();
+  await expect(page.getByTestId(`opcua-cert-${sha1}`)).toHaveCount(0);
+});
+
+// a self-signed client application certificate (DER) at argv[1]; prints its SHA-1 thumbprint
+const MAKE_CERT = `
+import datetime, hashlib, sys
+from cryptography import x509
+from cryptography.hazmat.primitives import hashes, serialization
+from cryptography.hazmat.primitives.asymmetric import ec
+from cryptography.x509.oid import NameOID
+key = ec.generate_private_key(ec.SECP256R1())
+name = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, "SCADA")])
+now = datetime.datetime.now(datetime.timezone.utc)
+cert = (x509.CertificateBuilder().subject_name(name).issuer_name(name).public_key(key.public_key())
+        .serial_number(x509.random_serial_number()).not_valid_before(now - datetime.timedelta(days=1))
+        .not_valid_after(now + datetime.timedelta(days=365))
+        .add_extension(x509.SubjectAlternativeName([x509.UniformResourceIdentifier("urn:plant:scada")]), False)
+        .sign(key, hashes.SHA256()))
+der = cert.public_bytes(serialization.Encoding.DER)
+open(sys.argv[1], "wb").write(der)
+print(hashlib.sha1(der).hexdigest())
+`;

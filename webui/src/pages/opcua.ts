@@ -118,8 +118,11 @@ export const opcuaPage: Page = (root, ctx) => {
     setText(notice, n.text);
     figures.replaceChildren(...opcuaRows(s).map(([k, v]) => h("tr", {}, h("th", {}, k), h("td", {}, v))));
     if (busy) return; // the lists change under the confirmation only after it
-    lists.trusted.replaceChildren(...s.trusted.map(rowOf));
-    lists.rejected.replaceChildren(...s.rejected.map(rowOf));
+    const none = (text: string) => h("tr", {}, h("td", { colspan: admin ? 5 : 4, class: "muted" }, text));
+    lists.trusted.replaceChildren(...(s.trusted.length ? s.trusted.map(rowOf) : [none("none")]));
+    lists.rejected.replaceChildren(
+      ...(s.rejected.length ? s.rejected.map(rowOf) : [none("none: a client refused as untrusted shows here")]),
+    );
     setText(unreadable, s.unreadable.length ? `not certificates, ignored: ${s.unreadable.join(", ")}` : "");
   };
 
