@@ -84,7 +84,7 @@ echo "demo: the web UI: $url/  (sign in with a user name and password; docs/admi
 echo "demo: start the cell from the UI's Variables page (PLC_ROBOT.PLC_IN.Enable = 1, then PLC_ROBOT.I0 = 1) or: irpctl write PLC_ROBOT.PLC_IN.Enable 1; irpctl write PLC_ROBOT.I0 1 (docs/plc-robot-cell.md)"
 echo "demo: irpd (pid $irpd_pid) on $config; agent (pid $agent_pid) on $url/api/v1/docs"
 echo "demo: DDS bridge (pid $bridge_pid): rt/joint_states and rt/diagnostics on domain ${INDUROP_DDS_DOMAIN:-0}, loopback; the line on the web UI's Line page and irpctl line (docs/dds.md)"
-echo "demo: OPC UA server (pid $opcua_pid): opc.tcp://127.0.0.1:$opcua_port/ -- sign in with a web UI user (Basic256Sha256 or Aes128_Sha256_RsaOaep, Sign or SignAndEncrypt); a client's certificate is refused until moved from $data/opcua/pki/rejected to trusted (docs/opcua.md)"
+echo "demo: OPC UA server (pid $opcua_pid): opc.tcp://127.0.0.1:$opcua_port/ -- sign in with a web UI user (Basic256Sha256 or Aes128_Sha256_RsaOaep, Sign or SignAndEncrypt); a client's certificate is refused until an admin trusts it: the web UI's OPC UA page, or irpctl opcua certs / irpctl opcua trust SHA1 (docs/opcua.md)"
 echo "demo: the admin token is in $data/admin-token"
 echo "demo: the logs are in $logs (irpd.log, agent.log, dds-bridge.log, opcua.log; the web UI's System page shows the first two)"
 

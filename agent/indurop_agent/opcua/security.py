@@ -10,7 +10,9 @@
   the host's names and addresses in subjectAltName; made again when expired.
 - Client applications: a certificate is trusted when it is in <data>/opcua/pki/trusted (or issued
   by a CA there); an unknown one is copied into pki/rejected and refused (BadCertificateUntrusted)
-  until someone moves it to trusted.  The folders are read again when they change.
+  until an admin trusts it (the agent's POST /opcua/certificates/{thumbprint}/trust, irpctl opcua
+  trust, the OPC UA page: a rename, pki.py).  The trusted folder is read again at a session when its
+  files changed.
 """
 
 from __future__ import annotations
