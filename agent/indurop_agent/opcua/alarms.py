@@ -6,7 +6,8 @@ emitted by the Server object and by Controller.Alarms: ConditionName and SourceN
 (<module>/<id>) and module, Message its declared text (irpd's `alarms`) and the record's detail,
 Severity 250/500/750/1000 for low/medium/high/critical, ActiveState "Active" or "Inactive" with its
 Id, Time the record's.  Controller.Alarms.ActiveCount counts the active alarms of the sources'
-bitmaps.  Acknowledging stays the agent's (POST /alarms/{key}/ack): events here are read only.
+bitmaps, written before a poll's events go out (a client that reads it on an event sees it agree)
+and at every status poll.  Acknowledging stays the agent's (POST /alarms/{key}/ack): events here are read only.
 """
 
 from __future__ import annotations
@@ -69,15 +70,20 @@ class AlarmEvents:
                 (s.get("module"), d.get("id")): d for s in answer.get("sources", []) for d in s.get("declared", [])
             }
         if self.segment is not None:
-            sources = self.segment.sources()
-            self.names = {s.index: s.name for s in sources}
-            active = sum(len(s.active) for s in sources)
-            await self.active_node.write_value(ua.Variant(active, ua.VariantType.UInt32))
+            await self._count_active()
+
+    async def _count_active(self) -> None:
+        sources = self.segment.sources()
+        self.names = {s.index: s.name for s in sources}
+        active = sum(len(s.active) for s in sources)
+        await self.active_node.write_value(ua.Variant(active, ua.VariantType.UInt32))
 
     async def step(self) -> None:
         if self.reader is None:
             return
         read = self.reader.read(limit=MAX_PER_POLL)
+        if read.records:  # ActiveCount as it is when the events go out, not a status poll later
+            await self._count_active()
         for r in read.records:
             module = self.names.get(r.source, f"source {r.source}")
             declared = self.declared.get((module, r.id), {})
