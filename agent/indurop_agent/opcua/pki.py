@@ -108,7 +108,8 @@ class Pki:
 
     def scan(self) -> tuple[list[CertFile], list[str]]:
         """Every certificate file in both folders (trusted first, by name), and the files there that
-        are not certificates (folder/name).  Links are not followed; missing folders are empty."""
+        are not certificates, or that the server does not read (in trusted, a name not ending in
+        .der, .pem or .crt), as folder/name.  Links are not followed; missing folders are empty."""
         found, unreadable = [], []
         for name in FOLDERS:
             try:
@@ -119,6 +120,9 @@ class Pki:
                 if e.name.startswith(".") or not e.is_file(follow_symlinks=False):
                     continue
                 path = Path(e.path)
+                if name == "trusted" and path.suffix.lower() not in SUFFIXES:  # the server does not read it
+                    unreadable.append(f"{name}/{e.name}")
+                    continue
                 try:
                     if e.stat(follow_symlinks=False).st_size > MAX_FILE_BYTES:
                         raise ValueError("too large")

@@ -243,3 +243,10 @@ def test_irpctl_opcua_status_certs_trust_reject_and_rm(irpctl):
     assert code == 0 and "removed rejected/uaexpert.der" in out
     code, out, _ = irpctl("opcua", "certs")
     assert code == 0 and "no client certificates" in out
+
+
+def test_a_trusted_file_the_server_would_not_read_is_listed_as_unreadable(agent):
+    root = pki(agent)
+    (root / "trusted" / "mes.cer").write_bytes(certificate("mes", "urn:mes"))  # not .der, .pem or .crt
+    s = state(agent)
+    assert s["trusted"] == [] and s["unreadable"] == ["trusted/mes.cer"]
