@@ -67,7 +67,10 @@ class OpcuaState(BaseModel):
     rejected: list[OpcuaCertificate] = Field(
         description="pki/rejected: applications refused (BadCertificateUntrusted), kept to be trusted or removed"
     )
-    unreadable: list[str] = Field(description="files in the folders that are not certificates (folder/name)")
+    unreadable: list[str] = Field(
+        description="files in the folders that are not certificates, or in trusted not named .der, .pem or .crt "
+        "(the server reads neither), as folder/name"
+    )
 
 
 class OpcuaTrustChange(BaseModel):

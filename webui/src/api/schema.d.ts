@@ -3170,7 +3170,7 @@ export interface components {
             trusted: components["schemas"]["OpcuaCertificate"][];
             /**
              * Unreadable
-             * @description files in the folders that are not certificates (folder/name)
+             * @description files in the folders that are not certificates, or in trusted not named .der, .pem or .crt (the server reads neither), as folder/name
              */
             unreadable: string[];
             /**
