@@ -84,7 +84,7 @@ class CaptureEngine(threading.Thread):
         self.queued: deque[Event] = deque(maxlen=1024)
         self.finished: queue.Queue = queue.Queue()  # shots for the writer thread
         self.writer = threading.Thread(target=self._write_shots, name="capture-writer", daemon=True)
-        self._stop = threading.Event()
+        self._halt = threading.Event()  # not _stop: threading.Thread has a _stop() of its own
         self.next_check = self.next_rearm = 0.0
         self.last_error: str | None = None
         self.path = self.folder / "captures.json"
@@ -96,7 +96,7 @@ class CaptureEngine(threading.Thread):
         super().start()
 
     def stop(self) -> None:
-        self._stop.set()
+        self._halt.set()
         if self.is_alive():
             self.join(timeout=5)
         self.finished.put(None)
@@ -109,7 +109,7 @@ class CaptureEngine(threading.Thread):
     def run(self) -> None:
         if not any(e.want_armed for e in self.entries.values()):
             self._withdraw()  # what a previous agent left traced as ours
-        while not self._stop.wait(self.poll_s):
+        while not self._halt.wait(self.poll_s):
             try:
                 self.poll_once()
                 self.last_error = None

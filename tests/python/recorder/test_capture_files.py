@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import errno
 import json
+import time
 
 import numpy as np
 import pytest
@@ -172,3 +173,12 @@ def test_a_shot_that_cannot_be_written_is_reported_and_the_others_are_kept(tmp_p
     assert any("shot 2 not saved" in m and "No space left" in m for m in events), events
     assert any("shot 4 not saved" in m and "named 'abc123.shot-4' already" in m for m in events), events
     assert "shot 4 not saved" in engine.entries["abc123"].message
+
+
+def test_the_engine_starts_and_stops_cleanly(tmp_path):
+    """The agent's shutdown joins the engine's threads (a name of threading.Thread's own once broke it)."""
+    engine = CaptureEngine(str(tmp_path / "no-irpd.sock"), tmp_path / "captures", MemorySink(), poll_s=0.01)
+    engine.start()
+    time.sleep(0.1)
+    engine.stop()
+    assert not engine.is_alive() and not engine.writer.is_alive()
