@@ -6,14 +6,13 @@ Cyclone DDS configuration made from them (docs/dds.md "Settings"), DDS Security'
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import ipaddress
-import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import escape, quoteattr
 
+from ..settings_file import settings_values
 from .bridge_schema import SCHEMA
 
 # A controller's name on the line, in the imports and the diagnostics (dds.json's schema says it).
@@ -170,22 +169,7 @@ def parse_args(argv: list[str] | None = None) -> BridgeSettings:
         "program (a reader) on the same domain and interface",
     )
     args = ap.parse_args(argv)
-    values: dict = {}
-    if args.config:
-        try:
-            values = json.loads(args.config.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as e:
-            ap.error(f"--config {args.config}: {e}")
-        if not isinstance(values, dict):
-            ap.error(f"--config {args.config}: expected a JSON object of settings")
-        known = {f.name for f in dataclasses.fields(BridgeSettings)}
-        unknown = sorted(set(values) - known)
-        if unknown:
-            ap.error(f"--config {args.config}: unknown setting {unknown[0]!r}; known: {', '.join(sorted(known))}")
-    for f in dataclasses.fields(BridgeSettings):
-        v = getattr(args, f.name, None)
-        if v is not None:
-            values[f.name] = v
+    values = settings_values(ap, args, BridgeSettings)
     if "peers" in values:
         values["peers"] = tuple(values["peers"])
     try:

@@ -5,14 +5,13 @@ default; docs/opcua.md lists them."""
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import ipaddress
-import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..auth import ROLES
+from ..settings_file import settings_values
 
 MiB = 1 << 20
 # The security policies the server offers (OPC UA's names) and the message security modes.
@@ -167,22 +166,7 @@ def parse_args(argv: list[str] | None = None) -> OpcuaSettings:
     )
     ap.add_argument("--allow-anonymous", action="store_true", default=None, help="let anonymous sessions in")
     args = ap.parse_args(argv)
-    values: dict = {}
-    if args.config:
-        try:
-            values = json.loads(args.config.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as e:
-            ap.error(f"--config {args.config}: {e}")
-        if not isinstance(values, dict):
-            ap.error(f"--config {args.config}: expected a JSON object of settings")
-        known = {f.name for f in dataclasses.fields(OpcuaSettings)}
-        unknown = sorted(set(values) - known)
-        if unknown:
-            ap.error(f"--config {args.config}: unknown setting {unknown[0]!r}; known: {', '.join(sorted(known))}")
-    for f in dataclasses.fields(OpcuaSettings):
-        v = getattr(args, f.name, None)
-        if v is not None:
-            values[f.name] = v
+    values = settings_values(ap, args, OpcuaSettings)
     for name in ("hostnames", "security_policies", "user_certificates"):
         if name in values:
             values[name] = tuple(values[name])
