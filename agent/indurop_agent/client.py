@@ -18,6 +18,7 @@ import asyncio
 import contextlib
 import json
 import os
+import re
 import ssl
 import threading
 import time
@@ -29,7 +30,7 @@ from urllib.parse import quote, urlsplit, urlunsplit
 import httpx
 
 from .client_record import RecordCalls
-from .client_system import SystemCalls
+from .client_system import LONG_TIMEOUT_S, SystemCalls
 from .stream_frame import HEADER_SIZE, KIND_SAMPLES, MAGIC, VERSION, Frame, decode, encode, kind
 
 API = "/api/v1"
@@ -161,6 +162,31 @@ class Client(SystemCalls, RecordCalls):
 
     def get(self, path: str, **params) -> Any:
         return self.request("GET", path, params={k: v for k, v in params.items() if v is not None} or None)
+
+    def download(self, path: str, params, target, default: str, what: str = "download") -> Path:
+        """Streams GET `path` to `target` (a file, or a folder for the name the agent gives, `default`
+        without one; default the current folder), through a `.part` file renamed when complete;
+        returns the file written.  A .zip (several files came) keeps its suffix."""
+        try:
+            with self._http.stream("GET", path, params=params, timeout=httpx.Timeout(LONG_TIMEOUT_S)) as r:
+                if r.status_code >= 400:
+                    r.read()
+                    raise ApiError(r.status_code, _detail(r))
+                named = re.search(r'filename="?([^";]+)"?', r.headers.get("content-disposition", ""))
+                name = os.path.basename(named.group(1)) if named else default
+                out = Path(target) if target is not None else Path(name)
+                if out.is_dir():
+                    out = out / name
+                elif Path(name).suffix != out.suffix and Path(name).suffix == ".zip":
+                    out = out.with_suffix(".zip")  # several files came: not an .mcap, whatever it was to be called
+                partial = out.with_name(out.name + ".part")
+                with open(partial, "wb") as f:
+                    for chunk in r.iter_bytes(1 << 20):
+                        f.write(chunk)
+                os.replace(partial, out)
+                return out
+        except httpx.HTTPError as e:
+            raise ApiError(0, f"the {what} from {self.url} broke: {e}") from e
 
     # -- the running set --------------------------------------------------------------------------
     def health(self) -> dict:

@@ -6,14 +6,13 @@ from __future__ import annotations
 
 import json
 import os
-import re
 from collections.abc import Iterator
 from pathlib import Path
 
 import httpx
 
 # A restore or a backup of a large store, or irpd's restart, takes longer than one ordinary call.
-LONG_TIMEOUT_S = 600.0
+LONG_TIMEOUT_S = 600.0  # a backup, a restore, an export of a long recording: made while sent
 
 
 class SystemCalls:
@@ -58,27 +57,8 @@ class SystemCalls:
     def backup(self, target: str | os.PathLike | None = None, with_secrets: bool = False) -> Path:
         """Downloads a backup to `target` (a file, or a folder for the name the agent gives; default
         the current folder); returns the file written."""
-        from .client import ApiError, _detail
-
         params = {"with_secrets": "true"} if with_secrets else None
-        try:
-            with self._http.stream("GET", "/system/backup", params=params, timeout=httpx.Timeout(LONG_TIMEOUT_S)) as r:
-                if r.status_code >= 400:
-                    r.read()
-                    raise ApiError(r.status_code, _detail(r))
-                named = re.search(r'filename="?([^";]+)"?', r.headers.get("content-disposition", ""))
-                name = os.path.basename(named.group(1)) if named else "indurop-backup.tar.gz"
-                path = Path(target) if target is not None else Path(name)
-                if path.is_dir():
-                    path = path / name
-                partial = path.with_name(path.name + ".part")
-                with open(partial, "wb") as f:
-                    for chunk in r.iter_bytes(1 << 20):
-                        f.write(chunk)
-                os.replace(partial, path)
-                return path
-        except httpx.HTTPError as e:
-            raise ApiError(0, f"the backup download from {self.url} broke: {e}") from e
+        return self.download("/system/backup", params, target, "indurop-backup.tar.gz", "backup download")
 
     def restore(self, archive: str | os.PathLike, dry_run: bool = False) -> dict:
         """Sends a backup: with dry_run what it would replace; else it is staged and the agent
