@@ -101,7 +101,7 @@ START_TIMEOUT_S = 60
 
 def _output_file(log: Path | None):
     """Where a started process writes: `log`, or a temporary file (never a pipe nobody reads)."""
-    return open(log, "w+") if log else tempfile.TemporaryFile("w+")
+    return open(log, "a+") if log else tempfile.TemporaryFile("w+")
 
 
 def start_irpd(

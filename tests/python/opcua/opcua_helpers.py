@@ -67,14 +67,23 @@ class Controller:
         (tmp / "opcua.json").write_text(json.dumps(self.settings))
         self.port = free_port()
         self.url = f"opc.tcp://127.0.0.1:{self.port}/"
-        self.opcua = start_opcua(
-            self.sock, self.data, self.port, "--config", str(tmp / "opcua.json"), log=tmp / "opcua.log"
-        )
-        wait_until(lambda: self.server_status().get("layout_hash") is not None, 60, 0.1)
+        self.start_server()
         self.client_key, self.client_cert = tmp / "client-key.pem", tmp / "client-cert.der"
         asyncio.run(make_client_certificate(self.client_key, self.client_cert, "urn:indurop:test:client"))
         trusted = self.data / "opcua" / "pki" / "trusted"
         shutil.copy(self.client_cert, trusted / "test-client.der")
+
+    def start_server(self) -> None:
+        status = self.data / "opcua" / "status.json"
+        status.unlink(missing_ok=True)
+        self.opcua = start_opcua(
+            self.sock, self.data, self.port, "--config", str(self.tmp / "opcua.json"), log=self.tmp / "opcua.log"
+        )
+        wait_until(lambda: self.server_status().get("layout_hash") is not None, 60, 0.1)
+
+    def restart_server(self) -> None:
+        stop(self.opcua)
+        self.start_server()
 
     def status(self):
         """irpd's status once it dispatches (None while it answers "starting")"""

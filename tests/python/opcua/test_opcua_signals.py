@@ -196,3 +196,74 @@ def test_an_alarm_raised_and_cleared_by_a_module_arrives_as_condition_events_wit
     assert "Conveyor jammed" in raised.Message.Text
     assert raised.ActiveState.Text == "Active" and cleared.ActiveState.Text == "Inactive"
     assert active == 0
+
+
+def test_an_active_alarm_is_a_retained_condition_that_condition_refresh_sends_again(signals):
+    """Runs last: it restarts the server.  A SCADA that subscribes after an alarm was raised calls
+    ConditionRefresh and gets it between RefreshStart and RefreshEnd, with its ConditionId; so does
+    one that connects to a server started while the alarm was already active; once the alarm is
+    cleared, a refresh sends nothing for it."""
+    jam = signals.folder / "jam"
+    types = [ua.ObjectIds.AlarmConditionType, ua.ObjectIds.RefreshStartEventType, ua.ObjectIds.RefreshEndEventType]
+    start, end = ua.NodeId(ua.ObjectIds.RefreshStartEventType), ua.NodeId(ua.ObjectIds.RefreshEndEventType)
+
+    async def refreshed(c, method=ua.ObjectIds.ConditionType_ConditionRefresh) -> list:
+        """The events one refresh brings: from RefreshStart to RefreshEnd."""
+        notes = Notes()
+        sub = await c.create_subscription(50, notes)
+        handle = await sub.subscribe_events(c.nodes.server, types, queuesize=100)
+        await asyncio.sleep(0.5)  # nothing is raised or cleared meanwhile: anything now is the refresh's
+        args = [ua.Variant(sub.subscription_id, ua.VariantType.UInt32)]
+        if method == ua.ObjectIds.ConditionType_ConditionRefresh2:
+            args.append(ua.Variant(handle, ua.VariantType.UInt32))
+        await c.get_node(ua.ObjectIds.ConditionType).call_method(ua.NodeId(method), *args)
+        await until(lambda: any(e.EventType == end for e in notes.events))
+        await sub.delete()
+        kinds = [e.EventType for e in notes.events]
+        assert kinds[0] == start and kinds[-1] == end, kinds
+        return [e for e in notes.events[1:-1] if getattr(e, "ConditionName", "") == "conveyor/5"]
+
+    async def active_count(c) -> int:
+        return await c.get_node(ua.NodeId("@Controller.Alarms.ActiveCount", await ns_of(c))).read_value()
+
+    async def go(step: str):
+        c = await signals.connect("view")
+        try:
+            if step == "raise":
+                jam.touch()
+                await until_async(lambda: active_count(c), 1)
+            elif step == "clear":
+                jam.unlink(missing_ok=True)  # (the finally below may have)
+                await until_async(lambda: active_count(c), 0)
+            elif step == "bad id":
+                with pytest.raises(ua.UaStatusCodeError) as e:
+                    await c.get_node(ua.ObjectIds.ConditionType).call_method(
+                        ua.NodeId(ua.ObjectIds.ConditionType_ConditionRefresh), ua.Variant(987654, ua.VariantType.UInt32)
+                    )
+                return e.value.code
+            return await refreshed(c), await refreshed(c, ua.ObjectIds.ConditionType_ConditionRefresh2), await ns_of(c)
+        finally:
+            await c.disconnect()
+
+    try:  # a failure must not leave the alarm raised for the next tests
+        for step in ("raise", "restarted"):
+            if step == "restarted":
+                signals.restart_server()  # the alarm is active while the new server attaches
+            first, second, ns = asyncio.run(go(step))
+            for events in (first, second):
+                assert len(events) == 1, (step, events)
+                e = events[0]
+                assert e.ActiveState.Text == "Active" and e.Retain is True and e.Severity == 750
+                assert e.NodeId == ua.NodeId("@Controller.Alarms.conveyor/5", ns)
+    finally:
+        jam.unlink(missing_ok=True)
+    first, second, _ = asyncio.run(go("clear"))
+    assert first == [] and second == []
+    assert asyncio.run(go("bad id")) == ua.StatusCodes.BadSubscriptionIdInvalid
+
+
+async def until_async(read, want, seconds: float = LIMIT_S):
+    deadline = time.monotonic() + seconds
+    while (got := await read()) != want:
+        assert time.monotonic() < deadline, f"timed out waiting for {want} (last {got})"
+        await asyncio.sleep(0.05)
