@@ -238,7 +238,8 @@ def test_an_active_alarm_is_a_retained_condition_that_condition_refresh_sends_ag
             elif step == "bad id":
                 with pytest.raises(ua.UaStatusCodeError) as e:
                     await c.get_node(ua.ObjectIds.ConditionType).call_method(
-                        ua.NodeId(ua.ObjectIds.ConditionType_ConditionRefresh), ua.Variant(987654, ua.VariantType.UInt32)
+                        ua.NodeId(ua.ObjectIds.ConditionType_ConditionRefresh),
+                        ua.Variant(987654, ua.VariantType.UInt32),
                     )
                 return e.value.code
             return await refreshed(c), await refreshed(c, ua.ObjectIds.ConditionType_ConditionRefresh2), await ns_of(c)
