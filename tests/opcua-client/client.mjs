@@ -10,6 +10,8 @@
 //   {"op": "write", "id": "a", "node": "...", "type": "Int16", "value": 1}    -> {"status": "Good"}
 //   {"op": "subscribe", "id": "a", "node": "...", "sampling": 10, "publishing": 100, "queue": 100}  -> {"item": N}
 //   {"op": "model_changes", "id": "a"}                            -> {"item": N}  (GeneralModelChangeEvents of Server)
+//   {"op": "alarms", "id": "a"}                                   -> {"item": N}  (events of Server: alarms, refreshes)
+//   {"op": "condition_refresh", "id": "a"}                        -> {"status": "Good"}  (ConditionRefresh of its subscription)
 //   {"op": "notifications", "id": "a", "item": N}                 -> {"values": [{value, source, status}], "events": [...]}
 //   {"op": "many_items", "id": "a", "node": "...", "count": 2000, "per_call": 400}  -> {"statuses": {"Good": n, ...}}
 //   {"op": "disconnect", "id": "a"}, {"op": "quit"}
@@ -211,6 +213,31 @@ async function handle(c) {
             changes: (fields[1]?.value ?? []).map((ch) => ({ affected: ch.affected.toString(), verb: ch.verb })),
           }),
       );
+    }
+    case "alarms": {
+      const filter = constructEventFilter(["EventType", "ConditionName", "ActiveState", "Severity", "ConditionId"]);
+      return monitor(
+        s,
+        "ns=0;i=2253",
+        AttributeIds.EventNotifier,
+        { samplingInterval: 0, queueSize: 100, discardOldest: true, filter },
+        (record, fields) =>
+          record.events.push({
+            eventType: fields[0]?.value?.toString(),
+            condition: fields[1]?.value ?? null,
+            active: fields[2]?.value?.text ?? null,
+            severity: fields[3]?.value ?? null,
+            conditionId: fields[4]?.value?.toString() ?? null,
+          }),
+      );
+    }
+    case "condition_refresh": {
+      const r = await s.session.call({
+        objectId: "ns=0;i=2782", // ConditionType
+        methodId: "ns=0;i=3875", // ConditionType.ConditionRefresh
+        inputArguments: [new Variant({ dataType: DataType.UInt32, value: s.subscription.subscriptionId })],
+      });
+      return { status: r.statusCode.name };
     }
     case "notifications": {
       const record = s.items.get(c.item);

@@ -6,8 +6,8 @@ GET /variables reads; an operator's write changes the variable, a viewer's is Ba
 an anonymous session is refused; Aes128_Sha256_RsaOaep with Sign as well as Basic256Sha256 with
 SignAndEncrypt; thousands of monitored items get BadTooManyMonitoredItems past the session's limit
 and the agent and irpd go on; the nodes rebuilt after an online change (a model change event) while
-a subscription on an unchanged variable goes on; and a 1 kHz counter monitored at 10 ms, every
-tenth value.  What is asserted is the state reached and the values, never how fast."""
+a subscription on an unchanged variable goes on; a 1 kHz counter monitored at 10 ms, every
+tenth value; and an active alarm sent again by ConditionRefresh, with its ConditionId.  What is asserted is the state reached and the values, never how fast."""
 
 from __future__ import annotations
 
@@ -27,7 +27,7 @@ from cryptography.hazmat.primitives.serialization import Encoding
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from live_processes import BUILD, ROOT, copy_cell, wait_until
-from opcua_helpers import PASSWORDS, Controller
+from opcua_helpers import ALARMING, PASSWORDS, SIGNALS, Controller, signals_with_an_alarm
 
 sys.path.insert(0, str(ROOT / "agent"))
 from indurop_agent.auth import now_iso
@@ -35,7 +35,6 @@ from indurop_agent.auth import now_iso
 CLIENT = ROOT / "tests" / "opcua-client"
 CELL = BUILD / "sets" / "plc-robot"
 GROWN = BUILD / "tests" / "cpp" / "online" / "plc-robot-grown"
-SIGNALS = BUILD / "sets" / "signals"
 LIMIT_S = 120
 NODE_TYPES = {  # the cell's C types as node-opcua names OPC UA's built-in types
     "short": "Int16",
@@ -288,3 +287,36 @@ def test_a_1_khz_counter_monitored_at_10_ms_gets_every_tenth_value(tmp_path):
     assert all(b - a == 10 for a, b in zip(counts, counts[1:])), counts[:50]  # every tenth row, none lost
     stamps = [v["source"] for v in values[1:]]
     assert all(b - a == 10 for a, b in zip(stamps, stamps[1:])), stamps[:50]  # the rows' due times, 10 ms apart
+
+
+@pytest.mark.skipif(not ALARMING.exists(), reason=f"the alarming test module is not built ({ALARMING})")
+def test_an_active_alarm_comes_again_with_its_condition_id_on_condition_refresh(tmp_path):
+    xml = signals_with_an_alarm(tmp_path / "signals")
+    c = Controller(tmp_path, xml, "node-opcua-alarm")
+    node = NodeClient(tmp_path / "node-pki")
+    jam = tmp_path / "signals" / "jam"
+    try:
+        node.connect(c, "s", user="view")  # refused (untrusted), and its certificate kept as rejected
+        sha1 = hashlib.sha1(node.certificate()).hexdigest()
+        wait_until(lambda: any(x["sha1"] == sha1 for x in c.rest("/opcua")["rejected"]), LIMIT_S, 0.1)
+        assert admin_change(c, "trust", sha1).status_code == 200
+        assert node.connect(c, "s", user="view") == {"ok": True}
+        jam.touch()
+        active = lambda: node("read", id="s", nodes=[ns2("@Controller.Alarms.ActiveCount")])["values"][0]  # noqa: E731
+        wait_until(lambda: active()["value"] == 1, LIMIT_S, 0.1)
+        alarms = node("alarms", id="s")  # subscribed after the alarm was raised: nothing comes by itself
+        assert alarms["status"] == "Good", alarms
+        events = lambda: node("notifications", id="s", item=alarms["item"])["events"]  # noqa: E731
+        assert node("condition_refresh", id="s") == {"status": "Good"}
+        wait_until(lambda: any(e["eventType"] == "ns=0;i=2788" for e in events()), LIMIT_S, 0.1)
+        refreshed = events()
+    finally:
+        jam.unlink(missing_ok=True)
+        node.close()
+        c.close()
+    kinds = [e["eventType"] for e in refreshed]
+    start, end = kinds.index("ns=0;i=2787"), kinds.index("ns=0;i=2788")  # RefreshStart, RefreshEnd
+    between = [e for e in refreshed[start + 1 : end] if e["condition"] == "conveyor/5"]
+    assert len(between) == 1, refreshed
+    assert between[0]["active"] == "Active" and between[0]["severity"] == 750
+    assert between[0]["conditionId"] == "ns=2;s=@Controller.Alarms.conveyor/5"

@@ -9,7 +9,6 @@ raise and clear arrive as AlarmConditionType events with their severity (docs/op
 from __future__ import annotations
 
 import asyncio
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -19,14 +18,11 @@ from asyncua import ua
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from live_processes import BUILD, module_entry
-from opcua_helpers import Controller, ns_of
+from opcua_helpers import ALARMING, SIGNALS, Controller, ns_of, signals_with_an_alarm
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "agent"))
 from indurop_agent.auth import now_iso
 
-SIGNALS = BUILD / "sets" / "signals"
-ALARMING = BUILD / "tests" / "cpp" / "modules" / "alarming.so"  # raises its `ids` while `trigger` exists
 LIMIT_S = 60
 
 pytestmark = pytest.mark.skipif(
@@ -37,21 +33,8 @@ pytestmark = pytest.mark.skipif(
 @pytest.fixture(scope="module")
 def signals(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("opcua-signals")
-    folder = tmp / "signals"
-    shutil.copytree(SIGNALS, folder)
-    shutil.copy(ALARMING, folder / "alarming.so")
-    conveyor = module_entry(
-        "conveyor",
-        "./alarming.so",
-        1_000_000,
-        2,
-        f'<property><value name="ids">5</value><value name="trigger">{folder / "jam"}</value></property>'
-        '<alarm id="5" severity="high">Conveyor jammed</alarm>',
-    )
-    xml = folder / "module.xml"
-    xml.write_text(xml.read_text().replace("</root>", conveyor + "</root>"))
-    c = Controller(tmp, xml, "opcua-signals")
-    c.folder = folder
+    c = Controller(tmp, signals_with_an_alarm(tmp / "signals"), "opcua-signals")
+    c.folder = tmp / "signals"
     yield c
     c.close()
 
