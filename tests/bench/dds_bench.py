@@ -35,7 +35,7 @@ from indurop_agent.dds import ros2_types  # noqa: E402
 from indurop_agent.dds.bridge import QOS  # noqa: E402
 from indurop_agent.dds.settings import BridgeSettings, cyclone_config  # noqa: E402
 from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
-from live_processes import copy_cell, start_bridge, start_irpd, stop  # noqa: E402
+from live_processes import copy_cell, start_bridge, start_irpd, stop, wait_dispatching  # noqa: E402
 
 BASIC_NS = 1_000_000
 
@@ -118,14 +118,7 @@ def main() -> int:
         "on_p99_ns": [],
     }
     try:
-        deadline = time.monotonic() + 60
-        while True:
-            try:
-                control.request("status")
-                break
-            except IrpdRefused:
-                assert time.monotonic() < deadline
-                time.sleep(0.1)
+        wait_dispatching(control)
         for phase in range(args.phases):
             h0 = control.request("histograms", name="dispatcher")
             time.sleep(args.phase_s)

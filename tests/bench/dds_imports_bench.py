@@ -40,7 +40,7 @@ sys.path.insert(0, str(ROOT / "agent"))
 from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
 from indurop_agent.trace import TraceRing  # noqa: E402
 from indurop_agent.variables import Segment  # noqa: E402
-from live_processes import BUILD, start_bridge, start_irpd, stop  # noqa: E402
+from live_processes import BUILD, dispatching, start_bridge, start_irpd, stop, wait_until  # noqa: E402
 
 SET = BUILD / "sets" / "dds-share"
 VALUE, STALE = "SHARE.IN.count", "SHARE.IN.count_stale"
@@ -67,16 +67,7 @@ class Node:
         self.sock = work / f"{name}.sock"
         self.irpd = start_irpd(self.sock, folder / "module.xml", f"{name}-{os.getpid()}", log=work / f"{name}-irpd.log")
         self.control = IrpdClient(str(self.sock), timeout_s=30)
-        deadline = time.monotonic() + 60
-        while True:
-            try:
-                self.status = self.control.request("status")
-                if self.status.get("running"):
-                    break
-            except IrpdRefused:
-                pass
-            assert time.monotonic() < deadline, "irpd did not start its set"
-            time.sleep(0.1)
+        self.status = wait_until(lambda: (s := dispatching(self.control)) and s.get("running") and s, 60, 0.1)
         self.bridge = start_bridge(self.sock, domain, "--name", name, log=work / f"{name}-bridge.log", prefix=prefix)
 
     def ring(self, channels: list[str]) -> TraceRing:

@@ -38,7 +38,7 @@ from asyncua import Client, ua  # noqa: E402
 from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256  # noqa: E402
 from dds_bench import wakeup_p99  # noqa: E402
 from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
-from live_processes import copy_cell, free_port, start_agent, start_irpd, start_opcua, stop  # noqa: E402
+from live_processes import copy_cell, free_port, start_agent, start_irpd, start_opcua, stop, wait_dispatching  # noqa: E402
 from opcua_helpers import NAMESPACE, make_client_certificate  # noqa: E402
 from recorder_bench import ProcessSampler  # noqa: E402
 
@@ -125,14 +125,7 @@ def setup(work: Path, started: list) -> tuple:
     if cpus > 1:
         os.sched_setaffinity(0, range(cpus - 1))  # this process and what it starts now: off irpd's CPU
     control = IrpdClient(str(sock), timeout_s=30)
-    deadline = time.monotonic() + 60
-    while True:
-        try:
-            control.request("status")
-            break
-        except IrpdRefused:
-            assert time.monotonic() < deadline, "irpd did not start"
-            time.sleep(0.1)
+    wait_dispatching(control)
     port = free_port()
     agent = start_agent(port, work / "data", sock, log=work / "agent.log")
     started.insert(0, agent)

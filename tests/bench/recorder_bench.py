@@ -37,7 +37,7 @@ from dds_bench import wakeup_p99  # noqa: E402
 from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
 from indurop_agent.recorder import mcap_read  # noqa: E402
 from indurop_agent.recorder.mcap_out import McapOut, Variable  # noqa: E402
-from live_processes import BUILD, free_port, start_agent, start_irpd, stop  # noqa: E402
+from live_processes import BUILD, free_port, start_agent, start_irpd, stop, wait_dispatching  # noqa: E402
 
 SOURCE = BUILD / "bench" / "recorder"
 BASIC_NS = 100_000
@@ -165,14 +165,7 @@ def main() -> int:
     if cpus > 1:
         os.sched_setaffinity(0, range(cpus - 1))  # this process and the agent it starts: off irpd's CPU
     control = IrpdClient(str(sock), timeout_s=30)
-    deadline = time.monotonic() + 60
-    while True:
-        try:
-            control.request("status")
-            break
-        except IrpdRefused:
-            assert time.monotonic() < deadline, "irpd did not start"
-            time.sleep(0.1)
+    wait_dispatching(control)
     port = free_port()
     config = work / "agent.json"  # room for the 10 minutes (about 0.5 GB a minute)
     config.write_text(json.dumps({"recordings_quota_bytes": 64 << 30}))

@@ -16,6 +16,9 @@ from pathlib import Path
 import httpx
 
 ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "agent"))
+from indurop_agent.irpd_client import IrpdRefused  # noqa: E402
+
 BUILD = Path(os.environ.get("INDUROP_BUILD", ROOT / "build"))
 IRPD = BUILD / "bin" / "irpd"
 FIG1 = BUILD / "sets" / "paper-fig1" / "module.xml"
@@ -298,6 +301,20 @@ def wait_until(what, seconds: float = 20.0, every: float = 0.01):
             return value
         assert time.monotonic() < deadline, f"timed out waiting for {what.__doc__ or what}"
         time.sleep(every)
+
+
+def dispatching(control) -> dict | None:
+    """irpd's status once it dispatches its set; None while it answers "starting" (its socket opens
+    before its dispatchers run).  `control`: an IrpdClient."""
+    try:
+        return control.request("status")
+    except IrpdRefused:
+        return None
+
+
+def wait_dispatching(control, seconds: float = 60.0) -> dict:
+    """irpd's status, once it dispatches its set."""
+    return wait_until(lambda: dispatching(control), seconds, 0.05)
 
 
 def output(p: subprocess.Popen) -> str:

@@ -22,6 +22,7 @@ from live_processes import (  # noqa: E402
     BUILD,
     ROOT,
     copy_cell,
+    dispatching,
     free_port,
     start_agent,
     start_irpd,
@@ -59,11 +60,7 @@ class Cell:
         return self.control.request(cmd, **args)
 
     def status_once_dispatching(self) -> dict | None:
-        """irpd's status, or None while it answers "starting" (before its dispatchers run)."""
-        try:
-            return self.ask("status")
-        except IrpdRefused:
-            return None
+        return dispatching(self.control)
 
     def write(self, path: str, value) -> None:
         self.ask("write", path=NS + path, value=value)

@@ -22,6 +22,7 @@ from live_processes import (  # noqa: E402
     BUILD,
     ROOT,
     copy_cell,
+    dispatching,
     free_port,
     output,
     start_agent,
@@ -62,10 +63,7 @@ class Controller:
         self.env = {**os.environ, "CYCLONEDDS_URI": config}
 
     def status(self):
-        try:
-            return self.control.request("status")
-        except IrpdRefused:
-            return None  # starting
+        return dispatching(self.control)
 
     def wait(self, what, seconds: float = 30.0):
         return wait_until(what, seconds, 0.05)

@@ -16,7 +16,18 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from live_processes import BUILD, ROOT, copy_cell, output, start_bridge, start_irpd, stop, wait_until  # noqa: E402
+from live_processes import (  # noqa: E402
+    BUILD,
+    ROOT,
+    copy_cell,
+    dispatching,
+    output,
+    start_bridge,
+    start_irpd,
+    stop,
+    wait_dispatching,
+    wait_until,
+)
 
 sys.path.insert(0, str(ROOT / "agent"))
 from indurop_agent.dds.settings import BridgeSettings, cyclone_config  # noqa: E402
@@ -69,18 +80,11 @@ def cell(tmp_path_factory, cell_reader):
     sock = tmp / "irpd.sock"
     irpd = start_irpd(sock, xml, f"dds-declared-{os.getpid()}")
     control = IrpdClient(str(sock), timeout_s=30)
-
-    def status():
-        try:
-            return control.request("status")
-        except IrpdRefused:
-            return None
-
-    st = wait_until(status, 60, 0.05)
+    st = wait_dispatching(control)
     bridge = start_bridge(sock, domain, "--name", "declared", log=tmp / "bridge.log")
     config = cyclone_config(BridgeSettings(domain_id=domain), pinned=True)
     c = type("Cell", (), {})()
-    c.reader, c.bridge, c.status = cell_reader, bridge, status
+    c.reader, c.bridge, c.status = cell_reader, bridge, lambda: dispatching(control)
     c.vars = Segment(st["shared_memory"]["variables"])
     c.env = {**os.environ, "CYCLONEDDS_URI": config}
     yield c

@@ -30,11 +30,12 @@ from live_processes import (
     start_irpd,
     start_opcua,
     stop,
+    wait_dispatching,
     wait_until,
 )
 
 sys.path.insert(0, str(ROOT / "agent"))
-from indurop_agent.irpd_client import IrpdClient, IrpdRefused
+from indurop_agent.irpd_client import IrpdClient
 
 NAMESPACE = "urn:indurop:controller"
 PASSWORDS = {"oper": "turn-the-crank-1", "view": "look-but-dont-touch"}
@@ -78,7 +79,7 @@ class Controller:
         self.tmp, self.sock, self.data = tmp, tmp / "irpd.sock", tmp / "data"
         self.irpd = start_irpd(self.sock, config, f"{instance}-{os.getpid()}")
         self.control = IrpdClient(str(self.sock), timeout_s=30)
-        wait_until(self.status, 60)
+        wait_dispatching(self.control)
         self.agent_port = free_port()
         self.agent = start_agent(self.agent_port, self.data, self.sock)
         self.api = f"http://127.0.0.1:{self.agent_port}{API}"
@@ -116,13 +117,6 @@ class Controller:
     def restart_server(self) -> None:
         stop(self.opcua)
         self.start_server()
-
-    def status(self):
-        """irpd's status once it dispatches (None while it answers "starting")"""
-        try:
-            return self.control.request("status")
-        except IrpdRefused:
-            return None
 
     def server_status(self) -> dict:
         try:

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from indurop_agent.irpd_client import IrpdClient, IrpdRefused
 from jsonschema import Draft202012Validator
-from live_processes import FIG1, IRPD, ROOT, start_irpd, stop
+from live_processes import FIG1, IRPD, ROOT, start_irpd, stop, wait_dispatching
 from referencing import Registry, Resource
 from referencing.jsonschema import DRAFT202012
 
@@ -40,14 +40,7 @@ def irpd(tmp_path_factory):
     instance = f"protocol-test-{os.getpid()}"
     process = start_irpd(tmp / "irpd.sock", FIG1, instance, "--state-dir", str(tmp / "state"))
     client = IrpdClient(str(tmp / "irpd.sock"), timeout_s=30)
-    deadline = time.monotonic() + 60
-    while True:  # the socket opens before the set is dispatched
-        try:
-            client.request("status")
-            break
-        except IrpdRefused:
-            assert time.monotonic() < deadline, "irpd did not dispatch its set"
-            time.sleep(0.05)
+    wait_dispatching(client)
     yield client
     client.close()
     stop(process)
