@@ -9,8 +9,7 @@
 //   {"op": "read", "id": "a", "nodes": ["ns=2;s=..."]}            -> {"values": [{value, status}]}
 //   {"op": "write", "id": "a", "node": "...", "type": "Int16", "value": 1}    -> {"status": "Good"}
 //   {"op": "subscribe", "id": "a", "node": "...", "sampling": 10, "publishing": 100, "queue": 100}  -> {"item": N}
-//   {"op": "model_changes", "id": "a"}                            -> {"item": N}  (GeneralModelChangeEvents of Server)
-//   {"op": "alarms", "id": "a"}                                   -> {"item": N}  (events of Server: alarms, refreshes)
+//   {"op": "events", "id": "a", "fields": ["EventType", ...]}     -> {"item": N}  (the Server object's events)
 //   {"op": "condition_refresh", "id": "a"}                        -> {"status": "Good"}  (ConditionRefresh of its subscription)
 //   {"op": "notifications", "id": "a", "item": N}                 -> {"values": [{value, source, status}], "events": [...]}
 //   {"op": "many_items", "id": "a", "node": "...", "count": 2000, "per_call": 400}  -> {"statuses": {"Good": n, ...}}
@@ -50,6 +49,20 @@ function statusName(e) {
   const text = String(e?.message ?? e);
   const m = text.match(/Bad[A-Za-z]+/);
   return m ? m[0] : text.split("\n")[0];
+}
+
+function field(variant) {
+  // an event field as JSON: NodeIds as "ns=..;i=..", LocalizedTexts as their text, structures'
+  // NodeIds likewise (a model change's `affected`)
+  const v = variant?.value;
+  const one = (x) => {
+    if (x === null || x === undefined) return null;
+    if (x.identifierType !== undefined && x.namespace !== undefined) return x.toString();
+    if (x.text !== undefined && x.locale !== undefined) return x.text;
+    if (x.affected !== undefined) return { affected: x.affected.toString(), verb: x.verb };
+    return plain(x);
+  };
+  return Array.isArray(v) ? v.map(one) : one(v);
 }
 
 function plain(v) {
@@ -200,35 +213,15 @@ async function handle(c) {
             source: dv.sourceTimestamp?.getTime() ?? null,
           }),
       );
-    case "model_changes": {
-      const filter = constructEventFilter(["EventType", "Changes"]);
+    case "events": {
+      // the Server object's events, each as {field name: value} for the fields asked
+      const filter = constructEventFilter(c.fields);
       return monitor(
         s,
         "ns=0;i=2253",
         AttributeIds.EventNotifier,
         { samplingInterval: 0, queueSize: 100, discardOldest: true, filter },
-        (record, fields) =>
-          record.events.push({
-            eventType: fields[0]?.value?.toString(),
-            changes: (fields[1]?.value ?? []).map((ch) => ({ affected: ch.affected.toString(), verb: ch.verb })),
-          }),
-      );
-    }
-    case "alarms": {
-      const filter = constructEventFilter(["EventType", "ConditionName", "ActiveState", "Severity", "ConditionId"]);
-      return monitor(
-        s,
-        "ns=0;i=2253",
-        AttributeIds.EventNotifier,
-        { samplingInterval: 0, queueSize: 100, discardOldest: true, filter },
-        (record, fields) =>
-          record.events.push({
-            eventType: fields[0]?.value?.toString(),
-            condition: fields[1]?.value ?? null,
-            active: fields[2]?.value?.text ?? null,
-            severity: fields[3]?.value ?? null,
-            conditionId: fields[4]?.value?.toString() ?? null,
-          }),
+        (record, values) => record.events.push(Object.fromEntries(c.fields.map((f, i) => [f, field(values[i])]))),
       );
     }
     case "condition_refresh": {

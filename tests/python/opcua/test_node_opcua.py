@@ -233,7 +233,7 @@ def test_nodes_are_rebuilt_after_an_online_change_while_a_subscription_goes_on(c
     shutil.copy(GROWN / "layout.json", grown / "layout.json")
     node = cell.node
     cycles = node("subscribe", id="a", node=ns2("PLC_ROBOT.IO_STATUS.cycles"), sampling=10, publishing=100)
-    changes = node("model_changes", id="a")
+    changes = node("events", id="a", fields=["EventType", "Changes"])
     assert cycles["status"] == "Good" and changes["status"] == "Good", (cycles, changes)
     seen = lambda: node("notifications", id="a", item=cycles["item"])["values"]  # noqa: E731
     wait_until(lambda: len(seen()) >= 5, LIMIT_S, 0.1)
@@ -242,7 +242,7 @@ def test_nodes_are_rebuilt_after_an_online_change_while_a_subscription_goes_on(c
     assert report["variables"]["added"] == ["PLC_ROBOT.OperatorNote"]
     events = lambda: node("notifications", id="a", item=changes["item"])["events"]  # noqa: E731
     wait_until(events, LIMIT_S, 0.1)
-    added = [c["affected"] for e in events() for c in e["changes"] if c["verb"] & 1]
+    added = [c["affected"] for e in events() for c in e["Changes"] or [] if c["verb"] & 1]
     assert "ns=2;s=PLC_ROBOT.OperatorNote" in added
     browsed = {v["nodeId"] for v in node("browse", id="a", root=ns2("PLC_ROBOT"))["variables"]}
     assert "ns=2;s=PLC_ROBOT.OperatorNote" in browsed
@@ -304,19 +304,22 @@ def test_an_active_alarm_comes_again_with_its_condition_id_on_condition_refresh(
         jam.touch()
         active = lambda: node("read", id="s", nodes=[ns2("@Controller.Alarms.ActiveCount")])["values"][0]  # noqa: E731
         wait_until(lambda: active()["value"] == 1, LIMIT_S, 0.1)
-        alarms = node("alarms", id="s")  # subscribed after the alarm was raised: nothing comes by itself
+        fields = ["EventType", "ConditionName", "ActiveState", "Severity", "ConditionId"]
+        alarms = node("events", id="s", fields=fields)
         assert alarms["status"] == "Good", alarms
         events = lambda: node("notifications", id="s", item=alarms["item"])["events"]  # noqa: E731
+        time.sleep(1)  # subscribed after the alarm was raised: it does not come by itself
+        assert not [e for e in events() if e["ConditionName"] == "conveyor/5"], events()
         assert node("condition_refresh", id="s") == {"status": "Good"}
-        wait_until(lambda: any(e["eventType"] == "ns=0;i=2788" for e in events()), LIMIT_S, 0.1)
+        wait_until(lambda: any(e["EventType"] == "ns=0;i=2788" for e in events()), LIMIT_S, 0.1)
         refreshed = events()
     finally:
         jam.unlink(missing_ok=True)
         node.close()
         c.close()
-    kinds = [e["eventType"] for e in refreshed]
+    kinds = [e["EventType"] for e in refreshed]
     start, end = kinds.index("ns=0;i=2787"), kinds.index("ns=0;i=2788")  # RefreshStart, RefreshEnd
-    between = [e for e in refreshed[start + 1 : end] if e["condition"] == "conveyor/5"]
+    between = [e for e in refreshed[start + 1 : end] if e["ConditionName"] == "conveyor/5"]
     assert len(between) == 1, refreshed
-    assert between[0]["active"] == "Active" and between[0]["severity"] == 750
-    assert between[0]["conditionId"] == "ns=2;s=@Controller.Alarms.conveyor/5"
+    assert between[0]["ActiveState"] == "Active" and between[0]["Severity"] == 750
+    assert between[0]["ConditionId"] == "ns=2;s=@Controller.Alarms.conveyor/5"
