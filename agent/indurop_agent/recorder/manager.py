@@ -31,6 +31,7 @@ from ..trace import MAX_CHANNELS, TraceError, TraceRing
 from ..variables import Segment, VariableError
 from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config, variable_problem
 from . import mcap_read
+from .capture_files import SHOT_NAME
 from .mcap_out import JOINT_FILE_SUFFIX, Joint, Variable
 from .recording import Recording
 from .store import Store, StoreError, check_name, now
@@ -85,6 +86,10 @@ class Recorder(threading.Thread):
     def begin(self, wanted: Wanted, who: str | None) -> dict:
         """Starts a recording; its entry's meta.  RecorderError says what to fix."""
         name = check_name(wanted.name)
+        if SHOT_NAME.fullmatch(name):
+            raise RecorderError(
+                400, f"'{name}' has the form of a capture's shot (<capture id>.shot-<n>); pick another name"
+            )
         try:
             self.store.get(name)
         except StoreError as e:

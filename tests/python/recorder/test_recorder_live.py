@@ -103,12 +103,13 @@ def test_bad_input_is_refused_naming_what_to_fix_and_nothing_on_disk_changes(cel
     refused(api.start("x8", ["SIG.sample"], stop={"max_bytes": 1 << 50}), 400, "max_bytes", "quota")
     refused(api.start("x9", ["SIG.sample"], stop={"duration_s": -1}), 422, "duration_s")
     refused(api.start("kept", ["SIG.sample"]), 409, "'kept'", "already")
+    refused(api.start("a1b2c3.shot-1", ["SIG.sample"]), 400, "'a1b2c3.shot-1'", "capture's shot", "another name")
     refused(api.call("POST", "/recordings/kept/stop"), 409, "not recording")
     refused(api.call("DELETE", "/recordings/long"), 409, "being written", "stop it first")
     refused(api.call("POST", "/recordings/none/stop"), 404, "no recording")
     refused(api.call("GET", "/recordings/kept/download", "viewer", params={"part": 3}), 404, "part 3")
     refused(api.call("GET", "/recordings/kept/export", "viewer", params={"format": "xlsx"}), 422, "format")
-    assert not any((api.data / "recordings" / n).exists() for n in ("x1", "x2", "x3", "x4", "x9"))
+    assert not any((api.data / "recordings" / n).exists() for n in ("x1", "x2", "x3", "x4", "x9", "a1b2c3.shot-1"))
     assert digests(api.data / "recordings" / "kept") == before
     assert api.get("long")["state"] == "recording"
 
