@@ -36,13 +36,21 @@ tarball=$cache/bookworm-minbase.tar.gz
 command -v debootstrap >/dev/null || { echo "deb_chroot: debootstrap is not installed" >&2; exit 77; }
 mkdir -p "$cache/archives/partial" "$cache/lists/partial"
 
+# Unmounts what is mounted below $1, deepest first: debootstrap mounts proc (and sys) in its target,
+# and a run killed meanwhile leaves them mounted, which rm must not walk into.
+unmount_below() {
+  awk -v d="$1/" 'index($2, d) == 1 {print $2}' /proc/mounts | sort -r | while read -r m; do umount -l "$m"; done
+}
+
 if [ ! -f "$tarball" ]; then
   echo "deb_chroot: debootstrap bookworm minbase into $cache (once; kept as $(basename "$tarball"))"
-  rm -rf "$cache/seed"
+  unmount_below "$cache/seed"
+  rm -rf --one-file-system "$cache/seed"
   debootstrap --variant=minbase bookworm "$cache/seed" "$mirror" >"$cache/debootstrap.log" 2>&1 \
     || { tail -5 "$cache/debootstrap.log" >&2; echo "deb_chroot: debootstrap failed (no mirror?)" >&2; exit 77; }
+  unmount_below "$cache/seed"
   tar -C "$cache/seed" -czf "$tarball.part" . && mv "$tarball.part" "$tarball"
-  rm -rf "$cache/seed"
+  rm -rf --one-file-system "$cache/seed"
 fi
 
 chr=$(mktemp -d "$cache/root-XXXXXX")
