@@ -50,6 +50,31 @@ FORMATS = {
 }
 
 
+# The scalar kinds irpd's trace rings sample (rtcore/src/trace/trace_rings.cpp: traceType): a char
+# is read as a number from the segment but not traced.
+TRACED_KINDS = ("signed", "unsigned", "float", "bool")
+
+
+def number_problem(path: str, leaves: dict, scalars: dict, *, traced: bool = False, unknown=None) -> str | None:
+    """Why `path` is not a number of the layout the agent reads -- with `traced`, one irpd's trace
+    rings sample -- or None when it is: no such variable (`unknown(path)` says it, e.g.
+    Segment.unknown with the nearest names), a struct or an array (up to three of its members named),
+    or another type.  `leaves` and `scalars`: the layout's, as Segment has them."""
+    leaf = leaves.get(path)
+    if leaf is None:
+        under = [p for p in leaves if p.startswith((path + ".", path + "["))] if path else []
+        if not under:
+            if unknown is not None:
+                return unknown(path)
+            return f"no variable '{path}' in the running layout (GET /api/v1/variables lists them)"
+        names = ", ".join(f"'{p}'" for p in under[:3]) + (", ..." if len(under) > 3 else "")
+        return f"'{path}' is a struct or an array, not a scalar: name one of its {len(under)} members ({names})"
+    kind = scalars.get(leaf["type"], {}).get("kind", "unsigned")
+    if (kind, leaf["size"]) not in FORMATS or (traced and kind not in TRACED_KINDS):
+        return f"'{path}' is a {leaf['type']}, not a number {'irpd can trace' if traced else 'the agent can read'}"
+    return None
+
+
 class VariableError(Exception):
     """A path that names no leaf and no group of the layout, or a segment that is not there."""
 

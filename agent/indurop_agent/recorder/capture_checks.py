@@ -7,12 +7,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ..variables import Segment, VariableError
+from ..variables import Segment, VariableError, number_problem
 from . import capture_limits as L
 from .capture import capture_bytes, rows_of
 from .triggers import trigger_variables
-
-NUMERIC_KINDS = ("signed", "unsigned", "float", "bool")  # glbc's scalar kinds (a bool is 0 or 1)
 
 
 class CaptureError(Exception):
@@ -82,23 +80,10 @@ def numeric_types(request: dict, channels: list[str], ask: Callable[..., dict]) 
         in_trigger = set(trigger_variables(request["trigger"]))
         types = {}
         for path in channels:
-            role = "the trigger's variable" if path in in_trigger else "variable"
-            leaf = seg.leaves.get(path)
-            if leaf is None:
-                try:
-                    under = seg.select(path)
-                except VariableError as e:
-                    raise CaptureError(422, f"{role} '{path}': {e}") from e
-                names = ", ".join(f"'{x['path']}'" for x in under[:3])
-                raise CaptureError(
-                    422,
-                    f"{role} '{path}' is not a number: it is a group of {len(under)} variables ({names}"
-                    f"{', ...' if len(under) > 3 else ''}); name one numeric scalar",
-                )
-            kind = seg.scalars.get(leaf["type"], {}).get("kind")
-            if kind not in NUMERIC_KINDS:
-                raise CaptureError(422, f"{role} '{path}' is a {leaf['type']}, not a number")
-            types[path] = leaf["type"]
+            problem = number_problem(path, seg.leaves, seg.scalars, traced=True, unknown=seg.unknown)
+            if problem:
+                raise CaptureError(422, f"{'the trigger' if path in in_trigger else 'a variable'}: {problem}")
+            types[path] = seg.leaves[path]["type"]
         return types
     finally:
         seg.close()

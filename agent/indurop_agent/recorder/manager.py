@@ -28,8 +28,8 @@ from pathlib import Path
 from ..events import AgentEvents
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
 from ..trace import MAX_CHANNELS, TraceError, TraceRing
-from ..variables import Segment, VariableError
-from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config, variable_problem
+from ..variables import Segment, VariableError, number_problem
+from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config
 from . import mcap_read
 from .capture_files import SHOT_NAME
 from .mcap_out import JOINT_FILE_SUFFIX, Joint, Variable
@@ -211,7 +211,7 @@ class Recorder(threading.Thread):
         try:
             variables = []
             for i, (path, unit) in enumerate(wanted):
-                problem = variable_problem(path, seg.leaves, seg.scalars)
+                problem = number_problem(path, seg.leaves, seg.scalars, traced=True, unknown=seg.unknown)
                 if problem:
                     raise RecorderError(400, f"variables[{i}]: {problem}")
                 variables.append(Variable(path, seg.leaves[path]["type"], unit))
@@ -320,7 +320,9 @@ class Recorder(threading.Thread):
             return
         with self.lock:
             for rec in list(self.recordings.values()):
-                problems = [p for p in rec.paths if seg is None or variable_problem(p, seg.leaves, seg.scalars)]
+                problems = [
+                    p for p in rec.paths if seg is None or number_problem(p, seg.leaves, seg.scalars, traced=True)
+                ]
                 if problems:
                     why = f"irpd's running set no longer has '{problems[0]}' as a scalar: {message}"
                     self.finish(rec, "stopped", "variables", why)

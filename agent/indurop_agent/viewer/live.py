@@ -19,7 +19,7 @@ from pathlib import Path
 
 from ..events import AgentEvents
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
-from ..variables import Segment, VariableError
+from ..variables import Segment, VariableError, number_problem
 from . import make_viewer
 from .base import Viewer, ViewerError
 from .mapping import (
@@ -30,7 +30,6 @@ from .mapping import (
     check_against_urdf,
     complete,
     parse_config,
-    variable_problem,
 )
 from .urdf import Urdf, UrdfError, parse
 
@@ -230,7 +229,8 @@ class RobotLive(threading.Thread):
         out = {}
         for j in joints:
             if j.variable is not None:
-                problem = variable_problem(j.variable, self._segment.leaves, self._segment.scalars)
+                seg = self._segment
+                problem = number_problem(j.variable, seg.leaves, seg.scalars, unknown=seg.unknown)
                 if problem:
                     out[j.joint] = problem
         return out

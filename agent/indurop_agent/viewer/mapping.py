@@ -12,7 +12,7 @@ import json
 import math
 from dataclasses import dataclass
 
-from ..variables import FORMATS
+from ..variables import number_problem
 from .urdf import Urdf
 
 ROBOT_JSON = "robot.json"
@@ -143,24 +143,10 @@ def check_against_urdf(joints: list[JointMapping], urdf: Urdf, shown: str, urdf_
             )
 
 
-def variable_problem(path: str, leaves: dict, scalars: dict) -> str | None:
-    """Why `path` cannot drive a joint in this layout (None: it can)."""
-    leaf = leaves.get(path)
-    if leaf is None:
-        prefix = path + "."
-        if any(p.startswith(prefix) or p.startswith(path + "[") for p in leaves):
-            return f"{json.dumps(path)} is a struct or an array, not a scalar; name one of its members"
-        return f"no variable {json.dumps(path)} in the running layout (GET /api/v1/variables lists them)"
-    kind = scalars.get(leaf["type"], {}).get("kind", "unsigned")
-    if (kind, leaf["size"]) not in FORMATS:
-        return f"{json.dumps(path)} is a {leaf['type']}, not a number the agent can read"
-    return None
-
-
 def check_variables(joints: list[JointMapping], leaves: dict, scalars: dict, shown: str) -> None:
     for i, m in enumerate(joints):
         if m.variable is not None:
-            problem = variable_problem(m.variable, leaves, scalars)
+            problem = number_problem(m.variable, leaves, scalars)
             if problem:
                 raise MappingError(f"{shown}: joints[{i}].variable: {problem}")
 

@@ -471,7 +471,7 @@ def test_put_joints_refuses_a_bad_map_naming_the_entry(live):
     cases = [
         ({"joints": [{**good, "joint": "joint_9"}]}, 'joints[0].joint "joint_9" is not a joint of indurop6.urdf'),
         ({"joints": [good, {**good, "joint": "joint_tool0"}]}, 'joints[1].joint "joint_tool0" is a fixed joint'),
-        ({"joints": [{**good, "variable": f"{NS}NOPE"}]}, f'no variable "{NS}NOPE" in the running layout'),
+        ({"joints": [{**good, "variable": f"{NS}NOPE"}]}, f"no variable '{NS}NOPE' in the running layout"),
         ({"joints": [{**good, "variable": f"{NS}ROBOT_MODULE_STATE.dCurJoint"}]}, "not a scalar"),
         ({"joints": [good, good]}, 'joints[1].joint "joint_1" is mapped twice'),
     ]

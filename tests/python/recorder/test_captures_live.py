@@ -251,7 +251,7 @@ def test_bad_input_is_refused_naming_what_to_fix(cell):
     refused(cell, edge_request(variables=["SIG.wavee[4]"]), 422, "SIG.wavee[4]", "did you mean")
     group = edge_request()
     group["trigger"]["conditions"][0]["variable"] = "SIG.wave"
-    refused(cell, group, 422, "the trigger's variable 'SIG.wave' is not a number", "SIG.wave[0]")
+    refused(cell, group, 422, "the trigger: 'SIG.wave' is a struct or an array, not a scalar", "'SIG.wave[0]'")
     refused(cell, edge_request(pre=16385), 422, "16385 rows", "at most 16384 rows", "shorten pre")
     longest = cell.call("POST", "/captures", json=edge_request(pre=16384))  # as long as the rings: taken
     assert longest.status_code == 201 and longest.json()["pre_rows"] == 16384, longest.text

@@ -17,6 +17,7 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "agent"))
 
 from indurop_agent.auth import TokenStore  # noqa: E402
+from indurop_agent.variables import number_problem  # noqa: E402
 from indurop_agent.viewer.mapping import (  # noqa: E402
     JointMapping,
     MappingError,
@@ -25,7 +26,6 @@ from indurop_agent.viewer.mapping import (  # noqa: E402
     check_variables,
     complete,
     parse_config,
-    variable_problem,
 )
 from indurop_agent.viewer.meshcat_view import CONNECT, MeshcatViewer  # noqa: E402
 from indurop_agent.viewer.ticket import TicketError, Tickets  # noqa: E402
@@ -213,23 +213,13 @@ LEAVES = {
 SCALARS = {"double": {"kind": "float"}, "short": {"kind": "signed"}, "string": {"kind": "char"}}
 
 
-@pytest.mark.parametrize(
-    "path, words",
-    [
-        ("C.s.x", None),
-        ("C.a[0]", None),
-        ("C.nope", "no variable"),
-        ("C.s", "a struct or an array"),
-        ("C.a", "a struct or an array"),
-        ("C.name", "not a number the agent can read"),
-    ],
-)
-def test_a_variable_must_be_a_scalar_of_the_layout(path, words):
-    problem = variable_problem(path, LEAVES, SCALARS)
-    assert (problem is None) if words is None else (words in problem and path in problem)
-    if words:
-        with pytest.raises(MappingError, match=r"joints\[0\]\.variable"):
-            check_variables([JointMapping("j", path)], LEAVES, SCALARS, "the joint map")
+@pytest.mark.parametrize("path", ["C.nope", "C.s", "C.name"])
+def test_a_joints_variable_must_be_a_number_of_the_layout(path):
+    """(variables.number_problem decides; tests/python/agent/test_number_problem.py)"""
+    with pytest.raises(MappingError, match=r"joints\[0\]\.variable") as e:
+        check_variables([JointMapping("j", path)], LEAVES, SCALARS, "the joint map")
+    assert number_problem(path, LEAVES, SCALARS) in str(e.value)
+    check_variables([JointMapping("j", "C.s.x"), JointMapping("k", "C.a[0]")], LEAVES, SCALARS, "the joint map")
 
 
 # ---- tickets ------------------------------------------------------------------------------------
