@@ -8,23 +8,12 @@ import type { Api } from "../../src/api/client";
 import type { components } from "../../src/api/schema";
 import type { AppContext } from "../../src/app/context";
 import { wallClockRange } from "../../src/plot/timeaxis";
+import { charts } from "./kept-charts";
 
 type Histograms = components["schemas"]["Histograms"];
 
 // the charts the page makes are kept to look at their scales (dom-shims.ts gives uPlot what jsdom lacks)
-const charts = vi.hoisted(() => {
-  return [] as { scales: { x: { min?: number | null; max?: number | null } }; root: HTMLElement }[];
-});
-vi.mock("uplot", async (original) => {
-  const U = ((await original()) as { default: new (...a: never[]) => (typeof charts)[number] }).default;
-  class Kept extends U {
-    constructor(...a: never[]) {
-      super(...a);
-      charts.push(this);
-    }
-  }
-  return { default: Kept };
-});
+vi.mock("uplot", async (original) => (await import("./kept-charts")).keepCharts(original));
 
 const { jitterPage } = await import("../../src/pages/jitter");
 

@@ -5,20 +5,9 @@
 // and x–y mode, without the stream's controls.
 import "./dom-shims";
 import { afterEach, beforeEach, describe, expect, it, vi } from "vitest";
+import { charts } from "./kept-charts";
 
-const charts = vi.hoisted(() => {
-  return [] as { data: (number | null | undefined)[][]; scales: { x: { time?: boolean } }; series: unknown[] }[];
-});
-vi.mock("uplot", async (original) => {
-  const U = ((await original()) as { default: new (...a: never[]) => (typeof charts)[number] }).default;
-  class Kept extends U {
-    constructor(...a: never[]) {
-      super(...a);
-      charts.push(this);
-    }
-  }
-  return { default: Kept };
-});
+vi.mock("uplot", async (original) => (await import("./kept-charts")).keepCharts(original));
 
 const { decimateRange, emptyDraw } = await import("../../src/plot/decimate");
 const { drawLines } = await import("../../src/plot/lines");
