@@ -203,3 +203,54 @@ class TraceRing(Mapped):
             parts.append(Part(c, a2, t, columns))
         first_kept = parts[0].first_seq if parts else h1 + 1
         return TraceRead(since, h1, first_kept - (since + 1), parts)
+
+
+class TraceFollower:
+    """The rings read on from where the last read stopped, as the DDS bridge and the OPC UA server
+    read them: open() (again) when irpd's segment is another or was replaced, from its newest row;
+    read() the rows since then, moving past them."""
+
+    def __init__(self):
+        self.ring: TraceRing | None = None
+        self.cursor = 0  # the last seq handed over
+
+    def open(self, name: str | None) -> bool:
+        """Follows the rings `name` (None: none); True when that changed what is followed.  A
+        TraceError when they cannot be opened leaves nothing followed (open again later)."""
+        if self.ring is None and not name:
+            return False
+        if self.ring is not None and self.ring.name == name and not self.ring.replaced():
+            return False
+        self.close()
+        if name:
+            self.ring = TraceRing(name)
+            self.cursor = self.ring.head()
+        return True
+
+    def stale(self) -> bool:
+        """No rings, or irpd replaced them (restarted): open() again."""
+        return self.ring is None or self.ring.replaced()
+
+    def head(self) -> int:
+        return self.ring.head() if self.ring is not None else 0
+
+    def read(self) -> TraceRead | None:
+        """The rows after the cursor, and how many are gone (None: no rings, or their configuration
+        kept changing while read: the next read has them)."""
+        if self.ring is None:
+            return None
+        try:
+            read = self.ring.read_since(self.cursor)
+        except TraceError:
+            return None
+        self.cursor = read.next
+        return read
+
+    def skip(self) -> None:
+        """Nothing wanted for now: the next read starts after the newest row."""
+        self.cursor = self.head()
+
+    def close(self) -> None:
+        if self.ring is not None:
+            self.ring.close()
+            self.ring = None

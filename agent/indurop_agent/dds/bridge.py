@@ -38,7 +38,7 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
-from ..trace import TraceError, TraceRing
+from ..trace import TraceError, TraceFollower
 from ..variables import Segment, VariableError
 from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config
 from . import bridge_file, declared, ros2_types
@@ -105,8 +105,7 @@ class Bridge:
         self.domain = Domain(settings.domain_id, cyclone_config(settings))
         self.participant = DomainParticipant(settings.domain_id)
         self._topics: dict[str, Topic] = {}  # by wire name; replaced when a set maps it with another type
-        self.ring: TraceRing | None = None
-        self.cursor = 0
+        self.trace = TraceFollower()
         self.set_key: tuple | None = None
         self.set_path = ""
         self.problem = ""  # why the set's files are not (all) published, for the diagnostics
@@ -156,7 +155,7 @@ class Bridge:
             return
         self.status = status
         key = (status.get("pid"), status.get("set"), status.get("generation"))
-        if key != self.set_key or self.ring is None or self.ring.replaced():
+        if key != self.set_key or self.trace.stale():
             self.set_key = key
             self.load_set(status)
 
@@ -196,7 +195,7 @@ class Bridge:
                 bridge = BridgeFile(joint_states=False, publish=(), subscribe=bridge.subscribe, imports=bridge.imports)
                 self.sharing.load((), bridge.imports, layout, self.decimation)
                 answer = self.irpd.request("trace", channels=[], owner=self.s.trace_owner)
-            self.open_ring(answer["shm"])
+            self.trace.open(answer["shm"])
         except (IrpdUnavailable, IrpdRefused, TraceError, KeyError) as e:
             self.counters.irpd_errors += 1
             self.set_key = None  # try again at the next status
@@ -214,14 +213,6 @@ class Bridge:
             file=sys.stderr,
             flush=True,
         )
-
-    def open_ring(self, shm: str) -> None:
-        if self.ring is not None and self.ring.name == shm and not self.ring.replaced():
-            return
-        if self.ring is not None:
-            self.ring.close()
-        self.ring = TraceRing(shm)
-        self.cursor = self.ring.head()
 
     def decimation(self, rate_hz: float) -> int:
         if self.basic_period_ns <= 0:
@@ -259,13 +250,9 @@ class Bridge:
 
     # ---- samples out -------------------------------------------------------------------------
     def publish_rows(self) -> None:
-        if self.ring is None:
+        read = self.trace.read()
+        if read is None:
             return
-        try:
-            read = self.ring.read_since(self.cursor)
-        except TraceError:
-            return
-        self.cursor = read.next
         self.counters.rows_lost += read.lost
         for part in read.parts:
             column = {p: part.columns[i] for i, p in enumerate(part.config.paths)}
@@ -475,8 +462,7 @@ class Bridge:
             self.irpd.request("trace", channels=[], owner=self.s.trace_owner)
         except (IrpdUnavailable, IrpdRefused):
             pass
-        if self.ring is not None:
-            self.ring.close()
+        self.trace.close()
         self.irpd.close()
 
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from asyncua import ua
 
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
-from ..trace import MAX_CHANNELS, TraceError, TraceRing
+from ..trace import MAX_CHANNELS, TraceError, TraceFollower
 from ..variables import VariableError
 from .values import Var, Variables, clock_offset_ns, narrowed, typed, variant, wall
 
@@ -73,9 +73,7 @@ class Sampler:
         self.owner = owner
         self.poll_s = poll_ms / 1000
         self.items: dict[int, Item] = {}
-        self.ring: TraceRing | None = None
-        self.ring_name: str | None = None
-        self.cursor = 0
+        self.trace = TraceFollower()
         self.basic_ns = 0
         self.clock_offset_ns = clock_offset_ns()  # rows' due times (CLOCK_MONOTONIC) onto the wall clock
         self.granted: list[str] = []  # the channels irpd traces for us
@@ -99,7 +97,7 @@ class Sampler:
         self.items[item.handle] = item
         item.decimation = self._decimation(item.interval_ms)
         item.next_due = time.monotonic()
-        item.after_seq = self.ring.head() if self.ring is not None else 0
+        item.after_seq = self.trace.head()
         self._dirty = True
 
     def prime(self, item: Item) -> ua.DataValue:
@@ -146,18 +144,12 @@ class Sampler:
     def follow(self, status: dict) -> None:
         """irpd's status (every status_s): the rings to read, the basic period, the wall clock."""
         name = (status.get("shared_memory") or {}).get("trace")
-        if self.ring is not None and (name != self.ring_name or self.ring.replaced()):
-            self.ring.close()
-            self.ring, self.ring_name, self.granted, self.in_force = None, None, [], set()
-            self._dirty = True
-        if self.ring is None and name:
-            try:
-                self.ring = TraceRing(name)
-            except TraceError:
-                return
-            self.ring_name = name
-            self.cursor = self.ring.head()
-            self._dirty = True
+        try:
+            opened = self.trace.open(name)
+        except TraceError:
+            opened = True  # none followed; tried again at the next status
+        if opened:
+            self.granted, self.in_force, self._dirty = [], set(), True
         basic = int(status.get("basic_period_ns") or 0)
         if basic and basic != self.basic_ns:
             self.basic_ns = basic
@@ -166,7 +158,7 @@ class Sampler:
         offset = clock_offset_ns()
         if abs(offset - self.clock_offset_ns) > 1_000_000:  # the wall clock was stepped
             self.clock_offset_ns = offset
-        if self.ring is not None:
+        if self.trace.ring is not None:
             self._dirty = True  # check now and then that what we asked for still holds
 
     def wanted(self) -> list[str]:
@@ -181,7 +173,7 @@ class Sampler:
     async def arrange(self) -> None:
         """Asks irpd to trace what fits of what is monitored (never more than is free)."""
         self._dirty = False
-        if self.ring is None:
+        if self.trace.ring is None:
             return
         wanted = self.wanted()
         try:
@@ -226,21 +218,18 @@ class Sampler:
 
     async def step(self) -> None:
         if not self.items:
-            if self.ring is not None:
-                self.cursor = self.ring.head()
+            self.trace.skip()
             return
         await self._from_rings()
         await self._from_segment()
 
     async def _from_rings(self) -> None:
-        if self.ring is None or self.ring.replaced():
+        if self.trace.stale():
             self.in_force = set()
             return
-        try:
-            read = self.ring.read_since(self.cursor)
-        except TraceError:
+        read = self.trace.read()
+        if read is None:
             return
-        self.cursor = read.next
         self.stats.rows_lost += read.lost
         if read.parts:
             self.in_force = set(read.parts[-1].config.paths)
@@ -248,7 +237,7 @@ class Sampler:
         for item in self.items.values():
             ring = item.scalar and not item.gone and item.var.leaves[0] in self.in_force
             if ring and not item.ring:
-                item.after_seq = max(item.after_seq, self.cursor)  # its segment samples cover up to now
+                item.after_seq = max(item.after_seq, self.trace.cursor)  # its segment samples cover up to now
             item.ring = ring
             if ring:
                 by_path.setdefault(item.var.leaves[0], []).append(item)

@@ -16,7 +16,7 @@ import pytest
 from agent_helpers import FIG1, IRPD, ROOT, start_irpd, stop
 from indurop_agent import shm_layout
 from indurop_agent.shm_layout import LayoutError, segment
-from indurop_agent.trace import TraceError, TraceRing
+from indurop_agent.trace import TraceError, TraceFollower, TraceRing
 from indurop_agent.variables import Segment
 
 GENERATE = ROOT / "protocol" / "shm" / "generate.py"
@@ -195,6 +195,30 @@ def test_the_live_trace_rings_read_by_the_agent(live):
         assert [c.generation > 0 for c in ring.configs()] == [True, True]
     finally:
         ring.close()
+
+
+def test_a_follower_reads_the_live_rings_on_from_where_it_stopped(live):
+    name = live[1]["trace"]
+    f = TraceFollower()
+    assert f.open(None) is False and f.stale() and f.read() is None
+    assert f.open(name) is True and f.open(name) is False and not f.stale()
+    start = f.cursor
+    try:
+        assert start <= f.head()
+        time.sleep(0.2)  # irpd's rows go on every basic period
+        first = f.read()
+        assert first is not None and first.since == start and first.next > start and f.cursor == first.next
+        second = f.read()
+        assert second.since == first.next and f.cursor == second.next >= first.next
+        time.sleep(0.05)
+        f.skip()
+        assert f.cursor >= second.next and f.cursor <= f.head()
+    finally:
+        f.close()
+    assert f.ring is None and f.stale() and f.read() is None
+    with pytest.raises(TraceError):
+        f.open("/indurop.no-such-instance.trace")
+    assert f.ring is None
 
 
 def test_a_header_the_description_does_not_match_is_refused_naming_both_sizes(live, tmp_path):
