@@ -35,6 +35,7 @@ from live_processes import (
 )
 
 sys.path.insert(0, str(ROOT / "agent"))
+from indurop_agent.auth import now_iso
 from indurop_agent.irpd_client import IrpdClient
 
 NAMESPACE = "urn:indurop:controller"
@@ -123,6 +124,11 @@ class Controller:
             return json.loads((self.data / "opcua" / "status.json").read_text())
         except (OSError, ValueError):
             return {}
+
+    def fresh_status(self) -> dict:
+        """The server's status.json as written after now (it is written every status_file_s)."""
+        since = now_iso()
+        return wait_until(lambda: (s := self.server_status()).get("updated", "") > since and s, 60, 0.05)
 
     def rest(self, path: str):
         r = httpx.get(f"{self.api}{path}", headers=self.admin, timeout=30)

@@ -304,6 +304,7 @@ def test_an_active_alarm_comes_again_with_its_condition_id_on_condition_refresh(
         jam.touch()
         active = lambda: node("read", id="s", nodes=[ns2("@Controller.Alarms.ActiveCount")])["values"][0]  # noqa: E731
         wait_until(lambda: active()["value"] == 1, LIMIT_S, 0.1)
+        wait_until(lambda: c.fresh_status()["alarm_events"] == 1, LIMIT_S, 0.1)  # the raise's event went out
         fields = ["EventType", "ConditionName", "ActiveState", "Severity", "ConditionId"]
         alarms = node("events", id="s", fields=fields)
         assert alarms["status"] == "Good", alarms
