@@ -22,6 +22,8 @@ from indurop_agent.irpd_client import IrpdRefused  # noqa: E402
 BUILD = Path(os.environ.get("INDUROP_BUILD", ROOT / "build"))
 IRPD = BUILD / "bin" / "irpd"
 FIG1 = BUILD / "sets" / "paper-fig1" / "module.xml"
+SIGNALS = BUILD / "sets" / "signals"  # the sample counter SIG.sample and sixteen waves, every 1 ms
+ALARMING = BUILD / "tests" / "cpp" / "modules" / "alarming.so"  # raises its `ids` while `trigger` exists
 API = "/api/v1"
 
 
@@ -87,6 +89,24 @@ def module_entry(name: str, file: str, period_ns: int, priority: int, extra: str
         f"<operationtype>periodic</operationtype><period>{period_ns}</period><priority>{priority}</priority>"
         f"{extra}</module>\n"
     )
+
+
+def signals_with_an_alarm(folder: Path) -> Path:
+    """The signals set copied to `folder` with the module `conveyor`, which raises its high alarm 5
+    "Conveyor jammed" while the file folder/jam exists; its module.xml."""
+    shutil.copytree(SIGNALS, folder, dirs_exist_ok=True)
+    shutil.copy(ALARMING, folder / "alarming.so")
+    conveyor = module_entry(
+        "conveyor",
+        "./alarming.so",
+        1_000_000,
+        2,
+        f'<property><value name="ids">5</value><value name="trigger">{folder / "jam"}</value></property>'
+        '<alarm id="5" severity="high">Conveyor jammed</alarm>',
+    )
+    xml = folder / "module.xml"
+    xml.write_text(xml.read_text().replace("</root>", conveyor + "</root>"))
+    return xml
 
 
 def free_port() -> int:

@@ -50,27 +50,7 @@ LIMITS = {  # small, so that the tests reach them quickly
     "status_s": 0.5,
     "status_file_s": 0.5,
 }
-SIGNALS = BUILD / "sets" / "signals"  # the sample counter SIG.sample and sixteen waves, every 1 ms
-ALARMING = BUILD / "tests" / "cpp" / "modules" / "alarming.so"  # raises its `ids` while `trigger` exists
 POLICIES = {"Basic256Sha256": SecurityPolicyBasic256Sha256, "Aes128_Sha256_RsaOaep": SecurityPolicyAes128Sha256RsaOaep}
-
-
-def signals_with_an_alarm(folder: Path) -> Path:
-    """The signals set copied to `folder` with the module `conveyor`, which raises its high alarm 5
-    "Conveyor jammed" while the file folder/jam exists; its module.xml."""
-    shutil.copytree(SIGNALS, folder)
-    shutil.copy(ALARMING, folder / "alarming.so")
-    conveyor = module_entry(
-        "conveyor",
-        "./alarming.so",
-        1_000_000,
-        2,
-        f'<property><value name="ids">5</value><value name="trigger">{folder / "jam"}</value></property>'
-        '<alarm id="5" severity="high">Conveyor jammed</alarm>',
-    )
-    xml = folder / "module.xml"
-    xml.write_text(xml.read_text().replace("</root>", conveyor + "</root>"))
-    return xml
 
 
 class Controller:

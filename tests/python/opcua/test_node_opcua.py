@@ -26,8 +26,8 @@ from cryptography.hazmat.primitives.serialization import Encoding
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from live_processes import BUILD, ROOT, copy_cell, wait_until
-from opcua_helpers import ALARMING, PASSWORDS, SIGNALS, Controller, signals_with_an_alarm
+from live_processes import ALARMING, BUILD, ROOT, SIGNALS, copy_cell, signals_with_an_alarm, wait_until
+from opcua_helpers import PASSWORDS, Controller
 
 sys.path.insert(0, str(ROOT / "agent"))
 from indurop_agent.auth import now_iso

@@ -18,7 +18,8 @@ from asyncua import ua
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from opcua_helpers import ALARMING, SIGNALS, Controller, ns_of, signals_with_an_alarm
+from live_processes import ALARMING, SIGNALS, signals_with_an_alarm
+from opcua_helpers import Controller, ns_of
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "agent"))
 from indurop_agent.auth import now_iso

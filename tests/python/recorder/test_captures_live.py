@@ -24,10 +24,19 @@ from mcap.reader import make_reader
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from indurop_agent.trace import TraceRing
-from live_processes import API, BUILD, ROOT, free_port, module_entry, start_agent, start_irpd, stop, wait_until
+from live_processes import (
+    ALARMING,
+    API,
+    ROOT,
+    SIGNALS,
+    free_port,
+    signals_with_an_alarm,
+    start_agent,
+    start_irpd,
+    stop,
+    wait_until,
+)
 
-SIGNALS = BUILD / "sets" / "signals"
-ALARMING = BUILD / "tests" / "cpp" / "modules" / "alarming.so"  # raises its `ids` while `trigger` exists
 SQUARE, SINE, SAMPLE = "SIG.wave[4]", "SIG.wave[0]", "SIG.sample"
 WAVE_ROWS = 1000  # the square wave's period in rows (1 Hz at 1 ms)
 LIMIT_S = 30  # for a state to be reached on a loaded machine; never a figure asserted
@@ -35,23 +44,6 @@ LIMIT_S = 30  # for a state to be reached on a loaded machine; never a figure as
 pytestmark = pytest.mark.skipif(
     not (SIGNALS / "module.xml").exists(), reason=f"the signals set is not built ({SIGNALS})"
 )
-
-
-def signals_with_alarm(folder: Path) -> Path:
-    """The signals set with `conveyor` beside the generator: alarm 5 (high) while folder/jam exists."""
-    shutil.copytree(SIGNALS, folder, dirs_exist_ok=True)
-    shutil.copy(ALARMING, folder / "alarming.so")
-    xml = (folder / "module.xml").read_text()
-    conveyor = module_entry(
-        "conveyor",
-        "./alarming.so",
-        1_000_000,
-        2,
-        f'<property><value name="ids">5</value><value name="trigger">{folder / "jam"}</value></property>'
-        '<alarm id="5" severity="high">Conveyor jammed</alarm>',
-    )
-    (folder / "module.xml").write_text(xml.replace("</root>", conveyor + "</root>"))
-    return folder / "module.xml"
 
 
 class Cell:
@@ -86,7 +78,7 @@ class Cell:
 @pytest.fixture(scope="module")
 def cell(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("captures")
-    c = Cell(tmp, signals_with_alarm(tmp / "set"))
+    c = Cell(tmp, signals_with_an_alarm(tmp / "set"))
     yield c
     c.stop()
 
