@@ -291,6 +291,7 @@ def status_body(rt: Runtime) -> dict:
         "monitored_items": items,
         "sampling": rt.sampler.counts(),
         "alarm_events": rt.alarms.emitted,
+        "condition_refreshes": rt.alarms.refreshes,
     }
     return body
 

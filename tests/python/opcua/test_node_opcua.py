@@ -314,6 +314,7 @@ def test_an_active_alarm_comes_again_with_its_condition_id_on_condition_refresh(
         assert node("condition_refresh", id="s") == {"status": "Good"}
         wait_until(lambda: any(e["EventType"] == "ns=0;i=2788" for e in events()), LIMIT_S, 0.1)
         refreshed = events()
+        assert c.fresh_status()["condition_refreshes"] == 1
     finally:
         jam.unlink(missing_ok=True)
         node.close()
