@@ -60,6 +60,10 @@ POLICY_TYPES = {
     ],
     "None": [ua.SecurityPolicyType.NoSecurity],
 }
+REFRESH_METHODS = {  # ConditionType's: they name a subscription, which must be the caller's
+    ua.NodeId(ua.ObjectIds.ConditionType_ConditionRefresh),
+    ua.NodeId(ua.ObjectIds.ConditionType_ConditionRefresh2),
+}
 OPERATION_LIMITS = {  # advertised in Server.ServerCapabilities.OperationLimits, from the settings
     ua.ObjectIds.Server_ServerCapabilities_OperationLimits_MaxNodesPerRead: "max_nodes_per_read",
     ua.ObjectIds.Server_ServerCapabilities_OperationLimits_MaxNodesPerWrite: "max_nodes_per_write",
@@ -156,6 +160,22 @@ class Session(InternalSession):
     async def browse(self, params):
         self._bound(len(params.NodesToBrowse), "max_nodes_per_browse")
         return await super().browse(params)
+
+    async def call(self, params: list[ua.CallMethodRequest]) -> list[ua.CallMethodResult]:
+        """Method calls; a ConditionRefresh must name one of this session's own subscriptions
+        (asyncua does not tell a method which session calls it, so it is checked here)."""
+        subscriptions = self.subscription_service.subscriptions
+
+        def foreign(m: ua.CallMethodRequest) -> bool:
+            if m.MethodId not in REFRESH_METHODS or not m.InputArguments:
+                return False
+            sub = subscriptions.get(m.InputArguments[0].Value)
+            return sub is not None and sub.session_id != self.session_id
+
+        refused = [foreign(m) for m in params]
+        answered = iter(await super().call([m for m, r in zip(params, refused, strict=True) if not r]))
+        invalid = ua.StatusCode(ua.StatusCodes.BadSubscriptionIdInvalid)
+        return [ua.CallMethodResult(StatusCode=invalid) if r else next(answered) for r in refused]
 
     async def translate_browsepaths_to_nodeids(self, params):
         self._bound(len(params), "max_nodes_per_browse")

@@ -227,13 +227,21 @@ def test_an_active_alarm_is_a_retained_condition_that_condition_refresh_sends_ag
             elif step == "clear":
                 jam.unlink(missing_ok=True)  # (the finally below may have)
                 await until_async(lambda: active_count(c), 0)
-            elif step == "bad id":
-                with pytest.raises(ua.UaStatusCodeError) as e:
-                    await c.get_node(ua.ObjectIds.ConditionType).call_method(
-                        ua.NodeId(ua.ObjectIds.ConditionType_ConditionRefresh),
-                        ua.Variant(987654, ua.VariantType.UInt32),
-                    )
-                return e.value.code
+            elif step == "bad id":  # none such, and another session's
+                other = await signals.connect("view")
+                try:
+                    theirs = (await other.create_subscription(100, Notes())).subscription_id
+                    codes = []
+                    for sid in (987654, theirs):
+                        with pytest.raises(ua.UaStatusCodeError) as e:
+                            await c.get_node(ua.ObjectIds.ConditionType).call_method(
+                                ua.NodeId(ua.ObjectIds.ConditionType_ConditionRefresh),
+                                ua.Variant(sid, ua.VariantType.UInt32),
+                            )
+                        codes.append(e.value.code)
+                    return codes
+                finally:
+                    await other.disconnect()
             return await refreshed(c), await refreshed(c, ua.ObjectIds.ConditionType_ConditionRefresh2), await ns_of(c)
         finally:
             await c.disconnect()
@@ -252,7 +260,7 @@ def test_an_active_alarm_is_a_retained_condition_that_condition_refresh_sends_ag
         jam.unlink(missing_ok=True)
     first, second, _ = asyncio.run(go("clear"))
     assert first == [] and second == []
-    assert asyncio.run(go("bad id")) == ua.StatusCodes.BadSubscriptionIdInvalid
+    assert asyncio.run(go("bad id")) == [ua.StatusCodes.BadSubscriptionIdInvalid] * 2
 
 
 async def until_async(read, want, seconds: float = LIMIT_S):
