@@ -15,18 +15,14 @@ import csv
 import sys
 from datetime import UTC, datetime
 
+from .cli_base import EXIT_OK, arg
 from .cli_text import Out, format_duration, pairs, parse_duration, printable, table
 from .recorder.trigger_text import describe_trigger
 
-EXIT_OK = 0  # as cli.py's
 WHEN_FORMS = (
     "PATH rising|falling|either THRESHOLD, PATH above|below VALUE [for ROWS], PATH equal VALUE [tol T] [for ROWS], "
     "PATH inside|outside LOW HIGH [for ROWS]"
 )
-
-
-def arg(*flags: str, **kw) -> tuple[tuple[str, ...], dict]:
-    return flags, kw
 
 
 def _float(text: str, what: str) -> float:

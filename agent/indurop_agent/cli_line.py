@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import time
 
+from .cli_base import EXIT_OK
 from .cli_text import _uptime, format_duration, printable, table
 
-EXIT_OK = 0  # as cli.py's
 HEADERS = ["NAME", "STATE", "HEALTH", "SET", "JITTER P99", "ALARMS", "UP", "LAST SEEN", "WEB UI"]
 
 

@@ -9,16 +9,12 @@ from __future__ import annotations
 import re
 from typing import Any
 
+from .cli_base import EXIT_OK, arg
 from .cli_text import pairs, printable, table
 from .client import ApiError
 
-EXIT_OK = 0  # as cli.py's
 MIN_PREFIX = 6
 HEX = re.compile(r"[0-9a-fA-F]+")
-
-
-def arg(*flags: str, **kw) -> tuple[tuple[str, ...], dict]:
-    return flags, kw
 
 
 def status_text(s: dict) -> str:

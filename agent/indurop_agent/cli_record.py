@@ -12,14 +12,9 @@ from __future__ import annotations
 import argparse
 import sys
 
+from .cli_base import EXIT_OK, arg
 from .cli_text import Out, _size, pairs, printable, table
 from .client import Client
-
-EXIT_OK = 0  # as cli.py's
-
-
-def arg(*flags: str, **kw) -> tuple[tuple[str, ...], dict]:
-    return flags, kw
 
 
 def _variable(text: str) -> str | dict:

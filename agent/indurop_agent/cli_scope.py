@@ -15,12 +15,10 @@ import sys
 from pathlib import Path
 from urllib.parse import quote
 
-from .cli_capture import arg
+from .cli_base import EXIT_OK, arg
 from .cli_text import Out, printable, table
 from .client import ApiError
 from .recorder.trigger_text import describe_trigger
-
-EXIT_OK = 0  # as cli.py's
 
 
 def _set_id(c, a) -> str:

@@ -8,13 +8,8 @@ import argparse
 import sys
 from typing import Any
 
+from .cli_base import EXIT_OK, arg
 from .cli_text import _size, _uptime, pairs, sets_text, table
-
-EXIT_OK, EXIT_REFUSED = 0, 1  # as cli.py's
-
-
-def arg(*flags: str, **kw) -> tuple[tuple[str, ...], dict]:
-    return flags, kw
 
 
 def _since(text: str) -> str:

@@ -9,7 +9,7 @@ import time
 from types import SimpleNamespace
 
 import pytest
-from indurop_agent import cli
+from indurop_agent import cli, cli_alarms
 from indurop_agent import client as client_module
 
 
@@ -115,7 +115,7 @@ def test_follow_prints_the_transitions_as_they_come(agent, irpctl, monkeypatch):
         else:
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli, "time", SimpleNamespace(sleep=sleep))  # irpctl's sleeps only, no other thread's
+    monkeypatch.setattr(cli_alarms, "time", SimpleNamespace(sleep=sleep))  # irpctl's sleeps only, no other thread's
     code, out, _ = irpctl("viewer", "--json", "alarms", "--follow", "--interval", "0.5")
     assert code == 0 and sleeps == [0.5, 0.5]
     followed = [json.loads(line) for line in out.splitlines()[-1:]]

@@ -35,11 +35,12 @@ import sys
 import tarfile
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import httpx
 import pytest
 from client_helpers import FIG1_DIR, GOOD_TOKEN, T0, free_port, sample_frame, stop
-from indurop_agent import cli, cli_text
+from indurop_agent import cli, cli_alarms, cli_text
 from indurop_agent import stream_frame_spec as spec
 from indurop_agent.client import ApiError, Client, decode_frame, encode_frame, set_files
 
@@ -650,7 +651,7 @@ def test_events_follow_asks_with_both_cursors(irpctl, fake_agent, monkeypatch):
         if len(sleeps) == 2:
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli.time, "sleep", sleep)
+    monkeypatch.setattr(cli_alarms, "time", SimpleNamespace(sleep=sleep))  # irpctl's sleeps only
     code, out, _ = irpctl(*FAKE, "--json", "events", "--follow", "--interval", "0.5")
     assert code == 0 and sleeps == [0.5, 0.5]
     assert [dict(r.url.params) for r in fake_agent.requests] == [{"since": "0"}, {"since": "5", "agent_since": "8"}]
