@@ -44,7 +44,7 @@ class AlarmEvents:
         self.refresh_events: dict[int, object] = {}  # RefreshStart/EndEventType -> its generator
         self.declared: dict[tuple[str, int], dict] = {}  # (module, id) -> {"text", "severity"}
         self.names: dict[int, str] = {}  # source -> module
-        self.retained: dict[str, list] = {}  # key of an active alarm -> its last event, per emitter
+        self.retained: dict[tuple[str, int], list] = {}  # (module, id) active -> its last event, per emitter
         self.active_node = None
         self.emitted = 0
         self.refreshes = 0
@@ -90,23 +90,21 @@ class AlarmEvents:
             if attached:
                 await self._announce(active)
 
-    async def _count_active(self) -> set[str]:
-        """Writes ActiveCount; the keys of the active alarms."""
+    async def _count_active(self) -> set[tuple[str, int]]:
+        """Writes ActiveCount; the active alarms, (module, id)."""
         sources = self.segment.sources()
         self.names = {s.index: s.name for s in sources}
-        active = {f"{s.name}/{i}" for s in sources for i in s.active}
+        active = {(s.name, i) for s in sources for i in s.active}
         await self.active_node.write_value(ua.Variant(len(active), ua.VariantType.UInt32))
         return active
 
-    async def _announce(self, active: set[str]) -> None:
+    async def _announce(self, active: set[tuple[str, int]]) -> None:
         """A new segment: the conditions the old one left are cleared, its active alarms raised."""
         now = datetime.now(UTC)
-        for key in sorted(set(self.retained) - active):
-            module, _, id_ = key.rpartition("/")
-            await self._emit(module, int(id_), False, None, now, "the controller restarted")
-        for key in sorted(active - set(self.retained)):
-            module, _, id_ = key.rpartition("/")
-            await self._emit(module, int(id_), True, None, now, "active when the server attached")
+        for module, id_ in sorted(set(self.retained) - active):
+            await self._emit(module, id_, False, None, now, "the controller restarted")
+        for module, id_ in sorted(active - set(self.retained)):
+            await self._emit(module, id_, True, None, now, "active when the server attached")
 
     async def step(self) -> None:
         if self.reader is None:
@@ -124,10 +122,11 @@ class AlarmEvents:
         declared = self.declared.get((module, id_), {})
         severity = severity or declared.get("severity") or "medium"
         text = declared.get("text") or f"alarm {id_} of {module} (not declared)"
+        condition = self.space.nodeid(f"@Controller.Alarms.{key}")  # the ConditionId
         events = []
         for gen in self.generators:
             gen.event = e = copy.copy(gen.event)  # a retained condition keeps its own event
-            e.NodeId = self.space.nodeid(f"@Controller.Alarms.{key}")
+            e.NodeId = condition
             e.SourceName = module
             e.ConditionName = key
             e.Severity = SEVERITY.get(severity, 500)
@@ -137,9 +136,9 @@ class AlarmEvents:
             await gen.trigger(time_attr=when, message=f"{text}: {detail}" if detail else text)
             events.append(e)
         if raised:
-            self.retained[key] = events
+            self.retained[module, id_] = events
         else:
-            self.retained.pop(key, None)
+            self.retained.pop((module, id_), None)
         self.emitted += 1
 
     async def refresh(self, parent, subscription_id, monitored_item_id=None):
