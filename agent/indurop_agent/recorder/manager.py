@@ -157,13 +157,17 @@ class Recorder(threading.Thread):
         return started
 
     def end(self, name: str, who: str | None) -> dict:
-        """Stops a running recording (its file closed, complete); its meta."""
+        """Stops a running recording (its file closed, complete); its meta.  The stop's moment is
+        the rings' head when the request is handled: the rings are read once more up to it, so
+        the file holds every row up to that one (the thread last read them up to 50 ms before)."""
         entry = self.store.get(name)
         with self.lock:
             rec = self.recordings.get(name)
             if rec is None:
                 raise RecorderError(409, f"'{name}' is not recording (it is {entry.meta.get('state')})")
-            self.finish(rec, "stopped", "manual", f"stopped by {who or 'the appliance'}")
+            self.poll()  # may end it by its own stop (duration, size, a write failed) first
+            if rec.name in self.recordings:
+                self.finish(rec, "stopped", "manual", f"stopped by {who or 'the appliance'}")
         self.narrow()
         return rec.meta
 

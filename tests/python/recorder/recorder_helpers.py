@@ -18,7 +18,9 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "tests" / "python"))
 sys.path.insert(0, str(ROOT / "agent"))
 import orjson  # noqa: E402
+from indurop_agent.events import AgentEvents  # noqa: E402
 from indurop_agent.irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable  # noqa: E402
+from indurop_agent.recorder.manager import Recorder  # noqa: E402
 from live_processes import BUILD, IRPD, free_port, output, start_agent, start_irpd, stop, wait_until  # noqa: E402
 from mcap.reader import make_reader  # noqa: E402
 
@@ -103,6 +105,13 @@ def start_cell(tmp: Path, config: Path, instance: str, agent_config: dict | None
         r = httpx.post(f"{url}/tokens", json={"name": role, "role": role}, headers={"Authorization": f"Bearer {admin}"})
         tokens[role] = r.json()["token"]
     return irpd, agent, Api(url, tokens, data), sock
+
+
+def recorder_of(store, sock: Path, **kw):
+    """A Recorder thread of its own (not the agent's) on irpd's socket, started."""
+    rec = Recorder(store, str(sock), AgentEvents(), owner="recorder-test", **kw)
+    rec.start()
+    return rec
 
 
 def samples_of(paths: list[Path]) -> list[dict]:

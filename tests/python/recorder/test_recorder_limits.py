@@ -15,12 +15,11 @@ import subprocess
 import time
 
 import pytest
-from indurop_agent.events import AgentEvents
 from indurop_agent.recorder import mcap_read
-from indurop_agent.recorder.manager import Recorder, RecorderError, Wanted
+from indurop_agent.recorder.manager import RecorderError, Wanted
 from indurop_agent.recorder.store import Store
 from live_processes import copy_cell
-from recorder_helpers import IRPD, digests, samples_of, start_cell, stop
+from recorder_helpers import IRPD, digests, recorder_of, samples_of, start_cell, stop
 from websockets.sync.client import connect
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
@@ -74,12 +73,6 @@ def test_the_cells_robot_json_gives_a_joint_states_file(cell, tmp_path):
     files = api.download("joints", tmp_path)
     assert sorted(p.name for p in files) == ["part-0001.joint_states.mcap", "part-0001.mcap"]
     assert len(samples_of(files)) == done["rows"] == 1000
-
-
-def recorder_of(store: Store, sock) -> Recorder:
-    rec = Recorder(store, str(sock), AgentEvents(), owner="recorder-test")
-    rec.start()
-    return rec
 
 
 def wait_done(store: Store, name: str, seconds: float = 60) -> dict:

@@ -18,7 +18,20 @@ import time
 import pyarrow.parquet as pq
 import pytest
 from indurop_agent import cli
-from recorder_helpers import BUILD, IRPD, digests, notes_of, samples_of, start_cell, stop
+from indurop_agent.recorder.manager import Wanted
+from indurop_agent.recorder.store import Store
+from indurop_agent.trace import TraceRing
+from recorder_helpers import (
+    BUILD,
+    IRPD,
+    digests,
+    irpd_ready,
+    notes_of,
+    recorder_of,
+    samples_of,
+    start_cell,
+    stop,
+)
 from rosbags.rosbag2.storage_mcap import McapReader as RosbagsMcap
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
@@ -51,7 +64,7 @@ def cell(tmp_path_factory):
     shutil.copytree(SIGNALS, folder)
     (folder / "robot.json").write_text(json.dumps({"urdf": "indurop6.urdf", "joints": JOINTS}))
     irpd, agent, api, sock = start_cell(tmp, folder / "module.xml", f"rec-live-{os.getpid()}")
-    state = {"api": api, "tmp": tmp}
+    state = {"api": api, "tmp": tmp, "sock": sock}
     yield state
     stop(agent)
     stop(irpd)
@@ -154,14 +167,49 @@ def test_a_decimated_recording_exports_the_rows_of_its_file_as_csv_and_parquet(c
 
 def test_a_recording_stopped_by_hand_is_closed_and_kept(cell, tmp_path):
     api = cell["api"]
-    assert api.start("manual", ["SIG.sample"]).status_code == 201
-    time.sleep(1.5)
-    r = api.call("POST", "/recordings/manual/stop")
+    ring = TraceRing(irpd_ready(cell["sock"])["shared_memory"]["trace"])
+    try:
+        assert api.start("manual", ["SIG.sample"]).status_code == 201
+        time.sleep(1.5)
+        seen = ring.head()  # a row the rings hold before the stop is sent
+        r = api.call("POST", "/recordings/manual/stop")
+        after = ring.head()
+    finally:
+        ring.close()
     assert r.status_code == 200, r.text
     got = r.json()
     assert got["state"] == "stopped" and got["cause"] == "manual" and "stopped by" in got["reason"]
-    assert got["parts"][0]["closed"] and got["rows"] > 500
-    assert notes_of(api.download("manual", tmp_path))[-1]["kind"] == "stop"
+    files = api.download("manual", tmp_path)
+    seqs = [m["seq"] for m in samples_of(files)]
+    assert seqs == list(range(seqs[0], seqs[0] + len(seqs))), "a row is missing inside the file"
+    assert seen <= seqs[-1] <= after  # every row up to the stop's moment
+    assert got["parts"][0]["closed"] and got["rows"] == len(seqs) > 500
+    assert notes_of(files)[-1]["kind"] == "stop"
+
+
+def test_a_stop_reads_the_rings_once_more_up_to_the_stops_moment(cell, tmp_path):
+    """The recorder's thread reads the rings every poll_s; a stop between two reads still takes
+    every row up to the rings' head when the stop is handled (made plain here with a 1 s poll:
+    the stop comes half a second after the thread's last read).  SIG.sample tells the row."""
+    store = Store(tmp_path / "recordings", quota_bytes=1 << 30)
+    rec = recorder_of(store, cell["sock"], poll_s=1.0)
+    ring = TraceRing(irpd_ready(cell["sock"])["shared_memory"]["trace"])
+    try:
+        rec.begin(Wanted("stopped-between-reads", [("SIG.sample", "")]), "test")
+        time.sleep(1.5)
+        seen = ring.head()
+        got = rec.end("stopped-between-reads", "test")
+        after = ring.head()
+    finally:
+        rec.stop()
+        ring.close()
+    assert got["state"] == "stopped" and got["cause"] == "manual"
+    rows = samples_of(store.get("stopped-between-reads").parts())
+    seqs = [m["seq"] for m in rows]
+    assert seqs == list(range(seqs[0], seqs[0] + len(seqs))), "a row is missing inside the file"
+    assert seqs[-1] >= seen, f"rows {seqs[-1] + 1}..{seen} were in the rings at the stop, not in the file"
+    assert seqs[-1] <= after and got["parts"][0]["last_seq"] == seqs[-1] and got["rows"] == len(seqs)
+    assert len({m["SIG_sample"] - m["seq"] for m in rows}) == 1  # each row its own period's sample
 
 
 def test_irpctl_record_starts_lists_stops_exports_downloads_and_removes(cell, tmp_path, capsys, monkeypatch):
