@@ -11,7 +11,8 @@ they are downloaded, exported, deleted and evicted by the quota like them.
 An entry's entry.json holds what the recordings' listing shows and, besides, `capture` (the shot's
 header: capture id, name, trigger, pre, post, trigger_seq, cause ...) and `summary` (pre_rows,
 post_rows, rows, drops, notes ...).  The MCAP file holds the same header as metadata
-(`indurop.capture`), the trigger as a note on /indurop/notes with its seq, and the summary.
+(`indurop.capture`), the trigger as a note on /indurop/notes with its seq (at its row's time, just
+before that row), and the summary.
 """
 
 from __future__ import annotations
@@ -74,10 +75,23 @@ class _McapShot:
             self.abort()
             raise
         self.notes: list[str] = []
+        self.triggered = False  # the trigger's note given to the file
 
     def rows(self, seq, t_ns, values) -> None:
-        values = np.asarray(values, dtype=np.float64)
-        self.out.add_rows(np.asarray(seq).tolist(), np.asarray(t_ns).tolist(), list(values))
+        seq, t_ns = np.asarray(seq).tolist(), np.asarray(t_ns).tolist()
+        if not self.triggered and seq:
+            # the trigger row's due time (rows are one basic period apart): McapOut writes the
+            # note just before that row, so that log_time never goes backwards in the file
+            h = self.header
+            self.trigger_note(t_ns[0] + (int(h["trigger_seq"]) - seq[0]) * int(h["basic_period_ns"]))
+        self.out.add_rows(seq, t_ns, list(np.asarray(values, dtype=np.float64)))
+
+    def trigger_note(self, t_ns: int | None) -> None:
+        h = self.header
+        said = describe_trigger(h["trigger"]) if isinstance(h.get("trigger"), dict) else ""
+        text = f"{h['cause']}: {said}" if said and said != h["cause"] else str(h["cause"])
+        self.out.note("trigger", text, seq=int(h["trigger_seq"]), t_ns=t_ns)
+        self.triggered = True
 
     def note(self, text: str) -> None:
         self.notes.append(text)
@@ -85,12 +99,8 @@ class _McapShot:
 
     def close(self, summary: dict) -> None:
         h, out = self.header, self.out
-        t = None  # the trigger row's due time: rows are one basic period apart
-        if out.first_seq is not None:
-            t = out.first_t_ns + (int(h["trigger_seq"]) - out.first_seq) * int(h["basic_period_ns"])
-        said = describe_trigger(h["trigger"]) if isinstance(h.get("trigger"), dict) else ""
-        text = f"{h['cause']}: {said}" if said and said != h["cause"] else str(h["cause"])
-        out.note("trigger", text, seq=int(h["trigger_seq"]), t_ns=t)
+        if not self.triggered:  # a shot without rows
+            self.trigger_note(None)
         size = out.close({k: json.dumps(v) for k, v in summary.items()})
         first_unix = out.first_t_ns + out.clock_offset_ns if out.first_t_ns is not None else None
         last_unix = out.last_t_ns + out.clock_offset_ns if out.last_t_ns is not None else None

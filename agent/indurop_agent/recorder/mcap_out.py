@@ -16,6 +16,10 @@ What it holds:
   Values are the ring's doubles, `null` where not finite.  log_time = the row's due time on the
   wall clock (t_ns + clock_offset_ns), sequence = seq mod 2^32 (the full seq is in the message).
 - `/indurop/notes`: JSON messages for what is not a row: drops, gaps, triggers, why it stopped.
+  A note takes its place in time among the rows, so that log_time never goes backwards in the
+  file (readers that require order take it): one with a time of its own (a gap's first row, a
+  trigger's row) is written before the first row due at or after it, one without takes the time
+  of the row written last (before any row: the first row's, before it).
 - metadata records: `indurop.part` at the start (what the caller gives), `indurop.summary` at close.
 
 With `joints`, a second file beside it, `<name>.joint_states.mcap` (`joint_file`), in the MCAP
@@ -169,6 +173,8 @@ class McapOut:
         self.first_t_ns: int | None = None
         self.last_t_ns: int | None = None
         self.closed = False
+        self._last_log_time: int | None = None  # of the newest message written (rows and notes)
+        self._held: list[tuple[int | None, bytes]] = []  # notes waiting for their place: (log_time, data)
         index = {v.path: i for i, v in enumerate(self.variables)}
         missing = [j.variable for j in joints if j.variable not in index]
         if missing:
@@ -257,10 +263,17 @@ class McapOut:
         text = orjson.dumps(block, option=orjson.OPT_SERIALIZE_NUMPY)
         rows = text[2:-2].split(b"],[")
         template, add, channel, offset = self._template, self._writer.add_message, self._samples, self.clock_offset_ns
+        held = self._held
+        if held and held[0][0] is None:  # noted before any row: at the first row's time, before it
+            first = times[0] + offset
+            held[:] = sorted([(first if t is None else t, d) for t, d in held], key=lambda h: h[0])
         for k in range(n):
             log_time = times[k] + offset
+            if held and held[0][0] <= log_time:
+                self._write_held(log_time)
             data = template % (b"%d" % seqs[k], b"%d" % times[k], *rows[k].split(b","))
             add(channel, log_time, data, log_time, seqs[k] & 0xFFFFFFFF)
+        self._last_log_time = times[-1] + offset
         if self._joint_writer is not None:
             self._add_joints(seqs, times, block)
         if self.first_seq is None:
@@ -296,12 +309,31 @@ class McapOut:
     def note(self, kind: str, text: str, *, t_ns: int | None = None, **fields) -> None:
         """A note on /indurop/notes: `kind` one of NOTE_KINDS, `text` in words, and any of seq,
         first_seq, last_seq, count (integers) or other JSON fields.  Its time: the due time t_ns
-        given (CLOCK_MONOTONIC), else now."""
+        given (CLOCK_MONOTONIC), written before the first row due at or after it (held until
+        then, or until close); else its place among the rows, the time of the last row written
+        (before any row: the first row's).  ValueError for a time before what is written."""
         if kind not in NOTE_KINDS:
             raise ValueError(f"note kind {kind!r} is not one of {', '.join(NOTE_KINDS)}")
-        log_time = (t_ns + self.clock_offset_ns) if t_ns is not None else time.time_ns()
         data = orjson.dumps({"kind": kind, "text": text, **fields})
-        self._writer.add_message(self._notes, log_time, data, log_time, 0)
+        last = self._last_log_time
+        log_time = last if t_ns is None else t_ns + self.clock_offset_ns
+        if last is not None and log_time < last:
+            raise ValueError(
+                f"a {kind} note at log_time {log_time} comes after messages up to {last}: "
+                "notes are written in time order"
+            )
+        if log_time is not None and log_time == last:
+            self._writer.add_message(self._notes, log_time, data, log_time, 0)
+        else:  # a time still to come, or no row yet
+            self._held.append((log_time, data))
+            self._held.sort(key=lambda h: -1 if h[0] is None else h[0])  # stable: those without a time first
+
+    def _write_held(self, upto: int | None) -> None:
+        """The held notes due at or before `upto` (None: all of them), in time order."""
+        while self._held and (upto is None or self._held[0][0] <= upto):
+            log_time, data = self._held.pop(0)
+            self._writer.add_message(self._notes, log_time, data, log_time, 0)
+            self._last_log_time = log_time
 
     def add_metadata(self, name: str, values: dict[str, str]) -> None:
         """A metadata record (string to string), e.g. a capture's trigger definition."""
@@ -330,6 +362,10 @@ class McapOut:
         """The summary metadata, indexes and footer; returns the file's size."""
         if self.closed:
             return self.size
+        if self._held and self._held[0][0] is None:  # notes of a file without a row: at its close
+            closing = max([time.time_ns(), *(t for t, _ in self._held if t is not None)])
+            self._held = sorted([(closing if t is None else t, d) for t, d in self._held], key=lambda h: h[0])
+        self._write_held(None)
         done = {
             "rows": str(self.rows),
             "first_seq": str(self.first_seq or ""),

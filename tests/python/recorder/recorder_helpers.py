@@ -137,6 +137,34 @@ def notes_of(paths: list[Path]) -> list[dict]:
     return out
 
 
+def assert_in_time_order(path: Path) -> int:
+    """The strictest order checks the mcap library allows a reader: the messages in file order
+    (the indexed reader's log_time_order=False) never go back in log_time, so that file order is
+    the order the reader sorts into (log_time_order=True); every chunk's index holds its messages'
+    times and the chunks' times do not overlap; the statistics' start and end are the first and
+    last message's.  Returns the messages counted."""
+    with open(path, "rb") as f:
+        reader = make_reader(f, validate_crcs=True)
+        in_file = [(m.log_time, c.topic, m.sequence) for _, c, m in reader.iter_messages(log_time_order=False)]
+        for k in range(1, len(in_file)):
+            assert in_file[k][0] >= in_file[k - 1][0], (
+                f"{path.name}: message {k} ({in_file[k][1]}, log_time {in_file[k][0]}) comes after one at "
+                f"{in_file[k - 1][0]} ({in_file[k - 1][1]}): log_time goes backwards"
+            )
+        by_time = [(m.log_time, c.topic, m.sequence) for _, c, m in reader.iter_messages(log_time_order=True)]
+        assert by_time == in_file
+        summary = reader.get_summary()
+    assert summary is not None, f"{path.name} has no summary"
+    chunks = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
+    for a, b in zip(chunks, chunks[1:]):
+        assert a.message_start_time <= a.message_end_time <= b.message_start_time, f"{path.name}: chunks overlap"
+    if in_file:
+        stats = summary.statistics
+        assert (stats.message_start_time, stats.message_end_time) == (in_file[0][0], in_file[-1][0])
+        assert stats.message_count == len(in_file)
+    return len(in_file)
+
+
 def digests(folder: Path) -> dict[str, str]:
     """sha256 of every file under `folder` (what must not change)."""
     return {

@@ -20,6 +20,7 @@ from indurop_agent.recorder.capture_files import CaptureFiles
 from indurop_agent.recorder.capture_sink import MemorySink
 from indurop_agent.recorder.store import Store
 from mcap.reader import make_reader
+from recorder_helpers import assert_in_time_order
 
 
 def header(capture="abc123", shot=1) -> dict:
@@ -88,6 +89,23 @@ def test_the_shot_is_an_entry_of_the_recordings_and_its_file_names_the_trigger(t
         assert [s["seq"] for s in samples] == [10, 11, 12, 13] and samples[2]["a"] == 6.0
         metadata = {m.name: m.metadata for m in reader.iter_metadata()}
         assert json.loads(metadata["indurop.capture"]["trigger_seq"]) == 12
+
+
+def test_a_shots_trigger_note_sits_at_its_row_so_that_a_strict_reader_takes_the_file(tmp_path):
+    store = store_at(tmp_path)
+    shots = CaptureFiles(store)
+    w = shots.open(header())  # the trigger at row 12
+    seq, t, values = rows(10, 6)
+    w.rows(seq[:1], t[:1], values[:, :1])
+    w.rows(seq[1:], t[1:], values[:, 1:])
+    w.note("the rows stopped coming")
+    w.close({"trigger_seq": 12, "drops": 0})
+    (path,) = store.get("abc123.shot-1").parts()
+    assert assert_in_time_order(path) == 6 + 2
+    with open(path, "rb") as f:
+        in_file = [json.loads(m.data) for _, _, m in make_reader(f).iter_messages(log_time_order=False)]
+    assert [m.get("seq") for m in in_file[:5]] == [10, 11, 12, 12, 13]  # the trigger, then its row
+    assert in_file[2]["kind"] == "trigger" and in_file[-1] == {"kind": "info", "text": "the rows stopped coming"}
 
 
 def test_a_shot_the_agent_died_writing_is_never_listed_and_is_cleared(tmp_path):

@@ -21,6 +21,7 @@ from pathlib import Path
 import httpx
 import pytest
 from mcap.reader import make_reader
+from recorder_helpers import assert_in_time_order
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from indurop_agent.trace import TraceRing
@@ -134,7 +135,7 @@ def wait_shots(cell: Cell, capture_id: str, n: int) -> dict:
     return wait_until(shots_in, LIMIT_S, 0.1)
 
 
-def test_a_rising_edge_lands_on_the_exact_row_with_the_rings_values(cell):
+def test_a_rising_edge_lands_on_the_exact_row_with_the_rings_values(cell, tmp_path):
     status = cell.call("GET", "/status", "viewer").json()
     copy = RingCopy(status["shared_memory"]["trace"])
     copy.start()
@@ -176,6 +177,8 @@ def test_a_rising_edge_lands_on_the_exact_row_with_the_rings_values(cell):
     assert [n["seq"] for n in notes if n["kind"] == "trigger"] == [trigger]
     samples = [json.loads(m.data) for _, _, m in reader.iter_messages(topics=["/indurop/samples"])]
     assert [m["seq"] for m in samples] == rows["seq"]
+    (tmp_path / "shot.mcap").write_bytes(mcap.content)
+    assert assert_in_time_order(tmp_path / "shot.mcap") == 301 + len(notes)  # the trigger note at its row
 
 
 def test_a_repeated_capture_takes_a_shot_at_each_edge(cell):

@@ -31,6 +31,7 @@ from indurop_agent.recorder.mcap_out import (  # noqa: E402
     field_names,
 )
 from mcap.reader import make_reader  # noqa: E402
+from recorder_helpers import assert_in_time_order  # noqa: E402
 from rosbags.rosbag2.storage_mcap import McapReader as RosbagsMcap  # noqa: E402
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore  # noqa: E402
 
@@ -104,6 +105,41 @@ def test_rows_notes_and_variables_read_back_with_the_mcap_reader(tmp_path):
     assert notes == [{"kind": "drop", "text": "rows overwritten", "first_seq": 501, "last_seq": 510, "count": 10}]
     assert metadata["indurop.summary"]["rows"] == "800" and metadata["indurop.summary"]["why"] == "done"
     assert metadata["indurop.part"]["basic_period_ns"] == "1000000"
+
+
+def test_notes_take_their_place_in_time_so_that_a_strict_reader_takes_both_files(tmp_path):
+    """Notes come as the recorder and the captures write them: a drop before the part's first row,
+    a drop between two reads (noted after rows whose due times are past), a gap timed by the first
+    row after it, a trigger timed by a row not written yet, a stop at the end.  Both files read in
+    strict log_time order; each note sits at its place among the rows."""
+    path = tmp_path / "part-0001.mcap"
+    out = McapOut(path, VARIABLES, title="t", basic_period_ns=1_000_000, joints=[Joint("joint_1", "joint[0].x")])
+    out.note("drop", "rows dropped before the part opened", first_seq=1, last_seq=9, count=9)
+    out.add_rows(*rows(10, 100))
+    out.flush()
+    out.note("drop", "rows overwritten", first_seq=110, last_seq=119, count=10)
+    out.add_rows(*rows(120, 100))
+    out.note("gap", "gap: irpd restarted", t_ns=230 * 1_000_000, last_seq=219, first_seq=230)
+    out.add_rows(*rows(230, 50))
+    out.note("trigger", "the trigger's row is still to come", t_ns=300 * 1_000_000, seq=300)
+    out.add_rows(*rows(280, 70))
+    with pytest.raises(ValueError, match="log_time"):
+        out.note("trigger", "a time before rows written already", t_ns=340 * 1_000_000, seq=340)
+    out.note("stop", "stopped by hand")
+    out.close()
+    assert assert_in_time_order(path) == 320 + 5
+    assert assert_in_time_order(out.joint_file) == 320
+    with open(path, "rb") as f:
+        messages = [orjson.loads(m.data) for _, _, m in make_reader(f).iter_messages(log_time_order=False)]
+    after = {m["text"]: messages[k - 1].get("seq") for k, m in enumerate(messages) if "kind" in m and k}
+    before = {
+        m["text"]: messages[k + 1].get("seq") for k, m in enumerate(messages) if "kind" in m and k + 1 < len(messages)
+    }
+    assert messages[0]["kind"] == "drop" and before["rows dropped before the part opened"] == 10
+    assert after["rows overwritten"] == 109 and before["rows overwritten"] == 120
+    assert after["gap: irpd restarted"] == 219 and before["gap: irpd restarted"] == 230
+    assert after["the trigger's row is still to come"] == 299 and before["the trigger's row is still to come"] == 300
+    assert messages[-1]["kind"] == "stop" and after["stopped by hand"] == 349
 
 
 def test_values_that_are_not_finite_are_null():

@@ -24,6 +24,7 @@ from indurop_agent.trace import TraceRing
 from recorder_helpers import (
     BUILD,
     IRPD,
+    assert_in_time_order,
     digests,
     irpd_ready,
     notes_of,
@@ -185,6 +186,7 @@ def test_a_recording_stopped_by_hand_is_closed_and_kept(cell, tmp_path):
     assert seen <= seqs[-1] <= after  # every row up to the stop's moment
     assert got["parts"][0]["closed"] and got["rows"] == len(seqs) > 500
     assert notes_of(files)[-1]["kind"] == "stop"
+    assert assert_in_time_order(files[0]) == len(seqs) + len(notes_of(files))
 
 
 def test_a_stop_reads_the_rings_once_more_up_to_the_stops_moment(cell, tmp_path):
@@ -256,6 +258,8 @@ def test_the_60_s_recording_has_every_row_with_the_values_the_generator_wrote(ce
     assert sorted(p.name for p in files) == ["part-0001.joint_states.mcap", "part-0001.mcap"]
     rows = samples_of(files)
     assert len(rows) == done["rows"] == LONG_S * 1000  # 60 s of due times at 1 ms
+    for path in files:
+        assert assert_in_time_order(path) >= len(rows)
     seqs = [m["seq"] for m in rows]
     assert seqs == list(range(seqs[0], seqs[0] + len(seqs)))
     assert rows[-1]["t_ns"] - rows[0]["t_ns"] == (len(rows) - 1) * 1_000_000

@@ -15,7 +15,7 @@ import time
 
 import pytest
 from live_processes import FIG1, start_irpd
-from recorder_helpers import IRPD, irpd_ready, samples_of, start_agent, start_cell, stop
+from recorder_helpers import IRPD, assert_in_time_order, irpd_ready, samples_of, start_agent, start_cell, stop
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
@@ -72,7 +72,10 @@ def test_a_recording_resumes_after_the_agent_and_irpd_restart_with_the_gaps_reco
     assert "irpd restarted" in gaps[2]["reason"] and gaps[2]["missing"] is None
     assert parts[3]["irpd_pid"] != parts[2]["irpd_pid"] == parts[0]["irpd_pid"]
 
-    rows_by_part = [samples_of([api.data / "recordings" / "survivor" / p["file"]]) for p in parts]
+    files = [api.data / "recordings" / "survivor" / p["file"] for p in parts]
+    rows_by_part = [samples_of([path]) for path in files]
+    for path, p in zip(files, parts):  # gap, info and stop notes in time order, the recovered part too
+        assert assert_in_time_order(path) > p["rows"]
     for p, rows in zip(parts, rows_by_part):
         seqs = [m["seq"] for m in rows]
         assert len(rows) == p["rows"] > 0 and seqs == list(range(seqs[0], seqs[0] + len(seqs)))  # no hole inside a part
