@@ -43,6 +43,7 @@ from ..variables import Segment, VariableError
 from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config
 from . import bridge_file, declared, ros2_types
 from .bridge_file import BRIDGE_JSON, BridgeFile, BridgeFileError, Mapping, std_basic
+from .diagnostics import LEVEL_ERROR, LEVEL_OK, LEVEL_STALE, LEVEL_WARN, Timing
 from .imports import Sharing
 from .line import Line
 from .settings import BridgeSettings, cyclone_config, parse_args
@@ -54,7 +55,6 @@ QOS = {
     ),
     "sensor_data": Qos(Policy.Reliability.BestEffort, Policy.Durability.Volatile, Policy.History.KeepLast(5)),
 }
-LEVEL_OK, LEVEL_WARN, LEVEL_ERROR, LEVEL_STALE = 0, 1, 2, 3
 MAX_TAKE = 64  # samples taken from one subscription per poll; the reader keeps the newest (keep-last)
 
 
@@ -128,6 +128,7 @@ class Bridge:
         self.status: dict = {}
         self.next_status = 0.0
         self.next_diag = 0.0
+        self.timing = Timing(settings.name)  # the dispatchers' and modules' statuses (diagnostics.py)
         self.stopping = False
         self.line = Line(self.participant, settings, self.irpd)
 
@@ -368,8 +369,7 @@ class Bridge:
                 self.counters.irpd_errors += 1
                 stats, alarms = {}, {}
             statuses.append(self.set_status(alarms))
-            for record in stats.get("executors", []) + stats.get("modules", []):
-                statuses.append(timing_status(self.s.name, record))
+            statuses += self.timing.statuses(stats, time.monotonic())
         self.diag_writer.write(
             ros2_types.DiagnosticArray(header=ros2_types.Header(stamp=ros_time(now_ns)), status=statuses)
         )
@@ -489,34 +489,6 @@ def check_against_layout(bridge: BridgeFile, status: dict) -> None:
         bridge_file.check_variables(bridge, bridge_file.layout_scalars(layout), kinds=bridge_file.layout_kinds(layout))
     finally:
         segment.close()
-
-
-def timing_status(name: str, record: dict) -> ros2_types.DiagnosticStatus:
-    """One dispatcher's or module's stats record (irpd `stats`) as a DiagnosticStatus."""
-    kind = record.get("kind", "module")
-    level = LEVEL_OK
-    if record.get("overruns") or record.get("missed"):
-        level = LEVEL_WARN
-    if record.get("state") in ("disabled", "stopped", "exited"):
-        level = LEVEL_ERROR
-    values = [
-        ros2_types.KeyValue(key=k, value=str(record.get(k)))
-        for k in ("executor", "period_ns", "runs", "overruns", "missed", "skipped", "errors", "state")
-        if k in record
-    ]
-    for figure in ("jitter_ns", "latency_ns", "exec_ns"):
-        f = record.get(figure) or {}
-        for q in ("p50", "p99", "max"):
-            if q in f:
-                values.append(ros2_types.KeyValue(key=f"{figure} {q}", value=str(f[q])))
-    return ros2_types.DiagnosticStatus(
-        level=level,
-        # A dispatcher's record is named "dispatcher": it is told apart by its executor.
-        name=f"{name}: {kind} {record.get('executor') if kind == 'dispatcher' else record.get('name')}",
-        message=f"{record.get('runs', 0)} runs, {record.get('overruns', 0)} overruns, {record.get('missed', 0)} missed",
-        hardware_id=name,
-        values=values,
-    )
 
 
 def module_writes(module_xml: Path) -> dict[str, list[str]]:

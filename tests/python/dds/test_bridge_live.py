@@ -2,7 +2,7 @@
 on loopback, read and written by a separate DDS peer built only from protocol/ros2's IDL: Debian's
 idlc makes its C types, Debian's libddsc 0.10.2 runs it (the bridge runs the cyclonedds wheel's
 11.x).  Checks ROS 2's names, type names and QoS, JointState at every basic period with the joint
-names of robot.json, the diagnostics, a mapped subscription written through irpd, and that an
+names of robot.json, the diagnostics (a missed period WARN for 10 s, then OK), a mapped subscription written through irpd, and that an
 unmapped topic, a topic of another type, malformed values and a flood change nothing they must not
 (docs/dds.md).  Every DDS participant uses loopback only, on a domain of its own."""
 
@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -225,6 +226,38 @@ def test_a_ros2_node_sees_joint_states(controller, tmp_path):
     assert all(s["name"] == JOINTS and len(s["position"]) == 6 for s in samples)
     stamps = [s["sec"] * 1_000_000_000 + s["nanosec"] for s in samples]
     assert all(b > a and (b - a) % BASIC_NS == 0 for a, b in zip(stamps, stamps[1:]))
+
+
+def test_a_missed_period_turns_the_dispatcher_warn_for_the_last_10_s_only(controller):
+    """irpd stopped for 0.3 s (SIGSTOP): its main dispatcher misses a period.  Its status turns WARN
+    while the last 10 s hold the miss, then OK again, with irpd's total kept among its values."""
+    c = controller
+
+    def dispatcher() -> dict:
+        _, (sample,) = c.read("diagnostics", "rt/diagnostics", 1)
+        return next(s for s in sample["status"] if s["name"] == "cell-test: dispatcher main")
+
+    before = int(dispatcher()["values"]["missed"])
+    os.kill(c.irpd.pid, signal.SIGSTOP)
+    time.sleep(0.3)
+    os.kill(c.irpd.pid, signal.SIGCONT)
+
+    def warned():
+        """the dispatcher's status WARN with the miss"""
+        s = dispatcher()
+        return s if s["level"] == 1 and int(s["values"]["missed"]) > before else None
+
+    warn = wait_until(warned, 30, 0)
+
+    def healthy():
+        """the dispatcher's status OK again"""
+        s = dispatcher()
+        return s if s["level"] == 0 else None
+
+    ok = wait_until(healthy, 60, 0)
+    assert int(warn["values"]["missed in the last 10 s"]) >= 1 and "in the last 10 s" in warn["message"]
+    assert int(ok["values"]["missed"]) >= int(warn["values"]["missed"]) > before  # the total stays
+    assert ok["values"]["missed in the last 10 s"] == "0" and c.irpd.poll() is None
 
 
 def test_the_bridge_withdraws_its_channels_when_it_stops(tmp_path, ros2_reader, controller):
