@@ -37,7 +37,9 @@ class Operator:
         assert r.status_code == 200, r.text
 
     def upload(self, folder: Path) -> str:
-        files = [("files", (str(p.relative_to(folder)), p.read_bytes())) for p in sorted(folder.rglob("*")) if p.is_file()]
+        files = [
+            ("files", (str(p.relative_to(folder)), p.read_bytes())) for p in sorted(folder.rglob("*")) if p.is_file()
+        ]
         r = httpx.post(f"{self.url}/sets", files=files, headers=self.h, timeout=120)
         assert r.status_code == 201, r.text
         assert r.json()["validation"]["valid"], r.json()["validation"]
@@ -57,8 +59,6 @@ class Operator:
         """The events of alarm `key` recorded after row `after`, oldest first."""
         rows = self.get("/alarms/history", key=key, after=after, limit=1000)["transitions"]
         return [r["event"] for r in reversed(rows)]
-
-
 
     def alarm(self, key: str) -> dict:
         """Alarm `key` as GET /alarms lists it, or an inactive "normal" one when it is not listed."""
