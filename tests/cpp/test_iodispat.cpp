@@ -351,11 +351,7 @@ TEST(IoDispatModbus, TheBudgetCutsAWaitShorterThanTheTimeout) {
 
 TEST(IoDispatModbus, AnUnreachableDeviceAtStartIsCommLostNotARefusal) {
     resetVariables();
-    int port;
-    {
-        DriveSim probe({"--quiet"});
-        port = probe.port();
-    }  // nothing listens there any more
+    const int port = testing_support::closedPort();  // nothing listens there
     TempDir dir;
     LoadedModule io;
     const auto t0 = std::chrono::steady_clock::now();

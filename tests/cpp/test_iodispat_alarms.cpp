@@ -130,11 +130,7 @@ TEST(IoDispatAlarms, CommLostIsRaisedWithTheCauseAndTheErrorsAndClearedWhenTheDe
 TEST(IoDispatAlarms, ADeviceUnreachableAfterTheStartIsAlarmedOnceItsTimeoutPassedAndClearedWhenItAnswers) {
     resetVariables();
     Alarms alarms;
-    int port;
-    {
-        DriveSim probe({"--quiet"});
-        port = probe.port();
-    }  // nothing listens there any more
+    const int port = testing_support::closedPort();  // nothing listens there
     TempDir dir;
     LoadedModule io(kSource);
     ASSERT_EQ(io.load(writeFile(dir, "ioconfig.xml",
@@ -158,11 +154,7 @@ TEST(IoDispatAlarms, ADeviceUnreachableAfterTheStartIsAlarmedOnceItsTimeoutPasse
 TEST(IoDispatAlarms, ADeviceThatListensOnlyAfterStartIsReachedInTheFirstCycleWithoutAnAlarm) {
     resetVariables();
     Alarms alarms;
-    int port;
-    {
-        DriveSim probe({"--quiet"});
-        port = probe.port();
-    }
+    const int port = testing_support::closedPort();  // nothing listens there
     TempDir dir;
     LoadedModule io(kSource);
     ASSERT_EQ(io.load(writeFile(dir, "ioconfig.xml",

@@ -330,7 +330,9 @@ TEST_F(Program, DisableInADwellRequestsNoMoveAfterThePowerOff) {
     program = std::make_unique<pou::PickAndPlace>(settings);
     powerOn();
     pulse(&pou::Inputs::I0);
-    ASSERT_TRUE(runUntil([&] { return out.Step == 3 && robot.st.MotionDone == 1 && !robot.moving(); }));
+    ASSERT_TRUE(runUntil([&] {  // MoveL_PickDown taken and done: the dwell
+        return out.Step == 3 && robot.lastOp() == OpCode::MoveL && robot.st.MotionDone == 1;
+    }));
     const std::size_t before = robot.taken.size();
     in.Enable = false;  // the robot stands at the pick pose; the dwell would then ask for the next move
     for (int i = 0; i < 50; ++i) period();

@@ -41,8 +41,13 @@ def running(tmp_path):
 
 MOMENTS = {
     "moving": lambda cell: cell.read("ROBOT_MODULE_STATE.Busy") == 1,
-    # at the pick or place pose, the gripper's dwell: the next move would follow it
-    "dwelling": lambda cell: cell.read("PLC_OUT.Step") in (3, 6) and cell.read("ROBOT_MODULE_STATE.MotionDone") == 1,
+    # at the pick or place pose, the gripper's dwell (the step's move taken and done): the next
+    # move would follow it
+    "dwelling": lambda cell: (
+        cell.read("PLC_OUT.Step") in (3, 6)
+        and cell.read("ROBOT_MODULE_STATE.nAckSeq") == cell.read("ROBOT_MODULE_SERVICE.nSeq")
+        and cell.read("ROBOT_MODULE_STATE.MotionDone") == 1
+    ),
 }
 
 
