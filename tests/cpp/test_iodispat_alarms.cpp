@@ -66,6 +66,16 @@ struct Alarms {
 
 const std::string kDemoDevice = R"(timeout_ms="50" fail_limit="3" reconnect_ms="200")";
 
+// libiodispat started on the demo config for a port nothing listens on, with a reconnect_ms far
+// beyond the test's time; the port.
+int startUnreachable(LoadedModule &io, TempDir &dir) {
+    const int port = testing_support::closedPort();
+    EXPECT_EQ(io.load(writeFile(dir, "ioconfig.xml",
+                                demoConfig(port, R"(timeout_ms="50" fail_limit="3" reconnect_ms="5000")"))),
+              "");
+    return port;
+}
+
 }  // namespace
 
 TEST(IoDispatAlarms, InitializeDeclaresCommLostPerDeviceAndAFaultPerDrive) {
@@ -130,12 +140,9 @@ TEST(IoDispatAlarms, CommLostIsRaisedWithTheCauseAndTheErrorsAndClearedWhenTheDe
 TEST(IoDispatAlarms, ADeviceUnreachableAfterTheStartIsAlarmedOnceItsTimeoutPassedAndClearedWhenItAnswers) {
     resetVariables();
     Alarms alarms;
-    const int port = testing_support::closedPort();  // nothing listens there
     TempDir dir;
     LoadedModule io(kSource);
-    ASSERT_EQ(io.load(writeFile(dir, "ioconfig.xml",
-                                demoConfig(port, R"(timeout_ms="50" fail_limit="3" reconnect_ms="5000")"))),
-              "");
+    const int port = startUnreachable(io, dir);
     io.run();
     EXPECT_EQ(IO_STATUS.comm_lost[0], 1);
     std::this_thread::sleep_for(std::chrono::milliseconds(60));  // past its timeout, long before reconnect_ms
@@ -154,13 +161,10 @@ TEST(IoDispatAlarms, ADeviceUnreachableAfterTheStartIsAlarmedOnceItsTimeoutPasse
 TEST(IoDispatAlarms, ADeviceThatListensOnlyAfterStartIsReachedInTheFirstCycleWithoutAnAlarm) {
     resetVariables();
     Alarms alarms;
-    const int port = testing_support::closedPort();  // nothing listens there
     TempDir dir;
     LoadedModule io(kSource);
-    ASSERT_EQ(io.load(writeFile(dir, "ioconfig.xml",
-                                demoConfig(port, R"(timeout_ms="50" fail_limit="3" reconnect_ms="5000")"))),
-              "");                    // start(): refused
-    DriveSim sim({"--quiet"}, port);  // as irpd starts the set's processes after the thread modules
+    const int port = startUnreachable(io, dir);  // start(): refused
+    DriveSim sim({"--quiet"}, port);             // as irpd starts the set's processes after the thread modules
     io.run();
     EXPECT_EQ(IO_STATUS.comm_lost[0], 0) << "the first cycle connects; it does not wait for reconnect_ms";
     EXPECT_TRUE(alarms.of(100).empty());
