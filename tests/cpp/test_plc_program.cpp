@@ -307,18 +307,82 @@ TEST_F(Program, ADriveFaultDuringTheCycleIsReportedAndResetPowersTheRobotAgain) 
     EXPECT_EQ(out.Cycles, 1u);
 }
 
-TEST_F(Program, DisableEndsTheCycleWithoutError) {
+TEST_F(Program, DisableWhileTheRobotMovesAbortsTheCycleWithThePowerRemovedFault) {
     powerOn();
     pulse(&pou::Inputs::I0);
     ASSERT_TRUE(runUntil([&] { return out.Step == 2 && robot.moving(); }));
+    const std::size_t before = robot.taken.size();
     in.Enable = false;
     period();
     EXPECT_EQ(robot.svc.eOpCode, 2);
-    period();
     EXPECT_EQ(out.Step, 0);
-    EXPECT_FALSE(out.Error);
+    EXPECT_TRUE(out.Error);
+    EXPECT_EQ(out.ErrorID, pou::kPowerRemoved) << "not the robot's 1 (a motion before power-on)";
     ASSERT_TRUE(runUntil([&] { return !out.Powered; }));
     EXPECT_EQ(robot.st.Powered, 0);
+    EXPECT_EQ(robot.ops(before), (std::vector<OpCode>{OpCode::PowerOff})) << "no move after the power-off";
+    pulse(&pou::Inputs::Reset);
+    EXPECT_FALSE(out.Error);
+}
+
+TEST_F(Program, DisableInADwellRequestsNoMoveAfterThePowerOff) {
+    settings.dwell = 200ms;
+    program = std::make_unique<pou::PickAndPlace>(settings);
+    powerOn();
+    pulse(&pou::Inputs::I0);
+    ASSERT_TRUE(runUntil([&] {  // MoveL_PickDown taken and done: the dwell
+        return out.Step == 3 && robot.lastOp() == OpCode::MoveL && robot.st.MotionDone == 1;
+    }));
+    const std::size_t before = robot.taken.size();
+    in.Enable = false;  // the robot stands at the pick pose; the dwell would then ask for the next move
+    for (int i = 0; i < 50; ++i) period();
+    EXPECT_EQ(robot.ops(before), (std::vector<OpCode>{OpCode::PowerOff}));
+    EXPECT_EQ(out.ErrorID, pou::kPowerRemoved);
+    EXPECT_EQ(robot.st.Error, 0);
+}
+
+TEST_F(Program, StopThenDisableWhenIdleIsACleanStop) {
+    in.CycleMode = 1;
+    powerOn();
+    pulse(&pou::Inputs::I0);
+    ASSERT_TRUE(runUntil([&] { return out.Step == 5 && robot.moving(); }));
+    in.Stop = true;
+    ASSERT_TRUE(runUntil([&] { return !out.Running && robot.st.Busy == 0; }));
+    in.Enable = false;
+    ASSERT_TRUE(runUntil([&] { return !out.Powered; }));
+    in.Stop = false;
+    for (int i = 0; i < 20; ++i) period();
+    EXPECT_FALSE(out.Error);
+    EXPECT_EQ(out.ErrorID, 0);
+    EXPECT_EQ(robot.st.Error, 0);
+    EXPECT_EQ(robot.lastOp(), OpCode::PowerOff);
+}
+
+TEST_F(Program, EnableWaitsForTheDrivesAndPowersOnWhenTheyAnswer) {
+    in.DrivesReachable = false;  // after a (re)start: the fieldbus is not up yet
+    in.Enable = true;
+    for (int i = 0; i < 20; ++i) period();
+    EXPECT_TRUE(robot.taken.empty()) << "no power-on request the robot would refuse with ErrorID 8";
+    EXPECT_TRUE(out.WaitingForDrives);
+    EXPECT_FALSE(out.Error);
+    EXPECT_FALSE(out.Powered);
+    in.DrivesReachable = true;
+    ASSERT_TRUE(runUntil([&] { return out.Powered; }));
+    EXPECT_FALSE(out.WaitingForDrives);
+    EXPECT_EQ(robot.ops(), (std::vector<OpCode>{OpCode::PowerOn}));
+    in.Enable = false;
+    period();
+    EXPECT_FALSE(out.WaitingForDrives);
+}
+
+TEST_F(Program, ACommLossOncePoweredStillFaults) {
+    powerOn();
+    in.DrivesReachable = false;
+    robot.driveFault(8);
+    period();
+    EXPECT_TRUE(out.Error);
+    EXPECT_EQ(out.ErrorID, 8);
+    EXPECT_FALSE(out.WaitingForDrives) << "the power-on stands: a loss once powered is a fault";
 }
 
 TEST_F(Program, OverrideScalesEverySpeed) {

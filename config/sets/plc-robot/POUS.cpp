@@ -118,10 +118,21 @@ void PickAndPlace::scan(const Inputs &in, Outputs &out, AxisGroupRef &robot, Tim
     const double vJ = settings_.joint_speed * ov;
     const double vL = settings_.linear_speed * ov;
 
-    // (* Rung 1: the robot is powered while Enable *)
-    Power.Enable = in.Enable;
+    // (* Rung 1: the robot is powered while Enable.  An Enable while the drives do not answer
+    //    (after a start or a restart, until the fieldbus is up) waits for them rather than asking
+    //    the robot, which would refuse with ErrorID 8; once asked, the request stands, so a comm
+    //    loss afterwards is the robot's fault 8 as before. *)
+    if (!in.Enable)
+        powerOn = false;
+    else if (in.DrivesReachable)
+        powerOn = true;
+    Power.Enable = powerOn;
     Power(robot);
     if (Power.Error) fault(Power.ErrorID);
+
+    // (* Rung 1b: power removed while the cycle runs aborts it, with the program's own fault; no
+    //    move of the cycle is requested after the power-off (the robot would refuse it, ErrorID 1) *)
+    if (!in.Enable && step != kIdle) fault(kPowerRemoved);
 
     // (* Rung 2: the robot's own error, shown when no block reported one *)
     GroupError.Enable = true;
@@ -129,7 +140,7 @@ void PickAndPlace::scan(const Inputs &in, Outputs &out, AxisGroupRef &robot, Tim
 
     // (* Rung 3: Stop (a level) ends the cycle and brings the powered robot to standstill *)
     if (stop) step = kIdle;
-    StopRobot.Execute = stop && Power.Status;
+    StopRobot.Execute = stop && Power.Status && Power.Enable;  // a power-off stops the robot itself
     StopRobot(robot);
     if (StopRobot.Error) fault(StopRobot.ErrorID);
 
@@ -175,6 +186,7 @@ void PickAndPlace::scan(const Inputs &in, Outputs &out, AxisGroupRef &robot, Tim
     out.Running = step != kIdle;
     out.Done = done;
     out.Powered = Power.Status;
+    out.WaitingForDrives = in.Enable && !powerOn;
     out.Step = step;
     out.Cycles = cycles;
     out.Error = errorLatched || GroupError.GroupErrorID != 0;

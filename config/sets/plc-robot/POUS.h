@@ -45,10 +45,11 @@ struct Inputs {
     bool I1 = false;  // stop (level), like Stop
     bool Start = false;
     bool Stop = false;
-    bool Reset = false;     // rising edge: MC_Reset
-    bool Enable = false;    // MC_Power
-    int16_t CycleMode = 0;  // 1: repeat the cycle until Stop
-    double Override = 1.0;  // scales every move's speed, clamped to [kMinOverride, 1]
+    bool Reset = false;           // rising edge: MC_Reset
+    bool Enable = false;          // MC_Power
+    int16_t CycleMode = 0;        // 1: repeat the cycle until Stop
+    double Override = 1.0;        // scales every move's speed, clamped to [kMinOverride, 1]
+    bool DrivesReachable = true;  // the drives' I/O answers (no IO_STATUS.comm_lost): MC_Power may start
 };
 
 // ...and what it writes at the end.
@@ -58,6 +59,7 @@ struct Outputs {
     bool Done = false;
     bool Error = false;
     bool Powered = false;
+    bool WaitingForDrives = false;  // Enable is set, MC_Power waits for the drives to answer
     int32_t Step = 0;
     int32_t ErrorID = 0;
     uint32_t Cycles = 0;
@@ -76,6 +78,11 @@ enum Step : int32_t {
 };
 
 inline constexpr double kMinOverride = 0.01;
+
+// The program's own ErrorID (the robot's are 1-8, the blocks' 1001-1004; module.xml's <alarm>s):
+// Enable was removed while the cycle ran, which aborts it.  The clean stop is Stop (or CycleMode
+// 0 and the cycle's end), then Enable = 0 once the cycle and the robot are idle.
+inline constexpr int32_t kPowerRemoved = 1010;
 
 class PickAndPlace {
 public:
@@ -99,6 +106,7 @@ public:
     int32_t errorId = 0;
     uint32_t cycles = 0;
     bool firstScan = true;
+    bool powerOn = false;  // MC_Power's Enable: Enable once the drives answered (then held until Enable falls)
 
 private:
     template <class Move>

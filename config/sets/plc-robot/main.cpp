@@ -28,11 +28,11 @@ plcopen::AxisGroupRef robot = plcopen::bindAxisGroup(service, state);
 pou::Inputs inputs;
 pou::Outputs outputs;
 
-// The ErrorIDs module.xml declares: the robot's 1-8 and the blocks' 1001-1004 (docs/plc.md), and
-// the alarm that the cell waits for a reset.
+// The ErrorIDs module.xml declares: the robot's 1-8, the blocks' 1001-1004 and the program's 1010
+// (pou::kPowerRemoved; docs/plc.md), and the alarm that the cell waits for a reset.
 constexpr int32_t kCommLost = 8;
 constexpr int32_t kWaitsForReset = 1000;
-constexpr int32_t kAlarmIds[] = {1, 2, 3, 4, 5, 6, 7, 8, 1000, 1001, 1002, 1003, 1004};
+constexpr int32_t kAlarmIds[] = {1, 2, 3, 4, 5, 6, 7, 8, 1000, 1001, 1002, 1003, 1004, pou::kPowerRemoved};
 // The alarms raised now (0: none), and whether they are known: after a hot reload of main.so its
 // source keeps the alarms the previous instance raised, so the first scan clears the others.
 int32_t cause_raised = 0;
@@ -110,6 +110,10 @@ void POU_PROGRAM() {
     state = PLC_ROBOT::ROBOT_MODULE_STATE;
     service = PLC_ROBOT::ROBOT_MODULE_SERVICE;
     const uint32_t requested = service.nSeq;
+    const PLC_ROBOT::IO_STATUS_t io = PLC_ROBOT::IO_STATUS;  // one consistent copy
+    bool comm_lost = false;
+    for (short lost : io.comm_lost) comm_lost = comm_lost || lost != 0;
+    inputs.DrivesReachable = !comm_lost;
 
     // ---- the rungs
     program->scan(inputs, outputs, robot, plcopen::Time(irp::cycle().planned_ns));
@@ -122,13 +126,11 @@ void POU_PROGRAM() {
     out.Done = outputs.Done;
     out.Error = outputs.Error;
     out.Powered = outputs.Powered;
+    out.WaitingForDrives = outputs.WaitingForDrives;
     out.Step = outputs.Step;
     out.ErrorID = outputs.ErrorID;
     out.Cycles = outputs.Cycles;
     PLC_ROBOT::PLC_OUT = out;
-    const PLC_ROBOT::IO_STATUS_t io = PLC_ROBOT::IO_STATUS;  // one consistent copy
-    bool comm_lost = false;
-    for (short lost : io.comm_lost) comm_lost = comm_lost || lost != 0;
     keepAlarms(comm_lost);
 }
 

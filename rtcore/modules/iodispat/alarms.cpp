@@ -24,13 +24,12 @@ std::vector<AlarmText> alarmTexts(const IoConfig &config) {
     return texts;
 }
 
-void DeviceAlarms::start(const IoConfig &config, channel::Handle &handle, const VarTable &vars, int64_t now_ns) {
+void DeviceAlarms::start(const IoConfig &config, channel::Handle &handle, const VarTable &vars) {
     drives_.clear();
     lost_.assign(config.devices.size(), 0);
-    grace_end_.clear();
+    first_ns_.assign(config.devices.size(), 0);
     for (std::size_t d = 0; d < config.devices.size(); ++d) {
         const DeviceConfig &dev = config.devices[d];
-        grace_end_.push_back(now_ns + static_cast<int64_t>((dev.reconnect_ms + dev.timeout_ms) * 1e6));
         for (const DriveConfig &drive : dev.drives) {
             const std::string where = config.file + ":" + std::to_string(drive.line) + ": <drive>";
             Drive state{&drive, d, vars.resolve(handle, drive.statusword, where), {}, false};
@@ -44,8 +43,11 @@ void DeviceAlarms::report(channel::Handle &handle, const std::vector<std::unique
                           int64_t now_ns) noexcept {
     for (std::size_t d = 0; d < devices.size() && d < lost_.size(); ++d) {
         const Device &dev = *devices[d];
-        const bool waited = dev.rounds() > 0 || now_ns >= grace_end_[d];
-        const bool lost = dev.commLost() && waited;
+        if (first_ns_[d] == 0) first_ns_[d] = now_ns;
+        // Its first exchange had its timeout to be answered (a CAN device's frames to arrive).
+        const bool had_time =
+            dev.rounds() > 0 || now_ns - first_ns_[d] >= static_cast<int64_t>(dev.config().timeout_ms * 1e6);
+        const bool lost = dev.commLost() && had_time;
         if (lost == (lost_[d] != 0)) continue;
         lost_[d] = lost;
         if (lost)

@@ -35,12 +35,13 @@ std::vector<AlarmText> alarmTexts(const IoConfig &config);
 
 class DeviceAlarms {
 public:
-    // Non-RT (Dispatcher::start): the drives' paths resolved.  A device that has not answered
-    // since `now_ns` is reported only once its first reconnect attempt is due (reconnect_ms +
-    // timeout_ms later): a peer that starts with irpd raises nothing.
-    void start(const IoConfig &config, channel::Handle &handle, const VarTable &vars, int64_t now_ns);
-    // RT: raises and clears what changed since the last call.  A comm-lost device's drives keep
-    // their state (their statusword is stale).
+    // Non-RT (Dispatcher::start): the drives' paths resolved.
+    void start(const IoConfig &config, channel::Handle &handle, const VarTable &vars);
+    // RT: raises and clears what changed since the last call.  A device is alarmed while it is
+    // comm-lost, from the start on too (a restart's window until the drives answer): only in the
+    // first timeout_ms after the first call (the first cycle) does a device that has not answered
+    // yet count as still being reached.  A comm-lost device's drives keep their state (their
+    // statusword is stale).
     void report(channel::Handle &handle, const std::vector<std::unique_ptr<Device>> &devices, int64_t now_ns) noexcept;
 
 private:
@@ -51,8 +52,8 @@ private:
         bool fault = false;
     };
     std::vector<Drive> drives_;
-    std::vector<uint8_t> lost_;       // per device: comm lost was raised
-    std::vector<int64_t> grace_end_;  // per device: no comm lost before, unless it answered once
+    std::vector<uint8_t> lost_;      // per device: comm lost was raised
+    std::vector<int64_t> first_ns_;  // per device: the first call's time (0: not called yet)
     char detail_[INDUROP_ALARM_TEXT_CHARS] = "";
 };
 

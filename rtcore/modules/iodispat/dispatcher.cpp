@@ -41,7 +41,7 @@ void Dispatcher::start() {
     VarTable vars;
     resolveStatus(vars);
     for (auto &d : devices_) d->start(handle_, vars);
-    alarms_.start(config_, handle_, vars, nowNs());
+    alarms_.start(config_, handle_, vars);
     cycles_ = 0;
     publishStatus();
 }

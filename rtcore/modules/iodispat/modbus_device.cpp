@@ -1,7 +1,10 @@
 // modbus_device.cpp -- Modbus TCP/RTU devices (see modbus_device.hpp and docs/io.md).
 //
 // One round, every divider-th cycle:
-//   not connected  -> a connect attempt if reconnect_ms passed since the last (else nothing);
+//   not connected  -> a connect attempt when due (else nothing): the first cycle tries at once
+//                     (start()'s attempt comes before irpd starts the set's processes, such as a
+//                     drive simulator), then 10 ms later, 20, 40... up to every reconnect_ms; a
+//                     round that succeeds starts the sequence over;
 //   first connect  -> read the output blocks once, so that "hold" keeps the device's own values;
 //   every round    -> read each input block, write the variables; read the variables, write
 //                     each output block (the safe values while comm-lost, and in the first round
@@ -30,7 +33,8 @@ namespace irp::iodispat {
 
 namespace {
 
-constexpr int64_t kMinSliceNs = 100'000;  // a transaction is not started with less time than this left
+constexpr int64_t kMinSliceNs = 100'000;       // a transaction is not started with less time than this left
+constexpr int64_t kFirstRetryNs = 10'000'000;  // the first reconnect attempt's wait (then doubling up to reconnect_ms)
 
 int maxCount(Table t, bool write) {
     const bool bits = t == Table::Coil || t == Table::DiscreteInput;
@@ -127,14 +131,24 @@ void ModbusDevice::start(channel::Handle &handle, const VarTable &vars) {
     ctx.handle = &handle;
     for (Block &b : outputs_) compose(ctx, b, false);
     applyFallbacks(ctx);  // comm-lost until the first round
-    // One connect attempt now; the first exchange happens in run().
+    // One connect attempt now; the first exchange happens in run().  A refusal here does not
+    // delay the first cycle's attempt: irpd starts the set's processes (a drive simulator, a
+    // gateway) after the thread modules' start(), so a peer of the set cannot listen yet.
+    retry_ns_ = std::min(kFirstRetryNs, reconnectNs());
     ctx.start_ns = nowNs();
     if (arm(ctx) && modbus_connect(mb_) == 0) {
         connected_ = true;
     } else {
         cause_ = modbus_strerror(errno);
-        next_attempt_ns_ = nowNs() + static_cast<int64_t>(config_.reconnect_ms * 1e6);
+        next_attempt_ns_ = 0;
     }
+}
+
+int64_t ModbusDevice::reconnectNs() const noexcept { return static_cast<int64_t>(config_.reconnect_ms * 1e6); }
+
+void ModbusDevice::scheduleReconnect() noexcept {
+    next_attempt_ns_ = nowNs() + retry_ns_;
+    retry_ns_ = std::min(2 * retry_ns_, reconnectNs());
 }
 
 void ModbusDevice::stop() noexcept {
@@ -271,7 +285,7 @@ void ModbusDevice::fail(CycleContext &ctx, int error) noexcept {
         }
         modbus_close(mb_);
         connected_ = false;
-        next_attempt_ns_ = nowNs() + static_cast<int64_t>(config_.reconnect_ms * 1e6);
+        scheduleReconnect();
     }
 }
 
@@ -283,9 +297,9 @@ void ModbusDevice::exchange(CycleContext &ctx) noexcept {
             ++skipped_;
             return;
         }
-        next_attempt_ns_ = nowNs() + static_cast<int64_t>(config_.reconnect_ms * 1e6);
         if (modbus_connect(mb_) != 0) {
             cause_ = modbus_strerror(errno);
+            scheduleReconnect();
             ++errors_;
             if (!comm_lost_) {
                 comm_lost_ = true;
@@ -312,6 +326,7 @@ void ModbusDevice::exchange(CycleContext &ctx) noexcept {
     case Outcome::Ok:
         fails_ = 0;
         ++rounds_;
+        retry_ns_ = std::min(kFirstRetryNs, reconnectNs());  // a later loss retries soon again
         if (comm_lost_) {
             comm_lost_ = false;  // this round sent the safe values; the next sends the variables'
             irp::printf("iodispat: device '%s' answers", config_.name.c_str());

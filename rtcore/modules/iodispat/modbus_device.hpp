@@ -1,6 +1,7 @@
 // modbus_device.hpp -- a Modbus TCP or RTU device through libmodbus: its mappings grouped into
 // blocks of consecutive addresses (one transaction each), read and written once per cycle with
-// a short response timeout; comm loss, safe outputs and rate-limited reconnects.
+// a short response timeout; comm loss, safe outputs and reconnects at growing intervals (10 ms,
+// doubling up to reconnect_ms).
 #pragma once
 
 #include "device.hpp"
@@ -50,6 +51,8 @@ private:
     void fail(CycleContext &ctx, int error) noexcept;
     void applyFallbacks(CycleContext &ctx) noexcept;
     void compose(CycleContext &ctx, Block &b, bool safe) noexcept;
+    int64_t reconnectNs() const noexcept;
+    void scheduleReconnect() noexcept;  // the next attempt after retry_ns_, which then doubles
 
     modbus_t *mb_ = nullptr;
     std::vector<Block> inputs_, outputs_;
@@ -59,6 +62,7 @@ private:
     bool outputs_known_ = false;   // the output blocks hold the device's values (read once at the first connect)
     int fails_ = 0;                // failed rounds in a row
     int64_t next_attempt_ns_ = 0;  // no connect attempt before this
+    int64_t retry_ns_ = 0;         // the wait before the next attempt after this one fails
 };
 
 }  // namespace irp::iodispat

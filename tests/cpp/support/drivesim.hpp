@@ -72,6 +72,10 @@ private:
     int status_ = -1;
 };
 
+// A loopback port nothing listens on any more: a simulator's, closed (a device unreachable at start,
+// or one whose simulator comes up later on that port).
+inline int closedPort() { return DriveSim({"--quiet"}).port(); }
+
 // A libmodbus TCP client, connected on construction (throws if it cannot).
 class ModbusClient {
 public:
