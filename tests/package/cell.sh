@@ -5,7 +5,8 @@
 # find_package(indurop COMPONENTS plcopen kinematics) (main.so on indurop::plcopen, Robot.so on
 # indurop::kinematics, libiodispat.so and the drive simulator from the package), then run by the
 # installed irpd with the simulator on a free port: every module loads (its layout stamp accepted),
-# initializes with its properties, runs every period and stops.
+# initializes with its properties, runs every period and stops.  Without one of the kinematics'
+# packages the configuration stops, naming it.
 set -euo pipefail
 build=$1
 work=$(mktemp -d /tmp/indurop-package-cell-XXXXXX)
@@ -24,6 +25,12 @@ cmake -S "$work/plc-robot" -B "$work/build" -G Ninja -DCMAKE_PREFIX_PATH="$prefi
   || { cat "$work/configure.log"; fail "configuring the cell against the installed package"; }
 cmake --build "$work/build" >"$work/build.log" 2>&1 || { cat "$work/build.log"; fail "building the cell against the installed package"; }
 set=$work/build/plc-robot
+# Without one of the kinematics' packages the configuration stops and names it.
+if cmake -S "$work/plc-robot" -B "$work/no-urdfdom" -G Ninja -DCMAKE_PREFIX_PATH="$prefix" \
+     -DCMAKE_DISABLE_FIND_PACKAGE_urdfdom=ON >"$work/no-urdfdom.log" 2>&1; then
+  fail "the cell configured without urdfdom"
+fi
+tr -s " \n" " " <"$work/no-urdfdom.log" | grep -q "needs the CMake package urdfdom (Debian: liburdfdom-dev)" || { cat "$work/no-urdfdom.log"; fail "the refusal does not name urdfdom"; }
 for f in main.so Robot.so libiodispat.so indurop-drivesim indurop6.urdf layout.json module.xml ioconfig.xml; do
   [ -e "$set/$f" ] || fail "the built set lacks $f"
 done
