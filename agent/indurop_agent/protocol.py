@@ -136,7 +136,7 @@ class AlarmSource(IrpdShape):
 
 
 class Place(IrpdShape):
-    """Where in a set's files an error is: the fields that apply (rtcore/src/common/result.hpp, Place); the message says the same in words."""
+    """Where in a set's files an error is: the fields that apply (rtcore/include/indurop/result.hpp, Place); the message says the same in words."""
 
     file: str | None = Field(None, description="the file, absolute for a set's files (module.xml, a module's .so, layout.json)")
     line: int | None = Field(None, description="the line, counted from 1")

@@ -6,6 +6,7 @@
 // allocates nothing, and irp::declareAlarm's rules.  No timing is asserted.
 #include "alarms/alarm_segment.hpp"
 #include "hosts/thread_module.hpp"
+#include "protocol/limits.hpp"
 #include "sdk/runtime.hpp"
 #include "support/alarm_ring.hpp"
 #include "support/allocation_counter.hpp"

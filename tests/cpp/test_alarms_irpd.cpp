@@ -5,6 +5,7 @@
 // dropped name's source freed after the swap and given again later.
 #include "alarms/alarm_segment.hpp"
 #include "osal/shm.hpp"
+#include "protocol/limits.hpp"
 #include "support/alarm_ring.hpp"
 #include "support/control_client.hpp"
 #include "support/irpd.hpp"

@@ -3,6 +3,7 @@
 // declaration, each refusal naming file:line, the module, what was expected, with its place's
 // module and field (alarm.<id> once the id is known).
 #include "config/module_xml.hpp"
+#include "protocol/limits.hpp"
 #include "support/module_xml_text.hpp"
 
 #include <gtest/gtest.h>

@@ -8,7 +8,7 @@
 // docs/plc.md describes the steps, the properties and the inputs and outputs.
 #pragma once
 
-#include <plcopen/plcopen.h>
+#include <indurop/plcopen/plcopen.h>
 
 #include <indurop/property.h>
 

@@ -9,7 +9,7 @@
 //   - view(), on the control thread: a source's counters and active ids, each read atomically.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "osal/shm.hpp"
 #include "protocol/limits.hpp"
 

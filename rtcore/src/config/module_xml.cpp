@@ -5,6 +5,7 @@
 // numeric character references is reported instead of passed through.
 #include "config/module_xml.hpp"
 
+#include "protocol/limits.hpp"
 #include "sdk/alarm_rules.hpp"
 
 #include <pugixml.hpp>

@@ -6,7 +6,7 @@
 // docs/module-xml.md.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "config/process_properties.hpp"
 #include "protocol/limits.hpp"
 

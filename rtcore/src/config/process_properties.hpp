@@ -16,7 +16,7 @@
 // in their initialize()).
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 
 #include <cstdint>
 #include <string>

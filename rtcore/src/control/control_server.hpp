@@ -5,7 +5,7 @@
 // client, however slow or hostile, cannot delay a period.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "protocol/limits.hpp"
 
 #include <nlohmann/json.hpp>

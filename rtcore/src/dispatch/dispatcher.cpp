@@ -3,6 +3,7 @@
 
 #include "dispatch/running_marker.hpp"
 #include "osal/rt.hpp"
+#include "protocol/limits.hpp"
 
 #include <pthread.h>
 

@@ -4,7 +4,7 @@
 // on the running time grid) before the swap and stopped after it (docs/hot-reload.md).
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "config/module_xml.hpp"
 #include "dispatch/executor.hpp"
 #include "schedule/schedule.hpp"

@@ -4,7 +4,7 @@
 // side: rtcore/sdk/calls.cpp; the contract: docs/shared-variables.md, "Shared functions").
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "config/module_xml.hpp"
 #include "hosts/control_segment.hpp"
 #include "sdk/runtime.hpp"

@@ -3,7 +3,7 @@
 // of shared functions those processes may call (see <indurop/control.h> for both protocols).
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "osal/shm.hpp"
 #include "sdk/sync.hpp"
 

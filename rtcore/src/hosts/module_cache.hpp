@@ -7,7 +7,7 @@
 // (its library is then shared, not loaded twice).
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 
 #include <filesystem>
 #include <string>

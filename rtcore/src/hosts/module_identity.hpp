@@ -8,7 +8,7 @@
 // information does not count either.  A file that is not ELF is identified by its whole content.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 
 #include <filesystem>
 #include <string>

@@ -5,7 +5,7 @@
 // the modules already started (in reverse order) and nothing is dispatched.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "config/module_xml.hpp"
 #include "hosts/thread_module.hpp"
 

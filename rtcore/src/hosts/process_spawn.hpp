@@ -10,7 +10,7 @@
 // not fail the spawn: the child runs without, and the errno comes back for a report.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 
 #include <sys/types.h>
 

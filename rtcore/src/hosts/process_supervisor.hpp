@@ -24,7 +24,7 @@
 // the supervisor throw or crash.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "config/module_xml.hpp"
 #include "hosts/process_output.hpp"
 #include "osal/shm.hpp"

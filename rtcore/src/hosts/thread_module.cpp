@@ -1,6 +1,8 @@
 // thread_module.cpp -- dlopen-based loading and the lifecycle of thread modules.
 #include "hosts/thread_module.hpp"
 
+#include "protocol/limits.hpp"
+
 #include <indurop/property.h>
 
 #include "dispatch/running_marker.hpp"

@@ -5,7 +5,7 @@
 // indurop_module_v1 table here, so the dispatcher calls run() through one pointer either way.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "config/module_xml.hpp"
 #include "sdk/layouts.hpp"
 

@@ -6,7 +6,7 @@
 // between its 20 ms ticks.  One job runs at a time, in posting order.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 
 #include <nlohmann/json.hpp>
 

@@ -1,7 +1,7 @@
 // options.hpp -- irpd's command line.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "dispatch/dispatcher.hpp"
 #include "schedule/schedule.hpp"
 

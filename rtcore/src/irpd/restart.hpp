@@ -13,7 +13,7 @@
 //                    set, then reports last_restart and the `restart` (or `restart_failed`) event.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 
 #include <nlohmann/json.hpp>
 

@@ -1,7 +1,7 @@
 // rt.hpp -- making a thread real-time: memory locking, SCHED_FIFO, CPU pinning, timer slack.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 
 #include <string>
 #include <vector>

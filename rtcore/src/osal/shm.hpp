@@ -1,7 +1,7 @@
 // shm.hpp -- POSIX shared memory segments (shm_open + mmap) owned by irpd or mapped by readers.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 
 #include <cstddef>
 #include <cstdint>

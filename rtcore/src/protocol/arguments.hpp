@@ -4,7 +4,7 @@
 // it must be.  What a command does with its arguments is irpd/commands.cpp's.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "protocol/command_table.hpp"
 
 #include <nlohmann/json.hpp>

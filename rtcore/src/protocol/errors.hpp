@@ -3,11 +3,19 @@
 // field), so that the agent and the web UI read the place instead of finding it in the text.
 #pragma once
 
-#include "common/result.hpp"
+#include "protocol/limits.hpp"
+
+#include <indurop/result.hpp>
 
 #include <nlohmann/json.hpp>
 
+#include <string_view>
+
 namespace irp::protocol {
+
+// An Error's default code (the SDK's result.hpp) is the spec's `refused`.
+static_assert(std::string_view{kErrorRefused} == kRefused,
+              "indurop/result.hpp: kErrorRefused is not protocol/control.json's refused");
 
 // The place's known fields into `out` (an object).
 inline void addPlace(nlohmann::ordered_json &out, const Place &place) {

@@ -1,6 +1,7 @@
 // alarm_sources.cpp -- sources of the alarm segment by module name (see alarm_sources.hpp).
 #include "reload/alarm_sources.hpp"
 
+#include "protocol/limits.hpp"
 #include "sdk/runtime.hpp"
 
 #include <set>

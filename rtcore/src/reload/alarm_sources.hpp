@@ -17,7 +17,7 @@
 #pragma once
 
 #include "alarms/alarm_segment.hpp"
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "reload/generation.hpp"
 
 namespace irp::reload {

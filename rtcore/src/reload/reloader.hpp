@@ -23,7 +23,7 @@
 #pragma once
 
 #include "alarms/alarm_segment.hpp"
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "dispatch/dispatcher.hpp"
 #include "dispatch/function_calls.hpp"
 #include "events/event_log.hpp"

@@ -1,6 +1,8 @@
 // schedule.cpp -- builds, prints and serializes the slot table.
 #include "schedule/schedule.hpp"
 
+#include "protocol/limits.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <algorithm>

@@ -6,7 +6,7 @@
 // the file).  The dispatcher walks the slots forever, one per basic period.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "config/module_xml.hpp"
 #include "protocol/limits.hpp"
 

@@ -1,7 +1,7 @@
 // stats_segment.hpp -- creates and owns the shared-memory stats block of one irpd instance.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "osal/shm.hpp"
 #include "stats/stats_block.hpp"
 

@@ -7,7 +7,7 @@
 // that module until someone enables it again (docs/supervision.md).
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 
 #include <nlohmann/json.hpp>
 

@@ -6,7 +6,7 @@
 // set, and no_new_privs is set: nothing irpd or a module executes can gain privileges again.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 
 #include <sys/types.h>
 

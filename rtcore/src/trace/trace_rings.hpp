@@ -9,7 +9,7 @@
 //     row (seq, due time, one double per channel), publish it.  No allocation, no lock, no syscall.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "osal/shm.hpp"
 
 #include <indurop/trace.h>

@@ -1,7 +1,7 @@
 // layout.hpp -- a layout.json written by glbc, read and checked before irpd builds a segment on it.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "sdk/layouts.hpp"
 
 #include <cstdint>

@@ -9,7 +9,7 @@
 // (docs/shared-variables.md, "Layouts that evolve") without remapping anything.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 #include "osal/shm.hpp"
 #include "variables/layout.hpp"
 

@@ -3,7 +3,7 @@
 // and written under the variable's lock through libindurop's path access, as a process would.
 #pragma once
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 
 #include <nlohmann/json.hpp>
 

@@ -4,7 +4,7 @@
 #pragma once
 
 #include <indurop/generated.h>  // cell.glb of config/sets/plc-robot
-#include <plcopen/plcopen.h>
+#include <indurop/plcopen/plcopen.h>
 
 #include <array>
 #include <chrono>

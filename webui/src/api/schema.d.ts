@@ -3282,7 +3282,7 @@ export interface components {
         };
         /**
          * Place
-         * @description Where in a set's files an error is: the fields that apply (rtcore/src/common/result.hpp, Place); the message says the same in words.
+         * @description Where in a set's files an error is: the fields that apply (rtcore/include/indurop/result.hpp, Place); the message says the same in words.
          */
         Place: {
             /**

@@ -1,5 +1,5 @@
 // axis_group.cpp -- writing one request of the PLC -> robot protocol (axis_group.h).
-#include <plcopen/axis_group.h>
+#include <indurop/plcopen/axis_group.h>
 
 namespace plcopen {
 

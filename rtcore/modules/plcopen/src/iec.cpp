@@ -1,5 +1,5 @@
 // iec.cpp -- TON, the on-delay timer of IEC 61131-3 (iec.h).
-#include <plcopen/iec.h>
+#include <indurop/plcopen/iec.h>
 
 namespace plcopen {
 

@@ -1,6 +1,6 @@
 // motion.cpp -- the PLCopen-style motion blocks (motion.h): the Execute/Done/Busy state machine
 // they share, and what each one requests and how it reads the robot's answer.
-#include <plcopen/motion.h>
+#include <indurop/plcopen/motion.h>
 
 #include <cmath>
 

@@ -12,7 +12,7 @@
 
 #include <indurop/kinematics/pose.hpp>
 
-#include "common/result.hpp"
+#include <indurop/result.hpp>
 
 #include <array>
 #include <memory>

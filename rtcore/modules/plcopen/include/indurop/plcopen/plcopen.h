@@ -3,6 +3,6 @@
 // axis_group.h).  docs/plc.md describes every block with its timing.
 #pragma once
 
-#include <plcopen/axis_group.h>
-#include <plcopen/iec.h>
-#include <plcopen/motion.h>
+#include <indurop/plcopen/axis_group.h>
+#include <indurop/plcopen/iec.h>
+#include <indurop/plcopen/motion.h>

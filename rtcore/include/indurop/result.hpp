@@ -1,13 +1,12 @@
-// result.hpp -- irp::Result<T>: how rtcore reports load-time failures, as values.
+// result.hpp -- irp::Result<T>: how irpd and the SDK's libraries (indurop::kinematics) report
+// load-time failures, as values.
 //
-// Every function that can refuse user input (module.xml, a module .so, a schedule) returns a
-// Result carrying either the value or an Error whose message a user can act on: where (file:line),
-// which field, what was expected.  The place is also given as fields (Place), which the control
-// protocol sends as they are, so that no reader has to find it in the text.  Nothing on the RT
-// path returns or throws errors.
+// Every function that can refuse user input (module.xml, a module .so, a schedule, a URDF) returns
+// a Result carrying either the value or an Error whose message a user can act on: where
+// (file:line), which field, what was expected.  The place is also given as fields (Place), which
+// the control protocol sends as they are, so that no reader has to find it in the text.  Nothing
+// on the RT path returns or throws errors.
 #pragma once
-
-#include "protocol/limits.hpp"
 
 #include <string>
 #include <utility>
@@ -28,21 +27,25 @@ struct Place {
     std::string field;   // the module.xml element: period, executor, property.restart, ...
 };
 
+// The control protocol's code of an Error that names no other (protocol/control.json's `refused`;
+// rtcore/src/protocol/errors.hpp checks at compile time that it is the spec's).
+inline constexpr const char *kErrorRefused = "refused";
+
 struct Error {
     Error() = default;
-    Error(std::string message_, std::string code_ = protocol::kRefused, Place place_ = {})
+    Error(std::string message_, std::string code_ = kErrorRefused, Place place_ = {})
         : message(std::move(message_)), code(std::move(code_)), place(std::move(place_)) {}
 
     std::string message;  // the whole sentence, place included ("module.xml:12: module 'x': ...")
     // The control protocol's error code (protocol/control.json): refused, or not_found when the
     // request names a module or record that does not exist, or restart_required.
-    std::string code = protocol::kRefused;
+    std::string code = kErrorRefused;
     Place place;
 };
 
 // An error about a whole file: "<file>: what", placed at the file.
 inline Error fileError(const std::string &file, const std::string &what) {
-    return Error{file + ": " + what, protocol::kRefused, Place{file}};
+    return Error{file + ": " + what, kErrorRefused, Place{file}};
 }
 
 template <class T>

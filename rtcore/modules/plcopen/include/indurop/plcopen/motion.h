@@ -23,7 +23,7 @@
 // Detailed timing tables per block: docs/plc.md.  Real-time safe: no allocation, no system calls.
 #pragma once
 
-#include <plcopen/axis_group.h>
+#include <indurop/plcopen/axis_group.h>
 
 #include <array>
 #include <cstdint>
