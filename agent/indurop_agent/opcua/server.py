@@ -29,7 +29,7 @@ import time
 from datetime import UTC, datetime
 from pathlib import Path
 
-from asyncua import Server, ua
+from asyncua import ua
 from asyncua.common.connection import TransportLimits
 from asyncua.common.utils import ServiceError
 from asyncua.crypto.permission_rules import User, UserRole
@@ -45,6 +45,7 @@ from ..files import write_atomically
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
 from .address_space import Space
 from .alarms import AlarmEvents
+from .channel import Listening
 from .sampling import Sampler
 from .security import TrustList, Users, application_uri, ensure_certificate, thumbprint
 from .settings import OpcuaSettings, parse_args
@@ -91,7 +92,7 @@ class Runtime:
         self.users = Users(settings, self.audit)
         self.trust = TrustList(settings.pki)
         self.iserver = Internal(self)
-        self.server = Server(iserver=self.iserver)
+        self.server = Listening(iserver=self.iserver)
         self.subscriptions: Subscriptions = self.iserver.subscription_service
         self.space = Space(self.server, self.variables, settings.min_sampling_interval_ms)
         self.alarms = AlarmEvents(self.server, self.space, IrpdClient(settings.irpd_socket, timeout_s=2.0))
@@ -194,7 +195,8 @@ class Internal(InternalServer):
         self.max_connections = s.max_connections
         self.max_subscriptions = s.max_subscriptions
         self.max_monitored_item_queue_size = s.max_queue_size
-        self.certificate_validator = runtime.trust
+        # the trust list decides on the secure channel's certificate (channel.py), not asyncua's
+        # certificate_validator on the one CreateSession names
         Session.runtime = runtime
 
     def create_session(self, name, user=User(role=UserRole.Anonymous), external=False):
