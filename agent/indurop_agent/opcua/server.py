@@ -152,6 +152,8 @@ class Session(InternalSession):
             var = self.runtime.space.var_of(wv.NodeId)
             if var is not None and wv.AttributeId == ua.AttributeIds.Value:
                 results.append(await self.runtime.writes.write(self, var, wv))
+            elif wv.NodeId not in self.aspace:  # as a Read of it answers (Part 4, 5.10.4)
+                results.append(ua.StatusCode(ua.StatusCodes.BadNodeIdUnknown))
             elif not getattr(self.user, "may_write", lambda: False)():
                 results.append(ua.StatusCode(ua.StatusCodes.BadUserAccessDenied))
             else:  # only the shared variables' values are written by clients

@@ -132,3 +132,25 @@ def test_create_session_must_name_the_channels_own_certificate(cell, tmp_path):
     assert asyncio.run(attempt(None, own=False, signature=b"\0" * 256)) == "BadApplicationSignatureInvalid"
     assert asyncio.run(attempt(None, own=False)) == "connected"  # the trusted client itself
 
+
+def test_a_write_to_a_node_that_does_not_exist_is_bad_node_id_unknown(cell):
+    async def go():
+        c = await cell.connect("oper")
+        try:
+            ns = await ns_of(c)
+            unknown = [ua.NodeId("PLC_ROBOT.PLC_IN.NoSuchVariable", ns), ua.NodeId(999_999, 0)]
+            write = ua.WriteParameters()
+            write.NodesToWrite = [
+                ua.WriteValue(
+                    NodeId=n, AttributeId=ua.AttributeIds.Value, Value=ua.DataValue(ua.Variant(1, ua.VariantType.Int16))
+                )
+                for n in unknown
+            ]
+            written = await c.uaclient.write(write)
+            read = await c.uaclient.read(_read(*unknown))
+            return [s.name for s in written], [d.StatusCode.name for d in read]
+        finally:
+            await c.disconnect()
+
+    written, read = asyncio.run(go())
+    assert written == read == ["BadNodeIdUnknown", "BadNodeIdUnknown"]
