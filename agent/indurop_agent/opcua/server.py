@@ -43,6 +43,7 @@ from ..audit import AuditLog
 from ..auth import now_iso
 from ..files import write_atomically
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
+from .acks import METHODS, AgentAlarms
 from .address_space import Space
 from .alarms import AlarmEvents
 from .channel import Listening
@@ -95,7 +96,8 @@ class Runtime:
         self.server = Listening(iserver=self.iserver)
         self.subscriptions: Subscriptions = self.iserver.subscription_service
         self.space = Space(self.server, self.variables, settings.min_sampling_interval_ms)
-        self.alarms = AlarmEvents(self.server, self.space, IrpdClient(settings.irpd_socket, timeout_s=2.0))
+        irpd = IrpdClient(settings.irpd_socket, timeout_s=2.0)
+        self.alarms = AlarmEvents(self.server, self.space, irpd, AgentAlarms(settings))
         self.status: dict = {}
         self.set_key: tuple | None = None
         self.certificate: x509.Certificate | None = None
@@ -165,20 +167,31 @@ class Session(InternalSession):
         return await super().browse(params)
 
     async def call(self, params: list[ua.CallMethodRequest]) -> list[ua.CallMethodResult]:
-        """Method calls; a ConditionRefresh must name one of this session's own subscriptions
-        (asyncua does not tell a method which session calls it, so it is checked here)."""
+        """Method calls.  asyncua does not tell a method which session calls it, so two kinds are
+        answered here: a ConditionRefresh must name one of this session's own subscriptions, and
+        Acknowledge and Confirm on a ConditionId act as this session's user (alarms.py, acks.py)."""
         subscriptions = self.subscription_service.subscriptions
 
-        def foreign(m: ua.CallMethodRequest) -> bool:
+        def ours(m: ua.CallMethodRequest) -> bool:
+            if m.MethodId in METHODS:
+                return True
             if m.MethodId not in REFRESH_METHODS or not m.InputArguments:
                 return False
             sub = subscriptions.get(m.InputArguments[0].Value)
             return sub is not None and sub.session_id != self.session_id
 
-        refused = [foreign(m) for m in params]
-        answered = iter(await super().call([m for m, r in zip(params, refused, strict=True) if not r]))
-        invalid = ua.StatusCode(ua.StatusCodes.BadSubscriptionIdInvalid)
-        return [ua.CallMethodResult(StatusCode=invalid) if r else next(answered) for r in refused]
+        taken = [ours(m) for m in params]
+        answered = iter(await super().call([m for m, t in zip(params, taken, strict=True) if not t]))
+        invalid = ua.CallMethodResult(StatusCode=ua.StatusCode(ua.StatusCodes.BadSubscriptionIdInvalid))
+        results = []
+        for m, t in zip(params, taken, strict=True):
+            if not t:
+                results.append(next(answered))
+            elif m.MethodId in METHODS:
+                results.append(await self.runtime.alarms.respond(self, m))
+            else:
+                results.append(invalid)
+        return results
 
     async def translate_browsepaths_to_nodeids(self, params):
         self._bound(len(params), "max_nodes_per_browse")
@@ -316,6 +329,7 @@ def status_body(rt: Runtime) -> dict:
         "sampling": rt.sampler.counts(),
         "alarm_events": rt.alarms.emitted,
         "condition_refreshes": rt.alarms.refreshes,
+        "agent": {"url": s.agent_url, "error": rt.alarms.agent_error},
     }
     return body
 
@@ -367,6 +381,7 @@ async def run(settings: OpcuaSettings) -> int:
         t.cancel()
     await asyncio.gather(*tasks, return_exceptions=True)
     await rt.sampler.withdraw()
+    await rt.alarms.agent.close()
     await rt.server.stop()
     return 0
 

@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import httpx
+import pytest
 from asyncua import Client, ua
 from asyncua.client.ua_client import UaClient
 from asyncua.common.utils import create_nonce
@@ -22,12 +23,16 @@ from cryptography.x509.oid import ExtendedKeyUsageOID
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from live_processes import (
+    ALARMING,
     API,
     BUILD,
     ROOT,
+    SIGNALS,
+    copy_cell,
     free_port,
     module_entry,
     output,
+    signals_with_an_alarm,
     start_agent,
     start_irpd,
     start_opcua,
@@ -52,6 +57,11 @@ LIMITS = {  # small, so that the tests reach them quickly
     "status_s": 0.5,
     "status_file_s": 0.5,
 }
+CELL = BUILD / "sets" / "plc-robot"
+NO_CELL = pytest.mark.skipif(not (CELL / "Robot.so").exists(), reason=f"the plc-robot cell is not built ({CELL})")
+NO_SIGNALS = pytest.mark.skipif(
+    not (SIGNALS / "module.xml").exists() or not ALARMING.exists(), reason=f"the signals set is not built ({SIGNALS})"
+)
 POLICIES = {"Basic256Sha256": SecurityPolicyBasic256Sha256, "Aes128_Sha256_RsaOaep": SecurityPolicyAes128Sha256RsaOaep}
 
 
@@ -79,7 +89,8 @@ class Controller:
         self.user_key, self.user_cert = tmp / "mes-key.pem", tmp / "mes-cert.der"
         asyncio.run(make_client_certificate(self.user_key, self.user_cert, "urn:indurop:test:mes"))
         mes = {"certificate": str(self.user_cert), "name": "mes", "role": "operator"}
-        self.settings = {**LIMITS, "user_certificates": [mes], **(settings or {})}
+        agent = {"agent_url": f"http://127.0.0.1:{self.agent_port}/"}  # Acknowledge and Confirm go there
+        self.settings = {**LIMITS, **agent, "user_certificates": [mes], **(settings or {})}
         (tmp / "opcua.json").write_text(json.dumps(self.settings))
         self.port = free_port()
         self.url = f"opc.tcp://127.0.0.1:{self.port}/"
@@ -171,6 +182,24 @@ def tamper(c: Client, named: bytes | None, signature: bytes | None) -> None:
         return await activate(params)
 
     c.uaclient.create_session, c.uaclient.activate_session = create_naming, activate_signed
+
+
+def live_cell(tmp_path_factory, name: str) -> Controller:
+    """A Controller on a copy of the PLC + robot cell (a module fixture's), its folder and module.xml
+    in .folder and .xml."""
+    tmp = tmp_path_factory.mktemp(name)
+    config, _ = copy_cell(tmp / "plc-robot")
+    c = Controller(tmp, config, name)
+    c.folder, c.xml = tmp / "plc-robot", config
+    return c
+
+
+def live_signals(tmp_path_factory, name: str) -> Controller:
+    """A Controller on the signals set with the conveyor's alarm (raised while .folder/jam exists)."""
+    tmp = tmp_path_factory.mktemp(name)
+    c = Controller(tmp, signals_with_an_alarm(tmp / "signals"), name)
+    c.folder = tmp / "signals"
+    return c
 
 
 async def make_client_certificate(key: Path, cert: Path, uri: str) -> None:

@@ -19,19 +19,16 @@ from asyncua.ua.uaerrors import UaError
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from live_processes import BUILD, copy_cell, free_port, output, start_opcua, stop, wait_until
-from opcua_helpers import PASSWORDS, Controller, make_client_certificate, ns_of, raw_session
+from opcua_helpers import NO_CELL, PASSWORDS, Controller, live_cell, make_client_certificate, ns_of, raw_session
 
-CELL = BUILD / "sets" / "plc-robot"
 TARGET = "PLC_ROBOT.PLC_IN.Override"
 
-pytestmark = pytest.mark.skipif(not (CELL / "Robot.so").exists(), reason=f"the plc-robot cell is not built ({CELL})")
+pytestmark = NO_CELL
 
 
 @pytest.fixture(scope="module")
 def cell(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("opcua-channel")
-    config, _ = copy_cell(tmp / "plc-robot")
-    c = Controller(tmp, config, "opcua-channel")
+    c = live_cell(tmp_path_factory, "opcua-channel")
     yield c
     c.close()
 
