@@ -19,7 +19,8 @@ The fixes sit where the channel is known, in a UaProcessor subclass (no patch of
   certificate (BadCertificateUntrusted, kept in pki/rejected);
 - ActivateSession's ClientSignature is checked against the channel's certificate before asyncua
   checks it again, so that a bad one answers BadApplicationSignatureInvalid rather than an internal
-  error.
+  error; a session made on one channel is activated on another (a client reconnecting) only when
+  that channel has the same certificate (else BadSecurityChecksFailed).
 
 asyncua builds the processor deep inside Server.start (Server -> BinaryServer -> OPCUAProtocol ->
 UaProcessor, each by its module's name), so Listening.start repeats Server.start's few lines with
@@ -93,6 +94,12 @@ class Processor(UaProcessor):
             # over None, Part 4 5.4): no session
             _logger.warning("%s: refused over security policy None, which is not configured", self.name)
             raise ServiceError(ua.StatusCodes.BadSecurityPolicyRejected)
+        if typeid == ACTIVATE_SESSION:
+            session = self.session or self.iserver.lookup_external_session(requesthdr.AuthenticationToken)
+            if session is not None and getattr(session, "channel_certificate", None) != policy.peer_certificate:
+                # a session made on another channel (a client reconnecting) goes on only on a
+                # channel with the certificate it was made with (Part 4 5.6.3)
+                raise ServiceError(ua.StatusCodes.BadSecurityChecksFailed)
         if policy.URI != SecurityPolicyNone.URI:  # None, when configured: no application to check
             if typeid == CREATE_SESSION:
                 await self._check_client(struct_from_binary(ua.CreateSessionParameters, body.copy()))
@@ -104,7 +111,10 @@ class Processor(UaProcessor):
                     )
                 except (InvalidSignature, ValueError, TypeError) as e:
                     raise ServiceError(ua.StatusCodes.BadApplicationSignatureInvalid) from e
-        return await super()._process_message(typeid, requesthdr, seqhdr, body)
+        result = await super()._process_message(typeid, requesthdr, seqhdr, body)
+        if typeid == CREATE_SESSION and self.session is not None:
+            self.session.channel_certificate = policy.peer_certificate
+        return result
 
     async def _check_client(self, params: ua.CreateSessionParameters) -> None:
         channel = self._connection.security_policy.peer_certificate

@@ -13,13 +13,22 @@ from pathlib import Path
 
 import httpx
 import pytest
-from asyncua import ua
+from asyncua import Client, ua
 from asyncua.ua.uaerrors import UaError
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from live_processes import BUILD, copy_cell, free_port, output, start_opcua, stop, wait_until
-from opcua_helpers import NO_CELL, PASSWORDS, Controller, live_cell, make_client_certificate, ns_of, raw_session
+from opcua_helpers import (
+    NO_CELL,
+    PASSWORDS,
+    POLICIES,
+    Controller,
+    live_cell,
+    make_client_certificate,
+    ns_of,
+    raw_session,
+)
 
 TARGET = "PLC_ROBOT.PLC_IN.Override"
 
@@ -151,3 +160,41 @@ def test_a_write_to_a_node_that_does_not_exist_is_bad_node_id_unknown(cell):
 
     written, read = asyncio.run(go())
     assert written == read == ["BadNodeIdUnknown", "BadNodeIdUnknown"]
+
+
+def test_a_session_goes_on_on_another_channel_only_with_the_certificate_it_was_made_with(cell, tmp_path):
+    """A client reconnecting activates its session on a new channel (Part 4 5.6.3); someone else's
+    channel, opened with another key, may not take the session over even knowing its token."""
+    key, cert = tmp_path / "other-key.pem", tmp_path / "other-cert.der"
+    asyncio.run(make_client_certificate(key, cert, "urn:indurop:test:client"))
+
+    async def take_over(own: bool) -> str:
+        first = await cell.connect("oper")
+        await first.create_subscription(1000, None)  # a session with one outlives its connection
+        token, nonce, policies = first.uaclient.session.authentication_token, first._server_nonce, first._policy_ids
+        first.uaclient.disconnect_socket()
+        other = Client(cell.url, timeout=30)
+        other.application_uri = "urn:indurop:test:client"
+        k, c = (cell.client_key, cell.client_cert) if own else (key, cert)
+        await other.set_security(
+            POLICIES["Basic256Sha256"], str(c), str(k), server_certificate=str(cell.data / "opcua" / "server-cert.der")
+        )
+        await other.connect_socket()
+        try:
+            await other.send_hello()
+            await other.open_secure_channel()
+            other.uaclient.session.restore_authentication_token(token)
+            other._server_nonce, other._policy_ids = nonce, policies
+            try:
+                await other.activate_session("oper", PASSWORDS["oper"])
+            except UaError as e:
+                return type(e).__name__
+            ns = await ns_of(other)
+            await other.get_node(ua.NodeId("PLC_ROBOT.IO_STATUS.cycles", ns)).read_value()
+            await other.close_session()
+            return "resumed"
+        finally:
+            other.disconnect_socket()
+
+    assert asyncio.run(take_over(own=False)) == "BadSecurityChecksFailed"
+    assert asyncio.run(take_over(own=True)) == "resumed"  # the client itself, reconnecting
