@@ -65,7 +65,7 @@ bridge_pid=$!
 # <data>/opcua/.
 opcua_port=${INDUROP_OPCUA_PORT:-4840}
 (cd "$root/agent" && exec "${off_rt[@]}" "$venv/bin/python" -m indurop_agent.opcua --irpd-socket "$sock" \
-    --data-dir "$data" --host 127.0.0.1 --port "$opcua_port") > >(stamp "$logs/opcua.log") 2>&1 &
+    --data-dir "$data" --host 127.0.0.1 --port "$opcua_port" --agent-url "$url/") > >(stamp "$logs/opcua.log") 2>&1 &
 opcua_pid=$!
 for _ in $(seq 200); do curl -sf "$url/api/v1/health" >/dev/null && break; kill -0 $agent_pid 2>/dev/null || break; sleep 0.1; done
 # The first time, the cell becomes the set store's first set (history, rollback, the UI's edits

@@ -37,6 +37,7 @@ from .api.routes import (
     line,
     modules,
     opcua,
+    opcua_alarms,
     recordings,
     robot,
     scopes,
@@ -56,6 +57,7 @@ from .errors import LocatedError, located_error
 from .events import AgentEvents
 from .host import Sampler
 from .irpd_client import IrpdClient
+from .opcua.link import ensure_token
 from .recorder.capture_engine import CaptureEngine
 from .recorder.capture_files import CaptureFiles
 from .recorder.manager import Recorder
@@ -236,6 +238,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     if alarm_store.moved_aside is not None:
         state.events.add("agent_error", f"the alarm database did not open: moved aside to {alarm_store.moved_aside}")
     state.alarms = AlarmManager(alarm_store, settings.alarm_history_per_s)
+    state.opcua_token = ensure_token(settings.data_dir)  # the OPC UA server's credential (opcua/link.py)
     state.recordings = Store(
         settings.data_dir / "recordings", settings.recordings_quota_bytes, settings.recordings_min_free_bytes
     )
@@ -267,6 +270,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     routers += (captures,)  # the scope's triggered captures
     routers += (scopes,)  # trace configurations kept with a set
     routers += (opcua,)  # the OPC UA server's state and trust list (docs/opcua.md)
+    routers += (opcua_alarms,)  # the OPC UA server's Acknowledge and Confirm, with its own token
     for module in (*routers, stream):
         app.include_router(module.router, prefix=API)
     app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)

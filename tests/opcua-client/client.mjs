@@ -4,7 +4,8 @@
 //   node client.mjs PKI_FOLDER     (node-opcua's own certificate store: made there at the first start)
 //   {"op": "connect", "id": "a", "url": "opc.tcp://127.0.0.1:PORT/", "policy": "Basic256Sha256",
 //    "mode": "SignAndEncrypt", "user": "oper", "password": "...", "server_cert": "FILE.der"}  -> {"ok": true} | {"error": ...}
-//    ("user": null: anonymous; with "force_anonymous": true, sent even when the server offers no such token)
+//    ("user": null: anonymous; with "force_anonymous": true, sent even when the server offers no such token;
+//     "force_none": true with policy and mode "None": a session asked for over None though no endpoint offers it)
 //   {"op": "browse", "id": "a", "root": "ns=2;s=PLC_ROBOT"}       -> {"variables": [{nodeId, dataType, valueRank, arrayDimensions}]}
 //   {"op": "read", "id": "a", "nodes": ["ns=2;s=..."]}            -> {"values": [{value, status}]}
 //   {"op": "write", "id": "a", "node": "...", "type": "Int16", "value": 1}    -> {"status": "Good"}
@@ -95,6 +96,23 @@ async function connect(c) {
           ...(e.userIdentityTokens ?? []),
           { policyId: "anonymous", tokenType: UserTokenType.Anonymous },
         ];
+      }
+    }
+    if (c.force_none) {
+      // the server lists no None endpoint and node-opcua would not ask for a session over one: add
+      // one to the endpoints it read (from a secured one, with its user token policies), so that
+      // the server's own refusal is what the test sees
+      const endpoints = client._serverEndpoints ?? [];
+      const e = endpoints.find((x) => x.userIdentityTokens?.length);
+      if (e) {
+        endpoints.push(
+          new e.constructor({
+            ...e,
+            securityMode: MessageSecurityMode.None,
+            securityPolicyUri: SecurityPolicy.None,
+            userIdentityTokens: e.userIdentityTokens.map((t) => ({ ...t, securityPolicyUri: SecurityPolicy.None })),
+          }),
+        );
       }
     }
     const identity =

@@ -45,7 +45,7 @@ ACTIVE_ACKNOWLEDGED = "active_acknowledged"
 CLEARED_UNACKNOWLEDGED = "cleared_unacknowledged"
 SHELVED = "shelved"
 STATES = (NORMAL, ACTIVE_UNACKNOWLEDGED, ACTIVE_ACKNOWLEDGED, CLEARED_UNACKNOWLEDGED, SHELVED)
-EVENTS = ("raise", "clear", "acknowledge", "shelve", "unshelve", "shelve_expired", "flood")
+EVENTS = ("raise", "clear", "acknowledge", "confirm", "shelve", "unshelve", "shelve_expired", "flood")
 MODULE, SYSTEM = "module", "system"  # where an alarm comes from: the segment, or the agent's system alarms
 
 
@@ -84,6 +84,9 @@ class Alarm:
     cleared_ns: int | None = None
     acknowledged_ns: int | None = None
     acknowledged_by: dict | None = None
+    confirmed: bool = True  # OPC UA's Confirm after the acknowledgement (docs/alarms.md)
+    confirmed_ns: int | None = None
+    confirmed_by: dict | None = None
     shelved_ns: int | None = None
     shelved_until_ns: int | None = None
     shelved_by: dict | None = None
@@ -130,6 +133,9 @@ class Alarm:
             "cleared": iso(self.cleared_ns),
             "acknowledged_at": iso(self.acknowledged_ns),
             "acknowledged_by": self.acknowledged_by,
+            "confirmed": self.confirmed,
+            "confirmed_at": iso(self.confirmed_ns),
+            "confirmed_by": self.confirmed_by,
             "shelved_at": iso(self.shelved_ns) if self.shelved(now_ns) else None,
             "shelved_until": iso(self.shelved_until_ns) if self.shelved(now_ns) else None,
             "shelved_by": self.shelved_by if self.shelved(now_ns) else None,
@@ -355,7 +361,7 @@ class AlarmManager:
             if a.active:
                 self._keep(a, now)
                 return
-            a.active, a.acknowledged = True, False
+            a.active, a.acknowledged, a.confirmed = True, False, False
             a.raised_ns = a.changed_ns = time_ns
             a.raises += 1
             self._keep(a, now)
@@ -420,19 +426,35 @@ class AlarmManager:
             raise AlarmError(404, f"no alarm {key} needs attention (GET /api/v1/alarms lists them)")
         return a
 
-    def acknowledge(self, key: str, who: dict) -> dict:
+    def acknowledge(self, key: str, who: dict, note: str = "") -> dict:
         with self.batch():
             a = self._get(key)
             now = self.clock()
             if a.acknowledged:
                 raise AlarmError(409, f"{key} is acknowledged already ({a.condition_state})")
-            self._acknowledge(a, who, now)
+            self._acknowledge(a, who, now, note)
             return a.public(now)
 
-    def _acknowledge(self, a: Alarm, who: dict, now: int) -> None:
+    def _acknowledge(self, a: Alarm, who: dict, now: int, note: str = "") -> None:
         a.acknowledged, a.acknowledged_ns, a.acknowledged_by, a.changed_ns = True, now, who, now
         self._keep(a, now)
-        self._row(a, "acknowledge", now, who=who)
+        self._row(a, "acknowledge", now, who=who, note=note)
+
+    def confirm(self, key: str, who: dict, note: str = "") -> dict:
+        """OPC UA's Confirm: a person says the cause is dealt with, after acknowledging.  Held by the
+        alarm until its next raise; it does not change the state (an acknowledged alarm that is
+        cleared is normal, confirmed or not)."""
+        with self.batch():
+            a = self._get(key)
+            now = self.clock()
+            if not a.acknowledged:
+                raise AlarmError(409, f"{key} is not acknowledged: acknowledge it first ({a.condition_state})")
+            if a.confirmed:
+                raise AlarmError(409, f"{key} is confirmed already")
+            a.confirmed, a.confirmed_ns, a.confirmed_by, a.changed_ns = True, now, who, now
+            self._keep(a, now)
+            self._row(a, "confirm", now, who=who, note=note)
+            return a.public(now)
 
     def acknowledge_all(self, who: dict, module: str | None = None) -> list[str]:
         """Acknowledges every unacknowledged alarm (of `module`), shelved ones too; their keys."""

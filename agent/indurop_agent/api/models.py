@@ -26,7 +26,9 @@ class Who(BaseModel):
     name: str = Field(description="the token's name, or the signed-in user's")
     role: str | None
     user: str | None = Field(None, description="the user behind it (a session's, a token's owner); null: the appliance")
-    via: Literal["token", "session"] | None = Field(None, description="how the request was signed in")
+    via: Literal["token", "session", "opcua"] | None = Field(
+        None, description="how the request was signed in (opcua: a session of the OPC UA server, docs/opcua.md)"
+    )
 
 
 class SetFile(BaseModel):
@@ -325,7 +327,7 @@ class JointMapUpdate(BaseModel):
 
 Severity = Literal["low", "medium", "high", "critical"]
 AlarmState = Literal["normal", "active_unacknowledged", "active_acknowledged", "cleared_unacknowledged", "shelved"]
-AlarmEvent = Literal["raise", "clear", "acknowledge", "shelve", "unshelve", "shelve_expired", "flood"]
+AlarmEvent = Literal["raise", "clear", "acknowledge", "confirm", "shelve", "unshelve", "shelve_expired", "flood"]
 SHELVE_MAX_MINUTES = 7 * 24 * 60
 SHELVE_REASON_MAX = 200
 
@@ -353,6 +355,12 @@ class AlarmPublic(BaseModel):
     cleared: str | None
     acknowledged_at: str | None
     acknowledged_by: Who | None
+    confirmed: bool = Field(
+        True,
+        description="confirmed after its acknowledgement (OPC UA's Confirm, POST .../confirm); false from a raise on",
+    )
+    confirmed_at: str | None = None
+    confirmed_by: Who | None = None
     shelved_at: str | None
     shelved_until: str | None
     shelved_by: Who | None
@@ -412,8 +420,11 @@ class AlarmTransition(BaseModel):
     text: str
     detail: str
     value: float
-    who: Who | None = Field(description="who acknowledged, shelved or unshelved it")
-    note: str = Field(description="why, when the agent made the transition (reconciliation, irpd restarted, ...)")
+    who: Who | None = Field(description="who acknowledged, confirmed, shelved or unshelved it")
+    note: str = Field(
+        description="why, when the agent made the transition (reconciliation, irpd restarted, ...); an OPC UA "
+        "Acknowledge's or Confirm's comment"
+    )
     flags: list[str]
     count: int = Field(description="1; for a flood row, the transitions it stands for")
 

@@ -80,3 +80,18 @@ class OpcuaTrustChange(BaseModel):
     certificate: OpcuaCertificate = Field(description="the certificate as it is now (its folder and file)")
     changed: bool = Field(description="false: it already was where it was asked to go")
     detail: str
+
+
+class OpcuaAlarmAction(BaseModel):
+    """An OPC UA session's Acknowledge or Confirm, sent by the OPC UA server with its own credential
+    (<data>/opcua-token) on behalf of the session's user (docs/opcua.md "Alarms")."""
+
+    user: str = Field(min_length=1, max_length=200, description="the session's user name")
+    method: Literal["password", "certificate", "anonymous"] = Field(
+        description="how the session signed in: a password user's role is the agent's (users.json, now); a "
+        "certificate's or an anonymous session's is the one the server's settings give"
+    )
+    role: str = Field(max_length=20, description="the role the server gave the session")
+    session: str = Field(max_length=100, description="the server's session id (opcua-session-N)")
+    client: str = Field(max_length=200, description="the OPC UA client's address")
+    comment: str = Field("", max_length=1000, description="the method's Comment: the history row's note")

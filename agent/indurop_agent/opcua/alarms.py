@@ -13,14 +13,23 @@ Active alarms are retained conditions: ConditionRefresh and ConditionRefresh2 (t
 methods, which a SCADA calls when it subscribes) send each one's last event again to that
 subscription's event items, between RefreshStartEvent and RefreshEndEvent.  The alarms already
 active when the segment is attached (the server or irpd started) are announced then, and a new
-segment clears the conditions the old one left.  Acknowledging stays the agent's (POST
-/alarms/{key}/ack): the conditions have no Acknowledge here.
+segment clears the conditions the old one left.
+
+Acknowledging is the agent's (its alarm manager holds the state the web UI shows): each event
+carries AckedState and ConfirmedState as the agent has them (asked every ACK_POLL_S; an
+acknowledgement in the web UI sends the condition's event again with AckedState true), and a
+condition is retained while it is active or unacknowledged.  Acknowledge and Confirm called on a
+ConditionId go to the agent as the session's user (acks.py); done, the condition's event goes out
+with the new state, the user (ClientUserId) and the comment.
 """
 
 from __future__ import annotations
 
 import asyncio
 import copy
+import time
+from collections import deque
+from dataclasses import dataclass, field
 from datetime import UTC, datetime
 
 from asyncua import Server, ua
@@ -28,14 +37,40 @@ from asyncua import Server, ua
 from ..alarms.segment import AlarmSegment, AlarmSegmentError, RingReader
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
 from ..shm_layout import LayoutError
+from .acks import METHODS, AgentAlarms, AgentUnavailable
 
 SEVERITY = {"low": 250, "medium": 500, "high": 750, "critical": 1000}
 MAX_PER_POLL = 256  # records turned into events per poll; the rest wait for the next
+ACK_POLL_S = 1.0  # how often the agent is asked the alarms' acknowledgement
+RECENT_EVENTS = 16  # EventIds of a condition that Acknowledge and Confirm accept
+
+
+@dataclass
+class Condition:
+    """A retained condition (active, or not acknowledged) and what its next event repeats."""
+
+    module: str
+    id: int
+    active: bool
+    acked: bool
+    confirmed: bool
+    severity: str
+    detail: str
+    events: list = field(default_factory=list)  # its last event, per emitter (ConditionRefresh)
+    event_ids: deque = field(default_factory=lambda: deque(maxlen=RECENT_EVENTS))
+
+    @property
+    def key(self) -> str:
+        return f"{self.module}/{self.id}"
 
 
 class AlarmEvents:
-    def __init__(self, server: Server, space, irpd: IrpdClient):
+    def __init__(self, server: Server, space, irpd: IrpdClient, agent: AgentAlarms):
         self.server = server
+        self.agent = agent
+        self.agent_states: dict[str, dict] | None = None  # the agent's alarms by key, once asked
+        self.agent_error: str | None = None
+        self.next_sync = 0.0
         self.space = space
         self.irpd = irpd
         self.segment: AlarmSegment | None = None
@@ -44,7 +79,7 @@ class AlarmEvents:
         self.refresh_events: dict[int, object] = {}  # RefreshStart/EndEventType -> its generator
         self.declared: dict[tuple[str, int], dict] = {}  # (module, id) -> {"text", "severity"}
         self.names: dict[int, str] = {}  # source -> module
-        self.retained: dict[tuple[str, int], list] = {}  # (module, id) active -> its last event, per emitter
+        self.retained: dict[tuple[str, int], Condition] = {}
         self.active_node = None
         self.emitted = 0
         self.refreshes = 0
@@ -101,12 +136,17 @@ class AlarmEvents:
     async def _announce(self, active: set[tuple[str, int]]) -> None:
         """A new segment: the conditions the old one left are cleared, its active alarms raised."""
         now = datetime.now(UTC)
-        for module, id_ in sorted(set(self.retained) - active):
+        for module, id_ in sorted({k for k, c in self.retained.items() if c.active} - active):
             await self._emit(module, id_, False, None, now, "the controller restarted")
         for module, id_ in sorted(active - set(self.retained)):
-            await self._emit(module, id_, True, None, now, "active when the server attached")
+            held = (self.agent_states or {}).get(f"{module}/{id_}")
+            states = (held["acknowledged"], held["confirmed"]) if held else (False, False)
+            await self._emit(module, id_, True, None, now, "active when the server attached", states)
 
     async def step(self) -> None:
+        if time.monotonic() >= self.next_sync:
+            self.next_sync = time.monotonic() + ACK_POLL_S
+            await self.sync()
         if self.reader is None:
             return
         read = self.reader.read(limit=MAX_PER_POLL)
@@ -117,29 +157,92 @@ class AlarmEvents:
             when = datetime.fromtimestamp(r.time_ns / 1e9, UTC)
             await self._emit(module, r.id, r.raised, r.severity, when, r.text)
 
-    async def _emit(self, module: str, id_: int, raised: bool, severity: str | None, when, detail: str) -> None:
+    async def _emit(
+        self, module: str, id_: int, raised: bool, severity: str | None, when, detail: str,
+        states: tuple[bool, bool] | None = None, by: tuple[str, str] | None = None,
+    ) -> None:  # fmt: skip
+        """One event of the condition (module, id_): active or not, acknowledged and confirmed as
+        `states` says (else: a raise is neither, a clear keeps what the condition had), `by`:
+        (user, comment) of an Acknowledge or Confirm."""
         key = f"{module}/{id_}"
+        held = self.retained.get((module, id_))
+        if states is None:
+            states = (False, False) if raised else (held.acked, held.confirmed) if held else (True, True)
+        acked, confirmed = states
         declared = self.declared.get((module, id_), {})
         severity = severity or declared.get("severity") or "medium"
         text = declared.get("text") or f"alarm {id_} of {module} (not declared)"
         condition = self.space.nodeid(f"@Controller.Alarms.{key}")  # the ConditionId
-        events = []
+        c = Condition(module, id_, raised, acked, confirmed, severity, detail)
+        c.event_ids = held.event_ids if held else c.event_ids
         for gen in self.generators:
             gen.event = e = copy.copy(gen.event)  # a retained condition keeps its own event
             e.NodeId = condition
             e.SourceName = module
             e.ConditionName = key
             e.Severity = SEVERITY.get(severity, 500)
-            e.Retain = raised
-            e.ActiveState = ua.LocalizedText("Active" if raised else "Inactive")
-            setattr(e, "ActiveState/Id", raised)
+            e.Retain = raised or not acked
+            for name, value, true, false in (
+                ("ActiveState", raised, "Active", "Inactive"),
+                ("AckedState", acked, "Acknowledged", "Unacknowledged"),
+                ("ConfirmedState", confirmed, "Confirmed", "Unconfirmed"),
+            ):
+                setattr(e, name, ua.LocalizedText(true if value else false))
+                setattr(e, f"{name}/Id", value)
+            e.ClientUserId, e.Comment = (by[0], ua.LocalizedText(by[1])) if by else (None, ua.LocalizedText(""))
             await gen.trigger(time_attr=when, message=f"{text}: {detail}" if detail else text)
-            events.append(e)
-        if raised:
-            self.retained[module, id_] = events
+            c.events.append(e)
+            c.event_ids.append(e.EventId.Value if isinstance(e.EventId, ua.Variant) else e.EventId)
+        if raised or not acked:
+            self.retained[module, id_] = c
         else:
             self.retained.pop((module, id_), None)
         self.emitted += 1
+
+    async def sync(self) -> None:
+        """The agent's acknowledgement states: a retained condition whose state there changed (in
+        the web UI, by irpctl, over OPC UA) gets an event with it."""
+        try:
+            self.agent_states = await self.agent.states()
+            self.agent_error = None
+        except AgentUnavailable as e:
+            self.agent_error = str(e)
+            return
+        now = datetime.now(UTC)
+        for c in list(self.retained.values()):
+            held = self.agent_states.get(c.key)
+            if held is None and c.active:
+                continue  # the agent has not read the raise yet
+            states = (held["acknowledged"], held["confirmed"]) if held else (True, True)  # else: normal there
+            if states != (c.acked, c.confirmed):
+                await self._emit(c.module, c.id, c.active, c.severity, now, c.detail, states)
+
+    async def respond(self, session, request: ua.CallMethodRequest) -> ua.CallMethodResult:
+        """Acknowledge or Confirm (EventId, Comment) called on a ConditionId, for `session`."""
+
+        def answer(code: int) -> ua.CallMethodResult:
+            return ua.CallMethodResult(StatusCode=ua.StatusCode(code))
+
+        c = next((c for c in self.retained.values() if c.events and c.events[0].NodeId == request.ObjectId), None)
+        if c is None:
+            return answer(ua.StatusCodes.BadNodeIdUnknown)  # no such condition, or not retained any more
+        args = [a.Value for a in request.InputArguments or []]
+        if len(args) < 2:
+            return answer(ua.StatusCodes.BadArgumentsMissing)
+        event_id, comment = args[0], args[1]
+        comment = comment.Text if isinstance(comment, ua.LocalizedText) else comment
+        if not isinstance(event_id, bytes) or not isinstance(comment, str | None):
+            return answer(ua.StatusCodes.BadTypeMismatch)
+        if event_id not in c.event_ids:
+            return answer(ua.StatusCodes.BadEventIdUnknown)
+        status, alarm = await self.agent.act(METHODS[request.MethodId], c.key, session, comment or "")
+        if status == ua.StatusCodes.BadConditionBranchAlreadyConfirmed and not c.acked:
+            status = ua.StatusCodes.BadInvalidState  # the agent's 409: not acknowledged yet
+        if alarm is not None:
+            by = (getattr(session.user, "name", "") or "", comment or "")
+            states = (alarm["acknowledged"], alarm["confirmed"])
+            await self._emit(c.module, c.id, c.active, c.severity, datetime.now(UTC), c.detail, states, by)
+        return answer(status)
 
     async def refresh(self, parent, subscription_id, monitored_item_id=None):
         """ConditionRefresh(SubscriptionId) and ConditionRefresh2(SubscriptionId, MonitoredItemId)."""
@@ -153,8 +256,8 @@ class AlarmEvents:
             return ua.StatusCode(ua.StatusCodes.BadMonitoredItemIdInvalid)
         self.refreshes += 1
         await self.refresh_events[ua.ObjectIds.RefreshStartEventType].trigger(subscription_id=sid)
-        for events in list(self.retained.values()):
-            for e in events:
+        for c in list(self.retained.values()):
+            for e in c.events:
                 await items.trigger_event(e, mid)
         await self.refresh_events[ua.ObjectIds.RefreshEndEventType].trigger(subscription_id=sid)
         return []

@@ -29,7 +29,7 @@ import time
 from datetime import UTC, datetime
 from pathlib import Path
 
-from asyncua import Server, ua
+from asyncua import ua
 from asyncua.common.connection import TransportLimits
 from asyncua.common.utils import ServiceError
 from asyncua.crypto.permission_rules import User, UserRole
@@ -43,8 +43,10 @@ from ..audit import AuditLog
 from ..auth import now_iso
 from ..files import write_atomically
 from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
+from .acks import METHODS, AgentAlarms
 from .address_space import Space
 from .alarms import AlarmEvents
+from .channel import Listening
 from .sampling import Sampler
 from .security import TrustList, Users, application_uri, ensure_certificate, thumbprint
 from .settings import OpcuaSettings, parse_args
@@ -91,10 +93,11 @@ class Runtime:
         self.users = Users(settings, self.audit)
         self.trust = TrustList(settings.pki)
         self.iserver = Internal(self)
-        self.server = Server(iserver=self.iserver)
+        self.server = Listening(iserver=self.iserver)
         self.subscriptions: Subscriptions = self.iserver.subscription_service
         self.space = Space(self.server, self.variables, settings.min_sampling_interval_ms)
-        self.alarms = AlarmEvents(self.server, self.space, IrpdClient(settings.irpd_socket, timeout_s=2.0))
+        irpd = IrpdClient(settings.irpd_socket, timeout_s=2.0)
+        self.alarms = AlarmEvents(self.server, self.space, irpd, AgentAlarms(settings))
         self.status: dict = {}
         self.set_key: tuple | None = None
         self.certificate: x509.Certificate | None = None
@@ -151,6 +154,8 @@ class Session(InternalSession):
             var = self.runtime.space.var_of(wv.NodeId)
             if var is not None and wv.AttributeId == ua.AttributeIds.Value:
                 results.append(await self.runtime.writes.write(self, var, wv))
+            elif wv.NodeId not in self.aspace:  # as a Read of it answers (Part 4, 5.10.4)
+                results.append(ua.StatusCode(ua.StatusCodes.BadNodeIdUnknown))
             elif not getattr(self.user, "may_write", lambda: False)():
                 results.append(ua.StatusCode(ua.StatusCodes.BadUserAccessDenied))
             else:  # only the shared variables' values are written by clients
@@ -162,20 +167,31 @@ class Session(InternalSession):
         return await super().browse(params)
 
     async def call(self, params: list[ua.CallMethodRequest]) -> list[ua.CallMethodResult]:
-        """Method calls; a ConditionRefresh must name one of this session's own subscriptions
-        (asyncua does not tell a method which session calls it, so it is checked here)."""
+        """Method calls.  asyncua does not tell a method which session calls it, so two kinds are
+        answered here: a ConditionRefresh must name one of this session's own subscriptions, and
+        Acknowledge and Confirm on a ConditionId act as this session's user (alarms.py, acks.py)."""
         subscriptions = self.subscription_service.subscriptions
 
-        def foreign(m: ua.CallMethodRequest) -> bool:
+        def ours(m: ua.CallMethodRequest) -> bool:
+            if m.MethodId in METHODS:
+                return True
             if m.MethodId not in REFRESH_METHODS or not m.InputArguments:
                 return False
             sub = subscriptions.get(m.InputArguments[0].Value)
             return sub is not None and sub.session_id != self.session_id
 
-        refused = [foreign(m) for m in params]
-        answered = iter(await super().call([m for m, r in zip(params, refused, strict=True) if not r]))
-        invalid = ua.StatusCode(ua.StatusCodes.BadSubscriptionIdInvalid)
-        return [ua.CallMethodResult(StatusCode=invalid) if r else next(answered) for r in refused]
+        taken = [ours(m) for m in params]
+        answered = iter(await super().call([m for m, t in zip(params, taken, strict=True) if not t]))
+        invalid = ua.CallMethodResult(StatusCode=ua.StatusCode(ua.StatusCodes.BadSubscriptionIdInvalid))
+        results = []
+        for m, t in zip(params, taken, strict=True):
+            if not t:
+                results.append(next(answered))
+            elif m.MethodId in METHODS:
+                results.append(await self.runtime.alarms.respond(self, m))
+            else:
+                results.append(invalid)
+        return results
 
     async def translate_browsepaths_to_nodeids(self, params):
         self._bound(len(params), "max_nodes_per_browse")
@@ -194,7 +210,8 @@ class Internal(InternalServer):
         self.max_connections = s.max_connections
         self.max_subscriptions = s.max_subscriptions
         self.max_monitored_item_queue_size = s.max_queue_size
-        self.certificate_validator = runtime.trust
+        # the trust list decides on the secure channel's certificate (channel.py), not asyncua's
+        # certificate_validator on the one CreateSession names
         Session.runtime = runtime
 
     def create_session(self, name, user=User(role=UserRole.Anonymous), external=False):
@@ -312,6 +329,7 @@ def status_body(rt: Runtime) -> dict:
         "sampling": rt.sampler.counts(),
         "alarm_events": rt.alarms.emitted,
         "condition_refreshes": rt.alarms.refreshes,
+        "agent": {"url": s.agent_url, "error": rt.alarms.agent_error},
     }
     return body
 
@@ -363,6 +381,7 @@ async def run(settings: OpcuaSettings) -> int:
         t.cancel()
     await asyncio.gather(*tasks, return_exceptions=True)
     await rt.sampler.withdraw()
+    await rt.alarms.agent.close()
     await rt.server.stop()
     return 0
 

@@ -28,6 +28,12 @@ class OpcuaSettings:
     # audited there), and opcua/ (the server's certificate and key, the PKI folders, status.json).
     data_dir: Path = Path("/var/lib/indurop")
     irpd_socket: str = "/run/indurop/irpd.sock"
+    # The agent, which owns the alarms' acknowledgement: Acknowledge and Confirm go to its
+    # /opcua/alarms routes with the token it writes in <data>/opcua-token (docs/opcua.md "Alarms").
+    # agent_ca: the certificate (PEM) an https agent_url is checked against (the agent's own
+    # self-signed one); none: the system's CAs.
+    agent_url: str = "http://127.0.0.1:8080/"
+    agent_ca: str = ""
     # The owner name under which the server asks irpd to trace the variables clients monitor.
     trace_owner: str = "opcua"
     # The names and addresses clients reach the server by, put in its certificate's subjectAltName
@@ -94,6 +100,12 @@ def check(s: OpcuaSettings) -> OpcuaSettings:
     except ValueError:
         if not re.fullmatch(r"[A-Za-z0-9.-]{1,253}", s.host):
             raise ValueError(f"host {s.host!r}: an address (0.0.0.0 for every interface) or a host name") from None
+    if not re.fullmatch(r"https?://[^\s/?#]+/?", s.agent_url):
+        raise ValueError(
+            f"agent_url {s.agent_url!r}: the agent's http:// or https:// address, e.g. https://127.0.0.1:8443/"
+        )
+    if s.agent_ca and not Path(s.agent_ca).is_file():
+        raise ValueError(f"agent_ca {s.agent_ca!r}: a PEM certificate file that exists")
     if not 1 <= s.port <= 65535:
         raise ValueError(f"port {s.port}: 1..65535")
     if not s.security_policies:
@@ -156,6 +168,8 @@ def parse_args(argv: list[str] | None = None) -> OpcuaSettings:
     ap.add_argument("--port", type=int, help="the TCP port (default 4840)")
     ap.add_argument("--data-dir", type=Path, help="the agent's data folder (default /var/lib/indurop)")
     ap.add_argument("--irpd-socket", help="irpd's control socket (default /run/indurop/irpd.sock)")
+    ap.add_argument("--agent-url", help="the agent, for Acknowledge and Confirm (default http://127.0.0.1:8080/)")
+    ap.add_argument("--agent-ca", help="the PEM certificate an https --agent-url is checked against")
     ap.add_argument("--hostname", action="append", dest="hostnames", help="a name or address for the certificate")
     ap.add_argument(
         "--security-policy",

@@ -105,6 +105,7 @@ NEEDS = {
     ("GET", "/alarms/history.csv"): "viewer",
     ("POST", "/alarms/ack"): "operator",
     ("POST", "/alarms/{key}/ack"): "operator",
+    ("POST", "/alarms/{key}/confirm"): "operator",
     ("POST", "/alarms/{key}/shelve"): "operator",
     ("POST", "/alarms/{key}/unshelve"): "operator",
     ("GET", "/audit"): "admin",
@@ -154,6 +155,10 @@ NEEDS = {
     ("POST", "/opcua/certificates/{thumbprint}/trust"): "admin",
     ("POST", "/opcua/certificates/{thumbprint}/reject"): "admin",
     ("DELETE", "/opcua/certificates/{thumbprint}"): "admin",
+    # the OPC UA server's own token only, no user's (tests/python/opcua/test_opcua_alarm_ack.py)
+    ("GET", "/opcua/alarms"): None,
+    ("POST", "/opcua/alarms/{key}/ack"): None,
+    ("POST", "/opcua/alarms/{key}/confirm"): None,
 }
 SAMPLE = {
     "{name}": "cntr1",

@@ -12,7 +12,10 @@ import sys
 from pathlib import Path
 
 import httpx
+import pytest
 from asyncua import Client, ua
+from asyncua.client.ua_client import UaClient
+from asyncua.common.utils import create_nonce
 from asyncua.crypto import uacrypto
 from asyncua.crypto.cert_gen import setup_self_signed_certificate
 from asyncua.crypto.security_policies import SecurityPolicyAes128Sha256RsaOaep, SecurityPolicyBasic256Sha256
@@ -20,12 +23,16 @@ from cryptography.x509.oid import ExtendedKeyUsageOID
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from live_processes import (
+    ALARMING,
     API,
     BUILD,
     ROOT,
+    SIGNALS,
+    copy_cell,
     free_port,
     module_entry,
     output,
+    signals_with_an_alarm,
     start_agent,
     start_irpd,
     start_opcua,
@@ -50,6 +57,11 @@ LIMITS = {  # small, so that the tests reach them quickly
     "status_s": 0.5,
     "status_file_s": 0.5,
 }
+CELL = BUILD / "sets" / "plc-robot"
+NO_CELL = pytest.mark.skipif(not (CELL / "Robot.so").exists(), reason=f"the plc-robot cell is not built ({CELL})")
+NO_SIGNALS = pytest.mark.skipif(
+    not (SIGNALS / "module.xml").exists() or not ALARMING.exists(), reason=f"the signals set is not built ({SIGNALS})"
+)
 POLICIES = {"Basic256Sha256": SecurityPolicyBasic256Sha256, "Aes128_Sha256_RsaOaep": SecurityPolicyAes128Sha256RsaOaep}
 
 
@@ -77,7 +89,8 @@ class Controller:
         self.user_key, self.user_cert = tmp / "mes-key.pem", tmp / "mes-cert.der"
         asyncio.run(make_client_certificate(self.user_key, self.user_cert, "urn:indurop:test:mes"))
         mes = {"certificate": str(self.user_cert), "name": "mes", "role": "operator"}
-        self.settings = {**LIMITS, "user_certificates": [mes], **(settings or {})}
+        agent = {"agent_url": f"http://127.0.0.1:{self.agent_port}/"}  # Acknowledge and Confirm go there
+        self.settings = {**LIMITS, **agent, "user_certificates": [mes], **(settings or {})}
         (tmp / "opcua.json").write_text(json.dumps(self.settings))
         self.port = free_port()
         self.url = f"opc.tcp://127.0.0.1:{self.port}/"
@@ -120,10 +133,11 @@ class Controller:
 
     async def connect(self, user: str | None = "oper", password: str | None = None, policy: str = "Basic256Sha256",
                       mode=ua.MessageSecurityMode.SignAndEncrypt, cert: tuple[Path, Path] | None = None,
-                      identity: tuple[Path, Path] | None = None) -> Client:  # fmt: skip
+                      identity: tuple[Path, Path] | None = None,
+                      hook: tuple[bytes | None, bytes | None] | None = None) -> Client:  # fmt: skip
         """An asyncua client connected over `policy` and `mode` with the trusted client certificate (or
         `cert`: (key, certificate)), signed in as `user`, or with the X.509 user certificate
-        `identity` (key, certificate), or anonymously (neither)."""
+        `identity` (key, certificate), or anonymously (neither); `hook`: tamper()'s arguments."""
         c = Client(self.url, timeout=30)
         c.application_uri = "urn:indurop:test:client"
         if user is not None:
@@ -137,6 +151,8 @@ class Controller:
         if identity is not None:
             c.user_certificate = await uacrypto.load_certificate(str(identity[1]))
             c.user_private_key = await uacrypto.load_private_key(str(identity[0]))
+        if hook is not None:
+            tamper(c, *hook)
         await c.connect()
         return c
 
@@ -148,6 +164,42 @@ class Controller:
             stop(p)
         self.control.close()
         stop(self.irpd)
+
+
+def tamper(c: Client, named: bytes | None, signature: bytes | None) -> None:
+    """What a client with another stack could send: CreateSession naming the certificate `named`
+    (b"": none) rather than its channel's, ActivateSession signed with `signature`."""
+    create, activate = c.uaclient.create_session, c.uaclient.activate_session
+
+    async def create_naming(params):
+        if named is not None:
+            params.ClientCertificate = named or None
+        return await create(params)
+
+    async def activate_signed(params):
+        if signature is not None:
+            params.ClientSignature.Signature = signature
+        return await activate(params)
+
+    c.uaclient.create_session, c.uaclient.activate_session = create_naming, activate_signed
+
+
+def live_cell(tmp_path_factory, name: str) -> Controller:
+    """A Controller on a copy of the PLC + robot cell (a module fixture's), its folder and module.xml
+    in .folder and .xml."""
+    tmp = tmp_path_factory.mktemp(name)
+    config, _ = copy_cell(tmp / "plc-robot")
+    c = Controller(tmp, config, name)
+    c.folder, c.xml = tmp / "plc-robot", config
+    return c
+
+
+def live_signals(tmp_path_factory, name: str) -> Controller:
+    """A Controller on the signals set with the conveyor's alarm (raised while .folder/jam exists)."""
+    tmp = tmp_path_factory.mktemp(name)
+    c = Controller(tmp, signals_with_an_alarm(tmp / "signals"), name)
+    c.folder = tmp / "signals"
+    return c
 
 
 async def make_client_certificate(key: Path, cert: Path, uri: str) -> None:
@@ -175,3 +227,30 @@ async def leaves_under(c: Client, node) -> list:
 
     await walk(node, "")
     return out
+
+
+async def raw_session(url: str, user: str, password: str, open_channel: bool = True) -> UaClient:
+    """A session made with asyncua's low-level client, the way a hand-written client makes one: a
+    secure channel with SecurityPolicy None (or none opened at all), no client certificate, no
+    endpoint picked from GetEndpoints, and a user name and password sent in clear."""
+    port = int(url.rsplit(":", 1)[1].strip("/"))
+    uac = UaClient(timeout=10)
+    await uac.connect_socket("127.0.0.1", port)
+    await uac.send_hello(url)
+    if open_channel:
+        params = ua.OpenSecureChannelParameters()
+        params.ClientProtocolVersion, params.RequestType = 0, ua.SecurityTokenRequestType.Issue
+        params.SecurityMode, params.RequestedLifetime, params.ClientNonce = ua.MessageSecurityMode.None_, 600_000, b""
+        await uac.open_secure_channel(params)
+    session = ua.CreateSessionParameters()
+    session.ClientDescription = ua.ApplicationDescription(ApplicationUri="urn:indurop:test:raw")
+    session.ClientDescription.ApplicationType = ua.ApplicationType.Client
+    session.EndpointUrl, session.SessionName, session.RequestedSessionTimeout = url, "raw", 60_000
+    session.ClientNonce = create_nonce(32)
+    await uac.create_session(session)
+    activate = ua.ActivateSessionParameters()
+    activate.UserIdentityToken = ua.UserNameIdentityToken(
+        PolicyId="username", UserName=user, Password=password.encode()
+    )
+    await uac.activate_session(activate)
+    return uac

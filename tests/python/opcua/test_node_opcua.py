@@ -198,6 +198,14 @@ def test_an_anonymous_session_is_refused(cell):
     assert answer.get("error") == "BadIdentityTokenRejected", answer
 
 
+def test_a_session_over_security_none_is_refused(cell):
+    """node-opcua told to use None whether or not an endpoint offers it: no session, nothing read."""
+    answer = cell.node.connect(cell, "none", policy="None", mode="None")  # no endpoint offers None: it stops
+    assert "must exist" in answer.get("error", ""), answer
+    answer = cell.node.connect(cell, "none", policy="None", mode="None", force_none=True)  # asked anyway
+    assert answer.get("error") == "BadSecurityPolicyRejected", answer
+
+
 def test_aes128_sha256_rsaoaep_with_sign_reads_and_writes(cell):
     assert cell.node.connect(cell, "aes", policy="Aes128_Sha256_RsaOaep", mode="Sign") == {"ok": True}
     read = cell.node("read", id="aes", nodes=[ns2("PLC_ROBOT.PLC_IN.Override")])["values"][0]

@@ -30,9 +30,8 @@ from cryptography import x509
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from live_processes import BUILD, copy_cell, free_port, output, start_opcua, stop, wait_until
-from opcua_helpers import Controller, leaves_under, make_client_certificate, ns_of
+from opcua_helpers import NO_CELL, Controller, leaves_under, live_cell, make_client_certificate, ns_of
 
-CELL = BUILD / "sets" / "plc-robot"
 GROWN = BUILD / "tests" / "cpp" / "online" / "plc-robot-grown"
 LIMIT_S = 120
 TYPES = {  # the cell's C types as OPC UA's built-in types
@@ -45,15 +44,12 @@ TYPES = {  # the cell's C types as OPC UA's built-in types
     "double": ua.VariantType.Double,
 }
 
-pytestmark = pytest.mark.skipif(not (CELL / "Robot.so").exists(), reason=f"the plc-robot cell is not built ({CELL})")
+pytestmark = NO_CELL
 
 
 @pytest.fixture(scope="module")
 def cell(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("opcua-cell")
-    config, _ = copy_cell(tmp / "plc-robot")
-    c = Controller(tmp, config, "opcua-cell")
-    c.folder, c.xml = tmp / "plc-robot", config
+    c = live_cell(tmp_path_factory, "opcua-cell")
     yield c
     c.close()
 

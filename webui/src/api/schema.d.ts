@@ -103,6 +103,27 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/alarms/{key}/confirm": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Confirm
+         * @description Confirms an acknowledged alarm (OPC UA's Confirm: the cause is dealt with): 404 when no
+         *     alarm of that key needs attention, 409 when it is not acknowledged or confirmed already.
+         */
+        post: operations["confirm_api_v1_alarms__key__confirm_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/alarms/{key}/shelve": {
         parameters: {
             query?: never;
@@ -547,6 +568,67 @@ export interface paths {
         get: operations["opcua_state_api_v1_opcua_get"];
         put?: never;
         post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/opcua/alarms": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Opcua Alarms
+         * @description GET /alarms for the OPC UA server.
+         */
+        get: operations["opcua_alarms_api_v1_opcua_alarms_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/opcua/alarms/{key}/ack": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Opcua Acknowledge
+         * @description An OPC UA Acknowledge: as POST /alarms/{key}/ack by the session's user (404, 409 the same; 403
+         *     below operator).
+         */
+        post: operations["opcua_acknowledge_api_v1_opcua_alarms__key__ack_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/opcua/alarms/{key}/confirm": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Opcua Confirm
+         * @description An OPC UA Confirm: as POST /alarms/{key}/confirm by the session's user.
+         */
+        post: operations["opcua_confirm_api_v1_opcua_alarms__key__confirm_post"];
         delete?: never;
         options?: never;
         head?: never;
@@ -1556,6 +1638,15 @@ export interface components {
              */
             condition: "normal" | "active_unacknowledged" | "active_acknowledged" | "cleared_unacknowledged" | "shelved";
             /**
+             * Confirmed
+             * @description confirmed after its acknowledgement (OPC UA's Confirm, POST .../confirm); false from a raise on
+             * @default true
+             */
+            confirmed: boolean;
+            /** Confirmed At */
+            confirmed_at?: string | null;
+            confirmed_by?: components["schemas"]["Who"] | null;
+            /**
              * Detail
              * @description the last raise's detail text
              */
@@ -1708,7 +1799,7 @@ export interface components {
              * Event
              * @enum {string}
              */
-            event: "raise" | "clear" | "acknowledge" | "shelve" | "unshelve" | "shelve_expired" | "flood";
+            event: "raise" | "clear" | "acknowledge" | "confirm" | "shelve" | "unshelve" | "shelve_expired" | "flood";
             /** Flags */
             flags: string[];
             /** Id */
@@ -1719,7 +1810,7 @@ export interface components {
             module: string;
             /**
              * Note
-             * @description why, when the agent made the transition (reconciliation, irpd restarted, ...)
+             * @description why, when the agent made the transition (reconciliation, irpd restarted, ...); an OPC UA Acknowledge's or Confirm's comment
              */
             note: string;
             /**
@@ -1742,7 +1833,7 @@ export interface components {
             time_ns: number;
             /** Value */
             value: number;
-            /** @description who acknowledged, shelved or unshelved it */
+            /** @description who acknowledged, confirmed, shelved or unshelved it */
             who: components["schemas"]["Who"] | null;
         };
         /**
@@ -3009,6 +3100,45 @@ export interface components {
             to: number;
         } & {
             [key: string]: unknown;
+        };
+        /**
+         * OpcuaAlarmAction
+         * @description An OPC UA session's Acknowledge or Confirm, sent by the OPC UA server with its own credential
+         *     (<data>/opcua-token) on behalf of the session's user (docs/opcua.md "Alarms").
+         */
+        OpcuaAlarmAction: {
+            /**
+             * Client
+             * @description the OPC UA client's address
+             */
+            client: string;
+            /**
+             * Comment
+             * @description the method's Comment: the history row's note
+             * @default
+             */
+            comment: string;
+            /**
+             * Method
+             * @description how the session signed in: a password user's role is the agent's (users.json, now); a certificate's or an anonymous session's is the one the server's settings give
+             * @enum {string}
+             */
+            method: "password" | "certificate" | "anonymous";
+            /**
+             * Role
+             * @description the role the server gave the session
+             */
+            role: string;
+            /**
+             * Session
+             * @description the server's session id (opcua-session-N)
+             */
+            session: string;
+            /**
+             * User
+             * @description the session's user name
+             */
+            user: string;
         };
         /**
          * OpcuaCertificate
@@ -4753,9 +4883,9 @@ export interface components {
             user?: string | null;
             /**
              * Via
-             * @description how the request was signed in
+             * @description how the request was signed in (opcua: a session of the OPC UA server, docs/opcua.md)
              */
-            via?: ("token" | "session") | null;
+            via?: ("token" | "session" | "opcua") | null;
         };
         /**
          * WindowCondition
@@ -4939,6 +5069,37 @@ export interface operations {
         };
     };
     acknowledge_api_v1_alarms__key__ack_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                key: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AlarmPublic"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    confirm_api_v1_alarms__key__confirm_post: {
         parameters: {
             query?: never;
             header?: never;
@@ -5833,6 +5994,96 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["OpcuaState"];
+                };
+            };
+        };
+    };
+    opcua_alarms_api_v1_opcua_alarms_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AlarmList"];
+                };
+            };
+        };
+    };
+    opcua_acknowledge_api_v1_opcua_alarms__key__ack_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                key: string;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["OpcuaAlarmAction"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AlarmPublic"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    opcua_confirm_api_v1_opcua_alarms__key__confirm_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                key: string;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["OpcuaAlarmAction"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["AlarmPublic"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
                 };
             };
         };

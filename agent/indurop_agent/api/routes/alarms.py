@@ -162,6 +162,14 @@ def acknowledge(key: str, request: Request, manager: AlarmsDep, who: OperatorDep
         return manager.acknowledge(key, who.as_dict())
 
 
+@router.post("/alarms/{key:path}/confirm")
+def confirm(key: str, request: Request, manager: AlarmsDep, who: OperatorDep) -> AlarmPublic:
+    """Confirms an acknowledged alarm (OPC UA's Confirm: the cause is dealt with): 404 when no
+    alarm of that key needs attention, 409 when it is not acknowledged or confirmed already."""
+    with answered(request, who, "alarm_confirm", key):
+        return manager.confirm(key, who.as_dict())
+
+
 @router.post("/alarms/{key:path}/shelve")
 def shelve(key: str, body: ShelveRequest, request: Request, manager: AlarmsDep, who: OperatorDep) -> AlarmPublic:
     """Sets an alarm aside for `minutes` with a reason: it leaves the counts and comes back when the
