@@ -4,7 +4,9 @@
 // one removed and one retyped; a process built against the old layout is accepted; a module
 // built against an incompatible layout (refused by the dry run `check` as by the load), a layout
 // laid out afresh and one over the room are refused with what to change, and the running set is
-// left as it was; the dry run names the modules a load keeps, starts, stops and replaces.  Executors added, removed
+// left as it was; a process that fits no layout of a set needing a restart is refused by the dry
+// run and the restart rather than offered one; the dry run names the modules a load keeps,
+// starts, stops and replaces.  Executors added, removed
 // and changed at a swap: their threads start before it and stop after it, the counter on main
 // missing no period.
 #include "support/control_client.hpp"
@@ -267,6 +269,25 @@ TEST(OnlineChange, ANewModuleBuiltAgainstALayoutTheSetsWasNotLaidOutFromIsRefuse
     EXPECT_EQ(refused["error"]["code"], "refused") << refused.dump();
     EXPECT_EQ(refused["error"]["message"], said) << "the dry run says what the load says";
     EXPECT_EQ(cell.generation(), generation) << "the running set is left as it was";
+    settle();
+    cell.expectCounterMissedNoPeriod();
+}
+
+TEST(OnlineChange, AProcessThatFitsNoLayoutOfTheSetIsRefusedRatherThanOfferedARestart) {
+    Cell cell;
+    // `reordered` needs a restart, but the process was built against v1, which is not in its
+    // lineage: a restart onto it would fail too, so the dry run refuses it, naming the process.
+    const std::string xml =
+        cell.writeSet("reordered-proc.xml", "reordered",
+                      thread("counter", "oc_counter_reordered.so", cell.dir.path) + process("proc", "oc_proc_v1.exe"));
+    json check = cell.ask({{"cmd", "check"}, {"config", xml}});
+    ASSERT_TRUE(check.value("ok", false)) << check.dump();
+    EXPECT_EQ(check["result"]["valid"], false) << check.dump();
+    EXPECT_TRUE(check["result"]["restart"].is_null()) << check.dump();
+    EXPECT_EQ(check["result"]["problems"][0]["module"], "proc") << check.dump();
+    json refused = cell.ask({{"cmd", "restart"}, {"config", xml}});
+    ASSERT_FALSE(refused.value("ok", true)) << refused.dump();
+    EXPECT_EQ(refused["error"]["message"], check["result"]["errors"][0]) << "nothing restarted: " << refused.dump();
     settle();
     cell.expectCounterMissedNoPeriod();
 }
