@@ -317,6 +317,7 @@ def irpd_validation(irpd: IrpdClient, module_xml, timeout_s: float = 30.0) -> di
         "online": None,
         "restart": None,
         "variables": None,
+        "modules": None,
     }
     try:
         result = irpd.request("check", config=str(module_xml), timeout=timeout_s) or {}
@@ -334,4 +335,5 @@ def irpd_validation(irpd: IrpdClient, module_xml, timeout_s: float = 30.0) -> di
         "online": result.get("online"),
         "restart": result.get("restart"),
         "variables": result.get("variables"),
+        "modules": result.get("modules"),
     }

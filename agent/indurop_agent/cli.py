@@ -107,7 +107,19 @@ def cmd_validate(c: Client, a, out: Out) -> int:
                 None: "(stored, but not checked: is irpd running? upload again to check it)",
             }[valid]
         )
-    return {True: EXIT_OK, False: EXIT_REFUSED, None: EXIT_UNREACHABLE}[valid]
+    return _verdict_exit(u)
+
+
+def _verdict_exit(s: dict) -> int:
+    """A checked set's exit status: 0 valid, 1 not valid, 3 irpd could not check it."""
+    return {True: EXIT_OK, False: EXIT_REFUSED, None: EXIT_UNREACHABLE}[(s.get("validation") or {}).get("valid")]
+
+
+def cmd_check(c: Client, a, out: Out) -> int:
+    """The dry run of an activation; exit as validate."""
+    s = c.check(a.id)
+    out.show(s, set_text)
+    return _verdict_exit(s)
 
 
 def cmd_layout(c: Client, a, out: Out) -> int:
@@ -338,6 +350,12 @@ COMMANDS: tuple[Command, ...] = (
         "set",
         "one uploaded set: files and validation",
         _show(lambda c, a: c.set(a.id), set_text),
+        (arg("id", metavar="ID"),),
+    ),
+    Command(
+        "check",
+        "the dry run of an activation: irpd checks an uploaded set against what runs now (operator)",
+        cmd_check,
         (arg("id", metavar="ID"),),
     ),
     Command(

@@ -329,6 +329,7 @@ def swap_text(r: dict) -> str:
                     ("kept", _names(rep.get("kept"))),
                     ("started", _names(rep.get("started"))),
                     ("stopped", _names(rep.get("stopped"))),
+                    ("replaced", _names(rep.get("replaced"))),
                     ("missed periods", rep.get("missed_periods", "-")),
                     ("request to swap", format_duration(rep.get("request_to_swap_ns"))),
                     ("total", format_duration(rep.get("total_ns"))),
@@ -370,6 +371,12 @@ def validation_text(v: dict | None) -> str:
         )
     elif v.get("online"):
         lines.append("online: yes (a hot swap)")
+    fates = v.get("modules")
+    if fates:
+        lines.append(
+            "modules: "
+            + "; ".join(f"{fate} {_names(fates.get(fate))}" for fate in ("kept", "started", "stopped", "replaced"))
+        )
     changes = v.get("variables")
     if changes and (changes.get("added") or changes.get("removed") or changes.get("moved")):
         moved = [m.get("path") for m in changes.get("moved") or []]

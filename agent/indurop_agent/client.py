@@ -258,6 +258,12 @@ class Client(SystemCalls, RecordCalls):
     def active_set(self) -> dict:
         return self.get("/sets/active")
 
+    def check(self, set_id: str) -> dict:
+        """irpd checks the stored set again against what runs now (the dry run of an activation); the
+        set with that validation: online or why only a restart can, the variables and the modules
+        it would keep, start, stop and replace."""
+        return self.request("POST", f"/sets/{quote(set_id, safe='')}/check", timeout=max(self.timeout, 90))
+
     def activate(self, set_id: str, mode: str = "online") -> dict:
         """Puts the set into irpd: mode online (hot reload), restart (irpd restarts onto it) or auto
         (a restart only when irpd cannot take it online); the swap report (mode, downtime_ns)."""

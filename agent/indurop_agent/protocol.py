@@ -261,6 +261,7 @@ class SwapReport(IrpdShape):
     kept: list[str]
     started: list[str]
     stopped: list[str]
+    replaced: list[str] = Field(description="modules of both sets that were not kept: the running instance stopped and a new one started afresh (each is also in started and stopped)")
     missed_periods: int = Field(description="the dispatchers' missed and skipped periods from the request to one macro period after the swap")
     variables: VariableChanges = Field(description="the shared variables the swap added, removed and moved")
     request_to_swap_ns: int
@@ -394,9 +395,12 @@ class RestartNeed(IrpdShape):
 
 
 class ModuleFates(IrpdShape):
-    kept: list[str]
-    started: list[str]
-    stopped: list[str]
+    """What a `load` of the set would do to the running modules."""
+
+    kept: list[str] = Field(description="the same instance goes on running (same state, same stats record)")
+    started: list[str] = Field(description="a new instance is loaded, initialized and started")
+    stopped: list[str] = Field(description="the running instance is stopped and unloaded after the swap")
+    replaced: list[str] = Field(description="modules of both sets that are not kept (new code, properties, type or executor): the running instance stops and a new one starts afresh; each is also in started and stopped")
 
 
 class CheckReport(IrpdShape):

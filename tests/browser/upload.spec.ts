@@ -87,12 +87,16 @@ test("an upload that adds a shared variable shows the variable diff and activate
     await expect(plan.locator("[data-variable='oc.added']")).toContainText("+ added");
     await expect(plan.getByTestId("plan-after")).toBeVisible();
     await expect(plan.getByTestId("plan-restart")).toHaveCount(0);
+    await expect(plan.getByTestId("plan-modules-kept")).toHaveText("counter");
+    await expect(plan.getByTestId("plan-modules-new")).toHaveText("adder");
+    await expect(plan.getByTestId("plan-modules-replaced")).toHaveText("—");
     await shot(page, "upload-variable-diff");
     await plan.getByTestId("plan-activate").click();
     const report = page.getByTestId("swap-report");
     await expect(report.getByTestId("report-variables-summary")).toHaveText("shared variables: 1 added");
     await expect(report.getByTestId("report-kept")).toHaveText("counter");
     await expect(report.getByTestId("report-started")).toHaveText("adder");
+    await expect(report.getByTestId("report-replaced")).toHaveText("—");
 
     // a layout laid out afresh: only a restart can run it, and the button waits for the confirmation
     await page

@@ -2,8 +2,11 @@
 // its control socket (docs/hot-reload.md, docs/shared-variables.md "Layouts that evolve"): a kept
 // counter module misses no period and its variable keeps counting while a variable is added,
 // one removed and one retyped; a process built against the old layout is accepted; a module
-// built against an incompatible layout, a layout laid out afresh and one over the room are
-// refused with what to change, and the running set is left as it was.  Executors added, removed
+// built against an incompatible layout (refused by the dry run `check` as by the load), a layout
+// laid out afresh and one over the room are refused with what to change, and the running set is
+// left as it was; a process that fits no layout of a set needing a restart is refused by the dry
+// run and the restart rather than offered one; the dry run names the modules a load keeps,
+// starts, stops and replaces.  Executors added, removed
 // and changed at a swap: their threads start before it and stop after it, the counter on main
 // missing no period.
 #include "support/control_client.hpp"
@@ -237,6 +240,80 @@ TEST(OnlineChange, ALayoutNotLaidOutAgainstTheRunningOneNeedsARestart) {
     EXPECT_EQ(refused["error"]["code"], "restart_required") << refused.dump();
     EXPECT_EQ(cell.generation(), generation);
     settle();
+    cell.expectCounterMissedNoPeriod();
+}
+
+TEST(OnlineChange, ANewModuleBuiltAgainstALayoutTheSetsWasNotLaidOutFromIsRefusedByTheDryRunAsByTheLoad) {
+    Cell cell;
+    const json generation = cell.generation();
+    // v3's layout.json was laid out against v2 and v1 (glbc --previous); the new adder was built
+    // against v3.glb compiled without --previous: another stamp, in no layout of v3's lineage.
+    const std::string xml = cell.writeSet("afresh.xml", "v3",
+                                          thread("counter", "oc_counter_v1.so", cell.dir.path) +
+                                              thread("adder", "oc_adder_v3_afresh.so", cell.dir.path, 2));
+    json check = cell.ask({{"cmd", "check"}, {"config", xml}});
+    ASSERT_TRUE(check.value("ok", false)) << check.dump();
+    const json &found = check["result"];
+    EXPECT_EQ(found["valid"], false) << found.dump();
+    EXPECT_EQ(found["online"], false) << found.dump();
+    EXPECT_TRUE(found["restart"].is_null()) << "a restart would refuse it too: " << found.dump();
+    ASSERT_EQ(found["errors"].size(), 1u) << found.dump();
+    const std::string said = found["errors"][0];
+    EXPECT_NE(said.find("module 'adder'"), std::string::npos) << said;
+    EXPECT_NE(said.find("rebuild it against the set's .glb files"), std::string::npos) << said;
+    EXPECT_EQ(found["problems"][0]["module"], "adder") << found.dump();
+    EXPECT_EQ(found["problems"][0]["file"], (kOnline / "modules" / "oc_adder_v3_afresh.so").string());
+
+    json refused = cell.load(xml);
+    ASSERT_FALSE(refused.value("ok", true)) << refused.dump();
+    EXPECT_EQ(refused["error"]["code"], "refused") << refused.dump();
+    EXPECT_EQ(refused["error"]["message"], said) << "the dry run says what the load says";
+    EXPECT_EQ(cell.generation(), generation) << "the running set is left as it was";
+    settle();
+    cell.expectCounterMissedNoPeriod();
+}
+
+TEST(OnlineChange, AProcessThatFitsNoLayoutOfTheSetIsRefusedRatherThanOfferedARestart) {
+    Cell cell;
+    // `reordered` needs a restart, but the process was built against v1, which is not in its
+    // lineage: a restart onto it would fail too, so the dry run refuses it, naming the process.
+    const std::string xml =
+        cell.writeSet("reordered-proc.xml", "reordered",
+                      thread("counter", "oc_counter_reordered.so", cell.dir.path) + process("proc", "oc_proc_v1.exe"));
+    json check = cell.ask({{"cmd", "check"}, {"config", xml}});
+    ASSERT_TRUE(check.value("ok", false)) << check.dump();
+    EXPECT_EQ(check["result"]["valid"], false) << check.dump();
+    EXPECT_TRUE(check["result"]["restart"].is_null()) << check.dump();
+    EXPECT_EQ(check["result"]["problems"][0]["module"], "proc") << check.dump();
+    json refused = cell.ask({{"cmd", "restart"}, {"config", xml}});
+    ASSERT_FALSE(refused.value("ok", true)) << refused.dump();
+    EXPECT_EQ(refused["error"]["message"], check["result"]["errors"][0]) << "nothing restarted: " << refused.dump();
+    settle();
+    cell.expectCounterMissedNoPeriod();
+}
+
+TEST(OnlineChange, TheDryRunNamesTheModulesALoadKeepsStartsStopsAndReplaces) {
+    Cell cell;
+    ASSERT_TRUE(cell.load(cell.writeSet("v2.xml", "v2",
+                                        thread("counter", "oc_counter_v2.so", cell.dir.path) +
+                                            thread("adder", "oc_adder_v2.so", cell.dir.path, 2) +
+                                            thread("adder2", "oc_adder_v2.so", cell.dir.path, 3)))["ok"]);
+    // counter the same; adder other code under its name; adder2 gone; fresh new.
+    const std::string xml = cell.writeSet("next.xml", "v2",
+                                          thread("counter", "oc_counter_v2.so", cell.dir.path) +
+                                              thread("adder", "oc_counter_v2.so", cell.dir.path, 2) +
+                                              thread("fresh", "oc_adder_v2.so", cell.dir.path, 3));
+    json check = cell.ask({{"cmd", "check"}, {"config", xml}});
+    ASSERT_TRUE(check.value("ok", false)) << check.dump();
+    const json &modules = check["result"]["modules"];
+    EXPECT_EQ(modules["kept"], json({"counter"})) << modules.dump();
+    EXPECT_EQ(modules["started"], json({"adder", "fresh"})) << modules.dump();
+    EXPECT_EQ(modules["stopped"], json({"adder", "adder2"})) << modules.dump();
+    EXPECT_EQ(modules["replaced"], json({"adder"})) << modules.dump();
+    json answer = cell.load(xml);
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    for (const char *fate : {"kept", "started", "stopped", "replaced"})
+        EXPECT_EQ(answer["result"][fate], modules[fate]) << fate << ": the load does what the dry run said";
     cell.expectCounterMissedNoPeriod();
 }
 

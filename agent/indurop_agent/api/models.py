@@ -77,6 +77,11 @@ class Validation(BaseModel):
     variables: protocol.VariableChanges | None = Field(
         None, description="the shared variables it adds, removes and moves"
     )
+    modules: protocol.ModuleFates | None = Field(
+        None,
+        description="what activating it online would do to the running modules: kept, started, stopped, "
+        "and replaced (the running instance stops, a new one starts afresh); null when it cannot go online",
+    )
 
 
 class SetPublic(BaseModel):

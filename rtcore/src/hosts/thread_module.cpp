@@ -35,6 +35,16 @@ std::string lastDlError() {
 
 }  // namespace
 
+Status builtLayoutFits(const config::ModuleSpec &spec, std::string_view built, const layouts::Model *layout) {
+    if (built.empty()) return Ok{};
+    if (!layout)
+        return inObject(spec, spec.path.string() + " uses shared variables (layout " + std::string(built) +
+                                  ") but the set declares no <layout>");
+    if (std::string why = layouts::compatible(built, *layout); !why.empty())
+        return inObject(spec, spec.path.string() + ": " + why);
+    return Ok{};
+}
+
 ThreadModule::ThreadModule(const config::ModuleSpec &spec) : spec_(spec), alarm_source_(runtime::kNoAlarmSource) {
     static std::atomic<uint64_t> loads{0};
     instance_ = ++loads;
@@ -64,11 +74,7 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
     // Built with <indurop/generated.h>: the layout it was compiled against must be the one it will
     // run on, or one that layout was laid out against with its variables in place (layouts.hpp).
     if (const auto *built = static_cast<const char *>(dlsym(module->handle_, "indurop_layout_hash"))) {
-        if (!layout)
-            return inObject(spec, spec.path.string() + " uses shared variables (layout " + built +
-                                      ") but the set declares no <layout>");
-        if (std::string why = layouts::compatible(built, *layout); !why.empty())
-            return inObject(spec, spec.path.string() + ": " + why);
+        if (Status st = builtLayoutFits(spec, built, layout); !st) return st.error();
         module->built_layout_ = built;
     }
     dlerror();

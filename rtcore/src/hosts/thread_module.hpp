@@ -16,6 +16,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace irp::hosts {
@@ -23,6 +24,13 @@ namespace irp::hosts {
 // The property every thread module gets besides its own: the absolute folder of its module.xml,
 // against which it resolves the relative file names of its other properties.
 inline constexpr const char *kSetDirProperty = "indurop.set_dir";
+
+// Whether a module built against layout `built` ("": it uses no shared variables) may run on
+// `layout` (null: the set has no shared variables): Ok, or the refusal placed at the module's file
+// ("rebuild it against the set's .glb files").  The one rule for thread and process modules, asked
+// by the reloader's plan before anything loads (so that `check` refuses what `load` would) and by
+// ThreadModule::load.
+Status builtLayoutFits(const config::ModuleSpec &spec, std::string_view built, const layouts::Model *layout);
 
 class ThreadModule {
 public:

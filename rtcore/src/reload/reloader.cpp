@@ -58,14 +58,19 @@ json variablesJson(const Generation &g) {
 
 int64_t now() { return osal::monotonicNow(); }
 
-// What a generation does to the modules of the one running: kept, started, stopped.
+// What a generation does to the modules of the one running: kept (the same instance), started (a
+// new instance), stopped (the running instance goes), and replaced: the names in both sets that are
+// not kept (each also in started and stopped: its running instance stops, a new one starts afresh).
 struct Fates {
-    std::vector<std::string> kept, started, stopped;
+    std::vector<std::string> kept, started, stopped, replaced;
 };
 Fates fatesOf(const Generation &next, const Generation *running) {
     Fates f;
-    for (const config::ModuleSpec &m : next.set.modules)
-        (next.members[static_cast<std::size_t>(m.index)].kept ? f.kept : f.started).push_back(m.name);
+    for (const config::ModuleSpec &m : next.set.modules) {
+        const bool kept = next.members[static_cast<std::size_t>(m.index)].kept;
+        (kept ? f.kept : f.started).push_back(m.name);
+        if (!kept && running && running->find(m.name) >= 0) f.replaced.push_back(m.name);
+    }
     if (running)
         for (const config::ModuleSpec &m : running->set.modules) {
             const int n = next.find(m.name);
@@ -89,27 +94,10 @@ json scheduleJson(const Generation &g) {
     return j;
 }
 
-// What can be checked before loading anything: the schedule, the layout against the running
-// segment, the executors, and which running modules would have to go.
+// What can be checked before loading anything: the modules' files and their layout stamps, the
+// layout against the running segment, the executors, the process slots.  out (optional) gets the
+// set's layout, its diff against the segment's, and every module's identity (members).
 Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *running, Generation *out) const {
-    if (!set.layout.empty()) {
-        auto layout = variables::readLayout(set.layout);
-        if (!layout) return layout.error();
-        if (!s_.vars)
-            return Error{"the set declares shared variables (" + set.layout.string() +
-                             ") but irpd runs without a variable segment: a restart onto this set makes one",
-                         protocol::kRestartRequired};
-        layouts::Diff d = layouts::diff(s_.vars->layout()->model, layout->model);
-        if (!d.online_impossible.empty())
-            return Error{"the set's shared-variable layout " + layout->hash.substr(0, 12) + "… (" +
-                             set.layout.string() + ") cannot replace the running one online: " + d.online_impossible,
-                         protocol::kRestartRequired};
-        if (std::string why = s_.vars->fits(*layout); !why.empty()) return Error{why, protocol::kRestartRequired};
-        if (out) {
-            out->layout = std::make_shared<const variables::Layout>(std::move(*layout));
-            out->variables = std::move(d);
-        }
-    }
     for (const config::ModuleSpec &m : set.modules) {
         std::error_code ec;
         if (!std::filesystem::is_regular_file(m.path, ec))
@@ -120,6 +108,41 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
                               "<moduletype>process</moduletype>",
                               "moduletype");
     }
+    std::shared_ptr<const variables::Layout> layout;
+    if (!set.layout.empty()) {
+        auto read = variables::readLayout(set.layout);
+        if (!read) return read.error();
+        layout = std::make_shared<const variables::Layout>(std::move(*read));
+    }
+    // Every module's layout stamp against the layout the set would run with (its own, else the
+    // running one), before anything about the running set: a module that does not fit it runs
+    // neither online nor after a restart, so `check` refuses it with load's very error.
+    const std::shared_ptr<const variables::Layout> segment_layout = s_.vars ? s_.vars->layout() : nullptr;
+    const layouts::Model *model = layout                       ? &layout->model
+                                  : running && running->layout ? &running->layout->model
+                                  : segment_layout             ? &segment_layout->model
+                                                               : nullptr;
+    std::vector<Member> members(set.modules.size());
+    for (const config::ModuleSpec &m : set.modules) {
+        auto identity = hosts::identify(m.path);
+        if (!identity) return errorAbout(m, identity.error().message);
+        if (Status st = hosts::builtLayoutFits(m, identity->layout, model); !st) return st.error();
+        members[static_cast<std::size_t>(m.index)].identity = identity->code;
+        members[static_cast<std::size_t>(m.index)].layout = identity->layout;
+    }
+    layouts::Diff d;
+    if (layout) {
+        if (!s_.vars)
+            return Error{"the set declares shared variables (" + set.layout.string() +
+                             ") but irpd runs without a variable segment: a restart onto this set makes one",
+                         protocol::kRestartRequired};
+        d = layouts::diff(s_.vars->layout()->model, layout->model);
+        if (!d.online_impossible.empty())
+            return Error{"the set's shared-variable layout " + layout->hash.substr(0, 12) + "… (" +
+                             set.layout.string() + ") cannot replace the running one online: " + d.online_impossible,
+                         protocol::kRestartRequired};
+        if (std::string why = s_.vars->fits(*layout); !why.empty()) return Error{why, protocol::kRestartRequired};
+    }
     if (Status st = dispatch::checkExecutors(dispatch::executorsOf(set, s_.dispatcher)); !st) return st.error();
     std::size_t processes = 0;
     for (const config::ModuleSpec &m : set.modules) processes += m.type == config::ModuleType::Process;
@@ -129,6 +152,11 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
                          " (irpd's --process-slots, by default the larger of "
                          "16 and the first set's): a restart onto this set makes room",
                      protocol::kRestartRequired};
+    if (out) {
+        out->layout = std::move(layout);
+        out->variables = std::move(d);
+        out->members = std::move(members);
+    }
     return Ok{};
 }
 
@@ -198,7 +226,7 @@ json Reloader::check(const std::filesystem::path &xml) const {
         } else {
             if ((*planned)->layout) variables = variablesJson(**planned);
             const Fates f = fatesOf(**planned, running.get());
-            modules = json{{"kept", f.kept}, {"started", f.started}, {"stopped", f.stopped}};
+            modules = json{{"kept", f.kept}, {"started", f.started}, {"stopped", f.stopped}, {"replaced", f.replaced}};
         }
     }
     // A set that only a restart can run is valid: activation offers the restart (docs/hot-reload.md).
@@ -236,17 +264,11 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
     next->set = std::move(set);
     next->schedule = std::move(*schedule);
     next->disabled = std::move(disabled);
-    next->members.resize(next->set.modules.size());
+    next->members = std::move(checked.members);  // each module's identity and layout stamp
     next->layout = std::move(checked.layout);
     next->variables = std::move(checked.variables);
     if (!next->layout && running && next->set.layout.empty()) next->layout = running->layout;
     const config::SetSpec &spec = next->set;
-    // What the set's modules are checked against: its layout, else the segment's (a set without
-    // <layout> on an irpd that has one).
-    const std::shared_ptr<const variables::Layout> segment_layout = s_.vars ? s_.vars->layout() : nullptr;
-    const layouts::Model *model = next->layout     ? &next->layout->model
-                                  : segment_layout ? &segment_layout->model
-                                                   : nullptr;
 
     // Which modules stay.  A running module that goes away must not own shared functions: kept
     // modules may hold pointers into its code (found in their start()).
@@ -256,10 +278,6 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
         running ? dispatch::executorsOf(running->set, s_.dispatcher) : std::vector<dispatch::ExecutorOptions>{};
     for (const config::ModuleSpec &m : spec.modules) {
         Member &member = next->members[static_cast<std::size_t>(m.index)];
-        auto identity = hosts::identify(m.path);
-        if (!identity) return errorAbout(m, identity.error().message);
-        member.identity = identity->code;
-        member.layout = identity->layout;
         if (!running) continue;
         const int old = running->find(m.name);
         if (old < 0) continue;
@@ -267,11 +285,8 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
         if (!keepable(m, member.identity, running->set.modules[o], running->members[o],
                       sameThread(threads, running_threads, m.executor)))
             continue;
-        // The same code built against the new layout (or against one whose variables all stay):
-        // the running instance addresses every variable where the new layout has it.
-        if (!member.layout.empty() && model)
-            if (std::string why = layouts::compatible(member.layout, *model); !why.empty())
-                return errorAbout(m, m.path.string() + ": " + why);
+        // Its stamp fits the new layout (checkAgainst): the running instance addresses every
+        // variable where the new layout has it.
         member.thread = running->members[o].thread;
         member.record = running->members[o].record;
         member.slot = running->members[o].slot;
@@ -787,7 +802,7 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
     const uint64_t missed = lost() - lost_before;
     dispatcher_->retire();  // the threads of executors the new set does not have
 
-    const auto [kept, started, stopped] = fatesOf(*next, running.get());
+    const auto [kept, started, stopped, replaced] = fatesOf(*next, running.get());
     retire(*running, *next);
     if (s_.alarms) settleAlarmSources(*s_.alarms, *next, *running);  // after retire stopped the old processes
     for (const config::ModuleSpec &m : next->set.modules)
@@ -809,6 +824,7 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
                 {"kept", names(kept)},
                 {"started", names(started)},
                 {"stopped", names(stopped)},
+                {"replaced", names(replaced)},
                 {"missed_periods", missed},
                 {"variables", variablesJson(*next)},
                 {"request_to_swap_ns", swapped_ns - requested_ns},
@@ -816,7 +832,7 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
     std::ostringstream text;
     text << "generation " << next->number << " (" << next->set.xml_path.string() << ") took over in slot "
          << switched->front().cycle << ": " << kept.size() << " kept, " << started.size() << " started, "
-         << stopped.size() << " stopped, " << missed << " periods missed";
+         << stopped.size() << " stopped (" << replaced.size() << " of them replaced), " << missed << " periods missed";
     if (next->published)
         text << "; shared variables " << next->variables.added.size() << " added, " << next->variables.removed.size()
              << " removed, " << next->variables.moved.size() << " moved (layout " << next->layout->hash.substr(0, 12)

@@ -3,18 +3,23 @@ real irpd: GET /layout gives the running layout.json; an uploaded set whose layo
 checked online with its variable changes, activated by a hot swap that keeps the counter module, and
 the new variable is listed and read at once; a set laid out afresh is valid but needs a restart, and
 activating it online is refused with the reason; an <executor> added and taken away again is swapped
-in and out online while the counter module on main misses no period.  The fixtures are built by
-tests/cpp/online/."""
+in and out online while the counter module on main misses no period.  The dry run (upload
+validation, POST /sets/{id}/check, `irpctl check`) refuses a new module built against a layout the
+set's was not laid out from, with activation's error, and names the modules a load keeps, starts,
+stops and replaces; every route the docs name for the running layout.json answers it.  The
+fixtures are built by tests/cpp/online/."""
 
 from __future__ import annotations
 
 import json
+import re
 import time
 from pathlib import Path
 
 import httpx
 import pytest
-from agent_helpers import BUILD, IRPD, free_port, start_agent, start_irpd, stop
+from agent_helpers import BUILD, IRPD, ROOT, free_port, start_agent, start_irpd, stop
+from indurop_agent import cli
 
 ONLINE = BUILD / "tests" / "cpp" / "online"
 pytestmark = pytest.mark.skipif(
@@ -37,7 +42,7 @@ def set_files(layout: str, *modules: tuple[str, ...], root: str = "") -> list[tu
         ("files", ("module.xml", xml.encode())),
         ("files", ("layout.json", (ONLINE / f"oc_{layout}" / "layout.json").read_bytes())),
     ]
-    files += [("files", (m[1], (ONLINE / "modules" / m[1]).read_bytes())) for m in modules]
+    files += [("files", (f, (ONLINE / "modules" / f).read_bytes())) for f in dict.fromkeys(m[1] for m in modules)]
     return files
 
 
@@ -45,6 +50,7 @@ class Cell:
     """irpd on the v1 layout with the counter module, and an agent."""
 
     def __init__(self, tmp: Path):
+        self.token_file = tmp / "data" / "admin-token"
         folder = tmp / "start"
         folder.mkdir()
         (folder / "module.xml").write_text(
@@ -70,6 +76,13 @@ class Cell:
         r = self.call("POST", "/sets", files=files)
         assert r.status_code == 201, r.text
         return r.json()
+
+    def irpctl(self, capsys, *argv: str) -> tuple[int, str]:
+        """irpctl's main() against this agent as admin: (exit code, what it printed)."""
+        capsys.readouterr()
+        code = cli.main(["--url", self.url.removesuffix("/api/v1"), "--token-file", str(self.token_file), *argv])
+        out, err = capsys.readouterr()
+        return code, out + err
 
     def close(self):
         stop(self.agent)
@@ -173,3 +186,67 @@ def test_an_executor_added_and_taken_away_online_keeps_the_counter_counting(cell
     counter = next(m for m in jitter["modules"] if m["name"] == "counter")
     main = jitter["executors"][0]
     assert abs((counter["runs"] + counter["skipped"]) - (main["runs"] + main["skipped"])) <= 1, (counter, main)
+
+
+def test_a_module_built_against_a_layout_the_sets_was_not_laid_out_from_is_refused_by_the_dry_run(cell, capsys):
+    """v3's layout.json was laid out against v2 and v1 (glbc --previous); the new adder was built
+    against v3.glb compiled without --previous: upload validation, the dry run and irpctl refuse it
+    with the error activation gives, naming the module and what to do, rather than saying online."""
+    stored = cell.upload(set_files("v3", ("counter", "oc_counter_v1.so"), ("adder", "oc_adder_v3_afresh.so")))
+    for validation in (stored["validation"], cell.call("POST", f"/sets/{stored['id']}/check").json()["validation"]):
+        assert validation["valid"] is False and validation["online"] is False, validation
+        assert validation["restart"] is None and validation["modules"] is None, validation
+        [error] = validation["errors"]
+        assert "module 'adder'" in error and "rebuild it against the set's .glb files" in error, error
+        [problem] = validation["problems"]
+        assert problem["module"] == "adder" and problem["file"] == "oc_adder_v3_afresh.so", problem
+    code, out = cell.irpctl(capsys, "check", stored["id"])
+    assert code == 1 and "NOT valid" in out and error in out, out
+
+    r = cell.call("POST", f"/sets/{stored['id']}/activate", json={"mode": "auto"})
+    assert r.status_code == 409, r.text
+    assert error in r.json()["detail"], "activation refuses it with the dry run's error"
+    assert cell.call("GET", "/status").json()["generation"] == 1
+
+
+def test_the_dry_run_names_the_modules_kept_started_stopped_and_replaced(cell, capsys):
+    first = cell.upload(set_files("v2", ("counter", "oc_counter_v2.so"), ("adder", "oc_adder_v2.so")))
+    assert cell.call("POST", f"/sets/{first['id']}/activate").status_code == 200
+    # counter the same; adder another code under its name (replaced); fresh new.
+    stored = cell.upload(
+        set_files("v2", ("counter", "oc_counter_v2.so"), ("adder", "oc_counter_v2.so"), ("fresh", "oc_adder_v2.so"))
+    )
+    planned = cell.call("POST", f"/sets/{stored['id']}/check").json()["validation"]
+    fates = {"kept": ["counter"], "started": ["adder", "fresh"], "stopped": ["adder"], "replaced": ["adder"]}
+    assert planned["modules"] == fates, planned
+    assert stored["validation"]["modules"] == fates
+    code, out = cell.irpctl(capsys, "check", stored["id"])
+    assert code == 0, out
+    assert "modules: kept counter; started adder, fresh; stopped adder; replaced adder" in out, out
+
+    code, out = cell.irpctl(capsys, "activate", stored["id"])
+    assert code == 0, out
+    assert [line.split(None, 1)[1] for line in out.splitlines() if line.startswith("replaced")] == ["adder"], out
+    report = cell.call("GET", "/sets/active").json()
+    assert report["id"] == stored["id"]
+    assert cell.call("POST", f"/sets/{stored['id']}/check").json()["validation"]["modules"] == {
+        "kept": ["counter", "adder", "fresh"],
+        "started": [],
+        "stopped": [],
+        "replaced": [],
+    }, "once it runs, a dry run of the same set keeps every module"
+
+
+def test_every_route_the_docs_name_for_the_running_layout_answers_it(cell):
+    """docs name where to fetch the running layout.json (for glbc --previous): each answers it."""
+    docs = ROOT / "docs"
+    named = {
+        m.group(1)
+        for page in docs.glob("*.md")
+        for m in re.finditer(r"`GET /api/v1(/[^` ]*layout[^` ]*)`", page.read_text())
+    }
+    assert "/layout" in named, named
+    expected = json.loads((ONLINE / "oc_v1" / "layout.json").read_text())["hash"]
+    for route in sorted(named):
+        r = cell.call("GET", route)
+        assert r.status_code == 200 and json.loads(r.text)["hash"] == expected, (route, r.status_code, r.text[:200])

@@ -37,6 +37,7 @@ def test_an_upload_is_stored_unchecked_when_irpd_is_unreachable(agent, elves):
         "online": None,
         "restart": None,
         "variables": None,
+        "modules": None,
     }
     assert s["by"]["name"] == "admin" and s["by"]["role"] == "admin" and len(s["by"]["id"]) == 12
     assert s["active"] is False

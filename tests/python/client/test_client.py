@@ -559,6 +559,7 @@ def test_upload_activate_activates_a_valid_set_and_prints_the_swap_report(irpctl
         "kept             cntr1, cntr2, cntr3",
         "started          cntr4",
         "stopped          -",
+        "replaced         -",
         "missed periods   0",
         "request to swap  12.3 ms",
         "total            45.6 ms",

@@ -2990,6 +2990,34 @@ export interface components {
             dry_run: boolean;
         };
         /**
+         * ModuleFates
+         * @description What a `load` of the set would do to the running modules.
+         */
+        ModuleFates: {
+            /**
+             * Kept
+             * @description the same instance goes on running (same state, same stats record)
+             */
+            kept: string[];
+            /**
+             * Replaced
+             * @description modules of both sets that are not kept (new code, properties, type or executor): the running instance stops and a new one starts afresh; each is also in started and stopped
+             */
+            replaced: string[];
+            /**
+             * Started
+             * @description a new instance is loaded, initialized and started
+             */
+            started: string[];
+            /**
+             * Stopped
+             * @description the running instance is stopped and unloaded after the swap
+             */
+            stopped: string[];
+        } & {
+            [key: string]: unknown;
+        };
+        /**
          * ModuleInfo
          * @description One module of the running set: its stats record, its module.xml entry and its state.
          */
@@ -3375,6 +3403,12 @@ export interface components {
              * @enum {string}
              */
             mode: "online" | "restart";
+            /**
+             * Replaced
+             * @description modules of both sets that were not kept: the running instance stopped and a new one started afresh (each is also in started and stopped)
+             * @default []
+             */
+            replaced: string[];
             /**
              * Reports
              * @description one per field applied, in the order period_ns, priority, enabled
@@ -4429,6 +4463,12 @@ export interface components {
              * @enum {string}
              */
             mode: "online" | "restart";
+            /**
+             * Replaced
+             * @description modules of both sets that were not kept: the running instance stopped and a new one started afresh (each is also in started and stopped)
+             * @default []
+             */
+            replaced: string[];
             /** Request To Swap Ns */
             request_to_swap_ns?: number | null;
             /** Set */
@@ -4722,6 +4762,8 @@ export interface components {
              * @default []
              */
             errors: string[];
+            /** @description what activating it online would do to the running modules: kept, started, stopped, and replaced (the running instance stops, a new one starts afresh); null when it cannot go online */
+            modules?: components["schemas"]["ModuleFates"] | null;
             /**
              * Online
              * @description whether irpd can take the set by a hot swap (checked against what ran when it was checked); false: only a restart can run it

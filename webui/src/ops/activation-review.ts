@@ -1,6 +1,7 @@
 // activation-review.ts -- the one step before a set is activated (after an upload, or from the set
 // history): irpd checks the stored set against what runs now (POST /sets/{id}/check), the page
-// shows the slot table now and after beside the shared-variable diff, and one button activates it
+// shows the slot table now and after beside the shared-variable diff and the modules kept,
+// replaced, new and removed (module-fates-view.ts), and one button activates it
 // (POST /sets/{id}/activate with mode "online", or "restart" once the operator confirmed that irpd
 // restarts and the shared variables start at zero).  Checked once more right before activating:
 // if what runs changed meanwhile, the new plan is shown instead and asked for again.
@@ -8,6 +9,7 @@ import { unwrap } from "../api/client";
 import type { AppContext } from "../app/context";
 import { type ActivationPlan, activationPlan, activationRequest, planKey, variableDiff } from "./activation";
 import { errorText, h, setText } from "./dom";
+import { renderModuleFates } from "./module-fates-view";
 import { problemList } from "./problems-view";
 import { renderSlotTable } from "./slot-table-view";
 import { buildSlotTable, changedSlots } from "./timeline";
@@ -131,6 +133,7 @@ export class ActivationReview {
               )
             : null,
           h("div", {}, h("h5", {}, "shared variables"), vars),
+          v.modules ? h("div", {}, h("h5", {}, "modules"), renderModuleFates(v.modules)) : null,
         ),
         plan.kind === "restart" ? this.restartNotice(plan) : null,
         this.actions(plan),

@@ -101,6 +101,7 @@ export function planKey(v: Validation): string {
     v.online ?? null,
     v.restart ?? null,
     v.variables ?? null,
+    v.modules ?? null,
     v.schedule ?? null,
     v.errors,
   ]);

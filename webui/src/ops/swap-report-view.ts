@@ -1,7 +1,7 @@
 // swap-report-view.ts -- irpd's report of a hot swap (or of a restart onto a set), as people read
-// it: which modules were kept, started, stopped, the cycle the new table took over at, the periods
-// missed, how long it took, the shared variables it added, removed and moved, and for a restart
-// the measured downtime.
+// it: which modules were kept, started, stopped, replaced (started anew under the same name), the
+// cycle the new table took over at, the periods missed, how long it took, the shared variables it
+// added, removed and moved, and for a restart the measured downtime.
 import { reportMode, variableDiff } from "./activation";
 import { h } from "./dom";
 import type { SwapReport } from "./types";
@@ -42,6 +42,7 @@ export function renderSwapReport(title: string, r: SwapReport, at: Date = new Da
       row("kept", list(r.kept), "mono", "report-kept"),
       row("started", list(r.started), "mono", "report-started"),
       row("stopped", list(r.stopped), "mono", "report-stopped"),
+      row("replaced", list(r.replaced), "mono", "report-replaced"),
       row("swap cycle", r.swap_cycle != null ? formatCount(r.swap_cycle) : "–", "num", "report-swap-cycle"),
       row(
         "missed periods",

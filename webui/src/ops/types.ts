@@ -22,6 +22,7 @@ export type SetSummary = S["SetSummary"];
 export type SetPublic = S["SetPublic"];
 export type Validation = S["Validation"];
 export type VariableChanges = S["VariableChanges"];
+export type ModuleFates = S["ModuleFates"];
 export type AlarmPublic = S["AlarmPublic"];
 export type AlarmCounts = S["AlarmCounts"];
 export type AlarmList = S["AlarmList"];

@@ -1,7 +1,7 @@
 // activation.test.ts -- activating a stored set: the variable diff as listed, the plan from irpd's
 // check (hot swap, restart, invalid, unchecked), the confirm gating of a restart and the mode
-// sent, the review that checks again right before activating, and the swap report's variables
-// and downtime.
+// sent, the review that checks again right before activating, the modules it keeps, replaces,
+// starts and stops, and the swap report's variables, replaced modules and downtime.
 import { describe, expect, it } from "vitest";
 import type { AppContext } from "../../src/app/context";
 import { activationPlan, activationRequest, planKey, reportMode, variableDiff } from "../../src/ops/activation";
@@ -133,16 +133,26 @@ describe("activationPlan and activationRequest", () => {
     expect(planKey(validation())).toBe(planKey(validation()));
     expect(planKey(validation())).not.toBe(planKey(validation({ variables: CHANGES })));
     expect(planKey(validation())).not.toBe(planKey(RESTART));
+    const fates = { kept: ["counter"], started: [], stopped: [], replaced: [] };
+    expect(planKey(validation({ modules: fates }))).not.toBe(
+      planKey(
+        validation({
+          modules: { ...fates, kept: [], started: ["counter"], stopped: ["counter"], replaced: ["counter"] },
+        }),
+      ),
+    );
   });
 });
 
 describe("reportMode", () => {
   it("reads mode and downtime when the report has them", () => {
-    expect(reportMode({ kept: [], started: [], stopped: [], mode: "online" })).toEqual({
+    expect(reportMode({ kept: [], started: [], stopped: [], replaced: [], mode: "online" })).toEqual({
       mode: "online",
       downtimeNs: null,
     });
-    expect(reportMode({ kept: [], started: [], stopped: [], mode: "restart", downtime_ns: 180_000_000 })).toEqual({
+    expect(
+      reportMode({ kept: [], started: [], stopped: [], replaced: [], mode: "restart", downtime_ns: 180_000_000 }),
+    ).toEqual({
       mode: "restart",
       downtimeNs: 180_000_000,
     });
@@ -156,6 +166,7 @@ describe("renderSwapReport", () => {
       kept: ["counter"],
       started: ["adder"],
       stopped: [],
+      replaced: [],
       missed_periods: 0,
       variables: CHANGES,
       mode: "online",
@@ -167,6 +178,18 @@ describe("renderSwapReport", () => {
     expect(q(e, "report-variables-summary")?.textContent).toMatch(/1 added, 1 removed, 1 moved/);
     expect(e.querySelector("[data-variable='oc.retyped']")?.textContent).toContain("16 → 64");
     expect(q(e, "report-variables-replaced")?.textContent).toContain("adder");
+    expect(q(e, "report-replaced")?.textContent).toBe("—");
+  });
+
+  it("names the modules replaced (started anew under their name)", () => {
+    const e = renderSwapReport("done", {
+      kept: [],
+      started: ["adder"],
+      stopped: ["adder"],
+      replaced: ["adder"],
+      mode: "online",
+    });
+    expect(q(e, "report-replaced")?.textContent).toBe("adder");
   });
 
   it("shows a restart's measured downtime", () => {
@@ -174,6 +197,7 @@ describe("renderSwapReport", () => {
       kept: [],
       started: ["counter"],
       stopped: ["counter"],
+      replaced: [],
       mode: "restart",
       downtime_ns: 180_000_000,
       variables: null,
@@ -184,7 +208,7 @@ describe("renderSwapReport", () => {
   });
 
   it("a report without variables says they are unchanged", () => {
-    const e = renderSwapReport("done", { kept: ["a"], started: [], stopped: [], mode: "online" });
+    const e = renderSwapReport("done", { kept: ["a"], started: [], stopped: [], replaced: [], mode: "online" });
     expect(q(e, "report-variables-summary")?.textContent).toBe("shared variables unchanged");
   });
 });
@@ -254,6 +278,36 @@ describe("ActivationReview", () => {
     expect(s.calls.filter((c) => c.path.endsWith("/check")).length).toBe(2);
     expect(s.activations()).toEqual([{ path: "/api/v1/sets/{set_id}/activate", body: { mode: "online" } }]);
     expect(s.reports).toEqual(["Set abc activated"]);
+  });
+
+  it("shows the modules the swap keeps, replaces, starts and stops, each once", async () => {
+    const s = setup([
+      validation({
+        modules: { kept: ["counter"], started: ["adder", "fresh"], stopped: ["adder", "old"], replaced: ["adder"] },
+      }),
+    ]);
+    await flush();
+    expect(s.q("plan-modules-kept")?.textContent).toBe("counter");
+    expect(s.q("plan-modules-replaced")?.textContent).toBe("adder");
+    expect(s.q("plan-modules-new")?.textContent).toBe("fresh");
+    expect(s.q("plan-modules-removed")?.textContent).toBe("old");
+    expect(s.q("plan-modules")?.textContent).toMatch(/replaced: stopped, started anew/);
+  });
+
+  it("an invalid set (a module built against another layout) lists no modules and cannot be activated", async () => {
+    const s = setup([
+      validation({
+        valid: false,
+        online: false,
+        modules: null,
+        errors: ["module 'adder': adder.so: … rebuild it against the set's .glb files"],
+        problems: [{ message: "module 'adder': adder.so: … rebuild it against the set's .glb files", module: "adder" }],
+      }),
+    ]);
+    await flush();
+    expect(s.q("plan-modules")).toBeNull();
+    expect(document.body.textContent).toContain("rebuild it against the set's .glb files");
+    expect(s.q<HTMLButtonElement>("plan-activate")!.disabled).toBe(true);
   });
 
   it("an unchanged layout says so", async () => {
