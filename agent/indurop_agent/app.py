@@ -92,10 +92,16 @@ def json_safe(value):
     return value
 
 
+# What a 422 tells of each problem: where it is and what is wrong; never the value sent ("input",
+# and "ctx", which may quote it): an answer must not echo a password back.
+ERROR_FIELDS = ("loc", "msg", "type")
+
+
 async def validation_error(_: Request, exc: RequestValidationError) -> JSONResponse:
-    """FastAPI's 422, made safe for inputs such as {"value": NaN} or an unpaired surrogate (its own
-    answer would be a 500)."""
-    return JSONResponse(status_code=422, content={"detail": json_safe(jsonable_encoder(exc.errors()))})
+    """FastAPI's 422 without the values sent, made safe for names such as an unpaired surrogate in a
+    key (its own answer would be a 500)."""
+    problems = [{k: e[k] for k in ERROR_FIELDS if k in e} for e in exc.errors()]
+    return JSONResponse(status_code=422, content={"detail": json_safe(jsonable_encoder(problems))})
 
 
 NO_WEBUI = (
