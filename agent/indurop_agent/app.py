@@ -49,6 +49,7 @@ from .api.routes import (
     users,
     variables,
 )
+from .api_docs import serve_docs
 from .audit import AuditLog
 from .auth import TokenStore
 from .config import Settings, default_webui_dir
@@ -210,7 +211,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
         title="indurop agent",
         version=__version__,
         openapi_url=f"{API}/openapi.json",
-        docs_url=f"{API}/docs",
+        docs_url=None,  # served from the agent's own files: api_docs.py
         redoc_url=None,
         lifespan=lifespan,
     )
@@ -276,5 +277,6 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     for module in (*routers, stream):
         app.include_router(module.router, prefix=API)
     app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)
+    state.docs_scripts = serve_docs(app, f"{API}/docs", app.openapi_url)
     serve_webui(app, state.webui_dir)  # last: the API routes match first
     return app
