@@ -55,6 +55,7 @@ from .auth import TokenStore
 from .config import Settings, default_webui_dir
 from .errors import LocatedError, located_error
 from .events import AgentEvents
+from .headers import VIEWER, SecurityHeaders, docs_policy
 from .host import Sampler
 from .irpd_client import IrpdClient
 from .recorder.capture_engine import CaptureEngine
@@ -277,6 +278,14 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     for module in (*routers, stream):
         app.include_router(module.router, prefix=API)
     app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)
-    state.docs_scripts = serve_docs(app, f"{API}/docs", app.openapi_url)
+    scripts = serve_docs(app, f"{API}/docs", app.openapi_url)
     serve_webui(app, state.webui_dir)  # last: the API routes match first
+    with_headers(app, [(f"{API}/docs", docs_policy(scripts)), (f"{API}{robot.VIEWER}", VIEWER)])
     return app
+
+
+def with_headers(app: FastAPI, pages: list) -> None:
+    """SecurityHeaders around everything, even Starlette's own answer to an unhandled exception (its
+    ServerErrorMiddleware is outside every middleware add_middleware adds)."""
+    build = app.build_middleware_stack
+    app.build_middleware_stack = lambda: SecurityHeaders(build(), pages)
