@@ -16,9 +16,11 @@ from pathlib import Path
 from argon2 import PasswordHasher
 from fastapi import FastAPI, HTTPException, Request
 from fastapi.encoders import jsonable_encoder
+from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from . import __version__
 from .activation import Activator, Restorer
@@ -26,7 +28,7 @@ from .alarms.manager import AlarmManager
 from .alarms.store import AlarmStore
 from .alarms.system import SystemAlarms, Thresholds
 from .alarms.watcher import AlarmWatcher
-from .api.deps import identity_by_id
+from .api.deps import audit_refusal, identity_by_id
 from .api.routes import (
     alarms,
     audit,
@@ -62,6 +64,7 @@ from .recorder.capture_engine import CaptureEngine
 from .recorder.capture_files import CaptureFiles
 from .recorder.manager import Recorder
 from .recorder.store import Store
+from .refusals import RefusalAudit
 from .scope_configs import ScopeConfigs
 from .security import BodyLimitMiddleware, BodyTimeoutMiddleware, Lockout
 from .sessions import SessionStore
@@ -99,11 +102,20 @@ def json_safe(value):
 ERROR_FIELDS = ("loc", "msg", "type")
 
 
-async def validation_error(_: Request, exc: RequestValidationError) -> JSONResponse:
+async def validation_error(request: Request, exc: RequestValidationError) -> JSONResponse:
     """FastAPI's 422 without the values sent, made safe for names such as an unpaired surrogate in a
-    key (its own answer would be a 500)."""
-    problems = [{k: e[k] for k in ERROR_FIELDS if k in e} for e in exc.errors()]
-    return JSONResponse(status_code=422, content={"detail": json_safe(jsonable_encoder(problems))})
+    key (its own answer would be a 500); audited as a refusal."""
+    problems = json_safe(jsonable_encoder([{k: e[k] for k in ERROR_FIELDS if k in e} for e in exc.errors()]))
+    audit_refusal(request, 422, problems, "invalid")
+    return JSONResponse(status_code=422, content={"detail": problems})
+
+
+async def http_error(request: Request, exc: StarletteHTTPException):
+    """FastAPI's answer to an HTTPException; a 401 or 403 is audited first (unless the route wrote
+    its own line, as a wrong sign-in does)."""
+    if exc.status_code in (401, 403) and not getattr(request.state, "audited", False):
+        audit_refusal(request, exc.status_code, str(exc.detail))
+    return await http_exception_handler(request, exc)
 
 
 NO_WEBUI = (
@@ -233,6 +245,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     state.irpd_swap = IrpdClient(settings.irpd_socket)  # load, set_period, ...: long calls, own connection
     state.events = AgentEvents()
     state.audit = AuditLog(settings.data_dir / "audit.jsonl")
+    state.refusals = RefusalAudit(state.audit)
     state.store = SetStore(settings.data_dir)
     state.scopes = ScopeConfigs(state.store)  # trace configurations kept with the sets
     state.activator = Activator(state.store, state.irpd_swap, state.events, settings.swap_timeout_s)
@@ -264,6 +277,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     if restored is not None:
         _restored(state, restored)
     app.add_exception_handler(RequestValidationError, validation_error)
+    app.add_exception_handler(StarletteHTTPException, http_error)
     app.add_exception_handler(LocatedError, located_error)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, exempt=is_upload)
     app.add_middleware(
