@@ -1,5 +1,5 @@
 // headers.spec.ts -- the web UI under its Content-Security-Policy: every page (with a plot's chips,
-// and the 3D view in its iframe) runs without the browser refusing anything the policy forbids,
+// and the 3D view in its iframe, viser's and meshcat's) runs without the browser refusing anything the policy forbids,
 // and the page that frames nothing else cannot itself be framed by another page.
 import { startCell } from "./cell";
 import { expect, server, signIn, test } from "./fixtures";
@@ -36,6 +36,20 @@ test("no page of the web UI is refused anything by its Content-Security-Policy",
   });
   await page.goto(`${server().url}/${PAGES[3]}`);
   await expect(page.getByTestId("plot-panel-1").locator(".chip")).toHaveCount(2);
+  expect(refused).toEqual([]);
+});
+
+test("the meshcat 3D view runs in its frame without a refusal", async ({ page }) => {
+  await startCell();
+  const refused: string[] = [];
+  page.on("console", (m) => {
+    if (/Content Security Policy|Refused to/i.test(m.text())) refused.push(m.text());
+  });
+  await signIn(page, "viewer", "#/robot", server().meshcat);
+  await expect(page.frameLocator("[data-testid=robot-viewer]").locator("canvas").first()).toBeVisible({
+    timeout: 60_000,
+  });
+  await page.waitForTimeout(2000);
   expect(refused).toEqual([]);
 });
 
