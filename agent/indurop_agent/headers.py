@@ -86,7 +86,7 @@ class SecurityHeaders:
         names = {name for name, _ in added}
         # A WebSocket closed before it was accepted: the server would answer a bare 403; where it
         # lets the application answer the handshake itself, the 403 gets the headers and the reason.
-        answers = "websocket.http.response" in scope.get("extensions", {})
+        answers = "websocket.http.response" in (scope.get("extensions") or {})
         accepted = False
 
         async def with_headers(message):
