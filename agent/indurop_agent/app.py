@@ -16,9 +16,11 @@ from pathlib import Path
 from argon2 import PasswordHasher
 from fastapi import FastAPI, HTTPException, Request
 from fastapi.encoders import jsonable_encoder
+from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from . import __version__
 from .activation import Activator, Restorer
@@ -26,7 +28,7 @@ from .alarms.manager import AlarmManager
 from .alarms.store import AlarmStore
 from .alarms.system import SystemAlarms, Thresholds
 from .alarms.watcher import AlarmWatcher
-from .api.deps import identity_by_id
+from .api.deps import audit_refusal, identity_by_id
 from .api.routes import (
     alarms,
     audit,
@@ -50,11 +52,13 @@ from .api.routes import (
     users,
     variables,
 )
+from .api_docs import serve_docs
 from .audit import AuditLog
 from .auth import TokenStore
 from .config import Settings, default_webui_dir
 from .errors import LocatedError, located_error
 from .events import AgentEvents
+from .headers import VIEWER, SecurityHeaders, docs_policy
 from .host import Sampler
 from .irpd_client import IrpdClient
 from .opcua.link import ensure_token
@@ -62,6 +66,7 @@ from .recorder.capture_engine import CaptureEngine
 from .recorder.capture_files import CaptureFiles
 from .recorder.manager import Recorder
 from .recorder.store import Store
+from .refusals import RefusalAudit
 from .scope_configs import ScopeConfigs
 from .security import BodyLimitMiddleware, BodyTimeoutMiddleware, Lockout
 from .sessions import SessionStore
@@ -94,10 +99,25 @@ def json_safe(value):
     return value
 
 
-async def validation_error(_: Request, exc: RequestValidationError) -> JSONResponse:
-    """FastAPI's 422, made safe for inputs such as {"value": NaN} or an unpaired surrogate (its own
-    answer would be a 500)."""
-    return JSONResponse(status_code=422, content={"detail": json_safe(jsonable_encoder(exc.errors()))})
+# What a 422 tells of each problem: where it is and what is wrong; never the value sent ("input",
+# and "ctx", which may quote it): an answer must not echo a password back.
+ERROR_FIELDS = ("loc", "msg", "type")
+
+
+async def validation_error(request: Request, exc: RequestValidationError) -> JSONResponse:
+    """FastAPI's 422 without the values sent, made safe for names such as an unpaired surrogate in a
+    key (its own answer would be a 500); audited as a refusal."""
+    problems = json_safe(jsonable_encoder([{k: e[k] for k in ERROR_FIELDS if k in e} for e in exc.errors()]))
+    audit_refusal(request, 422, problems, "invalid")
+    return JSONResponse(status_code=422, content={"detail": problems})
+
+
+async def http_error(request: Request, exc: StarletteHTTPException):
+    """FastAPI's answer to an HTTPException; a 401 or 403 is audited first (unless the route wrote
+    its own line, as a wrong sign-in does)."""
+    if exc.status_code in (401, 403) and not getattr(request.state, "audited", False):
+        audit_refusal(request, exc.status_code, str(exc.detail))
+    return await http_exception_handler(request, exc)
 
 
 NO_WEBUI = (
@@ -206,7 +226,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
         title="indurop agent",
         version=__version__,
         openapi_url=f"{API}/openapi.json",
-        docs_url=f"{API}/docs",
+        docs_url=None,  # served from the agent's own files: api_docs.py
         redoc_url=None,
         lifespan=lifespan,
     )
@@ -227,6 +247,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     state.irpd_swap = IrpdClient(settings.irpd_socket)  # load, set_period, ...: long calls, own connection
     state.events = AgentEvents()
     state.audit = AuditLog(settings.data_dir / "audit.jsonl")
+    state.refusals = RefusalAudit(state.audit)
     state.store = SetStore(settings.data_dir)
     state.scopes = ScopeConfigs(state.store)  # trace configurations kept with the sets
     state.activator = Activator(state.store, state.irpd_swap, state.events, settings.swap_timeout_s)
@@ -259,6 +280,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     if restored is not None:
         _restored(state, restored)
     app.add_exception_handler(RequestValidationError, validation_error)
+    app.add_exception_handler(StarletteHTTPException, http_error)
     app.add_exception_handler(LocatedError, located_error)
     app.add_middleware(BodyLimitMiddleware, limit=settings.max_body_bytes, exempt=is_upload)
     app.add_middleware(
@@ -274,5 +296,14 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     for module in (*routers, stream):
         app.include_router(module.router, prefix=API)
     app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)
+    scripts = serve_docs(app, f"{API}/docs", app.openapi_url)
     serve_webui(app, state.webui_dir)  # last: the API routes match first
+    with_headers(app, [(f"{API}/docs", docs_policy(scripts)), (f"{API}{robot.VIEWER}", VIEWER)])
     return app
+
+
+def with_headers(app: FastAPI, pages: list) -> None:
+    """SecurityHeaders around everything, even Starlette's own answer to an unhandled exception (its
+    ServerErrorMiddleware is outside every middleware add_middleware adds)."""
+    build = app.build_middleware_stack
+    app.build_middleware_stack = lambda: SecurityHeaders(build(), pages)

@@ -45,6 +45,9 @@ ACTIONS = (
     "restore_applied",
     "tls_upload",
     "sets_prune",
+    # refused requests that are no mutation's own (refusals.py: rate-limited)
+    "refused",
+    "refusals_suppressed",
 )
 
 

@@ -468,7 +468,7 @@ def audit_text(entries: list[dict]) -> str:
             [
                 e.get("time", "-"),
                 printable(_who(e.get("who"))),
-                e.get("client", "-"),
+                e.get("client") or "-",
                 e.get("action", "-"),
                 printable(e.get("target") or "-"),
                 printable(result),

@@ -16,6 +16,8 @@ import resource
 import h11
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
+from .headers import headers_for
+
 # File descriptors kept back from the connection cap: irpd's sockets, the set store's files,
 # shared-memory segments, the viewer's server and its clients.
 FD_RESERVE = 256
@@ -28,6 +30,7 @@ def raw_response(status: int, reason: str, detail: str, extra: dict[str, str] | 
         "content-type": "application/json",
         "content-length": str(len(body)),
         "connection": "close",
+        **{k.decode(): v.decode() for k, v in headers_for()},  # as on every other answer
         **(extra or {}),
     }
     head = f"HTTP/1.1 {status} {reason}\r\n" + "".join(f"{k}: {v}\r\n" for k, v in headers.items()) + "\r\n"

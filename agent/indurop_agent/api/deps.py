@@ -41,11 +41,34 @@ def client_address(request: Request) -> str:
 
 class AuthFailure(Exception):
     """A credential refused: status 401 (unknown token, ended session), 403 (role too low, no CSRF
-    token) or 429 (address locked out)."""
+    token: kind "csrf") or 429 (address locked out); `who`: the caller when known (a role too low)."""
 
-    def __init__(self, status: int, message: str, retry_after: int = 0):
+    def __init__(self, status: int, message: str, retry_after: int = 0, who: Identity | None = None, kind=None):
         super().__init__(message)
         self.status, self.message, self.retry_after = status, message, retry_after
+        self.who, self.kind = who, kind
+
+
+def remember(request: Request, e: AuthFailure) -> None:
+    """Keeps who was refused and why for the refusal's audit line (audit_refusal)."""
+    request.state.refused_who, request.state.refusal_kind = e.who, e.kind
+
+
+def audit_refusal(request: Request, status: int, detail, kind: str | None = None) -> None:
+    """The audit line of a refused request (refusals.py: rate-limited per kind): a 401, a 403 (a
+    role too low, or kind "csrf"), a 422 (kind "invalid").  Who: the caller refused, or the one
+    whose credentials passed before the route refused; None when not known."""
+    state = request.state
+    kind = kind or getattr(state, "refusal_kind", None) or ("unauthenticated" if status == 401 else "forbidden")
+    who = getattr(state, "refused_who", None) or getattr(state, "identity", None)
+    request.app.state.refusals.write(
+        kind,
+        who=who.as_dict() if who is not None else None,
+        client=client_address(request),
+        route=f"{request.method} {request.url.path}",
+        status=status,
+        detail=detail,
+    )
 
 
 SAFE_METHODS = ("GET", "HEAD", "OPTIONS")
@@ -67,15 +90,35 @@ def note_lockout(state, target: str, client: str, what: str, window: int, why: s
     state.events.add("lockout", f"{what} locked out for {window} s after {why}")
 
 
+def lockout_failed(state, lockout, key: str, address: str, what: str, failures: str) -> int:
+    """Counts one failure of `key` (an address, a user name) in `lockout`; when that locks it out
+    now, audits it and adds the event (note_lockout) and returns the seconds (else 0)."""
+    if not lockout.failed(key):
+        return 0
+    window = int(lockout.window_s)
+    note_lockout(state, key, address, what, window, f"{lockout.attempts} {failures}")
+    return window
+
+
 def address_failed(state, address: str) -> int:
     """Counts a failed credential (an unknown token, a wrong password) from `address`; the seconds
     it is now locked out for (0: not)."""
-    if state.lockout.failed(address):
-        window = int(state.lockout.window_s)
-        why = f"{state.lockout.attempts} unknown tokens or wrong passwords"
-        note_lockout(state, address, address, f"client {address}", window, why)
-        return window
-    return 0
+    return lockout_failed(
+        state, state.lockout, address, address, f"client {address}", "unknown tokens or wrong passwords"
+    )
+
+
+def name_failed(state, name: str, address: str) -> int:
+    """Counts a wrong password for the user name `name` (a sign-in, or a wrong current_password
+    through a session left open); the seconds it is now locked for (0: not)."""
+    return lockout_failed(state, state.name_lockout, name, address, f"user name {name!r}", "wrong passwords")
+
+
+def name_locked(wait: int) -> HTTPException:
+    """The 429 of a locked user name, with Retry-After."""
+    return HTTPException(
+        429, f"this user name is locked for {wait} s after wrong passwords", headers={"Retry-After": str(wait)}
+    )
 
 
 def with_owner(state, who: Identity) -> Identity | None:
@@ -105,7 +148,7 @@ def check_token(state, address: str, token: str, role: str) -> Identity:
     if who is None:
         raise AuthFailure(401, "the token's user is disabled")
     if not allows(who.role, role):
-        raise AuthFailure(403, f"this needs the {role} role; the token has {who.role}")
+        raise AuthFailure(403, f"this needs the {role} role; the token has {who.role}", who=who)
     return who
 
 
@@ -143,9 +186,11 @@ def check_session(state, session_id: str, method: str, headers, role: str, touch
                 403,
                 f"a change made with the session cookie needs the session's CSRF token in the {CSRF_HEADER} header "
                 "(POST /api/v1/session and GET /api/v1/session give it)",
+                who=who,
+                kind="csrf",
             )
     if not allows(who.role, role):
-        raise AuthFailure(403, f"this needs the {role} role; the user has {who.role}")
+        raise AuthFailure(403, f"this needs the {role} role; the user has {who.role}", who=who)
     if touch and headers.get(BACKGROUND_HEADER) is None:
         state.sessions.touch(s)
     return who
@@ -182,14 +227,18 @@ def require(role: str):
         state = request.app.state
         if credentials is not None:
             try:
-                return check_token(state, client_address(request), credentials.credentials, role)
+                request.state.identity = check_token(state, client_address(request), credentials.credentials, role)
+                return request.state.identity
             except AuthFailure as e:
+                remember(request, e)
                 raise http_failure(e) from e
         session_id = request.cookies.get(COOKIE)
         if session_id:
             try:
-                return check_session(state, session_id, request.method, request.headers, role)
+                request.state.identity = check_session(state, session_id, request.method, request.headers, role)
+                return request.state.identity
             except AuthFailure as e:
+                remember(request, e)
                 raise http_failure(e, clear_cookie=e.status == 401) from e
         wait = state.lockout.retry_after(client_address(request))
         if wait:
@@ -229,6 +278,7 @@ def audited(request: Request, who: Identity, action: str, target: str | None = N
         yield entry
     except AnyHTTPException as e:
         log.write(action, **common, **entry, result="error", status=e.status_code, detail=e.detail)
+        request.state.audited = True  # this line is the refusal's (no second one: audit_refusal)
         raise
     except Exception as e:
         log.write(action, **common, **entry, result="error", status=500, detail=f"{type(e).__name__}: {e}")

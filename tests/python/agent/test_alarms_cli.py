@@ -79,6 +79,7 @@ def test_ack_and_shelve_need_an_operator_and_say_what_they_did(agent, irpctl):
     code, out, _ = irpctl("operator", "unshelve", "ROBOT/3")
     assert (code, out) == (0, "ROBOT/3: active_acknowledged\n")
     assert [e["action"] for e in agent.audit()] == [
+        "refused",  # the viewer's ack: a role refusal
         "alarm_ack",
         "alarm_ack",
         "alarm_ack",

@@ -144,7 +144,7 @@ def test_names_that_could_be_paths_are_400_and_nothing_is_written(agent, elves, 
             "at most 4",
         ),
         ({**CONFIG, "capture": {**CONFIG["capture"], "trigger": {"kind": "sometime"}}}, "sometime"),
-        ({**CONFIG, "mode": "polar"}, "polar"),
+        ({**CONFIG, "mode": "polar"}, "'time' or 'xy'"),  # what is allowed; the value sent is never echoed
         ({"plotted": ["a"]}, "capture"),
         ([], "dict"),
     ],

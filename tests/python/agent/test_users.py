@@ -198,7 +198,11 @@ def test_a_session_cookie_is_refused_after_signing_out(users):
     r = users.client.get(f"{API}/sets", headers=as_cookie(sid))
     assert r.status_code == 401 and "session has ended" in r.json()["detail"]
     assert users.client.get(f"{API}/session", headers=as_cookie(sid)).json()["signed_in"] is False
-    assert [e["action"] for e in users.audit()[-2:]] == ["sign_in", "sign_out"]
+    assert [e["action"] for e in users.audit() if e["action"] != "refused"][-2:] == ["sign_in", "sign_out"]
+    assert [(e["kind"], e["status"]) for e in users.audit() if e["action"] == "refused"] == [
+        ("csrf", 403),
+        ("unauthenticated", 401),
+    ]
 
 
 def test_every_sign_in_draws_a_new_session_id_and_ends_the_one_the_browser_had(users):

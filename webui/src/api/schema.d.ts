@@ -8135,6 +8135,13 @@ export interface operations {
                 };
                 content?: never;
             };
+            /** @description the name is locked after wrong passwords (Retry-After) */
+            429: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
         };
     };
     user_tokens_api_v1_users__name__tokens_get: {

@@ -431,9 +431,13 @@ export class PlotPanel {
     chips.innerHTML = this.cfg.paths
       .map(
         (p, i) =>
-          `<span class="chip" data-testid="chip-${esc(p)}" title="${esc(p)}" style="border-color:${COLORS[i % COLORS.length]}">${esc(labels[i])}<button data-path="${esc(p)}" title="remove">×</button></span>`,
+          `<span class="chip" data-testid="chip-${esc(p)}" title="${esc(p)}">${esc(labels[i])}<button data-path="${esc(p)}" title="remove">×</button></span>`,
       )
       .join("");
+    // Each chip's colour set through the DOM: the page's Content-Security-Policy refuses style="" in markup.
+    chips.querySelectorAll<HTMLElement>(".chip").forEach((chip, i) => {
+      chip.style.borderColor = COLORS[i % COLORS.length];
+    });
     for (const b of chips.querySelectorAll<HTMLButtonElement>("button"))
       b.onclick = () => this.removePath(b.dataset.path!);
     const pick = this.el.querySelector<HTMLElement>(".xy-pick")!;

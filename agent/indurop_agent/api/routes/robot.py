@@ -33,12 +33,7 @@ router = APIRouter(tags=["robot"])
 COOKIE = "indurop_viewer"
 VIEWER = "/robot/viewer"
 MAX_MESSAGE_BYTES = 64 << 20  # viser sends a whole mesh in one message
-PAGE_HEADERS = {
-    "Cache-Control": "no-store",
-    "X-Content-Type-Options": "nosniff",
-    "Referrer-Policy": "no-referrer",
-    "Content-Security-Policy": "frame-ancestors 'self'",
-}
+PAGE_HEADERS = {"Cache-Control": "no-store"}  # the security headers: headers.py (VIEWER)
 CLOSE_UNAUTHENTICATED, CLOSE_FORBIDDEN, CLOSE_NO_VIEWER = 4401, 4403, 4404
 
 

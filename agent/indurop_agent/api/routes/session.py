@@ -22,7 +22,9 @@ from ..deps import (
     client_address,
     http_failure,
     locked_out_message,
-    note_lockout,
+    name_failed,
+    name_locked,
+    remember,
     session_identity,
 )
 from ..models import SessionState, SignIn
@@ -78,12 +80,8 @@ def refused_sign_in(request: Request, name: str) -> HTTPException:
     state = request.app.state
     address = client_address(request)
     state.audit.write("sign_in", who=None, client=address, target=name, result="error", status=401, detail=WRONG)
-    window = address_failed(state, address)
-    if state.name_lockout.failed(name):
-        name_window = int(state.name_lockout.window_s)
-        why = f"{state.name_lockout.attempts} wrong passwords"
-        note_lockout(state, name, address, f"user name {name!r}", name_window, why)
-        window = max(window, name_window)
+    request.state.audited = True  # this line is the refusal's
+    window = max(address_failed(state, address), name_failed(state, name, address))
     if window:
         return HTTPException(
             429, f"too many wrong passwords; try again in {window} s", headers={"Retry-After": str(window)}
@@ -109,9 +107,7 @@ def sign_in(body: SignIn, request: Request, response: Response) -> SessionState:
         raise HTTPException(429, locked_out_message(address, wait), headers={"Retry-After": str(wait)})
     wait = state.name_lockout.retry_after(body.name)
     if wait:  # even the right password: a guess that happens to be right must not get through
-        raise HTTPException(
-            429, f"this user name is locked for {wait} s after wrong passwords", headers={"Retry-After": str(wait)}
-        )
+        raise name_locked(wait)
     slots = hash_slot(request)
     try:
         user = state.users.verify(body.name, body.password)
@@ -164,6 +160,7 @@ def sign_out(request: Request, response: Response) -> None:
     except AuthFailure as e:
         if e.status == 401:
             return  # already ended
+        remember(request, e)
         raise http_failure(e) from e
     state.sessions.end(session_id)
     state.audit.write("sign_out", who=who.as_dict(), client=client_address(request), target=who.name, result="ok")

@@ -11,7 +11,7 @@ from fastapi import APIRouter, HTTPException, Path, Request
 
 from ...auth import allows
 from ...users import User, UserError
-from ..deps import AdminDep, ViewerDep, audited
+from ..deps import AdminDep, ViewerDep, audited, client_address, name_failed, name_locked
 from ..models import PasswordChange, UserCreate, UserPublic, UserUpdate
 from .session import hash_slot
 from .tokens import TokenInfo
@@ -109,7 +109,11 @@ def change_user(body: UserUpdate, request: Request, who: AdminDep, name: NamePar
     "/users/{name}/password",
     status_code=204,
     response_model=None,
-    responses={**MISSING, 422: {"description": "a password the rules refuse, or a wrong current_password"}},
+    responses={
+        **MISSING,
+        422: {"description": "a password the rules refuse, or a wrong current_password"},
+        429: {"description": "the name is locked after wrong passwords (Retry-After)"},
+    },
 )
 def change_password(body: PasswordChange, request: Request, who: ViewerDep, name: NameParam) -> None:
     """A user's own new password (with current_password; their other sessions end), or an admin's
@@ -124,13 +128,15 @@ def change_password(body: PasswordChange, request: Request, who: ViewerDep, name
         if own:
             wait = state.name_lockout.retry_after(name)
             if wait:
-                raise HTTPException(429, f"this user name is locked for {wait} s after wrong passwords")
+                raise name_locked(wait)
         slots = hash_slot(request)
         try:
             state.users.set_password(name, body.password, current=body.current_password if own else None)
         except UserError as e:
-            if e.field == "current_password":
-                state.name_lockout.failed(name)  # guessing through a session left open counts too
+            if e.field == "current_password":  # guessing through a session left open counts too
+                window = name_failed(state, name, client_address(request))
+                if window:
+                    raise name_locked(window) from None
             raise refused(e) from None
         finally:
             slots.release()
