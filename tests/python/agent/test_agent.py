@@ -177,6 +177,10 @@ def test_every_route_of_the_api_is_in_the_role_matrix(cell):
         ("GET", "/robot/urdf"),
         ("PUT", "/robot/joints"),
         ("POST", "/alarms/{key}/ack"),  # test_alarms_api.py
+        ("POST", "/alarms/{key}/confirm"),
+        ("GET", "/opcua/alarms"),  # tests/python/opcua/test_opcua_alarm_ack.py: the server's token only
+        ("POST", "/opcua/alarms/{key}/ack"),
+        ("POST", "/opcua/alarms/{key}/confirm"),
         ("POST", "/alarms/{key}/shelve"),
         ("POST", "/alarms/{key}/unshelve"),
         ("POST", "/session"),  # test_users.py: sessions, and their role matrix

@@ -63,6 +63,30 @@ def test_acknowledgement_by_a_viewer_is_refused_and_by_an_operator_audited(agent
     assert history[0]["who"]["name"] == "test-operator"
 
 
+def test_confirmation_needs_an_acknowledgement_and_an_operator_and_is_audited(agent):
+    """POST /alarms/{key}/confirm (OPC UA's Confirm over REST): 409 before the acknowledgement,
+    403 for a viewer, then held with who confirmed, without changing the state; once only."""
+    raise_plc8(agent)
+    r = post(agent, "/alarms/PLC/8/confirm", "operator")
+    assert r.status_code == 409 and "acknowledge it first" in r.json()["detail"], r.text
+    assert post(agent, "/alarms/PLC/8/ack", "operator").status_code == 200
+    r = post(agent, "/alarms/PLC/8/confirm", "viewer")
+    assert r.status_code == 403 and "needs the operator role" in r.json()["detail"], r.text
+    r = post(agent, "/alarms/PLC%2F8/confirm", "operator")
+    assert r.status_code == 200, r.text
+    alarm = r.json()
+    assert alarm["confirmed"] is True and alarm["confirmed_by"]["name"] == "test-operator"
+    assert alarm["state"] == "active_acknowledged"
+    assert post(agent, "/alarms/PLC/8/confirm", "operator").status_code == 409  # confirmed already
+    lines = agent.audit()
+    done = [(e["result"], e["who"]["role"]) for e in lines if e["action"] == "alarm_confirm"]
+    assert done == [("error", "operator"), ("ok", "operator"), ("error", "operator")], done
+    refused = [e for e in lines if e["action"] == "refused" and "/confirm" in e["target"]]
+    assert [(e["kind"], e["who"]["role"]) for e in refused] == [("forbidden", "viewer")], refused
+    events = [t["event"] for t in reversed(get(agent, "/alarms/history")["transitions"])]
+    assert events == ["raise", "acknowledge", "confirm"]
+
+
 def test_shelving_needs_an_operator_is_audited_and_comes_back_on_unshelve(agent):
     raise_plc8(agent)
     body = {"minutes": 30, "reason": "drive swapped, commissioning"}

@@ -911,6 +911,7 @@ def test_after_the_battery_nothing_was_written_outside_the_data_dir_no_5xx_and_i
         "alarms.sqlite3-shm",
         "recordings",  # the recorder's folder (docs/recorder.md)
         "captures",  # the triggered captures' shots and captures.json (docs/recorder.md)
+        "opcua-token",  # the OPC UA server's credential at the agent, made at its start (docs/opcua.md)
     }
     assert outside == set(), outside
     for line in audit_lines(battery):
