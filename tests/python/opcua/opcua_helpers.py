@@ -166,6 +166,23 @@ class Controller:
         stop(self.irpd)
 
 
+# Leaves that are measurements, not state: a cycle's I/O time takes a few values in turn, so it can
+# read the same before and after an OPC UA read and another value during it.
+MEASURED = ("PLC_ROBOT.IO_STATUS.last_cycle_us",)
+
+
+def compare_held_leaves(read: list[tuple[str, object]], before: dict, after: dict) -> None:
+    """Checks each (leaf, value) an OPC UA client read against GET /variables of before and after
+    the read, where the two agree (the leaf held still) and it is not MEASURED; at least half the
+    leaves must be compared."""
+    compared = 0
+    for leaf, v in read:
+        if before[leaf] == after[leaf] and leaf not in MEASURED:
+            assert v == before[leaf], (leaf, v, before[leaf])
+            compared += 1
+    assert compared >= len(before) // 2, f"only {compared} of {len(before)} leaves held still"
+
+
 def tamper(c: Client, named: bytes | None, signature: bytes | None) -> None:
     """What a client with another stack could send: CreateSession naming the certificate `named`
     (b"": none) rather than its channel's, ActivateSession signed with `signature`."""
