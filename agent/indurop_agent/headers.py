@@ -29,10 +29,12 @@ UI = {
     "frame-ancestors": "'none'",
 }
 # The viewers' pages (viser's, meshcat's) are third-party builds: inline scripts and styles, WebAssembly,
-# workers and blobs; still nothing from another host, and framed only by this origin's web UI.
+# workers and blobs, and string evaluation (viser's WebAssembly sorter is Emscripten code whose
+# bindings are made with `new Function` when its client starts; without 'unsafe-eval' that throws in
+# the page); still nothing from another host, and framed only by this origin's web UI.
 VIEWER = {
     **UI,
-    "script-src": "'self' 'unsafe-inline' 'wasm-unsafe-eval' blob:",
+    "script-src": "'self' 'unsafe-inline' 'unsafe-eval' 'wasm-unsafe-eval' blob:",
     "style-src": "'self' 'unsafe-inline'",
     "img-src": "'self' data: blob:",
     "font-src": "'self' data:",

@@ -25,6 +25,10 @@ test("no page of the web UI is refused anything by its Content-Security-Policy",
   page.on("console", (m) => {
     if (/Content Security Policy|Refused to/i.test(m.text())) refused.push(`${page.url()}: ${m.text()}`);
   });
+  // a refused `new Function` or eval is thrown, not logged: an uncaught error of the page or a frame
+  page.on("pageerror", (e) => {
+    if (/Content Security Policy/i.test(e.message)) refused.push(`${page.url()}: uncaught: ${e.message}`);
+  });
   await signIn(page, "admin");
   for (const hash of PAGES) {
     await page.goto(`${server().url}/${hash}`);
@@ -44,6 +48,9 @@ test("the meshcat 3D view runs in its frame without a refusal", async ({ page })
   const refused: string[] = [];
   page.on("console", (m) => {
     if (/Content Security Policy|Refused to/i.test(m.text())) refused.push(m.text());
+  });
+  page.on("pageerror", (e) => {
+    if (/Content Security Policy/i.test(e.message)) refused.push(`uncaught: ${e.message}`);
   });
   await signIn(page, "viewer", "#/robot", server().meshcat);
   await expect(page.frameLocator("[data-testid=robot-viewer]").locator("canvas").first()).toBeVisible({
