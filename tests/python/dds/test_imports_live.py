@@ -372,8 +372,15 @@ def test_an_unknown_source_stays_stale_and_a_mismatch_is_counted_never_written(l
     wait_until(lambda: fresh(b), 60)
     assert b.read(V + "unknown_stale") is True and b.read(V + "unknown") == 42
     assert b.read(V + "wrong_stale") is True and b.read(V + "wrong") == -5
-    wrong = peer.status(f"{B}: import {V}wrong")
-    assert "exports SHARE.count as uint32" in wrong["message"] and wrong["level"] == 1, wrong
+
+    def mismatch_said():
+        """B's diagnostics name the mismatch of the import 'wrong' (the status taken may be one
+        published before B's first sample of it: 'no sample yet')"""
+        status = peer.status(f"{B}: import {V}wrong")
+        return status if "exports SHARE.count as uint32" in status["message"] else None
+
+    wrong = wait_until(mismatch_said, 30)
+    assert wrong["level"] == 1, wrong
     assert int(wrong["mismatched"]) > 0 and int(wrong["written"]) == 0
     unknown = peer.status(f"{B}: import {V}unknown")
     assert unknown["message"] == "no sample yet" and int(unknown["received"]) == 0
