@@ -82,6 +82,9 @@ class OpcuaTrustChange(BaseModel):
     detail: str
 
 
+MAX_COMMENT = 1000  # characters of an Acknowledge's or Confirm's comment (the server cuts longer ones)
+
+
 class OpcuaAlarmAction(BaseModel):
     """An OPC UA session's Acknowledge or Confirm, sent by the OPC UA server with its own credential
     (<data>/opcua-token) on behalf of the session's user (docs/opcua.md "Alarms")."""
@@ -94,4 +97,4 @@ class OpcuaAlarmAction(BaseModel):
     role: str = Field(max_length=20, description="the role the server gave the session")
     session: str = Field(max_length=100, description="the server's session id (opcua-session-N)")
     client: str = Field(max_length=200, description="the OPC UA client's address")
-    comment: str = Field("", max_length=1000, description="the method's Comment: the history row's note")
+    comment: str = Field("", max_length=MAX_COMMENT, description="the method's Comment: the history row's note")

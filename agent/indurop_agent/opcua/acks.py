@@ -19,6 +19,7 @@ from urllib.parse import quote
 import httpx
 from asyncua import ua
 
+from ..api.opcua_models import MAX_COMMENT
 from .link import read_token
 from .settings import OpcuaSettings
 
@@ -78,7 +79,7 @@ class AgentAlarms:
             "role": getattr(user, "agent_role", "viewer"),
             "session": f"opcua-session-{session.session_id.Identifier}",
             "client": str(peer[0]),
-            "comment": comment[:1000],
+            "comment": comment[:MAX_COMMENT],
         }
         try:
             r = await self.client.post(

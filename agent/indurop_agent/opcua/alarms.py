@@ -45,6 +45,11 @@ ACK_POLL_S = 1.0  # how often the agent is asked the alarms' acknowledgement
 RECENT_EVENTS = 16  # EventIds of a condition that Acknowledge and Confirm accept
 
 
+def agent_state(alarm: dict) -> tuple[bool, bool]:
+    """(acknowledged, confirmed) of an alarm as the agent answers it (AlarmPublic)."""
+    return alarm["acknowledged"], alarm["confirmed"]
+
+
 @dataclass
 class Condition:
     """A retained condition (active, or not acknowledged) and what its next event repeats."""
@@ -140,7 +145,7 @@ class AlarmEvents:
             await self._emit(module, id_, False, None, now, "the controller restarted")
         for module, id_ in sorted(active - set(self.retained)):
             held = (self.agent_states or {}).get(f"{module}/{id_}")
-            states = (held["acknowledged"], held["confirmed"]) if held else (False, False)
+            states = agent_state(held) if held else (False, False)
             await self._emit(module, id_, True, None, now, "active when the server attached", states)
 
     async def step(self) -> None:
@@ -213,7 +218,7 @@ class AlarmEvents:
             held = self.agent_states.get(c.key)
             if held is None and c.active:
                 continue  # the agent has not read the raise yet
-            states = (held["acknowledged"], held["confirmed"]) if held else (True, True)  # else: normal there
+            states = agent_state(held) if held else (True, True)  # else: normal there
             if states != (c.acked, c.confirmed):
                 await self._emit(c.module, c.id, c.active, c.severity, now, c.detail, states)
 
@@ -240,7 +245,7 @@ class AlarmEvents:
             status = ua.StatusCodes.BadInvalidState  # the agent's 409: not acknowledged yet
         if alarm is not None:
             by = (getattr(session.user, "name", "") or "", comment or "")
-            states = (alarm["acknowledged"], alarm["confirmed"])
+            states = agent_state(alarm)
             await self._emit(c.module, c.id, c.active, c.severity, datetime.now(UTC), c.detail, states, by)
         return answer(status)
 
