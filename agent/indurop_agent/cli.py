@@ -20,8 +20,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .cli_alarms import cmd_ack, cmd_alarms, cmd_events, cmd_shelve, parse_time
-from .cli_base import EXIT_OK, EXIT_REFUSED, EXIT_UNREACHABLE, EXIT_USAGE, arg
+from .cli_alarms import cmd_ack, cmd_alarms, cmd_events, cmd_shelve
+from .cli_base import EXIT_OK, EXIT_REFUSED, EXIT_UNREACHABLE, EXIT_USAGE, arg, parse_time
 from .cli_capture import CAPTURE_COMMANDS
 from .cli_line import LINE_COMMANDS
 from .cli_opcua import OPCUA_COMMANDS

@@ -1,15 +1,13 @@
 """cli_alarms.py -- `irpctl events`, `alarms`, `ack` and `shelve`: irpd's and the agent's event log,
 the alarms that need attention and their history, followed as they come; acknowledging and shelving
 (GET /events, GET /alarms[/history], POST /alarms/{key}/ack|shelve; docs/irpctl.md, docs/alarms.md).
-cli.py puts these commands in its table; parse_time is the history's time filter."""
+cli.py puts these commands in its table."""
 
 from __future__ import annotations
 
 import json
-import re
 import sys
 import time
-from datetime import UTC, datetime, timedelta
 from typing import Any
 
 from .cli_base import EXIT_OK, EXIT_USAGE
@@ -126,23 +124,3 @@ def cmd_shelve(c: Client, a, out: Out) -> int:
     shelved = c.shelve(a.key, a.minutes, a.reason)
     out.show(shelved, lambda x: f"{x['key']}: shelved until {x['shelved_until']} ({x['shelve_reason']})")
     return EXIT_OK
-
-
-_AGO = re.compile(r"(\d+(?:\.\d*)?)\s*(s|m|min|h|d)")
-
-
-def parse_time(text: str) -> str:
-    """A time for the history's filters: ISO 8601 (UTC without a zone), or how long ago (30m, 2h, 1d)."""
-    ago = _AGO.fullmatch(text.strip())
-    if ago:
-        unit = {"s": 1, "m": 60, "min": 60, "h": 3600, "d": 86400}[ago.group(2)]
-        t = datetime.now(UTC) - timedelta(seconds=float(ago.group(1)) * unit)
-    else:
-        try:
-            t = datetime.fromisoformat(text.strip())
-        except ValueError:
-            raise ValueError(
-                f"'{text}' is not a time: give ISO 8601 (2026-01-31T08:00, UTC without a zone) or how long ago (30m, 2h, 1d)"
-            ) from None
-        t = t if t.tzinfo else t.replace(tzinfo=UTC)
-    return t.astimezone(UTC).isoformat().replace("+00:00", "Z")

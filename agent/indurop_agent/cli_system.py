@@ -8,13 +8,11 @@ import argparse
 import sys
 from typing import Any
 
-from .cli_base import EXIT_OK, arg
+from .cli_base import EXIT_OK, arg, parse_time
 from .cli_text import _size, _uptime, pairs, sets_text, table
 
 
 def _since(text: str) -> str:
-    from .cli import parse_time  # cli.py imports this module
-
     try:
         return parse_time(text)
     except ValueError as e:

@@ -29,6 +29,7 @@ from urllib.parse import quote, urlsplit, urlunsplit
 
 import httpx
 
+from .client_errors import ApiError, detail
 from .client_record import RecordCalls
 from .client_system import LONG_TIMEOUT_S, SystemCalls
 from .stream_frame import HEADER_SIZE, KIND_SAMPLES, MAGIC, VERSION, Frame, decode, encode, kind
@@ -38,21 +39,6 @@ API = "/api/v1"
 # The stream's binary frame (docs/trace-and-stream.md §4): coded once, in stream_frame.py.
 FRAME_MAGIC, FRAME_VERSION, FRAME_SAMPLES = MAGIC, VERSION, KIND_SAMPLES
 FRAME_HEADER_SIZE = HEADER_SIZE
-
-
-class ApiError(Exception):
-    """The API refused a request (status = the HTTP status, message = the server's `detail`), or
-    could not be reached at all (status 0)."""
-
-    def __init__(self, status: int, message: str):
-        super().__init__(f"{status}: {message}" if status else message)
-        self.status = status
-        self.message = message
-
-    @property
-    def unreachable(self) -> bool:
-        """No answer from the agent, or the agent cannot reach irpd (503)."""
-        return self.status in (0, 503)
 
 
 def decode_frame(data) -> Frame:
@@ -76,19 +62,6 @@ def _typed(value: float, type_name: str):
     if t in _FLOAT_TYPES or not float(value).is_integer():
         return value
     return int(value)
-
-
-def _detail(response: httpx.Response) -> str:
-    try:
-        body = response.json()
-    except ValueError:
-        body = None
-    detail = body.get("detail") if isinstance(body, dict) else None
-    if isinstance(detail, list):  # FastAPI's 422: one entry per field
-        return "; ".join(f"{'.'.join(str(p) for p in e.get('loc', []))}: {e.get('msg', e)}" for e in detail)
-    if detail is None:
-        return response.text.strip() or response.reason_phrase
-    return detail if isinstance(detail, str) else json.dumps(detail)
 
 
 def _archive_name(path: Path) -> bool:
@@ -147,7 +120,7 @@ class Client(SystemCalls, RecordCalls):
         except httpx.HTTPError as e:
             raise ApiError(0, f"cannot reach the agent at {self.url}: {e}") from e
         if r.status_code >= 400:
-            raise ApiError(r.status_code, _detail(r))
+            raise ApiError(r.status_code, detail(r))
         return r
 
     def request(self, method: str, path: str, *, timeout: float | None = None, **kwargs) -> Any:
@@ -171,7 +144,7 @@ class Client(SystemCalls, RecordCalls):
             with self._http.stream("GET", path, params=params, timeout=httpx.Timeout(LONG_TIMEOUT_S)) as r:
                 if r.status_code >= 400:
                     r.read()
-                    raise ApiError(r.status_code, _detail(r))
+                    raise ApiError(r.status_code, detail(r))
                 named = re.search(r'filename="?([^";]+)"?', r.headers.get("content-disposition", ""))
                 name = os.path.basename(named.group(1)) if named else default
                 out = Path(target) if target is not None else Path(name)

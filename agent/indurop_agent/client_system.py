@@ -11,6 +11,8 @@ from pathlib import Path
 
 import httpx
 
+from .client_errors import ApiError, detail
+
 # A restore or a backup of a large store, or irpd's restart, takes longer than one ordinary call.
 LONG_TIMEOUT_S = 600.0  # a backup, a restore, an export of a long recording: made while sent
 
@@ -39,15 +41,13 @@ class SystemCalls:
     ) -> Iterator[dict]:
         """The log live: the last `lines` matching lines, then each new one, until the caller stops."""
         params = {k: v for k, v in (("lines", lines), ("grep", grep), ("since", since)) if v is not None}
-        from .client import ApiError, _detail  # the client's error type (client.py imports this module)
-
         try:
             with self._http.stream(
                 "GET", f"/system/logs/{log}/follow", params=params, timeout=httpx.Timeout(self.timeout, read=None)
             ) as r:
                 if r.status_code >= 400:
                     r.read()
-                    raise ApiError(r.status_code, _detail(r))
+                    raise ApiError(r.status_code, detail(r))
                 for raw in r.iter_lines():
                     if raw.strip():
                         yield json.loads(raw)

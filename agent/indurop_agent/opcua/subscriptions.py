@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from asyncua import ua
 from asyncua.common.utils import ServiceError
@@ -30,10 +30,23 @@ from .sampling import Item
 from .values import index_range
 
 if TYPE_CHECKING:
-    from .server import Runtime
+    from .address_space import Space
+    from .sampling import Sampler
+    from .settings import OpcuaSettings
 
 OVERFLOW = 0x0480  # InfoType DataValue (0x400) | Overflow (0x80): a value was discarded before this one
 HANDLES = itertools.count(1 << 40)  # the Sampler's handles, apart from the address space's
+
+
+class Runtime(Protocol):
+    """What the subscriptions take from the server's parts (server.py's Runtime has them): the
+    settings' bounds, the Sampler that feeds shared variables, the nodes of those variables, and
+    the service itself, whose counts bound a session's monitored items."""
+
+    settings: OpcuaSettings
+    sampler: Sampler
+    space: Space
+    subscriptions: Subscriptions
 
 
 class Subscriptions(SubscriptionService):

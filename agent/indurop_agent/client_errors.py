@@ -1,0 +1,37 @@
+"""client_errors.py -- the Python client's one error, ApiError, and how a refusal's `detail` becomes
+its message; client.py and its parts (client_system.py, client_record.py) raise it."""
+
+from __future__ import annotations
+
+import json
+
+import httpx
+
+
+class ApiError(Exception):
+    """The API refused a request (status = the HTTP status, message = the server's `detail`), or
+    could not be reached at all (status 0)."""
+
+    def __init__(self, status: int, message: str):
+        super().__init__(f"{status}: {message}" if status else message)
+        self.status = status
+        self.message = message
+
+    @property
+    def unreachable(self) -> bool:
+        """No answer from the agent, or the agent cannot reach irpd (503)."""
+        return self.status in (0, 503)
+
+
+def detail(response: httpx.Response) -> str:
+    """The server's `detail` of a refusal, as text."""
+    try:
+        body = response.json()
+    except ValueError:
+        body = None
+    said = body.get("detail") if isinstance(body, dict) else None
+    if isinstance(said, list):  # FastAPI's 422: one entry per field
+        return "; ".join(f"{'.'.join(str(p) for p in e.get('loc', []))}: {e.get('msg', e)}" for e in said)
+    if said is None:
+        return response.text.strip() or response.reason_phrase
+    return said if isinstance(said, str) else json.dumps(said)
