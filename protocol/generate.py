@@ -2,7 +2,7 @@
 """generate.py -- writes everything generated from protocol/control.json, the control protocol's
 one description: irpd's limits and command table (rtcore/src/protocol/limits.hpp,
 command_table.hpp), the agent's request types, models of irpd's answers and limits
-(agent/indurop_agent/protocol.py), the web UI's limits (webui/src/api/protocol.ts) and the tables
+(agent/indurop_agent/irpd/protocol.py), the web UI's limits (webui/src/api/protocol.ts) and the tables
 of docs/control-protocol.md (between its "generated" markers).
 
     python3 protocol/generate.py           # rewrites the files that changed
@@ -30,7 +30,7 @@ SPEC = ROOT / "protocol" / "control.json"
 COMMAND = "python3 protocol/generate.py"
 CPP_LIMITS = "rtcore/src/protocol/limits.hpp"
 CPP_COMMANDS = "rtcore/src/protocol/command_table.hpp"
-PYTHON = "agent/indurop_agent/protocol.py"
+PYTHON = "agent/indurop_agent/irpd/protocol.py"
 TYPESCRIPT = "webui/src/api/protocol.ts"
 DOCS = "docs/control-protocol.md"
 INT64_MAX = 2**63 - 1

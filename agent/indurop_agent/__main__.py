@@ -8,8 +8,10 @@ import sys
 
 import uvicorn
 
-from . import config, memtrace, server
-from .app import create_app
+from . import config
+from .api import server
+from .api.app import create_app
+from .system import memtrace
 
 GRACEFUL_STOP_S = 5
 STARTUP_FAILURE = 3  # as uvicorn.run exits when the server did not start

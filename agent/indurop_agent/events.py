@@ -8,7 +8,7 @@ import threading
 import time
 from collections import deque
 
-from .auth import now_iso
+from .access.auth import now_iso
 
 
 class AgentEvents:

@@ -2,9 +2,9 @@
 """generate.py -- writes what follows from irpd's description of its shared-memory segments
 (`irpd --print-shm-layout`, made from the C structs by rtcore/src/shm/):
 
-  agent/indurop_agent/shm_layout.json   the description itself, which the agent's readers take
-                                        every offset from (shm_layout.py)
-  docs/shared-memory.md                 the segments' field tables, between its "generated" markers
+  agent/indurop_agent/irpd/shm_layout.json   the description itself, which the agent's readers take
+                                             every offset from (irpd/shm_layout.py)
+  docs/shared-memory.md                      the segments' field tables, between its "generated" markers
 
     ninja -C build shm-layout                                  # builds irpd, then runs this
     python3 protocol/shm/generate.py --irpd build/bin/irpd     # the same, irpd already built
@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "protocol"))
 from generated_files import write_or_check  # noqa: E402
 
-DESCRIPTION = ROOT / "agent" / "indurop_agent" / "shm_layout.json"
+DESCRIPTION = ROOT / "agent" / "indurop_agent" / "irpd" / "shm_layout.json"
 DOC = ROOT / "docs" / "shared-memory.md"
 COMMAND = "ninja -C build shm-layout"
 DOC_BEGIN = "<!-- segments: generated from `irpd --print-shm-layout` by protocol/shm/generate.py; do not edit -->"

@@ -2,11 +2,11 @@
 """generate.py -- writes everything that follows from protocol/stream/frame.json, the one description
 of the stream's binary frame (WebSocket /api/v1/stream):
 
-  agent/indurop_agent/stream_frame_spec.py   constants of the Python encoder and decoder
-  webui/src/stream/frame_spec.ts             constants of the TypeScript decoder
-  protocol/stream/vectors.json               frames and what they decode to (or why they are refused),
-                                             decoded by the Python and the TypeScript tests
-  docs/trace-and-stream.md                   the frame's table, between its "generated" markers
+  agent/indurop_agent/api/stream_frame_spec.py   constants of the Python encoder and decoder
+  webui/src/stream/frame_spec.ts                 constants of the TypeScript decoder
+  protocol/stream/vectors.json                   frames and what they decode to (or why they are refused),
+                                                 decoded by the Python and the TypeScript tests
+  docs/trace-and-stream.md                       the frame's table, between its "generated" markers
 
     python3 protocol/stream/generate.py           # rewrite them
     python3 protocol/stream/generate.py --check   # exit 1 naming the stale ones (the tests run this)
@@ -29,7 +29,7 @@ sys.path.insert(0, str(ROOT / "protocol"))
 from generated_files import write_or_check  # noqa: E402
 
 SPEC = ROOT / "protocol" / "stream" / "frame.json"
-PYTHON = ROOT / "agent" / "indurop_agent" / "stream_frame_spec.py"
+PYTHON = ROOT / "agent" / "indurop_agent" / "api" / "stream_frame_spec.py"
 TYPESCRIPT = ROOT / "webui" / "src" / "stream" / "frame_spec.ts"
 VECTORS = ROOT / "protocol" / "stream" / "vectors.json"
 DOC = ROOT / "docs" / "trace-and-stream.md"

@@ -37,7 +37,7 @@ REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "tests" / "bench"))
 sys.path.insert(0, str(REPO / "agent"))
 
-from indurop_agent.irpd_client import IrpdClient  # noqa: E402  (the control socket, as the agent speaks it)
+from indurop_agent.irpd.client import IrpdClient  # noqa: E402  (the control socket, as the agent speaks it)
 
 
 def free_port() -> int:
@@ -207,7 +207,7 @@ class Clients:
     """Load on the agent while one irpd phase runs: stream clients and/or a query hammer."""
 
     def __init__(self, url: str, token: str, paths: list[str], cpu: int):
-        from indurop_agent.client import Client
+        from indurop_agent.cli.client import Client
 
         self.Client, self.url, self.token, self.paths, self.cpu = Client, url, token, paths, cpu
         self.stop = threading.Event()
@@ -276,7 +276,7 @@ def run_phase(
 ) -> dict:
     stats = work / f"{name}.json"
     irpd = start_irpd(a, a.fig1, sock, stats, f"bench-agent-{os.getpid()}", ["--duration", str(a.seconds + 3)])
-    from indurop_agent.client import Client
+    from indurop_agent.cli.client import Client
 
     client = Client(agent_url, token)
     deadline = time.monotonic() + 20
@@ -334,7 +334,7 @@ def run_agent_phases(a, work: Path) -> list[dict]:
     )
     url = f"http://127.0.0.1:{port}"
     try:
-        from indurop_agent.client import Client
+        from indurop_agent.cli.client import Client
 
         deadline = time.monotonic() + 30
         while True:

@@ -34,7 +34,7 @@ from cyclonedds.topic import Topic  # noqa: E402
 from indurop_agent.dds import ros2_types  # noqa: E402
 from indurop_agent.dds.bridge import QOS  # noqa: E402
 from indurop_agent.dds.settings import BridgeSettings, cyclone_config  # noqa: E402
-from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
+from indurop_agent.irpd.client import IrpdClient, IrpdRefused  # noqa: E402
 from live_processes import copy_cell, start_bridge, start_irpd, stop, wait_dispatching  # noqa: E402
 
 BASIC_NS = 1_000_000

@@ -37,9 +37,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests" / "python"))
 sys.path.insert(0, str(ROOT / "agent"))
-from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
-from indurop_agent.trace import TraceRing  # noqa: E402
-from indurop_agent.variables import Segment  # noqa: E402
+from indurop_agent.irpd.client import IrpdClient, IrpdRefused  # noqa: E402
+from indurop_agent.irpd.trace import TraceRing  # noqa: E402
+from indurop_agent.irpd.variables import Segment  # noqa: E402
 from live_processes import BUILD, dispatching, start_bridge, start_irpd, stop, wait_until  # noqa: E402
 
 SET = BUILD / "sets" / "dds-share"

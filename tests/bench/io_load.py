@@ -43,7 +43,7 @@ from live_processes import BUILD, ROOT  # noqa: E402
 from rtbench.cyclictest import parse_cyclictest_hist  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "agent"))
-from indurop_agent.variables import Segment  # noqa: E402
+from indurop_agent.irpd.variables import Segment  # noqa: E402
 
 NS = "PLC_ROBOT."
 JOINTS = [f"{NS}ROBOT_MODULE_STATE.dCurJoint[{i}]" for i in range(6)]

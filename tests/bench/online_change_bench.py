@@ -30,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "python"))
 from live_processes import BUILD, ROOT, start_irpd  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "agent"))
-from indurop_agent.irpd_client import IrpdClient  # noqa: E402
+from indurop_agent.irpd.client import IrpdClient  # noqa: E402
 
 GLBC = ROOT / "glb" / "glbc"
 V1 = ROOT / "tests" / "cpp" / "online" / "v1.glb"

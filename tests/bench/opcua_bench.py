@@ -37,7 +37,7 @@ import httpx  # noqa: E402
 from asyncua import Client, ua  # noqa: E402
 from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256  # noqa: E402
 from dds_bench import wakeup_p99  # noqa: E402
-from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
+from indurop_agent.irpd.client import IrpdClient, IrpdRefused  # noqa: E402
 from live_processes import copy_cell, free_port, start_agent, start_irpd, start_opcua, stop, wait_dispatching  # noqa: E402
 from opcua_helpers import NAMESPACE, make_client_certificate  # noqa: E402
 from recorder_bench import ProcessSampler  # noqa: E402

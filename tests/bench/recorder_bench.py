@@ -34,7 +34,7 @@ sys.path.insert(0, str(ROOT / "agent"))
 sys.path.insert(0, str(ROOT / "tests" / "bench"))
 import httpx  # noqa: E402
 from dds_bench import wakeup_p99  # noqa: E402
-from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
+from indurop_agent.irpd.client import IrpdClient, IrpdRefused  # noqa: E402
 from indurop_agent.recorder import mcap_read  # noqa: E402
 from indurop_agent.recorder.mcap_out import McapOut, Variable  # noqa: E402
 from live_processes import BUILD, free_port, start_agent, start_irpd, stop, wait_dispatching  # noqa: E402

@@ -23,7 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "python"))
 from live_processes import ROOT, copy_cell, start_irpd  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "agent"))
-from indurop_agent.irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable  # noqa: E402
+from indurop_agent.irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable  # noqa: E402
 
 
 def percentile(values: list[float], q: float) -> float:

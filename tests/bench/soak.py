@@ -42,7 +42,7 @@ sys.path.insert(0, str(REPO / "tests" / "python"))
 sys.path.insert(0, str(REPO / "agent"))
 
 import live_processes  # noqa: E402  (copy_cell, start_irpd, stop: as the cell's tests run it)
-from indurop_agent.client import Client  # noqa: E402
+from indurop_agent.cli.client import Client  # noqa: E402
 
 STREAMED = [f"PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[{i}]" for i in range(6)] + [
     "PLC_ROBOT.PLC_OUT.Step",
@@ -532,7 +532,7 @@ def main() -> int:
 
 def agent_memory_growth(folder: Path, rss: list[tuple[float, int]], from_min: float) -> dict:
     """The two snapshots' comparison (memtrace.growth) beside the RSS growth over the same span."""
-    from indurop_agent import memtrace
+    from indurop_agent.system import memtrace
 
     deadline = time.monotonic() + 120  # a snapshot of a big heap takes a while
     while len(snaps := sorted(folder.glob("*.snap"), key=lambda p: int(p.stem.rsplit("-", 1)[1]))) < 2:

@@ -1,6 +1,6 @@
 // test_shm_layout.cpp -- irpd's description of its shared-memory segments (rtcore/src/shm/): the
 // completeness check catches an undescribed member, the description agrees with the structs and
-// constants irpd compiles, and the agent's copy (agent/indurop_agent/shm_layout.json) is current.
+// constants irpd compiles, and the agent's copy (agent/indurop_agent/irpd/shm_layout.json) is current.
 #include "shm/layout_json.hpp"
 #include "stats/stats_block.hpp"
 
@@ -132,7 +132,7 @@ TEST(ShmLayout, EverySegmentFollowsTheOneConvention) {
 // The staleness test of the agent's copy: irpd's description changed (a field added, moved,
 // retyped or described otherwise) and the copy was not rewritten.
 TEST(ShmLayout, TheAgentsCopyIsIrpdsDescription) {
-    const std::string path = std::string(SOURCE_ROOT) + "/agent/indurop_agent/shm_layout.json";
+    const std::string path = std::string(SOURCE_ROOT) + "/agent/indurop_agent/irpd/shm_layout.json";
     std::ifstream in(path);
     ASSERT_TRUE(in) << path << " is missing: run `ninja -C build shm-layout`";
     std::stringstream text;

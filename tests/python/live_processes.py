@@ -17,7 +17,7 @@ import httpx
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "agent"))
-from indurop_agent.irpd_client import IrpdRefused  # noqa: E402
+from indurop_agent.irpd.client import IrpdRefused  # noqa: E402
 
 BUILD = Path(os.environ.get("INDUROP_BUILD", ROOT / "build"))
 IRPD = BUILD / "bin" / "irpd"

@@ -8,7 +8,7 @@ from pathlib import Path
 # the agent of this tree, not whichever one the venv installed (a worktree shares main's venv)
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "agent"))
 
-from indurop_agent.app import create_app
+from indurop_agent.api.app import create_app
 from indurop_agent.config import Settings
 
 with tempfile.TemporaryDirectory() as data:

@@ -22,7 +22,7 @@ from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
-from .files import write_json
+from ..files import write_json
 
 ROLES = ("viewer", "operator", "admin")
 ID_LENGTH = 12

@@ -23,7 +23,7 @@ import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
-from .files import write_json
+from ..files import write_json
 
 COOKIE = "indurop_session"
 CSRF_HEADER = "X-CSRF-Token"

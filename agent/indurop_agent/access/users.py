@@ -21,8 +21,8 @@ from pathlib import Path
 from argon2 import PasswordHasher
 from argon2.exceptions import InvalidHashError, VerificationError, VerifyMismatchError
 
+from ..files import write_json
 from .auth import ROLES, now_iso
-from .files import write_json
 
 NAME_PATTERN = r"^[a-z][a-z0-9._-]{1,31}$"
 NAME_RULE = "2 to 32 characters: lowercase letters, digits, '.', '_' or '-', starting with a letter"

@@ -20,7 +20,7 @@ from pathlib import Path
 from ..dds import bridge_file
 from ..dds.bridge_file import BRIDGE_JSON, BridgeFileError
 from ..dds.sharing import Import
-from ..variables import Segment, VariableError
+from ..irpd.variables import Segment, VariableError
 from .manager import SYSTEM, AlarmManager
 
 MODULE = "dds"

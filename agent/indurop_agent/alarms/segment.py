@@ -27,7 +27,7 @@ import time
 from dataclasses import dataclass, field
 from functools import cache
 
-from ..shm_layout import LayoutError, Mapped, SegmentLayout, segment
+from ..irpd.shm_layout import LayoutError, Mapped, SegmentLayout, segment
 
 
 class AlarmSegmentError(Exception):

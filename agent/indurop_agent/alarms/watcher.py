@@ -26,10 +26,10 @@ import threading
 import time
 from collections.abc import Callable
 
-from .. import protocol
 from ..events import AgentEvents
-from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
-from ..shm_layout import LayoutError
+from ..irpd import protocol
+from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
+from ..irpd.shm_layout import LayoutError
 from .dds_imports import ImportAlarms
 from .manager import AlarmManager
 from .segment import AlarmSegment, AlarmSegmentError, Record, RingReader

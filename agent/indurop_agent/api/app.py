@@ -22,14 +22,38 @@ from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from . import __version__
-from .activation import Activator, Restorer
-from .alarms.manager import AlarmManager
-from .alarms.store import AlarmStore
-from .alarms.system import SystemAlarms, Thresholds
-from .alarms.watcher import AlarmWatcher
-from .api.deps import audit_refusal, identity_by_id
-from .api.routes import (
+from .. import __version__
+from ..access.audit import AuditLog
+from ..access.auth import TokenStore
+from ..access.refusals import RefusalAudit
+from ..access.security import BodyLimitMiddleware, BodyTimeoutMiddleware, Lockout
+from ..access.sessions import SessionStore
+from ..access.users import UserStore
+from ..alarms.manager import AlarmManager
+from ..alarms.store import AlarmStore
+from ..alarms.system import SystemAlarms, Thresholds
+from ..alarms.watcher import AlarmWatcher
+from ..config import Settings, default_webui_dir
+from ..events import AgentEvents
+from ..irpd.client import IrpdClient
+from ..opcua.link import ensure_token
+from ..recorder.capture_engine import CaptureEngine
+from ..recorder.capture_files import CaptureFiles
+from ..recorder.manager import Recorder
+from ..recorder.scope_configs import ScopeConfigs
+from ..recorder.store import Store
+from ..sets.activation import Activator, Restorer
+from ..sets.errors import LocatedError, located_error
+from ..sets.store import SetStore
+from ..system.host import Sampler
+from ..system.restart import AgentRestarter, detect_supervisor
+from ..system.restore import apply_pending
+from ..viewer.live import RobotLive
+from ..viewer.ticket import Tickets
+from .deps import audit_refusal, identity_by_id
+from .docs import serve_docs
+from .headers import VIEWER, SecurityHeaders, docs_policy
+from .routes import (
     alarms,
     audit,
     captures,
@@ -52,30 +76,6 @@ from .api.routes import (
     users,
     variables,
 )
-from .api_docs import serve_docs
-from .audit import AuditLog
-from .auth import TokenStore
-from .config import Settings, default_webui_dir
-from .errors import LocatedError, located_error
-from .events import AgentEvents
-from .headers import VIEWER, SecurityHeaders, docs_policy
-from .host import Sampler
-from .irpd_client import IrpdClient
-from .opcua.link import ensure_token
-from .recorder.capture_engine import CaptureEngine
-from .recorder.capture_files import CaptureFiles
-from .recorder.manager import Recorder
-from .recorder.store import Store
-from .refusals import RefusalAudit
-from .scope_configs import ScopeConfigs
-from .security import BodyLimitMiddleware, BodyTimeoutMiddleware, Lockout
-from .sessions import SessionStore
-from .store import SetStore
-from .system.restart import AgentRestarter, detect_supervisor
-from .system.restore import apply_pending
-from .users import UserStore
-from .viewer.live import RobotLive
-from .viewer.ticket import Tickets
 
 API = "/api/v1"
 

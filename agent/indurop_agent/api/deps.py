@@ -13,10 +13,10 @@ from fastapi import Depends, HTTPException, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.exceptions import HTTPException as AnyHTTPException  # FastAPI's and Starlette's (security.py's)
 
-from .. import protocol
-from ..auth import Identity, allows, lesser_role
-from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
-from ..sessions import BACKGROUND_HEADER, COOKIE, CSRF_HEADER, Session
+from ..access.auth import Identity, allows, lesser_role
+from ..access.sessions import BACKGROUND_HEADER, COOKIE, CSRF_HEADER, Session
+from ..irpd import protocol
+from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
 
 _bearer = HTTPBearer(auto_error=False)
 

@@ -12,9 +12,9 @@ from typing import Annotated, Any, Literal, get_origin
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, StrictBool, StrictInt, create_model, model_validator
 
-from .. import protocol
-from ..sessions import CSRF_HEADER
-from ..users import NAME_PATTERN, PASSWORD_MAX, PASSWORD_MIN, name_problem
+from ..access.sessions import CSRF_HEADER
+from ..access.users import NAME_PATTERN, PASSWORD_MAX, PASSWORD_MIN, name_problem
+from ..irpd import protocol
 
 Role = Literal["viewer", "operator", "admin"]
 

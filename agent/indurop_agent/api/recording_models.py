@@ -7,10 +7,10 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from ..irpd.trace import MAX_CHANNELS
 from ..recorder.manager import MAX_DECIMATION
 from ..recorder.recording import CAUSES, STATES
 from ..recorder.store import NAME_RULE
-from ..trace import MAX_CHANNELS
 
 MAX_DURATION_S = 31 * 24 * 3600.0
 PATH_MAX = 231  # bytes of a traced variable's path (docs/trace-and-stream.md)

@@ -10,18 +10,9 @@ import sys
 import time
 from typing import Any
 
-from .cli_base import EXIT_OK, EXIT_USAGE
-from .cli_text import (
-    EVENT_HEADERS,
-    TRANSITION_HEADERS,
-    Out,
-    alarms_text,
-    events_rows,
-    history_text,
-    table,
-    transition_row,
-)
+from .base import EXIT_OK, EXIT_USAGE
 from .client import Client
+from .text import EVENT_HEADERS, TRANSITION_HEADERS, Out, alarms_text, events_rows, history_text, table, transition_row
 
 
 def cmd_events(c: Client, a, out: Out) -> int:

@@ -15,9 +15,9 @@ import csv
 import sys
 from datetime import UTC, datetime
 
-from .cli_base import EXIT_OK, arg
-from .cli_text import Out, format_duration, pairs, parse_duration, printable, table
-from .recorder.trigger_text import describe_trigger
+from ..recorder.trigger_text import describe_trigger
+from .base import EXIT_OK, arg
+from .text import Out, format_duration, pairs, parse_duration, printable, table
 
 WHEN_FORMS = (
     "PATH rising|falling|either THRESHOLD, PATH above|below VALUE [for ROWS], PATH equal VALUE [tol T] [for ROWS], "

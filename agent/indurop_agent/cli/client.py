@@ -1,6 +1,6 @@
 """client.py -- the Python client of the agent's API (/api/v1): REST calls and the sample stream.
 
-    from indurop_agent.client import Client
+    from indurop_agent.cli.client import Client
     c = Client("http://127.0.0.1:8080", token=open("build/demo-data/admin-token").read().strip())
     print(c.status()["cycles"], c.read("knu.Robot.tick"))
     with c.watch(["knu.Robot.tick"], decimation=10) as samples:
@@ -29,10 +29,10 @@ from urllib.parse import quote, urlsplit, urlunsplit
 
 import httpx
 
+from ..api.stream_frame import HEADER_SIZE, KIND_SAMPLES, MAGIC, VERSION, Frame, decode, encode, kind
 from .client_errors import ApiError, detail
 from .client_record import RecordCalls
 from .client_system import LONG_TIMEOUT_S, SystemCalls
-from .stream_frame import HEADER_SIZE, KIND_SAMPLES, MAGIC, VERSION, Frame, decode, encode, kind
 
 API = "/api/v1"
 

@@ -20,15 +20,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .cli_alarms import cmd_ack, cmd_alarms, cmd_events, cmd_shelve
-from .cli_base import EXIT_OK, EXIT_REFUSED, EXIT_UNREACHABLE, EXIT_USAGE, arg, parse_time
-from .cli_capture import CAPTURE_COMMANDS
-from .cli_line import LINE_COMMANDS
-from .cli_opcua import OPCUA_COMMANDS
-from .cli_record import RECORD_COMMANDS
-from .cli_scope import SCOPE_COMMANDS
-from .cli_system import SETS_ARGS, SYSTEM_COMMANDS, cmd_sets
-from .cli_text import (
+from .alarms import cmd_ack, cmd_alarms, cmd_events, cmd_shelve
+from .base import EXIT_OK, EXIT_REFUSED, EXIT_UNREACHABLE, EXIT_USAGE, arg, parse_time
+from .capture import CAPTURE_COMMANDS
+from .client import ApiError, Client
+from .line import LINE_COMMANDS
+from .opcua import OPCUA_COMMANDS
+from .record import RECORD_COMMANDS
+from .scope import SCOPE_COMMANDS
+from .system import SETS_ARGS, SYSTEM_COMMANDS, cmd_sets
+from .text import (
     Out,
     audit_text,
     format_value,
@@ -44,8 +45,7 @@ from .cli_text import (
     table,
     upload_text,
 )
-from .cli_users import USER_COMMANDS
-from .client import ApiError, Client
+from .users import USER_COMMANDS
 
 DEFAULT_URL = "http://127.0.0.1:8080"
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import time
 
-from .cli_base import EXIT_OK
-from .cli_text import _uptime, format_duration, printable, table
+from .base import EXIT_OK
+from .text import _uptime, format_duration, printable, table
 
 HEADERS = ["NAME", "STATE", "HEALTH", "SET", "JITTER P99", "ALARMS", "UP", "LAST SEEN", "WEB UI"]
 

@@ -9,9 +9,9 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from .cli_base import EXIT_OK, arg
-from .cli_text import pairs, printable, table
+from .base import EXIT_OK, arg
 from .client import ApiError
+from .text import pairs, printable, table
 
 MIN_PREFIX = 6
 HEX = re.compile(r"[0-9a-fA-F]+")

@@ -12,9 +12,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .cli_base import EXIT_OK, arg
-from .cli_text import Out, _size, pairs, printable, table
+from .base import EXIT_OK, arg
 from .client import Client
+from .text import Out, _size, pairs, printable, table
 
 
 def _variable(text: str) -> str | dict:

@@ -15,10 +15,10 @@ import sys
 from pathlib import Path
 from urllib.parse import quote
 
-from .cli_base import EXIT_OK, arg
-from .cli_text import Out, printable, table
+from ..recorder.trigger_text import describe_trigger
+from .base import EXIT_OK, arg
 from .client import ApiError
-from .recorder.trigger_text import describe_trigger
+from .text import Out, printable, table
 
 
 def _set_id(c, a) -> str:

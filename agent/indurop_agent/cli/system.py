@@ -8,8 +8,8 @@ import argparse
 import sys
 from typing import Any
 
-from .cli_base import EXIT_OK, arg, parse_time
-from .cli_text import _size, _uptime, pairs, sets_text, table
+from .base import EXIT_OK, arg, parse_time
+from .text import _size, _uptime, pairs, sets_text, table
 
 
 def _since(text: str) -> str:

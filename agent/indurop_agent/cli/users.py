@@ -13,8 +13,8 @@ from __future__ import annotations
 import getpass
 import sys
 
-from .cli_text import Out, pairs, printable, table
 from .client import Client
+from .text import Out, pairs, printable, table
 
 ROLES = ("viewer", "operator", "admin")
 

@@ -37,9 +37,9 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
-from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
-from ..trace import TraceError, TraceFollower
-from ..variables import Segment, VariableError
+from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
+from ..irpd.trace import TraceError, TraceFollower
+from ..irpd.variables import Segment, VariableError
 from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config
 from . import bridge_file, declared, ros2_types
 from .bridge_file import BRIDGE_JSON, BridgeFile, BridgeFileError, Mapping, std_basic
@@ -493,7 +493,7 @@ def check_against_layout(bridge: BridgeFile, status: dict) -> None:
 
 def module_writes(module_xml: Path) -> dict[str, list[str]]:
     """{module: [variables]} of module.xml's <writes> (docs/module-xml.md)."""
-    from ..uploads import UploadError, parse_module_xml
+    from ..sets.uploads import UploadError, parse_module_xml
 
     try:
         return {m.name: m.writes for m in parse_module_xml(module_xml).modules}

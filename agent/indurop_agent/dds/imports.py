@@ -31,8 +31,8 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
-from ..irpd_client import IrpdRefused, IrpdUnavailable
-from ..variables import Segment, VariableError
+from ..irpd.client import IrpdRefused, IrpdUnavailable
+from ..irpd.variables import Segment, VariableError
 from . import ros2_types, sharing
 from .indurop_types import SharedVariable
 from .sharing import Export, Import, Shape

@@ -29,11 +29,11 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from .. import __version__
-from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
-from ..line_view import FORMAT, SEVERITIES, LineAlarm, LineEntry, LineFile, write_view
-from ..variables import Segment, VariableError
+from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
+from ..irpd.variables import Segment, VariableError
 from .indurop_types import LineAlarm as Alarm
 from .indurop_types import LineController as Controller
+from .line_view import FORMAT, SEVERITIES, LineAlarm, LineEntry, LineFile, write_view
 from .settings import NAME, BridgeSettings
 
 TOPIC = "indurop/line"

@@ -35,8 +35,8 @@ from datetime import UTC, datetime
 from asyncua import Server, ua
 
 from ..alarms.segment import AlarmSegment, AlarmSegmentError, RingReader
-from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
-from ..shm_layout import LayoutError
+from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
+from ..irpd.shm_layout import LayoutError
 from .acks import METHODS, AgentAlarms, AgentUnavailable
 
 SEVERITY = {"low": 250, "medium": 500, "high": 750, "critical": 1000}

@@ -24,9 +24,9 @@ from dataclasses import dataclass
 
 from asyncua import ua
 
-from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
-from ..trace import MAX_CHANNELS, TraceError, TraceFollower
-from ..variables import VariableError
+from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
+from ..irpd.trace import MAX_CHANNELS, TraceError, TraceFollower
+from ..irpd.variables import VariableError
 from .values import Var, Variables, clock_offset_ns, narrowed, typed, variant, wall
 
 _NOTHING = object()

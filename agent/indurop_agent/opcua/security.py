@@ -37,10 +37,10 @@ from cryptography import x509
 from cryptography.hazmat.primitives.serialization import Encoding
 from cryptography.x509.oid import ExtendedKeyUsageOID
 
-from ..audit import AuditLog
-from ..auth import allows
-from ..security import Lockout
-from ..users import parse_users, password_matches
+from ..access.audit import AuditLog
+from ..access.auth import allows
+from ..access.security import Lockout
+from ..access.users import parse_users, password_matches
 from .pki import Pki
 from .settings import OpcuaSettings
 

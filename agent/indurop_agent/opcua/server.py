@@ -39,10 +39,10 @@ from cryptography import x509
 from cryptography.hazmat.primitives.serialization import Encoding
 
 from .. import __version__
-from ..audit import AuditLog
-from ..auth import now_iso
+from ..access.audit import AuditLog
+from ..access.auth import now_iso
 from ..files import write_atomically
-from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
+from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
 from .acks import METHODS, AgentAlarms
 from .address_space import Space
 from .alarms import AlarmEvents

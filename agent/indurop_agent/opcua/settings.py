@@ -10,7 +10,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..auth import ROLES
+from ..access.auth import ROLES
 from ..settings_file import settings_values
 
 MiB = 1 << 20

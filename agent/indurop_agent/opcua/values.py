@@ -13,7 +13,7 @@ from datetime import UTC, datetime
 
 from asyncua import ua
 
-from ..variables import Segment, VariableError
+from ..irpd.variables import Segment, VariableError
 
 # (kind, size) of the layout's scalar types (layout.json "scalars") -> OPC UA built-in type.
 VARIANTS = {

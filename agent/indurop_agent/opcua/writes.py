@@ -13,8 +13,8 @@ import math
 
 from asyncua import ua
 
-from ..audit import AuditLog
-from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
+from ..access.audit import AuditLog
+from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
 from .values import INTEGERS, Var, index_range
 
 FLOATS = (ua.VariantType.Float, ua.VariantType.Double)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ..variables import Segment, VariableError, number_problem
+from ..irpd.variables import Segment, VariableError, number_problem
 from . import capture_limits as L
 from .capture import capture_bytes, rows_of
 from .triggers import trigger_variables

@@ -29,10 +29,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..auth import now_iso
+from ..access.auth import now_iso
 from ..events import AgentEvents
-from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
-from ..trace import TraceError, TraceRing
+from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
+from ..irpd.trace import TraceError, TraceRing
 from . import capture_limits as L
 from .capture import ARMED, DONE, IDLE, Capture, Shot, capture_bytes, rows_of
 from .capture_checks import CaptureError, channels_of, check_request

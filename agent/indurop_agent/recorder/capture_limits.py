@@ -5,7 +5,7 @@ ring's capacity."""
 
 from __future__ import annotations
 
-from ..trace import LAYOUT as TRACE_LAYOUT
+from ..irpd.trace import LAYOUT as TRACE_LAYOUT
 
 MiB = 1 << 20
 

@@ -26,9 +26,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..events import AgentEvents
-from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
-from ..trace import MAX_CHANNELS, TraceError, TraceRing
-from ..variables import Segment, VariableError, number_problem
+from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
+from ..irpd.trace import MAX_CHANNELS, TraceError, TraceRing
+from ..irpd.variables import Segment, VariableError, number_problem
 from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config
 from . import mcap_read
 from .capture_files import SHOT_NAME

@@ -13,7 +13,7 @@ import bisect
 import time
 from dataclasses import dataclass, field
 
-from ..trace import TraceRead
+from ..irpd.trace import TraceRead
 from .mcap_out import Joint, McapOut, Variable
 from .store import Entry, now
 

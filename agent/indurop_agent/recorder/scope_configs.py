@@ -20,11 +20,11 @@ from pathlib import Path
 
 from pydantic import ValidationError
 
-from .api.scope_models import MAX_CONFIG_BYTES, MAX_CONFIGS, ScopeConfig
-from .auth import now_iso
-from .files import fsync_dir, write_atomically
-from .recorder.store import NAME, NAME_RULE
-from .store import SET_ID, SetStore
+from ..access.auth import now_iso
+from ..api.scope_models import MAX_CONFIG_BYTES, MAX_CONFIGS, ScopeConfig
+from ..files import fsync_dir, write_atomically
+from ..sets.store import SET_ID, SetStore
+from .store import NAME, NAME_RULE
 
 FOLDER = "scopes"
 SUFFIX = ".json"

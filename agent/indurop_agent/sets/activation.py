@@ -23,11 +23,11 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 
-from . import protocol
-from .audit import AuditLog
+from ..access.audit import AuditLog
+from ..events import AgentEvents
+from ..irpd import protocol
+from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
 from .errors import problems
-from .events import AgentEvents
-from .irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
 from .store import SetStore, StoreError
 
 AGENT = {"id": None, "name": "indurop-agent", "role": None}  # who a restore is done by

@@ -33,8 +33,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-from .auth import now_iso
-from .files import fsync_dir, write_json
+from ..access.auth import now_iso
+from ..files import fsync_dir, write_json
 
 SET_ID = re.compile(r"^[0-9a-f]{16}$")
 EXECUTABLE_KINDS = {"executable", "thread_module", "library"}  # blobs with the execute bit

@@ -28,15 +28,15 @@ from python_multipart.multipart import MultipartParser, parse_options_header
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException
 
+from ..dds import bridge_file
+from ..dds.bridge_file import BRIDGE_JSON
+from ..viewer.mapping import ROBOT_JSON, MappingError, check_against_urdf, parse_config
+from ..viewer.urdf import UrdfError
+from ..viewer.urdf import parse as parse_urdf
 from .archives import tar_stream, type_problem
-from .dds import bridge_file
-from .dds.bridge_file import BRIDGE_JSON
 from .elf_check import MissingSymbol, NotLoadable, check_executable, check_shared_object
 from .errors import LocatedError
 from .store import StagedFile
-from .viewer.mapping import ROBOT_JSON, MappingError, check_against_urdf, parse_config
-from .viewer.urdf import UrdfError
-from .viewer.urdf import parse as parse_urdf
 
 MAX_NAME_BYTES = 255
 MAX_MODULE_XML_BYTES = 4 << 20  # irpd's own limit (rtcore/src/config/module_xml.hpp)

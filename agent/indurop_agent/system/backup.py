@@ -34,10 +34,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .. import __version__
-from ..auth import now_iso
-from ..scope_configs import ScopeConfigs
-from ..store import remove_tree
-from ..users import parse_users, without_password_hashes
+from ..access.auth import now_iso
+from ..access.users import parse_users, without_password_hashes
+from ..recorder.scope_configs import ScopeConfigs
+from ..sets.store import remove_tree
 from . import opcua_backup
 
 FORMAT = "indurop-backup"

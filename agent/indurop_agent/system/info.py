@@ -11,8 +11,8 @@ import time
 from pathlib import Path
 
 from .. import __version__
-from ..auth import now_iso
-from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
+from ..access.auth import now_iso
+from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
 from . import tls
 from .logs import sources
 

@@ -3,7 +3,7 @@
 Python's own tracer does the work: start the agent with PYTHONTRACEMALLOC=<frames> (25 is a good
 depth) and send it SIGUSR2; each signal writes a snapshot of every live Python allocation to
 <data-dir>/memtrace/<pid>-<n>.snap (tracemalloc.Snapshot.dump).  Two snapshots compared
-(`python3 -m indurop_agent.memtrace OLD NEW`) list the call sites whose memory grew.  Without the
+(`python3 -m indurop_agent.system.memtrace OLD NEW`) list the call sites whose memory grew.  Without the
 environment variable nothing is installed and SIGUSR2 keeps its default action.
 
 Memory that Python's allocator does not see (numpy buffers allocated by C code, glibc arenas,
@@ -77,7 +77,7 @@ def growth(old: Path, new: Path, top: int = 15) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
-        prog="python3 -m indurop_agent.memtrace",
+        prog="python3 -m indurop_agent.system.memtrace",
         description="What grew between two of the agent's memory snapshots (SIGUSR2).",
     )
     ap.add_argument("old", type=Path)

@@ -44,12 +44,13 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
-from .. import config, scope_configs
-from ..archives import tar_stream, type_problem
-from ..auth import ROLES, now_iso
+from .. import config
+from ..access.auth import ROLES, now_iso
+from ..access.users import parse_users
+from ..recorder import scope_configs
 from ..recorder.store import NAME
-from ..store import SET_ID, SetStore, remove_tree, set_id_of
-from ..users import parse_users
+from ..sets.archives import tar_stream, type_problem
+from ..sets.store import SET_ID, SetStore, remove_tree, set_id_of
 from . import opcua_backup
 from .backup import DATA, FORMAT, FORMAT_VERSION, ITEM_PATHS, ITEMS, MANIFEST, summary_of
 from .tls import CertificateError, check_pair

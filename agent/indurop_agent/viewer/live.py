@@ -18,19 +18,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..events import AgentEvents
-from ..irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable
-from ..variables import Segment, VariableError, number_problem
+from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
+from ..irpd.variables import Segment, VariableError, number_problem
 from . import make_viewer
 from .base import Viewer, ViewerError
-from .mapping import (
-    ROBOT_JSON,
-    JointMapping,
-    MappingError,
-    RobotConfig,
-    check_against_urdf,
-    complete,
-    parse_config,
-)
+from .mapping import ROBOT_JSON, JointMapping, MappingError, RobotConfig, check_against_urdf, complete, parse_config
 from .urdf import Urdf, UrdfError, parse
 
 STATUS_EVERY_S = 0.5

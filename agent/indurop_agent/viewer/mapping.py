@@ -12,7 +12,7 @@ import json
 import math
 from dataclasses import dataclass
 
-from ..variables import number_problem
+from ..irpd.variables import number_problem
 from .urdf import Urdf
 
 ROBOT_JSON = "robot.json"

@@ -14,9 +14,9 @@ from pathlib import Path
 
 from fastapi import HTTPException
 
-from .. import uploads
-from ..activation import irpd_validation
-from ..store import StagedFile, remove_tree
+from ..sets import uploads
+from ..sets.activation import irpd_validation
+from ..sets.store import StagedFile, remove_tree
 from .mapping import ROBOT_JSON
 
 NOT_CHECKED_YET = {"valid": None, "errors": [], "warnings": ["not checked yet"], "schedule": None}

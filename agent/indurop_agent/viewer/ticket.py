@@ -19,7 +19,7 @@ import secrets
 import time
 from collections.abc import Callable
 
-from ..auth import Identity
+from ..access.auth import Identity
 
 TICKET = re.compile(r"^(\d{1,12})\.([0-9a-f]{12})\.([A-Za-z0-9_-]{43})$")
 

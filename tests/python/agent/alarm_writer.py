@@ -11,7 +11,7 @@ import struct
 import time
 from pathlib import Path
 
-from indurop_agent.shm_layout import SegmentLayout
+from indurop_agent.irpd.shm_layout import SegmentLayout
 
 
 def _align(n: int) -> int:

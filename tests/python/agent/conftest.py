@@ -13,7 +13,7 @@ from agent_helpers import ROOT, Agent, Elves
 sys.path.insert(0, str(ROOT / "agent"))
 
 from fastapi.testclient import TestClient  # noqa: E402
-from indurop_agent.app import create_app  # noqa: E402
+from indurop_agent.api.app import create_app  # noqa: E402
 from indurop_agent.config import Settings  # noqa: E402
 
 

@@ -162,7 +162,7 @@ def test_alarms_and_their_history_survive_an_agent_restart(make_agent, tmp_path)
     first.client.app.state.alarms.store.close()
     # a new agent on the same data folder
     from fastapi.testclient import TestClient
-    from indurop_agent.app import create_app
+    from indurop_agent.api.app import create_app
     from indurop_agent.config import Settings
 
     app = create_app(Settings(data_dir=first.data, irpd_socket=str(tmp_path / "none.sock")), restore=False)

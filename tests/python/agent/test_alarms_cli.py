@@ -9,8 +9,9 @@ import time
 from types import SimpleNamespace
 
 import pytest
-from indurop_agent import cli, cli_alarms
-from indurop_agent import client as client_module
+from indurop_agent.cli import alarms as cli_alarms
+from indurop_agent.cli import client as client_module
+from indurop_agent.cli import irpctl as cli
 
 
 @pytest.fixture

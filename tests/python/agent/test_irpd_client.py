@@ -11,7 +11,7 @@ import threading
 import time
 
 import pytest
-from indurop_agent.irpd_client import IrpdClient, IrpdUnavailable
+from indurop_agent.irpd.client import IrpdClient, IrpdUnavailable
 
 
 class Peer:

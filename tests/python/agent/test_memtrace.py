@@ -11,7 +11,7 @@ import tracemalloc
 from pathlib import Path
 
 import live_processes
-from indurop_agent import memtrace
+from indurop_agent.system import memtrace
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -69,7 +69,7 @@ def test_the_comparison_names_the_call_site_that_grew(tmp_path):
         [
             sys.executable,
             "-m",
-            "indurop_agent.memtrace",
+            "indurop_agent.system.memtrace",
             str(tmp_path / "old.snap"),
             str(tmp_path / "new.snap"),
             "--top",
@@ -85,7 +85,7 @@ def test_the_comparison_names_the_call_site_that_grew(tmp_path):
 
 def test_a_missing_snapshot_is_named(tmp_path):
     out = subprocess.run(
-        [sys.executable, "-m", "indurop_agent.memtrace", str(tmp_path / "a.snap"), str(tmp_path / "b.snap")],
+        [sys.executable, "-m", "indurop_agent.system.memtrace", str(tmp_path / "a.snap"), str(tmp_path / "b.snap")],
         cwd=ROOT / "agent",
         capture_output=True,
         text=True,

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "agent"))
-from indurop_agent.variables import number_problem  # noqa: E402
+from indurop_agent.irpd.variables import number_problem  # noqa: E402
 
 LEAVES = {
     p: {"path": p, "type": t, "size": n}

@@ -19,7 +19,7 @@ from pathlib import Path
 import httpx
 import pytest
 from agent_helpers import BUILD, IRPD, ROOT, free_port, start_agent, start_irpd, stop
-from indurop_agent import cli
+from indurop_agent.cli import irpctl as cli
 
 ONLINE = BUILD / "tests" / "cpp" / "online"
 pytestmark = pytest.mark.skipif(

@@ -20,7 +20,7 @@ from cryptography.hazmat.primitives import hashes
 from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.hazmat.primitives.serialization import Encoding
 from cryptography.x509.oid import NameOID
-from indurop_agent import cli
+from indurop_agent.cli import irpctl as cli
 
 
 def certificate(name: str, uri: str, days: int = 30) -> bytes:

@@ -1,5 +1,5 @@
 """test_protocol_limits.py -- the agent's request bodies hold irpd's ranges (protocol/control.json,
-through the generated indurop_agent/protocol.py), tried at each edge: a value inside reaches irpd
+through the generated indurop_agent/irpd/protocol.py), tried at each edge: a value inside reaches irpd
 (absent here: 503), one outside is refused by the agent (422) naming the field.  What irpd alone
 decides (a module named twice, one the set lacks) is not checked here at all."""
 
@@ -9,7 +9,7 @@ import json
 
 import pytest
 from agent_helpers import API
-from indurop_agent import protocol
+from indurop_agent.irpd import protocol
 
 
 def patch(agent, body: dict, name: str = "cntr1"):

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pytest
 from agent_helpers import API
-from indurop_agent.refusals import BURST
+from indurop_agent.access.refusals import BURST
 from test_users import FAST, add, as_cookie, password_of, session, sign_in, users  # noqa: F401 (users: a fixture)
 
 SECRET = "Refusal-Audit-Secret-77"

@@ -5,8 +5,8 @@ irpd's next restart; while an activation runs (a managed restart of irpd) the wa
 
 from __future__ import annotations
 
-from indurop_agent.activation import Restorer
-from indurop_agent.irpd_client import IrpdUnavailable
+from indurop_agent.irpd.client import IrpdUnavailable
+from indurop_agent.sets.activation import Restorer
 
 
 class Irpd:
@@ -61,7 +61,7 @@ def watcher(failures: int, clock):
 
 def test_a_failed_restore_is_tried_again_with_a_growing_delay(monkeypatch):
     now = [1000.0]
-    monkeypatch.setattr("indurop_agent.activation.time.monotonic", lambda: now[0])
+    monkeypatch.setattr("indurop_agent.sets.activation.time.monotonic", lambda: now[0])
     r, irpd, activator, log = watcher(failures=2, clock=now)
     r.poll_once()  # irpd seen first: restore, fails
     assert activator.calls == 1 and irpd.status["set_id"] == "A"

@@ -13,8 +13,8 @@ import stat
 import httpx
 import pytest
 from agent_helpers import API, files_body, free_port, post_set, small_set, start_agent, stop
-from indurop_agent import cli
 from indurop_agent.api.scope_models import MAX_CONFIGS
+from indurop_agent.cli import irpctl as cli
 from test_system_backup import backup, members, quiet_restarts, repack, restarted, restore, snapshot, with_manifest
 
 WHO = {"id": None, "name": "test", "role": "admin"}

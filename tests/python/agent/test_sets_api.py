@@ -16,7 +16,7 @@ import httpx
 import pytest
 from agent_helpers import API, ROOT, files_body, post_set, small_set
 from indurop_agent import config
-from indurop_agent.security import Lockout
+from indurop_agent.access.security import Lockout
 
 
 def upload(agent, elves, **extra) -> dict:
@@ -185,7 +185,7 @@ def test_tokens_are_listed_without_secrets_and_revoked_by_id(agent):
 
 def test_a_minted_token_never_reads_as_a_command_line_option():
     """token_urlsafe starts with "-" one time in 32; irpctl --token would take it for an option."""
-    from indurop_agent.auth import TOKEN_PREFIX, TokenStore
+    from indurop_agent.access.auth import TOKEN_PREFIX, TokenStore
 
     tokens = [TokenStore._mint() for _ in range(200)]
     assert all(t.startswith(TOKEN_PREFIX) and len(t) > 40 for t in tokens)

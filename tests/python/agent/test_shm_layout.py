@@ -1,5 +1,5 @@
 """test_shm_layout.py -- the agent reads irpd's segments by irpd's own description of them
-(agent/indurop_agent/shm_layout.json, docs/shared-memory.md): the copy and the docs' tables are
+(agent/indurop_agent/irpd/shm_layout.json, docs/shared-memory.md): the copy and the docs' tables are
 current; the segments of a live irpd read through it give what irpd put there; a reader
 refuses a segment whose header the description does not match, naming what differs."""
 
@@ -14,10 +14,10 @@ from pathlib import Path
 
 import pytest
 from agent_helpers import FIG1, IRPD, ROOT, start_irpd, stop
-from indurop_agent import shm_layout
-from indurop_agent.shm_layout import LayoutError, segment
-from indurop_agent.trace import TraceError, TraceFollower, TraceRing
-from indurop_agent.variables import Segment
+from indurop_agent.irpd import shm_layout
+from indurop_agent.irpd.shm_layout import LayoutError, segment
+from indurop_agent.irpd.trace import TraceError, TraceFollower, TraceRing
+from indurop_agent.irpd.variables import Segment
 
 GENERATE = ROOT / "protocol" / "shm" / "generate.py"
 REGENERATE = "ninja -C build shm-layout"

@@ -1,4 +1,4 @@
-"""test_store.py -- the set store on disk (agent/indurop_agent/store.py): content-addressed blobs,
+"""test_store.py -- the set store on disk (agent/indurop_agent/sets/store.py): content-addressed blobs,
 content-derived ids, the read-only materialized tree, the activation history with its rollback
 stack, active.json and the `active` link, and what a restart finds."""
 
@@ -10,7 +10,7 @@ import os
 import stat
 
 import pytest
-from indurop_agent.store import SetStore, StagedFile, StoreError, set_id_of
+from indurop_agent.sets.store import SetStore, StagedFile, StoreError, set_id_of
 
 WHO = {"id": "0123456789ab", "name": "tester", "role": "admin"}
 UNCHECKED = {"valid": None, "errors": [], "warnings": ["not checked yet"], "schedule": None}

@@ -18,7 +18,7 @@ from pathlib import Path
 import httpx
 import pytest
 from agent_helpers import IRPD, free_port, start_agent, start_irpd, stop
-from indurop_agent import stream_frame
+from indurop_agent.api import stream_frame
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 

@@ -1,6 +1,6 @@
 """test_stream_frame.py -- the stream frame is specified once (protocol/stream/frame.json): the files
 generated from it are current, a changed field makes them stale, and the Python codec
-(indurop_agent.stream_frame, used by the stream route and the client) decodes every frame of the
+(indurop_agent.api.stream_frame, used by the stream route and the client) decodes every frame of the
 spec's vectors (protocol/stream/vectors.json, decoded by webui/tests/unit/frame.test.ts too) and
 encodes them byte for byte."""
 
@@ -15,7 +15,8 @@ from array import array
 
 import pytest
 from agent_helpers import ROOT
-from indurop_agent import client, stream_frame
+from indurop_agent.api import stream_frame
+from indurop_agent.cli import client
 
 GENERATE = ROOT / "protocol" / "stream" / "generate.py"
 REGENERATE = "python3 protocol/stream/generate.py"

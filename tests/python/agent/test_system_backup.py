@@ -16,9 +16,9 @@ import tarfile
 import pytest
 from agent_helpers import API, files_body, post_set, small_set
 from fastapi.testclient import TestClient
-from indurop_agent.app import create_app
-from indurop_agent.archives import LimitedReader
+from indurop_agent.api.app import create_app
 from indurop_agent.config import Settings
+from indurop_agent.sets.archives import LimitedReader
 from indurop_agent.system import restore as restoring
 from indurop_agent.system.restart import AgentRestarter
 

@@ -9,7 +9,7 @@ import tarfile
 
 import pytest
 from agent_helpers import free_port, start_agent, stop
-from indurop_agent import cli
+from indurop_agent.cli import irpctl as cli
 from indurop_agent.system import logs
 
 

@@ -12,7 +12,7 @@ import tarfile
 
 import pytest
 from agent_helpers import files_body, module_xml, multipart, patched, post_set, small_set, tar_gz, wrong_machine
-from indurop_agent.uploads import UploadError, clean_name
+from indurop_agent.sets.uploads import UploadError, clean_name
 
 GZ = "application/gzip"
 

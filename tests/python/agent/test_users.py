@@ -242,7 +242,7 @@ def test_a_session_ends_after_its_idle_time_and_its_lifetime_and_background_requ
 def test_sessions_outlive_a_restart_of_the_agent(users):
     sid, _ = session(users, "oscar")
     from fastapi.testclient import TestClient
-    from indurop_agent.app import create_app
+    from indurop_agent.api.app import create_app
     from indurop_agent.config import Settings
 
     restarted = create_app(Settings(data_dir=users.data, irpd_socket="/nonexistent.sock", **FAST), restore=False)
@@ -470,7 +470,7 @@ def test_the_role_matrix_over_every_route_for_sessions_a_disabled_user_and_an_ex
 
 # ---- the session store's bounds ------------------------------------------------------------------------
 def test_a_user_cannot_pile_sessions_up_the_least_recent_give_way(tmp_path):
-    from indurop_agent.sessions import SessionStore
+    from indurop_agent.access.sessions import SessionStore
 
     now = [100.0]
     store = SessionStore(tmp_path / "sessions.json", idle_s=600, lifetime_s=3600, max_per_user=3, clock=lambda: now[0])

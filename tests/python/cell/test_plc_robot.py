@@ -31,9 +31,9 @@ from live_processes import (  # noqa: E402
 )
 
 sys.path.insert(0, str(ROOT / "agent"))
-from indurop_agent import cli  # noqa: E402
-from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
-from indurop_agent.variables import Segment  # noqa: E402
+from indurop_agent.cli import irpctl as cli  # noqa: E402
+from indurop_agent.irpd.client import IrpdClient, IrpdRefused  # noqa: E402
+from indurop_agent.irpd.variables import Segment  # noqa: E402
 
 SET = BUILD / "sets" / "plc-robot"
 DRIVESIM = SET / "indurop-drivesim"

@@ -28,7 +28,7 @@ from live_processes import FIG1, IRPD, ROOT, free_port, start_agent, start_irpd,
 FIG1_DIR = FIG1.parent
 
 sys.path.insert(0, str(ROOT / "agent"))  # the package, also when it is not pip-installed
-from indurop_agent import stream_frame_spec as spec  # noqa: E402
+from indurop_agent.api import stream_frame_spec as spec  # noqa: E402
 
 _instances = itertools.count()
 

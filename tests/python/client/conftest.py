@@ -5,7 +5,7 @@ from __future__ import annotations
 import httpx
 import pytest
 from client_helpers import Cell, FakeAgent, HttpsStatus, StreamServer, tls_context
-from indurop_agent import cli
+from indurop_agent.cli import irpctl as cli
 
 
 def pytest_configure(config):
@@ -61,7 +61,7 @@ def stream_server():
 @pytest.fixture
 def fake_agent(monkeypatch):
     """irpctl's Client talks to a FakeAgent."""
-    from indurop_agent import client as client_module
+    from indurop_agent.cli import client as client_module
 
     agent = FakeAgent()
 

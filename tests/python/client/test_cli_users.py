@@ -10,7 +10,7 @@ import json
 
 import httpx
 import pytest
-from indurop_agent import cli_users
+from indurop_agent.cli import users as cli_users
 
 API = "/api/v1"
 

@@ -1,4 +1,4 @@
-"""test_client.py -- the Python client (indurop_agent.client) and irpctl (indurop_agent.cli, cli_text).
+"""test_client.py -- the Python client (indurop_agent.cli.client) and irpctl (indurop_agent.cli: irpctl.py, text.py).
 
 Peers and fixtures: client_helpers.py and conftest.py.
 - No server: decode_frame on frames built here (round trips, one named test per bad frame),
@@ -40,9 +40,11 @@ from types import SimpleNamespace
 import httpx
 import pytest
 from client_helpers import FIG1_DIR, GOOD_TOKEN, T0, free_port, sample_frame, stop
-from indurop_agent import cli, cli_alarms, cli_text
-from indurop_agent import stream_frame_spec as spec
-from indurop_agent.client import ApiError, Client, decode_frame, encode_frame, set_files
+from indurop_agent.api import stream_frame_spec as spec
+from indurop_agent.cli import alarms as cli_alarms
+from indurop_agent.cli import irpctl as cli
+from indurop_agent.cli import text as cli_text
+from indurop_agent.cli.client import ApiError, Client, decode_frame, encode_frame, set_files
 
 
 # -- decode_frame ----------------------------------------------------------------------------------

@@ -16,7 +16,7 @@ sys.path.insert(0, str(ROOT / "agent"))
 from indurop_agent.dds import bridge_file  # noqa: E402
 from indurop_agent.dds.bridge_file import BridgeFileError  # noqa: E402
 from indurop_agent.dds.settings import BridgeSettings, cyclone_config, parse_args  # noqa: E402
-from indurop_agent.uploads import ModuleRef, UploadError, check_bridge_json  # noqa: E402
+from indurop_agent.sets.uploads import ModuleRef, UploadError, check_bridge_json  # noqa: E402
 
 CELL_BRIDGE = ROOT / "config" / "sets" / "plc-robot" / "dds.json"
 

@@ -35,8 +35,8 @@ from live_processes import (  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "agent"))
 from indurop_agent.dds.settings import BridgeSettings, cyclone_config  # noqa: E402
-from indurop_agent.irpd_client import IrpdClient, IrpdRefused  # noqa: E402
-from indurop_agent.variables import Segment  # noqa: E402
+from indurop_agent.irpd.client import IrpdClient, IrpdRefused  # noqa: E402
+from indurop_agent.irpd.variables import Segment  # noqa: E402
 
 SET = BUILD / "sets" / "plc-robot"
 JOINTS = [f"joint_{i}" for i in range(1, 7)]

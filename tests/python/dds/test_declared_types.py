@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "agent"))
 from indurop_agent.dds import bridge_file, declared, ros2_types  # noqa: E402
 from indurop_agent.dds.bridge_file import BridgeFileError  # noqa: E402
-from indurop_agent.uploads import ModuleRef, UploadError, check_bridge_json  # noqa: E402
+from indurop_agent.sets.uploads import ModuleRef, UploadError, check_bridge_json  # noqa: E402
 
 STATUS = "std_msgs/Header header\nuint32 cycles\nint16 running\nfloat64[6] joints\nfloat64[<=3] first\nstring note"
 COMMAND = "std_msgs/Header header\nfloat64 override\nint16 cycle_mode"

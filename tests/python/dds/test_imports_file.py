@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "agent"))
 from indurop_agent.dds import bridge_file, sharing  # noqa: E402
 from indurop_agent.dds.bridge_file import BridgeFileError  # noqa: E402
-from indurop_agent.uploads import ModuleRef, UploadError, check_bridge_json  # noqa: E402
+from indurop_agent.sets.uploads import ModuleRef, UploadError, check_bridge_json  # noqa: E402
 
 # A layout as glbc writes it, with only what the checks read: the scalars and the leaves.
 SCALARS = {

@@ -50,9 +50,9 @@ from indurop_agent.dds import ros2_types  # noqa: E402
 from indurop_agent.dds.imports import TOPIC  # noqa: E402
 from indurop_agent.dds.indurop_types import SharedVariable  # noqa: E402
 from indurop_agent.dds.settings import BridgeSettings, cyclone_config  # noqa: E402
-from indurop_agent.irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable  # noqa: E402
-from indurop_agent.trace import TraceRing  # noqa: E402
-from indurop_agent.variables import Segment  # noqa: E402
+from indurop_agent.irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable  # noqa: E402
+from indurop_agent.irpd.trace import TraceRing  # noqa: E402
+from indurop_agent.irpd.variables import Segment  # noqa: E402
 
 SET = BUILD / "sets" / "dds-share"
 PID = os.getpid()

@@ -30,8 +30,8 @@ from line_processes import LineNode  # noqa: E402
 from live_processes import BUILD, ROOT, copy_cell, wait_until  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "agent"))
-from indurop_agent.irpd_client import IrpdClient  # noqa: E402
-from indurop_agent.variables import Segment  # noqa: E402
+from indurop_agent.irpd.client import IrpdClient  # noqa: E402
+from indurop_agent.irpd.variables import Segment  # noqa: E402
 
 CELL = BUILD / "sets" / "plc-robot"
 PROBE = Path(__file__).with_name("netns_probe.py")

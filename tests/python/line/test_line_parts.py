@@ -15,10 +15,10 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "agent"))
-from indurop_agent.cli_line import line_text  # noqa: E402
+from indurop_agent.cli.line import line_text  # noqa: E402
 from indurop_agent.dds.line import JitterWindow, Line, active_alarms, p99, set_name  # noqa: E402
+from indurop_agent.dds.line_view import LineAlarm, LineEntry, LineFile, read_view, state_of, write_view  # noqa: E402
 from indurop_agent.dds.settings import BridgeSettings, parse_args  # noqa: E402
-from indurop_agent.line_view import LineAlarm, LineEntry, LineFile, read_view, state_of, write_view  # noqa: E402
 
 
 def entry(**kw) -> LineEntry:

@@ -42,8 +42,8 @@ from live_processes import (
 )
 
 sys.path.insert(0, str(ROOT / "agent"))
-from indurop_agent.auth import now_iso
-from indurop_agent.irpd_client import IrpdClient
+from indurop_agent.access.auth import now_iso
+from indurop_agent.irpd.client import IrpdClient
 
 NAMESPACE = "urn:indurop:controller"
 PASSWORDS = {"oper": "turn-the-crank-1", "view": "look-but-dont-touch"}

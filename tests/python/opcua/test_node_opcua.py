@@ -30,7 +30,7 @@ from live_processes import ALARMING, BUILD, ROOT, SIGNALS, copy_cell, signals_wi
 from opcua_helpers import PASSWORDS, Controller, compare_held_leaves
 
 sys.path.insert(0, str(ROOT / "agent"))
-from indurop_agent.auth import now_iso
+from indurop_agent.access.auth import now_iso
 
 CLIENT = ROOT / "tests" / "opcua-client"
 CELL = BUILD / "sets" / "plc-robot"

@@ -23,7 +23,7 @@ from live_processes import ALARMING, SIGNALS, signals_with_an_alarm
 from opcua_helpers import NO_SIGNALS, Controller, live_signals, ns_of
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "agent"))
-from indurop_agent.auth import now_iso
+from indurop_agent.access.auth import now_iso
 
 LIMIT_S = 60
 

@@ -208,8 +208,8 @@ def test_the_api_answers_with_the_generated_models():
     """Where the agent passes irpd's answer on, its API's model is the generated one, or one made
     from it that adds or reshapes what the agent does (sets' activation reports, histograms'
     buckets); the spec's members are all there."""
-    from indurop_agent import protocol
     from indurop_agent.api import models
+    from indurop_agent.irpd import protocol
 
     for generated, served, agent_only in [
         (protocol.SwapReport, models.SwapReport, {"mode", "downtime_ns"}),

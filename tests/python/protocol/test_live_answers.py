@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 
 import pytest
-from indurop_agent.irpd_client import IrpdClient, IrpdRefused
+from indurop_agent.irpd.client import IrpdClient, IrpdRefused
 from jsonschema import Draft202012Validator
 from live_processes import FIG1, IRPD, ROOT, start_irpd, stop, wait_dispatching
 from referencing import Registry, Resource

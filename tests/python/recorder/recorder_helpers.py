@@ -19,7 +19,7 @@ sys.path.insert(0, str(ROOT / "tests" / "python"))
 sys.path.insert(0, str(ROOT / "agent"))
 import orjson  # noqa: E402
 from indurop_agent.events import AgentEvents  # noqa: E402
-from indurop_agent.irpd_client import IrpdClient, IrpdRefused, IrpdUnavailable  # noqa: E402
+from indurop_agent.irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable  # noqa: E402
 from indurop_agent.recorder.manager import Recorder  # noqa: E402
 from live_processes import BUILD, IRPD, free_port, output, start_agent, start_irpd, stop, wait_until  # noqa: E402
 from mcap.reader import make_reader  # noqa: E402

@@ -1,7 +1,7 @@
 """test_captures_live.py -- triggered captures in a real agent in front of a real irpd running the
 signals set (a square wave SIG.wave[4], rising once a second at 1 ms rows): a rising-edge capture
 lands on the exact row (its seq, the pre and post counts, and every value equal to the ring's,
-read here with agent/indurop_agent/trace.py); a repeated one takes its shots one period of the
+read here with agent/indurop_agent/irpd/trace.py); a repeated one takes its shots one period of the
 wave apart; an alarm raised by a module (the C++ tests' alarming.so beside the generator) makes a
 shot of the rows before the alarm's time; bad input is refused naming what to fix; irpctl capture
 arms, lists, gets and disarms (docs/recorder.md "Triggered captures")."""
@@ -24,7 +24,7 @@ from mcap.reader import make_reader
 from recorder_helpers import assert_in_time_order
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from indurop_agent.trace import TraceRing
+from indurop_agent.irpd.trace import TraceRing
 from live_processes import (
     ALARMING,
     API,

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "agent"))
 from indurop_agent.recorder import mcap_read  # noqa: E402
 from indurop_agent.recorder.export import csv_chunks, parquet_chunks  # noqa: E402
-from indurop_agent.recorder.mcap_out import (  # noqa: E402
+from indurop_agent.recorder.mcap_out import (
     JOINT_STATES_TOPIC,
     NOTES_TOPIC,
     SAMPLES_TOPIC,

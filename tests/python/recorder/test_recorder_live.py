@@ -17,10 +17,10 @@ import time
 
 import pyarrow.parquet as pq
 import pytest
-from indurop_agent import cli
+from indurop_agent.cli import irpctl as cli
+from indurop_agent.irpd.trace import TraceRing
 from indurop_agent.recorder.manager import Wanted
 from indurop_agent.recorder.store import Store
-from indurop_agent.trace import TraceRing
 from recorder_helpers import (
     BUILD,
     IRPD,

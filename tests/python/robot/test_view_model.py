@@ -16,9 +16,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "agent"))
 
-from indurop_agent.auth import TokenStore  # noqa: E402
-from indurop_agent.variables import number_problem  # noqa: E402
-from indurop_agent.viewer.mapping import (  # noqa: E402
+from indurop_agent.access.auth import TokenStore  # noqa: E402
+from indurop_agent.irpd.variables import number_problem  # noqa: E402
+from indurop_agent.viewer.mapping import (
     JointMapping,
     MappingError,
     RobotConfig,

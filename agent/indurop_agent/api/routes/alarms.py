@@ -20,16 +20,7 @@ from starlette.websockets import WebSocketDisconnect
 from ...alarms.manager import AlarmError, AlarmManager, public_row
 from ...alarms.store import HistoryFilter
 from ..deps import OperatorDep, ViewerDep, audited
-from ..models import (
-    AckAll,
-    AckAnswer,
-    AlarmHistory,
-    AlarmList,
-    AlarmPublic,
-    AlarmState,
-    Severity,
-    ShelveRequest,
-)
+from ..models import AckAll, AckAnswer, AlarmHistory, AlarmList, AlarmPublic, AlarmState, Severity, ShelveRequest
 from .stream import authenticate, stop_session_watch
 
 router = APIRouter(tags=["alarms"])

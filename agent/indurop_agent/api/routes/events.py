@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from fastapi import APIRouter, Query, Request
 
-from ... import protocol
-from ...irpd_client import IrpdRefused, IrpdUnavailable
+from ...irpd import protocol
+from ...irpd.client import IrpdRefused, IrpdUnavailable
 from ..deps import IrpdDep, ViewerDep
 from ..models import EventsPage
 

@@ -3,7 +3,7 @@
 from fastapi import APIRouter
 
 from ... import __version__
-from ...irpd_client import IrpdRefused, IrpdUnavailable
+from ...irpd.client import IrpdRefused, IrpdUnavailable
 from ..deps import IrpdDep
 from ..models import Health
 

@@ -4,7 +4,7 @@ GET /api/v1/jitter/histograms: the histograms behind them, bucket by bucket."""
 
 from fastapi import APIRouter, Query
 
-from ... import protocol
+from ...irpd import protocol
 from ..deps import IrpdDep, ViewerDep, ask
 from ..models import Histograms
 

@@ -4,7 +4,7 @@ to a file (the agent owns no DDS participant); an absent or old file says the br
 
 from fastapi import APIRouter, Request
 
-from ...line_view import LineView, read_view
+from ...dds.line_view import LineView, read_view
 from ..deps import ViewerDep
 
 router = APIRouter(tags=["line"])

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter, HTTPException, Request
 
-from ... import protocol
+from ...irpd import protocol
 from ..deps import IrpdDep, OperatorDep, SwapIrpdDep, ViewerDep, ask, audited
 from ..models import ChangesReport, ErrorBody, ModuleChanges, PatchReport
 

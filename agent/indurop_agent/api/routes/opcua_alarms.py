@@ -11,7 +11,7 @@ import hmac
 from fastapi import APIRouter, Depends, HTTPException, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
-from ...auth import Identity, allows
+from ...access.auth import Identity, allows
 from ..deps import AuthFailure, http_failure
 from ..models import AlarmList, AlarmPublic
 from ..opcua_models import OpcuaAlarmAction

@@ -15,11 +15,11 @@ from typing import Annotated, Literal
 from fastapi import APIRouter, Depends, HTTPException, Query, Request, Response
 from fastapi.responses import StreamingResponse
 
+from ...irpd.trace import MAX_CHANNELS
 from ...recorder.export import FORMATS, csv_chunks, parquet_chunks
 from ...recorder.manager import Recorder, Wanted
 from ...recorder.mcap_out import JOINT_FILE_SUFFIX, Variable, field_names
 from ...recorder.store import Store, StoreError
-from ...trace import MAX_CHANNELS
 from ..deps import OperatorDep, ViewerDep, audited
 from ..recording_models import RecordingList, RecordingPublic, RecordingStart
 

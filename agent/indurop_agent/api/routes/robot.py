@@ -17,8 +17,8 @@ from fastapi import APIRouter, HTTPException, Request, WebSocket
 from fastapi.responses import RedirectResponse, Response
 from websockets.asyncio.client import connect
 
-from ...irpd_client import IrpdRefused, IrpdUnavailable
-from ...store import StoreError
+from ...irpd.client import IrpdRefused, IrpdUnavailable
+from ...sets.store import StoreError
 from ...viewer.base import ViewerError
 from ...viewer.live import View
 from ...viewer.mapping import MappingError, RobotConfig, check_against_urdf, check_variables, complete, joints_from

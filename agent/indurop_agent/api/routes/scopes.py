@@ -9,7 +9,7 @@ from typing import Annotated
 
 from fastapi import APIRouter, Depends, HTTPException, Request, Response
 
-from ...scope_configs import ScopeConfigs, ScopeError
+from ...recorder.scope_configs import ScopeConfigs, ScopeError
 from ..deps import OperatorDep, ViewerDep, audited
 from ..scope_models import MAX_CONFIG_BYTES, MAX_CONFIGS, ScopeConfig, ScopeList, ScopeSaved
 

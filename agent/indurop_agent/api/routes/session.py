@@ -14,7 +14,7 @@ from datetime import UTC, datetime
 
 from fastapi import APIRouter, HTTPException, Request, Response
 
-from ...sessions import COOKIE, Session
+from ...access.sessions import COOKIE, Session
 from ..deps import (
     AuthFailure,
     address_failed,

@@ -1,5 +1,5 @@
 """sets.py -- module sets: upload (admin), list and read (viewer), activate and roll back
-(operator).  The store is agent/indurop_agent/store.py; uploads are checked by uploads.py;
+(operator).  The store is agent/indurop_agent/sets/store.py; uploads are checked by uploads.py;
 activation is a hot swap in irpd (activation.py)."""
 
 from __future__ import annotations
@@ -7,11 +7,11 @@ from __future__ import annotations
 from fastapi import APIRouter, HTTPException, Request
 from starlette.concurrency import run_in_threadpool
 
-from ... import uploads
-from ...activation import RestartFellBack, irpd_validation
-from ...errors import LocatedError, place
-from ...irpd_client import IrpdRefused, IrpdUnavailable
-from ...store import StoreError, remove_tree, set_id_of
+from ...irpd.client import IrpdRefused, IrpdUnavailable
+from ...sets import uploads
+from ...sets.activation import RestartFellBack, irpd_validation
+from ...sets.errors import LocatedError, place
+from ...sets.store import StoreError, remove_tree, set_id_of
 from ..deps import AdminDep, OperatorDep, ViewerDep, audited
 from ..models import ActivateRequest, ActiveSet, ErrorBody, SetPublic, SetSummary, SwapReport
 

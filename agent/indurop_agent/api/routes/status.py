@@ -4,8 +4,8 @@ modules.py."""
 from fastapi import APIRouter, Request
 from starlette.concurrency import run_in_threadpool
 
-from ... import protocol
-from ...irpd_client import IrpdRefused, IrpdUnavailable
+from ...irpd import protocol
+from ...irpd.client import IrpdRefused, IrpdUnavailable
 from ..deps import IrpdDep, ViewerDep, ask
 from ..models import HostLoad
 

@@ -19,10 +19,10 @@ from urllib.parse import urlsplit
 from fastapi import APIRouter, WebSocket
 from starlette.websockets import WebSocketDisconnect, WebSocketState
 
-from ... import stream_frame
-from ...irpd_client import IrpdRefused, IrpdUnavailable
-from ...sessions import COOKIE
-from ...trace import MAX_CHANNELS, TraceError, TraceRead, TraceRing
+from ...access.sessions import COOKIE
+from ...irpd.client import IrpdRefused, IrpdUnavailable
+from ...irpd.trace import MAX_CHANNELS, TraceError, TraceRead, TraceRing
+from .. import stream_frame
 from ..deps import AuthFailure, check_session, check_token, session_ended, session_identity
 
 router = APIRouter(tags=["stream"])

@@ -15,9 +15,9 @@ from fastapi.responses import FileResponse, StreamingResponse
 from starlette.background import BackgroundTask
 from starlette.concurrency import run_in_threadpool
 
-from ...activation import RestartFellBack
-from ...irpd_client import IrpdRefused, IrpdUnavailable
-from ...store import StoreError, remove_tree
+from ...irpd.client import IrpdRefused, IrpdUnavailable
+from ...sets.activation import RestartFellBack
+from ...sets.store import StoreError, remove_tree
 from ...system import backup, restore, tls
 from ...system.info import gather
 from ...system.logs import MAX_GREP_CHARS, MAX_LINES, LogQuery, LogUnavailable, no_source, sources

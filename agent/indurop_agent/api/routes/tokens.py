@@ -7,7 +7,7 @@ from typing import Literal
 from fastapi import APIRouter, HTTPException, Query, Request
 from pydantic import BaseModel, ConfigDict, Field
 
-from ...auth import ROLES, allows
+from ...access.auth import ROLES, allows
 from ..deps import AdminDep, ViewerDep, audited
 from ..models import UserName
 

@@ -9,8 +9,8 @@ from typing import Annotated
 
 from fastapi import APIRouter, HTTPException, Path, Request
 
-from ...auth import allows
-from ...users import User, UserError
+from ...access.auth import allows
+from ...access.users import User, UserError
 from ..deps import AdminDep, ViewerDep, audited, client_address, name_failed, name_locked
 from ..models import PasswordChange, UserCreate, UserPublic, UserUpdate
 from .session import hash_slot

@@ -6,8 +6,8 @@ layout) and GET /api/v1/layout (the running layout.json, to lay a changed .glb o
 from fastapi import APIRouter, HTTPException, Request, Response
 from pydantic import BaseModel, ConfigDict
 
-from ... import protocol
-from ...variables import Segment, VariableError
+from ...irpd import protocol
+from ...irpd.variables import Segment, VariableError
 from ..deps import IrpdDep, OperatorDep, ViewerDep, ask, audited
 from ..models import GroupValue, VariableList, VariableValue
 
