@@ -226,7 +226,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
         title="indurop agent",
         version=__version__,
         openapi_url=f"{API}/openapi.json",
-        docs_url=None,  # served from the agent's own files: api_docs.py
+        docs_url=None,  # served from the agent's own files: docs.py
         redoc_url=None,
         lifespan=lifespan,
     )

@@ -1,4 +1,4 @@
-"""api_docs.py -- the API's interactive docs at /api/v1/docs: Swagger UI from the agent's own files
+"""docs.py -- the API's interactive docs at /api/v1/docs: Swagger UI from the agent's own files
 (the fastapi-offline package ships Swagger UI's bundle, stylesheet and icon), so that the page works
 on a plant network without internet and runs no script from another host.  The page's one inline
 script (FastAPI's, which starts Swagger UI) is allowed by its hash in the page's

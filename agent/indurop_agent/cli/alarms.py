@@ -1,7 +1,7 @@
-"""cli_alarms.py -- `irpctl events`, `alarms`, `ack` and `shelve`: irpd's and the agent's event log,
+"""alarms.py -- `irpctl events`, `alarms`, `ack` and `shelve`: irpd's and the agent's event log,
 the alarms that need attention and their history, followed as they come; acknowledging and shelving
 (GET /events, GET /alarms[/history], POST /alarms/{key}/ack|shelve; docs/irpctl.md, docs/alarms.md).
-cli.py puts these commands in its table."""
+irpctl.py puts these commands in its table."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""cli_base.py -- what every part of irpctl (cli.py and its cli_*.py command groups) shares: the exit
+"""base.py -- what every part of irpctl (irpctl.py and its command groups beside it) shares: the exit
 codes, how a command's arguments are written, and the time filters' parser (docs/irpctl.md)."""
 
 from __future__ import annotations

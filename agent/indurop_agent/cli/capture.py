@@ -1,5 +1,5 @@
-"""cli_capture.py -- `irpctl capture arm|disarm|list|get|trigger|delete`: the triggered captures
-(docs/irpctl.md, docs/recorder.md "Triggered captures").  cli.py adds CAPTURE_COMMANDS as the
+"""capture.py -- `irpctl capture arm|disarm|list|get|trigger|delete`: the triggered captures
+(docs/irpctl.md, docs/recorder.md "Triggered captures").  irpctl.py adds CAPTURE_COMMANDS as the
 subcommands of `capture`; each entry is (name, help, run, arguments) as its Command.
 
     irpctl capture arm SIG.wave[0] --when 'SIG.wave[4] rising 0' --pre 200 --post 100ms

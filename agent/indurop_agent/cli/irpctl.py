@@ -1,10 +1,10 @@
-"""cli.py -- irpctl, the command line of the agent's API: status, modules, sets, hot reload,
-variables, the sample stream, events and alarms (cli_alarms.py), users (cli_users.py), the administration of
-cli_system.py, the line of controllers (cli_line.py), the recordings (cli_record.py), the
-triggered captures (cli_capture.py) and the OPC UA server's trust list (cli_opcua.py) (docs/irpctl.md).
+"""irpctl.py -- irpctl, the command line of the agent's API: status, modules, sets, hot reload,
+variables, the sample stream, events and alarms (alarms.py), users (users.py), the administration of
+system.py, the line of controllers (line.py), the recordings (record.py), the triggered captures
+(capture.py) and the OPC UA server's trust list (opcua.py) (docs/irpctl.md).
 
 Human output by default (aligned tables, durations as "100 µs"), the API's JSON with --json.
-Exit codes (cli_base.py): 0 done, 1 the API refused (4xx, 409), 2 usage, 3 the agent or irpd unreachable.
+Exit codes (base.py): 0 done, 1 the API refused (4xx, 409), 2 usage, 3 the agent or irpd unreachable.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""cli_line.py -- `irpctl line`: the controllers this controller's DDS bridge sees on its domain
-(GET /line; docs/irpctl.md, docs/dds.md "The line").  cli.py adds LINE_COMMANDS to its command
+"""line.py -- `irpctl line`: the controllers this controller's DDS bridge sees on its domain
+(GET /line; docs/irpctl.md, docs/dds.md "The line").  irpctl.py adds LINE_COMMANDS to its command
 table; each entry is (name, help, run, arguments) as its Command."""
 
 from __future__ import annotations

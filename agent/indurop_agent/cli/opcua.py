@@ -1,6 +1,6 @@
-"""cli_opcua.py -- `irpctl opcua ...`: the OPC UA server's state and its trust list (GET /opcua, POST
+"""opcua.py -- `irpctl opcua ...`: the OPC UA server's state and its trust list (GET /opcua, POST
 /opcua/certificates/{thumbprint}/trust|reject, DELETE ...; docs/irpctl.md, docs/opcua.md "The trust
-list").  cli.py adds OPCUA_COMMANDS to its command table as a group; each entry is (name, help, run,
+list").  irpctl.py adds OPCUA_COMMANDS to its command table as a group; each entry is (name, help, run,
 arguments) as its Command.  A certificate is named by its SHA-1 or SHA-256 thumbprint, or by the
 start of one (at least 6 hex digits) when only one certificate's thumbprint starts so."""
 

@@ -1,5 +1,5 @@
-"""cli_record.py -- `irpctl record ...`: start, stop, list, get, rm, download and export recordings
-on the appliance (docs/irpctl.md, docs/recorder.md).  cli.py adds RECORD_COMMANDS to its command
+"""record.py -- `irpctl record ...`: start, stop, list, get, rm, download and export recordings
+on the appliance (docs/irpctl.md, docs/recorder.md).  irpctl.py adds RECORD_COMMANDS to its command
 table as the group `record`; each entry is (name, help, run, arguments) as its Command.
 
     irpctl record start run-7 SIG.sample SIG.wave[0]=V --duration 60 --decimation 10

@@ -1,5 +1,5 @@
-"""cli_scope.py -- `irpctl scope list|get|save|rm`: the trace configurations kept with a stored set
-(docs/irpctl.md, docs/recorder.md "Trace configurations"), by default the active set's.  cli.py adds
+"""scope.py -- `irpctl scope list|get|save|rm`: the trace configurations kept with a stored set
+(docs/irpctl.md, docs/recorder.md "Trace configurations"), by default the active set's.  irpctl.py adds
 SCOPE_COMMANDS as the subcommands of `scope`; each entry is (name, help, run, arguments).
 
     irpctl scope list [--set ID]

@@ -1,5 +1,5 @@
-"""cli_system.py -- irpctl's administration commands (docs/irpctl.md, docs/administration.md):
-system, backup, restore, restart irpd|agent, logs irpd|agent, tls, and `sets prune`.  cli.py adds
+"""system.py -- irpctl's administration commands (docs/irpctl.md, docs/administration.md):
+system, backup, restore, restart irpd|agent, logs irpd|agent, tls, and `sets prune`.  irpctl.py adds
 SYSTEM_COMMANDS to its command table; each entry is (name, help, run, arguments) as its Command."""
 
 from __future__ import annotations

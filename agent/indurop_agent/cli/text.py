@@ -1,4 +1,4 @@
-"""cli_text.py -- how irpctl prints: durations ("100 µs"), values, aligned tables, and one renderer
+"""text.py -- how irpctl prints: durations ("100 µs"), values, aligned tables, and one renderer
 per API answer (status, modules, schedule, jitter, swap reports, uploads, sets, events, audit).
 Parsing of durations and values typed on the command line is here too."""
 

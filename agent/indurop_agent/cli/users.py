@@ -1,4 +1,4 @@
-"""cli_users.py -- `irpctl user ...`: list, add, disable, enable, passwd, role and tokens of the people
+"""users.py -- `irpctl user ...`: list, add, disable, enable, passwd, role and tokens of the people
 who sign in (docs/irpctl.md, docs/administration.md).  irpctl itself signs in with a bearer token;
 the first admin is added with the admin token the agent wrote at its first start:
 
@@ -140,7 +140,7 @@ PASSWORD_STDIN = (
     },
 )
 
-# (name, help, run, arguments as (flags, add_argument keywords)): cli.py makes them `irpctl user NAME`.
+# (name, help, run, arguments as (flags, add_argument keywords)): irpctl.py makes them `irpctl user NAME`.
 USER_COMMANDS = (
     ("list", "every user: role, state, last sign-in, tokens, sessions (admin)", cmd_list, ()),
     ("show", "one user (admin, or oneself)", cmd_show, (NAME,)),

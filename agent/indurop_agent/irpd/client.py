@@ -1,4 +1,4 @@
-"""irpd_client.py -- the agent's side of irpd's control socket (docs/control-protocol.md).
+"""client.py -- the agent's side of irpd's control socket (docs/control-protocol.md).
 
 One connection, re-opened when irpd restarts; every call has a timeout, so a stopped irpd makes
 requests fail fast (the API answers 503) instead of hanging.  Commands that swap the schedule
