@@ -43,11 +43,14 @@ Executor::Executor(osal::Clock &clock, int64_t basic_ns, std::vector<std::vector
 }
 
 void Executor::noteTable(const Table &table) {
-    bool watched = false;
-    for (const Task *t : table.tasks)
+    bool watched = false, processes = false;
+    for (const Task *t : table.tasks) {
         watched =
             watched || (t->config.kind == Task::Kind::Thread && t->config.on_overrun != config::OverrunAction::None);
+        processes = processes || (t->config.kind == Task::Kind::Process && !t->config.sporadic);
+    }
     watching_.store(watched, std::memory_order_relaxed);
+    awaits_processes_.store(processes, std::memory_order_relaxed);
     basic_ns_.store(table.basic_ns, std::memory_order_relaxed);
 }
 
@@ -139,8 +142,22 @@ bool Executor::runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start
     release.store(served + 1, std::memory_order_release);
     futex::wakeAll(&slot.release_seq);
     if (task.config.sporadic) return true;  // the event handler checks completion later
-    const int64_t left = wait_until - clock_.now();
-    if (left <= 0 || !futex::waitWhileEqual(&slot.done_seq, served, left)) stats::bump(task.config.stats->overruns);
+    if (!awaitDone(slot, served, wait_until)) stats::bump(task.config.stats->overruns);
+    return true;
+}
+
+bool Executor::awaitDone(indurop_process_slot &slot, uint32_t served, int64_t until) {
+    std::atomic_ref<uint32_t> done(slot.done_seq);
+    while (done.load(std::memory_order_acquire) == served) {
+        const int64_t left = until - clock_.now();
+        if (left <= 0) return false;
+        if (process_wait_.begin(&slot.done_seq, until)) {  // the watchdog ends it at `until`
+            futex::wait(&slot.done_seq, served);
+            process_wait_.end();
+        } else {
+            futex::wait(&slot.done_seq, served, left);
+        }
+    }
     return true;
 }
 

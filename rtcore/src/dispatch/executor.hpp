@@ -172,6 +172,10 @@ public:
     // watching(): the running table has a module with <on_overrun>.
     RunMarker &marker() { return marker_; }
     bool watching() const { return watching_.load(std::memory_order_relaxed); }
+    // The wait for a periodic process's done word in progress, which the watchdog ends at its bound
+    // (dispatch/watchdog.hpp); awaitsProcesses(): the running table has a periodic process module.
+    ProcessWait &processWait() { return process_wait_; }
+    bool awaitsProcesses() const { return awaits_processes_.load(std::memory_order_relaxed); }
 
     // Hot reload, from a non-RT thread.  offer(): the loop switches to `next` at the first slot due
     // at or after `at` (a macro-period boundary of the running table, on the common time grid),
@@ -191,6 +195,8 @@ private:
     // Releases a periodic process and waits (futex) until it reports the period done, at most
     // until `wait_until`.  False if it was not ready to be released.
     bool runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start, int64_t wait_until);
+    // Waits until done_seq moves past `served`, at most until `until`; false at the bound.
+    bool awaitDone(indurop_process_slot &slot, uint32_t served, int64_t until);
     // The event handler (Figure 6): conditions of sporadic threads, then releases of sporadic processes.
     int64_t handleEvents(uint64_t cycle, int64_t due, int64_t t);
     void disable(Task &task, stats::TimingRecord &r, const char *what, const char *detail);
@@ -214,6 +220,8 @@ private:
     std::atomic<bool> switched_{false};
     RunMarker marker_;
     std::atomic<bool> watching_{false};
+    ProcessWait process_wait_;
+    std::atomic<bool> awaits_processes_{false};
     std::atomic<int64_t> basic_ns_{0};
     void noteTable(const Table &table);
 };
