@@ -79,6 +79,7 @@ struct TaskConfig {
 struct TaskState {
     int64_t t0 = 0;         // first start (T0 of Eq. (1))
     int64_t first_due = 0;  // the due time of the slot of its first start: run n is due first_due + n * period
+    int64_t run_due = 0;    // the due time of its current run on its own grid: first_due + n * period
     bool started = false;
     bool disabled = false;           // by request (TaskConfig::disabled), a throw or <on_overrun>disable
     int64_t skip_until = INT64_MIN;  // on_overrun=skip: runs due before this are dropped
@@ -96,6 +97,7 @@ struct TaskState {
             started = before.started;
             t0 = before.t0;
             first_due = before.first_due;
+            run_due = before.run_due;
         }
         disabled = disabled || (before.disabled && !clear_fault);
         skip_until = before.skip_until;
@@ -222,6 +224,7 @@ private:
     std::atomic<bool> watching_{false};
     ProcessWait process_wait_;
     std::atomic<bool> awaits_processes_{false};
+    uint32_t *alarm_source_ = nullptr;  // this thread's alarm source word, while loop() runs
     std::atomic<int64_t> basic_ns_{0};
     void noteTable(const Table &table);
 };
