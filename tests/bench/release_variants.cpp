@@ -30,6 +30,7 @@
 // and @info lines with the counters.
 #include "common/bench_hist.hpp"
 #include "common/cli.hpp"
+#include "common/rt_setup.hpp"
 #include "sdk/sync.hpp"
 
 #include <sched.h>
@@ -72,19 +73,8 @@ int64_t number(const char *option, const char *text, int64_t min, int64_t max) {
     return bench::number("release_variants", option, text, min, max);
 }
 
-timespec toTimespec(int64_t ns) {
-    return timespec{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
-}
-
-bool fifo(int priority, std::string &notes, const char *who) {
-    sched_param param{};
-    param.sched_priority = priority;
-    if (sched_setscheduler(0, SCHED_FIFO, &param) != 0) {
-        notes += std::string(who) + ": SCHED_FIFO refused: " + std::strerror(errno) + "; ";
-        return false;
-    }
-    return true;
-}
+using bench::fifo;
+using bench::toTimespec;
 
 std::atomic_ref<uint32_t> word(uint32_t &w) { return std::atomic_ref<uint32_t>(w); }
 
@@ -163,24 +153,14 @@ int main(int argc, char **argv) {
         else if (a == "--rt-priority")
             priority = static_cast<int>(number("--rt-priority", v, 2, 98));
         else if (a == "--duration") {
-            char *end = nullptr;
-            duration = std::strtod(v, &end);
-            if (!end || *end || !(duration > 0) || duration > 1e6) usage("--duration: expected positive seconds");
+            if (!(duration = bench::seconds(v))) usage("--duration: expected positive seconds");
         } else
             usage(("unknown option " + a).c_str());
     }
     if (period == 0 || duration == 0 || mode_name.empty()) usage("--mode, --period-ns and --duration are required");
     const Mode mode = parseMode(mode_name);
 
-    if (cpu >= 0) {
-        cpu_set_t set;
-        CPU_ZERO(&set);
-        CPU_SET(cpu, &set);
-        if (sched_setaffinity(0, sizeof set, &set) != 0) {
-            std::fprintf(stderr, "release_variants: cannot pin to CPU %d: %s\n", cpu, std::strerror(errno));
-            return 1;
-        }
-    }
+    if (!bench::pinTo("release_variants", cpu)) return 1;
     void *mem = mmap(nullptr, sizeof(Shared), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
     if (mem == MAP_FAILED) {
         std::fprintf(stderr, "release_variants: mmap: %s\n", std::strerror(errno));

@@ -23,6 +23,7 @@
 // and @info lines with the counters.
 #include "common/bench_hist.hpp"
 #include "common/cli.hpp"
+#include "common/rt_setup.hpp"
 
 #include <sched.h>
 #include <signal.h>
@@ -53,19 +54,8 @@ int64_t number(const char *option, const char *text, int64_t min, int64_t max) {
     return bench::number("signal_wakeup", option, text, min, max);
 }
 
-timespec toTimespec(int64_t ns) {
-    return timespec{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
-}
-
-bool fifo(int priority, std::string &notes, const char *who) {
-    sched_param param{};
-    param.sched_priority = priority;
-    if (sched_setscheduler(0, SCHED_FIFO, &param) != 0) {
-        notes += std::string(who) + ": SCHED_FIFO refused: " + std::strerror(errno) + "; ";
-        return false;
-    }
-    return true;
-}
+using bench::fifo;
+using bench::toTimespec;
 
 void send(pid_t to, int sig, int64_t value) {
     sigval v{};
@@ -132,9 +122,7 @@ int main(int argc, char **argv) {
         else if (a == "--rt-priority")
             priority = static_cast<int>(number("--rt-priority", v, 2, 99));
         else if (a == "--duration") {
-            char *end = nullptr;
-            duration = std::strtod(v, &end);
-            if (!end || *end || !(duration > 0) || duration > 1e6) usage("--duration: expected positive seconds");
+            if (!(duration = bench::seconds(v))) usage("--duration: expected positive seconds");
         } else
             usage(("unknown option " + a).c_str());
     }
@@ -147,15 +135,7 @@ int main(int argc, char **argv) {
     sigaddset(&ours, done);
     sigaddset(&ours, stop);
     sigprocmask(SIG_BLOCK, &ours, nullptr);  // inherited by the worker: taken only by sigwaitinfo
-    if (cpu >= 0) {
-        cpu_set_t set;
-        CPU_ZERO(&set);
-        CPU_SET(cpu, &set);
-        if (sched_setaffinity(0, sizeof set, &set) != 0) {
-            std::fprintf(stderr, "signal_wakeup: cannot pin to CPU %d: %s\n", cpu, std::strerror(errno));
-            return 1;
-        }
-    }
+    if (!bench::pinTo("signal_wakeup", cpu)) return 1;
     std::fflush(stdout);
     const pid_t parent = getpid();
     const pid_t child = fork();

@@ -52,6 +52,22 @@ def rel(path: Path) -> str:
         return str(path)
 
 
+def two_process_cmd(binary: Path, a, seconds: int, *extra: str) -> list[str]:
+    """The command of signal_wakeup or release_variants at the run's period, CPU and priority."""
+    return [
+        str(binary),
+        "--period-ns",
+        str(a.period_ns),
+        "--duration",
+        str(seconds),
+        "--cpu",
+        str(a.cpu),
+        "--rt-priority",
+        str(a.rt_priority),
+        *extra,
+    ]
+
+
 def run_checked(cmd: list[str], what: str, timeout: float) -> subprocess.CompletedProcess:
     log(f"{what}: {quote(cmd)}")
     try:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import PROC_P99_RATIO_TARGET, fmt_ratio, quote, ratio, run_checked, us
+from .common import PROC_P99_RATIO_TARGET, fmt_ratio, quote, ratio, run_checked, two_process_cmd, us
 from .irpd_stats import bench_hist, parse_bench_output
 
 # mode -> what it is, for the table (release_variants.cpp says how each is made)
@@ -27,19 +27,7 @@ def run_variant(a, bench: Path, program: str, seconds: int, r: int, commands: li
     """Runs one mode for `seconds`; hands its histograms and counters to add(program, key, value);
     returns its wake-up histogram."""
     mode = program.removeprefix("variant_")
-    cmd = [
-        str(bench / "release_variants"),
-        "--mode",
-        mode,
-        "--period-ns",
-        str(a.period_ns),
-        "--duration",
-        str(seconds),
-        "--cpu",
-        str(a.cpu),
-        "--rt-priority",
-        str(a.rt_priority),
-    ]
+    cmd = two_process_cmd(bench / "release_variants", a, seconds, "--mode", mode)
     commands.append(quote(cmd))
     p = run_checked(cmd, f"release_variants {mode} (round {r}, {seconds} s)", seconds + 60)
     hs, info = parse_bench_output(p.stdout, f"release_variants {mode} (round {r})")
