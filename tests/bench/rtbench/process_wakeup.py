@@ -144,7 +144,7 @@ def render_wakeup(a, w: dict) -> str:
     add(
         f"Period {a.period_ns} ns ({per_us:g} µs), CPU {a.cpu}, the dispatcher at SCHED_FIFO {a.rt_priority}, the "
         f"processes at {a.rt_priority - 1}; {len(PROGRAMS) + len(VARIANT_PROGRAMS)} programs (these four and the "
-        "alternatives below), {w['seconds_per_round']} s each per round, in "
+        f"alternatives below), {w['seconds_per_round']} s each per round, in "
         f"{a.proc_rounds} rounds whose order rotates; the samples of the rounds are merged. irpd runs with "
         "`--overrun-policy skip`, as in the cyclictest comparison, so that every sample is a real wake-up."
     )
