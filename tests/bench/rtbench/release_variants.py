@@ -79,4 +79,17 @@ def render_variants(a, w: dict) -> str:
             + f"{us(v['exec'].get('p50'))} / {us(v['exec'].get('p99'))} | {counts} |"
         )
     add("")
+    add(
+        "irpd keeps `unbounded`, with the overrun watchdog as the wait's bound (docs/process-modules.md): of the "
+        "ways that keep the process below its dispatcher it hands over fastest. `above` and `yield` hand over "
+        "faster still (the wake itself switches to the process, or the yield does, and no timer is armed), but "
+        "a process that then spins holds its dispatcher's CPU: nothing but a demotion from another thread would "
+        "end it, and its place in the slot's order would hold only for the release. `spin` cannot help on one "
+        "CPU: the process cannot run while its dispatcher spins. Considered and not measured: a futex per "
+        "process (irpd already waits on each process's own words, in its own slot); a periodic timer armed once "
+        "on the grid so that the wait's timeout never reprograms the timer device (Linux re-arms a periodic "
+        "timerfd or POSIX timer only when it is read or its signal taken: a syscall per period again); "
+        "FUTEX_WAKE_OP (it wakes a second word in the same call; a release has one word to wake)."
+    )
+    add("")
     return "\n".join(L)
