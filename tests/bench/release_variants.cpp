@@ -133,31 +133,27 @@ Mode parseMode(const std::string &m) {
 }  // namespace
 
 int main(int argc, char **argv) {
-    int64_t period = 0, spin_ns = 2000;
-    double duration = 0;
-    int cpu = -1, priority = 80;
+    bench::GridOptions options;
+    int64_t spin_ns = 2000;
     std::string mode_name;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         if (a == "--help" || a == "-h") usage(nullptr);
         if (i + 1 >= argc) usage(("option " + a + " needs a value").c_str());
         const char *v = argv[++i];
+        if (bench::gridOption("release_variants", a, v, options, 98)) continue;
         if (a == "--mode")
             mode_name = v;
-        else if (a == "--period-ns")
-            period = number("--period-ns", v, 10'000, 1'000'000'000);
         else if (a == "--spin-ns")
             spin_ns = number("--spin-ns", v, 0, 1'000'000);
-        else if (a == "--cpu")
-            cpu = static_cast<int>(number("--cpu", v, 0, CPU_SETSIZE - 1));
-        else if (a == "--rt-priority")
-            priority = static_cast<int>(number("--rt-priority", v, 2, 98));
-        else if (a == "--duration") {
-            if (!(duration = bench::seconds(v))) usage("--duration: expected positive seconds");
-        } else
+        else
             usage(("unknown option " + a).c_str());
     }
-    if (period == 0 || duration == 0 || mode_name.empty()) usage("--mode, --period-ns and --duration are required");
+    if (options.period == 0 || options.duration == 0 || mode_name.empty())
+        usage("--mode, --period-ns and --duration are required");
+    const int64_t period = options.period;
+    const double duration = options.duration;
+    const int cpu = options.cpu, priority = options.priority;
     const Mode mode = parseMode(mode_name);
 
     if (!bench::pinTo("release_variants", cpu)) return 1;
@@ -188,23 +184,10 @@ int main(int argc, char **argv) {
     }
 
     const auto total = static_cast<uint64_t>(duration * 1e9) / static_cast<uint64_t>(period);
-    const int64_t t0 = bench::nowNs() + 2'000'000;
-    uint64_t cycles = 0, releases = 0, missed = 0, skipped = 0, overruns = 0, not_ready = 0;
+    bench::Grid grid{bench::nowNs() + 2'000'000, period, total};
+    uint64_t cycles = 0, releases = 0, overruns = 0, not_ready = 0;
     for (uint64_t n = 0; n < total; ++n, ++cycles) {
-        int64_t due = t0 + static_cast<int64_t>(n) * period;
-        const timespec at = toTimespec(due);
-        while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &at, nullptr) == EINTR) {}
-        const int64_t woke = bench::nowNs();
-        const int64_t late = woke - due;
-        g_dispatcher.record(late);
-        if (late >= period) {
-            ++missed;
-            auto behind = static_cast<uint64_t>(late / period);
-            if (n + behind >= total) behind = total - n - 1;
-            skipped += behind;
-            n += behind;
-            due += static_cast<int64_t>(behind) * period;
-        }
+        const int64_t due = grid.wake(n, g_dispatcher);
         const uint32_t served = word(s.release_seq).load(std::memory_order_relaxed);
         if (word(s.done_seq).load(std::memory_order_acquire) != served) {
             ++not_ready;  // still on its last release
@@ -245,8 +228,8 @@ int main(int argc, char **argv) {
     std::printf("@info variant_dispatcher mode=%s cycles=%llu grid=%llu releases=%llu missed=%llu skipped=%llu "
                 "overruns=%llu not_ready=%llu realtime=%d mlockall=%d worker_status=%d notes=%s\n",
                 mode_name.c_str(), static_cast<unsigned long long>(cycles), static_cast<unsigned long long>(total),
-                static_cast<unsigned long long>(releases), static_cast<unsigned long long>(missed),
-                static_cast<unsigned long long>(skipped), static_cast<unsigned long long>(overruns),
+                static_cast<unsigned long long>(releases), static_cast<unsigned long long>(grid.missed),
+                static_cast<unsigned long long>(grid.skipped), static_cast<unsigned long long>(overruns),
                 static_cast<unsigned long long>(not_ready), rt ? 1 : 0, locked ? 1 : 0,
                 WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), notes.empty() ? "-" : notes.c_str());
     std::fflush(stdout);

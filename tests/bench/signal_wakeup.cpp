@@ -50,10 +50,6 @@ bench::Histogram g_wake, g_dispatcher, g_exec;
     std::exit(2);
 }
 
-int64_t number(const char *option, const char *text, int64_t min, int64_t max) {
-    return bench::number("signal_wakeup", option, text, min, max);
-}
-
 using bench::fifo;
 using bench::toTimespec;
 
@@ -102,9 +98,7 @@ int worker(pid_t dispatcher, int priority) {
 }  // namespace
 
 int main(int argc, char **argv) {
-    int64_t period = 0;
-    double duration = 0;
-    int cpu = -1, priority = 80;
+    bench::GridOptions options;
     bool bounded = true;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
@@ -114,19 +108,12 @@ int main(int argc, char **argv) {
             continue;
         }
         if (i + 1 >= argc) usage(("option " + a + " needs a value").c_str());
-        const char *v = argv[++i];
-        if (a == "--period-ns")
-            period = number("--period-ns", v, 10'000, 1'000'000'000);
-        else if (a == "--cpu")
-            cpu = static_cast<int>(number("--cpu", v, 0, CPU_SETSIZE - 1));
-        else if (a == "--rt-priority")
-            priority = static_cast<int>(number("--rt-priority", v, 2, 99));
-        else if (a == "--duration") {
-            if (!(duration = bench::seconds(v))) usage("--duration: expected positive seconds");
-        } else
-            usage(("unknown option " + a).c_str());
+        if (!bench::gridOption("signal_wakeup", a, argv[++i], options, 99)) usage(("unknown option " + a).c_str());
     }
-    if (period == 0 || duration == 0) usage("--period-ns and --duration are required");
+    if (options.period == 0 || options.duration == 0) usage("--period-ns and --duration are required");
+    const int64_t period = options.period;
+    const double duration = options.duration;
+    const int cpu = options.cpu, priority = options.priority;
 
     const int release = SIGRTMIN, done = SIGRTMIN + 1, stop = SIGRTMIN + 2;
     sigset_t ours;
@@ -163,25 +150,12 @@ int main(int argc, char **argv) {
     }
 
     const auto total = static_cast<uint64_t>(duration * 1e9) / static_cast<uint64_t>(period);
-    uint64_t cycles = 0, releases = 0, missed = 0, skipped = 0, overruns = 0, not_ready = 0;
+    uint64_t cycles = 0, releases = 0, overruns = 0, not_ready = 0;
     bool pending = false;  // a release whose "done" has not come back
     int64_t pending_due = 0;
-    const int64_t t0 = bench::nowNs() + 2'000'000;
+    bench::Grid grid{bench::nowNs() + 2'000'000, period, total};
     for (uint64_t n = 0; n < total; ++n, ++cycles) {
-        int64_t due = t0 + static_cast<int64_t>(n) * period;
-        const timespec at = toTimespec(due);
-        while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &at, nullptr) == EINTR) {}
-        const int64_t woke = bench::nowNs();
-        const int64_t late = woke - due;
-        g_dispatcher.record(late);
-        if (late >= period) {  // skip to the period due now, as cyclictest and irpd --overrun-policy skip
-            ++missed;
-            auto behind = static_cast<uint64_t>(late / period);
-            if (n + behind >= total) behind = total - n - 1;
-            skipped += behind;
-            n += behind;
-            due += static_cast<int64_t>(behind) * period;
-        }
+        const int64_t due = grid.wake(n, g_dispatcher);
         if (pending) {  // the worker is still on an earlier release: irpd would not release it either
             siginfo_t late_done{};
             const timespec zero{0, 0};
@@ -229,8 +203,8 @@ int main(int argc, char **argv) {
     std::printf("@info signal_dispatcher cycles=%llu grid=%llu releases=%llu missed=%llu skipped=%llu overruns=%llu "
                 "not_ready=%llu bounded=%d realtime=%d mlockall=%d worker_status=%d notes=%s\n",
                 static_cast<unsigned long long>(cycles), static_cast<unsigned long long>(total),
-                static_cast<unsigned long long>(releases), static_cast<unsigned long long>(missed),
-                static_cast<unsigned long long>(skipped), static_cast<unsigned long long>(overruns),
+                static_cast<unsigned long long>(releases), static_cast<unsigned long long>(grid.missed),
+                static_cast<unsigned long long>(grid.skipped), static_cast<unsigned long long>(overruns),
                 static_cast<unsigned long long>(not_ready), bounded ? 1 : 0, rt ? 1 : 0, locked ? 1 : 0,
                 WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), notes.empty() ? "-" : notes.c_str());
     std::fflush(stdout);

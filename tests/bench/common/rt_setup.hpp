@@ -2,6 +2,9 @@
 // alike: SCHED_FIFO, pinning to one CPU, absolute times as timespec, and the --duration option.
 #pragma once
 
+#include "common/bench_hist.hpp"
+#include "common/cli.hpp"
+
 #include <sched.h>
 
 #include <cerrno>
@@ -40,11 +43,62 @@ inline bool pinTo(const char *program, int cpu) {
     return false;
 }
 
-// --duration's value: positive seconds up to 1e6, else 0.
-inline double seconds(const char *text) {
-    char *end = nullptr;
-    const double s = std::strtod(text, &end);
-    return end && !*end && s > 0 && s <= 1e6 ? s : 0;
+// The options both programs take.
+struct GridOptions {
+    int64_t period = 0;   // --period-ns
+    double duration = 0;  // --duration, seconds
+    int cpu = -1;         // --cpu
+    int priority = 80;    // --rt-priority, the dispatcher's
+};
+
+// Takes `option value` into `o` when it is one of GridOptions' (false when it is not); a bad value
+// is said on stderr with the program's name, and the program exits 2.
+inline bool gridOption(const char *program, const std::string &option, const char *value, GridOptions &o,
+                       int max_priority) {
+    if (option == "--period-ns") {
+        o.period = number(program, "--period-ns", value, 10'000, 1'000'000'000);
+    } else if (option == "--cpu") {
+        o.cpu = static_cast<int>(number(program, "--cpu", value, 0, CPU_SETSIZE - 1));
+    } else if (option == "--rt-priority") {
+        o.priority = static_cast<int>(number(program, "--rt-priority", value, 2, max_priority));
+    } else if (option == "--duration") {
+        char *end = nullptr;
+        o.duration = std::strtod(value, &end);
+        if (!end || *end || !(o.duration > 0) || o.duration > 1e6) {
+            std::fprintf(stderr, "%s: --duration: expected positive seconds, not '%s'\n", program, value);
+            std::exit(2);
+        }
+    } else {
+        return false;
+    }
+    return true;
 }
+
+// The dispatcher's absolute grid, as irpd's: period n is due at t0 + n * period.
+struct Grid {
+    int64_t t0 = 0, period = 0;
+    uint64_t total = 0;                // periods in the run
+    uint64_t missed = 0, skipped = 0;  // wake-ups a whole period late, and the periods they skipped
+
+    // Sleeps until period n is due and records the wake-up's latency; a wake-up a whole period
+    // late skips to the period due now (irpd --overrun-policy skip, cyclictest), moving n past the
+    // skipped ones.  Returns the due time of the period to serve.
+    int64_t wake(uint64_t &n, Histogram &latency) {
+        int64_t due = t0 + static_cast<int64_t>(n) * period;
+        const timespec at = toTimespec(due);
+        while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &at, nullptr) == EINTR) {}
+        const int64_t late = nowNs() - due;
+        latency.record(late);
+        if (late >= period) {
+            ++missed;
+            auto behind = static_cast<uint64_t>(late / period);
+            if (n + behind >= total) behind = total - n - 1;
+            skipped += behind;
+            n += behind;
+            due += static_cast<int64_t>(behind) * period;
+        }
+        return due;
+    }
+};
 
 }  // namespace bench
