@@ -280,6 +280,7 @@ void adoptAlarms(indurop_alarm_header *header) noexcept {
 }
 
 void setAlarmSource(uint32_t source) noexcept { t_source = source; }
+uint32_t *alarmSourceWord() noexcept { return &t_source; }
 
 void declareAlarms(uint64_t instance, std::vector<AlarmDeclaration> declarations) {
     std::lock_guard lock(g_declarations_mutex);

@@ -61,6 +61,9 @@ void adoptAlarms(indurop_alarm_header *header) noexcept;
 // nothing, except in a process module, whose every thread has the process's source).
 inline constexpr uint32_t kNoAlarmSource = UINT32_MAX;
 void setAlarmSource(uint32_t source) noexcept;
+// The calling thread's source word itself: a dispatcher's loop takes it once and sets it before
+// each module with one store (a call through the PLT and a TLS lookup otherwise, per module).
+uint32_t *alarmSourceWord() noexcept;
 
 // An alarm a module declared, in module.xml or by irp::declareAlarm.
 struct AlarmDeclaration {

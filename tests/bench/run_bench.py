@@ -17,7 +17,8 @@ Runs, one after the other, pinned to the same CPU at the same SCHED_FIFO priorit
      cycle counter from shared memory during the run and times the completion of the last slot;
   4. relative_sleep: the same loop written with a RELATIVE sleep, for contrast (periods lost, drift);
   5. irpd, a set of 100 empty thread modules (one .so listed 100 times) at a longer period: the
-     dispatch overhead per module = dispatcher slot work (exec_ns) mean / 100;
+     dispatch overhead per module = dispatcher slot work (exec_ns) mean / 100; then the same set
+     under `perf record`, its samples put in parts (statistics, clock, loop, ...: dispatch_profile.py);
   6. shared_vars: shared-variable access costs against plain memory;
   7. the process-module wake-up, in rotating rounds of four programs at the same period: irpd with
      one empty thread module (its start latency), irpd with one periodic process module
@@ -52,6 +53,7 @@ from pathlib import Path
 
 from rtbench.common import ALLOWED_CPUS, LONG_RUN_TARGET_S, REPO, BenchError, PmQos, log
 from rtbench.cyclictest import merge_cyclictest, run_cyclictest, summarize_cyclictest
+from rtbench.dispatch_profile import render_profile, run_profile
 from rtbench.irpd_runs import build, module_xml, run_irpd, run_relative
 from rtbench.irpd_stats import load_stats_layout, merge_irpd_hists, summarize_irpd_hist
 from rtbench.machine import machine, read_text
@@ -194,6 +196,7 @@ def main(argv: list[str]) -> int:
             bench / "shared_vars",
             bench / "wake_process.exe",
             bench / "signal_wakeup",
+            bench / "release_variants",
             bench / "sporadic" / "raiser.so",
             bench / "sporadic" / "reactor.so",
             bench / "sporadic" / "reactor_proc.exe",
@@ -258,6 +261,7 @@ def main(argv: list[str]) -> int:
             catch = run_irpd(a, irpd, one, a.long_duration, None, "catchup", work, commands, observe=True)
             relative = run_relative(a, bench / "relative_sleep", work, commands)
             over = run_irpd(a, irpd, many, a.overhead_duration, None, "overhead", work, commands)
+            profile = run_profile(a, irpd, many, work, commands)
             shared = run_shared_vars(a, bench, commands)
             wake = run_wakeup_comparison(a, irpd, bench, one, work, commands)
             sporadic = run_sporadic(a, irpd, bench, work, commands)
@@ -273,6 +277,8 @@ def main(argv: list[str]) -> int:
     report = report.replace(
         "\n## Machine\n",
         "\n"
+        + render_profile(a, profile)
+        + "\n"
         + render_shared(shared)
         + "\n"
         + render_wakeup(a, wake)
@@ -301,6 +307,7 @@ def main(argv: list[str]) -> int:
                     "irpd_skip": strip(skip),
                     "irpd_catchup": strip(catch),
                     "irpd_overhead": strip(over),
+                    "dispatch_profile": profile,
                     "relative_sleep": relative,
                     "analysis": res,
                     "shared_vars": shared,

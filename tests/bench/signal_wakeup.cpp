@@ -23,6 +23,7 @@
 // and @info lines with the counters.
 #include "common/bench_hist.hpp"
 #include "common/cli.hpp"
+#include "common/rt_setup.hpp"
 
 #include <sched.h>
 #include <signal.h>
@@ -49,23 +50,8 @@ bench::Histogram g_wake, g_dispatcher, g_exec;
     std::exit(2);
 }
 
-int64_t number(const char *option, const char *text, int64_t min, int64_t max) {
-    return bench::number("signal_wakeup", option, text, min, max);
-}
-
-timespec toTimespec(int64_t ns) {
-    return timespec{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
-}
-
-bool fifo(int priority, std::string &notes, const char *who) {
-    sched_param param{};
-    param.sched_priority = priority;
-    if (sched_setscheduler(0, SCHED_FIFO, &param) != 0) {
-        notes += std::string(who) + ": SCHED_FIFO refused: " + std::strerror(errno) + "; ";
-        return false;
-    }
-    return true;
-}
+using bench::fifo;
+using bench::toTimespec;
 
 void send(pid_t to, int sig, int64_t value) {
     sigval v{};
@@ -112,9 +98,7 @@ int worker(pid_t dispatcher, int priority) {
 }  // namespace
 
 int main(int argc, char **argv) {
-    int64_t period = 0;
-    double duration = 0;
-    int cpu = -1, priority = 80;
+    bench::GridOptions options;
     bool bounded = true;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
@@ -124,21 +108,12 @@ int main(int argc, char **argv) {
             continue;
         }
         if (i + 1 >= argc) usage(("option " + a + " needs a value").c_str());
-        const char *v = argv[++i];
-        if (a == "--period-ns")
-            period = number("--period-ns", v, 10'000, 1'000'000'000);
-        else if (a == "--cpu")
-            cpu = static_cast<int>(number("--cpu", v, 0, CPU_SETSIZE - 1));
-        else if (a == "--rt-priority")
-            priority = static_cast<int>(number("--rt-priority", v, 2, 99));
-        else if (a == "--duration") {
-            char *end = nullptr;
-            duration = std::strtod(v, &end);
-            if (!end || *end || !(duration > 0) || duration > 1e6) usage("--duration: expected positive seconds");
-        } else
-            usage(("unknown option " + a).c_str());
+        if (!bench::gridOption("signal_wakeup", a, argv[++i], options, 99)) usage(("unknown option " + a).c_str());
     }
-    if (period == 0 || duration == 0) usage("--period-ns and --duration are required");
+    if (options.period == 0 || options.duration == 0) usage("--period-ns and --duration are required");
+    const int64_t period = options.period;
+    const double duration = options.duration;
+    const int cpu = options.cpu, priority = options.priority;
 
     const int release = SIGRTMIN, done = SIGRTMIN + 1, stop = SIGRTMIN + 2;
     sigset_t ours;
@@ -147,15 +122,7 @@ int main(int argc, char **argv) {
     sigaddset(&ours, done);
     sigaddset(&ours, stop);
     sigprocmask(SIG_BLOCK, &ours, nullptr);  // inherited by the worker: taken only by sigwaitinfo
-    if (cpu >= 0) {
-        cpu_set_t set;
-        CPU_ZERO(&set);
-        CPU_SET(cpu, &set);
-        if (sched_setaffinity(0, sizeof set, &set) != 0) {
-            std::fprintf(stderr, "signal_wakeup: cannot pin to CPU %d: %s\n", cpu, std::strerror(errno));
-            return 1;
-        }
-    }
+    if (!bench::pinTo("signal_wakeup", cpu)) return 1;
     std::fflush(stdout);
     const pid_t parent = getpid();
     const pid_t child = fork();
@@ -183,25 +150,12 @@ int main(int argc, char **argv) {
     }
 
     const auto total = static_cast<uint64_t>(duration * 1e9) / static_cast<uint64_t>(period);
-    uint64_t cycles = 0, releases = 0, missed = 0, skipped = 0, overruns = 0, not_ready = 0;
+    uint64_t cycles = 0, releases = 0, overruns = 0, not_ready = 0;
     bool pending = false;  // a release whose "done" has not come back
     int64_t pending_due = 0;
-    const int64_t t0 = bench::nowNs() + 2'000'000;
+    bench::Grid grid{bench::nowNs() + 2'000'000, period, total};
     for (uint64_t n = 0; n < total; ++n, ++cycles) {
-        int64_t due = t0 + static_cast<int64_t>(n) * period;
-        const timespec at = toTimespec(due);
-        while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &at, nullptr) == EINTR) {}
-        const int64_t woke = bench::nowNs();
-        const int64_t late = woke - due;
-        g_dispatcher.record(late);
-        if (late >= period) {  // skip to the period due now, as cyclictest and irpd --overrun-policy skip
-            ++missed;
-            auto behind = static_cast<uint64_t>(late / period);
-            if (n + behind >= total) behind = total - n - 1;
-            skipped += behind;
-            n += behind;
-            due += static_cast<int64_t>(behind) * period;
-        }
+        const int64_t due = grid.wake(n, g_dispatcher);
         if (pending) {  // the worker is still on an earlier release: irpd would not release it either
             siginfo_t late_done{};
             const timespec zero{0, 0};
@@ -249,8 +203,8 @@ int main(int argc, char **argv) {
     std::printf("@info signal_dispatcher cycles=%llu grid=%llu releases=%llu missed=%llu skipped=%llu overruns=%llu "
                 "not_ready=%llu bounded=%d realtime=%d mlockall=%d worker_status=%d notes=%s\n",
                 static_cast<unsigned long long>(cycles), static_cast<unsigned long long>(total),
-                static_cast<unsigned long long>(releases), static_cast<unsigned long long>(missed),
-                static_cast<unsigned long long>(skipped), static_cast<unsigned long long>(overruns),
+                static_cast<unsigned long long>(releases), static_cast<unsigned long long>(grid.missed),
+                static_cast<unsigned long long>(grid.skipped), static_cast<unsigned long long>(overruns),
                 static_cast<unsigned long long>(not_ready), bounded ? 1 : 0, rt ? 1 : 0, locked ? 1 : 0,
                 WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), notes.empty() ? "-" : notes.c_str());
     std::fflush(stdout);

@@ -209,6 +209,26 @@ TEST_F(Fig1Like, SkipPolicyDropsTheLateSlots) {
     EXPECT_TRUE(runsOf(11).empty());
 }
 
+// Eq. (1) counts a task's runs by its own grid (n = (due - first_due) / period), the dropped ones
+// too: after a skip of many of its periods, each run still lands on T0 + n * period.
+TEST_F(Fig1Like, Equation1JitterHoldsAcrossSkippedRuns) {
+    clock.wake_latency = [](int64_t due) {
+        if (due == 10 * kBasic) return int64_t{2'330'000};  // slots 10..32 dropped: m3's in slots 10..30
+        if (due == 40 * kBasic) return int64_t{570'000};    // slots 40..44 dropped: m3's in slot 40
+        return int64_t{0};
+    };
+    Executor e = make(OverrunPolicy::Skip);
+    e.loop(0, 100, stop, nullptr);
+    EXPECT_EQ(count(records[3].skipped), 6u);
+    EXPECT_EQ(count(records[3].runs), 14u);
+    // every run of m3 started on its grid, or late by what its slot's wake-up was late
+    const stats::Summary j = stats::summarize(records[3].jitter);
+    EXPECT_EQ(j.max, 0);
+    EXPECT_GE(j.min, -70'000);  // slot 45 (due 4.5 ms) started at 4.57 ms
+    EXPECT_EQ(records[3].jitter.negative.count.load(), 1u);
+    EXPECT_EQ(stats::summarize(records[1].jitter).max, 0);
+}
+
 TEST_F(Fig1Like, CatchUpSkipsBeyondItsLimit) {
     clock.wake_latency = [](int64_t due) { return due == 10 * kBasic ? 2'050'000 : 0; };
     Executor e = make(OverrunPolicy::CatchUp, 1'000'000);  // at most 10 slots of backlog

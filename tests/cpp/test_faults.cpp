@@ -289,6 +289,21 @@ TEST(ProcessFault, AHangIsDetectedKilledAndRestartedWithOnOverrunRestart) {
     EXPECT_TRUE(cell.waitUntil([&] { return cell.runs("p") > p; }));
 }
 
+// Without <on_overrun> nobody acts on a hang: the dispatcher's wait for the process's done word
+// ends at the end of the basic period (the overrun watchdog wakes it, docs/process-modules.md), it
+// is counted, its later releases are missed, and the rest of the set runs on.
+TEST(ProcessFault, AHangWithoutOnOverrunIsCountedWhileTheRestRunsOn) {
+    Cell cell(process("p", value("args", "--hang-at 5")));
+    ASSERT_TRUE(cell.waitUntil([&] { return cell.module("p").value("overruns", uint64_t{0}) > 0; }))
+        << cell.module("p").dump();
+    EXPECT_TRUE(cell.keepRuns());
+    const uint64_t missed = cell.module("p").value("missed", uint64_t{0});
+    EXPECT_TRUE(cell.waitUntil([&] { return cell.module("p").value("missed", uint64_t{0}) > missed + 10; }));
+    EXPECT_EQ(cell.module("p").value("runs", uint64_t{0}), 5u) << "it finished four periods and hangs in its fifth";
+    EXPECT_TRUE(cell.events("process_hang", "p").empty());
+    EXPECT_TRUE(cell.events("process_exit", "p").empty());
+}
+
 TEST(ProcessFault, AHangWithOnOverrunWarnIsReportedOnce) {
     Cell cell(process("p", value("args", "--hang-at 5"),
                       "<on_overrun>warn</on_overrun><overrun_limit>2000000</overrun_limit>"));

@@ -1,7 +1,9 @@
 // test_process_parts.cpp -- the process supervisor's parts on their own, without a control
 // segment: the restart policy's decisions and backoff (no clock), the output limits (a pipe and a
-// fake clock), the child's environment, and one real spawn of /bin/sh.
+// fake clock), the child's environment, one real spawn of /bin/sh, and the dispatcher's wait for a
+// done word that the watchdog bounds.
 #include "config/process_properties.hpp"
+#include "dispatch/watchdog.hpp"
 #include "hosts/process_output.hpp"
 #include "hosts/process_spawn.hpp"
 #include "hosts/restart_policy.hpp"
@@ -13,7 +15,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <chrono>
 #include <string>
+#include <thread>
 #include <vector>
 
 using namespace irp;
@@ -253,4 +258,51 @@ TEST(ProcessSpawn, AMissingProgramIsAnErrorAndLeavesNothingBehind) {
     ASSERT_FALSE(spawned.ok());
     EXPECT_EQ(spawned.error().message, "cannot start /nonexistent/program: execve: No such file or directory");
     EXPECT_EQ(waitpid(-1, nullptr, WNOHANG), -1);  // reaped: no child left
+}
+
+// ---- the dispatcher's wait for a process's done word (dispatch/watchdog.hpp) --------------------
+
+// While a watchdog bounds it, the dispatcher waits on the done word without a timeout; the
+// watchdog's looks leave the wait alone before its bound and wake it at or past it.  Before the
+// watchdog's first look, the wait carries its own timeout.
+TEST(ProcessWait, TheWatchdogWakesAWaitAtItsBound) {
+    dispatch::ProcessWait wait;
+    uint32_t done = 0;
+    EXPECT_FALSE(wait.begin(&done, 1000)) << "no watchdog has looked yet: the wait needs its own timeout";
+    EXPECT_EQ(wait.bound(0), 0) << "no wait in progress";
+    std::atomic<bool> woken{false};
+    std::thread dispatcher([&] {
+        EXPECT_TRUE(wait.begin(&done, 1000));
+        futex::wait(&done, 0);  // no timeout: only a wake ends it
+        wait.end();
+        woken = true;
+    });
+    while (wait.bound(999) == 0) std::this_thread::yield();  // the wait is published: its bound is 1000
+    EXPECT_EQ(wait.bound(999), 1000);
+    while (!woken) {  // looks at the bound wake it (a wake before its FUTEX_WAIT is repeated by the next)
+        wait.bound(1000);
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    dispatcher.join();
+    EXPECT_EQ(wait.bound(2000), 0) << "the wait has ended";
+}
+
+// A watchdog that stops wakes the wait in progress, and the waits that follow carry their own
+// timeout again, so that no dispatcher is left waiting on a process that hangs.
+TEST(ProcessWait, AWatchdogThatStopsHandsTheBoundBackToTheWait) {
+    dispatch::ProcessWait wait;
+    uint32_t done = 0;
+    EXPECT_EQ(wait.bound(0), 0);
+    std::atomic<bool> woken{false};
+    std::thread dispatcher([&] {
+        EXPECT_TRUE(wait.begin(&done, 1000));
+        futex::wait(&done, 0);
+        wait.end();
+        woken = true;
+    });
+    while (wait.bound(0) == 0) std::this_thread::yield();
+    wait.release();  // returns once the wait has left
+    dispatcher.join();
+    EXPECT_TRUE(woken);
+    EXPECT_FALSE(wait.begin(&done, 1000)) << "released: the next wait carries its timeout";
 }

@@ -16,7 +16,8 @@
  *   process: next irp::waitPeriod() first reports the period done: done_ns written, done_seq =
  *            the release it served, FUTEX_WAKE; state = READY
  *   irpd:    a periodic process is awaited in its slot (FUTEX_WAIT on done_seq, bounded by its
- *            budget, else by what is left of the basic period); a sporadic one is not awaited,
+ *            budget, else by what is left of the basic period: irpd's watchdog thread wakes the
+ *            wait at that bound, docs/process-modules.md); a sporadic one is not awaited,
  *            its completion is checked against its deadline at the following basic periods.
  * stop_requested = 1 tells the process to leave (irp::waitPeriod() then returns non-zero).
  *

@@ -43,11 +43,14 @@ Executor::Executor(osal::Clock &clock, int64_t basic_ns, std::vector<std::vector
 }
 
 void Executor::noteTable(const Table &table) {
-    bool watched = false;
-    for (const Task *t : table.tasks)
+    bool watched = false, processes = false;
+    for (const Task *t : table.tasks) {
         watched =
             watched || (t->config.kind == Task::Kind::Thread && t->config.on_overrun != config::OverrunAction::None);
+        processes = processes || (t->config.kind == Task::Kind::Process && !t->config.sporadic);
+    }
     watching_.store(watched, std::memory_order_relaxed);
+    awaits_processes_.store(processes, std::memory_order_relaxed);
     basic_ns_.store(table.basic_ns, std::memory_order_relaxed);
 }
 
@@ -110,7 +113,7 @@ void Executor::overran(Task &task, stats::TimingRecord &r, uint64_t run, int64_t
 }
 
 void Executor::runThread(Task &task, stats::TimingRecord &r) {
-    runtime::setAlarmSource(task.config.alarm_source);  // its irp::raiseAlarm calls are its own
+    *alarm_source_ = task.config.alarm_source;  // its irp::raiseAlarm calls are its own
     try {
         task.config.run();
     } catch (const std::exception &e) {
@@ -139,10 +142,39 @@ bool Executor::runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start
     release.store(served + 1, std::memory_order_release);
     futex::wakeAll(&slot.release_seq);
     if (task.config.sporadic) return true;  // the event handler checks completion later
-    const int64_t left = wait_until - clock_.now();
-    if (left <= 0 || !futex::waitWhileEqual(&slot.done_seq, served, left)) stats::bump(task.config.stats->overruns);
+    if (!awaitDone(slot, served, wait_until)) stats::bump(task.config.stats->overruns);
     return true;
 }
+
+bool Executor::awaitDone(indurop_process_slot &slot, uint32_t served, int64_t until) {
+    std::atomic_ref<uint32_t> done(slot.done_seq);
+    while (done.load(std::memory_order_acquire) == served) {
+        const int64_t left = until - clock_.now();
+        if (left <= 0) return false;
+        if (process_wait_.begin(&slot.done_seq, until)) {  // the watchdog ends it at `until`
+            futex::wait(&slot.done_seq, served);
+            process_wait_.end();
+        } else {
+            futex::wait(&slot.done_seq, served, left);
+        }
+    }
+    return true;
+}
+
+namespace {
+
+// Run n of a task is due first_due + n * period, n = (due - first_due) / period: from its last
+// run's, one period on, without a division (a 64-bit idiv per module otherwise).
+int64_t runDue(TaskState &s, int64_t due, int64_t period) noexcept {
+    const int64_t since = due - s.run_due;
+    if (since >= period && since < 2 * period)
+        s.run_due += period;
+    else if (since < 0 || since >= period)
+        s.run_due = s.first_due + (due - s.first_due) / period * period;
+    return s.run_due;
+}
+
+}  // namespace
 
 int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
     for (Task *task : table_->events) {
@@ -153,7 +185,7 @@ int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
         if (c.kind == Task::Kind::Thread) {
             int fired = 0;
             markRunning(crash_marker_, r.name);
-            runtime::setAlarmSource(c.alarm_source);
+            *alarm_source_ = c.alarm_source;
             try {
                 fired = c.condition();
             } catch (...) {
@@ -251,6 +283,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
     int64_t previous_end = INT64_MIN;  // when the last slot's work ended
     uint64_t cycle = 0;
     self_->state.store(1, std::memory_order_relaxed);
+    alarm_source_ = runtime::alarmSourceWord();
     if (options_.marker >= 0 && static_cast<std::size_t>(options_.marker) < kLifecycleMarker) {
         crash_marker_ = static_cast<std::size_t>(options_.marker);
         claimRunningMarker(crash_marker_, options_.name.c_str());
@@ -333,10 +366,9 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             if (!s.started) {
                 s.started = true;
                 s.t0 = start;
-                s.first_due = due;
+                s.first_due = s.run_due = due;
             }
-            const int64_t n = (due - s.first_due) / c.period_ns;
-            r.jitter.record(s.t0 + n * c.period_ns - start);
+            r.jitter.record(s.t0 + (runDue(s, due, c.period_ns) - s.first_due) - start);
             r.latency.record(static_cast<uint64_t>(start - due > 0 ? start - due : 0));
             if (start - due >= c.period_ns) stats::bump(r.missed);
             const bool watched = c.kind == Task::Kind::Thread && c.on_overrun != config::OverrunAction::None;

@@ -79,6 +79,7 @@ struct TaskConfig {
 struct TaskState {
     int64_t t0 = 0;         // first start (T0 of Eq. (1))
     int64_t first_due = 0;  // the due time of the slot of its first start: run n is due first_due + n * period
+    int64_t run_due = 0;    // the due time of its current run on its own grid: first_due + n * period
     bool started = false;
     bool disabled = false;           // by request (TaskConfig::disabled), a throw or <on_overrun>disable
     int64_t skip_until = INT64_MIN;  // on_overrun=skip: runs due before this are dropped
@@ -96,6 +97,7 @@ struct TaskState {
             started = before.started;
             t0 = before.t0;
             first_due = before.first_due;
+            run_due = before.run_due;
         }
         disabled = disabled || (before.disabled && !clear_fault);
         skip_until = before.skip_until;
@@ -172,6 +174,10 @@ public:
     // watching(): the running table has a module with <on_overrun>.
     RunMarker &marker() { return marker_; }
     bool watching() const { return watching_.load(std::memory_order_relaxed); }
+    // The wait for a periodic process's done word in progress, which the watchdog ends at its bound
+    // (dispatch/watchdog.hpp); awaitsProcesses(): the running table has a periodic process module.
+    ProcessWait &processWait() { return process_wait_; }
+    bool awaitsProcesses() const { return awaits_processes_.load(std::memory_order_relaxed); }
 
     // Hot reload, from a non-RT thread.  offer(): the loop switches to `next` at the first slot due
     // at or after `at` (a macro-period boundary of the running table, on the common time grid),
@@ -191,6 +197,8 @@ private:
     // Releases a periodic process and waits (futex) until it reports the period done, at most
     // until `wait_until`.  False if it was not ready to be released.
     bool runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start, int64_t wait_until);
+    // Waits until done_seq moves past `served`, at most until `until`; false at the bound.
+    bool awaitDone(indurop_process_slot &slot, uint32_t served, int64_t until);
     // The event handler (Figure 6): conditions of sporadic threads, then releases of sporadic processes.
     int64_t handleEvents(uint64_t cycle, int64_t due, int64_t t);
     void disable(Task &task, stats::TimingRecord &r, const char *what, const char *detail);
@@ -214,6 +222,9 @@ private:
     std::atomic<bool> switched_{false};
     RunMarker marker_;
     std::atomic<bool> watching_{false};
+    ProcessWait process_wait_;
+    std::atomic<bool> awaits_processes_{false};
+    uint32_t *alarm_source_ = nullptr;  // this thread's alarm source word, while loop() runs
     std::atomic<int64_t> basic_ns_{0};
     void noteTable(const Table &table);
 };

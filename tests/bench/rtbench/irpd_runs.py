@@ -23,6 +23,7 @@ BUILD_TARGETS = [
     "shared_vars",
     "wake_process",
     "signal_wakeup",
+    "release_variants",
     "raiser",
     "reactor",
     "reactor_proc",
@@ -72,11 +73,13 @@ def run_irpd(
     observe: bool = False,
     histogram: bool = False,
     hists: tuple[tuple[str, str], ...] = (),
+    prefix: list[str] | None = None,
 ) -> dict:
     """Runs irpd on a set; returns its --stats-json, plus "_stdout" (module output arrives there as
     "[name] ..." lines), and with histogram=True the main dispatcher's latency histogram read from
     shared memory ("_latency_hist"); hists = ((record name, "latency" | "exec"), ...) reads those
-    histograms too, into "_hists"["name.field"] (a record name: "dispatcher" or a module's name)."""
+    histograms too, into "_hists"["name.field"] (a record name: "dispatcher" or a module's name);
+    prefix: a command irpd runs under (perf record ... --)."""
     out = work / f"irpd-{tag}.json"
     instance = f"bench-{os.getpid()}-{tag}"
     cmd = [
@@ -98,6 +101,7 @@ def run_irpd(
         cmd += ["--overrun-policy", policy]
     if a.period_ns < 50_000:
         cmd += ["--min-basic-period", str(a.period_ns)]
+    cmd = (prefix or []) + cmd
     commands.append(quote(cmd))
     log(f"irpd ({tag}, {duration} s): {quote(cmd)}")
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=restore_affinity)

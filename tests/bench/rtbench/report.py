@@ -288,6 +288,7 @@ def render(
         ("sched_rt_runtime_us", info["rt_runtime_us"]),
         ("isolcpus / nohz_full", info["cmdline_isolcpus"] or "none"),
         ("load average at start", info["loadavg_start"]),
+        ("load average at the end", info.get("loadavg_end", "—")),
         ("cyclictest", info["cyclictest"]),
         ("source (`git describe --dirty`)", info["git"]),
         (

@@ -1,0 +1,95 @@
+"""release_variants.py -- the alternatives to irpd's wait for a process module's done word
+(tests/bench/release_variants.cpp, one mode per program), run in the rounds of the process wake-up
+comparison (process_wakeup.py) so that each is compared with irpd's thread module of the same run;
+and their table in the report.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .common import PROC_P99_RATIO_TARGET, fmt_ratio, quote, ratio, run_checked, two_process_cmd, us
+from .irpd_stats import bench_hist, parse_bench_output
+
+# mode -> what it is, for the table (release_variants.cpp says how each is made)
+MODES = {
+    "bounded": "FUTEX_WAIT with a relative timeout (irpd's wait before issue 28)",
+    "bitset": "FUTEX_WAIT_BITSET with the absolute end of the period",
+    "unbounded": "FUTEX_WAIT without a timeout (irpd's wait now; the bound is the watchdog's)",
+    "spin": "spin 2 µs on the done word, then as bounded",
+    "above": "the process one priority above the dispatcher, then as bounded",
+    "yield": "the process at the dispatcher's priority, sched_yield() after the wake, then as bounded",
+}
+PROGRAMS = tuple("variant_" + m for m in MODES)
+
+
+def run_variant(a, bench: Path, program: str, seconds: int, r: int, commands: list[str], add) -> dict:
+    """Runs one mode for `seconds`; hands its histograms and counters to add(program, key, value);
+    returns its wake-up histogram."""
+    mode = program.removeprefix("variant_")
+    cmd = two_process_cmd(bench / "release_variants", a, seconds, "--mode", mode)
+    commands.append(quote(cmd))
+    p = run_checked(cmd, f"release_variants {mode} (round {r}, {seconds} s)", seconds + 60)
+    hs, info = parse_bench_output(p.stdout, f"release_variants {mode} (round {r})")
+    wake = bench_hist(hs, "variant_wake", "release_variants")
+    add(program, "wake", wake)
+    add(program, "dispatcher", bench_hist(hs, "variant_dispatcher", "release_variants"))
+    add(program, "exec", bench_hist(hs, "variant_exec", "release_variants"))
+    di = info.get("variant_dispatcher", {})
+    for c in ("releases", "missed", "skipped", "overruns", "not_ready"):
+        add(program, c, di.get(c, 0))
+    add(program, "realtime", bool(di.get("realtime")) and bool(info.get("variant_wake", {}).get("realtime")))
+    return wake
+
+
+def render_variants(a, w: dict) -> str:
+    t = w["thread"]
+    tw = t["wake"]
+    L: list[str] = []
+    add = L.append
+    add("### The alternatives, measured in the same rounds")
+    add("")
+    add(
+        "`tests/bench/release_variants.cpp` makes irpd's handshake (a release word + 1 and FUTEX_WAKE; the process "
+        "stores its done word and FUTEX_WAKEs) between a dispatcher process at SCHED_FIFO "
+        f"{a.rt_priority} on the grid and a worker process on the same CPU, and awaits the done word in one way per "
+        "mode. Each mode ran in every round beside irpd's thread and process modules above; the ratio is the "
+        f"mode's wake-up p99 over irpd's thread module's ({us(tw.get('p99'))} µs), the target "
+        f"≤ {PROC_P99_RATIO_TARGET:g}×. Hand-over: the mode's wake-up p50 − its dispatcher's wake-up p50."
+    )
+    add("")
+    add(
+        "| mode | wake-up p50 / p99 / p99.9 / max (µs) | p99 / thread p99 | hand-over p50 (µs) | "
+        "release → done p50 / p99 (µs) | releases / not done in the period / not ready |"
+    )
+    add("| --- | ---: | ---: | ---: | ---: | ---: |")
+    rows = [("irpd process module (this build)", w["process"], "process")]
+    rows += [(f"`{p.removeprefix('variant_')}`: {MODES[p.removeprefix('variant_')]}", w[p], p) for p in PROGRAMS]
+    for title, v, key in rows:
+        vw = v["wake"]
+        if key == "process":
+            counts = f"{v['module_runs']} / {v['module_overruns']} / {v['module_missed']}"
+        else:
+            counts = f"{v['releases']} / {v['overruns']} / {v['not_ready']}"
+        add(
+            f"| {title} | "
+            + " / ".join(us(vw.get(k)) for k in ("p50", "p99", "p999", "max"))
+            + f" | {fmt_ratio(ratio(vw.get('p99'), tw.get('p99')))} | "
+            + f"{us(vw.get('p50', 0) - v['dispatcher'].get('p50', 0))} | "
+            + f"{us(v['exec'].get('p50'))} / {us(v['exec'].get('p99'))} | {counts} |"
+        )
+    add("")
+    add(
+        "irpd keeps `unbounded`, with the overrun watchdog as the wait's bound (docs/process-modules.md): of the "
+        "ways that keep the process below its dispatcher it hands over fastest. `above` and `yield` hand over "
+        "faster still (the wake itself switches to the process, or the yield does, and no timer is armed), but "
+        "a process that then spins holds its dispatcher's CPU: nothing but a demotion from another thread would "
+        "end it, and its place in the slot's order would hold only for the release. `spin` cannot help on one "
+        "CPU: the process cannot run while its dispatcher spins. Considered and not measured: a futex per "
+        "process (irpd already waits on each process's own words, in its own slot); a periodic timer armed once "
+        "on the grid so that the wait's timeout never reprograms the timer device (Linux re-arms a periodic "
+        "timerfd or POSIX timer only when it is read or its signal taken: a syscall per period again); "
+        "FUTEX_WAKE_OP (it wakes a second word in the same call; a release has one word to wake)."
+    )
+    add("")
+    return "\n".join(L)
