@@ -12,8 +12,14 @@
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 bash "$root/packaging/deps.sh"
+# The Python venv (pip: mostly the disk and pip's cache) is made beside the build.
+venv_path=$(mktemp)
+bash "$root/packaging/venv.sh" >"$venv_path" &
+venv_job=$!
 bash "$root/packaging/build.sh"
-venv=$(bash "$root/packaging/venv.sh")
+wait $venv_job || { echo "demo: the Python venv was not made (packaging/venv.sh)" >&2; exit 1; }
+venv=$(cat "$venv_path")
+rm -f "$venv_path"
 
 data=${INDUROP_DATA:-$root/build/demo-data}
 port=${INDUROP_PORT:-8080}
