@@ -13,7 +13,6 @@ set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 jobs=${INDUROP_TEST_JOBS:-2}
 results="$root/build/test-results"
-shm_before=$(ls /dev/shm | grep '^indurop\.' || true)  # not this run's (another run, an older leak)
 started=$SECONDS
 
 # step NAME COMMAND...: runs it and records its wall time and outcome in $results/steps.txt (a
@@ -29,6 +28,7 @@ step() {
 check() { step "$@" || true; }
 mkdir -p "$results"
 rm -f "$results"/*.xml "$results/steps.txt"
+ls /dev/shm >"$results/shm-before.txt"  # segments that are not this run's (tests/shm_leaks.sh)
 
 step deps bash "$root/packaging/deps.sh"
 step build bash "$root/packaging/build.sh" --tests
@@ -63,18 +63,8 @@ check fuzz bash "$root/tests/fuzz/run.sh" "${INDUROP_FUZZ_SECONDS:-20}"
 wait $deb_pid || true
 cat "$results/deb_test.log"
 
-# No test leaves a segment of an irpd it started (or wrote itself) in /dev/shm: one no process maps
-# and not there before this run.
-leaks=()
-for f in /dev/shm/indurop.*; do
-  [ -e "$f" ] || continue
-  grep -qxF "${f#/dev/shm/}" <<<"$shm_before" && continue
-  grep -qsF "$f" /proc/[0-9]*/maps && continue
-  leaks+=("${f#/dev/shm/}")
-done
-if [ ${#leaks[@]} -gt 0 ]; then
-  printf 'shm-leaks        0 s  FAILED: a test left %s\n' "${leaks[*]}" >>"$results/steps.txt"
-fi
+# No test left a segment of an irpd it started (or one it wrote itself) in /dev/shm.
+check shm-leaks bash "$root/tests/shm_leaks.sh" "$results/shm-before.txt"
 
 python3 "$root/tests/slowest.py" -n 20 "$results"/*.xml || true
 echo "each step's wall time (total $((SECONDS - started)) s):"
