@@ -5,6 +5,7 @@ reporters):  python3 tests/slowest.py [-n 20] build/test-results/*.xml"""
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -13,7 +14,7 @@ from pathlib import Path
 def cases(path: Path):
     """(seconds, suite file's stem, test name) of every <testcase> in one JUnit file."""
     for case in ET.parse(path).iter("testcase"):
-        name = case.get("name", "?")
+        name = re.sub(r"@[^@\]]*$", "", case.get("name", "?"))  # pytest-xdist's "@<group>"
         where = case.get("classname") or case.get("file") or ""
         yield float(case.get("time") or 0), path.stem, f"{where}::{name}" if where else name
 
