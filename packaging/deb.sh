@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # deb.sh -- builds the appliance's Debian package: build/indurop_<version>_amd64.deb.
 #   bash packaging/deb.sh
-# Installs what is missing (deps.sh), builds what the package holds in build/ (irpd, libindurop,
-# the sets: the rtcore/ and config/ targets, not the tests; the web UI), makes the agent's own venv
+# Installs what is missing (deps.sh), builds what the package holds in build/ (build.sh: irpd,
+# libindurop, the sets, the web UI; not the tests), makes the agent's own venv
 # from wheels (agent-venv.sh -> build/deb/venv, installed as /usr/lib/indurop/venv), finds the Depends with dpkg-shlibdeps (shlibdeps.sh), then cpack (the
 # install rules; packaging/CMakeLists.txt) strips and writes the .deb.  Prints the .deb's path.
 set -euo pipefail
@@ -10,12 +10,8 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 # stdout carries the .deb's path only (callers take it with $(...)): the steps' output goes to stderr
 exec 3>&1 1>&2
 bash "$root/packaging/deps.sh"
-# build.sh's configuration; the install does not build everything first (cpack would build the
-# tests too otherwise).
-cmake -S "$root" -B "$root/build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_SKIP_INSTALL_ALL_DEPENDENCY=ON >/dev/null
-cmake --build "$root/build" --target rtcore/all config/all
-bash "$root/packaging/npm-ci.sh" "$root/webui"
-(cd "$root/webui" && npm run --silent build >/dev/null)
+# What the demo runs is what the package holds (the tests' targets are not in `all`).
+bash "$root/packaging/build.sh"
 test -f "$root/webui/dist/index.html" || { echo "deb: webui/dist was not built" >&2; exit 1; }
 venv=$(bash "$root/packaging/agent-venv.sh" "$root/build/deb/venv")
 

@@ -12,8 +12,14 @@
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 bash "$root/packaging/deps.sh"
+# The Python venv (pip: mostly the disk and pip's cache) is made beside the build.
+venv_path=$(mktemp)
+bash "$root/packaging/venv.sh" >"$venv_path" &
+venv_job=$!
 bash "$root/packaging/build.sh"
-venv=$(bash "$root/packaging/venv.sh")
+wait $venv_job || { echo "demo: the Python venv was not made (packaging/venv.sh)" >&2; exit 1; }
+venv=$(cat "$venv_path")
+rm -f "$venv_path"
 
 data=${INDUROP_DATA:-$root/build/demo-data}
 port=${INDUROP_PORT:-8080}
@@ -40,8 +46,14 @@ stamp() {
     printf '%(%Y-%m-%dT%H:%M:%S)TZ %s\n' -1 "$line" >>"$1"
   done
 }
+# Ctrl-C or SIGTERM stops what was started so far, also while the demo is still starting.
+pids=()
+stop() { kill -TERM "${pids[@]}" 2>/dev/null || true; wait 2>/dev/null || true; }
+trap 'stop; exit 130' INT
+trap 'stop; exit 143' TERM
 "$root/build/bin/irpd" --config "$config" --control-socket "$sock" "$@" > >(stamp "$logs/irpd.log") 2>&1 &
 irpd_pid=$!
+pids+=($irpd_pid)
 for _ in $(seq 100); do [ -S "$sock" ] && break; kill -0 $irpd_pid 2>/dev/null || break; sleep 0.05; done
 # The agent, like irpd's own non-RT threads, stays off the dispatcher's CPU (irpd's default: the
 # last one) when there is another.
@@ -53,6 +65,7 @@ n=$(nproc)
     "$venv/bin/python" -m indurop_agent --host 127.0.0.1 --port "$port" --data-dir "$data" --irpd-socket "$sock" \
     --irpd-log "$logs/irpd.log" --agent-log "$logs/agent.log" --line-file "$data/line.json") > >(stamp "$logs/agent.log") 2>&1 &
 agent_pid=$!
+pids+=($agent_pid)
 # The DDS bridge (docs/dds.md): ROS 2's /joint_states and /diagnostics on Cyclone DDS, loopback
 # only, domain INDUROP_DDS_DOMAIN (default 0); it announces this controller on the line as
 # INDUROP_NAME (default: the host's name) and writes the line's view the agent serves (the Line page).
@@ -60,6 +73,7 @@ agent_pid=$!
     --domain-id "${INDUROP_DDS_DOMAIN:-0}" --interface lo --name "${INDUROP_NAME:-$(hostname -s)}" \
     --agent-url "$url/" --line-file "$data/line.json") > >(stamp "$logs/dds-bridge.log") 2>&1 &
 bridge_pid=$!
+pids+=($bridge_pid)
 # The OPC UA server (docs/opcua.md): opc.tcp://127.0.0.1:INDUROP_OPCUA_PORT (default 4840), the web
 # UI's users and roles, Basic256Sha256 and Aes128_Sha256_RsaOaep; its certificate and PKI folders in
 # <data>/opcua/.
@@ -67,6 +81,7 @@ opcua_port=${INDUROP_OPCUA_PORT:-4840}
 (cd "$root/agent" && exec "${off_rt[@]}" "$venv/bin/python" -m indurop_agent.opcua --irpd-socket "$sock" \
     --data-dir "$data" --host 127.0.0.1 --port "$opcua_port" --agent-url "$url/") > >(stamp "$logs/opcua.log") 2>&1 &
 opcua_pid=$!
+pids+=($opcua_pid)
 for _ in $(seq 200); do curl -sf "$url/api/v1/health" >/dev/null && break; kill -0 $agent_pid 2>/dev/null || break; sleep 0.1; done
 # The first time, the cell becomes the set store's first set (history, rollback, the UI's edits
 # are versions of it): uploaded and activated, a hot reload in which every module is kept.
@@ -88,8 +103,6 @@ echo "demo: OPC UA server (pid $opcua_pid): opc.tcp://127.0.0.1:$opcua_port/ -- 
 echo "demo: the admin token is in $data/admin-token"
 echo "demo: the logs are in $logs (irpd.log, agent.log, dds-bridge.log, opcua.log; the web UI's System page shows the first two)"
 
-stop() { kill -TERM $irpd_pid $agent_pid $bridge_pid $opcua_pid 2>/dev/null || true; wait 2>/dev/null || true; }
-trap stop INT TERM
 # Whichever ends first (irpd after --duration, or the agent) ends the demo.
 wait -n $irpd_pid $agent_pid || true
 stop

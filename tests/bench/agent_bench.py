@@ -480,10 +480,12 @@ def main(argv: list[str]) -> int:
     a = ap.parse_args(argv)
     a.irpd = a.build / "bin" / "irpd"
     a.fig1 = a.build / "sets" / "paper-fig1" / "module.xml"
-    subprocess.run(["cmake", "--build", str(a.build)], check=False, stdout=subprocess.DEVNULL)
+    subprocess.run(
+        ["cmake", "--build", str(a.build), "--target", "all", "tests/all"], check=False, stdout=subprocess.DEVNULL
+    )
     for needed in (a.irpd, a.fig1, a.build / "tests" / "cpp" / "modules" / "counter_v1.so"):
         if not needed.exists():
-            print(f"agent_bench: {needed} is missing: run `bash packaging/build.sh` first", file=sys.stderr)
+            print(f"agent_bench: {needed} is missing: run `bash packaging/build.sh --tests` first", file=sys.stderr)
             return 2
     if a.cpu is None:
         a.cpu = max(os.sched_getaffinity(0))

@@ -42,7 +42,7 @@ from indurop_agent.irpd.trace import TraceRing  # noqa: E402
 from indurop_agent.irpd.variables import Segment  # noqa: E402
 from live_processes import BUILD, dispatching, start_bridge, start_irpd, stop, wait_until  # noqa: E402
 
-SET = BUILD / "sets" / "dds-share"
+SET = BUILD / "tests" / "sets" / "dds-share"
 VALUE, STALE = "SHARE.IN.count", "SHARE.IN.count_stale"
 
 
@@ -102,7 +102,7 @@ def main() -> int:
     ap.add_argument("--same-cpu", action="store_true", help="let the bridges and this process use irpd's CPU too")
     args = ap.parse_args()
     if not (SET / "share.so").exists():
-        log(f"the share set is not built ({SET}): bash packaging/build.sh")
+        log(f"the share set is not built ({SET}): bash packaging/build.sh --tests")
         return 2
     work = Path(tempfile.mkdtemp(prefix="dds-imports-bench-"))
     cpus = os.cpu_count() or 1

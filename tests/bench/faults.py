@@ -24,7 +24,7 @@ and reports min / median / max over the rounds:
                how far past its limit the release was seen (irpd's main thread looks every 20 ms).
 
 Timing figures are measured here, never asserted in tests.  Standard library only; run as root
-(SCHED_FIFO) after `bash packaging/build.sh`.
+(SCHED_FIFO) after `bash packaging/build.sh --tests`.
 """
 
 from __future__ import annotations

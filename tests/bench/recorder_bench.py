@@ -155,7 +155,7 @@ def main() -> int:
         print(json.dumps(results, indent=1))
         return 0
     if not (SOURCE / "rec_source.so").exists():
-        sys.exit(f"recorder_bench: {SOURCE}/rec_source.so is not built: bash packaging/build.sh")
+        sys.exit(f"recorder_bench: {SOURCE}/rec_source.so is not built: bash packaging/build.sh --tests")
     phase_s = args.minutes * 60 / args.phases
     work = Path(tempfile.mkdtemp(prefix="recorder-bench-"))
     (SOURCE / "module.xml").write_text(MODULE_XML)

@@ -14,9 +14,14 @@ export default defineConfig({
   outputDir: join(artifacts, "results"),
   globalSetup: "./global-setup.ts",
   timeout: 120_000,
-  workers: 1,
+  workers: 1, // the specs share one irpd + agent and its set (global-setup.ts)
   retries: 0,
-  reporter: [["list"], ["html", { outputFolder: join(artifacts, "report"), open: "never" }]],
+  reporter: [
+    ["list"],
+    ["html", { outputFolder: join(artifacts, "report"), open: "never" }],
+    // for the slowest tests tests/run.sh lists (tests/slowest.py)
+    ["junit", { outputFile: join(__dirname, "../../build/test-results/playwright.xml") }],
+  ],
   use: {
     headless: true,
     viewport: { width: 1440, height: 900 },

@@ -5,7 +5,7 @@
 # crash, sanitizer report (memory error, leak, undefined behaviour), uncaught exception or
 # time-out; the input that caused it is kept in build-fuzz/artifacts/<target>/ and the log in
 # build-fuzz/logs/<target>.log.  New inputs the fuzzers find go to build-fuzz/corpus/<target>
-# (kept between runs; not the seeds).  FUZZ_TARGETS="fuzz_control fuzz_glb" runs only those.
+# (kept between runs; not the seeds).  Two targets run at a time (FUZZ_JOBS).  FUZZ_TARGETS="fuzz_control fuzz_glb" runs only those.
 # docs/fuzzing.md: what each target covers, longer runs, reproducing a crash.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
@@ -26,16 +26,16 @@ export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:symbolize=1:detect_stack_us
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
 export ASAN_SYMBOLIZER_PATH=${ASAN_SYMBOLIZER_PATH:-$(command -v llvm-symbolizer || true)}
 
-failed=()
-for t in "${targets[@]}"; do
+venv=$(bash "$root/packaging/venv.sh")  # fuzz_glb's (made before the runs start side by side)
+# fuzz_one TARGET: one target's run; prints its outcome, fails on a crash or report.
+fuzz_one() {
+  local t=$1 log dict=() options cmd start summary
   mkdir -p "$build/corpus/$t" "$build/artifacts/$t" "$build/logs"
   log="$build/logs/$t.log"
-  dict=()
   [ -f "$here/dict/$t.dict" ] && dict=(-dict="$here/dict/$t.dict")
   options=(-max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1
            -artifact_prefix="$build/artifacts/$t/" "${dict[@]}")
   if [ "$t" = fuzz_glb ]; then
-    venv=$(bash "$root/packaging/venv.sh")
     cmd=("$venv/bin/python" "$here/fuzz_glb.py")
   else
     cmd=("$build/fuzz/$t")
@@ -47,9 +47,26 @@ for t in "${targets[@]}"; do
   else
     echo "fuzz: $t: FAILED (log $log, input in $build/artifacts/$t/):" >&2
     grep -E 'ERROR|SUMMARY|runtime error|Traceback|Error|artifact' "$log" | head -20 >&2 || tail -30 "$log" >&2
-    failed+=("$t")
+    return 1
   fi
+}
+
+# FUZZ_JOBS targets at a time (default 2; each is one process on one CPU, and its SECONDS are wall
+# time, so each target gets as long as when run alone).
+jobs=${FUZZ_JOBS:-2}
+declare -A running=()  # pid -> target
+failed=()
+reap() {
+  local pid
+  wait -n -p pid "${!running[@]}" || failed+=("${running[$pid]}")
+  unset "running[$pid]"
+}
+for t in "${targets[@]}"; do
+  [ ${#running[@]} -lt "$jobs" ] || reap
+  fuzz_one "$t" &
+  running[$!]=$t
 done
+while [ ${#running[@]} -gt 0 ]; do reap; done
 echo "fuzz: total $(( $(date +%s) - t0 )) s"
 if [ ${#failed[@]} -gt 0 ]; then
   echo "fuzz: failed: ${failed[*]}" >&2

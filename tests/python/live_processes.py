@@ -161,12 +161,26 @@ def start_irpd(
     )
     STARTED.append(p)
     p.log = out
+    p.instance = instance or f"agent-test-{os.getpid()}"  # its segments' names (remove_shm)
     deadline = time.monotonic() + START_TIMEOUT_S
-    while not sock.exists():
+    while not listening(sock):
         assert p.poll() is None, output(p)
         assert time.monotonic() < deadline, "irpd did not open its control socket"
         time.sleep(0.02)
     return p
+
+
+def listening(sock: Path) -> bool:
+    """Whether the Unix socket `sock` accepts connections: irpd binds it (which makes the file)
+    before it listens, and a client connecting in between is refused (seen on a loaded machine)."""
+    if not sock.exists():
+        return False
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
+        try:
+            s.connect(str(sock))
+            return True
+        except OSError:
+            return False
 
 
 def start_agent(
@@ -344,7 +358,8 @@ def output(p: subprocess.Popen) -> str:
 
 
 def stop(p: subprocess.Popen) -> None:
-    """SIGTERM by pid, SIGKILL if it does not end within 10 s."""
+    """SIGTERM by pid, SIGKILL if it does not end within 10 s; an irpd's shared memory is removed
+    when it did not remove it (remove_shm)."""
     if p.poll() is None:
         p.send_signal(signal.SIGTERM)
         try:
@@ -352,3 +367,35 @@ def stop(p: subprocess.Popen) -> None:
         except subprocess.TimeoutExpired:
             p.kill()
             p.wait()
+    if getattr(p, "instance", None):
+        remove_shm(p.instance)
+
+
+def mapped_files() -> set[str]:
+    """Every file a live process maps (/proc/*/maps), e.g. the /dev/shm segments in use."""
+    found = set()
+    for maps in Path("/proc").glob("[0-9]*/maps"):
+        try:
+            found.update(
+                line.split(maxsplit=5)[5].rstrip() for line in maps.read_text().splitlines() if "/dev/shm/" in line
+            )
+        except (OSError, IndexError):
+            pass  # ended meanwhile, or an anonymous mapping
+    return found
+
+
+def remove_shm(instance: str) -> list[str]:
+    """Removes the segments of irpd `instance` (/dev/shm/indurop.<instance>.*, docs/shared-memory.md)
+    that no live process maps: what an irpd killed with SIGKILL (or that crashed) leaves, as irpd
+    removes them only when it stops.  An irpd started again on the same instance keeps its own.
+    Returns the names removed."""
+    left = sorted(Path("/dev/shm").glob(f"indurop.{instance}.*"))
+    if not left:
+        return []
+    in_use = mapped_files()
+    removed = []
+    for f in left:
+        if str(f) not in in_use:
+            f.unlink(missing_ok=True)
+            removed.append(f.name)
+    return removed

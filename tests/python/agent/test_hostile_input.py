@@ -56,7 +56,9 @@ from websockets.sync.client import connect
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
-MARKER = f"hostile{os.getpid()}"  # in every name an attack tries to write outside the data dir
+# In every name an attack tries to write outside the data dir: one run's own, the same in each of
+# pytest-xdist's workers (the names are in the tests' ids, which every worker must collect alike).
+MARKER = f"hostile{os.environ.get('PYTEST_XDIST_TESTRUNUID', str(os.getpid()))[:8]}"
 LIMITS = {
     "max_body_bytes": 4096,
     "max_file_bytes": 64 << 10,

@@ -187,7 +187,14 @@ def test_a_flood_is_bounded_counted_and_irpd_keeps_running(controller):
 
 def test_the_bridge_and_another_reader_are_traced_together(controller):
     c = controller
-    answer = c.control.request("trace", channels=["PLC_ROBOT.I0"])  # as the agent asks, owner "agent"
+
+    def traced_beside_the_bridge():
+        """the agent's trace request answered once the bridge's channels are traced too (it asks
+        for them when it has started, which the controller does not wait for)"""
+        answer = c.control.request("trace", channels=["PLC_ROBOT.I0"])  # as the agent asks, owner "agent"
+        return answer if "dds" in answer.get("owners", {}) else None
+
+    answer = c.wait(traced_beside_the_bridge, 60)
     traced = [ch["path"] for ch in answer["channels"]]
     assert "PLC_ROBOT.I0" in traced and "PLC_ROBOT.ROBOT_MODULE_STATE.dCurJoint[5]" in traced
     assert set(answer["owners"]) == {"agent", "dds"}

@@ -54,7 +54,7 @@ from indurop_agent.irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable  
 from indurop_agent.irpd.trace import TraceRing  # noqa: E402
 from indurop_agent.irpd.variables import Segment  # noqa: E402
 
-SET = BUILD / "sets" / "dds-share"
+SET = BUILD / "tests" / "sets" / "dds-share"
 PID = os.getpid()
 DOMAIN = 60 + PID % 40  # this file's range; the bridge's other tests use 100 and up
 A, B = f"line-a-{PID}", f"line-b-{PID}"

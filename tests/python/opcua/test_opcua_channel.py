@@ -91,8 +91,13 @@ def test_a_session_over_security_none_is_refused_unless_none_is_configured(cell,
     assert status["security"]["security_none"] is False and status["security"]["warnings"] == []
 
     # The same client against a server configured with None (and Basic256Sha256): let in, warned about.
+    # It writes its status.json often (status_file_s), so that a fresh one is its own: the cell's
+    # server writes the same file every 5 s, and when its writes came just before the second one's
+    # every fresh status seen would be the first server's.
     config = tmp_path / "none.json"
-    config.write_text(json.dumps({"security_policies": ["None", "Basic256Sha256"], "trace_owner": "opcua-none"}))
+    config.write_text(
+        json.dumps({"security_policies": ["None", "Basic256Sha256"], "trace_owner": "opcua-none", "status_file_s": 0.2})
+    )
     port = free_port()
     server = start_opcua(cell.sock, cell.data, port, "--config", str(config))
     try:
