@@ -109,10 +109,34 @@ def signals_with_an_alarm(folder: Path) -> Path:
     return xml
 
 
+# Listening ports come from below the kernel's ephemeral range (ip_local_port_range, 32768-60999
+# on Debian), which every outgoing connection of every test takes its local port from: a port the
+# kernel handed out as free could be some worker's client socket a moment later, before our server
+# binds it.  Each pytest-xdist worker (PYTEST_XDIST_WORKER=gwN) has its own slice, so two workers
+# never hand out the same port; within a slice the process walks on from a pid-based start and
+# skips any port something already holds (the slices start above the fixed ports tests use, e.g. the
+# cell's drive simulator on 15020).
+_PORTS_LOW, _PORTS_HIGH, _PORTS_SLICES = 20000, 32000, 8
+_next_port: list[int] = []
+
+
 def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+    """A port of 127.0.0.1 that nothing holds, from this worker's slice of 20000-31999."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "gw0").removeprefix("gw")
+    width = (_PORTS_HIGH - _PORTS_LOW) // _PORTS_SLICES
+    low = _PORTS_LOW + (int(worker) % _PORTS_SLICES if worker.isdigit() else 0) * width
+    if not _next_port:
+        _next_port.append(os.getpid() % width)
+    for _ in range(width):
+        port = low + _next_port[0] % width
+        _next_port[0] += 1
+        with socket.socket() as s:
+            try:
+                s.bind(("127.0.0.1", port))
+            except OSError:
+                continue
+            return port
+    raise RuntimeError(f"free_port: no free port in {low}-{low + width - 1}")
 
 
 # Every process started here, in order: tests/python/conftest.py stops the ones a fixture started

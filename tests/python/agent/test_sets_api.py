@@ -6,7 +6,6 @@ lockout, the body limit, the validation of PATCH and PUT bodies, and the TLS opt
 from __future__ import annotations
 
 import json
-import socket
 import stat
 import subprocess
 import sys
@@ -17,6 +16,7 @@ import pytest
 from agent_helpers import API, ROOT, files_body, post_set, small_set
 from indurop_agent import config
 from indurop_agent.access.security import Lockout
+from live_processes import free_port
 
 
 def upload(agent, elves, **extra) -> dict:
@@ -376,9 +376,7 @@ def test_the_agent_serves_https_with_tls_options(tmp_path):
         text=True,
     )
     assert made.returncode == 0, made.stderr
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
+    port = free_port()
     p = subprocess.Popen(
         [
             sys.executable,
