@@ -4,7 +4,8 @@
 # parent of the commit that made the agent serve HTTPS) and a lower version (<version>~before-https).
 # What an upgrade meets is then what that build left: its data folder (tokens, the set store, no
 # certificate) and its unit (plain HTTP on 127.0.0.1:8080).  The programs inside are NEW_DEB's: the
-# data folder's formats did not change between REF and now.  Exit 77 when there is no such commit
+# data folder's formats did not change between REF and now; the old scripts' imports of the agent
+# are pointed at where NEW_DEB's agent has those modules.  Exit 77 when there is no such commit
 # in this clone's history (a shallow clone).
 set -euo pipefail
 new=$(realpath "$1")
@@ -24,6 +25,9 @@ for s in postinst prerm postrm; do
   old_file "packaging/debian/$s" "$work/pkg/DEBIAN/$s"
   chmod 0755 "$work/pkg/DEBIAN/$s"
 done
+# The agent's modules the old scripts import, at their place in NEW_DEB's agent (a real older build
+# ships the programs its scripts were written for; the agent's modules have moved since: docs/architecture.md).
+sed -i 's/\bindurop_agent\.auth\b/indurop_agent.access.auth/g' "$work/pkg/DEBIAN/postinst"
 old_file packaging/systemd/indurop-agent.service "$work/pkg/usr/lib/systemd/system/indurop-agent.service"
 old_file packaging/systemd/activate-default-set "$work/pkg/usr/lib/indurop/activate-default-set"
 version=$(dpkg-deb -f "$new" Version)
