@@ -16,7 +16,11 @@ from .irpd_runs import run_irpd
 
 # (part, what it is), in the table's order; classify() names them
 PARTS = (
-    ("statistics", "the histograms (jitter, latency, execution time: bucket, sum, min, max, count) and counters"),
+    (
+        "statistics",
+        "the run's sample into the sample ring (jitter, latency, execution time; the histograms are filled from "
+        "it by irpd's stats thread, on another CPU) and the counters",
+    ),
     ("clock", "the clock read after each module (`clock_gettime`, vDSO)"),
     ("loop", "the loop itself: the order, the checks (halted, disabled, skip, kind, budget), Eq. (1)'s run"),
     ("call", "the call of the module's `run()` (empty) through its pointer, its try/catch, the crash marker"),
@@ -39,7 +43,7 @@ def classify(dso: str, sym: str, frames: list[str]) -> str | None:
     if not frames:
         return "other"
     inner = frames[0]
-    if inner.endswith(("histogram.hpp", "stats_block.hpp")):
+    if inner.endswith(("histogram.hpp", "stats_block.hpp", "sample_ring.hpp")):
         return "statistics"
     if inner.endswith(("running_marker.hpp", "watchdog.hpp")):
         return "call"
@@ -48,14 +52,14 @@ def classify(dso: str, sym: str, frames: list[str]) -> str | None:
     return "other"
 
 
-def run_profile(a, irpd: Path, many: Path, work: Path, commands: list[str]) -> dict | None:
-    """None when perf is not installed (the report says so)."""
+def run_profile(a, irpd: Path, many: Path, work: Path, commands: list[str], tag: str = "profile") -> dict | None:
+    """None when perf is not installed (the report says so).  tag names the run and its perf data."""
     if not shutil.which("perf") or not shutil.which("addr2line"):
         log("perf or addr2line not found: no profile of the dispatch")
         return None
-    data = work / "dispatch.perf.data"
+    data = work / ("dispatch.perf.data" if tag == "profile" else f"dispatch-{tag}.perf.data")
     prefix = ["perf", "record", "-q", "-e", "cpu-clock", "-F", "20000", "-o", str(data), "--"]
-    doc = run_irpd(a, irpd, many, a.overhead_duration, None, "profile", work, commands, prefix=prefix)
+    doc = run_irpd(a, irpd, many, a.overhead_duration, None, tag, work, commands, prefix=prefix)
     cmd = ["perf", "script", "-i", str(data), "--comm", THREAD, "-F", "ip,sym,symoff,dso"]
     commands.append(quote(cmd))
     p = subprocess.run(cmd, capture_output=True, text=True)
