@@ -373,7 +373,7 @@ def dispatch_only(a, commands: list[str]) -> int:
         work.mkdir(exist_ok=True)
         with PmQos(a.pm_qos):
             d = run_dispatch_only(a, irpd, one, many, work, commands)
-        write_dispatch_only(a, d)
+        write_dispatch_only(a, d, commands)
     except BenchError as e:
         print(f"run_bench: {e}", file=sys.stderr)
         return 1

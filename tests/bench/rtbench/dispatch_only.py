@@ -68,7 +68,7 @@ def run_dispatch_only(a, irpd: Path, one: Path, many: Path, work: Path, commands
     return out
 
 
-def render_dispatch_only(a, d: dict) -> tuple[str, list[str]]:
+def render_dispatch_only(a, d: dict, commands: list[str]) -> tuple[str, list[str]]:
     """The target row and the section's lines."""
     mine = d["runs"]["this"]
     L = render_overhead(mine["over"], d["one"], mine["res"], one_name="its own run, catch-up")
@@ -114,6 +114,7 @@ def render_dispatch_only(a, d: dict) -> tuple[str, list[str]]:
             f"| **all** | **{base['profile']['per_module_ns']:.1f}** | **{mine['profile']['per_module_ns']:.1f}** |"
         )
         L.append("")
+    L += ["The commands of this part:", "", "```sh", *(c.replace(str(REPO) + "/", "") for c in commands), "```", ""]
     return overhead_target_row(mine["over"], mine["res"]), L
 
 
@@ -131,8 +132,8 @@ def splice(report: str, row: str, section: list[str]) -> str:
     return "\n".join(lines)
 
 
-def write_dispatch_only(a, d: dict) -> None:
-    row, section = render_dispatch_only(a, d)
+def write_dispatch_only(a, d: dict, commands: list[str]) -> None:
+    row, section = render_dispatch_only(a, d, commands)
     print("\n".join([row, "", *section]))
     if a.out == "-":
         return
