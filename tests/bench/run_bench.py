@@ -4,6 +4,8 @@
     .venv/bin/python tests/bench/run_bench.py [--duration S] [--period-ns N] [--cpu N] [--rt-priority P]
                                      [--out docs/benchmark.md] [--build-dir DIR] [--no-build]
                                      [--proc-duration S] [--proc-rounds R] [--sporadic-duration S]
+    .venv/bin/python tests/bench/run_bench.py --only dispatch [--dispatch-rounds R]
+                                     [--baseline-build-dir DIR --baseline-label TEXT] [--build-dir DIR]
 
 Runs, one after the other, pinned to the same CPU at the same SCHED_FIFO priority and period:
 
@@ -30,6 +32,10 @@ Runs, one after the other, pinned to the same CPU at the same SCHED_FIFO priorit
      module (processes/reactor_proc.cpp) record when they start working minus the raise time.
   The programs of 7 and 8 print histograms of irpd's shape as text (common/bench_hist.hpp).
 
+With --only dispatch it runs part 5 alone (the 1-module set for the marginal cost, the 100-module
+set in --dispatch-rounds rounds, alternating with --baseline-build-dir's irpd when given, then each
+under perf) and rewrites only the dispatch target row and section of --out (rtbench/dispatch_only.py).
+
 Prints the distributions, the ratios irpd/cyclictest (p50, p99, p99.9, max) and each target's
 verdict, and writes them with the machine's description to --out (docs/benchmark.md).  Targets are
 reported, not asserted: the exit status is 0 when everything ran, 1 when something failed to run.
@@ -37,7 +43,7 @@ Python 3.11 standard library only.  Run as root (SCHED_FIFO, mlockall, /dev/cpu_
 
 The parts are in tests/bench/rtbench/, one module a concern: common.py, machine.py, irpd_stats.py
 (irpd's histograms), cyclictest.py (1), irpd_runs.py (2-5), shared_vars.py (6), process_wakeup.py
-(7), sporadic.py (8), report.py (the verdicts and docs/benchmark.md).
+(7), sporadic.py (8), report.py (the verdicts and docs/benchmark.md), dispatch_only.py (--only dispatch).
 """
 
 from __future__ import annotations
@@ -53,8 +59,9 @@ from pathlib import Path
 
 from rtbench.common import ALLOWED_CPUS, LONG_RUN_TARGET_S, REPO, BenchError, PmQos, log
 from rtbench.cyclictest import merge_cyclictest, run_cyclictest, summarize_cyclictest
+from rtbench.dispatch_only import run_dispatch_only, write_dispatch_only
 from rtbench.dispatch_profile import render_profile, run_profile
-from rtbench.irpd_runs import build, module_xml, run_irpd, run_relative
+from rtbench.irpd_runs import DISPATCH_TARGETS, build, module_xml, run_irpd, run_relative
 from rtbench.irpd_stats import load_stats_layout, merge_irpd_hists, summarize_irpd_hist
 from rtbench.machine import machine, read_text
 from rtbench.process_wakeup import render_wakeup, run_wakeup_comparison
@@ -135,6 +142,24 @@ def main(argv: list[str]) -> int:
     )
     ap.add_argument("--json", type=Path, default=None, help="also write every raw figure to this JSON file")
     ap.add_argument(
+        "--only",
+        choices=("all", "dispatch"),
+        default="all",
+        help="dispatch: only the dispatch overhead (part 5), its part of --out rewritten (default all)",
+    )
+    ap.add_argument(
+        "--dispatch-rounds", type=int, default=2, help="--only dispatch: rounds of the 100-module set (default 2)"
+    )
+    ap.add_argument(
+        "--baseline-build-dir",
+        type=Path,
+        default=None,
+        help="--only dispatch: also run this build's bin/irpd on the same set, in alternating rounds",
+    )
+    ap.add_argument(
+        "--baseline-label", default="the baseline", help="--only dispatch: what the baseline build is (its commit)"
+    )
+    ap.add_argument(
         "--no-pm-qos",
         dest="pm_qos",
         action="store_false",
@@ -161,6 +186,7 @@ def main(argv: list[str]) -> int:
         "proc_rounds",
         "sporadic_duration",
         "sporadic_every",
+        "dispatch_rounds",
     ):
         if getattr(a, name) < 1:
             ap.error(f"--{name.replace('_', '-')} must be at least 1")
@@ -183,6 +209,8 @@ def main(argv: list[str]) -> int:
     started_wall = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     t_start = time.monotonic()
     commands: list[str] = []
+    if a.only == "dispatch":
+        return dispatch_only(a, commands)
     try:
         if not a.no_build:
             build(a.build_dir, commands)
@@ -321,6 +349,34 @@ def main(argv: list[str]) -> int:
             + "\n"
         )
         log(f"wrote {a.json}")
+    return 0
+
+
+def dispatch_only(a, commands: list[str]) -> int:
+    """--only dispatch: part 5 alone, its part of the report rewritten."""
+    try:
+        if not a.no_build:
+            build(a.build_dir, commands, DISPATCH_TARGETS)
+        irpd = a.build_dir / "bin" / "irpd"
+        bench = a.build_dir / "bench"
+        for f in (irpd, bench / "empty.so"):
+            if not f.exists():
+                raise BenchError(f"{f} is missing: build first (or drop --no-build)")
+        others = [c for c in ALLOWED_CPUS if c != a.cpu]
+        if others:
+            os.sched_setaffinity(0, others)
+        one = bench / f"bench-1x{a.period_ns}ns.xml"
+        many = bench / f"bench-{a.modules}x{a.overhead_period_ns}ns.xml"
+        one.write_text(module_xml(1, a.period_ns))
+        many.write_text(module_xml(a.modules, a.overhead_period_ns))
+        work = bench / "results"
+        work.mkdir(exist_ok=True)
+        with PmQos(a.pm_qos):
+            d = run_dispatch_only(a, irpd, one, many, work, commands)
+        write_dispatch_only(a, d, commands)
+    except BenchError as e:
+        print(f"run_bench: {e}", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -11,11 +11,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <functional>
 #include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 using namespace irp;
 using dispatch::Executor;
@@ -99,12 +101,14 @@ struct Fig1Like : ::testing::Test {
         t.config.period_slots = slots;
         t.config.period_ns = slots * kBasic;
     }
-    Executor make(OverrunPolicy policy = OverrunPolicy::CatchUp, int64_t max_catchup_ns = 100'000'000) {
+    Executor make(OverrunPolicy policy = OverrunPolicy::CatchUp, int64_t max_catchup_ns = 100'000'000,
+                  std::size_t sample_capacity = ExecutorOptions{}.sample_capacity) {
         std::vector<std::vector<Task *>> slots(5, std::vector<Task *>{&m1, &m2});
         slots[0].push_back(&m3);
         ExecutorOptions o;
         o.policy = policy;
         o.max_catchup_ns = max_catchup_ns;
+        o.sample_capacity = sample_capacity;
         o.halted = &halted;
         return Executor(clock, kBasic, slots, {&m1, &m2, &m3}, &records[0], o);
     }
@@ -279,6 +283,82 @@ TEST_F(Fig1Like, StopFlagEndsTheLoop) {
     Executor e = make();
     e.loop(0, 0, stop, nullptr);
     EXPECT_EQ(count(records[0].runs), 0u);
+}
+
+// ---- the module figures go through the executor's sample ring into the records ----------------
+
+// Works 1, 2, ... 10 us in cycles 0, 1, ... 9, 10, ...: a known execution-time distribution.
+void variedModule() { g_clock->t += 1000 * static_cast<int64_t>(irp::cycle().count % 10 + 1); }
+
+TEST_F(Fig1Like, TheFoldedFiguresAreWhatTheLoopMeasured) {
+    setTask(m2, &variedModule, 2, 1);
+    g_work["m1"] = 3000;
+    Executor e = make();
+    e.loop(0, 100, stop, nullptr);
+    // m2's run n works (n % 10 + 1) us and starts after m1's 3 us: the histograms the RT thread
+    // used to fill itself, filled here with the same values.
+    stats::Histogram exec, latency;
+    stats::SignedHistogram jitter;
+    exec.reset();
+    latency.reset();
+    jitter.reset();
+    for (uint64_t n = 0; n < 100; ++n) {
+        exec.record(1000 * (n % 10 + 1));
+        latency.record(3000);
+        jitter.record(0);  // the same start in every slot: Eq. (1) sees no jitter
+    }
+    const stats::TimingRecord &r = records[2];
+    EXPECT_EQ(count(r.runs), 100u);
+    EXPECT_EQ(count(r.stats_dropped), 0u);
+    for (auto [got, want] : {std::pair{&r.exec, &exec},
+                             {&r.latency, &latency},
+                             {&r.jitter.positive, &jitter.positive},
+                             {&r.jitter.negative, &jitter.negative}}) {
+        EXPECT_EQ(count(got->count), count(want->count));
+        EXPECT_EQ(count(got->sum), count(want->sum));
+        EXPECT_EQ(count(got->min), count(want->min));
+        EXPECT_EQ(count(got->max), count(want->max));
+        for (std::size_t b = 0; b < stats::kBuckets; ++b)
+            ASSERT_EQ(count(got->buckets[b]), count(want->buckets[b])) << b;
+    }
+    EXPECT_EQ(stats::summarize(r.exec).p50, stats::summarize(exec).p50);
+    EXPECT_EQ(count(records[1].exec.count), 100u);
+    EXPECT_EQ(count(records[1].exec.min), 3000u);
+    EXPECT_EQ(count(records[3].runs), 20u);
+}
+
+TEST_F(Fig1Like, TheRunsReachTheRecordsWhenFoldedNotBefore) {
+    Executor *executor = nullptr;
+    uint64_t before = 1, folded = 0, after = 0;
+    g_long = {"m2", 42, 1000, [&] {
+                  before = count(records[1].runs);  // 42 runs of m1 done, none folded yet
+                  folded = executor->foldStats();
+                  after = count(records[1].runs);
+              }};
+    Executor e = make();
+    executor = &e;
+    e.loop(0, 100, stop, nullptr);
+    EXPECT_EQ(before, 0u);
+    EXPECT_EQ(folded, 43u + 42u + 9u);  // m1 in slots 0..42, m2 in 0..41, m3 in 0, 5, ..., 40
+    EXPECT_EQ(after, 43u);
+    EXPECT_EQ(count(records[1].runs), 100u);  // the rest folded when the loop ended
+    EXPECT_EQ(count(records[2].exec.count), 100u);
+}
+
+TEST_F(Fig1Like, AFullSampleRingDropsAndCountsTheFiguresAndNeverWaits) {
+    Executor e = make(OverrunPolicy::CatchUp, 100'000'000, 8);  // nothing folds until the loop ends
+    e.loop(0, 100, stop, nullptr);
+    // Every module ran every time (the journal); the first 8 runs' figures fit: slot 0 (m1, m2,
+    // m3), 1 and 2 (m1, m2), 3 (m1); the others were dropped and counted.
+    EXPECT_EQ(runsOf(99), (std::vector<std::string>{"m1", "m2"}));
+    EXPECT_EQ(count(records[0].runs), 100u);
+    const uint64_t calls[] = {0, 100, 100, 20}, kept[] = {0, 4, 3, 1};
+    for (std::size_t i = 1; i <= 3; ++i) {
+        EXPECT_EQ(count(records[i].runs), kept[i]) << i;
+        EXPECT_EQ(count(records[i].exec.count), kept[i]) << i;
+        EXPECT_EQ(count(records[i].runs) + count(records[i].stats_dropped), calls[i]) << i;
+    }
+    EXPECT_EQ(count(records[0].stats_dropped), 220u - 8u);
 }
 
 // ---- the hot-reload carry-over: a kept module's task takes its predecessor's state at the swap --
@@ -553,7 +633,9 @@ struct RealRun {
     std::unique_ptr<dispatch::Dispatcher> dispatcher;
 };
 
-RealRun runFor(const config::SetSpec &set, int64_t duration_ns) {
+// during: called while the set runs (between the dispatcher's start and its join).
+RealRun runFor(const config::SetSpec &set, int64_t duration_ns,
+               const std::function<void(const RealRun &)> &during = {}) {
     RealRun run;
     auto schedule = schedule::build(set, {});
     EXPECT_TRUE(schedule.ok());
@@ -585,6 +667,7 @@ RealRun runFor(const config::SetSpec &set, int64_t duration_ns) {
     run.dispatcher =
         std::make_unique<dispatch::Dispatcher>(set, *run.tables, *run.segment, options, osal::monotonicClock());
     EXPECT_TRUE(run.dispatcher->start(duration_ns).ok());
+    if (during) during(run);
     run.dispatcher->join();
     EXPECT_TRUE(run.modules->stopAll().empty());
     return run;
@@ -629,6 +712,32 @@ TEST(RealDispatcher, RunsTheFigure1ShapeForOneSecondInOrder) {
     for (const auto &e : entries)
         if (phases.empty() || phases.back() != e.what) phases.push_back(e.what);
     EXPECT_EQ(phases, (std::vector<std::string>{"initialize", "start", "run", "stop"}));
+}
+
+TEST(RealDispatcher, TheStatsThreadFoldsTheRunsWhileTheSetRunsAndAllOfThemByTheEnd) {
+    journal::clear();
+    uint64_t seen_live = 0;
+    bool running_then = false;
+    RealRun run = runFor(recorderSet(), 1'000'000'000, [&](const RealRun &r) {
+        const stats::TimingRecord &rec_b = r.segment->record(1 + 1);
+        for (int i = 0; i < 5000 && seen_live == 0; ++i) {  // the runs appear while it runs, not at the end
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+            seen_live = rec_b.runs.load();
+            running_then = !r.dispatcher->finished();
+        }
+    });
+    EXPECT_GT(seen_live, 0u);
+    EXPECT_TRUE(running_then);
+    std::map<std::string, uint64_t> journaled;  // what the modules themselves did
+    for (const auto &e : journal::entries())
+        if (e.what == "run") ++journaled[e.who];
+    for (std::size_t i = 1; i <= 4; ++i) {
+        const stats::TimingRecord &r = run.segment->record(i);
+        EXPECT_EQ(r.runs.load() + r.stats_dropped.load(), journaled[r.name]) << r.name;
+        EXPECT_EQ(r.exec.count.load(), r.runs.load()) << r.name;
+        EXPECT_EQ(r.latency.count.load(), r.runs.load()) << r.name;
+        EXPECT_EQ(r.jitter.negative.count.load() + r.jitter.positive.count.load(), r.runs.load()) << r.name;
+    }
 }
 
 TEST(RealDispatcher, ASlowModuleRunsOnItsOwnExecutorAndTimeGrid) {

@@ -233,6 +233,7 @@ TEST(IrpdRun, Figure1ForADurationGivesExactRunCountsAndStats) {
     EXPECT_EQ(s["macro_period_ns"], 500000);
     const json &d = s["dispatcher"];
     EXPECT_EQ(d["name"], "dispatcher");
+    EXPECT_TRUE(s["stats_dropped"].is_number_unsigned());  // runs whose figures a full sample ring lost
     EXPECT_EQ(d["runs"].get<uint64_t>() + d["skipped"].get<uint64_t>(), 12000u);
     for (const char *key : {"jitter_ns", "exec_ns", "latency_ns"})
         for (const char *f : {"min", "max", "mean", "p50", "p99", "p999"}) EXPECT_TRUE(d[key].contains(f)) << key << f;
@@ -244,7 +245,9 @@ TEST(IrpdRun, Figure1ForADurationGivesExactRunCountsAndStats) {
         const json &m = by_name.at(name);
         EXPECT_EQ(m["state"], "stopped");
         EXPECT_EQ(m["runs"].get<uint64_t>() + m["skipped"].get<uint64_t>(), runs) << name;
-        EXPECT_EQ(m["jitter_ns"]["count"], m["runs"]);
+        EXPECT_EQ(m["jitter_ns"]["count"], m["runs"]);  // folded from the dispatcher's samples by the stats thread
+        EXPECT_EQ(m["latency_ns"]["count"], m["runs"]);
+        EXPECT_EQ(m["exec_ns"]["count"], m["runs"]);
         // What the module itself counted (printed by its stop()) is what the dispatcher counted.
         EXPECT_NE(r.out.find("[" + name + "] stop after " + std::to_string(m["runs"].get<uint64_t>()) + " runs"),
                   std::string::npos)

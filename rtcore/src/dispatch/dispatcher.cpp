@@ -308,6 +308,27 @@ void Dispatcher::retire() {
         joinPlan(*plan);
         release(*plan);
     }
+    foldStats();
+}
+
+void Dispatcher::foldStats() {
+    for (const std::shared_ptr<Executor> &e : executors()) e->foldStats();
+}
+
+void Dispatcher::startFolder() {
+    folder_quit_.store(false, std::memory_order_relaxed);
+    folder_ = std::thread([this] {
+        pthread_setname_np(pthread_self(), "irp@stats");
+        // Lowest SCHED_FIFO priority (if allowed): above the machine's ordinary work, below every
+        // RT thread of irpd.  Not pinned: irpd keeps it off the dispatchers' CPUs (keepOffCpus).
+        if (options_.realtime) osal::makeCurrentThreadRealtime(1, -1);
+        int64_t next = clock_.now();
+        while (!folder_quit_.load(std::memory_order_relaxed)) {
+            next = std::max(next + kFoldIntervalNs, clock_.now());
+            clock_.sleepUntil(next);
+            foldStats();
+        }
+    });
 }
 
 Dispatcher::~Dispatcher() {
@@ -350,6 +371,7 @@ Status Dispatcher::start(int64_t duration_ns) {
     segment_.header()->realtime.store(realtime() ? 1 : 0, std::memory_order_relaxed);
     segment_.header()->running.store(1, std::memory_order_relaxed);
     gate->go.count_down();
+    startFolder();
     return Ok{};
 }
 
@@ -413,6 +435,9 @@ void Dispatcher::join() {
         for (const auto *list : {&plans_, &arriving_, &leaving_}) all.insert(all.end(), list->begin(), list->end());
     }
     for (const auto &plan : all) joinPlan(*plan);
+    folder_quit_.store(true, std::memory_order_relaxed);
+    if (folder_.joinable()) folder_.join();
+    foldStats();  // (each loop folded its last samples when it ended)
     if (segment_.header()) segment_.header()->running.store(0, std::memory_order_relaxed);
 }
 

@@ -1,7 +1,9 @@
 // dispatcher.hpp -- turns a loaded set into running executors: builds each executor's slot table
 // from the schedule, starts one RT thread per executor, aligns them on one T0, stops them.  A hot
 // reload may add, remove or change executors: their threads are started (parked on an empty table,
-// on the running time grid) before the swap and stopped after it (docs/hot-reload.md).
+// on the running time grid) before the swap and stopped after it (docs/hot-reload.md).  Beside them
+// a non-RT stats thread ("irp@stats") folds the figures of the modules' runs from the executors'
+// sample rings into the stats block every kFoldIntervalNs (stats/sample_ring.hpp).
 #pragma once
 
 #include <indurop/result.hpp>
@@ -17,6 +19,7 @@
 #include <mutex>
 #include <optional>
 #include <pthread.h>
+#include <thread>
 #include <vector>
 
 namespace irp::dispatch {
@@ -101,8 +104,14 @@ public:
     void requestStop();
     // Every executor of the running tables ended its loop (a duration given to start()).
     bool finished() const;
-    // Waits for every executor thread (call requestStop() first unless a duration was given).
+    // Waits for every executor thread (call requestStop() first unless a duration was given), then
+    // stops the stats thread: the stats block holds every run's figures when it returns.
     void join();
+    // Folds every executor's samples into the stats block now (also the stats thread's work).
+    void foldStats();
+    // How often the stats thread folds: a module's figures reach the stats block this much after
+    // its run at the latest (plus the thread's own wake-up latency).
+    static constexpr int64_t kFoldIntervalNs = 1'000'000;
 
     // The running tables' executors, main first: how each thread was set up.
     std::vector<ExecutorReport> reports() const;
@@ -138,7 +147,8 @@ public:
     bool withdraw();
     // After a swap: the threads of executors the new tables no longer have are stopped and
     // joined; their records and markers are freed.  Also after a reload that failed after
-    // prepare() (then the parked threads go).
+    // prepare() (then the parked threads go).  Then every run of the old tables is folded, so the
+    // records of modules the new set dropped may be freed.
     void retire();
 
 private:
@@ -165,6 +175,9 @@ private:
     static constexpr std::size_t kThreadStackBytes = 1u << 20;
 
     std::atomic<bool> halted_{false};
+    std::thread folder_;  // the stats thread
+    std::atomic<bool> folder_quit_{false};
+    void startFolder();
     stats::StatsSegment &segment_;
     DispatcherOptions options_;
     osal::Clock &clock_;

@@ -1,5 +1,6 @@
 // executor.cpp -- the RT loop.  Everything below loop()'s first line runs on a SCHED_FIFO thread:
-// no allocation, no locks, no syscalls but clock_gettime (vDSO) and clock_nanosleep.
+// no allocation, no locks, no syscalls but clock_gettime (vDSO) and clock_nanosleep (the fold of
+// the last samples after the loop takes a lock: the loop is over then).
 #include "dispatch/executor.hpp"
 
 #include "dispatch/function_calls.hpp"
@@ -27,7 +28,7 @@ void claimRunningMarker(std::size_t index, const char *executor) {
 const char *toString(OverrunPolicy policy) { return policy == OverrunPolicy::CatchUp ? "catch-up" : "skip"; }
 
 Executor::Executor(osal::Clock &clock, const Table *table, stats::TimingRecord *self, ExecutorOptions options)
-    : clock_(clock), table_(table), self_(self), options_(std::move(options)) {
+    : clock_(clock), table_(table), self_(self), options_(std::move(options)), samples_(options_.sample_capacity) {
     noteTable(*table_);
 }
 
@@ -38,8 +39,14 @@ Executor::Executor(osal::Clock &clock, int64_t basic_ns, std::vector<std::vector
       own_(new Table{basic_ns, std::move(slots), std::move(tasks), std::move(events)}),
       table_(own_.get()),
       self_(self),
-      options_(std::move(options)) {
+      options_(std::move(options)),
+      samples_(options_.sample_capacity) {
     noteTable(*table_);
+}
+
+std::size_t Executor::foldStats() {
+    std::lock_guard lock(fold_mutex_);
+    return samples_.fold();
 }
 
 void Executor::noteTable(const Table &table) {
@@ -196,12 +203,12 @@ int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
             t = clock_.now();
             if (!fired) continue;
             const int64_t start = t;
-            r.latency.record(static_cast<uint64_t>(start - checked));
             runThread(*task, r);
             t = clock_.now();
-            r.exec.record(static_cast<uint64_t>(t - start));
+            using S = stats::RunSample;
+            post(r, S::kLatency | S::kExec | S::kRun, 0, static_cast<uint64_t>(start - checked),
+                 static_cast<uint64_t>(t - start));
             if (t - checked > c.deadline_ns) stats::bump(r.missed);  // condition true -> done
-            stats::bump(r.runs);
             continue;
         }
         // A sporadic process: released every basic period to check its own condition (Figure 8);
@@ -212,9 +219,9 @@ int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
             if (done.load(std::memory_order_acquire) == s.released_seq) {
                 s.in_flight = false;
                 const int64_t took = slot.done_ns - s.released_at;
-                r.exec.record(static_cast<uint64_t>(took > 0 ? took : 0));
+                post(r, stats::RunSample::kExec | stats::RunSample::kRun, 0, 0,
+                     static_cast<uint64_t>(took > 0 ? took : 0));
                 if (took > c.deadline_ns && !s.deadline_missed) stats::bump(r.missed);
-                stats::bump(r.runs);
             } else {
                 if (!s.deadline_missed && t - s.released_at > c.deadline_ns) {
                     s.deadline_missed = true;
@@ -228,7 +235,7 @@ int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
             s.deadline_missed = false;
             s.released_seq = std::atomic_ref<uint32_t>(slot.release_seq).load(std::memory_order_relaxed);
             s.released_at = t;
-            r.latency.record(static_cast<uint64_t>(t - due > 0 ? t - due : 0));
+            post(r, stats::RunSample::kLatency, 0, static_cast<uint64_t>(t - due > 0 ? t - due : 0), 0);
         }
     }
     return t;
@@ -251,7 +258,10 @@ void Executor::skip(uint64_t from, uint64_t count) {
  *   2. account the wake-up: latency (woke - due), a miss if a whole period late; if the backlog
  *      passed what the overrun policy allows, skip slots to the current one; Eq. (1) jitter;
  *   3. run the slot's modules in priority order; for each: Eq. (1) jitter against its own T0 and
- *      period, start latency, execution time, budget overrun; a throw disables the module.  A
+ *      period, start latency, execution time, budget overrun; a throw disables the module.  The
+ *      run's jitter, latency and execution time go as one sample into the executor's sample ring
+ *      (stats/sample_ring.hpp), which irpd's stats thread folds into the module's histograms and
+ *      run count; misses, overruns, skips and errors are counted here at once.  A
  *      module with <on_overrun> has its run() marked for the watchdog (dispatch/watchdog.hpp),
  *      and a run past its <overrun_limit> gets its action: warn, skip (its runs due meanwhile are
  *      dropped), disable, or stop (no module of any executor runs any more).  A
@@ -368,8 +378,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
                 s.t0 = start;
                 s.first_due = s.run_due = due;
             }
-            r.jitter.record(s.t0 + (runDue(s, due, c.period_ns) - s.first_due) - start);
-            r.latency.record(static_cast<uint64_t>(start - due > 0 ? start - due : 0));
+            const int64_t jitter = s.t0 + (runDue(s, due, c.period_ns) - s.first_due) - start;  // Eq. (1)
             if (start - due >= c.period_ns) stats::bump(r.missed);
             const bool watched = c.kind == Task::Kind::Thread && c.on_overrun != config::OverrunAction::None;
             uint64_t run = 0;
@@ -382,11 +391,12 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             serveCalls(*task, cycle);  // within the owner's period, counted in its exec time
             t = clock_.now();
             const int64_t exec = t - start;
-            r.exec.record(static_cast<uint64_t>(exec));
+            using S = stats::RunSample;
+            post(r, S::kJitter | S::kLatency | S::kExec | S::kRun, jitter,
+                 static_cast<uint64_t>(start - due > 0 ? start - due : 0), static_cast<uint64_t>(exec));
             const bool over_limit = watched && exec > c.overrun_limit_ns;
             if (over_limit || (c.kind == Task::Kind::Thread && c.budget_ns && exec > c.budget_ns))
                 stats::bump(r.overruns);
-            stats::bump(r.runs);
             if (over_limit) overran(*task, r, run, start, t);
         }
         if (!table_->events.empty() && !halted()) t = handleEvents(cycle, due, t);
@@ -406,6 +416,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
     runtime::setAlarmSource(runtime::kNoAlarmSource);
     if (crash_marker_ < kMaxMarkedExecutors) g_running_markers[crash_marker_].tid.store(0, std::memory_order_relaxed);
     crash_marker_ = SIZE_MAX;
+    foldStats();  // off the RT path now: the figures are complete when the loop returns
     if (finished_ns)
         finished_ns->store(previous_end == INT64_MIN ? clock_.now() : previous_end, std::memory_order_relaxed);
     self_->state.store(0, std::memory_order_relaxed);

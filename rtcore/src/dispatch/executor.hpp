@@ -10,6 +10,7 @@
 #include "dispatch/watchdog.hpp"
 #include "osal/clock.hpp"
 #include "sdk/runtime.hpp"
+#include "stats/sample_ring.hpp"
 #include "stats/stats_block.hpp"
 
 #include <indurop/control.h>
@@ -17,6 +18,7 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <type_traits>
@@ -148,6 +150,10 @@ struct ExecutorOptions {
     // runs any module.  Shared by all executors of a dispatcher; null = never halted.
     std::atomic<bool> *halted = nullptr;
     int marker = -1;  // its running marker for the crash handler (running_marker.hpp); -1: none
+    // Module runs whose figures its sample ring holds until they are folded into the stats block
+    // (stats/sample_ring.hpp): a fold every millisecond leaves room for several milliseconds of
+    // 100 modules at a 100 us basic period.
+    std::size_t sample_capacity = 4096;
 };
 
 class Executor {
@@ -169,6 +175,11 @@ public:
               std::atomic<int64_t> *finished_ns = nullptr);
 
     const ExecutorOptions &options() const { return options_; }
+    // Folds the module figures the loop left in its sample ring into their records (runs and the
+    // jitter, latency and execution-time histograms): any non-RT thread (Dispatcher's stats thread,
+    // the reloader before it frees records); loop() folds the rest itself when it ends.  Returns
+    // how many runs it folded.
+    std::size_t foldStats();
     int64_t basicNs() const { return basic_ns_.load(std::memory_order_relaxed); }
     // The watchdog's view (dispatch/watchdog.hpp): the watched run in progress and the outcomes;
     // watching(): the running table has a module with <on_overrun>.
@@ -202,6 +213,14 @@ private:
     // The event handler (Figure 6): conditions of sporadic threads, then releases of sporadic processes.
     int64_t handleEvents(uint64_t cycle, int64_t due, int64_t t);
     void disable(Task &task, stats::TimingRecord &r, const char *what, const char *detail);
+    // A run's figures into the sample ring (`what`: stats::RunSample's bits); a full ring counts
+    // the loss in stats_dropped (the module's and this dispatcher's) and never waits.
+    void post(stats::TimingRecord &r, uintptr_t what, int64_t jitter, uint64_t latency, uint64_t exec) noexcept {
+        if (!samples_.push({reinterpret_cast<uintptr_t>(&r) | what, jitter, latency, exec})) {
+            stats::bump(r.stats_dropped);
+            stats::bump(self_->stats_dropped);
+        }
+    }
     // A watched thread module's run ended past its overrun limit: count it, apply its action.
     void overran(Task &task, stats::TimingRecord &r, uint64_t run, int64_t start, int64_t end);
     bool halted() const { return options_.halted && options_.halted->load(std::memory_order_relaxed); }
@@ -226,6 +245,8 @@ private:
     std::atomic<bool> awaits_processes_{false};
     uint32_t *alarm_source_ = nullptr;  // this thread's alarm source word, while loop() runs
     std::atomic<int64_t> basic_ns_{0};
+    stats::SampleRing samples_;
+    std::mutex fold_mutex_;  // one consumer of samples_ at a time
     void noteTable(const Table &table);
 };
 

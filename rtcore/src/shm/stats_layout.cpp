@@ -54,6 +54,9 @@ constexpr Field kRecord[] = {
     IRP_SHM_FIELD(R, skipped, "runs or slots dropped by the overrun policy"),
     IRP_SHM_FIELD(R, errors, "exceptions thrown out of run()"),
     IRP_SHM_FIELD(R, caught_up, "dispatchers: slots started at once, without sleeping, after a late slot"),
+    IRP_SHM_FIELD(R, stats_dropped,
+                  "modules: runs whose figures were lost (the sample ring was full): in neither runs nor the "
+                  "histograms; dispatchers: the sum over their modules"),
     IRP_SHM_FIELD(R, jitter, "Eq. (1): J_n = T0 + n x period - T_n, in ns"),
     IRP_SHM_FIELD(R, latency, "start (wake-up for a dispatcher) minus its planned time, in ns"),
     IRP_SHM_FIELD(R, exec, "execution time of run() / of the slot's whole work, in ns"),
@@ -83,8 +86,9 @@ IRP_SHM_DESCRIBES(stats::Histogram, kHistogram);
 
 constexpr Struct kStructs[] = {
     describe<H>("At offset 0", kHeader),
-    describe<R>("From header_size on: record_count of them, record_size bytes apart; each has a single writer, "
-                "its dispatcher thread",
+    describe<R>("From header_size on: record_count of them, record_size bytes apart; each field has a single "
+                "writer: its dispatcher thread, except a module's runs and histograms, which irpd's stats thread "
+                "folds from the dispatcher's samples within a millisecond",
                 kRecord),
     describe<SH>("A histogram of signed values", kSigned),
     describe<Hi>("A log-linear histogram of non-negative values, in ns", kHistogram),
@@ -122,7 +126,8 @@ const Segment &statsSegment() {
         "stats",
         "/indurop.<instance>.stats",
         "Timing figures of the running set: [header][timing_record x record_count], every struct 64-byte aligned. "
-        "The RT threads write their own records with plain stores; readers never make them wait (docs/scheduler.md).",
+        "The RT threads and irpd's stats thread write them with plain stores; readers never make them wait "
+        "(docs/scheduler.md).",
         stats::kMagic,
         stats::kVersion,
         TypeName<H>::value,

@@ -5,7 +5,9 @@
 // Buckets: values 0..31 exactly, then 32 sub-buckets per power of two up to 2^36 ns (68 s), so a
 // bucket is at most 1/32 (3.1 %) of its value wide; larger values land in the last bucket and the
 // exact maximum is kept beside.  Each histogram has a single writer: the dispatcher thread that
-// owns the record.  Readers may see a count one sample ahead of the buckets; nothing else tears.
+// owns the record, or for a module's histograms irpd's stats thread that folds its dispatcher's
+// samples (stats/sample_ring.hpp).  Readers may see a count one sample ahead of the buckets;
+// nothing else tears.
 #pragma once
 
 #include <atomic>

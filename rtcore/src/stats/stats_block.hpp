@@ -1,9 +1,11 @@
 // stats_block.hpp -- the timing statistics of a running set, as laid out in shared memory.
 //
 // irpd creates one segment per instance, "/indurop.<instance>.stats" (mode 0660): a header, then
-// one record per dispatcher (executor) and one per module.  The RT threads write their own records
-// with plain stores; any process may map the segment read-only and read live figures without a
-// lock and without ever making the RT thread wait.  The layout is versioned (kVersion): readers
+// one record per dispatcher (executor) and one per module.  Every field has one writer, with plain
+// stores: a dispatcher's record and a module's counters (overruns, missed, ...) its RT thread; a
+// module's runs and histograms the stats thread of irpd, which folds the figures each run left in
+// its executor's sample ring (stats/sample_ring.hpp) within a millisecond.  Any process may map the
+// segment read-only and read live figures without a lock and without ever making the RT thread wait.  The layout is versioned (kVersion): readers
 // check magic, version and record_size before trusting anything.  docs/scheduler.md describes it
 // field by field for readers in other languages.
 #pragma once
@@ -18,7 +20,7 @@
 namespace irp::stats {
 
 inline constexpr uint64_t kMagic = 0x3154'4154'5350'5249ull;  // the bytes "IRPSTAT1"
-inline constexpr uint32_t kVersion = 1;
+inline constexpr uint32_t kVersion = 2;                       // 2: stats_dropped
 
 // Unused: a free record (room for the modules a hot reload adds); readers skip it.
 enum class RecordKind : uint32_t { Dispatcher = 0, Module = 1, Unused = 2 };
@@ -43,13 +45,15 @@ struct alignas(64) TimingRecord {
     int64_t period_ns;  // module period, or the basic period for a dispatcher
     int64_t budget_ns;  // 0 = none
 
-    Counter runs;       // run() calls (modules) / slots executed (dispatchers)
-    Counter overruns;   // modules: exec above budget; dispatchers: slot work above the basic period
-    Counter missed;     // started a whole period (module's, or basic) or more after it was due
-    Counter skipped;    // runs / slots dropped by the overrun policy
-    Counter errors;     // exceptions thrown out of run()
-    Counter caught_up;  // dispatchers: slots started at once, without sleeping, because the
-                        // previous slot ended past their due time (catch-up after a late wake-up or an overrun)
+    Counter runs;           // run() calls (modules) / slots executed (dispatchers)
+    Counter overruns;       // modules: exec above budget; dispatchers: slot work above the basic period
+    Counter missed;         // started a whole period (module's, or basic) or more after it was due
+    Counter skipped;        // runs / slots dropped by the overrun policy
+    Counter errors;         // exceptions thrown out of run()
+    Counter caught_up;      // dispatchers: slots started at once, without sleeping, because the
+                            // previous slot ended past their due time (catch-up after a late wake-up or an overrun)
+    Counter stats_dropped;  // modules: runs whose figures were lost, the sample ring being full (not in
+                            // runs nor in the histograms); dispatchers: the sum over their modules
 
     SignedHistogram jitter;  // Eq. (1): J_n = T0 + n * period - T_n, in ns
     Histogram latency;       // start (wake-up for a dispatcher) minus its planned time, in ns
@@ -80,7 +84,7 @@ static_assert(sizeof(TimingRecord) % 64 == 0, "records do not share cache lines"
 
 // Zeroes the counters and empties the histograms of a record.
 inline void resetFigures(TimingRecord &r) noexcept {
-    for (Counter *c : {&r.runs, &r.overruns, &r.missed, &r.skipped, &r.errors, &r.caught_up})
+    for (Counter *c : {&r.runs, &r.overruns, &r.missed, &r.skipped, &r.errors, &r.caught_up, &r.stats_dropped})
         c->store(0, std::memory_order_relaxed);
     r.jitter.reset();
     r.latency.reset();

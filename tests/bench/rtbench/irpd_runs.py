@@ -28,18 +28,19 @@ BUILD_TARGETS = [
     "reactor",
     "reactor_proc",
 ]
+DISPATCH_TARGETS = ["irpd", "empty"]  # run_bench.py --only dispatch
 
 
-def build(build_dir: Path, commands: list[str]) -> None:
+def build(build_dir: Path, commands: list[str], targets: list[str] = BUILD_TARGETS) -> None:
     if not (build_dir / "CMakeCache.txt").exists():
         cmd = ["cmake", "-S", str(REPO), "-B", str(build_dir), "-G", "Ninja", "-DCMAKE_BUILD_TYPE=Release"]
         commands.append(quote(cmd))
         log("configuring " + str(build_dir))
         if subprocess.run(cmd, stdout=subprocess.DEVNULL).returncode != 0:
             raise BenchError("cmake configure failed: " + quote(cmd))
-    cmd = ["cmake", "--build", str(build_dir), "--target", *BUILD_TARGETS]
+    cmd = ["cmake", "--build", str(build_dir), "--target", *targets]
     commands.append(quote(cmd))
-    log("building " + ", ".join(BUILD_TARGETS))
+    log("building " + ", ".join(targets))
     if subprocess.run(cmd, stdout=subprocess.DEVNULL).returncode != 0:
         raise BenchError("build failed: " + quote(cmd))
 

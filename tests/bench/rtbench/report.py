@@ -52,18 +52,81 @@ def analyse(a, ct: dict, skip: dict, catch: dict, over: dict, relative: dict) ->
     }
     res["t2"] = all(res["t2_parts"].values())
     res["t2_full_length"] = a.long_duration >= LONG_RUN_TARGET_S
-    # target 3: dispatch overhead
+    res.update(analyse_overhead(over, catch))
+    return res
+
+
+def analyse_overhead(over: dict, one: dict) -> dict:
+    """Target 3, the dispatch overhead: the 100-module run against a 1-module run (catch-up)."""
+    res = {}
     n = len(over["modules"])
     ex = over["dispatcher"]["exec_ns"]
     res["overhead_mean"] = ex["mean"] / n
     res["overhead_p50"] = ex["p50"] / n
-    res["overhead_marginal"] = (ex["mean"] - catch["dispatcher"]["exec_ns"]["mean"]) / max(1, n - 1)
+    res["overhead_marginal"] = (ex["mean"] - one["dispatcher"]["exec_ns"]["mean"]) / max(1, n - 1)
     means = [m["exec_ns"]["mean"] for m in over["modules"]]
     p50s = [m["exec_ns"]["p50"] for m in over["modules"]]
     res["module_exec_mean"] = {"min": min(means), "mean": sum(means) / n, "max": max(means)}
     res["module_exec_p50"] = {"min": min(p50s), "mean": sum(p50s) / n, "max": max(p50s)}
     res["t3"] = res["overhead_mean"] <= OVERHEAD_TARGET_NS
     return res
+
+
+def overhead_target_row(over: dict, res: dict) -> str:
+    n = len(over["modules"])
+    return (
+        f"| dispatch overhead ≤ {OVERHEAD_TARGET_NS:.0f} ns per empty thread module ({n}-module set) | "
+        f"slot work mean {over['dispatcher']['exec_ns']['mean']:.0f} ns / {n} = "
+        f"{res['overhead_mean']:.1f} ns (p50: {res['overhead_p50']:.1f} ns) | {verdict(res['t3'])} |"
+    )
+
+
+def render_overhead(over: dict, one: dict, res: dict, one_name: str = "catch-up run") -> list[str]:
+    """The section "Dispatch overhead": the 100-module run's slot work per module."""
+    L: list[str] = []
+    w = L.append
+    n = len(over["modules"])
+    w(f"## Dispatch overhead ({n} empty thread modules at {over['basic_period_ns'] / 1000:g} µs)")
+    w("")
+    ex = over["dispatcher"]["exec_ns"]
+    me, mp = res["module_exec_mean"], res["module_exec_p50"]
+    w("| figure | ns |")
+    w("| --- | ---: |")
+    w(
+        f"| slot work (dispatcher `exec_ns`) mean / p50 / p99 / max | {ex['mean']:.0f} / {ex['p50']:.0f} / "
+        f"{ex['p99']:.0f} / {ex['max']:.0f} |"
+    )
+    w(f"| **per module: slot work mean / {n}** | **{res['overhead_mean']:.1f}** |")
+    w(f"| per module: slot work p50 / {n} | {res['overhead_p50']:.1f} |")
+    one_ex = one["dispatcher"]["exec_ns"]
+    w(
+        f"| for comparison: slot work of the 1-module set ({one_name}), mean / p50 | {one_ex['mean']:.0f} / {one_ex['p50']:.0f} |"
+    )
+    w(
+        f"| marginal cost of a module: (slot work mean, {n} modules − 1 module) / {n - 1} | {res['overhead_marginal']:.1f} |"
+    )
+    w(
+        f"| per-module `exec_ns` mean, min / average / max over the modules | {me['min']:.0f} / {me['mean']:.0f} / {me['max']:.0f} |"
+    )
+    w(
+        f"| per-module `exec_ns` p50, min / average / max over the modules | {mp['min']:.0f} / {mp['mean']:.0f} / {mp['max']:.0f} |"
+    )
+    w(
+        f"| slots: runs / missed / overruns / skipped | {over['dispatcher']['runs']} / {over['dispatcher']['missed']} / "
+        f"{over['dispatcher']['overruns']} / {over['dispatcher']['skipped']} |"
+    )
+    w("")
+    w(
+        "The slot work is measured by irpd from its wake-up to the end of the last module of the slot, so it "
+        "includes everything the dispatcher does per module: Eq. (1)'s run, a clock read, the call to `run()` "
+        "(empty here), the run's sample (jitter, latency, execution time) stored into the executor's sample "
+        "ring, which irpd's stats thread folds into the module's histograms and run count on another CPU "
+        "(docs/scheduler.md), and the counters. A module's own `exec_ns` is measured from the end of the "
+        "previous module, so it too includes that bookkeeping, not only `run()`. The mean includes any stall "
+        "of the machine during a slot; the p50 does not."
+    )
+    w("")
+    return L
 
 
 def render(
@@ -123,11 +186,7 @@ def render(
         f"| run count exactly elapsed/period over {LONG_RUN_TARGET_S} s (no drift) | {t2_text} | "
         f"{verdict(res['t2'])}{note} |"
     )
-    w(
-        f"| dispatch overhead ≤ {OVERHEAD_TARGET_NS:.0f} ns per empty thread module ({len(over['modules'])}-module set) | "
-        f"slot work mean {over['dispatcher']['exec_ns']['mean']:.0f} ns / {len(over['modules'])} = "
-        f"{res['overhead_mean']:.1f} ns (p50: {res['overhead_p50']:.1f} ns) | {verdict(res['t3'])} |"
-    )
+    w(overhead_target_row(over, res))
     w("")
     w(
         "The no-drift verdict, part by part: "
@@ -229,48 +288,7 @@ def render(
         "sleeps until T0 + n × period (absolute), so a late wake-up delays one slot and never the next."
     )
     w("")
-    w(f"## Dispatch overhead ({len(over['modules'])} empty thread modules at {over['basic_period_ns'] / 1000:g} µs)")
-    w("")
-    ex = over["dispatcher"]["exec_ns"]
-    me, mp = res["module_exec_mean"], res["module_exec_p50"]
-    w("| figure | ns |")
-    w("| --- | ---: |")
-    w(
-        f"| slot work (dispatcher `exec_ns`) mean / p50 / p99 / max | {ex['mean']:.0f} / {ex['p50']:.0f} / "
-        f"{ex['p99']:.0f} / {ex['max']:.0f} |"
-    )
-    w(f"| **per module: slot work mean / {len(over['modules'])}** | **{res['overhead_mean']:.1f}** |")
-    w(f"| per module: slot work p50 / {len(over['modules'])} | {res['overhead_p50']:.1f} |")
-    one_ex = catch["dispatcher"]["exec_ns"]
-    w(
-        f"| for comparison: slot work of the 1-module set (catch-up run), mean / p50 | {one_ex['mean']:.0f} / "
-        f"{one_ex['p50']:.0f} |"
-    )
-    w(
-        f"| marginal cost of a module: (slot work mean, {len(over['modules'])} modules − 1 module) / "
-        f"{len(over['modules']) - 1} | {res['overhead_marginal']:.1f} |"
-    )
-    w(
-        f"| per-module `exec_ns` mean, min / average / max over the modules | {me['min']:.0f} / {me['mean']:.0f} / "
-        f"{me['max']:.0f} |"
-    )
-    w(
-        f"| per-module `exec_ns` p50, min / average / max over the modules | {mp['min']:.0f} / {mp['mean']:.0f} / "
-        f"{mp['max']:.0f} |"
-    )
-    w(
-        f"| slots: runs / missed / overruns / skipped | {over['dispatcher']['runs']} / {over['dispatcher']['missed']} / "
-        f"{over['dispatcher']['overruns']} / {over['dispatcher']['skipped']} |"
-    )
-    w("")
-    w(
-        "The slot work is measured by irpd from its wake-up to the end of the last module of the slot, so it "
-        "includes everything the dispatcher does per module: the Eq. (1) jitter, latency and execution-time "
-        "histogram updates, a clock read, the call to `run()` (empty here) and the counters. A module's own "
-        "`exec_ns` is measured from the end of the previous module, so it too includes that bookkeeping, not "
-        "only `run()`. The mean includes any stall of the machine during a slot; the p50 does not."
-    )
-    w("")
+    L.extend(render_overhead(over, catch, res))
     w("## Machine")
     w("")
     w("| | |")
