@@ -19,6 +19,9 @@ MODES = {
     "spin": "spin 2 µs on the done word, then as bounded",
     "above": "the process one priority above the dispatcher, then as bounded",
     "yield": "the process at the dispatcher's priority, sched_yield() after the wake, then as bounded",
+    "timer": "the process first asleep until the due time by itself (FUTEX_WAIT_BITSET), the FUTEX_WAKE "
+    "left out when that timer has expired, then as unbounded (irpd's release now)",
+    "timer_wake": "as timer, with the FUTEX_WAKE made at every release",
 }
 PROGRAMS = tuple("variant_" + m for m in MODES)
 
