@@ -1,5 +1,5 @@
 // executor.cpp -- the RT loop.  Everything below loop()'s first line runs on a SCHED_FIFO thread:
-// no allocation, no locks, no syscalls but clock_gettime (vDSO) and clock_nanosleep.
+// no allocation, no locks, no syscalls but clock_gettime (vDSO), clock_nanosleep and process releases' futexes.
 #include "dispatch/executor.hpp"
 
 #include "dispatch/function_calls.hpp"
