@@ -57,8 +57,8 @@ Outcome runSet(int reader_priority, const char *reader_args) {
         thread("writer", reader_priority == 1 ? 2 : 1, value("pause_every", "3") + value("pause_us", "300")) +
         "  <module><name>reader</name><filename>" + (kFixtures / "tick_reader.exe").string() +
         "</filename><moduletype>process</moduletype><operationtype>periodic</operationtype><period>" + kPeriod +
-        "</period><priority>" + std::to_string(reader_priority) + "</priority><property>" +
-        value("args", reader_args) + value("restart", "never") + "</property></module>\n" +
+        "</period><priority>" + std::to_string(reader_priority) + "</priority><property>" + value("args", reader_args) +
+        value("restart", "never") + "</property></module>\n" +
         thread("staller", 3, value("write", "0") + value("stall_every", "150") + value("stall_us", "5000")) +
         "</root>\n";
     std::ofstream(dir.path / "module.xml") << set;

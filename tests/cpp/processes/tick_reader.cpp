@@ -30,14 +30,16 @@ int main(int argc, char *argv[]) {
     uint64_t last = 0;
     int64_t epoch = 0;
     auto wrong = [&](const char *what, uint64_t count, long long seen) {
-        if (++bad <= 5) std::printf("bad: release of cycle %llu: %s (%lld)\n", static_cast<unsigned long long>(count), what, seen);
+        if (++bad <= 5)
+            std::printf("bad: release of cycle %llu: %s (%lld)\n", static_cast<unsigned long long>(count), what, seen);
     };
     while (irp::waitPeriod() == 0) {
         const int64_t now = nowNs();
         const irp::Cycle c = irp::cycle();
         const uint32_t tick = test::cell::tick;
         const auto count = static_cast<uint32_t>(c.count);
-        if (releases && c.count <= last) wrong("count did not move forward from the last release", c.count, static_cast<long long>(last));
+        if (releases && c.count <= last)
+            wrong("count did not move forward from the last release", c.count, static_cast<long long>(last));
         if (releases && c.planned_ns - static_cast<int64_t>(c.count) * c.basic_ns != epoch)
             wrong("due time off the grid", c.count, c.planned_ns);
         if (now < c.planned_ns) wrong("running before its due time", c.count, c.planned_ns - now);
