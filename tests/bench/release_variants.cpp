@@ -28,6 +28,9 @@
 //              the dispatcher makes the FUTEX_WAKE only when wake_ns is 0 or after the release
 //              (then as unbounded)
 //   timer_wake the same, with the FUTEX_WAKE made at every release (what leaving it out saves)
+//   timer_spin as timer, but the worker's timer is set --spin-ns before the due time and it then
+//              spins on the release word (at most until 20 µs after the due time) instead of
+//              sleeping: its CPU is kept busy, not idle, when the dispatcher's timer fires
 // At the end the worker, then the dispatcher, print histograms in bench_hist.hpp's text form:
 //   variant_wake        the worker's wake-up latency
 //   variant_dispatcher  the dispatcher's own wake-up latency (woke - due)
@@ -55,7 +58,7 @@
 
 namespace {
 
-enum class Mode { Bounded, Bitset, Unbounded, Spin, Above, Yield, Timer, TimerWake };
+enum class Mode { Bounded, Bitset, Unbounded, Spin, Above, Yield, Timer, TimerWake, TimerSpin };
 
 struct Shared {
     uint32_t release_seq = 0;
@@ -71,8 +74,9 @@ bench::Histogram g_wake, g_dispatcher, g_exec;
 
 [[noreturn]] void usage(const char *why) {
     if (why) std::fprintf(stderr, "release_variants: %s\n", why);
-    std::fprintf(stderr, "usage: release_variants --mode bounded|bitset|unbounded|spin|above|yield|timer|timer_wake "
-                         "--period-ns N --duration S [--cpu C] [--rt-priority P] [--spin-ns N]\n");
+    std::fprintf(stderr,
+                 "usage: release_variants --mode bounded|bitset|unbounded|spin|above|yield|timer|timer_wake|timer_spin "
+                 "--period-ns N --duration S [--cpu C] [--rt-priority P] [--spin-ns N]\n");
     std::exit(2);
 }
 
@@ -86,19 +90,26 @@ using bench::toTimespec;
 std::atomic_ref<uint32_t> word(uint32_t &w) { return std::atomic_ref<uint32_t>(w); }
 std::atomic_ref<int64_t> word(int64_t &w) { return std::atomic_ref<int64_t>(w); }
 
-// The timer modes' wait for the next release, as irp::waitPeriod() makes it.
-void waitTimed(Shared &s, uint32_t seq, int64_t &wake) {
-    word(s.wake_ns).store(wake, std::memory_order_seq_cst);
+constexpr int64_t kSpinPastDue = 20'000;  // timer_spin: the worker spins at most this long past the due time
+
+// The timer modes' wait for the next release, as irp::waitPeriod() makes it; with spin_ns > 0
+// (timer_spin) the timer is set that much earlier and the worker then spins.
+void waitTimed(Shared &s, uint32_t seq, int64_t &wake, int64_t spin_ns) {
+    const int64_t at = wake ? wake - spin_ns : 0;
+    word(s.wake_ns).store(at, std::memory_order_seq_cst);
     if (word(s.release_seq).load(std::memory_order_seq_cst) != seq) return;
-    if (wake) {
-        irp::futex::waitUntil(&s.release_seq, seq, wake);
-        wake = 0;
-    } else {
+    if (!at) {
         irp::futex::wait(&s.release_seq, seq);
+        return;
     }
+    irp::futex::waitUntil(&s.release_seq, seq, at);
+    if (spin_ns)
+        while (word(s.release_seq).load(std::memory_order_acquire) == seq && bench::nowNs() < wake + kSpinPastDue)
+            __builtin_ia32_pause();
+    wake = 0;
 }
 
-int worker(Shared &s, int priority, bool timed) {
+int worker(Shared &s, int priority, bool timed, int64_t spin_ns) {
     prctl(PR_SET_PDEATHSIG, SIGKILL);
     std::string notes;
     const bool locked = bench::lockMemory();
@@ -113,7 +124,7 @@ int worker(Shared &s, int priority, bool timed) {
         const uint32_t seq = word(s.release_seq).load(std::memory_order_acquire);
         if (seq == seen) {
             if (timed)
-                waitTimed(s, seq, wake);
+                waitTimed(s, seq, wake, spin_ns);
             else
                 irp::futex::wait(&s.release_seq, seq);
             continue;
@@ -154,6 +165,7 @@ Mode parseMode(const std::string &m) {
     if (m == "yield") return Mode::Yield;
     if (m == "timer") return Mode::Timer;
     if (m == "timer_wake") return Mode::TimerWake;
+    if (m == "timer_spin") return Mode::TimerSpin;
     usage(("unknown mode " + m).c_str());
 }
 
@@ -197,7 +209,8 @@ int main(int argc, char **argv) {
         std::fprintf(stderr, "release_variants: fork: %s\n", std::strerror(errno));
         return 1;
     }
-    if (child == 0) std::exit(worker(s, worker_priority, mode == Mode::Timer || mode == Mode::TimerWake));
+    const bool timed = mode == Mode::Timer || mode == Mode::TimerWake || mode == Mode::TimerSpin;
+    if (child == 0) std::exit(worker(s, worker_priority, timed, mode == Mode::TimerSpin ? spin_ns : 0));
 
     std::string notes;
     prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
@@ -224,13 +237,15 @@ int main(int argc, char **argv) {
         word(s.due).store(due, std::memory_order_relaxed);
         word(s.next_due).store(due + period, std::memory_order_relaxed);
         word(s.release_seq).store(served + 1, std::memory_order_seq_cst);
-        const int64_t wakes_at = mode == Mode::Timer ? word(s.wake_ns).load(std::memory_order_seq_cst) : 0;
+        const int64_t wakes_at =
+            mode == Mode::Timer || mode == Mode::TimerSpin ? word(s.wake_ns).load(std::memory_order_seq_cst) : 0;
         if (wakes_at == 0 || wakes_at > released) irp::futex::wakeAll(&s.release_seq);
         const int64_t until = due + period;
         bool done = false;
         switch (mode) {
         case Mode::Timer:
         case Mode::TimerWake:
+        case Mode::TimerSpin:
         case Mode::Unbounded: done = irp::futex::waitWhileEqual(&s.done_seq, served, 0); break;
         case Mode::Bitset: done = waitAbsolute(&s.done_seq, served, until); break;
         case Mode::Spin: {

@@ -22,6 +22,8 @@ MODES = {
     "timer": "the process first asleep until the due time by itself (FUTEX_WAIT_BITSET), the FUTEX_WAKE "
     "left out when that timer has expired, then as unbounded (irpd's release now)",
     "timer_wake": "as timer, with the FUTEX_WAKE made at every release",
+    "timer_spin": "as timer, the process's timer 2 µs before the due time, then a spin on the release word "
+    "(at most until 20 µs past the due time) instead of a sleep",
 }
 PROGRAMS = tuple("variant_" + m for m in MODES)
 
