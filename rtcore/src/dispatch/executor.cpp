@@ -292,6 +292,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
     uint64_t epoch_cycle = 0;
     int64_t basic = table_->basic_ns;
     uint64_t nslots = table_->slots.size();
+    uint64_t slot_index = 0;  // (cycle - epoch_cycle) % nslots, kept from slot to slot without a division
     int64_t wake_offset = 0;           // the first wake-up's lateness: the dispatcher's Eq. (1) T0
     int64_t previous_end = INT64_MIN;  // when the last slot's work ended
     uint64_t cycle = 0;
@@ -314,6 +315,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
                 takeOver(next);
                 epoch_t0 = at;
                 epoch_cycle = cycle - k;
+                slot_index = k % next->slots.size();
                 basic = next->basic_ns;
                 nslots = next->slots.size();
                 due = epoch_t0 + static_cast<int64_t>(k) * basic;
@@ -341,9 +343,9 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
                 skip(cycle - epoch_cycle, behind);
                 cycle += behind;
                 due += static_cast<int64_t>(behind) * basic;
+                slot_index = (cycle - epoch_cycle) % nslots;
             }
         }
-        const uint64_t slot_index = (cycle - epoch_cycle) % nslots;
         const std::vector<Task *> &order = table_->slots[slot_index];
         int64_t t = woke;
         // A slot whose first module is a process releases it before anything else, and awaits it:
@@ -430,6 +432,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         stats::bump(self_->runs);
         if (cycles) stats::bump(*cycles);
         ++cycle;
+        if (++slot_index == nslots) slot_index = 0;
     }
     runtime::setCycle({});
     runtime::setAlarmSource(runtime::kNoAlarmSource);
