@@ -292,7 +292,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
     uint64_t epoch_cycle = 0;
     int64_t basic = table_->basic_ns;
     uint64_t nslots = table_->slots.size();
-    uint64_t slot_index = 0;  // (cycle - epoch_cycle) % nslots, kept from slot to slot without a division
+    uint64_t slot_index = 0;           // (cycle - epoch_cycle) % nslots, kept from slot to slot without a division
     int64_t wake_offset = 0;           // the first wake-up's lateness: the dispatcher's Eq. (1) T0
     int64_t previous_end = INT64_MIN;  // when the last slot's work ended
     uint64_t cycle = 0;
