@@ -41,6 +41,7 @@ namespace {
 struct PeriodState {
     indurop_process_slot *slot = nullptr;
     uint32_t last_seq = 0;       // the release_seq this process served last (or saw at start)
+    int64_t next_due = 0;        // the slot's next_due_ns at that release: its next release's due time
     bool in_release = false;     // waitPeriod() returned 0 and was not called again yet
     bool stop_returned = false;  // waitPeriod() returned -1 for a stop
 };
@@ -210,6 +211,8 @@ int initPeriodExe() {
     // Releases from now on are ours: a release that lands between this load and READY is served
     // by the first waitPeriod() at once.
     g_period.last_seq = atomic(slot->release_seq).load(std::memory_order_acquire);
+    g_period.next_due = 0;
+    atomic(slot->wake_ns).store(0, std::memory_order_relaxed);  // until its first wait: released with a wake
     g_period.in_release = false;
     g_period.stop_returned = false;
     g_period.slot = slot;
@@ -230,6 +233,10 @@ int waitPeriod() {
         futex::wakeAll(&slot->done_seq);
         g_period.in_release = false;
     }
+    // First asleep until the next release's due time, so that this process is runnable when its
+    // dispatcher blocks after releasing it (no FUTEX_WAKE needed); then, if that release has not
+    // come, until a wake.  Only a moved release_seq returns (control.h).
+    int64_t wake = g_period.next_due;
     for (;;) {
         if (atomic(slot->stop_requested).load(std::memory_order_acquire)) {
             g_period.stop_returned = true;
@@ -243,14 +250,24 @@ int waitPeriod() {
             c.slot = static_cast<uint32_t>(c.count);
             c.planned_ns = atomic(slot->planned_ns).load(std::memory_order_relaxed);
             c.basic_ns = atomic(slot->basic_ns).load(std::memory_order_relaxed);
+            g_period.next_due = atomic(slot->next_due_ns).load(std::memory_order_relaxed);
             runtime::setCycle(c);
             atomic(slot->state).store(INDUROP_PROCESS_RUNNING, std::memory_order_relaxed);
             g_period.in_release = true;
             return 0;
         }
+        // How this wait ends, announced before it is made; irpd stores release_seq, then reads
+        // wake_ns: whichever comes second sees the other's store (both seq_cst).
+        atomic(slot->wake_ns).store(wake, std::memory_order_seq_cst);
+        if (atomic(slot->release_seq).load(std::memory_order_seq_cst) != seq) continue;
         // A stop request wakes this word too; irpd repeats the wake while it waits, so a stop
         // that lands between the check above and the wait is not lost.
-        futex::wait(&slot->release_seq, seq);
+        if (wake) {
+            futex::waitUntil(&slot->release_seq, seq, wake);
+            wake = 0;  // woken without the release (too early, or a wake): wait on without a timer
+        } else {
+            futex::wait(&slot->release_seq, seq);
+        }
     }
 }
 

@@ -37,6 +37,13 @@ inline void wait(uint32_t *word, uint32_t expected, int64_t timeout_ns = 0) noex
     syscall(SYS_futex, word, FUTEX_WAIT, expected, timeout_ns > 0 ? &rel : nullptr, nullptr, 0);
 }
 
+// One FUTEX_WAIT_BITSET while *word == expected, at most until the absolute CLOCK_MONOTONIC time
+// `until` (one hrtimer on that time, no clock read).  Returns as wait() does: the caller re-checks.
+inline void waitUntil(uint32_t *word, uint32_t expected, int64_t until) noexcept {
+    const timespec at{static_cast<time_t>(until / 1'000'000'000), static_cast<long>(until % 1'000'000'000)};
+    syscall(SYS_futex, word, FUTEX_WAIT_BITSET, expected, &at, nullptr, FUTEX_BITSET_MATCH_ANY);
+}
+
 // Waits until *word != expected (acquire), at most timeout_ns (<= 0: no limit).  False on timeout.
 inline bool waitWhileEqual(uint32_t *word, uint32_t expected, int64_t timeout_ns) noexcept {
     const int64_t deadline = timeout_ns > 0 ? monotonicNs() + timeout_ns : 0;

@@ -23,6 +23,14 @@
 //              the dispatcher finds the done word set when it runs again (then as bounded)
 //   yield      the worker at the dispatcher's priority: the dispatcher sched_yield()s to it after
 //              the wake (then as bounded)
+//   timer      irpd's release now: the worker first sleeps until the next due time by itself
+//              (FUTEX_WAIT_BITSET on the release word, announced in wake_ns), then without a timer;
+//              the dispatcher makes the FUTEX_WAKE only when wake_ns is 0 or after the release
+//              (then as unbounded)
+//   timer_wake the same, with the FUTEX_WAKE made at every release (what leaving it out saves)
+//   timer_spin as timer, but the worker's timer is set --spin-ns before the due time and it then
+//              spins on the release word (at most until 20 µs after the due time) instead of
+//              sleeping: its CPU is kept busy, not idle, when the dispatcher's timer fires
 // At the end the worker, then the dispatcher, print histograms in bench_hist.hpp's text form:
 //   variant_wake        the worker's wake-up latency
 //   variant_dispatcher  the dispatcher's own wake-up latency (woke - due)
@@ -50,7 +58,7 @@
 
 namespace {
 
-enum class Mode { Bounded, Bitset, Unbounded, Spin, Above, Yield };
+enum class Mode { Bounded, Bitset, Unbounded, Spin, Above, Yield, Timer, TimerWake, TimerSpin };
 
 struct Shared {
     uint32_t release_seq = 0;
@@ -58,14 +66,17 @@ struct Shared {
     uint32_t stop = 0;
     uint32_t ready = 0;
     int64_t due = 0;
+    int64_t next_due = 0;  // timer modes: the due time of the next release
+    int64_t wake_ns = 0;   // timer modes: the worker's wait ends by itself then (0: only a wake ends it)
 };
 
 bench::Histogram g_wake, g_dispatcher, g_exec;
 
 [[noreturn]] void usage(const char *why) {
     if (why) std::fprintf(stderr, "release_variants: %s\n", why);
-    std::fprintf(stderr, "usage: release_variants --mode bounded|bitset|unbounded|spin|above|yield "
-                         "--period-ns N --duration S [--cpu C] [--rt-priority P] [--spin-ns N]\n");
+    std::fprintf(stderr,
+                 "usage: release_variants --mode bounded|bitset|unbounded|spin|above|yield|timer|timer_wake|timer_spin "
+                 "--period-ns N --duration S [--cpu C] [--rt-priority P] [--spin-ns N]\n");
     std::exit(2);
 }
 
@@ -77,8 +88,28 @@ using bench::fifo;
 using bench::toTimespec;
 
 std::atomic_ref<uint32_t> word(uint32_t &w) { return std::atomic_ref<uint32_t>(w); }
+std::atomic_ref<int64_t> word(int64_t &w) { return std::atomic_ref<int64_t>(w); }
 
-int worker(Shared &s, int priority) {
+constexpr int64_t kSpinPastDue = 20'000;  // timer_spin: the worker spins at most this long past the due time
+
+// The timer modes' wait for the next release, as irp::waitPeriod() makes it; with spin_ns > 0
+// (timer_spin) the timer is set that much earlier and the worker then spins.
+void waitTimed(Shared &s, uint32_t seq, int64_t &wake, int64_t spin_ns) {
+    const int64_t at = wake ? wake - spin_ns : 0;
+    word(s.wake_ns).store(at, std::memory_order_seq_cst);
+    if (word(s.release_seq).load(std::memory_order_seq_cst) != seq) return;
+    if (!at) {
+        irp::futex::wait(&s.release_seq, seq);
+        return;
+    }
+    irp::futex::waitUntil(&s.release_seq, seq, at);
+    if (spin_ns)
+        while (word(s.release_seq).load(std::memory_order_acquire) == seq && bench::nowNs() < wake + kSpinPastDue)
+            __builtin_ia32_pause();
+    wake = 0;
+}
+
+int worker(Shared &s, int priority, bool timed, int64_t spin_ns) {
     prctl(PR_SET_PDEATHSIG, SIGKILL);
     std::string notes;
     const bool locked = bench::lockMemory();
@@ -87,15 +118,20 @@ int worker(Shared &s, int priority) {
     word(s.ready).store(1, std::memory_order_release);
     irp::futex::wakeAll(&s.ready);
     uint64_t wakes = 0;
+    int64_t wake = 0;
     for (;;) {
         if (word(s.stop).load(std::memory_order_acquire)) break;
         const uint32_t seq = word(s.release_seq).load(std::memory_order_acquire);
         if (seq == seen) {
-            irp::futex::wait(&s.release_seq, seq);
+            if (timed)
+                waitTimed(s, seq, wake, spin_ns);
+            else
+                irp::futex::wait(&s.release_seq, seq);
             continue;
         }
         const int64_t woke = bench::nowNs();
         seen = seq;
+        wake = word(s.next_due).load(std::memory_order_relaxed);
         g_wake.record(woke - std::atomic_ref<int64_t>(s.due).load(std::memory_order_relaxed));
         ++wakes;
         word(s.done_seq).store(seq, std::memory_order_release);
@@ -127,6 +163,9 @@ Mode parseMode(const std::string &m) {
     if (m == "spin") return Mode::Spin;
     if (m == "above") return Mode::Above;
     if (m == "yield") return Mode::Yield;
+    if (m == "timer") return Mode::Timer;
+    if (m == "timer_wake") return Mode::TimerWake;
+    if (m == "timer_spin") return Mode::TimerSpin;
     usage(("unknown mode " + m).c_str());
 }
 
@@ -170,7 +209,8 @@ int main(int argc, char **argv) {
         std::fprintf(stderr, "release_variants: fork: %s\n", std::strerror(errno));
         return 1;
     }
-    if (child == 0) std::exit(worker(s, worker_priority));
+    const bool timed = mode == Mode::Timer || mode == Mode::TimerWake || mode == Mode::TimerSpin;
+    if (child == 0) std::exit(worker(s, worker_priority, timed, mode == Mode::TimerSpin ? spin_ns : 0));
 
     std::string notes;
     prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
@@ -194,12 +234,18 @@ int main(int argc, char **argv) {
             continue;
         }
         const int64_t released = bench::nowNs();
-        std::atomic_ref<int64_t>(s.due).store(due, std::memory_order_relaxed);
-        word(s.release_seq).store(served + 1, std::memory_order_release);
-        irp::futex::wakeAll(&s.release_seq);
+        word(s.due).store(due, std::memory_order_relaxed);
+        word(s.next_due).store(due + period, std::memory_order_relaxed);
+        word(s.release_seq).store(served + 1, std::memory_order_seq_cst);
+        const int64_t wakes_at =
+            mode == Mode::Timer || mode == Mode::TimerSpin ? word(s.wake_ns).load(std::memory_order_seq_cst) : 0;
+        if (wakes_at == 0 || wakes_at > released) irp::futex::wakeAll(&s.release_seq);
         const int64_t until = due + period;
         bool done = false;
         switch (mode) {
+        case Mode::Timer:
+        case Mode::TimerWake:
+        case Mode::TimerSpin:
         case Mode::Unbounded: done = irp::futex::waitWhileEqual(&s.done_seq, served, 0); break;
         case Mode::Bitset: done = waitAbsolute(&s.done_seq, served, until); break;
         case Mode::Spin: {

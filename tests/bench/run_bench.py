@@ -4,6 +4,7 @@
     .venv/bin/python tests/bench/run_bench.py [--duration S] [--period-ns N] [--cpu N] [--rt-priority P]
                                      [--out docs/benchmark.md] [--build-dir DIR] [--no-build]
                                      [--proc-duration S] [--proc-rounds R] [--sporadic-duration S]
+                                     [--only process]
     .venv/bin/python tests/bench/run_bench.py --only dispatch [--dispatch-rounds R]
                                      [--baseline-build-dir DIR --baseline-label TEXT] [--build-dir DIR]
 
@@ -35,6 +36,8 @@ Runs, one after the other, pinned to the same CPU at the same SCHED_FIFO priorit
 With --only dispatch it runs part 5 alone (the 1-module set for the marginal cost, the 100-module
 set in --dispatch-rounds rounds, alternating with --baseline-build-dir's irpd when given, then each
 under perf) and rewrites only the dispatch target row and section of --out (rtbench/dispatch_only.py).
+`--only process` runs part 7 alone and replaces its section and its target row in --out (an existing
+report), saying there when and how that part was measured.
 
 Prints the distributions, the ratios irpd/cyclictest (p50, p99, p99.9, max) and each target's
 verdict, and writes them with the machine's description to --out (docs/benchmark.md).  Targets are
@@ -57,7 +60,7 @@ import sys
 import time
 from pathlib import Path
 
-from rtbench.common import ALLOWED_CPUS, LONG_RUN_TARGET_S, REPO, BenchError, PmQos, log
+from rtbench.common import ALLOWED_CPUS, LONG_RUN_TARGET_S, PROC_P99_RATIO_TARGET, REPO, BenchError, PmQos, log
 from rtbench.cyclictest import merge_cyclictest, run_cyclictest, summarize_cyclictest
 from rtbench.dispatch_only import run_dispatch_only, write_dispatch_only
 from rtbench.dispatch_profile import render_profile, run_profile
@@ -65,7 +68,7 @@ from rtbench.irpd_runs import DISPATCH_TARGETS, build, module_xml, run_irpd, run
 from rtbench.irpd_stats import load_stats_layout, merge_irpd_hists, summarize_irpd_hist
 from rtbench.machine import machine, read_text
 from rtbench.process_wakeup import render_wakeup, run_wakeup_comparison
-from rtbench.report import add_targets_and_runs, analyse, render
+from rtbench.report import add_targets_and_runs, analyse, render, replace_process_section
 from rtbench.shared_vars import render_shared, run_shared_vars
 from rtbench.sporadic import render_sporadic, run_sporadic
 
@@ -143,9 +146,10 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--json", type=Path, default=None, help="also write every raw figure to this JSON file")
     ap.add_argument(
         "--only",
-        choices=("all", "dispatch"),
+        choices=("all", "dispatch", "process"),
         default="all",
-        help="dispatch: only the dispatch overhead (part 5), its part of --out rewritten (default all)",
+        help="dispatch: only the dispatch overhead (part 5); process: only part 7 (the process wake-up comparison "
+        "and the alternatives); each replaces only its section and its target row in --out (default all)",
     )
     ap.add_argument(
         "--dispatch-rounds", type=int, default=2, help="--only dispatch: rounds of the 100-module set (default 2)"
@@ -250,6 +254,18 @@ def main(argv: list[str]) -> int:
         for stale in list(work.glob("irpd-*.json")) + list(work.glob("cyclictest-*hist.txt")):
             stale.unlink()
 
+        if a.only == "process":
+            if a.out == "-" or not Path(a.out).exists():
+                raise BenchError("--only process replaces a section of --out: it must be an existing report")
+            with PmQos(a.pm_qos):
+                wake = run_wakeup_comparison(a, irpd, bench, one, work, commands)
+            info["loadavg_end"] = read_text("/proc/loadavg")
+            out = Path(a.out)
+            out.write_text(
+                replace_process_section(a, out.read_text(), render_wakeup(a, wake), wake, info, commands, started_wall)
+            )
+            log(f"process target: {wake['ratio_p99']} (≤ {PROC_P99_RATIO_TARGET:g}); wrote {out}")
+            return 0
         with PmQos(a.pm_qos) as qos:
             # cyclictest and irpd (skip) in alternating rounds, so both sample the same background
             seconds = a.duration // a.rounds

@@ -10,9 +10,17 @@
  *
  * The handshake, all through futexes on 32-bit words of the slot (no signals):
  *   process: irp::initPeriodExe()   -> state = READY
- *   irpd:    release: cycle/planned_ns/release_ns written, then release_seq += 1, FUTEX_WAKE
- *   process: irp::waitPeriod() returns when release_seq moved past what it last saw (FUTEX_WAIT);
+ *   irpd:    release: cycle/planned_ns/release_ns/next_due_ns written, then release_seq += 1;
+ *            FUTEX_WAKE unless the process's wake_ns says it wakes by itself by then (below)
+ *   process: irp::waitPeriod() returns when release_seq moved past what it last saw, and only then;
  *            state = RUNNING while it works
+ *   The process's wait for its next release (FUTEX_WAIT_BITSET on release_seq): first until
+ *   next_due_ns, the due time of its next release (wake_ns = that time, stored before the wait),
+ *   so that at that time it is already runnable when its dispatcher blocks; if the release has not
+ *   come when it wakes, on without a timeout (wake_ns = 0).  irpd stores release_seq, then reads
+ *   wake_ns (both seq_cst, against the process's store of wake_ns and its read of release_seq):
+ *   0, or a time after the release, and it makes the FUTEX_WAKE; a time at or before the release
+ *   means the process's own timer has expired, so the wake is left out (docs/process-modules.md).
  *   process: next irp::waitPeriod() first reports the period done: done_ns written, done_seq =
  *            the release it served, FUTEX_WAKE; state = READY
  *   irpd:    a periodic process is awaited in its slot (FUTEX_WAIT on done_seq, bounded by its
@@ -138,7 +146,9 @@ typedef struct indurop_process_slot {
     int64_t done_ns;     /* when the process reported the last release done */
     uint64_t generation; /* +1 each time irpd (re)starts the process */
     char name[64];
-    uint8_t reserved[32];
+    int64_t next_due_ns; /* irpd, at a release: when the process's next release is due (0: unknown) */
+    int64_t wake_ns;     /* process: its wait for a release ends by itself at this time; 0: only a wake ends it */
+    uint8_t reserved[16];
     indurop_call_area call; /* this process's calls of shared functions */
 } indurop_process_slot;
 

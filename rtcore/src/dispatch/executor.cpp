@@ -1,6 +1,6 @@
 // executor.cpp -- the RT loop.  Everything below loop()'s first line runs on a SCHED_FIFO thread:
-// no allocation, no locks, no syscalls but clock_gettime (vDSO) and clock_nanosleep (the fold of
-// the last samples after the loop takes a lock: the loop is over then).
+// no allocation, no locks, no syscalls but clock_gettime (vDSO), clock_nanosleep and process releases'
+// futexes (the fold of the last samples after the loop takes a lock: the loop is over then).
 #include "dispatch/executor.hpp"
 
 #include "dispatch/function_calls.hpp"
@@ -146,24 +146,29 @@ bool Executor::runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start
     slot.planned_ns = due;
     slot.basic_ns = table_->basic_ns;
     slot.release_ns = start;
-    release.store(served + 1, std::memory_order_release);
-    futex::wakeAll(&slot.release_seq);
+    // A periodic process sleeps until its next release's due time by itself (irp::waitPeriod).
+    slot.next_due_ns = task.config.sporadic ? 0 : due + task.config.period_ns;
+    release.store(served + 1, std::memory_order_seq_cst);
+    // Its wait ends by itself by now (its timer has expired: it runs as soon as this thread
+    // blocks), or it needs the wake: control.h, the store above and this load against its own.
+    const int64_t wakes_at = std::atomic_ref<int64_t>(slot.wake_ns).load(std::memory_order_seq_cst);
+    if (wakes_at == 0 || wakes_at > start) futex::wakeAll(&slot.release_seq);
     if (task.config.sporadic) return true;  // the event handler checks completion later
-    if (!awaitDone(slot, served, wait_until)) stats::bump(task.config.stats->overruns);
+    if (!awaitDone(slot, served, start, wait_until)) stats::bump(task.config.stats->overruns);
     return true;
 }
 
-bool Executor::awaitDone(indurop_process_slot &slot, uint32_t served, int64_t until) {
+bool Executor::awaitDone(indurop_process_slot &slot, uint32_t served, int64_t now, int64_t until) {
     std::atomic_ref<uint32_t> done(slot.done_seq);
     while (done.load(std::memory_order_acquire) == served) {
-        const int64_t left = until - clock_.now();
-        if (left <= 0) return false;
+        if (until <= now) return false;
         if (process_wait_.begin(&slot.done_seq, until)) {  // the watchdog ends it at `until`
             futex::wait(&slot.done_seq, served);
             process_wait_.end();
-        } else {
+        } else if (const int64_t left = until - clock_.now(); left > 0) {  // no watchdog: its own timeout
             futex::wait(&slot.done_seq, served, left);
         }
+        now = clock_.now();
     }
     return true;
 }
@@ -179,6 +184,11 @@ int64_t runDue(TaskState &s, int64_t due, int64_t period) noexcept {
     else if (since < 0 || since >= period)
         s.run_due = s.first_due + (due - s.first_due) / period * period;
     return s.run_due;
+}
+
+// The bound of a periodic process's release made at `start`: its budget, else the period's end.
+int64_t waitBound(const TaskConfig &c, int64_t start, int64_t period_end) noexcept {
+    return c.budget_ns ? start + c.budget_ns : period_end;
 }
 
 }  // namespace
@@ -255,8 +265,10 @@ void Executor::skip(uint64_t from, uint64_t count) {
  * One iteration = one basic period:
  *   1. sleep until the slot's absolute due time T0 + n * basic (clock_nanosleep TIMER_ABSTIME),
  *      unless the previous slot ended past it (then start at once: a caught-up slot);
- *   2. account the wake-up: latency (woke - due), a miss if a whole period late; if the backlog
- *      passed what the overrun policy allows, skip slots to the current one; Eq. (1) jitter;
+ *   2. if the backlog passed what the overrun policy allows, skip slots to the current one; if the
+ *      slot's first module is a process, release and await it now (step 3), so that nothing of
+ *      this thread's own comes between its wake-up and the process's; then account the wake-up:
+ *      latency (woke - due), a miss if a whole period late; Eq. (1) jitter;
  *   3. run the slot's modules in priority order; for each: Eq. (1) jitter against its own T0 and
  *      period, start latency, execution time, budget overrun; a throw disables the module.  The
  *      run's jitter, latency and execution time go as one sample into the executor's sample ring
@@ -265,7 +277,8 @@ void Executor::skip(uint64_t from, uint64_t count) {
  *      module with <on_overrun> has its run() marked for the watchdog (dispatch/watchdog.hpp),
  *      and a run past its <overrun_limit> gets its action: warn, skip (its runs due meanwhile are
  *      dropped), disable, or stop (no module of any executor runs any more).  A
- *      process module is released (futex) and awaited in its place, bounded by its budget or by
+ *      process module is released (futex; the FUTEX_WAKE left out when the process's own timer
+ *      has already ended its wait, control.h) and awaited in its place, bounded by its budget or by
  *      the end of the basic period (an overrun if it does not finish by then).  Right after a
  *      thread module's run(), the calls that process modules made to its exported functions are
  *      served (at most irp::kCallsServedPerPeriod, included in its exec time; a disabled module
@@ -289,6 +302,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
     uint64_t epoch_cycle = 0;
     int64_t basic = table_->basic_ns;
     uint64_t nslots = table_->slots.size();
+    uint64_t slot_index = 0;           // (cycle - epoch_cycle) % nslots, kept from slot to slot without a division
     int64_t wake_offset = 0;           // the first wake-up's lateness: the dispatcher's Eq. (1) T0
     int64_t previous_end = INT64_MIN;  // when the last slot's work ended
     uint64_t cycle = 0;
@@ -311,6 +325,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
                 takeOver(next);
                 epoch_t0 = at;
                 epoch_cycle = cycle - k;
+                slot_index = k % next->slots.size();
                 basic = next->basic_ns;
                 nslots = next->slots.size();
                 due = epoch_t0 + static_cast<int64_t>(k) * basic;
@@ -321,21 +336,16 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         }
         const auto max_backlog = static_cast<uint64_t>(options_.max_catchup_ns / basic);
         int64_t woke;
-        if (previous_end < due) {
-            // A real wake-up: its latency against the slot it slept for, a miss if a whole period late.
+        const bool slept = previous_end < due;
+        if (slept) {
             clock_.sleepUntil(due);
             woke = clock_.now();
-            const int64_t late = woke - due;
-            self_->latency.record(static_cast<uint64_t>(late > 0 ? late : 0));
-            if (late >= basic) stats::bump(self_->missed);
         } else {
             // Already past due when the previous slot ended: started at once, without sleeping.
             woke = previous_end;
-            stats::bump(self_->caught_up);
         }
-        if (cycle == 0) wake_offset = woke - due;
-
         const int64_t late = woke - due;
+        if (cycle == 0) wake_offset = late;
         if (late >= basic) {
             auto behind = static_cast<uint64_t>(late / basic);  // whole slots already past due
             if (options_.policy == OverrunPolicy::Skip || behind > max_backlog) {
@@ -343,31 +353,52 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
                 skip(cycle - epoch_cycle, behind);
                 cycle += behind;
                 due += static_cast<int64_t>(behind) * basic;
+                slot_index = (cycle - epoch_cycle) % nslots;
             }
         }
-        self_->jitter.record(due + wake_offset - woke);
-
-        const uint64_t slot_index = (cycle - epoch_cycle) % nslots;
-        runtime::setCycle({cycle, static_cast<uint32_t>(slot_index), due, basic});
+        const std::vector<Task *> &order = table_->slots[slot_index];
         int64_t t = woke;
-        for (Task *task : table_->slots[slot_index]) {
+        // A slot whose first module is a process releases it before anything else, and awaits it:
+        // it runs as soon as this thread blocks, and the dispatcher's own figures below are taken
+        // after it (they change nothing the process reads: its cycle is in its control slot).
+        enum class First : uint8_t { None, Released, NotReady } first = First::None;
+        int64_t first_end = 0;
+        if (!order.empty() && runsNow(*order.front(), due) && order.front()->config.kind == Task::Kind::Process) {
+            const int64_t until = waitBound(order.front()->config, woke, due + basic);
+            first = runProcess(*order.front(), cycle, due, woke, until) ? First::Released : First::NotReady;
+            first_end = clock_.now();
+        }
+        if (slept) {
+            // A real wake-up: its latency against the slot it slept for, a miss if a whole period late.
+            self_->latency.record(static_cast<uint64_t>(late > 0 ? late : 0));
+            if (late >= basic) stats::bump(self_->missed);
+        } else {
+            stats::bump(self_->caught_up);
+        }
+        self_->jitter.record(due + wake_offset - woke);
+        runtime::setCycle({cycle, static_cast<uint32_t>(slot_index), due, basic});
+
+        for (Task *task : order) {
             const TaskConfig &c = task->config;
             TaskState &s = task->state;
-            if (halted()) break;  // a fault stopped the set: nothing runs any more
-            if (s.disabled) {
-                serveCalls(*task, cycle);  // answers "owner disabled" to processes calling its functions
-                continue;
+            const bool released_first = first != First::None && task == order.front();
+            if (!released_first) {
+                if (halted()) break;  // a fault stopped the set: nothing runs any more
+                if (s.disabled) {
+                    serveCalls(*task, cycle);  // answers "owner disabled" to processes calling its functions
+                    continue;
+                }
+                if (s.skip_until > due) {  // on_overrun=skip: a run due while its last one overran
+                    stats::bump(c.stats->skipped);
+                    continue;
+                }
             }
             stats::TimingRecord &r = *c.stats;
-            if (s.skip_until > due) {  // on_overrun=skip: a run due while its last one overran
-                stats::bump(r.skipped);
-                continue;
-            }
             const int64_t start = t;
             if (c.kind == Task::Kind::Process) {
                 // Released and awaited in its place, so R6's order holds across threads and processes.
-                const int64_t wait_until = c.budget_ns ? start + c.budget_ns : due + basic;
-                if (!runProcess(*task, cycle, due, start, wait_until)) {
+                if (released_first ? first == First::NotReady
+                                   : !runProcess(*task, cycle, due, start, waitBound(c, start, due + basic))) {
                     stats::bump(r.missed);  // not ready: starting, restarting, or still in its last period
                     t = clock_.now();
                     continue;
@@ -389,7 +420,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             }
             if (watched) marker_.end();
             serveCalls(*task, cycle);  // within the owner's period, counted in its exec time
-            t = clock_.now();
+            t = released_first ? first_end : clock_.now();
             const int64_t exec = t - start;
             using S = stats::RunSample;
             post(r, S::kJitter | S::kLatency | S::kExec | S::kRun, jitter,
@@ -411,6 +442,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         stats::bump(self_->runs);
         if (cycles) stats::bump(*cycles);
         ++cycle;
+        if (++slot_index == nslots) slot_index = 0;
     }
     runtime::setCycle({});
     runtime::setAlarmSource(runtime::kNoAlarmSource);

@@ -208,8 +208,9 @@ private:
     // Releases a periodic process and waits (futex) until it reports the period done, at most
     // until `wait_until`.  False if it was not ready to be released.
     bool runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start, int64_t wait_until);
-    // Waits until done_seq moves past `served`, at most until `until`; false at the bound.
-    bool awaitDone(indurop_process_slot &slot, uint32_t served, int64_t until);
+    // Waits until done_seq moves past `served`, at most until `until` (`now`: a clock read taken
+    // before the release); false at the bound.
+    bool awaitDone(indurop_process_slot &slot, uint32_t served, int64_t now, int64_t until);
     // The event handler (Figure 6): conditions of sporadic threads, then releases of sporadic processes.
     int64_t handleEvents(uint64_t cycle, int64_t due, int64_t t);
     void disable(Task &task, stats::TimingRecord &r, const char *what, const char *detail);
@@ -224,6 +225,10 @@ private:
     // A watched thread module's run ended past its overrun limit: count it, apply its action.
     void overran(Task &task, stats::TimingRecord &r, uint64_t run, int64_t start, int64_t end);
     bool halted() const { return options_.halted && options_.halted->load(std::memory_order_relaxed); }
+    // Whether `task` runs in the slot due at `due`: not halted, not disabled, not skipping its runs.
+    bool runsNow(const Task &task, int64_t due) const {
+        return !halted() && !task.state.disabled && task.state.skip_until <= due;
+    }
     // The switch to an offered table, on the RT thread (no allocation: carries the kept tasks' state).
     void takeOver(const Table *next);
 

@@ -190,6 +190,7 @@ void ProcessSupervisor::resetSlot(Child &child) {
     atomic(s->pid).store(0, std::memory_order_relaxed);
     atomic(s->stop_requested).store(0, std::memory_order_relaxed);
     atomic(s->done_seq).store(atomic(s->release_seq).load(std::memory_order_acquire), std::memory_order_relaxed);
+    atomic(s->wake_ns).store(0, std::memory_order_relaxed);  // a process that died asleep said nothing for the next
     atomic(s->kind).store(static_cast<uint32_t>(child.launch.spec.operation), std::memory_order_relaxed);
     std::snprintf(s->name, sizeof s->name, "%s", child.launch.spec.name.c_str());
     atomic(s->generation).fetch_add(1, std::memory_order_relaxed);

@@ -45,6 +45,9 @@ constexpr Field kSlot[] = {
     IRP_SHM_FIELD(S, done_ns, "when the process reported the last release done"),
     IRP_SHM_FIELD(S, generation, "+1 each time irpd (re)starts the process"),
     IRP_SHM_FIELD(S, name, "the module's name, NUL-terminated"),
+    IRP_SHM_FIELD(S, next_due_ns, "irpd, at a release: when the process's next release is due (0: unknown)"),
+    IRP_SHM_FIELD(S, wake_ns,
+                  "process: its wait for a release ends by itself at this time; 0: only a FUTEX_WAKE ends it"),
     IRP_SHM_FIELD(S, reserved, "zero"),
     IRP_SHM_FIELD(S, call, "this process's call of a shared function"),
 };

@@ -19,6 +19,11 @@ MODES = {
     "spin": "spin 2 µs on the done word, then as bounded",
     "above": "the process one priority above the dispatcher, then as bounded",
     "yield": "the process at the dispatcher's priority, sched_yield() after the wake, then as bounded",
+    "timer": "the process first asleep until the due time by itself (FUTEX_WAIT_BITSET), the FUTEX_WAKE "
+    "left out when that timer has expired, then as unbounded (irpd's release now)",
+    "timer_wake": "as timer, with the FUTEX_WAKE made at every release",
+    "timer_spin": "as timer, the process's timer 2 µs before the due time, then a spin on the release word "
+    "(at most until 20 µs past the due time) instead of a sleep",
 }
 PROGRAMS = tuple("variant_" + m for m in MODES)
 
@@ -79,10 +84,28 @@ def render_variants(a, w: dict) -> str:
             + f"{us(v['exec'].get('p50'))} / {us(v['exec'].get('p99'))} | {counts} |"
         )
     add("")
+
+    def handover(key: str) -> str:
+        return us(w[key]["wake"].get("p50", 0) - w[key]["dispatcher"].get("p50", 0))
+
+    spin99, timer99 = w["variant_timer_spin"]["wake"].get("p99"), w["variant_timer"]["wake"].get("p99")
+    spin_better = spin99 is not None and timer99 is not None and spin99 < timer99
+    spin_said = f"its wake-up p99 is {fmt_ratio(ratio(spin99, timer99))} `timer`'s here, " + (
+        "better, but at the price of a spin on the dispatcher's CPU each period" if spin_better else "no better"
+    )
+
     add(
-        "irpd keeps `unbounded`, with the overrun watchdog as the wait's bound (docs/process-modules.md): of the "
-        "ways that keep the process below its dispatcher it hands over fastest. `above` and `yield` hand over "
-        "faster still (the wake itself switches to the process, or the yield does, and no timer is armed), but "
+        "irpd keeps `timer` (docs/process-modules.md): the process asleep until its due time by itself, the "
+        "FUTEX_WAKE left out when its timer has expired by the release, the wait for done without a timeout and "
+        "bounded by the overrun watchdog. Its hand-over here: "
+        f"{handover('variant_timer')} µs at p50, against {handover('variant_timer_wake')} µs for `timer_wake` (the "
+        f"same with the FUTEX_WAKE: what leaving it out saves) and {handover('variant_unbounded')} µs for "
+        "`unbounded` (irpd's release before this change). irpd's own process module has one more thing that "
+        "the variants have no need of: when the process is its slot's first module, it is released right after "
+        "the dispatcher's wake-up and its bookkeeping (latency, jitter, the thread modules' cycle) comes after "
+        f"the process is done (its hand-over: {handover('process')} µs). `timer_spin` keeps the CPU busy at the "
+        f"due time instead of idle: {spin_said}; irpd does not spin. `above` and `yield` switch to "
+        "the process before the dispatcher blocks (the wake itself switches to it, or the yield does), but "
         "a process that then spins holds its dispatcher's CPU: nothing but a demotion from another thread would "
         "end it, and its place in the slot's order would hold only for the release. `spin` cannot help on one "
         "CPU: the process cannot run while its dispatcher spins. Considered and not measured: a futex per "

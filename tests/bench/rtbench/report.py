@@ -11,6 +11,7 @@ from .common import (
     P99_RATIO_TARGET,
     PROC_P99_RATIO_TARGET,
     REPO,
+    BenchError,
     fmt_ratio,
     ratio,
     rel,
@@ -375,19 +376,54 @@ def render(
     return "\n".join(L)
 
 
+PROCESS_TARGET_ROW = "| process module wake-up p99 ≤"
+
+
+def process_target_row(a, wake: dict) -> str:
+    """The process target's row of the target table."""
+    pw, tw = wake["process"]["wake"], wake["thread"]["wake"]
+    return (
+        f"{PROCESS_TARGET_ROW} {PROC_P99_RATIO_TARGET:g}× thread module's, same run, "
+        f"{a.period_ns / 1000:g} µs | {us(pw.get('p99'))} µs / {us(tw.get('p99'))} µs = "
+        f"{fmt_ratio(wake['ratio_p99'])} (signal-based wake-up: {us(wake['signal']['wake'].get('p99'))} µs) | "
+        f"{verdict(wake['target'])} |"
+    )
+
+
+def replace_process_section(
+    a, report: str, section: str, wake: dict, info: dict, commands: list[str], started: str
+) -> str:
+    """`run_bench.py --only process`: the process wake-up section and the process target's row of an
+    existing report replaced by this run's, the section saying when and how it was measured."""
+    start = report.find("\n## Process module wake-up")
+    end = report.find("\n## ", start + 1)
+    if start < 0 or end < 0:
+        raise BenchError("--only process: the report has no process wake-up section to replace (run it whole)")
+    said = (
+        f"This section and the process target's row come from a later run of this part alone "
+        f"(`run_bench.py --only process`, {started}, source `{info['git']}`, load average "
+        f"{info['loadavg_start'].split(' ')[0]} at its start and {info.get('loadavg_end', '—').split(' ')[0]} at its "
+        "end); the rest of the file is from the whole run the Machine section describes. Its commands:"
+    )
+    shown = "\n".join(c.replace(str(REPO) + "/", "") for c in commands)
+    report = report[: start + 1] + section.rstrip("\n") + f"\n\n{said}\n\n```sh\n{shown}\n```\n" + report[end:]
+    lines = report.split("\n")
+    rows = [i for i, line in enumerate(lines) if line.startswith(PROCESS_TARGET_ROW)]
+    if not rows:
+        raise BenchError("--only process: the report's target table has no process row to replace")
+    lines[rows[0]] = process_target_row(a, wake)
+    return "\n".join(lines)
+
+
 def add_targets_and_runs(a, report: str, wake: dict, sporadic: dict) -> str:
     """Adds this run's process and sporadic targets to the report's target table, and says in its
     opening paragraph what ran after the 100-module set."""
     lines = report.split("\n")
     for i, line in enumerate(lines):
         if line.startswith("| dispatch overhead ≤"):
-            pw, tw = wake["process"]["wake"], wake["thread"]["wake"]
             ti = sporadic["thread"]["info"]
             lines[i + 1 : i + 1] = [
-                f"| process module wake-up p99 ≤ {PROC_P99_RATIO_TARGET:g}× thread module's, same run, "
-                f"{a.period_ns / 1000:g} µs | {us(pw.get('p99'))} µs / {us(tw.get('p99'))} µs = "
-                f"{fmt_ratio(wake['ratio_p99'])} (signal-based wake-up: {us(wake['signal']['wake'].get('p99'))} µs) | "
-                f"{verdict(wake['target'])} |",
+                process_target_row(a, wake),
                 f"| sporadic thread reacts in the basic period its condition turned true (by design) | "
                 f"{ti.get('same_period', 0)} of {sporadic['thread']['reaction'].get('count', 0)}; reaction p99 "
                 f"{us(sporadic['thread']['reaction'].get('p99'))} µs (process: "
