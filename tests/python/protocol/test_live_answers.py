@@ -43,9 +43,7 @@ def irpd(tmp_path_factory):
     wait_dispatching(client)
     yield client
     client.close()
-    stop(process)
-    for leftover in Path("/dev/shm").glob(f"indurop.{instance}.*"):  # had irpd to be killed
-        leftover.unlink()
+    stop(process)  # removes its segments if irpd had to be killed
 
 
 def answer_of(irpd, command: str, /, **arguments):
