@@ -7,7 +7,6 @@ from __future__ import annotations
 import importlib.util
 import os
 import time
-from pathlib import Path
 
 import pytest
 from indurop_agent.irpd.client import IrpdClient, IrpdRefused
