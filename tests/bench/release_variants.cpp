@@ -137,11 +137,7 @@ int worker(Shared &s, int priority, bool timed, int64_t spin_ns) {
         word(s.done_seq).store(seq, std::memory_order_release);
         irp::futex::wakeAll(&s.done_seq);
     }
-    g_wake.print(stdout, "variant_wake");
-    std::printf("@info variant_wake wakes=%llu realtime=%d mlockall=%d notes=%s\n",
-                static_cast<unsigned long long>(wakes), rt ? 1 : 0, locked ? 1 : 0,
-                notes.empty() ? "-" : notes.c_str());
-    std::fflush(stdout);
+    bench::printWorkerReport(g_wake, "variant_wake", wakes, rt, locked, notes);
     return 0;
 }
 

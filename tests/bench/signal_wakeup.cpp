@@ -87,11 +87,7 @@ int worker(pid_t dispatcher, int priority) {
         ++wakes;
         send(dispatcher, SIGRTMIN + 1, due);  // done
     }
-    g_wake.print(stdout, "signal_wake");
-    std::printf("@info signal_wake wakes=%llu realtime=%d mlockall=%d notes=%s\n",
-                static_cast<unsigned long long>(wakes), rt ? 1 : 0, locked ? 1 : 0,
-                notes.empty() ? "-" : notes.c_str());
-    std::fflush(stdout);
+    bench::printWorkerReport(g_wake, "signal_wake", wakes, rt, locked, notes);
     return 0;
 }
 

@@ -101,4 +101,14 @@ struct Grid {
     }
 };
 
+// A worker's closing report, read by rtbench: its wake-up histogram under `label`, then
+// "@info <label> wakes=… realtime=… mlockall=… notes=…".
+inline void printWorkerReport(const Histogram &wake, const char *label, unsigned long long wakes, bool rt, bool locked,
+                              const std::string &notes) {
+    wake.print(stdout, label);
+    std::printf("@info %s wakes=%llu realtime=%d mlockall=%d notes=%s\n", label, wakes, rt ? 1 : 0, locked ? 1 : 0,
+                notes.empty() ? "-" : notes.c_str());
+    std::fflush(stdout);
+}
+
 }  // namespace bench

@@ -7,7 +7,6 @@ from __future__ import annotations
 import importlib.util
 import os
 import time
-from pathlib import Path
 
 import pytest
 from indurop_agent.irpd.client import IrpdClient, IrpdRefused
@@ -43,9 +42,7 @@ def irpd(tmp_path_factory):
     wait_dispatching(client)
     yield client
     client.close()
-    stop(process)
-    for leftover in Path("/dev/shm").glob(f"indurop.{instance}.*"):  # had irpd to be killed
-        leftover.unlink()
+    stop(process)  # removes its segments if irpd had to be killed
 
 
 def answer_of(irpd, command: str, /, **arguments):
