@@ -8,6 +8,8 @@
 #include <indurop/indurop.h>
 #include "stats/summary.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -359,6 +361,11 @@ TEST_F(Fig1Like, AFullSampleRingDropsAndCountsTheFiguresAndNeverWaits) {
         EXPECT_EQ(count(records[i].runs) + count(records[i].stats_dropped), calls[i]) << i;
     }
     EXPECT_EQ(count(records[0].stats_dropped), 220u - 8u);
+    // What `stats`, `status` and the UI read: every record's JSON carries its loss, and the total
+    // over the executors is the dispatcher's.
+    EXPECT_EQ(stats::toJson(records[1]).at("stats_dropped"), 96u);
+    EXPECT_EQ(stats::histogramsJson(records[3]).at("stats_dropped"), 19u);
+    EXPECT_EQ(stats::statsDropped(records.r.get(), {0}), 220u - 8u);
 }
 
 // ---- the hot-reload carry-over: a kept module's task takes its predecessor's state at the swap --

@@ -173,6 +173,7 @@ def status_text(s: dict) -> str:
         ("modules", s.get("modules", "-")),
         ("overruns", s.get("overruns", "-")),
         ("missed", f"{s.get('missed', '-')}  (skipped {s.get('skipped', '-')}, caught up {s.get('caught_up', '-')})"),
+        ("figures lost", f"{s.get('stats_dropped', '-')}  (runs not in the statistics: sample ring full)"),
         ("shared memory", ", ".join(f"{v} ({k})" for k, v in shm.items() if v) or "-"),
     ]
     return pairs(items)

@@ -186,6 +186,7 @@ class TimingRecord(IrpdShape):
     skipped: int
     errors: int
     caught_up: int | None = Field(None, description="dispatchers only")
+    stats_dropped: int = Field(description="runs whose figures were lost because the dispatcher's sample ring was full: in neither `runs` nor the histograms (a dispatcher: the sum over its modules); docs/scheduler.md")
     state: Literal["loaded", "running", "disabled", "skipped", "stopped", "exited"] | None = Field(None, description="modules only")
     priority: int | None = Field(None, description="modules only")
     budget_ns: int | None = Field(None, description="modules only; 0 = none")
@@ -341,6 +342,7 @@ class Status(IrpdShape):
     missed: int
     skipped: int
     caught_up: int
+    stats_dropped: int
     events: int = Field(description="the last event's seq")
     stopped_by_fault: str | None = Field(description="null, or why a fault stopped the set (an overrun with on_overrun=stop): docs/faults.md")
     last_crash: CrashRecord | None = Field(description="the crash record irpd last took in, or null: docs/supervision.md")

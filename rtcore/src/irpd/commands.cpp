@@ -256,6 +256,7 @@ control::Handler commandHandler(const CommandContext &c) {
                         {"missed", d.missed.load()},
                         {"skipped", d.skipped.load()},
                         {"caught_up", d.caught_up.load()},
+                        {"stats_dropped", stats::statsDropped(&d, g->tables->records)},
                         {"events", c.events->last()},
                         {"stopped_by_fault", fault.empty() ? json(nullptr) : json(fault)},
                         {"last_crash", lastCrash(c)},

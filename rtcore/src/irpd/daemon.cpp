@@ -123,11 +123,7 @@ bool writeStats(const std::string &path, const reload::Generation &g, const stat
                 const Options &options, int64_t elapsed_ns) {
     using json = nlohmann::ordered_json;
     json executors = json::array(), modules = json::array();
-    uint64_t stats_dropped = 0;  // runs whose figures a full sample ring lost (stats/sample_ring.hpp)
-    for (std::size_t i : g.tables->records) {
-        executors.push_back(stats::toJson(segment.record(i)));
-        stats_dropped += segment.record(i).stats_dropped.load();
-    }
+    for (std::size_t i : g.tables->records) executors.push_back(stats::toJson(segment.record(i)));
     for (const config::ModuleSpec &m : g.set.modules)
         modules.push_back(stats::toJson(segment.record(g.members[static_cast<std::size_t>(m.index)].record)));
     json doc = {{"set", g.set.xml_path.string()},
@@ -139,7 +135,7 @@ bool writeStats(const std::string &path, const reload::Generation &g, const stat
                 {"elapsed_ns", elapsed_ns},
                 {"cycles", segment.header()->cycles.load()},
                 {"log_lines_dropped", runtime::droppedLogLines()},
-                {"stats_dropped", stats_dropped},
+                {"stats_dropped", stats::statsDropped(&segment.record(0), g.tables->records)},
                 {"dispatcher", executors.at(0)},
                 {"executors", executors},
                 {"modules", modules}};

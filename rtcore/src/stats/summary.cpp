@@ -123,7 +123,8 @@ nlohmann::ordered_json toJson(const TimingRecord &r) {
                                 {"overruns", r.overruns.load(relaxed)},
                                 {"missed", r.missed.load(relaxed)},
                                 {"skipped", r.skipped.load(relaxed)},
-                                {"errors", r.errors.load(relaxed)}};
+                                {"errors", r.errors.load(relaxed)},
+                                {"stats_dropped", r.stats_dropped.load(relaxed)}};
     if (r.kind == RecordKind::Dispatcher) j["caught_up"] = r.caught_up.load(relaxed);
     if (r.kind == RecordKind::Module) {
         j["state"] = toString(static_cast<ModuleState>(r.state.load(relaxed)));
@@ -199,9 +200,16 @@ nlohmann::ordered_json histogramsJson(const TimingRecord &r) {
             {"missed", r.missed.load(relaxed)},
             {"skipped", r.skipped.load(relaxed)},
             {"errors", r.errors.load(relaxed)},
+            {"stats_dropped", r.stats_dropped.load(relaxed)},
             {"jitter_ns", histogramJson(r.jitter)},
             {"latency_ns", histogramJson(r.latency)},
             {"exec_ns", histogramJson(r.exec)}};
+}
+
+uint64_t statsDropped(const TimingRecord *records, const std::vector<std::size_t> &executors) {
+    uint64_t sum = 0;
+    for (std::size_t i : executors) sum += records[i].stats_dropped.load(relaxed);
+    return sum;
 }
 
 }  // namespace irp::stats

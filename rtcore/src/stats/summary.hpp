@@ -6,6 +6,9 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include <cstddef>
+#include <vector>
+
 namespace irp::stats {
 
 struct Summary {
@@ -23,7 +26,8 @@ double quantile(const SignedHistogram &h, double q);
 // {min, max, mean, p50, p99, p999, count}
 nlohmann::ordered_json toJson(const Summary &s);
 
-// {name, executor, kind, state, period_ns, runs, jitter_ns, latency_ns, exec_ns, overruns, missed, skipped, errors}
+// {name, executor, kind, state, period_ns, runs, jitter_ns, latency_ns, exec_ns, overruns, missed, skipped, errors,
+// stats_dropped}
 nlohmann::ordered_json toJson(const TimingRecord &r);
 
 const char *toString(ModuleState state);
@@ -34,8 +38,12 @@ const char *toString(ModuleState state);
 nlohmann::ordered_json histogramJson(const Histogram &h);
 nlohmann::ordered_json histogramJson(const SignedHistogram &h);
 
-// {name, kind, executor, runs, overruns, missed, skipped, errors, jitter_ns, latency_ns, exec_ns}
+// {name, kind, executor, runs, overruns, missed, skipped, errors, stats_dropped, jitter_ns, latency_ns, exec_ns}
 // with the three histograms as histogramJson.
 nlohmann::ordered_json histogramsJson(const TimingRecord &r);
+
+// Runs whose figures a full sample ring lost, over the executors whose records are listed (each
+// dispatcher's record holds the sum over its modules).
+uint64_t statsDropped(const TimingRecord *records, const std::vector<std::size_t> &executors);
 
 }  // namespace irp::stats

@@ -3088,6 +3088,11 @@ export interface components {
              * @enum {string}
              */
             state: "loaded" | "running" | "disabled" | "skipped" | "stopped" | "exited";
+            /**
+             * Stats Dropped
+             * @description runs whose figures were lost because the dispatcher's sample ring was full: in neither `runs` nor the histograms (a dispatcher: the sum over its modules); docs/scheduler.md
+             */
+            stats_dropped: number;
         } & {
             [key: string]: unknown;
         };
@@ -4404,6 +4409,8 @@ export interface components {
             shared_memory: components["schemas"]["SharedMemory"];
             /** Skipped */
             skipped: number;
+            /** Stats Dropped */
+            stats_dropped: number;
             /**
              * Stopped By Fault
              * @description null, or why a fault stopped the set (an overrun with on_overrun=stop): docs/faults.md
@@ -4579,6 +4586,11 @@ export interface components {
              * @description modules only
              */
             state?: ("loaded" | "running" | "disabled" | "skipped" | "stopped" | "exited") | null;
+            /**
+             * Stats Dropped
+             * @description runs whose figures were lost because the dispatcher's sample ring was full: in neither `runs` nor the histograms (a dispatcher: the sum over its modules); docs/scheduler.md
+             */
+            stats_dropped: number;
         } & {
             [key: string]: unknown;
         };

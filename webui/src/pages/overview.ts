@@ -42,6 +42,7 @@ export const overviewPage: Page = (root, ctx) => {
     missedRecent: v("missed-recent"),
     skipped: v("skipped"),
     caughtUp: v("caught-up"),
+    statsDropped: v("stats-dropped"),
     agent: v("agent-health", ""),
     irpd: v("irpd-health", ""),
     version: v("agent-version", ""),
@@ -82,6 +83,7 @@ export const overviewPage: Page = (root, ctx) => {
       row("", cells.missedRecent, "last 60 s"),
       row("skipped", cells.skipped),
       row("caught up", cells.caughtUp),
+      row("figures lost", cells.statsDropped, "runs not in the statistics"),
     ),
   );
   const healthPanel = h(
@@ -319,6 +321,8 @@ export const overviewPage: Page = (root, ctx) => {
       setText(cells.missed, formatCount(st.missed));
       setText(cells.skipped, formatCount(st.skipped));
       setText(cells.caughtUp, formatCount(st.caught_up));
+      setText(cells.statsDropped, formatCount(st.stats_dropped));
+      setClass(cells.statsDropped, `num ${st.stats_dropped > 0 ? "warn" : ""}`);
       setText(cells.overrunsRecent, `+${formatCount(o)}`);
       setText(cells.missedRecent, `+${formatCount(m)}`);
       setClass(cells.overrunsRecent, `num ${o > 0 ? "bad" : ""}`);
