@@ -31,6 +31,11 @@
 //   timer_spin as timer, but the worker's timer is set --spin-ns before the due time and it then
 //              spins on the release word (at most until 20 µs after the due time) instead of
 //              sleeping: its CPU is kept busy, not idle, when the dispatcher's timer fires
+//   prearmed   the worker one priority ABOVE the dispatcher and asleep until the next due time by
+//              itself; the dispatcher makes each release one period AHEAD, once the worker is done
+//              with the last (release_seq + 1 with its due time, no FUTEX_WAKE): at the due time the
+//              worker's own timer starts it before the dispatcher, which then finds it done (then
+//              as unbounded).  The release is irpd's decision still, only handed over early.
 // At the end the worker, then the dispatcher, print histograms in bench_hist.hpp's text form:
 //   variant_wake        the worker's wake-up latency
 //   variant_dispatcher  the dispatcher's own wake-up latency (woke - due)
@@ -58,7 +63,7 @@
 
 namespace {
 
-enum class Mode { Bounded, Bitset, Unbounded, Spin, Above, Yield, Timer, TimerWake, TimerSpin };
+enum class Mode { Bounded, Bitset, Unbounded, Spin, Above, Yield, Timer, TimerWake, TimerSpin, Prearmed };
 
 struct Shared {
     uint32_t release_seq = 0;
@@ -74,9 +79,10 @@ bench::Histogram g_wake, g_dispatcher, g_exec;
 
 [[noreturn]] void usage(const char *why) {
     if (why) std::fprintf(stderr, "release_variants: %s\n", why);
-    std::fprintf(stderr,
-                 "usage: release_variants --mode bounded|bitset|unbounded|spin|above|yield|timer|timer_wake|timer_spin "
-                 "--period-ns N --duration S [--cpu C] [--rt-priority P] [--spin-ns N]\n");
+    std::fprintf(
+        stderr,
+        "usage: release_variants --mode bounded|bitset|unbounded|spin|above|yield|timer|timer_wake|timer_spin|prearmed "
+        "--period-ns N --duration S [--cpu C] [--rt-priority P] [--spin-ns N]\n");
     std::exit(2);
 }
 
@@ -109,7 +115,43 @@ void waitTimed(Shared &s, uint32_t seq, int64_t &wake, int64_t spin_ns) {
     wake = 0;
 }
 
-int worker(Shared &s, int priority, bool timed, int64_t spin_ns) {
+// prearmed: the worker's loop.  A release made ahead (release_seq moved, its due time in `due`) is
+// served at its due time: the worker sleeps until then on its own timer (a FUTEX_WAIT_BITSET on the
+// stop word, which only the end of the run changes), then runs.  Nothing released yet: it sleeps
+// until the next due time it was told of, and without a timer after that.
+uint64_t servePrearmed(Shared &s, uint32_t seen) {
+    uint64_t wakes = 0;
+    int64_t next = 0;
+    while (!word(s.stop).load(std::memory_order_acquire)) {
+        const uint32_t seq = word(s.release_seq).load(std::memory_order_acquire);
+        if (seq == seen) {  // wake_ns says the dispatcher whether to wake it (0) or not: as waitTimed
+            if (next && bench::nowNs() >= next) next = 0;
+            word(s.wake_ns).store(next, std::memory_order_seq_cst);
+            if (word(s.release_seq).load(std::memory_order_seq_cst) != seq) continue;
+            if (next)
+                irp::futex::waitUntil(&s.release_seq, seq, next);
+            else
+                irp::futex::wait(&s.release_seq, seq);
+            next = 0;
+            continue;
+        }
+        const int64_t due = word(s.due).load(std::memory_order_relaxed);
+        if (bench::nowNs() < due) {
+            irp::futex::waitUntil(&s.stop, 0, due);
+            continue;
+        }
+        const int64_t woke = bench::nowNs();
+        seen = seq;
+        g_wake.record(woke - due);
+        ++wakes;
+        next = due + word(s.next_due).load(std::memory_order_relaxed);
+        word(s.done_seq).store(seq, std::memory_order_release);
+        irp::futex::wakeAll(&s.done_seq);
+    }
+    return wakes;
+}
+
+int worker(Shared &s, int priority, bool timed, int64_t spin_ns, bool prearmed) {
     prctl(PR_SET_PDEATHSIG, SIGKILL);
     std::string notes;
     const bool locked = bench::lockMemory();
@@ -117,9 +159,9 @@ int worker(Shared &s, int priority, bool timed, int64_t spin_ns) {
     uint32_t seen = word(s.release_seq).load(std::memory_order_acquire);
     word(s.ready).store(1, std::memory_order_release);
     irp::futex::wakeAll(&s.ready);
-    uint64_t wakes = 0;
+    uint64_t wakes = prearmed ? servePrearmed(s, seen) : 0;
     int64_t wake = 0;
-    for (;;) {
+    while (!prearmed) {
         if (word(s.stop).load(std::memory_order_acquire)) break;
         const uint32_t seq = word(s.release_seq).load(std::memory_order_acquire);
         if (seq == seen) {
@@ -162,7 +204,39 @@ Mode parseMode(const std::string &m) {
     if (m == "timer") return Mode::Timer;
     if (m == "timer_wake") return Mode::TimerWake;
     if (m == "timer_spin") return Mode::TimerSpin;
+    if (m == "prearmed") return Mode::Prearmed;
     usage(("unknown mode " + m).c_str());
+}
+
+// prearmed: the dispatcher's loop.  At each due time it finds the release it made a period ahead
+// served (the worker, above it, ran first on its own timer) and makes the next one; a release not
+// served yet is waited for (unbounded, as irpd's wait for done).  Release -> done is not measured
+// here (the release is made a period ahead); `not_ready` counts releases the dispatcher found not
+// yet served at its own wake-up, `overruns` those not done by the end of their period.
+struct PrearmedCounts {
+    uint64_t releases, overruns, not_ready;
+};
+PrearmedCounts runPrearmed(Shared &s, bench::Grid &grid, uint64_t total, int64_t period) {
+    PrearmedCounts c{0, 0, 0};
+    word(s.next_due).store(period, std::memory_order_relaxed);  // the worker's next due: its last + this
+    uint32_t armed = 0;
+    for (uint64_t n = 0; n < total; ++n) {
+        const int64_t due = grid.wake(n, g_dispatcher);
+        if (armed) {  // the release armed for this due time: served (the worker ran first) or awaited
+            if (word(s.done_seq).load(std::memory_order_acquire) != armed) ++c.not_ready;
+            irp::futex::waitWhileEqual(&s.done_seq, armed - 1, 0);
+            if (bench::nowNs() > due + period) ++c.overruns;
+        }
+        // the next release, a period ahead: its due time first, then the word the worker reads
+        word(s.due).store(due + period, std::memory_order_relaxed);
+        armed = word(s.release_seq).load(std::memory_order_relaxed) + 1;
+        word(s.release_seq).store(armed, std::memory_order_seq_cst);
+        // a worker asleep without a timer (the first release, or it woke before this late one) is woken
+        const int64_t wakes_at = word(s.wake_ns).load(std::memory_order_seq_cst);
+        if (wakes_at == 0 || wakes_at <= bench::nowNs()) irp::futex::wakeAll(&s.release_seq);
+        ++c.releases;
+    }
+    return c;
 }
 
 }  // namespace
@@ -199,14 +273,17 @@ int main(int argc, char **argv) {
     }
     Shared &s = *new (mem) Shared{};
     std::fflush(stdout);
-    const int worker_priority = mode == Mode::Above ? priority + 1 : mode == Mode::Yield ? priority : priority - 1;
+    const int worker_priority = mode == Mode::Above || mode == Mode::Prearmed ? priority + 1
+                                : mode == Mode::Yield                         ? priority
+                                                                              : priority - 1;
     const pid_t child = fork();
     if (child < 0) {
         std::fprintf(stderr, "release_variants: fork: %s\n", std::strerror(errno));
         return 1;
     }
     const bool timed = mode == Mode::Timer || mode == Mode::TimerWake || mode == Mode::TimerSpin;
-    if (child == 0) std::exit(worker(s, worker_priority, timed, mode == Mode::TimerSpin ? spin_ns : 0));
+    if (child == 0)
+        std::exit(worker(s, worker_priority, timed, mode == Mode::TimerSpin ? spin_ns : 0, mode == Mode::Prearmed));
 
     std::string notes;
     prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
@@ -222,7 +299,12 @@ int main(int argc, char **argv) {
     const auto total = static_cast<uint64_t>(duration * 1e9) / static_cast<uint64_t>(period);
     bench::Grid grid{bench::nowNs() + 2'000'000, period, total};
     uint64_t cycles = 0, releases = 0, overruns = 0, not_ready = 0;
-    for (uint64_t n = 0; n < total; ++n, ++cycles) {
+    if (mode == Mode::Prearmed) {
+        const auto [r, o, nr] = runPrearmed(s, grid, total, period);
+        releases = r, overruns = o, not_ready = nr;
+        cycles = total;
+    }
+    for (uint64_t n = 0; mode != Mode::Prearmed && n < total; ++n, ++cycles) {
         const int64_t due = grid.wake(n, g_dispatcher);
         const uint32_t served = word(s.release_seq).load(std::memory_order_relaxed);
         if (word(s.done_seq).load(std::memory_order_acquire) != served) {

@@ -24,6 +24,9 @@ MODES = {
     "timer_wake": "as timer, with the FUTEX_WAKE made at every release",
     "timer_spin": "as timer, the process's timer 2 µs before the due time, then a spin on the release word "
     "(at most until 20 µs past the due time) instead of a sleep",
+    "prearmed": "the process one priority above the dispatcher and asleep until the due time by itself; each "
+    "release made a period ahead, once the last is done (no FUTEX_WAKE): the process's own timer starts it "
+    "before the dispatcher (release → done not measured: the release is made a period ahead)",
 }
 PROGRAMS = tuple("variant_" + m for m in MODES)
 
