@@ -63,7 +63,8 @@ std::string encode(const Snapshot &snapshot) {
     put<uint32_t>(file, 12, static_cast<uint32_t>(kHeaderSize));
     put<uint64_t>(file, kSequenceAt, snapshot.sequence);
     put<uint64_t>(file, kContentSizeAt, content.size());
-    std::memcpy(file.data() + kIdentityAt, snapshot.identity.data(), std::min(snapshot.identity.size(), kIdentityChars));
+    std::memcpy(file.data() + kIdentityAt, snapshot.identity.data(),
+                std::min(snapshot.identity.size(), kIdentityChars));
     file.append(content.begin(), content.end());
     const std::string sum = digest(file);
     std::memcpy(file.data() + kDigestAt, sum.data(), kDigestBytes);

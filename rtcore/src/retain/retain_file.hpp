@@ -20,7 +20,7 @@ namespace irp::retain {
 inline constexpr char kMagic[8] = {'I', 'R', 'P', 'R', 'E', 'T', 'N', '1'};
 inline constexpr uint32_t kFormatVersion = 1;
 inline constexpr std::size_t kHeaderSize = 160;
-inline constexpr std::size_t kIdentityChars = 64;        // a layout hash: 64 hex digits
+inline constexpr std::size_t kIdentityChars = 64;          // a layout hash: 64 hex digits
 inline constexpr std::size_t kMaxContentBytes = 1u << 30;  // the largest segment irpd makes
 
 // One retained variable's value as it was saved.

@@ -104,7 +104,8 @@ void RetainStore::restore() {
         next_ = loaded.newest_file == files_[0] ? 1 : 0;
         sequence_ = loaded.newest->sequence;
         for (const Entry &e : loaded.newest->entries) {
-            auto r = std::find_if(retained_.begin(), retained_.end(), [&](const Retained &x) { return x.path == e.path; });
+            auto r =
+                std::find_if(retained_.begin(), retained_.end(), [&](const Retained &x) { return x.path == e.path; });
             const bool fits = r != retained_.end() && r->type_id == e.type_id && r->size == e.bytes.size();
             if (!fits || (!same && (r->kind != "persistent" || e.kind != "persistent"))) {
                 ++skipped;

@@ -32,7 +32,7 @@
 namespace irp::retain {
 
 // irpd's own alarms (source 0, "irpd"), declared by the store.
-inline constexpr uint32_t kAlarmCopyBad = 1;     // a copy was torn or corrupt at start
+inline constexpr uint32_t kAlarmCopyBad = 1;      // a copy was torn or corrupt at start
 inline constexpr uint32_t kAlarmWriteFailed = 2;  // a copy could not be written
 
 struct Declared {
@@ -41,7 +41,8 @@ struct Declared {
     const char *text;
 };
 inline constexpr Declared kAlarms[] = {
-    {kAlarmCopyBad, "high", "A copy of the retain store was torn or corrupt: the other copy, or the initial values, used"},
+    {kAlarmCopyBad, "high",
+     "A copy of the retain store was torn or corrupt: the other copy, or the initial values, used"},
     {kAlarmWriteFailed, "high", "The retain store cannot be written: RETAIN and PERSISTENT values may be lost"},
 };
 

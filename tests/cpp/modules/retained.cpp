@@ -19,7 +19,8 @@ extern "C" void initialize(irp::Property const &p) {
     uint64_t v = 0;
     const int got = ::read(handle, path.c_str(), sizeof v, &v);  // resolves the path once, before run()
     if (FILE *f = std::fopen(std::string(p.get("journal", std::string_view("/dev/null"))).c_str(), "a")) {
-        std::fprintf(f, "initialize %s=%llu\n", path.c_str(), got == sizeof v ? static_cast<unsigned long long>(v) : 0ull);
+        std::fprintf(f, "initialize %s=%llu\n", path.c_str(),
+                     got == sizeof v ? static_cast<unsigned long long>(v) : 0ull);
         std::fclose(f);
     }
 }
