@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 
+import pytest
 from test_bad_input import check, check_caret
 
 NS = "namespace cell.Keep;\n"
@@ -65,29 +66,25 @@ def test_previous_keeps_the_place_when_only_the_qualifier_changes(glb, tmp_path)
     assert [(v["offset"], v.get("retain")) for v in doc["variables"]] == [(0, "retain"), (64, "persistent")]
 
 
-def test_two_qualifiers(glb):
-    lines = check(
-        glb({"a.glb": NS + "retain persistent int x;\n"}),
-        "a.glb:2:8: error: 'persistent' after 'retain': a declaration takes one qualifier; "
-        "'persistent' already includes what 'retain' keeps",
-        glb.out,
-    )
-    check_caret(lines, "retain persistent int x;", 8)
-
-
-def test_a_qualified_field(glb):
-    lines = check(
-        glb({"a.glb": NS + "struct { retain int x; } s;\n"}),
-        "a.glb:2:10: error: 'retain' qualifies a top-level variable, not a field: write it before the "
-        "variable's declaration (the whole variable is kept)",
-        glb.out,
-    )
-    check_caret(lines, "struct { retain int x; } s;", 10)
-
-
-def test_a_qualifier_without_a_declaration(glb):
-    check(
-        glb({"a.glb": NS + "persistent;\n"}),
-        "a.glb:2:11: error: expected a declaration (a type and a name), found ';'",
-        glb.out,
-    )
+@pytest.mark.parametrize(
+    ("line", "col", "message"),
+    [
+        (
+            "retain persistent int x;",
+            8,
+            "'persistent' after 'retain': a declaration takes one qualifier; "
+            "'persistent' already includes what 'retain' keeps",
+        ),
+        (
+            "struct { retain int x; } s;",
+            10,
+            "'retain' qualifies a top-level variable, not a field: write it before the variable's declaration "
+            "(the whole variable is kept)",
+        ),
+        ("persistent;", 11, "expected a declaration (a type and a name), found ';'"),
+    ],
+    ids=["two qualifiers", "a qualified field", "no declaration"],
+)
+def test_a_qualifier_where_it_does_not_belong(glb, line, col, message):
+    lines = check(glb({"a.glb": NS + line + "\n"}), f"a.glb:2:{col}: error: {message}", glb.out)
+    check_caret(lines, line, col)
