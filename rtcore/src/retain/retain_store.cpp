@@ -127,7 +127,7 @@ void RetainStore::restore() {
     else
         text = "no retain store in " + settings_.folder.string() + ": " +
                plural(retained_.size(), "retained variable") + " start at their initial values";
-    events_.add("retain", "", text);
+    if (loaded.newest || !retained_.empty()) events_.add("retain", "", text);  // else nothing to say
     std::lock_guard lock(mutex_);
     count_ = retained_.size();
     if (loaded.newest) status_file_ = loaded.newest_file.string();
@@ -182,29 +182,28 @@ void RetainStore::saveIfChanged() {
     if (!pending_ && now.identity == saved_.identity && now.entries == saved_.entries) return;
     now.sequence = saved_.sequence + 1;
     const Status written = writeAtomically(files_[next_], encode(now));
-    if (!written) {
-        bool told = false;
-        {
-            std::lock_guard lock(mutex_);
-            told = last_error_ == written.error().message;
-            last_error_ = written.error().message;
-        }
-        if (!told) {
-            events_.add("retain_write_failed", "", last_error_);
-            alarm(kAlarmWriteFailed, true, written.error().message);
-        }
-        return;
-    }
-    bool was_failing = false;
+    const std::string error = written ? "" : written.error().message;
+    bool told = false;  // the same error as the last write's: said already
     {
         std::lock_guard lock(mutex_);
-        was_failing = !last_error_.empty();
+        told = last_error_ == error;
+    }
+    if (!told) {  // said before `status` shows it
+        if (!written) events_.add("retain_write_failed", "", error);
+        alarm(kAlarmWriteFailed, !written, error);
+    }
+    if (!written) {
+        std::lock_guard lock(mutex_);
+        last_error_ = error;
+        return;
+    }
+    {
+        std::lock_guard lock(mutex_);
         last_error_.clear();
         status_file_ = files_[next_].string();
         last_save_ns_ = realtimeNs();
         sequence_ = now.sequence;
     }
-    if (was_failing) alarm(kAlarmWriteFailed, false, "");
     if (std::erase(bad_, next_) && bad_.empty()) alarm(kAlarmCopyBad, false, "");
     pending_ = !bad_.empty();
     next_ = 1 - next_;

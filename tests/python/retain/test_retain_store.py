@@ -277,3 +277,20 @@ def _running(cell, config: Path) -> bool:
         return cell.client.request("status")["set"] == str(config)
     except Exception:
         return False
+
+
+def test_a_copy_that_cannot_be_written_is_an_error_and_an_alarm_until_a_write_succeeds(cell):
+    cell.state.mkdir()
+    for copy in cell.copies():
+        Path(f"{copy}.tmp").mkdir()  # where the copy is written first: a folder, even root cannot write it
+    cell.start()
+    failed = wait_until(lambda: cell.status()["last_error"])
+    assert "cannot create" in failed and ".retain.a.tmp" in failed
+    (event,) = cell.events("retain_write_failed")  # once, not at every pass
+    assert event == failed
+    assert cell.irpd_alarms()[0] == [2]
+    for copy in cell.copies():
+        Path(f"{copy}.tmp").rmdir()
+    wait_until(lambda: cell.status()["last_error"] is None)
+    assert cell.irpd_alarms()[0] == []
+    assert [(r.id, r.raised) for r in cell.irpd_alarms()[1]] == [(2, True), (2, False)]
