@@ -1,6 +1,7 @@
 """test_retain_store.py -- RETAIN and PERSISTENT shared variables kept by a real irpd across its
 restarts (docs/retain.md): the two copies in the state folder, a SIGKILL while a copy is written, a
-copy torn or corrupted, both corrupted, a changed program, and the bound on the writes' rate.
+copy torn or corrupted (and the alarm as the agent shows it), both corrupted, a copy that cannot be
+written, a changed program (a start and a managed restart), and the bound on the writes' rate.
 
 The set: keep.glb (a RETAIN counter, a PERSISTENT total, a plain variable, a RETAIN array that
 makes each copy large) and the fixture module retained.so, which adds 1 to the counter every
@@ -17,11 +18,24 @@ import sys
 import time
 from pathlib import Path
 
+import httpx
 import pytest
 from indurop_agent.alarms.segment import AlarmSegment
 from indurop_agent.irpd.client import IrpdClient
 from indurop_agent.irpd.variables import Segment
-from live_processes import BUILD, ROOT, module_entry, remove_shm, start_irpd, stop, wait_dispatching, wait_until
+from live_processes import (
+    API,
+    BUILD,
+    ROOT,
+    free_port,
+    module_entry,
+    remove_shm,
+    start_agent,
+    start_irpd,
+    stop,
+    wait_dispatching,
+    wait_until,
+)
 
 RETAINED = BUILD / "tests" / "cpp" / "modules" / "retained.so"
 pytestmark = pytest.mark.skipif(not RETAINED.exists(), reason=f"the fixture module is not built ({RETAINED})")
@@ -212,15 +226,22 @@ def newest(cell) -> tuple[Path, Path]:
     return (a, b) if seq[a] > seq[b] else (b, a)
 
 
-@pytest.mark.parametrize("how", ["flip", "truncate"])
-def test_a_corrupt_copy_falls_back_to_the_other_and_raises_an_alarm(cell, how):
+def corrupt_the_newest(cell, how: str) -> tuple[Path, Path]:
+    """Runs the cell until both copies hold total = 7, stops it, spoils the newest copy and starts
+    it again with no write soon (the alarm stays active while the test looks); (bad, good)."""
     cell.start()
     cell.write("keep.total", 7)
-    cell.saves(3)  # both copies hold total = 7
+    cell.saves(3)
     cell.stop()
     bad, good = newest(cell)
     corrupt(bad, how)
-    cell.start(interval_ms=60_000)  # no write soon: the alarm stays active while the test looks
+    cell.start(interval_ms=60_000)
+    return bad, good
+
+
+@pytest.mark.parametrize("how", ["flip", "truncate"])
+def test_a_corrupt_copy_falls_back_to_the_other_and_raises_an_alarm(cell, how):
+    bad, good = corrupt_the_newest(cell, how)
     (why,) = cell.events("retain_corrupt")
     assert why.startswith(str(bad)) and str(good) in why
     assert ("corrupt" if how == "flip" else "torn") in why
@@ -294,3 +315,22 @@ def test_a_copy_that_cannot_be_written_is_an_error_and_an_alarm_until_a_write_su
     wait_until(lambda: cell.status()["last_error"] is None)
     assert cell.irpd_alarms()[0] == []
     assert [(r.id, r.raised) for r in cell.irpd_alarms()[1]] == [(2, True), (2, False)]
+
+
+def test_the_agent_shows_the_alarm_with_its_declared_text(cell):
+    bad, _ = corrupt_the_newest(cell, "flip")
+    port, data = free_port(), cell.folder / "agent"
+    agent = start_agent(port, data, cell.folder / "irpd.sock", log=cell.folder / "agent.log")
+    try:
+        token = (data / "admin-token").read_text().strip()
+
+        def irpd_alarm():
+            """the agent lists irpd/1"""
+            r = httpx.get(f"http://127.0.0.1:{port}{API}/alarms", headers={"Authorization": f"Bearer {token}"})
+            return next((a for a in r.json()["alarms"] if a["key"] == "irpd/1"), None)
+
+        alarm = wait_until(irpd_alarm, 60, 0.2)
+        assert alarm["text"].startswith("A copy of the retain store was torn or corrupt")
+        assert alarm["severity"] == "high" and bad.name in alarm["detail"]
+    finally:
+        stop(agent)
