@@ -3,9 +3,8 @@ restarts (docs/retain.md): the two copies in the state folder, a SIGKILL while a
 copy torn or corrupted (and the alarm as the agent shows it), both corrupted, a copy that cannot be
 written, a changed program (a start and a managed restart), and the bound on the writes' rate.
 
-The set: keep.glb (a RETAIN counter, a PERSISTENT total, a plain variable, a RETAIN array that
-makes each copy large) and the fixture module retained.so, which adds 1 to the counter every
-10 ms period and writes the value it finds in its initialize() to a journal: what irpd restored."""
+The set: keep.glb (a RETAIN counter, a PERSISTENT total, a plain variable, a RETAIN array) and
+the fixture module retained.so, which adds 1 to the counter every 10 ms period and writes the value it finds in its initialize() to a journal: what irpd restored."""
 
 from __future__ import annotations
 
@@ -44,7 +43,7 @@ GLB = """namespace keep;
 retain uint64_t count;
 persistent uint64_t total;
 uint64_t plain;
-retain uint64_t big[{big}];
+retain uint64_t history[8];
 """
 SEQUENCE_AT = 16  # the header's sequence number (rtcore/src/retain/retain_file.cpp)
 
@@ -52,7 +51,7 @@ SEQUENCE_AT = 16  # the header's sequence number (rtcore/src/retain/retain_file.
 class Cell:
     """One irpd instance on a set of its own, its state folder, and the journal of retained.so."""
 
-    def __init__(self, folder: Path, big: int = 8):
+    def __init__(self, folder: Path):
         self.folder = folder
         self.state = folder / "state"
         self.journal = folder / "journal"
@@ -60,8 +59,8 @@ class Cell:
         self.sets = {}
         self.process = None
         self.client = None
-        self.make_set("a", GLB.format(big=big))
-        self.make_set("b", GLB.format(big=big) + "uint32_t added;\n")  # a changed program
+        self.make_set("a", GLB)
+        self.make_set("b", GLB + "uint32_t added;\n")  # a changed program
 
     def make_set(self, name: str, glb: str) -> None:
         folder = self.folder / name
