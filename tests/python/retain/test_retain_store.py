@@ -312,8 +312,8 @@ def test_a_copy_that_cannot_be_written_is_an_error_and_an_alarm_until_a_write_su
     assert [(r.id, r.raised) for r in cell.irpd_alarms()[1]] == [(2, True), (2, False)]
 
 
-def test_the_agent_shows_the_alarm_with_its_declared_text(cell):
-    bad, _ = corrupt_the_newest(cell, "flip")
+def test_the_agent_shows_the_alarm_with_its_declared_text_and_the_store_in_its_status(cell):
+    bad, good = corrupt_the_newest(cell, "flip")
     port, data = free_port(), cell.folder / "agent"
     agent = start_agent(port, data, cell.folder / "irpd.sock", log=cell.folder / "agent.log")
     try:
@@ -327,5 +327,13 @@ def test_the_agent_shows_the_alarm_with_its_declared_text(cell):
         alarm = wait_until(irpd_alarm, 60, 0.2)
         assert alarm["text"].startswith("A copy of the retain store was torn or corrupt")
         assert alarm["severity"] == "high" and bad.name in alarm["detail"]
+        status = httpx.get(f"http://127.0.0.1:{port}{API}/status", headers={"Authorization": f"Bearer {token}"})
+        assert status.json()["retain"] | {"last_save_ns": None} == {
+            "file": str(good),
+            "last_save_ns": None,
+            "sequence": int.from_bytes(good.read_bytes()[SEQUENCE_AT : SEQUENCE_AT + 8], "little"),
+            "variables": 3,
+            "last_error": None,
+        }
     finally:
         stop(agent)
