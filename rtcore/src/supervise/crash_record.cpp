@@ -4,6 +4,7 @@
 
 #include "dispatch/running_marker.hpp"
 #include "events/event_log.hpp"
+#include "osal/atomic_file.hpp"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -165,19 +166,6 @@ std::string readText(const std::filesystem::path &p) {
     return s.str();
 }
 
-// Writes `text` to `path` through a temporary file and a rename.
-bool writeAtomically(const std::filesystem::path &path, const std::string &text) {
-    const std::filesystem::path tmp = path.string() + ".tmp";
-    {
-        std::ofstream out(tmp, std::ios::trunc);
-        out << text;
-        if (!out) return false;
-    }
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
-    return !ec;
-}
-
 }  // namespace
 
 std::optional<CrashRecord> parseCrashRecord(const std::string &text) {
@@ -328,8 +316,7 @@ Status CrashState::saveExcluded() const {
     }
     std::string text;
     for (const auto &[module, set] : excluded_) text += module + "\t" + set + "\n";
-    if (!writeAtomically(path, text)) return Error{"cannot write " + path.string()};
-    return Ok{};
+    return osal::writeAtomically(path, text);
 }
 
 Status CrashState::exclude(const std::string &set, const std::string &module) {
