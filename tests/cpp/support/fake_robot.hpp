@@ -166,7 +166,8 @@ private:
 // A robot and the axis group bound to it.  Not copyable: the group points into the robot.
 struct Bench {
     FakeRobot robot;
-    AxisGroupRef g = bindAxisGroup(robot.svc, robot.st);
+    GroupStatus status;
+    AxisGroupRef g = bindAxisGroup(robot.svc, robot.st, status);
     Bench() = default;
     Bench(const Bench &) = delete;
 };
