@@ -247,6 +247,22 @@ TEST(ThreadFault, AThrowFromRunDisablesThatModuleOnlyAndIsAnEvent) {
     EXPECT_EQ(cell.runs("throws"), 3u);
     EXPECT_TRUE(cell.keepRuns());
     EXPECT_TRUE(contains(cell.irpd->out() + cell.irpd->err(), "division by zero in the controller"));
+    // the event says what it threw
+    const json fault = cell.events("fault", "throws").at(0);
+    EXPECT_TRUE(contains(fault["message"], "threw from run(): division by zero in the controller; disabled"))
+        << fault.dump();
+}
+
+// A module generated from ST (here written by hand as the generator writes it) faults through the ST
+// runtime: the event names the ST file, line, column and program (docs/st-runtime.md).
+TEST(ThreadFault, AnStRuntimeFaultNamesTheStPlaceInTheEvent) {
+    Cell cell(thread("Main", (kModules / "st_divide.so").string(), 2'000'000, 2));
+    ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("fault", "Main").empty(); }));
+    const json fault = cell.events("fault", "Main").at(0);
+    EXPECT_TRUE(contains(fault["message"], "run(): main.st:12:9: division by zero (PROGRAM Main)")) << fault.dump();
+    EXPECT_EQ(cell.module("Main").value("state", ""), "disabled") << cell.module("Main").dump();
+    EXPECT_EQ(cell.module("Main").value("errors", 0), 1);
+    EXPECT_TRUE(cell.keepRuns());
 }
 
 // ---- a periodic process module that segfaults, exits, floods or hangs ------------------------
