@@ -87,14 +87,7 @@ void Executor::takeOver(const Table *next) {
     noteTable(*next);
 }
 
-void FaultNote::write(const char *where, const char *what) noexcept {
-    if (written.load(std::memory_order_relaxed)) return;
-    std::snprintf(text, sizeof text, "%s: %s", where, what);
-    written.store(true, std::memory_order_release);
-}
-
 void Executor::disable(Task &task, stats::TimingRecord &r, const char *what, const char *detail) {
-    task.fault.write(what, detail);  // before the count that the main thread watches
     task.state.disabled = true;
     stats::bump(r.errors);
     r.state.store(static_cast<uint32_t>(stats::ModuleState::Disabled), std::memory_order_relaxed);

@@ -111,27 +111,11 @@ struct TaskState {
 };
 static_assert(std::is_trivially_copyable_v<TaskState>, "carried over at a swap on the RT thread: plain stores only");
 
-// Why a task was disabled by a throw, for the `fault` event ("run(): main.st:12:9: division by zero
-// (PROGRAM Main)"): written once, by the executor thread as it disables the task (a disabled task
-// is never run again; enabling it makes a new task), then published; irpd's main thread reads it
-// once it sees the module's error count rise.
-struct FaultNote {
-    static constexpr std::size_t kSize = 256;
-    std::atomic<bool> written{false};
-    char text[kSize] = {};
-
-    // Executor thread: "<where>: <what>", cut to fit (no allocation).
-    void write(const char *where, const char *what) noexcept;
-    // Any thread: the text once written, else null.
-    const char *read() const noexcept { return written.load(std::memory_order_acquire) ? text : nullptr; }
-};
-
 // One module's place in an executor: its configuration and its run-time state.
 struct Task {
     using Kind = TaskConfig::Kind;
     TaskConfig config;
     TaskState state;
-    FaultNote fault;
 
     Task() = default;
     explicit Task(const TaskConfig &c) : config(c) { state.disabled = c.disabled; }

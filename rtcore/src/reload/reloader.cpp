@@ -578,16 +578,10 @@ void Reloader::undo(Generation &partial) {
 
 void Reloader::adopt(std::unique_ptr<Generation> first, dispatch::Dispatcher &dispatcher) {
     dispatcher_ = &dispatcher;
-    // The dispatcher runs already: a module that threw in its first runs was disabled by its
-    // executor, and stays so (a CAS, not a store over it).
-    for (const config::ModuleSpec &m : first->set.modules) {
-        auto &state = s_.stats->record(first->members[static_cast<std::size_t>(m.index)].record).state;
-        const auto target = static_cast<uint32_t>(first->disabled.count(m.name) ? stats::ModuleState::Disabled
-                                                                                : stats::ModuleState::Running);
-        uint32_t now = state.load();
-        while (now != static_cast<uint32_t>(stats::ModuleState::Disabled) &&
-               !state.compare_exchange_weak(now, target)) {}
-    }
+    for (const config::ModuleSpec &m : first->set.modules)
+        s_.stats->record(first->members[static_cast<std::size_t>(m.index)].record)
+            .state.store(static_cast<uint32_t>(first->disabled.count(m.name) ? stats::ModuleState::Disabled
+                                                                             : stats::ModuleState::Running));
     std::lock_guard lock(mutex_);
     current_ = std::shared_ptr<Generation>(std::move(first));
 }

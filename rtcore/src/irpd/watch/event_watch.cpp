@@ -4,26 +4,14 @@
 
 namespace irp::watch {
 
-namespace {
-// "threw from run(): <its what()>; disabled ...", or without the text when the task that threw
-// is not this generation's (it threw just before a swap).
-std::string faultText(const reload::Generation &g, int index) {
-    const dispatch::Task *task = g.tables && static_cast<std::size_t>(index) < g.tables->by_module.size()
-                                     ? g.tables->by_module[static_cast<std::size_t>(index)]
-                                     : nullptr;
-    const char *note = task ? task->fault.read() : nullptr;
-    return std::string("threw from ") + (note ? note : "run() or condition()") +
-           "; disabled (enable it to run it again)";
-}
-}  // namespace
-
 void EventWatch::look(const reload::Generation &g, const std::vector<hosts::ProcessInfo> &processes, bool figures) {
     for (const config::ModuleSpec &m : g.set.modules) {
         const stats::TimingRecord &r = stats_.record(g.members[static_cast<std::size_t>(m.index)].record);
         Seen &seen = seen_[m.name];
         const uint64_t errors = r.errors.load(), missed = r.missed.load(), overruns = r.overruns.load();
         // (on the first look too: a module may throw before it, in its first runs)
-        if (errors > seen.errors) log_.add("fault", m.name, faultText(g, m.index));
+        if (errors > seen.errors)
+            log_.add("fault", m.name, "threw from run() or condition(); disabled (enable it to run it again)");
         if (figures || seen.first) {
             if (missed > seen.missed && !seen.first)
                 log_.add("deadline", m.name,
