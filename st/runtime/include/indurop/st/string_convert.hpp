@@ -378,29 +378,17 @@ inline int64_t dateAndTimeOf(const String<N> &s) noexcept {
 }
 }  // namespace detail
 
-template <std::size_t N>
-inline DATE STRING_TO_DATE(const String<N> &s) noexcept {
-    return detail::dateOf(s);
-}
-template <std::size_t N>
-inline LDATE STRING_TO_LDATE(const String<N> &s) noexcept {
-    return detail::dateOf(s);
-}
-template <std::size_t N>
-inline TOD STRING_TO_TOD(const String<N> &s) noexcept {
-    return detail::timeOfDayOf(s);
-}
-template <std::size_t N>
-inline LTOD STRING_TO_LTOD(const String<N> &s) noexcept {
-    return detail::timeOfDayOf(s);
-}
-template <std::size_t N>
-inline DT STRING_TO_DT(const String<N> &s) noexcept {
-    return detail::dateAndTimeOf(s);
-}
-template <std::size_t N>
-inline LDT STRING_TO_LDT(const String<N> &s) noexcept {
-    return detail::dateAndTimeOf(s);
-}
+#define IRP_ST_STRING_TO_POINT_IN_TIME(NAME, PARSE)                                                                    \
+    template <std::size_t N>                                                                                           \
+    inline NAME STRING_TO_##NAME(const String<N> &s) noexcept {                                                        \
+        return detail::PARSE(s);                                                                                       \
+    }
+IRP_ST_STRING_TO_POINT_IN_TIME(DATE, dateOf)
+IRP_ST_STRING_TO_POINT_IN_TIME(LDATE, dateOf)
+IRP_ST_STRING_TO_POINT_IN_TIME(TOD, timeOfDayOf)
+IRP_ST_STRING_TO_POINT_IN_TIME(LTOD, timeOfDayOf)
+IRP_ST_STRING_TO_POINT_IN_TIME(DT, dateAndTimeOf)
+IRP_ST_STRING_TO_POINT_IN_TIME(LDT, dateAndTimeOf)
+#undef IRP_ST_STRING_TO_POINT_IN_TIME
 
 }  // namespace irp::st
