@@ -522,6 +522,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
             b.run = member.thread->runFunction();
             b.condition = member.thread->table().condition;
             if (s_.alarms) b.alarm_source = member.alarm_source;
+            b.fault_note = &member.thread->faultNote();
         }
         if (member.slot >= 0 && m.operation != config::OperationType::NonReal)
             b.process = &s_.control->slot(static_cast<uint32_t>(member.slot));
