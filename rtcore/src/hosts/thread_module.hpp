@@ -97,6 +97,7 @@ private:
     uint64_t instance_;  // unique per load: owns the shared functions its initialize()/start() export
     uint32_t alarm_source_;
     void *handle_ = nullptr;
+    int code_entry_ = -1;  // its address range for the crash handler (supervise/module_code.hpp)
     bool descriptor_ = false;
     bool started_ = false;
     std::string built_layout_;
