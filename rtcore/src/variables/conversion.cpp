@@ -23,7 +23,8 @@ bool parseCode(const std::string &text, ScalarCode &out) {
 // [first, last byte + 1) of a copy's side inside [offset, offset + size)?
 bool inside(uint64_t at, uint64_t count, uint64_t stride, uint8_t width, const layouts::Variable &v) {
     if (count == 0 || at < v.offset) return false;
-    const unsigned __int128 end = static_cast<unsigned __int128>(at) + (count - 1) * static_cast<unsigned __int128>(stride) + width;
+    const unsigned __int128 end =
+        static_cast<unsigned __int128>(at) + (count - 1) * static_cast<unsigned __int128>(stride) + width;
     return end <= v.offset + v.size;
 }
 
@@ -66,14 +67,14 @@ void convertOne(const char *from, const ScalarCode &f, char *to, const ScalarCod
     case 'b': return storeAs<bool>(to, t, load<bool>(from) ? true : false);
     case 'f': return storeAs<double>(to, t, f.size == 4 ? double{load<float>(from)} : load<double>(from));
     case 's': {
-        const int64_t v = f.size == 1 ? load<int8_t>(from)
+        const int64_t v = f.size == 1   ? load<int8_t>(from)
                           : f.size == 2 ? load<int16_t>(from)
                           : f.size == 4 ? load<int32_t>(from)
                                         : load<int64_t>(from);
         return storeAs<int64_t>(to, t, v);
     }
     default: {
-        const uint64_t v = f.size == 1 ? load<uint8_t>(from)
+        const uint64_t v = f.size == 1   ? load<uint8_t>(from)
                            : f.size == 2 ? load<uint16_t>(from)
                            : f.size == 4 ? load<uint32_t>(from)
                                          : load<uint64_t>(from);
@@ -103,7 +104,8 @@ Result<Conversions> conversionsOf(const Layout &next, const layouts::Model &runn
     std::map<std::string, const nlohmann::json *> planned;
     if (const auto it = changes.find("converted"); it != changes.end() && it->is_array())
         for (const auto &c : *it)
-            if (c.is_object() && c.contains("path") && c["path"].is_string()) planned[c["path"].get<std::string>()] = &c;
+            if (c.is_object() && c.contains("path") && c["path"].is_string())
+                planned[c["path"].get<std::string>()] = &c;
     if (const auto it = changes.find("moved"); it != changes.end() && it->is_array())
         for (const auto &m : *it)
             if (m.is_object() && m.value("path", "") != "" && m.contains("reason") && m["reason"].is_string())
