@@ -283,6 +283,31 @@ TEST(OnlineChange, RetypedVariablesAreConvertedAtTheSwapAndANarrowedOneIsNamed) 
     EXPECT_EQ(cell.value<uint8_t>("cv.nest[2].tag"), 0);
 }
 
+// A conversion plan that copies outside its variable (a layout.json edited by hand) is refused by
+// the dry run and the load alike, naming the variable; the running set is left as it was.
+TEST(OnlineChange, AConversionOutsideItsVariableIsRefused) {
+    Cell cell("", {}, "cv1", {"cv", "oc_cv_v1.so"});
+    json layout = json::parse(readFile(layoutOf("cv2")));
+    for (json &c : layout["changes"]["converted"])
+        if (c["path"] == "cv.wide") c["copies"][0]["to"] = c["copies"][0]["to"].get<uint64_t>() + 64;
+    std::ofstream(cell.dir.path / "tampered.json") << layout.dump();
+    std::ofstream(cell.dir.path / "tampered.xml")
+        << "<root>\n  <layout>" << (cell.dir.path / "tampered.json").string() << "</layout>\n"
+        << thread("cv", "oc_cv_v2.so", cell.dir.path) << "</root>\n";
+    const std::string xml = (cell.dir.path / "tampered.xml").string();
+    const json generation = cell.generation();
+    json check = cell.ask({{"cmd", "check"}, {"config", xml}})["result"];
+    EXPECT_FALSE(check["valid"].get<bool>()) << check.dump();
+    const std::string expected = "the conversion of variable 'cv.wide' copies bytes outside the variable: compile the "
+                                 "set's .glb files again with glbc --previous";
+    EXPECT_NE(check["errors"].dump().find(expected), std::string::npos) << check.dump();
+    json refused = cell.load(xml);
+    ASSERT_FALSE(refused.value("ok", true)) << refused.dump();
+    EXPECT_NE(refused["error"]["message"].get<std::string>().find(expected), std::string::npos) << refused.dump();
+    EXPECT_EQ(cell.generation(), generation);
+    EXPECT_EQ(cell.value<int16_t>("cv.wide"), -1234) << "the running layout and its values are untouched";
+}
+
 TEST(OnlineChange, AProcessBuiltAgainstTheOldLayoutRunsOnTheNewOne) {
     Cell cell;
     json answer = cell.load(cell.writeSet(
