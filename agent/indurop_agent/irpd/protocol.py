@@ -253,7 +253,7 @@ class VariableChanges(IrpdShape):
     added: list[str] = Field(description="variables the running layout does not have (zeroed before the swap)")
     removed: list[str] = Field(description="variables the new layout does not have (their room stays a hole until irpd restarts)")
     moved: list[MovedVariable] = Field(description="variables whose type changed and whose value is not kept: a new place, zeroed")
-    converted: list[ConvertedVariable] = Field(description="variables whose type changed and whose value is converted at the swap (docs/hot-reload.md \"Converted variables\")")
+    converted: list[ConvertedVariable] | None = Field(None, description="variables whose type changed and whose value is converted at the swap (docs/hot-reload.md \"Converted variables\"); irpd always sends it, a validation the agent stored before it existed has none")
     replaced: list[str] = Field(description="running modules built against a layout that has a changed variable elsewhere: they are loaded anew, not kept")
 
 

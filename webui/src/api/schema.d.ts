@@ -4840,9 +4840,9 @@ export interface components {
             added: string[];
             /**
              * Converted
-             * @description variables whose type changed and whose value is converted at the swap (docs/hot-reload.md "Converted variables")
+             * @description variables whose type changed and whose value is converted at the swap (docs/hot-reload.md "Converted variables"); irpd always sends it, a validation the agent stored before it existed has none
              */
-            converted: components["schemas"]["ConvertedVariable"][];
+            converted?: components["schemas"]["ConvertedVariable"][] | null;
             /**
              * Layout
              * @description the new layout's hash; null: the set has no shared variables
