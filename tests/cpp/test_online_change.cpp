@@ -257,9 +257,11 @@ TEST(OnlineChange, RetypedVariablesAreConvertedAtTheSwapAndANarrowedOneIsNamed) 
     ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
     EXPECT_EQ(answer["result"]["variables"]["converted"], check["variables"]["converted"]);
     EXPECT_EQ(answer["result"]["variables"]["moved"], check["variables"]["moved"]);
-    // The count went on from where it was (zeroed, it would be the few periods since the swap).
+    // The count went on from where it was (zeroed, it would be the few periods since the swap), and
+    // the new module's first run already read the converted values.
     const int32_t count_after = cell.value<int32_t>("cv.fb.count");
     EXPECT_GT(count_after, count_before);
+    EXPECT_GE(cell.value<int32_t>("cv.first_count"), count_before) << "the new module's first run saw the count";
     settle();
     EXPECT_GT(cell.value<int32_t>("cv.fb.count"), count_after) << "the new module counts on";
     EXPECT_EQ(cell.value<int16_t>("cv.fb.mode"), 5);
@@ -281,6 +283,7 @@ TEST(OnlineChange, RetypedVariablesAreConvertedAtTheSwapAndANarrowedOneIsNamed) 
     EXPECT_EQ(cell.value<int8_t>("cv.nest[1].inner.c"), 0) << "a new field starts at zero";
     EXPECT_EQ(cell.value<int32_t>("cv.nest[2].inner.a"), 0) << "a new element starts at zero";
     EXPECT_EQ(cell.value<uint8_t>("cv.nest[2].tag"), 0);
+    EXPECT_EQ(cell.value<int32_t>("cv.wrong"), 0) << "the new module never read a value before it was converted";
 }
 
 // A conversion plan that copies outside its variable (a layout.json edited by hand) is refused by

@@ -569,6 +569,22 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         bindings.push_back(b);
     }
     next->tables = dispatch::buildTables(spec, next->schedule, bindings);
+    // Converted variables: the last executor to switch converts them (no module of the old set runs
+    // any more); the new modules skip their runs until it did (docs/hot-reload.md "Converted variables").
+    if (!next->conversions.converted.empty() && s_.vars) {
+        next->conversion_data = s_.vars->data();
+        next->gate = std::make_unique<dispatch::SwapGate>();
+        next->gate->context = next;
+        next->gate->work = [](void *g) noexcept {
+            const auto &gen = *static_cast<const Generation *>(g);
+            variables::converted(gen.conversions.converted, gen.conversion_data);
+        };
+        for (dispatch::Table &t : next->tables->executors) t.gate = next->gate.get();
+        for (const config::ModuleSpec &m : spec.modules)
+            if (dispatch::Task *task = next->tables->by_module[static_cast<std::size_t>(m.index)];
+                task && !next->members[static_cast<std::size_t>(m.index)].kept)
+                task->config.gate = next->gate.get();
+    }
     if (running)
         for (const config::ModuleSpec &m : spec.modules) {
             dispatch::Task *task = next->tables->by_module[static_cast<std::size_t>(m.index)];
@@ -813,9 +829,9 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
     const uint64_t lost_before = lost();
     const int64_t lead = std::max<int64_t>(2'000'000, 2 * running->schedule.basic_ns);
     const int64_t at = dispatcher_->boundaryAfter(now() + lead);
-    // Converted variables: their new places are held (locked, sequence odd) from before the offer
-    // until every executor switched, i.e. until the old modules' last run wrote the old places;
-    // then converted and let go.  A new module that reads one meanwhile waits for that.
+    // Converted variables: their new places are held (locked, sequence odd) from before the offer, so
+    // that nobody else writes them, until every executor switched; the last one to switch converted
+    // them (the tables' gate).
     const std::vector<variables::Conversion> &converted = next->conversions.converted;
     if (s_.vars) variables::hold(converted);
     dispatcher_->offer(*next->tables, at);
@@ -823,7 +839,7 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
     const int64_t give_up = now() + s_.swap_timeout_ns + (at - now());
     while (!(switched = dispatcher_->switched())) {
         if (now() > give_up && dispatcher_->withdraw()) {
-            if (s_.vars) variables::release(converted, s_.vars->data(), false);
+            if (s_.vars) variables::release(converted, false);
             undo(*next);
             const std::string message = "the executors did not reach the swap slot within " +
                                         std::to_string(s_.swap_timeout_ns / 1'000'000) +
@@ -831,10 +847,10 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
             s_.events->add("swap_failed", "", message);
             return Error{message};
         }
-        // Holding converted variables, look often: a new module may be waiting for one.
+        // Holding converted variables, look often: a new module's write of one waits for the lock.
         std::this_thread::sleep_for(std::chrono::microseconds(converted.empty() ? 200 : 20));
     }
-    if (s_.vars) variables::release(converted, s_.vars->data(), true);
+    if (s_.vars) variables::release(converted, true);
     const int64_t swapped_ns = now();
     // One new macro period (at most 2 s) to see whether the new table's first slots were on time.
     const uint64_t cycles_then = s_.stats->header()->cycles.load();

@@ -163,11 +163,20 @@ void hold(const std::vector<Conversion> &all) noexcept {
     }
 }
 
-void release(const std::vector<Conversion> &all, char *data, bool run) noexcept {
+void converted(const std::vector<Conversion> &all, char *data) noexcept {
     for (const Conversion &c : all) {
-        if (run) convert(c, data);
+        convert(c, data);
         auto seq = shared::detail::sequence(c.to_lock);
         seq.store(seq.load(std::memory_order_relaxed) + 1, std::memory_order_release);
+    }
+}
+
+void release(const std::vector<Conversion> &all, bool swapped) noexcept {
+    for (const Conversion &c : all) {
+        if (!swapped) {
+            auto seq = shared::detail::sequence(c.to_lock);
+            seq.store(seq.load(std::memory_order_relaxed) + 1, std::memory_order_release);
+        }
         shared::unlockVariable(c.to_lock);
     }
 }

@@ -1,7 +1,8 @@
 // conversion.hpp -- retyped shared variables whose values an online change keeps: the copies glbc
 // --previous planned (layout.json "changes.converted", glb/glbc_compiler/convert.py holds the
-// rules), checked against the running and the new layout, and run at the swap by irpd's main
-// thread while it holds the new variables' locks (docs/hot-reload.md "Converted variables").
+// rules), checked against the running and the new layout, and run at the swap by the last executor
+// to switch while irpd's main thread holds the new variables' locks (docs/hot-reload.md
+// "Converted variables").
 #pragma once
 
 #include <indurop/result.hpp>
@@ -45,12 +46,18 @@ struct Conversions {
 Result<Conversions> conversionsOf(const Layout &next, const layouts::Model &running,
                                   const std::vector<layouts::Moved> &moved);
 
-// Runs the copies on the data area `data` (no allocation, no lock: the caller holds what it must).
+// Runs the copies on the data area `data` (no allocation, no lock, no system call).
 void convert(const Conversion &c, char *data) noexcept;
 
-// The main thread's part at a swap: hold() takes the new variables' locks with their sequences odd
-// (readers and writers of them wait), release() ends that, after convert() when convert is true.
+// At a swap (docs/hot-reload.md "Converted variables"):
+//   hold      irpd's main thread, before the offer: takes each new variable's lock and makes its
+//             sequence odd, so that nobody else writes it and readers wait for its value;
+//   converted the RT thread of the last executor to take its new table, once no module of the old
+//             set runs: converts into the held places and makes their sequences even (readers go on);
+//   release   the main thread, after the swap: lets the locks go (and, when the swap never happened,
+//             makes the sequences even again without converting).
 void hold(const std::vector<Conversion> &all) noexcept;
-void release(const std::vector<Conversion> &all, char *data, bool convert) noexcept;
+void converted(const std::vector<Conversion> &all, char *data) noexcept;
+void release(const std::vector<Conversion> &all, bool swapped) noexcept;
 
 }  // namespace irp::variables
