@@ -6,7 +6,7 @@
 from __future__ import annotations
 
 import pytest
-from test_previous import ok
+from test_previous import ok, run
 
 CONVERTED = [
     ("int8_t", "int16_t"),
@@ -112,3 +112,13 @@ def test_nested_structs_in_arrays_are_converted(tmp_path):
 def test_a_changed_shape_is_moved_with_the_reason(tmp_path, before, after, why):
     changes = changed(tmp_path, before + "\n", after + "\n")
     assert changes["converted"] == [] and [m["reason"] for m in changes["moved"]] == [why]
+
+
+def test_glbc_says_which_variables_start_at_zero_and_why(tmp_path):
+    ok(tmp_path, "int32_t n;\nint16_t w;\n", "g1")
+    result = run(tmp_path, "int16_t n;\nint32_t w;\n", "g2", "--previous", "g1/layout.json")
+    assert result.returncode == 0, result.stderr
+    assert result.stderr.splitlines()[1:] == [
+        "glbc: not converted, starts at zero: a.n: int32_t to int16_t may lose values"
+    ]
+    assert result.stderr.splitlines()[0].endswith(": 0 added, 0 removed, 1 moved, 1 converted")
