@@ -301,14 +301,25 @@ TEST(OnlineChange, AConversionOutsideItsVariableIsRefused) {
     const json generation = cell.generation();
     json check = cell.ask({{"cmd", "check"}, {"config", xml}})["result"];
     EXPECT_FALSE(check["valid"].get<bool>()) << check.dump();
-    const std::string expected = "the conversion of variable 'cv.wide' copies bytes outside the variable: compile the "
-                                 "set's .glb files again with glbc --previous";
+    const std::string expected =
+        "the conversion of variable 'cv.wide' copies bytes outside the variable (or overlapping scalars): compile the "
+        "set's .glb files again with glbc --previous";
     EXPECT_NE(check["errors"].dump().find(expected), std::string::npos) << check.dump();
     json refused = cell.load(xml);
     ASSERT_FALSE(refused.value("ok", true)) << refused.dump();
     EXPECT_NE(refused["error"]["message"].get<std::string>().find(expected), std::string::npos) << refused.dump();
     EXPECT_EQ(cell.generation(), generation);
     EXPECT_EQ(cell.value<int16_t>("cv.wide"), -1234) << "the running layout and its values are untouched";
+
+    // A count of scalars larger than the variable (stride 0): refused too, not looped over at the swap.
+    for (json &c : layout["changes"]["converted"])
+        if (c["path"] == "cv.wide") {
+            c["copies"][0]["to"] = c["to"];
+            c["copies"][0]["count"] = uint64_t{1} << 40;
+        }
+    std::ofstream(cell.dir.path / "tampered.json") << layout.dump();
+    check = cell.ask({{"cmd", "check"}, {"config", xml}})["result"];
+    EXPECT_NE(check["errors"].dump().find(expected), std::string::npos) << check.dump();
 }
 
 TEST(OnlineChange, AProcessBuiltAgainstTheOldLayoutRunsOnTheNewOne) {

@@ -20,9 +20,10 @@ bool parseCode(const std::string &text, ScalarCode &out) {
     return out.size == 1 || out.size == 2 || out.size == 4 || out.size == 8;
 }
 
-// [first, last byte + 1) of a copy's side inside [offset, offset + size)?
+// [first, last byte + 1) of a copy's side inside [offset, offset + size), its scalars apart (so that
+// a copy's count is bounded by its variable's size: the swap's work stays as small as the data)?
 bool inside(uint64_t at, uint64_t count, uint64_t stride, uint8_t width, const layouts::Variable &v) {
-    if (count == 0 || at < v.offset) return false;
+    if (count == 0 || at < v.offset || (count > 1 && stride < width)) return false;
     const unsigned __int128 end =
         static_cast<unsigned __int128>(at) + (count - 1) * static_cast<unsigned __int128>(stride) + width;
     return end <= v.offset + v.size;
@@ -135,7 +136,7 @@ Result<Conversions> conversionsOf(const Layout &next, const layouts::Model &runn
                     return bad(m.path, "names a scalar type other than s1..s8, u1..u8, f4, f8 or b1");
                 if (!inside(copy.from, copy.count, copy.from_stride, copy.from_type.size, *was) ||
                     !inside(copy.to, copy.count, copy.to_stride, copy.to_type.size, *now))
-                    return bad(m.path, "copies bytes outside the variable");
+                    return bad(m.path, "copies bytes outside the variable (or overlapping scalars)");
                 conv.copies.push_back(copy);
             }
         } catch (const nlohmann::json::exception &e) {
