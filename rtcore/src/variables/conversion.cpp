@@ -101,7 +101,9 @@ Result<Conversions> conversionsOf(const Layout &next, const layouts::Model &runn
     } catch (const nlohmann::json::exception &) {
         return out;  // readLayout parsed it: cannot happen
     }
-    if (!changes.is_object() || changes.value("previous", "") != running.self.hash) return out;
+    // Only a plan made against the running layout applies; any other layout's retyped variables move.
+    const auto previous = changes.is_object() ? changes.find("previous") : changes.end();
+    if (!changes.is_object() || previous == changes.end() || *previous != running.self.hash) return out;
     std::map<std::string, const nlohmann::json *> planned;
     if (const auto it = changes.find("converted"); it != changes.end() && it->is_array())
         for (const auto &c : *it)
@@ -109,7 +111,8 @@ Result<Conversions> conversionsOf(const Layout &next, const layouts::Model &runn
                 planned[c["path"].get<std::string>()] = &c;
     if (const auto it = changes.find("moved"); it != changes.end() && it->is_array())
         for (const auto &m : *it)
-            if (m.is_object() && m.value("path", "") != "" && m.contains("reason") && m["reason"].is_string())
+            if (m.is_object() && m.contains("path") && m["path"].is_string() && m.contains("reason") &&
+                m["reason"].is_string())
                 out.not_converted[m["path"].get<std::string>()] = m["reason"].get<std::string>();
     for (const layouts::Moved &m : moved) {
         const auto found = planned.find(m.path);
