@@ -217,6 +217,41 @@ TEST(OnlineChange, ARetypedVariableMovesAndItsUsersAreRebuiltOrRefused) {
     cell.expectCounterMissedNoPeriod();
 }
 
+namespace {
+
+// After cv1 -> cv2 with the cv module counting: every variable as cv2.glb says it was converted.
+void expectConvertedByCv2(Cell &cell, int32_t count_before) {
+    // The count went on from where it was (zeroed, it would be the few periods since the swap), and
+    // the new module's first run already read the converted values.
+    const int32_t count_after = cell.value<int32_t>("cv.fb.count");
+    EXPECT_GT(count_after, count_before);
+    EXPECT_GE(cell.value<int32_t>("cv.first_count"), count_before) << "the new module's first run saw the count";
+    settle();
+    EXPECT_GT(cell.value<int32_t>("cv.fb.count"), count_after) << "the new module counts on";
+    EXPECT_EQ(cell.value<int16_t>("cv.fb.mode"), 5);
+    EXPECT_EQ(cell.value<double>("cv.fb.added"), 0.0) << "a new field starts at zero";
+    EXPECT_EQ(cell.value<int32_t>("cv.wide"), -1234);
+    for (int i = 0; i < 5; ++i) {
+        const std::string path = "cv.arr[" + std::to_string(i) + "]";
+        EXPECT_EQ(cell.value<int32_t>(path.c_str()), i < 3 ? 10 * (i + 1) : 0) << path;
+    }
+    EXPECT_EQ(cell.value<int16_t>("cv.narrow"), 0) << "not converted: it started at zero";
+    EXPECT_EQ(cell.value<double>("cv.f"), 1.5);
+    EXPECT_EQ(cell.value<float>("cv.i2f"), -300.0f);
+    EXPECT_EQ(cell.value<int32_t>("cv.nest[0].inner.a"), -7);
+    EXPECT_EQ(cell.value<double>("cv.nest[0].inner.b"), 2.25);
+    EXPECT_EQ(cell.value<uint8_t>("cv.nest[0].tag"), 9);
+    EXPECT_EQ(cell.value<int32_t>("cv.nest[1].inner.a"), 32000);
+    EXPECT_EQ(cell.value<double>("cv.nest[1].inner.b"), -0.5);
+    EXPECT_EQ(cell.value<uint8_t>("cv.nest[1].tag"), 200);
+    EXPECT_EQ(cell.value<int8_t>("cv.nest[1].inner.c"), 0) << "a new field starts at zero";
+    EXPECT_EQ(cell.value<int32_t>("cv.nest[2].inner.a"), 0) << "a new element starts at zero";
+    EXPECT_EQ(cell.value<uint8_t>("cv.nest[2].tag"), 0);
+    EXPECT_EQ(cell.value<int32_t>("cv.wrong"), 0) << "the new module never read a value before it was converted";
+}
+
+}  // namespace
+
 // Retyped variables keep their values where no value can be lost (docs/hot-reload.md "Converted
 // variables"): cv1 -> cv2 while a module counts in a field of a struct that gains a field.
 TEST(OnlineChange, RetypedVariablesAreConvertedAtTheSwapAndANarrowedOneIsNamed) {
@@ -257,33 +292,7 @@ TEST(OnlineChange, RetypedVariablesAreConvertedAtTheSwapAndANarrowedOneIsNamed) 
     ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
     EXPECT_EQ(answer["result"]["variables"]["converted"], check["variables"]["converted"]);
     EXPECT_EQ(answer["result"]["variables"]["moved"], check["variables"]["moved"]);
-    // The count went on from where it was (zeroed, it would be the few periods since the swap), and
-    // the new module's first run already read the converted values.
-    const int32_t count_after = cell.value<int32_t>("cv.fb.count");
-    EXPECT_GT(count_after, count_before);
-    EXPECT_GE(cell.value<int32_t>("cv.first_count"), count_before) << "the new module's first run saw the count";
-    settle();
-    EXPECT_GT(cell.value<int32_t>("cv.fb.count"), count_after) << "the new module counts on";
-    EXPECT_EQ(cell.value<int16_t>("cv.fb.mode"), 5);
-    EXPECT_EQ(cell.value<double>("cv.fb.added"), 0.0) << "a new field starts at zero";
-    EXPECT_EQ(cell.value<int32_t>("cv.wide"), -1234);
-    for (int i = 0; i < 5; ++i) {
-        const std::string path = "cv.arr[" + std::to_string(i) + "]";
-        EXPECT_EQ(cell.value<int32_t>(path.c_str()), i < 3 ? 10 * (i + 1) : 0) << path;
-    }
-    EXPECT_EQ(cell.value<int16_t>("cv.narrow"), 0) << "not converted: it started at zero";
-    EXPECT_EQ(cell.value<double>("cv.f"), 1.5);
-    EXPECT_EQ(cell.value<float>("cv.i2f"), -300.0f);
-    EXPECT_EQ(cell.value<int32_t>("cv.nest[0].inner.a"), -7);
-    EXPECT_EQ(cell.value<double>("cv.nest[0].inner.b"), 2.25);
-    EXPECT_EQ(cell.value<uint8_t>("cv.nest[0].tag"), 9);
-    EXPECT_EQ(cell.value<int32_t>("cv.nest[1].inner.a"), 32000);
-    EXPECT_EQ(cell.value<double>("cv.nest[1].inner.b"), -0.5);
-    EXPECT_EQ(cell.value<uint8_t>("cv.nest[1].tag"), 200);
-    EXPECT_EQ(cell.value<int8_t>("cv.nest[1].inner.c"), 0) << "a new field starts at zero";
-    EXPECT_EQ(cell.value<int32_t>("cv.nest[2].inner.a"), 0) << "a new element starts at zero";
-    EXPECT_EQ(cell.value<uint8_t>("cv.nest[2].tag"), 0);
-    EXPECT_EQ(cell.value<int32_t>("cv.wrong"), 0) << "the new module never read a value before it was converted";
+    expectConvertedByCv2(cell, count_before);
 }
 
 // A conversion plan that copies outside its variable (a layout.json edited by hand) is refused by
@@ -725,4 +734,19 @@ TEST(OnlineChange, ANewExecutorWithoutAStatsRecordNamesTheOption) {
     EXPECT_EQ(cell.generation(), generation);
     EXPECT_EQ(executorThreads(cell.irpd->pid()).count("side"), 0u);
     cell.expectCounterMissedNoPeriod();
+}
+
+// The same conversion with the new module on an executor the swap adds: the parked thread and main
+// both arrive at the swap's gate, and the new module's first run on it already reads converted values.
+TEST(OnlineChange, ConvertedVariablesAreReadByANewModuleOnANewExecutor) {
+    Cell cell("", {}, "cv1", {"cv", "oc_cv_v1.so"});
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    const int32_t count_before = cell.value<int32_t>("cv.fb.count");
+    EXPECT_GT(count_before, 300);
+    json answer = cell.load(cell.writeSet(
+        "cv2-side.xml", "cv2",
+        executor("side", 0, -1) + thread("cv", "oc_cv_v2.so", cell.dir.path, 1, "<executor>side</executor>")));
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    EXPECT_EQ(answer["result"]["variables"]["converted"].size(), 6u) << answer.dump();
+    expectConvertedByCv2(cell, count_before);
 }
