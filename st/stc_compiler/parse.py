@@ -550,6 +550,9 @@ class Builder:
             return self.variable(node)
         if kind == "call":
             return t.Call(p, self.variable(c[0]), [self.arg(a) for a in c[1:] if a is not None])
+        if kind == "op_call":
+            callee = t.Name(self.place(c[0]), str(c[0]).upper())
+            return t.Call(p, callee, [self.arg(a) for a in c[1:] if a is not None])
         return self.literal(node)
 
     def variable(self, node: Tree) -> t.Expr:

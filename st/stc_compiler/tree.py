@@ -278,6 +278,10 @@ class Pou(Node):
     returns: Any = None
     return_type: Any = field(default=None, init=False, repr=False)  # types.Type (check.py)
     result: VarDecl | None = field(default=None, init=False, repr=False)  # a FUNCTION's own-name variable
+    locals: dict[str, VarDecl] = field(default_factory=dict, init=False, repr=False)  # upper-case name -> decl
+    uses: list[tuple[Pou, Place]] = field(
+        default_factory=list, init=False, repr=False
+    )  # FUNCTIONs called, FBs instantiated
 
 
 @dataclass(eq=False)
