@@ -89,6 +89,8 @@ class ExprChecker:
             self.error(e.place, "type", f"'{e.name}' is a {pou.kind}, not a variable; call it: {e.name}(...)")
             return None
         layout = self.prog.layout
+        if layout is not None and layout.variable(e.name) is not None:
+            return self.glb_variable(e, e.name)
         if layout is not None and layout.is_namespace(e.name):
             return GlbPath(e.name)
         self.error(e.place, "undeclared", f"'{e.name}' is not declared{self.did_you_mean(e.name)}")
@@ -234,8 +236,19 @@ class ExprChecker:
         return None
 
     def glb_member(self, e: t.Member, base: GlbPath) -> ty.Type | None:
-        layout = self.prog.layout
         path = f"{base.name}.{e.name}"
+        layout = self.prog.layout
+        if layout.variable(path) is not None:
+            return self.glb_variable(e, path)
+        if layout.is_namespace(path):
+            return GlbPath(path)
+        names = [v["path"] for v in layout.variables.values() if v["path"].upper().startswith(base.name.upper() + ".")]
+        self.error(e.place, "undeclared", f"no shared variable '{path}' in {layout.file}{_close(path, names)}")
+        return None
+
+    def glb_variable(self, e: t.Name | t.Member, path: str) -> ty.Type | None:
+        """A shared variable of the layout named in full (qualified access): its IEC type."""
+        layout = self.prog.layout
         entry = layout.variable(path)
         if entry is not None:
             decl = self._glb_decls.get(path.upper())
@@ -247,11 +260,7 @@ class ExprChecker:
                 self.error(e.place, "type", f"'{entry['path']}' is {entry['type']}, which ST has no type for")
             e.decl = decl
             return decl.type
-        if layout.is_namespace(path):
-            return GlbPath(path)
-        names = [v["path"] for v in layout.variables.values() if v["path"].upper().startswith(base.name.upper() + ".")]
-        self.error(e.place, "undeclared", f"no shared variable '{path}' in {layout.file}{_close(path, names)}")
-        return None
+        return None  # pragma: no cover (callers look the path up first)
 
     def index(self, e: t.Index) -> ty.Type | None:
         base = self.value(e.base)
