@@ -611,7 +611,8 @@ def _same_storage(a: ty.Type, b: ty.Type) -> bool:
             and _same_storage(a.element, b.element)
         )
     if isinstance(a, ty.Elementary) and isinstance(b, ty.Elementary):
-        return a.cpp == b.cpp and (a.kind in ("time", "date", "tod", "dt")) == (b.kind in ("time", "date", "tod", "dt"))
+        timed = ("time", "date", "tod", "dt")
+        return a.cpp == b.cpp and (a.kind in timed) == (b.kind in timed)
     return a is b
 
 

@@ -15,6 +15,8 @@ def check_call(ck, c: t.Call, statement: bool) -> ty.Type | None:
     if isinstance(callee, t.Name):
         key = callee.name.upper()
         decl = ck.find_var(key)
+        if decl is not None and decl.kind == "RESULT":
+            decl = None  # `F(...)` inside FUNCTION F calls it (recursion() refuses that), F := assigns
         if decl is None:
             pou = ck.prog.pous.get(key)
             if pou is not None:
@@ -253,12 +255,16 @@ def _std_call(ck, c: t.Call, fn: stdlib.Function) -> ty.Type | None:
             if not ty.in_family(generic, p.family) and not (
                 p.family == "ANY_MAGNITUDE" and ty.in_family(generic, "ANY_NUM")
             ):
-                ck.error(a.place, "type", f"{fn.name}'s {p.name} is {p.family}, not {generic}")
+                ck.error(
+                    a.place,
+                    "type",
+                    f"{fn.name}'s {p.name} is {p.family}, not {generic}{_family_fix(generic, p.family)}",
+                )
                 return None
             ck.expect(a.value, generic, f"parameter {p.name}")
         elif p.type.startswith("ANY"):
             if not ty.in_family(at, p.type):
-                ck.error(a.place, "type", f"{fn.name}'s {p.name} is {p.type}, not {at}")
+                ck.error(a.place, "type", f"{fn.name}'s {p.name} is {p.type}, not {at}{_family_fix(at, p.type)}")
                 return None
             ck.settle(
                 a.value, ty.concrete(at) if p.type != "ANY_REAL" or not isinstance(at, ty.LiteralType) else ty.LREAL
@@ -284,3 +290,18 @@ def _std_call(ck, c: t.Call, fn: stdlib.Function) -> ty.Type | None:
 
 def _enum_same(a: ty.Type, b: ty.Type) -> ty.Type | None:
     return a if ty.same(a, b) or (ty.kind(a) == ty.kind(b) == "string") else None
+
+
+# The type a conversion into a generic family suggests (SQRT(i): "use INT_TO_LREAL(...)").
+_FAMILY_EXAMPLE = {
+    "ANY_REAL": "LREAL",
+    "ANY_INT": "DINT",
+    "ANY_NUM": "LREAL",
+    "ANY_BIT": "DWORD",
+    "ANY_MAGNITUDE": "LREAL",
+}
+
+
+def _family_fix(at: ty.Type, family: str) -> str:
+    conv = stdlib.conversion(str(ty.concrete(at)), _FAMILY_EXAMPLE.get(family, ""))
+    return f"; use {conv}(...)" if conv else ""

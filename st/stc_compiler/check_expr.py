@@ -366,6 +366,9 @@ class ExprChecker:
             for side, st in ((e.left, lt), (e.right, rt)):
                 self.settle(side, ty.concrete(st) if ty.kind(st) != "time" else ty.base(st))
             return timed
+        if op in ("/", "MOD") and e.right.const == 0 and e.left.const is None:
+            self.error(e.right.place, "division", "division by zero; divide by something other than 0")
+            return None
         if op == "MOD" and (c is None or ty.kind(c) not in ("int", "uint", "lit_int")):
             return self.mismatch(e, lt, rt, f"MOD needs two integers, not {lt} and {rt}")
         if c is None or ty.kind(c) not in NUMERIC:
@@ -397,7 +400,7 @@ class ExprChecker:
                 r = {"AND": a & b, "OR": a | b, "XOR": a ^ b}[op]
                 e.const = bool(r) if isinstance(a, bool) else r
             elif op in ("/", "MOD") and b == 0:
-                self.error(e.right.place, "division", "division by a constant zero; divide by something else")
+                self.error(e.right.place, "division", "division by zero; divide by something other than 0")
             elif op == "/":
                 e.const = (
                     a / b if isinstance(a, float) or isinstance(b, float) else int(a / b) if abs(a) < 2**52 else a // b
@@ -449,8 +452,7 @@ class ExprChecker:
             return False
         s, d = ty.concrete(src), ty.base(dst)
         conv = stdlib.conversion(str(s), str(d))
-        verb = "cannot assign" if what == "assignment" else f"the {what} is {d}:"
-        lead = f"cannot assign {s} to {d}" if what == "assignment" else f"{verb} cannot use {s}"
+        lead = f"cannot assign {s} to {d}" if what == "assignment" else f"the {what} is {d}, not {s}"
         if conv:
             narrowing = ty.kind(s) == ty.kind(d) or (ty.kind(s) in NUMERIC and ty.kind(d) in NUMERIC)
             why = " (it may lose data)" if narrowing else ""

@@ -9,19 +9,20 @@ from dataclasses import dataclass, field
 from . import types as ty
 from .errors import Place, StError
 
-# A C++ scalar's IEC type when layout.json gives no `iec_type` (the signed/unsigned integers, not the bit strings).
-_IEC_OF_CPP = {
-    "bool": "BOOL",
-    "int8_t": "SINT",
-    "int16_t": "INT",
-    "int32_t": "DINT",
-    "int64_t": "LINT",
-    "uint8_t": "USINT",
-    "uint16_t": "UINT",
-    "uint32_t": "UDINT",
-    "uint64_t": "ULINT",
-    "float": "REAL",
-    "double": "LREAL",
+# A scalar's IEC type when layout.json gives no `iec_type`, from its `scalars` entry (kind, size):
+# the signed and unsigned integers (not the bit strings), REAL, LREAL, BOOL.
+_IEC_OF_SCALAR = {
+    ("bool", 1): "BOOL",
+    ("signed", 1): "SINT",
+    ("signed", 2): "INT",
+    ("signed", 4): "DINT",
+    ("signed", 8): "LINT",
+    ("unsigned", 1): "USINT",
+    ("unsigned", 2): "UINT",
+    ("unsigned", 4): "UDINT",
+    ("unsigned", 8): "ULINT",
+    ("float", 4): "REAL",
+    ("float", 8): "LREAL",
 }
 
 
@@ -30,6 +31,7 @@ class Layout:
     file: str
     variables: dict[str, dict] = field(default_factory=dict)  # upper-case path -> layout.json variable
     types: dict[str, dict] = field(default_factory=dict)  # struct type name -> its entry
+    scalars: dict[str, dict] = field(default_factory=dict)  # C++ scalar spelling -> size, align, kind
     prefixes: set[str] = field(default_factory=set)  # upper-case namespace paths and their leading parts
     _structs: dict[str, ty.StructType] = field(default_factory=dict)
 
@@ -50,8 +52,10 @@ class Layout:
     def scalar_or_struct(self, iec: str | None, cpp: str) -> ty.Type | None:
         if iec and iec.upper() in ty.ELEMENTARY:
             return ty.ELEMENTARY[iec.upper()]
-        if cpp in _IEC_OF_CPP:
-            return ty.ELEMENTARY[_IEC_OF_CPP[cpp]]
+        scalar = self.scalars.get(cpp)
+        if scalar is not None:
+            name = _IEC_OF_SCALAR.get((scalar.get("kind"), scalar.get("size")))
+            return ty.ELEMENTARY[name] if name else None
         if cpp in self.types:
             return self._struct(cpp)
         return None
@@ -76,7 +80,7 @@ def load(path: str) -> Layout:
     try:
         with open(path, encoding="utf-8") as f:
             doc = json.load(f)
-        layout = Layout(path, types=dict(doc.get("types", {})))
+        layout = Layout(path, types=dict(doc.get("types", {})), scalars=dict(doc.get("scalars", {})))
         for var in doc["variables"]:
             layout.variables[var["path"].upper()] = var
             parts = var["path"].split(".")

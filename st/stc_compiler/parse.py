@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import functools
+import os
 import re
 import sys
 from pathlib import Path
@@ -25,7 +26,7 @@ _RECURSION_LIMIT = 8 * MAX_DEPTH + 2000  # what the recursive passes over a tree
 
 @functools.cache
 def parser() -> Lark:
-    return Lark(GRAMMAR.read_text(), parser="lalr", propagate_positions=True, maybe_placeholders=True)
+    return Lark(GRAMMAR.read_text(), parser="lalr", lexer="basic", propagate_positions=True, maybe_placeholders=True)
 
 
 def ensure_recursion_limit() -> None:
@@ -37,14 +38,18 @@ def ensure_recursion_limit() -> None:
 # ---- reading ----------------------------------------------------------------------------------
 
 
+def _too_large(name: str, size: int) -> StError:
+    return StError(
+        Place(name, 1, 1),
+        "too-large",
+        f"the file has {size} bytes, more than the limit of {MAX_SOURCE_BYTES} bytes; split it into several files",
+    )
+
+
 def decode(name: str, data: bytes) -> str:
     """The text of a source file, or a StError saying why it cannot be one."""
     if len(data) > MAX_SOURCE_BYTES:
-        raise StError(
-            Place(name, 1, 1),
-            "too-large",
-            f"the file has {len(data)} bytes, more than the limit of {MAX_SOURCE_BYTES} bytes; split it into several files",
-        )
+        raise _too_large(name, len(data))
     nul = data.find(b"\0")
     if nul >= 0:
         line = data.count(b"\n", 0, nul) + 1
@@ -62,6 +67,9 @@ def decode(name: str, data: bytes) -> str:
 def read(path: str) -> str:
     try:
         with open(path, "rb") as f:
+            size = os.fstat(f.fileno()).st_size
+            if size > MAX_SOURCE_BYTES:
+                raise _too_large(path, size)
             data = f.read(MAX_SOURCE_BYTES + 1)
     except OSError as e:
         raise StError(Place(path, 1, 1), "file", f"cannot read the file: {e.strerror}") from None
@@ -140,8 +148,9 @@ def _place_of(name: str, text: str, offset: int) -> Place:
 
 def parse_text(name: str, text: str) -> t.Unit:
     """One source file's text -> its Unit; raises StError."""
-    if len(text.encode("utf-8", "surrogatepass")) > MAX_SOURCE_BYTES:
-        decode(name, b" " * (MAX_SOURCE_BYTES + 1))
+    size = len(text.encode("utf-8", "surrogatepass"))
+    if size > MAX_SOURCE_BYTES:
+        raise _too_large(name, size)
     if "\0" in text:
         decode(name, text.encode("utf-8", "surrogatepass"))
     clean = strip_comments(name, text)
@@ -220,7 +229,7 @@ def _syntax_error(name: str, text: str, e: UnexpectedInput) -> StError:
     if at_end:
         return StError(_place_of(name, text, len(text)), "syntax", f"unexpected end of the file; expected {expected}")
     message = f"expected {expected}, found {_token_words(tok)}"
-    if _is_keyword(tok) and "IDENT" in accepted:
+    if _is_keyword(tok) and "IDENT" in accepted and "INTEGER" not in accepted:  # where a name, not an expression, goes
         message += f"; '{tok.value}' is a keyword: choose another name"
     return StError(Place(name, tok.line, tok.column), "syntax", message)
 
@@ -557,9 +566,9 @@ class Builder:
 
     def variable(self, node: Tree) -> t.Expr:
         first, *selectors = node.children
-        e: t.Expr = t.Name(self.place(first), str(first))
+        sp = self.place(first)  # `a.b[1].3` and its parts start where the variable starts
+        e: t.Expr = t.Name(sp, str(first))
         for s in selectors:
-            sp = self.place(s)
             if s.data == "field":
                 e = t.Member(sp, e, str(s.children[0]))
             elif s.data == "bit":
