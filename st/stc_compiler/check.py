@@ -15,6 +15,7 @@ from . import types as ty
 from .check_expr import ExprChecker
 from .errors import Collector, Place
 from .layout import Layout
+from .parse import ensure_recursion_limit, parse_text
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "glb"))
 from glbc_compiler import names as glb_names  # noqa: E402  (glbc's rules for C++-safe names: one truth)
@@ -41,14 +42,13 @@ STANDARD_LIBRARY = Path(__file__).resolve().parents[1] / "lib" / "standard.st"
 def library_units() -> list[t.Unit]:
     """st/lib/standard.st (TON, CTU, R_TRIG, ...), read with every program; parsed anew each time
     because check() fills its tree."""
-    from .parse import parse_text
-
     return [parse_text("standard.st", STANDARD_LIBRARY.read_text())]
 
 
 def check(units: list[t.Unit], layout: Layout | None = None, library: bool = True) -> Program:
     """Checks the units together (one set) with the standard library; raises StErrors listing
     every error found."""
+    ensure_recursion_limit()  # the passes recurse along trees parse.py let through (MAX_DEPTH)
     errors = Collector()
     prog = Program((library_units() if library else []) + units, layout=layout)
     Checker(prog, errors).run()
@@ -397,6 +397,7 @@ class Checker(ExprChecker):
         if not isinstance(e.const, int) or isinstance(e.const, bool) or ty.kind(typ) not in ("int", "uint", "lit_int"):
             self.error(e.place, "constant", f"{what} must be a constant integer expression (literals, CONSTANTs)")
             return None
+        self.settle(e, ty.concrete(typ))
         return e.const
 
     # ---- statements ----------------------------------------------------------------------------
@@ -499,6 +500,7 @@ class Checker(ExprChecker):
                 e.place, "constant", "a CASE label must be a constant (a literal, a CONSTANT or an enumeration value)"
             )
             return None
+        self.settle(e, sel)
         return int(e.const)
 
     # ---- recursion -----------------------------------------------------------------------------

@@ -20,9 +20,11 @@ def check_call(ck, c: t.Call, statement: bool) -> ty.Type | None:
         if decl is None:
             pou = ck.prog.pous.get(key)
             if pou is not None:
+                callee.decl = pou  # a function's name has no type of its own; the call has its result's
                 return _pou_call(ck, c, pou, statement)
             fn = stdlib.lookup(key)
             if fn is not None:
+                callee.decl = fn
                 return _std_call(ck, c, fn)
             for a in c.args:
                 if a.value is not None:

@@ -3,10 +3,13 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from conftest import compile_st, program
 from stc_compiler import tree as t
 from stc_compiler import types as ty
+from stc_compiler.check_expr import GlbPath
 
 DECLS = """
   b : BOOL; bt : BYTE; w : WORD; dw : DWORD; lw : LWORD;
@@ -300,3 +303,50 @@ def test_function_result_and_informal_call():
     call = prog.pous["MAIN"].body[0].value
     assert call.target is prog.pous["HYP"] and str(call.type) == "LREAL"
     assert prog.pous["HYP"].body[0].target.decl is prog.pous["HYP"].result
+
+
+def _expressions(node, seen=None):
+    """Every Expr under node (dataclass fields, lists, tuples), each once."""
+    seen = set() if seen is None else seen
+    if id(node) in seen:
+        return
+    seen.add(id(node))
+    if isinstance(node, t.Expr):
+        yield node
+    if isinstance(node, (list, tuple)):
+        for item in node:
+            yield from _expressions(item, seen)
+    elif isinstance(node, t.Node):
+        for name in node.__dataclass_fields__:
+            if name not in (
+                "type",
+                "const",
+                "decl",
+                "target",
+                "fb",
+                "param",
+                "owner",
+                "glb",
+                "enum",
+                "result",
+                "locals",
+                "uses",
+                "pou",
+            ):
+                yield from _expressions(getattr(node, name), seen)
+
+
+def test_after_check_every_expression_has_its_type_and_every_name_its_declaration():
+    seeds = Path(__file__).resolve().parents[2] / "fuzz" / "corpus" / "fuzz_st"
+    prog = compile_st({p.name: p.read_text() for p in sorted(seeds.glob("[cl]*.st"))})
+    exprs = list(_expressions(prog.units))
+    assert len(exprs) > 250
+    function_names = {id(e.callee) for e in exprs if isinstance(e, t.Call) and e.fb is None}
+    for e in exprs:
+        untyped = (isinstance(e, t.Call) and e.fb is not None) or id(e) in function_names  # FB calls, F in F(x)
+        assert e.type is not None or untyped, f"{e.place}: {type(e).__name__} has no type"
+        assert not isinstance(e.type, ty.LiteralType), f"{e.place}: {type(e).__name__} still untyped ({e.type})"
+        if isinstance(e, (t.Name, t.Member)) and not isinstance(e.type, GlbPath):
+            assert e.decl is not None, f"{e.place}: {e.name} has no declaration"
+        if isinstance(e, t.Call):
+            assert e.target is not None or e.fb is not None, f"{e.place}: a call without its target"
