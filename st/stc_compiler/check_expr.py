@@ -104,11 +104,9 @@ class ExprChecker:
     # ---- expressions ---------------------------------------------------------------------------
 
     def expr(self, e: t.Expr) -> ty.Type | None:
-        typ = self._expr(e)
-        e.type = typ
-        if isinstance(typ, GlbPath) and not getattr(e, "_inner", False):
-            pass
-        return typ
+        """The type of e (None after an error, which is reported); sets e.type and, when constant, e.const."""
+        e.type = self._expr(e)
+        return e.type
 
     def value(self, e: t.Expr) -> ty.Type | None:
         """expr() for a value: a namespace of the layout is not one."""
@@ -120,8 +118,6 @@ class ExprChecker:
                 f"'{typ.name}' is a namespace of the shared variables, not a variable; name one of its variables",
             )
             return None
-        if isinstance(typ, ty.FbType) and not isinstance(e, t.Call):
-            return typ
         return typ
 
     def _expr(self, e: t.Expr) -> ty.Type | None:
@@ -339,7 +335,7 @@ class ExprChecker:
         if op in ("AND", "OR", "XOR"):
             if c is None or ty.kind(c) not in ("bool", "bit", "lit_int"):
                 return self.mismatch(e, lt, rt, f"{op} needs two BOOLs or two bit strings, not {lt} and {rt}")
-            result = ty.concrete(c) if ty.kind(c) != "lit_int" else ty.concrete(c)
+            result = ty.concrete(c)
             self.settle_both(e, result)
             self.fold(e)
             return result
@@ -451,6 +447,12 @@ class ExprChecker:
             self.error(e.place, "range", f"{src.value} does not fit {dst} ({lo}..{hi}); use a wider type")
             return False
         s, d = ty.concrete(src), ty.base(dst)
+        if isinstance(d, ty.EnumType) and d.values:
+            first = next(iter(d.values.values())).name
+            self.error(
+                e.place, "type", f"cannot assign {s} to the enumeration {d}; give one of its values, e.g. {d}#{first}"
+            )
+            return False
         conv = stdlib.conversion(str(s), str(d))
         lead = f"cannot assign {s} to {d}" if what == "assignment" else f"the {what} is {d}, not {s}"
         if conv:

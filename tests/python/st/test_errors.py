@@ -323,6 +323,12 @@ from conftest import errors_of, program
             "the VAR_IN_OUT 'v' needs a variable, not an expression",
             id="in_out_needs_variable",
         ),
+        pytest.param(
+            "TYPE Color : (Red, Green); END_TYPE\n" + program("c : Color;", "c := 1;"),
+            (6, 6, "type"),
+            "cannot assign DINT to the enumeration Color; give one of its values, e.g. Color#Red",
+            id="enum_from_integer",
+        ),
     ],
 )
 def test_error(text: str, where: tuple[int, int, str], message: str):
