@@ -229,6 +229,8 @@ def _syntax_error(name: str, text: str, e: UnexpectedInput) -> StError:
     if at_end:
         return StError(_place_of(name, text, len(text)), "syntax", f"unexpected end of the file; expected {expected}")
     message = f"expected {expected}, found {_token_words(tok)}"
+    if tok.value == "=" and "':='" in {word(n) for n in accepted}:
+        message = "expected ':=' to assign (or to pass a parameter), found '='; '=' compares"
     if _is_keyword(tok) and "IDENT" in accepted and "INTEGER" not in accepted:  # where a name, not an expression, goes
         message += f"; '{tok.value}' is a keyword: choose another name"
     return StError(Place(name, tok.line, tok.column), "syntax", message)

@@ -24,6 +24,24 @@ _WORDS = {
 }
 _EXPRESSION_STARTS = {"IDENT", "INTEGER", "LPAR", "MINUS"}
 _STATEMENT_STARTS = {"IF", "FOR", "WHILE", "CASE", "REPEAT"}
+_OPERATORS = {
+    "PLUS",
+    "MINUS",
+    "STAR",
+    "SLASH",
+    "POW",
+    "MOD",
+    "AND",
+    "AMP",
+    "OR",
+    "XOR",
+    "EQ",
+    "NE",
+    "LT",
+    "GT",
+    "LE",
+    "GE",
+}
 
 
 @functools.cache
@@ -53,8 +71,12 @@ def describe_expected(expected) -> str:
         return "a statement" + (" or " + " or ".join(ends) if ends else "")
     if _EXPRESSION_STARTS <= names:
         return "an expression"
-    if {"SEMICOLON", "PLUS", "STAR"} <= names:
-        return "';' or an operator"
+    if "RPAR" in names and names - {"RPAR", "COMMA"} <= _OPERATORS:  # inside ( ): what closes it
+        return "',' or ')'" if "COMMA" in names else "')'"
+    operators = names & _OPERATORS
+    if len(operators) >= 5:  # what may end an expression here, or an operator continuing it
+        rest = sorted({word(n) for n in names - _OPERATORS})
+        return " or ".join(rest + ["an operator"])
     words = sorted({word(n) for n in names})
     if not words:
         return "nothing more"

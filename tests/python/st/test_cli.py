@@ -64,12 +64,15 @@ def test_several_files_make_one_program(write, tmp_path):
     assert run_stc(["check", "types.st", "main.st"], tmp_path).returncode == 0
 
 
-def test_syntax_error_in_one_file_and_type_errors_reported_together(write, tmp_path):
+def test_one_syntax_error_per_file_from_every_file(write, tmp_path):
     write("a.st", "PROGRAM A\n  x := \nEND_PROGRAM\n")
-    write("b.st", "PROGRAM B\nEND_PROGRAM\n")
+    write("b.st", "PROGRAM B\n  y := 1\nEND_PROGRAM\n")
     result = run_stc(["check", "a.st", "b.st"], tmp_path)
     assert result.returncode == 1
-    assert result.stderr.splitlines() == ["a.st:3:1: error[syntax]: expected an expression, found 'END_PROGRAM'"]
+    assert result.stderr.splitlines() == [
+        "a.st:3:1: error[syntax]: expected an expression, found 'END_PROGRAM'",
+        "b.st:2:9: error[syntax]: expected ';' after the assignment",
+    ]
 
 
 def test_usage_error_exits_2(tmp_path):

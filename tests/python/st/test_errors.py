@@ -329,6 +329,30 @@ from conftest import errors_of, program
             "cannot assign DINT to the enumeration Color; give one of its values, e.g. Color#Red",
             id="enum_from_integer",
         ),
+        pytest.param(
+            program("x : INT;", "x = 1;"),
+            (5, 3, "syntax"),
+            "expected ':=' to assign (or to pass a parameter), found '='; '=' compares",
+            id="syntax_equals_for_assignment",
+        ),
+        pytest.param(
+            program("x : INT;", "IF x > 1 x := 2; END_IF;"),
+            (5, 10, "syntax"),
+            "expected 'THEN' or an operator, found the name 'x'",
+            id="syntax_missing_then",
+        ),
+        pytest.param(
+            program("x : INT;", "x := (1 + 2;"),
+            (5, 12, "syntax"),
+            "expected ')', found ';'",
+            id="syntax_unclosed_parenthesis",
+        ),
+        pytest.param(
+            program("x : INT;", "WHILE x < 3 DO x := x + 1; END_FOR;"),
+            (5, 28, "syntax"),
+            "expected END_WHILE to close the WHILE of line 5, found 'END_FOR'",
+            id="syntax_wrong_end",
+        ),
     ],
 )
 def test_error(text: str, where: tuple[int, int, str], message: str):
