@@ -350,3 +350,26 @@ def test_after_check_every_expression_has_its_type_and_every_name_its_declaratio
             assert e.decl is not None, f"{e.place}: {e.name} has no declaration"
         if isinstance(e, t.Call):
             assert e.target is not None or e.fb is not None, f"{e.place}: a call without its target"
+
+
+def _shape(e) -> str:
+    if isinstance(e, t.Binary):
+        return f"({_shape(e.left)} {e.op} {_shape(e.right)})"
+    if isinstance(e, t.Unary):
+        return f"({e.op} {_shape(e.operand)})"
+    if isinstance(e, t.Literal):
+        return e.text
+    return e.name
+
+
+def test_iec_precedence():
+    main, _ = checked("b := b OR b XOR b AND r > -r ** 2.0 + r * 3.0 / r;", "b : BOOL; r : REAL;")
+    assert _shape(main.body[0].value) == "(b OR (b XOR (b AND (r > ((- (r ** 2.0)) + ((r * 3.0) / r))))))"
+    main, _ = checked("b := i = 1 & NOT b AND i MOD 2 <> 0;", "b : BOOL; i : INT;")
+    assert _shape(main.body[0].value) == "(((i = 1) AND (NOT b)) AND ((i MOD 2) <> 0))"
+
+
+def test_negated_output_argument():
+    main, _ = checked("t1(IN := TRUE, PT := T#1s, NOT Q => idle);", "t1 : TON; idle : BOOL;")
+    out = main.body[0].call.args[2]
+    assert (out.param.name, out.output, out.negated) == ("Q", True, True)
