@@ -17,6 +17,7 @@
 
 #include <gtest/gtest.h>
 
+#include <dlfcn.h>
 #include <signal.h>
 
 #include <algorithm>
@@ -501,4 +502,42 @@ TEST(DeviceSide, TheDrivesStoppingToAnswerRaiseThePlcsAlarm8WithItsTextClearedWh
     const json after = alarmSource(*cell.client, "main");
     EXPECT_GE(after["recorded"].get<int>(), 4);  // 8 raised and cleared, 1000 raised and cleared
     EXPECT_EQ(after["undeclared"], 0);
+}
+
+// ---- modules generated from Structured Text (docs/st-runtime.md) ----------------------------------
+// Written here by hand as the generator writes them, on the ST runtime <indurop/st/st.hpp>.
+
+// Whether the libindurop the modules load against has the flag the loop guard polls.
+bool libinduropHasRunAbort() {
+    void *lib = dlopen((std::string(BUILD_ROOT) + "/rtcore/libindurop.so").c_str(), RTLD_NOW | RTLD_LOCAL);
+    const bool has = lib && dlsym(lib, "_ZN3irp17runAbortRequestedEv");
+    if (lib) dlclose(lib);
+    return has;
+}
+
+// A division by zero faults through the runtime: the event names the ST file, line, column, program.
+TEST(StFault, ADivisionByZeroIsAFaultEventNamingTheStPlace) {
+    Cell cell(thread("Main", (kModules / "st_divide.so").string(), 2'000'000, 2));
+    ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("fault", "Main").empty(); }));
+    const json fault = cell.events("fault", "Main").at(0);
+    EXPECT_TRUE(contains(fault["message"], "run(): main.st:12:9: division by zero (PROGRAM Main)")) << fault.dump();
+    EXPECT_EQ(cell.module("Main").value("state", ""), "disabled") << cell.module("Main").dump();
+    EXPECT_EQ(cell.module("Main").value("errors", 0), 1);
+    EXPECT_EQ(cell.runs("Main"), 4u);
+    EXPECT_TRUE(cell.keepRuns());
+}
+
+// An endless WHILE: the overrun watchdog asks the run to end (irp::runAbortRequested()), the loop
+// guard throws naming the loop's line, the module is disabled and the rest runs on.
+TEST(StFault, AnEndlessLoopIsStoppedAndNamedByItsLine) {
+    if (!libinduropHasRunAbort()) GTEST_SKIP() << "this libindurop has no irp::runAbortRequested()";
+    Cell cell(thread("Main", (kModules / "st_loop.so").string(), 2'000'000, 2,
+                     "<on_overrun>disable</on_overrun><overrun_limit>2000000</overrun_limit>"));
+    ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("fault", "Main").empty(); }));
+    const json fault = cell.events("fault", "Main").at(0);
+    EXPECT_TRUE(contains(fault["message"], "run(): main.st:30:5: the run passed its overrun limit in the loop at "
+                                           "line 30: endless loop? (PROGRAM Main)"))
+        << fault.dump();
+    EXPECT_EQ(cell.module("Main").value("state", ""), "disabled") << cell.module("Main").dump();
+    EXPECT_TRUE(cell.keepRuns());
 }

@@ -79,7 +79,8 @@ protected:
 
     pou::Settings settings = testSettings();
     FakeRobot robot;
-    AxisGroupRef g = bindAxisGroup(robot.svc, robot.st);
+    GroupStatus status;
+    AxisGroupRef g = bindAxisGroup(robot.svc, robot.st, status);
     std::unique_ptr<pou::PickAndPlace> program;
     pou::Inputs in;
     pou::Outputs out;

@@ -525,6 +525,34 @@ TEST(Stop, ExecuteFallingWhileStoppingHoldsUntilStandstillAndShowsDoneOnce) {
     EXPECT_TRUE(next.Busy && !next.Error) << "the group is free again";
 }
 
+// The Structured Text runtime keeps every block instance in shared memory and copies it in and
+// out around each scan, so an instance is at another address in every call: a block must not
+// be known to the group by its address.
+TEST(Stop, AnInstanceCopiedInAndOutEveryScanStillReleasesTheGroup) {
+    Bench b;
+    b.robot.powerUp();
+    MC_Stop stored;                  // the copy in shared memory
+    std::array<MC_Stop, 16> images;  // the run's local copy: another place in each scan
+    std::size_t scans = 0;
+    auto scan = [&] {
+        MC_Stop &local = images.at(scans++);
+        local = stored;
+        b.robot.run();
+        local(b.g);
+        stored = local;
+    };
+    stored.Execute = true;
+    for (int i = 0; i < 10 && !stored.Done; ++i) scan();
+    ASSERT_TRUE(stored.Done);
+    stored.Execute = false;
+    scan();
+    MC_MoveAbsolute mv;
+    mv.Execute = true;
+    mv(b.g);
+    EXPECT_TRUE(mv.Busy) << "the group is free again";
+    EXPECT_FALSE(mv.Error) << "ErrorID " << mv.ErrorID;
+}
+
 // ---- MC_Reset ----------------------------------------------------------------------------------
 
 TEST(Reset, ClearsTheGroupsError) {

@@ -415,6 +415,78 @@ TEST_F(RobotModule, PowerOffWhileMovingStopsFirst) {
         }
 }
 
+// Op-code 7: a joint velocity motion (MC_MoveVelocity).  MotionDone while it holds the velocity,
+// Busy while it runs, until a later request takes over.
+TEST_F(RobotModule, MoveVelocityHoldsTheJointVelocitiesUntilAStop) {
+    powerOn();
+    const std::array<double, 6> v = {0.2, 0, 0, 0, 0, -0.1};
+    uint32_t seq = request(7, v, 0.0, 0.5);  // t_speed is not used by op-code 7
+    ROBOT_MODULE_STATE_t st = period();
+    EXPECT_EQ(st.nAckSeq, seq);
+    EXPECT_EQ(st.Busy, 1);
+    EXPECT_EQ(st.MotionDone, 0) << "accelerating";
+    EXPECT_EQ(st.eState, 2);
+    for (int i = 0; i < 200 && st.MotionDone == 0; ++i) st = period();
+    ASSERT_EQ(st.MotionDone, 1) << "at the commanded velocity";
+    for (int k = 0; k < 20; ++k) {
+        ROBOT_MODULE_STATE_t next = period();
+        EXPECT_EQ(next.MotionDone, 1);
+        EXPECT_EQ(next.Busy, 1) << "still running";
+        EXPECT_EQ(next.eState, 2);
+        for (int i = 0; i < 6; ++i) {
+            EXPECT_NEAR(next.dJointSpeed[i], v[i] * robot->limits().velocity[i], 1e-9) << "joint " << i + 1;
+            EXPECT_NEAR((next.dCmdJoint[i] - st.dCmdJoint[i]) / kDt, v[i] * robot->limits().velocity[i], 1e-6);
+        }
+        st = next;
+    }
+    uint32_t stop = request(5);
+    st = until(stop);
+    EXPECT_EQ(st.MotionDone, 1);
+    EXPECT_EQ(st.eState, 1);
+    EXPECT_EQ(st.Error, 0);
+    for (int i = 0; i < 6; ++i) EXPECT_EQ(st.dJointSpeed[i], 0);
+}
+
+TEST_F(RobotModule, MoveVelocityStopsAJointAtItsLimitWithErrorID2) {
+    powerOn();
+    uint32_t seq = request(7, {1, 0, 0, 0, 0, 0});
+    ROBOT_MODULE_STATE_t st = period();
+    for (int i = 0; i < 1000 && st.Error == 0; ++i) st = period();
+    ASSERT_EQ(st.Error, 1);
+    EXPECT_EQ(st.ErrorID, 2) << "outside limits, as a PLCopen axis at its software limit";
+    EXPECT_EQ(st.nAckSeq, seq);
+    EXPECT_EQ(st.eState, 4);
+    EXPECT_EQ(st.Powered, 1) << "a controlled stop: the drives stay on";
+    EXPECT_NEAR(st.dCmdJoint[0], robot->limits().upper[0], 1e-9) << "stopped at the limit, not past it";
+    for (size_t k = 2; k < states.size(); ++k) {
+        double a = (states[k].dCmdJoint[0] - 2 * states[k - 1].dCmdJoint[0] + states[k - 2].dCmdJoint[0]) / (kDt * kDt);
+        EXPECT_LE(std::abs(a), 8.0 + 1e-6) << "braked within the acceleration limit";
+        EXPECT_LE(states[k].dCmdJoint[0], robot->limits().upper[0] + 1e-12);
+    }
+    until(request(6));
+    st = until(request(7, {1, 0, 0, 0, 0, 0}));  // further into the limit: refused at once
+    EXPECT_EQ(st.Error, 1);
+    EXPECT_EQ(st.ErrorID, 2);
+    until(request(6));
+    seq = request(7, {-1, 0, 0, 0, 0, 0});  // away from it: accepted
+    st = period();
+    EXPECT_EQ(st.Error, 0);
+    EXPECT_EQ(st.Busy, 1);
+    EXPECT_LT(periods(5).dCmdJoint[0], robot->limits().upper[0]);
+}
+
+TEST_F(RobotModule, MoveVelocityRefusesFractionsOutsideMinusOneToOneAndAllZero) {
+    powerOn();
+    for (const std::array<double, 6> &bad :
+         {std::array<double, 6>{0, 0, 0, 0, 0, 0}, std::array<double, 6>{0, 1.5, 0, 0, 0, 0},
+          std::array<double, 6>{0, 0, std::nan(""), 0, 0, 0}}) {
+        ROBOT_MODULE_STATE_t st = until(request(7, bad));
+        EXPECT_EQ(st.Error, 1);
+        EXPECT_EQ(st.ErrorID, 2);
+        until(request(6));
+    }
+}
+
 // ---- refusals ---------------------------------------------------------------------------------------
 
 TEST_F(RobotModule, MotionRefusedWhenNotPowered) {
@@ -573,6 +645,10 @@ TEST_F(RobotModule, RunAllocatesNothing) {
     periods(10);
     request(3, {-0.5, 0.2, 0.1, -0.4, 1.0, 0.5});
     periods(10);
+    request(5);
+    periods(50);
+    request(7, {0.3, -0.2, 0, 0, 0, 0});
+    periods(30);
     request(5);
     periods(50);
     request(3, {9, 9, 9, 9, 9, 9});

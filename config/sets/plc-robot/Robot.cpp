@@ -38,7 +38,19 @@ namespace fs = std::filesystem;
 
 // ---- the contract's codes -------------------------------------------------------------------------
 
-enum Op : int32_t { kNone = 0, kPowerOn = 1, kPowerOff = 2, kMoveJ = 3, kMoveL = 4, kStop = 5, kReset = 6 };
+enum Op : int32_t {
+    kNone = 0,
+    kPowerOn = 1,
+    kPowerOff = 2,
+    kMoveJ = 3,
+    kMoveL = 4,
+    kStop = 5,
+    kReset = 6,
+    kMoveVelocity = 7,
+};
+
+// A velocity motion of joints without limits (continuous joints) ends after this long.
+constexpr double kMaxVelocityMotionSeconds = 3600.0;
 
 enum ErrorId : int32_t {
     kNotPowered = 1,
@@ -61,6 +73,7 @@ const char *opName(int32_t op) {
     case kMoveL: return "MoveL";
     case kStop: return "stop";
     case kReset: return "reset";
+    case kMoveVelocity: return "MoveVelocity";
     default: return "?";
     }
 }
@@ -208,9 +221,12 @@ public:
     void run();
 
 private:
-    // One planned motion: a MoveJ (or a joint-space stop) or a MoveL, started at t0 (task time).
+    // One planned motion: a MoveJ (or a joint-space stop, or a velocity motion) or a MoveL,
+    // started at t0 (task time).
     struct Motion {
         enum Kind { Joint, Cartesian } kind = Joint;
+        bool velocity = false;  // a MoveVelocity: a joint motion that ends at a joint limit
+        int limit_joint = -1;   // the joint whose limit ends it, or -1
         double t0 = 0;
         JointTrajectory joint;
         CartesianTrajectory *cart = nullptr;
@@ -224,6 +240,7 @@ private:
     void supervise();
     void takeRequest(const ServiceBlock &svc);
     void acceptMotion(const ServiceBlock &svc);
+    bool planVelocity(const ServiceBlock &svc, const Joints &from, Motion &m);
     void advanceMotion();
     void advanceRequest();
     void writeOutputs();
@@ -426,14 +443,15 @@ void RobotTask::takeRequest(const ServiceBlock &svc) {
         if (!moving()) done_ = true;
         return;
     case kMoveJ:
-    case kMoveL: return acceptMotion(svc);
+    case kMoveL:
+    case kMoveVelocity: return acceptMotion(svc);
     default: return refuse(kBadOpCode, "unknown eOpCode");
     }
 }
 
 void RobotTask::acceptMotion(const ServiceBlock &svc) {
     if (!powered() || power_off_after_stop_) return refuse(kNotPowered, "the drives are not in operation enabled");
-    const double speed = svc.t_speed, accel = svc.t_accel;
+    const double speed = op_ == kMoveVelocity ? 1.0 : svc.t_speed, accel = svc.t_accel;  // 7: dTarget has the speeds
     if (!(speed > 0) || !(accel > 0) || !std::isfinite(speed) || !std::isfinite(accel))
         return refuse(kOutsideLimits, "t_speed and t_accel must be in (0, 1]");
     for (double v : svc.dTarget)
@@ -452,7 +470,10 @@ void RobotTask::acceptMotion(const ServiceBlock &svc) {
     }
     Motion &m = motions_[slot];
     m.t0 = t0;
-    if (op_ == kMoveJ) {
+    m.velocity = false;
+    if (op_ == kMoveVelocity) {
+        if (!planVelocity(svc, from, m)) return;
+    } else if (op_ == kMoveJ) {
         Joints to;
         for (int i = 0; i < kAxes; ++i) to[i] = svc.dTarget[i];
         if (int j = robot_.outsideLimits(to); j >= 0) {
@@ -480,6 +501,46 @@ void RobotTask::acceptMotion(const ServiceBlock &svc) {
         active_ = slot;
 }
 
+// A velocity motion (op-code 7): every joint at dTarget[i] x its velocity limit, on the straight
+// line in joint space from `from`, is a MoveJ to the point of that line where the first joint
+// reaches its limit, at the speed fraction that makes its cruise exactly those velocities; the
+// trapezoid brakes in time to stop there.  False when refused.
+bool RobotTask::planVelocity(const ServiceBlock &svc, const Joints &from, Motion &m) {
+    const JointLimits &l = robot_.limits();
+    Joints w = Joints::Zero();  // rad/s
+    double fastest = 0;         // the largest |fraction|
+    for (int i = 0; i < kAxes; ++i) {
+        const double f = svc.dTarget[i];
+        if (!(std::abs(f) <= 1.0)) {
+            refuse(kOutsideLimits, "MoveVelocity: every dTarget must be a fraction in [-1, 1]");
+            return false;
+        }
+        w[i] = f * l.velocity[i];
+        fastest = std::max(fastest, std::abs(f));
+    }
+    if (fastest == 0) {
+        refuse(kOutsideLimits, "MoveVelocity: every dTarget is 0");
+        return false;
+    }
+    double horizon = kMaxVelocityMotionSeconds;  // s until the first joint reaches its limit
+    m.limit_joint = -1;
+    for (int i = 0; i < kAxes; ++i) {
+        if (w[i] == 0) continue;
+        const double to_limit = ((w[i] > 0 ? l.upper[i] : l.lower[i]) - from[i]) / w[i];
+        if (to_limit < horizon) horizon = to_limit, m.limit_joint = i;
+    }
+    if (!(horizon > 1e-9)) {
+        char why[80];
+        std::snprintf(why, sizeof why, "MoveVelocity: joint %d is at its limit in that direction", m.limit_joint + 1);
+        refuse(kOutsideLimits, why);
+        return false;
+    }
+    m.kind = Motion::Joint;
+    m.velocity = true;
+    m.joint.plan(from, from + w * horizon, l.velocity, config_.joint_accel, fastest, std::min(svc.t_accel, 1.0));
+    return true;
+}
+
 void RobotTask::advanceMotion() {
     while (active_ >= 0) {
         Motion &m = motions_[active_];
@@ -490,6 +551,8 @@ void RobotTask::advanceMotion() {
             q_cmd_ = s.q;
             qd_cmd_ = s.qd;
             done = s.done;
+            // A velocity request is "done" (MotionDone) while it holds its velocity: the cruise.
+            if (m.velocity && op_ == kMoveVelocity && !error_) done_ = !done && s.qdd.isZero(0) && !s.qd.isZero(0);
         } else {
             CartesianSample s = m.cart->sample(t);
             if (!s.ok) {
@@ -526,6 +589,16 @@ void RobotTask::advanceMotion() {
             power_off_after_stop_ = false;
             goal_ = cia402::Goal::Off;
             deadline_ = now_ + config_.power_timeout;
+        } else if (!error_ && m.velocity && op_ == kMoveVelocity) {
+            if (m.limit_joint >= 0) {  // as a PLCopen axis at its software limit: an error to reset
+                error_ = true;
+                error_id_ = kOutsideLimits;
+                done_ = false;
+                irp::printf("Robot: request %u (MoveVelocity): joint %d reached its limit and stopped there", ack_,
+                            m.limit_joint + 1);
+            } else {
+                done_ = true;
+            }
         } else if (!error_ && (op_ == kMoveJ || op_ == kMoveL || op_ == kStop)) {
             done_ = true;
         }
@@ -586,7 +659,8 @@ void RobotTask::writeOutputs() {
     StateBlock st{};
     st.nAXESGROUP = kAxes;
     st.MotionDone = done_ && !error_ ? 1 : 0;
-    st.Busy = !done_ && !error_ && op_ != kNone ? 1 : 0;
+    // A velocity motion is Busy while it runs, also once MotionDone says it holds its velocity.
+    st.Busy = !error_ && op_ != kNone && (!done_ || (op_ == kMoveVelocity && moving())) ? 1 : 0;
     st.Powered = powered() && !comm_lost_ ? 1 : 0;
     st.Error = error_ ? 1 : 0;
     st.ErrorID = error_ ? error_id_ : 0;

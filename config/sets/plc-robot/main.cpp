@@ -20,10 +20,12 @@ namespace {
 pou::Settings settings;
 std::optional<pou::PickAndPlace> program;  // the POU instance: its blocks keep their state between scans
 
-// The process image of the robot's service and state blocks; the motion blocks work on it.
+// The process image of the robot's service and state blocks; the motion blocks work on it, and
+// keep the PLC's own state of the group (which MC_Stop holds it) in groupStatus.
 PLC_ROBOT::ROBOT_MODULE_SERVICE_t service{};
 PLC_ROBOT::ROBOT_MODULE_STATE_t state{};
-plcopen::AxisGroupRef robot = plcopen::bindAxisGroup(service, state);
+plcopen::GroupStatus groupStatus{};
+plcopen::AxisGroupRef robot = plcopen::bindAxisGroup(service, state, groupStatus);
 
 pou::Inputs inputs;
 pou::Outputs outputs;

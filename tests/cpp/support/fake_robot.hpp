@@ -41,6 +41,8 @@ public:
     int powerCycles = 3;  // runs from taking a power request to its end
     int moveCycles = 5;   // runs of a move at speed 1 (scaled by 1 / t_speed)
     int stopCycles = 2;   // runs to standstill from a move
+    int rampCycles = 3;   // runs of a velocity motion (op-code 7) until it holds its velocity
+    int limitCycles = 0;  // then runs until a joint reaches its limit (ErrorID 2); 0: never
     bool powerOnTimesOut = false;
     bool resetFails = false;
     int resetBusyCycles = 0;  // a reset stays Busy (Error still 1) for this many runs
@@ -66,7 +68,17 @@ public:
         st.Powered = 0;
         refuse(id);
     }
-    bool moving() const { return remaining_ > 0 && (current_ == OpCode::MoveJ || current_ == OpCode::MoveL); }
+    bool moving() const {
+        return (remaining_ > 0 && (current_ == OpCode::MoveJ || current_ == OpCode::MoveL)) ||
+               (current_ == OpCode::MoveVelocity && st.eState == 2);
+    }
+    // The motion vanishes without an answer, as when Robot.so is reloaded while moving.
+    void dropMotion() {
+        remaining_ = 0;
+        st.Busy = 0;
+        st.MotionDone = 1;
+        st.eState = st.Powered ? 1 : 0;
+    }
     OpCode lastOp() const { return taken.empty() ? OpCode::None : taken.back().op; }
     std::vector<OpCode> ops(std::size_t from = 0) const {
         std::vector<OpCode> v;
@@ -106,7 +118,14 @@ private:
             if (!st.Powered) return refuse(1);
             if (unreachable && unreachable(r)) return refuse(r.op == OpCode::MoveJ ? 2 : 3);
             st.eState = 2;
+            target_ = r.target;
             return begin(static_cast<int>(std::ceil(moveCycles / r.speed)));
+        case OpCode::MoveVelocity:
+            if (inError()) return refuse(st.ErrorID);
+            if (!st.Powered) return refuse(1);
+            st.eState = 2;
+            inVelocity_ = false;
+            return begin(rampCycles);
         case OpCode::Stop:
             if (inError()) return refuse(st.ErrorID);
             if (st.eState == 2) {
@@ -145,6 +164,16 @@ private:
             if (!inError()) st.eState = 0;
             break;
         case OpCode::Reset: return finishReset();
+        case OpCode::MoveVelocity:  // holds its velocity (Busy stays 1), until a joint reaches its limit
+            if (inVelocity_) return refuse(2);
+            inVelocity_ = true;
+            st.MotionDone = 1;
+            remaining_ = limitCycles;
+            return;
+        case OpCode::MoveJ:  // at the target, and the drives there
+            for (int i = 0; i < kAxes; ++i) st.dCmdJoint[i] = st.dCurJoint[i] = target_[i];
+            st.eState = 1;
+            break;
         default: st.eState = 1; break;
         }
         st.Busy = 0;
@@ -161,12 +190,15 @@ private:
 
     int remaining_ = 0;
     OpCode current_ = OpCode::None;
+    Vec6 target_{};
+    bool inVelocity_ = false;
 };
 
 // A robot and the axis group bound to it.  Not copyable: the group points into the robot.
 struct Bench {
     FakeRobot robot;
-    AxisGroupRef g = bindAxisGroup(robot.svc, robot.st);
+    GroupStatus status;
+    AxisGroupRef g = bindAxisGroup(robot.svc, robot.st, status);
     Bench() = default;
     Bench(const Bench &) = delete;
 };

@@ -1,10 +1,12 @@
 // axis_group.h -- the robot as the motion function blocks see it: pointers to the fields of the
-// request/answer protocol of the plc-robot cell (docs/plc.md, notes of cell.glb), and the one
-// routine that writes a request.
+// request/answer protocol of the plc-robot cell (docs/plc.md, notes of cell.glb) and to the PLC's
+// own state of the group, and the one routine that writes a request.
 //
 // The blocks never name a shared variable: a program binds an AxisGroupRef to wherever those
 // fields live (the PLC's process image of ROBOT_MODULE_SERVICE / ROBOT_MODULE_STATE in main.cpp,
-// a simulated robot in the tests) with bindAxisGroup(service, state).
+// a simulated robot in the tests) with bindAxisGroup(service, state, status).  The reference is a
+// view, built once or in every scan: all the state the blocks keep between scans is in the blocks
+// and in the GroupStatus, plain values that may be copied in and out of shared memory.
 //
 // The protocol, requester side:
 //   - a request is eOpCode, t_speed, t_accel, dTarget[6], then nSeq = nSeq + 1 (nSeq last);
@@ -29,6 +31,7 @@ enum class OpCode : int32_t {
     MoveL = 4,  // dTarget: x y z (m), roll pitch yaw (rad), base frame
     Stop = 5,
     Reset = 6,
+    MoveVelocity = 7,  // dTarget: 6 joint velocities, signed fractions [-1, 1] of each joint's limit
 };
 
 // ROBOT_MODULE_STATE.eState
@@ -48,10 +51,22 @@ inline constexpr int32_t kInvalidParameter = 1001;  // Velocity/Acceleration out
 inline constexpr int32_t kGroupStopping = 1002;     // an MC_Stop holds the group (its Execute is still high)
 inline constexpr int32_t kNotBound = 1003;          // the AxisGroupRef lacks a field
 inline constexpr int32_t kUnspecified = 1004;       // the robot reported Error with ErrorID 0
+inline constexpr int32_t kMotionEnded = 1005;       // the robot ended a velocity motion on its own (no command)
 }  // namespace error
 
 // `a` is a later sequence number than `b` (wraps around like the uint32_t counters).
 constexpr bool seqAfter(uint32_t a, uint32_t b) { return static_cast<int32_t>(a - b) > 0; }
+
+// The PLC's own state of an axis group, shared by the blocks that command it (not part of the
+// protocol): which MC_Stop holds the group in "stopping", and whether MC_Home referenced it.
+// Plain values, so that a program keeps it wherever it keeps its variables (a shared variable).
+struct GroupStatus {
+    uint32_t StopSeq = 0;   // the request of the MC_Stop that holds the group
+    uint32_t HomeSeq = 0;   // the request of the last MC_Home
+    bool Stopping = false;  // an MC_Stop holds the group: motion commands are refused
+    bool Homing = false;    // HomeSeq was written by an MC_Home
+    bool Homed = false;     // an MC_Home finished; cleared when the group is seen unpowered
+};
 
 struct AxisGroupRef {
     // ROBOT_MODULE_SERVICE: written by the blocks.
@@ -69,14 +84,15 @@ struct AxisGroupRef {
     const int16_t *Error = nullptr;
     const int32_t *ErrorID = nullptr;
     const uint32_t *nAckSeq = nullptr;
+    const double *dCurJoint = nullptr;  // kAxes values: measured joint angles (rad)
+    const double *dCmdJoint = nullptr;  // kAxes values: commanded joint angles (rad)
 
-    // PLC-side bookkeeping shared by the blocks on this group (not part of the protocol): the
-    // MC_Stop instance that holds the group in "stopping", refusing motion commands, or null.
-    const void *stopHolder = nullptr;
+    // The PLC's state of the group, written by the blocks.
+    GroupStatus *status = nullptr;
 
     bool bound() const {
         return eOpCode && nSeq && t_speed && t_accel && dTarget && MotionDone && Busy && eState && Powered && Error &&
-               ErrorID && nAckSeq;
+               ErrorID && nAckSeq && dCurJoint && dCmdJoint && status;
     }
 
     // Writes one request (nSeq last) and returns its sequence number.  `target` (kAxes values) may
@@ -92,14 +108,22 @@ struct AxisGroupRef {
 
     bool inError() const { return *Error != 0 || *eState == static_cast<int16_t>(GroupState::ErrorStop); }
     int32_t errorId() const { return *ErrorID != 0 ? *ErrorID : error::kUnspecified; }
+    bool in(GroupState s) const { return *eState == static_cast<int16_t>(s); }
+
+    // What every block does first in a call on a bound group: a group seen unpowered is no longer
+    // homed (a robot is referenced again after its power returns).
+    void observe() const {
+        if (*Powered == 0) status->Homed = false;
+    }
 };
 
 // Binds to any pair of structs that carry the protocol's fields under their cell.glb names
-// (PLC_ROBOT::ROBOT_MODULE_SERVICE_t / ROBOT_MODULE_STATE_t, or a test's own).  Both must outlive
-// the reference.
+// (PLC_ROBOT::ROBOT_MODULE_SERVICE_t / ROBOT_MODULE_STATE_t, or a test's own) and to the group's
+// status.  All three must outlive the reference.
 template <class Service, class State>
-AxisGroupRef bindAxisGroup(Service &service, const State &state) {
+AxisGroupRef bindAxisGroup(Service &service, const State &state, GroupStatus &status) {
     static_assert(sizeof(service.dTarget) / sizeof(service.dTarget[0]) == kAxes, "dTarget holds 6 values");
+    static_assert(sizeof(state.dCurJoint) / sizeof(state.dCurJoint[0]) == kAxes, "dCurJoint holds 6 values");
     AxisGroupRef g;
     g.eOpCode = &service.eOpCode;
     g.nSeq = &service.nSeq;
@@ -113,6 +137,9 @@ AxisGroupRef bindAxisGroup(Service &service, const State &state) {
     g.Error = &state.Error;
     g.ErrorID = &state.ErrorID;
     g.nAckSeq = &state.nAckSeq;
+    g.dCurJoint = &state.dCurJoint[0];
+    g.dCmdJoint = &state.dCmdJoint[0];
+    g.status = &status;
     return g;
 }
 

@@ -7,9 +7,11 @@
 //     Dwell.IN = atPick; Dwell.PT = 200ms; Dwell(now); if (Dwell.Q) ...
 // Time is passed in by the caller (the scan's time, e.g. irp::cycle().planned_ns), so a timer is
 // exact with respect to the dispatcher's periods and a test can step it without sleeping.
+// Like the motion blocks (motion.h), each is a plain value: inputs, outputs, then its memory.
 #pragma once
 
 #include <chrono>
+#include <type_traits>
 
 namespace plcopen {
 
@@ -31,8 +33,7 @@ struct R_TRIG {
         return (*this)();
     }
 
-private:
-    bool M = false;
+    bool M = false;  // memory: CLK of the previous call
 };
 
 // Falling edge: Q is TRUE for the one call in which CLK goes TRUE -> FALSE.  M starts TRUE as in
@@ -51,8 +52,7 @@ struct F_TRIG {
         return (*this)();
     }
 
-private:
-    bool M = true;
+    bool M = true;  // memory: NOT CLK of the previous call
 };
 
 // On-delay: Q goes TRUE once IN has been TRUE for PT; ET is the time IN has been TRUE, at most PT.
@@ -70,9 +70,13 @@ struct TON {
         return (*this)(now);
     }
 
-private:
+    // Memory
     bool running_ = false;
     Time start_{0};
 };
+
+static_assert(std::is_trivially_copyable_v<R_TRIG> && std::is_standard_layout_v<R_TRIG>);
+static_assert(std::is_trivially_copyable_v<F_TRIG> && std::is_standard_layout_v<F_TRIG>);
+static_assert(std::is_trivially_copyable_v<TON> && std::is_standard_layout_v<TON>);
 
 }  // namespace plcopen

@@ -1,0 +1,34 @@
+// loop.hpp -- the loop guard: the generated code calls loopCheck(place) on every back-edge of a
+// FOR, WHILE and REPEAT loop (place: the loop's keyword).  When irpd asks the run in progress to
+// end (its overrun watchdog found it past its <overrun_limit>, with <on_overrun> disable or stop:
+// docs/faults.md), the next back-edge throws a RuntimeFault naming the loop's line, so an endless
+// loop stops there and is named, and the rest of the set runs on.  One inline call site.
+#pragma once
+
+#include <indurop/indurop.h>
+#include <indurop/st/fault.hpp>
+
+namespace irp {
+// libindurop's flag (<indurop/indurop.h>): true while the calling thread module's run must end.
+// Declared weak here, so that a module built with these headers still loads on a libindurop
+// without it (an older SDK); the guard then never fires and <on_overrun> alone applies.
+[[gnu::weak]] bool runAbortRequested() noexcept;
+}  // namespace irp
+
+namespace irp::st {
+
+// Whether this process's libindurop has the flag at all.
+inline bool runAbortAvailable() noexcept { return &::irp::runAbortRequested != nullptr; }
+
+// Whether irpd asked the calling module's run to end.
+inline bool runAbortRequested() noexcept { return runAbortAvailable() && ::irp::runAbortRequested(); }
+
+// The check with the flag read by the caller (loopCheck(place) below is the one the code calls).
+inline void loopCheck(const Place &place, bool abort) {
+    if (abort) [[unlikely]]
+        faultf(place, "the run passed its overrun limit in the loop at line %d: endless loop?", place.line);
+}
+
+inline void loopCheck(const Place &place) { loopCheck(place, runAbortRequested()); }
+
+}  // namespace irp::st
