@@ -287,6 +287,10 @@ class CrashRecord(IrpdShape):
     pid: int
     thread: int
     fault_address: str
+    pc: str | None = Field(description="the instruction the crashing thread was at (\"0x...\"); null for a signal sent from elsewhere")
+    code_module: str | None = Field(description="the module whose code holds that instruction; null: none (irpd's own code, a library)")
+    code_offset: str | None = Field(description="that instruction's offset from the module's load base (\"0x...\", as addr2line -e <module> takes it)")
+    source: str | None = Field(description="the source line of that instruction from the module's line table, e.g. \"main.st:12\"; null when not known (no line table: a stripped module)")
     sender_pid: int | None = Field(description="who sent the signal; null for a fault")
     cause: Literal["fault", "abort", "watchdog", "signal"]
     stuck: bool = Field(description="the watchdog's kill; `module` is the one a stalled dispatcher was stuck in")

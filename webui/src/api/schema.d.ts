@@ -2127,6 +2127,16 @@ export interface components {
              * @enum {string}
              */
             cause: "fault" | "abort" | "watchdog" | "signal";
+            /**
+             * Code Module
+             * @description the module whose code holds that instruction; null: none (irpd's own code, a library)
+             */
+            code_module: string | null;
+            /**
+             * Code Offset
+             * @description that instruction's offset from the module's load base ("0x...", as addr2line -e <module> takes it)
+             */
+            code_offset: string | null;
             /** Executor */
             executor: string | null;
             /** Fault Address */
@@ -2135,6 +2145,11 @@ export interface components {
             generation: number;
             /** Module */
             module: string | null;
+            /**
+             * Pc
+             * @description the instruction the crashing thread was at ("0x..."); null for a signal sent from elsewhere
+             */
+            pc: string | null;
             /** Pid */
             pid: number;
             /**
@@ -2150,6 +2165,11 @@ export interface components {
             signal: string;
             /** Signal Number */
             signal_number: number;
+            /**
+             * Source
+             * @description the source line of that instruction from the module's line table, e.g. "main.st:12"; null when not known (no line table: a stripped module)
+             */
+            source: string | null;
             /**
              * Stuck
              * @description the watchdog's kill; `module` is the one a stalled dispatcher was stuck in
