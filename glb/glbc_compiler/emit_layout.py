@@ -61,6 +61,7 @@ def type_id(v: Variable) -> str:
 
 
 def _variable(v: Variable) -> dict[str, Any]:
+    qualifier = {"retain": v.retain} if v.retain else {}  # absent when not qualified: older layouts unchanged
     return {
         "path": v.path,
         "namespace": v.namespace,
@@ -72,7 +73,7 @@ def _variable(v: Variable) -> dict[str, Any]:
         "align": v.align,
         "dims": list(v.dims),
         "lock": v.lock,
-    }
+    } | qualifier
 
 
 def layout_hash(types: dict[str, Any], variables: list[dict[str, Any]]) -> str:

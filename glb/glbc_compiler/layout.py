@@ -73,6 +73,7 @@ class Variable:
     types: list[StructType]  # the struct types it introduces, nested ones first
     offset: int = 0
     lock: int = 0
+    retain: str | None = None  # "retain" or "persistent": irpd saves and restores it (docs/retain.md)
 
     @property
     def path(self) -> str:
@@ -264,7 +265,7 @@ class _Builder:
         else:
             t = SCALARS[decl.type.cname]
         count = math.prod(dims)
-        var = Variable(ns, decl.name, t, dims, t.size * count, decl.loc, introduced)
+        var = Variable(ns, decl.name, t, dims, t.size * count, decl.loc, introduced, retain=decl.retain)
         var.offset = round_up(self.variables[-1].offset + self.variables[-1].size, CACHE_LINE) if self.variables else 0
         var.lock = len(self.variables)
         end = round_up(var.offset + var.size, CACHE_LINE)

@@ -48,6 +48,7 @@ class Decl:
     name: str
     loc: Loc  # the name
     dims: list[Dim] = field(default_factory=list)
+    retain: str | None = None  # a top-level declaration's qualifier: "retain" or "persistent"
 
 
 @dataclass

@@ -3874,6 +3874,39 @@ export interface components {
              */
             present: string[];
         };
+        /**
+         * RetainStore
+         * @description The retain store: RETAIN and PERSISTENT values kept in the state folder (docs/retain.md).
+         */
+        RetainStore: {
+            /**
+             * File
+             * @description the copy written last (or read at start); null: none yet
+             */
+            file: string | null;
+            /**
+             * Last Error
+             * @description why the last write failed; null once one succeeds
+             */
+            last_error: string | null;
+            /**
+             * Last Save Ns
+             * @description when this irpd last wrote a copy (CLOCK_REALTIME ns); null: not yet
+             */
+            last_save_ns: number | null;
+            /**
+             * Sequence
+             * @description the newest copy's sequence number (0: none)
+             */
+            sequence: number;
+            /**
+             * Variables
+             * @description how many variables the running layout declares retain or persistent
+             */
+            variables: number;
+        } & {
+            [key: string]: unknown;
+        };
         /** RobotJoint */
         RobotJoint: {
             /**
@@ -4409,6 +4442,8 @@ export interface components {
              * @description false: the dispatchers run SCHED_OTHER; periods are not guaranteed
              */
             realtime: boolean;
+            /** @description null: no state folder or no shared variables, nothing is kept */
+            retain: components["schemas"]["RetainStore"] | null;
             /** Running */
             running: boolean;
             /**
