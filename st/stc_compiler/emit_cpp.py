@@ -92,10 +92,10 @@ class _Unit:
             "",
         ]
         body = self.code.type_definitions(self.pous, pou, glob)
+        body += self.images(own, glob, glb)
         body += self.code.declarations(self.pous)
         body += self.code.places_text()
         body += functions
-        body += self.images(own, glob, glb)
         body += self.entry_points(own, glob, glb)
         body += [
             "}  // namespace",
