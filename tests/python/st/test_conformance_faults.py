@@ -125,6 +125,13 @@ def test_an_endless_loop_is_stopped_by_the_watchdog_naming_its_line(faults):
             "recursive call chain",
         ),
         ("PROGRAM P VAR new : INT; END_VAR new := 1; END_PROGRAM\n", "name", "C++ keyword"),
+        (
+            "FUNCTION index : INT VAR_INPUT x : INT; END_VAR index := x; END_FUNCTION\n"
+            "PROGRAM P VAR y : INT; END_VAR y := index(1); END_PROGRAM\n",
+            "name",
+            "generated C++ uses",
+        ),
+        ("PROGRAM P VAR_IN_OUT x : INT; END_VAR x := 1; END_PROGRAM\n", "unsupported", "by reference"),
     ],
 )
 def test_bad_input_is_refused_at_build(tmp_path, text, code, words):
