@@ -239,7 +239,7 @@ def test_strings_are_cut_at_their_length(conf):
     assert conf.string("Conf.sMid") == "world"  # MID(s, L := 5, P := 7)
     assert conf.string("Conf.sCat") == "abcde-xy"
     assert conf.string("Conf.ins") == "abcdef" and conf.string("Conf.del") == "abef"  # DELETE(s, L := 2, P := 3)
-    assert conf.string("Conf.rep") == "aXYdef" and conf.string("Conf.lft") == "ab" and conf.string("Conf.rgt") == "ef"
+    assert conf.string("Conf.rep") == "aXYef" and conf.string("Conf.lft") == "ab" and conf.string("Conf.rgt") == "ef"
 
 
 def test_the_layout_names_the_iec_types(conf):
