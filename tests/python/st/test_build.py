@@ -138,3 +138,15 @@ def test_every_standard_function_compiles_against_the_runtime(tmp_path):
     r = stc_build(tmp_path, {"std.st": standard_calls()})
     assert r.returncode == 0, r.stdout + r.stderr
     assert (tmp_path / "set" / "Std.so").is_file()
+
+
+def test_a_compile_error_of_the_generated_code_is_an_internal_error_at_the_st_line():
+    import sys
+
+    sys.path.insert(0, str(ROOT / "st"))
+    from stc_compiler.sdk import internal_errors
+
+    stderr = "main.st:12:9: error: no matching function for call to 'ADD(short int&, bool)'\nmore text\n"
+    [e] = internal_errors(stderr, "out/Main.cpp")
+    assert (e.file, e.line, e.col, e.code) == ("main.st", 12, 9, "internal")
+    assert "error of stc" in e.message and "out/Main.cpp" in e.message

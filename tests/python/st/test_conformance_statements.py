@@ -58,7 +58,7 @@ VAR
   sLen : INT; sFind : INT; sMid : STRING[10]; sCat : STRING[20];
   caseA : INT; caseB : INT; caseC : INT;
   i : INT; j : INT;
-  forDown : DINT; forCount : INT; forEnd : INT;
+  forDown : DINT; forCount : INT; forEnd : INT; toMax : INT; toMaxRuns : INT;
   nested : INT; cont : INT;
   whileN : INT; repeatN : INT;
   calls : INT; fnResult : DINT;
@@ -113,6 +113,7 @@ VAR_TEMP k : INT; END_VAR
     forCount := forCount + 1;
   END_FOR;
   forEnd := i;
+  FOR toMax := 32760 TO 32767 DO toMaxRuns := toMaxRuns + 1; END_FOR;
   FOR i := 1 TO 5 DO
     FOR j := 1 TO 5 DO
       IF j = 3 THEN EXIT; END_IF;
@@ -181,6 +182,8 @@ EXPECTED = {
     "forDown": 10070401,
     "forCount": 4,
     "forEnd": -2,
+    "toMaxRuns": 8,  # ends at the type's maximum (the step does not overflow into an endless loop)
+    "toMax": -32768,  # end + step, wrapped as the addition wraps
     "nested": 8,
     "cont": 2,
     "whileN": 8,
