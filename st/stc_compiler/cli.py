@@ -85,16 +85,21 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     args = _arguments().parse_args(argv)
     if args.command == "build":
-        return _build(args, argv)
+        return _run(lambda: _build(args, argv), args.json)
+    return _run(lambda: front(args.files, args.layout), args.json)
+
+
+def _run(command, as_json: bool) -> int:
+    """Runs a command; its errors reported, 0 or INPUT_ERROR."""
     try:
-        front(args.files, args.layout)
+        command()
     except StErrors as e:
-        _report(e.errors, args.json)
+        _report(e.errors, as_json)
         return INPUT_ERROR
     except StError as e:
-        _report([e], args.json)
+        _report([e], as_json)
         return INPUT_ERROR
-    if args.json:
+    if as_json:
         print("[]")
     return 0
 
@@ -107,7 +112,7 @@ def _report(errors: list[StError], as_json: bool) -> None:
             print(e, file=sys.stderr)
 
 
-def _build(args, argv: list[str]) -> int:
+def _build(args, argv: list[str]) -> None:
     from .build import Options, build
 
     opts = Options(
@@ -122,14 +127,4 @@ def _build(args, argv: list[str]) -> int:
         args.cxx,
         args.jobs,
     )
-    try:
-        build(opts, argv)
-    except StErrors as e:
-        _report(e.errors, args.json)
-        return INPUT_ERROR
-    except StError as e:
-        _report([e], args.json)
-        return INPUT_ERROR
-    if args.json:
-        print("[]")
-    return 0
+    build(opts, argv)

@@ -8,6 +8,7 @@ from __future__ import annotations
 from . import stdlib
 from . import tree as t
 from . import types as ty
+from .check_expr import _text
 from .emit_glb import EMPTY_FB_FIELD, fb_fields, globals_blocks, stored
 
 # The runtime spells the points in time of 64-bit ns once: the L-forms are the same values.
@@ -650,13 +651,3 @@ def _type_name(typ) -> str:
 def _scalar(typ) -> bool:
     b = ty.base(typ) if typ is not None else None
     return isinstance(b, (ty.Elementary, ty.LiteralType, ty.EnumType))
-
-
-def _text(e: t.Expr) -> str:
-    if isinstance(e, t.Name):
-        return e.name
-    if isinstance(e, t.Member):
-        return f"{_text(e.base)}.{e.name}"
-    if isinstance(e, t.Index):
-        return f"{_text(e.base)}[...]"
-    return "..."
