@@ -287,7 +287,7 @@ class CrashRecord(IrpdShape):
     pid: int
     thread: int
     fault_address: str
-    pc: str | None = Field(description="the instruction the crashing thread was at (\"0x...\"); null for a signal sent from elsewhere")
+    pc: str | None = Field(description="the instruction the crashing thread was at (\"0x...\") for a fault; null for a signal that was sent (a kill, irpd's own abort)")
     code_module: str | None = Field(description="the module whose code holds that instruction; null: none (irpd's own code, a library)")
     code_offset: str | None = Field(description="that instruction's offset from the module's load base (\"0x...\", as addr2line -e <module> takes it)")
     source: str | None = Field(description="the source line of that instruction from the module's line table, e.g. \"main.st:12\"; null when not known (no line table: a stripped module)")

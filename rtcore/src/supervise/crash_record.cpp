@@ -147,8 +147,9 @@ void onCrash(int sig, siginfo_t *info, void *context) {
     w.field("set_id", c.set_id);
     w.field("generation", c.generation);
     w.text("fault_address="), w.hex(reinterpret_cast<uintptr_t>(info ? info->si_addr : nullptr)), w.text("\n");
-    // Where the crashing thread was, and in whose code (a table of numbers: dladdr is not
-    // async-signal-safe).  A signal sent from elsewhere interrupts whatever: no place for it.
+    // For a fault: the instruction, and in whose code (a table of numbers: dladdr is not
+    // async-signal-safe).  A signal that was sent (a kill, irpd's own abort) finds the thread
+    // wherever it was: that place says nothing.
     if (const uintptr_t pc = sent ? 0 : interruptedPc(context)) {
         w.text("pc="), w.hex(pc), w.text("\n");
         if (findModuleCode(pc, g_handler.code)) {

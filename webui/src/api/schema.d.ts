@@ -2147,7 +2147,7 @@ export interface components {
             module: string | null;
             /**
              * Pc
-             * @description the instruction the crashing thread was at ("0x..."); null for a signal sent from elsewhere
+             * @description the instruction the crashing thread was at ("0x...") for a fault; null for a signal that was sent (a kill, irpd's own abort)
              */
             pc: string | null;
             /** Pid */
