@@ -4,6 +4,7 @@
 
 #include "dispatch/running_marker.hpp"
 #include "events/event_log.hpp"
+#include "osal/atomic_file.hpp"
 #include "supervise/module_code.hpp"
 #include "supervise/source_line.hpp"
 
@@ -194,19 +195,6 @@ std::string readText(const std::filesystem::path &p) {
     return s.str();
 }
 
-// Writes `text` to `path` through a temporary file and a rename.
-bool writeAtomically(const std::filesystem::path &path, const std::string &text) {
-    const std::filesystem::path tmp = path.string() + ".tmp";
-    {
-        std::ofstream out(tmp, std::ios::trunc);
-        out << text;
-        if (!out) return false;
-    }
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
-    return !ec;
-}
-
 }  // namespace
 
 std::optional<CrashRecord> parseCrashRecord(const std::string &text) {
@@ -389,8 +377,7 @@ Status CrashState::saveExcluded() const {
     }
     std::string text;
     for (const auto &[module, set] : excluded_) text += module + "\t" + set + "\n";
-    if (!writeAtomically(path, text)) return Error{"cannot write " + path.string()};
-    return Ok{};
+    return osal::writeAtomically(path, text);
 }
 
 Status CrashState::exclude(const std::string &set, const std::string &module) {
