@@ -328,7 +328,7 @@ Result<std::unique_ptr<CrashState>> CrashState::open(const std::filesystem::path
                 r.source = sourceLine(r.code_image, std::strtoull(r.code_offset.c_str(), nullptr, 16));
                 if (!r.source.empty()) text += "source=" + r.source + "\n";
             }
-            if (writeAtomically(last, text))
+            if (osal::writeAtomically(last, text))
                 std::filesystem::remove(record, ec);
             else
                 std::filesystem::rename(record, last, ec);
