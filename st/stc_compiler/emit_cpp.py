@@ -19,7 +19,7 @@ RESET_LINE = "#line RESET"  # replaced by the .cpp's own line once the text is c
 GENERATED_NAMES = frozenset(
     "Place String ENUM index range loopCheck forStarts forStep cycleTime store copyIn writeBack getBit setBit "
     "NEG programBody fbBody startInstance runInstance Globals Bound global global0 bound bound0 self self0 "
-    "initial fresh freshRetained globalInitial start run".upper().split()
+    "initial fresh freshRetained globalInitial safeOutputs start run".upper().split()
 )
 LOCAL_NAMES = frozenset({"SELF", "FB_", "R_"})  # the generated code's own locals in a POU's body
 
@@ -207,15 +207,38 @@ class _Unit:
             out.append("    static const Globals globalInitial{};")
             for g in glob:
                 if g.location is None:
-                    ref = f"::{self.code.global_namespace(g)}::{g.name}"
-                    out.append(f"    if (fresh) store({ref}, globalInitial.{g.name});")
+                    ns_g = self.code.global_namespace(g)
+                    cond = "true" if f"{ns_g}.{g.name}" in self.added else "fresh"
+                    out.append(f"    if ({cond}) store(::{ns_g}::{g.name}, globalInitial.{g.name});")
         out += [f"    {ns}::{INIT_FLAG}.store(true);", "}", ""]
+        outputs = [v for v in own if v.kind == "VAR_OUTPUT"]
+        if outputs:
+            out += [
+                "// A run that faults: the PROGRAM's outputs (VAR_OUTPUT) go to their safe values, their initial",
+                "// values, before irpd disables the module.",
+                "void safeOutputs() {",
+                f"    static const {pou.name} initial{{}};",
+            ]
+            for v in outputs:
+                ref = _glb_ref(v.glb) if v.location is not None else f"{ns}::{v.name}"
+                out.append(f"    store({ref}, initial.{v.name});")
+            out += ["}", ""]
         out += [
             "// run(): one period.  A fault throws past the write-back: a faulting run writes nothing.",
             "void runInstance() {",
         ]
         out += [f"    copyIn({ref}, {local}, {snap});" for ref, local, snap in copies]
-        out.append("    programBody(self);")
+        if outputs:
+            out += [
+                "    try {",
+                "        programBody(self);",
+                "    } catch (...) {",
+                "        safeOutputs();",
+                "        throw;",
+                "    }",
+            ]
+        else:
+            out.append("    programBody(self);")
         out += [f"    writeBack({ref}, {local}, {snap});" for ref, local, snap in copies]
         out += ["}", ""]
         return out
