@@ -114,7 +114,11 @@ class CodeEmitter:
             for g in block.decls:
                 self.namespaces[id(g)] = block.namespace
         self.enum_decls = {id(d.type): d for d in prog.types.values() if isinstance(d.type, ty.EnumType)}
-        self.type_decls = {id(d.type): d for d in prog.types.values() if d.type is not None}
+        # a named type's own initial value (TYPE Color : (...) := Green;); not for an alias of an
+        # elementary type, whose type object is the elementary type itself
+        self.type_decls = {
+            id(d.type): d for d in prog.types.values() if d.type is not None and not isinstance(d.type, ty.Elementary)
+        }
 
     # ---- places (faults) -------------------------------------------------------------------------
 

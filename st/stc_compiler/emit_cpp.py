@@ -94,11 +94,13 @@ class _Unit:
     def touched(self) -> tuple[list[t.VarDecl], list[t.VarDecl], list[t.VarDecl]]:
         """(the program's own variables, the VAR_GLOBALs, the .glb variables) its code reaches."""
         own, glob, glb = {}, {}, {}
+        used: set[int] = set()  # the program's own declarations its body names
         for pou in [self.inst.pou] + self.pous:
             for n in walk_names(pou.body):
                 d = n.decl
                 if not isinstance(d, t.VarDecl):
                     continue
+                used.add(id(d))
                 if d.kind == "GLB":
                     glb[d.glb["path"]] = d
                 elif d.kind == "VAR_EXTERNAL" or d.kind == "VAR_GLOBAL":
@@ -108,6 +110,7 @@ class _Unit:
         for v in self.inst.pou.vars:
             if stored(v) or (v.location is not None and v.glb is not None):
                 own[v.name.upper()] = v
+        self.used = used
         return list(own.values()), list(glob.values()), list(glb.values())
 
     # ---- the file ------------------------------------------------------------------------------
@@ -176,6 +179,8 @@ class _Unit:
         ns = f"::{inst.name}"
         copies = []  # (ref, local, snapshot)
         for v in own:
+            if id(v) not in self.used:
+                continue  # copied only where the code touches it (its initial value is written below)
             ref = _glb_ref(v.glb) if v.location is not None else f"{ns}::{v.name}"
             copies.append((ref, f"self.{v.name}", f"self0.{v.name}"))
         for g in glob:
