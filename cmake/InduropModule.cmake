@@ -26,7 +26,8 @@
 #       <Instance>.cpp and <Instance>.so per PROGRAM instance (compiled by stc with the flags of the
 #       modules above, against this SDK: INDUROP_SDK_PREFIX) and module.xml (MODULE_XML's modules
 #       kept).  GLB: the set's .glb files, laid out first; SET_LAYOUT: the layout the set's C++
-#       modules were built against (an indurop_add_glb's); PREVIOUS: the running layout.
+#       modules were built against (an indurop_add_glb's); PREVIOUS: the running layout.  <name>_glb
+#       is an INTERFACE target with <dir> as include folder, for C++ modules that use the ST variables.
 
 if(NOT DEFINED INDUROP_GLBC)
   if(EXISTS "${CMAKE_CURRENT_LIST_DIR}/../glb/glbc")
@@ -90,6 +91,10 @@ function(indurop_add_glb name)
   target_include_directories(${name} INTERFACE ${dir})
   add_dependencies(${name} ${name}_glbc)
   set_target_properties(${name} PROPERTIES INDUROP_LAYOUT ${dir}/layout.json)
+  # C++ modules of the set that use the ST variables too: indurop_add_module(... GLB <name>_glb)
+  add_library(${name}_glb INTERFACE)
+  target_include_directories(${name}_glb INTERFACE ${dir})
+  add_dependencies(${name}_glb ${name})
 endfunction()
 
 function(_indurop_link target)
@@ -163,4 +168,8 @@ function(indurop_add_st name)
     add_dependencies(${name} indurop)   # stc links the modules to this tree's libindurop
   endif()
   set_target_properties(${name} PROPERTIES INDUROP_LAYOUT ${dir}/layout.json)
+  # C++ modules of the set that use the ST variables too: indurop_add_module(... GLB <name>_glb)
+  add_library(${name}_glb INTERFACE)
+  target_include_directories(${name}_glb INTERFACE ${dir})
+  add_dependencies(${name}_glb ${name})
 endfunction()
