@@ -310,7 +310,7 @@ class CodeEmitter:
         if isinstance(s, t.If):
             out = []
             for i, (cond, body) in enumerate(s.branches):
-                out.append(f"{'if' if i == 0 else '} else if'} ({self.expr(cond)}) {{")
+                out.append(f"{'if' if i == 0 else '} else if'} ({_bare(self.expr(cond))}) {{")
                 out += self.nested(body)
             if s.orelse:
                 out.append("} else {")
@@ -322,7 +322,7 @@ class CodeEmitter:
             return self.for_loop(s)
         if isinstance(s, t.While):
             guard = f"loopCheck({self.place(s)});"
-            return [f"while ({self.expr(s.cond)}) {{", f"    {guard}"] + self.nested(s.body) + ["}"]
+            return [f"while ({_bare(self.expr(s.cond))}) {{", f"    {guard}"] + self.nested(s.body) + ["}"]
         if isinstance(s, t.Repeat):
             guard = f"loopCheck({self.place(s)});"
             return ["do {", f"    {guard}"] + self.nested(s.body) + [f"}} while (!({self.expr(s.cond)}));"]
@@ -352,7 +352,7 @@ class CodeEmitter:
                     tests.append(f"{sel} == {lo}")
                 else:
                     tests.append(f"({sel} >= {lo} && {sel} <= {literal(label.high.const, typ)})")
-            out.append(f"    {'if' if first else '} else if'} ({' || '.join(tests)}) {{")
+            out.append(f"    {'if' if first else '} else if'} ({_bare(' || '.join(tests))}) {{")
             first = False
             out += _indent(self.nested(branch.body))
         if s.orelse:
@@ -429,6 +429,8 @@ class CodeEmitter:
     def conv(self, e: t.Expr, dst, cast: bool = False) -> str:
         """e's value as a dst: IEC's implicit widening made explicit; a literal typed for dst."""
         src = e.type
+        if isinstance(ty.base(dst), ty.EnumType) and e.const is not None:
+            return self.expr(e)  # the value with its name in a comment
         if e.const is not None and not isinstance(e.const, str) and _scalar(dst):
             code = literal(e.const, dst)
             if isinstance(ty.base(dst), ty.Elementary) and ty.base(dst).kind == "time" and isinstance(e, t.Literal):
@@ -639,6 +641,18 @@ class CodeEmitter:
         if src == dst:
             return value
         return f"{src}_TO_{dst}({value})"
+
+
+def _bare(code: str) -> str:
+    """`(a == b)` -> `a == b` where the parentheses enclose the whole (an if's own make them redundant)."""
+    if not (code.startswith("(") and code.endswith(")")):
+        return code
+    depth = 0
+    for i, c in enumerate(code):
+        depth += {"(": 1, ")": -1}.get(c, 0)
+        if depth == 0 and i < len(code) - 1:
+            return code
+    return code[1:-1]
 
 
 def _indent(lines: list[str]) -> list[str]:
