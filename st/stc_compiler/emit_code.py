@@ -385,11 +385,16 @@ class CodeEmitter:
     def assign(self, target: t.Expr, value: t.Expr, s) -> list[str]:
         if isinstance(target, t.BitAccess):
             return [f"setBit<{target.bit}>({self.lvalue(target.base)}, {self.conv(value, ty.BOOL)});"]
-        code = self.conv(value, target.type)
-        if isinstance(target.type, ty.SubrangeType):
-            st = target.type
-            code = f"range({self.place(s)}, {code}, {st.low}, {st.high})"
-        return [f"{self.lvalue(target)} = {code};"]
+        return [f"{self.lvalue(target)} = {self.ranged(value, target.type, s)};"]
+
+    def ranged(self, value: t.Expr, typ, node: t.Node) -> str:
+        """value converted to typ; checked against a subrange (a fault naming node's place)."""
+        code = self.conv(value, typ)
+        if isinstance(typ, ty.SubrangeType) and not (
+            isinstance(value.const, int) and typ.low <= value.const <= typ.high
+        ):
+            code = f"range({self.place(node)}, {code}, {typ.low}, {typ.high})"
+        return code
 
     def call_statement(self, c: t.Call) -> list[str]:
         if c.fb is None:
@@ -407,7 +412,7 @@ class CodeEmitter:
             if p is None:
                 continue
             if p.kind == "VAR_INPUT" and a.value is not None:
-                out.append(f"{inst}.{p.name} = {self.conv(a.value, p.type)};")
+                out.append(f"{inst}.{p.name} = {self.ranged(a.value, p.type, a)};")
             elif p.kind == "VAR_IN_OUT":
                 inouts[p.name.upper()] = self.lvalue(a.value)
             elif p.kind == "VAR_OUTPUT" and a.value is not None:
@@ -573,7 +578,7 @@ class CodeEmitter:
             a = by_param.get(id(v))
             if v.kind == "VAR_INPUT":
                 args.append(
-                    self.conv(a.value, v.type)
+                    self.ranged(a.value, v.type, a)
                     if a is not None
                     else f"{cpp_type(v.type)}{{{self.initial(v.init, v.type)}}}"
                 )

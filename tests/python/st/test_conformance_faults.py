@@ -52,6 +52,20 @@ VAR x : DINT; go : BOOL; END_VAR
   END_IF;
 END_PROGRAM
 
+TYPE Percent : INT (0..100); END_TYPE
+
+FUNCTION_BLOCK Valve
+VAR_INPUT open : Percent; END_VAR
+VAR_OUTPUT flow : INT; END_VAR
+  flow := open * 2;
+END_FUNCTION_BLOCK
+
+PROGRAM Ranged
+VAR v : Valve; k : INT := 90; END_VAR
+  k := k + 5;
+  v(open := k);
+END_PROGRAM
+
 PROGRAM Alive
 VAR n : DINT; END_VAR
   n := n + 1;
@@ -64,6 +78,7 @@ CONFIGURATION Cell
     PROGRAM Idx WITH Fast : Indexed;
     PROGRAM Loop WITH Fast : Spin;
     PROGRAM Beat WITH Fast : Alive;
+    PROGRAM Rng WITH Fast : Ranged;
   END_RESOURCE
 END_CONFIGURATION
 """
@@ -115,6 +130,12 @@ def test_an_endless_loop_is_stopped_by_the_watchdog_naming_its_line(faults):
     assert "faults.st:20:5" in text and "endless loop?" in text and "(PROGRAM Spin)" in text, text
     before = faults.value("Beat.n")
     wait_until(lambda: faults.value("Beat.n") > before + 5)  # the rest of the set runs on
+
+
+def test_an_fb_input_outside_its_subrange_is_a_fault_at_the_argument(faults):
+    text = fault_of(faults, "Rng")
+    assert "faults.st:37:5: value 105 is outside the subrange 0..100 (PROGRAM Ranged)" in text, text
+    assert faults.value("Rng.v.flow") == 200  # the last complete run: open = 100
 
 
 @pytest.mark.parametrize(
