@@ -38,8 +38,29 @@ def name_problems(prog: Program) -> list[StError]:
                         f"'{decl.name}' is a name the generated C++ uses (the ST runtime); rename the {what}",
                     )
                 )
+        bindings = [v for pou in unit.pous for v in pou.vars] + list(unit.globals)
+        bindings += [g for conf in unit.configurations for g in conf.vars + [x for r in conf.resources for x in r.vars]]
+        for v in bindings:
+            if v.location is not None and v.glb is None:
+                errors.append(
+                    StError(
+                        v.place,
+                        "binding",
+                        f"{v.location} is a shared variable of the set's layout: give stc build the set's .glb files "
+                        "(--glb) or its layout (--set-layout)",
+                    )
+                )
         for pou in unit.pous:
             for v in pou.vars:
+                if v.location is not None and pou.kind != "PROGRAM":
+                    errors.append(
+                        StError(
+                            v.place,
+                            "unsupported",
+                            f"an AT binding belongs in a PROGRAM or a VAR_GLOBAL, not in a {pou.kind}; "
+                            "bind it there and pass the value in",
+                        )
+                    )
                 if v.name.upper() in LOCAL_NAMES:
                     errors.append(
                         StError(v.place, "name", f"'{v.name}' is a name the generated C++ uses; rename the variable")

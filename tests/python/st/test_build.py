@@ -171,3 +171,11 @@ def test_an_installed_sdk_prefix(tmp_path):
     assert (tmp_path / "set" / "P.so").is_file()
     r = stc_build(tmp_path, program, "--sdk", str(tmp_path / "nothing"))
     assert r.returncode == 1 and json.loads(r.stdout)[0]["code"] == "sdk"
+
+
+def test_an_at_binding_needs_the_sets_layout(tmp_path):
+    program = {"p.st": "PROGRAM P VAR go AT %IO.start : INT; END_VAR go := 1; END_PROGRAM\n"}
+    r = stc_build(tmp_path, program, "--no-compile")
+    assert r.returncode == 1
+    [e] = json.loads(r.stdout)
+    assert e["code"] == "binding" and "--glb" in e["message"] and e["line"] == 1
