@@ -38,7 +38,7 @@ def front(opts: Options) -> tuple[Program, list]:
     try:
         glb = emit_glb.read_glb(opts.glb)
         if opts.set_layout is not None:
-            layout = load_layout(opts.set_layout)
+            layout = _without_st(load_layout(opts.set_layout))
         elif glb:
             layout = from_document(emit_glb.glb_only_document(glb), opts.glb[0])
     except emit_glb.GlbError as e:
@@ -92,6 +92,20 @@ def build(opts: Options, argv: list[str]) -> list[str]:
     if errors:
         raise StErrors(errors)
     return [os.path.join(opts.out, f"{i.name}.so") for i, _ in cpps]
+
+
+def _without_st(layout):
+    """The set's layout as the checker sees it: its .glb variables.  Variables stc declared (they have an
+    `iec_type`) are the previous build's ST variables, declared again now: a set rebuilt in place."""
+    for key in [k for k, v in layout.variables.items() if v.get("iec_type")]:
+        del layout.variables[key]
+    layout.prefixes = {p for v in layout.variables.values() for p in _prefixes(v["path"])}
+    return layout
+
+
+def _prefixes(path: str) -> list[str]:
+    parts = path.split(".")
+    return [".".join(parts[:i]).upper() for i in range(1, len(parts))]
 
 
 def _first_place(prog: Program, opts: Options):

@@ -179,3 +179,15 @@ def test_an_at_binding_needs_the_sets_layout(tmp_path):
     assert r.returncode == 1
     [e] = json.loads(r.stdout)
     assert e["code"] == "binding" and "--glb" in e["message"] and e["line"] == 1
+
+
+def test_a_set_rebuilt_in_place(tmp_path):
+    """OUT is the set's folder: its layout.json and module.xml, written by the last build, are given
+    again as --set-layout and --module-xml; the ST namespaces in them are the program's own."""
+    program = {"p.st": TASKS}
+    assert stc_build(tmp_path, program, "--no-compile").returncode == 0
+    out = tmp_path / "set"
+    again = ("--no-compile", "--set-layout", str(out / "layout.json"), "--module-xml", str(out / "module.xml"))
+    r = stc_build(tmp_path, program, *again)
+    assert r.returncode == 0, r.stdout
+    assert list(modules(out / "module.xml")) == ["./Quick.so", "./Lazy.so"]
