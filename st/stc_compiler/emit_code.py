@@ -178,6 +178,8 @@ class CodeEmitter:
         for p in pous:
             for v in p.vars:
                 need(v.type)
+            if p.return_type is not None:
+                need(p.return_type)
             if p.kind == "FUNCTION_BLOCK":
                 emit_fb(p)
         for v in program.vars:

@@ -42,8 +42,8 @@ def instances(prog: Program) -> list[Instance]:
                     )
                 )
     if not prog.configurations:
-        user = [p for p in prog.pous.values() if p.kind == "PROGRAM" and p.place.file != "standard.st"]
-        out = [Instance(p.name, p, DEFAULT_INTERVAL_NS, DEFAULT_PRIORITY, p.place, "") for p in user]
+        programs = [p for p in prog.pous.values() if p.kind == "PROGRAM"]  # the standard library has none
+        out = [Instance(p.name, p, DEFAULT_INTERVAL_NS, DEFAULT_PRIORITY, p.place, "") for p in programs]
     for inst in out:
         if inst.interval_ns <= 0:
             raise StError(inst.place, "task", f"the INTERVAL of {inst.name}'s task must be more than 0, e.g. T#10ms")

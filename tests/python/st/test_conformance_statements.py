@@ -20,6 +20,12 @@ VAR_IN_OUT calls : INT; END_VAR
   Twice := v * 2;
 END_FUNCTION
 
+FUNCTION Mid : Point
+VAR_INPUT a : Point; b : Point; END_VAR
+  Mid.x := (a.x + b.x) / 2.0;
+  Mid.y := (a.y + b.y) / 2;
+END_FUNCTION
+
 FUNCTION Split : BOOL
 VAR_INPUT v : INT; END_VAR
 VAR_OUTPUT hi : INT; lo : INT; END_VAR
@@ -66,7 +72,7 @@ VAR
   col : Color := Blue; wasBlue : BOOL;
   arr : ARRAY[1..3, 0..1] OF INT;
   arrSum : INT;
-  p : Point;
+  p : Point; q : Point := (x := 3.5, y := 2); m : Point;
   w : WORD := 16#00F0; bit4 : BOOL; bit0 : BOOL;
   shifted : BYTE;
   r : REAL;
@@ -133,6 +139,7 @@ VAR_TEMP k : INT; END_VAR
   arr[3, 1] := 9; arr[1, 0] := 1;
   FOR i := 1 TO 3 DO FOR j := 0 TO 1 DO arrSum := arrSum + arr[i, j]; END_FOR; END_FOR;
   p.y := p.y * 2;
+  m := Mid(p, q);
   bit4 := w.4; bit0 := w.0;
   w.0 := TRUE;
   shifted := SHL(BYTE#16#81, 1);
@@ -196,6 +203,8 @@ EXPECTED = {
     "arrSum": 10,
     "p.x": 1.5,
     "p.y": 14,
+    "m.x": 2.5,  # a FUNCTION returning a STRUCT
+    "m.y": 8,
     "bit4": 1,
     "bit0": 0,
     "w": 0xF1,
