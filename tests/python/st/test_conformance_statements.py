@@ -20,10 +20,10 @@ VAR_IN_OUT calls : INT; END_VAR
   Twice := v * 2;
 END_FUNCTION
 
-FUNCTION Mid : Point
+FUNCTION Midpoint : Point
 VAR_INPUT a : Point; b : Point; END_VAR
-  Mid.x := (a.x + b.x) / 2.0;
-  Mid.y := (a.y + b.y) / 2;
+  Midpoint.x := (a.x + b.x) / 2.0;
+  Midpoint.y := (a.y + b.y) / 2;
 END_FUNCTION
 
 FUNCTION Split : BOOL
@@ -139,7 +139,7 @@ VAR_TEMP k : INT; END_VAR
   arr[3, 1] := 9; arr[1, 0] := 1;
   FOR i := 1 TO 3 DO FOR j := 0 TO 1 DO arrSum := arrSum + arr[i, j]; END_FOR; END_FOR;
   p.y := p.y * 2;
-  m := Mid(p, q);
+  m := Midpoint(p, q);
   bit4 := w.4; bit0 := w.0;
   w.0 := TRUE;
   shifted := SHL(BYTE#16#81, 1);
