@@ -36,13 +36,24 @@ def build_errors(folder: Path, files: dict[str, str], *extra: str) -> list[dict]
 class Running:
     """A built ST set running in irpd."""
 
-    def __init__(self, folder: Path, files: dict[str, str], *extra: str) -> None:
+    def __init__(self, folder: Path, files: dict[str, str], *extra: str, irpd: tuple = ()) -> None:
         r = stc_build(folder, files, *extra)
         assert r.returncode == 0, r.stdout + r.stderr
         self.folder = folder
         self.instance = f"st-{folder.name[-24:]}-{id(self) % 100000}"
+        self.irpd_args = irpd
+        self.start()
+
+    def start(self) -> None:
+        """irpd on the built set (again, after close())."""
+        folder = self.folder
         self.process = start_irpd(
-            folder / "irpd.sock", folder / "set" / "module.xml", self.instance, "--no-rt", log=folder / "irpd.log"
+            folder / "irpd.sock",
+            folder / "set" / "module.xml",
+            self.instance,
+            "--no-rt",
+            *self.irpd_args,
+            log=folder / "irpd.log",
         )
         self.client = IrpdClient(str(folder / "irpd.sock"), timeout_s=30)
         wait_dispatching(self.client)
@@ -79,6 +90,14 @@ class Running:
         return self.client.request("load", config=str(self.folder / out / "module.xml"))
 
     def close(self) -> None:
+        """Stops irpd; the values it had last are in segment_values_at_close."""
+        if self.process.poll() is not None:
+            return
+        self.segment.refresh()
+        leaves = self.segment.layout["leaves"]
+        self.segment_values_at_close = {
+            leaf["path"]: v for leaf, v in zip(leaves, self.segment.values(leaves), strict=True)
+        }
         self.segment.close()
         self.client.close()
         stop(self.process)
