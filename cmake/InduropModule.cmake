@@ -29,20 +29,19 @@
 #       modules were built against (an indurop_add_glb's); PREVIOUS: the running layout.  <name>_glb
 #       is an INTERFACE target with <dir> as include folder, for C++ modules that use the ST variables.
 
-if(NOT DEFINED INDUROP_GLBC)
-  if(EXISTS "${CMAKE_CURRENT_LIST_DIR}/../glb/glbc")
-    set(INDUROP_GLBC "${CMAKE_CURRENT_LIST_DIR}/../glb/glbc")                # source tree
-  else()
-    find_program(INDUROP_GLBC glbc REQUIRED)                                  # installed package
+# The compilers: glbc and stc from this source tree, else the installed package's (on the PATH).
+foreach(_indurop_tool "GLBC;glb/glbc;glbc" "STC;st/stc;stc")
+  list(GET _indurop_tool 0 _indurop_var)
+  list(GET _indurop_tool 1 _indurop_in_tree)
+  list(GET _indurop_tool 2 _indurop_program)
+  if(NOT DEFINED INDUROP_${_indurop_var})
+    if(EXISTS "${CMAKE_CURRENT_LIST_DIR}/../${_indurop_in_tree}")
+      set(INDUROP_${_indurop_var} "${CMAKE_CURRENT_LIST_DIR}/../${_indurop_in_tree}")
+    else()
+      find_program(INDUROP_${_indurop_var} ${_indurop_program} REQUIRED)
+    endif()
   endif()
-endif()
-if(NOT DEFINED INDUROP_STC)
-  if(EXISTS "${CMAKE_CURRENT_LIST_DIR}/../st/stc")
-    set(INDUROP_STC "${CMAKE_CURRENT_LIST_DIR}/../st/stc")                   # source tree
-  else()
-    find_program(INDUROP_STC stc REQUIRED)                                    # installed package
-  endif()
-endif()
+endforeach()
 if(NOT DEFINED INDUROP_SDK_PREFIX)
   set(INDUROP_SDK_PREFIX "${CMAKE_BINARY_DIR}")   # this tree's build folder (the package config sets its prefix)
 endif()
