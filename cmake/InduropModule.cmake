@@ -18,25 +18,60 @@
 #   indurop_add_process(<name> SOURCES <src>... [GLB <glb target>] [OUTPUT_DIRECTORY <dir>] [LIBRARIES <lib>...])
 #       A process module: an executable <name>.exe linked to libindurop (symbols exported so that
 #       libindurop can check the layout it was built against).
+#
+#   indurop_add_st(<name> SOURCES <a.st>... [GLB <a.glb>...] [SET_LAYOUT <layout.json>]
+#                  [PREVIOUS <layout.json>] [MODULE_XML <module.xml>] [OUTPUT_DIRECTORY <dir>])
+#       Structured Text: runs `stc build` at build time (docs/st-compiler.md), which writes into <dir>
+#       (default ${CMAKE_CURRENT_BINARY_DIR}/<name>) layout.json, indurop/generated.h, one
+#       <Instance>.cpp and <Instance>.so per PROGRAM instance (compiled by stc with the flags of the
+#       modules above, against this SDK: INDUROP_SDK_PREFIX) and module.xml (MODULE_XML's modules
+#       kept).  GLB: the set's .glb files, laid out first; SET_LAYOUT: the layout the set's C++
+#       modules were built against (an indurop_add_glb's); PREVIOUS: the running layout.  <name>_glb
+#       is an INTERFACE target with <dir> as include folder, for C++ modules that use the ST variables.
 
-if(NOT DEFINED INDUROP_GLBC)
-  if(EXISTS "${CMAKE_CURRENT_LIST_DIR}/../glb/glbc")
-    set(INDUROP_GLBC "${CMAKE_CURRENT_LIST_DIR}/../glb/glbc")                # source tree
-  else()
-    find_program(INDUROP_GLBC glbc REQUIRED)                                  # installed package
+# The compilers: glbc and stc from this source tree, else the installed package's (on the PATH).
+foreach(_indurop_tool "GLBC;glb/glbc;glbc" "STC;st/stc;stc")
+  list(GET _indurop_tool 0 _indurop_var)
+  list(GET _indurop_tool 1 _indurop_in_tree)
+  list(GET _indurop_tool 2 _indurop_program)
+  if(NOT DEFINED INDUROP_${_indurop_var})
+    if(EXISTS "${CMAKE_CURRENT_LIST_DIR}/../${_indurop_in_tree}")
+      set(INDUROP_${_indurop_var} "${CMAKE_CURRENT_LIST_DIR}/../${_indurop_in_tree}")
+    else()
+      find_program(INDUROP_${_indurop_var} ${_indurop_program} REQUIRED)
+    endif()
   endif()
+endforeach()
+if(NOT DEFINED INDUROP_SDK_PREFIX)
+  set(INDUROP_SDK_PREFIX "${CMAKE_BINARY_DIR}")   # this tree's build folder (the package config sets its prefix)
 endif()
 find_package(Python3 3.11 REQUIRED COMPONENTS Interpreter)
+
+# <out> = the files given, as absolute paths.
+function(_indurop_absolute out)
+  set(files)
+  foreach(f ${ARGN})
+    get_filename_component(abs ${f} ABSOLUTE)
+    list(APPEND files ${abs})
+  endforeach()
+  set(${out} ${files} PARENT_SCOPE)
+endfunction()
+
+# <out> = the OUTPUT_DIRECTORY given, else ${CMAKE_CURRENT_BINARY_DIR}/<name>.
+function(_indurop_output_dir out name given)
+  if(given)
+    set(${out} ${given} PARENT_SCOPE)
+  else()
+    set(${out} ${CMAKE_CURRENT_BINARY_DIR}/${name} PARENT_SCOPE)
+  endif()
+endfunction()
 
 function(indurop_add_glb name)
   cmake_parse_arguments(ARG "" "OUTPUT_DIRECTORY;PREVIOUS" "GLB" ${ARGN})
   if(NOT ARG_GLB)
     message(FATAL_ERROR "indurop_add_glb(${name}): GLB <file.glb>... is required")
   endif()
-  set(dir ${ARG_OUTPUT_DIRECTORY})
-  if(NOT dir)
-    set(dir ${CMAKE_CURRENT_BINARY_DIR}/${name})
-  endif()
+  _indurop_output_dir(dir ${name} "${ARG_OUTPUT_DIRECTORY}")
   set(previous "")
   set(previous_option "")
   if(ARG_PREVIOUS)
@@ -47,11 +82,7 @@ function(indurop_add_glb name)
       set(previous ${abs})
     endif()
   endif()
-  set(inputs)
-  foreach(f ${ARG_GLB})
-    get_filename_component(abs ${f} ABSOLUTE)
-    list(APPEND inputs ${abs})
-  endforeach()
+  _indurop_absolute(inputs ${ARG_GLB})
   get_filename_component(glbc_dir ${INDUROP_GLBC} DIRECTORY)
   file(GLOB_RECURSE glbc_sources ${glbc_dir}/*.py)
   add_custom_command(
@@ -65,6 +96,10 @@ function(indurop_add_glb name)
   target_include_directories(${name} INTERFACE ${dir})
   add_dependencies(${name} ${name}_glbc)
   set_target_properties(${name} PROPERTIES INDUROP_LAYOUT ${dir}/layout.json)
+  # C++ modules of the set that use the ST variables too: indurop_add_module(... GLB <name>_glb)
+  add_library(${name}_glb INTERFACE)
+  target_include_directories(${name}_glb INTERFACE ${dir})
+  add_dependencies(${name}_glb ${name})
 endfunction()
 
 function(_indurop_link target)
@@ -98,4 +133,45 @@ function(indurop_add_process name)
     set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${ARG_OUTPUT_DIRECTORY})
   endif()
   _indurop_link(${name} GLB ${ARG_GLB} LIBRARIES ${ARG_LIBRARIES})
+endfunction()
+
+function(indurop_add_st name)
+  cmake_parse_arguments(ARG "" "OUTPUT_DIRECTORY;SET_LAYOUT;PREVIOUS;MODULE_XML" "SOURCES;GLB" ${ARGN})
+  if(NOT ARG_SOURCES)
+    message(FATAL_ERROR "indurop_add_st(${name}): SOURCES <file.st>... is required")
+  endif()
+  _indurop_output_dir(dir ${name} "${ARG_OUTPUT_DIRECTORY}")
+  set(args -o ${dir} --sdk ${INDUROP_SDK_PREFIX} --cxx ${CMAKE_CXX_COMPILER})
+  _indurop_absolute(inputs ${ARG_SOURCES})
+  _indurop_absolute(glb ${ARG_GLB})
+  set(depends ${inputs} ${glb})
+  foreach(f ${glb})
+    list(APPEND args --glb ${f})
+  endforeach()
+  foreach(opt SET_LAYOUT PREVIOUS MODULE_XML)
+    if(ARG_${opt})
+      get_filename_component(abs ${ARG_${opt}} ABSOLUTE)
+      string(TOLOWER ${opt} flag)
+      string(REPLACE "_" "-" flag ${flag})
+      list(APPEND args --${flag} ${abs})
+      list(APPEND depends ${abs})
+    endif()
+  endforeach()
+  get_filename_component(stc_dir ${INDUROP_STC} DIRECTORY)
+  file(GLOB_RECURSE stc_sources ${stc_dir}/*.py ${stc_dir}/lib/*.st)
+  add_custom_command(
+    OUTPUT ${dir}/module.xml ${dir}/layout.json ${dir}/indurop/generated.h
+    COMMAND ${Python3_EXECUTABLE} ${INDUROP_STC} build ${args} ${inputs}
+    DEPENDS ${depends} ${INDUROP_STC} ${stc_sources}
+    COMMENT "stc build ${ARG_SOURCES} -> ${dir}"
+    VERBATIM)
+  add_custom_target(${name} ALL DEPENDS ${dir}/module.xml)
+  if(TARGET indurop)
+    add_dependencies(${name} indurop)   # stc links the modules to this tree's libindurop
+  endif()
+  set_target_properties(${name} PROPERTIES INDUROP_LAYOUT ${dir}/layout.json)
+  # C++ modules of the set that use the ST variables too: indurop_add_module(... GLB <name>_glb)
+  add_library(${name}_glb INTERFACE)
+  target_include_directories(${name}_glb INTERFACE ${dir})
+  add_dependencies(${name}_glb ${name})
 endfunction()

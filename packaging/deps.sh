@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config   # toolchain
-  python3 python3-venv                           # glbc, the Python tests
+  python3 python3-venv python3-lark              # glbc, stc (st/), the Python tests
   libpugixml-dev nlohmann-json3-dev              # module.xml, JSON output
   libssl-dev                                     # SHA-256 of module files (hot reload)
   libelf-dev                                     # a module's identity: its loadable sections (online change)

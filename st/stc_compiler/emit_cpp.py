@@ -1,0 +1,296 @@
+# emit_cpp.py -- the checked tree -> one C++20 translation unit per PROGRAM instance: a thread module
+# (start() and run(), docs/modules.md) against st/runtime (irp::st) and glbc's generated.h.  run()
+# copies in the shared variables the code touches (the process image), runs the PROGRAM on those
+# locals and writes back what changed; every statement carries `#line N "file.st"`.  Expressions and
+# statements are in emit_code.py; the standard functions' C++ names come from stdlib.py's table.
+
+from __future__ import annotations
+
+from . import tree as t
+from . import types as ty
+from .check import Program
+from .emit_code import CodeEmitter, cpp_type, literal, walk_names
+from .emit_glb import EMPTY_FB_FIELD, INIT_FLAG, RETAIN_INIT_FLAG, Instance, fb_fields, stored
+from .errors import StError
+
+RESET_LINE = "#line RESET"  # replaced by the .cpp's own line once the text is complete
+# Names the generated code uses unqualified besides the standard functions: the runtime's helpers and
+# types (irp::st) and the generated scaffolding.  A POU or type of the same name would hide them.
+GENERATED_NAMES = frozenset(
+    "Place String ENUM index range loopCheck forStarts forStep cycleTime store copyIn writeBack getBit setBit "
+    "NEG programBody fbBody startInstance runInstance Globals Bound global global0 bound bound0 self self0 "
+    "initial fresh freshRetained globalInitial safeOutputs start run".upper().split()
+)
+LOCAL_NAMES = frozenset({"SELF", "FB_", "R_"})  # the generated code's own locals in a POU's body
+
+
+def name_problems(prog: Program) -> list[StError]:
+    """POUs, types and locals whose names the generated C++ needs for itself: an error asking to rename."""
+    errors = []
+    for unit in prog.units:
+        for decl in list(unit.pous) + list(unit.types):
+            if decl.name.upper() in GENERATED_NAMES:
+                what = getattr(decl, "kind", "type")
+                errors.append(
+                    StError(
+                        decl.place,
+                        "name",
+                        f"'{decl.name}' is a name the generated C++ uses (the ST runtime); rename the {what}",
+                    )
+                )
+        bindings = [v for pou in unit.pous for v in pou.vars] + list(unit.globals)
+        bindings += [g for conf in unit.configurations for g in conf.vars + [x for r in conf.resources for x in r.vars]]
+        for v in bindings:
+            if v.location is not None and v.glb is None:
+                errors.append(
+                    StError(
+                        v.place,
+                        "binding",
+                        f"{v.location} is a shared variable of the set's layout: give stc build the set's .glb files "
+                        "(--glb) or its layout (--set-layout)",
+                    )
+                )
+        for pou in unit.pous:
+            for v in pou.vars:
+                if v.location is not None and pou.kind != "PROGRAM":
+                    errors.append(
+                        StError(
+                            v.place,
+                            "unsupported",
+                            f"an AT binding belongs in a PROGRAM or a VAR_GLOBAL, not in a {pou.kind}; "
+                            "bind it there and pass the value in",
+                        )
+                    )
+                if v.name.upper() in LOCAL_NAMES:
+                    errors.append(
+                        StError(v.place, "name", f"'{v.name}' is a name the generated C++ uses; rename the variable")
+                    )
+            if pou.kind == "PROGRAM":
+                for v in pou.vars:
+                    if v.kind == "VAR_IN_OUT":
+                        errors.append(
+                            StError(
+                                v.place,
+                                "unsupported",
+                                "a PROGRAM run by a task has nothing to pass by reference: declare it VAR, "
+                                "VAR_EXTERNAL or bind it with AT",
+                            )
+                        )
+    return errors
+
+
+def generate(prog: Program, inst: Instance, added: set[str], sources: list[str]) -> str:
+    """The .cpp of one PROGRAM instance.  `added`: the paths of variables the layout added against
+    the previous one (online change): start() gives them their initial values even when the other
+    variables keep theirs."""
+    return _Unit(prog, inst, added, sources).render()
+
+
+class _Unit:
+    def __init__(self, prog: Program, inst: Instance, added: set[str], sources: list[str]) -> None:
+        self.prog, self.inst, self.added, self.sources = prog, inst, added, sources
+        self.code = CodeEmitter(prog)
+        self.pous = self.reached(inst.pou)  # FUNCTIONs and FBs the program uses, callees first
+
+    # ---- what the program reaches ----------------------------------------------------------------
+
+    def reached(self, root: t.Pou) -> list[t.Pou]:
+        order: list[t.Pou] = []
+        seen: set[int] = set()
+
+        def visit(p: t.Pou) -> None:
+            if id(p) in seen:
+                return
+            seen.add(id(p))
+            for callee, _ in p.uses:
+                visit(callee)
+            for v in p.vars:  # FB instances of the declarations, also FBs used only as types
+                for fb in _fbs_in(v.type):
+                    visit(fb)
+            order.append(p)
+
+        visit(root)
+        return [p for p in order if p is not root]
+
+    def touched(self) -> tuple[list[t.VarDecl], list[t.VarDecl], list[t.VarDecl]]:
+        """(the program's own variables, the VAR_GLOBALs, the .glb variables) its code reaches."""
+        own, glob, glb = {}, {}, {}
+        used: set[int] = set()  # the program's own declarations its body names
+        for pou in [self.inst.pou] + self.pous:
+            for n in walk_names(pou.body):
+                d = n.decl
+                if not isinstance(d, t.VarDecl):
+                    continue
+                used.add(id(d))
+                if d.kind == "GLB":
+                    glb[d.glb["path"]] = d
+                elif d.kind == "VAR_EXTERNAL" or d.kind == "VAR_GLOBAL":
+                    g = self.prog.globals.get(d.name.upper())
+                    if g is not None and not g.constant:
+                        glob[g.name.upper()] = g
+        for v in self.inst.pou.vars:
+            if stored(v) or (v.location is not None and v.glb is not None):
+                own[v.name.upper()] = v
+        self.used = used
+        return list(own.values()), list(glob.values()), list(glb.values())
+
+    # ---- the file ------------------------------------------------------------------------------
+
+    def render(self) -> str:
+        inst, pou = self.inst, self.inst.pou
+        own, glob, glb = self.touched()
+        functions = []
+        for p in self.pous:
+            functions += self.code.pou(p) + [""]
+        functions += self.code.pou(pou) + [""]
+        head = [
+            f"// {inst.name}.cpp -- generated by stc from {', '.join(self.sources)}: the PROGRAM instance "
+            f"{inst.name} of {pou.name}",
+            f"// (every {inst.interval_ns / 1e6:g} ms, priority {inst.priority}).  Do not edit: change the ST "
+            "source and run `stc build` again.",
+            "#include <indurop/generated.h>",
+            "#include <indurop/indurop.h>",
+            "#include <indurop/st/st.hpp>",
+            "",
+            "#include <array>",
+            "",
+            "namespace {",
+            "using namespace irp::st;",
+            "",
+        ]
+        body = self.code.type_definitions(self.pous, pou, glob)
+        body += self.images(own, glob, glb)
+        body += self.code.declarations(self.pous)
+        body += self.code.places_text()
+        body += functions
+        body += self.entry_points(own, glob, glb)
+        body += [
+            "}  // namespace",
+            "",
+            "// The module's entry points (docs/modules.md).",
+            "void start() { startInstance(); }",
+            "void run() { runInstance(); }",
+        ]
+        lines = head + body
+        out = []
+        for line in lines:
+            if line == RESET_LINE:
+                line = f'#line {len(out) + 2} "{inst.name}.cpp"'
+            out.append(line)
+        return "\n".join(out) + "\n"
+
+    def images(self, own, glob, glb) -> list[str]:
+        pou = self.inst.pou
+        out = [
+            "// The process image: the locals run() works on, and their snapshots at the copy-in.",
+            f"{pou.name} self, self0;",
+        ]
+        if glob:
+            out.append("Globals global, global0;")
+        if glb:
+            out.append("struct Bound {")
+            for d in glb:
+                out.append(f"    {self.code.glb_type(d)} {_glb_member(d)};")
+            out.append("};")
+            out.append("Bound bound, bound0;")
+        return out + [""]
+
+    def entry_points(self, own, glob, glb) -> list[str]:
+        inst, pou = self.inst, self.inst.pou
+        ns = f"::{inst.name}"
+        copies = []  # (ref, local, snapshot)
+        for v in own:
+            if id(v) not in self.used:
+                continue  # copied only where the code touches it (its initial value is written below)
+            ref = _glb_ref(v.glb) if v.location is not None else f"{ns}::{v.name}"
+            copies.append((ref, f"self.{v.name}", f"self0.{v.name}"))
+        for g in glob:
+            ref = _glb_ref(g.glb) if g.location is not None else f"::{self.code.global_namespace(g)}::{g.name}"
+            copies.append((ref, f"global.{g.name}", f"global0.{g.name}"))
+        for d in glb:
+            copies.append((_glb_ref(d.glb), f"bound.{_glb_member(d)}", f"bound0.{_glb_member(d)}"))
+        plain = [v for v in own if v.location is None and not (v.retain or v.persistent)]
+        kept = [v for v in own if v.location is None and (v.retain or v.persistent)]
+        out = [
+            "// start(): the initial values, for the variables that have none yet (a new segment, or added by",
+            "// an online change); retained ones only when no retained value was restored.",
+            "void startInstance() {",
+            f"    static const {pou.name} initial{{}};",
+            f"    const bool fresh = !{ns}::{INIT_FLAG}.load();",
+        ]
+        for v in plain:
+            path = f"{inst.name}.{v.name}"
+            cond = "fresh" if path not in self.added else "true"
+            out.append(f"    if ({cond}) store({ns}::{v.name}, initial.{v.name});")
+        if kept:
+            out.append(f"    const bool freshRetained = !{ns}::{RETAIN_INIT_FLAG}.load();")
+            for v in kept:
+                path = f"{inst.name}.{v.name}"
+                cond = "freshRetained" if path not in self.added else "true"
+                out.append(f"    if ({cond}) store({ns}::{v.name}, initial.{v.name});")
+            out.append(f"    {ns}::{RETAIN_INIT_FLAG}.store(true);")
+        if glob:
+            out.append("    static const Globals globalInitial{};")
+            for g in glob:
+                if g.location is None:
+                    ns_g = self.code.global_namespace(g)
+                    cond = "true" if f"{ns_g}.{g.name}" in self.added else "fresh"
+                    out.append(f"    if ({cond}) store(::{ns_g}::{g.name}, globalInitial.{g.name});")
+        out += [f"    {ns}::{INIT_FLAG}.store(true);", "}", ""]
+        outputs = [v for v in own if v.kind == "VAR_OUTPUT"]
+        if outputs:
+            out += [
+                "// A run that faults: the PROGRAM's outputs (VAR_OUTPUT) go to their safe values, their initial",
+                "// values, before irpd disables the module.",
+                "void safeOutputs() {",
+                f"    static const {pou.name} initial{{}};",
+            ]
+            for v in outputs:
+                ref = _glb_ref(v.glb) if v.location is not None else f"{ns}::{v.name}"
+                out.append(f"    store({ref}, initial.{v.name});")
+            out += ["}", ""]
+        out += [
+            "// run(): one period.  A fault throws past the write-back: a faulting run writes nothing.",
+            "void runInstance() {",
+        ]
+        out += [f"    copyIn({ref}, {local}, {snap});" for ref, local, snap in copies]
+        if outputs:
+            out += [
+                "    try {",
+                "        programBody(self);",
+                "    } catch (...) {",
+                "        safeOutputs();",
+                "        throw;",
+                "    }",
+            ]
+        else:
+            out.append("    programBody(self);")
+        out += [f"    writeBack({ref}, {local}, {snap});" for ref, local, snap in copies]
+        out += ["}", ""]
+        return out
+
+
+def _fbs_in(typ) -> list[t.Pou]:
+    while isinstance(typ, ty.ArrayType):
+        typ = typ.element
+    if isinstance(typ, ty.FbType):
+        return [typ.pou]
+    if isinstance(typ, ty.StructType) and not _is_glb_struct(typ):
+        return [fb for m in typ.members.values() for fb in _fbs_in(m.type)]
+    return []
+
+
+def _is_glb_struct(typ) -> bool:
+    return any(getattr(m, "glb", None) is not None for m in typ.members.values())
+
+
+def _glb_ref(entry: dict) -> str:
+    ns = entry.get("namespace", "")
+    return "::" + "::".join([*ns.split("."), entry["name"]]) if ns else f"::{entry['name']}"
+
+
+def _glb_member(d: t.VarDecl) -> str:
+    return d.glb["path"].replace(".", "_")
+
+
+__all__ = ["generate", "EMPTY_FB_FIELD", "fb_fields", "cpp_type", "literal"]
