@@ -94,8 +94,8 @@ class _Unit:
         body = self.code.type_definitions(self.pous, pou, glob)
         body += self.code.declarations(self.pous)
         body += self.code.places_text()
+        body += self.images(own, glob, glb)  # before the functions: the program's body reads `bound`
         body += functions
-        body += self.images(own, glob, glb)
         body += self.entry_points(own, glob, glb)
         body += [
             "}  // namespace",
