@@ -78,13 +78,25 @@ class Checker(ExprChecker):
             self.block(pou.body, 0)
             self.scope = None
         for decl in self.prog.types.values():
-            if decl.extern and not isinstance(decl.type, ty.StructType):
-                self.error(
-                    decl.place, "declaration", f"{{extern '{decl.extern}'}} binds a STRUCT type; '{decl.name}' is none"
-                )
+            if decl.extern:
+                self.extern_type(decl)
         self.recursion()
         for conf in self.prog.configurations:
             self.configuration(conf)
+
+    def extern_type(self, decl: t.TypeDecl) -> None:
+        """{extern 'cpp::Type'} on a STRUCT: the C++ type of its bytes; {extern 'cpp::make(a, b)'}: made
+        from its members a, b."""
+        if not isinstance(decl.type, ty.StructType):
+            self.error(decl.place, "declaration", f"{{extern '{decl.extern}'}} binds a STRUCT type; '{decl.name}' is none")
+            return
+        for a in decl.extern_args or []:
+            if a.upper() not in decl.type.members:
+                self.error(
+                    decl.place,
+                    "declaration",
+                    f"{{extern '{decl.extern}(...)'}} names '{a}', which is no member of {decl.name}; name its members",
+                )
 
     def extern_pou(self, pou: t.Pou) -> None:
         """An FB or FUNCTION implemented in C++ declares its interface only: the C++ is its body."""

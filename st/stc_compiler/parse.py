@@ -172,7 +172,10 @@ def parse_text(name: str, text: str) -> t.Unit:
 # ---- {extern 'cpp::name'}: a declaration implemented in C++ (docs/st.md "C++ implementations")
 
 _EXTERN = re.compile(r"\s*extern\b(.*)$", re.S | re.I)
-_EXTERN_NAME = re.compile(r"\s*'([A-Za-z_][A-Za-z0-9_]*(?:::[A-Za-z_][A-Za-z0-9_]*)*)'\s*$")
+_EXTERN_NAME = re.compile(
+    r"\s*'([A-Za-z_][A-Za-z0-9_]*(?:::[A-Za-z_][A-Za-z0-9_]*)*)"
+    r"(?:\(\s*([A-Za-z_][A-Za-z0-9_]*(?:\s*,\s*[A-Za-z_][A-Za-z0-9_]*)*)?\s*\))?'\s*$"
+)
 _EXTERN_TARGET = re.compile(r"\s*(FUNCTION_BLOCK|FUNCTION|TYPE)\b", re.I)
 
 
@@ -187,7 +190,10 @@ def _attach_externs(name: str, clean: str, pragmas: list[tuple[int, int, str]], 
         cpp = _EXTERN_NAME.match(m.group(1))
         if not cpp:
             raise StError(
-                place, "syntax", "an extern pragma names one C++ function or type: {extern 'namespace::Name'}"
+                place,
+                "syntax",
+                "an extern pragma names one C++ function or type: {extern 'namespace::Name'}, "
+                "or for a STRUCT a C++ function of its members: {extern 'namespace::make(a, b)'}",
             )
         target = _EXTERN_TARGET.match(clean, end)
         node = None
@@ -203,7 +209,12 @@ def _attach_externs(name: str, clean: str, pragmas: list[tuple[int, int, str]], 
                 "syntax",
                 "{extern '...'} must stand right before the FUNCTION_BLOCK, FUNCTION or TYPE it implements; move it there",
             )
+        args = cpp.group(0).strip().endswith(")'")
+        if args and not isinstance(node, t.TypeDecl):
+            raise StError(place, "syntax", "only a STRUCT's extern lists arguments; name the C++ struct or function alone")
         node.extern = cpp.group(1)
+        if args:
+            node.extern_args = [a.strip() for a in (cpp.group(2) or "").split(",") if a.strip()]
 
 
 def parse_file(path: str) -> t.Unit:

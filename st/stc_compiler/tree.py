@@ -187,8 +187,10 @@ class TypeDecl(Node):
     spec: Any
     init: Any = None
     type: Any = field(default=None, init=False, repr=False)
-    # {extern 'cpp::factory'} on a STRUCT: C++ code receives cpp::factory(member, member, ...)
+    # {extern 'cpp::Type'} on a STRUCT: its bytes are the C++ type's; {extern 'cpp::make(a, b)'}: C++ code
+    # receives cpp::make(x.a, x.b) (extern_args: the members named)
     extern: str | None = field(default=None, init=False)
+    extern_args: list[str] | None = field(default=None, init=False)
 
 
 # ---- statements -------------------------------------------------------------------------------
