@@ -88,7 +88,9 @@ class Checker(ExprChecker):
         """{extern 'cpp::Type'} on a STRUCT: the C++ type of its bytes; {extern 'cpp::make(a, b)'}: made
         from its members a, b."""
         if not isinstance(decl.type, ty.StructType):
-            self.error(decl.place, "declaration", f"{{extern '{decl.extern}'}} binds a STRUCT type; '{decl.name}' is none")
+            self.error(
+                decl.place, "declaration", f"{{extern '{decl.extern}'}} binds a STRUCT type; '{decl.name}' is none"
+            )
             return
         for a in decl.extern_args or []:
             if a.upper() not in decl.type.members:

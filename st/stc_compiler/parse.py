@@ -211,7 +211,9 @@ def _attach_externs(name: str, clean: str, pragmas: list[tuple[int, int, str]], 
             )
         args = cpp.group(0).strip().endswith(")'")
         if args and not isinstance(node, t.TypeDecl):
-            raise StError(place, "syntax", "only a STRUCT's extern lists arguments; name the C++ struct or function alone")
+            raise StError(
+                place, "syntax", "only a STRUCT's extern lists arguments; name the C++ struct or function alone"
+            )
         node.extern = cpp.group(1)
         if args:
             node.extern_args = [a.strip() for a in (cpp.group(2) or "").split(",") if a.strip()]
