@@ -295,7 +295,8 @@ class CodeEmitter:
             out = externs.fb_body(p, fb_fields(p), self.signature(p), decl_of_type)
         else:
             out = []
-            if not getattr(self, "_extern_enum", False) and any(isinstance(ty.base(v.type), ty.EnumType) for v in p.vars):
+            enums = any(isinstance(ty.base(v.type), ty.EnumType) for v in p.vars)
+            if enums and not getattr(self, "_extern_enum", False):
                 self._extern_enum = True
                 out += externs.EXTERN_ENUM
             out += externs.function_body(p, self.signature(p), decl_of_type)

@@ -69,11 +69,15 @@ class Passing:
             return code
         if decl.extern_args is not None:
             members = ty.base(typ).members
-            made = ", ".join(self.arg(f"{code}.{members[a.upper()].name}", members[a.upper()].type) for a in decl.extern_args)
+            made = ", ".join(
+                self.arg(f"{code}.{members[a.upper()].name}", members[a.upper()].type) for a in decl.extern_args
+            )
             self.count += 1
             self.before.append(f"auto cpp{self.count} = {decl.extern}({made});")
             return f"cpp{self.count}"
-        self.asserts += layout_asserts(decl.name, decl.extern, [(m.name, m.type) for m in ty.base(typ).members.values()])
+        self.asserts += layout_asserts(
+            decl.name, decl.extern, [(m.name, m.type) for m in ty.base(typ).members.values()]
+        )
         self.count += 1
         tmp = f"cpp{self.count}"
         self.before += [f"{decl.extern} {tmp};", f"std::memcpy(static_cast<void *>(&{tmp}), &{code}, sizeof {tmp});"]
