@@ -1,0 +1,138 @@
+"""test_plc_robot_st.py -- the cell's PLC in Structured Text (config/sets/plc-robot-st/main.st, built
+by `stc build`) does what the C++ PLC (config/sets/plc-robot's main.so) does, period by period.
+
+Both run in a real irpd of their own, each beside the same twin module (plc_twin.cpp, priority 2,
+before the PLC): it gives the PLC the same operator panel (PLC_IN, I0, I1) and drives' IO_STATUS in
+the same period, steps the simulated robot of the PLC tests on the PLC's requests, and records
+every period what the PLC wrote: PLC_OUT, O0 and the robot request (eOpCode, nSeq, speeds,
+targets).  Everything the twin does is a function of the number of its run, so the two records are
+equal line for line when the two programs are; the script goes through a cycle, CycleMode with
+Override changes (2.0, NaN), Stop, a drive fault and Reset, power removed mid-cycle (1010), and lost
+drive communication (8, WaitingForDrives)."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from live_processes import BUILD, IRPD, ROOT, start_irpd, stop, wait_until  # noqa: E402
+
+sys.path.insert(0, str(ROOT / "st"))
+from stc_compiler import sdk  # noqa: E402
+
+CELL = BUILD / "sets" / "plc-robot"  # the C++ cell as built
+ST_SET = ROOT / "config" / "sets" / "plc-robot-st"
+PERIODS = 1450  # 14.5 s at 10 ms: the whole script of plc_twin.cpp
+
+pytestmark = pytest.mark.skipif(
+    not (CELL / "main.so").exists() or not IRPD.exists() or shutil.which("g++") is None,
+    reason=f"needs the plc-robot cell built ({CELL}), irpd and g++",
+)
+
+
+def _twin(folder: Path) -> Path:
+    """plc_twin.so, compiled against the C++ cell's generated.h (cell.glb) as the ST set's modules are."""
+    kit = sdk.find(None, None)
+    so = folder / "plc_twin.so"
+    cmd = [kit.cxx, *sdk.CXXFLAGS, *[f"-I{d}" for d in kit.includes], f"-I{CELL}", f"-I{ROOT / 'tests/cpp/support'}"]
+    cmd += [str(Path(__file__).with_name("plc_twin.cpp")), *sdk.LDFLAGS, "-o", str(so), *kit.libraries]
+    cmd += [f"-L{kit.libdir}", f"-Wl,-rpath,{kit.libdir}", "-lindurop"]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return so
+
+
+def _twin_entry(trace: Path) -> ET.Element:
+    m = ET.Element("module")
+    for tag, text in (
+        ("name", "twin"),
+        ("filename", "./plc_twin.so"),
+        ("moduletype", "thread"),
+        ("operationtype", "periodic"),
+        ("period", "10000000"),
+        ("priority", "2"),  # Robot.so's place: before the PLC (3)
+    ):
+        ET.SubElement(m, tag).text = text
+    props = ET.SubElement(m, "property")
+    ET.SubElement(props, "value", name="trace").text = str(trace)
+    ET.SubElement(props, "value", name="periods").text = str(PERIODS)
+    return m
+
+
+def _with_twin(module_xml: Path, out: Path, trace: Path) -> Path:
+    """The set's module.xml with the PLC kept and the robot, the I/O dispatcher and the drive simulator
+    replaced by the twin."""
+    root = ET.parse(module_xml).getroot()
+    for m in root.findall("module"):
+        if (m.findtext("filename") or "").strip() != "./main.so":
+            root.remove(m)
+    root.append(_twin_entry(trace))
+    ET.ElementTree(root).write(out, encoding="unicode", xml_declaration=True)
+    return out
+
+
+def _cpp_cell(folder: Path, twin: Path) -> Path:
+    folder.mkdir()
+    for f in ("main.so", "layout.json"):
+        shutil.copy(CELL / f, folder / f)
+    shutil.copy(twin, folder / twin.name)
+    return _with_twin(CELL / "module.xml", folder / "module.xml", folder / "trace.txt")
+
+
+def _st_cell(folder: Path, twin: Path) -> Path:
+    """stc build of main.st into `folder`: its layout keeps cell.glb's (the C++ modules' layout)."""
+    folder.mkdir()
+    shutil.copy(twin, folder / twin.name)
+    hand = _with_twin(ST_SET / "module.xml", folder / "hand.xml", folder / "trace.txt")
+    r = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "st" / "stc"),
+            "build",
+            "-o",
+            str(folder),
+            "--glb",
+            str(ROOT / "config" / "sets" / "plc-robot" / "cell.glb"),
+            "--set-layout",
+            str(CELL / "layout.json"),
+            "--module-xml",
+            str(hand),
+            str(ST_SET / "main.st"),
+        ],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    return folder / "module.xml"
+
+
+def _run(xml: Path, tmp: Path, instance: str):
+    return start_irpd(tmp / f"{instance}.sock", xml, instance)
+
+
+def test_the_st_cell_writes_what_the_cpp_cell_writes_period_by_period(tmp_path):
+    twin = _twin(tmp_path)
+    cpp_xml = _cpp_cell(tmp_path / "cpp", twin)
+    st_xml = _st_cell(tmp_path / "st", twin)
+    traces = [cpp_xml.parent / "trace.txt", st_xml.parent / "trace.txt"]
+    irpds = [_run(cpp_xml, tmp_path, f"cell-cpp-{id(tmp_path)}"), _run(st_xml, tmp_path, f"cell-st-{id(tmp_path)}")]
+    try:
+        wait_until(lambda: all(t.exists() for t in traces) or any(p.poll() is not None for p in irpds), 90, 0.2)
+        assert all(p.poll() is None for p in irpds), "an irpd ended before the end of the script"
+    finally:
+        for p in irpds:
+            stop(p)
+    cpp, st = (t.read_text().splitlines() for t in traces)
+    assert len(cpp) == len(st) == PERIODS
+    for a, b in zip(cpp, st):
+        assert b == a, f"the ST cell differs from the C++ cell:\n  C++: {a}\n  ST:  {b}"
+    # the script went where it was meant to: cycles, the faults of the robot and of the program
+    text = "\n".join(cpp)
+    for seen in ("Cycles=2", "Step=8", "ErrorID=4 ", "ErrorID=1010", "ErrorID=8 ", "WaitingForDrives=1", "eOpCode=5"):
+        assert seen in text, seen
