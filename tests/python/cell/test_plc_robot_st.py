@@ -8,7 +8,8 @@ every period what the PLC wrote: PLC_OUT, O0 and the robot request (eOpCode, nSe
 targets).  Everything the twin does is a function of the number of its run, so the two records are
 equal line for line when the two programs are; the script goes through a cycle, CycleMode with
 Override changes (2.0, NaN), Stop, a drive fault and Reset, power removed mid-cycle (1010), and lost
-drive communication (8, WaitingForDrives)."""
+drive communication (8, WaitingForDrives).  The alarms the PLC raises and clears (irpd's alarm
+segment: id, period, value, detail) are compared too."""
 
 from __future__ import annotations
 
@@ -25,6 +26,10 @@ from live_processes import BUILD, IRPD, ROOT, start_irpd, stop, wait_until  # no
 
 sys.path.insert(0, str(ROOT / "st"))
 from stc_compiler import sdk  # noqa: E402
+
+sys.path.insert(0, str(ROOT / "agent"))
+from indurop_agent.alarms.segment import AlarmSegment, RingReader  # noqa: E402
+from indurop_agent.irpd.client import IrpdClient  # noqa: E402
 
 CELL = BUILD / "sets" / "plc-robot"  # the C++ cell as built
 ST_SET = ROOT / "config" / "sets" / "plc-robot-st"
@@ -116,6 +121,22 @@ def _run(xml: Path, tmp: Path, instance: str):
     return start_irpd(tmp / f"{instance}.sock", xml, instance)
 
 
+def _plc_alarms(sock: Path) -> list[tuple]:
+    """What the PLC module `main` raised and cleared, with the period of each: (cycle, id, raised,
+    value, detail), from irpd's alarm segment."""
+    client = IrpdClient(str(sock), timeout_s=30)
+    try:
+        seg = AlarmSegment(client.request("alarms")["segment"])
+    finally:
+        client.close()
+    try:
+        main = [s.index for s in seg.sources() if s.name == "main"]
+        records = RingReader(seg).read().records
+        return [(r.cycle, r.id, r.raised, r.value, r.text) for r in records if r.source in main]
+    finally:
+        seg.close()
+
+
 def test_the_st_cell_writes_what_the_cpp_cell_writes_period_by_period(tmp_path):
     twin = _twin(tmp_path)
     cpp_xml = _cpp_cell(tmp_path / "cpp", twin)
@@ -125,6 +146,7 @@ def test_the_st_cell_writes_what_the_cpp_cell_writes_period_by_period(tmp_path):
     try:
         wait_until(lambda: all(t.exists() for t in traces) or any(p.poll() is not None for p in irpds), 90, 0.2)
         assert all(p.poll() is None for p in irpds), "an irpd ended before the end of the script"
+        alarms = [_plc_alarms(tmp_path / f"{p.instance}.sock") for p in irpds]
     finally:
         for p in irpds:
             stop(p)
@@ -132,6 +154,9 @@ def test_the_st_cell_writes_what_the_cpp_cell_writes_period_by_period(tmp_path):
     assert len(cpp) == len(st) == PERIODS
     for a, b in zip(cpp, st):
         assert b == a, f"the ST cell differs from the C++ cell:\n  C++: {a}\n  ST:  {b}"
+    assert alarms[1] == alarms[0], "the ST cell's alarms differ from the C++ cell's"
+    raised = {a[1] for a in alarms[0] if a[2]}
+    assert {4, 1010, 8, 1000} <= raised, alarms[0]
     # the script went where it was meant to: cycles, the faults of the robot and of the program
     text = "\n".join(cpp)
     for seen in ("Cycles=2", "Step=8", "ErrorID=4 ", "ErrorID=1010", "ErrorID=8 ", "WaitingForDrives=1", "eOpCode=5"):
