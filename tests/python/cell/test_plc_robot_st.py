@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from live_processes import BUILD, IRPD, ROOT, start_irpd, stop, wait_until  # noqa: E402
+from live_processes import BUILD, IRPD, ROOT, copy_cell, dispatching, start_irpd, stop, wait_until  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "st"))
 from stc_compiler import sdk  # noqa: E402
@@ -30,6 +30,7 @@ from stc_compiler import sdk  # noqa: E402
 sys.path.insert(0, str(ROOT / "agent"))
 from indurop_agent.alarms.segment import AlarmSegment, RingReader  # noqa: E402
 from indurop_agent.irpd.client import IrpdClient  # noqa: E402
+from indurop_agent.irpd.variables import Segment  # noqa: E402
 
 CELL = BUILD / "sets" / "plc-robot"  # the C++ cell as built
 ST_SET = ROOT / "config" / "sets" / "plc-robot-st"
@@ -91,10 +92,14 @@ def _cpp_cell(folder: Path, twin: Path) -> Path:
 
 
 def _st_cell(folder: Path, twin: Path) -> Path:
-    """stc build of main.st into `folder`: its layout keeps cell.glb's (the C++ modules' layout)."""
     folder.mkdir()
     shutil.copy(twin, folder / twin.name)
-    hand = _with_twin(ST_SET / "module.xml", folder / "hand.xml", folder / "trace.txt")
+    return _stc_build(folder, _with_twin(ST_SET / "module.xml", folder / "hand.xml", folder / "trace.txt"))
+
+
+def _stc_build(folder: Path, hand: Path) -> Path:
+    """stc build of main.st into `folder` with the other modules of `hand` (a module.xml there): its
+    layout keeps cell.glb's, the C++ modules' layout."""
     r = subprocess.run(
         [
             sys.executable,
@@ -161,3 +166,37 @@ def test_the_st_cell_writes_what_the_cpp_cell_writes_period_by_period(tmp_path):
     text = "\n".join(cpp)
     for seen in ("Cycles=2", "Step=8", "ErrorID=4 ", "ErrorID=1010", "ErrorID=8 ", "WaitingForDrives=1", "eOpCode=5"):
         assert seen in text, seen
+
+
+def test_the_st_cell_runs_the_pick_and_place_cycle_with_the_robot_and_its_drives(tmp_path):
+    """The ST PLC in the cell as it runs by default: Robot.so, the I/O dispatcher, the simulated
+    drives on Modbus TCP, all the plc-robot set's own modules."""
+    xml, _ = copy_cell(tmp_path / "cell")
+    xml = _stc_build(xml.parent, xml.rename(xml.with_name("hand.xml")))
+    irpd = start_irpd(tmp_path / "irpd.sock", xml, f"cell-st-live-{id(tmp_path)}")
+    control = IrpdClient(str(tmp_path / "irpd.sock"), timeout_s=30)
+    try:
+        status = wait_until(lambda: dispatching(control), 30)
+        assert [m["name"] for m in control.request("modules")] == ["Robot", "libiodispat", "drivesim", "main"]
+        vars = Segment(status["shared_memory"]["variables"])
+        read = vars.read
+        wait_until(lambda: read("PLC_ROBOT.IO_STATUS.cycles") > 0 and read("PLC_ROBOT.IO_STATUS.comm_lost[0]") == 0)
+        control.request("write", path="PLC_ROBOT.PLC_IN.Enable", value=1)
+        wait_until(lambda: read("PLC_ROBOT.PLC_OUT.Powered") == 1, 30)
+        control.request("write", path="PLC_ROBOT.I0", value=1)
+        steps = set()
+
+        def cycled():
+            steps.add(read("main.Step"))
+            assert read("PLC_ROBOT.PLC_OUT.Error") == 0, read("PLC_ROBOT.PLC_OUT.ErrorID")
+            return read("PLC_ROBOT.PLC_OUT.Cycles") >= 1
+
+        wait_until(cycled, 60, 0.005)
+        assert steps >= set(range(1, 9)), steps  # every step, seen in the program's own variable
+        assert read("PLC_ROBOT.PLC_OUT.Done") == 1 and read("main.Power.Status") is True
+        commanded = [read(f"PLC_ROBOT.ROBOT_MODULE_STATE.dCmdJoint[{i}]") for i in range(6)]
+        assert commanded == pytest.approx([0, 0, 0, 0, 1.5708, 0], abs=1e-6)  # HOME, where the cycle ends
+        vars.close()
+    finally:
+        control.close()
+        stop(irpd)
