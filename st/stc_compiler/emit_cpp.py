@@ -140,7 +140,6 @@ class _Unit:
         body += self.images(own, glob, glb)
         body += self.code.declarations(self.pous)
         body += self.code.places_text()
-        body += self.images(own, glob, glb)  # before the functions: the program's body reads `bound`
         body += functions
         body += self.entry_points(own, glob, glb)
         body += [
