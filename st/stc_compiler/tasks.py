@@ -68,7 +68,7 @@ def module_entry(inst: Instance) -> ET.Element:
 
 def module_xml(insts: list[Instance], out: str, hand: str | None) -> str:
     """module.xml for OUT: the hand-written one's root and modules (their relative file names made
-    relative to OUT, any module of an ST instance's file name replaced, its <layout> dropped: the
+    relative to OUT unless OUT has that file already, e.g. copied there by the set's build), any module of an ST instance's file name replaced, its <layout> dropped: the
     layout.json stc writes beside it is the set's), then one entry per ST instance."""
     generated = {f"{i.name}.so" for i in insts}
     declared: dict[str, list[ET.Element]] = {}  # an ST module's <alarm>s, kept from the hand-written entry
@@ -86,7 +86,7 @@ def module_xml(insts: list[Instance], out: str, hand: str | None) -> str:
                 if os.path.basename(name) in generated:
                     declared[os.path.basename(name)] = child.findall("alarm")
                     root.remove(child)
-                elif name and not os.path.isabs(name):
+                elif name and not os.path.isabs(name) and not os.path.exists(os.path.join(out, name)):
                     child.find("filename").text = "./" + os.path.relpath(os.path.join(base, name), out)
     else:
         root = ET.Element("root")
