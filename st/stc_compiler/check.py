@@ -10,6 +10,7 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from . import externs
 from . import tree as t
 from . import types as ty
 from .check_expr import ExprChecker
@@ -87,6 +88,7 @@ class Checker(ExprChecker):
     def extern_type(self, decl: t.TypeDecl) -> None:
         """{extern 'cpp::Type'} on a STRUCT: the C++ type of its bytes; {extern 'cpp::make(a, b)'}: made
         from its members a, b."""
+        self.extern_library(decl.place, decl.extern)
         if not isinstance(decl.type, ty.StructType):
             self.error(
                 decl.place, "declaration", f"{{extern '{decl.extern}'}} binds a STRUCT type; '{decl.name}' is none"
@@ -100,8 +102,16 @@ class Checker(ExprChecker):
                     f"{{extern '{decl.extern}(...)'}} names '{a}', which is no member of {decl.name}; name its members",
                 )
 
+    def extern_library(self, place: Place, cpp: str) -> None:
+        if externs.library_of(cpp) is None:
+            known = ", ".join(f"{ns}::" for ns in externs.LIBRARIES)
+            self.error(
+                place, "declaration", f"no C++ library the modules link has '{cpp}'; an extern names one in {known}"
+            )
+
     def extern_pou(self, pou: t.Pou) -> None:
         """An FB or FUNCTION implemented in C++ declares its interface only: the C++ is its body."""
+        self.extern_library(pou.place, pou.extern)
         if pou.body:
             self.error(
                 pou.body[0].place,

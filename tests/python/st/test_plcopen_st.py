@@ -68,14 +68,14 @@ def test_the_axes_group_must_be_given():
 
 def test_an_extern_block_has_no_body():
     e = one_error(
-        "{extern 'x::Y'}\nFUNCTION_BLOCK Y\nVAR_INPUT a : BOOL; END_VAR\nVAR b : BOOL; END_VAR\nb := a;\nEND_FUNCTION_BLOCK\n"
+        "{extern 'plcopen::Y'}\nFUNCTION_BLOCK Y\nVAR_INPUT a : BOOL; END_VAR\nVAR b : BOOL; END_VAR\nb := a;\nEND_FUNCTION_BLOCK\n"
     )
     assert e.code == "declaration" and (e.place.line, e.place.col) == (5, 1)
-    assert "implemented in C++ (x::Y)" in e.message
+    assert "implemented in C++ (plcopen::Y)" in e.message
 
 
 def test_a_misplaced_or_malformed_extern_pragma_is_named():
-    e = one_error("PROGRAM P\nVAR a : BOOL; END_VAR\n{extern 'x::Y'}\na := TRUE;\nEND_PROGRAM\n")
+    e = one_error("PROGRAM P\nVAR a : BOOL; END_VAR\n{extern 'plcopen::Y'}\na := TRUE;\nEND_PROGRAM\n")
     assert (e.place.line, e.place.col) == (3, 1) and "must stand right before" in e.message
     e = one_error("{extern x::Y}\nFUNCTION_BLOCK Y\nEND_FUNCTION_BLOCK\n")
     assert "{extern 'namespace::Name'}" in e.message
@@ -83,8 +83,13 @@ def test_a_misplaced_or_malformed_extern_pragma_is_named():
     compile_st({"a.st": "{attribute 'hide'}\nFUNCTION_BLOCK Y\nVAR_INPUT a : BOOL; END_VAR\nEND_FUNCTION_BLOCK\n"})
 
 
+def test_an_extern_names_a_library_the_modules_link():
+    e = one_error("{extern 'std::Thing'}\nFUNCTION_BLOCK Y\nVAR_INPUT a : BOOL; END_VAR\nEND_FUNCTION_BLOCK\n")
+    assert "no C++ library the modules link has 'std::Thing'" in e.message and "plcopen::" in e.message
+
+
 def test_an_extern_type_is_a_struct():
-    errs = errors_of("{extern 'x::f'}\nTYPE T : INT; END_TYPE\n")
+    errs = errors_of("{extern 'plcopen::f'}\nTYPE T : INT; END_TYPE\n")
     assert any("binds a STRUCT type" in e.message for e in errs)
 
 
