@@ -94,7 +94,7 @@ def _cpp_cell(folder: Path, twin: Path) -> Path:
 def _st_cell(folder: Path, twin: Path) -> Path:
     folder.mkdir()
     shutil.copy(twin, folder / twin.name)
-    return _stc_build(folder, _with_twin(ST_SET / "module.xml", folder / "hand.xml", folder / "trace.txt"))
+    return _stc_build(folder, _with_twin(CELL / "module.xml", folder / "hand.xml", folder / "trace.txt"))
 
 
 def _stc_build(folder: Path, hand: Path) -> Path:
