@@ -57,7 +57,7 @@ void script() {
         PLC_ROBOT::PLC_IN.CycleMode = 1;
     }
     pulse(start, 301);
-    if (k == 520) PLC_ROBOT::PLC_IN.Override = 2.0;                                     // clamped to 1
+    if (k == 520) PLC_ROBOT::PLC_IN.Override = 2.0;                                       // clamped to 1
     if (k == 600) PLC_ROBOT::PLC_IN.Override = std::numeric_limits<double>::quiet_NaN();  // the minimum
     if (k == 640) PLC_ROBOT::PLC_IN.Override = 1.0;
     if (k == 800) PLC_ROBOT::I1 = 1;  // Stop, a level
