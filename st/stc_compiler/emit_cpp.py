@@ -10,9 +10,9 @@ from . import externs
 from . import tree as t
 from . import types as ty
 from .check import Program
-from .errors import StError
 from .emit_code import CodeEmitter, cpp_type, literal, walk_names
 from .emit_glb import EMPTY_FB_FIELD, INIT_FLAG, RETAIN_INIT_FLAG, Instance, fb_fields, stored
+from .errors import StError
 
 RESET_LINE = "#line RESET"  # replaced by the .cpp's own line once the text is complete
 # Names the generated code uses unqualified besides the standard functions: the runtime's helpers and
