@@ -5,7 +5,9 @@
 # socket, indurop-agent on http://127.0.0.1:8080/api/v1 beside it, the DDS bridge on loopback
 # (docs/dds.md) and the OPC UA server on opc.tcp://127.0.0.1:4840/ (docs/opcua.md).  Ctrl-C stops them.  Extra arguments
 # go to irpd, e.g. `bash packaging/demo.sh --duration 10 --stats-json /tmp/stats.json` (the
-# agent stops when irpd does).  INDUROP_PORT and INDUROP_DATA change the port and data folder.
+# agent stops when irpd does).  INDUROP_PORT and INDUROP_DATA change the port and data folder;
+# INDUROP_SET=<name> starts build/sets/<name> instead, e.g. INDUROP_SET=plc-robot-st for the cell
+# with its PLC program in Structured Text (config/sets/plc-robot-st).
 # Both programs' output goes to the terminal and, each line stamped with its UTC time, to
 # <data>/logs/irpd.log and agent.log, which the web UI's System page reads.  The agent is started
 # again when it exits asking for it (exit 75: a restart from the System page, a restore).
@@ -32,6 +34,13 @@ sock="$data/irpd.sock"
 # indurop-drivesim, a non-real process module of the set that irpd starts and stops.
 config="$root/build/sets/plc-robot/module.xml"
 [ -f "$data/active/module.xml" ] && config="$data/active/module.xml"
+if [ -n "${INDUROP_SET:-}" ]; then  # a set of the build named by the user, over the last activated one
+  config="$root/build/sets/$INDUROP_SET/module.xml"
+  if [ ! -f "$config" ]; then
+    echo "demo: INDUROP_SET=$INDUROP_SET: no $config; the built sets are: $(cd "$root/build/sets" && ls -d */ | tr -d / | tr '\n' ' ')" >&2
+    exit 2
+  fi
+fi
 # The logs: each line to the terminal, and stamped to its file (bash's printf keeps it one process).
 logs="$data/logs"
 mkdir -p "$logs"

@@ -10,6 +10,7 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from . import externs
 from . import tree as t
 from . import types as ty
 from .check_expr import ExprChecker
@@ -36,13 +37,15 @@ class Program:
     layout: Layout | None = None
 
 
-STANDARD_LIBRARY = Path(__file__).resolve().parents[1] / "lib" / "standard.st"
+LIBRARY = Path(__file__).resolve().parents[1] / "lib"
+STANDARD_LIBRARY = LIBRARY / "standard.st"
+LIBRARIES = (STANDARD_LIBRARY, LIBRARY / "plcopen.st")
 
 
 def library_units() -> list[t.Unit]:
-    """st/lib/standard.st (TON, CTU, R_TRIG, ...), read with every program; parsed anew each time
-    because check() fills its tree."""
-    return [parse_text("standard.st", STANDARD_LIBRARY.read_text())]
+    """st/lib/standard.st (TON, CTU, R_TRIG, ...) and plcopen.st (the motion blocks, the alarms),
+    read with every program; parsed anew each time because check() fills its tree."""
+    return [parse_text(f.name, f.read_text()) for f in LIBRARIES]
 
 
 def check(units: list[t.Unit], layout: Layout | None = None, library: bool = True) -> Program:
@@ -70,12 +73,58 @@ class Checker(ExprChecker):
         for pou in self.prog.pous.values():
             self.pou_vars(pou)
         for pou in self.prog.pous.values():
+            if pou.extern:
+                self.extern_pou(pou)
             self.scope = pou
             self.block(pou.body, 0)
             self.scope = None
+        for decl in self.prog.types.values():
+            if decl.extern:
+                self.extern_type(decl)
         self.recursion()
         for conf in self.prog.configurations:
             self.configuration(conf)
+
+    def extern_type(self, decl: t.TypeDecl) -> None:
+        """{extern 'cpp::Type'} on a STRUCT: the C++ type of its bytes; {extern 'cpp::make(a, b)'}: made
+        from its members a, b."""
+        self.extern_library(decl.place, decl.extern)
+        if not isinstance(decl.type, ty.StructType):
+            self.error(
+                decl.place, "declaration", f"{{extern '{decl.extern}'}} binds a STRUCT type; '{decl.name}' is none"
+            )
+            return
+        for a in decl.extern_args or []:
+            if a.upper() not in decl.type.members:
+                self.error(
+                    decl.place,
+                    "declaration",
+                    f"{{extern '{decl.extern}(...)'}} names '{a}', which is no member of {decl.name}; name its members",
+                )
+
+    def extern_library(self, place: Place, cpp: str) -> None:
+        if externs.library_of(cpp) is None:
+            known = ", ".join(f"{ns}::" for ns in externs.LIBRARIES)
+            self.error(
+                place, "declaration", f"no C++ library the modules link has '{cpp}'; an extern names one in {known}"
+            )
+
+    def extern_pou(self, pou: t.Pou) -> None:
+        """An FB or FUNCTION implemented in C++ declares its interface only: the C++ is its body."""
+        self.extern_library(pou.place, pou.extern)
+        if pou.body:
+            self.error(
+                pou.body[0].place,
+                "declaration",
+                f"{pou.name} is implemented in C++ ({pou.extern}); remove its statements, or the {{extern}} pragma",
+            )
+        for v in pou.vars:
+            if v.kind in ("VAR_TEMP", "VAR_EXTERNAL"):
+                self.error(
+                    v.place,
+                    "declaration",
+                    f"{v.kind} in {pou.name}, implemented in C++ ({pou.extern}): only its interface and memory (VAR) are declared; remove it",
+                )
 
     # ---- names ---------------------------------------------------------------------------------
 

@@ -115,11 +115,7 @@ def _bind(ck, c: t.Call, pou: t.Pou, function: bool) -> None:
         else:
             p = by_name.get(a.name.upper())
             if p is None:
-                ck.error(
-                    a.place,
-                    "parameter",
-                    f"{pou.name} has no parameter '{a.name}'{_close(a.name, [v.name for v in params])}",
-                )
+                ck.error(a.place, "parameter", _unknown_parameter(pou, a.name, params))
                 if a.value is not None:
                     ck.expr(a.value)
                 continue
@@ -142,6 +138,15 @@ def _bind(ck, c: t.Call, pou: t.Pou, function: bool) -> None:
                 "parameter",
                 f"the VAR_IN_OUT '{p.name}' of {pou.name} must be given in every call: {p.name} := <variable>",
             )
+
+
+def _unknown_parameter(pou: t.Pou, name: str, params: list[t.VarDecl]) -> str:
+    if pou.extern:  # e.g. PLCopen's Deceleration, Jerk, BufferMode, which the C++ blocks do not have
+        return (
+            f"{pou.name} has no parameter '{name}': its implementation, the C++ {pou.extern}, has none; "
+            f"remove it (the parameters are {', '.join(v.name for v in params)})"
+        )
+    return f"{pou.name} has no parameter '{name}'{_close(name, [v.name for v in params])}"
 
 
 def _arg(ck, a: t.Arg, p: t.VarDecl, pou: t.Pou) -> None:

@@ -5,7 +5,7 @@
 
 from __future__ import annotations
 
-from . import stdlib
+from . import externs, stdlib
 from . import tree as t
 from . import types as ty
 from .check_expr import _text
@@ -274,6 +274,8 @@ class CodeEmitter:
         return f"void {name}({p.name} &self{''.join(inouts)})"
 
     def pou(self, p: t.Pou) -> list[str]:
+        if p.extern:
+            return self.extern_pou(p)
         self.scope = p
         out = [f"// {p.kind} {p.name} ({p.place.file}:{p.place.line})", self.signature(p) + " {"]
         for v in p.vars:
@@ -290,6 +292,20 @@ class CodeEmitter:
         out += ["}", "#line RESET"]
         self.scope = None
         return out
+
+    def extern_pou(self, p: t.Pou) -> list[str]:
+        """An FB or FUNCTION implemented in C++ ({extern '...'}, externs.py)."""
+        decl_of_type = lambda typ: self.type_decls.get(id(typ))  # noqa: E731
+        if p.kind == "FUNCTION_BLOCK":
+            out = externs.fb_body(p, fb_fields(p), self.signature(p), decl_of_type)
+        else:
+            out = []
+            enums = any(isinstance(ty.base(v.type), ty.EnumType) for v in p.vars)
+            if enums and not getattr(self, "_extern_enum", False):
+                self._extern_enum = True
+                out += externs.EXTERN_ENUM
+            out += externs.function_body(p, self.signature(p), decl_of_type)
+        return out + ["#line RESET"]
 
     # ---- statements --------------------------------------------------------------------------------
 
@@ -387,6 +403,10 @@ class CodeEmitter:
     def assign(self, target: t.Expr, value: t.Expr, s) -> list[str]:
         if isinstance(target, t.BitAccess):
             return [f"setBit<{target.bit}>({self.lvalue(target.base)}, {self.conv(value, ty.BOOL)});"]
+        if isinstance(ty.base(target.type), ty.ArrayType) and isinstance(value, (t.Name, t.Member, t.Index)):
+            # a .glb array (a C array in generated.h) and an ST one (std::array) have the same bytes
+            lv, rv = self.lvalue(target), self.expr(value)
+            return [f"static_assert(sizeof({lv}) == sizeof({rv}));", f"std::memcpy(&{lv}, &{rv}, sizeof({lv}));"]
         return [f"{self.lvalue(target)} = {self.ranged(value, target.type, s)};"]
 
     def ranged(self, value: t.Expr, typ, node: t.Node) -> str:

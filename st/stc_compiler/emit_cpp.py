@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+from . import externs
 from . import tree as t
 from . import types as ty
 from .check import Program
@@ -151,6 +152,7 @@ class _Unit:
             "#include <indurop/generated.h>",
             "#include <indurop/indurop.h>",
             "#include <indurop/st/st.hpp>",
+            *externs.includes(self.pous),
             "",
             "#include <array>",
             "",

@@ -82,9 +82,10 @@ _INTERESTING = re.compile(r"\(\*|\*\)|/\*|//|\{|'|\"")
 _STRING_END = {"'": re.compile(r"(\$.|[^'$\n])*'"), '"': re.compile(r'(\$.|[^"$\n])*"')}
 
 
-def strip_comments(name: str, text: str) -> str:
+def strip_comments(name: str, text: str, pragmas: list[tuple[int, int, str]] | None = None) -> str:
     """The text with (* *) (nested), /* */, // comments and { } pragmas replaced by spaces (line
-    ends kept, so places stay right); strings are left alone."""
+    ends kept, so places stay right); strings are left alone.  Each pragma's (start, end, text
+    inside the braces) is appended to `pragmas` when given."""
     out: list[str] = []
     pos = 0
     n = len(text)
@@ -122,6 +123,8 @@ def strip_comments(name: str, text: str) -> str:
             raise StError(
                 _place_of(name, text, start), "syntax", f"the {what} is never closed; close it with '{closer}'"
             )
+        if tok == "{" and pragmas is not None:
+            pragmas.append((start, end, text[start + 1 : end - 1]))
         out.append(re.sub(r"[^\n]", " ", text[start:end]))
         pos = end
 
@@ -153,14 +156,67 @@ def parse_text(name: str, text: str) -> t.Unit:
         raise _too_large(name, size)
     if "\0" in text:
         decode(name, text.encode("utf-8", "surrogatepass"))
-    clean = strip_comments(name, text)
+    pragmas: list[tuple[int, int, str]] = []
+    clean = strip_comments(name, text, pragmas)
     try:
         lark_tree = parser().parse(clean)
     except UnexpectedInput as e:
         raise _syntax_error(name, clean, e) from None
     _check_depth(name, lark_tree)
     ensure_recursion_limit()
-    return Builder(name).unit(lark_tree)
+    unit = Builder(name).unit(lark_tree)
+    _attach_externs(name, clean, pragmas, unit)
+    return unit
+
+
+# ---- {extern 'cpp::name'}: a declaration implemented in C++ (docs/st.md "C++ implementations")
+
+_EXTERN = re.compile(r"\s*extern\b(.*)$", re.S | re.I)
+_EXTERN_NAME = re.compile(
+    r"\s*'([A-Za-z_][A-Za-z0-9_]*(?:::[A-Za-z_][A-Za-z0-9_]*)*)"
+    r"(?:\(\s*([A-Za-z_][A-Za-z0-9_]*(?:\s*,\s*[A-Za-z_][A-Za-z0-9_]*)*)?\s*\))?'\s*$"
+)
+_EXTERN_TARGET = re.compile(r"\s*(FUNCTION_BLOCK|FUNCTION|TYPE)\b", re.I)
+
+
+def _attach_externs(name: str, clean: str, pragmas: list[tuple[int, int, str]], unit: t.Unit) -> None:
+    """Sets `extern` on the FUNCTION_BLOCK, FUNCTION or TYPE that an {extern '...'} pragma stands
+    right before; other pragmas stay ignored (as other compilers' attributes)."""
+    for start, end, body in pragmas:
+        m = _EXTERN.match(body)
+        if not m:
+            continue
+        place = _place_of(name, clean, start)
+        cpp = _EXTERN_NAME.match(m.group(1))
+        if not cpp:
+            raise StError(
+                place,
+                "syntax",
+                "an extern pragma names one C++ function or type: {extern 'namespace::Name'}, "
+                "or for a STRUCT a C++ function of its members: {extern 'namespace::make(a, b)'}",
+            )
+        target = _EXTERN_TARGET.match(clean, end)
+        node = None
+        if target:
+            at = _place_of(name, clean, target.start(1))
+            if target.group(1).upper() == "TYPE":
+                node = next((d for d in unit.types if (d.place.line, d.place.col) > (at.line, at.col)), None)
+            else:
+                node = next((p for p in unit.pous if (p.place.line, p.place.col) == (at.line, at.col)), None)
+        if node is None:
+            raise StError(
+                place,
+                "syntax",
+                "{extern '...'} must stand right before the FUNCTION_BLOCK, FUNCTION or TYPE it implements; move it there",
+            )
+        args = cpp.group(0).strip().endswith(")'")
+        if args and not isinstance(node, t.TypeDecl):
+            raise StError(
+                place, "syntax", "only a STRUCT's extern lists arguments; name the C++ struct or function alone"
+            )
+        node.extern = cpp.group(1)
+        if args:
+            node.extern_args = [a.strip() for a in (cpp.group(2) or "").split(",") if a.strip()]
 
 
 def parse_file(path: str) -> t.Unit:

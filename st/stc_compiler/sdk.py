@@ -9,9 +9,10 @@ import os
 import re
 import shutil
 import subprocess
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
+from . import externs
 from .errors import Place, StError
 
 HERE = Path(__file__).resolve().parent
@@ -25,6 +26,7 @@ class Kit:
     cxx: str
     includes: list[str]
     libdir: str
+    libraries: list[str] = field(default_factory=list)  # -L<dir> -l<name> of the extern blocks' libraries (externs.py)
 
 
 def find(prefix: str | None, cxx: str | None) -> Kit:
@@ -37,11 +39,12 @@ def find(prefix: str | None, cxx: str | None) -> Kit:
         if (root / "include" / "indurop" / "indurop.h").is_file():
             for lib in ("lib", "lib64", *[str(p.relative_to(root)) for p in (root / "lib").glob("*-linux-gnu")]):
                 if (root / lib / "libindurop.so").exists():
-                    return Kit(compiler, [str(root / "include")], str(root / lib))
+                    return Kit(compiler, [str(root / "include")], str(root / lib), _links(root / lib, None))
         if (root / "rtcore" / "libindurop.so").exists():  # a build folder: headers from the source tree
             src = HERE.parents[1]
             includes = [str(src / "rtcore" / "include"), str(src / "st" / "runtime" / "include")]
-            return Kit(compiler, includes, str(root / "rtcore"))
+            includes += [str(src / lib.include_dir) for lib in externs.LIBRARIES.values() if lib.link]
+            return Kit(compiler, includes, str(root / "rtcore"), _links(root, src))
     where = prefix or " or ".join(str(c) for c in candidates)
     raise StError(
         Place("stc", 1, 1),
@@ -50,10 +53,22 @@ def find(prefix: str | None, cxx: str | None) -> Kit:
     )
 
 
+def _links(root: Path, src: Path | None) -> list[str]:
+    """-L/-l of the static libraries extern blocks live in (externs.LIBRARIES) that the SDK has."""
+    out = []
+    for lib in externs.LIBRARIES.values():
+        if lib.link is None:
+            continue
+        where = root / lib.build_dir if src is not None else root
+        if (where / f"lib{lib.link}.a").exists():
+            out += [f"-L{where}", f"-l{lib.link}"]
+    return out
+
+
 def compile_module(kit: Kit, cpp: str, out: str, name: str) -> list[StError]:
     so = os.path.join(out, f"{name}.so")
     cmd = [kit.cxx, *CXXFLAGS, *[f"-I{d}" for d in kit.includes], f"-I{out}", cpp, *LDFLAGS, "-o", so]
-    cmd += [f"-L{kit.libdir}", f"-Wl,-rpath,{kit.libdir}", "-lindurop", "-lpthread"]
+    cmd += [*kit.libraries, f"-L{kit.libdir}", f"-Wl,-rpath,{kit.libdir}", "-lindurop", "-lpthread"]
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode == 0:
         return []

@@ -187,6 +187,10 @@ class TypeDecl(Node):
     spec: Any
     init: Any = None
     type: Any = field(default=None, init=False, repr=False)
+    # {extern 'cpp::Type'} on a STRUCT: its bytes are the C++ type's; {extern 'cpp::make(a, b)'}: C++ code
+    # receives cpp::make(x.a, x.b) (extern_args: the members named)
+    extern: str | None = field(default=None, init=False)
+    extern_args: list[str] | None = field(default=None, init=False)
 
 
 # ---- statements -------------------------------------------------------------------------------
@@ -276,6 +280,9 @@ class Pou(Node):
     vars: list[VarDecl]
     body: list
     returns: Any = None
+    # {extern 'cpp::Name'}: implemented in C++ (an FB: the struct whose operator() is the body; a
+    # FUNCTION: the function called with the inputs in order); the body is empty
+    extern: str | None = field(default=None, init=False)
     return_type: Any = field(default=None, init=False, repr=False)  # types.Type (check.py)
     result: VarDecl | None = field(default=None, init=False, repr=False)  # a FUNCTION's own-name variable
     locals: dict[str, VarDecl] = field(default_factory=dict, init=False, repr=False)  # upper-case name -> decl
