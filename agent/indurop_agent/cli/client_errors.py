@@ -12,15 +12,34 @@ class ApiError(Exception):
     """The API refused a request (status = the HTTP status, message = the server's `detail`), or
     could not be reached at all (status 0)."""
 
-    def __init__(self, status: int, message: str):
+    def __init__(self, status: int, message: str, problems: list[dict] | None = None):
         super().__init__(f"{status}: {message}" if status else message)
         self.status = status
         self.message = message
+        self.problems = problems or []  # a refused upload's errors, each {message, code, file, line, column}
 
     @property
     def unreachable(self) -> bool:
         """No answer from the agent, or the agent cannot reach irpd (503)."""
         return self.status in (0, 503)
+
+
+def refused(response: httpx.Response) -> ApiError:
+    """The ApiError of a refusal: its `detail`, and its `problems` when it has several (ST compile errors)."""
+    try:
+        body = response.json()
+    except ValueError:
+        body = None
+    found = body.get("problems") if isinstance(body, dict) else None
+    problems = [p for p in found if isinstance(p, dict)] if isinstance(found, list) else None
+    return ApiError(response.status_code, detail(response), problems)
+
+
+def problem_line(p: dict) -> str:
+    """`main.st:12:9: error[type]: message` (stc's form, docs/st.md "Errors"): the known parts of the place."""
+    where = ":".join(str(p[k]) for k in ("file", "line", "column") if p.get(k))
+    code = f"error[{p['code']}]" if p.get("code") else "error"
+    return f"{where + ': ' if where else ''}{code}: {p.get('message', '')}"
 
 
 def detail(response: httpx.Response) -> str:
