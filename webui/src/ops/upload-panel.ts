@@ -115,8 +115,10 @@ export class UploadPanel {
         {},
         h("strong", {}, r.status ? `Refused (HTTP ${r.status})` : "Upload failed"),
         where ? h("span", { class: "mono", "data-testid": "upload-error-where" }, ` ${where}`) : null,
-        h("span", {}, `: ${r.message}`),
+        h("span", {}, `: ${r.problems?.length ? r.message.split("\n")[0] : r.message}`),
       ),
+      // several errors (the ST compiler's): each on its line, with its place
+      ...(r.problems?.length ? [problemList({ errors: [], problems: r.problems })] : []),
     );
   }
 
