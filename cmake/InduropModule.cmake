@@ -11,7 +11,9 @@
 #
 #   indurop_add_module(<name> SOURCES <src>... [GLB <glb target>] [OUTPUT_DIRECTORY <dir>] [LIBRARIES <lib>...])
 #       A thread module: a shared object named exactly <name>.so (no "lib" prefix), linked to
-#       libindurop, as module.xml's <filename> expects it.
+#       libindurop, as module.xml's <filename> expects it.  Built with a DWARF line table (-g1
+#       when the build type has no -g of its own: the code is the same, the file larger), so that a
+#       crash record names the source line of a fault (docs/supervision.md).
 #
 #   indurop_add_process(<name> SOURCES <src>... [GLB <glb target>] [OUTPUT_DIRECTORY <dir>] [LIBRARIES <lib>...])
 #       A process module: an executable <name>.exe linked to libindurop (symbols exported so that
@@ -81,6 +83,7 @@ function(indurop_add_module name)
   cmake_parse_arguments(ARG "" "OUTPUT_DIRECTORY;GLB" "SOURCES;LIBRARIES" ${ARGN})
   add_library(${name} MODULE ${ARG_SOURCES})
   set_target_properties(${name} PROPERTIES PREFIX "" SUFFIX ".so")
+  target_compile_options(${name} PRIVATE $<$<NOT:$<CONFIG:Debug,RelWithDebInfo>>:-g1>)
   if(ARG_OUTPUT_DIRECTORY)
     set_target_properties(${name} PROPERTIES LIBRARY_OUTPUT_DIRECTORY ${ARG_OUTPUT_DIRECTORY})
   endif()

@@ -31,11 +31,17 @@ def _types(layout: Layout) -> dict[str, Any]:
             "align": st.align,
             "fields": [
                 {"name": f.name, "type": _type_name(f.type), "offset": f.offset, "size": f.size, "dims": list(f.dims)}
+                | _iec(f.iec_type)
                 for f in st.fields
             ],
         }
         for st in layout.types
     }
+
+
+def _iec(iec_type: str | None) -> dict[str, str]:
+    """The IEC type stc declared a variable or field with, or nothing (a .glb declaration has none)."""
+    return {"iec_type": iec_type} if iec_type else {}
 
 
 def _canonical(value: Any) -> bytes:
@@ -61,6 +67,7 @@ def type_id(v: Variable) -> str:
 
 
 def _variable(v: Variable) -> dict[str, Any]:
+    qualifier = {"retain": v.retain} if v.retain else {}  # absent when not qualified: older layouts unchanged
     return {
         "path": v.path,
         "namespace": v.namespace,
@@ -72,7 +79,7 @@ def _variable(v: Variable) -> dict[str, Any]:
         "align": v.align,
         "dims": list(v.dims),
         "lock": v.lock,
-    }
+    } | qualifier | _iec(v.iec_type)
 
 
 def layout_hash(types: dict[str, Any], variables: list[dict[str, Any]]) -> str:
@@ -81,18 +88,20 @@ def layout_hash(types: dict[str, Any], variables: list[dict[str, Any]]) -> str:
     ).hexdigest()
 
 
-def _leaves(path: str, t: Type, dims: list[int], offset: int, lock: int) -> Iterator[dict[str, Any]]:
+def _leaves(
+    path: str, t: Type, dims: list[int], offset: int, lock: int, iec_type: str | None = None
+) -> Iterator[dict[str, Any]]:
     if dims:
         stride = t.size
         for d in dims[1:]:
             stride *= d
         for i in range(dims[0]):
-            yield from _leaves(f"{path}[{i}]", t, dims[1:], offset + i * stride, lock)
+            yield from _leaves(f"{path}[{i}]", t, dims[1:], offset + i * stride, lock, iec_type)
     elif isinstance(t, StructType):
         for f in t.fields:
-            yield from _leaves(f"{path}.{f.name}", f.type, f.dims, offset + f.offset, lock)
+            yield from _leaves(f"{path}.{f.name}", f.type, f.dims, offset + f.offset, lock, f.iec_type)
     else:
-        yield {"path": path, "type": t.name, "offset": offset, "size": t.size, "lock": lock}
+        yield {"path": path, "type": t.name, "offset": offset, "size": t.size, "lock": lock} | _iec(iec_type)
 
 
 def document(layout: Layout) -> dict[str, Any]:
@@ -126,7 +135,9 @@ def document(layout: Layout) -> dict[str, Any]:
         "scalars": scalars,
         "types": types,
         "variables": variables,
-        "leaves": [leaf for v in layout.variables for leaf in _leaves(v.path, v.type, v.dims, v.offset, v.lock)],
+        "leaves": [
+            leaf for v in layout.variables for leaf in _leaves(v.path, v.type, v.dims, v.offset, v.lock, v.iec_type)
+        ],
         "lineage": lineage,
     }
 

@@ -60,6 +60,7 @@ class Field:
     offset: int  # within its struct
     size: int  # with every dimension
     loc: Loc
+    iec_type: str | None = None  # the IEC type of its elements (declared by stc), else None
 
 
 @dataclass
@@ -73,6 +74,8 @@ class Variable:
     types: list[StructType]  # the struct types it introduces, nested ones first
     offset: int = 0
     lock: int = 0
+    retain: str | None = None  # "retain" or "persistent": irpd saves and restores it (docs/retain.md)
+    iec_type: str | None = None  # the IEC type of its elements (declared by stc), else None
 
     @property
     def path(self) -> str:
@@ -226,7 +229,7 @@ class _Builder:
                 t = SCALARS[m.type.cname]
             count = math.prod(dims)
             offset = round_up(offset, t.align)
-            st.fields.append(Field(m.name, t, dims, offset, t.size * count, m.loc))
+            st.fields.append(Field(m.name, t, dims, offset, t.size * count, m.loc, m.iec_type))
             offset += t.size * count
             st.align = max(st.align, t.align)
             st.leaves += _leaves(t) * count
@@ -264,7 +267,9 @@ class _Builder:
         else:
             t = SCALARS[decl.type.cname]
         count = math.prod(dims)
-        var = Variable(ns, decl.name, t, dims, t.size * count, decl.loc, introduced)
+        var = Variable(
+            ns, decl.name, t, dims, t.size * count, decl.loc, introduced, retain=decl.retain, iec_type=decl.iec_type
+        )
         var.offset = round_up(self.variables[-1].offset + self.variables[-1].size, CACHE_LINE) if self.variables else 0
         var.lock = len(self.variables)
         end = round_up(var.offset + var.size, CACHE_LINE)

@@ -4,7 +4,8 @@
 #   file        := { namespace | define | declaration | ';' }
 #   namespace   := 'namespace' NAME { ('.' | '::') NAME } END
 #   define      := '#' 'define' NAME ['-'] INTEGER  (ends at the end of its line)
-#   declaration := type NAME { '[' size ']' } END
+#   declaration := [ 'retain' | 'persistent' ] type NAME { '[' size ']' } END   (the qualifier:
+#                  top-level declarations only)
 #   type        := scalar-words | 'struct' '{' { declaration | define | ';' } '}'
 #   size        := INTEGER | NAME-of-a-#define
 #   END         := ';' | end of line | end of file | (inside a struct) before '}'
@@ -24,6 +25,7 @@ from .syntax import Decl, DefineStmt, Dim, FileSyntax, NamespaceStmt, ScalarSpec
 MAX_DIM = 16_777_216  # the largest array dimension
 MAX_DEFINE = 2**63 - 1  # a #define becomes a C++ `long`
 MAX_NESTING = 32  # structs inside structs
+QUALIFIERS = ("retain", "persistent")  # kept across restarts by irpd (docs/retain.md)
 
 _DECIMAL = re.compile(r"(0|[1-9][0-9]*)([uU]?(?:ll|LL|l|L)?|(?:ll|LL|l|L)[uU])\Z")
 _HEX = re.compile(r"0[xX]([0-9a-fA-F]+)([uU]?(?:ll|LL|l|L)?|(?:ll|LL|l|L)[uU])\Z")
@@ -110,7 +112,10 @@ class Parser:
                 # variable `joint` of the paper's Figures 7 and 8 is used.
                 if self.namespace is None and self.items_before_namespace is None:
                     self.items_before_namespace = tok.loc
-                self.items.append(self.parse_declaration(in_struct=False))
+                qualifier = self.parse_qualifier()
+                decl = self.parse_declaration(in_struct=False)
+                decl.retain = qualifier
+                self.items.append(decl)
         return FileSyntax(self.src, self.namespace, self.items)
 
     def end_of_statement(self, what: str, in_struct: bool) -> None:
@@ -196,8 +201,29 @@ class Parser:
 
     # -- declarations ---------------------------------------------------------------------------
 
+    def parse_qualifier(self) -> str | None:
+        """`retain` or `persistent` before a top-level declaration (docs/retain.md): at most one."""
+        tok = self.peek()
+        if tok.kind != IDENT or tok.text not in QUALIFIERS:
+            return None
+        self.take()
+        again = self.peek()
+        if again.kind == IDENT and again.text in QUALIFIERS:
+            raise GlbError(
+                f"'{again.text}' after '{tok.text}': a declaration takes one qualifier; "
+                "'persistent' already includes what 'retain' keeps",
+                again.loc,
+            )
+        return tok.text
+
     def parse_declaration(self, in_struct: bool) -> Decl:
         tok = self.peek()
+        if in_struct and tok.kind == IDENT and tok.text in QUALIFIERS:
+            raise GlbError(
+                f"'{tok.text}' qualifies a top-level variable, not a field: write it before the variable's "
+                "declaration (the whole variable is kept)",
+                tok.loc,
+            )
         if tok.is_word("struct"):
             type_ = self.parse_struct()
             after = self.peek(skip_newlines=False)

@@ -48,6 +48,8 @@ class Decl:
     name: str
     loc: Loc  # the name
     dims: list[Dim] = field(default_factory=list)
+    retain: str | None = None  # a top-level declaration's qualifier: "retain" or "persistent"
+    iec_type: str | None = None  # the IEC 61131-3 type it holds (declarations made by stc; .glb text has none)
 
 
 @dataclass

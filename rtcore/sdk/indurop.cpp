@@ -1,4 +1,5 @@
-// indurop.cpp -- libindurop's runtime services for modules: irp::printf and irp::cycle().
+// indurop.cpp -- libindurop's runtime services for modules: irp::printf, irp::cycle() and
+// irp::runAbortRequested().
 //
 // irp::printf must be callable from the RT thread, so it never takes a lock, allocates or makes a
 // syscall: it formats into a cell of a bounded multi-producer ring (D. Vyukov's bounded queue:
@@ -37,6 +38,10 @@ LogRing &ring() {
 }
 
 thread_local Cycle current_cycle{};
+// initial-exec: libindurop is loaded with the program (irpd, a process module), so the pointer is
+// one %fs-relative load away rather than a __tls_get_addr call (a dlopen() of libindurop takes it
+// from glibc's static TLS reserve).
+thread_local const runtime::RunAbort *run_abort __attribute__((tls_model("initial-exec"))) = nullptr;
 
 }  // namespace
 
@@ -70,9 +75,16 @@ int printf(const char *format, ...) {
 
 const Cycle &cycle() noexcept { return current_cycle; }
 
+bool runAbortRequested() noexcept {
+    const runtime::RunAbort *abort = run_abort;
+    return abort && abort->now();
+}
+
 namespace runtime {
 
 void setCycle(const Cycle &cycle) noexcept { current_cycle = cycle; }
+
+void setRunAbort(const RunAbort *abort) noexcept { run_abort = abort; }
 
 std::size_t drainLog(const std::function<void(std::string_view)> &sink) {
     LogRing &r = ring();

@@ -5,6 +5,7 @@
 #include <indurop/alarms.h>
 #include <indurop/indurop.h>
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -17,6 +18,21 @@ namespace irp::runtime {
 
 // Sets what irp::cycle() returns on the calling thread (the dispatcher, before each slot).
 void setCycle(const Cycle &cycle) noexcept;
+
+// The "end this run" request behind irp::runAbortRequested(), one per dispatcher thread: `run` is
+// the number of the watched run in progress (odd while one runs, even between them: the overrun
+// watchdog's run marker, dispatch/watchdog.hpp), `requested` the run the watchdog asked to end.
+// A request for a run that already ended never matches a later one.
+struct RunAbort {
+    std::atomic<uint64_t> run{0};
+    std::atomic<uint64_t> requested{UINT64_MAX};
+    bool now() const noexcept {
+        return requested.load(std::memory_order_relaxed) == run.load(std::memory_order_relaxed);
+    }
+};
+// The request irp::runAbortRequested() reads on the calling thread (a dispatcher's loop sets its
+// own before it starts, null after it); null: always false.
+void setRunAbort(const RunAbort *abort) noexcept;
 
 // Capacity and line size of the irp::printf ring.
 inline constexpr std::size_t kLogLines = 1024;

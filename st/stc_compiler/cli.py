@@ -1,8 +1,8 @@
 # cli.py -- the stc command line.  `stc check FILES... [--layout layout.json] [--json]` parses and checks
-# a set's ST sources with the standard library; errors print as `file:line:col: error[code]: message`
-# (or a JSON list of {file, line, column, code, message}).  Exit 0 when clean, 1 on an error in the
-# input, 2 on a usage error.  `stc build` (code generation: emit_cpp.py, emit_glb.py, tasks.py) is
-# to come; build() below is where it joins: it starts from check()'s Program.
+# a set's ST sources with the standard library; `stc build -o OUT ...` also writes the layout, the C++,
+# module.xml and the modules (build.py).  Errors print as `file:line:col: error[code]: message` (or a
+# JSON list of {file, line, column, code, message}).  Exit 0 when clean, 1 on an error in the input,
+# 2 on a usage error.
 
 from __future__ import annotations
 
@@ -31,6 +31,31 @@ def _arguments() -> argparse.ArgumentParser:
     c.add_argument(
         "--json", action="store_true", help="print the errors as a JSON list of {file, line, column, code, message}"
     )
+    b = sub.add_parser(
+        "build",
+        help="compile ST sources into the set's layout, C++, module.xml and thread modules (docs/st-compiler.md)",
+    )
+    b.add_argument("files", nargs="+", metavar="FILE.st", help="the set's ST sources (one program together)")
+    b.add_argument("-o", dest="out", required=True, metavar="OUT", help="output folder (created if missing)")
+    b.add_argument(
+        "--glb", action="append", default=[], metavar="F.glb", help="a .glb file of the set (laid out first; repeat)"
+    )
+    b.add_argument(
+        "--set-layout",
+        metavar="SET_LAYOUT.json",
+        help="the layout the set's C++ modules were built against (glbc of its .glb files): it stays valid",
+    )
+    b.add_argument(
+        "--previous",
+        metavar="RUNNING_LAYOUT.json",
+        help="the running layout (irpctl layout -o ...): the variables keep their places (online change)",
+    )
+    b.add_argument("--module-xml", metavar="HAND.xml", help="the set's hand-written module.xml: its other modules are kept")
+    b.add_argument("--sdk", metavar="PREFIX", help="the indurop SDK: an installed prefix (/usr) or a build folder")
+    b.add_argument("--cxx", metavar="CXX", help="the C++ compiler (default: $CXX, else g++)")
+    b.add_argument("-j", dest="jobs", type=int, default=0, metavar="N", help="compile N instances at once")
+    b.add_argument("--no-compile", action="store_true", help="write the C++ and module.xml but compile nothing")
+    b.add_argument("--json", action="store_true", help="print the errors as a JSON list (as stc check --json)")
     return p
 
 
@@ -55,7 +80,10 @@ def front(files: list[str], layout_path: str | None) -> Program:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
     args = _arguments().parse_args(argv)
+    if args.command == "build":
+        return _build(args, argv)
     try:
         front(args.files, args.layout)
     except StErrors as e:
@@ -75,3 +103,31 @@ def _report(errors: list[StError], as_json: bool) -> None:
     else:
         for e in errors:
             print(e, file=sys.stderr)
+
+
+def _build(args, argv: list[str]) -> int:
+    from .build import Options, build
+
+    opts = Options(
+        args.out,
+        args.files,
+        args.glb,
+        args.set_layout,
+        args.previous,
+        args.module_xml,
+        not args.no_compile,
+        args.sdk,
+        args.cxx,
+        args.jobs,
+    )
+    try:
+        build(opts, argv)
+    except StErrors as e:
+        _report(e.errors, args.json)
+        return INPUT_ERROR
+    except StError as e:
+        _report([e], args.json)
+        return INPUT_ERROR
+    if args.json:
+        print("[]")
+    return 0

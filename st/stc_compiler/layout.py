@@ -75,18 +75,23 @@ class Layout:
         return self._structs[name]
 
 
+def from_document(doc: dict, path: str) -> Layout:
+    """A layout.json document (already read, or made by glbc in memory) as a Layout."""
+    layout = Layout(path, types=dict(doc.get("types", {})), scalars=dict(doc.get("scalars", {})))
+    for var in doc["variables"]:
+        layout.variables[var["path"].upper()] = var
+        parts = var["path"].split(".")
+        for i in range(1, len(parts)):
+            layout.prefixes.add(".".join(parts[:i]).upper())
+    return layout
+
+
 def load(path: str) -> Layout:
     """layout.json -> Layout; a StError naming the file when it is not one."""
     try:
         with open(path, encoding="utf-8") as f:
             doc = json.load(f)
-        layout = Layout(path, types=dict(doc.get("types", {})), scalars=dict(doc.get("scalars", {})))
-        for var in doc["variables"]:
-            layout.variables[var["path"].upper()] = var
-            parts = var["path"].split(".")
-            for i in range(1, len(parts)):
-                layout.prefixes.add(".".join(parts[:i]).upper())
-        return layout
+        return from_document(doc, path)
     except OSError as e:
         raise StError(Place(path, 1, 1), "layout", f"cannot read the layout: {e.strerror}") from None
     except (ValueError, KeyError, TypeError, AttributeError) as e:

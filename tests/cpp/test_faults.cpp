@@ -195,6 +195,33 @@ TEST(OverrunWatchdog, DisableTakesTheModuleOutAndTheRestRunsOn) {
     for (const json &e : cell.events("overrun", "stuck")) disabled_event |= contains(e["message"], "disabled");
     EXPECT_TRUE(disabled_event);
     EXPECT_TRUE(cell.result({{"cmd", "status"}})["stopped_by_fault"].is_null());
+    // It does not poll irp::runAbortRequested(): its run went on to its end, and nothing threw.
+    EXPECT_TRUE(contains(cell.log("stuck"), "run 10 overran")) << cell.log("stuck");
+    EXPECT_TRUE(cell.events("fault", "stuck").empty());
+}
+
+// An endless loop that polls irp::runAbortRequested() (as Structured Text's loops do) is ended by
+// the watchdog: the flag turns true once the run passed its limit, the module throws, it is
+// disabled with a `fault` event carrying its text, and the executor it held -- keep's own, here --
+// runs on.  Without the request the run would spin for a minute.
+TEST(OverrunWatchdog, AnEndlessLoopThatPollsRunAbortRequestedIsEndedAndNamedWhileTheRestRunsOn) {
+    Cell cell(overrun("disable", value("hang_at", "10") + value("hang_ms", "60000") + value("poll_abort", "1")));
+    ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("fault", "stuck").empty(); })) << cell.log("stuck");
+    const json fault = cell.events("fault", "stuck")[0];
+    EXPECT_TRUE(contains(fault["message"], "run(): overrun.cpp: endless loop? run 10 ended at the watchdog's request"))
+        << fault.dump();
+    EXPECT_TRUE(contains(cell.log("stuck"), "run 10 asked to end after")) << cell.log("stuck");
+    EXPECT_EQ(cell.module("stuck").value("state", ""), "disabled");
+    EXPECT_EQ(cell.module("stuck").value("errors", 0), 1);
+    const auto seen = cell.events("overrun", "stuck");
+    ASSERT_FALSE(seen.empty());
+    EXPECT_TRUE(contains(seen[0]["message"], "still running")) << seen[0].dump();
+    EXPECT_TRUE(contains(seen[0]["message"], "asked to end")) << seen[0].dump();
+    EXPECT_TRUE(cell.keepRuns());
+    ASSERT_TRUE(cell.waitUntil([&] { return cell.runs("stuck") >= 10u; }));
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    EXPECT_EQ(cell.runs("stuck"), 10u);
+    EXPECT_TRUE(cell.result({{"cmd", "status"}})["stopped_by_fault"].is_null());
 }
 
 // An executor that a hot reload adds is watched as well: its module's overrun comes back as an
@@ -230,12 +257,15 @@ TEST(OverrunWatchdog, SkipDropsTheMissedRunsAndTheModuleGoesOn) {
 }
 
 TEST(OverrunWatchdog, WarnOnlyReportsIt) {
-    Cell cell(overrun("warn", value("hang_at", "10") + value("hang_ms", "10")));
+    // It polls irp::runAbortRequested(), which stays false under warn: its run goes on to its end.
+    Cell cell(overrun("warn", value("hang_at", "10") + value("hang_ms", "10") + value("poll_abort", "1")));
     ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("overrun", "stuck").empty(); }));
     ASSERT_TRUE(cell.waitUntil([&] { return cell.runs("stuck") > 30; }));
     EXPECT_EQ(cell.module("stuck").value("skipped", -1), 0);
     EXPECT_EQ(cell.module("stuck").value("overruns", 0), 1);
     EXPECT_TRUE(cell.keepRuns());
+    EXPECT_TRUE(contains(cell.log("stuck"), "run 10 overran")) << cell.log("stuck");
+    EXPECT_EQ(cell.module("stuck").value("state", ""), "running");
 }
 
 // ---- a thread module that throws --------------------------------------------------------------
@@ -248,6 +278,9 @@ TEST(ThreadFault, AThrowFromRunDisablesThatModuleOnlyAndIsAnEvent) {
     EXPECT_EQ(cell.runs("throws"), 3u);
     EXPECT_TRUE(cell.keepRuns());
     EXPECT_TRUE(contains(cell.irpd->out() + cell.irpd->err(), "division by zero in the controller"));
+    // The event carries what it threw.
+    const json fault = cell.events("fault", "throws")[0];
+    EXPECT_TRUE(contains(fault["message"], "threw from run(): division by zero in the controller")) << fault.dump();
 }
 
 // ---- a periodic process module that segfaults, exits, floods or hangs ------------------------

@@ -444,7 +444,8 @@ std::vector<std::string> asPid1SendingSigabrt(const fs::path &go) {
 }
 
 // irpd on a set with "healthy" on main and "crashy" on executor "side", which dereferences null
-// once the file `crash` exists; the state folder and instance outlive one run.
+// once the file `crash` exists (crashy's file: `crashy_so`, a build of trigger.cpp); the state
+// folder and instance outlive one run.
 struct CrashCell {
     TempDir dir;
     std::string instance = uniqueInstance();
@@ -452,8 +453,8 @@ struct CrashCell {
     fs::path state = dir.path / "state";
     int runs = 0;
 
-    explicit CrashCell(const std::string &policy) {
-        fs::copy_file(kModules / "crash_on_trigger.so", dir.path / "crashy.so");
+    explicit CrashCell(const std::string &policy, const std::string &crashy_so = "crash_on_trigger.so") {
+        fs::copy_file(kModules / crashy_so, dir.path / "crashy.so");
         fs::copy_file(kModules / "crash_on_trigger.so", dir.path / "healthy.so");
         std::ofstream(dir.path / "module.xml")
             << "<root>\n  <executor><name>side</name></executor>\n"
@@ -525,6 +526,69 @@ TEST(CrashRecord, ASegfaultInAThreadModuleIsRecordedWithModuleExecutorAndSignal)
               std::string::npos)
         << record;
     EXPECT_NE(record.find("\ngeneration=1\n"), std::string::npos) << record;
+}
+
+// The line of trigger.cpp that dereferences null, 1-based.
+int crashLine() {
+    std::ifstream source(std::string(SOURCE_ROOT) + "/tests/cpp/modules/trigger.cpp");
+    int number = 0;
+    for (std::string line; std::getline(source, line);) {
+        ++number;
+        if (line.find("*nowhere = 1;  // the crash line") != std::string::npos) return number;
+    }
+    return -1;
+}
+
+// The record names the faulting instruction (its module and its offset there); the next start
+// maps it to the source line through the module's line table: the record, status and the event.
+TEST(CrashRecord, TheRecordNamesTheSourceLineOfTheFaultingInstruction) {
+    CrashCell cell("");
+    cell.crashOnce();
+    const std::string record = cell.record();
+    EXPECT_NE(record.find("\ncode_module=crashy\n"), std::string::npos) << record;
+    EXPECT_NE(record.find("\ncode_offset=0x"), std::string::npos) << record;
+    EXPECT_NE(record.find("\npc=0x"), std::string::npos) << record;
+    auto second = cell.start();
+    const std::string where = "trigger.cpp:" + std::to_string(crashLine());
+    json crash = cell.ask({{"cmd", "status"}})["result"]["last_crash"];
+    EXPECT_EQ(crash["source"], where) << crash.dump();
+    EXPECT_EQ(crash["code_module"], "crashy") << crash.dump();
+    const json events = cell.ask({{"cmd", "events"}})["result"]["events"];
+    bool named = false;
+    for (const json &e : events)
+        named |= e["kind"] == "crash" && e["message"].get<std::string>().find(where) != std::string::npos;
+    EXPECT_TRUE(named) << events.dump();
+    EXPECT_NE(second->err().find(where), std::string::npos) << second->err();
+    // Kept with the record: a later start (no new crash) still says where.
+    kill(second->pid(), SIGTERM);
+    ASSERT_EQ(second->wait(std::chrono::seconds(20)), 0) << second->err();
+    auto third = cell.start();
+    EXPECT_EQ(cell.ask({{"cmd", "status"}})["result"]["last_crash"]["source"], where);
+    kill(third->pid(), SIGTERM);
+    EXPECT_EQ(third->wait(std::chrono::seconds(20)), 0) << third->err();
+}
+
+// Generated Structured Text carries `#line 12 "main.st"`: the record names the ST line.
+TEST(CrashRecord, ALineDirectiveInTheModulesSourceMakesTheRecordNameThatLine) {
+    CrashCell cell("", "crash_st_line.so");
+    cell.crashOnce();
+    auto second = cell.start();
+    json crash = cell.ask({{"cmd", "status"}})["result"]["last_crash"];
+    EXPECT_EQ(crash["source"], "main.st:12") << crash.dump();
+    EXPECT_EQ(crash["module"], "crashy") << crash.dump();
+}
+
+// A module without a line table (stripped): the record still names the module and the offset.
+TEST(CrashRecord, AStrippedModuleIsNamedWithItsOffsetAndNoSource) {
+    CrashCell cell("");
+    ASSERT_EQ(std::system(("strip --strip-debug " + (cell.dir.path / "crashy.so").string()).c_str()), 0);
+    cell.crashOnce();
+    auto second = cell.start();
+    json crash = cell.ask({{"cmd", "status"}})["result"]["last_crash"];
+    EXPECT_TRUE(crash["source"].is_null()) << crash.dump();
+    EXPECT_EQ(crash["code_module"], "crashy") << crash.dump();
+    EXPECT_TRUE(crash["code_offset"].is_string()) << crash.dump();
+    EXPECT_NE(second->err().find("no source line known"), std::string::npos) << second->err();
 }
 
 TEST(CrashRecord, AFaultHasNoSenderAndCauseFault) {

@@ -174,8 +174,17 @@ def status_text(s: dict) -> str:
         ("overruns", s.get("overruns", "-")),
         ("missed", f"{s.get('missed', '-')}  (skipped {s.get('skipped', '-')}, caught up {s.get('caught_up', '-')})"),
         ("shared memory", ", ".join(f"{v} ({k})" for k, v in shm.items() if v) or "-"),
+        ("retain", _retain(s.get("retain"))),
     ]
     return pairs(items)
+
+
+def _retain(r: dict | None) -> str:
+    """The retain store's line (docs/retain.md): what is kept, where, and a failed write."""
+    if not r:
+        return "- (nothing kept: no state folder or no shared variables)"
+    line = f"{r['variables']} variable(s), sequence {r['sequence']}, {r['file'] or 'no copy yet'}"
+    return line + (f"; last write failed: {r['last_error']}" if r.get("last_error") else "")
 
 
 def modules_text(mods: list[dict]) -> str:

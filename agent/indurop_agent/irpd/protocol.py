@@ -66,7 +66,7 @@ BUSY = "busy"
 ERROR_CODES = (REFUSED, NOT_FOUND, RESTART_REQUIRED, BAD_REQUEST, TOO_LARGE, BUSY)
 
 COMMANDS = ("status", "schedule", "modules", "stats", "alarms", "histograms", "events", "check", "restart", "load", "change", "set_period", "set_priority", "enable", "disable", "clear_crash", "write", "trace")
-EVENT_KINDS = ("start", "swap", "swap_failed", "fault", "deadline", "overrun", "stopped", "safe_outputs_failed", "process_exit", "process_restart", "process_hang", "process_output_dropped", "crash", "crash_cleared", "restart", "restart_failed")
+EVENT_KINDS = ("start", "swap", "swap_failed", "fault", "deadline", "overrun", "stopped", "safe_outputs_failed", "process_exit", "process_restart", "process_hang", "process_output_dropped", "crash", "crash_cleared", "restart", "retain", "retain_corrupt", "retain_write_failed", "restart_failed")
 
 # ---- argument types
 Module = Annotated[StrictStr, Field(min_length=1, max_length=63, description="a module of the running set")]
@@ -117,7 +117,7 @@ class AlarmDeclaration(IrpdShape):
     id: int = Field(description="1 .. 1023, per module")
     severity: Literal["low", "medium", "high", "critical"]
     text: str = Field(description="what the operator reads")
-    origin: Literal["module.xml", "code"] = Field(description="module.xml's <alarm>, or irp::declareAlarm in initialize() or start()")
+    origin: Literal["module.xml", "code", "irpd"] = Field(description="module.xml's <alarm>, or irp::declareAlarm in initialize() or start(); irpd: irpd's own (docs/retain.md)")
 
 
 class AlarmSource(IrpdShape):
@@ -287,6 +287,10 @@ class CrashRecord(IrpdShape):
     pid: int
     thread: int
     fault_address: str
+    pc: str | None = Field(description="the instruction the crashing thread was at (\"0x...\"); null for a signal sent from elsewhere")
+    code_module: str | None = Field(description="the module whose code holds that instruction; null: none (irpd's own code, a library)")
+    code_offset: str | None = Field(description="that instruction's offset from the module's load base (\"0x...\", as addr2line -e <module> takes it)")
+    source: str | None = Field(description="the source line of that instruction from the module's line table, e.g. \"main.st:12\"; null when not known (no line table: a stripped module)")
     sender_pid: int | None = Field(description="who sent the signal; null for a fault")
     cause: Literal["fault", "abort", "watchdog", "signal"]
     stuck: bool = Field(description="the watchdog's kill; `module` is the one a stalled dispatcher was stuck in")
@@ -313,6 +317,16 @@ class LastRestart(IrpdShape):
     error_at: Place | None = Field(description="its place: the fields that are known")
     stop_ns: int
     startup_ns: int
+
+
+class RetainStore(IrpdShape):
+    """The retain store: RETAIN and PERSISTENT values kept in the state folder (docs/retain.md)."""
+
+    file: str | None = Field(description="the copy written last (or read at start); null: none yet")
+    last_save_ns: int | None = Field(description="when this irpd last wrote a copy (CLOCK_REALTIME ns); null: not yet")
+    sequence: int = Field(description="the newest copy's sequence number (0: none)")
+    variables: int = Field(description="how many variables the running layout declares retain or persistent")
+    last_error: str | None = Field(description="why the last write failed; null once one succeeds")
 
 
 class SharedMemory(IrpdShape):
@@ -346,6 +360,7 @@ class Status(IrpdShape):
     last_crash: CrashRecord | None = Field(description="the crash record irpd last took in, or null: docs/supervision.md")
     left_out_after_crash: list[LeftOutModule] = Field(description="modules a crash left out")
     last_restart: LastRestart | None = Field(description="null, or the managed restart this process came from")
+    retain: RetainStore | None = Field(description="null: no state folder or no shared variables, nothing is kept")
     shared_memory: SharedMemory
 
 

@@ -66,6 +66,15 @@ struct Cycle {
 // The cycle of the calling dispatcher thread; all zero outside run().
 const Cycle &cycle() noexcept;
 
+// Whether the run in progress must end now: true once the overrun watchdog found the calling
+// thread module's current run() past its <overrun_limit> and its <on_overrun> is `disable` or
+// `stop` (docs/faults.md); false again from its next run on, and always false elsewhere (no limit
+// watched, `warn` or `skip`, condition(), a thread the module started, a process module).  It
+// costs a call and three loads (no syscall, no lock, no atomic read-modify-write), so a long loop
+// may poll it on every iteration and end the run: return, or throw std::runtime_error("why") --
+// the module is then disabled and the `fault` event carries the text.
+bool runAbortRequested() noexcept;
+
 // ---- alarms (docs/alarms.md; the segment's layout: <indurop/alarms.h>) --------------------------
 // An alarm of a module is its id, 1 .. 1023, with a text and a severity declared in module.xml
 // (<alarm id="8" severity="high">drive communication lost</alarm>) or by declareAlarm().  The

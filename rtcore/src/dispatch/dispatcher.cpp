@@ -96,6 +96,7 @@ std::unique_ptr<Tables> buildTables(const config::SetSpec &set, const schedule::
         c.module = b.owner;
         c.disabled = b.disabled;
         c.alarm_source = b.alarm_source;
+        c.fault_note = b.fault_note;
         auto task = std::make_unique<Task>(c);
         tables->by_module[static_cast<std::size_t>(m->index)] = task.get();
         Table &table = *by_name.at(m->executor);

@@ -49,6 +49,7 @@ struct ModuleBinding {
     // Thread modules: the module's source in the alarm segment, which its run() and condition()
     // raise alarms on (runtime::setAlarmSource); none: the calls do nothing.
     uint32_t alarm_source = runtime::kNoAlarmSource;
+    FaultNote *fault_note = nullptr;  // thread modules: the text of a throw out of run()/condition()
 };
 
 // The tables of every executor for one generation of a set, and the tasks they point to.

@@ -89,8 +89,10 @@ void Executor::takeOver(const Table *next) {
 
 void Executor::disable(Task &task, stats::TimingRecord &r, const char *what, const char *detail) {
     task.state.disabled = true;
-    stats::bump(r.errors);
+    // Its state and the text first: the `errors` count is what announces the fault (its event).
     r.state.store(static_cast<uint32_t>(stats::ModuleState::Disabled), std::memory_order_relaxed);
+    if (task.config.fault_note) task.config.fault_note->note(what, detail);
+    stats::bump(r.errors);
     irp::printf("irpd: module '%s' threw %s from %s; disabled\n", r.name, detail, what);
 }
 
@@ -308,6 +310,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
     uint64_t cycle = 0;
     self_->state.store(1, std::memory_order_relaxed);
     alarm_source_ = runtime::alarmSourceWord();
+    runtime::setRunAbort(&marker_.abort());  // irp::runAbortRequested() in this thread's modules
     if (options_.marker >= 0 && static_cast<std::size_t>(options_.marker) < kLifecycleMarker) {
         crash_marker_ = static_cast<std::size_t>(options_.marker);
         claimRunningMarker(crash_marker_, options_.name.c_str());
@@ -446,6 +449,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
     }
     runtime::setCycle({});
     runtime::setAlarmSource(runtime::kNoAlarmSource);
+    runtime::setRunAbort(nullptr);
     if (crash_marker_ < kMaxMarkedExecutors) g_running_markers[crash_marker_].tid.store(0, std::memory_order_relaxed);
     crash_marker_ = SIZE_MAX;
     foldStats();  // off the RT path now: the figures are complete when the loop returns

@@ -7,6 +7,7 @@
 #pragma once
 
 #include "config/module_xml.hpp"
+#include "dispatch/fault_note.hpp"
 #include "dispatch/watchdog.hpp"
 #include "osal/clock.hpp"
 #include "sdk/runtime.hpp"
@@ -70,6 +71,7 @@ struct TaskConfig {
     int module = -1;                                  // its owner id in the call server's table
     bool disabled = false;                            // taken out of dispatch by request: its state starts disabled
     uint32_t alarm_source = runtime::kNoAlarmSource;  // thread modules: set for run() and condition()
+    FaultNote *fault_note = nullptr;                  // thread modules: where a throw's text goes (its event)
     // Hot reload: the same module's task in the table this one replaces (kept modules).  At the
     // swap the loop carries its run-time state over (TaskState::carryOver).
     const Task *predecessor = nullptr;

@@ -29,6 +29,7 @@ std::string Fault::describe() const {
         std::string text = "run() still running after " + ms(elapsed_ns) + ", past its overrun limit " + ms(limit_ns) +
                            " (" + what + ", executor " + executor + ")";
         if (action == config::OverrunAction::Stop) text += ": set stopped, outputs driven to safe values";
+        if (asksToEnd(action)) text += "; its run is asked to end (irp::runAbortRequested)";
         return text;
     }
     std::string text = "run() took " + ms(elapsed_ns) + ", past its overrun limit " + ms(limit_ns) + " (" + what + ")";
@@ -43,19 +44,21 @@ std::string Fault::describe() const {
 
 uint64_t RunMarker::begin(const stats::TimingRecord *record, config::OverrunAction action, int64_t limit_ns,
                           int64_t started_ns) noexcept {
-    const uint64_t seq = seq_.load(std::memory_order_relaxed);  // even: no run in progress
+    const uint64_t seq = abort_.run.load(std::memory_order_relaxed);  // even: no run in progress
     record_.store(record, std::memory_order_relaxed);
     action_.store(static_cast<uint8_t>(action), std::memory_order_relaxed);
     limit_ns_.store(limit_ns, std::memory_order_relaxed);
     started_ns_.store(started_ns, std::memory_order_relaxed);
-    seq_.store(seq + 1, std::memory_order_release);
+    abort_.run.store(seq + 1, std::memory_order_release);
     return seq + 1;
 }
 
-void RunMarker::end() noexcept { seq_.store(seq_.load(std::memory_order_relaxed) + 1, std::memory_order_release); }
+void RunMarker::end() noexcept {
+    abort_.run.store(abort_.run.load(std::memory_order_relaxed) + 1, std::memory_order_release);
+}
 
 bool RunMarker::running(Running &out) const noexcept {
-    const uint64_t seq = seq_.load(std::memory_order_acquire);
+    const uint64_t seq = abort_.run.load(std::memory_order_acquire);
     if (seq % 2 == 0) return false;
     out.run = seq;
     out.record = record_.load(std::memory_order_relaxed);
@@ -63,7 +66,7 @@ bool RunMarker::running(Running &out) const noexcept {
     out.limit_ns = limit_ns_.load(std::memory_order_relaxed);
     out.started_ns = started_ns_.load(std::memory_order_relaxed);
     std::atomic_thread_fence(std::memory_order_acquire);
-    return seq_.load(std::memory_order_relaxed) == seq;  // the fields did not change under us
+    return abort_.run.load(std::memory_order_relaxed) == seq;  // the fields did not change under us
 }
 
 void RunMarker::post(const Fault &fault) noexcept {
@@ -160,7 +163,8 @@ int64_t Watchdog::check(int64_t now) {
                 f.limit_ns = r.limit_ns;
                 f.elapsed_ns = now - r.started_ns;
                 f.seen_ns = now;
-                if (f.action == config::OverrunAction::Stop) stopSet(f);
+                if (f.action == config::OverrunAction::Stop) stopSet(f);  // the outputs first
+                if (asksToEnd(f.action)) marker.requestAbort(r.run);
                 if (hooks_.report) hooks_.report(f);
             }
         }

@@ -12,6 +12,7 @@
 
 #include "config/module_xml.hpp"
 #include "osal/clock.hpp"
+#include "sdk/runtime.hpp"
 #include "stats/stats_block.hpp"
 
 #include <array>
@@ -29,6 +30,13 @@
 namespace irp::dispatch {
 
 class Executor;
+
+// Whether the watchdog asks a run past its limit to end (irp::runAbortRequested() true in it):
+// for the actions that take the module out anyway, `disable` and `stop`; `warn` and `skip` let
+// the run go on.
+constexpr bool asksToEnd(config::OverrunAction action) {
+    return action == config::OverrunAction::Disable || action == config::OverrunAction::Stop;
+}
 
 // What the watchdog saw or what an executor did about one overrun.
 struct Fault {
@@ -62,6 +70,8 @@ public:
     bool seen(uint64_t run) const noexcept { return seen_.load(std::memory_order_acquire) == run; }
     // Executor thread: posts an outcome (dropped and counted when the ring is full).
     void post(const Fault &fault) noexcept;
+    // The request irp::runAbortRequested() reads on the executor's thread (runtime::setRunAbort).
+    const runtime::RunAbort &abort() const noexcept { return abort_; }
 
     // Watchdog thread: the run in progress, if any (a consistent copy); marks it seen.
     struct Running {
@@ -72,13 +82,16 @@ public:
     };
     bool running(Running &out) const noexcept;
     void markSeen(uint64_t run) noexcept { seen_.store(run, std::memory_order_release); }
+    // Watchdog thread: asks run `run` to end (irp::runAbortRequested() turns true in it).
+    void requestAbort(uint64_t run) noexcept { abort_.requested.store(run, std::memory_order_relaxed); }
     // Watchdog thread: the next posted outcome.
     bool take(Fault &out) noexcept;
     uint64_t dropped() const noexcept { return dropped_.load(std::memory_order_relaxed); }
 
 private:
-    // seq_ is odd while a watched run is in progress; the fields below change only while it is even.
-    std::atomic<uint64_t> seq_{0};
+    // abort_.run is the seqlock's sequence: odd while a watched run is in progress; the fields
+    // below change only while it is even.  abort_.requested: the run the watchdog asked to end.
+    runtime::RunAbort abort_;
     std::atomic<const stats::TimingRecord *> record_{nullptr};
     std::atomic<uint8_t> action_{0};
     std::atomic<int64_t> limit_ns_{0}, started_ns_{0};

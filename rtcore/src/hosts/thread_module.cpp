@@ -7,6 +7,7 @@
 
 #include "dispatch/running_marker.hpp"
 #include "sdk/runtime.hpp"
+#include "supervise/module_code.hpp"
 
 #include <dlfcn.h>
 #include <sys/syscall.h>
@@ -70,6 +71,9 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
     const std::filesystem::path &file = image.empty() ? spec.path : image;
     module->handle_ = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (!module->handle_) return inObject(spec, "cannot load " + spec.path.string() + ": " + lastDlError());
+    // Its address range, for a crash record that names the faulting instruction's source line.
+    module->code_entry_ =
+        supervise::registerModuleCode(module->handle_, spec.name, std::filesystem::absolute(file).string());
 
     // Built with <indurop/generated.h>: the layout it was compiled against must be the one it will
     // run on, or one that layout was laid out against with its variables in place (layouts.hpp).
@@ -131,6 +135,7 @@ Result<std::unique_ptr<ThreadModule>> ThreadModule::load(const config::ModuleSpe
 ThreadModule::~ThreadModule() {
     runtime::dropFunctionsOf(instance_);  // its exports point into the code about to go
     runtime::dropAlarmsOf(instance_);
+    supervise::unregisterModuleCode(code_entry_);
     if (handle_) dlclose(handle_);
 }
 

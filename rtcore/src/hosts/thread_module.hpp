@@ -7,6 +7,7 @@
 
 #include <indurop/result.hpp>
 #include "config/module_xml.hpp"
+#include "dispatch/fault_note.hpp"
 #include "sdk/layouts.hpp"
 
 #include <indurop/module_abi.h>
@@ -84,6 +85,9 @@ public:
     const indurop_module_v1 &table() const { return table_; }
     bool usesDescriptor() const { return descriptor_; }
     bool started() const { return started_; }
+    // What its run() or condition() last threw, written by its executor (for the `fault` event).
+    dispatch::FaultNote &faultNote() { return fault_note_; }
+    const dispatch::FaultNote &faultNote() const { return fault_note_; }
 
 private:
     explicit ThreadModule(const config::ModuleSpec &spec);
@@ -93,6 +97,7 @@ private:
     uint64_t instance_;  // unique per load: owns the shared functions its initialize()/start() export
     uint32_t alarm_source_;
     void *handle_ = nullptr;
+    int code_entry_ = -1;  // its address range for the crash handler (supervise/module_code.hpp)
     bool descriptor_ = false;
     bool started_ = false;
     std::string built_layout_;
@@ -103,6 +108,7 @@ private:
     std::function<int(char *err, std::size_t)> start_;
     void (*safe_outputs_)() = nullptr;
     std::vector<indurop_property_entry> property_entries_;
+    dispatch::FaultNote fault_note_;
 };
 
 }  // namespace irp::hosts

@@ -108,7 +108,7 @@ json moduleEntry(const reload::Generation &g, const config::ModuleSpec &m, const
 }
 
 // alarms: irpd's source, then every module's by source, with what it declared and its counters.
-json alarmSources(const alarms::AlarmSegment &segment, const reload::Generation &g) {
+json alarmSources(const alarms::AlarmSegment &segment, const reload::Generation &g, bool retain) {
     auto source = [&](uint32_t index, json declared) {
         const alarms::SourceView v = segment.view(index);
         return json{{"source", v.source},
@@ -122,7 +122,11 @@ json alarmSources(const alarms::AlarmSegment &segment, const reload::Generation 
                     {"bad_ids", v.bad_ids},
                     {"truncated", v.truncated}};
     };
-    std::vector<std::pair<uint32_t, json>> sources{{alarms::kIrpdSource, source(alarms::kIrpdSource, json::array())}};
+    json own = json::array();  // irpd's: the retain store's (docs/retain.md)
+    if (retain)
+        for (const retain::Declared &d : retain::kAlarms)
+            own.push_back({{"id", d.id}, {"severity", d.severity}, {"text", d.text}, {"origin", "irpd"}});
+    std::vector<std::pair<uint32_t, json>> sources{{alarms::kIrpdSource, source(alarms::kIrpdSource, std::move(own))}};
     for (const config::ModuleSpec &m : g.set.modules) {
         const reload::Member &member = g.members[static_cast<std::size_t>(m.index)];
         std::vector<runtime::AlarmDeclaration> list;
@@ -261,6 +265,7 @@ control::Handler commandHandler(const CommandContext &c) {
                         {"last_crash", lastCrash(c)},
                         {"left_out_after_crash", leftOut(c)},
                         {"last_restart", c.restarts ? c.restarts->lastRestart() : json(nullptr)},
+                        {"retain", c.retain ? json(c.retain->status()) : json(nullptr)},
                         {"shared_memory",
                          {{"stats", c.stats->name()},
                           {"variables", c.variables_shm.empty() ? json(nullptr) : json(c.variables_shm)},
@@ -282,7 +287,7 @@ control::Handler commandHandler(const CommandContext &c) {
         }
         case Command::Kind::Alarms:
             if (!c.alarms) return Error{"this irpd has no alarm segment"};
-            return alarmSources(*c.alarms, *g);
+            return alarmSources(*c.alarms, *g, c.retain != nullptr);
         case Command::Kind::Histograms: {
             // Every dispatcher record, then every module's, or those named `name`.
             const std::string &name = command.name;

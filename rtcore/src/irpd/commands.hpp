@@ -15,6 +15,7 @@
 #include "irpd/restart.hpp"
 #include "protocol/command_table.hpp"
 #include "reload/reloader.hpp"
+#include "retain/retain_store.hpp"
 #include "stats/stats_segment.hpp"
 #include "supervise/crash_record.hpp"
 #include "trace/trace_rings.hpp"
@@ -62,6 +63,7 @@ struct CommandContext {
     std::function<std::string()> stopped_by;           // why a fault stopped the set ("" = it did not)
     supervise::CrashState *crash = nullptr;            // null: no state folder (no crash records)
     RestartDesk *restarts = nullptr;                   // null: `restart` is refused
+    const retain::RetainStore *retain = nullptr;       // null: no retain store (docs/retain.md)
 };
 
 control::Handler commandHandler(const CommandContext &context);

@@ -13,6 +13,7 @@
 //   trace        the trace rings, every page touched before memory is locked
 //   alarms       the alarm segment (a source for irpd and for each module a set may hold), every
 //                page touched, adopted by this process's libindurop for the thread modules
+//   retain       the RETAIN and PERSISTENT values restored from the state folder (docs/retain.md)
 //   module cache the content-addressed copies thread modules are loaded from
 //   supervision  the process supervisor and the reloader; the crash record taken in (an event,
 //                its module left out)
@@ -62,6 +63,7 @@
 #include "osal/clock.hpp"
 #include "osal/rt.hpp"
 #include "reload/reloader.hpp"
+#include "retain/retain_store.hpp"
 #include "schedule/schedule.hpp"
 #include "sdk/runtime.hpp"
 #include "stats/stats_segment.hpp"
@@ -185,6 +187,7 @@ private:
     Status createVariables();
     Status createTraceRings();
     Status createAlarmSegment();
+    Status openRetainStore();
     Status openModuleCache();
     Status startSupervision();
     Status startFirstGeneration();
@@ -218,6 +221,8 @@ private:
     std::optional<variables::VariableSegment> vars_;
     std::optional<trace::TraceRings> trace_;
     std::optional<alarms::AlarmSegment> alarms_;
+    std::filesystem::path state_dir_;              // "" = none (no crash records, no retain store)
+    std::unique_ptr<retain::RetainStore> retain_;  // null: no state folder or no shared variables
     std::optional<hosts::ModuleCache> cache_;
     std::optional<hosts::ProcessSupervisor> supervisor_;
     std::optional<reload::Reloader> reloader_;
@@ -232,21 +237,14 @@ private:
 
 // The start-up, in order: each step builds the members of its resource (declared in this order).
 const Daemon::Step Daemon::kSteps[] = {
-    {&Daemon::readSet, kExitRefused},
-    {&Daemon::holdDmaLatency, kExitFailure},
-    {&Daemon::openStateFolder, kExitFailure},
-    {&Daemon::dropPrivileges, kExitFailure},
-    {&Daemon::armCrashHandler, kExitFailure},
-    {&Daemon::createStats, kExitFailure},
-    {&Daemon::readLayout, kExitRefused},
-    {&Daemon::createVariables, kExitFailure},
-    {&Daemon::createTraceRings, kExitFailure},
-    {&Daemon::createAlarmSegment, kExitFailure},
-    {&Daemon::openModuleCache, kExitFailure},
-    {&Daemon::startSupervision, kExitFailure},
-    {&Daemon::startFirstGeneration, kExitRefused},
-    {&Daemon::openControlSocket, kExitFailure},
-    {&Daemon::startDispatchers, kExitRefused},
+    {&Daemon::readSet, kExitRefused},           {&Daemon::holdDmaLatency, kExitFailure},
+    {&Daemon::openStateFolder, kExitFailure},   {&Daemon::dropPrivileges, kExitFailure},
+    {&Daemon::armCrashHandler, kExitFailure},   {&Daemon::createStats, kExitFailure},
+    {&Daemon::readLayout, kExitRefused},        {&Daemon::createVariables, kExitFailure},
+    {&Daemon::createTraceRings, kExitFailure},  {&Daemon::createAlarmSegment, kExitFailure},
+    {&Daemon::openRetainStore, kExitFailure},   {&Daemon::openModuleCache, kExitFailure},
+    {&Daemon::startSupervision, kExitFailure},  {&Daemon::startFirstGeneration, kExitRefused},
+    {&Daemon::openControlSocket, kExitFailure}, {&Daemon::startDispatchers, kExitRefused},
     {&Daemon::announce, kExitFailure},
 };
 
@@ -319,9 +317,10 @@ Status Daemon::openStateFolder() {
     Status ready = identity_ ? supervise::handOver(dir, *identity_) : Status{Ok{}};
     if (ready) {
         auto opened = supervise::CrashState::open(dir, options_.instance);
-        if (opened)
+        if (opened) {
             crash_ = std::move(*opened);
-        else
+            state_dir_ = dir;
+        } else
             ready = opened.error();
     }
     if (!ready) {
@@ -402,6 +401,20 @@ Status Daemon::createAlarmSegment() {
     if (!segment) return segment.error();
     alarms_ = std::move(*segment);
     alarms_->adopt();
+    return Ok{};
+}
+
+// RETAIN and PERSISTENT values back in the segment before any module's initialize(); saved from
+// the first period on (startDispatchers) and at the stop.
+Status Daemon::openRetainStore() {
+    if (!vars_) return Ok{};
+    if (state_dir_.empty()) {
+        if (!retain::retainedOf(layout_->text).empty())
+            say("WARNING: no state folder: RETAIN and PERSISTENT values will not survive a restart");
+        return Ok{};
+    }
+    retain_ = retain::RetainStore::open({state_dir_, options_.instance, options_.retain_interval_ns}, *vars_, events_,
+                                        &*alarms_);
     return Ok{};
 }
 
@@ -506,6 +519,7 @@ Status Daemon::openControlSocket() {
         return w ? w->stoppedBy() : std::string();
     };
     context.crash = crash_.get();
+    context.retain = retain_.get();
     context.restarts = &restarts_;
     auto opened = control::ControlServer::open(options_.control_socket, commandHandler(context));
     if (!opened) return opened.error();
@@ -538,6 +552,7 @@ Status Daemon::startDispatchers() {
     // Above the dispatchers, on the non-RT CPUs.
     watchdog_->start(dispatcher_->realtime() ? std::min(99, options_.dispatcher.rt_priority + 1) : 0);
     watchdog_now_.store(watchdog_.get());
+    if (retain_) retain_->start();
     return Ok{};
 }
 
@@ -692,6 +707,7 @@ int Daemon::stop() {
         say(e);
         status = kExitFailure;
     }
+    if (retain_) retain_->stop();  // the values the modules' stop() left
     drainModuleOutput();
     if (!options_.stats_json.empty() &&
         !writeStats(options_.stats_json, *reloader_->current(), *stats_, dispatcher_->realtime(), options_, elapsed)) {

@@ -39,6 +39,7 @@ enum Flag {
     kVarHeadroom,
     kModuleRecords,
     kProcessSlots,
+    kRetainInterval,
 };
 
 const option kOptions[] = {
@@ -66,6 +67,7 @@ const option kOptions[] = {
     {"var-headroom", required_argument, nullptr, kVarHeadroom},
     {"module-records", required_argument, nullptr, kModuleRecords},
     {"process-slots", required_argument, nullptr, kProcessSlots},
+    {"retain-interval", required_argument, nullptr, kRetainInterval},
     {nullptr, 0, nullptr, 0},
 };
 
@@ -117,7 +119,10 @@ Runs the module set described by FILE.xml (the paper's module.xml) on a strict p
   --control-socket PATH    serve the control protocol (docs/control-protocol.md) on this Unix
                            socket (mode 0660)
   --state-dir DIR          where a crash record is left for the next start (mode 0750; default
-                           /var/lib/indurop/irpd; see docs/supervision.md)
+                           /var/lib/indurop/irpd; see docs/supervision.md); also where the
+                           values of RETAIN and PERSISTENT variables are kept (docs/retain.md)
+  --retain-interval MS     save changed RETAIN and PERSISTENT values at most once per MS
+                           milliseconds, 10 to 3600000 (default 1000), and at stop
   --user USER              after start, run as USER keeping only CAP_SYS_NICE and CAP_IPC_LOCK
                            (irpd must start as root); shared memory and the control socket
                            belong to USER and its group, mode 0660
@@ -229,6 +234,12 @@ Result<Options> parseOptions(int argc, char **argv) {
         case kLayout: o.layout = optarg; break;
         case kModuleCache: o.module_cache = optarg; break;
         case kControlSocket: o.control_socket = optarg; break;
+        case kRetainInterval: {
+            auto v = integer("retain-interval", optarg, 10, 3'600'000);
+            if (!v) return v.error();
+            o.retain_interval_ns = *v * 1'000'000;
+            break;
+        }
         case kStateDir:
             if (!*optarg) return Error{"--state-dir: the folder is empty"};
             o.state_dir = optarg;

@@ -522,6 +522,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
             b.run = member.thread->runFunction();
             b.condition = member.thread->table().condition;
             if (s_.alarms) b.alarm_source = member.alarm_source;
+            b.fault_note = &member.thread->faultNote();
         }
         if (member.slot >= 0 && m.operation != config::OperationType::NonReal)
             b.process = &s_.control->slot(static_cast<uint32_t>(member.slot));
@@ -578,10 +579,15 @@ void Reloader::undo(Generation &partial) {
 
 void Reloader::adopt(std::unique_ptr<Generation> first, dispatch::Dispatcher &dispatcher) {
     dispatcher_ = &dispatcher;
-    for (const config::ModuleSpec &m : first->set.modules)
+    // The executors run already: a module that threw in its first runs was set Disabled by its
+    // executor, which stays (only a record still Loaded is set).
+    for (const config::ModuleSpec &m : first->set.modules) {
+        auto expected = static_cast<uint32_t>(stats::ModuleState::Loaded);
         s_.stats->record(first->members[static_cast<std::size_t>(m.index)].record)
-            .state.store(static_cast<uint32_t>(first->disabled.count(m.name) ? stats::ModuleState::Disabled
-                                                                             : stats::ModuleState::Running));
+            .state.compare_exchange_strong(expected, static_cast<uint32_t>(first->disabled.count(m.name)
+                                                                               ? stats::ModuleState::Disabled
+                                                                               : stats::ModuleState::Running));
+    }
     std::lock_guard lock(mutex_);
     current_ = std::shared_ptr<Generation>(std::move(first));
 }

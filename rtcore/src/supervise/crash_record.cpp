@@ -4,11 +4,14 @@
 
 #include "dispatch/running_marker.hpp"
 #include "events/event_log.hpp"
+#include "supervise/module_code.hpp"
+#include "supervise/source_line.hpp"
 
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
 #include <sys/syscall.h>
+#include <sys/ucontext.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -38,6 +41,7 @@ struct HandlerState {
     std::atomic<bool> handling{false};
     std::atomic<int> stalled{-1};  // the dispatcher holding the watchdog's pings back
     char buffer[8192] = {};
+    CodeLocation code;
 };
 HandlerState g_handler;
 
@@ -78,7 +82,21 @@ const char *signalName(int sig) {
     }
 }
 
-void onCrash(int sig, siginfo_t *info, void *) {
+// The instruction the interrupted thread was at, from the context the kernel saved; 0 if unknown.
+uintptr_t interruptedPc(void *context) {
+    if (!context) return 0;
+    const auto *uc = static_cast<const ucontext_t *>(context);
+#if defined(__x86_64__)
+    return static_cast<uintptr_t>(uc->uc_mcontext.gregs[REG_RIP]);
+#elif defined(__aarch64__)
+    return static_cast<uintptr_t>(uc->uc_mcontext.pc);
+#else
+    (void)uc;
+    return 0;
+#endif
+}
+
+void onCrash(int sig, siginfo_t *info, void *context) {
     // One record: a second thread crashing meanwhile waits for the first to end the process.
     if (g_handler.handling.exchange(true)) {
         for (;;) pause();
@@ -129,6 +147,16 @@ void onCrash(int sig, siginfo_t *info, void *) {
     w.field("set_id", c.set_id);
     w.field("generation", c.generation);
     w.text("fault_address="), w.hex(reinterpret_cast<uintptr_t>(info ? info->si_addr : nullptr)), w.text("\n");
+    // Where the crashing thread was, and in whose code (a table of numbers: dladdr is not
+    // async-signal-safe).  A signal sent from elsewhere interrupts whatever: no place for it.
+    if (const uintptr_t pc = sent ? 0 : interruptedPc(context)) {
+        w.text("pc="), w.hex(pc), w.text("\n");
+        if (findModuleCode(pc, g_handler.code)) {
+            w.field("code_module", g_handler.code.module);
+            w.field("code_image", g_handler.code.image);
+            w.text("code_offset="), w.hex(g_handler.code.offset), w.text("\n");
+        }
+    }
     // Sent (kill, tgkill, sigqueue: si_code <= 0) rather than raised by the kernel for a fault:
     // the sender's pid -- irpd's own for abort(), 1 for systemd's watchdog.
     if (sent) w.field("sender_pid", static_cast<uint64_t>(info->si_pid));
@@ -222,12 +250,25 @@ std::optional<CrashRecord> parseCrashRecord(const std::string &text) {
             r.sender_pid = number();
         else if (key == "stuck")
             r.stuck = number() != 0;
+        else if (key == "pc")
+            r.pc = value;
+        else if (key == "code_module")
+            r.code_module = value;
+        else if (key == "code_image")
+            r.code_image = value;
+        else if (key == "code_offset")
+            r.code_offset = value;
+        else if (key == "source")
+            r.source = value;
     }
     if (!r.signal) return std::nullopt;
     return r;
 }
 
 nlohmann::ordered_json CrashRecord::toJson() const {
+    const auto orNull = [](const std::string &s) {
+        return s.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(s);
+    };
     return {{"signal", signal_name},
             {"signal_number", signal},
             {"time", events::isoTime(time_ns)},
@@ -239,6 +280,10 @@ nlohmann::ordered_json CrashRecord::toJson() const {
             {"pid", pid},
             {"thread", tid},
             {"fault_address", fault_address},
+            {"pc", orNull(pc)},
+            {"code_module", orNull(code_module)},
+            {"code_offset", orNull(code_offset)},
+            {"source", orNull(source)},
             {"sender_pid", sender_pid < 0 ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(sender_pid)},
             {"cause", cause()},
             {"stuck", stuck}};
@@ -256,6 +301,10 @@ std::string CrashRecord::describe() const {
                                        : "in module '" + module + "'" +
                                              (executor == "lifecycle" ? " (initialize/start/stop, on the main thread)"
                                                                       : " on executor '" + executor + "'");
+    if (!source.empty())
+        where += ", at " + source + " (" + code_module + "+" + code_offset + ")";
+    else if (!code_offset.empty())
+        where += ", at " + code_module + "+" + code_offset + " (no source line known)";
     if (stuck) where += ", stuck there (its dispatcher made no progress)";
     const std::string why = cause();
     const std::string how = why == "abort"      ? " raised by irpd itself (abort)"
@@ -281,11 +330,22 @@ Result<std::unique_ptr<CrashState>> CrashState::open(const std::filesystem::path
 
     const std::filesystem::path record = dir / (instance + ".crash"), last = dir / (instance + ".last-crash");
     if (std::filesystem::exists(record)) {
-        s->fresh_ = parseCrashRecord(readText(record));
-        if (s->fresh_)
-            std::filesystem::rename(record, last, ec);
-        else
+        std::string text = readText(record);
+        s->fresh_ = parseCrashRecord(text);
+        if (s->fresh_) {
+            // Now, not in the handler: the faulting instruction's source line, kept with the record.
+            CrashRecord &r = *s->fresh_;
+            if (!r.code_image.empty() && !r.code_offset.empty() && r.source.empty()) {
+                r.source = sourceLine(r.code_image, std::strtoull(r.code_offset.c_str(), nullptr, 16));
+                if (!r.source.empty()) text += "source=" + r.source + "\n";
+            }
+            if (writeAtomically(last, text))
+                std::filesystem::remove(record, ec);
+            else
+                std::filesystem::rename(record, last, ec);
+        } else {
             std::filesystem::remove(record, ec);  // torn or foreign: not a record
+        }
     }
     s->last_ = parseCrashRecord(readText(last));
     std::istringstream excluded(readText(dir / (instance + ".excluded")));

@@ -34,8 +34,15 @@ struct CrashRecord {
     std::string set_id;
     uint64_t generation = 0;
     std::string fault_address;  // si_addr, "0x..."
-    int64_t sender_pid = -1;    // who sent the signal (kill, abort, systemd), -1: the kernel, for a fault
-    bool stuck = false;         // the watchdog's kill, and `module` is where a stalled dispatcher was stuck
+    // The instruction the crashing thread was at (the signal's ucontext), "" when not known; for a
+    // fault in a module's code: that module, the file it was loaded from, the instruction's
+    // offset from its load base, and the source line it maps to (taken in at the next start:
+    // supervise/source_line.hpp), "" when not known.
+    std::string pc;
+    std::string code_module, code_image, code_offset;
+    std::string source;       // "main.st:12"
+    int64_t sender_pid = -1;  // who sent the signal (kill, abort, systemd), -1: the kernel, for a fault
+    bool stuck = false;       // the watchdog's kill, and `module` is where a stalled dispatcher was stuck
 
     // "fault" (the kernel, for the crashed thread's own instruction), "abort" (irpd raised it
     // itself), "watchdog" (SIGABRT from pid 1: systemd's WatchdogSec), "signal" (another sender).

@@ -1,7 +1,8 @@
 // trigger.cpp -- modules that misbehave on purpose once a file exists (property "trigger": its
 // path), so that a test decides exactly when: TRIGGER_STALL blocks in run() for good (a hung
 // module: the systemd watchdog's case), TRIGGER_CRASH dereferences a null pointer in run() (a
-// thread module's segfault: the crash record's case).  Until then they count their runs.
+// thread module's segfault: the crash record's case; with TRIGGER_LINE_DIRECTIVE that line is
+// `#line 12 "main.st"`, as generated Structured Text carries it).  Until then they count their runs.
 #include <indurop/indurop.h>
 
 #include <unistd.h>
@@ -21,7 +22,12 @@ void run() {
     for (;;) sleep(1000);
 #elif defined(TRIGGER_CRASH)
     volatile int *nowhere = nullptr;
-    *nowhere = 1;
+#if defined(TRIGGER_LINE_DIRECTIVE)
+#line 12 "main.st"
+    *nowhere = 1;  // main.st:12
+#else
+    *nowhere = 1;  // the crash line
+#endif
 #else
 #error "trigger.cpp needs TRIGGER_STALL or TRIGGER_CRASH"
 #endif

@@ -671,6 +671,7 @@ def test_status_human(irpctl, cell):
     assert fields["running"].startswith("yes")
     assert int(fields["cycles"]) > 0 and fields["modules"] == "7"
     assert f"/indurop.{cell.instance}.vars (variables)" in fields["shared memory"]
+    assert fields["retain"].startswith(("0 variable(s), sequence 0, no copy yet", "- (nothing kept"))  # fig1 keeps none
 
 
 def test_status_json_is_the_apis_answer(irpctl, cell):

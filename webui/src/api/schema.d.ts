@@ -2128,6 +2128,16 @@ export interface components {
              * @enum {string}
              */
             cause: "fault" | "abort" | "watchdog" | "signal";
+            /**
+             * Code Module
+             * @description the module whose code holds that instruction; null: none (irpd's own code, a library)
+             */
+            code_module: string | null;
+            /**
+             * Code Offset
+             * @description that instruction's offset from the module's load base ("0x...", as addr2line -e <module> takes it)
+             */
+            code_offset: string | null;
             /** Executor */
             executor: string | null;
             /** Fault Address */
@@ -2136,6 +2146,11 @@ export interface components {
             generation: number;
             /** Module */
             module: string | null;
+            /**
+             * Pc
+             * @description the instruction the crashing thread was at ("0x..."); null for a signal sent from elsewhere
+             */
+            pc: string | null;
             /** Pid */
             pid: number;
             /**
@@ -2151,6 +2166,11 @@ export interface components {
             signal: string;
             /** Signal Number */
             signal_number: number;
+            /**
+             * Source
+             * @description the source line of that instruction from the module's line table, e.g. "main.st:12"; null when not known (no line table: a stripped module)
+             */
+            source: string | null;
             /**
              * Stuck
              * @description the watchdog's kill; `module` is the one a stalled dispatcher was stuck in
@@ -3865,6 +3885,39 @@ export interface components {
              */
             present: string[];
         };
+        /**
+         * RetainStore
+         * @description The retain store: RETAIN and PERSISTENT values kept in the state folder (docs/retain.md).
+         */
+        RetainStore: {
+            /**
+             * File
+             * @description the copy written last (or read at start); null: none yet
+             */
+            file: string | null;
+            /**
+             * Last Error
+             * @description why the last write failed; null once one succeeds
+             */
+            last_error: string | null;
+            /**
+             * Last Save Ns
+             * @description when this irpd last wrote a copy (CLOCK_REALTIME ns); null: not yet
+             */
+            last_save_ns: number | null;
+            /**
+             * Sequence
+             * @description the newest copy's sequence number (0: none)
+             */
+            sequence: number;
+            /**
+             * Variables
+             * @description how many variables the running layout declares retain or persistent
+             */
+            variables: number;
+        } & {
+            [key: string]: unknown;
+        };
         /** RobotJoint */
         RobotJoint: {
             /**
@@ -4400,6 +4453,8 @@ export interface components {
              * @description false: the dispatchers run SCHED_OTHER; periods are not guaranteed
              */
             realtime: boolean;
+            /** @description null: no state folder or no shared variables, nothing is kept */
+            retain: components["schemas"]["RetainStore"] | null;
             /** Running */
             running: boolean;
             /**

@@ -1,6 +1,7 @@
 // faults.ts -- the overview's "faults" line from irpd's status: a set stopped by a fault (an
 // overrun with on_overrun=stop, docs/faults.md), modules a crash left out (docs/supervision.md),
-// the crash irpd came back from (and who sent its signal: systemd's watchdog, a kill, irpd's abort).
+// the crash irpd came back from (and who sent its signal: systemd's watchdog, a kill, irpd's abort;
+// the source line of a fault, e.g. main.st:12).
 import type { CrashRecord, Status } from "./types";
 
 export interface FaultSummary {
@@ -20,7 +21,8 @@ export function faultSummary(
   }
   const c = st.last_crash;
   if (c) {
-    const where = c.module ? ` in ${c.module}` : "";
+    const line = c.source ? ` (${c.source})` : "";
+    const where = c.module ? ` in ${c.module}${line}` : line;
     const from =
       c.cause === "watchdog"
         ? " from systemd's watchdog"

@@ -27,6 +27,12 @@ describe("faultSummary", () => {
     const s = faultSummary({ last_crash: { signal: "SIGSEGV", module: "Robot", time: "2026-11-22T09:00:00Z" } });
     expect(s).toEqual({ level: "warn", text: "restarted after SIGSEGV in Robot at 2026-11-22T09:00:00Z" });
   });
+  it("names the source line of the faulting instruction when the record has it", () => {
+    const s = faultSummary({
+      last_crash: { signal: "SIGSEGV", module: "Main", source: "main.st:12", time: "2026-11-22T09:00:00Z" },
+    });
+    expect(s.text).toBe("restarted after SIGSEGV in Main (main.st:12) at 2026-11-22T09:00:00Z");
+  });
   it("names who sent the signal: systemd's watchdog, another process, irpd's own abort", () => {
     const at = { signal: "SIGABRT", time: "2026-11-22T09:00:00Z" };
     expect(faultSummary({ last_crash: { ...at, cause: "watchdog", sender_pid: 1 } }).text).toBe(

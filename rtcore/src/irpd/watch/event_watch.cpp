@@ -10,8 +10,13 @@ void EventWatch::look(const reload::Generation &g, const std::vector<hosts::Proc
         Seen &seen = seen_[m.name];
         const uint64_t errors = r.errors.load(), missed = r.missed.load(), overruns = r.overruns.load();
         // (on the first look too: a module may throw before it, in its first runs)
-        if (errors > seen.errors)
-            log_.add("fault", m.name, "threw from run() or condition(); disabled (enable it to run it again)");
+        if (errors > seen.errors) {
+            const reload::Member &member = g.members[static_cast<std::size_t>(m.index)];
+            const std::string text = member.thread ? member.thread->faultNote().read() : "";
+            log_.add("fault", m.name,
+                     "threw from " + (text.empty() ? std::string("run() or condition()") : text) +
+                         "; disabled (enable it to run it again)");
+        }
         if (figures || seen.first) {
             if (missed > seen.missed && !seen.first)
                 log_.add("deadline", m.name,

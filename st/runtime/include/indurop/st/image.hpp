@@ -129,4 +129,16 @@ inline void writeBack(const shared::ArrayRef<E, N> &ref, const Local &local, con
     detail::writeFrom<typename shared::ArrayRef<E, N>::array_type>(ref, local, snapshot);
 }
 
+// ---- a whole value (the generated start() writes initial values with it) -------------------------
+
+// Writes all of `value` into the variable: copyIn's counterpart without a snapshot, every word written.
+template <class Ref, class Local>
+inline void store(const Ref &ref, const Local &value) noexcept {
+    Local unlike;
+    const auto *from = reinterpret_cast<const unsigned char *>(&value);
+    auto *to = reinterpret_cast<unsigned char *>(&unlike);
+    for (std::size_t i = 0; i < sizeof(Local); ++i) to[i] = static_cast<unsigned char>(~from[i]);
+    writeBack(ref, value, unlike);
+}
+
 }  // namespace irp::st

@@ -7,6 +7,9 @@
 
 #include <indurop/indurop.h>
 #include <indurop/st/fault.hpp>
+#include <indurop/st/types.hpp>
+
+#include <type_traits>
 
 namespace irp {
 // libindurop's flag (<indurop/indurop.h>): true while the calling thread module's run must end.
@@ -30,5 +33,22 @@ inline void loopCheck(const Place &place, bool abort) {
 }
 
 inline void loopCheck(const Place &place) { loopCheck(place, runAbortRequested()); }
+
+// FOR i := a TO end BY step: the back-edge.  Advances i by step and says whether the loop goes on:
+// while i has not passed end (i <= end for a positive step, i >= end for a negative one, the
+// standard's termination rule).  Computed wide, so that a loop up to the type's maximum ends
+// (FOR i := 32760 TO 32767 on an INT); i is then end + step wrapped, as the addition wraps.
+template <Integer T, Integer S>
+constexpr bool forStep(T &i, std::type_identity_t<T> end, S step) noexcept {
+    const __int128 next = static_cast<__int128>(i) + static_cast<__int128>(step);
+    i = static_cast<T>(static_cast<detail::WrapType<T>>(static_cast<unsigned __int128>(next)));
+    return step > 0 ? next <= end : next >= end;
+}
+
+// Whether a FOR loop runs its body at all: the start value has not passed the end.
+template <Integer T, Integer S>
+constexpr bool forStarts(T i, std::type_identity_t<T> end, S step) noexcept {
+    return step > 0 ? i <= end : i >= end;
+}
 
 }  // namespace irp::st

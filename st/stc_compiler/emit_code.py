@@ -1,0 +1,658 @@
+# emit_code.py -- C++ for the POUs of a checked ST program (emit_cpp.py assembles the file): the types
+# (STRUCTs and FB instances as plain structs with their initial values), FUNCTIONs as C++ functions,
+# FUNCTION_BLOCKs and the PROGRAM as functions on their struct, statements with `#line`, expressions on
+# irp::st (integer arithmetic that wraps, faults that name the ST place, the standard functions).
+
+from __future__ import annotations
+
+from . import stdlib
+from . import tree as t
+from . import types as ty
+from .emit_glb import EMPTY_FB_FIELD, fb_fields, globals_blocks, stored
+
+# The runtime spells the points in time of 64-bit ns once: the L-forms are the same values.
+RUNTIME_NAME = {"LDATE": "DATE", "LTOD": "TOD", "LDT": "DT", "TIME_OF_DAY": "TOD", "DATE_AND_TIME": "DT"}
+RUNTIME_NAME |= {"WSTRING": "STRING"}
+
+
+def rt_name(name: str) -> str:
+    return RUNTIME_NAME.get(name, name)
+
+
+def cpp_type(typ) -> str:
+    typ = ty.base(typ) if isinstance(typ, ty.SubrangeType) else typ
+    if isinstance(typ, ty.Elementary):
+        return rt_name(typ.name)
+    if isinstance(typ, ty.StringType):
+        return f"String<{typ.length}>"
+    if isinstance(typ, ty.ArrayType):
+        out = cpp_type(typ.element)
+        for lo, hi in reversed(typ.dims):
+            out = f"std::array<{out}, {hi - lo + 1}>"
+        return out
+    if isinstance(typ, ty.EnumType):
+        return "ENUM"
+    if isinstance(typ, ty.FbType):
+        return typ.pou.name
+    if isinstance(typ, ty.StructType):
+        return getattr(typ, "cpp_name", typ.name)
+    if isinstance(typ, ty.LiteralType):
+        return cpp_type(typ.default())
+    raise ValueError(f"no C++ type for {typ}")
+
+
+def literal(value, typ) -> str:
+    """A constant value as C++ for a place of type typ."""
+    b = ty.base(typ) if typ is not None else None
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return f"String<{max(1, len(value.encode('utf-8')))}>({c_string(value)})"
+    if isinstance(value, float) or (isinstance(b, ty.Elementary) and b.kind == "real"):
+        text = repr(float(value))
+        if text in ("inf", "-inf", "nan"):
+            text = {"inf": "HUGE_VAL", "-inf": "-HUGE_VAL", "nan": "NAN"}[text]
+        elif "e" not in text and "." not in text:
+            text += ".0"
+        return text + ("f" if isinstance(b, ty.Elementary) and b.name == "REAL" and text[-1].isdigit() else "")
+    value = int(value)
+    if value == -(1 << 63):
+        return "(-9223372036854775807LL - 1)"
+    if value >= 1 << 63:
+        return f"{value}ULL"
+    if value >= 1 << 31 or value < -(1 << 31):
+        return f"{value}LL"
+    return str(value)
+
+
+def c_string(text: str) -> str:
+    out = []
+    for byte in text.encode("utf-8"):
+        c = chr(byte)
+        if c in '"\\?':
+            out.append("\\" + c)
+        elif 32 <= byte < 127:
+            out.append(c)
+        else:
+            out.append(f"\\{byte:03o}")
+    return '"' + "".join(out) + '"'
+
+
+def walk_names(stmts):
+    """Every Name and Member node in statements (expressions, arguments, targets), recursively."""
+    stack = list(stmts)
+    while stack:
+        n = stack.pop()
+        if n is None:
+            continue
+        if isinstance(n, (list, tuple)):
+            stack.extend(n)
+            continue
+        if isinstance(n, (t.Name, t.Member)):
+            yield n
+        if isinstance(n, t.Node):
+            for value in vars(n).values():
+                if isinstance(value, (t.Node, list, tuple)) and value is not n:
+                    if isinstance(value, t.Pou) or isinstance(value, t.VarDecl):
+                        continue
+                    stack.append(value)
+
+
+class CodeEmitter:
+    def __init__(self, prog) -> None:
+        self.prog = prog
+        self.places: dict[str, str] = {}  # constant name -> its definition
+        self.scope: t.Pou | None = None
+        self.temp = 0
+        self.glb_structs: dict[int, str] = {}
+        if prog.layout is not None:
+            for name, st in prog.layout._structs.items():
+                st.cpp_name = "::" + name.replace(".", "::")
+        self.namespaces: dict[int, str] = {}
+        for block in globals_blocks(prog.units):
+            for g in block.decls:
+                self.namespaces[id(g)] = block.namespace
+        self.enum_decls = {id(d.type): d for d in prog.types.values() if isinstance(d.type, ty.EnumType)}
+        self.type_decls = {id(d.type): d for d in prog.types.values() if d.type is not None}
+
+    # ---- places (faults) -------------------------------------------------------------------------
+
+    def place(self, node: t.Node) -> str:
+        p = node.place
+        pou = self.scope
+        who = f"{pou.kind} {pou.name}" if pou is not None else "?"
+        name = f"k{pou.name if pou else ''}_{p.line}_{p.col}"
+        if name not in self.places:
+            self.places[name] = f'constexpr Place {name}{{{c_string(p.file)}, {p.line}, {p.col}, "{who}"}};'
+        return name
+
+    def places_text(self) -> list[str]:
+        if not self.places:
+            return []
+        return ["// The ST places a run-time fault names."] + list(self.places.values()) + [""]
+
+    def global_namespace(self, g: t.VarDecl) -> str:
+        return self.namespaces[id(g)]
+
+    def glb_type(self, d: t.VarDecl) -> str:
+        return cpp_type(d.type)
+
+    # ---- types -----------------------------------------------------------------------------------
+
+    def type_definitions(self, pous: list[t.Pou], program: t.Pou, glob: list[t.VarDecl]) -> list[str]:
+        out: list[str] = []
+        done: set[int] = set()
+
+        def need(typ) -> None:
+            while isinstance(typ, ty.ArrayType):
+                typ = typ.element
+            if isinstance(typ, ty.FbType):
+                emit_fb(typ.pou)
+            elif isinstance(typ, ty.StructType) and not hasattr(typ, "cpp_name") and id(typ) not in done:
+                done.add(id(typ))
+                for m in typ.members.values():
+                    need(m.type)
+                out.append(f"struct {typ.name} {{")
+                out.extend(f"    {self.member(m)}" for m in typ.members.values())
+                out.extend(["};", ""])
+
+        def emit_fb(pou: t.Pou) -> None:
+            if id(pou) in done:
+                return
+            done.add(id(pou))
+            fields = fb_fields(pou)
+            for v in pou.vars:
+                need(v.type)
+            out.append(f"struct {pou.name} {{  // FUNCTION_BLOCK {pou.name}: an instance's data, as in shared memory")
+            out.extend(f"    {self.member(v)}" for v in fields)
+            if not fields:
+                out.append(f"    BOOL {EMPTY_FB_FIELD}{{}};")
+            out.extend(f"    {self.constant(v, static=True)}" for v in pou.vars if v.constant)
+            out.extend(["};", ""])
+
+        for p in pous:
+            for v in p.vars:
+                need(v.type)
+            if p.kind == "FUNCTION_BLOCK":
+                emit_fb(p)
+        for v in program.vars:
+            need(v.type)
+        for g in glob:
+            need(g.type)
+        out.append(f"struct {program.name} {{  // PROGRAM {program.name}: its variables")
+        for v in program.vars:
+            if stored(v) or (v.location is not None and v.kind in ("VAR", "VAR_INPUT", "VAR_OUTPUT")):
+                out.append(f"    {self.member(v)}")
+            elif v.constant:
+                out.append(f"    {self.constant(v, static=True)}")
+        out += ["};", ""]
+        if glob:
+            out.append("struct Globals {  // the VAR_GLOBALs the program uses")
+            out.extend(f"    {self.member(g)}" for g in glob)
+            out += ["};", ""]
+        constants = [g for g in self.prog.globals.values() if g.constant]
+        if constants:
+            out.append("// global CONSTANTs")
+            out.extend(self.constant(g, static=False) for g in constants)
+            out.append("")
+        return out
+
+    def member(self, v: t.VarDecl) -> str:
+        return f"{cpp_type(v.type)} {v.name}{{{self.initial(v.init, v.type)}}};"
+
+    def constant(self, v: t.VarDecl, static: bool) -> str:
+        return f"{'static ' if static else ''}constexpr {cpp_type(v.type)} {v.name}{{{self.initial(v.init, v.type)}}};"
+
+    def initial(self, init, typ) -> str:
+        """The brace contents of a declaration's initial value ('' = the type's default)."""
+        if init is None:
+            return self.default(typ)
+        if isinstance(init, t.ArrayInit):
+            items = []
+            for item in init.items:
+                value = self.value_of(item.value, typ.element) if item.value is not None else self.zero(typ.element)
+                items += [value] * (item.count if item.count is not None else 1)
+            return ", ".join(items)
+        return self.value_of(init, typ) if not isinstance(init, t.StructInit) else self.struct_init(init, typ)
+
+    def value_of(self, init, typ) -> str:
+        if isinstance(init, (t.ArrayInit, t.StructInit)):
+            return f"{cpp_type(typ)}{{{self.initial(init, typ)}}}"
+        return self.conv(init, typ)
+
+    def struct_init(self, init: t.StructInit, typ) -> str:
+        b = ty.base(typ)
+        order = [v.name for v in fb_fields(b.pou)] if isinstance(b, ty.FbType) else [m.name for m in b.members.values()]
+        members = (
+            {v.name.upper(): v for v in fb_fields(b.pou)} if isinstance(b, ty.FbType) else dict(b.members)
+        )
+        given = {name.upper(): value for name, _, value in init.fields}
+        parts = []
+        for name in order:
+            if name.upper() in given:
+                parts.append(f".{name} = {self.value_of(given[name.upper()], members[name.upper()].type)}")
+        return ", ".join(parts)
+
+    def default(self, typ) -> str:
+        b = ty.base(typ)
+        if isinstance(typ, ty.SubrangeType) and not typ.low <= 0 <= typ.high:
+            return literal(typ.low, typ.base)
+        decl = self.type_decls.get(id(typ))
+        if decl is not None and decl.init is not None:
+            return self.initial(decl.init, typ)
+        if isinstance(b, ty.EnumType) and b.values:
+            first = next(iter(b.values.values()))
+            return f"{first.number} /* {first.name} */"
+        return ""
+
+    def zero(self, typ) -> str:
+        return f"{cpp_type(typ)}{{{self.default(typ)}}}"
+
+    # ---- POUs ------------------------------------------------------------------------------------
+
+    def declarations(self, pous: list[t.Pou]) -> list[str]:
+        out = [self.signature(p) + ";" for p in pous]
+        return out + [""] if out else []
+
+    def signature(self, p: t.Pou) -> str:
+        if p.kind == "FUNCTION":
+            params = []
+            for v in p.vars:
+                if v.kind == "VAR_INPUT":
+                    params.append(f"{cpp_type(v.type)} {v.name}")
+                elif v.kind in ("VAR_IN_OUT", "VAR_OUTPUT"):
+                    params.append(f"{cpp_type(v.type)} &{v.name}")
+            result = cpp_type(p.return_type) if p.return_type is not None else "void"
+            return f"{result} {p.name}({', '.join(params)})"
+        inouts = [f", {cpp_type(v.type)} &{v.name}" for v in p.vars if v.kind == "VAR_IN_OUT"]
+        name = "fbBody" if p.kind == "FUNCTION_BLOCK" else "programBody"
+        return f"void {name}({p.name} &self{''.join(inouts)})"
+
+    def pou(self, p: t.Pou) -> list[str]:
+        self.scope = p
+        out = [f"// {p.kind} {p.name} ({p.place.file}:{p.place.line})", self.signature(p) + " {"]
+        for v in p.vars:
+            local = v.kind == "VAR_TEMP" or (p.kind == "FUNCTION" and v.kind == "VAR")
+            if v.constant and p.kind == "FUNCTION":
+                out.append(f"    {self.constant(v, static=True)}")
+            elif local:
+                out.append(f"    {self.member(v)}")
+        if p.kind == "FUNCTION" and p.return_type is not None:
+            out.append(f"    {cpp_type(p.return_type)} {p.name}{{{self.default(p.return_type)}}};")
+        out += _indent(self.block(p.body))
+        if p.kind == "FUNCTION" and p.return_type is not None:
+            out.append(f"    return {p.name};")
+        out += ["}", "#line RESET"]
+        self.scope = None
+        return out
+
+    # ---- statements --------------------------------------------------------------------------------
+
+    def block(self, stmts: list) -> list[str]:
+        """Statements, each after its `#line`, at indentation 0 (nested() and pou() indent them)."""
+        out = []
+        for s in stmts:
+            out.append(f'#line {s.place.line} "{s.place.file}"')
+            out += self.statement(s)
+        return out
+
+    def nested(self, stmts: list) -> list[str]:
+        return _indent(self.block(stmts))
+
+    def statement(self, s) -> list[str]:
+        if isinstance(s, t.Assign):
+            return self.assign(s.target, s.value, s)
+        if isinstance(s, t.CallStmt):
+            return self.call_statement(s.call)
+        if isinstance(s, t.If):
+            out = []
+            for i, (cond, body) in enumerate(s.branches):
+                out.append(f"{'if' if i == 0 else '} else if'} ({self.expr(cond)}) {{")
+                out += self.nested(body)
+            if s.orelse:
+                out.append("} else {")
+                out += self.nested(s.orelse)
+            return out + ["}"]
+        if isinstance(s, t.Case):
+            return self.case(s)
+        if isinstance(s, t.For):
+            return self.for_loop(s)
+        if isinstance(s, t.While):
+            guard = f"loopCheck({self.place(s)});"
+            return [f"while ({self.expr(s.cond)}) {{", f"    {guard}"] + self.nested(s.body) + ["}"]
+        if isinstance(s, t.Repeat):
+            guard = f"loopCheck({self.place(s)});"
+            return ["do {", f"    {guard}"] + self.nested(s.body) + [f"}} while (!({self.expr(s.cond)}));"]
+        if isinstance(s, t.Exit):
+            return ["break;"]
+        if isinstance(s, t.Continue):
+            return ["continue;"]
+        if isinstance(s, t.Return):
+            p = self.scope
+            return [f"return {p.name};" if p.kind == "FUNCTION" and p.return_type is not None else "return;"]
+        raise ValueError(f"no C++ for {type(s).__name__}")
+
+    def fresh(self, stem: str) -> str:
+        self.temp += 1
+        return f"{stem}{self.temp}_"
+
+    def case(self, s: t.Case) -> list[str]:
+        sel = self.fresh("sel")
+        typ = ty.concrete(s.selector.type)
+        out = [f"{{  // CASE", f"    const {cpp_type(typ)} {sel} = {self.expr(s.selector)};"]
+        first = True
+        for branch in s.branches:
+            tests = []
+            for label in branch.labels:
+                lo = literal(label.low.const, typ)
+                if label.high is None:
+                    tests.append(f"{sel} == {lo}")
+                else:
+                    tests.append(f"({sel} >= {lo} && {sel} <= {literal(label.high.const, typ)})")
+            out.append(f"    {'if' if first else '} else if'} ({' || '.join(tests)}) {{")
+            first = False
+            out += _indent(self.nested(branch.body))
+        if s.orelse:
+            if first:
+                out.append("    {")
+            else:
+                out.append("    } else {")
+            out += _indent(self.nested(s.orelse))
+        if not first or s.orelse:
+            out.append("    }")
+        return out + ["}"]
+
+    def for_loop(self, s: t.For) -> list[str]:
+        typ = s.var.type
+        var = self.lvalue(s.var)
+        end, step = self.fresh("end"), self.fresh("by")
+        step_code = self.conv(s.step, typ) if s.step is not None else "1"
+        out = [
+            f"{{  // FOR {s.var.name}",
+            f"    {var} = {self.conv(s.start, typ)};",
+            f"    const {cpp_type(typ)} {end} = {self.conv(s.end, typ)};",
+            f"    const {cpp_type(typ)} {step} = {step_code};",
+            f"    if (forStarts({var}, {end}, {step})) do {{",
+            f"        loopCheck({self.place(s)});",
+        ]
+        out += _indent(self.nested(s.body))
+        out.append(f"    }} while (forStep({var}, {end}, {step}));")
+        return out + ["}"]
+
+    def assign(self, target: t.Expr, value: t.Expr, s) -> list[str]:
+        if isinstance(target, t.BitAccess):
+            return [f"setBit<{target.bit}>({self.lvalue(target.base)}, {self.conv(value, ty.BOOL)});"]
+        code = self.conv(value, target.type)
+        if isinstance(target.type, ty.SubrangeType):
+            st = target.type
+            code = f"range({self.place(s)}, {code}, {st.low}, {st.high})"
+        return [f"{self.lvalue(target)} = {code};"]
+
+    def call_statement(self, c: t.Call) -> list[str]:
+        if c.fb is None:
+            return [f"{self.expr(c)};"]
+        fb = c.fb
+        inst = self.lvalue(c.callee)
+        out = []
+        if isinstance(c.callee, t.Index):
+            out.append(f"auto &fb_ = {inst};")
+            inst = "fb_"
+        inouts = {}
+        outputs = []
+        for a in c.args:
+            p = a.param
+            if p is None:
+                continue
+            if p.kind == "VAR_INPUT" and a.value is not None:
+                out.append(f"{inst}.{p.name} = {self.conv(a.value, p.type)};")
+            elif p.kind == "VAR_IN_OUT":
+                inouts[p.name.upper()] = self.lvalue(a.value)
+            elif p.kind == "VAR_OUTPUT" and a.value is not None:
+                get = f"{inst}.{p.name}"
+                if a.negated:
+                    get = f"!{get}"
+                elif cpp_type(p.type) != cpp_type(a.value.type):
+                    get = f"{cpp_type(a.value.type)}({get})"
+                outputs.append(f"{self.lvalue(a.value)} = {get};")
+        args = "".join(f", {inouts[v.name.upper()]}" for v in fb.vars if v.kind == "VAR_IN_OUT")
+        out.append(f"fbBody({inst}{args});")
+        out += outputs
+        if len(out) == 1:
+            return out
+        return ["{  // " + _text(c.callee) + "(...)"] + _indent(out) + ["}"]
+
+    # ---- expressions -------------------------------------------------------------------------------
+
+    def conv(self, e: t.Expr, dst, cast: bool = False) -> str:
+        """e's value as a dst: IEC's implicit widening made explicit; a literal typed for dst."""
+        src = e.type
+        if e.const is not None and not isinstance(e.const, str) and _scalar(dst):
+            code = literal(e.const, dst)
+            if isinstance(ty.base(dst), ty.Elementary) and ty.base(dst).kind == "time" and isinstance(e, t.Literal):
+                code += f" /* {e.text} */"
+            return f"{cpp_type(dst)}({code})" if cast else code
+        code = self.expr(e)
+        if dst is None or not _scalar(dst) or not _scalar(src):
+            return code
+        if cpp_type(src) != cpp_type(dst) or cast and isinstance(src, ty.LiteralType):
+            return f"{cpp_type(dst)}({code})"
+        return code
+
+    def expr(self, e: t.Expr) -> str:
+        if e.const is not None and _scalar(e.type):
+            if isinstance(e, t.Name) and isinstance(e.decl, t.EnumValue):
+                return f"{e.const} /* {e.decl.name} */"
+            if isinstance(e, t.Literal) and e.kind == "enum":
+                return f"{e.const} /* {e.text} */"
+            return literal(e.const, e.type)
+        if isinstance(e, t.Literal):
+            return literal(e.value, e.type)
+        if isinstance(e, (t.Name, t.Member, t.Index)):
+            return self.lvalue(e)
+        if isinstance(e, t.BitAccess):
+            return f"getBit<{e.bit}>({self.expr(e.base)})"
+        if isinstance(e, t.Unary):
+            return self.unary(e)
+        if isinstance(e, t.Binary):
+            return self.binary(e)
+        if isinstance(e, t.Call):
+            return self.call(e)
+        raise ValueError(f"no C++ for {type(e).__name__}")
+
+    def lvalue(self, e: t.Expr) -> str:
+        if isinstance(e, t.Name):
+            d = e.decl
+            if d.kind == "RESULT":
+                return d.name
+            if d.kind == "GLB":
+                return f"bound.{d.glb['path'].replace('.', '_')}"
+            if d.kind in ("VAR_EXTERNAL", "VAR_GLOBAL"):
+                g = self.prog.globals.get(d.name.upper(), d)
+                return g.name if g.constant else f"global.{g.name}"
+            p = self.scope
+            if d.kind in ("VAR_TEMP", "VAR_IN_OUT") or (p is not None and p.kind == "FUNCTION"):
+                return d.name
+            return f"self.{d.name}"
+        if isinstance(e, t.Member):
+            if isinstance(e.decl, t.VarDecl) and e.decl.kind == "GLB":
+                return f"bound.{e.decl.glb['path'].replace('.', '_')}"
+            return f"{self.lvalue(e.base)}.{e.name}"
+        if isinstance(e, t.Index):
+            arr = ty.base(e.base.type)
+            out = self.lvalue(e.base)
+            for i, (lo, hi) in zip(e.indices, arr.dims, strict=True):
+                if isinstance(i.const, int):
+                    out += f"[{i.const - lo}]"
+                else:
+                    out += f"[index({self.place(i)}, {self.expr(i)}, {lo}, {hi})]"
+            return out
+        if isinstance(e, t.Call):
+            return self.call(e)
+        raise ValueError(f"{type(e).__name__} is not a variable")
+
+    def unary(self, e: t.Unary) -> str:
+        k = ty.kind(e.type)
+        if e.op == "NOT":
+            return f"!{self.paren(e.operand)}" if k == "bool" else f"NOT({self.conv(e.operand, e.type)})"
+        if e.op == "+":
+            return self.expr(e.operand)
+        if k in ("int", "time"):
+            return f"NEG({self.conv(e.operand, e.type)})"
+        return f"-{self.paren(e.operand)}"
+
+    def paren(self, e: t.Expr) -> str:
+        code = self.expr(e)
+        return f"({code})" if isinstance(e, (t.Binary, t.Unary)) and e.const is None else code
+
+    def binary(self, e: t.Binary) -> str:
+        op = e.op
+        lt, rt = e.left.type, e.right.type
+        lk, rk = ty.kind(lt), ty.kind(rt)
+        if op in ("=", "<>", "<", ">", "<=", ">="):
+            common = ty.concrete(ty.common(lt, rt) or (ty.STRING if lk == rk == "string" else lt))
+            cop = {"=": "==", "<>": "!="}.get(op, op)
+            return f"({self.conv(e.left, common)} {cop} {self.conv(e.right, common)})"
+        if op in ("AND", "OR", "XOR"):
+            if ty.kind(e.type) == "bool":
+                cop = {"AND": "&&", "OR": "||", "XOR": "!="}[op]
+                return f"({self.conv(e.left, ty.BOOL)} {cop} {self.conv(e.right, ty.BOOL)})"
+            return f"{op}({self.conv(e.left, e.type, cast=True)}, {self.conv(e.right, e.type)})"
+        if op == "**":
+            return f"EXPT({self.conv(e.left, e.type, cast=True)}, {self.expr(e.right)})"
+        if "time" in (lk, rk) or lk in ("date", "tod", "dt"):
+            return self.time_binary(e, lk, rk)
+        typ = e.type
+        real = ty.kind(typ) == "real"
+        if op == "/" or op == "MOD":
+            fn = "DIV" if op == "/" else "MOD"
+            if real:
+                return f"({self.conv(e.left, typ)} / {self.conv(e.right, typ)})"
+            return f"{fn}({self.place(e)}, {self.conv(e.left, typ, cast=True)}, {self.conv(e.right, typ)})"
+        if real:
+            return f"({self.conv(e.left, typ)} {op} {self.conv(e.right, typ)})"
+        fn = {"+": "ADD", "-": "SUB", "*": "MUL"}[op]
+        return f"{fn}({self.conv(e.left, typ, cast=True)}, {self.conv(e.right, typ)})"
+
+    def time_binary(self, e: t.Binary, lk: str, rk: str) -> str:
+        op = e.op
+        left, right = self.expr(e.left), self.expr(e.right)
+        long = ty.base(e.type).name.startswith("L") if isinstance(ty.base(e.type), ty.Elementary) else False
+        if lk == rk == "time":
+            return f"{'ADD' if op == '+' else 'SUB'}_{'LTIME' if long else 'TIME'}({left}, {right})"
+        if lk == "time" and op == "*":
+            return f"MUL_{'LTIME' if long else 'TIME'}({left}, {self.conv(e.right, ty.concrete(e.right.type))})"
+        if rk == "time" and op == "*":
+            return f"MUL_{'LTIME' if long else 'TIME'}({right}, {self.conv(e.left, ty.concrete(e.left.type))})"
+        if lk == "time" and op == "/":
+            num = self.conv(e.right, ty.concrete(e.right.type))
+            return f"DIV_{'LTIME' if long else 'TIME'}({self.place(e)}, {left}, {num})"
+        kinds = {"tod": "TOD", "dt": "DT", "date": "DATE"}
+        if rk == "time":
+            return f"{'ADD' if op == '+' else 'SUB'}_{kinds[lk]}_TIME({left}, {right})"
+        return f"SUB_{kinds[lk]}_{kinds[rk]}({left}, {right})"
+
+    # ---- calls -------------------------------------------------------------------------------------
+
+    def call(self, c: t.Call) -> str:
+        target = c.target
+        if isinstance(target, t.Pou):
+            return self.function_call(c, target)
+        if isinstance(target, stdlib.Function):
+            return self.std_call(c, target)
+        raise ValueError("an FB call is a statement")
+
+    def function_call(self, c: t.Call, f: t.Pou) -> str:
+        by_param = {id(a.param): a for a in c.args if a.param is not None}
+        args, after, temps = [], [], []
+        for v in f.vars:
+            a = by_param.get(id(v))
+            if v.kind == "VAR_INPUT":
+                args.append(self.conv(a.value, v.type) if a is not None else f"{cpp_type(v.type)}{{{self.initial(v.init, v.type)}}}")
+            elif v.kind == "VAR_IN_OUT":
+                args.append(self.lvalue(a.value))
+            elif v.kind == "VAR_OUTPUT":
+                tmp = self.fresh("out")
+                temps.append(f"{cpp_type(v.type)} {tmp}{{}}; ")
+                args.append(tmp)
+                if a is not None and a.value is not None:
+                    get = f"!{tmp}" if a.negated else tmp
+                    after.append(f"{self.lvalue(a.value)} = {get}; ")
+        call = f"{f.name}({', '.join(args)})"
+        if not temps:
+            return call
+        if f.return_type is None:
+            return f"[&] {{ {''.join(temps)}{call}; {''.join(after)}}}()"
+        return f"[&] {{ {''.join(temps)}auto r_ = {call}; {''.join(after)}return r_; }}()"
+
+    def std_call(self, c: t.Call, fn: stdlib.Function) -> str:
+        args = [a for a in c.args]
+        if fn.kind == "intrinsic":
+            return "cycleTime()"
+        if fn.kind == "conversion":
+            return self.conversion(fn, args[0].value)
+        generic = None
+        if fn.result == "T":
+            generic = c.type
+        elif any(a.param is not None and a.param.type == "T" for a in args):
+            for a in args:
+                if a.param is not None and a.param.type == "T":
+                    generic = a.value.type if generic is None else (ty.common(generic, a.value.type) or generic)
+            generic = ty.concrete(generic) if generic is not None else None
+        parts = []
+        for a in args:
+            p = a.param
+            if p is not None and p.type == "T" and generic is not None:
+                parts.append(self.conv(a.value, generic, cast=True))
+            elif p is not None and p.type in ty.ELEMENTARY:
+                parts.append(self.conv(a.value, ty.ELEMENTARY[p.type]))
+            else:
+                parts.append(self.conv(a.value, ty.concrete(a.value.type), cast=isinstance(a.value.type, ty.LiteralType)))
+        name = fn.name
+        if name in ("DIV", "MOD", "MUX") and not (name == "DIV" and ty.kind(generic) == "real"):
+            parts.insert(0, self.place(c))
+        if name == "DIV" and ty.kind(generic) == "real":
+            return f"({parts[0]} / {parts[1]})"
+        return f"{name}({', '.join(parts)})"
+
+    def conversion(self, fn: stdlib.Function, arg: t.Expr) -> str:
+        name = fn.name
+        src_t = ty.concrete(arg.type)
+        value = self.conv(arg, src_t, cast=isinstance(arg.type, ty.LiteralType))
+        if name == "TRUNC":
+            return f"TRUNC({value})"
+        if "_TRUNC_" in name:
+            return f"TRUNC_{name.split('_TRUNC_')[1]}({value})"
+        if name.startswith("TO_"):
+            src, dst = rt_name(_type_name(src_t)), rt_name(name[3:])
+        else:
+            src_name, dst_name = name.split("_TO_")
+            src, dst = rt_name(src_name), rt_name(dst_name)
+        if src == dst:
+            return value
+        return f"{src}_TO_{dst}({value})"
+
+
+def _indent(lines: list[str]) -> list[str]:
+    return [line if line.startswith("#") else "    " + line for line in lines]
+
+
+def _type_name(typ) -> str:
+    b = ty.base(typ)
+    if isinstance(b, ty.StringType):
+        return "STRING"
+    return b.name
+
+
+def _scalar(typ) -> bool:
+    b = ty.base(typ) if typ is not None else None
+    return isinstance(b, (ty.Elementary, ty.LiteralType, ty.EnumType))
+
+
+def _text(e: t.Expr) -> str:
+    if isinstance(e, t.Name):
+        return e.name
+    if isinstance(e, t.Member):
+        return f"{_text(e.base)}.{e.name}"
+    if isinstance(e, t.Index):
+        return f"{_text(e.base)}[...]"
+    return "..."

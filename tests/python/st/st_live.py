@@ -1,0 +1,79 @@
+# st_live.py -- runs ST programs for the conformance tests: `stc build` (the executable, as the agent
+# and CMake call it) into a set folder, a real irpd on it (unique instance, stopped by pid, shared
+# memory removed), the values read from the shared-variable segment and the events from irpd.
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from indurop_agent.irpd.client import IrpdClient
+from indurop_agent.irpd.variables import Segment
+from live_processes import BUILD, ROOT, remove_shm, start_irpd, stop, wait_dispatching, wait_until
+
+STC = ROOT / "st" / "stc"
+
+
+def stc_build(folder: Path, files: dict[str, str], *extra: str) -> subprocess.CompletedProcess:
+    """Writes the ST files into folder/src and runs `stc build -o folder/set ... --json`."""
+    src = folder / "src"
+    src.mkdir(parents=True, exist_ok=True)
+    for name, text in files.items():
+        (src / name).write_text(text)
+    cmd = [sys.executable, str(STC), "build", "-o", str(folder / "set"), "--json", "--sdk", str(BUILD), *extra]
+    return subprocess.run(cmd + list(files), cwd=src, capture_output=True, text=True, timeout=300)
+
+
+def build_errors(folder: Path, files: dict[str, str], *extra: str) -> list[dict]:
+    r = stc_build(folder, files, *extra)
+    assert r.returncode == 1, r.stdout + r.stderr
+    return json.loads(r.stdout)
+
+
+class Running:
+    """A built ST set running in irpd."""
+
+    def __init__(self, folder: Path, files: dict[str, str], *extra: str) -> None:
+        r = stc_build(folder, files, *extra)
+        assert r.returncode == 0, r.stdout + r.stderr
+        self.folder = folder
+        self.instance = f"st-{folder.name[-24:]}-{id(self) % 100000}"
+        self.process = start_irpd(
+            folder / "irpd.sock", folder / "set" / "module.xml", self.instance, "--no-rt", log=folder / "irpd.log"
+        )
+        self.client = IrpdClient(str(folder / "irpd.sock"), timeout_s=30)
+        wait_dispatching(self.client)
+        self.segment = Segment(f"/indurop.{self.instance}.vars")
+
+    def value(self, path: str):
+        return self.segment.read(path)
+
+    def values(self, prefix: str) -> dict:
+        leaves = self.segment.select(prefix)
+        return {leaf["path"]: v for leaf, v in zip(leaves, self.segment.values(leaves), strict=True)}
+
+    def string(self, path: str) -> str:
+        raw = bytes(b & 0xFF for b in self.values(path).values())
+        return raw.split(b"\0", 1)[0].decode()
+
+    def wait_value(self, path: str, want, seconds: float = 20.0):
+        wait_until(lambda: self.value(path) == want, seconds)
+
+    def events(self, kind: str) -> list[dict]:
+        return [e for e in self.client.request("events", since=0)["events"] if e["kind"] == kind]
+
+    def close(self) -> None:
+        self.segment.close()
+        self.client.close()
+        stop(self.process)
+        remove_shm(self.instance)
+
+
+def periods(n: int, period_s: float = 0.01) -> None:
+    time.sleep(n * period_s)
+
+
+__all__ = ["BUILD", "Running", "build_errors", "stc_build", "periods"]

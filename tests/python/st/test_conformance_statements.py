@@ -1,0 +1,190 @@
+# test_conformance_statements.py -- ST executed in a real irpd (stc build, then the module's periods):
+# integer wrap, REAL->INT rounding, TIME arithmetic, string bounds, CASE with lists and ranges, FOR
+# with a negative BY, EXIT and CONTINUE in nested loops, WHILE/REPEAT, functions with VAR_IN_OUT and
+# outputs, FB instances, enums, arrays, structs, bit access.  One program runs once (a `done` flag),
+# so every value is the result of exactly one pass.
+
+from __future__ import annotations
+
+import pytest
+from st_live import Running
+
+PROGRAM = """
+TYPE Color : (Red, Green := 5, Blue); END_TYPE
+TYPE Point : STRUCT x : REAL := 1.5; y : INT := 7; END_STRUCT; END_TYPE
+
+FUNCTION Twice : DINT
+VAR_INPUT v : DINT; END_VAR
+VAR_IN_OUT calls : INT; END_VAR
+  calls := calls + 1;
+  Twice := v * 2;
+END_FUNCTION
+
+FUNCTION_BLOCK Acc
+VAR_INPUT add : INT; END_VAR
+VAR_OUTPUT total : INT; END_VAR
+VAR n : INT := 100; END_VAR
+  n := n + add;
+  total := n;
+END_FUNCTION_BLOCK
+
+PROGRAM Conf
+VAR
+  done : BOOL;
+  wrapInt : INT := 32767;
+  wrapUsint : USINT := 255;
+  wrapMul : DINT; big : DINT := 65536;
+  negMin : INT := -32768;
+  round1 : INT; round2 : INT; round3 : INT; round4 : INT; trunc1 : DINT;
+  t : TIME := T#1s200ms;
+  tSum : TIME; tMs : DINT; tDiv : TIME; tMul : TIME;
+  s : STRING[5];
+  sLen : INT; sFind : INT; sMid : STRING[10]; sCat : STRING[20];
+  caseA : INT; caseB : INT; caseC : INT;
+  i : INT; j : INT;
+  forDown : DINT; forCount : INT; forEnd : INT;
+  nested : INT; cont : INT;
+  whileN : INT; repeatN : INT;
+  calls : INT; fnResult : DINT;
+  acc : Acc; accOut : INT;
+  col : Color := Blue; wasBlue : BOOL;
+  arr : ARRAY[1..3, 0..1] OF INT;
+  arrSum : INT;
+  p : Point;
+  w : WORD := 16#00F0; bit4 : BOOL; bit0 : BOOL;
+  shifted : BYTE;
+  r : REAL;
+  mx : INT; lim : INT; selv : INT;
+END_VAR
+VAR_TEMP k : INT; END_VAR
+  IF done THEN RETURN; END_IF;
+  done := TRUE;
+  wrapInt := wrapInt + 1;
+  wrapUsint := wrapUsint + 1;
+  wrapMul := big * big + 3;
+  negMin := -negMin;
+  round1 := REAL_TO_INT(1.5); round2 := REAL_TO_INT(2.5); round3 := REAL_TO_INT(-1.5); round4 := LREAL_TO_INT(3.7);
+  trunc1 := TRUNC(-2.7);
+  tSum := t + T#800ms;
+  tMs := TIME_TO_DINT(tSum);
+  tDiv := t / 4;
+  tMul := t * 2;
+  s := 'abcdefgh';
+  sLen := LEN(s);
+  sFind := FIND(s, 'cd');
+  sMid := MID('hello world', 5, 7);
+  sCat := CONCAT(s, '-', 'xy');
+  FOR k := 1 TO 3 DO
+    CASE k * 4 OF
+      4: caseA := caseA + 1;
+      8, 9, 10: caseB := caseB + 10;
+      11..20: caseC := caseC + 100;
+    ELSE
+      caseA := -1;
+    END_CASE;
+  END_FOR;
+  FOR i := 10 TO 1 BY -3 DO
+    forDown := forDown * 100 + i;
+    forCount := forCount + 1;
+  END_FOR;
+  forEnd := i;
+  FOR i := 1 TO 5 DO
+    FOR j := 1 TO 5 DO
+      IF j = 3 THEN EXIT; END_IF;
+      nested := nested + 1;
+    END_FOR;
+    IF i = 4 THEN EXIT; END_IF;
+    IF i = 2 THEN CONTINUE; END_IF;
+    cont := cont + 1;
+  END_FOR;
+  WHILE whileN < 7 DO whileN := whileN + 2; END_WHILE;
+  REPEAT repeatN := repeatN + 1; UNTIL repeatN >= 3 END_REPEAT;
+  fnResult := Twice(21, calls) + Twice(v := 1, calls := calls);
+  acc(add := 5);
+  acc(add := 6, total => accOut);
+  wasBlue := col = Blue;
+  IF col = Blue THEN col := Red; END_IF;
+  arr[3, 1] := 9; arr[1, 0] := 1;
+  FOR i := 1 TO 3 DO FOR j := 0 TO 1 DO arrSum := arrSum + arr[i, j]; END_FOR; END_FOR;
+  p.y := p.y * 2;
+  bit4 := w.4; bit0 := w.0;
+  w.0 := TRUE;
+  shifted := SHL(BYTE#16#81, 1);
+  r := INT_TO_REAL(7) / 2.0;
+  mx := MAX(INT#3, 9, 4);
+  lim := LIMIT(INT#0, 150, 100);
+  selv := SEL(TRUE, INT#1, 2);
+END_PROGRAM
+"""
+
+EXPECTED = {
+    "wrapInt": -32768,
+    "wrapUsint": 0,
+    "wrapMul": 3,
+    "negMin": -32768,
+    "round1": 2,
+    "round2": 2,
+    "round3": -2,
+    "round4": 4,
+    "trunc1": -2,
+    "tSum": 2_000_000_000,
+    "tMs": 2000,
+    "tDiv": 300_000_000,
+    "tMul": 2_400_000_000,
+    "sLen": 5,
+    "sFind": 3,
+    "caseA": 1,
+    "caseB": 10,
+    "caseC": 100,
+    "forDown": 10070401,
+    "forCount": 4,
+    "forEnd": -2,
+    "nested": 8,
+    "cont": 2,
+    "whileN": 8,
+    "repeatN": 3,
+    "calls": 2,
+    "fnResult": 44,
+    "accOut": 111,
+    "wasBlue": 1,
+    "col": 0,
+    "arrSum": 10,
+    "p.x": 1.5,
+    "p.y": 14,
+    "bit4": 1,
+    "bit0": 0,
+    "w": 0xF1,
+    "shifted": 2,
+    "r": 3.5,
+    "mx": 9,
+    "lim": 100,
+    "selv": 2,
+}
+
+
+@pytest.fixture(scope="module")
+def conf(tmp_path_factory):
+    run = Running(tmp_path_factory.mktemp("conf"), {"conf.st": PROGRAM})
+    run.wait_value("Conf.done", 1)
+    yield run
+    run.close()
+
+
+@pytest.mark.parametrize("name", list(EXPECTED))
+def test_the_value_after_one_pass(conf, name):
+    assert conf.value(f"Conf.{name}") == EXPECTED[name]
+
+
+def test_strings_are_cut_at_their_length(conf):
+    assert conf.string("Conf.s") == "abcde"  # STRING[5] := 'abcdefgh'
+    assert conf.string("Conf.sMid") == "world"  # MID(s, L := 5, P := 7)
+    assert conf.string("Conf.sCat") == "abcde-xy"
+
+
+def test_the_layout_names_the_iec_types(conf):
+    layout = conf.segment.layout
+    iec = {v["path"]: v.get("iec_type") for v in layout["variables"]}
+    assert iec["Conf.t"] == "TIME" and iec["Conf.col"] == "Color" and iec["Conf.s"] == "STRING[5]"
+    assert iec["Conf.acc"] == "Acc" and iec["Conf.p"] == "Point"
+    leaves = {leaf["path"]: leaf.get("iec_type") for leaf in layout["leaves"]}
+    assert leaves["Conf.acc.total"] == "INT" and leaves["Conf.arr[2][1]"] == "INT"
