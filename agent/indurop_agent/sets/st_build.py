@@ -20,13 +20,16 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 from .errors import place
+from .store import remove_tree
 from .uploads import Limits, Received, UploadError, file_kind, parse_module_xml
 
 ST_SUFFIX = ".st"
 INSTALLED_STC = Path("/usr/share/indurop/st/stc")
+BUILDING = threading.Lock()  # one build at a time (see build())
 OUTPUT_KEPT = 1 << 20  # the compiler's output read back (stdout: the errors as JSON; stderr: shown on a failure)
 SHOWN_ERRORS = 5  # the errors the detail spells out; `problems` has them all
 # Runs stc with no file it (or g++ under it) writes larger than argv[1] bytes.
@@ -53,16 +56,30 @@ def find_stc(configured: Path | None) -> Path:
 
 
 def build(
-    files: list[Received], work: Path, limits: Limits, stc: Path, timeout_s: float, previous: bytes | None
+    files: list[Received], staging: Path, limits: Limits, stc: Path, timeout_s: float, previous: bytes | None
 ) -> list[Received]:
     """The upload's files with what `stc build` made of its .st files added (replacing files of the
     same path: a hand-written module.xml gives way to the one with the ST programs in it); the files
-    unchanged when it holds none.  `work`: an empty folder beside the upload's files (same file
-    system); `previous`: the running layout.json, or None when irpd runs none."""
+    unchanged when it holds none.  `staging`: the upload's folder, where the built files are put;
+    `previous`: the running layout.json, or None when irpd runs none.
+
+    One build at a time, always in the same folder (`<data>/tmp/st-build`): the C++ compiler writes
+    the folder it ran in into the modules' debug information, so the same sources give the same
+    modules, hence the same set id, and two uploads do not share the machine's cores."""
     if not has_st(files):
         return files
+    work = staging.parent / "st-build"
+    with BUILDING:
+        remove_tree(work)
+        try:
+            return _build(files, work, staging, limits, stc, timeout_s, previous)
+        finally:
+            remove_tree(work)
+
+
+def _build(files, work: Path, staging: Path, limits: Limits, stc: Path, timeout_s: float, previous) -> list[Received]:
     src, out = work / "src", work / "out"
-    work.mkdir()
+    src.mkdir(parents=True)
     by_path = {f.path: f for f in files}
     for f in files:
         target = src / f.path
@@ -80,7 +97,7 @@ def build(
         args += ["--module-xml", "module.xml"]
     args += sorted(p for p in by_path if p.lower().endswith(ST_SUFFIX))
     _run(stc, args, src, work, limits, timeout_s)
-    return _with_outputs(files, out, work, limits)
+    return _with_outputs(files, out, staging, limits)
 
 
 def _set_layout(by_path: dict[str, Received]) -> str | None:
@@ -179,8 +196,9 @@ def error_line(p: dict) -> str:
     return f"{where + ': ' if where else ''}error[{p.get('code')}]: {p.get('message')}"
 
 
-def _with_outputs(files: list[Received], out: Path, work: Path, limits: Limits) -> list[Received]:
-    """The build's module.xml, layout.json and modules as files of the set, by their paths in `out`."""
+def _with_outputs(files: list[Received], out: Path, staging: Path, limits: Limits) -> list[Received]:
+    """The build's module.xml, layout.json and modules as files of the set, by their paths in `out`
+    (moved into `staging`)."""
     made: dict[str, Path] = {}
     for p in sorted(out.rglob("*")):
         rel = p.relative_to(out).as_posix()
@@ -191,7 +209,7 @@ def _with_outputs(files: list[Received], out: Path, work: Path, limits: Limits) 
     kept = [f for f in files if f.path not in made]
     added = []
     for i, (rel, p) in enumerate(sorted(made.items())):
-        staged = work / f"built{i:05d}"
+        staged = staging / f"built{i:05d}"
         os.replace(p, staged)
         added.append(Received(posixpath.normpath(rel), staged, *_hash(staged)))
     total = sum(f.size for f in kept + added)

@@ -118,11 +118,15 @@ def test_an_st_set_uploaded_with_irpctl_is_compiled_activated_and_runs(cell, tmp
     assert kinds["Main.so"] == "thread_module", kinds
     counts_up(cell)
 
-    # a change of code alone, laid out against the running layout: activated online
+    # a change of code alone, laid out against the running layout: activated online (irpctl's
+    # default mode), the counter keeps its value
     (folder / "main.st").write_text(COUNTER.format(step=2))
+    before = cell.read("Main.count")
     code, said = cell.irpctl(capsys, "upload", str(folder), "--activate")
     assert code == 0, said
+    assert "online" in said, said
     assert cell.running() != set_id
+    assert cell.read("Main.count") > before
     counts_up(cell)
 
 
@@ -132,11 +136,12 @@ def test_an_st_set_posted_to_sets_is_stored_with_what_was_built(cell):
     stored = r.json()
     assert stored["validation"]["valid"] is True, stored["validation"]
     assert {f["path"] for f in stored["files"]} >= {"main.st", "config.st", "module.xml", "layout.json", "Main.so"}
+    # the same sources against the same running layout: the same build, the same set
+    again = cell.call("POST", "/sets", files=parts(st_set(COUNTER.format(step=1))))
+    assert again.status_code == 201 and again.json()["id"] == stored["id"], again.text
     r = cell.call("POST", f"/sets/{stored['id']}/activate", json={"mode": "auto"})
     assert r.status_code == 200, r.text
     counts_up(cell)
-    again = cell.call("POST", "/sets", files=parts(st_set(COUNTER.format(step=1))))
-    assert again.status_code == 201 and again.json()["id"] == stored["id"], again.text  # the same build, the same set
 
 
 def refused_in_place(cell: Cell, files: dict[str, bytes], status: int = 400) -> dict:

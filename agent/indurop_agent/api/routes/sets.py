@@ -67,7 +67,7 @@ def _build_st(request: Request, irpd, received: list, staging, limits) -> list:
         previous = None
     settings = request.app.state.settings
     stc = st_build.find_stc(settings.stc)
-    return st_build.build(received, staging / "st-build", limits, stc, settings.st_build_timeout_s, previous)
+    return st_build.build(received, staging, limits, stc, settings.st_build_timeout_s, previous)
 
 
 def _located(manifest: dict) -> dict:
