@@ -15,7 +15,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import posixpath
 import shutil
 import signal
 import subprocess
@@ -78,14 +77,17 @@ def build(
 
 
 def _build(files, work: Path, staging: Path, limits: Limits, stc: Path, timeout_s: float, previous) -> list[Received]:
-    src, out = work / "src", work / "out"
-    src.mkdir(parents=True)
+    """The build runs in `work/set`, a copy of the upload (copies, not links: what stc writes there
+    must not change the received files), with the set's root as its output folder, so that the
+    paths of the modules.xml it writes are the set's."""
+    root = work / "set"
+    root.mkdir(parents=True)
     by_path = {f.path: f for f in files}
     for f in files:
-        target = src / f.path
+        target = root / f.path
         target.parent.mkdir(parents=True, exist_ok=True)
-        os.link(f.source, target)
-    args = ["build", "-o", str(out), "--json"]
+        shutil.copyfile(f.source, target)
+    args = ["build", "-o", ".", "--json"]
     args += [a for p in sorted(by_path) if file_kind(p, by_path[p].source) == "glb" for a in ("--glb", p)]
     layout = _set_layout(by_path)
     if layout is not None:
@@ -96,8 +98,8 @@ def _build(files, work: Path, staging: Path, limits: Limits, stc: Path, timeout_
     if "module.xml" in by_path:
         args += ["--module-xml", "module.xml"]
     args += sorted(p for p in by_path if p.lower().endswith(ST_SUFFIX))
-    _run(stc, args, src, work, limits, timeout_s)
-    return _with_outputs(files, out, staging, limits)
+    _run(stc, args, root, work, limits, timeout_s)
+    return _with_outputs(by_path, root, staging, limits)
 
 
 def _set_layout(by_path: dict[str, Received]) -> str | None:
@@ -196,30 +198,33 @@ def error_line(p: dict) -> str:
     return f"{where + ': ' if where else ''}error[{p.get('code')}]: {p.get('message')}"
 
 
-def _with_outputs(files: list[Received], out: Path, staging: Path, limits: Limits) -> list[Received]:
-    """The build's module.xml, layout.json and modules as files of the set, by their paths in `out`
-    (moved into `staging`)."""
-    made: dict[str, Path] = {}
-    for p in sorted(out.rglob("*")):
-        rel = p.relative_to(out).as_posix()
-        if p.is_file() and not p.is_symlink() and (rel in ("module.xml", "layout.json") or rel.endswith(".so")):
-            made[rel] = p
-    if "module.xml" not in made:
+def _with_outputs(by_path: dict[str, Received], root: Path, staging: Path, limits: Limits) -> list[Received]:
+    """The set after the build: the files stc wrote (module.xml, layout.json, the modules' .so, and a
+    received file it wrote anew, such as the layout's header) moved into `staging`, with the
+    received files it left alone.  Its C++ (`<Instance>.cpp`) is not kept: a set holds no sources
+    the appliance does not read."""
+    if not (root / "module.xml").is_file():
         raise StBuildError(500, "the ST compiler reported success but wrote no module.xml")
-    kept = [f for f in files if f.path not in made]
-    added = []
-    for i, (rel, p) in enumerate(sorted(made.items())):
-        staged = staging / f"built{i:05d}"
-        os.replace(p, staged)
-        added.append(Received(posixpath.normpath(rel), staged, *_hash(staged)))
-    total = sum(f.size for f in kept + added)
-    if len(kept) + len(added) > limits.max_files:
+    out: list[Received] = []
+    for p in sorted(root.rglob("*")):
+        rel = p.relative_to(root).as_posix()
+        if not p.is_file() or p.is_symlink():
+            continue
+        sha256, size = _hash(p)
+        received = by_path.get(rel)
+        if received is not None and received.sha256 == sha256:
+            out.append(received)
+        elif received is not None or rel in ("module.xml", "layout.json") or rel.endswith(".so"):
+            staged = staging / f"built{len(out):05d}"
+            os.replace(p, staged)
+            out.append(Received(rel, staged, sha256, size))
+    if len(out) > limits.max_files:
         raise StBuildError(413, f"with what the ST compiler built, the set has more than {limits.max_files} files")
-    if total > limits.max_upload_bytes:
+    if sum(f.size for f in out) > limits.max_upload_bytes:
         raise StBuildError(
             413, f"with what the ST compiler built, the set is larger than {limits.max_upload_bytes} bytes"
         )
-    return kept + added
+    return out
 
 
 def _hash(path: Path) -> tuple[str, int]:

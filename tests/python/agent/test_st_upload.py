@@ -13,7 +13,7 @@ from pathlib import Path
 
 import httpx
 import pytest
-from agent_helpers import FIG1, IRPD, free_port, start_agent, start_irpd, stop
+from agent_helpers import FIG1, IRPD, ROOT, free_port, start_agent, start_irpd, stop
 from indurop_agent.cli import irpctl as cli
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
@@ -36,6 +36,15 @@ CONFIGURATION Cell
 END_CONFIGURATION
 """
 TYPE_ERROR = "PROGRAM Counter\nVAR\n  count : DINT;\n  flag : BOOL;\nEND_VAR\nflag := count;\nEND_PROGRAM\n"
+MIRROR = """\
+PROGRAM Mirror
+VAR
+  seen : UDINT;
+  tick AT %knu.Robot.tick : UDINT;
+END_VAR
+seen := tick;
+END_PROGRAM
+"""
 SYNTAX_ERROR = "PROGRAM Counter\nVAR\n  count : DINT;\nEND_VAR\ncount := count + ;\nEND_PROGRAM\n"
 
 
@@ -142,6 +151,25 @@ def test_an_st_set_posted_to_sets_is_stored_with_what_was_built(cell):
     r = cell.call("POST", f"/sets/{stored['id']}/activate", json={"mode": "auto"})
     assert r.status_code == 200, r.text
     counts_up(cell)
+
+
+def test_st_beside_the_sets_cpp_modules_is_laid_out_with_their_glb_and_activated_online(cell):
+    """Figure 1's C++ modules (built against knuRobot.glb and joint.glb: its layout.json) and an ST
+    program bound to one of their variables: the .glb files and layout.json go into the build, the
+    hand-written module.xml keeps its modules, and the C++ modules are kept by the swap."""
+    files = {p.relative_to(FIG1.parent).as_posix(): p.read_bytes() for p in FIG1.parent.rglob("*") if p.is_file()}
+    for glb in ("knuRobot.glb", "joint.glb"):
+        files[glb] = (ROOT / "config" / "sets" / "paper-figures" / glb).read_bytes()
+    files["mirror.st"] = MIRROR.encode()
+    files["config.st"] = CONFIG.replace(": Counter", ": Mirror").encode()
+    r = cell.call("POST", "/sets", files=parts(files))
+    assert r.status_code == 201, r.text
+    stored = r.json()
+    assert stored["validation"]["valid"] is True and stored["validation"]["online"] is True, stored["validation"]
+    r = cell.call("POST", f"/sets/{stored['id']}/activate")
+    assert r.status_code == 200, r.text
+    assert "cntr2" in r.json()["kept"] and r.json()["started"] == ["Main"], r.json()
+    counts_up(cell, "Main.seen")  # the ST program reads what cntr2 writes
 
 
 def refused_in_place(cell: Cell, files: dict[str, bytes], status: int = 400) -> dict:
