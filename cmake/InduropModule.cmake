@@ -18,6 +18,15 @@
 #   indurop_add_process(<name> SOURCES <src>... [GLB <glb target>] [OUTPUT_DIRECTORY <dir>] [LIBRARIES <lib>...])
 #       A process module: an executable <name>.exe linked to libindurop (symbols exported so that
 #       libindurop can check the layout it was built against).
+#
+#   indurop_add_st(<name> SOURCES <a.st>... [GLB <a.glb>...] [SET_LAYOUT <layout.json>]
+#                  [PREVIOUS <layout.json>] [MODULE_XML <module.xml>] [OUTPUT_DIRECTORY <dir>])
+#       Structured Text: runs `stc build` at build time (docs/st-compiler.md), which writes into <dir>
+#       (default ${CMAKE_CURRENT_BINARY_DIR}/<name>) layout.json, indurop/generated.h, one
+#       <Instance>.cpp and <Instance>.so per PROGRAM instance (compiled by stc with the flags of the
+#       modules above, against this SDK: INDUROP_SDK_PREFIX) and module.xml (MODULE_XML's modules
+#       kept).  GLB: the set's .glb files, laid out first; SET_LAYOUT: the layout the set's C++
+#       modules were built against (an indurop_add_glb's); PREVIOUS: the running layout.
 
 if(NOT DEFINED INDUROP_GLBC)
   if(EXISTS "${CMAKE_CURRENT_LIST_DIR}/../glb/glbc")
@@ -25,6 +34,16 @@ if(NOT DEFINED INDUROP_GLBC)
   else()
     find_program(INDUROP_GLBC glbc REQUIRED)                                  # installed package
   endif()
+endif()
+if(NOT DEFINED INDUROP_STC)
+  if(EXISTS "${CMAKE_CURRENT_LIST_DIR}/../st/stc")
+    set(INDUROP_STC "${CMAKE_CURRENT_LIST_DIR}/../st/stc")                   # source tree
+  else()
+    find_program(INDUROP_STC stc REQUIRED)                                    # installed package
+  endif()
+endif()
+if(NOT DEFINED INDUROP_SDK_PREFIX)
+  set(INDUROP_SDK_PREFIX "${CMAKE_BINARY_DIR}")   # this tree's build folder (the package config sets its prefix)
 endif()
 find_package(Python3 3.11 REQUIRED COMPONENTS Interpreter)
 
@@ -98,4 +117,49 @@ function(indurop_add_process name)
     set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${ARG_OUTPUT_DIRECTORY})
   endif()
   _indurop_link(${name} GLB ${ARG_GLB} LIBRARIES ${ARG_LIBRARIES})
+endfunction()
+
+function(indurop_add_st name)
+  cmake_parse_arguments(ARG "" "OUTPUT_DIRECTORY;SET_LAYOUT;PREVIOUS;MODULE_XML" "SOURCES;GLB" ${ARGN})
+  if(NOT ARG_SOURCES)
+    message(FATAL_ERROR "indurop_add_st(${name}): SOURCES <file.st>... is required")
+  endif()
+  set(dir ${ARG_OUTPUT_DIRECTORY})
+  if(NOT dir)
+    set(dir ${CMAKE_CURRENT_BINARY_DIR}/${name})
+  endif()
+  set(args -o ${dir} --sdk ${INDUROP_SDK_PREFIX} --cxx ${CMAKE_CXX_COMPILER})
+  set(inputs)
+  foreach(f ${ARG_SOURCES})
+    get_filename_component(abs ${f} ABSOLUTE)
+    list(APPEND inputs ${abs})
+  endforeach()
+  set(depends ${inputs})
+  foreach(f ${ARG_GLB})
+    get_filename_component(abs ${f} ABSOLUTE)
+    list(APPEND args --glb ${abs})
+    list(APPEND depends ${abs})
+  endforeach()
+  foreach(opt SET_LAYOUT PREVIOUS MODULE_XML)
+    if(ARG_${opt})
+      get_filename_component(abs ${ARG_${opt}} ABSOLUTE)
+      string(TOLOWER ${opt} flag)
+      string(REPLACE "_" "-" flag ${flag})
+      list(APPEND args --${flag} ${abs})
+      list(APPEND depends ${abs})
+    endif()
+  endforeach()
+  get_filename_component(stc_dir ${INDUROP_STC} DIRECTORY)
+  file(GLOB_RECURSE stc_sources ${stc_dir}/*.py ${stc_dir}/lib/*.st)
+  add_custom_command(
+    OUTPUT ${dir}/module.xml ${dir}/layout.json ${dir}/indurop/generated.h
+    COMMAND ${Python3_EXECUTABLE} ${INDUROP_STC} build ${args} ${inputs}
+    DEPENDS ${depends} ${INDUROP_STC} ${stc_sources}
+    COMMENT "stc build ${ARG_SOURCES} -> ${dir}"
+    VERBATIM)
+  add_custom_target(${name} ALL DEPENDS ${dir}/module.xml)
+  if(TARGET indurop)
+    add_dependencies(${name} indurop)   # stc links the modules to this tree's libindurop
+  endif()
+  set_target_properties(${name} PROPERTIES INDUROP_LAYOUT ${dir}/layout.json)
 endfunction()

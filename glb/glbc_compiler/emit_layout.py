@@ -68,18 +68,22 @@ def type_id(v: Variable) -> str:
 
 def _variable(v: Variable) -> dict[str, Any]:
     qualifier = {"retain": v.retain} if v.retain else {}  # absent when not qualified: older layouts unchanged
-    return {
-        "path": v.path,
-        "namespace": v.namespace,
-        "name": v.name,
-        "type": _type_name(v.type),
-        "type_id": type_id(v),
-        "offset": v.offset,
-        "size": v.size,
-        "align": v.align,
-        "dims": list(v.dims),
-        "lock": v.lock,
-    } | qualifier | _iec(v.iec_type)
+    return (
+        {
+            "path": v.path,
+            "namespace": v.namespace,
+            "name": v.name,
+            "type": _type_name(v.type),
+            "type_id": type_id(v),
+            "offset": v.offset,
+            "size": v.size,
+            "align": v.align,
+            "dims": list(v.dims),
+            "lock": v.lock,
+        }
+        | qualifier
+        | _iec(v.iec_type)
+    )
 
 
 def layout_hash(types: dict[str, Any], variables: list[dict[str, Any]]) -> str:

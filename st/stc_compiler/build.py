@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 from . import emit_glb, sdk, tasks
 from .check import Program, check
-from .emit_cpp import generate
+from .emit_cpp import generate, name_problems
 from .errors import StError, StErrors
 from .layout import from_document
 from .layout import load as load_layout
@@ -59,6 +59,9 @@ def front(opts: Options) -> tuple[Program, list]:
 def build(opts: Options, argv: list[str]) -> list[str]:
     """Writes every output; returns the paths of the modules compiled.  Raises StErrors."""
     prog, glb = front(opts)
+    problems = name_problems(prog)
+    if problems:
+        raise StErrors(problems)
     insts = tasks.instances(prog)
     if not insts:
         raise StError(_first_place(prog, opts), "task", "no PROGRAM to run; write a PROGRAM (and a CONFIGURATION)")

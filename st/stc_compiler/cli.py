@@ -50,7 +50,9 @@ def _arguments() -> argparse.ArgumentParser:
         metavar="RUNNING_LAYOUT.json",
         help="the running layout (irpctl layout -o ...): the variables keep their places (online change)",
     )
-    b.add_argument("--module-xml", metavar="HAND.xml", help="the set's hand-written module.xml: its other modules are kept")
+    b.add_argument(
+        "--module-xml", metavar="HAND.xml", help="the set's hand-written module.xml: its other modules are kept"
+    )
     b.add_argument("--sdk", metavar="PREFIX", help="the indurop SDK: an installed prefix (/usr) or a build folder")
     b.add_argument("--cxx", metavar="CXX", help="the C++ compiler (default: $CXX, else g++)")
     b.add_argument("-j", dest="jobs", type=int, default=0, metavar="N", help="compile N instances at once")

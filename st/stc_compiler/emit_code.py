@@ -223,9 +223,7 @@ class CodeEmitter:
     def struct_init(self, init: t.StructInit, typ) -> str:
         b = ty.base(typ)
         order = [v.name for v in fb_fields(b.pou)] if isinstance(b, ty.FbType) else [m.name for m in b.members.values()]
-        members = (
-            {v.name.upper(): v for v in fb_fields(b.pou)} if isinstance(b, ty.FbType) else dict(b.members)
-        )
+        members = {v.name.upper(): v for v in fb_fields(b.pou)} if isinstance(b, ty.FbType) else dict(b.members)
         given = {name.upper(): value for name, _, value in init.fields}
         parts = []
         for name in order:
@@ -339,7 +337,7 @@ class CodeEmitter:
     def case(self, s: t.Case) -> list[str]:
         sel = self.fresh("sel")
         typ = ty.concrete(s.selector.type)
-        out = [f"{{  // CASE", f"    const {cpp_type(typ)} {sel} = {self.expr(s.selector)};"]
+        out = ["{  // CASE", f"    const {cpp_type(typ)} {sel} = {self.expr(s.selector)};"]
         first = True
         for branch in s.branches:
             tests = []
@@ -567,7 +565,11 @@ class CodeEmitter:
         for v in f.vars:
             a = by_param.get(id(v))
             if v.kind == "VAR_INPUT":
-                args.append(self.conv(a.value, v.type) if a is not None else f"{cpp_type(v.type)}{{{self.initial(v.init, v.type)}}}")
+                args.append(
+                    self.conv(a.value, v.type)
+                    if a is not None
+                    else f"{cpp_type(v.type)}{{{self.initial(v.init, v.type)}}}"
+                )
             elif v.kind == "VAR_IN_OUT":
                 args.append(self.lvalue(a.value))
             elif v.kind == "VAR_OUTPUT":
@@ -606,7 +608,9 @@ class CodeEmitter:
             elif p is not None and p.type in ty.ELEMENTARY:
                 parts.append(self.conv(a.value, ty.ELEMENTARY[p.type]))
             else:
-                parts.append(self.conv(a.value, ty.concrete(a.value.type), cast=isinstance(a.value.type, ty.LiteralType)))
+                parts.append(
+                    self.conv(a.value, ty.concrete(a.value.type), cast=isinstance(a.value.type, ty.LiteralType))
+                )
         name = fn.name
         if name in ("DIV", "MOD", "MUX") and not (name == "DIV" and ty.kind(generic) == "real"):
             parts.insert(0, self.place(c))

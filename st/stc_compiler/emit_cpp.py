@@ -9,10 +9,53 @@ from __future__ import annotations
 from . import tree as t
 from . import types as ty
 from .check import Program
+from .errors import StError
 from .emit_code import CodeEmitter, cpp_type, literal, walk_names
 from .emit_glb import EMPTY_FB_FIELD, INIT_FLAG, RETAIN_INIT_FLAG, Instance, fb_fields, stored
 
 RESET_LINE = "#line RESET"  # replaced by the .cpp's own line once the text is complete
+# Names the generated code uses unqualified besides the standard functions: the runtime's helpers and
+# types (irp::st) and the generated scaffolding.  A POU or type of the same name would hide them.
+GENERATED_NAMES = frozenset(
+    "Place String ENUM index range loopCheck forStarts forStep cycleTime store copyIn writeBack getBit setBit "
+    "NEG programBody fbBody startInstance runInstance Globals Bound global global0 bound bound0 self self0 "
+    "initial fresh freshRetained globalInitial start run".upper().split()
+)
+LOCAL_NAMES = frozenset({"SELF", "FB_", "R_"})  # the generated code's own locals in a POU's body
+
+
+def name_problems(prog: Program) -> list[StError]:
+    """POUs, types and locals whose names the generated C++ needs for itself: an error asking to rename."""
+    errors = []
+    for unit in prog.units:
+        for decl in list(unit.pous) + list(unit.types):
+            if decl.name.upper() in GENERATED_NAMES:
+                what = getattr(decl, "kind", "type")
+                errors.append(
+                    StError(
+                        decl.place,
+                        "name",
+                        f"'{decl.name}' is a name the generated C++ uses (the ST runtime); rename the {what}",
+                    )
+                )
+        for pou in unit.pous:
+            for v in pou.vars:
+                if v.name.upper() in LOCAL_NAMES:
+                    errors.append(
+                        StError(v.place, "name", f"'{v.name}' is a name the generated C++ uses; rename the variable")
+                    )
+            if pou.kind == "PROGRAM":
+                for v in pou.vars:
+                    if v.kind == "VAR_IN_OUT":
+                        errors.append(
+                            StError(
+                                v.place,
+                                "unsupported",
+                                "a PROGRAM run by a task has nothing to pass by reference: declare it VAR, "
+                                "VAR_EXTERNAL or bind it with AT",
+                            )
+                        )
+    return errors
 
 
 def generate(prog: Program, inst: Instance, added: set[str], sources: list[str]) -> str:
@@ -92,10 +135,10 @@ class _Unit:
             "",
         ]
         body = self.code.type_definitions(self.pous, pou, glob)
+        body += self.images(own, glob, glb)
         body += self.code.declarations(self.pous)
         body += self.code.places_text()
         body += functions
-        body += self.images(own, glob, glb)
         body += self.entry_points(own, glob, glb)
         body += [
             "}  // namespace",

@@ -17,13 +17,13 @@ from live_processes import BUILD, ROOT, remove_shm, start_irpd, stop, wait_dispa
 STC = ROOT / "st" / "stc"
 
 
-def stc_build(folder: Path, files: dict[str, str], *extra: str) -> subprocess.CompletedProcess:
-    """Writes the ST files into folder/src and runs `stc build -o folder/set ... --json`."""
+def stc_build(folder: Path, files: dict[str, str], *extra: str, out: str = "set") -> subprocess.CompletedProcess:
+    """Writes the ST files into folder/src and runs `stc build -o folder/<out> ... --json` there."""
     src = folder / "src"
     src.mkdir(parents=True, exist_ok=True)
     for name, text in files.items():
         (src / name).write_text(text)
-    cmd = [sys.executable, str(STC), "build", "-o", str(folder / "set"), "--json", "--sdk", str(BUILD), *extra]
+    cmd = [sys.executable, str(STC), "build", "-o", str(folder / out), "--json", "--sdk", str(BUILD), *extra]
     return subprocess.run(cmd + list(files), cwd=src, capture_output=True, text=True, timeout=300)
 
 
@@ -64,6 +64,19 @@ class Running:
 
     def events(self, kind: str) -> list[dict]:
         return [e for e in self.client.request("events", since=0)["events"] if e["kind"] == kind]
+
+    def running_layout(self) -> Path:
+        """The layout irpd runs now, as a file (what `irpctl layout -o` writes)."""
+        self.segment.refresh()
+        path = self.folder / f"running-{self.segment.hash[:12]}.json"
+        path.write_bytes(self.segment.text)
+        return path
+
+    def load(self, files: dict[str, str], out: str, *extra: str) -> dict:
+        """Builds the changed sources against the running layout and loads them online (`load`)."""
+        r = stc_build(self.folder, files, "--previous", str(self.running_layout()), *extra, out=out)
+        assert r.returncode == 0, r.stdout + r.stderr
+        return self.client.request("load", config=str(self.folder / out / "module.xml"))
 
     def close(self) -> None:
         self.segment.close()

@@ -1,0 +1,62 @@
+# test_conformance_online.py -- online change of an ST program in a real irpd: the changed program is
+# built against the running layout (stc build --previous) and loaded with `load`: every variable keeps
+# its value, an added variable starts at its initial value, a TON that is timing goes on timing.
+# And a set's .glb variables keep the places its C++ modules were built against (--set-layout).
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+from live_processes import ROOT, wait_until
+from st_live import Running, stc_build
+
+V1 = """
+PROGRAM Counter
+VAR n : DINT; t : TON; END_VAR
+  n := n + 1;
+  t(IN := TRUE, PT := T#1h);
+END_PROGRAM
+"""
+V2 = V1.replace("VAR n : DINT;", "VAR n : DINT; added : INT := 42;").replace("n := n + 1;", "n := n + 1000;")
+
+
+def test_a_change_keeps_values_and_timers_and_starts_added_variables_at_their_initial_value(tmp_path):
+    run = Running(tmp_path, {"counter.st": V1})
+    try:
+        wait_until(lambda: run.value("Counter.n") > 20)
+        elapsed = run.value("Counter.t.ET")
+        report = run.load({"counter.st": V2}, "set2")
+        assert "Counter.added" in report["variables"]["added"], report
+        n = run.value("Counter.n")
+        assert n > 20  # kept
+        wait_until(lambda: run.value("Counter.n") > n + 3000)  # the new logic counts by 1000
+        assert n % 1000 != 0 and run.value("Counter.n") % 1000 == n % 1000
+        assert run.value("Counter.added") == 42
+        assert run.value("Counter.t.ET") > elapsed and run.value("Counter.t.Q") == 0  # still timing
+    finally:
+        run.close()
+
+
+def test_the_sets_glb_variables_keep_their_places_and_its_layout_stays_valid(tmp_path):
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "io.glb").write_text("namespace IO;\nint16_t start;\nint32_t speed;\n")
+    glbc = [sys.executable, str(ROOT / "glb" / "glbc"), "io.glb", "-o", str(tmp_path / "glb")]
+    subprocess.run(glbc, cwd=src, check=True)
+    set_layout = json.loads((tmp_path / "glb" / "layout.json").read_text())
+    program = (
+        "PROGRAM P\nVAR go AT %IO.start : INT; n : DINT; END_VAR\n"
+        "  n := n + 1;\n  IO.speed := DINT_TO_INT(go) * 2;\nEND_PROGRAM\n"
+    )
+    extra = ("--glb", "io.glb", "--set-layout", str(tmp_path / "glb" / "layout.json"), "--no-compile")
+    r = stc_build(tmp_path, {"p.st": program}, *extra)
+    assert r.returncode == 0, r.stdout
+    doc = json.loads((tmp_path / "set" / "layout.json").read_text())
+    before = {v["path"]: (v["offset"], v["lock"]) for v in set_layout["variables"]}
+    after = {v["path"]: (v["offset"], v["lock"]) for v in doc["variables"]}
+    assert all(after[p] == where for p, where in before.items())
+    assert set_layout["hash"] in [e["hash"] for e in doc["lineage"]]
+    assert "P.go" not in after  # an AT binding is the bound variable, not one of its own
+    assert doc["variables"][-1]["path"].startswith("P.")  # the ST variables after the .glb ones
