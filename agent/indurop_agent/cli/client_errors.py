@@ -26,10 +26,7 @@ class ApiError(Exception):
 
 def refused(response: httpx.Response) -> ApiError:
     """The ApiError of a refusal: its `detail`, and its `problems` when it has several (ST compile errors)."""
-    try:
-        body = response.json()
-    except ValueError:
-        body = None
+    body = _body(response)
     found = body.get("problems") if isinstance(body, dict) else None
     problems = [p for p in found if isinstance(p, dict)] if isinstance(found, list) else None
     return ApiError(response.status_code, detail(response), problems)
@@ -44,13 +41,18 @@ def problem_line(p: dict) -> str:
 
 def detail(response: httpx.Response) -> str:
     """The server's `detail` of a refusal, as text."""
-    try:
-        body = response.json()
-    except ValueError:
-        body = None
+    body = _body(response)
     said = body.get("detail") if isinstance(body, dict) else None
     if isinstance(said, list):  # FastAPI's 422: one entry per field
         return "; ".join(f"{'.'.join(str(p) for p in e.get('loc', []))}: {e.get('msg', e)}" for e in said)
     if said is None:
         return response.text.strip() or response.reason_phrase
     return said if isinstance(said, str) else json.dumps(said)
+
+
+def _body(response: httpx.Response):
+    """The answer's JSON, or None when it is not JSON."""
+    try:
+        return response.json()
+    except ValueError:
+        return None
