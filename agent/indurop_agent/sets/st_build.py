@@ -157,7 +157,7 @@ def _kill_group_leftovers(pgid: int) -> None:
     """A compiler child that outlived stc (the group is stc's own) is stopped too."""
     try:
         os.killpg(pgid, signal.SIGKILL)
-    except ProcessLookupError:
+    except (ProcessLookupError, PermissionError):  # none left (the group's id is no longer ours)
         pass
 
 
