@@ -1,7 +1,8 @@
 # evolve.py -- glbc --previous: lays a layout out against the one that runs now.  Variables with
 # the same path and type_id keep their offset and lock; new and changed ("moved") ones go first-fit
 # into space that neither the previous layout nor any layout of its lineage uses, so running
-# modules keep their variables and removed variables leave holes that are not reused.
+# modules keep their variables and removed variables leave holes that are not reused.  A changed
+# variable whose value can be kept is "converted": convert.py plans the copies irpd runs at the swap.
 
 from __future__ import annotations
 
@@ -10,9 +11,10 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
+from .convert import NotConvertible, Shape, plan, shape_in, shape_of
 from .emit_layout import FORMAT, VERSION, type_id
 from .errors import GlbError
-from .layout import CACHE_LINE, Layout, Variable, round_up
+from .layout import CACHE_LINE, Layout, StructType, Variable, round_up
 
 MAX_LINEAGE = 16  # earlier layouts a layout.json remembers; the oldest is dropped
 GIVE = "give the layout.json that runs now (irpctl layout -o layout.json)"
@@ -42,6 +44,22 @@ class Previous:
     hash: str
     variables: list[Placed]
     lineage: list[tuple[str, list[Placed]]]  # (hash, variables), newest first
+    types: dict[str, Any]  # its "types" and each variable's "type" and "dims": what converting reads
+    typed: dict[str, tuple[str, list[int]]]
+
+    def shape(self, path: str) -> tuple[Shape, list[int], str]:
+        """A variable's shape, dimensions and spelled type; NotConvertible when the file does not
+        describe it."""
+        try:
+            name, dims = self.typed[path]
+            return shape_in(self.types, name), [int(d) for d in dims], spelled(name, dims)
+        except (KeyError, TypeError, ValueError, AttributeError, RecursionError):
+            raise NotConvertible(f"{path}: the previous layout does not describe its type") from None
+
+
+def spelled(type_name: str, dims: list[int]) -> str:
+    """A variable's type as the reports show it: `int16_t`, `a.s_t[4][2]`."""
+    return type_name + "".join(f"[{d}]" for d in dims)
 
 
 # -- reading the previous layout --------------------------------------------------------------------
@@ -106,7 +124,9 @@ def read_previous(file: str) -> Previous:
         if not isinstance(entry, dict):
             raise _fail(file, f"{what} is not an object: not a layout glbc wrote; {GIVE}")
         earlier.append((_hash(file, entry.get("hash"), what), _variables(file, entry.get("variables"), what)))
-    return Previous(file, layout_hash, variables, earlier)
+    types = doc.get("types") if isinstance(doc.get("types"), dict) else {}
+    typed = {v["path"]: (v.get("type"), v.get("dims", [])) for v in doc["variables"]}
+    return Previous(file, layout_hash, variables, earlier, types, typed)
 
 
 # -- placing ------------------------------------------------------------------------------------------
@@ -183,18 +203,40 @@ def place(layout: Layout, prev: Previous, max_size: int) -> None:
 
     now = {v.path for v in layout.variables}
     added = [v.path for v in placed if v.path not in before]
-    moved = [{"path": v.path, "from": before[v.path].offset, "to": v.offset} for v in placed if v.path in before]
+    moved, converted = [], []
+    for v in placed:
+        if v.path in before:
+            entry = {"path": v.path, "from": before[v.path].offset, "to": v.offset}
+            try:
+                shape, dims, was = prev.shape(v.path)
+                copies = plan(v.path, shape, dims, entry["from"], shape_of(v.type), v.dims, v.offset)
+                converted.append(entry | {"from_type": was, "to_type": spelled(_name(v), v.dims)} | copies)
+            except NotConvertible as e:
+                moved.append(entry | {"reason": str(e)})
     removed = [p.path for p in prev.variables if p.path not in now]
-    layout.changes = {"previous": prev.hash, "added": added, "removed": removed, "moved": moved}
+    layout.changes = {
+        "previous": prev.hash,
+        "added": added,
+        "removed": removed,
+        "moved": moved,
+        "converted": converted,
+    }
     layout.lineage = [
         {"hash": h, "variables": [p.entry() for p in variables]}
         for h, variables in [(prev.hash, prev.variables)] + prev.lineage
     ][:MAX_LINEAGE]
 
 
+def _name(v: Variable) -> str:
+    return v.type.qualname if isinstance(v.type, StructType) else v.type.name
+
+
 def summary(changes: dict[str, Any]) -> str:
-    """The line glbc prints to stderr: `glbc: against layout 5356ab12cd34…: 1 added, 0 removed, 0 moved`."""
-    return (
+    """The line glbc prints to stderr: `glbc: against layout 5356ab12cd34…: 1 added, 0 removed, 0 moved,
+    1 converted`, then one line per moved variable saying why its value is not kept."""
+    lines = [
         f"glbc: against layout {changes['previous'][:12]}…: {len(changes['added'])} added, "
-        f"{len(changes['removed'])} removed, {len(changes['moved'])} moved"
-    )
+        f"{len(changes['removed'])} removed, {len(changes['moved'])} moved, {len(changes['converted'])} converted"
+    ]
+    lines += [f"glbc: not converted, starts at zero: {m['reason']}" for m in changes["moved"]]
+    return "\n".join(lines)

@@ -22,20 +22,17 @@ def _arguments() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="stc", description="The IEC 61131-3 Structured Text compiler (docs/st.md).")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     c = sub.add_parser("check", help="parse and check ST sources; print their errors")
-    c.add_argument("files", nargs="+", metavar="FILE.st", help="the set's ST sources (one program together)")
+    _sources_and_json(c)
     c.add_argument(
         "--layout",
         metavar="layout.json",
         help="the set's glbc layout: AT %%path bindings and qualified access are checked against it",
     )
-    c.add_argument(
-        "--json", action="store_true", help="print the errors as a JSON list of {file, line, column, code, message}"
-    )
     b = sub.add_parser(
         "build",
         help="compile ST sources into the set's layout, C++, module.xml and thread modules (docs/st-compiler.md)",
     )
-    b.add_argument("files", nargs="+", metavar="FILE.st", help="the set's ST sources (one program together)")
+    _sources_and_json(b)
     b.add_argument("-o", dest="out", required=True, metavar="OUT", help="output folder (created if missing)")
     b.add_argument(
         "--glb", action="append", default=[], metavar="F.glb", help="a .glb file of the set (laid out first; repeat)"
@@ -57,8 +54,14 @@ def _arguments() -> argparse.ArgumentParser:
     b.add_argument("--cxx", metavar="CXX", help="the C++ compiler (default: $CXX, else g++)")
     b.add_argument("-j", dest="jobs", type=int, default=0, metavar="N", help="compile N instances at once")
     b.add_argument("--no-compile", action="store_true", help="write the C++ and module.xml but compile nothing")
-    b.add_argument("--json", action="store_true", help="print the errors as a JSON list (as stc check --json)")
     return p
+
+
+def _sources_and_json(p: argparse.ArgumentParser) -> None:
+    p.add_argument("files", nargs="+", metavar="FILE.st", help="the set's ST sources (one program together)")
+    p.add_argument(
+        "--json", action="store_true", help="print the errors as a JSON list of {file, line, column, code, message}"
+    )
 
 
 def front(files: list[str], layout_path: str | None) -> Program:
@@ -85,16 +88,21 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     args = _arguments().parse_args(argv)
     if args.command == "build":
-        return _build(args, argv)
+        return _run(lambda: _build(args, argv), args.json)
+    return _run(lambda: front(args.files, args.layout), args.json)
+
+
+def _run(command, as_json: bool) -> int:
+    """Runs a command; its errors reported, 0 or INPUT_ERROR."""
     try:
-        front(args.files, args.layout)
+        command()
     except StErrors as e:
-        _report(e.errors, args.json)
+        _report(e.errors, as_json)
         return INPUT_ERROR
     except StError as e:
-        _report([e], args.json)
+        _report([e], as_json)
         return INPUT_ERROR
-    if args.json:
+    if as_json:
         print("[]")
     return 0
 
@@ -107,7 +115,7 @@ def _report(errors: list[StError], as_json: bool) -> None:
             print(e, file=sys.stderr)
 
 
-def _build(args, argv: list[str]) -> int:
+def _build(args, argv: list[str]) -> None:
     from .build import Options, build
 
     opts = Options(
@@ -122,14 +130,4 @@ def _build(args, argv: list[str]) -> int:
         args.cxx,
         args.jobs,
     )
-    try:
-        build(opts, argv)
-    except StErrors as e:
-        _report(e.errors, args.json)
-        return INPUT_ERROR
-    except StError as e:
-        _report([e], args.json)
-        return INPUT_ERROR
-    if args.json:
-        print("[]")
-    return 0
+    build(opts, argv)

@@ -8,6 +8,7 @@ from __future__ import annotations
 from . import stdlib
 from . import tree as t
 from . import types as ty
+from .check_expr import _text
 from .emit_glb import EMPTY_FB_FIELD, fb_fields, globals_blocks, stored
 
 # The runtime spells the points in time of 64-bit ns once: the L-forms are the same values.
@@ -113,7 +114,11 @@ class CodeEmitter:
             for g in block.decls:
                 self.namespaces[id(g)] = block.namespace
         self.enum_decls = {id(d.type): d for d in prog.types.values() if isinstance(d.type, ty.EnumType)}
-        self.type_decls = {id(d.type): d for d in prog.types.values() if d.type is not None}
+        # a named type's own initial value (TYPE Color : (...) := Green;); not for an alias of an
+        # elementary type, whose type object is the elementary type itself
+        self.type_decls = {
+            id(d.type): d for d in prog.types.values() if d.type is not None and not isinstance(d.type, ty.Elementary)
+        }
 
     # ---- places (faults) -------------------------------------------------------------------------
 
@@ -305,7 +310,7 @@ class CodeEmitter:
         if isinstance(s, t.If):
             out = []
             for i, (cond, body) in enumerate(s.branches):
-                out.append(f"{'if' if i == 0 else '} else if'} ({self.expr(cond)}) {{")
+                out.append(f"{'if' if i == 0 else '} else if'} ({_bare(self.expr(cond))}) {{")
                 out += self.nested(body)
             if s.orelse:
                 out.append("} else {")
@@ -317,7 +322,7 @@ class CodeEmitter:
             return self.for_loop(s)
         if isinstance(s, t.While):
             guard = f"loopCheck({self.place(s)});"
-            return [f"while ({self.expr(s.cond)}) {{", f"    {guard}"] + self.nested(s.body) + ["}"]
+            return [f"while ({_bare(self.expr(s.cond))}) {{", f"    {guard}"] + self.nested(s.body) + ["}"]
         if isinstance(s, t.Repeat):
             guard = f"loopCheck({self.place(s)});"
             return ["do {", f"    {guard}"] + self.nested(s.body) + [f"}} while (!({self.expr(s.cond)}));"]
@@ -347,7 +352,7 @@ class CodeEmitter:
                     tests.append(f"{sel} == {lo}")
                 else:
                     tests.append(f"({sel} >= {lo} && {sel} <= {literal(label.high.const, typ)})")
-            out.append(f"    {'if' if first else '} else if'} ({' || '.join(tests)}) {{")
+            out.append(f"    {'if' if first else '} else if'} ({_bare(' || '.join(tests))}) {{")
             first = False
             out += _indent(self.nested(branch.body))
         if s.orelse:
@@ -380,11 +385,16 @@ class CodeEmitter:
     def assign(self, target: t.Expr, value: t.Expr, s) -> list[str]:
         if isinstance(target, t.BitAccess):
             return [f"setBit<{target.bit}>({self.lvalue(target.base)}, {self.conv(value, ty.BOOL)});"]
-        code = self.conv(value, target.type)
-        if isinstance(target.type, ty.SubrangeType):
-            st = target.type
-            code = f"range({self.place(s)}, {code}, {st.low}, {st.high})"
-        return [f"{self.lvalue(target)} = {code};"]
+        return [f"{self.lvalue(target)} = {self.ranged(value, target.type, s)};"]
+
+    def ranged(self, value: t.Expr, typ, node: t.Node) -> str:
+        """value converted to typ; checked against a subrange (a fault naming node's place)."""
+        code = self.conv(value, typ)
+        if isinstance(typ, ty.SubrangeType) and not (
+            isinstance(value.const, int) and typ.low <= value.const <= typ.high
+        ):
+            code = f"range({self.place(node)}, {code}, {typ.low}, {typ.high})"
+        return code
 
     def call_statement(self, c: t.Call) -> list[str]:
         if c.fb is None:
@@ -402,7 +412,7 @@ class CodeEmitter:
             if p is None:
                 continue
             if p.kind == "VAR_INPUT" and a.value is not None:
-                out.append(f"{inst}.{p.name} = {self.conv(a.value, p.type)};")
+                out.append(f"{inst}.{p.name} = {self.ranged(a.value, p.type, a)};")
             elif p.kind == "VAR_IN_OUT":
                 inouts[p.name.upper()] = self.lvalue(a.value)
             elif p.kind == "VAR_OUTPUT" and a.value is not None:
@@ -424,6 +434,8 @@ class CodeEmitter:
     def conv(self, e: t.Expr, dst, cast: bool = False) -> str:
         """e's value as a dst: IEC's implicit widening made explicit; a literal typed for dst."""
         src = e.type
+        if isinstance(ty.base(dst), ty.EnumType) and e.const is not None:
+            return self.expr(e)  # the value with its name in a comment
         if e.const is not None and not isinstance(e.const, str) and _scalar(dst):
             code = literal(e.const, dst)
             if isinstance(ty.base(dst), ty.Elementary) and ty.base(dst).kind == "time" and isinstance(e, t.Literal):
@@ -566,7 +578,7 @@ class CodeEmitter:
             a = by_param.get(id(v))
             if v.kind == "VAR_INPUT":
                 args.append(
-                    self.conv(a.value, v.type)
+                    self.ranged(a.value, v.type, a)
                     if a is not None
                     else f"{cpp_type(v.type)}{{{self.initial(v.init, v.type)}}}"
                 )
@@ -636,6 +648,18 @@ class CodeEmitter:
         return f"{src}_TO_{dst}({value})"
 
 
+def _bare(code: str) -> str:
+    """`(a == b)` -> `a == b` where the parentheses enclose the whole (an if's own make them redundant)."""
+    if not (code.startswith("(") and code.endswith(")")):
+        return code
+    depth = 0
+    for i, c in enumerate(code):
+        depth += {"(": 1, ")": -1}.get(c, 0)
+        if depth == 0 and i < len(code) - 1:
+            return code
+    return code[1:-1]
+
+
 def _indent(lines: list[str]) -> list[str]:
     return [line if line.startswith("#") else "    " + line for line in lines]
 
@@ -650,13 +674,3 @@ def _type_name(typ) -> str:
 def _scalar(typ) -> bool:
     b = ty.base(typ) if typ is not None else None
     return isinstance(b, (ty.Elementary, ty.LiteralType, ty.EnumType))
-
-
-def _text(e: t.Expr) -> str:
-    if isinstance(e, t.Name):
-        return e.name
-    if isinstance(e, t.Member):
-        return f"{_text(e.base)}.{e.name}"
-    if isinstance(e, t.Index):
-        return f"{_text(e.base)}[...]"
-    return "..."

@@ -9,9 +9,9 @@ from __future__ import annotations
 from . import tree as t
 from . import types as ty
 from .check import Program
-from .errors import StError
 from .emit_code import CodeEmitter, cpp_type, literal, walk_names
 from .emit_glb import EMPTY_FB_FIELD, INIT_FLAG, RETAIN_INIT_FLAG, Instance, fb_fields, stored
+from .errors import StError
 
 RESET_LINE = "#line RESET"  # replaced by the .cpp's own line once the text is complete
 # Names the generated code uses unqualified besides the standard functions: the runtime's helpers and
@@ -19,7 +19,7 @@ RESET_LINE = "#line RESET"  # replaced by the .cpp's own line once the text is c
 GENERATED_NAMES = frozenset(
     "Place String ENUM index range loopCheck forStarts forStep cycleTime store copyIn writeBack getBit setBit "
     "NEG programBody fbBody startInstance runInstance Globals Bound global global0 bound bound0 self self0 "
-    "initial fresh freshRetained globalInitial start run".upper().split()
+    "initial fresh freshRetained globalInitial safeOutputs start run".upper().split()
 )
 LOCAL_NAMES = frozenset({"SELF", "FB_", "R_"})  # the generated code's own locals in a POU's body
 
@@ -94,11 +94,13 @@ class _Unit:
     def touched(self) -> tuple[list[t.VarDecl], list[t.VarDecl], list[t.VarDecl]]:
         """(the program's own variables, the VAR_GLOBALs, the .glb variables) its code reaches."""
         own, glob, glb = {}, {}, {}
+        used: set[int] = set()  # the program's own declarations its body names
         for pou in [self.inst.pou] + self.pous:
             for n in walk_names(pou.body):
                 d = n.decl
                 if not isinstance(d, t.VarDecl):
                     continue
+                used.add(id(d))
                 if d.kind == "GLB":
                     glb[d.glb["path"]] = d
                 elif d.kind == "VAR_EXTERNAL" or d.kind == "VAR_GLOBAL":
@@ -108,6 +110,7 @@ class _Unit:
         for v in self.inst.pou.vars:
             if stored(v) or (v.location is not None and v.glb is not None):
                 own[v.name.upper()] = v
+        self.used = used
         return list(own.values()), list(glob.values()), list(glb.values())
 
     # ---- the file ------------------------------------------------------------------------------
@@ -176,6 +179,8 @@ class _Unit:
         ns = f"::{inst.name}"
         copies = []  # (ref, local, snapshot)
         for v in own:
+            if id(v) not in self.used:
+                continue  # copied only where the code touches it (its initial value is written below)
             ref = _glb_ref(v.glb) if v.location is not None else f"{ns}::{v.name}"
             copies.append((ref, f"self.{v.name}", f"self0.{v.name}"))
         for g in glob:
@@ -207,15 +212,38 @@ class _Unit:
             out.append("    static const Globals globalInitial{};")
             for g in glob:
                 if g.location is None:
-                    ref = f"::{self.code.global_namespace(g)}::{g.name}"
-                    out.append(f"    if (fresh) store({ref}, globalInitial.{g.name});")
+                    ns_g = self.code.global_namespace(g)
+                    cond = "true" if f"{ns_g}.{g.name}" in self.added else "fresh"
+                    out.append(f"    if ({cond}) store(::{ns_g}::{g.name}, globalInitial.{g.name});")
         out += [f"    {ns}::{INIT_FLAG}.store(true);", "}", ""]
+        outputs = [v for v in own if v.kind == "VAR_OUTPUT"]
+        if outputs:
+            out += [
+                "// A run that faults: the PROGRAM's outputs (VAR_OUTPUT) go to their safe values, their initial",
+                "// values, before irpd disables the module.",
+                "void safeOutputs() {",
+                f"    static const {pou.name} initial{{}};",
+            ]
+            for v in outputs:
+                ref = _glb_ref(v.glb) if v.location is not None else f"{ns}::{v.name}"
+                out.append(f"    store({ref}, initial.{v.name});")
+            out += ["}", ""]
         out += [
             "// run(): one period.  A fault throws past the write-back: a faulting run writes nothing.",
             "void runInstance() {",
         ]
         out += [f"    copyIn({ref}, {local}, {snap});" for ref, local, snap in copies]
-        out.append("    programBody(self);")
+        if outputs:
+            out += [
+                "    try {",
+                "        programBody(self);",
+                "    } catch (...) {",
+                "        safeOutputs();",
+                "        throw;",
+                "    }",
+            ]
+        else:
+            out.append("    programBody(self);")
         out += [f"    writeBack({ref}, {local}, {snap});" for ref, local, snap in copies]
         out += ["}", ""]
         return out

@@ -540,7 +540,8 @@ TEST(DeviceSide, TheDrivesStoppingToAnswerRaiseThePlcsAlarm8WithItsTextClearedWh
 // ---- modules generated from Structured Text (docs/st-runtime.md) ----------------------------------
 // Written here by hand as the generator writes them, on the ST runtime <indurop/st/st.hpp>.
 
-// Whether the libindurop the modules load against has the flag the loop guard polls.
+// Whether the libindurop the modules load against has the flag the loop guard polls, which came
+// with the fault event's text (i29-st-watch): without them these tests are skipped.
 bool libinduropHasRunAbort() {
     void *lib = dlopen((std::string(BUILD_ROOT) + "/rtcore/libindurop.so").c_str(), RTLD_NOW | RTLD_LOCAL);
     const bool has = lib && dlsym(lib, "_ZN3irp17runAbortRequestedEv");
@@ -550,13 +551,14 @@ bool libinduropHasRunAbort() {
 
 // A division by zero faults through the runtime: the event names the ST file, line, column, program.
 TEST(StFault, ADivisionByZeroIsAFaultEventNamingTheStPlace) {
+    if (!libinduropHasRunAbort()) GTEST_SKIP() << "this irpd's fault event does not carry the text (i29-st-watch)";
     Cell cell(thread("Main", (kModules / "st_divide.so").string(), 2'000'000, 2));
     ASSERT_TRUE(cell.waitUntil([&] { return !cell.events("fault", "Main").empty(); }));
     const json fault = cell.events("fault", "Main").at(0);
     EXPECT_TRUE(contains(fault["message"], "run(): main.st:12:9: division by zero (PROGRAM Main)")) << fault.dump();
     EXPECT_EQ(cell.module("Main").value("state", ""), "disabled") << cell.module("Main").dump();
     EXPECT_EQ(cell.module("Main").value("errors", 0), 1);
-    EXPECT_EQ(cell.runs("Main"), 4u);
+    EXPECT_TRUE(cell.waitUntil([&] { return cell.runs("Main") == 4u; })) << cell.runs("Main");  // folded within ~1 ms
     EXPECT_TRUE(cell.keepRuns());
 }
 

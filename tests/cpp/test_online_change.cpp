@@ -8,7 +8,7 @@
 // run and the restart rather than offered one; the dry run names the modules a load keeps,
 // starts, stops and replaces.  Executors added, removed
 // and changed at a swap: their threads start before it and stop after it, the counter on main
-// missing no period.
+// missing no period.  Retyped variables converted at the swap, a narrowed one named by the dry run.
 #include "support/control_client.hpp"
 #include "support/irpd.hpp"
 #include "support/subprocess.hpp"
@@ -67,8 +67,11 @@ struct Cell {
     std::unique_ptr<Client> client;
     channel::Handle vars;
 
-    explicit Cell(const std::string &modules = "", std::vector<std::string> extra = {}) {
-        writeSet("start.xml", "v1", thread("counter", "oc_counter_v1.so", dir.path) + modules);
+    // Starts on layout `start_layout` with the module `first` (name, file) and `modules`.
+    explicit Cell(const std::string &modules = "", std::vector<std::string> extra = {},
+                  const std::string &start_layout = "v1",
+                  const std::pair<std::string, std::string> &first = {"counter", "oc_counter_v1.so"}) {
+        writeSet("start.xml", start_layout, thread(first.first, first.second, dir.path) + modules);
         std::vector<std::string> args{kIrpd,
                                       "--config",
                                       (dir.path / "start.xml").string(),
@@ -106,8 +109,10 @@ struct Cell {
         EXPECT_EQ(read(vars, path, sizeof v, &v), static_cast<int>(sizeof v)) << path;
         return v;
     }
-    double f64(const char *path) {
-        double v = 0;
+    double f64(const char *path) { return value<double>(path); }
+    template <class T>
+    T value(const char *path) {
+        T v{};
         EXPECT_EQ(read(vars, path, sizeof v, &v), static_cast<int>(sizeof v)) << path;
         return v;
     }
@@ -210,6 +215,120 @@ TEST(OnlineChange, ARetypedVariableMovesAndItsUsersAreRebuiltOrRefused) {
     ASSERT_EQ(read(cell.vars, "oc.retyped", sizeof f, &f), static_cast<int>(sizeof f));
     EXPECT_GT(f, 0.0f) << "the moved variable started at zero and the new module counts in it";
     cell.expectCounterMissedNoPeriod();
+}
+
+namespace {
+
+// After cv1 -> cv2 with the cv module counting: every variable as cv2.glb says it was converted.
+void expectConvertedByCv2(Cell &cell, int32_t count_before) {
+    // The count went on from where it was (zeroed, it would be the few periods since the swap), and
+    // the new module's first run already read the converted values.
+    const int32_t count_after = cell.value<int32_t>("cv.fb.count");
+    EXPECT_GT(count_after, count_before);
+    EXPECT_GE(cell.value<int32_t>("cv.first_count"), count_before) << "the new module's first run saw the count";
+    settle();
+    EXPECT_GT(cell.value<int32_t>("cv.fb.count"), count_after) << "the new module counts on";
+    EXPECT_EQ(cell.value<int16_t>("cv.fb.mode"), 5);
+    EXPECT_EQ(cell.value<double>("cv.fb.added"), 0.0) << "a new field starts at zero";
+    EXPECT_EQ(cell.value<int32_t>("cv.wide"), -1234);
+    for (int i = 0; i < 5; ++i) {
+        const std::string path = "cv.arr[" + std::to_string(i) + "]";
+        EXPECT_EQ(cell.value<int32_t>(path.c_str()), i < 3 ? 10 * (i + 1) : 0) << path;
+    }
+    EXPECT_EQ(cell.value<int16_t>("cv.narrow"), 0) << "not converted: it started at zero";
+    EXPECT_EQ(cell.value<double>("cv.f"), 1.5);
+    EXPECT_EQ(cell.value<float>("cv.i2f"), -300.0f);
+    EXPECT_EQ(cell.value<int32_t>("cv.nest[0].inner.a"), -7);
+    EXPECT_EQ(cell.value<double>("cv.nest[0].inner.b"), 2.25);
+    EXPECT_EQ(cell.value<uint8_t>("cv.nest[0].tag"), 9);
+    EXPECT_EQ(cell.value<int32_t>("cv.nest[1].inner.a"), 32000);
+    EXPECT_EQ(cell.value<double>("cv.nest[1].inner.b"), -0.5);
+    EXPECT_EQ(cell.value<uint8_t>("cv.nest[1].tag"), 200);
+    EXPECT_EQ(cell.value<int8_t>("cv.nest[1].inner.c"), 0) << "a new field starts at zero";
+    EXPECT_EQ(cell.value<int32_t>("cv.nest[2].inner.a"), 0) << "a new element starts at zero";
+    EXPECT_EQ(cell.value<uint8_t>("cv.nest[2].tag"), 0);
+    EXPECT_EQ(cell.value<int32_t>("cv.wrong"), 0) << "the new module never read a value before it was converted";
+}
+
+}  // namespace
+
+// Retyped variables keep their values where no value can be lost (docs/hot-reload.md "Converted
+// variables"): cv1 -> cv2 while a module counts in a field of a struct that gains a field.
+TEST(OnlineChange, RetypedVariablesAreConvertedAtTheSwapAndANarrowedOneIsNamed) {
+    Cell cell("", {}, "cv1", {"cv", "oc_cv_v1.so"});
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    // Before: what the v1 module wrote, in cv1's types.
+    EXPECT_EQ(cell.value<int16_t>("cv.wide"), -1234);
+    EXPECT_EQ(cell.value<int32_t>("cv.narrow"), 70000);
+    EXPECT_EQ(cell.value<float>("cv.f"), 1.5f);
+    EXPECT_EQ(cell.value<int16_t>("cv.nest[1].inner.a"), 32000);
+    const std::string xml = cell.writeSet("cv2.xml", "cv2", thread("cv", "oc_cv_v2.so", cell.dir.path));
+
+    // The dry run names what it converts, and the variable it cannot, with why and what it means.
+    json check = cell.ask({{"cmd", "check"}, {"config", xml}})["result"];
+    EXPECT_TRUE(check["online"].get<bool>()) << check.dump();
+    std::map<std::string, std::pair<std::string, std::string>> converted;
+    for (const json &c : check["variables"]["converted"]) converted[c["path"]] = {c["from_type"], c["to_type"]};
+    using Types = std::pair<std::string, std::string>;
+    EXPECT_EQ(converted.size(), 6u) << check.dump();
+    EXPECT_EQ(converted["cv.wide"], Types("int16_t", "int32_t"));
+    EXPECT_EQ(converted["cv.arr"], Types("int32_t[3]", "int32_t[5]"));
+    EXPECT_EQ(converted["cv.f"], Types("float", "double"));
+    EXPECT_EQ(converted["cv.i2f"], Types("int16_t", "float"));
+    EXPECT_EQ(converted["cv.fb"], Types("cv.fb_t", "cv.fb_t"));
+    EXPECT_EQ(converted["cv.nest"], Types("cv.nest_t[2]", "cv.nest_t[3]"));
+    ASSERT_EQ(check["variables"]["moved"].size(), 1u) << check.dump();
+    EXPECT_EQ(check["variables"]["moved"][0]["path"], "cv.narrow");
+    EXPECT_EQ(check["variables"]["moved"][0]["reason"], "cv.narrow: int32_t to int16_t may lose values");
+    const std::string warnings = check["warnings"].dump();
+    EXPECT_NE(warnings.find("variable 'cv.narrow' changes its type and its value is not kept (cv.narrow: int32_t to "
+                            "int16_t may lose values): it starts at zero at the swap"),
+              std::string::npos)
+        << warnings;
+
+    const int32_t count_before = cell.value<int32_t>("cv.fb.count");
+    EXPECT_GT(count_before, 300);
+    json answer = cell.load(xml);
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    EXPECT_EQ(answer["result"]["variables"]["converted"], check["variables"]["converted"]);
+    EXPECT_EQ(answer["result"]["variables"]["moved"], check["variables"]["moved"]);
+    expectConvertedByCv2(cell, count_before);
+}
+
+// A conversion plan that copies outside its variable (a layout.json edited by hand) is refused by
+// the dry run and the load alike, naming the variable; the running set is left as it was.
+TEST(OnlineChange, AConversionOutsideItsVariableIsRefused) {
+    Cell cell("", {}, "cv1", {"cv", "oc_cv_v1.so"});
+    json layout = json::parse(readFile(layoutOf("cv2")));
+    for (json &c : layout["changes"]["converted"])
+        if (c["path"] == "cv.wide") c["copies"][0]["to"] = c["copies"][0]["to"].get<uint64_t>() + 64;
+    std::ofstream(cell.dir.path / "tampered.json") << layout.dump();
+    std::ofstream(cell.dir.path / "tampered.xml")
+        << "<root>\n  <layout>" << (cell.dir.path / "tampered.json").string() << "</layout>\n"
+        << thread("cv", "oc_cv_v2.so", cell.dir.path) << "</root>\n";
+    const std::string xml = (cell.dir.path / "tampered.xml").string();
+    const json generation = cell.generation();
+    json check = cell.ask({{"cmd", "check"}, {"config", xml}})["result"];
+    EXPECT_FALSE(check["valid"].get<bool>()) << check.dump();
+    const std::string expected =
+        "the conversion of variable 'cv.wide' copies bytes outside the variable (or overlapping scalars): compile the "
+        "set's .glb files again with glbc --previous";
+    EXPECT_NE(check["errors"].dump().find(expected), std::string::npos) << check.dump();
+    json refused = cell.load(xml);
+    ASSERT_FALSE(refused.value("ok", true)) << refused.dump();
+    EXPECT_NE(refused["error"]["message"].get<std::string>().find(expected), std::string::npos) << refused.dump();
+    EXPECT_EQ(cell.generation(), generation);
+    EXPECT_EQ(cell.value<int16_t>("cv.wide"), -1234) << "the running layout and its values are untouched";
+
+    // A count of scalars larger than the variable (stride 0): refused too, not looped over at the swap.
+    for (json &c : layout["changes"]["converted"])
+        if (c["path"] == "cv.wide") {
+            c["copies"][0]["to"] = c["to"];
+            c["copies"][0]["count"] = uint64_t{1} << 40;
+        }
+    std::ofstream(cell.dir.path / "tampered.json") << layout.dump();
+    check = cell.ask({{"cmd", "check"}, {"config", xml}})["result"];
+    EXPECT_NE(check["errors"].dump().find(expected), std::string::npos) << check.dump();
 }
 
 TEST(OnlineChange, AProcessBuiltAgainstTheOldLayoutRunsOnTheNewOne) {
@@ -615,4 +734,19 @@ TEST(OnlineChange, ANewExecutorWithoutAStatsRecordNamesTheOption) {
     EXPECT_EQ(cell.generation(), generation);
     EXPECT_EQ(executorThreads(cell.irpd->pid()).count("side"), 0u);
     cell.expectCounterMissedNoPeriod();
+}
+
+// The same conversion with the new module on an executor the swap adds: the parked thread and main
+// both arrive at the swap's gate, and the new module's first run on it already reads converted values.
+TEST(OnlineChange, ConvertedVariablesAreReadByANewModuleOnANewExecutor) {
+    Cell cell("", {}, "cv1", {"cv", "oc_cv_v1.so"});
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    const int32_t count_before = cell.value<int32_t>("cv.fb.count");
+    EXPECT_GT(count_before, 300);
+    json answer = cell.load(cell.writeSet(
+        "cv2-side.xml", "cv2",
+        executor("side", 0, -1) + thread("cv", "oc_cv_v2.so", cell.dir.path, 1, "<executor>side</executor>")));
+    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
+    EXPECT_EQ(answer["result"]["variables"]["converted"].size(), 6u) << answer.dump();
+    expectConvertedByCv2(cell, count_before);
 }

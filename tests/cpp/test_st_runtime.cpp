@@ -37,6 +37,11 @@ constexpr bool kDtToDate = requires(V v) {
     DT_TO_DATE(v);
 };
 
+template <std::size_t N>
+std::string str(const String<N> &s) {
+    return std::string(s.data, s.length());
+}
+
 constexpr int64_t ms(int64_t v) { return v * kNsPerMs; }
 constexpr int64_t s(int64_t v) { return v * kNsPerSecond; }
 
@@ -303,6 +308,31 @@ TEST(StConvert, OnlyTheStandardsTimeConversionsExist) {
     static_assert(!kTimeToDate<int64_t> && kDtToDate<int64_t>);
 }
 
+TEST(StConvert, TheLongDateTypesCountNanoseconds) {
+    static_assert(convertible(Iec::LDATE, Iec::LDT) && convertible(Iec::LTOD, Iec::LDT) &&
+                  convertible(Iec::DT, Iec::LDT));
+    static_assert(convertible(Iec::LDATE, Iec::DATE) && convertible(Iec::TOD, Iec::LTOD) &&
+                  convertible(Iec::LDT, Iec::DATE));
+    static_assert(!convertible(Iec::LDATE, Iec::LTOD) && !convertible(Iec::LTOD, Iec::LDATE) &&
+                  !convertible(Iec::LTIME, Iec::LDT));
+    const LDT ldt = 3 * kNsPerDay + 5;
+    EXPECT_EQ(LDT_TO_LDATE(ldt), 3 * kNsPerDay);
+    EXPECT_EQ(LDT_TO_LTOD(ldt), 5);
+    EXPECT_EQ(LDT_TO_DT(ldt), ldt);
+    EXPECT_EQ(LDT_TO_DATE(ldt), 3 * kNsPerDay);
+    EXPECT_EQ(LDATE_TO_DATE(kNsPerDay), kNsPerDay);
+    EXPECT_EQ(LDT_TO_LINT(ldt), ldt);  // nanoseconds, where DT_TO_LINT gives seconds
+    EXPECT_EQ(DT_TO_LINT(ldt), 3 * 86400);
+    EXPECT_EQ(LINT_TO_LTOD(7), 7);
+    EXPECT_EQ(str(LDT_TO_STRING(ldt)), "LDT#1970-01-04-00:00:00.000000005");
+    EXPECT_EQ(str(LDATE_TO_STRING(kNsPerDay)), "LDATE#1970-01-02");
+    EXPECT_EQ(str(LTOD_TO_STRING(kNsPerHour)), "LTOD#01:00:00");
+    EXPECT_EQ(STRING_TO_LDT(LDT_TO_STRING(ldt)), ldt);
+    EXPECT_EQ(STRING_TO_LDATE(String("LDATE#1970-01-02")), kNsPerDay);
+    EXPECT_EQ(STRING_TO_LTOD(String("LTOD#01:00:00")), kNsPerHour);
+    EXPECT_EQ(STRING_TO_DATE(String("LD#1970-01-02")), kNsPerDay);  // either length's prefix reads
+}
+
 TEST(StConvert, TruncGoesTowardZeroAndSaturates) {
     EXPECT_EQ(TRUNC(1.9f), 1);
     EXPECT_EQ(TRUNC(-1.9), -1);
@@ -312,6 +342,8 @@ TEST(StConvert, TruncGoesTowardZeroAndSaturates) {
     EXPECT_EQ(TRUNC_LINT(-2.7), -2);
     EXPECT_EQ(TRUNC_USINT(-2.7), 0);
     EXPECT_EQ(TRUNC_DINT(std::nan("")), 0);
+    EXPECT_EQ(REAL_TRUNC_INT(-2.7f), -2);  // the 3rd edition's spelling
+    EXPECT_EQ(LREAL_TRUNC_UDINT(5e9), UINT32_MAX);
 }
 
 // ---- numeric --------------------------------------------------------------------------------------

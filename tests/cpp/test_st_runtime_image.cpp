@@ -2,7 +2,9 @@
 // on a real segment laid out by glbc (tests/cpp/st/st_image.glb): copyIn() takes one consistent
 // read into a local and a snapshot; writeBack() writes only what the program changed, under the
 // variable's lock, so that what another writer changed meanwhile survives -- also while a thread
-// keeps writing the same struct.
+// keeps writing the same struct; a leaf the program changed is written whole; and none of it, nor
+// the rest of what generated code calls every period, allocates.
+#include "support/allocation_counter.hpp"
 #include "variables/layout.hpp"
 #include "variables/variable_segment.hpp"
 
@@ -139,4 +141,112 @@ TEST(StImage, WriteBackNeverLosesAConcurrentWritersUpdates) {
     const mixed_t now = st_image::mixed;
     EXPECT_EQ(now.small, kRounds);
     EXPECT_EQ(now.medium, kRounds);
+}
+
+// A leaf both the program and another writer changed in one run: with the struct's leaves, the
+// program's value is written whole; without them its changed bytes are merged (documented).
+TEST(StImage, WithItsLeavesAStructsChangedLeafIsWrittenWhole) {
+    static constexpr st::Leaf kLeaves[] = {{0, 1}, {1, 1}, {2, 2}, {4, 4}, {8, 8}};
+    st_image::mixed = mixed_t{};
+    mixed_t local, snapshot;
+    st::copyIn(st_image::mixed, local, snapshot);
+    local.medium = 0x0001;
+    local.small = 5;
+    st_image::mixed.medium = 0x0100;  // the other writer, on the same leaf
+    st_image::mixed.flag = 9;         // and on one the program left alone
+    st::writeBack(st_image::mixed, local, snapshot, kLeaves);
+    mixed_t now = st_image::mixed;
+    EXPECT_EQ(now.medium, 0x0001);
+    EXPECT_EQ(now.small, 5);
+    EXPECT_EQ(now.flag, 9);
+
+    st_image::mixed = mixed_t{};
+    st::copyIn(st_image::mixed, local, snapshot);
+    local.medium = 0x0001;
+    st_image::mixed.medium = 0x0100;
+    st::writeBack(st_image::mixed, local, snapshot);  // byte merge: the program's changed byte only
+    now = st_image::mixed;
+    EXPECT_EQ(now.medium, 0x0101);
+}
+
+TEST(StImage, AnArrayOfScalarsWritesEachChangedElementWhole) {
+    st_image::table = {0, 0, 0, 0};
+    std::array<int16_t, 4> local, snapshot;
+    st::copyIn(st_image::table, local, snapshot);
+    local[1] = 0x0001;
+    st_image::table[1] = 0x0100;  // the other writer, on the same element
+    st_image::table[3] = 7;
+    st::writeBack(st_image::table, local, snapshot);
+    EXPECT_EQ(st_image::table.load(), (std::array<int16_t, 4>{0, 0x0001, 0, 7}));
+
+    st_image::grid = {};
+    std::array<std::array<int16_t, 3>, 2> cells, cells0;  // ARRAY[1..2, 1..3] OF INT
+    st::copyIn(st_image::grid, cells, cells0);
+    cells[1][2] = 0x0001;
+    st_image::grid[1][2] = 0x0100;
+    st_image::grid[0][0] = 3;
+    st::writeBack(st_image::grid, cells, cells0);
+    EXPECT_EQ(st_image::grid[1][2], 0x0001);
+    EXPECT_EQ(st_image::grid[0][0], 3);
+}
+
+TEST(StImage, AStringIsWrittenWholeAndAnArrayOfStringsTextByText) {
+    st_image::text = {};
+    st::String<10> local, snapshot;
+    st::copyIn(st_image::text, local, snapshot);
+    local = "abd";
+    st::writeBack(st_image::text, local, snapshot);
+    st::copyIn(st_image::text, local, snapshot);
+    local = "abc";
+    st_image::text[0] = 'x';  // the other writer: "xbd"
+    st::writeBack(st_image::text, local, snapshot);
+    EXPECT_EQ(std::string(st_image::text.load().data()), "abc");  // the program's text, not "xbc"
+
+    st_image::names = {};
+    std::array<st::String<5>, 3> names, names0;  // ARRAY[0..2] OF STRING[5]
+    st::copyIn(st_image::names, names, names0);
+    names[0] = "ann";
+    names[2] = "cy";
+    st_image::names[1][0] = 'B';  // another writer changes the second text
+    st_image::names[2][1] = 'Z';  // and the third, which the program writes whole
+    st::writeBack(st_image::names, names, names0);
+    const auto now = st_image::names.load();
+    EXPECT_EQ(std::string(now[0].data()), "ann");
+    EXPECT_EQ(std::string(now[1].data()), "B");
+    EXPECT_EQ(std::string(now[2].data()), "cy");
+}
+
+// What generated code calls every period allocates nothing: the process image, the arithmetic, the
+// conversions to and from STRING, the string functions, the checks, the loop guard, the cycle time.
+TEST(StImage, APeriodsWorkAllocatesNothing) {
+    static constexpr st::Place kAt{"main.st", 1, 1, "PROGRAM Main"};
+    mixed_t m, m0;
+    std::array<int16_t, 4> t, t0;
+    st::String<10> s, s0;
+    int32_t c, c0;
+    long allocations;
+    {
+        testing_support::AllocationCounter counter;
+        for (int period = 0; period < 100; ++period) {
+            st::copyIn(st_image::mixed, m, m0);
+            st::copyIn(st_image::table, t, t0);
+            st::copyIn(st_image::text, s, s0);
+            st::copyIn(st_image::counter, c, c0);
+            m.medium = st::ADD(m.medium, st::DIV(kAt, 10, 3));
+            t[st::index(kAt, period % 4 + 1, 1, 4)] = st::MUX(kAt, period % 2, int16_t{1}, int16_t{2});
+            const st::TIME elapsed = st::ADD_TIME(st::cycleTime(), st::MUL_TIME(1'000'000, 1.5));
+            s = st::CONCAT(st::LEFT(st::TIME_TO_STRING(elapsed), 4), st::REAL_TO_STRING(st::LN(2.0f)));
+            s = st::REPLACE(st::INSERT(s, st::String("ab"), 2), st::String("x"), 1, st::FIND(s, st::String("#")));
+            c = st::ADD(c, st::STRING_TO_DINT(st::String("16#10")) + st::LREAL_TO_DINT(st::STRING_TO_LREAL(s0)));
+            c = st::ADD(c, st::TIME_TO_DINT(st::STRING_TO_TIME(st::String("T#1s"))));
+            st::loopCheck(kAt);
+            st::writeBack(st_image::mixed, m, m0);
+            st::writeBack(st_image::table, t, t0);
+            st::writeBack(st_image::text, s, s0);
+            st::writeBack(st_image::counter, c, c0);
+        }
+        allocations = counter.count();
+    }
+    EXPECT_EQ(allocations, 0);
+    EXPECT_GT(st_image::counter.load(), 0);
 }

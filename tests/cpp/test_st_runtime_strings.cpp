@@ -151,6 +151,12 @@ TEST(StString, ComparisonIsByteWiseAcrossCapacities) {
     EXPECT_EQ(str(MAX(String<5>("pear"), String<5>("apple"))), "pear");
     EXPECT_EQ(str(MIN(String<5>("pear"), String<5>("apple"))), "apple");
     EXPECT_EQ(str(SEL(true, String<5>("no"), String<5>("yes"))), "yes");
+    // with a literal, however long
+    EXPECT_TRUE(String<5>("abc") == "abc");
+    EXPECT_FALSE(String<3>("abc") == "abcd");  // not equal to a text it cannot hold
+    EXPECT_TRUE(String<3>("abc") < "abcd");
+    EXPECT_TRUE(String<5>("abd") > "abc");
+    EXPECT_TRUE(EQ(String<5>("x"), "x"));
 }
 
 // ---- conversions ----------------------------------------------------------------------------------

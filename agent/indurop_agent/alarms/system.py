@@ -6,6 +6,7 @@ and from whether irpd answers at all (docs/alarms.md, "System alarms").
 | `<module>/overruns` | medium | irpd's `overrun` events of the module count at least `alarm_overruns_per_s` in one second | `alarm_clear_s` without such a second |
 | `<module>/deadline_misses` | high | irpd's `deadline` events count at least `alarm_misses_per_s` in one second | the same |
 | `<module>/exited` | high | a process module exited (`process_exit`) | it was started again (`process_restart`), or irpd restarted |
+| `<module>/fault` | high | a thread module threw from run() (`fault`: the detail is what it threw, e.g. "main.st:12:9: endless loop?") or a crash in it was taken in at irpd's start (`crash`: the detail names the source line) | a swap after which irpd's `modules` shows it no longer disabled (enabled again, or not in the set), or irpd restarted |
 | `irpd/fault_stop` | critical | a fault stopped the set (`stopped`, status `stopped_by_fault`) | irpd runs a set again (`stopped_by_fault` null) |
 | `agent/irpd_unreachable` | high | irpd has not answered for `alarm_unreachable_s` | it answers |
 
@@ -33,6 +34,7 @@ TEXTS = {
     "overruns": ("medium", "overruns beyond the threshold ({} in a second)"),
     "deadline_misses": ("high", "deadline misses beyond the threshold ({} in a second)"),
     "exited": ("high", "the process module exited"),
+    "fault": ("high", "the module faulted and is disabled"),
     "fault_stop": ("critical", "a fault stopped the set: outputs at their safe values"),
     "irpd_unreachable": ("high", "irpd does not answer on its control socket"),
 }
@@ -133,6 +135,17 @@ class SystemAlarms:
                     self.manager.clear_alarm(module, "exited", t, detail=message, note="started again")
                 elif kind == "stopped":
                     self._raise(*FAULT_STOP, t, message)
+                elif kind in ("fault", "crash") and e.get("module"):
+                    self._raise(module, "fault", t, message)
+
+    def modules_now(self, modules: list[dict]) -> None:
+        """irpd's `modules` after a swap: a module no longer disabled (or gone) is past its fault."""
+        disabled = {m.get("name") for m in modules if m.get("state") == "disabled"}
+        now = self.clock()
+        with self.manager.batch():
+            for a in list(self.manager.alarms.values()):
+                if a.origin == SYSTEM and a.id == "fault" and a.active and a.module not in disabled:
+                    self.manager.clear_alarm(a.module, "fault", now, note="enabled again, or no longer in the set")
 
     def _rate(self, module: str, alarm_id: str, t: int, n: int, message: str) -> None:
         key = (module, alarm_id)

@@ -140,6 +140,14 @@ class AlarmWatcher(threading.Thread):
         if status.get("generation") != self.generation:
             self.generation = status.get("generation")
             self.declare()
+            self.follow_modules()  # a swap (enable, load, change): modules it enabled again are past their fault
+
+    def follow_modules(self) -> None:
+        try:
+            modules = self.client.request("modules") or []
+        except (IrpdUnavailable, IrpdRefused):
+            return  # the next swap looks again
+        self.system.modules_now(modules)
 
     def declare(self) -> None:
         """The texts and severities of every source's alarms, from irpd's `alarms` command."""

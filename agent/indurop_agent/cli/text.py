@@ -312,6 +312,31 @@ def jitter_text(j: dict) -> str:
     )
 
 
+def variable_changes(changes: dict | None) -> str:
+    """A check's or a swap's shared-variable changes on one line ("" when none): added, removed, moved
+    (with why a value is not kept), converted (with the types) and the modules replaced for it."""
+    if not changes or not any(changes.get(k) for k in ("added", "removed", "moved", "converted", "replaced")):
+        return ""
+    moved = [
+        m.get("path") + (f" (not converted: {m['reason']})" if m.get("reason") else "")
+        for m in changes.get("moved") or []
+    ]
+    converted = [
+        f"{c.get('path')} ({c.get('from_type')} -> {c.get('to_type')})" for c in changes.get("converted") or []
+    ]
+    return "; ".join(
+        part
+        for part in (
+            f"added {', '.join(changes['added'])}" if changes.get("added") else "",
+            f"removed {', '.join(changes['removed'])}" if changes.get("removed") else "",
+            f"moved {', '.join(moved)}" if moved else "",
+            f"converted {', '.join(converted)}" if converted else "",
+            f"modules replaced for it {', '.join(changes['replaced'])}" if changes.get("replaced") else "",
+        )
+        if part
+    )
+
+
 def swap_text(r: dict) -> str:
     reports = r.get("reports") or [r]
     blocks = []
@@ -340,6 +365,7 @@ def swap_text(r: dict) -> str:
                     ("stopped", _names(rep.get("stopped"))),
                     ("replaced", _names(rep.get("replaced"))),
                     ("missed periods", rep.get("missed_periods", "-")),
+                    ("variables", variable_changes(rep.get("variables")) or "unchanged"),
                     ("request to swap", format_duration(rep.get("request_to_swap_ns"))),
                     ("total", format_duration(rep.get("total_ns"))),
                 ]
@@ -386,22 +412,9 @@ def validation_text(v: dict | None) -> str:
             "modules: "
             + "; ".join(f"{fate} {_names(fates.get(fate))}" for fate in ("kept", "started", "stopped", "replaced"))
         )
-    changes = v.get("variables")
-    if changes and (changes.get("added") or changes.get("removed") or changes.get("moved")):
-        moved = [m.get("path") for m in changes.get("moved") or []]
-        lines.append(
-            "variables: "
-            + "; ".join(
-                part
-                for part in (
-                    f"added {', '.join(changes['added'])}" if changes.get("added") else "",
-                    f"removed {', '.join(changes['removed'])}" if changes.get("removed") else "",
-                    f"moved {', '.join(moved)}" if moved else "",
-                    f"modules replaced for it {', '.join(changes['replaced'])}" if changes.get("replaced") else "",
-                )
-                if part
-            )
-        )
+    changes = variable_changes(v.get("variables"))
+    if changes:
+        lines.append("variables: " + changes)
     return "\n".join(lines)
 
 

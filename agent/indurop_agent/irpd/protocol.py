@@ -236,6 +236,14 @@ class MovedVariable(IrpdShape):
     path: str
     from_: int = Field(alias="from", description="its offset in the running layout")
     to: int = Field(description="its offset in the new one (its type changed)")
+    reason: str | None = Field(None, description="why its value cannot be converted (glbc --previous); absent when the layout was not laid out against the running one")
+
+
+class ConvertedVariable(IrpdShape):
+    path: str
+    from_type: str = Field(description="its type in the running layout, as glbc spells it (int16_t, a.s_t[4])")
+    to_type: str = Field(description="its type in the new one")
+    dropped: list[str] = Field(description="fields and elements the new type no longer has (a.s.gone, a.arr[5..9]; [*]: every element)")
 
 
 class VariableChanges(IrpdShape):
@@ -244,7 +252,8 @@ class VariableChanges(IrpdShape):
     layout: str | None = Field(description="the new layout's hash; null: the set has no shared variables")
     added: list[str] = Field(description="variables the running layout does not have (zeroed before the swap)")
     removed: list[str] = Field(description="variables the new layout does not have (their room stays a hole until irpd restarts)")
-    moved: list[MovedVariable] = Field(description="variables whose type changed: a new place, zeroed")
+    moved: list[MovedVariable] = Field(description="variables whose type changed and whose value is not kept: a new place, zeroed")
+    converted: list[ConvertedVariable] | None = Field(None, description="variables whose type changed and whose value is converted at the swap (docs/hot-reload.md \"Converted variables\"); irpd always sends it, a validation the agent stored before it existed has none")
     replaced: list[str] = Field(description="running modules built against a layout that has a changed variable elsewhere: they are loaded anew, not kept")
 
 
@@ -263,7 +272,7 @@ class SwapReport(IrpdShape):
     stopped: list[str]
     replaced: list[str] = Field(description="modules of both sets that were not kept: the running instance stopped and a new one started afresh (each is also in started and stopped)")
     missed_periods: int = Field(description="the dispatchers' missed and skipped periods from the request to one macro period after the swap")
-    variables: VariableChanges = Field(description="the shared variables the swap added, removed and moved")
+    variables: VariableChanges = Field(description="the shared variables the swap added, removed, moved and converted")
     request_to_swap_ns: int
     total_ns: int
 
@@ -287,7 +296,7 @@ class CrashRecord(IrpdShape):
     pid: int
     thread: int
     fault_address: str
-    pc: str | None = Field(description="the instruction the crashing thread was at (\"0x...\"); null for a signal sent from elsewhere")
+    pc: str | None = Field(description="the instruction the crashing thread was at (\"0x...\") for a fault; null for a signal that was sent (a kill, irpd's own abort)")
     code_module: str | None = Field(description="the module whose code holds that instruction; null: none (irpd's own code, a library)")
     code_offset: str | None = Field(description="that instruction's offset from the module's load base (\"0x...\", as addr2line -e <module> takes it)")
     source: str | None = Field(description="the source line of that instruction from the module's line table, e.g. \"main.st:12\"; null when not known (no line table: a stripped module)")

@@ -237,12 +237,19 @@ int64_t Dispatcher::boundaryAfter(int64_t t) const {
 void Dispatcher::offer(const Tables &next, int64_t at) {
     offered_ = &next;
     offered_at_ = at;
-    for (std::size_t i = 0; i < next_.size(); ++i) next_[i]->executor->offer(&next.executors[i], at);
+    std::vector<Plan *> leaving;  // offered an empty table
     for (const auto &plan : plans_)
-        if (std::find(next_.begin(), next_.end(), plan.get()) == next_.end()) {
-            plan->idle.basic_ns = next.executors.front().basic_ns;  // not run now: it runs its own table
-            plan->executor->offer(&plan->idle, at);
-        }
+        if (std::find(next_.begin(), next_.end(), plan.get()) == next_.end()) leaving.push_back(plan.get());
+    // A swap gate counts every executor offered a table (the new tables' and the leaving ones' empty),
+    // set before any of them can take one.
+    SwapGate *gate = next.executors.front().gate;
+    if (gate) gate->expected = static_cast<int>(next_.size() + leaving.size());
+    for (Plan *plan : leaving) {
+        plan->idle.basic_ns = next.executors.front().basic_ns;  // not run now: it runs its own table
+        plan->idle.gate = gate;
+    }
+    for (std::size_t i = 0; i < next_.size(); ++i) next_[i]->executor->offer(&next.executors[i], at);
+    for (Plan *plan : leaving) plan->executor->offer(&plan->idle, at);
 }
 
 std::optional<std::vector<Switch>> Dispatcher::switched() {

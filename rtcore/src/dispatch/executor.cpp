@@ -83,6 +83,7 @@ void Executor::takeOver(const Table *next) {
             if (const Task *before = task->config.predecessor)
                 task->state.carryOver(before->state, before->config.period_ns == task->config.period_ns,
                                       task->config.clear_fault);
+    if (next->gate) next->gate->arrive();
     table_ = next;
     noteTable(*next);
 }
@@ -199,7 +200,7 @@ int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
     for (Task *task : table_->events) {
         const TaskConfig &c = task->config;
         TaskState &s = task->state;
-        if (s.disabled) continue;
+        if (s.disabled || (c.gate && !c.gate->isOpen())) continue;
         stats::TimingRecord &r = *c.stats;
         if (c.kind == Task::Kind::Thread) {
             int fired = 0;
@@ -294,7 +295,8 @@ void Executor::skip(uint64_t from, uint64_t count) {
  *   6. account the slot's work; work longer than the basic period is a dispatcher overrun, and
  *      the next slot then starts at once (no sleep) - the grid itself never moves.
  * Before step 1, a table offered by a hot reload (reload/) takes over if this slot is due at or
- * after the offered switch time: a pointer exchange and the kept tasks' state carried over.
+ * after the offered switch time: a pointer exchange and the kept tasks' state carried over (and
+ * the swap's gate arrived at: the last executor to switch does its one-time work).
  */
 void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &stop, stats::Counter *cycles,
                     std::atomic<int64_t> *finished_ns) {
@@ -391,7 +393,8 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
                     serveCalls(*task, cycle);  // answers "owner disabled" to processes calling its functions
                     continue;
                 }
-                if (s.skip_until > due) {  // on_overrun=skip: a run due while its last one overran
+                if (s.skip_until > due || (c.gate && !c.gate->isOpen())) {
+                    // on_overrun=skip: a run due while its last one overran; or before its swap's gate opened
                     stats::bump(c.stats->skipped);
                     continue;
                 }

@@ -48,6 +48,25 @@ class CallServer;  // dispatch/function_calls.hpp
 
 struct Task;
 
+// A hot swap's one-time work at its boundary (the reloader's converted variables, docs/hot-reload.md):
+// every executor offered a table arrives once when it takes it; the last to arrive runs `work` on its
+// own thread (it must not allocate, lock or make a system call) and opens the gate.  Until then the
+// tasks gated by it skip their runs: they never see what the work has not done yet.
+struct SwapGate {
+    void (*work)(void *) noexcept = nullptr;
+    void *context = nullptr;
+    int expected = 0;  // the executors offered a table for the swap (Dispatcher::offer sets it)
+    std::atomic<int> arrived{0};
+    std::atomic<bool> open{false};
+
+    void arrive() noexcept {
+        if (arrived.fetch_add(1, std::memory_order_acq_rel) + 1 != expected) return;
+        if (work) work(context);
+        open.store(true, std::memory_order_release);
+    }
+    bool isOpen() const noexcept { return open.load(std::memory_order_acquire); }
+};
+
 // What a task is: set when the tables are built (dispatch::buildTables, then the reloader's
 // carry-over fields) and never written once the table is offered to an executor.
 struct TaskConfig {
@@ -75,7 +94,8 @@ struct TaskConfig {
     // Hot reload: the same module's task in the table this one replaces (kept modules).  At the
     // swap the loop carries its run-time state over (TaskState::carryOver).
     const Task *predecessor = nullptr;
-    bool clear_fault = false;  // enabled again: a fault's disable is not carried over
+    bool clear_fault = false;        // enabled again: a fault's disable is not carried over
+    const SwapGate *gate = nullptr;  // its runs are skipped until this gate opens (null: none)
 };
 
 // What the executor thread learns while it runs a task; written by that thread only (and copied
@@ -132,6 +152,7 @@ struct Table {
     std::vector<std::vector<Task *>> slots;
     std::vector<Task *> tasks;
     std::vector<Task *> events;
+    SwapGate *gate = nullptr;  // arrived at when an executor takes this table (null: none)
     int64_t macroNs() const { return basic_ns * static_cast<int64_t>(slots.size()); }
 };
 

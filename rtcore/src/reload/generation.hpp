@@ -11,6 +11,7 @@
 #include "dispatch/function_calls.hpp"
 #include "hosts/thread_module.hpp"
 #include "schedule/schedule.hpp"
+#include "variables/conversion.hpp"
 #include "variables/layout.hpp"
 
 #include <cstdint>
@@ -44,7 +45,11 @@ struct Generation {
     // The shared-variable layout it runs on (null: none) and what changed from the generation
     // before; published into the segment before its modules load (docs/hot-reload.md).
     std::shared_ptr<const variables::Layout> layout;
-    layouts::Diff variables;
+    layouts::Diff variables;             // its `moved`: retyped and not converted
+    variables::Conversions conversions;  // retyped and converted at the swap
+    // With conversions: the swap's gate (dispatch::SwapGate), whose work converts into the data area.
+    std::unique_ptr<dispatch::SwapGate> gate;
+    char *conversion_data = nullptr;
     std::vector<std::string> replaced_for_layout;              // running modules the new layout leaves no place for
     bool published = false;                                    // this generation published its layout
     std::shared_ptr<const variables::Layout> previous_layout;  // what undo publishes again

@@ -46,14 +46,34 @@ bool keepable(const config::ModuleSpec &next, const std::string &next_identity, 
 json names(const std::vector<std::string> &list) { return json(list); }
 
 json variablesJson(const Generation &g) {
-    json moved = json::array();
-    for (const layouts::Moved &m : g.variables.moved)
+    json moved = json::array(), converted = json::array();
+    for (const layouts::Moved &m : g.variables.moved) {
         moved.push_back({{"path", m.path}, {"from", m.from}, {"to", m.to}});
+        if (const auto why = g.conversions.not_converted.find(m.path); why != g.conversions.not_converted.end())
+            moved.back()["reason"] = why->second;
+    }
+    for (const variables::Conversion &c : g.conversions.converted)
+        converted.push_back(
+            {{"path", c.path}, {"from_type", c.from_type}, {"to_type", c.to_type}, {"dropped", c.dropped}});
     return json{{"layout", g.layout ? json(g.layout->hash) : json(nullptr)},
                 {"added", g.variables.added},
                 {"removed", g.variables.removed},
                 {"moved", moved},
+                {"converted", converted},
                 {"replaced", g.replaced_for_layout}};
+}
+
+// The dry run names every retyped variable whose value is not kept (docs/hot-reload.md).
+void notConvertedWarnings(const Generation &g, json &warnings) {
+    for (const layouts::Moved &m : g.variables.moved) {
+        const auto why = g.conversions.not_converted.find(m.path);
+        warnings.push_back("variable '" + m.path + "' changes its type and its value is not kept (" +
+                           (why != g.conversions.not_converted.end()
+                                ? why->second
+                                : std::string("the set's layout was not compiled against the running one")) +
+                           "): it starts at zero at the swap; a managed restart (--mode restart) starts every "
+                           "variable at zero");
+    }
 }
 
 int64_t now() { return osal::monotonicNow(); }
@@ -143,6 +163,16 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
                          protocol::kRestartRequired};
         if (std::string why = s_.vars->fits(*layout); !why.empty()) return Error{why, protocol::kRestartRequired};
     }
+    variables::Conversions conversions;
+    if (layout) {
+        auto planned = variables::conversionsOf(*layout, s_.vars->layout()->model, d.moved);
+        if (!planned) return planned.error();
+        conversions = std::move(*planned);
+        std::erase_if(d.moved, [&](const layouts::Moved &m) {
+            return std::any_of(conversions.converted.begin(), conversions.converted.end(),
+                               [&](const variables::Conversion &c) { return c.path == m.path; });
+        });
+    }
     if (Status st = dispatch::checkExecutors(dispatch::executorsOf(set, s_.dispatcher)); !st) return st.error();
     std::size_t processes = 0;
     for (const config::ModuleSpec &m : set.modules) processes += m.type == config::ModuleType::Process;
@@ -155,6 +185,7 @@ Status Reloader::checkAgainst(const config::SetSpec &set, const Generation *runn
     if (out) {
         out->layout = std::move(layout);
         out->variables = std::move(d);
+        out->conversions = std::move(conversions);
         out->members = std::move(members);
     }
     return Ok{};
@@ -224,7 +255,10 @@ json Reloader::check(const std::filesystem::path &xml) const {
             else
                 refuse(planned.error());
         } else {
-            if ((*planned)->layout) variables = variablesJson(**planned);
+            if ((*planned)->layout) {
+                variables = variablesJson(**planned);
+                notConvertedWarnings(**planned, warnings);
+            }
             const Fates f = fatesOf(**planned, running.get());
             modules = json{{"kept", f.kept}, {"started", f.started}, {"stopped", f.stopped}, {"replaced", f.replaced}};
         }
@@ -267,6 +301,7 @@ Result<std::unique_ptr<Generation>> Reloader::plan(config::SetSpec set, const Ge
     next->members = std::move(checked.members);  // each module's identity and layout stamp
     next->layout = std::move(checked.layout);
     next->variables = std::move(checked.variables);
+    next->conversions = std::move(checked.conversions);
     if (!next->layout && running && next->set.layout.empty()) next->layout = running->layout;
     const config::SetSpec &spec = next->set;
 
@@ -401,6 +436,7 @@ Status Reloader::realize(Generation &generation, const Generation *running,
     if (next->layout && s_.vars && next->layout->hash != s_.vars->hash()) {
         std::vector<std::string> fresh = next->variables.added;
         for (const layouts::Moved &m : next->variables.moved) fresh.push_back(m.path);
+        for (const variables::Conversion &c : next->conversions.converted) fresh.push_back(c.path);
         next->previous_layout = s_.vars->layout();
         if (Status st = s_.vars->publish(*next->layout, fresh); !st) {
             undo(*next);
@@ -534,6 +570,22 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         bindings.push_back(b);
     }
     next->tables = dispatch::buildTables(spec, next->schedule, bindings);
+    // Converted variables: the last executor to switch converts them (no module of the old set runs
+    // any more); the new modules skip their runs until it did (docs/hot-reload.md "Converted variables").
+    if (!next->conversions.converted.empty() && s_.vars) {
+        next->conversion_data = s_.vars->data();
+        next->gate = std::make_unique<dispatch::SwapGate>();
+        next->gate->context = next;
+        next->gate->work = [](void *g) noexcept {
+            const auto &gen = *static_cast<const Generation *>(g);
+            variables::converted(gen.conversions.converted, gen.conversion_data);
+        };
+        for (dispatch::Table &t : next->tables->executors) t.gate = next->gate.get();
+        for (const config::ModuleSpec &m : spec.modules)
+            if (dispatch::Task *task = next->tables->by_module[static_cast<std::size_t>(m.index)];
+                task && !next->members[static_cast<std::size_t>(m.index)].kept)
+                task->config.gate = next->gate.get();
+    }
     if (running)
         for (const config::ModuleSpec &m : spec.modules) {
             dispatch::Task *task = next->tables->by_module[static_cast<std::size_t>(m.index)];
@@ -783,11 +835,17 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
     const uint64_t lost_before = lost();
     const int64_t lead = std::max<int64_t>(2'000'000, 2 * running->schedule.basic_ns);
     const int64_t at = dispatcher_->boundaryAfter(now() + lead);
+    // Converted variables: their new places are held (locked, sequence odd) from before the offer, so
+    // that nobody else writes them, until every executor switched; the last one to switch converted
+    // them (the tables' gate).
+    const std::vector<variables::Conversion> &converted = next->conversions.converted;
+    if (s_.vars) variables::hold(converted);
     dispatcher_->offer(*next->tables, at);
     std::optional<std::vector<dispatch::Switch>> switched;
     const int64_t give_up = now() + s_.swap_timeout_ns + (at - now());
     while (!(switched = dispatcher_->switched())) {
         if (now() > give_up && dispatcher_->withdraw()) {
+            if (s_.vars) variables::release(converted, false);
             undo(*next);
             const std::string message = "the executors did not reach the swap slot within " +
                                         std::to_string(s_.swap_timeout_ns / 1'000'000) +
@@ -795,8 +853,10 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
             s_.events->add("swap_failed", "", message);
             return Error{message};
         }
-        std::this_thread::sleep_for(std::chrono::microseconds(200));
+        // Holding converted variables, look often: a new module's write of one waits for the lock.
+        std::this_thread::sleep_for(std::chrono::microseconds(converted.empty() ? 200 : 20));
     }
+    if (s_.vars) variables::release(converted, true);
     const int64_t swapped_ns = now();
     // One new macro period (at most 2 s) to see whether the new table's first slots were on time.
     const uint64_t cycles_then = s_.stats->header()->cycles.load();
@@ -841,8 +901,8 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
          << stopped.size() << " stopped (" << replaced.size() << " of them replaced), " << missed << " periods missed";
     if (next->published)
         text << "; shared variables " << next->variables.added.size() << " added, " << next->variables.removed.size()
-             << " removed, " << next->variables.moved.size() << " moved (layout " << next->layout->hash.substr(0, 12)
-             << "…)";
+             << " removed, " << next->variables.moved.size() << " moved, " << next->conversions.converted.size()
+             << " converted (layout " << next->layout->hash.substr(0, 12) << "…)";
     s_.events->add("swap", "", text.str());
     if (next->calls) s_.calls = next->calls.get();
     {

@@ -12,7 +12,8 @@
 //             untouched and the Error says why.  (prepare = plan + realize.)
 //   swap      each executor takes its new table at the first slot due at or after the boundary
 //             (a pointer exchange on its own thread, Executor::offer), carrying the kept tasks'
-//             state over; the reloader waits until all did.
+//             state over; the last one converts the retyped variables whose values are kept
+//             (dispatch::SwapGate, variables/conversion.hpp); the reloader waits until all did.
 //   retire    stops the modules the new set no longer runs (the RT threads let go of them at
 //             the swap), unloads them, stops their processes, frees their records and alarm
 //             sources.

@@ -1,5 +1,5 @@
 // retain_file.cpp -- the retain store's file: header + CBOR entries, SHA-256 over both, written
-// by rename.  Header (little-endian, kHeaderSize bytes):
+// through osal::writeAtomically.  Header (little-endian, kHeaderSize bytes):
 //   0 magic "IRPRETN1"   8 u32 format version   12 u32 header size   16 u64 sequence
 //  24 u64 content size  32 SHA-256 (computed with these 32 bytes zero)   64 identity (64 chars)
 // 128 zero
@@ -7,9 +7,6 @@
 
 #include <nlohmann/json.hpp>
 #include <openssl/evp.h>
-
-#include <fcntl.h>
-#include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
@@ -40,10 +37,6 @@ std::string digest(std::string file) {
     unsigned int n = 0;
     EVP_Digest(file.data(), file.size(), md, &n, EVP_sha256(), nullptr);
     return std::string(reinterpret_cast<const char *>(md), kDigestBytes);
-}
-
-std::string errnoText(const std::string &what, const std::filesystem::path &path) {
-    return what + " " + path.string() + ": " + std::strerror(errno);
 }
 
 }  // namespace
@@ -98,37 +91,6 @@ Result<Snapshot> decode(std::string_view bytes) {
         return Error{std::string("its entries do not decode: ") + e.what()};
     }
     return s;
-}
-
-Status writeAtomically(const std::filesystem::path &file, std::string_view bytes) {
-    const std::filesystem::path tmp = file.string() + ".tmp";
-    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
-    if (fd < 0) return Error{errnoText("cannot create", tmp)};
-    for (std::size_t done = 0; done < bytes.size();) {
-        const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-        if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) {
-            const std::string why = errnoText("cannot write", tmp);
-            ::close(fd);
-            return Error{why};
-        }
-        done += static_cast<std::size_t>(n);
-    }
-    if (::fsync(fd) != 0) {
-        const std::string why = errnoText("cannot fsync", tmp);
-        ::close(fd);
-        return Error{why};
-    }
-    ::close(fd);
-    if (::rename(tmp.c_str(), file.c_str()) != 0) return Error{errnoText("cannot rename to", file)};
-    const std::filesystem::path folder = file.parent_path().empty() ? "." : file.parent_path();
-    const int dir = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-    if (dir < 0) return Error{errnoText("cannot open", folder)};
-    const int synced = ::fsync(dir);
-    const std::string why = synced != 0 ? errnoText("cannot fsync", folder) : "";
-    ::close(dir);
-    if (synced != 0) return Error{why};
-    return Ok{};
 }
 
 Loaded loadCopies(const std::filesystem::path &a, const std::filesystem::path &b) {

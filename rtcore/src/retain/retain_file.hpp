@@ -1,7 +1,7 @@
 // retain_file.hpp -- one copy of the retain store on disk (docs/retain.md "The files"): a fixed
 // header (magic, format version, sequence number, the program's identity, the content's size and a
 // SHA-256 over header and content), then the entries as CBOR (path, type, type_id, kind, bytes).
-// Written as a new file, fsync'ed, renamed over the old name, the folder fsync'ed: the name never
+// Written by osal::writeAtomically (a new file, fsync'ed, renamed over the old name): the name never
 // holds a torn file; a copy torn or corrupt anyway (a disk that lies, a copy cut short) is refused
 // by decode(), naming what is wrong.
 #pragma once
@@ -42,9 +42,6 @@ std::string encode(const Snapshot &snapshot);
 // The snapshot, or why these bytes are not a good copy (short, not a retain file, another format
 // version, a checksum that does not match, content that does not decode).
 Result<Snapshot> decode(std::string_view bytes);
-
-// `bytes` written to `file` through `file`.tmp: write, fsync, rename, fsync of the folder.
-Status writeAtomically(const std::filesystem::path &file, std::string_view bytes);
 
 // What the two copies held at start.
 struct Loaded {

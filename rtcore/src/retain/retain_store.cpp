@@ -1,6 +1,7 @@
 // retain_store.cpp -- restore at start, the saver thread, the last save at stop (retain_store.hpp).
 #include "retain/retain_store.hpp"
 
+#include "osal/atomic_file.hpp"
 #include "sdk/runtime.hpp"
 
 #include <indurop/indurop.h>
@@ -10,6 +11,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 
 namespace irp::retain {
 namespace {
@@ -49,6 +51,10 @@ RetainStore::RetainStore(const Settings &settings, const variables::VariableSegm
     : settings_(settings), vars_(vars), events_(events), alarms_(alarms) {
     files_[0] = settings.folder / (settings.instance + ".retain.a");
     files_[1] = settings.folder / (settings.instance + ".retain.b");
+    // A test's pause between a copy written and its rename, to kill irpd in the middle of a write
+    // (tests/python/retain); unset in production.
+    if (const char *ms = std::getenv("INDUROP_RETAIN_TEST_PAUSE_MS"); ms && std::atoi(ms) > 0)
+        before_rename_ = [pause = std::chrono::milliseconds(std::atoi(ms))] { std::this_thread::sleep_for(pause); };
 }
 
 RetainStore::~RetainStore() {
@@ -181,7 +187,7 @@ void RetainStore::saveIfChanged() {
     Snapshot now = capture();
     if (!pending_ && now.identity == saved_.identity && now.entries == saved_.entries) return;
     now.sequence = saved_.sequence + 1;
-    const Status written = writeAtomically(files_[next_], encode(now));
+    const Status written = osal::writeAtomically(files_[next_], encode(now), before_rename_);
     const std::string error = written ? "" : written.error().message;
     bool told = false;  // the same error as the last write's: said already
     {

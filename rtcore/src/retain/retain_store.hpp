@@ -23,6 +23,7 @@
 
 #include <condition_variable>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -88,6 +89,7 @@ private:
     events::EventLog &events_;
     alarms::AlarmSegment *alarms_;
     std::filesystem::path files_[2];
+    std::function<void()> before_rename_;  // INDUROP_RETAIN_TEST_PAUSE_MS (a test's hook)
 
     // The saver's own (the thread, or stop() once it ended).
     std::string layout_hash_;

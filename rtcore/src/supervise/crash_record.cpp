@@ -4,6 +4,7 @@
 
 #include "dispatch/running_marker.hpp"
 #include "events/event_log.hpp"
+#include "osal/atomic_file.hpp"
 #include "supervise/module_code.hpp"
 #include "supervise/source_line.hpp"
 
@@ -147,8 +148,9 @@ void onCrash(int sig, siginfo_t *info, void *context) {
     w.field("set_id", c.set_id);
     w.field("generation", c.generation);
     w.text("fault_address="), w.hex(reinterpret_cast<uintptr_t>(info ? info->si_addr : nullptr)), w.text("\n");
-    // Where the crashing thread was, and in whose code (a table of numbers: dladdr is not
-    // async-signal-safe).  A signal sent from elsewhere interrupts whatever: no place for it.
+    // For a fault: the instruction, and in whose code (a table of numbers: dladdr is not
+    // async-signal-safe).  A signal that was sent (a kill, irpd's own abort) finds the thread
+    // wherever it was: that place says nothing.
     if (const uintptr_t pc = sent ? 0 : interruptedPc(context)) {
         w.text("pc="), w.hex(pc), w.text("\n");
         if (findModuleCode(pc, g_handler.code)) {
@@ -191,19 +193,6 @@ std::string readText(const std::filesystem::path &p) {
     std::ostringstream s;
     s << in.rdbuf();
     return s.str();
-}
-
-// Writes `text` to `path` through a temporary file and a rename.
-bool writeAtomically(const std::filesystem::path &path, const std::string &text) {
-    const std::filesystem::path tmp = path.string() + ".tmp";
-    {
-        std::ofstream out(tmp, std::ios::trunc);
-        out << text;
-        if (!out) return false;
-    }
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
-    return !ec;
 }
 
 }  // namespace
@@ -339,7 +328,7 @@ Result<std::unique_ptr<CrashState>> CrashState::open(const std::filesystem::path
                 r.source = sourceLine(r.code_image, std::strtoull(r.code_offset.c_str(), nullptr, 16));
                 if (!r.source.empty()) text += "source=" + r.source + "\n";
             }
-            if (writeAtomically(last, text))
+            if (osal::writeAtomically(last, text))
                 std::filesystem::remove(record, ec);
             else
                 std::filesystem::rename(record, last, ec);
@@ -388,8 +377,7 @@ Status CrashState::saveExcluded() const {
     }
     std::string text;
     for (const auto &[module, set] : excluded_) text += module + "\t" + set + "\n";
-    if (!writeAtomically(path, text)) return Error{"cannot write " + path.string()};
-    return Ok{};
+    return osal::writeAtomically(path, text);
 }
 
 Status CrashState::exclude(const std::string &set, const std::string &module) {

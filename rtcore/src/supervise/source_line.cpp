@@ -39,8 +39,8 @@ std::string sourceLine(const std::filesystem::path &image, uintptr_t offset) {
     char address[32];
     std::snprintf(address, sizeof address, "0x%llx", static_cast<unsigned long long>(offset));
     const std::string file = image.string();
-    std::vector<char *> argv{const_cast<char *>("addr2line"), const_cast<char *>("-e"), const_cast<char *>(file.c_str()),
-                             address, nullptr};
+    std::vector<char *> argv{const_cast<char *>("addr2line"), const_cast<char *>("-e"),
+                             const_cast<char *>(file.c_str()), address, nullptr};
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
     posix_spawn_file_actions_adddup2(&actions, out[1], STDOUT_FILENO);

@@ -56,6 +56,8 @@ public:
     ~VariableSegment();
 
     const indurop_segment_header *header() const { return static_cast<const indurop_segment_header *>(shm_.data()); }
+    // The data area (the variables' offsets are relative to it).
+    char *data() const { return static_cast<char *>(shm_.data()) + header()->data_offset; }
     const std::string &name() const { return shm_.name(); }
     const char *hash() const { return header()->layout_hash; }
 

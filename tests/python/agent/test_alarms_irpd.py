@@ -152,6 +152,33 @@ def test_irpd_unreachable_is_raised_and_cleared_and_survives_an_agent_restart(ce
     assert r.status_code == 200 and r.json()["state"] == "normal", r.text
 
 
+OVERRUN = BUILD / "tests" / "cpp" / "modules" / "overrun.so"  # spins in run `hang_at`, polling the abort flag
+
+
+@pytest.mark.skipif(not OVERRUN.exists(), reason=f"the overrun fixture is not built ({OVERRUN})")
+def test_an_endless_loop_ended_by_the_watchdog_is_a_fault_alarm_naming_what_it_threw_until_enabled(tmp_path):
+    folder = tmp_path / "set"
+    folder.mkdir()
+    shutil.copy(OVERRUN, folder / "overrun.so")
+    loop = (
+        "<on_overrun>disable</on_overrun><overrun_limit>2000000</overrun_limit><property>"
+        '<value name="hang_at">10</value><value name="hang_ms">60000</value><value name="poll_abort">1</value>'
+        "</property>"
+    )
+    (folder / "module.xml").write_text(f"<root>\n{module_entry('loop', './overrun.so', 10_000_000, 1, loop)}</root>\n")
+    cell = Cell(tmp_path, folder / "module.xml")
+    try:
+        a = cell.wait_for("loop/fault", "active_unacknowledged")
+        assert a["origin"] == "system" and a["severity"] == "high"
+        assert "endless loop? run 10 ended at the watchdog's request" in a["detail"], a
+        r = httpx.patch(f"{cell.url}/modules/loop", headers=cell.h, json={"enabled": True}, timeout=60)
+        assert r.status_code == 200, r.text
+        cleared = cell.wait_for("loop/fault", "cleared_unacknowledged")
+        assert "enabled again" in cell.history("loop/fault")[-1]["note"], cleared
+    finally:
+        cell.close()
+
+
 # ---- modules' alarms, from irpd's alarm segment --------------------------------------------------
 needs_fixtures = pytest.mark.skipif(
     not (ALARMING.exists() and PROC_ALARM.exists()), reason=f"the alarm fixtures are not built ({ALARMING})"

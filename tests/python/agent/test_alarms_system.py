@@ -106,6 +106,28 @@ def test_a_fault_stop_from_the_event_and_the_status(system):
     assert state(system, "irpd/fault_stop") == "cleared_unacknowledged"
 
 
+def test_a_thread_modules_fault_is_an_alarm_naming_what_it_threw_until_it_runs_again(system):
+    c = system.clocks
+    text = "threw from run(): main.st:12:9: endless loop? (PROGRAM Main); disabled (enable it to run it again)"
+    system.events([event(c, "fault", "Main", text)])
+    a = system.manager.alarms["Main/fault"]
+    assert a.state(c.ns) == "active_unacknowledged" and a.severity == "high" and a.origin == "system"
+    assert "main.st:12:9" in a.detail
+    system.modules_now([{"name": "Main", "state": "disabled"}, {"name": "keep", "state": "running"}])
+    assert state(system, "Main/fault") == "active_unacknowledged"  # still out
+    c.advance(1)
+    system.modules_now([{"name": "Main", "state": "running"}])  # enabled again
+    assert state(system, "Main/fault") == "cleared_unacknowledged"
+
+
+def test_a_crash_taken_in_is_an_alarm_naming_the_source_line(system):
+    c = system.clocks
+    system.events([event(c, "crash", "Main", "irpd pid 7 died of SIGSEGV in module 'Main' ..., at main.st:12 (...)")])
+    assert "main.st:12" in system.manager.alarms["Main/fault"].detail
+    system.events([event(c, "crash", None, "irpd pid 7 died of SIGSEGV outside any module's code ...")])
+    assert [k for k in system.manager.alarms if k.endswith("/fault")] == ["Main/fault"]  # no module: no alarm
+
+
 def test_irpd_unreachable_after_the_threshold_and_back(system):
     c = system.clocks
     began = c.ns

@@ -6,7 +6,9 @@ activating it online is refused with the reason; an <executor> added and taken a
 in and out online while the counter module on main misses no period.  The dry run (upload
 validation, POST /sets/{id}/check, `irpctl check`) refuses a new module built against a layout the
 set's was not laid out from, with activation's error, and names the modules a load keeps, starts,
-stops and replaces; every route the docs name for the running layout.json answers it.  The
+stops and replaces; every route the docs name for the running layout.json answers it.  Retyped
+variables are converted at the swap: the dry run, irpctl and the swap report name them, and the one
+that cannot be converted, and the values read through the agent are kept.  The
 fixtures are built by tests/cpp/online/."""
 
 from __future__ import annotations
@@ -47,17 +49,18 @@ def set_files(layout: str, *modules: tuple[str, ...], root: str = "") -> list[tu
 
 
 class Cell:
-    """irpd on the v1 layout with the counter module, and an agent."""
+    """irpd on the v1 layout with the counter module (or on `layout` with module `first`: name,
+    fixture file), and an agent."""
 
-    def __init__(self, tmp: Path):
+    def __init__(self, tmp: Path, layout: str = "v1", first: tuple[str, str] = ("counter", "oc_counter_v1.so")):
         self.token_file = tmp / "data" / "admin-token"
         folder = tmp / "start"
         folder.mkdir()
         (folder / "module.xml").write_text(
             "<root>\n  <layout>"
-            + str(ONLINE / "oc_v1" / "layout.json")
+            + str(ONLINE / f"oc_{layout}" / "layout.json")
             + "</layout>\n"
-            + module("counter", str(ONLINE / "modules" / "oc_counter_v1.so"))
+            + module(first[0], str(ONLINE / "modules" / first[1]))
             + "</root>\n"
         )
         self.sock, data = tmp / "irpd.sock", tmp / "data"
@@ -250,3 +253,35 @@ def test_every_route_the_docs_name_for_the_running_layout_answers_it(cell):
     for route in sorted(named):
         r = cell.call("GET", route)
         assert r.status_code == 200 and json.loads(r.text)["hash"] == expected, (route, r.status_code, r.text[:200])
+
+
+def test_retyped_variables_are_converted_and_named_by_the_dry_run_irpctl_and_the_report(tmp_path, capsys):
+    cell = Cell(tmp_path, "cv1", ("cv", "oc_cv_v1.so"))
+    try:
+        deadline = time.monotonic() + 5
+        while cell.call("GET", "/variables/cv.wide").json()["value"] != -1234:
+            assert time.monotonic() < deadline, "the cv module does not run"
+            time.sleep(0.05)
+        stored = cell.upload(set_files("cv2", ("cv", "oc_cv_v2.so")))
+        validation = stored["validation"]
+        assert validation["valid"] is True and validation["online"] is True, validation
+        converted = {c["path"]: (c["from_type"], c["to_type"]) for c in validation["variables"]["converted"]}
+        assert converted["cv.wide"] == ("int16_t", "int32_t") and len(converted) == 6, validation
+        why = "cv.narrow: int32_t to int16_t may lose values"
+        assert [(m["path"], m["reason"]) for m in validation["variables"]["moved"]] == [("cv.narrow", why)]
+        assert any("'cv.narrow'" in w and "starts at zero" in w for w in validation["warnings"]), validation
+        code, out = cell.irpctl(capsys, "check", stored["id"])
+        assert code == 0, out
+        assert f"moved cv.narrow (not converted: {why})" in out and "cv.wide (int16_t -> int32_t)" in out, out
+
+        code, out = cell.irpctl(capsys, "activate", stored["id"])
+        assert code == 0, out
+        assert "converted cv.fb (cv.fb_t -> cv.fb_t)" in out, out
+        report = cell.call("GET", "/sets/active").json()
+        assert report["id"] == stored["id"], report
+        values = {p: cell.call("GET", f"/variables/{p}").json()["value"] for p in ("cv.wide", "cv.f", "cv.arr[2]")}
+        assert values == {"cv.wide": -1234, "cv.f": 1.5, "cv.arr[2]": 30}
+        assert cell.call("GET", "/variables/cv.arr[4]").json()["value"] == 0
+        assert cell.call("GET", "/variables/cv.narrow").json()["value"] == 0
+    finally:
+        cell.close()

@@ -54,6 +54,19 @@ def test_an_upload_is_stored_unchecked_when_irpd_is_unreachable(agent, elves):
     assert list((agent.data / "tmp").iterdir()) == []
 
 
+def test_a_validation_stored_before_converted_variables_existed_is_still_read(agent, elves):
+    s = upload(agent, elves)
+    path = agent.data / "sets" / s["id"] / "manifest.json"
+    manifest = json.loads(path.read_text())
+    old = {"layout": "ab" * 32, "added": ["a.x"], "removed": [], "moved": [{"path": "a.y", "from": 0, "to": 64}]}
+    manifest["validation"] |= {"valid": True, "online": True, "variables": old | {"replaced": []}}
+    path.write_text(json.dumps(manifest))
+    r = agent.client.get(f"{API}/sets/{s['id']}", headers=agent.h())
+    assert r.status_code == 200, r.text
+    variables = r.json()["validation"]["variables"]
+    assert [m["path"] for m in variables["moved"]] == ["a.y"] and variables["converted"] is None
+
+
 def test_the_same_set_twice_has_the_same_id(agent, elves):
     first, second = upload(agent, elves), upload(agent, elves)
     assert first["id"] == second["id"] and first["created"] == second["created"]

@@ -191,6 +191,16 @@ SWAP = {
     "started": ["cntr4"],
     "stopped": [],
     "missed_periods": 0,
+    "variables": {
+        "layout": "ab" * 32,
+        "added": [],
+        "removed": [],
+        "moved": [{"path": "cell.n", "from": 64, "to": 256, "reason": "cell.n: int32_t to int16_t may lose values"}],
+        "converted": [
+            {"path": "cell.fb", "from_type": "cell.fb_t", "to_type": "cell.fb_t", "dropped": ["cell.fb.old"]}
+        ],
+        "replaced": [],
+    },
     "request_to_swap_ns": 12_300_000,
     "total_ns": 45_600_000,
 }

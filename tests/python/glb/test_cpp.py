@@ -180,7 +180,7 @@ def test_leaves_of_a_layout_laid_out_against_a_previous_one(cxx, tmp_path):
     result = run_glbc(["fig11-plcRobot.glb", "b.glb", "-o", "next", "--previous", str(out / "layout.json")], tmp_path)
     assert result.returncode == 0, result.stderr
     layout = load_layout(tmp_path / "next")
-    assert layout["changes"]["moved"] and layout["changes"]["added"] and layout["changes"]["removed"] == []
+    assert layout["changes"]["converted"] and layout["changes"]["added"] and layout["changes"]["removed"] == []
     src = tmp_path / "leaves.cpp"
     src.write_text(leaf_program(layout))
     build = subprocess.run(

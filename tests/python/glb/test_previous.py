@@ -105,25 +105,24 @@ def test_a_removed_variable_leaves_a_hole_and_a_lock_that_are_not_reused(tmp_pat
 
 
 @pytest.mark.parametrize(
-    "before, after",
+    "before, after, kept",
     [
-        ("int x;", "long x;"),  # another scalar type
-        ("int x;", "int x[2];"),  # an array
-        ("int x;", "unsigned x;"),  # the same size, another meaning
-        ("struct { int x; } x;", "struct { int y; } x;"),  # a field name
-        ("struct { int x; } x;", "struct { float x; } x;"),  # a field type
+        ("int x;", "long x;", True),  # another scalar type, wider: converted
+        ("int x;", "int x[2];", False),  # an array: not converted
+        ("int x;", "unsigned x;", False),  # the same size, another meaning
+        ("struct { int x; } x;", "struct { int y; } x;", True),  # a field name: x dropped, y new
+        ("struct { int x; } x;", "struct { float x; } x;", False),  # int to float may lose values
     ],
 )
-def test_a_changed_type_is_moved(tmp_path, before, after):
+def test_a_changed_type_is_moved_or_converted(tmp_path, before, after, kept):
     g1 = ok(tmp_path, before + "\nstruct { double a; } s;\n", "g1")
     g2 = ok(tmp_path, after + "\nstruct { double a; } s;\n", "g2", "g1")
     assert placed(g2) == {"x": (128, 2), "s": (64, 1)}
-    assert g2["changes"] | {"previous": None} == {
-        "previous": None,
-        "added": [],
-        "removed": [],
-        "moved": [{"path": "a.x", "from": 0, "to": 128}],
-    }
+    changes = g2["changes"]
+    assert (changes["added"], changes["removed"]) == ([], [])
+    entry = (changes["converted"] if kept else changes["moved"])[0]
+    assert {k: entry[k] for k in ("path", "from", "to")} == {"path": "a.x", "from": 0, "to": 128}
+    assert len(changes["converted"] + changes["moved"]) == 1
     assert g2["variables"][0]["type_id"] != g1["variables"][0]["type_id"]
     g3 = ok(tmp_path, after + "\nstruct { double a; } s;\nchar c;\n", "g3", "g2")
     assert placed(g3)["c"] == (192, 3)  # not the old x's bytes nor its lock
@@ -149,13 +148,34 @@ def test_changes_and_the_summary_line(tmp_path):
     g1 = ok(tmp_path, "int x;\nint gone;\nint s;\n", "g1")
     result = run(tmp_path, "long s;\nint x;\nint n;\n", "g2", "--previous", "g1/layout.json")
     assert result.returncode == 0, result.stderr
-    assert result.stderr == f"glbc: against layout {g1['hash'][:12]}…: 1 added, 1 removed, 1 moved\n"
+    assert result.stderr == f"glbc: against layout {g1['hash'][:12]}…: 1 added, 1 removed, 0 moved, 1 converted\n"
     g2 = load_layout(tmp_path / "g2")
     assert g2["changes"] == {
         "previous": g1["hash"],
         "added": ["a.n"],
         "removed": ["a.gone"],
-        "moved": [{"path": "a.s", "from": 128, "to": 192}],
+        "moved": [],
+        "converted": [
+            {
+                "path": "a.s",
+                "from": 128,
+                "to": 192,
+                "from_type": "int",
+                "to_type": "long",
+                "dropped": [],
+                "copies": [
+                    {
+                        "from": 128,
+                        "to": 192,
+                        "from_type": "s4",
+                        "to_type": "s8",
+                        "count": 1,
+                        "from_stride": 0,
+                        "to_stride": 0,
+                    }
+                ],
+            }
+        ],
     }
     assert list(g2)[:6] == ["format", "version", "hash", "data_size", "lock_count", "changes"]
 
@@ -163,7 +183,7 @@ def test_changes_and_the_summary_line(tmp_path):
 def test_the_same_declarations_again_change_nothing(tmp_path):
     g1 = ok(tmp_path, "int x;\n" + STRUCT, "g1")
     result = run(tmp_path, "int x;\n" + STRUCT, "g2", "--previous", "g1/layout.json")
-    assert result.stderr.endswith(": 0 added, 0 removed, 0 moved\n")
+    assert result.stderr.endswith(": 0 added, 0 removed, 0 moved, 0 converted\n")
     g2 = load_layout(tmp_path / "g2")
     assert (g2["hash"], g2["data_size"], g2["lock_count"], g2["variables"], g2["leaves"]) == (
         g1["hash"],
@@ -172,7 +192,7 @@ def test_the_same_declarations_again_change_nothing(tmp_path):
         g1["variables"],
         g1["leaves"],
     )
-    assert g2["changes"] == {"previous": g1["hash"], "added": [], "removed": [], "moved": []}
+    assert g2["changes"] == {"previous": g1["hash"], "added": [], "removed": [], "moved": [], "converted": []}
     assert g2["lineage"] == [], "a layout is not its own ancestor"
     g3 = ok(tmp_path, "int x;\nint y;\n" + STRUCT, "g3", "g2")
     g4 = ok(tmp_path, "int x;\nint y;\n" + STRUCT, "g4", "g3")

@@ -63,7 +63,9 @@ def test_a_hand_written_module_xml_keeps_its_other_modules(tmp_path):
 
 
 def test_without_configuration_each_program_runs_on_the_default_task(tmp_path):
-    r = stc_build(tmp_path, {"p.st": "PROGRAM Blink VAR lit : BOOL; END_VAR lit := NOT lit; END_PROGRAM\n"}, "--no-compile")
+    r = stc_build(
+        tmp_path, {"p.st": "PROGRAM Blink VAR lit : BOOL; END_VAR lit := NOT lit; END_PROGRAM\n"}, "--no-compile"
+    )
     assert r.returncode == 0, r.stdout
     mods = modules(tmp_path / "set" / "module.xml")
     assert mods["./Blink.so"]["period"] == "10000000" and mods["./Blink.so"]["priority"] == "10"
@@ -106,10 +108,23 @@ def standard_calls() -> str:
             target = {"r": "r", "w": "w", "s": "s"}.get(params[1] if fn.name in ("SEL",) else params[0], "i")
         lines.append(f"  {target} := {fn.name}({', '.join(params)});")
     conversions = [
-        "d := TIME_TO_DINT(t);", "t := DINT_TO_TIME(d);", "tod1 := DT_TO_TOD(dt1);", "tod1 := DATE_AND_TIME_TO_TIME_OF_DAY(dt1);",
-        "d := TO_DINT(r);", "i := REAL_TRUNC_INT(r);", "d := TRUNC(r);", "s := INT_TO_STRING(i);", "i := STRING_TO_INT(s);",
-        "ld := DATE_TO_LDATE(dd);", "dd := LDATE_TO_DATE(ld);", "r := LREAL_TO_REAL(lr);", "lr := TO_LREAL(i);",
-        "w := INT_TO_WORD(i);", "b := WORD_TO_BOOL(w);", "lti := TIME_TO_LTIME(t);", "d := LTOD_TO_DINT(ltod1);",
+        "d := TIME_TO_DINT(t);",
+        "t := DINT_TO_TIME(d);",
+        "tod1 := DT_TO_TOD(dt1);",
+        "tod1 := DATE_AND_TIME_TO_TIME_OF_DAY(dt1);",
+        "d := TO_DINT(r);",
+        "i := REAL_TRUNC_INT(r);",
+        "d := TRUNC(r);",
+        "s := INT_TO_STRING(i);",
+        "i := STRING_TO_INT(s);",
+        "ld := DATE_TO_LDATE(dd);",
+        "dd := LDATE_TO_DATE(ld);",
+        "r := LREAL_TO_REAL(lr);",
+        "lr := TO_LREAL(i);",
+        "w := INT_TO_WORD(i);",
+        "b := WORD_TO_BOOL(w);",
+        "lti := TIME_TO_LTIME(t);",
+        "d := LTOD_TO_DINT(ltod1);",
     ]
     lines += [f"  {c}" for c in conversions]
     decls = (
@@ -123,3 +138,15 @@ def test_every_standard_function_compiles_against_the_runtime(tmp_path):
     r = stc_build(tmp_path, {"std.st": standard_calls()})
     assert r.returncode == 0, r.stdout + r.stderr
     assert (tmp_path / "set" / "Std.so").is_file()
+
+
+def test_a_compile_error_of_the_generated_code_is_an_internal_error_at_the_st_line():
+    import sys
+
+    sys.path.insert(0, str(ROOT / "st"))
+    from stc_compiler.sdk import internal_errors
+
+    stderr = "main.st:12:9: error: no matching function for call to 'ADD(short int&, bool)'\nmore text\n"
+    [e] = internal_errors(stderr, "out/Main.cpp")
+    assert (e.file, e.line, e.col, e.code) == ("main.st", 12, 9, "internal")
+    assert "error of stc" in e.message and "out/Main.cpp" in e.message

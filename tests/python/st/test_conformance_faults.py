@@ -30,8 +30,10 @@ END_PROGRAM
 FAULTS = """
 PROGRAM Divide
 VAR d : INT := 3; q : INT; END_VAR
+VAR_OUTPUT motor : BOOL; END_VAR
   q := 100 / d;
   d := d - 1;
+  motor := TRUE;
 END_PROGRAM
 
 PROGRAM Indexed
@@ -50,6 +52,20 @@ VAR x : DINT; go : BOOL; END_VAR
   END_IF;
 END_PROGRAM
 
+TYPE Percent : INT (0..100); END_TYPE
+
+FUNCTION_BLOCK Valve
+VAR_INPUT open : Percent; END_VAR
+VAR_OUTPUT flow : INT; END_VAR
+  flow := open * 2;
+END_FUNCTION_BLOCK
+
+PROGRAM Ranged
+VAR v : Valve; k : INT := 90; END_VAR
+  k := k + 5;
+  v(open := k);
+END_PROGRAM
+
 PROGRAM Alive
 VAR n : DINT; END_VAR
   n := n + 1;
@@ -62,6 +78,7 @@ CONFIGURATION Cell
     PROGRAM Idx WITH Fast : Indexed;
     PROGRAM Loop WITH Fast : Spin;
     PROGRAM Beat WITH Fast : Alive;
+    PROGRAM Rng WITH Fast : Ranged;
   END_RESOURCE
 END_CONFIGURATION
 """
@@ -96,22 +113,29 @@ def fault_of(run, module: str) -> str:
 
 def test_a_division_by_zero_disables_the_module_naming_the_st_place(faults):
     text = fault_of(faults, "Div")
-    assert "faults.st:4:8: division by zero (PROGRAM Divide)" in text, text
+    assert "faults.st:5:8: division by zero (PROGRAM Divide)" in text, text
     assert faults.value("Div.q") == 100  # 100/1, the last complete run; the faulting one wrote nothing
     assert faults.value("Div.d") == 0
+    assert faults.value("Div.motor") == 0  # the outputs went to their safe (initial) values
 
 
 def test_an_index_out_of_range_names_the_index_and_the_range(faults):
     text = fault_of(faults, "Idx")
-    assert "faults.st:11:5: index 4 is outside the array's range 1..3 (PROGRAM Indexed)" in text, text
+    assert "faults.st:13:5: index 4 is outside the array's range 1..3 (PROGRAM Indexed)" in text, text
     assert [faults.value(f"Idx.a[{k}]") for k in range(3)] == [1, 2, 3]
 
 
 def test_an_endless_loop_is_stopped_by_the_watchdog_naming_its_line(faults):
     text = fault_of(faults, "Loop")
-    assert "faults.st:18:5" in text and "endless loop?" in text and "(PROGRAM Spin)" in text, text
+    assert "faults.st:20:5" in text and "endless loop?" in text and "(PROGRAM Spin)" in text, text
     before = faults.value("Beat.n")
     wait_until(lambda: faults.value("Beat.n") > before + 5)  # the rest of the set runs on
+
+
+def test_an_fb_input_outside_its_subrange_is_a_fault_at_the_argument(faults):
+    text = fault_of(faults, "Rng")
+    assert "faults.st:37:5: value 105 is outside the subrange 0..100 (PROGRAM Ranged)" in text, text
+    assert faults.value("Rng.v.flow") == 200  # the last complete run: open = 100
 
 
 @pytest.mark.parametrize(

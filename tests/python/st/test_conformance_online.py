@@ -60,3 +60,40 @@ def test_the_sets_glb_variables_keep_their_places_and_its_layout_stays_valid(tmp
     assert set_layout["hash"] in [e["hash"] for e in doc["lineage"]]
     assert "P.go" not in after  # an AT binding is the bound variable, not one of its own
     assert doc["variables"][-1]["path"].startswith("P.")  # the ST variables after the .glb ones
+
+
+def test_a_set_layout_and_the_running_layout_together(tmp_path):
+    """The set's .glb changed too: its layout was laid out against the running one (glbc --previous),
+    its C++ modules built against it; stc keeps both: the ST variables where they run, the set's layout
+    in the lineage.  A set layout not laid out against the running one is an error saying so."""
+    src = tmp_path / "src"
+    src.mkdir()
+
+    def glbc(text: str, out: str, *extra: str) -> dict:
+        (src / "io.glb").write_text(text)
+        cmd = [sys.executable, str(ROOT / "glb" / "glbc"), "io.glb", "-o", str(tmp_path / out), *extra]
+        subprocess.run(cmd, cwd=src, check=True, capture_output=True)
+        return json.loads((tmp_path / out / "layout.json").read_text())
+
+    glbc("namespace IO;\nint16_t start;\n", "glb0")
+    program = {"p.st": "PROGRAM P\nVAR n : DINT; END_VAR\n  n := n + IO.start;\nEND_PROGRAM\n"}
+    first = ("--glb", "io.glb", "--set-layout", str(tmp_path / "glb0" / "layout.json"), "--no-compile")
+    assert stc_build(tmp_path, program, *first, out="v1").returncode == 0
+    running = tmp_path / "v1" / "layout.json"
+    set1 = glbc("namespace IO;\nint16_t start;\nint32_t added;\n", "glb1", "--previous", str(running))
+    both = ("--glb", "io.glb", "--set-layout", str(tmp_path / "glb1" / "layout.json"), "--previous", str(running))
+    r = stc_build(tmp_path, program, *both, "--no-compile", out="v2")
+    assert r.returncode == 0, r.stdout
+    doc = json.loads((tmp_path / "v2" / "layout.json").read_text())
+    where = {v["path"]: (v["offset"], v["lock"]) for v in doc["variables"]}
+    before = {v["path"]: (v["offset"], v["lock"]) for v in json.loads(running.read_text())["variables"]}
+    assert where["P.n"] == before["P.n"] and where["IO.start"] == before["IO.start"]
+    assert all(where[v["path"]] == (v["offset"], v["lock"]) for v in set1["variables"])
+    assert set1["hash"] in [e["hash"] for e in doc["lineage"]]
+
+    glbc("namespace IO;\nint32_t other;\nint16_t start;\n", "glb2")  # laid out afresh: not against the running
+    bad = ("--glb", "io.glb", "--set-layout", str(tmp_path / "glb2" / "layout.json"), "--previous", str(running))
+    r = stc_build(tmp_path, program, *bad, "--no-compile", out="v3")
+    assert r.returncode == 1
+    [e] = json.loads(r.stdout)
+    assert e["code"] == "layout" and "was not laid out against the running one" in e["message"], e

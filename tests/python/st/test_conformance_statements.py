@@ -20,6 +20,22 @@ VAR_IN_OUT calls : INT; END_VAR
   Twice := v * 2;
 END_FUNCTION
 
+FUNCTION Split : BOOL
+VAR_INPUT v : INT; END_VAR
+VAR_OUTPUT hi : INT; lo : INT; END_VAR
+  hi := v / 10;
+  lo := v MOD 10;
+  Split := lo > 4;
+END_FUNCTION
+
+FUNCTION_BLOCK Bump
+VAR_IN_OUT target : INT; END_VAR
+VAR_INPUT amount : INT; END_VAR
+VAR_OUTPUT big : BOOL; END_VAR
+  target := target + amount;
+  big := target > 100;
+END_FUNCTION_BLOCK
+
 FUNCTION_BLOCK Acc
 VAR_INPUT add : INT; END_VAR
 VAR_OUTPUT total : INT; END_VAR
@@ -42,7 +58,7 @@ VAR
   sLen : INT; sFind : INT; sMid : STRING[10]; sCat : STRING[20];
   caseA : INT; caseB : INT; caseC : INT;
   i : INT; j : INT;
-  forDown : DINT; forCount : INT; forEnd : INT;
+  forDown : DINT; forCount : INT; forEnd : INT; toMax : INT; toMaxRuns : INT;
   nested : INT; cont : INT;
   whileN : INT; repeatN : INT;
   calls : INT; fnResult : DINT;
@@ -54,6 +70,15 @@ VAR
   w : WORD := 16#00F0; bit4 : BOOL; bit0 : BOOL;
   shifted : BYTE;
   r : REAL;
+  hi : INT; lo : INT; roundUp : BOOL;
+  bump : Bump; bumped : INT := 95; notBig : BOOL := TRUE;
+  edges : ARRAY[1..2] OF R_TRIG; rises : INT;
+  ctu1 : CTU; ctuQ : BOOL;
+  ins : STRING[20]; del : STRING[20]; rep : STRING[20]; lft : STRING[5]; rgt : STRING[5];
+  modNeg : INT; divNeg : INT; shrInt : WORD; rolByte : BYTE;
+  lreal1 : LREAL; sq : LREAL;
+  dt1 : DT := DT#2024-01-02-12:00:00; tod1 : TOD; d1 : DATE;
+  todAdd : TOD := TOD#23:00:00;
   mx : INT; lim : INT; selv : INT;
 END_VAR
 VAR_TEMP k : INT; END_VAR
@@ -88,6 +113,7 @@ VAR_TEMP k : INT; END_VAR
     forCount := forCount + 1;
   END_FOR;
   forEnd := i;
+  FOR toMax := 32760 TO 32767 DO toMaxRuns := toMaxRuns + 1; END_FOR;
   FOR i := 1 TO 5 DO
     FOR j := 1 TO 5 DO
       IF j = 3 THEN EXIT; END_IF;
@@ -114,6 +140,23 @@ VAR_TEMP k : INT; END_VAR
   mx := MAX(INT#3, 9, 4);
   lim := LIMIT(INT#0, 150, 100);
   selv := SEL(TRUE, INT#1, 2);
+  roundUp := Split(v := 47, hi => hi, lo => lo);
+  bump(bumped, 10);
+  bump(target := bumped, amount := 0, NOT big => notBig);
+  FOR k := 1 TO 3 DO
+    edges[1](CLK := k >= 2);
+    IF edges[1].Q THEN rises := rises + 1; END_IF;
+    ctu1(CU := k <> 2, PV := 2, Q => ctuQ);
+  END_FOR;
+  ins := INSERT('abef', 'cd', 2);
+  del := DELETE('abcdef', 2, 3);
+  rep := REPLACE('abcdef', 'XY', 3, 2);
+  lft := LEFT('abcdef', 2); rgt := RIGHT('abcdef', 2);
+  modNeg := -7 MOD 2; divNeg := -7 / 2;
+  shrInt := SHR(WORD#16#8000, 15); rolByte := ROL(BYTE#16#81, 9);
+  lreal1 := 2.0 ** 10; sq := SQRT(16.0);
+  tod1 := DT_TO_TOD(dt1); d1 := DT_TO_DATE(dt1);
+  todAdd := todAdd + T#2h;
 END_PROGRAM
 """
 
@@ -139,6 +182,8 @@ EXPECTED = {
     "forDown": 10070401,
     "forCount": 4,
     "forEnd": -2,
+    "toMaxRuns": 8,  # ends at the type's maximum (the step does not overflow into an endless loop)
+    "toMax": -32768,  # end + step, wrapped as the addition wraps
     "nested": 8,
     "cont": 2,
     "whileN": 8,
@@ -159,6 +204,23 @@ EXPECTED = {
     "mx": 9,
     "lim": 100,
     "selv": 2,
+    "roundUp": 1,
+    "hi": 4,
+    "lo": 7,
+    "bumped": 105,
+    "notBig": 0,
+    "rises": 1,
+    "ctu1.CV": 2,
+    "ctuQ": 1,
+    "modNeg": -1,
+    "divNeg": -3,
+    "shrInt": 1,
+    "rolByte": 3,
+    "lreal1": 1024.0,
+    "sq": 4.0,
+    "tod1": 12 * 3600 * 10**9,
+    "d1": 1704153600 * 10**9,
+    "todAdd": 3600 * 10**9,
 }
 
 
@@ -179,6 +241,8 @@ def test_strings_are_cut_at_their_length(conf):
     assert conf.string("Conf.s") == "abcde"  # STRING[5] := 'abcdefgh'
     assert conf.string("Conf.sMid") == "world"  # MID(s, L := 5, P := 7)
     assert conf.string("Conf.sCat") == "abcde-xy"
+    assert conf.string("Conf.ins") == "abcdef" and conf.string("Conf.del") == "abef"  # DELETE(s, L := 2, P := 3)
+    assert conf.string("Conf.rep") == "aXYef" and conf.string("Conf.lft") == "ab" and conf.string("Conf.rgt") == "ef"
 
 
 def test_the_layout_names_the_iec_types(conf):

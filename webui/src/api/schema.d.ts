@@ -2108,6 +2108,28 @@ export interface components {
              */
             kind: "condition";
         };
+        /** ConvertedVariable */
+        ConvertedVariable: {
+            /**
+             * Dropped
+             * @description fields and elements the new type no longer has (a.s.gone, a.arr[5..9]; [*]: every element)
+             */
+            dropped: string[];
+            /**
+             * From Type
+             * @description its type in the running layout, as glbc spells it (int16_t, a.s_t[4])
+             */
+            from_type: string;
+            /** Path */
+            path: string;
+            /**
+             * To Type
+             * @description its type in the new one
+             */
+            to_type: string;
+        } & {
+            [key: string]: unknown;
+        };
         /** CpuLoad */
         CpuLoad: {
             /**
@@ -2148,7 +2170,7 @@ export interface components {
             module: string | null;
             /**
              * Pc
-             * @description the instruction the crashing thread was at ("0x..."); null for a signal sent from elsewhere
+             * @description the instruction the crashing thread was at ("0x...") for a fault; null for a signal that was sent (a kill, irpd's own abort)
              */
             pc: string | null;
             /** Pid */
@@ -3148,6 +3170,11 @@ export interface components {
             /** Path */
             path: string;
             /**
+             * Reason
+             * @description why its value cannot be converted (glbc --previous); absent when the layout was not laid out against the running one
+             */
+            reason?: string | null;
+            /**
              * To
              * @description its offset in the new one (its type changed)
              */
@@ -3465,7 +3492,7 @@ export interface components {
             swap_cycle?: number | null;
             /** Total Ns */
             total_ns?: number | null;
-            /** @description the shared variables the swap added, removed and moved */
+            /** @description the shared variables the swap added, removed, moved and converted */
             variables?: components["schemas"]["VariableChanges"] | null;
         } & {
             [key: string]: unknown;
@@ -4560,7 +4587,7 @@ export interface components {
             swap_cycle?: number | null;
             /** Total Ns */
             total_ns?: number | null;
-            /** @description the shared variables the swap added, removed and moved */
+            /** @description the shared variables the swap added, removed, moved and converted */
             variables?: components["schemas"]["VariableChanges"] | null;
         } & {
             [key: string]: unknown;
@@ -4878,13 +4905,18 @@ export interface components {
              */
             added: string[];
             /**
+             * Converted
+             * @description variables whose type changed and whose value is converted at the swap (docs/hot-reload.md "Converted variables"); irpd always sends it, a validation the agent stored before it existed has none
+             */
+            converted?: components["schemas"]["ConvertedVariable"][] | null;
+            /**
              * Layout
              * @description the new layout's hash; null: the set has no shared variables
              */
             layout: string | null;
             /**
              * Moved
-             * @description variables whose type changed: a new place, zeroed
+             * @description variables whose type changed and whose value is not kept: a new place, zeroed
              */
             moved: components["schemas"]["MovedVariable"][];
             /**

@@ -1,5 +1,5 @@
 // activation.ts -- what activating a stored set will do, from irpd's check of it against what runs
-// now (POST /sets/{id}/check): the shared variables it adds, removes and moves, the modules the
+// now (POST /sets/{id}/check): the shared variables it adds, removes, moves and converts, the modules the
 // layout makes irpd load anew, whether it goes in by a hot swap or only by a restart of irpd, and
 // the activation request that follows (a restart only once the operator confirmed it).
 import type { SwapReport, Validation, VariableChanges } from "./types";
@@ -8,18 +8,19 @@ import { formatNs } from "./units";
 export type VariableRow =
   | { kind: "added"; path: string }
   | { kind: "removed"; path: string }
-  | { kind: "moved"; path: string; from: number; to: number };
+  | { kind: "moved"; path: string; from: number; to: number; reason: string | null }
+  | { kind: "converted"; path: string; fromType: string; toType: string; dropped: string[] };
 
 /** The variable diff as the page lists it. */
 export interface VariableDiff {
-  /** nothing added, removed, moved or replaced (or the set declares no shared variables) */
+  /** nothing added, removed, moved, converted or replaced (or the set declares no shared variables) */
   unchanged: boolean;
   rows: VariableRow[];
   /** running modules built against the old layout: loaded anew, not kept */
   replaced: string[];
   /** the new layout's hash (null: no layout) */
   layout: string | null;
-  /** one line: "2 added, 1 removed, 1 moved; 1 module replaced" or "shared variables unchanged" */
+  /** one line: "2 added, 1 removed, 1 moved, 1 converted; 1 module replaced" or "shared variables unchanged" */
   summary: string;
 }
 
@@ -29,21 +30,30 @@ export function variableDiff(v: VariableChanges | null | undefined): VariableDif
   const added = v?.added ?? [];
   const removed = v?.removed ?? [];
   const moved = v?.moved ?? [];
+  const converted = v?.converted ?? [];
   const replaced = v?.replaced ?? [];
   const rows: VariableRow[] = [
     ...added.map((path) => ({ kind: "added" as const, path })),
     ...removed.map((path) => ({ kind: "removed" as const, path })),
-    ...moved.map((m) => ({ kind: "moved" as const, path: m.path, from: m.from, to: m.to })),
+    ...moved.map((m) => ({ kind: "moved" as const, path: m.path, from: m.from, to: m.to, reason: m.reason ?? null })),
+    ...converted.map((c) => ({
+      kind: "converted" as const,
+      path: c.path,
+      fromType: c.from_type,
+      toType: c.to_type,
+      dropped: c.dropped,
+    })),
   ];
   const unchanged = rows.length === 0 && replaced.length === 0;
   const parts = [
     added.length ? `${added.length} added` : "",
     removed.length ? `${removed.length} removed` : "",
     moved.length ? `${moved.length} moved` : "",
+    converted.length ? `${converted.length} converted` : "",
   ].filter(Boolean);
   const summary = unchanged
     ? "shared variables unchanged"
-    : `shared variables: ${parts.length ? parts.join(", ") : "none added, removed or moved"}` +
+    : `shared variables: ${parts.length ? parts.join(", ") : "none added, removed, moved or converted"}` +
       (replaced.length ? `; ${plural(replaced.length, "module")} replaced because of the layout` : "");
   return { unchanged, rows, replaced, layout: v?.layout ?? null, summary };
 }

@@ -1,14 +1,22 @@
 // variable-diff-view.ts -- the shared variables a set's layout changes against the running one
 // (a check's or a swap report's `variables`): added, removed, moved with their byte offsets from
-// -> to, and the modules irpd loads anew because of the layout; one line when nothing changes.
-import type { VariableDiff } from "./activation";
+// -> to and why their value is not kept, converted with their types from -> to, and the modules irpd
+// loads anew because of the layout; one line when nothing changes.
+import type { VariableDiff, VariableRow } from "./activation";
 import { h } from "./dom";
 
-/** The shared-variable diff: added, removed, moved (byte offsets from → to), and the modules replaced. */
+/** The shared-variable diff: added, removed, moved (byte offsets from → to), converted (types from → to), and the modules replaced. */
 export function renderVariableDiff(d: VariableDiff, testid = "plan-variables"): HTMLElement {
-  const sign = { added: "+ added", removed: "− removed", moved: "~ moved" } as const;
+  const sign = { added: "+ added", removed: "− removed", moved: "~ moved", converted: "≈ converted" } as const;
+  const detail = (r: VariableRow): string =>
+    r.kind === "moved"
+      ? `${r.from} → ${r.to}${r.reason ? ` (not converted: ${r.reason})` : ""}`
+      : r.kind === "converted"
+        ? `${r.fromType} → ${r.toType}${r.dropped.length ? ` (dropped ${r.dropped.join(", ")})` : ""}`
+        : "";
   const notes = [
-    d.rows.some((r) => r.kind !== "removed") ? "added and moved variables start at zero" : "",
+    d.rows.some((r) => r.kind === "added" || r.kind === "moved") ? "added and moved variables start at zero" : "",
+    d.rows.some((r) => r.kind === "converted") ? "converted variables keep their values in their new types" : "",
     d.rows.some((r) => r.kind === "removed") ? "a removed variable's room stays empty until irpd restarts" : "",
   ].filter(Boolean);
   return h(
@@ -22,7 +30,7 @@ export function renderVariableDiff(d: VariableDiff, testid = "plan-variables"): 
           h(
             "thead",
             {},
-            h("tr", {}, h("th", {}, "change"), h("th", {}, "variable"), h("th", { class: "num" }, "byte offset")),
+            h("tr", {}, h("th", {}, "change"), h("th", {}, "variable"), h("th", {}, "byte offset or type")),
           ),
           h(
             "tbody",
@@ -33,7 +41,7 @@ export function renderVariableDiff(d: VariableDiff, testid = "plan-variables"): 
                 { class: `vardiff-${r.kind}`, "data-variable": r.path },
                 h("td", {}, sign[r.kind]),
                 h("td", { class: "mono" }, r.path),
-                h("td", { class: "num mono" }, r.kind === "moved" ? `${r.from} → ${r.to}` : ""),
+                h("td", { class: "mono" }, detail(r)),
               ),
             ),
           ),

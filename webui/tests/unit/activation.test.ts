@@ -43,10 +43,18 @@ const CHANGES: VariableChanges = {
   layout: "0123456789abcdef0123",
   added: ["oc.extra"],
   removed: ["oc.gone"],
-  moved: [{ path: "oc.retyped", from: 16, to: 64 }],
+  moved: [{ path: "oc.retyped", from: 16, to: 64, reason: "oc.retyped: int32_t to int16_t may lose values" }],
+  converted: [{ path: "oc.wide", from_type: "int16_t", to_type: "int32_t", dropped: [] }],
   replaced: ["adder"],
 };
-const UNCHANGED: VariableChanges = { layout: "0123456789abcdef0123", added: [], removed: [], moved: [], replaced: [] };
+const UNCHANGED: VariableChanges = {
+  layout: "0123456789abcdef0123",
+  added: [],
+  removed: [],
+  moved: [],
+  converted: [],
+  replaced: [],
+};
 
 const validation = (over: Partial<Validation> = {}): Validation => ({
   valid: true,
@@ -69,16 +77,19 @@ const RESTART = validation({
 });
 
 describe("variableDiff", () => {
-  it("lists added, removed and moved variables and the modules replaced", () => {
+  it("lists added, removed, moved and converted variables and the modules replaced", () => {
     const d = variableDiff(CHANGES);
     expect(d.unchanged).toBe(false);
     expect(d.rows).toEqual([
       { kind: "added", path: "oc.extra" },
       { kind: "removed", path: "oc.gone" },
-      { kind: "moved", path: "oc.retyped", from: 16, to: 64 },
+      { kind: "moved", path: "oc.retyped", from: 16, to: 64, reason: "oc.retyped: int32_t to int16_t may lose values" },
+      { kind: "converted", path: "oc.wide", fromType: "int16_t", toType: "int32_t", dropped: [] },
     ]);
     expect(d.replaced).toEqual(["adder"]);
-    expect(d.summary).toBe("shared variables: 1 added, 1 removed, 1 moved; 1 module replaced because of the layout");
+    expect(d.summary).toBe(
+      "shared variables: 1 added, 1 removed, 1 moved, 1 converted; 1 module replaced because of the layout",
+    );
   });
 
   it("says so when nothing changes, or the set has no shared variables", () => {
@@ -88,7 +99,7 @@ describe("variableDiff", () => {
 
   it("counts modules replaced alone", () => {
     expect(variableDiff({ ...UNCHANGED, replaced: ["a", "b"] }).summary).toBe(
-      "shared variables: none added, removed or moved; 2 modules replaced because of the layout",
+      "shared variables: none added, removed, moved or converted; 2 modules replaced because of the layout",
     );
   });
 });
@@ -176,7 +187,10 @@ describe("renderSwapReport", () => {
     expect(q(e, "report-mode")?.textContent).toBe("hot swap");
     expect(q(e, "report-downtime")).toBeNull();
     expect(q(e, "report-variables-summary")?.textContent).toMatch(/1 added, 1 removed, 1 moved/);
-    expect(e.querySelector("[data-variable='oc.retyped']")?.textContent).toContain("16 → 64");
+    expect(e.querySelector("[data-variable='oc.retyped']")?.textContent).toContain(
+      "16 → 64 (not converted: oc.retyped: int32_t to int16_t may lose values)",
+    );
+    expect(e.querySelector("[data-variable='oc.wide']")?.textContent).toContain("≈ convertedoc.wideint16_t → int32_t");
     expect(q(e, "report-variables-replaced")?.textContent).toContain("adder");
     expect(q(e, "report-replaced")?.textContent).toBe("—");
   });

@@ -8,8 +8,10 @@
 //   - to BOOL: value <> 0; from BOOL: 0 or 1;
 //   - TIME in milliseconds, LTIME in nanoseconds (TIME_TO_DINT(T#1s) = 1000; LTIME_TO_LINT(LTIME#1s)
 //     = 1000000000); to TIME from REAL: milliseconds, kept to the nanosecond;
-//   - DATE and DT in seconds since 1970-01-01, TOD in milliseconds since midnight (CODESYS);
-//   - TIME <-> LTIME, DT_TO_DATE, DT_TO_TOD, DATE_TO_DT; no other conversion between time types.
+//   - DATE and DT in seconds since 1970-01-01, TOD in milliseconds since midnight (CODESYS); LDATE,
+//     LTOD, LDT in nanoseconds;
+//   - between the time types: TIME <-> LTIME; a date and time (DT, LDT) to any date, time of day or
+//     date and time; a date (DATE, LDATE) to a date or a date and time; TOD <-> LTOD; no others.
 // The compiler spells TIME_OF_DAY and DATE_AND_TIME as TOD and DT in these names.
 #pragma once
 
@@ -43,6 +45,9 @@ enum class Iec : uint8_t {
     DATE,
     TOD,
     DT,
+    LDATE,
+    LTOD,
+    LDT,
 };
 
 // What each elementary type is made of: its C++ type, its kind and, for the time types, the
@@ -78,7 +83,14 @@ IRP_ST_INFO(LTIME, Duration, 1)
 IRP_ST_INFO(DATE, Date, kNsPerSecond)
 IRP_ST_INFO(TOD, Date, kNsPerMs)
 IRP_ST_INFO(DT, Date, kNsPerSecond)
+IRP_ST_INFO(LDATE, Date, 1)
+IRP_ST_INFO(LTOD, Date, 1)
+IRP_ST_INFO(LDT, Date, 1)
 #undef IRP_ST_INFO
+
+constexpr bool isDate(Iec k) { return k == Iec::DATE || k == Iec::LDATE; }
+constexpr bool isTimeOfDay(Iec k) { return k == Iec::TOD || k == Iec::LTOD; }
+constexpr bool isDateAndTime(Iec k) { return k == Iec::DT || k == Iec::LDT; }
 
 // Whether FROM_TO_TO exists.
 constexpr bool convertible(Iec to, Iec from) {
@@ -91,7 +103,10 @@ constexpr bool convertible(Iec to, Iec from) {
         case Iec::LTIME: return Kind::Duration;
         case Iec::DATE:
         case Iec::TOD:
-        case Iec::DT: return Kind::Date;
+        case Iec::DT:
+        case Iec::LDATE:
+        case Iec::LTOD:
+        case Iec::LDT: return Kind::Date;
         default: return Kind::Integer;
         }
     };
@@ -99,7 +114,10 @@ constexpr bool convertible(Iec to, Iec from) {
     if (plain(kind(to)) || plain(kind(from))) return true;  // number or bits on at least one side
     if (to == from) return true;
     if (kind(to) == Kind::Duration && kind(from) == Kind::Duration) return true;  // TIME <-> LTIME
-    return from == Iec::DT ? (to == Iec::DATE || to == Iec::TOD) : (from == Iec::DATE && to == Iec::DT);
+    if (kind(to) != Kind::Date || kind(from) != Kind::Date) return false;
+    if (isDateAndTime(from)) return true;
+    if (isDate(from)) return isDate(to) || isDateAndTime(to);
+    return isTimeOfDay(to);  // TOD <-> LTOD
 }
 
 // REAL/LREAL to an integer type: nearest, ties to even; saturated; NaN -> 0.  Independent of the
@@ -143,6 +161,20 @@ IRP_ST_TRUNC(UINT)
 IRP_ST_TRUNC(UDINT)
 IRP_ST_TRUNC(ULINT)
 #undef IRP_ST_TRUNC
+// The 3rd edition's spelling: REAL_TRUNC_INT(x), LREAL_TRUNC_DINT(x), ...
+#define IRP_ST_TRUNC_FROM(REALTYPE, NAME)                                                                              \
+    inline NAME REALTYPE##_TRUNC_##NAME(REALTYPE x) noexcept { return truncToInteger<NAME>(x); }
+#define IRP_ST_TRUNC_ALL(NAME) IRP_ST_TRUNC_FROM(REAL, NAME) IRP_ST_TRUNC_FROM(LREAL, NAME)
+IRP_ST_TRUNC_ALL(SINT)
+IRP_ST_TRUNC_ALL(INT)
+IRP_ST_TRUNC_ALL(DINT)
+IRP_ST_TRUNC_ALL(LINT)
+IRP_ST_TRUNC_ALL(USINT)
+IRP_ST_TRUNC_ALL(UINT)
+IRP_ST_TRUNC_ALL(UDINT)
+IRP_ST_TRUNC_ALL(ULINT)
+#undef IRP_ST_TRUNC_ALL
+#undef IRP_ST_TRUNC_FROM
 
 // The conversion itself; convertible(To, From) must hold.
 template <Iec To, Iec From>
@@ -157,9 +189,9 @@ inline typename Info<To>::type convert(typename Info<From>::type v) noexcept {
         return convert<To, Iec::SINT>(v ? 1 : 0);
     } else if constexpr (from == Kind::Duration || from == Kind::Date) {
         if constexpr (to == Kind::Duration || to == Kind::Date) {
-            if constexpr (From == Iec::DT && To == Iec::DATE) return v - ((v % kNsPerDay) + kNsPerDay) % kNsPerDay;
-            if constexpr (From == Iec::DT && To == Iec::TOD) return ((v % kNsPerDay) + kNsPerDay) % kNsPerDay;
-            return v;  // TIME <-> LTIME, DATE -> DT: the same nanoseconds
+            if constexpr (isDateAndTime(From) && isDate(To)) return v - ((v % kNsPerDay) + kNsPerDay) % kNsPerDay;
+            if constexpr (isDateAndTime(From) && isTimeOfDay(To)) return ((v % kNsPerDay) + kNsPerDay) % kNsPerDay;
+            return v;  // TIME <-> LTIME, DATE -> DT, DT <-> LDT, ...: the same nanoseconds
         } else if constexpr (to == Kind::Real) {
             return static_cast<T>(static_cast<double>(v) / static_cast<double>(Info<From>::unit_ns));
         } else {
@@ -178,7 +210,7 @@ inline typename Info<To>::type convert(typename Info<From>::type v) noexcept {
     }
 }
 
-// The named conversions: BOOL_TO_INT, REAL_TO_INT, TIME_TO_DINT, DT_TO_TOD, ...  (400 names, of
+// The named conversions: BOOL_TO_INT, REAL_TO_INT, TIME_TO_DINT, DT_TO_TOD, ...  (529 names, of
 // which those convertible() refuses do not resolve.)
 #define IRP_ST_ELEMENTARY_TO(X, FROM)                                                                                  \
     X(FROM, BOOL)                                                                                                      \
@@ -200,7 +232,10 @@ inline typename Info<To>::type convert(typename Info<From>::type v) noexcept {
     X(FROM, LTIME)                                                                                                     \
     X(FROM, DATE)                                                                                                      \
     X(FROM, TOD)                                                                                                       \
-    X(FROM, DT)
+    X(FROM, DT)                                                                                                        \
+    X(FROM, LDATE)                                                                                                     \
+    X(FROM, LTOD)                                                                                                      \
+    X(FROM, LDT)
 #define IRP_ST_ELEMENTARY(X)                                                                                           \
     X(BOOL)                                                                                                            \
     X(SINT)                                                                                                            \
@@ -221,7 +256,10 @@ inline typename Info<To>::type convert(typename Info<From>::type v) noexcept {
     X(LTIME)                                                                                                           \
     X(DATE)                                                                                                            \
     X(TOD)                                                                                                             \
-    X(DT)
+    X(DT)                                                                                                              \
+    X(LDATE)                                                                                                           \
+    X(LTOD)                                                                                                            \
+    X(LDT)
 #define IRP_ST_CONVERSION(FROM, TO)                                                                                    \
     template <int = 0>                                                                                                 \
     requires(convertible(Iec::TO, Iec::FROM)) inline TO FROM##_TO_##TO(FROM v) noexcept {                              \

@@ -11,12 +11,15 @@
 //   irp::st::writeBack(PLC_ROBOT::PLC_IN, in, in0);
 //
 // Granularity: a scalar variable is one atomic load and, if changed, one atomic store (the
-// segment's rule for top-level scalars).  A struct or an array is compared byte by byte; each
-// aligned word of the value's alignment (at most 8 bytes, so no leaf straddles two) that holds a
-// changed byte is rewritten as one atomic store that merges the changed bytes into the word read
-// under the lock.  So a leaf the program did not change keeps what another writer put there
-// during the run.  (A leaf that both the program and another writer changed in the same run gets
-// the program's changed bytes over the other writer's value.)
+// segment's rule for top-level scalars).  An array of scalars writes each changed element whole, an
+// array of chars (a STRING) its whole text.  A struct (or an array of structs) is compared byte by
+// byte; each aligned word of the value's alignment (at most 8 bytes, so no leaf straddles two) that
+// holds a changed byte is rewritten as one atomic store that merges the changed bytes into the word
+// read under the lock.  So a leaf the program did not change keeps what another writer put there
+// during the run.  A leaf that both the program and another writer changed in the same run gets
+// the program's changed bytes over the other writer's value; to write such a leaf whole, give
+// writeBack() the value's leaves (offset and size of each scalar, from the layout): then each
+// changed leaf is written whole, as one atomic store.
 //
 // Also the cycle time: cycleTime() is the due time of the period in progress, the time base of
 // TON, TOF and TP.  None of these allocates or makes a system call (an uncontended lock is a CAS).
@@ -26,8 +29,10 @@
 #include <indurop/shared.h>
 #include <indurop/st/types.hpp>
 
+#include <array>
 #include <cstdint>
 #include <cstring>
+#include <span>
 #include <type_traits>
 
 namespace irp::st {
@@ -50,7 +55,9 @@ inline void writeBack(const shared::ScalarRef<T> &ref, const T &local, const T &
 
 namespace detail {
 
-template <class W>
+// Whole: each word is one leaf (an array of scalars), written whole when it changed; else the
+// changed bytes are merged into the word as it is now.
+template <class W, bool Whole>
 inline void mergeWords(char *shared, const char *local, const char *snapshot, std::size_t size) noexcept {
     for (std::size_t at = 0; at < size; at += sizeof(W)) {
         W l, s;
@@ -58,6 +65,10 @@ inline void mergeWords(char *shared, const char *local, const char *snapshot, st
         std::memcpy(&s, snapshot + at, sizeof(W));
         const W diff = static_cast<W>(l ^ s);
         if (diff == 0) continue;
+        if constexpr (Whole) {
+            __atomic_store_n(reinterpret_cast<W *>(shared + at), l, __ATOMIC_RELAXED);
+            continue;
+        }
         W mask = 0;
         for (std::size_t b = 0; b < sizeof(W); ++b)
             if ((diff >> (8 * b)) & 0xff) mask = static_cast<W>(mask | (W{0xff} << (8 * b)));
@@ -68,7 +79,7 @@ inline void mergeWords(char *shared, const char *local, const char *snapshot, st
 }
 
 // The changed words of `size` bytes at ref's place, under its lock; Align: the value's alignment.
-template <std::size_t Align>
+template <std::size_t Align, bool Whole = false>
 inline void writeChanged(const shared::RefBase &ref, const void *local, const void *snapshot,
                          std::size_t size) noexcept {
     if (std::memcmp(local, snapshot, size) == 0) return;
@@ -76,15 +87,65 @@ inline void writeChanged(const shared::RefBase &ref, const void *local, const vo
     shared::detail::writeExclusive(ref.lockIndex(), [&] {
         char *to = ref.address();
         if constexpr (Align >= 8)
-            mergeWords<uint64_t>(to, l, s, size);
+            mergeWords<uint64_t, Whole>(to, l, s, size);
         else if constexpr (Align == 4)
-            mergeWords<uint32_t>(to, l, s, size);
+            mergeWords<uint32_t, Whole>(to, l, s, size);
         else if constexpr (Align == 2)
-            mergeWords<uint16_t>(to, l, s, size);
+            mergeWords<uint16_t, Whole>(to, l, s, size);
         else
-            mergeWords<uint8_t>(to, l, s, size);
+            mergeWords<uint8_t, Whole>(to, l, s, size);
     });
 }
+
+}  // namespace detail
+
+// One leaf of a struct or array value: a scalar of 1, 2, 4 or 8 bytes at its natural alignment, or
+// a run of bytes written whole (a STRING's char[n+1]).  The generator emits a constexpr table of a
+// variable's leaves from its layout.
+struct Leaf {
+    uint32_t offset;
+    uint32_t size;
+};
+
+namespace detail {
+
+template <class W>
+inline void storeLeaf(char *shared, const char *local, std::size_t offset) noexcept {
+    W v;
+    std::memcpy(&v, local + offset, sizeof(W));
+    __atomic_store_n(reinterpret_cast<W *>(shared + offset), v, __ATOMIC_RELAXED);
+}
+
+// The changed leaves, each whole, under the variable's lock.
+inline void writeLeaves(const shared::RefBase &ref, const void *local, const void *snapshot, std::size_t size,
+                        std::span<const Leaf> leaves) noexcept {
+    if (std::memcmp(local, snapshot, size) == 0) return;
+    const auto *l = static_cast<const char *>(local), *s = static_cast<const char *>(snapshot);
+    shared::detail::writeExclusive(ref.lockIndex(), [&] {
+        char *to = ref.address();
+        for (const Leaf &leaf : leaves) {
+            if (leaf.offset + leaf.size > size || std::memcmp(l + leaf.offset, s + leaf.offset, leaf.size) == 0)
+                continue;
+            switch (leaf.size) {
+            case 1: storeLeaf<uint8_t>(to, l, leaf.offset); break;
+            case 2: storeLeaf<uint16_t>(to, l, leaf.offset); break;
+            case 4: storeLeaf<uint32_t>(to, l, leaf.offset); break;
+            case 8: storeLeaf<uint64_t>(to, l, leaf.offset); break;
+            default:
+                for (uint32_t i = 0; i < leaf.size; ++i) storeLeaf<uint8_t>(to, l, leaf.offset + i);
+                break;
+            }
+        }
+    });
+}
+
+// The scalar type inside nested std::arrays (the element of a multi-dimensional array).
+template <class T>
+struct Innermost {
+    using type = T;
+};
+template <class U, std::size_t M>
+struct Innermost<std::array<U, M>> : Innermost<U> {};
 
 template <class Value, class Local>
 inline void readInto(const shared::RefBase &ref, Local &local, Local &snapshot) noexcept {
@@ -117,6 +178,15 @@ inline void writeBack(const shared::StructRef<V> &ref, const Local &local, const
     detail::writeFrom<V>(ref, local, snapshot);
 }
 
+// The same, writing each changed leaf whole (see Leaf).
+template <class V, class Local>
+inline void writeBack(const shared::StructRef<V> &ref, const Local &local, const Local &snapshot,
+                      std::span<const Leaf> leaves) noexcept {
+    static_assert(sizeof(Local) == sizeof(V) && std::is_trivially_copyable_v<Local>,
+                  "the local of a shared variable has its size and is plain data");
+    detail::writeLeaves(ref, &local, &snapshot, sizeof(Local), leaves);
+}
+
 // ---- arrays (Local: std::array of the elements, nested for more dimensions, or a C array) -------
 
 template <class E, std::size_t N, class Local>
@@ -124,9 +194,32 @@ inline void copyIn(const shared::ArrayRef<E, N> &ref, Local &local, Local &snaps
     detail::readInto<typename shared::ArrayRef<E, N>::array_type>(ref, local, snapshot);
 }
 
+// An array of scalars (of any dimensions) writes each changed element whole; an array of chars (a
+// STRING's char[n+1]) the whole text when any of it changed, an array of them each changed text
+// whole; an array of structs merges the changed bytes as a struct does.
 template <class E, std::size_t N, class Local>
 inline void writeBack(const shared::ArrayRef<E, N> &ref, const Local &local, const Local &snapshot) noexcept {
-    detail::writeFrom<typename shared::ArrayRef<E, N>::array_type>(ref, local, snapshot);
+    using Array = typename shared::ArrayRef<E, N>::array_type;
+    using T = typename shared::ArrayRef<E, N>::value_type;
+    static_assert(sizeof(Local) == sizeof(Array) && std::is_trivially_copyable_v<Local>,
+                  "the local of a shared variable has its size and is plain data");
+    using Inner = typename detail::Innermost<T>::type;
+    if constexpr (std::is_same_v<T, char>) {
+        const Leaf whole[] = {{0, static_cast<uint32_t>(N)}};
+        detail::writeLeaves(ref, &local, &snapshot, sizeof(Local), whole);
+    } else if constexpr (std::is_same_v<Inner, char>) {  // ARRAY OF STRING: each text is a leaf
+        static constexpr auto texts = [] {
+            std::array<Leaf, N> leaves{};
+            for (std::size_t i = 0; i < N; ++i)
+                leaves[i] = {static_cast<uint32_t>(i * sizeof(T)), static_cast<uint32_t>(sizeof(T))};
+            return leaves;
+        }();
+        detail::writeLeaves(ref, &local, &snapshot, sizeof(Local), texts);
+    } else if constexpr (std::is_arithmetic_v<Inner> || std::is_enum_v<Inner>) {  // every dimension
+        detail::writeChanged<sizeof(Inner), true>(ref, &local, &snapshot, sizeof(Local));
+    } else {
+        detail::writeFrom<Array>(ref, local, snapshot);
+    }
 }
 
 // ---- a whole value (the generated start() writes initial values with it) -------------------------

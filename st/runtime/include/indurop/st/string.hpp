@@ -114,6 +114,19 @@ constexpr std::strong_ordering operator<=>(const String<N> &a, const String<M> &
     return detail::compare(a, b) <=> 0;
 }
 
+// With a literal: `s = 'abc'` compares as String("abc").  (The string functions take String<N>
+// only: the generator writes a literal argument as irp::st::String("abc"), its capacity deduced.)
+template <std::size_t N>
+constexpr bool operator==(const String<N> &a, const char *b) noexcept {
+    return detail::compare(a, String<N>(b)) == 0 && std::char_traits<char>::length(b) <= N;
+}
+template <std::size_t N>
+constexpr std::strong_ordering operator<=>(const String<N> &a, const char *b) noexcept {
+    const std::size_t n = std::char_traits<char>::length(b);
+    const int c = detail::compare(a, String<N>(b));
+    return c != 0 ? c <=> 0 : (n > N ? std::strong_ordering::less : std::strong_ordering::equal);
+}
+
 // LEN(s): an INT, as the standard's LEN.
 template <std::size_t N>
 constexpr INT LEN(const String<N> &s) noexcept {

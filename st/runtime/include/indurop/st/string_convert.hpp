@@ -3,7 +3,8 @@
 //   to STRING: BOOL as 'TRUE' / 'FALSE'; integers and bit strings in decimal; REAL and LREAL in
 //   the shortest form that reads back to the same value ('1.5', '1e+20'); the time types in IEC
 //   literal form: 'T#1s200ms', 'LTIME#1m5us', 'D#2024-01-31', 'TOD#12:30:15.5',
-//   'DT#2024-01-31-12:30:15' (T#0ms for zero; a negative TIME as 'T#-1s').  The result is a
+//   'DT#2024-01-31-12:30:15', 'LDATE#…', 'LTOD#…', 'LDT#…' (T#0ms for zero; a negative TIME as
+//   'T#-1s').  The result is a
 //   STRING (String<80>; every such text fits).
 //   from STRING: the same forms, and integers also as 2#, 8#, 16# literals with '_' between digits;
 //   spaces around the text are ignored; text that is not such a value gives 0 (FALSE), as
@@ -269,23 +270,33 @@ IRP_ST_INTEGER_TO_STRING(LREAL)
 
 inline String<> TIME_TO_STRING(TIME v) noexcept { return detail::durationText("T#", v); }
 inline String<> LTIME_TO_STRING(LTIME v) noexcept { return detail::durationText("LTIME#", v); }
-inline String<> DATE_TO_STRING(DATE v) noexcept {
-    String<> r("D#");
-    detail::appendDate(r, v);
+
+namespace detail {
+inline String<> dateText(const char *prefix, int64_t v) noexcept {
+    String<> r(prefix);
+    appendDate(r, v);
     return r;
 }
-inline String<> TOD_TO_STRING(TOD v) noexcept {
-    String<> r("TOD#");
-    detail::appendTimeOfDay(r, v);
+inline String<> timeOfDayText(const char *prefix, int64_t v) noexcept {
+    String<> r(prefix);
+    appendTimeOfDay(r, v);
     return r;
 }
-inline String<> DT_TO_STRING(DT v) noexcept {
-    String<> r("DT#");
-    detail::appendDate(r, v);
+inline String<> dateAndTimeText(const char *prefix, int64_t v) noexcept {
+    String<> r(prefix);
+    appendDate(r, v);
     r.append("-", 1);
-    detail::appendTimeOfDay(r, v);
+    appendTimeOfDay(r, v);
     return r;
 }
+}  // namespace detail
+
+inline String<> DATE_TO_STRING(DATE v) noexcept { return detail::dateText("D#", v); }
+inline String<> LDATE_TO_STRING(LDATE v) noexcept { return detail::dateText("LDATE#", v); }
+inline String<> TOD_TO_STRING(TOD v) noexcept { return detail::timeOfDayText("TOD#", v); }
+inline String<> LTOD_TO_STRING(LTOD v) noexcept { return detail::timeOfDayText("LTOD#", v); }
+inline String<> DT_TO_STRING(DT v) noexcept { return detail::dateAndTimeText("DT#", v); }
+inline String<> LDT_TO_STRING(LDT v) noexcept { return detail::dateAndTimeText("LDT#", v); }
 
 // ---- from STRING --------------------------------------------------------------------------------
 
@@ -336,26 +347,48 @@ template <std::size_t N>
 inline LTIME STRING_TO_LTIME(const String<N> &s) noexcept {
     return STRING_TO_TIME(s);
 }
-template <std::size_t N>
-inline DATE STRING_TO_DATE(const String<N> &s) noexcept {
-    detail::Text t = detail::trimmed(s);
-    int64_t ns;
-    return (t.skip("DATE#") || t.skip("D#")) && detail::dateText(t, ns) && t.done() ? ns : 0;
+namespace detail {
+// The prefixes of each kind's literals, longest first (any of them is read for either length).
+inline bool datePrefix(Text &t) noexcept {
+    return t.skip("LDATE#") || t.skip("LD#") || t.skip("DATE#") || t.skip("D#");
+}
+inline bool timeOfDayPrefix(Text &t) noexcept {
+    return t.skip("LTIME_OF_DAY#") || t.skip("LTOD#") || t.skip("TIME_OF_DAY#") || t.skip("TOD#");
+}
+inline bool dateAndTimePrefix(Text &t) noexcept {
+    return t.skip("LDATE_AND_TIME#") || t.skip("LDT#") || t.skip("DATE_AND_TIME#") || t.skip("DT#");
 }
 template <std::size_t N>
-inline TOD STRING_TO_TOD(const String<N> &s) noexcept {
-    detail::Text t = detail::trimmed(s);
+inline int64_t dateOf(const String<N> &s) noexcept {
+    Text t = trimmed(s);
     int64_t ns;
-    return (t.skip("TIME_OF_DAY#") || t.skip("TOD#")) && detail::timeOfDayText(t, ns) && t.done() ? ns : 0;
+    return datePrefix(t) && dateText(t, ns) && t.done() ? ns : 0;
 }
 template <std::size_t N>
-inline DT STRING_TO_DT(const String<N> &s) noexcept {
-    detail::Text t = detail::trimmed(s);
+inline int64_t timeOfDayOf(const String<N> &s) noexcept {
+    Text t = trimmed(s);
+    int64_t ns;
+    return timeOfDayPrefix(t) && timeOfDayText(t, ns) && t.done() ? ns : 0;
+}
+template <std::size_t N>
+inline int64_t dateAndTimeOf(const String<N> &s) noexcept {
+    Text t = trimmed(s);
     int64_t day, tod;
-    return (t.skip("DATE_AND_TIME#") || t.skip("DT#")) && detail::dateText(t, day) && t.skip("-") &&
-                   detail::timeOfDayText(t, tod) && t.done()
-               ? day + tod
-               : 0;
+    return dateAndTimePrefix(t) && dateText(t, day) && t.skip("-") && timeOfDayText(t, tod) && t.done() ? day + tod : 0;
 }
+}  // namespace detail
+
+#define IRP_ST_STRING_TO_POINT_IN_TIME(NAME, PARSE)                                                                    \
+    template <std::size_t N>                                                                                           \
+    inline NAME STRING_TO_##NAME(const String<N> &s) noexcept {                                                        \
+        return detail::PARSE(s);                                                                                       \
+    }
+IRP_ST_STRING_TO_POINT_IN_TIME(DATE, dateOf)
+IRP_ST_STRING_TO_POINT_IN_TIME(LDATE, dateOf)
+IRP_ST_STRING_TO_POINT_IN_TIME(TOD, timeOfDayOf)
+IRP_ST_STRING_TO_POINT_IN_TIME(LTOD, timeOfDayOf)
+IRP_ST_STRING_TO_POINT_IN_TIME(DT, dateAndTimeOf)
+IRP_ST_STRING_TO_POINT_IN_TIME(LDT, dateAndTimeOf)
+#undef IRP_ST_STRING_TO_POINT_IN_TIME
 
 }  // namespace irp::st

@@ -34,6 +34,10 @@ using TOD = int64_t;
 using TIME_OF_DAY = int64_t;
 using DT = int64_t;
 using DATE_AND_TIME = int64_t;
+// The 3rd edition's long forms: the same nanoseconds (their integer conversions are in ns).
+using LDATE = int64_t;
+using LTOD = int64_t;
+using LDT = int64_t;
 // An enumeration's values (PLAN29.md).
 using ENUM = int16_t;
 
