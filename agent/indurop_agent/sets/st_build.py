@@ -88,16 +88,17 @@ def _build(files, work: Path, staging: Path, limits: Limits, stc: Path, timeout_
         target.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(f.source, target)
     args = ["build", "-o", ".", "--json"]
-    args += [a for p in sorted(by_path) if file_kind(p, by_path[p].source) == "glb" for a in ("--glb", p)]
+    # `--option=value` and `--` before the sources: a file named "-x.st" is a file, not an option
+    args += [f"--glb={p}" for p in sorted(by_path) if file_kind(p, by_path[p].source) == "glb"]
     layout = _set_layout(by_path)
     if layout is not None:
-        args += ["--set-layout", layout]
+        args += [f"--set-layout={layout}"]
     if previous is not None:
         (work / "previous.json").write_bytes(previous)
         args += ["--previous", str(work / "previous.json")]
     if "module.xml" in by_path:
         args += ["--module-xml", "module.xml"]
-    args += sorted(p for p in by_path if p.lower().endswith(ST_SUFFIX))
+    args += ["--", *sorted(p for p in by_path if p.lower().endswith(ST_SUFFIX))]
     _run(stc, args, root, work, limits, timeout_s)
     return _with_outputs(by_path, root, staging, limits)
 

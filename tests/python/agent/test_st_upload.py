@@ -237,3 +237,11 @@ def test_a_build_over_the_time_limit_is_stopped_and_says_which_setting(tmp_path)
         assert not list((tmp_path / "data" / "tmp").iterdir())  # the build's folder is gone
     finally:
         cell.close()
+
+
+def test_a_source_named_like_an_option_is_compiled_as_a_file(agent):
+    """No irpd: the build lays the variables out afresh; "-o.st" reaches stc as a file name."""
+    files = {"-o.st": COUNTER.format(step=1).encode(), "config.st": CONFIG.encode()}
+    r = agent.client.post("/api/v1/sets", files=parts(files), headers=agent.h())
+    assert r.status_code == 201, r.text
+    assert {f["path"] for f in r.json()["files"]} >= {"-o.st", "config.st", "module.xml", "layout.json", "Main.so"}
