@@ -6,8 +6,9 @@ PROGRAM instance) and irpd loads it like any other.  Laid out against the runnin
 its hand-written module.xml, go in as `--glb`, `--set-layout`, `--module-xml`.
 
 The build runs in a process group of its own with a time limit (settings.st_build_timeout_s: the
-group is killed), a size limit (no file it writes may pass max_file_bytes: RLIMIT_FSIZE, inherited
-by the C++ compiler) and its output captured into files.  stc's input errors ({file, line, column,
+group is killed), size limits (no file it writes may reach max_upload_bytes: RLIMIT_FSIZE, inherited
+by the C++ compiler; what it built must fit max_file_bytes, max_files and max_upload_bytes like an
+upload) and its output captured into files.  stc's input errors ({file, line, column,
 code, message}, file relative to the set) refuse the upload with every error as a problem."""
 
 from __future__ import annotations
@@ -115,7 +116,7 @@ def _set_layout(by_path: dict[str, Received]) -> str | None:
 def _run(stc: Path, args: list[str], cwd: Path, work: Path, limits: Limits, timeout_s: float) -> None:
     if not stc.is_file():
         raise StBuildError(500, f"the set holds .st files but the ST compiler is not installed here ({stc})")
-    command = [sys.executable, "-c", LAUNCH, str(limits.max_file_bytes), sys.executable, str(stc), *args]
+    command = [sys.executable, "-c", LAUNCH, str(limits.max_upload_bytes), sys.executable, str(stc), *args]
     with open(work / "stdout", "wb") as stdout, open(work / "stderr", "wb") as stderr:
         proc = subprocess.Popen(
             command, cwd=cwd, stdin=subprocess.DEVNULL, stdout=stdout, stderr=stderr, start_new_session=True
@@ -138,14 +139,18 @@ def _run(stc: Path, args: list[str], cwd: Path, work: Path, limits: Limits, time
     said = _read(work / "stdout")
     if proc.returncode == 0:
         return
-    if proc.returncode == 1:
-        raise _input_errors(said, cwd)
-    if proc.returncode == -signal.SIGXFSZ:
+    # A write cut at the size limit fails stc (which ignores SIGXFSZ) in its own words: the file that
+    # reached the limit says what happened.
+    full = [p for p in cwd.rglob("*") if p.is_file() and p.stat().st_size >= limits.max_upload_bytes]
+    if full or proc.returncode == -signal.SIGXFSZ:
+        shown = f" ({full[0].relative_to(cwd).as_posix()})" if full else ""
         raise StBuildError(
             413,
-            f"compiling the set's ST sources wrote a file larger than {limits.max_file_bytes} bytes "
-            "(max_file_bytes, the limit per file of a set) and was stopped",
+            f"compiling the set's ST sources wrote a file{shown} of {limits.max_upload_bytes} bytes "
+            "(max_upload_bytes, the limit of a whole set) and was stopped",
         )
+    if proc.returncode == 1:
+        raise _input_errors(said, cwd)
     stderr = _read(work / "stderr").decode("utf-8", "replace").strip()
     raise StBuildError(
         500,
@@ -216,6 +221,13 @@ def _with_outputs(by_path: dict[str, Received], root: Path, staging: Path, limit
         if received is not None and received.sha256 == sha256:
             out.append(received)
         elif received is not None or rel in ("module.xml", "layout.json") or rel.endswith(".so"):
+            if size > limits.max_file_bytes:
+                raise StBuildError(
+                    413,
+                    f"the ST compiler built {json.dumps(rel)} of {size} bytes; the limit per file of a set is "
+                    f"{limits.max_file_bytes} (max_file_bytes)",
+                    file=rel,
+                )
             staged = staging / f"built{len(out):05d}"
             os.replace(p, staged)
             out.append(Received(rel, staged, sha256, size))

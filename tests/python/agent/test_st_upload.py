@@ -245,3 +245,13 @@ def test_a_source_named_like_an_option_is_compiled_as_a_file(agent):
     r = agent.client.post("/api/v1/sets", files=parts(files), headers=agent.h())
     assert r.status_code == 201, r.text
     assert {f["path"] for f in r.json()["files"]} >= {"-o.st", "config.st", "module.xml", "layout.json", "Main.so"}
+
+
+def test_a_build_that_writes_a_file_over_max_file_bytes_is_stopped(make_agent):
+    """The module the build writes is larger than a set's file may be: 413 naming the limit, nothing stored."""
+    agent = make_agent(max_file_bytes=20_000)
+    r = agent.client.post("/api/v1/sets", files=parts(st_set(COUNTER.format(step=1))), headers=agent.h())
+    assert r.status_code == 413, r.text
+    assert r.json()["detail"].endswith("the limit per file of a set is 20000 (max_file_bytes)"), r.text
+    assert r.json()["file"] == "Main.so"
+    assert not [p for p in agent.stored() if not p.startswith("tmp")] and not list((agent.data / "tmp").iterdir())
