@@ -1,5 +1,5 @@
 """st_build.py -- sets with Structured Text: an upload that holds .st files is compiled here, before
-its files are checked, by `stc build` (st/, docs/st.md) run in the upload's staging folder, so that
+its files are checked, by `stc build` (st/, docs/st.md) run on a copy of it, so that
 the stored set holds its sources and what was built from them (module.xml, layout.json, one .so per
 PROGRAM instance) and irpd loads it like any other.  Laid out against the running layout
 (`--previous`) so that the activation can be online; the set's own .glb files and layout.json, and
@@ -32,7 +32,7 @@ INSTALLED_STC = Path("/usr/share/indurop/st/stc")
 BUILDING = threading.Lock()  # one build at a time (see build())
 OUTPUT_KEPT = 1 << 20  # the compiler's output read back (stdout: the errors as JSON; stderr: shown on a failure)
 SHOWN_ERRORS = 5  # the errors the detail spells out; `problems` has them all
-# Runs stc with no file it (or g++ under it) writes larger than argv[1] bytes.
+# Runs stc (argv[2:]) with no file it, or g++ under it, may write reaching argv[1] bytes.
 LAUNCH = "import os, resource, sys; n = int(sys.argv[1]); resource.setrlimit(resource.RLIMIT_FSIZE, (n, n)); os.execv(sys.argv[2], sys.argv[2:])"
 
 
@@ -80,7 +80,7 @@ def build(
 def _build(files, work: Path, staging: Path, limits: Limits, stc: Path, timeout_s: float, previous) -> list[Received]:
     """The build runs in `work/set`, a copy of the upload (copies, not links: what stc writes there
     must not change the received files), with the set's root as its output folder, so that the
-    paths of the modules.xml it writes are the set's."""
+    paths in the module.xml it writes are the set's."""
     root = work / "set"
     root.mkdir(parents=True)
     by_path = {f.path: f for f in files}
@@ -96,7 +96,7 @@ def _build(files, work: Path, staging: Path, limits: Limits, stc: Path, timeout_
         args += [f"--set-layout={layout}"]
     if previous is not None:
         (work / "previous.json").write_bytes(previous)
-        args += ["--previous", str(work / "previous.json")]
+        args += [f"--previous={work / 'previous.json'}"]
     if "module.xml" in by_path:
         args += ["--module-xml", "module.xml"]
     args += ["--", *sorted(p for p in by_path if p.lower().endswith(ST_SUFFIX))]
