@@ -150,3 +150,24 @@ def test_a_compile_error_of_the_generated_code_is_an_internal_error_at_the_st_li
     [e] = internal_errors(stderr, "out/Main.cpp")
     assert (e.file, e.line, e.col, e.code) == ("main.st", 12, 9, "internal")
     assert "error of stc" in e.message and "out/Main.cpp" in e.message
+
+
+def test_an_installed_sdk_prefix(tmp_path):
+    """--sdk PREFIX with the installed layout (include/indurop with st/, lib/libindurop.so), as the
+    .deb puts it under /usr and the agent compiles against it."""
+    from st_live import BUILD
+
+    prefix = tmp_path / "prefix"
+    include = prefix / "include" / "indurop"  # as installed: the SDK's headers, the runtime's in st/
+    include.mkdir(parents=True)
+    for item in (ROOT / "rtcore" / "include" / "indurop").iterdir():
+        (include / item.name).symlink_to(item)
+    (include / "st").symlink_to(ROOT / "st" / "runtime" / "include" / "indurop" / "st")
+    (prefix / "lib").mkdir()
+    (prefix / "lib" / "libindurop.so").symlink_to(BUILD / "rtcore" / "libindurop.so")
+    program = {"p.st": "PROGRAM P VAR n : INT; END_VAR n := n + 1; END_PROGRAM\n"}
+    r = stc_build(tmp_path, program, "--sdk", str(prefix))  # the last --sdk given wins
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert (tmp_path / "set" / "P.so").is_file()
+    r = stc_build(tmp_path, program, "--sdk", str(tmp_path / "nothing"))
+    assert r.returncode == 1 and json.loads(r.stdout)[0]["code"] == "sdk"

@@ -97,3 +97,19 @@ def test_a_set_layout_and_the_running_layout_together(tmp_path):
     assert r.returncode == 1
     [e] = json.loads(r.stdout)
     assert e["code"] == "layout" and "was not laid out against the running one" in e["message"], e
+
+
+def test_a_variable_retyped_where_no_value_is_lost_keeps_its_value(tmp_path):
+    """INT -> DINT: glbc plans the conversion (i29-st-evolve), irpd copies the value at the swap."""
+    v1 = "PROGRAM Grow\nVAR n : INT; END_VAR\n  n := n + 1;\nEND_PROGRAM\n"
+    run = Running(tmp_path, {"grow.st": v1})
+    try:
+        wait_until(lambda: run.value("Grow.n") > 20)
+        report = run.load({"grow.st": v1.replace("n : INT;", "n : DINT;")}, "set2")
+        assert [c["path"] for c in report["variables"]["converted"]] == ["Grow.n"], report
+        assert run.value("Grow.n") > 20  # converted, not started again at 0
+        run.segment.refresh()
+        [entry] = [v for v in run.segment.layout["variables"] if v["path"] == "Grow.n"]
+        assert entry["iec_type"] == "DINT"
+    finally:
+        run.close()
