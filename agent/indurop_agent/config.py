@@ -36,6 +36,11 @@ class Settings:
     max_file_bytes: int = 64 * MiB
     max_upload_bytes: int = 256 * MiB
     max_files: int = 512
+    # Sets with Structured Text (sets/st_build.py): the compiler an upload's .st files are built
+    # with (None: st/stc of this source tree, else stc on the PATH, else the installed one) and how
+    # long one build may take before it is stopped.
+    stc: Path | None = None
+    st_build_timeout_s: float = 300.0
     # Every other request's body.
     max_body_bytes: int = 1 * MiB
     # Slow and numerous clients (server.py): a request's line and headers must arrive within
@@ -115,13 +120,14 @@ class Settings:
 
 
 FIELDS = {f.name: f for f in dataclasses.fields(Settings)}
-PATHS = {"data_dir", "tls_cert", "tls_key", "webui_dir", "irpd_log", "agent_log", "line_file"}
-OPTIONAL_PATHS = {"tls_cert", "tls_key", "webui_dir", "irpd_log", "agent_log"}
+PATHS = {"data_dir", "tls_cert", "tls_key", "webui_dir", "irpd_log", "agent_log", "line_file", "stc"}
+OPTIONAL_PATHS = {"tls_cert", "tls_key", "webui_dir", "irpd_log", "agent_log", "stc"}
 POSITIVE = {
     "port",
     "max_file_bytes",
     "max_upload_bytes",
     "max_files",
+    "st_build_timeout_s",
     "max_body_bytes",
     "header_timeout_s",
     "body_idle_s",

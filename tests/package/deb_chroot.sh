@@ -227,6 +227,16 @@ runs_active_set() {  # until irpd (through the agent) runs the store's active se
   echo "$status"; return 1
 }
 runs_active_set || fail "irpd does not run the active set after its restart"
+# A set in Structured Text, uploaded: the agent compiles it here (stc, python3-lark, g++, the SDK's
+# headers and libindurop as the package installs them) and stores the module it built.
+in_chroot install -d -o indurop /tmp/st-set
+printf '%s\n' 'PROGRAM Counter VAR n : DINT; END_VAR n := n + 1; END_PROGRAM' \
+  'CONFIGURATION Cell RESOURCE Cpu ON PLC TASK Fast (INTERVAL := T#1ms, PRIORITY := 1);' \
+  'PROGRAM Main WITH Fast : Counter; END_RESOURCE END_CONFIGURATION' > "$chr/tmp/st-set/main.st"
+st=$(in_chroot runuser -u indurop -- irpctl --url "https://127.0.0.1:$port" --ca /var/lib/indurop/tls/cert.pem \
+  --token-file /var/lib/indurop/admin-token --json upload /tmp/st-set 2>&1) || { echo "$st"; cat "$cache/agent.log"; fail "upload of an ST set"; }
+echo "$st" | grep -q '"path": "Main.so"' || { echo "$st"; fail "the uploaded ST set holds no Main.so"; }
+echo "$st" | grep -q '"valid": true' || { echo "$st"; fail "irpd does not find the compiled ST set valid"; }
 stop_chroot_processes
 
 # remove: the programs go, the data stays.

@@ -37,7 +37,18 @@ class SetFile(BaseModel):
     size: int
     kind: str = Field(
         description="module_xml, config, thread_module, library, executable, layout, json, robot "
-        "(robot.json), bridge (dds.json), glb, urdf, mesh, header or text"
+        "(robot.json), bridge (dds.json), glb, urdf, mesh, header, text or st (Structured Text source)"
+    )
+
+
+class Problem(protocol.Place):
+    """One of irpd's validation errors, or of the ST compiler's, with where it points (the file
+    relative to the set's root)."""
+
+    message: str
+    file: str | None = Field(None, description="relative to the set's root, e.g. module.xml, main.st")
+    code: str | None = Field(
+        None, description="the ST compiler's error code (docs/st.md, Errors): `type`, `syntax`, ..."
     )
 
 
@@ -47,14 +58,10 @@ class ErrorBody(protocol.Place):
 
     detail: str
     file: str | None = Field(None, description="the file of the set it is about, relative to the set's root")
-
-
-class Problem(protocol.Place):
-    """One of irpd's validation errors with where it points (the place irpd gives, with the file
-    relative to the set's root)."""
-
-    message: str
-    file: str | None = Field(None, description="relative to the set's root, e.g. module.xml")
+    problems: list[Problem] | None = Field(
+        None,
+        description="every error when there are several (an upload's ST compile errors); the place above is the first's",
+    )
 
 
 RestartNeed = protocol.RestartNeed

@@ -30,7 +30,7 @@ from urllib.parse import quote, urlsplit, urlunsplit
 import httpx
 
 from ..api.stream_frame import HEADER_SIZE, KIND_SAMPLES, MAGIC, VERSION, Frame, decode, encode, kind
-from .client_errors import ApiError, detail
+from .client_errors import ApiError, refused
 from .client_record import RecordCalls
 from .client_system import LONG_TIMEOUT_S, SystemCalls
 
@@ -120,7 +120,7 @@ class Client(SystemCalls, RecordCalls):
         except httpx.HTTPError as e:
             raise ApiError(0, f"cannot reach the agent at {self.url}: {e}") from e
         if r.status_code >= 400:
-            raise ApiError(r.status_code, detail(r))
+            raise refused(r)
         return r
 
     def request(self, method: str, path: str, *, timeout: float | None = None, **kwargs) -> Any:
@@ -144,7 +144,7 @@ class Client(SystemCalls, RecordCalls):
             with self._http.stream("GET", path, params=params, timeout=httpx.Timeout(LONG_TIMEOUT_S)) as r:
                 if r.status_code >= 400:
                     r.read()
-                    raise ApiError(r.status_code, detail(r))
+                    raise refused(r)
                 named = re.search(r'filename="?([^";]+)"?', r.headers.get("content-disposition", ""))
                 name = os.path.basename(named.group(1)) if named else default
                 out = Path(target) if target is not None else Path(name)

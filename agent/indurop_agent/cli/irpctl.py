@@ -24,6 +24,7 @@ from .alarms import cmd_ack, cmd_alarms, cmd_events, cmd_shelve
 from .base import EXIT_OK, EXIT_REFUSED, EXIT_UNREACHABLE, EXIT_USAGE, arg, parse_time
 from .capture import CAPTURE_COMMANDS
 from .client import ApiError, Client
+from .client_errors import problem_line
 from .line import LINE_COMMANDS
 from .opcua import OPCUA_COMMANDS
 from .record import RECORD_COMMANDS
@@ -635,7 +636,11 @@ def main(argv: list[str] | None = None) -> int:
     except ApiError as e:
         hint = _hint(e, token)
         where = f"{e.status}: " if e.status else ""
-        print(f"irpctl: {where}{e.message}" + (f"\n  ({hint})" if hint else ""), file=sys.stderr)
+        if e.problems:  # every error on a line of its own, as the compiler prints them
+            said = e.message.split("\n", 1)[0]
+            print("\n".join([f"irpctl: {where}{said}", *map(problem_line, e.problems)]), file=sys.stderr)
+        else:
+            print(f"irpctl: {where}{e.message}" + (f"\n  ({hint})" if hint else ""), file=sys.stderr)
         return EXIT_UNREACHABLE if e.unreachable else EXIT_REFUSED
     except BrokenPipeError:  # irpctl ... | head
         return EXIT_OK

@@ -1,5 +1,6 @@
 """errors.py -- errors that point into a file of a set: an HTTPException that answers
-{"detail", "file", "line", "column", "module", "field"} (those known), and `place`, which takes the
+{"detail", "file", "line", "column", "module", "field"} (those known), with `problems` when there are
+several (each {"message", "code", and its place}: a compiler's errors), and `place`, which takes the
 place irpd gives an error as fields (protocol/control.json, #/shapes/place) and names its file
 relative to the set's folder.  No text is parsed: irpd's messages are for people."""
 
@@ -28,9 +29,11 @@ class LocatedError(HTTPException):
         module: str | None = None,
         field: str | None = None,
         headers: dict | None = None,
+        problems: list[dict] | None = None,
     ):
         super().__init__(status_code, detail, headers=headers)
         self.file, self.line, self.column, self.module, self.field = file, line, column, module, field
+        self.problems = problems
 
     def at(self, file: str | None = None, line: int | None = None, column: int | None = None) -> LocatedError:
         """Adds what is known of where (keeps what was already set); returns self, to re-raise."""
@@ -44,6 +47,8 @@ class LocatedError(HTTPException):
         for key in PLACE_FIELDS:
             if getattr(self, key) is not None:
                 out[key] = getattr(self, key)
+        if self.problems is not None:
+            out["problems"] = self.problems
         return out
 
 

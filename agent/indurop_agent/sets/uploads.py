@@ -44,7 +44,7 @@ GZIP_TYPES = ("application/gzip", "application/x-gzip")
 ACCEPTED = (
     "module.xml (one, at the root), other .xml configs, .so thread modules and libraries, "
     "the executables module.xml names, .glb, .urdf, .json (robot.json at the root: the 3D view's joint map; dds.json at the root: the DDS bridge's mapping), "
-    ".stl/.dae/.obj meshes, .h, .txt, .md"
+    ".stl/.dae/.obj meshes, .h, .txt, .md, .st (Structured Text: compiled on upload)"
 )
 PERCENT_ESCAPE = re.compile(r"%[0-9A-Fa-f]{2}")
 
@@ -372,12 +372,14 @@ def unpack_archive(archive: Path, receiver: Receiver) -> None:
 
 
 def _strip_single_folder(receiver: Receiver) -> None:
-    """`tar czf set.tar.gz myset/` puts everything under myset/: take that folder as the root."""
+    """`tar czf set.tar.gz myset/` puts everything under myset/: take that folder as the root (the
+    folder holding module.xml, or, in a set written in Structured Text alone, .st files)."""
     paths = [f.path for f in receiver.files]
-    if not paths or "module.xml" in paths:
+    if not paths or "module.xml" in paths or any(p.count("/") == 0 for p in paths):
         return
     top = {p.split("/", 1)[0] for p in paths}
-    if len(top) == 1 and all("/" in p for p in paths) and f"{next(iter(top))}/module.xml" in paths:
+    inside = [p.split("/", 1)[1] for p in paths]
+    if len(top) == 1 and any(p == "module.xml" or ("/" not in p and p.lower().endswith(".st")) for p in inside):
         for f in receiver.files:
             f.path = f.path.split("/", 1)[1]
 
@@ -508,7 +510,8 @@ def parse_module_xml(path: Path) -> ModuleXml:
     return ModuleXml(modules, layout, {k: where[k] for k in ("line", "column") if k in where})
 
 
-def _kind_by_name(path: str, source: Path) -> str | None:
+def file_kind(path: str, source: Path) -> str | None:
+    """A file's kind by its name (and a .glb's first bytes): None when a set does not hold it."""
     base = path.rsplit("/", 1)[-1].lower()
     suffix = posixpath.splitext(base)[1]
     if suffix == ".glb":
@@ -529,6 +532,7 @@ def _kind_by_name(path: str, source: Path) -> str | None:
         ".dae": "mesh",
         ".obj": "mesh",
         ".h": "header",
+        ".st": "st",
         ".txt": "text",
         ".md": "text",
     }.get(suffix)
@@ -546,7 +550,7 @@ def check_set(files: list[Received]) -> list[StagedFile]:
     if "module.xml" not in by_path:
         nested = sorted(p for p in paths if p.rsplit("/", 1)[-1] == "module.xml")
         hint = f"; found {json.dumps(nested[0])}: upload that folder's content" if nested else ""
-        raise UploadError(400, f"no module.xml at the root of the set{hint}")
+        raise UploadError(400, f"no module.xml at the root of the set (nor .st sources to build one from){hint}")
     for p in sorted(paths - {"module.xml"}):
         if p.rsplit("/", 1)[-1] == "module.xml":
             raise UploadError(400, f"{json.dumps(p)}: a set has one module.xml, at its root", file=p)
@@ -594,7 +598,7 @@ def check_set(files: list[Received]) -> list[StagedFile]:
         elif path == layout:
             kind = "layout"
         else:
-            kind = _kind_by_name(path, f.source)
+            kind = file_kind(path, f.source)
         if kind is None:
             raise UploadError(415, f"{shown}: a set does not hold files of this kind; accepted: {ACCEPTED}", file=path)
         _check_content(f, kind, ref, shown)

@@ -932,7 +932,8 @@ export interface paths {
         /**
          * Upload Set
          * @description Stores a set (nothing is stored if any file is refused) and has irpd check it.  The same
-         *     files again give the same id and the stored set.
+         *     files again give the same id and the stored set.  A set holding .st files is compiled first
+         *     (docs/st.md, "Uploading ST"); its compile errors refuse it, each in `problems` with its place.
          */
         post: operations["upload_set_api_v1_sets_post"];
         delete?: never;
@@ -2299,6 +2300,11 @@ export interface components {
              * @description the module (or executor) it is about
              */
             module?: string | null;
+            /**
+             * Problems
+             * @description every error when there are several (an upload's ST compile errors); the place above is the first's
+             */
+            problems?: components["schemas"]["Problem"][] | null;
         } & {
             [key: string]: unknown;
         };
@@ -3531,10 +3537,15 @@ export interface components {
         };
         /**
          * Problem
-         * @description One of irpd's validation errors with where it points (the place irpd gives, with the file
+         * @description One of irpd's validation errors, or of the ST compiler's, with where it points (the file
          *     relative to the set's root).
          */
         Problem: {
+            /**
+             * Code
+             * @description the ST compiler's error code (docs/st.md, Errors): `type`, `syntax`, ...
+             */
+            code?: string | null;
             /**
              * Column
              * @description the column, counted from 1
@@ -3547,7 +3558,7 @@ export interface components {
             field?: string | null;
             /**
              * File
-             * @description relative to the set's root, e.g. module.xml
+             * @description relative to the set's root, e.g. module.xml, main.st
              */
             file?: string | null;
             /**
@@ -4205,7 +4216,7 @@ export interface components {
         SetFile: {
             /**
              * Kind
-             * @description module_xml, config, thread_module, library, executable, layout, json, robot (robot.json), bridge (dds.json), glb, urdf, mesh, header or text
+             * @description module_xml, config, thread_module, library, executable, layout, json, robot (robot.json), bridge (dds.json), glb, urdf, mesh, header, text or st (Structured Text source)
              */
             kind: string;
             /**
@@ -7071,7 +7082,7 @@ export interface operations {
                     "application/json": components["schemas"]["SetPublic"];
                 };
             };
-            /** @description a bad name, module.xml or file content; the detail says what to fix, file/line/column where */
+            /** @description a bad name, module.xml or file content, or .st sources that do not compile; the detail says what to fix, file/line/column where, and `problems` lists every compile error */
             400: {
                 headers: {
                     [name: string]: unknown;
@@ -7091,6 +7102,15 @@ export interface operations {
             };
             /** @description a kind of file a set does not hold */
             415: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description the ST compiler is missing here, or failed on sources it accepted */
+            500: {
                 headers: {
                     [name: string]: unknown;
                 };

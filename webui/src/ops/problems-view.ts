@@ -1,14 +1,14 @@
-// problems-view.ts -- a set's validation errors as a list: each with its place (file:line:column,
-// module, field), read from the fields irpd gives it, then its message.
+// problems-view.ts -- a set's validation errors, or an upload's ST compile errors, as a list: each
+// with its place (file:line:column, module, field), read from the fields given, its code, its message.
 import { type Place, placeText } from "../api/place";
 import { h } from "./dom";
-import type { Validation } from "./types";
 
-export function problemList(v: Pick<Validation, "errors" | "problems">): HTMLElement {
+/** An error with its place, and the ST compiler's code when it has one (`type`, `syntax`, ...). */
+export type PlacedProblem = Place & { message: string; code?: string | null };
+
+export function problemList(v: { errors: string[]; problems?: PlacedProblem[] | null }): HTMLElement {
   // A set stored before validations kept problems has its errors only.
-  const problems: (Place & { message: string })[] = v.problems?.length
-    ? v.problems
-    : v.errors.map((message) => ({ message }));
+  const problems: PlacedProblem[] = v.problems?.length ? v.problems : v.errors.map((message) => ({ message }));
   return h(
     "ul",
     { class: "ops-issues" },
@@ -18,6 +18,7 @@ export function problemList(v: Pick<Validation, "errors" | "problems">): HTMLEle
         "li",
         { class: "bad", "data-testid": "problem" },
         where ? h("span", { class: "mono", "data-testid": "problem-where" }, `${where}: `) : null,
+        p.code ? h("span", { class: "mono", "data-testid": "problem-code" }, `error[${p.code}]: `) : null,
         h("span", { class: "mono" }, p.message),
       );
     }),

@@ -49,7 +49,7 @@ export class UploadPanel {
       "div",
       { class: "ops-drop", "data-testid": "upload-drop", tabindex: 0 },
       h("strong", {}, "Drop a set here"),
-      h("span", {}, " — its folder, its files (module.xml and every file it names), or one .tar.gz. "),
+      h("span", {}, " — its folder, its files (module.xml and every file it names, and .st sources: compiled here), or one .tar.gz. "),
       h("button", { class: "small", onclick: () => pickFiles.click() }, "choose files…"),
       " ",
       h("button", { class: "small", onclick: () => pickFolder.click() }, "choose a folder…"),
@@ -115,8 +115,10 @@ export class UploadPanel {
         {},
         h("strong", {}, r.status ? `Refused (HTTP ${r.status})` : "Upload failed"),
         where ? h("span", { class: "mono", "data-testid": "upload-error-where" }, ` ${where}`) : null,
-        h("span", {}, `: ${r.message}`),
+        h("span", {}, `: ${r.problems?.length ? r.message.split("\n")[0] : r.message}`),
       ),
+      // several errors (the ST compiler's): each on its line, with its place
+      ...(r.problems?.length ? [problemList({ errors: [], problems: r.problems })] : []),
     );
   }
 

@@ -93,17 +93,20 @@ export function planUpload(input: UploadFile[]): Plan {
   const skipped = input.filter((f) => JUNK.test(f.path)).map((f) => f.path);
   let files = input.filter((f) => !JUNK.test(f.path)).map((f) => ({ ...f, path: f.path.replace(/^\/+/, "") }));
   let root = "";
+  // the set's top: where module.xml is, or the .st sources of a set written in Structured Text alone
+  const top = (f: UploadFile) => f.path === "module.xml" || (!f.path.includes("/") && /\.st$/i.test(f.path));
   for (;;) {
-    if (files.some((f) => f.path === "module.xml")) break;
+    if (files.some(top)) break;
     const first = files[0].path.split("/")[0];
     if (!files.every((f) => f.path.startsWith(`${first}/`))) break;
     root += `${first}/`;
     files = files.map((f) => ({ ...f, path: f.path.slice(first.length + 1) }));
   }
-  if (!files.some((f) => f.path === "module.xml"))
+  if (!files.some(top))
     return {
       kind: "error",
-      message: "no module.xml at the top of the set: drop the set's folder, its files, or one .tar.gz",
+      message:
+        "no module.xml at the top of the set (nor .st sources to build one from): drop the set's folder, its files, or one .tar.gz",
     };
   const seen = new Set<string>();
   for (const f of files) {
@@ -122,16 +125,34 @@ export function buildForm(plan: Exclude<Plan, { kind: "error" }>): FormData {
   return form;
 }
 
+/** One of several errors of a refusal (the ST compiler's: main.st:12:9, code `type`), with its place. */
+export interface RefusalProblem extends Place {
+  message: string;
+  code?: string;
+}
+
 export interface Refusal extends Place {
   status: number;
   message: string;
+  /** Every error, when the agent gives several (an upload's ST compile errors); the place above is the first's. */
+  problems?: RefusalProblem[];
 }
 
-/** An upload's refusal from its status and body ({detail, and the place's fields}). */
+/** An upload's refusal from its status and body ({detail, the place's fields, and `problems`}). */
 export function refusal(status: number, body: unknown): Refusal {
   let message = body === undefined || body === "" ? `HTTP ${status}` : detailOf(body);
   if (status === 0) message = body === "aborted" ? "upload cancelled" : "the agent did not answer (network error)";
-  return { status, message, ...placeIn(body) };
+  const listed = body && typeof body === "object" ? (body as { problems?: unknown }).problems : undefined;
+  const problems = Array.isArray(listed)
+    ? listed
+        .filter((p): p is Record<string, unknown> => !!p && typeof p === "object")
+        .map((p) => ({
+          message: String(p.message ?? ""),
+          ...(typeof p.code === "string" && p.code ? { code: p.code } : {}),
+          ...placeIn(p),
+        }))
+    : [];
+  return { status, message, ...placeIn(body), ...(problems.length ? { problems } : {}) };
 }
 
 export interface UploadHandle {

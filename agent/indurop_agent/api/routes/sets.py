@@ -8,12 +8,13 @@ from fastapi import APIRouter, HTTPException, Request
 from starlette.concurrency import run_in_threadpool
 
 from ...irpd.client import IrpdRefused, IrpdUnavailable
-from ...sets import uploads
+from ...sets import st_build, uploads
 from ...sets.activation import RestartFellBack, irpd_validation
 from ...sets.errors import LocatedError, place
 from ...sets.store import StoreError, remove_tree, set_id_of
-from ..deps import AdminDep, OperatorDep, ViewerDep, audited
+from ..deps import AdminDep, IrpdDep, OperatorDep, ViewerDep, audited
 from ..models import ActivateRequest, ActiveSet, ErrorBody, SetPublic, SetSummary, SwapReport
+from .variables import segment
 
 router = APIRouter(tags=["sets"])
 
@@ -48,11 +49,25 @@ UPLOAD_BODY = {
 REFUSALS = {
     400: {
         "model": ErrorBody,
-        "description": "a bad name, module.xml or file content; the detail says what to fix, file/line/column where",
+        "description": "a bad name, module.xml or file content, or .st sources that do not compile; the "
+        "detail says what to fix, file/line/column where, and `problems` lists every compile error",
     },
     413: {"model": ErrorBody, "description": "a file, the upload or the file count is over the limit"},
     415: {"model": ErrorBody, "description": "a kind of file a set does not hold"},
+    500: {"model": ErrorBody, "description": "the ST compiler is missing here, or failed on sources it accepted"},
 }
+
+
+def _build_st(request: Request, irpd, received: list, staging, limits) -> list:
+    """The upload's files with its .st sources built (sets/st_build.py), laid out against the layout
+    irpd runs (GET /layout's) when it runs one."""
+    try:
+        previous = segment(request, irpd).text
+    except HTTPException:  # no layout runs, or irpd cannot be asked: a fresh layout
+        previous = None
+    settings = request.app.state.settings
+    stc = st_build.find_stc(settings.stc)
+    return st_build.build(received, staging, limits, stc, settings.st_build_timeout_s, previous)
 
 
 def _located(manifest: dict) -> dict:
@@ -76,14 +91,18 @@ def _store_error(e: StoreError) -> HTTPException:
 
 
 @router.post("/sets", status_code=201, openapi_extra=UPLOAD_BODY, responses=REFUSALS)
-async def upload_set(request: Request, who: AdminDep) -> SetPublic:
+async def upload_set(request: Request, who: AdminDep, irpd: IrpdDep) -> SetPublic:
     """Stores a set (nothing is stored if any file is refused) and has irpd check it.  The same
-    files again give the same id and the stored set."""
+    files again give the same id and the stored set.  A set holding .st files is compiled first
+    (docs/st.md, "Uploading ST"); its compile errors refuse it, each in `problems` with its place."""
     state = request.app.state
     staging = state.store.staging_dir()
     try:
         with audited(request, who, "upload") as entry:
-            received = await uploads.receive(request, staging, uploads.Limits.of(state.settings))
+            limits = uploads.Limits.of(state.settings)
+            received = await uploads.receive(request, staging, limits)
+            if st_build.has_st(received):  # Structured Text: compiled here, against the running layout
+                received = await run_in_threadpool(_build_st, request, irpd, received, staging, limits)
             files = await run_in_threadpool(uploads.check_set, received)
             entry["target"] = set_id_of(files)
             entry["files"] = {f.path: f.sha256 for f in files}

@@ -1,0 +1,257 @@
+"""test_st_upload.py -- sets written in Structured Text, uploaded to a real agent beside a real irpd
+(running the paper's Figure 1 set): with irpctl and with POST /sets the .st sources are compiled on
+the appliance (stc build), stored with what was built, activated and run, their variables read by
+path; a type error, a syntax error, a 10 MB source and NUL bytes refuse the upload with the
+compiler's errors in place (file, line, column, code, message) and leave the running set running;
+a build over the agent's time limit is stopped with an error that names the setting."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import httpx
+import pytest
+from agent_helpers import FIG1, IRPD, ROOT, free_port, start_agent, start_irpd, stop
+from indurop_agent.cli import irpctl as cli
+
+pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
+
+COUNTER = """\
+PROGRAM Counter
+VAR
+  count : DINT;
+  step : DINT := {step};
+END_VAR
+count := count + step;
+END_PROGRAM
+"""
+CONFIG = """\
+CONFIGURATION Cell
+  RESOURCE Cpu ON PLC
+    TASK Fast (INTERVAL := T#1ms, PRIORITY := 1);
+    PROGRAM Main WITH Fast : Counter;
+  END_RESOURCE
+END_CONFIGURATION
+"""
+TYPE_ERROR = "PROGRAM Counter\nVAR\n  count : DINT;\n  flag : BOOL;\nEND_VAR\nflag := count;\nEND_PROGRAM\n"
+MIRROR = """\
+PROGRAM Mirror
+VAR
+  seen : UDINT;
+  tick AT %knu.Robot.tick : UDINT;
+END_VAR
+seen := tick;
+END_PROGRAM
+"""
+SYNTAX_ERROR = "PROGRAM Counter\nVAR\n  count : DINT;\nEND_VAR\ncount := count + ;\nEND_PROGRAM\n"
+
+
+def st_set(main: str) -> dict[str, bytes]:
+    return {"main.st": main.encode(), "config.st": CONFIG.encode()}
+
+
+def parts(files: dict[str, bytes]) -> list[tuple[str, tuple[str, bytes]]]:
+    return [("files", (path, content)) for path, content in files.items()]
+
+
+class Cell:
+    """irpd on Figure 1 and an agent (its settings in agent.json), with the admin token."""
+
+    def __init__(self, tmp: Path, **settings):
+        self.tmp, self.sock, data = tmp, tmp / "irpd.sock", tmp / "data"
+        self.token_file = data / "admin-token"
+        self.irpd = start_irpd(self.sock, FIG1, f"st-upload-{free_port()}")
+        config = tmp / "agent.json"
+        config.write_text(json.dumps({"irpd_poll_s": 0.2, **settings}))
+        port = free_port()
+        self.agent = start_agent(port, data, self.sock, "--config", str(config))
+        self.base = f"http://127.0.0.1:{port}"
+        self.h = {"Authorization": f"Bearer {self.token_file.read_text().strip()}"}
+
+    def call(self, method: str, path: str, **kw) -> httpx.Response:
+        return httpx.request(method, f"{self.base}/api/v1{path}", headers=self.h, timeout=120, **kw)
+
+    def irpctl(self, capsys, *argv: str) -> tuple[int, str]:
+        """irpctl's main() against this agent as admin: (exit code, what it printed)."""
+        capsys.readouterr()
+        code = cli.main(["--url", self.base, "--token-file", str(self.token_file), *argv])
+        out, err = capsys.readouterr()
+        return code, out + err
+
+    def running(self) -> str:
+        status = self.call("GET", "/status").json()
+        assert status.get("state") != "stopped", status
+        return status["set_id"]
+
+    def sets(self) -> list[str]:
+        return [s["id"] for s in self.call("GET", "/sets").json()]
+
+    def read(self, path: str):
+        r = self.call("GET", f"/variables/{path}")
+        assert r.status_code == 200, r.text
+        return r.json()["value"]
+
+    def close(self):
+        stop(self.agent)
+        stop(self.irpd)
+
+
+@pytest.fixture
+def cell(tmp_path):
+    c = Cell(tmp_path)
+    yield c
+    c.close()
+
+
+def counts_up(cell: Cell, path: str = "Main.count") -> None:
+    first = cell.read(path)
+    deadline = time.monotonic() + 10
+    while cell.read(path) == first:
+        assert time.monotonic() < deadline, f"{path} stays {first}: the ST program does not run"
+        time.sleep(0.05)
+
+
+def test_an_st_set_uploaded_with_irpctl_is_compiled_activated_and_runs(cell, tmp_path, capsys):
+    folder = tmp_path / "plc"
+    folder.mkdir()
+    for path, content in st_set(COUNTER.format(step=1)).items():
+        (folder / path).write_bytes(content)
+    code, said = cell.irpctl(capsys, "upload", str(folder), "--activate", "--mode", "auto")
+    assert code == 0, said
+    set_id = cell.running()
+    kinds = {f["path"]: f["kind"] for f in cell.call("GET", f"/sets/{set_id}").json()["files"]}
+    assert kinds["main.st"] == "st" and kinds["config.st"] == "st", kinds  # the sources are kept in the set
+    assert kinds["module.xml"] == "module_xml" and kinds["layout.json"] == "layout", kinds
+    assert kinds["Main.so"] == "thread_module", kinds
+    counts_up(cell)
+
+    # a change of code alone, laid out against the running layout: activated online (irpctl's
+    # default mode), the counter keeps its value
+    (folder / "main.st").write_text(COUNTER.format(step=2))
+    before = cell.read("Main.count")
+    code, said = cell.irpctl(capsys, "upload", str(folder), "--activate")
+    assert code == 0, said
+    assert "online" in said, said
+    assert cell.running() != set_id
+    assert cell.read("Main.count") > before
+    counts_up(cell)
+
+
+def test_an_st_set_posted_to_sets_is_stored_with_what_was_built(cell):
+    r = cell.call("POST", "/sets", files=parts(st_set(COUNTER.format(step=1))))
+    assert r.status_code == 201, r.text
+    stored = r.json()
+    assert stored["validation"]["valid"] is True, stored["validation"]
+    assert {f["path"] for f in stored["files"]} >= {"main.st", "config.st", "module.xml", "layout.json", "Main.so"}
+    # the same sources against the same running layout: the same build, the same set
+    again = cell.call("POST", "/sets", files=parts(st_set(COUNTER.format(step=1))))
+    assert again.status_code == 201 and again.json()["id"] == stored["id"], again.text
+    r = cell.call("POST", f"/sets/{stored['id']}/activate", json={"mode": "auto"})
+    assert r.status_code == 200, r.text
+    counts_up(cell)
+
+
+def test_st_beside_the_sets_cpp_modules_is_laid_out_with_their_glb_and_activated_online(cell):
+    """Figure 1's C++ modules (built against knuRobot.glb and joint.glb: its layout.json) and an ST
+    program bound to one of their variables: the .glb files and layout.json go into the build, the
+    hand-written module.xml keeps its modules, and the C++ modules are kept by the swap."""
+    files = {p.relative_to(FIG1.parent).as_posix(): p.read_bytes() for p in FIG1.parent.rglob("*") if p.is_file()}
+    for glb in ("knuRobot.glb", "joint.glb"):
+        files[glb] = (ROOT / "config" / "sets" / "paper-figures" / glb).read_bytes()
+    files["mirror.st"] = MIRROR.encode()
+    files["config.st"] = CONFIG.replace(": Counter", ": Mirror").encode()
+    r = cell.call("POST", "/sets", files=parts(files))
+    assert r.status_code == 201, r.text
+    stored = r.json()
+    assert stored["validation"]["valid"] is True and stored["validation"]["online"] is True, stored["validation"]
+    r = cell.call("POST", f"/sets/{stored['id']}/activate")
+    assert r.status_code == 200, r.text
+    assert "cntr2" in r.json()["kept"] and r.json()["started"] == ["Main"], r.json()
+    counts_up(cell, "Main.seen")  # the ST program reads what cntr2 writes
+
+
+def refused_in_place(cell: Cell, files: dict[str, bytes], status: int = 400) -> dict:
+    """Uploads `files`, expects a refusal with the compiler's errors; the running set runs on,
+    nothing new is stored.  The first problem."""
+    before, stored = cell.running(), cell.sets()
+    r = cell.call("POST", "/sets", files=parts(files))
+    assert r.status_code == status, r.text
+    body = r.json()
+    assert body["problems"], body
+    first = body["problems"][0]
+    assert {k: body[k] for k in ("file", "line", "column")} == {k: first[k] for k in ("file", "line", "column")}
+    assert "do not compile" in body["detail"]
+    assert cell.running() == before and cell.sets() == stored
+    return first
+
+
+def test_a_type_error_refuses_the_upload_with_its_place(cell, tmp_path, capsys):
+    first = refused_in_place(cell, st_set(TYPE_ERROR))
+    assert {k: first[k] for k in ("file", "line", "column", "code")} == {
+        "file": "main.st",
+        "line": 6,
+        "column": 9,
+        "code": "type",
+    }, first
+    assert "DINT" in first["message"] and "BOOL" in first["message"], first
+
+    folder = tmp_path / "bad"
+    folder.mkdir()
+    for path, content in st_set(TYPE_ERROR).items():
+        (folder / path).write_bytes(content)
+    code, said = cell.irpctl(capsys, "upload", str(folder), "--activate")
+    assert code != 0
+    assert f"main.st:6:9: error[type]: {first['message']}" in said.splitlines(), said
+
+
+def test_a_syntax_error_refuses_the_upload_with_its_place(cell):
+    first = refused_in_place(cell, st_set(SYNTAX_ERROR))
+    assert {k: first[k] for k in ("file", "line", "column", "code")} == {
+        "file": "main.st",
+        "line": 5,
+        "column": 18,
+        "code": "syntax",
+    }, first
+    assert "expected an expression" in first["message"]
+
+
+def test_a_10_mb_source_and_nul_bytes_get_clear_errors(cell):
+    big = (COUNTER.format(step=1) + "(* " + "x" * (10 << 20) + " *)\n").encode()
+    first = refused_in_place(cell, {"main.st": big, "config.st": CONFIG.encode()})
+    assert first["file"] == "main.st" and first["code"] == "too-large", first
+    nul = COUNTER.format(step=1).replace("count := count", "count :=\0 count").encode()
+    first = refused_in_place(cell, {"main.st": nul, "config.st": CONFIG.encode()})
+    assert first["file"] == "main.st" and first["code"] == "encoding" and first["line"] == 6, first
+
+
+def test_a_build_over_the_time_limit_is_stopped_and_says_which_setting(tmp_path):
+    cell = Cell(tmp_path, st_build_timeout_s=0.01)
+    try:
+        before, stored = cell.running(), cell.sets()
+        r = cell.call("POST", "/sets", files=parts(st_set(COUNTER.format(step=1))))
+        assert r.status_code == 400, r.text
+        assert "took longer than 0.01 s (st_build_timeout_s)" in r.json()["detail"], r.text
+        assert cell.running() == before and cell.sets() == stored
+        assert not list((tmp_path / "data" / "tmp").iterdir())  # the build's folder is gone
+    finally:
+        cell.close()
+
+
+def test_a_source_named_like_an_option_is_compiled_as_a_file(agent):
+    """No irpd: the build lays the variables out afresh; "-o.st" reaches stc as a file name."""
+    files = {"-o.st": COUNTER.format(step=1).encode(), "config.st": CONFIG.encode()}
+    r = agent.client.post("/api/v1/sets", files=parts(files), headers=agent.h())
+    assert r.status_code == 201, r.text
+    assert {f["path"] for f in r.json()["files"]} >= {"-o.st", "config.st", "module.xml", "layout.json", "Main.so"}
+
+
+def test_a_build_that_writes_a_file_over_max_file_bytes_is_stopped(make_agent):
+    """The module the build writes is larger than a set's file may be: 413 naming the limit, nothing stored."""
+    agent = make_agent(max_file_bytes=20_000)
+    r = agent.client.post("/api/v1/sets", files=parts(st_set(COUNTER.format(step=1))), headers=agent.h())
+    assert r.status_code == 413, r.text
+    assert r.json()["detail"].endswith("the limit per file of a set is 20000 (max_file_bytes)"), r.text
+    assert r.json()["file"] == "Main.so"
+    assert not [p for p in agent.stored() if not p.startswith("tmp")] and not list((agent.data / "tmp").iterdir())
