@@ -47,6 +47,26 @@ if(NOT DEFINED INDUROP_SDK_PREFIX)
 endif()
 find_package(Python3 3.11 REQUIRED COMPONENTS Interpreter)
 
+# stc needs lark (Debian: python3-lark).  The Python found above may be another one (a pyenv or a
+# venv first on the PATH): stc then runs with the first of it and the system's python3 that has lark.
+function(_indurop_stc_python out)
+  if(DEFINED CACHE{INDUROP_STC_PYTHON})
+    set(${out} ${INDUROP_STC_PYTHON} PARENT_SCOPE)
+    return()
+  endif()
+  foreach(python ${Python3_EXECUTABLE} /usr/bin/python3)
+    execute_process(COMMAND ${python} -c "import lark" RESULT_VARIABLE missing OUTPUT_QUIET ERROR_QUIET)
+    if(missing EQUAL 0)
+      set(INDUROP_STC_PYTHON ${python} CACHE FILEPATH "the Python that runs stc (it needs lark)")
+      set(${out} ${python} PARENT_SCOPE)
+      return()
+    endif()
+  endforeach()
+  message(FATAL_ERROR "stc (Structured Text) needs the Python package lark, which neither ${Python3_EXECUTABLE} "
+                      "nor /usr/bin/python3 has: apt-get install python3-lark (or pip install lark), or give "
+                      "-DINDUROP_STC_PYTHON=<a python with lark>")
+endfunction()
+
 # <out> = the files given, as absolute paths.
 function(_indurop_absolute out)
   set(files)
@@ -157,11 +177,12 @@ function(indurop_add_st name)
       list(APPEND depends ${abs})
     endif()
   endforeach()
+  _indurop_stc_python(stc_python)
   get_filename_component(stc_dir ${INDUROP_STC} DIRECTORY)
   file(GLOB_RECURSE stc_sources ${stc_dir}/*.py ${stc_dir}/lib/*.st)
   add_custom_command(
     OUTPUT ${dir}/module.xml ${dir}/layout.json ${dir}/indurop/generated.h
-    COMMAND ${Python3_EXECUTABLE} ${INDUROP_STC} build ${args} ${inputs}
+    COMMAND ${stc_python} ${INDUROP_STC} build ${args} ${inputs}
     DEPENDS ${depends} ${INDUROP_STC} ${stc_sources}
     COMMENT "stc build ${ARG_SOURCES} -> ${dir}"
     VERBATIM)

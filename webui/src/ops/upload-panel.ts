@@ -49,7 +49,11 @@ export class UploadPanel {
       "div",
       { class: "ops-drop", "data-testid": "upload-drop", tabindex: 0 },
       h("strong", {}, "Drop a set here"),
-      h("span", {}, " — its folder, its files (module.xml and every file it names, and .st sources: compiled here), or one .tar.gz. "),
+      h(
+        "span",
+        {},
+        " — its folder, its files (module.xml and every file it names, and .st sources: compiled here), or one .tar.gz. ",
+      ),
       h("button", { class: "small", onclick: () => pickFiles.click() }, "choose files…"),
       " ",
       h("button", { class: "small", onclick: () => pickFolder.click() }, "choose a folder…"),

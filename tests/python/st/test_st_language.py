@@ -1,4 +1,4 @@
-# test_language.py -- every construct of docs/st.md's conformance table accepted by stc, with the type
+# test_st_language.py -- every construct of docs/st.md's conformance table accepted by stc, with the type
 # check.py gives it (and the tree parse.py builds) checked.
 
 from __future__ import annotations

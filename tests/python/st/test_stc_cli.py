@@ -1,4 +1,4 @@
-# test_cli.py -- the stc executable as a user runs it: `stc check` prints `file:line:col: error[code]:
+# test_stc_cli.py -- the stc executable as a user runs it: `stc check` prints `file:line:col: error[code]:
 # message` (or JSON with --json) and exits 1 on an error, 0 when clean, 2 on a usage error; --layout
 # checks AT bindings and qualified access against a layout.json glbc wrote for the paper's Figure 11.
 

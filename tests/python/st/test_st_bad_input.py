@@ -1,4 +1,4 @@
-# test_bad_input.py -- inputs that must give one clear error, never a traceback: a source over the size
+# test_st_bad_input.py -- inputs that must give one clear error, never a traceback: a source over the size
 # limit, NUL bytes, bytes that are not UTF-8, nesting deeper than the limit, an unclosed comment, and
 # the same through the stc executable (exit 1, the error on stderr, no "Traceback").
 
