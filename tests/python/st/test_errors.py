@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import pytest
-from conftest import errors_of, program
+from st_helpers import errors_of, program
 
 
 @pytest.mark.parametrize(

@@ -8,7 +8,7 @@ import shutil
 import subprocess
 
 import pytest
-from conftest import ROOT, compile_st, errors_of, one_error
+from st_helpers import ROOT, compile_st, errors_of, one_error
 from stc_compiler import types as ty
 
 CELL = """

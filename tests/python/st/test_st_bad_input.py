@@ -4,7 +4,7 @@
 
 from __future__ import annotations
 
-from conftest import errors_of, run_stc
+from st_helpers import errors_of, run_stc
 from stc_compiler.parse import MAX_DEPTH, MAX_SOURCE_BYTES, decode
 
 
@@ -53,7 +53,7 @@ def test_statements_nested_too_deep():
 
 def test_deep_but_allowed_nesting_checks_without_recursion_error():
     text = "PROGRAM P VAR x : INT; END_VAR\nx := " + "(" * 2000 + "1" + ")" * 2000 + " + 1" * 150 + ";\nEND_PROGRAM\n"
-    from conftest import compile_st
+    from st_helpers import compile_st
 
     compile_st({"main.st": text})
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from conftest import compile_st, program
+from st_helpers import compile_st, program
 from stc_compiler import tree as t
 from stc_compiler import types as ty
 from stc_compiler.check_expr import GlbPath

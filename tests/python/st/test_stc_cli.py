@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, run_stc
+from st_helpers import ROOT, run_stc
 
 FIG11 = ROOT / "tests" / "python" / "glb" / "fixtures" / "fig11-plcRobot.glb"
 
