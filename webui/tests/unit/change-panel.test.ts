@@ -20,6 +20,7 @@ const mod = (name: string, period_ns: number, priority: number): ModuleInfo => (
   missed: 0,
   skipped: 0,
   errors: 0,
+  stats_dropped: 0,
   state: "running",
   priority,
   budget_ns: 0,

@@ -18,6 +18,7 @@ const mod = (name: string, over: Partial<ModuleInfo> = {}): ModuleInfo => ({
   missed: 0,
   skipped: 0,
   errors: 0,
+  stats_dropped: 0,
   state: "running",
   priority: 2,
   budget_ns: 0,

@@ -38,6 +38,7 @@ function mod(name: string, over: Partial<ModuleInfo> = {}): ModuleInfo {
     missed: 0,
     skipped: 0,
     errors: 0,
+    stats_dropped: 0,
     state: "running",
     priority: 1,
     budget_ns: 0,
