@@ -168,8 +168,12 @@ class Health(BaseModel):
 
 class VariableInfo(BaseModel):
     path: str
-    type: str
+    type: str = Field(description="the C++ scalar type (layout.json's)")
     size: int
+    iec_type: str | None = Field(
+        None,
+        description="the IEC 61131-3 type of a Structured Text variable (TIME, STRING[20], INT ...); null for .glb ones",
+    )
 
 
 class VariableList(BaseModel):

@@ -1,7 +1,7 @@
 """test_st_upload.py -- sets written in Structured Text, uploaded to a real agent beside a real irpd
 (running the paper's Figure 1 set): with irpctl and with POST /sets the .st sources are compiled on
-the appliance (stc build), stored with what was built, activated and run, their variables read by
-path; a type error, a syntax error, a 10 MB source and NUL bytes refuse the upload with the
+the appliance (stc build), stored with what was built, activated and run, their variables listed
+with their IEC types and read by path; a type error, a syntax error, a 10 MB source and NUL bytes refuse the upload with the
 compiler's errors in place (file, line, column, code, message) and leave the running set running;
 a build over the agent's time limit is stopped with an error that names the setting."""
 
@@ -126,6 +126,9 @@ def test_an_st_set_uploaded_with_irpctl_is_compiled_activated_and_runs(cell, tmp
     assert kinds["module.xml"] == "module_xml" and kinds["layout.json"] == "layout", kinds
     assert kinds["Main.so"] == "thread_module", kinds
     counts_up(cell)
+    # the program's variables are shared variables: listed with their IEC type beside the C++ one
+    listed = {v["path"]: v for v in cell.call("GET", "/variables").json()["variables"]}
+    assert (listed["Main.count"]["type"], listed["Main.count"]["iec_type"]) == ("int32_t", "DINT"), listed["Main.count"]
 
     # a change of code alone, laid out against the running layout: activated online (irpctl's
     # default mode), the counter keeps its value

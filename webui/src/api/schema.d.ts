@@ -4946,11 +4946,19 @@ export interface components {
         };
         /** VariableInfo */
         VariableInfo: {
+            /**
+             * Iec Type
+             * @description the IEC 61131-3 type of a Structured Text variable (TIME, STRING[20], INT ...); null for .glb ones
+             */
+            iec_type?: string | null;
             /** Path */
             path: string;
             /** Size */
             size: number;
-            /** Type */
+            /**
+             * Type
+             * @description the C++ scalar type (layout.json's)
+             */
             type: string;
         };
         /** VariableList */

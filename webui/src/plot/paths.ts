@@ -5,6 +5,14 @@ export interface VarInfo {
   path: string;
   type: string;
   size: number;
+  /** the IEC 61131-3 type of a Structured Text variable (GET /variables' iec_type) */
+  iec_type?: string | null;
+}
+
+/** A variable's type as the UI shows it: the IEC type beside the C++ one for a Structured Text
+ *  variable ("TIME (int64_t)"), the C++ type alone for a .glb one. */
+export function typeText(v: VarInfo): string {
+  return v.iec_type ? `${v.iec_type} (${v.type})` : v.type;
 }
 
 export interface TreeNode {

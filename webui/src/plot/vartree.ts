@@ -1,7 +1,7 @@
 // vartree.ts -- the variable tree of the variables page: groups open on demand, a search box,
 // one row per variable with its type, its value (refreshed by the page) and, for operators and
 // up, a box to write it.
-import { buildTree, filterTree, type TreeNode, type VarInfo } from "./paths";
+import { buildTree, filterTree, type TreeNode, typeText, type VarInfo } from "./paths";
 
 const MAX_ROWS = 400; // leaves drawn at once while searching; refine the search for more
 const OPEN_ROWS = 24;
@@ -153,7 +153,7 @@ export class VarTree {
     row.dataset.path = v.path;
     row.innerHTML = `
       <span class="name" title="${esc(v.path)}">${esc(n.label)}</span>
-      <span class="type">${esc(v.type)}</span>
+      <span class="type">${esc(typeText(v))}</span>
       <span class="val" data-testid="value-${esc(v.path)}">…</span>
       <button class="plot" data-testid="plotvar-${esc(v.path)}" title="plot in the active panel">+</button>
       ${this.env.canWrite ? `<span class="write"><input data-testid="write-${esc(v.path)}" placeholder="value" size="7" /><button data-testid="set-${esc(v.path)}">set</button></span>` : ""}

@@ -1,6 +1,15 @@
-// paths.test.ts -- the variable tree built from leaf paths, its search, short labels.
+// paths.test.ts -- the variable tree built from leaf paths, its search, short labels, the type shown.
 import { describe, expect, it } from "vitest";
-import { buildTree, filterTree, leavesOf, matches, shortLabels, splitPath, type TreeNode } from "../../src/plot/paths";
+import {
+  buildTree,
+  filterTree,
+  leavesOf,
+  matches,
+  shortLabels,
+  splitPath,
+  type TreeNode,
+  typeText,
+} from "../../src/plot/paths";
 
 const v = (path: string) => ({ path, type: "double", size: 8 });
 const VARS = [
@@ -84,5 +93,13 @@ describe("shortLabels", () => {
     expect(shortLabels(["A.S.x", "A.T.y"])).toEqual(["S.x", "T.y"]);
     expect(shortLabels(["A.S.dWorldPos[0]"])).toEqual(["S.dWorldPos[0]"]);
     expect(shortLabels(["A.S.x"])).toEqual(["S.x"]);
+  });
+});
+
+describe("typeText", () => {
+  it("shows a Structured Text variable's IEC type beside its C++ type, a .glb one's C++ type alone", () => {
+    expect(typeText({ path: "Main.t.ET", type: "int64_t", size: 8, iec_type: "TIME" })).toBe("TIME (int64_t)");
+    expect(typeText({ path: "PLC_ROBOT.I0", type: "short", size: 2 })).toBe("short");
+    expect(typeText({ path: "PLC_ROBOT.I0", type: "short", size: 2, iec_type: null })).toBe("short");
   });
 });

@@ -36,7 +36,9 @@ def list_variables(request: Request, irpd: IrpdDep, _: ViewerDep) -> VariableLis
     seg = segment(request, irpd)
     return {
         "layout_hash": seg.hash,
-        "variables": [{k: leaf[k] for k in ("path", "type", "size")} for leaf in seg.layout["leaves"]],
+        "variables": [
+            {k: leaf[k] for k in ("path", "type", "size", "iec_type") if k in leaf} for leaf in seg.layout["leaves"]
+        ],
     }
 
 
