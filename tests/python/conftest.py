@@ -1,5 +1,6 @@
 """conftest.py -- for every test that starts live processes (live_processes.py): a fixture whose
-setup fails half way, irpd started and the agent not, leaves nothing running behind it, so the next
+setup fails half way, irpd started and the agent not, or a test body that fails before stopping what
+it started, leaves nothing running behind it, so the next
 test does not find irpd's shared-memory instance still in use; an irpd the test killed (or that
 crashed) leaves no segment in /dev/shm; and the tests that cannot run beside others on xdist's
 workers (pytest -n) share a group that --dist loadgroup runs on one worker (xdist_group)."""
@@ -19,6 +20,19 @@ def pytest_runtest_setup(item):
     if outcome.excinfo is not None:
         for p in live_processes.STARTED[first:]:
             live_processes.stop(p)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_call(item):
+    """A test body that fails leaves none of the processes it started running: an exception between
+    its start_irpd() and its own stop (a helper's constructor that times out, say) would otherwise
+    leave irpd running and its segments mapped after the run."""
+    first = len(live_processes.STARTED)
+    outcome = yield
+    if outcome.excinfo is not None:
+        for p in live_processes.STARTED[first:]:
+            if p.poll() is None:
+                live_processes.stop(p)
 
 
 @pytest.hookimpl(hookwrapper=True)
