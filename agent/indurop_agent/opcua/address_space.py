@@ -158,7 +158,7 @@ class Space:
         node = await parent.add_variable(self.nodeid(var.path), name, initial, datatype=ua.NodeId(var.variant.value))
         nid = node.nodeid
         attrs = [
-            (ua.AttributeIds.Description, ua.Variant(ua.LocalizedText(f"{var.type} {var.path}"))),
+            (ua.AttributeIds.Description, ua.Variant(ua.LocalizedText(var.description))),
             (ua.AttributeIds.ValueRank, ua.Variant(len(var.dims) if var.dims else -1, ua.VariantType.Int32)),
             (ua.AttributeIds.MinimumSamplingInterval, ua.Variant(self.min_sampling_ms, ua.VariantType.Double)),
             (

@@ -66,10 +66,17 @@ class Var:
     variant: ua.VariantType
     dims: tuple[int, ...]  # () for a scalar
     leaves: tuple[str, ...]  # the layout's leaf paths, row-major
+    iec_type: str | None = None  # a Structured Text variable's IEC 61131-3 type (layout.json's iec_type)
 
     @property
     def signature(self) -> tuple:
-        return ("variable", self.type, self.variant, self.dims)
+        return ("variable", self.type, self.variant, self.dims, self.iec_type)
+
+    @property
+    def description(self) -> str:
+        """The node's Description: its types and path ("TIME (int64_t) Main.t.ET", "short PLC_ROBOT.I0")."""
+        kind = f"{self.iec_type} ({self.type})" if self.iec_type else self.type
+        return f"{kind} {self.path}"
 
 
 def element_suffixes(dims: tuple[int, ...]) -> list[str]:
@@ -117,11 +124,11 @@ def tree(layout: dict) -> dict[str, Obj | Var]:
             if p not in nodes:
                 nodes[p] = Obj(p, ".".join(parts[: i - 1]), parts[i - 1])
 
-    def add(path: str, parent: str, name: str, type_name: str, dims: tuple[int, ...]) -> None:
+    def add(path: str, parent: str, name: str, type_name: str, dims: tuple[int, ...], iec: str | None) -> None:
         variant = variant_of(layout, type_name)
         if variant is not None:
             leaves = tuple(path + s for s in element_suffixes(dims))
-            nodes[path] = Var(path, parent, name, type_name, variant, dims, leaves)
+            nodes[path] = Var(path, parent, name, type_name, variant, dims, leaves, iec)
             return
         struct = types.get(type_name)
         if struct is None:
@@ -131,16 +138,23 @@ def tree(layout: dict) -> dict[str, Obj | Var]:
             for s in element_suffixes(dims):
                 nodes[path + s] = Obj(path + s, path, s)
                 for f in struct["fields"]:
-                    add(f"{path}{s}.{f['name']}", path + s, f["name"], f["type"], tuple(f.get("dims") or ()))
+                    add(
+                        f"{path}{s}.{f['name']}",
+                        path + s,
+                        f["name"],
+                        f["type"],
+                        tuple(f.get("dims") or ()),
+                        f.get("iec_type"),
+                    )
         else:
             for f in struct["fields"]:
-                add(f"{path}.{f['name']}", path, f["name"], f["type"], tuple(f.get("dims") or ()))
+                add(f"{path}.{f['name']}", path, f["name"], f["type"], tuple(f.get("dims") or ()), f.get("iec_type"))
 
     for v in layout.get("variables", []):
         namespace = v.get("namespace") or ""
         if namespace:
             parent_objects(namespace)
-        add(v["path"], namespace, v["name"], v["type"], tuple(v.get("dims") or ()))
+        add(v["path"], namespace, v["name"], v["type"], tuple(v.get("dims") or ()), v.get("iec_type"))
     return nodes
 
 

@@ -84,6 +84,33 @@ def test_multi_dimensional_arrays_and_nameless_namespaces():
     assert nodes["A.B.p[0].on"].variant == ua.VariantType.Boolean
 
 
+def test_a_structured_text_variables_node_describes_its_iec_type_beside_the_cpp_one():
+    """layout.json's iec_type (stc's variables, their fields) reaches the node's Description; a .glb
+    variable keeps its C++ type alone, and a changed IEC type is a changed node (rebuilt)."""
+    layout = {
+        "scalars": {"int64_t": {"kind": "signed", "size": 8}, "bool": {"kind": "bool", "size": 1}},
+        "types": {
+            "TON": {
+                "fields": [
+                    {"name": "Q", "type": "bool", "dims": [], "iec_type": "BOOL"},
+                    {"name": "ET", "type": "int64_t", "dims": [], "iec_type": "TIME"},
+                ]
+            }
+        },
+        "variables": [
+            {"path": "Main.t", "namespace": "Main", "name": "t", "type": "TON", "dims": [], "iec_type": "TON"},
+            {"path": "Main.n", "namespace": "Main", "name": "n", "type": "int64_t", "dims": [], "iec_type": "LINT"},
+            {"path": "tick", "namespace": "", "name": "tick", "type": "int64_t", "dims": []},
+        ],
+    }
+    nodes = tree(layout)
+    assert nodes["Main.t.ET"].description == "TIME (int64_t) Main.t.ET"
+    assert nodes["Main.n"].description == "LINT (int64_t) Main.n"
+    assert nodes["tick"].description == "int64_t tick"
+    layout["variables"][1]["iec_type"] = "LTIME"
+    assert tree(layout)["Main.n"].signature != nodes["Main.n"].signature
+
+
 def test_trace_doubles_become_the_variables_types():
     assert typed(ua.VariantType.UInt32, 7.0) == 7 and isinstance(typed(ua.VariantType.UInt32, 7.0), int)
     assert typed(ua.VariantType.Boolean, 1.0) is True
