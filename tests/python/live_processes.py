@@ -392,20 +392,62 @@ def stop(p: subprocess.Popen) -> None:
             p.kill()
             p.wait()
     if getattr(p, "instance", None):
+        wait_for_orphans(p.instance)
         remove_shm(p.instance)
+
+
+def _ppid(pid: int) -> int:
+    """`pid`'s parent (0 when it has ended)."""
+    try:
+        return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
+    except (OSError, IndexError, ValueError):
+        return 0
+
+
+def _is_irpd(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/exe").resolve().name == "irpd"
+    except OSError:
+        return False
+
+
+def wait_for_orphans(instance: str, seconds: float = 5.0) -> None:
+    """Waits until no process left behind by a killed irpd maps its segments: a process module (a
+    child of irpd, ended by its parent-death signal) still maps them for a moment after irpd dies,
+    and remove_shm leaves a segment someone maps.  Only orphans are waited for (a mapper that is
+    not an irpd and whose parent is not one either): an irpd started again on the instance keeps
+    its own modules."""
+    prefix = f"/dev/shm/indurop.{instance}."
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        orphans = [
+            pid
+            for pid, files in _mappers().items()
+            if any(f.startswith(prefix) for f in files) and not _is_irpd(pid) and not _is_irpd(_ppid(pid))
+        ]
+        if not orphans:
+            return
+        time.sleep(0.02)
+
+
+def _mappers() -> dict[int, set[str]]:
+    """The /dev/shm files each live process maps (/proc/*/maps)."""
+    found: dict[int, set[str]] = {}
+    for maps in Path("/proc").glob("[0-9]*/maps"):
+        try:
+            files = {
+                line.split(maxsplit=5)[5].rstrip() for line in maps.read_text().splitlines() if "/dev/shm/" in line
+            }
+        except (OSError, IndexError):
+            continue  # ended meanwhile, or an anonymous mapping
+        if files:
+            found[int(maps.parent.name)] = files
+    return found
 
 
 def mapped_files() -> set[str]:
     """Every file a live process maps (/proc/*/maps), e.g. the /dev/shm segments in use."""
-    found = set()
-    for maps in Path("/proc").glob("[0-9]*/maps"):
-        try:
-            found.update(
-                line.split(maxsplit=5)[5].rstrip() for line in maps.read_text().splitlines() if "/dev/shm/" in line
-            )
-        except (OSError, IndexError):
-            pass  # ended meanwhile, or an anonymous mapping
-    return found
+    return set().union(*_mappers().values())
 
 
 def remove_shm(instance: str) -> list[str]:
