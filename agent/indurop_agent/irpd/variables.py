@@ -75,6 +75,13 @@ def number_problem(path: str, leaves: dict, scalars: dict, *, traced: bool = Fal
     return None
 
 
+def type_text(type_: str, iec_type: str | None = None) -> str:
+    """A variable's type as indurop shows it everywhere (Variables page, Scope, OPC UA, recordings,
+    DDS): a Structured Text variable's IEC 61131-3 type beside its C++ one, "TIME (int64_t)"
+    (layout.json's `iec_type`, written by stc), a .glb variable's C++ type alone, "short"."""
+    return f"{iec_type} ({type_})" if iec_type else type_
+
+
 class VariableError(Exception):
     """A path that names no leaf and no group of the layout, or a segment that is not there."""
 

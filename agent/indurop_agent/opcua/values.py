@@ -13,7 +13,7 @@ from datetime import UTC, datetime
 
 from asyncua import ua
 
-from ..irpd.variables import Segment, VariableError
+from ..irpd.variables import Segment, VariableError, type_text
 
 # (kind, size) of the layout's scalar types (layout.json "scalars") -> OPC UA built-in type.
 VARIANTS = {
@@ -75,8 +75,7 @@ class Var:
     @property
     def description(self) -> str:
         """The node's Description: its types and path ("TIME (int64_t) Main.t.ET", "short PLC_ROBOT.I0")."""
-        kind = f"{self.iec_type} ({self.type})" if self.iec_type else self.type
-        return f"{kind} {self.path}"
+        return f"{type_text(self.type, self.iec_type)} {self.path}"
 
 
 def element_suffixes(dims: tuple[int, ...]) -> list[str]:

@@ -67,8 +67,9 @@ def check_request(request: dict, ask: Callable[..., dict], taken_bytes: int) -> 
     return channels, types
 
 
-def numeric_types(request: dict, channels: list[str], ask: Callable[..., dict]) -> dict[str, str]:
-    """Each channel's type, when every one is a numeric scalar of the running layout."""
+def numeric_types(request: dict, channels: list[str], ask: Callable[..., dict]) -> dict[str, tuple[str, str | None]]:
+    """Each channel's type and IEC type (layout.json's iec_type of a Structured Text variable, else
+    None), when every one is a numeric scalar of the running layout."""
     name = (ask("status").get("shared_memory") or {}).get("variables")
     if not name:
         raise CaptureError(409, "the running set has no shared variables (no layout): nothing to capture")
@@ -83,7 +84,7 @@ def numeric_types(request: dict, channels: list[str], ask: Callable[..., dict]) 
             problem = number_problem(path, seg.leaves, seg.scalars, traced=True, unknown=seg.unknown)
             if problem:
                 raise CaptureError(422, f"{'the trigger' if path in in_trigger else 'a variable'}: {problem}")
-            types[path] = seg.leaves[path]["type"]
+            types[path] = (seg.leaves[path]["type"], seg.leaves[path].get("iec_type"))
         return types
     finally:
         seg.close()

@@ -50,7 +50,13 @@ class Entry:
     by: str | None = None
     capture: Capture | None = None
     channels: list[str] | None = None
-    types: dict | None = None
+    types: dict | None = None  # path -> (type, iec_type), capture_checks.numeric_types
+
+    def channel_list(self, paths: list[str]) -> list[dict]:
+        """The channels as the API and the shots' files name them: path, type, IEC type."""
+        types = self.types or {}
+        return [dict(zip(("path", "type", "iec_type"), (p, *types.get(p, (None, None))))) for p in paths]
+
     cursor: int = 0  # the last seq of the rings this capture was given (or skipped)
     want_armed: bool = False  # armed, or to be armed again (agent restarted, irpd back)
     next_number: int = 1
@@ -414,9 +420,7 @@ class CaptureEngine(threading.Thread):
             "name": entry.request.get("name", ""),
             "state": c.state if c is not None else IDLE,
             "request": entry.request,
-            "channels": [
-                {"path": p, "type": (entry.types or {}).get(p)} for p in entry.channels or channels_of(entry.request)
-            ],
+            "channels": entry.channel_list(entry.channels or channels_of(entry.request)),
             "pre_rows": c.pre if c is not None else (rows_of(entry.request["pre"], basic) if basic else 0),
             "post_rows": c.post if c is not None else (rows_of(entry.request["post"], basic) if basic else 0),
             "basic_period_ns": basic,
@@ -451,7 +455,7 @@ class CaptureEngine(threading.Thread):
             "name": entry.request.get("name", ""),
             "by": entry.by,
             "shot": shot.number,
-            "channels": [{"path": p, "type": (entry.types or {}).get(p)} for p in entry.channels],
+            "channels": entry.channel_list(entry.channels),
             "basic_period_ns": capture.basic_period_ns,
             "trigger": entry.request["trigger"],
             "pre": capture.pre,

@@ -44,14 +44,14 @@ class _McapShot:
         self.files, self.header = files, header
         self.store = files.store
         channels = header["channels"]
-        variables = [Variable(c["path"], c.get("type") or "double") for c in channels]
+        variables = [Variable(c["path"], c.get("type") or "double", "", c.get("iec_type")) for c in channels]
         self.entry: Entry = self.store.create(
             shot_name(header["capture"], header["shot"]),
             "capture",
             {
                 "state": "recording",
                 "created_by": header.get("by"),
-                "variables": [{"path": v.path, "type": v.type, "unit": v.unit} for v in variables],
+                "variables": [v.__dict__ for v in variables],
                 "decimation": 1,
                 "basic_period_ns": header["basic_period_ns"],
                 "parts": [],

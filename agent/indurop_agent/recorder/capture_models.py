@@ -146,6 +146,10 @@ class CaptureRequest(Strict):
 class Channel(BaseModel):
     path: str
     type: str | None = Field(description="the layout's type (double, uint32_t, bool, ...)")
+    iec_type: str | None = Field(
+        None,
+        description="the IEC 61131-3 type of a Structured Text variable (layout.json's iec_type); null for .glb ones",
+    )
 
 
 class ShotSummary(BaseModel):

@@ -218,7 +218,8 @@ class Recorder(threading.Thread):
                 problem = number_problem(path, seg.leaves, seg.scalars, traced=True, unknown=seg.unknown)
                 if problem:
                     raise RecorderError(400, f"variables[{i}]: {problem}")
-                variables.append(Variable(path, seg.leaves[path]["type"], unit))
+                leaf = seg.leaves[path]
+                variables.append(Variable(path, leaf["type"], unit, leaf.get("iec_type")))
         finally:
             seg.close()
         joints = []

@@ -12,7 +12,9 @@ What it holds:
 - `/indurop/samples`: one JSON message per row (orjson), `{"seq", "t_ns", <field>: value, ...}`; a
   field per variable (`field_names`: the path with every character but [A-Za-z0-9_] made `_`, so
   that Foxglove's and PlotJuggler's message paths can name it), a JSON Schema naming each field's
-  variable path, type and unit, and the same list in the channel's metadata (`indurop.variables`).
+  variable path, type and unit (and a Structured Text variable's IEC type beside the C++ one:
+  "Main.t.ET (TIME (int64_t))", `x-indurop-iec-type`), and the same list in the channel's metadata
+  (`indurop.variables`, with `iec_type` on such a variable).
   Values are the ring's doubles, `null` where not finite.  log_time = the row's due time on the
   wall clock (t_ns + clock_offset_ns), sequence = seq mod 2^32 (the full seq is in the message).
 - `/indurop/notes`: JSON messages for what is not a row: drops, gaps, triggers, why it stopped.
@@ -48,6 +50,7 @@ from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import CompressionType, Writer
 from mcap_ros2._dynamic import serialize_dynamic  # the encoder mcap_ros2.writer.Writer uses, for a file of our own
 
+from ..irpd.variables import type_text
 from .ros2_msgdefs import MSGDEFS
 
 SAMPLES_TOPIC = "/indurop/samples"
@@ -80,11 +83,13 @@ NOTES_JSON_SCHEMA = {
 
 @dataclass(frozen=True)
 class Variable:
-    """A recorded variable: its path in the shared-variable layout, the layout's type, a unit."""
+    """A recorded variable: its path in the shared-variable layout, the layout's type, a unit, and a
+    Structured Text variable's IEC type (layout.json's iec_type; None for a .glb variable)."""
 
     path: str
     type: str
     unit: str = ""
+    iec_type: str | None = None
 
 
 @dataclass(frozen=True)
@@ -127,11 +132,11 @@ def samples_schema(title: str, variables: Sequence[Variable], fields: Sequence[s
         properties[f] = {
             "type": "number",
             "title": v.path,
-            "description": f"{v.path} ({v.type}{unit}); null when not finite",
+            "description": f"{v.path} ({type_text(v.type, v.iec_type)}{unit}); null when not finite",
             "x-indurop-path": v.path,
             "x-indurop-type": v.type,
             "x-indurop-unit": v.unit,
-        }
+        } | ({"x-indurop-iec-type": v.iec_type} if v.iec_type else {})
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "title": SAMPLES_SCHEMA,
@@ -194,7 +199,9 @@ class McapOut:
             self._writer = Writer(self._file, chunk_size=chunk_bytes, compression=compression)
             self._writer.start(profile="", library=LIBRARY)
             described = [
-                {"field": f, "path": v.path, "type": v.type, "unit": v.unit} for v, f in zip(variables, self.fields)
+                {"field": f, "path": v.path, "type": v.type, "unit": v.unit}
+                | ({"iec_type": v.iec_type} if v.iec_type else {})
+                for v, f in zip(variables, self.fields)
             ]
             schema = self._writer.register_schema(
                 SAMPLES_SCHEMA, SchemaEncoding.JSONSchema, orjson.dumps(samples_schema(title, variables, self.fields))

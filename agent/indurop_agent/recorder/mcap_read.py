@@ -67,7 +67,8 @@ def _records(path: Path, errors: list[str]) -> Iterator:
 
 def _variables(channel: Channel) -> tuple[list[Variable], list[str]]:
     described = orjson.loads(channel.metadata.get("indurop.variables", "[]"))
-    return [Variable(d["path"], d["type"], d.get("unit", "")) for d in described], [d["field"] for d in described]
+    variables = [Variable(d["path"], d["type"], d.get("unit", ""), d.get("iec_type")) for d in described]
+    return variables, [d["field"] for d in described]
 
 
 def scan(path: Path) -> Scan:

@@ -114,6 +114,17 @@ def recorder_of(store, sock: Path, **kw):
     return rec
 
 
+def wait_done(store, name: str, seconds: float = 60) -> dict:
+    """The entry.json of a recording of `store` once it is no longer being recorded."""
+    deadline = time.monotonic() + seconds
+    while True:
+        meta = store.get(name).meta
+        if meta["state"] != "recording":
+            return meta
+        assert time.monotonic() < deadline, meta
+        time.sleep(0.1)
+
+
 def samples_of(paths: list[Path]) -> list[dict]:
     """Every row of the samples channel of the files, in file order (the indexed reader)."""
     out = []

@@ -19,7 +19,7 @@ from indurop_agent.recorder import mcap_read
 from indurop_agent.recorder.manager import RecorderError, Wanted
 from indurop_agent.recorder.store import Store
 from live_processes import copy_cell
-from recorder_helpers import IRPD, digests, recorder_of, samples_of, start_cell, stop
+from recorder_helpers import IRPD, digests, recorder_of, samples_of, start_cell, stop, wait_done
 from websockets.sync.client import connect
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
@@ -73,16 +73,6 @@ def test_the_cells_robot_json_gives_a_joint_states_file(cell, tmp_path):
     files = api.download("joints", tmp_path)
     assert sorted(p.name for p in files) == ["part-0001.joint_states.mcap", "part-0001.mcap"]
     assert len(samples_of(files)) == done["rows"] == 1000
-
-
-def wait_done(store: Store, name: str, seconds: float = 60) -> dict:
-    deadline = time.monotonic() + seconds
-    while True:
-        meta = store.get(name).meta
-        if meta["state"] != "recording":
-            return meta
-        assert time.monotonic() < deadline, meta
-        time.sleep(0.1)
 
 
 def test_the_quota_deletes_the_oldest_recordings_first_and_stops_the_one_being_written_last(cell, tmp_path):

@@ -2063,6 +2063,11 @@ export interface components {
         };
         /** Channel */
         Channel: {
+            /**
+             * Iec Type
+             * @description the IEC 61131-3 type of a Structured Text variable (layout.json's iec_type); null for .glb ones
+             */
+            iec_type?: string | null;
             /** Path */
             path: string;
             /**
