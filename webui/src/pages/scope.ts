@@ -10,7 +10,7 @@ import { unwrap } from "../api/client";
 import type { Page } from "../app/context";
 import { errorText, h, poll, setText } from "../ops/dom";
 import { type PanelEnv, PlotPanel } from "../plot/panel";
-import type { VarInfo } from "../plot/paths";
+import { typeText, type VarInfo, varTitle } from "../plot/paths";
 import { emptyStats } from "../plot/stats";
 import { VarTree } from "../plot/vartree";
 import { type CapturePublic, CapturesView, countsText } from "../scope/captures-view";
@@ -54,6 +54,7 @@ export const scopePage: Page = (root, ctx) => {
   const form = new CaptureFormView({
     maxConditions: () => limits?.max_conditions ?? null,
     lists: { all: ALL_PATHS, numeric: NUMERIC_PATHS },
+    describe: (p) => varTitle(p, vars.get(p)),
     changed: () => showErrors([]),
   });
   const env = () => ({ limits, basicPeriodNs, typeOf: (p: string) => vars.get(p)?.type });
@@ -73,6 +74,7 @@ export const scopePage: Page = (root, ctx) => {
     stats: emptyStats(),
     clock: { offset: null },
     known: () => true,
+    describe: (p) => varTitle(p, vars.get(p)),
     notify: (m, k) => ctx.notify(m, k),
     changed: () => {
       if (!applying) view = currentView(); // what the user made of the plot stays for the next shots
@@ -473,7 +475,8 @@ export const scopePage: Page = (root, ctx) => {
       if (!alive) return;
       const list = (r.variables ?? []).filter((v) => v && typeof v.path === "string");
       vars = new Map(list.map((v) => [v.path, v]));
-      const options = (l: VarInfo[]) => l.map((v) => h("option", { value: v.path }));
+      // the picker offers each path with its type: "TIME (int64_t)" beside a Structured Text variable
+      const options = (l: VarInfo[]) => l.map((v) => h("option", { value: v.path, label: typeText(v) }));
       root.querySelector(`#${ALL_PATHS}`)!.replaceChildren(...options(list));
       root.querySelector(`#${NUMERIC_PATHS}`)!.replaceChildren(...options(list.filter((v) => isNumeric(v.type))));
       const tree = new VarTree(list, {

@@ -6,7 +6,7 @@ import { ApiError, unwrap } from "../api/client";
 import type { Page } from "../app/context";
 import { MAX_VARS, type PanelConfig, type PanelEnv, PlotPanel, WINDOWS_S } from "../plot/panel";
 import { panelsFromHash } from "../plot/panel-link";
-import type { VarInfo } from "../plot/paths";
+import { type VarInfo, varTitle } from "../plot/paths";
 import { Pacer, plotStats, recordFrame } from "../plot/stats";
 import { type LeafRow, VarTree } from "../plot/vartree";
 import { formatValue, parseValue } from "../plot/vartypes";
@@ -66,6 +66,7 @@ export const variablesPage: Page = (root, ctx) => {
     stats,
     clock,
     known: (path) => vars.has(path),
+    describe: (path) => varTitle(path, vars.get(path)),
     notify: (m, k) => ctx.notify(m, k),
     changed: save,
     remove(p) {

@@ -35,6 +35,8 @@ export interface PanelEnv {
   /** whether a path is a variable of the running layout (one unknown path would make irpd refuse
    * the whole stream subscription) */
   known(path: string): boolean;
+  /** a variable's tooltip, its path and type (paths.ts varTitle); the path when not given */
+  describe?(path: string): string;
   notify(message: string, kind?: "info" | "error"): void;
   changed(): void;
   remove(p: PlotPanel): void;
@@ -431,7 +433,7 @@ export class PlotPanel {
     chips.innerHTML = this.cfg.paths
       .map(
         (p, i) =>
-          `<span class="chip" data-testid="chip-${esc(p)}" title="${esc(p)}">${esc(labels[i])}<button data-path="${esc(p)}" title="remove">×</button></span>`,
+          `<span class="chip" data-testid="chip-${esc(p)}" title="${esc(this.env.describe?.(p) ?? p)}">${esc(labels[i])}<button data-path="${esc(p)}" title="remove">×</button></span>`,
       )
       .join("");
     // Each chip's colour set through the DOM: the page's Content-Security-Policy refuses style="" in markup.

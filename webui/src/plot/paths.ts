@@ -15,6 +15,12 @@ export function typeText(v: VarInfo): string {
   return v.iec_type ? `${v.iec_type} (${v.type})` : v.type;
 }
 
+/** A variable's tooltip (the Scope's and the plots' chips): its path and type, "Main.t.ET: TIME
+ *  (int64_t)"; the path alone for a path the page does not know. */
+export function varTitle(path: string, v: VarInfo | undefined): string {
+  return v ? `${path}: ${typeText(v)}` : path;
+}
+
 export interface TreeNode {
   /** this node's own segment: a member name, or an index written "[3]" */
   label: string;

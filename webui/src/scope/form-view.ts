@@ -50,6 +50,8 @@ export interface FormEnv {
   maxConditions(): number | null;
   /** the datalist ids to offer paths from: every variable, numeric ones */
   lists: { all: string; numeric: string };
+  /** a variable's tooltip, its path and type (paths.ts varTitle) */
+  describe(path: string): string;
   changed(): void;
 }
 
@@ -104,7 +106,7 @@ export class CaptureFormView {
           f.variables = f.variables.filter((v) => v !== p);
           this.change(true);
         });
-        return h("span", { class: "chip", title: p, "data-testid": `capvar-${p}` }, p, x);
+        return h("span", { class: "chip", title: this.env.describe(p), "data-testid": `capvar-${p}` }, p, x);
       }),
     );
     const add = h("input", {

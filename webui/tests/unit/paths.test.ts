@@ -9,6 +9,7 @@ import {
   splitPath,
   type TreeNode,
   typeText,
+  varTitle,
 } from "../../src/plot/paths";
 
 const v = (path: string) => ({ path, type: "double", size: 8 });
@@ -101,5 +102,15 @@ describe("typeText", () => {
     expect(typeText({ path: "Main.t.ET", type: "int64_t", size: 8, iec_type: "TIME" })).toBe("TIME (int64_t)");
     expect(typeText({ path: "PLC_ROBOT.I0", type: "short", size: 2 })).toBe("short");
     expect(typeText({ path: "PLC_ROBOT.I0", type: "short", size: 2, iec_type: null })).toBe("short");
+  });
+});
+
+describe("varTitle", () => {
+  it("names a chip's variable with its types (the Scope's and the plots' chips), a path unknown to the page alone", () => {
+    expect(varTitle("Main.t.ET", { path: "Main.t.ET", type: "int64_t", size: 8, iec_type: "TIME" })).toBe(
+      "Main.t.ET: TIME (int64_t)",
+    );
+    expect(varTitle("PLC_ROBOT.I0", { path: "PLC_ROBOT.I0", type: "short", size: 2 })).toBe("PLC_ROBOT.I0: short");
+    expect(varTitle("A: SIG.x", undefined)).toBe("A: SIG.x");
   });
 });
