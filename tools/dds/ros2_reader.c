@@ -2,7 +2,8 @@
  * Debian's libddsc: prints what the DDS bridge publishes without ROS, and is the compatibility
  * tests' independent reader and writer (docs/dds.md).  Built as build/tools/dds/ros2_reader.
  *
- *   ros2_reader read  KIND TOPIC COUNT TIMEOUT_S   prints the matched writer, then COUNT samples
+ *   ros2_reader read  KIND TOPIC COUNT TIMEOUT_S   prints the matched writer (its topic, type, USER_DATA
+ *                                                  and QoS), then COUNT samples
  *   ros2_reader write KIND TOPIC VALUE COUNT       writes VALUE COUNT times (KIND float64, bool, int32;
  *                                                  cell_command: VALUE is "override,cycle_mode")
  *
@@ -74,6 +75,11 @@ static void print_match(dds_entity_t reader) {
         json_string(ep->topic_name);
         printf(", \"type\": ");
         json_string(ep->type_name);
+        void *user_data = NULL; /* the writer's USER_DATA (the bridge names its variables there) */
+        size_t user_size = 0;
+        printf(", \"user_data\": ");
+        json_string(dds_qget_userdata(ep->qos, &user_data, &user_size) && user_data ? (const char *)user_data : "");
+        dds_free(user_data);
         printf(", \"reliability\": \"%s\", \"durability\": \"%s\"}}\n",
                rel == DDS_RELIABILITY_RELIABLE ? "reliable" : "best_effort",
                dur == DDS_DURABILITY_VOLATILE          ? "volatile"

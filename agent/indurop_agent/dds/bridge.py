@@ -39,7 +39,7 @@ from cyclonedds.util import duration
 
 from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
 from ..irpd.trace import TraceError, TraceFollower
-from ..irpd.variables import Segment, VariableError
+from ..irpd.variables import Segment, VariableError, type_text
 from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config
 from . import bridge_file, declared, ros2_types
 from .bridge_file import BRIDGE_JSON, BridgeFile, BridgeFileError, Mapping, std_basic
@@ -126,6 +126,7 @@ class Bridge:
         self.basic_period_ns = 0
         self.clock_offset_ns = time.time_ns() - time.monotonic_ns()
         self.status: dict = {}
+        self.leaves: dict[str, dict] = {}  # the running layout's leaves by path (their types)
         self.next_status = 0.0
         self.next_diag = 0.0
         self.timing = Timing(settings.name)  # the dispatchers' and modules' statuses (diagnostics.py)
@@ -183,6 +184,7 @@ class Bridge:
             except (MappingError, OSError) as e:
                 problems.append(str(e))
         layout = self.sharing.layout(status)
+        self.leaves = {leaf["path"]: leaf for leaf in (layout or {}).get("leaves", [])}
         exported, problem = self.sharing.load(bridge.export, bridge.imports, layout, self.decimation)
         problems += [problem] if problem else []
         channels = [v for _, v, _, _ in joints] + [v for m in bridge.publish for v in m.variables] + exported
@@ -235,7 +237,7 @@ class Bridge:
         self.publications = [
             Publication(
                 m,
-                DataWriter(self.participant, self.topic(m.topic, m.cls), QOS[m.qos]),
+                DataWriter(self.participant, self.topic(m.topic, m.cls), self.mapping_qos(m)),
                 self.decimation(m.rate_hz),
             )
             for m in b.publish
@@ -243,11 +245,24 @@ class Bridge:
         self.subscriptions = [
             Subscription(
                 m,
-                DataReader(self.participant, self.topic(m.topic, m.cls), QOS[m.qos]),
+                DataReader(self.participant, self.topic(m.topic, m.cls), self.mapping_qos(m)),
                 tokens=m.rate_hz,
             )
             for m in b.subscribe
         ]
+
+    def mapping_qos(self, m: Mapping) -> Qos:
+        """A mapping's QoS profile, with the variables it maps and their types in its USER_DATA,
+        which DDS hands every matched peer with the endpoint (ROS 2's `key=value;` form, as
+        rmw puts its typehash there): `indurop.variables=data: Main.count DINT (int32_t);`, a
+        Structured Text variable's IEC type beside the C++ one (layout.json's iec_type)."""
+        described = []
+        for field_name, _, variable in m.leaves():
+            leaf = self.leaves.get(variable)
+            kind = f" {type_text(leaf['type'], leaf.get('iec_type'))}" if leaf else ""
+            described.append(f"{field_name}: {variable}{kind}")
+        user_data = f"indurop.variables={', '.join(described)};".encode()
+        return Qos(*QOS[m.qos], Policy.Userdata(user_data))
 
     # ---- samples out -------------------------------------------------------------------------
     def publish_rows(self) -> None:
