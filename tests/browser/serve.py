@@ -4,8 +4,11 @@ password, to sign in through the form) and one token (for the tests' own API cal
 a second agent on the same irpd with the meshcat view.  The cell's DDS bridge (loopback, a domain
 of its own) announces it on the line as browser-cell and writes the line's view the first agent
 reads; a second bridge, "ghost", without an irpd, stands for another controller of the line (the
-second agent reads no view: its Line page says the bridge is off).  Writes what the tests need as
-JSON to the file named by argv[1], then runs until SIGTERM and stops them all by pid."""
+second agent reads no view: its Line page says the bridge is off).  With --opcua, indurop-opcua
+too, on the first agent's data folder (its users sign in there).  Writes what the tests need as
+JSON to the file named by argv[1], then runs until SIGTERM and stops them all by pid.
+
+    serve.py OUT.json [module.xml] [--opcua]"""
 from __future__ import annotations
 
 import json
@@ -21,7 +24,17 @@ from pathlib import Path
 import httpx
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "python"))
-from live_processes import API, BUILD, copy_cell, free_port, start_agent, start_bridge, start_irpd, stop  # noqa: E402
+from live_processes import (  # noqa: E402
+    API,
+    BUILD,
+    copy_cell,
+    free_port,
+    start_agent,
+    start_bridge,
+    start_irpd,
+    start_opcua,
+    stop,
+)
 
 CELL = BUILD / "sets" / "plc-robot" / "module.xml"
 USERS = {"admin": "anna", "operator": "otto", "viewer": "vera"}
@@ -64,7 +77,7 @@ def wait_for_drives(url: str, token: str) -> None:
     raise SystemExit("serve.py: the I/O dispatcher did not reach the drive simulator within 30 s")
 
 
-def main(out: Path, config: Path) -> None:
+def main(out: Path, config: Path, opcua: bool = False) -> None:
     work = Path(tempfile.mkdtemp(prefix="indurop-browser-"))
     sock, data = work / "irpd.sock", work / "data"
     cell = config == CELL
@@ -93,10 +106,16 @@ def main(out: Path, config: Path) -> None:
         start_bridge(work / "no-irpd.sock", domain, "--name", "ghost", "--agent-url", "http://127.0.0.1:9/",
                      log=work / "ghost.log"),
     ]
+    servers = []
+    opcua_info = None
+    if opcua:
+        port = free_port()
+        servers.append(start_opcua(sock, data / "viser", port, log=work / "opcua.log"))
+        opcua_info = {"url": f"opc.tcp://127.0.0.1:{port}/", "data": str(data / "viser")}
     if cell:
         wait_for_drives(urls["viser"], tokens["viser"]["viewer"])
     out.write_text(json.dumps({"url": urls["viser"], "tokens": tokens["viser"], "users": users["viser"],
-                               "work": str(work),
+                               "work": str(work), "opcua": opcua_info,
                                "meshcat": {"url": urls["meshcat"], "tokens": tokens["meshcat"],
                                            "users": users["meshcat"]},
                                "pids": {"irpd": irpd.pid, "agent": agents[0].pid, "agent_meshcat": agents[1].pid,
@@ -109,10 +128,11 @@ def main(out: Path, config: Path) -> None:
         if irpd.poll() is not None or any(a.poll() is not None for a in agents):
             print(f"serve.py: irpd or an agent ended; logs in {work}", file=sys.stderr)
             break
-    for p in (*bridges, *agents):
+    for p in (*servers, *bridges, *agents):
         stop(p)
     stop(irpd)
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]), Path(sys.argv[2]) if len(sys.argv) > 2 else CELL)
+    args = [a for a in sys.argv[1:] if a != "--opcua"]
+    main(Path(args[0]), Path(args[1]) if len(args) > 1 else CELL, "--opcua" in sys.argv[1:])

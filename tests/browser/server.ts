@@ -18,6 +18,8 @@ export interface Server {
   /** one user per role, created with the admin token when the agent started */
   users: Record<Role, User>;
   work: string;
+  /** indurop-opcua on the first agent's data folder (startServer's opcua option), else null */
+  opcua: { url: string; data: string } | null;
   /** a second agent on the same irpd, with the meshcat 3D view */
   meshcat: { url: string; tokens: Record<Role, string>; users: Record<Role, User> };
   /** bridge: the cell's DDS bridge (browser-cell on the line); ghost: another controller's bridge, without an irpd */
@@ -25,12 +27,13 @@ export interface Server {
 }
 
 export const ROOT = resolve(__dirname, "../..");
-const PYTHON = join(ROOT, ".venv/bin/python");
+export const PYTHON = join(ROOT, ".venv/bin/python");
 
-/** Starts irpd (config: a module.xml, default the PLC + robot cell) and its agents; resolves when up. */
-export async function startServer(config?: string): Promise<Server> {
+/** Starts irpd (config: a module.xml, default the PLC + robot cell) and its agents, and with
+ * `opcua` indurop-opcua; resolves when up. */
+export async function startServer(config?: string, opts: { opcua?: boolean } = {}): Promise<Server> {
   const out = join(mkdtempSync(join(tmpdir(), "indurop-serve-")), "server.json");
-  const args = [join(__dirname, "serve.py"), out, ...(config ? [config] : [])];
+  const args = [join(__dirname, "serve.py"), out, ...(config ? [config] : []), ...(opts.opcua ? ["--opcua"] : [])];
   const child = spawn(PYTHON, args, { stdio: ["ignore", "inherit", "inherit"] });
   const deadline = Date.now() + 60_000;
   while (!existsSync(out)) {

@@ -153,7 +153,7 @@ export class VarTree {
     row.dataset.path = v.path;
     row.innerHTML = `
       <span class="name" title="${esc(v.path)}">${esc(n.label)}</span>
-      <span class="type">${esc(typeText(v))}</span>
+      <span class="type" title="${esc(typeText(v))}">${esc(typeText(v))}</span>
       <span class="val" data-testid="value-${esc(v.path)}">…</span>
       <button class="plot" data-testid="plotvar-${esc(v.path)}" title="plot in the active panel">+</button>
       ${this.env.canWrite ? `<span class="write"><input data-testid="write-${esc(v.path)}" placeholder="value" size="7" /><button data-testid="set-${esc(v.path)}">set</button></span>` : ""}
