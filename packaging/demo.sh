@@ -60,7 +60,9 @@ pids=()
 stop() { kill -TERM "${pids[@]}" 2>/dev/null || true; wait 2>/dev/null || true; }
 trap 'stop; exit 130' INT
 trap 'stop; exit 143' TERM
-"$root/build/bin/irpd" --config "$config" --control-socket "$sock" "$@" > >(stamp "$logs/irpd.log") 2>&1 &
+# irpd keeps its state (RETAIN values, crash records) in $data/state (demo-irpd.sh)
+bash "$root/packaging/demo-irpd.sh" "$data" "$root/build/bin/irpd" --config "$config" --control-socket "$sock" "$@" \
+  > >(stamp "$logs/irpd.log") 2>&1 &
 irpd_pid=$!
 pids+=($irpd_pid)
 for _ in $(seq 100); do [ -S "$sock" ] && break; kill -0 $irpd_pid 2>/dev/null || break; sleep 0.05; done
