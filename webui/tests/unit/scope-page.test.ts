@@ -97,6 +97,7 @@ function mount(role: Role, refuse: string | null = null, saved: unknown[] = [SAV
         { path: SQUARE, type: "double", size: 8 },
         { path: "SIG.sample", type: "uint64_t", size: 8 },
         { path: "SIG.letter", type: "char", size: 1 },
+        { path: "Main.count", type: "int32_t", size: 4, iec_type: "DINT" }, // a Structured Text variable
       ],
     },
     "/api/v1/captures": { captures: [{ ...CAPTURE, channels: TWO }] },
@@ -194,6 +195,20 @@ describe("the Scope page", () => {
     await vi.waitFor(() => expect(q(m.root, "shot-info-0")?.dataset.triggerSeq).toBe("9751"), { timeout: 3000 });
   });
 
+  it("names each variable's type in the picker and on the chips, a Structured Text one's IEC type beside the C++ one", async () => {
+    const m = mount("operator");
+    mounted = m;
+    await settle();
+    const offered = (path: string) =>
+      m.root.querySelector<HTMLOptionElement>(`#scope-all-paths option[value="${path}"]`)?.label;
+    expect([offered("Main.count"), offered("SIG.sample")]).toEqual(["DINT (int32_t)", "uint64_t"]);
+    q(m.root, "plotvar-Main.count")!.click(); // the tree's +: a captured variable's chip
+    expect(q(m.root, "capvar-Main.count")!.title).toBe("Main.count: DINT (int32_t)");
+    q(m.root, `plot-${CAPTURE.id}`)!.click(); // the plot's chips (its legend) name the shot's variables
+    await settle();
+    expect(q(m.root, `chip-${SQUARE}`)!.title).toBe(`${SQUARE}: double`);
+  });
+
   it("says what to fix before sending, and shows the agent's refusal next to the form", async () => {
     const m = mount("operator", "'SIG.wave[4]' is not a channel irpd can trace now");
     mounted = m;
@@ -261,7 +276,9 @@ describe("the Scope page", () => {
     mounted = m;
     await settle();
     const chips = () =>
-      [...m.root.querySelectorAll("[data-testid=plot-panel-1] .chip")].map((c) => c.getAttribute("title"));
+      [...m.root.querySelectorAll("[data-testid=plot-panel-1] .chip")].map((c) =>
+        c.getAttribute("data-testid")!.replace(/^chip-/, ""),
+      );
     const mode = () => q<HTMLSelectElement>(m.root, "mode")!.value;
     q(m.root, `plot-${CAPTURE.id}`)!.click();
     await settle();
