@@ -51,6 +51,10 @@ class RecordingStart(BaseModel):
 class RecordingVariable(BaseModel):
     path: str
     type: str = Field(description="the layout's type, e.g. double, uint32_t")
+    iec_type: str | None = Field(
+        None,
+        description="the IEC 61131-3 type of a Structured Text variable (layout.json's iec_type); null for .glb ones",
+    )
     unit: str
     field: str | None = Field(None, description="its field in the MCAP rows' JSON")
 

@@ -74,6 +74,17 @@ def test_a_recording_of_st_variables_names_their_iec_types_beside_the_cpp_ones(c
     assert [v.iec_type for v in mcap_read.scan(part).variables] == ["DINT", "TIME", "LREAL"]
 
 
+def test_the_api_lists_a_recordings_st_variables_with_their_iec_types(cell):
+    api, _ = cell
+    r = api.start("st-api", ["Main.count", "Main.level"], stop={"duration_s": 0.3})
+    assert r.status_code in (200, 201), r.text
+    listed = api.wait_state("st-api", "stopped")["variables"]
+    assert [(v["path"], v["type"], v["iec_type"]) for v in listed] == [
+        ("Main.count", "int32_t", "DINT"),
+        ("Main.level", "double", "LREAL"),
+    ]
+
+
 def test_a_capture_of_st_variables_names_their_iec_types_in_the_api_and_its_shot(cell):
     api, _ = cell
     request = {

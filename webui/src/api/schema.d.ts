@@ -3833,6 +3833,11 @@ export interface components {
              * @description its field in the MCAP rows' JSON
              */
             field?: string | null;
+            /**
+             * Iec Type
+             * @description the IEC 61131-3 type of a Structured Text variable (layout.json's iec_type); null for .glb ones
+             */
+            iec_type?: string | null;
             /** Path */
             path: string;
             /**

@@ -54,10 +54,18 @@ def _time(ns: int | None) -> str | None:
     return datetime.fromtimestamp(ns / 1e9, UTC).isoformat(timespec="microseconds").replace("+00:00", "Z")
 
 
+def recorded_variables(meta: dict) -> list[Variable]:
+    """The variables of a recording's or capture's entry.json."""
+    return [
+        Variable(v["path"], v.get("type", "?"), v.get("unit", ""), v.get("iec_type"))
+        for v in meta.get("variables") or []
+    ]
+
+
 def public(meta: dict) -> dict:
     """A recording's or capture's entry.json as the API shows it."""
     parts = meta.get("parts") or []
-    variables = [Variable(v["path"], v.get("type", "?"), v.get("unit", "")) for v in meta.get("variables") or []]
+    variables = recorded_variables(meta)
     first, last = meta.get("first_unix_ns"), meta.get("last_unix_ns")
     return {
         "name": meta["name"],
@@ -69,7 +77,7 @@ def public(meta: dict) -> dict:
         "created_by": meta.get("created_by"),
         "ended": meta.get("ended"),
         "variables": [
-            {"path": v.path, "type": v.type, "unit": v.unit, "field": f}
+            {"path": v.path, "type": v.type, "iec_type": v.iec_type, "unit": v.unit, "field": f}
             for v, f in zip(variables, field_names([v.path for v in variables]))
         ],
         "decimation": meta.get("decimation"),
@@ -297,7 +305,7 @@ def export_recording(
     except StoreError as e:
         raise refusal(e) from e
     meta = current(rec, name)
-    variables = [Variable(v["path"], v.get("type", "?"), v.get("unit", "")) for v in meta.get("variables") or []]
+    variables = recorded_variables(meta)
     parts = entry.parts()
     chunks = csv_chunks(parts, variables) if format == "csv" else parquet_chunks(parts, variables, name)
     return StreamingResponse(
