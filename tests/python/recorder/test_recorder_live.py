@@ -81,6 +81,7 @@ def test_a_30_s_recording_of_16_variables_starts(cell):
     assert got["variables"][0]["type"] == "uint32_t" and got["variables"][2] == {
         "path": "SIG.wave[1]",
         "type": "double",
+        "iec_type": None,  # a .glb variable's; a Structured Text one's: test_recorder_st.py
         "unit": "V",
         "field": "SIG_wave_1",
     }
