@@ -175,6 +175,73 @@ def test_st_beside_the_sets_cpp_modules_is_laid_out_with_their_glb_and_activated
     counts_up(cell, "Main.seen")  # the ST program reads what cntr2 writes
 
 
+RETYPED = """\
+PROGRAM Counter
+VAR
+  count : DINT;
+  w : {w};
+  x : {x};
+END_VAR
+count := count + 1;
+w := w + 1;
+END_PROGRAM
+"""
+
+
+def test_a_retype_that_loses_values_needs_the_managed_restart_and_a_widening_one_converts_online(
+    cell, tmp_path, capsys
+):
+    """INT -> DINT keeps its value online; INT -> BOOL cannot be converted without loss: the dry run
+    (API, irpctl) names it with its types and offers the managed restart, an online activation is
+    refused and leaves the running set as it was, the restart runs it with x at its initial value."""
+    r = cell.call("POST", "/sets", files=parts(st_set(RETYPED.format(w="INT", x="INT := 7"))))
+    assert r.status_code == 201, r.text
+    assert cell.call("POST", f"/sets/{r.json()['id']}/activate", json={"mode": "auto"}).status_code == 200
+    counts_up(cell, "Main.w")
+    assert cell.read("Main.x") == 7
+
+    # INT -> DINT: converted online, the count goes on from where it was
+    r = cell.call("POST", "/sets", files=parts(st_set(RETYPED.format(w="DINT", x="INT := 7"))))
+    assert r.status_code == 201, r.text
+    widened = r.json()
+    assert widened["validation"]["online"] is True, widened["validation"]
+    converted = widened["validation"]["variables"]["converted"]
+    assert [(c["path"], c["from_type"], c["to_type"]) for c in converted] == [("Main.w", "int16_t", "int32_t")]
+    before = cell.read("Main.w")
+    r = cell.call("POST", f"/sets/{widened['id']}/activate")
+    assert r.status_code == 200 and r.json()["mode"] == "online", r.text
+    assert cell.read("Main.w") >= before, "the widened variable kept its value"
+    counts_up(cell, "Main.w")
+
+    # INT -> BOOL: named by the dry run with its types, offered the managed restart
+    r = cell.call("POST", "/sets", files=parts(st_set(RETYPED.format(w="DINT", x="BOOL := TRUE"))))
+    assert r.status_code == 201, r.text
+    narrowed = r.json()
+    validation = narrowed["validation"]
+    assert validation["valid"] is True and validation["online"] is False, validation
+    moved = validation["variables"]["moved"]
+    assert [(m["path"], m["from_type"], m["to_type"]) for m in moved] == [("Main.x", "INT", "BOOL")], moved
+    reason = validation["restart"]["reason"]
+    assert "'Main.x' INT -> BOOL" in reason and "managed restart" in reason, reason
+    code, said = cell.irpctl(capsys, "check", narrowed["id"])
+    assert "online: no, only a restart of irpd can run it" in said and "'Main.x' INT -> BOOL" in said, said
+    assert "moved Main.x INT -> BOOL (not convertible without loss" in said, said
+
+    # online: refused, the running set runs on untouched
+    running, w = cell.running(), cell.read("Main.w")
+    r = cell.call("POST", f"/sets/{narrowed['id']}/activate", json={"mode": "online"})
+    assert r.status_code == 409, r.text
+    assert "'Main.x' INT -> BOOL" in r.json()["detail"] and "mode restart" in r.json()["detail"], r.text
+    assert cell.running() == running and cell.read("Main.x") == 7 and cell.read("Main.w") > w
+
+    # the managed restart runs it: x starts at its initial value
+    r = cell.call("POST", f"/sets/{narrowed['id']}/activate", json={"mode": "restart"})
+    assert r.status_code == 200 and r.json()["mode"] == "restart", r.text
+    assert cell.running() == narrowed["id"]
+    assert cell.read("Main.x") is True
+    counts_up(cell, "Main.w")
+
+
 def refused_in_place(cell: Cell, files: dict[str, bytes], status: int = 400) -> dict:
     """Uploads `files`, expects a refusal with the compiler's errors; the running set runs on,
     nothing new is stored.  The first problem."""
