@@ -11,10 +11,8 @@ import json
 import time
 from pathlib import Path
 
-import httpx
 import pytest
-from agent_helpers import FIG1, IRPD, ROOT, free_port, start_agent, start_irpd, stop
-from indurop_agent.cli import irpctl as cli
+from agent_helpers import FIG1, IRPD, ROOT, LiveCell, free_port
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
@@ -56,29 +54,11 @@ def parts(files: dict[str, bytes]) -> list[tuple[str, tuple[str, bytes]]]:
     return [("files", (path, content)) for path, content in files.items()]
 
 
-class Cell:
+class Cell(LiveCell):
     """irpd on Figure 1 and an agent (its settings in agent.json), with the admin token."""
 
     def __init__(self, tmp: Path, **settings):
-        self.tmp, self.sock, data = tmp, tmp / "irpd.sock", tmp / "data"
-        self.token_file = data / "admin-token"
-        self.irpd = start_irpd(self.sock, FIG1, f"st-upload-{free_port()}")
-        config = tmp / "agent.json"
-        config.write_text(json.dumps({"irpd_poll_s": 0.2, **settings}))
-        port = free_port()
-        self.agent = start_agent(port, data, self.sock, "--config", str(config))
-        self.base = f"http://127.0.0.1:{port}"
-        self.h = {"Authorization": f"Bearer {self.token_file.read_text().strip()}"}
-
-    def call(self, method: str, path: str, **kw) -> httpx.Response:
-        return httpx.request(method, f"{self.base}/api/v1{path}", headers=self.h, timeout=120, **kw)
-
-    def irpctl(self, capsys, *argv: str) -> tuple[int, str]:
-        """irpctl's main() against this agent as admin: (exit code, what it printed)."""
-        capsys.readouterr()
-        code = cli.main(["--url", self.base, "--token-file", str(self.token_file), *argv])
-        out, err = capsys.readouterr()
-        return code, out + err
+        super().__init__(tmp, FIG1, instance=f"st-upload-{free_port()}", **settings)
 
     def running(self) -> str:
         status = self.call("GET", "/status").json()
@@ -92,10 +72,6 @@ class Cell:
         r = self.call("GET", f"/variables/{path}")
         assert r.status_code == 200, r.text
         return r.json()["value"]
-
-    def close(self):
-        stop(self.agent)
-        stop(self.irpd)
 
 
 @pytest.fixture
