@@ -110,6 +110,15 @@ def wrong_machine(elf: bytes, machine: int) -> bytes:
 
 
 # ---- sets and upload bodies ---------------------------------------------------------------------
+def st_configuration(program_type: str, interval: str = "T#1ms") -> str:
+    """A Structured Text CONFIGURATION: one instance Main of PROGRAM `program_type` every `interval`."""
+    return (
+        "CONFIGURATION Cell\n  RESOURCE Cpu ON PLC\n"
+        f"    TASK Fast (INTERVAL := {interval}, PRIORITY := 1);\n"
+        f"    PROGRAM Main WITH Fast : {program_type};\n  END_RESOURCE\nEND_CONFIGURATION\n"
+    )
+
+
 def module_xml(*modules: tuple[str, str], extra: str = "") -> bytes:
     """module.xml text naming (filename, moduletype) modules, each periodic at 1 ms."""
     body = "".join(

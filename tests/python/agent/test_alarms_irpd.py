@@ -22,7 +22,7 @@ from pathlib import Path
 
 import httpx
 import pytest
-from agent_helpers import API, BUILD, FIG1, IRPD, free_port, start_agent, start_irpd, stop
+from agent_helpers import API, BUILD, FIG1, IRPD, free_port, st_configuration, start_agent, start_irpd, stop
 from live_processes import module_entry
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
@@ -290,21 +290,13 @@ END_VAR
   END_IF;
 END_PROGRAM
 """
-ST_CONFIG = """
-CONFIGURATION Cell
-  RESOURCE Cpu ON PLC
-    TASK Fast (INTERVAL := T#2ms, PRIORITY := 1);
-    PROGRAM Main WITH Fast : Main;
-  END_RESOURCE
-END_CONFIGURATION
-"""
 # the ST instance's alarm texts: module.xml's <alarm> declarations on the entry of its file (docs/st.md)
 ST_ALARMS = '<alarm id="12" severity="high">Oven overheated</alarm><alarm id="13">Conveyor jammed</alarm>'
 
 
 def test_an_st_program_raises_and_clears_its_alarms(cell):
     hand = f"<root>\n{module_entry('Main', './Main.so', 2_000_000, 1, ST_ALARMS)}</root>\n"
-    files = {"main.st": ST_MAIN, "config.st": ST_CONFIG, "module.xml": hand}
+    files = {"main.st": ST_MAIN, "config.st": st_configuration("Main", "T#2ms"), "module.xml": hand}
     r = httpx.post(f"{cell.url}/sets", headers=cell.h, files=[("files", (p, c)) for p, c in files.items()], timeout=120)
     assert r.status_code == 201, r.text
     r = httpx.post(f"{cell.url}/sets/{r.json()['id']}/activate", headers=cell.h, json={"mode": "auto"}, timeout=120)

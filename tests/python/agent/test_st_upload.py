@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 import pytest
-from agent_helpers import FIG1, IRPD, ROOT, LiveCell, free_port
+from agent_helpers import FIG1, IRPD, ROOT, LiveCell, free_port, st_configuration
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
@@ -25,14 +25,7 @@ END_VAR
 count := count + step;
 END_PROGRAM
 """
-CONFIG = """\
-CONFIGURATION Cell
-  RESOURCE Cpu ON PLC
-    TASK Fast (INTERVAL := T#1ms, PRIORITY := 1);
-    PROGRAM Main WITH Fast : Counter;
-  END_RESOURCE
-END_CONFIGURATION
-"""
+CONFIG = st_configuration("Counter")
 TYPE_ERROR = "PROGRAM Counter\nVAR\n  count : DINT;\n  flag : BOOL;\nEND_VAR\nflag := count;\nEND_PROGRAM\n"
 MIRROR = """\
 PROGRAM Mirror
@@ -140,7 +133,7 @@ def test_st_beside_the_sets_cpp_modules_is_laid_out_with_their_glb_and_activated
     for glb in ("knuRobot.glb", "joint.glb"):
         files[glb] = (ROOT / "config" / "sets" / "paper-figures" / glb).read_bytes()
     files["mirror.st"] = MIRROR.encode()
-    files["config.st"] = CONFIG.replace(": Counter", ": Mirror").encode()
+    files["config.st"] = st_configuration("Mirror").encode()
     r = cell.call("POST", "/sets", files=parts(files))
     assert r.status_code == 201, r.text
     stored = r.json()

@@ -5,7 +5,7 @@
 from __future__ import annotations
 
 import pytest
-from st_live import Running
+from st_live import ran_once
 
 PROGRAM = """
 TYPE Five : INT := 5; END_TYPE
@@ -78,10 +78,8 @@ EXPECTED = {
 
 @pytest.fixture(scope="module")
 def derived(tmp_path_factory):
-    run = Running(tmp_path_factory.mktemp("derived"), {"derived.st": PROGRAM})
-    run.wait_value("Derived.done", 1)
-    yield run
-    run.close()
+    with ran_once(tmp_path_factory.mktemp("derived"), {"derived.st": PROGRAM}, "Derived.done") as run:
+        yield run
 
 
 @pytest.mark.parametrize("name", list(EXPECTED))

@@ -7,7 +7,7 @@
 from __future__ import annotations
 
 import pytest
-from st_live import Running
+from st_live import ran_once
 
 PROGRAM = """
 TYPE Color : (Red, Green := 5, Blue); END_TYPE
@@ -235,10 +235,8 @@ EXPECTED = {
 
 @pytest.fixture(scope="module")
 def conf(tmp_path_factory):
-    run = Running(tmp_path_factory.mktemp("conf"), {"conf.st": PROGRAM})
-    run.wait_value("Conf.done", 1)
-    yield run
-    run.close()
+    with ran_once(tmp_path_factory.mktemp("conf"), {"conf.st": PROGRAM}, "Conf.done") as run:
+        yield run
 
 
 @pytest.mark.parametrize("name", list(EXPECTED))
