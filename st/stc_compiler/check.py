@@ -364,6 +364,7 @@ class Checker(ExprChecker):
         self.scope = pou
         if pou.result is not None:
             pou.return_type = pou.result.type = self.resolve_spec(pou.returns)
+            pou.result.init = self.alias_init(pou.returns)  # FUNCTION F : Five starts its result at 5
             if isinstance(pou.return_type, ty.FbType):
                 self.error(pou.place, "type", "a FUNCTION cannot return an FB instance; return a STRUCT or use an FB")
         for v in pou.vars:

@@ -299,7 +299,8 @@ class CodeEmitter:
             elif local:
                 out.append(f"    {self.member(v)}")
         if p.kind == "FUNCTION" and p.return_type is not None:
-            out.append(f"    {cpp_type(p.return_type)} {p.name}{{{self.default(p.return_type)}}};")
+            init = self.initial(p.result.init if p.result is not None else None, p.return_type)
+            out.append(f"    {cpp_type(p.return_type)} {p.name}{{{init}}};")
         out += _indent(self.block(p.body))
         if p.kind == "FUNCTION" and p.return_type is not None:
             out.append(f"    return {p.name};")

@@ -30,6 +30,10 @@ VAR v : Five; END_VAR
   Local := v;
 END_FUNCTION
 
+FUNCTION Unset : Five  (* its result is never assigned: the type's initial value *)
+VAR_INPUT unused : BOOL; END_VAR
+END_FUNCTION
+
 FUNCTION Twice : DINT
 VAR_INPUT v : DINT; END_VAR
 VAR_IN_OUT calls : INT; END_VAR
@@ -106,7 +110,7 @@ VAR
   five : Five; alsoFive : AlsoFive; ownFive : Five := 9; flag : Flag;
   fives : ARRAY[0..2] OF Five; grid : ARRAY[0..1, 0..1] OF Five;
   pair : Pair; pairs : ARRAY[1..2] OF Pair; holder : Holder;
-  fromLocal1 : INT; fromLocal2 : INT; fromTemp : INT;
+  fromLocal1 : INT; fromLocal2 : INT; fromTemp : INT; fromResult : INT;
 END_VAR
 VAR_TEMP k : INT; tempFive : Five; END_VAR
   IF done THEN RETURN; END_IF;
@@ -188,6 +192,7 @@ VAR_TEMP k : INT; tempFive : Five; END_VAR
   holder();
   fromLocal1 := Local(); fromLocal2 := Local();
   fromTemp := tempFive;
+  fromResult := Unset(FALSE);
 END_PROGRAM
 """
 
@@ -275,6 +280,7 @@ EXPECTED = {
     "fromLocal1": 6,  # a FUNCTION's local starts at 5 in every call
     "fromLocal2": 6,
     "fromTemp": 5,
+    "fromResult": 5,  # a FUNCTION's result of type Five
 }
 
 
