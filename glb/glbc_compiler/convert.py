@@ -8,7 +8,8 @@
 #             elements beyond a shrunk array are dropped (and listed).
 #
 # Anything else (narrowing, float to integer, a scalar becoming a struct, another number of array
-# dimensions...) is not converted: the variable "moves" (a new place, zeroed) and the reason says why.
+# dimensions...) is not converted: the variable "moves" and the reason says why; irpd runs such a
+# layout only by a managed restart (docs/hot-reload.md "Converted variables").
 # docs/glbc.md "Converted variables" is the table of these rules.
 
 from __future__ import annotations

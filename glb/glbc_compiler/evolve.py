@@ -46,6 +46,7 @@ class Previous:
     lineage: list[tuple[str, list[Placed]]]  # (hash, variables), newest first
     types: dict[str, Any]  # its "types" and each variable's "type" and "dims": what converting reads
     typed: dict[str, tuple[str, list[int]]]
+    iec: dict[str, str]  # the IEC type of a variable declared by stc, by path
 
     def shape(self, path: str) -> tuple[Shape, list[int], str]:
         """A variable's shape, dimensions and spelled type; NotConvertible when the file does not
@@ -126,7 +127,8 @@ def read_previous(file: str) -> Previous:
         earlier.append((_hash(file, entry.get("hash"), what), _variables(file, entry.get("variables"), what)))
     types = doc.get("types") if isinstance(doc.get("types"), dict) else {}
     typed = {v["path"]: (v.get("type"), v.get("dims", [])) for v in doc["variables"]}
-    return Previous(file, layout_hash, variables, earlier, types, typed)
+    iec = {v["path"]: v["iec_type"] for v in doc["variables"] if isinstance(v.get("iec_type"), str)}
+    return Previous(file, layout_hash, variables, earlier, types, typed, iec)
 
 
 # -- placing ------------------------------------------------------------------------------------------
@@ -212,7 +214,7 @@ def place(layout: Layout, prev: Previous, max_size: int) -> None:
                 copies = plan(v.path, shape, dims, entry["from"], shape_of(v.type), v.dims, v.offset)
                 converted.append(entry | {"from_type": was, "to_type": spelled(_name(v), v.dims)} | copies)
             except NotConvertible as e:
-                moved.append(entry | {"reason": str(e)})
+                moved.append(entry | _types(prev, v) | {"reason": str(e)})
     removed = [p.path for p in prev.variables if p.path not in now]
     layout.changes = {
         "previous": prev.hash,
@@ -227,6 +229,17 @@ def place(layout: Layout, prev: Previous, max_size: int) -> None:
     ][:MAX_LINEAGE]
 
 
+def _types(prev: Previous, v: Variable) -> dict[str, str]:
+    """A moved variable's types before and after, as the dry run names them: the IEC type of a
+    variable stc declared (`INT`), else the spelled C++ one (`int16_t`, `a.s_t[4]`)."""
+    name, dims = prev.typed.get(v.path, ("?", []))
+    dims = [d for d in dims if isinstance(d, int)] if isinstance(dims, list) else []
+    return {
+        "from_type": spelled(prev.iec.get(v.path) or str(name), dims),
+        "to_type": spelled(v.iec_type or _name(v), v.dims),
+    }
+
+
 def _name(v: Variable) -> str:
     return v.type.qualname if isinstance(v.type, StructType) else v.type.name
 
@@ -238,5 +251,8 @@ def summary(changes: dict[str, Any]) -> str:
         f"glbc: against layout {changes['previous'][:12]}…: {len(changes['added'])} added, "
         f"{len(changes['removed'])} removed, {len(changes['moved'])} moved, {len(changes['converted'])} converted"
     ]
-    lines += [f"glbc: not converted, starts at zero: {m['reason']}" for m in changes["moved"]]
+    lines += [
+        f"glbc: not convertible without loss, only a managed restart of irpd runs this layout: {m['reason']}"
+        for m in changes["moved"]
+    ]
     return "\n".join(lines)

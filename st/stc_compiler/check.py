@@ -10,7 +10,7 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import externs
+from . import externs, stdlib
 from . import tree as t
 from . import types as ty
 from .check_expr import ExprChecker
@@ -45,7 +45,10 @@ LIBRARIES = (STANDARD_LIBRARY, LIBRARY / "plcopen.st")
 def library_units() -> list[t.Unit]:
     """st/lib/standard.st (TON, CTU, R_TRIG, ...) and plcopen.st (the motion blocks, the alarms),
     read with every program; parsed anew each time because check() fills its tree."""
-    return [parse_text(f.name, f.read_text()) for f in LIBRARIES]
+    units = [parse_text(f.name, f.read_text()) for f in LIBRARIES]
+    for u in units:
+        u.library = True
+    return units
 
 
 def check(units: list[t.Unit], layout: Layout | None = None, library: bool = True) -> Program:
@@ -142,6 +145,25 @@ class Checker(ExprChecker):
             return
         table[key] = item
 
+    def standard_name(self, pou: t.Pou) -> bool:
+        """IEC 61131-3 reserves the standard functions' and function blocks' names: a POU of the set
+        named like one would hide it from every call (docs/st.md, "Names")."""
+        key = pou.name.upper()
+        library = self.prog.pous.get(key)
+        if stdlib.lookup(key) is not None:
+            what = "a standard function"
+        elif library is not None and any(p is library for u in self.prog.units if u.library for p in u.pous):
+            what = f"a standard {'function block' if library.kind == 'FUNCTION_BLOCK' else library.kind.lower()} (st/lib/{library.place.file})"
+        else:
+            return False
+        self.error(
+            pou.place,
+            "reserved",
+            f"'{pou.name}' is {what}, and IEC 61131-3 reserves its name; rename the {pou.kind} "
+            f"(e.g. 'My{pou.name[:1].upper()}{pou.name[1:].lower()}') and its calls",
+        )
+        return True
+
     def declare(self) -> None:
         prog = self.prog
         for unit in prog.units:
@@ -155,6 +177,8 @@ class Checker(ExprChecker):
                 self.name_ok(pou.place, pou.name, pou.kind)
                 if pou.name.upper() in prog.types:
                     self.error(pou.place, "duplicate", f"'{pou.name}' is already a type; rename the {pou.kind}")
+                    continue
+                if not unit.library and self.standard_name(pou):
                     continue
                 self.unique(prog.pous, pou.place, pou.name, pou, pou.kind)
             for g in unit.globals:
@@ -225,6 +249,22 @@ class Checker(ExprChecker):
             self.initial(decl.init, decl.type, decl.place)
         return decl.type
 
+    def alias_init(self, spec):
+        """The initial value a derived elementary type gives (TYPE X : INT := 5; END_TYPE, or an alias
+        of such a type), for a declaration of type X without its own; None otherwise.  (A derived
+        STRUCT, ARRAY, enumeration, subrange or STRING has a type object of its own, which the
+        code generator looks its declaration up by.)"""
+        seen: set[int] = set()
+        while isinstance(spec, t.TypeRef):
+            decl = self.prog.types.get(ty.ALIASES.get(spec.name.upper(), spec.name.upper()))
+            if decl is None or id(decl) in seen or not isinstance(self.type_decl(decl), ty.Elementary):
+                return None
+            if decl.init is not None:
+                return decl.init
+            seen.add(id(decl))
+            spec = decl.spec
+        return None
+
     def lookup_type(self, ref: t.TypeRef) -> ty.Type | None:
         key = ty.ALIASES.get(ref.name.upper(), ref.name.upper())
         if key in ty.ELEMENTARY:
@@ -270,7 +310,7 @@ class Checker(ExprChecker):
                     return None
                 dims.append((lo, hi))
             element = self.resolve_spec(spec.element)
-            return ty.ArrayType(dims, element) if element is not None else None
+            return ty.ArrayType(dims, element, self.alias_init(spec.element)) if element is not None else None
         if isinstance(spec, t.SubrangeSpec):
             base = self.resolve_spec(spec.base)
             lo, hi = self.constant_int(spec.low, "a subrange bound"), self.constant_int(spec.high, "a subrange bound")
@@ -324,6 +364,7 @@ class Checker(ExprChecker):
         self.scope = pou
         if pou.result is not None:
             pou.return_type = pou.result.type = self.resolve_spec(pou.returns)
+            pou.result.init = self.alias_init(pou.returns)  # FUNCTION F : Five starts its result at 5
             if isinstance(pou.return_type, ty.FbType):
                 self.error(pou.place, "type", "a FUNCTION cannot return an FB instance; return a STRUCT or use an FB")
         for v in pou.vars:
@@ -337,6 +378,8 @@ class Checker(ExprChecker):
         v.type = self.resolve_spec(v.spec, None)
         if v.type is None:
             return
+        if v.init is None and v.location is None and v.kind not in ("VAR_IN_OUT", "VAR_EXTERNAL", "RESULT"):
+            v.init = self.alias_init(v.spec)  # TYPE X : INT := 5; a variable of type X starts at 5
         if v.kind == "VAR_EXTERNAL":
             g = self.prog.globals.get(v.name.upper())
             if g is None:

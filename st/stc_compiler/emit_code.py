@@ -245,6 +245,20 @@ class CodeEmitter:
         decl = self.type_decls.get(id(typ))
         if decl is not None and decl.init is not None:
             return self.initial(decl.init, typ)
+        if isinstance(typ, ty.ArrayType):  # every element at its type's initial value, if it has one
+            one = (
+                self.initial(typ.element_init, typ.element)
+                if typ.element_init is not None
+                else self.default(typ.element)
+            )
+            if not one:
+                return ""
+            if not isinstance(typ.element, ty.ArrayType) and "," in one or isinstance(typ.element, ty.StructType):
+                one = f"{cpp_type(typ.element)}{{{one}}}"
+            count = 1
+            for lo, hi in typ.dims:
+                count *= hi - lo + 1
+            return ", ".join([one] * count)
         if isinstance(b, ty.EnumType) and b.values:
             first = next(iter(b.values.values()))
             return f"{first.number} /* {first.name} */"
@@ -285,7 +299,8 @@ class CodeEmitter:
             elif local:
                 out.append(f"    {self.member(v)}")
         if p.kind == "FUNCTION" and p.return_type is not None:
-            out.append(f"    {cpp_type(p.return_type)} {p.name}{{{self.default(p.return_type)}}};")
+            init = self.initial(p.result.init if p.result is not None else None, p.return_type)
+            out.append(f"    {cpp_type(p.return_type)} {p.name}{{{init}}};")
         out += _indent(self.block(p.body))
         if p.kind == "FUNCTION" and p.return_type is not None:
             out.append(f"    return {p.name};")

@@ -333,3 +333,4 @@ class Unit(Node):
     types: list[TypeDecl] = field(default_factory=list)
     globals: list[VarDecl] = field(default_factory=list)
     configurations: list[Configuration] = field(default_factory=list)
+    library: bool = False  # st/lib's standard.st or plcopen.st (check.library_units)

@@ -85,6 +85,7 @@ WSTRING = StringType(DEFAULT_STRING_LENGTH, True)
 class ArrayType(Type):
     dims: list[tuple[int, int]]
     element: Type
+    element_init: Any = None  # the initial value of its elements' derived type (TYPE X : INT := 5)
 
     @property
     def name(self) -> str:  # type: ignore[override]

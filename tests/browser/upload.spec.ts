@@ -103,7 +103,7 @@ test("an upload that adds a shared variable shows the variable diff and activate
       .getByTestId("upload-files")
       .setInputFiles(uploadOf("oc_reordered", { counter: "oc_counter_reordered.so" }));
     const restart = page.getByTestId("upload-result").getByTestId("plan");
-    await expect(restart.getByTestId("plan-restart")).toContainText("start at zero");
+    await expect(restart.getByTestId("plan-restart")).toContainText("start afresh");
     await expect(restart.getByTestId("plan-restart-reason")).toContainText("online");
     await expect(restart.getByTestId("plan-downtime")).not.toBeEmpty();
     const go = restart.getByTestId("plan-activate");
@@ -117,7 +117,7 @@ test("an upload that adds a shared variable shows the variable diff and activate
     const id = (await page.getByTestId("upload-set-id").textContent()) ?? "";
     await page.getByTestId(`activate-${id}`).click();
     const fromHistory = page.getByTestId("set-review").getByTestId("plan");
-    await expect(fromHistory.getByTestId("plan-restart")).toContainText("start at zero");
+    await expect(fromHistory.getByTestId("plan-restart")).toContainText("start afresh");
     await expect(fromHistory.getByTestId("plan-activate")).toBeDisabled();
 
     // confirmed: irpd restarts onto it (the same process), and the report gives the measured downtime

@@ -8,7 +8,8 @@
 // run and the restart rather than offered one; the dry run names the modules a load keeps,
 // starts, stops and replaces.  Executors added, removed
 // and changed at a swap: their threads start before it and stop after it, the counter on main
-// missing no period.  Retyped variables converted at the swap, a narrowed one named by the dry run.
+// missing no period.  Retyped variables converted at the swap; a narrowed one named by the dry run,
+// which offers only the managed restart (the load is refused as restart_required).
 #include "support/control_client.hpp"
 #include "support/irpd.hpp"
 #include "support/subprocess.hpp"
@@ -178,7 +179,9 @@ TEST(OnlineChange, AVariableIsRemovedAndItsRoomStaysAHole) {
     cell.expectCounterMissedNoPeriod();
 }
 
-TEST(OnlineChange, ARetypedVariableMovesAndItsUsersAreRebuiltOrRefused) {
+// v4 narrows oc.retyped (double -> float): its users must be rebuilt, and even then only a managed
+// restart runs the set (its value cannot be converted without loss).
+TEST(OnlineChange, ARetypedVariableThatLosesValuesNeedsARestartAndItsUsersARebuild) {
     Cell cell;
     ASSERT_TRUE(cell.load(cell.writeSet("v3.xml", "v3",
                                         thread("counter", "oc_counter_v1.so", cell.dir.path) +
@@ -199,21 +202,29 @@ TEST(OnlineChange, ARetypedVariableMovesAndItsUsersAreRebuiltOrRefused) {
     EXPECT_EQ(read(cell.vars, "oc.retyped", sizeof still, &still), static_cast<int>(sizeof still))
         << "the old layout is published again: oc.retyped is the double it was";
 
-    // Built against v1, the counter module knows oc.retyped as a double where v4 no longer has it, so
-    // it is rebuilt too: the same code (it does not use oc.retyped), so the running instance is kept.
-    json answer = cell.load(cell.writeSet("v4.xml", "v4",
-                                          thread("counter", "oc_counter_v4.so", cell.dir.path) +
-                                              thread("retyped", "oc_retyped_v4.so", cell.dir.path, 2)));
-    ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
-    EXPECT_EQ(answer["result"]["kept"], json({"counter"}));
-    EXPECT_EQ(answer["result"]["started"], json({"retyped"}));
-    ASSERT_EQ(answer["result"]["variables"]["moved"].size(), 1u);
-    EXPECT_EQ(answer["result"]["variables"]["moved"][0]["path"], "oc.retyped");
-    EXPECT_EQ(answer["result"]["variables"]["replaced"], json({"retyped"}));
+    // Rebuilt against v4, the modules fit it; still oc.retyped cannot be converted without loss, so
+    // the load is refused as restart_required, naming it with its types, and the set runs on.
+    const std::string v4 = cell.writeSet("v4.xml", "v4",
+                                         thread("counter", "oc_counter_v4.so", cell.dir.path) +
+                                             thread("retyped", "oc_retyped_v4.so", cell.dir.path, 2));
+    const json check = cell.ask({{"cmd", "check"}, {"config", v4}})["result"];
+    EXPECT_TRUE(check["valid"].get<bool>()) << check.dump();
+    EXPECT_FALSE(check["online"].get<bool>()) << check.dump();
+    ASSERT_EQ(check["variables"]["moved"].size(), 1u) << check.dump();
+    EXPECT_EQ(check["variables"]["moved"][0]["path"], "oc.retyped");
+    EXPECT_EQ(check["variables"]["moved"][0]["from_type"], "double");
+    EXPECT_EQ(check["variables"]["moved"][0]["to_type"], "float");
+    const std::string reason = check["restart"]["reason"];
+    EXPECT_NE(reason.find("'oc.retyped' double -> float"), std::string::npos) << reason;
+    EXPECT_NE(reason.find("managed restart"), std::string::npos) << reason;
+    json answer = cell.load(v4);
+    ASSERT_FALSE(answer.value("ok", true)) << answer.dump();
+    EXPECT_EQ(answer["error"]["code"], "restart_required") << answer.dump();
+    EXPECT_EQ(answer["error"]["message"], reason);
+    EXPECT_EQ(cell.generation(), generation) << "the running set is left as it was";
+    const double before = cell.f64("oc.retyped");
     settle();
-    float f = 0;
-    ASSERT_EQ(read(cell.vars, "oc.retyped", sizeof f, &f), static_cast<int>(sizeof f));
-    EXPECT_GT(f, 0.0f) << "the moved variable started at zero and the new module counts in it";
+    EXPECT_GT(cell.f64("oc.retyped"), before) << "the running module counts on in the double";
     cell.expectCounterMissedNoPeriod();
 }
 
@@ -235,7 +246,7 @@ void expectConvertedByCv2(Cell &cell, int32_t count_before) {
         const std::string path = "cv.arr[" + std::to_string(i) + "]";
         EXPECT_EQ(cell.value<int32_t>(path.c_str()), i < 3 ? 10 * (i + 1) : 0) << path;
     }
-    EXPECT_EQ(cell.value<int16_t>("cv.narrow"), 0) << "not converted: it started at zero";
+    EXPECT_EQ(cell.value<int32_t>("cv.narrow"), 70000) << "kept";
     EXPECT_EQ(cell.value<double>("cv.f"), 1.5);
     EXPECT_EQ(cell.value<float>("cv.i2f"), -300.0f);
     EXPECT_EQ(cell.value<int32_t>("cv.nest[0].inner.a"), -7);
@@ -254,7 +265,7 @@ void expectConvertedByCv2(Cell &cell, int32_t count_before) {
 
 // Retyped variables keep their values where no value can be lost (docs/hot-reload.md "Converted
 // variables"): cv1 -> cv2 while a module counts in a field of a struct that gains a field.
-TEST(OnlineChange, RetypedVariablesAreConvertedAtTheSwapAndANarrowedOneIsNamed) {
+TEST(OnlineChange, RetypedVariablesAreConvertedAtTheSwap) {
     Cell cell("", {}, "cv1", {"cv", "oc_cv_v1.so"});
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
     // Before: what the v1 module wrote, in cv1's types.
@@ -277,22 +288,51 @@ TEST(OnlineChange, RetypedVariablesAreConvertedAtTheSwapAndANarrowedOneIsNamed) 
     EXPECT_EQ(converted["cv.i2f"], Types("int16_t", "float"));
     EXPECT_EQ(converted["cv.fb"], Types("cv.fb_t", "cv.fb_t"));
     EXPECT_EQ(converted["cv.nest"], Types("cv.nest_t[2]", "cv.nest_t[3]"));
-    ASSERT_EQ(check["variables"]["moved"].size(), 1u) << check.dump();
-    EXPECT_EQ(check["variables"]["moved"][0]["path"], "cv.narrow");
-    EXPECT_EQ(check["variables"]["moved"][0]["reason"], "cv.narrow: int32_t to int16_t may lose values");
-    const std::string warnings = check["warnings"].dump();
-    EXPECT_NE(warnings.find("variable 'cv.narrow' changes its type and its value is not kept (cv.narrow: int32_t to "
-                            "int16_t may lose values): it starts at zero at the swap"),
-              std::string::npos)
-        << warnings;
+    EXPECT_EQ(check["variables"]["moved"], json::array()) << check.dump();
 
     const int32_t count_before = cell.value<int32_t>("cv.fb.count");
     EXPECT_GT(count_before, 300);
     json answer = cell.load(xml);
     ASSERT_TRUE(answer.value("ok", false)) << answer.dump();
     EXPECT_EQ(answer["result"]["variables"]["converted"], check["variables"]["converted"]);
-    EXPECT_EQ(answer["result"]["variables"]["moved"], check["variables"]["moved"]);
+    EXPECT_EQ(answer["result"]["variables"]["moved"], json::array());
     expectConvertedByCv2(cell, count_before);
+}
+
+// A retyped variable whose value cannot be converted without loss (int32 -> int16): the dry run
+// names it with its types and why, and offers only the managed restart; the load is refused as
+// restart_required with the same reason, and the running set counts on with its values.
+TEST(OnlineChange, ANarrowedVariableIsNamedAndOnlyARestartRunsIt) {
+    Cell cell("", {}, "cv1", {"cv", "oc_cv_v1.so"});
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    const std::string xml =
+        cell.writeSet("cv-narrow.xml", "cv_narrow", thread("cv", "oc_cv_v_narrow.so", cell.dir.path));
+    json check = cell.ask({{"cmd", "check"}, {"config", xml}})["result"];
+    EXPECT_TRUE(check["valid"].get<bool>()) << check.dump();
+    EXPECT_FALSE(check["online"].get<bool>()) << check.dump();
+    ASSERT_EQ(check["variables"]["moved"].size(), 1u) << check.dump();
+    const json &moved = check["variables"]["moved"][0];
+    EXPECT_EQ(moved["path"], "cv.narrow");
+    EXPECT_EQ(moved["from_type"], "int32_t");
+    EXPECT_EQ(moved["to_type"], "int16_t");
+    EXPECT_EQ(moved["reason"], "cv.narrow: int32_t to int16_t may lose values");
+    const std::string reason = check["restart"]["reason"];
+    EXPECT_NE(reason.find("'cv.narrow' int32_t -> int16_t (cv.narrow: int32_t to int16_t may lose values)"),
+              std::string::npos)
+        << reason;
+    EXPECT_NE(reason.find("only the managed restart (activate --mode restart or auto)"), std::string::npos) << reason;
+    EXPECT_TRUE(check["restart"].contains("expected_downtime_ns")) << check.dump();
+
+    const json generation = cell.generation();
+    const int32_t count_before = cell.value<int32_t>("cv.fb.count");
+    json answer = cell.load(xml);
+    ASSERT_FALSE(answer.value("ok", true)) << answer.dump();
+    EXPECT_EQ(answer["error"]["code"], "restart_required");
+    EXPECT_EQ(answer["error"]["message"], reason);
+    EXPECT_EQ(cell.generation(), generation) << "the running set is left as it was";
+    EXPECT_EQ(cell.value<int32_t>("cv.narrow"), 70000);
+    settle();
+    EXPECT_GT(cell.value<int32_t>("cv.fb.count"), count_before) << "the running module counts on";
 }
 
 // A conversion plan that copies outside its variable (a layout.json edited by hand) is refused by

@@ -54,11 +54,8 @@ protected:
         if (steps.empty() || steps.back() != out.Step) steps.push_back(out.Step);
     }
     bool runUntil(const std::function<bool()> &done, int max = 5000) {
-        for (int i = 0; i < max; ++i) {
-            if (done()) return true;
-            period();
-        }
-        return done();
+        return plc_test::runUntil(
+            done, [this] { period(); }, max);
     }
     void pulse(bool pou::Inputs::*input) {
         in.*input = true;
@@ -567,10 +564,7 @@ TEST_F(CellSegment, MainRunsTheCycleOnTheSharedVariables) {
         EXPECT_EQ(PLC_ROBOT::O0.load(), robot.st.MotionDone);
         if (steps.empty() || steps.back() != out.Step) steps.push_back(out.Step);
     };
-    auto runUntil = [&](auto done) {
-        for (int i = 0; i < 5000 && !done(); ++i) period();
-        return done();
-    };
+    auto runUntil = [&](const std::function<bool()> &done) { return plc_test::runUntil(done, period, 5000); };
     ASSERT_TRUE(runUntil([&] { return out.Powered != 0; }));
     steps.clear();
     PLC_ROBOT::I0 = 1;

@@ -24,14 +24,12 @@ TEST(MoveAbsolute, RequestsOnTheRisingEdgeIsActiveWhenTakenAndDoneWhenTheRobotFi
     mv.Velocity = 0.5;
     mv.Acceleration = 0.25;
 
-    b.robot.run();
-    mv(b.g);  // Execute FALSE: nothing
+    scan(b, mv);  // Execute FALSE: nothing
     EXPECT_FALSE(mv.Busy || mv.Active || mv.Done || mv.Error || mv.CommandAborted);
     EXPECT_EQ(b.robot.svc.nSeq, 0u);
 
     mv.Execute = true;  // the rising edge writes the request, nSeq last
-    b.robot.run();
-    mv(b.g);
+    scan(b, mv);
     EXPECT_TRUE(mv.Busy);
     EXPECT_FALSE(mv.Active) << "not taken by the robot yet";
     EXPECT_FALSE(mv.Done);
@@ -41,28 +39,23 @@ TEST(MoveAbsolute, RequestsOnTheRisingEdgeIsActiveWhenTakenAndDoneWhenTheRobotFi
     EXPECT_DOUBLE_EQ(b.robot.svc.t_accel, 0.25);
     for (int i = 0; i < kAxes; ++i) EXPECT_DOUBLE_EQ(b.robot.svc.dTarget[i], kJointTarget[i]);
 
-    b.robot.run();  // takes it
-    mv(b.g);
+    scan(b, mv);  // takes it
     EXPECT_TRUE(mv.Busy && mv.Active);
     ASSERT_EQ(b.robot.taken.size(), 1u);
     for (int run = 1; run < 8; ++run) {
-        b.robot.run();
-        mv(b.g);
+        scan(b, mv);
         EXPECT_TRUE(mv.Busy && mv.Active && !mv.Done) << "run " << run;
     }
-    b.robot.run();  // the 8th run ends the move: MotionDone for nAckSeq 1
-    mv(b.g);
+    scan(b, mv);  // the 8th run ends the move: MotionDone for nAckSeq 1
     EXPECT_TRUE(mv.Done);
     EXPECT_FALSE(mv.Busy || mv.Active || mv.Error || mv.CommandAborted);
 
-    for (int scan = 0; scan < 5; ++scan) {  // Done stays while Execute stays TRUE
-        b.robot.run();
-        mv(b.g);
-        EXPECT_TRUE(mv.Done) << scan;
+    for (int k = 0; k < 5; ++k) {  // Done stays while Execute stays TRUE
+        scan(b, mv);
+        EXPECT_TRUE(mv.Done) << k;
     }
     mv.Execute = false;  // and resets with it
-    b.robot.run();
-    mv(b.g);
+    scan(b, mv);
     EXPECT_FALSE(mv.Done || mv.Busy);
     EXPECT_EQ(b.robot.taken.size(), 1u) << "one request per rising edge";
 }
@@ -73,20 +66,17 @@ TEST(MoveAbsolute, ExecuteFallingWhileBusyLetsTheMoveFinishAndShowsDoneForOneSca
     MC_MoveAbsolute mv;
     mv.Position = kJointTarget;
     mv.Execute = true;
-    b.robot.run();
-    mv(b.g);
+    scan(b, mv);
     mv.Execute = false;  // falls while busy
     int scans = 0;
     while (!mv.Done && scans < 100) {
         EXPECT_TRUE(mv.Busy) << "the command goes on after Execute fell";
-        b.robot.run();
-        mv(b.g);
+        scan(b, mv);
         ++scans;
     }
     ASSERT_TRUE(mv.Done);
     EXPECT_FALSE(mv.Busy);
-    b.robot.run();
-    mv(b.g);
+    scan(b, mv);
     EXPECT_FALSE(mv.Done) << "shown for exactly one scan";
     EXPECT_EQ(b.robot.taken.size(), 1u);
 }
@@ -97,24 +87,19 @@ TEST(MoveAbsolute, RisingEdgeWhileBusyStartsANewMoveAndTheFirstGetsNoFeedback) {
     MC_MoveAbsolute mv;
     mv.Position = kJointTarget;
     mv.Execute = true;
-    b.robot.run();
-    mv(b.g);
-    b.robot.run();
-    mv(b.g);
+    scan(b, mv);
+    scan(b, mv);
     ASSERT_TRUE(mv.Active);
     mv.Execute = false;
-    b.robot.run();
-    mv(b.g);
+    scan(b, mv);
     mv.Execute = true;  // a new edge while busy
     mv.Position = Vec6{1, 1, 1, 1, 1, 1};
-    b.robot.run();
-    mv(b.g);
+    scan(b, mv);
     EXPECT_EQ(b.robot.svc.nSeq, 2u);
-    for (int scan = 0; scan < 100 && !mv.Done; ++scan) {
+    for (int k = 0; k < 100 && !mv.Done; ++k) {
         EXPECT_FALSE(mv.CommandAborted || mv.Error) << "the superseded command of the same instance is silent";
         EXPECT_TRUE(mv.Busy);
-        b.robot.run();
-        mv(b.g);
+        scan(b, mv);
     }
     ASSERT_TRUE(mv.Done);
     ASSERT_EQ(b.robot.taken.size(), 2u);
@@ -130,40 +115,29 @@ TEST(MoveLinear, ANewerMoveAbortsTheRunningOneWithCommandAborted) {
     second.Position = kPoseTarget;
     second.Velocity = 0.25;
     first.Execute = true;
-    b.robot.run();
-    first(b.g);
-    second(b.g);
-    b.robot.run();
-    first(b.g);
-    second(b.g);
+    scan(b, first, second);
+    scan(b, first, second);
     ASSERT_TRUE(first.Active);
 
     second.Execute = true;  // called after `first` in the scan
-    b.robot.run();
-    first(b.g);
-    second(b.g);
+    scan(b, first, second);
     EXPECT_TRUE(first.Busy && first.Active) << "the first learns of it in its next call";
     EXPECT_TRUE(second.Busy);
     EXPECT_EQ(b.robot.svc.eOpCode, 4);
 
-    b.robot.run();  // takes the MoveL, replacing the MoveJ
-    first(b.g);
-    second(b.g);
+    scan(b, first, second);  // takes the MoveL, replacing the MoveJ
     EXPECT_TRUE(first.CommandAborted);
     EXPECT_FALSE(first.Busy || first.Active || first.Done || first.Error);
     EXPECT_TRUE(second.Busy && second.Active);
 
-    for (int scan = 0; scan < 100 && !second.Done; ++scan) {
-        b.robot.run();
-        first(b.g);
-        second(b.g);
+    for (int k = 0; k < 100 && !second.Done; ++k) {
+        scan(b, first, second);
         EXPECT_TRUE(first.CommandAborted) << "stays while Execute stays TRUE";
         EXPECT_FALSE(first.Done);
     }
     EXPECT_TRUE(second.Done);
     first.Execute = false;
-    b.robot.run();
-    first(b.g);
+    scan(b, first);
     EXPECT_FALSE(first.CommandAborted);
     ASSERT_EQ(b.robot.ops(), (std::vector<OpCode>{OpCode::MoveJ, OpCode::MoveL}));
     EXPECT_DOUBLE_EQ(b.robot.taken[1].speed, 0.25);
@@ -177,22 +151,18 @@ TEST(MoveLinear, ARefusedRequestIsErrorWithTheRobotsErrorID) {
     MC_MoveLinear mv;
     mv.Position = kPoseTarget;
     mv.Execute = true;
-    b.robot.run();
-    mv(b.g);
+    scan(b, mv);
     EXPECT_TRUE(mv.Busy);
-    b.robot.run();  // refuses: ErrorID 3, unreachable
-    mv(b.g);
+    scan(b, mv);  // refuses: ErrorID 3, unreachable
     EXPECT_TRUE(mv.Error);
     EXPECT_EQ(mv.ErrorID, 3);
     EXPECT_FALSE(mv.Busy || mv.Active || mv.Done || mv.CommandAborted);
-    for (int scan = 0; scan < 3; ++scan) {
-        b.robot.run();
-        mv(b.g);
+    for (int k = 0; k < 3; ++k) {
+        scan(b, mv);
         EXPECT_TRUE(mv.Error && mv.ErrorID == 3);
     }
     mv.Execute = false;
-    b.robot.run();
-    mv(b.g);
+    scan(b, mv);
     EXPECT_FALSE(mv.Error);
     EXPECT_EQ(mv.ErrorID, 0);
 }
@@ -201,10 +171,8 @@ TEST(MoveAbsolute, AMoveOnAnUnpoweredRobotFailsWithErrorID1) {
     Bench b;
     MC_MoveAbsolute mv;
     mv.Execute = true;
-    b.robot.run();
-    mv(b.g);
-    b.robot.run();
-    mv(b.g);
+    scan(b, mv);
+    scan(b, mv);
     EXPECT_TRUE(mv.Error);
     EXPECT_EQ(mv.ErrorID, 1);
 }
@@ -214,14 +182,11 @@ TEST(MoveAbsolute, AnErrorWhileMovingComesFromTheRobotsState) {
     b.robot.powerUp();
     MC_MoveAbsolute mv;
     mv.Execute = true;
-    b.robot.run();
-    mv(b.g);
-    b.robot.run();
-    mv(b.g);
+    scan(b, mv);
+    scan(b, mv);
     ASSERT_TRUE(mv.Active);
     b.robot.driveFault(4);
-    b.robot.run();
-    mv(b.g);
+    scan(b, mv);
     EXPECT_TRUE(mv.Error);
     EXPECT_EQ(mv.ErrorID, 4);
     EXPECT_FALSE(mv.Busy || mv.Active);
@@ -263,22 +228,17 @@ TEST(MoveAbsolute, SequenceNumbersWrapAround) {
     b.robot.svc.nSeq = b.robot.st.nAckSeq = 0xFFFFFFFEu;
     MC_MoveAbsolute first, second;
     first.Execute = true;
-    b.robot.run();
-    first(b.g);
+    scan(b, first);
     EXPECT_EQ(b.robot.svc.nSeq, 0xFFFFFFFFu);
-    b.robot.run();
-    first(b.g);
+    scan(b, first);
     second.Execute = true;
     second(b.g);
     EXPECT_EQ(b.robot.svc.nSeq, 0u);
-    b.robot.run();
-    first(b.g);
-    second(b.g);
+    scan(b, first, second);
     EXPECT_TRUE(first.CommandAborted) << "0 comes after 0xFFFFFFFF";
     EXPECT_TRUE(second.Active);
-    for (int scan = 0; scan < 100 && !second.Done; ++scan) {
-        b.robot.run();
-        second(b.g);
+    for (int k = 0; k < 100 && !second.Done; ++k) {
+        scan(b, second);
     }
     EXPECT_TRUE(second.Done);
 }
@@ -288,42 +248,36 @@ TEST(MoveAbsolute, SequenceNumbersWrapAround) {
 TEST(Power, EnablePowersOnAndStatusFollowsTheRobot) {
     Bench b;
     MC_Power pw;
-    b.robot.run();
-    pw(b.g);
+    scan(b, pw);
     EXPECT_FALSE(pw.Status || pw.Valid || pw.Busy || pw.Error);
     EXPECT_EQ(b.robot.svc.nSeq, 0u);
 
     pw.Enable = true;
-    b.robot.run();
-    pw(b.g);
+    scan(b, pw);
     EXPECT_TRUE(pw.Busy);
     EXPECT_TRUE(pw.Valid);
     EXPECT_FALSE(pw.Status);
     EXPECT_EQ(b.robot.svc.eOpCode, 1);
     int scans = 0;
     while (!pw.Status && scans < 20) {
-        b.robot.run();
-        pw(b.g);
+        scan(b, pw);
         ++scans;
     }
     EXPECT_TRUE(pw.Status);
     EXPECT_EQ(scans, 1 + b.robot.powerCycles) << "taken, then powerCycles runs";
     EXPECT_FALSE(pw.Busy);
     EXPECT_TRUE(pw.Valid);
-    for (int scan = 0; scan < 5; ++scan) {
-        b.robot.run();
-        pw(b.g);
+    for (int k = 0; k < 5; ++k) {
+        scan(b, pw);
     }
     EXPECT_EQ(b.robot.taken.size(), 1u) << "no more requests while enabled and powered";
 
     pw.Enable = false;
-    b.robot.run();
-    pw(b.g);
+    scan(b, pw);
     EXPECT_EQ(b.robot.svc.eOpCode, 2);
     EXPECT_FALSE(pw.Valid);
-    for (int scan = 0; scan < 20 && pw.Status; ++scan) {
-        b.robot.run();
-        pw(b.g);
+    for (int k = 0; k < 20 && pw.Status; ++k) {
+        scan(b, pw);
     }
     EXPECT_FALSE(pw.Status || pw.Busy || pw.Error);
     EXPECT_EQ(b.robot.ops(), (std::vector<OpCode>{OpCode::PowerOn, OpCode::PowerOff}));
@@ -334,8 +288,7 @@ TEST(Power, EnablingAPoweredRobotSendsNothing) {
     b.robot.powerUp();
     MC_Power pw;
     pw.Enable = true;
-    b.robot.run();
-    pw(b.g);
+    scan(b, pw);
     EXPECT_TRUE(pw.Status && pw.Valid);
     EXPECT_FALSE(pw.Busy);
     EXPECT_EQ(b.robot.svc.nSeq, 0u);
@@ -346,22 +299,19 @@ TEST(Power, APowerOnTimeoutIsAnErrorUntilEnableFalls) {
     b.robot.powerOnTimesOut = true;
     MC_Power pw;
     pw.Enable = true;
-    for (int scan = 0; scan < 20 && !pw.Error; ++scan) {
-        b.robot.run();
-        pw(b.g);
+    for (int k = 0; k < 20 && !pw.Error; ++k) {
+        scan(b, pw);
     }
     EXPECT_TRUE(pw.Error);
     EXPECT_EQ(pw.ErrorID, 6);
     EXPECT_FALSE(pw.Valid || pw.Status || pw.Busy);
-    for (int scan = 0; scan < 5; ++scan) {
-        b.robot.run();
-        pw(b.g);
+    for (int k = 0; k < 5; ++k) {
+        scan(b, pw);
         EXPECT_TRUE(pw.Error);
     }
     EXPECT_EQ(b.robot.ops(), (std::vector<OpCode>{OpCode::PowerOn})) << "no retry while the group is in error";
     pw.Enable = false;
-    b.robot.run();
-    pw(b.g);
+    scan(b, pw);
     EXPECT_FALSE(pw.Error);
     EXPECT_EQ(pw.ErrorID, 0);
 }
@@ -371,25 +321,19 @@ TEST(Power, PowerLostIsAnErrorAndAfterResetThePowerComesBack) {
     MC_Power pw;
     MC_Reset rs;
     pw.Enable = true;
-    for (int scan = 0; scan < 20 && !pw.Status; ++scan) {
-        b.robot.run();
-        pw(b.g);
-        rs(b.g);
+    for (int k = 0; k < 20 && !pw.Status; ++k) {
+        scan(b, pw, rs);
     }
     ASSERT_TRUE(pw.Status);
     b.robot.driveFault(4);
-    b.robot.run();
-    pw(b.g);
-    rs(b.g);
+    scan(b, pw, rs);
     EXPECT_TRUE(pw.Error);
     EXPECT_EQ(pw.ErrorID, 4);
     EXPECT_FALSE(pw.Status || pw.Valid);
 
     rs.Execute = true;
-    for (int scan = 0; scan < 20 && !(pw.Status && rs.Done); ++scan) {
-        b.robot.run();
-        pw(b.g);
-        rs(b.g);
+    for (int k = 0; k < 20 && !(pw.Status && rs.Done); ++k) {
+        scan(b, pw, rs);
         EXPECT_FALSE(rs.Error);
     }
     EXPECT_TRUE(rs.Done);
@@ -405,17 +349,11 @@ TEST(Power, DisablingAbortsTheRunningMove) {
     MC_Power pw;
     MC_MoveAbsolute mv;
     pw.Enable = mv.Execute = true;
-    b.robot.run();
-    pw(b.g);
-    mv(b.g);
-    b.robot.run();
-    pw(b.g);
-    mv(b.g);
+    scan(b, pw, mv);
+    scan(b, pw, mv);
     ASSERT_TRUE(mv.Active);
     pw.Enable = false;
-    b.robot.run();
-    pw(b.g);
-    mv(b.g);
+    scan(b, pw, mv);
     EXPECT_TRUE(mv.CommandAborted);
     EXPECT_FALSE(mv.Busy);
 }
@@ -428,31 +366,21 @@ TEST(Stop, StopsTheMoveHoldsTheGroupWhileExecuteAndReleasesIt) {
     MC_MoveAbsolute mv;
     MC_Stop st;
     mv.Execute = true;
-    b.robot.run();
-    mv(b.g);
-    st(b.g);
-    b.robot.run();
-    mv(b.g);
-    st(b.g);
+    scan(b, mv, st);
+    scan(b, mv, st);
     ASSERT_TRUE(mv.Active);
 
     st.Execute = true;
-    b.robot.run();
-    mv(b.g);
-    st(b.g);
+    scan(b, mv, st);
     EXPECT_TRUE(st.Busy);
     EXPECT_EQ(b.robot.svc.eOpCode, 5);
-    b.robot.run();  // takes the stop
-    mv(b.g);
-    st(b.g);
+    scan(b, mv, st);  // takes the stop
     EXPECT_TRUE(mv.CommandAborted);
     EXPECT_TRUE(st.Busy);
     EXPECT_EQ(b.robot.st.eState, 3) << "stopping";
     int scans = 0;
     while (!st.Done && scans < 20) {
-        b.robot.run();
-        mv(b.g);
-        st(b.g);
+        scan(b, mv, st);
         ++scans;
     }
     EXPECT_TRUE(st.Done);
@@ -464,9 +392,7 @@ TEST(Stop, StopsTheMoveHoldsTheGroupWhileExecuteAndReleasesIt) {
     MC_MoveLinear other;
     other.Execute = true;
     const uint32_t before = b.robot.svc.nSeq;
-    b.robot.run();
-    st(b.g);
-    other(b.g);
+    scan(b, st, other);
     EXPECT_TRUE(other.Error);
     EXPECT_EQ(other.ErrorID, error::kGroupStopping);
     EXPECT_EQ(b.robot.svc.nSeq, before);
@@ -474,14 +400,10 @@ TEST(Stop, StopsTheMoveHoldsTheGroupWhileExecuteAndReleasesIt) {
 
     st.Execute = false;
     other.Execute = false;
-    b.robot.run();
-    st(b.g);
-    other(b.g);
+    scan(b, st, other);
     EXPECT_FALSE(st.Done);
     other.Execute = true;  // released: moves again
-    b.robot.run();
-    st(b.g);
-    other(b.g);
+    scan(b, st, other);
     EXPECT_TRUE(other.Busy);
     EXPECT_FALSE(other.Error);
     EXPECT_EQ(b.robot.svc.eOpCode, 4);
@@ -494,29 +416,22 @@ TEST(Stop, ExecuteFallingWhileStoppingHoldsUntilStandstillAndShowsDoneOnce) {
     MC_MoveAbsolute mv;
     MC_Stop st;
     mv.Execute = true;
-    b.robot.run();
-    mv(b.g);
-    b.robot.run();
-    mv(b.g);
+    scan(b, mv);
+    scan(b, mv);
     st.Execute = true;
-    b.robot.run();
-    st(b.g);
+    scan(b, st);
     st.Execute = false;  // falls at once
     MC_MoveAbsolute next;
     next.Execute = true;
-    b.robot.run();
-    st(b.g);
-    next(b.g);
+    scan(b, st, next);
     EXPECT_TRUE(st.Busy);
     EXPECT_TRUE(next.Error) << "still stopping";
     EXPECT_EQ(next.ErrorID, error::kGroupStopping);
     while (!st.Done && st.Busy) {
-        b.robot.run();
-        st(b.g);
+        scan(b, st);
     }
     EXPECT_TRUE(st.Done);
-    b.robot.run();
-    st(b.g);
+    scan(b, st);
     EXPECT_FALSE(st.Done) << "shown for one scan";
     next.Execute = false;
     next(b.g);
@@ -534,18 +449,16 @@ TEST(Stop, AnInstanceCopiedInAndOutEveryScanStillReleasesTheGroup) {
     MC_Stop stored;                  // the copy in shared memory
     std::array<MC_Stop, 16> images;  // the run's local copy: another place in each scan
     std::size_t scans = 0;
-    auto scan = [&] {
+    auto scanCopied = [&] {
         MC_Stop &local = images.at(scans++);
         local = stored;
-        b.robot.run();
-        local(b.g);
+        scan(b, local);
         stored = local;
     };
     stored.Execute = true;
-    for (int i = 0; i < 10 && !stored.Done; ++i) scan();
-    ASSERT_TRUE(stored.Done);
+    ASSERT_TRUE(runUntil([&] { return stored.Done; }, scanCopied, 10));
     stored.Execute = false;
-    scan();
+    scanCopied();
     MC_MoveAbsolute mv;
     mv.Execute = true;
     mv(b.g);
@@ -562,27 +475,22 @@ TEST(Reset, ClearsTheGroupsError) {
     MC_MoveAbsolute mv;
     MC_Reset rs;
     mv.Execute = true;
-    b.robot.run();
-    mv(b.g);
-    b.robot.run();
-    mv(b.g);
+    scan(b, mv);
+    scan(b, mv);
     ASSERT_TRUE(mv.Error);
     ASSERT_EQ(b.robot.st.eState, 4);
 
     rs.Execute = true;
-    b.robot.run();
-    rs(b.g);
+    scan(b, rs);
     EXPECT_TRUE(rs.Busy);
     EXPECT_EQ(b.robot.svc.eOpCode, 6);
-    b.robot.run();
-    rs(b.g);
+    scan(b, rs);
     EXPECT_TRUE(rs.Done);
     EXPECT_FALSE(rs.Busy || rs.Error);
     EXPECT_EQ(b.robot.st.Error, 0);
     EXPECT_EQ(b.robot.st.eState, 1);
     rs.Execute = false;
-    b.robot.run();
-    rs(b.g);
+    scan(b, rs);
     EXPECT_FALSE(rs.Done);
 }
 
@@ -592,13 +500,9 @@ TEST(Reset, WithoutAnErrorItIsDoneAtOnceAndSendsNothing) {
     MC_MoveAbsolute mv;
     MC_Reset rs;
     mv.Execute = true;
-    b.robot.run();
-    mv(b.g);
-    rs(b.g);
+    scan(b, mv, rs);
     rs.Execute = true;
-    b.robot.run();
-    mv(b.g);
-    rs(b.g);
+    scan(b, mv, rs);
     EXPECT_TRUE(rs.Done);
     EXPECT_FALSE(rs.Busy);
     EXPECT_EQ(b.robot.ops(), (std::vector<OpCode>{OpCode::MoveJ}));
@@ -611,16 +515,13 @@ TEST(Reset, ErrorStillSetWhileTheRobotIsBusyResettingIsNotAFailure) {
     b.robot.resetBusyCycles = 3;
     MC_Reset rs;
     rs.Execute = true;
-    b.robot.run();
-    rs(b.g);
-    for (int scan = 0; scan < 3; ++scan) {
-        b.robot.run();
-        rs(b.g);
-        EXPECT_TRUE(rs.Busy) << scan;
-        EXPECT_FALSE(rs.Error) << scan;
+    scan(b, rs);
+    for (int k = 0; k < 3; ++k) {
+        scan(b, rs);
+        EXPECT_TRUE(rs.Busy) << k;
+        EXPECT_FALSE(rs.Error) << k;
     }
-    b.robot.run();
-    rs(b.g);
+    scan(b, rs);
     EXPECT_TRUE(rs.Done);
     EXPECT_EQ(b.robot.st.eState, 0) << "unpowered: disabled after the reset";
 }
@@ -631,10 +532,8 @@ TEST(Reset, ARefusedResetIsAnError) {
     b.robot.resetFails = true;
     MC_Reset rs;
     rs.Execute = true;
-    b.robot.run();
-    rs(b.g);
-    b.robot.run();
-    rs(b.g);
+    scan(b, rs);
+    scan(b, rs);
     EXPECT_TRUE(rs.Error);
     EXPECT_EQ(rs.ErrorID, 4);
     EXPECT_FALSE(rs.Done || rs.Busy);

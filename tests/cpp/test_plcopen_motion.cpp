@@ -18,13 +18,6 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// One period: the robot, then the blocks in the order given (the PLC's scan).
-template <class... Blocks>
-void scan(Bench &b, Blocks &...blocks) {
-    b.robot.run();
-    (blocks(b.g), ...);
-}
-
 // ---- MC_Home -----------------------------------------------------------------------------------
 
 TEST(Home, MovesToThePositionAndTheGroupIsHomedUntilItLosesPower) {
@@ -284,9 +277,7 @@ TEST(MoveVelocity, AJointAtItsLimitIsAnErrorWithTheRobotsErrorID) {
     axisError.Enable = true;
     jog.Velocity[0] = 1;
     jog.Execute = true;
-    int scans = 0;
-    while (!jog.Error && scans++ < 20) scan(b, jog, axisError);
-    ASSERT_TRUE(jog.Error);
+    ASSERT_TRUE(runUntil([&] { return jog.Error; }, [&] { scan(b, jog, axisError); }, 20));
     EXPECT_EQ(jog.ErrorID, 2);
     EXPECT_FALSE(jog.Busy || jog.Active || jog.InVelocity || jog.CommandAborted);
     EXPECT_EQ(axisError.AxisErrorID, 2);
@@ -395,7 +386,7 @@ TEST(ReadStatus, FollowsTheGroupThroughItsStates) {
     step();
     EXPECT_TRUE(st.Valid && st.Disabled);
     power.Enable = true;
-    for (int k = 0; k < 10 && !power.Status; ++k) step();
+    runUntil([&] { return power.Status; }, step, 10);
     EXPECT_TRUE(st.Standstill);
     move.Execute = true;
     step();

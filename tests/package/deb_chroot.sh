@@ -20,7 +20,8 @@
 # indurop started with its unit's arguments (HTTPS with the certificate postinst made, its
 # fingerprint the one the install printed; plain HTTP not answered; on 127.0.0.1 and a free port
 # instead of every interface and 8443), the default set stored and activated
-# (activate-default-set), irpd restarted on the active set; then `apt-get remove` (data kept),
+# (activate-default-set), irpd restarted on the active set, an ST set using PLCopen blocks uploaded
+# and compiled there (and the ST SDK and the ST cell's example installed); then `apt-get remove` (data kept),
 # `apt-get purge --autoremove` (the file system's names as before the install).  The upgrade:
 # OLD_DEB installed and run as its unit has it (HTTP), its default set activated; DEB installed
 # over it: the tokens, the set store and the active set kept, a certificate made, the agent on
@@ -228,15 +229,26 @@ runs_active_set() {  # until irpd (through the agent) runs the store's active se
 }
 runs_active_set || fail "irpd does not run the active set after its restart"
 # A set in Structured Text, uploaded: the agent compiles it here (stc, python3-lark, g++, the SDK's
-# headers and libindurop as the package installs them) and stores the module it built.
+# headers, the ST runtime and st/lib, libindurop and libindurop_plcopen.a as the package installs
+# them) and stores the module it built; its PLCopen blocks (MC_Power, MC_MoveAbsolute) are linked in.
 in_chroot install -d -o indurop /tmp/st-set
-printf '%s\n' 'PROGRAM Counter VAR n : DINT; END_VAR n := n + 1; END_PROGRAM' \
+printf '%s\n' 'PROGRAM Counter VAR n : DINT; Robot : AXES_GROUP_REF; Power : MC_Power;' \
+  'MoveJ : MC_MoveAbsolute; Home : AXES; powered : BOOL; END_VAR n := n + 1;' \
+  'Power(AxesGroup := Robot, Enable := TRUE, Status => powered);' \
+  'MoveJ(AxesGroup := Robot, Execute := powered, Position := Home, Velocity := 0.5, Acceleration := 0.5);' \
+  'END_PROGRAM' \
   'CONFIGURATION Cell RESOURCE Cpu ON PLC TASK Fast (INTERVAL := T#1ms, PRIORITY := 1);' \
   'PROGRAM Main WITH Fast : Counter; END_RESOURCE END_CONFIGURATION' > "$chr/tmp/st-set/main.st"
 st=$(in_chroot runuser -u indurop -- irpctl --url "https://127.0.0.1:$port" --ca /var/lib/indurop/tls/cert.pem \
   --token-file /var/lib/indurop/admin-token --json upload /tmp/st-set 2>&1) || { echo "$st"; cat "$cache/agent.log"; fail "upload of an ST set"; }
 echo "$st" | grep -q '"path": "Main.so"' || { echo "$st"; fail "the uploaded ST set holds no Main.so"; }
 echo "$st" | grep -q '"valid": true' || { echo "$st"; fail "irpd does not find the compiled ST set valid"; }
+# The installed SDK and the ST cell's example (stc links the blocks from libindurop_plcopen.a).
+for f in /usr/share/indurop/st/lib/plcopen.st /usr/include/indurop/st/st.hpp /usr/include/indurop/plcopen/plcopen.h \
+  /usr/share/indurop/examples/plc-robot-st/main.st; do
+  [ -e "$chr$f" ] || fail "the package has no $f"
+done
+[ -n "$(find "$chr/usr/lib" -name libindurop_plcopen.a)" ] || fail "the package has no libindurop_plcopen.a"
 stop_chroot_processes
 
 # remove: the programs go, the data stays.

@@ -319,7 +319,9 @@ def variable_changes(changes: dict | None) -> str:
     if not changes or not any(changes.get(k) for k in ("added", "removed", "moved", "converted", "replaced")):
         return ""
     moved = [
-        m.get("path") + (f" (not converted: {m['reason']})" if m.get("reason") else "")
+        m.get("path")
+        + (f" {m['from_type']} -> {m['to_type']}" if m.get("from_type") and m.get("to_type") else "")
+        + (f" (not convertible without loss: {m['reason']})" if m.get("reason") else "")
         for m in changes.get("moved") or []
     ]
     converted = [

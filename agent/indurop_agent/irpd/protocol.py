@@ -238,6 +238,8 @@ class MovedVariable(IrpdShape):
     from_: int = Field(alias="from", description="its offset in the running layout")
     to: int = Field(description="its offset in the new one (its type changed)")
     reason: str | None = Field(None, description="why its value cannot be converted (glbc --previous); absent when the layout was not laid out against the running one")
+    from_type: str | None = Field(None, description="its type in the running layout: the IEC type of a Structured Text variable (INT), else as glbc spells it (int32_t); absent with reason")
+    to_type: str | None = Field(None, description="its type in the new layout, spelled as from_type")
 
 
 class ConvertedVariable(IrpdShape):
@@ -253,7 +255,7 @@ class VariableChanges(IrpdShape):
     layout: str | None = Field(description="the new layout's hash; null: the set has no shared variables")
     added: list[str] = Field(description="variables the running layout does not have (zeroed before the swap)")
     removed: list[str] = Field(description="variables the new layout does not have (their room stays a hole until irpd restarts)")
-    moved: list[MovedVariable] = Field(description="variables whose type changed and whose value is not kept: a new place, zeroed")
+    moved: list[MovedVariable] = Field(description="variables whose type changed and whose value cannot be converted without loss: only the managed restart runs such a set (check answers online false and the restart's reason naming them)")
     converted: list[ConvertedVariable] | None = Field(None, description="variables whose type changed and whose value is converted at the swap (docs/hot-reload.md \"Converted variables\"); irpd always sends it, a validation the agent stored before it existed has none")
     replaced: list[str] = Field(description="running modules built against a layout that has a changed variable elsewhere: they are loaded anew, not kept")
 

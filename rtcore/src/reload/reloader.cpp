@@ -49,8 +49,11 @@ json variablesJson(const Generation &g) {
     json moved = json::array(), converted = json::array();
     for (const layouts::Moved &m : g.variables.moved) {
         moved.push_back({{"path", m.path}, {"from", m.from}, {"to", m.to}});
-        if (const auto why = g.conversions.not_converted.find(m.path); why != g.conversions.not_converted.end())
-            moved.back()["reason"] = why->second;
+        if (const auto why = g.conversions.not_converted.find(m.path); why != g.conversions.not_converted.end()) {
+            moved.back()["reason"] = why->second.reason;
+            if (!why->second.from_type.empty()) moved.back()["from_type"] = why->second.from_type;
+            if (!why->second.to_type.empty()) moved.back()["to_type"] = why->second.to_type;
+        }
     }
     for (const variables::Conversion &c : g.conversions.converted)
         converted.push_back(
@@ -63,17 +66,28 @@ json variablesJson(const Generation &g) {
                 {"replaced", g.replaced_for_layout}};
 }
 
-// The dry run names every retyped variable whose value is not kept (docs/hot-reload.md).
-void notConvertedWarnings(const Generation &g, json &warnings) {
+// A retyped variable whose value cannot be converted without loss is not swapped in online (its
+// value would be lost while the set runs on): restart_required, naming each with its types, and the
+// managed restart runs the set, every variable afresh (docs/hot-reload.md "Converted variables").
+Status retypedNeedRestart(const Generation &g) {
+    if (g.variables.moved.empty()) return Ok{};
+    std::string list;
     for (const layouts::Moved &m : g.variables.moved) {
         const auto why = g.conversions.not_converted.find(m.path);
-        warnings.push_back("variable '" + m.path + "' changes its type and its value is not kept (" +
-                           (why != g.conversions.not_converted.end()
-                                ? why->second
-                                : std::string("the set's layout was not compiled against the running one")) +
-                           "): it starts at zero at the swap; a managed restart (--mode restart) starts every "
-                           "variable at zero");
+        list += (list.empty() ? "" : "; ") + ("'" + m.path + "'");
+        if (why == g.conversions.not_converted.end()) {
+            list += " (the set's layout was not compiled against the running one)";
+            continue;
+        }
+        if (!why->second.from_type.empty() && !why->second.to_type.empty())
+            list += " " + why->second.from_type + " -> " + why->second.to_type;
+        list += " (" + why->second.reason + ")";
     }
+    return Error{"the type of variable" + std::string(g.variables.moved.size() > 1 ? "s " : " ") + list +
+                     " changes and the value cannot be converted without loss: only the managed restart "
+                     "(activate --mode restart or auto) runs this set, every variable starting afresh (at its "
+                     "initial value, else zero); to keep the value online, convert it in the program instead",
+                 protocol::kRestartRequired};
 }
 
 int64_t now() { return osal::monotonicNow(); }
@@ -255,10 +269,8 @@ json Reloader::check(const std::filesystem::path &xml) const {
             else
                 refuse(planned.error());
         } else {
-            if ((*planned)->layout) {
-                variables = variablesJson(**planned);
-                notConvertedWarnings(**planned, warnings);
-            }
+            if ((*planned)->layout) variables = variablesJson(**planned);
+            if (Status st = retypedNeedRestart(**planned); !st) restart = json{{"reason", st.error().message}};
             const Fates f = fatesOf(**planned, running.get());
             modules = json{{"kept", f.kept}, {"started", f.started}, {"stopped", f.stopped}, {"replaced", f.replaced}};
         }
@@ -274,6 +286,7 @@ Result<std::unique_ptr<Generation>> Reloader::prepare(config::SetSpec set, const
                                                       const std::function<Status(Generation &)> &before_processes) {
     auto next = plan(std::move(set), running, std::move(disabled), std::move(set_id));
     if (!next) return next.error();
+    if (Status st = retypedNeedRestart(**next); !st) return st.error();
     if (Status st = realize(**next, running, before_processes); !st) return st.error();
     return next;
 }

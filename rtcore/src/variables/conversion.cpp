@@ -113,7 +113,10 @@ Result<Conversions> conversionsOf(const Layout &next, const layouts::Model &runn
         for (const auto &m : *it)
             if (m.is_object() && m.contains("path") && m["path"].is_string() && m.contains("reason") &&
                 m["reason"].is_string())
-                out.not_converted[m["path"].get<std::string>()] = m["reason"].get<std::string>();
+                out.not_converted[m["path"].get<std::string>()] = {
+                    m["reason"].get<std::string>(),
+                    m.contains("from_type") && m["from_type"].is_string() ? m["from_type"].get<std::string>() : "",
+                    m.contains("to_type") && m["to_type"].is_string() ? m["to_type"].get<std::string>() : ""};
     for (const layouts::Moved &m : moved) {
         const auto found = planned.find(m.path);
         if (found == planned.end()) continue;

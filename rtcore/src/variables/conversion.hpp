@@ -34,14 +34,20 @@ struct Conversion {
     std::vector<ScalarCopy> copies;
 };
 
+// A retyped variable whose value cannot be kept: why (glbc's reason) and its types before and after
+// as glbc names them (the IEC type of a variable declared by stc, else the C++ one).
+struct NotConverted {
+    std::string reason, from_type, to_type;
+};
+
 struct Conversions {
     std::vector<Conversion> converted;
-    std::map<std::string, std::string> not_converted;  // a moved variable's path -> why its value is not kept
+    std::map<std::string, NotConverted> not_converted;  // a moved variable's path -> why its value is not kept
 };
 
 // The conversions `next` plans for the variables `diff` finds moved (same path, another type), when
 // they were planned against the running layout (changes.previous is its hash; else none: every
-// moved variable starts at zero).  Every copy must lie inside its variable in both layouts; an
+// moved variable makes the set a restart case).  Every copy must lie inside its variable in both layouts; an
 // Error naming the variable and the fix otherwise.
 Result<Conversions> conversionsOf(const Layout &next, const layouts::Model &running,
                                   const std::vector<layouts::Moved> &moved);

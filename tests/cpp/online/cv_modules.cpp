@@ -2,6 +2,7 @@
 //   CV_V1   built against cv1: fb.count += 1 every run, and fixed values in every other variable
 //   CV_V2   built against cv2: fb.count += 1 every run; first_count = fb.count in its first run; wrong
 //           += 1 whenever it reads a converted scalar other than what v1 wrote (plain loads: no lock)
+//   CV_V_NARROW built against cv_narrow: fb.count += 1 every run
 #include <indurop/indurop.h>
 #include <indurop/generated.h>
 

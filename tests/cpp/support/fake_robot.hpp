@@ -1,6 +1,7 @@
-// fake_robot.hpp -- the simulated robot of the PLC tests (test_plcopen.cpp, test_plc_program.cpp):
-// it obeys the plc-robot cell's request/answer protocol (docs/plc.md) scan by scan, so that the
-// function blocks and the pick-and-place program are tested without a robot module.
+// fake_robot.hpp -- the simulated robot of the PLC tests (test_plcopen.cpp, test_plcopen_motion.cpp,
+// test_plc_program.cpp): it obeys the plc-robot cell's request/answer protocol (docs/plc.md) scan by
+// scan, so that the function blocks and the pick-and-place program are tested without a robot
+// module; scan() and runUntil() are the tests' periods.
 #pragma once
 
 #include <indurop/generated.h>  // cell.glb of config/sets/plc-robot
@@ -202,6 +203,20 @@ struct Bench {
     Bench() = default;
     Bench(const Bench &) = delete;
 };
+
+// One period of the PLC tests: the robot first (Robot.so has the higher priority), then the blocks
+// in the order given (the PLC's scan).
+template <class... Blocks>
+void scan(Bench &b, Blocks &...blocks) {
+    b.robot.run();
+    (blocks(b.g), ...);
+}
+
+// Runs `period` until `done` holds, at most `max` periods; whether it holds then.
+inline bool runUntil(const std::function<bool()> &done, const std::function<void()> &period, int max) {
+    for (int i = 0; i < max && !done(); ++i) period();
+    return done();
+}
 
 const Vec6 kJointTarget{0.1, -0.2, 0.3, -0.4, 0.5, -0.6};
 const Vec6 kPoseTarget{0.4, 0.1, 0.3, 3.1, 0.0, 0.2};

@@ -1,6 +1,7 @@
 """agent_helpers.py -- plain helpers of the agent's tests (fixtures are in conftest.py): paths,
-the in-process agent's handle, ELF patching, module.xml text, and upload bodies written byte by
-byte so that a test controls every name it sends."""
+the in-process agent's handle, a real irpd with a real agent in front of it (LiveCell), ELF
+patching, module.xml text, and upload bodies written byte by byte so that a test controls every
+name it sends."""
 
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from pathlib import Path
 
 import httpx
 from fastapi.testclient import TestClient
+from indurop_agent.cli import irpctl as cli
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from live_processes import API, BUILD, FIG1, IRPD, ROOT, copy_cell, free_port, output, start_agent, start_irpd, stop  # noqa: E402,F401
@@ -43,6 +45,50 @@ class Agent:
         return [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
 
 
+class LiveCell:
+    """A real irpd on `config` (Figure 1 by default; `irpd_args` added to its command line) and a
+    real agent in front of it polling it every 0.2 s (`settings` added to its agent.json), with the
+    admin token.  Each test file's Cell adds what its tests ask of it."""
+
+    def __init__(self, tmp: Path, config: Path = FIG1, *irpd_args: str, instance: str | None = None, **settings):
+        self.tmp, self.sock, self.data = tmp, tmp / "irpd.sock", tmp / "data"
+        self.token_file = self.data / "admin-token"
+        self.irpd = start_irpd(self.sock, config, instance, *irpd_args)
+        self.config = tmp / "agent.json"
+        self.config.write_text(json.dumps({"irpd_poll_s": 0.2, **settings}))
+        self.port = free_port()
+        self.agent = start_agent(self.port, self.data, self.sock, "--config", str(self.config))
+        self.base = f"http://127.0.0.1:{self.port}"
+        self.url = f"{self.base}{API}"
+        self.h = {"Authorization": f"Bearer {self.token_file.read_text().strip()}"}
+
+    def call(self, method: str, path: str, **kw) -> httpx.Response:
+        return httpx.request(method, f"{self.url}{path}", headers=self.h, timeout=120, **kw)
+
+    def get(self, path: str, **kw) -> httpx.Response:
+        return self.call("GET", path, **kw)
+
+    def post(self, path: str, **kw) -> httpx.Response:
+        return self.call("POST", path, **kw)
+
+    def upload(self, files) -> dict:
+        """POST /sets with `files` (httpx's files=): the stored set, which must be accepted."""
+        r = self.post("/sets", files=files)
+        assert r.status_code == 201, r.text
+        return r.json()
+
+    def irpctl(self, capsys, *argv: str) -> tuple[int, str]:
+        """irpctl's main() against this agent as admin: (exit code, what it printed)."""
+        capsys.readouterr()
+        code = cli.main(["--url", self.base, "--token-file", str(self.token_file), *argv])
+        out, err = capsys.readouterr()
+        return code, out + err
+
+    def close(self) -> None:
+        stop(self.agent)
+        stop(self.irpd)
+
+
 @dataclass
 class Elves:
     """Real ELF files built by gcc for the tests."""
@@ -64,6 +110,15 @@ def wrong_machine(elf: bytes, machine: int) -> bytes:
 
 
 # ---- sets and upload bodies ---------------------------------------------------------------------
+def st_configuration(program_type: str, interval: str = "T#1ms") -> str:
+    """A Structured Text CONFIGURATION: one instance Main of PROGRAM `program_type` every `interval`."""
+    return (
+        "CONFIGURATION Cell\n  RESOURCE Cpu ON PLC\n"
+        f"    TASK Fast (INTERVAL := {interval}, PRIORITY := 1);\n"
+        f"    PROGRAM Main WITH Fast : {program_type};\n  END_RESOURCE\nEND_CONFIGURATION\n"
+    )
+
+
 def module_xml(*modules: tuple[str, str], extra: str = "") -> bytes:
     """module.xml text naming (filename, moduletype) modules, each periodic at 1 ms."""
     body = "".join(

@@ -4,7 +4,10 @@ raises agent/irpd_unreachable and irpd back clears it; alarms and their history 
 restart.  With modules that raise alarms (the C++ tests' alarming.so and proc_alarm.exe): the
 alarm segment irpd names is read, a module's alarm comes with its declared text and severity and
 goes, what a restarted irpd no longer has active is cleared by reconciliation, and a flood of
-transitions from one module is counted, not recorded one by one, and keeps the older history."""
+transitions from one module is counted, not recorded one by one, and keeps the older history.  A
+Structured Text set uploaded to the agent (compiled there) raises and clears its alarms with
+st/lib/plcopen.st's ALARM_LEVEL block and RaiseAlarm / ClearAlarm, with the texts its module.xml
+declares."""
 
 from __future__ import annotations
 
@@ -19,7 +22,7 @@ from pathlib import Path
 
 import httpx
 import pytest
-from agent_helpers import API, BUILD, FIG1, IRPD, free_port, start_agent, start_irpd, stop
+from agent_helpers import API, BUILD, FIG1, IRPD, free_port, st_configuration, start_agent, start_irpd, stop
 from live_processes import module_entry
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
@@ -265,3 +268,56 @@ def test_a_flood_from_one_module_is_counted_and_keeps_the_older_history(tmp_path
         assert listed["segment"]["suppressed"] > 0
     finally:
         cell.close()
+
+
+# ---- alarms from Structured Text ------------------------------------------------------------------
+ST_MAIN = """
+PROGRAM Main
+VAR
+  hot : BOOL;          (* written through the agent: the condition of alarm 12 *)
+  jam : BOOL;          (* the condition of alarm 13, raised and cleared by the functions *)
+  temperature : LREAL := 81.5;
+  Overheat : ALARM_LEVEL;
+  overheated : BOOL;
+  runs : DINT;
+END_VAR
+  runs := runs + 1;
+  Overheat(IN := hot, Id := 12, Detail := 'over 80 C', Value := temperature, Q => overheated);
+  IF jam THEN
+    RaiseAlarm(id := 13, detail := 'conveyor', value := DINT_TO_LREAL(runs), severity := AlarmCritical);
+  ELSE
+    ClearAlarm(13);
+  END_IF;
+END_PROGRAM
+"""
+# the ST instance's alarm texts: module.xml's <alarm> declarations on the entry of its file (docs/st.md)
+ST_ALARMS = '<alarm id="12" severity="high">Oven overheated</alarm><alarm id="13">Conveyor jammed</alarm>'
+
+
+def test_an_st_program_raises_and_clears_its_alarms(cell):
+    hand = f"<root>\n{module_entry('Main', './Main.so', 2_000_000, 1, ST_ALARMS)}</root>\n"
+    files = {"main.st": ST_MAIN, "config.st": st_configuration("Main", "T#2ms"), "module.xml": hand}
+    r = httpx.post(f"{cell.url}/sets", headers=cell.h, files=[("files", (p, c)) for p, c in files.items()], timeout=120)
+    assert r.status_code == 201, r.text
+    r = httpx.post(f"{cell.url}/sets/{r.json()['id']}/activate", headers=cell.h, json={"mode": "auto"}, timeout=120)
+    assert r.status_code == 200, r.text
+
+    def write(path: str, value: bool) -> None:
+        w = httpx.put(f"{cell.url}/variables/{path}", headers=cell.h, json={"value": value}, timeout=30)
+        assert w.status_code == 200, w.text
+
+    write("Main.hot", True)
+    a = cell.wait_for("Main/12", "active_unacknowledged")
+    assert (a["text"], a["severity"], a["origin"]) == ("Oven overheated", "high", "module"), a
+    assert (a["detail"], a["value"]) == ("over 80 C", 81.5), a
+    write("Main.jam", True)
+    j = cell.wait_for("Main/13", "active_unacknowledged")
+    assert (j["text"], j["severity"], j["detail"]) == ("Conveyor jammed", "critical", "conveyor"), j
+    assert j["value"] > 0, j
+    write("Main.hot", False)
+    cell.wait_for("Main/12", "cleared_unacknowledged")
+    write("Main.jam", False)
+    cell.wait_for("Main/13", "cleared_unacknowledged")
+    assert [t["event"] for t in cell.history("Main/12")] == ["raise", "clear"]
+    r = httpx.post(f"{cell.url}/alarms/Main/12/ack", headers=cell.h, timeout=30)
+    assert r.status_code == 200 and r.json()["state"] == "normal", r.text

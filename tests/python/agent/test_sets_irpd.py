@@ -20,7 +20,7 @@ from pathlib import Path
 
 import httpx
 import pytest
-from agent_helpers import BUILD, FIG1, IRPD, free_port, start_agent, start_irpd, stop
+from agent_helpers import BUILD, FIG1, IRPD, LiveCell, free_port, start_agent, start_irpd, stop
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
@@ -39,29 +39,14 @@ def fig1_files(cntr1_period: str = "500000") -> list[tuple[str, tuple[str, bytes
     return out
 
 
-class Cell:
+class Cell(LiveCell):
     """irpd (Figure 1) and an agent that polls it every 0.2 s, with the admin token."""
 
     def __init__(self, tmp: Path, *irpd_args: str):
-        self.tmp, self.sock, self.data = tmp, tmp / "irpd.sock", tmp / "data"
-        self.irpd = start_irpd(self.sock, FIG1, None, *irpd_args)
-        self.config = tmp / "agent.json"
-        self.config.write_text(json.dumps({"irpd_poll_s": 0.2}))
-        self.port = free_port()
-        self.agent = start_agent(self.port, self.data, self.sock, "--config", str(self.config))
-        self.url = f"http://127.0.0.1:{self.port}/api/v1"
-        self.h = {"Authorization": f"Bearer {(self.data / 'admin-token').read_text().strip()}"}
+        super().__init__(tmp, FIG1, *irpd_args)
 
-    def get(self, path: str, **kw):
-        return httpx.get(f"{self.url}{path}", headers=self.h, timeout=40, **kw)
-
-    def post(self, path: str, **kw):
-        return httpx.post(f"{self.url}{path}", headers=self.h, timeout=40, **kw)
-
-    def upload(self, cntr1_period: str = "500000") -> dict:
-        r = self.post("/sets", files=fig1_files(cntr1_period))
-        assert r.status_code == 201, r.text
-        return r.json()
+    def upload_fig1(self, cntr1_period: str = "500000") -> dict:
+        return self.upload(fig1_files(cntr1_period))
 
     def activate(self, set_id: str) -> dict:
         r = self.post(f"/sets/{set_id}/activate")
@@ -82,10 +67,6 @@ class Cell:
             assert time.monotonic() < deadline, f"irpd still runs set {status.get('set_id')}, not {set_id}"
             time.sleep(0.1)
 
-    def close(self):
-        stop(self.agent)
-        stop(self.irpd)
-
 
 @pytest.fixture
 def cell(tmp_path):
@@ -102,7 +83,7 @@ def test_irpd_speaks_control_protocol_v2(cell):
 
 
 def test_an_upload_is_checked_by_irpd(cell):
-    s = cell.upload()
+    s = cell.upload_fig1()
     assert s["validation"]["valid"] is True, s["validation"]
     assert s["validation"]["errors"] == []
     running = cell.get("/schedule").json()
@@ -110,14 +91,14 @@ def test_an_upload_is_checked_by_irpd(cell):
 
 
 def test_a_set_irpd_finds_wrong_is_stored_with_irpds_errors(cell):
-    s = cell.upload(cntr1_period="10000")  # a basic period of 10 us: under irpd's 50 us minimum
+    s = cell.upload_fig1(cntr1_period="10000")  # a basic period of 10 us: under irpd's 50 us minimum
     assert s["validation"]["valid"] is False
     assert s["validation"]["errors"] and any("module.xml" in e for e in s["validation"]["errors"])
     assert cell.get(f"/sets/{s['id']}").json()["validation"] == s["validation"]
 
 
 def test_irpds_errors_of_a_stored_set_say_the_file_line_column_module_and_field(cell):
-    s = cell.upload(cntr1_period="abc")  # irpd's parser: "<set>/module.xml:13: module 'cntr1': <period>: ..."
+    s = cell.upload_fig1(cntr1_period="abc")  # irpd's parser: "<set>/module.xml:13: module 'cntr1': <period>: ..."
     line = FIG1.read_text().splitlines().index("    <period>500000</period>") + 1
     where = {"file": "module.xml", "line": line, "column": 5, "module": "cntr1", "field": "period"}
     validation = s["validation"]
@@ -133,13 +114,13 @@ def test_irpds_errors_of_a_stored_set_say_the_file_line_column_module_and_field(
 
 
 def test_a_schedule_error_names_module_xml_without_a_line(cell):
-    s = cell.upload(cntr1_period="10000")
+    s = cell.upload_fig1(cntr1_period="10000")
     problem = s["validation"]["problems"][0]
     assert problem["file"] == "module.xml" and problem["line"] is None and "minimum basic period" in problem["message"]
 
 
 def test_activation_hot_swaps_irpd_to_the_set_and_records_it(cell):
-    s = cell.upload()
+    s = cell.upload_fig1()
     report = cell.activate(s["id"])
     assert report["set_id"] == s["id"] and report["generation"] >= 1
     assert report["set"] == str(cell.data / "sets" / s["id"] / "files" / "module.xml")
@@ -164,9 +145,9 @@ def test_activation_hot_swaps_irpd_to_the_set_and_records_it(cell):
 
 
 def test_a_refused_activation_changes_nothing(cell):
-    good = cell.upload()
+    good = cell.upload_fig1()
     cell.activate(good["id"])
-    bad = cell.upload(cntr1_period="10000")
+    bad = cell.upload_fig1(cntr1_period="10000")
     before = (cell.data / "active.json").read_text(), (cell.data / "history.jsonl").read_text()
     r = cell.post(f"/sets/{bad['id']}/activate")
     assert r.status_code == 409 and "module.xml" in r.json()["detail"], r.text
@@ -176,7 +157,7 @@ def test_a_refused_activation_changes_nothing(cell):
 
 
 def test_rollback_goes_back_to_the_set_active_before(cell):
-    a, b = cell.upload(), cell.upload(cntr1_period="1000000")
+    a, b = cell.upload_fig1(), cell.upload_fig1(cntr1_period="1000000")
     cell.activate(a["id"])
     cell.activate(b["id"])
     assert cell.module("cntr1")["period_ns"] == 1000000
@@ -189,7 +170,7 @@ def test_rollback_goes_back_to_the_set_active_before(cell):
 
 
 def test_a_restarted_irpd_gets_the_active_set_back(cell):
-    a, b = cell.upload(), cell.upload(cntr1_period="1000000")
+    a, b = cell.upload_fig1(), cell.upload_fig1(cntr1_period="1000000")
     cell.activate(a["id"])
     cell.activate(b["id"])
     stop(cell.irpd)
@@ -204,7 +185,7 @@ def test_a_restarted_irpd_gets_the_active_set_back(cell):
 
 
 def test_a_restarted_agent_restores_and_irpd_can_start_from_the_active_link(cell):
-    s = cell.upload(cntr1_period="1000000")
+    s = cell.upload_fig1(cntr1_period="1000000")
     cell.activate(s["id"])
     stop(cell.agent)
     stop(cell.irpd)
@@ -242,7 +223,7 @@ def test_a_variable_write_goes_through_irpd(cell):
 
 
 def test_events_merge_irpds_and_the_agents_by_time(cell):
-    s = cell.upload()
+    s = cell.upload_fig1()
     cell.activate(s["id"])
     page = cell.get("/events").json()
     assert page["irpd"] == "ok"

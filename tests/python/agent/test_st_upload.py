@@ -11,10 +11,8 @@ import json
 import time
 from pathlib import Path
 
-import httpx
 import pytest
-from agent_helpers import FIG1, IRPD, ROOT, free_port, start_agent, start_irpd, stop
-from indurop_agent.cli import irpctl as cli
+from agent_helpers import FIG1, IRPD, ROOT, LiveCell, free_port, st_configuration
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
@@ -27,14 +25,7 @@ END_VAR
 count := count + step;
 END_PROGRAM
 """
-CONFIG = """\
-CONFIGURATION Cell
-  RESOURCE Cpu ON PLC
-    TASK Fast (INTERVAL := T#1ms, PRIORITY := 1);
-    PROGRAM Main WITH Fast : Counter;
-  END_RESOURCE
-END_CONFIGURATION
-"""
+CONFIG = st_configuration("Counter")
 TYPE_ERROR = "PROGRAM Counter\nVAR\n  count : DINT;\n  flag : BOOL;\nEND_VAR\nflag := count;\nEND_PROGRAM\n"
 MIRROR = """\
 PROGRAM Mirror
@@ -56,29 +47,11 @@ def parts(files: dict[str, bytes]) -> list[tuple[str, tuple[str, bytes]]]:
     return [("files", (path, content)) for path, content in files.items()]
 
 
-class Cell:
+class Cell(LiveCell):
     """irpd on Figure 1 and an agent (its settings in agent.json), with the admin token."""
 
     def __init__(self, tmp: Path, **settings):
-        self.tmp, self.sock, data = tmp, tmp / "irpd.sock", tmp / "data"
-        self.token_file = data / "admin-token"
-        self.irpd = start_irpd(self.sock, FIG1, f"st-upload-{free_port()}")
-        config = tmp / "agent.json"
-        config.write_text(json.dumps({"irpd_poll_s": 0.2, **settings}))
-        port = free_port()
-        self.agent = start_agent(port, data, self.sock, "--config", str(config))
-        self.base = f"http://127.0.0.1:{port}"
-        self.h = {"Authorization": f"Bearer {self.token_file.read_text().strip()}"}
-
-    def call(self, method: str, path: str, **kw) -> httpx.Response:
-        return httpx.request(method, f"{self.base}/api/v1{path}", headers=self.h, timeout=120, **kw)
-
-    def irpctl(self, capsys, *argv: str) -> tuple[int, str]:
-        """irpctl's main() against this agent as admin: (exit code, what it printed)."""
-        capsys.readouterr()
-        code = cli.main(["--url", self.base, "--token-file", str(self.token_file), *argv])
-        out, err = capsys.readouterr()
-        return code, out + err
+        super().__init__(tmp, FIG1, instance=f"st-upload-{free_port()}", **settings)
 
     def running(self) -> str:
         status = self.call("GET", "/status").json()
@@ -92,10 +65,6 @@ class Cell:
         r = self.call("GET", f"/variables/{path}")
         assert r.status_code == 200, r.text
         return r.json()["value"]
-
-    def close(self):
-        stop(self.agent)
-        stop(self.irpd)
 
 
 @pytest.fixture
@@ -164,7 +133,7 @@ def test_st_beside_the_sets_cpp_modules_is_laid_out_with_their_glb_and_activated
     for glb in ("knuRobot.glb", "joint.glb"):
         files[glb] = (ROOT / "config" / "sets" / "paper-figures" / glb).read_bytes()
     files["mirror.st"] = MIRROR.encode()
-    files["config.st"] = CONFIG.replace(": Counter", ": Mirror").encode()
+    files["config.st"] = st_configuration("Mirror").encode()
     r = cell.call("POST", "/sets", files=parts(files))
     assert r.status_code == 201, r.text
     stored = r.json()
@@ -173,6 +142,73 @@ def test_st_beside_the_sets_cpp_modules_is_laid_out_with_their_glb_and_activated
     assert r.status_code == 200, r.text
     assert "cntr2" in r.json()["kept"] and r.json()["started"] == ["Main"], r.json()
     counts_up(cell, "Main.seen")  # the ST program reads what cntr2 writes
+
+
+RETYPED = """\
+PROGRAM Counter
+VAR
+  count : DINT;
+  w : {w};
+  x : {x};
+END_VAR
+count := count + 1;
+w := w + 1;
+END_PROGRAM
+"""
+
+
+def test_a_retype_that_loses_values_needs_the_managed_restart_and_a_widening_one_converts_online(
+    cell, tmp_path, capsys
+):
+    """INT -> DINT keeps its value online; INT -> BOOL cannot be converted without loss: the dry run
+    (API, irpctl) names it with its types and offers the managed restart, an online activation is
+    refused and leaves the running set as it was, the restart runs it with x at its initial value."""
+    r = cell.call("POST", "/sets", files=parts(st_set(RETYPED.format(w="INT", x="INT := 7"))))
+    assert r.status_code == 201, r.text
+    assert cell.call("POST", f"/sets/{r.json()['id']}/activate", json={"mode": "auto"}).status_code == 200
+    counts_up(cell, "Main.w")
+    assert cell.read("Main.x") == 7
+
+    # INT -> DINT: converted online, the count goes on from where it was
+    r = cell.call("POST", "/sets", files=parts(st_set(RETYPED.format(w="DINT", x="INT := 7"))))
+    assert r.status_code == 201, r.text
+    widened = r.json()
+    assert widened["validation"]["online"] is True, widened["validation"]
+    converted = widened["validation"]["variables"]["converted"]
+    assert [(c["path"], c["from_type"], c["to_type"]) for c in converted] == [("Main.w", "int16_t", "int32_t")]
+    before = cell.read("Main.w")
+    r = cell.call("POST", f"/sets/{widened['id']}/activate")
+    assert r.status_code == 200 and r.json()["mode"] == "online", r.text
+    assert cell.read("Main.w") >= before, "the widened variable kept its value"
+    counts_up(cell, "Main.w")
+
+    # INT -> BOOL: named by the dry run with its types, offered the managed restart
+    r = cell.call("POST", "/sets", files=parts(st_set(RETYPED.format(w="DINT", x="BOOL := TRUE"))))
+    assert r.status_code == 201, r.text
+    narrowed = r.json()
+    validation = narrowed["validation"]
+    assert validation["valid"] is True and validation["online"] is False, validation
+    moved = validation["variables"]["moved"]
+    assert [(m["path"], m["from_type"], m["to_type"]) for m in moved] == [("Main.x", "INT", "BOOL")], moved
+    reason = validation["restart"]["reason"]
+    assert "'Main.x' INT -> BOOL" in reason and "managed restart" in reason, reason
+    code, said = cell.irpctl(capsys, "check", narrowed["id"])
+    assert "online: no, only a restart of irpd can run it" in said and "'Main.x' INT -> BOOL" in said, said
+    assert "moved Main.x INT -> BOOL (not convertible without loss" in said, said
+
+    # online: refused, the running set runs on untouched
+    running, w = cell.running(), cell.read("Main.w")
+    r = cell.call("POST", f"/sets/{narrowed['id']}/activate", json={"mode": "online"})
+    assert r.status_code == 409, r.text
+    assert "'Main.x' INT -> BOOL" in r.json()["detail"] and "mode restart" in r.json()["detail"], r.text
+    assert cell.running() == running and cell.read("Main.x") == 7 and cell.read("Main.w") > w
+
+    # the managed restart runs it: x starts at its initial value
+    r = cell.call("POST", f"/sets/{narrowed['id']}/activate", json={"mode": "restart"})
+    assert r.status_code == 200 and r.json()["mode"] == "restart", r.text
+    assert cell.running() == narrowed["id"]
+    assert cell.read("Main.x") is True
+    counts_up(cell, "Main.w")
 
 
 def refused_in_place(cell: Cell, files: dict[str, bytes], status: int = 400) -> dict:

@@ -55,7 +55,9 @@ def test_a_widened_scalar_is_converted(tmp_path, old, new):
 def test_a_scalar_that_may_lose_values_is_moved_with_the_reason(tmp_path, old, new, why):
     changes = changed(tmp_path, f"{old} x;\n", f"{new} x;\n")
     assert changes["converted"] == []
-    assert changes["moved"] == [{"path": "a.x", "from": 0, "to": 64, "reason": f"a.x: {why}"}]
+    assert changes["moved"] == [
+        {"path": "a.x", "from": 0, "to": 64, "from_type": old, "to_type": new, "reason": f"a.x: {why}"}
+    ]
 
 
 def test_a_struct_is_converted_field_by_field_by_name(tmp_path):
@@ -114,11 +116,12 @@ def test_a_changed_shape_is_moved_with_the_reason(tmp_path, before, after, why):
     assert changes["converted"] == [] and [m["reason"] for m in changes["moved"]] == [why]
 
 
-def test_glbc_says_which_variables_start_at_zero_and_why(tmp_path):
+def test_glbc_says_which_variables_need_the_managed_restart_and_why(tmp_path):
     ok(tmp_path, "int32_t n;\nint16_t w;\n", "g1")
     result = run(tmp_path, "int16_t n;\nint32_t w;\n", "g2", "--previous", "g1/layout.json")
     assert result.returncode == 0, result.stderr
     assert result.stderr.splitlines()[1:] == [
-        "glbc: not converted, starts at zero: a.n: int32_t to int16_t may lose values"
+        "glbc: not convertible without loss, only a managed restart of irpd runs this layout: "
+        "a.n: int32_t to int16_t may lose values"
     ]
     assert result.stderr.splitlines()[0].endswith(": 0 added, 0 removed, 1 moved, 1 converted")

@@ -8,6 +8,7 @@ import json
 import subprocess
 import sys
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 from indurop_agent.irpd.client import IrpdClient
@@ -104,8 +105,20 @@ class Running:
         remove_shm(self.instance)
 
 
+@contextmanager
+def ran_once(folder: Path, files: dict[str, str], done: str):
+    """A program that computes its values in one pass and then sets its flag `done` (a path),
+    running in irpd until the with block ends."""
+    run = Running(folder, files)
+    try:
+        run.wait_value(done, 1)
+        yield run
+    finally:
+        run.close()
+
+
 def periods(n: int, period_s: float = 0.01) -> None:
     time.sleep(n * period_s)
 
 
-__all__ = ["BUILD", "Running", "build_errors", "stc_build", "periods"]
+__all__ = ["BUILD", "Running", "build_errors", "stc_build", "periods", "ran_once"]

@@ -1,17 +1,38 @@
 # test_conformance_statements.py -- ST executed in a real irpd (stc build, then the module's periods):
 # integer wrap, REAL->INT rounding, TIME arithmetic, string bounds, CASE with lists and ranges, FOR
 # with a negative BY, EXIT and CONTINUE in nested loops, WHILE/REPEAT, functions with VAR_IN_OUT and
-# outputs, FB instances, enums, arrays, structs, bit access.  One program runs once (a `done` flag),
-# so every value is the result of exactly one pass.
+# outputs, FB instances, enums, arrays, structs, bit access, a derived type's initial value.  One
+# program runs once (a `done` flag), so every value is the result of exactly one pass.
 
 from __future__ import annotations
 
 import pytest
-from st_live import Running
+from st_live import ran_once
 
 PROGRAM = """
 TYPE Color : (Red, Green := 5, Blue); END_TYPE
 TYPE Point : STRUCT x : REAL := 1.5; y : INT := 7; END_STRUCT; END_TYPE
+(* a derived type's own initial value, and what takes it: aliases, elements, fields, locals *)
+TYPE Five : INT := 5; END_TYPE
+TYPE AlsoFive : Five; END_TYPE
+TYPE Flag : BOOL := TRUE; END_TYPE
+TYPE Pair : STRUCT a : Five; b : INT; c : ARRAY[1..3] OF Five; END_STRUCT; END_TYPE
+
+FUNCTION_BLOCK Holder
+VAR_OUTPUT out : Five; END_VAR
+VAR inner : Five; END_VAR
+  out := inner + 1;
+END_FUNCTION_BLOCK
+
+FUNCTION Local : INT
+VAR v : Five; END_VAR
+  v := v + 1;
+  Local := v;
+END_FUNCTION
+
+FUNCTION Unset : Five  (* its result is never assigned: the type's initial value *)
+VAR_INPUT unused : BOOL; END_VAR
+END_FUNCTION
 
 FUNCTION Twice : DINT
 VAR_INPUT v : DINT; END_VAR
@@ -86,8 +107,12 @@ VAR
   dt1 : DT := DT#2024-01-02-12:00:00; tod1 : TOD; d1 : DATE;
   todAdd : TOD := TOD#23:00:00;
   mx : INT; lim : INT; selv : INT;
+  five : Five; alsoFive : AlsoFive; ownFive : Five := 9; flag : Flag;
+  fives : ARRAY[0..2] OF Five; grid : ARRAY[0..1, 0..1] OF Five;
+  pair : Pair; pairs : ARRAY[1..2] OF Pair; holder : Holder;
+  fromLocal1 : INT; fromLocal2 : INT; fromTemp : INT; fromResult : INT;
 END_VAR
-VAR_TEMP k : INT; END_VAR
+VAR_TEMP k : INT; tempFive : Five; END_VAR
   IF done THEN RETURN; END_IF;
   done := TRUE;
   wrapInt := wrapInt + 1;
@@ -164,6 +189,10 @@ VAR_TEMP k : INT; END_VAR
   lreal1 := 2.0 ** 10; sq := SQRT(16.0);
   tod1 := DT_TO_TOD(dt1); d1 := DT_TO_DATE(dt1);
   todAdd := todAdd + T#2h;
+  holder();
+  fromLocal1 := Local(); fromLocal2 := Local();
+  fromTemp := tempFive;
+  fromResult := Unset(FALSE);
 END_PROGRAM
 """
 
@@ -230,15 +259,35 @@ EXPECTED = {
     "tod1": 12 * 3600 * 10**9,
     "d1": 1704153600 * 10**9,
     "todAdd": 3600 * 10**9,
+    # TYPE Five : INT := 5: a declaration of it without its own initial value starts at 5
+    "five": 5,
+    "alsoFive": 5,
+    "ownFive": 9,
+    "flag": 1,
+    "fives[0]": 5,
+    "fives[2]": 5,
+    "grid[0][0]": 5,
+    "grid[1][1]": 5,
+    "pair.a": 5,
+    "pair.b": 0,
+    "pair.c[0]": 5,
+    "pair.c[2]": 5,
+    "pairs[1].a": 5,
+    "pairs[1].c[1]": 5,
+    "pairs[1].b": 0,
+    "holder.inner": 5,
+    "holder.out": 6,
+    "fromLocal1": 6,  # a FUNCTION's local starts at 5 in every call
+    "fromLocal2": 6,
+    "fromTemp": 5,
+    "fromResult": 5,  # a FUNCTION's result of type Five
 }
 
 
 @pytest.fixture(scope="module")
 def conf(tmp_path_factory):
-    run = Running(tmp_path_factory.mktemp("conf"), {"conf.st": PROGRAM})
-    run.wait_value("Conf.done", 1)
-    yield run
-    run.close()
+    with ran_once(tmp_path_factory.mktemp("conf"), {"conf.st": PROGRAM}, "Conf.done") as run:
+        yield run
 
 
 @pytest.mark.parametrize("name", list(EXPECTED))

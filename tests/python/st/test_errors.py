@@ -173,9 +173,9 @@ from st_helpers import errors_of, program
             id="duplicate_variable",
         ),
         pytest.param(
-            "FUNCTION_BLOCK TON\nEND_FUNCTION_BLOCK\n",
-            (1, 1, "duplicate"),
-            "'TON' is declared twice (first at standard.st:104); rename one of them",
+            "FUNCTION_BLOCK Pump\nEND_FUNCTION_BLOCK\nFUNCTION_BLOCK PUMP\nEND_FUNCTION_BLOCK\n",
+            (3, 1, "duplicate"),
+            "'PUMP' is declared twice (first at line 1); rename one of them",
             id="duplicate_pou",
         ),
         pytest.param(
@@ -352,6 +352,28 @@ from st_helpers import errors_of, program
             (5, 28, "syntax"),
             "expected END_WHILE to close the WHILE of line 5, found 'END_FOR'",
             id="syntax_wrong_end",
+        ),
+        pytest.param(
+            program("x : INT;", "x := 1;")
+            + "FUNCTION Max : INT\nVAR_INPUT a, b : INT; END_VAR\n  Max := a;\nEND_FUNCTION\n",
+            (7, 1, "reserved"),
+            "'Max' is a standard function, and IEC 61131-3 reserves its name; rename the FUNCTION "
+            "(e.g. 'MyMax') and its calls",
+            id="reserved_standard_function",
+        ),
+        pytest.param(
+            "FUNCTION_BLOCK TON\nVAR_INPUT IN : BOOL; END_VAR\nEND_FUNCTION_BLOCK\n",
+            (1, 1, "reserved"),
+            "'TON' is a standard function block (st/lib/standard.st), and IEC 61131-3 reserves its name; "
+            "rename the FUNCTION_BLOCK (e.g. 'MyTon') and its calls",
+            id="reserved_standard_function_block",
+        ),
+        pytest.param(
+            "FUNCTION int_to_real : REAL\nVAR_INPUT IN : INT; END_VAR\n  int_to_real := 1.0;\nEND_FUNCTION\n",
+            (1, 1, "reserved"),
+            "'int_to_real' is a standard function, and IEC 61131-3 reserves its name; rename the FUNCTION "
+            "(e.g. 'MyInt_to_real') and its calls",
+            id="reserved_conversion_function",
         ),
     ],
 )

@@ -3177,6 +3177,11 @@ export interface components {
              * @description its offset in the running layout
              */
             from: number;
+            /**
+             * From Type
+             * @description its type in the running layout: the IEC type of a Structured Text variable (INT), else as glbc spells it (int32_t); absent with reason
+             */
+            from_type?: string | null;
             /** Path */
             path: string;
             /**
@@ -3189,6 +3194,11 @@ export interface components {
              * @description its offset in the new one (its type changed)
              */
             to: number;
+            /**
+             * To Type
+             * @description its type in the new layout, spelled as from_type
+             */
+            to_type?: string | null;
         } & {
             [key: string]: unknown;
         };
@@ -4938,7 +4948,7 @@ export interface components {
             layout: string | null;
             /**
              * Moved
-             * @description variables whose type changed and whose value is not kept: a new place, zeroed
+             * @description variables whose type changed and whose value cannot be converted without loss: only the managed restart runs such a set (check answers online false and the restart's reason naming them)
              */
             moved: components["schemas"]["MovedVariable"][];
             /**

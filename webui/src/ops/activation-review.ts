@@ -152,7 +152,7 @@ export class ActivationReview {
         {},
         "Expected downtime (last period of the running set to the first of this one): ",
         h("strong", { class: "num", "data-testid": "plan-downtime" }, plan.downtime),
-        ". No module runs meanwhile, and the shared variables start at zero after the restart.",
+        ". No module runs meanwhile, and the shared variables start afresh after the restart (at their initial values, zero in a .glb).",
       ),
     );
   }

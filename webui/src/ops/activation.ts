@@ -8,7 +8,15 @@ import { formatNs } from "./units";
 export type VariableRow =
   | { kind: "added"; path: string }
   | { kind: "removed"; path: string }
-  | { kind: "moved"; path: string; from: number; to: number; reason: string | null }
+  | {
+      kind: "moved";
+      path: string;
+      from: number;
+      to: number;
+      reason: string | null;
+      fromType: string | null;
+      toType: string | null;
+    }
   | { kind: "converted"; path: string; fromType: string; toType: string; dropped: string[] };
 
 /** The variable diff as the page lists it. */
@@ -35,7 +43,15 @@ export function variableDiff(v: VariableChanges | null | undefined): VariableDif
   const rows: VariableRow[] = [
     ...added.map((path) => ({ kind: "added" as const, path })),
     ...removed.map((path) => ({ kind: "removed" as const, path })),
-    ...moved.map((m) => ({ kind: "moved" as const, path: m.path, from: m.from, to: m.to, reason: m.reason ?? null })),
+    ...moved.map((m) => ({
+      kind: "moved" as const,
+      path: m.path,
+      from: m.from,
+      to: m.to,
+      reason: m.reason ?? null,
+      fromType: m.from_type ?? null,
+      toType: m.to_type ?? null,
+    })),
     ...converted.map((c) => ({
       kind: "converted" as const,
       path: c.path,

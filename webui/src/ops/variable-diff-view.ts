@@ -1,6 +1,6 @@
 // variable-diff-view.ts -- the shared variables a set's layout changes against the running one
-// (a check's or a swap report's `variables`): added, removed, moved with their byte offsets from
-// -> to and why their value is not kept, converted with their types from -> to, and the modules irpd
+// (a check's or a swap report's `variables`): added, removed, moved with their types from -> to
+// and why their value cannot be kept (such a set needs the managed restart), converted with their types from -> to, and the modules irpd
 // loads anew because of the layout; one line when nothing changes.
 import type { VariableDiff, VariableRow } from "./activation";
 import { h } from "./dom";
@@ -10,12 +10,13 @@ export function renderVariableDiff(d: VariableDiff, testid = "plan-variables"): 
   const sign = { added: "+ added", removed: "− removed", moved: "~ moved", converted: "≈ converted" } as const;
   const detail = (r: VariableRow): string =>
     r.kind === "moved"
-      ? `${r.from} → ${r.to}${r.reason ? ` (not converted: ${r.reason})` : ""}`
+      ? `${r.fromType && r.toType ? `${r.fromType} → ${r.toType}` : `${r.from} → ${r.to}`}: not convertible without loss${r.reason ? ` (${r.reason})` : ""}`
       : r.kind === "converted"
         ? `${r.fromType} → ${r.toType}${r.dropped.length ? ` (dropped ${r.dropped.join(", ")})` : ""}`
         : "";
   const notes = [
-    d.rows.some((r) => r.kind === "added" || r.kind === "moved") ? "added and moved variables start at zero" : "",
+    d.rows.some((r) => r.kind === "added") ? "added variables start at their initial values (zero in a .glb)" : "",
+    d.rows.some((r) => r.kind === "moved") ? "a moved variable's type change needs the managed restart of irpd" : "",
     d.rows.some((r) => r.kind === "converted") ? "converted variables keep their values in their new types" : "",
     d.rows.some((r) => r.kind === "removed") ? "a removed variable's room stays empty until irpd restarts" : "",
   ].filter(Boolean);

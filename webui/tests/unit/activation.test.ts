@@ -43,7 +43,16 @@ const CHANGES: VariableChanges = {
   layout: "0123456789abcdef0123",
   added: ["oc.extra"],
   removed: ["oc.gone"],
-  moved: [{ path: "oc.retyped", from: 16, to: 64, reason: "oc.retyped: int32_t to int16_t may lose values" }],
+  moved: [
+    {
+      path: "oc.retyped",
+      from: 16,
+      to: 64,
+      from_type: "int32_t",
+      to_type: "int16_t",
+      reason: "oc.retyped: int32_t to int16_t may lose values",
+    },
+  ],
   converted: [{ path: "oc.wide", from_type: "int16_t", to_type: "int32_t", dropped: [] }],
   replaced: ["adder"],
 };
@@ -83,7 +92,15 @@ describe("variableDiff", () => {
     expect(d.rows).toEqual([
       { kind: "added", path: "oc.extra" },
       { kind: "removed", path: "oc.gone" },
-      { kind: "moved", path: "oc.retyped", from: 16, to: 64, reason: "oc.retyped: int32_t to int16_t may lose values" },
+      {
+        kind: "moved",
+        path: "oc.retyped",
+        from: 16,
+        to: 64,
+        reason: "oc.retyped: int32_t to int16_t may lose values",
+        fromType: "int32_t",
+        toType: "int16_t",
+      },
       { kind: "converted", path: "oc.wide", fromType: "int16_t", toType: "int32_t", dropped: [] },
     ]);
     expect(d.replaced).toEqual(["adder"]);
@@ -188,7 +205,7 @@ describe("renderSwapReport", () => {
     expect(q(e, "report-downtime")).toBeNull();
     expect(q(e, "report-variables-summary")?.textContent).toMatch(/1 added, 1 removed, 1 moved/);
     expect(e.querySelector("[data-variable='oc.retyped']")?.textContent).toContain(
-      "16 → 64 (not converted: oc.retyped: int32_t to int16_t may lose values)",
+      "int32_t → int16_t: not convertible without loss (oc.retyped: int32_t to int16_t may lose values)",
     );
     expect(e.querySelector("[data-variable='oc.wide']")?.textContent).toContain("≈ convertedoc.wideint16_t → int32_t");
     expect(q(e, "report-variables-replaced")?.textContent).toContain("adder");
@@ -335,7 +352,7 @@ describe("ActivationReview", () => {
     await flush();
     expect(s.q("plan-restart-reason")?.textContent).toMatch(/cannot replace the running one online/);
     expect(s.q("plan-downtime")?.textContent).toBe("250 ms");
-    expect(s.q("plan-restart")?.textContent).toMatch(/shared variables start at zero/);
+    expect(s.q("plan-restart")?.textContent).toMatch(/shared variables start afresh/);
     const go = s.q<HTMLButtonElement>("plan-activate")!;
     expect(go.textContent).toBe("Restart irpd onto this set");
     expect(go.disabled).toBe(true);
