@@ -5,6 +5,8 @@
 #include "osal/rt.hpp"
 #include "sdk/sync.hpp"
 
+#include <sched.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <ctime>
@@ -94,6 +96,15 @@ int64_t ProcessWait::bound(int64_t now) noexcept {
     const int64_t until = until_.load(std::memory_order_relaxed);  // as new as the word, or newer
     if (now < until) return until;
     futex::wakeAll(word);  // a wake lost before the executor's FUTEX_WAIT is repeated at the next look
+    const bool not_done =
+        std::atomic_ref<uint32_t>(*word).load(std::memory_order_acquire) == served_.load(std::memory_order_relaxed);
+    if (const int32_t pid = pid_.load(std::memory_order_relaxed);
+        not_done && pid > 0 && demote_to_ > 0 && pid != demoted_) {
+        demoted_ = pid;  // once per process: a restarted one starts at its priority again
+        sched_param below{};
+        below.sched_priority = demote_to_;
+        sched_setscheduler(pid, SCHED_FIFO, &below);
+    }
     return 0;
 }
 
@@ -185,6 +196,8 @@ void Watchdog::stopSet(const Fault &fault) {
         halted_.store(true, std::memory_order_relaxed);
         stopped_by_ = "module '" + fault.module() + "': " + fault.describe();
     }
+    // A process released ahead for a slot that will not run now must not run it either.
+    for (const std::shared_ptr<Executor> &e : executors_.list()) e->cancelArmed();
     if (hooks_.stop) hooks_.stop(fault);
 }
 

@@ -7,6 +7,7 @@
 //   --crash-at K      raise SIGSEGV in its K-th period
 //   --exit-at K N     exit with status N in its K-th period
 //   --hang-at K       ignore SIGTERM and never finish its K-th period
+//   --spin-at K       ignore SIGTERM and never finish its K-th period, busy: it never blocks again
 //   --flood-at K N    print N lines as fast as it can in its K-th period
 #include <indurop/indurop.h>
 
@@ -23,7 +24,7 @@
 
 int main(int argc, char *argv[]) {
     setvbuf(stdout, nullptr, _IOLBF, 0);
-    long crash_at = -1, exit_at = -1, exit_status = 0, hang_at = -1, flood_at = -1, flood_lines = 0;
+    long crash_at = -1, exit_at = -1, exit_status = 0, hang_at = -1, spin_at = -1, flood_at = -1, flood_lines = 0;
     bool init = true;
     std::vector<std::string> env;
     std::printf("start pid=%d argc=%d\n", static_cast<int>(getpid()), argc);
@@ -43,6 +44,8 @@ int main(int argc, char *argv[]) {
             exit_at = next(), exit_status = next();
         else if (a == "--hang-at")
             hang_at = next();
+        else if (a == "--spin-at")
+            spin_at = next();
         else if (a == "--flood-at")
             flood_at = next(), flood_lines = next();
     }
@@ -103,6 +106,11 @@ int main(int argc, char *argv[]) {
             signal(SIGTERM, SIG_IGN);
             std::printf("hanging\n");
             for (;;) pause();
+        }
+        if (n == spin_at) {
+            signal(SIGTERM, SIG_IGN);
+            std::printf("spinning\n");
+            for (volatile unsigned long spins = 0;; spins = spins + 1) {}
         }
     }
 }
