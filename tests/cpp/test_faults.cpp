@@ -365,6 +365,24 @@ TEST(ProcessFault, AProcessSpinningInItsPeriodIsMovedBelowItsDispatcherAndTheRes
     EXPECT_GT(cell.module("p").value("overruns", uint64_t{0}), 0u);
 }
 
+// Moved below its dispatcher while it overran, it goes back above it once that period is done.
+TEST(ProcessFault, AProcessMovedBelowItsDispatcherGoesBackOnceItsLongPeriodIsDone) {
+    Cell cell(process("p", value("args", "--busy-at 5 400")));
+    ASSERT_TRUE(cell.waitUntil([&] { return contains(cell.irpd->out(), "[p] start pid="); })) << cell.irpd->out();
+    const std::string out = cell.irpd->out();
+    const pid_t pid = std::atoi(out.c_str() + out.find("[p] start pid=") + std::strlen("[p] start pid="));
+    if (sched_getscheduler(pid) != SCHED_FIFO) GTEST_SKIP() << "no SCHED_FIFO here: nothing to move";
+    auto priority = [pid] {
+        sched_param param{};
+        return sched_getparam(pid, &param) == 0 ? param.sched_priority : -1;
+    };
+    EXPECT_TRUE(cell.waitUntil([&] { return priority() == 79; })) << "not moved down while busy: " << priority();
+    EXPECT_TRUE(cell.waitUntil([&] { return contains(cell.irpd->out(), "[p] busy done"); })) << cell.irpd->out();
+    EXPECT_TRUE(cell.waitUntil([&] { return priority() == 81; })) << "not moved back: " << priority();
+    const uint64_t runs = cell.runs("p");
+    EXPECT_TRUE(cell.waitUntil([&] { return cell.runs("p") > runs + 20; })) << "it is released again";
+}
+
 TEST(ProcessFault, AHangWithOnOverrunWarnIsReportedOnce) {
     Cell cell(process("p", value("args", "--hang-at 5"),
                       "<on_overrun>warn</on_overrun><overrun_limit>2000000</overrun_limit>"));

@@ -164,8 +164,10 @@ std::unique_ptr<Dispatcher::Plan> Dispatcher::makePlan(const ExecutorOptions &op
                                       plans_.empty() ? std::string("dispatcher") : "dispatcher@" + options.name,
                                       options.name, (table ? *table : plan->idle).basic_ns, options.rt_priority, 0);
     plan->executor = std::make_shared<Executor>(clock_, table ? table : &plan->idle, plan->record, plan->options);
-    // A process past its bound goes below this executor (processPriority put it above).
-    if (options_.realtime) plan->executor->processWait().demoteTo(std::max(1, options.rt_priority - 1));
+    // A periodic process put above this executor (processPriority) goes below it while it is past its bound.
+    if (const int above = processPriority(options.rt_priority, options_.rt_priority, true);
+        options_.realtime && above > options.rt_priority)
+        plan->executor->processWait().demoteTo(options.rt_priority - 1, above);
     return plan;
 }
 

@@ -127,9 +127,13 @@ public:
     // Executor thread, before each FUTEX_WAIT of the wait: whether the watchdog bounds it now.
     bool bounded() const noexcept { return bound_.load(std::memory_order_seq_cst); }
     void end() noexcept { word_.store(nullptr, std::memory_order_relaxed); }
-    // The SCHED_FIFO priority a process past its bound is moved to (its dispatcher's minus one);
-    // 0: none (set once, before the executor's loop).
-    void demoteTo(int priority) noexcept { demote_to_ = priority; }
+    // A process above its dispatcher (at `above`) past its bound is moved to `below` (its
+    // dispatcher's priority minus one) until it reports that release done; below 0: never (set
+    // once, before the executor's loop).
+    void demoteTo(int below, int above) noexcept {
+        below_ = below;
+        above_ = above;
+    }
 
     // Watchdog thread: from now on it bounds the waits (each look).  Wakes the wait in progress
     // if it passed its bound; returns that wait's bound if it has not, else 0.
@@ -143,8 +147,11 @@ private:
     std::atomic<int64_t> until_{0};
     std::atomic<int32_t> pid_{0};
     std::atomic<uint32_t> served_{0};
-    int demote_to_ = 0;
-    int32_t demoted_ = 0;  // watchdog thread: the last process it moved down
+    int below_ = 0, above_ = 0;
+    // watchdog thread: the process it moved down, until its done word moves past `demoted_served_`
+    int32_t demoted_ = 0;
+    uint32_t *demoted_word_ = nullptr;
+    uint32_t demoted_served_ = 0;
     std::atomic<bool> bound_{false};
 };
 
