@@ -330,7 +330,10 @@ void Executor::skip(uint64_t from, uint64_t count) {
 /*
  * One iteration = one basic period:
  *   1. sleep until the slot's absolute due time T0 + n * basic (clock_nanosleep TIMER_ABSTIME),
- *      unless the previous slot ended past it (then start at once: a caught-up slot);
+ *      unless the previous slot ended past it (then start at once: a caught-up slot); a periodic
+ *      process that leads the slot is released just before the sleep, to start at the due time on
+ *      its own timer (control.h), and the release is resolved right after the wake-up: claimed by
+ *      the process (awaited), made a release now, or taken back (docs/process-modules.md);
  *   2. if the backlog passed what the overrun policy allows, skip slots to the current one; if the
  *      slot's first module is a process, release and await it now (step 3), so that nothing of
  *      this thread's own comes between its wake-up and the process's; then account the wake-up:
