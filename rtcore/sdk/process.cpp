@@ -244,6 +244,25 @@ int waitPeriod() {
         }
         const uint32_t seq = atomic(slot->release_seq).load(std::memory_order_acquire);
         if (seq != g_period.last_seq) {
+            // A release made ahead (control.h) starts at its release_at_ns: asleep until then on
+            // its own timer, then claimed, unless irpd took it back first.
+            int64_t at = atomic(slot->release_at_ns).load(std::memory_order_acquire);
+            if (at == INDUROP_RELEASE_CANCELLED) {  // taken back: done without running
+                g_period.last_seq = seq;
+                atomic(slot->done_ns).store(monotonicNs(), std::memory_order_relaxed);
+                atomic(slot->done_seq).store(seq, std::memory_order_release);
+                futex::wakeAll(&slot->done_seq);
+                continue;
+            }
+            const int64_t now = monotonicNs();
+            if (at != 0 && now < at) {
+                atomic(slot->wake_ns).store(at, std::memory_order_seq_cst);
+                futex::waitUntil(&slot->release_seq, seq, at);
+                continue;
+            }
+            atomic(slot->started_ns).store(now, std::memory_order_relaxed);  // published by the claim
+            if (at != 0 && !atomic(slot->release_at_ns).compare_exchange_strong(at, 0, std::memory_order_acq_rel))
+                continue;  // irpd took it back meanwhile: read what it made of it
             g_period.last_seq = seq;
             Cycle c{};
             c.count = atomic(slot->cycle).load(std::memory_order_relaxed);

@@ -18,10 +18,13 @@
 #include <gtest/gtest.h>
 
 #include <dlfcn.h>
+#include <sched.h>
 #include <signal.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -339,6 +342,45 @@ TEST(ProcessFault, AHangWithoutOnOverrunIsCountedWhileTheRestRunsOn) {
     EXPECT_EQ(cell.module("p").value("runs", uint64_t{0}), 5u) << "it finished four periods and hangs in its fifth";
     EXPECT_TRUE(cell.events("process_hang", "p").empty());
     EXPECT_TRUE(cell.events("process_exit", "p").empty());
+}
+
+// A periodic process runs one priority above its dispatcher, on its CPU (a release made ahead
+// starts it on its own timer first, docs/process-modules.md): one that never blocks in its period
+// would hold that CPU.  The watchdog moves it below its dispatcher at its bound, and the rest of
+// the set runs on.
+TEST(ProcessFault, AProcessSpinningInItsPeriodIsMovedBelowItsDispatcherAndTheRestRunsOn) {
+    Cell cell(process("p", value("args", "--spin-at 5")));
+    ASSERT_TRUE(cell.waitUntil([&] { return contains(cell.irpd->out(), "[p] spinning"); })) << cell.irpd->out();
+    const std::string out = cell.irpd->out();
+    const auto pid_at = out.find("[p] start pid=");
+    ASSERT_NE(pid_at, std::string::npos) << out;
+    const pid_t pid = std::atoi(out.c_str() + pid_at + std::strlen("[p] start pid="));
+    sched_param param{};
+    ASSERT_EQ(sched_getparam(pid, &param), 0);
+    if (sched_getscheduler(pid) != SCHED_FIFO) GTEST_SKIP() << "no SCHED_FIFO here: nothing to move";
+    EXPECT_TRUE(contains(out, "[p] sched=FIFO prio=81")) << "one above the dispatcher's 80\n" << out;
+    EXPECT_TRUE(cell.waitUntil([&] { return sched_getparam(pid, &param) == 0 && param.sched_priority == 79; }))
+        << "still at " << param.sched_priority;
+    EXPECT_TRUE(cell.keepRuns());
+    EXPECT_GT(cell.module("p").value("overruns", uint64_t{0}), 0u);
+}
+
+// Moved below its dispatcher while it overran, it goes back above it once that period is done.
+TEST(ProcessFault, AProcessMovedBelowItsDispatcherGoesBackOnceItsLongPeriodIsDone) {
+    Cell cell(process("p", value("args", "--busy-at 5 400")));
+    ASSERT_TRUE(cell.waitUntil([&] { return contains(cell.irpd->out(), "[p] start pid="); })) << cell.irpd->out();
+    const std::string out = cell.irpd->out();
+    const pid_t pid = std::atoi(out.c_str() + out.find("[p] start pid=") + std::strlen("[p] start pid="));
+    if (sched_getscheduler(pid) != SCHED_FIFO) GTEST_SKIP() << "no SCHED_FIFO here: nothing to move";
+    auto priority = [pid] {
+        sched_param param{};
+        return sched_getparam(pid, &param) == 0 ? param.sched_priority : -1;
+    };
+    EXPECT_TRUE(cell.waitUntil([&] { return priority() == 79; })) << "not moved down while busy: " << priority();
+    EXPECT_TRUE(cell.waitUntil([&] { return contains(cell.irpd->out(), "[p] busy done"); })) << cell.irpd->out();
+    EXPECT_TRUE(cell.waitUntil([&] { return priority() == 81; })) << "not moved back: " << priority();
+    const uint64_t runs = cell.runs("p");
+    EXPECT_TRUE(cell.waitUntil([&] { return cell.runs("p") > runs + 20; })) << "it is released again";
 }
 
 TEST(ProcessFault, AHangWithOnOverrunWarnIsReportedOnce) {

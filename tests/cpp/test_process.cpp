@@ -229,6 +229,49 @@ TEST(ProcessLifecycle, ReleasedAndAwaitedThroughItsSlot) {
     EXPECT_EQ(stateOf(s), INDUROP_PROCESS_EXITED);
 }
 
+// A release made ahead (control.h): the process starts it no sooner than its release_at_ns,
+// claims it (release_at_ns 0, started_ns written), and one that irpd takes back before that is
+// reported done without being run; one that irpd makes immediate runs at once.
+TEST(ProcessLifecycle, AReleaseMadeAheadRunsAtItsTimeUnlessTakenBackOrMadeImmediate) {
+    Harness h;
+    ASSERT_TRUE(h.supervisor.start(h.launch(processSpec("cyc", "proc_periodic.exe"), 0)).ok());
+    ASSERT_TRUE(h.supervisor.waitReady(kLong).ok()) << h.all();
+    indurop_process_slot &s = h.slot(0);
+    std::atomic_ref<int64_t> at(s.release_at_ns);
+    auto ahead = [&](uint64_t cycle, int64_t release_at) {
+        at.store(release_at, std::memory_order_relaxed);
+        return release(s, cycle);
+    };
+
+    // Ahead by 50 ms: run then, not before.
+    const int64_t when = nowNs() + 50 * kMs;
+    uint32_t seq = ahead(7, when);
+    ASSERT_TRUE(awaitDone(s, seq, kLong)) << h.all();
+    EXPECT_GE(s.started_ns, when);
+    EXPECT_GE(s.done_ns, when);
+    EXPECT_EQ(at.load(), 0) << "claimed";
+    EXPECT_TRUE(h.waitFor("[cyc] period n=1 cycle=7 ")) << h.all();
+
+    // Ahead by 10 s, taken back at once: done without running.
+    seq = ahead(8, nowNs() + 10'000 * kMs);
+    int64_t expected = at.load();
+    ASSERT_TRUE(at.compare_exchange_strong(expected, INDUROP_RELEASE_CANCELLED));
+    futex::wakeAll(&s.release_seq);
+    ASSERT_TRUE(awaitDone(s, seq, kLong)) << "a release taken back is reported done\n" << h.all();
+    EXPECT_EQ(stateOf(s), INDUROP_PROCESS_READY);
+
+    // Ahead by 10 s, made immediate: runs now (the period after the taken-back one is its second).
+    const int64_t made = nowNs();
+    seq = ahead(9, made + 10'000 * kMs);
+    expected = at.load();
+    ASSERT_TRUE(at.compare_exchange_strong(expected, 0));
+    futex::wakeAll(&s.release_seq);
+    ASSERT_TRUE(awaitDone(s, seq, kLong)) << h.all();
+    EXPECT_LT(s.done_ns, made + 5'000 * kMs) << "it did not wait for the time it was first given";
+    EXPECT_TRUE(h.waitFor("[cyc] period n=2 cycle=9 ")) << h.all();
+    EXPECT_FALSE(h.has("cycle=8 ")) << "the release taken back ran\n" << h.all();
+}
+
 TEST(ProcessLifecycle, ArgsAndEnvPropertiesReachTheChild) {
     setenv("INDUROP_TEST_INHERITED", "from-irpd", 1);
     const int leaked = open("/dev/null", O_RDONLY);  // no O_CLOEXEC: the child must not get it

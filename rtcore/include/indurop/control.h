@@ -27,6 +27,13 @@
  *            budget, else by what is left of the basic period: irpd's watchdog thread wakes the
  *            wait at that bound, docs/process-modules.md); a sporadic one is not awaited,
  *            its completion is checked against its deadline at the following basic periods.
+ * A release made ahead (docs/process-modules.md): a periodic process first in its slot is released
+ * by its dispatcher just before the dispatcher sleeps until the slot's due time, with release_at_ns
+ * = that due time.  The process runs it only once release_at_ns has passed, and claims it first by
+ * a compare-and-swap of release_at_ns to 0 (writing started_ns): irpd may, until then, take it back
+ * with the same compare-and-swap, to 0 (run it now: the process is woken as for any release) or to
+ * INDUROP_RELEASE_CANCELLED (the process reports it done without running it).  release_at_ns = 0:
+ * an ordinary release, run at once.
  * stop_requested = 1 tells the process to leave (irp::waitPeriod() then returns non-zero).
  *
  * Shared functions called from processes (<indurop/functions.h>, docs/shared-variables.md):
@@ -52,7 +59,9 @@ extern "C" {
 #endif
 
 #define INDUROP_CONTROL_MAGIC 0x314C544350524955ull /* the bytes "UIRPCTL1" */
-#define INDUROP_CONTROL_VERSION 2u                  /* 2: call areas and the function table */
+#define INDUROP_CONTROL_VERSION 3u                  /* 2: call areas and the function table; 3: releases made ahead */
+/* release_at_ns of a release made ahead that irpd took back: reported done, not run */
+#define INDUROP_RELEASE_CANCELLED INT64_MAX
 
 enum indurop_process_state {
     INDUROP_PROCESS_EMPTY = 0,    /* not started, or exited and not restarted */
@@ -146,9 +155,10 @@ typedef struct indurop_process_slot {
     int64_t done_ns;     /* when the process reported the last release done */
     uint64_t generation; /* +1 each time irpd (re)starts the process */
     char name[64];
-    int64_t next_due_ns; /* irpd, at a release: when the process's next release is due (0: unknown) */
-    int64_t wake_ns;     /* process: its wait for a release ends by itself at this time; 0: only a wake ends it */
-    uint8_t reserved[16];
+    int64_t next_due_ns;    /* irpd, at a release: when the process's next release is due (0: unknown) */
+    int64_t wake_ns;        /* process: its wait for a release ends by itself at this time; 0: only a wake ends it */
+    int64_t release_at_ns;  /* irpd: the release starts no sooner (a release made ahead); 0: at once; claimed: 0 */
+    int64_t started_ns;     /* process: when it started its last release */
     indurop_call_area call; /* this process's calls of shared functions */
 } indurop_process_slot;
 

@@ -124,6 +124,11 @@ std::unique_ptr<Tables> buildTables(const config::SetSpec &set, const schedule::
             }
         }
         for (Task *t : table.tasks) t->config.period_slots = t->config.period_ns / table.basic_ns;
+        for (Task *t : table.tasks)
+            t->config.leads = t->config.kind == Task::Kind::Process &&
+                              std::all_of(table.slots.begin(), table.slots.end(), [t](const std::vector<Task *> &slot) {
+                                  return std::find(slot.begin(), slot.end(), t) == slot.end() || slot.front() == t;
+                              });
     }
     return tables;
 }
@@ -159,6 +164,10 @@ std::unique_ptr<Dispatcher::Plan> Dispatcher::makePlan(const ExecutorOptions &op
                                       plans_.empty() ? std::string("dispatcher") : "dispatcher@" + options.name,
                                       options.name, (table ? *table : plan->idle).basic_ns, options.rt_priority, 0);
     plan->executor = std::make_shared<Executor>(clock_, table ? table : &plan->idle, plan->record, plan->options);
+    // A periodic process put above this executor (processPriority) goes below it while it is past its bound.
+    if (const int above = processPriority(options.rt_priority, options_.rt_priority, true);
+        options_.realtime && above > options.rt_priority)
+        plan->executor->processWait().demoteTo(options.rt_priority - 1, above);
     return plan;
 }
 

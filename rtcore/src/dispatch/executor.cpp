@@ -137,45 +137,6 @@ void Executor::serveCalls(Task &task, uint64_t cycle) {
     if (task.config.calls) task.config.calls->serve(task.config.module, cycle, task.state.disabled);
 }
 
-bool Executor::runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start, int64_t wait_until) {
-    indurop_process_slot &slot = *task.config.process;
-    std::atomic_ref<uint32_t> state(slot.state), release(slot.release_seq), done(slot.done_seq);
-    const uint32_t served = release.load(std::memory_order_relaxed);
-    // Ready means waiting in irp::waitPeriod() with the last release finished.
-    if (state.load(std::memory_order_acquire) != INDUROP_PROCESS_READY ||
-        done.load(std::memory_order_acquire) != served)
-        return false;
-    slot.cycle = cycle;
-    slot.planned_ns = due;
-    slot.basic_ns = table_->basic_ns;
-    slot.release_ns = start;
-    // A periodic process sleeps until its next release's due time by itself (irp::waitPeriod).
-    slot.next_due_ns = task.config.sporadic ? 0 : due + task.config.period_ns;
-    release.store(served + 1, std::memory_order_seq_cst);
-    // Its wait ends by itself by now (its timer has expired: it runs as soon as this thread
-    // blocks), or it needs the wake: control.h, the store above and this load against its own.
-    const int64_t wakes_at = std::atomic_ref<int64_t>(slot.wake_ns).load(std::memory_order_seq_cst);
-    if (wakes_at == 0 || wakes_at > start) futex::wakeAll(&slot.release_seq);
-    if (task.config.sporadic) return true;  // the event handler checks completion later
-    if (!awaitDone(slot, served, start, wait_until)) stats::bump(task.config.stats->overruns);
-    return true;
-}
-
-bool Executor::awaitDone(indurop_process_slot &slot, uint32_t served, int64_t now, int64_t until) {
-    std::atomic_ref<uint32_t> done(slot.done_seq);
-    while (done.load(std::memory_order_acquire) == served) {
-        if (until <= now) return false;
-        if (process_wait_.begin(&slot.done_seq, until)) {  // the watchdog ends it at `until`
-            futex::wait(&slot.done_seq, served);
-            process_wait_.end();
-        } else if (const int64_t left = until - clock_.now(); left > 0) {  // no watchdog: its own timeout
-            futex::wait(&slot.done_seq, served, left);
-        }
-        now = clock_.now();
-    }
-    return true;
-}
-
 namespace {
 
 // Run n of a task is due first_due + n * period, n = (due - first_due) / period: from its last
@@ -195,6 +156,108 @@ int64_t waitBound(const TaskConfig &c, int64_t start, int64_t period_end) noexce
 }
 
 }  // namespace
+
+void Executor::release(Task &task, uint64_t cycle, int64_t due, int64_t start, int64_t at) {
+    indurop_process_slot &slot = *task.config.process;
+    std::atomic_ref<uint32_t> release(slot.release_seq);
+    slot.cycle = cycle;
+    slot.planned_ns = due;
+    slot.basic_ns = table_->basic_ns;
+    slot.release_ns = at ? at : start;
+    // A process that leads its slots sleeps until its next release's due time by itself
+    // (irp::waitPeriod); the others wait for their wake (above their dispatcher, a timer of their
+    // own would only take the CPU from it at the due time, before their release).
+    slot.next_due_ns = task.config.leads ? due + task.config.period_ns : 0;
+    std::atomic_ref<int64_t>(slot.release_at_ns).store(at, std::memory_order_relaxed);
+    release.store(release.load(std::memory_order_relaxed) + 1, std::memory_order_seq_cst);
+    // Its wait ends by itself by then (its timer has expired, or expires at `at`), or it needs the
+    // wake: control.h, the store above and this load against its own.
+    const int64_t wakes_at = std::atomic_ref<int64_t>(slot.wake_ns).load(std::memory_order_seq_cst);
+    if (wakes_at == 0 || wakes_at > (at ? at : start)) futex::wakeAll(&slot.release_seq);
+}
+
+bool Executor::runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start, int64_t wait_until) {
+    indurop_process_slot &slot = *task.config.process;
+    std::atomic_ref<uint32_t> state(slot.state), release_seq(slot.release_seq), done(slot.done_seq);
+    const uint32_t served = release_seq.load(std::memory_order_relaxed);
+    // Ready means waiting in irp::waitPeriod() with the last release finished.
+    if (state.load(std::memory_order_acquire) != INDUROP_PROCESS_READY ||
+        done.load(std::memory_order_acquire) != served)
+        return false;
+    if (task.config.sporadic) {  // the event handler checks completion later
+        release(task, cycle, due, start, 0);
+        return true;
+    }
+    beginWait(slot, served, wait_until);
+    release(task, cycle, due, start, 0);
+    if (!awaitDone(slot, served, start, wait_until)) stats::bump(task.config.stats->overruns);
+    return true;
+}
+
+void Executor::armAhead(const std::vector<Task *> &order, uint64_t cycle, int64_t due) {
+    if (order.empty()) return;
+    Task &task = *order.front();
+    const TaskConfig &c = task.config;
+    if (!c.leads || c.sporadic || !runsNow(task, due) || (c.gate && !c.gate->isOpen())) return;
+    indurop_process_slot &slot = *c.process;
+    if (std::atomic_ref<uint32_t>(slot.state).load(std::memory_order_acquire) != INDUROP_PROCESS_READY ||
+        std::atomic_ref<uint32_t>(slot.done_seq).load(std::memory_order_acquire) !=
+            std::atomic_ref<uint32_t>(slot.release_seq).load(std::memory_order_relaxed))
+        return;  // not ready: the slot finds it so and counts the miss
+    armed_at_.store(due, std::memory_order_relaxed);
+    armed_.store(&slot, std::memory_order_release);
+    beginWait(slot, std::atomic_ref<uint32_t>(slot.release_seq).load(std::memory_order_relaxed),
+              waitBound(c, due, due + table_->basic_ns));
+    release(task, cycle, due, clock_.now(), due);
+}
+
+Executor::Armed Executor::resolveArmed(Task &task, int64_t now, int64_t &start) {
+    indurop_process_slot &slot = *task.config.process;
+    std::atomic_ref<int64_t> at(slot.release_at_ns);
+    int64_t expected = armed_at_.load(std::memory_order_relaxed);
+    const bool run = runsNow(task, expected);
+    armed_.store(nullptr, std::memory_order_relaxed);
+    if (at.compare_exchange_strong(expected, run ? 0 : INDUROP_RELEASE_CANCELLED, std::memory_order_acq_rel)) {
+        if (!run) return Armed::TakenBack;  // it reports it done at its due time, without running it
+        if (std::atomic_ref<uint32_t>(slot.state).load(std::memory_order_acquire) != INDUROP_PROCESS_READY)
+            return Armed::TakenBack;  // exited or restarting meanwhile: the slot finds it not ready
+        // Not claimed yet (its CPU is another, or it runs below this thread): a release now.
+        slot.release_ns = now;
+        const int64_t wakes_at = std::atomic_ref<int64_t>(slot.wake_ns).load(std::memory_order_seq_cst);
+        if (wakes_at == 0 || wakes_at > now) futex::wakeAll(&slot.release_seq);
+        start = now;
+        return Armed::Released;
+    }
+    if (expected == INDUROP_RELEASE_CANCELLED) return Armed::TakenBack;                 // by cancelArmed()
+    start = std::atomic_ref<int64_t>(slot.started_ns).load(std::memory_order_relaxed);  // claimed: 0 now
+    return Armed::Claimed;
+}
+
+void Executor::cancelArmed() noexcept {
+    indurop_process_slot *slot = armed_.load(std::memory_order_acquire);
+    if (!slot) return;
+    int64_t expected = armed_at_.load(std::memory_order_relaxed);
+    std::atomic_ref<int64_t>(slot->release_at_ns)
+        .compare_exchange_strong(expected, INDUROP_RELEASE_CANCELLED, std::memory_order_acq_rel);
+}
+
+bool Executor::awaitDone(indurop_process_slot &slot, uint32_t served, int64_t now, int64_t until) {
+    std::atomic_ref<uint32_t> done(slot.done_seq);
+    bool in_time = true;
+    while (done.load(std::memory_order_acquire) == served) {
+        if (until <= now) {
+            in_time = false;
+            break;
+        }
+        if (process_wait_.bounded())  // the watchdog ends it at `until`
+            futex::wait(&slot.done_seq, served);
+        else if (const int64_t left = until - clock_.now(); left > 0)  // no watchdog: its own timeout
+            futex::wait(&slot.done_seq, served, left);
+        now = clock_.now();
+    }
+    process_wait_.end();
+    return in_time;
+}
 
 int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
     for (Task *task : table_->events) {
@@ -267,7 +330,10 @@ void Executor::skip(uint64_t from, uint64_t count) {
 /*
  * One iteration = one basic period:
  *   1. sleep until the slot's absolute due time T0 + n * basic (clock_nanosleep TIMER_ABSTIME),
- *      unless the previous slot ended past it (then start at once: a caught-up slot);
+ *      unless the previous slot ended past it (then start at once: a caught-up slot); a periodic
+ *      process that leads the slot is released just before the sleep, to start at the due time on
+ *      its own timer (control.h), and the release is resolved right after the wake-up: claimed by
+ *      the process (awaited), made a release now, or taken back (docs/process-modules.md);
  *   2. if the backlog passed what the overrun policy allows, skip slots to the current one; if the
  *      slot's first module is a process, release and await it now (step 3), so that nothing of
  *      this thread's own comes between its wake-up and the process's; then account the wake-up:
@@ -342,16 +408,40 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         const auto max_backlog = static_cast<uint64_t>(options_.max_catchup_ns / basic);
         int64_t woke;
         const bool slept = previous_end < due;
+        // A slot led by a process that is released ahead (control.h): resolved at the wake-up.
+        enum class First : uint8_t { None, Released, NotReady } first = First::None;
+        int64_t first_start = 0, first_end = 0;
         if (slept) {
+            Task *armed = nullptr;
+            uint32_t served = 0;
+            if (!table_->slots[slot_index].empty()) {
+                armAhead(table_->slots[slot_index], cycle, due);
+                if (armed_.load(std::memory_order_relaxed)) {
+                    armed = table_->slots[slot_index].front();
+                    served = std::atomic_ref<uint32_t>(armed->config.process->release_seq).load() - 1;
+                }
+            }
             clock_.sleepUntil(due);
             woke = clock_.now();
+            if (armed && resolveArmed(*armed, woke, first_start) != Armed::TakenBack) {
+                // Both timers expired at `due`; this thread reads its clock only after the
+                // process ran (above it, on its CPU): its own wake-up is taken as the process's.
+                woke = std::min(woke, first_start);
+                if (!awaitDone(*armed->config.process, served, clock_.now(),
+                               waitBound(armed->config, due, due + basic)))
+                    stats::bump(armed->config.stats->overruns);
+                first = First::Released;
+                first_end = clock_.now();
+            } else if (armed) {
+                process_wait_.end();
+            }
         } else {
             // Already past due when the previous slot ended: started at once, without sleeping.
             woke = previous_end;
         }
         const int64_t late = woke - due;
         if (cycle == 0) wake_offset = late;
-        if (late >= basic) {
+        if (late >= basic && first == First::None) {            // (a slot whose process already ran is run)
             auto behind = static_cast<uint64_t>(late / basic);  // whole slots already past due
             if (options_.policy == OverrunPolicy::Skip || behind > max_backlog) {
                 if (cycle_limit && cycle + behind >= cycle_limit) behind = cycle_limit - cycle - 1;
@@ -363,14 +453,15 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         }
         const std::vector<Task *> &order = table_->slots[slot_index];
         int64_t t = woke;
-        // A slot whose first module is a process releases it before anything else, and awaits it:
-        // it runs as soon as this thread blocks, and the dispatcher's own figures below are taken
-        // after it (they change nothing the process reads: its cycle is in its control slot).
-        enum class First : uint8_t { None, Released, NotReady } first = First::None;
-        int64_t first_end = 0;
-        if (!order.empty() && runsNow(*order.front(), due) && order.front()->config.kind == Task::Kind::Process) {
+        // A slot whose first module is a process releases it before anything else (unless it was
+        // released ahead, above), and awaits it: it runs as soon as this thread blocks, and the
+        // dispatcher's own figures below are taken after it (they change nothing the process
+        // reads: its cycle is in its control slot).
+        if (first == First::None && !order.empty() && runsNow(*order.front(), due) &&
+            order.front()->config.kind == Task::Kind::Process) {
             const int64_t until = waitBound(order.front()->config, woke, due + basic);
             first = runProcess(*order.front(), cycle, due, woke, until) ? First::Released : First::NotReady;
+            first_start = woke;
             first_end = clock_.now();
         }
         if (slept) {
@@ -400,7 +491,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
                 }
             }
             stats::TimingRecord &r = *c.stats;
-            const int64_t start = t;
+            const int64_t start = released_first ? first_start : t;
             if (c.kind == Task::Kind::Process) {
                 // Released and awaited in its place, so R6's order holds across threads and processes.
                 if (released_first ? first == First::NotReady

@@ -76,7 +76,10 @@ struct TaskConfig {
     void (*run)() = nullptr;                  // thread modules
     int (*condition)() = nullptr;             // sporadic thread modules
     indurop_process_slot *process = nullptr;  // process modules: their control slot
-    int64_t deadline_ns = 0;                  // sporadic: from condition true / release to completion
+    // A periodic process first in every slot it runs in: released ahead, just before its
+    // dispatcher sleeps until the slot (docs/process-modules.md), and told its next due time.
+    bool leads = false;
+    int64_t deadline_ns = 0;  // sporadic: from condition true / release to completion
     stats::TimingRecord *stats = nullptr;
     int64_t period_ns = 0;
     int64_t period_slots = 1;  // period / the executor's basic period
@@ -212,6 +215,9 @@ public:
     // (dispatch/watchdog.hpp); awaitsProcesses(): the running table has a periodic process module.
     ProcessWait &processWait() { return process_wait_; }
     bool awaitsProcesses() const { return awaits_processes_.load(std::memory_order_relaxed); }
+    // Takes back a release made ahead that its process has not started yet (any thread: the
+    // watchdog, when a fault stops the set): the process reports it done without running it.
+    void cancelArmed() noexcept;
 
     // Hot reload, from a non-RT thread.  offer(): the loop switches to `next` at the first slot due
     // at or after `at` (a macro-period boundary of the running table, on the common time grid),
@@ -231,8 +237,24 @@ private:
     // Releases a periodic process and waits (futex) until it reports the period done, at most
     // until `wait_until`.  False if it was not ready to be released.
     bool runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start, int64_t wait_until);
+    // Writes what the process reads of its release at `cycle`, due at `due` (irp::cycle(), its
+    // next due time), made at `start`, to run from `at` (0: at once), and makes the release.
+    void release(Task &task, uint64_t cycle, int64_t due, int64_t start, int64_t at);
+    // Before sleeping until `due`: releases the slot's leading process ahead (control.h), when it
+    // runs in that slot and is ready; the release is then armed_ until resolveArmed().
+    void armAhead(const std::vector<Task *> &order, uint64_t cycle, int64_t due);
+    // After the wake-up for the armed slot: whether its process claimed the release, else it is
+    // made a release now (woken as any) or, when the slot must not run it, taken back.  `start`
+    // becomes when the process started.
+    enum class Armed : uint8_t { Claimed, Released, TakenBack };
+    Armed resolveArmed(Task &task, int64_t now, int64_t &start);
+    // Publishes the wait for release `served` + 1 of `slot` to the watchdog, before the release
+    // (ProcessWait::begin).
+    void beginWait(indurop_process_slot &slot, uint32_t served, int64_t until) noexcept {
+        process_wait_.begin(&slot.done_seq, until, slot.pid, served);
+    }
     // Waits until done_seq moves past `served`, at most until `until` (`now`: a clock read taken
-    // before the release); false at the bound.
+    // before the release), and ends the wait beginWait published; false at the bound.
     bool awaitDone(indurop_process_slot &slot, uint32_t served, int64_t now, int64_t until);
     // The event handler (Figure 6): conditions of sporadic threads, then releases of sporadic processes.
     int64_t handleEvents(uint64_t cycle, int64_t due, int64_t t);
@@ -271,6 +293,10 @@ private:
     std::atomic<bool> watching_{false};
     ProcessWait process_wait_;
     std::atomic<bool> awaits_processes_{false};
+    // The release made ahead and not resolved yet (cancelArmed() may take it back from another
+    // thread): its slot and its release_at_ns.
+    std::atomic<indurop_process_slot *> armed_{nullptr};
+    std::atomic<int64_t> armed_at_{0};
     uint32_t *alarm_source_ = nullptr;  // this thread's alarm source word, while loop() runs
     std::atomic<int64_t> basic_ns_{0};
     stats::SampleRing samples_;

@@ -48,7 +48,9 @@ constexpr Field kSlot[] = {
     IRP_SHM_FIELD(S, next_due_ns, "irpd, at a release: when the process's next release is due (0: unknown)"),
     IRP_SHM_FIELD(S, wake_ns,
                   "process: its wait for a release ends by itself at this time; 0: only a FUTEX_WAKE ends it"),
-    IRP_SHM_FIELD(S, reserved, "zero"),
+    IRP_SHM_FIELD(S, release_at_ns,
+                  "irpd: a release made ahead starts no sooner; 0: at once (and once claimed); INT64_MAX: taken back"),
+    IRP_SHM_FIELD(S, started_ns, "process: when it started its last release"),
     IRP_SHM_FIELD(S, call, "this process's call of a shared function"),
 };
 IRP_SHM_DESCRIBES(indurop_process_slot, kSlot);

@@ -142,8 +142,9 @@ def render_wakeup(a, w: dict) -> str:
     add("## Process module wake-up: against a thread module and a signal-based wake-up")
     add("")
     add(
-        f"Period {a.period_ns} ns ({per_us:g} µs), CPU {a.cpu}, the dispatcher at SCHED_FIFO {a.rt_priority}, the "
-        f"processes at {a.rt_priority - 1}; {len(PROGRAMS) + len(VARIANT_PROGRAMS)} programs (these four and the "
+        f"Period {a.period_ns} ns ({per_us:g} µs), CPU {a.cpu}, the dispatcher at SCHED_FIFO {a.rt_priority}, "
+        f"irpd's periodic process at {a.rt_priority + 1} and the other workers at {a.rt_priority - 1} (unless their "
+        f"mode says otherwise); {len(PROGRAMS) + len(VARIANT_PROGRAMS)} programs (these four and the "
         f"alternatives below), {w['seconds_per_round']} s each per round, in "
         f"{a.proc_rounds} rounds whose order rotates; the samples of the rounds are merged. irpd runs with "
         "`--overrun-policy skip`, as in the cyclictest comparison, so that every sample is a real wake-up."
@@ -158,14 +159,13 @@ def render_wakeup(a, w: dict) -> str:
         add("")
         add(
             f"Not met: {w['ratio_p99']:.2f}× against {PROC_P99_RATIO_TARGET:g}×, "
-            f"{100 * (w['ratio_p99'] / PROC_P99_RATIO_TARGET - 1):.0f} % over. Why: a process module's code starts "
-            "after a switch from the dispatcher's thread to another process (another address space, the return "
-            "from its futex wait), which a thread module's does not have: that hand-over is "
+            f"{100 * (w['ratio_p99'] / PROC_P99_RATIO_TARGET - 1):.0f} % over. Why: released ahead, the process starts "
+            "on its own timer, as a thread module's dispatcher does, but from a futex wait in another address "
+            "space rather than from clock_nanosleep in irpd's: that difference is "
             f"{us(pw.get('p50', 0) - p['dispatcher'].get('p50', 0))} µs at p50 here (second table), while "
             f"{PROC_P99_RATIO_TARGET:g}× of the thread module's p99 ({us(t99)} µs) leaves "
-            f"{us(t99 * (PROC_P99_RATIO_TARGET - 1))} µs for it. What is left of it is the dispatcher's FUTEX_WAIT "
-            "(a system call), the switch of address space, and the process's return from its own wait: the "
-            "release itself no longer makes a system call, and nothing of the dispatcher's own comes before it."
+            f"{us(t99 * (PROC_P99_RATIO_TARGET - 1))} µs for it; the p99s themselves are the machine's noise in "
+            "the rounds each program happened to run in (the round-by-round table)."
         )
     per_round = [ratio(r["process"].get("p99"), r["thread"].get("p99")) for r in w["rounds"]]
     per_round = [x for x in per_round if x is not None]
@@ -268,13 +268,14 @@ def render_wakeup(a, w: dict) -> str:
         "returns −1 and read from irpd's stdout (`[p001] @hist …`). Between two releases the process sleeps until "
         "its next release's due time by itself (`waitPeriod()`: a FUTEX_WAIT_BITSET on the release word until the "
         "time irpd published at the last release, announced in the slot's `wake_ns`), so that it is runnable when "
-        "its dispatcher, woken by its own timer at the same time, blocks. irpd, first thing in the slot since the "
-        "process is the slot's first module, releases it (release_seq + 1; the FUTEX_WAKE left out since the "
-        "process's timer has expired) and waits for its done word with a FUTEX_WAIT without a timeout, which its "
-        "overrun watchdog thread ends at the bound (the end of the basic period; docs/process-modules.md); its own "
-        "figures (latency, jitter) are taken after the process is done. The process, one priority below and on "
-        "the same CPU, gets the CPU when the dispatcher blocks. Its wake-up therefore includes the dispatcher's "
-        "own wake-up, the release, the start of the wait and a switch to another address space."
+        "its dispatcher, woken by its own timer at the same time, blocks. The process leads its slot, so irpd "
+        "releases it ahead (docs/process-modules.md): just before the dispatcher sleeps until the slot, with the "
+        "slot's due time as the time it may start (release_seq + 1, release_at_ns = due, no FUTEX_WAKE since the "
+        "process's timer ends at that time). The process, one priority above the dispatcher on the same CPU, "
+        "wakes on its own timer at the due time, claims the release and runs before the dispatcher; the "
+        "dispatcher then waits for its done word with a FUTEX_WAIT without a timeout (its overrun watchdog ends "
+        "it at the end of the basic period). Its wake-up is therefore a timer wake-up like a thread module's, "
+        "plus the return from a futex wait into another address space."
     )
     add(
         "- **signal-based**: `tests/bench/signal_wakeup.cpp`, the paper's original design (Figures 6 and 8: the "
