@@ -157,7 +157,9 @@ class CodeEmitter:
                 done.add(id(typ))
                 for m in typ.members.values():
                     need(m.type)
-                out.append(f"struct {typ.name} {{")
+                decl = self.type_decls.get(id(typ))
+                alias = externs.MAY_ALIAS if decl is not None and decl.extern and decl.extern_args is None else ""
+                out.append(f"struct {alias}{typ.name} {{")
                 out.extend(f"    {self.member(m)}" for m in typ.members.values())
                 out.extend(["};", ""])
 
@@ -168,7 +170,10 @@ class CodeEmitter:
             fields = fb_fields(pou)
             for v in pou.vars:
                 need(v.type)
-            out.append(f"struct {pou.name} {{  // FUNCTION_BLOCK {pou.name}: an instance's data, as in shared memory")
+            alias = externs.MAY_ALIAS if pou.extern else ""
+            out.append(
+                f"struct {alias}{pou.name} {{  // FUNCTION_BLOCK {pou.name}: an instance's data, as in shared memory"
+            )
             out.extend(f"    {self.member(v)}" for v in fields)
             if not fields:
                 out.append(f"    BOOL {EMPTY_FB_FIELD}{{}};")

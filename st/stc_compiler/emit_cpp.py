@@ -10,7 +10,7 @@ from . import externs
 from . import tree as t
 from . import types as ty
 from .check import Program
-from .emit_code import CodeEmitter, cpp_type, literal, walk_names
+from .emit_code import CodeEmitter, _scalar, cpp_type, literal, walk_names
 from .emit_glb import EMPTY_FB_FIELD, INIT_FLAG, RETAIN_INIT_FLAG, Instance, fb_fields, stored
 from .errors import StError
 
@@ -20,7 +20,7 @@ RESET_LINE = "#line RESET"  # replaced by the .cpp's own line once the text is c
 GENERATED_NAMES = frozenset(
     "Place String ENUM index range loopCheck forStarts forStep cycleTime store copyIn writeBack getBit setBit "
     "NEG programBody fbBody startInstance runInstance Globals Bound global global0 bound bound0 self self0 "
-    "initial fresh freshRetained globalInitial safeOutputs start run".upper().split()
+    "initial fresh freshRetained globalInitial safeOutputs start run Seen seen Kept kept image forget How".upper().split()
 )
 LOCAL_NAMES = frozenset({"SELF", "FB_", "R_"})  # the generated code's own locals in a POU's body
 
@@ -200,17 +200,17 @@ class _Unit:
     def entry_points(self, own, glob, glb) -> list[str]:
         inst, pou = self.inst, self.inst.pou
         ns = f"::{inst.name}"
-        copies = []  # (ref, local, snapshot)
+        copies = []  # (ref, local, snapshot, type)
         for v in own:
             if id(v) not in self.used:
                 continue  # copied only where the code touches it (its initial value is written below)
             ref = _glb_ref(v.glb) if v.location is not None else f"{ns}::{v.name}"
-            copies.append((ref, f"self.{v.name}", f"self0.{v.name}"))
+            copies.append((ref, f"self.{v.name}", f"self0.{v.name}", v.type))
         for g in glob:
             ref = _glb_ref(g.glb) if g.location is not None else f"::{self.code.global_namespace(g)}::{g.name}"
-            copies.append((ref, f"global.{g.name}", f"global0.{g.name}"))
+            copies.append((ref, f"global.{g.name}", f"global0.{g.name}", g.type))
         for d in glb:
-            copies.append((_glb_ref(d.glb), f"bound.{_glb_member(d)}", f"bound0.{_glb_member(d)}"))
+            copies.append((_glb_ref(d.glb), f"bound.{_glb_member(d)}", f"bound0.{_glb_member(d)}", d.type))
         plain = [v for v in own if v.location is None and not (v.retain or v.persistent)]
         kept = [v for v in own if v.location is None and (v.retain or v.persistent)]
         out = [
@@ -251,23 +251,31 @@ class _Unit:
                 ref = _glb_ref(v.glb) if v.location is not None else f"{ns}::{v.name}"
                 out.append(f"    store({ref}, initial.{v.name});")
             out += ["}", ""]
-        out += [
-            "// run(): one period.  A fault throws past the write-back: a faulting run writes nothing.",
-            "void runInstance() {",
-        ]
-        out += [f"    copyIn({ref}, {local}, {snap});" for ref, local, snap in copies]
-        if outputs:
-            out += [
-                "    try {",
-                "        programBody(self);",
-                "    } catch (...) {",
-                "        safeOutputs();",
-                "        throw;",
-                "    }",
-            ]
+        # scalars: one atomic load and store each; structs and arrays: the kept image's table (kept.hpp)
+        scalars = [c for c in copies if _scalar(c[3])]
+        table = [c for c in copies if not _scalar(c[3])]
+        out += ["// run(): one period.  A fault throws past the write-back: a faulting run writes nothing."]
+        if table:
+            out.append(f"Seen seen[{len(table)}];  // the kept image (kept.hpp): the variables' sequences, their table")
+            out.append("constexpr Kept image[] = {")
+            out += [f"    kept({ref}, {local}, {snap}, seen[{i}])," for i, (ref, local, snap, _) in enumerate(table)]
+            out.append("};")
+        out.append("void runInstance() {")
+        out += [f"    copyIn({ref}, {local}, {snap});" for ref, local, snap, _ in scalars]
+        if table:
+            out.append("    copyIn(image);")
+        if outputs or table:
+            out += ["    try {", "        programBody(self);", "    } catch (...) {"]
+            if table:
+                out.append("        forget(image);  // the locals hold a partial run")
+            if outputs:
+                out.append("        safeOutputs();")
+            out += ["        throw;", "    }"]
         else:
             out.append("    programBody(self);")
-        out += [f"    writeBack({ref}, {local}, {snap});" for ref, local, snap in copies]
+        out += [f"    writeBack({ref}, {local}, {snap});" for ref, local, snap, _ in scalars]
+        if table:
+            out.append("    writeBack(image);")
         out += ["}", ""]
         return out
 

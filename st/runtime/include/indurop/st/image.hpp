@@ -21,6 +21,9 @@
 // writeBack() the value's leaves (offset and size of each scalar, from the layout): then each
 // changed leaf is written whole, as one atomic store.
 //
+// kept.hpp keeps locals and snapshots from one run to the next, so that a variable no one else
+// wrote is not read again (the image the generated run() uses).
+//
 // Also the cycle time: cycleTime() is the due time of the period in progress, the time base of
 // TON, TOF and TP.  None of these allocates or makes a system call (an uncontended lock is a CAS).
 #pragma once
@@ -55,6 +58,32 @@ inline void writeBack(const shared::ScalarRef<T> &ref, const T &local, const T &
 
 namespace detail {
 
+// Whether n bytes are equal: word by word, inline (n is a constant where it is called, so the loop
+// unrolls; a call of memcmp per variable costs more than the comparison of a few words).
+inline bool sameBytes(const void *a, const void *b, std::size_t n) noexcept {
+    const auto *x = static_cast<const char *>(a), *y = static_cast<const char *>(b);
+    uint64_t diff = 0;
+    std::size_t at = 0;
+    for (; at + 8 <= n; at += 8) {
+        uint64_t u, v;
+        std::memcpy(&u, x + at, 8);
+        std::memcpy(&v, y + at, 8);
+        diff |= u ^ v;
+    }
+    for (; at < n; ++at) diff |= static_cast<uint64_t>(static_cast<unsigned char>(x[at] ^ y[at]));
+    return diff == 0;
+}
+
+// 0xff in each byte of w that is not zero.
+template <class W>
+constexpr W byteMask(W w) noexcept {
+    constexpr W ones = static_cast<W>(static_cast<W>(~W{0}) / 0xff);  // 0x01 in each byte
+    W m = static_cast<W>(w | (w >> 4));
+    m = static_cast<W>(m | (m >> 2));
+    m = static_cast<W>((m | (m >> 1)) & ones);
+    return static_cast<W>(m * 0xff);
+}
+
 // Whole: each word is one leaf (an array of scalars), written whole when it changed; else the
 // changed bytes are merged into the word as it is now.
 template <class W, bool Whole>
@@ -69,9 +98,7 @@ inline void mergeWords(char *shared, const char *local, const char *snapshot, st
             __atomic_store_n(reinterpret_cast<W *>(shared + at), l, __ATOMIC_RELAXED);
             continue;
         }
-        W mask = 0;
-        for (std::size_t b = 0; b < sizeof(W); ++b)
-            if ((diff >> (8 * b)) & 0xff) mask = static_cast<W>(mask | (W{0xff} << (8 * b)));
+        const W mask = byteMask(diff);
         W *cell = reinterpret_cast<W *>(shared + at);
         const W now = __atomic_load_n(cell, __ATOMIC_RELAXED);
         __atomic_store_n(cell, static_cast<W>((now & static_cast<W>(~mask)) | (l & mask)), __ATOMIC_RELAXED);
@@ -79,12 +106,14 @@ inline void mergeWords(char *shared, const char *local, const char *snapshot, st
 }
 
 // The changed words of `size` bytes at ref's place, under its lock; Align: the value's alignment.
+// Whether anything changed; `at`: where to put the sequence the write ran under (odd).
 template <std::size_t Align, bool Whole = false>
-inline void writeChanged(const shared::RefBase &ref, const void *local, const void *snapshot,
-                         std::size_t size) noexcept {
-    if (std::memcmp(local, snapshot, size) == 0) return;
+inline bool writeChanged(const shared::RefBase &ref, const void *local, const void *snapshot, std::size_t size,
+                         uint32_t *at = nullptr) noexcept {
+    if (sameBytes(local, snapshot, size)) return false;
     const auto *l = static_cast<const char *>(local), *s = static_cast<const char *>(snapshot);
     shared::detail::writeExclusive(ref.lockIndex(), [&] {
+        if (at != nullptr) *at = shared::detail::sequence(ref.lockIndex()).load(std::memory_order_relaxed);
         char *to = ref.address();
         if constexpr (Align >= 8)
             mergeWords<uint64_t, Whole>(to, l, s, size);
@@ -95,6 +124,7 @@ inline void writeChanged(const shared::RefBase &ref, const void *local, const vo
         else
             mergeWords<uint8_t, Whole>(to, l, s, size);
     });
+    return true;
 }
 
 }  // namespace detail
@@ -116,12 +146,13 @@ inline void storeLeaf(char *shared, const char *local, std::size_t offset) noexc
     __atomic_store_n(reinterpret_cast<W *>(shared + offset), v, __ATOMIC_RELAXED);
 }
 
-// The changed leaves, each whole, under the variable's lock.
-inline void writeLeaves(const shared::RefBase &ref, const void *local, const void *snapshot, std::size_t size,
-                        std::span<const Leaf> leaves) noexcept {
-    if (std::memcmp(local, snapshot, size) == 0) return;
+// The changed leaves, each whole, under the variable's lock (what writeChanged returns and sets).
+inline bool writeLeaves(const shared::RefBase &ref, const void *local, const void *snapshot, std::size_t size,
+                        std::span<const Leaf> leaves, uint32_t *at = nullptr) noexcept {
+    if (sameBytes(local, snapshot, size)) return false;
     const auto *l = static_cast<const char *>(local), *s = static_cast<const char *>(snapshot);
     shared::detail::writeExclusive(ref.lockIndex(), [&] {
+        if (at != nullptr) *at = shared::detail::sequence(ref.lockIndex()).load(std::memory_order_relaxed);
         char *to = ref.address();
         for (const Leaf &leaf : leaves) {
             if (leaf.offset + leaf.size > size || std::memcmp(l + leaf.offset, s + leaf.offset, leaf.size) == 0)
@@ -137,6 +168,7 @@ inline void writeLeaves(const shared::RefBase &ref, const void *local, const voi
             }
         }
     });
+    return true;
 }
 
 // The scalar type inside nested std::arrays (the element of a multi-dimensional array).
@@ -157,10 +189,11 @@ inline void readInto(const shared::RefBase &ref, Local &local, Local &snapshot) 
 }
 
 template <class Value, class Local>
-inline void writeFrom(const shared::RefBase &ref, const Local &local, const Local &snapshot) noexcept {
+inline bool writeFrom(const shared::RefBase &ref, const Local &local, const Local &snapshot,
+                      uint32_t *at = nullptr) noexcept {
     static_assert(sizeof(Local) == sizeof(Value) && std::is_trivially_copyable_v<Local>,
                   "the local of a shared variable has its size and is plain data");
-    writeChanged<alignof(Value)>(ref, &local, &snapshot, sizeof(Local));
+    return writeChanged<alignof(Value)>(ref, &local, &snapshot, sizeof(Local), at);
 }
 
 }  // namespace detail
@@ -197,16 +230,18 @@ inline void copyIn(const shared::ArrayRef<E, N> &ref, Local &local, Local &snaps
 // An array of scalars (of any dimensions) writes each changed element whole; an array of chars (a
 // STRING's char[n+1]) the whole text when any of it changed, an array of them each changed text
 // whole; an array of structs merges the changed bytes as a struct does.
+namespace detail {
 template <class E, std::size_t N, class Local>
-inline void writeBack(const shared::ArrayRef<E, N> &ref, const Local &local, const Local &snapshot) noexcept {
+inline bool writeArray(const shared::ArrayRef<E, N> &ref, const Local &local, const Local &snapshot,
+                       uint32_t *at = nullptr) noexcept {
     using Array = typename shared::ArrayRef<E, N>::array_type;
     using T = typename shared::ArrayRef<E, N>::value_type;
     static_assert(sizeof(Local) == sizeof(Array) && std::is_trivially_copyable_v<Local>,
                   "the local of a shared variable has its size and is plain data");
-    using Inner = typename detail::Innermost<T>::type;
+    using Inner = typename Innermost<T>::type;
     if constexpr (std::is_same_v<T, char>) {
         const Leaf whole[] = {{0, static_cast<uint32_t>(N)}};
-        detail::writeLeaves(ref, &local, &snapshot, sizeof(Local), whole);
+        return writeLeaves(ref, &local, &snapshot, sizeof(Local), whole, at);
     } else if constexpr (std::is_same_v<Inner, char>) {  // ARRAY OF STRING: each text is a leaf
         static constexpr auto texts = [] {
             std::array<Leaf, N> leaves{};
@@ -214,12 +249,18 @@ inline void writeBack(const shared::ArrayRef<E, N> &ref, const Local &local, con
                 leaves[i] = {static_cast<uint32_t>(i * sizeof(T)), static_cast<uint32_t>(sizeof(T))};
             return leaves;
         }();
-        detail::writeLeaves(ref, &local, &snapshot, sizeof(Local), texts);
+        return writeLeaves(ref, &local, &snapshot, sizeof(Local), texts, at);
     } else if constexpr (std::is_arithmetic_v<Inner> || std::is_enum_v<Inner>) {  // every dimension
-        detail::writeChanged<sizeof(Inner), true>(ref, &local, &snapshot, sizeof(Local));
+        return writeChanged<sizeof(Inner), true>(ref, &local, &snapshot, sizeof(Local), at);
     } else {
-        detail::writeFrom<Array>(ref, local, snapshot);
+        return writeFrom<Array>(ref, local, snapshot, at);
     }
+}
+}  // namespace detail
+
+template <class E, std::size_t N, class Local>
+inline void writeBack(const shared::ArrayRef<E, N> &ref, const Local &local, const Local &snapshot) noexcept {
+    detail::writeArray(ref, local, snapshot);
 }
 
 // ---- a whole value (the generated start() writes initial values with it) -------------------------
