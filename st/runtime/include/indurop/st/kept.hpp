@@ -52,6 +52,8 @@ struct Kept {
     How how;
 };
 
+// kept(ref, local, snapshot, seen); kept(ref, local, seen) for a variable the code never writes (no
+// snapshot, never written back).
 template <class V, class Local>
 constexpr Kept kept(const shared::StructRef<V> &ref, Local &local, Local &snapshot, Seen &seen) noexcept {
     static_assert(sizeof(Local) == sizeof(V) && std::is_trivially_copyable_v<Local>,
@@ -80,6 +82,13 @@ constexpr Kept kept(const shared::ArrayRef<E, N> &ref, Local &local, Local &snap
     return k;
 }
 
+template <class Ref, class Local>
+constexpr Kept kept(const Ref &ref, Local &local, Seen &seen) noexcept {
+    Kept k = kept(ref, local, local, seen);
+    k.snapshot = nullptr;
+    return k;
+}
+
 namespace detail {
 
 // One consistent read into local and snapshot, unless the sequence is still the one seen.
@@ -96,7 +105,7 @@ inline void readKept(const Kept &k) noexcept {
         shared::detail::atomicCopy(k.local, from, k.size);
         std::atomic_thread_fence(std::memory_order_acquire);
         if (seq.load(std::memory_order_relaxed) == before) {
-            std::memcpy(k.snapshot, k.local, k.size);
+            if (k.snapshot != nullptr) std::memcpy(k.snapshot, k.local, k.size);
             k.seen->seq = before;
             return;
         }
@@ -105,7 +114,7 @@ inline void readKept(const Kept &k) noexcept {
     shared::detail::atomicCopy(k.local, from, k.size);
     k.seen->seq = seq.load(std::memory_order_relaxed);
     shared::unlockVariable(k.lock);
-    std::memcpy(k.snapshot, k.local, k.size);
+    if (k.snapshot != nullptr) std::memcpy(k.snapshot, k.local, k.size);
 }
 
 template <bool Whole>
@@ -123,8 +132,9 @@ inline void mergeUnits(const Kept &k, char *to, const char *l, const char *s) no
 // snapshot follows it and the new sequence is seen; else the segment mixes two writers' bytes and the
 // next copy-in reads it whole.
 inline void writeKept(const Kept &k) noexcept {
+    if (k.snapshot == nullptr) return;  // read only
     const auto *l = static_cast<const char *>(k.local), *s = static_cast<const char *>(k.snapshot);
-    if (sameBytes(l, s, k.size)) return;
+    if (std::memcmp(l, s, k.size) == 0) return;  // libc's, vectorised: the sizes vary along the table
     uint32_t at = 0;
     shared::detail::writeExclusive(k.lock, [&] {
         at = shared::detail::sequence(k.lock).load(std::memory_order_relaxed);
