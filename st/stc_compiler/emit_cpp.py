@@ -10,7 +10,7 @@ from . import externs
 from . import tree as t
 from . import types as ty
 from .check import Program
-from .emit_code import CodeEmitter, _scalar, cpp_type, literal, walk_names
+from .emit_code import PART_STATEMENTS, CodeEmitter, _scalar, cpp_type, literal, walk_names
 from .emit_glb import EMPTY_FB_FIELD, INIT_FLAG, RETAIN_INIT_FLAG, Instance, fb_fields, stored
 from .errors import StError
 
@@ -20,7 +20,7 @@ RESET_LINE = "#line RESET"  # replaced by the .cpp's own line once the text is c
 GENERATED_NAMES = frozenset(
     "Place String ENUM index range loopCheck forStarts forStep cycleTime store copyIn writeBack getBit setBit "
     "NEG programBody fbBody startInstance runInstance Globals Bound global global0 bound bound0 self self0 "
-    "initial fresh freshRetained globalInitial safeOutputs start run Seen seen Kept kept image forget How".upper().split()
+    "initial fresh freshRetained globalInitial safeOutputs start run Seen seen Kept kept image forget How inPart".upper().split()
 )
 LOCAL_NAMES = frozenset({"SELF", "FB_", "R_"})  # the generated code's own locals in a POU's body
 
@@ -227,10 +227,12 @@ class _Unit:
             f"    static const {pou.name} initial{{}};",
             f"    const bool fresh = !{ns}::{INIT_FLAG}.load();",
         ]
+        stores = []
         for v in plain:
             path = f"{inst.name}.{v.name}"
             cond = "fresh" if path not in self.added else "true"
-            out.append(f"    if ({cond}) store({ns}::{v.name}, initial.{v.name});")
+            stores.append(f"    if ({cond}) store({ns}::{v.name}, initial.{v.name});")
+        out += in_parts(stores)
         if kept:
             out.append(f"    const bool freshRetained = !{ns}::{RETAIN_INIT_FLAG}.load();")
             for v in kept:
@@ -270,7 +272,7 @@ class _Unit:
                 out.append(f"    kept({ref}, {local}, {snap}seen[{i}]),")
             out.append("};")
         out.append("void runInstance() {")
-        out += [f"    copyIn({ref}, {local}, {snap});" for ref, local, snap, _, _ in scalars]
+        out += in_parts([f"    copyIn({ref}, {local}, {snap});" for ref, local, snap, _, _ in scalars])
         if table:
             out.append("    copyIn(image);")
         if outputs or table:
@@ -282,11 +284,25 @@ class _Unit:
             out += ["        throw;", "    }"]
         else:
             out.append("    programBody(self);")
-        out += [f"    writeBack({ref}, {local}, {snap});" for ref, local, snap, _, written in scalars if written]
+        out += in_parts(
+            [f"    writeBack({ref}, {local}, {snap});" for ref, local, snap, _, written in scalars if written]
+        )
         if table:
             out.append("    writeBack(image);")
         out += ["}", ""]
         return out
+
+
+def in_parts(lines: list[str]) -> list[str]:
+    """Lines of a function (copy-ins, write-backs, initial values: one a variable) in parts of at most
+    PART_STATEMENTS, each a lambda run by the runtime's inPart() (noinline): g++ compiles each part as
+    a function of its own, as it does the parts of a long body."""
+    if len(lines) <= PART_STATEMENTS:
+        return lines
+    out = []
+    for at in range(0, len(lines), PART_STATEMENTS):
+        out += ["    inPart([&] {", *("    " + line for line in lines[at : at + PART_STATEMENTS]), "    });"]
+    return out
 
 
 def written_roots(stmts) -> list[t.VarDecl]:

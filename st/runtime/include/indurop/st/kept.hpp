@@ -167,6 +167,13 @@ inline void writeBack(std::span<const Kept> image) noexcept {
     for (const Kept &k : image) detail::writeKept(k);
 }
 
+// Runs f, a function of its own: the generated code cuts long runs of copy-ins, write-backs and
+// initial values into lambdas run by inPart(), so that g++ compiles them in pieces of a bounded size.
+template <class F>
+[[gnu::noinline]] void inPart(F &&f) {
+    f();
+}
+
 // After a run that did not finish: every variable is read whole again.
 inline void forget(std::span<const Kept> image) noexcept {
     for (const Kept &k : image) k.seen->seq = 1;
