@@ -175,7 +175,9 @@ class CodeEmitter:
             fields = fb_fields(pou)
             for v in pou.vars:
                 need(v.type)
-            out.append(f"struct {pou.name} {{  // FUNCTION_BLOCK {pou.name}: an instance's data, as in shared memory")
+            alias = externs.MAY_ALIAS if pou.extern else ""  # externs.fb_body() runs it as the C++ block
+            head = f"struct {alias}{pou.name} {{  // FUNCTION_BLOCK {pou.name}: an instance's data, as in shared memory"
+            out.append(head)
             out.extend(f"    {self.member(v)}" for v in fields)
             if not fields:
                 out.append(f"    BOOL {EMPTY_FB_FIELD}{{}};")

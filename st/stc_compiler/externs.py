@@ -51,11 +51,10 @@ def includes(pous: list[t.Pou]) -> list[str]:
 
 
 class Passing:
-    """How ST lvalues reach an extern C++ call: a STRUCT of a C++ type's bytes ({extern 'ns::T'}) in
-    place, as that type (its ST struct is [[gnu::may_alias]], MAY_ALIAS: GCC then lets the bytes be
-    reached through either type, and static_asserts prove the layout; no copy in and out, whose
-    narrow stores and wide loads stall the store buffer), a STRUCT made by a function
-    ({extern 'ns::make(a, b)'}) as ns::make(its members, passed the same way), anything else as it is."""
+    """How ST lvalues reach an extern C++ call: a STRUCT of a C++ type's bytes ({extern 'ns::T'}) as a
+    copy of that type (memcpy in, the call, memcpy out: the defined way to view one plain value as
+    another of the same layout), a STRUCT made by a function ({extern 'ns::make(a, b)'}) as
+    ns::make(its members, passed the same way), anything else as it is."""
 
     def __init__(self, decl_of_type) -> None:
         self.decl_of_type = decl_of_type
@@ -79,17 +78,17 @@ class Passing:
         self.asserts += layout_asserts(
             decl.name, decl.extern, [(m.name, m.type) for m in ty.base(typ).members.values()]
         )
-        return in_place(decl.extern, code)
+        self.count += 1
+        tmp = f"cpp{self.count}"
+        self.before += [f"{decl.extern} {tmp};", f"std::memcpy(static_cast<void *>(&{tmp}), &{code}, sizeof {tmp});"]
+        self.after.append(f"std::memcpy(static_cast<void *>(&{code}), &{tmp}, sizeof {tmp});")
+        return tmp
 
 
-# The attribute of the ST struct of an extern FUNCTION_BLOCK or STRUCT {extern 'ns::T'}: its bytes are
-# also reached as the C++ type (in_place), which GCC's may_alias makes defined.
+# The attribute of the ST struct of an extern FUNCTION_BLOCK: fb_body() runs the C++ block on the
+# instance's bytes in place, as the C++ type, which GCC's may_alias makes defined (a copy of the block
+# in and out of every call costs a store-buffer stall: narrow stores read back by wide loads).
 MAY_ALIAS = "[[gnu::may_alias]] "
-
-
-def in_place(cpp: str, code: str) -> str:
-    """The ST lvalue `code` (a struct of MAY_ALIAS with cpp's layout) as the C++ type cpp."""
-    return f"reinterpret_cast<{cpp} &>({code})"
 
 
 def layout_asserts(name: str, cpp: str, fields: list[tuple[str, object]]) -> list[str]:
@@ -120,7 +119,7 @@ def fb_body(pou: t.Pou, fields: list[t.VarDecl], signature: str, decl_of_type) -
     out += layout_asserts(name, cpp, [(v.name, v.type) for v in fields])
     passing = Passing(decl_of_type)
     args = ", ".join(passing.arg(v.name, v.type) for v in pou.vars if v.kind == "VAR_IN_OUT")
-    body = passing.before + [f"{in_place(cpp, 'self')}({args});"] + passing.after
+    body = passing.before + [f"reinterpret_cast<{cpp} &>(self)({args});"] + passing.after
     return out + _unique(passing.asserts) + [signature + " {"] + [f"    {b}" for b in body] + ["}"]
 
 
