@@ -106,14 +106,12 @@ inline void mergeWords(char *shared, const char *local, const char *snapshot, st
 }
 
 // The changed words of `size` bytes at ref's place, under its lock; Align: the value's alignment.
-// Whether anything changed; `at`: where to put the sequence the write ran under (odd).
 template <std::size_t Align, bool Whole = false>
-inline bool writeChanged(const shared::RefBase &ref, const void *local, const void *snapshot, std::size_t size,
-                         uint32_t *at = nullptr) noexcept {
-    if (sameBytes(local, snapshot, size)) return false;
+inline void writeChanged(const shared::RefBase &ref, const void *local, const void *snapshot,
+                         std::size_t size) noexcept {
+    if (sameBytes(local, snapshot, size)) return;
     const auto *l = static_cast<const char *>(local), *s = static_cast<const char *>(snapshot);
     shared::detail::writeExclusive(ref.lockIndex(), [&] {
-        if (at != nullptr) *at = shared::detail::sequence(ref.lockIndex()).load(std::memory_order_relaxed);
         char *to = ref.address();
         if constexpr (Align >= 8)
             mergeWords<uint64_t, Whole>(to, l, s, size);
@@ -124,7 +122,6 @@ inline bool writeChanged(const shared::RefBase &ref, const void *local, const vo
         else
             mergeWords<uint8_t, Whole>(to, l, s, size);
     });
-    return true;
 }
 
 }  // namespace detail
@@ -146,13 +143,12 @@ inline void storeLeaf(char *shared, const char *local, std::size_t offset) noexc
     __atomic_store_n(reinterpret_cast<W *>(shared + offset), v, __ATOMIC_RELAXED);
 }
 
-// The changed leaves, each whole, under the variable's lock (what writeChanged returns and sets).
-inline bool writeLeaves(const shared::RefBase &ref, const void *local, const void *snapshot, std::size_t size,
-                        std::span<const Leaf> leaves, uint32_t *at = nullptr) noexcept {
-    if (sameBytes(local, snapshot, size)) return false;
+// The changed leaves, each whole, under the variable's lock.
+inline void writeLeaves(const shared::RefBase &ref, const void *local, const void *snapshot, std::size_t size,
+                        std::span<const Leaf> leaves) noexcept {
+    if (sameBytes(local, snapshot, size)) return;
     const auto *l = static_cast<const char *>(local), *s = static_cast<const char *>(snapshot);
     shared::detail::writeExclusive(ref.lockIndex(), [&] {
-        if (at != nullptr) *at = shared::detail::sequence(ref.lockIndex()).load(std::memory_order_relaxed);
         char *to = ref.address();
         for (const Leaf &leaf : leaves) {
             if (leaf.offset + leaf.size > size || std::memcmp(l + leaf.offset, s + leaf.offset, leaf.size) == 0)
@@ -168,7 +164,6 @@ inline bool writeLeaves(const shared::RefBase &ref, const void *local, const voi
             }
         }
     });
-    return true;
 }
 
 // The scalar type inside nested std::arrays (the element of a multi-dimensional array).
@@ -189,11 +184,10 @@ inline void readInto(const shared::RefBase &ref, Local &local, Local &snapshot) 
 }
 
 template <class Value, class Local>
-inline bool writeFrom(const shared::RefBase &ref, const Local &local, const Local &snapshot,
-                      uint32_t *at = nullptr) noexcept {
+inline void writeFrom(const shared::RefBase &ref, const Local &local, const Local &snapshot) noexcept {
     static_assert(sizeof(Local) == sizeof(Value) && std::is_trivially_copyable_v<Local>,
                   "the local of a shared variable has its size and is plain data");
-    return writeChanged<alignof(Value)>(ref, &local, &snapshot, sizeof(Local), at);
+    writeChanged<alignof(Value)>(ref, &local, &snapshot, sizeof(Local));
 }
 
 }  // namespace detail
@@ -230,18 +224,16 @@ inline void copyIn(const shared::ArrayRef<E, N> &ref, Local &local, Local &snaps
 // An array of scalars (of any dimensions) writes each changed element whole; an array of chars (a
 // STRING's char[n+1]) the whole text when any of it changed, an array of them each changed text
 // whole; an array of structs merges the changed bytes as a struct does.
-namespace detail {
 template <class E, std::size_t N, class Local>
-inline bool writeArray(const shared::ArrayRef<E, N> &ref, const Local &local, const Local &snapshot,
-                       uint32_t *at = nullptr) noexcept {
+inline void writeBack(const shared::ArrayRef<E, N> &ref, const Local &local, const Local &snapshot) noexcept {
     using Array = typename shared::ArrayRef<E, N>::array_type;
     using T = typename shared::ArrayRef<E, N>::value_type;
     static_assert(sizeof(Local) == sizeof(Array) && std::is_trivially_copyable_v<Local>,
                   "the local of a shared variable has its size and is plain data");
-    using Inner = typename Innermost<T>::type;
+    using Inner = typename detail::Innermost<T>::type;
     if constexpr (std::is_same_v<T, char>) {
         const Leaf whole[] = {{0, static_cast<uint32_t>(N)}};
-        return writeLeaves(ref, &local, &snapshot, sizeof(Local), whole, at);
+        detail::writeLeaves(ref, &local, &snapshot, sizeof(Local), whole);
     } else if constexpr (std::is_same_v<Inner, char>) {  // ARRAY OF STRING: each text is a leaf
         static constexpr auto texts = [] {
             std::array<Leaf, N> leaves{};
@@ -249,18 +241,12 @@ inline bool writeArray(const shared::ArrayRef<E, N> &ref, const Local &local, co
                 leaves[i] = {static_cast<uint32_t>(i * sizeof(T)), static_cast<uint32_t>(sizeof(T))};
             return leaves;
         }();
-        return writeLeaves(ref, &local, &snapshot, sizeof(Local), texts, at);
+        detail::writeLeaves(ref, &local, &snapshot, sizeof(Local), texts);
     } else if constexpr (std::is_arithmetic_v<Inner> || std::is_enum_v<Inner>) {  // every dimension
-        return writeChanged<sizeof(Inner), true>(ref, &local, &snapshot, sizeof(Local), at);
+        detail::writeChanged<sizeof(Inner), true>(ref, &local, &snapshot, sizeof(Local));
     } else {
-        return writeFrom<Array>(ref, local, snapshot, at);
+        detail::writeFrom<Array>(ref, local, snapshot);
     }
-}
-}  // namespace detail
-
-template <class E, std::size_t N, class Local>
-inline void writeBack(const shared::ArrayRef<E, N> &ref, const Local &local, const Local &snapshot) noexcept {
-    detail::writeArray(ref, local, snapshot);
 }
 
 // ---- a whole value (the generated start() writes initial values with it) -------------------------
