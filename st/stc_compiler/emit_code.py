@@ -11,6 +11,12 @@ from . import types as ty
 from .check_expr import _text
 from .emit_glb import EMPTY_FB_FIELD, fb_fields, globals_blocks, stored
 
+# A POU body of more statements (nested ones counted) is split at its top-level statements into C++
+# functions of at most about this many (a single larger statement keeps a function of its own): g++'s
+# optimiser takes time that grows faster than a function's size, so a 10,000-line program compiles
+# in pieces of a bounded size.
+PART_STATEMENTS = 200
+
 # The runtime spells the points in time of 64-bit ns once: the L-forms are the same values.
 RUNTIME_NAME = {"LDATE": "DATE", "LTOD": "TOD", "LDT": "DT", "TIME_OF_DAY": "TOD", "DATE_AND_TIME": "DT"}
 RUNTIME_NAME |= {"WSTRING": "STRING"}
@@ -105,6 +111,7 @@ class CodeEmitter:
         self.places: dict[str, str] = {}  # constant name -> its definition
         self.scope: t.Pou | None = None
         self.temp = 0
+        self.in_part = False  # emitting a part of a split body: RETURN ends the POU through the caller
         self.glb_structs: dict[int, str] = {}
         if prog.layout is not None:
             for name, st in prog.layout._structs.items():
@@ -168,7 +175,9 @@ class CodeEmitter:
             fields = fb_fields(pou)
             for v in pou.vars:
                 need(v.type)
-            out.append(f"struct {pou.name} {{  // FUNCTION_BLOCK {pou.name}: an instance's data, as in shared memory")
+            alias = externs.MAY_ALIAS if pou.extern else ""  # externs.fb_body() runs it as the C++ block
+            head = f"struct {alias}{pou.name} {{  // FUNCTION_BLOCK {pou.name}: an instance's data, as in shared memory"
+            out.append(head)
             out.extend(f"    {self.member(v)}" for v in fields)
             if not fields:
                 out.append(f"    BOOL {EMPTY_FB_FIELD}{{}};")
@@ -301,12 +310,50 @@ class CodeEmitter:
         if p.kind == "FUNCTION" and p.return_type is not None:
             init = self.initial(p.result.init if p.result is not None else None, p.return_type)
             out.append(f"    {cpp_type(p.return_type)} {p.name}{{{init}}};")
-        out += _indent(self.block(p.body))
+        parts = split_body(p.body)
+        done = f"return {p.name};" if p.kind == "FUNCTION" and p.return_type is not None else "return;"
+        before = []
+        if len(parts) == 1:
+            out += _indent(self.block(p.body))
+        else:
+            for k, part in enumerate(parts, 1):
+                name, params, args = self.part_signature(p, k)
+                before += self.part(p, part, k, len(parts), name, params)
+                out.append(f"    if ({name}({args})) {done}")
         if p.kind == "FUNCTION" and p.return_type is not None:
             out.append(f"    return {p.name};")
         out += ["}", "#line RESET"]
         self.scope = None
-        return out
+        return before + out
+
+    def part_signature(self, p: t.Pou, k: int) -> tuple[str, str, str]:
+        """The name of part k of p's split body, its parameters and the arguments p passes: everything
+        p's statements name besides the instance's fields, by reference (p's parameters, locals, result)."""
+        if p.kind == "FUNCTION":
+            names = [(cpp_type(v.type), v.name) for v in p.vars if not v.constant]
+            if p.return_type is not None:
+                names.append((cpp_type(p.return_type), p.name))
+            name = f"{p.name}{k}_"
+        else:
+            names = [(p.name, "self")]
+            names += [(cpp_type(v.type), v.name) for v in p.vars if v.kind in ("VAR_IN_OUT", "VAR_TEMP")]
+            name = f"{'fbBody' if p.kind == 'FUNCTION_BLOCK' else 'programBody'}{k}_"
+        params = ", ".join(f"{typ} &{n}" for typ, n in names)
+        return name, params, ", ".join(n for _, n in names)
+
+    def part(self, p: t.Pou, stmts: list, k: int, count: int, name: str, params: str) -> list[str]:
+        """Part k of p's split body: its statements in a function of their own, true when a RETURN ran."""
+        first = stmts[0].place
+        out = [
+            f"// {p.kind} {p.name}, part {k} of {count} (from {first.file}:{first.line}): true when it RETURNed",
+            f"[[gnu::noinline]] bool {name}({params}) {{",
+        ]
+        if p.kind == "FUNCTION":
+            out += [f"    {self.constant(v, static=True)}" for v in p.vars if v.constant]
+        self.in_part = True
+        out += _indent(self.block(stmts))
+        self.in_part = False
+        return out + ["    return false;", "}", "#line RESET"]
 
     def extern_pou(self, p: t.Pou) -> list[str]:
         """An FB or FUNCTION implemented in C++ ({extern '...'}, externs.py)."""
@@ -364,6 +411,8 @@ class CodeEmitter:
         if isinstance(s, t.Continue):
             return ["continue;"]
         if isinstance(s, t.Return):
+            if self.in_part:
+                return ["return true;"]
             p = self.scope
             return [f"return {p.name};" if p.kind == "FUNCTION" and p.return_type is not None else "return;"]
         raise ValueError(f"no C++ for {type(s).__name__}")
@@ -683,6 +732,35 @@ class CodeEmitter:
         if src == dst:
             return value
         return f"{src}_TO_{dst}({value})"
+
+
+def _statements(stmts) -> int:
+    """Statements in stmts, nested ones counted."""
+    n = 0
+    for s in stmts or []:
+        n += 1
+        if isinstance(s, t.If):
+            n += sum(_statements(body) for _, body in s.branches) + _statements(s.orelse)
+        elif isinstance(s, t.Case):
+            n += sum(_statements(b.body) for b in s.branches) + _statements(s.orelse)
+        elif isinstance(s, (t.For, t.While, t.Repeat)):
+            n += _statements(s.body)
+    return n
+
+
+def split_body(stmts: list) -> list[list]:
+    """A body cut at top-level statements into parts of at most PART_STATEMENTS statements (nested ones
+    counted; a larger statement is a part alone); one part when the whole body fits."""
+    parts: list[list] = [[]]
+    size = 0
+    for s in stmts:
+        n = _statements([s])
+        if parts[-1] and size + n > PART_STATEMENTS:
+            parts.append([])
+            size = 0
+        parts[-1].append(s)
+        size += n
+    return parts
 
 
 def _bare(code: str) -> str:

@@ -250,3 +250,75 @@ TEST(StImage, APeriodsWorkAllocatesNothing) {
     EXPECT_EQ(allocations, 0);
     EXPECT_GT(st_image::counter.load(), 0);
 }
+
+// ---- the kept image (kept.hpp): locals and snapshots that live from one run to the next ------------
+
+namespace {
+// One module's kept image of mixed, table and text, as generated code declares it.
+mixed_t km, km0;
+std::array<int16_t, 4> kt, kt0;
+st::String<10> ks;
+st::Seen kseen[3];
+constexpr st::Kept kImage[] = {
+    st::kept(st_image::mixed, km, km0, kseen[0]), st::kept(st_image::table, kt, kt0, kseen[1]),
+    st::kept(st_image::text, ks, kseen[2]),  // read only
+};
+}  // namespace
+
+TEST(StKept, AVariableWrittenFromOutsideBetweenRunsIsReadAgain) {
+    st_image::mixed = mixed_t{1, 2, 3, 4, 5.0};
+    st::copyIn(kImage);
+    km.medium = 40;  // a run
+    st::writeBack(kImage);
+    EXPECT_EQ(st_image::mixed.medium.load(), 40);
+    st::copyIn(kImage);  // nothing else wrote: the local stays as it is
+    EXPECT_EQ(km.medium, 40);
+    st_image::mixed.small = 33;  // another writer between two runs
+    st_image::table[3] = 7;
+    st::copyIn(kImage);
+    EXPECT_EQ(km.small, 33);
+    EXPECT_EQ(km.medium, 40);
+    EXPECT_EQ(kt[3], 7);
+}
+
+TEST(StKept, AWriteFromOutsideDuringARunSurvivesAndTheNextRunReadsIt) {
+    st_image::mixed = mixed_t{1, 2, 3, 4, 5.0};
+    st::copyIn(kImage);
+    km.flag = 10;                // the program changes flag
+    st_image::mixed.wide = 9.5;  // another writer changes wide during the run
+    st::writeBack(kImage);
+    const mixed_t now = st_image::mixed;
+    EXPECT_EQ(now.flag, 10);
+    EXPECT_EQ(now.wide, 9.5);
+    st::copyIn(kImage);  // the segment mixes both writers': read whole again
+    EXPECT_EQ(km.flag, 10);
+    EXPECT_EQ(km.wide, 9.5);
+    km.flag = 11;  // and written back from the new snapshot, the other writer's value kept
+    st::writeBack(kImage);
+    EXPECT_EQ(st_image::mixed.wide.load(), 9.5);
+    EXPECT_EQ(st_image::mixed.flag.load(), 11);
+}
+
+TEST(StKept, AVariableTheCodeOnlyReadsIsNeverWrittenBack) {
+    st_image::text = {};
+    st::copyIn(kImage);
+    ks = st::String("mine");  // what generated code never does to a read-only variable
+    const uint32_t before = sequence(st_image::text);
+    st_image::text[0] = 'x';  // another writer during the run
+    st::writeBack(kImage);
+    EXPECT_EQ(st_image::text[0].load(), 'x');
+    EXPECT_EQ(sequence(st_image::text), before + 2);  // only the other writer's write
+    st::copyIn(kImage);
+    EXPECT_EQ(ks.data[0], 'x');
+}
+
+TEST(StKept, AfterAFaultTheLocalsAreReadAgain) {
+    st_image::mixed = mixed_t{1, 2, 3, 4, 5.0};
+    st::copyIn(kImage);
+    km.medium = 99;  // a run that faults: nothing is written back
+    st::forget(kImage);
+    st::copyIn(kImage);
+    EXPECT_EQ(km.medium, 4);
+    st::writeBack(kImage);
+    EXPECT_EQ(st_image::mixed.medium.load(), 4);
+}

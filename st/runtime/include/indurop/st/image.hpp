@@ -21,6 +21,9 @@
 // writeBack() the value's leaves (offset and size of each scalar, from the layout): then each
 // changed leaf is written whole, as one atomic store.
 //
+// kept.hpp keeps locals and snapshots from one run to the next, so that a variable no one else
+// wrote is not read again (the image the generated run() uses).
+//
 // Also the cycle time: cycleTime() is the due time of the period in progress, the time base of
 // TON, TOF and TP.  None of these allocates or makes a system call (an uncontended lock is a CAS).
 #pragma once
@@ -55,6 +58,32 @@ inline void writeBack(const shared::ScalarRef<T> &ref, const T &local, const T &
 
 namespace detail {
 
+// Whether n bytes are equal: word by word, inline (n is a constant where it is called, so the loop
+// unrolls; a call of memcmp per variable costs more than the comparison of a few words).
+inline bool sameBytes(const void *a, const void *b, std::size_t n) noexcept {
+    const auto *x = static_cast<const char *>(a), *y = static_cast<const char *>(b);
+    uint64_t diff = 0;
+    std::size_t at = 0;
+    for (; at + 8 <= n; at += 8) {
+        uint64_t u, v;
+        std::memcpy(&u, x + at, 8);
+        std::memcpy(&v, y + at, 8);
+        diff |= u ^ v;
+    }
+    for (; at < n; ++at) diff |= static_cast<uint64_t>(static_cast<unsigned char>(x[at] ^ y[at]));
+    return diff == 0;
+}
+
+// 0xff in each byte of w that is not zero.
+template <class W>
+constexpr W byteMask(W w) noexcept {
+    constexpr W ones = static_cast<W>(static_cast<W>(~W{0}) / 0xff);  // 0x01 in each byte
+    W m = static_cast<W>(w | (w >> 4));
+    m = static_cast<W>(m | (m >> 2));
+    m = static_cast<W>((m | (m >> 1)) & ones);
+    return static_cast<W>(m * 0xff);
+}
+
 // Whole: each word is one leaf (an array of scalars), written whole when it changed; else the
 // changed bytes are merged into the word as it is now.
 template <class W, bool Whole>
@@ -69,9 +98,7 @@ inline void mergeWords(char *shared, const char *local, const char *snapshot, st
             __atomic_store_n(reinterpret_cast<W *>(shared + at), l, __ATOMIC_RELAXED);
             continue;
         }
-        W mask = 0;
-        for (std::size_t b = 0; b < sizeof(W); ++b)
-            if ((diff >> (8 * b)) & 0xff) mask = static_cast<W>(mask | (W{0xff} << (8 * b)));
+        const W mask = byteMask(diff);
         W *cell = reinterpret_cast<W *>(shared + at);
         const W now = __atomic_load_n(cell, __ATOMIC_RELAXED);
         __atomic_store_n(cell, static_cast<W>((now & static_cast<W>(~mask)) | (l & mask)), __ATOMIC_RELAXED);
@@ -82,7 +109,7 @@ inline void mergeWords(char *shared, const char *local, const char *snapshot, st
 template <std::size_t Align, bool Whole = false>
 inline void writeChanged(const shared::RefBase &ref, const void *local, const void *snapshot,
                          std::size_t size) noexcept {
-    if (std::memcmp(local, snapshot, size) == 0) return;
+    if (sameBytes(local, snapshot, size)) return;
     const auto *l = static_cast<const char *>(local), *s = static_cast<const char *>(snapshot);
     shared::detail::writeExclusive(ref.lockIndex(), [&] {
         char *to = ref.address();
@@ -119,7 +146,7 @@ inline void storeLeaf(char *shared, const char *local, std::size_t offset) noexc
 // The changed leaves, each whole, under the variable's lock.
 inline void writeLeaves(const shared::RefBase &ref, const void *local, const void *snapshot, std::size_t size,
                         std::span<const Leaf> leaves) noexcept {
-    if (std::memcmp(local, snapshot, size) == 0) return;
+    if (sameBytes(local, snapshot, size)) return;
     const auto *l = static_cast<const char *>(local), *s = static_cast<const char *>(snapshot);
     shared::detail::writeExclusive(ref.lockIndex(), [&] {
         char *to = ref.address();

@@ -1,7 +1,7 @@
 // loop.hpp -- the loop guard: the generated code calls loopCheck(place) on every back-edge of a
 // FOR, WHILE and REPEAT loop (place: the loop's keyword).  When irpd asks the run in progress to
 // end (its overrun watchdog found it past its <overrun_limit>, with <on_overrun> disable or stop:
-// docs/faults.md), the next back-edge throws a RuntimeFault naming the loop's line, so an endless
+// docs/faults.md), a back-edge soon after (every 64th polls) throws a RuntimeFault naming the loop's line, so an endless
 // loop stops there and is named, and the rest of the set runs on.  One inline call site.
 #pragma once
 
@@ -32,7 +32,19 @@ inline void loopCheck(const Place &place, bool abort) {
         faultf(place, "the run passed its overrun limit in the loop at line %d: endless loop?", place.line);
 }
 
-inline void loopCheck(const Place &place) { loopCheck(place, runAbortRequested()); }
+namespace {
+// Back-edges since the module was loaded (one counter per generated module: this header's unnamed
+// namespace is its translation unit's own; a module runs on one thread at a time).
+unsigned loopEdges = 0;
+}  // namespace
+
+// The flag is read on every 64th back-edge: a loop that runs on is still stopped within 64 turns of
+// the request, and a short loop of a normal run seldom pays for the call into libindurop.
+inline constexpr unsigned kLoopPollEvery = 64;
+
+inline void loopCheck(const Place &place) {
+    if (++loopEdges % kLoopPollEvery == 0) loopCheck(place, runAbortRequested());
+}
 
 // FOR i := a TO end BY step: the back-edge.  Advances i by step and says whether the loop goes on:
 // while i has not passed end (i <= end for a positive step, i >= end for a negative one, the

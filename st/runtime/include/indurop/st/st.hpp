@@ -13,6 +13,7 @@
 //   string_convert.hpp  <TYPE>_TO_STRING, STRING_TO_<TYPE>
 //   loop.hpp            loopCheck(): the endless-loop guard on loop back-edges
 //   image.hpp           copyIn / writeBack of shared variables, cycleTime()
+//   kept.hpp            the kept image: a table of the struct and array variables a run copies
 #pragma once
 
 #include <indurop/st/arith.hpp>
@@ -20,6 +21,7 @@
 #include <indurop/st/convert.hpp>
 #include <indurop/st/fault.hpp>
 #include <indurop/st/image.hpp>
+#include <indurop/st/kept.hpp>
 #include <indurop/st/loop.hpp>
 #include <indurop/st/numeric.hpp>
 #include <indurop/st/select.hpp>
