@@ -7,7 +7,6 @@
 //   --crash-at K      raise SIGSEGV in its K-th period
 //   --exit-at K N     exit with status N in its K-th period
 //   --hang-at K       ignore SIGTERM and never finish its K-th period
-//   --spin-at K       ignore SIGTERM and never finish its K-th period, busy: it never blocks again
 //   --busy-at K MS    busy (never blocking) for MS milliseconds in its K-th period, then on
 //   --flood-at K N    print N lines as fast as it can in its K-th period
 #include <indurop/indurop.h>
@@ -26,8 +25,8 @@
 
 int main(int argc, char *argv[]) {
     setvbuf(stdout, nullptr, _IOLBF, 0);
-    long crash_at = -1, exit_at = -1, exit_status = 0, hang_at = -1, spin_at = -1, busy_at = -1, busy_ms = 0,
-         flood_at = -1, flood_lines = 0;
+    long crash_at = -1, exit_at = -1, exit_status = 0, hang_at = -1, busy_at = -1, busy_ms = 0, flood_at = -1,
+         flood_lines = 0;
     bool init = true;
     std::vector<std::string> env;
     std::printf("start pid=%d argc=%d\n", static_cast<int>(getpid()), argc);
@@ -47,8 +46,6 @@ int main(int argc, char *argv[]) {
             exit_at = next(), exit_status = next();
         else if (a == "--hang-at")
             hang_at = next();
-        else if (a == "--spin-at")
-            spin_at = next();
         else if (a == "--busy-at")
             busy_at = next(), busy_ms = next();
         else if (a == "--flood-at")
@@ -118,11 +115,6 @@ int main(int argc, char *argv[]) {
             do clock_gettime(CLOCK_MONOTONIC, &now);
             while ((now.tv_sec - start.tv_sec) * 1000 + (now.tv_nsec - start.tv_nsec) / 1'000'000 < busy_ms);
             std::printf("busy done\n");
-        }
-        if (n == spin_at) {
-            signal(SIGTERM, SIG_IGN);
-            std::printf("spinning\n");
-            for (volatile unsigned long spins = 0;; spins = spins + 1) {}
         }
     }
 }
