@@ -563,7 +563,7 @@ def test_upload_activate_activates_a_valid_set_and_prints_the_swap_report(irpctl
         "stopped          -",
         "replaced         -",
         "missed periods   0",
-        "variables        moved cell.n (not converted: cell.n: int32_t to int16_t may lose values); "
+        "variables        moved cell.n (not convertible without loss: cell.n: int32_t to int16_t may lose values); "
         "converted cell.fb (cell.fb_t -> cell.fb_t)",
         "request to swap  12.3 ms",
         "total            45.6 ms",

@@ -50,7 +50,8 @@ def test_retain_values_survive_a_restart_of_the_demos_irpd_as_the_agent_reads_th
         stop(irpd)  # as the demo's Ctrl-C: SIGTERM, irpd writes the retained values at its stop
         remove_shm(instance)
         copies = sorted(p.name for p in (data / "state").glob(f"{instance}.retain.*"))
-        assert copies == [f"{instance}.retain.a", f"{instance}.retain.b"], copies
+        # the two copies are written in turn: one of them at least, in the demo's data folder
+        assert copies and set(copies) <= {f"{instance}.retain.a", f"{instance}.retain.b"}, copies
         irpd = start()
         now = wait_until(read, 60, 0.05)  # the agent reads the new irpd
         # both count once a period since this start: the retained one from its restored value (over
