@@ -12,6 +12,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <exception>
 
@@ -209,7 +210,8 @@ bool Executor::armAhead(const std::vector<Task *> &order, uint64_t cycle, int64_
     release(task, cycle, due, clock_.now(), due);
     // Asleep on its done word, not on a timer of its own at `due`: at that time only the process's
     // timer fires, and it runs at once; its report wakes this thread.
-    for (int64_t until = due + kArmedWaitNs; done.load(std::memory_order_acquire) == served;)
+    const int64_t until = due + std::min(kArmedWaitNs, table_->basic_ns / 2);
+    while (done.load(std::memory_order_acquire) == served)
         if (!clock_.waitUntil(&slot.done_seq, served, until)) break;
     return true;
 }

@@ -49,7 +49,7 @@ class CallServer;  // dispatch/function_calls.hpp
 // How long past the due time a dispatcher that released its slot's process ahead sleeps on the
 // process's done word before it looks (docs/process-modules.md): the process normally starts at
 // the due time and wakes it when done; this bounds the wait for one that never started (it exited
-// meanwhile), after which the slot goes on as for any release.
+// meanwhile), after which the slot goes on as for any release.  Half the basic period at most.
 inline constexpr int64_t kArmedWaitNs = 50'000;
 
 struct Task;
