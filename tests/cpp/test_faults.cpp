@@ -18,13 +18,10 @@
 #include <gtest/gtest.h>
 
 #include <dlfcn.h>
-#include <sched.h>
 #include <signal.h>
 
 #include <algorithm>
 #include <chrono>
-#include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -342,35 +339,6 @@ TEST(ProcessFault, AHangWithoutOnOverrunIsCountedWhileTheRestRunsOn) {
     EXPECT_EQ(cell.module("p").value("runs", uint64_t{0}), 5u) << "it finished four periods and hangs in its fifth";
     EXPECT_TRUE(cell.events("process_hang", "p").empty());
     EXPECT_TRUE(cell.events("process_exit", "p").empty());
-}
-
-// A periodic process runs one priority above its dispatcher, on its CPU (a release made ahead
-// starts it on its own timer first, docs/process-modules.md): one that does not block in its period
-// would hold that CPU.  The watchdog moves it below its dispatcher at its bound, the rest of the set
-// runs on meanwhile, and it goes back above once that period is done.  (Busy for 300 ms, not for
-// ever: a process that never blocks would hold the CPU, at SCHED_FIFO, from the tests running
-// beside this one.)
-TEST(ProcessFault, AProcessBusyInItsPeriodIsMovedBelowItsDispatcherWhileTheRestRunsOnAndBackAfter) {
-    Cell cell(process("p", value("args", "--busy-at 5 300")));
-    ASSERT_TRUE(cell.waitUntil([&] { return contains(cell.irpd->out(), "[p] start pid="); })) << cell.irpd->out();
-    const std::string out = cell.irpd->out();
-    const pid_t pid = std::atoi(out.c_str() + out.find("[p] start pid=") + std::strlen("[p] start pid="));
-    if (sched_getscheduler(pid) != SCHED_FIFO) GTEST_SKIP() << "no SCHED_FIFO here: nothing to move";
-    EXPECT_TRUE(contains(out, "[p] sched=FIFO prio=81")) << "one above the dispatcher's 80\n" << out;
-    auto priority = [pid] {
-        sched_param param{};
-        return sched_getparam(pid, &param) == 0 ? param.sched_priority : -1;
-    };
-    EXPECT_TRUE(cell.waitUntil([&] { return priority() == 79; })) << "not moved down while busy: " << priority();
-    const uint64_t keep = cell.runs("keep");
-    EXPECT_TRUE(
-        cell.waitUntil([&] { return cell.runs("keep") > keep + 20 || contains(cell.irpd->out(), "busy done"); }));
-    EXPECT_FALSE(contains(cell.irpd->out(), "[p] busy done")) << "the rest ran only once the process was done";
-    EXPECT_TRUE(cell.waitUntil([&] { return contains(cell.irpd->out(), "[p] busy done"); })) << cell.irpd->out();
-    EXPECT_TRUE(cell.waitUntil([&] { return priority() == 81; })) << "not moved back: " << priority();
-    EXPECT_GT(cell.module("p").value("overruns", uint64_t{0}), 0u);
-    const uint64_t runs = cell.runs("p");
-    EXPECT_TRUE(cell.waitUntil([&] { return cell.runs("p") > runs + 20; })) << "it is released again";
 }
 
 TEST(ProcessFault, AHangWithOnOverrunWarnIsReportedOnce) {

@@ -269,8 +269,6 @@ TEST(ProcessWait, TheWatchdogWakesAWaitAtItsBound) {
     dispatch::ProcessWait wait;
     uint32_t done = 0;
     EXPECT_FALSE(wait.begin(&done, 1000)) << "no watchdog has looked yet: the wait needs its own timeout";
-    EXPECT_EQ(wait.bound(0), 1000) << "a wait published before the watchdog's first look is found by it";
-    wait.end();
     EXPECT_EQ(wait.bound(0), 0) << "no wait in progress";
     std::atomic<bool> woken{false};
     std::thread dispatcher([&] {

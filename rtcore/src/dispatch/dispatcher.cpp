@@ -164,10 +164,6 @@ std::unique_ptr<Dispatcher::Plan> Dispatcher::makePlan(const ExecutorOptions &op
                                       plans_.empty() ? std::string("dispatcher") : "dispatcher@" + options.name,
                                       options.name, (table ? *table : plan->idle).basic_ns, options.rt_priority, 0);
     plan->executor = std::make_shared<Executor>(clock_, table ? table : &plan->idle, plan->record, plan->options);
-    // A periodic process put above this executor (processPriority) goes below it while it is past its bound.
-    if (const int above = processPriority(options.rt_priority, options_.rt_priority, true);
-        options_.realtime && above > options.rt_priority)
-        plan->executor->processWait().demoteTo(options.rt_priority - 1, above);
     return plan;
 }
 

@@ -33,17 +33,6 @@ struct DispatcherOptions {
     trace::TraceRings *trace = nullptr;  // sampled by the main executor after every slot
 };
 
-// SCHED_FIFO priorities around the dispatchers (docs/process-modules.md).  The overrun watchdog
-// runs two above the main dispatcher (99 at most).  A periodic process module runs one above its
-// own dispatcher, so that a release made ahead starts it on its own timer before the dispatcher
-// wakes, when that keeps it below the watchdog (which moves it down if it holds the CPU past its
-// bound); a sporadic one, or one without room above, one below its dispatcher.
-constexpr int watchdogPriority(int main_rt) { return main_rt + 2 < 99 ? main_rt + 2 : 99; }
-constexpr int processPriority(int executor_rt, int main_rt, bool periodic) {
-    if (periodic && executor_rt + 1 < watchdogPriority(main_rt)) return executor_rt + 1;
-    return executor_rt > 1 ? executor_rt - 1 : 1;
-}
-
 // A module of the set as the dispatcher runs it, and its stats record.  A thread module has its
 // run function (and condition, if sporadic); a process module its control slot; a module with
 // neither is not dispatched (non-real processes run beside the dispatcher, supervised).

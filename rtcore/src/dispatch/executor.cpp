@@ -12,6 +12,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <exception>
 
@@ -188,40 +189,45 @@ bool Executor::runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start
         release(task, cycle, due, start, 0);
         return true;
     }
-    beginWait(slot, served, wait_until);
     release(task, cycle, due, start, 0);
     if (!awaitDone(slot, served, start, wait_until)) stats::bump(task.config.stats->overruns);
     return true;
 }
 
-void Executor::armAhead(const std::vector<Task *> &order, uint64_t cycle, int64_t due) {
-    if (order.empty()) return;
+bool Executor::armAhead(const std::vector<Task *> &order, uint64_t cycle, int64_t due) {
+    if (order.empty()) return false;
     Task &task = *order.front();
     const TaskConfig &c = task.config;
-    if (!c.leads || c.sporadic || !runsNow(task, due) || (c.gate && !c.gate->isOpen())) return;
+    if (!c.leads || c.sporadic || !runsNow(task, due) || (c.gate && !c.gate->isOpen())) return false;
     indurop_process_slot &slot = *c.process;
+    std::atomic_ref<uint32_t> done(slot.done_seq);
+    const uint32_t served = std::atomic_ref<uint32_t>(slot.release_seq).load(std::memory_order_relaxed);
     if (std::atomic_ref<uint32_t>(slot.state).load(std::memory_order_acquire) != INDUROP_PROCESS_READY ||
-        std::atomic_ref<uint32_t>(slot.done_seq).load(std::memory_order_acquire) !=
-            std::atomic_ref<uint32_t>(slot.release_seq).load(std::memory_order_relaxed))
-        return;  // not ready: the slot finds it so and counts the miss
+        done.load(std::memory_order_acquire) != served)
+        return false;  // not ready: the slot finds it so and counts the miss
     armed_at_.store(due, std::memory_order_relaxed);
     armed_.store(&slot, std::memory_order_release);
-    beginWait(slot, std::atomic_ref<uint32_t>(slot.release_seq).load(std::memory_order_relaxed),
-              waitBound(c, due, due + table_->basic_ns));
     release(task, cycle, due, clock_.now(), due);
+    // Asleep on its done word, not on a timer of its own at `due`: at that time only the process's
+    // timer fires, and it runs at once; its report wakes this thread.
+    const int64_t until = due + std::min(kArmedWaitNs, table_->basic_ns / 2);
+    while (done.load(std::memory_order_acquire) == served)
+        if (!clock_.waitUntil(&slot.done_seq, served, until)) break;
+    return true;
 }
 
 Executor::Armed Executor::resolveArmed(Task &task, int64_t now, int64_t &start) {
     indurop_process_slot &slot = *task.config.process;
     std::atomic_ref<int64_t> at(slot.release_at_ns);
     int64_t expected = armed_at_.load(std::memory_order_relaxed);
-    const bool run = runsNow(task, expected);
+    // Not ready any more (exited or restarting meanwhile: the slot finds it so), or the slot must
+    // not run it: taken back (a process that is there reports it done without running it).
+    const bool run = runsNow(task, expected) &&
+                     std::atomic_ref<uint32_t>(slot.state).load(std::memory_order_acquire) == INDUROP_PROCESS_READY;
     armed_.store(nullptr, std::memory_order_relaxed);
     if (at.compare_exchange_strong(expected, run ? 0 : INDUROP_RELEASE_CANCELLED, std::memory_order_acq_rel)) {
-        if (!run) return Armed::TakenBack;  // it reports it done at its due time, without running it
-        if (std::atomic_ref<uint32_t>(slot.state).load(std::memory_order_acquire) != INDUROP_PROCESS_READY)
-            return Armed::TakenBack;  // exited or restarting meanwhile: the slot finds it not ready
-        // Not claimed yet (its CPU is another, or it runs below this thread): a release now.
+        if (!run) return Armed::TakenBack;
+        // Not started within kArmedWaitNs of its due time (the machine held it off): a release now.
         slot.release_ns = now;
         const int64_t wakes_at = std::atomic_ref<int64_t>(slot.wake_ns).load(std::memory_order_seq_cst);
         if (wakes_at == 0 || wakes_at > now) futex::wakeAll(&slot.release_seq);
@@ -243,20 +249,17 @@ void Executor::cancelArmed() noexcept {
 
 bool Executor::awaitDone(indurop_process_slot &slot, uint32_t served, int64_t now, int64_t until) {
     std::atomic_ref<uint32_t> done(slot.done_seq);
-    bool in_time = true;
     while (done.load(std::memory_order_acquire) == served) {
-        if (until <= now) {
-            in_time = false;
-            break;
-        }
-        if (process_wait_.bounded())  // the watchdog ends it at `until`
+        if (until <= now) return false;
+        if (process_wait_.begin(&slot.done_seq, until)) {  // the watchdog ends it at `until`
             futex::wait(&slot.done_seq, served);
-        else if (const int64_t left = until - clock_.now(); left > 0)  // no watchdog: its own timeout
+            process_wait_.end();
+        } else if (const int64_t left = until - clock_.now(); left > 0) {  // no watchdog: its own timeout
             futex::wait(&slot.done_seq, served, left);
+        }
         now = clock_.now();
     }
-    process_wait_.end();
-    return in_time;
+    return true;
 }
 
 int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
@@ -331,9 +334,10 @@ void Executor::skip(uint64_t from, uint64_t count) {
  * One iteration = one basic period:
  *   1. sleep until the slot's absolute due time T0 + n * basic (clock_nanosleep TIMER_ABSTIME),
  *      unless the previous slot ended past it (then start at once: a caught-up slot); a periodic
- *      process that leads the slot is released just before the sleep, to start at the due time on
- *      its own timer (control.h), and the release is resolved right after the wake-up: claimed by
- *      the process (awaited), made a release now, or taken back (docs/process-modules.md);
+ *      process that leads the slot is released ahead instead, to start at the due time on its own
+ *      timer (control.h), and the dispatcher sleeps on its done word (at most kArmedWaitNs past the
+ *      due time); the release is resolved right after: claimed by the process (awaited), made a
+ *      release now, or taken back (docs/process-modules.md);
  *   2. if the backlog passed what the overrun policy allows, skip slots to the current one; if the
  *      slot's first module is a process, release and await it now (step 3), so that nothing of
  *      this thread's own comes between its wake-up and the process's; then account the wake-up:
@@ -414,26 +418,22 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         if (slept) {
             Task *armed = nullptr;
             uint32_t served = 0;
-            if (!table_->slots[slot_index].empty()) {
-                armAhead(table_->slots[slot_index], cycle, due);
-                if (armed_.load(std::memory_order_relaxed)) {
-                    armed = table_->slots[slot_index].front();
-                    served = std::atomic_ref<uint32_t>(armed->config.process->release_seq).load() - 1;
-                }
+            if (!table_->slots[slot_index].empty() && armAhead(table_->slots[slot_index], cycle, due)) {
+                armed = table_->slots[slot_index].front();
+                served = std::atomic_ref<uint32_t>(armed->config.process->release_seq).load() - 1;
+            } else {
+                clock_.sleepUntil(due);
             }
-            clock_.sleepUntil(due);
             woke = clock_.now();
             if (armed && resolveArmed(*armed, woke, first_start) != Armed::TakenBack) {
-                // Both timers expired at `due`; this thread reads its clock only after the
-                // process ran (above it, on its CPU): its own wake-up is taken as the process's.
+                // This thread was woken by the process's report (or at the end of its wait): its own
+                // wake-up is taken as the process's start, which its timer made at the due time.
                 woke = std::min(woke, first_start);
                 if (!awaitDone(*armed->config.process, served, clock_.now(),
                                waitBound(armed->config, due, due + basic)))
                     stats::bump(armed->config.stats->overruns);
                 first = First::Released;
                 first_end = clock_.now();
-            } else if (armed) {
-                process_wait_.end();
             }
         } else {
             // Already past due when the previous slot ended: started at once, without sleeping.

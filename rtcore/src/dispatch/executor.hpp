@@ -46,6 +46,12 @@ const char *toString(OverrunPolicy policy);
 
 class CallServer;  // dispatch/function_calls.hpp
 
+// How long past the due time a dispatcher that released its slot's process ahead sleeps on the
+// process's done word before it looks (docs/process-modules.md): the process normally starts at
+// the due time and wakes it when done; this bounds the wait for one that never started (it exited
+// meanwhile), after which the slot goes on as for any release.  Half the basic period at most.
+inline constexpr int64_t kArmedWaitNs = 50'000;
+
 struct Task;
 
 // A hot swap's one-time work at its boundary (the reloader's converted variables, docs/hot-reload.md):
@@ -240,21 +246,18 @@ private:
     // Writes what the process reads of its release at `cycle`, due at `due` (irp::cycle(), its
     // next due time), made at `start`, to run from `at` (0: at once), and makes the release.
     void release(Task &task, uint64_t cycle, int64_t due, int64_t start, int64_t at);
-    // Before sleeping until `due`: releases the slot's leading process ahead (control.h), when it
-    // runs in that slot and is ready; the release is then armed_ until resolveArmed().
-    void armAhead(const std::vector<Task *> &order, uint64_t cycle, int64_t due);
+    // Instead of sleeping until `due`: releases the slot's leading process ahead (control.h), when
+    // it runs in that slot and is ready, and sleeps on its done word (the process, woken by its own
+    // timer at `due`, wakes this thread when it is done) for at most kArmedWaitNs past `due`.  The
+    // release is armed_ until resolveArmed().  False when nothing was released ahead (then sleep).
+    bool armAhead(const std::vector<Task *> &order, uint64_t cycle, int64_t due);
     // After the wake-up for the armed slot: whether its process claimed the release, else it is
     // made a release now (woken as any) or, when the slot must not run it, taken back.  `start`
     // becomes when the process started.
     enum class Armed : uint8_t { Claimed, Released, TakenBack };
     Armed resolveArmed(Task &task, int64_t now, int64_t &start);
-    // Publishes the wait for release `served` + 1 of `slot` to the watchdog, before the release
-    // (ProcessWait::begin).
-    void beginWait(indurop_process_slot &slot, uint32_t served, int64_t until) noexcept {
-        process_wait_.begin(&slot.done_seq, until, slot.pid, served);
-    }
     // Waits until done_seq moves past `served`, at most until `until` (`now`: a clock read taken
-    // before the release), and ends the wait beginWait published; false at the bound.
+    // before the release); false at the bound.
     bool awaitDone(indurop_process_slot &slot, uint32_t served, int64_t now, int64_t until);
     // The event handler (Figure 6): conditions of sporadic threads, then releases of sporadic processes.
     int64_t handleEvents(uint64_t cycle, int64_t due, int64_t t);

@@ -5,8 +5,6 @@
 #include "osal/rt.hpp"
 #include "sdk/sync.hpp"
 
-#include <sched.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <ctime>
@@ -89,37 +87,13 @@ bool RunMarker::take(Fault &out) noexcept {
     return true;
 }
 
-namespace {
-void setFifo(int32_t pid, int priority) noexcept {
-    sched_param p{};
-    p.sched_priority = priority;
-    sched_setscheduler(pid, SCHED_FIFO, &p);  // a process that has ended meanwhile: ESRCH, nothing to do
-}
-}  // namespace
-
 int64_t ProcessWait::bound(int64_t now) noexcept {
     bound_.store(true, std::memory_order_seq_cst);
     uint32_t *word = word_.load(std::memory_order_seq_cst);
-    const int64_t until = until_.load(std::memory_order_relaxed);  // as new as the word, or newer
-    const int32_t pid = pid_.load(std::memory_order_relaxed);
-    // Past its bound without having reported the release done.
-    const bool over =
-        word && now >= until &&
-        std::atomic_ref<uint32_t>(*word).load(std::memory_order_acquire) == served_.load(std::memory_order_relaxed);
-    // A process moved down while it overran goes back up once it has reported that release done.
-    if (demoted_ && std::atomic_ref<uint32_t>(*demoted_word_).load(std::memory_order_acquire) != demoted_served_) {
-        setFifo(demoted_, above_);
-        demoted_ = 0;
-    }
     if (!word) return 0;
+    const int64_t until = until_.load(std::memory_order_relaxed);  // as new as the word, or newer
     if (now < until) return until;
     futex::wakeAll(word);  // a wake lost before the executor's FUTEX_WAIT is repeated at the next look
-    if (over && pid > 0 && below_ > 0 && !demoted_) {
-        setFifo(pid, below_);
-        demoted_ = pid;
-        demoted_word_ = word;
-        demoted_served_ = served_.load(std::memory_order_relaxed);
-    }
     return 0;
 }
 

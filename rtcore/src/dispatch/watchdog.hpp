@@ -110,30 +110,14 @@ class ProcessWait {
 public:
     // Executor thread (RT): around one unbounded FUTEX_WAIT on `word`, which must end at `until`.
     // begin() returns false when no watchdog bounds the wait (then wait with a timeout instead).
-    // Begun before the release: a process above its dispatcher may take the CPU from it at once.
-    // `pid`: the awaited process, which the watchdog moves below its dispatcher at the bound
-    // (demoteTo) if it has not reported release `served` done by then: a periodic process runs
-    // one priority above its dispatcher (docs/process-modules.md), and one that never blocks would
-    // hold the dispatcher's CPU.
-    bool begin(uint32_t *word, int64_t until, int32_t pid = 0, uint32_t served = 0) noexcept {
+    bool begin(uint32_t *word, int64_t until) noexcept {
         until_.store(until, std::memory_order_relaxed);
-        pid_.store(pid, std::memory_order_relaxed);
-        served_.store(served, std::memory_order_relaxed);
-        // Published even when no watchdog bounds it yet: one that starts while the process holds
-        // this thread's CPU still finds it.
         word_.store(word, std::memory_order_seq_cst);  // seq_cst with bound_: see release()
-        return bounded();
+        if (bound_.load(std::memory_order_seq_cst)) return true;
+        word_.store(nullptr, std::memory_order_relaxed);
+        return false;
     }
-    // Executor thread, before each FUTEX_WAIT of the wait: whether the watchdog bounds it now.
-    bool bounded() const noexcept { return bound_.load(std::memory_order_seq_cst); }
     void end() noexcept { word_.store(nullptr, std::memory_order_relaxed); }
-    // A process above its dispatcher (at `above`) past its bound is moved to `below` (its
-    // dispatcher's priority minus one) until it reports that release done; below 0: never (set
-    // once, before the executor's loop).
-    void demoteTo(int below, int above) noexcept {
-        below_ = below;
-        above_ = above;
-    }
 
     // Watchdog thread: from now on it bounds the waits (each look).  Wakes the wait in progress
     // if it passed its bound; returns that wait's bound if it has not, else 0.
@@ -145,13 +129,6 @@ public:
 private:
     std::atomic<uint32_t *> word_{nullptr};
     std::atomic<int64_t> until_{0};
-    std::atomic<int32_t> pid_{0};
-    std::atomic<uint32_t> served_{0};
-    int below_ = 0, above_ = 0;
-    // watchdog thread: the process it moved down, until its done word moves past `demoted_served_`
-    int32_t demoted_ = 0;
-    uint32_t *demoted_word_ = nullptr;
-    uint32_t demoted_served_ = 0;
     std::atomic<bool> bound_{false};
 };
 

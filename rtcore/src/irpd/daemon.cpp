@@ -546,7 +546,7 @@ Status Daemon::startDispatchers() {
         watch::watchdogHooks(
             events_, [this] { return reloader_->current(); }, *stats_));
     // Above the dispatchers, on the non-RT CPUs.
-    watchdog_->start(dispatcher_->realtime() ? dispatch::watchdogPriority(options_.dispatcher.rt_priority) : 0);
+    watchdog_->start(dispatcher_->realtime() ? std::min(99, options_.dispatcher.rt_priority + 1) : 0);
     watchdog_now_.store(watchdog_.get());
     if (retain_) retain_->start();
     return Ok{};

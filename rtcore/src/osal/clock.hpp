@@ -16,6 +16,14 @@ public:
     virtual ~Clock() = default;
     virtual int64_t now() noexcept = 0;                      // nanoseconds
     virtual void sleepUntil(int64_t deadline) noexcept = 0;  // returns at or after deadline
+    // Sleeps until *word is no longer `expected` (and a FUTEX_WAKE came) or until deadline; false
+    // at the deadline.  A clock that is not the real one only sleeps until the deadline.
+    virtual bool waitUntil(uint32_t *word, uint32_t expected, int64_t deadline) noexcept {
+        (void)word;
+        (void)expected;
+        sleepUntil(deadline);
+        return false;
+    }
 };
 
 inline int64_t monotonicNow() noexcept { return irp::monotonicNs(); }  // sdk/sync.hpp
@@ -24,6 +32,10 @@ class MonotonicClock final : public Clock {
 public:
     int64_t now() noexcept override { return monotonicNow(); }
     void sleepUntil(int64_t deadline) noexcept override;
+    bool waitUntil(uint32_t *word, uint32_t expected, int64_t deadline) noexcept override {
+        futex::waitUntil(word, expected, deadline);
+        return monotonicNow() < deadline;
+    }
 };
 
 // The process-wide real clock.

@@ -544,11 +544,8 @@ Status Reloader::realize(Generation &generation, const Generation *running,
         }
         if (m.operation != config::OperationType::NonReal)
             for (const dispatch::ExecutorOptions &e : threads)
-                if (e.name == m.executor) {  // beside its executor (dispatch::processPriority), on its CPU
-                    launch.rt_priority = s_.dispatcher.realtime
-                                             ? dispatch::processPriority(e.rt_priority, s_.dispatcher.rt_priority,
-                                                                         m.operation == config::OperationType::Periodic)
-                                             : 0;
+                if (e.name == m.executor) {  // one below its executor, on its CPU
+                    launch.rt_priority = s_.dispatcher.realtime ? std::max(1, e.rt_priority - 1) : 0;
                     launch.cpu = e.cpu;
                 }
         if (Status st = s_.supervisor->start(launch); !st) {

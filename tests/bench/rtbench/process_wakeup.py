@@ -142,9 +142,9 @@ def render_wakeup(a, w: dict) -> str:
     add("## Process module wake-up: against a thread module and a signal-based wake-up")
     add("")
     add(
-        f"Period {a.period_ns} ns ({per_us:g} µs), CPU {a.cpu}, the dispatcher at SCHED_FIFO {a.rt_priority}, "
-        f"irpd's periodic process at {a.rt_priority + 1} and the other workers at {a.rt_priority - 1} (unless their "
-        f"mode says otherwise); {len(PROGRAMS) + len(VARIANT_PROGRAMS)} programs (these four and the "
+        f"Period {a.period_ns} ns ({per_us:g} µs), CPU {a.cpu}, the dispatcher at SCHED_FIFO {a.rt_priority}, the "
+        f"processes at {a.rt_priority - 1} (unless their mode says otherwise); "
+        f"{len(PROGRAMS) + len(VARIANT_PROGRAMS)} programs (these four and the "
         f"alternatives below), {w['seconds_per_round']} s each per round, in "
         f"{a.proc_rounds} rounds whose order rotates; the samples of the rounds are merged. irpd runs with "
         "`--overrun-policy skip`, as in the cyclictest comparison, so that every sample is a real wake-up."
@@ -161,7 +161,7 @@ def render_wakeup(a, w: dict) -> str:
             f"Not met: {w['ratio_p99']:.2f}× against {PROC_P99_RATIO_TARGET:g}×, "
             f"{100 * (w['ratio_p99'] / PROC_P99_RATIO_TARGET - 1):.0f} % over. Why: released ahead, the process starts "
             "on its own timer, as a thread module's dispatcher does, but from a futex wait in another address "
-            "space rather than from clock_nanosleep in irpd's: that difference is "
+            "space rather than from clock_nanosleep in irpd's: the process's wake-up p50 minus its dispatcher's is "
             f"{us(pw.get('p50', 0) - p['dispatcher'].get('p50', 0))} µs at p50 here (second table), while "
             f"{PROC_P99_RATIO_TARGET:g}× of the thread module's p99 ({us(t99)} µs) leaves "
             f"{us(t99 * (PROC_P99_RATIO_TARGET - 1))} µs for it; the p99s themselves are the machine's noise in "
@@ -269,13 +269,14 @@ def render_wakeup(a, w: dict) -> str:
         "its next release's due time by itself (`waitPeriod()`: a FUTEX_WAIT_BITSET on the release word until the "
         "time irpd published at the last release, announced in the slot's `wake_ns`), so that it is runnable when "
         "its dispatcher, woken by its own timer at the same time, blocks. The process leads its slot, so irpd "
-        "releases it ahead (docs/process-modules.md): just before the dispatcher sleeps until the slot, with the "
-        "slot's due time as the time it may start (release_seq + 1, release_at_ns = due, no FUTEX_WAKE since the "
-        "process's timer ends at that time). The process, one priority above the dispatcher on the same CPU, "
-        "wakes on its own timer at the due time, claims the release and runs before the dispatcher; the "
-        "dispatcher then waits for its done word with a FUTEX_WAIT without a timeout (its overrun watchdog ends "
-        "it at the end of the basic period). Its wake-up is therefore a timer wake-up like a thread module's, "
-        "plus the return from a futex wait into another address space."
+        "releases it ahead (docs/process-modules.md): when the dispatcher would go to sleep until the slot, with "
+        "the slot's due time as the time it may start (release_seq + 1, release_at_ns = due, no FUTEX_WAKE since "
+        "the process's timer ends at that time), and the dispatcher sleeps on the process's done word instead "
+        "of on a timer of its own (at most 50 µs past the due time). At the due time only the process's timer "
+        "fires: the process (one priority below the dispatcher, on the same CPU, which is idle then) claims the "
+        "release and runs, and its report wakes the dispatcher. Its wake-up is therefore a timer wake-up like a "
+        "thread module's dispatcher's, from a futex wait into another address space; the dispatcher's own "
+        "wake-up (first table) is taken as the process's start."
     )
     add(
         "- **signal-based**: `tests/bench/signal_wakeup.cpp`, the paper's original design (Figures 6 and 8: the "

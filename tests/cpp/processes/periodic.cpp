@@ -7,14 +7,12 @@
 //   --crash-at K      raise SIGSEGV in its K-th period
 //   --exit-at K N     exit with status N in its K-th period
 //   --hang-at K       ignore SIGTERM and never finish its K-th period
-//   --busy-at K MS    busy (never blocking) for MS milliseconds in its K-th period, then on
 //   --flood-at K N    print N lines as fast as it can in its K-th period
 #include <indurop/indurop.h>
 
 #include <dirent.h>
 #include <sched.h>
 #include <signal.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -25,8 +23,7 @@
 
 int main(int argc, char *argv[]) {
     setvbuf(stdout, nullptr, _IOLBF, 0);
-    long crash_at = -1, exit_at = -1, exit_status = 0, hang_at = -1, busy_at = -1, busy_ms = 0, flood_at = -1,
-         flood_lines = 0;
+    long crash_at = -1, exit_at = -1, exit_status = 0, hang_at = -1, flood_at = -1, flood_lines = 0;
     bool init = true;
     std::vector<std::string> env;
     std::printf("start pid=%d argc=%d\n", static_cast<int>(getpid()), argc);
@@ -46,8 +43,6 @@ int main(int argc, char *argv[]) {
             exit_at = next(), exit_status = next();
         else if (a == "--hang-at")
             hang_at = next();
-        else if (a == "--busy-at")
-            busy_at = next(), busy_ms = next();
         else if (a == "--flood-at")
             flood_at = next(), flood_lines = next();
     }
@@ -108,13 +103,6 @@ int main(int argc, char *argv[]) {
             signal(SIGTERM, SIG_IGN);
             std::printf("hanging\n");
             for (;;) pause();
-        }
-        if (n == busy_at) {
-            timespec start{}, now{};
-            clock_gettime(CLOCK_MONOTONIC, &start);
-            do clock_gettime(CLOCK_MONOTONIC, &now);
-            while ((now.tv_sec - start.tv_sec) * 1000 + (now.tv_nsec - start.tv_nsec) / 1'000'000 < busy_ms);
-            std::printf("busy done\n");
         }
     }
 }
