@@ -165,10 +165,8 @@ void Executor::release(Task &task, uint64_t cycle, int64_t due, int64_t start, i
     slot.planned_ns = due;
     slot.basic_ns = table_->basic_ns;
     slot.release_ns = at ? at : start;
-    // A process that leads its slots sleeps until its next release's due time by itself
-    // (irp::waitPeriod); the others wait for their wake (above their dispatcher, a timer of their
-    // own would only take the CPU from it at the due time, before their release).
-    slot.next_due_ns = task.config.leads ? due + task.config.period_ns : 0;
+    // A periodic process sleeps until its next release's due time by itself (irp::waitPeriod).
+    slot.next_due_ns = task.config.sporadic ? 0 : due + task.config.period_ns;
     std::atomic_ref<int64_t>(slot.release_at_ns).store(at, std::memory_order_relaxed);
     release.store(release.load(std::memory_order_relaxed) + 1, std::memory_order_seq_cst);
     // Its wait ends by itself by then (its timer has expired, or expires at `at`), or it needs the
@@ -454,7 +452,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
         const std::vector<Task *> &order = table_->slots[slot_index];
         int64_t t = woke;
         // A slot whose first module is a process releases it before anything else (unless it was
-        // released ahead, above), and awaits it: it runs as soon as this thread blocks, and the
+        // released ahead), and awaits it: it runs as soon as this thread blocks, and the
         // dispatcher's own figures below are taken after it (they change nothing the process
         // reads: its cycle is in its control slot).
         if (first == First::None && !order.empty() && runsNow(*order.front(), due) &&
