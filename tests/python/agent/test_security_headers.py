@@ -10,10 +10,12 @@ import ssl
 
 import httpx
 import pytest
-from agent_helpers import API, free_port, start_agent, stop
+import time
+
+from agent_helpers import API, free_port, output, start_agent, stop
 from indurop_agent.system import tls
 from test_webui_serving import dist  # noqa: F401 (a fixture: a built UI)
-from websockets.exceptions import InvalidStatus
+from websockets.exceptions import InvalidMessage, InvalidStatus
 from websockets.sync.client import connect
 
 COMMON = {"x-content-type-options": "nosniff", "referrer-policy": "no-referrer"}
@@ -30,6 +32,7 @@ def served(request, tmp_path, dist):  # noqa: F811
         verify = ssl.create_default_context(cafile=str(cert))
     port = free_port()
     agent = start_agent(port, data, tmp_path / "no-irpd.sock", *extra, ca=cert if request.param == "https" else None)
+    request.node.agent = agent  # its output goes into a failure's message
     yield f"{request.param}://127.0.0.1:{port}", verify, request.param
     stop(agent)
 
@@ -85,13 +88,23 @@ def test_the_api_docs_page_allows_only_its_own_inline_script(served):
     assert script.startswith("script-src 'self' 'sha256-") and "unsafe" not in script
 
 
-def test_a_refused_websocket_handshake_carries_the_headers_and_the_reason(served):
+def test_a_refused_websocket_handshake_carries_the_headers_and_the_reason(served, request):
     base, verify, scheme = served
     ws = base.replace("http", "ws", 1) + f"{API}/robot/viewer/websocket"
-    with pytest.raises(InvalidStatus) as refused:
-        connect(
-            ws, ssl=verify if scheme == "https" else None, open_timeout=30
-        ).close()  # as the httpx tests: a loaded CI machine
-    response = refused.value.response
-    assert response.status_code == 403 and b"viewer_url" in response.body
+    closed = []  # (seconds, what the client saw) of a connection closed before any answer
+    for _ in range(2):
+        started = time.monotonic()
+        try:
+            connect(ws, ssl=verify if scheme == "https" else None, open_timeout=30).close()
+        except InvalidStatus as e:
+            response = e.response
+            break
+        except InvalidMessage as e:
+            # Closed before an answer: seen twice on a starved CI machine, after the agent's 10 s
+            # budgets (its header deadline, the handshake's open_timeout); tried once more, and
+            # both tries, with the agent's output, are in the message if the second fails too.
+            closed.append((round(time.monotonic() - started, 1), repr(e.__cause__ or e)))
+    else:
+        raise AssertionError(f"no answer to the handshake, twice: {closed}\n{output(request.node.agent)}")
+    assert response.status_code == 403 and b"viewer_url" in response.body, closed
     check({k.lower(): v for k, v in response.headers.raw_items()}, scheme, framed_by_self=True)
