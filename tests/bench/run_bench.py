@@ -68,6 +68,7 @@ from rtbench.irpd_runs import DISPATCH_TARGETS, build, module_xml, run_irpd, run
 from rtbench.irpd_stats import load_stats_layout, merge_irpd_hists, summarize_irpd_hist
 from rtbench.machine import machine, read_text
 from rtbench.process_wakeup import render_wakeup, run_wakeup_comparison
+from rtbench.release_variants import variant_programs
 from rtbench.report import add_targets_and_runs, analyse, render, replace_process_section
 from rtbench.shared_vars import render_shared, run_shared_vars
 from rtbench.sporadic import render_sporadic, run_sporadic
@@ -115,6 +116,12 @@ def main(argv: list[str]) -> int:
         type=int,
         default=4,
         help="rounds of that comparison; the order of its four programs rotates (default 4)",
+    )
+    ap.add_argument(
+        "--proc-variants",
+        default="all",
+        help="the alternatives of release_variants.cpp run in those rounds: 'all' (default), 'none', or modes "
+        "separated by commas (fewer programs a round: more, shorter rounds in the same time)",
     )
     ap.add_argument(
         "--sporadic-duration",
@@ -198,6 +205,10 @@ def main(argv: list[str]) -> int:
         ap.error(f"--duration {a.duration} must be a multiple of --rounds {a.rounds} (cyclictest takes whole seconds)")
     if a.proc_duration % a.proc_rounds:
         ap.error(f"--proc-duration {a.proc_duration} must be a multiple of --proc-rounds {a.proc_rounds}")
+    try:
+        a.proc_variants = variant_programs(a.proc_variants)
+    except ValueError as e:
+        ap.error(str(e))
     if not 2 <= a.rt_priority <= 99:
         ap.error("--rt-priority must be 2..99 (process modules run one below it)")
 

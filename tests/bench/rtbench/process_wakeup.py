@@ -5,12 +5,12 @@ their section of the report.
 
 from __future__ import annotations
 
+import statistics
 from pathlib import Path
 
 from .common import PROC_P99_RATIO_TARGET, fmt_ratio, quote, ratio, rel, run_checked, two_process_cmd, us, verdict
 from .irpd_runs import run_irpd
 from .irpd_stats import bench_hist, merge_irpd_hists, parse_bench_output, summarize_irpd_hist
-from .release_variants import PROGRAMS as VARIANT_PROGRAMS
 from .release_variants import render_variants, run_variant
 
 
@@ -42,7 +42,7 @@ def run_wakeup_comparison(a, irpd: Path, bench: Path, one: Path, work: Path, com
     proc_xml = bench / f"bench-proc-1x{a.period_ns}ns.xml"
     proc_xml.write_text(process_set_xml(a.period_ns))
     seconds = a.proc_duration // a.proc_rounds
-    programs = PROGRAMS + VARIANT_PROGRAMS
+    programs = PROGRAMS + a.proc_variants
     acc = {p: {} for p in programs}  # program -> figure -> list of per-round histograms or counters
     rounds = []
 
@@ -95,7 +95,7 @@ def run_wakeup_comparison(a, irpd: Path, bench: Path, one: Path, work: Path, com
                 add("process", "gaps", pi.get("gaps", 0))
                 add("process", "mlockall", pi.get("mlockall", 0))
                 add("process", "realtime", d["realtime"])
-            elif program in VARIANT_PROGRAMS:
+            elif program in a.proc_variants:
                 run_variant(a, bench, program, seconds, r, commands, add)
             else:
                 extra = ("--unbounded",) if program == "signal_unbounded" else ()
@@ -144,8 +144,9 @@ def render_wakeup(a, w: dict) -> str:
     add(
         f"Period {a.period_ns} ns ({per_us:g} µs), CPU {a.cpu}, the dispatcher at SCHED_FIFO {a.rt_priority}, the "
         f"processes at {a.rt_priority - 1} (unless their mode says otherwise); "
-        f"{len(PROGRAMS) + len(VARIANT_PROGRAMS)} programs (these four and the "
-        f"alternatives below), {w['seconds_per_round']} s each per round, in "
+        f"{len(PROGRAMS) + len(a.proc_variants)} programs (these four"
+        + (" and the alternatives below" if a.proc_variants else "")
+        + f"), {w['seconds_per_round']} s each per round, in "
         f"{a.proc_rounds} rounds whose order rotates; the samples of the rounds are merged. irpd runs with "
         "`--overrun-policy skip`, as in the cyclictest comparison, so that every sample is a real wake-up."
     )
@@ -172,7 +173,8 @@ def render_wakeup(a, w: dict) -> str:
     if per_round:
         add("")
         add(
-            f"Round by round the same ratio goes from {min(per_round):.2f}× to {max(per_round):.2f}× (last table): "
+            f"Round by round the same ratio goes from {min(per_round):.2f}× to {max(per_round):.2f}×, median "
+            f"{statistics.median(per_round):.2f}× (last table): "
             "a merged p99 leans on the program's noisiest round, and the noisiest rounds of the thread and of the "
             "process need not be the same ones. The p50s are the steadier comparison: the process's p50 is its "
             f"dispatcher's plus {us(pw.get('p50', 0) - p['dispatcher'].get('p50', 0))} µs of hand-over (second "
@@ -310,5 +312,6 @@ def render_wakeup(a, w: dict) -> str:
     if not p.get("mlockall"):
         add("- **WARNING**: the process module could not mlockall (page faults may add latency).")
     add("")
-    add(render_variants(a, w))
+    if a.proc_variants:
+        add(render_variants(a, w))
     return "\n".join(L)

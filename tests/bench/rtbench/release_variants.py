@@ -31,6 +31,19 @@ MODES = {
 PROGRAMS = tuple("variant_" + m for m in MODES)
 
 
+def variant_programs(spec: str) -> tuple[str, ...]:
+    """The programs of --proc-variants: 'all', 'none' or modes separated by commas."""
+    if spec == "all":
+        return PROGRAMS
+    if spec == "none":
+        return ()
+    modes = [m.strip() for m in spec.split(",") if m.strip()]
+    unknown = [m for m in modes if m not in MODES]
+    if unknown:
+        raise ValueError(f"--proc-variants: no mode {', '.join(unknown)}; the modes: {', '.join(MODES)}, or all, none")
+    return tuple("variant_" + m for m in modes)
+
+
 def run_variant(a, bench: Path, program: str, seconds: int, r: int, commands: list[str], add) -> dict:
     """Runs one mode for `seconds`; hands its histograms and counters to add(program, key, value);
     returns its wake-up histogram."""
@@ -72,7 +85,9 @@ def render_variants(a, w: dict) -> str:
     )
     add("| --- | ---: | ---: | ---: | ---: | ---: |")
     rows = [("irpd process module (this build)", w["process"], "process")]
-    rows += [(f"`{p.removeprefix('variant_')}`: {MODES[p.removeprefix('variant_')]}", w[p], p) for p in PROGRAMS]
+    rows += [
+        (f"`{p.removeprefix('variant_')}`: {MODES[p.removeprefix('variant_')]}", w[p], p) for p in PROGRAMS if p in w
+    ]
     for title, v, key in rows:
         vw = v["wake"]
         if key == "process":
@@ -89,9 +104,14 @@ def render_variants(a, w: dict) -> str:
     add("")
 
     def handover(key: str) -> str:
-        return us(w[key]["wake"].get("p50", 0) - w[key]["dispatcher"].get("p50", 0))
+        if key not in w:
+            return "not run"
+        return us(w[key]["wake"].get("p50", 0) - w[key]["dispatcher"].get("p50", 0)) + " µs"
 
-    spin99, timer99 = w["variant_timer_spin"]["wake"].get("p99"), w["variant_timer"]["wake"].get("p99")
+    def wake99(key: str):
+        return w[key]["wake"].get("p99") if key in w else None
+
+    spin99, timer99 = wake99("variant_timer_spin"), wake99("variant_timer")
     spin_better = spin99 is not None and timer99 is not None and spin99 < timer99
     spin_said = f"its wake-up p99 is {fmt_ratio(ratio(spin99, timer99))} `timer`'s here, " + (
         "better, but at the price of a spin on the dispatcher's CPU each period" if spin_better else "no better"
@@ -105,11 +125,11 @@ def render_variants(a, w: dict) -> str:
         "process stays one priority below its dispatcher. The release stays irpd's decision: until the process "
         "has claimed it, irpd may take it back (a fault stopped the set) or make it a release now (the process "
         "did not start within 50 µs of its due time). Its hand-over here: "
-        f"{handover('process')} µs at p50 (the process's wake-up p50 − its dispatcher's, which is taken as the "
+        f"{handover('process')} at p50 (the process's wake-up p50 − its dispatcher's, which is taken as the "
         "process's start when the process ran first). Before it, irpd used `timer` (hand-over "
-        f"{handover('variant_timer')} µs here; `timer_wake`, the same with the FUTEX_WAKE: "
-        f"{handover('variant_timer_wake')} µs; `unbounded`, irpd's release before issue 28: "
-        f"{handover('variant_unbounded')} µs). `timer_spin` keeps the CPU busy at the "
+        f"{handover('variant_timer')} here; `timer_wake`, the same with the FUTEX_WAKE: "
+        f"{handover('variant_timer_wake')}; `unbounded`, irpd's release before issue 28: "
+        f"{handover('variant_unbounded')}). `timer_spin` keeps the CPU busy at the "
         f"due time instead of idle: {spin_said}; irpd does not spin. `above` and `yield` switch to "
         "the process before the dispatcher blocks (the wake itself switches to it, or the yield does), but a "
         "process above its dispatcher that then spins would hold the dispatcher's CPU; `prearmed` needs its "

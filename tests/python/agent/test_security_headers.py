@@ -7,11 +7,10 @@ API (an answer, a 401, a 404, a 422, a 413), the API docs and their files, the 3
 from __future__ import annotations
 
 import ssl
+import time
 
 import httpx
 import pytest
-import time
-
 from agent_helpers import API, free_port, output, start_agent, stop
 from indurop_agent.system import tls
 from test_webui_serving import dist  # noqa: F401 (a fixture: a built UI)
