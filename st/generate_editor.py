@@ -48,15 +48,6 @@ def library_pous() -> list[dict]:
     return out
 
 
-def functions() -> list[dict]:
-    """stdlib.py's table: name, kind, result, parameters (`T` and a family for generic ones)."""
-    out = []
-    for f in sorted(stdlib.FUNCTIONS.values(), key=lambda f: f.name):
-        params = [{"name": p.name, "type": p.family if p.type == "T" else p.type} for p in f.params]
-        out.append({"name": f.name, "kind": f.kind, "result": f.result, "params": params, "extensible": f.extensible})
-    return out
-
-
 def typescript() -> str:
     types = sorted(set(ty.ELEMENTARY) | set(ty.ALIASES) | {"STRING", "WSTRING"})
     lines = [
@@ -94,7 +85,7 @@ def typescript() -> str:
         "",
         "/** the standard functions (stdlib.py), one per line */",
         "export const ST_FUNCTIONS: readonly StFunction[] = [",
-        *(f"  {json.dumps(f)}," for f in functions()),
+        *(f"  {json.dumps(f)}," for f in stdlib.described()),
         "];",
         "",
         "/** the function blocks and functions of st/lib (TON, CTU, MC_Power, ...) */",

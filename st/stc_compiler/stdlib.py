@@ -135,3 +135,18 @@ def conversion(src: str, dst: str) -> str | None:
 
 def lookup(name: str) -> Function | None:
     return FUNCTIONS.get(name.upper())
+
+
+def described() -> list[dict]:
+    """The table as data, by name: {name, kind, result, params [{name, type}], extensible}, a generic
+    parameter's type its family (the web UI's generated st_language.ts and the agent's symbols)."""
+    return [
+        {
+            "name": f.name,
+            "kind": f.kind,
+            "result": f.result,
+            "params": [{"name": p.name, "type": p.family if p.type == "T" else p.type} for p in f.params],
+            "extensible": f.extensible,
+        }
+        for f in sorted(FUNCTIONS.values(), key=lambda f: f.name)
+    ]

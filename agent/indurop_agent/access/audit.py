@@ -25,6 +25,7 @@ ACTIONS = (
     "patch_module",
     "write_variable",
     "robot_joints",
+    "program_edit",
     "token_create",
     "token_revoke",
     "lockout",

@@ -64,6 +64,7 @@ from .routes import (
     modules,
     opcua,
     opcua_alarms,
+    programs,
     recordings,
     robot,
     scopes,
@@ -293,6 +294,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     routers += (scopes,)  # trace configurations kept with a set
     routers += (opcua,)  # the OPC UA server's state and trust list (docs/opcua.md)
     routers += (opcua_alarms,)  # the OPC UA server's Acknowledge and Confirm, with its own token
+    routers += (programs,)  # the Programs page: ST files, the check as you type, edits applied (docs/programming.md)
     for module in (*routers, stream):
         app.include_router(module.router, prefix=API)
     app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)

@@ -91,6 +91,13 @@ class Validation(BaseModel):
     )
 
 
+class DerivedFrom(BaseModel):
+    """A set made from another with one file changed (POST /programs/apply)."""
+
+    set_id: str = Field(description="the set it was made from")
+    path: str = Field(description="the file that changed, e.g. main.st")
+
+
 class SetPublic(BaseModel):
     id: str = Field(description="16 hex digits derived from the files' paths and contents")
     created: str
@@ -98,6 +105,9 @@ class SetPublic(BaseModel):
     files: list[SetFile]
     validation: Validation
     active: bool = False
+    derived_from: DerivedFrom | None = Field(
+        None, description="the set this one was made from by an edit, and the file"
+    )
 
 
 class SetSummary(BaseModel):

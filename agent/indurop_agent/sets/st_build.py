@@ -91,7 +91,7 @@ def _build(files, work: Path, staging: Path, limits: Limits, stc: Path, timeout_
     args = ["build", "-o", ".", "--json"]
     # `--option=value` and `--` before the sources: a file named "-x.st" is a file, not an option
     args += [f"--glb={p}" for p in sorted(by_path) if file_kind(p, by_path[p].source) == "glb"]
-    layout = _set_layout(by_path)
+    layout = set_layout(by_path)
     if layout is not None:
         args += [f"--set-layout={layout}"]
     if previous is not None:
@@ -104,7 +104,7 @@ def _build(files, work: Path, staging: Path, limits: Limits, stc: Path, timeout_
     return _with_outputs(by_path, root, staging, limits)
 
 
-def _set_layout(by_path: dict[str, Received]) -> str | None:
+def set_layout(by_path: dict[str, Received]) -> str | None:
     """The set's own layout: module.xml's <layout>, else layout.json beside it (irpd's default)."""
     if "module.xml" in by_path:
         named = parse_module_xml(by_path["module.xml"].source).layout

@@ -139,9 +139,13 @@ class SetStore:
                     found.append(m)
         return sorted(found, key=lambda m: (m["created"], m["id"]), reverse=True)
 
-    def commit(self, files: list[StagedFile], who: dict, validation: dict) -> tuple[dict, bool]:
+    def commit(
+        self, files: list[StagedFile], who: dict, validation: dict, derived_from: dict | None = None
+    ) -> tuple[dict, bool]:
         """Stores a checked upload: (its manifest, True) or, for a set already stored,
-        (that set's manifest, False).  The staged files are moved into the blob store."""
+        (that set's manifest, False).  The staged files are moved into the blob store.
+        `derived_from`: {set_id, path} of a set made from another with one file changed (the
+        Programs page's edits), kept in the manifest: a program's history is that chain."""
         set_id = set_id_of(files)
         with self._lock:
             existing = self.manifest(set_id)
@@ -157,6 +161,8 @@ class SetStore:
                 "files": [f.entry() for f in sorted(files, key=lambda f: f.path)],
                 "validation": validation,
             }
+            if derived_from is not None:
+                manifest["derived_from"] = derived_from
             self._materialize(manifest)
             return manifest, True
 

@@ -698,6 +698,132 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/programs": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List Programs
+         * @description The set's (default: the active set's) .st files and the POUs in each, with their lines.
+         */
+        get: operations["list_programs_api_v1_programs_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/programs/apply": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Apply Program
+         * @description A new set made from the set (default: the active one) with `path` replaced by `source`: built
+         *     as an upload is, stored with `derived_from`, checked by irpd against what runs (the dry run:
+         *     variables added, removed, converted; modules kept, replaced; online or restart and its expected
+         *     downtime).  With `activate`, then activated as POST /sets/{id}/activate does (`mode`).
+         */
+        post: operations["apply_program_api_v1_programs_apply_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/programs/check": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Check Program
+         * @description Checks `source` as the set's file `path`, with the set's other .st files as stored and its
+         *     .glb variables: every error with its place, and the symbols (POUs, variables with their IEC
+         *     type and shared-variable paths, FB types, functions).  Nothing is stored.
+         */
+        post: operations["check_program_api_v1_programs_check_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/programs/diff": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Program Diff
+         * @description The unified diff of `path` from set `old` to set `new`.
+         */
+        get: operations["program_diff_api_v1_programs_diff_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/programs/history": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Program History
+         * @description Every stored set holding the .st file `path`, newest first, with the file's sha256 and the
+         *     set it was made from when it was an edit.
+         */
+        get: operations["program_history_api_v1_programs_history_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/programs/source": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Program Source
+         * @description A .st file's text as stored in the set (default: the active set).
+         */
+        get: operations["program_source_api_v1_programs_source_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/recordings": {
         parameters: {
             query?: never;
@@ -1504,6 +1630,8 @@ export interface components {
             by: components["schemas"]["Who"] | null;
             /** Created */
             created: string;
+            /** @description the set this one was made from by an edit, and the file */
+            derived_from?: components["schemas"]["DerivedFrom"] | null;
             /** Files */
             files: components["schemas"]["SetFile"][];
             /**
@@ -1855,6 +1983,44 @@ export interface components {
              */
             severity?: ("low" | "medium" | "high" | "critical") | null;
         };
+        /** ApplyRequest */
+        ApplyRequest: {
+            /**
+             * Activate
+             * @description false: store the new set and answer its dry run; true: activate it too
+             * @default false
+             */
+            activate: boolean;
+            /**
+             * Mode
+             * @description as POST /sets/{id}/activate
+             * @default online
+             * @enum {string}
+             */
+            mode: "online" | "restart" | "auto";
+            /**
+             * Path
+             * @description the .st file of that set being edited
+             */
+            path: string;
+            /**
+             * Set
+             * @description the set whose other files it is checked with; default: the active set
+             */
+            set?: string | null;
+            /**
+             * Source
+             * @description the file's text as edited
+             */
+            source: string;
+        };
+        /** ApplyResult */
+        ApplyResult: {
+            /** @description the activation's report when activate was true */
+            report?: components["schemas"]["SwapReport"] | null;
+            /** @description the new set (derived_from: the set and the file), with irpd's dry run */
+            set: components["schemas"]["SetPublic"];
+        };
         /** BackupArchive */
         BackupArchive: {
             /** Agent Version */
@@ -2093,6 +2259,32 @@ export interface components {
             /** Traced */
             traced: number;
         };
+        /** CheckRequest */
+        CheckRequest: {
+            /**
+             * Path
+             * @description the .st file of that set being edited
+             */
+            path: string;
+            /**
+             * Set
+             * @description the set whose other files it is checked with; default: the active set
+             */
+            set?: string | null;
+            /**
+             * Source
+             * @description the file's text as edited
+             */
+            source: string;
+        };
+        /** CheckResult */
+        CheckResult: {
+            /** Errors */
+            errors: components["schemas"]["StError"][];
+            /** Set Id */
+            set_id: string;
+            symbols: components["schemas"]["Symbols"];
+        };
         /**
          * ConditionTrigger
          * @description Conditions on variables, combined row by row; the trigger row is the first row at which the
@@ -2233,6 +2425,22 @@ export interface components {
              * @description allocated on disk, each file once (a set's tree shares its blobs' inodes)
              */
             used_bytes: number;
+        };
+        /**
+         * DerivedFrom
+         * @description A set made from another with one file changed (POST /programs/apply).
+         */
+        DerivedFrom: {
+            /**
+             * Path
+             * @description the file that changed, e.g. main.st
+             */
+            path: string;
+            /**
+             * Set Id
+             * @description the set it was made from
+             */
+            set_id: string;
         };
         /** DiskPart */
         DiskPart: {
@@ -2395,6 +2603,53 @@ export interface components {
             p999: number;
         } & {
             [key: string]: unknown;
+        };
+        /** FileDiff */
+        FileDiff: {
+            /**
+             * Diff
+             * @description unified diff text; empty when they are the same
+             */
+            diff: string;
+            /**
+             * New
+             * @description the set of the newer text
+             */
+            new: string;
+            /**
+             * Old
+             * @description the set of the older text
+             */
+            old: string;
+            /** Path */
+            path: string;
+        };
+        /** FileHistory */
+        FileHistory: {
+            /** Path */
+            path: string;
+            /**
+             * Versions
+             * @description every stored set holding the file, newest first
+             */
+            versions: components["schemas"]["FileVersion"][];
+        };
+        /** FileVersion */
+        FileVersion: {
+            /** Active */
+            active: boolean;
+            by: components["schemas"]["Who"] | null;
+            /** Created */
+            created: string;
+            /**
+             * Derived From
+             * @description the set this one was made from by an edit of this file
+             */
+            derived_from?: string | null;
+            /** Set Id */
+            set_id: string;
+            /** Sha256 */
+            sha256: string;
         };
         /**
          * GroupValue
@@ -3550,6 +3805,18 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
+        /** PouOutline */
+        PouOutline: {
+            /**
+             * Kind
+             * @description PROGRAM, FUNCTION_BLOCK, FUNCTION or CONFIGURATION
+             */
+            kind: string;
+            /** Line */
+            line: number;
+            /** Name */
+            name: string;
+        };
         /**
          * Problem
          * @description One of irpd's validation errors, or of the ST compiler's, with where it points (the file
@@ -3604,6 +3871,35 @@ export interface components {
             rss_bytes: number;
             /** Threads */
             threads: number;
+        };
+        /** ProgramFile */
+        ProgramFile: {
+            /** @description the file's first error when it cannot be read as ST */
+            error?: components["schemas"]["StError"] | null;
+            /** Path */
+            path: string;
+            /** Pous */
+            pous: components["schemas"]["PouOutline"][];
+        };
+        /** ProgramList */
+        ProgramList: {
+            /** Active */
+            active: boolean;
+            /** Files */
+            files: components["schemas"]["ProgramFile"][];
+            /** Set Id */
+            set_id: string;
+        };
+        /** ProgramSource */
+        ProgramSource: {
+            /** Path */
+            path: string;
+            /** Set Id */
+            set_id: string;
+            /** Sha256 */
+            sha256: string;
+            /** Source */
+            source: string;
         };
         /** PruneReport */
         PruneReport: {
@@ -4259,6 +4555,8 @@ export interface components {
             by: components["schemas"]["Who"] | null;
             /** Created */
             created: string;
+            /** @description the set this one was made from by an edit, and the file */
+            derived_from?: components["schemas"]["DerivedFrom"] | null;
             /** Files */
             files: components["schemas"]["SetFile"][];
             /**
@@ -4428,6 +4726,28 @@ export interface components {
             name: string;
             /** Password */
             password: string;
+        };
+        /** StError */
+        StError: {
+            /**
+             * Code
+             * @description the compiler's error code (docs/st.md, Errors): type, syntax, undeclared, ...
+             */
+            code: string;
+            /**
+             * Column
+             * @description from 1, in characters (a tab is one)
+             */
+            column: number;
+            /**
+             * File
+             * @description the file of the set, e.g. main.st
+             */
+            file: string;
+            /** Line */
+            line: number;
+            /** Message */
+            message: string;
         };
         /**
          * Stats
@@ -4629,6 +4949,125 @@ export interface components {
              * @enum {string}
              */
             kind: "swap";
+        };
+        /** SymbolFb */
+        SymbolFb: {
+            /**
+             * Library
+             * @description from st/lib (TON, MC_Power, ...), not the set's
+             */
+            library: boolean;
+            /** Name */
+            name: string;
+            /** Params */
+            params: components["schemas"]["SymbolParam"][];
+        };
+        /** SymbolFunction */
+        SymbolFunction: {
+            /**
+             * Extensible
+             * @default false
+             */
+            extensible: boolean;
+            /**
+             * Kind
+             * @description user, library, or the standard table's: function, conversion, operator, intrinsic
+             */
+            kind: string;
+            /** Name */
+            name: string;
+            /** Params */
+            params: components["schemas"]["SymbolParam"][];
+            /** Result */
+            result: string | null;
+        };
+        /** SymbolGlobal */
+        SymbolGlobal: {
+            /** File */
+            file: string;
+            /** Line */
+            line: number;
+            /** Name */
+            name: string;
+            /** Paths */
+            paths: string[];
+            /** Type */
+            type: string | null;
+        };
+        /** SymbolParam */
+        SymbolParam: {
+            /**
+             * Kind
+             * @description VAR_INPUT, VAR_OUTPUT or VAR_IN_OUT
+             */
+            kind?: string | null;
+            /** Name */
+            name: string;
+            /**
+             * Type
+             * @description an IEC type, or a generic family (ANY_NUM) for standard functions
+             */
+            type: string | null;
+        };
+        /** SymbolPou */
+        SymbolPou: {
+            /** File */
+            file: string;
+            /** Kind */
+            kind: string;
+            /** Line */
+            line: number;
+            /** Name */
+            name: string;
+            /** Vars */
+            vars: components["schemas"]["SymbolVar"][];
+        };
+        /** SymbolVar */
+        SymbolVar: {
+            /**
+             * Constant
+             * @default false
+             */
+            constant: boolean;
+            /**
+             * Kind
+             * @description VAR, VAR_INPUT, VAR_OUTPUT, VAR_IN_OUT, VAR_TEMP, VAR_EXTERNAL, VAR_GLOBAL
+             */
+            kind: string;
+            /** Line */
+            line: number;
+            /** Name */
+            name: string;
+            /**
+             * Paths
+             * @description its shared variables: Instance.name for each instance of a PROGRAM, the bound variable of AT
+             */
+            paths: string[];
+            /**
+             * Type
+             * @description its IEC type; null where the checker could not type it
+             */
+            type: string | null;
+        };
+        /** Symbols */
+        Symbols: {
+            /**
+             * Fb Types
+             * @description every function block with its inputs, outputs and in-outs
+             */
+            fb_types: components["schemas"]["SymbolFb"][];
+            /**
+             * Functions
+             * @description the set's, st/lib's and the standard functions
+             */
+            functions: components["schemas"]["SymbolFunction"][];
+            /** Globals */
+            globals: components["schemas"]["SymbolGlobal"][];
+            /**
+             * Pous
+             * @description the set's POUs with their variables
+             */
+            pous: components["schemas"]["SymbolPou"][];
         };
         /** SystemInfo */
         SystemInfo: {
@@ -6403,6 +6842,272 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["ErrorBody"];
                 };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_programs_api_v1_programs_get: {
+        parameters: {
+            query?: {
+                set?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ProgramList"];
+                };
+            };
+            /** @description no such set, no active set, or no such .st file in it */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    apply_program_api_v1_programs_apply_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["ApplyRequest"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ApplyResult"];
+                };
+            };
+            /** @description a bad name, module.xml or file content, or .st sources that do not compile; the detail says what to fix, file/line/column where, and `problems` lists every compile error */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description no such set, no active set, or no such .st file in it */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a file, the upload or the file count is over the limit */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description a kind of file a set does not hold */
+            415: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+            /** @description the ST compiler is missing here, or failed on sources it accepted */
+            500: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorBody"];
+                };
+            };
+        };
+    };
+    check_program_api_v1_programs_check_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["CheckRequest"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CheckResult"];
+                };
+            };
+            /** @description no such set, no active set, or no such .st file in it */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    program_diff_api_v1_programs_diff_get: {
+        parameters: {
+            query: {
+                path: string;
+                /** @description the set of the older version */
+                old: string;
+                /** @description the set of the newer version; default: the active set */
+                new?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["FileDiff"];
+                };
+            };
+            /** @description no such set, no active set, or no such .st file in it */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    program_history_api_v1_programs_history_get: {
+        parameters: {
+            query: {
+                path: string;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["FileHistory"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    program_source_api_v1_programs_source_get: {
+        parameters: {
+            query: {
+                path: string;
+                set?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ProgramSource"];
+                };
+            };
+            /** @description no such set, no active set, or no such .st file in it */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
             /** @description Validation Error */
             422: {
