@@ -17,6 +17,7 @@ import { linePage } from "./pages/line";
 import { modulesPage } from "./pages/modules";
 import { opcuaPage } from "./pages/opcua";
 import { overviewPage } from "./pages/overview";
+import { programsPage } from "./pages/programs";
 import { robotPage } from "./pages/robot";
 import { schedulePage } from "./pages/schedule";
 import { scopePage } from "./pages/scope";
@@ -30,6 +31,7 @@ const ALL_PAGES: { id: string; title: string; page: Page; role: Role }[] = [
   { id: "modules", title: "Modules", page: modulesPage, role: "viewer" },
   { id: "schedule", title: "Schedule", page: schedulePage, role: "viewer" },
   { id: "jitter", title: "Jitter", page: jitterPage, role: "viewer" },
+  { id: "programs", title: "Programs", page: programsPage, role: "viewer" },
   { id: "variables", title: "Variables", page: variablesPage, role: "viewer" },
   { id: "scope", title: "Scope", page: scopePage, role: "viewer" },
   { id: "robot", title: "Robot", page: robotPage, role: "viewer" },

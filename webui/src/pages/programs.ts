@@ -1,0 +1,278 @@
+// programs.ts -- the Programs page (docs/programming.md): the running set's Structured Text files and
+// the POUs in each; a file opens in the ST editor (src/programs/st_editor.ts: errors as you type from
+// POST /programs/check, completion, hover, folding); Check makes the new set from the running one with
+// the file replaced (POST /programs/apply) and shows irpd's dry run with its Activate button
+// (ops/activation-review.ts); once activated the editor shows the running version.  Below: the file's
+// history across sets, the diff of a version with the running one, and Roll back.  Read-only for a
+// viewer; checking and applying an edit needs an admin (as an upload), activating an operator.
+import "../ops/ops.css";
+import "../programs/programs.css";
+import { unwrap } from "../api/client";
+import type { components } from "../api/schema";
+import type { AppContext, Page } from "../app/context";
+import { ActivationReview } from "../ops/activation-review";
+import { errorText, h, setText } from "../ops/dom";
+import { renderSwapReport } from "../ops/swap-report-view";
+import type { SwapReport } from "../ops/types";
+import { formatTime } from "../ops/units";
+import { type CheckResult, StEditor } from "../programs/st_editor";
+import { diffLines, errorLine } from "../programs/st_view";
+
+type S = components["schemas"];
+
+class ProgramsView {
+  readonly element: HTMLElement;
+  private files = h("ul", { class: "st-files", "data-testid": "st-files" });
+  private title = h("span", { class: "mono", "data-testid": "st-title" });
+  private status = h("span", { class: "ops-sub", "data-testid": "st-status", role: "status" });
+  private host = h("div", { class: "st-editor", "data-testid": "st-editor" });
+  private errors = h("ul", { class: "st-errors", "data-testid": "st-errors" });
+  private error = h("div", { class: "ops-error", "data-testid": "st-error", hidden: true, role: "alert" });
+  private review = h("div", { "data-testid": "st-review", hidden: true });
+  private report = h("div", { "data-testid": "st-report", hidden: true });
+  private history = h("tbody", { "data-testid": "st-history" });
+  private diff = h("pre", { class: "st-diff", "data-testid": "st-diff", hidden: true });
+  private checkButton = h("button", { "data-testid": "st-check", disabled: true }, "Check…");
+  private revertButton = h("button", { "data-testid": "st-revert", disabled: true }, "Revert");
+  private editor: StEditor | null = null;
+  private setId = "";
+  private path = "";
+  private stored = "";
+  private activation: ActivationReview | null = null;
+
+  constructor(private readonly ctx: AppContext) {
+    const canEdit = ctx.can("admin");
+    const rollback = h("button", { "data-testid": "st-rollback" }, "Roll back");
+    rollback.addEventListener("click", () => void this.rollback());
+    this.checkButton.addEventListener("click", () => void this.check());
+    this.revertButton.addEventListener("click", () => void this.open(this.path));
+    this.element = h(
+      "div",
+      { class: "ops-page st-page", "data-testid": "programs" },
+      h("section", { class: "panel ops-panel st-side" }, h("h3", {}, "Programs"), this.files),
+      h(
+        "section",
+        { class: "panel ops-panel st-main" },
+        h("h3", {}, this.title, " ", this.status),
+        canEdit
+          ? h("div", { class: "ops-actions" }, this.checkButton, this.revertButton)
+          : h("div", { class: "ops-sub" }, `signed in as ${ctx.session.role}: read only`),
+        this.error,
+        this.host,
+        this.errors,
+        this.review,
+        this.report,
+      ),
+      h(
+        "section",
+        { class: "panel ops-panel st-history-panel" },
+        h("h3", {}, "History"),
+        ctx.can("operator") ? h("div", { class: "ops-actions" }, rollback) : null,
+        h(
+          "table",
+          { class: "ops-grid" },
+          h("thead", {}, h("tr", {}, h("th", {}, "set"), h("th", {}, "created"), h("th", {}, "by"), h("th", {}, ""))),
+          this.history,
+        ),
+        this.diff,
+      ),
+    );
+  }
+
+  private fail(e: unknown): void {
+    this.error.hidden = false;
+    setText(this.error, errorText(e));
+  }
+
+  /** The running set's files; opens `path` (or the first file). */
+  async load(path = this.path): Promise<void> {
+    this.error.hidden = true;
+    let list: S["ProgramList"];
+    try {
+      list = unwrap(await this.ctx.api.GET("/api/v1/programs"));
+    } catch (e) {
+      this.fail(e);
+      return;
+    }
+    this.setId = list.set_id;
+    this.files.replaceChildren(
+      ...list.files.map((f) =>
+        h(
+          "li",
+          { "data-testid": `st-file-${f.path}` },
+          h("button", { class: "link mono", onclick: () => void this.open(f.path) }, f.path),
+          h(
+            "ul",
+            {},
+            ...f.pous.map((p) =>
+              h(
+                "li",
+                {},
+                h(
+                  "button",
+                  {
+                    class: "link",
+                    "data-testid": `st-pou-${p.name}`,
+                    onclick: () => void this.open(f.path).then(() => this.editor?.goTo(p.line)),
+                  },
+                  `${p.kind} ${p.name}`,
+                ),
+                h("span", { class: "ops-sub" }, ` :${p.line}`),
+              ),
+            ),
+          ),
+        ),
+      ),
+    );
+    const first = list.files.find((f) => f.path === path)?.path ?? list.files[0]?.path;
+    if (first) await this.open(first);
+    else setText(this.status, "the running set has no Structured Text");
+  }
+
+  /** Opens a file of the running set in the editor. */
+  async open(path: string): Promise<void> {
+    let src: S["ProgramSource"];
+    try {
+      src = unwrap(await this.ctx.api.GET("/api/v1/programs/source", { params: { query: { path } } }));
+    } catch (e) {
+      this.fail(e);
+      return;
+    }
+    this.editor?.destroy();
+    this.path = path;
+    this.stored = src.source;
+    this.review.hidden = true;
+    this.activation?.close();
+    setText(this.title, `${path} — set ${src.set_id}`);
+    setText(this.status, "");
+    this.editor = new StEditor({
+      parent: this.host,
+      path,
+      text: src.source,
+      readOnly: !this.ctx.can("admin"),
+      check: async (text) =>
+        unwrap(await this.ctx.api.POST("/api/v1/programs/check", { body: { path, source: text, set: src.set_id } })),
+      onChecked: (r, e) => this.checked(r, e),
+      onChange: (text) => {
+        this.checkButton.disabled = text === this.stored;
+        this.revertButton.disabled = text === this.stored;
+        setText(this.status, "checking…");
+      },
+    });
+    this.checkButton.disabled = true;
+    this.revertButton.disabled = true;
+    await this.loadHistory();
+  }
+
+  private checked(r: CheckResult | null, e?: unknown): void {
+    if (!r) {
+      setText(this.status, `not checked: ${errorText(e)}`);
+      return;
+    }
+    const n = r.errors.length;
+    setText(this.status, n ? `${n} error${n > 1 ? "s" : ""}` : "no errors");
+    this.status.dataset.errors = String(n);
+    this.errors.replaceChildren(...r.errors.map((x) => h("li", { class: "bad mono" }, errorLine(x))));
+  }
+
+  /** Check: the new set from the running one with this file, and irpd's dry run with Activate. */
+  private async check(): Promise<void> {
+    if (!this.editor) return;
+    this.checkButton.disabled = true;
+    this.error.hidden = true;
+    this.review.hidden = false;
+    this.review.replaceChildren(h("div", { class: "ops-sub" }, "building the set with this file…"));
+    try {
+      const applied = unwrap(
+        await this.ctx.api.POST("/api/v1/programs/apply", {
+          body: { path: this.path, source: this.editor.text(), set: this.setId, activate: false, mode: "online" },
+        }),
+      );
+      this.activation?.close();
+      this.activation = new ActivationReview(this.ctx, applied.set.id, (title, r) => this.activated(title, r));
+      this.review.replaceChildren(this.activation.element);
+    } catch (e) {
+      this.review.hidden = true;
+      this.fail(e);
+    } finally {
+      this.checkButton.disabled = false;
+    }
+  }
+
+  private activated(title: string, r: SwapReport): void {
+    this.report.hidden = false;
+    this.report.replaceChildren(renderSwapReport(title, r));
+    void this.load(this.path);
+  }
+
+  private async loadHistory(): Promise<void> {
+    let hist: S["FileHistory"];
+    try {
+      hist = unwrap(await this.ctx.api.GET("/api/v1/programs/history", { params: { query: { path: this.path } } }));
+    } catch (e) {
+      this.fail(e);
+      return;
+    }
+    this.diff.hidden = true;
+    this.history.replaceChildren(
+      ...hist.versions.map((v) =>
+        h(
+          "tr",
+          { class: v.active ? "active" : "", "data-testid": `st-version-${v.set_id}` },
+          h("td", { class: "mono" }, v.set_id, v.active ? " (running)" : ""),
+          h("td", {}, formatTime(v.created)),
+          h("td", {}, v.by?.name ?? ""),
+          h(
+            "td",
+            {},
+            v.active
+              ? null
+              : h(
+                  "button",
+                  { class: "link", "data-testid": "st-diff-button", onclick: () => void this.showDiff(v.set_id) },
+                  "diff with running",
+                ),
+          ),
+        ),
+      ),
+    );
+  }
+
+  private async showDiff(old: string): Promise<void> {
+    try {
+      const d = unwrap(
+        await this.ctx.api.GET("/api/v1/programs/diff", {
+          params: { query: { path: this.path, old, new: this.setId } },
+        }),
+      );
+      this.diff.hidden = false;
+      this.diff.replaceChildren(
+        ...diffLines(d.diff).map((l) => h("span", { class: `st-diff-${l.kind}` }, `${l.text}\n`)),
+      );
+    } catch (e) {
+      this.fail(e);
+    }
+  }
+
+  private async rollback(): Promise<void> {
+    this.error.hidden = true;
+    try {
+      const r = unwrap(await this.ctx.api.POST("/api/v1/sets/rollback"));
+      this.activated("Rolled back", r as SwapReport);
+    } catch (e) {
+      this.fail(e);
+    }
+  }
+
+  destroy(): void {
+    this.activation?.close();
+    this.editor?.destroy();
+  }
+}
+
+export const programsPage: Page = (root, ctx: AppContext) => {
+  const view = new ProgramsView(ctx);
+  root.append(view.element);
+  void view.load();
+  return () => view.destroy();
+};
