@@ -95,6 +95,12 @@ const stFolding = (() => {
   });
 })();
 
+const THEME = EditorView.theme({
+  "&": { minHeight: "24rem", maxHeight: "70vh", border: "1px solid #c8ccd2", fontSize: "13px", background: "#fff" },
+  ".cm-scroller": { fontFamily: "ui-monospace, monospace", overflow: "auto" },
+  ".st-hover": { padding: "0.25rem 0.5rem", fontFamily: "ui-monospace, monospace", fontSize: "12px" },
+});
+
 export interface StEditorOptions {
   parent: HTMLElement;
   path: string;
@@ -146,12 +152,20 @@ export class StEditor {
         },
       };
     });
+    // in a shadow root of its own: CodeMirror's styles are then a constructed style sheet, which the
+    // UI's Content-Security-Policy (style-src 'self', api/headers.py) lets in, as it would not a <style>
+    const host = document.createElement("div");
+    host.className = "st-editor-host";
+    opts.parent.replaceChildren(host);
+    const root = host.attachShadow({ mode: "open" });
     this.view = new EditorView({
-      parent: opts.parent,
+      parent: root,
+      root,
       state: EditorState.create({
         doc: opts.text,
         extensions: [
           basicSetup,
+          THEME,
           stLanguage,
           stFolding,
           autocompletion({
