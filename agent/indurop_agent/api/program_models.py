@@ -34,7 +34,7 @@ class ProgramFile(BaseModel):
 
 
 class ProgramList(BaseModel):
-    set_id: str
+    set_id: str | None = Field(description="the set listed; null when no set is active (then no files)")
     active: bool
     files: list[ProgramFile]
 

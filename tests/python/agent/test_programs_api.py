@@ -171,3 +171,15 @@ def test_bad_requests_are_named(cell):
     assert bad["errors"] and bad["errors"][0]["line"] == 2, bad
     r = cell.get("/programs/history", params={"path": "other.st"})
     assert r.status_code == 404 and "other.st" in r.json()["detail"]
+
+
+def test_with_no_active_set_the_list_is_empty_and_a_check_says_what_to_do(tmp_path):
+    """irpd runs a folder the store does not hold: the page lists nothing (no error to show), and a
+    check names what is missing."""
+    c = Cell(tmp_path)
+    try:
+        assert c.as_viewer("GET", "/programs").json() == {"set_id": None, "active": False, "files": []}
+        r = c.as_viewer("POST", "/programs/check", json={"path": "main.st", "source": ""})
+        assert r.status_code == 404 and "no set is active" in r.json()["detail"], r.text
+    finally:
+        c.close()

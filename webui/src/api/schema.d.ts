@@ -707,7 +707,8 @@ export interface paths {
         };
         /**
          * List Programs
-         * @description The set's (default: the active set's) .st files and the POUs in each, with their lines.
+         * @description The set's (default: the active set's) .st files and the POUs in each, with their lines; no
+         *     files and no set when none is active (irpd started on a folder the store does not hold).
          */
         get: operations["list_programs_api_v1_programs_get"];
         put?: never;
@@ -3887,8 +3888,11 @@ export interface components {
             active: boolean;
             /** Files */
             files: components["schemas"]["ProgramFile"][];
-            /** Set Id */
-            set_id: string;
+            /**
+             * Set Id
+             * @description the set listed; null when no set is active (then no files)
+             */
+            set_id: string | null;
         };
         /** ProgramSource */
         ProgramSource: {

@@ -94,6 +94,10 @@ class ProgramsView {
       this.fail(e);
       return;
     }
+    if (!list.set_id) {
+      setText(this.status, "no set is active in the set store: upload one (Modules page) or activate one");
+      return;
+    }
     this.setId = list.set_id;
     this.files.replaceChildren(
       ...list.files.map((f) =>

@@ -103,7 +103,10 @@ def _compiler_missing(e: st_check.CompilerMissing) -> HTTPException:
 
 @router.get("/programs", responses=NOT_FOUND)
 def list_programs(request: Request, _: ViewerDep, set: str | None = None) -> ProgramList:
-    """The set's (default: the active set's) .st files and the POUs in each, with their lines."""
+    """The set's (default: the active set's) .st files and the POUs in each, with their lines; no
+    files and no set when none is active (irpd started on a folder the store does not hold)."""
+    if set is None and request.app.state.store.active_id() is None:
+        return ProgramList(set_id=None, active=False, files=[])
     set_id = _set_id(request, set)
     manifest = request.app.state.store.manifest(set_id)
     try:
