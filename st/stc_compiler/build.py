@@ -38,7 +38,7 @@ def front(opts: Options) -> tuple[Program, list]:
     try:
         glb = emit_glb.read_glb(opts.glb)
         if opts.set_layout is not None:
-            layout = _without_st(load_layout(opts.set_layout))
+            layout = without_st(load_layout(opts.set_layout))
         elif glb:
             layout = from_document(emit_glb.glb_only_document(glb), opts.glb[0])
     except emit_glb.GlbError as e:
@@ -94,7 +94,7 @@ def build(opts: Options, argv: list[str]) -> list[str]:
     return [os.path.join(opts.out, f"{i.name}.so") for i, _ in cpps]
 
 
-def _without_st(layout):
+def without_st(layout):
     """The set's layout as the checker sees it: its .glb variables.  Variables stc declared (they have an
     `iec_type`) are the previous build's ST variables, declared again now: a set rebuilt in place."""
     for key in [k for k, v in layout.variables.items() if v.get("iec_type")]:

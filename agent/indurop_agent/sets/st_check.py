@@ -136,7 +136,7 @@ def _layout(c, doc: dict | None):
     if not doc:
         return None
     try:
-        return c.build._without_st(c.layout.from_document(json.loads(json.dumps(doc)), "layout.json"))
+        return c.build.without_st(c.layout.from_document(json.loads(json.dumps(doc)), "layout.json"))
     except (KeyError, TypeError, ValueError, AttributeError):
         return None
 

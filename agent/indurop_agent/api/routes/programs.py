@@ -157,7 +157,7 @@ def _derive(request: Request, irpd, base: str, path: str, source: str, who) -> d
         ]
         received.append(uploads.Received(path, edited, hashlib.sha256(data).hexdigest(), len(data)))
         limits = uploads.Limits.of(state.settings)
-        received = sets_routes._build_st(request, irpd, received, staging, limits)
+        received = sets_routes.build_st(request, irpd, received, staging, limits)
         files = uploads.check_set(received)
         manifest, new = store.commit(files, who.as_dict(), sets_routes.NOT_CHECKED_YET, {"set_id": base, "path": path})
         validation = irpd_validation(state.irpd_swap, store.module_xml(manifest["id"]), state.settings.swap_timeout_s)
@@ -187,7 +187,7 @@ async def apply_program(body: ApplyRequest, request: Request, who: AdminDep, irp
             sets_routes.activate, manifest["id"], request, who, ActivateRequest(mode=body.mode)
         )
     return ApplyResult(
-        set=sets_routes._public(request, request.app.state.store.manifest(manifest["id"])), report=report
+        set=sets_routes.public_set(request, request.app.state.store.manifest(manifest["id"])), report=report
     )
 
 

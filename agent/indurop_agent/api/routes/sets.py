@@ -58,7 +58,7 @@ REFUSALS = {
 }
 
 
-def _build_st(request: Request, irpd, received: list, staging, limits) -> list:
+def build_st(request: Request, irpd, received: list, staging, limits) -> list:
     """The upload's files with its .st sources built (sets/st_build.py), laid out against the layout
     irpd runs (GET /layout's) when it runs one."""
     try:
@@ -82,7 +82,7 @@ def _located(manifest: dict) -> dict:
     }
 
 
-def _public(request: Request, manifest: dict) -> SetPublic:
+def public_set(request: Request, manifest: dict) -> SetPublic:
     return SetPublic(**_located(manifest), active=manifest["id"] == request.app.state.store.active_id())
 
 
@@ -102,7 +102,7 @@ async def upload_set(request: Request, who: AdminDep, irpd: IrpdDep) -> SetPubli
             limits = uploads.Limits.of(state.settings)
             received = await uploads.receive(request, staging, limits)
             if st_build.has_st(received):  # Structured Text: compiled here, against the running layout
-                received = await run_in_threadpool(_build_st, request, irpd, received, staging, limits)
+                received = await run_in_threadpool(build_st, request, irpd, received, staging, limits)
             files = await run_in_threadpool(uploads.check_set, received)
             entry["target"] = set_id_of(files)
             entry["files"] = {f.path: f.sha256 for f in files}
@@ -123,7 +123,7 @@ async def upload_set(request: Request, who: AdminDep, irpd: IrpdDep) -> SetPubli
         f"{'new' if new else 'already stored'}, valid: {manifest['validation']['valid']})",
         set_id=manifest["id"],
     )
-    return _public(request, manifest)
+    return public_set(request, manifest)
 
 
 @router.get("/sets")
@@ -164,7 +164,7 @@ def get_set(set_id: str, request: Request, _: ViewerDep) -> SetPublic:
     manifest = request.app.state.store.manifest(set_id)
     if manifest is None:
         raise HTTPException(404, f"no set {set_id!r}; GET /api/v1/sets lists them")
-    return _public(request, manifest)
+    return public_set(request, manifest)
 
 
 @router.post("/sets/{set_id}/check", responses={404: {"description": "no such set"}})
@@ -179,7 +179,7 @@ async def check_set(set_id: str, request: Request, _: OperatorDep) -> SetPublic:
         irpd_validation, state.irpd_swap, state.store.module_xml(set_id), state.settings.swap_timeout_s
     )
     manifest = await run_in_threadpool(state.store.save_validation, set_id, validation)
-    return _public(request, manifest)
+    return public_set(request, manifest)
 
 
 def _run_swap(call, root=None):
