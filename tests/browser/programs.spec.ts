@@ -88,6 +88,9 @@ test("the cell's ST program is edited in the browser: a type error under its lin
     await page.keyboard.press("Escape");
     await expect(page.getByTestId("st-status")).toHaveText("no errors", { timeout: 30_000 });
     await expect(page.locator(".cm-lintRange-error")).toHaveCount(0);
+    // the type on hover: the variable under the pointer, from the check's symbols
+    await page.locator(".cm-line", { hasText: FIXED }).hover({ position: { x: 20, y: 6 } });
+    await expect(page.getByTestId("st-hover")).toHaveText("ErrorLatched : BOOL (VAR_IN_OUT)");
 
     // Check: the new set and irpd's dry run; Activate: online, then the editor shows the running version
     await page.getByTestId("st-check").click();

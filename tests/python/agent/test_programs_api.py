@@ -169,6 +169,11 @@ def test_bad_requests_are_named(cell):
     assert r.status_code == 422, r.text
     bad = cell.post("/programs/check", json={"path": "main.st", "source": "PROGRAM P\n\x00\nEND_PROGRAM\n"}).json()
     assert bad["errors"] and bad["errors"][0]["line"] == 2, bad
+    # nesting past the compiler's limit: its error, and the agent answers on
+    deep = "PROGRAM Counter\nVAR x : DINT; END_VAR\nx := " + " + ".join(["1"] * 5000) + ";\nEND_PROGRAM\n"
+    deep_errors = cell.post("/programs/check", json={"path": "main.st", "source": deep}).json()["errors"]
+    assert [e["code"] for e in deep_errors] == ["too-deep"], deep_errors
+    assert cell.get("/programs").status_code == 200
     r = cell.get("/programs/history", params={"path": "other.st"})
     assert r.status_code == 404 and "other.st" in r.json()["detail"]
 

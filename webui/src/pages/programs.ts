@@ -117,7 +117,7 @@ class ProgramsView {
                   {
                     class: "link",
                     "data-testid": `st-pou-${p.name}`,
-                    onclick: () => void this.open(f.path).then(() => this.editor?.goTo(p.line)),
+                    onclick: () => void this.show(f.path, p.line),
                   },
                   `${p.kind} ${p.name}`,
                 ),
@@ -131,6 +131,12 @@ class ProgramsView {
     const first = list.files.find((f) => f.path === path)?.path ?? list.files[0]?.path;
     if (first) await this.open(first);
     else setText(this.status, "the running set has no Structured Text");
+  }
+
+  /** Shows a line of a file, opening the file unless it is the one in the editor (edits kept). */
+  async show(path: string, line: number): Promise<void> {
+    if (path !== this.path || !this.editor) await this.open(path);
+    this.editor?.goTo(line);
   }
 
   /** Opens a file of the running set in the editor. */
