@@ -156,8 +156,16 @@ def test_an_edit_is_applied_online_has_a_history_a_diff_and_rolls_back(cell):
     assert r.status_code == 200, r.text
     steps_by(cell, 1)
     assert cell.get("/programs/source", params={"path": "main.st"}).json()["source"] == MAIN.format(inc="step")
+    # Check and Apply in one request (activate: true): the edit runs again
+    r = cell.post("/programs/apply", json={"path": "main.st", "source": MAIN.format(inc="2 * step"), "activate": True})
+    assert r.status_code == 200, r.text
+    assert r.json()["report"]["set_id"] == r.json()["set"]["id"], r.json()["report"]
+    steps_by(cell, 2)
     audit = [a for a in cell.get("/audit").json() if a["action"] == "program_edit"]
-    assert [(a["result"], a.get("target")) for a in audit][-1] == ("ok", new["id"]), audit
+    assert [(a["result"], a["path"], a["derived_from"]) for a in audit][-2:] == [
+        ("ok", "main.st", cell.base),
+        ("ok", "main.st", cell.base),
+    ], audit
 
 
 def test_bad_requests_are_named(cell):
