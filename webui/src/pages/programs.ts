@@ -15,7 +15,7 @@ import { errorText, h, setText } from "../ops/dom";
 import { renderSwapReport } from "../ops/swap-report-view";
 import type { SwapReport } from "../ops/types";
 import { formatTime } from "../ops/units";
-import { type CheckResult, StEditor } from "../programs/st_editor";
+import type { CheckResult, StEditor } from "../programs/st_editor";
 import { diffLines, errorLine } from "../programs/st_view";
 
 type S = components["schemas"];
@@ -148,6 +148,8 @@ class ProgramsView {
       this.fail(e);
       return;
     }
+    // CodeMirror is a chunk of its own, loaded when a file is first opened (the other pages never load it)
+    const { StEditor: Editor } = await import("../programs/st_editor");
     this.editor?.destroy();
     this.path = path;
     this.stored = src.source;
@@ -155,7 +157,7 @@ class ProgramsView {
     this.activation?.close();
     setText(this.title, `${path} — set ${src.set_id}`);
     setText(this.status, "");
-    this.editor = new StEditor({
+    this.editor = new Editor({
       parent: this.host,
       path,
       text: src.source,
