@@ -39,7 +39,7 @@ from cyclonedds.util import duration
 
 from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
 from ..irpd.trace import TraceError, TraceFollower
-from ..irpd.variables import Segment, VariableError, type_text
+from ..irpd.variables import Segment, VariableError, shown, type_text
 from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config
 from . import bridge_file, declared, ros2_types
 from .bridge_file import BRIDGE_JSON, BridgeFile, BridgeFileError, Mapping, std_basic
@@ -184,7 +184,7 @@ class Bridge:
             except (MappingError, OSError) as e:
                 problems.append(str(e))
         layout = self.sharing.layout(status)
-        self.leaves = {leaf["path"]: leaf for leaf in (layout or {}).get("leaves", [])}
+        self.leaves = {leaf["path"]: leaf for leaf in shown((layout or {}).get("leaves", []))}
         exported, problem = self.sharing.load(bridge.export, bridge.imports, layout, self.decimation)
         problems += [problem] if problem else []
         channels = [v for _, v, _, _ in joints] + [v for m in bridge.publish for v in m.variables] + exported

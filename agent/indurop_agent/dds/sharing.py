@@ -16,6 +16,7 @@ import math
 import re
 from dataclasses import dataclass
 
+from ..irpd.variables import shown
 from .bridge_schema import SCHEMA
 
 DEFAULT_RATE_HZ = 100.0
@@ -166,13 +167,12 @@ def shape(layout: dict, path: str) -> Shape | None:
     """The scalar leaf `path`, or the array of scalars `path` (its elements in layout order, of
     one scalar type); None for anything else (no such variable, a struct, an array of structs)."""
     scalars = layout.get("scalars", {})
-    leaves = [leaf for leaf in layout.get("leaves", []) if leaf["path"] == path]
+    every = shown(layout.get("leaves", []))  # a compiler's own variables are no one's to share
+    leaves = [leaf for leaf in every if leaf["path"] == path]
     array = not leaves
     if array:
         leaves = [
-            leaf
-            for leaf in layout.get("leaves", [])
-            if leaf["path"].startswith(path + "[") and _INDEX.fullmatch(leaf["path"], len(path))
+            leaf for leaf in every if leaf["path"].startswith(path + "[") and _INDEX.fullmatch(leaf["path"], len(path))
         ]
     if not leaves or len({leaf["type"] for leaf in leaves}) != 1 or leaves[0]["type"] not in scalars:
         return None

@@ -37,7 +37,7 @@ def list_variables(request: Request, irpd: IrpdDep, _: ViewerDep) -> VariableLis
     return {
         "layout_hash": seg.hash,
         "variables": [
-            {k: leaf[k] for k in ("path", "type", "size", "iec_type") if k in leaf} for leaf in seg.layout["leaves"]
+            {k: leaf[k] for k in ("path", "type", "size", "iec_type") if k in leaf} for leaf in seg.leaves.values()
         ],
     }
 
