@@ -1,8 +1,8 @@
 """test_opcua_st.py -- a Structured Text set (stc build) in a real irpd, with the agent and
 indurop-opcua in front: the compiler's own variable `Main._stc_init` (the init flag, layout.json's
 `"internal": true`) is in the running layout, which an online change lays out against, but neither
-GET /api/v1/variables nor OPC UA's browse shows it, and the agent reads no value of it; the
-program's own variables are listed and browsed as usual."""
+GET /api/v1/variables nor OPC UA's browse shows it, and the agent neither reads nor writes it; the
+program's own variables are listed, browsed and written as usual."""
 
 from __future__ import annotations
 
@@ -52,6 +52,10 @@ def test_the_init_flag_is_laid_out_but_hidden_from_the_variables_api_and_opc_ua(
     assert listed == ["Main.count", "Main.limit"]
     r = httpx.get(f"{c.api}/variables/Main._stc_init", headers=c.admin, timeout=30)
     assert r.status_code == 404 and "no variable 'Main._stc_init'" in r.json()["detail"], r.text
+    r = httpx.put(f"{c.api}/variables/Main._stc_init", json={"value": False}, headers=c.admin, timeout=30)
+    assert r.status_code == 404 and "no variable 'Main._stc_init'" in r.json()["detail"], r.text
+    r = httpx.put(f"{c.api}/variables/Main.limit", json={"value": 9}, headers=c.admin, timeout=30)
+    assert r.status_code == 200, r.text  # the program's own variables are written as ever
 
     async def browse():
         client = await c.connect("view")
