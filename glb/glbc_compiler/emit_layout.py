@@ -44,6 +44,12 @@ def _iec(iec_type: str | None) -> dict[str, str]:
     return {"iec_type": iec_type} if iec_type else {}
 
 
+def _internal(internal: bool) -> dict[str, bool]:
+    """A compiler's own variable (stc's init flags) and its leaves carry "internal": true, so that
+    every view of the variables leaves them out; others have no such key (their layouts unchanged)."""
+    return {"internal": True} if internal else {}
+
+
 def _canonical(value: Any) -> bytes:
     return json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=True).encode("ascii")
 
@@ -83,6 +89,7 @@ def _variable(v: Variable) -> dict[str, Any]:
         }
         | qualifier
         | _iec(v.iec_type)
+        | _internal(v.internal)
     )
 
 
@@ -140,7 +147,9 @@ def document(layout: Layout) -> dict[str, Any]:
         "types": types,
         "variables": variables,
         "leaves": [
-            leaf for v in layout.variables for leaf in _leaves(v.path, v.type, v.dims, v.offset, v.lock, v.iec_type)
+            leaf | _internal(v.internal)
+            for v in layout.variables
+            for leaf in _leaves(v.path, v.type, v.dims, v.offset, v.lock, v.iec_type)
         ],
         "lineage": lineage,
     }

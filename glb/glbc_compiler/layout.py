@@ -76,6 +76,7 @@ class Variable:
     lock: int = 0
     retain: str | None = None  # "retain" or "persistent": irpd saves and restores it (docs/retain.md)
     iec_type: str | None = None  # the IEC type of its elements (declared by stc), else None
+    internal: bool = False  # a compiler's own variable (Decl.internal): "internal": true in layout.json
 
     @property
     def path(self) -> str:
@@ -268,7 +269,16 @@ class _Builder:
             t = SCALARS[decl.type.cname]
         count = math.prod(dims)
         var = Variable(
-            ns, decl.name, t, dims, t.size * count, decl.loc, introduced, retain=decl.retain, iec_type=decl.iec_type
+            ns,
+            decl.name,
+            t,
+            dims,
+            t.size * count,
+            decl.loc,
+            introduced,
+            retain=decl.retain,
+            iec_type=decl.iec_type,
+            internal=decl.internal,
         )
         var.offset = round_up(self.variables[-1].offset + self.variables[-1].size, CACHE_LINE) if self.variables else 0
         var.lock = len(self.variables)

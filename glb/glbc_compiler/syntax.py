@@ -50,6 +50,7 @@ class Decl:
     dims: list[Dim] = field(default_factory=list)
     retain: str | None = None  # a top-level declaration's qualifier: "retain" or "persistent"
     iec_type: str | None = None  # the IEC 61131-3 type it holds (declarations made by stc; .glb text has none)
+    internal: bool = False  # the compiler's own (stc's init flags): laid out, kept, never shown to users
 
 
 @dataclass

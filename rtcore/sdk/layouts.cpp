@@ -18,7 +18,7 @@ Table tableOf(const nlohmann::json &hash, const nlohmann::json &variables) {
     for (const auto &v : variables)
         t.variables.push_back(Variable{v.at("path").get<std::string>(), v.value("type_id", std::string{}),
                                        v.at("offset").get<uint64_t>(), v.at("size").get<uint64_t>(),
-                                       v.at("lock").get<uint32_t>()});
+                                       v.at("lock").get<uint32_t>(), v.value("internal", false)});
     return t;
 }
 
@@ -120,6 +120,7 @@ Diff diff(const Model &running, const Model &next) {
             d.moved.push_back(Moved{v.path, old->offset, v.offset});
         else
             d.added.push_back(v.path);
+        if (!old && v.internal) d.internal.push_back(v.path);
         if (!d.online_impossible.empty()) continue;
         for (const Variable *u : in_use) {
             const bool same_place = overlaps(*u, v) || u->lock == v.lock;
@@ -135,8 +136,11 @@ Diff diff(const Model &running, const Model &next) {
             break;
         }
     }
-    for (const Variable &v : running.self.variables)
-        if (!next.self.find(v.path)) d.removed.push_back(v.path);
+    for (const Variable &v : running.self.variables) {
+        if (next.self.find(v.path)) continue;
+        d.removed.push_back(v.path);
+        if (v.internal) d.internal.push_back(v.path);
+    }
     return d;
 }
 

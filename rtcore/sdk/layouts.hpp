@@ -27,6 +27,7 @@ struct Variable {
     std::string path, type_id;
     uint64_t offset = 0, size = 0;
     uint32_t lock = 0;
+    bool internal = false;  // a compiler's own ("internal": true, stc's init flags): kept, never reported
 };
 
 struct Table {
@@ -57,7 +58,8 @@ struct Moved {
 
 struct Diff {
     std::vector<std::string> added, removed;
-    std::vector<Moved> moved;  // same path, another type: a new place
+    std::vector<std::string> internal;  // those of added and removed that are a compiler's own
+    std::vector<Moved> moved;           // same path, another type: a new place
     // Empty when the next layout can be published over the running one; else why not.
     std::string online_impossible;
 };

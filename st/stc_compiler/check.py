@@ -506,7 +506,10 @@ class Checker(ExprChecker):
             else:
                 self.expr(s.value)
         elif isinstance(s, t.CallStmt):
-            self.call(s.call, statement=True)
+            # A call whose result is dropped is typed as any expression (MUX(0, x, 1); types its
+            # inputs INT); an untyped one (MAX(1, 2);) takes its literals' default type.
+            s.call.type = self.call(s.call, statement=True)
+            self.settle(s.call, ty.concrete(s.call.type))
         elif isinstance(s, t.If):
             for cond, body in s.branches:
                 self.condition(cond, "IF")
@@ -556,6 +559,9 @@ class Checker(ExprChecker):
         ):
             self.error(s.selector.place, "type", f"CASE selects on an integer or an enumeration, not {sel}")
             sel = None
+        if isinstance(sel, ty.LiteralType):  # CASE MAX(1, 2) OF: the literals' default type
+            sel = ty.concrete(sel)
+            self.settle(s.selector, sel)
         seen: list[tuple[int, int, t.CaseLabel]] = []
         for branch in s.branches:
             for label in branch.labels:

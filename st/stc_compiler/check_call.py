@@ -245,7 +245,10 @@ def _std_call(ck, c: t.Call, fn: stdlib.Function) -> ty.Type | None:
     for a, p in bound:
         if p.type == "T":
             at = types[id(a)]
+            previous = generic
             generic = at if generic is None else (ty.common(generic, at) or _enum_same(generic, at))
+            if generic is None and _literal_misfit(ck, a, previous, at, bound, types):
+                return None
             if generic is None:
                 ck.error(
                     a.place,
@@ -253,9 +256,12 @@ def _std_call(ck, c: t.Call, fn: stdlib.Function) -> ty.Type | None:
                     f"the arguments of {fn.name} have no common type ({', '.join(str(types[id(x)]) for x, q in bound if q.type == 'T')}); convert them to one type",
                 )
                 return None
-    if generic is not None and isinstance(generic, ty.LiteralType):
-        family = next(p.family for _, p in bound if p.type == "T")
-        generic = ty.LREAL if family == "ANY_REAL" else generic.default()
+    if isinstance(generic, ty.LiteralType) and generic.kind == "int":
+        if next(p.family for _, p in bound if p.type == "T") == "ANY_REAL":
+            generic = ty.LiteralType("real", None, generic.low, generic.high)
+    # Only literals (MAX(1, 2)): the call stays untyped, like a literal, until its context (the
+    # assignment's target, the other operand) types it and its literals with it (settle()).
+    untyped = isinstance(generic, ty.LiteralType)
     for a, p in bound:
         at = types[id(a)]
         if p.type == "T":
@@ -268,7 +274,8 @@ def _std_call(ck, c: t.Call, fn: stdlib.Function) -> ty.Type | None:
                     f"{fn.name}'s {p.name} is {p.family}, not {generic}{_family_fix(generic, p.family)}",
                 )
                 return None
-            ck.expect(a.value, generic, f"parameter {p.name}")
+            if not untyped:
+                ck.expect(a.value, generic, f"parameter {p.name}")
         elif p.type.startswith("ANY"):
             if not ty.in_family(at, p.type):
                 ck.error(a.place, "type", f"{fn.name}'s {p.name} is {p.type}, not {at}{_family_fix(at, p.type)}")
@@ -293,6 +300,24 @@ def _std_call(ck, c: t.Call, fn: stdlib.Function) -> ty.Type | None:
     if fn.result in ("STRING", "WSTRING"):
         return ty.STRING if fn.result == "STRING" else ty.WSTRING
     return ty.ELEMENTARY[fn.result]
+
+
+def _literal_misfit(ck, a: t.Arg, previous, at, bound, types) -> bool:
+    """An error when an untyped integer literal among a call's generic arguments does not fit the
+    type of the others (MAX(i, 70000) with i an INT); True when reported."""
+    for lit, other in ((at, previous), (previous, at)):
+        if isinstance(lit, ty.LiteralType) and lit.kind == "int" and ty.kind(other) in ("int", "uint", "bit"):
+            value = lit.misfit(other)
+            if value is not None:
+                place = a.place if lit is at else next(x for x, q in bound if types[id(x)] is lit).place
+                lo, hi = ty.value_range(ty.base(other))
+                ck.error(
+                    place,
+                    "range",
+                    f"{value} does not fit {other} ({lo}..{hi}), the type of the other arguments; use a wider type",
+                )
+                return True
+    return False
 
 
 def _enum_same(a: ty.Type, b: ty.Type) -> ty.Type | None:

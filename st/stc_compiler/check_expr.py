@@ -320,7 +320,8 @@ class ExprChecker:
         if isinstance(c, (int, float)) and not isinstance(c, bool):
             e.const = -c if e.op == "-" else c
         if isinstance(typ, ty.LiteralType):
-            return ty.LiteralType(typ.kind, e.const)
+            low, high = (typ.low, typ.high) if e.op == "+" or typ.low is None else (-typ.high, -typ.low)
+            return ty.LiteralType(typ.kind, e.const, low, high)
         return ty.base(typ)
 
     def binary(self, e: t.Binary) -> ty.Type | None:
@@ -411,10 +412,25 @@ class ExprChecker:
     def settle(self, e: t.Expr, typ: ty.Type) -> None:
         """Gives untyped literals under `e` the type their context chose."""
         if isinstance(e.type, ty.LiteralType) and not isinstance(typ, ty.LiteralType):
-            e.type = ty.base(typ)
+            untyped, e.type = e.type, ty.base(typ)
+            if isinstance(e, t.Call):  # MAX(1, 2): its generic arguments take the type it is given
+                self.settle_call(e, typ, untyped)
+                return
             for child in (getattr(e, "left", None), getattr(e, "right", None), getattr(e, "operand", None)):
                 if child is not None:
                     self.settle(child, typ)
+
+    def settle_call(self, c: t.Call, typ: ty.Type, untyped: ty.LiteralType) -> None:
+        for a in c.args:
+            p = a.param
+            if p is None or p.type != "T" or a.value is None:
+                continue
+            if not ty.in_family(typ, p.family):
+                conv = stdlib.conversion(str(untyped.default()), str(ty.base(typ)))
+                fix = f"; convert its result, e.g. {conv}({c.target.name}(...))" if conv else ""
+                self.error(a.place, "type", f"{c.target.name}'s {p.name} is {p.family}, not {typ}{fix}")
+                return
+            self.settle(a.value, typ)
 
     def settle_both(self, e: t.Binary, typ: ty.Type) -> None:
         self.settle(e.left, typ)
@@ -444,7 +460,7 @@ class ExprChecker:
             return True
         if isinstance(src, ty.LiteralType) and src.kind == "int" and dk in ("int", "uint", "bit"):
             lo, hi = ty.value_range(ty.base(dst))
-            self.error(e.place, "range", f"{src.value} does not fit {dst} ({lo}..{hi}); use a wider type")
+            self.error(e.place, "range", f"{src.misfit(dst)} does not fit {dst} ({lo}..{hi}); use a wider type")
             return False
         s, d = ty.concrete(src), ty.base(dst)
         if isinstance(d, ty.EnumType) and d.values:

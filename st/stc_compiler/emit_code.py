@@ -692,7 +692,7 @@ class CodeEmitter:
             return self.conversion(fn, args[0].value)
         generic = None
         if fn.result == "T":
-            generic = c.type
+            generic = ty.concrete(c.type)
         elif any(a.param is not None and a.param.type == "T" for a in args):
             for a in args:
                 if a.param is not None and a.param.type == "T":

@@ -144,9 +144,10 @@ def st_files(instances: list[Instance], blocks: list[GlobalsBlock]) -> list[File
     for inst in instances:
         at = d.loc(inst.place)
         items = [d.decl(v) for v in inst.pou.vars if stored(v)]
-        items.append(Decl(ScalarSpec("bool", at), INIT_FLAG, at, iec_type="BOOL"))
+        items.append(Decl(ScalarSpec("bool", at), INIT_FLAG, at, iec_type="BOOL", internal=True))
         if any(v.retain or v.persistent for v in inst.pou.vars if stored(v)):
-            items.append(Decl(ScalarSpec("bool", at), RETAIN_INIT_FLAG, at, retain="retain", iec_type="BOOL"))
+            flag = Decl(ScalarSpec("bool", at), RETAIN_INIT_FLAG, at, retain="retain", iec_type="BOOL", internal=True)
+            items.append(flag)
         files.append(FileSyntax(at.source, NamespaceStmt(inst.name, at), items))
     return files
 

@@ -131,16 +131,36 @@ class LiteralType(Type):
     integer, bit string or real type that holds its value (int), or any real type (real)."""
 
     kind: str  # int or real
-    value: Any
+    value: Any  # the value when constant; None for an untyped call such as MAX(1, 70000)
+    # The smallest and largest literal the expression is made of (MAX(1, 70000): 1 and 70000): every
+    # one must fit the type the context gives (IEC types each literal operand by its context).
+    low: Any = None
+    high: Any = None
+
+    def __post_init__(self) -> None:
+        self.low = self.value if self.low is None else self.low
+        self.high = self.value if self.high is None else self.high
 
     @property
     def name(self) -> str:  # type: ignore[override]
         return "an integer literal" if self.kind == "int" else "a real literal"
 
+    def misfit(self, t: Type) -> Any:
+        """The first of its literals that does not fit t, or None when all fit."""
+        return next((v for v in (self.low, self.high) if v is not None and not fits(t, v)), None)
+
     def default(self) -> Elementary:
         if self.kind == "real":
             return LREAL
-        return DINT if fits(DINT, self.value) else LINT
+        return DINT if self.misfit(DINT) is None else LINT
+
+
+def literal_span(a: LiteralType, b: LiteralType) -> LiteralType:
+    """The untyped literal type of an expression of both (an integer one only if both are)."""
+    kind = "real" if "real" in (a.kind, b.kind) else "int"
+    lows = [v for v in (a.low, b.low) if v is not None]
+    highs = [v for v in (a.high, b.high) if v is not None]
+    return LiteralType(kind, None, min(lows) if lows else None, max(highs) if highs else None)
 
 
 def base(t: Type) -> Type:
@@ -254,7 +274,7 @@ def converts(src: Type, dst: Type) -> bool:
             return d.kind == "real"
         if d.kind == "real":
             return True
-        return d.kind in ("int", "uint", "bit") and fits(dst, s.value)
+        return d.kind in ("int", "uint", "bit") and s.misfit(dst) is None
     if isinstance(s, Elementary) and isinstance(d, Elementary):
         return d.name in WIDENS_TO.get(s.name, ())
     return False
@@ -263,9 +283,7 @@ def converts(src: Type, dst: Type) -> bool:
 def common(a: Type, b: Type) -> Type | None:
     """The type both convert to implicitly (the wider one), or None."""
     if isinstance(base(a), LiteralType) and isinstance(base(b), LiteralType):
-        if a.kind == "real" or b.kind == "real":
-            return LREAL
-        return LiteralType("int", a.value) if fits(DINT, a.value) else b  # both are integers
+        return literal_span(base(a), base(b))
     if converts(a, b):
         return base(b) if not isinstance(base(a), LiteralType) or not isinstance(b, SubrangeType) else b.base
     if converts(b, a):

@@ -39,9 +39,9 @@ from cyclonedds.util import duration
 
 from ..irpd.client import IrpdClient, IrpdRefused, IrpdUnavailable
 from ..irpd.trace import TraceError, TraceFollower
-from ..irpd.variables import Segment, VariableError, type_text
+from ..irpd.variables import Segment, VariableError, shown
 from ..viewer.mapping import ROBOT_JSON, MappingError, parse_config
-from . import bridge_file, declared, ros2_types
+from . import bridge_file, declared, ros2_types, sharing
 from .bridge_file import BRIDGE_JSON, BridgeFile, BridgeFileError, Mapping, std_basic
 from .diagnostics import LEVEL_ERROR, LEVEL_OK, LEVEL_STALE, LEVEL_WARN, Timing
 from .imports import Sharing
@@ -184,7 +184,7 @@ class Bridge:
             except (MappingError, OSError) as e:
                 problems.append(str(e))
         layout = self.sharing.layout(status)
-        self.leaves = {leaf["path"]: leaf for leaf in (layout or {}).get("leaves", [])}
+        self.leaves = {leaf["path"]: leaf for leaf in shown((layout or {}).get("leaves", []))}
         exported, problem = self.sharing.load(bridge.export, bridge.imports, layout, self.decimation)
         problems += [problem] if problem else []
         channels = [v for _, v, _, _ in joints] + [v for m in bridge.publish for v in m.variables] + exported
@@ -256,13 +256,11 @@ class Bridge:
         which DDS hands every matched peer with the endpoint (ROS 2's `key=value;` form, as
         rmw puts its typehash there): `indurop.variables=data: Main.count DINT (int32_t);`, a
         Structured Text variable's IEC type beside the C++ one (layout.json's iec_type)."""
-        described = []
-        for field_name, _, variable in m.leaves():
-            leaf = self.leaves.get(variable)
-            kind = f" {type_text(leaf['type'], leaf.get('iec_type'))}" if leaf else ""
-            described.append(f"{field_name}: {variable}{kind}")
-        user_data = f"indurop.variables={', '.join(described)};".encode()
-        return Qos(*QOS[m.qos], Policy.Userdata(user_data))
+        described = [
+            f"{field_name}: {sharing.described(variable, [self.leaves[variable]] if variable in self.leaves else [])}"
+            for field_name, _, variable in m.leaves()
+        ]
+        return Qos(*QOS[m.qos], Policy.Userdata(sharing.user_data(described).encode()))
 
     # ---- samples out -------------------------------------------------------------------------
     def publish_rows(self) -> None:

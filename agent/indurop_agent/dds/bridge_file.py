@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import jsonschema
 
+from ..irpd.variables import shown
 from . import declared, ros2_types, sharing
 from .bridge_schema import SCHEMA
 from .declared import DeclarationError, Plan
@@ -306,9 +307,11 @@ def check_layout(bridge: BridgeFile, layout: dict, file: str = BRIDGE_JSON) -> N
 
 
 def layout_scalars(layout: dict) -> dict[str, str]:
-    """layout.json -> {scalar path: its type} (the leaves glbc lists)."""
+    """layout.json -> {scalar path: its type} (the leaves glbc lists, but a compiler's own)."""
     return {
-        leaf["path"]: leaf["type"] for leaf in layout.get("leaves", []) if leaf.get("type") in layout.get("scalars", {})
+        leaf["path"]: leaf["type"]
+        for leaf in shown(layout.get("leaves", []))
+        if leaf.get("type") in layout.get("scalars", {})
     }
 
 

@@ -7,7 +7,10 @@ the topic indurop/shared_variables, keyed by (this controller's name, the path),
 seq, its due time on the wall clock and the values.  When irpd stops answering, or the set stops
 exporting a variable, the bridge unregisters its instance: importers see it gone at once.  The
 writer's liveliness is automatic with a lease of LEASE_MS: a bridge that dies without a word is
-seen gone within the lease.
+seen gone within the lease.  Each export has a writer of its own whose USER_DATA names the
+variable with its type as the web UI shows it (`indurop.variables=Main.count DINT (int32_t);`, as
+the publish mappings' writers do): DDS hands it to every matched reader with the writer; USER_DATA
+cannot change after a writer is made, so a retyped export gets a new writer.
 
 Imports: one reader of the topic (keep-last 1 per instance: a late poll takes the newest sample
 only).  Each poll the bridge takes the samples of the instances it imports; every status period it
@@ -32,7 +35,7 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from ..irpd.client import IrpdRefused, IrpdUnavailable
-from ..irpd.variables import Segment, VariableError
+from ..irpd.variables import Segment, VariableError, shown
 from . import ros2_types, sharing
 from .indurop_types import SharedVariable
 from .sharing import Export, Import, Shape
@@ -67,6 +70,8 @@ class ExportState:
     spec: Export
     shape: Shape
     decimation: int
+    described: str  # the writer's USER_DATA (sharing.user_data)
+    writer: DataWriter | None = None  # its own, kept while the export and its description are
     registered: bool = False  # a sample was written since the last unregister
 
 
@@ -99,8 +104,7 @@ class Sharing:
     def __init__(self, participant, name: str, irpd):
         self.participant, self.name, self.irpd = participant, name, irpd
         self._topic: Topic | None = None
-        self.writer: DataWriter | None = None  # made with the first export, kept for the bridge's life
-        self.reader: DataReader | None = None  # made with the first import, kept likewise
+        self.reader: DataReader | None = None  # made with the first import, kept for the bridge's life
         self.exports: list[ExportState] = []
         self.imports: list[ImportState] = []
         self.by_key: dict[tuple[str, str], list[ImportState]] = {}
@@ -150,19 +154,25 @@ class Sharing:
             except sharing.SharingError as e:
                 problem = "; ".join(filter(None, [problem, f"dds.json:{e.line}: {e}" if e.line else f"dds.json: {e}"]))
                 exports, imports = (), ()
-        kept = {x.spec.variable for x in self.exports}
         now_exported = {x.variable for x in exports}
         for x in self.exports:
             if x.spec.variable not in now_exported:
                 self.unregister(x)
         previous = {x.spec.variable: x for x in self.exports}
         self.exports = []
+        leaves = {leaf["path"]: leaf for leaf in shown(layout.get("leaves", []))} if exports else {}
         for x in exports:
-            state = ExportState(x, sharing.shape(layout, x.variable), decimation(x.rate_hz))
-            state.registered = x.variable in kept and previous[x.variable].registered
+            shape = sharing.shape(layout, x.variable)
+            of = [leaves[p] for p in shape.leaves]
+            described = sharing.user_data([sharing.described(x.variable, of, shape.array)])
+            state = ExportState(x, shape, decimation(x.rate_hz), described)
+            before = previous.get(x.variable)
+            if before is not None and before.described == described:
+                state.writer, state.registered = before.writer, before.registered
+            else:  # new, or its type changed: a writer saying so (the previous one goes with its state)
+                qos = Qos(*WRITER_QOS, Policy.Userdata(described.encode()))
+                state.writer = DataWriter(self.participant, self.topic(), qos)
             self.exports.append(state)
-        if self.exports and self.writer is None:
-            self.writer = DataWriter(self.participant, self.topic(), WRITER_QOS)
         old = {(s.spec, s.shape): s for s in self.imports}
         self.imports = []
         for imp in imports:
@@ -193,7 +203,7 @@ class Sharing:
                 seq = part.first_seq + k
                 if seq % x.decimation:
                     continue
-                self.writer.write(
+                x.writer.write(
                     SharedVariable(
                         controller=self.name,
                         path=x.spec.variable,
@@ -208,8 +218,8 @@ class Sharing:
                 self.exported += 1
 
     def unregister(self, x: ExportState) -> None:
-        if x.registered and self.writer is not None:
-            self.writer.unregister_instance(SharedVariable(controller=self.name, path=x.spec.variable))
+        if x.registered and x.writer is not None:
+            x.writer.unregister_instance(SharedVariable(controller=self.name, path=x.spec.variable))
             x.registered = False
 
     def withdraw(self) -> None:

@@ -16,6 +16,7 @@ import math
 import re
 from dataclasses import dataclass
 
+from ..irpd.variables import shown, type_text
 from .bridge_schema import SCHEMA
 
 DEFAULT_RATE_HZ = 100.0
@@ -166,18 +167,34 @@ def shape(layout: dict, path: str) -> Shape | None:
     """The scalar leaf `path`, or the array of scalars `path` (its elements in layout order, of
     one scalar type); None for anything else (no such variable, a struct, an array of structs)."""
     scalars = layout.get("scalars", {})
-    leaves = [leaf for leaf in layout.get("leaves", []) if leaf["path"] == path]
+    every = shown(layout.get("leaves", []))  # a compiler's own variables are no one's to share
+    leaves = [leaf for leaf in every if leaf["path"] == path]
     array = not leaves
     if array:
         leaves = [
-            leaf
-            for leaf in layout.get("leaves", [])
-            if leaf["path"].startswith(path + "[") and _INDEX.fullmatch(leaf["path"], len(path))
+            leaf for leaf in every if leaf["path"].startswith(path + "[") and _INDEX.fullmatch(leaf["path"], len(path))
         ]
     if not leaves or len({leaf["type"] for leaf in leaves}) != 1 or leaves[0]["type"] not in scalars:
         return None
     s = scalars[leaves[0]["type"]]
     return Shape(tuple(leaf["path"] for leaf in leaves), element_type(s["kind"], s["size"]), array)
+
+
+def described(path: str, leaves: list[dict], array: bool = False) -> str:
+    """A mapped or exported variable as the bridge's USER_DATA names it: its path and its type as the
+    web UI shows it (irpd/variables.py's type_text: `Main.count DINT (int32_t)`, a .glb variable's
+    `double`); an array of scalars (its layout leaves) with its elements' range (`SHARE.vec[0..3]
+    float`); the path alone without a leaf (not in the layout)."""
+    if not leaves:
+        return path
+    where = f"{path}[0..{len(leaves) - 1}]" if array else path
+    return f"{where} {type_text(leaves[0]['type'], leaves[0].get('iec_type'))}"
+
+
+def user_data(described: list[str]) -> str:
+    """The USER_DATA of a writer or reader of variables, in ROS 2's `key=value;` form (as rmw puts
+    its typehash there; ROS 2 ignores keys it does not know)."""
+    return f"indurop.variables={', '.join(described)};"
 
 
 _RANGES = {

@@ -82,6 +82,13 @@ def type_text(type_: str, iec_type: str | None = None) -> str:
     return f"{iec_type} ({type_})" if iec_type else type_
 
 
+def shown(entries: list[dict]) -> list[dict]:
+    """The layout's variables or leaves a user sees: all but a compiler's own ones (layout.json's
+    `"internal": true`, e.g. stc's `Main._stc_init`), which irpd lays out and keeps across an online
+    change like any other, but which the Variables API and page, OPC UA, DDS and the recorder leave out."""
+    return [e for e in entries if not e.get("internal")]
+
+
 class VariableError(Exception):
     """A path that names no leaf and no group of the layout, or a segment that is not there."""
 
@@ -117,7 +124,7 @@ class Segment:
             raise VariableError("the shared-variable layout is being published continuously; try again")
         self.hash, self.text = hash_.decode(), bytes(text)
         self.layout = json.loads(self.text)
-        self.leaves = {leaf["path"]: leaf for leaf in self.layout["leaves"]}
+        self.leaves = {leaf["path"]: leaf for leaf in shown(self.layout["leaves"])}  # what users may name
         self.scalars = self.layout.get("scalars", {})
         self._names: list[str] | None = None  # every leaf and group path, for unknown()
         self.seq = seq
@@ -152,7 +159,7 @@ class Segment:
         if leaf is not None:
             return [leaf]
         under = tuple(path + c for c in ".[")
-        found = [leaf for leaf in self.layout["leaves"] if leaf["path"].startswith(under)] if path else []
+        found = [leaf for p, leaf in self.leaves.items() if p.startswith(under)] if path else []
         if not found:
             raise VariableError(self.unknown(path))
         return found

@@ -13,7 +13,7 @@ from datetime import UTC, datetime
 
 from asyncua import ua
 
-from ..irpd.variables import Segment, VariableError, type_text
+from ..irpd.variables import Segment, VariableError, shown, type_text
 
 # (kind, size) of the layout's scalar types (layout.json "scalars") -> OPC UA built-in type.
 VARIANTS = {
@@ -149,7 +149,7 @@ def tree(layout: dict) -> dict[str, Obj | Var]:
             for f in struct["fields"]:
                 add(f"{path}.{f['name']}", path, f["name"], f["type"], tuple(f.get("dims") or ()), f.get("iec_type"))
 
-    for v in layout.get("variables", []):
+    for v in shown(layout.get("variables", [])):
         namespace = v.get("namespace") or ""
         if namespace:
             parent_objects(namespace)

@@ -45,6 +45,15 @@ bool keepable(const config::ModuleSpec &next, const std::string &next_identity, 
 
 json names(const std::vector<std::string> &list) { return json(list); }
 
+// The paths of `list` a user sees: a compiler's own variables (layout.json's "internal": true, stc's
+// init flags) are added, zeroed and kept like any other, but the reports leave them out.
+json shown(const std::vector<std::string> &list, const std::vector<std::string> &internal) {
+    json out = json::array();
+    for (const std::string &p : list)
+        if (std::find(internal.begin(), internal.end(), p) == internal.end()) out.push_back(p);
+    return out;
+}
+
 json variablesJson(const Generation &g) {
     json moved = json::array(), converted = json::array();
     for (const layouts::Moved &m : g.variables.moved) {
@@ -59,8 +68,8 @@ json variablesJson(const Generation &g) {
         converted.push_back(
             {{"path", c.path}, {"from_type", c.from_type}, {"to_type", c.to_type}, {"dropped", c.dropped}});
     return json{{"layout", g.layout ? json(g.layout->hash) : json(nullptr)},
-                {"added", g.variables.added},
-                {"removed", g.variables.removed},
+                {"added", shown(g.variables.added, g.variables.internal)},
+                {"removed", shown(g.variables.removed, g.variables.internal)},
                 {"moved", moved},
                 {"converted", converted},
                 {"replaced", g.replaced_for_layout}};
@@ -913,8 +922,9 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
          << switched->front().cycle << ": " << kept.size() << " kept, " << started.size() << " started, "
          << stopped.size() << " stopped (" << replaced.size() << " of them replaced), " << missed << " periods missed";
     if (next->published)
-        text << "; shared variables " << next->variables.added.size() << " added, " << next->variables.removed.size()
-             << " removed, " << next->variables.moved.size() << " moved, " << next->conversions.converted.size()
+        text << "; shared variables " << shown(next->variables.added, next->variables.internal).size() << " added, "
+             << shown(next->variables.removed, next->variables.internal).size() << " removed, "
+             << next->variables.moved.size() << " moved, " << next->conversions.converted.size()
              << " converted (layout " << next->layout->hash.substr(0, 12) << "…)";
     s_.events->add("swap", "", text.str());
     if (next->calls) s_.calls = next->calls.get();

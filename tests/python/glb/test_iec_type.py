@@ -41,3 +41,22 @@ def test_the_iec_type_of_variables_fields_and_leaves():
     assert leaves["Main1.t1.PT"] == "TIME" and leaves["Main1.elapsed"] == "TIME"
     assert leaves["Main1.name[10]"] == "STRING[10]" and leaves["Main1.plain"] is None
     assert doc["variables"][0]["source"] == "main.st:3"
+
+
+def test_a_compilers_own_variable_is_marked_internal_on_the_variable_and_its_leaves():
+    """stc's init flag (Decl.internal) is laid out like any variable (a place, a lock, kept by
+    --previous) and marked `"internal": true`, so that the views of the variables leave it out."""
+    src = Source.from_text("main.st", "")
+    at = Loc(src, 3, 5)
+    items = [
+        Decl(ScalarSpec("int32_t", at), "count", at, [Dim(at, 2)], iec_type="DINT"),
+        Decl(ScalarSpec("bool", at), "_stc_init", at, iec_type="BOOL", internal=True),
+    ]
+    doc = document(build([FileSyntax(src, NamespaceStmt("Main", at), items)]))
+    assert [(v["path"], v.get("internal")) for v in doc["variables"]] == [
+        ("Main.count", None),
+        ("Main._stc_init", True),
+    ]
+    leaves = [(leaf["path"], leaf.get("internal")) for leaf in doc["leaves"]]
+    assert leaves == [("Main.count[0]", None), ("Main.count[1]", None), ("Main._stc_init", True)]
+    assert doc["variables"][1]["lock"] == 1 and doc["variables"][1]["offset"] > 0

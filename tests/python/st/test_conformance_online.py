@@ -39,6 +39,30 @@ def test_a_change_keeps_values_and_timers_and_starts_added_variables_at_their_in
         run.close()
 
 
+EXTRA = """
+PROGRAM Extra
+VAR x : INT := 7; END_VAR
+  x := x + 1;
+END_PROGRAM
+"""
+
+
+def test_an_added_program_starts_at_its_initial_values_and_the_report_names_its_variables_only(tmp_path):
+    """A new PROGRAM instance brings stc's init flag (Extra._stc_init, "internal": true): laid out and
+    zeroed with the others, so the instance writes its initial values once, but the report of the
+    change (as the dry run's) names only the program's variables."""
+    run = Running(tmp_path, {"counter.st": V1})
+    try:
+        wait_until(lambda: run.value("Counter.n") > 5)
+        report = run.load({"counter.st": V1, "extra.st": EXTRA}, "set2")
+        assert report["variables"]["added"] == ["Extra.x"], report
+        wait_until(lambda: run.value("Extra.x") > 7)  # started at 7, not at 0
+        running = {v["path"]: v.get("internal") for v in run.segment.layout["variables"]}
+        assert running["Extra._stc_init"] is True and running["Counter._stc_init"] is True  # kept
+    finally:
+        run.close()
+
+
 def test_the_sets_glb_variables_keep_their_places_and_its_layout_stays_valid(tmp_path):
     src = tmp_path / "src"
     src.mkdir()

@@ -375,6 +375,48 @@ from st_helpers import errors_of, program
             "(e.g. 'MyInt_to_real') and its calls",
             id="reserved_conversion_function",
         ),
+        pytest.param(
+            program("x : INT;", "x := MAX(1, 70000);"),
+            (5, 6, "range"),
+            "70000 does not fit INT (-32768..32767); use a wider type",
+            id="untyped_call_does_not_fit_its_target",
+        ),
+        pytest.param(
+            program("x : UINT;", "x := LIMIT(-5, 3, 10);"),
+            (5, 6, "range"),
+            "-5 does not fit UINT (0..65535); use a wider type",
+            id="untyped_call_negative_into_unsigned",
+        ),
+        pytest.param(
+            program("x : INT;", "x := MAX(x, 70000);"),
+            (5, 13, "range"),
+            "70000 does not fit INT (-32768..32767), the type of the other arguments; use a wider type",
+            id="literal_does_not_fit_the_other_argument",
+        ),
+        pytest.param(
+            program("x : SINT;", "x := LIMIT(0, x, 300);"),
+            (5, 18, "range"),
+            "300 does not fit SINT (-128..127), the type of the other arguments; use a wider type",
+            id="literal_does_not_fit_the_other_argument_of_limit",
+        ),
+        pytest.param(
+            program("w : WORD;", "w := ABS(5);"),
+            (5, 10, "type"),
+            "ABS's IN is ANY_NUM, not WORD; convert its result, e.g. DINT_TO_WORD(ABS(...))",
+            id="untyped_call_outside_its_family",
+        ),
+        pytest.param(
+            program("x : INT;", "MUX(0, x, 70000);"),
+            (5, 11, "range"),
+            "70000 does not fit INT (-32768..32767), the type of the other arguments; use a wider type",
+            id="call_statement_arguments_checked",
+        ),
+        pytest.param(
+            "FUNCTION F : INT\nVAR_INPUT a : INT; END_VAR\n  F := a;\nEND_FUNCTION\n" + program("r : REAL;", "F(r);"),
+            (9, 3, "type"),
+            "the parameter a is INT, not REAL (it may lose data); use REAL_TO_INT(...)",
+            id="function_statement_argument_checked",
+        ),
     ],
 )
 def test_error(text: str, where: tuple[int, int, str], message: str):

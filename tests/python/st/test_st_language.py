@@ -130,6 +130,17 @@ def value_type(expr: str, target: str) -> str:
         ("TO_DINT(r)", "di", "DINT"),
         ("Twice(i)", "i", "INT"),
         ("Twice(IN := 3)", "i", "INT"),
+        # untyped literals in a generic call take the type of the assignment's target or the other operand
+        ("MAX(1, 2)", "i", "INT"),
+        ("MIN(-100, 100)", "si", "SINT"),
+        ("LIMIT(0, 70000, 100000)", "di", "DINT"),
+        ("SEL(b, 0, 65535)", "ui", "UINT"),
+        ("MUX(i, 1, 2, 3)", "si", "SINT"),
+        ("ABS(-5)", "si", "SINT"),
+        ("MAX(1.5, 2)", "r", "REAL"),
+        ("SQRT(4)", "r", "REAL"),
+        ("MAX(1, 2) + i", "i", "INT"),
+        ("-MIN(1, 2)", "si", "SINT"),
     ],
 )
 def test_expression_type(expr: str, target: str, typ: str):
@@ -350,6 +361,42 @@ def test_after_check_every_expression_has_its_type_and_every_name_its_declaratio
             assert e.decl is not None, f"{e.place}: {e.name} has no declaration"
         if isinstance(e, t.Call):
             assert e.target is not None or e.fb is not None, f"{e.place}: a call without its target"
+
+
+def test_a_call_as_a_statement_is_typed_with_its_arguments():
+    """F(1, 2); and MUX(0, i, 1); drop their result, but are typed as any expression: the call has its
+    type and every argument its own (the literals the call's type), as the code generator needs."""
+    text = """
+    FUNCTION Acc : INT
+    VAR_INPUT add : INT; big : DINT; END_VAR
+    VAR_IN_OUT total : INT; END_VAR
+    VAR_OUTPUT twice : DINT; END_VAR
+      total := total + add; twice := big * 2; Acc := total;
+    END_FUNCTION
+    FUNCTION Touch
+    VAR_IN_OUT n : INT; END_VAR
+      n := n + 1;
+    END_FUNCTION
+    PROGRAM Main
+    VAR i : INT; si : SINT; d : DINT; r : REAL; END_VAR
+      Acc(1, 2, i);
+      Acc(add := si, big := 70000, total := i, twice => d);
+      Touch(i);
+      MUX(0, i, 1);
+      MAX(1, 2);
+      LIMIT(0.5, r, 2);
+      SEL(TRUE, si, 1);
+    END_PROGRAM
+    """
+    prog = compile_st({"main.st": text})
+    calls = [s.call for s in prog.pous["MAIN"].body]
+    assert [str(c.type) for c in calls] == ["INT", "INT", "None", "INT", "DINT", "REAL", "SINT"]
+    assert [str(a.value.type) for a in calls[0].args] == ["INT", "DINT", "INT"]
+    assert [str(a.value.type) for a in calls[3].args] == ["DINT", "INT", "INT"]  # MUX's K, then IN0, IN1
+    assert [str(a.value.type) for a in calls[5].args] == ["REAL", "REAL", "REAL"]
+    for e in _expressions(prog.pous["MAIN"].body):
+        if e is not calls[2] and not any(e is c.callee for c in calls):  # Touch has no result
+            assert e.type is not None and not isinstance(e.type, ty.LiteralType), f"{e.place}: {e.type}"
 
 
 def _shape(e) -> str:

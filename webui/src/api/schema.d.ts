@@ -9121,6 +9121,13 @@ export interface operations {
                     "application/json": components["schemas"]["VariableWritten"];
                 };
             };
+            /** @description a compiler's own variable (layout.json's internal), which no user sees or writes */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
             /** @description irpd refused: unknown path, wrong type, out of range (its message) */
             409: {
                 headers: {

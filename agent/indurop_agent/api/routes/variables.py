@@ -37,7 +37,7 @@ def list_variables(request: Request, irpd: IrpdDep, _: ViewerDep) -> VariableLis
     return {
         "layout_hash": seg.hash,
         "variables": [
-            {k: leaf[k] for k in ("path", "type", "size", "iec_type") if k in leaf} for leaf in seg.layout["leaves"]
+            {k: leaf[k] for k in ("path", "type", "size", "iec_type") if k in leaf} for leaf in seg.leaves.values()
         ],
     }
 
@@ -90,11 +90,18 @@ class VariableWrite(BaseModel):
 
 @router.put(
     "/variables/{path:path}",
-    responses={409: {"description": "irpd refused: unknown path, wrong type, out of range (its message)"}},
+    responses={
+        404: {"description": "a compiler's own variable (layout.json's internal), which no user sees or writes"},
+        409: {"description": "irpd refused: unknown path, wrong type, out of range (its message)"},
+    },
 )
 def write_variable(
     path: str, body: VariableWrite, request: Request, irpd: IrpdDep, who: OperatorDep
 ) -> protocol.VariableWritten:
     with audited(request, who, "write_variable", path, value=body.value):
+        if ask(irpd, "status").get("shared_memory", {}).get("variables"):
+            seg = segment(request, irpd)
+            if path not in seg.leaves and any(leaf["path"] == path for leaf in seg.layout["leaves"]):
+                raise HTTPException(404, seg.unknown(path))  # a compiler's own variable: no one else's to write
         result = ask(irpd, "write", path=path, value=body.value)
     return result if isinstance(result, dict) else {"path": path, "value": body.value}
