@@ -870,4 +870,3 @@ def image_key(prog, d: t.VarDecl):
     if d.kind in ("VAR_EXTERNAL", "VAR_GLOBAL") and d.name.upper() in prog.globals:
         return ("global", d.name.upper())
     return id(d)
-

@@ -203,7 +203,7 @@ class _Unit:
             out.append("Bound bound, bound0;")
         if self.code.written_index:
             n = sum(1 for c in self.copies if not _scalar(c[3]))
-            out.append(f"bool written_[{n}];  // image[i] (below) may have been written in this run: set where a statement may")
+            out.append(f"bool written_[{n}];  // image[i] (below) may have been written in this run")
         return out + [""]
 
     def image(self, own, glob, glb) -> list[tuple]:

@@ -72,6 +72,12 @@ END_CONFIGURATION
 """
 
 
+def _runs_on(run: Running, count: int) -> None:
+    """Waits until the program has run `count` more periods."""
+    start = run.value("Main.runs")
+    wait_until(lambda: run.value("Main.runs") > start + count)
+
+
 def _grows(run: Running, path: str) -> None:
     """path's value goes on growing while the program writes it."""
     start = run.value(path)
@@ -105,12 +111,10 @@ def test_another_writers_value_stays_unless_the_run_writes_that_variable(tmp_pat
         _grows(run, "Main.a.n")
         # the branch no longer runs: what another writer puts into a (any field) stays
         run.client.request("write", path="Main.go", value=0)
-        runs = run.value("Main.runs")
-        wait_until(lambda: run.value("Main.runs") > runs + 2)
+        _runs_on(run, 2)
         run.client.request("write", path="Main.a.n", value=100)
         run.client.request("write", path="Main.a.m", value=5)
-        runs = run.value("Main.runs")
-        wait_until(lambda: run.value("Main.runs") > runs + 5)
+        _runs_on(run, 5)
         assert (run.value("Main.a.n"), run.value("Main.a.m")) == (100, 5)
         # the branch runs again: it goes on from the other writer's value, and keeps its m
         run.client.request("write", path="Main.go", value=1)
@@ -125,8 +129,7 @@ def test_another_writers_value_stays_unless_the_run_writes_that_variable(tmp_pat
             run.client.request("write", path="Main.same.n", value=value)
             run.client.request("write", path="Main.again.n", value=value * 10)
             run.wait_value("Main.same.n", 7)
-            runs = run.value("Main.runs")
-            wait_until(lambda: run.value("Main.runs") > runs + 3)
+            _runs_on(run, 3)
             assert run.value("Main.again.n") == value * 10
     finally:
         run.close()
