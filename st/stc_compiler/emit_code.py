@@ -1,7 +1,9 @@
 # emit_code.py -- C++ for the POUs of a checked ST program (emit_cpp.py assembles the file): the types
 # (STRUCTs and FB instances as plain structs with their initial values), FUNCTIONs as C++ functions,
-# FUNCTION_BLOCKs and the PROGRAM as functions on their struct, statements with `#line`, expressions on
-# irp::st (integer arithmetic that wraps, faults that name the ST place, the standard functions).
+# FUNCTION_BLOCKs and the PROGRAM as functions on their struct, statements with `#line` and the write
+# flags of the process image's structs and arrays they may write (`written_[i] = true;`, which run()'s
+# write-back reads), expressions on irp::st (integer arithmetic that wraps, faults that name the ST
+# place, the standard functions).
 
 from __future__ import annotations
 
