@@ -1,7 +1,9 @@
 # emit_code.py -- C++ for the POUs of a checked ST program (emit_cpp.py assembles the file): the types
 # (STRUCTs and FB instances as plain structs with their initial values), FUNCTIONs as C++ functions,
-# FUNCTION_BLOCKs and the PROGRAM as functions on their struct, statements with `#line`, expressions on
-# irp::st (integer arithmetic that wraps, faults that name the ST place, the standard functions).
+# FUNCTION_BLOCKs and the PROGRAM as functions on their struct, statements with `#line` and the write
+# flags of the process image's structs and arrays they may write (`written_[i] = true;`, which run()'s
+# write-back reads), expressions on irp::st (integer arithmetic that wraps, faults that name the ST
+# place, the standard functions).
 
 from __future__ import annotations
 
@@ -112,6 +114,8 @@ class CodeEmitter:
         self.scope: t.Pou | None = None
         self.temp = 0
         self.in_part = False  # emitting a part of a split body: RETURN ends the POU through the caller
+        self.written_index: dict = {}  # image_key -> the kept image's entry a statement marks written_[i]
+        self.marked: set[int] = set()  # the entries marked by statements that ran before the one emitted
         self.glb_structs: dict[int, str] = {}
         if prog.layout is not None:
             for name, st in prog.layout._structs.items():
@@ -300,6 +304,7 @@ class CodeEmitter:
         if p.extern:
             return self.extern_pou(p)
         self.scope = p
+        self.marked = set()
         out = [f"// {p.kind} {p.name} ({p.place.file}:{p.place.line})", self.signature(p) + " {"]
         for v in p.vars:
             local = v.kind == "VAR_TEMP" or (p.kind == "FUNCTION" and v.kind == "VAR")
@@ -351,6 +356,7 @@ class CodeEmitter:
         if p.kind == "FUNCTION":
             out += [f"    {self.constant(v, static=True)}" for v in p.vars if v.constant]
         self.in_part = True
+        self.marked = set()
         out += _indent(self.block(stmts))
         self.in_part = False
         return out + ["    return false;", "}", "#line RESET"]
@@ -374,10 +380,22 @@ class CodeEmitter:
     def block(self, stmts: list) -> list[str]:
         """Statements, each after its `#line`, at indentation 0 (nested() and pou() indent them)."""
         out = []
+        outer, self.marked = self.marked, set(self.marked)
         for s in stmts:
             out.append(f'#line {s.place.line} "{s.place.file}"')
+            out += self.marks(s)
             out += self.statement(s)
+        self.marked = outer
         return out
+
+    def marks(self, s) -> list[str]:
+        """`written_[i] = true;` for each struct or array of the kept image the statement may write:
+        run()'s write-back compares only those with their snapshots (kept.hpp).  Not again where an
+        earlier statement of the same or an enclosing block marked it (it ran before this one)."""
+        found = {self.written_index.get(image_key(self.prog, d)) for d in statement_writes(s)}
+        new = sorted(i for i in found if i is not None and i not in self.marked)
+        self.marked.update(new)
+        return [f"written_[{i}] = true;" for i in new]
 
     def nested(self, stmts: list) -> list[str]:
         return _indent(self.block(stmts))
@@ -789,3 +807,68 @@ def _type_name(typ) -> str:
 def _scalar(typ) -> bool:
     b = ty.base(typ) if typ is not None else None
     return isinstance(b, (ty.Elementary, ty.LiteralType, ty.EnumType))
+
+
+def written_roots(stmts) -> list[t.VarDecl]:
+    """The variables whose values statements may change: the root variable of every assignment's and
+    FOR's target, of an FB call's instance and outputs (=>), of what a call passes to VAR_IN_OUT or
+    VAR_OUTPUT (a FUNCTION's or an FB's).  A variable none of the code reaches this way is read only:
+    run() copies it in and never writes it back."""
+    targets = []
+    stack = list(stmts)
+    while stack:
+        n = stack.pop()
+        if isinstance(n, (list, tuple)):
+            stack.extend(n)
+            continue
+        if not isinstance(n, t.Node) or isinstance(n, (t.Pou, t.VarDecl)):
+            continue
+        if isinstance(n, t.Assign):
+            targets.append(n.target)
+        elif isinstance(n, t.For):
+            targets.append(n.var)
+        elif isinstance(n, t.Call):
+            if n.fb is not None:
+                targets.append(n.callee)
+            for a in n.args:
+                p = getattr(a, "param", None)
+                if a.value is not None and getattr(p, "kind", None) in ("VAR_IN_OUT", "VAR_OUTPUT"):
+                    targets.append(a.value)
+        stack.extend(v for v in vars(n).values() if isinstance(v, (t.Node, list, tuple)) and v is not n)
+    roots = []
+    for e in targets:
+        while not isinstance(e, t.Name):
+            if isinstance(e, t.Member) and isinstance(e.decl, t.VarDecl) and e.decl.kind == "GLB":
+                break  # a .glb variable reached through its namespace: the member is the variable
+            e = e.base
+        if isinstance(e.decl, t.VarDecl):
+            roots.append(e.decl)
+    return roots
+
+
+def statement_writes(s) -> list[t.VarDecl]:
+    """The variables one statement may write itself, without the statements nested in it (they
+    mark their own): an assignment's or FOR's target, an FB call's instance, and what a call in the
+    statement's expressions (an IF's conditions, a CASE's selector, ...) passes to VAR_IN_OUT or
+    VAR_OUTPUT."""
+    if isinstance(s, (t.Assign, t.CallStmt)):
+        return written_roots([s])
+    if isinstance(s, t.If):
+        return written_roots([cond for cond, _ in s.branches])
+    if isinstance(s, t.Case):
+        return written_roots([s.selector])
+    if isinstance(s, t.For):
+        return [s.var.decl, *written_roots([e for e in (s.start, s.end, s.step) if e is not None])]
+    if isinstance(s, (t.While, t.Repeat)):
+        return written_roots([s.cond])
+    return []
+
+
+def image_key(prog, d: t.VarDecl):
+    """One key per shared variable of the process image, whichever declaration names it: a .glb
+    variable by its path, a VAR_GLOBAL (also through VAR_EXTERNAL) by its name, else the declaration."""
+    if d.kind == "GLB":
+        return ("glb", d.glb["path"])
+    if d.kind in ("VAR_EXTERNAL", "VAR_GLOBAL") and d.name.upper() in prog.globals:
+        return ("global", d.name.upper())
+    return id(d)

@@ -10,7 +10,7 @@ from . import externs
 from . import tree as t
 from . import types as ty
 from .check import Program
-from .emit_code import PART_STATEMENTS, CodeEmitter, _scalar, cpp_type, literal, walk_names
+from .emit_code import PART_STATEMENTS, CodeEmitter, _scalar, cpp_type, image_key, literal, walk_names, written_roots
 from .emit_glb import EMPTY_FB_FIELD, INIT_FLAG, RETAIN_INIT_FLAG, Instance, fb_fields, stored
 from .errors import StError
 
@@ -22,7 +22,7 @@ GENERATED_NAMES = frozenset(
     "NEG programBody fbBody startInstance runInstance Globals Bound global global0 bound bound0 self self0 "
     "initial fresh freshRetained globalInitial safeOutputs start run Seen seen Kept kept image forget How inPart".upper().split()
 )
-LOCAL_NAMES = frozenset({"SELF", "FB_", "R_"})  # the generated code's own locals in a POU's body
+LOCAL_NAMES = frozenset({"SELF", "FB_", "R_", "WRITTEN_"})  # the generated code's own locals in a POU's body
 
 
 def name_problems(prog: Program) -> list[StError]:
@@ -133,12 +133,8 @@ class _Unit:
             if stored(v) or (v.location is not None and v.glb is not None):
                 own[v.name.upper()] = v
         self.used = used
-        self.written = set()  # the declarations whose values the code may change (written_roots)
-        for pou in [self.inst.pou] + self.pous:
-            for d in written_roots(pou.body):
-                self.written.add(id(d))
-                if d.kind in ("VAR_EXTERNAL", "VAR_GLOBAL") and d.name.upper() in self.prog.globals:
-                    self.written.add(id(self.prog.globals[d.name.upper()]))
+        # the variables whose values the code may change (written_roots), by image_key
+        self.written = {image_key(self.prog, d) for p in [self.inst.pou] + self.pous for d in written_roots(p.body)}
         return list(own.values()), list(glob.values()), list(glb.values())
 
     # ---- the file ------------------------------------------------------------------------------
@@ -146,6 +142,10 @@ class _Unit:
     def render(self) -> str:
         inst, pou = self.inst, self.inst.pou
         own, glob, glb = self.touched()
+        self.copies = self.image(own, glob, glb)
+        # the kept image's entries the code may write: each statement that may write one marks it
+        table = [c for c in self.copies if not _scalar(c[3])]
+        self.code.written_index = {c[5]: i for i, c in enumerate(table) if c[4]}
         functions = []
         for p in self.pous:
             functions += self.code.pou(p) + [""]
@@ -201,23 +201,35 @@ class _Unit:
                 out.append(f"    {self.code.glb_type(d)} {_glb_member(d)};")
             out.append("};")
             out.append("Bound bound, bound0;")
+        if self.code.written_index:
+            n = sum(1 for c in self.copies if not _scalar(c[3]))
+            out.append(f"bool written_[{n}];  // image[i] (below) may have been written in this run")
         return out + [""]
 
-    def entry_points(self, own, glob, glb) -> list[str]:
-        inst, pou = self.inst, self.inst.pou
-        ns = f"::{inst.name}"
-        copies = []  # (ref, local, snapshot, type, whether the code may write it)
+    def image(self, own, glob, glb) -> list[tuple]:
+        """The process image: (ref, local, snapshot, type, whether the code may write it, image_key)
+        of each variable the code touches."""
+        ns = f"::{self.inst.name}"
+        copies = []
         for v in own:
             if id(v) not in self.used:
                 continue  # copied only where the code touches it (its initial value is written below)
             ref = _glb_ref(v.glb) if v.location is not None else f"{ns}::{v.name}"
-            copies.append((ref, f"self.{v.name}", f"self0.{v.name}", v.type, id(v) in self.written))
+            copies.append((ref, f"self.{v.name}", f"self0.{v.name}", v.type))
         for g in glob:
             ref = _glb_ref(g.glb) if g.location is not None else f"::{self.code.global_namespace(g)}::{g.name}"
-            copies.append((ref, f"global.{g.name}", f"global0.{g.name}", g.type, id(g) in self.written))
+            copies.append((ref, f"global.{g.name}", f"global0.{g.name}", g.type))
         for d in glb:
             member = _glb_member(d)
-            copies.append((_glb_ref(d.glb), f"bound.{member}", f"bound0.{member}", d.type, id(d) in self.written))
+            copies.append((_glb_ref(d.glb), f"bound.{member}", f"bound0.{member}", d.type))
+        decls = [v for v in own if id(v) in self.used] + glob + glb
+        keys = [image_key(self.prog, d) for d in decls]
+        return [(*c, k in self.written, k) for c, k in zip(copies, keys)]
+
+    def entry_points(self, own, glob, glb) -> list[str]:
+        inst, pou = self.inst, self.inst.pou
+        ns = f"::{inst.name}"
+        copies = self.copies
         plain = [v for v in own if v.location is None and not (v.retain or v.persistent)]
         kept = [v for v in own if v.location is None and (v.retain or v.persistent)]
         out = [
@@ -263,32 +275,33 @@ class _Unit:
         # scalars: one atomic load and store each; structs and arrays: the kept image's table (kept.hpp)
         scalars = [c for c in copies if _scalar(c[3])]
         table = [c for c in copies if not _scalar(c[3])]
+        image_args = "image, written_" if self.code.written_index else "image"
         out += ["// run(): one period.  A fault throws past the write-back: a faulting run writes nothing."]
         if table:
             out.append(f"Seen seen[{len(table)}];  // the kept image (kept.hpp): the variables' sequences, their table")
             out.append("constexpr Kept image[] = {")
-            for i, (ref, local, snap, _, written) in enumerate(table):
+            for i, (ref, local, snap, _, written, _) in enumerate(table):
                 snap = f"{snap}, " if written else ""  # read only: no snapshot, no write-back
                 out.append(f"    kept({ref}, {local}, {snap}seen[{i}]),")
             out.append("};")
         out.append("void runInstance() {")
-        out += in_parts([f"    copyIn({ref}, {local}, {snap});" for ref, local, snap, _, _ in scalars])
+        out += in_parts([f"    copyIn({ref}, {local}, {snap});" for ref, local, snap, *_ in scalars])
         if table:
             out.append("    copyIn(image);")
         if outputs or table:
             out += ["    try {", "        programBody(self);", "    } catch (...) {"]
             if table:
-                out.append("        forget(image);  // the locals hold a partial run")
+                out.append(f"        forget({image_args});  // the locals hold a partial run")
             if outputs:
                 out.append("        safeOutputs();")
             out += ["        throw;", "    }"]
         else:
             out.append("    programBody(self);")
         out += in_parts(
-            [f"    writeBack({ref}, {local}, {snap});" for ref, local, snap, _, written in scalars if written]
+            [f"    writeBack({ref}, {local}, {snap});" for ref, local, snap, _, written, _ in scalars if written]
         )
         if table:
-            out.append("    writeBack(image);")
+            out.append(f"    writeBack({image_args});")
         out += ["}", ""]
         return out
 
@@ -303,43 +316,6 @@ def in_parts(lines: list[str]) -> list[str]:
     for at in range(0, len(lines), PART_STATEMENTS):
         out += ["    inPart([&] {", *("    " + line for line in lines[at : at + PART_STATEMENTS]), "    });"]
     return out
-
-
-def written_roots(stmts) -> list[t.VarDecl]:
-    """The variables whose values statements may change: the root variable of every assignment's and
-    FOR's target, of an FB call's instance and outputs (=>), of what a call passes to VAR_IN_OUT or
-    VAR_OUTPUT (a FUNCTION's or an FB's).  A variable none of the code reaches this way is read only:
-    run() copies it in and never writes it back."""
-    targets = []
-    stack = list(stmts)
-    while stack:
-        n = stack.pop()
-        if isinstance(n, (list, tuple)):
-            stack.extend(n)
-            continue
-        if not isinstance(n, t.Node) or isinstance(n, (t.Pou, t.VarDecl)):
-            continue
-        if isinstance(n, t.Assign):
-            targets.append(n.target)
-        elif isinstance(n, t.For):
-            targets.append(n.var)
-        elif isinstance(n, t.Call):
-            if n.fb is not None:
-                targets.append(n.callee)
-            for a in n.args:
-                p = getattr(a, "param", None)
-                if a.value is not None and getattr(p, "kind", None) in ("VAR_IN_OUT", "VAR_OUTPUT"):
-                    targets.append(a.value)
-        stack.extend(v for v in vars(n).values() if isinstance(v, (t.Node, list, tuple)) and v is not n)
-    roots = []
-    for e in targets:
-        while not isinstance(e, t.Name):
-            if isinstance(e, t.Member) and isinstance(e.decl, t.VarDecl) and e.decl.kind == "GLB":
-                break  # a .glb variable reached through its namespace: the member is the variable
-            e = e.base
-        if isinstance(e.decl, t.VarDecl):
-            roots.append(e.decl)
-    return roots
 
 
 def _fbs_in(typ) -> list[t.Pou]:

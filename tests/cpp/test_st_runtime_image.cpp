@@ -322,3 +322,31 @@ TEST(StKept, AfterAFaultTheLocalsAreReadAgain) {
     st::writeBack(kImage);
     EXPECT_EQ(st_image::mixed.medium.load(), 4);
 }
+
+TEST(StKept, OnlyTheFlaggedVariablesAreComparedAndWrittenAndTheFlagsClear) {
+    st_image::mixed = mixed_t{1, 2, 3, 4, 5.0};
+    st_image::table = std::array<int16_t, 4>{1, 2, 3, 4};
+    bool written[3] = {};
+    st::copyIn(kImage);
+    written[1] = true;  // a statement that may write table ran; none that writes mixed
+    kt[0] = 50;
+    km.small = 77;  // what generated code never does without the flag: shows mixed is not visited
+    const uint32_t mixedBefore = sequence(st_image::mixed);
+    const auto small = st_image::mixed.small.load();
+    st::writeBack(kImage, written);
+    EXPECT_EQ(st_image::table[0].load(), 50);
+    EXPECT_EQ(st_image::mixed.small.load(), small);
+    EXPECT_EQ(sequence(st_image::mixed), mixedBefore);
+    EXPECT_FALSE(written[0] || written[1] || written[2]);
+    written[0] = true;  // flagged: compared with its snapshot, the change written
+    st::writeBack(kImage, written);
+    EXPECT_EQ(st_image::mixed.small.load(), 77);
+    EXPECT_EQ(st_image::mixed.medium.load(), 4);
+    st::copyIn(kImage);
+    km.medium = 70;  // a run that faults: nothing written, the flags cleared, read again
+    written[0] = true;
+    st::forget(kImage, written);
+    EXPECT_FALSE(written[0]);
+    st::copyIn(kImage);
+    EXPECT_EQ(km.medium, 4);
+}

@@ -156,6 +156,12 @@ def test_an_fb_input_outside_its_subrange_is_a_fault_at_the_argument(faults):
             "generated C++ uses",
         ),
         ("PROGRAM P VAR_IN_OUT x : INT; END_VAR x := 1; END_PROGRAM\n", "unsupported", "by reference"),
+        (  # a local of the body would hide the run's write flags (docs/st-compiler.md)
+            "TYPE Pair : STRUCT n : INT; END_STRUCT; END_TYPE\n"
+            "PROGRAM P VAR p : Pair; END_VAR VAR_TEMP written_ : BOOL; END_VAR p.n := 1; END_PROGRAM\n",
+            "name",
+            "generated C++ uses",
+        ),
     ],
 )
 def test_bad_input_is_refused_at_build(tmp_path, text, code, words):

@@ -16,6 +16,9 @@
 //   constexpr Kept image[] = {kept(::main::t1, self.t1, self0.t1, seen[0]), kept(::PLC::IN, in, in0, seen[1])};
 //   copyIn(image);  ... the program ...  writeBack(image);
 //
+// The generated code also keeps one flag a variable, set where a statement may write it, and calls
+// writeBack(image, written): the variables the run did not write cost no comparison.
+//
 // After a fault the generated code calls forget(image): the locals hold a partial run.
 #pragma once
 
@@ -167,6 +170,18 @@ inline void writeBack(std::span<const Kept> image) noexcept {
     for (const Kept &k : image) detail::writeKept(k);
 }
 
+// The variables the run may have written: written[i] is set by the generated code before each
+// statement that may write image[i] (an assignment, an FB call on it, a VAR_IN_OUT argument, ...),
+// so a variable no statement of this run wrote is not compared with its snapshot (it still equals
+// it).  Clears the flags for the next run.
+inline void writeBack(std::span<const Kept> image, std::span<bool> written) noexcept {
+    for (std::size_t i = 0; i < image.size(); ++i)
+        if (written[i]) {
+            written[i] = false;
+            detail::writeKept(image[i]);
+        }
+}
+
 // Runs f, a function of its own: the generated code cuts long runs of copy-ins, write-backs and
 // initial values into lambdas run by inPart(), so that g++ compiles them in pieces of a bounded size.
 template <class F>
@@ -177,6 +192,11 @@ template <class F>
 // After a run that did not finish: every variable is read whole again.
 inline void forget(std::span<const Kept> image) noexcept {
     for (const Kept &k : image) k.seen->seq = 1;
+}
+
+inline void forget(std::span<const Kept> image, std::span<bool> written) noexcept {
+    forget(image);
+    for (bool &w : written) w = false;
 }
 
 }  // namespace irp::st
