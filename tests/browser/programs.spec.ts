@@ -116,6 +116,7 @@ test("the cell's ST program is edited in the browser: a type error under its lin
 
     // a viewer: the same program, read-only, no Check
     await page.getByTestId("sign-out").click();
+    await expect(page.getByTestId("signin")).toBeVisible(); // signed out before the next sign-in
     await signIn(page, "viewer", "#/programs", s);
     await page.getByTestId("st-pou-MoveOutcome").click();
     await expect(editor).toContainText(FIXED);
