@@ -2,11 +2,13 @@
 # of the agent's set store, its sources with it (issue 30: the Programs page edits the active set's
 # .st files): packaging/demo-set.sh picks the set as demo.sh does, irpd starts on it as demo.sh starts
 # it (packaging/demo-irpd.sh), the agent beside it, and demo-set.sh stores and activates it as demo.sh
-# does once the agent answers.  Started again, the demo runs the stored set and uploads nothing.
+# does once the agent answers.  Started again, the demo runs the stored set and uploads nothing; an
+# edit activated since through the agent is kept, until the cell is built anew.
 
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -71,13 +73,31 @@ def test_the_demo_makes_the_st_cell_the_active_set_with_its_sources(tmp_path):
         assert (kinds.get("main.st"), kinds.get("cell.glb"), kinds.get("main.so")) == ("st", "glb", "thread_module")
         assert get("/status")["set_id"] == active["id"]
 
-        # started again: the store's active set is this build of the cell, so irpd starts on the
+        # started again: the demo stored this build of the cell already, so irpd starts on the
         # stored set itself and nothing is uploaded
         config = Path(demo_set("pick", data, sets))
         assert config == data / "active" / "module.xml"
         start(config, 3)
         assert get("/sets/active")["id"] == active["id"] == get("/status")["set_id"]
         assert len(get("/sets")) == 2
+
+        # an edit of the program activated through the agent (as the Programs page makes one) is
+        # what the same command starts next time; a new build of the cell is stored over it
+        edited = tmp_path / "edited"
+        shutil.copytree(sets / "plc-robot-st", edited)
+        main = edited / "main.st"
+        main.write_text(main.read_text().replace("  LastStep : DINT;\n", "  LastStep : DINT;\n  Edited : DINT;\n", 1))
+        env = {**os.environ, "INDUROP_URL": url, "INDUROP_TOKEN_FILE": str(data / "admin-token")}
+        upload = [str(IRPCTL), "upload", str(edited), "--activate", "--mode", "auto"]
+        r = subprocess.run(upload, env=env, capture_output=True, text=True, timeout=600)
+        assert r.returncode == 0, r.stdout + r.stderr
+        edit = get("/sets/active")["id"]
+        assert edit != active["id"]
+        assert Path(demo_set("pick", data, sets)) == data / "active" / "module.xml"
+        start(data / "active" / "module.xml", 4)
+        assert get("/status")["set_id"] == edit
+        (sets / "plc-robot-st" / "main.st").write_text(main.read_text())  # the cell built anew
+        assert Path(demo_set("pick", data, sets)) == sets / "plc-robot-st" / "module.xml"
     finally:
         for p in running:
             stop(p)
