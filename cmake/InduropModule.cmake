@@ -23,9 +23,11 @@
 #                  [PREVIOUS <layout.json>] [MODULE_XML <module.xml>] [OUTPUT_DIRECTORY <dir>])
 #       Structured Text: runs `stc build` at build time (docs/st-compiler.md), which writes into <dir>
 #       (default ${CMAKE_CURRENT_BINARY_DIR}/<name>) layout.json, indurop/generated.h, one
-#       <Instance>.cpp and <Instance>.so per PROGRAM instance (compiled by stc with the flags of the
-#       modules above, against this SDK: INDUROP_SDK_PREFIX) and module.xml (MODULE_XML's modules
-#       kept).  GLB: the set's .glb files, laid out first; SET_LAYOUT: the layout the set's C++
+#       <Instance>.so per PROGRAM instance (compiled by stc with the flags of the modules above,
+#       against this SDK: INDUROP_SDK_PREFIX) and module.xml (MODULE_XML's modules kept); <dir> also
+#       gets a copy of SOURCES and GLB (by their file names), so that it is a set the agent accepts as
+#       an upload and builds again from them.  The generated C++ (<Instance>.cpp) goes to
+#       ${CMAKE_CURRENT_BINARY_DIR}/<name>-cpp, outside the set.  GLB: the set's .glb files, laid out first; SET_LAYOUT: the layout the set's C++
 #       modules were built against (an indurop_add_glb's); PREVIOUS: the running layout.  <name>_glb
 #       is an INTERFACE target with <dir> as include folder, for C++ modules that use the ST variables.
 
@@ -161,10 +163,25 @@ function(indurop_add_st name)
     message(FATAL_ERROR "indurop_add_st(${name}): SOURCES <file.st>... is required")
   endif()
   _indurop_output_dir(dir ${name} "${ARG_OUTPUT_DIRECTORY}")
-  set(args -o ${dir} --sdk ${INDUROP_SDK_PREFIX} --cxx ${CMAKE_CXX_COMPILER})
+  set(cpp_dir ${CMAKE_CURRENT_BINARY_DIR}/${name}-cpp)   # the generated C++, outside the set
+  set(args -o ${dir} --cpp-dir ${cpp_dir} --sdk ${INDUROP_SDK_PREFIX} --cxx ${CMAKE_CXX_COMPILER})
   _indurop_absolute(inputs ${ARG_SOURCES})
   _indurop_absolute(glb ${ARG_GLB})
   set(depends ${inputs} ${glb})
+  # The set carries its sources (the .st and .glb files, by their names) beside what irpd runs, so
+  # that the agent takes the folder as an upload and builds it again from them (docs/set-store.md).
+  set(carried)
+  foreach(f ${inputs} ${glb})
+    get_filename_component(base ${f} NAME)
+    list(APPEND carried ${dir}/${base})
+  endforeach()
+  add_custom_command(
+    OUTPUT ${carried}
+    COMMAND ${CMAKE_COMMAND} -E make_directory ${dir}
+    COMMAND ${CMAKE_COMMAND} -E copy_if_different ${inputs} ${glb} ${dir}
+    DEPENDS ${inputs} ${glb}
+    COMMENT "${name}: its sources -> ${dir}"
+    VERBATIM)
   foreach(f ${glb})
     list(APPEND args --glb ${f})
   endforeach()
@@ -186,7 +203,7 @@ function(indurop_add_st name)
     DEPENDS ${depends} ${INDUROP_STC} ${stc_sources}
     COMMENT "stc build ${ARG_SOURCES} -> ${dir}"
     VERBATIM)
-  add_custom_target(${name} ALL DEPENDS ${dir}/module.xml)
+  add_custom_target(${name} ALL DEPENDS ${dir}/module.xml ${carried})
   if(TARGET indurop)
     add_dependencies(${name} indurop)   # stc links the modules to this tree's libindurop
   endif()

@@ -7,7 +7,8 @@
 # go to irpd, e.g. `bash packaging/demo.sh --duration 10 --stats-json /tmp/stats.json` (the
 # agent stops when irpd does).  INDUROP_PORT and INDUROP_DATA change the port and data folder;
 # INDUROP_SET=<name> starts build/sets/<name> instead, e.g. INDUROP_SET=plc-robot-st for the cell
-# with its PLC program in Structured Text (config/sets/plc-robot-st).
+# with its PLC program in Structured Text (config/sets/plc-robot-st), and makes it the agent's
+# active set (packaging/demo-set.sh: uploaded once it is up, its .st sources with it).
 # Both programs' output goes to the terminal and, each line stamped with its UTC time, to
 # <data>/logs/irpd.log and agent.log, which the web UI's System page reads.  The agent is started
 # again when it exits asking for it (exit 75: a restart from the System page, a restore).
@@ -29,18 +30,11 @@ url=http://127.0.0.1:$port
 mkdir -p "$data"
 sock="$data/irpd.sock"
 
-# The set activated last through the agent (its set store keeps a link to it), else the PLC +
-# robot cell of the paper's §4; its drives are simulated on Modbus TCP (127.0.0.1:15020) by
-# indurop-drivesim, a non-real process module of the set that irpd starts and stops.
-config="$root/build/sets/plc-robot/module.xml"
-[ -f "$data/active/module.xml" ] && config="$data/active/module.xml"
-if [ -n "${INDUROP_SET:-}" ]; then  # a set of the build named by the user, over the last activated one
-  config="$root/build/sets/$INDUROP_SET/module.xml"
-  if [ ! -f "$config" ]; then
-    echo "demo: INDUROP_SET=$INDUROP_SET: no $config; the built sets are: $(cd "$root/build/sets" && ls -d */ | tr -d / | tr '\n' ' ')" >&2
-    exit 2
-  fi
-fi
+# The set: with INDUROP_SET=<name>, build/sets/<name>; else the set activated last through the agent
+# (its set store keeps a link to it), else the PLC + robot cell of the paper's §4, whose drives are
+# simulated on Modbus TCP (127.0.0.1:15020) by indurop-drivesim, a non-real process module of the
+# set that irpd starts and stops.  A set of the build becomes the store's active set below.
+config=$(bash "$root/packaging/demo-set.sh" pick "$data" "$root/build/sets") || exit 2
 # The logs: each line to the terminal, and stamped to its file (bash's printf keeps it one process).
 logs="$data/logs"
 mkdir -p "$logs"
@@ -94,12 +88,12 @@ opcua_port=${INDUROP_OPCUA_PORT:-4840}
 opcua_pid=$!
 pids+=($opcua_pid)
 for _ in $(seq 200); do curl -sf "$url/api/v1/health" >/dev/null && break; kill -0 $agent_pid 2>/dev/null || break; sleep 0.1; done
-# The first time, the cell becomes the set store's first set (history, rollback, the UI's edits
-# are versions of it): uploaded and activated, a hot reload in which every module is kept.
-if [ ! -e "$data/active" ]; then
-  INDUROP_URL=$url INDUROP_TOKEN_FILE=$data/admin-token "$venv/bin/irpctl" upload "$(dirname "$config")" --activate >/dev/null \
-    || echo "demo: the cell could not be stored in the set store; it runs as started" >&2
-fi
+# A set of the build becomes the set store's active set (its files, history, rollback; the UI's
+# edits, of an ST program too, are versions of it): uploaded and activated, a hot reload (the first
+# time the cell's; then the one INDUROP_SET names, unless the store's active set is that build of it).
+case $config in
+"$root/build/sets/"*) bash "$root/packaging/demo-set.sh" store "$data" "$(dirname "$config")" "$url" "$venv/bin/irpctl" || true ;;
+esac
 # No default password: the first admin sets theirs with the admin token the agent's first start wrote.
 if curl -sf "$url/api/v1/session" | grep -q '"first_run":true'; then
   echo "demo: no user yet: set the first admin's password in the web UI ($url/ asks for the admin token in"

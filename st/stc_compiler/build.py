@@ -1,5 +1,5 @@
 # build.py -- `stc build`: the checked program -> OUT/layout.json and OUT/indurop/generated.h (emit_glb.py),
-# OUT/<Instance>.cpp (emit_cpp.py), OUT/module.xml (tasks.py) and, unless --no-compile, OUT/<Instance>.so
+# <Instance>.cpp in OUT or --cpp-dir (emit_cpp.py), OUT/module.xml (tasks.py) and, unless --no-compile, OUT/<Instance>.so
 # compiled in parallel with the flags and the SDK of the project's modules (sdk.py).
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ class Options:
     sdk: str | None = None
     cxx: str | None = None
     jobs: int = 0
+    cpp_dir: str | None = None  # where <Instance>.cpp go; None: OUT
 
 
 def front(opts: Options) -> tuple[Program, list]:
@@ -76,8 +77,10 @@ def build(opts: Options, argv: list[str]) -> list[str]:
     added |= {m["path"] for m in (laid.doc.get("changes") or {}).get("moved", [])}
     sources = [os.path.basename(s) for s in opts.sources]
     cpps = []
+    if opts.cpp_dir is not None:
+        os.makedirs(opts.cpp_dir, exist_ok=True)
     for inst in insts:
-        path = os.path.join(opts.out, f"{inst.name}.cpp")
+        path = os.path.join(opts.cpp_dir or opts.out, f"{inst.name}.cpp")
         emit_glb.glbc_cli._write(path, generate(prog, inst, added, sources))
         cpps.append((inst, path))
     xml = tasks.module_xml(insts, opts.out, opts.module_xml)

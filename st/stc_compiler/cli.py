@@ -50,6 +50,11 @@ def _arguments() -> argparse.ArgumentParser:
     b.add_argument(
         "--module-xml", metavar="HAND.xml", help="the set's hand-written module.xml: its other modules are kept"
     )
+    b.add_argument(
+        "--cpp-dir",
+        metavar="DIR",
+        help="where the generated <Instance>.cpp go (default OUT): a build folder, so that OUT holds only the set",
+    )
     b.add_argument("--sdk", metavar="PREFIX", help="the indurop SDK: an installed prefix (/usr) or a build folder")
     b.add_argument("--cxx", metavar="CXX", help="the C++ compiler (default: $CXX, else g++)")
     b.add_argument("-j", dest="jobs", type=int, default=0, metavar="N", help="compile N instances at once")
@@ -129,5 +134,6 @@ def _build(args, argv: list[str]) -> None:
         args.sdk,
         args.cxx,
         args.jobs,
+        args.cpp_dir,
     )
     build(opts, argv)

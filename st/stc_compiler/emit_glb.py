@@ -182,6 +182,8 @@ def lay_out(
     given (online change), else against the set's layout (its C++ modules keep fitting).  With both,
     the set's layout must have been laid out against the running one; it joins the lineage."""
     layout = build(glb + st, max_size)
+    if set_layout is not None:
+        _declared_by_glb(layout, read_previous(set_layout))
     prev: Previous | None = None
     if running is not None:
         prev = read_previous(running)
@@ -193,6 +195,23 @@ def lay_out(
         _keep_set_layout(layout, read_previous(set_layout))
     doc = document(layout)
     return Laid(layout, doc, render_header(layout, doc["hash"], argv))
+
+
+def _declared_by_glb(layout: Layout, set_prev: Previous) -> None:
+    """Every .glb variable of the set's layout (one without an `iec_type`: stc's own are declared again
+    by the program) must be declared by the .glb files given: stc lays the set out again from
+    declarations, and the header its modules include is made from them; a layout.json names places,
+    not what glbc declared (its comments, #defines, the names of its types).  So a set's .glb files
+    come with its .st files; without them its C++ modules would lose their variables."""
+    declared = {v.path for v in layout.variables}
+    for p in set_prev.variables:
+        if p.path not in set_prev.iec and p.path not in declared:
+            raise GlbError(
+                f"'{p.path}' of the set's layout is declared by none of the .glb files given: give the set's "
+                f".glb files (--glb; in an uploaded set, beside its .st files), or, if it was removed from "
+                f"them, the layout glbc makes of them now",
+                file=set_prev.file,
+            )
 
 
 def _keep_set_layout(layout: Layout, set_prev: Previous) -> None:

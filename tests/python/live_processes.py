@@ -36,8 +36,9 @@ def copy_cell(
     extra_drivesim: list[str] | None = None,
     fail_limit: int | None = None,
     port: int | None = None,
+    cell: Path = CELL,
 ) -> tuple[Path, int]:
-    """The PLC + robot cell copied to `folder` with its drive simulator on a free port (irpd starts
+    """The PLC + robot cell (`cell`: a built set of it, plc-robot or plc-robot-st) copied to `folder` with its drive simulator on a free port (irpd starts
     it; two cells never share one), and room for the test machine's stalls: a shared VM starves the
     simulator for a fraction of a second at times, and a late answer must not read as a dead drive
     (1 s of silence before comm loss, whatever the period, unless `fail_limit` says how many failed
@@ -46,7 +47,7 @@ def copy_cell(
     sees the measured joints lag the commanded ones: the simulator's following-error limit and the
     robot's are 2 rad instead of 0.1 and 0.35 (real drives are not starved).  Returns the
     module.xml to run and the port."""
-    shutil.copytree(CELL, folder)
+    shutil.copytree(cell, folder)
     port = port or free_port()
     fail_limit = fail_limit or (1000 if "1ms" in xml else 100)
     ioconfig = folder / "ioconfig.xml"

@@ -3,16 +3,19 @@
 the appliance (stc build), stored with what was built, activated and run, their variables listed
 with their IEC types and read by path; a type error, a syntax error, a 10 MB source and NUL bytes refuse the upload with the
 compiler's errors in place (file, line, column, code, message) and leave the running set running;
-a build over the agent's time limit is stopped with an error that names the setting."""
+a build over the agent's time limit is stopped with an error that names the setting.  The ST cell as
+the build makes it (build/sets/plc-robot-st) is such a set: uploaded, main.st is compiled again."""
 
 from __future__ import annotations
 
 import json
+import os
 import time
 from pathlib import Path
 
 import pytest
-from agent_helpers import FIG1, IRPD, ROOT, LiveCell, free_port, st_configuration
+from agent_helpers import BUILD, FIG1, IRPD, ROOT, LiveCell, copy_cell, free_port, st_configuration
+from live_processes import wait_until
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
@@ -294,3 +297,44 @@ def test_a_build_that_writes_a_file_over_max_file_bytes_is_stopped(make_agent):
     assert r.json()["detail"].endswith("the limit per file of a set is 20000 (max_file_bytes)"), r.text
     assert r.json()["file"] == "Main.so"
     assert not [p for p in agent.stored() if not p.startswith("tmp")] and not list((agent.data / "tmp").iterdir())
+
+
+ST_CELL = BUILD / "sets" / "plc-robot-st"  # the paper's cell with its PLC in ST, as the build makes it
+
+
+@pytest.mark.skipif(not (ST_CELL / "main.so").exists(), reason=f"the ST cell is not built ({ST_CELL})")
+def test_the_built_st_cell_is_an_upload_that_the_agent_builds_again_from_main_st(tmp_path, capsys):
+    """build/sets/plc-robot-st holds its sources (main.st, cell.glb) beside what irpd runs, and no
+    generated C++: irpd runs the folder, the folder (with a variable added to main.st, so that only a
+    build on the appliance has it) is uploaded with irpctl, compiled, activated, and the cell cycles."""
+    folder = tmp_path / "plc-robot-st"
+    config, _ = copy_cell(folder, cell=ST_CELL)  # its drive simulator on a port of its own
+    assert (folder / "main.st").is_file() and (folder / "cell.glb").is_file(), sorted(os.listdir(folder))
+    assert not list(folder.glob("*.cpp")), "the generated C++ belongs to the build tree, not to the set"
+    main = folder / "main.st"
+    main.write_text(
+        main.read_text().replace("  LastStep : DINT;\n", "  LastStep : DINT;\n  Uploaded : DINT := 7;\n", 1)
+    )
+    cell = LiveCell(tmp_path, config, instance=f"st-cell-upload-{free_port()}")
+    try:
+        code, said = cell.irpctl(capsys, "upload", str(folder), "--activate", "--mode", "auto")
+        assert code == 0, said
+        status = cell.call("GET", "/status").json()
+        kinds = {f["path"]: f["kind"] for f in cell.call("GET", f"/sets/{status['set_id']}").json()["files"]}
+        assert (kinds["main.st"], kinds["cell.glb"], kinds["main.so"]) == ("st", "glb", "thread_module"), kinds
+
+        def read(path: str):
+            r = cell.call("GET", f"/variables/{path}")
+            return r.json()["value"] if r.status_code == 200 else None
+
+        def write(path: str, value) -> None:
+            r = cell.call("PUT", f"/variables/{path}", json={"value": value})
+            assert r.status_code == 200, r.text
+
+        assert read("main.Uploaded") == 7  # main.so was built from the uploaded main.st
+        write("PLC_ROBOT.PLC_IN.Enable", 1)
+        wait_until(lambda: read("PLC_ROBOT.PLC_OUT.Powered") == 1, 30, 0.05)
+        write("PLC_ROBOT.I0", 1)
+        wait_until(lambda: (read("main.Step") or 0) >= 3, 60, 0.05)  # the cycle runs: past the first moves
+    finally:
+        cell.close()

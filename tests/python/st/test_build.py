@@ -1,7 +1,7 @@
 # test_build.py -- `stc build` without running anything: the module.xml entries of the tasks (period,
 # priority, the overrun watchdog), a hand-written module.xml's other modules kept, the default task of
-# a source without CONFIGURATION, RETAIN/PERSISTENT passed to glbc, and every standard function of
-# stdlib.py's table compiling against the runtime.
+# a source without CONFIGURATION, RETAIN/PERSISTENT passed to glbc, a set rebuilt in place, the C++ in
+# --cpp-dir, and every standard function of stdlib.py's table compiling against the runtime.
 
 from __future__ import annotations
 
@@ -187,7 +187,19 @@ def test_a_set_rebuilt_in_place(tmp_path):
     program = {"p.st": TASKS}
     assert stc_build(tmp_path, program, "--no-compile").returncode == 0
     out = tmp_path / "set"
+    first = (out / "module.xml").read_text()
     again = ("--no-compile", "--set-layout", str(out / "layout.json"), "--module-xml", str(out / "module.xml"))
-    r = stc_build(tmp_path, program, *again)
+    for _ in range(2):
+        r = stc_build(tmp_path, program, *again)
+        assert r.returncode == 0, r.stdout
+        assert list(modules(out / "module.xml")) == ["./Quick.so", "./Lazy.so"]
+        # the same sources rebuilt: the same module.xml (stc's note in it once), so the same set
+        assert (out / "module.xml").read_text() == first
+
+
+def test_the_generated_cpp_goes_to_cpp_dir_outside_the_set(tmp_path):
+    r = stc_build(tmp_path, {"p.st": TASKS}, "--no-compile", "--cpp-dir", str(tmp_path / "cpp"))
     assert r.returncode == 0, r.stdout
-    assert list(modules(out / "module.xml")) == ["./Quick.so", "./Lazy.so"]
+    assert sorted(p.name for p in (tmp_path / "cpp").iterdir()) == ["Lazy.cpp", "Quick.cpp"]
+    assert not list((tmp_path / "set").glob("*.cpp"))
+    assert (tmp_path / "set" / "module.xml").is_file() and (tmp_path / "set" / "indurop" / "generated.h").is_file()

@@ -123,6 +123,28 @@ def test_a_set_layout_and_the_running_layout_together(tmp_path):
     assert e["code"] == "layout" and "was not laid out against the running one" in e["message"], e
 
 
+def test_a_set_layout_whose_glb_variables_no_glb_declares_is_an_error_that_says_to_give_the_glb(tmp_path):
+    """A set rebuilt from its .st files and layout.json without its .glb file: the layout's .glb
+    variables (its C++ modules' own) are not laid out again from layout.json; with or without the
+    running layout, the error names the variable and says to give the set's .glb files."""
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "io.glb").write_text("namespace IO;\nint16_t start;\n")
+    program = {"p.st": "PROGRAM P\nVAR n : DINT; END_VAR\n  n := n + IO.start;\nEND_PROGRAM\n"}
+    built = stc_build(tmp_path, program, "--glb", "io.glb", "--no-compile", out="v1")
+    assert built.returncode == 0, built.stdout
+    layout = str(tmp_path / "v1" / "layout.json")
+    for running in ((), ("--previous", layout)):
+        r = stc_build(tmp_path, program, "--set-layout", layout, *running, "--no-compile", out="v2")
+        assert r.returncode == 1, r.stdout
+        [e] = json.loads(r.stdout)
+        assert e["code"] == "layout" and "'IO.start' of the set's layout is declared by none" in e["message"], e
+        assert "give the set's .glb files" in e["message"], e
+    # with its .glb file, the same rebuild against the running layout keeps every place
+    r = stc_build(tmp_path, program, "--glb", "io.glb", "--set-layout", layout, "--previous", layout, "--no-compile")
+    assert r.returncode == 0, r.stdout
+
+
 def test_a_variable_retyped_where_no_value_is_lost_keeps_its_value(tmp_path):
     """INT -> DINT: glbc plans the conversion (i29-st-evolve), irpd copies the value at the swap."""
     v1 = "PROGRAM Grow\nVAR n : INT; END_VAR\n  n := n + 1;\nEND_PROGRAM\n"
