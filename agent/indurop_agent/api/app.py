@@ -58,6 +58,7 @@ from .routes import (
     audit,
     captures,
     events,
+    forces,
     health,
     jitter,
     line,
@@ -293,6 +294,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     routers += (scopes,)  # trace configurations kept with a set
     routers += (opcua,)  # the OPC UA server's state and trust list (docs/opcua.md)
     routers += (opcua_alarms,)  # the OPC UA server's Acknowledge and Confirm, with its own token
+    routers += (forces,)  # forcing (docs/forcing.md)
     for module in (*routers, stream):
         app.include_router(module.router, prefix=API)
     app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)

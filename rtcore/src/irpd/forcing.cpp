@@ -142,8 +142,8 @@ void Forcing::relayout(const std::string &layout_text) {
         auto bytes = leaf ? variables::encodeValue(*leaf, value) : Result<variables::LeafBytes>(leaf.error());
         if (!bytes) {
             events_.add("force_dropped", "",
-                        "force of '" + e.leaf.path + "' (by " + e.by + ") dropped by the new layout: " +
-                            bytes.error().message);
+                        "force of '" + e.leaf.path + "' (by " + e.by +
+                            ") dropped by the new layout: " + bytes.error().message);
             continue;
         }
         auto old_before = variables::encodeValue(*leaf, before);

@@ -34,7 +34,7 @@ const fs::path kOnline = ONLINE_DIR;
 inline std::string layoutOf(const std::string &name) { return (kOnline / ("oc_" + name) / "layout.json").string(); }
 
 inline std::string thread(const std::string &name, const std::string &file, const fs::path &dir, int priority = 1,
-                   const std::string &extra = "", int64_t period_ns = 1'000'000) {
+                          const std::string &extra = "", int64_t period_ns = 1'000'000) {
     return "  <module><name>" + name + "</name><filename>" + (kOnline / "modules" / file).string() +
            "</filename><moduletype>thread</moduletype><operationtype>periodic</operationtype>"
            "<period>" +
