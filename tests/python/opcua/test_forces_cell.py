@@ -4,12 +4,13 @@ inputs (PLC_IN.Enable, I0) and the PLC reacts (powered, cycles); the forced valu
 /variables and an OPC UA read give, flagged forced there and by the node's Forced property; a write
 to it (the API's, OPC UA's) is refused naming who forced it; a viewer cannot force; irpctl lists the
 forces; unforce with restore brings the value before back; the audit log has the force and the
-unforce with the user's name.  What is asserted is the state reached, never how fast."""
+unforce with the user's name; irpd restarts with no forces and the agent notes those lost.  What is asserted is the state reached, never how fast."""
 
 from __future__ import annotations
 
 import asyncio
 import sys
+import time
 from pathlib import Path
 
 import httpx
@@ -126,3 +127,23 @@ async def opcua_forced_flag(cell) -> bool:
         return await c.get_node(ua.NodeId(f"{I0}@Forced", await ns_of(c))).read_value() is True
     finally:
         await c.disconnect()
+
+
+def test_irpd_restarts_with_no_forces_and_the_agent_notes_the_ones_lost(cell):
+    oper = signed_in(cell, "oper")
+    assert call(cell, oper, "PUT", "/forces/PLC_ROBOT.PLC_IN.Override", json={"value": 0.25}).status_code == 200
+    before = cell.rest("/status")
+    # The agent's watcher has seen the force (its status poll) before irpd restarts.
+    wait_until(lambda: any(e.get("kind") == "force_set" for e in cell.rest("/events")["events"]), 60, 0.2)
+    time.sleep(2)
+    assert cell.control.request("restart", config=str(cell.xml), timeout=60)["restarting"] is True
+
+    def restarted() -> bool:
+        r = httpx.get(f"{cell.api}/status", headers=cell.admin, timeout=30)
+        return r.status_code == 200 and r.json()["uptime_ns"] < before["uptime_ns"]
+
+    wait_until(restarted, 120, 0.2)
+    assert cell.rest("/forces")["forces"] == []
+    wait_until(lambda: any(e.get("kind") == "forces_lost" for e in cell.rest("/events")["events"]), 60, 0.2)
+    lost = [e for e in cell.rest("/events")["events"] if e.get("kind") == "forces_lost"][-1]
+    assert "the 1 forces it held are gone" in lost["message"]
