@@ -125,7 +125,6 @@ void Executor::overran(Task &task, stats::TimingRecord &r, uint64_t run, int64_t
 
 void Executor::runThread(Task &task, stats::TimingRecord &r) {
     *alarm_source_ = task.config.alarm_source;  // its irp::raiseAlarm calls are its own
-    force();                                    // it reads the forced values
     try {
         task.config.run();
     } catch (const std::exception &e) {
@@ -162,7 +161,6 @@ int64_t waitBound(const TaskConfig &c, int64_t start, int64_t period_end) noexce
 
 void Executor::release(Task &task, uint64_t cycle, int64_t due, int64_t start, int64_t at) {
     indurop_process_slot &slot = *task.config.process;
-    force();  // the process reads the forced values
     std::atomic_ref<uint32_t> release(slot.release_seq);
     slot.cycle = cycle;
     slot.planned_ns = due;
@@ -274,7 +272,6 @@ int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
             int fired = 0;
             markRunning(crash_marker_, r.name);
             *alarm_source_ = c.alarm_source;
-            force();
             try {
                 fired = c.condition();
             } catch (...) {
@@ -366,9 +363,10 @@ void Executor::skip(uint64_t from, uint64_t count) {
  *      release is released to check its own condition (not awaited; its completion is checked
  *      against its deadline in the following basic periods);
  *   5. sample the traced variables into the trace rings (main executor only, trace/);
- *      the forces (dispatch/forces.hpp) are applied before every module's run(), condition() or
- *      release, after every run() and process done, and once here, after the slot's work: the
- *      table is taken at the slot's start, its generation noted for ForceBoard (docs/forcing.md);
+ *      the forces (dispatch/forces.hpp) are applied at the slot's start (the table taken then, its
+ *      generation noted for ForceBoard), after every run() and every process done, and once here,
+ *      after the slot's work: each module reads the forced values, as the application after the
+ *      module before it (or at the slot's start) is the last thing before it (docs/forcing.md);
  *   6. account the slot's work; work longer than the basic period is a dispatcher overrun, and
  *      the next slot then starts at once (no sleep) - the grid itself never moves.
  * Before step 1, a table offered by a hot reload (reload/) takes over if this slot is due at or
@@ -420,6 +418,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             // This slot's force table; an older one may be freed once every executor moved on.
             forces_ = options_.forces->current();
             force_seen_.store(forces_->generation, std::memory_order_release);
+            force();  // before the slot's first module (or its release made ahead) reads them
         }
         const auto max_backlog = static_cast<uint64_t>(options_.max_catchup_ns / basic);
         int64_t woke;

@@ -29,14 +29,24 @@ struct ForceTable {
     std::vector<ForcedLeaf> leaves;
 };
 
+// Whether the leaf at `place` holds f's value: one relaxed atomic load of its width.
+template <class W>
+inline bool holds(const char *place, const ForcedLeaf &f) noexcept {
+    W forced;
+    std::memcpy(&forced, f.value, sizeof forced);
+    return __atomic_load_n(reinterpret_cast<const W *>(place), __ATOMIC_RELAXED) == forced;
+}
+
 // The leaf's bytes are its forced value, or made so as a writer of it does (its lock and sequence,
 // libindurop's writeExclusive), so that readers of the whole variable stay consistent.  Only a
 // compare when nobody wrote it since the last application.
 inline void applyForce(const ForcedLeaf &f) noexcept {
     char *place = indurop_shared_data + f.offset;
-    alignas(8) unsigned char now[8];
-    shared::detail::atomicCopy(now, place, f.size);
-    if (std::memcmp(now, f.value, f.size) == 0) return;
+    const bool same = f.size == 8   ? holds<uint64_t>(place, f)
+                      : f.size == 4 ? holds<uint32_t>(place, f)
+                      : f.size == 2 ? holds<uint16_t>(place, f)
+                                    : holds<uint8_t>(place, f);
+    if (same) return;
     shared::detail::writeExclusive(f.lock, [&] { shared::detail::atomicCopy(place, f.value, f.size); });
 }
 
