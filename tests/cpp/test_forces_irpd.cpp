@@ -7,7 +7,6 @@
 #include "support/online_cell.hpp"
 
 using namespace online_cell;
-using nlohmann::json;
 
 namespace {
 

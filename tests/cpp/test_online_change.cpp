@@ -26,15 +26,7 @@
 #include <regex>
 #include <thread>
 
-using namespace online_cell;
-using nlohmann::json;
-using testing_support::Client;
-using testing_support::kIrpd;
-using testing_support::Process;
-using testing_support::readFile;
-using testing_support::TempDir;
-using testing_support::uniqueInstance;
-namespace fs = std::filesystem;
+using namespace online_cell;  // Cell, thread(), process(), and the names it uses (json, fs, TempDir ...)
 
 TEST(OnlineChange, AVariableIsAddedWhileTheCounterKeepsCounting) {
     Cell cell;
