@@ -3,7 +3,8 @@ records of irpd's alarm segment; every `irpd_poll_s` it asks irpd for its status
 (the system alarms, system.py), and for its declarations when the set changed.
 
     each poll (poll_s, 0.1 s):
-        irpd's turn (irpd_poll_s)? status -> reachable or not, restarted or not, fault stop;
+        irpd's turn (irpd_poll_s)? status -> reachable or not, restarted or not (forces it held
+                                   lost: an agent event), fault stop;
                                    events since the cursor -> system alarms, and to the
                                    on_events listeners (the captures' fault and swap triggers);
                                    the set's generation changed -> `alarms` (texts, severities)
@@ -118,6 +119,8 @@ class AlarmWatcher(threading.Thread):
         with self.manager.batch():
             if seen and not same:
                 self.system.irpd_restarted(f"irpd restarted (pid {status.get('pid')})")
+                if seen.get("forces"):  # irpd starts with none (docs/forcing.md)
+                    self.events.add("forces_lost", f"irpd restarted: the {seen['forces']} forces it held are gone")
             self.system.irpd_answered(status)
             for _ in range(16):  # the whole log at most (its capacity), a page at a time
                 page = self.client.request("events", since=cursor, limit=protocol.EVENT_LOG_CAPACITY) or {}
@@ -132,6 +135,7 @@ class AlarmWatcher(threading.Thread):
                 "pid": status.get("pid"),
                 "started_ns": seen["started_ns"] if same else started,
                 "events": cursor,
+                "forces": int(status.get("forces") or 0),
             }
             if now_seen != seen:  # (not a synced write every second for nothing)
                 self.manager.set_meta(irpd=now_seen)

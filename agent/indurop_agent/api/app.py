@@ -58,6 +58,7 @@ from .routes import (
     audit,
     captures,
     events,
+    forces,
     health,
     jitter,
     line,
@@ -295,6 +296,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     routers += (opcua,)  # the OPC UA server's state and trust list (docs/opcua.md)
     routers += (opcua_alarms,)  # the OPC UA server's Acknowledge and Confirm, with its own token
     routers += (programs,)  # the Programs page: ST files, the check as you type, edits applied (docs/programming.md)
+    routers += (forces,)  # forcing (docs/forcing.md)
     for module in (*routers, stream):
         app.include_router(module.router, prefix=API)
     app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)

@@ -184,6 +184,7 @@ class VariableInfo(BaseModel):
         None,
         description="the IEC 61131-3 type of a Structured Text variable (TIME, STRING[20], INT ...); null for .glb ones",
     )
+    forced: bool = Field(False, description="irpd holds it forced (docs/forcing.md; GET /forces says by whom)")
 
 
 class VariableList(BaseModel):
@@ -193,12 +194,14 @@ class VariableList(BaseModel):
 
 class VariableValue(protocol.VariableWritten):
     layout_hash: str = Field(description="the layout the value was read with")
+    forced: bool = Field(False, description="irpd holds it forced: `value` is the forced value")
 
 
 class LeafValue(BaseModel):
     path: str = Field(description="the leaf's full path, e.g. PLC_ROBOT.IO_STATUS.errors[0]")
     type: str = Field(description="its scalar type, as GET /variables gives it")
     value: StrictBool | StrictInt | float
+    forced: bool = Field(False, description="irpd holds it forced")
 
 
 class GroupValue(BaseModel):

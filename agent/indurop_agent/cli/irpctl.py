@@ -25,6 +25,7 @@ from .base import EXIT_OK, EXIT_REFUSED, EXIT_UNREACHABLE, EXIT_USAGE, arg, pars
 from .capture import CAPTURE_COMMANDS
 from .client import ApiError, Client
 from .client_errors import problem_line
+from .forces import cmd_force, cmd_forces, cmd_unforce
 from .line import LINE_COMMANDS
 from .opcua import OPCUA_COMMANDS
 from .record import RECORD_COMMANDS
@@ -416,6 +417,25 @@ COMMANDS: tuple[Command, ...] = (
         cmd_write,
         (arg("path", metavar="PATH"), arg("value", type=_value_arg, metavar="VALUE", help="a number or true/false")),
     ),
+    Command(
+        "force",
+        "force a shared variable: every reader sees VALUE, whatever modules write (operator)",
+        cmd_force,
+        (
+            arg("path", metavar="PATH", help="a leaf: a scalar, a struct member or an array element"),
+            arg("value", type=_value_arg, metavar="VALUE", help="a number or true/false"),
+        ),
+    ),
+    Command(
+        "unforce",
+        "end a force, leaving the forced value (or, with --restore, the value before it)",
+        cmd_unforce,
+        (
+            arg("path", metavar="PATH"),
+            arg("--restore", action="store_true", help="write back the value it had before the force"),
+        ),
+    ),
+    Command("forces", "the forced variables: who forced what, when", cmd_forces, ()),
     Command(
         "watch",
         "print the samples of variables as they come",

@@ -47,6 +47,8 @@ MAX_CLIENTS = 32
 ALARM_TEXT_MAX = 200
 # alarm records one source (a module) may write per second; more transitions are counted, not recorded (docs/alarms.md)
 ALARM_RATE_LIMIT = 1_000
+# variables forced at once (`force`, docs/forcing.md); one more is refused
+MAX_FORCES = 256
 # how long the control thread waits for irpd's main thread to carry out a change
 MAIN_THREAD_WAIT_MS = 60_000
 
@@ -65,8 +67,8 @@ TOO_LARGE = "too_large"
 BUSY = "busy"
 ERROR_CODES = (REFUSED, NOT_FOUND, RESTART_REQUIRED, BAD_REQUEST, TOO_LARGE, BUSY)
 
-COMMANDS = ("status", "schedule", "modules", "stats", "alarms", "histograms", "events", "check", "restart", "load", "change", "set_period", "set_priority", "enable", "disable", "clear_crash", "write", "trace")
-EVENT_KINDS = ("start", "swap", "swap_failed", "fault", "deadline", "overrun", "stopped", "safe_outputs_failed", "process_exit", "process_restart", "process_hang", "process_output_dropped", "crash", "crash_cleared", "restart", "retain", "retain_corrupt", "retain_write_failed", "restart_failed")
+COMMANDS = ("status", "schedule", "modules", "stats", "alarms", "histograms", "events", "check", "restart", "load", "change", "set_period", "set_priority", "enable", "disable", "clear_crash", "write", "force", "unforce", "forces", "trace")
+EVENT_KINDS = ("start", "swap", "swap_failed", "fault", "deadline", "overrun", "stopped", "safe_outputs_failed", "process_exit", "process_restart", "process_hang", "process_output_dropped", "crash", "crash_cleared", "restart", "retain", "retain_corrupt", "retain_write_failed", "restart_failed", "force_set", "force_cleared", "force_dropped")
 
 # ---- argument types
 Module = Annotated[StrictStr, Field(min_length=1, max_length=63, description="a module of the running set")]
@@ -109,6 +111,17 @@ class IrpdShape(BaseModel):
     pass through."""
 
     model_config = ConfigDict(extra="allow")
+
+
+class Force(IrpdShape):
+    """A forced variable (docs/forcing.md)."""
+
+    path: str = Field(description="the leaf forced, e.g. Main.start or joint[1].y")
+    value: bool | int | float = Field(description="the forced value, as stored")
+    before: bool | int | float = Field(description="the value it had when first forced (unforce with restore writes it back)")
+    by: str = Field(description="who forced it")
+    since_ns: int = Field(description="when (CLOCK_REALTIME ns)")
+    type: str = Field(description="the leaf's type in the running layout")
 
 
 class AlarmDeclaration(IrpdShape):
@@ -351,6 +364,7 @@ class SharedMemory(IrpdShape):
 class Status(IrpdShape):
     """The running set's and irpd's state (`status`)."""
 
+    forces: int | None = Field(None, description="variables forced now (`forces` lists them)")
     set: str = Field(description="the running module.xml")
     set_id: str | None = Field(description="the stored set's id given by the last `load` (or `restart`); null otherwise")
     generation: int = Field(description="1 + hot swaps since irpd started")
@@ -448,3 +462,14 @@ class CheckReport(IrpdShape):
 class VariableWritten(IrpdShape):
     path: str
     value: bool | int | float = Field(description="as irpd stored it (checked against the type)")
+
+
+class Unforced(IrpdShape):
+    force: Force
+    left: bool | int | float = Field(description="the variable's value after the unforce")
+    restored: bool
+
+
+class ForceList(IrpdShape):
+    forces: list[Force]
+    max_forces: int

@@ -7,7 +7,9 @@
 - Controller (s=@Controller): the running set, its id, the layout hash, generation, uptime, basic
   period, counters (properties); Modules and Dispatchers with each one's figures (period, priority,
   state, runs, overruns, missed, jitter and execution p50/p99/max) from irpd's `modules` and `stats`,
-  as GET /modules and /jitter read them; Alarms, the notifier of the alarm events (alarms.py).
+  as GET /modules and /jitter read them; Alarms, the notifier of the alarm events (alarms.py);
+- every variable's `Forced` property (s=<path>@Forced, a Boolean): irpd holds it (an array: one of
+  its elements) forced (docs/forcing.md), updated with the status; ForcesActive counts the forces.
 
 When the layout changes (a hot swap, an online change), `apply` removes the nodes whose variable
 went or changed type or shape, adds the new ones and emits a GeneralModelChangeEvent; nodes of
@@ -34,6 +36,7 @@ STATUS_PROPERTIES = {  # property -> (irpd status field, type)
     "Overruns": ("overruns", ua.VariantType.UInt64),
     "Missed": ("missed", ua.VariantType.UInt64),
     "StoppedByFault": ("stopped_by_fault", ua.VariantType.String),
+    "ForcesActive": ("forces", ua.VariantType.UInt32),
 }
 FIGURES = {  # variable -> (path into the timing record, type)
     "PeriodNs": (("period_ns",), ua.VariantType.Int64),
@@ -74,6 +77,7 @@ class Space:
         self._by_id: dict[ua.NodeId, Var] = {}
         self._properties: dict[str, Node] = {}
         self._figures: dict[tuple[str, str], dict[str, Node]] = {}  # (Modules|Dispatchers, name) -> nodes
+        self._forced: dict[str, tuple[Node, bool]] = {}  # variable path -> its Forced property, its value
         self._model_change = None
         self.controller: Node | None = None
         self.alarms_node: Node | None = None
@@ -125,6 +129,8 @@ class Space:
         changes = []
         for p in sorted(gone, key=lambda p: -p.count(".") - p.count("[")):  # children first
             node = self.server.get_node(self.nodeid(p))
+            if p in self._forced:
+                await self.server.delete_nodes([self._forced.pop(p)[0]], recursive=False)
             await self.server.delete_nodes([node], recursive=False)
             self._by_id.pop(self.nodeid(p), None)
             changes.append(ua.ModelChangeStructureDataType(Affected=self.nodeid(p), Verb=VERB_DELETED))
@@ -175,6 +181,21 @@ class Space:
         for attr, value in attrs:
             await self.server.write_attribute_value(nid, ua.DataValue(value), attr)
         self.server.iserver.set_attribute_value_callback(nid, lambda _nid, _attr, v=var: self.variables.data_value(v))
+        forced = await node.add_property(
+            self.nodeid(f"{var.path}@Forced"),
+            ua.QualifiedName("Forced", self.ns),
+            ua.Variant(False, ua.VariantType.Boolean),
+        )
+        self._forced[var.path] = (forced, False)
+
+    async def update_forces(self, forced: set[str]) -> None:
+        """Each variable's Forced property: one of its leaves is among the forced paths."""
+        for path, (node, was) in list(self._forced.items()):
+            var = self.nodes.get(path)
+            now = isinstance(var, Var) and any(leaf in forced for leaf in var.leaves)
+            if now != was:
+                await node.write_value(ua.Variant(now, ua.VariantType.Boolean))
+                self._forced[path] = (node, now)
 
     # ---- the controller's figures ------------------------------------------------------------
     async def update_status(self, status: dict) -> None:

@@ -288,6 +288,8 @@ async def poll_status(rt: Runtime) -> None:
         stats = await asyncio.to_thread(rt.irpd.request, "stats")
         await rt.space.update_figures("Modules", modules)
         await rt.space.update_figures("Dispatchers", stats.get("executors", []))
+        forces = await asyncio.to_thread(rt.irpd.request, "forces")
+        await rt.space.update_forces({f["path"] for f in forces.get("forces", [])})
     except (IrpdUnavailable, IrpdRefused):
         pass
     await rt.alarms.follow(status, set_changed)

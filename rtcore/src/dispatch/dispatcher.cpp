@@ -153,6 +153,7 @@ std::unique_ptr<Dispatcher::Plan> Dispatcher::makePlan(const ExecutorOptions &op
     auto plan = std::make_unique<Plan>();
     plan->options = options;
     plan->options.halted = &halted_;
+    plan->options.forces = options_.forces;
     // the crash handler's marker of this thread: the first free one
     auto free = std::find(marker_used_.begin(), marker_used_.end(), false);
     plan->options.marker = free == marker_used_.end() ? -1 : static_cast<int>(free - marker_used_.begin());
@@ -460,6 +461,14 @@ std::vector<std::shared_ptr<Executor>> Dispatcher::executors() const {
     for (const auto *list : {&plans_, &arriving_, &leaving_})
         for (const auto &plan : *list) all.push_back(plan->executor);
     return all;
+}
+
+uint64_t Dispatcher::forcesSeen() const {
+    std::lock_guard lock(plans_mutex_);
+    uint64_t oldest = UINT64_MAX;
+    for (const auto *list : {&plans_, &arriving_, &leaving_})
+        for (const auto &plan : *list) oldest = std::min(oldest, plan->executor->forceSeen());
+    return oldest;
 }
 
 std::vector<ExecutorReport> Dispatcher::reports() const {

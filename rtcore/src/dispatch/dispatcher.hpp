@@ -31,6 +31,7 @@ struct DispatcherOptions {
     OverrunPolicy policy = OverrunPolicy::CatchUp;
     int64_t max_catchup_ns = 100'000'000;
     trace::TraceRings *trace = nullptr;  // sampled by the main executor after every slot
+    const ForceBoard *forces = nullptr;  // applied by every executor (dispatch/forces.hpp); null: none
 };
 
 // A module of the set as the dispatcher runs it, and its stats record.  A thread module has its
@@ -122,6 +123,9 @@ public:
     std::vector<std::shared_ptr<Executor>> executors() const;
     // Changes whenever executors() would answer another list (cheap: one atomic load).
     uint64_t executorsVersion() const { return executors_version_.load(std::memory_order_acquire); }
+    // The oldest force table generation an executor may still read (dispatch/forces.hpp): every
+    // executor there is now took a table at least this new at its latest slot.
+    uint64_t forcesSeen() const;
     // Set once a fault stopped the set: every executor then runs no module (docs/faults.md).
     std::atomic<bool> &halted() { return halted_; }
     bool isHalted() const { return halted_.load(std::memory_order_relaxed); }

@@ -132,6 +132,7 @@ void Executor::runThread(Task &task, stats::TimingRecord &r) {
     } catch (...) {
         disable(task, r, "run()", "a non-standard exception");
     }
+    force();  // what it wrote to a forced variable is seen by nobody
 }
 
 void Executor::serveCalls(Task &task, uint64_t cycle) {
@@ -189,6 +190,7 @@ bool Executor::runProcess(Task &task, uint64_t cycle, int64_t due, int64_t start
     }
     release(task, cycle, due, start, 0);
     if (!awaitDone(slot, served, start, wait_until)) stats::bump(task.config.stats->overruns);
+    force();  // what it wrote to a forced variable is seen by nobody
     return true;
 }
 
@@ -295,6 +297,7 @@ int64_t Executor::handleEvents(uint64_t cycle, int64_t due, int64_t t) {
             std::atomic_ref<uint32_t> done(slot.done_seq);
             if (done.load(std::memory_order_acquire) == s.released_seq) {
                 s.in_flight = false;
+                force();
                 const int64_t took = slot.done_ns - s.released_at;
                 post(r, stats::RunSample::kExec | stats::RunSample::kRun, 0, 0,
                      static_cast<uint64_t>(took > 0 ? took : 0));
@@ -360,6 +363,10 @@ void Executor::skip(uint64_t from, uint64_t count) {
  *      release is released to check its own condition (not awaited; its completion is checked
  *      against its deadline in the following basic periods);
  *   5. sample the traced variables into the trace rings (main executor only, trace/);
+ *      the forces (dispatch/forces.hpp) are applied at the slot's start (the table taken then, its
+ *      generation noted for ForceBoard), after every run() and every process done, and once here,
+ *      after the slot's work: each module reads the forced values, as the application after the
+ *      module before it (or at the slot's start) is the last thing before it (docs/forcing.md);
  *   6. account the slot's work; work longer than the basic period is a dispatcher overrun, and
  *      the next slot then starts at once (no sleep) - the grid itself never moves.
  * Before step 1, a table offered by a hot reload (reload/) takes over if this slot is due at or
@@ -407,6 +414,12 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
                 switched_.store(true, std::memory_order_release);
             }
         }
+        if (options_.forces) {
+            // This slot's force table; an older one may be freed once every executor moved on.
+            forces_ = options_.forces->current();
+            force_seen_.store(forces_->generation, std::memory_order_release);
+            force();  // before the slot's first module (or its release made ahead) reads them
+        }
         const auto max_backlog = static_cast<uint64_t>(options_.max_catchup_ns / basic);
         int64_t woke;
         const bool slept = previous_end < due;
@@ -430,6 +443,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
                 if (!awaitDone(*armed->config.process, served, clock_.now(),
                                waitBound(armed->config, due, due + basic)))
                     stats::bump(armed->config.stats->overruns);
+                force();
                 first = First::Released;
                 first_end = clock_.now();
             }
@@ -526,6 +540,7 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
             if (over_limit) overran(*task, r, run, start, t);
         }
         if (!table_->events.empty() && !halted()) t = handleEvents(cycle, due, t);
+        force();  // after the slot: also over what a sporadic process in flight wrote
         markRunning(crash_marker_, nullptr);
         if (options_.trace) {
             options_.trace->sample(due);  // the traced variables, one row per basic period
@@ -544,6 +559,8 @@ void Executor::loop(int64_t t0, uint64_t cycle_limit, const std::atomic<bool> &s
     runtime::setRunAbort(nullptr);
     if (crash_marker_ < kMaxMarkedExecutors) g_running_markers[crash_marker_].tid.store(0, std::memory_order_relaxed);
     crash_marker_ = SIZE_MAX;
+    forces_ = nullptr;
+    force_seen_.store(UINT64_MAX, std::memory_order_release);  // reads no force table any more
     foldStats();  // off the RT path now: the figures are complete when the loop returns
     if (finished_ns)
         finished_ns->store(previous_end == INT64_MIN ? clock_.now() : previous_end, std::memory_order_relaxed);

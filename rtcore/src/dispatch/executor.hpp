@@ -8,6 +8,7 @@
 
 #include "config/module_xml.hpp"
 #include "dispatch/fault_note.hpp"
+#include "dispatch/forces.hpp"
 #include "dispatch/watchdog.hpp"
 #include "osal/clock.hpp"
 #include "sdk/runtime.hpp"
@@ -182,6 +183,8 @@ struct ExecutorOptions {
     // runs any module.  Shared by all executors of a dispatcher; null = never halted.
     std::atomic<bool> *halted = nullptr;
     int marker = -1;  // its running marker for the crash handler (running_marker.hpp); -1: none
+    // The forces applied before and after each module (dispatch/forces.hpp); null: none.
+    const ForceBoard *forces = nullptr;
     // Module runs whose figures its sample ring holds until they are folded into the stats block
     // (stats/sample_ring.hpp): a fold every millisecond leaves room for several milliseconds of
     // 100 modules at a 100 us basic period.
@@ -224,6 +227,9 @@ public:
     // Takes back a release made ahead that its process has not started yet (any thread: the
     // watchdog, when a fault stops the set): the process reports it done without running it.
     void cancelArmed() noexcept;
+    // The generation of the force table the loop took at its latest slot (0: no slot yet;
+    // UINT64_MAX: the loop ended): tables older than it are no longer read (dispatch/forces.hpp).
+    uint64_t forceSeen() const noexcept { return force_seen_.load(std::memory_order_acquire); }
 
     // Hot reload, from a non-RT thread.  offer(): the loop switches to `next` at the first slot due
     // at or after `at` (a macro-period boundary of the running table, on the common time grid),
@@ -277,6 +283,8 @@ private:
     bool runsNow(const Task &task, int64_t due) const {
         return !halted() && !task.state.disabled && task.state.skip_until <= due;
     }
+    // The forces of the slot's table into the variables (no-op without forces).
+    void force() const noexcept { applyForces(forces_); }
     // The switch to an offered table, on the RT thread (no allocation: carries the kept tasks' state).
     void takeOver(const Table *next);
 
@@ -300,7 +308,9 @@ private:
     // thread): its slot and its release_at_ns.
     std::atomic<indurop_process_slot *> armed_{nullptr};
     std::atomic<int64_t> armed_at_{0};
-    uint32_t *alarm_source_ = nullptr;  // this thread's alarm source word, while loop() runs
+    uint32_t *alarm_source_ = nullptr;    // this thread's alarm source word, while loop() runs
+    const ForceTable *forces_ = nullptr;  // the force table taken at the slot's start
+    std::atomic<uint64_t> force_seen_{0};
     std::atomic<int64_t> basic_ns_{0};
     stats::SampleRing samples_;
     std::mutex fold_mutex_;  // one consumer of samples_ at a time

@@ -172,8 +172,14 @@ Result<Command> decodeCommand(const std::string &cmd, const nlohmann::json &requ
         command.set_id = textOf(request, "set_id");
         break;
     case Kind::Write:
+    case Kind::Force:
         command.path = textOf(request, "path");
         command.value = request["value"];
+        command.by = textOf(request, "by");
+        break;
+    case Kind::Unforce:
+        command.path = textOf(request, "path");
+        command.restore = request.value("restore", false);
         break;
     case Kind::SetPeriod:
     case Kind::SetPriority:
@@ -201,6 +207,7 @@ Result<Command> decodeCommand(const std::string &cmd, const nlohmann::json &requ
     case Kind::Stats:
     case Kind::Alarms:
     case Kind::ClearCrash:
+    case Kind::Forces:
     case Kind::Trace: break;
     }
     return command;
@@ -244,7 +251,8 @@ control::Handler commandHandler(const CommandContext &c) {
             const stats::TimingRecord &d = c.stats->record(0);
             const std::string fault = c.stopped_by ? c.stopped_by() : std::string();
             const int64_t started = h->started_ns.load(), now = osal::monotonicNow();
-            return json{{"set", g->set.xml_path.string()},
+            return json{{"forces", c.forcing ? c.forcing->count() : 0},
+                        {"set", g->set.xml_path.string()},
                         {"set_id", g->set_id.empty() ? json(nullptr) : json(g->set_id)},
                         {"generation", g->number},
                         {"running", h->running.load() == 1},
@@ -320,7 +328,18 @@ control::Handler commandHandler(const CommandContext &c) {
         case Command::Kind::Restart: return askRestart(c, *g, command);
         case Command::Kind::Write:
             if (c.variables_shm.empty() || !c.vars) return Error{"the running set has no shared variables"};
+            if (c.forcing)
+                if (std::string why = c.forcing->refusal(command.path); !why.empty()) return Error{why};
             return variables::writeByPath(layouts->of(*c.vars), command.path, command.value);
+        case Command::Kind::Force:
+            if (!c.vars || !c.forcing) return Error{"the running set has no shared variables to force"};
+            return c.forcing->force(layouts->of(*c.vars), command.path, command.value, command.by);
+        case Command::Kind::Unforce:
+            if (!c.forcing) return Error{"the running set has no shared variables to force"};
+            return c.forcing->unforce(command.path, command.restore);
+        case Command::Kind::Forces:
+            if (!c.forcing) return json{{"forces", json::array()}, {"max_forces", protocol::kMaxForces}};
+            return c.forcing->list();
         case Command::Kind::Load:
             return onMain(
                 [r = c.reloader, path = command.config, set_id = command.set_id] { return r->load(path, set_id); });

@@ -2,7 +2,7 @@
 // thread.  Reads (status, schedule, modules, stats, histograms, events, check) answer from the
 // running generation and the shared-memory stats block; changes (load, change, set_period,
 // set_priority, enable, disable) run on the main thread through the MainQueue; write goes through libindurop's
-// locked path access; trace configures the trace rings (docs/trace-and-stream.md); alarms reads
+// locked path access (refused for a forced variable); force, unforce and forces: irpd/forcing.hpp; trace configures the trace rings (docs/trace-and-stream.md); alarms reads
 // the alarm segment's sources and the modules' declarations (docs/alarms.md); restart checks
 // the set and hands a managed restart to the main thread (irpd/restart.hpp).
 #pragma once
@@ -10,6 +10,7 @@
 #include "alarms/alarm_segment.hpp"
 #include "control/control_server.hpp"
 #include "events/event_log.hpp"
+#include "irpd/forcing.hpp"
 #include "irpd/main_queue.hpp"
 #include "irpd/options.hpp"
 #include "irpd/restart.hpp"
@@ -38,9 +39,11 @@ struct Command {
     std::string config;                                 // check, load, restart: a module.xml path
     std::string set_id;                                 // load, restart
     std::string path;                                   // write: the variable
-    nlohmann::json value;                               // write: its new value (checked against the layout when run)
-    std::vector<reload::Change> changes;                // change; set_period, set_priority, enable, disable: one
-    bool dry_run = false;                               // change
+    nlohmann::json value;                 // write, force: its new value (checked against the layout when run)
+    std::string by;                       // force: who forces
+    bool restore = false;                 // unforce: write back the value before the force
+    std::vector<reload::Change> changes;  // change; set_period, set_priority, enable, disable: one
+    bool dry_run = false;                 // change
 };
 
 // The command `cmd` with the arguments of `request`, or an Error naming the argument to fix: the
@@ -64,6 +67,7 @@ struct CommandContext {
     supervise::CrashState *crash = nullptr;            // null: no state folder (no crash records)
     RestartDesk *restarts = nullptr;                   // null: `restart` is refused
     const retain::RetainStore *retain = nullptr;       // null: no retain store (docs/retain.md)
+    Forcing *forcing = nullptr;                        // null: nothing may be forced (docs/forcing.md)
 };
 
 control::Handler commandHandler(const CommandContext &context);

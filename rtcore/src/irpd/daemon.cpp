@@ -199,6 +199,8 @@ private:
 
     // Shared by the resources below; nothing to undo.
     events::EventLog events_;
+    dispatch::ForceBoard force_board_;  // the forces the dispatchers apply; none at start (docs/forcing.md)
+    Forcing forcing_{force_board_, events_, [this] { return dispatcher_ ? dispatcher_->forcesSeen() : UINT64_MAX; }};
     MainQueue queue_;                                                // control thread -> main thread
     RestartDesk restarts_;                                           // `restart` asks here (irpd/restart.hpp)
     std::atomic<const dispatch::Watchdog *> watchdog_now_{nullptr};  // `status` asks it why a fault stopped the set
@@ -448,6 +450,9 @@ Status Daemon::startSupervision() {
     services.kept_off = kept_off_;
     services.trace = &*trace_;
     services.alarms = &*alarms_;
+    services.swapped = [this](const reload::Generation &g) {
+        if (g.layout) forcing_.relayout(g.layout->text);
+    };
     if (crash_) {
         watch::takeInCrash(*crash_, *set_, events_);
         services.left_out = [c = crash_.get()](const config::SetSpec &s) {
@@ -517,6 +522,7 @@ Status Daemon::openControlSocket() {
     context.crash = crash_.get();
     context.retain = retain_.get();
     context.restarts = &restarts_;
+    context.forcing = vars_ ? &forcing_ : nullptr;
     auto opened = control::ControlServer::open(options_.control_socket, commandHandler(context));
     if (!opened) return opened.error();
     server_ = std::move(*opened);
@@ -534,6 +540,7 @@ Status Daemon::startDispatchers() {
     }
     dispatch::DispatcherOptions dispatcher_options = options_.dispatcher;
     dispatcher_options.trace = &*trace_;
+    dispatcher_options.forces = &force_board_;
     dispatcher_.emplace(*set_, *(*first_)->tables, *stats_, dispatcher_options, osal::monotonicClock());
     if (Status s = dispatcher_->start(static_cast<int64_t>(options_.duration_s * 1e9)); !s) return s;
     session_.dispatched = true;

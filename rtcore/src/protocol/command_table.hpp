@@ -11,9 +11,9 @@
 
 namespace irp::protocol {
 
-enum class Cmd { Status, Schedule, Modules, Stats, Alarms, Histograms, Events, Check, Restart, Load, Change, SetPeriod, SetPriority, Enable, Disable, ClearCrash, Write, Trace };
-inline constexpr std::size_t kCommandCount = 18;
-inline constexpr const char *kCommandList = "status, schedule, modules, stats, alarms, histograms, events, check, restart, load, change, set_period, set_priority, enable, disable, clear_crash, write, trace";
+enum class Cmd { Status, Schedule, Modules, Stats, Alarms, Histograms, Events, Check, Restart, Load, Change, SetPeriod, SetPriority, Enable, Disable, ClearCrash, Write, Force, Unforce, Forces, Trace };
+inline constexpr std::size_t kCommandCount = 21;
+inline constexpr const char *kCommandList = "status, schedule, modules, stats, alarms, histograms, events, check, restart, load, change, set_period, set_priority, enable, disable, clear_crash, write, force, unforce, forces, trace";
 
 // How an argument is checked: String (min/max: its length), Integer (min/max: the range), Boolean,
 // Scalar (a number or a boolean), StringList and ObjectList (min/max: the entries).
@@ -97,6 +97,17 @@ inline constexpr Arg kWriteArgs[] = {
     {"value", ArgType::Scalar, true, false, false, 0, 0, "a number or a boolean", nullptr, 0, false},
 };
 
+inline constexpr Arg kForceArgs[] = {
+    {"path", ArgType::String, true, true, false, 1, 0, "a non-empty string", nullptr, 0, false},
+    {"value", ArgType::Scalar, true, false, false, 0, 0, "a number or a boolean", nullptr, 0, false},
+    {"by", ArgType::String, true, true, true, 1, 63, "a non-empty string of at most 63 characters", nullptr, 0, false},
+};
+
+inline constexpr Arg kUnforceArgs[] = {
+    {"path", ArgType::String, true, true, false, 1, 0, "a non-empty string", nullptr, 0, false},
+    {"restore", ArgType::Boolean, false, false, false, 0, 0, "true or false", nullptr, 0, false},
+};
+
 inline constexpr Arg kTraceChannelsEntries[] = {
     {"channels[]", ArgType::String, true, true, false, 1, 0, "a non-empty string", nullptr, 0, false},
 };
@@ -124,6 +135,9 @@ inline constexpr Command kCommands[kCommandCount] = {
     {Cmd::Disable, "disable", kDisableArgs, sizeof kDisableArgs / sizeof kDisableArgs[0], true},
     {Cmd::ClearCrash, "clear_crash", nullptr, 0, false},
     {Cmd::Write, "write", kWriteArgs, sizeof kWriteArgs / sizeof kWriteArgs[0], false},
+    {Cmd::Force, "force", kForceArgs, sizeof kForceArgs / sizeof kForceArgs[0], false},
+    {Cmd::Unforce, "unforce", kUnforceArgs, sizeof kUnforceArgs / sizeof kUnforceArgs[0], false},
+    {Cmd::Forces, "forces", nullptr, 0, false},
     {Cmd::Trace, "trace", kTraceArgs, sizeof kTraceArgs / sizeof kTraceArgs[0], false},
 };
 

@@ -44,6 +44,8 @@ inline constexpr int64_t kMaxClients = 32;
 inline constexpr int64_t kAlarmTextMax = 200;
 // alarm records one source (a module) may write per second; more transitions are counted, not recorded (docs/alarms.md)
 inline constexpr int64_t kAlarmRateLimit = 1'000;
+// variables forced at once (`force`, docs/forcing.md); one more is refused
+inline constexpr int64_t kMaxForces = 256;
 // how long the control thread waits for irpd's main thread to carry out a change
 inline constexpr int64_t kMainThreadWaitMs = 60'000;
 

@@ -932,6 +932,7 @@ Result<json> Reloader::swap(std::unique_ptr<Generation> next, int64_t requested_
         std::lock_guard lock(mutex_);
         current_ = std::shared_ptr<Generation>(std::move(next));
     }
+    if (s_.swapped) s_.swapped(*current_);
     return report;
 }
 

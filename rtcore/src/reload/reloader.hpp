@@ -68,6 +68,8 @@ struct Services {
     // of that set starts them disabled; an `enable` of one calls forgive.  Empty: none.
     std::function<std::set<std::string>(const config::SetSpec &)> left_out;
     std::function<void(const std::string &module)> forgive;
+    // After every swap, with the generation that took over (the forces resolved in its layout).
+    std::function<void(const Generation &)> swapped;
     int64_t ready_timeout_ns = 5'000'000'000;  // new processes: until irp::initPeriodExe()
     int64_t swap_timeout_ns = 10'000'000'000;  // offer -> every executor switched
 };

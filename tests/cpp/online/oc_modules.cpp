@@ -2,6 +2,7 @@
 //   OC_COUNTER   counts its runs in oc.counter and in itself; journals start and stop (runs=)
 //   OC_ADDER     oc.added = oc.counter, every run
 //   OC_RETYPED   oc.retyped += 1, whatever type the layout it was built against gives it
+//   OC_MIRROR    oc.added = oc.proc_runs, every run (what the process module left for the next module)
 #include <indurop/indurop.h>
 #include <indurop/generated.h>
 
@@ -31,6 +32,8 @@ void run() {
     counter += 1;
 #elif defined(OC_ADDER)
     added = static_cast<double>(static_cast<uint64_t>(counter));
+#elif defined(OC_MIRROR)
+    added = static_cast<double>(static_cast<uint64_t>(proc_runs));
 #elif defined(OC_RETYPED)
     retyped += 1;
 #endif

@@ -100,6 +100,7 @@ ROUTES = [
     ("GET", "/host", "viewer", None, 200),
     ("GET", "/variables", "viewer", None, 200),
     ("GET", "/variables/knu.Robot.tick", "viewer", None, 200),
+    ("GET", "/forces", "viewer", None, 200),  # forcing (docs/forcing.md)
     ("GET", "/events", "viewer", None, 200),
     ("GET", "/alarms", "viewer", None, 200),
     ("GET", "/alarms/history", "viewer", None, 200),
@@ -166,6 +167,8 @@ def test_every_route_of_the_api_is_in_the_role_matrix(cell):
         ("GET", "/health"),
         ("PATCH", "/modules/{name}"),
         ("PUT", "/variables/{path}"),
+        ("PUT", "/forces/{path}"),  # tests/python/opcua/test_forces_cell.py
+        ("DELETE", "/forces/{path}"),
         ("POST", "/sets"),
         ("GET", "/sets/active"),
         ("GET", "/sets/{set_id}"),
@@ -291,7 +294,8 @@ def test_a_leaf_path_answers_as_before(cell):
     url, admin, *_ = cell
     r = httpx.get(f"{url}/variables/joint[1].y", headers={"Authorization": f"Bearer {admin}"})
     assert r.status_code == 200
-    assert set(r.json()) == {"path", "value", "layout_hash"} and r.json()["path"] == "joint[1].y"
+    assert set(r.json()) == {"path", "value", "layout_hash", "forced"} and r.json()["path"] == "joint[1].y"
+    assert r.json()["forced"] is False  # forcing (docs/forcing.md)
 
 
 def test_a_path_that_names_nothing_is_a_404_with_the_nearest_names(cell):

@@ -783,7 +783,7 @@ def test_the_python_client_reads_a_group_as_a_dict_of_its_leaves(cell):
         joint = c.read("joint[3]")
         assert list(joint) == ["joint[3].x", "joint[3].y", "joint[3].z"]
         assert all(isinstance(v, float) for v in joint.values())
-        assert c.variable("joint[3].x").keys() == {"path", "value", "layout_hash"}
+        assert c.variable("joint[3].x").keys() == {"path", "value", "layout_hash", "forced"}
         with pytest.raises(ApiError) as e:
             c.read("joint[3].w")
         assert e.value.status == 404 and "did you mean 'joint[3].x'" in e.value.message

@@ -215,7 +215,7 @@ def test_the_api_answers_with_the_generated_models():
         (protocol.SwapReport, models.SwapReport, {"mode", "downtime_ns"}),
         (protocol.Histograms, models.Histograms, set()),
         (protocol.HistogramRecord, models.HistogramRecord, set()),
-        (protocol.VariableWritten, models.VariableValue, {"layout_hash"}),
+        (protocol.VariableWritten, models.VariableValue, {"layout_hash", "forced"}),
     ]:
         assert set(served.model_fields) - agent_only == set(generated.model_fields), served.__name__
     assert issubclass(models.Histograms, protocol.Histograms) and issubclass(models.RestartNeed, protocol.IrpdShape)

@@ -68,6 +68,8 @@ def test_every_answer_has_the_shape_the_spec_gives(irpd):
         ("check", {"config": str(FIG1)}),
         ("trace", {}),
         ("write", {"path": "joint[1].y", "value": 1.5}),
+        ("force", {"path": "joint[1].x", "value": 2.5, "by": "protocol-test"}),
+        ("forces", {}),
         ("change", {"changes": [{"module": "cntr1", "priority": 9}], "dry_run": True}),
         ("set_priority", {"module": "cntr1", "priority": 9}),
         ("set_priority", {"module": "cntr1", "priority": 3}),
@@ -75,6 +77,7 @@ def test_every_answer_has_the_shape_the_spec_gives(irpd):
         ("enable", {"module": "cntr2"}),
         ("set_period", {"module": "cntr2", "period_ns": 100_000}),
         ("load", {"config": str(FIG1), "set_id": "protocol-test"}),
+        ("unforce", {"path": "joint[1].x", "restore": True}),
         ("clear_crash", {}),
     ]:
         answer_of(irpd, name, **arguments)
@@ -95,6 +98,9 @@ def test_every_answer_has_the_shape_the_spec_gives(irpd):
         ("change", {"changes": [{"module": "cntr1", "enabled": True}] * 1025}, "refused"),
         ("load", {}, "refused"),
         ("write", {"path": "joint[1].y", "value": "x"}, "refused"),
+        ("force", {"path": "joint[1]", "value": 1, "by": "protocol-test"}, "refused"),
+        ("force", {"path": "joint[1].y", "value": 1}, "refused"),
+        ("unforce", {"path": "joint[1].y"}, "not_found"),
         ("restart", {"config": "/nonexistent/module.xml"}, "refused"),
     ],
 )

@@ -34,6 +34,8 @@ export const MAX_CLIENTS = 32;
 export const ALARM_TEXT_MAX = 200;
 /** alarm records one source (a module) may write per second; more transitions are counted, not recorded (docs/alarms.md) */
 export const ALARM_RATE_LIMIT = 1_000;
+/** variables forced at once (`force`, docs/forcing.md); one more is refused */
+export const MAX_FORCES = 256;
 /** how long the control thread waits for irpd's main thread to carry out a change */
 export const MAIN_THREAD_WAIT_MS = 60_000;
 
@@ -41,5 +43,5 @@ export const MAIN_THREAD_WAIT_MS = 60_000;
 export const ERROR_CODES = ["refused", "not_found", "restart_required", "bad_request", "too_large", "busy"] as const;
 export type ErrorCode = (typeof ERROR_CODES)[number];
 
-export const COMMANDS = ["status", "schedule", "modules", "stats", "alarms", "histograms", "events", "check", "restart", "load", "change", "set_period", "set_priority", "enable", "disable", "clear_crash", "write", "trace"] as const;
+export const COMMANDS = ["status", "schedule", "modules", "stats", "alarms", "histograms", "events", "check", "restart", "load", "change", "set_period", "set_priority", "enable", "disable", "clear_crash", "write", "force", "unforce", "forces", "trace"] as const;
 export type CommandName = (typeof COMMANDS)[number];

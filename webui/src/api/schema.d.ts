@@ -370,6 +370,45 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/forces": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** List Forces */
+        get: operations["list_forces_api_v1_forces_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/forces/{path}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        /**
+         * Force Variable
+         * @description Holds the leaf `path` (a scalar, a struct member or an array element) at `value` for every
+         *     reader in every period, whatever modules write, until it is unforced.
+         */
+        put: operations["force_variable_api_v1_forces__path__put"];
+        post?: never;
+        /** Unforce Variable */
+        delete: operations["unforce_variable_api_v1_forces__path__delete"];
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/health": {
         parameters: {
             query?: never;
@@ -2653,6 +2692,64 @@ export interface components {
             sha256: string;
         };
         /**
+         * Force
+         * @description A forced variable (docs/forcing.md).
+         */
+        Force: {
+            /**
+             * Before
+             * @description the value it had when first forced (unforce with restore writes it back)
+             */
+            before: boolean | number;
+            /**
+             * By
+             * @description who forced it
+             */
+            by: string;
+            /**
+             * Path
+             * @description the leaf forced, e.g. Main.start or joint[1].y
+             */
+            path: string;
+            /**
+             * Since Ns
+             * @description when (CLOCK_REALTIME ns)
+             */
+            since_ns: number;
+            /**
+             * Type
+             * @description the leaf's type in the running layout
+             */
+            type: string;
+            /**
+             * Value
+             * @description the forced value, as stored
+             */
+            value: boolean | number;
+        } & {
+            [key: string]: unknown;
+        };
+        /** ForceList */
+        ForceList: {
+            /** Forces */
+            forces: components["schemas"]["Force"][];
+            /** Max Forces */
+            max_forces: number;
+        } & {
+            [key: string]: unknown;
+        };
+        /**
+         * ForceRequest
+         * @description The value to hold: irpd checks it against the variable's type and range (409 with its message).
+         */
+        ForceRequest: {
+            /**
+             * Value
+             * @description checked against the variable's type and range when written
+             */
+            value: boolean | number;
+        };
+        /**
          * GroupValue
          * @description The answer for a group's path (a namespace, a struct, an array or one of its elements).
          */
@@ -2919,6 +3016,12 @@ export interface components {
         };
         /** LeafValue */
         LeafValue: {
+            /**
+             * Forced
+             * @description irpd holds it forced
+             * @default false
+             */
+            forced: boolean;
             /**
              * Path
              * @description the leaf's full path, e.g. PLC_ROBOT.IO_STATUS.errors[0]
@@ -4790,6 +4893,11 @@ export interface components {
              */
             events: number;
             /**
+             * Forces
+             * @description variables forced now (`forces` lists them)
+             */
+            forces?: number | null;
+            /**
              * Generation
              * @description 1 + hot swaps since irpd started
              */
@@ -5264,6 +5372,19 @@ export interface components {
              */
             token: string;
         };
+        /** Unforced */
+        Unforced: {
+            force: components["schemas"]["Force"];
+            /**
+             * Left
+             * @description the variable's value after the unforce
+             */
+            left: boolean | number;
+            /** Restored */
+            restored: boolean;
+        } & {
+            [key: string]: unknown;
+        };
         /** UserCreate */
         UserCreate: {
             /** Name */
@@ -5410,6 +5531,12 @@ export interface components {
         /** VariableInfo */
         VariableInfo: {
             /**
+             * Forced
+             * @description irpd holds it forced (docs/forcing.md; GET /forces says by whom)
+             * @default false
+             */
+            forced: boolean;
+            /**
              * Iec Type
              * @description the IEC 61131-3 type of a Structured Text variable (TIME, STRING[20], INT ...); null for .glb ones
              */
@@ -5433,6 +5560,12 @@ export interface components {
         };
         /** VariableValue */
         VariableValue: {
+            /**
+             * Forced
+             * @description irpd holds it forced: `value` is the forced value
+             * @default false
+             */
+            forced: boolean;
             /**
              * Layout Hash
              * @description the layout the value was read with
@@ -6292,6 +6425,109 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["EventsPage"];
                 };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_forces_api_v1_forces_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ForceList"];
+                };
+            };
+        };
+    };
+    force_variable_api_v1_forces__path__put: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                path: string;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["ForceRequest"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["Force"];
+                };
+            };
+            /** @description irpd refused: unknown path, a struct or array as a whole, wrong type, too many */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    unforce_variable_api_v1_forces__path__delete: {
+        parameters: {
+            query?: {
+                /** @description true: write back the value it had before the force */
+                restore?: boolean;
+            };
+            header?: never;
+            path: {
+                path: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["Unforced"];
+                };
+            };
+            /** @description the variable is not forced (the forced ones are named) */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
             /** @description Validation Error */
             422: {

@@ -1,7 +1,7 @@
 """variables.py -- GET /api/v1/variables (every shared variable of the running set's layout),
 GET /api/v1/variables/{path} (one value, or every leaf of a group, read consistently from shared
-memory), PUT /api/v1/variables/{path} (operator: irpd writes the value, type-checked against the
-layout) and GET /api/v1/layout (the running layout.json, to lay a changed .glb out against: glbc --previous)."""
+memory; each flagged `forced` when irpd holds it forced), PUT /api/v1/variables/{path} (operator: irpd
+writes the value, type-checked against the layout; refused for a forced variable) and GET /api/v1/layout (the running layout.json, to lay a changed .glb out against: glbc --previous)."""
 
 from fastapi import APIRouter, HTTPException, Request, Response
 from pydantic import BaseModel, ConfigDict
@@ -10,6 +10,7 @@ from ...irpd import protocol
 from ...irpd.variables import Segment, VariableError
 from ..deps import IrpdDep, OperatorDep, ViewerDep, ask, audited
 from ..models import GroupValue, VariableList, VariableValue
+from .forces import forced_paths
 
 router = APIRouter(tags=["variables"])
 
@@ -34,10 +35,15 @@ def segment(request: Request, irpd) -> Segment:
 @router.get("/variables")
 def list_variables(request: Request, irpd: IrpdDep, _: ViewerDep) -> VariableList:
     seg = segment(request, irpd)
+    forced = forced_paths(irpd)
     return {
         "layout_hash": seg.hash,
         "variables": [
-            {k: leaf[k] for k in ("path", "type", "size", "iec_type") if k in leaf} for leaf in seg.leaves.values()
+            {
+                **{k: leaf[k] for k in ("path", "type", "size", "iec_type") if k in leaf},
+                "forced": leaf["path"] in forced,
+            }
+            for leaf in seg.leaves.values()
         ],
     }
 
@@ -72,11 +78,15 @@ def read_variable(path: str, request: Request, irpd: IrpdDep, _: ViewerDep) -> V
         values = seg.values(leaves)
     except VariableError as e:
         raise HTTPException(404, str(e)) from e
+    forced = forced_paths(irpd)
     if leaves[0]["path"] == path:
-        return {"path": path, "value": values[0], "layout_hash": seg.hash}
+        return {"path": path, "value": values[0], "layout_hash": seg.hash, "forced": path in forced}
     return {
         "path": path,
-        "values": [{"path": leaf["path"], "type": leaf["type"], "value": v} for leaf, v in zip(leaves, values)],
+        "values": [
+            {"path": leaf["path"], "type": leaf["type"], "value": v, "forced": leaf["path"] in forced}
+            for leaf, v in zip(leaves, values)
+        ],
         "layout_hash": seg.hash,
     }
 
