@@ -169,6 +169,12 @@ def test_every_route_of_the_api_is_in_the_role_matrix(cell):
         ("PUT", "/variables/{path}"),
         ("PUT", "/forces/{path}"),  # tests/python/opcua/test_forces_cell.py
         ("DELETE", "/forces/{path}"),
+        ("GET", "/programs"),  # test_programs_api.py: 401, a viewer reads and checks, apply needs admin
+        ("GET", "/programs/source"),
+        ("POST", "/programs/check"),
+        ("POST", "/programs/apply"),
+        ("GET", "/programs/history"),
+        ("GET", "/programs/diff"),
         ("POST", "/sets"),
         ("GET", "/sets/active"),
         ("GET", "/sets/{set_id}"),

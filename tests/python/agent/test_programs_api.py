@@ -75,6 +75,15 @@ def steps_by(cell: Cell, step: int) -> None:
 
 
 def test_a_viewer_lists_the_files_and_pous_reads_a_source_and_checks_an_edit(cell):
+    for method, path, kw in [  # nobody signed in: every Programs route answers 401 (the role matrix's rule)
+        ("GET", "/programs", {}),
+        ("GET", "/programs/source", {"params": {"path": "main.st"}}),
+        ("POST", "/programs/check", {"json": {"path": "main.st", "source": TYPE_ERROR}}),
+        ("POST", "/programs/apply", {"json": {"path": "main.st", "source": TYPE_ERROR}}),
+        ("GET", "/programs/history", {"params": {"path": "main.st"}}),
+        ("GET", "/programs/diff", {"params": {"path": "main.st", "old": cell.base}}),
+    ]:
+        assert httpx.request(method, f"{cell.url}{path}", timeout=30, **kw).status_code == 401, path
     listed = cell.as_viewer("GET", "/programs").json()
     assert listed["set_id"] == cell.base and listed["active"] is True
     files = {f["path"]: f for f in listed["files"]}
