@@ -11,7 +11,6 @@ import { ROOT, type Server, startServer, stopServer } from "./server";
 
 const BUILT = join(ROOT, "build/sets/plc-robot-st");
 const MAIN = join(ROOT, "config/sets/plc-robot-st/main.st");
-const GLB = join(ROOT, "config/sets/plc-robot/cell.glb"); // the cell's variables, which the ST set's layout keeps
 const TYPED = "ErrorLatched := S;"; // a DINT assigned to a BOOL
 const FIXED = "ErrorLatched := ErrorLatched OR S < 0;";
 
@@ -28,14 +27,12 @@ async function rest(s: Server, path: string, init: RequestInit = {}): Promise<Re
   return fetch(`${s.url}/api/v1${path}`, { ...init, headers });
 }
 
-/** The ST cell as a stored, active set: its built files (no generated C++) with its sources, main.st
- * and the cell's cell.glb (stc lays the set out again from them, docs/st.md "Uploading ST"). */
+/** The ST cell as a stored, active set: the built folder as it is, which carries its sources, main.st
+ * and the cell's cell.glb, beside what irpd runs (stc lays the set out again from them, docs/st.md
+ * "Uploading ST"). */
 async function storeTheCell(s: Server): Promise<string> {
   const form = new FormData();
-  for (const p of files(BUILT).filter((f) => !f.endsWith(".cpp")))
-    form.append("files", new Blob([readFileSync(p)]), relative(BUILT, p));
-  form.append("files", new Blob([readFileSync(MAIN)]), "main.st");
-  form.append("files", new Blob([readFileSync(GLB)]), "cell.glb");
+  for (const p of files(BUILT)) form.append("files", new Blob([readFileSync(p)]), relative(BUILT, p));
   const r = await rest(s, "/sets", { method: "POST", body: form });
   expect(r.status, await r.clone().text()).toBe(201);
   const id = (await r.json()).id as string;

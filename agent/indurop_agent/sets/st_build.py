@@ -33,7 +33,13 @@ BUILDING = threading.Lock()  # one build at a time (see build())
 OUTPUT_KEPT = 1 << 20  # the compiler's output read back (stdout: the errors as JSON; stderr: shown on a failure)
 SHOWN_ERRORS = 5  # the errors the detail spells out; `problems` has them all
 # Runs stc (argv[2:]) with no file it, or g++ under it, may write reaching argv[1] bytes.
-LAUNCH = "import os, resource, sys; n = int(sys.argv[1]); resource.setrlimit(resource.RLIMIT_FSIZE, (n, n)); os.execv(sys.argv[2], sys.argv[2:])"
+# stc and the C++ compiler it runs: files bounded by the upload limit, and the lowest CPU priority
+# (nice 19), so that a set compiling on the appliance leaves the agent's own work (the recorder reading
+# the trace rings, OPC UA, the API) its share of the CPU.
+LAUNCH = (
+    "import os, resource, sys; n = int(sys.argv[1]); resource.setrlimit(resource.RLIMIT_FSIZE, (n, n)); "
+    "os.nice(19); os.execv(sys.argv[2], sys.argv[2:])"
+)
 
 
 class StBuildError(UploadError):

@@ -338,3 +338,15 @@ def test_the_built_st_cell_is_an_upload_that_the_agent_builds_again_from_main_st
         wait_until(lambda: (read("main.Step") or 0) >= 3, 60, 0.05)  # the cycle runs: past the first moves
     finally:
         cell.close()
+
+
+def test_the_compiler_runs_at_the_lowest_cpu_priority(make_agent, tmp_path):
+    """A set compiling on the appliance must leave the agent's own work (the recorder, OPC UA, the API)
+    its share of the CPU: stc, and the C++ compiler it starts, run at nice 19.  An stc that reports
+    its niceness and fails shows what the agent started it with."""
+    fake = tmp_path / "stc"
+    fake.write_text("import os, sys\nprint(f'stc ran at nice {os.nice(0)}', file=sys.stderr)\nsys.exit(3)\n")
+    agent = make_agent(stc=fake)
+    r = agent.client.post("/api/v1/sets", files=parts(st_set(COUNTER.format(step=1))), headers=agent.h())
+    assert r.status_code == 500, r.text
+    assert "stc ran at nice 19" in r.json()["detail"], r.text
