@@ -12,11 +12,12 @@ import type { components } from "../api/schema";
 import type { AppContext, Page } from "../app/context";
 import { ActivationReview } from "../ops/activation-review";
 import { errorText, h, setText } from "../ops/dom";
+import { problemList } from "../ops/problems-view";
 import { renderSwapReport } from "../ops/swap-report-view";
 import type { SwapReport } from "../ops/types";
 import { formatTime } from "../ops/units";
 import type { CheckResult, StEditor } from "../programs/st_editor";
-import { diffLines, errorLine } from "../programs/st_view";
+import { diffLines } from "../programs/st_view";
 
 type S = components["schemas"];
 
@@ -26,7 +27,7 @@ class ProgramsView {
   private title = h("span", { class: "mono", "data-testid": "st-title" });
   private status = h("span", { class: "ops-sub", "data-testid": "st-status", role: "status" });
   private host = h("div", { class: "st-editor", "data-testid": "st-editor" });
-  private errors = h("ul", { class: "st-errors", "data-testid": "st-errors" });
+  private errors = h("div", { class: "st-errors", "data-testid": "st-errors" });
   private error = h("div", { class: "ops-error", "data-testid": "st-error", hidden: true, role: "alert" });
   private review = h("div", { "data-testid": "st-review", hidden: true });
   private report = h("div", { "data-testid": "st-report", hidden: true });
@@ -184,7 +185,7 @@ class ProgramsView {
     const n = r.errors.length;
     setText(this.status, n ? `${n} error${n > 1 ? "s" : ""}` : "no errors");
     this.status.dataset.errors = String(n);
-    this.errors.replaceChildren(...r.errors.map((x) => h("li", { class: "bad mono" }, errorLine(x))));
+    this.errors.replaceChildren(problemList({ errors: [], problems: r.errors })); // as the upload panel lists them
   }
 
   /** Check: the new set from the running one with this file, and irpd's dry run with Activate. */

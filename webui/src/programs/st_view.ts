@@ -1,11 +1,5 @@
-// st_view.ts -- how the Programs page writes what the agent answered (pure, unit-tested): an error as
-// stc prints it, and a unified diff's lines by kind for colouring.
-import type { CheckError } from "./st_text";
-
-/** `main.st:8:8: error[type]: cannot assign BOOL to DINT`, as stc and the upload panel print it. */
-export function errorLine(e: CheckError): string {
-  return `${e.file}:${e.line}:${e.column}: error[${e.code}]: ${e.message}`;
-}
+// st_view.ts -- how the Programs page writes a unified diff (pure, unit-tested): its lines by kind
+// for colouring.  (The check's errors are listed by ops/problems-view.ts, as an upload's are.)
 
 export type DiffKind = "added" | "removed" | "hunk" | "file" | "same";
 

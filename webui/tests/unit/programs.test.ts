@@ -1,11 +1,12 @@
 // programs.test.ts -- the Programs page's pure parts: the blocks that fold (from the grammar's END_
 // keywords), completion and hover from the check's symbols, the check's errors as editor ranges,
-// an error line and a diff's lines.
+// the check's errors listed as an upload's are, and a diff's lines.
 import { describe, expect, it } from "vitest";
+import { problemList } from "../../src/ops/problems-view";
 import { ST_KEYWORDS } from "../../src/programs/st_language";
 import { complete, hoverText, type Symbols } from "../../src/programs/st_symbols";
 import { BLOCKS, blocks, diagnostics, foldRanges, words } from "../../src/programs/st_text";
-import { diffLines, errorLine } from "../../src/programs/st_view";
+import { diffLines } from "../../src/programs/st_view";
 
 const SOURCE = `PROGRAM Counter
 VAR
@@ -148,9 +149,11 @@ describe("the check's errors", () => {
   });
 
   it("print as stc prints them, and a diff's lines by kind", () => {
-    expect(errorLine({ file: "main.st", line: 8, column: 8, code: "type", message: "m" })).toBe(
-      "main.st:8:8: error[type]: m",
-    );
+    const listed = problemList({
+      errors: [],
+      problems: [{ file: "main.st", line: 8, column: 8, code: "type", message: "m" }],
+    });
+    expect(listed.textContent).toBe("main.st:8:8: error[type]: m");
     expect(diffLines("--- a/m.st\n+++ b/m.st\n@@ -1 +1 @@\n-x\n+y\n z\n").map((l) => l.kind)).toEqual([
       "file",
       "file",
