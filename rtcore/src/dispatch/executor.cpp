@@ -51,14 +51,12 @@ std::size_t Executor::foldStats() {
 }
 
 void Executor::noteTable(const Table &table) {
-    bool watched = false, processes = false;
+    bool watched = false;
     for (const Task *t : table.tasks) {
         watched =
             watched || (t->config.kind == Task::Kind::Thread && t->config.on_overrun != config::OverrunAction::None);
-        processes = processes || (t->config.kind == Task::Kind::Process && !t->config.sporadic);
     }
     watching_.store(watched, std::memory_order_relaxed);
-    awaits_processes_.store(processes, std::memory_order_relaxed);
     basic_ns_.store(table.basic_ns, std::memory_order_relaxed);
 }
 
@@ -251,12 +249,9 @@ bool Executor::awaitDone(indurop_process_slot &slot, uint32_t served, int64_t no
     std::atomic_ref<uint32_t> done(slot.done_seq);
     while (done.load(std::memory_order_acquire) == served) {
         if (until <= now) return false;
-        if (process_wait_.begin(&slot.done_seq, until)) {  // the watchdog ends it at `until`
-            futex::wait(&slot.done_seq, served);
-            process_wait_.end();
-        } else if (const int64_t left = until - clock_.now(); left > 0) {  // no watchdog: its own timeout
-            futex::wait(&slot.done_seq, served, left);
-        }
+        // Its own timer, at the absolute bound: not a watchdog that looks every basic period
+        // (docs/benchmark.md: such looks on the other CPU made this CPU's timers fire late).
+        clock_.waitUntil(&slot.done_seq, served, until);
         now = clock_.now();
     }
     return true;

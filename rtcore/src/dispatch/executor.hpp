@@ -220,10 +220,6 @@ public:
     // watching(): the running table has a module with <on_overrun>.
     RunMarker &marker() { return marker_; }
     bool watching() const { return watching_.load(std::memory_order_relaxed); }
-    // The wait for a periodic process's done word in progress, which the watchdog ends at its bound
-    // (dispatch/watchdog.hpp); awaitsProcesses(): the running table has a periodic process module.
-    ProcessWait &processWait() { return process_wait_; }
-    bool awaitsProcesses() const { return awaits_processes_.load(std::memory_order_relaxed); }
     // Takes back a release made ahead that its process has not started yet (any thread: the
     // watchdog, when a fault stops the set): the process reports it done without running it.
     void cancelArmed() noexcept;
@@ -302,8 +298,6 @@ private:
     std::atomic<bool> switched_{false};
     RunMarker marker_;
     std::atomic<bool> watching_{false};
-    ProcessWait process_wait_;
-    std::atomic<bool> awaits_processes_{false};
     // The release made ahead and not resolved yet (cancelArmed() may take it back from another
     // thread): its slot and its release_at_ns.
     std::atomic<indurop_process_slot *> armed_{nullptr};

@@ -3,11 +3,9 @@
 
 #include "dispatch/executor.hpp"
 #include "osal/rt.hpp"
-#include "sdk/sync.hpp"
 
 #include <algorithm>
 #include <cstdio>
-#include <ctime>
 
 namespace irp::dispatch {
 namespace {
@@ -87,30 +85,6 @@ bool RunMarker::take(Fault &out) noexcept {
     return true;
 }
 
-int64_t ProcessWait::bound(int64_t now) noexcept {
-    bound_.store(true, std::memory_order_seq_cst);
-    uint32_t *word = word_.load(std::memory_order_seq_cst);
-    if (!word) return 0;
-    const int64_t until = until_.load(std::memory_order_relaxed);  // as new as the word, or newer
-    if (now < until) return until;
-    futex::wakeAll(word);  // a wake lost before the executor's FUTEX_WAIT is repeated at the next look
-    return 0;
-}
-
-void ProcessWait::release() noexcept {
-    bound_.store(false, std::memory_order_seq_cst);
-    // The executor saw bound_ true before this store if its word is published; it leaves its wait
-    // at a wake, sees bound_ false and waits on with a timeout.  A wake landing before its
-    // FUTEX_WAIT is lost, hence the repeats.
-    for (int i = 0; i < 1000; ++i) {
-        uint32_t *word = word_.load(std::memory_order_seq_cst);
-        if (!word) return;
-        futex::wakeAll(word);
-        timespec pause{0, 100'000};
-        nanosleep(&pause, nullptr);
-    }
-}
-
 Watchdog::Watchdog(osal::Clock &clock, Executors executors, std::atomic<bool> &halted, Hooks hooks)
     : clock_(clock), executors_(std::move(executors)), halted_(halted), hooks_(std::move(hooks)) {}
 
@@ -129,11 +103,7 @@ Watchdog::~Watchdog() { stop(); }
 int64_t Watchdog::check(int64_t now) {
     int64_t next = now + kIdleNs;
     if (const uint64_t version = executors_.version(); version != watched_version_) {  // a hot reload changed them
-        std::vector<std::shared_ptr<Executor>> now_watched = executors_.list();
-        for (const std::shared_ptr<Executor> &old : watched_)  // leaving: their last waits carry a timeout
-            if (std::find(now_watched.begin(), now_watched.end(), old) == now_watched.end())
-                old->processWait().release();
-        watched_ = std::move(now_watched);
+        watched_ = executors_.list();
         watched_version_ = version;
         std::erase_if(reported_, [&](const auto &entry) {
             return std::none_of(watched_.begin(), watched_.end(),
@@ -143,9 +113,8 @@ int64_t Watchdog::check(int64_t now) {
     for (const std::shared_ptr<Executor> &watched : watched_) {
         Executor &e = *watched;
         RunMarker &marker = e.marker();
-        if (e.watching() || e.awaitsProcesses())
+        if (e.watching())
             next = std::min(next, now + std::clamp<int64_t>(e.basicNs(), kMinIntervalNs, kIdleNs));
-        if (const int64_t until = e.processWait().bound(now)) next = std::min(next, until);
         RunMarker::Running r;
         if (marker.running(r)) {
             const int64_t deadline = r.started_ns + r.limit_ns;
@@ -205,7 +174,6 @@ void Watchdog::start(int rt_priority) {
 void Watchdog::stop() {
     quit_.store(true, std::memory_order_relaxed);
     if (thread_.joinable()) thread_.join();
-    for (const std::shared_ptr<Executor> &e : watched_) e->processWait().release();
 }
 
 }  // namespace irp::dispatch

@@ -102,36 +102,6 @@ private:
     std::atomic<uint64_t> head_{0}, tail_{0}, dropped_{0};
 };
 
-// An executor's wait for a periodic process's done word (docs/process-modules.md).  While a
-// watchdog bounds it, the executor waits with a FUTEX_WAIT without a timeout -- no timer is armed
-// and cancelled around each switch to a process (docs/benchmark.md) -- and the watchdog wakes the
-// word once the wait passed its bound; without a watchdog the wait carries its own timeout.
-class ProcessWait {
-public:
-    // Executor thread (RT): around one unbounded FUTEX_WAIT on `word`, which must end at `until`.
-    // begin() returns false when no watchdog bounds the wait (then wait with a timeout instead).
-    bool begin(uint32_t *word, int64_t until) noexcept {
-        until_.store(until, std::memory_order_relaxed);
-        word_.store(word, std::memory_order_seq_cst);  // seq_cst with bound_: see release()
-        if (bound_.load(std::memory_order_seq_cst)) return true;
-        word_.store(nullptr, std::memory_order_relaxed);
-        return false;
-    }
-    void end() noexcept { word_.store(nullptr, std::memory_order_relaxed); }
-
-    // Watchdog thread: from now on it bounds the waits (each look).  Wakes the wait in progress
-    // if it passed its bound; returns that wait's bound if it has not, else 0.
-    int64_t bound(int64_t now) noexcept;
-    // Watchdog thread, when it stops: the waits carry their timeout again; a wait in progress is
-    // woken until it has left (it then waits on with its timeout).
-    void release() noexcept;
-
-private:
-    std::atomic<uint32_t *> word_{nullptr};
-    std::atomic<int64_t> until_{0};
-    std::atomic<bool> bound_{false};
-};
-
 class Watchdog {
 public:
     struct Hooks {
