@@ -304,21 +304,18 @@ class ExprChecker:
         if typ is None:
             return None
         k = ty.kind(typ)
-        c = e.operand.const
         if e.op == "NOT":
             if k not in ("bool", "bit"):
                 self.error(
                     e.place, "type", f"NOT applies to BOOL or a bit string, not {typ}; compare it instead, e.g. `= 0`"
                 )
                 return None
-            if isinstance(c, bool):
-                e.const = not c
+            self.fold_unary(e)
             return ty.base(typ)
         if k not in ("int", "real", "time", "lit_int", "lit_real") and not (e.op == "+" and k == "uint"):
             self.error(e.place, "type", f"unary {e.op} applies to a signed number or a duration, not {typ}")
             return None
-        if isinstance(c, (int, float)) and not isinstance(c, bool):
-            e.const = -c if e.op == "-" else c
+        self.fold_unary(e)
         if isinstance(typ, ty.LiteralType):
             low, high = (typ.low, typ.high) if e.op == "+" or typ.low is None else (-typ.high, -typ.low)
             return ty.LiteralType(typ.kind, e.const, low, high)
@@ -384,6 +381,17 @@ class ExprChecker:
         hint = f"; convert one of them, e.g. {conv}(...)" if conv else "; they have no common type"
         self.error(e.place, "type", f"{what}{hint}")
         return None
+
+    @staticmethod
+    def fold_unary(e: t.Unary) -> None:
+        """e.const from its operand's: NOT of a BOOL, - or + of a number (the monitor folds read values
+        with it too, agent/indurop_agent/sets/st_monitor.py)."""
+        c = e.operand.const
+        if e.op == "NOT":
+            if isinstance(c, bool):
+                e.const = not c
+        elif isinstance(c, (int, float)) and not isinstance(c, bool):
+            e.const = -c if e.op == "-" else c
 
     def fold(self, e: t.Binary) -> None:
         a, b = e.left.const, e.right.const

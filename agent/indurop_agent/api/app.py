@@ -45,6 +45,7 @@ from ..recorder.store import Store
 from ..sets.activation import Activator, Restorer
 from ..sets.errors import LocatedError, located_error
 from ..sets.store import SetStore
+from ..sets.watch_lists import WatchLists
 from ..system.host import Sampler
 from ..system.restart import AgentRestarter, detect_supervisor
 from ..system.restore import apply_pending
@@ -77,6 +78,7 @@ from .routes import (
     tokens,
     users,
     variables,
+    watches,
 )
 
 API = "/api/v1"
@@ -252,6 +254,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     state.refusals = RefusalAudit(state.audit)
     state.store = SetStore(settings.data_dir)
     state.scopes = ScopeConfigs(state.store)  # trace configurations kept with the sets
+    state.watches = WatchLists(state.store)  # watch lists kept with the sets
     state.activator = Activator(state.store, state.irpd_swap, state.events, settings.swap_timeout_s)
     state.host = Sampler()
     state.webui_dir = webui_dir(settings)
@@ -297,6 +300,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     routers += (opcua_alarms,)  # the OPC UA server's Acknowledge and Confirm, with its own token
     routers += (programs,)  # the Programs page: ST files, the check as you type, edits applied (docs/programming.md)
     routers += (forces,)  # forcing (docs/forcing.md)
+    routers += (watches,)  # watch lists kept with a set (docs/programming.md)
     for module in (*routers, stream):
         app.include_router(module.router, prefix=API)
     app.include_router(system.router, prefix=API)  # the System page (and POST /sets/prune)

@@ -151,6 +151,31 @@ class Segment:
             raise VariableError(self.unknown(path))
         return self.values([leaf])[0]
 
+    def read_many(self, paths: list[str]) -> tuple[list[tuple[dict, object]], list[dict]]:
+        """The leaves `paths` name, read in one pass (the leaves of one variable from one write):
+        ([(leaf, value)] in the order asked, [{path, message}] for a path that names no leaf -- an
+        unknown path with the nearest names, a group with the count of its leaves)."""
+        self.refresh()
+        found, errors = [], []
+        for path in paths:
+            leaf = self.leaves.get(path)
+            if leaf is not None and self._format(leaf) is None:
+                errors.append({"path": path, "message": f"'{path}' is a {leaf['type']}, which the agent cannot decode"})
+                continue
+            if leaf is not None:
+                found.append(leaf)
+                continue
+            under = tuple(path + c for c in ".[")
+            count = sum(1 for p in self.leaves if p.startswith(under)) if path else 0
+            message = (
+                f"'{path}' is a group of {count} leaves, not a leaf: name its members (GET /api/v1/variables/{path} "
+                "lists them)"
+                if count
+                else self.unknown(path)
+            )
+            errors.append({"path": path, "message": message})
+        return list(zip(found, self.values(found))), errors
+
     def select(self, path: str) -> list[dict]:
         """The layout's leaves that `path` names: the leaf itself, or for a group (a namespace, a
         struct, an array or one of its elements) every leaf under it, in layout order."""
@@ -187,8 +212,7 @@ class Segment:
         the same write."""
         formats = []
         for leaf in leaves:
-            kind = self.scalars.get(leaf["type"], {}).get("kind", "unsigned")
-            fmt = FORMATS.get((kind, leaf["size"]))
+            fmt = self._format(leaf)
             if fmt is None:
                 raise VariableError(f"'{leaf['path']}' is a {leaf['type']}, which the agent cannot decode")
             formats.append(fmt)
@@ -203,6 +227,11 @@ class Segment:
             for i in which:
                 out[i] = struct.unpack_from(formats[i], raw, leaves[i]["offset"] - lo)[0]
         return out
+
+    def _format(self, leaf: dict) -> str | None:
+        """The struct format a leaf is decoded with, or None for a type the agent cannot decode."""
+        kind = self.scalars.get(leaf["type"], {}).get("kind", "unsigned")
+        return FORMATS.get((kind, leaf["size"]))
 
     def _copy(self, lock_index: int, lo: int, hi: int, path: str) -> bytes:
         """The data bytes [lo, hi) of one variable, as one writer left them."""

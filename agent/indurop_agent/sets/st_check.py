@@ -38,7 +38,7 @@ def compiler(stc: Path) -> SimpleNamespace:
         raise CompilerMissing(f"the ST compiler's package is not beside {stc}; install indurop's st/ or set `stc`")
     if folder not in sys.path:
         sys.path.insert(0, folder)
-    names = ("parse", "check", "errors", "layout", "emit_glb", "tasks", "stdlib", "build")
+    names = ("parse", "check", "check_expr", "tree", "errors", "layout", "emit_glb", "tasks", "stdlib", "build")
     return SimpleNamespace(**{n: importlib.import_module(f"stc_compiler.{n}") for n in names})
 
 
@@ -106,28 +106,34 @@ def check(stc: Path, sources: SetSources, path: str, text: str) -> dict:
     (a syntax error) gives its error only, as `stc check` does.  What the checker could still type
     goes into the symbols, so completion works on a file with errors."""
     p = parsed(stc)
+    with _LOCK:
+        errors, prog = program(p, sources, path, text)
+        symbols = _symbols(p.c, prog)
+    errors.sort(key=lambda e: (e.file != path, e.file, e.line, e.col))
+    return {"errors": [e.as_json() for e in errors], "symbols": symbols}
+
+
+def program(p: Parsed, sources: SetSources, path: str, text: str) -> tuple[list, object]:
+    """(errors, the checked Program) of the set's sources with `path` as `text`; call it with _LOCK
+    held (the checker's tree is fresh: what it holds may be read after)."""
     c = p.c
     errors: list = []
     units = []
-    with _LOCK:
-        c.parse.ensure_recursion_limit()
-        for name, body in sorted({**sources.files, path: text}.items()):
-            try:
-                units.append(p.unit(name, body, keep=name != path))
-            except c.errors.StError as e:
-                errors.append(e)
-        layout = _layout(c, sources.layout)
-        collector = c.errors.Collector()
-        prog = c.check.Program(p.library() + units, layout=layout)
+    c.parse.ensure_recursion_limit()
+    for name, body in sorted({**sources.files, path: text}.items()):
         try:
-            c.check.Checker(prog, collector).run()
-        except RecursionError:
-            errors.append(c.errors.StError(c.errors.Place(path, 1, 1), "too-deep", "the program nests too deeply"))
-        if not errors:  # as stc check: with a file unread, what the others miss of it is no error
-            errors = collector.errors
-        symbols = _symbols(c, prog)
-    errors.sort(key=lambda e: (e.file != path, e.file, e.line, e.col))
-    return {"errors": [e.as_json() for e in errors], "symbols": symbols}
+            units.append(p.unit(name, body, keep=name != path))
+        except c.errors.StError as e:
+            errors.append(e)
+    collector = c.errors.Collector()
+    prog = c.check.Program(p.library() + units, layout=_layout(c, sources.layout))
+    try:
+        c.check.Checker(prog, collector).run()
+    except RecursionError:
+        errors.append(c.errors.StError(c.errors.Place(path, 1, 1), "too-deep", "the program nests too deeply"))
+    if not errors:  # as stc check: with a file unread, what the others miss of it is no error
+        errors = collector.errors
+    return errors, prog
 
 
 def _layout(c, doc: dict | None):

@@ -10,6 +10,7 @@ The archive is a .tar.gz:
     data/sets/<id>/manifest.json    every stored set's manifest
     data/blobs/sha256/<hex>         every blob a set names (the sets' trees are made from them)
     data/sets/<id>/scopes/<n>.json  the trace configurations kept with a set (scope_configs.py)
+    data/sets/<id>/watches/<n>.json the watch lists kept with a set (sets/watch_lists.py)
     data/opcua/pki/<folder>/<name>  the OPC UA server's trust list (opcua_backup.py)
 
 The sets' trees (sets/<id>/files/) are not in it: they are hard links and copies of the blobs,
@@ -38,6 +39,7 @@ from ..access.auth import now_iso
 from ..access.users import parse_users, without_password_hashes
 from ..recorder.scope_configs import ScopeConfigs
 from ..sets.store import remove_tree
+from ..sets.watch_lists import WatchLists
 from . import opcua_backup
 
 FORMAT = "indurop-backup"
@@ -192,11 +194,13 @@ def create(data_dir: Path, store, activator, with_secrets: bool = False) -> tupl
                 target.parent.mkdir(parents=True, exist_ok=True)
                 shutil.copyfile(store.sets / m["id"] / "manifest.json", target)
                 files.append((f"{DATA}sets/{m['id']}/manifest.json", target))
-                for scope in ScopeConfigs(store).files(m["id"]):
-                    target = snap / "sets" / m["id"] / "scopes" / scope.name
-                    target.parent.mkdir(exist_ok=True)
-                    shutil.copyfile(scope, target)
-                    files.append((f"{DATA}sets/{m['id']}/scopes/{scope.name}", target))
+                for kept in (ScopeConfigs(store), WatchLists(store)):
+                    for source in kept.files(m["id"]):
+                        rel = f"sets/{m['id']}/{kept.FOLDER}/{source.name}"
+                        target = snap / rel
+                        target.parent.mkdir(exist_ok=True)
+                        shutil.copyfile(source, target)
+                        files.append((DATA + rel, target))
             (snap / "blobs" / "sha256").mkdir(parents=True)
             for sha in blobs:
                 target = snap / "blobs" / "sha256" / sha

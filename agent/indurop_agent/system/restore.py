@@ -9,11 +9,11 @@ replace), staged, and applied when the agent starts again.
    (max_backup_bytes: a size bomb stops at the limit, not at the disk's end), each member's
    SHA-256 compared with the manifest's (an altered or damaged archive is refused, naming the
    member).  Only names of the kinds a backup holds are accepted (backup.ITEMS, sets' manifests,
-   blobs, the sets' trace configurations, the OPC UA trust list), each written to a path made here, in a staging folder
+   blobs, the sets' trace configurations and watch lists, the OPC UA trust list), each written to a path made here, in a staging folder
    in <data>/tmp.
 2. check(): the content makes sense: every blob holds the content its name says, every set's
    manifest names safe paths and blobs of the archive and has the id its files give, every trace
-   configuration is one (scope_configs.parse) of a set the archive holds, the tokens, the active
+   configuration and watch list is one (KEPT's parse) of a set the archive holds, the tokens, the active
    set, the alarm database, the settings, the TLS pair and the OPC UA server's certificates
    (opcua_backup.py) are what the agent and the OPC UA server can use.
 3. plan(): what a restore would do here (the dry run's answer): sets added, the active set, the
@@ -47,10 +47,12 @@ from pathlib import Path
 from .. import config
 from ..access.auth import ROLES, now_iso
 from ..access.users import parse_users
-from ..recorder import scope_configs
+from ..recorder.scope_configs import ScopeConfigs
 from ..recorder.store import NAME
 from ..sets.archives import tar_stream, type_problem
+from ..sets.kept import KeptError
 from ..sets.store import SET_ID, SetStore, remove_tree, set_id_of
+from ..sets.watch_lists import WatchLists
 from . import opcua_backup
 from .backup import DATA, FORMAT, FORMAT_VERSION, ITEM_PATHS, ITEMS, MANIFEST, summary_of
 from .tls import CertificateError, check_pair
@@ -61,7 +63,8 @@ MAX_NAME_BYTES = 1024
 HEX64 = re.compile(r"^[0-9a-f]{64}$")
 SET_MANIFEST = re.compile(r"^sets/([0-9a-f]{16})/manifest\.json$")
 BLOB = re.compile(r"^blobs/sha256/([0-9a-f]{64})$")
-SET_SCOPE = re.compile(rf"^sets/([0-9a-f]{{16}})/scopes/({NAME.pattern})\.json$")
+KEPT = {k.FOLDER: k for k in (ScopeConfigs, WatchLists)}  # the files kept beside a set (sets/kept.py)
+SET_SCOPE = re.compile(rf"^sets/([0-9a-f]{{16}})/({'|'.join(KEPT)})/({NAME.pattern})\.json$")
 KIND = re.compile(r"^[a-z_]{1,32}$")
 ROOM_MARGIN = 64 << 20  # left free on the data folder's file system after unpacking
 
@@ -398,8 +401,8 @@ def check(manifest: dict, staging: Path) -> dict:
         if SET_SCOPE.match(rel).group(1) not in sets:
             raise RestoreError(400, f"{rel} in the backup belongs to set {rel.split('/')[1]}, which the backup lacks")
         try:
-            scope_configs.parse((root / rel).read_bytes(), f"{rel} in the backup")
-        except scope_configs.ScopeError as e:
+            KEPT[SET_SCOPE.match(rel).group(2)].parse((root / rel).read_bytes(), f"{rel} in the backup")
+        except KeptError as e:
             raise RestoreError(400, e.message) from None
     warnings, skip = [], []
     if (root / "tokens.json").exists():
@@ -468,7 +471,8 @@ def plan(manifest: dict, checked: dict, staging: Path, data_dir: Path) -> dict:
     for rel in checked.get("scopes", []):
         action = "replace" if (data_dir / rel).exists() else "add"
         set_id = SET_SCOPE.match(rel).group(1)
-        files.append({"path": rel, "action": action, "what": f"a trace configuration kept with set {set_id}"})
+        what = KEPT[SET_SCOPE.match(rel).group(2)].WHAT
+        files.append({"path": rel, "action": action, "what": f"a {what} kept with set {set_id}"})
     files += opcua_backup.plan_files(checked.get("opcua_trust"), data_dir)
     restored = {f["path"] for f in files}
     warnings = list(checked["warnings"])
@@ -574,7 +578,7 @@ def apply_pending(data_dir: Path) -> dict | None:
     blob_sources = {p.name: p for p in blob_dir.iterdir()} if blob_dir.is_dir() else {}
     for manifest_path in sorted((root / "sets").glob("*/manifest.json")):
         store.adopt(json.loads(manifest_path.read_text()), blob_sources)
-    for source in sorted((root / "sets").glob("*/scopes/*.json")):
+    for source in sorted(p for folder in KEPT for p in (root / "sets").glob(f"*/{folder}/*.json")):
         rel = source.relative_to(root).as_posix()
         if not SET_SCOPE.match(rel) or not (data_dir / "sets" / source.parent.parent.name).is_dir():
             continue

@@ -100,6 +100,7 @@ ROUTES = [
     ("GET", "/host", "viewer", None, 200),
     ("GET", "/variables", "viewer", None, 200),
     ("GET", "/variables/knu.Robot.tick", "viewer", None, 200),
+    ("POST", "/variables/read", "viewer", {"paths": ["knu.Robot.tick"]}, 200),
     ("GET", "/forces", "viewer", None, 200),  # forcing (docs/forcing.md)
     ("GET", "/events", "viewer", None, 200),
     ("GET", "/alarms", "viewer", None, 200),
@@ -132,6 +133,11 @@ ROUTES = [
     ("GET", "/sets/0123456789abcdef/scopes/x", "viewer", None, 404),
     ("PUT", "/sets/0123456789abcdef/scopes/x", "operator", {"capture": CAPTURE}, 404),
     ("DELETE", "/sets/0123456789abcdef/scopes/x", "operator", None, 404),
+    # watch lists kept with a set (tests/python/agent/test_monitor_api.py): no such set here
+    ("GET", "/sets/0123456789abcdef/watches", "viewer", None, 404),
+    ("GET", "/sets/0123456789abcdef/watches/x", "viewer", None, 404),
+    ("PUT", "/sets/0123456789abcdef/watches/x", "operator", {"paths": []}, 404),
+    ("DELETE", "/sets/0123456789abcdef/watches/x", "operator", None, 404),
 ]
 ROLES = ["viewer", "operator", "admin"]
 
@@ -173,6 +179,7 @@ def test_every_route_of_the_api_is_in_the_role_matrix(cell):
         ("GET", "/programs/source"),
         ("POST", "/programs/check"),
         ("POST", "/programs/apply"),
+        ("POST", "/programs/monitor"),  # test_monitor_api.py: 401, a viewer monitors
         ("GET", "/programs/history"),
         ("GET", "/programs/diff"),
         ("POST", "/sets"),
@@ -225,7 +232,7 @@ def test_every_route_of_the_api_is_in_the_role_matrix(cell):
         **{
             (m, p): (m, p.replace("0123456789abcdef", "{set_id}").replace("/x", "/{name}"))
             for m, p, *_ in ROUTES
-            if "/scopes" in p
+            if "/scopes" in p or "/watches" in p
         },
         **{(m, p): (m, p.replace("0" * 64, "{thumbprint}")) for m, p, *_ in ROUTES if "/opcua/" in p},
     }

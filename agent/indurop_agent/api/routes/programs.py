@@ -3,7 +3,8 @@ POUs, a file's source, the check of an edited file in its set (errors and symbol
 compiler in this process: sets/st_check.py), an edit applied as a new set made from the set with
 the file replaced (built as an upload is, its manifest saying `derived_from`; irpd's dry run in the
 answer; activated on request through the sets' activation), a file's history across sets and the
-diff of two versions.  Rollback is POST /sets/rollback.  Viewers read and check; applying an edit
+diff of two versions, and the monitor: the values of the variables of the lines shown and the
+conditions evaluated (sets/st_monitor.py).  Rollback is POST /sets/rollback.  Viewers read and check; applying an edit
 needs the role an upload needs (admin)."""
 
 from __future__ import annotations
@@ -17,11 +18,13 @@ from pathlib import Path
 from fastapi import APIRouter, HTTPException, Query, Request
 from starlette.concurrency import run_in_threadpool
 
-from ...sets import st_build, st_check, uploads
+from ...irpd.variables import VariableError
+from ...sets import st_build, st_check, st_monitor, uploads
 from ...sets.activation import irpd_validation
 from ...sets.store import remove_tree
 from ..deps import AdminDep, IrpdDep, ViewerDep, audited
 from ..models import ActivateRequest
+from ..monitor_models import MonitorAnswer, MonitorRequest
 from ..program_models import (
     ApplyRequest,
     ApplyResult,
@@ -35,6 +38,8 @@ from ..program_models import (
     ProgramSource,
 )
 from . import sets as sets_routes
+from .forces import forced_paths
+from .variables import segment
 
 router = APIRouter(tags=["programs"])
 NOT_FOUND = {404: {"description": "no such set, no active set, or no such .st file in it"}}
@@ -140,6 +145,26 @@ def check_program(body: CheckRequest, request: Request, _: ViewerDep) -> CheckRe
     return CheckResult(set_id=set_id, **result)
 
 
+@router.post("/programs/monitor", responses=NOT_FOUND)
+def monitor_program(body: MonitorRequest, request: Request, irpd: IrpdDep, _: ViewerDep) -> MonitorAnswer:
+    """The running values of the variables in lines from_line..to_line of the set's (default: the
+    active set's) file `path`, each where it is (an FB instance or a struct as a group: its fields
+    when named in `expand`), and the IF/ELSIF/WHILE/UNTIL conditions and CASE selectors evaluated
+    on them with the compiler's own folding (or why not).  One read of the shared memory."""
+    set_id = _set_id(request, body.set)
+    _file_of(request, set_id, body.path)
+    try:
+        found = st_monitor.analyse(_stc(request), (set_id, body.path), _set_sources(request, set_id), body.path)
+    except st_check.CompilerMissing as e:
+        raise _compiler_missing(e) from e
+    seg = segment(request, irpd)
+    try:
+        answer = found.snapshot(seg, forced_paths(irpd), body.from_line, body.to_line, body.expand)
+    except VariableError as e:
+        raise HTTPException(503, str(e)) from e
+    return MonitorAnswer(set_id=set_id, **answer)
+
+
 def _derive(request: Request, irpd, base: str, path: str, source: str, who) -> dict:
     """Stores the base set with `path` replaced by `source`, built as an upload (its .st compiled
     against the running layout), with irpd's dry run as its validation; returns the manifest."""
@@ -160,6 +185,8 @@ def _derive(request: Request, irpd, base: str, path: str, source: str, who) -> d
         received = sets_routes.build_st(request, irpd, received, staging, limits)
         files = uploads.check_set(received)
         manifest, new = store.commit(files, who.as_dict(), sets_routes.NOT_CHECKED_YET, {"set_id": base, "path": path})
+        for kept in (state.scopes, state.watches):  # the trace configurations and watch lists follow the edit
+            kept.copy(base, manifest["id"])
         validation = irpd_validation(state.irpd_swap, store.module_xml(manifest["id"]), state.settings.swap_timeout_s)
         return store.save_validation(manifest["id"], validation)
     finally:

@@ -1,7 +1,9 @@
 """variables.py -- GET /api/v1/variables (every shared variable of the running set's layout),
 GET /api/v1/variables/{path} (one value, or every leaf of a group, read consistently from shared
 memory; each flagged `forced` when irpd holds it forced), PUT /api/v1/variables/{path} (operator: irpd
-writes the value, type-checked against the layout; refused for a forced variable) and GET /api/v1/layout (the running layout.json, to lay a changed .glb out against: glbc --previous)."""
+writes the value, type-checked against the layout; refused for a forced variable), POST
+/api/v1/variables/read (many leaves in one pass: the Watch page, the monitor) and GET /api/v1/layout
+(the running layout.json, to lay a changed .glb out against: glbc --previous)."""
 
 from fastapi import APIRouter, HTTPException, Request, Response
 from pydantic import BaseModel, ConfigDict
@@ -10,6 +12,7 @@ from ...irpd import protocol
 from ...irpd.variables import Segment, VariableError
 from ..deps import IrpdDep, OperatorDep, ViewerDep, ask, audited
 from ..models import GroupValue, VariableList, VariableValue
+from ..monitor_models import ReadAnswer, ReadRequest
 from .forces import forced_paths
 
 router = APIRouter(tags=["variables"])
@@ -46,6 +49,20 @@ def list_variables(request: Request, irpd: IrpdDep, _: ViewerDep) -> VariableLis
             for leaf in seg.leaves.values()
         ],
     }
+
+
+@router.post("/variables/read")
+def read_variables(body: ReadRequest, request: Request, irpd: IrpdDep, _: ViewerDep) -> ReadAnswer:
+    """The values of many leaves, read in one pass over the shared memory (never a request to irpd's
+    RT threads): a path that names no leaf (unknown, a group, a type the agent cannot decode) is an
+    entry of `errors` with the reason, the others are read."""
+    seg = segment(request, irpd)
+    read, errors = seg.read_many(body.paths)
+    forced = forced_paths(irpd) if read else {}
+    values = [
+        {"path": leaf["path"], "type": leaf["type"], "value": v, "forced": leaf["path"] in forced} for leaf, v in read
+    ]
+    return {"layout_hash": seg.hash, "values": values, "errors": errors}
 
 
 @router.get(

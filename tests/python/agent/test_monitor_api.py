@@ -1,0 +1,154 @@
+"""test_monitor_api.py -- live values for the ST editor's monitor and the Watch page, against a real
+agent beside a real irpd running a set written in Structured Text: POST /variables/read reads many
+leaves at once (an unknown path or a group is an error entry, not a failure; the bound is named);
+POST /programs/monitor places each variable of the lines asked with its value, an FB instance as an
+expandable group, and evaluates IF/ELSIF/CASE conditions with the compiler's folding on the values
+read (a write moves them; a VAR_TEMP or a call is not evaluated, and the answer says why); the watch
+lists are kept with the set, read by a viewer, saved by an operator only, and follow an edit."""
+
+from __future__ import annotations
+
+import time
+
+import httpx
+import pytest
+from agent_helpers import IRPD, st_configuration
+from test_programs_api import Cell
+
+pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
+
+MAIN = """\
+PROGRAM Counter
+VAR
+  count : DINT;
+  limit : DINT := 1000000000;
+  run : BOOL := TRUE;
+  mode : INT := 2;
+  pulse : TON;
+  hits : DINT;
+END_VAR
+VAR_TEMP
+  t : BOOL;
+END_VAR
+IF run AND count < limit THEN
+  count := count + 1;
+ELSIF NOT run THEN
+  hits := hits + 1;
+END_IF;
+CASE mode * 10 OF
+  10: hits := 0;
+END_CASE;
+t := count > 5;
+IF t THEN
+  hits := hits;
+END_IF;
+IF ABS(count) > 2 THEN
+  hits := hits;
+END_IF;
+pulse(IN := NOT pulse.Q, PT := T#10ms);
+END_PROGRAM
+"""
+
+
+@pytest.fixture
+def cell(tmp_path):
+    c = Cell(tmp_path)
+    files = {"main.st": MAIN.encode(), "config.st": st_configuration("Counter").encode()}
+    stored = c.upload([("files", (p, b)) for p, b in files.items()])
+    r = c.post(f"/sets/{stored['id']}/activate", json={"mode": "auto"})
+    assert r.status_code == 200, r.text
+    c.base = stored["id"]
+    yield c
+    c.close()
+
+
+def write(cell: Cell, path: str, value) -> None:
+    r = cell.call("PUT", f"/variables/{path}", json={"value": value})
+    assert r.status_code == 200, r.text
+
+
+def monitor(cell: Cell, **body) -> dict:
+    r = cell.as_viewer("POST", "/programs/monitor", json={"path": "main.st", **body})
+    assert r.status_code == 200, r.text
+    return r.json()
+
+
+def test_many_values_are_read_at_once_and_a_bad_path_is_named(cell):
+    r = cell.as_viewer(
+        "POST", "/variables/read", json={"paths": ["Main.run", "Main.count", "Main.cuont", "Main.pulse"]}
+    )
+    assert r.status_code == 200, r.text
+    answer = r.json()
+    assert [(v["path"], v["type"]) for v in answer["values"]] == [("Main.run", "bool"), ("Main.count", "int32_t")]
+    assert answer["values"][0]["value"] is True and answer["values"][0]["forced"] is False
+    errors = {e["path"]: e["message"] for e in answer["errors"]}
+    assert "did you mean 'Main.count'" in errors["Main.cuont"]
+    assert "is a group of" in errors["Main.pulse"] and "name its members" in errors["Main.pulse"]
+    first = answer["values"][1]["value"]
+    deadline = time.monotonic() + 10
+    while (
+        cell.as_viewer("POST", "/variables/read", json={"paths": ["Main.count"]}).json()["values"][0]["value"] == first
+    ):
+        assert time.monotonic() < deadline, "Main.count does not move: not live"
+        time.sleep(0.02)
+    too_many = cell.as_viewer("POST", "/variables/read", json={"paths": ["Main.run"] * 1001})
+    assert too_many.status_code == 422 and "1000" in too_many.text, too_many.text
+
+
+def test_the_monitor_places_values_and_evaluates_conditions_as_the_compiler_folds(cell):
+    for path, body in (("/programs/monitor", {"path": "main.st"}), ("/variables/read", {"paths": []})):
+        assert httpx.post(f"{cell.url}{path}", json=body, timeout=30).status_code == 401, path  # nobody signed in
+    answer = monitor(cell, from_line=13, to_line=28, expand=["Main.pulse"])
+    at = {(o["line"], o["column"]): o for o in answer["occurrences"]}
+    assert at[(13, 4)]["path"] == "Main.run" and at[(13, 4)]["value"] is True and at[(13, 4)]["type"] == "BOOL"
+    assert at[(13, 4)]["end_column"] == 7
+    assert at[(13, 12)]["path"] == "Main.count" and isinstance(at[(13, 12)]["value"], int)
+    assert at[(28, 1)] == {**at[(28, 1)], "path": "Main.pulse", "group": True}  # the FB instance: expandable
+    assert "Main.pulse.Q" in [f["path"] for f in answer["fields"]["Main.pulse"]]
+    assert all(13 <= o["line"] <= 28 for o in answer["occurrences"])
+    conditions = {(x["line"], x["what"]): x for x in answer["conditions"]}
+    assert conditions[(13, "IF")]["value"] is True and conditions[(13, "IF")]["end_column"] == 25
+    assert conditions[(15, "ELSIF")]["value"] is False
+    assert conditions[(18, "CASE")]["value"] == 20
+    assert conditions[(22, "IF")]["value"] is None and "VAR_TEMP" in conditions[(22, "IF")]["reason"]
+    assert conditions[(25, "IF")]["value"] is None and "calls ABS" in conditions[(25, "IF")]["reason"]
+
+    write(cell, "Main.run", False)
+    write(cell, "Main.mode", 1)
+    after = {(x["line"], x["what"]): x["value"] for x in monitor(cell, from_line=13, to_line=18)["conditions"]}
+    assert after[(13, "IF")] is False and after[(15, "ELSIF")] is True and after[(18, "CASE")] == 10
+
+    missing = cell.as_viewer("POST", "/programs/monitor", json={"path": "nothing.st"})
+    assert missing.status_code == 404 and "main.st" in missing.text
+    assert cell.as_viewer("POST", "/programs/monitor", json={"path": "main.st", "from_line": 0}).status_code == 422
+
+
+def test_watch_lists_are_kept_with_the_set_saved_by_an_operator_and_follow_an_edit(cell):
+    url = f"/sets/{cell.base}/watches/cell"
+    assert cell.as_viewer("PUT", url, json={"paths": ["Main.count"]}).status_code == 403
+    r = cell.call("PUT", url, json={"paths": ["Main.count", "Main.pulse.Q"]})
+    assert r.status_code == 200, r.text
+    assert r.json()["config"] == {"paths": ["Main.count", "Main.pulse.Q"]}
+    listed = cell.as_viewer("GET", f"/sets/{cell.base}/watches").json()
+    assert [w["name"] for w in listed["watches"]] == ["cell"]
+    assert cell.as_viewer("GET", url).json()["config"]["paths"] == ["Main.count", "Main.pulse.Q"]
+    assert cell.call("PUT", f"/sets/{cell.base}/watches/-x", json={"paths": []}).status_code == 400
+    assert cell.call("PUT", url, json={"paths": "Main.count"}).status_code == 422
+    assert any(e.get("action") == "watch_save" for e in _audit(cell))
+
+    # an edit applied from the editor: the new set has the list too
+    edited = MAIN.replace("count := count + 1;", "count := count + 2;")
+    r = cell.post("/programs/apply", json={"path": "main.st", "source": edited, "activate": False})
+    assert r.status_code == 200, r.text
+    derived = r.json()["set"]["id"]
+    assert cell.get(f"/sets/{derived}/watches/cell").json()["config"]["paths"] == ["Main.count", "Main.pulse.Q"]
+
+    assert cell.call("DELETE", url).status_code == 204
+    assert cell.as_viewer("GET", url).status_code == 404
+
+
+def _audit(cell: Cell) -> list[dict]:
+    r = cell.get("/audit")
+    assert r.status_code == 200, r.text
+    body = r.json()
+    return body["entries"] if isinstance(body, dict) else body
