@@ -4,46 +4,14 @@
 // goes; Check builds the new set and shows irpd's dry run; Activate runs it online and the editor shows
 // the running version, whose history and diff name the edit; a viewer sees the program read-only.
 // A server of its own (irpd on the ST cell, the agent), so that the suite's cell is not changed.
-import { readdirSync, readFileSync, statSync } from "node:fs";
-import { join, relative } from "node:path";
+import { readFileSync } from "node:fs";
+import { join } from "node:path";
 import { expect, shot, signIn, test } from "./fixtures";
-import { ROOT, type Server, startServer, stopServer } from "./server";
+import { startServer, stopServer } from "./server";
+import { BUILT, MAIN, rest, storeTheCell } from "./st_cell";
 
-const BUILT = join(ROOT, "build/sets/plc-robot-st");
-const MAIN = join(ROOT, "config/sets/plc-robot-st/main.st");
 const TYPED = "ErrorLatched := S;"; // a DINT assigned to a BOOL
 const FIXED = "ErrorLatched := ErrorLatched OR S < 0;";
-
-function files(dir: string): string[] {
-  return readdirSync(dir).flatMap((n) => {
-    const p = join(dir, n);
-    return statSync(p).isDirectory() ? files(p) : [p];
-  });
-}
-
-async function rest(s: Server, path: string, init: RequestInit = {}): Promise<Response> {
-  const headers = new Headers(init.headers);
-  headers.set("Authorization", `Bearer ${s.tokens.admin}`);
-  return fetch(`${s.url}/api/v1${path}`, { ...init, headers });
-}
-
-/** The ST cell as a stored, active set: the built folder as it is, which carries its sources, main.st
- * and the cell's cell.glb, beside what irpd runs (stc lays the set out again from them, docs/st.md
- * "Uploading ST"). */
-async function storeTheCell(s: Server): Promise<string> {
-  const form = new FormData();
-  for (const p of files(BUILT)) form.append("files", new Blob([readFileSync(p)]), relative(BUILT, p));
-  const r = await rest(s, "/sets", { method: "POST", body: form });
-  expect(r.status, await r.clone().text()).toBe(201);
-  const id = (await r.json()).id as string;
-  const a = await rest(s, `/sets/${id}/activate`, {
-    method: "POST",
-    headers: { "Content-Type": "application/json" },
-    body: JSON.stringify({ mode: "auto" }),
-  });
-  expect(a.status, await a.clone().text()).toBe(200);
-  return id;
-}
 
 test("the cell's ST program is edited in the browser: a type error under its line, fixed, checked and applied online; history, diff; read-only for a viewer", async ({
   page,

@@ -24,6 +24,7 @@ import { scopePage } from "./pages/scope";
 import { systemPage } from "./pages/system";
 import { usersPage } from "./pages/users";
 import { variablesPage } from "./pages/variables";
+import { watchPage } from "./pages/watch";
 import { StreamClient } from "./stream/stream";
 
 const ALL_PAGES: { id: string; title: string; page: Page; role: Role }[] = [
@@ -33,6 +34,7 @@ const ALL_PAGES: { id: string; title: string; page: Page; role: Role }[] = [
   { id: "jitter", title: "Jitter", page: jitterPage, role: "viewer" },
   { id: "programs", title: "Programs", page: programsPage, role: "viewer" },
   { id: "variables", title: "Variables", page: variablesPage, role: "viewer" },
+  { id: "watch", title: "Watch", page: watchPage, role: "viewer" },
   { id: "scope", title: "Scope", page: scopePage, role: "viewer" },
   { id: "robot", title: "Robot", page: robotPage, role: "viewer" },
   { id: "alarms", title: "Alarms", page: alarmsPage, role: "viewer" },

@@ -844,6 +844,29 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/programs/monitor": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Monitor Program
+         * @description The running values of the variables in lines from_line..to_line of the set's (default: the
+         *     active set's) file `path`, each where it is (an FB instance or a struct as a group: its fields
+         *     when named in `expand`), and the IF/ELSIF/WHILE/UNTIL conditions and CASE selectors evaluated
+         *     on them with the compiler's own folding (or why not).  One read of the shared memory.
+         */
+        post: operations["monitor_program_api_v1_programs_monitor_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/programs/source": {
         parameters: {
             query?: never;
@@ -1271,6 +1294,49 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/sets/{set_id}/watches": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List Watches
+         * @description The set's watch lists, by name.
+         */
+        get: operations["list_watches_api_v1_sets__set_id__watches_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/sets/{set_id}/watches/{name}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** Get Watch */
+        get: operations["get_watch_api_v1_sets__set_id__watches__name__get"];
+        /**
+         * Put Watch
+         * @description Saves a watch list with the set under `name` (replacing one of that name).  The set is not
+         *     changed (its id is the hash of its files): the list is kept beside it.
+         */
+        put: operations["put_watch_api_v1_sets__set_id__watches__name__put"];
+        post?: never;
+        /** Delete Watch */
+        delete: operations["delete_watch_api_v1_sets__set_id__watches__name__delete"];
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/status": {
         parameters: {
             query?: never;
@@ -1592,6 +1658,28 @@ export interface paths {
         get: operations["list_variables_api_v1_variables_get"];
         put?: never;
         post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/variables/read": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Read Variables
+         * @description The values of many leaves, read in one pass over the shared memory (never a request to irpd's
+         *     RT threads): a path that names no leaf (unknown, a group, a type the agent cannot decode) is an
+         *     entry of `errors` with the reason, the others are read.
+         */
+        post: operations["read_variables_api_v1_variables_read_post"];
         delete?: never;
         options?: never;
         head?: never;
@@ -2324,6 +2412,38 @@ export interface components {
             /** Set Id */
             set_id: string;
             symbols: components["schemas"]["Symbols"];
+        };
+        /** Condition */
+        Condition: {
+            /**
+             * Column
+             * @description where the condition (or CASE selector) starts
+             */
+            column: number;
+            /**
+             * End Column
+             * @description just after it ends, when it ends on the same line; else its line's end
+             */
+            end_column: number;
+            /** End Line */
+            end_line: number;
+            /** Line */
+            line: number;
+            /**
+             * Reason
+             * @description why it is not evaluated
+             */
+            reason?: string | null;
+            /**
+             * Value
+             * @description its value now; null when not evaluated
+             */
+            value?: boolean | number | null;
+            /**
+             * What
+             * @description IF, ELSIF, WHILE, UNTIL or CASE
+             */
+            what: string;
         };
         /**
          * ConditionTrigger
@@ -3529,6 +3649,66 @@ export interface components {
              */
             priority?: number | null;
         };
+        /** MonitorAnswer */
+        MonitorAnswer: {
+            /**
+             * Conditions
+             * @description IF/ELSIF/WHILE/UNTIL conditions and CASE selectors
+             */
+            conditions: components["schemas"]["Condition"][];
+            /**
+             * Errors
+             * @description an `expand` path that is not a group, or could not be read
+             */
+            errors: components["schemas"]["PathError"][];
+            /**
+             * Fields
+             * @description for each path in `expand`: its leaves
+             */
+            fields: {
+                [key: string]: components["schemas"]["LeafValue"][];
+            };
+            /** Layout Hash */
+            layout_hash: string;
+            /**
+             * Occurrences
+             * @description every variable in the lines asked, with its value
+             */
+            occurrences: components["schemas"]["Occurrence"][];
+            /** Set Id */
+            set_id: string;
+        };
+        /** MonitorRequest */
+        MonitorRequest: {
+            /**
+             * Expand
+             * @description FB instances or structs (their paths) whose fields to read too
+             * @default []
+             */
+            expand: string[];
+            /**
+             * From Line
+             * @description the first line shown (1-based)
+             * @default 1
+             */
+            from_line: number;
+            /**
+             * Path
+             * @description the .st file, e.g. main.st
+             */
+            path: string;
+            /**
+             * Set
+             * @description the set (default: the active one); values are the running ones
+             */
+            set?: string | null;
+            /**
+             * To Line
+             * @description the last line shown
+             * @default 1000000
+             */
+            to_line: number;
+        };
         /** MovedVariable */
         MovedVariable: {
             /**
@@ -3560,6 +3740,47 @@ export interface components {
             to_type?: string | null;
         } & {
             [key: string]: unknown;
+        };
+        /** Occurrence */
+        Occurrence: {
+            /**
+             * Column
+             * @description 1-based column where the name starts
+             */
+            column: number;
+            /**
+             * End Column
+             * @description 1-based column just after the name: where its value is shown
+             */
+            end_column: number;
+            /**
+             * Forced
+             * @default false
+             */
+            forced: boolean;
+            /**
+             * Group
+             * @description an FB instance or a struct: expandable to its fields
+             * @default false
+             */
+            group: boolean;
+            /** Line */
+            line: number;
+            /**
+             * Path
+             * @description the shared variable (a leaf), or the FB instance or struct (a group)
+             */
+            path: string;
+            /**
+             * Type
+             * @description its IEC type
+             */
+            type?: string | null;
+            /**
+             * Value
+             * @description a leaf's value (null: a group, or unreadable)
+             */
+            value?: boolean | number | null;
         };
         /**
          * OpcuaAlarmAction
@@ -3876,6 +4097,16 @@ export interface components {
         } & {
             [key: string]: unknown;
         };
+        /** PathError */
+        PathError: {
+            /**
+             * Message
+             * @description why it was not read: no such variable (the nearest names), a group, a type
+             */
+            message: string;
+            /** Path */
+            path: string;
+        };
         /**
          * Place
          * @description Where in a set's files an error is: the fields that apply (rtcore/include/indurop/result.hpp, Place); the message says the same in words.
@@ -4063,6 +4294,35 @@ export interface components {
             files: number;
             /** Id */
             id: string;
+        };
+        /**
+         * ReadAnswer
+         * @description The values of one pass over the shared memory: the leaves of one variable are from one write.
+         */
+        ReadAnswer: {
+            /**
+             * Errors
+             * @description the paths that were not read, and why
+             */
+            errors: components["schemas"]["PathError"][];
+            /**
+             * Layout Hash
+             * @description the layout the values were read with
+             */
+            layout_hash: string;
+            /**
+             * Values
+             * @description the paths read, in the order asked
+             */
+            values: components["schemas"]["LeafValue"][];
+        };
+        /** ReadRequest */
+        ReadRequest: {
+            /**
+             * Paths
+             * @description leaf paths, at most 1000, e.g. PLC_ROBOT.I0
+             */
+            paths: string[];
         };
         /** RecordingGap */
         RecordingGap: {
@@ -5617,6 +5877,53 @@ export interface components {
             value: boolean | number;
         } & {
             [key: string]: unknown;
+        };
+        /**
+         * WatchList
+         * @description A watch list: the variables to watch, in order.
+         */
+        WatchList: {
+            /**
+             * Paths
+             * @description leaf paths (a variable, an FB instance's field)
+             */
+            paths: string[];
+        };
+        /** WatchLists */
+        WatchLists: {
+            /** Max Bytes */
+            max_bytes: number;
+            /** Max Configs */
+            max_configs: number;
+            /** Set Id */
+            set_id: string;
+            /**
+             * Watches
+             * @description by name
+             */
+            watches: components["schemas"]["WatchSaved"][];
+        };
+        /** WatchSaved */
+        WatchSaved: {
+            by: components["schemas"]["Who"] | null;
+            /** @description null when its file cannot be read (then `error` says why) */
+            config: components["schemas"]["WatchList"] | null;
+            /** Error */
+            error?: string | null;
+            /**
+             * Name
+             * @description 1 to 64 letters, digits, '_', '.' or '-', starting with a letter or a digit
+             */
+            name: string;
+            /**
+             * Saved
+             * @description when it was saved (UTC)
+             */
+            saved: string;
+            /** Set Id */
+            set_id: string;
+            /** Size */
+            size: number;
         };
         /** Who */
         Who: {
@@ -7321,6 +7628,46 @@ export interface operations {
             };
         };
     };
+    monitor_program_api_v1_programs_monitor_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["MonitorRequest"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["MonitorAnswer"];
+                };
+            };
+            /** @description no such set, no active set, or no such .st file in it */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
     program_source_api_v1_programs_source_get: {
         parameters: {
             query: {
@@ -8553,6 +8900,239 @@ export interface operations {
             };
         };
     };
+    list_watches_api_v1_sets__set_id__watches_get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                set_id: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["WatchLists"];
+                };
+            };
+            /** @description a name that could be a path: names are 1 to 64 of [A-Za-z0-9_.-], first a letter or digit */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such set, or no such configuration */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the set holds 100 configurations already */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a configuration over 262144 bytes */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a body that is not a configuration (pydantic's message), or a damaged file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    get_watch_api_v1_sets__set_id__watches__name__get: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                set_id: string;
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["WatchSaved"];
+                };
+            };
+            /** @description a name that could be a path: names are 1 to 64 of [A-Za-z0-9_.-], first a letter or digit */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such set, or no such configuration */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the set holds 100 configurations already */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a configuration over 262144 bytes */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a body that is not a configuration (pydantic's message), or a damaged file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    put_watch_api_v1_sets__set_id__watches__name__put: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                set_id: string;
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["WatchList"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["WatchSaved"];
+                };
+            };
+            /** @description a name that could be a path: names are 1 to 64 of [A-Za-z0-9_.-], first a letter or digit */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such set, or no such configuration */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the set holds 100 configurations already */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a configuration over 262144 bytes */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a body that is not a configuration (pydantic's message), or a damaged file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    delete_watch_api_v1_sets__set_id__watches__name__delete: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                set_id: string;
+                name: string;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            204: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a name that could be a path: names are 1 to 64 of [A-Za-z0-9_.-], first a letter or digit */
+            400: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description no such set, or no such configuration */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the set holds 100 configurations already */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a configuration over 262144 bytes */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a body that is not a configuration (pydantic's message), or a damaged file */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
     status_api_v1_status_get: {
         parameters: {
             query?: never;
@@ -9291,6 +9871,39 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["VariableList"];
+                };
+            };
+        };
+    };
+    read_variables_api_v1_variables_read_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["ReadRequest"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ReadAnswer"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
                 };
             };
         };

@@ -3,8 +3,11 @@
 // POST /programs/check, completion, hover, folding); Check makes the new set from the running one with
 // the file replaced (POST /programs/apply) and shows irpd's dry run with its Activate button
 // (ops/activation-review.ts); once activated the editor shows the running version.  Below: the file's
-// history across sets, the diff of a version with the running one, and Roll back.  Read-only for a
-// viewer; checking and applying an edit needs an admin (as an upload), activating an operator.
+// history across sets, the diff of a version with the running one, and Roll back.  Monitor shows the
+// running version read-only with the live values in the code (programs/st_monitor.ts); a click on a
+// value opens write / force / unforce / add to watch list (programs/value_popover.ts, operator and
+// above).  Read-only for a viewer; checking and applying an edit needs an admin (as an upload),
+// activating an operator.
 import "../ops/ops.css";
 import "../programs/programs.css";
 import { unwrap } from "../api/client";
@@ -17,7 +20,9 @@ import { renderSwapReport } from "../ops/swap-report-view";
 import type { SwapReport } from "../ops/types";
 import { formatTime } from "../ops/units";
 import type { CheckResult, StEditor } from "../programs/st_editor";
+import type { Monitor } from "../programs/st_monitor";
 import { diffLines } from "../programs/st_view";
+import { ValuePopover } from "../programs/value_popover";
 
 type S = components["schemas"];
 
@@ -35,6 +40,10 @@ class ProgramsView {
   private diff = h("pre", { class: "st-diff", "data-testid": "st-diff", hidden: true });
   private checkButton = h("button", { "data-testid": "st-check", disabled: true }, "Check…");
   private revertButton = h("button", { "data-testid": "st-revert", disabled: true }, "Revert");
+  private monitorButton = h("button", { "data-testid": "st-monitor", "aria-pressed": "false" }, "Monitor");
+  private monitorNote = h("span", { class: "ops-sub", "data-testid": "st-monitor-note", role: "status" });
+  private monitor: Monitor | null = null;
+  private popover: ValuePopover | null = null;
   private editor: StEditor | null = null;
   private setId = "";
   private path = "";
@@ -47,6 +56,15 @@ class ProgramsView {
     rollback.addEventListener("click", () => void this.rollback());
     this.checkButton.addEventListener("click", () => void this.check());
     this.revertButton.addEventListener("click", () => void this.open(this.path));
+    this.monitorButton.addEventListener("click", () => void this.toggleMonitor());
+    if (ctx.can("operator")) {
+      this.popover = new ValuePopover(
+        ctx,
+        () => this.setId,
+        () => {},
+      );
+      document.body.append(this.popover.element);
+    }
     this.element = h(
       "div",
       { class: "ops-page st-page", "data-testid": "programs" },
@@ -56,8 +74,21 @@ class ProgramsView {
         { class: "panel ops-panel st-main" },
         h("h3", {}, this.title, " ", this.status),
         canEdit
-          ? h("div", { class: "ops-actions" }, this.checkButton, this.revertButton)
-          : h("div", { class: "ops-sub" }, `signed in as ${ctx.session.role}: read only`),
+          ? h(
+              "div",
+              { class: "ops-actions" },
+              this.checkButton,
+              this.revertButton,
+              this.monitorButton,
+              this.monitorNote,
+            )
+          : h(
+              "div",
+              { class: "ops-actions" },
+              this.monitorButton,
+              h("span", { class: "ops-sub" }, `signed in as ${ctx.session.role}: read only`),
+              this.monitorNote,
+            ),
         this.error,
         this.host,
         this.errors,
@@ -140,8 +171,32 @@ class ProgramsView {
     this.editor?.goTo(line);
   }
 
-  /** Opens a file of the running set in the editor. */
-  async open(path: string): Promise<void> {
+  /** Monitor on: the running version, read-only, with live values (an edit must be applied or reverted
+   * first); off: the editor as before. */
+  private async toggleMonitor(): Promise<void> {
+    if (this.monitor) {
+      this.monitor.stop();
+      this.monitor = null;
+      this.popover?.close();
+      this.monitorButton.setAttribute("aria-pressed", "false");
+      setText(this.monitorNote, "");
+      await this.open(this.path);
+      return;
+    }
+    if (this.editor && this.editor.text() !== this.stored) {
+      setText(
+        this.monitorNote,
+        "the file is modified: apply it (Check…) or Revert it first; the monitor shows the running version",
+      );
+      return;
+    }
+    this.monitorButton.setAttribute("aria-pressed", "true");
+    setText(this.monitorNote, "monitoring the running version (read-only)");
+    await this.open(this.path, true);
+  }
+
+  /** Opens a file of the running set in the editor (with `monitoring`: read-only, with live values). */
+  async open(path: string, monitoring = this.monitor !== null): Promise<void> {
     let src: S["ProgramSource"];
     try {
       src = unwrap(await this.ctx.api.GET("/api/v1/programs/source", { params: { query: { path } } }));
@@ -151,6 +206,9 @@ class ProgramsView {
     }
     // CodeMirror is a chunk of its own, loaded when a file is first opened (the other pages never load it)
     const { StEditor: Editor } = await import("../programs/st_editor");
+    const mon = await import("../programs/st_monitor");
+    this.monitor?.stop();
+    this.monitor = null;
     this.editor?.destroy();
     this.path = path;
     this.stored = src.source;
@@ -162,7 +220,8 @@ class ProgramsView {
       parent: this.host,
       path,
       text: src.source,
-      readOnly: !this.ctx.can("admin"),
+      readOnly: !this.ctx.can("admin") || monitoring,
+      extensions: [mon.monitorExtension()],
       check: async (text) =>
         unwrap(await this.ctx.api.POST("/api/v1/programs/check", { body: { path, source: text, set: src.set_id } })),
       onChecked: (r, e) => this.checked(r, e),
@@ -174,6 +233,20 @@ class ProgramsView {
     });
     this.checkButton.disabled = true;
     this.revertButton.disabled = true;
+    if (monitoring) {
+      const setId = src.set_id;
+      this.monitor = new mon.Monitor(
+        this.editor.view,
+        async (from_line, to_line, expand) =>
+          unwrap(
+            await this.ctx.api.POST("/api/v1/programs/monitor", {
+              body: { path, set: setId, from_line, to_line, expand },
+            }),
+          ),
+        this.popover ? (target, leaf) => this.popover?.open(target, leaf) : null,
+        (e) => setText(this.monitorNote, `monitor: ${errorText(e)}`),
+      );
+    }
     await this.loadHistory();
   }
 
@@ -278,6 +351,8 @@ class ProgramsView {
   }
 
   destroy(): void {
+    this.monitor?.stop();
+    this.popover?.destroy();
     this.activation?.close();
     this.editor?.destroy();
   }

@@ -6,7 +6,7 @@
 import { autocompletion } from "@codemirror/autocomplete";
 import { foldService, StreamLanguage, type StringStream } from "@codemirror/language";
 import { type Diagnostic, linter, lintGutter } from "@codemirror/lint";
-import { EditorState } from "@codemirror/state";
+import { EditorState, type Extension } from "@codemirror/state";
 import { EditorView, hoverTooltip } from "@codemirror/view";
 import { basicSetup } from "codemirror";
 import type { components } from "../api/schema";
@@ -112,6 +112,8 @@ export interface StEditorOptions {
   onChecked: (result: CheckResult | null, error?: unknown) => void;
   /** the document changed (by the user) */
   onChange?: (text: string) => void;
+  /** more extensions (the monitor's decorations, st_monitor.ts) */
+  extensions?: Extension[];
 }
 
 export class StEditor {
@@ -189,6 +191,7 @@ export class StEditor {
           EditorView.updateListener.of((u) => {
             if (u.docChanged) opts.onChange?.(u.state.doc.toString());
           }),
+          ...(opts.extensions ?? []),
         ],
       }),
     });
