@@ -42,9 +42,10 @@ TARGETS = ["irpd", "empty"]
 RATIO_TARGET = 1.05
 
 
-def make_set(work: Path, a) -> Path:
-    """The empty modules on a layout of a.forces + 100 variables; the module.xml's path."""
-    names = [f"v{i:03d}" for i in range(a.forces + 100)]
+def make_set(work: Path, a, count: int | None = None) -> Path:
+    """The empty modules on a layout of `count` (default a.forces + 100) uint32 variables fb.v000...;
+    the module.xml's path (monitor_bench.py's set too)."""
+    names = [f"v{i:03d}" for i in range(a.forces + 100 if count is None else count)]
     glb = work / "forces.glb"
     glb.write_text(
         "// force_bench.py: variables to force\nnamespace fb;\n" + "".join(f"uint32_t {n};\n" for n in names)

@@ -25,6 +25,7 @@ import { diffLines } from "../programs/st_view";
 import { ValuePopover } from "../programs/value_popover";
 
 type S = components["schemas"];
+const MONITORING = "monitoring the running version (read-only)";
 
 class ProgramsView {
   readonly element: HTMLElement;
@@ -191,7 +192,7 @@ class ProgramsView {
       return;
     }
     this.monitorButton.setAttribute("aria-pressed", "true");
-    setText(this.monitorNote, "monitoring the running version (read-only)");
+    setText(this.monitorNote, MONITORING);
     await this.open(this.path, true);
   }
 
@@ -237,12 +238,15 @@ class ProgramsView {
       const setId = src.set_id;
       this.monitor = new mon.Monitor(
         this.editor.view,
-        async (from_line, to_line, expand) =>
-          unwrap(
+        async (from_line, to_line, expand) => {
+          const answer = unwrap(
             await this.ctx.api.POST("/api/v1/programs/monitor", {
               body: { path, set: setId, from_line, to_line, expand },
             }),
-          ),
+          );
+          setText(this.monitorNote, MONITORING); // after an error, once it answers again
+          return answer;
+        },
         this.popover ? (target, leaf) => this.popover?.open(target, leaf) : null,
         (e) => setText(this.monitorNote, `monitor: ${errorText(e)}`),
       );

@@ -119,6 +119,7 @@ const THEME = EditorView.theme({
   ".st-mon-true": { background: "#d3f5dc", color: "#14532d", borderColor: "#17803d" },
   ".st-mon-false": { background: "#f1f2f4", color: "#6b7280", borderColor: "#c8ccd2" },
   ".st-mon-forced": { outline: "2px solid #d97706" },
+  ".st-mon-cond": { fontWeight: "bold", borderStyle: "dashed" },
   ".st-mon-none": { color: "#999", fontStyle: "italic" },
   ".st-mon-action": { cursor: "pointer" },
   ".st-mon-group .st-mon": { marginLeft: "0.2em" },
