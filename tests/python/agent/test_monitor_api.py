@@ -12,8 +12,8 @@ import time
 
 import httpx
 import pytest
-from agent_helpers import IRPD, st_configuration
-from test_programs_api import Cell
+from agent_helpers import IRPD
+from test_programs_api import Cell, running
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
@@ -52,12 +52,7 @@ END_PROGRAM
 
 @pytest.fixture
 def cell(tmp_path):
-    c = Cell(tmp_path)
-    files = {"main.st": MAIN.encode(), "config.st": st_configuration("Counter").encode()}
-    stored = c.upload([("files", (p, b)) for p, b in files.items()])
-    r = c.post(f"/sets/{stored['id']}/activate", json={"mode": "auto"})
-    assert r.status_code == 200, r.text
-    c.base = stored["id"]
+    c = running(tmp_path, MAIN)
     yield c
     c.close()
 

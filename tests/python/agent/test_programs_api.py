@@ -50,14 +50,21 @@ class Cell(LiveCell):
         return r.json()["value"]
 
 
-@pytest.fixture
-def cell(tmp_path):
-    c = Cell(tmp_path)
-    files = {"main.st": MAIN.format(inc="step").encode(), "config.st": st_configuration("Counter").encode()}
+def running(tmp: Path, main: str) -> Cell:
+    """A Cell running the set of `main` (PROGRAM Counter) and a configuration of one instance Main,
+    uploaded and activated; its id is `base`."""
+    c = Cell(tmp)
+    files = {"main.st": main.encode(), "config.st": st_configuration("Counter").encode()}
     stored = c.upload([("files", (p, b)) for p, b in files.items()])
     r = c.post(f"/sets/{stored['id']}/activate", json={"mode": "auto"})
     assert r.status_code == 200, r.text
     c.base = stored["id"]
+    return c
+
+
+@pytest.fixture
+def cell(tmp_path):
+    c = running(tmp_path, MAIN.format(inc="step"))
     yield c
     c.close()
 

@@ -41,10 +41,16 @@ export interface Poller {
 }
 
 /**
- * Calls `fn` every `everyMs` after the previous call ended (never two at once), until stopped.
+ * Calls `fn` every `everyMs` after the previous call ended (never two at once), until stopped; with
+ * `fromStart`, every `everyMs` from the previous call's start (at once when it took longer: a rate).
  * A throw is passed to `onError`; polling goes on, so pages recover by themselves.
  */
-export function poll(fn: () => Promise<unknown>, everyMs: number, onError: (e: unknown) => void = () => {}): Poller {
+export function poll(
+  fn: () => Promise<unknown>,
+  everyMs: number,
+  onError: (e: unknown) => void = () => {},
+  fromStart = false,
+): Poller {
   let stopped = false;
   let timer: ReturnType<typeof setTimeout> | null = null;
   let running = false;
@@ -58,6 +64,7 @@ export function poll(fn: () => Promise<unknown>, everyMs: number, onError: (e: u
     running = true;
     if (timer) clearTimeout(timer);
     timer = null;
+    const started = performance.now();
     try {
       await fn();
     } catch (e) {
@@ -68,7 +75,7 @@ export function poll(fn: () => Promise<unknown>, everyMs: number, onError: (e: u
         if (again) {
           again = false;
           void run();
-        } else timer = setTimeout(run, everyMs);
+        } else timer = setTimeout(run, fromStart ? Math.max(0, everyMs - (performance.now() - started)) : everyMs);
       }
     }
   };

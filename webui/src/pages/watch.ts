@@ -6,9 +6,9 @@ import "../ops/ops.css";
 import "../programs/programs.css";
 import { unwrap } from "../api/client";
 import type { AppContext, Page } from "../app/context";
-import { errorText, h, setText } from "../ops/dom";
+import { errorText, h, type Poller, poll, setText } from "../ops/dom";
 import { DEFAULT_WATCH } from "../programs/value_popover";
-import { MONITOR_MS, pollAtRate, valueClass, valueText } from "../programs/values";
+import { MONITOR_MS, valueClass, valueText } from "../programs/values";
 
 class WatchView {
   readonly element: HTMLElement;
@@ -26,7 +26,7 @@ class WatchView {
   private rows = h("tbody", { "data-testid": "watch-rows" });
   private status = h("div", { class: "ops-sub", "data-testid": "watch-status", role: "status" });
   private cells = new Map<string, { value: HTMLElement; type: HTMLElement }>();
-  private poller: ReturnType<typeof pollAtRate> | null = null;
+  private poller: Poller | null = null;
 
   constructor(private readonly ctx: AppContext) {
     const can = ctx.can("operator");
@@ -90,10 +90,11 @@ class WatchView {
     } catch (e) {
       setText(this.status, errorText(e));
     }
-    this.poller = pollAtRate(
+    this.poller = poll(
       () => this.refresh(),
       MONITOR_MS,
       (e) => setText(this.status, errorText(e)),
+      true,
     );
   }
 

@@ -7,7 +7,8 @@
 import { type Extension, StateEffect, StateField } from "@codemirror/state";
 import { Decoration, type DecorationSet, EditorView, WidgetType } from "@codemirror/view";
 import type { components } from "../api/schema";
-import { MONITOR_MS, pollAtRate, type Value, valueClass, valueText } from "./values";
+import { poll } from "../ops/dom";
+import { MONITOR_MS, type Value, valueClass, valueText } from "./values";
 
 export type MonitorAnswer = components["schemas"]["MonitorAnswer"];
 type Occurrence = components["schemas"]["Occurrence"];
@@ -171,7 +172,7 @@ export class Monitor {
     private readonly onValue: OnValue | null,
     onError: (e: unknown) => void,
   ) {
-    this.poller = pollAtRate(() => this.run(), MONITOR_MS, onError);
+    this.poller = poll(() => this.run(), MONITOR_MS, onError, true);
   }
 
   private toggle = (path: string): void => {

@@ -1,6 +1,6 @@
 // values.ts -- live values as the monitor (st_monitor.ts) and the Watch page (pages/watch.ts) show them
-// (TRUE/FALSE coloured, numbers short) and the fixed-rate poller both refresh with; free of CodeMirror,
-// so that the pages that do not edit do not load it.
+// (TRUE/FALSE coloured, numbers short) and how often they refresh; free of CodeMirror, so that the pages
+// that do not edit do not load it.
 
 export type Value = boolean | number | null | undefined;
 export const MONITOR_MS = 200; // >= 5 Hz
@@ -17,35 +17,4 @@ export function valueText(v: Value): string {
 export function valueClass(v: Value, forced = false): string {
   const kind = typeof v === "boolean" ? (v ? "st-mon-true" : "st-mon-false") : "st-mon-num";
   return `st-mon ${kind}${forced ? " st-mon-forced" : ""}`;
-}
-
-/** Calls `fn` every `ms`, start to start (at once when a call took longer), never two at once, until
- * stopped; a throw goes to `onError` and the calls go on.  now(): the next call without waiting. */
-export function pollAtRate(fn: () => Promise<unknown>, ms: number, onError: (e: unknown) => void) {
-  let stopped = false;
-  let timer: ReturnType<typeof setTimeout> | null = null;
-  let running = false;
-  const run = async () => {
-    if (stopped || running) return;
-    running = true;
-    if (timer) clearTimeout(timer);
-    const started = performance.now();
-    try {
-      await fn();
-    } catch (e) {
-      if (!stopped) onError(e);
-    }
-    running = false;
-    if (!stopped) timer = setTimeout(() => void run(), Math.max(0, ms - (performance.now() - started)));
-  };
-  void run();
-  return {
-    stop() {
-      stopped = true;
-      if (timer) clearTimeout(timer);
-    },
-    now() {
-      void run();
-    },
-  };
 }
