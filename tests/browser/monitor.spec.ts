@@ -39,6 +39,8 @@ async function scrollTo(page: Page, text: RegExp): Promise<Locator> {
   return line.first();
 }
 
+test.use({ actionTimeout: 30_000 }); // a click on a widget that is not drawn fails, not the whole budget
+
 function value(page: Page, path: string): Locator {
   return page.locator(`[data-testid="st-mon-value"][data-path="${path}"]`).first();
 }

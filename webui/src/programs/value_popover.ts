@@ -110,9 +110,10 @@ export class ValuePopover {
       status,
     );
     const r = anchor.getBoundingClientRect();
-    this.element.style.left = `${Math.round(r.left + window.scrollX)}px`;
-    this.element.style.top = `${Math.round(r.bottom + window.scrollY + 4)}px`;
     this.element.hidden = false;
+    const left = Math.max(0, Math.min(r.left, document.documentElement.clientWidth - this.element.offsetWidth - 8));
+    this.element.style.left = `${Math.round(left + window.scrollX)}px`; // within the window, never past its edge
+    this.element.style.top = `${Math.round(r.bottom + window.scrollY + 4)}px`;
     input.focus();
     input.select();
   }
