@@ -119,6 +119,8 @@ def test_an_operator_forces_the_cells_inputs_and_the_plc_reacts(cell, capsys):
     )
     opcua_refusal = [e for e in writes if e["who"]["via"] == "opcua"][-1]
     assert opcua_refusal["opcua_status"] == "BadUserAccessDenied" and "forced by oper" in opcua_refusal["detail"]
+    # irpd's own refusal (its error code `forced`), not a second copy of the rule in the agent
+    assert "a write would be undone by the force" in opcua_refusal["detail"], opcua_refusal
 
 
 async def opcua_forced_flag(cell) -> bool:
