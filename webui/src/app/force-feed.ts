@@ -1,6 +1,6 @@
 // force-feed.ts -- the forces irpd holds (GET /api/v1/forces), polled once for the whole UI by the
 // shell: the banner on every page, the Forces page and the Variables page listen to it instead of
-// polling themselves; a page that forced or unforced asks it to look again at once (refresh()).
+// polling themselves; a force or an unforce made through it (force(), unforce()) looks again at once.
 import type { Api } from "../api/client";
 import { unwrap } from "../api/client";
 import type { components } from "../api/schema";
@@ -34,6 +34,28 @@ export class ForceFeed {
   /** Looks again now (after a force or an unforce made here). */
   refresh(): void {
     this.poller?.now();
+  }
+
+  /** Forces `path` to `value` (PUT /forces/{path}, operator) and looks again; says what was done. */
+  async force(path: string, value: number | boolean): Promise<string> {
+    try {
+      const f = unwrap(await this.api.PUT("/api/v1/forces/{path}", { params: { path: { path } }, body: { value } }));
+      return `${f.path} forced to ${String(f.value)}`;
+    } finally {
+      this.refresh();
+    }
+  }
+
+  /** Unforces `path`, keeping the forced value or restoring the one before, and looks again. */
+  async unforce(path: string, restore: boolean): Promise<string> {
+    try {
+      const r = unwrap(
+        await this.api.DELETE("/api/v1/forces/{path}", { params: { path: { path }, query: { restore } } }),
+      );
+      return `${path} unforced, ${restore ? "restored to" : "left at"} ${String(r.left)}`;
+    } finally {
+      this.refresh();
+    }
   }
 
   /** The force of `path`, if it is forced. */

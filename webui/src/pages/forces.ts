@@ -52,15 +52,22 @@ export const forcesPage: Page = (root, ctx) => {
 
   const unforce = async (f: Force, restore: boolean) => {
     try {
-      const r = unwrap(
-        await ctx.api.DELETE("/api/v1/forces/{path}", { params: { path: { path: f.path }, query: { restore } } }),
-      );
-      ctx.notify(`${f.path} unforced, ${restore ? "restored to" : "left at"} ${String(r.left)}`);
+      ctx.notify(await ctx.forces.unforce(f.path, restore));
     } catch (e) {
       ctx.notify(`unforcing ${f.path}: ${errorText(e)}`, "error");
     }
-    ctx.forces.refresh();
   };
+
+  const unforceButton = (f: Force, restore: boolean) =>
+    h(
+      "button",
+      {
+        "data-testid": `unforce-${restore ? "restore" : "keep"}-${f.path}`,
+        title: restore ? "unforce, writing back the value before" : "unforce, leaving the forced value",
+        onclick: () => void unforce(f, restore),
+      },
+      restore ? "restore" : "keep",
+    );
 
   const row = (f: Force) => {
     const type = vars.get(f.path)?.type ?? f.type;
@@ -74,31 +81,7 @@ export const forcesPage: Page = (root, ctx) => {
       cell("by", f.by),
       cell("since", forcedSince(f)),
       cell("type", f.type),
-      operator
-        ? h(
-            "td",
-            {},
-            h(
-              "button",
-              {
-                "data-testid": `unforce-keep-${f.path}`,
-                title: "unforce, leaving the forced value",
-                onclick: () => void unforce(f, false),
-              },
-              "keep",
-            ),
-            " ",
-            h(
-              "button",
-              {
-                "data-testid": `unforce-restore-${f.path}`,
-                title: "unforce, writing back the value before",
-                onclick: () => void unforce(f, true),
-              },
-              "restore",
-            ),
-          )
-        : null,
+      operator ? h("td", {}, unforceButton(f, false), " ", unforceButton(f, true)) : null,
     );
   };
 
@@ -148,14 +131,10 @@ export const forcesPage: Page = (root, ctx) => {
       if (!parsed.ok) return say(parsed.error);
       say("forcing…", false);
       try {
-        const f = unwrap(
-          await ctx.api.PUT("/api/v1/forces/{path}", { params: { path: { path: p } }, body: { value: parsed.value } }),
-        );
-        say(`${f.path} forced to ${String(f.value)}`, false);
+        say(await ctx.forces.force(p, parsed.value), false);
       } catch (e) {
         say(e instanceof ApiError ? `${e.status}: ${e.message}` : errorText(e));
       }
-      ctx.forces.refresh();
     };
     const go = h("button", { "data-testid": "force-submit", onclick: () => void submit() }, "force");
     value.addEventListener("keydown", (ev) => {

@@ -227,7 +227,6 @@ export const variablesPage: Page = (root, ctx) => {
       row.error.textContent = msg;
       ctx.notify(`${doing} ${v.path}: ${msg}`, "error");
     }
-    ctx.forces.refresh();
     void readOne(v.path, row);
   };
   const force = (v: VarInfo, text: string, row: LeafRow) => {
@@ -237,23 +236,10 @@ export const variablesPage: Page = (root, ctx) => {
       row.error.textContent = parsed.error;
       return;
     }
-    void change(v, row, "forcing", async () => {
-      const f = unwrap(
-        await ctx.api.PUT("/api/v1/forces/{path}", {
-          params: { path: { path: v.path } },
-          body: { value: parsed.value },
-        }),
-      );
-      return `forced to ${String(f.value)}`;
-    });
+    void change(v, row, "forcing", () => ctx.forces.force(v.path, parsed.value));
   };
   const unforce = (v: VarInfo, restore: boolean, row: LeafRow) =>
-    void change(v, row, "unforcing", async () => {
-      const r = unwrap(
-        await ctx.api.DELETE("/api/v1/forces/{path}", { params: { path: { path: v.path }, query: { restore } } }),
-      );
-      return `unforced, ${restore ? "restored to" : "left at"} ${String(r.left)}`;
-    });
+    void change(v, row, "unforcing", () => ctx.forces.unforce(v.path, restore));
   const stopForces = ctx.forces.listen(() => {
     for (const [path, row] of tree?.rows ?? []) {
       const f = ctx.forces.of(path);
