@@ -126,7 +126,15 @@ export const forcesPage: Page = (root, ctx) => {
     const submit = async () => {
       const p = path.value.trim();
       const v = vars.get(p);
-      if (!v) return say(p ? `no variable '${p}' in the running layout: pick one from the list` : "type a path");
+      if (!p) return say("type a path");
+      if (!v) {
+        const members = [...vars.keys()].filter((k) => k.startsWith(`${p}.`) || k.startsWith(`${p}[`));
+        return say(
+          members.length
+            ? `'${p}' is a struct or an array: force one of its members (${members.slice(0, 3).join(", ")}${members.length > 3 ? ", …" : ""})`
+            : `no variable '${p}' in the running layout: pick one from the list`,
+        );
+      }
       const parsed = parseValue(value.value, v.type, v.size);
       if (!parsed.ok) return say(parsed.error);
       say("forcing…", false);

@@ -1,6 +1,7 @@
 // forces.test.ts -- the force banner's words and tooltip, and the Forces page in a DOM: the rows follow
 // the force feed, an operator's restore unforces the row's path with restore=true, a value that does
-// not fit the variable's type is refused before anything is sent, a viewer gets no control.
+// not fit the variable's type or a struct as a whole is refused before anything is sent, a viewer gets
+// no control.
 import { describe, expect, it } from "vitest";
 import type { AppContext, Role } from "../../src/app/context";
 import { bannerText, type Force, ForceFeed, forcesTitle } from "../../src/app/force-feed";
@@ -75,7 +76,7 @@ describe("the Forces page", () => {
     unmount();
   });
 
-  it("refuses a value of the wrong type before sending anything", async () => {
+  it("refuses a value of the wrong type, or a struct as a whole, before sending anything", async () => {
     const { root, calls, unmount } = mount("operator");
     await flush();
     (q(root, "force-path") as HTMLInputElement).value = enable.path;
@@ -83,6 +84,11 @@ describe("the Forces page", () => {
     q(root, "force-submit")!.click();
     await flush();
     expect(q(root, "force-result")?.textContent).toBe("70000 is out of the range of short: -32768..32767");
+    (q(root, "force-path") as HTMLInputElement).value = "PLC_ROBOT.PLC_IN";
+    q(root, "force-submit")!.click();
+    expect(q(root, "force-result")?.textContent).toBe(
+      "'PLC_ROBOT.PLC_IN' is a struct or an array: force one of its members (PLC_ROBOT.PLC_IN.Enable)",
+    );
     expect(calls.some((c) => c.method === "PUT")).toBe(false);
     unmount();
   });
