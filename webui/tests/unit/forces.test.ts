@@ -6,6 +6,7 @@ import { describe, expect, it } from "vitest";
 import type { AppContext, Role } from "../../src/app/context";
 import { bannerText, type Force, ForceFeed, forcesTitle } from "../../src/app/force-feed";
 import { forcesPage } from "../../src/pages/forces";
+import { fakeApi, flush, q } from "./page-helpers";
 
 const enable: Force = {
   path: "PLC_ROBOT.PLC_IN.Enable",
@@ -17,20 +18,13 @@ const enable: Force = {
 };
 
 function mount(role: Role) {
-  const calls: { method: string; path: string; opts: Record<string, unknown> }[] = [];
-  const answer =
-    (method: string) =>
-    async (path: string, opts: Record<string, unknown> = {}) => {
-      calls.push({ method, path, opts });
-      const data =
-        path === "/api/v1/variables"
-          ? { variables: [{ path: enable.path, type: "short", size: 2 }] }
-          : path === "/api/v1/forces"
-            ? { forces: [enable], max_forces: 256 }
-            : { force: enable, left: 0, restored: true };
-      return { data, response: new Response(null, { status: 200 }) };
-    };
-  const api = { GET: answer("GET"), PUT: answer("PUT"), DELETE: answer("DELETE") };
+  const { calls, api } = fakeApi((path) =>
+    path === "/api/v1/variables"
+      ? { variables: [{ path: enable.path, type: "short", size: 2 }] }
+      : path === "/api/v1/forces"
+        ? { forces: [enable], max_forces: 256 }
+        : { force: enable, left: 0, restored: true },
+  );
   const ctx = {
     api,
     session: { name: "otto", role, csrf: "c" },
@@ -42,11 +36,6 @@ function mount(role: Role) {
   const unmount = forcesPage(root, ctx);
   return { root, calls, unmount };
 }
-
-const flush = async () => {
-  for (let i = 0; i < 10; i++) await Promise.resolve();
-};
-const q = (root: HTMLElement, testid: string) => root.querySelector<HTMLElement>(`[data-testid="${testid}"]`);
 
 describe("the force banner", () => {
   it("counts the forces, singular for one, and is empty with none", () => {
