@@ -15,8 +15,9 @@ from .forces import forced_paths
 router = APIRouter(tags=["variables"])
 
 
-def segment(request: Request, irpd) -> Segment:
-    name = ask(irpd, "status").get("shared_memory", {}).get("variables")
+def segment(request: Request, irpd, status: dict | None = None) -> Segment:
+    """The running layout's segment (`status`: irpd's, when the caller asked for it already)."""
+    name = (status or ask(irpd, "status")).get("shared_memory", {}).get("variables")
     if not name:
         raise HTTPException(404, "the running set has no shared variables (no layout)")
     cached = getattr(request.app.state, "segment", None)
@@ -34,8 +35,9 @@ def segment(request: Request, irpd) -> Segment:
 
 @router.get("/variables")
 def list_variables(request: Request, irpd: IrpdDep, _: ViewerDep) -> VariableList:
-    seg = segment(request, irpd)
-    forced = forced_paths(irpd)
+    status = ask(irpd, "status")
+    seg = segment(request, irpd, status)
+    forced = forced_paths(irpd, status)
     return {
         "layout_hash": seg.hash,
         "variables": [
@@ -72,13 +74,14 @@ def read_variable(path: str, request: Request, irpd: IrpdDep, _: ViewerDep) -> V
     """A leaf's value (`{path, value, layout_hash}`), or for a group (a namespace, a struct, an array
     or one of its elements, e.g. `PLC_ROBOT.IO_STATUS`, `joint[1]`) every leaf under it
     (`{path, values: [{path, type, value}], layout_hash}`)."""
-    seg = segment(request, irpd)
+    status = ask(irpd, "status")
+    seg = segment(request, irpd, status)
     try:
         leaves = seg.select(path)
         values = seg.values(leaves)
     except VariableError as e:
         raise HTTPException(404, str(e)) from e
-    forced = forced_paths(irpd)
+    forced = forced_paths(irpd, status)
     if leaves[0]["path"] == path:
         return {"path": path, "value": values[0], "layout_hash": seg.hash, "forced": path in forced}
     return {
@@ -102,7 +105,9 @@ class VariableWrite(BaseModel):
     "/variables/{path:path}",
     responses={
         404: {"description": "a compiler's own variable (layout.json's internal), which no user sees or writes"},
-        409: {"description": "irpd refused: unknown path, wrong type, out of range (its message)"},
+        409: {
+            "description": "irpd refused: unknown path, wrong type, out of range, or forced (who forced it: unforce it first)"
+        },
     },
 )
 def write_variable(
