@@ -1,6 +1,6 @@
 # layout.py -- the parsed files -> one segment layout: names checked per namespace, struct types
 # named (`v_t`, `X_f_t`), sizes and offsets as g++ lays them out on x86-64, top-level variables
-# on their own 64-byte cache lines, one lock each.
+# on their own 64-byte cache lines, one lock each (the variables of a lock group one between them).
 
 from __future__ import annotations
 
@@ -77,6 +77,7 @@ class Variable:
     retain: str | None = None  # "retain" or "persistent": irpd saves and restores it (docs/retain.md)
     iec_type: str | None = None  # the IEC type of its elements (declared by stc), else None
     internal: bool = False  # a compiler's own variable (Decl.internal): "internal": true in layout.json
+    lock_group: str | None = None  # Decl.lock_group: the variables of a group share their lock
 
     @property
     def path(self) -> str:
@@ -148,6 +149,8 @@ class _Builder:
         self.types: list[StructType] = []
         self.variables: list[Variable] = []
         self.blocks: list[Block] = []
+        self.lock_count = 0
+        self.group_locks: dict[str, int] = {}  # a lock group's lock
         self.leaves = 0
 
     # -- names ----------------------------------------------------------------------------------
@@ -279,9 +282,16 @@ class _Builder:
             retain=decl.retain,
             iec_type=decl.iec_type,
             internal=decl.internal,
+            lock_group=decl.lock_group,
         )
         var.offset = round_up(self.variables[-1].offset + self.variables[-1].size, CACHE_LINE) if self.variables else 0
-        var.lock = len(self.variables)
+        if decl.lock_group is not None and decl.lock_group in self.group_locks:
+            var.lock = self.group_locks[decl.lock_group]
+        else:
+            var.lock = self.lock_count
+            self.lock_count += 1
+            if decl.lock_group is not None:
+                self.group_locks[decl.lock_group] = var.lock
         end = round_up(var.offset + var.size, CACHE_LINE)
         if end > self.max_size:
             raise GlbError(
@@ -349,5 +359,5 @@ def build(files: list[FileSyntax], max_size: int = DEFAULT_MAX_SIZE) -> Layout:
         b.variables,
         b.blocks,
         data_size,
-        len(b.variables),
+        b.lock_count,
     )

@@ -19,6 +19,13 @@
 // The generated code also keeps one flag a variable, set where a statement may write it, and calls
 // writeBack(image, written): the variables the run did not write cost no comparison.
 //
+// A lock group (glbc: the struct and array variables of a PROGRAM instance share one lock) is one
+// run of entries with that lock, made by grouped(): copyIn() reads the group's sequence once and
+// copies the group whole when it moved, writeBack() writes every changed entry of the group under
+// one taking of the lock.  A period in which no one else wrote them costs one sequence load for all.
+//
+//   constexpr auto image = grouped(std::array{kept(::main::t1, ...), kept(::main::t2, ...), ...});
+//
 // After a fault the generated code calls forget(image): the locals hold a partial run.
 #pragma once
 
@@ -27,6 +34,7 @@
 
 #include <cstdint>
 #include <cstring>
+#include <array>
 #include <span>
 #include <type_traits>
 
@@ -50,9 +58,10 @@ struct Kept {
     uint32_t size;
     void *local;
     void *snapshot;
-    Seen *seen;
+    Seen *seen;  // the group's: its first entry's
     uint32_t unit;
     How how;
+    uint32_t group = 1;  // the entries of the lock group that starts here (this one included); 0 in a group
 };
 
 // kept(ref, local, snapshot, seen); kept(ref, local, seen) for a variable the code never writes (no
@@ -92,32 +101,57 @@ constexpr Kept kept(const Ref &ref, Local &local, Seen &seen) noexcept {
     return k;
 }
 
+// The table with its lock groups: each run of entries with one lock becomes a group, seen through
+// its first entry's Seen.  A lock in two runs is an error at compile time (the generated code puts a
+// group's entries together: the second run would find the sequence moved by the first's write-back).
+template <std::size_t N>
+consteval std::array<Kept, N> grouped(std::array<Kept, N> table) {
+    for (std::size_t i = 0; i < N;) {
+        std::size_t end = i + 1;
+        while (end < N && table[end].lock == table[i].lock) ++end;
+        for (std::size_t j = end; j < N; ++j)
+            if (table[j].lock == table[i].lock) throw "a lock group's entries are not together in the table";
+        table[i].group = static_cast<uint32_t>(end - i);
+        for (std::size_t j = i + 1; j < end; ++j) table[j].group = 0, table[j].seen = table[i].seen;
+        i = end;
+    }
+    return table;
+}
+
 namespace detail {
 
-// One consistent read into local and snapshot, unless the sequence is still the one seen.
-inline void readKept(const Kept &k) noexcept {
-    auto seq = shared::detail::sequence(k.lock);
+// One consistent read of the group of n entries at g into their locals and snapshots, unless its
+// sequence is still the one seen.
+inline void readGroup(const Kept *g, std::size_t n) noexcept {
+    auto seq = shared::detail::sequence(g->lock);
     uint32_t before = seq.load(std::memory_order_acquire);
-    if (before == k.seen->seq) return;
-    const char *from = indurop_shared_data + k.offset;
+    if (before == g->seen->seq) return;
+    auto copy = [&] {
+        for (std::size_t i = 0; i < n; ++i)
+            shared::detail::atomicCopy(g[i].local, indurop_shared_data + g[i].offset, g[i].size);
+    };
+    auto snapshots = [&] {
+        for (std::size_t i = 0; i < n; ++i)
+            if (g[i].snapshot != nullptr) std::memcpy(g[i].snapshot, g[i].local, g[i].size);
+    };
     for (int attempt = 0; attempt < shared::kSpinReads; ++attempt, before = seq.load(std::memory_order_acquire)) {
         if (before & 1) {
             __builtin_ia32_pause();
             continue;
         }
-        shared::detail::atomicCopy(k.local, from, k.size);
+        copy();
         std::atomic_thread_fence(std::memory_order_acquire);
         if (seq.load(std::memory_order_relaxed) == before) {
-            if (k.snapshot != nullptr) std::memcpy(k.snapshot, k.local, k.size);
-            k.seen->seq = before;
+            snapshots();
+            g->seen->seq = before;
             return;
         }
     }
-    shared::lockVariable(k.lock);
-    shared::detail::atomicCopy(k.local, from, k.size);
-    k.seen->seq = seq.load(std::memory_order_relaxed);
-    shared::unlockVariable(k.lock);
-    if (k.snapshot != nullptr) std::memcpy(k.snapshot, k.local, k.size);
+    shared::lockVariable(g->lock);
+    copy();
+    g->seen->seq = seq.load(std::memory_order_relaxed);
+    shared::unlockVariable(g->lock);
+    snapshots();
 }
 
 template <bool Whole>
@@ -130,44 +164,69 @@ inline void mergeUnits(const Kept &k, char *to, const char *l, const char *s) no
     }
 }
 
-// The changed words, elements or texts under the variable's lock; then, when no one else wrote since
-// the copy-in (the sequence before this write was the one seen), the segment holds the local: the
-// snapshot follows it and the new sequence is seen; else the segment mixes two writers' bytes and the
-// next copy-in reads it whole.
-inline void writeKept(const Kept &k) noexcept {
-    if (k.snapshot == nullptr) return;  // read only
+// The changed words, elements or texts of one entry (the caller holds the lock).
+inline void mergeKept(const Kept &k) noexcept {
     const auto *l = static_cast<const char *>(k.local), *s = static_cast<const char *>(k.snapshot);
-    if (std::memcmp(l, s, k.size) == 0) return;  // libc's, vectorised: the sizes vary along the table
-    uint32_t at = 0;
-    shared::detail::writeExclusive(k.lock, [&] {
-        at = shared::detail::sequence(k.lock).load(std::memory_order_relaxed);
-        char *to = indurop_shared_data + k.offset;
-        if (k.how == How::Merge) {
-            mergeUnits<false>(k, to, l, s);
-        } else if (k.how == How::Whole) {
-            mergeUnits<true>(k, to, l, s);
-        } else {
-            for (uint32_t t = 0; t + k.unit <= k.size; t += k.unit)
-                if (!sameBytes(l + t, s + t, k.unit))
-                    for (uint32_t i = t; i < t + k.unit; ++i) storeLeaf<uint8_t>(to, l, i);
-        }
-    });
-    if (at - 1 == k.seen->seq) {
-        std::memcpy(k.snapshot, k.local, k.size);
-        k.seen->seq = at + 1;
+    char *to = indurop_shared_data + k.offset;
+    if (k.how == How::Merge) {
+        mergeUnits<false>(k, to, l, s);
+    } else if (k.how == How::Whole) {
+        mergeUnits<true>(k, to, l, s);
     } else {
-        k.seen->seq = 1;
+        for (uint32_t t = 0; t + k.unit <= k.size; t += k.unit)
+            if (!sameBytes(l + t, s + t, k.unit))
+                for (uint32_t i = t; i < t + k.unit; ++i) storeLeaf<uint8_t>(to, l, i);
     }
 }
+
+inline bool changedKept(const Kept &k) noexcept {
+    return k.snapshot != nullptr && std::memcmp(k.local, k.snapshot, k.size) != 0;
+}
+
+// The group of n entries at g, of which those with flags[i] (every one without flags) may have been
+// written: the changed ones (compared with their snapshots; libc's memcmp, vectorised: the sizes vary
+// along the table) under the lock, taken once.  Then, when no one else wrote the group since the
+// copy-in (the sequence before this write was the one seen), the segment holds the locals: their
+// snapshots follow and the new sequence is seen; else the segment mixes two writers' bytes and the
+// next copy-in reads the group whole.  Clears the flags (they hold "changed" meanwhile).
+inline void writeGroup(const Kept *g, std::size_t n, bool *flags) noexcept {
+    bool any = false;
+    for (std::size_t i = 0; i < n; ++i) {
+        if (flags == nullptr) {
+            any = any || changedKept(g[i]);
+        } else if (flags[i]) {
+            flags[i] = changedKept(g[i]);
+            any = any || flags[i];
+        }
+    }
+    if (!any) return;
+    auto changed = [&](std::size_t i) { return flags != nullptr ? flags[i] : changedKept(g[i]); };
+    uint32_t at = 0;
+    shared::detail::writeExclusive(g->lock, [&] {
+        at = shared::detail::sequence(g->lock).load(std::memory_order_relaxed);
+        for (std::size_t i = 0; i < n; ++i)
+            if (changed(i)) mergeKept(g[i]);
+    });
+    const bool alone = at - 1 == g->seen->seq;
+    for (std::size_t i = 0; i < n; ++i) {
+        if (alone && changed(i)) std::memcpy(g[i].snapshot, g[i].local, g[i].size);
+        if (flags != nullptr) flags[i] = false;
+    }
+    g->seen->seq = alone ? at + 1 : 1;
+}
+
+inline std::size_t groupSize(const Kept &k) noexcept { return k.group == 0 ? 1 : k.group; }
 
 }  // namespace detail
 
 inline void copyIn(std::span<const Kept> image) noexcept {
-    for (const Kept &k : image) detail::readKept(k);
+    for (std::size_t i = 0; i < image.size(); i += detail::groupSize(image[i]))
+        detail::readGroup(&image[i], detail::groupSize(image[i]));
 }
 
 inline void writeBack(std::span<const Kept> image) noexcept {
-    for (const Kept &k : image) detail::writeKept(k);
+    for (std::size_t i = 0; i < image.size(); i += detail::groupSize(image[i]))
+        detail::writeGroup(&image[i], detail::groupSize(image[i]), nullptr);
 }
 
 // The variables the run may have written: written[i] is set by the generated code before each
@@ -175,11 +234,12 @@ inline void writeBack(std::span<const Kept> image) noexcept {
 // so a variable no statement of this run wrote is not compared with its snapshot (it still equals
 // it).  Clears the flags for the next run.
 inline void writeBack(std::span<const Kept> image, std::span<bool> written) noexcept {
-    for (std::size_t i = 0; i < image.size(); ++i)
-        if (written[i]) {
-            written[i] = false;
-            detail::writeKept(image[i]);
-        }
+    for (std::size_t i = 0; i < image.size(); i += detail::groupSize(image[i])) {
+        const std::size_t n = detail::groupSize(image[i]);
+        bool any = false;
+        for (std::size_t j = i; j < i + n; ++j) any = any || written[j];
+        if (any) detail::writeGroup(&image[i], n, &written[i]);
+    }
 }
 
 // Runs f, a function of its own: the generated code cuts long runs of copy-ins, write-backs and
