@@ -207,9 +207,14 @@ def place(layout: Layout, prev: Previous, max_size: int) -> None:
         old = before.get(v.path)
         if old is not None and old.type_id == type_id(v):
             v.offset, v.lock = old.offset, old.lock
-            continue
-        v.offset = _first_fit(gaps, v.size)
-        placed.append(v)
+        else:
+            placed.append(v)
+    for run in _runs(layout.variables, placed):
+        base = run[0].offset // CACHE_LINE * CACHE_LINE  # build() placed them from here
+        start = _first_fit(gaps, run[-1].offset + run[-1].size - base)
+        for v in run:
+            v.offset = start + v.offset - base
+    for v in placed:
         if v.lock_group is not None and v.lock_group in group_locks:
             v.lock = group_locks[v.lock_group]
             continue
@@ -249,6 +254,25 @@ def place(layout: Layout, prev: Previous, max_size: int) -> None:
         {"hash": h, "variables": [p.entry() for p in variables]}
         for h, variables in [(prev.hash, prev.variables)] + prev.lineage
     ][:MAX_LINEAGE]
+
+
+def _runs(variables: list[Variable], placed: list[Variable]) -> list[list[Variable]]:
+    """The variables to place (new or changed), in runs that keep build()'s offsets between them: a
+    packed variable that follows a packed one to place goes with it (build() packed it right after),
+    so a program's new variables stay packed; every other one is a run of its own."""
+    to_place = {id(v) for v in placed}
+    runs: list[list[Variable]] = []
+    joins = False
+    for v in variables:
+        if id(v) not in to_place:
+            joins = False
+            continue
+        if v.packed and joins:
+            runs[-1].append(v)
+        else:
+            runs.append([v])
+        joins = v.packed
+    return runs
 
 
 def _types(prev: Previous, v: Variable) -> dict[str, str]:

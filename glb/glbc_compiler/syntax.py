@@ -54,6 +54,10 @@ class Decl:
     # Top-level declarations of the same group share one lock (stc: a PROGRAM instance's struct and
     # array variables, which its module writes back together; docs/glbc.md "Lock groups").
     lock_group: str | None = None
+    # Placed right after the declaration before it, at its own alignment, when that one is packed
+    # too (stc: a PROGRAM instance's variables, which its module alone writes: they need no cache
+    # line each); else on cache lines of its own.
+    packed: bool = False
 
 
 @dataclass

@@ -64,3 +64,33 @@ def test_a_group_laid_out_against_a_layout_without_groups_keeps_the_old_locks(tm
     doc = locks(document(after))
     assert doc["Main.a"][0] != doc["Main.b"][0]
     assert doc["Main.c"][0] == doc["Main.d"][0] not in {doc["Main.a"][0], doc["Main.b"][0], doc["Main.own"][0]}
+
+
+def packed(names: list[str]) -> list[FileSyntax]:
+    src = Source.from_text("main.st", "")
+    at = Loc(src, 1, 1)
+    items = [Decl(ScalarSpec("int8_t", at), "alone", at)]  # not packed: lines of its own
+    items += [Decl(ScalarSpec(t, at), n, at, packed=True) for n, t in names]
+    items.append(Decl(ScalarSpec("int8_t", at), "after", at))
+    return [FileSyntax(src, NamespaceStmt("Main", at), items)]
+
+
+def offsets(doc: dict) -> dict[str, int]:
+    return {v["name"]: v["offset"] for v in doc["variables"]}
+
+
+def test_packed_variables_follow_each_other_at_their_alignment():
+    doc = document(build(packed([("a", "int8_t"), ("b", "int32_t"), ("c", "int16_t"), ("d", "double")])))
+    assert offsets(doc) == {"alone": 0, "a": 64, "b": 68, "c": 72, "d": 80, "after": 128}
+
+
+def test_new_packed_variables_laid_out_against_the_running_layout_stay_packed_and_the_others_stay(tmp_path):
+    running = tmp_path / "running.json"
+    running.write_text(render(build(packed([("a", "int8_t"), ("b", "int32_t")]))))
+    after = build(packed([("a", "int8_t"), ("n1", "int16_t"), ("n2", "double"), ("b", "int32_t"), ("n3", "int8_t")]))
+    place(after, read_previous(str(running)), 1 << 20)
+    now = offsets(document(after))
+    assert (now["alone"], now["a"], now["b"], now["after"]) == (0, 64, 68, 128)  # kept where they were
+    # one run on free lines, as build() packed it (n1 after a, n2 after n1: distances and alignment kept)
+    assert now["n1"] >= 192 and now["n1"] % 2 == 0 and now["n2"] == now["n1"] + 6 and now["n2"] % 8 == 0
+    assert now["n3"] // 64 > now["n2"] // 64  # after a kept one: a run of its own, on a line of its own

@@ -34,6 +34,7 @@
 
 #include <cstdint>
 #include <cstring>
+#include <algorithm>
 #include <array>
 #include <span>
 #include <type_traits>
@@ -183,50 +184,40 @@ inline bool changedKept(const Kept &k) noexcept {
     return k.snapshot != nullptr && std::memcmp(k.local, k.snapshot, k.size) != 0;
 }
 
-// The group of n entries at g, of which those with flags[i] (every one without flags) may have been
-// written: the changed ones (compared with their snapshots; libc's memcmp, vectorised: the sizes vary
-// along the table) under the lock, taken once.  Then, when no one else wrote the group since the
-// copy-in (the sequence before this write was the one seen), the segment holds the locals: their
-// snapshots follow and the new sequence is seen; else the segment mixes two writers' bytes and the
-// next copy-in reads the group whole.  Clears the flags (they hold "changed" meanwhile).
+// The group of n entries at g, of which those with flags[i] may have been written: the changed
+// ones (compared with their snapshots; libc's memcmp, vectorised: the sizes vary along the table)
+// under the lock, taken once.  Then, when no one else wrote the group since the copy-in (the
+// sequence before this write was the one seen), the segment holds the locals: their snapshots
+// follow and the new sequence is seen; else the segment mixes two writers' bytes and the next
+// copy-in reads the group whole.  Clears the flags (they hold "changed" meanwhile).
 inline void writeGroup(const Kept *g, std::size_t n, bool *flags) noexcept {
     bool any = false;
-    for (std::size_t i = 0; i < n; ++i) {
-        if (flags == nullptr) {
-            any = any || changedKept(g[i]);
-        } else if (flags[i]) {
+    for (std::size_t i = 0; i < n; ++i)
+        if (flags[i]) {
             flags[i] = changedKept(g[i]);
             any = any || flags[i];
         }
-    }
     if (!any) return;
-    auto changed = [&](std::size_t i) { return flags != nullptr ? flags[i] : changedKept(g[i]); };
     uint32_t at = 0;
     shared::detail::writeExclusive(g->lock, [&] {
         at = shared::detail::sequence(g->lock).load(std::memory_order_relaxed);
         for (std::size_t i = 0; i < n; ++i)
-            if (changed(i)) mergeKept(g[i]);
+            if (flags[i]) mergeKept(g[i]);
     });
     const bool alone = at - 1 == g->seen->seq;
-    for (std::size_t i = 0; i < n; ++i) {
-        if (alone && changed(i)) std::memcpy(g[i].snapshot, g[i].local, g[i].size);
-        if (flags != nullptr) flags[i] = false;
-    }
+    for (std::size_t i = 0; i < n; ++i)
+        if (flags[i]) {
+            flags[i] = false;
+            if (alone) std::memcpy(g[i].snapshot, g[i].local, g[i].size);
+        }
     g->seen->seq = alone ? at + 1 : 1;
 }
 
-inline std::size_t groupSize(const Kept &k) noexcept { return k.group == 0 ? 1 : k.group; }
-
 }  // namespace detail
 
+// A table's groups start at 0 and each at the end of the one before (Kept::group: its length).
 inline void copyIn(std::span<const Kept> image) noexcept {
-    for (std::size_t i = 0; i < image.size(); i += detail::groupSize(image[i]))
-        detail::readGroup(&image[i], detail::groupSize(image[i]));
-}
-
-inline void writeBack(std::span<const Kept> image) noexcept {
-    for (std::size_t i = 0; i < image.size(); i += detail::groupSize(image[i]))
-        detail::writeGroup(&image[i], detail::groupSize(image[i]), nullptr);
+    for (std::size_t i = 0; i < image.size(); i += image[i].group) detail::readGroup(&image[i], image[i].group);
 }
 
 // The variables the run may have written: written[i] is set by the generated code before each
@@ -234,11 +225,19 @@ inline void writeBack(std::span<const Kept> image) noexcept {
 // so a variable no statement of this run wrote is not compared with its snapshot (it still equals
 // it).  Clears the flags for the next run.
 inline void writeBack(std::span<const Kept> image, std::span<bool> written) noexcept {
-    for (std::size_t i = 0; i < image.size(); i += detail::groupSize(image[i])) {
-        const std::size_t n = detail::groupSize(image[i]);
-        bool any = false;
-        for (std::size_t j = i; j < i + n; ++j) any = any || written[j];
-        if (any) detail::writeGroup(&image[i], n, &written[i]);
+    for (std::size_t i = 0; i < image.size(); i += image[i].group)
+        detail::writeGroup(&image[i], image[i].group, &written[i]);
+}
+
+// Every variable may have been written.
+inline void writeBack(std::span<const Kept> image) noexcept {
+    for (std::size_t i = 0; i < image.size(); i += image[i].group) {
+        bool flags[64];  // a group in pieces of 64 flags: the sequence seen stays right (see writeGroup)
+        for (std::size_t at = 0; at < image[i].group; at += 64) {
+            const std::size_t n = std::min<std::size_t>(64, image[i].group - at);
+            std::fill_n(flags, n, true);
+            detail::writeGroup(&image[i] + at, n, flags);
+        }
     }
 }
 
