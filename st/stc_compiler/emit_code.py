@@ -168,7 +168,9 @@ class CodeEmitter:
                 done.add(id(typ))
                 for m in typ.members.values():
                     need(m.type)
-                out.append(f"struct {typ.name} {{")
+                decl = self.type_decls.get(id(typ))
+                alias = externs.MAY_ALIAS if decl is not None and decl.extern else ""  # passed in place (externs.py)
+                out.append(f"struct {alias}{typ.name} {{")
                 out.extend(f"    {self.member(m)}" for m in typ.members.values())
                 out.extend(["};", ""])
 
