@@ -20,7 +20,7 @@ RESET_LINE = "#line RESET"  # replaced by the .cpp's own line once the text is c
 GENERATED_NAMES = frozenset(
     "Place String ENUM index range loopCheck forStarts forStep cycleTime store copyIn writeBack getBit setBit "
     "NEG programBody fbBody startInstance runInstance Globals Bound global global0 bound bound0 self self0 "
-    "initial fresh freshRetained globalInitial safeOutputs start run Seen seen Kept kept grouped image forget How inPart".upper().split()
+    "initial fresh freshRetained globalInitial safeOutputs start run Kept kept grouped image forget How inPart".upper().split()
 )
 LOCAL_NAMES = frozenset({"SELF", "FB_", "R_", "WRITTEN_"})  # the generated code's own locals in a POU's body
 
@@ -285,11 +285,14 @@ class _Unit:
         image_args = "image, written_" if self.code.written_index else "image"
         out += ["// run(): one period.  A fault throws past the write-back: a faulting run writes nothing."]
         if table:
-            out.append(f"Seen seen[{len(table)}];  // the kept image (kept.hpp): the variables' sequences, their table")
-            out.append("constexpr auto image = grouped(std::array{  // the instance's own: one lock group")
-            for i, (ref, local, snap, _, written, _) in enumerate(table):
-                snap = f"{snap}, " if written else ""  # read only: no snapshot, no write-back
-                out.append(f"    kept({ref}, {local}, {snap}seen[{i}]),")
+            out.append(
+                "// the kept image (kept.hpp): the table, its entries' sequences in it; the instance's own first,"
+            )
+            out.append("// one lock group")
+            out.append("constinit auto image = grouped(std::array{")
+            for ref, local, snap, _, written, _ in table:
+                snap = f", {snap}" if written else ""  # read only: no snapshot, no write-back
+                out.append(f"    kept({ref}, {local}{snap}),")
             out.append("});")
         out.append("void runInstance() {")
         out += in_parts([f"    copyIn({ref}, {local}, {snap});" for ref, local, snap, *_ in scalars])
