@@ -197,10 +197,12 @@ function(indurop_add_st name)
   _indurop_stc_python(stc_python)
   get_filename_component(stc_dir ${INDUROP_STC} DIRECTORY)
   file(GLOB_RECURSE stc_sources ${stc_dir}/*.py ${stc_dir}/lib/*.st)
+  get_filename_component(glbc_dir ${INDUROP_GLBC} DIRECTORY)  # stc lays out with glbc's Python API
+  file(GLOB_RECURSE glbc_sources ${glbc_dir}/*.py)
   add_custom_command(
     OUTPUT ${dir}/module.xml ${dir}/layout.json ${dir}/indurop/generated.h
     COMMAND ${stc_python} ${INDUROP_STC} build ${args} ${inputs}
-    DEPENDS ${depends} ${INDUROP_STC} ${stc_sources}
+    DEPENDS ${depends} ${INDUROP_STC} ${stc_sources} ${glbc_sources}
     COMMENT "stc build ${ARG_SOURCES} -> ${dir}"
     VERBATIM)
   add_custom_target(${name} ALL DEPENDS ${dir}/module.xml ${carried})

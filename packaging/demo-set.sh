@@ -9,8 +9,9 @@
 #       store's active set (DATA/active), which is that set or what was activated since through the
 #       agent (an edit of its program on the Programs page, a rollback): the edits are kept across
 #       restarts of the demo, and the build's set is stored again once it is built anew; without
-#       INDUROP_SET, the set activated last (DATA/active), else SETS/plc-robot, the cell of the
-#       paper's §4.  Exit 2, listing SETS, when <name> is not there.
+#       INDUROP_SET, the set activated last (DATA/active), else SETS/plc-robot-st, the cell of the
+#       paper's §4 with its PLC program in Structured Text.  Exit 2, listing SETS, when <name> is
+#       not there.
 #   demo-set.sh store DATA FOLDER URL IRPCTL
 #       once the agent answers on URL: uploads the set folder FOLDER (a set of the build, the one
 #       irpd was started on) with the admin token and activates it (online when possible, else by a
@@ -37,7 +38,7 @@ pick)
     echo "$data/active/module.xml"
     exit 0
   fi
-  folder=$sets/${INDUROP_SET:-plc-robot}
+  folder=$sets/${INDUROP_SET:-plc-robot-st}
   if [ ! -f "$folder/module.xml" ]; then
     echo "demo: INDUROP_SET=${INDUROP_SET:-}: no $folder/module.xml; the built sets are: $(cd "$sets" && ls -d */ | tr -d / | tr '\n' ' ')" >&2
     exit 2

@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # demo.sh -- installs what is missing, builds, and starts the default demo: irpd running the
-# set activated last through the agent, or the PLC + robot cell (config/sets/plc-robot, the paper's
-# §4, its drives simulated on Modbus TCP by indurop-drivesim) the first time, with its control
+# set activated last through the agent, or the PLC + robot cell (the paper's §4, its drives
+# simulated on Modbus TCP by indurop-drivesim) with its PLC program in Structured Text
+# (config/sets/plc-robot-st) the first time, with its control
 # socket, indurop-agent on http://127.0.0.1:8080/api/v1 beside it, the DDS bridge on loopback
 # (docs/dds.md) and the OPC UA server on opc.tcp://127.0.0.1:4840/ (docs/opcua.md).  Ctrl-C stops them.  Extra arguments
 # go to irpd, e.g. `bash packaging/demo.sh --duration 10 --stats-json /tmp/stats.json` (the
 # agent stops when irpd does).  INDUROP_PORT and INDUROP_DATA change the port and data folder;
-# INDUROP_SET=<name> starts build/sets/<name> instead, e.g. INDUROP_SET=plc-robot-st for the cell
-# with its PLC program in Structured Text (config/sets/plc-robot-st), and makes it the agent's
-# active set (packaging/demo-set.sh: uploaded once it is up, its .st sources with it).
+# INDUROP_SET=<name> starts build/sets/<name> instead, e.g. INDUROP_SET=plc-robot for the cell
+# with its PLC program in C++ (config/sets/plc-robot), and makes it the agent's active set
+# (packaging/demo-set.sh: uploaded once it is up, an ST set's .st sources with it).
 # Both programs' output goes to the terminal and, each line stamped with its UTC time, to
 # <data>/logs/irpd.log and agent.log, which the web UI's System page reads.  The agent is started
 # again when it exits asking for it (exit 75: a restart from the System page, a restore).
@@ -31,7 +32,7 @@ mkdir -p "$data"
 sock="$data/irpd.sock"
 
 # The set: with INDUROP_SET=<name>, build/sets/<name>; else the set activated last through the agent
-# (its set store keeps a link to it), else the PLC + robot cell of the paper's §4, whose drives are
+# (its set store keeps a link to it), else the PLC + robot cell of the paper's §4 in ST, whose drives are
 # simulated on Modbus TCP (127.0.0.1:15020) by indurop-drivesim, a non-real process module of the
 # set that irpd starts and stops.  A set of the build becomes the store's active set below.
 config=$(bash "$root/packaging/demo-set.sh" pick "$data" "$root/build/sets") || exit 2

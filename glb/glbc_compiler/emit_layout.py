@@ -44,6 +44,12 @@ def _iec(iec_type: str | None) -> dict[str, str]:
     return {"iec_type": iec_type} if iec_type else {}
 
 
+def _lock_group(group: str | None) -> dict[str, str]:
+    """The lock group of a variable that shares its lock (Decl.lock_group); absent otherwise, so that
+    layouts without groups are unchanged."""
+    return {"lock_group": group} if group is not None else {}
+
+
 def _internal(internal: bool) -> dict[str, bool]:
     """A compiler's own variable (stc's init flags) and its leaves carry "internal": true, so that
     every view of the variables leaves them out; others have no such key (their layouts unchanged)."""
@@ -90,6 +96,7 @@ def _variable(v: Variable) -> dict[str, Any]:
         | qualifier
         | _iec(v.iec_type)
         | _internal(v.internal)
+        | _lock_group(v.lock_group)
     )
 
 

@@ -31,9 +31,17 @@ class Placed:
     offset: int
     size: int
     lock: int
+    lock_group: str | None = None
 
     def entry(self) -> dict[str, Any]:
-        return {"path": self.path, "type_id": self.type_id, "offset": self.offset, "size": self.size, "lock": self.lock}
+        group = {"lock_group": self.lock_group} if self.lock_group is not None else {}
+        return {
+            "path": self.path,
+            "type_id": self.type_id,
+            "offset": self.offset,
+            "size": self.size,
+            "lock": self.lock,
+        } | group
 
 
 @dataclass
@@ -91,7 +99,10 @@ def _variables(file: str, value: Any, what: str) -> list[Placed]:
         tid = v.get("type_id")
         if not isinstance(tid, str) or not re.fullmatch(r"[0-9a-f]{16}", tid):
             raise _fail(file, f'variable {path} of {what} has no "type_id": {OLDER}')
-        out.append(Placed(path, tid, v["offset"], v["size"], v["lock"]))
+        group = v.get("lock_group")
+        if group is not None and not isinstance(group, str):
+            raise _fail(file, f'variable {path} of {what} has a "lock_group" that is not a string: {OLDER}')
+        out.append(Placed(path, tid, v["offset"], v["size"], v["lock"], group))
     return out
 
 
@@ -184,19 +195,35 @@ def place(layout: Layout, prev: Previous, max_size: int) -> None:
     before = {p.path: p for p in prev.variables}
     gaps = _gaps(kept)
     used_locks = {p.lock for p in kept}
+    # A lock group keeps its lock: a variable that joins it (new or moved) takes the lock its
+    # variables have in the running layout, or the one the first of them gets here.
+    group_locks: dict[str, int] = {}
+    for p in prev.variables:
+        if p.lock_group is not None:
+            group_locks.setdefault(p.lock_group, p.lock)
     next_lock = 0
     placed: list[Variable] = []
     for v in layout.variables:
         old = before.get(v.path)
         if old is not None and old.type_id == type_id(v):
             v.offset, v.lock = old.offset, old.lock
+        else:
+            placed.append(v)
+    for run in _runs(layout.variables, placed):
+        base = run[0].offset // CACHE_LINE * CACHE_LINE  # build() placed them from here
+        start = _first_fit(gaps, run[-1].offset + run[-1].size - base)
+        for v in run:
+            v.offset = start + v.offset - base
+    for v in placed:
+        if v.lock_group is not None and v.lock_group in group_locks:
+            v.lock = group_locks[v.lock_group]
             continue
-        v.offset = _first_fit(gaps, v.size)
         while next_lock in used_locks:
             next_lock += 1
         v.lock = next_lock
         used_locks.add(next_lock)
-        placed.append(v)
+        if v.lock_group is not None:
+            group_locks[v.lock_group] = v.lock
     kept_end = round_up(max((p.offset + p.size for p in kept), default=0), CACHE_LINE)
     layout.data_size = max([kept_end] + [round_up(v.offset + v.size, CACHE_LINE) for v in layout.variables])
     layout.lock_count = 1 + max(used_locks | {v.lock for v in layout.variables}, default=-1)
@@ -227,6 +254,25 @@ def place(layout: Layout, prev: Previous, max_size: int) -> None:
         {"hash": h, "variables": [p.entry() for p in variables]}
         for h, variables in [(prev.hash, prev.variables)] + prev.lineage
     ][:MAX_LINEAGE]
+
+
+def _runs(variables: list[Variable], placed: list[Variable]) -> list[list[Variable]]:
+    """The variables to place (new or changed), in runs that keep build()'s offsets between them: a
+    packed variable that follows a packed one to place goes with it (build() packed it right after),
+    so a program's new variables stay packed; every other one is a run of its own."""
+    to_place = {id(v) for v in placed}
+    runs: list[list[Variable]] = []
+    joins = False
+    for v in variables:
+        if id(v) not in to_place:
+            joins = False
+            continue
+        if v.packed and joins:
+            runs[-1].append(v)
+        else:
+            runs.append([v])
+        joins = v.packed
+    return runs
 
 
 def _types(prev: Previous, v: Variable) -> dict[str, str]:

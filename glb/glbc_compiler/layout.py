@@ -1,6 +1,7 @@
 # layout.py -- the parsed files -> one segment layout: names checked per namespace, struct types
 # named (`v_t`, `X_f_t`), sizes and offsets as g++ lays them out on x86-64, top-level variables
-# on their own 64-byte cache lines, one lock each.
+# on their own 64-byte cache lines (packed ones one after the other), one lock each (the variables of
+# a lock group one between them).
 
 from __future__ import annotations
 
@@ -77,6 +78,8 @@ class Variable:
     retain: str | None = None  # "retain" or "persistent": irpd saves and restores it (docs/retain.md)
     iec_type: str | None = None  # the IEC type of its elements (declared by stc), else None
     internal: bool = False  # a compiler's own variable (Decl.internal): "internal": true in layout.json
+    lock_group: str | None = None  # Decl.lock_group: the variables of a group share their lock
+    packed: bool = False  # Decl.packed: right after the variable before it when that one is packed too
 
     @property
     def path(self) -> str:
@@ -148,6 +151,9 @@ class _Builder:
         self.types: list[StructType] = []
         self.variables: list[Variable] = []
         self.blocks: list[Block] = []
+        self.lock_count = 0
+        self.last_packed = False  # whether the variable laid out last was a packed one (Decl.packed)
+        self.group_locks: dict[str, int] = {}  # a lock group's lock
         self.leaves = 0
 
     # -- names ----------------------------------------------------------------------------------
@@ -279,9 +285,24 @@ class _Builder:
             retain=decl.retain,
             iec_type=decl.iec_type,
             internal=decl.internal,
+            lock_group=decl.lock_group,
+            packed=decl.packed,
         )
-        var.offset = round_up(self.variables[-1].offset + self.variables[-1].size, CACHE_LINE) if self.variables else 0
-        var.lock = len(self.variables)
+        last = self.variables[-1] if self.variables else None
+        if last is None:
+            var.offset = 0
+        elif decl.packed and self.last_packed:
+            var.offset = round_up(last.offset + last.size, var.align)
+        else:
+            var.offset = round_up(last.offset + last.size, CACHE_LINE)
+        self.last_packed = decl.packed
+        if decl.lock_group is not None and decl.lock_group in self.group_locks:
+            var.lock = self.group_locks[decl.lock_group]
+        else:
+            var.lock = self.lock_count
+            self.lock_count += 1
+            if decl.lock_group is not None:
+                self.group_locks[decl.lock_group] = var.lock
         end = round_up(var.offset + var.size, CACHE_LINE)
         if end > self.max_size:
             raise GlbError(
@@ -349,5 +370,5 @@ def build(files: list[FileSyntax], max_size: int = DEFAULT_MAX_SIZE) -> Layout:
         b.variables,
         b.blocks,
         data_size,
-        len(b.variables),
+        b.lock_count,
     )

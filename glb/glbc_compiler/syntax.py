@@ -51,6 +51,13 @@ class Decl:
     retain: str | None = None  # a top-level declaration's qualifier: "retain" or "persistent"
     iec_type: str | None = None  # the IEC 61131-3 type it holds (declarations made by stc; .glb text has none)
     internal: bool = False  # the compiler's own (stc's init flags): laid out, kept, never shown to users
+    # Top-level declarations of the same group share one lock (stc: a PROGRAM instance's struct and
+    # array variables, which its module writes back together; docs/glbc.md "Lock groups").
+    lock_group: str | None = None
+    # Placed right after the declaration before it, at its own alignment, when that one is packed
+    # too (stc: a PROGRAM instance's variables, which its module alone writes: they need no cache
+    # line each); else on cache lines of its own.
+    packed: bool = False
 
 
 @dataclass

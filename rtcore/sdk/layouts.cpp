@@ -18,7 +18,8 @@ Table tableOf(const nlohmann::json &hash, const nlohmann::json &variables) {
     for (const auto &v : variables)
         t.variables.push_back(Variable{v.at("path").get<std::string>(), v.value("type_id", std::string{}),
                                        v.at("offset").get<uint64_t>(), v.at("size").get<uint64_t>(),
-                                       v.at("lock").get<uint32_t>(), v.value("internal", false)});
+                                       v.at("lock").get<uint32_t>(), v.value("internal", false),
+                                       v.value("lock_group", std::string{})});
     return t;
 }
 
@@ -34,6 +35,10 @@ std::string place(const Variable &v) {
 }
 
 }  // namespace
+
+bool sameLock(const Variable &a, const Variable &b) {
+    return a.lock == b.lock && (a.lock_group.empty() || a.lock_group != b.lock_group);
+}
 
 const Variable *Table::find(std::string_view path) const {
     for (const Variable &v : variables)
@@ -86,7 +91,7 @@ std::string compatible(std::string_view built, const Model &model) {
         }
         // Gone: its bytes and lock must be a hole nothing else uses.
         for (const Variable &other : model.self.variables)
-            if (overlaps(v, other) || other.lock == v.lock)
+            if (overlaps(v, other) || sameLock(other, v))
                 return "it was built against layout " + shortHash(built) + ", in which '" + v.path + "' (" + place(v) +
                        ") lies where '" + other.path + "' is now: rebuild it against the set's .glb files";
     }
@@ -123,7 +128,7 @@ Diff diff(const Model &running, const Model &next) {
         if (!old && v.internal) d.internal.push_back(v.path);
         if (!d.online_impossible.empty()) continue;
         for (const Variable *u : in_use) {
-            const bool same_place = overlaps(*u, v) || u->lock == v.lock;
+            const bool same_place = overlaps(*u, v) || sameLock(*u, v);
             if (!same_place) continue;
             if (u->path == v.path && old && old->offset == v.offset)
                 d.online_impossible = "variable '" + v.path + "' changes its type in place (" + place(v) +

@@ -4,7 +4,7 @@
 //   compatible  may code built against layout H (the hash stamped into a module) run on this
 //               layout?  Yes when H is this layout, or a layout of its lineage (glbc --previous)
 //               whose every variable is here with the same type, offset and lock, or is gone
-//               and left a hole that nothing else uses.
+//               and left a hole that nothing else uses (its lock: nothing outside its lock group).
 //   diff        what changes from the running layout to the next, and whether the segment can
 //               take it online: every variable kept (same path and type) stays where it is, and
 //               everything new lies in room that neither layout nor the lineage uses.
@@ -27,8 +27,12 @@ struct Variable {
     std::string path, type_id;
     uint64_t offset = 0, size = 0;
     uint32_t lock = 0;
-    bool internal = false;  // a compiler's own ("internal": true, stc's init flags): kept, never reported
+    bool internal = false;   // a compiler's own ("internal": true, stc's init flags): kept, never reported
+    std::string lock_group;  // "lock_group": the variables of one group share their lock by design
 };
+
+// Whether a and b use one lock other than as a lock group's members (glbc gives a group one lock).
+bool sameLock(const Variable &a, const Variable &b);
 
 struct Table {
     std::string hash;

@@ -11,7 +11,7 @@ from . import externs, stdlib
 from . import tree as t
 from . import types as ty
 from .check_expr import _text
-from .emit_glb import EMPTY_FB_FIELD, fb_fields, globals_blocks, stored
+from .emit_glb import EMPTY_FB_FIELD, fb_fields, globals_blocks, scalar, stored
 
 # A POU body of more statements (nested ones counted) is split at its top-level statements into C++
 # functions of at most about this many (a single larger statement keeps a function of its own): g++'s
@@ -168,7 +168,9 @@ class CodeEmitter:
                 done.add(id(typ))
                 for m in typ.members.values():
                     need(m.type)
-                out.append(f"struct {typ.name} {{")
+                decl = self.type_decls.get(id(typ))
+                alias = externs.MAY_ALIAS if decl is not None and decl.extern else ""  # passed in place (externs.py)
+                out.append(f"struct {alias}{typ.name} {{")
                 out.extend(f"    {self.member(m)}" for m in typ.members.values())
                 out.extend(["};", ""])
 
@@ -804,9 +806,7 @@ def _type_name(typ) -> str:
     return b.name
 
 
-def _scalar(typ) -> bool:
-    b = ty.base(typ) if typ is not None else None
-    return isinstance(b, (ty.Elementary, ty.LiteralType, ty.EnumType))
+_scalar = scalar  # emit_glb's: a value of one atomic load and store
 
 
 def written_roots(stmts) -> list[t.VarDecl]:

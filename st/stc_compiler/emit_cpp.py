@@ -20,7 +20,7 @@ RESET_LINE = "#line RESET"  # replaced by the .cpp's own line once the text is c
 GENERATED_NAMES = frozenset(
     "Place String ENUM index range loopCheck forStarts forStep cycleTime store copyIn writeBack getBit setBit "
     "NEG programBody fbBody startInstance runInstance Globals Bound global global0 bound bound0 self self0 "
-    "initial fresh freshRetained globalInitial safeOutputs start run Seen seen Kept kept image forget How inPart".upper().split()
+    "initial fresh freshRetained globalInitial safeOutputs start run Kept kept grouped image forget How inPart".upper().split()
 )
 LOCAL_NAMES = frozenset({"SELF", "FB_", "R_", "WRITTEN_"})  # the generated code's own locals in a POU's body
 
@@ -144,7 +144,7 @@ class _Unit:
         own, glob, glb = self.touched()
         self.copies = self.image(own, glob, glb)
         # the kept image's entries the code may write: each statement that may write one marks it
-        table = [c for c in self.copies if not _scalar(c[3])]
+        table = self.table()
         self.code.written_index = {c[5]: i for i, c in enumerate(table) if c[4]}
         functions = []
         for p in self.pous:
@@ -205,6 +205,13 @@ class _Unit:
             n = sum(1 for c in self.copies if not _scalar(c[3]))
             out.append(f"bool written_[{n}];  // image[i] (below) may have been written in this run")
         return out + [""]
+
+    def table(self) -> list[tuple]:
+        """The kept image's entries (the structs and arrays of the process image), the instance's own
+        first: they are its lock group (emit_glb.py), whose entries kept.hpp's grouped() needs together."""
+        own = f"::{self.inst.name}::"
+        rest = [c for c in self.copies if not _scalar(c[3])]
+        return [c for c in rest if c[0].startswith(own)] + [c for c in rest if not c[0].startswith(own)]
 
     def image(self, own, glob, glb) -> list[tuple]:
         """The process image: (ref, local, snapshot, type, whether the code may write it, image_key)
@@ -274,16 +281,19 @@ class _Unit:
             out += ["}", ""]
         # scalars: one atomic load and store each; structs and arrays: the kept image's table (kept.hpp)
         scalars = [c for c in copies if _scalar(c[3])]
-        table = [c for c in copies if not _scalar(c[3])]
+        table = self.table()
         image_args = "image, written_" if self.code.written_index else "image"
         out += ["// run(): one period.  A fault throws past the write-back: a faulting run writes nothing."]
         if table:
-            out.append(f"Seen seen[{len(table)}];  // the kept image (kept.hpp): the variables' sequences, their table")
-            out.append("constexpr Kept image[] = {")
-            for i, (ref, local, snap, _, written, _) in enumerate(table):
-                snap = f"{snap}, " if written else ""  # read only: no snapshot, no write-back
-                out.append(f"    kept({ref}, {local}, {snap}seen[{i}]),")
-            out.append("};")
+            out.append(
+                "// the kept image (kept.hpp): the table, its entries' sequences in it; the instance's own first,"
+            )
+            out.append("// one lock group")
+            out.append("constinit auto image = grouped(std::array{")
+            for ref, local, snap, _, written, _ in table:
+                snap = f", {snap}" if written else ""  # read only: no snapshot, no write-back
+                out.append(f"    kept({ref}, {local}{snap}),")
+            out.append("});")
         out.append("void runInstance() {")
         out += in_parts([f"    copyIn({ref}, {local}, {snap});" for ref, local, snap, *_ in scalars])
         if table:

@@ -63,6 +63,13 @@ def stored(v: t.VarDecl) -> bool:
     )
 
 
+def scalar(typ: ty.Type | None) -> bool:
+    """Whether a value of this type is a scalar: a top-level one is one atomic load and store (the
+    generated code copies it every run), else it is a struct or an array (the kept image, kept.hpp)."""
+    b = ty.base(typ) if typ is not None else None
+    return isinstance(b, (ty.Elementary, ty.LiteralType, ty.EnumType))
+
+
 def fb_fields(pou: t.Pou) -> list[t.VarDecl]:
     """An FB instance's fields in shared memory and in its C++ struct: VAR_INPUT, VAR_OUTPUT, VAR."""
     return [v for v in pou.vars if stored(v)]
@@ -100,10 +107,12 @@ class _Declarer:
             src = self.sources[place.file] = Source.from_text(place.file, text)
         return Loc(src, place.line, place.col)
 
-    def decl(self, v: t.VarDecl, name: str | None = None) -> Decl:
+    def decl(self, v: t.VarDecl, name: str | None = None, lock_group: str | None = None, packed: bool = False) -> Decl:
         at = self.loc(v.place)
         spec, dims, iec = self.spec(v.type, at)
-        d = Decl(spec, name or v.name, at, [Dim(at, n) for n in dims], iec_type=iec)
+        d = Decl(
+            spec, name or v.name, at, [Dim(at, n) for n in dims], iec_type=iec, lock_group=lock_group, packed=packed
+        )
         if v.kind != "MEMBER" and (v.retain or v.persistent):
             d.retain = "persistent" if v.persistent else "retain"
         return d
@@ -143,7 +152,12 @@ def st_files(instances: list[Instance], blocks: list[GlobalsBlock]) -> list[File
         files.append(FileSyntax(at.source, NamespaceStmt(b.namespace, at), [d.decl(g) for g in b.decls]))
     for inst in instances:
         at = d.loc(inst.place)
-        items = [d.decl(v) for v in inst.pou.vars if stored(v)]
+        # its structs and arrays (FB instances among them) share one lock: the instance's module
+        # reads them with one sequence check and writes them back under one taking of the lock; and
+        # its variables are packed, so that its scalars, copied every run, are a cache line or two
+        items = [
+            d.decl(v, lock_group=None if scalar(v.type) else inst.name, packed=True) for v in inst.pou.vars if stored(v)
+        ]
         items.append(Decl(ScalarSpec("bool", at), INIT_FLAG, at, iec_type="BOOL", internal=True))
         if any(v.retain or v.persistent for v in inst.pou.vars if stored(v)):
             flag = Decl(ScalarSpec("bool", at), RETAIN_INIT_FLAG, at, retain="retain", iec_type="BOOL", internal=True)

@@ -51,10 +51,12 @@ def includes(pous: list[t.Pou]) -> list[str]:
 
 
 class Passing:
-    """How ST lvalues reach an extern C++ call: a STRUCT of a C++ type's bytes ({extern 'ns::T'}) as a
-    copy of that type (memcpy in, the call, memcpy out: the defined way to view one plain value as
-    another of the same layout), a STRUCT made by a function ({extern 'ns::make(a, b)'}) as
-    ns::make(its members, passed the same way), anything else as it is."""
+    """How ST lvalues reach an extern C++ call: a STRUCT of a C++ type's bytes ({extern 'ns::T'}) in
+    place, as that type (its ST struct is declared may_alias, as an extern FB's is), a STRUCT made by
+    a function ({extern 'ns::make(a, b)'}) as what ns::make(its members, passed the same way) returns,
+    anything else as it is.  The reference ns::make returns is made on the stack at every call: a
+    static made once would cost its cache lines in a run that starts with cold caches, more than
+    the stores of making it again."""
 
     def __init__(self, decl_of_type) -> None:
         self.decl_of_type = decl_of_type
@@ -78,11 +80,7 @@ class Passing:
         self.asserts += layout_asserts(
             decl.name, decl.extern, [(m.name, m.type) for m in ty.base(typ).members.values()]
         )
-        self.count += 1
-        tmp = f"cpp{self.count}"
-        self.before += [f"{decl.extern} {tmp};", f"std::memcpy(static_cast<void *>(&{tmp}), &{code}, sizeof {tmp});"]
-        self.after.append(f"std::memcpy(static_cast<void *>(&{code}), &{tmp}, sizeof {tmp});")
-        return tmp
+        return f"reinterpret_cast<{decl.extern} &>({code})"
 
 
 # The attribute of the ST struct of an extern FUNCTION_BLOCK: fb_body() runs the C++ block on the

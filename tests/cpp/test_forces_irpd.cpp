@@ -111,6 +111,7 @@ TEST(Forces, AWriteToAForcedVariableIsRefusedNamingWhoForcedIt) {
     ASSERT_TRUE(force(cell, "oc.gone", 5, "alice")["ok"]);
     const json refused = cell.ask({{"cmd", "write"}, {"path", "oc.gone"}, {"value", 6}});
     ASSERT_FALSE(refused.value("ok", true)) << refused.dump();
+    EXPECT_EQ(refused["error"]["code"], "forced") << "its own code (protocol/control.json), not refused";
     const std::string message = refused["error"]["message"];
     EXPECT_NE(message.find("forced by alice"), std::string::npos) << message;
     EXPECT_NE(message.find("unforce it first"), std::string::npos) << message;

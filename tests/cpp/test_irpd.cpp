@@ -427,6 +427,32 @@ TEST(IrpdRefuses, AMalformedLayout) {
     EXPECT_NE(r.err.find("layout.json: layout version 7; this irpd reads version 1"), std::string::npos) << r.err;
 }
 
+// Variables share a lock only as the members of one lock group (glbc's lock_group: an ST PROGRAM
+// instance's structs and arrays); a shared lock outside a group is a malformed layout.
+TEST(IrpdLayout, VariablesShareALockOnlyWithinALockGroup) {
+    json layout = json::parse(readFile(std::string(BUILD_ROOT) + "/sets/paper-fig1/layout.json"));
+    ASSERT_GE(layout["variables"].size(), 2u);
+    layout["variables"][1]["lock"] = layout["variables"][0]["lock"];
+    for (const bool grouped : {false, true}) {
+        TempDir dir;
+        if (grouped)
+            for (int i : {0, 1}) layout["variables"][i]["lock_group"] = "g";
+        writeFile(dir.path / "layout.json", layout.dump());
+        writeFile(dir.path / "module.xml",
+                  "<root>\n" + module(std::string(FIXTURE_MODULES) + "/rec_a.so", 100000, 1) + "</root>\n");
+        Outcome r = irpd(
+            {"--config", (dir.path / "module.xml").string(), "--duration", "0.2", "--instance", uniqueInstance()}, dir);
+        const std::string path = layout["variables"][1]["path"];
+        if (grouped) {
+            EXPECT_EQ(r.status, 0) << r.err;
+        } else {
+            EXPECT_EQ(r.status, 2);
+            EXPECT_NE(r.err.find("variable " + path + " shares lock"), std::string::npos) << r.err;
+            EXPECT_NE(r.err.find("outside its lock group"), std::string::npos) << r.err;
+        }
+    }
+}
+
 TEST(IrpdRun, ThePapersFigures4578RunAsOneSet) {
     TempDir dir;
     const auto stats_path = dir.path / "stats.json";

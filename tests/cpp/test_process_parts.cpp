@@ -259,4 +259,3 @@ TEST(ProcessSpawn, AMissingProgramIsAnErrorAndLeavesNothingBehind) {
     EXPECT_EQ(spawned.error().message, "cannot start /nonexistent/program: execve: No such file or directory");
     EXPECT_EQ(waitpid(-1, nullptr, WNOHANG), -1);  // reaped: no child left
 }
-

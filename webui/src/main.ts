@@ -1,4 +1,4 @@
-// main.ts -- the shell: sign-in, the navigation bar with the alarm banner and the user's menu
+// main.ts -- the shell: sign-in, the navigation bar with the alarm and force banners and the user's menu
 // (password, sign out), the hash router (#/overview, #/modules, ...) and the status bar.  Each page
 // lives in src/pages/<name>.ts and gets an AppContext.  When the agent says the session has ended
 // (a 401, a WebSocket closed with 4401), the page reloads onto the sign-in form, saying why.
@@ -7,11 +7,13 @@ import "./styles/app.css";
 import { makeApi, watchPresence } from "./api/client";
 import { AlarmFeed } from "./app/alarm-feed";
 import { type AppContext, type Page, type Role, roleAtLeast, type Session } from "./app/context";
+import { bannerText, ForceFeed, forcesTitle } from "./app/force-feed";
 import { openPasswordDialog } from "./app/password-dialog";
 import { noticeAfterReload, signIn, signOut } from "./app/signin";
 import { bannerOf } from "./ops/alarms";
 import { setClass, setText } from "./ops/dom";
 import { alarmsPage } from "./pages/alarms";
+import { forcesPage } from "./pages/forces";
 import { jitterPage } from "./pages/jitter";
 import { linePage } from "./pages/line";
 import { modulesPage } from "./pages/modules";
@@ -35,6 +37,7 @@ const ALL_PAGES: { id: string; title: string; page: Page; role: Role }[] = [
   { id: "programs", title: "Programs", page: programsPage, role: "viewer" },
   { id: "variables", title: "Variables", page: variablesPage, role: "viewer" },
   { id: "watch", title: "Watch", page: watchPage, role: "viewer" },
+  { id: "forces", title: "Forces", page: forcesPage, role: "viewer" },
   { id: "scope", title: "Scope", page: scopePage, role: "viewer" },
   { id: "robot", title: "Robot", page: robotPage, role: "viewer" },
   { id: "alarms", title: "Alarms", page: alarmsPage, role: "viewer" },
@@ -73,6 +76,7 @@ async function start(root: HTMLElement): Promise<void> {
       <span class="brand">indurop</span>
       <nav>${pages.map((p) => `<a href="#/${p.id}" data-page="${p.id}">${p.title}</a>`).join("")}</nav>
       <a class="alarm-banner muted" href="#/alarms" data-testid="alarm-banner" role="status"></a>
+      <a class="force-banner" href="#/forces" data-testid="force-banner" role="status" hidden></a>
       <span class="who" data-testid="who"></span>
       <button class="link" data-testid="change-password">password</button>
       <button class="link" data-testid="sign-out">sign out</button>
@@ -89,6 +93,14 @@ async function start(root: HTMLElement): Promise<void> {
     banner.title = b.title;
     banner.dataset.active = String(view.counts.active);
     banner.dataset.unacknowledged = String(view.counts.unacknowledged);
+  });
+  const forces = new ForceFeed(api);
+  const forceBanner = root.querySelector<HTMLElement>("[data-testid=force-banner]")!;
+  forces.listen((list) => {
+    setText(forceBanner, bannerText(list.length));
+    forceBanner.hidden = list.length === 0;
+    forceBanner.title = forcesTitle(list);
+    forceBanner.dataset.count = String(list.length);
   });
   root.querySelector<HTMLElement>("[data-testid=who]")!.textContent = `${session.name} · ${session.role}`;
   root.querySelector("[data-testid=sign-out]")!.addEventListener("click", async () => {
@@ -107,6 +119,7 @@ async function start(root: HTMLElement): Promise<void> {
     session,
     stream,
     alarms,
+    forces,
     can: (role: Role) => roleAtLeast(session.role, role),
     notify(message, kind = "info") {
       notice.textContent = message;

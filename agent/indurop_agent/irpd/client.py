@@ -34,6 +34,13 @@ class IrpdRefused(Exception):
         # are known), or just those fields; errors.place() reads the place from it.
         self.error = error or {}
 
+    @property
+    def forced(self) -> bool:
+        """A write irpd refused because a force holds the variable (its code `forced`; the message
+        names who forced it).  The one place the agent tells this refusal from the others: the API
+        answers it 409 as any refusal, OPC UA BadUserAccessDenied (docs/forcing.md)."""
+        return self.code == protocol.FORCED
+
 
 class IrpdClient:
     def __init__(self, path: str, timeout_s: float = 2.0):

@@ -65,7 +65,9 @@ BAD_REQUEST = "bad_request"
 TOO_LARGE = "too_large"
 # more than max_clients clients: sent to the new one, which is then closed
 BUSY = "busy"
-ERROR_CODES = (REFUSED, NOT_FOUND, RESTART_REQUIRED, BAD_REQUEST, TOO_LARGE, BUSY)
+# a `write` to a variable held by a force (docs/forcing.md): the message names who forced it, to what, and says to unforce it first
+FORCED = "forced"
+ERROR_CODES = (REFUSED, NOT_FOUND, RESTART_REQUIRED, BAD_REQUEST, TOO_LARGE, BUSY, FORCED)
 
 COMMANDS = ("status", "schedule", "modules", "stats", "alarms", "histograms", "events", "check", "restart", "load", "change", "set_period", "set_priority", "enable", "disable", "clear_crash", "write", "force", "unforce", "forces", "trace")
 EVENT_KINDS = ("start", "swap", "swap_failed", "fault", "deadline", "overrun", "stopped", "safe_outputs_failed", "process_exit", "process_restart", "process_hang", "process_output_dropped", "crash", "crash_cleared", "restart", "retain", "retain_corrupt", "retain_write_failed", "restart_failed", "force_set", "force_cleared", "force_dropped")

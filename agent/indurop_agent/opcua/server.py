@@ -288,8 +288,9 @@ async def poll_status(rt: Runtime) -> None:
         stats = await asyncio.to_thread(rt.irpd.request, "stats")
         await rt.space.update_figures("Modules", modules)
         await rt.space.update_figures("Dispatchers", stats.get("executors", []))
-        forces = await asyncio.to_thread(rt.irpd.request, "forces")
-        await rt.space.update_forces({f["path"] for f in forces.get("forces", [])})
+        # irpd's forces, asked only while its status counts some (docs/forcing.md)
+        forces = await asyncio.to_thread(rt.irpd.request, "forces") if status.get("forces") else {"forces": []}
+        await rt.space.update_forces({f["path"] for f in forces["forces"]})
     except (IrpdUnavailable, IrpdRefused):
         pass
     await rt.alarms.follow(status, set_changed)

@@ -2,9 +2,10 @@
 admin may (a viewer gets BadUserAccessDenied); the value must be of the variable's kind (a Boolean
 for a bool, an integer type for an integer, a number for a float: BadTypeMismatch), an array whole
 or by an IndexRange of one dimension; irpd's typed `write` does the rest, as PUT /variables does
-(a value out of the type's range is refused by irpd: BadOutOfRange).  A variable irpd holds forced
-(docs/forcing.md; an array: one of the elements written) is refused with BadUserAccessDenied, the
-reason (who forced it) in the audit line and the server's output.  Every write, done or refused,
+(a value out of the type's range is refused by irpd: BadOutOfRange).  A write irpd refuses because
+the variable is forced (its error code `forced`, docs/forcing.md) is BadUserAccessDenied, the reason
+(who forced it) in the audit line and the server's output; an array is written element by element,
+so the elements before a forced one (or one out of range) are written.  Every write, done or refused,
 is one line of the agent's audit log (<data>/audit.jsonl, action write_variable) with the OPC UA
 user, the client's address and the endpoint."""
 
@@ -44,17 +45,6 @@ class Writes:
         self.audit = audit
         self.endpoint = endpoint
 
-    def _forced(self, leaves: list[str]) -> str | None:
-        """Why a write of these leaves is refused: one of them is forced (None: none is)."""
-        try:
-            forces = self.irpd.request("forces").get("forces", [])
-        except IrpdRefused:
-            return None  # an irpd without forcing
-        for f in forces:
-            if f["path"] in leaves:
-                return f"{f['path']} is forced by {f['by']}: unforce it first (irpctl unforce {f['path']})"
-        return None
-
     async def write(self, session, var: Var, wv: ua.WriteValue) -> ua.StatusCode:
         user = session.user
         peer = session.name if isinstance(session.name, tuple) else ("unknown", 0)
@@ -81,13 +71,6 @@ class Writes:
         if not (hasattr(user, "may_write") and user.may_write()):
             role = getattr(user, "agent_role", "none")
             return done(ua.StatusCodes.BadUserAccessDenied, f"writing needs the operator role; the session has {role}")
-        try:
-            refusal = await asyncio.to_thread(self._forced, list(var.leaves))
-        except IrpdUnavailable as e:
-            return done(ua.StatusCodes.BadNoCommunication, str(e))
-        if refusal:
-            print(f"indurop-opcua: write of {var.path} refused: {refusal}", flush=True)
-            return done(ua.StatusCodes.BadUserAccessDenied, refusal)
         if wv.Value is None or wv.Value.Value is None or raw is None:
             return done(ua.StatusCodes.BadTypeMismatch, "no value")
         leaves = list(var.leaves)
@@ -112,7 +95,10 @@ class Writes:
             for leaf, v in zip(leaves, values):
                 await asyncio.to_thread(self.irpd.request, "write", path=leaf, value=v)
         except IrpdRefused as e:
-            return done(ua.StatusCodes.BadOutOfRange, str(e))
+            if not e.forced:
+                return done(ua.StatusCodes.BadOutOfRange, str(e))
+            print(f"indurop-opcua: write of {var.path} refused: {e}", flush=True)
+            return done(ua.StatusCodes.BadUserAccessDenied, str(e))
         except IrpdUnavailable as e:
             return done(ua.StatusCodes.BadNoCommunication, str(e))
         return done(ua.StatusCodes.Good)

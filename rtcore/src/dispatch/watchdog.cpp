@@ -113,8 +113,7 @@ int64_t Watchdog::check(int64_t now) {
     for (const std::shared_ptr<Executor> &watched : watched_) {
         Executor &e = *watched;
         RunMarker &marker = e.marker();
-        if (e.watching())
-            next = std::min(next, now + std::clamp<int64_t>(e.basicNs(), kMinIntervalNs, kIdleNs));
+        if (e.watching()) next = std::min(next, now + std::clamp<int64_t>(e.basicNs(), kMinIntervalNs, kIdleNs));
         RunMarker::Running r;
         if (marker.running(r)) {
             const int64_t deadline = r.started_ns + r.limit_ns;

@@ -329,7 +329,8 @@ control::Handler commandHandler(const CommandContext &c) {
         case Command::Kind::Write:
             if (c.variables_shm.empty() || !c.vars) return Error{"the running set has no shared variables"};
             if (c.forcing)
-                if (std::string why = c.forcing->refusal(command.path); !why.empty()) return Error{why};
+                if (std::string why = c.forcing->refusal(command.path); !why.empty())
+                    return Error{why, protocol::kForced};
             return variables::writeByPath(layouts->of(*c.vars), command.path, command.value);
         case Command::Kind::Force:
             if (!c.vars || !c.forcing) return Error{"the running set has no shared variables to force"};

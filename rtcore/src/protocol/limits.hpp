@@ -62,5 +62,7 @@ inline constexpr const char *kBadRequest = "bad_request";
 inline constexpr const char *kTooLarge = "too_large";
 // more than max_clients clients: sent to the new one, which is then closed
 inline constexpr const char *kBusy = "busy";
+// a `write` to a variable held by a force (docs/forcing.md): the message names who forced it, to what, and says to unforce it first
+inline constexpr const char *kForced = "forced";
 
 } // namespace irp::protocol

@@ -3,7 +3,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include <set>
+#include <map>
 
 #include <fstream>
 #include <sstream>
@@ -44,11 +44,11 @@ Result<Layout> readLayout(const std::filesystem::path &path) {
                                        " is not a multiple of 64 up to 1 GiB");
         layout.lock_count = j.at("lock_count").get<uint32_t>();
         const auto &variables = j.at("variables");
-        // lock_count may exceed the variables: a layout laid out against a running one (glbc
-        // --previous) keeps the locks of removed variables as holes.
-        if (!variables.is_array() || variables.size() > layout.lock_count)
-            return fileError(file, "\"lock_count\" is smaller than the number of variables");
-        std::set<uint64_t> locks;
+        // lock_count may exceed the locks the variables use: a layout laid out against a running one
+        // (glbc --previous) keeps the locks of removed variables as holes.  Variables share a lock
+        // only as the members of one lock group ("lock_group").
+        if (!variables.is_array()) return fileError(file, "\"variables\" is not a list");
+        std::map<uint64_t, std::string> locks;  // the lock -> its group ("" for a variable's own)
         for (const auto &v : variables) {
             const auto path_name = v.at("path").get<std::string>();
             const auto offset = v.at("offset").get<uint64_t>(), size = v.at("size").get<uint64_t>();
@@ -57,9 +57,10 @@ Result<Layout> readLayout(const std::filesystem::path &path) {
                 return fileError(file, "variable " + path_name + " lies outside the data area");
             if (lock >= layout.lock_count)
                 return fileError(file, "variable " + path_name + " names lock " + std::to_string(lock));
-            if (!locks.insert(lock).second)
+            const auto group = v.value("lock_group", std::string{});
+            if (auto [at, fresh] = locks.emplace(lock, group); !fresh && (group.empty() || at->second != group))
                 return fileError(file, "variable " + path_name + " shares lock " + std::to_string(lock) +
-                                           " with another variable");
+                                           " with another variable outside its lock group");
         }
         layout.variables = variables.size();
     } catch (const nlohmann::json::exception &e) {

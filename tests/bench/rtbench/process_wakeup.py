@@ -296,9 +296,11 @@ def render_wakeup(a, w: dict) -> str:
         f"{us(s['wake'].get('p50', 0) - s['dispatcher'].get('p50', 0))} µs against "
         f"{us(u['wake'].get('p50', 0) - u['dispatcher'].get('p50', 0))} µs at p50; release → done "
         f"{us(s['exec'].get('p50'))} µs against {us(u['exec'].get('p50'))} µs) is what arming and cancelling that "
-        "timer costs on this machine; irpd's release of a process paid it too until its wait for done became a "
-        "FUTEX_WAIT without a timeout, bounded by the watchdog (`Executor::awaitDone`; the `bounded` alternative "
-        "below is the wait it had before)."
+        "timer costs on this machine. irpd's wait for done carries its timer (`Executor::awaitDone`, the `bitset` "
+        "alternative below): a FUTEX_WAIT without one needs another thread to end it at its bound, and a watchdog "
+        "thread that looked every basic period to do so made the dispatcher's CPU's timers fire 0.5–0.65 ms late "
+        "about once a second (docs/process-modules.md, \"The wait for done\"); with a release made ahead the "
+        "dispatcher rarely waits for done at all."
     )
     add(
         f"- **Period.** {per_us:g} µs is sustainable for a process module here: {p['module_overruns']} of "

@@ -14,8 +14,9 @@ from .irpd_stats import bench_hist, parse_bench_output
 # mode -> what it is, for the table (release_variants.cpp says how each is made)
 MODES = {
     "bounded": "FUTEX_WAIT with a relative timeout (irpd's wait before issue 28)",
-    "bitset": "FUTEX_WAIT_BITSET with the absolute end of the period",
-    "unbounded": "FUTEX_WAIT without a timeout (irpd's wait now; the bound is the watchdog's)",
+    "bitset": "FUTEX_WAIT_BITSET with the absolute end of the period (irpd's wait for done now)",
+    "unbounded": "FUTEX_WAIT without a timeout, the bound left to a watchdog thread (irpd's wait until its "
+    "looks were found to delay the other CPU's timers: docs/process-modules.md)",
     "spin": "spin 2 µs on the done word, then as bounded",
     "above": "the process one priority above the dispatcher, then as bounded",
     "yield": "the process at the dispatcher's priority, sched_yield() after the wake, then as bounded",
@@ -128,7 +129,7 @@ def render_variants(a, w: dict) -> str:
         f"{handover('process')} at p50 (the process's wake-up p50 − its dispatcher's, which is taken as the "
         "process's start when the process ran first). Before it, irpd used `timer` (hand-over "
         f"{handover('variant_timer')} here; `timer_wake`, the same with the FUTEX_WAKE: "
-        f"{handover('variant_timer_wake')}; `unbounded`, irpd's release before issue 28: "
+        f"{handover('variant_timer_wake')}; `unbounded`, irpd's wait for done before that: "
         f"{handover('variant_unbounded')}). `timer_spin` keeps the CPU busy at the "
         f"due time instead of idle: {spin_said}; irpd does not spin. `above` and `yield` switch to "
         "the process before the dispatcher blocks (the wake itself switches to it, or the yield does), but a "

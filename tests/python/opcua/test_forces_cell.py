@@ -102,6 +102,8 @@ def test_an_operator_forces_the_cells_inputs_and_the_plc_reacts(cell, capsys):
     r = call(cell, oper, "DELETE", f"/forces/{ENABLE}", params={"restore": "false"})
     assert r.status_code == 200 and r.json()["left"] == 1
     assert cell.rest("/forces")["forces"] == []
+    # the last force gone (irpd's status counts none): the Forced property follows
+    wait_until(lambda: not asyncio.run(opcua_forced_flag(cell, ENABLE)), 30, 0.2)
     assert call(cell, oper, "DELETE", f"/forces/{ENABLE}").status_code == 404
 
     audit = [e for e in cell.audit() if e["action"] in ("force", "unforce") and e["result"] == "ok"]
@@ -119,12 +121,14 @@ def test_an_operator_forces_the_cells_inputs_and_the_plc_reacts(cell, capsys):
     )
     opcua_refusal = [e for e in writes if e["who"]["via"] == "opcua"][-1]
     assert opcua_refusal["opcua_status"] == "BadUserAccessDenied" and "forced by oper" in opcua_refusal["detail"]
+    # irpd's own refusal (its error code `forced`), not a second copy of the rule in the agent
+    assert "a write would be undone by the force" in opcua_refusal["detail"], opcua_refusal
 
 
-async def opcua_forced_flag(cell) -> bool:
+async def opcua_forced_flag(cell, path: str = I0) -> bool:
     c = await cell.connect("view")
     try:
-        return await c.get_node(ua.NodeId(f"{I0}@Forced", await ns_of(c))).read_value() is True
+        return await c.get_node(ua.NodeId(f"{path}@Forced", await ns_of(c))).read_value() is True
     finally:
         await c.disconnect()
 
@@ -144,6 +148,8 @@ def test_irpd_restarts_with_no_forces_and_the_agent_notes_the_ones_lost(cell):
 
     wait_until(restarted, 120, 0.2)
     assert cell.rest("/forces")["forces"] == []
+    # the last force gone (irpd's status counts none): the Forced property follows
+    wait_until(lambda: not asyncio.run(opcua_forced_flag(cell, ENABLE)), 30, 0.2)
     wait_until(lambda: any(e.get("kind") == "forces_lost" for e in cell.rest("/events")["events"]), 60, 0.2)
     lost = [e for e in cell.rest("/events")["events"] if e.get("kind") == "forces_lost"][-1]
     assert "the 1 forces it held are gone" in lost["message"]

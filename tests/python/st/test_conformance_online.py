@@ -19,7 +19,8 @@ VAR n : DINT; t : TON; END_VAR
   t(IN := TRUE, PT := T#1h);
 END_PROGRAM
 """
-V2 = V1.replace("VAR n : DINT;", "VAR n : DINT; added : INT := 42;").replace("n := n + 1;", "n := n + 1000;")
+V2 = V1.replace("VAR n : DINT;", "VAR n : DINT; added : INT := 42; hist : ARRAY[0..3] OF DINT := [1, 2, 3, 4];")
+V2 = V2.replace("n := n + 1;", "n := n + 1000;\n  hist[0] := hist[0] + 1;")
 
 
 def test_a_change_keeps_values_and_timers_and_starts_added_variables_at_their_initial_value(tmp_path):
@@ -35,6 +36,14 @@ def test_a_change_keeps_values_and_timers_and_starts_added_variables_at_their_in
         assert n % 1000 != 0 and run.value("Counter.n") % 1000 == n % 1000
         assert run.value("Counter.added") == 42
         assert run.value("Counter.t.ET") > elapsed and run.value("Counter.t.Q") == 0  # still timing
+        # an array added to the program's lock group (with the TON): the group's lock, its initial
+        # values, and the new code writes it back
+        assert "Counter.hist" in report["variables"]["added"], report
+        run.segment.refresh()
+        lock = {v["path"]: v["lock"] for v in run.segment.layout["variables"]}
+        assert lock["Counter.hist"] == lock["Counter.t"]
+        assert run.value("Counter.hist[3]") == 4
+        wait_until(lambda: run.value("Counter.hist[0]") > 10)
     finally:
         run.close()
 

@@ -1,9 +1,10 @@
-# test_demo_set.py -- the demo started with INDUROP_SET=plc-robot-st makes the ST cell the active set
-# of the agent's set store, its sources with it (issue 30: the Programs page edits the active set's
-# .st files): packaging/demo-set.sh picks the set as demo.sh does, irpd starts on it as demo.sh starts
-# it (packaging/demo-irpd.sh), the agent beside it, and demo-set.sh stores and activates it as demo.sh
-# does once the agent answers.  Started again, the demo runs the stored set and uploads nothing; an
-# edit activated since through the agent is kept, until the cell is built anew.
+# test_demo_set.py -- the demo makes the cell with its PLC program in Structured Text (plc-robot-st,
+# its default) the active set of the agent's set store, its sources with it (issue 30: the Programs
+# page edits the active set's .st files): packaging/demo-set.sh picks the set as demo.sh does, irpd
+# starts on it as demo.sh starts it (packaging/demo-irpd.sh), the agent beside it, and demo-set.sh
+# stores and activates it as demo.sh does once the agent answers.  Started again, the demo runs the
+# stored set and uploads nothing; an edit activated since through the agent is kept, until the cell
+# is built anew; INDUROP_SET=plc-robot runs the C++ cell instead.
 
 from __future__ import annotations
 
@@ -36,7 +37,7 @@ def demo_set(*args, name: str | None = "plc-robot-st") -> str:
 def test_the_demo_makes_the_st_cell_the_active_set_with_its_sources(tmp_path):
     sets, data = tmp_path / "sets", tmp_path / "data"  # the build's sets, the demo's INDUROP_DATA
     data.mkdir()
-    copy_cell(sets / "plc-robot")  # the default cell; each drive simulator on a port of its own
+    copy_cell(sets / "plc-robot")  # the C++ cell; each drive simulator on a port of its own
     copy_cell(sets / "plc-robot-st", cell=ST_CELL)
     sock, instance, port = data / "irpd.sock", f"demo-set-{os.getpid()}", free_port()
     url = f"http://127.0.0.1:{port}"
@@ -56,30 +57,24 @@ def test_the_demo_makes_the_st_cell_the_active_set_with_its_sources(tmp_path):
         return httpx.get(f"{url}{API}{path}", headers={"Authorization": f"Bearer {token}"}, timeout=30).json()
 
     try:
-        # the first start, without INDUROP_SET: the C++ cell, stored and activated
+        # the first start, without INDUROP_SET: the cell with its PLC program in ST, stored and
+        # activated with its sources
         config = Path(demo_set("pick", data, sets, name=None))
-        assert config == sets / "plc-robot" / "module.xml"
+        assert config == sets / "plc-robot-st" / "module.xml"
         start(config, 1)
         demo_set("store", data, config.parent, url, IRPCTL, name=None)
-        assert "main.st" not in {f["path"] for f in get("/sets/active")["files"]}
-
-        # INDUROP_SET=plc-robot-st: the ST cell of the build, over the active set, becomes the active set
-        config = Path(demo_set("pick", data, sets))
-        assert config == sets / "plc-robot-st" / "module.xml"
-        start(config, 2)
-        demo_set("store", data, config.parent, url, IRPCTL)
         active = get("/sets/active")
         kinds = {f["path"]: f["kind"] for f in active["files"]}
         assert (kinds.get("main.st"), kinds.get("cell.glb"), kinds.get("main.so")) == ("st", "glb", "thread_module")
         assert get("/status")["set_id"] == active["id"]
 
-        # started again: the demo stored this build of the cell already, so irpd starts on the
-        # stored set itself and nothing is uploaded
-        config = Path(demo_set("pick", data, sets))
-        assert config == data / "active" / "module.xml"
-        start(config, 3)
+        # started again, with INDUROP_SET=plc-robot-st or without: the demo stored this build of the
+        # cell already, so irpd starts on the stored set itself and nothing is uploaded
+        for name in (None, "plc-robot-st"):
+            assert Path(demo_set("pick", data, sets, name=name)) == data / "active" / "module.xml"
+        start(data / "active" / "module.xml", 2)
         assert get("/sets/active")["id"] == active["id"] == get("/status")["set_id"]
-        assert len(get("/sets")) == 2
+        assert len(get("/sets")) == 1
 
         # an edit of the program activated through the agent (as the Programs page makes one) is
         # what the same command starts next time; a new build of the cell is stored over it
@@ -98,6 +93,14 @@ def test_the_demo_makes_the_st_cell_the_active_set_with_its_sources(tmp_path):
         assert get("/status")["set_id"] == edit
         (sets / "plc-robot-st" / "main.st").write_text(main.read_text())  # the cell built anew
         assert Path(demo_set("pick", data, sets)) == sets / "plc-robot-st" / "module.xml"
+
+        # INDUROP_SET=plc-robot: the same cell with its PLC program in C++, over the active set
+        config = Path(demo_set("pick", data, sets, name="plc-robot"))
+        assert config == sets / "plc-robot" / "module.xml"
+        start(config, 5)
+        demo_set("store", data, config.parent, url, IRPCTL, name="plc-robot")
+        assert "main.st" not in {f["path"] for f in get("/sets/active")["files"]}
+        assert get("/status")["set_id"] == get("/sets/active")["id"]
     finally:
         for p in running:
             stop(p)

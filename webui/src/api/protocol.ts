@@ -40,7 +40,7 @@ export const MAX_FORCES = 256;
 export const MAIN_THREAD_WAIT_MS = 60_000;
 
 /** The codes of an answer's error.code. */
-export const ERROR_CODES = ["refused", "not_found", "restart_required", "bad_request", "too_large", "busy"] as const;
+export const ERROR_CODES = ["refused", "not_found", "restart_required", "bad_request", "too_large", "busy", "forced"] as const;
 export type ErrorCode = (typeof ERROR_CODES)[number];
 
 export const COMMANDS = ["status", "schedule", "modules", "stats", "alarms", "histograms", "events", "check", "restart", "load", "change", "set_period", "set_priority", "enable", "disable", "clear_crash", "write", "force", "unforce", "forces", "trace"] as const;

@@ -9977,7 +9977,7 @@ export interface operations {
                 };
                 content?: never;
             };
-            /** @description irpd refused: unknown path, wrong type, out of range (its message) */
+            /** @description irpd refused: unknown path, wrong type, out of range, or forced (who forced it: unforce it first) */
             409: {
                 headers: {
                     [name: string]: unknown;

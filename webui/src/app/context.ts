@@ -1,8 +1,9 @@
 // context.ts -- what every page gets: the API client, who is signed in, the sample stream, the
-// alarm feed, and the page contract (mount into an element, give back a function that unmounts).
+// alarm feed, the forces, and the page contract (mount into an element, give back a function that unmounts).
 import type { Api } from "../api/client";
 import type { StreamClient } from "../stream/stream";
 import type { AlarmFeed } from "./alarm-feed";
+import type { ForceFeed } from "./force-feed";
 
 export type Role = "viewer" | "operator" | "admin";
 
@@ -20,6 +21,8 @@ export interface AppContext {
   stream: StreamClient;
   /** the alarms, live (one WebSocket for the whole UI) */
   alarms: AlarmFeed;
+  /** the forces irpd holds, polled once for the whole UI (the banner, the Forces page) */
+  forces: ForceFeed;
   /** true when the signed-in role is at least `role` (viewer < operator < admin). */
   can(role: Role): boolean;
   /** shows a short message in the status bar (errors in red). */

@@ -1,14 +1,16 @@
 // variables.ts -- the variables page: every shared variable in a searchable tree with its value
-// (refreshed twice a second while on screen) and, for operators, a box to write it; beside it,
-// plot panels fed with every sample from the stream (src/plot/panel.ts).
+// (refreshed twice a second while on screen), flagged while forced (docs/forcing.md) and, for
+// operators, a box to write it or force it and buttons to unforce it; beside it, plot panels fed
+// with every sample from the stream (src/plot/panel.ts).
 import "../plot/plot.css";
 import { ApiError, unwrap } from "../api/client";
 import type { Page } from "../app/context";
+import { type Force, forcedSince } from "../app/force-feed";
 import { MAX_VARS, type PanelConfig, type PanelEnv, PlotPanel, WINDOWS_S } from "../plot/panel";
 import { panelsFromHash } from "../plot/panel-link";
 import { type VarInfo, varTitle } from "../plot/paths";
 import { Pacer, plotStats, recordFrame } from "../plot/stats";
-import { type LeafRow, VarTree } from "../plot/vartree";
+import { type LeafRow, showForced, VarTree } from "../plot/vartree";
 import { formatValue, parseValue } from "../plot/vartypes";
 
 const REFRESH_MS = 500;
@@ -26,6 +28,11 @@ function loadPanels(): PanelConfig[] {
     /* a damaged entry: start afresh */
   }
   return [{ paths: [], mode: "time", windowS: 10, xy: [null, null] }];
+}
+
+/** What follows a forced variable's badge: to what, by whom, since when (once the feed knows). */
+function forcedWhy(f: Force | undefined): string {
+  return f ? `to ${String(f.value)} by ${f.by} since ${forcedSince(f)}` : "";
 }
 
 export const variablesPage: Page = (root, ctx) => {
@@ -148,10 +155,12 @@ export const variablesPage: Page = (root, ctx) => {
     try {
       const r = unwrap(await ctx.api.GET("/api/v1/variables/{path}", { params: { path: { path } } })) as {
         value: unknown;
+        forced?: boolean;
       };
       const v = vars.get(path);
       const text = formatValue(r.value, v?.type ?? "");
       if (row.value.textContent !== text) row.value.textContent = text;
+      showForced(row, r.forced ? forcedWhy(ctx.forces.of(path)) : null);
       row.value.classList.remove("bad");
       row.value.title = "";
     } catch (e) {
@@ -206,6 +215,38 @@ export const variablesPage: Page = (root, ctx) => {
     }
   };
 
+  /** Sends a change of `v` (force or unforce) and shows its outcome in the row. */
+  const change = async (v: VarInfo, row: LeafRow, doing: string, send: () => Promise<string>) => {
+    row.error.classList.remove("good");
+    row.error.textContent = `${doing}…`;
+    try {
+      row.error.textContent = await send();
+      row.error.classList.add("good");
+    } catch (e) {
+      const msg = e instanceof ApiError ? `${e.status}: ${e.message}` : String(e);
+      row.error.textContent = msg;
+      ctx.notify(`${doing} ${v.path}: ${msg}`, "error");
+    }
+    void readOne(v.path, row);
+  };
+  const force = (v: VarInfo, text: string, row: LeafRow) => {
+    const parsed = parseValue(text, v.type, v.size);
+    if (!parsed.ok) {
+      row.error.classList.remove("good");
+      row.error.textContent = parsed.error;
+      return;
+    }
+    void change(v, row, "forcing", () => ctx.forces.force(v.path, parsed.value));
+  };
+  const unforce = (v: VarInfo, restore: boolean, row: LeafRow) =>
+    void change(v, row, "unforcing", () => ctx.forces.unforce(v.path, restore));
+  const stopForces = ctx.forces.listen(() => {
+    for (const [path, row] of tree?.rows ?? []) {
+      const f = ctx.forces.of(path);
+      showForced(row, f ? forcedWhy(f) : null);
+    }
+  });
+
   // ---- start -----------------------------------------------------------------------------------
   void (async () => {
     try {
@@ -216,7 +257,13 @@ export const variablesPage: Page = (root, ctx) => {
       root.querySelector("#var-paths")!.innerHTML = list
         .map((v) => `<option value="${v.path.replace(/"/g, "&quot;")}"></option>`)
         .join("");
-      tree = new VarTree(list, { canWrite: ctx.can("operator"), plot, write: (v, t, row) => void write(v, t, row) });
+      tree = new VarTree(list, {
+        canWrite: ctx.can("operator"),
+        plot,
+        write: (v, t, row) => void write(v, t, row),
+        force,
+        unforce,
+      });
       treeHost.innerHTML = "";
       treeHost.appendChild(tree.el);
       for (const c of loadPanels()) addPanel(c);
@@ -231,6 +278,7 @@ export const variablesPage: Page = (root, ctx) => {
 
   return () => {
     alive = false;
+    stopForces();
     cancelAnimationFrame(raf);
     clearInterval(timer);
     tree?.destroy();

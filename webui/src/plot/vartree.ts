@@ -1,6 +1,6 @@
 // vartree.ts -- the variable tree of the variables page: groups open on demand, a search box,
-// one row per variable with its type, its value (refreshed by the page) and, for operators and
-// up, a box to write it.
+// one row per variable with its type, its value (refreshed by the page), a badge while it is
+// forced and, for operators and up, a box to write it or force it, and buttons to unforce it.
 import { buildTree, filterTree, type TreeNode, typeText, type VarInfo } from "./paths";
 
 const MAX_ROWS = 400; // leaves drawn at once while searching; refine the search for more
@@ -10,12 +10,28 @@ export interface TreeEnv {
   canWrite: boolean;
   plot(path: string): void;
   write(v: VarInfo, text: string, row: LeafRow): void;
+  /** the variables page's force and unforce (the scope's picker has no such buttons) */
+  force?(v: VarInfo, text: string, row: LeafRow): void;
+  unforce?(v: VarInfo, restore: boolean, row: LeafRow): void;
 }
 
 export interface LeafRow {
   el: HTMLElement;
   value: HTMLElement;
   error: HTMLElement;
+  /** the line under the row shown while irpd holds the variable forced: a badge, who forced it to
+   *  what and when, and for operators the unforce buttons */
+  forced: HTMLElement;
+}
+
+/** Shows a row as forced (`why`: to what, by whom, since when) or not (null). */
+export function showForced(row: LeafRow, why: string | null): void {
+  const forced = why !== null;
+  const text = row.forced.querySelector(".why")!;
+  if (row.forced.hidden === !forced && text.textContent === (why ?? "")) return;
+  row.forced.hidden = !forced;
+  text.textContent = why ?? "";
+  row.el.classList.toggle("forced", forced);
 }
 
 function esc(s: string): string {
@@ -156,14 +172,24 @@ export class VarTree {
       <span class="type" title="${esc(typeText(v))}">${esc(typeText(v))}</span>
       <span class="val" data-testid="value-${esc(v.path)}">…</span>
       <button class="plot" data-testid="plotvar-${esc(v.path)}" title="plot in the active panel">+</button>
-      ${this.env.canWrite ? `<span class="write"><input data-testid="write-${esc(v.path)}" placeholder="value" size="7" /><button data-testid="set-${esc(v.path)}">set</button></span>` : ""}
+      ${this.env.canWrite ? `<span class="write"><input data-testid="write-${esc(v.path)}" placeholder="value" size="7" /><button class="set" data-testid="set-${esc(v.path)}" title="write once">set</button><button class="force" data-testid="force-${esc(v.path)}" title="hold this value for every reader until unforced">force</button></span>` : ""}
+      <div class="forced-line" data-testid="forced-${esc(v.path)}" hidden><span class="forced-badge">forced</span> <span class="why"></span>${this.env.canWrite ? ` <button class="keep" data-testid="unforce-${esc(v.path)}" title="unforce, keeping the forced value">unforce</button> <button class="restore" data-testid="restore-${esc(v.path)}" title="unforce and write back the value before the force">restore</button>` : ""}</div>
       <div class="werr" data-testid="result-${esc(v.path)}"></div>`;
-    const lr: LeafRow = { el: row, value: row.querySelector(".val")!, error: row.querySelector(".werr")! };
+    const lr: LeafRow = {
+      el: row,
+      value: row.querySelector(".val")!,
+      error: row.querySelector(".werr")!,
+      forced: row.querySelector(".forced-line")!,
+    };
     row.querySelector<HTMLButtonElement>(".plot")!.onclick = () => this.env.plot(v.path);
     const input = row.querySelector<HTMLInputElement>(".write input");
     if (input) {
+      const button = (name: string) => row.querySelector<HTMLButtonElement>(`button.${name}`)!;
       const go = () => this.env.write(v, input.value, lr);
-      row.querySelector<HTMLButtonElement>(".write button")!.onclick = go;
+      button("set").onclick = go;
+      button("force").onclick = () => this.env.force?.(v, input.value, lr);
+      button("keep").onclick = () => this.env.unforce?.(v, false, lr);
+      button("restore").onclick = () => this.env.unforce?.(v, true, lr);
       input.onkeydown = (ev) => {
         if (ev.key === "Enter") go();
       };

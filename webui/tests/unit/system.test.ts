@@ -19,6 +19,7 @@ import {
   waitForAgent,
 } from "../../src/ops/system";
 import { systemPage } from "../../src/pages/system";
+import { fakeApi, flush, q } from "./page-helpers";
 
 describe("the log stream", () => {
   it("is cut into objects whatever the chunks' boundaries", () => {
@@ -158,26 +159,21 @@ const info: SystemInfo = {
 };
 
 function mount(role: Role) {
-  const calls: { method: string; path: string; opts: Record<string, unknown> }[] = [];
-  const answer =
-    (method: string) =>
-    async (path: string, opts: Record<string, unknown> = {}) => {
-      calls.push({ method, path, opts });
-      let data: unknown = {};
-      if (path === "/api/v1/system") data = info;
-      if (path === "/api/v1/sets/prune")
-        data = {
-          dry_run: (opts.body as { dry_run: boolean }).dry_run,
-          deleted: [],
-          kept: ["a"],
-          blobs: [{ sha256: "0", size: 10 }],
-          bytes: 10,
-        };
-      if (path === "/api/v1/system/restart/irpd") data = { mode: "restart", set_id: "s", pid: 7, downtime_ns: 120e6 };
-      return { data, response: new Response(null, { status: 200 }) };
-    };
+  const { calls, api } = fakeApi((path, opts) => {
+    if (path === "/api/v1/system") return info;
+    if (path === "/api/v1/sets/prune")
+      return {
+        dry_run: (opts.body as { dry_run: boolean }).dry_run,
+        deleted: [],
+        kept: ["a"],
+        blobs: [{ sha256: "0", size: 10 }],
+        bytes: 10,
+      };
+    if (path === "/api/v1/system/restart/irpd") return { mode: "restart", set_id: "s", pid: 7, downtime_ns: 120e6 };
+    return {};
+  });
   const ctx = {
-    api: { GET: answer("GET"), POST: answer("POST") },
+    api,
     session: { token: "t", name: "ana", role },
     can: (r: Role) => ({ viewer: 0, operator: 1, admin: 2 })[role] >= { viewer: 0, operator: 1, admin: 2 }[r],
     notify: () => {},
@@ -186,11 +182,6 @@ function mount(role: Role) {
   const unmount = systemPage(root, ctx);
   return { root, calls, unmount };
 }
-
-const flush = async () => {
-  for (let i = 0; i < 10; i++) await Promise.resolve();
-};
-const q = (root: HTMLElement, testid: string) => root.querySelector<HTMLElement>(`[data-testid="${testid}"]`);
 
 describe("the System page", () => {
   it("shows an admin the versions, the data folder and the certificate", async () => {

@@ -3,7 +3,7 @@ PUT /api/v1/forces/{path} (operator: force a leaf to a value; `by` is the signed
 DELETE /api/v1/forces/{path}?restore= (unforce, keeping the forced value or restoring the one
 before).  Every force and unforce is audited.  docs/forcing.md."""
 
-from fastapi import APIRouter, HTTPException, Query, Request
+from fastapi import APIRouter, Query, Request
 from pydantic import BaseModel, ConfigDict
 
 from ...irpd import protocol
@@ -12,15 +12,12 @@ from ..deps import IrpdDep, OperatorDep, ViewerDep, ask, audited
 router = APIRouter(tags=["forces"])
 
 
-def forced_paths(irpd) -> dict[str, dict]:
-    """{path: force entry} of the variables forced now (empty when irpd forces nothing, or is an
-    irpd without forcing)."""
-    try:
-        return {f["path"]: f for f in ask(irpd, "forces").get("forces", [])}
-    except HTTPException as e:
-        if e.status_code == 503:
-            raise
+def forced_paths(irpd, status: dict) -> dict[str, dict]:
+    """{path: force entry} of the variables forced now; irpd is asked for them only when its
+    `status` (asked already by the caller) says some are."""
+    if not status.get("forces"):
         return {}
+    return {f["path"]: f for f in ask(irpd, "forces")["forces"]}
 
 
 class ForceRequest(BaseModel):

@@ -22,7 +22,7 @@ from ...irpd.variables import VariableError
 from ...sets import st_build, st_check, st_monitor, uploads
 from ...sets.activation import irpd_validation
 from ...sets.store import remove_tree
-from ..deps import AdminDep, IrpdDep, ViewerDep, audited
+from ..deps import AdminDep, IrpdDep, ViewerDep, ask, audited
 from ..models import ActivateRequest
 from ..monitor_models import MonitorAnswer, MonitorRequest
 from ..program_models import (
@@ -157,9 +157,10 @@ def monitor_program(body: MonitorRequest, request: Request, irpd: IrpdDep, _: Vi
         found = st_monitor.analyse(_stc(request), (set_id, body.path), _set_sources(request, set_id), body.path)
     except st_check.CompilerMissing as e:
         raise _compiler_missing(e) from e
-    seg = segment(request, irpd)
+    status = ask(irpd, "status")
+    seg = segment(request, irpd, status)
     try:
-        answer = found.snapshot(seg, forced_paths(irpd), body.from_line, body.to_line, body.expand)
+        answer = found.snapshot(seg, forced_paths(irpd, status), body.from_line, body.to_line, body.expand)
     except VariableError as e:
         raise HTTPException(503, str(e)) from e
     return MonitorAnswer(set_id=set_id, **answer)

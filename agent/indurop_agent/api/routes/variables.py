@@ -18,8 +18,9 @@ from .forces import forced_paths
 router = APIRouter(tags=["variables"])
 
 
-def segment(request: Request, irpd) -> Segment:
-    name = ask(irpd, "status").get("shared_memory", {}).get("variables")
+def segment(request: Request, irpd, status: dict | None = None) -> Segment:
+    """The running layout's segment (`status`: irpd's, when the caller asked for it already)."""
+    name = (status or ask(irpd, "status")).get("shared_memory", {}).get("variables")
     if not name:
         raise HTTPException(404, "the running set has no shared variables (no layout)")
     cached = getattr(request.app.state, "segment", None)
@@ -37,8 +38,9 @@ def segment(request: Request, irpd) -> Segment:
 
 @router.get("/variables")
 def list_variables(request: Request, irpd: IrpdDep, _: ViewerDep) -> VariableList:
-    seg = segment(request, irpd)
-    forced = forced_paths(irpd)
+    status = ask(irpd, "status")
+    seg = segment(request, irpd, status)
+    forced = forced_paths(irpd, status)
     return {
         "layout_hash": seg.hash,
         "variables": [
@@ -56,9 +58,10 @@ def read_variables(body: ReadRequest, request: Request, irpd: IrpdDep, _: Viewer
     """The values of many leaves, read in one pass over the shared memory (never a request to irpd's
     RT threads): a path that names no leaf (unknown, a group, a type the agent cannot decode) is an
     entry of `errors` with the reason, the others are read."""
-    seg = segment(request, irpd)
+    status = ask(irpd, "status")
+    seg = segment(request, irpd, status)
     read, errors = seg.read_many(body.paths)
-    forced = forced_paths(irpd) if read else {}
+    forced = forced_paths(irpd, status)
     values = [
         {"path": leaf["path"], "type": leaf["type"], "value": v, "forced": leaf["path"] in forced} for leaf, v in read
     ]
@@ -89,13 +92,14 @@ def read_variable(path: str, request: Request, irpd: IrpdDep, _: ViewerDep) -> V
     """A leaf's value (`{path, value, layout_hash}`), or for a group (a namespace, a struct, an array
     or one of its elements, e.g. `PLC_ROBOT.IO_STATUS`, `joint[1]`) every leaf under it
     (`{path, values: [{path, type, value}], layout_hash}`)."""
-    seg = segment(request, irpd)
+    status = ask(irpd, "status")
+    seg = segment(request, irpd, status)
     try:
         leaves = seg.select(path)
         values = seg.values(leaves)
     except VariableError as e:
         raise HTTPException(404, str(e)) from e
-    forced = forced_paths(irpd)
+    forced = forced_paths(irpd, status)
     if leaves[0]["path"] == path:
         return {"path": path, "value": values[0], "layout_hash": seg.hash, "forced": path in forced}
     return {
@@ -119,7 +123,9 @@ class VariableWrite(BaseModel):
     "/variables/{path:path}",
     responses={
         404: {"description": "a compiler's own variable (layout.json's internal), which no user sees or writes"},
-        409: {"description": "irpd refused: unknown path, wrong type, out of range (its message)"},
+        409: {
+            "description": "irpd refused: unknown path, wrong type, out of range, or forced (who forced it: unforce it first)"
+        },
     },
 )
 def write_variable(
