@@ -103,11 +103,13 @@ def run_round(a, irpd: Path, xml: Path, work: Path, tag: str, forces: int) -> di
             "realtime": doc.get("realtime")}  # fmt: skip
 
 
-def main(argv: list[str]) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--rounds", type=int, default=6, help="rounds, each one run without and one with forces (6)")
+def parse(argv: list[str], doc: str, with_what: str, options) -> argparse.Namespace:
+    """The options of an alternating-rounds bench on the empty modules' set (this one's and
+    monitor_bench.py's): `with_what` names the second run of a round, `options(ap)` adds its own."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    ap.add_argument("--rounds", type=int, default=6, help=f"rounds, each one run without and one {with_what} (6)")
     ap.add_argument("--round-s", type=int, default=10, help="seconds of each run (10)")
-    ap.add_argument("--forces", type=int, default=100, help="variables forced in the runs with forces (100)")
+    options(ap)
     ap.add_argument("--modules", type=int, default=10, help="empty thread modules in the set (10)")
     ap.add_argument("--period-ns", type=int, default=100_000, help="basic period (100000)")
     ap.add_argument("--cpu", type=int, default=None, help="CPU of every run (default: the last one allowed)")
@@ -118,8 +120,21 @@ def main(argv: list[str]) -> int:
     a = ap.parse_args(argv)
     if a.cpu is None:
         a.cpu = max(os.sched_getaffinity(0))
+    a.error = ap.error
+    return a
+
+
+def main(argv: list[str]) -> int:
+    a = parse(
+        argv,
+        __doc__,
+        "with forces",
+        lambda ap: ap.add_argument(
+            "--forces", type=int, default=100, help="variables forced in the runs with forces (100)"
+        ),
+    )
     if not 1 <= a.forces <= 256:
-        ap.error("--forces must be 1..256 (max_forces)")
+        a.error("--forces must be 1..256 (max_forces)")
     work = Path(os.environ.get("TMPDIR", "/tmp")) / f"force-bench-{os.getpid()}"
     work.mkdir(parents=True, exist_ok=True)
     try:

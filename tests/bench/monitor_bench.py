@@ -35,7 +35,7 @@ import httpx
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from agent_bench import dispatcher_figures, free_port, keep_thread_off, off_rt, start_irpd, stop
-from force_bench import make_set
+from force_bench import make_set, parse
 from rtbench.common import REPO, BenchError, log
 from rtbench.irpd_runs import build
 
@@ -116,22 +116,13 @@ def run_round(a, xml: Path, work: Path, agent: tuple, tag: str, monitored: bool)
     return {**figures, "monitored": monitored, "reads": reader.requests if reader else 0}
 
 
-def main(argv: list[str]) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--rounds", type=int, default=6, help="rounds, each one run idle and one monitored (6)")
-    ap.add_argument("--round-s", type=int, default=10, help="seconds of each run (10)")
+def options(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--values", type=int, default=200, help="values read per request (200)")
     ap.add_argument("--rate-hz", type=float, default=5.0, help="reads a second (5: the monitor's refresh)")
-    ap.add_argument("--modules", type=int, default=10, help="empty thread modules in the set (10)")
-    ap.add_argument("--period-ns", type=int, default=100_000, help="basic period (100000)")
-    ap.add_argument("--cpu", type=int, default=None, help="irpd's CPU (default: the last one allowed)")
-    ap.add_argument("--rt-priority", type=int, default=80)
-    ap.add_argument("--build-dir", type=Path, default=REPO / "build-bench", help="CMake build directory (build-bench)")
-    ap.add_argument("--no-build", action="store_true", help="use --build-dir as it is")
-    ap.add_argument("--json", type=Path, default=None, help="also write every round's figures to this JSON file")
-    a = ap.parse_args(argv)
-    if a.cpu is None:
-        a.cpu = max(os.sched_getaffinity(0))
+
+
+def main(argv: list[str]) -> int:
+    a = parse(argv, __doc__, "monitored", options)
     a.irpd = a.build_dir / "bin" / "irpd"
     with tempfile.TemporaryDirectory(prefix="indurop-monitor-bench-") as tmp:
         work = Path(tmp)
