@@ -2,7 +2,7 @@
 agent beside a real irpd running a set written in Structured Text: POST /variables/read reads many
 leaves at once (an unknown path or a group is an error entry, not a failure; the bound is named);
 POST /programs/monitor places each variable of the lines asked with its value, an FB instance as an
-expandable group, and evaluates IF/ELSIF/CASE conditions with the compiler's folding on the values
+expandable group, and evaluates IF/ELSIF/WHILE/UNTIL conditions and CASE selectors with the compiler's folding on the values
 read (a write moves them; a VAR_TEMP or a call is not evaluated, and the answer says why); the watch
 lists are kept with the set, read by a viewer, saved by an operator only, and follow an edit."""
 
@@ -46,6 +46,13 @@ IF ABS(count) > 2 THEN
   hits := hits;
 END_IF;
 pulse(IN := NOT pulse.Q, PT := T#10ms);
+WHILE hits < 0 DO
+  hits := 0;
+END_WHILE;
+REPEAT
+  hits := hits;
+UNTIL TRUE OR run
+END_REPEAT;
 END_PROGRAM
 """
 
@@ -107,6 +114,12 @@ def test_the_monitor_places_values_and_evaluates_conditions_as_the_compiler_fold
     assert conditions[(18, "CASE")]["value"] == 20
     assert conditions[(22, "IF")]["value"] is None and "VAR_TEMP" in conditions[(22, "IF")]["reason"]
     assert conditions[(25, "IF")]["value"] is None and "calls ABS" in conditions[(25, "IF")]["reason"]
+    loops = {(x["line"], x["what"]): x for x in monitor(cell, from_line=29, to_line=35)["conditions"]}
+    assert loops[(29, "WHILE")]["value"] is False and loops[(29, "WHILE")]["end_column"] == 15
+    assert loops[(34, "UNTIL")]["value"] is True and (
+        loops[(34, "UNTIL")]["end_line"],
+        loops[(34, "UNTIL")]["end_column"],
+    ) == (34, 18)
 
     write(cell, "Main.run", False)
     write(cell, "Main.mode", 1)
