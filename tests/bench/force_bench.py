@@ -169,7 +169,7 @@ def main(argv: list[str]) -> int:
         a.json.write_text(
             json.dumps(
                 {
-                    "args": {k: str(v) for k, v in vars(a).items()},
+                    "args": {k: str(v) for k, v in vars(a).items() if not callable(v)},
                     "rounds": [{str(k): v for k, v in r.items()} for r in rounds],
                     "p99_ratio": ratio,
                     "ns_per_force": costs,

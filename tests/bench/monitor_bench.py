@@ -91,6 +91,7 @@ def run_round(a, xml: Path, work: Path, agent: tuple, tag: str, monitored: bool)
     _, url, token = agent
     sock, stats = work / "irpd.sock", work / f"irpd-{tag}.json"
     irpd = start_irpd(a, xml, sock, stats, f"monbench-{os.getpid()}", ["--duration", str(a.round_s + 3)])
+    reader = None
     try:
         deadline = time.monotonic() + 20
         while httpx.get(f"{url}/api/v1/health", timeout=5).json().get("irpd") != "ok":  # reconnected
@@ -102,11 +103,15 @@ def run_round(a, xml: Path, work: Path, agent: tuple, tag: str, monitored: bool)
         log(f"irpd ({tag}): {a.round_s} s, {'reading ' + str(a.values) + ' values' if monitored else 'agent idle'}")
         if reader:
             reader.start()
-        irpd.wait(a.round_s + 60)
-    finally:
-        if monitored and reader:
+        # the reads stop before irpd's --duration ends it (round_s + 3 s): a read after would fail
+        time.sleep(a.round_s)
+        if reader:
             reader.done.set()
             reader.join()
+        irpd.wait(60)
+    finally:
+        if reader:
+            reader.done.set()
         stop(irpd)
     figures = dispatcher_figures(stats)
     if not figures.pop("doc").get("realtime"):
@@ -157,7 +162,7 @@ def main(argv: list[str]) -> int:
           f"(target ≤ {RATIO_TARGET}: {'met' if ratio <= RATIO_TARGET else 'NOT met'})")  # fmt: skip
     if a.json:
         body = {
-            "args": {k: str(v) for k, v in vars(a).items()},
+            "args": {k: str(v) for k, v in vars(a).items() if not callable(v)},
             "rounds": [{str(k): v for k, v in r.items()} for r in rounds],
         }
         a.json.write_text(json.dumps({**body, "p99_ratio": ratio}, indent=1))
