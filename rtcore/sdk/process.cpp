@@ -257,7 +257,9 @@ int waitPeriod() {
             const int64_t now = monotonicNs();
             if (at != 0 && now < at) {
                 atomic(slot->wake_ns).store(at, std::memory_order_seq_cst);
-                futex::waitUntil(&slot->release_seq, seq, at);
+                // On release_at_ns itself: irpd's compare-and-swap of it (taken back, made a
+                // release now) changes the word, so its wake is not lost when it comes first.
+                futex::waitUntil(futex::lowWord(&slot->release_at_ns), static_cast<uint32_t>(at), at);
                 continue;
             }
             atomic(slot->started_ns).store(now, std::memory_order_relaxed);  // published by the claim

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <bit>
 #include <cerrno>
 #include <climits>
 #include <cstdint>
@@ -42,6 +43,15 @@ inline void wait(uint32_t *word, uint32_t expected, int64_t timeout_ns = 0) noex
 inline void waitUntil(uint32_t *word, uint32_t expected, int64_t until) noexcept {
     const timespec at{static_cast<time_t>(until / 1'000'000'000), static_cast<long>(until % 1'000'000'000)};
     syscall(SYS_futex, word, FUTEX_WAIT_BITSET, expected, &at, nullptr, FUTEX_BITSET_MATCH_ANY);
+}
+
+// The futex word of a 64-bit field: its low 32 bits (little-endian: the field's first four bytes),
+// which any change of a nanosecond time or a marker almost always changes.  Used to wait on a
+// release made ahead's release_at_ns (control.h), so that irpd's compare-and-swap of it is seen
+// by the futex's compare even when irpd's wake comes before the wait.
+inline uint32_t *lowWord(int64_t *field) noexcept {
+    static_assert(std::endian::native == std::endian::little, "the low word of a 64-bit field is its first four bytes");
+    return reinterpret_cast<uint32_t *>(field);
 }
 
 // Waits until *word != expected (acquire), at most timeout_ns (<= 0: no limit).  False on timeout.

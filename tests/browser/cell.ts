@@ -24,25 +24,45 @@ async function reaches(path: string, value: number): Promise<boolean> {
   return (await read(path)) === value;
 }
 
-async function powerOnAndStart(): Promise<boolean> {
-  // an earlier stall (a test stops irpd for seconds; a loaded machine starves the simulator) may
-  // have left the robot or the PLC in error (lost communication, ErrorID 8): MC_Reset first, as an
-  // operator would
+/** A rising edge on Reset (MC_Reset) with the drives off; whether the PLC then reports no error. */
+async function resetOnce(): Promise<boolean> {
   await write("PLC_ROBOT.PLC_IN.Enable", 0);
-  await write("PLC_ROBOT.I0", 0);
-  // The browser's software rendering can starve the simulator again right after the reset (a drive
-  // fault or lost communication once more, seen in CI): the next attempt gives a new rising edge, as
-  // an operator presses Reset again.
   await write("PLC_ROBOT.PLC_IN.Reset", 0);
   await write("PLC_ROBOT.PLC_IN.Reset", 1);
   const cleared = await reaches("PLC_ROBOT.PLC_OUT.Error", 0);
   await write("PLC_ROBOT.PLC_IN.Reset", 0);
-  if (!cleared) return false;
+  return cleared;
+}
+
+async function powerOnAndStart(): Promise<boolean> {
+  // an earlier stall (a test stops irpd for seconds; a loaded machine starves the simulator) may
+  // have left the robot or the PLC in error (lost communication, ErrorID 8): MC_Reset first, as an
+  // operator would.  The browser's software rendering can starve the simulator again right after
+  // the reset (a drive fault or lost communication once more, seen in CI): the next attempt gives a
+  // new rising edge, as an operator presses Reset again.
+  await write("PLC_ROBOT.I0", 0);
+  if (!(await resetOnce())) return false;
   await write("PLC_ROBOT.PLC_IN.CycleMode", 1);
   await write("PLC_ROBOT.PLC_IN.Enable", 1);
   if (!(await reaches("PLC_ROBOT.PLC_OUT.Powered", 1))) return false;
   await write("PLC_ROBOT.I0", 1);
   return reaches("PLC_ROBOT.PLC_OUT.Running", 1);
+}
+
+/** Leaves the cell able to power its drives, powered off: what an earlier stall left (alarms.spec
+ * stops irpd for seconds: the drives fault on lost communication) cleared by Reset, then the drives
+ * powered once and off again, as an operator checks; tries three times. */
+export async function readyToPower(): Promise<void> {
+  for (let attempt = 0; attempt < 3; attempt++) {
+    if (!(await resetOnce())) continue;
+    await write("PLC_ROBOT.PLC_IN.Enable", 1);
+    const powered = await reaches("PLC_ROBOT.PLC_OUT.Powered", 1);
+    await write("PLC_ROBOT.PLC_IN.Enable", 0);
+    if (powered && (await reaches("PLC_ROBOT.PLC_OUT.Powered", 0))) return;
+  }
+  throw new Error(
+    `the cell did not power its drives after 3 resets: ErrorID ${await read("PLC_ROBOT.PLC_OUT.ErrorID")}`,
+  );
 }
 
 /** Resets, enables the drives, sets repeat mode and gives a rising edge on I0 once powered: the

@@ -3,6 +3,7 @@
 // active" on every page visited, naming who forced what; the Variables page flags the variable and
 // refuses a write to it; unforce and restore brings back the value before; a viewer sees the list and
 // the banner but no force, unforce or write controls, and the API answers 403 to a viewer's force.
+import { readyToPower } from "./cell";
 import { api, expect, server, shot, signIn, test } from "./fixtures";
 
 const ENABLE = "PLC_ROBOT.PLC_IN.Enable"; // 1: MC_Power on (the cell's PLC powers the drives)
@@ -23,6 +24,7 @@ test("an operator forces a cell input from the force list, the banner follows on
 }) => {
   const s = server();
   await unforceAll(); // the suite's cell starts with none (a test before may have failed midway)
+  await readyToPower(); // no drive fault left by a test before (alarms.spec stops irpd for seconds)
   const before = await value(ENABLE);
   expect(before).toBe(0);
   try {

@@ -256,7 +256,7 @@ TEST(ProcessLifecycle, AReleaseMadeAheadRunsAtItsTimeUnlessTakenBackOrMadeImmedi
     seq = ahead(8, nowNs() + 10'000 * kMs);
     int64_t expected = at.load();
     ASSERT_TRUE(at.compare_exchange_strong(expected, INDUROP_RELEASE_CANCELLED));
-    futex::wakeAll(&s.release_seq);
+    futex::wakeAll(futex::lowWord(&s.release_at_ns));
     ASSERT_TRUE(awaitDone(s, seq, kLong)) << "a release taken back is reported done\n" << h.all();
     EXPECT_EQ(stateOf(s), INDUROP_PROCESS_READY);
 
@@ -265,7 +265,7 @@ TEST(ProcessLifecycle, AReleaseMadeAheadRunsAtItsTimeUnlessTakenBackOrMadeImmedi
     seq = ahead(9, made + 10'000 * kMs);
     expected = at.load();
     ASSERT_TRUE(at.compare_exchange_strong(expected, 0));
-    futex::wakeAll(&s.release_seq);
+    futex::wakeAll(futex::lowWord(&s.release_at_ns));  // as irpd makes a release now
     ASSERT_TRUE(awaitDone(s, seq, kLong)) << h.all();
     EXPECT_LT(s.done_ns, made + 5'000 * kMs) << "it did not wait for the time it was first given";
     EXPECT_TRUE(h.waitFor("[cyc] period n=2 cycle=9 ")) << h.all();

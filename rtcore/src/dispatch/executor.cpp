@@ -228,7 +228,7 @@ Executor::Armed Executor::resolveArmed(Task &task, int64_t now, int64_t &start) 
         // Not started within kArmedWaitNs of its due time (the machine held it off): a release now.
         slot.release_ns = now;
         const int64_t wakes_at = std::atomic_ref<int64_t>(slot.wake_ns).load(std::memory_order_seq_cst);
-        if (wakes_at == 0 || wakes_at > now) futex::wakeAll(&slot.release_seq);
+        if (wakes_at == 0 || wakes_at > now) futex::wakeAll(futex::lowWord(&slot.release_at_ns));
         start = now;
         return Armed::Released;
     }

@@ -10,6 +10,8 @@ import { errorText, h, type Poller, poll, setText } from "../ops/dom";
 import { DEFAULT_WATCH } from "../programs/value_popover";
 import { MONITOR_MS, valueClass, valueText } from "../programs/values";
 
+const NO_SET =
+  "no set is active in the set store: watch lists are kept with a set; upload one (Modules page) or activate one";
 class WatchView {
   readonly element: HTMLElement;
   private setId = "";
@@ -74,7 +76,13 @@ class WatchView {
 
   async load(): Promise<void> {
     try {
-      this.setId = unwrap(await this.ctx.api.GET("/api/v1/sets/active")).id;
+      // the set list says which is active (GET /sets/active would answer 404 when none is)
+      const active = unwrap(await this.ctx.api.GET("/api/v1/sets")).find((s) => s.active);
+      if (!active) {
+        setText(this.status, NO_SET);
+        return;
+      }
+      this.setId = active.id;
       const lists = unwrap(
         await this.ctx.api.GET("/api/v1/sets/{set_id}/watches", { params: { path: { set_id: this.setId } } }),
       );
@@ -163,6 +171,10 @@ class WatchView {
 
   private async save(): Promise<void> {
     const name = this.name.value.trim();
+    if (!this.setId) {
+      setText(this.status, NO_SET);
+      return;
+    }
     try {
       unwrap(
         await this.ctx.api.PUT("/api/v1/sets/{set_id}/watches/{name}", {
@@ -181,7 +193,7 @@ class WatchView {
 
   private async deleteList(): Promise<void> {
     const name = this.select.value;
-    if (!name) return;
+    if (!name || !this.setId) return;
     try {
       unwrap(
         await this.ctx.api.DELETE("/api/v1/sets/{set_id}/watches/{name}", {
