@@ -142,7 +142,9 @@ def body_graph(file: str, pou: str, lang_el: etree._Element) -> Body:
         if e.id in elements:
             first = elements[e.id]
             raise StError(
-                body.origin(e), "plcopen", f"localId {e.id} is used twice (also by the {first.kind} at line {first.el.sourceline})"
+                body.origin(e),
+                "plcopen",
+                f"localId {e.id} is used twice (also by the {first.kind} at line {first.el.sourceline})",
             )
         elements[e.id] = e
     return body
