@@ -58,6 +58,7 @@ from .routes import (
     alarms,
     audit,
     captures,
+    diagrams,
     events,
     forces,
     health,
@@ -299,6 +300,7 @@ def create_app(settings: Settings, *, restore: bool = True) -> FastAPI:
     routers += (opcua,)  # the OPC UA server's state and trust list (docs/opcua.md)
     routers += (opcua_alarms,)  # the OPC UA server's Acknowledge and Confirm, with its own token
     routers += (programs,)  # the Programs page: ST files, the check as you type, edits applied (docs/programming.md)
+    routers += (diagrams,)  # the live view of LD, FBD and SFC POUs (docs/programming.md)
     routers += (forces,)  # forcing (docs/forcing.md)
     routers += (watches,)  # watch lists kept with a set (docs/programming.md)
     for module in (*routers, stream):

@@ -7,25 +7,30 @@
 // running version read-only with the live values in the code (programs/st_monitor.ts); a click on a
 // value opens write / force / unforce / add to watch list (programs/value_popover.ts, operator and
 // above).  Read-only for a viewer; checking and applying an edit needs an admin (as an upload),
-// activating an operator.
+// activating an operator.  A PLCopen XML file's LD, FBD and SFC POUs open in the live view instead
+// (programs/diagram_view.ts: the diagram drawn from the file; with Monitor, power flow and values from
+// POST /programs/diagram/monitor).
 import "../ops/ops.css";
 import "../programs/programs.css";
 import { unwrap } from "../api/client";
 import type { components } from "../api/schema";
 import type { AppContext, Page } from "../app/context";
 import { ActivationReview } from "../ops/activation-review";
-import { errorText, h, setText } from "../ops/dom";
+import { errorText, h, type Poller, poll, setText } from "../ops/dom";
 import { problemList } from "../ops/problems-view";
 import { renderSwapReport } from "../ops/swap-report-view";
 import type { SwapReport } from "../ops/types";
 import { formatTime } from "../ops/units";
+import { type Diagram, type DiagramMonitorAnswer, DiagramView } from "../programs/diagram_view";
 import type { CheckResult, StEditor } from "../programs/st_editor";
 import type { Monitor } from "../programs/st_monitor";
 import { diffLines } from "../programs/st_view";
 import { ValuePopover } from "../programs/value_popover";
+import { MONITOR_MS } from "../programs/values";
 
 type S = components["schemas"];
 const MONITORING = "monitoring the running version (read-only)";
+const GRAPHICAL = ["LD", "FBD", "SFC"];
 
 class ProgramsView {
   readonly element: HTMLElement;
@@ -33,6 +38,8 @@ class ProgramsView {
   private title = h("span", { class: "mono", "data-testid": "st-title" });
   private status = h("span", { class: "ops-sub", "data-testid": "st-status", role: "status" });
   private host = h("div", { class: "st-editor", "data-testid": "st-editor" });
+  private diagramHost = h("div", { class: "pl-view", "data-testid": "pl-view", hidden: true });
+  private diagram: { view: DiagramView; path: string; pou: string; poller: Poller | null } | null = null;
   private errors = h("div", { class: "st-errors", "data-testid": "st-errors" });
   private error = h("div", { class: "ops-error", "data-testid": "st-error", hidden: true, role: "alert" });
   private review = h("div", { "data-testid": "st-review", hidden: true });
@@ -92,6 +99,7 @@ class ProgramsView {
             ),
         this.error,
         this.host,
+        this.diagramHost,
         this.errors,
         this.review,
         this.report,
@@ -137,7 +145,17 @@ class ProgramsView {
         h(
           "li",
           { "data-testid": `st-file-${f.path}` },
-          h("button", { class: "link mono", onclick: () => void this.open(f.path) }, f.path),
+          h(
+            "button",
+            {
+              class: "link mono",
+              onclick: () => {
+                const first = f.pous.find((p) => GRAPHICAL.includes(p.language ?? "")) ?? f.pous[0];
+                void (f.plcopen ? first && this.openDiagram(f.path, first.name) : this.open(f.path));
+              },
+            },
+            f.path,
+          ),
           h(
             "ul",
             {},
@@ -150,19 +168,22 @@ class ProgramsView {
                   {
                     class: "link",
                     "data-testid": `st-pou-${p.name}`,
-                    onclick: () => void this.show(f.path, p.line),
+                    onclick: () =>
+                      void (f.plcopen ? this.openDiagram(f.path, p.name) : this.show(f.path, p.line)),
                   },
                   `${p.kind} ${p.name}`,
                 ),
-                h("span", { class: "ops-sub" }, ` :${p.line}`),
+                h("span", { class: "ops-sub" }, p.language ? ` (${p.language})` : ` :${p.line}`),
               ),
             ),
           ),
         ),
       ),
     );
-    const first = list.files.find((f) => f.path === path)?.path ?? list.files[0]?.path;
-    if (first) await this.open(first);
+    const st = list.files.filter((f) => !f.plcopen);
+    const first = st.find((f) => f.path === path)?.path ?? st[0]?.path;
+    if (this.diagram) await this.openDiagram(this.diagram.path, this.diagram.pou);
+    else if (first) await this.open(first);
     else setText(this.status, "the running set has no Structured Text");
   }
 
@@ -175,6 +196,14 @@ class ProgramsView {
   /** Monitor on: the running version, read-only, with live values (an edit must be applied or reverted
    * first); off: the editor as before. */
   private async toggleMonitor(): Promise<void> {
+    if (this.diagram) {
+      const on = this.diagram.poller === null;
+      this.monitorButton.setAttribute("aria-pressed", String(on));
+      setText(this.monitorNote, on ? MONITORING : "");
+      if (on) this.startDiagramMonitor();
+      else this.stopDiagramMonitor();
+      return;
+    }
     if (this.monitor) {
       this.monitor.stop();
       this.monitor = null;
@@ -196,8 +225,78 @@ class ProgramsView {
     await this.open(this.path, true);
   }
 
+  /** Opens POU `pou` of the running set's PLCopen XML file `path` in the live view (an ST or IL body:
+   * its text, read-only); Monitor goes on if it was on. */
+  async openDiagram(path: string, pou: string): Promise<void> {
+    let d: Diagram;
+    try {
+      d = unwrap(await this.ctx.api.GET("/api/v1/programs/diagram", { params: { query: { path, pou } } }));
+    } catch (e) {
+      this.fail(e);
+      return;
+    }
+    const monitoring = this.monitor !== null || this.diagram?.poller != null;
+    this.closeDiagram();
+    this.monitor?.stop();
+    this.monitor = null;
+    this.editor?.destroy();
+    this.editor = null;
+    this.path = path;
+    this.setId = d.set_id;
+    this.host.hidden = true;
+    this.diagramHost.hidden = false;
+    this.errors.replaceChildren();
+    this.checkButton.disabled = true;
+    this.revertButton.disabled = true;
+    setText(this.title, `${path}: ${d.kind} ${d.pou} (${d.language ?? "?"}) — set ${d.set_id}`);
+    setText(this.status, "read-only");
+    const view = new DiagramView(d);
+    this.diagramHost.replaceChildren(
+      GRAPHICAL.includes(d.language ?? "") ? view.element : h("pre", { class: "pl-text-body" }, d.text ?? ""),
+    );
+    this.diagram = { view, path, pou, poller: null };
+    this.history.replaceChildren();
+    if (monitoring) this.startDiagramMonitor();
+  }
+
+  private startDiagramMonitor(): void {
+    const d = this.diagram;
+    if (!d) return;
+    const { path, pou, view } = d;
+    const set = this.setId;
+    d.poller = poll(
+      async () => {
+        const answer: DiagramMonitorAnswer = unwrap(
+          await this.ctx.api.POST("/api/v1/programs/diagram/monitor", { body: { path, pou, set } }),
+        );
+        if (this.diagram?.view !== view) return;
+        view.show(answer);
+        setText(this.monitorNote, MONITORING); // after an error, once it answers again
+      },
+      MONITOR_MS,
+      (e) => setText(this.monitorNote, `monitor: ${errorText(e)}`),
+      true,
+    );
+    this.monitorButton.setAttribute("aria-pressed", "true");
+    setText(this.monitorNote, MONITORING);
+  }
+
+  private stopDiagramMonitor(): void {
+    this.diagram?.poller?.stop();
+    if (this.diagram) this.diagram.poller = null;
+    this.diagram?.view.show(null);
+  }
+
+  private closeDiagram(): void {
+    this.stopDiagramMonitor();
+    this.diagram = null;
+    this.diagramHost.replaceChildren();
+    this.diagramHost.hidden = true;
+    this.host.hidden = false;
+  }
+
   /** Opens a file of the running set in the editor (with `monitoring`: read-only, with live values). */
-  async open(path: string, monitoring = this.monitor !== null): Promise<void> {
+  async open(path: string, monitoring = this.monitor !== null || this.diagram?.poller != null): Promise<void> {
     let src: S["ProgramSource"];
     try {
       src = unwrap(await this.ctx.api.GET("/api/v1/programs/source", { params: { query: { path } } }));
@@ -208,6 +307,7 @@ class ProgramsView {
     // CodeMirror is a chunk of its own, loaded when a file is first opened (the other pages never load it)
     const { StEditor: Editor } = await import("../programs/st_editor");
     const mon = await import("../programs/st_monitor");
+    this.closeDiagram();
     this.monitor?.stop();
     this.monitor = null;
     this.editor?.destroy();
@@ -355,6 +455,7 @@ class ProgramsView {
   }
 
   destroy(): void {
+    this.closeDiagram();
     this.monitor?.stop();
     this.popover?.destroy();
     this.activation?.close();

@@ -19,7 +19,7 @@ from fastapi import APIRouter, HTTPException, Query, Request
 from starlette.concurrency import run_in_threadpool
 
 from ...irpd.variables import VariableError
-from ...sets import st_build, st_check, st_monitor, uploads
+from ...sets import plc_diagram, st_build, st_check, st_monitor, uploads
 from ...sets.activation import irpd_validation
 from ...sets.store import remove_tree
 from ..deps import AdminDep, IrpdDep, ViewerDep, ask, audited
@@ -118,9 +118,19 @@ def list_programs(request: Request, _: ViewerDep, set: str | None = None) -> Pro
         files = [
             ProgramFile(**st_check.outline(_stc(request), p, _text(request, set_id, p))) for p in _st_paths(manifest)
         ]
+        files += [_plcopen_outline(request, set_id, p) for p in plc_diagram.plcopen_paths(request.app.state.store, set_id)]
     except st_check.CompilerMissing as e:
         raise _compiler_missing(e) from e
     return ProgramList(set_id=set_id, active=set_id == request.app.state.store.active_id(), files=files)
+
+
+def _plcopen_outline(request: Request, set_id: str, path: str) -> ProgramFile:
+    """A PLCopen XML file's POUs with their body languages (an LD, FBD or SFC one opens the live view)."""
+    try:
+        found = plc_diagram.project(_stc(request), request.app.state.store.files_dir(set_id) / path, path)
+    except plc_diagram.DiagramError as e:
+        return ProgramFile(path=path, pous=[], plcopen=True, error=e.first)
+    return ProgramFile(path=path, pous=plc_diagram.outline(found), plcopen=True)
 
 
 @router.get("/programs/source", responses=NOT_FOUND)
