@@ -10,7 +10,9 @@ from .monitor_models import PathError
 
 
 class DiagramPin(BaseModel):
-    name: str | None = Field(description="the block parameter (formalParameter); 'condition' for a transition's; null: the element's only pin")
+    name: str | None = Field(
+        description="the block parameter (formalParameter); 'condition' for a transition's; null: the element's only pin"
+    )
     x: float = Field(description="where the pin is, in the file's coordinates")
     y: float
     negated: bool = False
@@ -22,7 +24,9 @@ class DiagramWire(BaseModel):
     from_pin: str | None = Field(description="its output parameter (a block's), null for an element's only output")
     to_id: int = Field(description="the localId it goes to")
     to_pin: str | None = Field(description="the input it feeds (a block's parameter), null for the only input")
-    points: list[tuple[float, float]] = Field(description="the polyline as the file draws it, from the input back to the output")
+    points: list[list[float]] = Field(
+        description="the polyline as the file draws it ([x, y] each), from the input back to the output"
+    )
 
 
 class DiagramAction(BaseModel):
@@ -83,7 +87,10 @@ class DiagramMonitorRequest(BaseModel):
 class FlowValue(BaseModel):
     id: int = Field(description="the localId the value leaves")
     pin: str | None = Field(description="its output (a block's parameter), null for the only one")
-    value: bool | int | float | None = Field(description="the value leaving it now (LD: the power); null when not evaluated")
+    type: str | None = Field(None, description="its IEC type (BOOL: power or a boolean; TIME: nanoseconds)")
+    value: bool | int | float | None = Field(
+        description="the value leaving it now (LD: the power); null when not evaluated"
+    )
     reason: str | None = Field(None, description="why it is not evaluated")
 
 

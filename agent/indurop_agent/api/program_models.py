@@ -18,7 +18,8 @@ class PouOutline(BaseModel):
     kind: str = Field(description="PROGRAM, FUNCTION_BLOCK, FUNCTION or CONFIGURATION")
     line: int
     language: str | None = Field(
-        None, description="a PLCopen XML POU's body: LD, FBD, SFC (opened in the live view), ST or IL; null in a .st file"
+        None,
+        description="a PLCopen XML POU's body: LD, FBD, SFC (opened in the live view), ST or IL; null in a .st file",
     )
 
 
@@ -34,7 +35,9 @@ class ProgramFile(BaseModel):
     path: str
     pous: list[PouOutline]
     error: StError | None = Field(None, description="the file's first error when it cannot be read as ST")
-    plcopen: bool = Field(False, description="a PLCopen XML file: its graphical POUs open in the live view (GET /programs/diagram)")
+    plcopen: bool = Field(
+        False, description="a PLCopen XML file: its graphical POUs open in the live view (GET /programs/diagram)"
+    )
 
 
 class ProgramList(BaseModel):

@@ -36,6 +36,10 @@ class DiagramError(Exception):
         self.first = first
 
 
+class NoSuchPou(DiagramError):
+    """The file has no POU of that name (the message lists those it has)."""
+
+
 @functools.cache
 def importer(stc: Path) -> SimpleNamespace:
     """plcopen_import's reader and graph, from plcopen/ beside the ST compiler's folder (st/)."""
@@ -130,7 +134,7 @@ def _pou(p: Project, name: str):
         if pou.get("name", "").upper() == name.upper():
             return pou
     known = ", ".join(x.get("name", "?") for x in _pous(p)) or "none"
-    raise DiagramError(f"{p.path} has no POU {name!r}; its POUs: {known}")
+    raise NoSuchPou(f"{p.path} has no POU {name!r}; its POUs: {known}")
 
 
 def diagram(p: Project, name: str) -> dict:

@@ -265,12 +265,7 @@ class _Walker:
         self.found.conditions.append(Condition(line, col, end_line, end_col, what, e, self.instance, reads))
 
     def reads(self, e, out: list) -> None:
-        path = path_of(self.found.c, e, self.instance, self.found.paths)
-        if path is not None:
-            out.append(path)
-            return
-        for child in _children(self.t, e):
-            self.reads(child, out)
+        reads(self.found.c, e, self.instance, self.found.paths, out)
 
     def expr(self, e) -> None:
         t = self.t
@@ -317,6 +312,16 @@ class _Walker:
                     return n + 1, len(head) + 1
                 return n, len(self.lines[n - 1].rstrip().rstrip(";")) + 1  # the keyword opens its line
         return line, len(self.lines[line - 1]) + 1
+
+
+def reads(c, e, instance: str, paths: dict, out: list) -> None:
+    """Adds to `out` the shared variables expression `e` reads in PROGRAM instance `instance`."""
+    path = path_of(c, e, instance, paths)
+    if path is not None:
+        out.append(path)
+        return
+    for child in _children(c.tree, e):
+        reads(c, child, instance, paths, out)
 
 
 def _children(t, e) -> list:

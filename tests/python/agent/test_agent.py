@@ -180,6 +180,8 @@ def test_every_route_of_the_api_is_in_the_role_matrix(cell):
         ("POST", "/programs/check"),
         ("POST", "/programs/apply"),
         ("POST", "/programs/monitor"),  # test_monitor_api.py: 401, a viewer monitors
+        ("GET", "/programs/diagram"),  # test_diagram_api.py: 401, a viewer draws and monitors
+        ("POST", "/programs/diagram/monitor"),
         ("GET", "/programs/history"),
         ("GET", "/programs/diff"),
         ("POST", "/sets"),

@@ -98,6 +98,8 @@ NEEDS = {
     ("GET", "/programs/history"): "viewer",
     ("GET", "/programs/diff"): "viewer",
     ("POST", "/programs/monitor"): "viewer",
+    ("GET", "/programs/diagram"): "viewer",
+    ("POST", "/programs/diagram/monitor"): "viewer",
     ("POST", "/programs/check"): "viewer",
     ("POST", "/programs/apply"): "admin",
     ("GET", "/sets"): "viewer",

@@ -803,6 +803,51 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/programs/diagram": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Program Diagram
+         * @description POU `pou` of the set's (default: the active set's) PLCopen XML file `path` as drawn in the file:
+         *     its elements with their positions, sizes, labels and pins, and its wires with their polylines
+         *     (an ST or IL body: its text).
+         */
+        get: operations["program_diagram_api_v1_programs_diagram_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/programs/diagram/monitor": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Monitor Diagram
+         * @description The live values of POU `pou` of the set's (default: the active set's) PLCopen XML file `path`:
+         *     the value leaving each element as the translation computes it (unit.flows), folded with the
+         *     compiler's own folding on the variables read, and the variables the elements show (a step: active
+         *     and for how long).  One read of the shared memory.
+         */
+        post: operations["monitor_diagram_api_v1_programs_diagram_monitor_post"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/programs/diff": {
         parameters: {
             query?: never;
@@ -2602,6 +2647,229 @@ export interface components {
              */
             set_id: string;
         };
+        /** Diagram */
+        Diagram: {
+            /** Elements */
+            elements: components["schemas"]["DiagramElement"][];
+            /** Height */
+            height: number;
+            /**
+             * Kind
+             * @description PROGRAM, FUNCTION_BLOCK or FUNCTION
+             */
+            kind: string;
+            /**
+             * Language
+             * @description LD, FBD or SFC (drawn); ST or IL: `text` holds the body
+             */
+            language: string | null;
+            /**
+             * Path
+             * @description the PLCopen XML file in the set
+             */
+            path: string;
+            /** Pou */
+            pou: string;
+            /** Set Id */
+            set_id: string;
+            /**
+             * Text
+             * @description an ST or IL body's text
+             */
+            text?: string | null;
+            /**
+             * Width
+             * @description the drawing's extent in the file's coordinates
+             */
+            width: number;
+            /** Wires */
+            wires: components["schemas"]["DiagramWire"][];
+        };
+        /** DiagramAction */
+        DiagramAction: {
+            /** Duration */
+            duration?: string | null;
+            /** Indicator */
+            indicator?: string | null;
+            /**
+             * Name
+             * @description a named action or a variable (reference)
+             */
+            name?: string | null;
+            /**
+             * Qualifier
+             * @description N, S, R, P, P0, P1, L, D, SD, DS, SL
+             */
+            qualifier: string;
+            /**
+             * Text
+             * @description an inline ST action
+             */
+            text?: string | null;
+        };
+        /** DiagramElement */
+        DiagramElement: {
+            /**
+             * Actions
+             * @description an action block's actions
+             */
+            actions: components["schemas"]["DiagramAction"][];
+            /**
+             * Condition
+             * @description a transition's inline ST condition or named transition
+             */
+            condition: string | null;
+            /**
+             * Edge
+             * @description none, rising or falling (a contact's or coil's P / N)
+             */
+            edge: string;
+            /** Height */
+            height: number;
+            /**
+             * Id
+             * @description localId
+             */
+            id: number;
+            /**
+             * Initial
+             * @description an SFC step that is initial
+             */
+            initial: boolean;
+            /** Inputs */
+            inputs: components["schemas"]["DiagramPin"][];
+            /**
+             * Instance
+             * @description a function block's instance name
+             */
+            instance: string | null;
+            /**
+             * Kind
+             * @description the element's tag: leftPowerRail, rightPowerRail, contact, coil, block, inVariable, outVariable, inOutVariable, connector, continuation, jump, label, return, step, transition, actionBlock, selectionDivergence, selectionConvergence, simultaneousDivergence, simultaneousConvergence, jumpStep, comment
+             */
+            kind: string;
+            /**
+             * Label
+             * @description a contact's or coil's variable, a variable's expression, a block's type, a step's name, a connector's name, a jump's target, a comment's text
+             */
+            label: string | null;
+            /** Negated */
+            negated: boolean;
+            /**
+             * Order
+             * @description executionOrderId (0: none)
+             */
+            order: number;
+            /** Outputs */
+            outputs: components["schemas"]["DiagramPin"][];
+            /**
+             * Storage
+             * @description none, set or reset (a coil's S / R)
+             */
+            storage: string;
+            /** Width */
+            width: number;
+            /** X */
+            x: number;
+            /** Y */
+            y: number;
+        };
+        /** DiagramMonitorAnswer */
+        DiagramMonitorAnswer: {
+            /**
+             * Elements
+             * @description the variables the elements show
+             */
+            elements: components["schemas"]["ElementValue"][];
+            /** Errors */
+            errors: components["schemas"]["PathError"][];
+            /**
+             * Flows
+             * @description the value leaving each element's output, from the translation
+             */
+            flows: components["schemas"]["FlowValue"][];
+            /**
+             * Instance
+             * @description the PROGRAM instance whose values these are (null: not a PROGRAM)
+             */
+            instance: string | null;
+            /** Layout Hash */
+            layout_hash: string;
+            /** Set Id */
+            set_id: string;
+        };
+        /** DiagramMonitorRequest */
+        DiagramMonitorRequest: {
+            /**
+             * Path
+             * @description the PLCopen XML file, e.g. plc.xml
+             */
+            path: string;
+            /**
+             * Pou
+             * @description the POU shown
+             */
+            pou: string;
+            /**
+             * Set
+             * @description the set (default: the active one); values are the running ones
+             */
+            set?: string | null;
+        };
+        /** DiagramPin */
+        DiagramPin: {
+            /**
+             * Edge
+             * @description rising / falling on a block input
+             * @default none
+             */
+            edge: string;
+            /**
+             * Name
+             * @description the block parameter (formalParameter); 'condition' for a transition's; null: the element's only pin
+             */
+            name: string | null;
+            /**
+             * Negated
+             * @default false
+             */
+            negated: boolean;
+            /**
+             * X
+             * @description where the pin is, in the file's coordinates
+             */
+            x: number;
+            /** Y */
+            y: number;
+        };
+        /** DiagramWire */
+        DiagramWire: {
+            /**
+             * From Id
+             * @description the localId the value comes from
+             */
+            from_id: number;
+            /**
+             * From Pin
+             * @description its output parameter (a block's), null for an element's only output
+             */
+            from_pin: string | null;
+            /**
+             * Points
+             * @description the polyline as the file draws it ([x, y] each), from the input back to the output
+             */
+            points: number[][];
+            /**
+             * To Id
+             * @description the localId it goes to
+             */
+            to_id: number;
+            /**
+             * To Pin
+             * @description the input it feeds (a block's parameter), null for the only input
+             */
+            to_pin: string | null;
+        };
         /** DiskPart */
         DiskPart: {
             /** Bytes */
@@ -2639,6 +2907,38 @@ export interface components {
              * @description a scalar shared variable, e.g. SIG.wave[4]
              */
             variable: string;
+        };
+        /** ElementValue */
+        ElementValue: {
+            /**
+             * Active
+             * @description a step: active now (its X)
+             */
+            active?: boolean | null;
+            /**
+             * Forced
+             * @default false
+             */
+            forced: boolean;
+            /**
+             * Id
+             * @description the localId of a contact, coil, variable, block or step
+             */
+            id: number;
+            /**
+             * Path
+             * @description the shared variable it shows (a step: its X flag's struct)
+             */
+            path: string;
+            /**
+             * Time Ms
+             * @description a step: how long it has been active (its T)
+             */
+            time_ms?: number | null;
+            /** Type */
+            type?: string | null;
+            /** Value */
+            value?: boolean | number | null;
         };
         /**
          * ErrorBody
@@ -2810,6 +3110,34 @@ export interface components {
             set_id: string;
             /** Sha256 */
             sha256: string;
+        };
+        /** FlowValue */
+        FlowValue: {
+            /**
+             * Id
+             * @description the localId the value leaves
+             */
+            id: number;
+            /**
+             * Pin
+             * @description its output (a block's parameter), null for the only one
+             */
+            pin: string | null;
+            /**
+             * Reason
+             * @description why it is not evaluated
+             */
+            reason?: string | null;
+            /**
+             * Type
+             * @description its IEC type (BOOL: power or a boolean; TIME: nanoseconds)
+             */
+            type?: string | null;
+            /**
+             * Value
+             * @description the value leaving it now (LD: the power); null when not evaluated
+             */
+            value: boolean | number | null;
         };
         /**
          * Force
@@ -4147,6 +4475,11 @@ export interface components {
              * @description PROGRAM, FUNCTION_BLOCK, FUNCTION or CONFIGURATION
              */
             kind: string;
+            /**
+             * Language
+             * @description a PLCopen XML POU's body: LD, FBD, SFC (opened in the live view), ST or IL; null in a .st file
+             */
+            language?: string | null;
             /** Line */
             line: number;
             /** Name */
@@ -4213,6 +4546,12 @@ export interface components {
             error?: components["schemas"]["StError"] | null;
             /** Path */
             path: string;
+            /**
+             * Plcopen
+             * @description a PLCopen XML file: its graphical POUs open in the live view (GET /programs/diagram)
+             * @default false
+             */
+            plcopen: boolean;
             /** Pous */
             pous: components["schemas"]["PouOutline"][];
         };
@@ -7552,6 +7891,82 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["HTTPValidationError"];
                 };
+            };
+        };
+    };
+    program_diagram_api_v1_programs_diagram_get: {
+        parameters: {
+            query: {
+                path: string;
+                pou: string;
+                set?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["Diagram"];
+                };
+            };
+            /** @description no such set, no active set, no such PLCopen XML file in it, or no such POU */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the file is not a PLCopen XML file the importer reads (the reason, at its line) */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+        };
+    };
+    monitor_diagram_api_v1_programs_diagram_monitor_post: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["DiagramMonitorRequest"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["DiagramMonitorAnswer"];
+                };
+            };
+            /** @description no such set, no active set, no such PLCopen XML file in it, or no such POU */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description the file is not a PLCopen XML file the importer reads (the reason, at its line) */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
         };
     };

@@ -168,8 +168,7 @@ class ProgramsView {
                   {
                     class: "link",
                     "data-testid": `st-pou-${p.name}`,
-                    onclick: () =>
-                      void (f.plcopen ? this.openDiagram(f.path, p.name) : this.show(f.path, p.line)),
+                    onclick: () => void (f.plcopen ? this.openDiagram(f.path, p.name) : this.show(f.path, p.line)),
                   },
                   `${p.kind} ${p.name}`,
                 ),

@@ -65,8 +65,12 @@ function coil(g: SVGGElement, e: Element): void {
   const b = e.x + e.width - Math.min(5, e.width / 4);
   g.append(line(e.x, mid, a, mid), line(b, mid, e.x + e.width, mid));
   // "(" and ")": two arcs through the top and bottom of the element
-  g.append(el("path", { d: `M ${a + 4} ${e.y} A ${r} ${r} 0 0 0 ${a + 4} ${e.y + e.height}`, class: "pl-line pl-bar" }));
-  g.append(el("path", { d: `M ${b - 4} ${e.y} A ${r} ${r} 0 0 1 ${b - 4} ${e.y + e.height}`, class: "pl-line pl-bar" }));
+  g.append(
+    el("path", { d: `M ${a + 4} ${e.y} A ${r} ${r} 0 0 0 ${a + 4} ${e.y + e.height}`, class: "pl-line pl-bar" }),
+  );
+  g.append(
+    el("path", { d: `M ${b - 4} ${e.y} A ${r} ${r} 0 0 1 ${b - 4} ${e.y + e.height}`, class: "pl-line pl-bar" }),
+  );
   const m = mark(e);
   if (m === "/") g.append(line(b - 3, e.y + 3, a + 3, e.y + e.height - 3));
   else if (m) g.append(text((a + b) / 2, mid + 4, m, "middle", "pl-text pl-mark"));
@@ -200,6 +204,7 @@ export class DiagramView {
   private wires: { path: SVGPolylineElement; from: string }[] = [];
   private labels = new Map<string, SVGTextElement>(); // values beside pins: "id/pin"
   private stepTimes = new Map<number, SVGTextElement>();
+  private types = new Map<string, string>(); // the IEC type of each flow of the last answer
 
   constructor(readonly diagram: Diagram) {
     const w = diagram.width + 2 * MARGIN;
@@ -261,8 +266,10 @@ export class DiagramView {
   show(answer: DiagramMonitorAnswer | null): void {
     const flows = new Map<string, Value>();
     const reasons = new Map<string, string>();
+    this.types.clear();
     for (const f of answer?.flows ?? []) {
       flows.set(key(f.id, f.pin), f.value);
+      if (f.type) this.types.set(key(f.id, f.pin), f.type);
       if (f.reason) reasons.set(key(f.id, f.pin), f.reason);
     }
     for (const w of this.wires) w.path.setAttribute("class", `pl-wire${flowClass(flows.get(w.from))}`);
@@ -278,9 +285,11 @@ export class DiagramView {
       g.setAttribute("class", cls);
       if (e.kind === "step") {
         const t = this.stepTimes.get(e.id);
-        if (t) t.textContent = v?.active && v.time_ms !== null && v.time_ms !== undefined ? `T=${fmtMs(v.time_ms)}` : "";
+        if (t)
+          t.textContent = v?.active && v.time_ms !== null && v.time_ms !== undefined ? `T=${fmtMs(v.time_ms)}` : "";
       }
-      for (const p of e.kind === "block" ? e.outputs : []) this.label(`out:${key(e.id, p.name)}`, flows, key(e.id, p.name), reasons);
+      for (const p of e.kind === "block" ? e.outputs : [])
+        this.label(`out:${key(e.id, p.name)}`, flows, key(e.id, p.name), reasons);
       for (const p of e.kind === "block" ? e.inputs : []) {
         const wire = this.diagram.wires.find((w) => w.to_id === e.id && w.to_pin === p.name);
         this.label(`in:${key(e.id, p.name)}`, flows, wire ? key(wire.from_id, wire.from_pin) : "", reasons);
@@ -288,7 +297,8 @@ export class DiagramView {
       const varLabel = this.labels.get(`var:${e.id}`);
       if (varLabel) {
         const shown = v ? v.value : flows.get(key(e.id, null));
-        varLabel.textContent = answer && shown !== undefined ? valueText(shown) + (v?.forced ? " F" : "") : "";
+        const type = v ? null : this.types.get(key(e.id, null));
+        varLabel.textContent = answer && shown !== undefined ? typedText(shown, type) + (v?.forced ? " F" : "") : "";
         varLabel.setAttribute("class", `pl-text pl-value${flowClass(shown)}`);
       }
     }
@@ -298,11 +308,16 @@ export class DiagramView {
     const t = this.labels.get(name);
     if (!t) return;
     const v = flows.get(from);
-    t.textContent = flows.has(from) ? valueText(v) : "";
+    t.textContent = flows.has(from) ? typedText(v, this.types.get(from)) : "";
     t.setAttribute("class", `pl-text pl-value${flowClass(v)}`);
     const why = reasons.get(from);
     if (why) t.append(el("title", {}, why));
   }
+}
+
+/** A value as shown on the diagram: a TIME (nanoseconds) in ms or s, the rest as the ST monitor shows it. */
+function typedText(v: Value, type: string | null | undefined): string {
+  return type === "TIME" && typeof v === "number" ? fmtMs(v / 1e6) : valueText(v);
 }
 
 function fmtMs(ms: number): string {

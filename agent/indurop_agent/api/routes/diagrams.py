@@ -10,10 +10,13 @@ from pathlib import Path
 
 from fastapi import APIRouter, HTTPException, Request
 
-from ...sets import plc_diagram, st_check
-from ..deps import ViewerDep
-from ..diagram_models import Diagram
-from .programs import _compiler_missing, _set_id, _stc
+from ...irpd.variables import VariableError
+from ...sets import plc_diagram, plc_monitor, st_check
+from ..deps import IrpdDep, ViewerDep, ask
+from ..diagram_models import Diagram, DiagramMonitorAnswer, DiagramMonitorRequest
+from .forces import forced_paths
+from .programs import _compiler_missing, _set_id, _set_sources, _stc
+from .variables import segment
 
 router = APIRouter(tags=["programs"])
 NOT_FOUND = {404: {"description": "no such set, no active set, no such PLCopen XML file in it, or no such POU"}}
@@ -45,5 +48,40 @@ def program_diagram(request: Request, _: ViewerDep, path: str, pou: str, set: st
     found = plcopen_file(request, set_id, path)
     try:
         return Diagram(set_id=set_id, **plc_diagram.diagram(found, pou))
-    except plc_diagram.DiagramError as e:
+    except plc_diagram.NoSuchPou as e:
         raise HTTPException(404, str(e)) from e
+    except plc_diagram.DiagramError as e:
+        raise HTTPException(422, str(e)) from e
+
+
+@router.post("/programs/diagram/monitor", responses={**NOT_FOUND, **UNREADABLE})
+def monitor_diagram(body: DiagramMonitorRequest, request: Request, irpd: IrpdDep, _: ViewerDep) -> DiagramMonitorAnswer:
+    """The live values of POU `pou` of the set's (default: the active set's) PLCopen XML file `path`:
+    the value leaving each element as the translation computes it (unit.flows), folded with the
+    compiler's own folding on the variables read, and the variables the elements show (a step: active
+    and for how long).  One read of the shared memory."""
+    set_id = _set_id(request, body.set)
+    plcopen_file(request, set_id, body.path)  # 404 / 422 as the diagram
+    data = (request.app.state.store.files_dir(set_id) / body.path).read_bytes()
+    try:
+        found = plc_monitor.analyse(
+            _stc(request),
+            (set_id, body.path, body.pou.upper()),
+            _set_sources(request, set_id),
+            body.path,
+            data,
+            body.pou,
+        )
+    except st_check.CompilerMissing as e:
+        raise _compiler_missing(e) from e
+    except plc_diagram.NoSuchPou as e:
+        raise HTTPException(404, str(e)) from e
+    except plc_diagram.DiagramError as e:
+        raise HTTPException(422, str(e)) from e
+    status = ask(irpd, "status")
+    seg = segment(request, irpd, status)
+    try:
+        answer = found.snapshot(seg, forced_paths(irpd, status))
+    except VariableError as e:
+        raise HTTPException(503, str(e)) from e
+    return DiagramMonitorAnswer(set_id=set_id, **answer)

@@ -118,7 +118,9 @@ def list_programs(request: Request, _: ViewerDep, set: str | None = None) -> Pro
         files = [
             ProgramFile(**st_check.outline(_stc(request), p, _text(request, set_id, p))) for p in _st_paths(manifest)
         ]
-        files += [_plcopen_outline(request, set_id, p) for p in plc_diagram.plcopen_paths(request.app.state.store, set_id)]
+        files += [
+            _plcopen_outline(request, set_id, p) for p in plc_diagram.plcopen_paths(request.app.state.store, set_id)
+        ]
     except st_check.CompilerMissing as e:
         raise _compiler_missing(e) from e
     return ProgramList(set_id=set_id, active=set_id == request.app.state.store.active_id(), files=files)
