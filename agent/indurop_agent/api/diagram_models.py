@@ -88,6 +88,7 @@ class FlowValue(BaseModel):
     id: int = Field(description="the localId the value leaves")
     pin: str | None = Field(description="its output (a block's parameter), null for the only one")
     type: str | None = Field(None, description="its IEC type (BOOL: power or a boolean; TIME: nanoseconds)")
+    constant: bool = Field(False, description="a constant (a literal drawn as a variable): it never changes")
     value: bool | int | float | None = Field(
         description="the value leaving it now (LD: the power); null when not evaluated"
     )

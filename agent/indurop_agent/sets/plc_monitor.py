@@ -38,6 +38,7 @@ class Flow:
     paths: list[str]
     reason: str | None = None  # why it is never evaluated (no instance, a check error)
     type: str | None = None  # its IEC type, once checked
+    constant: bool = False  # the compiler folded it to a constant
 
 
 @dataclass
@@ -72,7 +73,7 @@ class Analysis:
         }
 
     def _flow(self, f: Flow, values: dict) -> dict:
-        out = {"id": f.id, "pin": f.pin, "type": f.type}
+        out = {"id": f.id, "pin": f.pin, "type": f.type, "constant": f.constant}
         if f.reason is not None:
             return {**out, "value": None, "reason": f.reason}
         try:
@@ -186,7 +187,7 @@ def _flow(c, checker, id_: int, pin: str | None, expr, instance: str | None, pat
     reads: list[str] = []
     st_monitor.reads(c, expr, instance, paths, reads)
     typ = str(expr.type) if getattr(expr, "type", None) is not None else None
-    return Flow(id_, pin, expr, list(dict.fromkeys(reads)), type=typ)
+    return Flow(id_, pin, expr, list(dict.fromkeys(reads)), type=typ, constant=expr.const is not None)
 
 
 def _variable(c, checker, imp, path: str, el: dict, instance: str, paths: dict) -> str | None:

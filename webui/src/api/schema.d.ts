@@ -3114,6 +3114,12 @@ export interface components {
         /** FlowValue */
         FlowValue: {
             /**
+             * Constant
+             * @description a constant (a literal drawn as a variable): it never changes
+             * @default false
+             */
+            constant: boolean;
+            /**
              * Id
              * @description the localId the value leaves
              */

@@ -18,6 +18,7 @@ type Pin = components["schemas"]["DiagramPin"];
 const NS = "http://www.w3.org/2000/svg";
 const MARGIN = 20;
 const FONT = 11; // px, in the file's units (its coordinates are pixels in the editors that wrote it)
+const CHAR = 6.7; // the width of a character of FONT px in a monospace font
 
 function el<K extends keyof SVGElementTagNameMap>(
   tag: K,
@@ -60,19 +61,15 @@ function contact(g: SVGGElement, e: Element): void {
 
 function coil(g: SVGGElement, e: Element): void {
   const mid = e.y + e.height / 2;
-  const r = e.height / 2;
-  const a = e.x + Math.min(5, e.width / 4);
-  const b = e.x + e.width - Math.min(5, e.width / 4);
+  const a = e.x + Math.min(6, e.width / 4); // where "(" bulges to
+  const b = e.x + e.width - Math.min(6, e.width / 4); // where ")" bulges to
+  const bow = Math.min(4, e.width / 6);
   g.append(line(e.x, mid, a, mid), line(b, mid, e.x + e.width, mid));
-  // "(" and ")": two arcs through the top and bottom of the element
-  g.append(
-    el("path", { d: `M ${a + 4} ${e.y} A ${r} ${r} 0 0 0 ${a + 4} ${e.y + e.height}`, class: "pl-line pl-bar" }),
-  );
-  g.append(
-    el("path", { d: `M ${b - 4} ${e.y} A ${r} ${r} 0 0 1 ${b - 4} ${e.y + e.height}`, class: "pl-line pl-bar" }),
-  );
+  // "(" and ")": two flat arcs through the top and bottom of the element
+  g.append(el("path", { d: `M ${a + bow} ${e.y} Q ${a - bow} ${mid} ${a + bow} ${e.y + e.height}`, class: "pl-line pl-bar" }));
+  g.append(el("path", { d: `M ${b - bow} ${e.y} Q ${b + bow} ${mid} ${b - bow} ${e.y + e.height}`, class: "pl-line pl-bar" }));
   const m = mark(e);
-  if (m === "/") g.append(line(b - 3, e.y + 3, a + 3, e.y + e.height - 3));
+  if (m === "/") g.append(line(b - bow, e.y + 3, a + bow, e.y + e.height - 3));
   else if (m) g.append(text((a + b) / 2, mid + 4, m, "middle", "pl-text pl-mark"));
 }
 
@@ -131,14 +128,14 @@ function transition(g: SVGGElement, e: Element): void {
 function actionBlock(g: SVGGElement, e: Element): void {
   const rows = Math.max(1, e.actions.length);
   const rowH = e.height / rows;
-  const q = Math.min(36, e.width / 4);
+  const quals = e.actions.map((a) => (a.duration ? `${a.qualifier} ${a.duration}` : a.qualifier));
+  const q = Math.min(Math.max(24, ...quals.map((x) => x.length * CHAR + 8)), e.width / 2);
   g.append(el("rect", { x: e.x, y: e.y, width: e.width, height: e.height, class: "pl-box" }));
   g.append(line(e.x + q, e.y, e.x + q, e.y + e.height));
   e.actions.forEach((a, i) => {
     const y = e.y + i * rowH;
     if (i) g.append(line(e.x, y, e.x + e.width, y));
-    const qual = a.duration ? `${a.qualifier} ${a.duration}` : a.qualifier;
-    g.append(text(e.x + q / 2, y + rowH / 2 + 4, qual, "middle", "pl-text pl-qual"));
+    g.append(text(e.x + q / 2, y + rowH / 2 + 4, quals[i], "middle", "pl-text pl-qual"));
     g.append(text(e.x + q + 4, y + rowH / 2 + 4, a.name ?? a.text ?? "", "start", "pl-text pl-name"));
   });
 }
@@ -165,9 +162,35 @@ function misc(g: SVGGElement, e: Element): void {
   else if (e.kind === "return") g.append(text(e.x, mid, "<RETURN>", "start", "pl-text pl-name"));
   else if (e.kind === "comment") {
     g.append(el("rect", { x: e.x, y: e.y, width: e.width, height: e.height, class: "pl-comment" }));
-    const t = text(e.x + 4, e.y + FONT + 3, e.label ?? "", "start", "pl-text pl-comment-text");
+    // wrapped at the box's width, and the lines that do not fit in its height left out
+    const perLine = Math.max(1, Math.floor((e.width - 8) / CHAR));
+    const lines = Math.max(1, Math.floor((e.height - 4) / (FONT + 2)));
+    const t = text(e.x + 4, e.y + FONT + 3, "", "start", "pl-text pl-comment-text");
+    wrap(e.label ?? "", perLine)
+      .slice(0, lines)
+      .forEach((l, i) => {
+        t.append(el("tspan", { x: e.x + 4, dy: i ? FONT + 2 : 0 }, l));
+      });
     g.append(t);
   } else g.append(el("rect", { x: e.x, y: e.y, width: e.width, height: e.height, class: "pl-box" }));
+}
+
+/** Words in lines of at most `width` characters (a longer word cut). */
+function wrap(s: string, width: number): string[] {
+  const out: string[] = [];
+  let cur = "";
+  for (const word of s.split(/\s+/).filter(Boolean)) {
+    for (let w = word; w; w = w.slice(width)) {
+      const part = w.slice(0, width);
+      if (cur && cur.length + 1 + part.length > width) {
+        out.push(cur);
+        cur = part;
+      } else cur = cur ? `${cur} ${part}` : part;
+      if (w.length <= width) break;
+    }
+  }
+  if (cur) out.push(cur);
+  return out;
 }
 
 const DRAW: Record<string, (g: SVGGElement, e: Element) => void> = {
@@ -205,6 +228,7 @@ export class DiagramView {
   private labels = new Map<string, SVGTextElement>(); // values beside pins: "id/pin"
   private stepTimes = new Map<number, SVGTextElement>();
   private types = new Map<string, string>(); // the IEC type of each flow of the last answer
+  private constants = new Set<string>(); // the flows that are constants (a literal drawn as a variable)
 
   constructor(readonly diagram: Diagram) {
     const w = diagram.width + 2 * MARGIN;
@@ -267,9 +291,11 @@ export class DiagramView {
     const flows = new Map<string, Value>();
     const reasons = new Map<string, string>();
     this.types.clear();
+    this.constants.clear();
     for (const f of answer?.flows ?? []) {
       flows.set(key(f.id, f.pin), f.value);
       if (f.type) this.types.set(key(f.id, f.pin), f.type);
+      if (f.constant) this.constants.add(key(f.id, f.pin));
       if (f.reason) reasons.set(key(f.id, f.pin), f.reason);
     }
     for (const w of this.wires) w.path.setAttribute("class", `pl-wire${flowClass(flows.get(w.from))}`);
@@ -279,7 +305,7 @@ export class DiagramView {
       if (!g) continue;
       const v = values.get(e.id);
       let cls = `pl-el pl-${e.kind}`;
-      if (e.kind === "contact" || e.kind === "coil") cls += flowClass(flows.get(key(e.id, null)));
+      if (["contact", "coil", "leftPowerRail"].includes(e.kind)) cls += flowClass(flows.get(key(e.id, null)));
       if (e.kind === "step" && v) cls += v.active ? " pl-active" : " pl-off";
       if (v?.forced) cls += " pl-forced";
       g.setAttribute("class", cls);
@@ -296,7 +322,7 @@ export class DiagramView {
       }
       const varLabel = this.labels.get(`var:${e.id}`);
       if (varLabel) {
-        const shown = v ? v.value : flows.get(key(e.id, null));
+        const shown = v ? v.value : this.constants.has(key(e.id, null)) ? undefined : flows.get(key(e.id, null));
         const type = v ? null : this.types.get(key(e.id, null));
         varLabel.textContent = answer && shown !== undefined ? typedText(shown, type) + (v?.forced ? " F" : "") : "";
         varLabel.setAttribute("class", `pl-text pl-value${flowClass(shown)}`);
