@@ -34,8 +34,10 @@ def pou(name: str, kind: str, interface: str, lang: str, body: str) -> str:
 
 
 def project(*pous: str, data_types: str = "", instances: str = "") -> bytes:
-    inst = f"<instances><configurations>{instances}</configurations></instances>" if instances else (
-        "<instances><configurations/></instances>"
+    inst = (
+        f"<instances><configurations>{instances}</configurations></instances>"
+        if instances
+        else ("<instances><configurations/></instances>")
     )
     text = f"{HEAD}<types><dataTypes>{data_types}</dataTypes><pous>{''.join(pous)}</pous></types>{inst}</project>\n"
     return text.encode()
@@ -80,7 +82,16 @@ def contact(lid: int, variable: str, ref, x: float, y: float, negated: bool = Fa
     )
 
 
-def coil(lid: int, variable: str, ref, x: float, y: float, negated: bool = False, storage: str | None = None, edge: str | None = None) -> str:
+def coil(
+    lid: int,
+    variable: str,
+    ref,
+    x: float,
+    y: float,
+    negated: bool = False,
+    storage: str | None = None,
+    edge: str | None = None,
+) -> str:
     s = f' storage="{storage}"' if storage else ""
     e = f' edge="{edge}"' if edge else ""
     n = ' negated="true"' if negated else ""
@@ -90,7 +101,16 @@ def coil(lid: int, variable: str, ref, x: float, y: float, negated: bool = False
     )
 
 
-def block(lid: int, type_name: str, inputs: dict, outputs: list[str], x: float, y: float, instance: str | None = None, order: int = 0) -> str:
+def block(
+    lid: int,
+    type_name: str,
+    inputs: dict,
+    outputs: list[str],
+    x: float,
+    y: float,
+    instance: str | None = None,
+    order: int = 0,
+) -> str:
     """inputs: formalParameter -> refs (see _links); outputs: formalParameters."""
     i = f' instanceName="{instance}"' if instance else ""
     o = f' executionOrderId="{order}"' if order else ""
@@ -106,8 +126,9 @@ def in_var(lid: int, expression: str, x: float, y: float) -> str:
     return f'<inVariable localId="{lid}" width="20" height="20">{_pos(x, y)}<connectionPointOut/><expression>{expression}</expression></inVariable>'
 
 
-def out_var(lid: int, expression: str, ref, x: float, y: float, order: int = 0) -> str:
+def out_var(lid: int, expression: str, ref, x: float, y: float, order: int = 0, negated: bool = False) -> str:
     o = f' executionOrderId="{order}"' if order else ""
+    o += ' negated="true"' if negated else ""
     return f'<outVariable localId="{lid}"{o} width="20" height="20">{_pos(x, y)}{_links(ref)}<expression>{expression}</expression></outVariable>'
 
 
