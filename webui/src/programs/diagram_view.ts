@@ -66,8 +66,12 @@ function coil(g: SVGGElement, e: Element): void {
   const bow = Math.min(4, e.width / 6);
   g.append(line(e.x, mid, a, mid), line(b, mid, e.x + e.width, mid));
   // "(" and ")": two flat arcs through the top and bottom of the element
-  g.append(el("path", { d: `M ${a + bow} ${e.y} Q ${a - bow} ${mid} ${a + bow} ${e.y + e.height}`, class: "pl-line pl-bar" }));
-  g.append(el("path", { d: `M ${b - bow} ${e.y} Q ${b + bow} ${mid} ${b - bow} ${e.y + e.height}`, class: "pl-line pl-bar" }));
+  g.append(
+    el("path", { d: `M ${a + bow} ${e.y} Q ${a - bow} ${mid} ${a + bow} ${e.y + e.height}`, class: "pl-line pl-bar" }),
+  );
+  g.append(
+    el("path", { d: `M ${b - bow} ${e.y} Q ${b + bow} ${mid} ${b - bow} ${e.y + e.height}`, class: "pl-line pl-bar" }),
+  );
   const m = mark(e);
   if (m === "/") g.append(line(b - bow, e.y + 3, a + bow, e.y + e.height - 3));
   else if (m) g.append(text((a + b) / 2, mid + 4, m, "middle", "pl-text pl-mark"));

@@ -1,0 +1,105 @@
+// ladder.spec.ts -- the live view of LD, FBD and SFC POUs (docs/programming.md "The live view", issue 31
+// item 5): a real PLCopen XML project drawn in another tool (a tutorial's LD program from
+// ../shared/plcopen, uploaded in place at test time through the agent) opens in the Programs page as a
+// ladder drawn from the file's positions (rails, contacts normal and negated, coils, wires); Monitor on
+// colours it from the agent's answer at 5 Hz (POST /programs/diagram/monitor); an input forced through
+// the API (PUT /forces/...) makes its rung conduct: the contact, the wires and the coil get `pl-on`,
+// the coil's variable turns TRUE in the API; unforce and restore brings the rung back to off.
+// A server of its own (irpd, the agent), so that the suite's cell is not changed.
+import { existsSync, readFileSync } from "node:fs";
+import { join, resolve } from "node:path";
+import type { Page } from "@playwright/test";
+import { expect, shot, signIn, test } from "./fixtures";
+import { ROOT, type Server, startServer, stopServer } from "./server";
+import { rest } from "./st_cell";
+
+// the shared projects beside the repository (PLAN31b.md); for a git worktree, beside its main checkout
+const SHARED = [resolve(ROOT, "../shared/plcopen"), resolve(ROOT, "../../shared/plcopen")].find((p) => existsSync(p));
+const PROJECT = SHARED && join(SHARED, "tutorial_xor_xnor/plc.xml"); // MIT, SOURCES.md
+const POU = "XOR_and_XNOR";
+const INPUT = "instance0.INPUT_0"; // contact localId 3 (normally open) on rung 1; INPUT_1 stays FALSE
+const OUTPUT = "instance0.OUTPUT_0"; // coil localId 7: INPUT_0 AND NOT INPUT_1 OR NOT INPUT_0 AND INPUT_1
+
+async function read(s: Server, path: string): Promise<unknown> {
+  const r = await rest(s, "/variables/read", {
+    method: "POST",
+    headers: { "Content-Type": "application/json" },
+    body: JSON.stringify({ paths: [path] }),
+  });
+  return (await r.json()).values[0]?.value;
+}
+
+async function upload(s: Server, file: string): Promise<string> {
+  const form = new FormData();
+  form.append("files", new Blob([readFileSync(file)]), "plc.xml");
+  const r = await rest(s, "/sets", { method: "POST", body: form });
+  expect(r.status, await r.clone().text()).toBe(201);
+  const id = (await r.json()).id as string;
+  const a = await rest(s, `/sets/${id}/activate`, {
+    method: "POST",
+    headers: { "Content-Type": "application/json" },
+    body: JSON.stringify({ mode: "auto" }),
+  });
+  expect(a.status, await a.clone().text()).toBe(200);
+  return id;
+}
+
+function element(page: Page, id: number) {
+  return page.locator(`[data-testid="pl-element"][data-id="${id}"]`);
+}
+
+test("an LD program opens as a ladder drawn from its file; Monitor shows a rung conduct when its input is forced", async ({
+  page,
+}) => {
+  test.skip(!PROJECT || !existsSync(PROJECT), "the shared PLCopen projects are not beside the repository (PLAN31b.md)");
+  test.setTimeout(600_000); // the appliance builds the uploaded set (stc, then the C++ compiler)
+  const s = await startServer();
+  try {
+    const set = await upload(s, PROJECT as string);
+    await signIn(page, "admin", "#/programs", s);
+    await expect(page.getByTestId("st-file-plc.xml")).toContainText(`PROGRAM ${POU} (LD)`);
+    await page.getByTestId(`st-pou-${POU}`).click();
+    await expect(page.getByTestId("st-title")).toContainText(`plc.xml: PROGRAM ${POU} (LD) — set ${set}`);
+
+    // the drawing: two rails, eight contacts (four negated), two coils, the wires of the file
+    const svg = page.getByTestId("pl-svg");
+    await expect(svg).toBeVisible();
+    await expect(svg.locator('[data-kind="leftPowerRail"]')).toHaveCount(1);
+    await expect(svg.locator('[data-kind="contact"]')).toHaveCount(8);
+    await expect(svg.locator('[data-kind="coil"]')).toHaveCount(2);
+    await expect(svg.getByTestId("pl-wire")).toHaveCount(14);
+    await expect(element(page, 3)).toContainText("INPUT_0");
+    await expect(element(page, 5)).toContainText("INPUT_0"); // the negated one: a slash between its bars
+    await expect(element(page, 7)).toContainText("OUTPUT_0");
+
+    // Monitor: INPUT_0 and INPUT_1 FALSE, so rung 1 does not conduct
+    await page.getByTestId("st-monitor").click();
+    await expect(page.getByTestId("st-monitor-note")).toHaveText("monitoring the running version (read-only)");
+    await expect(element(page, 7)).toHaveClass(/pl-off/);
+    await expect(element(page, 3)).toHaveClass(/pl-off/);
+
+    // force the input: the rung conducts through contact 3 and the negated contact 6 into coil 7
+    const forced = await rest(s, `/forces/${INPUT}`, {
+      method: "PUT",
+      headers: { "Content-Type": "application/json" },
+      body: JSON.stringify({ value: true }),
+    });
+    expect(forced.status, await forced.clone().text()).toBe(200);
+    await expect(element(page, 3)).toHaveClass(/pl-on/);
+    await expect(element(page, 3)).toHaveClass(/pl-forced/);
+    await expect(element(page, 6)).toHaveClass(/pl-on/);
+    await expect(element(page, 7)).toHaveClass(/pl-on/);
+    await expect(page.locator('[data-testid="pl-wire"][data-from="6"][data-to="7"]')).toHaveClass(/pl-on/);
+    await expect(element(page, 5)).toHaveClass(/pl-off/); // the other branch: NOT INPUT_0
+    await expect.poll(() => read(s, OUTPUT)).toBe(true);
+    await shot(page, "programs-ladder");
+
+    // unforce and restore: the rung is off again
+    const restored = await rest(s, `/forces/${INPUT}?restore=true`, { method: "DELETE" });
+    expect(restored.status, await restored.clone().text()).toBe(200);
+    await expect(element(page, 7)).toHaveClass(/pl-off/);
+    await expect.poll(() => read(s, OUTPUT)).toBe(false);
+  } finally {
+    await stopServer(s);
+  }
+});
