@@ -61,20 +61,19 @@ function contact(g: SVGGElement, e: Element): void {
 
 function coil(g: SVGGElement, e: Element): void {
   const mid = e.y + e.height / 2;
-  const a = e.x + Math.min(6, e.width / 4); // where "(" bulges to
-  const b = e.x + e.width - Math.min(6, e.width / 4); // where ")" bulges to
-  const bow = Math.min(4, e.width / 6);
-  g.append(line(e.x, mid, a, mid), line(b, mid, e.x + e.width, mid));
-  // "(" and ")": two flat arcs through the top and bottom of the element
-  g.append(
-    el("path", { d: `M ${a + bow} ${e.y} Q ${a - bow} ${mid} ${a + bow} ${e.y + e.height}`, class: "pl-line pl-bar" }),
-  );
-  g.append(
-    el("path", { d: `M ${b - bow} ${e.y} Q ${b + bow} ${mid} ${b - bow} ${e.y + e.height}`, class: "pl-line pl-bar" }),
-  );
+  const edge = Math.min(2, e.width / 8); // where "(" and ")" bulge to, from the element's ends
+  const inner = Math.min(7, e.width / 3); // where they end, top and bottom
+  g.append(line(e.x, mid, e.x + edge, mid), line(e.x + e.width - edge, mid, e.x + e.width, mid));
+  // "(" and ")": two arcs (quadratic curves) through the top and bottom of the element
+  const l = e.x + inner;
+  const r = e.x + e.width - inner;
+  const bulge = 2 * edge - inner; // the control point that puts a curve's middle at `edge`
+  const curve = (x: number, cx: number) => `M ${x} ${e.y} Q ${cx} ${mid} ${x} ${e.y + e.height}`;
+  g.append(el("path", { d: curve(l, e.x + bulge), class: "pl-line pl-bar" }));
+  g.append(el("path", { d: curve(r, e.x + e.width - bulge), class: "pl-line pl-bar" }));
   const m = mark(e);
-  if (m === "/") g.append(line(b - bow, e.y + 3, a + bow, e.y + e.height - 3));
-  else if (m) g.append(text((a + b) / 2, mid + 4, m, "middle", "pl-text pl-mark"));
+  if (m === "/") g.append(line(r - 1, e.y + 3, l + 1, e.y + e.height - 3));
+  else if (m) g.append(text(e.x + e.width / 2, mid + 4, m, "middle", "pl-text pl-mark"));
 }
 
 function pinName(pin: Pin): string {
@@ -303,6 +302,8 @@ export class DiagramView {
       if (f.reason) reasons.set(key(f.id, f.pin), f.reason);
     }
     for (const w of this.wires) w.path.setAttribute("class", `pl-wire${flowClass(flows.get(w.from))}`);
+    // a wire that conducts is drawn over those that do not where their polylines overlap (a branch)
+    for (const w of this.wires) if (flows.get(w.from) === true) w.path.parentNode?.appendChild(w.path);
     const values = new Map((answer?.elements ?? []).map((v) => [v.id, v]));
     for (const e of this.diagram.elements) {
       const g = this.groups.get(e.id);
