@@ -11,8 +11,9 @@ T) are read in the same pass.
     found = analyse(stc, (set_id, "plc.xml", "main"), sources, "plc.xml", xml_bytes, "main")
     answer = found.snapshot(segment, forced)
 
-A PROGRAM's values are its first instance's; a FUNCTION_BLOCK's or FUNCTION's body has no single
-instance to read (as in the ST monitor), so its flows are answered with the reason."""
+A PROGRAM's values are its first instance's; a FUNCTION_BLOCK's those of its first instance in the
+running programs (`plc_task_instance.CounterSFC0`); a FUNCTION has no instance to read, so its flows
+are answered with the reason."""
 
 from __future__ import annotations
 
@@ -25,6 +26,7 @@ from pathlib import Path
 from . import plc_diagram, st_check, st_monitor
 
 KEPT = 8  # analyses kept (by set, file and POU)
+MAX_DEPTH = 8  # FB instances nested in FB instances, looked through to find a FUNCTION_BLOCK's
 VARIABLE_KINDS = ("contact", "coil", "inVariable", "outVariable", "inOutVariable")
 _kept: OrderedDict[tuple, Analysis] = OrderedDict()
 _kept_lock = threading.Lock()
@@ -141,11 +143,11 @@ def _analysis(c, prog, unit, pou_name: str, imp, path: str, data: bytes) -> Anal
     diagram = plc_diagram.diagram(project, pou_name)  # NoSuchPou names the POUs it has
     pou = next(x for x in unit.pous if x.name.upper() == pou_name.upper())
     paths = st_check._paths(c, prog)
-    try:
-        instances = c.tasks.instances(prog)
-    except c.errors.StError:
-        instances = []
-    instance = next((i.name for i in instances if i.pou is pou), None)
+    instance = _instance(c, prog, pou)
+    if instance is not None and pou.kind == "FUNCTION_BLOCK":  # its variables under the instance found
+        for v in pou.vars:
+            if c.emit_glb.stored(v):
+                paths[id(v)] = [f"{instance}.{v.name}"]
     found = Analysis(st_monitor.Analysis(c, paths=paths), instance)
     checker = c.check.Checker(prog, c.errors.Collector())
     checker.scope = pou
@@ -166,6 +168,29 @@ def _analysis(c, prog, unit, pou_name: str, imp, path: str, data: bytes) -> Anal
     return found
 
 
+def _instance(c, prog, pou) -> str | None:
+    """Where POU `pou`'s values are: a PROGRAM's first instance (`instance0`); a FUNCTION_BLOCK's first
+    instance met walking the PROGRAM instances' variables (`plc_task_instance.CounterSFC0`); None for a
+    FUNCTION (no instance) or an FB no program instantiates."""
+    try:
+        instances = c.tasks.instances(prog)
+    except c.errors.StError:
+        return None
+    if pou.kind == "PROGRAM":
+        return next((i.name for i in instances if i.pou is pou), None)
+    todo = [(i.name, i.pou, 0) for i in instances]
+    while todo:
+        path, owner, depth = todo.pop(0)
+        for v in owner.vars:
+            fb = getattr(v.type, "pou", None)
+            if fb is None or not c.emit_glb.stored(v) or depth > MAX_DEPTH:
+                continue
+            if fb is pou:
+                return f"{path}.{v.name}"
+            todo.append((f"{path}.{v.name}", fb, depth + 1))
+    return None
+
+
 def _into(imp, flows: dict, diagram: dict, el: dict):
     """The value into an element's only input: its connections' flows OR-ed as the translation OR-es
     them (plcopen_import.net.either), or None when one of them has no flow."""
@@ -179,7 +204,7 @@ def _into(imp, flows: dict, diagram: dict, el: dict):
 
 def _flow(c, checker, id_: int, pin: str | None, expr, instance: str | None, paths: dict) -> Flow:
     if instance is None:
-        return Flow(id_, pin, expr, [], "a FUNCTION_BLOCK's or FUNCTION's body has no single instance to read")
+        return Flow(id_, pin, expr, [], "a FUNCTION, or an FB no running program instantiates, has no instance to read")
     errors_before = len(checker.errors.errors)
     checker.expr(expr)
     if len(checker.errors.errors) > errors_before:

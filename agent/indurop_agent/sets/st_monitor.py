@@ -127,19 +127,60 @@ class Analysis:
         if isinstance(e, t.Binary):
             a = self.evaluate(e.left, instance, values)
             b = self.evaluate(e.right, instance, values)
-            shadow = SimpleNamespace(
-                op=e.op, left=SimpleNamespace(const=a), right=SimpleNamespace(const=b, place=e.right.place), const=None
-            )
-            folder = self.c.check_expr.ExprChecker(None, self.c.errors.Collector())
-            folder.fold(shadow)
-            if folder.errors.errors:
-                raise NotEvaluated(folder.errors.errors[0].message)
-            return _folded(shadow, e)
+            return self._fold(e.op, a, b, e.right.place, e)
+        if isinstance(e, t.Call) and _operator(e) is not None:  # ADD(a, b), AND(a, b, c), NOT(a), MOVE(a)
+            op = _operator(e)
+            args = [self.evaluate(a.value, instance, values) for a in _in_order(e.args)]
+            if op == "MOVE" and len(args) == 1:
+                return args[0]
+            if op == "NOT" and len(args) == 1:
+                return self.evaluate(t.Unary(e.place, "NOT", SimpleNamespace(const=args[0])), instance, values)
+            if len(args) < 2:
+                raise NotEvaluated(f"{e.callee.name} with {len(args)} input(s)")
+            out = args[0]
+            for b in args[1:]:
+                out = self._fold(op, out, b, e.place, e)
+            return out
         if isinstance(e, t.Call):
             raise NotEvaluated(
                 f"it calls {_name(e.callee)}: a function or an FB may change state, and the monitor never runs code"
             )
         raise NotEvaluated("the monitor does not evaluate this expression")
+
+
+    def _fold(self, op: str, a, b, place, e):
+        shadow = SimpleNamespace(
+            op=op, left=SimpleNamespace(const=a), right=SimpleNamespace(const=b, place=place), const=None
+        )
+        folder = self.c.check_expr.ExprChecker(None, self.c.errors.Collector())
+        folder.fold(shadow)
+        if folder.errors.errors:
+            raise NotEvaluated(folder.errors.errors[0].message)
+        return _folded(shadow, e)
+
+
+# the standard functions that are the ST operators (IEC 61131-3 table of arithmetic, bit-string and
+# comparison functions: ADD is +, ...): a call of one is folded as the operator is
+OPERATORS = {"ADD": "+", "SUB": "-", "MUL": "*", "DIV": "/", "MOD": "MOD", "AND": "AND", "OR": "OR", "XOR": "XOR"}
+OPERATORS |= {"GT": ">", "GE": ">=", "EQ": "=", "LE": "<=", "LT": "<", "NE": "<>", "NOT": "NOT", "MOVE": "MOVE"}
+
+
+def _operator(e) -> str | None:
+    """The operator a call of a standard operator function (ADD, AND, EQ, NOT, MOVE ...) is, with its
+    inputs only (no EN/ENO, no output), else None."""
+    target = getattr(e, "target", None)
+    if getattr(target, "kind", None) != "operator" or any(a.output or a.value is None for a in e.args):
+        return None
+    if any(a.name is not None and a.name.upper() in ("EN", "ENO") for a in e.args):
+        return None
+    return OPERATORS.get(target.name.upper())
+
+
+def _in_order(args: list) -> list:
+    """Inputs IN1, IN2, ... in their order whether given by name (in any order) or by position."""
+    if all(a.name is None for a in args):
+        return args
+    return sorted(args, key=lambda a: int("".join(ch for ch in (a.name or "") if ch.isdigit()) or 0))
 
 
 def _folded(shadow, e):
