@@ -308,7 +308,6 @@ def unit_of(file: str, root: etree._Element, flows: dict | None = None) -> t.Uni
             errors.append(e)
         except StErrors as e:
             errors.extend(e.errors)
-        unit.flows.update(ctx.flows)  # for the live view (agent/indurop_agent/sets/plc_monitor.py)
     if errors:
         raise StErrors(errors)
     return unit

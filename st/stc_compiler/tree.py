@@ -334,6 +334,3 @@ class Unit(Node):
     globals: list[VarDecl] = field(default_factory=list)
     configurations: list[Configuration] = field(default_factory=list)
     library: bool = False  # st/lib's standard.st or plcopen.st (check.library_units)
-    # a PLCopen XML project's graphical bodies: (body, localId, output) -> the expression of the value
-    # leaving that element (plcopen_import's ctx.flows), for the live view; empty for ST
-    flows: dict = field(default_factory=dict)

@@ -6,13 +6,11 @@
 // the API (PUT /forces/...) makes its rung conduct: the contact, the wires and the coil get `pl-on`,
 // the coil's variable turns TRUE in the API; unforce and restore brings the rung back to off.
 // A server of its own (irpd, the agent), so that the suite's cell is not changed.
-import { spawnSync } from "node:child_process";
-import { existsSync, mkdtempSync, readFileSync } from "node:fs";
-import { tmpdir } from "node:os";
+import { existsSync, readFileSync } from "node:fs";
 import { join, resolve } from "node:path";
 import type { Page } from "@playwright/test";
 import { expect, shot, signIn, test } from "./fixtures";
-import { PYTHON, ROOT, type Server, startServer, stopServer } from "./server";
+import { ROOT, type Server, startServer, stopServer } from "./server";
 import { rest } from "./st_cell";
 
 // the shared projects beside the repository (PLAN31b.md); for a git worktree, beside its main checkout
@@ -34,12 +32,6 @@ async function read(s: Server, path: string): Promise<unknown> {
 async function upload(s: Server, file: string): Promise<string> {
   const form = new FormData();
   form.append("files", new Blob([readFileSync(file)]), "plc.xml");
-  // TODO: the agent builds a PLCopen upload itself once s5-c31 does; until then the set carries stc's outputs
-  const out = mkdtempSync(join(tmpdir(), "ladder-"));
-  const built = spawnSync(PYTHON, [join(ROOT, "st/stc"), "build", "-o", out, "--sdk", join(ROOT, "build"), file]);
-  expect(built.status, String(built.stderr)).toBe(0);
-  for (const n of ["module.xml", "instance0.so", "layout.json"])
-    form.append("files", new Blob([readFileSync(join(out, n))]), n);
   const r = await rest(s, "/sets", { method: "POST", body: form });
   expect(r.status, await r.clone().text()).toBe(201);
   const id = (await r.json()).id as string;

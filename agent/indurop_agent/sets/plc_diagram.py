@@ -23,8 +23,6 @@ from . import st_check
 
 GRAPHICAL = ("LD", "FBD", "SFC")
 POU_KINDS = {"program": "PROGRAM", "functionBlock": "FUNCTION_BLOCK", "function": "FUNCTION"}
-SNIFF_BYTES = 4096  # a PLCopen file names its namespace in the root element, near the start
-PLCOPEN_NS = b"http://www.plcopen.org/xml/tc6_0201"
 
 
 class DiagramError(Exception):
@@ -52,25 +50,9 @@ def importer(stc: Path) -> SimpleNamespace:
     return SimpleNamespace(**{n: importlib.import_module(f"plcopen_import.{n}") for n in ("read", "graph", "st_text")})
 
 
-def is_plcopen(source: Path) -> bool:
-    """A .xml whose root element is in the PLCopen TC6 v2.01 namespace (module.xml and the I/O
-    configurations are not)."""
-    try:
-        with open(source, "rb") as f:
-            head = f.read(SNIFF_BYTES)
-    except OSError:
-        return False
-    return PLCOPEN_NS in head and b"<project" in head
-
-
 def plcopen_paths(store, set_id: str) -> list[str]:
-    """A stored set's PLCopen XML files (a .xml whose root is a TC6 v2.01 <project>)."""
-    folder = store.files_dir(set_id)
-    return sorted(
-        f["path"]
-        for f in store.manifest(set_id)["files"]
-        if f["path"].lower().endswith(".xml") and is_plcopen(folder / f["path"])
-    )
+    """A stored set's PLCopen XML files: those the upload took for one (kind `plcopen`, uploads.is_plcopen)."""
+    return sorted(f["path"] for f in store.manifest(set_id)["files"] if f["kind"] == "plcopen")
 
 
 @dataclass

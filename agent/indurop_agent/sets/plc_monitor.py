@@ -1,7 +1,8 @@
 """plc_monitor.py -- the live view's values (docs/programming.md "The live view"): for a graphical POU
 of a set's PLCopen XML file, the value leaving each element, taken from ONE truth, the translation:
-plcopen_import fills unit.flows[(body, localId, output)] with the stc tree expression of that value
-(LD: the power after a contact, a coil, a block's ENO; FBD: a block's output, a variable).  Here those
+plcopen_import.project.unit_of(file, root, flows) fills flows[(body, localId, output)] with the stc
+tree expression of that value (LD: the power after a contact, a coil, a block's ENO; FBD: a block's
+output, a variable).  Here those
 expressions are checked in the POU's scope (names resolved, as the compiler resolves them), the
 shared variables they read are read in one pass over the segment, and each is folded with the ST
 compiler's own folding (st_monitor.Analysis.evaluate), exactly as the ST monitor folds IF conditions.
@@ -118,7 +119,8 @@ def analyse(stc: Path, key: tuple, sources: st_check.SetSources, path: str, data
     c = p.c
     with st_check._LOCK:
         try:
-            unit = project.unit_of(path, imp.read.read(path, data))
+            flows: dict = {}
+            unit = project.unit_of(path, imp.read.read(path, data), flows)
         except (c.errors.StError, c.errors.StErrors) as e:
             raise plc_diagram.DiagramError(f"the file does not translate: {e}") from None
         units = []
@@ -130,7 +132,7 @@ def analyse(stc: Path, key: tuple, sources: st_check.SetSources, path: str, data
         prog = c.check.Program(p.library() + units + [unit], layout=st_check._layout(c, sources.layout))
         collector = c.errors.Collector()
         c.check.Checker(prog, collector).run()
-        found = _analysis(c, prog, unit, pou_name, imp, path, data)
+        found = _analysis(c, prog, unit, flows, pou_name, imp, path, data)
     with _kept_lock:
         _kept[key] = found
         while len(_kept) > KEPT:
@@ -138,7 +140,7 @@ def analyse(stc: Path, key: tuple, sources: st_check.SetSources, path: str, data
     return found
 
 
-def _analysis(c, prog, unit, pou_name: str, imp, path: str, data: bytes) -> Analysis:
+def _analysis(c, prog, unit, all_flows: dict, pou_name: str, imp, path: str, data: bytes) -> Analysis:
     project = plc_diagram.Project(path, imp.read.read(path, data), imp)
     diagram = plc_diagram.diagram(project, pou_name)  # NoSuchPou names the POUs it has
     pou = next(x for x in unit.pous if x.name.upper() == pou_name.upper())
@@ -151,12 +153,10 @@ def _analysis(c, prog, unit, pou_name: str, imp, path: str, data: bytes) -> Anal
     found = Analysis(st_monitor.Analysis(c, paths=paths), instance)
     checker = c.check.Checker(prog, c.errors.Collector())
     checker.scope = pou
-    flows = {(k[1], k[2]): e for k, e in unit.flows.items() if k[0].upper() == pou.name.upper()}
+    flows = {(k[1], k[2]): e for k, e in all_flows.items() if k[0].upper() == pou.name.upper()}
     for el in diagram["elements"]:
         for pin in dict.fromkeys(out["name"] for out in el["outputs"] or [{"name": None}]):
             expr = flows.get((el["id"], pin))
-            if expr is None and el["kind"] == "coil":
-                expr = _into(imp, flows, diagram, el)  # a coil passes on the power into it
             if expr is not None:
                 found.flows.append(_flow(c, checker, el["id"], pin, copy.deepcopy(expr), instance, paths))
         if instance is not None and el["kind"] in VARIABLE_KINDS and el["label"]:
@@ -189,17 +189,6 @@ def _instance(c, prog, pou) -> str | None:
                 return f"{path}.{v.name}"
             todo.append((f"{path}.{v.name}", fb, depth + 1))
     return None
-
-
-def _into(imp, flows: dict, diagram: dict, el: dict):
-    """The value into an element's only input: its connections' flows OR-ed as the translation OR-es
-    them (plcopen_import.net.either), or None when one of them has no flow."""
-    from plcopen_import import net
-
-    values = [flows.get((w["from_id"], w["from_pin"])) for w in diagram["wires"] if w["to_id"] == el["id"]]
-    if not values or any(v is None for v in values):
-        return None
-    return net.either(values[0].place, [copy.deepcopy(v) for v in values])
 
 
 def _flow(c, checker, id_: int, pin: str | None, expr, instance: str | None, paths: dict) -> Flow:

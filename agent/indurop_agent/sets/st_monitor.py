@@ -147,7 +147,6 @@ class Analysis:
             )
         raise NotEvaluated("the monitor does not evaluate this expression")
 
-
     def _fold(self, op: str, a, b, place, e):
         shadow = SimpleNamespace(
             op=op, left=SimpleNamespace(const=a), right=SimpleNamespace(const=b, place=place), const=None

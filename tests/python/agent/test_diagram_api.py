@@ -20,7 +20,7 @@ from lxml import etree
 from test_programs_api import Cell
 
 sys.path.insert(0, str(ROOT / "tests" / "python" / "plcopen"))
-from plcopen_live import SHARED, shared, stc_build  # noqa: E402  (the shared projects, read in place)
+from plcopen_live import SHARED, shared  # noqa: E402  (the shared projects, read in place)
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 XOR = "tutorial_xor_xnor"
@@ -29,13 +29,7 @@ XOR = "tutorial_xor_xnor"
 @pytest.fixture
 def cell(tmp_path):
     c = Cell(tmp_path)
-    built = tmp_path / "built"  # TODO: the agent builds a PLCopen upload itself once s5-c31 does
-    r = stc_build(built, {"plc.xml": shared(XOR)})
-    assert r.returncode == 0, r.stdout + r.stderr
-    files = [("files", ("plc.xml", shared(XOR).read_bytes()))]
-    files += [
-        ("files", (p.name, p.read_bytes())) for p in (built / "set").iterdir() if p.suffix in (".xml", ".so", ".json")
-    ]
+    files = [("files", ("plc.xml", shared(XOR).read_bytes()))]  # built by the agent (stc) as it is stored
     stored = c.upload(files)
     r = c.post(f"/sets/{stored['id']}/activate", json={"mode": "auto"})
     assert r.status_code == 200, r.text
