@@ -94,8 +94,8 @@ def test_a_viewer_lists_the_files_and_pous_reads_a_source_and_checks_an_edit(cel
     listed = cell.as_viewer("GET", "/programs").json()
     assert listed["set_id"] == cell.base and listed["active"] is True
     files = {f["path"]: f for f in listed["files"]}
-    assert files["main.st"]["pous"] == [{"name": "Counter", "kind": "PROGRAM", "line": 1}]
-    assert files["config.st"]["pous"] == [{"name": "Cell", "kind": "CONFIGURATION", "line": 1}]
+    assert files["main.st"]["pous"] == [{"name": "Counter", "kind": "PROGRAM", "line": 1, "language": None}]
+    assert files["config.st"]["pous"] == [{"name": "Cell", "kind": "CONFIGURATION", "line": 1, "language": None}]
     source = cell.as_viewer("GET", "/programs/source", params={"path": "main.st"}).json()
     assert source["source"] == MAIN.format(inc="step") and source["set_id"] == cell.base
 
