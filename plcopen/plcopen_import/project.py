@@ -239,7 +239,7 @@ def _pou_header(text: Text, pou: etree._Element) -> None:
     text.add(f"{kind} {name}{returns}", pou, name)
     iface = pou.find(q("interface"))
     for lst in iface if iface is not None else []:
-        if not isinstance(lst.tag, str) or local(lst) in ("returnType", "documentation"):
+        if not isinstance(lst.tag, str) or local(lst) in ("returnType", "documentation", "addData"):
             continue
         section = SECTIONS.get(local(lst))
         if section is None:
