@@ -24,14 +24,15 @@ _LITERAL_TYPES = {"bool": "BOOL", "duration": "TIME", "string": "STRING", "int":
 
 
 class _Il:
-    def __init__(self, ctx, name: str, file: str) -> None:
-        self.ctx, self.name, self.file = ctx, name, file
+    def __init__(self, ctx, name: str, file: str, first: int) -> None:
+        self.ctx, self.name, self.file, self.first = ctx, name, file, first
         self.type: str | None = None
         self.declared: set[str] = set()
         self.jump_types: dict[str, str | None] = {}
 
     def place(self, line: int) -> Place:
-        return Place(self.file, line, 1, f"{self.name} (IL) line {line}")
+        """At the file's line; the origin counts the body's lines (`main (IL) line 3`)."""
+        return Place(self.file, line, 1, f"{self.name} (IL) line {line - self.first + 1}")
 
     def error(self, line: int, message: str) -> StError:
         return StError(self.place(line), "plcopen", message)
@@ -118,7 +119,7 @@ class _Il:
 def translate(ctx, name: str, lang_el) -> list:
     """The statements of an <IL> body of POU `name`."""
     text, first = st_text.text_of(lang_el)
-    il = _Il(ctx, name, ctx.file)
+    il = _Il(ctx, name, ctx.file, first)
     text = _COMMENT.sub(lambda m: "\n" * m.group(0).count("\n"), text)
     segments: list[tuple[str | None, list]] = [(None, [])]
     for n, raw in enumerate(text.split("\n")):
