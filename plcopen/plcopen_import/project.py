@@ -239,7 +239,7 @@ def _pou_header(text: Text, pou: etree._Element) -> None:
     text.add(f"{kind} {name}{returns}", pou, name)
     iface = pou.find(q("interface"))
     for lst in iface if iface is not None else []:
-        if not isinstance(lst.tag, str) or local(lst) in ("returnType", "documentation"):
+        if not isinstance(lst.tag, str) or local(lst) in ("returnType", "documentation", "addData"):
             continue
         section = SECTIONS.get(local(lst))
         if section is None:
@@ -275,11 +275,9 @@ def body_of(ctx: Ctx, name: str, body_el: etree._Element) -> list:
             raise StError(place(ctx.file, lang_el, f"{name} (SFC)"), "plcopen", "SFC bodies are not supported yet")
         return sfc.translate(ctx, ctx.pou_el, graph.body_graph(ctx.file, name, lang_el))
     if lang == "IL":
-        raise StError(
-            place(ctx.file, lang_el, f"{name} (IL)"),
-            "plcopen",
-            "IL is not supported; rewrite the POU in ST, LD or FBD (IL is deprecated by IEC 61131-3 edition 3)",
-        )
+        from . import il
+
+        return il.translate(ctx, name, lang_el)
     raise StError(place(ctx.file, lang_el, name), "plcopen", f"a <{lang}> body is not supported")
 
 
