@@ -103,3 +103,37 @@ test("an LD program opens as a ladder drawn from its file; Monitor shows a rung 
     await stopServer(s);
   }
 });
+
+test("an SFC function block's active step is highlighted with its time, and follows its transition", async ({
+  page,
+}) => {
+  const project = SHARED && join(SHARED, "beremiz_first_steps/plc.xml"); // GPL-2.0-or-later, SOURCES.md
+  test.skip(!project || !existsSync(project), "the shared PLCopen projects are not beside the repository (PLAN31b.md)");
+  test.skip(!existsSync(join(ROOT, "plcopen/plcopen_import/sfc.py")), "the SFC translation (sfc.py) is not here");
+  test.setTimeout(600_000);
+  const s = await startServer();
+  try {
+    await upload(s, project as string);
+    await signIn(page, "admin", "#/programs", s);
+    await page.getByTestId("st-pou-CounterSFC").click();
+    await expect(page.getByTestId("st-title")).toContainText("FUNCTION_BLOCK CounterSFC (SFC)");
+    await expect(page.locator('[data-kind="step"]')).toHaveCount(3);
+    await page.getByTestId("st-monitor").click();
+    // Reset FALSE: the step Count (localId 7) is active, its time shown and growing
+    await expect(element(page, 7)).toHaveClass(/pl-active/);
+    await expect(element(page, 5)).not.toHaveClass(/pl-active/);
+    await expect(element(page, 7)).toContainText(/T=\d/);
+    await shot(page, "programs-sfc");
+    // Reset TRUE: through Start to ResetCounter (localId 5)
+    const w = await rest(s, "/variables/plc_task_instance.Reset", {
+      method: "PUT",
+      headers: { "Content-Type": "application/json" },
+      body: JSON.stringify({ value: true }),
+    });
+    expect(w.status, await w.clone().text()).toBe(200);
+    await expect(element(page, 5)).toHaveClass(/pl-active/);
+    await expect(element(page, 7)).not.toHaveClass(/pl-active/);
+  } finally {
+    await stopServer(s);
+  }
+});

@@ -102,6 +102,48 @@ def test_the_monitor_answers_the_power_the_translation_computes_from_the_running
     assert answer["value"][3]["value"] is True
 
 
+@pytest.mark.skipif(
+    not (ROOT / "plcopen" / "plcopen_import" / "sfc.py").exists(), reason="the SFC translation (sfc.py) is not here"
+)
+def test_an_sfc_function_blocks_steps_are_shown_active_with_their_time(tmp_path):
+    """beremiz_first_steps (read in place): its SFC counter is a function block; the view shows its
+    first instance in the running program, plc_task_instance.CounterSFC0: with Reset FALSE the step
+    Count is active and its time grows; Reset written TRUE, the chart goes through Start to
+    ResetCounter.  The LD counter's block and variables show that instance's values."""
+    c = Cell(tmp_path)
+    try:
+        stored = c.upload([("files", ("plc.xml", shared("beremiz_first_steps").read_bytes()))])
+        assert c.post(f"/sets/{stored['id']}/activate", json={"mode": "auto"}).status_code == 200
+
+        def steps() -> dict:
+            r = c.as_viewer("POST", "/programs/diagram/monitor", json={"path": "plc.xml", "pou": "CounterSFC"})
+            assert r.status_code == 200, r.text
+            assert r.json()["instance"] == "plc_task_instance.CounterSFC0"
+            return {e["path"].rsplit(".", 1)[1]: e for e in r.json()["elements"]}
+
+        first = steps()
+        assert (first["Start"]["active"], first["ResetCounter"]["active"], first["Count"]["active"]) == (
+            False,
+            False,
+            True,
+        )
+        deadline = time.monotonic() + 10
+        while steps()["Count"]["time_ms"] <= first["Count"]["time_ms"]:
+            assert time.monotonic() < deadline, "the active step's time does not grow"
+            time.sleep(0.1)
+        assert c.call("PUT", "/variables/plc_task_instance.Reset", json={"value": True}).status_code == 200
+        while not steps()["ResetCounter"]["active"]:
+            assert time.monotonic() < deadline, "Reset TRUE does not take the chart to ResetCounter"
+            time.sleep(0.1)
+        r = c.as_viewer("POST", "/programs/diagram/monitor", json={"path": "plc.xml", "pou": "CounterLD"})
+        ld = r.json()
+        assert ld["instance"] == "plc_task_instance.CounterLD0"
+        shown = {e["path"]: e["value"] for e in ld["elements"]}
+        assert shown["plc_task_instance.CounterLD0.Reset"] is True
+    finally:
+        c.close()
+
+
 def test_bad_requests_are_named(cell):
     assert httpx.get(f"{cell.url}/programs/diagram", params={"path": "plc.xml", "pou": "x"}).status_code == 401
     body = {"path": "plc.xml", "pou": "XOR_and_XNOR"}
