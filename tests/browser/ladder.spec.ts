@@ -11,7 +11,7 @@ import { join, resolve } from "node:path";
 import type { Page } from "@playwright/test";
 import { expect, shot, signIn, test } from "./fixtures";
 import { ROOT, type Server, startServer, stopServer } from "./server";
-import { rest } from "./st_cell";
+import { rest, storeAndActivate } from "./st_cell";
 
 // the shared projects beside the repository (PLAN31b.md); for a git worktree, beside its main checkout
 const SHARED = [resolve(ROOT, "../shared/plcopen"), resolve(ROOT, "../../shared/plcopen")].find((p) => existsSync(p));
@@ -32,16 +32,7 @@ async function read(s: Server, path: string): Promise<unknown> {
 async function upload(s: Server, file: string): Promise<string> {
   const form = new FormData();
   form.append("files", new Blob([readFileSync(file)]), "plc.xml");
-  const r = await rest(s, "/sets", { method: "POST", body: form });
-  expect(r.status, await r.clone().text()).toBe(201);
-  const id = (await r.json()).id as string;
-  const a = await rest(s, `/sets/${id}/activate`, {
-    method: "POST",
-    headers: { "Content-Type": "application/json" },
-    body: JSON.stringify({ mode: "auto" }),
-  });
-  expect(a.status, await a.clone().text()).toBe(200);
-  return id;
+  return storeAndActivate(s, form);
 }
 
 function element(page: Page, id: number) {

@@ -28,6 +28,11 @@ export async function rest(s: Server, path: string, init: RequestInit = {}, role
 export async function storeTheCell(s: Server): Promise<string> {
   const form = new FormData();
   for (const p of files(BUILT)) form.append("files", new Blob([readFileSync(p)]), relative(BUILT, p));
+  return storeAndActivate(s, form);
+}
+
+/** Uploads the files of `form` as a set (the appliance builds it), activates it; its id. */
+export async function storeAndActivate(s: Server, form: FormData): Promise<string> {
   const r = await rest(s, "/sets", { method: "POST", body: form });
   expect(r.status, await r.clone().text()).toBe(201);
   const id = (await r.json()).id as string;

@@ -19,8 +19,6 @@ are answered with the reason."""
 from __future__ import annotations
 
 import copy
-import threading
-from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -29,8 +27,7 @@ from . import plc_diagram, st_check, st_monitor
 KEPT = 8  # analyses kept (by set, file and POU)
 MAX_DEPTH = 8  # FB instances nested in FB instances, looked through to find a FUNCTION_BLOCK's
 VARIABLE_KINDS = ("contact", "coil", "inVariable", "outVariable", "inOutVariable")
-_kept: OrderedDict[tuple, Analysis] = OrderedDict()
-_kept_lock = threading.Lock()
+_kept = st_monitor.Kept(KEPT)
 
 
 @dataclass
@@ -107,11 +104,10 @@ def _ms(leaf: dict, v) -> float | None:
 def analyse(stc: Path, key: tuple, sources: st_check.SetSources, path: str, data: bytes, pou_name: str) -> Analysis:
     """The flows and shown variables of POU `pou_name` of the set's PLCopen file `path` (kept by
     `key`: a stored set never changes)."""
-    with _kept_lock:
-        found = _kept.get(key)
-        if found is not None:
-            _kept.move_to_end(key)
-            return found
+    return _kept.get(key, lambda: _analyse(stc, sources, path, data, pou_name))
+
+
+def _analyse(stc: Path, sources: st_check.SetSources, path: str, data: bytes, pou_name: str) -> Analysis:
     imp = plc_diagram.importer(stc)
     from plcopen_import import project  # on sys.path once importer() ran
 
@@ -132,12 +128,7 @@ def analyse(stc: Path, key: tuple, sources: st_check.SetSources, path: str, data
         prog = c.check.Program(p.library() + units + [unit], layout=st_check._layout(c, sources.layout))
         collector = c.errors.Collector()
         c.check.Checker(prog, collector).run()
-        found = _analysis(c, prog, unit, flows, pou_name, imp, path, data)
-    with _kept_lock:
-        _kept[key] = found
-        while len(_kept) > KEPT:
-            _kept.popitem(last=False)
-    return found
+        return _analysis(c, prog, unit, flows, pou_name, imp, path, data)
 
 
 def _analysis(c, prog, unit, all_flows: dict, pou_name: str, imp, path: str, data: bytes) -> Analysis:

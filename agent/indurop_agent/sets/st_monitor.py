@@ -25,8 +25,31 @@ from . import st_check
 
 KEPT = 8  # analyses kept (by set and file)
 KEYWORD_AFTER = {"IF": "THEN", "ELSIF": "THEN", "WHILE": "DO", "CASE": "OF", "UNTIL": "END_REPEAT"}
-_kept: OrderedDict[tuple, Analysis] = OrderedDict()
-_kept_lock = threading.Lock()
+
+
+class Kept:
+    """Analyses kept by key (a stored set never changes), the least recently used dropped past `size`;
+    made outside the lock (a make takes st_check's own)."""
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self.found: OrderedDict[tuple, object] = OrderedDict()
+        self.lock = threading.Lock()
+
+    def get(self, key: tuple, make):
+        with self.lock:
+            if key in self.found:
+                self.found.move_to_end(key)
+                return self.found[key]
+        made = make()
+        with self.lock:
+            self.found[key] = made
+            while len(self.found) > self.size:
+                self.found.popitem(last=False)
+        return made
+
+
+_kept = Kept(KEPT)
 
 
 class NotEvaluated(Exception):
@@ -232,11 +255,10 @@ def path_of(c, e, instance: str, paths: dict) -> str | None:
 def analyse(stc: Path, key: tuple, sources: st_check.SetSources, path: str) -> Analysis:
     """The occurrences and conditions of `path` in the set (kept by `key`, e.g. (set id, path): a
     stored set never changes)."""
-    with _kept_lock:
-        found = _kept.get(key)
-        if found is not None:
-            _kept.move_to_end(key)
-            return found
+    return _kept.get(key, lambda: _analyse(stc, sources, path))
+
+
+def _analyse(stc: Path, sources: st_check.SetSources, path: str) -> Analysis:
     p = st_check.parsed(stc)
     c = p.c
     with st_check._LOCK:
@@ -252,10 +274,6 @@ def analyse(stc: Path, key: tuple, sources: st_check.SetSources, path: str) -> A
                 _Walker(found, inst.name, lines).statements(inst.pou.body)
     found.occurrences.sort(key=lambda o: (o.line, o.column))
     found.conditions.sort(key=lambda x: (x.line, x.column))
-    with _kept_lock:
-        _kept[key] = found
-        while len(_kept) > KEPT:
-            _kept.popitem(last=False)
     return found
 
 

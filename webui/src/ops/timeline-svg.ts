@@ -1,24 +1,13 @@
 // timeline-svg.ts -- draws a Timeline (timeline.ts) as SVG: one lane per executor, the slot
 // boundaries, the modules' execution times to scale, the sporadic part, the time left over.
+import { svgEl as el } from "./svg";
 import { type Box, type Timeline, ticks } from "./timeline";
 import { formatNs } from "./units";
 
-const NS = "http://www.w3.org/2000/svg";
 const LABEL_W = 110;
 const AXIS_H = 34;
 const LANE_H = 56;
 const PAD = 6;
-
-function el<K extends keyof SVGElementTagNameMap>(
-  tag: K,
-  attrs: Record<string, string | number>,
-  text?: string,
-): SVGElementTagNameMap[K] {
-  const e = document.createElementNS(NS, tag);
-  for (const [k, v] of Object.entries(attrs)) e.setAttribute(k, String(v));
-  if (text !== undefined) e.textContent = text;
-  return e;
-}
 
 function titled<T extends SVGElement>(e: T, title: string): T {
   e.appendChild(el("title", {}, title));

@@ -8,6 +8,7 @@
 // that do not `pl-off`; a value beside each block pin and variable; active steps `pl-active` with
 // their time.  Nothing is evaluated here: every value comes from the agent.
 import type { components } from "../api/schema";
+import { svgEl as el } from "../ops/svg";
 import { type Value, valueText } from "./values";
 
 export type Diagram = components["schemas"]["Diagram"];
@@ -15,21 +16,9 @@ export type DiagramMonitorAnswer = components["schemas"]["DiagramMonitorAnswer"]
 type Element = components["schemas"]["DiagramElement"];
 type Pin = components["schemas"]["DiagramPin"];
 
-const NS = "http://www.w3.org/2000/svg";
 const MARGIN = 20;
 const FONT = 11; // px, in the file's units (its coordinates are pixels in the editors that wrote it)
 const CHAR = 6.7; // the width of a character of FONT px in a monospace font
-
-function el<K extends keyof SVGElementTagNameMap>(
-  tag: K,
-  attrs: Record<string, string | number>,
-  text?: string,
-): SVGElementTagNameMap[K] {
-  const e = document.createElementNS(NS, tag);
-  for (const [k, v] of Object.entries(attrs)) e.setAttribute(k, String(v));
-  if (text !== undefined) e.textContent = text;
-  return e;
-}
 
 function line(x1: number, y1: number, x2: number, y2: number, cls = "pl-line"): SVGLineElement {
   return el("line", { x1, y1, x2, y2, class: cls });
