@@ -108,14 +108,7 @@ def test_not_xml_and_a_file_over_the_limit_are_refused(cell):
 
 
 def test_a_cycle_of_blocks_is_refused_naming_them(cell):
-    body_xml = "".join(
-        [
-            x.in_var(1, "n", 0, 0),
-            x.block(2, "ADD", {"IN1": 1, "IN2": (3, "OUT")}, ["OUT"], 100, 0),
-            x.block(3, "MUL", {"IN1": (2, "OUT"), "IN2": 1}, ["OUT"], 200, 0),
-            x.out_var(4, "n", (3, "OUT"), 300, 0),
-        ]
-    )
+    body_xml = x.blocks_in_a_cycle("n")
     data = x.project(
         x.pou("main", "program", x.section("localVars", x.var("n", "INT")), "FBD", body_xml), instances=x.config("main")
     )
