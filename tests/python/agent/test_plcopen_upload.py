@@ -11,7 +11,7 @@ from __future__ import annotations
 import sys
 
 import pytest
-from agent_helpers import IRPD, ROOT
+from agent_helpers import IRPD, ROOT, tar_gz
 from live_processes import wait_until
 from test_st_upload import Cell, parts
 
@@ -44,6 +44,13 @@ def test_a_plcopen_project_uploaded_with_irpctl_is_imported_and_runs(cell, tmp_p
     r = cell.call("PUT", "/variables/instance0.INPUT_0", json={"value": True})
     assert r.status_code in (200, 204), r.text
     wait_until(lambda: cell.read("instance0.OUTPUT_0") is True, 10)  # XOR of TRUE and FALSE
+
+
+def test_an_archive_of_a_folder_holding_a_plcopen_project_is_built(cell):
+    archive = tar_gz([("myset/plc.xml", shared("tutorial_not_or_nor").read_bytes())])
+    r = cell.call("POST", "/sets", files=[("archive", ("set.tar.gz", archive))])
+    assert r.status_code == 201, r.text
+    assert {f["path"]: f["kind"] for f in r.json()["files"]}["plc.xml"] == "plcopen"
 
 
 def ladder(body: str, *variables: str) -> bytes:
