@@ -1,6 +1,7 @@
 """test_plcopen_upload.py -- a PLCopen XML project (a real one drawn in OpenPLC Editor, read from
 ../shared/plcopen) uploaded to a real agent beside a real irpd: with irpctl it is imported and
-compiled on the appliance like .st, stored as kind `plcopen`, activated and run, while an .xml that is
+compiled on the appliance like .st, stored as kind `plcopen`, activated and run, then changed
+online with its values kept, while an .xml that is
 not PLCopen (an ioconfig.xml) stays a config file; bad PLCopen input (an undeclared variable in a
 rung, a connection to a missing localId, a cycle of blocks, another TC6 version, an entity bomb, not
 XML, a file over the size limit) refuses the upload with a clear error and leaves the running set
@@ -44,6 +45,18 @@ def test_a_plcopen_project_uploaded_with_irpctl_is_imported_and_runs(cell, tmp_p
     r = cell.call("PUT", "/variables/instance0.INPUT_0", json={"value": True})
     assert r.status_code in (200, 204), r.text
     wait_until(lambda: cell.read("instance0.OUTPUT_0") is True, 10)  # XOR of TRUE and FALSE
+
+    # the rung changed in the editor (the XOR coil made negated) and uploaded again: activated online,
+    # the inputs keep their values
+    xml = (folder / "plc.xml").read_bytes()
+    (folder / "plc.xml").write_bytes(
+        xml.replace(b'<coil localId="7" negated="false"', b'<coil localId="7" negated="true"')
+    )
+    code, said = cell.irpctl(capsys, "upload", str(folder), "--activate")
+    assert code == 0 and "online" in said, said
+    assert cell.running() != set_id
+    assert cell.read("instance0.INPUT_0") is True
+    wait_until(lambda: cell.read("instance0.OUTPUT_0") is False, 10)
 
 
 def test_an_archive_of_a_folder_holding_a_plcopen_project_is_built(cell):
