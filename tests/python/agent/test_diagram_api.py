@@ -38,6 +38,12 @@ def cell(tmp_path):
     c.close()
 
 
+def xml_helpers():
+    import plcopen_xml  # tests/python/plcopen: PLCopen XML written in a few lines
+
+    return plcopen_xml
+
+
 def diagram(cell: Cell, pou: str, path: str = "plc.xml") -> httpx.Response:
     return cell.as_viewer("GET", "/programs/diagram", params={"path": path, "pou": pou})
 
@@ -140,6 +146,60 @@ def test_an_sfc_function_blocks_steps_are_shown_active_with_their_time(tmp_path)
         assert ld["instance"] == "plc_task_instance.CounterLD0"
         shown = {e["path"]: e["value"] for e in ld["elements"]}
         assert shown["plc_task_instance.CounterLD0.Reset"] is True
+    finally:
+        c.close()
+
+
+def test_a_drawn_function_blocks_values_are_its_instances_and_its_globals(tmp_path):
+    """A program (LD) calls a function block drawn in FBD: Total := ADD(Total, Step) with Step a
+    VAR_EXTERNAL of a configuration global, Limit a CONSTANT one compared by GT.  The FB's view shows
+    its instance instance0.Acc: the ADD and GT blocks folded as their operators, the global's value
+    through the VAR_EXTERNAL, the constant folded."""
+    x = xml_helpers()
+    fb = x.pou(
+        "Accumulate",
+        "functionBlock",
+        x.section("outputVars", x.var("Total", "DINT"), x.var("Over", "BOOL"))
+        + x.section("externalVars", x.var("Step", "DINT"))
+        + x.section("externalVars", x.var("Limit", "DINT"), constant="true"),
+        "FBD",
+        x.in_var(1, "Total", 0, 0)
+        + x.in_var(2, "Step", 0, 40)
+        + x.block(3, "ADD", {"IN1": 1, "IN2": 2}, ["OUT"], 100, 0)
+        + x.out_var(4, "Total", (3, "OUT"), 200, 0)
+        + x.in_var(5, "Limit", 100, 100)
+        + x.block(6, "GT", {"IN1": (3, "OUT"), "IN2": 5}, ["OUT"], 200, 100)
+        + x.out_var(7, "Over", (6, "OUT"), 300, 100),
+    )
+    main = x.pou(
+        "Main",
+        "program",
+        x.section("localVars", x.var("Acc", "<derived name=\"Accumulate\"/>")),
+        "FBD",
+        x.block(1, "Accumulate", {}, ["Total"], 0, 0, instance="Acc"),
+    )
+    conf = (
+        '<configuration name="Config0"><resource name="Res0"><task name="task0" priority="1" interval="T#10ms">'
+        '<pouInstance name="instance0" typeName="Main"/></task></resource>'
+        f"{x.section('globalVars', x.var('Step', 'DINT', '3'))}"
+        f"{x.section('globalVars', x.var('Limit', 'DINT', '1000000000'), constant='true')}</configuration>"
+    )
+    c = Cell(tmp_path)
+    try:
+        stored = c.upload([("files", ("plc.xml", x.project(fb, main, instances=conf)))])
+        assert c.post(f"/sets/{stored['id']}/activate", json={"mode": "auto"}).status_code == 200
+        r = c.as_viewer("POST", "/programs/diagram/monitor", json={"path": "plc.xml", "pou": "Accumulate"})
+        assert r.status_code == 200, r.text
+        answer = r.json()
+        assert answer["instance"] == "instance0.Acc"
+        flow = {(f["id"], f["pin"]): f for f in answer["flows"]}
+        assert flow[(2, None)]["value"] == 3 and flow[(2, None)]["reason"] is None  # the global, via VAR_EXTERNAL
+        assert flow[(5, None)]["value"] == 1000000000 and flow[(5, None)]["constant"] is True
+        total = flow[(1, None)]["value"]
+        assert isinstance(total, int) and flow[(3, "OUT")]["value"] == total + 3  # ADD folded as +
+        assert flow[(6, "OUT")]["value"] is False  # GT folded as >
+        shown = {e["id"]: e for e in answer["elements"]}
+        assert shown[4]["path"] == "instance0.Acc.Total"
     finally:
         c.close()
 
