@@ -204,6 +204,20 @@ def test_a_drawn_function_blocks_values_are_its_instances_and_its_globals(tmp_pa
         c.close()
 
 
+def test_a_changed_ladder_has_a_history_and_a_diff(cell):
+    """The tutorial uploaded again with a comment changed: GET /programs/history lists both sets'
+    plc.xml, GET /programs/diff shows the changed line."""
+    changed = shared(XOR).read_bytes().replace(b"LOGIC Gate | XOR |", b"LOGIC Gate | exclusive OR |")
+    second = cell.upload([("files", ("plc.xml", changed))])
+    r = cell.as_viewer("GET", "/programs/history", params={"path": "plc.xml"})
+    assert r.status_code == 200, r.text
+    assert {v["set_id"] for v in r.json()["versions"]} == {cell.base, second["id"]}
+    r = cell.as_viewer("GET", "/programs/diff", params={"path": "plc.xml", "old": cell.base, "new": second["id"]})
+    assert r.status_code == 200, r.text
+    assert "-                <xhtml:p><![CDATA[LOGIC Gate | XOR |]]></xhtml:p>" in r.json()["diff"]
+    assert "+                <xhtml:p><![CDATA[LOGIC Gate | exclusive OR |]]></xhtml:p>" in r.json()["diff"]
+
+
 def test_bad_requests_are_named(cell):
     assert httpx.get(f"{cell.url}/programs/diagram", params={"path": "plc.xml", "pou": "x"}).status_code == 401
     body = {"path": "plc.xml", "pou": "XOR_and_XNOR"}

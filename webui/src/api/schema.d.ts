@@ -857,7 +857,7 @@ export interface paths {
         };
         /**
          * Program Diff
-         * @description The unified diff of `path` from set `old` to set `new`.
+         * @description The unified diff of `path` (a .st or PLCopen XML file) from set `old` to set `new`.
          */
         get: operations["program_diff_api_v1_programs_diff_get"];
         put?: never;
@@ -877,8 +877,8 @@ export interface paths {
         };
         /**
          * Program History
-         * @description Every stored set holding the .st file `path`, newest first, with the file's sha256 and the
-         *     set it was made from when it was an edit.
+         * @description Every stored set holding the .st file (or PLCopen XML file) `path`, newest first, with the
+         *     file's sha256 and the set it was made from when it was an edit.
          */
         get: operations["program_history_api_v1_programs_history_get"];
         put?: never;

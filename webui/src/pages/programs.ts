@@ -254,8 +254,8 @@ class ProgramsView {
       GRAPHICAL.includes(d.language ?? "") ? view.element : h("pre", { class: "pl-text-body" }, d.text ?? ""),
     );
     this.diagram = { view, path, pou, poller: null };
-    this.history.replaceChildren();
     if (monitoring) this.startDiagramMonitor();
+    await this.loadHistory();
   }
 
   private startDiagramMonitor(): void {

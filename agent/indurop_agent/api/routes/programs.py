@@ -42,6 +42,7 @@ from .forces import forced_paths
 from .variables import segment
 
 router = APIRouter(tags=["programs"])
+SOURCE_KINDS = ("st", "plcopen")  # a program's sources: their history and diffs
 NOT_FOUND = {404: {"description": "no such set, no active set, or no such .st file in it"}}
 
 
@@ -62,10 +63,10 @@ def _st_paths(manifest: dict) -> list[str]:
     return sorted(f["path"] for f in manifest["files"] if f["kind"] == "st")
 
 
-def _file_of(request: Request, set_id: str, path: str) -> dict:
+def _file_of(request: Request, set_id: str, path: str, kinds: tuple[str, ...] = ("st",)) -> dict:
     manifest = request.app.state.store.manifest(set_id)
     for f in manifest["files"]:
-        if f["path"] == path and f["kind"] == "st":
+        if f["path"] == path and f["kind"] in kinds:
             return f
     known = ", ".join(_st_paths(manifest)) or "none"
     raise HTTPException(404, f"set {set_id} has no .st file {path!r}; its .st files: {known}")
@@ -233,13 +234,13 @@ async def apply_program(body: ApplyRequest, request: Request, who: AdminDep, irp
 
 @router.get("/programs/history")
 def program_history(request: Request, _: ViewerDep, path: str) -> FileHistory:
-    """Every stored set holding the .st file `path`, newest first, with the file's sha256 and the
-    set it was made from when it was an edit."""
+    """Every stored set holding the .st file (or PLCopen XML file) `path`, newest first, with the
+    file's sha256 and the set it was made from when it was an edit."""
     store = request.app.state.store
     active = store.active_id()
     versions = []
     for m in store.list():
-        f = next((f for f in m["files"] if f["path"] == path and f["kind"] == "st"), None)
+        f = next((f for f in m["files"] if f["path"] == path and f["kind"] in SOURCE_KINDS), None)
         if f is not None:
             versions.append(
                 FileVersion(
@@ -252,7 +253,7 @@ def program_history(request: Request, _: ViewerDep, path: str) -> FileHistory:
                 )
             )
     if not versions:
-        raise HTTPException(404, f"no stored set holds a .st file {path!r}")
+        raise HTTPException(404, f"no stored set holds a .st or PLCopen XML file {path!r}")
     return FileHistory(path=path, versions=versions)
 
 
@@ -264,10 +265,10 @@ def program_diff(
     old: str = Query(description="the set of the older version"),
     new: str | None = Query(None, description="the set of the newer version; default: the active set"),
 ) -> FileDiff:
-    """The unified diff of `path` from set `old` to set `new`."""
+    """The unified diff of `path` (a .st or PLCopen XML file) from set `old` to set `new`."""
     old_id, new_id = _set_id(request, old), _set_id(request, new)
-    _file_of(request, old_id, path)
-    _file_of(request, new_id, path)
+    _file_of(request, old_id, path, SOURCE_KINDS)
+    _file_of(request, new_id, path, SOURCE_KINDS)
     a = _text(request, old_id, path).splitlines(keepends=True)
     b = _text(request, new_id, path).splitlines(keepends=True)
     diff = "".join(difflib.unified_diff(a, b, f"{old_id}/{path}", f"{new_id}/{path}"))
