@@ -135,7 +135,8 @@ class _Unit:
         self.used = used
         # the variables whose values the code may change (written_roots), by image_key
         self.written = {image_key(self.prog, d) for p in [self.inst.pou] + self.pous for d in written_roots(p.body)}
-        return list(own.values()), list(glob.values()), list(glb.values())
+        glb_scalars_first = sorted(glb.values(), key=lambda d: not _scalar(d.type))
+        return list(own.values()), list(glob.values()), glb_scalars_first
 
     # ---- the file ------------------------------------------------------------------------------
 
@@ -196,7 +197,7 @@ class _Unit:
         if glob:
             out.append("Globals global, global0;")
         if glb:
-            out.append("struct Bound {")
+            out.append("struct Bound {  // the scalars first: the lines a run copies them to")
             for d in glb:
                 out.append(f"    {self.code.glb_type(d)} {_glb_member(d)};")
             out.append("};")
@@ -295,7 +296,13 @@ class _Unit:
                 out.append(f"    kept({ref}, {local}{snap}),")
             out.append("});")
         out.append("void runInstance() {")
-        out += in_parts([f"    copyIn({ref}, {local}, {snap});" for ref, local, snap, *_ in scalars])
+        # a scalar the code never writes: no snapshot (never written back)
+        out += in_parts(
+            [
+                f"    copyIn({ref}, {local}, {snap});" if written else f"    copyIn({ref}, {local});"
+                for ref, local, snap, _, written, _ in scalars
+            ]
+        )
         if table:
             out.append("    copyIn(image);")
         if outputs or table:
