@@ -191,14 +191,22 @@ def path_of(c, e, instance: str, paths: dict) -> str | None:
     return None
 
 
-def analyse(stc: Path, key: tuple, sources: st_check.SetSources, path: str) -> Analysis:
-    """The occurrences and conditions of `path` in the set (kept by `key`, e.g. (set id, path): a
-    stored set never changes)."""
+def kept(key: tuple) -> Analysis | None:
+    """The analysis kept by `key` (analyse's), or None: a refresh of the monitor needs nothing else
+    of the set."""
     with _kept_lock:
         found = _kept.get(key)
         if found is not None:
             _kept.move_to_end(key)
-            return found
+        return found
+
+
+def analyse(stc: Path, key: tuple, sources: st_check.SetSources, path: str) -> Analysis:
+    """The occurrences and conditions of `path` in the set (kept by `key`, e.g. (set id, path): a
+    stored set never changes)."""
+    found = kept(key)
+    if found is not None:
+        return found
     p = st_check.parsed(stc)
     c = p.c
     with st_check._LOCK:

@@ -153,11 +153,13 @@ def monitor_program(body: MonitorRequest, request: Request, irpd: IrpdDep, _: Vi
     when named in `expand`), and the IF/ELSIF/WHILE/UNTIL conditions and CASE selectors evaluated
     on them with the compiler's own folding (or why not).  One read of the shared memory."""
     set_id = _set_id(request, body.set)
-    _file_of(request, set_id, body.path)
-    try:
-        found = st_monitor.analyse(_stc(request), (set_id, body.path), _set_sources(request, set_id), body.path)
-    except st_check.CompilerMissing as e:
-        raise _compiler_missing(e) from e
+    found = st_monitor.kept((set_id, body.path))  # the set's file analysed already: a refresh reads no file
+    if found is None:
+        _file_of(request, set_id, body.path)
+        try:
+            found = st_monitor.analyse(_stc(request), (set_id, body.path), _set_sources(request, set_id), body.path)
+        except st_check.CompilerMissing as e:
+            raise _compiler_missing(e) from e
     forced = forced_now(irpd)
     seg = segment(request, irpd)
     try:
