@@ -165,15 +165,18 @@ class Segment:
         key = tuple(paths)
         for _ in range(100):
             self.refresh()
-            plan = self._plans.get(key)
+            # the layout's sequence first: refresh() (another thread's too) sets it last, so the plans
+            # and leaves taken after it are of that layout or a newer one, which the check below sees
+            seq, plans = self.seq, self._plans
+            plan = plans.get(key)
             if plan is None:
-                plan = self._plans[key] = self._plan(key)
-                if len(self._plans) > PLANS_KEPT:
-                    self._plans.popitem(last=False)
+                plan = plans[key] = self._plan(key)
+                if len(plans) > PLANS_KEPT:
+                    plans.popitem(last=False)
             values = plan.read(self.mm)
             if values is None:  # a writer met in every pass, or leaves not planned: one lock at a time
                 values = self.values(plan.leaves)
-            if self._field(LAYOUT_SEQ) == self.seq:
+            if self._field(LAYOUT_SEQ) == seq:
                 return list(zip(plan.leaves, values)), list(plan.errors)
         raise VariableError("the shared-variable layout is being published continuously; try again")
 
