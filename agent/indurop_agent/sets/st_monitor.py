@@ -63,7 +63,8 @@ class Analysis:
 
     def snapshot(self, seg, forced: dict, first: int, last: int, expand: list[str]) -> dict:
         """The occurrences and conditions of lines first..last with their values, and the fields
-        of the groups in `expand`: every value from one read of the segment (Segment.read_many)."""
+        of the groups in `expand`: every value from one read of the segment (Segment.read_many).
+        Every field of the API's MonitorAnswer is given (the route writes the answer as it is)."""
         occurrences = [o for o in self.occurrences if first <= o.line <= last]
         conditions = [x for x in self.conditions if x.line <= last and x.end_line >= first]
         groups, errors = {}, []
@@ -89,19 +90,20 @@ class Analysis:
 
     @staticmethod
     def _known(o: Occurrence, seg) -> bool:
-        return o.path in seg.leaves or any(p.startswith((o.path + ".", o.path + "[")) for p in seg.leaves)
+        return o.path in seg.leaves or bool(seg.group(o.path))
 
     @staticmethod
     def _occurrence(o: Occurrence, seg, values: dict, forced: dict) -> dict:
         out = {"line": o.line, "column": o.column, "end_column": o.end_column, "path": o.path, "type": o.type}
         if o.path not in seg.leaves:
-            return {**out, "group": True}
-        return {**out, "value": values[o.path][1] if o.path in values else None, "forced": o.path in forced}
+            return {**out, "group": True, "value": None, "forced": False}
+        value = values[o.path][1] if o.path in values else None
+        return {**out, "group": False, "value": value, "forced": o.path in forced}
 
     def _condition(self, x: Condition, values: dict) -> dict:
         out = {"line": x.line, "column": x.column, "end_line": x.end_line, "end_column": x.end_column, "what": x.what}
         try:
-            return {**out, "value": self.evaluate(x.expr, x.instance, values)}
+            return {**out, "value": self.evaluate(x.expr, x.instance, values), "reason": None}
         except NotEvaluated as e:
             return {**out, "value": None, "reason": str(e)}
 
@@ -189,14 +191,22 @@ def path_of(c, e, instance: str, paths: dict) -> str | None:
     return None
 
 
-def analyse(stc: Path, key: tuple, sources: st_check.SetSources, path: str) -> Analysis:
-    """The occurrences and conditions of `path` in the set (kept by `key`, e.g. (set id, path): a
-    stored set never changes)."""
+def kept(key: tuple) -> Analysis | None:
+    """The analysis kept by `key` (analyse's), or None: a refresh of the monitor needs nothing else
+    of the set."""
     with _kept_lock:
         found = _kept.get(key)
         if found is not None:
             _kept.move_to_end(key)
-            return found
+        return found
+
+
+def analyse(stc: Path, key: tuple, sources: st_check.SetSources, path: str) -> Analysis:
+    """The occurrences and conditions of `path` in the set (kept by `key`, e.g. (set id, path): a
+    stored set never changes)."""
+    found = kept(key)
+    if found is not None:
+        return found
     p = st_check.parsed(stc)
     c = p.c
     with st_check._LOCK:

@@ -1677,7 +1677,7 @@ export interface paths {
          * Read Variables
          * @description The values of many leaves, read in one pass over the shared memory (never a request to irpd's
          *     RT threads): a path that names no leaf (unknown, a group, a type the agent cannot decode) is an
-         *     entry of `errors` with the reason, the others are read.
+         *     entry of `errors` with the reason, the others are read.  A float that is not finite is null.
          */
         post: operations["read_variables_api_v1_variables_read_post"];
         delete?: never;
@@ -3152,8 +3152,11 @@ export interface components {
              * @description its scalar type, as GET /variables gives it
              */
             type: string;
-            /** Value */
-            value: boolean | number;
+            /**
+             * Value
+             * @description null: a float that is not finite (NaN, infinity), which JSON has no number for
+             */
+            value: boolean | number | null;
         };
         /** LeftOutModule */
         LeftOutModule: {

@@ -15,14 +15,15 @@ import hashlib
 import json
 from pathlib import Path
 
-from fastapi import APIRouter, HTTPException, Query, Request
+import orjson
+from fastapi import APIRouter, HTTPException, Query, Request, Response
 from starlette.concurrency import run_in_threadpool
 
 from ...irpd.variables import VariableError
 from ...sets import st_build, st_check, st_monitor, uploads
 from ...sets.activation import irpd_validation
 from ...sets.store import remove_tree
-from ..deps import AdminDep, IrpdDep, ViewerDep, ask, audited
+from ..deps import AdminDep, IrpdDep, ViewerDep, audited
 from ..models import ActivateRequest
 from ..monitor_models import MonitorAnswer, MonitorRequest
 from ..program_models import (
@@ -38,7 +39,7 @@ from ..program_models import (
     ProgramSource,
 )
 from . import sets as sets_routes
-from .forces import forced_paths
+from .forces import forced_now
 from .variables import segment
 
 router = APIRouter(tags=["programs"])
@@ -145,25 +146,28 @@ def check_program(body: CheckRequest, request: Request, _: ViewerDep) -> CheckRe
     return CheckResult(set_id=set_id, **result)
 
 
-@router.post("/programs/monitor", responses=NOT_FOUND)
-def monitor_program(body: MonitorRequest, request: Request, irpd: IrpdDep, _: ViewerDep) -> MonitorAnswer:
+@router.post("/programs/monitor", responses=NOT_FOUND, response_model=MonitorAnswer)
+def monitor_program(body: MonitorRequest, request: Request, irpd: IrpdDep, _: ViewerDep) -> Response:
     """The running values of the variables in lines from_line..to_line of the set's (default: the
     active set's) file `path`, each where it is (an FB instance or a struct as a group: its fields
     when named in `expand`), and the IF/ELSIF/WHILE/UNTIL conditions and CASE selectors evaluated
     on them with the compiler's own folding (or why not).  One read of the shared memory."""
     set_id = _set_id(request, body.set)
-    _file_of(request, set_id, body.path)
+    found = st_monitor.kept((set_id, body.path))  # the set's file analysed already: a refresh reads no file
+    if found is None:
+        _file_of(request, set_id, body.path)
+        try:
+            found = st_monitor.analyse(_stc(request), (set_id, body.path), _set_sources(request, set_id), body.path)
+        except st_check.CompilerMissing as e:
+            raise _compiler_missing(e) from e
+    forced = forced_now(irpd)
+    seg = segment(request, irpd)
     try:
-        found = st_monitor.analyse(_stc(request), (set_id, body.path), _set_sources(request, set_id), body.path)
-    except st_check.CompilerMissing as e:
-        raise _compiler_missing(e) from e
-    status = ask(irpd, "status")
-    seg = segment(request, irpd, status)
-    try:
-        answer = found.snapshot(seg, forced_paths(irpd, status), body.from_line, body.to_line, body.expand)
+        answer = found.snapshot(seg, forced, body.from_line, body.to_line, body.expand)
     except VariableError as e:
         raise HTTPException(503, str(e)) from e
-    return MonitorAnswer(set_id=set_id, **answer)
+    # MonitorAnswer, every field given (st_monitor.py), written by orjson (a float not finite as null)
+    return Response(orjson.dumps({"set_id": set_id, **answer}), media_type="application/json")
 
 
 def _derive(request: Request, irpd, base: str, path: str, source: str, who) -> dict:
