@@ -185,20 +185,18 @@ class Chart:
         if kind == "inline":
             st = cond[0].find(q("ST"))
             if st is None:
-                raise StError(place, "plcopen", "an inline condition that is not ST; write it in ST or as a named transition")
+                raise StError(
+                    place, "plcopen", "an inline condition that is not ST; write it in ST or as a named transition"
+                )
             text, line = st_text.text_of(st)
             return [], st_text.expression(self.file, text, line, place.origin)
         if kind == "reference":
             return self.named_transition(cond[0].get("name") or "", place)
         if kind == "connectionPointIn":
             pin = next((p for p in tr.inputs if p.name == "condition"), None)
-            return self.ctx_statements(), self.ctx.connection_expr(self.body, tr, pin)
+            value = self.ctx.connection_expr(self.body, tr, pin)
+            return self.ctx.net(self.body).take(), value  # the calls of the blocks it goes through
         raise StError(place, "plcopen", f"a condition given as <{kind}> is not supported")
-
-    def ctx_statements(self) -> list:
-        """Statements the core's connection_expr asked to run before its value is read (FB calls)."""
-        take = getattr(self.ctx, "take_statements", None)
-        return take() if take is not None else []
 
     def named_transition(self, name: str, place: Place) -> tuple[list, t.Expr]:
         decl = self.pou_el.find(f"{q('transitions')}/{q('transition')}[@name='{name}']")
@@ -224,7 +222,11 @@ class Chart:
                 qualifier = a.get("qualifier") or "N"
                 place = self.at(block, f"{where}, action {n}")
                 if qualifier not in QUALIFIERS:
-                    raise StError(place, "plcopen", f"the action qualifier {qualifier} is not supported ({' '.join(QUALIFIERS)} are)")
+                    raise StError(
+                        place,
+                        "plcopen",
+                        f"the action qualifier {qualifier} is not supported ({' '.join(QUALIFIERS)} are)",
+                    )
                 action = self.action_of(a, block, n, named, place)
                 if action.key not in self.actions:
                     self.actions[action.key] = action
@@ -343,7 +345,9 @@ class Chart:
         out: list = []
         for tr, pre, _ in trs:
             p = self.at(tr)
-            out.append(t.If(p, [(name(p, f"_fire{tr.id}"), [t.Assign(p, member(p, s, "X"), false(p)) for s in pre])], None))
+            out.append(
+                t.If(p, [(name(p, f"_fire{tr.id}"), [t.Assign(p, member(p, s, "X"), false(p)) for s in pre])], None)
+            )
         for tr, _, post in trs:
             p = self.at(tr)
             body = []
@@ -362,6 +366,7 @@ class Chart:
         args = [t.Arg(p, qual, any_of(p, [member(p, s, "X") for s in steps])) for qual, steps in action.inputs.items()]
         if action.duration is not None:
             args.append(t.Arg(p, "T", action.duration[1]))
+
         def output(pin: str) -> t.Member:
             return t.Member(p, name(p, action.control), pin)
 

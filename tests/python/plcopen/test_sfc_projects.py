@@ -1,0 +1,107 @@
+# test_sfc_projects.py -- the SFC POUs of real PLCopen projects drawn in other tools (../shared/plcopen,
+# SOURCES.md sections 2 and 4) imported by `stc build` and run in a real irpd: first_steps' (and
+# OpenPLC's Multi_Language) CounterSFC through the worked Reset sequence, cycle by cycle with its
+# active step, and Beremiz4uC's traffic_light_sequence through its steps with their durations.
+
+from __future__ import annotations
+
+import pytest
+from live_processes import wait_until
+from plcopen_live import Running, derived
+
+# Steps the counter one cycle at a time: the test writes `go`, the harness calls the drawn function
+# block until it has been called `go` times, so every value read is that of a known cycle.
+COUNTER = """
+PROGRAM Harness
+VAR
+  go : DINT;
+  n : DINT;
+  c : CounterSFC;
+  out : INT;
+END_VAR
+  IF n < go THEN
+    n := n + 1;
+    c(Reset := n >= 11 AND n <= 13);
+    out := c.OUT;
+  END_IF;
+END_PROGRAM
+"""
+
+# SOURCES.md section 2: Reset FALSE for cycles 1-10, TRUE for 11-13, FALSE for 14-17
+WORKED = {n: (n, "Count") for n in range(1, 11)} | {
+    11: (10, "Start"),
+    12: (17, "ResetCounter"),
+    13: (17, "ResetCounter"),
+    14: (17, "Start"),
+    15: (18, "Count"),
+    16: (19, "Count"),
+    17: (20, "Count"),
+}
+
+
+@pytest.mark.parametrize("project", ["beremiz_first_steps", "openplc_multi_language"])
+def test_counter_sfc_follows_the_worked_reset_sequence(tmp_path, project):
+    # CounterIL is IL (not imported) and plc_prg calls it: both left out, the harness calls CounterSFC
+    xml = derived(project, tmp_path / "xml" / "plc.xml", drop=("CounterIL", "plc_prg"))
+    run = Running(tmp_path, {"plc.xml": xml, "harness.st": COUNTER})
+    try:
+        seen = {}
+        for n in WORKED:
+            run.client.request("write", path="plc_task_instance.go", value=n)
+            wait_until(lambda n=n: run.value("plc_task_instance.n") == n, 20)
+            active = [s for s in ("Start", "ResetCounter", "Count") if run.value(f"plc_task_instance.c.{s}.X")]
+            seen[n] = (run.value("plc_task_instance.out"), *active)
+    finally:
+        run.close()
+    assert seen == {n: (cnt, step) for n, (cnt, step) in WORKED.items()}
+
+
+# Records every cycle where a light or the active step changes, with the cycle's number.
+LIGHTS = """
+PROGRAM Harness
+VAR
+  seq : traffic_light_sequence;
+  n : DINT;
+  code : INT;
+  last : INT := -1;
+  k : INT;
+  cycle : ARRAY[1..12] OF DINT;
+  seen : ARRAY[1..12] OF INT;
+END_VAR
+  n := n + 1;
+  seq(SWITCH_BUTTON := n > 10, PEDESTRIAN_BUTTON := n = 50);
+  code := 16 * BOOL_TO_INT(seq.RED_LIGHT) + 8 * BOOL_TO_INT(seq.ORANGE_LIGHT) + 4 * BOOL_TO_INT(seq.GREEN_LIGHT)
+          + 2 * BOOL_TO_INT(seq.PEDESTRIAN_RED_LIGHT) + BOOL_TO_INT(seq.PEDESTRIAN_GREEN_LIGHT);
+  IF n > 10 AND (n = 11 OR code <> last) AND k < 12 THEN
+    k := k + 1; cycle[k] := n; seen[k] := code;
+  END_IF;
+  last := code;
+END_PROGRAM
+"""
+
+
+def lights(red, orange, green, ped_red, ped_green) -> int:
+    return 16 * red + 8 * orange + 4 * green + 2 * ped_red + ped_green
+
+
+def test_traffic_light_sequence_steps_through_its_lights(tmp_path):
+    """SOURCES.md section 4: SwitchButton TRUE from cycle 11, PedestrianButton pressed in cycle 50 (in
+    GREEN): ORANGE 11, RED 16, PEDESTRIAN_GREEN 21, PEDESTRIAN_RED 42, GREEN 47, ORANGE again 55."""
+    xml = derived("beremiz4uc_traffic_lights", tmp_path / "xml" / "plc.xml", drop=("main_program",))
+    run = Running(tmp_path, {"plc.xml": xml, "harness.st": LIGHTS})
+    try:
+        run.wait_value("main_instance.k", 6, 90)
+        at = list(run.values("main_instance.cycle").values())[:6]
+        codes = list(run.values("main_instance.seen").values())[:6]
+    finally:
+        run.close()
+    want = [
+        (11, lights(0, 1, 0, 1, 0)),  # ORANGE
+        (16, lights(1, 0, 0, 1, 0)),  # RED
+        (21, lights(1, 0, 0, 0, 1)),  # PEDESTRIAN_GREEN
+        (42, lights(1, 0, 0, 1, 0)),  # PEDESTRIAN_RED
+        (47, lights(0, 0, 1, 1, 0)),  # GREEN
+        (55, lights(0, 1, 0, 1, 0)),  # ORANGE, the pedestrian button's 2 s after cycle 50
+    ]
+    assert codes == [c for _, c in want], list(zip(at, codes))
+    assert all(abs(n - m) <= 2 for n, (m, _) in zip(at, want)), list(zip(at, codes))
