@@ -17,6 +17,7 @@ from .graph import Body, Element, Pin
 
 ROW = 10.0  # elements whose y differ by at most this are on one row (SOURCES.md rule (d))
 ACTING = {"coil", "outVariable", "inOutVariable", "block", "jump", "label", "return"}
+UNNUMBERED = {"leftPowerRail", "rightPowerRail", "comment", "label"}  # not part of one rung
 PASSIVE = {"leftPowerRail", "rightPowerRail", "comment", "inVariable", "contact", "connector", "continuation"}
 
 
@@ -104,6 +105,8 @@ class Net:
     # ---- places and hidden variables ----
 
     def where(self, e: Element) -> str:
+        if e.kind in UNNUMBERED:
+            return ""
         comp = self._component.get(e.id, e.id)
         if comp not in self._numbers:
             self._numbers[comp] = len(self._numbers) + 1
@@ -141,7 +144,11 @@ class Net:
     def pin_value(self, e: Element, pin: Pin) -> t.Expr | None:
         """The value flowing into a pin: its connections' values OR-ed, negated or edge-triggered as drawn;
         None when nothing is connected."""
-        values = [self.value_of(self.body.source(link, e), link.formal, e) for link in pin.links]
+        values = []
+        for link in pin.links:
+            if link.ref not in self.body.elements:
+                raise self.error(e, f"a connection to localId {link.ref}, which no element has")
+            values.append(self.value_of(self.body.elements[link.ref], link.formal, e))
         if not values:
             return None
         p = self.place(e)
