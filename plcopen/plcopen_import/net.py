@@ -307,6 +307,10 @@ class Net:
         for e in self.body.elements.values():
             if e.kind not in ACTING and e.kind not in PASSIVE:
                 raise self.error(e, f"a <{e.kind}> is not an {self.body.lang} element this import supports")
+            for pin in e.inputs:  # every connection, also of an element nothing reads
+                for link in pin.links:
+                    if link.ref not in self.body.elements:
+                        raise self.error(e, f"a connection to localId {link.ref}, which no element has")
         for e in positional([e for e in self.body.elements.values() if e.kind in ACTING]):
             self.statement(e)
         return self.take()
