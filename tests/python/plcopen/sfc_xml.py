@@ -1,10 +1,13 @@
 # sfc_xml.py -- SFC charts written by the importer's tests as PLCopen XML (TC6 v2.01): steps,
 # transitions (inline ST, named, or connected), action blocks, jumps, divergences and convergences,
-# and a POU with its named actions and transitions, so that a test states its chart in a few lines.
+# and a POU with its named actions and transitions, so that a test states its chart in a few lines;
+# and run_recorded(), a chart run in irpd by an ST harness that records what it saw, cycle by cycle.
 # The project around it and the LD/FBD elements are plcopen_xml.py's.
 
 from __future__ import annotations
 
+from live_processes import wait_until
+from plcopen_live import Running
 from plcopen_xml import _links, _pos
 
 
@@ -75,3 +78,16 @@ def pou(name: str, kind: str, interface: str, body: str, acts: dict | None = Non
         f'<pou name="{name}" pouType="{kind}"><interface>{interface}</interface>'
         f"<actions>{a}</actions><transitions>{tr}</transitions><body><SFC>{body}</SFC></body></pou>"
     )
+
+
+def run_recorded(tmp_path, project: bytes, harness: str, cycles: int, *arrays: str) -> list[list]:
+    """Builds the project with the harness (an ST PROGRAM `Harness`, instance0, that counts its cycles
+    in `n` and stops after `cycles`), runs it in irpd until it has, and returns each array's values."""
+    xml = tmp_path / "chart.xml"
+    xml.write_bytes(project)
+    run = Running(tmp_path, {"chart.xml": xml, "harness.st": harness})
+    try:
+        wait_until(lambda: run.value("instance0.n") > cycles, 60)
+        return [list(run.values(f"instance0.{a}").values()) for a in arrays]
+    finally:
+        run.close()

@@ -7,8 +7,6 @@ from __future__ import annotations
 
 import plcopen_xml as x
 import sfc_xml as s
-from live_processes import wait_until
-from plcopen_live import Running
 
 STEPS = ("Init", "S1", "S2", "P1", "P2", "Q1")
 # inputs a, b, c per cycle, and the steps active after it
@@ -74,14 +72,7 @@ END_PROGRAM
 
 
 def test_divergences_convergences_and_jumps(tmp_path):
-    xml = tmp_path / "chart.xml"
-    xml.write_bytes(chart())
-    run = Running(tmp_path, {"chart.xml": xml, "harness.st": HARNESS})
-    try:
-        wait_until(lambda: run.value("instance0.n") > len(SCHEDULE), 30)
-        got = list(run.values("instance0.got").values())
-    finally:
-        run.close()
+    (got,) = s.run_recorded(tmp_path, chart(), HARNESS, len(SCHEDULE), "got")
     k = len(STEPS)
     active = [{v for v, on in zip(STEPS, got[i : i + k], strict=True) if on} for i in range(0, len(got), k)]
     assert active == [want for _, want in SCHEDULE]

@@ -8,8 +8,6 @@ from __future__ import annotations
 
 import plcopen_xml as x
 import sfc_xml as s
-from live_processes import wait_until
-from plcopen_live import Running
 
 MS = 1_000_000
 T = 100 * MS  # the duration of L, D, SD, DS, SL
@@ -116,15 +114,7 @@ def model(now: list[int]) -> list[dict]:
 
 
 def test_every_qualifier_follows_the_standard(tmp_path):
-    xml = tmp_path / "chart.xml"
-    xml.write_bytes(chart())
-    run = Running(tmp_path, {"chart.xml": xml, "harness.st": HARNESS})
-    try:
-        wait_until(lambda: run.value("instance0.n") > CYCLES, 60)
-        got = list(run.values("instance0.got").values())
-        now = list(run.values("instance0.now").values())
-    finally:
-        run.close()
+    got, now = s.run_recorded(tmp_path, chart(), HARNESS, CYCLES, "got", "now")
     k = len(VARS) + 1
     rows = [dict(zip((*VARS, "cnt"), got[i : i + k], strict=True)) for i in range(0, len(got), k)]
     want = model(now)
