@@ -56,7 +56,7 @@ def test_counter_sfc_follows_the_worked_reset_sequence(tmp_path, project):
     assert seen == {n: (cnt, step) for n, (cnt, step) in WORKED.items()}
 
 
-# Records every cycle where a light or the active step changes, with the cycle's number.
+# Records every cycle where a light changes, with the cycle's number.
 LIGHTS = """
 PROGRAM Harness
 VAR
@@ -65,14 +65,14 @@ VAR
   code : INT;
   last : INT := -1;
   k : INT;
-  cycle : ARRAY[1..12] OF DINT;
-  seen : ARRAY[1..12] OF INT;
+  cycle : ARRAY[1..16] OF DINT;
+  seen : ARRAY[1..16] OF INT;
 END_VAR
   n := n + 1;
-  seq(SWITCH_BUTTON := n > 10, PEDESTRIAN_BUTTON := n = 50);
+  seq(SWITCH_BUTTON := n > 10 AND n < 58, PEDESTRIAN_BUTTON := n = 50);
   code := 16 * BOOL_TO_INT(seq.RED_LIGHT) + 8 * BOOL_TO_INT(seq.ORANGE_LIGHT) + 4 * BOOL_TO_INT(seq.GREEN_LIGHT)
           + 2 * BOOL_TO_INT(seq.PEDESTRIAN_RED_LIGHT) + BOOL_TO_INT(seq.PEDESTRIAN_GREEN_LIGHT);
-  IF n > 10 AND (n = 11 OR code <> last) AND k < 12 THEN
+  IF code <> last AND k < 16 THEN
     k := k + 1; cycle[k] := n; seen[k] := code;
   END_IF;
   last := code;
@@ -85,23 +85,29 @@ def lights(red, orange, green, ped_red, ped_green) -> int:
 
 
 def test_traffic_light_sequence_steps_through_its_lights(tmp_path):
-    """SOURCES.md section 4: SwitchButton TRUE from cycle 11, PedestrianButton pressed in cycle 50 (in
-    GREEN): ORANGE 11, RED 16, PEDESTRIAN_GREEN 21, PEDESTRIAN_RED 42, GREEN 47, ORANGE again 55."""
+    """SOURCES.md section 4: Standstill blinks the orange light (a named LD action) one cycle in three;
+    SwitchButton TRUE from cycle 11: ORANGE 11, RED 16, PEDESTRIAN_GREEN 21, PEDESTRIAN_RED 42, GREEN 47
+    (each its D time plus a cycle); PedestrianButton pressed in cycle 50: ORANGE again at 55 (a
+    condition drawn as an FBD network); SwitchButton FALSE in 58: Standstill at once (the named FBD
+    transition STOP), its P action lighting orange, the other lights reset."""
     xml = derived("beremiz4uc_traffic_lights", tmp_path / "xml" / "plc.xml", drop=("main_program",))
     run = Running(tmp_path, {"plc.xml": xml, "harness.st": LIGHTS})
     try:
-        run.wait_value("main_instance.k", 6, 90)
-        at = list(run.values("main_instance.cycle").values())[:6]
-        codes = list(run.values("main_instance.seen").values())[:6]
+        run.wait_value("main_instance.k", 14, 90)
+        at = list(run.values("main_instance.cycle").values())[:14]
+        codes = list(run.values("main_instance.seen").values())[:14]
     finally:
         run.close()
-    want = [
+    orange = lights(0, 1, 0, 0, 0)
+    want = [(1, 0), (2, orange), (3, 0), (5, orange), (6, 0), (8, orange), (9, 0)]  # Standstill
+    want += [
         (11, lights(0, 1, 0, 1, 0)),  # ORANGE
         (16, lights(1, 0, 0, 1, 0)),  # RED
         (21, lights(1, 0, 0, 0, 1)),  # PEDESTRIAN_GREEN
         (42, lights(1, 0, 0, 1, 0)),  # PEDESTRIAN_RED
         (47, lights(0, 0, 1, 1, 0)),  # GREEN
-        (55, lights(0, 1, 0, 1, 0)),  # ORANGE, the pedestrian button's 2 s after cycle 50
+        (55, lights(0, 1, 0, 1, 0)),  # ORANGE, 2 s after the pedestrian button
+        (58, orange),  # Standstill
     ]
     assert codes == [c for _, c in want], list(zip(at, codes))
     assert all(abs(n - m) <= 2 for n, (m, _) in zip(at, want)), list(zip(at, codes))
