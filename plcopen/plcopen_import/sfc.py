@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 
 from lxml import etree
@@ -57,7 +58,7 @@ class Chart:
         self.steps: dict[str, Element] = {}  # upper-case name -> step
         self.down: dict[int, list[Element]] = {}  # localId -> the elements connected below it
         self.actions: dict[str, Action] = {}
-        self.transition_vars: set[str] = set()
+        self.named: dict[str, tuple[list, list[t.Expr]]] = {}  # named transitions: body, when to run it
         for e in body.elements.values():
             for pin in e.inputs:
                 if pin.name == "condition":
@@ -175,8 +176,8 @@ class Chart:
 
     # ---- conditions --------------------------------------------------------------------------
 
-    def condition(self, tr: Element, where: str) -> tuple[list, t.Expr]:
-        """(statements to run first, the condition) of a transition."""
+    def condition(self, tr: Element, where: str, active: t.Expr) -> tuple[list, t.Expr]:
+        """(statements to run first, the condition) of a transition whose steps are `active`."""
         cond = tr.el.find(q("condition"))
         place = self.at(tr, where)
         if cond is None or len(cond) == 0:
@@ -191,21 +192,35 @@ class Chart:
             text, line = st_text.text_of(st)
             return [], st_text.expression(self.file, text, line, place.origin)
         if kind == "reference":
-            return self.named_transition(cond[0].get("name") or "", place)
+            return [], self.named_transition(cond[0].get("name") or "", place, active)
         if kind == "connectionPointIn":
             pin = next((p for p in tr.inputs if p.name == "condition"), None)
-            value = self.ctx.connection_expr(self.body, tr, pin)
+            value = self.ctx.connection_expr(self.body, tr, pin) if pin is not None else None
+            if value is None:
+                raise StError(place, "plcopen", "the condition is connected to nothing; connect it or write it")
             return self.ctx.net(self.body).take(), value  # the calls of the blocks it goes through
         raise StError(place, "plcopen", f"a condition given as <{kind}> is not supported")
 
-    def named_transition(self, name: str, place: Place) -> tuple[list, t.Expr]:
-        decl = self.pou_el.find(f"{q('transitions')}/{q('transition')}[@name='{name}']")
-        if decl is None:  # not a transition of the POU: a BOOL variable of that name
-            return [], t.Name(place, name)
-        if name.upper() not in self.transition_vars:
-            self.transition_vars.add(name.upper())
+    def named_transition(self, name: str, place: Place, active: t.Expr) -> t.Expr:
+        """A transition of the POU's <transitions>: a BOOL variable of its name, which its body (run
+        once a period, when the steps of a transition that names it are active) assigns; else a BOOL
+        variable of the POU of that name."""
+        key = name.upper()
+        if key not in self.named:
+            decl = next(
+                (
+                    d
+                    for d in self.pou_el.iterfind(f"{q('transitions')}/{q('transition')}")
+                    if (d.get("name") or "").upper() == key
+                ),
+                None,
+            )
+            if decl is None:
+                return t.Name(place, name)
             self.declare(place, name, t.TypeRef(place, "BOOL"))
-        return self.ctx.body_statements(decl.find(q("body")), name), t.Name(place, name)
+            self.named[key] = (self.ctx.body_statements(decl.find(q("body")), name), [])
+        self.named[key][1].append(active)
+        return t.Name(place, name)
 
     # ---- actions -----------------------------------------------------------------------------
 
@@ -321,16 +336,22 @@ class Chart:
     def fire_tests(self, trs) -> list:
         """Each transition's flag `_fire<localId>`: its steps were active and its condition held;
         then, of transitions that share a step, the leftmost that fires takes it."""
-        out: list = []
+        tests: list = []
         for tr, pre, post in trs:
             where = f"transition {'+'.join(s.attr('name') for s in pre)} -> {'+'.join(s.attr('name') for s in post)}"
             p = self.at(tr, where)
             fire = f"_fire{tr.id}"
             self.declare(p, fire, t.TypeRef(p, "BOOL"))
-            first, cond = self.condition(tr, where)
             active = all_of(p, [member(p, s, "X") for s in pre])
-            out.append(t.Assign(p, name(p, fire), false(p)))
-            out.append(t.If(p, [(active, [*first, t.Assign(p, name(p, fire), cond)])], None))
+            first, cond = self.condition(tr, where, active)
+            tests.append(t.Assign(p, name(p, fire), false(p)))
+            tests.append(t.If(p, [(copy.deepcopy(active), [*first, t.Assign(p, name(p, fire), cond)])], None))
+        out: list = [
+            t.If(body[0].place if body else self.at(None), [(any_of(self.at(None), guards), body)], None)
+            for body, guards in self.named.values()
+            if body
+        ]
+        out += tests
         ordered = sorted(trs, key=lambda x: (x[0].x, x[0].y, x[0].id))
         for i, (tr, pre, _) in enumerate(ordered):
             rivals = [o for o, opre, _ in ordered[:i] if any(s in opre for s in pre)]

@@ -71,9 +71,14 @@ def convergence(kind: str, lid: int, refs: list, x: float, y: float) -> str:
 
 
 def pou(name: str, kind: str, interface: str, body: str, acts: dict | None = None, trans: dict | None = None) -> str:
-    """A POU with an SFC body; acts and trans: name -> ST body of its named actions and transitions."""
-    a = "".join(f'<action name="{n}"><body>{_st(t)}</body></action>' for n, t in (acts or {}).items())
-    tr = "".join(f'<transition name="{n}"><body>{_st(t)}</body></transition>' for n, t in (trans or {}).items())
+    """A POU with an SFC body; acts and trans: name -> the body of its named actions and transitions,
+    ST text or a drawn body (`<LD>...</LD>`)."""
+
+    def drawn(text: str) -> str:
+        return f"<body>{text if text.startswith('<') else _st(text)}</body>"
+
+    a = "".join(f'<action name="{n}">{drawn(t)}</action>' for n, t in (acts or {}).items())
+    tr = "".join(f'<transition name="{n}">{drawn(t)}</transition>' for n, t in (trans or {}).items())
     return (
         f'<pou name="{name}" pouType="{kind}"><interface>{interface}</interface>'
         f"<actions>{a}</actions><transitions>{tr}</transitions><body><SFC>{body}</SFC></body></pou>"

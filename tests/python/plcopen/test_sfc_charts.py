@@ -1,7 +1,8 @@
 # test_sfc_charts.py -- the structure of an SFC chart run in a real irpd, cycle by cycle: a selection
 # divergence whose transitions are both true (the leftmost wins, whatever the localIds), a simultaneous
 # divergence (both branches active) and convergence (it waits for both), a selection convergence and
-# jumps back; each step's activity is seen through an N action on a BOOL variable.
+# jumps back; a named transition drawn in LD (a rising-edge contact) named by two transitions, its body
+# run once a period; each step's activity is seen through an N action on a BOOL variable.
 
 from __future__ import annotations
 
@@ -76,3 +77,41 @@ def test_divergences_convergences_and_jumps(tmp_path):
     k = len(STEPS)
     active = [{v for v, on in zip(STEPS, got[i : i + k], strict=True) if on} for i in range(0, len(got), k)]
     assert active == [want for _, want in SCHEDULE]
+
+
+EDGE_SCHEDULE = [(0, {"Init"}), (1, {"S1"}), (1, {"S1"}), (0, {"S1"}), (1, {"Init"}), (0, {"Init"}), (1, {"S1"})]
+
+
+def test_a_named_ld_transition_named_twice_runs_once_a_period(tmp_path):
+    ld = "".join([x.rail(1), x.contact(2, "b", 1, 100, 0, edge="rising"), x.coil(3, "Edge", 2, 300, 0)])
+    body = [
+        s.step(1, "Init", initial=True),
+        s.transition(2, 1, 0, 50, named="Edge"),
+        s.step(3, "S1", 2, 0, 100),
+        s.transition(4, 3, 0, 150, named="Edge"),
+        s.jump(5, "Init", 4, 0, 200),
+        s.actions(6, 1, 200, 0, ("N", "xInit")),
+        s.actions(7, 3, 200, 100, ("N", "xS1")),
+    ]
+    iface = x.section("inputVars", x.var("b", "BOOL")) + x.section(
+        "outputVars", x.var("xInit", "BOOL"), x.var("xS1", "BOOL")
+    )
+    fb = s.pou("Chart", "functionBlock", iface, "".join(body), trans={"Edge": f"<LD>{ld}</LD>"})
+    n = len(EDGE_SCHEDULE)
+    harness = f"""
+PROGRAM Harness
+VAR
+  ch : Chart; n : INT;
+  b : ARRAY[1..{n}] OF BOOL := [{", ".join("TRUE" if v else "FALSE" for v, _ in EDGE_SCHEDULE)}];
+  got : ARRAY[1..{n}, 1..2] OF INT;
+END_VAR
+  n := n + 1;
+  IF n <= {n} THEN
+    ch(b := b[n]);
+    got[n, 1] := BOOL_TO_INT(ch.xInit); got[n, 2] := BOOL_TO_INT(ch.xS1);
+  END_IF;
+END_PROGRAM
+"""
+    (got,) = s.run_recorded(tmp_path, x.project(fb, instances=x.config("Harness")), harness, n, "got")
+    active = [{v for v, on in zip(("Init", "S1"), got[i : i + 2], strict=True) if on} for i in range(0, len(got), 2)]
+    assert active == [want for _, want in EDGE_SCHEDULE]
