@@ -99,26 +99,28 @@ class Chart:
 
     @staticmethod
     def initial(step: Element) -> bool:
-        return step.attr("initialStep") == "true"
+        return step.attr("initialStep") in ("true", "1")  # xsd:boolean
 
     def sources(self, e: Element) -> list[Element]:
         return [self.body.source(link, e) for pin in e.inputs if pin.name != "condition" for link in pin.links]
 
-    def before(self, e: Element, tr: Element) -> list[Element]:
+    def before(self, e: Element, tr: Element, seen: frozenset = frozenset()) -> list[Element]:
         """The steps a transition follows (through a selection divergence or a simultaneous convergence)."""
         if e.kind == "step":
             return [e]
-        if e.kind in ("selectionDivergence", "simultaneousConvergence"):
+        if e.kind in ("selectionDivergence", "simultaneousConvergence") and e.id not in seen:
             out: list[Element] = []
             for s in self.sources(e):
-                out += [x for x in self.before(s, tr) if x not in out]
+                out += [x for x in self.before(s, tr, seen | {e.id}) if x not in out]
             return out
         raise self.error(tr, f"a transition follows a {e.kind} (localId {e.id}); it must follow a step or a divergence")
 
-    def after(self, e: Element, tr: Element) -> list[Element]:
+    def after(self, e: Element, tr: Element, seen: frozenset = frozenset()) -> list[Element]:
         """The steps a transition leads to (through convergences, simultaneous divergences, jumps)."""
         out: list[Element] = []
         for d in self.down.get(e.id, []):
+            if d.id in seen:
+                raise self.error(tr, f"the {d.kind} localId {d.id} is connected in a loop without a step")
             if d.kind == "step":
                 found = [d]
             elif d.kind == "jumpStep":
@@ -128,7 +130,7 @@ class Chart:
                     raise self.error(d, f"the jump to '{target}': no step has that name")
                 found = [step]
             elif d.kind in ("selectionConvergence", "simultaneousDivergence"):
-                found = self.after(d, tr)
+                found = self.after(d, tr, seen | {d.id})
             elif d.kind in CHART:
                 raise self.error(tr, f"a {d.kind} (localId {d.id}) follows a transition; a step must")
             else:
@@ -141,12 +143,11 @@ class Chart:
         for e in self.body.elements.values():
             if e.kind != "transition":
                 continue
-            sources = self.sources(e)
-            if not sources:
-                raise self.error(e, "a transition that follows no step; connect it below a step")
             pre: list[Element] = []
-            for s in sources:
+            for s in self.sources(e):
                 pre += [x for x in self.before(s, e) if x not in pre]
+            if not pre:
+                raise self.error(e, "a transition that follows no step; connect it below a step")
             post = self.after(e, e)
             if not post:
                 raise self.error(e, "a transition that leads to no step; connect a step or a jump below it")

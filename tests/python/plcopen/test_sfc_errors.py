@@ -1,7 +1,7 @@
 # test_sfc_errors.py -- what `stc check` says about a bad SFC chart in a PLCopen XML file, as a user
 # runs it: each error names the POU, SFC, the step or transition and its localId.  An unreachable step
-# (item 6), a chart without an initial step, a jump to a step that does not exist, a timed qualifier
-# without a duration or with two, an undeclared name in a transition's condition.
+# (item 6), a chart without an initial step, a jump to a step that does not exist, a transition below
+# no step, a timed qualifier without a duration or with two, an undeclared name in a condition.
 
 from __future__ import annotations
 
@@ -73,3 +73,9 @@ def test_an_undeclared_name_in_a_condition_names_the_transition(tmp_path):
     e = one(tmp_path, chart(*bad))
     assert e["origin"] == "Chart (SFC) transition A -> Init, transition localId 4"
     assert "'gone' is not declared" in e["message"]
+
+
+def test_a_transition_below_no_step(tmp_path):
+    e = one(tmp_path, chart(*LOOP, s.transition(6, None, 200, 50, st="go"), s.jump(7, "A", 6, 200, 100)))
+    assert e["origin"] == "Chart (SFC) transition localId 6"
+    assert e["message"] == "a transition that follows no step; connect it below a step"
