@@ -16,6 +16,7 @@ sys.path.insert(0, str(ROOT / "tests" / "python" / "st"))
 sys.path.insert(0, str(ROOT / "plcopen"))
 sys.path.insert(0, str(ROOT / "st"))
 
+from st_helpers import run_stc  # noqa: E402
 from st_live import Running, build_errors, stc_build  # noqa: E402
 
 
@@ -85,4 +86,4 @@ def derived(
     return out
 
 
-__all__ = ["Running", "build_errors", "derived", "shared", "stc_build"]
+__all__ = ["Running", "build_errors", "derived", "run_stc", "shared", "stc_build"]

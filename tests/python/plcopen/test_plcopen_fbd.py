@@ -9,8 +9,7 @@ import json
 
 import plcopen_xml as x
 from live_processes import wait_until
-from plcopen_live import Running
-from st_helpers import run_stc
+from plcopen_live import Running, run_stc
 
 HARNESS = """
 PROGRAM Harness
