@@ -41,8 +41,8 @@ WORKED = {n: (n, "Count") for n in range(1, 11)} | {
 
 @pytest.mark.parametrize("project", ["beremiz_first_steps", "openplc_multi_language"])
 def test_counter_sfc_follows_the_worked_reset_sequence(tmp_path, project):
-    # CounterIL is IL (not imported) and plc_prg calls it: both left out, the harness calls CounterSFC
-    xml = derived(project, tmp_path / "xml" / "plc.xml", drop=("CounterIL", "plc_prg"))
+    # the whole project, its instance made one of the harness, which calls CounterSFC
+    xml = derived(project, tmp_path / "xml" / "plc.xml")
     run = Running(tmp_path, {"plc.xml": xml, "harness.st": COUNTER})
     try:
         seen = {}
@@ -90,7 +90,7 @@ def test_traffic_light_sequence_steps_through_its_lights(tmp_path):
     (each its D time plus a cycle); PedestrianButton pressed in cycle 50: ORANGE again at 55 (a
     condition drawn as an FBD network); SwitchButton FALSE in 58: Standstill at once (the named FBD
     transition STOP), its P action lighting orange, the other lights reset."""
-    xml = derived("beremiz4uc_traffic_lights", tmp_path / "xml" / "plc.xml", drop=("main_program",))
+    xml = derived("beremiz4uc_traffic_lights", tmp_path / "xml" / "plc.xml")
     run = Running(tmp_path, {"plc.xml": xml, "harness.st": LIGHTS})
     try:
         run.wait_value("main_instance.k", 14, 90)
