@@ -70,6 +70,18 @@ def convergence(kind: str, lid: int, refs: list, x: float, y: float) -> str:
     return f'<{tag} localId="{lid}" width="200" height="2">{_pos(x, y)}{ins}<connectionPointOut/></{tag}>'
 
 
+def two_steps(first: str, second: str, there: dict, back: dict) -> list[str]:
+    """The smallest loop (localIds 1-5): `first` (initial) -> transition (there: transition()'s
+    condition keywords, e.g. {"st": "go"}) -> `second` -> transition (back) -> a jump to `first`."""
+    return [
+        step(1, first, initial=True),
+        transition(2, 1, 0, 50, **there),
+        step(3, second, 2, 0, 100),
+        transition(4, 3, 0, 150, **back),
+        jump(5, first, 4, 0, 200),
+    ]
+
+
 def pou(name: str, kind: str, interface: str, body: str, acts: dict | None = None, trans: dict | None = None) -> str:
     """A POU with an SFC body; acts and trans: name -> the body of its named actions and transitions,
     ST text or a drawn body (`<LD>...</LD>`)."""

@@ -85,11 +85,7 @@ EDGE_SCHEDULE = [(0, {"Init"}), (1, {"S1"}), (1, {"S1"}), (0, {"S1"}), (1, {"Ini
 def test_a_named_ld_transition_named_twice_runs_once_a_period(tmp_path):
     ld = "".join([x.rail(1), x.contact(2, "b", 1, 100, 0, edge="rising"), x.coil(3, "Edge", 2, 300, 0)])
     body = [
-        s.step(1, "Init", initial=True),
-        s.transition(2, 1, 0, 50, named="Edge"),
-        s.step(3, "S1", 2, 0, 100),
-        s.transition(4, 3, 0, 150, named="Edge"),
-        s.jump(5, "Init", 4, 0, 200),
+        *s.two_steps("Init", "S1", {"named": "Edge"}, {"named": "Edge"}),
         s.actions(6, 1, 200, 0, ("N", "xInit")),
         s.actions(7, 3, 200, 100, ("N", "xS1")),
     ]

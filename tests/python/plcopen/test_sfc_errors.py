@@ -15,13 +15,7 @@ def chart(*elements: str, acts: dict | None = None) -> bytes:
     return x.project(s.pou("Chart", "functionBlock", iface, "".join(elements), acts))
 
 
-LOOP = [
-    s.step(1, "Init", initial=True),
-    s.transition(2, 1, 0, 50, st="go"),
-    s.step(3, "A", 2, 0, 100),
-    s.transition(4, 3, 0, 150, st="NOT go"),
-    s.jump(5, "Init", 4, 0, 200),
-]
+LOOP = s.two_steps("Init", "A", {"st": "go"}, {"st": "NOT go"})
 
 
 def test_an_unreachable_step_is_named(tmp_path):
