@@ -219,7 +219,7 @@ class Chart:
             if decl is None:
                 return t.Name(place, name)
             self.declare(place, name, t.TypeRef(place, "BOOL"))
-            self.named[key] = (self.ctx.body_statements(decl.find(q("body")), name), [])
+            self.named[key] = (self.ctx.body_statements(decl.find(q("body")), f"{self.body.pou}.{name}"), [])
         self.named[key][1].append(active)
         return t.Name(place, name)
 
@@ -262,7 +262,8 @@ class Chart:
                 return self.actions[key]
             decl = named.get(key)
             if decl is not None:
-                return Action(key, f"_act{name}", place, self.ctx.body_statements(decl.find(q("body")), name))
+                body = self.ctx.body_statements(decl.find(q("body")), f"{self.body.pou}.{name}")
+                return Action(key, f"_act{name}", place, body)
             return Action(key, f"_act{name}", place, None, variable=name)
         inline = a.find(q("inline"))
         if inline is None:
@@ -272,7 +273,7 @@ class Chart:
             text, line = st_text.text_of(st)
             statements = st_text.statements(self.file, text, line, place.origin)
         else:
-            statements = self.ctx.body_statements(inline, f"{self.body.pou} action {block.id}.{n}")
+            statements = self.ctx.body_statements(inline, f"{self.body.pou}.action{block.id}_{n}")
         return Action(f"_{block.id}_{n}", f"_act{block.id}_{n}", place, statements)
 
     def duration(self, action: Action, a, step: Element, place: Place) -> None:
@@ -296,6 +297,14 @@ class Chart:
         self.ctx.declare(t.VarDecl(place, name, "VAR", spec, init))
 
     def translate(self) -> list:
+        holder = self.body.el.getparent()
+        holder = holder.getparent() if holder is not None else None
+        if holder is not None and local(holder) in ("action", "transition", "inline"):
+            raise StError(
+                self.at(None),
+                "plcopen",
+                f"an SFC as the body of an {local(holder)} is not supported; draw its steps in the POU's chart",
+            )
         self.read_steps()
         trs = self.transitions()
         self.check_reachable(trs)

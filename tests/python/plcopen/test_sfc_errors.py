@@ -1,7 +1,8 @@
 # test_sfc_errors.py -- what `stc check` says about a bad SFC chart in a PLCopen XML file, as a user
 # runs it: each error names the POU, SFC, the step or transition and its localId.  An unreachable step
 # (item 6), a chart without an initial step, a jump to a step that does not exist, a transition below
-# no step, a timed qualifier without a duration or with two, an undeclared name in a condition.
+# no step, a timed qualifier without a duration or with two, an undeclared name in a condition or a
+# named action, an SFC as the body of an action.
 
 from __future__ import annotations
 
@@ -73,3 +74,16 @@ def test_a_transition_below_no_step(tmp_path):
     e = one(tmp_path, chart(*LOOP, s.transition(6, None, 200, 50, st="go"), s.jump(7, "A", 6, 200, 100)))
     assert e["origin"] == "Chart (SFC) transition localId 6"
     assert e["message"] == "a transition that follows no step; connect it below a step"
+
+
+def test_an_error_in_a_named_action_names_pou_and_action(tmp_path):
+    e = one(tmp_path, chart(*LOOP, s.actions(6, 3, 200, 100, ("N", "Blink")), acts={"Blink": "lamp := NOT lamps;"}))
+    assert e["origin"] == "Chart.Blink (ST)"
+    assert "'lamps' is not declared" in e["message"]
+
+
+def test_an_sfc_inside_an_action_is_refused(tmp_path):
+    inner = "<SFC>" + "".join(s.two_steps("I1", "I2", {"st": "go"}, {"st": "go"})) + "</SFC>"
+    e = one(tmp_path, chart(*LOOP, s.actions(6, 3, 200, 100, ("N", "Inner")), acts={"Inner": inner}))
+    assert e["origin"] == "Chart.Inner (SFC)"
+    assert e["message"] == "an SFC as the body of an action is not supported; draw its steps in the POU's chart"
