@@ -264,7 +264,8 @@ class Chart:
             if decl is not None:
                 body = self.ctx.body_statements(decl.find(q("body")), f"{self.body.pou}.{name}")
                 return Action(key, f"_act{name}", place, body)
-            return Action(key, f"_act{name}", place, None, variable=name)
+            control = f"_act{name}" if name.isidentifier() else f"_act{block.id}_{n}"  # `out.lamp`
+            return Action(key, control, place, None, variable=name)
         inline = a.find(q("inline"))
         if inline is None:
             raise StError(place, "plcopen", "an action with neither a reference nor an inline body")
@@ -403,7 +404,8 @@ class Chart:
 
         out: list = [t.CallStmt(p, t.Call(p, name(p, action.control), args))]
         if action.statements is None:
-            write = t.Assign(p, t.Name(p, action.variable), output("Q"))
+            target = st_text.expression(self.file, action.variable, p.line, p.origin)
+            write = t.Assign(p, target, output("Q"))
             out.append(t.If(p, [(output("A"), [write])], None))
         else:
             out.append(t.If(p, [(output("Q"), action.statements)], None))

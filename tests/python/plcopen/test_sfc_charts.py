@@ -2,7 +2,8 @@
 # divergence whose transitions are both true (the leftmost wins, whatever the localIds), a simultaneous
 # divergence (both branches active) and convergence (it waits for both), a selection convergence and
 # jumps back; a named transition drawn in LD (a rising-edge contact) named by two transitions, its body
-# run once a period; each step's activity is seen through an N action on a BOOL variable.
+# run once a period; each step's activity is seen through an N action on a BOOL variable (or an
+# array's element).
 
 from __future__ import annotations
 
@@ -87,10 +88,11 @@ def test_a_named_ld_transition_named_twice_runs_once_a_period(tmp_path):
     body = [
         *s.two_steps("Init", "S1", {"named": "Edge"}, {"named": "Edge"}),
         s.actions(6, 1, 200, 0, ("N", "xInit")),
-        s.actions(7, 3, 200, 100, ("N", "xS1")),
+        s.actions(7, 3, 200, 100, ("N", "xs[2]")),  # a BOOL action that is an array's element
     ]
+    array = '<array><dimension lower="1" upper="2"/><baseType><BOOL/></baseType></array>'
     iface = x.section("inputVars", x.var("b", "BOOL")) + x.section(
-        "outputVars", x.var("xInit", "BOOL"), x.var("xS1", "BOOL")
+        "outputVars", x.var("xInit", "BOOL"), x.var("xs", array)
     )
     fb = s.pou("Chart", "functionBlock", iface, "".join(body), trans={"Edge": f"<LD>{ld}</LD>"})
     n = len(EDGE_SCHEDULE)
@@ -104,7 +106,7 @@ END_VAR
   n := n + 1;
   IF n <= {n} THEN
     ch(b := b[n]);
-    got[n, 1] := BOOL_TO_INT(ch.xInit); got[n, 2] := BOOL_TO_INT(ch.xS1);
+    got[n, 1] := BOOL_TO_INT(ch.xInit); got[n, 2] := BOOL_TO_INT(ch.xs[2]);
   END_IF;
 END_PROGRAM
 """
