@@ -6,8 +6,7 @@
 from __future__ import annotations
 
 import plcopen_xml as x
-from live_processes import wait_until
-from plcopen_live import Running
+from plcopen_live import recorded
 
 IL = """LD a
 ANDN b
@@ -94,11 +93,7 @@ def test_il_instructions_cycle_by_cycle(tmp_path):
     xml = tmp_path / "ops.xml"
     xml.write_bytes(x.project(pou, instances=x.config("Harness")))
     sched = ", ".join(str(v) for row in SCHEDULE for v in row)
-    run = Running(tmp_path, {"ops.xml": xml, "harness.st": HARNESS.format(m=len(SCHEDULE), sched=sched)})
-    try:
-        wait_until(lambda: run.value("instance0.i") > len(SCHEDULE), 30)
-        got = list(run.values("instance0.got").values())
-    finally:
-        run.close()
+    files = {"ops.xml": xml, "harness.st": HARNESS.format(m=len(SCHEDULE), sched=sched)}
+    got = recorded(tmp_path, files, "instance0.i", len(SCHEDULE), "instance0.got")
     rows = [dict(zip(OUTS, got[i : i + 7], strict=True)) for i in range(0, len(got), 7)]
     assert rows == [dict(zip(OUTS, r, strict=True)) for r in model()]

@@ -9,7 +9,7 @@ import itertools
 
 import pytest
 from live_processes import wait_until
-from plcopen_live import Running, derived, shared
+from plcopen_live import Running, derived, recorded, shared
 
 
 def _truth(run: Running, inputs: dict[str, int], outputs: dict[str, int]) -> None:
@@ -145,11 +145,7 @@ END_PROGRAM
 @pytest.mark.parametrize("project", ["beremiz_first_steps", "openplc_multi_language"])
 def test_st_fbd_ld_and_il_counters(tmp_path, project):
     xml = derived(project, tmp_path / "xml" / "plc.xml", drop=("CounterSFC", "plc_prg"))
-    run = Running(tmp_path, {"plc.xml": xml, "harness.st": COUNTERS})
-    try:
-        wait_until(lambda: run.value("plc_task_instance.n") > 17, 30)
-        got = list(run.values("plc_task_instance.got").values())
-    finally:
-        run.close()
+    files = {"plc.xml": xml, "harness.st": COUNTERS}
+    got = recorded(tmp_path, files, "plc_task_instance.n", 17, "plc_task_instance.got")
     want = [*range(1, 11), 17, 17, 17, 18, 19, 20, 21]
     assert [got[i : i + 4] for i in range(0, 68, 4)] == [[w] * 4 for w in want]
