@@ -102,7 +102,8 @@ def _pou(parent: etree._Element, p: t.Pou, texts: dict[str, str]) -> None:
     el = sub(parent, "pou", name=p.name, pouType=POU_TYPES[p.kind])
     src = source_pou(p)
     declared = None
-    if src is not None:  # the file's own variables: hidden ones the translation added are not written
+    if src is not None and src.find(q("interface")) is not None:
+        # the file's own variables: hidden ones the translation added (edge memories, steps) are not written
         declared = {v.get("name", "").upper() for v in src.iterfind(f"{q('interface')}//{q('variable')}")}
     interface = sub(el, "interface")
     if p.returns is not None:
