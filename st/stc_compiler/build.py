@@ -14,7 +14,7 @@ from .emit_cpp import generate, name_problems
 from .errors import StError, StErrors
 from .layout import from_document
 from .layout import load as load_layout
-from .parse import parse_file
+from .parse import read_source
 
 
 @dataclass
@@ -49,9 +49,11 @@ def front(opts: Options) -> tuple[Program, list]:
     units = []
     for f in opts.sources:
         try:
-            units.append(parse_file(f))
+            units.append(read_source(f))
         except StError as e:
             errors.append(e)
+        except StErrors as e:  # a PLCopen XML project: an error per POU
+            errors.extend(e.errors)
     if errors:
         raise StErrors(errors)
     return check(units, layout), glb

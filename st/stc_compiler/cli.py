@@ -15,7 +15,7 @@ from pathlib import Path
 from .check import Program, check
 from .errors import StError, StErrors
 from .layout import load as load_layout
-from .parse import parse_file
+from .parse import read_source
 
 USAGE_ERROR, INPUT_ERROR = 2, 1
 
@@ -87,9 +87,11 @@ def front(files: list[str], layout_path: str | None) -> Program:
             errors.append(e)
     for f in files:
         try:
-            units.append(parse_file(f))
+            units.append(read_source(f))
         except StError as e:
             errors.append(e)  # one syntax error per file; the other files are still read
+        except StErrors as e:  # a PLCopen XML project: an error per POU
+            errors.extend(e.errors)
     if errors:
         raise StErrors(errors)
     return check(units, layout)

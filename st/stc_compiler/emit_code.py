@@ -592,7 +592,9 @@ class CodeEmitter:
         if isinstance(e, t.Member):
             if isinstance(e.decl, t.VarDecl) and e.decl.kind == "GLB":
                 return f"bound.{e.decl.glb['path'].replace('.', '_')}"
-            return f"{self.lvalue(e.base)}.{e.name}"
+            # the member as declared: ST is case-insensitive, C++ is not (cld.OUT of `Out : INT`)
+            name = e.decl.name if isinstance(e.decl, t.VarDecl) else e.name
+            return f"{self.lvalue(e.base)}.{name}"
         if isinstance(e, t.Index):
             arr = ty.base(e.base.type)
             out = self.lvalue(e.base)

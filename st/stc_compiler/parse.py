@@ -223,6 +223,20 @@ def parse_file(path: str) -> t.Unit:
     return parse_text(path, read(path))
 
 
+def read_source(path: str) -> t.Unit:
+    """A source file of a set -> its Unit: a `.xml` file is a PLCopen XML project, imported by
+    plcopen/plcopen_import (put on sys.path like glb/ is, and imported only when one is given), any
+    other file is ST.  build.front and cli.front read every source through this."""
+    if path.lower().endswith(".xml"):
+        folder = str(Path(__file__).resolve().parents[2] / "plcopen")
+        if folder not in sys.path:
+            sys.path.insert(0, folder)
+        from plcopen_import.project import read_unit
+
+        return read_unit(path)
+    return parse_file(path)
+
+
 def _check_depth(name: str, root: Tree) -> None:
     stack = [(root, 1)]
     while stack:

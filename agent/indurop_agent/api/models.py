@@ -37,7 +37,8 @@ class SetFile(BaseModel):
     size: int
     kind: str = Field(
         description="module_xml, config, thread_module, library, executable, layout, json, robot "
-        "(robot.json), bridge (dds.json), glb, urdf, mesh, header, text or st (Structured Text source)"
+        "(robot.json), bridge (dds.json), glb, urdf, mesh, header, text, st (Structured Text source) or "
+        "plcopen (a PLCopen XML project, docs/plcopen-xml.md)"
     )
 
 
@@ -49,6 +50,11 @@ class Problem(protocol.Place):
     file: str | None = Field(None, description="relative to the set's root, e.g. module.xml, main.st")
     code: str | None = Field(
         None, description="the ST compiler's error code (docs/st.md, Errors): `type`, `syntax`, ..."
+    )
+    origin: str | None = Field(
+        None,
+        description="for an error in a PLCopen XML file's drawn body: the element, e.g. "
+        "`main (LD) rung 4, contact localId 17` (docs/plcopen-xml.md)",
     )
 
 

@@ -1,4 +1,5 @@
-"""st_build.py -- sets with Structured Text: an upload that holds .st files is compiled here, before
+"""st_build.py -- sets with Structured Text: an upload that holds .st files (or PLCopen XML projects,
+LD/FBD/SFC/ST drawn in a PLC editor) is compiled here, before
 its files are checked, by `stc build` (st/, docs/st.md) run on a copy of it, so that
 the stored set holds its sources and what was built from them (module.xml, layout.json, one .so per
 PROGRAM instance) and irpd loads it like any other.  Laid out against the running layout
@@ -46,8 +47,15 @@ class StBuildError(UploadError):
     """The ST sources did not build: the detail says why; `problems` holds stc's errors."""
 
 
+def sources(files: list[Received]) -> list[str]:
+    """The paths of what stc compiles: .st files and PLCopen XML projects (uploads.is_plcopen)."""
+    return sorted(
+        f.path for f in files if f.path.lower().endswith(ST_SUFFIX) or file_kind(f.path, f.source) == "plcopen"
+    )
+
+
 def has_st(files: list[Received]) -> bool:
-    return any(f.path.lower().endswith(ST_SUFFIX) for f in files)
+    return bool(sources(files))
 
 
 def find_stc(configured: Path | None) -> Path:
@@ -105,7 +113,7 @@ def _build(files, work: Path, staging: Path, limits: Limits, stc: Path, timeout_
         args += [f"--previous={work / 'previous.json'}"]
     if "module.xml" in by_path:
         args += ["--module-xml", "module.xml"]
-    args += ["--", *sorted(p for p in by_path if p.lower().endswith(ST_SUFFIX))]
+    args += ["--", *sources(files)]
     _run(stc, args, root, work, limits, timeout_s)
     return _with_outputs(by_path, root, staging, limits)
 
@@ -183,7 +191,12 @@ def _input_errors(said: bytes, src: Path) -> StBuildError:
     files relative to the set (`src`: where the build read it; a file outside it is left out)."""
     try:
         problems = [
-            {"message": str(e["message"]), "code": str(e["code"]), **place({**e, "file": str(src / e["file"])}, src)}
+            {
+                "message": str(e["message"]),
+                "code": str(e["code"]),
+                **({"origin": str(e["origin"])} if e.get("origin") else {}),
+                **place({**e, "file": str(src / e["file"])}, src),
+            }
             for e in json.loads(said)
         ]
     except (ValueError, TypeError, KeyError):
@@ -205,9 +218,11 @@ def _input_errors(said: bytes, src: Path) -> StBuildError:
 
 
 def error_line(p: dict) -> str:
-    """`main.st:12:9: error[type]: message`, as stc prints it."""
+    """`main.st:12:9: error[type]: message`, as stc prints it (with the drawn element it is in, for a
+    PLCopen XML file: `plc.xml:40:1: error[undeclared]: main (LD) rung 4, contact localId 17: ...`)."""
     where = ":".join(str(p[k]) for k in ("file", "line", "column") if p.get(k))
-    return f"{where + ': ' if where else ''}error[{p.get('code')}]: {p.get('message')}"
+    origin = f"{p['origin']}: " if p.get("origin") else ""
+    return f"{where + ': ' if where else ''}error[{p.get('code')}]: {origin}{p.get('message')}"
 
 
 def _with_outputs(by_path: dict[str, Received], root: Path, staging: Path, limits: Limits) -> list[Received]:

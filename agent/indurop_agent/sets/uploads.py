@@ -24,6 +24,7 @@ from xml.parsers import expat
 
 from defusedxml import DTDForbidden, EntitiesForbidden, ExternalReferenceForbidden
 from defusedxml import ElementTree as SafeET
+from lxml import etree
 from python_multipart.multipart import MultipartParser, parse_options_header
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException
@@ -44,8 +45,10 @@ GZIP_TYPES = ("application/gzip", "application/x-gzip")
 ACCEPTED = (
     "module.xml (one, at the root), other .xml configs, .so thread modules and libraries, "
     "the executables module.xml names, .glb, .urdf, .json (robot.json at the root: the 3D view's joint map; dds.json at the root: the DDS bridge's mapping), "
-    ".stl/.dae/.obj meshes, .h, .txt, .md, .st (Structured Text: compiled on upload)"
+    ".stl/.dae/.obj meshes, .h, .txt, .md, .st (Structured Text: compiled on upload), "
+    "PLCopen XML projects (.xml whose root is a PLCopen <project>: imported and compiled on upload)"
 )
+PLCOPEN_NAMESPACES = "http://www.plcopen.org/xml/"
 PERCENT_ESCAPE = re.compile(r"%[0-9A-Fa-f]{2}")
 
 
@@ -523,6 +526,8 @@ def file_kind(path: str, source: Path) -> str | None:
         return "robot"
     if path == BRIDGE_JSON:
         return "bridge"
+    if suffix == ".xml" and is_plcopen(source):
+        return "plcopen"
     return {
         ".so": "library",
         ".xml": "config",
@@ -536,6 +541,22 @@ def file_kind(path: str, source: Path) -> str | None:
         ".txt": "text",
         ".md": "text",
     }.get(suffix)
+
+
+def is_plcopen(source: Path) -> bool:
+    """A PLCopen XML project (LD, FBD, SFC, ST drawn in a PLC editor: docs/plcopen-xml.md), compiled like
+    .st: its root element is <project> in a namespace of www.plcopen.org/xml (any TC6 version: stc names
+    the one it takes).  module.xml, an ioconfig.xml and other .xml are not.  Only the root's start tag
+    is read, without DTD or entity."""
+    try:
+        for _, el in etree.iterparse(
+            str(source), events=("start",), resolve_entities=False, load_dtd=False, no_network=True, huge_tree=False
+        ):
+            name = etree.QName(el)
+            return name.localname == "project" and (name.namespace or "").startswith(PLCOPEN_NAMESPACES)
+    except (etree.XMLSyntaxError, OSError):
+        return False
+    return False
 
 
 def check_set(files: list[Received]) -> list[StagedFile]:

@@ -18,14 +18,17 @@ from live_processes import BUILD, ROOT, remove_shm, start_irpd, stop, wait_dispa
 STC = ROOT / "st" / "stc"
 
 
-def stc_build(folder: Path, files: dict[str, str], *extra: str, out: str = "set") -> subprocess.CompletedProcess:
-    """Writes the ST files into folder/src and runs `stc build -o folder/<out> ... --json` there."""
+def stc_build(folder: Path, files: dict[str, str | Path], *extra: str, out: str = "set") -> subprocess.CompletedProcess:
+    """Writes the ST files into folder/src and runs `stc build -o folder/<out> ... --json` there; a file
+    given as a Path (a PLCopen XML project, say) is built where it is."""
     src = folder / "src"
     src.mkdir(parents=True, exist_ok=True)
     for name, text in files.items():
-        (src / name).write_text(text)
+        if not isinstance(text, Path):
+            (src / name).write_text(text)
     cmd = [sys.executable, str(STC), "build", "-o", str(folder / out), "--json", "--sdk", str(BUILD), *extra]
-    return subprocess.run(cmd + list(files), cwd=src, capture_output=True, text=True, timeout=300)
+    names = [str(text) if isinstance(text, Path) else name for name, text in files.items()]
+    return subprocess.run(cmd + names, cwd=src, capture_output=True, text=True, timeout=300)
 
 
 def build_errors(folder: Path, files: dict[str, str], *extra: str) -> list[dict]:
@@ -37,7 +40,7 @@ def build_errors(folder: Path, files: dict[str, str], *extra: str) -> list[dict]
 class Running:
     """A built ST set running in irpd."""
 
-    def __init__(self, folder: Path, files: dict[str, str], *extra: str, irpd: tuple = ()) -> None:
+    def __init__(self, folder: Path, files: dict[str, str | Path], *extra: str, irpd: tuple = ()) -> None:
         r = stc_build(folder, files, *extra)
         assert r.returncode == 0, r.stdout + r.stderr
         self.folder = folder

@@ -1,6 +1,7 @@
 # test_conformance_calls.py -- ST executed in a real irpd: FUNCTIONs called as statements (their
 # result dropped, their VAR_IN_OUT and VAR_OUTPUT side effects kept) and untyped literals typed by
-# their context in MAX / MIN / LIMIT / SEL / MUX / ABS (into SINT, INT, DINT, UINT, REAL).  One
+# their context in MAX / MIN / LIMIT / SEL / MUX / ABS (into SINT, INT, DINT, UINT, REAL); an FB's
+# output read in another case than declared.  One
 # program runs once (a `done` flag), so every value is the result of exactly one pass.
 
 from __future__ import annotations
@@ -23,8 +24,14 @@ VAR_IN_OUT n : INT; END_VAR
   n := n + 1;
 END_FUNCTION
 
+FUNCTION_BLOCK Counter  (* its output read in another case: ST is case-insensitive *)
+VAR_OUTPUT Out : INT; END_VAR
+  Out := Out + 1;
+END_FUNCTION_BLOCK
+
 PROGRAM Calls
 VAR
+  cnt : Counter; counted : INT;
   done : BOOL;
   total : INT := 1; out : DINT; touched : INT; k : INT := 1; s : SINT := 3;
   si1 : SINT; si2 : SINT; si3 : SINT;
@@ -35,6 +42,8 @@ VAR
 END_VAR
   IF done THEN RETURN; END_IF;
   done := TRUE;
+  cnt();
+  counted := cnt.OUT + cnt.out;
   (* calls as statements: the result is dropped, the side effects happen *)
   Accum(1, 2, total);
   Accum(add := s, big := 70000, total := total, twice => out);
@@ -65,6 +74,7 @@ END_PROGRAM
 """
 
 EXPECTED = {
+    "counted": 2,
     "total": 5,  # 1 + 1, then + s (3)
     "out": 140000,
     "touched": 2,

@@ -4212,6 +4212,11 @@ export interface components {
              * @description the module (or executor) it is about
              */
             module?: string | null;
+            /**
+             * Origin
+             * @description for an error in a PLCopen XML file's drawn body: the element, e.g. `main (LD) rung 4, contact localId 17` (docs/plcopen-xml.md)
+             */
+            origin?: string | null;
         } & {
             [key: string]: unknown;
         };
@@ -4921,7 +4926,7 @@ export interface components {
         SetFile: {
             /**
              * Kind
-             * @description module_xml, config, thread_module, library, executable, layout, json, robot (robot.json), bridge (dds.json), glb, urdf, mesh, header, text or st (Structured Text source)
+             * @description module_xml, config, thread_module, library, executable, layout, json, robot (robot.json), bridge (dds.json), glb, urdf, mesh, header, text, st (Structured Text source) or plcopen (a PLCopen XML project, docs/plcopen-xml.md)
              */
             kind: string;
             /**

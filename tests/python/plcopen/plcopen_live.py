@@ -1,0 +1,88 @@
+# plcopen_live.py -- helpers for the PLCopen XML importer's tests: the shared real projects
+# (../shared/plcopen, read in place, never copied into the project), a project derived from one at
+# test time (a POU made a function block so that an ST harness can call it and count cycles), and
+# st_live's Running (stc build + a real irpd) reused for both.
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from live_processes import ROOT
+
+sys.path.insert(0, str(ROOT / "tests" / "python" / "st"))
+sys.path.insert(0, str(ROOT / "plcopen"))
+sys.path.insert(0, str(ROOT / "st"))
+
+from st_live import Running, build_errors, stc_build  # noqa: E402
+
+
+def _shared_folder() -> Path:
+    """../shared/plcopen beside the repository; for a git worktree elsewhere, beside its main checkout."""
+    here = ROOT.parent / "shared" / "plcopen"
+    if here.is_dir():
+        return here
+    common = subprocess.run(
+        ["git", "-C", str(ROOT), "rev-parse", "--path-format=absolute", "--git-common-dir"],
+        capture_output=True,
+        text=True,
+    ).stdout.strip()
+    main = Path(common).parent.parent / "shared" / "plcopen" if common else here
+    return main if main.is_dir() else here
+
+
+SHARED = _shared_folder()
+NS = "http://www.plcopen.org/xml/tc6_0201"
+
+
+def shared(name: str) -> Path:
+    """The plc.xml of a shared project, in place; the test is skipped (saying why) if it is absent."""
+    path = SHARED / name / "plc.xml"
+    if not path.is_file():
+        pytest.skip(f"the shared PLCopen projects are not at {SHARED} (see PLAN31b.md)")
+    return path
+
+
+def derived(
+    name: str,
+    out: Path,
+    *,
+    drop: tuple[str, ...] = (),
+    as_fb: dict[str, tuple[str, ...]] | None = None,
+    instance_type: str = "Harness",
+) -> Path:
+    """A copy of a shared project written to `out` (a test's tmp folder) with POUs `drop` removed, each
+    POU of `as_fb` made a function block whose named variables are outputs (an ST harness reads them),
+    and every pouInstance made an instance of `instance_type` (the harness, an ST program)."""
+    from lxml import etree
+
+    def q(tag: str) -> str:
+        return f"{{{NS}}}{tag}"
+
+    root = etree.parse(str(shared(name))).getroot()
+    for pou in list(root.iter(q("pou"))):
+        pou_name = pou.get("name")
+        if pou_name in drop:
+            pou.getparent().remove(pou)
+            continue
+        outputs = (as_fb or {}).get(pou_name)
+        if outputs is None:
+            continue
+        pou.set("pouType", "functionBlock")
+        iface = pou.find(q("interface"))
+        section = etree.SubElement(iface, q("outputVars"))
+        for var in list(iface.iter(q("variable"))):
+            if var.get("name") in outputs:
+                var.getparent().remove(var)
+                var.attrib.pop("address", None)
+                section.append(var)
+    for inst in root.iter(q("pouInstance")):
+        inst.set("typeName", instance_type)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_bytes(etree.tostring(root, xml_declaration=True, encoding="utf-8"))
+    return out
+
+
+__all__ = ["Running", "build_errors", "derived", "shared", "stc_build"]
