@@ -183,13 +183,24 @@ def _validate(root: etree._Element) -> None:
         )
 
 
-def unit_of(path: str) -> t.Unit:
-    """A set's source file: ST (.st) parsed, PLCopen XML (.xml) imported."""
-    if Path(path).suffix.lower() == ".xml":
-        from plcopen_import.project import read_unit
+def import_unit(file: str, data: bytes | None = None) -> t.Unit:
+    """A PLCopen XML source imported (plcopen_import), each Pou keeping the <pou> element it came from
+    (`xml`), whose drawing the export writes back."""
+    from plcopen_import.project import unit_of as imported
+    from plcopen_import.read import read as read_xml
+    from plcopen_import.read import read_file
 
-        return read_unit(path)
-    return parse_file(path)
+    root = read_file(file) if data is None else read_xml(file, data)
+    unit = imported(file, root)
+    elements = {el.get("name", "").upper(): el for el in root.iterfind(f"{q('types')}/{q('pous')}/{q('pou')}")}
+    for pou in unit.pous:
+        pou.xml = elements.get(pou.name.upper())
+    return unit
+
+
+def unit_of(path: str) -> t.Unit:
+    """A set's source file: PLCopen XML (.xml) imported, ST parsed."""
+    return import_unit(path) if Path(path).suffix.lower() == ".xml" else parse_file(path)
 
 
 def export_files(paths: list[str], name: str = "indurop") -> bytes:

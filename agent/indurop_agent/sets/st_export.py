@@ -1,7 +1,8 @@
 """st_export.py -- a stored set's programs as one PLCopen XML 2.01 project (docs/plcopen-xml.md
 "Export"), written in the agent's own process by the exporter beside the compiler (plcopen/ next to
 st/, found from the configured `stc` as st_check finds stc_compiler), from the set's sources as
-stored: their trees parsed (and kept) as the Programs page's check does."""
+stored: .st files parsed (and kept) as the Programs page's check does, PLCopen XML files imported
+(their POUs keep their drawings)."""
 
 from __future__ import annotations
 
@@ -30,14 +31,19 @@ def exporter(stc: Path):
     return importlib.import_module("plcopen_export")
 
 
-def export(stc: Path, texts: dict[str, str], name: str) -> bytes:
-    """The set's sources (path -> text) as PLCopen XML bytes; ExportError with stc's words."""
+def export(stc: Path, folder: Path, paths: list[str], name: str) -> bytes:
+    """The set's sources (paths in `folder`: .st, or PLCopen XML .xml) as PLCopen XML bytes;
+    ExportError with stc's words."""
     module = exporter(stc)
     errors = st_check.compiler(stc).errors
     parsed = st_check.parsed(stc)
+    texts = {p: (folder / p).read_text(encoding="utf-8", errors="replace") for p in paths if p.lower().endswith(".st")}
     try:
         with st_check._LOCK:
-            units = [parsed.unit(path, text) for path, text in sorted(texts.items())]
+            units = [
+                parsed.unit(p, texts[p]) if p in texts else module.import_unit(p, (folder / p).read_bytes())
+                for p in sorted(paths)
+            ]
             return module.export(units, texts, name=name)
     except errors.StErrors as e:
         raise ExportError("; ".join(str(x) for x in e.errors)) from None

@@ -18,6 +18,7 @@ from agent_helpers import FIG1, IRPD, LiveCell, free_port, st_configuration
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "plcopen"))
 from export_helpers import independent_reader  # noqa: E402
+from plcopen_live import shared  # noqa: E402
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
@@ -211,6 +212,20 @@ def test_a_viewer_downloads_the_running_programs_as_plcopen_xml(cell):
     assert same.status_code == 200 and independent_reader(same.content).types.pous.pou[0].name == "Counter"
     r = cell.as_viewer("GET", "/programs/export", params={"set": "0123456789abcdef"})
     assert r.status_code == 404 and "GET /api/v1/sets" in r.json()["detail"], r.text
+
+
+def test_a_drawn_program_is_exported_with_its_drawing(cell):
+    """A set uploaded as PLCopen XML (OpenPLC Editor's Blink, a ladder) is exported with its rungs
+    as drawn: every element and position of the file's LD body."""
+    blink = shared("openplc_blink")
+    stored = cell.upload([("files", ("plc.xml", blink.read_bytes()))])
+    r = cell.as_viewer("GET", "/programs/export", params={"set": stored["id"]})
+    assert r.status_code == 200, r.text
+    (pou,) = independent_reader(r.content).types.pous.pou
+    ld = pou.body[0].ld
+    original = independent_reader(blink.read_bytes()).types.pous.pou[0].body[0].ld
+    assert (pou.name, len(ld.contact), len(ld.coil), len(ld.block)) == ("Blink", 1, 1, 2)
+    assert ld == original
 
 
 def test_bad_requests_are_named(cell):

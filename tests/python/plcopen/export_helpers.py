@@ -1,6 +1,6 @@
 # export_helpers.py -- helpers for the PLCopen XML export's tests: the compiler's and the importer's
-# packages on the path, a canonical dump of a tree (its nodes without places or origins), the shared
-# PLCopen projects, and the independent reader (the PyPI package `plcopen`, xsdata classes of the schema).
+# packages on the path, a canonical dump of a tree (its nodes without places or origins), and the
+# independent reader (the PyPI package `plcopen`, xsdata classes of the schema).
 
 from __future__ import annotations
 
@@ -10,7 +10,6 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[3]
 STC = ROOT / "st" / "stc"
-SHARED = ROOT.parent / "shared" / "plcopen"  # nine real projects, read in place (/work/shared/plcopen/SOURCES.md)
 sys.path[:0] = [str(ROOT / "st"), str(ROOT / "plcopen")]
 
 from stc_compiler.errors import Place  # noqa: E402

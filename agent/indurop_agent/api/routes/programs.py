@@ -146,11 +146,11 @@ def export_programs(request: Request, _: ViewerDep, set: str | None = None) -> R
     drawing), configurations, tasks and program instances (docs/plcopen-xml.md "Export")."""
     set_id = _set_id(request, set)
     manifest = request.app.state.store.manifest(set_id)
-    texts = {p: _text(request, set_id, p) for p in _st_paths(manifest)}
-    if not texts:
-        raise HTTPException(404, f"set {set_id} has no programs (.st files) to export")
+    paths = sorted(f["path"] for f in manifest["files"] if f["kind"] in ("st", "plcopen"))
+    if not paths:
+        raise HTTPException(404, f"set {set_id} has no programs (.st or PLCopen XML files) to export")
     try:
-        data = st_export.export(_stc(request), texts, f"set {set_id}")
+        data = st_export.export(_stc(request), request.app.state.store.files_dir(set_id), paths, f"set {set_id}")
     except st_check.CompilerMissing as e:
         raise _compiler_missing(e) from e
     except st_export.ExportError as e:
