@@ -15,11 +15,11 @@ class Ctx:
     output or a variable); body_key is the body's name as its origins print it (the POU's name, or
     `POU.action` for an action's or transition's body)."""
 
-    def __init__(self, file: str, pou_el: etree._Element, pou: t.Pou) -> None:
+    def __init__(self, file: str, pou_el: etree._Element, pou: t.Pou, flows: dict | None = None) -> None:
         self.file = file
         self.pou_el = pou_el
         self.pou = pou
-        self.flows: dict[tuple[str, int, str | None], t.Expr] = {}
+        self.flows: dict[tuple[str, int, str | None], t.Expr] = {} if flows is None else flows
         self._nets: dict[int, object] = {}
 
     def declare(self, decl: t.VarDecl) -> None:

@@ -309,7 +309,22 @@ class Net:
                         raise self.error(e, f"a connection to localId {link.ref}, which no element has")
         for e in positional([e for e in self.body.elements.values() if e.kind in ACTING]):
             self.statement(e)
+        self.every_flow()
         return self.take()
+
+    def every_flow(self) -> None:
+        """ctx.flows gets the value of every output drawn, also of those nothing reads (a coil at the
+        right rail, a block's unused output): the live view shows them all."""
+        for e in positional(list(self.body.elements.values())):
+            if e.kind in UNNUMBERED or e.kind in ("jump", "return", "connector", "outVariable", "label"):
+                continue
+            for formal, _ in e.outputs or ([(None, None)] if e.kind in ("contact", "coil") else []):
+                if (self.body.pou, e.id, formal or None) not in self.ctx.flows:
+                    saved, self.guards = self.guards, []
+                    try:
+                        self.value_of(e, formal, e)
+                    finally:
+                        self.guards = saved
 
     def take(self) -> list:
         """The statements written so far (jumps resolved), and the list emptied."""

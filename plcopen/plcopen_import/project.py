@@ -41,14 +41,18 @@ class Text:
         self.file = file
         self.lines: list[str] = []
         self.elements: list[etree._Element | None] = []
+        self.origins: list[str] = []
 
-    def add(self, line: str, el: etree._Element | None) -> None:
+    def add(self, line: str, el: etree._Element | None, origin: str = "") -> None:
+        """A line for `el`; `origin` names it in errors (`main_test variable LOGGER0`)."""
         self.lines.append(line)
         self.elements.append(el)
+        self.origins.append(origin)
 
-    def place(self, line: int, origin: str = "") -> Place:
-        el = self.elements[line - 1] if 0 < line <= len(self.elements) else None
-        return place(self.file, el, origin)
+    def place(self, line: int) -> Place:
+        if not 0 < line <= len(self.elements):
+            return place(self.file, None)
+        return place(self.file, self.elements[line - 1], self.origins[line - 1])
 
     def parse(self) -> t.Unit:
         """The text parsed by stc's parser; every place moved to its XML element's line."""
@@ -138,7 +142,7 @@ def value_text(file: str, el: etree._Element) -> str:
     raise _fail(file, v, f"<{tag}> is not an initial value")
 
 
-def _variable(text: Text, var: etree._Element) -> None:
+def _variable(text: Text, var: etree._Element, owner: str) -> None:
     """One <variable> of a var list, on one line: `name [AT %addr] : type [:= init];`."""
     file = text.file
     name = var.get("name")
@@ -148,17 +152,21 @@ def _variable(text: Text, var: etree._Element) -> None:
     at = f" AT {address}" if address and not DIRECT.match(address) else ""
     typ = type_text(file, var.find(q("type")))
     init = var.find(q("initialValue"))
-    text.add(f"  {name}{at} : {typ}{' := ' + value_text(file, init) if init is not None else ''};", var)
+    text.add(
+        f"  {name}{at} : {typ}{' := ' + value_text(file, init) if init is not None else ''};",
+        var,
+        f"{owner} variable {name}",
+    )
 
 
-def _var_list(text: Text, section: str, lst: etree._Element) -> None:
+def _var_list(text: Text, section: str, lst: etree._Element, owner: str) -> None:
     quals = [w for w in ("constant", "retain", "persistent") if lst.get(w) == "true"]
     if lst.get("nonretain") == "true":
         quals.append("NON_RETAIN")
-    text.add(f"{section} {' '.join(w.upper() for w in quals)}".rstrip(), lst)
+    text.add(f"{section} {' '.join(w.upper() for w in quals)}".rstrip(), lst, owner)
     for var in lst.findall(q("variable")):
-        _variable(text, var)
-    text.add("END_VAR", lst)
+        _variable(text, var, owner)
+    text.add("END_VAR", lst, owner)
 
 
 def _data_type(text: Text, dt: etree._Element) -> None:
@@ -167,22 +175,24 @@ def _data_type(text: Text, dt: etree._Element) -> None:
     inner = [c for c in base if isinstance(c.tag, str)][0]
     init = dt.find(q("initialValue"))
     tail = f" := {value_text(file, init)}" if init is not None else ""
+    origin = f"type {dt.get('name')}"
     if local(inner) == "struct":
-        text.add(f"TYPE {dt.get('name')} : STRUCT", dt)
+        text.add(f"TYPE {dt.get('name')} : STRUCT", dt, origin)
         for var in inner.findall(q("variable")):
-            _variable(text, var)
-        text.add("END_STRUCT; END_TYPE", dt)
+            _variable(text, var, origin)
+        text.add("END_STRUCT; END_TYPE", dt, origin)
     else:
-        text.add(f"TYPE {dt.get('name')} : {type_text(file, base)}{tail}; END_TYPE", dt)
+        text.add(f"TYPE {dt.get('name')} : {type_text(file, base)}{tail}; END_TYPE", dt, origin)
 
 
 # ---- configurations ------------------------------------------------------------------------------
 
 
-def _resource(text: Text, res: etree._Element) -> None:
-    text.add(f"RESOURCE {res.get('name')} ON PLC", res)
+def _resource(text: Text, res: etree._Element, conf: str) -> None:
+    origin = f"{conf}, resource {res.get('name')}"
+    text.add(f"RESOURCE {res.get('name')} ON PLC", res, origin)
     for lst in res.findall(q("globalVars")):
-        _var_list(text, "VAR_GLOBAL", lst)
+        _var_list(text, "VAR_GLOBAL", lst, origin)
     for task in res.findall(q("task")):
         params = []
         if task.get("interval"):
@@ -190,24 +200,34 @@ def _resource(text: Text, res: etree._Element) -> None:
         if task.get("single"):
             params.append(f"SINGLE := {task.get('single')}")
         params.append(f"PRIORITY := {task.get('priority', '0')}")
-        text.add(f"TASK {task.get('name')} ({', '.join(params)});", task)
+        text.add(f"TASK {task.get('name')} ({', '.join(params)});", task, f"{origin}, task {task.get('name')}")
     for task in res.findall(q("task")):
         for inst in task.findall(q("pouInstance")):
-            text.add(f"PROGRAM {inst.get('name')} WITH {task.get('name')} : {inst.get('typeName')};", inst)
-    # a pouInstance directly under the resource is bound to no task: stc runs such a program on its own
-    # (the default task, docs/plcopen-xml.md)
+            text.add(
+                f"PROGRAM {inst.get('name')} WITH {task.get('name')} : {inst.get('typeName')};",
+                inst,
+                f"{origin}, pouInstance {inst.get('name')}",
+            )
+    # a pouInstance directly under the resource is bound to no task: when it would run is not said
+    # (Beremiz runs it every tick of the resource, other runtimes never), so it is refused
     for inst in res.findall(q("pouInstance")):
-        text.add(f"PROGRAM {inst.get('name')} : {inst.get('typeName')};", inst)
-    text.add("END_RESOURCE", res)
+        raise StError(
+            place(text.file, inst, f"{origin}, pouInstance {inst.get('name')}"),
+            "task",
+            f"the instance '{inst.get('name')}' of {inst.get('typeName')} is bound to no task (it is directly under "
+            "the resource); put it into a <task> (in the editor: give the instance a task) so that it has a period",
+        )
+    text.add("END_RESOURCE", res, origin)
 
 
 def _configuration(text: Text, conf: etree._Element) -> None:
-    text.add(f"CONFIGURATION {conf.get('name')}", conf)
+    origin = f"configuration {conf.get('name')}"
+    text.add(f"CONFIGURATION {conf.get('name')}", conf, origin)
     for lst in conf.findall(q("globalVars")):
-        _var_list(text, "VAR_GLOBAL", lst)
+        _var_list(text, "VAR_GLOBAL", lst, origin)
     for res in conf.findall(q("resource")):
-        _resource(text, res)
-    text.add("END_CONFIGURATION", conf)
+        _resource(text, res, origin)
+    text.add("END_CONFIGURATION", conf, origin)
 
 
 # ---- POUs ---------------------------------------------------------------------------------------
@@ -218,16 +238,17 @@ def _pou_header(text: Text, pou: etree._Element) -> None:
     kind = POU_KINDS[pou.get("pouType")]
     ret = pou.find(f"{q('interface')}/{q('returnType')}")
     returns = f" : {type_text(file, ret)}" if kind == "FUNCTION" and ret is not None else ""
-    text.add(f"{kind} {pou.get('name')}{returns}", pou)
+    name = pou.get("name")
+    text.add(f"{kind} {name}{returns}", pou, name)
     iface = pou.find(q("interface"))
     for lst in iface if iface is not None else []:
-        if not isinstance(lst.tag, str) or local(lst) in ("returnType", "documentation"):
+        if not isinstance(lst.tag, str) or local(lst) in ("returnType", "documentation", "addData"):
             continue
         section = SECTIONS.get(local(lst))
         if section is None:
             raise _fail(file, lst, f"<{local(lst)}> in POU '{pou.get('name')}' is not supported")
-        _var_list(text, section, lst)
-    text.add(f"END_{kind}", pou)
+        _var_list(text, section, lst, name)
+    text.add(f"END_{kind}", pou, name)
 
 
 def _sfc_module():
@@ -265,8 +286,10 @@ def body_of(ctx: Ctx, name: str, body_el: etree._Element) -> list:
     raise StError(place(ctx.file, lang_el, name), "plcopen", f"a <{lang}> body is not supported")
 
 
-def unit_of(file: str, root: etree._Element) -> t.Unit:
-    """The Unit of a project read by read.read (its types, POUs, globals and configurations)."""
+def unit_of(file: str, root: etree._Element, flows: dict | None = None) -> t.Unit:
+    """The Unit of a project read by read.read (its types, POUs, globals and configurations).  `flows`,
+    when given, gets every graphical body's values (Ctx.flows: (body, localId, formal) -> expression),
+    for the live view to fold on sampled values after check()."""
     text = Text(file)
     types = root.find(q("types"))
     pous = types.findall(f"{q('pous')}/{q('pou')}") if types is not None else []
@@ -279,7 +302,7 @@ def unit_of(file: str, root: etree._Element) -> t.Unit:
     unit = text.parse()
     errors: list[StError] = []
     for pou_el, pou in zip(pous, unit.pous, strict=True):
-        ctx = Ctx(file, pou_el, pou)
+        ctx = Ctx(file, pou_el, pou, flows)
         try:
             bodies = pou_el.findall(q("body"))
             if bodies:
