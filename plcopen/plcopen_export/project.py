@@ -83,6 +83,8 @@ def _guard(errors: list[StError], f, *args) -> None:
         f(*args)
     except StError as e:
         errors.append(e)
+    except StErrors as e:
+        errors += e.errors
 
 
 def _data_type(parent: etree._Element, d: t.TypeDecl) -> None:
@@ -133,35 +135,42 @@ def _resource(parent: etree._Element, r: t.Resource) -> None:
     known = {task.name.upper() for task in r.tasks}
     by_task: dict[str, list[t.ProgramConfig]] = {}
     free = []
+    errors: list[StError] = []
     for p in r.programs:
         if p.args or p.retain is not None:
-            raise StError(
-                p.place,
-                "export",
-                f"PROGRAM {p.name}: a program instance's arguments and RETAIN/NON_RETAIN have no PLCopen XML form; "
-                "declare them in the program instead",
+            errors.append(
+                StError(
+                    p.place,
+                    "export",
+                    f"PROGRAM {p.name}: a program instance's arguments and RETAIN/NON_RETAIN have no PLCopen XML form; "
+                    "declare them in the program instead",
+                )
             )
-        if p.task is not None and p.task.upper() in known:
+        elif p.task is not None and p.task.upper() in known:
             by_task.setdefault(p.task.upper(), []).append(p)
         elif p.task is None:
             free.append(p)
         else:
-            raise StError(p.place, "export", f"PROGRAM {p.name} runs WITH {p.task}, which resource {r.name} has not")
+            errors.append(
+                StError(p.place, "export", f"PROGRAM {p.name} runs WITH {p.task}, which resource {r.name} has not")
+            )
     for task in r.tasks:
         params = {k: expr(v) for k, (_place, v) in task.params.items()}
+        try:
+            priority = _priority(task)
+        except StError as e:
+            errors.append(e)
+            priority = "0"
         task_el = sub(
-            el,
-            "task",
-            name=task.name,
-            interval=params.get("INTERVAL"),
-            single=params.get("SINGLE"),
-            priority=_priority(task),
+            el, "task", name=task.name, interval=params.get("INTERVAL"), single=params.get("SINGLE"), priority=priority
         )
         for p in by_task.get(task.name.upper(), []):
             sub(task_el, "pouInstance", name=p.name, typeName=p.type_name)
     var_lists(el, r.vars, "globalVars")
     for p in free:
         sub(el, "pouInstance", name=p.name, typeName=p.type_name)
+    if errors:
+        raise StErrors(errors)
 
 
 def _priority(task: t.Task) -> str:

@@ -134,6 +134,7 @@ VAR_INPUT speed : INT; END_VAR
 END_PROGRAM
 CONFIGURATION C
   TASK T (INTERVAL := T#10ms, PRIORITY := 2);
+  TASK U (INTERVAL := T#20ms, PRIORITY := LOW);
   PROGRAM p1 WITH T : P (speed := 3);
 END_CONFIGURATION
 """
@@ -142,6 +143,15 @@ END_CONFIGURATION
     messages = [str(x) for x in e.value.errors]
     assert any("Gripper is implemented in C++" in m and m.startswith("p.st:3:1:") for m in messages), messages
     assert any("PROGRAM p1: a program instance's arguments" in m for m in messages), messages
+    assert any("TASK U: PLCopen XML needs its PRIORITY as a number 0..65535" in m for m in messages), messages
+
+
+def test_global_variables_outside_a_configuration_go_into_one():
+    text = "VAR_GLOBAL Speed : INT := 3; END_VAR\nPROGRAM P\nVAR_EXTERNAL Speed : INT; END_VAR\nSpeed := Speed + 1;\nEND_PROGRAM\n"
+    _, data = _export_text(text)
+    (config,) = independent_reader(data).instances.configurations.configuration
+    assert config.name == "Globals" and not config.resource
+    assert [(v.name, v.initial_value.simple_value.value) for v in config.global_vars[0].variable] == [("Speed", "3")]
 
 
 def test_stc_export_command(tmp_path):
