@@ -27,6 +27,7 @@ from indurop_agent.irpd.client import IrpdClient  # noqa: E402
 from indurop_agent.irpd.variables import Segment  # noqa: E402
 
 ST_SET = ROOT / "config" / "sets" / "plc-robot-st"
+LD_PLC = ROOT / "config" / "sets" / "plc-robot-ld" / "plc.xml"
 
 pytestmark = pytest.mark.skipif(not BUILT, reason=NOT_BUILT)
 
@@ -46,11 +47,13 @@ def test_the_st_cell_writes_what_the_cpp_cell_writes_period_by_period(tmp_path):
         assert seen in text, seen
 
 
-def test_the_st_cell_runs_the_pick_and_place_cycle_with_the_robot_and_its_drives(tmp_path):
-    """The ST PLC in the cell as it runs by default: Robot.so, the I/O dispatcher, the simulated
-    drives on Modbus TCP, all the plc-robot set's own modules."""
+@pytest.mark.parametrize("source", [ST_SET / "main.st", LD_PLC], ids=["st", "ld"])
+def test_the_st_cell_runs_the_pick_and_place_cycle_with_the_robot_and_its_drives(tmp_path, source):
+    """The ST PLC (and the one drawn in ladder, config/sets/plc-robot-ld) in the cell as it runs by
+    default: Robot.so, the I/O dispatcher, the simulated drives on Modbus TCP, all the plc-robot set's
+    own modules."""
     xml, _ = copy_cell(tmp_path / "cell")
-    xml = stc_build(xml.parent, xml.rename(xml.with_name("hand.xml")), [ST_SET / "main.st"])
+    xml = stc_build(xml.parent, xml.rename(xml.with_name("hand.xml")), [source])
     irpd = start_irpd(tmp_path / "irpd.sock", xml, f"cell-st-live-{id(tmp_path)}")
     control = IrpdClient(str(tmp_path / "irpd.sock"), timeout_s=30)
     try:
