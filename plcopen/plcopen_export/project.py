@@ -24,8 +24,8 @@ PRODUCT = "indurop"
 
 
 def source_pou(pou: t.Pou) -> etree._Element | None:
-    """The <pou> element of the PLCopen file `pou` was imported from (plcopen_import keeps it on the
-    Pou as `xml`), or None for a POU written in ST."""
+    """The <pou> element of the PLCopen file `pou` was imported from (import_unit keeps it on the Pou
+    as `xml`), or None for a POU written in ST."""
     el = getattr(pou, "xml", None)
     return el if isinstance(el, etree._Element) and local(el) == "pou" else None
 
