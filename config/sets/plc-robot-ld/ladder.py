@@ -153,7 +153,8 @@ class Drawing:
         h = TOP + PIN * max(len(ins), len(outs))
         if b.instance:
             top += 16  # the instance's name is drawn above the block
-        bx = RAIL_X + RAIL_W + 6 * (EL_W + GAP)
+        longest = max([len(v) for _, v in ins if isinstance(v, list)] + [5])  # the longest contact chain
+        bx = RAIL_X + RAIL_W + (longest + 1) * (EL_W + GAP)
         rows = [top + TOP + PIN * i for i in range(max(len(ins), len(outs)))]
         power_rows = [rows[i] for i, (_, v) in enumerate(ins) if isinstance(v, list)]
         _, starts = self._rail(power_rows, top, top + h)
