@@ -5,7 +5,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import importlib.util
 import re
 
@@ -60,30 +59,8 @@ class Text:
             unit = parse_text(self.file, "\n".join(self.lines) + "\n")
         except StError as e:
             raise StError(self.place(e.line), e.code, e.message) from None
-        _replace(unit, self, set())
+        st_text.replace_places(unit, lambda p: self.place(p.line))
         return unit
-
-
-def _replace(node, text: Text, seen: set[int]) -> None:
-    if id(node) in seen:
-        return
-    seen.add(id(node))
-    if isinstance(node, (list, tuple)):
-        for x in node:
-            _replace(x, text, seen)
-        return
-    if isinstance(node, dict):
-        for x in node.values():
-            _replace(x, text, seen)
-        return
-    if not dataclasses.is_dataclass(node) or isinstance(node, Place):
-        return
-    for f in dataclasses.fields(node):
-        value = getattr(node, f.name)
-        if f.name == "place" and isinstance(value, Place):
-            object.__setattr__(node, "place", text.place(value.line))
-        elif f.init:
-            _replace(value, text, seen)
 
 
 def _fail(file: str, el: etree._Element, message: str) -> StError:
@@ -278,11 +255,9 @@ def body_of(ctx: Ctx, name: str, body_el: etree._Element) -> list:
             raise StError(place(ctx.file, lang_el, f"{name} (SFC)"), "plcopen", "SFC bodies are not supported yet")
         return sfc.translate(ctx, ctx.pou_el, graph.body_graph(ctx.file, name, lang_el))
     if lang == "IL":
-        raise StError(
-            place(ctx.file, lang_el, f"{name} (IL)"),
-            "plcopen",
-            "IL is not supported; rewrite the POU in ST, LD or FBD (IL is deprecated by IEC 61131-3 edition 3)",
-        )
+        from . import il
+
+        return il.translate(ctx, name, lang_el)
     raise StError(place(ctx.file, lang_el, name), "plcopen", f"a <{lang}> body is not supported")
 
 

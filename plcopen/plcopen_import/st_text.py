@@ -62,18 +62,26 @@ def _moved_error(e: StError, shift: int, origin: str) -> StError:
 
 def _move(node, shift: int, origin: str, seen: set[int]) -> None:
     """Every node's place moved by `shift` lines and given `origin` (the tree is small: a body)."""
+    replace_places(node, lambda p: _moved(p, shift, origin), seen)
+
+
+def replace_places(node, new_place, seen: set[int] | None = None) -> None:
+    """Every tree node's place under `node` replaced by new_place(place)."""
+    seen = set() if seen is None else seen
     if id(node) in seen:
         return
     seen.add(id(node))
+    if isinstance(node, dict):
+        node = list(node.values())
     if isinstance(node, (list, tuple)):
         for x in node:
-            _move(x, shift, origin, seen)
+            replace_places(x, new_place, seen)
         return
     if not dataclasses.is_dataclass(node) or isinstance(node, Place):
         return
     for f in dataclasses.fields(node):
         value = getattr(node, f.name)
         if f.name == "place" and isinstance(value, Place):
-            object.__setattr__(node, "place", _moved(value, shift, origin))
+            object.__setattr__(node, "place", new_place(value))
         elif f.init:  # fields check.py fills later (type, decl, ...) are not the tree's
-            _move(value, shift, origin, seen)
+            replace_places(value, new_place, seen)

@@ -376,13 +376,20 @@ def unpack_archive(archive: Path, receiver: Receiver) -> None:
 
 def _strip_single_folder(receiver: Receiver) -> None:
     """`tar czf set.tar.gz myset/` puts everything under myset/: take that folder as the root (the
-    folder holding module.xml, or, in a set written in Structured Text alone, .st files)."""
+    folder holding module.xml, or, in a set written in Structured Text alone, .st files or PLCopen
+    XML projects)."""
     paths = [f.path for f in receiver.files]
     if not paths or "module.xml" in paths or any(p.count("/") == 0 for p in paths):
         return
     top = {p.split("/", 1)[0] for p in paths}
-    inside = [p.split("/", 1)[1] for p in paths]
-    if len(top) == 1 and any(p == "module.xml" or ("/" not in p and p.lower().endswith(".st")) for p in inside):
+
+    def root_of_a_set(f: Received) -> bool:
+        p = f.path.split("/", 1)[1]
+        return p == "module.xml" or (
+            "/" not in p and (p.lower().endswith(".st") or file_kind(p, f.source) == "plcopen")
+        )
+
+    if len(top) == 1 and any(root_of_a_set(f) for f in receiver.files):
         for f in receiver.files:
             f.path = f.path.split("/", 1)[1]
 

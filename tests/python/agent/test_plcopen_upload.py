@@ -1,6 +1,7 @@
 """test_plcopen_upload.py -- a PLCopen XML project (a real one drawn in OpenPLC Editor, read from
 ../shared/plcopen) uploaded to a real agent beside a real irpd: with irpctl it is imported and
-compiled on the appliance like .st, stored as kind `plcopen`, activated and run, while an .xml that is
+compiled on the appliance like .st, stored as kind `plcopen`, activated and run, then changed
+online with its values kept, while an .xml that is
 not PLCopen (an ioconfig.xml) stays a config file; bad PLCopen input (an undeclared variable in a
 rung, a connection to a missing localId, a cycle of blocks, another TC6 version, an entity bomb, not
 XML, a file over the size limit) refuses the upload with a clear error and leaves the running set
@@ -11,7 +12,7 @@ from __future__ import annotations
 import sys
 
 import pytest
-from agent_helpers import IRPD, ROOT
+from agent_helpers import IRPD, ROOT, tar_gz
 from live_processes import wait_until
 from test_st_upload import Cell, parts
 
@@ -44,6 +45,25 @@ def test_a_plcopen_project_uploaded_with_irpctl_is_imported_and_runs(cell, tmp_p
     r = cell.call("PUT", "/variables/instance0.INPUT_0", json={"value": True})
     assert r.status_code in (200, 204), r.text
     wait_until(lambda: cell.read("instance0.OUTPUT_0") is True, 10)  # XOR of TRUE and FALSE
+
+    # the rung changed in the editor (the XOR coil made negated) and uploaded again: activated online,
+    # the inputs keep their values
+    xml = (folder / "plc.xml").read_bytes()
+    (folder / "plc.xml").write_bytes(
+        xml.replace(b'<coil localId="7" negated="false"', b'<coil localId="7" negated="true"')
+    )
+    code, said = cell.irpctl(capsys, "upload", str(folder), "--activate")
+    assert code == 0 and "online" in said, said
+    assert cell.running() != set_id
+    assert cell.read("instance0.INPUT_0") is True
+    wait_until(lambda: cell.read("instance0.OUTPUT_0") is False, 10)
+
+
+def test_an_archive_of_a_folder_holding_a_plcopen_project_is_built(cell):
+    archive = tar_gz([("myset/plc.xml", shared("tutorial_not_or_nor").read_bytes())])
+    r = cell.call("POST", "/sets", files=[("archive", ("set.tar.gz", archive))])
+    assert r.status_code == 201, r.text
+    assert {f["path"]: f["kind"] for f in r.json()["files"]}["plc.xml"] == "plcopen"
 
 
 def ladder(body: str, *variables: str) -> bytes:
@@ -108,14 +128,7 @@ def test_not_xml_and_a_file_over_the_limit_are_refused(cell):
 
 
 def test_a_cycle_of_blocks_is_refused_naming_them(cell):
-    body_xml = "".join(
-        [
-            x.in_var(1, "n", 0, 0),
-            x.block(2, "ADD", {"IN1": 1, "IN2": (3, "OUT")}, ["OUT"], 100, 0),
-            x.block(3, "MUL", {"IN1": (2, "OUT"), "IN2": 1}, ["OUT"], 200, 0),
-            x.out_var(4, "n", (3, "OUT"), 300, 0),
-        ]
-    )
+    body_xml = x.blocks_in_a_cycle("n")
     data = x.project(
         x.pou("main", "program", x.section("localVars", x.var("n", "INT")), "FBD", body_xml), instances=x.config("main")
     )

@@ -10,12 +10,13 @@ import sys
 from pathlib import Path
 
 import pytest
-from live_processes import ROOT
+from live_processes import ROOT, wait_until
 
 sys.path.insert(0, str(ROOT / "tests" / "python" / "st"))
 sys.path.insert(0, str(ROOT / "plcopen"))
 sys.path.insert(0, str(ROOT / "st"))
 
+from st_helpers import run_stc  # noqa: E402
 from st_live import Running, build_errors, stc_build  # noqa: E402
 
 
@@ -85,4 +86,15 @@ def derived(
     return out
 
 
-__all__ = ["Running", "build_errors", "derived", "shared", "stc_build"]
+def recorded(folder: Path, files: dict, counter: str, cycles: int, array: str) -> list:
+    """Runs a drawn project with an ST harness that counts its cycles in `counter` (a path) and records
+    into `array`; the array's values, in order, once the harness has run more than `cycles` cycles."""
+    run = Running(folder, files)
+    try:
+        wait_until(lambda: run.value(counter) > cycles, 30)
+        return list(run.values(array).values())
+    finally:
+        run.close()
+
+
+__all__ = ["Running", "build_errors", "derived", "recorded", "run_stc", "shared", "stc_build"]

@@ -73,13 +73,17 @@ def rail(lid: int, x: float = 0, y: float = 0) -> str:
     return f'<leftPowerRail localId="{lid}" width="10" height="1000">{_pos(x, y)}<connectionPointOut formalParameter=""/></leftPowerRail>'
 
 
-def contact(lid: int, variable: str, ref, x: float, y: float, negated: bool = False, edge: str | None = None) -> str:
-    e = f' edge="{edge}"' if edge else ""
-    n = ' negated="true"' if negated else ""
+def _ld_element(tag: str, lid: int, variable: str, ref, x: float, y: float, **attrs) -> str:
+    """A contact or coil: attrs such as negated=True, edge="rising", storage="set" (None: left out)."""
+    a = "".join(f' {k}="{str(v).lower()}"' for k, v in attrs.items() if v)
     return (
-        f'<contact localId="{lid}"{n}{e} width="20" height="20">{_pos(x, y)}{_links(ref)}'
-        f"<connectionPointOut/><variable>{variable}</variable></contact>"
+        f'<{tag} localId="{lid}"{a} width="20" height="20">{_pos(x, y)}{_links(ref)}'
+        f"<connectionPointOut/><variable>{variable}</variable></{tag}>"
     )
+
+
+def contact(lid: int, variable: str, ref, x: float, y: float, negated: bool = False, edge: str | None = None) -> str:
+    return _ld_element("contact", lid, variable, ref, x, y, negated=negated, edge=edge)
 
 
 def coil(
@@ -92,13 +96,7 @@ def coil(
     storage: str | None = None,
     edge: str | None = None,
 ) -> str:
-    s = f' storage="{storage}"' if storage else ""
-    e = f' edge="{edge}"' if edge else ""
-    n = ' negated="true"' if negated else ""
-    return (
-        f'<coil localId="{lid}"{n}{s}{e} width="20" height="20">{_pos(x, y)}{_links(ref)}'
-        f"<connectionPointOut/><variable>{variable}</variable></coil>"
-    )
+    return _ld_element("coil", lid, variable, ref, x, y, negated=negated, storage=storage, edge=edge)
 
 
 def block(
@@ -150,3 +148,15 @@ def connector(lid: int, name: str, ref, x: float, y: float) -> str:
 
 def continuation(lid: int, name: str, x: float, y: float) -> str:
     return f'<continuation localId="{lid}" name="{name}" width="20" height="20">{_pos(x, y)}<connectionPointOut/></continuation>'
+
+
+def blocks_in_a_cycle(variable: str) -> str:
+    """An FBD body whose ADD and MUL feed each other with no variable between them (refused)."""
+    return "".join(
+        [
+            in_var(1, variable, 0, 0),
+            block(2, "ADD", {"IN1": 1, "IN2": (3, "OUT")}, ["OUT"], 100, 0),
+            block(3, "MUL", {"IN1": (2, "OUT"), "IN2": 1}, ["OUT"], 200, 0),
+            out_var(4, variable, (3, "OUT"), 300, 0),
+        ]
+    )

@@ -2,7 +2,7 @@
 # in a drawn body names the POU, the body's language, the rung and the element's localId (item 2);
 # bad input (item 6) is refused with a clear error: not XML, another namespace or version, an element
 # the schema does not know (named), a connection to a missing localId, a file over the size limit, an
-# entity-expansion bomb, an IL body, a jump with no label after it.
+# entity-expansion bomb, IL it cannot translate, a jump with no label after it.
 
 from __future__ import annotations
 
@@ -10,8 +10,7 @@ import json
 
 import plcopen_xml as x
 import pytest
-from plcopen_live import shared
-from st_helpers import run_stc
+from plcopen_live import run_stc
 
 
 def check(tmp_path, data: bytes, name: str = "plc.xml") -> list[dict]:
@@ -110,8 +109,10 @@ def test_an_entity_expansion_bomb_is_not_expanded(tmp_path):
     assert "DTD" in err["message"] and "entities are not expanded" in err["message"]
 
 
-def test_an_il_body_is_refused_naming_its_pou(tmp_path):
-    errors = check(tmp_path, shared("beremiz_first_steps").read_bytes(), "first_steps.xml")
-    il = [e for e in errors if "IL" in e.get("origin", "")]
-    assert len(il) == 1, errors
-    assert il[0]["origin"] == "CounterIL (IL)" and il[0]["message"].startswith("IL is not supported")
+def test_il_it_cannot_translate_names_the_line(tmp_path):
+    il = '<IL><xhtml:p><![CDATA[LD a\nAND( b\nOR c\n)\nST a\n]]></xhtml:p></IL>'
+    iface = x.section("localVars", *(x.var(v, "BOOL") for v in "abc"))
+    data = x.project(f'<pou name="main" pouType="program"><interface>{iface}</interface><body>{il}</body></pou>')
+    err = one(tmp_path, data)
+    assert err["origin"] == "main (IL) line 2"
+    assert "'AND(' (a parenthesised operator) is not supported" in err["message"]

@@ -8,9 +8,7 @@ from __future__ import annotations
 import json
 
 import plcopen_xml as x
-from live_processes import wait_until
-from plcopen_live import Running
-from st_helpers import run_stc
+from plcopen_live import recorded, run_stc
 
 HARNESS = """
 PROGRAM Harness
@@ -62,27 +60,15 @@ def test_fbd_connectors_feedback_and_order(tmp_path):
     body = flow()
     xml = tmp_path / "flow.xml"
     xml.write_bytes(x.project(x.pou("Flow", "functionBlock", iface, "FBD", body), instances=x.config("Harness")))
-    run = Running(tmp_path, {"flow.xml": xml, "harness.st": HARNESS})
-    try:
-        wait_until(lambda: run.value("instance0.n") > 4, 30)
-        got = list(run.values("instance0.got").values())
-    finally:
-        run.close()
+    got = recorded(tmp_path, {"flow.xml": xml, "harness.st": HARNESS}, "instance0.n", 4, "instance0.got")
     rows = [got[i : i + 4] for i in range(0, 16, 4)]
     # y = x + 10; acc = 1, 3, 6, 10; z = w of this cycle (w := x runs first); notbig = NOT (x > 2)
     assert rows == [[11, 1, 1, 1], [12, 3, 2, 1], [13, 6, 3, 0], [14, 10, 4, 0]]
 
 
 def test_a_cycle_without_a_variable_is_refused_naming_its_blocks(tmp_path):
-    body = "".join(
-        [
-            x.in_var(1, "x", 0, 0),
-            x.block(2, "ADD", {"IN1": 1, "IN2": (3, "OUT")}, ["OUT"], 100, 0),
-            x.block(3, "MUL", {"IN1": (2, "OUT"), "IN2": 1}, ["OUT"], 200, 0),
-            x.out_var(4, "y", (3, "OUT"), 300, 0),
-        ]
-    )
-    iface = x.section("inputVars", x.var("x", "INT")) + x.section("outputVars", x.var("y", "INT"))
+    body = x.blocks_in_a_cycle("y")
+    iface = x.section("outputVars", x.var("y", "INT"))
     (tmp_path / "loop.xml").write_bytes(x.project(x.pou("Loop", "functionBlock", iface, "FBD", body)))
     r = run_stc(["check", "--json", "loop.xml"], tmp_path)
     assert r.returncode == 1, r.stderr

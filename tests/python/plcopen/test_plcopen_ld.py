@@ -7,8 +7,7 @@
 from __future__ import annotations
 
 import plcopen_xml as x
-from live_processes import wait_until
-from plcopen_live import Running
+from plcopen_live import recorded
 
 INPUTS = ("a", "b", "r", "stop")
 OUTPUTS = ("p", "f", "s", "nc", "pc", "orab", "skipped", "cnt", "eno", "last")
@@ -113,12 +112,7 @@ def test_ld_elements_cycle_by_cycle(tmp_path):
     )
     sched = ", ".join("TRUE" if v else "FALSE" for row in SCHEDULE for v in row)
     harness = HARNESS.format(n=len(SCHEDULE), k=len(OUTPUTS), sched=sched, record=record)
-    run = Running(tmp_path, {"ladder.xml": xml, "harness.st": harness})
-    try:
-        wait_until(lambda: run.value("instance0.n") > len(SCHEDULE), 30)
-        got = list(run.values("instance0.got").values())
-    finally:
-        run.close()
+    got = recorded(tmp_path, {"ladder.xml": xml, "harness.st": harness}, "instance0.n", len(SCHEDULE), "instance0.got")
     k = len(OUTPUTS)
     rows = [dict(zip(OUTPUTS, got[i : i + k], strict=True)) for i in range(0, len(got), k)]
     want = [dict(zip(OUTPUTS, row, strict=True)) for row in model()]

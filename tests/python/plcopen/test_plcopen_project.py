@@ -11,8 +11,7 @@ import json
 
 import plcopen_xml as x
 from live_processes import wait_until
-from plcopen_live import Running, shared
-from st_helpers import run_stc
+from plcopen_live import Running, run_stc, shared
 
 TYPES = (
     '<dataType name="Pair"><baseType><struct>'

@@ -9,7 +9,7 @@ import itertools
 
 import pytest
 from live_processes import wait_until
-from plcopen_live import Running, derived, shared
+from plcopen_live import Running, derived, recorded, shared
 
 
 def _truth(run: Running, inputs: dict[str, int], outputs: dict[str, int]) -> None:
@@ -122,34 +122,30 @@ def test_fbd_traffic_light_sequence(tmp_path):
     assert all(abs(n - m) <= 2 for (n, _), (m, _) in zip(changes, want)), changes
 
 
-# the counters in ST, FBD and LD of the five-language projects: Reset FALSE in cycles 1-10, TRUE in
-# 11-13, FALSE in 14-17 (SOURCES.md's worked sequence); the program itself (plc_prg) calls the SFC and
-# IL counters too, so the harness calls the three others
+# the counters in ST, FBD, LD and IL of the five-language projects: Reset FALSE in cycles 1-10, TRUE
+# in 11-13, FALSE in 14-17 (SOURCES.md's worked sequence); the program itself (plc_prg) calls the SFC
+# counter too, so the harness calls the four others
 COUNTERS = """
 PROGRAM Harness
 VAR
-  cst : CounterST; cfbd : CounterFBD; cld : CounterLD;
+  cst : CounterST; cfbd : CounterFBD; cld : CounterLD; cil : CounterIL;
   n : DINT; Reset : BOOL;
-  got : ARRAY[1..17, 1..3] OF INT;
+  got : ARRAY[1..17, 1..4] OF INT;
 END_VAR
   n := n + 1;
   Reset := n >= 11 AND n <= 13;
-  cst(Reset := Reset); cfbd(Reset := Reset); cld(Reset := Reset);
+  cst(Reset := Reset); cfbd(Reset := Reset); cld(Reset := Reset); cil(Reset := Reset);
   IF n <= 17 THEN
-    got[n, 1] := cst.OUT; got[n, 2] := cfbd.OUT; got[n, 3] := cld.OUT;
+    got[n, 1] := cst.OUT; got[n, 2] := cfbd.OUT; got[n, 3] := cld.OUT; got[n, 4] := cil.OUT;
   END_IF;
 END_PROGRAM
 """
 
 
 @pytest.mark.parametrize("project", ["beremiz_first_steps", "openplc_multi_language"])
-def test_st_fbd_and_ld_counters(tmp_path, project):
-    xml = derived(project, tmp_path / "xml" / "plc.xml", drop=("CounterSFC", "CounterIL", "plc_prg"))
-    run = Running(tmp_path, {"plc.xml": xml, "harness.st": COUNTERS})
-    try:
-        wait_until(lambda: run.value("plc_task_instance.n") > 17, 30)
-        got = list(run.values("plc_task_instance.got").values())
-    finally:
-        run.close()
+def test_st_fbd_ld_and_il_counters(tmp_path, project):
+    xml = derived(project, tmp_path / "xml" / "plc.xml", drop=("CounterSFC", "plc_prg"))
+    files = {"plc.xml": xml, "harness.st": COUNTERS}
+    got = recorded(tmp_path, files, "plc_task_instance.n", 17, "plc_task_instance.got")
     want = [*range(1, 11), 17, 17, 17, 18, 19, 20, 21]
-    assert [got[i : i + 3] for i in range(0, 51, 3)] == [[w, w, w] for w in want]
+    assert [got[i : i + 4] for i in range(0, 68, 4)] == [[w] * 4 for w in want]
