@@ -823,6 +823,28 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/programs/export": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Export Programs
+         * @description The set's (default: the active set's) programs as one PLCopen XML 2.01 project, to open in a
+         *     PLC editor: data types, POUs (ST bodies as written; a POU imported from PLCopen XML with its
+         *     drawing), configurations, tasks and program instances (docs/plcopen-xml.md "Export").
+         */
+        get: operations["export_programs_api_v1_programs_export_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/programs/history": {
         parameters: {
             query?: never;
@@ -7602,6 +7624,42 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["HTTPValidationError"];
                 };
+            };
+        };
+    };
+    export_programs_api_v1_programs_export_get: {
+        parameters: {
+            query?: {
+                set?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description a PLCopen XML 2.01 project (TC6 XML v2.01) */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/xml": unknown;
+                };
+            };
+            /** @description no such set, no active set, or no such .st file in it */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a source has what PLCopen XML cannot say (e.g. a POU implemented in C++) */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
         };
     };

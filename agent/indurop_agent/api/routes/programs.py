@@ -3,7 +3,7 @@ POUs, a file's source, the check of an edited file in its set (errors and symbol
 compiler in this process: sets/st_check.py), an edit applied as a new set made from the set with
 the file replaced (built as an upload is, its manifest saying `derived_from`; irpd's dry run in the
 answer; activated on request through the sets' activation), a file's history across sets and the
-diff of two versions, and the monitor: the values of the variables of the lines shown and the
+diff of two versions, the set's programs as one PLCopen XML file (sets/st_export.py), and the monitor: the values of the variables of the lines shown and the
 conditions evaluated (sets/st_monitor.py).  Rollback is POST /sets/rollback.  Viewers read and check; applying an edit
 needs the role an upload needs (admin)."""
 
@@ -20,7 +20,7 @@ from fastapi import APIRouter, HTTPException, Query, Request, Response
 from starlette.concurrency import run_in_threadpool
 
 from ...irpd.variables import VariableError
-from ...sets import st_build, st_check, st_monitor, uploads
+from ...sets import st_build, st_check, st_export, st_monitor, uploads
 from ...sets.activation import irpd_validation
 from ...sets.store import remove_tree
 from ..deps import AdminDep, IrpdDep, ViewerDep, audited
@@ -130,6 +130,35 @@ def program_source(request: Request, _: ViewerDep, path: str, set: str | None = 
     set_id = _set_id(request, set)
     f = _file_of(request, set_id, path)
     return ProgramSource(set_id=set_id, path=path, sha256=f["sha256"], source=_text(request, set_id, path))
+
+
+@router.get(
+    "/programs/export",
+    response_class=Response,
+    responses={
+        **NOT_FOUND,
+        200: {"content": {"application/xml": {}}, "description": "a PLCopen XML 2.01 project (TC6 XML v2.01)"},
+        422: {"description": "a source has what PLCopen XML cannot say (e.g. a POU implemented in C++)"},
+    },
+)
+def export_programs(request: Request, _: ViewerDep, set: str | None = None) -> Response:
+    """The set's (default: the active set's) programs as one PLCopen XML 2.01 project, to open in a
+    PLC editor: data types, POUs (ST bodies as written; a POU imported from PLCopen XML with its
+    drawing), configurations, tasks and program instances (docs/plcopen-xml.md "Export")."""
+    set_id = _set_id(request, set)
+    manifest = request.app.state.store.manifest(set_id)
+    paths = sorted(f["path"] for f in manifest["files"] if f["kind"] in ("st", "plcopen"))
+    if not paths:
+        raise HTTPException(404, f"set {set_id} has no programs (.st or PLCopen XML files) to export")
+    try:
+        data = st_export.export(_stc(request), request.app.state.store.files_dir(set_id), paths, f"set {set_id}")
+    except st_check.CompilerMissing as e:
+        raise _compiler_missing(e) from e
+    except st_export.ExportError as e:
+        raise HTTPException(422, f"set {set_id} cannot be written as PLCopen XML: {e}") from e
+    return Response(
+        data, media_type="application/xml", headers={"Content-Disposition": f'attachment; filename="{set_id}.xml"'}
+    )
 
 
 @router.post("/programs/check", responses=NOT_FOUND)
