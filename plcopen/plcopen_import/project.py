@@ -88,8 +88,11 @@ def type_text(file: str, type_el: etree._Element) -> str:
     if tag in ("subrangeSigned", "subrangeUnsigned"):
         r = el.find(q("range"))
         return f"{type_text(file, el.find(q('baseType')))} ({r.get('lower')}..{r.get('upper')})"
-    if tag == "enum":
-        return "(" + ", ".join(v.get("name") for v in el.find(q("values")).findall(q("value"))) + ")"
+    if tag == "enum":  # a value's number, when the file gives one, kept (Slow := 5)
+        values = el.find(q("values")).findall(q("value"))
+        return (
+            "(" + ", ".join(v.get("name") + (f" := {v.get('value')}" if v.get("value") else "") for v in values) + ")"
+        )
     if tag in ("struct", "pointer") or tag.startswith("ANY"):
         raise _fail(file, el, f"a <{tag}> type is not supported here; declare it as a named data type")
     return _TYPE_NAMES.get(tag, tag.upper() if tag.islower() else tag)

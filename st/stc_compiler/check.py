@@ -39,12 +39,13 @@ class Program:
 
 LIBRARY = Path(__file__).resolve().parents[1] / "lib"
 STANDARD_LIBRARY = LIBRARY / "standard.st"
-LIBRARIES = (STANDARD_LIBRARY, LIBRARY / "plcopen.st")
+LIBRARIES = (STANDARD_LIBRARY, LIBRARY / "plcopen.st", LIBRARY / "sfc.st")
 
 
 def library_units() -> list[t.Unit]:
-    """st/lib/standard.st (TON, CTU, R_TRIG, ...) and plcopen.st (the motion blocks, the alarms),
-    read with every program; parsed anew each time because check() fills its tree."""
+    """st/lib/standard.st (TON, CTU, R_TRIG, ...), plcopen.st (the motion blocks, the alarms) and
+    sfc.st (an SFC's step type and ACTION_CONTROL), read with every program; parsed anew each time
+    because check() fills its tree."""
     units = [parse_text(f.name, f.read_text()) for f in LIBRARIES]
     for u in units:
         u.library = True

@@ -460,6 +460,8 @@ class ExprChecker:
             ok = True  # a longer string is cut at the target's length (docs/st.md)
         if not ok and isinstance(ty.base(dst), ty.EnumType) and ty.same(src, dst):
             ok = True
+        if not ok and dk == "bool" and isinstance(e, t.Literal) and e.kind == "int" and e.prefix is None:
+            ok = e.value in (0, 1)  # IEC 61131-3's boolean literals include 1 and 0 (`Lamp := 1;`)
         if ok:
             self.settle(e, dst)
             if isinstance(dst, ty.SubrangeType) and isinstance(e.const, int) and not ty.fits(dst, e.const):

@@ -1,6 +1,7 @@
 # cli.py -- the stc command line.  `stc check FILES... [--layout layout.json] [--json]` parses and checks
 # a set's ST sources with the standard library; `stc build -o OUT ...` also writes the layout, the C++,
-# module.xml and the modules (build.py).  Errors print as `file:line:col: error[code]: message` (or a
+# module.xml and the modules (build.py); `stc export -o OUT.xml FILES...` writes the sources as one PLCopen XML
+# 2.01 project (plcopen/plcopen_export).  Errors print as `file:line:col: error[code]: message` (or a
 # JSON list of {file, line, column, code, message}).  Exit 0 when clean, 1 on an error in the input,
 # 2 on a usage error.
 
@@ -9,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 from .check import Program, check
 from .errors import StError, StErrors
@@ -59,6 +61,10 @@ def _arguments() -> argparse.ArgumentParser:
     b.add_argument("--cxx", metavar="CXX", help="the C++ compiler (default: $CXX, else g++)")
     b.add_argument("-j", dest="jobs", type=int, default=0, metavar="N", help="compile N instances at once")
     b.add_argument("--no-compile", action="store_true", help="write the C++ and module.xml but compile nothing")
+    x = sub.add_parser("export", help="write the sources as one PLCopen XML 2.01 project (docs/plcopen-xml.md)")
+    _sources_and_json(x)
+    x.add_argument("-o", dest="out", required=True, metavar="OUT.xml", help="the file written ('-': standard output)")
+    x.add_argument("--name", default="indurop", help="the project's name in the file (contentHeader)")
     return p
 
 
@@ -96,6 +102,8 @@ def main(argv: list[str] | None = None) -> int:
     args = _arguments().parse_args(argv)
     if args.command == "build":
         return _run(lambda: _build(args, argv), args.json)
+    if args.command == "export":
+        return _run(lambda: _export(args), args.json)
     return _run(lambda: front(args.files, args.layout), args.json)
 
 
@@ -139,3 +147,16 @@ def _build(args, argv: list[str]) -> None:
         args.cpp_dir,
     )
     build(opts, argv)
+
+
+def _export(args) -> None:
+    """`stc export`: the project written to args.out (plcopen/ is beside st/, put on the path as glb/ is)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "plcopen"))
+    from plcopen_export import export_files
+
+    data = export_files(args.files, name=args.name)
+    if args.out == "-":
+        sys.stdout.buffer.write(data)
+        sys.stdout.flush()
+    else:
+        Path(args.out).write_bytes(data)

@@ -117,6 +117,7 @@ class CodeEmitter:
         self.written_index: dict = {}  # image_key -> the kept image's entry a statement marks written_[i]
         self.marked: set[int] = set()  # the entries marked by statements that ran before the one emitted
         self.glb_structs: dict[int, str] = {}
+        self.made_emitted: set[str] = set()  # the made structs whose function is in the file (externs.Passing)
         if prog.layout is not None:
             for name, st in prog.layout._structs.items():
                 st.cpp_name = "::" + name.replace(".", "::")
@@ -367,14 +368,14 @@ class CodeEmitter:
         """An FB or FUNCTION implemented in C++ ({extern '...'}, externs.py)."""
         decl_of_type = lambda typ: self.type_decls.get(id(typ))  # noqa: E731
         if p.kind == "FUNCTION_BLOCK":
-            out = externs.fb_body(p, fb_fields(p), self.signature(p), decl_of_type)
+            out = externs.fb_body(p, fb_fields(p), self.signature(p), decl_of_type, self.made_emitted)
         else:
             out = []
             enums = any(isinstance(ty.base(v.type), ty.EnumType) for v in p.vars)
             if enums and not getattr(self, "_extern_enum", False):
                 self._extern_enum = True
                 out += externs.EXTERN_ENUM
-            out += externs.function_body(p, self.signature(p), decl_of_type)
+            out += externs.function_body(p, self.signature(p), decl_of_type, self.made_emitted)
         return out + ["#line RESET"]
 
     # ---- statements --------------------------------------------------------------------------------

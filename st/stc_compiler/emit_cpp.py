@@ -20,7 +20,8 @@ RESET_LINE = "#line RESET"  # replaced by the .cpp's own line once the text is c
 GENERATED_NAMES = frozenset(
     "Place String ENUM index range loopCheck forStarts forStep cycleTime store copyIn writeBack getBit setBit "
     "NEG programBody fbBody startInstance runInstance Globals Bound global global0 bound bound0 self self0 "
-    "initial fresh freshRetained globalInitial safeOutputs start run Kept kept grouped image forget How inPart".upper().split()
+    "initial fresh freshRetained globalInitial safeOutputs start run Kept kept grouped image forget How inPart "
+    "KeptImage groupCount".upper().split()
 )
 LOCAL_NAMES = frozenset({"SELF", "FB_", "R_", "WRITTEN_"})  # the generated code's own locals in a POU's body
 
@@ -135,7 +136,8 @@ class _Unit:
         self.used = used
         # the variables whose values the code may change (written_roots), by image_key
         self.written = {image_key(self.prog, d) for p in [self.inst.pou] + self.pous for d in written_roots(p.body)}
-        return list(own.values()), list(glob.values()), list(glb.values())
+        glb_scalars_first = sorted(glb.values(), key=lambda d: not _scalar(d.type))
+        return list(own.values()), list(glob.values()), glb_scalars_first
 
     # ---- the file ------------------------------------------------------------------------------
 
@@ -196,7 +198,7 @@ class _Unit:
         if glob:
             out.append("Globals global, global0;")
         if glb:
-            out.append("struct Bound {")
+            out.append("struct Bound {  // the scalars first: the lines a run copies them to")
             for d in glb:
                 out.append(f"    {self.code.glb_type(d)} {_glb_member(d)};")
             out.append("};")
@@ -289,13 +291,21 @@ class _Unit:
                 "// the kept image (kept.hpp): the table, its entries' sequences in it; the instance's own first,"
             )
             out.append("// one lock group")
-            out.append("constinit auto image = grouped(std::array{")
+            out.append("constexpr auto spec0_ = grouped(std::array{")
             for ref, local, snap, _, written, _ in table:
                 snap = f", {snap}" if written else ""  # read only: no snapshot, no write-back
                 out.append(f"    kept({ref}, {local}{snap}),")
             out.append("});")
+            out.append("// the table a run walks: 20 bytes an entry, the groups apart")
+            out.append("constinit KeptImage<spec0_.size(), groupCount(spec0_)> image{spec0_};")
         out.append("void runInstance() {")
-        out += in_parts([f"    copyIn({ref}, {local}, {snap});" for ref, local, snap, *_ in scalars])
+        # a scalar the code never writes: no snapshot (never written back)
+        out += in_parts(
+            [
+                f"    copyIn({ref}, {local}, {snap});" if written else f"    copyIn({ref}, {local});"
+                for ref, local, snap, _, written, _ in scalars
+            ]
+        )
         if table:
             out.append("    copyIn(image);")
         if outputs or table:
@@ -310,7 +320,7 @@ class _Unit:
         out += in_parts(
             [f"    writeBack({ref}, {local}, {snap});" for ref, local, snap, _, written, _ in scalars if written]
         )
-        if table:
+        if table and self.code.written_index:  # else every entry is read only
             out.append(f"    writeBack({image_args});")
         out += ["}", ""]
         return out

@@ -54,33 +54,64 @@ class Passing:
     """How ST lvalues reach an extern C++ call: a STRUCT of a C++ type's bytes ({extern 'ns::T'}) in
     place, as that type (its ST struct is declared may_alias, as an extern FB's is), a STRUCT made by
     a function ({extern 'ns::make(a, b)'}) as what ns::make(its members, passed the same way) returns,
-    anything else as it is.  The reference ns::make returns is made on the stack at every call: a
-    static made once would cost its cache lines in a run that starts with cold caches, more than
-    the stores of making it again."""
+    anything else as it is.  What ns::make returns is kept by made_helper()'s function, one for the
+    module, and made again only for another variable: it is a view of the variable's members (a
+    function of its address), and the cell's PLCopen blocks, called on one group 13 times a period,
+    made it 13 times (about 400 instructions a period)."""
 
-    def __init__(self, decl_of_type) -> None:
+    def __init__(self, decl_of_type, emitted: set[str]) -> None:
         self.decl_of_type = decl_of_type
-        self.before: list[str] = []
-        self.after: list[str] = []
         self.asserts: list[str] = []
-        self.count = 0
+        self.helpers: dict[str, list[str]] = {}  # the made structs' functions (made_helper), by name
+        self.emitted = emitted  # the module's made structs whose function is already in the file
+
+    def helper_lines(self) -> list[str]:
+        """The made structs' functions this POU needs that the file does not have yet."""
+        out = []
+        for name, lines in self.helpers.items():
+            if name not in self.emitted:
+                self.emitted.add(name)
+                out += lines
+        return out
 
     def arg(self, code: str, typ) -> str:
         decl = self.decl_of_type(typ)
         if decl is None or not decl.extern:
             return code
         if decl.extern_args is not None:
-            members = ty.base(typ).members
-            made = ", ".join(
-                self.arg(f"{code}.{members[a.upper()].name}", members[a.upper()].type) for a in decl.extern_args
-            )
-            self.count += 1
-            self.before.append(f"auto cpp{self.count} = {decl.extern}({made});")
-            return f"cpp{self.count}"
+            if decl.name not in self.helpers:
+                self.helpers[decl.name] = []  # a member of its own type would recurse
+                self.helpers[decl.name] = self.made_helper(decl, typ)
+            return f"{MADE_PREFIX}{decl.name}({code})"
         self.asserts += layout_asserts(
             decl.name, decl.extern, [(m.name, m.type) for m in ty.base(typ).members.values()]
         )
         return f"reinterpret_cast<{decl.extern} &>({code})"
+
+    def made_helper(self, decl, typ) -> list[str]:
+        """`auto &madeT(T &x)`: ns::make(x's members) kept in a static with the address it was made for,
+        made again when called for another variable (the same address is the same members)."""
+        members = ty.base(typ).members
+        made = ", ".join(self.arg(f"x.{members[a.upper()].name}", members[a.upper()].type) for a in decl.extern_args)
+        return [
+            f"// {decl.name} reaches C++ as {decl.extern}({', '.join(decl.extern_args)}): a view of the variable's",
+            "// members, kept from one call and run to the next and made again only for another variable.",
+            f"auto &{MADE_PREFIX}{decl.name}({decl.name} &x) {{",
+            f"    using Made = decltype({decl.extern}({made}));",
+            "    static constinit struct {",
+            "        const void *of;",
+            "        Made made;",
+            "    } cache{};",
+            "    if (cache.of != &x) {",
+            f"        cache.made = {decl.extern}({made});",
+            "        cache.of = &x;",
+            "    }",
+            "    return cache.made;",
+            "}",
+        ]
+
+
+MADE_PREFIX = "made"  # the function that keeps what a made STRUCT's ns::make returns (Passing.made_helper)
 
 
 # The attribute of the ST struct of an extern FUNCTION_BLOCK: fb_body() runs the C++ block on the
@@ -109,22 +140,29 @@ def _paths(typ, prefix: str) -> list[str]:
     return out
 
 
-def fb_body(pou: t.Pou, fields: list[t.VarDecl], signature: str, decl_of_type) -> list[str]:
+def fb_body(pou: t.Pou, fields: list[t.VarDecl], signature: str, decl_of_type, emitted: set[str]) -> list[str]:
     """The C++ of an extern FUNCTION_BLOCK: the layout proof, then fbBody() running the C++ block on the
     instance's bytes in place (Passing)."""
     cpp, name = pou.extern, pou.name
     out = [f"// FUNCTION_BLOCK {name} ({pou.place.file}:{pou.place.line}) is the C++ {cpp}: an instance is its bytes."]
     out += layout_asserts(name, cpp, [(v.name, v.type) for v in fields])
-    passing = Passing(decl_of_type)
+    passing = Passing(decl_of_type, emitted)
     args = ", ".join(passing.arg(v.name, v.type) for v in pou.vars if v.kind == "VAR_IN_OUT")
-    body = passing.before + [f"reinterpret_cast<{cpp} &>(self)({args});"] + passing.after
-    return out + _unique(passing.asserts) + [signature + " {"] + [f"    {b}" for b in body] + ["}"]
+    body = [f"reinterpret_cast<{cpp} &>(self)({args});"]
+    return (
+        out
+        + _unique(passing.asserts)
+        + passing.helper_lines()
+        + [signature + " {"]
+        + [f"    {b}" for b in body]
+        + ["}"]
+    )
 
 
-def function_body(pou: t.Pou, signature: str, decl_of_type) -> list[str]:
+def function_body(pou: t.Pou, signature: str, decl_of_type, emitted: set[str]) -> list[str]:
     """The C++ of an extern FUNCTION: the C++ function called with the inputs in order (a STRING as
     its text, an enumeration converted to the C++ enum the parameter has)."""
-    passing = Passing(decl_of_type)
+    passing = Passing(decl_of_type, emitted)
     args = []
     for v in pou.vars:
         if v.kind not in ("VAR_INPUT", "VAR_IN_OUT"):
@@ -137,13 +175,19 @@ def function_body(pou: t.Pou, signature: str, decl_of_type) -> list[str]:
         else:
             args.append(passing.arg(v.name, v.type))
     call = f"{pou.extern}({', '.join(args)})"
-    body = passing.before
     if pou.return_type is not None:
-        body += [f"const auto result = {call};", *passing.after, "return result;"]
+        body = [f"const auto result = {call};", "return result;"]
     else:
-        body += [f"{call};", *passing.after]
+        body = [f"{call};"]
     head = [f"// FUNCTION {pou.name} ({pou.place.file}:{pou.place.line}) is the C++ {pou.extern}."]
-    return head + _unique(passing.asserts) + [signature + " {"] + [f"    {b}" for b in body] + ["}"]
+    return (
+        head
+        + _unique(passing.asserts)
+        + passing.helper_lines()
+        + [signature + " {"]
+        + [f"    {b}" for b in body]
+        + ["}"]
+    )
 
 
 def _unique(lines: list[str]) -> list[str]:

@@ -2,15 +2,18 @@
 
 1. the paper's cell with its PLC in ST (config/sets/plc-robot-st) against the same cell with its PLC
    in C++ (config/sets/plc-robot): the PLC module's execution time per period (irpd's exec_ns), both
-   cells cycling (Enable, CycleMode 1, Start), in alternating rounds of the same length; the ratio
-   is the ST PLC's over the C++ PLC's (target <= 1.2);
+   cells cycling (Enable, CycleMode 1, Start), in rounds of the same length, each round one run of
+   each cell (which goes first alternates); each round's ratio is the ST PLC's mean over the C++
+   PLC's, and the figure is the median of the rounds' ratios, with their min and max (target <= 1.2:
+   a quiet machine's rounds still differ by more than 0.1, so a change of 0.1 shows only in the
+   median of many rounds: 10 by default with --only cell);
 2. generated programs of 100, 1,000 and 10,000 lines: `stc check`, `stc build` (check, layout, C++,
    compile) and their activation into a running irpd (`load`, laid out against the running layout:
    online), each timed; and the 10,000-line program's execution time per period.
 
 Wall times on this machine, with the load average before and after each part; nothing is asserted.
 
-    .venv/bin/python tests/bench/st_bench.py [--seconds 10] [--rounds 3] [--json FILE]
+    .venv/bin/python tests/bench/st_bench.py [--seconds 10] [--rounds N] [--only cell|lines] [--json FILE]
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -94,14 +98,22 @@ def bench_cell(a, tmp: Path) -> dict:
     for r in range(a.rounds):
         order = ("cpp", "st") if r % 2 == 0 else ("st", "cpp")
         rounds.append({k: run_cell(sets[k], tmp, a.seconds, f"{k}-{r}") for k in order})
-    mean = {k: sum(x[k]["mean"] for x in rounds) / len(rounds) for k in sets}
-    p50 = {k: sum(x[k]["p50"] for x in rounds) / len(rounds) for k in sets}
+    return cell_summary(rounds)
+
+
+def cell_summary(rounds: list[dict]) -> dict:
+    """The rounds' figures: each round's ST/C++ ratio of the mean (and of the p50) exec_ns, their
+    median, min and max; the means over the rounds."""
+    ratios = [x["st"]["mean"] / x["cpp"]["mean"] for x in rounds]
+    ratios_p50 = [x["st"]["p50"] / x["cpp"]["p50"] for x in rounds]
     return {
         "rounds": rounds,
-        "mean_ns": mean,
-        "p50_ns": p50,
-        "ratio_mean": mean["st"] / mean["cpp"],
-        "ratio_p50": p50["st"] / p50["cpp"],
+        "ratios": ratios,
+        "ratio_median": statistics.median(ratios),
+        "ratio_min": min(ratios),
+        "ratio_max": max(ratios),
+        "ratio_p50_median": statistics.median(ratios_p50),
+        "mean_ns": {k: statistics.fmean(x[k]["mean"] for x in rounds) for k in ("cpp", "st")},
     }
 
 
@@ -173,18 +185,24 @@ def bench_lines(a, tmp: Path) -> dict:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seconds", type=float, default=10, help="each cell run, and the 10,000-line program's run")
-    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--rounds", type=int, help="the cell's rounds (default 10 with --only cell, else 3)")
     ap.add_argument("--only", choices=("cell", "lines"))
     ap.add_argument("--json", type=Path)
     a = ap.parse_args()
+    if a.rounds is None:
+        a.rounds = 10 if a.only == "cell" else 3
+    if a.rounds < 1:
+        ap.error("--rounds must be at least 1")
     result: dict = {"machine": {"cpus": os.cpu_count(), "load_start": load()}}
     with tempfile.TemporaryDirectory(prefix="st-bench-") as tmp:
         if a.only in (None, "cell"):
             result["cell"] = bench_cell(a, Path(tmp))
             c = result["cell"]
             print(
-                f"cell: PLC exec mean C++ {c['mean_ns']['cpp'] / 1e3:.2f} us, ST {c['mean_ns']['st'] / 1e3:.2f} us: "
-                f"ST/C++ {c['ratio_mean']:.2f} (p50 {c['ratio_p50']:.2f}); load average {load()}",
+                f"cell: PLC exec mean C++ {c['mean_ns']['cpp'] / 1e3:.2f} us, ST {c['mean_ns']['st'] / 1e3:.2f} us; "
+                f"ST/C++ median of {a.rounds} rounds {c['ratio_median']:.3f} (min {c['ratio_min']:.3f}, "
+                f"max {c['ratio_max']:.3f}; of the p50s {c['ratio_p50_median']:.3f}); "
+                f"rounds {' '.join(f'{r:.3f}' for r in c['ratios'])}; load average {load()}",
                 flush=True,
             )
         if a.only in (None, "lines"):

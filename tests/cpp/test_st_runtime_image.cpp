@@ -408,3 +408,67 @@ TEST(StKept, ALockGroupIsReadWithOneSequenceCheckAndWrittenUnderOneTakingOfTheLo
     EXPECT_EQ(gt[3], 44);
     EXPECT_EQ(gm.small, 9);
 }
+
+// ---- the compact table generated code walks (KeptImage: 20-byte rows, the groups apart), made from
+// a grouped() table: the same reads and writes as the table it is made from.
+
+namespace {
+mixed_t cm, cm0;
+std::array<int16_t, 4> ct, ct0;
+st::String<10> cs;
+constexpr auto kCompactSpec = st::grouped([] {
+    std::array table{st::kept(st_image::mixed, cm, cm0), st::kept(st_image::table, ct, ct0),
+                     st::kept(st_image::text, cs)};  // read only, a group of its own
+    table[1].lock = table[0].lock;
+    return table;
+}());
+constinit st::KeptImage<kCompactSpec.size(), st::groupCount(kCompactSpec)> kCompact{kCompactSpec};
+}  // namespace
+
+TEST(StKept, TheCompactTableReadsAndWritesAsItsGroupedTable) {
+    static_assert(st::groupCount(kCompactSpec) == 2 && sizeof(st::KeptRow) == 20);
+    st_image::mixed = mixed_t{1, 2, 3, 4, 5.0};
+    st_image::table = std::array<int16_t, 4>{1, 2, 3, 4};
+    st_image::text = {};
+    bool written[3] = {};
+    st::copyIn(kCompact);
+    EXPECT_EQ(cm.medium, 4);
+    EXPECT_EQ(ct[3], 4);
+    cm.medium = 40;  // a run that writes both members of the group
+    ct[0] = 10;
+    written[0] = written[1] = true;
+    const uint32_t before = sequence(st_image::mixed);
+    st::writeBack(kCompact, written);
+    EXPECT_EQ(sequence(st_image::mixed), before + 2);  // the lock taken once for both
+    EXPECT_EQ(st_image::mixed.medium.load(), 40);
+    EXPECT_EQ(st_image::table[0].load(), 10);
+    EXPECT_FALSE(written[0] || written[1]);
+
+    ct[1] = 77;  // what generated code never does: shows that the next copy-in reads nothing
+    st::copyIn(kCompact);
+    EXPECT_EQ(ct[1], 77);
+    ct[1] = 2;
+
+    writeTableAsAGroupMember(2, 33);  // another writer of the group between runs: read again
+    st_image::text[0] = 'x';          // and of the read-only variable
+    st::copyIn(kCompact);
+    EXPECT_EQ(ct[2], 33);
+    EXPECT_EQ(cm.medium, 40);
+    EXPECT_EQ(cs.data[0], 'x');
+
+    cm.small = 9;  // a run writes mixed while another writer changes table: both stay
+    written[0] = true;
+    writeTableAsAGroupMember(3, 44);
+    st::writeBack(kCompact, written);
+    EXPECT_EQ(st_image::mixed.small.load(), 9);
+    EXPECT_EQ(st_image::table[3].load(), 44);
+    st::copyIn(kCompact);
+    EXPECT_EQ(ct[3], 44);
+
+    cm.medium = 99;  // a run that faults: nothing written, the flags cleared, everything read again
+    written[0] = true;
+    st::forget(kCompact, written);
+    EXPECT_FALSE(written[0]);
+    st::copyIn(kCompact);
+    EXPECT_EQ(cm.medium, 40);
+}

@@ -206,7 +206,9 @@ class VariableValue(protocol.VariableWritten):
 class LeafValue(BaseModel):
     path: str = Field(description="the leaf's full path, e.g. PLC_ROBOT.IO_STATUS.errors[0]")
     type: str = Field(description="its scalar type, as GET /variables gives it")
-    value: StrictBool | StrictInt | float
+    value: StrictBool | StrictInt | float | None = Field(
+        description="null: a float that is not finite (NaN, infinity), which JSON has no number for"
+    )
     forced: bool = Field(False, description="irpd holds it forced")
 
 

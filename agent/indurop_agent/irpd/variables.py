@@ -19,8 +19,10 @@ import difflib
 import json
 import os
 import struct
+from collections import OrderedDict
 from pathlib import Path
 
+from .read_plan import Plan, compile_plan
 from .shm_layout import LayoutError, segment
 
 # Every offset from irpd's description of the segment (shm_layout.py).
@@ -48,6 +50,7 @@ FORMATS = {
     ("bool", 1): "<?",
     ("char", 1): "<b",
 }
+PLANS_KEPT = 64  # read plans kept for the layout held (one per list of paths read: a watch list, an editor's view)
 
 
 # The scalar kinds irpd's trace rings sample (rtcore/src/trace/trace_rings.cpp: traceType): a char
@@ -127,6 +130,8 @@ class Segment:
         self.leaves = {leaf["path"]: leaf for leaf in shown(self.layout["leaves"])}  # what users may name
         self.scalars = self.layout.get("scalars", {})
         self._names: list[str] | None = None  # every leaf and group path, for unknown()
+        self._groups: dict[str, list[dict]] | None = None  # every group path -> its leaves, for group()
+        self._plans: OrderedDict[tuple[str, ...], Plan] = OrderedDict()  # read_many's, by the paths asked
         self.seq = seq
         return True
 
@@ -154,19 +159,41 @@ class Segment:
     def read_many(self, paths: list[str]) -> tuple[list[tuple[dict, object]], list[dict]]:
         """The leaves `paths` name, read in one pass (the leaves of one variable from one write):
         ([(leaf, value)] in the order asked, [{path, message}] for a path that names no leaf -- an
-        unknown path with the nearest names, a group with the count of its leaves)."""
-        self.refresh()
-        found, errors = [], []
+        unknown path with the nearest names, a group with the count of its leaves).  The paths are
+        resolved once per layout (a plan kept for the next read of the same paths), and the pass is
+        made again when a new layout was published during it."""
+        key = tuple(paths)
+        for _ in range(100):
+            self.refresh()
+            # the layout's sequence first: refresh() (another thread's too) sets it last, so the plans
+            # and leaves taken after it are of that layout or a newer one, which the check below sees
+            seq, plans = self.seq, self._plans
+            plan = plans.get(key)
+            if plan is None:
+                plan = plans[key] = self._plan(key)
+                if len(plans) > PLANS_KEPT:
+                    plans.popitem(last=False)
+            values = plan.read(self.mm)
+            if values is None:  # a writer met in every pass, or leaves not planned: one lock at a time
+                values = self.values(plan.leaves)
+            if self._field(LAYOUT_SEQ) == seq:
+                return list(zip(plan.leaves, values)), list(plan.errors)
+        raise VariableError("the shared-variable layout is being published continuously; try again")
+
+    def _plan(self, paths: tuple[str, ...]) -> Plan:
+        found, formats, errors = [], [], []
         for path in paths:
             leaf = self.leaves.get(path)
-            if leaf is not None and self._format(leaf) is None:
-                errors.append({"path": path, "message": f"'{path}' is a {leaf['type']}, which the agent cannot decode"})
-                continue
             if leaf is not None:
-                found.append(leaf)
+                fmt = self._format(leaf)
+                if fmt is None:
+                    message = f"'{path}' is a {leaf['type']}, which the agent cannot decode"
+                    errors.append({"path": path, "message": message})
+                else:
+                    found.append(leaf)
+                    formats.append(fmt)
                 continue
-            under = tuple(path + c for c in ".[")
-            count = sum(1 for p in self.leaves if p.startswith(under)) if path else 0
+            count = len(self.group(path))
             message = (
                 f"'{path}' is a group of {count} leaves, not a leaf: name its members (GET /api/v1/variables/{path} "
                 "lists them)"
@@ -174,7 +201,20 @@ class Segment:
                 else self.unknown(path)
             )
             errors.append({"path": path, "message": message})
-        return list(zip(found, self.values(found))), errors
+        where = {"data": self.data, "locks": self.locks, "lock_size": self.lock_size, "seq": LOCK_SEQ}
+        return compile_plan(found, formats, errors, where)
+
+    def group(self, path: str) -> list[dict]:
+        """The leaves under the group `path` (a namespace, a struct, an array or one of its
+        elements), in layout order; [] when it names no group."""
+        if self._groups is None:
+            groups: dict[str, list[dict]] = {}
+            for p, leaf in self.leaves.items():  # every group a leaf is under: its path up to each '.' and '['
+                for i, c in enumerate(p):
+                    if c in ".[":
+                        groups.setdefault(p[:i], []).append(leaf)
+            self._groups = groups
+        return self._groups.get(path, []) if path else []
 
     def select(self, path: str) -> list[dict]:
         """The layout's leaves that `path` names: the leaf itself, or for a group (a namespace, a
@@ -183,19 +223,16 @@ class Segment:
         leaf = self.leaves.get(path)
         if leaf is not None:
             return [leaf]
-        under = tuple(path + c for c in ".[")
-        found = [leaf for p, leaf in self.leaves.items() if p.startswith(under)] if path else []
+        found = self.group(path)
         if not found:
             raise VariableError(self.unknown(path))
-        return found
+        return list(found)
 
     def unknown(self, path: str) -> str:
         """What to say about a path that names no leaf and no group: the nearest names it has."""
         if self._names is None:
-            names = set(self.leaves)
-            for p in self.leaves:  # every group a leaf is under: its path up to each '.' and '['
-                names.update(p[:i] for i, c in enumerate(p) if c in ".[")
-            self._names = sorted(names)
+            self.group("")
+            self._names = sorted({*self.leaves, *self._groups})
         near = difflib.get_close_matches(path, self._names, n=3, cutoff=0.75)
         near.sort(key=lambda n: (-difflib.SequenceMatcher(None, path, n).ratio(), n))  # the nearest first
         names = [repr(n) for n in near]

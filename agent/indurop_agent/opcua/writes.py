@@ -4,8 +4,10 @@ for a bool, an integer type for an integer, a number for a float: BadTypeMismatc
 or by an IndexRange of one dimension; irpd's typed `write` does the rest, as PUT /variables does
 (a value out of the type's range is refused by irpd: BadOutOfRange).  A write irpd refuses because
 the variable is forced (its error code `forced`, docs/forcing.md) is BadUserAccessDenied, the reason
-(who forced it) in the audit line and the server's output; an array is written element by element,
-so the elements before a forced one (or one out of range) are written.  Every write, done or refused,
+(who forced it) in the audit line and the server's output.  An array is written element by element,
+all or none: an element forced now or out of its type's range is sent first, so that irpd's refusal
+comes before any other element is written (a force set between the look and the writes can still
+leave the elements before it written).  Every write, done or refused,
 is one line of the agent's audit log (<data>/audit.jsonl, action write_variable) with the OPC UA
 user, the client's address and the endpoint."""
 
@@ -91,8 +93,11 @@ class Writes:
             values = [raw]
         if not all(_fits(var, v) for v in values):
             return done(ua.StatusCodes.BadTypeMismatch, f"{var.path} holds {var.type} ({var.variant.name})")
+        pairs = list(zip(leaves, values))
+        if len(pairs) > 1:
+            pairs = await self._refused_first(var, pairs)
         try:
-            for leaf, v in zip(leaves, values):
+            for leaf, v in pairs:
                 await asyncio.to_thread(self.irpd.request, "write", path=leaf, value=v)
         except IrpdRefused as e:
             if not e.forced:
@@ -102,3 +107,20 @@ class Writes:
         except IrpdUnavailable as e:
             return done(ua.StatusCodes.BadNoCommunication, str(e))
         return done(ua.StatusCodes.Good)
+
+    async def _refused_first(self, var: Var, pairs: list) -> list:
+        """The elements irpd will refuse (forced now, or out of the type's range) moved to the front:
+        its refusal of the first then ends the write before any element is written."""
+        low, high = INTEGERS.get(var.variant, (None, None))
+        forced: set[str] = set()
+        try:
+            listed = await asyncio.to_thread(self.irpd.request, "forces")
+            forced = {f["path"] for f in listed.get("forces", [])}
+        except (IrpdRefused, IrpdUnavailable):
+            pass  # the writes below meet the same error
+
+        def refused(pair) -> bool:
+            leaf, v = pair
+            return leaf in forced or (low is not None and not low <= v <= high)
+
+        return sorted(pairs, key=lambda pair: not refused(pair))

@@ -101,6 +101,11 @@ def _ms(leaf: dict, v) -> float | None:
     return v / 1e6 if isinstance(v, (int, float)) else None
 
 
+def kept(key: tuple) -> Analysis | None:
+    """The analysis kept by `key` (analyse's), or None."""
+    return _kept.peek(key)
+
+
 def analyse(stc: Path, key: tuple, sources: st_check.SetSources, path: str, data: bytes, pou_name: str) -> Analysis:
     """The flows and shown variables of POU `pou_name` of the set's PLCopen file `path` (kept by
     `key`: a stored set never changes)."""

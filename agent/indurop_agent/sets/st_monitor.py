@@ -36,11 +36,18 @@ class Kept:
         self.found: OrderedDict[tuple, object] = OrderedDict()
         self.lock = threading.Lock()
 
-    def get(self, key: tuple, make):
+    def peek(self, key: tuple):
+        """What is kept by `key`, or None."""
         with self.lock:
             if key in self.found:
                 self.found.move_to_end(key)
                 return self.found[key]
+        return None
+
+    def get(self, key: tuple, make):
+        found = self.peek(key)
+        if found is not None:
+            return found
         made = make()
         with self.lock:
             self.found[key] = made
@@ -86,7 +93,8 @@ class Analysis:
 
     def snapshot(self, seg, forced: dict, first: int, last: int, expand: list[str]) -> dict:
         """The occurrences and conditions of lines first..last with their values, and the fields
-        of the groups in `expand`: every value from one read of the segment (Segment.read_many)."""
+        of the groups in `expand`: every value from one read of the segment (Segment.read_many).
+        Every field of the API's MonitorAnswer is given (the route writes the answer as it is)."""
         occurrences = [o for o in self.occurrences if first <= o.line <= last]
         conditions = [x for x in self.conditions if x.line <= last and x.end_line >= first]
         groups, errors = {}, []
@@ -112,19 +120,20 @@ class Analysis:
 
     @staticmethod
     def _known(o: Occurrence, seg) -> bool:
-        return o.path in seg.leaves or any(p.startswith((o.path + ".", o.path + "[")) for p in seg.leaves)
+        return o.path in seg.leaves or bool(seg.group(o.path))
 
     @staticmethod
     def _occurrence(o: Occurrence, seg, values: dict, forced: dict) -> dict:
         out = {"line": o.line, "column": o.column, "end_column": o.end_column, "path": o.path, "type": o.type}
         if o.path not in seg.leaves:
-            return {**out, "group": True}
-        return {**out, "value": values[o.path][1] if o.path in values else None, "forced": o.path in forced}
+            return {**out, "group": True, "value": None, "forced": False}
+        value = values[o.path][1] if o.path in values else None
+        return {**out, "group": False, "value": value, "forced": o.path in forced}
 
     def _condition(self, x: Condition, values: dict) -> dict:
         out = {"line": x.line, "column": x.column, "end_line": x.end_line, "end_column": x.end_column, "what": x.what}
         try:
-            return {**out, "value": self.evaluate(x.expr, x.instance, values)}
+            return {**out, "value": self.evaluate(x.expr, x.instance, values), "reason": None}
         except NotEvaluated as e:
             return {**out, "value": None, "reason": str(e)}
 
@@ -250,6 +259,12 @@ def path_of(c, e, instance: str, paths: dict) -> str | None:
             return None
         return f"{base}[{e.indices[0].const}]"
     return None
+
+
+def kept(key: tuple) -> Analysis | None:
+    """The analysis kept by `key` (analyse's), or None: a refresh of the monitor needs nothing else
+    of the set."""
+    return _kept.peek(key)
 
 
 def analyse(stc: Path, key: tuple, sources: st_check.SetSources, path: str) -> Analysis:

@@ -2,7 +2,7 @@
 (docs/forcing.md): a relay on irpd's control socket records every command the agent sends; GET
 /variables and GET /variables/{path} ask irpd for its `forces` only when its `status` says some
 are active, and then flag the forced leaf.  A write to a forced variable is refused by irpd with its
-own error code, which the API answers 409 with irpd's reason."""
+own error code, which the API answers 409 with irpd's reason.  POST /variables/read asks only `forces`."""
 
 from __future__ import annotations
 
@@ -99,3 +99,23 @@ def test_the_variables_api_asks_irpd_for_forces_only_while_some_are_active(relay
     relay.commands.clear()
     assert api.get(f"/variables/{LEAF}").json()["forced"] is False
     assert "forces" not in relay.commands, relay.commands
+
+
+def test_a_read_of_many_values_asks_irpd_only_its_forces_and_flags_them(relayed):
+    """POST /variables/read (the monitor's and the Watch page's 5 Hz read): one small request to irpd
+    per read, `forces` (its flags, and that irpd runs), never `status`: the segment it names is held
+    while the connection to irpd is the same one (docs/programming.md "Monitoring")."""
+    api, relay = relayed
+    paths = [LEAF, "knu.Robot.tick", "joint[0].x"]
+    assert api.post("/variables/read", json={"paths": paths}).status_code == 200  # the segment named once
+    relay.commands.clear()
+    for _ in range(3):
+        answer = api.post("/variables/read", json={"paths": paths}).json()
+        assert [v["path"] for v in answer["values"]] == paths and not any(v["forced"] for v in answer["values"])
+    assert relay.commands == ["forces"] * 3, relay.commands
+
+    assert api.put(f"/forces/{LEAF}", json={"value": 2.5}).status_code == 200
+    values = {v["path"]: v for v in api.post("/variables/read", json={"paths": paths}).json()["values"]}
+    assert values[LEAF]["forced"] is True and values[LEAF]["value"] == 2.5 and values["joint[0].x"]["forced"] is False
+    assert api.delete(f"/forces/{LEAF}", params={"restore": "true"}).status_code == 200
+    assert api.post("/variables/read", json={"paths": [LEAF]}).json()["values"][0]["forced"] is False

@@ -97,6 +97,7 @@ NEEDS = {
     ("GET", "/programs/source"): "viewer",
     ("GET", "/programs/history"): "viewer",
     ("GET", "/programs/diff"): "viewer",
+    ("GET", "/programs/export"): "viewer",
     ("POST", "/programs/monitor"): "viewer",
     ("GET", "/programs/diagram"): "viewer",
     ("POST", "/programs/diagram/monitor"): "viewer",

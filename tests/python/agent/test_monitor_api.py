@@ -4,7 +4,8 @@ leaves at once (an unknown path or a group is an error entry, not a failure; the
 POST /programs/monitor places each variable of the lines asked with its value, an FB instance as an
 expandable group, and evaluates IF/ELSIF/WHILE/UNTIL conditions and CASE selectors with the compiler's folding on the values
 read (a write moves them; a VAR_TEMP or a call is not evaluated, and the answer says why); the watch
-lists are kept with the set, read by a viewer, saved by an operator only, and follow an edit."""
+lists are kept with the set, read by a viewer, saved by an operator only, and follow an edit; a REAL
+that is NaN or infinite reads as null in both answers."""
 
 from __future__ import annotations
 
@@ -160,3 +161,34 @@ def _audit(cell: Cell) -> list[dict]:
     assert r.status_code == 200, r.text
     body = r.json()
     return body["entries"] if isinstance(body, dict) else body
+
+
+NOT_FINITE = """\
+PROGRAM Counter
+VAR
+  zero : REAL;
+  nan : REAL;
+  inf : LREAL;
+END_VAR
+nan := zero / zero;
+inf := 1.0 / zero;
+END_PROGRAM
+"""
+
+
+def test_a_float_that_is_not_finite_reads_as_null(tmp_path):
+    """REAL division is IEEE's (docs/st.md): 0/0 is NaN and 1/0 an infinity, which JSON has no number
+    for; both reads answer them as null, not a failure of the whole answer."""
+    cell = running(tmp_path, NOT_FINITE)
+    try:
+        r = cell.as_viewer("POST", "/variables/read", json={"paths": ["Main.nan", "Main.inf", "Main.zero"]})
+        assert r.status_code == 200, r.text
+        assert [(v["path"], v["value"]) for v in r.json()["values"]] == [
+            ("Main.nan", None),
+            ("Main.inf", None),
+            ("Main.zero", 0.0),
+        ]
+        values = {o["path"]: o["value"] for o in monitor(cell, from_line=7, to_line=8)["occurrences"]}
+        assert values == {"Main.nan": None, "Main.inf": None, "Main.zero": 0.0}, values
+    finally:
+        cell.close()

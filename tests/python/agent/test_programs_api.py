@@ -8,12 +8,17 @@ cannot apply; bad input is named."""
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
 import httpx
 import pytest
 from agent_helpers import FIG1, IRPD, LiveCell, free_port, st_configuration
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "plcopen"))
+from export_helpers import independent_reader  # noqa: E402
+from plcopen_live import shared  # noqa: E402
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 
@@ -89,6 +94,7 @@ def test_a_viewer_lists_the_files_and_pous_reads_a_source_and_checks_an_edit(cel
         ("POST", "/programs/apply", {"json": {"path": "main.st", "source": TYPE_ERROR}}),
         ("GET", "/programs/history", {"params": {"path": "main.st"}}),
         ("GET", "/programs/diff", {"params": {"path": "main.st", "old": cell.base}}),
+        ("GET", "/programs/export", {}),
     ]:
         assert httpx.request(method, f"{cell.url}{path}", timeout=30, **kw).status_code == 401, path
     listed = cell.as_viewer("GET", "/programs").json()
@@ -182,6 +188,44 @@ def test_an_edit_is_applied_online_has_a_history_a_diff_and_rolls_back(cell):
         ("ok", "main.st", cell.base),
         ("ok", "main.st", cell.base),
     ], audit
+
+
+def test_a_viewer_downloads_the_running_programs_as_plcopen_xml(cell):
+    """GET /programs/export: the active set's ST as one PLCopen XML 2.01 project, read by the PyPI
+    package `plcopen` (an independent reader: xsdata classes of the TC6 schema)."""
+    r = cell.as_viewer("GET", "/programs/export")
+    assert r.status_code == 200, r.text
+    assert r.headers["content-type"] == "application/xml"
+    assert r.headers["content-disposition"] == f'attachment; filename="{cell.base}.xml"'
+    project = independent_reader(r.content)
+    assert project.content_header.name == f"set {cell.base}"
+    (pou,) = project.types.pous.pou
+    assert (pou.name, pou.pou_type.value) == ("Counter", "program")
+    assert pou.body[0].st.w3_org_1999_xhtml_element.text == "inc := step;\ncount := count + inc;\n" + (
+        "pulse(IN := NOT pulse.Q, PT := T#10ms);\n"
+    )
+    assert [v.name for v in pou.interface.local_vars[0].variable] == ["count", "step", "inc", "pulse"]
+    (config,) = project.instances.configurations.configuration
+    (resource,) = config.resource
+    assert [(i.name, i.type_name) for t in resource.task for i in t.pou_instance] == [("Main", "Counter")]
+    same = cell.as_viewer("GET", "/programs/export", params={"set": cell.base})
+    assert same.status_code == 200 and independent_reader(same.content).types.pous.pou[0].name == "Counter"
+    r = cell.as_viewer("GET", "/programs/export", params={"set": "0123456789abcdef"})
+    assert r.status_code == 404 and "GET /api/v1/sets" in r.json()["detail"], r.text
+
+
+def test_a_drawn_program_is_exported_with_its_drawing(cell):
+    """A set uploaded as PLCopen XML (OpenPLC Editor's Blink, a ladder) is exported with its rungs
+    as drawn: every element and position of the file's LD body."""
+    blink = shared("openplc_blink")
+    stored = cell.upload([("files", ("plc.xml", blink.read_bytes()))])
+    r = cell.as_viewer("GET", "/programs/export", params={"set": stored["id"]})
+    assert r.status_code == 200, r.text
+    (pou,) = independent_reader(r.content).types.pous.pou
+    ld = pou.body[0].ld
+    original = independent_reader(blink.read_bytes()).types.pous.pou[0].body[0].ld
+    assert (pou.name, len(ld.contact), len(ld.coil), len(ld.block)) == ("Blink", 1, 1, 2)
+    assert ld == original
 
 
 def test_bad_requests_are_named(cell):

@@ -300,28 +300,44 @@ def test_a_build_that_writes_a_file_over_max_file_bytes_is_stopped(make_agent):
 
 
 ST_CELL = BUILD / "sets" / "plc-robot-st"  # the paper's cell with its PLC in ST, as the build makes it
+LD_CELL = BUILD / "sets" / "plc-robot-ld"  # the same cell with its PLC drawn in ladder (plc.xml, PLCopen XML)
+UPLOADED_ST = ("  LastStep : DINT;\n", "  LastStep : DINT;\n  Uploaded : DINT := 7;\n")
+UPLOADED_XML = (
+    '<variable name="Robot">',
+    '<variable name="Uploaded"><type><DINT/></type><initialValue><simpleValue value="7"/></initialValue>'
+    '</variable><variable name="Robot">',
+)
 
 
-@pytest.mark.skipif(not (ST_CELL / "main.so").exists(), reason=f"the ST cell is not built ({ST_CELL})")
-def test_the_built_st_cell_is_an_upload_that_the_agent_builds_again_from_main_st(tmp_path, capsys):
+@pytest.mark.parametrize(
+    ("built", "source", "kind", "edit"),
+    [
+        pytest.param(ST_CELL, "main.st", "st", UPLOADED_ST, id="st"),
+        pytest.param(LD_CELL, "plc.xml", "plcopen", UPLOADED_XML, id="ld"),
+    ],
+)
+def test_the_built_st_cell_is_an_upload_that_the_agent_builds_again_from_main_st(
+    tmp_path, capsys, built, source, kind, edit
+):
     """build/sets/plc-robot-st holds its sources (main.st, cell.glb) beside what irpd runs, and no
-    generated C++: irpd runs the folder, the folder (with a variable added to main.st, so that only a
-    build on the appliance has it) is uploaded with irpctl, compiled, activated, and the cell cycles."""
-    folder = tmp_path / "plc-robot-st"
-    config, _ = copy_cell(folder, cell=ST_CELL)  # its drive simulator on a port of its own
-    assert (folder / "main.st").is_file() and (folder / "cell.glb").is_file(), sorted(os.listdir(folder))
+    generated C++ (so does plc-robot-ld, with plc.xml): irpd runs the folder, the folder (with a
+    variable added to the source, so that only a build on the appliance has it) is uploaded with
+    irpctl, compiled, activated, and the cell cycles."""
+    if not (built / "main.so").exists():
+        pytest.skip(f"the cell is not built ({built})")
+    folder = tmp_path / built.name
+    config, _ = copy_cell(folder, cell=built)  # its drive simulator on a port of its own
+    assert (folder / source).is_file() and (folder / "cell.glb").is_file(), sorted(os.listdir(folder))
     assert not list(folder.glob("*.cpp")), "the generated C++ belongs to the build tree, not to the set"
-    main = folder / "main.st"
-    main.write_text(
-        main.read_text().replace("  LastStep : DINT;\n", "  LastStep : DINT;\n  Uploaded : DINT := 7;\n", 1)
-    )
-    cell = LiveCell(tmp_path, config, instance=f"st-cell-upload-{free_port()}")
+    main = folder / source
+    main.write_text(main.read_text().replace(*edit, 1))
+    cell = LiveCell(tmp_path, config, instance=f"{built.name}-upload-{free_port()}")
     try:
         code, said = cell.irpctl(capsys, "upload", str(folder), "--activate", "--mode", "auto")
         assert code == 0, said
         status = cell.call("GET", "/status").json()
         kinds = {f["path"]: f["kind"] for f in cell.call("GET", f"/sets/{status['set_id']}").json()["files"]}
-        assert (kinds["main.st"], kinds["cell.glb"], kinds["main.so"]) == ("st", "glb", "thread_module"), kinds
+        assert (kinds[source], kinds["cell.glb"], kinds["main.so"]) == (kind, "glb", "thread_module"), kinds
 
         def read(path: str):
             r = cell.call("GET", f"/variables/{path}")
@@ -331,7 +347,7 @@ def test_the_built_st_cell_is_an_upload_that_the_agent_builds_again_from_main_st
             r = cell.call("PUT", f"/variables/{path}", json={"value": value})
             assert r.status_code == 200, r.text
 
-        assert read("main.Uploaded") == 7  # main.so was built from the uploaded main.st
+        assert read("main.Uploaded") == 7  # main.so was built from the uploaded source
         write("PLC_ROBOT.PLC_IN.Enable", 1)
         wait_until(lambda: read("PLC_ROBOT.PLC_OUT.Powered") == 1, 30, 0.05)
         write("PLC_ROBOT.I0", 1)

@@ -4,7 +4,8 @@ inputs (PLC_IN.Enable, I0) and the PLC reacts (powered, cycles); the forced valu
 /variables and an OPC UA read give, flagged forced there and by the node's Forced property; a write
 to it (the API's, OPC UA's) is refused naming who forced it; a viewer cannot force; irpctl lists the
 forces; unforce with restore brings the value before back; the audit log has the force and the
-unforce with the user's name; irpd restarts with no forces and the agent notes those lost.  What is asserted is the state reached, never how fast."""
+unforce with the user's name; an OPC UA write of an array with a forced element writes none of its
+elements; irpd restarts with no forces and the agent notes those lost.  What is asserted is the state reached, never how fast."""
 
 from __future__ import annotations
 
@@ -123,6 +124,42 @@ def test_an_operator_forces_the_cells_inputs_and_the_plc_reacts(cell, capsys):
     assert opcua_refusal["opcua_status"] == "BadUserAccessDenied" and "forced by oper" in opcua_refusal["detail"]
     # irpd's own refusal (its error code `forced`), not a second copy of the rule in the agent
     assert "a write would be undone by the force" in opcua_refusal["detail"], opcua_refusal
+
+
+TARGET = "PLC_ROBOT.ROBOT_MODULE_SERVICE.dTarget"
+
+
+async def opcua_write_array(cell, values: list[float]) -> str:
+    c = await cell.connect("oper")
+    try:
+        node = c.get_node(ua.NodeId(TARGET, await ns_of(c)))
+        try:
+            await node.write_value(ua.Variant(values, ua.VariantType.Double))
+        except ua.uaerrors.UaStatusCodeError as e:
+            return type(e).__name__
+        return "Good"
+    finally:
+        await c.disconnect()
+
+
+def test_an_opcua_write_of_an_array_with_a_forced_element_writes_none_of_it(cell):
+    oper = signed_in(cell, "oper")
+    before = [cell.rest(f"/variables/{TARGET}[{i}]")["value"] for i in range(6)]
+    r = call(cell, oper, "PUT", f"/forces/{TARGET}[3]", json={"value": 0.5})
+    assert r.status_code == 200, r.text
+    try:
+        status = asyncio.run(opcua_write_array(cell, [1.25, 1.5, 1.75, 2.0, 2.25, 2.5]))
+        assert status == "BadUserAccessDenied"
+        after = [cell.rest(f"/variables/{TARGET}[{i}]")["value"] for i in range(6)]
+        assert after[:3] + after[4:] == before[:3] + before[4:], "elements before and after the forced one were written"
+        assert after[3] == 0.5
+        refusal = [e for e in cell.audit() if e["action"] == "write_variable" and e["target"] == TARGET][-1]
+        assert refusal["result"] == "error" and f"'{TARGET}[3]' is forced by oper" in refusal["detail"], refusal
+    finally:
+        r = call(cell, oper, "DELETE", f"/forces/{TARGET}[3]", params={"restore": "true"})
+        assert r.status_code == 200, r.text
+    assert asyncio.run(opcua_write_array(cell, [0.0] * 6)) == "Good"
+    assert [cell.rest(f"/variables/{TARGET}[{i}]")["value"] for i in range(6)] == [0.0] * 6
 
 
 async def opcua_forced_flag(cell, path: str = I0) -> bool:

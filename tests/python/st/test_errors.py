@@ -11,6 +11,12 @@ from st_helpers import errors_of, program
     ("text", "where", "message"),
     [
         pytest.param(
+            program("b : BOOL;", "b := 2;"),
+            (5, 6, "type"),
+            "cannot assign DINT to BOOL; use DINT_TO_BOOL(...)",
+            id="type_integer_other_than_1_or_0_to_bool",
+        ),
+        pytest.param(
             program("x : INT;", "x := 1\nx := 2;"),
             (5, 7, "syntax"),
             "expected ';' after the assignment",

@@ -161,3 +161,51 @@ def test_every_extern_block_is_laid_out_as_its_cpp_struct(tmp_path):
         text=True,
     )
     assert r.returncode == 0, r.stderr
+
+
+# ---- two groups: each block call reaches the group it names -------------------------------------
+
+TWO_GROUPS = """
+FUNCTION_BLOCK Cell  (* a group passed on through an FB's VAR_IN_OUT *)
+VAR_IN_OUT G : AXES_GROUP_REF; END_VAR
+VAR_INPUT enable : BOOL; END_VAR
+VAR Power : MC_Power; END_VAR
+  Power(AxesGroup := G, Enable := enable);
+END_FUNCTION_BLOCK
+
+PROGRAM Main
+VAR
+  A, B, C : AXES_GROUP_REF;
+  PowerA, PowerB : MC_Power;
+  CellC : Cell;
+  onA, onB, onC : BOOL;
+  runs : DINT;
+END_VAR
+  runs := runs + 1;
+  PowerA(AxesGroup := A, Enable := onA);
+  PowerB(AxesGroup := B, Enable := onB);
+  CellC(G := C, enable := onC);
+  PowerA(AxesGroup := A, Enable := onA);
+END_PROGRAM
+"""
+
+
+def test_each_block_call_requests_from_the_group_it_is_given(tmp_path):
+    """The C++ view of a group (plcopen::bindAxisGroup) is kept between calls: a call on another
+    group, in the same run or through an FB, still writes its request into that group."""
+    from live_processes import wait_until
+    from st_live import Running
+
+    run = Running(tmp_path, {"groups.st": TWO_GROUPS})
+    try:
+        wait_until(lambda: run.value("Main.runs") > 3)
+        seqs = lambda: [run.value(f"Main.{g}.Service.nSeq") for g in "ABC"]  # noqa: E731
+        assert seqs() == [0, 0, 0]
+        for g, want in [("B", [0, 1, 0]), ("C", [0, 1, 1]), ("A", [1, 1, 1])]:
+            run.client.request("write", path=f"Main.on{g}", value=True)
+            wait_until(lambda g=g: run.value(f"Main.{g}.Service.nSeq") >= 1)
+            assert [min(s, 1) for s in seqs()] == want, g
+            assert run.value(f"Main.{g}.Service.eOpCode") == 1  # PowerOn
+        assert run.value("Main.CellC.Power.Busy") and run.value("Main.PowerB.Busy")
+    finally:
+        run.close()

@@ -141,6 +141,9 @@ def value_type(expr: str, target: str) -> str:
         ("SQRT(4)", "r", "REAL"),
         ("MAX(1, 2) + i", "i", "INT"),
         ("-MIN(1, 2)", "si", "SINT"),
+        # a bare 1 or 0 is a boolean literal where a BOOL is expected (IEC 61131-3)
+        ("1", "b", "BOOL"),
+        ("0", "b", "BOOL"),
     ],
 )
 def test_expression_type(expr: str, target: str, typ: str):

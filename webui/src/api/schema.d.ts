@@ -837,7 +837,7 @@ export interface paths {
         /**
          * Monitor Diagram
          * @description The live values of POU `pou` of the set's (default: the active set's) PLCopen XML file `path`:
-         *     the value leaving each element as the translation computes it (unit.flows), folded with the
+         *     the value leaving each element as the translation computes it (project.unit_of's flows), folded with the
          *     compiler's own folding on the variables read, and the variables the elements show (a step: active
          *     and for how long).  One read of the shared memory.
          */
@@ -860,6 +860,28 @@ export interface paths {
          * @description The unified diff of `path` (a .st or PLCopen XML file) from set `old` to set `new`.
          */
         get: operations["program_diff_api_v1_programs_diff_get"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/programs/export": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Export Programs
+         * @description The set's (default: the active set's) programs as one PLCopen XML 2.01 project, to open in a
+         *     PLC editor: data types, POUs (ST bodies as written; a POU imported from PLCopen XML with its
+         *     drawing), configurations, tasks and program instances (docs/plcopen-xml.md "Export").
+         */
+        get: operations["export_programs_api_v1_programs_export_get"];
         put?: never;
         post?: never;
         delete?: never;
@@ -1722,7 +1744,7 @@ export interface paths {
          * Read Variables
          * @description The values of many leaves, read in one pass over the shared memory (never a request to irpd's
          *     RT threads): a path that names no leaf (unknown, a group, a type the agent cannot decode) is an
-         *     entry of `errors` with the reason, the others are read.
+         *     entry of `errors` with the reason, the others are read.  A float that is not finite is null.
          */
         post: operations["read_variables_api_v1_variables_read_post"];
         delete?: never;
@@ -3486,8 +3508,11 @@ export interface components {
              * @description its scalar type, as GET /variables gives it
              */
             type: string;
-            /** Value */
-            value: boolean | number;
+            /**
+             * Value
+             * @description null: a float that is not finite (NaN, infinity), which JSON has no number for
+             */
+            value: boolean | number | null;
         };
         /** LeftOutModule */
         LeftOutModule: {
@@ -8020,6 +8045,42 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["HTTPValidationError"];
                 };
+            };
+        };
+    };
+    export_programs_api_v1_programs_export_get: {
+        parameters: {
+            query?: {
+                set?: string | null;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description a PLCopen XML 2.01 project (TC6 XML v2.01) */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/xml": unknown;
+                };
+            };
+            /** @description no such set, no active set, or no such .st file in it */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description a source has what PLCopen XML cannot say (e.g. a POU implemented in C++) */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
         };
     };

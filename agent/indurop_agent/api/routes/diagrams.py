@@ -12,9 +12,9 @@ from fastapi import APIRouter, HTTPException, Request
 
 from ...irpd.variables import VariableError
 from ...sets import plc_diagram, plc_monitor, st_check
-from ..deps import IrpdDep, ViewerDep, ask
+from ..deps import IrpdDep, ViewerDep
 from ..diagram_models import Diagram, DiagramMonitorAnswer, DiagramMonitorRequest
-from .forces import forced_paths
+from .forces import forced_now
 from .programs import _compiler_missing, _set_id, _set_sources, _stc
 from .variables import segment
 
@@ -57,31 +57,27 @@ def program_diagram(request: Request, _: ViewerDep, path: str, pou: str, set: st
 @router.post("/programs/diagram/monitor", responses={**NOT_FOUND, **UNREADABLE})
 def monitor_diagram(body: DiagramMonitorRequest, request: Request, irpd: IrpdDep, _: ViewerDep) -> DiagramMonitorAnswer:
     """The live values of POU `pou` of the set's (default: the active set's) PLCopen XML file `path`:
-    the value leaving each element as the translation computes it (unit.flows), folded with the
+    the value leaving each element as the translation computes it (project.unit_of's flows), folded with the
     compiler's own folding on the variables read, and the variables the elements show (a step: active
     and for how long).  One read of the shared memory."""
     set_id = _set_id(request, body.set)
-    plcopen_file(request, set_id, body.path)  # 404 / 422 as the diagram
-    data = (request.app.state.store.files_dir(set_id) / body.path).read_bytes()
+    key = (set_id, body.path, body.pou.upper())
+    found = plc_monitor.kept(key)  # analysed already: a refresh reads no file
+    if found is None:
+        plcopen_file(request, set_id, body.path)  # 404 / 422 as the diagram
+        data = (request.app.state.store.files_dir(set_id) / body.path).read_bytes()
+        try:
+            found = plc_monitor.analyse(_stc(request), key, _set_sources(request, set_id), body.path, data, body.pou)
+        except st_check.CompilerMissing as e:
+            raise _compiler_missing(e) from e
+        except plc_diagram.NoSuchPou as e:
+            raise HTTPException(404, str(e)) from e
+        except plc_diagram.DiagramError as e:
+            raise HTTPException(422, str(e)) from e
+    forced = forced_now(irpd)
+    seg = segment(request, irpd)
     try:
-        found = plc_monitor.analyse(
-            _stc(request),
-            (set_id, body.path, body.pou.upper()),
-            _set_sources(request, set_id),
-            body.path,
-            data,
-            body.pou,
-        )
-    except st_check.CompilerMissing as e:
-        raise _compiler_missing(e) from e
-    except plc_diagram.NoSuchPou as e:
-        raise HTTPException(404, str(e)) from e
-    except plc_diagram.DiagramError as e:
-        raise HTTPException(422, str(e)) from e
-    status = ask(irpd, "status")
-    seg = segment(request, irpd, status)
-    try:
-        answer = found.snapshot(seg, forced_paths(irpd, status))
+        answer = found.snapshot(seg, forced)
     except VariableError as e:
         raise HTTPException(503, str(e)) from e
     return DiagramMonitorAnswer(set_id=set_id, **answer)

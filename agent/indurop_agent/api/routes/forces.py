@@ -17,6 +17,12 @@ def forced_paths(irpd, status: dict) -> dict[str, dict]:
     `status` (asked already by the caller) says some are."""
     if not status.get("forces"):
         return {}
+    return forced_now(irpd)
+
+
+def forced_now(irpd) -> dict[str, dict]:
+    """{path: force entry} of the variables forced now: irpd's `forces`, one small answer (a
+    caller that needs no `status` asks this alone)."""
     return {f["path"]: f for f in ask(irpd, "forces")["forces"]}
 
 

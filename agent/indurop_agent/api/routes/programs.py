@@ -3,7 +3,7 @@ POUs, a file's source, the check of an edited file in its set (errors and symbol
 compiler in this process: sets/st_check.py), an edit applied as a new set made from the set with
 the file replaced (built as an upload is, its manifest saying `derived_from`; irpd's dry run in the
 answer; activated on request through the sets' activation), a file's history across sets and the
-diff of two versions, and the monitor: the values of the variables of the lines shown and the
+diff of two versions, the set's programs as one PLCopen XML file (sets/st_export.py), and the monitor: the values of the variables of the lines shown and the
 conditions evaluated (sets/st_monitor.py).  Rollback is POST /sets/rollback.  Viewers read and check; applying an edit
 needs the role an upload needs (admin)."""
 
@@ -15,14 +15,15 @@ import hashlib
 import json
 from pathlib import Path
 
-from fastapi import APIRouter, HTTPException, Query, Request
+import orjson
+from fastapi import APIRouter, HTTPException, Query, Request, Response
 from starlette.concurrency import run_in_threadpool
 
 from ...irpd.variables import VariableError
-from ...sets import plc_diagram, st_build, st_check, st_monitor, uploads
+from ...sets import plc_diagram, st_build, st_check, st_export, st_monitor, uploads
 from ...sets.activation import irpd_validation
 from ...sets.store import remove_tree
-from ..deps import AdminDep, IrpdDep, ViewerDep, ask, audited
+from ..deps import AdminDep, IrpdDep, ViewerDep, audited
 from ..models import ActivateRequest
 from ..monitor_models import MonitorAnswer, MonitorRequest
 from ..program_models import (
@@ -38,7 +39,7 @@ from ..program_models import (
     ProgramSource,
 )
 from . import sets as sets_routes
-from .forces import forced_paths
+from .forces import forced_now
 from .variables import segment
 
 router = APIRouter(tags=["programs"])
@@ -144,6 +145,35 @@ def program_source(request: Request, _: ViewerDep, path: str, set: str | None = 
     return ProgramSource(set_id=set_id, path=path, sha256=f["sha256"], source=_text(request, set_id, path))
 
 
+@router.get(
+    "/programs/export",
+    response_class=Response,
+    responses={
+        **NOT_FOUND,
+        200: {"content": {"application/xml": {}}, "description": "a PLCopen XML 2.01 project (TC6 XML v2.01)"},
+        422: {"description": "a source has what PLCopen XML cannot say (e.g. a POU implemented in C++)"},
+    },
+)
+def export_programs(request: Request, _: ViewerDep, set: str | None = None) -> Response:
+    """The set's (default: the active set's) programs as one PLCopen XML 2.01 project, to open in a
+    PLC editor: data types, POUs (ST bodies as written; a POU imported from PLCopen XML with its
+    drawing), configurations, tasks and program instances (docs/plcopen-xml.md "Export")."""
+    set_id = _set_id(request, set)
+    manifest = request.app.state.store.manifest(set_id)
+    paths = sorted(f["path"] for f in manifest["files"] if f["kind"] in ("st", "plcopen"))
+    if not paths:
+        raise HTTPException(404, f"set {set_id} has no programs (.st or PLCopen XML files) to export")
+    try:
+        data = st_export.export(_stc(request), request.app.state.store.files_dir(set_id), paths, f"set {set_id}")
+    except st_check.CompilerMissing as e:
+        raise _compiler_missing(e) from e
+    except st_export.ExportError as e:
+        raise HTTPException(422, f"set {set_id} cannot be written as PLCopen XML: {e}") from e
+    return Response(
+        data, media_type="application/xml", headers={"Content-Disposition": f'attachment; filename="{set_id}.xml"'}
+    )
+
+
 @router.post("/programs/check", responses=NOT_FOUND)
 def check_program(body: CheckRequest, request: Request, _: ViewerDep) -> CheckResult:
     """Checks `source` as the set's file `path`, with the set's other .st files as stored and its
@@ -158,25 +188,28 @@ def check_program(body: CheckRequest, request: Request, _: ViewerDep) -> CheckRe
     return CheckResult(set_id=set_id, **result)
 
 
-@router.post("/programs/monitor", responses=NOT_FOUND)
-def monitor_program(body: MonitorRequest, request: Request, irpd: IrpdDep, _: ViewerDep) -> MonitorAnswer:
+@router.post("/programs/monitor", responses=NOT_FOUND, response_model=MonitorAnswer)
+def monitor_program(body: MonitorRequest, request: Request, irpd: IrpdDep, _: ViewerDep) -> Response:
     """The running values of the variables in lines from_line..to_line of the set's (default: the
     active set's) file `path`, each where it is (an FB instance or a struct as a group: its fields
     when named in `expand`), and the IF/ELSIF/WHILE/UNTIL conditions and CASE selectors evaluated
     on them with the compiler's own folding (or why not).  One read of the shared memory."""
     set_id = _set_id(request, body.set)
-    _file_of(request, set_id, body.path)
+    found = st_monitor.kept((set_id, body.path))  # the set's file analysed already: a refresh reads no file
+    if found is None:
+        _file_of(request, set_id, body.path)
+        try:
+            found = st_monitor.analyse(_stc(request), (set_id, body.path), _set_sources(request, set_id), body.path)
+        except st_check.CompilerMissing as e:
+            raise _compiler_missing(e) from e
+    forced = forced_now(irpd)
+    seg = segment(request, irpd)
     try:
-        found = st_monitor.analyse(_stc(request), (set_id, body.path), _set_sources(request, set_id), body.path)
-    except st_check.CompilerMissing as e:
-        raise _compiler_missing(e) from e
-    status = ask(irpd, "status")
-    seg = segment(request, irpd, status)
-    try:
-        answer = found.snapshot(seg, forced_paths(irpd, status), body.from_line, body.to_line, body.expand)
+        answer = found.snapshot(seg, forced, body.from_line, body.to_line, body.expand)
     except VariableError as e:
         raise HTTPException(503, str(e)) from e
-    return MonitorAnswer(set_id=set_id, **answer)
+    # MonitorAnswer, every field given (st_monitor.py), written by orjson (a float not finite as null)
+    return Response(orjson.dumps({"set_id": set_id, **answer}), media_type="application/json")
 
 
 def _derive(request: Request, irpd, base: str, path: str, source: str, who) -> dict:

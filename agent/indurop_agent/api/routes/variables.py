@@ -5,6 +5,7 @@ writes the value, type-checked against the layout; refused for a forced variable
 /api/v1/variables/read (many leaves in one pass: the Watch page, the monitor) and GET /api/v1/layout
 (the running layout.json, to lay a changed .glb out against: glbc --previous)."""
 
+import orjson
 from fastapi import APIRouter, HTTPException, Request, Response
 from pydantic import BaseModel, ConfigDict
 
@@ -13,25 +14,35 @@ from ...irpd.variables import Segment, VariableError
 from ..deps import IrpdDep, OperatorDep, ViewerDep, ask, audited
 from ..models import GroupValue, VariableList, VariableValue
 from ..monitor_models import ReadAnswer, ReadRequest
-from .forces import forced_paths
+from .forces import forced_now, forced_paths
 
 router = APIRouter(tags=["variables"])
+JSON = "application/json"
 
 
 def segment(request: Request, irpd, status: dict | None = None) -> Segment:
-    """The running layout's segment (`status`: irpd's, when the caller asked for it already)."""
-    name = (status or ask(irpd, "status")).get("shared_memory", {}).get("variables")
+    """The running layout's segment (`status`: irpd's, when the caller asked for it already).  Without
+    `status`, the segment held is taken as it is when it was named on the connection to irpd open now
+    and its file is still there: an irpd keeps its segment as long as it runs (docs/shared-variables.md),
+    and a restarted irpd (a managed restart too) is a new connection (the client's `hello`) and a new
+    file; else irpd's `status` names it."""
+    cached = getattr(request.app.state, "segment", None)
+    if status is None and cached is not None and cached.hello is irpd.hello and not cached.replaced():
+        cached.refresh()  # an online change may have published another layout
+        return cached
+    status = status if status is not None else ask(irpd, "status")
+    name = status.get("shared_memory", {}).get("variables")
     if not name:
         raise HTTPException(404, "the running set has no shared variables (no layout)")
-    cached = getattr(request.app.state, "segment", None)
     if cached is not None and cached.name == name and not cached.replaced():
-        cached.refresh()  # an online change may have published another layout
+        cached.hello = irpd.hello
+        cached.refresh()
         return cached
     try:
         seg = Segment(name)
     except VariableError as e:
         raise HTTPException(503, str(e)) from e
-    seg.name = name
+    seg.name, seg.hello = name, irpd.hello
     request.app.state.segment = seg
     return seg
 
@@ -53,19 +64,19 @@ def list_variables(request: Request, irpd: IrpdDep, _: ViewerDep) -> VariableLis
     }
 
 
-@router.post("/variables/read")
-def read_variables(body: ReadRequest, request: Request, irpd: IrpdDep, _: ViewerDep) -> ReadAnswer:
+@router.post("/variables/read", response_model=ReadAnswer)
+def read_variables(body: ReadRequest, request: Request, irpd: IrpdDep, _: ViewerDep) -> Response:
     """The values of many leaves, read in one pass over the shared memory (never a request to irpd's
     RT threads): a path that names no leaf (unknown, a group, a type the agent cannot decode) is an
-    entry of `errors` with the reason, the others are read."""
-    status = ask(irpd, "status")
-    seg = segment(request, irpd, status)
+    entry of `errors` with the reason, the others are read.  A float that is not finite is null."""
+    forced = forced_now(irpd)  # the one request to irpd (its control thread) per read
+    seg = segment(request, irpd)
     read, errors = seg.read_many(body.paths)
-    forced = forced_paths(irpd, status)
     values = [
         {"path": leaf["path"], "type": leaf["type"], "value": v, "forced": leaf["path"] in forced} for leaf, v in read
     ]
-    return {"layout_hash": seg.hash, "values": values, "errors": errors}
+    # the answer as ReadAnswer says, written by orjson (NaN and infinities as null) without a model per value
+    return Response(orjson.dumps({"layout_hash": seg.hash, "values": values, "errors": errors}), media_type=JSON)
 
 
 @router.get(

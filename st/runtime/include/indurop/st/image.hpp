@@ -51,6 +51,12 @@ inline void copyIn(const shared::ScalarRef<T> &ref, T &local, T &snapshot) noexc
     local = snapshot = ref.load();
 }
 
+// A scalar the code only reads: no snapshot.
+template <class T>
+inline void copyIn(const shared::ScalarRef<T> &ref, T &local) noexcept {
+    local = ref.load();
+}
+
 template <class T>
 inline void writeBack(const shared::ScalarRef<T> &ref, const T &local, const T &snapshot) noexcept {
     if (std::memcmp(&local, &snapshot, sizeof(T)) != 0) ref.store(local);

@@ -26,6 +26,8 @@
 //   constinit auto image = grouped(std::array{kept(::main::t1, ...), kept(::main::t2, ...), ...});
 //
 // After a fault the generated code calls forget(image): the locals hold a partial run.
+//
+// Generated code walks the table made compact (KeptImage, below: 20 bytes an entry, the groups apart).
 #pragma once
 
 #include <indurop/shared.h>
@@ -120,21 +122,107 @@ consteval std::array<Kept, N> grouped(std::array<Kept, N> table) {
     return table;
 }
 
+// The table a run walks (what generated code declares): the entries of `spec` (a grouped() table,
+// constexpr: pointers to the module's locals) made compact, 20 bytes a row (the local and its
+// snapshot as offsets from one base, within the module's data), the groups apart, 16 bytes each
+// (lock, sequence seen, first row, rows).  A run that starts with cold caches reads the rows of
+// the entries it flagged and the groups: 9 lines for the 24 entries of the plc-robot cell, where
+// 40-byte entries were 15.  The rows' offsets are taken from the spec at the first copyIn().
+//
+//   constexpr auto spec = grouped(std::array{kept(...), ...});
+//   constinit KeptImage<spec.size(), groupCount(spec)> image{spec};
+//   copyIn(image);  ... the program ...  writeBack(image, written);
+struct KeptRow {
+    int32_t local;     // from KeptImage::base
+    int32_t snapshot;  // likewise; kNoSnapshot: the code only reads the variable
+    uint32_t offset;   // in the segment
+    uint32_t size;
+    uint32_t unit : 30;
+    uint32_t how : 2;
+};
+static_assert(sizeof(KeptRow) == 20);
+
+struct KeptGroup {
+    uint32_t lock;
+    uint32_t seen;  // as Kept::seen
+    uint32_t first;
+    uint32_t count;
+};
+
+inline constexpr int32_t kNoSnapshot = INT32_MIN;
+
+template <std::size_t N>
+consteval std::size_t groupCount(const std::array<Kept, N> &spec) {
+    std::size_t g = 0;
+    for (std::size_t i = 0; i < N; i += spec[i].group) ++g;
+    return g;
+}
+
+template <std::size_t N, std::size_t G>
+struct KeptImage {
+    const Kept *spec;      // the constexpr table, read at the first copyIn()
+    char *base = nullptr;  // null until then
+    std::array<KeptGroup, G> groups{};
+    std::array<KeptRow, N> rows{};
+
+    consteval explicit KeptImage(const std::array<Kept, N> &table) : spec(table.data()) {
+        for (std::size_t i = 0, g = 0; i < N; i += table[i].group, ++g)
+            groups[g] = {table[i].lock, 1, static_cast<uint32_t>(i), table[i].group};
+        for (std::size_t i = 0; i < N; ++i)
+            rows[i] = {0, kNoSnapshot, table[i].offset, table[i].size, table[i].unit, table[i].how};
+    }
+
+    // The locals' and snapshots' offsets from the first local (a module's data is well within 2 GiB).
+    [[gnu::cold]] void bind() noexcept {
+        char *at = static_cast<char *>(spec[0].local);
+        for (std::size_t i = 0; i < N; ++i) {
+            rows[i].local = static_cast<int32_t>(static_cast<char *>(spec[i].local) - at);
+            if (spec[i].snapshot != nullptr)
+                rows[i].snapshot = static_cast<int32_t>(static_cast<char *>(spec[i].snapshot) - at);
+        }
+        base = at;
+    }
+};
+
 namespace detail {
 
-// One consistent read of the group of n entries at g into their locals and snapshots, unless its
-// sequence is still the one seen.
-inline void readGroup(Kept *g, std::size_t n) noexcept {
-    auto seq = shared::detail::sequence(g->lock);
+// One entry as the group routines see it, from a Kept or a KeptRow.
+struct Entry {
+    char *local;
+    char *snapshot;  // null: read only
+    uint32_t offset;
+    uint32_t size;
+    uint32_t unit;
+    How how;
+};
+
+inline Entry entry(const Kept &k) noexcept {
+    return {static_cast<char *>(k.local), static_cast<char *>(k.snapshot), k.offset, k.size, k.unit, k.writing()};
+}
+
+inline Entry entry(const KeptRow &r, char *base) noexcept {
+    return {base + r.local,         r.snapshot == kNoSnapshot ? nullptr : base + r.snapshot, r.offset, r.size, r.unit,
+            static_cast<How>(r.how)};
+}
+
+// One consistent read of the group of n entries (at(i): the i-th) into their locals and
+// snapshots, unless its sequence is still the one seen.
+template <class At>
+inline void readGroup(At at, std::size_t n, uint32_t lock, uint32_t &seen) noexcept {
+    auto seq = shared::detail::sequence(lock);
     uint32_t before = seq.load(std::memory_order_acquire);
-    if (before == g->seen) return;
+    if (before == seen) return;
     auto copy = [&] {
-        for (std::size_t i = 0; i < n; ++i)
-            shared::detail::atomicCopy(g[i].local, indurop_shared_data + g[i].offset, g[i].size);
+        for (std::size_t i = 0; i < n; ++i) {
+            const Entry e = at(i);
+            shared::detail::atomicCopy(e.local, indurop_shared_data + e.offset, e.size);
+        }
     };
     auto snapshots = [&] {
-        for (std::size_t i = 0; i < n; ++i)
-            if (g[i].snapshot != nullptr) std::memcpy(g[i].snapshot, g[i].local, g[i].size);
+        for (std::size_t i = 0; i < n; ++i) {
+            const Entry e = at(i);
+            if (e.snapshot != nullptr) std::memcpy(e.snapshot, e.local, e.size);
+        }
     };
     for (int attempt = 0; attempt < shared::kSpinReads; ++attempt, before = seq.load(std::memory_order_acquire)) {
         if (before & 1) {
@@ -145,19 +233,19 @@ inline void readGroup(Kept *g, std::size_t n) noexcept {
         std::atomic_thread_fence(std::memory_order_acquire);
         if (seq.load(std::memory_order_relaxed) == before) {
             snapshots();
-            g->seen = before;
+            seen = before;
             return;
         }
     }
-    shared::lockVariable(g->lock);
+    shared::lockVariable(lock);
     copy();
-    g->seen = seq.load(std::memory_order_relaxed);
-    shared::unlockVariable(g->lock);
+    seen = seq.load(std::memory_order_relaxed);
+    shared::unlockVariable(lock);
     snapshots();
 }
 
 template <bool Whole>
-inline void mergeUnits(const Kept &k, char *to, const char *l, const char *s) noexcept {
+inline void mergeUnits(const Entry &k, char *to, const char *l, const char *s) noexcept {
     switch (k.unit) {
     case 8: mergeWords<uint64_t, Whole>(to, l, s, k.size); break;
     case 4: mergeWords<uint32_t, Whole>(to, l, s, k.size); break;
@@ -167,12 +255,12 @@ inline void mergeUnits(const Kept &k, char *to, const char *l, const char *s) no
 }
 
 // The changed words, elements or texts of one entry (the caller holds the lock).
-inline void mergeKept(const Kept &k) noexcept {
-    const auto *l = static_cast<const char *>(k.local), *s = static_cast<const char *>(k.snapshot);
+inline void mergeKept(const Entry &k) noexcept {
+    const char *l = k.local, *s = k.snapshot;
     char *to = indurop_shared_data + k.offset;
-    if (k.writing() == How::Merge) {
+    if (k.how == How::Merge) {
         mergeUnits<false>(k, to, l, s);
-    } else if (k.writing() == How::Whole) {
+    } else if (k.how == How::Whole) {
         mergeUnits<true>(k, to, l, s);
     } else {
         for (uint32_t t = 0; t + k.unit <= k.size; t += k.unit)
@@ -181,44 +269,53 @@ inline void mergeKept(const Kept &k) noexcept {
     }
 }
 
-inline bool changedKept(const Kept &k) noexcept {
+inline bool changedKept(const Entry &k) noexcept {
     return k.snapshot != nullptr && std::memcmp(k.local, k.snapshot, k.size) != 0;
 }
 
-// The group of n entries at g, of which those with flags[i] may have been written: the changed
-// ones (compared with their snapshots; libc's memcmp, vectorised: the sizes vary along the table)
+// The group of n entries, of which those with flags[i] may have been written: the changed ones
+// (compared with their snapshots; libc's memcmp, vectorised: the sizes vary along the table)
 // under the lock, taken once.  Then, when no one else wrote the group since the copy-in (the
 // sequence before this write was the one seen), the segment holds the locals: their snapshots
 // follow and the new sequence is seen; else the segment mixes two writers' bytes and the next
 // copy-in reads the group whole.  Clears the flags (they hold "changed" meanwhile).
-inline void writeGroup(Kept *g, std::size_t n, bool *flags, uint32_t &seen) noexcept {
+template <class At>
+inline void writeGroup(At at, std::size_t n, bool *flags, uint32_t lock, uint32_t &seen) noexcept {
     bool any = false;
     for (std::size_t i = 0; i < n; ++i)
         if (flags[i]) {
-            flags[i] = changedKept(g[i]);
+            flags[i] = changedKept(at(i));
             any = any || flags[i];
         }
     if (!any) return;
-    uint32_t at = 0;
-    shared::detail::writeExclusive(g->lock, [&] {
-        at = shared::detail::sequence(g->lock).load(std::memory_order_relaxed);
+    uint32_t now = 0;
+    shared::detail::writeExclusive(lock, [&] {
+        now = shared::detail::sequence(lock).load(std::memory_order_relaxed);
         for (std::size_t i = 0; i < n; ++i)
-            if (flags[i]) mergeKept(g[i]);
+            if (flags[i]) mergeKept(at(i));
     });
-    const bool alone = at - 1 == seen;
+    const bool alone = now - 1 == seen;
     for (std::size_t i = 0; i < n; ++i)
         if (flags[i]) {
             flags[i] = false;
-            if (alone) std::memcpy(g[i].snapshot, g[i].local, g[i].size);
+            if (alone) {
+                const Entry e = at(i);
+                std::memcpy(e.snapshot, e.local, e.size);
+            }
         }
-    seen = alone ? at + 1 : 1;
+    seen = alone ? now + 1 : 1;
+}
+
+inline auto entries(Kept *g) noexcept {
+    return [g](std::size_t i) { return entry(g[i]); };
 }
 
 }  // namespace detail
 
 // A table's groups start at 0 and each at the end of the one before (Kept::group: its length).
 inline void copyIn(std::span<Kept> image) noexcept {
-    for (std::size_t i = 0; i < image.size(); i += image[i].group) detail::readGroup(&image[i], image[i].group);
+    for (std::size_t i = 0; i < image.size(); i += image[i].group)
+        detail::readGroup(detail::entries(&image[i]), image[i].group, image[i].lock, image[i].seen);
 }
 
 // The variables the run may have written: written[i] is set by the generated code before each
@@ -227,7 +324,7 @@ inline void copyIn(std::span<Kept> image) noexcept {
 // it).  Clears the flags for the next run.
 inline void writeBack(std::span<Kept> image, std::span<bool> written) noexcept {
     for (std::size_t i = 0; i < image.size(); i += image[i].group)
-        detail::writeGroup(&image[i], image[i].group, &written[i], image[i].seen);
+        detail::writeGroup(detail::entries(&image[i]), image[i].group, &written[i], image[i].lock, image[i].seen);
 }
 
 // Every variable may have been written.
@@ -237,9 +334,42 @@ inline void writeBack(std::span<Kept> image) noexcept {
         for (std::size_t at = 0; at < image[i].group; at += 64) {
             const std::size_t n = std::min<std::size_t>(64, image[i].group - at);
             std::fill_n(flags, n, true);
-            detail::writeGroup(&image[i] + at, n, flags, image[i].seen);
+            detail::writeGroup(detail::entries(&image[i] + at), n, flags, image[i].lock, image[i].seen);
         }
     }
+}
+
+// The same on the compact table.
+template <std::size_t N, std::size_t G>
+inline void copyIn(KeptImage<N, G> &image) noexcept {
+    if (image.base == nullptr) [[unlikely]]
+        image.bind();
+    char *base = image.base;
+    for (KeptGroup &g : image.groups) {
+        const KeptRow *rows = &image.rows[g.first];
+        detail::readGroup([=](std::size_t i) { return detail::entry(rows[i], base); }, g.count, g.lock, g.seen);
+    }
+}
+
+template <std::size_t N, std::size_t G>
+inline void writeBack(KeptImage<N, G> &image, bool (&written)[N]) noexcept {
+    char *base = image.base;
+    for (KeptGroup &g : image.groups) {
+        const KeptRow *rows = &image.rows[g.first];
+        detail::writeGroup([=](std::size_t i) { return detail::entry(rows[i], base); }, g.count, &written[g.first],
+                           g.lock, g.seen);
+    }
+}
+
+template <std::size_t N, std::size_t G>
+inline void forget(KeptImage<N, G> &image) noexcept {
+    for (KeptGroup &g : image.groups) g.seen = 1;
+}
+
+template <std::size_t N, std::size_t G>
+inline void forget(KeptImage<N, G> &image, bool (&written)[N]) noexcept {
+    forget(image);
+    for (bool &w : written) w = false;
 }
 
 // Runs f, a function of its own: the generated code cuts long runs of copy-ins, write-backs and
