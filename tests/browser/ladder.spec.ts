@@ -7,11 +7,11 @@
 // the coil's variable turns TRUE in the API; unforce and restore brings the rung back to off.
 // A server of its own (irpd, the agent), so that the suite's cell is not changed.
 import { existsSync, readFileSync } from "node:fs";
-import { join, resolve } from "node:path";
+import { join, relative, resolve } from "node:path";
 import type { Page } from "@playwright/test";
 import { expect, shot, signIn, test } from "./fixtures";
 import { ROOT, type Server, startServer, stopServer } from "./server";
-import { rest, storeAndActivate } from "./st_cell";
+import { BUILT, files, rest, storeAndActivate } from "./st_cell";
 
 // the shared projects beside the repository (PLAN31b.md); for a git worktree, beside its main checkout
 const SHARED = [resolve(ROOT, "../shared/plcopen"), resolve(ROOT, "../../shared/plcopen")].find((p) => existsSync(p));
@@ -35,9 +35,60 @@ async function upload(s: Server, file: string): Promise<string> {
   return storeAndActivate(s, form);
 }
 
+// the cell's PLC program drawn in ladder (config/sets/plc-robot-ld, written by its generate.py)
+const CELL_LD = join(ROOT, "config/sets/plc-robot-ld/plc.xml");
+
+/** The cell with its PLC in ladder, as an upload the appliance builds: the built ST cell's modules and
+ * cell.glb with plc.xml in place of main.st (stc compiles it into main.so, laid out against the
+ * running layout, as config/sets/plc-robot-ld's CMake does). */
+async function uploadTheLadderCell(s: Server): Promise<string> {
+  const form = new FormData();
+  for (const p of files(BUILT)) {
+    const name = relative(BUILT, p);
+    if (name !== "main.st" && name !== "layout.json") form.append("files", new Blob([readFileSync(p)]), name);
+  }
+  form.append("files", new Blob([readFileSync(CELL_LD)]), "plc.xml");
+  return storeAndActivate(s, form);
+}
+
 function element(page: Page, id: number) {
   return page.locator(`[data-testid="pl-element"][data-id="${id}"]`);
 }
+
+test("the cell's LD program live: a panel input forced makes its rung conduct", async ({ page }) => {
+  test.skip(!existsSync(CELL_LD), "config/sets/plc-robot-ld is not here");
+  test.setTimeout(600_000); // the appliance builds the uploaded set (stc, then the C++ compiler)
+  const s = await startServer(`${BUILT}/module.xml`);
+  try {
+    const set = await uploadTheLadderCell(s);
+    await signIn(page, "admin", "#/programs", s);
+    await page.getByTestId("st-pou-PickAndPlace").click();
+    await expect(page.getByTestId("st-title")).toContainText(`plc.xml: PROGRAM PickAndPlace (LD) — set ${set}`);
+    // rung 4: Reset clears the robot's error (Inputs.ResetReq := PLC_ROBOT.PLC_IN.Reset <> 0)
+    const contact = page.locator('[data-testid="pl-element"][data-kind="contact"]', { hasText: "Inputs.ResetReq" });
+    await expect(contact).toHaveCount(1);
+    const id = Number(await contact.getAttribute("data-id"));
+    const wire = page.locator(`[data-testid="pl-wire"][data-from="${id}"]`).first();
+    await page.getByTestId("st-monitor").click();
+    await expect(contact).toHaveClass(/pl-off/);
+    await expect(wire).toHaveClass(/pl-off/);
+    const forced = await rest(s, "/forces/PLC_ROBOT.PLC_IN.Reset", {
+      method: "PUT",
+      headers: { "Content-Type": "application/json" },
+      body: JSON.stringify({ value: 1 }),
+    });
+    expect(forced.status, await forced.clone().text()).toBe(200);
+    await expect(contact).toHaveClass(/pl-on/);
+    await expect(wire).toHaveClass(/pl-on/);
+    await contact.scrollIntoViewIfNeeded();
+    await shot(page, "programs-ladder-cell");
+    const restored = await rest(s, "/forces/PLC_ROBOT.PLC_IN.Reset?restore=true", { method: "DELETE" });
+    expect(restored.status, await restored.clone().text()).toBe(200);
+    await expect(contact).toHaveClass(/pl-off/);
+  } finally {
+    await stopServer(s);
+  }
+});
 
 test("an LD program opens as a ladder drawn from its file; Monitor shows a rung conduct when its input is forced", async ({
   page,

@@ -9,7 +9,8 @@ import { ROOT, type Role, type Server } from "./server";
 export const BUILT = join(ROOT, "build/sets/plc-robot-st");
 export const MAIN = join(ROOT, "config/sets/plc-robot-st/main.st");
 
-function files(dir: string): string[] {
+/** Every file under `dir`. */
+export function files(dir: string): string[] {
   return readdirSync(dir).flatMap((n) => {
     const p = join(dir, n);
     return statSync(p).isDirectory() ? files(p) : [p];
