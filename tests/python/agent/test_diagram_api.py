@@ -108,9 +108,6 @@ def test_the_monitor_answers_the_power_the_translation_computes_from_the_running
     assert answer["value"][3]["value"] is True
 
 
-@pytest.mark.skipif(
-    not (ROOT / "plcopen" / "plcopen_import" / "sfc.py").exists(), reason="the SFC translation (sfc.py) is not here"
-)
 def test_an_sfc_function_blocks_steps_are_shown_active_with_their_time(tmp_path):
     """beremiz_first_steps (read in place): its SFC counter is a function block; the view shows its
     first instance in the running program, plc_task_instance.CounterSFC0: with Reset FALSE the step
