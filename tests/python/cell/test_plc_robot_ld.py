@@ -9,6 +9,7 @@ generate.py writes today."""
 
 from __future__ import annotations
 
+import importlib.util
 import subprocess
 import sys
 from pathlib import Path
@@ -31,7 +32,11 @@ def test_plc_xml_is_what_generate_py_writes():
 
 @pytest.mark.skipif(not BUILT, reason=NOT_BUILT)
 def test_the_ladder_as_st_writes_what_the_cpp_cell_writes(tmp_path):
-    import generate
+    # by its path, under a name of its own: other tests' folders hold a generate.py too (a worker that
+    # imported one of them first would hand it out for `import generate`)
+    spec = importlib.util.spec_from_file_location("plc_robot_ld_generate", LD_SET / "generate.py")
+    generate = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(generate)
     from as_st import body
     from cell_st import CONFIGURATION, INPUTS, OUTPUTS, PROGRAM
 
