@@ -7,14 +7,14 @@
 // the coil's variable turns TRUE in the API; unforce and restore brings the rung back to off.
 // A server of its own (irpd, the agent), so that the suite's cell is not changed.
 import { existsSync, readFileSync } from "node:fs";
-import { join, relative, resolve } from "node:path";
+import { join, relative } from "node:path";
 import type { Page } from "@playwright/test";
 import { expect, shot, signIn, test } from "./fixtures";
 import { ROOT, type Server, startServer, stopServer } from "./server";
+import { NOT_SHARED, SHARED_PLCOPEN } from "./shared_projects";
 import { BUILT, files, rest, storeAndActivate } from "./st_cell";
 
-// the shared projects beside the repository (PLAN31b.md); for a git worktree, beside its main checkout
-const SHARED = [resolve(ROOT, "../shared/plcopen"), resolve(ROOT, "../../shared/plcopen")].find((p) => existsSync(p));
+const SHARED = SHARED_PLCOPEN;
 const PROJECT = SHARED && join(SHARED, "tutorial_xor_xnor/plc.xml"); // MIT, SOURCES.md
 const POU = "XOR_and_XNOR";
 const INPUT = "instance0.INPUT_0"; // contact localId 3 (normally open) on rung 1; INPUT_1 stays FALSE
@@ -92,7 +92,7 @@ test("the cell's LD program live: a panel input forced makes its rung conduct", 
 test("an LD program opens as a ladder drawn from its file; Monitor shows a rung conduct when its input is forced", async ({
   page,
 }) => {
-  test.skip(!PROJECT || !existsSync(PROJECT), "the shared PLCopen projects are not beside the repository (PLAN31b.md)");
+  test.skip(!PROJECT || !existsSync(PROJECT), NOT_SHARED);
   test.setTimeout(600_000); // the appliance builds the uploaded set (stc, then the C++ compiler)
   const s = await startServer();
   try {
@@ -149,7 +149,7 @@ test("an SFC function block's active step is highlighted with its time, and foll
   page,
 }) => {
   const project = SHARED && join(SHARED, "beremiz_first_steps/plc.xml"); // GPL-2.0-or-later, SOURCES.md
-  test.skip(!project || !existsSync(project), "the shared PLCopen projects are not beside the repository (PLAN31b.md)");
+  test.skip(!project || !existsSync(project), NOT_SHARED);
   test.setTimeout(600_000);
   const s = await startServer();
   try {

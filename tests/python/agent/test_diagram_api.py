@@ -20,7 +20,7 @@ from lxml import etree
 from test_programs_api import Cell
 
 sys.path.insert(0, str(ROOT / "tests" / "python" / "plcopen"))
-from plcopen_live import SHARED, shared  # noqa: E402  (the shared projects, read in place)
+from plcopen_live import SHARED, WHERE, shared  # noqa: E402  (the shared projects, read in place)
 
 pytestmark = pytest.mark.skipif(not IRPD.exists(), reason=f"irpd is not built ({IRPD})")
 XOR = "tutorial_xor_xnor"
@@ -239,7 +239,7 @@ def test_all_shared_projects_are_drawn_element_by_element():
     stc = ROOT / "st" / "stc"
     projects = sorted(p.name for p in SHARED.iterdir() if (p / "plc.xml").is_file()) if SHARED.is_dir() else []
     if not projects:
-        pytest.skip(f"the shared PLCopen projects are not at {SHARED} (see PLAN31b.md)")
+        pytest.skip(f"the shared PLCopen projects are not at {SHARED} ({WHERE})")
     kinds: set[str] = set()
     for name in projects:
         found = plc_diagram.project(stc, SHARED / name / "plc.xml", "plc.xml")

@@ -5,6 +5,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -20,18 +21,29 @@ from st_helpers import run_stc  # noqa: E402
 from st_live import Running, build_errors, stc_build  # noqa: E402
 
 
+def _git(*args: str) -> str:
+    return subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True).stdout.strip()
+
+
 def _shared_folder() -> Path:
-    """../shared/plcopen beside the repository; for a git worktree elsewhere, beside its main checkout."""
+    """The shared PLCopen projects, read in place: $INDUROP_SHARED_PLCOPEN, else ../shared/plcopen beside
+    the repository, beside its main checkout (a git worktree), or beside the checkout it was cloned
+    from (a fresh clone of a local checkout, as the CI's)."""
+    named = os.environ.get("INDUROP_SHARED_PLCOPEN")
+    if named:
+        return Path(named)
     here = ROOT.parent / "shared" / "plcopen"
-    if here.is_dir():
-        return here
-    common = subprocess.run(
-        ["git", "-C", str(ROOT), "rev-parse", "--path-format=absolute", "--git-common-dir"],
-        capture_output=True,
-        text=True,
-    ).stdout.strip()
-    main = Path(common).parent.parent / "shared" / "plcopen" if common else here
-    return main if main.is_dir() else here
+    candidates = [here]
+    common = _git("rev-parse", "--path-format=absolute", "--git-common-dir")
+    if common:
+        candidates.append(Path(common).parent.parent / "shared" / "plcopen")
+    origin = _git("remote", "get-url", "origin")
+    if origin.startswith("/") or origin.startswith("file://"):
+        candidates.append(Path(origin.removeprefix("file://")).resolve().parent / "shared" / "plcopen")
+    return next((c for c in candidates if c.is_dir()), here)
+
+
+WHERE = "$INDUROP_SHARED_PLCOPEN, or ../shared/plcopen beside the repository or the checkout it was cloned from"
 
 
 SHARED = _shared_folder()
@@ -42,7 +54,7 @@ def shared(name: str) -> Path:
     """The plc.xml of a shared project, in place; the test is skipped (saying why) if it is absent."""
     path = SHARED / name / "plc.xml"
     if not path.is_file():
-        pytest.skip(f"the shared PLCopen projects are not at {SHARED} (see PLAN31b.md)")
+        pytest.skip(f"the shared PLCopen projects are not at {SHARED} ({WHERE})")
     return path
 
 
@@ -97,4 +109,4 @@ def recorded(folder: Path, files: dict, counter: str, cycles: int, array: str) -
         run.close()
 
 
-__all__ = ["Running", "build_errors", "derived", "recorded", "run_stc", "shared", "stc_build"]
+__all__ = ["SHARED", "WHERE", "Running", "build_errors", "derived", "recorded", "run_stc", "shared", "stc_build"]
