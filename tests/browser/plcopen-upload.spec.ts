@@ -44,6 +44,7 @@ async function write(s: Server, path: string, value: boolean): Promise<void> {
 /** Uploads `data` as plc.xml from the Modules page and activates it; the new set's id. */
 async function uploadAndActivate(page: Page, s: Server, data: Buffer, shotName: string): Promise<string> {
   await page.goto(`${s.url}/#/modules`);
+  await page.reload(); // the Modules page afresh: no earlier upload's result on it
   await page
     .getByTestId("upload-files")
     .setInputFiles([{ name: "plc.xml", mimeType: "application/xml", buffer: data }]);
@@ -75,7 +76,7 @@ test("a PLCopen XML project with LD, FBD and SFC POUs uploaded from the browser 
   const s = await startServer(FIG1);
   try {
     await signIn(page, "admin", "#/modules", s);
-    await uploadAndActivate(page, s, original, "plcopen-upload-plan");
+    const firstId = await uploadAndActivate(page, s, original, "plcopen-upload-plan");
 
     // it runs: the five counters (ST, FBD, SFC, IL, LD) count
     const first = await values(s, COUNTERS);
@@ -84,6 +85,7 @@ test("a PLCopen XML project with LD, FBD and SFC POUs uploaded from the browser 
     // changed online: the same project with ResetCounterValue 23, activated without a restart
     const before = await values(s, COUNTERS);
     const id = await uploadAndActivate(page, s, changed, "plcopen-upload-change");
+    expect(id).not.toBe(firstId);
     const report = page.getByTestId("swap-report").last();
     await expect(report).not.toContainText("restart");
     const after = await values(s, COUNTERS);

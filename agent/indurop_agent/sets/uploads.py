@@ -578,7 +578,9 @@ def check_set(files: list[Received]) -> list[StagedFile]:
     if "module.xml" not in by_path:
         nested = sorted(p for p in paths if p.rsplit("/", 1)[-1] == "module.xml")
         hint = f"; found {json.dumps(nested[0])}: upload that folder's content" if nested else ""
-        raise UploadError(400, f"no module.xml at the root of the set (nor .st sources to build one from){hint}")
+        raise UploadError(
+            400, f"no module.xml at the root of the set (nor .st or PLCopen XML sources to build one from){hint}"
+        )
     for p in sorted(paths - {"module.xml"}):
         if p.rsplit("/", 1)[-1] == "module.xml":
             raise UploadError(400, f"{json.dumps(p)}: a set has one module.xml, at its root", file=p)

@@ -52,7 +52,7 @@ export class UploadPanel {
       h(
         "span",
         {},
-        " — its folder, its files (module.xml and every file it names, and .st sources: compiled here), or one .tar.gz. ",
+        " — its folder, its files (module.xml and every file it names, and .st or PLCopen XML sources: compiled here), or one .tar.gz. ",
       ),
       h("button", { class: "small", onclick: () => pickFiles.click() }, "choose files…"),
       " ",

@@ -93,8 +93,9 @@ export function planUpload(input: UploadFile[]): Plan {
   const skipped = input.filter((f) => JUNK.test(f.path)).map((f) => f.path);
   let files = input.filter((f) => !JUNK.test(f.path)).map((f) => ({ ...f, path: f.path.replace(/^\/+/, "") }));
   let root = "";
-  // the set's top: where module.xml is, or the .st sources of a set written in Structured Text alone
-  const top = (f: UploadFile) => f.path === "module.xml" || (!f.path.includes("/") && /\.st$/i.test(f.path));
+  // the set's top: where module.xml is, or the sources of a set written in Structured Text or drawn in
+  // PLCopen XML alone (.st, .xml: the agent tells a PLCopen project from another .xml by its root)
+  const top = (f: UploadFile) => f.path === "module.xml" || (!f.path.includes("/") && /\.(st|xml)$/i.test(f.path));
   for (;;) {
     if (files.some(top)) break;
     const first = files[0].path.split("/")[0];
@@ -106,7 +107,7 @@ export function planUpload(input: UploadFile[]): Plan {
     return {
       kind: "error",
       message:
-        "no module.xml at the top of the set (nor .st sources to build one from): drop the set's folder, its files, or one .tar.gz",
+        "no module.xml at the top of the set (nor .st or PLCopen .xml sources to build one from): drop the set's folder, its files, or one .tar.gz",
     };
   const seen = new Set<string>();
   for (const f of files) {

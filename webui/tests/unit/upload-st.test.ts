@@ -48,7 +48,13 @@ describe("a set in Structured Text", () => {
       "lib/util.st",
       "main.st",
     ]);
-    expect(planUpload(up("a/lib/util.st", "b/x.so"))).toMatchObject({ kind: "error", message: /nor .st sources/ });
+    expect(planUpload(up("a/lib/util.st", "b/x.so"))).toMatchObject({ kind: "error", message: /nor .st or PLCopen/ });
+  });
+
+  it("a PLCopen XML project alone is a set's top too (the agent tells it from another .xml)", () => {
+    const plan = planUpload(up("project/plc.xml", "project/notes/readme.txt"));
+    expect(plan.kind === "files" && plan.files.map((f) => f.path).sort()).toEqual(["notes/readme.txt", "plc.xml"]);
+    expect(planUpload(up("plc.xml"))).toMatchObject({ kind: "files", root: "" });
   });
 
   it("a refusal keeps every compile error with its place and code", () => {
