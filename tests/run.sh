@@ -31,7 +31,6 @@ rm -f "$results"/*.xml "$results/steps.txt"
 ls /dev/shm >"$results/shm-before.txt"  # segments that are not this run's (tests/shm_leaks.sh)
 
 step deps bash "$root/packaging/deps.sh"
-step build bash "$root/packaging/build.sh" --tests
 # The Python tests (glbc, the agent) in the project's own venv; ROS 2's rclpy from PyPI's wheels,
 # apart (.venv-ros2): the DDS bridge's test with a real ROS 2 node (without it, no network, that one
 # test is skipped and says so); the browser tests' own packages (Playwright's runner; the browser is
@@ -41,7 +40,16 @@ venvs() {
   bash "$root/packaging/ros2-venv.sh" >/dev/null || echo "run.sh: .venv-ros2 not made; the rclpy test of the DDS bridge is skipped" >&2
   bash "$root/packaging/npm-ci.sh" "$root/tests/browser" && bash "$root/packaging/npm-ci.sh" "$root/tests/opcua-client"
 }
-step setup venvs
+# The venvs and the test runners' npm packages (network and disk) beside the build (CPU); their
+# output goes to a log, shown when both are done.
+step setup venvs >"$results/setup.log" 2>&1 &
+setup_pid=$!
+build_rc=0
+step build bash "$root/packaging/build.sh" --tests || build_rc=$?
+setup_rc=0
+wait $setup_pid || setup_rc=$?
+cat "$results/setup.log"
+[ $build_rc = 0 ] && [ $setup_rc = 0 ] || exit 1
 venv=$root/.venv
 
 check lint bash "$root/tests/lint.sh"

@@ -32,7 +32,7 @@ for (const role of ["viewer", "admin"] as const) {
       // Leaving the 3D view's page can hold a loaded machine's renderer for seconds (its iframe's
       // WebGL in software): the page must come, not come fast.
       await expect(page.locator(`main[data-page=${id}]`)).toBeVisible({ timeout: 20_000 });
-      await page.waitForTimeout(2500); // two polls, the stream's first frames, the 3D view's page
+      await page.waitForTimeout(1500); // a poll, the stream's first frames, the 3D view's page
     }
     await page.reload(); // a fresh load of the shell, signed in: the favicon, the bundles again
     await expect(page.getByTestId("who")).toContainText(role);

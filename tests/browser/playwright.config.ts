@@ -14,6 +14,10 @@ export default defineConfig({
   outputDir: join(artifacts, "results"),
   globalSetup: "./global-setup.ts",
   timeout: 120_000,
+  // An assertion waits up to 15 s for the page to agree (Playwright's default is 5 s): on a loaded
+  // 2-CPU machine a poll, a stream's frame or a re-render can come later than that; what is asserted
+  // is the same.
+  expect: { timeout: 15_000 },
   workers: 1, // the specs share one irpd + agent and its set (global-setup.ts)
   retries: 0,
   reporter: [

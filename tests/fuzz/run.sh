@@ -24,7 +24,7 @@ for t in "${targets[@]}"; do [[ $python_targets == *" $t "* ]] || need_build=1; 
 if [ $need_build -eq 1 ]; then
   cmake -S "$root" -B "$build" -G Ninja -DINDUROP_FUZZ=ON -DINDUROP_BUILD_TESTS=OFF \
     -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
-    -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" >/dev/null
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only" >/dev/null
   cmake --build "$build" --target fuzz_targets
   echo "fuzz: built in $(( $(date +%s) - t0 )) s"
 fi

@@ -238,7 +238,10 @@ def test_a_ros2_node_sees_joint_states(controller, tmp_path):
 
 def test_a_missed_period_turns_the_dispatcher_warn_for_the_last_10_s_only(controller):
     """irpd stopped for 0.3 s (SIGSTOP): its main dispatcher misses a period.  Its status turns WARN
-    while the last 10 s hold the miss, then OK again, with irpd's total kept among its values."""
+    while the last 10 s hold the miss, then OK again, with irpd's total kept among its values.  A
+    loaded machine can make the 1 ms cell miss periods of its own after the stop: then every WARN
+    seen must have a miss (a rise of the total) within the 10 s before it, and the status must be OK
+    once 10 s passed without one."""
     c = controller
 
     def dispatcher() -> dict:
@@ -256,16 +259,22 @@ def test_a_missed_period_turns_the_dispatcher_warn_for_the_last_10_s_only(contro
         return s if s["level"] == 1 and int(s["values"]["missed"]) > before else None
 
     warn = wait_until(warned, 30, 0)
-
-    def healthy():
-        """the dispatcher's status OK again"""
-        s = dispatcher()
-        return s if s["level"] == 0 else None
-
-    ok = wait_until(healthy, 60, 0)
     assert int(warn["values"]["missed in the last 10 s"]) >= 1 and "in the last 10 s" in warn["message"]
-    assert int(ok["values"]["missed"]) >= int(warn["values"]["missed"]) > before  # the total stays
-    assert ok["values"]["missed in the last 10 s"] == "0" and c.irpd.poll() is None
+    # Then: OK again within 10 s of the last miss.  The total's last rise is known to within one
+    # sample (each read takes the next diagnostics sample, about 1 s apart).
+    total, rose = int(warn["values"]["missed"]), time.monotonic()
+    deadline = time.monotonic() + 90
+    while True:
+        s = dispatcher()
+        now = time.monotonic()
+        if int(s["values"]["missed"]) > total:
+            total, rose = int(s["values"]["missed"]), now
+        if s["level"] == 0:
+            break
+        assert now - rose < 10 + 3, f"WARN {now - rose:.1f} s after the last miss: {s}"
+        assert now < deadline, f"the machine kept the cell missing periods for 90 s: {s}"
+    assert int(s["values"]["missed"]) >= int(warn["values"]["missed"]) > before  # the total stays
+    assert s["values"]["missed in the last 10 s"] == "0" and c.irpd.poll() is None
 
 
 def test_the_bridge_withdraws_its_channels_when_it_stops(tmp_path, ros2_reader, controller):
