@@ -83,7 +83,7 @@ def build(opts: Options, argv: list[str]) -> list[str]:
         os.makedirs(opts.cpp_dir, exist_ok=True)
     for inst in insts:
         path = os.path.join(opts.cpp_dir or opts.out, f"{inst.name}.cpp")
-        emit_glb.glbc_cli._write(path, generate(prog, inst, added, sources))
+        emit_glb.glbc_cli._write(path, generate(prog, inst, added, sources, laid.doc.get("variables")))
         cpps.append((inst, path))
     xml = tasks.module_xml(insts, opts.out, opts.module_xml)
     emit_glb.glbc_cli._write(os.path.join(opts.out, "module.xml"), xml)

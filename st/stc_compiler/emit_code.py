@@ -107,6 +107,14 @@ def walk_names(stmts):
                     stack.append(value)
 
 
+def program_members(pou: t.Pou) -> list[t.VarDecl]:
+    """The members of a PROGRAM's C++ struct, in their order: its shared variables and its AT bindings
+    (VAR, VAR_INPUT, VAR_OUTPUT), not its constants (static members) nor VAR_TEMP."""
+    return [
+        v for v in pou.vars if stored(v) or (v.location is not None and v.kind in ("VAR", "VAR_INPUT", "VAR_OUTPUT"))
+    ]
+
+
 class CodeEmitter:
     def __init__(self, prog) -> None:
         self.prog = prog
@@ -203,8 +211,9 @@ class CodeEmitter:
         for g in glob:
             need(g.type)
         out.append(f"struct {program.name} {{  // PROGRAM {program.name}: its variables")
+        members = {id(v) for v in program_members(program)}
         for v in program.vars:
-            if stored(v) or (v.location is not None and v.kind in ("VAR", "VAR_INPUT", "VAR_OUTPUT")):
+            if id(v) in members:
                 out.append(f"    {self.member(v)}")
             elif v.constant:
                 out.append(f"    {self.constant(v, static=True)}")

@@ -10,7 +10,17 @@ from . import externs
 from . import tree as t
 from . import types as ty
 from .check import Program
-from .emit_code import PART_STATEMENTS, CodeEmitter, _scalar, cpp_type, image_key, literal, walk_names, written_roots
+from .emit_code import (
+    PART_STATEMENTS,
+    CodeEmitter,
+    _scalar,
+    cpp_type,
+    image_key,
+    literal,
+    program_members,
+    walk_names,
+    written_roots,
+)
 from .emit_glb import EMPTY_FB_FIELD, INIT_FLAG, RETAIN_INIT_FLAG, Instance, fb_fields, stored
 from .errors import StError
 
@@ -21,7 +31,7 @@ GENERATED_NAMES = frozenset(
     "Place String ENUM index range loopCheck forStarts forStep cycleTime store copyIn writeBack getBit setBit "
     "NEG programBody fbBody startInstance runInstance Globals Bound global global0 bound bound0 self self0 "
     "initial fresh freshRetained globalInitial safeOutputs start run Kept kept grouped image forget How inPart "
-    "KeptImage groupCount".upper().split()
+    "KeptImage groupCount inPlace openGroup closeGroup".upper().split()
 )
 LOCAL_NAMES = frozenset({"SELF", "FB_", "R_", "WRITTEN_"})  # the generated code's own locals in a POU's body
 
@@ -81,18 +91,53 @@ def name_problems(prog: Program) -> list[StError]:
     return errors
 
 
-def generate(prog: Program, inst: Instance, added: set[str], sources: list[str]) -> str:
+def generate(
+    prog: Program, inst: Instance, added: set[str], sources: list[str], layout: list[dict] | None = None
+) -> str:
     """The .cpp of one PROGRAM instance.  `added`: the paths of variables the layout added against
     the previous one (online change): start() gives them their initial values even when the other
-    variables keep theirs."""
-    return _Unit(prog, inst, added, sources).render()
+    variables keep theirs.  `layout`: the set's variables as laid out (layout.json's "variables"):
+    an instance they lay out as its C++ struct runs in place (in_place_members)."""
+    return _Unit(prog, inst, added, sources, layout).render()
+
+
+def in_place_members(inst: Instance, layout: list[dict] | None) -> list[tuple[t.VarDecl, dict]] | None:
+    """The instance's struct members with their layout entries when the segment lays them out as the
+    C++ struct (declaration order, each at its alignment, from an address aligned for all) and its
+    structs and arrays share one lock (its group): the program then runs in place (in_place.hpp).
+    None when not: an AT binding among them (it lives elsewhere), a variable an online change put
+    elsewhere, no layout given."""
+    members = program_members(inst.pou)
+    if layout is None or not members or any(v.location is not None for v in members):
+        return None
+    entries = {(e.get("namespace"), e.get("name")): e for e in layout}
+    out, base, at = [], None, 0
+    for v in members:
+        e = entries.get((inst.name, v.name))
+        if e is None:
+            return None
+        if base is None:
+            base = e["offset"]
+        at = -(-at // e["align"]) * e["align"]
+        if e["offset"] != base + at:
+            return None
+        at += e["size"]
+        out.append((v, e))
+    if base % max(e["align"] for _, e in out):
+        return None
+    if len({e["lock"] for v, e in out if not _scalar(v.type)}) > 1:
+        return None
+    return out
 
 
 class _Unit:
-    def __init__(self, prog: Program, inst: Instance, added: set[str], sources: list[str]) -> None:
+    def __init__(
+        self, prog: Program, inst: Instance, added: set[str], sources: list[str], layout: list[dict] | None
+    ) -> None:
         self.prog, self.inst, self.added, self.sources = prog, inst, added, sources
         self.code = CodeEmitter(prog)
         self.pous = self.reached(inst.pou)  # FUNCTIONs and FBs the program uses, callees first
+        self.in_place = in_place_members(inst, layout)
 
     # ---- what the program reaches ----------------------------------------------------------------
 
@@ -163,6 +208,7 @@ class _Unit:
             *externs.includes(self.pous),
             "",
             "#include <array>",
+            "#include <cstddef>",
             "",
             "namespace {",
             "using namespace irp::st;",
@@ -191,10 +237,23 @@ class _Unit:
 
     def images(self, own, glob, glb) -> list[str]:
         pou = self.inst.pou
-        out = [
-            "// The process image: the locals run() works on, and their snapshots at the copy-in.",
-            f"{pou.name} self, self0;",
-        ]
+        if self.in_place:
+            ns = f"::{self.inst.name}"
+            first = f"{ns}::{self.in_place[0][0].name}"
+            out = [
+                "// The PROGRAM's variables: run() works on them in place in the segment (in_place.hpp), laid out",
+                f"// there as {pou.name} is (checked here); the process image below is of the other variables.",
+            ]
+            for v, e in self.in_place:
+                out.append(
+                    f"static_assert(offsetof({pou.name}, {v.name}) == {ns}::{v.name}.offset() - {first}.offset() && "
+                    f"sizeof({pou.name}::{v.name}) == {e['size']});"
+                )
+        else:
+            out = [
+                "// The process image: the locals run() works on, and their snapshots at the copy-in.",
+                f"{pou.name} self, self0;",
+            ]
         if glob:
             out.append("Globals global, global0;")
         if glb:
@@ -221,7 +280,7 @@ class _Unit:
         ns = f"::{self.inst.name}"
         copies = []
         for v in own:
-            if id(v) not in self.used:
+            if id(v) not in self.used or self.in_place:
                 continue  # copied only where the code touches it (its initial value is written below)
             ref = _glb_ref(v.glb) if v.location is not None else f"{ns}::{v.name}"
             copies.append((ref, f"self.{v.name}", f"self0.{v.name}", v.type))
@@ -231,7 +290,7 @@ class _Unit:
         for d in glb:
             member = _glb_member(d)
             copies.append((_glb_ref(d.glb), f"bound.{member}", f"bound0.{member}", d.type))
-        decls = [v for v in own if id(v) in self.used] + glob + glb
+        decls = [v for v in own if id(v) in self.used and not self.in_place] + glob + glb
         keys = [image_key(self.prog, d) for d in decls]
         return [(*c, k in self.written, k) for c, k in zip(copies, keys)]
 
@@ -285,12 +344,23 @@ class _Unit:
         scalars = [c for c in copies if _scalar(c[3])]
         table = self.table()
         image_args = "image, written_" if self.code.written_index else "image"
-        out += ["// run(): one period.  A fault throws past the write-back: a faulting run writes nothing."]
+        group = None  # in place: the lock of the instance's structs and arrays, held for the run
+        if self.in_place:
+            group = next((f"{ns}::{v.name}.lockIndex()" for v, _ in self.in_place if not _scalar(v.type)), None)
+            out += [
+                "// run(): one period, on the PROGRAM's variables in place, the structs and arrays among them with",
+                "// their group's lock held (in_place.hpp); the others through the process image.  A fault throws",
+                "// past the write-back: the process image writes nothing; what the run wrote in place stays.",
+            ]
+        else:
+            out += ["// run(): one period.  A fault throws past the write-back: a faulting run writes nothing."]
         if table:
             out.append(
-                "// the kept image (kept.hpp): the table, its entries' sequences in it; the instance's own first,"
+                "// the kept image (kept.hpp): the table, its entries' sequences in it"
+                + ("; the instance's own first," if not self.in_place else "")
             )
-            out.append("// one lock group")
+            if not self.in_place:
+                out.append("// one lock group")
             out.append("constexpr auto spec0_ = grouped(std::array{")
             for ref, local, snap, _, written, _ in table:
                 snap = f", {snap}" if written else ""  # read only: no snapshot, no write-back
@@ -299,6 +369,8 @@ class _Unit:
             out.append("// the table a run walks: 20 bytes an entry, the groups apart")
             out.append("constinit KeptImage<spec0_.size(), groupCount(spec0_)> image{spec0_};")
         out.append("void runInstance() {")
+        if self.in_place:
+            out.append(f"    auto &self = inPlace<{pou.name}>({ns}::{self.in_place[0][0].name});")
         # a scalar the code never writes: no snapshot (never written back)
         out += in_parts(
             [
@@ -308,8 +380,12 @@ class _Unit:
         )
         if table:
             out.append("    copyIn(image);")
-        if outputs or table:
+        if group:
+            out.append(f"    openGroup({group});")
+        if outputs or table or group:
             out += ["    try {", "        programBody(self);", "    } catch (...) {"]
+            if group:
+                out.append(f"        closeGroup({group});")
             if table:
                 out.append(f"        forget({image_args});  // the locals hold a partial run")
             if outputs:
@@ -317,6 +393,8 @@ class _Unit:
             out += ["        throw;", "    }"]
         else:
             out.append("    programBody(self);")
+        if group:
+            out.append(f"    closeGroup({group});")
         out += in_parts(
             [f"    writeBack({ref}, {local}, {snap});" for ref, local, snap, _, written, _ in scalars if written]
         )

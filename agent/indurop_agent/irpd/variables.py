@@ -19,11 +19,16 @@ import difflib
 import json
 import os
 import struct
+import time
 from collections import OrderedDict
 from pathlib import Path
 
 from .read_plan import Plan, compile_plan
 from .shm_layout import LayoutError, segment
+
+# A variable's copy: tries without a pause, then tried between sleeps for up to COPY_WAIT_S (_copy).
+COPY_SPINS = 1000
+COPY_WAIT_S = 1.0
 
 # Every offset from irpd's description of the segment (shm_layout.py).
 LAYOUT = segment("variables")
@@ -271,14 +276,25 @@ class Segment:
         return FORMATS.get((kind, leaf["size"]))
 
     def _copy(self, lock_index: int, lo: int, hi: int, path: str) -> bytes:
-        """The data bytes [lo, hi) of one variable, as one writer left them."""
+        """The data bytes [lo, hi) of one variable, as one writer left them.  A writer holds a variable
+        for as long as its write, or, for the variables of an ST program run in place, its run (the
+        sequence odd meanwhile: docs/st-runtime.md, "In place"), which a loaded machine can preempt
+        for milliseconds: after COPY_SPINS tries the reader sleeps between tries, for up to
+        COPY_WAIT_S."""
         lock = self.locks + lock_index * self.lock_size
-        for _ in range(10000):
-            before = self._field(LOCK_SEQ, lock)
-            if before & 1:
-                continue
-            raw = self.mm[self.data + lo : self.data + hi]
-            after = self._field(LOCK_SEQ, lock)
-            if after == before:
-                return raw
-        raise VariableError(f"'{path}' is being written continuously; try again")
+        deadline, pause = None, 0.00005
+        while True:
+            for _ in range(COPY_SPINS):
+                before = self._field(LOCK_SEQ, lock)
+                if before & 1:
+                    continue
+                raw = self.mm[self.data + lo : self.data + hi]
+                after = self._field(LOCK_SEQ, lock)
+                if after == before:
+                    return raw
+            now = time.monotonic()
+            deadline = deadline or now + COPY_WAIT_S
+            if now >= deadline:
+                raise VariableError(f"'{path}' was being written for {COPY_WAIT_S:g} s without a pause; try again")
+            time.sleep(pause)
+            pause = min(pause * 2, 0.005)

@@ -14,6 +14,7 @@
 //   loop.hpp            loopCheck(): the endless-loop guard on loop back-edges
 //   image.hpp           copyIn / writeBack of shared variables, cycleTime()
 //   kept.hpp            the kept image: a table of the struct and array variables a run copies
+//   in_place.hpp        a PROGRAM run in place in the segment: inPlace, openGroup / closeGroup
 #pragma once
 
 #include <indurop/st/arith.hpp>
@@ -21,6 +22,7 @@
 #include <indurop/st/convert.hpp>
 #include <indurop/st/fault.hpp>
 #include <indurop/st/image.hpp>
+#include <indurop/st/in_place.hpp>
 #include <indurop/st/kept.hpp>
 #include <indurop/st/loop.hpp>
 #include <indurop/st/numeric.hpp>
