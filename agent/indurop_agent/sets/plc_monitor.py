@@ -142,11 +142,9 @@ def _analysis(c, prog, unit, all_flows: dict, pou_name: str, imp, path: str, dat
     pou = next(x for x in unit.pous if x.name.upper() == pou_name.upper())
     paths = st_check._paths(c, prog)
     instance = _instance(c, prog, pou)
-    for v in pou.vars:  # a VAR_EXTERNAL is its VAR_GLOBAL: its shared variable, or its constant's value
+    for v in pou.vars:  # a VAR_EXTERNAL of a global CONSTANT is its value (its shared variable: _paths)
         g = prog.globals.get(v.name.upper()) if v.kind == "VAR_EXTERNAL" else None
-        if g is not None and id(g) in paths:
-            paths[id(v)] = paths[id(g)]
-        elif g is not None and getattr(g, "const", None) is not None:
+        if g is not None and id(v) not in paths and getattr(g, "const", None) is not None:
             v.const = g.const
     if instance is not None and pou.kind == "FUNCTION_BLOCK":  # its variables under the instance found
         for v in pou.vars:

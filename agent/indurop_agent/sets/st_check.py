@@ -201,7 +201,7 @@ def _is_library(prog, pou) -> bool:
 def _paths(c, prog) -> dict[int, list[str]]:
     """Each declaration's shared-variable paths: a PROGRAM's variables once per instance
     (`Main.count`), a VAR_GLOBAL in its namespace (`Plant.level`, `GVL.x`), an AT binding the
-    variable it binds."""
+    variable it binds, a VAR_EXTERNAL its VAR_GLOBAL's."""
     out: dict[int, list[str]] = {}
     try:
         instances = c.tasks.instances(prog)
@@ -218,6 +218,10 @@ def _paths(c, prog) -> dict[int, list[str]]:
         for v in pou.vars:
             if v.location:
                 out[id(v)] = [v.location.lstrip("%")]
+            elif v.kind == "VAR_EXTERNAL":  # the VAR_GLOBAL it names: its shared variable
+                g = prog.globals.get(v.name.upper())
+                if g is not None and id(g) in out:
+                    out[id(v)] = out[id(g)]
     return out
 
 

@@ -192,3 +192,41 @@ def test_a_float_that_is_not_finite_reads_as_null(tmp_path):
         assert values == {"Main.nan": None, "Main.inf": None, "Main.zero": 0.0}, values
     finally:
         cell.close()
+
+
+GLOBALS = """\
+VAR_GLOBAL
+  level : INT := 7;
+END_VAR
+PROGRAM Counter
+VAR_EXTERNAL
+  level : INT;
+END_VAR
+VAR
+  high : BOOL;
+END_VAR
+high := level > 5;
+IF level > 5 THEN
+  high := TRUE;
+END_IF;
+END_PROGRAM
+"""
+
+
+def test_a_var_external_shows_its_global_variable(tmp_path):
+    """The editor's monitor places a VAR_EXTERNAL's value, read from its VAR_GLOBAL's shared variable,
+    and evaluates the conditions that name it."""
+    c = running(tmp_path, GLOBALS)
+    try:
+        answer = monitor(c, from_line=11, to_line=13)
+        at = {(o["line"], o["column"]): o for o in answer["occurrences"]}
+        level = at[(11, 9)]
+        assert level["value"] == 7 and level["type"] == "INT" and not level["group"], level
+        conditions = {(x["line"], x["what"]): x for x in answer["conditions"]}
+        assert conditions[(12, "IF")]["value"] is True, conditions
+        write(c, level["path"], 2)
+        after = monitor(c, from_line=11, to_line=13)
+        assert {(o["line"], o["column"]): o["value"] for o in after["occurrences"]}[(11, 9)] == 2
+        assert {(x["line"], x["what"]): x["value"] for x in after["conditions"]}[(12, "IF")] is False
+    finally:
+        c.close()
