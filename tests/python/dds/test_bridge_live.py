@@ -48,11 +48,19 @@ pytestmark = pytest.mark.skipif(not (SET / "Robot.so").exists(), reason=f"the pl
 class Controller:
     """irpd on the 1 ms cell, the agent, and the bridge on domain `domain`, loopback only."""
 
-    def __init__(self, tmp: Path, reader: Path, domain: int, drivesim: list[str] | None = None, agent: bool = True):
+    def __init__(
+        self,
+        tmp: Path,
+        reader: Path,
+        domain: int,
+        drivesim: list[str] | None = None,
+        agent: bool = True,
+        module_xml: str = "module-1ms.xml",
+    ):
         self.reader = reader
         self.domain = domain
         self.folder = tmp / "plc-robot"
-        xml, _ = copy_cell(self.folder, "module-1ms.xml", drivesim)
+        xml, _ = copy_cell(self.folder, module_xml, drivesim)
         self.sock = tmp / "irpd.sock"
         self.irpd = start_irpd(self.sock, xml, f"dds-test-{os.getpid()}-{domain}")
         self.control = IrpdClient(str(self.sock), timeout_s=30)
@@ -236,45 +244,48 @@ def test_a_ros2_node_sees_joint_states(controller, tmp_path):
     assert all(b > a and (b - a) % BASIC_NS == 0 for a, b in zip(stamps, stamps[1:]))
 
 
-def test_a_missed_period_turns_the_dispatcher_warn_for_the_last_10_s_only(controller):
+def test_a_missed_period_turns_the_dispatcher_warn_for_the_last_10_s_only(tmp_path, ros2_reader):
     """irpd stopped for 0.3 s (SIGSTOP): its main dispatcher misses a period.  Its status turns WARN
-    while the last 10 s hold the miss, then OK again, with irpd's total kept among its values.  A
-    loaded machine can make the 1 ms cell miss periods of its own after the stop: then every WARN
-    seen must have a miss (a rise of the total) within the 10 s before it, and the status must be OK
-    once 10 s passed without one."""
-    c = controller
+    while the last 10 s hold the miss, then OK again, with irpd's total kept among its values.  The
+    cell at its 10 ms period (module.xml), not 1 ms: a loaded machine made the 1 ms cell miss periods
+    of its own for minutes, and the status rightly stayed WARN.  Should it still miss some, every WARN
+    seen must have a miss (a rise of the total) within the 10 s before it."""
+    c = Controller(tmp_path, ros2_reader, 160 + os.getpid() % 30, agent=False, module_xml="module.xml")
+    try:
 
-    def dispatcher() -> dict:
-        _, (sample,) = c.read("diagnostics", "rt/diagnostics", 1)
-        return next(s for s in sample["status"] if s["name"] == "cell-test: dispatcher main")
+        def dispatcher() -> dict:
+            _, (sample,) = c.read("diagnostics", "rt/diagnostics", 1)
+            return next(s for s in sample["status"] if s["name"] == "cell-test: dispatcher main")
 
-    before = int(dispatcher()["values"]["missed"])
-    os.kill(c.irpd.pid, signal.SIGSTOP)
-    time.sleep(0.3)
-    os.kill(c.irpd.pid, signal.SIGCONT)
+        before = int(dispatcher()["values"]["missed"])
+        os.kill(c.irpd.pid, signal.SIGSTOP)
+        time.sleep(0.3)
+        os.kill(c.irpd.pid, signal.SIGCONT)
 
-    def warned():
-        """the dispatcher's status WARN with the miss"""
-        s = dispatcher()
-        return s if s["level"] == 1 and int(s["values"]["missed"]) > before else None
+        def warned():
+            """the dispatcher's status WARN with the miss"""
+            s = dispatcher()
+            return s if s["level"] == 1 and int(s["values"]["missed"]) > before else None
 
-    warn = wait_until(warned, 30, 0)
-    assert int(warn["values"]["missed in the last 10 s"]) >= 1 and "in the last 10 s" in warn["message"]
-    # Then: OK again within 10 s of the last miss.  The total's last rise is known to within one
-    # sample (each read takes the next diagnostics sample, about 1 s apart).
-    total, rose = int(warn["values"]["missed"]), time.monotonic()
-    deadline = time.monotonic() + 90
-    while True:
-        s = dispatcher()
-        now = time.monotonic()
-        if int(s["values"]["missed"]) > total:
-            total, rose = int(s["values"]["missed"]), now
-        if s["level"] == 0:
-            break
-        assert now - rose < 10 + 3, f"WARN {now - rose:.1f} s after the last miss: {s}"
-        assert now < deadline, f"the machine kept the cell missing periods for 90 s: {s}"
-    assert int(s["values"]["missed"]) >= int(warn["values"]["missed"]) > before  # the total stays
-    assert s["values"]["missed in the last 10 s"] == "0" and c.irpd.poll() is None
+        warn = wait_until(warned, 30, 0)
+        assert int(warn["values"]["missed in the last 10 s"]) >= 1 and "in the last 10 s" in warn["message"]
+        # Then OK again within 10 s of the last miss.  The total's last rise is known to within one
+        # sample (each read takes the next diagnostics sample, about 1 s apart).
+        total, rose = int(warn["values"]["missed"]), time.monotonic()
+        deadline = time.monotonic() + 90
+        while True:
+            s = dispatcher()
+            now = time.monotonic()
+            if int(s["values"]["missed"]) > total:
+                total, rose = int(s["values"]["missed"]), now
+            if s["level"] == 0:
+                break
+            assert now - rose < 10 + 3, f"WARN {now - rose:.1f} s after the last miss: {s}"
+            assert now < deadline, f"the machine kept the cell missing periods for 90 s: {s}"
+        assert int(s["values"]["missed"]) >= int(warn["values"]["missed"]) > before  # the total stays
+        assert s["values"]["missed in the last 10 s"] == "0" and c.irpd.poll() is None
+    finally:
+        c.close()
 
 
 def test_the_bridge_withdraws_its_channels_when_it_stops(tmp_path, ros2_reader, controller):
