@@ -35,10 +35,18 @@ step deps bash "$root/packaging/deps.sh"
 # apart (.venv-ros2): the DDS bridge's test with a real ROS 2 node (without it, no network, that one
 # test is skipped and says so); the browser tests' own packages (Playwright's runner; the browser is
 # Debian's chromium), and node-opcua, the independent OPC UA client of tests/python/opcua/test_node_opcua.py.
+# Beside them, the package test's downloads: the .deb's own venv (agent-venv.sh, which deb.sh then
+# finds made) and the Debian 12 chroot's tarball (deb_chroot.sh --seed); a failure there is the
+# package test's to report.
 venvs() {
-  bash "$root/packaging/venv.sh" >/dev/null || return 1
+  (bash "$root/packaging/agent-venv.sh" "$root/build/deb/venv" >/dev/null
+   bash "$root/tests/package/deb_chroot.sh" --seed) >"$results/package-downloads.log" 2>&1 &
+  local downloads=$! rc=0
+  bash "$root/packaging/venv.sh" >/dev/null || rc=1
   bash "$root/packaging/ros2-venv.sh" >/dev/null || echo "run.sh: .venv-ros2 not made; the rclpy test of the DDS bridge is skipped" >&2
-  bash "$root/packaging/npm-ci.sh" "$root/tests/browser" && bash "$root/packaging/npm-ci.sh" "$root/tests/opcua-client"
+  [ $rc = 0 ] && bash "$root/packaging/npm-ci.sh" "$root/tests/browser" && bash "$root/packaging/npm-ci.sh" "$root/tests/opcua-client" || rc=1
+  wait $downloads || echo "run.sh: the package test's downloads failed (build/test-results/package-downloads.log); deb-chroot makes them again" >&2
+  return $rc
 }
 # The venvs and the test runners' npm packages (network and disk) beside the build (CPU); their
 # output goes to a log, shown when both are done.

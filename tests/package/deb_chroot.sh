@@ -26,8 +26,12 @@
 # OLD_DEB installed and run as its unit has it (HTTP), its default set activated; DEB installed
 # over it: the tokens, the set store and the active set kept, a certificate made, the agent on
 # HTTPS answering the old admin token with the same active set; then purged again.
+# deb_chroot.sh --seed: only makes the chroot's tarball (tests/run.sh makes it beside the build: it is
+# mostly downloading).
 set -euo pipefail
-deb=$(realpath "$1")
+seed_only=0
+[ "${1:-}" = --seed ] && seed_only=1
+deb=$([ $seed_only = 1 ] || realpath "$1")
 old_deb=${2:+$(realpath "$2")}
 root=$(cd "$(dirname "$0")/../.." && pwd)
 cache=${INDUROP_CHROOT_CACHE:-$root/build/package-chroot}
@@ -53,6 +57,7 @@ if [ ! -f "$tarball" ]; then
   tar -C "$cache/seed" -czf "$tarball.part" . && mv "$tarball.part" "$tarball"
   rm -rf --one-file-system "$cache/seed"
 fi
+[ $seed_only = 0 ] || exit 0
 
 chr=$(mktemp -d "$cache/root-XXXXXX")
 irpd_pid=
