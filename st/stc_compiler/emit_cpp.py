@@ -39,9 +39,16 @@ LOCAL_NAMES = frozenset({"SELF", "FB_", "R_", "WRITTEN_"})  # the generated code
 def name_problems(prog: Program) -> list[StError]:
     """POUs, types and locals whose names the generated C++ needs for itself: an error asking to rename."""
     errors = []
+    # the functions that keep what a made STRUCT's ns::make returns (externs.Passing.made_helper)
+    made = {
+        (externs.MADE_PREFIX + d.name).upper()
+        for unit in prog.units
+        for d in unit.types
+        if getattr(d, "extern", None) and getattr(d, "extern_args", None) is not None
+    }
     for unit in prog.units:
         for decl in list(unit.pous) + list(unit.types):
-            if decl.name.upper() in GENERATED_NAMES:
+            if decl.name.upper() in GENERATED_NAMES or decl.name.upper() in made:
                 what = getattr(decl, "kind", "type")
                 errors.append(
                     StError(

@@ -155,6 +155,12 @@ def test_an_fb_input_outside_its_subrange_is_a_fault_at_the_argument(faults):
             "name",
             "generated C++ uses",
         ),
+        (  # the function that keeps what the PLCopen library's AXES_GROUP_REF is made into (externs.py)
+            "FUNCTION madeAXES_GROUP_REF : INT VAR_INPUT x : INT; END_VAR madeAXES_GROUP_REF := x; END_FUNCTION\n"
+            "PROGRAM P VAR y : INT; END_VAR y := madeAXES_GROUP_REF(1); END_PROGRAM\n",
+            "name",
+            "generated C++ uses",
+        ),
         ("PROGRAM P VAR_IN_OUT x : INT; END_VAR x := 1; END_PROGRAM\n", "unsupported", "by reference"),
         (  # a local of the body would hide the run's write flags (docs/st-compiler.md)
             "TYPE Pair : STRUCT n : INT; END_STRUCT; END_TYPE\n"
