@@ -285,10 +285,11 @@ class _Unit:
         """The process image: (ref, local, snapshot, type, whether the code may write it, image_key)
         of each variable the code touches."""
         ns = f"::{self.inst.name}"
+        # the program's own variables: none when it runs in place, else those the code touches (the
+        # others' initial values are written by start())
+        copied = [] if self.in_place else [v for v in own if id(v) in self.used]
         copies = []
-        for v in own:
-            if id(v) not in self.used or self.in_place:
-                continue  # copied only where the code touches it (its initial value is written below)
+        for v in copied:
             ref = _glb_ref(v.glb) if v.location is not None else f"{ns}::{v.name}"
             copies.append((ref, f"self.{v.name}", f"self0.{v.name}", v.type))
         for g in glob:
@@ -297,7 +298,7 @@ class _Unit:
         for d in glb:
             member = _glb_member(d)
             copies.append((_glb_ref(d.glb), f"bound.{member}", f"bound0.{member}", d.type))
-        decls = [v for v in own if id(v) in self.used and not self.in_place] + glob + glb
+        decls = copied + glob + glb
         keys = [image_key(self.prog, d) for d in decls]
         return [(*c, k in self.written, k) for c, k in zip(copies, keys)]
 
