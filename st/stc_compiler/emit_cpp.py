@@ -389,11 +389,11 @@ class _Unit:
         if table:
             out.append("    copyIn(image);")
         if group:
-            out.append(f"    openGroup({group});")
+            out.append(f"    const uint32_t group_ = openGroup({group});")
         if outputs or table or group:
             out += ["    try {", "        programBody(self);", "    } catch (...) {"]
             if group:
-                out.append(f"        closeGroup({group});")
+                out.append(f"        closeGroup({group}, group_);")
             if table:
                 out.append(f"        forget({image_args});  // the locals hold a partial run")
             if outputs:
@@ -402,7 +402,7 @@ class _Unit:
         else:
             out.append("    programBody(self);")
         if group:
-            out.append(f"    closeGroup({group});")
+            out.append(f"    closeGroup({group}, group_);")
         out += in_parts(
             [f"    writeBack({ref}, {local}, {snap});" for ref, local, snap, _, written, _ in scalars if written]
         )

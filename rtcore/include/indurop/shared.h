@@ -123,17 +123,28 @@ inline void readConsistent(uint32_t lock, Copy copy) noexcept {
     unlockVariable(lock);
 }
 
-// Runs write() under the variable's lock, with the sequence odd meanwhile.
-template <class Write>
-inline void writeExclusive(uint32_t lock, Write write) noexcept {
+// The writer's side of the seqlock: the variable's lock taken and its sequence made odd; returns the
+// sequence before, which endWrite() makes even again (+2) before it gives the lock back.
+inline uint32_t beginWrite(uint32_t lock) noexcept {
     lockVariable(lock);
     auto seq = sequence(lock);
     uint32_t s = seq.load(std::memory_order_relaxed);
     seq.store(s + 1, std::memory_order_relaxed);
     std::atomic_thread_fence(std::memory_order_release);
-    write();
-    seq.store(s + 2, std::memory_order_release);
+    return s;
+}
+
+inline void endWrite(uint32_t lock, uint32_t before) noexcept {
+    sequence(lock).store(before + 2, std::memory_order_release);
     unlockVariable(lock);
+}
+
+// Runs write() under the variable's lock, with the sequence odd meanwhile.
+template <class Write>
+inline void writeExclusive(uint32_t lock, Write write) noexcept {
+    const uint32_t before = beginWrite(lock);
+    write();
+    endWrite(lock, before);
 }
 
 }  // namespace detail

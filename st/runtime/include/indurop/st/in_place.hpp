@@ -11,14 +11,14 @@
 // changes twice at its first value, as it would a C++ module's.
 //
 //   auto &self = inPlace<Main>(::main::first);
-//   openGroup(lock);  try { programBody(self); } catch (...) { closeGroup(lock); ...; throw; }  closeGroup(lock);
+//   const uint32_t group_ = openGroup(lock);
+//   try { programBody(self); } catch (...) { closeGroup(lock, group_); ...; throw; }  closeGroup(lock, group_);
 //
 // docs/st-runtime.md, "In place".
 #pragma once
 
 #include <indurop/shared.h>
 
-#include <atomic>
 #include <cstdint>
 
 namespace irp::st {
@@ -29,20 +29,11 @@ inline Program &inPlace(const shared::RefBase &first) noexcept {
     return *reinterpret_cast<Program *>(first.address());
 }
 
-// The run becomes the group's writer: its lock taken (a robust PI mutex: a module that dies inside
-// leaves it repaired, shared.cpp), its sequence odd until closeGroup().
-inline void openGroup(uint32_t lock) noexcept {
-    shared::lockVariable(lock);
-    auto seq = shared::detail::sequence(lock);
-    seq.store(seq.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
-    std::atomic_thread_fence(std::memory_order_release);
-}
+// The run becomes the group's writer (shared.h's beginWrite: its lock taken, a robust PI mutex that a
+// module dying inside leaves repaired; its sequence odd); returns what closeGroup() needs.
+inline uint32_t openGroup(uint32_t lock) noexcept { return shared::detail::beginWrite(lock); }
 
 // The run's writes are published: the sequence even again (a release store), the lock given back.
-inline void closeGroup(uint32_t lock) noexcept {
-    auto seq = shared::detail::sequence(lock);
-    seq.store(seq.load(std::memory_order_relaxed) + 1, std::memory_order_release);
-    shared::unlockVariable(lock);
-}
+inline void closeGroup(uint32_t lock, uint32_t opened) noexcept { shared::detail::endWrite(lock, opened); }
 
 }  // namespace irp::st
